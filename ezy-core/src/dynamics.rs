@@ -1,0 +1,121 @@
+//! The right-hand side of the index-1 DAE as a first-order ODE.
+//!
+//! State layout `y = [q (nq), qd (nq), W]` with `W` [J] the work of the
+//! applied forces, integrated as a state (`W' = f . qd`) so that the energy
+//! balance `T - T0 = W` holds to the integrator's accuracy (SPEC §3; the
+//! seed's Riemann sum did not). `y' = [qd, qdd, f . qd]` with `qdd` from the
+//! KKT system (SPEC §1).
+
+use crate::SimError;
+use crate::effects::Effect;
+use crate::kkt::{AnyKktSolver, KktMethod, KktSolver, KktSystem};
+use crate::model::Model;
+
+/// Counters of the work done, for reports and benchmarks.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct Counters {
+    /// Right-hand-side evaluations.
+    pub rhs_evals: u64,
+    /// KKT solves (one per right-hand side here).
+    pub kkt_solves: u64,
+}
+
+/// Scratch space of the right-hand side, grouped by stage (MuJoCo mjData).
+#[derive(Debug, Clone)]
+struct Workspace {
+    /// `G` values at the pattern entries (nnz).
+    g_values: Vec<f64>,
+    /// `G` dense row-major (nc x nq); entries outside the pattern stay 0.
+    g: Vec<f64>,
+    /// `gamma` (nc) [m/s^2].
+    gamma: Vec<f64>,
+    /// Generalized applied force (nq) [N, N m].
+    f: Vec<f64>,
+    /// Accelerations (nq).
+    qdd: Vec<f64>,
+    /// Multipliers (nc) [N].
+    lambda: Vec<f64>,
+}
+
+/// A model with its applied forces and KKT solver: `y' = F(t, y)`.
+#[derive(Debug)]
+pub struct Dynamics<M: Model> {
+    /// The model (parameters fixed for the run).
+    pub model: M,
+    /// Applied forces, exactly those the scene lists.
+    pub effects: Vec<Effect>,
+    /// Mass-matrix diagonal (nq) [kg, kg m^2].
+    pub mass: Vec<f64>,
+    /// Work counters.
+    pub counters: Counters,
+    kkt: AnyKktSolver<M>,
+    ws: Workspace,
+}
+
+impl<M: Model> Dynamics<M> {
+    /// Number of coordinates nq.
+    pub const NQ: usize = M::INFO.coords.len();
+    /// Length of the state vector `y` (2 nq + 1).
+    pub const NY: usize = 2 * M::INFO.coords.len() + 1;
+
+    /// Builds the right-hand side; `method` picks the KKT path.
+    pub fn new(model: M, effects: Vec<Effect>, method: KktMethod) -> Self {
+        let info = &M::INFO;
+        let (nq, nc) = (info.nq(), info.nc());
+        let mut mass = vec![0.0; nq];
+        model.mass_diagonal(&mut mass);
+        let kkt = AnyKktSolver::new(method, &mass);
+        let ws = Workspace {
+            g_values: vec![0.0; info.pattern.len()],
+            g: vec![0.0; nc * nq],
+            gamma: vec![0.0; nc],
+            f: vec![0.0; nq],
+            qdd: vec![0.0; nq],
+            lambda: vec![0.0; nc],
+        };
+        Self { model, effects, mass, counters: Counters::default(), kkt, ws }
+    }
+
+    /// Name of the KKT path in use.
+    pub fn kkt_name(&self) -> &'static str {
+        self.kkt.name()
+    }
+
+    /// Evaluates `dy = F(t, y)` (both of length [`Dynamics::NY`]).
+    ///
+    /// # Errors
+    /// [`SimError::Kkt`] if the KKT system is singular at this state.
+    #[inline]
+    pub fn rhs(&mut self, t: f64, y: &[f64], dy: &mut [f64]) -> Result<(), SimError> {
+        let nq = Self::NQ;
+        let (q, rest) = y.split_at(nq);
+        let qd = &rest[..nq];
+        let ws = &mut self.ws;
+        self.model.constraint_terms(q, qd, &mut ws.g_values, &mut ws.gamma);
+        for (&(r, c), &v) in M::INFO.pattern.iter().zip(&ws.g_values) {
+            ws.g[r * nq + c] = v;
+        }
+        ws.f.fill(0.0);
+        for e in &self.effects {
+            e.apply(t, q, qd, &mut ws.f);
+        }
+        let sys = KktSystem { mass: &self.mass, g: &ws.g, g_values: &ws.g_values, f: &ws.f, gamma: &ws.gamma };
+        self.kkt.solve(&sys, &mut ws.qdd, &mut ws.lambda).map_err(|source| SimError::Kkt { t, source })?;
+        self.counters.rhs_evals += 1;
+        self.counters.kkt_solves += 1;
+        dy[..nq].copy_from_slice(qd);
+        dy[nq..2 * nq].copy_from_slice(&ws.qdd);
+        dy[2 * nq] = ws.f.iter().zip(qd).map(|(f, v)| f * v).sum();
+        Ok(())
+    }
+
+    /// Constraint forces `lambda` (nc) [N] of the last [`Dynamics::rhs`] call.
+    pub fn lambda(&self) -> &[f64] {
+        &self.ws.lambda
+    }
+
+    /// Kinetic energy `T = qd^T M qd / 2` [J].
+    pub fn kinetic_energy(&self, qd: &[f64]) -> f64 {
+        0.5 * self.mass.iter().zip(qd).map(|(m, v)| m * v * v).sum::<f64>()
+    }
+}

@@ -1,0 +1,59 @@
+//! Errors of the runtime (DESIGN.md: a `thiserror` enum with data, no
+//! catch-all string variant).
+
+use crate::kkt::KktError;
+
+/// What can stop a simulation or its setup.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum SimError {
+    /// The KKT solve failed.
+    #[error("at t = {t} s: {source}")]
+    Kkt {
+        /// Time [s].
+        t: f64,
+        /// The linear-solver failure.
+        source: KktError,
+    },
+    /// A state component became NaN or infinite.
+    #[error(
+        "at t = {t} s the state component `{quantity}` became {value}; the step h = {dt} s is too large for this scene, try a smaller --dt"
+    )]
+    NonFinite {
+        /// Time [s] at the start of the failing step.
+        t: f64,
+        /// Name of the component (`x1`, `phi2d`, `W`).
+        quantity: String,
+        /// Its value (NaN or inf).
+        value: f64,
+        /// The step size [s].
+        dt: f64,
+    },
+    /// A name (coordinate, parameter, hinge) is not in the model.
+    #[error("unknown {kind} `{name}` in model {model}; known: {known}")]
+    UnknownName {
+        /// What was looked up: "coordinate", "parameter", "hinge", ...
+        kind: &'static str,
+        /// The name given.
+        name: String,
+        /// Model name.
+        model: &'static str,
+        /// Comma-separated known names.
+        known: String,
+    },
+    /// Consistent initial conditions could not be found.
+    #[error("initial conditions: {reason}")]
+    Initial {
+        /// What is wrong, with the offending names and sizes.
+        reason: String,
+    },
+    /// A setting is out of range.
+    #[error("invalid setting {name} = {value}: {reason}")]
+    Setting {
+        /// Setting name (`--dt`, `--t-end`, parameter name).
+        name: String,
+        /// Value given.
+        value: f64,
+        /// Why it is rejected.
+        reason: &'static str,
+    },
+}

@@ -1,0 +1,139 @@
+//! Consistent initial conditions: the scene gives some coordinates and
+//! velocities, the solver computes the rest so that `C(q) = 0` and
+//! `G(q) qd = 0` (SPEC §3: for `free`, x1d = 1 and phi1d = 0 give
+//! y1d = 0, x2d = 0.5, y2d = 0, phi2d = 5).
+//!
+//! Positions: Newton on `C(q)` in the unknown coordinates (the Jacobian's
+//! columns of the unknowns, which must have full column rank). Velocities:
+//! the linear system `G_u qd_u = -G_k qd_k` in the unknown velocities, with
+//! the same rank condition. Both are solved by SVD (nalgebra), once.
+
+use nalgebra::{DMatrix, DVector};
+
+use crate::SimError;
+use crate::model::{Model, scatter_dense};
+use crate::projection::max_abs;
+
+/// Tolerance of the consistent initial state: `max|C| [m]` and `max|G qd| [m/s]`.
+pub const INITIAL_TOL: f64 = 1e-12;
+
+/// Computes `(q, qd)` (nq each) from the given values.
+///
+/// `given_q`, `given_qd`: `(coordinate index, value)`; every other entry is
+/// solved for, starting from 0.
+///
+/// # Errors
+/// [`SimError::Initial`] when the unknowns are not determined by the
+/// constraints (give more values), or no consistent state exists.
+pub fn consistent_state<M: Model>(
+    model: &M,
+    given_q: &[(usize, f64)],
+    given_qd: &[(usize, f64)],
+) -> Result<(Vec<f64>, Vec<f64>), SimError> {
+    let info = &M::INFO;
+    let (nq, nh, nc) = (info.nq(), info.n_holonomic, info.nc());
+    let names = |idx: &[usize], suffix: &str| {
+        idx.iter().map(|&i| format!("{}{suffix}", info.coords[i])).collect::<Vec<_>>().join(", ")
+    };
+    let mut q = vec![0.0; nq];
+    let mut known_q = vec![false; nq];
+    for &(i, v) in given_q {
+        q[i] = v;
+        known_q[i] = true;
+    }
+    let unknown_q: Vec<usize> = (0..nq).filter(|&i| !known_q[i]).collect();
+    let mut phi = vec![0.0; nh];
+    let mut jac_values = vec![0.0; info.n_holonomic_nonzeros()];
+    let mut cq = vec![0.0; nh * nq];
+    if unknown_q.len() > nh {
+        return Err(SimError::Initial {
+            reason: format!(
+                "{} coordinates are missing ({}) but the {} holonomic constraints determine at most {}; give {} more",
+                unknown_q.len(),
+                names(&unknown_q, ""),
+                nh,
+                nh,
+                unknown_q.len() - nh
+            ),
+        });
+    }
+    for _ in 0..50 {
+        model.phi(&q, &mut phi);
+        if max_abs(&phi) <= INITIAL_TOL || unknown_q.is_empty() {
+            break;
+        }
+        model.holonomic_jacobian(&q, &mut jac_values);
+        scatter_dense(&info.pattern[..jac_values.len()], &jac_values, nq, &mut cq);
+        let j = DMatrix::from_fn(nh, unknown_q.len(), |r, c| cq[r * nq + unknown_q[c]]);
+        let svd = j.svd(true, true);
+        if svd.rank(1e-10 * svd.singular_values.max().max(1.0)) < unknown_q.len() {
+            return Err(SimError::Initial {
+                reason: format!("the hinges do not determine the coordinates {}; give them", names(&unknown_q, "")),
+            });
+        }
+        let dx = svd
+            .solve(&DVector::from_column_slice(&phi), 1e-14)
+            .map_err(|e| SimError::Initial { reason: e.to_string() })?;
+        for (k, &i) in unknown_q.iter().enumerate() {
+            q[i] -= dx[k];
+        }
+    }
+    model.phi(&q, &mut phi);
+    let res = max_abs(&phi);
+    if res > 1e-9 {
+        return Err(SimError::Initial {
+            reason: format!("no configuration satisfies the hinges with the given coordinates (max|C| = {res:.3e} m)"),
+        });
+    }
+
+    let mut qd = vec![0.0; nq];
+    let mut known_v = vec![false; nq];
+    for &(i, v) in given_qd {
+        qd[i] = v;
+        known_v[i] = true;
+    }
+    let unknown_v: Vec<usize> = (0..nq).filter(|&i| !known_v[i]).collect();
+    let mut g_values = vec![0.0; info.pattern.len()];
+    let mut g = vec![0.0; nc * nq];
+    model.constraint_matrix(&q, &mut g_values);
+    scatter_dense(info.pattern, &g_values, nq, &mut g);
+    if !unknown_v.is_empty() {
+        if unknown_v.len() > nc {
+            return Err(SimError::Initial {
+                reason: format!(
+                    "{} velocities are missing ({}) but the {} velocity constraints determine at most {}; give {} more",
+                    unknown_v.len(),
+                    names(&unknown_v, "d"),
+                    nc,
+                    nc,
+                    unknown_v.len() - nc
+                ),
+            });
+        }
+        let gu = DMatrix::from_fn(nc, unknown_v.len(), |r, c| g[r * nq + unknown_v[c]]);
+        let rhs =
+            DVector::from_fn(nc, |r, _| -(0..nq).filter(|&k| known_v[k]).map(|k| g[r * nq + k] * qd[k]).sum::<f64>());
+        let svd = gu.svd(true, true);
+        if svd.rank(1e-10 * svd.singular_values.max().max(1.0)) < unknown_v.len() {
+            return Err(SimError::Initial {
+                reason: format!(
+                    "the constraints do not determine the velocities {}; give them",
+                    names(&unknown_v, "d")
+                ),
+            });
+        }
+        let x = svd.solve(&rhs, 1e-14).map_err(|e| SimError::Initial { reason: e.to_string() })?;
+        for (k, &i) in unknown_v.iter().enumerate() {
+            qd[i] = x[k];
+        }
+    }
+    let mut r = vec![0.0; nc];
+    crate::projection::mat_vec(&g, &qd, &mut r);
+    let res = max_abs(&r);
+    if res > 1e-9 {
+        return Err(SimError::Initial {
+            reason: format!("the given velocities violate the constraints (max|G qd| = {res:.3e} m/s)"),
+        });
+    }
+    Ok((q, qd))
+}

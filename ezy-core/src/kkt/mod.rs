@@ -1,0 +1,146 @@
+//! Solving the KKT system of the index-1 DAE (SPEC §1):
+//!
+//! ```text
+//! [ M  G^T ] [ qdd    ]   [ f      ]
+//! [ G  0   ] [ lambda ] = [ -gamma ]
+//! ```
+//!
+//! behind one small trait ([`KktSolver`], after diffsol's `LinearSolver`), with
+//! two dense paths:
+//!
+//! - [`SchurCholesky`]: where `M` is invertible (diagonal, all entries > 0),
+//!   eliminate `qdd` and solve the (nc x nc) Schur complement
+//!   `(G M^-1 G^T) lambda = G M^-1 f + gamma` by Cholesky, then
+//!   `qdd = M^-1 (f - G^T lambda)`. For the EzyRoller that is a 4 x 4 SPD
+//!   solve instead of a 10 x 10 LU.
+//! - [`DenseLu`]: LU with partial pivoting of the whole (nq + nc) KKT matrix
+//!   (faer, preallocated workspace): needs no `M^-1`, so it also serves a
+//!   singular mass matrix.
+//!
+//! [`KktMethod::Auto`] picks the Schur path when every mass entry is positive
+//! (measured faster: see `benches/` and the README), else LU.
+
+mod dense_lu;
+mod spd;
+
+pub use dense_lu::DenseLu;
+pub use spd::{NormalFactor, PIVOT_RTOL, SchurCholesky, cholesky_in_place, cholesky_solve};
+
+use crate::model::Model;
+
+/// Errors of a KKT solve.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum KktError {
+    /// The Schur complement `G M^-1 G^T` is not positive definite: the
+    /// constraint rows are (numerically) dependent.
+    #[error("the constraint matrix G has dependent rows: G M^-1 G^T ({n} x {n}) is not positive definite")]
+    DependentConstraints {
+        /// Size of the Schur complement (nc).
+        n: usize,
+    },
+    /// The KKT matrix is singular (LU found a zero pivot).
+    #[error("the KKT matrix ({n} x {n}) is singular")]
+    SingularKkt {
+        /// Size of the KKT matrix (nq + nc).
+        n: usize,
+    },
+    /// The Schur path needs every mass-matrix entry positive.
+    #[error("the Schur-complement path needs an invertible mass matrix; M[{index}] = {value}")]
+    SingularMass {
+        /// Coordinate index of the offending diagonal entry.
+        index: usize,
+        /// Its value [kg] or [kg m^2].
+        value: f64,
+    },
+}
+
+/// One KKT system, borrowed from the caller's workspace.
+#[derive(Debug, Clone, Copy)]
+pub struct KktSystem<'a> {
+    /// Diagonal of the mass matrix `M` (nq) [kg, kg m^2].
+    pub mass: &'a [f64],
+    /// Constraint matrix `G` (nc x nq), dense row-major.
+    pub g: &'a [f64],
+    /// The same `G` as values at the model's pattern (for the Schur path).
+    pub g_values: &'a [f64],
+    /// Generalized applied force `f` (nq) [N, N m].
+    pub f: &'a [f64],
+    /// Convective term `gamma` (nc) [m/s^2].
+    pub gamma: &'a [f64],
+}
+
+impl KktSystem<'_> {
+    /// Number of coordinates nq.
+    pub fn nq(&self) -> usize {
+        self.mass.len()
+    }
+    /// Number of constraints nc.
+    pub fn nc(&self) -> usize {
+        self.gamma.len()
+    }
+}
+
+/// A linear solver for the KKT system. Implementations own their workspace,
+/// sized at construction, and do not allocate in [`KktSolver::solve`].
+pub trait KktSolver {
+    /// Solves for `qdd` (nq) [m/s^2, rad/s^2] and `lambda` (nc) [N].
+    ///
+    /// # Errors
+    /// [`KktError`] when the system is singular for this path.
+    fn solve(&mut self, sys: &KktSystem<'_>, qdd: &mut [f64], lambda: &mut [f64]) -> Result<(), KktError>;
+    /// Short name of the path, for reports (`"schur-cholesky"`, `"dense-lu"`).
+    fn name(&self) -> &'static str;
+}
+
+/// Which KKT path to use.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum KktMethod {
+    /// Schur complement when `M` is invertible, else dense LU.
+    #[default]
+    Auto,
+    /// Always [`SchurCholesky`].
+    Schur,
+    /// Always [`DenseLu`].
+    Lu,
+}
+
+/// The KKT solver chosen for a model, as an enum so the right-hand side
+/// dispatches without a virtual call.
+#[derive(Debug)]
+pub enum AnyKktSolver<M: Model> {
+    /// See [`SchurCholesky`].
+    Schur(SchurCholesky<M>),
+    /// See [`DenseLu`].
+    Lu(DenseLu),
+}
+
+impl<M: Model> AnyKktSolver<M> {
+    /// Builds the solver for `method` and model `M`; `Auto` inspects the
+    /// mass diagonal (nq).
+    pub fn new(method: KktMethod, mass: &[f64]) -> Self {
+        let (nq, nc) = (M::INFO.nq(), M::INFO.nc());
+        let invertible = mass.iter().all(|&m| m > 0.0);
+        match method {
+            KktMethod::Schur => Self::Schur(SchurCholesky::new()),
+            KktMethod::Lu => Self::Lu(DenseLu::new(nq, nc)),
+            KktMethod::Auto if invertible => Self::Schur(SchurCholesky::new()),
+            KktMethod::Auto => Self::Lu(DenseLu::new(nq, nc)),
+        }
+    }
+}
+
+impl<M: Model> KktSolver for AnyKktSolver<M> {
+    #[inline]
+    fn solve(&mut self, sys: &KktSystem<'_>, qdd: &mut [f64], lambda: &mut [f64]) -> Result<(), KktError> {
+        match self {
+            Self::Schur(s) => s.solve(sys, qdd, lambda),
+            Self::Lu(s) => s.solve(sys, qdd, lambda),
+        }
+    }
+    fn name(&self) -> &'static str {
+        match self {
+            Self::Schur(s) => s.name(),
+            Self::Lu(s) => s.name(),
+        }
+    }
+}

@@ -1,0 +1,32 @@
+//! ezy runtime: the [`Model`] trait generated models implement, the KKT
+//! solve, the RK4 integrator, coordinate projection, effects, consistent
+//! initial conditions and the step loop.
+
+pub mod dynamics;
+pub mod effects;
+mod error;
+pub mod initial;
+pub mod integrator;
+pub mod kkt;
+pub mod model;
+pub mod projection;
+pub mod scalar;
+pub mod scene;
+pub mod simulate;
+
+pub use dynamics::Dynamics;
+pub use effects::{Effect, EffectSpec};
+pub use error::SimError;
+pub use ezy_derive::model;
+pub use model::{BodyInfo, HingeInfo, Model, ModelInfo, ParamInfo, PointInfo, SkateInfo};
+pub use projection::ProjectionKind;
+pub use scalar::Scalar;
+pub use scene::{Column, FigureKind, FigureSpec, InitValue, ModelVisitor, Scene};
+pub use simulate::{Observer, RunError, RunSettings, Sample, Summary, simulate};
+
+/// Paths the generated code uses; not public API.
+#[doc(hidden)]
+pub mod __private {
+    pub use crate::model::{BodyInfo, HingeInfo, Model, ModelInfo, ParamInfo, PointInfo, SkateInfo};
+    pub use crate::scalar::Scalar;
+}

@@ -1,0 +1,88 @@
+//! The scalar type generated model functions are written over.
+//!
+//! Every function the `model!` macro emits (phi, Jacobians, convective terms,
+//! point positions) is generic over [`Scalar`], so the same code runs on `f64`
+//! in the solver and on forward-mode dual numbers in the tests, which is how
+//! the generated derivatives are checked against exact ones (DESIGN.md, "Stay
+//! concrete": the one reason to be generic over the scalar).
+
+use core::ops::{Add, Div, Mul, Neg, Sub};
+
+/// A real number type the generated model code can evaluate on.
+///
+/// Implemented for `f64` and, with the `dual` feature, for
+/// `num_dual::Dual64`.
+pub trait Scalar:
+    Copy + Add<Output = Self> + Sub<Output = Self> + Mul<Output = Self> + Div<Output = Self> + Neg<Output = Self>
+{
+    /// Lifts a constant (a literal or a parameter value).
+    fn from_f64(value: f64) -> Self;
+    /// The real part, as `f64`.
+    fn re(self) -> f64;
+    /// Sine [rad -> 1].
+    fn sin(self) -> Self;
+    /// Cosine [rad -> 1].
+    fn cos(self) -> Self;
+    /// Square root.
+    fn sqrt(self) -> Self;
+    /// Integer power.
+    fn powi(self, n: i32) -> Self;
+    /// Reciprocal `1 / self`.
+    fn recip(self) -> Self;
+}
+
+impl Scalar for f64 {
+    #[inline(always)]
+    fn from_f64(value: f64) -> Self {
+        value
+    }
+    #[inline(always)]
+    fn re(self) -> f64 {
+        self
+    }
+    #[inline(always)]
+    fn sin(self) -> Self {
+        f64::sin(self)
+    }
+    #[inline(always)]
+    fn cos(self) -> Self {
+        f64::cos(self)
+    }
+    #[inline(always)]
+    fn sqrt(self) -> Self {
+        f64::sqrt(self)
+    }
+    #[inline(always)]
+    fn powi(self, n: i32) -> Self {
+        f64::powi(self, n)
+    }
+    #[inline(always)]
+    fn recip(self) -> Self {
+        f64::recip(self)
+    }
+}
+
+#[cfg(feature = "dual")]
+impl Scalar for num_dual::Dual64 {
+    fn from_f64(value: f64) -> Self {
+        <num_dual::Dual64 as num_dual::DualNum>::from_re(value)
+    }
+    fn re(self) -> f64 {
+        num_dual::DualStruct::re(&self)
+    }
+    fn sin(self) -> Self {
+        num_dual::DualNum::sin(&self)
+    }
+    fn cos(self) -> Self {
+        num_dual::DualNum::cos(&self)
+    }
+    fn sqrt(self) -> Self {
+        num_dual::DualNum::sqrt(&self)
+    }
+    fn powi(self, n: i32) -> Self {
+        num_dual::DualNum::powi(&self, n)
+    }
+    fn recip(self) -> Self {
+        num_dual::DualNum::recip(&self)
+    }
+}

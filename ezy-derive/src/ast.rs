@@ -1,0 +1,89 @@
+//! The typed model, with the user's tokens kept for error spans.
+
+use proc_macro2::Span;
+use syn::{Attribute, Expr, Ident, Visibility};
+
+/// A whole `model!` invocation.
+pub struct ModelDef {
+    pub attrs: Vec<Attribute>,
+    pub vis: Visibility,
+    pub name: Ident,
+    pub params: Vec<Param>,
+    pub bodies: Vec<Body>,
+    pub points: Vec<Point>,
+    pub hinges: Vec<Hinge>,
+    pub skates: Vec<Skate>,
+}
+
+/// `param NAME = VALUE;`
+pub struct Param {
+    pub attrs: Vec<Attribute>,
+    pub name: Ident,
+    pub value: f64,
+    pub value_span: Span,
+}
+
+/// `body NAME(x, y, phi) { mass: EXPR, inertia: EXPR }`
+pub struct Body {
+    pub name: Ident,
+    pub coords: [Ident; 3],
+    pub mass: Expr,
+    pub inertia: Expr,
+}
+
+/// `point NAME on BODY at (X, Y);`
+pub struct Point {
+    pub name: Ident,
+    pub body: Ident,
+    pub at: [Expr; 2],
+}
+
+/// The second side of a hinge.
+pub enum HingeTarget {
+    /// Another named point.
+    Point(Ident),
+    /// A fixed point of the ground, in world coordinates [m].
+    Ground { at: [Expr; 2] },
+}
+
+/// `hinge NAME: P = Q;` or `hinge NAME: P = ground(X, Y);`
+pub struct Hinge {
+    pub name: Ident,
+    pub point: Ident,
+    pub target: HingeTarget,
+}
+
+/// `skate NAME: P along (DX, DY);`
+pub struct Skate {
+    pub name: Ident,
+    pub point: Ident,
+    pub along: [Expr; 2],
+    pub along_span: Span,
+}
+
+/// Concatenated doc comment lines of `attrs`.
+pub fn doc_of(attrs: &[Attribute]) -> String {
+    let mut lines = Vec::new();
+    for attr in attrs {
+        if !attr.path().is_ident("doc") {
+            continue;
+        }
+        if let syn::Meta::NameValue(nv) = &attr.meta {
+            if let Expr::Lit(syn::ExprLit { lit: syn::Lit::Str(s), .. }) = &nv.value {
+                lines.push(s.value().trim().to_string());
+            }
+        }
+    }
+    lines.join(" ").trim().to_string()
+}
+
+/// Splits a trailing `[unit]` off a doc string: `("Distance", "m")`.
+pub fn split_unit(doc: &str) -> (String, String) {
+    let t = doc.trim_end();
+    if t.ends_with(']') {
+        if let Some(open) = t.rfind('[') {
+            return (t[..open].trim_end().to_string(), t[open + 1..t.len() - 1].trim().to_string());
+        }
+    }
+    (t.to_string(), String::new())
+}

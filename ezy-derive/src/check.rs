@@ -1,0 +1,130 @@
+//! Validation of a parsed model. Every error is spanned at the user's token
+//! and all of them are reported at once (after serde_derive's `Ctxt`).
+
+use std::collections::HashMap;
+
+use syn::Ident;
+
+use crate::ast::{HingeTarget, ModelDef};
+
+/// Collects errors; `finish` combines them into one.
+#[derive(Default)]
+pub struct Errors {
+    first: Option<syn::Error>,
+}
+
+impl Errors {
+    /// Adds an error.
+    pub fn push(&mut self, e: syn::Error) {
+        match &mut self.first {
+            Some(first) => first.combine(e),
+            None => self.first = Some(e),
+        }
+    }
+    /// Adds an error at `tokens`.
+    pub fn at<T: quote::ToTokens>(&mut self, tokens: T, msg: impl std::fmt::Display) {
+        self.push(syn::Error::new_spanned(tokens, msg));
+    }
+    /// `Err` with every error pushed so far, if any.
+    pub fn finish(self) -> syn::Result<()> {
+        self.first.map_or(Ok(()), Err)
+    }
+}
+
+/// Names resolved to indices.
+pub struct Resolved {
+    /// Body index of every point.
+    pub point_body: Vec<usize>,
+    /// Points joined by every hinge (second is `None` for the ground).
+    pub hinge_points: Vec<(usize, Option<usize>)>,
+    /// Contact point of every skate.
+    pub skate_point: Vec<usize>,
+}
+
+fn check_unique<'a>(errs: &mut Errors, kind: &str, names: impl Iterator<Item = &'a Ident>) {
+    let mut seen: HashMap<String, &Ident> = HashMap::new();
+    for n in names {
+        if seen.insert(n.to_string(), n).is_some() {
+            errs.at(n, format!("duplicate {kind} name `{n}`"));
+        }
+    }
+}
+
+fn known(names: &[String]) -> String {
+    if names.is_empty() { "none".to_string() } else { names.join(", ") }
+}
+
+/// Checks names and references; returns the resolved indices.
+pub fn check(def: &ModelDef, errs: &mut Errors) -> Resolved {
+    check_unique(errs, "parameter", def.params.iter().map(|p| &p.name));
+    check_unique(errs, "body", def.bodies.iter().map(|b| &b.name));
+    check_unique(errs, "point", def.points.iter().map(|p| &p.name));
+    check_unique(errs, "hinge", def.hinges.iter().map(|h| &h.name));
+    check_unique(errs, "skate", def.skates.iter().map(|s| &s.name));
+    check_unique(errs, "coordinate", def.bodies.iter().flat_map(|b| b.coords.iter()));
+    for p in &def.params {
+        if !p.value.is_finite() {
+            errs.push(syn::Error::new(p.value_span, format!("parameter `{}` must be finite", p.name)));
+        }
+    }
+    if def.bodies.is_empty() {
+        errs.at(
+            &def.name,
+            format!("model `{}` has no body; add `body NAME(x, y, phi) {{ mass: .., inertia: .. }}`", def.name),
+        );
+    }
+    let body_names: Vec<String> = def.bodies.iter().map(|b| b.name.to_string()).collect();
+    let point_names: Vec<String> = def.points.iter().map(|p| p.name.to_string()).collect();
+    let point_body: Vec<usize> = def
+        .points
+        .iter()
+        .map(|p| {
+            body_names.iter().position(|b| p.body == b).unwrap_or_else(|| {
+                errs.at(
+                    &p.body,
+                    format!(
+                        "point `{}` refers to unknown body `{}`; known bodies: {}",
+                        p.name,
+                        p.body,
+                        known(&body_names)
+                    ),
+                );
+                usize::MAX
+            })
+        })
+        .collect();
+    let find_point = |errs: &mut Errors, owner: &str, name: &Ident| -> usize {
+        point_names.iter().position(|p| name == p).unwrap_or_else(|| {
+            errs.at(name, format!("{owner} refers to unknown point `{name}`; known points: {}", known(&point_names)));
+            usize::MAX
+        })
+    };
+    let mut hinge_points = Vec::new();
+    for h in &def.hinges {
+        let owner = format!("hinge `{}`", h.name);
+        let a = find_point(errs, &owner, &h.point);
+        let b = match &h.target {
+            HingeTarget::Point(p) => {
+                let b = find_point(errs, &owner, p);
+                if a != usize::MAX && b != usize::MAX {
+                    if a == b {
+                        errs.at(p, format!("hinge `{}` joins point `{}` to itself", h.name, p));
+                    } else if point_body[a] != usize::MAX && point_body[a] == point_body[b] {
+                        errs.at(
+                            p,
+                            format!(
+                                "hinge `{}` joins two points of the same body `{}`; a hinge joins two bodies (or a body and `ground(x, y)`)",
+                                h.name, body_names[point_body[a]]
+                            ),
+                        );
+                    }
+                }
+                Some(b)
+            }
+            HingeTarget::Ground { .. } => None,
+        };
+        hinge_points.push((a, b));
+    }
+    let skate_point = def.skates.iter().map(|s| find_point(errs, &format!("skate `{}`", s.name), &s.point)).collect();
+    Resolved { point_body, hinge_points, skate_point }
+}

@@ -1,0 +1,35 @@
+//! The `model!` macro of ezy: a declarative planar multibody model (bodies,
+//! points, hinges, skates) in, a struct with the `ezy_core::Model` impl out.
+//! The holonomic residual, its Jacobian, the skate constraint matrix, the
+//! convective terms and the point kinematics are derived symbolically at
+//! compile time (see `kinematics` and `sym`); parameters stay runtime fields.
+//!
+//! Data flows one way: tokens -> [`ast`] ([`parse`]) -> [`check`] ->
+//! [`kinematics`] (expressions in [`sym`]) -> [`emit`].
+
+use proc_macro::TokenStream;
+
+mod ast;
+mod check;
+mod emit;
+mod kinematics;
+mod parse;
+// `eval`/`display` serve the tests now and readable equations later.
+#[cfg_attr(not(test), allow(dead_code))]
+mod sym;
+
+/// Declares a planar multibody model. See the `ezy_core::model!`
+/// re-export for the grammar and an example.
+#[proc_macro]
+pub fn model(input: TokenStream) -> TokenStream {
+    let def = syn::parse_macro_input!(input as ast::ModelDef);
+    expand(&def).unwrap_or_else(|e| e.to_compile_error()).into()
+}
+
+fn expand(def: &ast::ModelDef) -> syn::Result<proc_macro2::TokenStream> {
+    let mut errs = check::Errors::default();
+    let resolved = check::check(def, &mut errs);
+    let derived = kinematics::derive(def, &resolved, &mut errs);
+    errs.finish()?;
+    Ok(emit::emit(def, &resolved, &derived))
+}

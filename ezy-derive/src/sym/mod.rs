@@ -1,0 +1,403 @@
+//! A small symbolic engine: an expression arena with hash-consing
+//! (so shared subexpressions are stored once: CSE for free), simplifying
+//! constructors, differentiation, evaluation and printing.
+//!
+//! After egg's `RecExpr`: a node's children always have smaller ids than the
+//! node, so ascending id order is an evaluation order, and emitting reachable
+//! nodes in that order as `let` bindings gives straight-line code.
+//!
+//! Canonical forms kept by the constructors (deterministic, one pass, no
+//! search):
+//! - `Add` is n-ary and flat; like terms are collected (`2x + 3x = 5x`), the
+//!   constant is folded, `k m sin(u)^2 + k m cos(u)^2 = k m`;
+//! - `Mul` is n-ary and flat, with at most one numeric coefficient (first);
+//!   equal factors become powers (`x x = x^2`);
+//! - children of `Add`/`Mul` are sorted by id;
+//! - constants are folded everywhere; `-x` is `(-1) * x`, `x / y` is
+//!   `x * y^-1`.
+
+mod diff;
+mod display;
+
+use std::collections::HashMap;
+
+/// Index of a node in the [`Arena`].
+#[derive(Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord, Debug)]
+pub struct Id(u32);
+
+impl Id {
+    /// Position in the arena.
+    pub fn index(self) -> usize {
+        self.0 as usize
+    }
+}
+
+/// A symbol: generalized coordinate, velocity, or model parameter.
+#[derive(Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord, Debug)]
+pub enum Sym {
+    /// Generalized coordinate `q[i]`.
+    Q(usize),
+    /// Generalized velocity `qd[i]`.
+    Qd(usize),
+    /// Model parameter number `i`.
+    Param(usize),
+}
+
+/// One node of the arena.
+#[derive(Clone, PartialEq, Eq, Hash, Debug)]
+pub enum Node {
+    /// A number, stored as its bits (`-0.0` normalized to `0.0`).
+    Const(u64),
+    /// A symbol.
+    Sym(Sym),
+    /// Sum of at least two terms, sorted.
+    Add(Box<[Id]>),
+    /// Product of at least two factors, sorted; a numeric coefficient comes first.
+    Mul(Box<[Id]>),
+    /// Integer power, exponent not 0 or 1.
+    Pow(Id, i32),
+    /// Sine.
+    Sin(Id),
+    /// Cosine.
+    Cos(Id),
+    /// Square root.
+    Sqrt(Id),
+}
+
+/// The expression arena.
+#[derive(Default, Debug)]
+pub struct Arena {
+    nodes: Vec<Node>,
+    memo: HashMap<Node, Id>,
+}
+
+impl Arena {
+    /// An empty arena.
+    pub fn new() -> Self {
+        Self::default()
+    }
+
+    /// Number of nodes.
+    pub fn len(&self) -> usize {
+        self.nodes.len()
+    }
+
+    /// The node behind `id`.
+    pub fn node(&self, id: Id) -> &Node {
+        &self.nodes[id.index()]
+    }
+
+    fn intern(&mut self, node: Node) -> Id {
+        if let Some(&id) = self.memo.get(&node) {
+            return id;
+        }
+        let id = Id(u32::try_from(self.nodes.len()).expect("expression arena overflow"));
+        self.nodes.push(node.clone());
+        self.memo.insert(node, id);
+        id
+    }
+
+    /// The value of `id` if it is a constant.
+    pub fn as_const(&self, id: Id) -> Option<f64> {
+        match self.node(id) {
+            Node::Const(bits) => Some(f64::from_bits(*bits)),
+            _ => None,
+        }
+    }
+
+    /// Is `id` the constant zero?
+    pub fn is_zero(&self, id: Id) -> bool {
+        self.as_const(id) == Some(0.0)
+    }
+
+    /// A numeric constant.
+    pub fn cst(&mut self, value: f64) -> Id {
+        let value = if value == 0.0 { 0.0 } else { value };
+        self.intern(Node::Const(value.to_bits()))
+    }
+
+    /// A symbol.
+    pub fn sym(&mut self, s: Sym) -> Id {
+        self.intern(Node::Sym(s))
+    }
+
+    /// `a + b`.
+    pub fn add2(&mut self, a: Id, b: Id) -> Id {
+        self.add(&[a, b])
+    }
+
+    /// `a - b`.
+    pub fn sub(&mut self, a: Id, b: Id) -> Id {
+        let nb = self.neg(b);
+        self.add(&[a, nb])
+    }
+
+    /// `a * b`.
+    pub fn mul2(&mut self, a: Id, b: Id) -> Id {
+        self.mul(&[a, b])
+    }
+
+    /// `-a`.
+    pub fn neg(&mut self, a: Id) -> Id {
+        let m1 = self.cst(-1.0);
+        self.mul(&[m1, a])
+    }
+
+    /// `a / b`.
+    pub fn div(&mut self, a: Id, b: Id) -> Id {
+        let inv = self.pow(b, -1);
+        self.mul(&[a, inv])
+    }
+
+    /// Splits a term into (numeric coefficient, rest).
+    fn split_coef(&mut self, t: Id) -> (f64, Id) {
+        match self.node(t).clone() {
+            Node::Const(bits) => (f64::from_bits(bits), self.cst(1.0)),
+            Node::Mul(fs) => match self.as_const(fs[0]) {
+                Some(c) => (c, self.mul(&fs[1..])),
+                None => (1.0, t),
+            },
+            _ => (1.0, t),
+        }
+    }
+
+    /// The factors of a monomial (itself if not a product).
+    fn factors(&self, t: Id) -> Vec<Id> {
+        match self.node(t) {
+            Node::Mul(fs) => fs.to_vec(),
+            Node::Const(bits) if f64::from_bits(*bits) == 1.0 => Vec::new(),
+            _ => vec![t],
+        }
+    }
+
+    /// Sum of terms, simplified (see the module docs).
+    pub fn add(&mut self, terms: &[Id]) -> Id {
+        let mut flat = Vec::with_capacity(terms.len());
+        for &t in terms {
+            match self.node(t) {
+                Node::Add(ts) => flat.extend_from_slice(ts),
+                _ => flat.push(t),
+            }
+        }
+        // Collect like terms: monomial -> coefficient, in first-seen order.
+        let mut monos: Vec<(Id, f64)> = Vec::new();
+        for t in flat {
+            let (c, m) = self.split_coef(t);
+            if let Some(e) = monos.iter_mut().find(|(mm, _)| *mm == m) {
+                e.1 += c;
+            } else {
+                monos.push((m, c));
+            }
+        }
+        monos.retain(|(_, c)| *c != 0.0);
+        self.pythagoras(&mut monos);
+        let one = self.cst(1.0);
+        let mut constant = 0.0;
+        let mut out = Vec::with_capacity(monos.len());
+        for (m, c) in monos {
+            if m == one {
+                constant += c;
+            } else if c == 1.0 {
+                out.push(m);
+            } else {
+                let k = self.cst(c);
+                out.push(self.mul(&[k, m]));
+            }
+        }
+        if constant != 0.0 {
+            out.push(self.cst(constant));
+        }
+        match out.len() {
+            0 => self.cst(0.0),
+            1 => out[0],
+            _ => {
+                out.sort();
+                self.intern(Node::Add(out.into_boxed_slice()))
+            }
+        }
+    }
+
+    /// `k m sin(u)^2 + k m cos(u)^2 -> k m`, repeated until none is left.
+    fn pythagoras(&mut self, monos: &mut Vec<(Id, f64)>) {
+        'again: loop {
+            for i in 0..monos.len() {
+                let (m, c) = monos[i];
+                let fs = self.factors(m);
+                for (pos, &f) in fs.iter().enumerate() {
+                    let Node::Pow(base, 2) = *self.node(f) else { continue };
+                    let Node::Sin(u) = *self.node(base) else { continue };
+                    let mut rest: Vec<Id> = fs.clone();
+                    rest.remove(pos);
+                    let rest_id = self.mul(&rest);
+                    let cu = self.cos_raw(u);
+                    let cu2 = self.pow(cu, 2);
+                    rest.push(cu2);
+                    let partner = self.mul(&rest);
+                    if let Some(j) = monos.iter().position(|&(mm, cc)| mm == partner && cc == c) {
+                        let (hi, lo) = if i > j { (i, j) } else { (j, i) };
+                        monos.remove(hi);
+                        monos.remove(lo);
+                        if let Some(e) = monos.iter_mut().find(|(mm, _)| *mm == rest_id) {
+                            e.1 += c;
+                        } else {
+                            monos.push((rest_id, c));
+                        }
+                        monos.retain(|(_, c)| *c != 0.0);
+                        continue 'again;
+                    }
+                }
+            }
+            return;
+        }
+    }
+
+    /// Product of factors, simplified (see the module docs).
+    pub fn mul(&mut self, factors: &[Id]) -> Id {
+        let mut coef = 1.0;
+        // (base, exponent) in first-seen order
+        let mut powers: Vec<(Id, i32)> = Vec::new();
+        let mut stack: Vec<Id> = factors.to_vec();
+        stack.reverse();
+        while let Some(f) = stack.pop() {
+            match self.node(f).clone() {
+                Node::Const(bits) => coef *= f64::from_bits(bits),
+                Node::Mul(fs) => stack.extend(fs.iter().rev()),
+                Node::Pow(b, n) => push_power(&mut powers, b, n),
+                _ => push_power(&mut powers, f, 1),
+            }
+        }
+        if coef == 0.0 {
+            return self.cst(0.0);
+        }
+        let mut out = Vec::with_capacity(powers.len() + 1);
+        for (b, n) in powers {
+            if n == 0 {
+                continue;
+            }
+            let p = self.pow(b, n);
+            match self.node(p).clone() {
+                Node::Const(bits) => coef *= f64::from_bits(bits),
+                Node::Mul(fs) => {
+                    for &g in fs.iter() {
+                        match self.as_const(g) {
+                            Some(c) => coef *= c,
+                            None => out.push(g),
+                        }
+                    }
+                }
+                _ => out.push(p),
+            }
+        }
+        out.sort();
+        if out.is_empty() {
+            return self.cst(coef);
+        }
+        if coef == 1.0 && out.len() == 1 {
+            return out[0];
+        }
+        if coef != 1.0 {
+            out.insert(0, self.cst(coef));
+        }
+        self.intern(Node::Mul(out.into_boxed_slice()))
+    }
+
+    /// `b^n` for an integer `n`.
+    pub fn pow(&mut self, b: Id, n: i32) -> Id {
+        if n == 0 {
+            return self.cst(1.0);
+        }
+        if n == 1 {
+            return b;
+        }
+        match self.node(b).clone() {
+            Node::Const(bits) => self.cst(f64::from_bits(bits).powi(n)),
+            Node::Pow(c, m) => self.pow(c, m * n),
+            Node::Mul(fs) => {
+                let ps: Vec<Id> = fs.iter().map(|&f| self.pow(f, n)).collect();
+                self.mul(&ps)
+            }
+            Node::Sqrt(x) if n % 2 == 0 => self.pow(x, n / 2),
+            _ => self.intern(Node::Pow(b, n)),
+        }
+    }
+
+    /// `sin(a)`.
+    pub fn sin(&mut self, a: Id) -> Id {
+        match self.as_const(a) {
+            Some(v) => self.cst(v.sin()),
+            None => self.intern(Node::Sin(a)),
+        }
+    }
+
+    /// `cos(a)`.
+    pub fn cos(&mut self, a: Id) -> Id {
+        self.cos_raw(a)
+    }
+
+    fn cos_raw(&mut self, a: Id) -> Id {
+        match self.as_const(a) {
+            Some(v) => self.cst(v.cos()),
+            None => self.intern(Node::Cos(a)),
+        }
+    }
+
+    /// `sqrt(a)`.
+    pub fn sqrt(&mut self, a: Id) -> Id {
+        match self.as_const(a) {
+            Some(v) => self.cst(v.sqrt()),
+            None => self.intern(Node::Sqrt(a)),
+        }
+    }
+
+    /// Evaluates `id` with symbol values from `env`.
+    pub fn eval(&self, id: Id, env: &dyn Fn(Sym) -> f64) -> f64 {
+        let mut vals: HashMap<Id, f64> = HashMap::new();
+        self.eval_memo(id, env, &mut vals)
+    }
+
+    fn eval_memo(&self, id: Id, env: &dyn Fn(Sym) -> f64, vals: &mut HashMap<Id, f64>) -> f64 {
+        if let Some(&v) = vals.get(&id) {
+            return v;
+        }
+        let v = match self.node(id) {
+            Node::Const(bits) => f64::from_bits(*bits),
+            Node::Sym(s) => env(*s),
+            Node::Add(ts) => ts.iter().map(|&t| self.eval_memo(t, env, vals)).sum(),
+            Node::Mul(fs) => fs.iter().map(|&f| self.eval_memo(f, env, vals)).product(),
+            Node::Pow(b, n) => self.eval_memo(*b, env, vals).powi(*n),
+            Node::Sin(a) => self.eval_memo(*a, env, vals).sin(),
+            Node::Cos(a) => self.eval_memo(*a, env, vals).cos(),
+            Node::Sqrt(a) => self.eval_memo(*a, env, vals).sqrt(),
+        };
+        vals.insert(id, v);
+        v
+    }
+
+    /// The ids reachable from `roots`, ascending (an evaluation order).
+    pub fn reachable(&self, roots: &[Id]) -> Vec<Id> {
+        let mut seen = vec![false; self.nodes.len()];
+        let mut stack: Vec<Id> = roots.to_vec();
+        while let Some(id) = stack.pop() {
+            if std::mem::replace(&mut seen[id.index()], true) {
+                continue;
+            }
+            match self.node(id) {
+                Node::Const(_) | Node::Sym(_) => {}
+                Node::Add(xs) | Node::Mul(xs) => stack.extend_from_slice(xs),
+                Node::Pow(a, _) | Node::Sin(a) | Node::Cos(a) | Node::Sqrt(a) => stack.push(*a),
+            }
+        }
+        (0..self.nodes.len()).filter(|&i| seen[i]).map(|i| Id(i as u32)).collect()
+    }
+}
+
+fn push_power(powers: &mut Vec<(Id, i32)>, b: Id, n: i32) {
+    if let Some(e) = powers.iter_mut().find(|(bb, _)| *bb == b) {
+        e.1 += n;
+    } else {
+        powers.push((b, n));
+    }
+}
+
+#[cfg(test)]
+mod tests;

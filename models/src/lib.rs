@@ -1,0 +1,22 @@
+//! Vehicles written in ezy's model language, one file each, the model
+//! registry the CLI reads, and the built-in scenes.
+
+mod chaplygin_sleigh;
+mod ezyroller;
+pub mod scenes;
+
+pub use chaplygin_sleigh::ChaplyginSleigh;
+use ezy_core::{Model, ModelInfo, ModelVisitor};
+pub use ezyroller::EzyRoller;
+
+/// The model registry: `(key, static description)`, one line per vehicle.
+pub const MODELS: &[(&str, ModelInfo)] = &[("ezyroller", EzyRoller::INFO), ("chaplygin_sleigh", ChaplyginSleigh::INFO)];
+
+/// Runs `visitor` with the model registered as `key`; `None` if unknown.
+pub fn visit<V: ModelVisitor>(key: &str, visitor: V) -> Option<V::Output> {
+    match key {
+        "ezyroller" => Some(visitor.visit::<EzyRoller>()),
+        "chaplygin_sleigh" => Some(visitor.visit::<ChaplyginSleigh>()),
+        _ => None,
+    }
+}

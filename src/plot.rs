@@ -1,0 +1,454 @@
+//! PNG line charts for the CLI's figures.
+//!
+//! [`render_png`] draws a [`Chart`] (title, axis labels with units, a light
+//! grid, a legend and one coloured line per [`Series`]) into a 1200 x 800 PNG
+//! with plotters' bitmap backend. Text uses DejaVu Sans embedded from the
+//! `dejavu` crate, so no system font (or fontconfig/freetype `-dev` package)
+//! is needed at build or run time.
+//!
+//! The figure is first written to a hidden temporary file next to the target
+//! and renamed into place only when it is complete, so a failed render never
+//! leaves a half-written figure behind.
+
+use std::ops::Range;
+use std::path::{Path, PathBuf};
+use std::sync::OnceLock;
+
+use plotters::coord::ranged1d::{KeyPointHint, NoDefaultFormatting, Ranged, ValueFormatter};
+use plotters::coord::types::RangedCoordf64;
+use plotters::prelude::*;
+use plotters::style::FontStyle;
+
+/// Width of the rendered figure in pixels.
+const WIDTH: u32 = 1200;
+/// Height of the rendered figure in pixels.
+const HEIGHT: u32 = 800;
+/// Font family name the embedded DejaVu Sans is registered under.
+const FONT: &str = "sans-serif";
+/// Width of every series line in pixels.
+const LINE_WIDTH: u32 = 2;
+/// Fraction of the data range added on each side of the y axis (and of both
+/// axes for equal-axes charts).
+const PAD_FRACTION: f64 = 0.05;
+
+/// Series colours, cycled when a chart has more series than entries
+/// (the "tab10" palette: distinct and readable on white).
+const PALETTE: [RGBColor; 10] = [
+    RGBColor(31, 119, 180),
+    RGBColor(255, 127, 14),
+    RGBColor(44, 160, 44),
+    RGBColor(214, 39, 40),
+    RGBColor(148, 103, 189),
+    RGBColor(140, 86, 75),
+    RGBColor(227, 119, 194),
+    RGBColor(127, 127, 127),
+    RGBColor(188, 189, 34),
+    RGBColor(23, 190, 207),
+];
+
+/// One line of a chart.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Series {
+    /// Legend text for this line; an empty label gives the line no legend entry.
+    pub label: String,
+    /// Data points `(x, y)` in the units of the chart's axis labels, joined in
+    /// order. Points with a non-finite coordinate are skipped and break the
+    /// line into separate pieces; an isolated point is drawn as a dot.
+    pub points: Vec<(f64, f64)>,
+}
+
+/// A 2-D line chart.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Chart {
+    /// Title drawn above the plot.
+    pub title: String,
+    /// Label of the x axis, including its unit, e.g. `"t [s]"`.
+    pub x_label: String,
+    /// Label of the y axis, including its unit, e.g. `"x [m]"`.
+    pub y_label: String,
+    /// The lines to draw, coloured in order from a fixed palette.
+    pub series: Vec<Series>,
+    /// Same scale on both axes (paths in the plane), data ranges padded so 1 m
+    /// is the same number of pixels in x and y.
+    pub equal_axes: bool,
+    /// Logarithmic y axis; values <= log_floor are drawn at log_floor.
+    pub log_y: bool,
+    /// Smallest value shown on a logarithmic y axis, in the y axis' unit; must
+    /// be finite and > 0 when `log_y` is set (ignored otherwise).
+    pub log_floor: f64,
+}
+
+/// Why a chart could not be rendered.
+#[derive(Debug, thiserror::Error)]
+pub enum PlotError {
+    /// The chart has no drawable point: every series is empty or holds only
+    /// non-finite values.
+    #[error("chart {title:?} has no finite data points to plot")]
+    Empty {
+        /// Title of the offending chart.
+        title: String,
+    },
+    /// `log_y` was requested with a floor that is not a finite positive number.
+    #[error("chart {title:?}: log_floor must be finite and > 0 for a log y axis, got {floor}")]
+    InvalidLogFloor {
+        /// Title of the offending chart.
+        title: String,
+        /// The rejected floor.
+        floor: f64,
+    },
+    /// The embedded DejaVu Sans font could not be registered with plotters.
+    #[error("could not register the embedded DejaVu Sans font with plotters")]
+    Font,
+    /// plotters failed while drawing or encoding the figure.
+    #[error("drawing {path}: {message}")]
+    Draw {
+        /// The figure that was being written.
+        path: PathBuf,
+        /// plotters' description of the failure.
+        message: String,
+    },
+    /// A file-system operation on the figure failed.
+    #[error("writing {path}: {source}")]
+    Io {
+        /// The file the operation was on.
+        path: PathBuf,
+        /// The underlying error.
+        #[source]
+        source: std::io::Error,
+    },
+}
+
+/// Render `chart` as a 1200 x 800 PNG at `path`.
+///
+/// The image is drawn into a hidden temporary file `.<name>.tmp.png` in the
+/// same directory and renamed onto `path` only on success; on failure the
+/// temporary file is removed and any existing file at `path` is left as it
+/// was. The parent directory must exist.
+///
+/// # Errors
+/// [`PlotError::Empty`] if no series has a finite point,
+/// [`PlotError::InvalidLogFloor`] for a log axis with a bad floor,
+/// [`PlotError::Font`] if the embedded font cannot be loaded,
+/// [`PlotError::Draw`] if plotters fails (including an unwritable directory)
+/// and [`PlotError::Io`] if the final rename fails.
+pub fn render_png(chart: &Chart, path: &Path) -> Result<(), PlotError> {
+    if chart.log_y && !(chart.log_floor.is_finite() && chart.log_floor > 0.0) {
+        return Err(PlotError::InvalidLogFloor { title: chart.title.clone(), floor: chart.log_floor });
+    }
+    let lines = chart_lines(chart);
+    let (x_range, y_range) = data_bounds(&lines).ok_or_else(|| PlotError::Empty { title: chart.title.clone() })?;
+    ensure_font()?;
+
+    let tmp = temp_path(path);
+    let drawn = draw(chart, &lines, x_range, y_range, &tmp)
+        .map_err(|message| PlotError::Draw { path: path.to_path_buf(), message });
+    // The backend has been dropped by now, so nothing writes to `tmp` any more.
+    if let Err(e) = drawn {
+        let _ = std::fs::remove_file(&tmp);
+        return Err(e);
+    }
+    std::fs::rename(&tmp, path).map_err(|source| {
+        let _ = std::fs::remove_file(&tmp);
+        PlotError::Io { path: path.to_path_buf(), source }
+    })
+}
+
+/// Register DejaVu Sans (regular and bold) for the "sans-serif" family once
+/// per process.
+fn ensure_font() -> Result<(), PlotError> {
+    static REGISTERED: OnceLock<bool> = OnceLock::new();
+    let ok = *REGISTERED.get_or_init(|| {
+        let regular = plotters::style::register_font(FONT, FontStyle::Normal, dejavu::sans::regular());
+        let bold = plotters::style::register_font(FONT, FontStyle::Bold, dejavu::sans::bold());
+        regular.is_ok() && bold.is_ok()
+    });
+    if ok { Ok(()) } else { Err(PlotError::Font) }
+}
+
+/// `dir/.<name>.tmp.png` for `dir/<name>`: hidden, and ending in `.png` because
+/// the bitmap backend picks the image format from the extension.
+fn temp_path(path: &Path) -> PathBuf {
+    let name = path.file_name().map_or_else(|| "figure".into(), |n| n.to_string_lossy());
+    path.with_file_name(format!(".{name}.tmp.png"))
+}
+
+/// One series prepared for drawing: its drawable pieces in plot coordinates
+/// (y is `log10` of the value for a log axis).
+struct Line<'a> {
+    /// Legend text (empty: no legend entry).
+    label: &'a str,
+    /// Maximal runs of consecutive drawable points.
+    pieces: Vec<Vec<(f64, f64)>>,
+}
+
+/// Split every series into runs of drawable points in plot coordinates.
+fn chart_lines(chart: &Chart) -> Vec<Line<'_>> {
+    let floor_log = chart.log_floor.log10();
+    chart
+        .series
+        .iter()
+        .map(|s| {
+            let mut pieces: Vec<Vec<(f64, f64)>> = Vec::new();
+            let mut current = Vec::new();
+            for &(x, y) in &s.points {
+                let y = if chart.log_y {
+                    // NaN fails the comparison and stays NaN; -inf and zeros go to the floor.
+                    if y <= chart.log_floor { floor_log } else { y.log10() }
+                } else {
+                    y
+                };
+                if x.is_finite() && y.is_finite() {
+                    current.push((x, y));
+                } else if !current.is_empty() {
+                    pieces.push(std::mem::take(&mut current));
+                }
+            }
+            if !current.is_empty() {
+                pieces.push(current);
+            }
+            Line { label: &s.label, pieces }
+        })
+        .collect()
+}
+
+/// Smallest and largest x and y over all drawable points, or `None` if there
+/// are none.
+fn data_bounds(lines: &[Line<'_>]) -> Option<(Range<f64>, Range<f64>)> {
+    let mut points = lines.iter().flat_map(|l| l.pieces.iter().flatten());
+    let &(x0, y0) = points.next()?;
+    let (mut x, mut y) = (x0..x0, y0..y0);
+    for &(px, py) in points {
+        x = x.start.min(px)..x.end.max(px);
+        y = y.start.min(py)..y.end.max(py);
+    }
+    Some((x, y))
+}
+
+/// Widen `r` by `fraction` of its length on each side; a zero-length range is
+/// widened by 10 % of its magnitude (or by 1 around zero) so it has an extent.
+fn pad(r: Range<f64>, fraction: f64) -> Range<f64> {
+    let len = r.end - r.start;
+    let margin = if len > 0.0 {
+        len * fraction
+    } else {
+        let m = r.start.abs() * 0.1;
+        if m > 0.0 { m } else { 1.0 }
+    };
+    (r.start - margin)..(r.end + margin)
+}
+
+/// Widen `x` or `y` about its centre so that both have the same data units per
+/// pixel on a plotting area of `w` x `h` pixels.
+fn equalize(x: Range<f64>, y: Range<f64>, (w, h): (u32, u32)) -> (Range<f64>, Range<f64>) {
+    let (w, h) = (f64::from(w.max(1)), f64::from(h.max(1)));
+    let per_px = ((x.end - x.start) / w).max((y.end - y.start) / h);
+    let centred = |r: &Range<f64>, px: f64| {
+        let c = 0.5 * (r.start + r.end);
+        (c - 0.5 * per_px * px)..(c + 0.5 * per_px * px)
+    };
+    (centred(&x, w), centred(&y, h))
+}
+
+/// A logarithmic y axis in plot coordinates: values are `log10(y)` mapped
+/// linearly, bold ticks sit on whole decades and are labelled `1e<k>`.
+///
+/// plotters' own `log_scale()` is not used because it drops every tick below
+/// `f64::EPSILON` (its zero test is absolute), which hides the 1e-16 region
+/// that solver residuals live in, and its labels print the full decimal.
+struct LogDecadeAxis {
+    /// Linear map of `log10(value)` onto pixels.
+    linear: RangedCoordf64,
+    /// Decade positions (`log10` of the value) that get a tick and a label.
+    bold: Vec<f64>,
+    /// Positions of the 2..9 x decade grid lines (`log10` of the value).
+    light: Vec<f64>,
+}
+
+impl LogDecadeAxis {
+    /// Axis over `log10` values `range`, at most ~12 labelled decades.
+    fn new(range: Range<f64>) -> Self {
+        let (lo, hi) = (range.start.ceil() as i64, range.end.floor() as i64);
+        let decades = (hi - lo).max(0) as usize + 1;
+        let step = decades.div_ceil(12).max(1) as i64;
+        let bold = (lo..=hi).filter(|k| k.rem_euclid(step) == 0).map(|k| k as f64).collect();
+        let light = if decades <= 8 {
+            ((lo - 1)..=hi)
+                .flat_map(|k| (2..10).map(move |m| k as f64 + f64::from(m).log10()))
+                .filter(|v| range.contains(v))
+                .collect()
+        } else {
+            Vec::new()
+        };
+        Self { linear: range.into(), bold, light }
+    }
+}
+
+impl Ranged for LogDecadeAxis {
+    type FormatOption = NoDefaultFormatting;
+    type ValueType = f64;
+
+    fn map(&self, value: &f64, limit: (i32, i32)) -> i32 {
+        self.linear.map(value, limit)
+    }
+
+    fn key_points<Hint: KeyPointHint>(&self, hint: Hint) -> Vec<f64> {
+        if hint.weight().allow_light_points() { self.light.clone() } else { self.bold.clone() }
+    }
+
+    fn range(&self) -> Range<f64> {
+        self.linear.range()
+    }
+}
+
+impl ValueFormatter<f64> for LogDecadeAxis {
+    fn format(value: &f64) -> String {
+        format!("1e{}", value.round() as i64)
+    }
+}
+
+/// Draw the figure and write it as PNG to `tmp`. Errors are plotters' messages.
+fn draw(chart: &Chart, lines: &[Line<'_>], x_data: Range<f64>, y_data: Range<f64>, tmp: &Path) -> Result<(), String> {
+    let root = BitMapBackend::new(tmp, (WIDTH, HEIGHT)).into_drawing_area();
+    root.fill(&WHITE).map_err(|e| e.to_string())?;
+    let body = root
+        .titled(&chart.title, (FONT, 30).into_font().style(FontStyle::Bold).color(&BLACK))
+        .map_err(|e| e.to_string())?;
+
+    let builder = || {
+        let mut b = ChartBuilder::on(&body);
+        b.margin_left(10).margin_right(30).margin_top(10).margin_bottom(10);
+        b.x_label_area_size(70).y_label_area_size(110);
+        b
+    };
+
+    // Work out the data ranges. For equal axes this needs the plotting area's
+    // size, which a throw-away layout (nothing is drawn without a caption)
+    // gives exactly.
+    let (x_range, y_range) = if chart.equal_axes {
+        let probe = builder().build_cartesian_2d(0.0..1.0, 0.0..1.0).map_err(|e| e.to_string())?;
+        let dim = probe.plotting_area().dim_in_pixel();
+        equalize(pad(x_data, PAD_FRACTION), pad(y_data, PAD_FRACTION), dim)
+    } else {
+        // Time-like x axes end exactly at the data; only a zero range is widened.
+        let x = if x_data.end > x_data.start { x_data } else { pad(x_data, 0.0) };
+        (x, pad(y_data, PAD_FRACTION))
+    };
+
+    if chart.log_y {
+        let mut ctx = builder().build_cartesian_2d(x_range, LogDecadeAxis::new(y_range)).map_err(|e| e.to_string())?;
+        draw_contents(&mut ctx, chart, lines)?;
+    } else {
+        let mut ctx = builder().build_cartesian_2d(x_range, y_range).map_err(|e| e.to_string())?;
+        draw_contents(&mut ctx, chart, lines)?;
+    }
+    // Encode and write explicitly: the backend's Drop also writes, but
+    // silently discards any error.
+    root.present().map_err(|e| e.to_string())
+}
+
+/// Draw grid, axes, the series and the legend into an already laid-out chart.
+fn draw_contents<'a, Y>(
+    ctx: &mut ChartContext<'a, BitMapBackend<'a>, Cartesian2d<RangedCoordf64, Y>>,
+    chart: &Chart,
+    lines: &[Line<'_>],
+) -> Result<(), String>
+where
+    Y: Ranged<ValueType = f64> + ValueFormatter<f64>,
+{
+    let grid_light = RGBColor(235, 235, 235);
+    let grid_bold = RGBColor(200, 200, 200);
+    let mut mesh = ctx.configure_mesh();
+    mesh.x_desc(chart.x_label.as_str())
+        .y_desc(chart.y_label.as_str())
+        .axis_desc_style((FONT, 22))
+        .label_style((FONT, 18))
+        .x_labels(12)
+        .y_labels(10)
+        .light_line_style(grid_light)
+        .bold_line_style(grid_bold);
+    mesh.draw().map_err(|e| e.to_string())?;
+
+    let mut any_label = false;
+    for (i, line) in lines.iter().enumerate() {
+        let color = PALETTE[i % PALETTE.len()];
+        let style = color.stroke_width(LINE_WIDTH);
+        for piece in &line.pieces {
+            if let [p] = piece.as_slice() {
+                ctx.draw_series(std::iter::once(Circle::new(*p, 3, color.filled()))).map_err(|e| e.to_string())?;
+            } else {
+                ctx.draw_series(LineSeries::new(piece.iter().copied(), style)).map_err(|e| e.to_string())?;
+            }
+        }
+        if !line.label.is_empty() {
+            any_label = true;
+            // An empty series carries the legend entry, so a line that is
+            // broken into pieces (or has no drawable point) is listed once.
+            ctx.draw_series(LineSeries::new(std::iter::empty(), style))
+                .map_err(|e| e.to_string())?
+                .label(line.label)
+                .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 30, y)], style));
+        }
+    }
+    if any_label {
+        ctx.configure_series_labels()
+            .position(SeriesLabelPosition::UpperRight)
+            .margin(15)
+            .label_font((FONT, 18))
+            .background_style(WHITE.filled())
+            .border_style(BLACK)
+            .draw()
+            .map_err(|e| e.to_string())?;
+    }
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn scratch_dir(name: &str) -> PathBuf {
+        let nanos = std::time::SystemTime::now().duration_since(std::time::UNIX_EPOCH).map_or(0, |d| d.as_nanos());
+        let dir = std::env::temp_dir().join(format!("ezy-plot-{name}-{}-{nanos}", std::process::id()));
+        std::fs::create_dir_all(&dir).expect("create scratch dir");
+        dir
+    }
+
+    fn chart(series: Vec<Series>) -> Chart {
+        Chart {
+            title: "test".into(),
+            x_label: "t [s]".into(),
+            y_label: "x [m]".into(),
+            series,
+            equal_axes: false,
+            log_y: false,
+            log_floor: 1e-16,
+        }
+    }
+
+    #[test]
+    fn renders_png_file() {
+        let dir = scratch_dir("render");
+        let path = dir.join("small.png");
+        let c = chart(vec![
+            Series { label: "ramp".into(), points: vec![(0.0, 0.0), (1.0, 2.0), (2.0, 1.0)] },
+            Series { label: "constant".into(), points: vec![(0.0, 1.0), (2.0, 1.0)] },
+        ]);
+        render_png(&c, &path).expect("render");
+        let bytes = std::fs::read(&path).expect("read png");
+        assert!(bytes.starts_with(&[0x89, b'P', b'N', b'G', 0x0D, 0x0A, 0x1A, 0x0A]));
+        assert!(!temp_path(&path).exists(), "temporary file left behind");
+        std::fs::remove_dir_all(&dir).ok();
+    }
+
+    #[test]
+    fn empty_chart_is_an_error() {
+        let dir = scratch_dir("empty");
+        let path = dir.join("empty.png");
+        let c = chart(vec![Series { label: "a".into(), points: vec![] }, Series { label: "b".into(), points: vec![] }]);
+        assert!(matches!(render_png(&c, &path), Err(PlotError::Empty { .. })));
+        assert!(!path.exists());
+        let none = chart(vec![]);
+        assert!(matches!(render_png(&none, &path), Err(PlotError::Empty { .. })));
+        std::fs::remove_dir_all(&dir).ok();
+    }
+}

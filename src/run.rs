@@ -1,0 +1,203 @@
+//! Running a scene: resolve the model and overrides, find consistent
+//! initial conditions, integrate, write `trajectory.csv` and the figures.
+
+use std::path::PathBuf;
+use std::time::{Duration, Instant};
+
+use ezy_core::initial::consistent_state;
+use ezy_core::kkt::KktMethod;
+use ezy_core::{
+    Dynamics, InitValue, Model, ModelVisitor, ProjectionKind, RunError, RunSettings, Scene, SimError, Summary,
+};
+
+use crate::figures::FigureError;
+use crate::output::{CsvObserver, OutputError, Table, columns};
+
+/// Everything that can stop `ezy run`.
+#[derive(Debug, thiserror::Error)]
+pub enum Error {
+    /// Setup or numerics.
+    #[error(transparent)]
+    Sim(#[from] SimError),
+    /// Writing the table.
+    #[error(transparent)]
+    Output(#[from] OutputError),
+    /// Drawing a figure.
+    #[error(transparent)]
+    Figure(#[from] FigureError),
+    /// A scene names a model the registry does not have.
+    #[error("scene `{scene}` names unknown model `{model}`")]
+    UnknownModel {
+        /// Scene name.
+        scene: String,
+        /// Model key.
+        model: String,
+    },
+    /// The output directory cannot be created.
+    #[error("cannot create output directory {path}: {source}")]
+    OutDir {
+        /// The directory.
+        path: PathBuf,
+        /// The cause.
+        source: std::io::Error,
+    },
+}
+
+/// Overrides of a scene's settings, from the command line.
+#[derive(Debug, Clone, Default)]
+pub struct RunOptions {
+    /// Output directory.
+    pub out: PathBuf,
+    /// `NAME=VALUE` overrides of model or effect parameters.
+    pub sets: Vec<(String, f64)>,
+    /// Step size [s].
+    pub dt: Option<f64>,
+    /// Duration [s].
+    pub t_end: Option<f64>,
+    /// Output interval [s].
+    pub every: Option<f64>,
+    /// Projection kind.
+    pub projection: Option<ProjectionKind>,
+    /// Draw the scene's figures.
+    pub figures: bool,
+    /// Show a progress bar (when stderr is a terminal and the run is long).
+    pub progress: bool,
+}
+
+/// What a run produced.
+#[derive(Debug, Clone)]
+pub struct Report {
+    /// The step loop's summary.
+    pub summary: Summary,
+    /// The trajectory table.
+    pub table: Table,
+    /// Settings used.
+    pub settings: RunSettings,
+    /// Names of the state components `y = [q, qd, W]`.
+    pub state_names: Vec<String>,
+    /// Files written.
+    pub files: Vec<PathBuf>,
+    /// Wall time of the whole run (setup, integration, output, figures).
+    pub wall: Duration,
+}
+
+/// Runs `scene` with `opts`.
+///
+/// # Errors
+/// [`Error`] naming the bad setting, parameter, or file.
+pub fn run_scene(scene: &Scene, opts: &RunOptions) -> Result<Report, Error> {
+    ezy_models::visit(scene.model, Runner { scene, opts })
+        .unwrap_or_else(|| Err(Error::UnknownModel { scene: scene.name.into(), model: scene.model.into() }))
+}
+
+struct Runner<'a> {
+    scene: &'a Scene,
+    opts: &'a RunOptions,
+}
+
+impl ModelVisitor for Runner<'_> {
+    type Output = Result<Report, Error>;
+    fn visit<M: Model + Default>(self) -> Self::Output {
+        run_model::<M>(self.scene, self.opts)
+    }
+}
+
+/// Looks up `name` in `names`, or an [`SimError::UnknownName`] listing them.
+fn lookup<M: Model>(kind: &'static str, name: &str, names: &[&str]) -> Result<usize, SimError> {
+    names.iter().position(|n| *n == name).ok_or_else(|| SimError::UnknownName {
+        kind,
+        name: name.into(),
+        model: M::INFO.name,
+        known: names.join(", "),
+    })
+}
+
+/// The model with overrides applied, the effects and the consistent initial state.
+pub fn setup<M: Model + Default>(
+    scene: &Scene,
+    sets: &[(String, f64)],
+) -> Result<(M, Vec<ezy_core::EffectSpec>, Vec<f64>), SimError> {
+    let info = &M::INFO;
+    let mut model = M::default();
+    let mut effects = scene.effects.clone();
+    for (name, value) in sets {
+        if !value.is_finite() {
+            return Err(SimError::Setting { name: name.clone(), value: *value, reason: "must be a finite number" });
+        }
+        if let Some(i) = info.param_index(name) {
+            model.set_param(i, *value);
+        } else if !effects.iter_mut().fold(false, |hit, e| e.set_param(name, *value) || hit) {
+            let mut known: Vec<&str> = info.params.iter().map(|p| p.name).collect();
+            known.extend(effects.iter().flat_map(|e| e.param_names().iter().copied()));
+            return Err(SimError::UnknownName {
+                kind: "parameter",
+                name: name.clone(),
+                model: info.name,
+                known: known.join(", "),
+            });
+        }
+    }
+    let value = |v: &InitValue| -> Result<f64, SimError> {
+        match v {
+            InitValue::Num(x) => Ok(*x),
+            InitValue::Param(p) => {
+                Ok(model.param(lookup::<M>("parameter", p, &info.params.iter().map(|p| p.name).collect::<Vec<_>>())?))
+            }
+        }
+    };
+    let mut given_q = Vec::new();
+    for (name, v) in &scene.q0 {
+        given_q.push((lookup::<M>("coordinate", name, info.coords)?, value(v)?));
+    }
+    let mut given_qd = Vec::new();
+    for (name, v) in &scene.qd0 {
+        given_qd.push((lookup::<M>("coordinate", name, info.coords)?, value(v)?));
+    }
+    let (q, qd) = consistent_state(&model, &given_q, &given_qd)?;
+    let mut y0 = q;
+    y0.extend_from_slice(&qd);
+    y0.push(0.0);
+    Ok((model, effects, y0))
+}
+
+fn run_model<M: Model + Default>(scene: &Scene, opts: &RunOptions) -> Result<Report, Error> {
+    let wall = Instant::now();
+    let settings = RunSettings {
+        dt: opts.dt.unwrap_or(scene.dt),
+        t_end: opts.t_end.unwrap_or(scene.t_end),
+        every: opts.every.unwrap_or(scene.every),
+        projection: opts.projection.unwrap_or(scene.projection),
+    };
+    settings.validate()?;
+    let (model, specs, y0) = setup::<M>(scene, &opts.sets)?;
+    let effects = specs.iter().map(|s| s.resolve(&M::INFO)).collect::<Result<Vec<_>, _>>()?;
+    let effect_columns: Vec<String> = effects.iter().map(|e| e.column().to_string()).collect();
+    let mut sys = Dynamics::new(model, effects, KktMethod::Auto);
+
+    std::fs::create_dir_all(&opts.out).map_err(|source| Error::OutDir { path: opts.out.clone(), source })?;
+    let csv_path = opts.out.join("trajectory.csv");
+    let progress = if opts.progress { crate::progress::Progress::new(settings.t_end) } else { None };
+    let n_rows = settings.n_steps() / settings.output_stride() + 2;
+    let mut obs = CsvObserver::create(&csv_path, columns::<M>(&effect_columns), progress, n_rows as usize)?;
+    let summary = match ezy_core::simulate(&mut sys, &y0, &settings, &mut obs) {
+        Ok(s) => s,
+        Err(e) => {
+            obs.abandon();
+            return Err(match e {
+                RunError::Sim(e) => e.into(),
+                RunError::Output(e) => e.into(),
+            });
+        }
+    };
+    let table = obs.finish()?;
+    let mut files = vec![csv_path];
+    if opts.figures {
+        for fig in &scene.figures {
+            let path = opts.out.join(fig.file);
+            crate::figures::render::<M>(fig, &table, &path)?;
+            files.push(path);
+        }
+    }
+    let state_names = (0..Dynamics::<M>::NY).map(ezy_core::simulate::state_name::<M>).collect();
+    Ok(Report { summary, table, settings, state_names, files, wall: wall.elapsed() })
+}

@@ -1,0 +1,59 @@
+//! Helpers shared by the integration tests.
+#![allow(dead_code)]
+
+use ezy_core::{Dynamics, Model, Observer, Sample};
+use rand::rngs::StdRng;
+use rand::{Rng, SeedableRng};
+
+/// A deterministic random generator for a test.
+pub fn rng(seed: u64) -> StdRng {
+    StdRng::seed_from_u64(seed)
+}
+
+/// A random state: positions in [-2, 2] m, angles in [-pi, pi], velocities in [-2, 2].
+pub fn random_state<M: Model>(rng: &mut StdRng) -> (Vec<f64>, Vec<f64>) {
+    let nq = M::INFO.nq();
+    let q = (0..nq).map(|_| rng.random_range(-2.0..2.0) * 1.6).collect();
+    let qd = (0..nq).map(|_| rng.random_range(-2.0..2.0)).collect();
+    (q, qd)
+}
+
+/// The default model with every parameter scaled by a random factor in [0.5, 1.5].
+pub fn random_model<M: Model + Default>(rng: &mut StdRng) -> M {
+    let mut m = M::default();
+    for i in 0..M::INFO.params.len() {
+        let v = m.param(i);
+        m.set_param(i, v * rng.random_range(0.5..1.5));
+    }
+    m
+}
+
+/// Keeps every sample: `(t, y = [q, qd, W], T, res_phi, res_vel)`.
+#[derive(Default)]
+pub struct Recorder {
+    pub t: Vec<f64>,
+    pub y: Vec<Vec<f64>>,
+    pub kinetic: Vec<f64>,
+    pub res_phi: Vec<f64>,
+    pub res_vel: Vec<f64>,
+}
+
+impl<M: Model> Observer<M> for Recorder {
+    type Error = std::convert::Infallible;
+    fn observe(&mut self, _sys: &Dynamics<M>, s: &Sample<'_>) -> Result<(), Self::Error> {
+        self.t.push(s.t);
+        let mut y = s.q.to_vec();
+        y.extend_from_slice(s.qd);
+        y.push(s.work);
+        self.y.push(y);
+        self.kinetic.push(s.kinetic_energy);
+        self.res_phi.push(s.residual_position);
+        self.res_vel.push(s.residual_velocity);
+        Ok(())
+    }
+}
+
+/// Largest absolute entry.
+pub fn max_abs(v: impl IntoIterator<Item = f64>) -> f64 {
+    v.into_iter().fold(0.0, |m, x| m.max(x.abs()))
+}
