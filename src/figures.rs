@@ -38,6 +38,11 @@ pub fn values(table: &Table, col: &Column, figure: &str) -> Result<Vec<f64>, Fig
         Column::Named(a) => get(a)?,
         Column::Norm(a, b) => get(a)?.into_iter().zip(get(b)?).map(|(x, y)| x.hypot(y)).collect(),
         Column::Diff(a, b) => get(a)?.into_iter().zip(get(b)?).map(|(x, y)| x - y).collect(),
+        Column::BalanceGap(a, b) => {
+            let v = get(a)?;
+            let v0 = v.first().copied().unwrap_or(0.0);
+            v.into_iter().zip(get(b)?).map(|(x, w)| (x - v0 - w).abs()).collect()
+        }
         Column::FromStart(a) => {
             let v = get(a)?;
             let v0 = v.first().copied().unwrap_or(0.0);

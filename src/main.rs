@@ -24,6 +24,7 @@ enum Command {
 }
 
 #[derive(clap::Args, Debug, Default)]
+#[command(allow_negative_numbers = true)]
 struct RunArgs {
     /// Scene name (see `ezy list`).
     #[arg(default_value = "drive")]

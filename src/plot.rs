@@ -27,6 +27,24 @@ const HEIGHT: u32 = 800;
 const FONT: &str = "sans-serif";
 /// Width of every series line in pixels.
 const LINE_WIDTH: u32 = 2;
+/// Font size of the title in pixels.
+const TITLE_SIZE: u32 = 30;
+/// Font size of the axis descriptions (the x and y labels) in pixels.
+const DESC_SIZE: u32 = 22;
+/// Font size of tick labels and legend entries in pixels.
+const LABEL_SIZE: u32 = 18;
+/// How far, as a fraction of the font size, plotters' `ab_glyph` text sits
+/// above where plotters' layout expects it.
+///
+/// `ab_glyph` scales a font so that ascent - descent equals the font size
+/// (1.164 em for DejaVu Sans), and plotters draws a glyph at
+/// `size / 2 + glyph top` below the anchor while laying the line out as
+/// `size / 1.24` tall. For DejaVu Sans digits and capitals that puts the ink
+/// centre about 0.216 x size above the centre of the laid-out box, so
+/// vertically centred text (y tick labels, legend entries) would sit visibly
+/// high next to its tick or legend line, and top-anchored text (the title)
+/// would be clipped at the image edge.
+const AB_GLYPH_RISE: f64 = 0.216;
 /// Fraction of the data range added on each side of the y axis (and of both
 /// axes for equal-axes charts).
 const PAD_FRACTION: f64 = 0.05;
@@ -71,7 +89,7 @@ pub struct Chart {
     /// Same scale on both axes (paths in the plane), data ranges padded so 1 m
     /// is the same number of pixels in x and y.
     pub equal_axes: bool,
-    /// Logarithmic y axis; values <= log_floor are drawn at log_floor.
+    /// Logarithmic y axis; values <= `log_floor` are drawn at `log_floor`.
     pub log_y: bool,
     /// Smallest value shown on a logarithmic y axis, in the y axis' unit; must
     /// be finite and > 0 when `log_y` is set (ignored otherwise).
@@ -250,35 +268,44 @@ fn equalize(x: Range<f64>, y: Range<f64>, (w, h): (u32, u32)) -> (Range<f64>, Ra
 }
 
 /// A logarithmic y axis in plot coordinates: values are `log10(y)` mapped
-/// linearly, bold ticks sit on whole decades and are labelled `1e<k>`.
+/// linearly, bold ticks sit on whole decades (and on 2 and 5 times them when
+/// the axis spans few decades) and are labelled like `1e-6` or `5e-3`.
 ///
 /// plotters' own `log_scale()` is not used because it drops every tick below
 /// `f64::EPSILON` (its zero test is absolute), which hides the 1e-16 region
-/// that solver residuals live in, and its labels print the full decimal.
+/// that solver residuals live in.
 struct LogDecadeAxis {
     /// Linear map of `log10(value)` onto pixels.
     linear: RangedCoordf64,
-    /// Decade positions (`log10` of the value) that get a tick and a label.
+    /// Positions (`log10` of the value) that get a tick and a label.
     bold: Vec<f64>,
-    /// Positions of the 2..9 x decade grid lines (`log10` of the value).
+    /// Positions of the unlabelled grid lines (`log10` of the value).
     light: Vec<f64>,
 }
 
 impl LogDecadeAxis {
-    /// Axis over `log10` values `range`, at most ~12 labelled decades.
+    /// Axis over `log10` values `range`, widened outward to whole decades so
+    /// that at least two decades are labelled; at most ~12 labels, the
+    /// decades in between (or the 2..9 multiples when there are few decades)
+    /// get light grid lines.
     fn new(range: Range<f64>) -> Self {
-        let (lo, hi) = (range.start.ceil() as i64, range.end.floor() as i64);
-        let decades = (hi - lo).max(0) as usize + 1;
+        let (lo, hi) = (range.start.floor() as i64, range.end.ceil() as i64);
+        let hi = hi.max(lo + 1);
+        let range = lo as f64..hi as f64;
+        let decades = (hi - lo + 1) as usize;
         let step = decades.div_ceil(12).max(1) as i64;
-        let bold = (lo..=hi).filter(|k| k.rem_euclid(step) == 0).map(|k| k as f64).collect();
+        let labelled = |k: &i64| k.rem_euclid(step) == 0;
+        let mut bold: Vec<f64> = (lo..=hi).filter(labelled).map(|k| k as f64).collect();
         let light = if decades <= 8 {
-            ((lo - 1)..=hi)
-                .flat_map(|k| (2..10).map(move |m| k as f64 + f64::from(m).log10()))
-                .filter(|v| range.contains(v))
-                .collect()
+            (lo..hi).flat_map(|k| (2..10).map(move |m| k as f64 + f64::from(m).log10())).collect()
         } else {
-            Vec::new()
+            (lo..=hi).filter(|k| !labelled(k)).map(|k| k as f64).collect()
         };
+        if decades <= 3 {
+            // Few decades: also label 2 and 5 times each decade.
+            bold.extend((lo..hi).flat_map(|k| [2.0f64, 5.0].map(|m| k as f64 + m.log10())));
+            bold.sort_by(f64::total_cmp);
+        }
         Self { linear: range.into(), bold, light }
     }
 }
@@ -301,8 +328,11 @@ impl Ranged for LogDecadeAxis {
 }
 
 impl ValueFormatter<f64> for LogDecadeAxis {
+    /// `log10` value `v` as `<m>e<k>`, e.g. `1e-6` or `5e-3`.
     fn format(value: &f64) -> String {
-        format!("1e{}", value.round() as i64)
+        let k = (value + 1e-9).floor();
+        let m = 10f64.powf(value - k).round();
+        format!("{m}e{k}")
     }
 }
 
@@ -310,9 +340,13 @@ impl ValueFormatter<f64> for LogDecadeAxis {
 fn draw(chart: &Chart, lines: &[Line<'_>], x_data: Range<f64>, y_data: Range<f64>, tmp: &Path) -> Result<(), String> {
     let root = BitMapBackend::new(tmp, (WIDTH, HEIGHT)).into_drawing_area();
     root.fill(&WHITE).map_err(|e| e.to_string())?;
-    let body = root
-        .titled(&chart.title, (FONT, 30).into_font().style(FontStyle::Bold).color(&BLACK))
-        .map_err(|e| e.to_string())?;
+    // The top margin keeps the title's ascenders inside the image (see
+    // `AB_GLYPH_RISE`).
+    // `FontDesc::style` keeps the already loaded glyph data, so the bold face
+    // must be chosen when the font is created.
+    let title_font = (FONT, TITLE_SIZE, FontStyle::Bold).into_font().color(&BLACK);
+    let body =
+        root.margin(rise(TITLE_SIZE) + 6, 0, 0, 0).titled(&chart.title, title_font).map_err(|e| e.to_string())?;
 
     let builder = || {
         let mut b = ChartBuilder::on(&body);
@@ -346,6 +380,96 @@ fn draw(chart: &Chart, lines: &[Line<'_>], x_data: Range<f64>, y_data: Range<f64
     root.present().map_err(|e| e.to_string())
 }
 
+/// Padding inside the legend box in pixels.
+const LEGEND_MARGIN: u32 = 12;
+/// Width reserved for a legend entry's sample line, in pixels.
+const LEGEND_SAMPLE: u32 = 42;
+
+/// The plot corner whose legend box would cover the fewest line segments
+/// (upper right, then upper left, lower right, lower left on ties).
+fn legend_corner<'a, Y>(
+    ctx: &ChartContext<'a, BitMapBackend<'a>, Cartesian2d<RangedCoordf64, Y>>,
+    lines: &[Line<'_>],
+) -> SeriesLabelPosition
+where
+    Y: Ranged<ValueType = f64>,
+{
+    let area = ctx.plotting_area();
+    let font = TextStyle::from((FONT, LABEL_SIZE).into_font());
+    let labels = lines.iter().filter(|l| !l.label.is_empty());
+    let text_w = labels.clone().filter_map(|l| area.estimate_text_size(l.label, &font).ok()).map(|(w, _)| w).max();
+    // Same layout as plotters' legend: 5 px from the corner, `margin` inside,
+    // lines about 1.25 x the font size apart.
+    let w = (text_w.unwrap_or(0) + LEGEND_SAMPLE + 2 * LEGEND_MARGIN) as i32;
+    let h = (labels.count() as f64 * 1.25 * f64::from(LABEL_SIZE)) as i32 + 2 * LEGEND_MARGIN as i32;
+    let (xr, yr) = area.get_pixel_range();
+    let (left, right) = (xr.start + 5, xr.end - 5 - w);
+    let (top, bottom) = (yr.start + 5, yr.end - 5 - h);
+    let corners = [
+        (SeriesLabelPosition::UpperRight, right, top),
+        (SeriesLabelPosition::UpperLeft, left, top),
+        (SeriesLabelPosition::LowerRight, right, bottom),
+        (SeriesLabelPosition::LowerLeft, left, bottom),
+    ];
+    let pixels: Vec<Vec<(f64, f64)>> = lines
+        .iter()
+        .flat_map(|l| &l.pieces)
+        .map(|piece| {
+            piece
+                .iter()
+                .map(|p| {
+                    let (x, y) = ctx.backend_coord(p);
+                    (f64::from(x), f64::from(y))
+                })
+                .collect()
+        })
+        .collect();
+    corners
+        .into_iter()
+        .min_by_key(|&(_, x0, y0)| {
+            let rect = (f64::from(x0), f64::from(y0), f64::from(x0 + w), f64::from(y0 + h));
+            pixels
+                .iter()
+                .map(|piece| match piece.as_slice() {
+                    [p] => usize::from(segment_hits_rect(*p, *p, rect)),
+                    _ => piece.windows(2).filter(|s| segment_hits_rect(s[0], s[1], rect)).count(),
+                })
+                .sum::<usize>()
+        })
+        .map_or(SeriesLabelPosition::UpperRight, |(pos, _, _)| pos)
+}
+
+/// Whether the segment `a`-`b` touches the axis-aligned rectangle
+/// `(x0, y0, x1, y1)` (Liang-Barsky clipping).
+fn segment_hits_rect(a: (f64, f64), b: (f64, f64), (x0, y0, x1, y1): (f64, f64, f64, f64)) -> bool {
+    let (dx, dy) = (b.0 - a.0, b.1 - a.1);
+    let (mut t0, mut t1) = (0.0f64, 1.0f64);
+    for (p, q) in [(-dx, a.0 - x0), (dx, x1 - a.0), (-dy, a.1 - y0), (dy, y1 - a.1)] {
+        if p == 0.0 {
+            if q < 0.0 {
+                return false;
+            }
+        } else {
+            let t = q / p;
+            if p < 0.0 {
+                t0 = t0.max(t);
+            } else {
+                t1 = t1.min(t);
+            }
+            if t0 > t1 {
+                return false;
+            }
+        }
+    }
+    true
+}
+
+/// Pixels by which `ab_glyph` text of font size `size` renders above
+/// plotters' layout (see [`AB_GLYPH_RISE`]).
+fn rise(size: u32) -> i32 {
+    (AB_GLYPH_RISE * f64::from(size)).round() as i32
+}
+
 /// Draw grid, axes, the series and the legend into an already laid-out chart.
 fn draw_contents<'a, Y>(
     ctx: &mut ChartContext<'a, BitMapBackend<'a>, Cartesian2d<RangedCoordf64, Y>>,
@@ -360,8 +484,9 @@ where
     let mut mesh = ctx.configure_mesh();
     mesh.x_desc(chart.x_label.as_str())
         .y_desc(chart.y_label.as_str())
-        .axis_desc_style((FONT, 22))
-        .label_style((FONT, 18))
+        .axis_desc_style((FONT, DESC_SIZE))
+        .label_style((FONT, LABEL_SIZE))
+        .y_label_offset(rise(LABEL_SIZE))
         .x_labels(12)
         .y_labels(10)
         .light_line_style(grid_light)
@@ -371,7 +496,10 @@ where
     let mut any_label = false;
     for (i, line) in lines.iter().enumerate() {
         let color = PALETTE[i % PALETTE.len()];
-        let style = color.stroke_width(LINE_WIDTH);
+        // plotters joins thick polyline segments with mitres, which spike far
+        // beyond the data where a noisy series (a residual on a log axis)
+        // reverses direction sharply; such charts are drawn 1 px wide.
+        let style = color.stroke_width(if chart.log_y { 1 } else { LINE_WIDTH });
         for piece in &line.pieces {
             if let [p] = piece.as_slice() {
                 ctx.draw_series(std::iter::once(Circle::new(*p, 3, color.filled()))).map_err(|e| e.to_string())?;
@@ -386,14 +514,20 @@ where
             ctx.draw_series(LineSeries::new(std::iter::empty(), style))
                 .map_err(|e| e.to_string())?
                 .label(line.label)
-                .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 30, y)], style));
+                .legend(move |(x, y)| {
+                    // Raise the sample line to the text's visual centre.
+                    let y = y - rise(LABEL_SIZE);
+                    PathElement::new(vec![(x, y), (x + 30, y)], style)
+                });
         }
     }
     if any_label {
+        let position = legend_corner(ctx, lines);
         ctx.configure_series_labels()
-            .position(SeriesLabelPosition::UpperRight)
-            .margin(15)
-            .label_font((FONT, 18))
+            .position(position)
+            .margin(LEGEND_MARGIN)
+            .legend_area_size(LEGEND_SAMPLE)
+            .label_font((FONT, LABEL_SIZE))
             .background_style(WHITE.filled())
             .border_style(BLACK)
             .draw()

@@ -258,11 +258,11 @@ fn generated_sparse_kernels_match_dense_products() {
             }
         }
         let mut gu = vec![0.0; nc];
-        EzyRoller::g_mul(&vals, &u, &mut gu);
+        EzyRoller::g_winv_mul(&vals, &winv, &u, &mut gu);
         let mut v = u.clone();
         EzyRoller::sub_winv_gt_mul(&vals, &winv, &x, &mut v);
         for r_ in 0..nc {
-            let want: f64 = (0..nq).map(|k| g[r_ * nq + k] * u[k]).sum();
+            let want: f64 = (0..nq).map(|k| g[r_ * nq + k] * winv[k] * u[k]).sum();
             assert!(close(gu[r_], want, 1e-14, 1.0));
         }
         for k in 0..nq {

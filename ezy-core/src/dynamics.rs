@@ -92,8 +92,10 @@ impl<M: Model> Dynamics<M> {
         let qd = &rest[..nq];
         let ws = &mut self.ws;
         self.model.constraint_terms(q, qd, &mut ws.g_values, &mut ws.gamma);
-        for (&(r, c), &v) in M::INFO.pattern.iter().zip(&ws.g_values) {
-            ws.g[r * nq + c] = v;
+        if self.kkt.needs_dense_g() {
+            for (&(r, c), &v) in M::INFO.pattern.iter().zip(&ws.g_values) {
+                ws.g[r * nq + c] = v;
+            }
         }
         ws.f.fill(0.0);
         for e in &self.effects {

@@ -147,8 +147,9 @@ pub trait Model: Clone + Send + Sync + 'static {
     /// lower triangle `a[i * nc + j]`, `j <= i`, is written (the upper is not
     /// touched). Straight-line code at the compile-time pattern.
     fn normal_matrix(values: &[f64], winv: &[f64], a: &mut [f64]);
-    /// `out = G u` (u: nq, out: nc), `G` given by its pattern values.
-    fn g_mul(values: &[f64], u: &[f64], out: &mut [f64]);
+    /// `out = G W^-1 u` (u, winv: nq; out: nc), `G` given by its pattern
+    /// values (one kernel for `G M^-1 f` and, with `winv = 1`, `G qd`).
+    fn g_winv_mul(values: &[f64], winv: &[f64], u: &[f64], out: &mut [f64]);
     /// `v -= W^-1 G^T x` (x: nc, v: nq), `G` given by its pattern values.
     fn sub_winv_gt_mul(values: &[f64], winv: &[f64], x: &[f64], v: &mut [f64]);
 
@@ -163,6 +164,9 @@ pub trait Model: Clone + Send + Sync + 'static {
     /// Values of `G(q) = [C_q; S]` (nc x nq) at the entries of
     /// [`ModelInfo::pattern`].
     fn constraint_matrix<S: Scalar>(&self, q: &[S], values: &mut [S]);
+    /// `phi(q)` and `G(q)` together, sharing subexpressions (one evaluation
+    /// of the trigonometric terms for coordinate projection).
+    fn phi_and_constraint_matrix<S: Scalar>(&self, q: &[S], phi: &mut [S], values: &mut [S]);
     /// `G(q)` (as in [`Model::constraint_matrix`]) and the convective term
     /// `gamma(q, qd) = d/dq(G qd) qd` (nc) [m/s^2], sharing subexpressions.
     fn constraint_terms<S: Scalar>(&self, q: &[S], qd: &[S], values: &mut [S], gamma: &mut [S]);

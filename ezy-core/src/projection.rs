@@ -60,6 +60,8 @@ pub struct ProjectionReport {
 pub struct Projector<M: Model> {
     kind: ProjectionKind,
     winv: Vec<f64>,
+    /// Unit weights (nq), for `G qd`.
+    ones: Vec<f64>,
     g_values: Vec<f64>,
     r: Vec<f64>,
     x: Vec<f64>,
@@ -79,6 +81,7 @@ impl<M: Model> Projector<M> {
         Self {
             kind,
             winv,
+            ones: vec![1.0; nq],
             g_values: vec![0.0; info.pattern.len()],
             r: vec![0.0; nc],
             x: vec![0.0; nc],
@@ -105,10 +108,11 @@ impl<M: Model> Projector<M> {
         let info = &M::INFO;
         let (nh, nc) = (info.n_holonomic, info.nc());
         let wrap = |source: KktError| SimError::Kkt { t, source };
-        // positions: Gauss-Newton on the leading (holonomic) block
+        // positions: Gauss-Newton on the leading (holonomic) block; G is
+        // evaluated with phi, so the last evaluation serves the velocities.
+        model.phi_and_constraint_matrix(q, &mut self.r[..nh], &mut self.g_values);
         if nh > 0 {
             for it in 0..=POSITION_MAX_ITER {
-                model.phi(q, &mut self.r[..nh]);
                 let res = max_abs(&self.r[..nh]);
                 if it == 0 {
                     report.drift_position = res;
@@ -117,18 +121,17 @@ impl<M: Model> Projector<M> {
                 if res <= POSITION_TOL || it == POSITION_MAX_ITER {
                     break;
                 }
-                model.constraint_matrix(q, &mut self.g_values);
                 self.normal.factor::<M>(&self.g_values, &self.winv, nh).map_err(wrap)?;
                 self.normal.solve(&self.r[..nh], &mut self.x[..nh]);
                 self.x[nh..].fill(0.0);
                 M::sub_winv_gt_mul(&self.g_values, &self.winv, &self.x, q);
                 report.iterations = it + 1;
+                model.phi_and_constraint_matrix(q, &mut self.r[..nh], &mut self.g_values);
             }
         }
         // velocities: one least-squares step on all rows
         if nc > 0 {
-            model.constraint_matrix(q, &mut self.g_values);
-            M::g_mul(&self.g_values, qd, &mut self.r);
+            M::g_winv_mul(&self.g_values, &self.ones, qd, &mut self.r);
             self.normal.factor::<M>(&self.g_values, &self.winv, nc).map_err(wrap)?;
             self.normal.solve(&self.r, &mut self.x);
             M::sub_winv_gt_mul(&self.g_values, &self.winv, &self.x, qd);

@@ -25,6 +25,8 @@ pub enum Column {
     Diff(&'static str, &'static str),
     /// `a(t) - a(0)`.
     FromStart(&'static str),
+    /// `|a(t) - a(0) - b(t)|`: the gap of a balance such as `T - T0 = W`.
+    BalanceGap(&'static str, &'static str),
 }
 
 /// What a figure shows.

@@ -11,15 +11,21 @@ use crate::ast::{HingeTarget, ModelDef};
 #[derive(Default)]
 pub struct Errors {
     first: Option<syn::Error>,
+    count: usize,
 }
 
 impl Errors {
     /// Adds an error.
     pub fn push(&mut self, e: syn::Error) {
+        self.count += 1;
         match &mut self.first {
             Some(first) => first.combine(e),
             None => self.first = Some(e),
         }
+    }
+    /// Number of errors so far.
+    pub fn count(&self) -> usize {
+        self.count
     }
     /// Adds an error at `tokens`.
     pub fn at<T: quote::ToTokens>(&mut self, tokens: T, msg: impl std::fmt::Display) {

@@ -203,6 +203,7 @@ pub fn emit(def: &ModelDef, res: &Resolved, d: &Derived) -> TokenStream {
     let jac_body = assign(d, def, &[("values", &g_h)]);
     let g_body = assign(d, def, &[("values", &g_all)]);
     let terms_body = assign(d, def, &[("values", &g_all), ("gamma", &d.gamma)]);
+    let phi_g_body = assign(d, def, &[("phi", &d.phi), ("values", &g_all)]);
     let points_body = assign(d, def, &[("out", &points_flat)]);
     let vel_body = assign(d, def, &[("out", &vel_flat)]);
 
@@ -278,6 +279,12 @@ pub fn emit(def: &ModelDef, res: &Resolved, d: &Derived) -> TokenStream {
             }
 
             #[inline]
+            fn phi_and_constraint_matrix<S: #private::Scalar>(&self, q: &[S], phi: &mut [S], values: &mut [S]) {
+                let q = &q[..#nq];
+                #phi_g_body
+            }
+
+            #[inline]
             fn constraint_terms<S: #private::Scalar>(&self, q: &[S], qd: &[S], values: &mut [S], gamma: &mut [S]) {
                 let q = &q[..#nq];
                 let qd = &qd[..#nq];
@@ -301,7 +308,7 @@ pub fn emit(def: &ModelDef, res: &Resolved, d: &Derived) -> TokenStream {
 }
 
 /// Straight-line products with `G` at its compile-time sparsity pattern:
-/// `normal_matrix` (`G W^-1 G^T`, lower triangle), `g_mul` (`G u`),
+/// `normal_matrix` (`G W^-1 G^T`, lower triangle), `g_winv_mul` (`G W^-1 u`),
 /// `sub_winv_gt_mul` (`v -= W^-1 G^T x`). No index arithmetic at run time.
 fn sparse_kernels(pattern: &[(usize, usize)], nq: usize, nc: usize) -> TokenStream {
     let rows: Vec<Vec<(usize, usize)>> = (0..nc)
@@ -326,7 +333,7 @@ fn sparse_kernels(pattern: &[(usize, usize)], nq: usize, nc: usize) -> TokenStre
     }
     let mut gmul = TokenStream::new();
     for (i, row) in rows.iter().enumerate() {
-        let terms: Vec<TokenStream> = row.iter().map(|&(e, k)| quote!(values[#e] * u[#k])).collect();
+        let terms: Vec<TokenStream> = row.iter().map(|&(e, k)| quote!(values[#e] * (winv[#k] * u[#k]))).collect();
         let sum = if terms.is_empty() { zero.clone() } else { join(terms.into_iter(), quote!(+)) };
         gmul.extend(quote!(out[#i] = #sum;));
     }
@@ -358,8 +365,9 @@ fn sparse_kernels(pattern: &[(usize, usize)], nq: usize, nc: usize) -> TokenStre
         }
 
         #[inline]
-        fn g_mul(values: &[f64], u: &[f64], out: &mut [f64]) {
+        fn g_winv_mul(values: &[f64], winv: &[f64], u: &[f64], out: &mut [f64]) {
             let values = &values[..#nnz];
+            let winv = &winv[..#nq];
             let u = &u[..#nq];
             let out = &mut out[..#nc];
             #gmul

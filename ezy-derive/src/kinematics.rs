@@ -14,7 +14,6 @@
 //!
 //! Every formula of SPEC §1 follows from these definitions; none is typed in.
 
-use syn::spanned::Spanned;
 use syn::{BinOp, Expr, UnOp};
 
 use crate::ast::{HingeTarget, ModelDef};
@@ -113,10 +112,7 @@ pub fn expr_to_sym(ar: &mut Arena, e: &Expr, params: &[String], what: &str, errs
             }
         }
         other => {
-            errs.push(syn::Error::new(
-                other.span(),
-                format!("{what}: unsupported expression; use numbers, parameters, + - * /, sqrt, sin, cos"),
-            ));
+            errs.at(other, format!("{what}: unsupported expression; use numbers, parameters, + - * /, sqrt, sin, cos"));
             ar.cst(0.0)
         }
     }
@@ -130,9 +126,15 @@ pub fn derive(def: &ModelDef, res: &Resolved, errs: &mut Errors) -> Derived {
 
     let mut mass = Vec::with_capacity(nq);
     for b in &def.bodies {
+        let before = errs.count();
         let m = expr_to_sym(&mut ar, &b.mass, &params, &format!("mass of body `{}`", b.name), errs);
+        let after_m = errs.count();
         let i = expr_to_sym(&mut ar, &b.inertia, &params, &format!("inertia of body `{}`", b.name), errs);
-        for (what, e, tok) in [("mass", m, &b.mass), ("inertia", i, &b.inertia)] {
+        let (m_ok, i_ok) = (after_m == before, errs.count() == after_m);
+        for (what, e, tok, ok) in [("mass", m, &b.mass, m_ok), ("inertia", i, &b.inertia, i_ok)] {
+            if !ok {
+                continue;
+            }
             if let Some(v) = ar.as_const(e) {
                 if v <= 0.0 {
                     errs.at(tok, format!("{what} of body `{}` must be positive, got {v}", b.name));

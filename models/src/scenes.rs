@@ -89,6 +89,17 @@ pub fn drive() -> Scene {
                     log_y: false,
                 },
             },
+            FigureSpec {
+                file: "energy_gap.png",
+                title: "Gap of the energy balance |T - T(0) - W| (W integrated as a state)",
+                x_label: "t [s]",
+                y_label: "|T - T(0) - W| [J]",
+                kind: FigureKind::Lines {
+                    x: Named("t"),
+                    ys: vec![("|T - T(0) - W| [J]", BalanceGap("T", "W"))],
+                    log_y: true,
+                },
+            },
             residual_figure(),
         ],
     }

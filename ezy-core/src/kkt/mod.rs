@@ -98,7 +98,7 @@ pub enum KktMethod {
     /// Schur complement when `M` is invertible, else dense LU.
     #[default]
     Auto,
-    /// Always [`SchurCholesky`].
+    /// [`SchurCholesky`] (falls back to LU if `M` is singular).
     Schur,
     /// Always [`DenseLu`].
     Lu,
@@ -121,11 +121,26 @@ impl<M: Model> AnyKktSolver<M> {
         let (nq, nc) = (M::INFO.nq(), M::INFO.nc());
         let invertible = mass.iter().all(|&m| m > 0.0);
         match method {
-            KktMethod::Schur => Self::Schur(SchurCholesky::new()),
+            KktMethod::Schur => match SchurCholesky::new(mass) {
+                Ok(s) => Self::Schur(s),
+                // not invertible: the Schur path cannot serve; LU can
+                Err(_) => Self::Lu(DenseLu::new(nq, nc)),
+            },
             KktMethod::Lu => Self::Lu(DenseLu::new(nq, nc)),
-            KktMethod::Auto if invertible => Self::Schur(SchurCholesky::new()),
+            KktMethod::Auto if invertible => {
+                Self::Schur(SchurCholesky::new(mass).expect("positive masses give an invertible M"))
+            }
             KktMethod::Auto => Self::Lu(DenseLu::new(nq, nc)),
         }
+    }
+}
+
+impl<M: Model> AnyKktSolver<M> {
+    /// Whether [`KktSystem::g`] (dense) is read; the Schur path reads only
+    /// [`KktSystem::g_values`], so the caller can skip the scatter.
+    #[inline]
+    pub fn needs_dense_g(&self) -> bool {
+        matches!(self, Self::Lu(_))
     }
 }
 

@@ -1,0 +1,9 @@
+ezy_derive::model! {
+    pub struct M {
+        body one(x1, y1, phi1) { mass: 1.0, inertia: 1.0 }
+        point P on one at (1, 0);
+        point Q on one at (-1, 0);
+        hinge H: P = Q;
+    }
+}
+fn main() {}

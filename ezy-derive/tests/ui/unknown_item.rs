@@ -1,0 +1,7 @@
+ezy_derive::model! {
+    pub struct M {
+        body one(x1, y1, phi1) { mass: 1.0, inertia: 1.0 }
+        wheel W on one;
+    }
+}
+fn main() {}

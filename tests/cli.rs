@@ -1,0 +1,96 @@
+//! The `ezy` binary: list, run with outputs, and errors that name the culprit.
+
+use std::path::PathBuf;
+use std::process::{Command, Output};
+
+fn ezy(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_ezy")).args(args).output().expect("ezy runs")
+}
+
+fn tmp_dir(name: &str) -> PathBuf {
+    let d = std::env::temp_dir().join(format!("ezy-cli-{}-{name}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&d);
+    d
+}
+
+fn stderr(o: &Output) -> String {
+    String::from_utf8_lossy(&o.stderr).into_owned()
+}
+
+#[test]
+fn list_shows_models_and_scenes() {
+    let o = ezy(&["list"]);
+    assert!(o.status.success());
+    let out = String::from_utf8_lossy(&o.stdout);
+    for name in ["ezyroller", "chaplygin_sleigh", "drive", "free", "sleigh"] {
+        assert!(out.contains(name), "`{name}` missing from:\n{out}");
+    }
+}
+
+#[test]
+fn run_writes_the_csv_and_every_figure() {
+    let dir = tmp_dir("drive");
+    let o = ezy(&["run", "drive", "--t-end", "0.5", "--every", "0.1", "--out", dir.to_str().unwrap()]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let csv = std::fs::read_to_string(dir.join("trajectory.csv")).unwrap();
+    let mut lines = csv.lines();
+    let header = lines.next().unwrap();
+    assert_eq!(
+        header,
+        "t,x1,y1,phi1,x2,y2,phi2,x1d,y1d,phi1d,x2d,y2d,phi2d,T,W,A.x,A.y,B1.x,B1.y,B2.x,B2.y,C.x,C.y,tau_B,res_phi,res_vel"
+    );
+    let rows: Vec<Vec<f64>> = lines.map(|l| l.split(',').map(|v| v.parse().unwrap()).collect()).collect();
+    // t = 0, 0.1, ..., 0.5: the final time is written
+    assert_eq!(rows.len(), 6);
+    assert!((rows[5][0] - 0.5).abs() < 1e-12);
+    // the motor column is M0 cos(omega t)
+    let tau = rows[5][23];
+    assert!((tau - 2.0 * (std::f64::consts::PI * 0.5).cos()).abs() < 1e-12);
+    for f in [
+        "fig3_paths.png",
+        "fig4_speed.png",
+        "fig5_kinetic_energy.png",
+        "fig6_torque.png",
+        "fig7_energy_balance.png",
+        "energy_gap.png",
+        "residuals.png",
+    ] {
+        let bytes = std::fs::read(dir.join(f)).unwrap_or_else(|e| panic!("{f}: {e}"));
+        assert!(bytes.starts_with(b"\x89PNG"), "{f} is not a PNG");
+    }
+    assert!(!dir.join("trajectory.csv.partial").exists());
+    let out = String::from_utf8_lossy(&o.stdout);
+    assert!(out.contains("RK4 steps") && out.contains("max |T - T0 - W|"), "{out}");
+}
+
+#[test]
+fn set_changes_a_parameter() {
+    let dir = tmp_dir("set");
+    let base = ezy(&["run", "free", "--t-end", "0.1", "--no-figures", "--out", dir.to_str().unwrap()]);
+    let csv0 = std::fs::read_to_string(dir.join("trajectory.csv")).unwrap();
+    let o = ezy(&["run", "free", "--t-end", "0.1", "--no-figures", "--set", "m1=20", "--out", dir.to_str().unwrap()]);
+    assert!(base.status.success() && o.status.success(), "{}", stderr(&o));
+    let csv1 = std::fs::read_to_string(dir.join("trajectory.csv")).unwrap();
+    let t0 = |csv: &str| -> f64 { csv.lines().nth(1).unwrap().split(',').nth(13).unwrap().parse().unwrap() };
+    // T0 = m1/2 x1d^2 + ... : lighter body 1, less kinetic energy
+    assert!((t0(&csv0) - 23.1875).abs() < 1e-9);
+    assert!((t0(&csv0) - t0(&csv1) - 13.0).abs() < 1e-9, "{} vs {}", t0(&csv0), t0(&csv1));
+}
+
+#[test]
+fn bad_input_is_named() {
+    let cases: &[(&[&str], &str)] = &[
+        (&["run", "nowhere"], "unknown scene `nowhere`; known scenes: drive, free, sleigh"),
+        (&["run", "drive", "--set", "mass=2"], "unknown parameter `mass`"),
+        (&["run", "drive", "--set", "m1=abc"], "`abc` is not a number"),
+        (&["run", "drive", "--set", "m1=nan"], "must be finite"),
+        (&["run", "drive", "--dt", "-1"], "--dt = -1"),
+        (&["run", "drive", "--t-end", "0"], "--t-end = 0"),
+    ];
+    for (args, want) in cases {
+        let o = ezy(args);
+        assert!(!o.status.success(), "{args:?} succeeded");
+        let e = stderr(&o);
+        assert!(e.contains(want), "{args:?}: expected `{want}` in: {e}");
+    }
+}

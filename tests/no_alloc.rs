@@ -1,0 +1,81 @@
+//! The step loop (RK4, KKT solve, projection, energy balance) does not
+//! allocate: a run of 10,000 steps makes exactly as many heap allocations
+//! as a run of 100 steps (only the fixed setup allocates).
+
+use std::alloc::{GlobalAlloc, Layout, System};
+use std::cell::Cell;
+
+use ezy::run::setup;
+use ezy_core::kkt::KktMethod;
+use ezy_core::{Dynamics, Model, Observer, ProjectionKind, RunSettings, Sample, simulate};
+use ezy_models::{EzyRoller, scenes};
+
+struct Counting;
+
+thread_local! {
+    /// Allocations made by this thread (the test harness allocates on others).
+    static ALLOCATIONS: Cell<usize> = const { Cell::new(0) };
+}
+
+fn count() {
+    let _ = ALLOCATIONS.try_with(|c| c.set(c.get() + 1));
+}
+
+fn allocations() -> usize {
+    ALLOCATIONS.with(Cell::get)
+}
+
+unsafe impl GlobalAlloc for Counting {
+    unsafe fn alloc(&self, layout: Layout) -> *mut u8 {
+        count();
+        unsafe { System.alloc(layout) }
+    }
+    unsafe fn dealloc(&self, ptr: *mut u8, layout: Layout) {
+        unsafe { System.dealloc(ptr, layout) }
+    }
+    unsafe fn realloc(&self, ptr: *mut u8, layout: Layout, new_size: usize) -> *mut u8 {
+        count();
+        unsafe { System.realloc(ptr, layout, new_size) }
+    }
+}
+
+#[global_allocator]
+static GLOBAL: Counting = Counting;
+
+/// Sums what it sees, without allocating.
+struct Sink(f64);
+
+impl<M: Model> Observer<M> for Sink {
+    type Error = std::convert::Infallible;
+    fn observe(&mut self, _: &Dynamics<M>, s: &Sample<'_>) -> Result<(), Self::Error> {
+        self.0 += s.kinetic_energy + s.residual_position;
+        Ok(())
+    }
+}
+
+fn allocations_for(t_end: f64, projection: ProjectionKind, kkt: KktMethod) -> usize {
+    let (model, specs, y0) = setup::<EzyRoller>(&scenes::drive(), &[]).unwrap();
+    let effects = specs.iter().map(|s| s.resolve(&EzyRoller::INFO).unwrap()).collect();
+    let mut sys = Dynamics::new(model, effects, kkt);
+    let settings = RunSettings { dt: 1e-4, t_end, every: 0.01, projection };
+    let mut sink = Sink(0.0);
+    let before = allocations();
+    let s = simulate(&mut sys, &y0, &settings, &mut sink).unwrap();
+    let n = allocations() - before;
+    assert!(s.steps > 0 && sink.0.is_finite());
+    n
+}
+
+#[test]
+fn the_step_loop_does_not_allocate() {
+    for projection in [ProjectionKind::MassWeighted, ProjectionKind::Euclidean, ProjectionKind::None] {
+        for kkt in [KktMethod::Schur, KktMethod::Lu] {
+            let short = allocations_for(0.01, projection, kkt);
+            let long = allocations_for(1.0, projection, kkt);
+            assert_eq!(
+                short, long,
+                "{projection:?}/{kkt:?}: 100 steps allocate {short} times, 10,000 steps {long} times"
+            );
+        }
+    }
+}
