@@ -126,7 +126,7 @@ pub fn setup<M: Model + Default>(
         }
         if let Some(i) = info.param_index(name) {
             model.set_param(i, *value);
-        } else if !effects.iter_mut().fold(false, |hit, e| e.set_param(name, *value) || hit) {
+        } else if effects.iter_mut().filter_map(|e| e.set_param(name, *value).then_some(())).count() == 0 {
             let mut known: Vec<&str> = info.params.iter().map(|p| p.name).collect();
             known.extend(effects.iter().flat_map(|e| e.param_names().iter().copied()));
             return Err(SimError::UnknownName {

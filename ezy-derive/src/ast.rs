@@ -43,7 +43,7 @@ pub enum HingeTarget {
     /// Another named point.
     Point(Ident),
     /// A fixed point of the ground, in world coordinates [m].
-    Ground { at: [Expr; 2] },
+    Ground { at: Box<[Expr; 2]> },
 }
 
 /// `hinge NAME: P = Q;` or `hinge NAME: P = ground(X, Y);`
@@ -68,10 +68,10 @@ pub fn doc_of(attrs: &[Attribute]) -> String {
         if !attr.path().is_ident("doc") {
             continue;
         }
-        if let syn::Meta::NameValue(nv) = &attr.meta {
-            if let Expr::Lit(syn::ExprLit { lit: syn::Lit::Str(s), .. }) = &nv.value {
-                lines.push(s.value().trim().to_string());
-            }
+        if let syn::Meta::NameValue(nv) = &attr.meta
+            && let Expr::Lit(syn::ExprLit { lit: syn::Lit::Str(s), .. }) = &nv.value
+        {
+            lines.push(s.value().trim().to_string());
         }
     }
     lines.join(" ").trim().to_string()
@@ -80,10 +80,10 @@ pub fn doc_of(attrs: &[Attribute]) -> String {
 /// Splits a trailing `[unit]` off a doc string: `("Distance", "m")`.
 pub fn split_unit(doc: &str) -> (String, String) {
     let t = doc.trim_end();
-    if t.ends_with(']') {
-        if let Some(open) = t.rfind('[') {
-            return (t[..open].trim_end().to_string(), t[open + 1..t.len() - 1].trim().to_string());
-        }
+    if t.ends_with(']')
+        && let Some(open) = t.rfind('[')
+    {
+        return (t[..open].trim_end().to_string(), t[open + 1..t.len() - 1].trim().to_string());
     }
     (t.to_string(), String::new())
 }

@@ -135,10 +135,10 @@ pub fn derive(def: &ModelDef, res: &Resolved, errs: &mut Errors) -> Derived {
             if !ok {
                 continue;
             }
-            if let Some(v) = ar.as_const(e) {
-                if v <= 0.0 {
-                    errs.at(tok, format!("{what} of body `{}` must be positive, got {v}", b.name));
-                }
+            if let Some(v) = ar.as_const(e)
+                && v <= 0.0
+            {
+                errs.at(tok, format!("{what} of body `{}` must be positive, got {v}", b.name));
             }
         }
         mass.extend([m, m, i]);

@@ -83,7 +83,7 @@ impl Parse for ModelDef {
                 let target = if content.peek(kw::ground) {
                     content.parse::<kw::ground>()?;
                     let (at, _) = parse_pair(&content)?;
-                    HingeTarget::Ground { at }
+                    HingeTarget::Ground { at: Box::new(at) }
                 } else {
                     HingeTarget::Point(content.parse()?)
                 };

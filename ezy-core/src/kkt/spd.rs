@@ -51,6 +51,8 @@ pub fn cholesky_in_place(a: &mut [f64], m: usize, lda: usize, inv_diag: &mut [f6
     }
 }
 
+// `!(d > tol)` also rejects NaN pivots, which `d <= tol` would let through.
+#[allow(clippy::neg_cmp_op_on_partial_ord, clippy::needless_range_loop)]
 #[inline(always)]
 fn ldl_fixed<const M: usize>(a: &mut [f64], lda: usize, inv_diag: &mut [f64]) -> Result<(), KktError> {
     let mut l = [[0.0f64; M]; M];
@@ -91,6 +93,7 @@ fn ldl_fixed<const M: usize>(a: &mut [f64], lda: usize, inv_diag: &mut [f64]) ->
     Ok(())
 }
 
+#[allow(clippy::neg_cmp_op_on_partial_ord)]
 fn ldl_dynamic(a: &mut [f64], m: usize, lda: usize, inv_diag: &mut [f64]) -> Result<(), KktError> {
     for j in 0..m {
         let ajj = a[j * lda + j];

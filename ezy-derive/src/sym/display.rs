@@ -35,7 +35,7 @@ impl Arena {
             }
             Node::Mul(fs) => {
                 let (sign, fs) = match self.as_const(fs[0]) {
-                    Some(c) if c == -1.0 => ("-", &fs[1..]),
+                    Some(-1.0) => ("-", &fs[1..]),
                     _ => ("", &fs[..]),
                 };
                 let body: Vec<String> = fs.iter().map(|&f| self.fmt_prec(f, name, 1)).collect();

@@ -77,11 +77,6 @@ impl Arena {
         Self::default()
     }
 
-    /// Number of nodes.
-    pub fn len(&self) -> usize {
-        self.nodes.len()
-    }
-
     /// The node behind `id`.
     pub fn node(&self, id: Id) -> &Node {
         &self.nodes[id.index()]

@@ -1,0 +1,94 @@
+//! The EzyRoller's right-hand side per KKT path, its pieces, one RK4 step,
+//! and the `drive` scene at the seed's settings (1 s of it; the CLI reports
+//! the full 60 s). Run with `cargo bench --bench kkt`.
+
+use std::hint::black_box;
+
+use criterion::{criterion_group, criterion_main, Criterion};
+use ezy::run::setup;
+use ezy_core::integrator::Rk4;
+use ezy_core::kkt::{DenseLu, KktMethod, KktSolver, KktSystem, SchurCholesky};
+use ezy_core::model::scatter_dense;
+use ezy_core::{simulate, Dynamics, Model, Observer, ProjectionKind, RunSettings, Sample};
+use ezy_models::{scenes, EzyRoller};
+
+/// A state of the `drive` scene after a few seconds.
+fn state() -> Vec<f64> {
+    vec![0.31, -0.12, -0.4, 0.77, -0.35, 2.4, 0.3, -0.12, 0.05, 0.29, -0.1, -0.6, 0.4]
+}
+
+fn dynamics(method: KktMethod) -> Dynamics<EzyRoller> {
+    let (model, specs, _) = setup::<EzyRoller>(&scenes::drive(), &[]).unwrap();
+    let effects = specs.iter().map(|s| s.resolve(&EzyRoller::INFO).unwrap()).collect();
+    Dynamics::new(model, effects, method)
+}
+
+fn rhs(c: &mut Criterion) {
+    let y = state();
+    let mut dy = vec![0.0; y.len()];
+    for (name, method) in [("rhs/schur-cholesky", KktMethod::Schur), ("rhs/dense-lu", KktMethod::Lu)] {
+        let mut sys = dynamics(method);
+        c.bench_function(name, |b| b.iter(|| sys.rhs(black_box(1.3), black_box(&y), &mut dy).unwrap()));
+    }
+}
+
+fn pieces(c: &mut Criterion) {
+    let m = EzyRoller::default();
+    let y = state();
+    let (q, qd) = (&y[..6], &y[6..12]);
+    let mut vals = vec![0.0; EzyRoller::INFO.pattern.len()];
+    let mut gamma = vec![0.0; 4];
+    c.bench_function("generated/constraint_terms", |b| {
+        b.iter(|| m.constraint_terms(black_box(q), black_box(qd), &mut vals, &mut gamma))
+    });
+    let mut g = vec![0.0; 24];
+    scatter_dense(EzyRoller::INFO.pattern, &vals, 6, &mut g);
+    let mut mass = vec![0.0; 6];
+    m.mass_diagonal(&mut mass);
+    let f = [0.0, 0.0, 1.5, 0.0, 0.0, -1.5];
+    let sys = KktSystem { mass: &mass, g: &g, g_values: &vals, f: &f, gamma: &gamma };
+    let (mut qdd, mut lambda) = (vec![0.0; 6], vec![0.0; 4]);
+    let mut schur = SchurCholesky::<EzyRoller>::new(&mass).unwrap();
+    c.bench_function("kkt/schur-cholesky", |b| b.iter(|| schur.solve(black_box(&sys), &mut qdd, &mut lambda).unwrap()));
+    let mut lu = DenseLu::new(6, 4);
+    c.bench_function("kkt/dense-lu", |b| b.iter(|| lu.solve(black_box(&sys), &mut qdd, &mut lambda).unwrap()));
+}
+
+fn step(c: &mut Criterion) {
+    let mut sys = dynamics(KktMethod::Auto);
+    let mut rk = Rk4::new(13);
+    let y0 = state();
+    let mut y = y0.clone();
+    c.bench_function("rk4/step", |b| {
+        b.iter(|| {
+            y.copy_from_slice(&y0);
+            rk.step(&mut sys, black_box(1.3), &mut y, 1e-4).unwrap()
+        })
+    });
+}
+
+struct Sink;
+impl<M: Model> Observer<M> for Sink {
+    type Error = std::convert::Infallible;
+    fn observe(&mut self, _: &Dynamics<M>, s: &Sample<'_>) -> Result<(), Self::Error> {
+        black_box(s.kinetic_energy);
+        Ok(())
+    }
+}
+
+fn scene(c: &mut Criterion) {
+    let (_, _, y0) = setup::<EzyRoller>(&scenes::drive(), &[]).unwrap();
+    let settings = RunSettings { dt: 1e-4, t_end: 1.0, every: 0.01, projection: ProjectionKind::MassWeighted };
+    let mut g = c.benchmark_group("drive");
+    g.sample_size(20);
+    g.bench_function("1s_rk4_h1e-4_projected", |b| {
+        b.iter(|| {
+            let mut sys = dynamics(KktMethod::Auto);
+            simulate(&mut sys, &y0, &settings, &mut Sink).unwrap()
+        })
+    });
+    g.finish();
+}
+
+criterion_group!(benches, rhs, pieces, step, scene);
+criterion_main!(benches);
