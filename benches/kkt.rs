@@ -4,13 +4,13 @@
 
 use std::hint::black_box;
 
-use criterion::{criterion_group, criterion_main, Criterion};
+use criterion::{Criterion, criterion_group, criterion_main};
 use ezy::run::setup;
 use ezy_core::integrator::Rk4;
 use ezy_core::kkt::{DenseLu, KktMethod, KktSolver, KktSystem, SchurCholesky};
 use ezy_core::model::scatter_dense;
-use ezy_core::{simulate, Dynamics, Model, Observer, ProjectionKind, RunSettings, Sample};
-use ezy_models::{scenes, EzyRoller};
+use ezy_core::{Dynamics, Model, Observer, ProjectionKind, RunSettings, Sample, simulate};
+use ezy_models::{EzyRoller, scenes};
 
 /// A state of the `drive` scene after a few seconds.
 fn state() -> Vec<f64> {

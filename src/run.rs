@@ -153,6 +153,19 @@ pub fn setup<M: Model + Default>(
     for (name, v) in &scene.qd0 {
         given_qd.push((lookup::<M>("coordinate", name, info.coords)?, value(v)?));
     }
+    let mut mass = vec![0.0; info.nq()];
+    model.mass_diagonal(&mut mass);
+    for b in info.bodies {
+        for (what, k) in [("mass", b.coords[0]), ("inertia", b.coords[2])] {
+            if mass[k].is_nan() || mass[k] < 0.0 {
+                return Err(SimError::Setting {
+                    name: format!("{what} of body {}", b.name),
+                    value: mass[k],
+                    reason: "must be zero or positive",
+                });
+            }
+        }
+    }
     let (q, qd) = consistent_state(&model, &given_q, &given_qd)?;
     let mut y0 = q;
     y0.extend_from_slice(&qd);
@@ -173,6 +186,14 @@ fn run_model<M: Model + Default>(scene: &Scene, opts: &RunOptions) -> Result<Rep
     let effects = specs.iter().map(|s| s.resolve(&M::INFO)).collect::<Result<Vec<_>, _>>()?;
     let effect_columns: Vec<String> = effects.iter().map(|e| e.column().to_string()).collect();
     let mut sys = Dynamics::new(model, effects, KktMethod::Auto);
+    if settings.projection == ProjectionKind::MassWeighted && sys.mass.iter().any(|&m| m <= 0.0) {
+        return Err(SimError::Setting {
+            name: "--projection mass".into(),
+            value: sys.mass.iter().copied().fold(f64::INFINITY, f64::min),
+            reason: "mass-weighted projection needs every mass and inertia > 0; use --projection euclidean",
+        }
+        .into());
+    }
 
     std::fs::create_dir_all(&opts.out).map_err(|source| Error::OutDir { path: opts.out.clone(), source })?;
     let csv_path = opts.out.join("trajectory.csv");

@@ -86,6 +86,8 @@ fn bad_input_is_named() {
         (&["run", "drive", "--set", "m1=nan"], "must be finite"),
         (&["run", "drive", "--dt", "-1"], "--dt = -1"),
         (&["run", "drive", "--t-end", "0"], "--t-end = 0"),
+        (&["run", "drive", "--set", "m1=-1"], "mass of body body1 = -1"),
+        (&["run", "drive", "--set", "I2=0"], "mass-weighted projection needs every mass and inertia > 0"),
     ];
     for (args, want) in cases {
         let o = ezy(args);
