@@ -118,6 +118,17 @@ pub fn expr_to_sym(ar: &mut Arena, e: &Expr, params: &[String], what: &str, errs
     }
 }
 
+/// `R(phi) (vx, vy)`: a body-frame vector turned into the world frame.
+fn rotate(ar: &mut Arena, phi: Id, vx: Id, vy: Id) -> [Id; 2] {
+    let c = ar.cos(phi);
+    let s = ar.sin(phi);
+    let xc = ar.mul2(vx, c);
+    let ys = ar.mul2(vy, s);
+    let xs = ar.mul2(vx, s);
+    let yc = ar.mul2(vy, c);
+    [ar.sub(xc, ys), ar.add2(xs, yc)]
+}
+
 /// Derives all constraint expressions of a checked model.
 pub fn derive(def: &ModelDef, res: &Resolved, errs: &mut Errors) -> Derived {
     let mut ar = Arena::new();
@@ -149,16 +160,9 @@ pub fn derive(def: &ModelDef, res: &Resolved, errs: &mut Errors) -> Derived {
 
     // World position of a body point (px, py) on body `b`.
     let world = |ar: &mut Arena, b: usize, px: Id, py: Id| -> [Id; 2] {
-        let (x, y, phi) = (q[3 * b], q[3 * b + 1], q[3 * b + 2]);
-        let c = ar.cos(phi);
-        let s = ar.sin(phi);
-        let pxc = ar.mul2(px, c);
-        let pys = ar.mul2(py, s);
-        let pxs = ar.mul2(px, s);
-        let pyc = ar.mul2(py, c);
-        let rx0 = ar.sub(pxc, pys);
-        let ry0 = ar.add2(pxs, pyc);
-        [ar.add2(x, rx0), ar.add2(y, ry0)]
+        let (x, y) = (q[3 * b], q[3 * b + 1]);
+        let [rx, ry] = rotate(ar, q[3 * b + 2], px, py);
+        [ar.add2(x, rx), ar.add2(y, ry)]
     };
     let time_derivative = |ar: &mut Arena, e: Id| -> Id {
         let terms: Vec<Id> = (0..nq)
@@ -234,15 +238,7 @@ pub fn derive(def: &ModelDef, res: &Resolved, errs: &mut Errors) -> Derived {
         let nbx0 = ar.neg(ty);
         let nbx = ar.div(nbx0, len);
         let nby = ar.div(tx, len);
-        let phi_b = q[3 * b + 2];
-        let c = ar.cos(phi_b);
-        let sn = ar.sin(phi_b);
-        let a1 = ar.mul2(c, nbx);
-        let a2 = ar.mul2(sn, nby);
-        let nwx = ar.sub(a1, a2);
-        let b1 = ar.mul2(sn, nbx);
-        let b2 = ar.mul2(c, nby);
-        let nwy = ar.add2(b1, b2);
+        let [nwx, nwy] = rotate(&mut ar, q[3 * b + 2], nbx, nby);
         let row: Vec<Id> = (0..nq)
             .map(|k| {
                 let dx = ar.diff(points[p][0], Sym::Q(k));

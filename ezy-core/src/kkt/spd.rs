@@ -24,6 +24,24 @@ use super::{KktError, KktSolver, KktSystem};
 /// rows (to rounding), reported as [`KktError::DependentConstraints`].
 pub const PIVOT_RTOL: f64 = 1e-13;
 
+/// Calls `$fixed::<M>(args)` with `M = $m` a constant for 1 <= m <= 8
+/// (unrolled code), else `$dynamic`.
+macro_rules! small_size {
+    ($m:expr, $fixed:ident($($arg:expr),*), $dynamic:expr) => {
+        match $m {
+            1 => $fixed::<1>($($arg),*),
+            2 => $fixed::<2>($($arg),*),
+            3 => $fixed::<3>($($arg),*),
+            4 => $fixed::<4>($($arg),*),
+            5 => $fixed::<5>($($arg),*),
+            6 => $fixed::<6>($($arg),*),
+            7 => $fixed::<7>($($arg),*),
+            8 => $fixed::<8>($($arg),*),
+            _ => $dynamic,
+        }
+    };
+}
+
 /// In-place Cholesky factorization `A = L D L^T` (square-root free) of the
 /// leading m x m block of the SPD matrix `a` (row-major with row stride
 /// `lda`; only the lower triangle is read). The unit lower triangle `L`
@@ -37,18 +55,10 @@ pub fn cholesky_in_place(a: &mut [f64], m: usize, lda: usize, inv_diag: &mut [f6
     // Sizes of vehicles get a copy with the size a constant, which the
     // compiler unrolls into straight-line code (measured with callgrind:
     // 310 instructions per 4 x 4 factorization with run-time loops).
-    match m {
-        0 => Ok(()),
-        1 => ldl_fixed::<1>(a, lda, inv_diag),
-        2 => ldl_fixed::<2>(a, lda, inv_diag),
-        3 => ldl_fixed::<3>(a, lda, inv_diag),
-        4 => ldl_fixed::<4>(a, lda, inv_diag),
-        5 => ldl_fixed::<5>(a, lda, inv_diag),
-        6 => ldl_fixed::<6>(a, lda, inv_diag),
-        7 => ldl_fixed::<7>(a, lda, inv_diag),
-        8 => ldl_fixed::<8>(a, lda, inv_diag),
-        _ => ldl_dynamic(a, m, lda, inv_diag),
+    if m == 0 {
+        return Ok(());
     }
+    small_size!(m, ldl_fixed(a, lda, inv_diag), ldl_dynamic(a, m, lda, inv_diag))
 }
 
 // `!(d > tol)` also rejects NaN pivots, which `d <= tol` would let through.
@@ -120,54 +130,40 @@ fn ldl_dynamic(a: &mut [f64], m: usize, lda: usize, inv_diag: &mut [f64]) -> Res
 /// Solves `L D L^T x = r` with the factor from [`cholesky_in_place`].
 #[inline]
 pub fn cholesky_solve(l: &[f64], m: usize, lda: usize, inv_diag: &[f64], r: &[f64], x: &mut [f64]) {
-    match m {
-        0 => {}
-        1 => solve_fixed::<1>(l, lda, inv_diag, r, x),
-        2 => solve_fixed::<2>(l, lda, inv_diag, r, x),
-        3 => solve_fixed::<3>(l, lda, inv_diag, r, x),
-        4 => solve_fixed::<4>(l, lda, inv_diag, r, x),
-        5 => solve_fixed::<5>(l, lda, inv_diag, r, x),
-        6 => solve_fixed::<6>(l, lda, inv_diag, r, x),
-        7 => solve_fixed::<7>(l, lda, inv_diag, r, x),
-        8 => solve_fixed::<8>(l, lda, inv_diag, r, x),
-        _ => solve_dynamic(l, m, lda, inv_diag, r, x),
+    if m > 0 {
+        small_size!(m, solve_fixed(l, lda, inv_diag, r, x), solve_dynamic(l, m, lda, inv_diag, r, x));
     }
 }
 
 #[inline(always)]
 fn solve_fixed<const M: usize>(l: &[f64], lda: usize, inv_diag: &[f64], r: &[f64], x: &mut [f64]) {
     let mut y = [0.0f64; M];
-    for i in 0..M {
-        let mut s = r[i];
+    y.copy_from_slice(&r[..M]);
+    substitute(l, M, lda, inv_diag, &mut y);
+    x[..M].copy_from_slice(&y);
+}
+
+fn solve_dynamic(l: &[f64], m: usize, lda: usize, inv_diag: &[f64], r: &[f64], x: &mut [f64]) {
+    x[..m].copy_from_slice(&r[..m]);
+    substitute(l, m, lda, inv_diag, &mut x[..m]);
+}
+
+/// Forward (`L`), diagonal (`D`) and backward (`L^T`) substitution in place.
+#[inline(always)]
+fn substitute(l: &[f64], m: usize, lda: usize, inv_diag: &[f64], y: &mut [f64]) {
+    for i in 0..m {
+        let mut s = y[i];
         for k in 0..i {
             s -= l[i * lda + k] * y[k];
         }
         y[i] = s;
     }
-    for i in (0..M).rev() {
+    for i in (0..m).rev() {
         let mut s = y[i] * inv_diag[i];
-        for k in i + 1..M {
+        for k in i + 1..m {
             s -= l[k * lda + i] * y[k];
         }
         y[i] = s;
-    }
-    x[..M].copy_from_slice(&y);
-}
-
-fn solve_dynamic(l: &[f64], m: usize, lda: usize, inv_diag: &[f64], r: &[f64], x: &mut [f64]) {
-    for i in 0..m {
-        let mut s = r[i];
-        for k in 0..i {
-            s -= l[i * lda + k] * x[k];
-        }
-        x[i] = s;
-    }
-    for i in (0..m).rev() {
-        let mut s = x[i] * inv_diag[i];
-        for k in i + 1..m {
-            s -= l[k * lda + i] * x[k];
-        }
-        x[i] = s;
     }
 }
 
