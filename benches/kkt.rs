@@ -1,15 +1,16 @@
 //! The EzyRoller's right-hand side per KKT path, its pieces, one RK4 step,
-//! and the `drive` scene at the seed's settings (1 s of it; the CLI reports
-//! the full 60 s). Run with `cargo bench --bench kkt`.
+//! one DOP853 step, and the whole `drive` scene (60 s) at the seed's
+//! settings and with DOP853 at tight tolerances. Run with
+//! `cargo bench --bench kkt`.
 
 use std::hint::black_box;
 
 use criterion::{Criterion, criterion_group, criterion_main};
 use ezy::run::setup;
-use ezy_core::integrator::Rk4;
+use ezy_core::integrator::{Dop853, EmbeddedRk, Rk4, Tolerance};
 use ezy_core::kkt::{DenseLu, KktMethod, KktSolver, KktSystem, SchurCholesky};
 use ezy_core::model::scatter_dense;
-use ezy_core::{Dynamics, Model, Observer, ProjectionKind, RunSettings, Sample, simulate};
+use ezy_core::{Dynamics, Method, Model, Observer, ProjectionKind, RunSettings, Sample, simulate};
 use ezy_models::{EzyRoller, scenes};
 
 /// A state of the `drive` scene after a few seconds.
@@ -54,6 +55,19 @@ fn pieces(c: &mut Criterion) {
     c.bench_function("kkt/dense-lu", |b| b.iter(|| lu.solve(black_box(&sys), &mut qdd, &mut lambda).unwrap()));
 }
 
+fn dop853_step(c: &mut Criterion) {
+    let mut sys = dynamics(KktMethod::Auto);
+    let mut st = Dop853::new(13);
+    let y = state();
+    let mut k1 = vec![0.0; 13];
+    sys.rhs(1.3, &y, &mut k1).unwrap();
+    let (mut y_new, mut k_new) = (vec![0.0; 13], vec![0.0; 13]);
+    let tol = Tolerance { rtol: 1e-12, atol: 1e-12 };
+    c.bench_function("dop853/step", |b| {
+        b.iter(|| st.attempt(&mut sys, black_box(1.3), &y, &k1, 0.05, &tol, &mut y_new, &mut k_new).unwrap())
+    });
+}
+
 fn step(c: &mut Criterion) {
     let mut sys = dynamics(KktMethod::Auto);
     let mut rk = Rk4::new(13);
@@ -78,17 +92,35 @@ impl<M: Model> Observer<M> for Sink {
 
 fn scene(c: &mut Criterion) {
     let (_, _, y0) = setup::<EzyRoller>(&scenes::drive(), &[]).unwrap();
-    let settings = RunSettings { dt: 1e-4, t_end: 1.0, every: 0.01, projection: ProjectionKind::MassWeighted };
+    let settings = RunSettings {
+        dt: 1e-4,
+        t_end: 1.0,
+        every: 0.01,
+        projection: ProjectionKind::MassWeighted,
+        method: Method::Rk4,
+        rtol: 1e-9,
+        atol: 1e-9,
+    };
     let mut g = c.benchmark_group("drive");
-    g.sample_size(20);
-    g.bench_function("1s_rk4_h1e-4_projected", |b| {
+    g.sample_size(10);
+    let seed = RunSettings { t_end: 60.0, every: 60.0, ..settings };
+    g.bench_function("60s_rk4_h1e-4_projected", |b| {
         b.iter(|| {
             let mut sys = dynamics(KktMethod::Auto);
-            simulate(&mut sys, &y0, &settings, &mut Sink).unwrap()
+            simulate(&mut sys, &y0, &seed, &mut Sink).unwrap()
         })
     });
+    for tol in [1e-11, 1e-12] {
+        let adaptive = RunSettings { method: Method::Dop853, rtol: tol, atol: tol, ..seed };
+        g.bench_function(format!("60s_dop853_tol{tol:e}_projected"), |b| {
+            b.iter(|| {
+                let mut sys = dynamics(KktMethod::Auto);
+                simulate(&mut sys, &y0, &adaptive, &mut Sink).unwrap()
+            })
+        });
+    }
     g.finish();
 }
 
-criterion_group!(benches, rhs, pieces, step, scene);
+criterion_group!(benches, rhs, pieces, step, dop853_step, scene);
 criterion_main!(benches);

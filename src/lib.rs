@@ -7,6 +7,7 @@
 pub mod figures;
 pub mod output;
 pub mod plot;
+pub mod precision;
 pub mod progress;
 pub mod run;
 

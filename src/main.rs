@@ -5,7 +5,7 @@ use std::process::ExitCode;
 
 use clap::{Parser, Subcommand, ValueEnum};
 use ezy::run::{Report, RunOptions, run_scene};
-use ezy_core::ProjectionKind;
+use ezy_core::{Baumgarte, Method, ProjectionKind};
 
 /// Planar vehicles with hinges and skates: simulate a scene, write CSV and figures.
 #[derive(Parser, Debug)]
@@ -21,6 +21,8 @@ enum Command {
     Run(RunArgs),
     /// List the models and scenes, one line each.
     List,
+    /// Measure error against wall time over a ladder of integrators and settings.
+    Precision(PrecisionArgs),
 }
 
 #[derive(clap::Args, Debug, Default)]
@@ -47,9 +49,53 @@ struct RunArgs {
     /// Coordinate projection after every step.
     #[arg(long, value_enum)]
     projection: Option<Projection>,
+    /// Baumgarte stabilization `ALPHA,BETA` [1/s] (with or instead of --projection).
+    #[arg(long, value_name = "ALPHA,BETA", value_parser = parse_baumgarte)]
+    baumgarte: Option<Baumgarte>,
+    /// Integration method (scene default: rk4).
+    #[arg(long, value_enum)]
+    integrator: Option<Integrator>,
+    /// Relative tolerance of the adaptive methods (default 1e-9).
+    #[arg(long, value_name = "R")]
+    rtol: Option<f64>,
+    /// Absolute tolerance of the adaptive methods (default 1e-9).
+    #[arg(long, value_name = "A")]
+    atol: Option<f64>,
     /// Skip the figures (CSV only).
     #[arg(long)]
     no_figures: bool,
+}
+
+#[derive(clap::Args, Debug)]
+struct PrecisionArgs {
+    /// Scene name (see `ezy list`).
+    scene: String,
+    /// Output format on stdout.
+    #[arg(long, value_enum, default_value = "table")]
+    format: Format,
+    /// Directory for precision.csv and the figures [default: out/precision/SCENE].
+    #[arg(long)]
+    out: Option<PathBuf>,
+}
+
+#[derive(ValueEnum, Clone, Copy, Debug)]
+enum Format {
+    /// A table for people.
+    Table,
+    /// CSV: method,dt,rtol,atol,projection,error,wall_s,rhs_evals,max_residual.
+    Csv,
+}
+
+#[derive(ValueEnum, Clone, Copy, Debug)]
+enum Integrator {
+    /// Explicit Euler, order 1, fixed step (--dt).
+    Euler,
+    /// Classic Runge-Kutta, order 4, fixed step (--dt).
+    Rk4,
+    /// Dormand-Prince 5(4), adaptive (--rtol, --atol).
+    Dopri5,
+    /// Dormand-Prince 8(5,3), adaptive (--rtol, --atol).
+    Dop853,
 }
 
 #[derive(ValueEnum, Clone, Copy, Debug)]
@@ -60,6 +106,15 @@ enum Projection {
     Euclidean,
     /// Mass-weighted (kinetic-energy metric), the default.
     Mass,
+}
+
+fn parse_baumgarte(s: &str) -> Result<Baumgarte, String> {
+    let (a, b) = s.split_once(',').ok_or_else(|| format!("`{s}`: expected ALPHA,BETA"))?;
+    let num = |v: &str| -> Result<f64, String> {
+        let x: f64 = v.trim().parse().map_err(|_| format!("`{s}`: `{v}` is not a number"))?;
+        if x.is_finite() && x >= 0.0 { Ok(x) } else { Err(format!("`{s}`: `{v}` must be finite and >= 0")) }
+    };
+    Ok(Baumgarte { alpha: num(a)?, beta: num(b)? })
 }
 
 fn parse_set(s: &str) -> Result<(String, f64), String> {
@@ -79,6 +134,7 @@ fn main() -> ExitCode {
             Ok(())
         }
         Command::Run(args) => run(args),
+        Command::Precision(args) => precision(args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
@@ -100,11 +156,31 @@ fn list() {
     }
 }
 
-fn run(args: RunArgs) -> Result<(), String> {
-    let scene = ezy_models::scenes::find(&args.scene).ok_or_else(|| {
+fn find_scene(name: &str) -> Result<ezy_core::Scene, String> {
+    ezy_models::scenes::find(name).ok_or_else(|| {
         let known: Vec<&str> = ezy_models::scenes::builtin().iter().map(|s| s.name).collect();
-        format!("unknown scene `{}`; known scenes: {}", args.scene, known.join(", "))
-    })?;
+        format!("unknown scene `{name}`; known scenes: {}", known.join(", "))
+    })
+}
+
+fn precision(args: PrecisionArgs) -> Result<(), String> {
+    let scene = find_scene(&args.scene)?;
+    let out = args.out.unwrap_or_else(|| PathBuf::from("out").join("precision").join(scene.name));
+    let report = ezy::precision::precision(&scene, &out).map_err(|e| e.to_string())?;
+    match args.format {
+        Format::Table => {
+            print!("{}", ezy::precision::table(&report));
+            for f in &report.files {
+                println!("wrote {}", f.display());
+            }
+        }
+        Format::Csv => print!("{}", ezy::precision::csv(&report.rows)),
+    }
+    Ok(())
+}
+
+fn run(args: RunArgs) -> Result<(), String> {
+    let scene = find_scene(&args.scene)?;
     let opts = RunOptions {
         out: args.out.unwrap_or_else(|| PathBuf::from("out").join(scene.name)),
         sets: args.sets,
@@ -116,6 +192,15 @@ fn run(args: RunArgs) -> Result<(), String> {
             Projection::Euclidean => ProjectionKind::Euclidean,
             Projection::Mass => ProjectionKind::MassWeighted,
         }),
+        method: args.integrator.map(|m| match m {
+            Integrator::Euler => Method::Euler,
+            Integrator::Rk4 => Method::Rk4,
+            Integrator::Dopri5 => Method::Dopri5,
+            Integrator::Dop853 => Method::Dop853,
+        }),
+        baumgarte: args.baumgarte,
+        rtol: args.rtol,
+        atol: args.atol,
         figures: !args.no_figures,
         progress: true,
     };
@@ -127,10 +212,17 @@ fn run(args: RunArgs) -> Result<(), String> {
 fn print_summary(scene: &str, r: &Report) {
     let s = &r.summary;
     let t = s.integration_time.as_secs_f64();
+    let how = if s.method.is_adaptive() {
+        format!(
+            "{} steps ({} rejected), rtol = {:e}, atol = {:e}",
+            s.steps, s.rejected, r.settings.rtol, r.settings.atol
+        )
+    } else {
+        format!("{} steps of h = {} s", s.steps, r.settings.dt)
+    };
     println!(
-        "{scene}: {} RK4 steps of h = {} s to t = {} s, projection {} ({} KKT path)",
-        s.steps,
-        r.settings.dt,
+        "{scene}: {} {how} to t = {} s, projection {} ({} KKT path)",
+        s.method.name(),
         r.settings.t_end,
         r.settings.projection.name(),
         s.kkt

@@ -7,7 +7,8 @@ use std::time::{Duration, Instant};
 use ezy_core::initial::consistent_state;
 use ezy_core::kkt::KktMethod;
 use ezy_core::{
-    Dynamics, InitValue, Model, ModelVisitor, ProjectionKind, RunError, RunSettings, Scene, SimError, Summary,
+    Baumgarte, Dynamics, InitValue, Method, Model, ModelVisitor, ProjectionKind, RunError, RunSettings, Scene,
+    SimError, Summary,
 };
 
 use crate::figures::FigureError;
@@ -58,6 +59,14 @@ pub struct RunOptions {
     pub every: Option<f64>,
     /// Projection kind.
     pub projection: Option<ProjectionKind>,
+    /// Integration method.
+    pub method: Option<Method>,
+    /// Baumgarte stabilization.
+    pub baumgarte: Option<Baumgarte>,
+    /// Relative tolerance (adaptive methods).
+    pub rtol: Option<f64>,
+    /// Absolute tolerance (adaptive methods).
+    pub atol: Option<f64>,
     /// Draw the scene's figures.
     pub figures: bool,
     /// Show a progress bar (when stderr is a terminal and the run is long).
@@ -180,12 +189,16 @@ fn run_model<M: Model + Default>(scene: &Scene, opts: &RunOptions) -> Result<Rep
         t_end: opts.t_end.unwrap_or(scene.t_end),
         every: opts.every.unwrap_or(scene.every),
         projection: opts.projection.unwrap_or(scene.projection),
+        method: opts.method.unwrap_or(scene.method),
+        rtol: opts.rtol.unwrap_or(scene.rtol),
+        atol: opts.atol.unwrap_or(scene.atol),
     };
     settings.validate()?;
     let (model, specs, y0) = setup::<M>(scene, &opts.sets)?;
     let effects = specs.iter().map(|s| s.resolve(&M::INFO)).collect::<Result<Vec<_>, _>>()?;
     let effect_columns: Vec<String> = effects.iter().map(|e| e.column().to_string()).collect();
     let mut sys = Dynamics::new(model, effects, KktMethod::Auto);
+    sys.baumgarte = opts.baumgarte;
     if settings.projection == ProjectionKind::MassWeighted && sys.mass.iter().any(|&m| m <= 0.0) {
         return Err(SimError::Setting {
             name: "--projection mass".into(),

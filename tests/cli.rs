@@ -60,7 +60,7 @@ fn run_writes_the_csv_and_every_figure() {
     }
     assert!(!dir.join("trajectory.csv.partial").exists());
     let out = String::from_utf8_lossy(&o.stdout);
-    assert!(out.contains("RK4 steps") && out.contains("max |T - T0 - W|"), "{out}");
+    assert!(out.contains("rk4 5000 steps of h = 0.0001 s") && out.contains("max |T - T0 - W|"), "{out}");
 }
 
 #[test]
@@ -78,6 +78,65 @@ fn set_changes_a_parameter() {
 }
 
 #[test]
+fn adaptive_run_outputs_at_exact_times() {
+    let dir = tmp_dir("dop853");
+    let o = ezy(&[
+        "run",
+        "sleigh",
+        "--integrator",
+        "dop853",
+        "--rtol",
+        "1e-10",
+        "--atol",
+        "1e-10",
+        "--every",
+        "0.5",
+        "--no-figures",
+        "--out",
+        dir.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let csv = std::fs::read_to_string(dir.join("trajectory.csv")).unwrap();
+    // outputs at exact multiples of --every from dense output: 0, 0.5, ..., 10
+    let ts: Vec<f64> = csv.lines().skip(1).map(|l| l.split(',').next().unwrap().parse().unwrap()).collect();
+    assert_eq!(ts.len(), 21);
+    for (k, t) in ts.iter().enumerate() {
+        assert!((t - 0.5 * k as f64).abs() < 1e-12, "sample {k} at t = {t}");
+    }
+    let out = String::from_utf8_lossy(&o.stdout);
+    assert!(out.contains("dop853") && out.contains("rejected"), "{out}");
+}
+
+#[test]
+fn precision_writes_the_exact_csv_columns() {
+    let dir = tmp_dir("precision");
+    let o = ezy(&["precision", "sleigh", "--format", "csv", "--out", dir.to_str().unwrap()]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let out = String::from_utf8_lossy(&o.stdout);
+    let mut lines = out.lines();
+    assert_eq!(lines.next().unwrap(), "method,dt,rtol,atol,projection,error,wall_s,rhs_evals,max_residual");
+    let rows: Vec<Vec<&str>> = lines.map(|l| l.split(',').collect()).collect();
+    assert_eq!(rows.len(), ezy::precision::ladder().len());
+    for r in &rows {
+        assert_eq!(r.len(), 9);
+        let error: f64 = r[5].parse().unwrap();
+        let wall: f64 = r[6].parse().unwrap();
+        assert!(error.is_finite() && wall > 0.0, "{r:?}");
+    }
+    // a tight DOP853 setting is far more accurate than a loose Euler one
+    let err_of = |m: &str, key: &str| -> f64 {
+        rows.iter()
+            .find(|r| r[0] == m && (r[1] == key || r[2] == key) && r[4] == "mass")
+            .map(|r| r[5].parse().unwrap())
+            .unwrap()
+    };
+    assert!(err_of("dop853", "1e-10") < 1e-8 && err_of("euler", "1e-2") > 1e-4);
+    for f in ["precision.csv", "work_precision.png", "drift.png"] {
+        assert!(dir.join(f).exists(), "{f}");
+    }
+}
+
+#[test]
 fn bad_input_is_named() {
     let cases: &[(&[&str], &str)] = &[
         (&["run", "nowhere"], "unknown scene `nowhere`; known scenes: drive, free, sleigh"),
@@ -87,6 +146,8 @@ fn bad_input_is_named() {
         (&["run", "drive", "--dt", "-1"], "--dt = -1"),
         (&["run", "drive", "--t-end", "0"], "--t-end = 0"),
         (&["run", "drive", "--set", "m1=-1"], "mass of body body1 = -1"),
+        (&["run", "drive", "--integrator", "dopri5", "--rtol", "0"], "--rtol = 0"),
+        (&["run", "drive", "--baumgarte", "1"], "expected ALPHA,BETA"),
         (&["run", "drive", "--set", "I2=0"], "mass-weighted projection needs every mass and inertia > 0"),
     ];
     for (args, want) in cases {

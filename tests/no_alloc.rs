@@ -7,7 +7,7 @@ use std::cell::Cell;
 
 use ezy::run::setup;
 use ezy_core::kkt::KktMethod;
-use ezy_core::{Dynamics, Model, Observer, ProjectionKind, RunSettings, Sample, simulate};
+use ezy_core::{Dynamics, Method, Model, Observer, ProjectionKind, RunSettings, Sample, simulate};
 use ezy_models::{EzyRoller, scenes};
 
 struct Counting;
@@ -53,11 +53,11 @@ impl<M: Model> Observer<M> for Sink {
     }
 }
 
-fn allocations_for(t_end: f64, projection: ProjectionKind, kkt: KktMethod) -> usize {
+fn allocations_for(t_end: f64, projection: ProjectionKind, kkt: KktMethod, method: Method) -> usize {
     let (model, specs, y0) = setup::<EzyRoller>(&scenes::drive(), &[]).unwrap();
     let effects = specs.iter().map(|s| s.resolve(&EzyRoller::INFO).unwrap()).collect();
     let mut sys = Dynamics::new(model, effects, kkt);
-    let settings = RunSettings { dt: 1e-4, t_end, every: 0.01, projection };
+    let settings = RunSettings { dt: 1e-4, t_end, every: 0.01, projection, method, rtol: 1e-9, atol: 1e-9 };
     let mut sink = Sink(0.0);
     let before = allocations();
     let s = simulate(&mut sys, &y0, &settings, &mut sink).unwrap();
@@ -70,12 +70,14 @@ fn allocations_for(t_end: f64, projection: ProjectionKind, kkt: KktMethod) -> us
 fn the_step_loop_does_not_allocate() {
     for projection in [ProjectionKind::MassWeighted, ProjectionKind::Euclidean, ProjectionKind::None] {
         for kkt in [KktMethod::Schur, KktMethod::Lu] {
-            let short = allocations_for(0.01, projection, kkt);
-            let long = allocations_for(1.0, projection, kkt);
-            assert_eq!(
-                short, long,
-                "{projection:?}/{kkt:?}: 100 steps allocate {short} times, 10,000 steps {long} times"
-            );
+            for method in [Method::Euler, Method::Rk4, Method::Dopri5, Method::Dop853] {
+                let short = allocations_for(0.01, projection, kkt, method);
+                let long = allocations_for(2.0, projection, kkt, method);
+                assert_eq!(
+                    short, long,
+                    "{projection:?}/{kkt:?}/{method:?}: 0.01 s allocates {short} times, 2 s {long} times"
+                );
+            }
         }
     }
 }

@@ -28,6 +28,14 @@ pub enum SimError {
         /// The step size [s].
         dt: f64,
     },
+    /// An adaptive method needed a step below the rounding level of `t`.
+    #[error("at t = {t} s the step size fell to {h:e} s; the problem may be stiff or the tolerance too tight")]
+    StepSizeTooSmall {
+        /// Time [s].
+        t: f64,
+        /// The step size [s].
+        h: f64,
+    },
     /// A name (coordinate, parameter, hinge) is not in the model.
     #[error("unknown {kind} `{name}` in model {model}; known: {known}")]
     UnknownName {

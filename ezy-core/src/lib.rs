@@ -14,10 +14,11 @@ pub mod scalar;
 pub mod scene;
 pub mod simulate;
 
-pub use dynamics::Dynamics;
+pub use dynamics::{Baumgarte, Dynamics};
 pub use effects::{Effect, EffectSpec};
 pub use error::SimError;
 pub use ezy_derive::model;
+pub use integrator::Method;
 pub use model::{BodyInfo, HingeInfo, Model, ModelInfo, ParamInfo, PointInfo, SkateInfo};
 pub use projection::ProjectionKind;
 pub use scalar::Scalar;

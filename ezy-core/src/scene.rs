@@ -2,6 +2,7 @@
 //! which figures to draw. Built-in scenes live in `ezy-models`.
 
 use crate::effects::EffectSpec;
+use crate::integrator::Method;
 use crate::model::Model;
 use crate::projection::ProjectionKind;
 
@@ -78,6 +79,12 @@ pub struct Scene {
     pub every: f64,
     /// Projection after every step.
     pub projection: ProjectionKind,
+    /// Integration method.
+    pub method: Method,
+    /// Relative tolerance (adaptive methods).
+    pub rtol: f64,
+    /// Absolute tolerance (adaptive methods).
+    pub atol: f64,
     /// Given coordinates by name; the rest follow from the hinges.
     pub q0: Vec<(&'static str, InitValue)>,
     /// Given velocities by coordinate name; the rest follow from the constraints.

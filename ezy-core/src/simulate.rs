@@ -6,7 +6,8 @@ use std::time::{Duration, Instant};
 
 use crate::SimError;
 use crate::dynamics::{Counters, Dynamics};
-use crate::integrator::Rk4;
+use crate::integrator::adaptive::{Controller, initial_step};
+use crate::integrator::{Dop853, Dopri5, EmbeddedRk, Euler, Method, Rk4, Tolerance};
 use crate::model::Model;
 use crate::projection::{ProjectionKind, Projector, mat_vec, max_abs};
 
@@ -22,6 +23,12 @@ pub struct RunSettings {
     pub every: f64,
     /// Projection after every step.
     pub projection: ProjectionKind,
+    /// Integration method.
+    pub method: Method,
+    /// Relative tolerance of adaptive methods.
+    pub rtol: f64,
+    /// Absolute tolerance of adaptive methods.
+    pub atol: f64,
 }
 
 impl RunSettings {
@@ -39,6 +46,13 @@ impl RunSettings {
         }
         if !(self.every.is_finite() && self.every > 0.0) {
             return bad("--every", self.every, "the output interval must be a positive number of seconds");
+        }
+        if self.method.is_adaptive() {
+            for (name, v) in [("--rtol", self.rtol), ("--atol", self.atol)] {
+                if !(v.is_finite() && v > 0.0) {
+                    return bad(name, v, "a tolerance must be a positive number");
+                }
+            }
         }
         Ok(())
     }
@@ -100,8 +114,12 @@ pub enum RunError<E> {
 /// What a run did and how well.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Summary {
-    /// Steps taken.
+    /// Method used.
+    pub method: Method,
+    /// Accepted steps.
     pub steps: u64,
+    /// Rejected step attempts (adaptive methods).
+    pub rejected: u64,
     /// Right-hand-side evaluations and KKT solves.
     pub counters: Counters,
     /// Projections applied.
@@ -153,45 +171,29 @@ impl Residuals {
     }
 }
 
-/// Integrates `sys` from `y0 = [q, qd, W]` with RK4 and projection.
-///
-/// # Errors
-/// [`RunError::Sim`] on a singular KKT system or a non-finite state (with
-/// the time and the component), [`RunError::Output`] if the observer fails.
-pub fn simulate<M: Model, O: Observer<M>>(
-    sys: &mut Dynamics<M>,
-    y0: &[f64],
-    settings: &RunSettings,
-    observer: &mut O,
-) -> Result<Summary, RunError<O::Error>> {
-    settings.validate()?;
-    let nq = M::INFO.nq();
-    let ny = Dynamics::<M>::NY;
-    let mut y = y0.to_vec();
-    let mut rk = Rk4::new(ny);
-    let mut proj = Projector::<M>::new(settings.projection, &sys.mass);
-    let mut resid = Residuals::new::<M>();
-    let n = settings.n_steps();
-    let stride = settings.output_stride();
-    let t0_energy = sys.kinetic_energy(&y[nq..2 * nq]);
-    let mut summary = Summary {
-        steps: 0,
-        counters: Counters::default(),
-        projections: 0,
-        integration_time: Duration::ZERO,
-        max_residual_position: 0.0,
-        max_residual_velocity: 0.0,
-        max_step_drift: 0.0,
-        max_energy_error: 0.0,
-        final_state: Vec::new(),
-        kkt: sys.kkt_name(),
-    };
-    let mut emit = |sys: &Dynamics<M>, t: f64, y: &[f64], summary: &mut Summary, observer: &mut O| {
+/// Step-loop state shared by the fixed-step and adaptive drivers:
+/// projection, residuals, energy balance, output timing.
+struct Run<'a, M: Model, O: Observer<M>> {
+    settings: &'a RunSettings,
+    observer: &'a mut O,
+    proj: Projector<M>,
+    resid: Residuals,
+    sample: Vec<f64>,
+    t0_energy: f64,
+    summary: Summary,
+    output_time: Duration,
+}
+
+impl<M: Model, O: Observer<M>> Run<'_, M, O> {
+    /// Writes the sample `(t, y)`.
+    fn emit(&mut self, sys: &Dynamics<M>, t: f64, y: &[f64]) -> Result<(), RunError<O::Error>> {
+        let clock = Instant::now();
+        let nq = M::INFO.nq();
         let (q, rest) = y.split_at(nq);
         let qd = &rest[..nq];
-        let (rp, rv) = resid.eval(&sys.model, q, qd);
-        summary.max_residual_position = summary.max_residual_position.max(rp);
-        summary.max_residual_velocity = summary.max_residual_velocity.max(rv);
+        let (rp, rv) = self.resid.eval(&sys.model, q, qd);
+        self.summary.max_residual_position = self.summary.max_residual_position.max(rp);
+        self.summary.max_residual_velocity = self.summary.max_residual_velocity.max(rv);
         let sample = Sample {
             t,
             q,
@@ -201,40 +203,206 @@ pub fn simulate<M: Model, O: Observer<M>>(
             residual_position: rp,
             residual_velocity: rv,
         };
-        observer.observe(sys, &sample).map_err(RunError::Output)
+        self.observer.observe(sys, &sample).map_err(RunError::Output)?;
+        self.output_time += clock.elapsed();
+        Ok(())
+    }
+
+    /// After an accepted step from `t` to `t_new`: non-finite check,
+    /// projection, energy balance. Returns whether `y` was changed.
+    fn after_step(&mut self, sys: &Dynamics<M>, t: f64, t_new: f64, y: &mut [f64], h: f64) -> Result<bool, SimError> {
+        let nq = M::INFO.nq();
+        if let Some(k) = y.iter().position(|v| !v.is_finite()) {
+            return Err(SimError::NonFinite { t, quantity: state_name::<M>(k), value: y[k], dt: h });
+        }
+        let mut changed = false;
+        if self.settings.projection != ProjectionKind::None {
+            let (q, rest) = y.split_at_mut(nq);
+            let report = self.proj.project(&sys.model, t_new, q, &mut rest[..nq])?;
+            self.summary.max_step_drift = self.summary.max_step_drift.max(report.drift_position);
+            self.summary.projections += 1;
+            changed = true;
+        }
+        let energy_error = (sys.kinetic_energy(&y[nq..2 * nq]) - self.t0_energy - y[2 * nq]).abs();
+        self.summary.max_energy_error = self.summary.max_energy_error.max(energy_error);
+        self.summary.steps += 1;
+        Ok(changed)
+    }
+
+    /// Writes the dense-output sample held in `self.sample`.
+    fn emit_sample(&mut self, sys: &Dynamics<M>, t: f64) -> Result<(), RunError<O::Error>> {
+        let sample = std::mem::take(&mut self.sample);
+        let res = self.emit(sys, t, &sample);
+        self.sample = sample;
+        res
+    }
+
+    /// Projects a dense-output sample so that outputs lie on the constraints.
+    fn project_sample(&mut self, sys: &Dynamics<M>, t: f64) -> Result<(), SimError> {
+        if self.settings.projection != ProjectionKind::None {
+            let nq = M::INFO.nq();
+            let (q, rest) = self.sample.split_at_mut(nq);
+            self.proj.project(&sys.model, t, q, &mut rest[..nq])?;
+        }
+        Ok(())
+    }
+}
+
+/// Integrates `sys` from `y0 = [q, qd, W]` with the method of `settings`
+/// and projection after every accepted step. Fixed-step methods output
+/// every `every` seconds (rounded to whole steps); adaptive methods output
+/// at exact multiples of `every` from their dense output (projected like
+/// the steps), never shortening a step for it.
+///
+/// # Errors
+/// [`RunError::Sim`] on a singular KKT system, a non-finite state (with
+/// the time and the component) or a step size below rounding
+/// ([`SimError::StepSizeTooSmall`]); [`RunError::Output`] if the observer fails.
+pub fn simulate<M: Model, O: Observer<M>>(
+    sys: &mut Dynamics<M>,
+    y0: &[f64],
+    settings: &RunSettings,
+    observer: &mut O,
+) -> Result<Summary, RunError<O::Error>> {
+    settings.validate()?;
+    let nq = M::INFO.nq();
+    let t0_energy = sys.kinetic_energy(&y0[nq..2 * nq]);
+    let counters0 = sys.counters;
+    let mut run = Run {
+        settings,
+        observer,
+        proj: Projector::<M>::new(settings.projection, &sys.mass),
+        resid: Residuals::new::<M>(),
+        sample: y0.to_vec(),
+        t0_energy,
+        summary: Summary {
+            method: settings.method,
+            steps: 0,
+            rejected: 0,
+            counters: Counters::default(),
+            projections: 0,
+            integration_time: Duration::ZERO,
+            max_residual_position: 0.0,
+            max_residual_velocity: 0.0,
+            max_step_drift: 0.0,
+            max_energy_error: 0.0,
+            final_state: Vec::new(),
+            kkt: sys.kkt_name(),
+        },
+        output_time: Duration::ZERO,
     };
-    emit(sys, 0.0, &y, &mut summary, observer)?;
+    let mut y = y0.to_vec();
+    run.emit(sys, 0.0, &y)?;
     let start = Instant::now();
-    let mut output_time = Duration::ZERO;
+    match settings.method {
+        Method::Euler => fixed(sys, &mut y, &mut run, &mut Euler::new(y0.len()), Euler::step::<Dynamics<M>>)?,
+        Method::Rk4 => fixed(sys, &mut y, &mut run, &mut Rk4::new(y0.len()), Rk4::step::<Dynamics<M>>)?,
+        Method::Dopri5 => adaptive::<M, O, Dopri5>(sys, &mut y, &mut run)?,
+        Method::Dop853 => adaptive::<M, O, Dop853>(sys, &mut y, &mut run)?,
+    }
+    let mut summary = run.summary;
+    summary.integration_time = start.elapsed().saturating_sub(run.output_time);
+    summary.counters = Counters {
+        rhs_evals: sys.counters.rhs_evals - counters0.rhs_evals,
+        kkt_solves: sys.counters.kkt_solves - counters0.kkt_solves,
+    };
+    summary.final_state = y;
+    Ok(summary)
+}
+
+type FixedStep<S, R> = fn(&mut S, &mut R, f64, &mut [f64], f64) -> Result<(), SimError>;
+
+fn fixed<M: Model, O: Observer<M>, S>(
+    sys: &mut Dynamics<M>,
+    y: &mut [f64],
+    run: &mut Run<'_, M, O>,
+    stepper: &mut S,
+    step: FixedStep<S, Dynamics<M>>,
+) -> Result<(), RunError<O::Error>> {
+    let settings = run.settings;
+    let n = settings.n_steps();
+    let stride = settings.output_stride();
     for i in 0..n {
         let t = i as f64 * settings.dt;
         let t_next = if i + 1 == n { settings.t_end } else { (i + 1) as f64 * settings.dt };
-        rk.step(sys, t, &mut y, t_next - t)?;
-        if let Some(k) = y.iter().position(|v| !v.is_finite()) {
-            return Err(SimError::NonFinite { t, quantity: state_name::<M>(k), value: y[k], dt: settings.dt }.into());
-        }
-        if settings.projection != ProjectionKind::None {
-            let (q, rest) = y.split_at_mut(nq);
-            let report = proj.project(&sys.model, t_next, q, &mut rest[..nq])?;
-            summary.max_step_drift = summary.max_step_drift.max(report.drift_position);
-            summary.projections += 1;
-        }
-        let energy_error = (sys.kinetic_energy(&y[nq..2 * nq]) - t0_energy - y[2 * nq]).abs();
-        summary.max_energy_error = summary.max_energy_error.max(energy_error);
-        summary.steps += 1;
+        step(stepper, sys, t, y, t_next - t)?;
+        run.after_step(sys, t, t_next, y, settings.dt)?;
         if (i + 1) % stride == 0 || i + 1 == n {
-            let t_out = Instant::now();
-            emit(sys, t_next, &y, &mut summary, observer)?;
+            run.emit(sys, t_next, y)?;
             if (i + 1) % (stride * 64) == 0 {
-                observer.progress(t_next);
+                run.observer.progress(t_next);
             }
-            output_time += t_out.elapsed();
         }
     }
-    summary.integration_time = start.elapsed().saturating_sub(output_time);
-    summary.counters = sys.counters;
-    summary.final_state = y;
-    Ok(summary)
+    Ok(())
+}
+
+fn adaptive<M: Model, O: Observer<M>, E: EmbeddedRk>(
+    sys: &mut Dynamics<M>,
+    y: &mut [f64],
+    run: &mut Run<'_, M, O>,
+) -> Result<(), RunError<O::Error>> {
+    let settings = run.settings;
+    let ny = y.len();
+    let tol = Tolerance { rtol: settings.rtol, atol: settings.atol };
+    let mut stepper = E::new(ny);
+    let mut ctl = Controller::default();
+    let (mut k1, mut y_new, mut k_new) = (vec![0.0; ny], vec![0.0; ny], vec![0.0; ny]);
+    let (mut w1, mut w2) = (vec![0.0; ny], vec![0.0; ny]);
+    sys.rhs(0.0, y, &mut k1)?;
+    let mut h = initial_step(sys, 0.0, y, &k1, E::ORDER, &tol, settings.t_end, &mut w1, &mut w2)?;
+    let mut t = 0.0;
+    let mut n_out: u64 = 1;
+    let out_time = |k: u64| (k as f64 * settings.every).min(settings.t_end);
+    while t < settings.t_end {
+        let last = t + h >= settings.t_end * (1.0 - 1e-15);
+        if last {
+            h = settings.t_end - t;
+        }
+        if h.abs() <= 16.0 * f64::EPSILON * t.abs().max(1.0) {
+            return Err(SimError::StepSizeTooSmall { t, h }.into());
+        }
+        let err = stepper.attempt(sys, t, y, &k1, h, &tol, &mut y_new, &mut k_new)?;
+        if !err.is_finite() {
+            // a non-finite stage: retry with a much smaller step
+            run.summary.rejected += 1;
+            h *= 0.1;
+            continue;
+        }
+        let (accepted, h_next) = ctl.next::<E>(err, h);
+        if !accepted {
+            run.summary.rejected += 1;
+            h = h_next;
+            continue;
+        }
+        let t_new = if last { settings.t_end } else { t + h };
+        // outputs inside (t, t_new] from the dense output
+        if out_time(n_out) <= t_new {
+            stepper.prepare_dense(sys, t, y, &k1, h, &y_new, &k_new)?;
+            while n_out as f64 * settings.every <= settings.t_end * (1.0 + 1e-12) && out_time(n_out) <= t_new {
+                let t_out = out_time(n_out);
+                stepper.interpolate((t_out - t) / h, &mut run.sample);
+                run.project_sample(sys, t_out)?;
+                run.emit_sample(sys, t_out)?;
+                n_out += 1;
+            }
+            run.observer.progress(t_new);
+        }
+        y.copy_from_slice(&y_new);
+        if run.after_step(sys, t, t_new, y, h)? {
+            sys.rhs(t_new, y, &mut k1)?;
+        } else {
+            k1.copy_from_slice(&k_new);
+        }
+        t = t_new;
+        h = h_next;
+    }
+    // the final time is always written
+    let wrote_final = (n_out - 1) as f64 * settings.every >= settings.t_end * (1.0 - 1e-12);
+    if !wrote_final {
+        run.emit(sys, settings.t_end, y)?;
+    }
+    Ok(())
 }
 
 /// Name of state component `k` of `y = [q, qd, W]`.

@@ -2,7 +2,7 @@
 
 use std::f64::consts::{FRAC_PI_2, PI};
 
-use ezy_core::{Column::*, EffectSpec, FigureKind, FigureSpec, InitValue::*, ProjectionKind, Scene};
+use ezy_core::{Column::*, EffectSpec, FigureKind, FigureSpec, InitValue::*, Method, ProjectionKind, Scene};
 
 /// Every built-in scene, in the order `ezy list` shows them.
 pub fn builtin() -> Vec<Scene> {
@@ -38,6 +38,9 @@ pub fn drive() -> Scene {
         dt: 1e-4,
         every: 0.01,
         projection: ProjectionKind::default(),
+        method: Method::Rk4,
+        rtol: 1e-9,
+        atol: 1e-9,
         q0: vec![("x1", Num(0.0)), ("y1", Num(0.0)), ("phi1", Num(0.0)), ("phi2", Num(PI))],
         qd0: vec![("x1", Num(0.0)), ("phi1", Num(0.0))],
         effects: vec![EffectSpec::HingeMotor { hinge: "B".into(), m0: 2.0, omega: PI }],
@@ -115,6 +118,9 @@ pub fn free() -> Scene {
         dt: 1e-4,
         every: 0.01,
         projection: ProjectionKind::default(),
+        method: Method::Rk4,
+        rtol: 1e-9,
+        atol: 1e-9,
         q0: vec![("x1", Param("a")), ("y1", Num(0.0)), ("phi1", Num(0.0)), ("phi2", Num(FRAC_PI_2))],
         qd0: vec![("x1", Num(1.0)), ("phi1", Num(0.0))],
         effects: vec![],
@@ -148,6 +154,9 @@ pub fn sleigh() -> Scene {
         dt: 1e-4,
         every: 0.01,
         projection: ProjectionKind::default(),
+        method: Method::Rk4,
+        rtol: 1e-9,
+        atol: 1e-9,
         q0: vec![("x", Num(0.0)), ("y", Num(0.0)), ("phi", Num(0.0))],
         qd0: vec![("x", Num(1.0)), ("phi", Num(1.0))],
         effects: vec![],

@@ -1,0 +1,172 @@
+//! Embedded explicit Runge-Kutta pairs with error control and dense output.
+
+use super::Rhs;
+use crate::SimError;
+
+/// Error tolerances: a component `i` of the local error is compared with
+/// `atol + rtol * max(|y_i|, |y_new_i|)` (HNW I, eq. II.4.10).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Tolerance {
+    /// Relative tolerance.
+    pub rtol: f64,
+    /// Absolute tolerance (units of each state component).
+    pub atol: f64,
+}
+
+impl Tolerance {
+    /// The scale `atol + rtol * max(|a|, |b|)` of one component.
+    #[inline]
+    pub fn scale(&self, a: f64, b: f64) -> f64 {
+        self.atol + self.rtol * a.abs().max(b.abs())
+    }
+}
+
+/// An embedded Runge-Kutta pair with dense output. Implementations own
+/// their stage buffers, sized by `new`; no method allocates.
+pub trait EmbeddedRk {
+    /// Order of the propagated solution.
+    const ORDER: u32;
+    /// Exponent of the step-size controller, `1 / (q + 1)` with `q` the
+    /// order the error estimate is asymptotically of (HNW I §II.4).
+    const EXPONENT: f64;
+    /// PI controller weight of the previous error (Gustafsson; HNW's
+    /// `beta`: 0.04 in DOPRI5, 0 in DOP853).
+    const BETA: f64;
+    /// Bounds of the step-size change factor `h_new / h` (HNW's `fac1`, `fac2`).
+    const FAC_MIN: f64;
+    /// See [`EmbeddedRk::FAC_MIN`].
+    const FAC_MAX: f64;
+
+    /// Buffers for a state of length `ny`.
+    fn new(ny: usize) -> Self;
+
+    /// Attempts a step of size `h` from `(t, y)` with `k1 = F(t, y)`.
+    /// Writes the new state into `y_new` and `F(t + h, y_new)` into
+    /// `k_new` (both methods evaluate it as their last stage), and returns
+    /// the error norm (accept when <= 1).
+    ///
+    /// # Errors
+    /// Whatever the right-hand side fails with.
+    #[allow(clippy::too_many_arguments)]
+    fn attempt<R: Rhs>(
+        &mut self,
+        rhs: &mut R,
+        t: f64,
+        y: &[f64],
+        k1: &[f64],
+        h: f64,
+        tol: &Tolerance,
+        y_new: &mut [f64],
+        k_new: &mut [f64],
+    ) -> Result<f64, SimError>;
+
+    /// Builds the dense output of the step just accepted (`attempt`'s
+    /// arguments and results); may evaluate the right-hand side.
+    ///
+    /// # Errors
+    /// Whatever the right-hand side fails with.
+    #[allow(clippy::too_many_arguments)]
+    fn prepare_dense<R: Rhs>(
+        &mut self,
+        rhs: &mut R,
+        t: f64,
+        y: &[f64],
+        k1: &[f64],
+        h: f64,
+        y_new: &[f64],
+        k_new: &[f64],
+    ) -> Result<(), SimError>;
+
+    /// Right-hand-side evaluations done by `prepare_dense` (0 for DOPRI5, 3 for DOP853).
+    const DENSE_EVALS: u64;
+    /// Right-hand-side evaluations of one `attempt`.
+    const STAGE_EVALS: u64;
+
+    /// The dense output `y(t + theta h)`, `theta` in [0, 1], after `prepare_dense`.
+    fn interpolate(&self, theta: f64, out: &mut [f64]);
+}
+
+/// The step-size controller of HNW's DOPRI5/DOP853 codes: a PI controller
+/// with safety factor 0.9 and the change factor bounded to
+/// `[FAC_MIN, FAC_MAX]`.
+#[derive(Debug, Clone, Copy)]
+pub struct Controller {
+    err_old: f64,
+    last_rejected: bool,
+}
+
+impl Default for Controller {
+    fn default() -> Self {
+        Self { err_old: 1e-4, last_rejected: false }
+    }
+}
+
+/// Safety factor of the step-size prediction.
+const SAFETY: f64 = 0.9;
+
+impl Controller {
+    /// The next step size after a step of size `h` with error norm `err`;
+    /// returns `(accepted, h_next)`.
+    pub fn next<E: EmbeddedRk>(&mut self, err: f64, h: f64) -> (bool, f64) {
+        let expo1 = E::EXPONENT - E::BETA * 0.75;
+        let fac11 = err.max(1e-300).powf(expo1);
+        if err <= 1.0 {
+            let fac = fac11 / self.err_old.powf(E::BETA);
+            let fac = (fac / SAFETY).clamp(1.0 / E::FAC_MAX, 1.0 / E::FAC_MIN);
+            let mut h_new = h / fac;
+            if self.last_rejected {
+                h_new = h_new.min(h);
+            }
+            self.err_old = err.max(1e-4);
+            self.last_rejected = false;
+            (true, h_new)
+        } else {
+            let h_new = h / (fac11 / SAFETY).min(1.0 / E::FAC_MIN);
+            self.last_rejected = true;
+            (false, h_new)
+        }
+    }
+}
+
+/// Initial step size (HNW I §II.4, "Starting step size"; code `hinit`):
+/// a step for which an explicit Euler step's estimated error matches the
+/// tolerance, for a method of order `order`. Costs one evaluation.
+///
+/// # Errors
+/// Whatever the right-hand side fails with.
+#[allow(clippy::too_many_arguments)]
+pub fn initial_step<R: Rhs>(
+    rhs: &mut R,
+    t: f64,
+    y: &[f64],
+    f0: &[f64],
+    order: u32,
+    tol: &Tolerance,
+    h_max: f64,
+    work: &mut [f64],
+    f1: &mut [f64],
+) -> Result<f64, SimError> {
+    let n = y.len() as f64;
+    let norm = |v: &dyn Fn(usize) -> f64| -> f64 {
+        ((0..y.len()).map(|i| (v(i) / tol.scale(y[i], y[i])).powi(2)).sum::<f64>() / n).sqrt()
+    };
+    let d0 = norm(&|i| y[i]);
+    let d1 = norm(&|i| f0[i]);
+    let h0 = if d0 < 1e-5 || d1 < 1e-5 { 1e-6 } else { 0.01 * d0 / d1 };
+    let h0 = h0.min(h_max);
+    for i in 0..y.len() {
+        work[i] = y[i] + h0 * f0[i];
+    }
+    rhs.eval(t + h0, work, f1)?;
+    let d2 = norm(&|i| f1[i] - f0[i]) / h0;
+    let dmax = d1.max(d2);
+    let h1 = if dmax <= 1e-15 { (h0 * 1e-3).max(1e-6) } else { (0.01 / dmax).powf(1.0 / f64::from(order + 1)) };
+    Ok((100.0 * h0).min(h1).min(h_max))
+}
+
+/// The scaled RMS norm `sqrt(mean((e_i / sc_i)^2))` of an error vector.
+#[inline]
+pub fn error_norm(err: &[f64], y: &[f64], y_new: &[f64], tol: &Tolerance) -> f64 {
+    let sum: f64 = err.iter().zip(y).zip(y_new).map(|((e, a), b)| (e / tol.scale(*a, *b)).powi(2)).sum();
+    (sum / err.len() as f64).sqrt()
+}

@@ -1,0 +1,126 @@
+//! Fixed-step methods: explicit Euler (order 1, the baseline) and classic
+//! RK4 (order 4; Hairer, Nørsett & Wanner, Solving ODEs I, §II.1, Table 1.2),
+//! the seed's method.
+
+use super::Rhs;
+use crate::SimError;
+
+/// Explicit Euler, `y <- y + h F(t, y)`: one evaluation per step.
+#[derive(Debug, Clone)]
+pub struct Euler {
+    k: Vec<f64>,
+}
+
+impl Euler {
+    /// Buffers for a state of length `ny`.
+    pub fn new(ny: usize) -> Self {
+        Self { k: vec![0.0; ny] }
+    }
+
+    /// Advances `y` from `t` to `t + h`.
+    ///
+    /// # Errors
+    /// Whatever the right-hand side fails with.
+    #[inline]
+    pub fn step<R: Rhs>(&mut self, rhs: &mut R, t: f64, y: &mut [f64], h: f64) -> Result<(), SimError> {
+        rhs.eval(t, y, &mut self.k)?;
+        for (yi, ki) in y.iter_mut().zip(&self.k) {
+            *yi += h * ki;
+        }
+        Ok(())
+    }
+}
+
+/// Classic RK4 with preallocated stages; `step` does not allocate.
+#[derive(Debug, Clone)]
+pub struct Rk4 {
+    k1: Vec<f64>,
+    k2: Vec<f64>,
+    k3: Vec<f64>,
+    k4: Vec<f64>,
+    tmp: Vec<f64>,
+}
+
+impl Rk4 {
+    /// Stages for a state of length `ny`.
+    pub fn new(ny: usize) -> Self {
+        Self { k1: vec![0.0; ny], k2: vec![0.0; ny], k3: vec![0.0; ny], k4: vec![0.0; ny], tmp: vec![0.0; ny] }
+    }
+
+    /// Advances `y` from `t` to `t + h` (four right-hand-side evaluations).
+    ///
+    /// # Errors
+    /// Whatever the right-hand side fails with.
+    #[inline]
+    pub fn step<R: Rhs>(&mut self, rhs: &mut R, t: f64, y: &mut [f64], h: f64) -> Result<(), SimError> {
+        let Self { k1, k2, k3, k4, tmp } = self;
+        rhs.eval(t, y, k1)?;
+        axpy(tmp, y, 0.5 * h, k1);
+        rhs.eval(t + 0.5 * h, tmp, k2)?;
+        axpy(tmp, y, 0.5 * h, k2);
+        rhs.eval(t + 0.5 * h, tmp, k3)?;
+        axpy(tmp, y, h, k3);
+        rhs.eval(t + h, tmp, k4)?;
+        let h6 = h / 6.0;
+        for i in 0..y.len() {
+            y[i] += h6 * (k1[i] + 2.0 * (k2[i] + k3[i]) + k4[i]);
+        }
+        Ok(())
+    }
+}
+
+/// `out = y + a k`.
+#[inline(always)]
+fn axpy(out: &mut [f64], y: &[f64], a: f64, k: &[f64]) {
+    for ((o, &yi), &ki) in out.iter_mut().zip(y).zip(k) {
+        *o = yi + a * ki;
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// y' = (y1, -y0) from (1, 0): y = (cos t, -sin t).
+    fn oscillator(_t: f64, y: &[f64], dy: &mut [f64]) {
+        dy[0] = y[1];
+        dy[1] = -y[0];
+    }
+
+    type Osc = fn(f64, &[f64], &mut [f64]);
+
+    /// Fitted slope of log(error at t = 4) against log(h), n steps each.
+    fn fitted_order(ns: &[usize], mut step: impl FnMut(&mut Osc, f64, &mut [f64], f64)) -> f64 {
+        let pts: Vec<(f64, f64)> = ns
+            .iter()
+            .map(|&n| {
+                let h = 4.0 / n as f64;
+                let mut y = [1.0, 0.0];
+                let mut rhs: Osc = oscillator;
+                for i in 0..n {
+                    step(&mut rhs, i as f64 * h, &mut y, h);
+                }
+                let e = (y[0] - 4f64.cos()).abs().max((y[1] + 4f64.sin()).abs());
+                (h.ln(), e.ln())
+            })
+            .collect();
+        let k = pts.len() as f64;
+        let mx = pts.iter().map(|p| p.0).sum::<f64>() / k;
+        let my = pts.iter().map(|p| p.1).sum::<f64>() / k;
+        pts.iter().map(|p| (p.0 - mx) * (p.1 - my)).sum::<f64>() / pts.iter().map(|p| (p.0 - mx).powi(2)).sum::<f64>()
+    }
+
+    #[test]
+    fn euler_has_order_one() {
+        let mut e = Euler::new(2);
+        let p = fitted_order(&[400, 800, 1600, 3200], |rhs, t, y, h| e.step(rhs, t, y, h).unwrap());
+        assert!((p - 1.0).abs() <= 0.3, "Euler fitted order {p}");
+    }
+
+    #[test]
+    fn rk4_has_order_four() {
+        let mut r = Rk4::new(2);
+        let p = fitted_order(&[16, 32, 64, 128], |rhs, t, y, h| r.step(rhs, t, y, h).unwrap());
+        assert!((p - 4.0).abs() <= 0.3, "RK4 fitted order {p}");
+    }
+}

@@ -1,0 +1,93 @@
+//! Time integrators behind one interface, with statistics.
+//!
+//! | method | order | step | source |
+//! |---|---|---|---|
+//! | [`Method::Euler`] | 1 | fixed | explicit Euler, the baseline |
+//! | [`Method::Rk4`] | 4 | fixed | classic Runge-Kutta (Hairer, Nørsett & Wanner, *Solving ODEs I*, §II.1, Table 1.2) |
+//! | [`Method::Dopri5`] | 5(4) | adaptive, PI control, dense output of order 4 | Dormand & Prince 1980; HNW I §II.5 and §II.6, code DOPRI5 |
+//! | [`Method::Dop853`] | 8(5,3) | adaptive, PI control, dense output of order 7 | Dormand & Prince; HNW I §II.10, code DOP853 |
+//!
+//! The steppers see the right-hand side through [`Rhs`], so they are tested
+//! on plain ODEs as well as on models (`Dynamics` implements it).
+
+pub mod adaptive;
+mod dop853;
+mod dopri5;
+mod fixed;
+
+pub use adaptive::{EmbeddedRk, Tolerance};
+pub use dop853::Dop853;
+pub use dopri5::Dopri5;
+pub use fixed::{Euler, Rk4};
+
+use crate::SimError;
+
+/// A right-hand side `y' = F(t, y)`.
+pub trait Rhs {
+    /// Evaluates `dy = F(t, y)`.
+    ///
+    /// # Errors
+    /// Whatever the evaluation fails with (a singular KKT system).
+    fn eval(&mut self, t: f64, y: &[f64], dy: &mut [f64]) -> Result<(), SimError>;
+}
+
+impl<F: FnMut(f64, &[f64], &mut [f64])> Rhs for F {
+    fn eval(&mut self, t: f64, y: &[f64], dy: &mut [f64]) -> Result<(), SimError> {
+        self(t, y, dy);
+        Ok(())
+    }
+}
+
+/// The integration method.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum Method {
+    /// Explicit Euler, order 1, fixed step.
+    Euler,
+    /// Classic Runge-Kutta, order 4, fixed step (the seed's method).
+    #[default]
+    Rk4,
+    /// Dormand-Prince 5(4), adaptive.
+    Dopri5,
+    /// Dormand-Prince 8(5,3), adaptive.
+    Dop853,
+}
+
+impl Method {
+    /// Name as the CLI spells it.
+    pub fn name(self) -> &'static str {
+        match self {
+            Self::Euler => "euler",
+            Self::Rk4 => "rk4",
+            Self::Dopri5 => "dopri5",
+            Self::Dop853 => "dop853",
+        }
+    }
+    /// Classical order of the propagated solution.
+    pub fn order(self) -> u32 {
+        match self {
+            Self::Euler => 1,
+            Self::Rk4 => 4,
+            Self::Dopri5 => 5,
+            Self::Dop853 => 8,
+        }
+    }
+    /// Whether the step size is chosen by error control.
+    pub fn is_adaptive(self) -> bool {
+        matches!(self, Self::Dopri5 | Self::Dop853)
+    }
+}
+
+/// Work done by an integration.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct Stats {
+    /// Accepted steps.
+    pub steps: u64,
+    /// Rejected step attempts (adaptive methods).
+    pub rejected: u64,
+    /// Right-hand-side evaluations.
+    pub rhs_evals: u64,
+    /// KKT solves.
+    pub kkt_solves: u64,
+    /// Projections applied.
+    pub projections: u64,
+}

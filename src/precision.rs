@@ -1,0 +1,320 @@
+//! `ezy precision`: what accuracy costs in time. Runs a ladder of settings
+//! (fixed-step methods over step sizes, adaptive methods over tolerances,
+//! each with and without projection), measures the error at the final time
+//! against a reference computed by ezy itself at the tightest setting, the
+//! integration wall time (median of repetitions), the RHS evaluations and
+//! the final residuals, and draws a work-precision diagram and a drift plot.
+
+use std::path::{Path, PathBuf};
+
+use ezy_core::integrator::Method;
+use ezy_core::kkt::KktMethod;
+use ezy_core::{Dynamics, Model, ModelVisitor, Observer, ProjectionKind, RunSettings, Sample, Scene, SimError};
+
+use crate::plot::{Chart, Series, render_png};
+use crate::run::{Error, setup};
+
+/// One setting of the ladder.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Setting {
+    /// Method.
+    pub method: Method,
+    /// Step size [s] (fixed-step methods).
+    pub dt: Option<f64>,
+    /// `rtol = atol` (adaptive methods).
+    pub tol: Option<f64>,
+    /// Projection after every step.
+    pub projection: ProjectionKind,
+}
+
+/// One measured row.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Row {
+    /// The setting.
+    pub setting: Setting,
+    /// Max over `q` and `qd` of `|y(T) - y_ref(T)|` at the final time `T`
+    /// (infinite if the run failed).
+    pub error: f64,
+    /// Median integration wall time [s].
+    pub wall_s: f64,
+    /// Right-hand-side evaluations.
+    pub rhs_evals: u64,
+    /// `max(max|C|, max|G qd|)` at the final time.
+    pub max_residual: f64,
+}
+
+/// The whole measurement.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Report {
+    /// The reference setting.
+    pub reference: Setting,
+    /// Estimated error of the reference: `|y_ref - y(next looser setting)|`,
+    /// an upper bound of the reference's own error.
+    pub reference_error: f64,
+    /// The ladder.
+    pub rows: Vec<Row>,
+    /// Files written.
+    pub files: Vec<PathBuf>,
+}
+
+/// Tolerances of the adaptive ladder.
+pub const TOLERANCES: [f64; 11] = [1e-3, 1e-4, 1e-5, 1e-6, 1e-7, 1e-8, 1e-9, 1e-10, 1e-11, 1e-12, 1e-13];
+
+/// The ladder of settings, every method with and without projection.
+pub fn ladder() -> Vec<Setting> {
+    let mut out = Vec::new();
+    for projection in [ProjectionKind::MassWeighted, ProjectionKind::None] {
+        for dt in [1e-2, 3e-3, 1e-3, 3e-4, 1e-4] {
+            out.push(Setting { method: Method::Euler, dt: Some(dt), tol: None, projection });
+        }
+        for dt in [3e-2, 1e-2, 3e-3, 1e-3, 3e-4, 1e-4] {
+            out.push(Setting { method: Method::Rk4, dt: Some(dt), tol: None, projection });
+        }
+        for method in [Method::Dopri5, Method::Dop853] {
+            for tol in TOLERANCES {
+                out.push(Setting { method, dt: None, tol: Some(tol), projection });
+            }
+        }
+    }
+    out
+}
+
+/// Keeps only the last sample (and optionally the residual history).
+#[derive(Default)]
+struct Last {
+    y: Vec<f64>,
+    residual: f64,
+    history: Option<Vec<(f64, f64, f64)>>,
+}
+
+impl<M: Model> Observer<M> for Last {
+    type Error = std::convert::Infallible;
+    fn observe(&mut self, _: &Dynamics<M>, s: &Sample<'_>) -> Result<(), Self::Error> {
+        self.y.clear();
+        self.y.extend_from_slice(s.q);
+        self.y.extend_from_slice(s.qd);
+        self.residual = s.residual_position.max(s.residual_velocity);
+        if let Some(h) = &mut self.history {
+            h.push((s.t, s.residual_position, s.residual_velocity));
+        }
+        Ok(())
+    }
+}
+
+/// Runs `scene` with `setting`; `every` is the output interval (the final
+/// time is always sampled). Returns the final state, the summary and the
+/// residual history if asked for.
+fn run_once<M: Model + Default>(
+    scene: &Scene,
+    setting: &Setting,
+    every: f64,
+    history: bool,
+) -> Result<(Last, ezy_core::Summary), SimError> {
+    let (model, specs, y0) = setup::<M>(scene, &[])?;
+    let effects = specs.iter().map(|s| s.resolve(&M::INFO)).collect::<Result<Vec<_>, _>>()?;
+    let mut sys = Dynamics::new(model, effects, KktMethod::Auto);
+    let settings = RunSettings {
+        dt: setting.dt.unwrap_or(scene.dt),
+        t_end: scene.t_end,
+        every,
+        projection: setting.projection,
+        method: setting.method,
+        rtol: setting.tol.unwrap_or(scene.rtol),
+        atol: setting.tol.unwrap_or(scene.atol),
+    };
+    let mut last = Last { history: history.then(Vec::new), ..Last::default() };
+    let summary = ezy_core::simulate(&mut sys, &y0, &settings, &mut last).map_err(|e| match e {
+        ezy_core::RunError::Sim(e) => e,
+        ezy_core::RunError::Output(never) => match never {},
+    })?;
+    Ok((last, summary))
+}
+
+/// Median integration time over enough repetitions to be stable (5 for
+/// runs under 50 ms, else 3).
+fn timed<M: Model + Default>(scene: &Scene, setting: &Setting) -> Result<(Last, ezy_core::Summary, f64), SimError> {
+    let (last, summary) = run_once::<M>(scene, setting, scene.t_end, false)?;
+    let first = summary.integration_time.as_secs_f64();
+    let reps = if first < 0.05 { 5 } else { 3 };
+    let mut times = vec![first];
+    for _ in 1..reps {
+        times.push(run_once::<M>(scene, setting, scene.t_end, false)?.1.integration_time.as_secs_f64());
+    }
+    times.sort_by(f64::total_cmp);
+    Ok((last, summary, times[times.len() / 2]))
+}
+
+fn state_error(a: &[f64], b: &[f64]) -> f64 {
+    a.iter().zip(b).fold(0.0, |m, (x, y)| m.max((x - y).abs()))
+}
+
+struct Precision<'a> {
+    scene: &'a Scene,
+    out: &'a Path,
+}
+
+impl ModelVisitor for Precision<'_> {
+    type Output = Result<Report, Error>;
+    fn visit<M: Model + Default>(self) -> Self::Output {
+        precision_model::<M>(self.scene, self.out)
+    }
+}
+
+/// Runs the ladder for `scene`, writes `precision.csv` and the figures
+/// into `out`.
+///
+/// # Errors
+/// [`Error`] if the reference run fails or a file cannot be written.
+pub fn precision(scene: &Scene, out: &Path) -> Result<Report, Error> {
+    ezy_models::visit(scene.model, Precision { scene, out })
+        .unwrap_or_else(|| Err(Error::UnknownModel { scene: scene.name.into(), model: scene.model.into() }))
+}
+
+fn precision_model<M: Model + Default>(scene: &Scene, out: &Path) -> Result<Report, Error> {
+    let reference =
+        Setting { method: Method::Dop853, dt: None, tol: Some(1e-13), projection: ProjectionKind::MassWeighted };
+    let (ref_run, _) = run_once::<M>(scene, &reference, scene.t_end, false)?;
+    let looser = Setting { tol: Some(1e-12), ..reference };
+    let (loose_run, _) = run_once::<M>(scene, &looser, scene.t_end, false)?;
+    let reference_error = state_error(&ref_run.y, &loose_run.y);
+    let mut rows = Vec::new();
+    for setting in ladder() {
+        let row = match timed::<M>(scene, &setting) {
+            Ok((last, summary, wall_s)) => Row {
+                setting,
+                error: state_error(&last.y, &ref_run.y),
+                wall_s,
+                rhs_evals: summary.counters.rhs_evals,
+                max_residual: last.residual,
+            },
+            Err(_) => Row { setting, error: f64::INFINITY, wall_s: f64::NAN, rhs_evals: 0, max_residual: f64::NAN },
+        };
+        rows.push(row);
+    }
+    std::fs::create_dir_all(out).map_err(|source| Error::OutDir { path: out.to_path_buf(), source })?;
+    let mut files = Vec::new();
+    let csv_path = out.join("precision.csv");
+    write_atomically(&csv_path, &csv(&rows))?;
+    files.push(csv_path);
+    files.push(work_precision_figure(&rows, scene, &out.join("work_precision.png"))?);
+    files.push(drift_figure::<M>(scene, &out.join("drift.png"))?);
+    Ok(Report { reference, reference_error, rows, files })
+}
+
+fn write_atomically(path: &Path, text: &str) -> Result<(), Error> {
+    let tmp = path.with_extension("csv.partial");
+    let io = |source| crate::output::OutputError::Io { path: path.to_path_buf(), source };
+    std::fs::write(&tmp, text).map_err(io)?;
+    std::fs::rename(&tmp, path).map_err(io)?;
+    Ok(())
+}
+
+/// `dt` or `tol` as the CSV prints them (empty when not applicable).
+fn opt(v: Option<f64>) -> String {
+    v.map(|x| format!("{x:e}")).unwrap_or_default()
+}
+
+/// The CSV: `method,dt,rtol,atol,projection,error,wall_s,rhs_evals,max_residual`.
+pub fn csv(rows: &[Row]) -> String {
+    let mut s = String::from("method,dt,rtol,atol,projection,error,wall_s,rhs_evals,max_residual\n");
+    for r in rows {
+        let st = &r.setting;
+        s.push_str(&format!(
+            "{},{},{},{},{},{:e},{:e},{},{:e}\n",
+            st.method.name(),
+            opt(st.dt),
+            opt(st.tol),
+            opt(st.tol),
+            st.projection.name(),
+            r.error,
+            r.wall_s,
+            r.rhs_evals,
+            r.max_residual
+        ));
+    }
+    s
+}
+
+/// A fixed-width table for the terminal.
+pub fn table(report: &Report) -> String {
+    let mut s = format!(
+        "reference: {} rtol = atol = {:e}, projection {} (estimated error <= {:.1e})\n",
+        report.reference.method.name(),
+        report.reference.tol.unwrap_or(f64::NAN),
+        report.reference.projection.name(),
+        report.reference_error
+    );
+    s.push_str(&format!(
+        "{:<7} {:>8} {:>8} {:<5} {:>10} {:>10} {:>10} {:>10}\n",
+        "method", "dt [s]", "tol", "proj", "error", "wall [s]", "RHS", "residual"
+    ));
+    for r in &report.rows {
+        let st = &r.setting;
+        s.push_str(&format!(
+            "{:<7} {:>8} {:>8} {:<5} {:>10.2e} {:>10.2e} {:>10} {:>10.1e}\n",
+            st.method.name(),
+            opt(st.dt),
+            opt(st.tol),
+            st.projection.name(),
+            r.error,
+            r.wall_s,
+            r.rhs_evals,
+            r.max_residual
+        ));
+    }
+    s
+}
+
+fn work_precision_figure(rows: &[Row], scene: &Scene, path: &Path) -> Result<PathBuf, Error> {
+    let mut series = Vec::new();
+    for method in [Method::Euler, Method::Rk4, Method::Dopri5, Method::Dop853] {
+        for projection in [ProjectionKind::MassWeighted, ProjectionKind::None] {
+            let points: Vec<(f64, f64)> = rows
+                .iter()
+                .filter(|r| r.setting.method == method && r.setting.projection == projection)
+                .filter(|r| r.error.is_finite() && r.error > 0.0 && r.wall_s > 0.0)
+                .map(|r| (r.wall_s.log10(), r.error.log10()))
+                .collect();
+            let label = match projection {
+                ProjectionKind::None => format!("{} (no projection)", method.name()),
+                _ => format!("{} (projected)", method.name()),
+            };
+            series.push(Series { label, points });
+        }
+    }
+    let chart = Chart {
+        title: format!("Work-precision: scene {}, error at t = {} s", scene.name, scene.t_end),
+        x_label: "log10 of integration wall time [s]".into(),
+        y_label: "log10 of max state error at the final time".into(),
+        series,
+        equal_axes: false,
+        log_y: false,
+        log_floor: 1e-18,
+    };
+    render_png(&chart, path).map_err(crate::figures::FigureError::from)?;
+    Ok(path.to_path_buf())
+}
+
+fn drift_figure<M: Model + Default>(scene: &Scene, path: &Path) -> Result<PathBuf, Error> {
+    let mut series = Vec::new();
+    for projection in [ProjectionKind::None, ProjectionKind::MassWeighted] {
+        let setting = Setting { method: Method::Rk4, dt: Some(1e-2), tol: None, projection };
+        let (last, _) = run_once::<M>(scene, &setting, (scene.t_end / 500.0).max(setting.dt.unwrap()), true)?;
+        let h = last.history.unwrap_or_default();
+        let name = if projection == ProjectionKind::None { "no projection" } else { "projected" };
+        series.push(Series { label: format!("max|C| [m], {name}"), points: h.iter().map(|p| (p.0, p.1)).collect() });
+        series
+            .push(Series { label: format!("max|G qd| [m/s], {name}"), points: h.iter().map(|p| (p.0, p.2)).collect() });
+    }
+    let chart = Chart {
+        title: format!("Constraint drift, RK4 h = 0.01 s, scene {}", scene.name),
+        x_label: "t [s]".into(),
+        y_label: "residual [m], [m/s]".into(),
+        series,
+        equal_axes: false,
+        log_y: true,
+        log_floor: crate::figures::LOG_FLOOR,
+    };
+    render_png(&chart, path).map_err(crate::figures::FigureError::from)?;
+    Ok(path.to_path_buf())
+}
