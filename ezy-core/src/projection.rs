@@ -13,7 +13,7 @@
 //! adds metres and radians), and it reuses the Schur complement's structure.
 
 use crate::SimError;
-use crate::kkt::{KktError, NormalFactor};
+use crate::kkt::{KktError, NormalSystem};
 use crate::model::Model;
 
 /// Tolerance on `max|C|` of the position iteration [m] (SPEC §2).
@@ -65,7 +65,7 @@ pub struct Projector<M: Model> {
     g_values: Vec<f64>,
     r: Vec<f64>,
     x: Vec<f64>,
-    normal: NormalFactor,
+    normal: NormalSystem,
     _model: std::marker::PhantomData<M>,
 }
 
@@ -85,7 +85,7 @@ impl<M: Model> Projector<M> {
             g_values: vec![0.0; info.pattern.len()],
             r: vec![0.0; nc],
             x: vec![0.0; nc],
-            normal: NormalFactor::new(nc),
+            normal: NormalSystem::new(nc),
             _model: std::marker::PhantomData,
         }
     }
@@ -121,8 +121,9 @@ impl<M: Model> Projector<M> {
                 if res <= POSITION_TOL || it == POSITION_MAX_ITER {
                     break;
                 }
-                self.normal.factor::<M>(&self.g_values, &self.winv, nh).map_err(wrap)?;
-                self.normal.solve(&self.r[..nh], &mut self.x[..nh]);
+                self.normal
+                    .solve::<M>(&self.g_values, &self.winv, nh, &self.r[..nh], &mut self.x[..nh])
+                    .map_err(wrap)?;
                 self.x[nh..].fill(0.0);
                 M::sub_winv_gt_mul(&self.g_values, &self.winv, &self.x, q);
                 report.iterations = it + 1;
@@ -132,8 +133,7 @@ impl<M: Model> Projector<M> {
         // velocities: one least-squares step on all rows
         if nc > 0 {
             M::g_winv_mul(&self.g_values, &self.ones, qd, &mut self.r);
-            self.normal.factor::<M>(&self.g_values, &self.winv, nc).map_err(wrap)?;
-            self.normal.solve(&self.r, &mut self.x);
+            self.normal.solve::<M>(&self.g_values, &self.winv, nc, &self.r, &mut self.x).map_err(wrap)?;
             M::sub_winv_gt_mul(&self.g_values, &self.winv, &self.x, qd);
         }
         Ok(report)

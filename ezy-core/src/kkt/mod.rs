@@ -24,7 +24,7 @@ mod dense_lu;
 mod spd;
 
 pub use dense_lu::DenseLu;
-pub use spd::{NormalFactor, PIVOT_RTOL, SchurCholesky, cholesky_in_place, cholesky_solve};
+pub use spd::{NormalSystem, PIVOT_RTOL, SchurCholesky, ldl_solve};
 
 use crate::model::Model;
 

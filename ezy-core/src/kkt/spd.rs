@@ -11,8 +11,8 @@
 //! ~56 ns with the generated kernels and the unrolled LDL^T below
 //! (`cargo bench --bench kkt`, `kkt/schur-cholesky`).
 //!
-//! `A` is factored by a small in-place, square-root-free Cholesky
-//! (`L D L^T`, [`cholesky_in_place`]), unrolled for m <= 8, that reports a
+//! `A` is solved by a small square-root-free Cholesky (`L D L^T`,
+//! [`ldl_solve`]), unrolled for m <= 8, that reports a
 //! pivot small *relative to its diagonal entry* as dependent constraints
 //! (nalgebra's Cholesky only rejects pivots <= 0, which lets a duplicated
 //! constraint through with multipliers of 1e18).
@@ -44,29 +44,35 @@ macro_rules! small_size {
     };
 }
 
-/// In-place Cholesky factorization `A = L D L^T` (square-root free) of the
-/// leading m x m block of the SPD matrix `a` (row-major with row stride
-/// `lda`; only the lower triangle is read). The unit lower triangle `L`
-/// overwrites the strict lower triangle, `D` the diagonal; `inv_diag` (m)
-/// receives `1 / D_jj`.
+/// Solves `A x = r` for the leading m x m block of the SPD matrix `a`
+/// (row-major with row stride `lda`; only the lower triangle is read; `a`
+/// is not modified) by a square-root-free Cholesky factorization
+/// `A = L D L^T` and substitution. Every use in ezy factors once and solves
+/// once, so the two are fused: the factor stays in registers for the
+/// sizes of vehicles (m <= 8, unrolled). Larger m use `scratch`
+/// (at least m * (m + 1) long), so nothing is allocated.
 ///
 /// # Errors
 /// [`KktError::DependentConstraints`] for a pivot `D_jj <= PIVOT_RTOL * A_jj`.
 #[inline]
-pub fn cholesky_in_place(a: &mut [f64], m: usize, lda: usize, inv_diag: &mut [f64]) -> Result<(), KktError> {
-    // Sizes of vehicles get a copy with the size a constant, which the
-    // compiler unrolls into straight-line code (measured with callgrind:
-    // 310 instructions per 4 x 4 factorization with run-time loops).
+pub fn ldl_solve(
+    a: &[f64],
+    m: usize,
+    lda: usize,
+    r: &[f64],
+    x: &mut [f64],
+    scratch: &mut [f64],
+) -> Result<(), KktError> {
     if m == 0 {
         return Ok(());
     }
-    small_size!(m, ldl_fixed(a, lda, inv_diag), ldl_dynamic(a, m, lda, inv_diag))
+    small_size!(m, ldl_solve_fixed(a, lda, r, x), ldl_solve_dynamic(a, m, lda, r, x, scratch))
 }
 
 // `!(d > tol)` also rejects NaN pivots, which `d <= tol` would let through.
 #[allow(clippy::neg_cmp_op_on_partial_ord, clippy::needless_range_loop)]
 #[inline(always)]
-fn ldl_fixed<const M: usize>(a: &mut [f64], lda: usize, inv_diag: &mut [f64]) -> Result<(), KktError> {
+fn ldl_solve_fixed<const M: usize>(a: &[f64], lda: usize, r: &[f64], x: &mut [f64]) -> Result<(), KktError> {
     let mut l = [[0.0f64; M]; M];
     for i in 0..M {
         for j in 0..=i {
@@ -95,114 +101,108 @@ fn ldl_fixed<const M: usize>(a: &mut [f64], lda: usize, inv_diag: &mut [f64]) ->
             l[i][j] = s * inv[j];
         }
     }
+    let mut y = [0.0f64; M];
     for i in 0..M {
-        for j in 0..i {
-            a[i * lda + j] = l[i][j];
+        let mut s = r[i];
+        for k in 0..i {
+            s -= l[i][k] * y[k];
         }
-        a[i * lda + i] = d[i];
+        y[i] = s;
     }
-    inv_diag[..M].copy_from_slice(&inv);
+    for i in (0..M).rev() {
+        let mut s = y[i] * inv[i];
+        for k in i + 1..M {
+            s -= l[k][i] * y[k];
+        }
+        y[i] = s;
+    }
+    x[..M].copy_from_slice(&y);
     Ok(())
 }
 
+/// The same for any m, with the factor in `scratch` (m * (m + 1)).
 #[allow(clippy::neg_cmp_op_on_partial_ord)]
-fn ldl_dynamic(a: &mut [f64], m: usize, lda: usize, inv_diag: &mut [f64]) -> Result<(), KktError> {
+fn ldl_solve_dynamic(
+    a: &[f64],
+    m: usize,
+    lda: usize,
+    r: &[f64],
+    x: &mut [f64],
+    scratch: &mut [f64],
+) -> Result<(), KktError> {
+    let (l, inv) = scratch[..m * (m + 1)].split_at_mut(m * m);
+    for (k, lk) in l.iter_mut().enumerate() {
+        *lk = a[(k / m) * lda + k % m];
+    }
     for j in 0..m {
-        let ajj = a[j * lda + j];
+        let ajj = l[j * m + j];
         let mut d = ajj;
         for k in 0..j {
-            d -= a[j * lda + k] * a[j * lda + k] * a[k * lda + k];
+            d -= l[j * m + k] * l[j * m + k] * l[k * m + k];
         }
         if !(d > PIVOT_RTOL * ajj) {
             return Err(KktError::DependentConstraints { n: m });
         }
-        a[j * lda + j] = d;
-        inv_diag[j] = 1.0 / d;
+        l[j * m + j] = d;
+        inv[j] = 1.0 / d;
         for i in j + 1..m {
-            let mut s = a[i * lda + j];
+            let mut s = l[i * m + j];
             for k in 0..j {
-                s -= a[i * lda + k] * a[j * lda + k] * a[k * lda + k];
+                s -= l[i * m + k] * l[j * m + k] * l[k * m + k];
             }
-            a[i * lda + j] = s * inv_diag[j];
+            l[i * m + j] = s * inv[j];
         }
+    }
+    for i in 0..m {
+        let mut s = r[i];
+        for k in 0..i {
+            s -= l[i * m + k] * x[k];
+        }
+        x[i] = s;
+    }
+    for i in (0..m).rev() {
+        let mut s = x[i] * inv[i];
+        for k in i + 1..m {
+            s -= l[k * m + i] * x[k];
+        }
+        x[i] = s;
     }
     Ok(())
 }
 
-/// Solves `L D L^T x = r` with the factor from [`cholesky_in_place`].
-#[inline]
-pub fn cholesky_solve(l: &[f64], m: usize, lda: usize, inv_diag: &[f64], r: &[f64], x: &mut [f64]) {
-    if m > 0 {
-        small_size!(m, solve_fixed(l, lda, inv_diag, r, x), solve_dynamic(l, m, lda, inv_diag, r, x));
-    }
-}
-
-#[inline(always)]
-fn solve_fixed<const M: usize>(l: &[f64], lda: usize, inv_diag: &[f64], r: &[f64], x: &mut [f64]) {
-    let mut y = [0.0f64; M];
-    y.copy_from_slice(&r[..M]);
-    substitute(l, M, lda, inv_diag, &mut y);
-    x[..M].copy_from_slice(&y);
-}
-
-fn solve_dynamic(l: &[f64], m: usize, lda: usize, inv_diag: &[f64], r: &[f64], x: &mut [f64]) {
-    x[..m].copy_from_slice(&r[..m]);
-    substitute(l, m, lda, inv_diag, &mut x[..m]);
-}
-
-/// Forward (`L`), diagonal (`D`) and backward (`L^T`) substitution in place.
-#[inline(always)]
-fn substitute(l: &[f64], m: usize, lda: usize, inv_diag: &[f64], y: &mut [f64]) {
-    for i in 0..m {
-        let mut s = y[i];
-        for k in 0..i {
-            s -= l[i * lda + k] * y[k];
-        }
-        y[i] = s;
-    }
-    for i in (0..m).rev() {
-        let mut s = y[i] * inv_diag[i];
-        for k in i + 1..m {
-            s -= l[k * lda + i] * y[k];
-        }
-        y[i] = s;
-    }
-}
-
-/// The factorization of `A = G W^-1 G^T` for model `Mo`, or of its leading
-/// block (the holonomic rows come first in `G`, so the leading nh x nh
-/// block is `C_q W^-1 C_q^T`, used by position projection).
+/// `A = G W^-1 G^T` for model `Mo`, or its leading block (the holonomic
+/// rows come first in `G`, so the leading nh x nh block is
+/// `C_q W^-1 C_q^T`, used by position projection), assembled and solved.
 #[derive(Debug, Clone)]
-pub struct NormalFactor {
+pub struct NormalSystem {
     nc: usize,
-    m: usize,
     a: Vec<f64>,
-    inv_diag: Vec<f64>,
+    scratch: Vec<f64>,
 }
 
-impl NormalFactor {
+impl NormalSystem {
     /// Workspace for `nc` constraint rows.
     pub fn new(nc: usize) -> Self {
-        Self { nc, m: 0, a: vec![0.0; nc * nc], inv_diag: vec![0.0; nc] }
+        Self { nc, a: vec![0.0; nc * nc], scratch: vec![0.0; nc * (nc + 1)] }
     }
 
-    /// Assembles `A` from `G`'s pattern values and `winv` (nq) and factors
-    /// its leading `m` x `m` block.
+    /// Assembles `A` from `G`'s pattern values and `winv` (nq) and solves
+    /// `A_m x = r` with `A_m` its leading `m` x `m` block (x, r: m).
     ///
     /// # Errors
     /// [`KktError::DependentConstraints`] if that block is not (numerically)
     /// positive definite.
     #[inline]
-    pub fn factor<Mo: Model>(&mut self, values: &[f64], winv: &[f64], m: usize) -> Result<(), KktError> {
+    pub fn solve<Mo: Model>(
+        &mut self,
+        values: &[f64],
+        winv: &[f64],
+        m: usize,
+        r: &[f64],
+        x: &mut [f64],
+    ) -> Result<(), KktError> {
         Mo::normal_matrix(values, winv, &mut self.a);
-        self.m = m;
-        cholesky_in_place(&mut self.a, m, self.nc, &mut self.inv_diag)
-    }
-
-    /// `x = A^-1 r` (m) with the last factorization.
-    #[inline]
-    pub fn solve(&self, r: &[f64], x: &mut [f64]) {
-        cholesky_solve(&self.a, self.m, self.nc, &self.inv_diag, r, x);
+        ldl_solve(&self.a, m, self.nc, r, x, &mut self.scratch)
     }
 }
 
@@ -210,7 +210,7 @@ impl NormalFactor {
 /// `qdd = M^-1 (f - G^T lambda)`. Needs every mass entry > 0.
 #[derive(Debug, Clone)]
 pub struct SchurCholesky<Mo: Model> {
-    normal: NormalFactor,
+    normal: NormalSystem,
     /// `M^-1` diagonal, from the mass at construction.
     minv: Vec<f64>,
     rhs: Vec<f64>,
@@ -232,7 +232,7 @@ impl<Mo: Model> SchurCholesky<Mo> {
             }
             *w = 1.0 / m;
         }
-        Ok(Self { normal: NormalFactor::new(nc), minv, rhs: vec![0.0; nc], _model: std::marker::PhantomData })
+        Ok(Self { normal: NormalSystem::new(nc), minv, rhs: vec![0.0; nc], _model: std::marker::PhantomData })
     }
 }
 
@@ -241,12 +241,11 @@ impl<Mo: Model> KktSolver for SchurCholesky<Mo> {
     fn solve(&mut self, sys: &KktSystem<'_>, qdd: &mut [f64], lambda: &mut [f64]) -> Result<(), KktError> {
         debug_assert!(sys.mass.iter().zip(&self.minv).all(|(m, w)| *m * *w == 1.0 || (*m * *w - 1.0).abs() < 1e-15));
         let nc = sys.nc();
-        self.normal.factor::<Mo>(sys.g_values, &self.minv, nc)?;
         Mo::g_winv_mul(sys.g_values, &self.minv, sys.f, &mut self.rhs);
         for (r, &g) in self.rhs.iter_mut().zip(sys.gamma) {
             *r += g;
         }
-        self.normal.solve(&self.rhs, lambda);
+        self.normal.solve::<Mo>(sys.g_values, &self.minv, nc, &self.rhs, lambda)?;
         for ((a, &w), &f) in qdd.iter_mut().zip(&self.minv).zip(sys.f) {
             *a = w * f;
         }
@@ -255,5 +254,56 @@ impl<Mo: Model> KktSolver for SchurCholesky<Mo> {
     }
     fn name(&self) -> &'static str {
         "schur-cholesky"
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A = B B^T + m I for a deterministic B: SPD, well conditioned.
+    fn spd(m: usize) -> Vec<f64> {
+        let b = |i: usize, j: usize| ((i * 7 + j * 3) % 5) as f64 - 2.0 + 0.1 * (i as f64);
+        (0..m * m)
+            .map(|k| {
+                let (i, j) = (k / m, k % m);
+                (0..m).map(|l| b(i, l) * b(j, l)).sum::<f64>() + if i == j { m as f64 } else { 0.0 }
+            })
+            .collect()
+    }
+
+    #[test]
+    fn solves_small_and_large_systems() {
+        for m in [1, 2, 4, 8, 9, 13] {
+            let a = spd(m);
+            let r: Vec<f64> = (0..m).map(|i| 1.0 + i as f64).collect();
+            let mut x = vec![0.0; m];
+            let mut scratch = vec![0.0; m * (m + 1)];
+            ldl_solve(&a, m, m, &r, &mut x, &mut scratch).unwrap();
+            for i in 0..m {
+                let ax: f64 = (0..m).map(|j| a[i * m + j] * x[j]).sum();
+                assert!((ax - r[i]).abs() < 1e-12 * r[i].abs().max(1.0), "m = {m}, row {i}: {ax} vs {}", r[i]);
+            }
+        }
+    }
+
+    #[test]
+    fn leading_block_and_dependent_rows() {
+        // the leading 3 x 3 block of a 5 x 5 matrix (row stride 5)
+        let a = spd(5);
+        let r = [1.0, -2.0, 0.5];
+        let mut x = [0.0; 3];
+        ldl_solve(&a, 3, 5, &r, &mut x, &mut [0.0; 30]).unwrap();
+        for i in 0..3 {
+            let ax: f64 = (0..3).map(|j| a[i * 5 + j] * x[j]).sum();
+            assert!((ax - r[i]).abs() < 1e-12);
+        }
+        // rank 1: a duplicated constraint row gives G G^T = [[1, 1], [1, 1]]
+        for m in [2, 10] {
+            let a: Vec<f64> = vec![1.0; m * m];
+            let mut x = vec![0.0; m];
+            let err = ldl_solve(&a, m, m, &vec![1.0; m], &mut x, &mut vec![0.0; m * (m + 1)]);
+            assert_eq!(err, Err(KktError::DependentConstraints { n: m }));
+        }
     }
 }
