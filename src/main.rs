@@ -221,10 +221,11 @@ fn print_summary(scene: &str, r: &Report) {
         format!("{} steps of h = {} s", s.steps, r.settings.dt)
     };
     println!(
-        "{scene}: {} {how} to t = {} s, projection {} ({} KKT path)",
+        "{scene}: {} {how} to t = {} s, projection {} ({}), {} KKT path",
         s.method.name(),
         r.settings.t_end,
         r.settings.projection.name(),
+        s.projection_path,
         s.kkt
     );
     println!(

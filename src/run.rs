@@ -199,14 +199,6 @@ fn run_model<M: Model + Default>(scene: &Scene, opts: &RunOptions) -> Result<Rep
     let effect_columns: Vec<String> = effects.iter().map(|e| e.column().to_string()).collect();
     let mut sys = Dynamics::new(model, effects, KktMethod::Auto);
     sys.baumgarte = opts.baumgarte;
-    if settings.projection == ProjectionKind::MassWeighted && sys.mass.iter().any(|&m| m <= 0.0) {
-        return Err(SimError::Setting {
-            name: "--projection mass".into(),
-            value: sys.mass.iter().copied().fold(f64::INFINITY, f64::min),
-            reason: "mass-weighted projection needs every mass and inertia > 0; use --projection euclidean",
-        }
-        .into());
-    }
 
     std::fs::create_dir_all(&opts.out).map_err(|source| Error::OutDir { path: opts.out.clone(), source })?;
     let csv_path = opts.out.join("trajectory.csv");

@@ -54,7 +54,17 @@ impl<M: Model> Observer<M> for Sink {
 }
 
 fn allocations_for(t_end: f64, projection: ProjectionKind, kkt: KktMethod, method: Method) -> usize {
-    let (model, specs, y0) = setup::<EzyRoller>(&scenes::drive(), &[]).unwrap();
+    allocations_with(&[], t_end, projection, kkt, method)
+}
+
+fn allocations_with(
+    sets: &[(String, f64)],
+    t_end: f64,
+    projection: ProjectionKind,
+    kkt: KktMethod,
+    method: Method,
+) -> usize {
+    let (model, specs, y0) = setup::<EzyRoller>(&scenes::drive(), sets).unwrap();
     let effects = specs.iter().map(|s| s.resolve(&EzyRoller::INFO).unwrap()).collect();
     let mut sys = Dynamics::new(model, effects, kkt);
     let settings = RunSettings { dt: 1e-4, t_end, every: 0.01, projection, method, rtol: 1e-9, atol: 1e-9 };
@@ -79,5 +89,15 @@ fn the_step_loop_does_not_allocate() {
                 );
             }
         }
+    }
+}
+
+#[test]
+fn the_singular_mass_path_does_not_allocate() {
+    let sets = [("m2".to_string(), 0.0), ("I2".to_string(), 0.0)];
+    for method in [Method::Rk4, Method::Dop853] {
+        let short = allocations_with(&sets, 0.01, ProjectionKind::MassWeighted, KktMethod::Auto, method);
+        let long = allocations_with(&sets, 1.0, ProjectionKind::MassWeighted, KktMethod::Auto, method);
+        assert_eq!(short, long, "{method:?}: 0.01 s allocates {short} times, 1 s {long} times");
     }
 }

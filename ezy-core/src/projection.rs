@@ -13,8 +13,9 @@
 //! adds metres and radians), and it reuses the Schur complement's structure.
 
 use crate::SimError;
-use crate::kkt::{KktError, NormalSystem};
+use crate::kkt::{DenseLu, KktError, KktSolver, KktSystem, NormalSystem};
 use crate::model::Model;
+use crate::model::scatter_dense;
 
 /// Tolerance on `max|C|` of the position iteration [m] (SPEC §2).
 pub const POSITION_TOL: f64 = 1e-12;
@@ -56,7 +57,7 @@ pub struct ProjectionReport {
 }
 
 /// Workspace of the projection, sized for one model.
-#[derive(Debug, Clone)]
+#[derive(Debug)]
 pub struct Projector<M: Model> {
     kind: ProjectionKind,
     winv: Vec<f64>,
@@ -66,18 +67,67 @@ pub struct Projector<M: Model> {
     r: Vec<f64>,
     x: Vec<f64>,
     normal: NormalSystem,
+    /// The mass-weighted form for a singular `M` (massless parts).
+    singular: Option<Box<SingularMass>>,
     _model: std::marker::PhantomData<M>,
 }
 
+/// Mass-weighted velocity projection when `M` is singular: the correction
+/// of least kinetic energy `min dqd^T M dqd / 2` subject to `G dqd = -G qd`
+/// is the solution of `[M G^T; G 0] [dqd; mu] = [0; -G qd]`, regular
+/// whenever the equations of motion are, so no `M^-1` is needed (dense LU).
+/// Positions are corrected in the Euclidean metric instead: with the
+/// holonomic rows alone the KKT matrix is singular (a massless body can
+/// turn about its hinge at no cost), and a correction of <= 1e-12 m does
+/// not depend on the metric in any way that matters.
+#[derive(Debug)]
+struct SingularMass {
+    mass: Vec<f64>,
+    /// `G` dense row-major (nc x nq).
+    g: Vec<f64>,
+    zeros: Vec<f64>,
+    dq: Vec<f64>,
+    mu: Vec<f64>,
+    /// LU of the KKT matrix.
+    lu: DenseLu,
+}
+
+impl SingularMass {
+    /// `v += dv` with `G dv = -r` of least `dv^T M dv`.
+    fn correct<M: Model>(&mut self, values: &[f64], r: &[f64], v: &mut [f64]) -> Result<(), KktError> {
+        let nq = self.mass.len();
+        scatter_dense(M::INFO.pattern, values, nq, &mut self.g);
+        let sys = KktSystem { mass: &self.mass, g: &self.g, g_values: &[], f: &self.zeros, gamma: r };
+        self.lu.solve(&sys, &mut self.dq, &mut self.mu)?;
+        for (vi, d) in v.iter_mut().zip(&self.dq) {
+            *vi += d;
+        }
+        Ok(())
+    }
+}
+
 impl<M: Model> Projector<M> {
-    /// A projector for model `M` with mass diagonal `mass` (nq).
+    /// A projector for model `M` with mass diagonal `mass` (nq). With a
+    /// singular `M` (zero masses) the mass-weighted form solves the KKT
+    /// system instead of inverting `M`.
     pub fn new(kind: ProjectionKind, mass: &[f64]) -> Self {
         let info = &M::INFO;
         let (nq, nc) = (info.nq(), info.nc());
+        let invertible = mass.iter().all(|&m| m > 0.0);
         let winv = match kind {
-            ProjectionKind::MassWeighted => mass.iter().map(|m| 1.0 / m).collect(),
+            ProjectionKind::MassWeighted if invertible => mass.iter().map(|m| 1.0 / m).collect(),
             _ => vec![1.0; nq],
         };
+        let singular = (kind == ProjectionKind::MassWeighted && !invertible).then(|| {
+            Box::new(SingularMass {
+                mass: mass.to_vec(),
+                g: vec![0.0; nc * nq],
+                zeros: vec![0.0; nq],
+                dq: vec![0.0; nq],
+                mu: vec![0.0; nc],
+                lu: DenseLu::new(nq, nc),
+            })
+        });
         Self {
             kind,
             winv,
@@ -86,7 +136,17 @@ impl<M: Model> Projector<M> {
             r: vec![0.0; nc],
             x: vec![0.0; nc],
             normal: NormalSystem::new(nc),
+            singular,
             _model: std::marker::PhantomData,
+        }
+    }
+
+    /// Which linear algebra the projection uses, for reports.
+    pub fn path(&self) -> &'static str {
+        match (self.kind, &self.singular) {
+            (ProjectionKind::None, _) => "none",
+            (_, Some(_)) => "kkt-lu velocities, euclidean positions (singular M)",
+            _ => "normal-ldl",
         }
     }
 
@@ -133,8 +193,12 @@ impl<M: Model> Projector<M> {
         // velocities: one least-squares step on all rows
         if nc > 0 {
             M::g_winv_mul(&self.g_values, &self.ones, qd, &mut self.r);
-            self.normal.solve::<M>(&self.g_values, &self.winv, nc, &self.r, &mut self.x).map_err(wrap)?;
-            M::sub_winv_gt_mul(&self.g_values, &self.winv, &self.x, qd);
+            if let Some(s) = &mut self.singular {
+                s.correct::<M>(&self.g_values, &self.r, qd).map_err(wrap)?;
+            } else {
+                self.normal.solve::<M>(&self.g_values, &self.winv, nc, &self.r, &mut self.x).map_err(wrap)?;
+                M::sub_winv_gt_mul(&self.g_values, &self.winv, &self.x, qd);
+            }
         }
         Ok(report)
     }

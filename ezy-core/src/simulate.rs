@@ -138,6 +138,8 @@ pub struct Summary {
     pub final_state: Vec<f64>,
     /// KKT path used.
     pub kkt: &'static str,
+    /// Linear algebra of the projection.
+    pub projection_path: &'static str,
 }
 
 /// Residual evaluation buffers.
@@ -288,9 +290,11 @@ pub fn simulate<M: Model, O: Observer<M>>(
             max_energy_error: 0.0,
             final_state: Vec::new(),
             kkt: sys.kkt_name(),
+            projection_path: "none",
         },
         output_time: Duration::ZERO,
     };
+    run.summary.projection_path = run.proj.path();
     let mut y = y0.to_vec();
     run.emit(sys, 0.0, &y)?;
     let start = Instant::now();
