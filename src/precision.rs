@@ -121,6 +121,8 @@ fn run_once<M: Model + Default>(
         method: setting.method,
         rtol: setting.tol.unwrap_or(scene.rtol),
         atol: setting.tol.unwrap_or(scene.atol),
+        // accuracy is what is measured here, not a reason to stop
+        balance_limit: None,
     };
     let mut last = Last { history: history.then(Vec::new), ..Last::default() };
     let summary = ezy_core::simulate(&mut sys, &y0, &settings, &mut last).map_err(|e| match e {

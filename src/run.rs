@@ -192,6 +192,7 @@ fn run_model<M: Model + Default>(scene: &Scene, opts: &RunOptions) -> Result<Rep
         method: opts.method.unwrap_or(scene.method),
         rtol: opts.rtol.unwrap_or(scene.rtol),
         atol: opts.atol.unwrap_or(scene.atol),
+        balance_limit: Some(ezy_core::simulate::BALANCE_LIMIT),
     };
     settings.validate()?;
     let (model, specs, y0) = setup::<M>(scene, &opts.sets)?;

@@ -136,6 +136,19 @@ fn precision_writes_the_exact_csv_columns() {
     }
 }
 
+/// A step far too large stops with the time, the quantity and a
+/// suggestion, and leaves no trajectory behind.
+#[test]
+fn a_step_far_too_large_is_an_error() {
+    let dir = tmp_dir("diverge");
+    let o = ezy(&["run", "drive", "--dt", "0.7", "--out", dir.to_str().unwrap()]);
+    assert!(!o.status.success());
+    let e = stderr(&o);
+    assert!(e.contains("at t = 1.4 s") && e.contains("energy balance") && e.contains("--integrator dop853"), "{e}");
+    assert!(!e.contains("NaN") && !e.contains("inf"), "{e}");
+    assert!(!dir.join("trajectory.csv").exists() && !dir.join("trajectory.csv.partial").exists());
+}
+
 #[test]
 fn bad_input_is_named() {
     let cases: &[(&[&str], &str)] = &[

@@ -28,6 +28,7 @@ fn massless_fork_runs_on_the_lu_path() {
         method: Method::Dop853,
         rtol: 1e-10,
         atol: 1e-10,
+        balance_limit: None,
     };
     let mut rec = Recorder::default();
     let s = simulate(&mut sys, &y0, &settings, &mut rec).unwrap();

@@ -26,6 +26,7 @@ fn run<M: Model + Default>(
         method: scene.method,
         rtol: scene.rtol,
         atol: scene.atol,
+        balance_limit: None,
     };
     let mut rec = Recorder::default();
     let summary = simulate(&mut sys, &y0.unwrap_or(y0_scene), &settings, &mut rec).expect("scene runs");
@@ -174,6 +175,7 @@ fn baumgarte_keeps_the_drift_bounded() {
             method: Method::Rk4,
             rtol: 1e-9,
             atol: 1e-9,
+            balance_limit: None,
         };
         let mut rec = Recorder::default();
         simulate(&mut sys, &y0, &settings, &mut rec).unwrap();

@@ -28,6 +28,22 @@ pub enum SimError {
         /// The step size [s].
         dt: f64,
     },
+    /// The integration left the accuracy any result could be used at.
+    #[error(
+        "at t = {t} s {quantity} reached {value:.3e} (limit {limit:.0e}): the step h = {dt} s is far too large for this scene; try a smaller --dt or an adaptive method (--integrator dop853)"
+    )]
+    Diverged {
+        /// Time [s].
+        t: f64,
+        /// What exceeded its limit.
+        quantity: &'static str,
+        /// Its value.
+        value: f64,
+        /// The limit.
+        limit: f64,
+        /// The step size [s].
+        dt: f64,
+    },
     /// An adaptive method needed a step below the rounding level of `t`.
     #[error("at t = {t} s the step size fell to {h:e} s; the problem may be stiff or the tolerance too tight")]
     StepSizeTooSmall {
