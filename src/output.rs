@@ -53,6 +53,10 @@ pub fn columns<M: Model>(effect_columns: &[String]) -> Vec<String> {
     cols
 }
 
+/// Most rows kept in memory for the figures; beyond it every other row is
+/// dropped and the sampling interval doubles.
+pub const FIGURE_ROWS: usize = 20_000;
+
 /// The in-memory table: column names and row-major values.
 #[derive(Debug, Clone, Default)]
 pub struct Table {
@@ -82,8 +86,12 @@ pub struct CsvObserver {
     path: PathBuf,
     tmp: PathBuf,
     writer: csv::Writer<BufWriter<File>>,
-    /// The rows written so far.
+    /// The rows kept for the figures: every `keep`-th row written, at most
+    /// [`FIGURE_ROWS`] (the CSV streams every row; memory does not grow
+    /// with the horizon).
     pub table: Table,
+    keep: u64,
+    written: u64,
     row: Vec<f64>,
     points: Vec<f64>,
     progress: Option<crate::progress::Progress>,
@@ -110,7 +118,9 @@ impl CsvObserver {
             path: path.to_path_buf(),
             tmp,
             writer,
-            table: Table { columns, data: Vec::with_capacity(rows * n) },
+            table: Table { columns, data: Vec::with_capacity(rows.min(FIGURE_ROWS + 1) * n) },
+            keep: 1,
+            written: 0,
             row: Vec::with_capacity(n),
             points: Vec::new(),
             progress,
@@ -167,7 +177,18 @@ impl<M: Model> Observer<M> for CsvObserver {
         self.writer
             .write_record(None::<&[u8]>)
             .map_err(|source| OutputError::Csv { path: self.tmp.clone(), source })?;
-        self.table.data.extend_from_slice(&self.row);
+        if self.written % self.keep == 0 {
+            if self.table.rows() >= FIGURE_ROWS {
+                let n = self.table.columns.len();
+                let kept: Vec<f64> = self.table.data.chunks(n).step_by(2).flatten().copied().collect();
+                self.table.data = kept;
+                self.keep *= 2;
+            }
+            if self.written % self.keep == 0 {
+                self.table.data.extend_from_slice(&self.row);
+            }
+        }
+        self.written += 1;
         Ok(())
     }
 
