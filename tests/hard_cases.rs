@@ -4,7 +4,7 @@ mod common;
 
 use common::{Recorder, max_abs};
 use ezy::output::FIGURE_ROWS;
-use ezy::run::{run_scene, setup, RunOptions};
+use ezy::run::{RunOptions, run_scene, setup};
 use ezy_core::kkt::KktMethod;
 use ezy_core::{Dynamics, Method, Model, ProjectionKind, RunSettings, simulate};
 use ezy_models::{EzyRoller, scenes};
@@ -92,4 +92,39 @@ fn output_memory_is_bounded() {
     let lines = std::fs::read_to_string(dir.join("trajectory.csv")).unwrap().lines().count();
     assert_eq!(lines, 1 + 100_001);
     let _ = std::fs::remove_dir_all(dir);
+}
+
+ezy_core::model! {
+    /// Two bodies joined twice at the same points: a duplicated hinge.
+    pub struct DoubleHinge {
+        /// Half length [m]
+        param l = 0.5;
+        body left(x1, y1, phi1) { mass: 1.0, inertia: 0.1 }
+        body right(x2, y2, phi2) { mass: 1.0, inertia: 0.1 }
+        point P on left at (l, 0);
+        point Q on right at (-l, 0);
+        hinge H1: P = Q;
+        hinge H2: P = Q;
+    }
+}
+
+/// Redundant constraints stop with an error that names the dependent row
+/// (the Schur path's LDL^T pivot test, relative 1e-13).
+#[test]
+fn redundant_constraints_are_named() {
+    // a duplicated hinge: H2 repeats H1
+    let mut sys = Dynamics::new(DoubleHinge::default(), vec![], KktMethod::Auto);
+    let y = [0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 0.3, 0.0, 0.0, 0.3, 0.0];
+    let mut dy = [0.0; 13];
+    let err = sys.rhs(0.0, &y, &mut dy).unwrap_err().to_string();
+    assert!(err.contains("constraint `H2.x` (row 2 of G) depends on the constraints before it (H1.x, H1.y)"), "{err}");
+    // both skates on the hinge point (a = -b, c = -d) with aligned bodies:
+    // the two skates constrain the same lateral velocity
+    let mut m = EzyRoller::default();
+    m.a = -m.b;
+    m.c = -m.d;
+    let mut sys = Dynamics::new(m, vec![], KktMethod::Auto);
+    let y = [0.0, 0.0, 0.0, 0.7, 0.0, 0.0, 0.1, 0.0, 0.0, 0.1, 0.0, 0.0, 0.0];
+    let err = sys.rhs(0.0, &y, &mut dy).unwrap_err().to_string();
+    assert!(err.contains("constraint `C` (row 3 of G)"), "{err}");
 }

@@ -67,7 +67,16 @@ fn allocations_with(
     let (model, specs, y0) = setup::<EzyRoller>(&scenes::drive(), sets).unwrap();
     let effects = specs.iter().map(|s| s.resolve(&EzyRoller::INFO).unwrap()).collect();
     let mut sys = Dynamics::new(model, effects, kkt);
-    let settings = RunSettings { dt: 1e-4, t_end, every: 0.01, projection, method, rtol: 1e-9, atol: 1e-9, balance_limit: Some(1e-2) };
+    let settings = RunSettings {
+        dt: 1e-4,
+        t_end,
+        every: 0.01,
+        projection,
+        method,
+        rtol: 1e-9,
+        atol: 1e-9,
+        balance_limit: Some(1e-2),
+    };
     let mut sink = Sink(0.0);
     let before = allocations();
     let s = simulate(&mut sys, &y0, &settings, &mut sink).unwrap();

@@ -136,7 +136,7 @@ impl<M: Model> Dynamics<M> {
             e.apply(t, q, qd, &mut ws.f);
         }
         let sys = KktSystem { mass: &self.mass, g: &ws.g, g_values: &ws.g_values, f: &ws.f, gamma: &ws.gamma };
-        self.kkt.solve(&sys, &mut ws.qdd, &mut ws.lambda).map_err(|source| SimError::Kkt { t, source })?;
+        self.kkt.solve(&sys, &mut ws.qdd, &mut ws.lambda).map_err(|source| SimError::from_kkt::<M>(t, source))?;
         self.counters.rhs_evals += 1;
         self.counters.kkt_solves += 1;
         dy[..nq].copy_from_slice(qd);

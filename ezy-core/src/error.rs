@@ -70,6 +70,21 @@ pub enum SimError {
         /// What is wrong, with the offending names and sizes.
         reason: String,
     },
+    /// Constraints that are not independent (a duplicated hinge, a
+    /// redundant closed loop): the multipliers are not unique.
+    #[error(
+        "at t = {t} s the constraint `{constraint}` (row {row} of G) depends on the constraints before it ({before}); the model has redundant constraints: remove `{constraint}` or its duplicate"
+    )]
+    DependentConstraints {
+        /// Time [s].
+        t: f64,
+        /// Name of the dependent row, e.g. `H2.x`.
+        constraint: &'static str,
+        /// Its row in `G`.
+        row: usize,
+        /// Names of the rows before it.
+        before: String,
+    },
     /// A setting is out of range.
     #[error("invalid setting {name} = {value}: {reason}")]
     Setting {
@@ -80,4 +95,17 @@ pub enum SimError {
         /// Why it is rejected.
         reason: &'static str,
     },
+}
+
+impl SimError {
+    /// A KKT failure at time `t`, with dependent rows named from model `M`.
+    pub fn from_kkt<M: crate::Model>(t: f64, source: KktError) -> Self {
+        match source {
+            KktError::DependentConstraints { row, .. } if row < M::INFO.nc() => {
+                let names = M::INFO.constraints;
+                SimError::DependentConstraints { t, constraint: names[row], row, before: names[..row].join(", ") }
+            }
+            source => SimError::Kkt { t, source },
+        }
+    }
 }

@@ -167,7 +167,7 @@ impl<M: Model> Projector<M> {
         }
         let info = &M::INFO;
         let (nh, nc) = (info.n_holonomic, info.nc());
-        let wrap = |source: KktError| SimError::Kkt { t, source };
+        let wrap = |source: KktError| SimError::from_kkt::<M>(t, source);
         // positions: Gauss-Newton on the leading (holonomic) block; G is
         // evaluated with phi, so the last evaluation serves the velocities.
         model.phi_and_constraint_matrix(q, &mut self.r[..nh], &mut self.g_values);

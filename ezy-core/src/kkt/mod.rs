@@ -33,10 +33,14 @@ use crate::model::Model;
 pub enum KktError {
     /// The Schur complement `G M^-1 G^T` is not positive definite: the
     /// constraint rows are (numerically) dependent.
-    #[error("the constraint matrix G has dependent rows: G M^-1 G^T ({n} x {n}) is not positive definite")]
+    #[error(
+        "the constraint matrix G has dependent rows: row {row} depends on the rows before it (G M^-1 G^T, {n} x {n}, is not positive definite)"
+    )]
     DependentConstraints {
         /// Size of the Schur complement (nc).
         n: usize,
+        /// The first row of `G` found to depend on the rows before it.
+        row: usize,
     },
     /// The KKT matrix is singular (LU found a zero pivot).
     #[error("the KKT matrix ({n} x {n}) is singular")]

@@ -89,7 +89,7 @@ fn ldl_solve_fixed<const M: usize>(a: &[f64], lda: usize, r: &[f64], x: &mut [f6
             dj -= l[j][k] * v[k];
         }
         if !(dj > PIVOT_RTOL * l[j][j]) {
-            return Err(KktError::DependentConstraints { n: M });
+            return Err(KktError::DependentConstraints { n: M, row: j });
         }
         d[j] = dj;
         inv[j] = 1.0 / dj;
@@ -141,7 +141,7 @@ fn ldl_solve_dynamic(
             d -= l[j * m + k] * l[j * m + k] * l[k * m + k];
         }
         if !(d > PIVOT_RTOL * ajj) {
-            return Err(KktError::DependentConstraints { n: m });
+            return Err(KktError::DependentConstraints { n: m, row: j });
         }
         l[j * m + j] = d;
         inv[j] = 1.0 / d;
@@ -303,7 +303,7 @@ mod tests {
             let a: Vec<f64> = vec![1.0; m * m];
             let mut x = vec![0.0; m];
             let err = ldl_solve(&a, m, m, &vec![1.0; m], &mut x, &mut vec![0.0; m * (m + 1)]);
-            assert_eq!(err, Err(KktError::DependentConstraints { n: m }));
+            assert_eq!(err, Err(KktError::DependentConstraints { n: m, row: 1 }));
         }
     }
 }
