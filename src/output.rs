@@ -177,14 +177,14 @@ impl<M: Model> Observer<M> for CsvObserver {
         self.writer
             .write_record(None::<&[u8]>)
             .map_err(|source| OutputError::Csv { path: self.tmp.clone(), source })?;
-        if self.written % self.keep == 0 {
+        if self.written.is_multiple_of(self.keep) {
             if self.table.rows() >= FIGURE_ROWS {
                 let n = self.table.columns.len();
                 let kept: Vec<f64> = self.table.data.chunks(n).step_by(2).flatten().copied().collect();
                 self.table.data = kept;
                 self.keep *= 2;
             }
-            if self.written % self.keep == 0 {
+            if self.written.is_multiple_of(self.keep) {
                 self.table.data.extend_from_slice(&self.row);
             }
         }
