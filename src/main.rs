@@ -205,6 +205,9 @@ fn run(args: RunArgs) -> Result<(), String> {
         progress: true,
     };
     let report = run_scene(&scene, &opts).map_err(|e| e.to_string())?;
+    for w in &report.warnings {
+        eprintln!("warning: {w}");
+    }
     print_summary(scene.name, &report);
     Ok(())
 }

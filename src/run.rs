@@ -4,7 +4,7 @@
 use std::path::PathBuf;
 use std::time::{Duration, Instant};
 
-use ezy_core::initial::consistent_state;
+use ezy_core::initial::{InitialReport, consistent_state};
 use ezy_core::kkt::KktMethod;
 use ezy_core::{
     Baumgarte, Dynamics, InitValue, Method, Model, ModelVisitor, ProjectionKind, RunError, RunSettings, Scene,
@@ -88,6 +88,8 @@ pub struct Report {
     pub files: Vec<PathBuf>,
     /// Wall time of the whole run (setup, integration, output, figures).
     pub wall: Duration,
+    /// Warnings (corrections of the initial values).
+    pub warnings: Vec<String>,
 }
 
 /// Runs `scene` with `opts`.
@@ -126,6 +128,17 @@ pub fn setup<M: Model + Default>(
     scene: &Scene,
     sets: &[(String, f64)],
 ) -> Result<(M, Vec<ezy_core::EffectSpec>, Vec<f64>), SimError> {
+    setup_with_report(scene, sets).map(|(m, e, y, _)| (m, e, y))
+}
+
+/// [`setup`], with what the initial-condition solve had to correct.
+///
+/// # Errors
+/// As [`setup`].
+pub fn setup_with_report<M: Model + Default>(
+    scene: &Scene,
+    sets: &[(String, f64)],
+) -> Result<(M, Vec<ezy_core::EffectSpec>, Vec<f64>, InitialReport), SimError> {
     let info = &M::INFO;
     let mut model = M::default();
     let mut effects = scene.effects.clone();
@@ -175,11 +188,11 @@ pub fn setup<M: Model + Default>(
             }
         }
     }
-    let (q, qd) = consistent_state(&model, &given_q, &given_qd)?;
+    let (q, qd, report) = consistent_state(&model, &given_q, &given_qd)?;
     let mut y0 = q;
     y0.extend_from_slice(&qd);
     y0.push(0.0);
-    Ok((model, effects, y0))
+    Ok((model, effects, y0, report))
 }
 
 fn run_model<M: Model + Default>(scene: &Scene, opts: &RunOptions) -> Result<Report, Error> {
@@ -195,7 +208,7 @@ fn run_model<M: Model + Default>(scene: &Scene, opts: &RunOptions) -> Result<Rep
         balance_limit: Some(ezy_core::simulate::BALANCE_LIMIT),
     };
     settings.validate()?;
-    let (model, specs, y0) = setup::<M>(scene, &opts.sets)?;
+    let (model, specs, y0, initial) = setup_with_report::<M>(scene, &opts.sets)?;
     let effects = specs.iter().map(|s| s.resolve(&M::INFO)).collect::<Result<Vec<_>, _>>()?;
     let effect_columns: Vec<String> = effects.iter().map(|e| e.column().to_string()).collect();
     let mut sys = Dynamics::new(model, effects, KktMethod::Auto);
@@ -226,5 +239,5 @@ fn run_model<M: Model + Default>(scene: &Scene, opts: &RunOptions) -> Result<Rep
         }
     }
     let state_names = (0..Dynamics::<M>::NY).map(ezy_core::simulate::state_name::<M>).collect();
-    Ok(Report { summary, table, settings, state_names, files, wall: wall.elapsed() })
+    Ok(Report { summary, table, settings, state_names, files, wall: wall.elapsed(), warnings: initial.warnings() })
 }

@@ -150,12 +150,29 @@ fn a_step_far_too_large_is_an_error() {
 }
 
 #[test]
+fn an_unwritable_output_directory_is_named_before_any_work() {
+    let dir = tmp_dir("blocked");
+    std::fs::create_dir_all(&dir).unwrap();
+    let file = dir.join("a-file");
+    std::fs::write(&file, "not a directory").unwrap();
+    let out = file.join("out");
+    let o = ezy(&["run", "drive", "--out", out.to_str().unwrap()]);
+    assert!(!o.status.success());
+    let e = stderr(&o);
+    assert!(e.contains("cannot create output directory") && e.contains("a-file"), "{e}");
+    // it failed fast: no integration summary was printed
+    assert!(String::from_utf8_lossy(&o.stdout).is_empty());
+}
+
+#[test]
 fn bad_input_is_named() {
     let cases: &[(&[&str], &str)] = &[
         (&["run", "nowhere"], "unknown scene `nowhere`; known scenes: drive, free, sleigh"),
         (&["run", "drive", "--set", "mass=2"], "unknown parameter `mass`"),
         (&["run", "drive", "--set", "m1=abc"], "`abc` is not a number"),
         (&["run", "drive", "--set", "m1=nan"], "must be finite"),
+        (&["run", "drive", "--set", "m1=inf"], "must be finite"),
+        (&["run", "drive", "--every", "0"], "--every = 0"),
         (&["run", "drive", "--dt", "-1"], "--dt = -1"),
         (&["run", "drive", "--t-end", "0"], "--t-end = 0"),
         (&["run", "drive", "--set", "m1=-1"], "mass of body body1 = -1"),

@@ -4,9 +4,9 @@ mod common;
 
 use common::{Recorder, max_abs};
 use ezy::output::FIGURE_ROWS;
-use ezy::run::{RunOptions, run_scene, setup};
+use ezy::run::{RunOptions, run_scene, setup, setup_with_report};
 use ezy_core::kkt::KktMethod;
-use ezy_core::{Dynamics, Method, Model, ProjectionKind, RunSettings, simulate};
+use ezy_core::{Dynamics, InitValue, Method, Model, ProjectionKind, RunSettings, simulate};
 use ezy_models::{EzyRoller, scenes};
 
 /// A massless steering fork (m2 = I2 = 0): `M` is singular but the KKT
@@ -127,4 +127,43 @@ fn redundant_constraints_are_named() {
     let y = [0.0, 0.0, 0.0, 0.7, 0.0, 0.0, 0.1, 0.0, 0.0, 0.1, 0.0, 0.0, 0.0];
     let err = sys.rhs(0.0, &y, &mut dy).unwrap_err().to_string();
     assert!(err.contains("constraint `C` (row 3 of G)"), "{err}");
+}
+
+ezy_core::model! {
+    /// A bar pinned to the ground at both ends, the pins 3 m apart but the
+    /// bar only 1 m long: no configuration exists.
+    pub struct OverstretchedBar {
+        /// Half length [m]
+        param l = 0.5;
+        body bar(x, y, phi) { mass: 1.0, inertia: 0.1 }
+        point P on bar at (-l, 0);
+        point Q on bar at (l, 0);
+        hinge O1: P = ground(0, 0);
+        hinge O2: Q = ground(3, 0);
+    }
+}
+
+/// Inconsistent initial values are projected with a warning that gives the
+/// size of each correction; an impossible configuration is an error.
+#[test]
+fn inconsistent_initial_conditions_are_projected_or_refused() {
+    let mut scene = scenes::drive();
+    scene.q0.push(("x2", InitValue::Num(0.5 + 1e-3)));
+    scene.q0.push(("y2", InitValue::Num(-2e-3)));
+    scene.qd0.push(("y1", InitValue::Num(0.01)));
+    let (m, _, y0, report) = setup_with_report::<EzyRoller>(&scene, &[]).unwrap();
+    assert!((report.position_violation - 2e-3).abs() < 1e-14, "{report:?}");
+    assert!(report.position_correction > 1e-4 && report.position_correction < 3e-3, "{report:?}");
+    // what least squares in the unknowns leaves of the 0.01 m/s given in y1d
+    assert!(report.velocity_violation > 5e-3 && report.velocity_violation < 1.1e-2, "{report:?}");
+    let w = report.warnings();
+    assert_eq!(w.len(), 2);
+    assert!(w[0].contains("violate the hinges by 2.000e-3 m"), "{}", w[0]);
+    let mut phi = [0.0; 2];
+    m.phi(&y0[..6], &mut phi);
+    assert!(phi.iter().all(|c| c.abs() <= 1e-12), "{phi:?}");
+
+    let scene = ezy_core::Scene { model: "bar", q0: vec![], qd0: vec![], ..scenes::free() };
+    let err = setup::<OverstretchedBar>(&scene, &[]).unwrap_err().to_string();
+    assert!(err.contains("no configuration satisfies the hinges"), "{err}");
 }

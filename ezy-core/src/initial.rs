@@ -20,7 +20,9 @@ pub const INITIAL_TOL: f64 = 1e-12;
 /// Computes `(q, qd)` (nq each) from the given values.
 ///
 /// `given_q`, `given_qd`: `(coordinate index, value)`; every other entry is
-/// solved for, starting from 0.
+/// solved for, starting from 0. Given values that violate the constraints
+/// are projected onto them (positions by Gauss-Newton with minimum-norm
+/// steps, velocities by least squares); the [`InitialReport`] says by how much.
 ///
 /// # Errors
 /// [`SimError::Initial`] when the unknowns are not determined by the
@@ -29,7 +31,7 @@ pub fn consistent_state<M: Model>(
     model: &M,
     given_q: &[(usize, f64)],
     given_qd: &[(usize, f64)],
-) -> Result<(Vec<f64>, Vec<f64>), SimError> {
+) -> Result<(Vec<f64>, Vec<f64>, InitialReport), SimError> {
     let info = &M::INFO;
     let (nq, nh, nc) = (info.nq(), info.n_holonomic, info.nc());
     let names = |idx: &[usize], suffix: &str| {
@@ -79,11 +81,40 @@ pub fn consistent_state<M: Model>(
         }
     }
     model.phi(&q, &mut phi);
+    let mut report = InitialReport::default();
     let res = max_abs(&phi);
-    if res > 1e-9 {
-        return Err(SimError::Initial {
-            reason: format!("no configuration satisfies the hinges with the given coordinates (max|C| = {res:.3e} m)"),
-        });
+    if res > INITIAL_TOL {
+        // The given coordinates violate the hinges: Gauss-Newton with the
+        // minimum-norm step in all coordinates (SPEC §2's projection).
+        report.position_violation = res;
+        let q_given = q.clone();
+        let all: Vec<usize> = (0..nq).collect();
+        for _ in 0..50 {
+            model.phi(&q, &mut phi);
+            if max_abs(&phi) <= INITIAL_TOL {
+                break;
+            }
+            model.holonomic_jacobian(&q, &mut jac_values);
+            scatter_dense(&info.pattern[..jac_values.len()], &jac_values, nq, &mut cq);
+            let j = DMatrix::from_fn(nh, nq, |r, c| cq[r * nq + all[c]]);
+            let dx = j
+                .svd(true, true)
+                .solve(&DVector::from_column_slice(&phi), 1e-12)
+                .map_err(|e| SimError::Initial { reason: e.to_string() })?;
+            for i in 0..nq {
+                q[i] -= dx[i];
+            }
+        }
+        model.phi(&q, &mut phi);
+        let left = max_abs(&phi);
+        if !(left <= 1e-9) {
+            return Err(SimError::Initial {
+                reason: format!(
+                    "no configuration satisfies the hinges near the given coordinates (max|C| = {res:.3e} m, {left:.3e} m after projection)"
+                ),
+            });
+        }
+        report.position_correction = q.iter().zip(&q_given).fold(0.0, |m, (a, b)| m.max((a - b).abs()));
     }
 
     let mut qd = vec![0.0; nq];
@@ -130,10 +161,59 @@ pub fn consistent_state<M: Model>(
     let mut r = vec![0.0; nc];
     crate::projection::mat_vec(&g, &qd, &mut r);
     let res = max_abs(&r);
-    if res > 1e-9 {
-        return Err(SimError::Initial {
-            reason: format!("the given velocities violate the constraints (max|G qd| = {res:.3e} m/s)"),
-        });
+    if res > INITIAL_TOL {
+        // The given velocities violate the constraints: least-squares
+        // projection of all velocities (SPEC §2).
+        report.velocity_violation = res;
+        let gm = DMatrix::from_row_slice(nc, nq, &g);
+        let dv = gm
+            .svd(true, true)
+            .solve(&DVector::from_column_slice(&r), 1e-12)
+            .map_err(|e| SimError::Initial { reason: e.to_string() })?;
+        for i in 0..nq {
+            qd[i] -= dv[i];
+        }
+        report.velocity_correction = dv.amax();
+        crate::projection::mat_vec(&g, &qd, &mut r);
+        let left = max_abs(&r);
+        if !(left <= 1e-9) {
+            return Err(SimError::Initial {
+                reason: format!("the velocity constraints cannot be met (max|G qd| = {left:.3e} m/s after projection)"),
+            });
+        }
     }
-    Ok((q, qd))
+    Ok((q, qd, report))
+}
+
+/// What [`consistent_state`] had to correct in the given values.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct InitialReport {
+    /// `max|C|` of the given coordinates, when they violated the hinges [m] (else 0).
+    pub position_violation: f64,
+    /// Largest change of a coordinate by the projection [m or rad].
+    pub position_correction: f64,
+    /// `max|G qd|` of the given velocities, when they violated the constraints [m/s] (else 0).
+    pub velocity_violation: f64,
+    /// Largest change of a velocity by the projection [m/s or rad/s].
+    pub velocity_correction: f64,
+}
+
+impl InitialReport {
+    /// One warning line per correction made.
+    pub fn warnings(&self) -> Vec<String> {
+        let mut w = Vec::new();
+        if self.position_violation > 0.0 {
+            w.push(format!(
+                "the initial coordinates violate the hinges by {:.3e} m; projected onto them (largest change {:.3e})",
+                self.position_violation, self.position_correction
+            ));
+        }
+        if self.velocity_violation > 0.0 {
+            w.push(format!(
+                "the initial velocities violate the constraints by {:.3e} m/s; projected onto them (largest change {:.3e})",
+                self.velocity_violation, self.velocity_correction
+            ));
+        }
+        w
+    }
 }
