@@ -107,7 +107,7 @@ pub fn consistent_state<M: Model>(
         }
         model.phi(&q, &mut phi);
         let left = max_abs(&phi);
-        if !(left <= 1e-9) {
+        if left.is_nan() || left > 1e-9 {
             return Err(SimError::Initial {
                 reason: format!(
                     "no configuration satisfies the hinges near the given coordinates (max|C| = {res:.3e} m, {left:.3e} m after projection)"
@@ -176,7 +176,7 @@ pub fn consistent_state<M: Model>(
         report.velocity_correction = dv.amax();
         crate::projection::mat_vec(&g, &qd, &mut r);
         let left = max_abs(&r);
-        if !(left <= 1e-9) {
+        if left.is_nan() || left > 1e-9 {
             return Err(SimError::Initial {
                 reason: format!("the velocity constraints cannot be met (max|G qd| = {left:.3e} m/s after projection)"),
             });
