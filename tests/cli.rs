@@ -177,6 +177,7 @@ fn bad_input_is_named() {
         (&["run", "drive", "--t-end", "0"], "--t-end = 0"),
         (&["run", "drive", "--set", "m1=-1"], "mass of body body1 = -1"),
         (&["run", "drive", "--integrator", "dopri5", "--rtol", "0"], "--rtol = 0"),
+        (&["run", "drive", "--integrator", "dop853", "--atol", "1e-20"], "--atol = 1e-20: a tolerance below 1e-14"),
         (&["run", "drive", "--baumgarte", "1"], "expected ALPHA,BETA"),
     ];
     for (args, want) in cases {

@@ -86,7 +86,7 @@ pub enum SimError {
         before: String,
     },
     /// A setting is out of range.
-    #[error("invalid setting {name} = {value}: {reason}")]
+    #[error("invalid setting {name} = {}: {reason}", fmt_value(*value))]
     Setting {
         /// Setting name (`--dt`, `--t-end`, parameter name).
         name: String,
@@ -108,4 +108,10 @@ impl SimError {
             source => SimError::Kkt { t, source },
         }
     }
+}
+
+/// A number as a person would write it: plain for ordinary magnitudes,
+/// scientific for very small or very large ones.
+fn fmt_value(v: f64) -> String {
+    if v != 0.0 && v.is_finite() && (v.abs() < 1e-3 || v.abs() >= 1e6) { format!("{v:e}") } else { format!("{v}") }
 }

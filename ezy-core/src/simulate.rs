@@ -34,6 +34,10 @@ pub struct RunSettings {
     pub balance_limit: Option<f64>,
 }
 
+/// Smallest `rtol`/`atol` accepted: about 50 ulp of 1; tighter requests
+/// only make the adaptive step hunt rounding noise.
+pub const MIN_TOLERANCE: f64 = 1e-14;
+
 /// Default limit of the relative energy balance `|T - T0 - W| / max(1 J, |W|)`
 /// for `ezy run`. Ideal constraints do no work, so the balance is the
 /// integrator's own error: 6e-13 at the seed's settings, 1.3e-3 for `drive`
@@ -60,6 +64,9 @@ impl RunSettings {
             for (name, v) in [("--rtol", self.rtol), ("--atol", self.atol)] {
                 if !(v.is_finite() && v > 0.0) {
                     return bad(name, v, "a tolerance must be a positive number");
+                }
+                if v < MIN_TOLERANCE {
+                    return bad(name, v, "a tolerance below 1e-14 cannot be met in double precision");
                 }
             }
         }
