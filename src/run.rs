@@ -239,5 +239,13 @@ fn run_model<M: Model + Default>(scene: &Scene, opts: &RunOptions) -> Result<Rep
         }
     }
     let state_names = (0..Dynamics::<M>::NY).map(ezy_core::simulate::state_name::<M>).collect();
-    Ok(Report { summary, table, settings, state_names, files, wall: wall.elapsed(), warnings: initial.warnings() })
+    let mut warnings = initial.warnings();
+    if let Some((t, c)) = summary.ill_conditioned {
+        warnings.push(format!(
+            "from t = {t} s the KKT system is ill-conditioned (estimate {c:.1e} > {:.0e}): constraints are nearly dependent, expect about {:.0e} relative accuracy in the constraint forces",
+            ezy_core::dynamics::CONDITION_WARNING,
+            c * f64::EPSILON
+        ));
+    }
+    Ok(Report { summary, table, settings, state_names, files, wall: wall.elapsed(), warnings })
 }

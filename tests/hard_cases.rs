@@ -207,3 +207,31 @@ fn a_mass_ratio_of_1e8_keeps_its_accuracy() {
     assert!(far < 1e-5, "distance to the massless limit {far:e}");
     assert!(far > 1e-8, "the light fork should still matter at order m2: {far:e}");
 }
+
+/// Nearly dependent constraints (skate A 1e-5 m from the hinge point, C on it,
+/// bodies aligned) are flagged once, with the time; a mass ratio of 1e8 is
+/// not (the estimate is the pivot growth of the equilibrated Schur
+/// complement, independent of units and mass scaling).
+#[test]
+fn ill_conditioning_is_detected_and_mass_ratios_are_not() {
+    let mut m = EzyRoller::default();
+    m.a = -m.b + 1e-5;
+    m.c = -m.d;
+    let mut sys = Dynamics::new(m, vec![], KktMethod::Auto);
+    let y = [0.0, 0.0, 0.0, 0.7, 0.0, 0.0, 0.1, 0.0, 0.0, 0.1, 0.0, 0.0, 0.0];
+    let mut dy = [0.0; 13];
+    sys.rhs(0.25, &y, &mut dy).unwrap();
+    let (t, c) = sys.ill_conditioned.expect("flagged");
+    assert_eq!(t, 0.25);
+    assert!(c > 1e10, "estimate {c:e}");
+    sys.rhs(0.5, &y, &mut dy).unwrap();
+    assert_eq!(sys.ill_conditioned.unwrap().0, 0.25, "recorded once");
+
+    let mut light = EzyRoller::default();
+    light.m2 = 1e-6;
+    light.I2 = 5e-9;
+    let mut sys = Dynamics::new(light, vec![], KktMethod::Auto);
+    let y = [0.0, 0.0, 0.0, 0.5, 0.0, std::f64::consts::PI, 0.1, 0.0, 0.0, 0.1, 0.0, 0.0, 0.0];
+    sys.rhs(0.0, &y, &mut dy).unwrap();
+    assert_eq!(sys.ill_conditioned, None);
+}

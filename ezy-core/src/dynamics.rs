@@ -71,7 +71,16 @@ pub struct Dynamics<M: Model> {
     ws: Workspace,
     /// Optional Baumgarte stabilization of the constraints.
     pub baumgarte: Option<Baumgarte>,
+    /// The first `(t [s], estimate)` at which the KKT conditioning estimate
+    /// passed [`CONDITION_WARNING`] (recorded once).
+    pub ill_conditioned: Option<(f64, f64)>,
 }
+
+/// Threshold of the (equilibrated) KKT conditioning estimate above which a
+/// run warns: about 1e-6 relative accuracy is left in the multipliers and
+/// accelerations. Near-dependent constraints (almost aligned skates) reach
+/// it; mass ratios do not (the estimate is scale-independent).
+pub const CONDITION_WARNING: f64 = 1e10;
 
 impl<M: Model> Dynamics<M> {
     /// Number of coordinates nq.
@@ -97,7 +106,7 @@ impl<M: Model> Dynamics<M> {
             phi: vec![0.0; info.n_holonomic],
             ones: vec![1.0; nq],
         };
-        Self { model, effects, mass, counters: Counters::default(), kkt, ws, baumgarte: None }
+        Self { model, effects, mass, counters: Counters::default(), kkt, ws, baumgarte: None, ill_conditioned: None }
     }
 
     /// Name of the KKT path in use.
@@ -137,6 +146,13 @@ impl<M: Model> Dynamics<M> {
         }
         let sys = KktSystem { mass: &self.mass, g: &ws.g, g_values: &ws.g_values, f: &ws.f, gamma: &ws.gamma };
         self.kkt.solve(&sys, &mut ws.qdd, &mut ws.lambda).map_err(|source| SimError::from_kkt::<M>(t, source))?;
+        if self.ill_conditioned.is_none() {
+            if let Some(c) = self.kkt.condition_estimate() {
+                if c > CONDITION_WARNING {
+                    self.ill_conditioned = Some((t, c));
+                }
+            }
+        }
         self.counters.rhs_evals += 1;
         self.counters.kkt_solves += 1;
         dy[..nq].copy_from_slice(qd);

@@ -156,6 +156,9 @@ pub struct Summary {
     pub kkt: &'static str,
     /// Linear algebra of the projection.
     pub projection_path: &'static str,
+    /// First `(t [s], estimate)` where the KKT conditioning estimate passed
+    /// [`crate::dynamics::CONDITION_WARNING`].
+    pub ill_conditioned: Option<(f64, f64)>,
 }
 
 /// Residual evaluation buffers.
@@ -319,6 +322,7 @@ pub fn simulate<M: Model, O: Observer<M>>(
             final_state: Vec::new(),
             kkt: sys.kkt_name(),
             projection_path: "none",
+            ill_conditioned: None,
         },
         output_time: Duration::ZERO,
     };
@@ -339,6 +343,7 @@ pub fn simulate<M: Model, O: Observer<M>>(
         kkt_solves: sys.counters.kkt_solves - counters0.kkt_solves,
     };
     summary.final_state = y;
+    summary.ill_conditioned = sys.ill_conditioned;
     Ok(summary)
 }
 

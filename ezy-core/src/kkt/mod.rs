@@ -94,6 +94,11 @@ pub trait KktSolver {
     fn solve(&mut self, sys: &KktSystem<'_>, qdd: &mut [f64], lambda: &mut [f64]) -> Result<(), KktError>;
     /// Short name of the path, for reports (`"schur-cholesky"`, `"dense-lu"`).
     fn name(&self) -> &'static str;
+    /// A cheap estimate of the conditioning of the last solve, independent
+    /// of units and diagonal scaling (`None` if the path has none).
+    fn condition_estimate(&self) -> Option<f64> {
+        None
+    }
 }
 
 /// Which KKT path to use.
@@ -160,6 +165,13 @@ impl<M: Model> KktSolver for AnyKktSolver<M> {
         match self {
             Self::Schur(s) => s.name(),
             Self::Lu(s) => s.name(),
+        }
+    }
+    #[inline]
+    fn condition_estimate(&self) -> Option<f64> {
+        match self {
+            Self::Schur(s) => s.condition_estimate(),
+            Self::Lu(s) => s.condition_estimate(),
         }
     }
 }

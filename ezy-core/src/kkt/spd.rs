@@ -52,6 +52,11 @@ macro_rules! small_size {
 /// sizes of vehicles (m <= 8, unrolled). Larger m use `scratch`
 /// (at least m * (m + 1) long), so nothing is allocated.
 ///
+/// Returns the pivot growth `max_j A_jj / D_jj` (>= 1): how much of its
+/// diagonal the most dependent row lost, a lower bound of the condition
+/// number of the diagonally equilibrated matrix (so independent of units
+/// and mass ratios). Rows are refused as dependent above `1 / PIVOT_RTOL`.
+///
 /// # Errors
 /// [`KktError::DependentConstraints`] for a pivot `D_jj <= PIVOT_RTOL * A_jj`.
 #[inline]
@@ -62,9 +67,9 @@ pub fn ldl_solve(
     r: &[f64],
     x: &mut [f64],
     scratch: &mut [f64],
-) -> Result<(), KktError> {
+) -> Result<f64, KktError> {
     if m == 0 {
-        return Ok(());
+        return Ok(1.0);
     }
     small_size!(m, ldl_solve_fixed(a, lda, r, x), ldl_solve_dynamic(a, m, lda, r, x, scratch))
 }
@@ -72,7 +77,7 @@ pub fn ldl_solve(
 // `!(d > tol)` also rejects NaN pivots, which `d <= tol` would let through.
 #[allow(clippy::neg_cmp_op_on_partial_ord, clippy::needless_range_loop)]
 #[inline(always)]
-fn ldl_solve_fixed<const M: usize>(a: &[f64], lda: usize, r: &[f64], x: &mut [f64]) -> Result<(), KktError> {
+fn ldl_solve_fixed<const M: usize>(a: &[f64], lda: usize, r: &[f64], x: &mut [f64]) -> Result<f64, KktError> {
     let mut l = [[0.0f64; M]; M];
     for i in 0..M {
         for j in 0..=i {
@@ -117,7 +122,17 @@ fn ldl_solve_fixed<const M: usize>(a: &[f64], lda: usize, r: &[f64], x: &mut [f6
         y[i] = s;
     }
     x[..M].copy_from_slice(&y);
-    Ok(())
+    let mut growth = 1.0f64;
+    for j in 0..M {
+        growth = growth.max(l_diag(a, lda, j) * inv[j]);
+    }
+    Ok(growth)
+}
+
+/// `A_jj` of the input matrix.
+#[inline(always)]
+fn l_diag(a: &[f64], lda: usize, j: usize) -> f64 {
+    a[j * lda + j]
 }
 
 /// The same for any m, with the factor in `scratch` (m * (m + 1)).
@@ -129,7 +144,7 @@ fn ldl_solve_dynamic(
     r: &[f64],
     x: &mut [f64],
     scratch: &mut [f64],
-) -> Result<(), KktError> {
+) -> Result<f64, KktError> {
     let (l, inv) = scratch[..m * (m + 1)].split_at_mut(m * m);
     for (k, lk) in l.iter_mut().enumerate() {
         *lk = a[(k / m) * lda + k % m];
@@ -167,7 +182,7 @@ fn ldl_solve_dynamic(
         }
         x[i] = s;
     }
-    Ok(())
+    Ok((0..m).map(|j| a[j * lda + j] * inv[j]).fold(1.0, f64::max))
 }
 
 /// `A = G W^-1 G^T` for model `Mo`, or its leading block (the holonomic
@@ -187,7 +202,8 @@ impl NormalSystem {
     }
 
     /// Assembles `A` from `G`'s pattern values and `winv` (nq) and solves
-    /// `A_m x = r` with `A_m` its leading `m` x `m` block (x, r: m).
+    /// `A_m x = r` with `A_m` its leading `m` x `m` block (x, r: m);
+    /// returns the pivot growth (see [`ldl_solve`]).
     ///
     /// # Errors
     /// [`KktError::DependentConstraints`] if that block is not (numerically)
@@ -200,7 +216,7 @@ impl NormalSystem {
         m: usize,
         r: &[f64],
         x: &mut [f64],
-    ) -> Result<(), KktError> {
+    ) -> Result<f64, KktError> {
         Mo::normal_matrix(values, winv, &mut self.a);
         ldl_solve(&self.a, m, self.nc, r, x, &mut self.scratch)
     }
@@ -214,6 +230,8 @@ pub struct SchurCholesky<Mo: Model> {
     /// `M^-1` diagonal, from the mass at construction.
     minv: Vec<f64>,
     rhs: Vec<f64>,
+    /// Pivot growth of the last solve.
+    growth: f64,
     _model: std::marker::PhantomData<Mo>,
 }
 
@@ -232,7 +250,13 @@ impl<Mo: Model> SchurCholesky<Mo> {
             }
             *w = 1.0 / m;
         }
-        Ok(Self { normal: NormalSystem::new(nc), minv, rhs: vec![0.0; nc], _model: std::marker::PhantomData })
+        Ok(Self {
+            normal: NormalSystem::new(nc),
+            minv,
+            rhs: vec![0.0; nc],
+            growth: 1.0,
+            _model: std::marker::PhantomData,
+        })
     }
 }
 
@@ -245,7 +269,7 @@ impl<Mo: Model> KktSolver for SchurCholesky<Mo> {
         for (r, &g) in self.rhs.iter_mut().zip(sys.gamma) {
             *r += g;
         }
-        self.normal.solve::<Mo>(sys.g_values, &self.minv, nc, &self.rhs, lambda)?;
+        self.growth = self.normal.solve::<Mo>(sys.g_values, &self.minv, nc, &self.rhs, lambda)?;
         for ((a, &w), &f) in qdd.iter_mut().zip(&self.minv).zip(sys.f) {
             *a = w * f;
         }
@@ -254,6 +278,9 @@ impl<Mo: Model> KktSolver for SchurCholesky<Mo> {
     }
     fn name(&self) -> &'static str {
         "schur-cholesky"
+    }
+    fn condition_estimate(&self) -> Option<f64> {
+        Some(self.growth)
     }
 }
 
