@@ -227,9 +227,7 @@ fn ill_conditioning_is_detected_and_mass_ratios_are_not() {
     sys.rhs(0.5, &y, &mut dy).unwrap();
     assert_eq!(sys.ill_conditioned.unwrap().0, 0.25, "recorded once");
 
-    let mut light = EzyRoller::default();
-    light.m2 = 1e-6;
-    light.I2 = 5e-9;
+    let light = EzyRoller { m2: 1e-6, I2: 5e-9, ..EzyRoller::default() };
     let mut sys = Dynamics::new(light, vec![], KktMethod::Auto);
     let y = [0.0, 0.0, 0.0, 0.5, 0.0, std::f64::consts::PI, 0.1, 0.0, 0.0, 0.1, 0.0, 0.0, 0.0];
     sys.rhs(0.0, &y, &mut dy).unwrap();

@@ -146,12 +146,11 @@ impl<M: Model> Dynamics<M> {
         }
         let sys = KktSystem { mass: &self.mass, g: &ws.g, g_values: &ws.g_values, f: &ws.f, gamma: &ws.gamma };
         self.kkt.solve(&sys, &mut ws.qdd, &mut ws.lambda).map_err(|source| SimError::from_kkt::<M>(t, source))?;
-        if self.ill_conditioned.is_none() {
-            if let Some(c) = self.kkt.condition_estimate() {
-                if c > CONDITION_WARNING {
-                    self.ill_conditioned = Some((t, c));
-                }
-            }
+        if self.ill_conditioned.is_none()
+            && let Some(c) = self.kkt.condition_estimate()
+            && c > CONDITION_WARNING
+        {
+            self.ill_conditioned = Some((t, c));
         }
         self.counters.rhs_evals += 1;
         self.counters.kkt_solves += 1;
