@@ -247,6 +247,22 @@ mod tests {
             let e = err_at(&out, theta * h);
             assert!(e < 1e-6, "theta {theta}: dense output error {e}");
         }
+        // ... and matches a step taken directly to the same time to the
+        // interpolant's order: halving h shrinks the gap by ~2^5
+        let mut gap = |h: f64, theta: f64| {
+            let mut s = Dopri5::new(2);
+            let (mut yn, mut kn, mut direct, mut kd, mut out) =
+                (vec![0.0; 2], vec![0.0; 2], vec![0.0; 2], vec![0.0; 2], vec![0.0; 2]);
+            s.attempt(&mut rhs, 0.0, &y, &k1, h, &tol, &mut yn, &mut kn).unwrap();
+            s.prepare_dense(&mut rhs, 0.0, &y, &k1, h, &yn, &kn).unwrap();
+            s.interpolate(theta, &mut out);
+            s.attempt(&mut rhs, 0.0, &y, &k1, theta * h, &tol, &mut direct, &mut kd).unwrap();
+            (out[0] - direct[0]).abs().max((out[1] - direct[1]).abs())
+        };
+        for theta in [0.3, 0.6] {
+            let (g1, g2) = (gap(0.4, theta), gap(0.2, theta));
+            assert!(g1 < 1e-5 && g1 / g2 > 16.0, "theta {theta}: gaps {g1:e}, {g2:e}");
+        }
         // and it is not just linear interpolation, whose error is ~h^2/8 = 5e-3
         let mut lin = [0.0; 2];
         for i in 0..2 {
