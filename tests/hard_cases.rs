@@ -233,3 +233,53 @@ fn ill_conditioning_is_detected_and_mass_ratios_are_not() {
     sys.rhs(0.0, &y, &mut dy).unwrap();
     assert_eq!(sys.ill_conditioned, None);
 }
+
+ezy_core::model! {
+    /// A parallelogram linkage with a third, redundant crank: three equal
+    /// cranks pinned to the ground carry one coupler. Grübler's count gives
+    /// 12 - 12 = 0 degrees of freedom, the geometry gives 1: one hinge
+    /// equation is redundant in every configuration.
+    pub struct TripleCrank {
+        /// Crank length [m]
+        param r = 1.0;
+        /// Distance between the outer ground pins [m]
+        param l = 2.0;
+        body crank1(x1, y1, phi1) { mass: 1.0, inertia: 0.1 }
+        body crank2(x2, y2, phi2) { mass: 1.0, inertia: 0.1 }
+        body crank3(x3, y3, phi3) { mass: 1.0, inertia: 0.1 }
+        body coupler(x4, y4, phi4) { mass: 2.0, inertia: 0.5 }
+        point B1 on crank1 at (-r / 2, 0);
+        point T1 on crank1 at (r / 2, 0);
+        point B2 on crank2 at (-r / 2, 0);
+        point T2 on crank2 at (r / 2, 0);
+        point B3 on crank3 at (-r / 2, 0);
+        point T3 on crank3 at (r / 2, 0);
+        point K1 on coupler at (-l / 2, 0);
+        point K2 on coupler at (l / 2, 0);
+        point K3 on coupler at (0, 0);
+        hinge G1: B1 = ground(0, 0);
+        hinge G2: B2 = ground(l, 0);
+        hinge G3: B3 = ground(l / 2, 0);
+        hinge H1: T1 = K1;
+        hinge H2: T2 = K2;
+        hinge H3: T3 = K3;
+    }
+}
+
+/// The parallelogram with a redundant crank: the last hinge row repeats
+/// what the others already impose, and the error names it.
+#[test]
+fn a_redundant_parallelogram_crank_is_named() {
+    let half = std::f64::consts::FRAC_PI_2;
+    // cranks upright, coupler level on top
+    let q = [0.0, 0.5, half, 2.0, 0.5, half, 1.0, 0.5, half, 1.0, 1.0, 0.0];
+    let mut phi = [0.0; 12];
+    TripleCrank::default().phi(&q, &mut phi);
+    assert!(phi.iter().all(|c| c.abs() < 1e-15), "the state is consistent: {phi:?}");
+    let mut y = q.to_vec();
+    y.extend([0.0; 13]);
+    let mut dy = vec![0.0; 25];
+    let mut sys = Dynamics::new(TripleCrank::default(), vec![], KktMethod::Auto);
+    let err = sys.rhs(0.0, &y, &mut dy).unwrap_err().to_string();
+    assert!(err.contains("the constraint `H3.y` (row 11 of G) depends on the constraints before it"), "{err}");
+}

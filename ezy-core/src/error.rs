@@ -73,7 +73,7 @@ pub enum SimError {
     /// Constraints that are not independent (a duplicated hinge, a
     /// redundant closed loop): the multipliers are not unique.
     #[error(
-        "at t = {t} s the constraint `{constraint}` (row {row} of G) depends on the constraints before it ({before}); the model has redundant constraints: remove `{constraint}` or its duplicate"
+        "at t = {t} s the constraint `{constraint}` (row {row} of G) depends on the constraints before it ({before}); the model has redundant constraints (the multipliers are not unique): remove `{constraint}` or a constraint it depends on"
     )]
     DependentConstraints {
         /// Time [s].
