@@ -283,3 +283,29 @@ fn a_redundant_parallelogram_crank_is_named() {
     let err = sys.rhs(0.0, &y, &mut dy).unwrap_err().to_string();
     assert!(err.contains("the constraint `H3.y` (row 11 of G) depends on the constraints before it"), "{err}");
 }
+
+/// An adaptive method whose stages overflow (absurd initial rates: the
+/// convective terms pass f64::MAX) shrinks its step until it is below the
+/// rounding level of t and stops with `StepSizeTooSmall`, never looping and
+/// never writing NaN.
+#[test]
+fn overflowing_stages_stop_with_step_size_too_small() {
+    let mut scene = scenes::free();
+    scene.qd0 = vec![("x1", InitValue::Num(1e160)), ("phi1", InitValue::Num(1e160))];
+    let (model, _, y0) = setup::<EzyRoller>(&scene, &[]).unwrap();
+    let mut sys = Dynamics::new(model, vec![], KktMethod::Auto);
+    let settings = RunSettings {
+        dt: 1e-3,
+        t_end: 1.0,
+        every: 0.1,
+        projection: ProjectionKind::MassWeighted,
+        method: Method::Dopri5,
+        rtol: 1e-8,
+        atol: 1e-8,
+        balance_limit: None,
+    };
+    let mut rec = Recorder::default();
+    let err = simulate(&mut sys, &y0, &settings, &mut rec).unwrap_err().to_string();
+    assert!(err.contains("the step size fell to"), "{err}");
+    assert!(rec.y.iter().flatten().all(|v| v.is_finite()), "no NaN was written");
+}

@@ -8,6 +8,7 @@ use crate::SimError;
 use crate::dynamics::{Counters, Dynamics};
 use crate::integrator::adaptive::{Controller, initial_step};
 use crate::integrator::{Dop853, Dopri5, EmbeddedRk, Euler, Method, Rk4, Tolerance};
+use crate::kkt::KktError;
 use crate::model::Model;
 use crate::projection::{ProjectionKind, Projector, mat_vec, max_abs};
 
@@ -399,7 +400,11 @@ fn adaptive<M: Model, O: Observer<M>, E: EmbeddedRk>(
         if h.abs() <= 16.0 * f64::EPSILON * t.abs().max(1.0) {
             return Err(SimError::StepSizeTooSmall { t, h }.into());
         }
-        let err = stepper.attempt(sys, t, y, &k1, h, &tol, &mut y_new, &mut k_new)?;
+        let err = match stepper.attempt(sys, t, y, &k1, h, &tol, &mut y_new, &mut k_new) {
+            // a stage overflowed: as for a non-finite error estimate below
+            Err(SimError::Kkt { source: KktError::NonFinite { .. }, .. }) => f64::NAN,
+            other => other?,
+        };
         if !err.is_finite() {
             // a non-finite stage: retry with a much smaller step
             run.summary.rejected += 1;

@@ -42,6 +42,13 @@ pub enum KktError {
         /// The first row of `G` found to depend on the rows before it.
         row: usize,
     },
+    /// The system has non-finite entries: the state it was built from
+    /// overflowed (a step far too large, or absurd initial values).
+    #[error("the KKT system ({n} x {n}) has non-finite entries: the state overflowed")]
+    NonFinite {
+        /// Size of the factored matrix.
+        n: usize,
+    },
     /// The KKT matrix is singular (LU found a zero pivot).
     #[error("the KKT matrix ({n} x {n}) is singular")]
     SingularKkt {

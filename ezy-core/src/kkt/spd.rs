@@ -93,6 +93,9 @@ fn ldl_solve_fixed<const M: usize>(a: &[f64], lda: usize, r: &[f64], x: &mut [f6
             v[k] = l[j][k] * d[k];
             dj -= l[j][k] * v[k];
         }
+        if !dj.is_finite() {
+            return Err(KktError::NonFinite { n: M });
+        }
         if !(dj > PIVOT_RTOL * l[j][j]) {
             return Err(KktError::DependentConstraints { n: M, row: j });
         }
@@ -154,6 +157,9 @@ fn ldl_solve_dynamic(
         let mut d = ajj;
         for k in 0..j {
             d -= l[j * m + k] * l[j * m + k] * l[k * m + k];
+        }
+        if !d.is_finite() {
+            return Err(KktError::NonFinite { n: m });
         }
         if !(d > PIVOT_RTOL * ajj) {
             return Err(KktError::DependentConstraints { n: m, row: j });
