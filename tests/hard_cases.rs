@@ -227,6 +227,18 @@ fn ill_conditioning_is_detected_and_mass_ratios_are_not() {
     sys.rhs(0.5, &y, &mut dy).unwrap();
     assert_eq!(sys.ill_conditioned.unwrap().0, 0.25, "recorded once");
 
+    // the same on the LU path (massless fork with its skate 1e-11 m from
+    // the hinge, so its heading is nearly free): the estimate is the pivot
+    // growth relative to the rows' scales, measured ~1/offset (1e3 at 1e-3 m)
+    let lu = EzyRoller { a: 0.2, c: -0.1 + 1e-11, m2: 0.0, I2: 0.0, ..EzyRoller::default() };
+    let mut sys = Dynamics::new(lu, vec![], KktMethod::Auto);
+    assert_eq!(sys.kkt_name(), "dense-lu");
+    let y = [0.0, 0.0, 0.0, 0.7, 0.0, 0.0, 0.1, 0.0, 0.0, 0.1, 0.0, 0.0, 0.0];
+    match sys.rhs(0.25, &y, &mut dy) {
+        Ok(()) => assert!(sys.ill_conditioned.is_some_and(|(_, c)| c > 1e10), "{:?}", sys.condition_estimate()),
+        Err(e) => panic!("{e}"),
+    }
+
     let light = EzyRoller { m2: 1e-6, I2: 5e-9, ..EzyRoller::default() };
     let mut sys = Dynamics::new(light, vec![], KktMethod::Auto);
     let y = [0.0, 0.0, 0.0, 0.5, 0.0, std::f64::consts::PI, 0.1, 0.0, 0.0, 0.1, 0.0, 0.0, 0.0];

@@ -109,6 +109,12 @@ impl<M: Model> Dynamics<M> {
         Self { model, effects, mass, counters: Counters::default(), kkt, ws, baumgarte: None, ill_conditioned: None }
     }
 
+    /// The KKT path's conditioning estimate of the last solve (see
+    /// [`crate::kkt::KktSolver::condition_estimate`]).
+    pub fn condition_estimate(&self) -> Option<f64> {
+        self.kkt.condition_estimate()
+    }
+
     /// Name of the KKT path in use.
     pub fn kkt_name(&self) -> &'static str {
         self.kkt.name()

@@ -53,6 +53,8 @@ pub struct DenseLu {
     perm_inv: Vec<usize>,
     /// `max_j |K[i, j]|` of each row of the assembled KKT matrix (n).
     row_scale: Vec<f64>,
+    /// Pivot growth of the last solve (see `condition_estimate`).
+    growth: f64,
     /// faer scratch for the factorization and the solve.
     mem: MemBuffer,
 }
@@ -87,6 +89,7 @@ impl DenseLu {
             perm: vec![0; n],
             perm_inv: vec![0; n],
             row_scale: vec![0.0; n],
+            growth: 1.0,
             mem: MemBuffer::new(req),
         }
     }
@@ -169,12 +172,15 @@ impl KktSolver for DenseLu {
         // U[k, k] against the scale of the original row it came from.
         let tol = n as f64 * f64::EPSILON;
         let (fwd, _) = perm.arrays();
+        let mut growth = 1.0f64;
         for (k, &row) in fwd.iter().enumerate() {
             let pivot = self.lu[(k, k)];
             if !pivot.is_finite() || pivot.abs() <= tol * self.row_scale[row] {
                 return Err(KktError::SingularKkt { n });
             }
+            growth = growth.max(self.row_scale[row] / pivot.abs());
         }
+        self.growth = growth;
 
         let lu = self.lu.as_ref();
         solve::solve_in_place(lu, lu, perm, self.rhs.as_mut(), Par::Seq, stack);
@@ -190,6 +196,13 @@ impl KktSolver for DenseLu {
 
     fn name(&self) -> &'static str {
         "dense-lu"
+    }
+
+    /// `max_k s_k / |U_kk|` with `s_k` the largest entry of the pivot's
+    /// original row: how much of its scale the worst pivot lost, a
+    /// row-scaling-independent lower bound of the condition number.
+    fn condition_estimate(&self) -> Option<f64> {
+        Some(self.growth)
     }
 }
 
