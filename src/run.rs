@@ -178,10 +178,13 @@ pub fn setup_with_report<M: Model + Default>(
     let mut mass = vec![0.0; info.nq()];
     model.mass_diagonal(&mut mass);
     for b in info.bodies {
-        for (what, k) in [("mass", b.coords[0]), ("inertia", b.coords[2])] {
+        for (what, k, param) in [("mass", b.coords[0], b.mass_param), ("inertia", b.coords[2], b.inertia_param)] {
             if mass[k].is_nan() || mass[k] < 0.0 {
                 return Err(SimError::Setting {
-                    name: format!("{what} of body {}", b.name),
+                    name: match param {
+                        Some(p) => format!("{p} ({what} of body {})", b.name),
+                        None => format!("{what} of body {}", b.name),
+                    },
                     value: mass[k],
                     reason: "must be zero or positive",
                 });

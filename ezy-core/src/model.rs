@@ -33,6 +33,10 @@ pub struct BodyInfo {
     pub name: &'static str,
     /// Indices of `x [m]`, `y [m]`, `phi [rad]` in `q`.
     pub coords: [usize; 3],
+    /// The parameter that is the body's mass, if the model wrote it as one.
+    pub mass_param: Option<&'static str>,
+    /// The parameter that is the body's inertia, if the model wrote it as one.
+    pub inertia_param: Option<&'static str>,
 }
 
 /// A named point fixed on a body.

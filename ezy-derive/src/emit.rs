@@ -153,10 +153,20 @@ pub fn emit(def: &ModelDef, res: &Resolved, d: &Derived) -> TokenStream {
         let v = lit_f64(p.value);
         quote!(#private::ParamInfo { name: #n, default: #v, unit: #unit, doc: #doc })
     });
+    let param_of = |e: &syn::Expr| -> TokenStream {
+        match e {
+            syn::Expr::Path(p) if p.path.get_ident().is_some() => {
+                let n = p.path.get_ident().expect("checked").to_string();
+                quote!(::core::option::Option::Some(#n))
+            }
+            _ => quote!(::core::option::Option::None),
+        }
+    };
     let bodies_info = def.bodies.iter().enumerate().map(|(i, b)| {
         let n = b.name.to_string();
         let (x, y, phi) = (3 * i, 3 * i + 1, 3 * i + 2);
-        quote!(#private::BodyInfo { name: #n, coords: [#x, #y, #phi] })
+        let (mp, ip) = (param_of(&b.mass), param_of(&b.inertia));
+        quote!(#private::BodyInfo { name: #n, coords: [#x, #y, #phi], mass_param: #mp, inertia_param: #ip })
     });
     let points_info = def.points.iter().zip(&res.point_body).map(|(p, &b)| {
         let n = p.name.to_string();
