@@ -6,7 +6,7 @@
 use std::hint::black_box;
 
 use criterion::{Criterion, criterion_group, criterion_main};
-use ezy::run::setup;
+use ezy::run::{build, setup};
 use ezy_core::integrator::{Dop853, EmbeddedRk, Rk4, Tolerance};
 use ezy_core::kkt::{DenseLu, KktMethod, KktSolver, KktSystem, SchurCholesky};
 use ezy_core::model::scatter_dense;
@@ -19,9 +19,7 @@ fn state() -> Vec<f64> {
 }
 
 fn dynamics(method: KktMethod) -> Dynamics<EzyRoller> {
-    let (model, specs, _) = setup::<EzyRoller>(&scenes::drive(), &[]).unwrap();
-    let effects = specs.iter().map(|s| s.resolve(&EzyRoller::INFO).unwrap()).collect();
-    Dynamics::new(model, effects, method)
+    build::<EzyRoller>(&scenes::drive(), &[], method).unwrap().0
 }
 
 fn rhs(c: &mut Criterion) {

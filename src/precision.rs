@@ -12,7 +12,7 @@ use ezy_core::kkt::KktMethod;
 use ezy_core::{Dynamics, Model, ModelVisitor, Observer, ProjectionKind, RunSettings, Sample, Scene, SimError};
 
 use crate::plot::{Chart, Series, render_png};
-use crate::run::{Error, setup};
+use crate::run::{Error, build};
 
 /// One setting of the ladder.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -110,9 +110,7 @@ fn run_once<M: Model + Default>(
     every: f64,
     history: bool,
 ) -> Result<(Last, ezy_core::Summary), SimError> {
-    let (model, specs, y0) = setup::<M>(scene, &[])?;
-    let effects = specs.iter().map(|s| s.resolve(&M::INFO)).collect::<Result<Vec<_>, _>>()?;
-    let mut sys = Dynamics::new(model, effects, KktMethod::Auto);
+    let (mut sys, y0) = build::<M>(scene, &[], KktMethod::Auto)?;
     let settings = RunSettings {
         dt: setting.dt.unwrap_or(scene.dt),
         t_end: scene.t_end,

@@ -198,6 +198,34 @@ pub fn setup_with_report<M: Model + Default>(
     Ok((model, effects, y0, report))
 }
 
+/// The scene's model with overrides, its effects resolved, and the
+/// consistent initial state: everything a run integrates.
+///
+/// # Errors
+/// As [`setup`], and [`SimError::UnknownName`] for an effect naming a hinge
+/// the model does not have.
+pub fn build<M: Model + Default>(
+    scene: &Scene,
+    sets: &[(String, f64)],
+    kkt: KktMethod,
+) -> Result<(Dynamics<M>, Vec<f64>), SimError> {
+    build_with_report(scene, sets, kkt).map(|(sys, y0, _)| (sys, y0))
+}
+
+/// [`build`], with what the initial-condition solve had to correct.
+///
+/// # Errors
+/// As [`build`].
+pub fn build_with_report<M: Model + Default>(
+    scene: &Scene,
+    sets: &[(String, f64)],
+    kkt: KktMethod,
+) -> Result<(Dynamics<M>, Vec<f64>, InitialReport), SimError> {
+    let (model, specs, y0, report) = setup_with_report::<M>(scene, sets)?;
+    let effects = specs.iter().map(|s| s.resolve(&M::INFO)).collect::<Result<Vec<_>, _>>()?;
+    Ok((Dynamics::new(model, effects, kkt), y0, report))
+}
+
 fn run_model<M: Model + Default>(scene: &Scene, opts: &RunOptions) -> Result<Report, Error> {
     let wall = Instant::now();
     let settings = RunSettings {
@@ -211,10 +239,8 @@ fn run_model<M: Model + Default>(scene: &Scene, opts: &RunOptions) -> Result<Rep
         balance_limit: Some(ezy_core::simulate::BALANCE_LIMIT),
     };
     settings.validate()?;
-    let (model, specs, y0, initial) = setup_with_report::<M>(scene, &opts.sets)?;
-    let effects = specs.iter().map(|s| s.resolve(&M::INFO)).collect::<Result<Vec<_>, _>>()?;
-    let effect_columns: Vec<String> = effects.iter().map(|e| e.column().to_string()).collect();
-    let mut sys = Dynamics::new(model, effects, KktMethod::Auto);
+    let (mut sys, y0, initial) = build_with_report::<M>(scene, &opts.sets, KktMethod::Auto)?;
+    let effect_columns: Vec<String> = sys.effects.iter().map(|e| e.column().to_string()).collect();
     sys.baumgarte = opts.baumgarte;
 
     std::fs::create_dir_all(&opts.out).map_err(|source| Error::OutDir { path: opts.out.clone(), source })?;

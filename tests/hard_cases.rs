@@ -4,7 +4,7 @@ mod common;
 
 use common::{Recorder, max_abs};
 use ezy::output::FIGURE_ROWS;
-use ezy::run::{RunOptions, run_scene, setup, setup_with_report};
+use ezy::run::{RunOptions, build, run_scene, setup, setup_with_report};
 use ezy_core::kkt::KktMethod;
 use ezy_core::{Dynamics, InitValue, Method, Model, ProjectionKind, RunSettings, simulate};
 use ezy_models::{EzyRoller, scenes};
@@ -17,9 +17,7 @@ use ezy_models::{EzyRoller, scenes};
 #[test]
 fn massless_fork_runs_on_the_lu_path() {
     let sets = [("m2".to_string(), 0.0), ("I2".to_string(), 0.0)];
-    let (model, specs, y0) = setup::<EzyRoller>(&scenes::drive(), &sets).unwrap();
-    let effects = specs.iter().map(|s| s.resolve(&EzyRoller::INFO).unwrap()).collect();
-    let mut sys = Dynamics::new(model, effects, KktMethod::Auto);
+    let (mut sys, y0) = build::<EzyRoller>(&scenes::drive(), &sets, KktMethod::Auto).unwrap();
     assert_eq!(sys.kkt_name(), "dense-lu");
     let settings = RunSettings {
         dt: 1e-4,
@@ -180,9 +178,7 @@ fn inconsistent_initial_conditions_are_projected_or_refused() {
 fn a_mass_ratio_of_1e8_keeps_its_accuracy() {
     let run = |m2: f64, i2: f64| {
         let sets = [("m2".to_string(), m2), ("I2".to_string(), i2)];
-        let (model, specs, y0) = setup::<EzyRoller>(&scenes::drive(), &sets).unwrap();
-        let effects = specs.iter().map(|s| s.resolve(&EzyRoller::INFO).unwrap()).collect();
-        let mut sys = Dynamics::new(model, effects, KktMethod::Auto);
+        let (mut sys, y0) = build::<EzyRoller>(&scenes::drive(), &sets, KktMethod::Auto).unwrap();
         let settings = RunSettings {
             dt: 1e-3,
             t_end: 60.0,

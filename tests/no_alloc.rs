@@ -5,7 +5,7 @@
 use std::alloc::{GlobalAlloc, Layout, System};
 use std::cell::Cell;
 
-use ezy::run::setup;
+use ezy::run::build;
 use ezy_core::kkt::KktMethod;
 use ezy_core::{Dynamics, Method, Model, Observer, ProjectionKind, RunSettings, Sample, simulate};
 use ezy_models::{EzyRoller, scenes};
@@ -64,9 +64,7 @@ fn allocations_with(
     kkt: KktMethod,
     method: Method,
 ) -> usize {
-    let (model, specs, y0) = setup::<EzyRoller>(&scenes::drive(), sets).unwrap();
-    let effects = specs.iter().map(|s| s.resolve(&EzyRoller::INFO).unwrap()).collect();
-    let mut sys = Dynamics::new(model, effects, kkt);
+    let (mut sys, y0) = build::<EzyRoller>(&scenes::drive(), sets, kkt).unwrap();
     let settings = RunSettings {
         dt: 1e-4,
         t_end,

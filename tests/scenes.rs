@@ -4,9 +4,9 @@
 mod common;
 
 use common::{Recorder, max_abs};
-use ezy::run::setup;
+use ezy::run::{build, setup};
 use ezy_core::kkt::KktMethod;
-use ezy_core::{Baumgarte, Dynamics, Method, Model, ProjectionKind, RunSettings, Scene, simulate};
+use ezy_core::{Baumgarte, Method, Model, ProjectionKind, RunSettings, Scene, simulate};
 use ezy_models::scenes;
 use ezy_models::{ChaplyginSleigh, EzyRoller};
 
@@ -15,9 +15,7 @@ fn run<M: Model + Default>(
     y0: Option<Vec<f64>>,
     projection: ProjectionKind,
 ) -> (Recorder, ezy_core::Summary) {
-    let (model, specs, y0_scene) = setup::<M>(scene, &[]).expect("scene sets up");
-    let effects = specs.iter().map(|s| s.resolve(&M::INFO).unwrap()).collect();
-    let mut sys = Dynamics::new(model, effects, KktMethod::Auto);
+    let (mut sys, y0_scene) = build::<M>(scene, &[], KktMethod::Auto).expect("scene sets up");
     let settings = RunSettings {
         dt: scene.dt,
         t_end: scene.t_end,
@@ -163,9 +161,7 @@ fn baumgarte_keeps_the_drift_bounded() {
     let mut scene = scenes::drive();
     scene.dt = 0.01;
     let drift = |baumgarte: Option<Baumgarte>| {
-        let (model, specs, y0) = setup::<EzyRoller>(&scene, &[]).unwrap();
-        let effects = specs.iter().map(|s| s.resolve(&EzyRoller::INFO).unwrap()).collect();
-        let mut sys = Dynamics::new(model, effects, KktMethod::Auto);
+        let (mut sys, y0) = build::<EzyRoller>(&scene, &[], KktMethod::Auto).unwrap();
         sys.baumgarte = baumgarte;
         let settings = RunSettings {
             dt: scene.dt,
