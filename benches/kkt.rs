@@ -89,7 +89,7 @@ impl<M: Model> Observer<M> for Sink {
 }
 
 fn scene(c: &mut Criterion) {
-    let (_, _, y0) = setup::<EzyRoller>(&scenes::drive(), &[]).unwrap();
+    let y0 = setup::<EzyRoller>(&scenes::drive(), &[]).unwrap().y0;
     let settings = RunSettings {
         dt: 1e-4,
         t_end: 1.0,

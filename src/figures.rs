@@ -3,7 +3,7 @@
 
 use std::path::Path;
 
-use ezy_core::{Column, FigureKind, FigureSpec, Model};
+use ezy_core::{Column, FigureSpec, Model};
 
 use crate::output::Table;
 use crate::plot::{Chart, PlotError, Series, render_png};
@@ -63,37 +63,34 @@ fn named(table: &Table, name: &str, figure: &str) -> Result<Vec<f64>, FigureErro
 /// [`FigureError`] for a missing column or a drawing failure.
 pub fn render<M: Model>(fig: &FigureSpec, table: &Table, path: &Path) -> Result<(), FigureError> {
     let mut chart = Chart {
-        title: fig.title.to_string(),
-        x_label: fig.x_label.to_string(),
-        y_label: fig.y_label.to_string(),
+        title: fig.title.clone(),
+        x_label: fig.x_label.clone(),
+        y_label: fig.y_label.clone(),
         series: Vec::new(),
         equal_axes: false,
         log_y: false,
         log_floor: LOG_FLOOR,
     };
-    match &fig.kind {
-        FigureKind::Paths(names) => {
-            chart.equal_axes = true;
-            for name in names {
-                let (x, y, label) = match M::INFO.bodies.iter().find(|b| b.name == *name) {
-                    Some(b) => {
-                        let c = M::INFO.coords;
-                        (c[b.coords[0]].to_string(), c[b.coords[1]].to_string(), format!("centre of mass of {name}"))
-                    }
-                    None => (format!("{name}.x"), format!("{name}.y"), format!("point {name}")),
-                };
-                let xs = named(table, &x, fig.file)?;
-                let ys = named(table, &y, fig.file)?;
-                chart.series.push(Series { label, points: xs.into_iter().zip(ys).collect() });
-            }
+    if fig.paths.is_empty() {
+        chart.log_y = fig.log_y;
+        let xs = values(table, &fig.x, &fig.file)?;
+        for line in &fig.lines {
+            let vs = values(table, &line.y, &fig.file)?;
+            chart.series.push(Series { label: line.label.clone(), points: xs.iter().copied().zip(vs).collect() });
         }
-        FigureKind::Lines { x, ys, log_y } => {
-            chart.log_y = *log_y;
-            let xs = values(table, x, fig.file)?;
-            for (label, col) in ys {
-                let vs = values(table, col, fig.file)?;
-                chart.series.push(Series { label: label.to_string(), points: xs.iter().copied().zip(vs).collect() });
-            }
+    } else {
+        chart.equal_axes = true;
+        for name in &fig.paths {
+            let (x, y, label) = match M::INFO.bodies.iter().find(|b| b.name == name) {
+                Some(b) => {
+                    let c = M::INFO.coords;
+                    (c[b.coords[0]].to_string(), c[b.coords[1]].to_string(), format!("centre of mass of {name}"))
+                }
+                None => (format!("{name}.x"), format!("{name}.y"), format!("point {name}")),
+            };
+            let xs = named(table, &x, &fig.file)?;
+            let ys = named(table, &y, &fig.file)?;
+            chart.series.push(Series { label, points: xs.into_iter().zip(ys).collect() });
         }
     }
     Ok(render_png(&chart, path)?)

@@ -1,4 +1,4 @@
-//! The `ezy` command line: `ezy run [SCENE]`, `ezy list`.
+//! The `ezy` command line: `ezy run [SCENE | FILE.toml]`, `ezy list`, `ezy precision SCENE`.
 
 use std::path::PathBuf;
 use std::process::ExitCode;
@@ -28,13 +28,14 @@ enum Command {
 #[derive(clap::Args, Debug, Default)]
 #[command(allow_negative_numbers = true)]
 struct RunArgs {
-    /// Scene name (see `ezy list`).
+    /// Scene: a built-in name (see `ezy list`) or a path to a .toml scene file.
     #[arg(default_value = "drive")]
     scene: String,
     /// Output directory [default: out/SCENE].
     #[arg(long)]
     out: Option<PathBuf>,
-    /// Override a model parameter or an effect parameter (M0, omega), e.g. --set m2=2.
+    /// Override a model parameter (--set m2=2) or a number of an effect, by
+    /// EFFECT.KEY with the full key or its last part (--set motor.amplitude=3).
     #[arg(long = "set", value_name = "NAME=VALUE", value_parser = parse_set)]
     sets: Vec<(String, f64)>,
     /// Step size [s] (scene default: 1e-4).
@@ -148,24 +149,22 @@ fn main() -> ExitCode {
 fn list() {
     println!("models:");
     for (key, info) in ezy_models::MODELS {
-        println!("  {key:<18} {} (nq = {}, nc = {})", info.doc, info.nq(), info.nc());
+        println!("  {key:<26} {} (nq = {}, nc = {})", info.doc, info.nq(), info.nc());
     }
     println!("scenes:");
     for s in ezy_models::scenes::builtin() {
-        println!("  {:<18} {}", s.name, s.description);
+        println!("  {:<26} {}", s.scene.name, s.scene.description);
     }
 }
 
+/// A built-in scene by name or a scene file by path, checked.
 fn find_scene(name: &str) -> Result<ezy_core::Scene, String> {
-    ezy_models::scenes::find(name).ok_or_else(|| {
-        let known: Vec<&str> = ezy_models::scenes::builtin().iter().map(|s| s.name).collect();
-        format!("unknown scene `{name}`; known scenes: {}", known.join(", "))
-    })
+    ezy_models::scenes::load(name).map(|s| s.scene).map_err(|e| e.to_string())
 }
 
 fn precision(args: PrecisionArgs) -> Result<(), String> {
     let scene = find_scene(&args.scene)?;
-    let out = args.out.unwrap_or_else(|| PathBuf::from("out").join("precision").join(scene.name));
+    let out = args.out.unwrap_or_else(|| PathBuf::from("out").join("precision").join(&scene.name));
     let report = ezy::precision::precision(&scene, &out).map_err(|e| e.to_string())?;
     match args.format {
         Format::Table => {
@@ -182,7 +181,7 @@ fn precision(args: PrecisionArgs) -> Result<(), String> {
 fn run(args: RunArgs) -> Result<(), String> {
     let scene = find_scene(&args.scene)?;
     let opts = RunOptions {
-        out: args.out.unwrap_or_else(|| PathBuf::from("out").join(scene.name)),
+        out: args.out.unwrap_or_else(|| PathBuf::from("out").join(&scene.name)),
         sets: args.sets,
         dt: args.dt,
         t_end: args.t_end,
@@ -208,7 +207,7 @@ fn run(args: RunArgs) -> Result<(), String> {
     for w in &report.warnings {
         eprintln!("warning: {w}");
     }
-    print_summary(scene.name, &report);
+    print_summary(&scene.name, &report);
     Ok(())
 }
 

@@ -3,16 +3,19 @@
 //! truncated file that looks complete) and kept in memory for the figures.
 //!
 //! Columns: `t`; the coordinates in model order; their velocities in the
-//! same order (`<coord>d`); `T` (kinetic energy [J]); `W` (work of the
-//! applied forces [J]); `<point>.x`, `<point>.y` for every named point [m];
-//! one column per effect (`tau_<hinge>` [N m] for a hinge motor); `res_phi`
-//! (`max|C(q)|` [m]) and `res_vel` (`max|G(q) qd|` [m/s]).
+//! same order (`<coord>d`); then the optional groups the scene's
+//! `output.include` asks for, in this order (see [`OutputGroup`]): energy
+//! (`T`, `W`, `W_<effect>` [J]), points (`<point>.x`, `<point>.y` [m]),
+//! effects (`tau_<effect>` [N m] or `F_<effect>` [N]), constraint forces
+//! (`F_<hinge>.x`, `F_<hinge>.y`, `F_<skate>` [N]), residuals (`res_phi`
+//! = `max|C(q)|` [m], `res_vel` = `max|G(q) qd|` [m/s]).
 
 use std::fs::File;
 use std::io::BufWriter;
 use std::path::{Path, PathBuf};
 
-use ezy_core::{Dynamics, Model, Observer, Sample};
+use ezy_core::kkt::KktMethod;
+use ezy_core::{Dynamics, Model, Observer, OutputGroup, Sample, Scene, SimError};
 
 /// Errors writing the table.
 #[derive(Debug, thiserror::Error)]
@@ -25,6 +28,9 @@ pub enum OutputError {
         /// The cause.
         source: std::io::Error,
     },
+    /// The constraint forces could not be computed at an output time.
+    #[error(transparent)]
+    Sim(#[from] SimError),
     /// The CSV writer failed.
     #[error("{path}: {source}")]
     Csv {
@@ -35,22 +41,91 @@ pub enum OutputError {
     },
 }
 
-/// The column names for model `M` with the given effect columns.
-pub fn columns<M: Model>(effect_columns: &[String]) -> Vec<String> {
-    let info = &M::INFO;
-    let mut cols = vec!["t".to_string()];
-    cols.extend(info.coords.iter().map(|c| c.to_string()));
-    cols.extend(info.coords.iter().map(|c| format!("{c}d")));
-    cols.push("T".into());
-    cols.push("W".into());
-    for p in info.points {
-        cols.push(format!("{}.x", p.name));
-        cols.push(format!("{}.y", p.name));
+/// Assembles one output row from a sample: `t`, `q`, `qd`, then exactly the
+/// groups the scene asks for (see [`OutputGroup`]); a group not asked for
+/// is not computed.
+pub struct RowBuilder<M: Model> {
+    /// Column names, from [`Scene::columns`].
+    pub columns: Vec<String>,
+    energy: bool,
+    points: bool,
+    effects: bool,
+    residuals: bool,
+    /// A copy of the dynamics for the multipliers at output times
+    /// (constraint forces asked for).
+    probe: Option<Box<ForceProbe<M>>>,
+    point_buf: Vec<f64>,
+    f_scratch: Vec<f64>,
+}
+
+/// Solves the KKT system at an output sample for the constraint forces.
+struct ForceProbe<M: Model> {
+    sys: Dynamics<M>,
+    y: Vec<f64>,
+    dy: Vec<f64>,
+}
+
+impl<M: Model> RowBuilder<M> {
+    /// The row layout of `scene` for the run `sys`.
+    pub fn new(scene: &Scene, sys: &Dynamics<M>) -> Self {
+        let probe = scene.includes(OutputGroup::ConstraintForces).then(|| {
+            let mut copy = Dynamics::new(sys.model.clone(), sys.effects.clone(), KktMethod::Auto);
+            copy.baumgarte = sys.baumgarte;
+            let ny = copy.ny();
+            Box::new(ForceProbe { sys: copy, y: vec![0.0; ny], dy: vec![0.0; ny] })
+        });
+        Self {
+            columns: scene.columns(&M::INFO),
+            energy: scene.includes(OutputGroup::Energy),
+            points: scene.includes(OutputGroup::Points),
+            effects: scene.includes(OutputGroup::Effects),
+            residuals: scene.includes(OutputGroup::Residuals),
+            probe,
+            point_buf: vec![0.0; 2 * M::INFO.points.len()],
+            f_scratch: vec![0.0; M::INFO.nq()],
+        }
     }
-    cols.extend(effect_columns.iter().cloned());
-    cols.push("res_phi".into());
-    cols.push("res_vel".into());
-    cols
+
+    /// Fills `row` for sample `s` of the run `sys`.
+    ///
+    /// # Errors
+    /// [`SimError`] if the KKT solve for the constraint forces fails.
+    pub fn fill(&mut self, sys: &Dynamics<M>, s: &Sample<'_>, row: &mut Vec<f64>) -> Result<(), SimError> {
+        row.clear();
+        row.push(s.t);
+        row.extend_from_slice(s.q);
+        row.extend_from_slice(s.qd);
+        if self.energy {
+            row.push(s.kinetic_energy);
+            row.push(s.work);
+            row.extend_from_slice(s.works);
+        }
+        if self.points {
+            sys.model.points(s.q, &mut self.point_buf);
+            row.extend_from_slice(&self.point_buf);
+        }
+        if self.effects {
+            self.f_scratch.fill(0.0);
+            for e in &sys.effects {
+                row.push(e.apply(s.t, s.q, s.qd, &mut self.f_scratch).1);
+            }
+        }
+        if let Some(p) = &mut self.probe {
+            let nq = M::INFO.nq();
+            p.y[..nq].copy_from_slice(s.q);
+            p.y[nq..2 * nq].copy_from_slice(s.qd);
+            p.sys.rhs(s.t, &p.y, &mut p.dy)?;
+            // M qdd = f - G^T lambda: the constraint force on the
+            // coordinates is -G^T lambda, so a hinge row `r_a - r_b` pushes
+            // body a with -lambda and a skate row (unit normal n) with -lambda n.
+            row.extend(p.sys.lambda().iter().map(|l| -l));
+        }
+        if self.residuals {
+            row.push(s.residual_position);
+            row.push(s.residual_velocity);
+        }
+        Ok(())
+    }
 }
 
 /// Most rows kept in memory for the figures; beyond it every other row is
@@ -82,7 +157,7 @@ impl Table {
 }
 
 /// Writes samples to CSV and keeps them for figures.
-pub struct CsvObserver {
+pub struct CsvObserver<M: Model> {
     path: PathBuf,
     tmp: PathBuf,
     writer: csv::Writer<BufWriter<File>>,
@@ -93,11 +168,11 @@ pub struct CsvObserver {
     keep: u64,
     written: u64,
     row: Vec<f64>,
-    points: Vec<f64>,
+    builder: RowBuilder<M>,
     progress: Option<crate::progress::Progress>,
 }
 
-impl CsvObserver {
+impl<M: Model> CsvObserver<M> {
     /// Creates `path`'s temporary sibling and writes the header; `rows` is
     /// the expected number of rows (the table is preallocated).
     ///
@@ -105,10 +180,11 @@ impl CsvObserver {
     /// [`OutputError`] if the file cannot be created or written.
     pub fn create(
         path: &Path,
-        columns: Vec<String>,
+        builder: RowBuilder<M>,
         progress: Option<crate::progress::Progress>,
         rows: usize,
     ) -> Result<Self, OutputError> {
+        let columns = builder.columns.clone();
         let tmp = path.with_extension("csv.partial");
         let file = File::create(&tmp).map_err(|source| OutputError::Io { path: tmp.clone(), source })?;
         let mut writer = csv::Writer::from_writer(BufWriter::new(file));
@@ -122,7 +198,7 @@ impl CsvObserver {
             keep: 1,
             written: 0,
             row: Vec::with_capacity(n),
-            points: Vec::new(),
+            builder,
             progress,
         })
     }
@@ -151,23 +227,11 @@ impl CsvObserver {
     }
 }
 
-impl<M: Model> Observer<M> for CsvObserver {
+impl<M: Model> Observer<M> for CsvObserver<M> {
     type Error = OutputError;
 
     fn observe(&mut self, sys: &Dynamics<M>, s: &Sample<'_>) -> Result<(), OutputError> {
-        let info = &M::INFO;
-        self.points.resize(2 * info.points.len(), 0.0);
-        sys.model.points(s.q, &mut self.points);
-        self.row.clear();
-        self.row.push(s.t);
-        self.row.extend_from_slice(s.q);
-        self.row.extend_from_slice(s.qd);
-        self.row.push(s.kinetic_energy);
-        self.row.push(s.work);
-        self.row.extend_from_slice(&self.points);
-        self.row.extend(sys.effects.iter().map(|e| e.output(s.t)));
-        self.row.push(s.residual_position);
-        self.row.push(s.residual_velocity);
+        self.builder.fill(sys, s, &mut self.row)?;
         let mut buf = ryu::Buffer::new();
         for &v in &self.row {
             self.writer

@@ -112,13 +112,13 @@ fn run_once<M: Model + Default>(
 ) -> Result<(Last, ezy_core::Summary), SimError> {
     let (mut sys, y0) = build::<M>(scene, &[], KktMethod::Auto)?;
     let settings = RunSettings {
-        dt: setting.dt.unwrap_or(scene.dt),
+        dt: setting.dt.unwrap_or(scene.integrator.dt),
         t_end: scene.t_end,
         every,
         projection: setting.projection,
         method: setting.method,
-        rtol: setting.tol.unwrap_or(scene.rtol),
-        atol: setting.tol.unwrap_or(scene.atol),
+        rtol: setting.tol.unwrap_or(scene.integrator.rtol),
+        atol: setting.tol.unwrap_or(scene.integrator.atol),
         // accuracy is what is measured here, not a reason to stop
         balance_limit: None,
     };
@@ -166,8 +166,8 @@ impl ModelVisitor for Precision<'_> {
 /// # Errors
 /// [`Error`] if the reference run fails or a file cannot be written.
 pub fn precision(scene: &Scene, out: &Path) -> Result<Report, Error> {
-    ezy_models::visit(scene.model, Precision { scene, out })
-        .unwrap_or_else(|| Err(Error::UnknownModel { scene: scene.name.into(), model: scene.model.into() }))
+    ezy_models::visit(&scene.model, Precision { scene, out })
+        .unwrap_or_else(|| Err(Error::UnknownModel { scene: scene.name.clone(), model: scene.model.clone() }))
 }
 
 fn precision_model<M: Model + Default>(scene: &Scene, out: &Path) -> Result<Report, Error> {

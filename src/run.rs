@@ -12,7 +12,7 @@ use ezy_core::{
 };
 
 use crate::figures::FigureError;
-use crate::output::{CsvObserver, OutputError, Table, columns};
+use crate::output::{CsvObserver, OutputError, RowBuilder, Table};
 
 /// Everything that can stop `ezy run`.
 #[derive(Debug, thiserror::Error)]
@@ -49,7 +49,8 @@ pub enum Error {
 pub struct RunOptions {
     /// Output directory.
     pub out: PathBuf,
-    /// `NAME=VALUE` overrides of model or effect parameters.
+    /// `NAME=VALUE` overrides of model parameters or effect numbers
+    /// (`EFFECT.KEY`, see [`Scene::set`]).
     pub sets: Vec<(String, f64)>,
     /// Step size [s].
     pub dt: Option<f64>,
@@ -97,8 +98,8 @@ pub struct Report {
 /// # Errors
 /// [`Error`] naming the bad setting, parameter, or file.
 pub fn run_scene(scene: &Scene, opts: &RunOptions) -> Result<Report, Error> {
-    ezy_models::visit(scene.model, Runner { scene, opts })
-        .unwrap_or_else(|| Err(Error::UnknownModel { scene: scene.name.into(), model: scene.model.into() }))
+    ezy_models::visit(&scene.model, Runner { scene, opts })
+        .unwrap_or_else(|| Err(Error::UnknownModel { scene: scene.name.clone(), model: scene.model.clone() }))
 }
 
 struct Runner<'a> {
@@ -123,41 +124,40 @@ fn lookup<M: Model>(kind: &'static str, name: &str, names: &[&str]) -> Result<us
     })
 }
 
-/// The model with overrides applied, the effects and the consistent initial state.
-pub fn setup<M: Model + Default>(
-    scene: &Scene,
-    sets: &[(String, f64)],
-) -> Result<(M, Vec<ezy_core::EffectSpec>, Vec<f64>), SimError> {
-    setup_with_report(scene, sets).map(|(m, e, y, _)| (m, e, y))
+/// Everything a run of a scene starts from.
+#[derive(Debug, Clone)]
+pub struct Setup<M: Model> {
+    /// The model with the scene's and the command line's parameter values.
+    pub model: M,
+    /// The scene after the command-line overrides.
+    pub scene: Scene,
+    /// The scene's effects, resolved against the model.
+    pub effects: Vec<ezy_core::Effect>,
+    /// Consistent initial state `y0 = [q, qd, W_e = 0 ...]`.
+    pub y0: Vec<f64>,
+    /// What the initial-condition solve had to correct.
+    pub initial: InitialReport,
 }
 
-/// [`setup`], with what the initial-condition solve had to correct.
+/// Applies the overrides `sets` (model parameters, `EFFECT.KEY` numbers) to
+/// `scene`, builds the model and its effects, checks the masses and finds
+/// the consistent initial state.
 ///
 /// # Errors
-/// As [`setup`].
-pub fn setup_with_report<M: Model + Default>(
-    scene: &Scene,
-    sets: &[(String, f64)],
-) -> Result<(M, Vec<ezy_core::EffectSpec>, Vec<f64>, InitialReport), SimError> {
+/// [`SimError::UnknownName`] for an unknown override or name,
+/// [`SimError::Scene`] for an override that breaks a scene key,
+/// [`SimError::Setting`] for a negative mass, [`SimError::Initial`] if no
+/// consistent initial state is near the given one.
+pub fn setup<M: Model + Default>(scene: &Scene, sets: &[(String, f64)]) -> Result<Setup<M>, SimError> {
     let info = &M::INFO;
-    let mut model = M::default();
-    let mut effects = scene.effects.clone();
+    let mut scene = scene.clone();
     for (name, value) in sets {
-        if !value.is_finite() {
-            return Err(SimError::Setting { name: name.clone(), value: *value, reason: "must be a finite number" });
-        }
-        if let Some(i) = info.param_index(name) {
-            model.set_param(i, *value);
-        } else if effects.iter_mut().filter_map(|e| e.set_param(name, *value).then_some(())).count() == 0 {
-            let mut known: Vec<&str> = info.params.iter().map(|p| p.name).collect();
-            known.extend(effects.iter().flat_map(|e| e.param_names().iter().copied()));
-            return Err(SimError::UnknownName {
-                kind: "parameter",
-                name: name.clone(),
-                model: info.name,
-                known: known.join(", "),
-            });
-        }
+        scene.set(info, name, *value)?;
+    }
+    scene.check(info).map_err(|e| SimError::Scene { key: e.key(), message: e.message })?;
+    let mut model = M::default();
+    for (name, value) in &scene.params {
+        model.set_param(info.param_index(name).expect("checked"), *value);
     }
     let value = |v: &InitValue| -> Result<f64, SimError> {
         match v {
@@ -168,11 +168,11 @@ pub fn setup_with_report<M: Model + Default>(
         }
     };
     let mut given_q = Vec::new();
-    for (name, v) in &scene.q0 {
+    for (name, v) in &scene.initial.q {
         given_q.push((lookup::<M>("coordinate", name, info.coords)?, value(v)?));
     }
     let mut given_qd = Vec::new();
-    for (name, v) in &scene.qd0 {
+    for (name, v) in &scene.initial.qd {
         given_qd.push((lookup::<M>("coordinate", name, info.coords)?, value(v)?));
     }
     let mut mass = vec![0.0; info.nq()];
@@ -191,63 +191,52 @@ pub fn setup_with_report<M: Model + Default>(
             }
         }
     }
-    let (q, qd, report) = consistent_state(&model, &given_q, &given_qd)?;
+    let effects = scene.resolve_effects(&model)?;
+    let (q, qd, initial) = consistent_state(&model, &given_q, &given_qd)?;
     let mut y0 = q;
     y0.extend_from_slice(&qd);
-    y0.push(0.0);
-    Ok((model, effects, y0, report))
+    y0.resize(y0.len() + effects.len(), 0.0);
+    Ok(Setup { model, scene, effects, y0, initial })
 }
 
 /// The scene's model with overrides, its effects resolved, and the
 /// consistent initial state: everything a run integrates.
 ///
 /// # Errors
-/// As [`setup`], and [`SimError::UnknownName`] for an effect naming a hinge
-/// the model does not have.
+/// As [`setup`].
 pub fn build<M: Model + Default>(
     scene: &Scene,
     sets: &[(String, f64)],
     kkt: KktMethod,
 ) -> Result<(Dynamics<M>, Vec<f64>), SimError> {
-    build_with_report(scene, sets, kkt).map(|(sys, y0, _)| (sys, y0))
-}
-
-/// [`build`], with what the initial-condition solve had to correct.
-///
-/// # Errors
-/// As [`build`].
-pub fn build_with_report<M: Model + Default>(
-    scene: &Scene,
-    sets: &[(String, f64)],
-    kkt: KktMethod,
-) -> Result<(Dynamics<M>, Vec<f64>, InitialReport), SimError> {
-    let (model, specs, y0, report) = setup_with_report::<M>(scene, sets)?;
-    let effects = specs.iter().map(|s| s.resolve(&M::INFO)).collect::<Result<Vec<_>, _>>()?;
-    Ok((Dynamics::new(model, effects, kkt), y0, report))
+    let s = setup::<M>(scene, sets)?;
+    Ok((Dynamics::new(s.model, s.effects, kkt), s.y0))
 }
 
 fn run_model<M: Model + Default>(scene: &Scene, opts: &RunOptions) -> Result<Report, Error> {
     let wall = Instant::now();
     let settings = RunSettings {
-        dt: opts.dt.unwrap_or(scene.dt),
+        dt: opts.dt.unwrap_or(scene.integrator.dt),
         t_end: opts.t_end.unwrap_or(scene.t_end),
-        every: opts.every.unwrap_or(scene.every),
-        projection: opts.projection.unwrap_or(scene.projection),
-        method: opts.method.unwrap_or(scene.method),
-        rtol: opts.rtol.unwrap_or(scene.rtol),
-        atol: opts.atol.unwrap_or(scene.atol),
+        every: opts.every.unwrap_or(scene.output.every),
+        projection: opts.projection.unwrap_or(scene.integrator.projection),
+        method: opts.method.unwrap_or(scene.integrator.method),
+        rtol: opts.rtol.unwrap_or(scene.integrator.rtol),
+        atol: opts.atol.unwrap_or(scene.integrator.atol),
         balance_limit: Some(ezy_core::simulate::BALANCE_LIMIT),
     };
     settings.validate()?;
-    let (mut sys, y0, initial) = build_with_report::<M>(scene, &opts.sets, KktMethod::Auto)?;
-    let effect_columns: Vec<String> = sys.effects.iter().map(|e| e.column().to_string()).collect();
+    let Setup { model, scene, effects, y0, initial } = setup::<M>(scene, &opts.sets)?;
+    let scene = &scene;
+    let mut sys = Dynamics::new(model, effects, KktMethod::Auto);
     sys.baumgarte = opts.baumgarte;
 
     std::fs::create_dir_all(&opts.out).map_err(|source| Error::OutDir { path: opts.out.clone(), source })?;
     let csv_path = opts.out.join("trajectory.csv");
     let progress = if opts.progress { crate::progress::Progress::new(settings.t_end) } else { None };
     let n_rows = settings.n_steps() / settings.output_stride() + 2;
-    let mut obs = CsvObserver::create(&csv_path, columns::<M>(&effect_columns), progress, n_rows as usize)?;
+    let rows = RowBuilder::new(scene, &sys);
+    let mut obs = CsvObserver::create(&csv_path, rows, progress, n_rows as usize)?;
     let summary = match ezy_core::simulate(&mut sys, &y0, &settings, &mut obs) {
         Ok(s) => s,
         Err(e) => {
@@ -262,12 +251,12 @@ fn run_model<M: Model + Default>(scene: &Scene, opts: &RunOptions) -> Result<Rep
     let mut files = vec![csv_path];
     if opts.figures {
         for fig in &scene.figures {
-            let path = opts.out.join(fig.file);
+            let path = opts.out.join(&fig.file);
             crate::figures::render::<M>(fig, &table, &path)?;
             files.push(path);
         }
     }
-    let state_names = (0..Dynamics::<M>::NY).map(ezy_core::simulate::state_name::<M>).collect();
+    let state_names = (0..sys.ny()).map(|k| sys.state_name(k)).collect();
     let mut warnings = initial.warnings();
     if let Some((t, c)) = summary.ill_conditioned {
         warnings.push(format!(

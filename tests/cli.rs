@@ -37,14 +37,15 @@ fn run_writes_the_csv_and_every_figure() {
     let header = lines.next().unwrap();
     assert_eq!(
         header,
-        "t,x1,y1,phi1,x2,y2,phi2,x1d,y1d,phi1d,x2d,y2d,phi2d,T,W,A.x,A.y,B1.x,B1.y,B2.x,B2.y,C.x,C.y,tau_B,res_phi,res_vel"
+        "t,x1,y1,phi1,x2,y2,phi2,x1d,y1d,phi1d,x2d,y2d,phi2d,T,W,W_motor,A.x,A.y,B1.x,B1.y,B2.x,B2.y,C.x,C.y,tau_motor,res_phi,res_vel"
     );
     let rows: Vec<Vec<f64>> = lines.map(|l| l.split(',').map(|v| v.parse().unwrap()).collect()).collect();
     // t = 0, 0.1, ..., 0.5: the final time is written
     assert_eq!(rows.len(), 6);
     assert!((rows[5][0] - 0.5).abs() < 1e-12);
-    // the motor column is M0 cos(omega t)
-    let tau = rows[5][23];
+    // the motor column is M0 cos(omega t); W is the motor's work alone
+    let tau = rows[5][24];
+    assert_eq!(rows[5][14], rows[5][15]);
     assert!((tau - 2.0 * (std::f64::consts::PI * 0.5).cos()).abs() < 1e-12);
     for f in [
         "fig3_paths.png",

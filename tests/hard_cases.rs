@@ -4,7 +4,7 @@ mod common;
 
 use common::{Recorder, max_abs};
 use ezy::output::FIGURE_ROWS;
-use ezy::run::{RunOptions, build, run_scene, setup, setup_with_report};
+use ezy::run::{RunOptions, build, run_scene, setup};
 use ezy_core::kkt::KktMethod;
 use ezy_core::{Dynamics, InitValue, Method, Model, ProjectionKind, RunSettings, simulate};
 use ezy_models::{EzyRoller, scenes};
@@ -146,10 +146,10 @@ ezy_core::model! {
 #[test]
 fn inconsistent_initial_conditions_are_projected_or_refused() {
     let mut scene = scenes::drive();
-    scene.q0.push(("x2", InitValue::Num(0.5 + 1e-3)));
-    scene.q0.push(("y2", InitValue::Num(-2e-3)));
-    scene.qd0.push(("y1", InitValue::Num(0.01)));
-    let (m, _, y0, report) = setup_with_report::<EzyRoller>(&scene, &[]).unwrap();
+    scene.initial.q.push(("x2".into(), InitValue::Num(0.5 + 1e-3)));
+    scene.initial.q.push(("y2".into(), InitValue::Num(-2e-3)));
+    scene.initial.qd.push(("y1".into(), InitValue::Num(0.01)));
+    let ezy::run::Setup { model: m, y0, initial: report, .. } = setup::<EzyRoller>(&scene, &[]).unwrap();
     assert!((report.position_violation - 2e-3).abs() < 1e-14, "{report:?}");
     assert!(report.position_correction > 1e-4 && report.position_correction < 3e-3, "{report:?}");
     // what least squares in the unknowns leaves of the 0.01 m/s given in y1d
@@ -159,9 +159,15 @@ fn inconsistent_initial_conditions_are_projected_or_refused() {
     assert!(w[0].contains("violate the hinges by 2.000e-3 m"), "{}", w[0]);
     let mut phi = [0.0; 2];
     m.phi(&y0[..6], &mut phi);
-    assert!(phi.iter().all(|c| c.abs() <= 1e-12), "{phi:?}");
+    assert!(phi.iter().all(|c: &f64| c.abs() <= 1e-12), "{phi:?}");
 
-    let scene = ezy_core::Scene { model: "bar", q0: vec![], qd0: vec![], ..scenes::free() };
+    let scene = ezy_core::Scene {
+        model: "bar".into(),
+        initial: Default::default(),
+        figures: vec![],
+        effects: vec![],
+        ..scenes::free()
+    };
     let err = setup::<OverstretchedBar>(&scene, &[]).unwrap_err().to_string();
     assert!(err.contains("no configuration satisfies the hinges"), "{err}");
 }
@@ -299,8 +305,8 @@ fn a_redundant_parallelogram_crank_is_named() {
 #[test]
 fn overflowing_stages_stop_with_step_size_too_small() {
     let mut scene = scenes::free();
-    scene.qd0 = vec![("x1", InitValue::Num(1e160)), ("phi1", InitValue::Num(1e160))];
-    let (model, _, y0) = setup::<EzyRoller>(&scene, &[]).unwrap();
+    scene.initial.qd = vec![("x1".into(), InitValue::Num(1e160)), ("phi1".into(), InitValue::Num(1e160))];
+    let ezy::run::Setup { model, y0, .. } = setup::<EzyRoller>(&scene, &[]).unwrap();
     let mut sys = Dynamics::new(model, vec![], KktMethod::Auto);
     let settings = RunSettings {
         dt: 1e-3,

@@ -42,9 +42,10 @@ proptest! {
         let mut scene = scenes::drive();
         scene.t_end = 5.0;
         let phi2 = phi1 + if sign { rel } else { -rel };
-        scene.q0 = vec![("x1", InitValue::Num(0.0)), ("y1", InitValue::Num(0.0)), ("phi1", InitValue::Num(phi1)), ("phi2", InitValue::Num(phi2))];
-        scene.qd0 = vec![("x1", InitValue::Num(x1d)), ("phi1", InitValue::Num(phi1d))];
-        let sets: Vec<(String, f64)> = [("m1", m1), ("m2", m2), ("I1", i1), ("I2", i2), ("a", a), ("b", b), ("c", c), ("d", d), ("M0", m0)]
+        let given = |v: &[(&str, f64)]| v.iter().map(|(n, x)| (n.to_string(), InitValue::Num(*x))).collect();
+        scene.initial.q = given(&[("x1", 0.0), ("y1", 0.0), ("phi1", phi1), ("phi2", phi2)]);
+        scene.initial.qd = given(&[("x1", x1d), ("phi1", phi1d)]);
+        let sets: Vec<(String, f64)> = [("m1", m1), ("m2", m2), ("I1", i1), ("I2", i2), ("a", a), ("b", b), ("c", c), ("d", d), ("motor.amplitude", m0)]
             .iter().map(|(n, v)| (n.to_string(), *v)).collect();
         let built = build::<EzyRoller>(&scene, &sets, KktMethod::Auto);
         // x1d and phi1d do not determine the other velocities for a few

@@ -17,13 +17,13 @@ fn run<M: Model + Default>(
 ) -> (Recorder, ezy_core::Summary) {
     let (mut sys, y0_scene) = build::<M>(scene, &[], KktMethod::Auto).expect("scene sets up");
     let settings = RunSettings {
-        dt: scene.dt,
+        dt: scene.integrator.dt,
         t_end: scene.t_end,
-        every: scene.every,
+        every: scene.output.every,
         projection,
-        method: scene.method,
-        rtol: scene.rtol,
-        atol: scene.atol,
+        method: scene.integrator.method,
+        rtol: scene.integrator.rtol,
+        atol: scene.integrator.atol,
         balance_limit: None,
     };
     let mut rec = Recorder::default();
@@ -33,7 +33,7 @@ fn run<M: Model + Default>(
 
 #[test]
 fn free_initial_velocities_follow_from_the_constraints() {
-    let (_, _, y0) = setup::<EzyRoller>(&scenes::free(), &[]).unwrap();
+    let y0 = setup::<EzyRoller>(&scenes::free(), &[]).unwrap().y0;
     let m = EzyRoller::default();
     let want_q = [m.a, 0.0, 0.0, m.a + m.b, m.d, std::f64::consts::FRAC_PI_2];
     let want_qd = [1.0, 0.0, 0.0, 0.5, 0.0, 5.0];
@@ -78,7 +78,7 @@ fn projection_removes_the_drift_of_a_coarse_step() {
     // drift is visible, and projection removes it: a check that the residual
     // columns measure something and that projection acts.
     let mut scene = scenes::drive();
-    scene.dt = 0.01;
+    scene.integrator.dt = 0.01;
     let (free, _) = run::<EzyRoller>(&scene, None, ProjectionKind::None);
     let (proj, _) = run::<EzyRoller>(&scene, None, ProjectionKind::MassWeighted);
     let drift = max_abs(free.res_phi.iter().copied()).max(max_abs(free.res_vel.iter().copied()));
@@ -92,7 +92,7 @@ fn projection_removes_the_drift_of_a_coarse_step() {
 #[test]
 fn drive_is_se2_invariant() {
     let scene = scenes::drive();
-    let (_, _, y0) = setup::<EzyRoller>(&scene, &[]).unwrap();
+    let y0 = setup::<EzyRoller>(&scene, &[]).unwrap().y0;
     let (theta, dx, dy) = (0.7_f64, 3.0, -1.5);
     let (c, s) = (theta.cos(), theta.sin());
     let rot = |x: f64, y: f64| (c * x - s * y, s * x + c * y);
@@ -159,14 +159,14 @@ fn sleigh_matches_the_closed_form() {
 #[test]
 fn baumgarte_keeps_the_drift_bounded() {
     let mut scene = scenes::drive();
-    scene.dt = 0.01;
+    scene.integrator.dt = 0.01;
     let drift = |baumgarte: Option<Baumgarte>| {
         let (mut sys, y0) = build::<EzyRoller>(&scene, &[], KktMethod::Auto).unwrap();
         sys.baumgarte = baumgarte;
         let settings = RunSettings {
-            dt: scene.dt,
+            dt: scene.integrator.dt,
             t_end: scene.t_end,
-            every: scene.every,
+            every: scene.output.every,
             projection: ProjectionKind::None,
             method: Method::Rk4,
             rtol: 1e-9,
@@ -190,9 +190,9 @@ fn adaptive_methods_meet_their_tolerance_on_the_sleigh() {
     for method in [Method::Dopri5, Method::Dop853] {
         for tol in [1e-6, 1e-9, 1e-11] {
             let mut scene = scenes::sleigh();
-            scene.method = method;
-            scene.rtol = tol;
-            scene.atol = tol;
+            scene.integrator.method = method;
+            scene.integrator.rtol = tol;
+            scene.integrator.atol = tol;
             let (rec, s) = run::<ChaplyginSleigh>(&scene, None, ProjectionKind::default());
             let worst = sleigh_error(&rec);
             assert!(worst <= 10.0 * tol, "{method:?} tol {tol:e}: error {worst:e} after {} steps", s.steps);
@@ -204,11 +204,11 @@ fn adaptive_methods_meet_their_tolerance_on_the_sleigh() {
 #[test]
 fn missing_initial_values_are_an_error_that_names_them() {
     let mut scene = scenes::drive();
-    scene.qd0.clear();
+    scene.initial.qd.clear();
     let err = setup::<EzyRoller>(&scene, &[]).unwrap_err().to_string();
     assert!(err.contains("give 2 more"), "{err}");
     let mut scene = scenes::drive();
-    scene.q0.retain(|(n, _)| *n != "phi2");
+    scene.initial.q.retain(|(n, _)| n != "phi2");
     let err = setup::<EzyRoller>(&scene, &[]).unwrap_err().to_string();
     assert!(err.contains("phi2"), "{err}");
 }
@@ -216,9 +216,24 @@ fn missing_initial_values_are_an_error_that_names_them() {
 #[test]
 fn overrides_reach_the_model_and_the_motor() {
     let scene = scenes::drive();
-    let (m, effects, _) = setup::<EzyRoller>(&scene, &[("m2".into(), 2.5), ("M0".into(), 3.0)]).unwrap();
-    assert_eq!(m.m2, 2.5);
-    assert!(matches!(effects[0], ezy_core::EffectSpec::HingeMotor { m0, .. } if m0 == 3.0));
+    let s = setup::<EzyRoller>(&scene, &[("m2".into(), 2.5), ("motor.amplitude".into(), 3.0)]).unwrap();
+    assert_eq!(s.model.m2, 2.5);
+    let (_, motor) = &s.scene.effects[0];
+    let want = ezy_core::effects::Waveform::Cos(ezy_core::effects::Harmonic {
+        amplitude: 3.0,
+        omega: std::f64::consts::PI,
+        phase: 0.0,
+    });
+    assert!(matches!(motor, ezy_core::EffectSpec::HingeMotor { torque, .. } if *torque == want), "{motor:?}");
+    // the full key path works too, and the scene given is not changed
+    let s = setup::<EzyRoller>(&scene, &[("motor.torque.cos.omega".into(), 2.0)]).unwrap();
+    assert!(
+        matches!(&s.scene.effects[0].1, ezy_core::EffectSpec::HingeMotor { torque: ezy_core::effects::Waveform::Cos(h), .. } if h.omega == 2.0)
+    );
+    assert_eq!(scene, scenes::drive());
     let err = setup::<EzyRoller>(&scene, &[("mass".into(), 1.0)]).unwrap_err().to_string();
-    assert!(err.contains("unknown parameter `mass`") && err.contains("m1") && err.contains("omega"), "{err}");
+    assert!(
+        err.contains("unknown parameter `mass`") && err.contains("m1") && err.contains("motor.torque.cos.omega"),
+        "{err}"
+    );
 }

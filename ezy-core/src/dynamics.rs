@@ -1,10 +1,11 @@
 //! The right-hand side of the index-1 DAE as a first-order ODE.
 //!
-//! State layout `y = [q (nq), qd (nq), W]` with `W` [J] the work of the
-//! applied forces, integrated as a state (`W' = f . qd`) so that the energy
-//! balance `T - T0 = W` holds to the integrator's accuracy (SPEC §3; the
-//! seed's Riemann sum did not). `y' = [qd, qdd, f . qd]` with `qdd` from the
-//! KKT system (SPEC §1).
+//! State layout `y = [q (nq), qd (nq), W_1 .. W_k]` with `W_e` [J] the
+//! work of effect `e`, integrated as a state (`W_e' = P_e`, its power) so
+//! that the energy balance `T - T0 = sum W_e` holds to the integrator's
+//! accuracy for any combination of effects (SPEC §3; the seed's Riemann
+//! sum did not). `y' = [qd, qdd, P_1 .. P_k]` with `qdd` from the KKT
+//! system (SPEC §1). A scene without effects has no work states.
 
 use crate::SimError;
 use crate::effects::Effect;
@@ -85,8 +86,29 @@ pub const CONDITION_WARNING: f64 = 1e10;
 impl<M: Model> Dynamics<M> {
     /// Number of coordinates nq.
     pub const NQ: usize = M::INFO.coords.len();
-    /// Length of the state vector `y` (2 nq + 1).
-    pub const NY: usize = 2 * M::INFO.coords.len() + 1;
+
+    /// Length of the state vector `y`: 2 nq + number of effects.
+    pub fn ny(&self) -> usize {
+        2 * Self::NQ + self.effects.len()
+    }
+
+    /// Total work of the effects `sum W_e` [J] in the state `y`.
+    pub fn work(&self, y: &[f64]) -> f64 {
+        y[2 * Self::NQ..].iter().sum()
+    }
+
+    /// Name of state component `k` of `y`: coordinates, `<coord>d`, `W_<effect>`.
+    pub fn state_name(&self, k: usize) -> String {
+        let coords = M::INFO.coords;
+        let nq = Self::NQ;
+        if k < nq {
+            coords[k].to_string()
+        } else if k < 2 * nq {
+            format!("{}d", coords[k - nq])
+        } else {
+            self.effects[k - 2 * nq].work_column()
+        }
+    }
 
     /// Builds the right-hand side; `method` picks the KKT path.
     pub fn new(model: M, effects: Vec<Effect>, method: KktMethod) -> Self {
@@ -120,7 +142,7 @@ impl<M: Model> Dynamics<M> {
         self.kkt.name()
     }
 
-    /// Evaluates `dy = F(t, y)` (both of length [`Dynamics::NY`]).
+    /// Evaluates `dy = F(t, y)` (both of length [`Dynamics::ny`]).
     ///
     /// # Errors
     /// [`SimError::Kkt`] if the KKT system is singular at this state.
@@ -147,8 +169,10 @@ impl<M: Model> Dynamics<M> {
             }
         }
         ws.f.fill(0.0);
-        for e in &self.effects {
-            e.apply(t, q, qd, &mut ws.f);
+        let (dq, rest) = dy.split_at_mut(nq);
+        let (dqd, power) = rest.split_at_mut(nq);
+        for (e, p) in self.effects.iter().zip(power) {
+            *p = e.apply(t, q, qd, &mut ws.f).0;
         }
         let sys = KktSystem { mass: &self.mass, g: &ws.g, g_values: &ws.g_values, f: &ws.f, gamma: &ws.gamma };
         self.kkt.solve(&sys, &mut ws.qdd, &mut ws.lambda).map_err(|source| SimError::from_kkt::<M>(t, source))?;
@@ -160,9 +184,8 @@ impl<M: Model> Dynamics<M> {
         }
         self.counters.rhs_evals += 1;
         self.counters.kkt_solves += 1;
-        dy[..nq].copy_from_slice(qd);
-        dy[nq..2 * nq].copy_from_slice(&ws.qdd);
-        dy[2 * nq] = ws.f.iter().zip(qd).map(|(f, v)| f * v).sum();
+        dq.copy_from_slice(qd);
+        dqd.copy_from_slice(&ws.qdd);
         Ok(())
     }
 

@@ -64,6 +64,24 @@ pub enum SimError {
         /// Comma-separated known names.
         known: String,
     },
+    /// A scene key is wrong (after command-line overrides).
+    #[error("scene key `{key}`: {message}")]
+    Scene {
+        /// The key, e.g. `effects.motor.torque`.
+        key: String,
+        /// What is wrong.
+        message: String,
+    },
+    /// An effect names something the model does not have, or a bad number.
+    #[error("effect `{effect}`, key `{field}`: {message}")]
+    Effect {
+        /// The effect's name in the scene.
+        effect: String,
+        /// The key at fault.
+        field: &'static str,
+        /// What is wrong.
+        message: String,
+    },
     /// Consistent initial conditions could not be found.
     #[error("initial conditions: {reason}")]
     Initial {

@@ -22,7 +22,10 @@ pub use integrator::Method;
 pub use model::{BodyInfo, HingeInfo, Model, ModelInfo, ParamInfo, PointInfo, SkateInfo};
 pub use projection::ProjectionKind;
 pub use scalar::Scalar;
-pub use scene::{Column, FigureKind, FigureSpec, InitValue, ModelVisitor, Scene};
+pub use scene::{
+    Column, FigureSpec, InitValue, Initial, IntegratorSettings, Line, ModelVisitor, OutputGroup, OutputSettings, Scene,
+    SceneError, SceneFileError,
+};
 pub use simulate::{Observer, RunError, RunSettings, Sample, Summary, simulate};
 
 /// Paths the generated code uses; not public API.

@@ -160,6 +160,14 @@ pub trait Model: Clone + Send + Sync + 'static {
     /// Diagonal of the mass matrix `M` (nq): `m [kg], m [kg], I [kg m^2]` per body.
     fn mass_diagonal(&self, out: &mut [f64]);
 
+    /// Body-frame geometry at the current parameters: `points` (2 x
+    /// npoints) gets each named point's coordinates `(px, py)` [m] in its
+    /// body's frame (centre of mass at the origin, heading along x);
+    /// `blades` (2 x nskates) gets each skate's unit blade direction
+    /// `(tx, ty)` in its body's frame. Effects that act at a point or along
+    /// a blade are built from these (SPEC §1 conventions).
+    fn local_geometry(&self, points: &mut [f64], blades: &mut [f64]);
+
     /// Holonomic residual `phi(q)` (nh) [m].
     fn phi<S: Scalar>(&self, q: &[S], phi: &mut [S]);
     /// Values of the holonomic Jacobian `C_q = d phi / dq` at the first

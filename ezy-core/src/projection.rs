@@ -23,7 +23,8 @@ pub const POSITION_TOL: f64 = 1e-12;
 pub const POSITION_MAX_ITER: usize = 10;
 
 /// Which projection to apply after every step.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "lowercase")]
 pub enum ProjectionKind {
     /// No projection: the constraints drift.
     None,
@@ -31,6 +32,7 @@ pub enum ProjectionKind {
     Euclidean,
     /// `W = M`, the kinetic-energy metric (default, see module docs).
     #[default]
+    #[serde(rename = "mass")]
     MassWeighted,
 }
 

@@ -1,98 +1,781 @@
-//! Scenes: which model, where it starts, which effects act, how long, and
-//! which figures to draw. Built-in scenes live in `ezy-models`.
+//! Scenes: which model, which parameters, where it starts, which effects
+//! act, how long, which integrator, which outputs and figures. A scene is a
+//! small TOML file (the README documents the format); the built-in scenes
+//! are files in `models/scenes/`.
+//!
+//! Loading has two stages, each with errors that name the file, line and
+//! column and the key: [`Scene::from_toml`] (syntax, types, unknown keys,
+//! unknown effect kinds), then [`Scene::check`] against the model's names
+//! (coordinates, parameters, hinges, skates, bodies, points, columns).
+
+use std::fmt;
+use std::path::Path;
+
+use serde::de::{self, MapAccess, Visitor};
+use serde::{Deserialize, Deserializer, Serialize, Serializer};
 
 use crate::effects::EffectSpec;
 use crate::integrator::Method;
-use crate::model::Model;
+use crate::model::{Model, ModelInfo};
 use crate::projection::ProjectionKind;
 
-/// An initial value: a number or a model parameter's value.
+/// An initial value: a number (SI units of the coordinate) or the name of
+/// a model parameter whose value it takes.
 #[derive(Debug, Clone, PartialEq)]
 pub enum InitValue {
-    /// A number (SI units of the coordinate).
+    /// A number [m], [rad], [m/s] or [rad/s].
     Num(f64),
     /// The current value of the named model parameter.
-    Param(&'static str),
+    Param(String),
 }
 
-/// A column of the output table, or a quantity derived from columns.
-#[derive(Debug, Clone, PartialEq)]
+impl Serialize for InitValue {
+    fn serialize<S: Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        match self {
+            Self::Num(v) => s.serialize_f64(*v),
+            Self::Param(p) => s.serialize_str(p),
+        }
+    }
+}
+
+impl<'de> Deserialize<'de> for InitValue {
+    fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        struct V;
+        impl Visitor<'_> for V {
+            type Value = InitValue;
+            fn expecting(&self, f: &mut fmt::Formatter) -> fmt::Result {
+                f.write_str("a number or the name of a model parameter")
+            }
+            fn visit_f64<E: de::Error>(self, v: f64) -> Result<InitValue, E> {
+                Ok(InitValue::Num(v))
+            }
+            fn visit_i64<E: de::Error>(self, v: i64) -> Result<InitValue, E> {
+                Ok(InitValue::Num(v as f64))
+            }
+            fn visit_u64<E: de::Error>(self, v: u64) -> Result<InitValue, E> {
+                Ok(InitValue::Num(v as f64))
+            }
+            fn visit_str<E: de::Error>(self, v: &str) -> Result<InitValue, E> {
+                Ok(InitValue::Param(v.to_string()))
+            }
+        }
+        d.deserialize_any(V)
+    }
+}
+
+/// A list of named items kept in file order, written as a TOML table
+/// (`[effects.motor]`, `q = { x1 = 0.0, ... }`).
+mod named_list {
+    use super::*;
+
+    pub fn serialize<S: Serializer, T: Serialize>(items: &[(String, T)], s: S) -> Result<S::Ok, S::Error> {
+        s.collect_map(items.iter().map(|(k, v)| (k, v)))
+    }
+
+    pub fn deserialize<'de, D: Deserializer<'de>, T: Deserialize<'de>>(d: D) -> Result<Vec<(String, T)>, D::Error> {
+        struct V<T>(std::marker::PhantomData<T>);
+        impl<'de, T: Deserialize<'de>> Visitor<'de> for V<T> {
+            type Value = Vec<(String, T)>;
+            fn expecting(&self, f: &mut fmt::Formatter) -> fmt::Result {
+                f.write_str("a table of named entries")
+            }
+            fn visit_map<A: MapAccess<'de>>(self, mut map: A) -> Result<Self::Value, A::Error> {
+                let mut out = Vec::new();
+                while let Some((k, v)) = map.next_entry::<String, T>()? {
+                    out.push((k, v));
+                }
+                Ok(out)
+            }
+        }
+        d.deserialize_map(V(std::marker::PhantomData))
+    }
+}
+
+/// Given coordinates and velocities; the rest follow from the constraints
+/// (the consistent initial state of SPEC §3).
+#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Initial {
+    /// Given coordinates by name.
+    #[serde(default, with = "named_list")]
+    pub q: Vec<(String, InitValue)>,
+    /// Given velocities by coordinate name (`x1` gives `x1d`).
+    #[serde(default, with = "named_list")]
+    pub qd: Vec<(String, InitValue)>,
+}
+
+fn default_dt() -> f64 {
+    1e-4
+}
+fn default_tol() -> f64 {
+    1e-9
+}
+fn default_every() -> f64 {
+    0.01
+}
+
+/// Integrator settings of a scene (the CLI flags override them).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct IntegratorSettings {
+    /// `euler`, `rk4`, `dopri5` or `dop853`.
+    #[serde(default)]
+    pub method: Method,
+    /// Step size of the fixed-step methods [s].
+    #[serde(default = "default_dt")]
+    pub dt: f64,
+    /// Relative tolerance of the adaptive methods.
+    #[serde(default = "default_tol")]
+    pub rtol: f64,
+    /// Absolute tolerance of the adaptive methods.
+    #[serde(default = "default_tol")]
+    pub atol: f64,
+    /// Projection after every step: `none`, `euclidean` or `mass`.
+    #[serde(default)]
+    pub projection: ProjectionKind,
+}
+
+impl Default for IntegratorSettings {
+    fn default() -> Self {
+        Self {
+            method: Method::default(),
+            dt: default_dt(),
+            rtol: default_tol(),
+            atol: default_tol(),
+            projection: ProjectionKind::default(),
+        }
+    }
+}
+
+/// Optional groups of output columns; `t`, the coordinates and the
+/// velocities are always written. A group not listed is not computed.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum OutputGroup {
+    /// `T` [J], `W` (total work) [J] and `W_<effect>` per effect [J].
+    Energy,
+    /// `<point>.x`, `<point>.y` [m] for every named point.
+    Points,
+    /// One value per effect: `tau_<effect>` [N m] or `F_<effect>` [N].
+    Effects,
+    /// Constraint forces from the multipliers: `F_<hinge>.x`, `F_<hinge>.y`
+    /// [N] (on the hinge's first body) and `F_<skate>` [N] (lateral, along
+    /// the blade normal). Costs one KKT solve per output row.
+    ConstraintForces,
+    /// `res_phi` = max|C(q)| [m] and `res_vel` = max|G(q) qd| [m/s].
+    Residuals,
+}
+
+impl OutputGroup {
+    /// Every group, in column order.
+    pub const ALL: [OutputGroup; 5] =
+        [Self::Energy, Self::Points, Self::Effects, Self::ConstraintForces, Self::Residuals];
+
+    /// Name as a scene file spells it.
+    pub fn name(self) -> &'static str {
+        match self {
+            Self::Energy => "energy",
+            Self::Points => "points",
+            Self::Effects => "effects",
+            Self::ConstraintForces => "constraint-forces",
+            Self::Residuals => "residuals",
+        }
+    }
+}
+
+/// Output settings of a scene.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct OutputSettings {
+    /// Output interval [s] (rounded to whole steps for fixed-step methods;
+    /// the final time is always written).
+    #[serde(default = "default_every")]
+    pub every: f64,
+    /// Optional column groups to compute and write.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub include: Vec<OutputGroup>,
+}
+
+impl Default for OutputSettings {
+    fn default() -> Self {
+        Self { every: default_every(), include: Vec::new() }
+    }
+}
+
+/// A column of the output table, or a quantity derived from columns. In a
+/// scene file: `"x1"`, `"norm(x1d, y1d)"`, `"diff(phi2d, phi1d)"`,
+/// `"from_start(T)"`, `"balance_gap(T, W)"`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(try_from = "String", into = "String")]
 pub enum Column {
     /// A CSV column by name.
-    Named(&'static str),
+    Named(String),
     /// `sqrt(a^2 + b^2)` of two columns (a speed from two velocity components).
-    Norm(&'static str, &'static str),
+    Norm(String, String),
     /// `a - b`.
-    Diff(&'static str, &'static str),
+    Diff(String, String),
     /// `a(t) - a(0)`.
-    FromStart(&'static str),
+    FromStart(String),
     /// `|a(t) - a(0) - b(t)|`: the gap of a balance such as `T - T0 = W`.
-    BalanceGap(&'static str, &'static str),
+    BalanceGap(String, String),
 }
 
-/// What a figure shows.
-#[derive(Debug, Clone, PartialEq)]
-pub enum FigureKind {
-    /// Paths in the plane, equal axes, of named points or of bodies' centres
-    /// of mass (by body name).
-    Paths(Vec<&'static str>),
-    /// Lines `(x, y_i)`; each with a legend label.
-    Lines {
-        /// Horizontal axis.
-        x: Column,
-        /// `(label, column)` per line.
-        ys: Vec<(&'static str, Column)>,
-        /// Logarithmic vertical axis.
-        log_y: bool,
-    },
+impl Column {
+    /// The table columns it reads.
+    pub fn inputs(&self) -> Vec<&str> {
+        match self {
+            Self::Named(a) | Self::FromStart(a) => vec![a],
+            Self::Norm(a, b) | Self::Diff(a, b) | Self::BalanceGap(a, b) => vec![a, b],
+        }
+    }
 }
 
-/// One PNG figure of a scene.
-#[derive(Debug, Clone, PartialEq)]
+impl fmt::Display for Column {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            Self::Named(a) => write!(f, "{a}"),
+            Self::Norm(a, b) => write!(f, "norm({a}, {b})"),
+            Self::Diff(a, b) => write!(f, "diff({a}, {b})"),
+            Self::FromStart(a) => write!(f, "from_start({a})"),
+            Self::BalanceGap(a, b) => write!(f, "balance_gap({a}, {b})"),
+        }
+    }
+}
+
+impl From<Column> for String {
+    fn from(c: Column) -> String {
+        c.to_string()
+    }
+}
+
+impl TryFrom<String> for Column {
+    type Error = String;
+    fn try_from(s: String) -> Result<Self, String> {
+        s.parse()
+    }
+}
+
+impl std::str::FromStr for Column {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, String> {
+        let s = s.trim();
+        let name_ok = |n: &str| !n.is_empty() && n.chars().all(|c| c.is_alphanumeric() || "_.-".contains(c));
+        let Some(open) = s.find('(') else {
+            return if name_ok(s) {
+                Ok(Self::Named(s.to_string()))
+            } else {
+                Err(format!("`{s}` is not a column name or a function of columns"))
+            };
+        };
+        let (func, rest) = s.split_at(open);
+        let args: Vec<String> = rest
+            .strip_prefix('(')
+            .and_then(|r| r.strip_suffix(')'))
+            .ok_or_else(|| format!("`{s}`: expected FUNCTION(COLUMN, ...)"))?
+            .split(',')
+            .map(|a| a.trim().to_string())
+            .collect();
+        if let Some(bad) = args.iter().find(|a| !name_ok(a)) {
+            return Err(format!("`{s}`: `{bad}` is not a column name"));
+        }
+        let want = |n: usize| {
+            if args.len() == n { Ok(()) } else { Err(format!("`{s}`: {func} takes {n} column(s), got {}", args.len())) }
+        };
+        match func.trim() {
+            "norm" => want(2).map(|_| Self::Norm(args[0].clone(), args[1].clone())),
+            "diff" => want(2).map(|_| Self::Diff(args[0].clone(), args[1].clone())),
+            "from_start" => want(1).map(|_| Self::FromStart(args[0].clone())),
+            "balance_gap" => want(2).map(|_| Self::BalanceGap(args[0].clone(), args[1].clone())),
+            other => Err(format!("`{s}`: unknown function `{other}`; known: norm, diff, from_start, balance_gap")),
+        }
+    }
+}
+
+/// One line of a line figure.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Line {
+    /// Legend label, with unit.
+    pub label: String,
+    /// Values.
+    pub y: Column,
+}
+
+fn default_x() -> Column {
+    Column::Named("t".into())
+}
+fn is_t(c: &Column) -> bool {
+    *c == default_x()
+}
+fn is_false(b: &bool) -> bool {
+    !b
+}
+
+/// One PNG figure of a scene: either paths in the plane (`paths`, equal
+/// axes) or lines over `x` (`lines`).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
 pub struct FigureSpec {
     /// File name in the output directory, e.g. `fig3_paths.png`.
-    pub file: &'static str,
+    pub file: String,
     /// Title.
-    pub title: &'static str,
+    pub title: String,
     /// Horizontal axis label with unit.
-    pub x_label: &'static str,
+    pub x_label: String,
     /// Vertical axis label with unit.
-    pub y_label: &'static str,
-    /// Content.
-    pub kind: FigureKind,
+    pub y_label: String,
+    /// Paths of named points or of bodies' centres of mass (by body name).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub paths: Vec<String>,
+    /// Horizontal axis of a line figure.
+    #[serde(default = "default_x", skip_serializing_if = "is_t")]
+    pub x: Column,
+    /// Lines of a line figure.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub lines: Vec<Line>,
+    /// Logarithmic vertical axis.
+    #[serde(default, skip_serializing_if = "is_false")]
+    pub log_y: bool,
 }
 
-/// A scene (SPEC §3).
-#[derive(Debug, Clone, PartialEq)]
+/// A scene (SPEC §3), as a scene file writes it.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
 pub struct Scene {
-    /// Name, e.g. `drive`.
-    pub name: &'static str,
-    /// One line: what it shows.
-    pub description: &'static str,
+    /// Name, e.g. `drive` (output goes to `out/<name>/`).
+    pub name: String,
+    /// One line: what it shows, with a sentence of physics.
+    pub description: String,
     /// Registry key of the model, e.g. `ezyroller`.
-    pub model: &'static str,
+    pub model: String,
     /// Duration [s].
     pub t_end: f64,
-    /// Step size [s].
-    pub dt: f64,
-    /// Output interval [s].
-    pub every: f64,
-    /// Projection after every step.
-    pub projection: ProjectionKind,
-    /// Integration method.
-    pub method: Method,
-    /// Relative tolerance (adaptive methods).
-    pub rtol: f64,
-    /// Absolute tolerance (adaptive methods).
-    pub atol: f64,
-    /// Given coordinates by name; the rest follow from the hinges.
-    pub q0: Vec<(&'static str, InitValue)>,
-    /// Given velocities by coordinate name; the rest follow from the constraints.
-    pub qd0: Vec<(&'static str, InitValue)>,
-    /// Applied forces.
-    pub effects: Vec<EffectSpec>,
+    /// Overrides of model parameters (SI units of each parameter).
+    #[serde(default, with = "named_list", skip_serializing_if = "Vec::is_empty")]
+    pub params: Vec<(String, f64)>,
+    /// Given initial coordinates and velocities.
+    #[serde(default)]
+    pub initial: Initial,
+    /// Integrator settings.
+    #[serde(default)]
+    pub integrator: IntegratorSettings,
+    /// Output interval and optional columns.
+    #[serde(default)]
+    pub output: OutputSettings,
+    /// Applied forces by name, in order (`[effects.NAME]` tables).
+    #[serde(default, with = "named_list", skip_serializing_if = "Vec::is_empty")]
+    pub effects: Vec<(String, EffectSpec)>,
     /// Figures to draw.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub figures: Vec<FigureSpec>,
+}
+
+/// A semantic error in a scene: the key path (`["effects", "motor",
+/// "hinge"]`) and what is wrong.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct SceneError {
+    /// Path of the offending key from the file's root; array entries by index.
+    pub path: Vec<String>,
+    /// What is wrong and what was expected.
+    pub message: String,
+}
+
+impl SceneError {
+    fn at(path: &[&str], message: impl Into<String>) -> Self {
+        Self { path: path.iter().map(|s| s.to_string()).collect(), message: message.into() }
+    }
+    /// The path written as TOML would (`effects.motor.hinge`, `figures[2].lines[0].y`).
+    pub fn key(&self) -> String {
+        let mut out = String::new();
+        for p in &self.path {
+            if p.parse::<usize>().is_ok() {
+                out.push_str(&format!("[{p}]"));
+            } else {
+                if !out.is_empty() {
+                    out.push('.');
+                }
+                out.push_str(p);
+            }
+        }
+        out
+    }
+}
+
+/// A scene file that cannot be used: where and why.
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+#[error("{file}:{line}:{column}: {}{message}", key.as_ref().map(|k| format!("`{k}`: ")).unwrap_or_default())]
+pub struct SceneFileError {
+    /// The file (or `<builtin NAME>`).
+    pub file: String,
+    /// Line, from 1.
+    pub line: usize,
+    /// Column, from 1.
+    pub column: usize,
+    /// The key at fault, when known.
+    pub key: Option<String>,
+    /// What is wrong and what was expected.
+    pub message: String,
+}
+
+/// Line and column (from 1) of byte offset `pos` in `src`.
+fn line_column(src: &str, pos: usize) -> (usize, usize) {
+    let before = &src[..pos.min(src.len())];
+    let line = before.matches('\n').count() + 1;
+    let column = before.rsplit('\n').next().map_or(0, |l| l.chars().count()) + 1;
+    (line, column)
+}
+
+/// Byte span of the value at `path` in the TOML text `src`: the deepest
+/// prefix of the path that exists (so a missing key points at its table).
+fn locate(src: &str, path: &[String]) -> Option<std::ops::Range<usize>> {
+    use toml::de::{DeTable, DeValue};
+    let root = DeTable::parse(src).ok()?;
+    let mut span = None;
+    let mut table = Some(root.get_ref());
+    let mut array = None;
+    for p in path {
+        let next = if let Some(t) = table {
+            t.iter().find(|(k, _)| k.get_ref().as_ref() == p.as_str()).map(|(_, v)| v)
+        } else if let (Some(a), Ok(i)) = (array, p.parse::<usize>()) {
+            let a: &toml::de::DeArray<'_> = a;
+            a.get(i)
+        } else {
+            None
+        };
+        let Some(v) = next else { break };
+        span = Some(v.span());
+        (table, array) = match v.get_ref() {
+            DeValue::Table(t) => (Some(t), None),
+            DeValue::Array(a) => (None, Some(a)),
+            _ => (None, None),
+        };
+    }
+    span
+}
+
+impl Scene {
+    /// Parses a scene file. `file` only names it in errors.
+    ///
+    /// # Errors
+    /// [`SceneFileError`] at the line and column of a syntax error, a value
+    /// of the wrong type, an unknown or missing key, or an unknown effect
+    /// kind (the message lists the known ones).
+    pub fn from_toml(src: &str, file: &str) -> Result<Scene, SceneFileError> {
+        toml::from_str(src).map_err(|e: toml::de::Error| {
+            let (line, column) = e.span().map_or((1, 1), |s| line_column(src, s.start));
+            SceneFileError { file: file.to_string(), line, column, key: None, message: e.message().trim().to_string() }
+        })
+    }
+
+    /// Parses and checks a scene file against the model `info`.
+    ///
+    /// # Errors
+    /// As [`Scene::from_toml`] and [`Scene::check`], located in the file.
+    pub fn load(src: &str, file: &str, info: &ModelInfo) -> Result<Scene, SceneFileError> {
+        let scene = Self::from_toml(src, file)?;
+        scene.check(info).map_err(|e| Self::locate_error(src, file, e))?;
+        Ok(scene)
+    }
+
+    /// Places a [`SceneError`] in the file text.
+    pub fn locate_error(src: &str, file: &str, e: SceneError) -> SceneFileError {
+        let (line, column) = locate(src, &e.path).map_or((1, 1), |s| line_column(src, s.start));
+        SceneFileError { file: file.to_string(), line, column, key: Some(e.key()), message: e.message }
+    }
+
+    /// Reads and parses a scene file from disk.
+    ///
+    /// # Errors
+    /// [`SceneFileError`] (line 0) if the file cannot be read, else as
+    /// [`Scene::from_toml`].
+    pub fn read(path: &Path) -> Result<(Scene, String), SceneFileError> {
+        let file = path.display().to_string();
+        let src = std::fs::read_to_string(path).map_err(|e| SceneFileError {
+            file: file.clone(),
+            line: 0,
+            column: 0,
+            key: None,
+            message: format!("cannot read the scene file: {e}"),
+        })?;
+        Ok((Self::from_toml(&src, &file)?, src))
+    }
+
+    /// Writes the scene as TOML.
+    ///
+    /// # Panics
+    /// Never for a scene: every field has a TOML form.
+    pub fn to_toml(&self) -> String {
+        toml::to_string(self).expect("a scene serializes to TOML")
+    }
+
+    /// Whether output group `g` is asked for.
+    pub fn includes(&self, g: OutputGroup) -> bool {
+        self.output.include.contains(&g)
+    }
+
+    /// The output columns of this scene for a model with `info`, in order:
+    /// `t`, coordinates, `<coord>d`, then the groups asked for (see
+    /// [`OutputGroup`]).
+    pub fn columns(&self, info: &ModelInfo) -> Vec<String> {
+        let mut cols = vec!["t".to_string()];
+        cols.extend(info.coords.iter().map(|c| c.to_string()));
+        cols.extend(info.coords.iter().map(|c| format!("{c}d")));
+        for g in OutputGroup::ALL {
+            if !self.includes(g) {
+                continue;
+            }
+            match g {
+                OutputGroup::Energy => {
+                    cols.push("T".into());
+                    cols.push("W".into());
+                    cols.extend(self.effects.iter().map(|(n, _)| format!("W_{n}")));
+                }
+                OutputGroup::Points => {
+                    for p in info.points {
+                        cols.push(format!("{}.x", p.name));
+                        cols.push(format!("{}.y", p.name));
+                    }
+                }
+                OutputGroup::Effects => {
+                    cols.extend(self.effects.iter().map(|(n, e)| e.value_column(n)));
+                }
+                OutputGroup::ConstraintForces => {
+                    for h in info.hinges {
+                        cols.push(format!("F_{}.x", h.name));
+                        cols.push(format!("F_{}.y", h.name));
+                    }
+                    cols.extend(info.skates.iter().map(|s| format!("F_{}", s.name)));
+                }
+                OutputGroup::Residuals => {
+                    cols.push("res_phi".into());
+                    cols.push("res_vel".into());
+                }
+            }
+        }
+        cols
+    }
+
+    /// Checks every name against the model and every number against its
+    /// range, before any work.
+    ///
+    /// # Errors
+    /// The first [`SceneError`], with the key path and the known names.
+    pub fn check(&self, info: &ModelInfo) -> Result<(), SceneError> {
+        let known = |names: Vec<&str>| if names.is_empty() { "none".to_string() } else { names.join(", ") };
+        let params: Vec<&str> = info.params.iter().map(|p| p.name).collect();
+        for (name, v) in &self.params {
+            if info.param_index(name).is_none() {
+                return Err(SceneError::at(
+                    &["params", name],
+                    format!("unknown parameter `{name}` in model {}; its parameters: {}", info.name, known(params)),
+                ));
+            }
+            if !v.is_finite() {
+                return Err(SceneError::at(&["params", name], format!("{name} = {v} must be finite")));
+            }
+        }
+        for (group, list) in [("q", &self.initial.q), ("qd", &self.initial.qd)] {
+            for (name, v) in list {
+                if info.coord_index(name).is_none() {
+                    return Err(SceneError::at(
+                        &["initial", group, name],
+                        format!(
+                            "unknown coordinate `{name}` in model {}; its coordinates: {}",
+                            info.name,
+                            info.coords.join(", ")
+                        ),
+                    ));
+                }
+                match v {
+                    InitValue::Num(x) if !x.is_finite() => {
+                        return Err(SceneError::at(&["initial", group, name], format!("{name} = {x} must be finite")));
+                    }
+                    InitValue::Param(p) if info.param_index(p).is_none() => {
+                        return Err(SceneError::at(
+                            &["initial", group, name],
+                            format!(
+                                "`{p}` is neither a number nor a parameter of model {}; its parameters: {}",
+                                info.name,
+                                known(params.clone())
+                            ),
+                        ));
+                    }
+                    _ => {}
+                }
+            }
+        }
+        let positive = |path: &[&str], v: f64, what: &str| {
+            if v.is_finite() && v > 0.0 {
+                Ok(())
+            } else {
+                Err(SceneError::at(path, format!("{what} must be a positive number, got {v}")))
+            }
+        };
+        positive(&["t_end"], self.t_end, "the duration [s]")?;
+        positive(&["integrator", "dt"], self.integrator.dt, "the step [s]")?;
+        positive(&["integrator", "rtol"], self.integrator.rtol, "the relative tolerance")?;
+        positive(&["integrator", "atol"], self.integrator.atol, "the absolute tolerance")?;
+        positive(&["output", "every"], self.output.every, "the output interval [s]")?;
+        for (name, e) in &self.effects {
+            if name.is_empty() || !name.chars().all(|c| c.is_ascii_alphanumeric() || c == '_') {
+                return Err(SceneError::at(
+                    &["effects", name],
+                    format!("effect name `{name}` must be letters, digits and _ (it names the column W_{name})"),
+                ));
+            }
+            e.check(info).map_err(|err| SceneError::at(&["effects", name, err.field], err.message))?;
+        }
+        let columns = self.columns(info);
+        for (i, fig) in self.figures.iter().enumerate() {
+            let i = i.to_string();
+            if !fig.file.ends_with(".png") || fig.file.contains(['/', '\\']) {
+                return Err(SceneError::at(
+                    &["figures", &i, "file"],
+                    format!("`{}` must be a file name ending in .png, without directories", fig.file),
+                ));
+            }
+            if fig.paths.is_empty() == fig.lines.is_empty() {
+                return Err(SceneError::at(
+                    &["figures", &i],
+                    "a figure has either `paths` (bodies or points) or `lines`, not both and not neither",
+                ));
+            }
+            let missing = |col: &str| -> Option<String> {
+                if columns.iter().any(|c| c == col) {
+                    return None;
+                }
+                let hint = self.column_hint(info, col);
+                Some(format!("no column `{col}` in this scene's output{hint}"))
+            };
+            for (j, p) in fig.paths.iter().enumerate() {
+                let path = ["figures", &i, "paths", &j.to_string()];
+                let path: Vec<&str> = path.iter().map(|s| s.as_ref()).collect();
+                if let Some(b) = info.bodies.iter().find(|b| b.name == p) {
+                    let _ = b;
+                } else if info.point_index(p).is_some() {
+                    if let Some(m) = missing(&format!("{p}.x")) {
+                        return Err(SceneError::at(&path, m));
+                    }
+                } else {
+                    let mut names: Vec<&str> = info.bodies.iter().map(|b| b.name).collect();
+                    names.extend(info.points.iter().map(|p| p.name));
+                    return Err(SceneError::at(
+                        &path,
+                        format!("unknown body or point `{p}` in model {}; known: {}", info.name, known(names)),
+                    ));
+                }
+            }
+            let j_x = ["figures", i.as_str(), "x"];
+            for c in fig.x.inputs() {
+                if let Some(m) = missing(c) {
+                    return Err(SceneError::at(&j_x, m));
+                }
+            }
+            for (j, line) in fig.lines.iter().enumerate() {
+                let j = j.to_string();
+                for c in line.y.inputs() {
+                    if let Some(m) = missing(c) {
+                        return Err(SceneError::at(&["figures", &i, "lines", &j, "y"], m));
+                    }
+                }
+            }
+        }
+        Ok(())
+    }
+
+    /// For a column the output does not have: the group that would add it.
+    fn column_hint(&self, info: &ModelInfo, col: &str) -> String {
+        let all = Scene {
+            output: OutputSettings { include: OutputGroup::ALL.to_vec(), ..self.output.clone() },
+            ..self.clone()
+        };
+        for g in OutputGroup::ALL {
+            let one = Scene { output: OutputSettings { include: vec![g], ..self.output.clone() }, ..self.clone() };
+            if one.columns(info).iter().any(|c| c == col) && !self.includes(g) {
+                return format!(" (add \"{}\" to output.include)", g.name());
+            }
+        }
+        format!("; its columns would be: {}", all.columns(info).join(", "))
+    }
+
+    /// Applies a command-line override `name = value`: a model parameter
+    /// (`m2`), or a number inside an effect, `EFFECT.KEY` with the full
+    /// key path (`motor.torque.cos.amplitude`) or its last key when that is
+    /// unambiguous (`motor.amplitude`).
+    ///
+    /// # Errors
+    /// [`crate::SimError::UnknownName`] listing the parameters and the
+    /// effects' numeric keys; [`crate::SimError::Setting`] for a value that
+    /// is not finite.
+    pub fn set(&mut self, info: &ModelInfo, name: &str, value: f64) -> Result<(), crate::SimError> {
+        if !value.is_finite() {
+            return Err(crate::SimError::Setting { name: name.into(), value, reason: "must be a finite number" });
+        }
+        if info.param_index(name).is_some() {
+            match self.params.iter_mut().find(|(n, _)| n == name) {
+                Some((_, v)) => *v = value,
+                None => self.params.push((name.to_string(), value)),
+            }
+            return Ok(());
+        }
+        if let Some((effect, key)) = name.split_once('.')
+            && let Some((_, spec)) = self.effects.iter_mut().find(|(n, _)| n == effect)
+        {
+            let mut tree = toml::Value::try_from(&*spec).expect("an effect serializes");
+            let leaves = numeric_leaves(&tree);
+            let matches: Vec<&String> =
+                leaves.iter().filter(|l| *l == key || l.ends_with(&format!(".{key}"))).collect();
+            if let [path] = matches[..] {
+                let mut node = &mut tree;
+                for part in path.split('.') {
+                    node = match node {
+                        toml::Value::Table(t) => t.get_mut(part).expect("leaf path exists"),
+                        toml::Value::Array(a) => &mut a[part.parse::<usize>().expect("index")],
+                        _ => unreachable!("leaf paths go through tables and arrays"),
+                    };
+                }
+                *node = toml::Value::Float(value);
+                *spec = tree.try_into().expect("a number replaced by a number");
+                return Ok(());
+            }
+        }
+        let mut known: Vec<String> = info.params.iter().map(|p| p.name.to_string()).collect();
+        for (n, spec) in &self.effects {
+            let tree = toml::Value::try_from(spec).expect("an effect serializes");
+            known.extend(numeric_leaves(&tree).into_iter().map(|l| format!("{n}.{l}")));
+        }
+        Err(crate::SimError::UnknownName {
+            kind: "parameter",
+            name: name.to_string(),
+            model: info.name,
+            known: known.join(", "),
+        })
+    }
+
+    /// Resolves the scene's effects against `model`.
+    ///
+    /// # Errors
+    /// As [`EffectSpec::resolve`].
+    pub fn resolve_effects<M: Model>(&self, model: &M) -> Result<Vec<crate::Effect>, crate::SimError> {
+        self.effects.iter().map(|(n, e)| e.resolve(n, model)).collect()
+    }
+}
+
+/// Dotted paths of the numbers in a TOML tree (`torque.cos.amplitude`,
+/// `torque.harmonics.1.omega`).
+fn numeric_leaves(v: &toml::Value) -> Vec<String> {
+    fn walk(v: &toml::Value, prefix: &str, out: &mut Vec<String>) {
+        let join = |k: &str| if prefix.is_empty() { k.to_string() } else { format!("{prefix}.{k}") };
+        match v {
+            toml::Value::Float(_) | toml::Value::Integer(_) => out.push(prefix.to_string()),
+            toml::Value::Table(t) => t.iter().for_each(|(k, v)| walk(v, &join(k), out)),
+            toml::Value::Array(a) => a.iter().enumerate().for_each(|(i, v)| walk(v, &join(&i.to_string()), out)),
+            _ => {}
+        }
+    }
+    let mut out = Vec::new();
+    walk(v, "", &mut out);
+    out
 }
 
 /// Runs generic code for a model chosen by name at run time (the model

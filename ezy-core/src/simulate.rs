@@ -96,8 +96,11 @@ pub struct Sample<'a> {
     pub qd: &'a [f64],
     /// Kinetic energy [J].
     pub kinetic_energy: f64,
-    /// Work of the applied forces since t = 0 [J].
+    /// Work of all applied forces since t = 0, `sum W_e` [J].
     pub work: f64,
+    /// Work of each effect since t = 0, `W_e` [J], in the order of
+    /// [`Dynamics::effects`].
+    pub works: &'a [f64],
     /// `max|C(q)|` [m].
     pub residual_position: f64,
     /// `max|G(q) qd|` [m/s].
@@ -221,7 +224,8 @@ impl<M: Model, O: Observer<M>> Run<'_, M, O> {
             q,
             qd,
             kinetic_energy: sys.kinetic_energy(qd),
-            work: y[2 * nq],
+            work: sys.work(y),
+            works: &y[2 * nq..],
             residual_position: rp,
             residual_velocity: rv,
         };
@@ -235,7 +239,7 @@ impl<M: Model, O: Observer<M>> Run<'_, M, O> {
     fn after_step(&mut self, sys: &Dynamics<M>, t: f64, t_new: f64, y: &mut [f64], h: f64) -> Result<bool, SimError> {
         let nq = M::INFO.nq();
         if let Some(k) = y.iter().position(|v| !v.is_finite()) {
-            return Err(SimError::NonFinite { t, quantity: state_name::<M>(k), value: y[k], dt: h });
+            return Err(SimError::NonFinite { t, quantity: sys.state_name(k), value: y[k], dt: h });
         }
         let mut changed = false;
         if self.settings.projection != ProjectionKind::None {
@@ -245,10 +249,11 @@ impl<M: Model, O: Observer<M>> Run<'_, M, O> {
             self.summary.projections += 1;
             changed = true;
         }
-        let energy_error = (sys.kinetic_energy(&y[nq..2 * nq]) - self.t0_energy - y[2 * nq]).abs();
+        let work = sys.work(y);
+        let energy_error = (sys.kinetic_energy(&y[nq..2 * nq]) - self.t0_energy - work).abs();
         self.summary.max_energy_error = self.summary.max_energy_error.max(energy_error);
         if let Some(limit) = self.settings.balance_limit {
-            let relative = energy_error / y[2 * nq].abs().max(1.0);
+            let relative = energy_error / work.abs().max(1.0);
             if relative > limit {
                 return Err(SimError::Diverged {
                     t: t_new,
@@ -445,16 +450,4 @@ fn adaptive<M: Model, O: Observer<M>, E: EmbeddedRk>(
         run.emit(sys, settings.t_end, y)?;
     }
     Ok(())
-}
-
-/// Name of state component `k` of `y = [q, qd, W]`.
-pub fn state_name<M: Model>(k: usize) -> String {
-    let c = M::INFO.coords;
-    if k < c.len() {
-        c[k].to_string()
-    } else if k < 2 * c.len() {
-        format!("{}d", c[k - c.len()])
-    } else {
-        "W".to_string()
-    }
 }

@@ -216,6 +216,8 @@ pub fn emit(def: &ModelDef, res: &Resolved, d: &Derived) -> TokenStream {
     let phi_g_body = assign(d, def, &[("phi", &d.phi), ("values", &g_all)]);
     let points_body = assign(d, def, &[("out", &points_flat)]);
     let vel_body = assign(d, def, &[("out", &vel_flat)]);
+    let n_local_points = 2 * d.points.len();
+    let local_body = assign(d, def, &[("points", &d.local[..n_local_points]), ("blades", &d.local[n_local_points..])]);
 
     let kernels = sparse_kernels(&pattern, nq, d.g.len());
 
@@ -266,6 +268,11 @@ pub fn emit(def: &ModelDef, res: &Resolved, d: &Derived) -> TokenStream {
             fn mass_diagonal(&self, out: &mut [f64]) {
                 type S = f64;
                 #mass_body
+            }
+
+            fn local_geometry(&self, points: &mut [f64], blades: &mut [f64]) {
+                type S = f64;
+                #local_body
             }
 
             #kernels

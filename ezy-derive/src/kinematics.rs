@@ -37,6 +37,9 @@ pub struct Derived {
     pub point_vel: Vec<[Id; 2]>,
     /// Mass-matrix diagonal (nq), in terms of parameters.
     pub mass: Vec<Id>,
+    /// Body-frame geometry in terms of parameters: `(px, py)` per point,
+    /// then the unit blade direction `(tx, ty)` per skate.
+    pub local: Vec<Id>,
 }
 
 impl Derived {
@@ -176,10 +179,12 @@ pub fn derive(def: &ModelDef, res: &Resolved, errs: &mut Errors) -> Derived {
 
     let mut points = Vec::with_capacity(def.points.len());
     let mut point_vel = Vec::with_capacity(def.points.len());
+    let mut local = Vec::with_capacity(2 * (def.points.len() + def.skates.len()));
     for (p, &b) in def.points.iter().zip(&res.point_body) {
         let what = format!("point `{}`", p.name);
         let px = expr_to_sym(&mut ar, &p.at[0], &params, &what, errs);
         let py = expr_to_sym(&mut ar, &p.at[1], &params, &what, errs);
+        local.extend([px, py]);
         if b == usize::MAX {
             let z = ar.cst(0.0);
             points.push([z, z]);
@@ -219,6 +224,8 @@ pub fn derive(def: &ModelDef, res: &Resolved, errs: &mut Errors) -> Derived {
         let what = format!("blade direction of skate `{}`", s.name);
         let tx = expr_to_sym(&mut ar, &s.along[0], &params, &what, errs);
         let ty = expr_to_sym(&mut ar, &s.along[1], &params, &what, errs);
+        let zero = ar.cst(0.0);
+        local.extend([zero, zero]);
         if ar.is_zero(tx) && ar.is_zero(ty) {
             errs.push(syn::Error::new(
                 s.along_span,
@@ -238,6 +245,9 @@ pub fn derive(def: &ModelDef, res: &Resolved, errs: &mut Errors) -> Derived {
         let nbx0 = ar.neg(ty);
         let nbx = ar.div(nbx0, len);
         let nby = ar.div(tx, len);
+        let k = local.len();
+        local[k - 2] = ar.div(tx, len);
+        local[k - 1] = ar.div(ty, len);
         let [nwx, nwy] = rotate(&mut ar, q[3 * b + 2], nbx, nby);
         let row: Vec<Id> = (0..nq)
             .map(|k| {
@@ -261,5 +271,5 @@ pub fn derive(def: &ModelDef, res: &Resolved, errs: &mut Errors) -> Derived {
         })
         .collect();
 
-    Derived { ar, nq, phi, g, gamma, constraint_names, points, point_vel, mass }
+    Derived { ar, nq, phi, g, gamma, constraint_names, points, point_vel, mass, local }
 }

@@ -39,7 +39,8 @@ impl<F: FnMut(f64, &[f64], &mut [f64])> Rhs for F {
 }
 
 /// The integration method.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "lowercase")]
 pub enum Method {
     /// Explicit Euler, order 1, fixed step.
     Euler,

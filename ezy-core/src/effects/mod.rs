@@ -1,0 +1,622 @@
+//! Applied forces (effects): documented force laws a scene lists by name.
+//!
+//! Each effect adds its generalized force into `f` (nq) and returns its
+//! power `P = f_e . qd` [W]; the right-hand side integrates each power into
+//! the effect's own work state `W_<name>` [J], so that `T - T0 = sum W`
+//! holds for any combination (ideal constraints do no work, SPEC §1, §3).
+//! Only the effects a scene lists are built; the right-hand side loops over
+//! exactly those, so an effect the scene does not name costs nothing.
+//!
+//! Conventions (SPEC §1): a force `F` (world frame) at a body point with
+//! body-frame offset `p` from the centre of mass acts on the body's
+//! coordinates `(x, y, phi)` as `(F_x, F_y, r_x F_y - r_y F_x)` with
+//! `r = R(phi) p`; its power is `F . v_P`. A hinge torque `tau` acts `+tau`
+//! on the hinge's first body and `-tau` on its second (the seed's motor),
+//! and the hinge angle is `theta = phi_a - phi_b` (`phi_a` for a ground
+//! hinge), so a hinge torque's power is `tau theta_dot`.
+
+mod waveform;
+
+use serde::{Deserialize, Serialize};
+pub use waveform::{Harmonic, Table, Waveform};
+
+use crate::SimError;
+use crate::model::{Model, ModelInfo};
+
+/// Standard gravity [m/s^2] (the default of [`EffectSpec::Slope`]).
+pub const STANDARD_GRAVITY: f64 = 9.806_65;
+
+fn default_gravity() -> f64 {
+    STANDARD_GRAVITY
+}
+fn is_zero(v: &f64) -> bool {
+    *v == 0.0
+}
+fn is_default_gravity(v: &f64) -> bool {
+    *v == STANDARD_GRAVITY
+}
+fn is_zero_waveform(w: &Waveform) -> bool {
+    *w == Waveform::Constant(0.0)
+}
+
+/// The frame a force's components are given in.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Frame {
+    /// Fixed axes of the plane.
+    #[default]
+    World,
+    /// The body's axes (x along its heading): the force turns with the body.
+    Body,
+}
+
+/// An effect as a scene file writes it, by the model's names. In a scene
+/// file each is a table `[effects.NAME]` with a `kind` key; every field is
+/// in SI units. The kinds, with their force laws:
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(tag = "kind", rename_all = "kebab-case", deny_unknown_fields)]
+pub enum EffectSpec {
+    /// Hinge motor: torque `tau(t)` [N m] given by a waveform, `+tau` on the
+    /// hinge's first body, `-tau` on the second (SPEC §3; the seed's motor
+    /// is `torque = { cos = { amplitude = 2, omega = pi } }`).
+    HingeMotor {
+        /// Hinge name.
+        hinge: String,
+        /// Torque [N m] over time.
+        torque: Waveform,
+    },
+    /// Rotational spring at a hinge: `tau = -stiffness (theta - rest_angle)`,
+    /// `theta = phi_a - phi_b` (linear torsion spring; its work is minus the
+    /// change of `stiffness (theta - rest_angle)^2 / 2`).
+    HingeSpring {
+        /// Hinge name.
+        hinge: String,
+        /// Stiffness [N m/rad].
+        stiffness: f64,
+        /// Angle of zero torque [rad].
+        #[serde(default, skip_serializing_if = "is_zero")]
+        rest_angle: f64,
+    },
+    /// Viscous damper at a hinge: `tau = -damping theta_dot` (dissipates
+    /// `damping theta_dot^2` [W]).
+    HingeDamper {
+        /// Hinge name.
+        hinge: String,
+        /// Damping [N m s/rad].
+        damping: f64,
+    },
+    /// Viscous rolling resistance at a skate: a force `-damping v_t` along
+    /// the blade, `v_t` the contact point's velocity along the blade [m/s].
+    RollingViscous {
+        /// Skate name.
+        skate: String,
+        /// Damping [N s/m].
+        damping: f64,
+    },
+    /// Smoothed Coulomb rolling resistance at a skate:
+    /// `-force v_t / sqrt(v_t^2 + smoothing^2)` along the blade, which tends
+    /// to `-force sign(v_t)` for `|v_t| >> smoothing` and is smooth (so the
+    /// fixed-step methods keep their order) at rest. `force` is the rolling
+    /// resistance coefficient times the normal load.
+    RollingCoulomb {
+        /// Skate name.
+        skate: String,
+        /// Resistance force magnitude [N].
+        force: f64,
+        /// Speed below which the law is linear [m/s].
+        smoothing: f64,
+    },
+    /// Driven wheel: a force `force(t)` [N] along the blade at a skate's
+    /// contact point (a wheel driven by a motor in its hub).
+    DrivenWheel {
+        /// Skate name.
+        skate: String,
+        /// Force along the blade [N] over time.
+        force: Waveform,
+    },
+    /// A force `(fx(t), fy(t))` [N] at a body's centre of mass (`at` names a
+    /// body) or at a named point (`at` names a point), in world or body axes.
+    Force {
+        /// A body (centre of mass) or a point.
+        at: String,
+        /// x component [N] over time.
+        #[serde(default, skip_serializing_if = "is_zero_waveform")]
+        fx: Waveform,
+        /// y component [N] over time.
+        #[serde(default, skip_serializing_if = "is_zero_waveform")]
+        fy: Waveform,
+        /// Axes of `fx`, `fy`.
+        #[serde(default)]
+        frame: Frame,
+    },
+    /// A torque `torque(t)` [N m] on a body.
+    Torque {
+        /// Body name.
+        body: String,
+        /// Torque [N m] over time.
+        torque: Waveform,
+    },
+    /// Gravity on a plane inclined by `angle`: every body feels
+    /// `m g sin(angle)` [N] along the downhill direction, at angle
+    /// `downhill` from the x axis (the normal component is carried by the
+    /// skates' contact and does no work). Work is minus the change of
+    /// potential energy `m g sin(angle) (height along the uphill direction)`.
+    Slope {
+        /// Inclination of the plane [rad].
+        angle: f64,
+        /// Direction of steepest descent in the plane, from the x axis [rad].
+        #[serde(default, skip_serializing_if = "is_zero")]
+        downhill: f64,
+        /// Gravitational acceleration [m/s^2].
+        #[serde(default = "default_gravity", skip_serializing_if = "is_default_gravity")]
+        g: f64,
+    },
+    /// Linear (Stokes) drag on a body: force `-c v` at the centre of mass,
+    /// torque `-c_rot phi_dot`.
+    LinearDrag {
+        /// Body name.
+        body: String,
+        /// Translational coefficient [N s/m].
+        c: f64,
+        /// Rotational coefficient [N m s/rad].
+        #[serde(default, skip_serializing_if = "is_zero")]
+        c_rot: f64,
+    },
+    /// Quadratic (form) drag on a body: force `-c |v| v` at the centre of
+    /// mass, torque `-c_rot |phi_dot| phi_dot`.
+    QuadraticDrag {
+        /// Body name.
+        body: String,
+        /// Translational coefficient [N s^2/m^2].
+        c: f64,
+        /// Rotational coefficient [N m s^2/rad^2].
+        #[serde(default, skip_serializing_if = "is_zero")]
+        c_rot: f64,
+    },
+}
+
+/// The kinds a scene file may name, as it spells them.
+pub const EFFECT_KINDS: &[&str] = &[
+    "hinge-motor",
+    "hinge-spring",
+    "hinge-damper",
+    "rolling-viscous",
+    "rolling-coulomb",
+    "driven-wheel",
+    "force",
+    "torque",
+    "slope",
+    "linear-drag",
+    "quadratic-drag",
+];
+
+/// A name in an effect that the model does not have, or a bad number.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct SpecError {
+    /// The effect's key that is wrong (`hinge`, `skate`, `torque`, ...).
+    pub field: &'static str,
+    /// What is wrong.
+    pub message: String,
+}
+
+fn unknown(field: &'static str, kind: &str, name: &str, model: &str, known: Vec<&str>) -> SpecError {
+    let known = if known.is_empty() { "none".to_string() } else { known.join(", ") };
+    SpecError { field, message: format!("unknown {kind} `{name}` in model {model}; its {kind}s: {known}") }
+}
+
+fn finite(field: &'static str, v: f64) -> Result<(), SpecError> {
+    if v.is_finite() { Ok(()) } else { Err(SpecError { field, message: format!("{field} = {v} must be finite") }) }
+}
+
+fn non_negative(field: &'static str, v: f64) -> Result<(), SpecError> {
+    if v.is_finite() && v >= 0.0 {
+        Ok(())
+    } else {
+        Err(SpecError { field, message: format!("{field} = {v} must be zero or positive (a dissipative law)") })
+    }
+}
+
+fn wave(field: &'static str, w: &Waveform) -> Result<(), SpecError> {
+    w.validate().map_err(|message| SpecError { field, message })
+}
+
+impl EffectSpec {
+    /// The kind as a scene file spells it.
+    pub fn kind(&self) -> &'static str {
+        match self {
+            Self::HingeMotor { .. } => "hinge-motor",
+            Self::HingeSpring { .. } => "hinge-spring",
+            Self::HingeDamper { .. } => "hinge-damper",
+            Self::RollingViscous { .. } => "rolling-viscous",
+            Self::RollingCoulomb { .. } => "rolling-coulomb",
+            Self::DrivenWheel { .. } => "driven-wheel",
+            Self::Force { .. } => "force",
+            Self::Torque { .. } => "torque",
+            Self::Slope { .. } => "slope",
+            Self::LinearDrag { .. } => "linear-drag",
+            Self::QuadraticDrag { .. } => "quadratic-drag",
+        }
+    }
+
+    /// Name of the output column of the effect called `name`: `tau_<name>`
+    /// [N m] for torques (hinge laws, body torques), `F_<name>` [N] for
+    /// forces (the signed force along the blade for skate laws, the
+    /// magnitude otherwise).
+    pub fn value_column(&self, name: &str) -> String {
+        match self {
+            Self::HingeMotor { .. } | Self::HingeSpring { .. } | Self::HingeDamper { .. } | Self::Torque { .. } => {
+                format!("tau_{name}")
+            }
+            _ => format!("F_{name}"),
+        }
+    }
+
+    /// Checks names against the model and numbers against their ranges.
+    ///
+    /// # Errors
+    /// [`SpecError`] naming the field, the bad name and the model's names.
+    pub fn check(&self, info: &ModelInfo) -> Result<(), SpecError> {
+        let model = info.name;
+        let hinge = |h: &str| {
+            info.hinge_index(h)
+                .map(|_| ())
+                .ok_or_else(|| unknown("hinge", "hinge", h, model, info.hinges.iter().map(|h| h.name).collect()))
+        };
+        let skate = |s: &str| {
+            info.skates
+                .iter()
+                .any(|k| k.name == s)
+                .then_some(())
+                .ok_or_else(|| unknown("skate", "skate", s, model, info.skates.iter().map(|k| k.name).collect()))
+        };
+        let body = |field, b: &str| {
+            info.bodies
+                .iter()
+                .any(|k| k.name == b)
+                .then_some(())
+                .ok_or_else(|| unknown(field, "body", b, model, info.bodies.iter().map(|k| k.name).collect()))
+        };
+        match self {
+            Self::HingeMotor { hinge: h, torque } => {
+                hinge(h)?;
+                wave("torque", torque)
+            }
+            Self::HingeSpring { hinge: h, stiffness, rest_angle } => {
+                hinge(h)?;
+                finite("stiffness", *stiffness)?;
+                finite("rest_angle", *rest_angle)
+            }
+            Self::HingeDamper { hinge: h, damping } => {
+                hinge(h)?;
+                non_negative("damping", *damping)
+            }
+            Self::RollingViscous { skate: s, damping } => {
+                skate(s)?;
+                non_negative("damping", *damping)
+            }
+            Self::RollingCoulomb { skate: s, force, smoothing } => {
+                skate(s)?;
+                non_negative("force", *force)?;
+                if smoothing.is_finite() && *smoothing > 0.0 {
+                    Ok(())
+                } else {
+                    Err(SpecError {
+                        field: "smoothing",
+                        message: format!("smoothing = {smoothing} must be a positive speed [m/s]"),
+                    })
+                }
+            }
+            Self::DrivenWheel { skate: s, force } => {
+                skate(s)?;
+                wave("force", force)
+            }
+            Self::Force { at, fx, fy, .. } => {
+                if info.point_index(at).is_none() && !info.bodies.iter().any(|b| b.name == at) {
+                    let mut known: Vec<&str> = info.bodies.iter().map(|b| b.name).collect();
+                    known.extend(info.points.iter().map(|p| p.name));
+                    return Err(unknown("at", "body or point", at, model, known));
+                }
+                wave("fx", fx)?;
+                wave("fy", fy)
+            }
+            Self::Torque { body: b, torque } => {
+                body("body", b)?;
+                wave("torque", torque)
+            }
+            Self::Slope { angle, downhill, g } => {
+                finite("angle", *angle)?;
+                finite("downhill", *downhill)?;
+                finite("g", *g)
+            }
+            Self::LinearDrag { body: b, c, c_rot } | Self::QuadraticDrag { body: b, c, c_rot } => {
+                body("body", b)?;
+                non_negative("c", *c)?;
+                non_negative("c_rot", *c_rot)
+            }
+        }
+    }
+
+    /// Resolves names to coordinate indices and body-frame geometry of
+    /// `model` (at its current parameters).
+    ///
+    /// # Errors
+    /// [`SimError::Effect`] for a name the model does not have or a bad
+    /// number (a spec that passed [`EffectSpec::check`] never fails).
+    pub fn resolve<M: Model>(&self, name: &str, model: &M) -> Result<Effect, SimError> {
+        let info = &M::INFO;
+        if let Err(e) = self.check(info) {
+            return Err(SimError::Effect { effect: name.to_string(), field: e.field, message: e.message });
+        }
+        let mut points = vec![0.0; 2 * info.points.len()];
+        let mut blades = vec![0.0; 2 * info.skates.len()];
+        model.local_geometry(&mut points, &mut blades);
+        let mut mass = vec![0.0; info.nq()];
+        model.mass_diagonal(&mut mass);
+        let body_of = |b: &str| info.bodies.iter().find(|k| k.name == b).expect("checked").coords;
+        let hinge = |h: &str| {
+            let hi = &info.hinges[info.hinge_index(h).expect("checked")];
+            (info.bodies[hi.body_a].coords[2], hi.body_b.map(|b| info.bodies[b].coords[2]))
+        };
+        let blade = |s: &str| {
+            let (k, sk) = info.skates.iter().enumerate().find(|(_, k)| k.name == s).expect("checked");
+            let p = sk.point;
+            Blade {
+                body: info.bodies[info.points[p].body].coords,
+                offset: [points[2 * p], points[2 * p + 1]],
+                dir: [blades[2 * k], blades[2 * k + 1]],
+            }
+        };
+        let law = match self.clone() {
+            Self::HingeMotor { hinge: h, torque } => {
+                let (a, b) = hinge(&h);
+                Law::Hinge { a, b, law: HingeLaw::Motor(torque) }
+            }
+            Self::HingeSpring { hinge: h, stiffness, rest_angle } => {
+                let (a, b) = hinge(&h);
+                Law::Hinge { a, b, law: HingeLaw::Spring { stiffness, rest_angle } }
+            }
+            Self::HingeDamper { hinge: h, damping } => {
+                let (a, b) = hinge(&h);
+                Law::Hinge { a, b, law: HingeLaw::Damper { damping } }
+            }
+            Self::RollingViscous { skate, damping } => Law::Blade(blade(&skate), BladeLaw::Viscous { damping }),
+            Self::RollingCoulomb { skate, force, smoothing } => {
+                Law::Blade(blade(&skate), BladeLaw::Coulomb { force, smoothing })
+            }
+            Self::DrivenWheel { skate, force } => Law::Blade(blade(&skate), BladeLaw::Driven(force)),
+            Self::Force { at, fx, fy, frame } => {
+                let (body, offset) = match info.point_index(&at) {
+                    Some(p) => (info.bodies[info.points[p].body].coords, [points[2 * p], points[2 * p + 1]]),
+                    None => (body_of(&at), [0.0, 0.0]),
+                };
+                Law::Force { body, offset, fx, fy, frame }
+            }
+            Self::Torque { body, torque } => Law::Torque { phi: body_of(&body)[2], torque },
+            Self::Slope { angle, downhill, g } => Law::Slope {
+                bodies: info.bodies.iter().map(|b| (b.coords[0], b.coords[1], mass[b.coords[0]])).collect(),
+                force_per_kg: [g * angle.sin() * downhill.cos(), g * angle.sin() * downhill.sin()],
+            },
+            Self::LinearDrag { body, c, c_rot } => Law::Drag { body: body_of(&body), c, c_rot, quadratic: false },
+            Self::QuadraticDrag { body, c, c_rot } => Law::Drag { body: body_of(&body), c, c_rot, quadratic: true },
+        };
+        Ok(Effect { name: name.to_string(), value_column: self.value_column(name), law })
+    }
+}
+
+/// A skate's blade on its body: coordinates, contact-point offset and unit
+/// blade direction in the body frame.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Blade {
+    /// Indices of the body's `(x, y, phi)` in `q`.
+    pub body: [usize; 3],
+    /// Contact point in the body frame [m].
+    pub offset: [f64; 2],
+    /// Unit blade direction in the body frame.
+    pub dir: [f64; 2],
+}
+
+/// Torque laws at a hinge (see [`EffectSpec`]).
+#[derive(Debug, Clone, PartialEq)]
+pub enum HingeLaw {
+    /// `tau = w(t)`.
+    Motor(Waveform),
+    /// `tau = -stiffness (theta - rest_angle)`.
+    Spring {
+        /// [N m/rad].
+        stiffness: f64,
+        /// [rad].
+        rest_angle: f64,
+    },
+    /// `tau = -damping theta_dot`.
+    Damper {
+        /// [N m s/rad].
+        damping: f64,
+    },
+}
+
+/// Force laws along a blade (see [`EffectSpec`]).
+#[derive(Debug, Clone, PartialEq)]
+pub enum BladeLaw {
+    /// `F = -damping v_t`.
+    Viscous {
+        /// [N s/m].
+        damping: f64,
+    },
+    /// `F = -force v_t / sqrt(v_t^2 + smoothing^2)`.
+    Coulomb {
+        /// [N].
+        force: f64,
+        /// [m/s].
+        smoothing: f64,
+    },
+    /// `F = w(t)`.
+    Driven(Waveform),
+}
+
+/// A resolved force law (indices into `q`, body-frame geometry).
+#[derive(Debug, Clone, PartialEq)]
+pub enum Law {
+    /// A torque pair at a hinge: `+tau` on `q[a]` (first body's heading),
+    /// `-tau` on `q[b]` (second body's, `None` for the ground).
+    Hinge {
+        /// Heading index of the first body.
+        a: usize,
+        /// Heading index of the second body.
+        b: Option<usize>,
+        /// The torque law.
+        law: HingeLaw,
+    },
+    /// A force along a skate's blade at its contact point.
+    Blade(Blade, BladeLaw),
+    /// A force at a body point.
+    Force {
+        /// Indices of the body's `(x, y, phi)`.
+        body: [usize; 3],
+        /// Point of application in the body frame [m].
+        offset: [f64; 2],
+        /// x component [N].
+        fx: Waveform,
+        /// y component [N].
+        fy: Waveform,
+        /// Axes of the components.
+        frame: Frame,
+    },
+    /// A torque on a body.
+    Torque {
+        /// Heading index of the body.
+        phi: usize,
+        /// [N m].
+        torque: Waveform,
+    },
+    /// Gravity along an inclined plane on every body.
+    Slope {
+        /// `(x index, y index, mass [kg])` per body.
+        bodies: Vec<(usize, usize, f64)>,
+        /// Downhill force per unit mass `g sin(angle) (cos, sin)(downhill)` [N/kg].
+        force_per_kg: [f64; 2],
+    },
+    /// Drag at a body's centre of mass.
+    Drag {
+        /// Indices of the body's `(x, y, phi)`.
+        body: [usize; 3],
+        /// Translational coefficient.
+        c: f64,
+        /// Rotational coefficient.
+        c_rot: f64,
+        /// `|v| v` instead of `v`.
+        quadratic: bool,
+    },
+}
+
+/// An effect resolved against a model, ready for the right-hand side.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Effect {
+    /// The scene's name for it (`W_<name>` is its work column).
+    pub name: String,
+    /// Name of its output column (see [`EffectSpec::value_column`]).
+    pub value_column: String,
+    /// The force law.
+    pub law: Law,
+}
+
+/// Adds a world force `(fx_w, fy_w)` at body-frame offset `p` of `body` into
+/// `f`; returns the point's velocity `v_P` (world) for the power.
+#[inline]
+fn point_force(body: [usize; 3], p: [f64; 2], force: [f64; 2], q: &[f64], qd: &[f64], f: &mut [f64]) -> [f64; 2] {
+    let (s, c) = q[body[2]].sin_cos();
+    let r = [c * p[0] - s * p[1], s * p[0] + c * p[1]];
+    let w = qd[body[2]];
+    f[body[0]] += force[0];
+    f[body[1]] += force[1];
+    f[body[2]] += r[0] * force[1] - r[1] * force[0];
+    [qd[body[0]] - w * r[1], qd[body[1]] + w * r[0]]
+}
+
+impl Effect {
+    /// Adds this effect's generalized force at `(t, q, qd)` into `f` (nq)
+    /// and returns `(power [W], value)`, `value` being the effect's output
+    /// quantity ([`Effect::value_column`]).
+    #[inline]
+    pub fn apply(&self, t: f64, q: &[f64], qd: &[f64], f: &mut [f64]) -> (f64, f64) {
+        match &self.law {
+            Law::Hinge { a, b, law } => {
+                let rate = qd[*a] - b.map_or(0.0, |b| qd[b]);
+                let tau = match law {
+                    HingeLaw::Motor(w) => w.eval(t),
+                    HingeLaw::Spring { stiffness, rest_angle } => {
+                        let theta = q[*a] - b.map_or(0.0, |b| q[b]);
+                        -stiffness * (theta - rest_angle)
+                    }
+                    HingeLaw::Damper { damping } => -damping * rate,
+                };
+                f[*a] += tau;
+                if let Some(b) = b {
+                    f[*b] -= tau;
+                }
+                (tau * rate, tau)
+            }
+            Law::Blade(bl, law) => {
+                let (s, c) = q[bl.body[2]].sin_cos();
+                let e = [c * bl.dir[0] - s * bl.dir[1], s * bl.dir[0] + c * bl.dir[1]];
+                let r = [c * bl.offset[0] - s * bl.offset[1], s * bl.offset[0] + c * bl.offset[1]];
+                let w = qd[bl.body[2]];
+                let v = [qd[bl.body[0]] - w * r[1], qd[bl.body[1]] + w * r[0]];
+                let vt = e[0] * v[0] + e[1] * v[1];
+                let force = match law {
+                    BladeLaw::Viscous { damping } => -damping * vt,
+                    BladeLaw::Coulomb { force, smoothing } => -force * vt / vt.hypot(*smoothing),
+                    BladeLaw::Driven(w) => w.eval(t),
+                };
+                f[bl.body[0]] += force * e[0];
+                f[bl.body[1]] += force * e[1];
+                f[bl.body[2]] += force * (r[0] * e[1] - r[1] * e[0]);
+                (force * vt, force)
+            }
+            Law::Force { body, offset, fx, fy, frame } => {
+                let (x, y) = (fx.eval(t), fy.eval(t));
+                let force = match frame {
+                    Frame::World => [x, y],
+                    Frame::Body => {
+                        let (s, c) = q[body[2]].sin_cos();
+                        [c * x - s * y, s * x + c * y]
+                    }
+                };
+                let v = point_force(*body, *offset, force, q, qd, f);
+                (force[0] * v[0] + force[1] * v[1], force[0].hypot(force[1]))
+            }
+            Law::Torque { phi, torque } => {
+                let tau = torque.eval(t);
+                f[*phi] += tau;
+                (tau * qd[*phi], tau)
+            }
+            Law::Slope { bodies, force_per_kg } => {
+                let mut power = 0.0;
+                let mut total = 0.0;
+                for &(ix, iy, m) in bodies {
+                    let fx = m * force_per_kg[0];
+                    let fy = m * force_per_kg[1];
+                    f[ix] += fx;
+                    f[iy] += fy;
+                    power += fx * qd[ix] + fy * qd[iy];
+                    total += m;
+                }
+                (power, total * force_per_kg[0].hypot(force_per_kg[1]))
+            }
+            Law::Drag { body, c, c_rot, quadratic } => {
+                let v = [qd[body[0]], qd[body[1]]];
+                let w = qd[body[2]];
+                let (k, k_rot) = if *quadratic { (c * v[0].hypot(v[1]), c_rot * w.abs()) } else { (*c, *c_rot) };
+                let force = [-k * v[0], -k * v[1]];
+                f[body[0]] += force[0];
+                f[body[1]] += force[1];
+                f[body[2]] -= k_rot * w;
+                (force[0] * v[0] + force[1] * v[1] - k_rot * w * w, force[0].hypot(force[1]))
+            }
+        }
+    }
+
+    /// Name of the effect's work column, `W_<name>` [J].
+    pub fn work_column(&self) -> String {
+        format!("W_{}", self.name)
+    }
+}
