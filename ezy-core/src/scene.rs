@@ -403,11 +403,11 @@ impl SceneError {
 
 /// A scene file that cannot be used: where and why.
 #[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
-#[error("{file}:{line}:{column}: {}{message}", key.as_ref().map(|k| format!("`{k}`: ")).unwrap_or_default())]
+#[error("{}", self.render())]
 pub struct SceneFileError {
     /// The file (or `<builtin NAME>`).
     pub file: String,
-    /// Line, from 1.
+    /// Line, from 1 (0: the file as a whole, e.g. it cannot be read).
     pub line: usize,
     /// Column, from 1.
     pub column: usize,
@@ -415,6 +415,18 @@ pub struct SceneFileError {
     pub key: Option<String>,
     /// What is wrong and what was expected.
     pub message: String,
+}
+
+impl SceneFileError {
+    /// `FILE:LINE:COLUMN: `KEY`: MESSAGE`, or `FILE: MESSAGE` for the file as a whole.
+    fn render(&self) -> String {
+        let key = self.key.as_ref().map(|k| format!("`{k}`: ")).unwrap_or_default();
+        if self.line == 0 {
+            format!("{}: {key}{}", self.file, self.message)
+        } else {
+            format!("{}:{}:{}: {key}{}", self.file, self.line, self.column, self.message)
+        }
+    }
 }
 
 /// Line and column (from 1) of byte offset `pos` in `src`.
@@ -459,11 +471,22 @@ impl Scene {
     /// # Errors
     /// [`SceneFileError`] at the line and column of a syntax error, a value
     /// of the wrong type, an unknown or missing key, or an unknown effect
-    /// kind (the message lists the known ones).
+    /// kind (the message lists the known ones). An error inside an effect's
+    /// fields is placed at the effect's `[effects.NAME]` header, with that
+    /// key (serde reads an internally tagged table as a whole).
     pub fn from_toml(src: &str, file: &str) -> Result<Scene, SceneFileError> {
         toml::from_str(src).map_err(|e: toml::de::Error| {
-            let (line, column) = e.span().map_or((1, 1), |s| line_column(src, s.start));
-            SceneFileError { file: file.to_string(), line, column, key: None, message: e.message().trim().to_string() }
+            let start = e.span().map_or(0, |s| s.start);
+            let (line, column) = line_column(src, start);
+            // Inside an `[effects.NAME]` table (an internally tagged enum,
+            // which serde buffers) the span is the table's header: name it.
+            let rest = &src[start.min(src.len())..];
+            let key = rest
+                .strip_prefix('[')
+                .and_then(|r| r.split_once(']'))
+                .map(|(k, _)| k.trim().to_string())
+                .filter(|k| !k.starts_with('['));
+            SceneFileError { file: file.to_string(), line, column, key, message: e.message().trim().to_string() }
         })
     }
 

@@ -201,7 +201,13 @@ pub struct SpecError {
 
 fn unknown(field: &'static str, kind: &str, name: &str, model: &str, known: Vec<&str>) -> SpecError {
     let known = if known.is_empty() { "none".to_string() } else { known.join(", ") };
-    SpecError { field, message: format!("unknown {kind} `{name}` in model {model}; its {kind}s: {known}") }
+    let plural = match kind {
+        "body" => "bodies",
+        "body or point" => "bodies and points",
+        "hinge" => "hinges",
+        _ => "skates",
+    };
+    SpecError { field, message: format!("unknown {kind} `{name}` in model {model}; its {plural}: {known}") }
 }
 
 fn finite(field: &'static str, v: f64) -> Result<(), SpecError> {
