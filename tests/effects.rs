@@ -4,16 +4,19 @@
 //! once, constraint forces against Newton-Euler per body, and the `free`
 //! scene bit for bit against a right-hand side with no effect code at all.
 
+#[path = "support/bare_rhs.rs"]
+mod bare_rhs;
 mod common;
 
 use std::f64::consts::PI;
 
+use bare_rhs::BareRhs;
 use common::max_abs;
 use ezy::output::RowBuilder;
 use ezy::run::{build, setup};
 use ezy_core::integrator::Rhs;
-use ezy_core::kkt::{KktMethod, KktSolver, KktSystem, SchurCholesky};
-use ezy_core::{Dynamics, Method, Model, ProjectionKind, RunSettings, Sample, Scene, SimError, simulate};
+use ezy_core::kkt::KktMethod;
+use ezy_core::{Dynamics, Method, Model, ProjectionKind, RunSettings, Sample, Scene, simulate};
 use ezy_models::scenes;
 use ezy_models::{ChaplyginSleigh, EzyRoller};
 
@@ -291,49 +294,16 @@ fn sleigh_skate_force_is_the_mass_times_acceleration() {
     assert!(fp.abs() > 0.1, "F_P = {fp}");
 }
 
-/// The right-hand side of a model with no effect code at all: `G`,
-/// `gamma`, the Schur-complement KKT solve, nothing else. The `free` scene
-/// through [`Dynamics`] must give the same bits: effects the scene does
-/// not list contribute nothing, not even `+ 0.0`.
-struct BareRhs {
-    model: EzyRoller,
-    kkt: SchurCholesky<EzyRoller>,
-    mass: Vec<f64>,
-    g_values: Vec<f64>,
-    gamma: Vec<f64>,
-    f: Vec<f64>,
-    lambda: Vec<f64>,
-}
-
-impl Rhs for BareRhs {
-    fn eval(&mut self, _t: f64, y: &[f64], dy: &mut [f64]) -> Result<(), SimError> {
-        let (q, qd) = y.split_at(6);
-        self.model.constraint_terms(q, qd, &mut self.g_values, &mut self.gamma);
-        let sys = KktSystem { mass: &self.mass, g: &[], g_values: &self.g_values, f: &self.f, gamma: &self.gamma };
-        let (dq, dqd) = dy.split_at_mut(6);
-        self.kkt.solve(&sys, dqd, &mut self.lambda).map_err(|e| SimError::from_kkt::<EzyRoller>(0.0, e))?;
-        dq.copy_from_slice(qd);
-        Ok(())
-    }
-}
-
+/// The `free` scene through [`Dynamics`] gives the same bits as a
+/// right-hand side with no effect code at all ([`BareRhs`]): effects the
+/// scene does not list contribute nothing, not even `+ 0.0`.
 #[test]
 fn free_is_bit_identical_to_a_right_hand_side_without_effect_code() {
     let scene = scenes::free();
     let (mut sys, y0) = build::<EzyRoller>(&scene, &[], KktMethod::Schur).unwrap();
     assert_eq!(y0.len(), 12, "no effects, no work states");
     let model = sys.model.clone();
-    let mut mass = vec![0.0; 6];
-    model.mass_diagonal(&mut mass);
-    let mut bare = BareRhs {
-        kkt: SchurCholesky::new(&mass).unwrap(),
-        model,
-        mass,
-        g_values: vec![0.0; EzyRoller::INFO.pattern.len()],
-        gamma: vec![0.0; 4],
-        f: vec![0.0; 6],
-        lambda: vec![0.0; 4],
-    };
+    let mut bare = BareRhs::new(model);
     // RK4 steps of the scene's h, both right-hand sides, no projection in
     // between (projection is the same code for both)
     let h = scene.integrator.dt;

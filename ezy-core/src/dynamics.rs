@@ -168,11 +168,15 @@ impl<M: Model> Dynamics<M> {
                 *g += beta * beta * c;
             }
         }
-        ws.f.fill(0.0);
         let (dq, rest) = dy.split_at_mut(nq);
         let (dqd, power) = rest.split_at_mut(nq);
-        for (e, p) in self.effects.iter().zip(power) {
-            *p = e.apply(t, q, qd, &mut ws.f).0;
+        // `f` is only ever written here: without effects it stays zero and
+        // is not touched (the `free` scene pays nothing for the library).
+        if !self.effects.is_empty() {
+            ws.f.fill(0.0);
+            for (e, p) in self.effects.iter().zip(power) {
+                *p = e.apply(t, q, qd, &mut ws.f).0;
+            }
         }
         let sys = KktSystem { mass: &self.mass, g: &ws.g, g_values: &ws.g_values, f: &ws.f, gamma: &ws.gamma };
         self.kkt.solve(&sys, &mut ws.qdd, &mut ws.lambda).map_err(|source| SimError::from_kkt::<M>(t, source))?;
