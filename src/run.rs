@@ -83,7 +83,7 @@ pub struct Report {
     pub table: Table,
     /// Settings used.
     pub settings: RunSettings,
-    /// Names of the state components `y = [q, qd, W]`.
+    /// Names of the state components `y = [q, qd, W_1 .. W_k]`.
     pub state_names: Vec<String>,
     /// Files written.
     pub files: Vec<PathBuf>,

@@ -28,7 +28,7 @@ pub fn random_model<M: Model + Default>(rng: &mut StdRng) -> M {
     m
 }
 
-/// Keeps every sample: `(t, y = [q, qd, W], T, res_phi, res_vel)`.
+/// Keeps every sample: `(t, y = [q, qd, sum W], T, res_phi, res_vel)`.
 #[derive(Default)]
 pub struct Recorder {
     pub t: Vec<f64>,

@@ -154,7 +154,7 @@ pub struct Summary {
     pub max_step_drift: f64,
     /// Largest `|T - T0 - W|` over all steps [J].
     pub max_energy_error: f64,
-    /// Final state `y = [q, qd, W]`.
+    /// Final state `y = [q, qd, W_1 .. W_k]` (one work state per effect).
     pub final_state: Vec<f64>,
     /// KKT path used.
     pub kkt: &'static str,
@@ -287,7 +287,7 @@ impl<M: Model, O: Observer<M>> Run<'_, M, O> {
     }
 }
 
-/// Integrates `sys` from `y0 = [q, qd, W]` with the method of `settings`
+/// Integrates `sys` from `y0 = [q, qd, W_1 .. W_k]` with the method of `settings`
 /// and projection after every accepted step. Fixed-step methods output
 /// every `every` seconds (rounded to whole steps); adaptive methods output
 /// at exact multiples of `every` from their dense output (projected like
