@@ -4,6 +4,8 @@
 //! are run with [`run::run_scene`], which writes `trajectory.csv` and the
 //! scene's figures. The `ezy` binary is the command-line front end.
 
+pub mod check;
+pub mod equations;
 pub mod figures;
 pub mod output;
 pub mod plot;

@@ -1,4 +1,5 @@
-//! The `ezy` command line: `ezy run [SCENE | FILE.toml]`, `ezy list`, `ezy precision SCENE`.
+//! The `ezy` command line: `ezy run [SCENE | FILE.toml]`, `ezy list`,
+//! `ezy precision SCENE`, `ezy equations MODEL`, `ezy check MODEL`.
 
 use std::path::PathBuf;
 use std::process::ExitCode;
@@ -23,6 +24,75 @@ enum Command {
     List,
     /// Measure error against wall time over a ladder of integrators and settings.
     Precision(PrecisionArgs),
+    /// Print the equations the model! macro derived (phi, G = [C_q; S], gamma).
+    Equations(EquationsArgs),
+    /// Check the derived Jacobians and convective terms against finite differences.
+    Check(CheckArgs),
+}
+
+#[derive(clap::Args, Debug)]
+struct EquationsArgs {
+    /// Model name (see `ezy list`).
+    model: String,
+    /// Output format.
+    #[arg(long, value_enum, default_value = "text")]
+    format: EqFormat,
+}
+
+#[derive(ValueEnum, Clone, Copy, Debug)]
+enum EqFormat {
+    /// Plain text in SPEC §1's notation.
+    Text,
+    /// A LaTeX document (amsmath).
+    Latex,
+}
+
+#[derive(clap::Args, Debug)]
+struct CheckArgs {
+    /// Model name (see `ezy list`).
+    model: String,
+    /// Number of random states (and random parameter sets).
+    #[arg(long, default_value_t = 100)]
+    states: usize,
+    /// Seed of the random states.
+    #[arg(long, default_value_t = 1)]
+    seed: u64,
+}
+
+/// Runs `ezy equations` or `ezy check` for the model type.
+enum ModelCommand {
+    Equations(ezy::equations::Format),
+    Check { states: usize, seed: u64 },
+}
+
+impl ezy_core::ModelVisitor for ModelCommand {
+    type Output = (String, bool);
+    fn visit<M: ezy_core::Model + Default>(self) -> Self::Output {
+        match self {
+            Self::Equations(f) => (ezy::equations::render::<M>(f), true),
+            Self::Check { states, seed } => {
+                let checks = ezy::check::check::<M>(states, seed);
+                let ok = checks.iter().all(|c| c.passed());
+                (ezy::check::table(M::INFO.name, states, &checks), ok)
+            }
+        }
+    }
+}
+
+fn model_command(model: &str, cmd: ModelCommand) -> Result<(), String> {
+    let (out, ok) = ezy_models::visit(model, cmd).ok_or_else(|| {
+        let known: Vec<&str> = ezy_models::MODELS.iter().map(|(k, _)| *k).collect();
+        format!("unknown model `{model}`; known models: {}", known.join(", "))
+    })?;
+    print!("{out}");
+    if ok {
+        Ok(())
+    } else {
+        Err(format!(
+            "model `{model}`: a derived term differs from its finite difference by more than {:e}",
+            ezy::check::TOLERANCE
+        ))
+    }
 }
 
 #[derive(clap::Args, Debug, Default)]
@@ -136,6 +206,20 @@ fn main() -> ExitCode {
         }
         Command::Run(args) => run(args),
         Command::Precision(args) => precision(args),
+        Command::Equations(args) => model_command(
+            &args.model,
+            ModelCommand::Equations(match args.format {
+                EqFormat::Text => ezy::equations::Format::Text,
+                EqFormat::Latex => ezy::equations::Format::Latex,
+            }),
+        ),
+        Command::Check(args) => {
+            if args.states == 0 {
+                Err("--states = 0: check at least one state".to_string())
+            } else {
+                model_command(&args.model, ModelCommand::Check { states: args.states, seed: args.seed })
+            }
+        }
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

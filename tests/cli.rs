@@ -244,3 +244,55 @@ fn a_bad_scene_file_is_named_with_its_line_and_nothing_is_written() {
     assert_eq!(o.status.code(), Some(1));
     assert!(stderr(&o).contains("missing.toml: cannot read the scene file"), "{}", stderr(&o));
 }
+
+/// `ezy equations ezyroller` prints SPEC §1's formulas, derived by the
+/// macro: the hinge residual, the skate rows and the convective terms.
+#[test]
+fn equations_print_what_the_macro_derived() {
+    let o = ezy(&["equations", "ezyroller"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let out = String::from_utf8_lossy(&o.stdout);
+    for line in [
+        "M = diag(m1, m1, I1, m2, m2, I2)",
+        "B.x  x1 + b*cos(phi1) - x2 + d*cos(phi2)",
+        "B.y  y1 + b*sin(phi1) - y2 + d*sin(phi2)",
+        "A    -x1d*sin(phi1) + y1d*cos(phi1) - a*phi1d   (skate)",
+        "C    -x2d*sin(phi2) + y2d*cos(phi2) + c*phi2d   (skate)",
+        "G[B.y, y2] = -1",
+        "B.x  -b*phi1d^2*cos(phi1) - d*phi2d^2*cos(phi2)",
+        "A    phi1d*(-x1d*cos(phi1) - y1d*sin(phi1))",
+        "A: (x1d + a*phi1d*sin(phi1), y1d - a*phi1d*cos(phi1))",
+    ] {
+        assert!(out.contains(line), "`{line}` missing from:\n{out}");
+    }
+    let o = ezy(&["equations", "ezyroller", "--format", "latex"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let tex = String::from_utf8_lossy(&o.stdout);
+    assert!(tex.starts_with("\\documentclass{article}") && tex.trim_end().ends_with("\\end{document}"));
+    assert!(tex.contains("x_{1} + b \\cos \\varphi_{1} - x_{2} + d \\cos \\varphi_{2} = 0"), "{tex}");
+    assert!(
+        tex.contains("-\\dot{x}_{1} \\sin \\varphi_{1} + \\dot{y}_{1} \\cos \\varphi_{1} - a \\dot{\\varphi}_{1}"),
+        "{tex}"
+    );
+    assert_eq!(tex.matches('{').count(), tex.matches('}').count(), "unbalanced braces");
+    assert_eq!(tex.matches("\\begin{").count(), tex.matches("\\end{").count());
+    let o = ezy(&["equations", "tricycle"]);
+    assert_eq!(o.status.code(), Some(1));
+    assert!(
+        stderr(&o).contains("unknown model `tricycle`; known models: ezyroller, chaplygin_sleigh"),
+        "{}",
+        stderr(&o)
+    );
+}
+
+/// `ezy check` passes for every registered model and prints one line per term.
+#[test]
+fn check_passes_for_every_model() {
+    for (model, _) in ezy_models::MODELS {
+        let o = ezy(&["check", model, "--states", "20"]);
+        assert!(o.status.success(), "{model}: {}{}", String::from_utf8_lossy(&o.stdout), stderr(&o));
+        let out = String::from_utf8_lossy(&o.stdout);
+        assert!(out.contains("gamma = d/dq(G qd) qd") && out.contains(" ok "), "{out}");
+        assert!(!out.contains("FAILED"), "{out}");
+    }
+}

@@ -19,7 +19,7 @@ pub use effects::{Effect, EffectSpec};
 pub use error::SimError;
 pub use ezy_derive::model;
 pub use integrator::Method;
-pub use model::{BodyInfo, HingeInfo, Model, ModelInfo, ParamInfo, PointInfo, SkateInfo};
+pub use model::{BodyInfo, EquationExpr, Equations, HingeInfo, Model, ModelInfo, ParamInfo, PointInfo, SkateInfo};
 pub use projection::ProjectionKind;
 pub use scalar::Scalar;
 pub use scene::{
@@ -31,6 +31,8 @@ pub use simulate::{Observer, RunError, RunSettings, Sample, Summary, simulate};
 /// Paths the generated code uses; not public API.
 #[doc(hidden)]
 pub mod __private {
-    pub use crate::model::{BodyInfo, HingeInfo, Model, ModelInfo, ParamInfo, PointInfo, SkateInfo};
+    pub use crate::model::{
+        BodyInfo, EquationExpr, Equations, HingeInfo, Model, ModelInfo, ParamInfo, PointInfo, SkateInfo,
+    };
     pub use crate::scalar::Scalar;
 }

@@ -220,6 +220,7 @@ pub fn emit(def: &ModelDef, res: &Resolved, d: &Derived) -> TokenStream {
     let local_body = assign(d, def, &[("points", &d.local[..n_local_points]), ("blades", &d.local[n_local_points..])]);
 
     let kernels = sparse_kernels(&pattern, nq, d.g.len());
+    let equations = equations(d, def, &pattern);
 
     quote! {
         #(#attrs)*
@@ -250,6 +251,8 @@ pub fn emit(def: &ModelDef, res: &Resolved, d: &Derived) -> TokenStream {
                 n_holonomic: #nh,
                 pattern: &[#(#pat),*],
             };
+
+            const EQUATIONS: #private::Equations = #equations;
 
             fn param(&self, index: usize) -> f64 {
                 match index {
@@ -322,6 +325,50 @@ pub fn emit(def: &ModelDef, res: &Resolved, d: &Derived) -> TokenStream {
             }
         }
     }
+}
+
+/// The derived equations as text and LaTeX (`Model::EQUATIONS`), for
+/// `ezy equations`: what the macro computed, in SPEC §1's notation.
+fn equations(d: &Derived, def: &ModelDef, pattern: &[(usize, usize)]) -> TokenStream {
+    use crate::sym::Id;
+    use crate::sym::{Sym, latex_name, latex_rate};
+    let private = quote!(::ezy_core::__private);
+    let coords: Vec<String> = def.bodies.iter().flat_map(|b| b.coords.iter().map(|c| c.to_string())).collect();
+    let params: Vec<String> = def.params.iter().map(|p| p.name.to_string()).collect();
+    let text_name = |s: Sym| match s {
+        Sym::Q(k) => coords[k].clone(),
+        Sym::Qd(k) => format!("{}d", coords[k]),
+        Sym::Param(i) => params[i].clone(),
+    };
+    let latex = |s: Sym| match s {
+        Sym::Q(k) => latex_name(&coords[k]),
+        Sym::Qd(k) => latex_rate(&coords[k]),
+        Sym::Param(i) => latex_name(&params[i]),
+    };
+    let expr = |id: Id| {
+        let t = d.ar.display(id, &text_name);
+        let l = d.ar.latex(id, &latex);
+        quote!(#private::EquationExpr { text: #t, latex: #l })
+    };
+    let coord_names = coords.iter().map(|c| {
+        let l = latex_name(c);
+        quote!(#private::EquationExpr { text: #c, latex: #l })
+    });
+    let mass = d.mass.iter().map(|&e| expr(e));
+    let phi = d.phi.iter().map(|&e| expr(e));
+    let velocity = d.velocity.iter().map(|&e| expr(e));
+    let jacobian = pattern.iter().map(|&(r, c)| expr(d.g[r][c]));
+    let gamma = d.gamma.iter().map(|&e| expr(e));
+    let point_velocities = d.point_vel.iter().flat_map(|v| v.iter()).map(|&e| expr(e));
+    quote!(#private::Equations {
+        coords: &[#(#coord_names),*],
+        mass: &[#(#mass),*],
+        phi: &[#(#phi),*],
+        velocity: &[#(#velocity),*],
+        jacobian: &[#(#jacobian),*],
+        gamma: &[#(#gamma),*],
+        point_velocities: &[#(#point_velocities),*],
+    })
 }
 
 /// Straight-line products with `G` at its compile-time sparsity pattern:

@@ -30,6 +30,8 @@ pub struct Derived {
     pub g: Vec<Vec<Id>>,
     /// Convective terms (nc).
     pub gamma: Vec<Id>,
+    /// Velocity forms `G_i(q) qd` (nc), for readable equations.
+    pub velocity: Vec<Id>,
     /// Row names of G.
     pub constraint_names: Vec<String>,
     /// Point positions and velocities, `[x, y]` per point.
@@ -262,14 +264,14 @@ pub fn derive(def: &ModelDef, res: &Resolved, errs: &mut Errors) -> Derived {
         constraint_names.push(s.name.to_string());
     }
 
-    let gamma = g
+    let velocity: Vec<Id> = g
         .iter()
         .map(|row| {
             let terms: Vec<Id> = row.iter().zip(&qd).map(|(&gij, &v)| ar.mul2(gij, v)).collect();
-            let gv = ar.add(&terms);
-            time_derivative(&mut ar, gv)
+            ar.add(&terms)
         })
         .collect();
+    let gamma = velocity.iter().map(|&gv| time_derivative(&mut ar, gv)).collect();
 
-    Derived { ar, nq, phi, g, gamma, constraint_names, points, point_vel, mass, local }
+    Derived { ar, nq, phi, g, gamma, velocity, constraint_names, points, point_vel, mass, local }
 }

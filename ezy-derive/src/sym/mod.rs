@@ -18,6 +18,7 @@
 
 mod diff;
 mod display;
+pub use display::{latex_name, latex_rate};
 
 use std::collections::HashMap;
 

@@ -1,0 +1,110 @@
+//! `ezy equations MODEL`: what the `model!` macro derived, in SPEC §1's
+//! notation, as text or as a LaTeX document.
+
+use ezy_core::{Model, ModelInfo};
+
+/// Output format.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Format {
+    /// Plain text.
+    Text,
+    /// A LaTeX document (amsmath).
+    Latex,
+}
+
+/// The derived equations of model `M` in `format`.
+pub fn render<M: Model>(format: Format) -> String {
+    match format {
+        Format::Text => text::<M>(),
+        Format::Latex => latex::<M>(),
+    }
+}
+
+/// Row label of constraint `i`, with its kind.
+fn row_kind(info: &ModelInfo, i: usize) -> &'static str {
+    if i < info.n_holonomic { "hinge" } else { "skate" }
+}
+
+fn text<M: Model>() -> String {
+    let (info, eq) = (&M::INFO, &M::EQUATIONS);
+    let mut out = String::new();
+    let w = info.constraints.iter().map(|c| c.len()).max().unwrap_or(0);
+    out.push_str(&format!("{}: {}\n", info.name, info.doc));
+    out.push_str(&format!("q = [{}]  (nq = {}, nc = {})\n\n", info.coords.join(", "), info.nq(), info.nc()));
+    let mass: Vec<&str> = eq.mass.iter().map(|e| e.text).collect();
+    out.push_str(&format!("Mass matrix\n  M = diag({})\n\n", mass.join(", ")));
+    out.push_str("Holonomic constraints phi(q) = 0 [m]\n");
+    for (i, e) in eq.phi.iter().enumerate() {
+        out.push_str(&format!("  {:<w$}  {}\n", info.constraints[i], e.text));
+    }
+    out.push_str("\nVelocity constraints G(q) qd = 0 [m/s] (hinge rows: d phi/dt; skate rows: S qd, the lateral velocity of the contact point)\n");
+    for (i, e) in eq.velocity.iter().enumerate() {
+        out.push_str(&format!("  {:<w$}  {}   ({})\n", info.constraints[i], e.text, row_kind(info, i)));
+    }
+    out.push_str(&format!("\nConstraint Jacobian G = [C_q; S] ({} x {}), nonzero entries\n", info.nc(), info.nq()));
+    for (&(r, c), e) in info.pattern.iter().zip(eq.jacobian) {
+        out.push_str(&format!("  G[{}, {}] = {}\n", info.constraints[r], info.coords[c], e.text));
+    }
+    out.push_str("\nConvective terms gamma = d/dq(G qd) qd [m/s^2], so that G qdd = -gamma\n");
+    for (i, e) in eq.gamma.iter().enumerate() {
+        out.push_str(&format!("  {:<w$}  {}\n", info.constraints[i], e.text));
+    }
+    out.push_str("\nPoint velocities [m/s]\n");
+    for (p, v) in info.points.iter().zip(eq.point_velocities.chunks(2)) {
+        out.push_str(&format!("  {}: ({}, {})\n", p.name, v[0].text, v[1].text));
+    }
+    out
+}
+
+/// A constraint or coordinate name as LaTeX text.
+fn tex_text(s: &str) -> String {
+    format!("\\text{{{}}}", s.replace('_', "\\_"))
+}
+
+fn latex<M: Model>() -> String {
+    let (info, eq) = (&M::INFO, &M::EQUATIONS);
+    let mut out = String::new();
+    out.push_str("\\documentclass{article}\n\\usepackage{amsmath}\n\\allowdisplaybreaks\n\\begin{document}\n");
+    out.push_str(&format!("\\section*{{{}: derived equations}}\n", info.name));
+    let q: Vec<&str> = eq.coords.iter().map(|c| c.latex).collect();
+    out.push_str(&format!(
+        "Generalized coordinates\n\\[ q = \\begin{{pmatrix}} {} \\end{{pmatrix}}^T \\]\n",
+        q.join(" & ")
+    ));
+    let mass: Vec<&str> = eq.mass.iter().map(|e| e.latex).collect();
+    out.push_str(&format!("Mass matrix\n\\[ M = \\operatorname{{diag}}\\left({}\\right) \\]\n", mass.join(",\\ ")));
+    out.push_str("Holonomic constraints\n\\begin{align*}\n");
+    for (i, e) in eq.phi.iter().enumerate() {
+        out.push_str(&format!("  \\phi_{{{}}} &= {} = 0 \\\\\n", tex_text(info.constraints[i]), e.latex));
+    }
+    out.push_str(
+        "\\end{align*}\nVelocity constraints $G(q)\\,\\dot q = 0$ (skate rows: $S(q)\\,\\dot q$)\n\\begin{align*}\n",
+    );
+    for (i, e) in eq.velocity.iter().enumerate() {
+        out.push_str(&format!("  G_{{{}}}\\,\\dot q &= {} \\\\\n", tex_text(info.constraints[i]), e.latex));
+    }
+    out.push_str("\\end{align*}\nConstraint Jacobian $G = [C_q;\\ S]$, nonzero entries\n\\begin{align*}\n");
+    for (&(r, c), e) in info.pattern.iter().zip(eq.jacobian) {
+        out.push_str(&format!(
+            "  G_{{{},\\,{}}} &= {} \\\\\n",
+            tex_text(info.constraints[r]),
+            eq.coords[c].latex,
+            e.latex
+        ));
+    }
+    out.push_str("\\end{align*}\nConvective terms $\\gamma = \\frac{\\partial (G\\dot q)}{\\partial q}\\,\\dot q$, so that $G\\ddot q = -\\gamma$\n\\begin{align*}\n");
+    for (i, e) in eq.gamma.iter().enumerate() {
+        out.push_str(&format!("  \\gamma_{{{}}} &= {} \\\\\n", tex_text(info.constraints[i]), e.latex));
+    }
+    out.push_str("\\end{align*}\nPoint velocities\n\\begin{align*}\n");
+    for (p, v) in info.points.iter().zip(eq.point_velocities.chunks(2)) {
+        out.push_str(&format!(
+            "  v_{{{}}} &= \\left({},\\ {}\\right) \\\\\n",
+            tex_text(p.name),
+            v[0].latex,
+            v[1].latex
+        ));
+    }
+    out.push_str("\\end{align*}\n\\end{document}\n");
+    out
+}
