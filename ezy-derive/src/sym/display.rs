@@ -17,22 +17,7 @@ impl Arena {
                 (fmt_num(v), if v < 0.0 { 0 } else { 3 })
             }
             Node::Sym(s) => (name(*s), 3),
-            Node::Add(ts) => {
-                let mut out = String::new();
-                for (i, (t, neg)) in self.signed_terms(ts).into_iter().enumerate() {
-                    let piece = negate_if(self.fmt_prec(t, name, 0), neg);
-                    if i == 0 {
-                        out.push_str(&piece);
-                    } else if let Some(rest) = piece.strip_prefix('-') {
-                        out.push_str(" - ");
-                        out.push_str(rest);
-                    } else {
-                        out.push_str(" + ");
-                        out.push_str(&piece);
-                    }
-                }
-                (out, 0)
-            }
+            Node::Add(ts) => (self.sum(ts, &|t| self.fmt_prec(t, name, 0)), 0),
             Node::Mul(fs) => {
                 let (sign, fs) = match self.as_const(fs[0]) {
                     Some(-1.0) => ("-", &fs[1..]),
@@ -51,6 +36,24 @@ impl Arena {
 }
 
 impl Arena {
+    /// A sum printed term by term with ` + ` and ` - `.
+    fn sum(&self, ts: &[Id], print: &dyn Fn(Id) -> String) -> String {
+        let mut out = String::new();
+        for (i, (t, neg)) in self.signed_terms(ts).into_iter().enumerate() {
+            let piece = negate_if(print(t), neg);
+            if i == 0 {
+                out.push_str(&piece);
+            } else if let Some(rest) = piece.strip_prefix('-') {
+                out.push_str(" - ");
+                out.push_str(rest);
+            } else {
+                out.push_str(" + ");
+                out.push_str(&piece);
+            }
+        }
+        out
+    }
+
     /// The terms of a sum for reading: a term `-(u + v)` is spread into
     /// `-u`, `-v` (`x1 - x2 + d cos phi2` rather than `x1 - (x2 - d cos phi2)`).
     /// Returns `(term, negated)`.
@@ -119,22 +122,7 @@ impl Arena {
                 (fmt_num(v), if v < 0.0 { 0 } else { 3 })
             }
             Node::Sym(s) => (name(*s), 3),
-            Node::Add(ts) => {
-                let mut out = String::new();
-                for (i, (t, neg)) in self.signed_terms(ts).into_iter().enumerate() {
-                    let piece = negate_if(self.latex_prec(t, name, 0), neg);
-                    if i == 0 {
-                        out.push_str(&piece);
-                    } else if let Some(rest) = piece.strip_prefix('-') {
-                        out.push_str(" - ");
-                        out.push_str(rest);
-                    } else {
-                        out.push_str(" + ");
-                        out.push_str(&piece);
-                    }
-                }
-                (out, 0)
-            }
+            Node::Add(ts) => (self.sum(ts, &|t| self.latex_prec(t, name, 0)), 0),
             Node::Mul(fs) => {
                 let (sign, coef, rest) = match self.as_const(fs[0]) {
                     Some(-1.0) => ("-", None, &fs[1..]),
