@@ -19,7 +19,9 @@ pub use effects::{Effect, EffectSpec};
 pub use error::SimError;
 pub use ezy_derive::model;
 pub use integrator::Method;
-pub use model::{BodyInfo, EquationExpr, Equations, HingeInfo, Model, ModelInfo, ParamInfo, PointInfo, SkateInfo};
+pub use model::{
+    BodyInfo, EquationExpr, Equations, HingeInfo, Model, ModelInfo, ParamInfo, PointInfo, SkateInfo, SliderInfo,
+};
 pub use projection::ProjectionKind;
 pub use scalar::Scalar;
 pub use scene::{
@@ -32,7 +34,7 @@ pub use simulate::{Observer, RunError, RunSettings, Sample, Summary, simulate};
 #[doc(hidden)]
 pub mod __private {
     pub use crate::model::{
-        BodyInfo, EquationExpr, Equations, HingeInfo, Model, ModelInfo, ParamInfo, PointInfo, SkateInfo,
+        BodyInfo, EquationExpr, Equations, HingeInfo, Model, ModelInfo, ParamInfo, PointInfo, SkateInfo, SliderInfo,
     };
     pub use crate::scalar::Scalar;
 }

@@ -62,6 +62,22 @@ pub struct HingeInfo {
     pub row: usize,
 }
 
+/// A slider (prismatic joint): a point of body `body_b` stays on a line
+/// fixed in body `body_a` (or in the ground, `body_a = None`), and the two
+/// headings keep a fixed difference.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct SliderInfo {
+    /// Slider name, e.g. `"S"`.
+    pub name: &'static str,
+    /// Index of the guiding body, `None` for the ground.
+    pub body_a: Option<usize>,
+    /// Index of the moving body.
+    pub body_b: usize,
+    /// Index of its first residual row in `phi` (rows `row` = `S.n`, the
+    /// offset from the line [m], and `row + 1` = `S.phi`, the heading [rad]).
+    pub row: usize,
+}
+
 /// A skate (knife edge): a body point whose velocity has no component along
 /// the blade normal.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -92,11 +108,14 @@ pub struct ModelInfo {
     pub points: &'static [PointInfo],
     /// Hinges, in declaration order.
     pub hinges: &'static [HingeInfo],
+    /// Sliders, in declaration order (their rows follow the hinges').
+    pub sliders: &'static [SliderInfo],
     /// Skates, in declaration order.
     pub skates: &'static [SkateInfo],
-    /// Names of the constraint rows of `G` (nc): `B.x`, `B.y` per hinge, then skates.
+    /// Names of the constraint rows of `G` (nc): `B.x`, `B.y` per hinge,
+    /// `S.n`, `S.phi` per slider, then one per skate.
     pub constraints: &'static [&'static str],
-    /// Number of holonomic constraint rows `nh` (two per hinge).
+    /// Number of holonomic constraint rows `nh` (two per hinge and per slider).
     pub n_holonomic: usize,
     /// Structural nonzeros `(row, col)` of `G` (nc x nq), row-major sorted.
     /// The entries of rows `< n_holonomic` come first.

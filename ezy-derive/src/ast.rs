@@ -12,6 +12,7 @@ pub struct ModelDef {
     pub bodies: Vec<Body>,
     pub points: Vec<Point>,
     pub hinges: Vec<Hinge>,
+    pub sliders: Vec<Slider>,
     pub skates: Vec<Skate>,
 }
 
@@ -51,6 +52,21 @@ pub struct Hinge {
     pub name: Ident,
     pub point: Ident,
     pub target: HingeTarget,
+}
+
+/// `slider NAME: P on Q along (DX, DY) [angle EXPR];` or
+/// `slider NAME: P on ground(X, Y) along (DX, DY) [angle EXPR];`: a
+/// prismatic joint. Point `P` (of the moving body) stays on the line
+/// through `Q` (of the guiding body, or a ground point) along `(DX, DY)`
+/// (in the guiding body's frame, or the world's), and the moving body's
+/// heading stays at `angle` (default 0) from the guiding body's.
+pub struct Slider {
+    pub name: Ident,
+    pub point: Ident,
+    pub target: HingeTarget,
+    pub along: [Expr; 2],
+    pub along_span: Span,
+    pub angle: Option<Expr>,
 }
 
 /// `skate NAME: P along (DX, DY);`

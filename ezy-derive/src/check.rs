@@ -43,6 +43,9 @@ pub struct Resolved {
     pub point_body: Vec<usize>,
     /// Points joined by every hinge (second is `None` for the ground).
     pub hinge_points: Vec<(usize, Option<usize>)>,
+    /// Points of every slider: the moving point and the guiding point
+    /// (`None` for a ground line).
+    pub slider_points: Vec<(usize, Option<usize>)>,
     /// Contact point of every skate.
     pub skate_point: Vec<usize>,
 }
@@ -67,6 +70,7 @@ pub fn check(def: &ModelDef, errs: &mut Errors) -> Resolved {
     check_unique(errs, "point", def.points.iter().map(|p| &p.name));
     check_unique(errs, "hinge", def.hinges.iter().map(|h| &h.name));
     check_unique(errs, "skate", def.skates.iter().map(|s| &s.name));
+    check_unique(errs, "joint", def.hinges.iter().map(|h| &h.name).chain(def.sliders.iter().map(|s| &s.name)));
     check_unique(errs, "coordinate", def.bodies.iter().flat_map(|b| b.coords.iter()));
     for p in &def.params {
         if !p.value.is_finite() {
@@ -105,22 +109,22 @@ pub fn check(def: &ModelDef, errs: &mut Errors) -> Resolved {
             usize::MAX
         })
     };
-    let mut hinge_points = Vec::new();
-    for h in &def.hinges {
-        let owner = format!("hinge `{}`", h.name);
-        let a = find_point(errs, &owner, &h.point);
-        let b = match &h.target {
+    // the two points a joint relates: distinct, on different bodies
+    let joint = |errs: &mut Errors, kind: &str, name: &Ident, point: &Ident, target: &HingeTarget| {
+        let owner = format!("{kind} `{name}`");
+        let a = find_point(errs, &owner, point);
+        let b = match target {
             HingeTarget::Point(p) => {
                 let b = find_point(errs, &owner, p);
                 if a != usize::MAX && b != usize::MAX {
                     if a == b {
-                        errs.at(p, format!("hinge `{}` joins point `{}` to itself", h.name, p));
+                        errs.at(p, format!("{kind} `{name}` joins point `{p}` to itself"));
                     } else if point_body[a] != usize::MAX && point_body[a] == point_body[b] {
                         errs.at(
                             p,
                             format!(
-                                "hinge `{}` joins two points of the same body `{}`; a hinge joins two bodies (or a body and `ground(x, y)`)",
-                                h.name, body_names[point_body[a]]
+                                "{kind} `{name}` joins two points of the same body `{}`; a {kind} joins two bodies (or a body and `ground(x, y)`)",
+                                body_names[point_body[a]]
                             ),
                         );
                     }
@@ -129,8 +133,10 @@ pub fn check(def: &ModelDef, errs: &mut Errors) -> Resolved {
             }
             HingeTarget::Ground { .. } => None,
         };
-        hinge_points.push((a, b));
-    }
+        (a, b)
+    };
+    let hinge_points = def.hinges.iter().map(|h| joint(errs, "hinge", &h.name, &h.point, &h.target)).collect();
+    let slider_points = def.sliders.iter().map(|s| joint(errs, "slider", &s.name, &s.point, &s.target)).collect();
     let skate_point = def.skates.iter().map(|s| find_point(errs, &format!("skate `{}`", s.name), &s.point)).collect();
-    Resolved { point_body, hinge_points, skate_point }
+    Resolved { point_body, hinge_points, slider_points, skate_point }
 }

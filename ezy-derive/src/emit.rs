@@ -185,6 +185,20 @@ pub fn emit(def: &ModelDef, res: &Resolved, d: &Derived) -> TokenStream {
         let row = 2 * i;
         quote!(#private::HingeInfo { name: #n, body_a: #body_a, body_b: #body_b, row: #row })
     });
+    let n_hinge_rows = 2 * def.hinges.len();
+    let sliders_info = def.sliders.iter().zip(&res.slider_points).enumerate().map(|(i, (sl, &(p, guide)))| {
+        let n = sl.name.to_string();
+        let body_b = res.point_body[p];
+        let body_a = match guide {
+            Some(g) => {
+                let a = res.point_body[g];
+                quote!(::core::option::Option::Some(#a))
+            }
+            None => quote!(::core::option::Option::None),
+        };
+        let row = n_hinge_rows + 2 * i;
+        quote!(#private::SliderInfo { name: #n, body_a: #body_a, body_b: #body_b, row: #row })
+    });
     let skates_info = def.skates.iter().zip(&res.skate_point).enumerate().map(|(i, (s, &p))| {
         let n = s.name.to_string();
         let row = nh + i;
@@ -246,6 +260,7 @@ pub fn emit(def: &ModelDef, res: &Resolved, d: &Derived) -> TokenStream {
                 bodies: &[#(#bodies_info),*],
                 points: &[#(#points_info),*],
                 hinges: &[#(#hinges_info),*],
+                sliders: &[#(#sliders_info),*],
                 skates: &[#(#skates_info),*],
                 constraints: &[#(#cnames),*],
                 n_holonomic: #nh,

@@ -6,6 +6,11 @@
 //!
 //! - Hinge: `phi_h(q) = r_P - r_Q` (two rows), or `r_P - ground` for a
 //!   ground-fixed point. Its Jacobian rows are `d phi_h / dq`.
+//! - Slider (prismatic joint) of `P` along the line through `Q` with
+//!   direction `t` in the guide's frame: `n . (r_P - r_Q) = 0` with
+//!   `n = R(phi_a) (-t_y, t_x) / |t|`, and `phi_b - phi_a - angle = 0`
+//!   (for a ground line: `R = I`, `phi_a = 0`). Two holonomic rows,
+//!   named `S.n` and `S.phi`, after the hinges' rows.
 //! - Skate with blade direction `t` (body coordinates, normalized): the
 //!   world normal is `n = R(phi) (-t_y, t_x)` and the row of `S(q)` is
 //!   `n^T dr_P/dq`, so `S qd` is the contact point's lateral velocity [m/s].
@@ -134,6 +139,18 @@ fn rotate(ar: &mut Arena, phi: Id, vx: Id, vy: Id) -> [Id; 2] {
     [ar.sub(xc, ys), ar.add2(xs, yc)]
 }
 
+/// The unit vector along `(tx, ty)` and its left normal `(-ty, tx) / |t|`.
+fn unit_and_normal(ar: &mut Arena, tx: Id, ty: Id) -> ([Id; 2], [Id; 2]) {
+    let tx2 = ar.pow(tx, 2);
+    let ty2 = ar.pow(ty, 2);
+    let n2 = ar.add2(tx2, ty2);
+    let len = ar.sqrt(n2);
+    let minus_ty = ar.neg(ty);
+    let unit = [ar.div(tx, len), ar.div(ty, len)];
+    let normal = [ar.div(minus_ty, len), unit[0]];
+    (unit, normal)
+}
+
 /// Derives all constraint expressions of a checked model.
 pub fn derive(def: &ModelDef, res: &Resolved, errs: &mut Errors) -> Derived {
     let mut ar = Arena::new();
@@ -219,6 +236,56 @@ pub fn derive(def: &ModelDef, res: &Resolved, errs: &mut Errors) -> Derived {
         }
     }
 
+    for (sl, &(p, guide)) in def.sliders.iter().zip(&res.slider_points) {
+        let what = format!("slider `{}`", sl.name);
+        let tx = expr_to_sym(&mut ar, &sl.along[0], &params, &format!("direction of {what}"), errs);
+        let ty = expr_to_sym(&mut ar, &sl.along[1], &params, &format!("direction of {what}"), errs);
+        let angle = match &sl.angle {
+            Some(e) => expr_to_sym(&mut ar, e, &params, &format!("angle of {what}"), errs),
+            None => ar.cst(0.0),
+        };
+        if ar.is_zero(tx) && ar.is_zero(ty) {
+            errs.push(syn::Error::new(
+                sl.along_span,
+                format!("slider `{}` has a zero direction; give a nonzero (dx, dy)", sl.name),
+            ));
+            continue;
+        }
+        if p == usize::MAX || guide == Some(usize::MAX) || res.point_body[p] == usize::MAX {
+            continue;
+        }
+        let b = res.point_body[p];
+        // unit normal of the line, in the guide's frame, and the guide's
+        // point and heading (the ground: world frame, heading 0)
+        let (_, [nx, ny]) = unit_and_normal(&mut ar, tx, ty);
+        let (origin, normal, heading) = match (&sl.target, guide) {
+            (HingeTarget::Point(_), Some(gp)) => {
+                let a = res.point_body[gp];
+                if a == usize::MAX {
+                    continue;
+                }
+                (points[gp], rotate(&mut ar, q[3 * a + 2], nx, ny), q[3 * a + 2])
+            }
+            (HingeTarget::Ground { at }, _) => {
+                let at = [
+                    expr_to_sym(&mut ar, &at[0], &params, &format!("ground point of {what}"), errs),
+                    expr_to_sym(&mut ar, &at[1], &params, &format!("ground point of {what}"), errs),
+                ];
+                (at, [nx, ny], ar.cst(0.0))
+            }
+            _ => unreachable!("slider target and resolution agree"),
+        };
+        let dx = ar.sub(points[p][0], origin[0]);
+        let dy = ar.sub(points[p][1], origin[1]);
+        let ex = ar.mul2(normal[0], dx);
+        let ey = ar.mul2(normal[1], dy);
+        phi.push(ar.add2(ex, ey));
+        constraint_names.push(format!("{}.n", sl.name));
+        let rel = ar.sub(q[3 * b + 2], heading);
+        phi.push(ar.sub(rel, angle));
+        constraint_names.push(format!("{}.phi", sl.name));
+    }
+
     let mut g: Vec<Vec<Id>> =
         phi.iter().map(|&row| (0..nq).map(|k| ar.diff(row, Sym::Q(k))).collect::<Vec<_>>()).collect();
 
@@ -240,16 +307,10 @@ pub fn derive(def: &ModelDef, res: &Resolved, errs: &mut Errors) -> Derived {
         }
         let b = res.point_body[p];
         // normalized blade direction and its body-frame normal (-ty, tx)
-        let tx2 = ar.pow(tx, 2);
-        let ty2 = ar.pow(ty, 2);
-        let n2 = ar.add2(tx2, ty2);
-        let len = ar.sqrt(n2);
-        let nbx0 = ar.neg(ty);
-        let nbx = ar.div(nbx0, len);
-        let nby = ar.div(tx, len);
+        let ([ux, uy], [nbx, nby]) = unit_and_normal(&mut ar, tx, ty);
         let k = local.len();
-        local[k - 2] = ar.div(tx, len);
-        local[k - 1] = ar.div(ty, len);
+        local[k - 2] = ux;
+        local[k - 1] = uy;
         let [nwx, nwy] = rotate(&mut ar, q[3 * b + 2], nbx, nby);
         let row: Vec<Id> = (0..nq)
             .map(|k| {

@@ -18,7 +18,7 @@ use syn::punctuated::Punctuated;
 use syn::spanned::Spanned;
 use syn::{Attribute, Expr, Ident, Token, braced, parenthesized};
 
-use crate::ast::{Body, Hinge, HingeTarget, ModelDef, Param, Point, Skate};
+use crate::ast::{Body, Hinge, HingeTarget, ModelDef, Param, Point, Skate, Slider};
 
 mod kw {
     syn::custom_keyword!(param);
@@ -26,6 +26,8 @@ mod kw {
     syn::custom_keyword!(point);
     syn::custom_keyword!(hinge);
     syn::custom_keyword!(skate);
+    syn::custom_keyword!(slider);
+    syn::custom_keyword!(angle);
     syn::custom_keyword!(on);
     syn::custom_keyword!(at);
     syn::custom_keyword!(along);
@@ -50,6 +52,7 @@ impl Parse for ModelDef {
             bodies: Vec::new(),
             points: Vec::new(),
             hinges: Vec::new(),
+            sliders: Vec::new(),
             skates: Vec::new(),
         };
         while !content.is_empty() {
@@ -80,15 +83,26 @@ impl Parse for ModelDef {
                 content.parse::<Token![:]>()?;
                 let point = content.parse()?;
                 content.parse::<Token![=]>()?;
-                let target = if content.peek(kw::ground) {
-                    content.parse::<kw::ground>()?;
-                    let (at, _) = parse_pair(&content)?;
-                    HingeTarget::Ground { at: Box::new(at) }
-                } else {
-                    HingeTarget::Point(content.parse()?)
-                };
+                let target = parse_target(&content)?;
                 content.parse::<Token![;]>()?;
                 def.hinges.push(Hinge { name, point, target });
+            } else if look.peek(kw::slider) {
+                content.parse::<kw::slider>()?;
+                let name = content.parse()?;
+                content.parse::<Token![:]>()?;
+                let point = content.parse()?;
+                content.parse::<kw::on>()?;
+                let target = parse_target(&content)?;
+                content.parse::<kw::along>()?;
+                let (along, along_span) = parse_pair(&content)?;
+                let angle = if content.peek(kw::angle) {
+                    content.parse::<kw::angle>()?;
+                    Some(content.parse::<Expr>()?)
+                } else {
+                    None
+                };
+                content.parse::<Token![;]>()?;
+                def.sliders.push(Slider { name, point, target, along, along_span, angle });
             } else if look.peek(kw::skate) {
                 content.parse::<kw::skate>()?;
                 let name = content.parse()?;
@@ -146,6 +160,17 @@ fn parse_body(input: ParseStream) -> syn::Result<Body> {
     let mass = mass.ok_or_else(|| missing("mass"))?;
     let inertia = inertia.ok_or_else(|| missing("inertia"))?;
     Ok(Body { name, coords, mass, inertia })
+}
+
+/// `Q` (a point) or `ground(EXPR, EXPR)`.
+fn parse_target(input: ParseStream) -> syn::Result<HingeTarget> {
+    if input.peek(kw::ground) {
+        input.parse::<kw::ground>()?;
+        let (at, _) = parse_pair(input)?;
+        Ok(HingeTarget::Ground { at: Box::new(at) })
+    } else {
+        Ok(HingeTarget::Point(input.parse()?))
+    }
 }
 
 /// `( EXPR , EXPR )`
