@@ -4,19 +4,30 @@
 mod chaplygin_sleigh;
 mod ezyroller;
 pub mod scenes;
+mod snake;
+mod trailer;
 
 pub use chaplygin_sleigh::ChaplyginSleigh;
 use ezy_core::{Model, ModelInfo, ModelVisitor};
 pub use ezyroller::EzyRoller;
+pub use snake::Snake;
+pub use trailer::Trailer;
 
 /// The model registry: `(key, static description)`, one line per vehicle.
-pub const MODELS: &[(&str, ModelInfo)] = &[("ezyroller", EzyRoller::INFO), ("chaplygin_sleigh", ChaplyginSleigh::INFO)];
+pub const MODELS: &[(&str, ModelInfo)] = &[
+    ("ezyroller", EzyRoller::INFO),
+    ("chaplygin_sleigh", ChaplyginSleigh::INFO),
+    ("trailer", Trailer::INFO),
+    ("snake", Snake::INFO),
+];
 
 /// Runs `visitor` with the model registered as `key`; `None` if unknown.
 pub fn visit<V: ModelVisitor>(key: &str, visitor: V) -> Option<V::Output> {
     match key {
         "ezyroller" => Some(visitor.visit::<EzyRoller>()),
         "chaplygin_sleigh" => Some(visitor.visit::<ChaplyginSleigh>()),
+        "trailer" => Some(visitor.visit::<Trailer>()),
+        "snake" => Some(visitor.visit::<Snake>()),
         _ => None,
     }
 }

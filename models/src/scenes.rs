@@ -16,6 +16,8 @@ pub const BUILTIN: &[(&str, &str)] = &[
     ("drive-slope.toml", include_str!("../scenes/drive-slope.toml")),
     ("drive-damped-hinge.toml", include_str!("../scenes/drive-damped-hinge.toml")),
     ("sleigh-drag.toml", include_str!("../scenes/sleigh-drag.toml")),
+    ("trailer.toml", include_str!("../scenes/trailer.toml")),
+    ("snake.toml", include_str!("../scenes/snake.toml")),
 ];
 
 /// A loaded scene with its source text and where it came from.
