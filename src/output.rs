@@ -69,7 +69,8 @@ impl<M: Model> RowBuilder<M> {
     /// The row layout of `scene` for the run `sys`.
     pub fn new(scene: &Scene, sys: &Dynamics<M>) -> Self {
         let probe = scene.includes(OutputGroup::ConstraintForces).then(|| {
-            let mut copy = Dynamics::new(sys.model.clone(), sys.effects.clone(), KktMethod::Auto);
+            let mut copy =
+                Dynamics::new(sys.model.clone(), sys.effects.clone(), KktMethod::Auto).with_drives(sys.drives.clone());
             copy.baumgarte = sys.baumgarte;
             let ny = copy.ny();
             Box::new(ForceProbe { sys: copy, y: vec![0.0; ny], dy: vec![0.0; ny] })

@@ -133,6 +133,8 @@ pub struct Setup<M: Model> {
     pub scene: Scene,
     /// The scene's effects, resolved against the model.
     pub effects: Vec<ezy_core::Effect>,
+    /// The model's drives with the scene's prescribed angles.
+    pub drives: Vec<ezy_core::drive::Drive>,
     /// Consistent initial state `y0 = [q, qd, W_e = 0 ...]`.
     pub y0: Vec<f64>,
     /// What the initial-condition solve had to correct.
@@ -192,11 +194,12 @@ pub fn setup<M: Model + Default>(scene: &Scene, sets: &[(String, f64)]) -> Resul
         }
     }
     let effects = scene.resolve_effects(&model)?;
-    let (q, qd, initial) = consistent_state(&model, &given_q, &given_qd)?;
+    let drives = scene.resolve_drives(info);
+    let (q, qd, initial) = consistent_state(&model, &drives, &given_q, &given_qd)?;
     let mut y0 = q;
     y0.extend_from_slice(&qd);
-    y0.resize(y0.len() + effects.len(), 0.0);
-    Ok(Setup { model, scene, effects, y0, initial })
+    y0.resize(y0.len() + effects.len() + drives.len(), 0.0);
+    Ok(Setup { model, scene, effects, drives, y0, initial })
 }
 
 /// The scene's model with overrides, its effects resolved, and the
@@ -210,7 +213,7 @@ pub fn build<M: Model + Default>(
     kkt: KktMethod,
 ) -> Result<(Dynamics<M>, Vec<f64>), SimError> {
     let s = setup::<M>(scene, sets)?;
-    Ok((Dynamics::new(s.model, s.effects, kkt), s.y0))
+    Ok((Dynamics::new(s.model, s.effects, kkt).with_drives(s.drives), s.y0))
 }
 
 fn run_model<M: Model + Default>(scene: &Scene, opts: &RunOptions) -> Result<Report, Error> {
@@ -226,9 +229,9 @@ fn run_model<M: Model + Default>(scene: &Scene, opts: &RunOptions) -> Result<Rep
         balance_limit: Some(ezy_core::simulate::BALANCE_LIMIT),
     };
     settings.validate()?;
-    let Setup { model, scene, effects, y0, initial } = setup::<M>(scene, &opts.sets)?;
+    let Setup { model, scene, effects, drives, y0, initial } = setup::<M>(scene, &opts.sets)?;
     let scene = &scene;
-    let mut sys = Dynamics::new(model, effects, KktMethod::Auto);
+    let mut sys = Dynamics::new(model, effects, KktMethod::Auto).with_drives(drives);
     sys.baumgarte = opts.baumgarte;
 
     std::fs::create_dir_all(&opts.out).map_err(|source| Error::OutDir { path: opts.out.clone(), source })?;

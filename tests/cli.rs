@@ -279,7 +279,7 @@ fn equations_print_what_the_macro_derived() {
     let o = ezy(&["equations", "tricycle"]);
     assert_eq!(o.status.code(), Some(1));
     assert!(
-        stderr(&o).contains("unknown model `tricycle`; known models: ezyroller, chaplygin_sleigh"),
+        stderr(&o).contains("unknown model `tricycle`; known models: ezyroller, ezyroller_driven, chaplygin_sleigh"),
         "{}",
         stderr(&o)
     );

@@ -36,6 +36,8 @@ struct Workspace {
     qdd: Vec<f64>,
     /// Multipliers (nc) [N].
     lambda: Vec<f64>,
+    /// `u'(t)` of each drive at the last evaluation.
+    drive_rates: Vec<f64>,
     /// Baumgarte scratch: `G qd` (nc), `phi` (nh), unit weights (nq).
     gqd: Vec<f64>,
     phi: Vec<f64>,
@@ -64,6 +66,9 @@ pub struct Dynamics<M: Model> {
     pub model: M,
     /// Applied forces, exactly those the scene lists.
     pub effects: Vec<Effect>,
+    /// Drives (prescribed hinge angles), one per drive of the model; set
+    /// with [`Dynamics::with_drives`]. Their work states follow the effects'.
+    pub drives: Vec<crate::drive::Drive>,
     /// Mass-matrix diagonal (nq) [kg, kg m^2].
     pub mass: Vec<f64>,
     /// Work counters.
@@ -87,9 +92,10 @@ impl<M: Model> Dynamics<M> {
     /// Number of coordinates nq.
     pub const NQ: usize = M::INFO.coords.len();
 
-    /// Length of the state vector `y`: 2 nq + number of effects.
+    /// Length of the state vector `y`: 2 nq + number of effects + number
+    /// of drives.
     pub fn ny(&self) -> usize {
-        2 * Self::NQ + self.effects.len()
+        2 * Self::NQ + self.effects.len() + self.drives.len()
     }
 
     /// Total work of the effects `sum W_e` [J] in the state `y`.
@@ -105,8 +111,10 @@ impl<M: Model> Dynamics<M> {
             coords[k].to_string()
         } else if k < 2 * nq {
             format!("{}d", coords[k - nq])
-        } else {
+        } else if k < 2 * nq + self.effects.len() {
             self.effects[k - 2 * nq].work_column()
+        } else {
+            format!("W_{}", self.drives[k - 2 * nq - self.effects.len()].name)
         }
     }
 
@@ -127,8 +135,26 @@ impl<M: Model> Dynamics<M> {
             gqd: vec![0.0; nc],
             phi: vec![0.0; info.n_holonomic],
             ones: vec![1.0; nq],
+            drive_rates: Vec::new(),
         };
-        Self { model, effects, mass, counters: Counters::default(), kkt, ws, baumgarte: None, ill_conditioned: None }
+        Self {
+            model,
+            effects,
+            drives: Vec::new(),
+            mass,
+            counters: Counters::default(),
+            kkt,
+            ws,
+            baumgarte: None,
+            ill_conditioned: None,
+        }
+    }
+
+    /// Sets the drives (prescribed hinge angles; see [`crate::drive`]).
+    pub fn with_drives(mut self, drives: Vec<crate::drive::Drive>) -> Self {
+        self.ws.drive_rates = vec![0.0; drives.len()];
+        self.drives = drives;
+        self
     }
 
     /// The KKT path's conditioning estimate of the last solve (see
@@ -158,9 +184,18 @@ impl<M: Model> Dynamics<M> {
                 ws.g[r * nq + c] = v;
             }
         }
+        for (d, rate) in self.drives.iter().zip(&mut ws.drive_rates) {
+            let [_, ud, udd] = d.angle.eval3(t);
+            ws.gamma[d.row] -= udd;
+            *rate = ud;
+        }
         if let Some(Baumgarte { alpha, beta }) = self.baumgarte {
             M::g_winv_mul(&ws.g_values, &ws.ones, qd, &mut ws.gqd);
             self.model.phi(q, &mut ws.phi);
+            for (d, rate) in self.drives.iter().zip(&ws.drive_rates) {
+                ws.gqd[d.row] -= rate;
+            }
+            crate::drive::shift_positions(&self.drives, t, &mut ws.phi);
             for (g, v) in ws.gamma.iter_mut().zip(&ws.gqd) {
                 *g += 2.0 * alpha * v;
             }
@@ -170,6 +205,7 @@ impl<M: Model> Dynamics<M> {
         }
         let (dq, rest) = dy.split_at_mut(nq);
         let (dqd, power) = rest.split_at_mut(nq);
+        let (power, drive_power) = power.split_at_mut(self.effects.len());
         // `f` is only ever written here: without effects it stays zero and
         // is not touched (the `free` scene pays nothing for the library).
         if !self.effects.is_empty() {
@@ -190,6 +226,10 @@ impl<M: Model> Dynamics<M> {
         self.counters.kkt_solves += 1;
         dq.copy_from_slice(qd);
         dqd.copy_from_slice(&ws.qdd);
+        // a drive's torque is -lambda_row; its power tau u'(t)
+        for ((d, rate), p) in self.drives.iter().zip(&ws.drive_rates).zip(drive_power) {
+            *p = -ws.lambda[d.row] * rate;
+        }
         Ok(())
     }
 

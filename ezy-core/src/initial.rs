@@ -30,9 +30,14 @@ pub const INITIAL_TOL: f64 = 1e-12;
 /// constraints (give more values), or no consistent state exists.
 pub fn consistent_state<M: Model>(
     model: &M,
+    drives: &[crate::drive::Drive],
     given_q: &[(usize, f64)],
     given_qd: &[(usize, f64)],
 ) -> Result<(Vec<f64>, Vec<f64>, InitialReport), SimError> {
+    let phi_at = |q: &[f64], phi: &mut [f64]| {
+        model.phi(q, phi);
+        crate::drive::shift_positions(drives, 0.0, phi);
+    };
     let info = &M::INFO;
     let (nq, nh, nc) = (info.nq(), info.n_holonomic, info.nc());
     let names = |idx: &[usize], suffix: &str| {
@@ -61,7 +66,7 @@ pub fn consistent_state<M: Model>(
         });
     }
     for _ in 0..50 {
-        model.phi(&q, &mut phi);
+        phi_at(&q, &mut phi);
         if max_abs(&phi) <= INITIAL_TOL || unknown_q.is_empty() {
             break;
         }
@@ -81,7 +86,7 @@ pub fn consistent_state<M: Model>(
             q[i] -= dx[k];
         }
     }
-    model.phi(&q, &mut phi);
+    phi_at(&q, &mut phi);
     let mut report = InitialReport::default();
     let res = max_abs(&phi);
     if res > INITIAL_TOL {
@@ -91,7 +96,7 @@ pub fn consistent_state<M: Model>(
         let q_given = q.clone();
         let all: Vec<usize> = (0..nq).collect();
         for _ in 0..50 {
-            model.phi(&q, &mut phi);
+            phi_at(&q, &mut phi);
             if max_abs(&phi) <= INITIAL_TOL {
                 break;
             }
@@ -106,7 +111,7 @@ pub fn consistent_state<M: Model>(
                 q[i] -= dx[i];
             }
         }
-        model.phi(&q, &mut phi);
+        phi_at(&q, &mut phi);
         let left = max_abs(&phi);
         if left.is_nan() || left > 1e-9 {
             return Err(SimError::Initial {
@@ -143,8 +148,11 @@ pub fn consistent_state<M: Model>(
             });
         }
         let gu = DMatrix::from_fn(nc, unknown_v.len(), |r, c| g[r * nq + unknown_v[c]]);
-        let rhs =
-            DVector::from_fn(nc, |r, _| -(0..nq).filter(|&k| known_v[k]).map(|k| g[r * nq + k] * qd[k]).sum::<f64>());
+        let mut target = vec![0.0; nc];
+        crate::drive::shift_velocities(drives, 0.0, &mut target);
+        let rhs = DVector::from_fn(nc, |r, _| {
+            -target[r] - (0..nq).filter(|&k| known_v[k]).map(|k| g[r * nq + k] * qd[k]).sum::<f64>()
+        });
         let svd = gu.svd(true, true);
         if svd.rank(1e-10 * svd.singular_values.max().max(1.0)) < unknown_v.len() {
             return Err(SimError::Initial {
@@ -161,6 +169,7 @@ pub fn consistent_state<M: Model>(
     }
     let mut r = vec![0.0; nc];
     crate::projection::mat_vec(&g, &qd, &mut r);
+    crate::drive::shift_velocities(drives, 0.0, &mut r);
     let res = max_abs(&r);
     // velocities are only known to rounding relative to their size
     let v_tol = INITIAL_TOL * max_abs(&qd).max(1.0);
@@ -178,6 +187,7 @@ pub fn consistent_state<M: Model>(
         }
         report.velocity_correction = dv.amax();
         crate::projection::mat_vec(&g, &qd, &mut r);
+        crate::drive::shift_velocities(drives, 0.0, &mut r);
         let left = max_abs(&r);
         if left.is_nan() || left > 1e3 * v_tol {
             return Err(SimError::Initial {

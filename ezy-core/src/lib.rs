@@ -2,6 +2,7 @@
 //! solve, the RK4 integrator, coordinate projection, effects, consistent
 //! initial conditions and the step loop.
 
+pub mod drive;
 pub mod dynamics;
 pub mod effects;
 mod error;
@@ -20,13 +21,14 @@ pub use error::SimError;
 pub use ezy_derive::model;
 pub use integrator::Method;
 pub use model::{
-    BodyInfo, EquationExpr, Equations, HingeInfo, Model, ModelInfo, ParamInfo, PointInfo, SkateInfo, SliderInfo,
+    BodyInfo, DriveInfo, EquationExpr, Equations, HingeInfo, Model, ModelInfo, ParamInfo, PointInfo, SkateInfo,
+    SliderInfo,
 };
 pub use projection::ProjectionKind;
 pub use scalar::Scalar;
 pub use scene::{
-    Column, FigureSpec, InitValue, Initial, IntegratorSettings, Line, ModelVisitor, OutputGroup, OutputSettings, Scene,
-    SceneError, SceneFileError,
+    Column, DriveSpec, FigureSpec, InitValue, Initial, IntegratorSettings, Line, ModelVisitor, OutputGroup,
+    OutputSettings, Scene, SceneError, SceneFileError,
 };
 pub use simulate::{Observer, RunError, RunSettings, Sample, Summary, simulate};
 
@@ -34,7 +36,8 @@ pub use simulate::{Observer, RunError, RunSettings, Sample, Summary, simulate};
 #[doc(hidden)]
 pub mod __private {
     pub use crate::model::{
-        BodyInfo, EquationExpr, Equations, HingeInfo, Model, ModelInfo, ParamInfo, PointInfo, SkateInfo, SliderInfo,
+        BodyInfo, DriveInfo, EquationExpr, Equations, HingeInfo, Model, ModelInfo, ParamInfo, PointInfo, SkateInfo,
+        SliderInfo,
     };
     pub use crate::scalar::Scalar;
 }

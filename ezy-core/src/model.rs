@@ -78,6 +78,18 @@ pub struct SliderInfo {
     pub row: usize,
 }
 
+/// A drive: a hinge whose angle `phi_a - phi_b` follows a function of time
+/// `u(t)` given at run time (a rheonomic constraint, `phi_row(q) = u(t)`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct DriveInfo {
+    /// Drive name, e.g. `"D"`.
+    pub name: &'static str,
+    /// Index of the driven hinge in [`ModelInfo::hinges`].
+    pub hinge: usize,
+    /// Its row in `phi` and `G`.
+    pub row: usize,
+}
+
 /// A skate (knife edge): a body point whose velocity has no component along
 /// the blade normal.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -110,12 +122,15 @@ pub struct ModelInfo {
     pub hinges: &'static [HingeInfo],
     /// Sliders, in declaration order (their rows follow the hinges').
     pub sliders: &'static [SliderInfo],
+    /// Drives, in declaration order (their rows follow the sliders').
+    pub drives: &'static [DriveInfo],
     /// Skates, in declaration order.
     pub skates: &'static [SkateInfo],
     /// Names of the constraint rows of `G` (nc): `B.x`, `B.y` per hinge,
-    /// `S.n`, `S.phi` per slider, then one per skate.
+    /// `S.n`, `S.phi` per slider, one per drive, then one per skate.
     pub constraints: &'static [&'static str],
-    /// Number of holonomic constraint rows `nh` (two per hinge and per slider).
+    /// Number of holonomic constraint rows `nh` (two per hinge and per
+    /// slider, one per drive).
     pub n_holonomic: usize,
     /// Structural nonzeros `(row, col)` of `G` (nc x nq), row-major sorted.
     /// The entries of rows `< n_holonomic` come first.

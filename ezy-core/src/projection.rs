@@ -71,6 +71,8 @@ pub struct Projector<M: Model> {
     normal: NormalSystem,
     /// The mass-weighted form for a singular `M` (massless parts).
     singular: Option<Box<SingularMass>>,
+    /// Prescribed hinge angles: targets of their rows.
+    drives: Vec<crate::drive::Drive>,
     _model: std::marker::PhantomData<M>,
 }
 
@@ -139,8 +141,15 @@ impl<M: Model> Projector<M> {
             x: vec![0.0; nc],
             normal: NormalSystem::new(nc),
             singular,
+            drives: Vec::new(),
             _model: std::marker::PhantomData,
         }
+    }
+
+    /// Projects onto `phi(q) = u(t)` and `G qd = u'(t)` on the drives' rows.
+    pub fn with_drives(mut self, drives: &[crate::drive::Drive]) -> Self {
+        self.drives = drives.to_vec();
+        self
     }
 
     /// Which linear algebra the projection uses, for reports.
@@ -157,7 +166,8 @@ impl<M: Model> Projector<M> {
         self.kind
     }
 
-    /// Projects `q` (nq) onto `C(q) = 0`, then `qd` (nq) onto `G(q) qd = 0`.
+    /// Projects `q` (nq) onto `C(q) = 0`, then `qd` (nq) onto `G(q) qd = 0`
+    /// (with the drives' targets `u(t)`, `u'(t)` on their rows).
     ///
     /// # Errors
     /// [`SimError::Kkt`] with [`KktError::DependentConstraints`] when
@@ -173,6 +183,7 @@ impl<M: Model> Projector<M> {
         // positions: Gauss-Newton on the leading (holonomic) block; G is
         // evaluated with phi, so the last evaluation serves the velocities.
         model.phi_and_constraint_matrix(q, &mut self.r[..nh], &mut self.g_values);
+        crate::drive::shift_positions(&self.drives, t, &mut self.r[..nh]);
         if nh > 0 {
             for it in 0..=POSITION_MAX_ITER {
                 let res = max_abs(&self.r[..nh]);
@@ -190,11 +201,13 @@ impl<M: Model> Projector<M> {
                 M::sub_winv_gt_mul(&self.g_values, &self.winv, &self.x, q);
                 report.iterations = it + 1;
                 model.phi_and_constraint_matrix(q, &mut self.r[..nh], &mut self.g_values);
+                crate::drive::shift_positions(&self.drives, t, &mut self.r[..nh]);
             }
         }
         // velocities: one least-squares step on all rows
         if nc > 0 {
             M::g_winv_mul(&self.g_values, &self.ones, qd, &mut self.r);
+            crate::drive::shift_velocities(&self.drives, t, &mut self.r);
             if let Some(s) = &mut self.singular {
                 s.correct::<M>(&self.g_values, &self.r, qd).map_err(wrap)?;
             } else {

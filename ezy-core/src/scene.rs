@@ -338,6 +338,15 @@ pub struct FigureSpec {
     pub log_y: bool,
 }
 
+/// The prescribed angle of a drive (a hinge whose angle follows time).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct DriveSpec {
+    /// The hinge angle `phi_a - phi_b` [rad] over time; its first and
+    /// second derivatives enter the constraints (use `spline` for tables).
+    pub angle: crate::effects::Waveform,
+}
+
 /// A scene (SPEC §3), as a scene file writes it.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -365,6 +374,10 @@ pub struct Scene {
     /// Applied forces by name, in order (`[effects.NAME]` tables).
     #[serde(default, with = "named_list", skip_serializing_if = "Vec::is_empty")]
     pub effects: Vec<(String, EffectSpec)>,
+    /// Prescribed angles of the model's drives, by drive name
+    /// (`[drives.NAME] angle = ...`); every drive of the model needs one.
+    #[serde(default, with = "named_list", skip_serializing_if = "Vec::is_empty")]
+    pub drives: Vec<(String, DriveSpec)>,
     /// Figures to draw.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub figures: Vec<FigureSpec>,
@@ -552,6 +565,7 @@ impl Scene {
                     cols.push("T".into());
                     cols.push("W".into());
                     cols.extend(self.effects.iter().map(|(n, _)| format!("W_{n}")));
+                    cols.extend(info.drives.iter().map(|d| format!("W_{}", d.name)));
                 }
                 OutputGroup::Points => {
                     for p in info.points {
@@ -563,11 +577,13 @@ impl Scene {
                     cols.extend(self.effects.iter().map(|(n, e)| e.value_column(n)));
                 }
                 OutputGroup::ConstraintForces => {
-                    for h in info.hinges {
-                        cols.push(format!("F_{}.x", h.name));
-                        cols.push(format!("F_{}.y", h.name));
+                    // one per row of G: forces [N], torques [N m] for the
+                    // rows that lock an angle (a slider's heading, a drive)
+                    for (row, name) in info.constraints.iter().enumerate() {
+                        let torque =
+                            info.drives.iter().any(|d| d.row == row) || info.sliders.iter().any(|s| s.row + 1 == row);
+                        cols.push(format!("{}_{name}", if torque { "tau" } else { "F" }));
                     }
-                    cols.extend(info.skates.iter().map(|s| format!("F_{}", s.name)));
                 }
                 OutputGroup::Residuals => {
                     cols.push("res_phi".into());
@@ -647,6 +663,25 @@ impl Scene {
                 ));
             }
             e.check(info).map_err(|err| SceneError::at(&["effects", name, err.field], err.message))?;
+        }
+        for (name, d) in &self.drives {
+            if !info.drives.iter().any(|m| m.name == name) {
+                let known: Vec<&str> = info.drives.iter().map(|d| d.name).collect();
+                return Err(SceneError::at(
+                    &["drives", name],
+                    format!("unknown drive `{name}` in model {}; its drives: {}", info.name, known_or_none(&known)),
+                ));
+            }
+            d.angle.validate().map_err(|m| SceneError::at(&["drives", name, "angle"], m))?;
+        }
+        if let Some(missing) = info.drives.iter().find(|m| !self.drives.iter().any(|(n, _)| n == m.name)) {
+            return Err(SceneError::at(
+                &["drives"],
+                format!(
+                    "model {} drives hinge `{}` by `{}`: give its angle, [drives.{}] angle = ...",
+                    info.name, info.hinges[missing.hinge].name, missing.name, missing.name
+                ),
+            ));
         }
         let columns = self.columns(info);
         for (i, fig) in self.figures.iter().enumerate() {
@@ -775,6 +810,18 @@ impl Scene {
         })
     }
 
+    /// The model's drives with the scene's prescribed angles, in the
+    /// model's order (a checked scene gives every one).
+    pub fn resolve_drives(&self, info: &ModelInfo) -> Vec<crate::drive::Drive> {
+        info.drives
+            .iter()
+            .filter_map(|d| {
+                let (_, spec) = self.drives.iter().find(|(n, _)| n == d.name)?;
+                Some(crate::drive::Drive { name: d.name.to_string(), row: d.row, angle: spec.angle.clone() })
+            })
+            .collect()
+    }
+
     /// Resolves the scene's effects against `model`.
     ///
     /// # Errors
@@ -782,6 +829,10 @@ impl Scene {
     pub fn resolve_effects<M: Model>(&self, model: &M) -> Result<Vec<crate::Effect>, crate::SimError> {
         self.effects.iter().map(|(n, e)| e.resolve(n, model)).collect()
     }
+}
+
+fn known_or_none(names: &[&str]) -> String {
+    if names.is_empty() { "none".to_string() } else { names.join(", ") }
 }
 
 /// Dotted paths of the numbers in a TOML tree (`torque.cos.amplitude`,

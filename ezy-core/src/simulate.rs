@@ -184,14 +184,23 @@ impl Residuals {
             r: vec![0.0; i.nc()],
         }
     }
-    fn eval<M: Model>(&mut self, model: &M, q: &[f64], qd: &[f64]) -> (f64, f64) {
+    fn eval<M: Model>(
+        &mut self,
+        model: &M,
+        drives: &[crate::drive::Drive],
+        t: f64,
+        q: &[f64],
+        qd: &[f64],
+    ) -> (f64, f64) {
         let nq = M::INFO.nq();
         model.phi(q, &mut self.phi);
+        crate::drive::shift_positions(drives, t, &mut self.phi);
         model.constraint_matrix(q, &mut self.g_values);
         for (&(r, c), &v) in M::INFO.pattern.iter().zip(&self.g_values) {
             self.g[r * nq + c] = v;
         }
         mat_vec(&self.g, qd, &mut self.r);
+        crate::drive::shift_velocities(drives, t, &mut self.r);
         (max_abs(&self.phi), max_abs(&self.r))
     }
 }
@@ -216,7 +225,7 @@ impl<M: Model, O: Observer<M>> Run<'_, M, O> {
         let nq = M::INFO.nq();
         let (q, rest) = y.split_at(nq);
         let qd = &rest[..nq];
-        let (rp, rv) = self.resid.eval(&sys.model, q, qd);
+        let (rp, rv) = self.resid.eval(&sys.model, &sys.drives, t, q, qd);
         self.summary.max_residual_position = self.summary.max_residual_position.max(rp);
         self.summary.max_residual_velocity = self.summary.max_residual_velocity.max(rv);
         let sample = Sample {
@@ -310,7 +319,7 @@ pub fn simulate<M: Model, O: Observer<M>>(
     let mut run = Run {
         settings,
         observer,
-        proj: Projector::<M>::new(settings.projection, &sys.mass),
+        proj: Projector::<M>::new(settings.projection, &sys.mass).with_drives(&sys.drives),
         resid: Residuals::new::<M>(),
         sample: y0.to_vec(),
         t0_energy,

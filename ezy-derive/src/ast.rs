@@ -13,6 +13,7 @@ pub struct ModelDef {
     pub points: Vec<Point>,
     pub hinges: Vec<Hinge>,
     pub sliders: Vec<Slider>,
+    pub drives: Vec<Drive>,
     pub skates: Vec<Skate>,
 }
 
@@ -67,6 +68,13 @@ pub struct Slider {
     pub along: [Expr; 2],
     pub along_span: Span,
     pub angle: Option<Expr>,
+}
+
+/// `drive NAME: hinge H;`: the hinge's angle `phi_a - phi_b` follows a
+/// function of time given by the scene (a rheonomic constraint).
+pub struct Drive {
+    pub name: Ident,
+    pub hinge: Ident,
 }
 
 /// `skate NAME: P along (DX, DY);`

@@ -46,6 +46,8 @@ pub struct Resolved {
     /// Points of every slider: the moving point and the guiding point
     /// (`None` for a ground line).
     pub slider_points: Vec<(usize, Option<usize>)>,
+    /// Hinge (index) of every drive.
+    pub drive_hinge: Vec<usize>,
     /// Contact point of every skate.
     pub skate_point: Vec<usize>,
 }
@@ -70,7 +72,15 @@ pub fn check(def: &ModelDef, errs: &mut Errors) -> Resolved {
     check_unique(errs, "point", def.points.iter().map(|p| &p.name));
     check_unique(errs, "hinge", def.hinges.iter().map(|h| &h.name));
     check_unique(errs, "skate", def.skates.iter().map(|s| &s.name));
-    check_unique(errs, "joint", def.hinges.iter().map(|h| &h.name).chain(def.sliders.iter().map(|s| &s.name)));
+    check_unique(
+        errs,
+        "joint or drive",
+        def.hinges
+            .iter()
+            .map(|h| &h.name)
+            .chain(def.sliders.iter().map(|s| &s.name))
+            .chain(def.drives.iter().map(|d| &d.name)),
+    );
     check_unique(errs, "coordinate", def.bodies.iter().flat_map(|b| b.coords.iter()));
     for p in &def.params {
         if !p.value.is_finite() {
@@ -137,6 +147,25 @@ pub fn check(def: &ModelDef, errs: &mut Errors) -> Resolved {
     };
     let hinge_points = def.hinges.iter().map(|h| joint(errs, "hinge", &h.name, &h.point, &h.target)).collect();
     let slider_points = def.sliders.iter().map(|s| joint(errs, "slider", &s.name, &s.point, &s.target)).collect();
+    let hinge_names: Vec<String> = def.hinges.iter().map(|h| h.name.to_string()).collect();
+    let drive_hinge = def
+        .drives
+        .iter()
+        .map(|d| {
+            hinge_names.iter().position(|h| d.hinge == h).unwrap_or_else(|| {
+                errs.at(
+                    &d.hinge,
+                    format!(
+                        "drive `{}` refers to unknown hinge `{}`; known hinges: {}",
+                        d.name,
+                        d.hinge,
+                        known(&hinge_names)
+                    ),
+                );
+                usize::MAX
+            })
+        })
+        .collect();
     let skate_point = def.skates.iter().map(|s| find_point(errs, &format!("skate `{}`", s.name), &s.point)).collect();
-    Resolved { point_body, hinge_points, slider_points, skate_point }
+    Resolved { point_body, hinge_points, slider_points, drive_hinge, skate_point }
 }

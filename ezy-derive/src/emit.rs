@@ -199,6 +199,12 @@ pub fn emit(def: &ModelDef, res: &Resolved, d: &Derived) -> TokenStream {
         let row = n_hinge_rows + 2 * i;
         quote!(#private::SliderInfo { name: #n, body_a: #body_a, body_b: #body_b, row: #row })
     });
+    let n_slider_rows = 2 * def.sliders.len();
+    let drives_info = def.drives.iter().zip(&res.drive_hinge).enumerate().map(|(i, (d, &h))| {
+        let n = d.name.to_string();
+        let row = n_hinge_rows + n_slider_rows + i;
+        quote!(#private::DriveInfo { name: #n, hinge: #h, row: #row })
+    });
     let skates_info = def.skates.iter().zip(&res.skate_point).enumerate().map(|(i, (s, &p))| {
         let n = s.name.to_string();
         let row = nh + i;
@@ -261,6 +267,7 @@ pub fn emit(def: &ModelDef, res: &Resolved, d: &Derived) -> TokenStream {
                 points: &[#(#points_info),*],
                 hinges: &[#(#hinges_info),*],
                 sliders: &[#(#sliders_info),*],
+                drives: &[#(#drives_info),*],
                 skates: &[#(#skates_info),*],
                 constraints: &[#(#cnames),*],
                 n_holonomic: #nh,

@@ -11,6 +11,9 @@
 //!   `n = R(phi_a) (-t_y, t_x) / |t|`, and `phi_b - phi_a - angle = 0`
 //!   (for a ground line: `R = I`, `phi_a = 0`). Two holonomic rows,
 //!   named `S.n` and `S.phi`, after the hinges' rows.
+//! - Drive of a hinge: the row `phi_a - phi_b` (`phi_a` for a ground
+//!   hinge), after the sliders' rows; the runtime subtracts the prescribed
+//!   angle `u(t)` (and `u'`, `u''` at velocity and acceleration level).
 //! - Skate with blade direction `t` (body coordinates, normalized): the
 //!   world normal is `n = R(phi) (-t_y, t_x)` and the row of `S(q)` is
 //!   `n^T dr_P/dq`, so `S qd` is the contact point's lateral velocity [m/s].
@@ -284,6 +287,20 @@ pub fn derive(def: &ModelDef, res: &Resolved, errs: &mut Errors) -> Derived {
         let rel = ar.sub(q[3 * b + 2], heading);
         phi.push(ar.sub(rel, angle));
         constraint_names.push(format!("{}.phi", sl.name));
+    }
+
+    for (dr, &h) in def.drives.iter().zip(&res.drive_hinge) {
+        let Some(&(pa, pb)) = res.hinge_points.get(h) else { continue };
+        if pa == usize::MAX || res.point_body[pa] == usize::MAX || pb == Some(usize::MAX) {
+            continue;
+        }
+        let a = res.point_body[pa];
+        let angle = match pb {
+            Some(pb) => ar.sub(q[3 * a + 2], q[3 * res.point_body[pb] + 2]),
+            None => q[3 * a + 2],
+        };
+        phi.push(angle);
+        constraint_names.push(dr.name.to_string());
     }
 
     let mut g: Vec<Vec<Id>> =

@@ -18,7 +18,7 @@ use syn::punctuated::Punctuated;
 use syn::spanned::Spanned;
 use syn::{Attribute, Expr, Ident, Token, braced, parenthesized};
 
-use crate::ast::{Body, Hinge, HingeTarget, ModelDef, Param, Point, Skate, Slider};
+use crate::ast::{Body, Drive, Hinge, HingeTarget, ModelDef, Param, Point, Skate, Slider};
 
 mod kw {
     syn::custom_keyword!(param);
@@ -28,6 +28,7 @@ mod kw {
     syn::custom_keyword!(skate);
     syn::custom_keyword!(slider);
     syn::custom_keyword!(angle);
+    syn::custom_keyword!(drive);
     syn::custom_keyword!(on);
     syn::custom_keyword!(at);
     syn::custom_keyword!(along);
@@ -53,6 +54,7 @@ impl Parse for ModelDef {
             points: Vec::new(),
             hinges: Vec::new(),
             sliders: Vec::new(),
+            drives: Vec::new(),
             skates: Vec::new(),
         };
         while !content.is_empty() {
@@ -103,6 +105,14 @@ impl Parse for ModelDef {
                 };
                 content.parse::<Token![;]>()?;
                 def.sliders.push(Slider { name, point, target, along, along_span, angle });
+            } else if look.peek(kw::drive) {
+                content.parse::<kw::drive>()?;
+                let name = content.parse()?;
+                content.parse::<Token![:]>()?;
+                content.parse::<kw::hinge>()?;
+                let hinge = content.parse()?;
+                content.parse::<Token![;]>()?;
+                def.drives.push(Drive { name, hinge });
             } else if look.peek(kw::skate) {
                 content.parse::<kw::skate>()?;
                 let name = content.parse()?;

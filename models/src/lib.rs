@@ -3,6 +3,7 @@
 
 mod chaplygin_sleigh;
 mod ezyroller;
+mod ezyroller_driven;
 pub mod scenes;
 mod snake;
 mod trailer;
@@ -10,12 +11,14 @@ mod trailer;
 pub use chaplygin_sleigh::ChaplyginSleigh;
 use ezy_core::{Model, ModelInfo, ModelVisitor};
 pub use ezyroller::EzyRoller;
+pub use ezyroller_driven::EzyRollerDriven;
 pub use snake::Snake;
 pub use trailer::Trailer;
 
 /// The model registry: `(key, static description)`, one line per vehicle.
 pub const MODELS: &[(&str, ModelInfo)] = &[
     ("ezyroller", EzyRoller::INFO),
+    ("ezyroller_driven", EzyRollerDriven::INFO),
     ("chaplygin_sleigh", ChaplyginSleigh::INFO),
     ("trailer", Trailer::INFO),
     ("snake", Snake::INFO),
@@ -25,6 +28,7 @@ pub const MODELS: &[(&str, ModelInfo)] = &[
 pub fn visit<V: ModelVisitor>(key: &str, visitor: V) -> Option<V::Output> {
     match key {
         "ezyroller" => Some(visitor.visit::<EzyRoller>()),
+        "ezyroller_driven" => Some(visitor.visit::<EzyRollerDriven>()),
         "chaplygin_sleigh" => Some(visitor.visit::<ChaplyginSleigh>()),
         "trailer" => Some(visitor.visit::<Trailer>()),
         "snake" => Some(visitor.visit::<Snake>()),

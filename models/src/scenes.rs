@@ -18,6 +18,7 @@ pub const BUILTIN: &[(&str, &str)] = &[
     ("sleigh-drag.toml", include_str!("../scenes/sleigh-drag.toml")),
     ("trailer.toml", include_str!("../scenes/trailer.toml")),
     ("snake.toml", include_str!("../scenes/snake.toml")),
+    ("drive-prescribed.toml", include_str!("../scenes/drive-prescribed.toml")),
 ];
 
 /// A loaded scene with its source text and where it came from.

@@ -18,7 +18,7 @@
 mod waveform;
 
 use serde::{Deserialize, Serialize};
-pub use waveform::{Harmonic, Table, Waveform};
+pub use waveform::{Harmonic, Spline, SplineData, Table, Waveform};
 
 use crate::SimError;
 use crate::model::{Model, ModelInfo};

@@ -49,6 +49,136 @@ pub enum Waveform {
     Harmonics(Vec<Harmonic>),
     /// Linear interpolation in a table.
     Table(Table),
+    /// A cubic spline through a table (twice continuously differentiable:
+    /// for prescribed motions, whose second derivative enters the
+    /// accelerations).
+    Spline(Spline),
+}
+
+/// A cubic spline through `(t_k, value_k)` (Press et al., *Numerical
+/// Recipes*, 3rd ed., §3.3), natural (zero second derivative) at an end
+/// unless the slope there is given; held constant outside the table, with
+/// zero derivatives. In a scene file: `{ spline = { t = [...], value =
+/// [...], slope_start = 0.0 } }`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(from = "SplineData", into = "SplineData")]
+pub struct Spline {
+    data: SplineData,
+    /// Second derivatives at the knots.
+    m: Vec<f64>,
+}
+
+/// The knots of a [`Spline`] and its optional end slopes.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SplineData {
+    /// Times [s], strictly increasing, at least two.
+    pub t: Vec<f64>,
+    /// Values at those times.
+    pub value: Vec<f64>,
+    /// Slope at the first knot (clamped end); natural end if absent.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub slope_start: Option<f64>,
+    /// Slope at the last knot (clamped end); natural end if absent.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub slope_end: Option<f64>,
+}
+
+impl From<Spline> for SplineData {
+    fn from(s: Spline) -> Self {
+        s.data
+    }
+}
+
+impl From<SplineData> for Spline {
+    fn from(data: SplineData) -> Self {
+        let m = spline_second_derivatives(&data);
+        Self { data, m }
+    }
+}
+
+impl Spline {
+    /// The spline through `data`.
+    pub fn new(data: SplineData) -> Self {
+        data.into()
+    }
+
+    /// The knots.
+    pub fn data(&self) -> &SplineData {
+        &self.data
+    }
+
+    /// `(s(t), s'(t), s''(t))`.
+    pub fn eval3(&self, t: f64) -> [f64; 3] {
+        let (ts, ys) = (&self.data.t, &self.data.value);
+        let n = ts.len();
+        // outside the knots: held constant; on the end knots: the spline's own derivatives
+        if n < 2 || t < ts[0] || t > ts[n - 1] {
+            let y = if n == 0 {
+                0.0
+            } else if t < ts[0] {
+                ys[0]
+            } else {
+                ys[n - 1]
+            };
+            return [y, 0.0, 0.0];
+        }
+        let k = ts.partition_point(|&tk| tk <= t).clamp(1, n - 1) - 1;
+        let h = ts[k + 1] - ts[k];
+        let a = (ts[k + 1] - t) / h;
+        let b = (t - ts[k]) / h;
+        let (m0, m1) = (self.m[k], self.m[k + 1]);
+        let y = a * ys[k] + b * ys[k + 1] + ((a * a * a - a) * m0 + (b * b * b - b) * m1) * h * h / 6.0;
+        let dy = (ys[k + 1] - ys[k]) / h - (3.0 * a * a - 1.0) / 6.0 * h * m0 + (3.0 * b * b - 1.0) / 6.0 * h * m1;
+        [y, dy, a * m0 + b * m1]
+    }
+}
+
+/// Second derivatives of the cubic spline at the knots: the tridiagonal
+/// system of continuous slopes, natural or clamped ends (Thomas algorithm).
+fn spline_second_derivatives(d: &SplineData) -> Vec<f64> {
+    let (t, y) = (&d.t, &d.value);
+    let n = t.len();
+    if n < 2 || y.len() != n {
+        return vec![0.0; n];
+    }
+    let h = |i: usize| t[i + 1] - t[i];
+    let slope = |i: usize| (y[i + 1] - y[i]) / h(i);
+    // rows: sub[i] m[i-1] + diag[i] m[i] + sup[i] m[i+1] = rhs[i]
+    let (mut sub, mut diag, mut sup, mut rhs) = (vec![0.0; n], vec![0.0; n], vec![0.0; n], vec![0.0; n]);
+    match d.slope_start {
+        Some(s0) => {
+            diag[0] = 2.0 * h(0);
+            sup[0] = h(0);
+            rhs[0] = 6.0 * (slope(0) - s0);
+        }
+        None => diag[0] = 1.0,
+    }
+    for i in 1..n - 1 {
+        sub[i] = h(i - 1);
+        diag[i] = 2.0 * (h(i - 1) + h(i));
+        sup[i] = h(i);
+        rhs[i] = 6.0 * (slope(i) - slope(i - 1));
+    }
+    match d.slope_end {
+        Some(s1) => {
+            sub[n - 1] = h(n - 2);
+            diag[n - 1] = 2.0 * h(n - 2);
+            rhs[n - 1] = 6.0 * (s1 - slope(n - 2));
+        }
+        None => diag[n - 1] = 1.0,
+    }
+    for i in 1..n {
+        let w = sub[i] / diag[i - 1];
+        diag[i] -= w * sup[i - 1];
+        rhs[i] -= w * rhs[i - 1];
+    }
+    let mut m = vec![0.0; n];
+    m[n - 1] = rhs[n - 1] / diag[n - 1];
+    for i in (0..n - 1).rev() {
+        m[i] = (rhs[i] - sup[i] * m[i + 1]) / diag[i];
+    }
+    m
 }
 
 impl Default for Waveform {
@@ -67,6 +197,35 @@ impl Waveform {
             Self::Sin(h) => h.amplitude * (h.omega * t + h.phase).sin(),
             Self::Harmonics(hs) => hs.iter().map(|h| h.amplitude * (h.omega * t + h.phase).cos()).sum(),
             Self::Table(tab) => tab.eval(t),
+            Self::Spline(s) => s.eval3(t)[0],
+        }
+    }
+
+    /// `(w(t), w'(t), w''(t))`, for prescribed motions. A `table` is only
+    /// continuous: its slope jumps at the knots and its second derivative
+    /// is taken as zero (use `spline` for a prescribed motion).
+    pub fn eval3(&self, t: f64) -> [f64; 3] {
+        let harmonic = |h: &Harmonic, shift: f64| {
+            let (s, c) = (h.omega * t + h.phase + shift).sin_cos();
+            [h.amplitude * c, -h.amplitude * h.omega * s, -h.amplitude * h.omega * h.omega * c]
+        };
+        match self {
+            Self::Constant(v) => [*v, 0.0, 0.0],
+            Self::Cos(h) => harmonic(h, 0.0),
+            Self::Sin(h) => harmonic(h, -std::f64::consts::FRAC_PI_2),
+            Self::Harmonics(hs) => {
+                hs.iter().map(|h| harmonic(h, 0.0)).fold([0.0; 3], |a, b| [a[0] + b[0], a[1] + b[1], a[2] + b[2]])
+            }
+            Self::Table(tab) => {
+                let k = tab.t.partition_point(|&tk| tk <= t);
+                let slope = if k == 0 || k == tab.t.len() {
+                    0.0
+                } else {
+                    (tab.value[k] - tab.value[k - 1]) / (tab.t[k] - tab.t[k - 1])
+                };
+                [tab.eval(t), slope, 0.0]
+            }
+            Self::Spline(s) => s.eval3(t),
         }
     }
 
@@ -86,6 +245,18 @@ impl Waveform {
             Self::Constant(v) => finite("constant", *v),
             Self::Cos(h) | Self::Sin(h) => harmonic(h),
             Self::Harmonics(hs) => hs.iter().try_for_each(harmonic),
+            Self::Spline(s) => {
+                let d = s.data();
+                if d.t.len() < 2 || d.t.len() != d.value.len() {
+                    return Err(format!(
+                        "a spline needs as many values as times, at least two: got {} times and {} values",
+                        d.t.len(),
+                        d.value.len()
+                    ));
+                }
+                Self::Table(Table { t: d.t.clone(), value: d.value.clone() }).validate()?;
+                d.slope_start.into_iter().chain(d.slope_end).try_for_each(|v| finite("slope", v))
+            }
             Self::Table(tab) => {
                 if tab.t.is_empty() || tab.t.len() != tab.value.len() {
                     return Err(format!(
@@ -142,6 +313,59 @@ mod tests {
             [(-1.0, 0.0), (0.0, 0.0), (0.5, 1.0), (1.0, 2.0), (2.0, 0.0), (2.5, -1.0), (3.0, -2.0), (9.0, -2.0)]
         {
             assert_eq!(tab.eval(t), v, "table at t = {t}");
+        }
+    }
+
+    /// Each waveform's first and second derivatives against central
+    /// differences (h = 1e-4: truncation about 1e-8 |w^(3)|, rounding
+    /// about 1e-12 / h).
+    #[test]
+    fn derivatives_match_differences_of_the_values() {
+        let h = Harmonic { amplitude: 2.0, omega: 3.0, phase: 0.5 };
+        let knots = SplineData {
+            t: vec![0.0, 0.4, 1.0, 1.7, 2.0],
+            value: vec![0.0, 0.3, -0.2, 0.5, 0.1],
+            slope_start: Some(0.0),
+            slope_end: None,
+        };
+        let waves = [
+            Waveform::Cos(h),
+            Waveform::Sin(h),
+            Waveform::Harmonics(vec![h, Harmonic { amplitude: 0.5, omega: 7.0, phase: -1.0 }]),
+            Waveform::Spline(Spline::new(knots)),
+        ];
+        let d = 1e-4;
+        for w in &waves {
+            for t in [0.13, 0.55, 1.2, 1.9] {
+                let [v, d1, d2] = w.eval3(t);
+                assert!((v - w.eval(t)).abs() <= 1e-15 * (1.0 + v.abs()));
+                let fd1 = (w.eval(t + d) - w.eval(t - d)) / (2.0 * d);
+                let fd2 = (w.eval3(t + d)[1] - w.eval3(t - d)[1]) / (2.0 * d);
+                assert!((d1 - fd1).abs() <= 1e-6 * (1.0 + d1.abs()), "{w:?} at {t}: {d1} vs {fd1}");
+                assert!((d2 - fd2).abs() <= 1e-5 * (1.0 + d2.abs()), "{w:?} at {t}: {d2} vs {fd2}");
+            }
+        }
+    }
+
+    /// The spline is exact for a cubic when its end slopes are given, and
+    /// its second derivative is continuous across the knots.
+    #[test]
+    fn spline_interpolates_and_is_smooth() {
+        let f = |t: f64| 1.0 + 0.5 * t - 0.3 * t * t + 0.2 * t * t * t;
+        let df = |t: f64| 0.5 - 0.6 * t + 0.6 * t * t;
+        let t: Vec<f64> = vec![0.0, 0.3, 0.7, 1.0, 1.6, 2.0];
+        let s = Spline::new(SplineData {
+            value: t.iter().map(|&x| f(x)).collect(),
+            slope_start: Some(df(0.0)),
+            slope_end: Some(df(2.0)),
+            t: t.clone(),
+        });
+        for x in [0.0, 0.1, 0.35, 0.9, 1.3, 1.99] {
+            assert!((s.eval3(x)[0] - f(x)).abs() <= 1e-13, "at {x}: {} vs {}", s.eval3(x)[0], f(x));
+        }
+        for &k in &t[1..t.len() - 1] {
+            let (l, r) = (s.eval3(k - 1e-12), s.eval3(k + 1e-12));
+            assert!((l[2] - r[2]).abs() <= 1e-9, "second derivative jumps at {k}");
         }
     }
 

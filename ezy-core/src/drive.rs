@@ -1,0 +1,36 @@
+//! Drives: hinges whose angle follows a prescribed function of time `u(t)`
+//! (rheonomic constraints, as in the Twistcar literature). The macro emits
+//! the row `phi_a - phi_b` of `phi(q)` and `G`; the runtime makes it
+//! `phi_row(q) - u(t) = 0`, so the velocity constraint becomes
+//! `G_row qd = u'(t)` and the acceleration constraint
+//! `G_row qdd = -gamma_row + u''(t)`. The drive's torque is `tau = -lambda_row`
+//! (`+tau` on the hinge's first body, as a motor) and its power `tau u'(t)`
+//! is integrated into the work state `W_<drive>`, so the energy ledger
+//! stays closed.
+
+use crate::effects::Waveform;
+
+/// A drive resolved against a model: its row and the prescribed angle.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Drive {
+    /// The model's drive name.
+    pub name: String,
+    /// Its row in `phi` and `G`.
+    pub row: usize,
+    /// The prescribed hinge angle `u(t)` [rad].
+    pub angle: Waveform,
+}
+
+/// `phi[row] -= u(t)` for every drive: the rheonomic residual.
+pub fn shift_positions(drives: &[Drive], t: f64, phi: &mut [f64]) {
+    for d in drives {
+        phi[d.row] -= d.angle.eval(t);
+    }
+}
+
+/// `r[row] -= u'(t)` for every drive: the residual of `G qd = u'(t)`.
+pub fn shift_velocities(drives: &[Drive], t: f64, r: &mut [f64]) {
+    for d in drives {
+        r[d.row] -= d.angle.eval3(t)[1];
+    }
+}
