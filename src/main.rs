@@ -8,6 +8,31 @@ use clap::{Parser, Subcommand, ValueEnum};
 use ezy::run::{Report, RunOptions, run_scene};
 use ezy_core::{Baumgarte, Method, ProjectionKind};
 
+/// `println!` to stdout that ends the process quietly when the reader has
+/// gone (`ezy list | head`), instead of panicking on the broken pipe.
+macro_rules! out {
+    ($($arg:tt)*) => {{
+        use std::io::Write;
+        if let Err(e) = writeln!(std::io::stdout().lock(), $($arg)*) {
+            if e.kind() == std::io::ErrorKind::BrokenPipe {
+                std::process::exit(0);
+            }
+        }
+    }};
+}
+
+/// `print!` to stdout with the same handling of a broken pipe as `out!`.
+macro_rules! out_raw {
+    ($($arg:tt)*) => {{
+        use std::io::Write;
+        if let Err(e) = write!(std::io::stdout().lock(), $($arg)*) {
+            if e.kind() == std::io::ErrorKind::BrokenPipe {
+                std::process::exit(0);
+            }
+        }
+    }};
+}
+
 /// Planar vehicles with hinges and skates: simulate a scene, write CSV and figures.
 #[derive(Parser, Debug)]
 #[command(name = "ezy", version, about)]
@@ -84,7 +109,7 @@ fn model_command(model: &str, cmd: ModelCommand) -> Result<(), String> {
         let known: Vec<&str> = ezy_models::MODELS.iter().map(|(k, _)| *k).collect();
         format!("unknown model `{model}`; known models: {}", known.join(", "))
     })?;
-    print!("{out}");
+    out_raw!("{out}");
     if ok {
         Ok(())
     } else {
@@ -231,13 +256,13 @@ fn main() -> ExitCode {
 }
 
 fn list() {
-    println!("models:");
+    out!("models:");
     for (key, info) in ezy_models::MODELS {
-        println!("  {key:<26} {} (nq = {}, nc = {})", info.doc, info.nq(), info.nc());
+        out!("  {key:<26} {} (nq = {}, nc = {})", info.doc, info.nq(), info.nc());
     }
-    println!("scenes:");
+    out!("scenes:");
     for s in ezy_models::scenes::builtin() {
-        println!("  {:<26} {}", s.scene.name, s.scene.description);
+        out!("  {:<26} {}", s.scene.name, s.scene.description);
     }
 }
 
@@ -252,12 +277,12 @@ fn precision(args: PrecisionArgs) -> Result<(), String> {
     let report = ezy::precision::precision(&scene, &out).map_err(|e| e.to_string())?;
     match args.format {
         Format::Table => {
-            print!("{}", ezy::precision::table(&report));
+            out_raw!("{}", ezy::precision::table(&report));
             for f in &report.files {
-                println!("wrote {}", f.display());
+                out!("wrote {}", f.display());
             }
         }
-        Format::Csv => print!("{}", ezy::precision::csv(&report.rows)),
+        Format::Csv => out_raw!("{}", ezy::precision::csv(&report.rows)),
     }
     Ok(())
 }
@@ -306,7 +331,7 @@ fn print_summary(scene: &str, r: &Report) {
     } else {
         format!("{} steps of h = {} s", s.steps, r.settings.dt)
     };
-    println!(
+    out!(
         "{scene}: {} {how} to t = {} s, projection {} ({}), {} KKT path",
         s.method.name(),
         r.settings.t_end,
@@ -314,21 +339,23 @@ fn print_summary(scene: &str, r: &Report) {
         s.projection_path,
         s.kkt
     );
-    println!(
+    out!(
         "  RHS evaluations {}, integration {:.3} s ({:.0} ns per RHS incl. projection), whole run {:.3} s",
         s.counters.rhs_evals,
         t,
         t / s.counters.rhs_evals.max(1) as f64 * 1e9,
         r.wall.as_secs_f64()
     );
-    println!(
+    out!(
         "  max residuals |C| = {:.2e} m, |G qd| = {:.2e} m/s (largest drift of one step before projection {:.2e} m)",
-        s.max_residual_position, s.max_residual_velocity, s.max_step_drift
+        s.max_residual_position,
+        s.max_residual_velocity,
+        s.max_step_drift
     );
-    println!("  max |T - T0 - W| = {:.3e} J", s.max_energy_error);
+    out!("  max |T - T0 - W| = {:.3e} J", s.max_energy_error);
     let state: Vec<String> = r.state_names.iter().zip(&s.final_state).map(|(n, v)| format!("{n} = {v:.9}")).collect();
-    println!("  final state: {}", state.join(", "));
+    out!("  final state: {}", state.join(", "));
     for f in &r.files {
-        println!("  wrote {}", f.display());
+        out!("  wrote {}", f.display());
     }
 }
