@@ -20,9 +20,26 @@ pub fn render<M: Model>(format: Format) -> String {
     }
 }
 
-/// Row label of constraint `i`, with its kind.
+/// Kind of constraint row `i`.
 fn row_kind(info: &ModelInfo, i: usize) -> &'static str {
-    if i < info.n_holonomic { "hinge" } else { "skate" }
+    if info.drives.iter().any(|d| d.row == i) {
+        "drive"
+    } else if info.sliders.iter().any(|s| s.row == i || s.row + 1 == i) {
+        "slider"
+    } else if i < info.n_holonomic {
+        "hinge"
+    } else {
+        "skate"
+    }
+}
+
+/// The right-hand side of row `i` at position level (`u(t)` for a drive).
+fn target(info: &ModelInfo, i: usize, level: &str) -> &'static str {
+    match (info.drives.iter().any(|d| d.row == i), level) {
+        (false, _) => "0",
+        (true, "q") => "u(t)",
+        (true, _) => "u'(t)",
+    }
 }
 
 fn text<M: Model>() -> String {
@@ -33,19 +50,23 @@ fn text<M: Model>() -> String {
     out.push_str(&format!("q = [{}]  (nq = {}, nc = {})\n\n", info.coords.join(", "), info.nq(), info.nc()));
     let mass: Vec<&str> = eq.mass.iter().map(|e| e.text).collect();
     out.push_str(&format!("Mass matrix\n  M = diag({})\n\n", mass.join(", ")));
-    out.push_str("Holonomic constraints phi(q) = 0 [m]\n");
-    for (i, e) in eq.phi.iter().enumerate() {
-        out.push_str(&format!("  {:<w$}  {}\n", info.constraints[i], e.text));
-    }
-    out.push_str("\nVelocity constraints G(q) qd = 0 [m/s] (hinge rows: d phi/dt; skate rows: S qd, the lateral velocity of the contact point)\n");
-    for (i, e) in eq.velocity.iter().enumerate() {
-        out.push_str(&format!("  {:<w$}  {}   ({})\n", info.constraints[i], e.text, row_kind(info, i)));
-    }
+    out.push_str("Holonomic constraints phi(q) = 0 [m, rad] (a drive's row equals its prescribed angle u(t))\n");
+    let rows = |out: &mut String, exprs: &[ezy_core::EquationExpr], level: &str| {
+        for (i, e) in exprs.iter().enumerate() {
+            let (name, rhs, kind) = (info.constraints[i], target(info, i, level), row_kind(info, i));
+            out.push_str(&format!("  {name:<w$}  {} = {rhs}   ({kind})\n", e.text));
+        }
+    };
+    rows(&mut out, eq.phi, "q");
+    out.push_str("\nVelocity constraints G(q) qd = 0 [m/s, rad/s] (holonomic rows: d phi/dt; skate rows: S qd, the lateral velocity of the contact point; a drive's row: u'(t))\n");
+    rows(&mut out, eq.velocity, "qd");
     out.push_str(&format!("\nConstraint Jacobian G = [C_q; S] ({} x {}), nonzero entries\n", info.nc(), info.nq()));
     for (&(r, c), e) in info.pattern.iter().zip(eq.jacobian) {
         out.push_str(&format!("  G[{}, {}] = {}\n", info.constraints[r], info.coords[c], e.text));
     }
-    out.push_str("\nConvective terms gamma = d/dq(G qd) qd [m/s^2], so that G qdd = -gamma\n");
+    out.push_str(
+        "\nConvective terms gamma = d/dq(G qd) qd [m/s^2], so that G qdd = -gamma (+ u''(t) on a drive's row)\n",
+    );
     for (i, e) in eq.gamma.iter().enumerate() {
         out.push_str(&format!("  {:<w$}  {}\n", info.constraints[i], e.text));
     }
@@ -75,7 +96,8 @@ fn latex<M: Model>() -> String {
     out.push_str(&format!("Mass matrix\n\\[ M = \\operatorname{{diag}}\\left({}\\right) \\]\n", mass.join(",\\ ")));
     out.push_str("Holonomic constraints\n\\begin{align*}\n");
     for (i, e) in eq.phi.iter().enumerate() {
-        out.push_str(&format!("  \\phi_{{{}}} &= {} = 0 \\\\\n", tex_text(info.constraints[i]), e.latex));
+        let rhs = if target(info, i, "q") == "0" { "0" } else { "u(t)" };
+        out.push_str(&format!("  \\phi_{{{}}} &= {} = {rhs} \\\\\n", tex_text(info.constraints[i]), e.latex));
     }
     out.push_str(
         "\\end{align*}\nVelocity constraints $G(q)\\,\\dot q = 0$ (skate rows: $S(q)\\,\\dot q$)\n\\begin{align*}\n",

@@ -229,6 +229,7 @@ fn run_model<M: Model + Default>(scene: &Scene, opts: &RunOptions) -> Result<Rep
         balance_limit: Some(ezy_core::simulate::BALANCE_LIMIT),
     };
     settings.validate()?;
+    scene.check_drives_cover(settings.t_end).map_err(|e| SimError::Scene { key: e.key(), message: e.message })?;
     let Setup { model, scene, effects, drives, y0, initial } = setup::<M>(scene, &opts.sets)?;
     let scene = &scene;
     let mut sys = Dynamics::new(model, effects, KktMethod::Auto).with_drives(drives);

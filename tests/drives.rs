@@ -47,6 +47,7 @@ fn prescribing_the_recorded_angle_reproduces_the_torque_driven_run() {
 
     // the same vehicle with that angle prescribed, from the same state
     let mut scene = scenes::get("drive-prescribed");
+    scene.t_end = T_END;
     scene.initial.q = ["x1", "y1", "phi1"].iter().map(|n| (n.to_string(), InitValue::Num(0.0))).collect();
     scene.initial.qd = vec![("x1".into(), InitValue::Num(0.0))];
     scene.drives = vec![("D".into(), DriveSpec { angle: Waveform::Spline(spline) })];

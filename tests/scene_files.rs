@@ -212,3 +212,43 @@ fn unknown_bodies_and_skates_list_the_models_names() {
     assert!(err.contains("unknown skate `B` in model EzyRoller; its skates: A, C"), "{err}");
     assert!(err.starts_with(&format!("bad.toml:{}:", line_of(&text, "skate = \"B\""))), "{err}");
 }
+
+/// The cases a review found: colliding column names, a scene name that
+/// would escape `out/`, drives that a table or a short spline cannot
+/// serve, defaults and ambiguous keys in `--set`, and no bogus key on a
+/// value's type error.
+#[test]
+fn review_cases_are_errors_with_names() {
+    let prescribed = scenes::BUILTIN.iter().find(|(f, _)| *f == "drive-prescribed.toml").unwrap().1;
+    // an effect whose columns collide with the drive's
+    let text = format!("{prescribed}\n[effects.D]\nkind = \"hinge-damper\"\nhinge = \"B\"\ndamping = 0.5\n");
+    let err = load_err(&text);
+    assert!(err.contains("`effects.D`") && err.contains("makes the column `W_D`"), "{err}");
+    // a scene name with a path in it
+    let err = load_err(&drive_with("name = \"drive\"", "name = \"../drive\""));
+    assert!(err.contains("`name`") && err.contains("letters, digits, - and _"), "{err}");
+    // a drive given by a table, or by a spline that ends before the run
+    let table = prescribed.replace(
+        "angle = { harmonics = [{ amplitude = -3.141592653589793, omega = 0.0 }, { amplitude = 0.3, omega = 3.141592653589793, phase = -1.5707963267948966 }] }",
+        "angle = { table = { t = [0.0, 40.0], value = [-3.0, -3.2] } }",
+    );
+    assert_ne!(table, prescribed);
+    let err = load_err(&table);
+    assert!(err.contains("`drives.D.angle`") && err.contains("give a `spline`"), "{err}");
+    let short = table.replace("{ table = { t = [0.0, 40.0]", "{ spline = { t = [0.0, 20.0]");
+    let err = load_err(&short);
+    assert!(err.contains("cover [0, 20] s but the run covers [0, 30] s"), "{err}");
+    // a value of the wrong type is not blamed on a made-up key
+    let err = load_err(&drive_with("t_end = 60.0", "t_end = [60.0]"));
+    assert!(!err.contains("`60"), "{err}");
+    // --set: a key at its default, and an ambiguous key
+    let mut slope = scenes::get("drive-slope");
+    slope.set(ezy_models::scenes::model_info("ezyroller").unwrap(), "gravity.g", 1.62).unwrap();
+    let toml = slope.to_toml();
+    assert!(toml.contains("g = 1.62"), "{toml}");
+    let mut driven = scenes::get("drive-prescribed");
+    let info = ezy_models::scenes::model_info("ezyroller_driven").unwrap();
+    let err = driven.set(info, "D.amplitude", 0.5).unwrap_err().to_string();
+    assert!(err.contains("matches several numbers") && err.contains("angle.harmonics.1.amplitude"), "{err}");
+    driven.set(info, "D.harmonics.1.amplitude", 0.5).unwrap();
+}

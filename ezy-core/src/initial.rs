@@ -76,7 +76,10 @@ pub fn consistent_state<M: Model>(
         let svd = j.svd(true, true);
         if svd.rank(1e-10 * svd.singular_values.max().max(1.0)) < unknown_q.len() {
             return Err(SimError::Initial {
-                reason: format!("the hinges do not determine the coordinates {}; give them", names(&unknown_q, "")),
+                reason: format!(
+                    "the holonomic constraints (hinges, sliders, drives) do not determine the coordinates {}; give them",
+                    names(&unknown_q, "")
+                ),
             });
         }
         let dx = svd
@@ -90,9 +93,14 @@ pub fn consistent_state<M: Model>(
     let mut report = InitialReport::default();
     let res = max_abs(&phi);
     if res > INITIAL_TOL {
-        // The given coordinates violate the hinges: Gauss-Newton with the
+        // The given coordinates violate the holonomic rows: Gauss-Newton with the
         // minimum-norm step in all coordinates (SPEC §2's projection).
         report.position_violation = res;
+        report.position_worst = phi
+            .iter()
+            .enumerate()
+            .max_by(|a, b| a.1.abs().total_cmp(&b.1.abs()))
+            .map_or("", |(i, _)| info.constraints[i]);
         let q_given = q.clone();
         let all: Vec<usize> = (0..nq).collect();
         for _ in 0..50 {
@@ -116,7 +124,7 @@ pub fn consistent_state<M: Model>(
         if left.is_nan() || left > 1e-9 {
             return Err(SimError::Initial {
                 reason: format!(
-                    "no configuration satisfies the hinges near the given coordinates (max|C| = {res:.3e} m, {left:.3e} m after projection)"
+                    "no configuration satisfies the holonomic constraints near the given coordinates (max|C| = {res:.3e}, {left:.3e} after projection)"
                 ),
             });
         }
@@ -201,8 +209,11 @@ pub fn consistent_state<M: Model>(
 /// What [`consistent_state`] had to correct in the given values.
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
 pub struct InitialReport {
-    /// `max|C|` of the given coordinates, when they violated the hinges [m] (else 0).
+    /// `max|C|` of the given coordinates, when they violated the holonomic
+    /// constraints (hinges, sliders, drives) [m or rad] (else 0).
     pub position_violation: f64,
+    /// The row violated most, e.g. `B.y`.
+    pub position_worst: &'static str,
     /// Largest change of a coordinate by the projection [m or rad].
     pub position_correction: f64,
     /// `max|G qd|` of the given velocities, when they violated the constraints [m/s] (else 0).
@@ -217,8 +228,8 @@ impl InitialReport {
         let mut w = Vec::new();
         if self.position_violation > 0.0 {
             w.push(format!(
-                "the initial coordinates violate the hinges by {:.3e} m; projected onto them (largest change {:.3e})",
-                self.position_violation, self.position_correction
+                "the initial coordinates violate the holonomic constraints by {:.3e} (most: `{}`); projected onto them (largest change {:.3e})",
+                self.position_violation, self.position_worst, self.position_correction
             ));
         }
         if self.velocity_violation > 0.0 {

@@ -494,11 +494,12 @@ impl Scene {
             // Inside an `[effects.NAME]` table (an internally tagged enum,
             // which serde buffers) the span is the table's header: name it.
             let rest = &src[start.min(src.len())..];
+            let at_line_start = start == 0 || src[..start.min(src.len())].ends_with('\n');
             let key = rest
                 .strip_prefix('[')
+                .filter(|r| at_line_start && r.starts_with(|c: char| c.is_alphabetic()))
                 .and_then(|r| r.split_once(']'))
-                .map(|(k, _)| k.trim().to_string())
-                .filter(|k| !k.starts_with('['));
+                .map(|(k, _)| k.trim().to_string());
             SceneFileError { file: file.to_string(), line, column, key, message: e.message().trim().to_string() }
         })
     }
@@ -601,6 +602,12 @@ impl Scene {
     /// The first [`SceneError`], with the key path and the known names.
     pub fn check(&self, info: &ModelInfo) -> Result<(), SceneError> {
         let known = |names: Vec<&str>| if names.is_empty() { "none".to_string() } else { names.join(", ") };
+        if self.name.is_empty() || !self.name.chars().all(|c| c.is_ascii_alphanumeric() || c == '-' || c == '_') {
+            return Err(SceneError::at(
+                &["name"],
+                format!("scene name `{}` must be letters, digits, - and _ (it names the output directory)", self.name),
+            ));
+        }
         let params: Vec<&str> = info.params.iter().map(|p| p.name).collect();
         for (name, v) in &self.params {
             if info.param_index(name).is_none() {
@@ -674,6 +681,7 @@ impl Scene {
             }
             d.angle.validate().map_err(|m| SceneError::at(&["drives", name, "angle"], m))?;
         }
+        self.check_drives_cover(self.t_end)?;
         if let Some(missing) = info.drives.iter().find(|m| !self.drives.iter().any(|(n, _)| n == m.name)) {
             return Err(SceneError::at(
                 &["drives"],
@@ -682,6 +690,29 @@ impl Scene {
                     info.name, info.hinges[missing.hinge].name, missing.name, missing.name
                 ),
             ));
+        }
+        let all = Scene {
+            output: OutputSettings { include: OutputGroup::ALL.to_vec(), ..self.output.clone() },
+            ..self.clone()
+        };
+        let all_columns = all.columns(info);
+        for (k, c) in all_columns.iter().enumerate() {
+            if all_columns[..k].contains(c) {
+                let culprit = self
+                    .effects
+                    .iter()
+                    .find(|(n, e)| c == &format!("W_{n}") || c == &e.value_column(n))
+                    .map(|(n, _)| n.clone());
+                return Err(match culprit {
+                    Some(n) => SceneError::at(
+                        &["effects", &n],
+                        format!(
+                            "effect `{n}` makes the column `{c}`, which the model's drives or rows also make: rename the effect"
+                        ),
+                    ),
+                    None => SceneError::at(&["model"], format!("two output columns are called `{c}`")),
+                });
+            }
         }
         let columns = self.columns(info);
         for (i, fig) in self.figures.iter().enumerate() {
@@ -757,9 +788,10 @@ impl Scene {
     }
 
     /// Applies a command-line override `name = value`: a model parameter
-    /// (`m2`), or a number inside an effect, `EFFECT.KEY` with the full
-    /// key path (`motor.torque.cos.amplitude`) or its last key when that is
-    /// unambiguous (`motor.amplitude`).
+    /// (`m2`), or a number inside an effect or a drive, `ITEM.KEY` with the
+    /// full key path (`motor.torque.cos.amplitude`) or its last key when
+    /// that is unambiguous (`motor.amplitude`); a key left at its default
+    /// (`gravity.g`) is set by its name.
     ///
     /// # Errors
     /// [`crate::SimError::UnknownName`] listing the parameters and the
@@ -776,24 +808,16 @@ impl Scene {
             }
             return Ok(());
         }
-        if let Some((effect, key)) = name.split_once('.')
-            && let Some((_, spec)) = self.effects.iter_mut().find(|(n, _)| n == effect)
-        {
-            let mut tree = toml::Value::try_from(&*spec).expect("an effect serializes");
-            let leaves = numeric_leaves(&tree);
-            let matches: Vec<&String> =
-                leaves.iter().filter(|l| *l == key || l.ends_with(&format!(".{key}"))).collect();
-            if let [path] = matches[..] {
-                let mut node = &mut tree;
-                for part in path.split('.') {
-                    node = match node {
-                        toml::Value::Table(t) => t.get_mut(part).expect("leaf path exists"),
-                        toml::Value::Array(a) => &mut a[part.parse::<usize>().expect("index")],
-                        _ => unreachable!("leaf paths go through tables and arrays"),
-                    };
+        if let Some((item, key)) = name.split_once('.') {
+            if let Some((_, spec)) = self.effects.iter_mut().find(|(n, _)| n == item) {
+                if let Some(changed) = set_number(&*spec, key, value, name)? {
+                    *spec = changed;
+                    return Ok(());
                 }
-                *node = toml::Value::Float(value);
-                *spec = tree.try_into().expect("a number replaced by a number");
+            } else if let Some((_, spec)) = self.drives.iter_mut().find(|(n, _)| n == item)
+                && let Some(changed) = set_number(&*spec, key, value, name)?
+            {
+                *spec = changed;
                 return Ok(());
             }
         }
@@ -802,12 +826,51 @@ impl Scene {
             let tree = toml::Value::try_from(spec).expect("an effect serializes");
             known.extend(numeric_leaves(&tree).into_iter().map(|l| format!("{n}.{l}")));
         }
+        for (n, spec) in &self.drives {
+            let tree = toml::Value::try_from(spec).expect("a drive serializes");
+            known.extend(numeric_leaves(&tree).into_iter().map(|l| format!("{n}.{l}")));
+        }
         Err(crate::SimError::UnknownName {
             kind: "parameter",
             name: name.to_string(),
             model: info.name,
             known: known.join(", "),
         })
+    }
+
+    /// Checks that every prescribed angle is smooth over `[0, t_end]`: no
+    /// `table` (its slope jumps at the knots), and a `spline` whose knots
+    /// cover the run (outside them the angle is held, and its rate would
+    /// jump to zero).
+    ///
+    /// # Errors
+    /// [`SceneError`] at the drive's `angle`.
+    pub fn check_drives_cover(&self, t_end: f64) -> Result<(), SceneError> {
+        for (name, d) in &self.drives {
+            let path = ["drives", name.as_str(), "angle"];
+            match &d.angle {
+                crate::effects::Waveform::Table(_) => {
+                    return Err(SceneError::at(
+                        &path,
+                        "a table's slope jumps at its knots, which a prescribed motion cannot follow; give a `spline`",
+                    ));
+                }
+                crate::effects::Waveform::Spline(sp) => {
+                    let t = &sp.data().t;
+                    let (first, last) = (t[0], t[t.len() - 1]);
+                    if first > 0.0 || last < t_end {
+                        return Err(SceneError::at(
+                            &path,
+                            format!(
+                                "the spline's knots cover [{first}, {last}] s but the run covers [0, {t_end}] s; outside its knots the angle would stop abruptly"
+                            ),
+                        ));
+                    }
+                }
+                _ => {}
+            }
+        }
+        Ok(())
     }
 
     /// The model's drives with the scene's prescribed angles, in the
@@ -833,6 +896,56 @@ impl Scene {
 
 fn known_or_none(names: &[&str]) -> String {
     if names.is_empty() { "none".to_string() } else { names.join(", ") }
+}
+
+/// `spec` with the number at `key` set to `value`: `key` is a full dotted
+/// path or the unambiguous last part of one, or a top-level key the
+/// serialization left out (a default) that `spec`'s type accepts. `None`
+/// if no number matches.
+///
+/// # Errors
+/// [`crate::SimError::Scene`] when `key` matches several numbers.
+fn set_number<T: Serialize + serde::de::DeserializeOwned>(
+    spec: &T,
+    key: &str,
+    value: f64,
+    name: &str,
+) -> Result<Option<T>, crate::SimError> {
+    let mut tree = toml::Value::try_from(spec).expect("a scene item serializes");
+    let leaves = numeric_leaves(&tree);
+    let matches: Vec<&String> = leaves.iter().filter(|l| *l == key || l.ends_with(&format!(".{key}"))).collect();
+    match matches[..] {
+        [path] => {
+            let mut node = &mut tree;
+            for part in path.split('.') {
+                node = match node {
+                    toml::Value::Table(t) => t.get_mut(part).expect("leaf path exists"),
+                    toml::Value::Array(a) => &mut a[part.parse::<usize>().expect("index")],
+                    _ => unreachable!("leaf paths go through tables and arrays"),
+                };
+            }
+            *node = toml::Value::Float(value);
+            Ok(Some(tree.try_into().expect("a number replaced by a number")))
+        }
+        [] => {
+            // a key at its default is not serialized: try it as a new key
+            if let toml::Value::Table(t) = &mut tree
+                && !key.contains('.')
+                && !t.contains_key(key)
+            {
+                t.insert(key.to_string(), toml::Value::Float(value));
+                return Ok(tree.try_into().ok());
+            }
+            Ok(None)
+        }
+        _ => Err(crate::SimError::Scene {
+            key: name.to_string(),
+            message: format!(
+                "`{key}` matches several numbers ({}); give the full key",
+                matches.iter().map(|m| m.as_str()).collect::<Vec<_>>().join(", ")
+            ),
+        }),
+    }
 }
 
 /// Dotted paths of the numbers in a TOML tree (`torque.cos.amplitude`,
