@@ -73,7 +73,50 @@ pub struct Projector<M: Model> {
     singular: Option<Box<SingularMass>>,
     /// Prescribed hinge angles: targets of their rows.
     drives: Vec<crate::drive::Drive>,
+    /// For large models: `W`-weighted normal systems in sparse form (see
+    /// [`SparseProjection`]).
+    sparse: Option<Box<SparseProjection>>,
     _model: std::marker::PhantomData<M>,
+}
+
+/// The normal systems of the projection, `C_q W^-1 C_q^T` (positions) and
+/// `G W^-1 G^T` (velocities), factored by the sparse Schur-complement path
+/// (ordering and symbolic factor once): for models from
+/// [`crate::kkt::SPARSE_FROM_ROWS`] rows, where the dense `LDL^T` costs
+/// `O(nc^3)`. The correction `W^-1 G^T x` is the sparse path's
+/// `-qdd` with `f = 0` and `gamma = r`.
+struct SparseProjection {
+    positions: Option<crate::kkt::SparseSchur>,
+    velocities: crate::kkt::SparseSchur,
+    weights: Vec<f64>,
+    zeros: Vec<f64>,
+    dq: Vec<f64>,
+    lambda: Vec<f64>,
+}
+
+impl std::fmt::Debug for SparseProjection {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("SparseProjection").field("velocities", &self.velocities).finish_non_exhaustive()
+    }
+}
+
+impl SparseProjection {
+    /// `v -= W^-1 G_m^T (G_m W^-1 G_m^T)^-1 r` for the leading `m` rows
+    /// (`m = nh`: positions, with `values` the holonomic entries; `m = nc`:
+    /// velocities).
+    fn correct(&mut self, positions: bool, values: &[f64], r: &[f64], v: &mut [f64]) -> Result<(), KktError> {
+        use crate::kkt::KktSolver;
+        let solver =
+            if positions { self.positions.as_mut().expect("holonomic rows exist") } else { &mut self.velocities };
+        let m = r.len();
+        let sys = KktSystem { mass: &self.weights, g: &[], g_values: values, f: &self.zeros, gamma: r };
+        solver.solve(&sys, &mut self.dq, &mut self.lambda[..m])?;
+        // dq = -W^-1 G^T x with (G W^-1 G^T) x = r: the step that removes r
+        for (vi, d) in v.iter_mut().zip(&self.dq) {
+            *vi += d;
+        }
+        Ok(())
+    }
 }
 
 /// Mass-weighted velocity projection when `M` is singular: the correction
@@ -115,6 +158,16 @@ impl<M: Model> Projector<M> {
     /// singular `M` (zero masses) the mass-weighted form solves the KKT
     /// system instead of inverting `M`.
     pub fn new(kind: ProjectionKind, mass: &[f64]) -> Self {
+        Self::build(kind, mass, M::INFO.nc() >= crate::kkt::SPARSE_FROM_ROWS)
+    }
+
+    /// As [`Projector::new`], with the sparse normal systems whatever the
+    /// model's size (for tests and benchmarks of the two paths).
+    pub fn new_sparse(kind: ProjectionKind, mass: &[f64]) -> Self {
+        Self::build(kind, mass, true)
+    }
+
+    fn build(kind: ProjectionKind, mass: &[f64], sparse: bool) -> Self {
         let info = &M::INFO;
         let (nq, nc) = (info.nq(), info.nc());
         let invertible = mass.iter().all(|&m| m > 0.0);
@@ -132,9 +185,25 @@ impl<M: Model> Projector<M> {
                 lu: DenseLu::new(nq, nc),
             })
         });
+        let nh = info.n_holonomic;
+        let sparse = (sparse && kind != ProjectionKind::None && singular.is_none()).then(|| {
+            let weights: Vec<f64> = winv.iter().map(|w| 1.0 / w).collect();
+            let nnz_h = info.n_holonomic_nonzeros();
+            Box::new(SparseProjection {
+                positions: (nh > 0).then(|| {
+                    crate::kkt::SparseSchur::new(&info.pattern[..nnz_h], nh, &weights).expect("positive weights")
+                }),
+                velocities: crate::kkt::SparseSchur::new(info.pattern, nc, &weights).expect("positive weights"),
+                weights,
+                zeros: vec![0.0; nq],
+                dq: vec![0.0; nq],
+                lambda: vec![0.0; nc],
+            })
+        });
         Self {
             kind,
             winv,
+            sparse,
             ones: vec![1.0; nq],
             g_values: vec![0.0; info.pattern.len()],
             r: vec![0.0; nc],
@@ -154,9 +223,10 @@ impl<M: Model> Projector<M> {
 
     /// Which linear algebra the projection uses, for reports.
     pub fn path(&self) -> &'static str {
-        match (self.kind, &self.singular) {
-            (ProjectionKind::None, _) => "none",
-            (_, Some(_)) => "kkt-lu velocities, euclidean positions (singular M)",
+        match (self.kind, &self.singular, &self.sparse) {
+            (ProjectionKind::None, _, _) => "none",
+            (_, Some(_), _) => "kkt-lu velocities, euclidean positions (singular M)",
+            (_, _, Some(_)) => "normal-sparse-cholesky",
             _ => "normal-ldl",
         }
     }
@@ -194,11 +264,16 @@ impl<M: Model> Projector<M> {
                 if res <= POSITION_TOL || it == POSITION_MAX_ITER {
                     break;
                 }
-                self.normal
-                    .solve::<M>(&self.g_values, &self.winv, nh, &self.r[..nh], &mut self.x[..nh])
-                    .map_err(wrap)?;
-                self.x[nh..].fill(0.0);
-                M::sub_winv_gt_mul(&self.g_values, &self.winv, &self.x, q);
+                if let Some(sp) = &mut self.sparse {
+                    let nnz_h = info.n_holonomic_nonzeros();
+                    sp.correct(true, &self.g_values[..nnz_h], &self.r[..nh], q).map_err(wrap)?;
+                } else {
+                    self.normal
+                        .solve::<M>(&self.g_values, &self.winv, nh, &self.r[..nh], &mut self.x[..nh])
+                        .map_err(wrap)?;
+                    self.x[nh..].fill(0.0);
+                    M::sub_winv_gt_mul(&self.g_values, &self.winv, &self.x, q);
+                }
                 report.iterations = it + 1;
                 model.phi_and_constraint_matrix(q, &mut self.r[..nh], &mut self.g_values);
                 crate::drive::shift_positions(&self.drives, t, &mut self.r[..nh]);
@@ -210,6 +285,8 @@ impl<M: Model> Projector<M> {
             crate::drive::shift_velocities(&self.drives, t, &mut self.r);
             if let Some(s) = &mut self.singular {
                 s.correct::<M>(&self.g_values, &self.r, qd).map_err(wrap)?;
+            } else if let Some(sp) = &mut self.sparse {
+                sp.correct(false, &self.g_values, &self.r, qd).map_err(wrap)?;
             } else {
                 self.normal.solve::<M>(&self.g_values, &self.winv, nc, &self.r, &mut self.x).map_err(wrap)?;
                 M::sub_winv_gt_mul(&self.g_values, &self.winv, &self.x, qd);
