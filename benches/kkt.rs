@@ -35,19 +35,20 @@ fn pieces(c: &mut Criterion) {
     let m = EzyRoller::default();
     let y = state();
     let (q, qd) = (&y[..6], &y[6..12]);
-    let mut vals = vec![0.0; EzyRoller::INFO.pattern.len()];
+    let info = m.info();
+    let mut vals = vec![0.0; info.pattern.len()];
     let mut gamma = vec![0.0; 4];
     c.bench_function("generated/constraint_terms", |b| {
         b.iter(|| m.constraint_terms(black_box(q), black_box(qd), &mut vals, &mut gamma))
     });
     let mut g = vec![0.0; 24];
-    scatter_dense(EzyRoller::INFO.pattern, &vals, 6, &mut g);
+    scatter_dense(&info.pattern, &vals, 6, &mut g);
     let mut mass = vec![0.0; 6];
     m.mass_diagonal(&mut mass);
     let f = [0.0, 0.0, 1.5, 0.0, 0.0, -1.5];
     let sys = KktSystem { mass: &mass, g: &g, g_values: &vals, f: &f, gamma: &gamma };
     let (mut qdd, mut lambda) = (vec![0.0; 6], vec![0.0; 4]);
-    let mut schur = SchurCholesky::<EzyRoller>::new(&mass).unwrap();
+    let mut schur = SchurCholesky::<EzyRoller>::new(&m, &info, &mass).unwrap();
     c.bench_function("kkt/schur-cholesky", |b| b.iter(|| schur.solve(black_box(&sys), &mut qdd, &mut lambda).unwrap()));
     let mut lu = DenseLu::new(6, 4);
     c.bench_function("kkt/dense-lu", |b| b.iter(|| lu.solve(black_box(&sys), &mut qdd, &mut lambda).unwrap()));

@@ -13,7 +13,7 @@ pub enum Format {
 }
 
 /// The derived equations of model `M` in `format`.
-pub fn render<M: Model>(format: Format) -> String {
+pub fn render<M: Model + Default>(format: Format) -> String {
     match format {
         Format::Text => text::<M>(),
         Format::Latex => latex::<M>(),
@@ -42,26 +42,27 @@ fn target(info: &ModelInfo, i: usize, level: &str) -> &'static str {
     }
 }
 
-fn text<M: Model>() -> String {
-    let (info, eq) = (&M::INFO, &M::EQUATIONS);
+fn text<M: Model + Default>() -> String {
+    let m = M::default();
+    let (info, eq) = (&m.info(), &m.equations());
     let mut out = String::new();
     let w = info.constraints.iter().map(|c| c.len()).max().unwrap_or(0);
     out.push_str(&format!("{}: {}\n", info.name, info.doc));
     out.push_str(&format!("q = [{}]  (nq = {}, nc = {})\n\n", info.coords.join(", "), info.nq(), info.nc()));
-    let mass: Vec<&str> = eq.mass.iter().map(|e| e.text).collect();
+    let mass: Vec<&str> = eq.mass.iter().map(|e| e.text.as_str()).collect();
     out.push_str(&format!("Mass matrix\n  M = diag({})\n\n", mass.join(", ")));
     out.push_str("Holonomic constraints phi(q) = 0 [m, rad] (a drive's row equals its prescribed angle u(t))\n");
     let rows = |out: &mut String, exprs: &[ezy_core::EquationExpr], level: &str| {
         for (i, e) in exprs.iter().enumerate() {
-            let (name, rhs, kind) = (info.constraints[i], target(info, i, level), row_kind(info, i));
+            let (name, rhs, kind) = (&info.constraints[i], target(info, i, level), row_kind(info, i));
             out.push_str(&format!("  {name:<w$}  {} = {rhs}   ({kind})\n", e.text));
         }
     };
-    rows(&mut out, eq.phi, "q");
+    rows(&mut out, &eq.phi, "q");
     out.push_str("\nVelocity constraints G(q) qd = 0 [m/s, rad/s] (holonomic rows: d phi/dt; skate rows: S qd, the lateral velocity of the contact point; a drive's row: u'(t))\n");
-    rows(&mut out, eq.velocity, "qd");
+    rows(&mut out, &eq.velocity, "qd");
     out.push_str(&format!("\nConstraint Jacobian G = [C_q; S] ({} x {}), nonzero entries\n", info.nc(), info.nq()));
-    for (&(r, c), e) in info.pattern.iter().zip(eq.jacobian) {
+    for (&(r, c), e) in info.pattern.iter().zip(&eq.jacobian) {
         out.push_str(&format!("  G[{}, {}] = {}\n", info.constraints[r], info.coords[c], e.text));
     }
     out.push_str(
@@ -82,47 +83,48 @@ fn tex_text(s: &str) -> String {
     format!("\\text{{{}}}", s.replace('_', "\\_"))
 }
 
-fn latex<M: Model>() -> String {
-    let (info, eq) = (&M::INFO, &M::EQUATIONS);
+fn latex<M: Model + Default>() -> String {
+    let m = M::default();
+    let (info, eq) = (&m.info(), &m.equations());
     let mut out = String::new();
     out.push_str("\\documentclass{article}\n\\usepackage{amsmath}\n\\allowdisplaybreaks\n\\begin{document}\n");
     out.push_str(&format!("\\section*{{{}: derived equations}}\n", info.name));
-    let q: Vec<&str> = eq.coords.iter().map(|c| c.latex).collect();
+    let q: Vec<&str> = eq.coords.iter().map(|c| c.latex.as_str()).collect();
     out.push_str(&format!(
         "Generalized coordinates\n\\[ q = \\begin{{pmatrix}} {} \\end{{pmatrix}}^T \\]\n",
         q.join(" & ")
     ));
-    let mass: Vec<&str> = eq.mass.iter().map(|e| e.latex).collect();
+    let mass: Vec<&str> = eq.mass.iter().map(|e| e.latex.as_str()).collect();
     out.push_str(&format!("Mass matrix\n\\[ M = \\operatorname{{diag}}\\left({}\\right) \\]\n", mass.join(",\\ ")));
     out.push_str("Holonomic constraints\n\\begin{align*}\n");
     for (i, e) in eq.phi.iter().enumerate() {
         let rhs = if target(info, i, "q") == "0" { "0" } else { "u(t)" };
-        out.push_str(&format!("  \\phi_{{{}}} &= {} = {rhs} \\\\\n", tex_text(info.constraints[i]), e.latex));
+        out.push_str(&format!("  \\phi_{{{}}} &= {} = {rhs} \\\\\n", tex_text(&info.constraints[i]), e.latex));
     }
     out.push_str(
         "\\end{align*}\nVelocity constraints $G(q)\\,\\dot q = 0$ (skate rows: $S(q)\\,\\dot q$)\n\\begin{align*}\n",
     );
     for (i, e) in eq.velocity.iter().enumerate() {
-        out.push_str(&format!("  G_{{{}}}\\,\\dot q &= {} \\\\\n", tex_text(info.constraints[i]), e.latex));
+        out.push_str(&format!("  G_{{{}}}\\,\\dot q &= {} \\\\\n", tex_text(&info.constraints[i]), e.latex));
     }
     out.push_str("\\end{align*}\nConstraint Jacobian $G = [C_q;\\ S]$, nonzero entries\n\\begin{align*}\n");
-    for (&(r, c), e) in info.pattern.iter().zip(eq.jacobian) {
+    for (&(r, c), e) in info.pattern.iter().zip(&eq.jacobian) {
         out.push_str(&format!(
             "  G_{{{},\\,{}}} &= {} \\\\\n",
-            tex_text(info.constraints[r]),
+            tex_text(&info.constraints[r]),
             eq.coords[c].latex,
             e.latex
         ));
     }
     out.push_str("\\end{align*}\nConvective terms $\\gamma = \\frac{\\partial (G\\dot q)}{\\partial q}\\,\\dot q$, so that $G\\ddot q = -\\gamma$\n\\begin{align*}\n");
     for (i, e) in eq.gamma.iter().enumerate() {
-        out.push_str(&format!("  \\gamma_{{{}}} &= {} \\\\\n", tex_text(info.constraints[i]), e.latex));
+        out.push_str(&format!("  \\gamma_{{{}}} &= {} \\\\\n", tex_text(&info.constraints[i]), e.latex));
     }
     out.push_str("\\end{align*}\nPoint velocities\n\\begin{align*}\n");
     for (p, v) in info.points.iter().zip(eq.point_velocities.chunks(2)) {
         out.push_str(&format!(
             "  v_{{{}}} &= \\left({},\\ {}\\right) \\\\\n",
-            tex_text(p.name),
+            tex_text(&p.name),
             v[0].latex,
             v[1].latex
         ));

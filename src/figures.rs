@@ -3,7 +3,7 @@
 
 use std::path::Path;
 
-use ezy_core::{Column, FigureSpec, Model};
+use ezy_core::{Column, FigureSpec, ModelInfo};
 
 use crate::output::Table;
 use crate::plot::{Chart, PlotError, Series, render_png};
@@ -61,7 +61,7 @@ fn named(table: &Table, name: &str, figure: &str) -> Result<Vec<f64>, FigureErro
 ///
 /// # Errors
 /// [`FigureError`] for a missing column or a drawing failure.
-pub fn render<M: Model>(fig: &FigureSpec, table: &Table, path: &Path) -> Result<(), FigureError> {
+pub fn render(info: &ModelInfo, fig: &FigureSpec, table: &Table, path: &Path) -> Result<(), FigureError> {
     let mut chart = Chart {
         title: fig.title.clone(),
         x_label: fig.x_label.clone(),
@@ -81,9 +81,9 @@ pub fn render<M: Model>(fig: &FigureSpec, table: &Table, path: &Path) -> Result<
     } else {
         chart.equal_axes = true;
         for name in &fig.paths {
-            let (x, y, label) = match M::INFO.bodies.iter().find(|b| b.name == name) {
+            let (x, y, label) = match info.bodies.iter().find(|b| b.name == *name) {
                 Some(b) => {
-                    let c = M::INFO.coords;
+                    let c = &info.coords;
                     (c[b.coords[0]].to_string(), c[b.coords[1]].to_string(), format!("centre of mass of {name}"))
                 }
                 None => (format!("{name}.x"), format!("{name}.y"), format!("point {name}")),

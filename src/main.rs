@@ -98,7 +98,7 @@ impl ezy_core::ModelVisitor for ModelCommand {
             Self::Check { states, seed } => {
                 let checks = ezy::check::check::<M>(states, seed);
                 let ok = checks.iter().all(|c| c.passed());
-                (ezy::check::table(M::INFO.name, states, &checks), ok)
+                (ezy::check::table(M::default().info().name, states, &checks), ok)
             }
         }
     }
@@ -106,7 +106,7 @@ impl ezy_core::ModelVisitor for ModelCommand {
 
 fn model_command(model: &str, cmd: ModelCommand) -> Result<(), String> {
     let (out, ok) = ezy_models::visit(model, cmd).ok_or_else(|| {
-        let known: Vec<&str> = ezy_models::MODELS.iter().map(|(k, _)| *k).collect();
+        let known: Vec<&str> = ezy_models::MODEL_KEYS.to_vec();
         format!("unknown model `{model}`; known models: {}", known.join(", "))
     })?;
     out_raw!("{out}");
@@ -257,8 +257,11 @@ fn main() -> ExitCode {
 
 fn list() {
     out!("models:");
-    for (key, info) in ezy_models::MODELS {
-        out!("  {key:<26} {} (nq = {}, nc = {})", info.doc, info.nq(), info.nc());
+    for (key, info) in ezy_models::models() {
+        let counts: Vec<String> =
+            info.params.iter().filter(|p| p.count).map(|p| format!("{} = {}", p.name, p.default)).collect();
+        let counts = if counts.is_empty() { String::new() } else { format!(", {}", counts.join(", ")) };
+        out!("  {key:<26} {} (nq = {}, nc = {}{counts})", info.doc, info.nq(), info.nc());
     }
     out!("scenes:");
     for s in ezy_models::scenes::builtin() {

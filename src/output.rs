@@ -76,14 +76,14 @@ impl<M: Model> RowBuilder<M> {
             Box::new(ForceProbe { sys: copy, y: vec![0.0; ny], dy: vec![0.0; ny] })
         });
         Self {
-            columns: scene.columns(&M::INFO),
+            columns: scene.columns(&sys.info),
             energy: scene.includes(OutputGroup::Energy),
             points: scene.includes(OutputGroup::Points),
             effects: scene.includes(OutputGroup::Effects),
             residuals: scene.includes(OutputGroup::Residuals),
             probe,
-            point_buf: vec![0.0; 2 * M::INFO.points.len()],
-            f_scratch: vec![0.0; M::INFO.nq()],
+            point_buf: vec![0.0; 2 * sys.info.points.len()],
+            f_scratch: vec![0.0; sys.nq()],
         }
     }
 
@@ -112,7 +112,7 @@ impl<M: Model> RowBuilder<M> {
             }
         }
         if let Some(p) = &mut self.probe {
-            let nq = M::INFO.nq();
+            let nq = sys.nq();
             p.y[..nq].copy_from_slice(s.q);
             p.y[nq..2 * nq].copy_from_slice(s.qd);
             p.sys.rhs(s.t, &p.y, &mut p.dy)?;

@@ -115,12 +115,17 @@ impl ModelVisitor for Runner<'_> {
 }
 
 /// Looks up `name` in `names`, or an [`SimError::UnknownName`] listing them.
-fn lookup<M: Model>(kind: &'static str, name: &str, names: &[&str]) -> Result<usize, SimError> {
-    names.iter().position(|n| *n == name).ok_or_else(|| SimError::UnknownName {
+fn lookup<S: AsRef<str>>(
+    info: &ezy_core::ModelInfo,
+    kind: &'static str,
+    name: &str,
+    names: &[S],
+) -> Result<usize, SimError> {
+    names.iter().position(|n| n.as_ref() == name).ok_or_else(|| SimError::UnknownName {
         kind,
         name: name.into(),
-        model: M::INFO.name,
-        known: names.join(", "),
+        model: info.name,
+        known: names.iter().map(AsRef::as_ref).collect::<Vec<_>>().join(", "),
     })
 }
 
@@ -151,13 +156,25 @@ pub struct Setup<M: Model> {
 /// [`SimError::Setting`] for a negative mass, [`SimError::Initial`] if no
 /// consistent initial state is near the given one.
 pub fn setup<M: Model + Default>(scene: &Scene, sets: &[(String, f64)]) -> Result<Setup<M>, SimError> {
-    let info = &M::INFO;
+    let mut model = M::default();
+    let base = model.info();
     let mut scene = scene.clone();
     for (name, value) in sets {
-        scene.set(info, name, *value)?;
+        scene.set(&base, name, *value)?;
     }
-    scene.check(info).map_err(|e| SimError::Scene { key: e.key(), message: e.message })?;
-    let mut model = M::default();
+    let scene_error = |e: ezy_core::SceneError| SimError::Scene { key: e.key(), message: e.message };
+    // counts first: they decide the coordinates the rest of the scene names
+    for (name, value) in &scene.params {
+        if let Some(i) = base.param_index(name)
+            && base.params[i].count
+        {
+            ezy_core::scene::check_count(name, *value).map_err(scene_error)?;
+            model.set_param(i, *value);
+        }
+    }
+    model.check_counts().map_err(|message| SimError::Scene { key: "params".into(), message })?;
+    let info = &model.info();
+    scene.check(info).map_err(scene_error)?;
     for (name, value) in &scene.params {
         model.set_param(info.param_index(name).expect("checked"), *value);
     }
@@ -165,21 +182,21 @@ pub fn setup<M: Model + Default>(scene: &Scene, sets: &[(String, f64)]) -> Resul
         match v {
             InitValue::Num(x) => Ok(*x),
             InitValue::Param(p) => {
-                Ok(model.param(lookup::<M>("parameter", p, &info.params.iter().map(|p| p.name).collect::<Vec<_>>())?))
+                Ok(model.param(lookup(info, "parameter", p, &info.params.iter().map(|p| p.name).collect::<Vec<_>>())?))
             }
         }
     };
     let mut given_q = Vec::new();
     for (name, v) in &scene.initial.q {
-        given_q.push((lookup::<M>("coordinate", name, info.coords)?, value(v)?));
+        given_q.push((lookup(info, "coordinate", name, &info.coords)?, value(v)?));
     }
     let mut given_qd = Vec::new();
     for (name, v) in &scene.initial.qd {
-        given_qd.push((lookup::<M>("coordinate", name, info.coords)?, value(v)?));
+        given_qd.push((lookup(info, "coordinate", name, &info.coords)?, value(v)?));
     }
     let mut mass = vec![0.0; info.nq()];
     model.mass_diagonal(&mut mass);
-    for b in info.bodies {
+    for b in &info.bodies {
         for (what, k, param) in [("mass", b.coords[0], b.mass_param), ("inertia", b.coords[2], b.inertia_param)] {
             if mass[k].is_nan() || mass[k] < 0.0 {
                 return Err(SimError::Setting {
@@ -256,7 +273,7 @@ fn run_model<M: Model + Default>(scene: &Scene, opts: &RunOptions) -> Result<Rep
     if opts.figures {
         for fig in &scene.figures {
             let path = opts.out.join(&fig.file);
-            crate::figures::render::<M>(fig, &table, &path)?;
+            crate::figures::render(&sys.info, fig, &table, &path)?;
             files.push(path);
         }
     }

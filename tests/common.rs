@@ -11,17 +11,21 @@ pub fn rng(seed: u64) -> StdRng {
 }
 
 /// A random state: positions in [-2, 2] m, angles in [-pi, pi], velocities in [-2, 2].
-pub fn random_state<M: Model>(rng: &mut StdRng) -> (Vec<f64>, Vec<f64>) {
-    let nq = M::INFO.nq();
+pub fn random_state<M: Model + Default>(rng: &mut StdRng) -> (Vec<f64>, Vec<f64>) {
+    let nq = M::default().info().nq();
     let q = (0..nq).map(|_| rng.random_range(-2.0..2.0) * 1.6).collect();
     let qd = (0..nq).map(|_| rng.random_range(-2.0..2.0)).collect();
     (q, qd)
 }
 
-/// The default model with every parameter scaled by a random factor in [0.5, 1.5].
+/// The default model with every real parameter scaled by a random factor
+/// in [0.5, 1.5] (family counts stay at their defaults).
 pub fn random_model<M: Model + Default>(rng: &mut StdRng) -> M {
     let mut m = M::default();
-    for i in 0..M::INFO.params.len() {
+    for (i, p) in m.info().params.iter().enumerate() {
+        if p.count {
+            continue;
+        }
         let v = m.param(i);
         m.set_param(i, v * rng.random_range(0.5..1.5));
     }

@@ -20,21 +20,21 @@ const FD_RTOL: f64 = 1e-7;
 const DUAL_RTOL: f64 = 1e-12;
 
 fn dense_g<M: Model>(m: &M, q: &[f64]) -> Vec<f64> {
-    let i = &M::INFO;
+    let i = &m.info();
     let mut vals = vec![0.0; i.pattern.len()];
     m.constraint_matrix(q, &mut vals);
     let mut g = vec![0.0; i.nc() * i.nq()];
-    scatter_dense(i.pattern, &vals, i.nq(), &mut g);
+    scatter_dense(&i.pattern, &vals, i.nq(), &mut g);
     g
 }
 
 fn g_times<M: Model>(m: &M, q: &[f64], v: &[f64]) -> Vec<f64> {
-    let nq = M::INFO.nq();
+    let nq = m.info().nq();
     dense_g(m, q).chunks(nq).map(|row| row.iter().zip(v).map(|(a, b)| a * b).sum()).collect()
 }
 
 fn gamma<M: Model>(m: &M, q: &[f64], qd: &[f64]) -> Vec<f64> {
-    let i = &M::INFO;
+    let i = &m.info();
     let mut vals = vec![0.0; i.pattern.len()];
     let mut gam = vec![0.0; i.nc()];
     m.constraint_terms(q, qd, &mut vals, &mut gam);
@@ -46,7 +46,7 @@ fn close(a: f64, b: f64, rtol: f64, scale: f64) -> bool {
 }
 
 fn check_against_finite_differences<M: Model + Default>(seed: u64) {
-    let info = &M::INFO;
+    let info = &M::default().info();
     let (nq, nh, nc) = (info.nq(), info.n_holonomic, info.nc());
     let mut r = rng(seed);
     for s in 0..STATES {
@@ -95,7 +95,7 @@ fn check_against_finite_differences<M: Model + Default>(seed: u64) {
         }
         // skate rows: S qd is the contact point's velocity across the blade,
         // whose normal is n = (-sin phi, cos phi) for the blades along (1, 0) here
-        for sk in info.skates {
+        for sk in &info.skates {
             let p = sk.point;
             let phi = q[info.bodies[info.points[p].body].coords[2]];
             let lateral = -phi.sin() * v[2 * p] + phi.cos() * v[2 * p + 1];
@@ -111,7 +111,7 @@ fn check_against_finite_differences<M: Model + Default>(seed: u64) {
 }
 
 fn check_against_dual_numbers<M: Model + Default>(seed: u64) {
-    let info = &M::INFO;
+    let info = &M::default().info();
     let (nq, nh, nc) = (info.nq(), info.n_holonomic, info.nc());
     let mut r = rng(seed);
     for s in 0..STATES {
@@ -222,7 +222,7 @@ fn ezyroller_matches_spec_formulas() {
 
 #[test]
 fn sparsity_pattern_and_names() {
-    let i = &EzyRoller::INFO;
+    let i = &EzyRoller::default().info();
     assert_eq!(i.coords, ["x1", "y1", "phi1", "x2", "y2", "phi2"]);
     assert_eq!(i.constraints, ["B.x", "B.y", "A", "C"]);
     assert_eq!(i.n_holonomic, 2);
@@ -233,24 +233,25 @@ fn sparsity_pattern_and_names() {
     assert_eq!(i.params.iter().map(|p| p.name).collect::<Vec<_>>(), ["a", "b", "c", "d", "m1", "I1", "m2", "I2"]);
     assert_eq!(i.params[0].unit, "m");
     assert_eq!(i.params[5].unit, "kg m^2");
-    assert_eq!(ChaplyginSleigh::INFO.coords, ["x", "y", "phi"]);
+    assert_eq!(ChaplyginSleigh::default().info().coords, ["x", "y", "phi"]);
 }
 
-#[test]
-fn generated_sparse_kernels_match_dense_products() {
-    let mut r = rng(6);
-    let i = &EzyRoller::INFO;
+/// The products with `G` (straight-line for single models, loops over
+/// the pattern for models with families) against dense products.
+fn kernels_match_dense_products<M: Model + Default>(seed: u64) {
+    let mut r = rng(seed);
+    let i = &M::default().info();
     let (nq, nc) = (i.nq(), i.nc());
     for _ in 0..20 {
-        let m: EzyRoller = random_model(&mut r);
-        let (q, u) = random_state::<EzyRoller>(&mut r);
+        let m: M = random_model(&mut r);
+        let (q, u) = random_state::<M>(&mut r);
         let winv: Vec<f64> = (0..nq).map(|k| 0.1 + k as f64).collect();
         let x: Vec<f64> = (0..nc).map(|k| 1.0 - 0.3 * k as f64).collect();
         let mut vals = vec![0.0; i.pattern.len()];
         m.constraint_matrix(&q, &mut vals);
         let g = dense_g(&m, &q);
         let mut a = vec![0.0; nc * nc];
-        EzyRoller::normal_matrix(&vals, &winv, &mut a);
+        m.normal_matrix(&i.pattern, nc, &vals, &winv, &mut a);
         for r_ in 0..nc {
             for c in 0..=r_ {
                 let want: f64 = (0..nq).map(|k| g[r_ * nq + k] * g[c * nq + k] * winv[k]).sum();
@@ -258,9 +259,9 @@ fn generated_sparse_kernels_match_dense_products() {
             }
         }
         let mut gu = vec![0.0; nc];
-        EzyRoller::g_winv_mul(&vals, &winv, &u, &mut gu);
+        m.g_winv_mul(&i.pattern, &vals, &winv, &u, &mut gu);
         let mut v = u.clone();
-        EzyRoller::sub_winv_gt_mul(&vals, &winv, &x, &mut v);
+        m.sub_winv_gt_mul(&i.pattern, &vals, &winv, &x, &mut v);
         for r_ in 0..nc {
             let want: f64 = (0..nq).map(|k| g[r_ * nq + k] * winv[k] * u[k]).sum();
             assert!(close(gu[r_], want, 1e-14, 1.0));
@@ -270,4 +271,11 @@ fn generated_sparse_kernels_match_dense_products() {
             assert!(close(v[k], want, 1e-14, 1.0));
         }
     }
+}
+
+#[test]
+fn generated_sparse_kernels_match_dense_products() {
+    kernels_match_dense_products::<EzyRoller>(6);
+    kernels_match_dense_products::<ezy_models::Trailer>(7);
+    kernels_match_dense_products::<ezy_models::Snake>(8);
 }

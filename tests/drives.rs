@@ -11,7 +11,7 @@ use common::Recorder;
 use ezy::run::build;
 use ezy_core::effects::{Spline, SplineData, Waveform};
 use ezy_core::kkt::KktMethod;
-use ezy_core::{DriveSpec, InitValue, Method, Model, ProjectionKind, RunSettings, simulate};
+use ezy_core::{DriveSpec, InitValue, Method, ProjectionKind, RunSettings, simulate};
 use ezy_models::{EzyRoller, EzyRollerDriven, scenes};
 
 const T_END: f64 = 10.0;
@@ -72,7 +72,7 @@ fn prescribing_the_recorded_angle_reproduces_the_torque_driven_run() {
     // the drive's torque -lambda_D is the motor's torque 2 cos(pi t), away
     // from the ends of the table (within two knots the spline's end
     // conditions dominate)
-    let row = EzyRollerDriven::INFO.drives[0].row;
+    let row = driven.info.drives[0].row;
     let mut dy = vec![0.0; driven.ny()];
     let mut torque_error = 0.0f64;
     for (t, y) in angle_run.t.iter().zip(&angle_run.y) {

@@ -25,7 +25,7 @@ const ALL_EFFECTS: &str = include_str!("data/all_effects.toml");
 
 fn all_effects() -> Scene {
     let s = Scene::from_toml(ALL_EFFECTS, "all-effects.toml").unwrap();
-    s.check(&EzyRoller::INFO).unwrap();
+    s.check(&EzyRoller::default().info()).unwrap();
     s
 }
 

@@ -14,7 +14,8 @@ use ezy_models::{ChaplyginSleigh, EzyRoller, scenes};
 /// largest entry at 100 random states and parameter sets.
 fn paths_agree<M: Model + Default>(seed: u64) {
     let mut r = rng(seed);
-    let nq = M::INFO.nq();
+    let info = M::default().info();
+    let nq = info.nq();
     for s in 0..100 {
         let m: M = random_model(&mut r);
         let (q, qd) = random_state::<M>(&mut r);
@@ -31,7 +32,7 @@ fn paths_agree<M: Model + Default>(seed: u64) {
         let scale = out[0].1.iter().chain(&out[0].2).fold(1.0f64, |a, v| a.max(v.abs()));
         for (name, dy, lambda) in &out[1..] {
             for (a, b) in dy.iter().chain(lambda).zip(out[0].1.iter().chain(&out[0].2)) {
-                assert!((a - b).abs() <= 1e-12 * scale, "{} state {s}, {name}: {a} vs {b}", M::INFO.name);
+                assert!((a - b).abs() <= 1e-12 * scale, "{} state {s}, {name}: {a} vs {b}", info.name);
             }
         }
     }
@@ -82,7 +83,8 @@ fn drive_on_the_sparse_path_matches_the_dense_one() {
 fn projections_agree<M: Model + Default>(seed: u64) {
     use ezy_core::projection::Projector;
     let mut r = rng(seed);
-    let nq = M::INFO.nq();
+    let info = M::default().info();
+    let nq = info.nq();
     for kind in [ProjectionKind::MassWeighted, ProjectionKind::Euclidean] {
         for s in 0..20 {
             let m: M = random_model(&mut r);
@@ -91,7 +93,7 @@ fn projections_agree<M: Model + Default>(seed: u64) {
             let (q0, qd0) = random_state::<M>(&mut r);
             // a consistent state, then a perturbation
             let (mut q, mut qd) = (q0.clone(), qd0.clone());
-            let mut dense = Projector::<M>::new(kind, &mass);
+            let mut dense = Projector::<M>::new(&m, kind, &mass);
             if dense.project(&m, 0.0, &mut q, &mut qd).is_err() {
                 continue;
             }
@@ -101,11 +103,11 @@ fn projections_agree<M: Model + Default>(seed: u64) {
             }
             let (mut qs, mut qds) = (q.clone(), qd.clone());
             dense.project(&m, 0.0, &mut q, &mut qd).unwrap();
-            let mut sparse = Projector::<M>::new_sparse(kind, &mass);
+            let mut sparse = Projector::<M>::new_sparse(&m, kind, &mass);
             assert_eq!(sparse.path(), "normal-sparse-cholesky");
             sparse.project(&m, 0.0, &mut qs, &mut qds).unwrap();
             for (a, b) in q.iter().chain(&qd).zip(qs.iter().chain(&qds)) {
-                assert!((a - b).abs() <= 1e-10 * (1.0 + a.abs()), "{} {kind:?} state {s}: {a} vs {b}", M::INFO.name);
+                assert!((a - b).abs() <= 1e-10 * (1.0 + a.abs()), "{} {kind:?} state {s}: {a} vs {b}", info.name);
             }
         }
     }

@@ -44,10 +44,11 @@ fn trailers_settle_on_the_off_tracking_circles() {
     let m = &sys.model;
     let y = &s.final_state;
     let (q, qd) = (&y[..9], &y[9..18]);
-    let mut v = vec![0.0; 2 * Trailer::INFO.points.len()];
+    let info = m.info();
+    let mut v = vec![0.0; 2 * info.points.len()];
     m.point_velocities(q, qd, &mut v);
     let speed = |name: &str| {
-        let p = Trailer::INFO.point_index(name).unwrap();
+        let p = info.point_index(name).unwrap();
         v[2 * p].hypot(v[2 * p + 1])
     };
     let r0 = m.L / m.delta.tan();

@@ -243,11 +243,11 @@ fn review_cases_are_errors_with_names() {
     assert!(!err.contains("`60"), "{err}");
     // --set: a key at its default, and an ambiguous key
     let mut slope = scenes::get("drive-slope");
-    slope.set(ezy_models::scenes::model_info("ezyroller").unwrap(), "gravity.g", 1.62).unwrap();
+    slope.set(&ezy_models::scenes::model_info("ezyroller").unwrap(), "gravity.g", 1.62).unwrap();
     let toml = slope.to_toml();
     assert!(toml.contains("g = 1.62"), "{toml}");
     let mut driven = scenes::get("drive-prescribed");
-    let info = ezy_models::scenes::model_info("ezyroller_driven").unwrap();
+    let info = &ezy_models::scenes::model_info("ezyroller_driven").unwrap();
     let err = driven.set(info, "D.amplitude", 0.5).unwrap_err().to_string();
     assert!(err.contains("matches several numbers") && err.contains("angle.harmonics.1.amplitude"), "{err}");
     driven.set(info, "D.harmonics.1.amplitude", 0.5).unwrap();

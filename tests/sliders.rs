@@ -109,8 +109,8 @@ fn slider_terms_pass_the_finite_difference_check() {
         }
         assert!(checks[0].compared > 0, "no slider rows compared: {checks:?}");
     }
-    assert_eq!(Telescope::INFO.constraints, &["S.n", "S.phi", "A", "C"]);
-    assert_eq!(Telescope::INFO.sliders[0].row, 0);
+    assert_eq!(Telescope::default().info().constraints, ["S.n", "S.phi", "A", "C"]);
+    assert_eq!(Telescope::default().info().sliders[0].row, 0);
 }
 
 /// The telescope pushed at its front skate point (a force along and across

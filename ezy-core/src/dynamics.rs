@@ -10,7 +10,7 @@
 use crate::SimError;
 use crate::effects::Effect;
 use crate::kkt::{AnyKktSolver, KktMethod, KktSolver, KktSystem};
-use crate::model::Model;
+use crate::model::{Model, ModelInfo};
 
 /// Counters of the work done, for reports and benchmarks.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
@@ -26,7 +26,8 @@ pub struct Counters {
 struct Workspace {
     /// `G` values at the pattern entries (nnz).
     g_values: Vec<f64>,
-    /// `G` dense row-major (nc x nq); entries outside the pattern stay 0.
+    /// `G` dense row-major (nc x nq), only for the dense LU path (empty
+    /// otherwise); entries outside the pattern stay 0.
     g: Vec<f64>,
     /// `gamma` (nc) [m/s^2].
     gamma: Vec<f64>,
@@ -64,6 +65,8 @@ pub struct Baumgarte {
 pub struct Dynamics<M: Model> {
     /// The model (parameters fixed for the run).
     pub model: M,
+    /// Its sizes, names and pattern of `G` (from [`Model::info`]).
+    pub info: ModelInfo,
     /// Applied forces, exactly those the scene lists.
     pub effects: Vec<Effect>,
     /// Drives (prescribed hinge angles), one per drive of the model; set
@@ -90,23 +93,25 @@ pub const CONDITION_WARNING: f64 = 1e10;
 
 impl<M: Model> Dynamics<M> {
     /// Number of coordinates nq.
-    pub const NQ: usize = M::INFO.coords.len();
+    pub fn nq(&self) -> usize {
+        self.mass.len()
+    }
 
     /// Length of the state vector `y`: 2 nq + number of effects + number
     /// of drives.
     pub fn ny(&self) -> usize {
-        2 * Self::NQ + self.effects.len() + self.drives.len()
+        2 * self.nq() + self.effects.len() + self.drives.len()
     }
 
     /// Total work of the effects `sum W_e` [J] in the state `y`.
     pub fn work(&self, y: &[f64]) -> f64 {
-        y[2 * Self::NQ..].iter().sum()
+        y[2 * self.nq()..].iter().sum()
     }
 
     /// Name of state component `k` of `y`: coordinates, `<coord>d`, `W_<effect>`.
     pub fn state_name(&self, k: usize) -> String {
-        let coords = M::INFO.coords;
-        let nq = Self::NQ;
+        let coords = &self.info.coords;
+        let nq = self.nq();
         if k < nq {
             coords[k].to_string()
         } else if k < 2 * nq {
@@ -120,14 +125,15 @@ impl<M: Model> Dynamics<M> {
 
     /// Builds the right-hand side; `method` picks the KKT path.
     pub fn new(model: M, effects: Vec<Effect>, method: KktMethod) -> Self {
-        let info = &M::INFO;
+        let info = model.info();
         let (nq, nc) = (info.nq(), info.nc());
         let mut mass = vec![0.0; nq];
         model.mass_diagonal(&mut mass);
-        let kkt = AnyKktSolver::new(method, &mass);
+        let kkt = AnyKktSolver::new(&model, &info, method, &mass);
+        let dense = if kkt.needs_dense_g() { nc * nq } else { 0 };
         let ws = Workspace {
             g_values: vec![0.0; info.pattern.len()],
-            g: vec![0.0; nc * nq],
+            g: vec![0.0; dense],
             gamma: vec![0.0; nc],
             f: vec![0.0; nq],
             qdd: vec![0.0; nq],
@@ -139,6 +145,7 @@ impl<M: Model> Dynamics<M> {
         };
         Self {
             model,
+            info,
             effects,
             drives: Vec::new(),
             mass,
@@ -174,13 +181,13 @@ impl<M: Model> Dynamics<M> {
     /// [`SimError::Kkt`] if the KKT system is singular at this state.
     #[inline]
     pub fn rhs(&mut self, t: f64, y: &[f64], dy: &mut [f64]) -> Result<(), SimError> {
-        let nq = Self::NQ;
+        let nq = self.nq();
         let (q, rest) = y.split_at(nq);
         let qd = &rest[..nq];
         let ws = &mut self.ws;
         self.model.constraint_terms(q, qd, &mut ws.g_values, &mut ws.gamma);
         if self.kkt.needs_dense_g() {
-            for (&(r, c), &v) in M::INFO.pattern.iter().zip(&ws.g_values) {
+            for (&(r, c), &v) in self.info.pattern.iter().zip(&ws.g_values) {
                 ws.g[r * nq + c] = v;
             }
         }
@@ -190,7 +197,7 @@ impl<M: Model> Dynamics<M> {
             *rate = ud;
         }
         if let Some(Baumgarte { alpha, beta }) = self.baumgarte {
-            M::g_winv_mul(&ws.g_values, &ws.ones, qd, &mut ws.gqd);
+            self.model.g_winv_mul(&self.info.pattern, &ws.g_values, &ws.ones, qd, &mut ws.gqd);
             self.model.phi(q, &mut ws.phi);
             for (d, rate) in self.drives.iter().zip(&ws.drive_rates) {
                 ws.gqd[d.row] -= rate;
@@ -215,7 +222,9 @@ impl<M: Model> Dynamics<M> {
             }
         }
         let sys = KktSystem { mass: &self.mass, g: &ws.g, g_values: &ws.g_values, f: &ws.f, gamma: &ws.gamma };
-        self.kkt.solve(&sys, &mut ws.qdd, &mut ws.lambda).map_err(|source| SimError::from_kkt::<M>(t, source))?;
+        self.kkt
+            .solve(&sys, &mut ws.qdd, &mut ws.lambda)
+            .map_err(|source| SimError::from_kkt(&self.info, t, source))?;
         if self.ill_conditioned.is_none()
             && let Some(c) = self.kkt.condition_estimate()
             && c > CONDITION_WARNING

@@ -97,7 +97,7 @@ pub enum SimError {
         /// Time [s].
         t: f64,
         /// Name of the dependent row, e.g. `H2.x`.
-        constraint: &'static str,
+        constraint: String,
         /// Its row in `G`.
         row: usize,
         /// Names of the rows before it.
@@ -116,12 +116,17 @@ pub enum SimError {
 }
 
 impl SimError {
-    /// A KKT failure at time `t`, with dependent rows named from model `M`.
-    pub fn from_kkt<M: crate::Model>(t: f64, source: KktError) -> Self {
+    /// A KKT failure at time `t`, with dependent rows named from the model's `info`.
+    pub fn from_kkt(info: &crate::ModelInfo, t: f64, source: KktError) -> Self {
         match source {
-            KktError::DependentConstraints { row, .. } if row < M::INFO.nc() => {
-                let names = M::INFO.constraints;
-                SimError::DependentConstraints { t, constraint: names[row], row, before: names[..row].join(", ") }
+            KktError::DependentConstraints { row, .. } if row < info.nc() => {
+                let names = &info.constraints;
+                SimError::DependentConstraints {
+                    t,
+                    constraint: names[row].clone(),
+                    row,
+                    before: names[..row].join(", "),
+                }
             }
             source => SimError::Kkt { t, source },
         }

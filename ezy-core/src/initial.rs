@@ -38,7 +38,8 @@ pub fn consistent_state<M: Model>(
         model.phi(q, phi);
         crate::drive::shift_positions(drives, 0.0, phi);
     };
-    let info = &M::INFO;
+    let info = model.info();
+    let info = &info;
     let (nq, nh, nc) = (info.nq(), info.n_holonomic, info.nc());
     let names = |idx: &[usize], suffix: &str| {
         idx.iter().map(|&i| format!("{}{suffix}", info.coords[i])).collect::<Vec<_>>().join(", ")
@@ -100,7 +101,7 @@ pub fn consistent_state<M: Model>(
             .iter()
             .enumerate()
             .max_by(|a, b| a.1.abs().total_cmp(&b.1.abs()))
-            .map_or("", |(i, _)| info.constraints[i]);
+            .map_or(String::new(), |(i, _)| info.constraints[i].clone());
         let q_given = q.clone();
         let all: Vec<usize> = (0..nq).collect();
         for _ in 0..50 {
@@ -141,7 +142,7 @@ pub fn consistent_state<M: Model>(
     let mut g_values = vec![0.0; info.pattern.len()];
     let mut g = vec![0.0; nc * nq];
     model.constraint_matrix(&q, &mut g_values);
-    scatter_dense(info.pattern, &g_values, nq, &mut g);
+    scatter_dense(&info.pattern, &g_values, nq, &mut g);
     if !unknown_v.is_empty() {
         if unknown_v.len() > nc {
             return Err(SimError::Initial {
@@ -207,13 +208,13 @@ pub fn consistent_state<M: Model>(
 }
 
 /// What [`consistent_state`] had to correct in the given values.
-#[derive(Debug, Clone, Copy, Default, PartialEq)]
+#[derive(Debug, Clone, Default, PartialEq)]
 pub struct InitialReport {
     /// `max|C|` of the given coordinates, when they violated the holonomic
     /// constraints (hinges, sliders, drives) [m or rad] (else 0).
     pub position_violation: f64,
     /// The row violated most, e.g. `B.y`.
-    pub position_worst: &'static str,
+    pub position_worst: String,
     /// Largest change of a coordinate by the projection [m or rad].
     pub position_correction: f64,
     /// `max|G qd|` of the given velocities, when they violated the constraints [m/s] (else 0).

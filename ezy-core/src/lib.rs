@@ -36,8 +36,8 @@ pub use simulate::{Observer, RunError, RunSettings, Sample, Summary, simulate};
 #[doc(hidden)]
 pub mod __private {
     pub use crate::model::{
-        BodyInfo, DriveInfo, EquationExpr, Equations, HingeInfo, Model, ModelInfo, ParamInfo, PointInfo, SkateInfo,
-        SliderInfo,
+        BodyInfo, DriveInfo, EquationExpr, Equations, HingeInfo, Layout, Model, ModelInfo, ParamInfo, PointInfo,
+        SkateInfo, SliderInfo, render_equation, unique_names,
     };
     pub use crate::scalar::Scalar;
 }

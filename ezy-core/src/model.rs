@@ -24,13 +24,16 @@ pub struct ParamInfo {
     pub unit: &'static str,
     /// The doc comment, without the unit.
     pub doc: &'static str,
+    /// A family count (`count N = 5;`): a whole number >= 1 that sets how
+    /// many elements the model's `for` families have.
+    pub count: bool,
 }
 
 /// A rigid body: indices of its coordinates `(x, y, phi)` in `q`.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[derive(Debug, Clone, PartialEq, Eq)]
 pub struct BodyInfo {
     /// Body name, e.g. `"body1"`.
-    pub name: &'static str,
+    pub name: String,
     /// Indices of `x [m]`, `y [m]`, `phi [rad]` in `q`.
     pub coords: [usize; 3],
     /// The parameter that is the body's mass, if the model wrote it as one.
@@ -40,20 +43,20 @@ pub struct BodyInfo {
 }
 
 /// A named point fixed on a body.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[derive(Debug, Clone, PartialEq, Eq)]
 pub struct PointInfo {
     /// Point name, e.g. `"A"`.
-    pub name: &'static str,
+    pub name: String,
     /// Index of the body it is fixed on, in [`ModelInfo::bodies`].
     pub body: usize,
 }
 
 /// A revolute joint (hinge): a point of body `body_a` coincides with a point
 /// of body `body_b`, or with a fixed point of the ground (`body_b = None`).
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[derive(Debug, Clone, PartialEq, Eq)]
 pub struct HingeInfo {
     /// Hinge name, e.g. `"B"`.
-    pub name: &'static str,
+    pub name: String,
     /// Index of the first body.
     pub body_a: usize,
     /// Index of the second body, `None` for the ground.
@@ -65,10 +68,10 @@ pub struct HingeInfo {
 /// A slider (prismatic joint): a point of body `body_b` stays on a line
 /// fixed in body `body_a` (or in the ground, `body_a = None`), and the two
 /// headings keep a fixed difference.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[derive(Debug, Clone, PartialEq, Eq)]
 pub struct SliderInfo {
     /// Slider name, e.g. `"S"`.
-    pub name: &'static str,
+    pub name: String,
     /// Index of the guiding body, `None` for the ground.
     pub body_a: Option<usize>,
     /// Index of the moving body.
@@ -80,10 +83,10 @@ pub struct SliderInfo {
 
 /// A drive: a hinge whose angle `phi_a - phi_b` follows a function of time
 /// `u(t)` given at run time (a rheonomic constraint, `phi_row(q) = u(t)`).
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[derive(Debug, Clone, PartialEq, Eq)]
 pub struct DriveInfo {
     /// Drive name, e.g. `"D"`.
-    pub name: &'static str,
+    pub name: String,
     /// Index of the driven hinge in [`ModelInfo::hinges`].
     pub hinge: usize,
     /// Its row in `phi` and `G`.
@@ -92,58 +95,61 @@ pub struct DriveInfo {
 
 /// A skate (knife edge): a body point whose velocity has no component along
 /// the blade normal.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[derive(Debug, Clone, PartialEq, Eq)]
 pub struct SkateInfo {
     /// Skate name, e.g. `"A"`.
-    pub name: &'static str,
+    pub name: String,
     /// Index of its contact point in [`ModelInfo::points`].
     pub point: usize,
     /// Index of its row in `G` (>= `n_holonomic`).
     pub row: usize,
 }
 
-/// Everything static about a model: sizes, names and the sparsity pattern of
-/// the constraint matrix `G`, fixed at compile time by the macro.
-#[derive(Debug, Clone, Copy, PartialEq)]
+/// Everything structural about a model at its current family counts:
+/// sizes, names and the sparsity pattern of the constraint matrix `G`.
+/// Built by [`Model::info`] (it allocates: call it once when a run is set
+/// up, not per step). Elements of a `for` family are named by the family's
+/// name and the index value: `link3`, `x3`, `J3`.
+#[derive(Debug, Clone, PartialEq)]
 pub struct ModelInfo {
     /// Model name, e.g. `"EzyRoller"`.
     pub name: &'static str,
     /// First line of the model's doc comment.
     pub doc: &'static str,
     /// Names of the generalized coordinates, in order (nq).
-    pub coords: &'static [&'static str],
+    pub coords: Vec<String>,
     /// Parameters, in declaration order.
-    pub params: &'static [ParamInfo],
+    pub params: Vec<ParamInfo>,
     /// Bodies, in declaration order.
-    pub bodies: &'static [BodyInfo],
+    pub bodies: Vec<BodyInfo>,
     /// Named points, in declaration order.
-    pub points: &'static [PointInfo],
+    pub points: Vec<PointInfo>,
     /// Hinges, in declaration order.
-    pub hinges: &'static [HingeInfo],
+    pub hinges: Vec<HingeInfo>,
     /// Sliders, in declaration order (their rows follow the hinges').
-    pub sliders: &'static [SliderInfo],
+    pub sliders: Vec<SliderInfo>,
     /// Drives, in declaration order (their rows follow the sliders').
-    pub drives: &'static [DriveInfo],
+    pub drives: Vec<DriveInfo>,
     /// Skates, in declaration order.
-    pub skates: &'static [SkateInfo],
+    pub skates: Vec<SkateInfo>,
     /// Names of the constraint rows of `G` (nc): `B.x`, `B.y` per hinge,
     /// `S.n`, `S.phi` per slider, one per drive, then one per skate.
-    pub constraints: &'static [&'static str],
+    pub constraints: Vec<String>,
     /// Number of holonomic constraint rows `nh` (two per hinge and per
     /// slider, one per drive).
     pub n_holonomic: usize,
     /// Structural nonzeros `(row, col)` of `G` (nc x nq), row-major sorted.
     /// The entries of rows `< n_holonomic` come first.
-    pub pattern: &'static [(usize, usize)],
+    pub pattern: Vec<(usize, usize)>,
 }
 
 impl ModelInfo {
     /// Number of generalized coordinates `nq`.
-    pub const fn nq(&self) -> usize {
+    pub fn nq(&self) -> usize {
         self.coords.len()
     }
     /// Number of velocity constraints `nc` (holonomic rows + skates).
-    pub const fn nc(&self) -> usize {
+    pub fn nc(&self) -> usize {
         self.constraints.len()
     }
     /// Number of structural nonzeros of the holonomic Jacobian `C_q`.
@@ -170,58 +176,89 @@ impl ModelInfo {
 
 /// One derived expression, as text (SPEC §1's notation: `x1`, `phi1d` for
 /// the rate of `phi1`) and as LaTeX.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[derive(Debug, Clone, PartialEq, Eq)]
 pub struct EquationExpr {
     /// Plain text, e.g. `x1 - x2 + b*cos(phi1) + d*cos(phi2)`.
-    pub text: &'static str,
+    pub text: String,
     /// LaTeX math, e.g. `x_{1} - x_{2} + b \cos \varphi_{1} + ...`.
-    pub latex: &'static str,
+    pub latex: String,
 }
 
-/// What the macro derived, for reading and checking (`ezy equations`).
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+/// What the macro derived, for reading and checking (`ezy equations`), at
+/// the model's current family counts (each family element's expressions
+/// are the element kernel's, with the element's coordinates filled in).
+#[derive(Debug, Clone, Default, PartialEq, Eq)]
 pub struct Equations {
     /// The generalized coordinates (nq): their names and LaTeX symbols.
-    pub coords: &'static [EquationExpr],
+    pub coords: Vec<EquationExpr>,
     /// Mass-matrix diagonal (nq), in terms of parameters.
-    pub mass: &'static [EquationExpr],
+    pub mass: Vec<EquationExpr>,
     /// Holonomic residual rows `phi(q)` (nh) [m].
-    pub phi: &'static [EquationExpr],
+    pub phi: Vec<EquationExpr>,
     /// Velocity constraints `G_i(q) qd` (nc) [m/s]: `d phi_i/dt` for the
     /// holonomic rows, the skate's lateral velocity for the skate rows.
-    pub velocity: &'static [EquationExpr],
+    pub velocity: Vec<EquationExpr>,
     /// Entries of `G = [C_q; S]` at [`ModelInfo::pattern`].
-    pub jacobian: &'static [EquationExpr],
+    pub jacobian: Vec<EquationExpr>,
     /// Convective terms `gamma = d/dq(G qd) qd` (nc) [m/s^2].
-    pub gamma: &'static [EquationExpr],
+    pub gamma: Vec<EquationExpr>,
     /// Velocities of the named points (2 x npoints, x then y) [m/s].
-    pub point_velocities: &'static [EquationExpr],
+    pub point_velocities: Vec<EquationExpr>,
 }
 
 /// A planar multibody model with hinges and skates, as generated by
 /// `model!`. All matrices are passed as flat slices; sizes are given by
-/// [`Model::INFO`]. No method allocates.
+/// [`Model::info`]. No method but `info` and `equations` allocates.
+///
+/// The sizes may depend on the model's family counts (`count N = 5;`,
+/// parameters like any other): the generated code loops over each family
+/// with one element kernel, so it does not grow with the counts.
 pub trait Model: Clone + Send + Sync + 'static {
-    /// Static description: sizes, names, sparsity pattern of `G`.
-    const INFO: ModelInfo;
-    /// The derived equations as text and LaTeX.
-    const EQUATIONS: Equations;
+    /// Sizes, names and the sparsity pattern of `G` at the current counts.
+    /// Allocates: call once per run, not per step.
+    fn info(&self) -> ModelInfo;
+    /// The derived equations as text and LaTeX at the current counts.
+    fn equations(&self) -> Equations;
+    /// Whether the current family counts give a well-formed model: every
+    /// family element refers to an element that exists and names are
+    /// unique.
+    ///
+    /// # Errors
+    /// A message naming the count and the reference that falls outside
+    /// its family (e.g. "hinge `J[i]` refers to `link[i - 1]` = `link0`,
+    /// outside `link` = 1..6").
+    fn check_counts(&self) -> Result<(), String> {
+        Ok(())
+    }
 
     /// Current value of parameter `index` (order of [`ModelInfo::params`]).
     fn param(&self, index: usize) -> f64;
-    /// Sets parameter `index` (order of [`ModelInfo::params`]).
+    /// Sets parameter `index` (order of [`ModelInfo::params`]); a count
+    /// takes the value as a whole number (the caller checks it is one).
     fn set_param(&mut self, index: usize, value: f64);
 
-    /// `A = G W^-1 G^T` (nc x nc) from the values of `G` at
-    /// [`ModelInfo::pattern`] and the diagonal `winv` (nq) of `W^-1`: the
-    /// lower triangle `a[i * nc + j]`, `j <= i`, is written (the upper is not
-    /// touched). Straight-line code at the compile-time pattern.
-    fn normal_matrix(values: &[f64], winv: &[f64], a: &mut [f64]);
-    /// `out = G W^-1 u` (u, winv: nq; out: nc), `G` given by its pattern
-    /// values (one kernel for `G M^-1 f` and, with `winv = 1`, `G qd`).
-    fn g_winv_mul(values: &[f64], winv: &[f64], u: &[f64], out: &mut [f64]);
-    /// `v -= W^-1 G^T x` (x: nc, v: nq), `G` given by its pattern values.
-    fn sub_winv_gt_mul(values: &[f64], winv: &[f64], x: &[f64], v: &mut [f64]);
+    /// `A = G W^-1 G^T` (nc x nc) from the values of `G` at `pattern` (the
+    /// model's [`ModelInfo::pattern`]) and the diagonal `winv` (nq) of
+    /// `W^-1`: the lower triangle `a[i * nc + j]`, `j <= i`, is written
+    /// (the upper is not touched). Models without families override it
+    /// with straight-line code at their compile-time pattern.
+    fn normal_matrix(&self, pattern: &[(usize, usize)], nc: usize, values: &[f64], winv: &[f64], a: &mut [f64]) {
+        normal_matrix_at(pattern, nc, values, winv, a);
+    }
+    /// `out = G W^-1 u` (u, winv: nq; out: nc), `G` given by its values at
+    /// `pattern` (one kernel for `G M^-1 f` and, with `winv = 1`, `G qd`).
+    fn g_winv_mul(&self, pattern: &[(usize, usize)], values: &[f64], winv: &[f64], u: &[f64], out: &mut [f64]) {
+        out.fill(0.0);
+        for (&(r, c), &v) in pattern.iter().zip(values) {
+            out[r] += v * (winv[c] * u[c]);
+        }
+    }
+    /// `v -= W^-1 G^T x` (x: nc, v: nq), `G` given by its values at `pattern`.
+    fn sub_winv_gt_mul(&self, pattern: &[(usize, usize)], values: &[f64], winv: &[f64], x: &[f64], v: &mut [f64]) {
+        for (&(r, c), &g) in pattern.iter().zip(values) {
+            v[c] -= winv[c] * (g * x[r]);
+        }
+    }
 
     /// Diagonal of the mass matrix `M` (nq): `m [kg], m [kg], I [kg m^2]` per body.
     fn mass_diagonal(&self, out: &mut [f64]);
@@ -261,4 +298,159 @@ pub fn scatter_dense(pattern: &[(usize, usize)], values: &[f64], ncols: usize, d
     for (&(r, c), &v) in pattern.iter().zip(values) {
         dense[r * ncols + c] = v;
     }
+}
+
+/// `A = G W^-1 G^T`, lower triangle (`a[i * nc + j]`, `j <= i`), from `G`'s
+/// values at a row-grouped `pattern` (rows ascending, as
+/// [`ModelInfo::pattern`]): the generic form of [`Model::normal_matrix`].
+/// `O(nc^2 + sum over row pairs of their entries)`; for large models the
+/// sparse path assembles `A` itself.
+pub fn normal_matrix_at(pattern: &[(usize, usize)], nc: usize, values: &[f64], winv: &[f64], a: &mut [f64]) {
+    let row = |r: usize| pattern.partition_point(|p| p.0 < r)..pattern.partition_point(|p| p.0 <= r);
+    for i in 0..nc {
+        let ri = row(i);
+        for j in 0..=i {
+            let mut sum = 0.0;
+            for e1 in ri.clone() {
+                let k = pattern[e1].1;
+                for e2 in row(j) {
+                    if pattern[e2].1 == k {
+                        sum += values[e1] * values[e2] * winv[k];
+                    }
+                }
+            }
+            a[i * nc + j] = sum;
+        }
+    }
+}
+
+/// The rate of a coordinate as LaTeX: the dot over the letter, not over
+/// its subscript (`phi1` -> `\dot{\varphi}_{1}`).
+pub fn latex_rate(name: &str) -> String {
+    let n = latex_name(name);
+    match n.find("_{") {
+        Some(k) => format!("\\dot{{{}}}{}", &n[..k], &n[k..]),
+        None => format!("\\dot{{{n}}}"),
+    }
+}
+
+/// A name as LaTeX: trailing digits become a subscript, Greek letter names
+/// become commands (`phi1` -> `\varphi_{1}`, `I1` -> `I_{1}`, `x` -> `x`).
+pub fn latex_name(name: &str) -> String {
+    let split = name.trim_end_matches(|c: char| c.is_ascii_digit()).len();
+    let (stem, digits) = name.split_at(split);
+    let (stem, rest) = match stem.split_once('_') {
+        Some((s, r)) => (s, Some(r)),
+        None => (stem, None),
+    };
+    const GREEK: &[&str] = &[
+        "alpha", "beta", "gamma", "delta", "epsilon", "zeta", "eta", "theta", "iota", "kappa", "lambda", "mu", "nu",
+        "xi", "pi", "rho", "sigma", "tau", "upsilon", "chi", "psi", "omega", "Gamma", "Delta", "Theta", "Lambda", "Xi",
+        "Pi", "Sigma", "Phi", "Psi", "Omega",
+    ];
+    let mut out = if stem == "phi" {
+        "\\varphi".to_string()
+    } else if GREEK.contains(&stem) {
+        format!("\\{stem}")
+    } else if stem.chars().count() > 1 {
+        format!("\\mathrm{{{stem}}}")
+    } else {
+        stem.to_string()
+    };
+    let sub: Vec<&str> = rest.into_iter().chain((!digits.is_empty()).then_some(digits)).collect();
+    if !sub.is_empty() {
+        out.push_str(&format!("_{{{}}}", sub.join(",")));
+    }
+    out
+}
+
+/// Renders a template of the macro (`ezy equations`): markers
+/// `\u{1}qK\u{2}` (the element's local coordinate `K`), `\u{1}dK\u{2}`
+/// (its rate) and `\u{1}pK\u{2}` (parameter `K`) become the names in
+/// `coords` and `params`, as text and as LaTeX ([`latex_name`]).
+#[doc(hidden)]
+pub fn render_equation(text: &str, latex: &str, coords: &[&str], params: &[&str]) -> EquationExpr {
+    let fill = |t: &str, tex: bool| -> String {
+        let mut out = String::with_capacity(t.len());
+        let mut rest = t;
+        while let Some(i) = rest.find('\u{1}') {
+            out.push_str(&rest[..i]);
+            let end = rest[i..].find('\u{2}').map(|j| i + j).expect("closed marker");
+            let kind = rest.as_bytes()[i + 1];
+            let k: usize = rest[i + 2..end].parse().expect("marker index");
+            let name = match kind {
+                b'p' => params[k],
+                _ => coords[k],
+            };
+            match (kind, tex) {
+                (b'd', false) => {
+                    out.push_str(name);
+                    out.push('d');
+                }
+                (b'd', true) => out.push_str(&latex_rate(name)),
+                (_, false) => out.push_str(name),
+                (_, true) => out.push_str(&latex_name(name)),
+            }
+            rest = &rest[end + 1..];
+        }
+        out.push_str(rest);
+        out
+    };
+    EquationExpr { text: fill(text, false), latex: fill(latex, true) }
+}
+
+/// Offsets of every item of a generated model at its current counts: the
+/// first element of family `f` and its length, each body item's first
+/// column in `q` and index among all bodies, each point item's index,
+/// each constraint item's first row, first pattern value and index among
+/// the items of its kind. Generated code only.
+#[doc(hidden)]
+#[derive(Debug, Clone, Copy)]
+pub struct Layout<const NF: usize, const NB: usize, const NP: usize, const NG: usize> {
+    pub f_start: [i64; NF],
+    pub f_len: [usize; NF],
+    pub body_off: [usize; NB],
+    pub body_index: [usize; NB],
+    pub point_index: [usize; NP],
+    pub row: [usize; NG],
+    pub val: [usize; NG],
+    pub item_index: [usize; NG],
+    pub nq: usize,
+    pub nc: usize,
+    pub nh: usize,
+    pub nnz: usize,
+    pub nnz_h: usize,
+    pub n_bodies: usize,
+    pub n_points: usize,
+}
+
+/// Checks that the names of `info` are unique per kind (coordinates,
+/// bodies, points, joints and drives, skates): family elements are named
+/// by their index, so `x1` of a family can collide with a single `x1`.
+///
+/// # Errors
+/// A message naming the repeated name and its kind.
+#[doc(hidden)]
+pub fn unique_names(info: &ModelInfo) -> Result<(), String> {
+    fn once<'a>(kind: &str, names: impl Iterator<Item = &'a str>) -> Result<(), String> {
+        let mut seen = std::collections::HashSet::new();
+        for n in names {
+            if !seen.insert(n) {
+                return Err(format!("two {kind}s are named `{n}` at these counts"));
+            }
+        }
+        Ok(())
+    }
+    once("coordinate", info.coords.iter().map(String::as_str))?;
+    once("body", info.bodies.iter().map(|b| b.name.as_str()))?;
+    once("point", info.points.iter().map(|p| p.name.as_str()))?;
+    once(
+        "joint or drive",
+        info.hinges
+            .iter()
+            .map(|h| h.name.as_str())
+            .chain(info.sliders.iter().map(|s| s.name.as_str()))
+            .chain(info.drives.iter().map(|d| d.name.as_str())),
+    )?;
+    once("skate", info.skates.iter().map(|s| s.name.as_str()))
 }

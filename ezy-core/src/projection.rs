@@ -76,6 +76,8 @@ pub struct Projector<M: Model> {
     /// For large models: `W`-weighted normal systems in sparse form (see
     /// [`SparseProjection`]).
     sparse: Option<Box<SparseProjection>>,
+    /// The model's sizes, names and pattern of `G`.
+    info: crate::ModelInfo,
     _model: std::marker::PhantomData<M>,
 }
 
@@ -141,9 +143,15 @@ struct SingularMass {
 
 impl SingularMass {
     /// `v += dv` with `G dv = -r` of least `dv^T M dv`.
-    fn correct<M: Model>(&mut self, values: &[f64], r: &[f64], v: &mut [f64]) -> Result<(), KktError> {
+    fn correct(
+        &mut self,
+        pattern: &[(usize, usize)],
+        values: &[f64],
+        r: &[f64],
+        v: &mut [f64],
+    ) -> Result<(), KktError> {
         let nq = self.mass.len();
-        scatter_dense(M::INFO.pattern, values, nq, &mut self.g);
+        scatter_dense(pattern, values, nq, &mut self.g);
         let sys = KktSystem { mass: &self.mass, g: &self.g, g_values: &[], f: &self.zeros, gamma: r };
         self.lu.solve(&sys, &mut self.dq, &mut self.mu)?;
         for (vi, d) in v.iter_mut().zip(&self.dq) {
@@ -157,18 +165,19 @@ impl<M: Model> Projector<M> {
     /// A projector for model `M` with mass diagonal `mass` (nq). With a
     /// singular `M` (zero masses) the mass-weighted form solves the KKT
     /// system instead of inverting `M`.
-    pub fn new(kind: ProjectionKind, mass: &[f64]) -> Self {
-        Self::build(kind, mass, M::INFO.nc() >= crate::kkt::SPARSE_FROM_ROWS)
+    pub fn new(model: &M, kind: ProjectionKind, mass: &[f64]) -> Self {
+        let info = model.info();
+        let sparse = info.nc() >= crate::kkt::SPARSE_FROM_ROWS;
+        Self::build(info, kind, mass, sparse)
     }
 
     /// As [`Projector::new`], with the sparse normal systems whatever the
     /// model's size (for tests and benchmarks of the two paths).
-    pub fn new_sparse(kind: ProjectionKind, mass: &[f64]) -> Self {
-        Self::build(kind, mass, true)
+    pub fn new_sparse(model: &M, kind: ProjectionKind, mass: &[f64]) -> Self {
+        Self::build(model.info(), kind, mass, true)
     }
 
-    fn build(kind: ProjectionKind, mass: &[f64], sparse: bool) -> Self {
-        let info = &M::INFO;
+    fn build(info: crate::ModelInfo, kind: ProjectionKind, mass: &[f64], sparse: bool) -> Self {
         let (nq, nc) = (info.nq(), info.nc());
         let invertible = mass.iter().all(|&m| m > 0.0);
         let winv = match kind {
@@ -193,13 +202,14 @@ impl<M: Model> Projector<M> {
                 positions: (nh > 0).then(|| {
                     crate::kkt::SparseSchur::new(&info.pattern[..nnz_h], nh, &weights).expect("positive weights")
                 }),
-                velocities: crate::kkt::SparseSchur::new(info.pattern, nc, &weights).expect("positive weights"),
+                velocities: crate::kkt::SparseSchur::new(&info.pattern, nc, &weights).expect("positive weights"),
                 weights,
                 zeros: vec![0.0; nq],
                 dq: vec![0.0; nq],
                 lambda: vec![0.0; nc],
             })
         });
+        let dense_rows = if sparse.is_some() { 0 } else { nc };
         Self {
             kind,
             winv,
@@ -208,9 +218,10 @@ impl<M: Model> Projector<M> {
             g_values: vec![0.0; info.pattern.len()],
             r: vec![0.0; nc],
             x: vec![0.0; nc],
-            normal: NormalSystem::new(nc),
+            normal: NormalSystem::new(dense_rows),
             singular,
             drives: Vec::new(),
+            info,
             _model: std::marker::PhantomData,
         }
     }
@@ -247,9 +258,9 @@ impl<M: Model> Projector<M> {
         if self.kind == ProjectionKind::None {
             return Ok(report);
         }
-        let info = &M::INFO;
+        let info = &self.info;
         let (nh, nc) = (info.n_holonomic, info.nc());
-        let wrap = |source: KktError| SimError::from_kkt::<M>(t, source);
+        let wrap = |source: KktError| SimError::from_kkt(info, t, source);
         // positions: Gauss-Newton on the leading (holonomic) block; G is
         // evaluated with phi, so the last evaluation serves the velocities.
         model.phi_and_constraint_matrix(q, &mut self.r[..nh], &mut self.g_values);
@@ -269,10 +280,10 @@ impl<M: Model> Projector<M> {
                     sp.correct(true, &self.g_values[..nnz_h], &self.r[..nh], q).map_err(wrap)?;
                 } else {
                     self.normal
-                        .solve::<M>(&self.g_values, &self.winv, nh, &self.r[..nh], &mut self.x[..nh])
+                        .solve(model, &info.pattern, &self.g_values, &self.winv, nh, &self.r[..nh], &mut self.x[..nh])
                         .map_err(wrap)?;
                     self.x[nh..].fill(0.0);
-                    M::sub_winv_gt_mul(&self.g_values, &self.winv, &self.x, q);
+                    model.sub_winv_gt_mul(&info.pattern, &self.g_values, &self.winv, &self.x, q);
                 }
                 report.iterations = it + 1;
                 model.phi_and_constraint_matrix(q, &mut self.r[..nh], &mut self.g_values);
@@ -281,15 +292,17 @@ impl<M: Model> Projector<M> {
         }
         // velocities: one least-squares step on all rows
         if nc > 0 {
-            M::g_winv_mul(&self.g_values, &self.ones, qd, &mut self.r);
+            model.g_winv_mul(&info.pattern, &self.g_values, &self.ones, qd, &mut self.r);
             crate::drive::shift_velocities(&self.drives, t, &mut self.r);
             if let Some(s) = &mut self.singular {
-                s.correct::<M>(&self.g_values, &self.r, qd).map_err(wrap)?;
+                s.correct(&info.pattern, &self.g_values, &self.r, qd).map_err(wrap)?;
             } else if let Some(sp) = &mut self.sparse {
                 sp.correct(false, &self.g_values, &self.r, qd).map_err(wrap)?;
             } else {
-                self.normal.solve::<M>(&self.g_values, &self.winv, nc, &self.r, &mut self.x).map_err(wrap)?;
-                M::sub_winv_gt_mul(&self.g_values, &self.winv, &self.x, qd);
+                self.normal
+                    .solve(model, &info.pattern, &self.g_values, &self.winv, nc, &self.r, &mut self.x)
+                    .map_err(wrap)?;
+                model.sub_winv_gt_mul(&info.pattern, &self.g_values, &self.winv, &self.x, qd);
             }
         }
         Ok(report)

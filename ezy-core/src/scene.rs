@@ -393,6 +393,26 @@ pub struct SceneError {
     pub message: String,
 }
 
+/// Largest family count a scene may set (a model of a million elements
+/// needs gigabytes; larger counts are surely typos).
+pub const MAX_COUNT: f64 = 1e6;
+
+/// Checks the value of a family count `name` (`count N = ..;` in the model).
+///
+/// # Errors
+/// A [`SceneError`] at `params.NAME` unless `value` is a whole number in
+/// `1..=MAX_COUNT`.
+pub fn check_count(name: &str, value: f64) -> Result<(), SceneError> {
+    if (1.0..=MAX_COUNT).contains(&value) && value.fract() == 0.0 {
+        Ok(())
+    } else {
+        Err(SceneError::at(
+            &["params", name],
+            format!("{name} = {value} is a count of elements: it must be a whole number from 1 to {MAX_COUNT}"),
+        ))
+    }
+}
+
 impl SceneError {
     fn at(path: &[&str], message: impl Into<String>) -> Self {
         Self { path: path.iter().map(|s| s.to_string()).collect(), message: message.into() }
@@ -569,7 +589,7 @@ impl Scene {
                     cols.extend(info.drives.iter().map(|d| format!("W_{}", d.name)));
                 }
                 OutputGroup::Points => {
-                    for p in info.points {
+                    for p in &info.points {
                         cols.push(format!("{}.x", p.name));
                         cols.push(format!("{}.y", p.name));
                     }
@@ -618,6 +638,9 @@ impl Scene {
             }
             if !v.is_finite() {
                 return Err(SceneError::at(&["params", name], format!("{name} = {v} must be finite")));
+            }
+            if info.params[info.param_index(name).expect("known")].count {
+                check_count(name, *v)?;
             }
         }
         for (group, list) in [("q", &self.initial.q), ("qd", &self.initial.qd)] {
@@ -672,8 +695,8 @@ impl Scene {
             e.check(info).map_err(|err| SceneError::at(&["effects", name, err.field], err.message))?;
         }
         for (name, d) in &self.drives {
-            if !info.drives.iter().any(|m| m.name == name) {
-                let known: Vec<&str> = info.drives.iter().map(|d| d.name).collect();
+            if !info.drives.iter().any(|m| m.name == *name) {
+                let known: Vec<&str> = info.drives.iter().map(|d| d.name.as_str()).collect();
                 return Err(SceneError::at(
                     &["drives", name],
                     format!("unknown drive `{name}` in model {}; its drives: {}", info.name, known_or_none(&known)),
@@ -682,7 +705,7 @@ impl Scene {
             d.angle.validate().map_err(|m| SceneError::at(&["drives", name, "angle"], m))?;
         }
         self.check_drives_cover(self.t_end)?;
-        if let Some(missing) = info.drives.iter().find(|m| !self.drives.iter().any(|(n, _)| n == m.name)) {
+        if let Some(missing) = info.drives.iter().find(|m| !self.drives.iter().any(|(n, _)| *n == m.name)) {
             return Err(SceneError::at(
                 &["drives"],
                 format!(
@@ -739,15 +762,15 @@ impl Scene {
             for (j, p) in fig.paths.iter().enumerate() {
                 let path = ["figures", &i, "paths", &j.to_string()];
                 let path: Vec<&str> = path.iter().map(|s| s.as_ref()).collect();
-                if let Some(b) = info.bodies.iter().find(|b| b.name == p) {
+                if let Some(b) = info.bodies.iter().find(|b| b.name == *p) {
                     let _ = b;
                 } else if info.point_index(p).is_some() {
                     if let Some(m) = missing(&format!("{p}.x")) {
                         return Err(SceneError::at(&path, m));
                     }
                 } else {
-                    let mut names: Vec<&str> = info.bodies.iter().map(|b| b.name).collect();
-                    names.extend(info.points.iter().map(|p| p.name));
+                    let mut names: Vec<&str> = info.bodies.iter().map(|b| b.name.as_str()).collect();
+                    names.extend(info.points.iter().map(|p| p.name.as_str()));
                     return Err(SceneError::at(
                         &path,
                         format!("unknown body or point `{p}` in model {}; known: {}", info.name, known(names)),
@@ -879,7 +902,7 @@ impl Scene {
         info.drives
             .iter()
             .filter_map(|d| {
-                let (_, spec) = self.drives.iter().find(|(n, _)| n == d.name)?;
+                let (_, spec) = self.drives.iter().find(|(n, _)| *n == d.name)?;
                 Some(crate::drive::Drive { name: d.name.to_string(), row: d.row, angle: spec.angle.clone() })
             })
             .collect()

@@ -10,7 +10,7 @@ use crate::integrator::adaptive::{Controller, initial_step};
 use crate::integrator::{Dop853, Dopri5, EmbeddedRk, Euler, Method, Rk4, Tolerance};
 use crate::kkt::KktError;
 use crate::model::Model;
-use crate::projection::{ProjectionKind, Projector, mat_vec, max_abs};
+use crate::projection::{ProjectionKind, Projector, max_abs};
 
 /// Settings of one run.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -170,17 +170,18 @@ pub struct Summary {
 struct Residuals {
     phi: Vec<f64>,
     g_values: Vec<f64>,
-    g: Vec<f64>,
+    pattern: Vec<(usize, usize)>,
+    ones: Vec<f64>,
     r: Vec<f64>,
 }
 
 impl Residuals {
-    fn new<M: Model>() -> Self {
-        let i = &M::INFO;
+    fn new(i: &crate::ModelInfo) -> Self {
         Self {
             phi: vec![0.0; i.n_holonomic],
             g_values: vec![0.0; i.pattern.len()],
-            g: vec![0.0; i.nc() * i.nq()],
+            pattern: i.pattern.clone(),
+            ones: vec![1.0; i.nq()],
             r: vec![0.0; i.nc()],
         }
     }
@@ -192,14 +193,10 @@ impl Residuals {
         q: &[f64],
         qd: &[f64],
     ) -> (f64, f64) {
-        let nq = M::INFO.nq();
         model.phi(q, &mut self.phi);
         crate::drive::shift_positions(drives, t, &mut self.phi);
         model.constraint_matrix(q, &mut self.g_values);
-        for (&(r, c), &v) in M::INFO.pattern.iter().zip(&self.g_values) {
-            self.g[r * nq + c] = v;
-        }
-        mat_vec(&self.g, qd, &mut self.r);
+        model.g_winv_mul(&self.pattern, &self.g_values, &self.ones, qd, &mut self.r);
         crate::drive::shift_velocities(drives, t, &mut self.r);
         (max_abs(&self.phi), max_abs(&self.r))
     }
@@ -222,7 +219,7 @@ impl<M: Model, O: Observer<M>> Run<'_, M, O> {
     /// Writes the sample `(t, y)`.
     fn emit(&mut self, sys: &Dynamics<M>, t: f64, y: &[f64]) -> Result<(), RunError<O::Error>> {
         let clock = Instant::now();
-        let nq = M::INFO.nq();
+        let nq = sys.nq();
         let (q, rest) = y.split_at(nq);
         let qd = &rest[..nq];
         let (rp, rv) = self.resid.eval(&sys.model, &sys.drives, t, q, qd);
@@ -246,7 +243,7 @@ impl<M: Model, O: Observer<M>> Run<'_, M, O> {
     /// After an accepted step from `t` to `t_new`: non-finite check,
     /// projection, energy balance. Returns whether `y` was changed.
     fn after_step(&mut self, sys: &Dynamics<M>, t: f64, t_new: f64, y: &mut [f64], h: f64) -> Result<bool, SimError> {
-        let nq = M::INFO.nq();
+        let nq = sys.nq();
         if let Some(k) = y.iter().position(|v| !v.is_finite()) {
             return Err(SimError::NonFinite { t, quantity: sys.state_name(k), value: y[k], dt: h });
         }
@@ -288,7 +285,7 @@ impl<M: Model, O: Observer<M>> Run<'_, M, O> {
     /// Projects a dense-output sample so that outputs lie on the constraints.
     fn project_sample(&mut self, sys: &Dynamics<M>, t: f64) -> Result<(), SimError> {
         if self.settings.projection != ProjectionKind::None {
-            let nq = M::INFO.nq();
+            let nq = sys.nq();
             let (q, rest) = self.sample.split_at_mut(nq);
             self.proj.project(&sys.model, t, q, &mut rest[..nq])?;
         }
@@ -313,14 +310,14 @@ pub fn simulate<M: Model, O: Observer<M>>(
     observer: &mut O,
 ) -> Result<Summary, RunError<O::Error>> {
     settings.validate()?;
-    let nq = M::INFO.nq();
+    let nq = sys.nq();
     let t0_energy = sys.kinetic_energy(&y0[nq..2 * nq]);
     let counters0 = sys.counters;
     let mut run = Run {
         settings,
         observer,
-        proj: Projector::<M>::new(settings.projection, &sys.mass).with_drives(&sys.drives),
-        resid: Residuals::new::<M>(),
+        proj: Projector::<M>::new(&sys.model, settings.projection, &sys.mass).with_drives(&sys.drives),
+        resid: Residuals::new(&sys.info),
         sample: y0.to_vec(),
         t0_energy,
         summary: Summary {

@@ -9,6 +9,8 @@ pub struct ModelDef {
     pub vis: Visibility,
     pub name: Ident,
     pub params: Vec<Param>,
+    pub counts: Vec<Count>,
+    pub families: Vec<Family>,
     pub bodies: Vec<Body>,
     pub points: Vec<Point>,
     pub hinges: Vec<Hinge>,
@@ -25,9 +27,73 @@ pub struct Param {
     pub value_span: Span,
 }
 
+/// `count NAME = INTEGER;`: the size of `for` families, a runtime
+/// parameter (a whole number >= 1).
+pub struct Count {
+    pub attrs: Vec<Attribute>,
+    pub name: Ident,
+    pub value: i64,
+}
+
+/// An integer index expression `var? + count? + c`: `i`, `i - 1`, `0`,
+/// `N - 1`, `N + 1` (a loop variable or a count, plus a constant).
+#[derive(Clone)]
+pub struct Affine {
+    /// Whether the loop variable of the enclosing `for` appears.
+    pub var: bool,
+    /// A count, by name.
+    pub count: Option<Ident>,
+    pub c: i64,
+    pub span: Span,
+}
+
+impl Affine {
+    /// Same index (spans aside).
+    pub fn same(&self, other: &Affine) -> bool {
+        self.var == other.var
+            && self.c == other.c
+            && self.count.as_ref().map(|c| c.to_string()) == other.count.as_ref().map(|c| c.to_string())
+    }
+    /// As written: `i - 1`, `N`, `0`.
+    pub fn show(&self, var: &str) -> String {
+        let mut parts = Vec::new();
+        if self.var {
+            parts.push(var.to_string());
+        }
+        if let Some(n) = &self.count {
+            parts.push(n.to_string());
+        }
+        let mut s = parts.join(" + ");
+        if s.is_empty() {
+            s = self.c.to_string();
+        } else if self.c > 0 {
+            s.push_str(&format!(" + {}", self.c));
+        } else if self.c < 0 {
+            s.push_str(&format!(" - {}", -self.c));
+        }
+        s
+    }
+}
+
+/// `for VAR in START..END { items }`: the items inside are families, one
+/// element per value of `VAR` (bounds: integers or `COUNT +- integer`).
+pub struct Family {
+    pub var: Ident,
+    pub start: Affine,
+    pub end: Affine,
+}
+
+/// A reference to an item: `NAME` or `NAME[INDEX]` (an element of a family).
+pub struct Ref {
+    pub name: Ident,
+    pub index: Option<Affine>,
+}
+
 /// `body NAME(x, y, phi) { mass: EXPR, inertia: EXPR }`
 pub struct Body {
     pub name: Ident,
+    /// The `for` family (index into [`ModelDef::families`]) it belongs to.
+    pub family: Option<usize>,
     pub coords: [Ident; 3],
     pub mass: Expr,
     pub inertia: Expr,
@@ -36,14 +102,15 @@ pub struct Body {
 /// `point NAME on BODY at (X, Y);`
 pub struct Point {
     pub name: Ident,
-    pub body: Ident,
+    pub family: Option<usize>,
+    pub body: Ref,
     pub at: [Expr; 2],
 }
 
 /// The second side of a hinge.
 pub enum HingeTarget {
     /// Another named point.
-    Point(Ident),
+    Point(Ref),
     /// A fixed point of the ground, in world coordinates [m].
     Ground { at: Box<[Expr; 2]> },
 }
@@ -51,7 +118,8 @@ pub enum HingeTarget {
 /// `hinge NAME: P = Q;` or `hinge NAME: P = ground(X, Y);`
 pub struct Hinge {
     pub name: Ident,
-    pub point: Ident,
+    pub family: Option<usize>,
+    pub point: Ref,
     pub target: HingeTarget,
 }
 
@@ -63,7 +131,8 @@ pub struct Hinge {
 /// heading stays at `angle` (default 0) from the guiding body's.
 pub struct Slider {
     pub name: Ident,
-    pub point: Ident,
+    pub family: Option<usize>,
+    pub point: Ref,
     pub target: HingeTarget,
     pub along: [Expr; 2],
     pub along_span: Span,
@@ -80,7 +149,8 @@ pub struct Drive {
 /// `skate NAME: P along (DX, DY);`
 pub struct Skate {
     pub name: Ident,
-    pub point: Ident,
+    pub family: Option<usize>,
+    pub point: Ref,
     pub along: [Expr; 2],
     pub along_span: Span,
 }

@@ -5,7 +5,7 @@ use std::collections::HashMap;
 
 use syn::Ident;
 
-use crate::ast::{HingeTarget, ModelDef};
+use crate::ast::{Affine, HingeTarget, ModelDef, Ref};
 
 /// Collects errors; `finish` combines them into one.
 #[derive(Default)]
@@ -37,19 +37,49 @@ impl Errors {
     }
 }
 
-/// Names resolved to indices.
+/// A resolved reference to a point: its index among the point items and,
+/// for a family point, which element (`None` for a single point).
+pub type PointRef = (usize, Option<Affine>);
+
+/// A body element: the body item and, for a family body, which element.
+pub type BodyRef = (usize, Option<Affine>);
+
+/// Names resolved to indices (`usize::MAX` where a name did not resolve;
+/// such an item produces no expressions).
 pub struct Resolved {
-    /// Body index of every point.
+    /// Body item of every point.
     pub point_body: Vec<usize>,
+    /// The element of the body family a single point sits on (`None` for a
+    /// single body or for a family point, which sits on the element of the
+    /// same index).
+    pub point_body_index: Vec<Option<Affine>>,
     /// Points joined by every hinge (second is `None` for the ground).
-    pub hinge_points: Vec<(usize, Option<usize>)>,
+    pub hinge_points: Vec<(PointRef, Option<PointRef>)>,
     /// Points of every slider: the moving point and the guiding point
     /// (`None` for a ground line).
-    pub slider_points: Vec<(usize, Option<usize>)>,
+    pub slider_points: Vec<(PointRef, Option<PointRef>)>,
     /// Hinge (index) of every drive.
     pub drive_hinge: Vec<usize>,
     /// Contact point of every skate.
-    pub skate_point: Vec<usize>,
+    pub skate_point: Vec<PointRef>,
+}
+
+impl Resolved {
+    /// The body element a point reference sits on.
+    pub fn body_of(&self, def: &ModelDef, (p, index): &PointRef) -> BodyRef {
+        let b = self.point_body[*p];
+        if def.points[*p].family.is_some() { (b, index.clone()) } else { (b, self.point_body_index[*p].clone()) }
+    }
+}
+
+/// Whether two body references are the same element for every count.
+pub fn same_body(a: &BodyRef, b: &BodyRef) -> bool {
+    a.0 == b.0
+        && match (&a.1, &b.1) {
+            (None, None) => true,
+            (Some(x), Some(y)) => x.same(y),
+            _ => false,
+        }
 }
 
 fn check_unique<'a>(errs: &mut Errors, kind: &str, names: impl Iterator<Item = &'a Ident>) {
@@ -65,9 +95,53 @@ fn known(names: &[String]) -> String {
     if names.is_empty() { "none".to_string() } else { names.join(", ") }
 }
 
+/// Checks the counts an index names.
+fn check_index(errs: &mut Errors, def: &ModelDef, a: &Affine) {
+    if let Some(n) = &a.count
+        && !def.counts.iter().any(|c| c.name == *n)
+    {
+        let names: Vec<String> = def.counts.iter().map(|c| c.name.to_string()).collect();
+        errs.at(n, format!("unknown count `{n}` in an index; known counts: {}", known(&names)));
+    }
+}
+
+/// Resolves `r` among items named `names` whose families are `families`:
+/// an element of a family needs an index, a single item none.
+fn resolve(
+    errs: &mut Errors,
+    def: &ModelDef,
+    kind: &str,
+    owner: &str,
+    r: &Ref,
+    names: &[String],
+    families: &[Option<usize>],
+) -> usize {
+    let Some(i) = names.iter().position(|n| r.name == n) else {
+        let plural = if kind == "body" { "bodies".to_string() } else { format!("{kind}s") };
+        errs.at(&r.name, format!("{owner} refers to unknown {kind} `{}`; known {plural}: {}", r.name, known(names)));
+        return usize::MAX;
+    };
+    match (&r.index, families[i]) {
+        (Some(a), Some(_)) => check_index(errs, def, a),
+        (None, Some(f)) => errs.at(
+            &r.name,
+            format!(
+                "{owner}: `{}` is a family (`for {} in ..`); name one element, e.g. `{}[{}]`",
+                r.name, def.families[f].var, r.name, def.families[f].var
+            ),
+        ),
+        (Some(a), None) => errs.push(syn::Error::new(
+            a.span,
+            format!("{owner}: `{}` is a single {kind}, not a family; drop the index", r.name),
+        )),
+        (None, None) => {}
+    }
+    i
+}
+
 /// Checks names and references; returns the resolved indices.
 pub fn check(def: &ModelDef, errs: &mut Errors) -> Resolved {
-    check_unique(errs, "parameter", def.params.iter().map(|p| &p.name));
+    check_unique(errs, "parameter", def.params.iter().map(|p| &p.name).chain(def.counts.iter().map(|c| &c.name)));
     check_unique(errs, "body", def.bodies.iter().map(|b| &b.name));
     check_unique(errs, "point", def.points.iter().map(|p| &p.name));
     check_unique(errs, "hinge", def.hinges.iter().map(|h| &h.name));
@@ -87,6 +161,10 @@ pub fn check(def: &ModelDef, errs: &mut Errors) -> Resolved {
             errs.push(syn::Error::new(p.value_span, format!("parameter `{}` must be finite", p.name)));
         }
     }
+    for f in &def.families {
+        check_index(errs, def, &f.start);
+        check_index(errs, def, &f.end);
+    }
     if def.bodies.is_empty() {
         errs.at(
             &def.name,
@@ -94,47 +172,68 @@ pub fn check(def: &ModelDef, errs: &mut Errors) -> Resolved {
         );
     }
     let body_names: Vec<String> = def.bodies.iter().map(|b| b.name.to_string()).collect();
+    let body_families: Vec<Option<usize>> = def.bodies.iter().map(|b| b.family).collect();
     let point_names: Vec<String> = def.points.iter().map(|p| p.name.to_string()).collect();
-    let point_body: Vec<usize> = def
-        .points
-        .iter()
-        .map(|p| {
-            body_names.iter().position(|b| p.body == b).unwrap_or_else(|| {
+    let point_families: Vec<Option<usize>> = def.points.iter().map(|p| p.family).collect();
+    let mut point_body = Vec::with_capacity(def.points.len());
+    let mut point_body_index = Vec::with_capacity(def.points.len());
+    for p in &def.points {
+        let owner = format!("point `{}`", p.name);
+        let b = resolve(errs, def, "body", &owner, &p.body, &body_names, &body_families);
+        point_body.push(b);
+        let exact = p.body.index.as_ref().is_some_and(|a| a.var && a.count.is_none() && a.c == 0);
+        match p.family {
+            Some(f) if b != usize::MAX && (def.bodies[b].family.is_none() || !exact) => {
+                let v = &def.families[f].var;
                 errs.at(
-                    &p.body,
+                    &p.body.name,
                     format!(
-                        "point `{}` refers to unknown body `{}`; known bodies: {}",
-                        p.name,
-                        p.body,
-                        known(&body_names)
+                        "point `{}[{v}]` of a family sits on the element of the same index of a body family: write `on BODY[{v}]`",
+                        p.name
                     ),
                 );
-                usize::MAX
-            })
-        })
-        .collect();
-    let find_point = |errs: &mut Errors, owner: &str, name: &Ident| -> usize {
-        point_names.iter().position(|p| name == p).unwrap_or_else(|| {
-            errs.at(name, format!("{owner} refers to unknown point `{name}`; known points: {}", known(&point_names)));
-            usize::MAX
-        })
+                point_body_index.push(None);
+            }
+            Some(_) => point_body_index.push(None),
+            None => point_body_index.push(p.body.index.clone()),
+        }
+    }
+    let find_point = |errs: &mut Errors, owner: &str, r: &Ref| -> PointRef {
+        (resolve(errs, def, "point", owner, r, &point_names, &point_families), r.index.clone())
+    };
+    let res_points = Resolved {
+        point_body: point_body.clone(),
+        point_body_index: point_body_index.clone(),
+        hinge_points: Vec::new(),
+        slider_points: Vec::new(),
+        drive_hinge: Vec::new(),
+        skate_point: Vec::new(),
     };
     // the two points a joint relates: distinct, on different bodies
-    let joint = |errs: &mut Errors, kind: &str, name: &Ident, point: &Ident, target: &HingeTarget| {
+    let joint = |errs: &mut Errors, kind: &str, name: &Ident, point: &Ref, target: &HingeTarget| {
         let owner = format!("{kind} `{name}`");
         let a = find_point(errs, &owner, point);
         let b = match target {
             HingeTarget::Point(p) => {
                 let b = find_point(errs, &owner, p);
-                if a != usize::MAX && b != usize::MAX {
-                    if a == b {
-                        errs.at(p, format!("{kind} `{name}` joins point `{p}` to itself"));
-                    } else if point_body[a] != usize::MAX && point_body[a] == point_body[b] {
+                if a.0 != usize::MAX && b.0 != usize::MAX {
+                    let same_point = a.0 == b.0
+                        && match (&a.1, &b.1) {
+                            (None, None) => true,
+                            (Some(x), Some(y)) => x.same(y),
+                            _ => false,
+                        };
+                    if same_point {
+                        errs.at(&p.name, format!("{kind} `{name}` joins point `{}` to itself", p.name));
+                    } else if point_body[a.0] != usize::MAX
+                        && point_body[b.0] != usize::MAX
+                        && same_body(&res_points.body_of(def, &a), &res_points.body_of(def, &b))
+                    {
                         errs.at(
-                            p,
+                            &p.name,
                             format!(
                                 "{kind} `{name}` joins two points of the same body `{}`; a {kind} joins two bodies (or a body and `ground(x, y)`)",
-                                body_names[point_body[a]]
+                                body_names[point_body[a.0]]
                             ),
                         );
                     }
@@ -152,7 +251,7 @@ pub fn check(def: &ModelDef, errs: &mut Errors) -> Resolved {
         .drives
         .iter()
         .map(|d| {
-            hinge_names.iter().position(|h| d.hinge == h).unwrap_or_else(|| {
+            let Some(h) = hinge_names.iter().position(|h| d.hinge == h) else {
                 errs.at(
                     &d.hinge,
                     format!(
@@ -162,10 +261,17 @@ pub fn check(def: &ModelDef, errs: &mut Errors) -> Resolved {
                         known(&hinge_names)
                     ),
                 );
-                usize::MAX
-            })
+                return usize::MAX;
+            };
+            if def.hinges[h].family.is_some() {
+                errs.at(
+                    &d.hinge,
+                    format!("drive `{}`: hinge `{}` is a family; a drive drives one single hinge", d.name, d.hinge),
+                );
+            }
+            h
         })
         .collect();
     let skate_point = def.skates.iter().map(|s| find_point(errs, &format!("skate `{}`", s.name), &s.point)).collect();
-    Resolved { point_body, hinge_points, slider_points, drive_hinge, skate_point }
+    Resolved { point_body, point_body_index, hinge_points, slider_points, drive_hinge, skate_point }
 }

@@ -1,14 +1,23 @@
 //! `quote!` the struct, its `Default` and its `Model` impl from the derived
-//! expressions. Each generated function is straight-line code: the
-//! expressions it needs, in arena order, as `let` bindings (so shared
-//! subexpressions are computed once per call).
+//! expressions.
+//!
+//! A model without families gets straight-line code: every expression it
+//! needs, renamed to global coordinates, in arena order, as `let` bindings
+//! (shared subexpressions computed once per call), and straight-line
+//! products with `G` at its compile-time pattern. A model with families
+//! gets, per constraint item, one element kernel inside a loop over the
+//! family's elements: the element's coordinates are gathered from `q` by
+//! the runtime layout ([`ezy_core::__private::Layout`]), so the generated
+//! code does not grow with the counts.
 
 use proc_macro2::{Literal, TokenStream};
 use quote::{format_ident, quote};
 
-use crate::ast::{ModelDef, doc_of, split_unit};
-use crate::check::Resolved;
-use crate::kinematics::Derived;
+use std::collections::HashMap;
+
+use crate::ast::{Affine, ModelDef, doc_of, split_unit};
+use crate::check::{BodyRef, PointRef, Resolved};
+use crate::kinematics::{Derived, Group, Kind};
 use crate::sym::{Id, Node, Sym};
 
 fn lit_f64(v: f64) -> TokenStream {
@@ -32,8 +41,16 @@ fn join(items: impl Iterator<Item = TokenStream>, op: TokenStream) -> TokenStrea
     out
 }
 
+/// How generated code names coordinates: `q[k]` (global, straight-line) or
+/// `ql[k]` (an element's local copy).
+#[derive(Clone, Copy, PartialEq, Eq)]
+enum Coords {
+    Global,
+    Local,
+}
+
 /// Straight-line code computing `outputs`: `(let bindings, one expression per output)`.
-fn lower(d: &Derived, def: &ModelDef, outputs: &[Id]) -> (TokenStream, Vec<TokenStream>) {
+fn lower(d: &Derived, def: &ModelDef, outputs: &[Id], coords: Coords) -> (TokenStream, Vec<TokenStream>) {
     let scalar = quote!(<S as ::ezy_core::__private::Scalar>);
     let reach = d.ar.reachable(outputs);
     let refer = |id: Id| -> TokenStream {
@@ -42,8 +59,10 @@ fn lower(d: &Derived, def: &ModelDef, outputs: &[Id]) -> (TokenStream, Vec<Token
                 let l = lit_f64(f64::from_bits(*bits));
                 quote!(#scalar::from_f64(#l))
             }
-            Node::Sym(Sym::Q(k)) => quote!(q[#k]),
-            Node::Sym(Sym::Qd(k)) => quote!(qd[#k]),
+            Node::Sym(Sym::Q(k)) if coords == Coords::Global => quote!(q[#k]),
+            Node::Sym(Sym::Qd(k)) if coords == Coords::Global => quote!(qd[#k]),
+            Node::Sym(Sym::Q(k)) => quote!(ql[#k]),
+            Node::Sym(Sym::Qd(k)) => quote!(qdl[#k]),
             Node::Sym(Sym::Param(i)) => {
                 let p = format_ident!("p_{}", def.params[*i].name);
                 quote!(#p)
@@ -102,10 +121,288 @@ fn lower(d: &Derived, def: &ModelDef, outputs: &[Id]) -> (TokenStream, Vec<Token
     (lets, outputs.iter().map(|&o| refer(o)).collect())
 }
 
-/// Assignments `out[k] = expr_k` with their bindings.
+/// `(index expression, as i64)` of an affine index at loop value `v`.
+fn affine_tokens(a: &Affine) -> TokenStream {
+    let mut t = quote!(0i64);
+    if a.var {
+        t = quote!(#t + v);
+    }
+    if let Some(n) = &a.count {
+        let c = format_ident!("c_{}", n);
+        t = quote!(#t + #c);
+    }
+    let c = a.c;
+    quote!((#t + #c))
+}
+
+/// The runtime counts as `let c_N: i64` bindings.
+fn count_lets(def: &ModelDef) -> TokenStream {
+    let mut out = TokenStream::new();
+    for c in &def.counts {
+        let (n, v) = (&c.name, format_ident!("c_{}", c.name));
+        out.extend(quote!(let #v: i64 = self.#n as i64;));
+    }
+    out
+}
+
+/// Position of an element in its family (`value - start`), as `i64`
+/// (`0` for a single item).
+fn position(family: Option<usize>, index: Option<&Affine>) -> TokenStream {
+    match (family, index) {
+        (Some(f), Some(a)) => {
+            let a = affine_tokens(a);
+            quote!((#a - l.f_start[#f]))
+        }
+        _ => quote!(0i64),
+    }
+}
+
+/// First `q` column of a body element, as `usize` (its position in range
+/// is checked by `check_counts`).
+fn body_column(def: &ModelDef, b: &BodyRef) -> TokenStream {
+    let bi = b.0;
+    let pos = position(def.bodies[bi].family, b.1.as_ref());
+    quote!((l.body_off[#bi] + 3 * (#pos as usize)))
+}
+
+/// Global index of a body element among all bodies.
+fn body_index(def: &ModelDef, b: &BodyRef) -> TokenStream {
+    let bi = b.0;
+    let pos = position(def.bodies[bi].family, b.1.as_ref());
+    quote!((l.body_index[#bi] + (#pos as usize)))
+}
+
+/// Global index of a point element among all points.
+fn point_index(def: &ModelDef, p: &PointRef) -> TokenStream {
+    let pi = p.0;
+    let pos = position(def.points[pi].family, p.1.as_ref());
+    quote!((l.point_index[#pi] + (#pos as usize)))
+}
+
+/// The body element a point item's element sits on (loop value `v` = the
+/// point's index).
+fn point_body(def: &ModelDef, res: &Resolved, p: usize) -> BodyRef {
+    let var = Affine { var: true, count: None, c: 0, span: proc_macro2::Span::call_site() };
+    if def.points[p].family.is_some() {
+        (res.point_body[p], Some(var))
+    } else {
+        (res.point_body[p], res.point_body_index[p].clone())
+    }
+}
+
+/// `for e in 0..len { let v = start + e; #body }` over an item's family,
+/// or the body once with `e = 0` for a single item.
+fn each_element(family: Option<usize>, body: TokenStream) -> TokenStream {
+    match family {
+        Some(f) => quote! {
+            for e in 0..l.f_len[#f] {
+                let v: i64 = l.f_start[#f] + e as i64;
+                #body
+            }
+        },
+        None => quote! {
+            {
+                let e = 0usize;
+                let v = 0i64;
+                #body
+            }
+        },
+    }
+}
+
+/// `let ql = [q[c0], q[c0 + 1], ...]` (and `qdl`) for a group's slots.
+fn gather(def: &ModelDef, slots: &[BodyRef], with_qd: bool) -> TokenStream {
+    let cols: Vec<TokenStream> = slots.iter().map(|b| body_column(def, b)).collect();
+    let n = 3 * slots.len();
+    let names: Vec<_> = (0..slots.len()).map(|s| format_ident!("col{}", s)).collect();
+    let idx: Vec<TokenStream> = (0..n)
+        .map(|k| {
+            let c = &names[k / 3];
+            let o = k % 3;
+            quote!(#c + #o)
+        })
+        .collect();
+    let qd = if with_qd { quote!(let qdl: [S; #n] = [#(qd[#idx]),*];) } else { quote!() };
+    quote! {
+        #(let #names: usize = #cols;)*
+        let ql: [S; #n] = [#(q[#idx]),*];
+        #qd
+    }
+}
+
+/// Which outputs a loop-form numeric function writes per group.
+#[derive(Clone, Copy)]
+struct Outputs {
+    phi: bool,
+    values: bool,
+    gamma: bool,
+    holonomic_only: bool,
+}
+
+/// Loop form of a constraint function over all groups.
+fn group_loops(d: &Derived, def: &ModelDef, o: Outputs) -> TokenStream {
+    let mut out = TokenStream::new();
+    for (gi, g) in d.groups.iter().enumerate() {
+        if (o.holonomic_only && !g.holonomic()) || g.slots.is_empty() {
+            continue;
+        }
+        let pat = g.local_pattern(&d.ar);
+        let (nr, nnz) = (g.rows(), pat.len());
+        let mut ids: Vec<Id> = Vec::new();
+        if o.phi && g.holonomic() {
+            ids.extend(&g.phi);
+        }
+        if o.values {
+            ids.extend(pat.iter().map(|&(r, c)| g.g[r][c]));
+        }
+        if o.gamma {
+            ids.extend(&g.gamma);
+        }
+        let (lets, exprs) = lower(d, def, &ids, Coords::Local);
+        let mut writes = TokenStream::new();
+        let mut k = 0;
+        if o.phi && g.holonomic() {
+            for r in 0..nr {
+                let ex = &exprs[k];
+                writes.extend(quote!(phi[rb + #r] = #ex;));
+                k += 1;
+            }
+        }
+        if o.values {
+            for j in 0..nnz {
+                let ex = &exprs[k];
+                writes.extend(quote!(values[vb + #j] = #ex;));
+                k += 1;
+            }
+        }
+        if o.gamma {
+            for r in 0..nr {
+                let ex = &exprs[k];
+                writes.extend(quote!(gamma[rb + #r] = #ex;));
+                k += 1;
+            }
+        }
+        let gat = gather(def, &g.slots, o.gamma);
+        out.extend(each_element(
+            g.family,
+            quote! {
+                #gat
+                let rb = l.row[#gi] + e * #nr;
+                let vb = l.val[#gi] + e * #nnz;
+                #lets
+                #writes
+            },
+        ));
+    }
+    out
+}
+
+/// Loop form of `points` / `point_velocities`.
+fn point_loops(d: &Derived, def: &ModelDef, res: &Resolved, vel: bool) -> TokenStream {
+    let mut out = TokenStream::new();
+    for (pi, p) in d.points.iter().enumerate() {
+        if p.body.is_none() {
+            continue;
+        }
+        let ids: Vec<Id> = if vel { p.vel.to_vec() } else { p.pos.to_vec() };
+        let (lets, ex) = lower(d, def, &ids, Coords::Local);
+        let (e0, e1) = (&ex[0], &ex[1]);
+        let gat = gather(def, &[point_body(def, res, pi)], vel);
+        out.extend(each_element(
+            def.points[pi].family,
+            quote! {
+                #gat
+                let k = 2 * (l.point_index[#pi] + e);
+                #lets
+                out[k] = #e0;
+                out[k + 1] = #e1;
+            },
+        ));
+    }
+    out
+}
+
+/// Straight-line form: every output renamed to global coordinates (a
+/// model without families: all columns are known at compile time).
+struct Static {
+    /// `G` entries in pattern order, `phi` rows, `gamma` rows, point
+    /// positions and velocities (x, y per point), all global.
+    values: Vec<Id>,
+    phi: Vec<Id>,
+    gamma: Vec<Id>,
+    points: Vec<Id>,
+    vel: Vec<Id>,
+    pattern: Vec<(usize, usize)>,
+    nq: usize,
+    nc: usize,
+}
+
+fn static_form(d: &mut Derived, def: &ModelDef, res: &Resolved) -> Static {
+    let body_col = |b: &BodyRef| 3 * b.0;
+    let mut st = Static {
+        values: Vec::new(),
+        phi: Vec::new(),
+        gamma: Vec::new(),
+        points: Vec::new(),
+        vel: Vec::new(),
+        pattern: Vec::new(),
+        nq: 3 * def.bodies.len(),
+        nc: 0,
+    };
+    let groups = std::mem::take(&mut d.groups);
+    let mut row = 0;
+    for g in &groups {
+        let cols: Vec<usize> = g.slots.iter().map(body_col).collect();
+        let rename = |s: Sym| match s {
+            Sym::Q(k) => Sym::Q(cols[k / 3] + k % 3),
+            Sym::Qd(k) => Sym::Qd(cols[k / 3] + k % 3),
+            p => p,
+        };
+        let mut memo = HashMap::new();
+        let mut sub = |ar: &mut crate::sym::Arena, id: Id| ar.subst(id, &rename, &mut memo);
+        if g.holonomic() {
+            for &p in &g.phi {
+                let x = sub(&mut d.ar, p);
+                st.phi.push(x);
+            }
+        }
+        for (r, c) in g.local_pattern(&d.ar) {
+            st.pattern.push((row + r, cols[c / 3] + c % 3));
+            let x = sub(&mut d.ar, g.g[r][c]);
+            st.values.push(x);
+        }
+        for &x in &g.gamma {
+            let x = sub(&mut d.ar, x);
+            st.gamma.push(x);
+        }
+        row += g.rows();
+    }
+    d.groups = groups;
+    st.nc = row;
+    for (pi, p) in d.points.iter().enumerate() {
+        let b = point_body(def, res, pi);
+        let col = body_col(&b);
+        let rename = |s: Sym| match s {
+            Sym::Q(k) => Sym::Q(col + k),
+            Sym::Qd(k) => Sym::Qd(col + k),
+            p => p,
+        };
+        let mut memo = HashMap::new();
+        for k in 0..2 {
+            let (a, b) = (p.pos[k], p.vel[k]);
+            let a = d.ar.subst(a, &rename, &mut memo);
+            let b = d.ar.subst(b, &rename, &mut memo);
+            st.points.push(a);
+            st.vel.push(b);
+        }
+    }
+    st
+}
+
+/// Assignments `out[k] = expr_k` with their bindings (global coordinates).
 fn assign(d: &Derived, def: &ModelDef, groups: &[(&str, &[Id])]) -> TokenStream {
     let all: Vec<Id> = groups.iter().flat_map(|(_, ids)| ids.iter().copied()).collect();
-    let (lets, exprs) = lower(d, def, &all);
+    let (lets, exprs) = lower(d, def, &all, Coords::Global);
     let mut body = lets;
     let mut start = 0;
     for (name, ids) in groups {
@@ -120,15 +417,25 @@ fn assign(d: &Derived, def: &ModelDef, groups: &[(&str, &[Id])]) -> TokenStream 
     body
 }
 
+/// Template of an expression for [`ezy_core::__private::render_equation`]:
+/// symbols as markers `\u{1}q3\u{2}` (local coordinate 3), `d` (its
+/// rate), `p` (parameter).
+fn templates(d: &Derived, id: Id) -> (String, String) {
+    let name = |s: Sym| match s {
+        Sym::Q(k) => format!("\u{1}q{k}\u{2}"),
+        Sym::Qd(k) => format!("\u{1}d{k}\u{2}"),
+        Sym::Param(i) => format!("\u{1}p{i}\u{2}"),
+    };
+    (d.ar.display(id, &name), d.ar.latex(id, &name))
+}
+
 /// The whole expansion.
-pub fn emit(def: &ModelDef, res: &Resolved, d: &Derived) -> TokenStream {
+pub fn emit(def: &ModelDef, res: &Resolved, d: &mut Derived) -> TokenStream {
     let name = &def.name;
     let vis = &def.vis;
     let attrs = &def.attrs;
-    let nq = d.nq;
-    let nh = d.phi.len();
-    let pattern = d.pattern();
-    let nnz_h = pattern.iter().filter(|(r, _)| *r < nh).count();
+    let private = quote!(::ezy_core::__private);
+    let is_static = def.families.is_empty() && def.counts.is_empty();
 
     // struct and Default
     let fields = def.params.iter().map(|p| {
@@ -136,84 +443,24 @@ pub fn emit(def: &ModelDef, res: &Resolved, d: &Derived) -> TokenStream {
         let n = &p.name;
         quote!(#(#pattrs)* pub #n: f64,)
     });
+    let count_fields = def.counts.iter().map(|c| {
+        let cattrs = &c.attrs;
+        let n = &c.name;
+        quote!(#(#cattrs)* pub #n: usize,)
+    });
     let defaults = def.params.iter().map(|p| {
         let n = &p.name;
         let v = lit_f64(p.value);
         quote!(#n: #v,)
     });
+    let count_defaults = def.counts.iter().map(|c| {
+        let n = &c.name;
+        let v = c.value as usize;
+        quote!(#n: #v,)
+    });
 
-    // static info
-    let private = quote!(::ezy_core::__private);
-    let model_name = name.to_string();
-    let model_doc = doc_of(&def.attrs).split(". ").next().unwrap_or("").trim_end_matches('.').to_string();
-    let coords = def.bodies.iter().flat_map(|b| b.coords.iter().map(|c| c.to_string()));
-    let params_info = def.params.iter().map(|p| {
-        let (doc, unit) = split_unit(&doc_of(&p.attrs));
-        let n = p.name.to_string();
-        let v = lit_f64(p.value);
-        quote!(#private::ParamInfo { name: #n, default: #v, unit: #unit, doc: #doc })
-    });
-    let param_of = |e: &syn::Expr| -> TokenStream {
-        match e {
-            syn::Expr::Path(p) if p.path.get_ident().is_some() => {
-                let n = p.path.get_ident().expect("checked").to_string();
-                quote!(::core::option::Option::Some(#n))
-            }
-            _ => quote!(::core::option::Option::None),
-        }
-    };
-    let bodies_info = def.bodies.iter().enumerate().map(|(i, b)| {
-        let n = b.name.to_string();
-        let (x, y, phi) = (3 * i, 3 * i + 1, 3 * i + 2);
-        let (mp, ip) = (param_of(&b.mass), param_of(&b.inertia));
-        quote!(#private::BodyInfo { name: #n, coords: [#x, #y, #phi], mass_param: #mp, inertia_param: #ip })
-    });
-    let points_info = def.points.iter().zip(&res.point_body).map(|(p, &b)| {
-        let n = p.name.to_string();
-        quote!(#private::PointInfo { name: #n, body: #b })
-    });
-    let hinges_info = def.hinges.iter().zip(&res.hinge_points).enumerate().map(|(i, (h, &(a, b)))| {
-        let n = h.name.to_string();
-        let body_a = res.point_body[a];
-        let body_b = match b {
-            Some(b) => {
-                let b = res.point_body[b];
-                quote!(::core::option::Option::Some(#b))
-            }
-            None => quote!(::core::option::Option::None),
-        };
-        let row = 2 * i;
-        quote!(#private::HingeInfo { name: #n, body_a: #body_a, body_b: #body_b, row: #row })
-    });
-    let n_hinge_rows = 2 * def.hinges.len();
-    let sliders_info = def.sliders.iter().zip(&res.slider_points).enumerate().map(|(i, (sl, &(p, guide)))| {
-        let n = sl.name.to_string();
-        let body_b = res.point_body[p];
-        let body_a = match guide {
-            Some(g) => {
-                let a = res.point_body[g];
-                quote!(::core::option::Option::Some(#a))
-            }
-            None => quote!(::core::option::Option::None),
-        };
-        let row = n_hinge_rows + 2 * i;
-        quote!(#private::SliderInfo { name: #n, body_a: #body_a, body_b: #body_b, row: #row })
-    });
-    let n_slider_rows = 2 * def.sliders.len();
-    let drives_info = def.drives.iter().zip(&res.drive_hinge).enumerate().map(|(i, (d, &h))| {
-        let n = d.name.to_string();
-        let row = n_hinge_rows + n_slider_rows + i;
-        quote!(#private::DriveInfo { name: #n, hinge: #h, row: #row })
-    });
-    let skates_info = def.skates.iter().zip(&res.skate_point).enumerate().map(|(i, (s, &p))| {
-        let n = s.name.to_string();
-        let row = nh + i;
-        quote!(#private::SkateInfo { name: #n, point: #p, row: #row })
-    });
-    let cnames = &d.constraint_names;
-    let pat = pattern.iter().map(|(r, c)| quote!((#r, #c)));
-
-    // parameters by index
+    // parameters by index: the reals, then the counts
+    let np = def.params.len();
     let get_arms = def.params.iter().enumerate().map(|(i, p)| {
         let n = &p.name;
         quote!(#i => self.#n,)
@@ -222,84 +469,79 @@ pub fn emit(def: &ModelDef, res: &Resolved, d: &Derived) -> TokenStream {
         let n = &p.name;
         quote!(#i => self.#n = value,)
     });
+    let get_counts = def.counts.iter().enumerate().map(|(i, c)| {
+        let (n, i) = (&c.name, np + i);
+        quote!(#i => self.#n as f64,)
+    });
+    let set_counts = def.counts.iter().enumerate().map(|(i, c)| {
+        let (n, i) = (&c.name, np + i);
+        let msg = format!("count `{}` must be a whole number >= 1, got {{}}", c.name);
+        quote!(#i => {
+            assert!(value >= 1.0 && value.fract() == 0.0 && value <= 1e9, #msg, value);
+            self.#n = value as usize;
+        })
+    });
 
-    // generated numerics
-    let g_all: Vec<Id> = pattern.iter().map(|&(r, c)| d.g[r][c]).collect();
-    let g_h: Vec<Id> = g_all[..nnz_h].to_vec();
-    let points_flat: Vec<Id> = d.points.iter().flat_map(|p| p.iter().copied()).collect();
-    let vel_flat: Vec<Id> = d.point_vel.iter().flat_map(|p| p.iter().copied()).collect();
-    let mass_body = assign(d, def, &[("out", &d.mass)]);
-    let phi_body = assign(d, def, &[("phi", &d.phi)]);
-    let jac_body = assign(d, def, &[("values", &g_h)]);
-    let g_body = assign(d, def, &[("values", &g_all)]);
-    let terms_body = assign(d, def, &[("values", &g_all), ("gamma", &d.gamma)]);
-    let phi_g_body = assign(d, def, &[("phi", &d.phi), ("values", &g_all)]);
-    let points_body = assign(d, def, &[("out", &points_flat)]);
-    let vel_body = assign(d, def, &[("out", &vel_flat)]);
-    let n_local_points = 2 * d.points.len();
-    let local_body = assign(d, def, &[("points", &d.local[..n_local_points]), ("blades", &d.local[n_local_points..])]);
+    let layout = layout_fn(def, d);
+    let info = info_fn(def, res, d);
+    let check = check_fn(def, res, d);
+    let equations = equations_fn(def, res, d);
 
-    let kernels = sparse_kernels(&pattern, nq, d.g.len());
-    let equations = equations(d, def, &pattern);
+    // mass and local geometry: loops over items (constant per element)
+    let mut mass_body = TokenStream::new();
+    for (bi, b) in def.bodies.iter().enumerate() {
+        let (lets, ex) = lower(d, def, &d.mass[bi], Coords::Local);
+        let (m0, m1, m2) = (&ex[0], &ex[1], &ex[2]);
+        mass_body.extend(each_element(
+            b.family,
+            quote! {
+                let k = l.body_off[#bi] + 3 * e;
+                #lets
+                out[k] = #m0; out[k + 1] = #m1; out[k + 2] = #m2;
+            },
+        ));
+    }
+    let mut local_body = TokenStream::new();
+    for (pi, p) in def.points.iter().enumerate() {
+        let (lets, ex) = lower(d, def, &d.points[pi].local, Coords::Local);
+        let (a, b) = (&ex[0], &ex[1]);
+        local_body.extend(each_element(
+            p.family,
+            quote! {
+                let k = 2 * (l.point_index[#pi] + e);
+                #lets
+                points[k] = #a; points[k + 1] = #b;
+            },
+        ));
+    }
+    for (ki, s) in def.skates.iter().enumerate() {
+        let (lets, ex) = lower(d, def, &d.blades[ki], Coords::Local);
+        let (a, b) = (&ex[0], &ex[1]);
+        let gi = d.groups.iter().position(|g| g.kind == Kind::Skate && g.item == ki).expect("one group per skate");
+        local_body.extend(each_element(
+            s.family,
+            quote! {
+                let k = 2 * (l.item_index[#gi] + e);
+                #lets
+                blades[k] = #a; blades[k + 1] = #b;
+            },
+        ));
+    }
 
-    quote! {
-        #(#attrs)*
-        #[derive(Debug, Clone, PartialEq)]
-        #[allow(non_snake_case)]
-        #vis struct #name {
-            #(#fields)*
-        }
-
-        impl ::core::default::Default for #name {
-            fn default() -> Self {
-                Self { #(#defaults)* }
-            }
-        }
-
-        #[allow(non_snake_case, unused_variables, clippy::all, clippy::pedantic)]
-        impl #private::Model for #name {
-            const INFO: #private::ModelInfo = #private::ModelInfo {
-                name: #model_name,
-                doc: #model_doc,
-                coords: &[#(#coords),*],
-                params: &[#(#params_info),*],
-                bodies: &[#(#bodies_info),*],
-                points: &[#(#points_info),*],
-                hinges: &[#(#hinges_info),*],
-                sliders: &[#(#sliders_info),*],
-                drives: &[#(#drives_info),*],
-                skates: &[#(#skates_info),*],
-                constraints: &[#(#cnames),*],
-                n_holonomic: #nh,
-                pattern: &[#(#pat),*],
-            };
-
-            const EQUATIONS: #private::Equations = #equations;
-
-            fn param(&self, index: usize) -> f64 {
-                match index {
-                    #(#get_arms)*
-                    _ => panic!("parameter index {} out of range", index),
-                }
-            }
-
-            fn set_param(&mut self, index: usize, value: f64) {
-                match index {
-                    #(#set_arms)*
-                    _ => panic!("parameter index {} out of range", index),
-                }
-            }
-
-            fn mass_diagonal(&self, out: &mut [f64]) {
-                type S = f64;
-                #mass_body
-            }
-
-            fn local_geometry(&self, points: &mut [f64], blades: &mut [f64]) {
-                type S = f64;
-                #local_body
-            }
-
+    let numerics = if is_static {
+        let st = static_form(d, def, res);
+        let nh = st.phi.len();
+        let nnz_h = st.pattern.iter().filter(|(r, _)| *r < nh).count();
+        let nq = st.nq;
+        let phi_body = assign(d, def, &[("phi", &st.phi)]);
+        let jac_body = assign(d, def, &[("values", &st.values[..nnz_h])]);
+        let g_body = assign(d, def, &[("values", &st.values)]);
+        let terms_body = assign(d, def, &[("values", &st.values), ("gamma", &st.gamma)]);
+        let phi_g_body = assign(d, def, &[("phi", &st.phi), ("values", &st.values)]);
+        let points_body = assign(d, def, &[("out", &st.points)]);
+        let vel_body = assign(d, def, &[("out", &st.vel)]);
+        let kernels = sparse_kernels(&st.pattern, nq, st.nc);
+        quote! {
             #kernels
 
             #[inline]
@@ -346,51 +588,117 @@ pub fn emit(def: &ModelDef, res: &Resolved, d: &Derived) -> TokenStream {
                 #vel_body
             }
         }
-    }
-}
+    } else {
+        let o = |phi, values, gamma, holonomic_only| Outputs { phi, values, gamma, holonomic_only };
+        let phi_body = group_loops(d, def, o(true, false, false, true));
+        let jac_body = group_loops(d, def, o(false, true, false, true));
+        let g_body = group_loops(d, def, o(false, true, false, false));
+        let phi_g_body = group_loops(d, def, o(true, true, false, false));
+        let terms_body = group_loops(d, def, o(false, true, true, false));
+        let points_body = point_loops(d, def, res, false);
+        let vel_body = point_loops(d, def, res, true);
+        quote! {
+            #[inline]
+            fn phi<S: #private::Scalar>(&self, q: &[S], phi: &mut [S]) {
+                let l = self.__ezy_layout();
+                #phi_body
+            }
 
-/// The derived equations as text and LaTeX (`Model::EQUATIONS`), for
-/// `ezy equations`: what the macro computed, in SPEC §1's notation.
-fn equations(d: &Derived, def: &ModelDef, pattern: &[(usize, usize)]) -> TokenStream {
-    use crate::sym::Id;
-    use crate::sym::{Sym, latex_name, latex_rate};
-    let private = quote!(::ezy_core::__private);
-    let coords: Vec<String> = def.bodies.iter().flat_map(|b| b.coords.iter().map(|c| c.to_string())).collect();
-    let params: Vec<String> = def.params.iter().map(|p| p.name.to_string()).collect();
-    let text_name = |s: Sym| match s {
-        Sym::Q(k) => coords[k].clone(),
-        Sym::Qd(k) => format!("{}d", coords[k]),
-        Sym::Param(i) => params[i].clone(),
+            #[inline]
+            fn holonomic_jacobian<S: #private::Scalar>(&self, q: &[S], values: &mut [S]) {
+                let l = self.__ezy_layout();
+                #jac_body
+            }
+
+            #[inline]
+            fn constraint_matrix<S: #private::Scalar>(&self, q: &[S], values: &mut [S]) {
+                let l = self.__ezy_layout();
+                #g_body
+            }
+
+            #[inline]
+            fn phi_and_constraint_matrix<S: #private::Scalar>(&self, q: &[S], phi: &mut [S], values: &mut [S]) {
+                let l = self.__ezy_layout();
+                #phi_g_body
+            }
+
+            #[inline]
+            fn constraint_terms<S: #private::Scalar>(&self, q: &[S], qd: &[S], values: &mut [S], gamma: &mut [S]) {
+                let l = self.__ezy_layout();
+                #terms_body
+            }
+
+            #[inline]
+            fn points<S: #private::Scalar>(&self, q: &[S], out: &mut [S]) {
+                let l = self.__ezy_layout();
+                #points_body
+            }
+
+            #[inline]
+            fn point_velocities<S: #private::Scalar>(&self, q: &[S], qd: &[S], out: &mut [S]) {
+                let l = self.__ezy_layout();
+                #vel_body
+            }
+        }
     };
-    let latex = |s: Sym| match s {
-        Sym::Q(k) => latex_name(&coords[k]),
-        Sym::Qd(k) => latex_rate(&coords[k]),
-        Sym::Param(i) => latex_name(&params[i]),
-    };
-    let expr = |id: Id| {
-        let t = d.ar.display(id, &text_name);
-        let l = d.ar.latex(id, &latex);
-        quote!(#private::EquationExpr { text: #t, latex: #l })
-    };
-    let coord_names = coords.iter().map(|c| {
-        let l = latex_name(c);
-        quote!(#private::EquationExpr { text: #c, latex: #l })
-    });
-    let mass = d.mass.iter().map(|&e| expr(e));
-    let phi = d.phi.iter().map(|&e| expr(e));
-    let velocity = d.velocity.iter().map(|&e| expr(e));
-    let jacobian = pattern.iter().map(|&(r, c)| expr(d.g[r][c]));
-    let gamma = d.gamma.iter().map(|&e| expr(e));
-    let point_velocities = d.point_vel.iter().flat_map(|v| v.iter()).map(|&e| expr(e));
-    quote!(#private::Equations {
-        coords: &[#(#coord_names),*],
-        mass: &[#(#mass),*],
-        phi: &[#(#phi),*],
-        velocity: &[#(#velocity),*],
-        jacobian: &[#(#jacobian),*],
-        gamma: &[#(#gamma),*],
-        point_velocities: &[#(#point_velocities),*],
-    })
+
+    quote! {
+        #(#attrs)*
+        #[derive(Debug, Clone, PartialEq)]
+        #[allow(non_snake_case)]
+        #vis struct #name {
+            #(#fields)*
+            #(#count_fields)*
+        }
+
+        impl ::core::default::Default for #name {
+            fn default() -> Self {
+                Self { #(#defaults)* #(#count_defaults)* }
+            }
+        }
+
+        #[allow(non_snake_case, unused_variables, unused_mut, unused_parens, clippy::all, clippy::pedantic)]
+        impl #name {
+            #layout
+        }
+
+        #[allow(non_snake_case, unused_variables, unused_mut, unused_parens, clippy::all, clippy::pedantic)]
+        impl #private::Model for #name {
+            #info
+            #equations
+            #check
+
+            fn param(&self, index: usize) -> f64 {
+                match index {
+                    #(#get_arms)*
+                    #(#get_counts)*
+                    _ => panic!("parameter index {} out of range", index),
+                }
+            }
+
+            fn set_param(&mut self, index: usize, value: f64) {
+                match index {
+                    #(#set_arms)*
+                    #(#set_counts)*
+                    _ => panic!("parameter index {} out of range", index),
+                }
+            }
+
+            fn mass_diagonal(&self, out: &mut [f64]) {
+                type S = f64;
+                let l = self.__ezy_layout();
+                #mass_body
+            }
+
+            fn local_geometry(&self, points: &mut [f64], blades: &mut [f64]) {
+                type S = f64;
+                let l = self.__ezy_layout();
+                #local_body
+            }
+
+            #numerics
+        }
+    }
 }
 
 /// Straight-line products with `G` at its compile-time sparsity pattern:
@@ -443,7 +751,7 @@ fn sparse_kernels(pattern: &[(usize, usize)], nq: usize, nc: usize) -> TokenStre
     let nn = nc * nc;
     quote! {
         #[inline]
-        fn normal_matrix(values: &[f64], winv: &[f64], a: &mut [f64]) {
+        fn normal_matrix(&self, _pattern: &[(usize, usize)], _nc: usize, values: &[f64], winv: &[f64], a: &mut [f64]) {
             let values = &values[..#nnz];
             let winv = &winv[..#nq];
             let a = &mut a[..#nn];
@@ -451,7 +759,7 @@ fn sparse_kernels(pattern: &[(usize, usize)], nq: usize, nc: usize) -> TokenStre
         }
 
         #[inline]
-        fn g_winv_mul(values: &[f64], winv: &[f64], u: &[f64], out: &mut [f64]) {
+        fn g_winv_mul(&self, _pattern: &[(usize, usize)], values: &[f64], winv: &[f64], u: &[f64], out: &mut [f64]) {
             let values = &values[..#nnz];
             let winv = &winv[..#nq];
             let u = &u[..#nq];
@@ -460,12 +768,383 @@ fn sparse_kernels(pattern: &[(usize, usize)], nq: usize, nc: usize) -> TokenStre
         }
 
         #[inline]
-        fn sub_winv_gt_mul(values: &[f64], winv: &[f64], x: &[f64], v: &mut [f64]) {
+        fn sub_winv_gt_mul(&self, _pattern: &[(usize, usize)], values: &[f64], winv: &[f64], x: &[f64], v: &mut [f64]) {
             let values = &values[..#nnz];
             let winv = &winv[..#nq];
             let x = &x[..#nc];
             let v = &mut v[..#nq];
             #gt
+        }
+    }
+}
+
+/// Number of elements of an item (`l.f_len[f]`, or 1).
+fn len_tokens(family: Option<usize>) -> TokenStream {
+    match family {
+        Some(f) => quote!(l.f_len[#f]),
+        None => quote!(1usize),
+    }
+}
+
+/// The runtime name of an item's element: `"J"` or `format!("J{v}")`.
+fn element_name(name: &str, family: Option<usize>) -> TokenStream {
+    match family {
+        Some(_) => quote!(::std::format!("{}{}", #name, v)),
+        None => quote!(::std::string::String::from(#name)),
+    }
+}
+
+fn kind_index(k: Kind) -> usize {
+    match k {
+        Kind::Hinge => 0,
+        Kind::Slider => 1,
+        Kind::Drive => 2,
+        Kind::Skate => 3,
+    }
+}
+
+fn item_name(def: &ModelDef, g: &Group) -> String {
+    match g.kind {
+        Kind::Hinge => def.hinges[g.item].name.to_string(),
+        Kind::Slider => def.sliders[g.item].name.to_string(),
+        Kind::Drive => def.drives[g.item].name.to_string(),
+        Kind::Skate => def.skates[g.item].name.to_string(),
+    }
+}
+
+/// `fn __ezy_layout(&self)`: where every item's elements sit in `q`, the
+/// rows of `G` and its pattern values, at the current counts.
+fn layout_fn(def: &ModelDef, d: &Derived) -> TokenStream {
+    let private = quote!(::ezy_core::__private);
+    let (nf, nb, np, ng) = (def.families.len(), def.bodies.len(), def.points.len(), d.groups.len());
+    let counts = count_lets(def);
+    let mut body = TokenStream::new();
+    for (f, fam) in def.families.iter().enumerate() {
+        let (s, e) = (affine_tokens(&fam.start), affine_tokens(&fam.end));
+        body.extend(quote! {
+            let start: i64 = #s;
+            let end: i64 = #e;
+            l.f_start[#f] = start;
+            l.f_len[#f] = if end > start { (end - start) as usize } else { 0 };
+        });
+    }
+    body.extend(quote!(let mut off = 0usize; let mut bi = 0usize;));
+    for (b, item) in def.bodies.iter().enumerate() {
+        let n = len_tokens(item.family);
+        body.extend(quote! { l.body_off[#b] = off; l.body_index[#b] = bi; off += 3 * #n; bi += #n; });
+    }
+    body.extend(quote!(let mut pi = 0usize;));
+    for (p, item) in def.points.iter().enumerate() {
+        let n = len_tokens(item.family);
+        body.extend(quote! { l.point_index[#p] = pi; pi += #n; });
+    }
+    body.extend(quote!(let mut row = 0usize; let mut val = 0usize; let mut kc = [0usize; 4];));
+    for (gi, g) in d.groups.iter().enumerate() {
+        let n = len_tokens(g.family);
+        let (nr, nnz, k) = (g.rows(), g.local_pattern(&d.ar).len(), kind_index(g.kind));
+        body.extend(quote! {
+            l.row[#gi] = row; l.val[#gi] = val; l.item_index[#gi] = kc[#k];
+            row += #nr * #n; val += #nnz * #n; kc[#k] += #n;
+        });
+        if g.holonomic() {
+            body.extend(quote!(l.nh = row; l.nnz_h = val;));
+        }
+    }
+    quote! {
+        /// Offsets of every item at the current counts.
+        #[inline]
+        fn __ezy_layout(&self) -> #private::Layout<#nf, #nb, #np, #ng> {
+            #counts
+            let mut l = #private::Layout {
+                f_start: [0; #nf], f_len: [0; #nf], body_off: [0; #nb], body_index: [0; #nb],
+                point_index: [0; #np], row: [0; #ng], val: [0; #ng], item_index: [0; #ng],
+                nq: 0, nc: 0, nh: 0, nnz: 0, nnz_h: 0, n_bodies: 0, n_points: 0,
+            };
+            #body
+            l.nq = off; l.n_bodies = bi; l.n_points = pi; l.nc = row; l.nnz = val;
+            l
+        }
+    }
+}
+
+/// `fn info(&self)`: names, indices and the pattern at the current counts.
+fn info_fn(def: &ModelDef, res: &Resolved, d: &Derived) -> TokenStream {
+    let private = quote!(::ezy_core::__private);
+    let model_name = def.name.to_string();
+    let model_doc = doc_of(&def.attrs).split(". ").next().unwrap_or("").trim_end_matches('.').to_string();
+    let mut params_info: Vec<TokenStream> = def
+        .params
+        .iter()
+        .map(|p| {
+            let (doc, unit) = split_unit(&doc_of(&p.attrs));
+            let n = p.name.to_string();
+            let v = lit_f64(p.value);
+            quote!(#private::ParamInfo { name: #n, default: #v, unit: #unit, doc: #doc, count: false })
+        })
+        .collect();
+    params_info.extend(def.counts.iter().map(|c| {
+        let (doc, _) = split_unit(&doc_of(&c.attrs));
+        let n = c.name.to_string();
+        let v = lit_f64(c.value as f64);
+        quote!(#private::ParamInfo { name: #n, default: #v, unit: "", doc: #doc, count: true })
+    }));
+    let param_of = |e: &syn::Expr| -> TokenStream {
+        match e {
+            syn::Expr::Path(p) if p.path.get_ident().is_some() => {
+                let n = p.path.get_ident().expect("checked").to_string();
+                quote!(::core::option::Option::Some(#n))
+            }
+            _ => quote!(::core::option::Option::None),
+        }
+    };
+    let mut body = TokenStream::new();
+    for (bi, b) in def.bodies.iter().enumerate() {
+        let name = element_name(&b.name.to_string(), b.family);
+        let cs: Vec<TokenStream> = b.coords.iter().map(|c| element_name(&c.to_string(), b.family)).collect();
+        let (mp, ip) = (param_of(&b.mass), param_of(&b.inertia));
+        body.extend(each_element(
+            b.family,
+            quote! {
+                let k = l.body_off[#bi] + 3 * e;
+                #(coords.push(#cs);)*
+                bodies.push(#private::BodyInfo { name: #name, coords: [k, k + 1, k + 2], mass_param: #mp, inertia_param: #ip });
+            },
+        ));
+    }
+    for (pi, p) in def.points.iter().enumerate() {
+        let name = element_name(&p.name.to_string(), p.family);
+        let b = body_index(def, &point_body(def, res, pi));
+        body.extend(each_element(p.family, quote!(points.push(#private::PointInfo { name: #name, body: #b });)));
+    }
+    for (gi, g) in d.groups.iter().enumerate() {
+        let iname = item_name(def, g);
+        let name = element_name(&iname, g.family);
+        let nr = g.rows();
+        let slot = |s: usize| g.slots.get(s).map(|b| body_index(def, b));
+        let item = match g.kind {
+            Kind::Hinge => {
+                let a = slot(0).expect("a hinge has a body");
+                let b = match slot(1) {
+                    Some(b) => quote!(::core::option::Option::Some(#b)),
+                    None => quote!(::core::option::Option::None),
+                };
+                quote!(hinges.push(#private::HingeInfo { name: #name, body_a: #a, body_b: #b, row: rb });)
+            }
+            Kind::Slider => {
+                let b = slot(0).expect("a slider has a body");
+                let a = match slot(1) {
+                    Some(a) => quote!(::core::option::Option::Some(#a)),
+                    None => quote!(::core::option::Option::None),
+                };
+                quote!(sliders.push(#private::SliderInfo { name: #name, body_a: #a, body_b: #b, row: rb });)
+            }
+            Kind::Drive => {
+                let h = res.drive_hinge[g.item];
+                let hg = d.groups.iter().position(|x| x.kind == Kind::Hinge && x.item == h).expect("hinge group");
+                quote!(drives.push(#private::DriveInfo { name: #name, hinge: l.item_index[#hg], row: rb });)
+            }
+            Kind::Skate => {
+                let p = point_index(def, &res.skate_point[g.item]);
+                quote!(skates.push(#private::SkateInfo { name: #name, point: #p, row: rb });)
+            }
+        };
+        let suffixes = &g.suffixes;
+        let cols: Vec<TokenStream> = g.slots.iter().map(|b| body_column(def, b)).collect();
+        let ns = cols.len();
+        let entries = g.local_pattern(&d.ar).into_iter().map(|(r, c)| {
+            let (s, o) = (c / 3, c % 3);
+            quote!(pattern.push((rb + #r, cols[#s] + #o));)
+        });
+        body.extend(each_element(
+            g.family,
+            quote! {
+                let rb = l.row[#gi] + e * #nr;
+                let cols: [usize; #ns] = [#(#cols),*];
+                #item
+                let base = #name;
+                #(constraints.push(::std::format!("{}{}", base, #suffixes));)*
+                #(#entries)*
+            },
+        ));
+    }
+    quote! {
+        fn info(&self) -> #private::ModelInfo {
+            let l = self.__ezy_layout();
+            let mut coords = ::std::vec::Vec::with_capacity(l.nq);
+            let mut bodies = ::std::vec::Vec::with_capacity(l.n_bodies);
+            let mut points = ::std::vec::Vec::with_capacity(l.n_points);
+            let mut hinges = ::std::vec::Vec::new();
+            let mut sliders = ::std::vec::Vec::new();
+            let mut drives = ::std::vec::Vec::new();
+            let mut skates = ::std::vec::Vec::new();
+            let mut constraints = ::std::vec::Vec::with_capacity(l.nc);
+            let mut pattern = ::std::vec::Vec::with_capacity(l.nnz);
+            #body
+            #private::ModelInfo {
+                name: #model_name,
+                doc: #model_doc,
+                coords,
+                params: ::std::vec![#(#params_info),*],
+                bodies,
+                points,
+                hinges,
+                sliders,
+                drives,
+                skates,
+                constraints,
+                n_holonomic: l.nh,
+                pattern,
+            }
+        }
+    }
+}
+
+/// `fn check_counts(&self)`: every family reference stays inside the
+/// family it names, joints join distinct bodies, and names are unique.
+fn check_fn(def: &ModelDef, res: &Resolved, d: &Derived) -> TokenStream {
+    let mut body = TokenStream::new();
+    for c in &def.counts {
+        let n = &c.name;
+        let msg = format!("count `{}` is 0; it must be at least 1", c.name);
+        body.extend(quote!(if self.#n < 1 { return ::core::result::Result::Err(::std::string::String::from(#msg)); }));
+    }
+    // does element `value` of family `f` exist? else an error naming `what`
+    let in_range = |f: usize, index: &Affine, var: &str, owner: TokenStream, what: String| -> TokenStream {
+        let a = affine_tokens(index);
+        let shown = index.show(var);
+        let fam = &def.families[f];
+        let range = format!("{}..{}", fam.start.show(""), fam.end.show(""));
+        quote! {
+            let value: i64 = #a;
+            if value < l.f_start[#f] || value >= l.f_start[#f] + l.f_len[#f] as i64 {
+                return ::core::result::Result::Err(::std::format!(
+                    "{} refers to {}[{}] = {}{}, which does not exist: {} has elements {}..{} ({})",
+                    #owner, #what, #shown, #what, value, #what, l.f_start[#f], l.f_start[#f] + l.f_len[#f] as i64, #range
+                ));
+            }
+        }
+    };
+    for (pi, p) in def.points.iter().enumerate() {
+        let b = res.point_body[pi];
+        let Some(fb) = def.bodies[b].family else { continue };
+        let var = p.family.map(|f| def.families[f].var.to_string()).unwrap_or_default();
+        let owner_name = element_name(&p.name.to_string(), p.family);
+        let owner = quote!(::std::format!("point `{}`", #owner_name));
+        let (_, index) = point_body(def, res, pi);
+        let check = in_range(fb, index.as_ref().expect("family body"), &var, owner, def.bodies[b].name.to_string());
+        body.extend(each_element(p.family, check));
+    }
+    for g in &d.groups {
+        let var = g.family.map(|f| def.families[f].var.to_string()).unwrap_or_default();
+        let kind = match g.kind {
+            Kind::Hinge => "hinge",
+            Kind::Slider => "slider",
+            Kind::Drive => "drive",
+            Kind::Skate => "skate",
+        };
+        let owner_name = element_name(&item_name(def, g), g.family);
+        let owner = quote!(::std::format!("{} `{}`", #kind, #owner_name));
+        let mut checks = TokenStream::new();
+        let refs: Vec<&PointRef> = match g.kind {
+            Kind::Hinge => {
+                let (a, b) = &res.hinge_points[g.item];
+                std::iter::once(a).chain(b).collect()
+            }
+            Kind::Slider => {
+                let (a, b) = &res.slider_points[g.item];
+                std::iter::once(a).chain(b).collect()
+            }
+            Kind::Skate => vec![&res.skate_point[g.item]],
+            Kind::Drive => Vec::new(),
+        };
+        for r in refs {
+            if let (Some(fp), Some(index)) = (def.points[r.0].family, &r.1) {
+                checks.extend(in_range(fp, index, &var, owner.clone(), def.points[r.0].name.to_string()));
+            }
+        }
+        for b in &g.slots {
+            if let (Some(fb), Some(index)) = (def.bodies[b.0].family, &b.1) {
+                checks.extend(in_range(fb, index, &var, owner.clone(), def.bodies[b.0].name.to_string()));
+            }
+        }
+        if g.slots.len() == 2 && g.kind != Kind::Drive {
+            let (a, b) = (body_index(def, &g.slots[0]), body_index(def, &g.slots[1]));
+            checks.extend(quote! {
+                if #a == #b {
+                    return ::core::result::Result::Err(::std::format!("{} joins two points of the same body", #owner));
+                }
+            });
+        }
+        body.extend(each_element(g.family, checks));
+    }
+    quote! {
+        fn check_counts(&self) -> ::core::result::Result<(), ::std::string::String> {
+            let l = self.__ezy_layout();
+            #body
+            let info = <Self as ::ezy_core::__private::Model>::info(self);
+            ::ezy_core::__private::unique_names(&info)
+        }
+    }
+}
+
+/// `fn equations(&self)`: each item's templates rendered per element.
+fn equations_fn(def: &ModelDef, res: &Resolved, d: &Derived) -> TokenStream {
+    let private = quote!(::ezy_core::__private);
+    let params: Vec<String> = def.params.iter().map(|p| p.name.to_string()).collect();
+    let render = |id: Id, out: &str| -> TokenStream {
+        let (t, x) = templates(d, id);
+        let out = format_ident!("{}", out);
+        quote!(eq.#out.push(#private::render_equation(#t, #x, &names, &params));)
+    };
+    let names_of = |slots: &[BodyRef]| -> TokenStream {
+        let cols: Vec<TokenStream> = slots.iter().map(|b| body_column(def, b)).collect();
+        let n = 3 * slots.len();
+        let idx = (0..n).map(|k| {
+            let (s, o) = (k / 3, k % 3);
+            quote!(info.coords[cols[#s] + #o].as_str())
+        });
+        let ns = slots.len();
+        quote! {
+            let cols: [usize; #ns] = [#(#cols),*];
+            let names: [&str; #n] = [#(#idx),*];
+        }
+    };
+    let mut body = TokenStream::new();
+    for (bi, b) in def.bodies.iter().enumerate() {
+        let pushes: Vec<TokenStream> = d.mass[bi].iter().map(|&m| render(m, "mass")).collect();
+        body.extend(each_element(b.family, quote!(let names: [&str; 0] = []; #(#pushes)*)));
+    }
+    for g in &d.groups {
+        if g.slots.is_empty() {
+            continue;
+        }
+        let names = names_of(&g.slots);
+        let mut pushes = TokenStream::new();
+        if g.holonomic() {
+            pushes.extend(g.phi.iter().map(|&x| render(x, "phi")));
+        }
+        pushes.extend(g.velocity.iter().map(|&x| render(x, "velocity")));
+        pushes.extend(g.local_pattern(&d.ar).into_iter().map(|(r, c)| render(g.g[r][c], "jacobian")));
+        pushes.extend(g.gamma.iter().map(|&x| render(x, "gamma")));
+        body.extend(each_element(g.family, quote!(#names #pushes)));
+    }
+    for (pi, p) in d.points.iter().enumerate() {
+        if p.body.is_none() {
+            continue;
+        }
+        let names = names_of(&[point_body(def, res, pi)]);
+        let pushes: Vec<TokenStream> = p.vel.iter().map(|&x| render(x, "point_velocities")).collect();
+        body.extend(each_element(def.points[pi].family, quote!(#names #(#pushes)*)));
+    }
+    quote! {
+        fn equations(&self) -> #private::Equations {
+            let l = self.__ezy_layout();
+            let info = <Self as #private::Model>::info(self);
+            let params: &[&str] = &[#(#params),*];
+            let mut eq = #private::Equations::default();
+            eq.coords = info.coords.iter().map(|c| #private::render_equation("\u{1}q0\u{2}", "\u{1}q0\u{2}", &[c.as_str()], &[])).collect();
+            #body
+            eq
         }
     }
 }

@@ -21,50 +21,96 @@
 //!   `gamma = d/dq(g(q) qd) qd`.
 //!
 //! Every formula of SPEC §1 follows from these definitions; none is typed in.
+//!
+//! Each constraint item (a single one, or a `for` family) is derived once,
+//! as an element kernel in *local* coordinates: the bodies it touches are
+//! its slots, slot `s` owning local coordinates `3 s .. 3 s + 3`. The
+//! runtime maps slots to columns of `q` per element; a model without
+//! families is also renamed to global coordinates (straight-line code).
 
 use syn::{BinOp, Expr, UnOp};
 
 use crate::ast::{HingeTarget, ModelDef};
-use crate::check::{Errors, Resolved};
+use crate::check::{BodyRef, Errors, PointRef, Resolved, same_body};
 use crate::sym::{Arena, Id, Sym};
 
-/// Everything the emitter needs.
-pub struct Derived {
-    pub ar: Arena,
-    pub nq: usize,
-    /// Holonomic residual rows (nh).
-    pub phi: Vec<Id>,
-    /// Constraint matrix G (nc x nq), holonomic rows first.
-    pub g: Vec<Vec<Id>>,
-    /// Convective terms (nc).
-    pub gamma: Vec<Id>,
-    /// Velocity forms `G_i(q) qd` (nc), for readable equations.
-    pub velocity: Vec<Id>,
-    /// Row names of G.
-    pub constraint_names: Vec<String>,
-    /// Point positions and velocities, `[x, y]` per point.
-    pub points: Vec<[Id; 2]>,
-    pub point_vel: Vec<[Id; 2]>,
-    /// Mass-matrix diagonal (nq), in terms of parameters.
-    pub mass: Vec<Id>,
-    /// Body-frame geometry in terms of parameters: `(px, py)` per point,
-    /// then the unit blade direction `(tx, ty)` per skate.
-    pub local: Vec<Id>,
+/// The kind of a constraint item.
+#[derive(Clone, Copy, PartialEq, Eq, Debug)]
+pub enum Kind {
+    Hinge,
+    Slider,
+    Drive,
+    Skate,
 }
 
-impl Derived {
-    /// Structural nonzeros `(row, col)` of G, row-major.
-    pub fn pattern(&self) -> Vec<(usize, usize)> {
+/// One constraint item (single or a family), derived in local coordinates.
+pub struct Group {
+    pub kind: Kind,
+    /// Index among the items of its kind (`def.hinges[item]`, ...).
+    pub item: usize,
+    /// The `for` family, if any.
+    pub family: Option<usize>,
+    /// The bodies it touches: slot `s` has local coordinates `3s..3s+3`.
+    pub slots: Vec<BodyRef>,
+    /// Holonomic residual rows (empty for a skate).
+    pub phi: Vec<Id>,
+    /// Rows of `G` over the local coordinates (rows x 3 slots).
+    pub g: Vec<Vec<Id>>,
+    /// Convective terms (rows).
+    pub gamma: Vec<Id>,
+    /// Velocity forms `G_i qd` (rows), for readable equations.
+    pub velocity: Vec<Id>,
+    /// Row name suffixes (`.x`, `.y`; `.n`, `.phi`; `` for drives, skates).
+    pub suffixes: Vec<&'static str>,
+}
+
+impl Group {
+    /// Number of rows per element.
+    pub fn rows(&self) -> usize {
+        self.g.len()
+    }
+    /// Structural nonzeros `(row, local column)` of one element, row-major.
+    pub fn local_pattern(&self, ar: &Arena) -> Vec<(usize, usize)> {
         let mut out = Vec::new();
         for (r, row) in self.g.iter().enumerate() {
             for (c, &e) in row.iter().enumerate() {
-                if !self.ar.is_zero(e) {
+                if !ar.is_zero(e) {
                     out.push((r, c));
                 }
             }
         }
         out
     }
+    /// Whether its rows are holonomic.
+    pub fn holonomic(&self) -> bool {
+        self.kind != Kind::Skate
+    }
+}
+
+/// A point item in local coordinates of its body (slot 0).
+pub struct PointDerived {
+    /// Its body item (`None` if unresolved); a family point sits on the
+    /// element of the same index, a single point on
+    /// [`Resolved::point_body_index`].
+    pub body: Option<usize>,
+    /// World position and velocity.
+    pub pos: [Id; 2],
+    pub vel: [Id; 2],
+    /// Body-frame coordinates `(px, py)`, in parameters.
+    pub local: [Id; 2],
+}
+
+/// Everything the emitter needs.
+pub struct Derived {
+    pub ar: Arena,
+    /// Constraint items in row order: hinges, sliders, drives (holonomic),
+    /// then skates.
+    pub groups: Vec<Group>,
+    pub points: Vec<PointDerived>,
+    /// Mass-matrix diagonal `(m, m, I)` of every body item, in parameters.
+    pub mass: Vec<[Id; 3]>,
+    /// Unit blade direction `(tx, ty)` of every skate item, body frame.
+    pub blades: Vec<[Id; 2]>,
 }
 
 /// Converts a user expression (numbers, parameters, + - * /, sqrt/sin/cos).
@@ -158,9 +204,8 @@ fn unit_and_normal(ar: &mut Arena, tx: Id, ty: Id) -> ([Id; 2], [Id; 2]) {
 pub fn derive(def: &ModelDef, res: &Resolved, errs: &mut Errors) -> Derived {
     let mut ar = Arena::new();
     let params: Vec<String> = def.params.iter().map(|p| p.name.to_string()).collect();
-    let nq = 3 * def.bodies.len();
 
-    let mut mass = Vec::with_capacity(nq);
+    let mut mass = Vec::with_capacity(def.bodies.len());
     for b in &def.bodies {
         let before = errs.count();
         let m = expr_to_sym(&mut ar, &b.mass, &params, &format!("mass of body `{}`", b.name), errs);
@@ -177,69 +222,96 @@ pub fn derive(def: &ModelDef, res: &Resolved, errs: &mut Errors) -> Derived {
                 errs.at(tok, format!("{what} of body `{}` must be positive, got {v}", b.name));
             }
         }
-        mass.extend([m, m, i]);
+        mass.push([m, m, i]);
     }
 
-    let q: Vec<Id> = (0..nq).map(|k| ar.sym(Sym::Q(k))).collect();
-    let qd: Vec<Id> = (0..nq).map(|k| ar.sym(Sym::Qd(k))).collect();
-
-    // World position of a body point (px, py) on body `b`.
-    let world = |ar: &mut Arena, b: usize, px: Id, py: Id| -> [Id; 2] {
-        let (x, y) = (q[3 * b], q[3 * b + 1]);
-        let [rx, ry] = rotate(ar, q[3 * b + 2], px, py);
+    // local coordinates of slot `s`
+    let lq = |ar: &mut Arena, s: usize, k: usize| ar.sym(Sym::Q(3 * s + k));
+    // world position of a body point (px, py) on slot `s`
+    let world = |ar: &mut Arena, s: usize, px: Id, py: Id| -> [Id; 2] {
+        let (x, y, phi) = (lq(ar, s, 0), lq(ar, s, 1), lq(ar, s, 2));
+        let [rx, ry] = rotate(ar, phi, px, py);
         [ar.add2(x, rx), ar.add2(y, ry)]
     };
-    let time_derivative = |ar: &mut Arena, e: Id| -> Id {
-        let terms: Vec<Id> = (0..nq)
+    let time_derivative = |ar: &mut Arena, e: Id, n: usize| -> Id {
+        let terms: Vec<Id> = (0..n)
             .map(|k| {
                 let d = ar.diff(e, Sym::Q(k));
-                ar.mul2(d, qd[k])
+                let v = ar.sym(Sym::Qd(k));
+                ar.mul2(d, v)
             })
             .collect();
         ar.add(&terms)
     };
 
     let mut points = Vec::with_capacity(def.points.len());
-    let mut point_vel = Vec::with_capacity(def.points.len());
-    let mut local = Vec::with_capacity(2 * (def.points.len() + def.skates.len()));
     for (p, &b) in def.points.iter().zip(&res.point_body) {
         let what = format!("point `{}`", p.name);
         let px = expr_to_sym(&mut ar, &p.at[0], &params, &what, errs);
         let py = expr_to_sym(&mut ar, &p.at[1], &params, &what, errs);
-        local.extend([px, py]);
         if b == usize::MAX {
             let z = ar.cst(0.0);
-            points.push([z, z]);
-            point_vel.push([z, z]);
+            points.push(PointDerived { body: None, pos: [z, z], vel: [z, z], local: [px, py] });
             continue;
         }
-        let r = world(&mut ar, b, px, py);
-        let v = [time_derivative(&mut ar, r[0]), time_derivative(&mut ar, r[1])];
-        points.push(r);
-        point_vel.push(v);
+        let r = world(&mut ar, 0, px, py);
+        let v = [time_derivative(&mut ar, r[0], 3), time_derivative(&mut ar, r[1], 3)];
+        points.push(PointDerived { body: Some(b), pos: r, vel: v, local: [px, py] });
     }
+    // slot of a body element in `slots`, added if new
+    let slot_of = |slots: &mut Vec<BodyRef>, b: BodyRef| -> usize {
+        match slots.iter().position(|s| same_body(s, &b)) {
+            Some(k) => k,
+            None => {
+                slots.push(b);
+                slots.len() - 1
+            }
+        }
+    };
+    // a point reference's world position in the group's local coordinates
+    let resolved = |pr: &PointRef| pr.0 != usize::MAX && res.point_body[pr.0] != usize::MAX;
+    let at = |ar: &mut Arena, slots: &mut Vec<BodyRef>, pr: &PointRef| -> ([Id; 2], usize) {
+        let s = slot_of(slots, res.body_of(def, pr));
+        let [px, py] = points[pr.0].local;
+        (world(ar, s, px, py), s)
+    };
 
-    let mut phi = Vec::new();
-    let mut constraint_names = Vec::new();
-    for (h, &(a, b)) in def.hinges.iter().zip(&res.hinge_points) {
-        if a == usize::MAX || b == Some(usize::MAX) {
+    let mut groups = Vec::new();
+    let new_group = |kind, item, family| Group {
+        kind,
+        item,
+        family,
+        slots: Vec::new(),
+        phi: Vec::new(),
+        g: Vec::new(),
+        gamma: Vec::new(),
+        velocity: Vec::new(),
+        suffixes: Vec::new(),
+    };
+    for (hi, (h, (a, b))) in def.hinges.iter().zip(&res.hinge_points).enumerate() {
+        let mut g = new_group(Kind::Hinge, hi, h.family);
+        if !resolved(a) || b.as_ref().is_some_and(|b| !resolved(b)) {
+            groups.push(g);
             continue;
         }
+        let (ra, _) = at(&mut ar, &mut g.slots, a);
         let other = match (&h.target, b) {
-            (HingeTarget::Point(_), Some(b)) => points[b],
+            (HingeTarget::Point(_), Some(b)) => at(&mut ar, &mut g.slots, b).0,
             (HingeTarget::Ground { at, .. }, _) => {
                 let what = format!("ground point of hinge `{}`", h.name);
                 [expr_to_sym(&mut ar, &at[0], &params, &what, errs), expr_to_sym(&mut ar, &at[1], &params, &what, errs)]
             }
             _ => unreachable!("hinge target and resolution agree"),
         };
-        for (k, axis) in ["x", "y"].iter().enumerate() {
-            phi.push(ar.sub(points[a][k], other[k]));
-            constraint_names.push(format!("{}.{axis}", h.name));
+        for (k, axis) in [".x", ".y"].into_iter().enumerate() {
+            g.phi.push(ar.sub(ra[k], other[k]));
+            g.suffixes.push(axis);
         }
+        groups.push(g);
     }
 
-    for (sl, &(p, guide)) in def.sliders.iter().zip(&res.slider_points) {
+    for (si, (sl, (p, guide))) in def.sliders.iter().zip(&res.slider_points).enumerate() {
+        let mut g = new_group(Kind::Slider, si, sl.family);
         let what = format!("slider `{}`", sl.name);
         let tx = expr_to_sym(&mut ar, &sl.along[0], &params, &format!("direction of {what}"), errs);
         let ty = expr_to_sym(&mut ar, &sl.along[1], &params, &format!("direction of {what}"), errs);
@@ -252,22 +324,22 @@ pub fn derive(def: &ModelDef, res: &Resolved, errs: &mut Errors) -> Derived {
                 sl.along_span,
                 format!("slider `{}` has a zero direction; give a nonzero (dx, dy)", sl.name),
             ));
+            groups.push(g);
             continue;
         }
-        if p == usize::MAX || guide == Some(usize::MAX) || res.point_body[p] == usize::MAX {
+        if !resolved(p) || guide.as_ref().is_some_and(|g| !resolved(g)) {
+            groups.push(g);
             continue;
         }
-        let b = res.point_body[p];
         // unit normal of the line, in the guide's frame, and the guide's
         // point and heading (the ground: world frame, heading 0)
         let (_, [nx, ny]) = unit_and_normal(&mut ar, tx, ty);
+        let (rp, sp) = at(&mut ar, &mut g.slots, p);
         let (origin, normal, heading) = match (&sl.target, guide) {
             (HingeTarget::Point(_), Some(gp)) => {
-                let a = res.point_body[gp];
-                if a == usize::MAX {
-                    continue;
-                }
-                (points[gp], rotate(&mut ar, q[3 * a + 2], nx, ny), q[3 * a + 2])
+                let (origin, sa) = at(&mut ar, &mut g.slots, gp);
+                let phi_a = lq(&mut ar, sa, 2);
+                (origin, rotate(&mut ar, phi_a, nx, ny), phi_a)
             }
             (HingeTarget::Ground { at }, _) => {
                 let at = [
@@ -278,78 +350,108 @@ pub fn derive(def: &ModelDef, res: &Resolved, errs: &mut Errors) -> Derived {
             }
             _ => unreachable!("slider target and resolution agree"),
         };
-        let dx = ar.sub(points[p][0], origin[0]);
-        let dy = ar.sub(points[p][1], origin[1]);
+        let dx = ar.sub(rp[0], origin[0]);
+        let dy = ar.sub(rp[1], origin[1]);
         let ex = ar.mul2(normal[0], dx);
         let ey = ar.mul2(normal[1], dy);
-        phi.push(ar.add2(ex, ey));
-        constraint_names.push(format!("{}.n", sl.name));
-        let rel = ar.sub(q[3 * b + 2], heading);
-        phi.push(ar.sub(rel, angle));
-        constraint_names.push(format!("{}.phi", sl.name));
+        g.phi.push(ar.add2(ex, ey));
+        g.suffixes.push(".n");
+        let phi_b = lq(&mut ar, sp, 2);
+        let rel = ar.sub(phi_b, heading);
+        g.phi.push(ar.sub(rel, angle));
+        g.suffixes.push(".phi");
+        groups.push(g);
     }
 
-    for (dr, &h) in def.drives.iter().zip(&res.drive_hinge) {
-        let Some(&(pa, pb)) = res.hinge_points.get(h) else { continue };
-        if pa == usize::MAX || res.point_body[pa] == usize::MAX || pb == Some(usize::MAX) {
+    for (di, &h) in res.drive_hinge.iter().enumerate() {
+        let mut g = new_group(Kind::Drive, di, None);
+        let Some((a, b)) = res.hinge_points.get(h) else {
+            groups.push(g);
+            continue;
+        };
+        if !resolved(a) || b.as_ref().is_some_and(|b| !resolved(b)) {
+            groups.push(g);
             continue;
         }
-        let a = res.point_body[pa];
-        let angle = match pb {
-            Some(pb) => ar.sub(q[3 * a + 2], q[3 * res.point_body[pb] + 2]),
-            None => q[3 * a + 2],
+        let sa = slot_of(&mut g.slots, res.body_of(def, a));
+        let phi_a = lq(&mut ar, sa, 2);
+        let angle = match b {
+            Some(b) => {
+                let sb = slot_of(&mut g.slots, res.body_of(def, b));
+                let phi_b = lq(&mut ar, sb, 2);
+                ar.sub(phi_a, phi_b)
+            }
+            None => phi_a,
         };
-        phi.push(angle);
-        constraint_names.push(dr.name.to_string());
+        g.phi.push(angle);
+        g.suffixes.push("");
+        groups.push(g);
     }
 
-    let mut g: Vec<Vec<Id>> =
-        phi.iter().map(|&row| (0..nq).map(|k| ar.diff(row, Sym::Q(k))).collect::<Vec<_>>()).collect();
+    for g in &mut groups {
+        let n = 3 * g.slots.len();
+        g.g = g.phi.iter().map(|&row| (0..n).map(|k| ar.diff(row, Sym::Q(k))).collect()).collect();
+    }
 
-    for (s, &p) in def.skates.iter().zip(&res.skate_point) {
+    let mut blades = Vec::with_capacity(def.skates.len());
+    for (ki, (s, p)) in def.skates.iter().zip(&res.skate_point).enumerate() {
+        let mut g = new_group(Kind::Skate, ki, s.family);
         let what = format!("blade direction of skate `{}`", s.name);
         let tx = expr_to_sym(&mut ar, &s.along[0], &params, &what, errs);
         let ty = expr_to_sym(&mut ar, &s.along[1], &params, &what, errs);
         let zero = ar.cst(0.0);
-        local.extend([zero, zero]);
         if ar.is_zero(tx) && ar.is_zero(ty) {
             errs.push(syn::Error::new(
                 s.along_span,
                 format!("skate `{}` has a zero blade direction; give a nonzero (dx, dy)", s.name),
             ));
+            blades.push([zero, zero]);
+            groups.push(g);
             continue;
         }
-        if p == usize::MAX || res.point_body[p] == usize::MAX {
-            continue;
-        }
-        let b = res.point_body[p];
         // normalized blade direction and its body-frame normal (-ty, tx)
         let ([ux, uy], [nbx, nby]) = unit_and_normal(&mut ar, tx, ty);
-        let k = local.len();
-        local[k - 2] = ux;
-        local[k - 1] = uy;
-        let [nwx, nwy] = rotate(&mut ar, q[3 * b + 2], nbx, nby);
-        let row: Vec<Id> = (0..nq)
+        blades.push([ux, uy]);
+        if !resolved(p) {
+            groups.push(g);
+            continue;
+        }
+        let (r, sl) = at(&mut ar, &mut g.slots, p);
+        let phi = lq(&mut ar, sl, 2);
+        let [nwx, nwy] = rotate(&mut ar, phi, nbx, nby);
+        let n = 3 * g.slots.len();
+        let row: Vec<Id> = (0..n)
             .map(|k| {
-                let dx = ar.diff(points[p][0], Sym::Q(k));
-                let dy = ar.diff(points[p][1], Sym::Q(k));
+                let dx = ar.diff(r[0], Sym::Q(k));
+                let dy = ar.diff(r[1], Sym::Q(k));
                 let ex = ar.mul2(nwx, dx);
                 let ey = ar.mul2(nwy, dy);
                 ar.add2(ex, ey)
             })
             .collect();
-        g.push(row);
-        constraint_names.push(s.name.to_string());
+        g.g.push(row);
+        g.suffixes.push("");
+        groups.push(g);
     }
 
-    let velocity: Vec<Id> = g
-        .iter()
-        .map(|row| {
-            let terms: Vec<Id> = row.iter().zip(&qd).map(|(&gij, &v)| ar.mul2(gij, v)).collect();
-            ar.add(&terms)
-        })
-        .collect();
-    let gamma = velocity.iter().map(|&gv| time_derivative(&mut ar, gv)).collect();
+    for g in &mut groups {
+        let n = 3 * g.slots.len();
+        g.velocity =
+            g.g.iter()
+                .map(|row| {
+                    let terms: Vec<Id> = row
+                        .iter()
+                        .enumerate()
+                        .map(|(k, &gij)| {
+                            let v = ar.sym(Sym::Qd(k));
+                            ar.mul2(gij, v)
+                        })
+                        .collect();
+                    ar.add(&terms)
+                })
+                .collect();
+        g.gamma = g.velocity.clone().into_iter().map(|gv| time_derivative(&mut ar, gv, n)).collect();
+    }
 
-    Derived { ar, nq, phi, g, gamma, velocity, constraint_names, points, point_vel, mass, local }
+    Derived { ar, groups, points, mass, blades }
 }

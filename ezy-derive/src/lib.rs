@@ -1,6 +1,8 @@
 //! The `model!` macro of ezy: a declarative planar multibody model (bodies,
 //! points, hinges, skates) in, a struct with the `ezy_core::Model` impl out.
-//! The holonomic residual, its Jacobian, the skate constraint matrix, the
+//! Families (`for i in 0..N { .. }`) of bodies, points, hinges, sliders
+//! and skates are derived once as element kernels and looped over at run
+//! time. The holonomic residual, its Jacobian, the skate constraint matrix, the
 //! convective terms and the point kinematics are derived symbolically at
 //! compile time (see `kinematics` and `sym`); parameters stay runtime fields.
 //!
@@ -29,7 +31,7 @@ pub fn model(input: TokenStream) -> TokenStream {
 fn expand(def: &ast::ModelDef) -> syn::Result<proc_macro2::TokenStream> {
     let mut errs = check::Errors::default();
     let resolved = check::check(def, &mut errs);
-    let derived = kinematics::derive(def, &resolved, &mut errs);
+    let mut derived = kinematics::derive(def, &resolved, &mut errs);
     errs.finish()?;
-    Ok(emit::emit(def, &resolved, &derived))
+    Ok(emit::emit(def, &resolved, &mut derived))
 }

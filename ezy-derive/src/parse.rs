@@ -4,24 +4,31 @@
 //! model and before every item):
 //!
 //! ```text
-//! model  := VIS? "struct" NAME "{" item* "}"
-//! item   := "param" NAME "=" NUMBER ";"
+//! model  := VIS? "struct" NAME "{" (item | family)* "}"
+//! family := "for" VAR "in" BOUND ".." BOUND "{" item* "}"   (items named NAME[VAR])
+//! BOUND  := INTEGER | COUNT | COUNT ("+" | "-") INTEGER
+//! REF    := NAME | NAME "[" INDEX "]"   (INDEX: VAR, COUNT, INTEGER, +- INTEGER)
+//! item   := "count" NAME "=" INTEGER ";"
+//!         | "param" NAME "=" NUMBER ";"
 //!         | "body" NAME "(" X "," Y "," PHI ")" "{" "mass" ":" EXPR "," "inertia" ":" EXPR ","? "}"
-//!         | "point" NAME "on" BODY "at" "(" EXPR "," EXPR ")" ";"
-//!         | "hinge" NAME ":" POINT "=" ( POINT | "ground" "(" EXPR "," EXPR ")" ) ";"
-//!         | "skate" NAME ":" POINT "along" "(" EXPR "," EXPR ")" ";"
+//!         | "point" NAME "on" REF "at" "(" EXPR "," EXPR ")" ";"
+//!         | "hinge" NAME ":" REF "=" ( REF | "ground" "(" EXPR "," EXPR ")" ) ";"
+//!         | "slider" NAME ":" REF "on" ( REF | "ground" "(" EXPR "," EXPR ")" ) "along" "(" EXPR "," EXPR ")" ("angle" EXPR)? ";"
+//!         | "drive" NAME ":" "hinge" HINGE ";"
+//!         | "skate" NAME ":" REF "along" "(" EXPR "," EXPR ")" ";"
 //! EXPR   := numbers, parameter names, + - * /, parentheses, sqrt/sin/cos(...)
 //! ```
 
 use syn::parse::{Parse, ParseStream};
 use syn::punctuated::Punctuated;
 use syn::spanned::Spanned;
-use syn::{Attribute, Expr, Ident, Token, braced, parenthesized};
+use syn::{Attribute, BinOp, Expr, Ident, Token, braced, bracketed, parenthesized};
 
-use crate::ast::{Body, Drive, Hinge, HingeTarget, ModelDef, Param, Point, Skate, Slider};
+use crate::ast::{Affine, Body, Count, Drive, Family, Hinge, HingeTarget, ModelDef, Param, Point, Ref, Skate, Slider};
 
 mod kw {
     syn::custom_keyword!(param);
+    syn::custom_keyword!(count);
     syn::custom_keyword!(body);
     syn::custom_keyword!(point);
     syn::custom_keyword!(hinge);
@@ -50,6 +57,8 @@ impl Parse for ModelDef {
             vis,
             name,
             params: Vec::new(),
+            counts: Vec::new(),
+            families: Vec::new(),
             bodies: Vec::new(),
             points: Vec::new(),
             hinges: Vec::new(),
@@ -59,79 +68,238 @@ impl Parse for ModelDef {
         };
         while !content.is_empty() {
             let item_attrs = content.call(Attribute::parse_outer)?;
-            let look = content.lookahead1();
-            if look.peek(kw::param) {
-                content.parse::<kw::param>()?;
-                let name = content.parse()?;
-                content.parse::<Token![=]>()?;
-                let (value, value_span) = parse_number(&content)?;
-                content.parse::<Token![;]>()?;
-                def.params.push(Param { attrs: item_attrs, name, value, value_span });
-            } else if look.peek(kw::body) {
-                content.parse::<kw::body>()?;
-                def.bodies.push(parse_body(&content)?);
-            } else if look.peek(kw::point) {
-                content.parse::<kw::point>()?;
-                let name = content.parse()?;
-                content.parse::<kw::on>()?;
-                let body = content.parse()?;
-                content.parse::<kw::at>()?;
-                let (at, _) = parse_pair(&content)?;
-                content.parse::<Token![;]>()?;
-                def.points.push(Point { name, body, at });
-            } else if look.peek(kw::hinge) {
-                content.parse::<kw::hinge>()?;
-                let name = content.parse()?;
-                content.parse::<Token![:]>()?;
-                let point = content.parse()?;
-                content.parse::<Token![=]>()?;
-                let target = parse_target(&content)?;
-                content.parse::<Token![;]>()?;
-                def.hinges.push(Hinge { name, point, target });
-            } else if look.peek(kw::slider) {
-                content.parse::<kw::slider>()?;
-                let name = content.parse()?;
-                content.parse::<Token![:]>()?;
-                let point = content.parse()?;
-                content.parse::<kw::on>()?;
-                let target = parse_target(&content)?;
-                content.parse::<kw::along>()?;
-                let (along, along_span) = parse_pair(&content)?;
-                let angle = if content.peek(kw::angle) {
-                    content.parse::<kw::angle>()?;
-                    Some(content.parse::<Expr>()?)
-                } else {
-                    None
+            if content.peek(Token![for]) {
+                content.parse::<Token![for]>()?;
+                let var: Ident = content.parse()?;
+                content.parse::<Token![in]>()?;
+                let range = Expr::parse_without_eager_brace(&content)?;
+                let Expr::Range(r) = &range else {
+                    return Err(syn::Error::new(range.span(), "expected a range `START..END`"));
                 };
-                content.parse::<Token![;]>()?;
-                def.sliders.push(Slider { name, point, target, along, along_span, angle });
-            } else if look.peek(kw::drive) {
-                content.parse::<kw::drive>()?;
-                let name = content.parse()?;
-                content.parse::<Token![:]>()?;
-                content.parse::<kw::hinge>()?;
-                let hinge = content.parse()?;
-                content.parse::<Token![;]>()?;
-                def.drives.push(Drive { name, hinge });
-            } else if look.peek(kw::skate) {
-                content.parse::<kw::skate>()?;
-                let name = content.parse()?;
-                content.parse::<Token![:]>()?;
-                let point = content.parse()?;
-                content.parse::<kw::along>()?;
-                let (along, along_span) = parse_pair(&content)?;
-                content.parse::<Token![;]>()?;
-                def.skates.push(Skate { name, point, along, along_span });
+                if !matches!(r.limits, syn::RangeLimits::HalfOpen(_)) {
+                    return Err(syn::Error::new(range.span(), "use a half-open range `START..END`"));
+                }
+                let bound = |e: &Option<Box<Expr>>| -> syn::Result<Affine> {
+                    let e =
+                        e.as_ref().ok_or_else(|| syn::Error::new(range.span(), "a family range needs both bounds"))?;
+                    affine(e, None)
+                };
+                let (start, end) = (bound(&r.start)?, bound(&r.end)?);
+                let items;
+                braced!(items in content);
+                let family = def.families.len();
+                def.families.push(Family { var, start, end });
+                while !items.is_empty() {
+                    let attrs = items.call(Attribute::parse_outer)?;
+                    parse_item(&items, attrs, &mut def, Some(family))?;
+                }
             } else {
-                return Err(look.error());
+                parse_item(&content, item_attrs, &mut def, None)?;
             }
         }
         Ok(def)
     }
 }
 
-fn parse_body(input: ParseStream) -> syn::Result<Body> {
+/// One item; `family` is the enclosing `for` (its items are named `NAME[VAR]`).
+fn parse_item(
+    content: ParseStream,
+    item_attrs: Vec<Attribute>,
+    def: &mut ModelDef,
+    family: Option<usize>,
+) -> syn::Result<()> {
+    let var = family.map(|f| def.families[f].var.clone());
+    let var = var.as_ref();
+    let look = content.lookahead1();
+    let not_in_family = |what: &str, span: proc_macro2::Span| -> syn::Result<()> {
+        match family {
+            Some(_) => {
+                Err(syn::Error::new(span, format!("`{what}` cannot be inside a `for` family; declare it outside")))
+            }
+            None => Ok(()),
+        }
+    };
+    if look.peek(kw::param) {
+        let k = content.parse::<kw::param>()?;
+        not_in_family("param", k.span)?;
+        let name = content.parse()?;
+        content.parse::<Token![=]>()?;
+        let (value, value_span) = parse_number(content)?;
+        content.parse::<Token![;]>()?;
+        def.params.push(Param { attrs: item_attrs, name, value, value_span });
+    } else if look.peek(kw::count) {
+        let k = content.parse::<kw::count>()?;
+        not_in_family("count", k.span)?;
+        let name = content.parse()?;
+        content.parse::<Token![=]>()?;
+        let lit: syn::LitInt = content.parse().map_err(|e| {
+            syn::Error::new(e.span(), "a count's value must be a whole number >= 1 (the default number of elements)")
+        })?;
+        let value: i64 = lit.base10_parse()?;
+        if value < 1 {
+            return Err(syn::Error::new(lit.span(), "a count's value must be a whole number >= 1"));
+        }
+        content.parse::<Token![;]>()?;
+        def.counts.push(Count { attrs: item_attrs, name, value });
+    } else if look.peek(kw::body) {
+        content.parse::<kw::body>()?;
+        def.bodies.push(parse_body(content, var, family)?);
+    } else if look.peek(kw::point) {
+        content.parse::<kw::point>()?;
+        let name = item_name(content, var)?;
+        content.parse::<kw::on>()?;
+        let body = parse_ref(content, var)?;
+        content.parse::<kw::at>()?;
+        let (at, _) = parse_pair(content)?;
+        content.parse::<Token![;]>()?;
+        def.points.push(Point { name, family, body, at });
+    } else if look.peek(kw::hinge) {
+        content.parse::<kw::hinge>()?;
+        let name = item_name(content, var)?;
+        content.parse::<Token![:]>()?;
+        let point = parse_ref(content, var)?;
+        content.parse::<Token![=]>()?;
+        let target = parse_target(content, var)?;
+        content.parse::<Token![;]>()?;
+        def.hinges.push(Hinge { name, family, point, target });
+    } else if look.peek(kw::slider) {
+        content.parse::<kw::slider>()?;
+        let name = item_name(content, var)?;
+        content.parse::<Token![:]>()?;
+        let point = parse_ref(content, var)?;
+        content.parse::<kw::on>()?;
+        let target = parse_target(content, var)?;
+        content.parse::<kw::along>()?;
+        let (along, along_span) = parse_pair(content)?;
+        let angle = if content.peek(kw::angle) {
+            content.parse::<kw::angle>()?;
+            Some(content.parse::<Expr>()?)
+        } else {
+            None
+        };
+        content.parse::<Token![;]>()?;
+        def.sliders.push(Slider { name, family, point, target, along, along_span, angle });
+    } else if look.peek(kw::drive) {
+        let k = content.parse::<kw::drive>()?;
+        not_in_family("drive", k.span)?;
+        let name = content.parse()?;
+        content.parse::<Token![:]>()?;
+        content.parse::<kw::hinge>()?;
+        let hinge = content.parse()?;
+        content.parse::<Token![;]>()?;
+        def.drives.push(Drive { name, hinge });
+    } else if look.peek(kw::skate) {
+        content.parse::<kw::skate>()?;
+        let name = item_name(content, var)?;
+        content.parse::<Token![:]>()?;
+        let point = parse_ref(content, var)?;
+        content.parse::<kw::along>()?;
+        let (along, along_span) = parse_pair(content)?;
+        content.parse::<Token![;]>()?;
+        def.skates.push(Skate { name, family, point, along, along_span });
+    } else {
+        if family.is_none() {
+            let _ = look.peek(Token![for]);
+        }
+        return Err(look.error());
+    }
+    Ok(())
+}
+
+/// The name of an item: `NAME`, or `NAME[VAR]` inside a family.
+fn item_name(input: ParseStream, var: Option<&Ident>) -> syn::Result<Ident> {
     let name: Ident = input.parse()?;
+    match var {
+        None => {
+            if input.peek(syn::token::Bracket) {
+                let inner;
+                let b = bracketed!(inner in input);
+                let _ = inner.parse::<proc_macro2::TokenStream>();
+                return Err(syn::Error::new(
+                    b.span.join(),
+                    format!(
+                        "`{name}[..]` names a family element; put the item inside `for VAR in START..END {{ .. }}`"
+                    ),
+                ));
+            }
+            Ok(name)
+        }
+        Some(v) => {
+            let err = || syn::Error::new(name.span(), format!("an item inside `for {v} in ..` is named `{name}[{v}]`"));
+            if !input.peek(syn::token::Bracket) {
+                return Err(err());
+            }
+            let inner;
+            bracketed!(inner in input);
+            let i: Ident = inner.parse().map_err(|_| err())?;
+            if i != *v || !inner.is_empty() {
+                return Err(err());
+            }
+            Ok(name)
+        }
+    }
+}
+
+/// `NAME` or `NAME[INDEX]`.
+fn parse_ref(input: ParseStream, var: Option<&Ident>) -> syn::Result<Ref> {
+    let name: Ident = input.parse()?;
+    let index = if input.peek(syn::token::Bracket) {
+        let inner;
+        bracketed!(inner in input);
+        let e: Expr = inner.parse()?;
+        Some(affine(&e, var)?)
+    } else {
+        None
+    };
+    Ok(Ref { name, index })
+}
+
+/// An index `VAR`, `COUNT`, an integer, or one of those `+-` an integer.
+fn affine(e: &Expr, var: Option<&Ident>) -> syn::Result<Affine> {
+    let span = e.span();
+    let bad = || {
+        let v = var.map_or("".to_string(), |v| format!("`{v}`, `{v} - 1`, "));
+        syn::Error::new(span, format!("an index is {v}an integer, a count `N` or `N - 1`"))
+    };
+    match e {
+        Expr::Lit(syn::ExprLit { lit: syn::Lit::Int(i), .. }) => {
+            Ok(Affine { var: false, count: None, c: i.base10_parse()?, span })
+        }
+        Expr::Paren(p) => affine(&p.expr, var),
+        Expr::Group(g) => affine(&g.expr, var),
+        Expr::Path(p) => {
+            let id = p.path.get_ident().ok_or_else(bad)?;
+            if var == Some(id) {
+                Ok(Affine { var: true, count: None, c: 0, span })
+            } else {
+                Ok(Affine { var: false, count: Some(id.clone()), c: 0, span })
+            }
+        }
+        Expr::Binary(b) if matches!(b.op, BinOp::Add(_) | BinOp::Sub(_)) => {
+            let l = affine(&b.left, var)?;
+            let r = affine(&b.right, var)?;
+            let neg = matches!(b.op, BinOp::Sub(_));
+            if neg && (r.var || r.count.is_some()) {
+                return Err(bad());
+            }
+            let (var_, count) = (
+                l.var || r.var,
+                match (l.count, r.count) {
+                    (Some(_), Some(_)) => return Err(bad()),
+                    (a, b) => a.or(b),
+                },
+            );
+            if l.var && r.var {
+                return Err(bad());
+            }
+            Ok(Affine { var: var_, count, c: if neg { l.c - r.c } else { l.c + r.c }, span })
+        }
+        _ => Err(bad()),
+    }
+}
+
+fn parse_body(input: ParseStream, var: Option<&Ident>, family: Option<usize>) -> syn::Result<Body> {
+    let name: Ident = item_name(input, var)?;
     let coords_content;
     let paren = parenthesized!(coords_content in input);
     let coords: Punctuated<Ident, Token![,]> = coords_content.parse_terminated(Ident::parse, Token![,])?;
@@ -169,17 +337,17 @@ fn parse_body(input: ParseStream) -> syn::Result<Body> {
     let missing = |what: &str| syn::Error::new(brace.span.join(), format!("body `{name}` is missing `{what}: ...`"));
     let mass = mass.ok_or_else(|| missing("mass"))?;
     let inertia = inertia.ok_or_else(|| missing("inertia"))?;
-    Ok(Body { name, coords, mass, inertia })
+    Ok(Body { name, family, coords, mass, inertia })
 }
 
 /// `Q` (a point) or `ground(EXPR, EXPR)`.
-fn parse_target(input: ParseStream) -> syn::Result<HingeTarget> {
+fn parse_target(input: ParseStream, var: Option<&Ident>) -> syn::Result<HingeTarget> {
     if input.peek(kw::ground) {
         input.parse::<kw::ground>()?;
         let (at, _) = parse_pair(input)?;
         Ok(HingeTarget::Ground { at: Box::new(at) })
     } else {
-        Ok(HingeTarget::Point(input.parse()?))
+        Ok(HingeTarget::Point(parse_ref(input, var)?))
     }
 }
 

@@ -15,14 +15,22 @@ pub use ezyroller_driven::EzyRollerDriven;
 pub use snake::Snake;
 pub use trailer::Trailer;
 
-/// The model registry: `(key, static description)`, one line per vehicle.
-pub const MODELS: &[(&str, ModelInfo)] = &[
-    ("ezyroller", EzyRoller::INFO),
-    ("ezyroller_driven", EzyRollerDriven::INFO),
-    ("chaplygin_sleigh", ChaplyginSleigh::INFO),
-    ("trailer", Trailer::INFO),
-    ("snake", Snake::INFO),
-];
+/// The keys of the model registry, one per vehicle, in the order `ezy
+/// list` shows them.
+pub const MODEL_KEYS: &[&str] = &["ezyroller", "ezyroller_driven", "chaplygin_sleigh", "trailer", "snake"];
+
+/// The registry with each model's description at its default counts.
+pub fn models() -> Vec<(&'static str, ModelInfo)> {
+    MODEL_KEYS.iter().map(|&k| (k, visit(k, DefaultInfo).expect("registered"))).collect()
+}
+
+struct DefaultInfo;
+impl ModelVisitor for DefaultInfo {
+    type Output = ModelInfo;
+    fn visit<M: Model + Default>(self) -> ModelInfo {
+        M::default().info()
+    }
+}
 
 /// Runs `visitor` with the model registered as `key`; `None` if unknown.
 pub fn visit<V: ModelVisitor>(key: &str, visitor: V) -> Option<V::Output> {

@@ -4,7 +4,7 @@
 
 use std::path::Path;
 
-use ezy_core::{ModelInfo, Scene, SceneFileError};
+use ezy_core::{ModelInfo, Scene, SceneError, SceneFileError};
 
 /// `(file name, text)` of every built-in scene, in the order `ezy list`
 /// shows them.
@@ -32,9 +32,43 @@ pub struct SceneSource {
     pub file: String,
 }
 
-/// The static description of the model registered as `key`.
-pub fn model_info(key: &str) -> Option<&'static ModelInfo> {
-    crate::MODELS.iter().find(|(k, _)| *k == key).map(|(_, i)| i)
+/// The description of the model registered as `key`, at its default counts.
+pub fn model_info(key: &str) -> Option<ModelInfo> {
+    model_info_with(key, &[]).map(|r| r.expect("default counts are valid"))
+}
+
+/// The description of the model registered as `key` with the family
+/// counts among `params` applied (other parameters do not change it).
+/// `None` for an unknown model.
+///
+/// # Errors
+/// The inner `Err` is a [`SceneError`] at `params.COUNT` when a count is
+/// not a whole number >= 1 or makes a family refer to an element that does
+/// not exist.
+pub fn model_info_with(key: &str, params: &[(String, f64)]) -> Option<Result<ModelInfo, SceneError>> {
+    struct WithCounts<'a>(&'a [(String, f64)]);
+    impl ezy_core::ModelVisitor for WithCounts<'_> {
+        type Output = Result<ModelInfo, SceneError>;
+        fn visit<M: ezy_core::Model + Default>(self) -> Self::Output {
+            let mut model = M::default();
+            let base = model.info();
+            let mut last = None;
+            for (name, value) in self.0 {
+                if let Some(i) = base.param_index(name)
+                    && base.params[i].count
+                {
+                    ezy_core::scene::check_count(name, *value)?;
+                    model.set_param(i, *value);
+                    last = Some(name.clone());
+                }
+            }
+            model
+                .check_counts()
+                .map_err(|message| SceneError { path: vec!["params".into(), last.unwrap_or_default()], message })?;
+            Ok(model.info())
+        }
+    }
+    crate::visit(key, WithCounts(params))
 }
 
 /// Checks a parsed scene against its model.
@@ -43,15 +77,16 @@ pub fn model_info(key: &str) -> Option<&'static ModelInfo> {
 /// [`SceneFileError`] at the `model` key for an unknown model (listing the
 /// known ones), else as [`Scene::check`], located in `text`.
 pub fn check(scene: Scene, text: &str, file: &str) -> Result<SceneSource, SceneFileError> {
-    let Some(info) = model_info(&scene.model) else {
-        let known: Vec<&str> = crate::MODELS.iter().map(|(k, _)| *k).collect();
+    let Some(info) = model_info_with(&scene.model, &scene.params) else {
+        let known: Vec<&str> = crate::MODEL_KEYS.to_vec();
         let e = ezy_core::SceneError {
             path: vec!["model".into()],
             message: format!("unknown model `{}`; known models: {}", scene.model, known.join(", ")),
         };
         return Err(Scene::locate_error(text, file, e));
     };
-    scene.check(info).map_err(|e| Scene::locate_error(text, file, e))?;
+    let info = info.map_err(|e| Scene::locate_error(text, file, e))?;
+    scene.check(&info).map_err(|e| Scene::locate_error(text, file, e))?;
     Ok(SceneSource { scene, text: text.to_string(), file: file.to_string() })
 }
 

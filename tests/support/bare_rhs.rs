@@ -18,6 +18,7 @@ pub struct BareRhs {
     gamma: Vec<f64>,
     f: Vec<f64>,
     lambda: Vec<f64>,
+    info: ezy_core::ModelInfo,
 }
 
 impl BareRhs {
@@ -25,11 +26,13 @@ impl BareRhs {
     pub fn new(model: EzyRoller) -> Self {
         let mut mass = vec![0.0; 6];
         model.mass_diagonal(&mut mass);
+        let info = model.info();
         Self {
-            kkt: SchurCholesky::new(&mass).expect("positive masses"),
+            kkt: SchurCholesky::new(&model, &info, &mass).expect("positive masses"),
             model,
             mass,
-            g_values: vec![0.0; EzyRoller::INFO.pattern.len()],
+            g_values: vec![0.0; info.pattern.len()],
+            info,
             gamma: vec![0.0; 4],
             f: vec![0.0; 6],
             lambda: vec![0.0; 4],
@@ -44,7 +47,7 @@ impl Rhs for BareRhs {
         self.model.constraint_terms(q, qd, &mut self.g_values, &mut self.gamma);
         let sys = KktSystem { mass: &self.mass, g: &[], g_values: &self.g_values, f: &self.f, gamma: &self.gamma };
         let (dq, dqd) = dy.split_at_mut(6);
-        self.kkt.solve(&sys, dqd, &mut self.lambda).map_err(|e| SimError::from_kkt::<EzyRoller>(0.0, e))?;
+        self.kkt.solve(&sys, dqd, &mut self.lambda).map_err(|e| SimError::from_kkt(&self.info, 0.0, e))?;
         dq.copy_from_slice(qd);
         Ok(())
     }

@@ -264,24 +264,21 @@ impl EffectSpec {
     pub fn check(&self, info: &ModelInfo) -> Result<(), SpecError> {
         let model = info.name;
         let hinge = |h: &str| {
-            info.hinge_index(h)
-                .map(|_| ())
-                .ok_or_else(|| unknown("hinge", "hinge", h, model, info.hinges.iter().map(|h| h.name).collect()))
+            info.hinge_index(h).map(|_| ()).ok_or_else(|| {
+                unknown("hinge", "hinge", h, model, info.hinges.iter().map(|h| h.name.as_str()).collect())
+            })
         };
         let skate = |s: &str| {
-            info.skates
-                .iter()
-                .any(|k| k.name == s)
-                .then_some(())
-                .ok_or_else(|| unknown("skate", "skate", s, model, info.skates.iter().map(|k| k.name).collect()))
+            info.skates.iter().any(|k| k.name == s).then_some(()).ok_or_else(|| {
+                unknown("skate", "skate", s, model, info.skates.iter().map(|k| k.name.as_str()).collect())
+            })
         };
-        let body = |field, b: &str| {
-            info.bodies
-                .iter()
-                .any(|k| k.name == b)
-                .then_some(())
-                .ok_or_else(|| unknown(field, "body", b, model, info.bodies.iter().map(|k| k.name).collect()))
-        };
+        let body =
+            |field, b: &str| {
+                info.bodies.iter().any(|k| k.name == b).then_some(()).ok_or_else(|| {
+                    unknown(field, "body", b, model, info.bodies.iter().map(|k| k.name.as_str()).collect())
+                })
+            };
         match self {
             Self::HingeMotor { hinge: h, torque } => {
                 hinge(h)?;
@@ -317,9 +314,9 @@ impl EffectSpec {
                 wave("force", force)
             }
             Self::Force { at, fx, fy, .. } => {
-                if info.point_index(at).is_none() && !info.bodies.iter().any(|b| b.name == at) {
-                    let mut known: Vec<&str> = info.bodies.iter().map(|b| b.name).collect();
-                    known.extend(info.points.iter().map(|p| p.name));
+                if info.point_index(at).is_none() && !info.bodies.iter().any(|b| b.name == *at) {
+                    let mut known: Vec<&str> = info.bodies.iter().map(|b| b.name.as_str()).collect();
+                    known.extend(info.points.iter().map(|p| p.name.as_str()));
                     return Err(unknown("at", "body or point", at, model, known));
                 }
                 wave("fx", fx)?;
@@ -349,7 +346,7 @@ impl EffectSpec {
     /// [`SimError::Effect`] for a name the model does not have or a bad
     /// number (a spec that passed [`EffectSpec::check`] never fails).
     pub fn resolve<M: Model>(&self, name: &str, model: &M) -> Result<Effect, SimError> {
-        let info = &M::INFO;
+        let info = &model.info();
         if let Err(e) = self.check(info) {
             return Err(SimError::Effect { effect: name.to_string(), field: e.field, message: e.message });
         }

@@ -148,13 +148,13 @@ pub enum AnyKktSolver<M: Model> {
 }
 
 impl<M: Model> AnyKktSolver<M> {
-    /// Builds the solver for `method` and model `M`; `Auto` inspects the
-    /// mass diagonal (nq).
-    pub fn new(method: KktMethod, mass: &[f64]) -> Self {
-        let (nq, nc) = (M::INFO.nq(), M::INFO.nc());
+    /// Builds the solver for `method` and `model` (with its `info`);
+    /// `Auto` inspects the mass diagonal (nq) and the number of rows.
+    pub fn new(model: &M, info: &crate::ModelInfo, method: KktMethod, mass: &[f64]) -> Self {
+        let (nq, nc) = (info.nq(), info.nc());
         let invertible = mass.iter().all(|&m| m > 0.0);
         match method {
-            KktMethod::Schur => match SchurCholesky::new(mass) {
+            KktMethod::Schur => match SchurCholesky::new(model, info, mass) {
                 Ok(s) => Self::Schur(s),
                 // not invertible: the Schur path cannot serve; LU can
                 Err(_) => Self::Lu(DenseLu::new(nq, nc)),
@@ -163,11 +163,11 @@ impl<M: Model> AnyKktSolver<M> {
             KktMethod::Sparse | KktMethod::Auto
                 if invertible && (method == KktMethod::Sparse || nc >= SPARSE_FROM_ROWS) =>
             {
-                Self::Sparse(Box::new(SparseSchur::new(M::INFO.pattern, nc, mass).expect("positive masses")))
+                Self::Sparse(Box::new(SparseSchur::new(&info.pattern, nc, mass).expect("positive masses")))
             }
             KktMethod::Sparse => Self::Lu(DenseLu::new(nq, nc)),
             KktMethod::Auto if invertible => {
-                Self::Schur(SchurCholesky::new(mass).expect("positive masses give an invertible M"))
+                Self::Schur(SchurCholesky::new(model, info, mass).expect("positive masses give an invertible M"))
             }
             KktMethod::Auto => Self::Lu(DenseLu::new(nq, nc)),
         }

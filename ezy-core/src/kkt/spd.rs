@@ -215,15 +215,18 @@ impl NormalSystem {
     /// [`KktError::DependentConstraints`] if that block is not (numerically)
     /// positive definite.
     #[inline]
+    #[allow(clippy::too_many_arguments)]
     pub fn solve<Mo: Model>(
         &mut self,
+        model: &Mo,
+        pattern: &[(usize, usize)],
         values: &[f64],
         winv: &[f64],
         m: usize,
         r: &[f64],
         x: &mut [f64],
     ) -> Result<f64, KktError> {
-        Mo::normal_matrix(values, winv, &mut self.a);
+        model.normal_matrix(pattern, self.nc, values, winv, &mut self.a);
         ldl_solve(&self.a, m, self.nc, r, x, &mut self.scratch)
     }
 }
@@ -232,6 +235,9 @@ impl NormalSystem {
 /// `qdd = M^-1 (f - G^T lambda)`. Needs every mass entry > 0.
 #[derive(Debug, Clone)]
 pub struct SchurCholesky<Mo: Model> {
+    /// The model (its generated products with `G`) and the pattern of `G`.
+    model: Mo,
+    pattern: Vec<(usize, usize)>,
     normal: NormalSystem,
     /// `M^-1` diagonal, from the mass at construction.
     minv: Vec<f64>,
@@ -242,13 +248,14 @@ pub struct SchurCholesky<Mo: Model> {
 }
 
 impl<Mo: Model> SchurCholesky<Mo> {
-    /// Workspace for model `Mo` with mass diagonal `mass` (nq), fixed for
-    /// the solver's life (parameters do not change during a run).
+    /// Workspace for `model` (with its `info`) and mass diagonal `mass`
+    /// (nq), fixed for the solver's life (parameters do not change during
+    /// a run).
     ///
     /// # Errors
     /// [`KktError::SingularMass`] if an entry is not positive and finite.
-    pub fn new(mass: &[f64]) -> Result<Self, KktError> {
-        let (nq, nc) = (Mo::INFO.nq(), Mo::INFO.nc());
+    pub fn new(model: &Mo, info: &crate::ModelInfo, mass: &[f64]) -> Result<Self, KktError> {
+        let (nq, nc) = (info.nq(), info.nc());
         let mut minv = vec![0.0; nq];
         for (k, (&m, w)) in mass.iter().zip(&mut minv).enumerate() {
             if !(m > 0.0 && m.is_finite()) {
@@ -257,6 +264,8 @@ impl<Mo: Model> SchurCholesky<Mo> {
             *w = 1.0 / m;
         }
         Ok(Self {
+            model: model.clone(),
+            pattern: info.pattern.clone(),
             normal: NormalSystem::new(nc),
             minv,
             rhs: vec![0.0; nc],
@@ -271,15 +280,15 @@ impl<Mo: Model> KktSolver for SchurCholesky<Mo> {
     fn solve(&mut self, sys: &KktSystem<'_>, qdd: &mut [f64], lambda: &mut [f64]) -> Result<(), KktError> {
         debug_assert!(sys.mass.iter().zip(&self.minv).all(|(m, w)| *m * *w == 1.0 || (*m * *w - 1.0).abs() < 1e-15));
         let nc = sys.nc();
-        Mo::g_winv_mul(sys.g_values, &self.minv, sys.f, &mut self.rhs);
+        self.model.g_winv_mul(&self.pattern, sys.g_values, &self.minv, sys.f, &mut self.rhs);
         for (r, &g) in self.rhs.iter_mut().zip(sys.gamma) {
             *r += g;
         }
-        self.growth = self.normal.solve::<Mo>(sys.g_values, &self.minv, nc, &self.rhs, lambda)?;
+        self.growth = self.normal.solve(&self.model, &self.pattern, sys.g_values, &self.minv, nc, &self.rhs, lambda)?;
         for ((a, &w), &f) in qdd.iter_mut().zip(&self.minv).zip(sys.f) {
             *a = w * f;
         }
-        Mo::sub_winv_gt_mul(sys.g_values, &self.minv, lambda, qdd);
+        self.model.sub_winv_gt_mul(&self.pattern, sys.g_values, &self.minv, lambda, qdd);
         Ok(())
     }
     fn name(&self) -> &'static str {

@@ -64,3 +64,44 @@ impl Arena {
         d
     }
 }
+
+impl Arena {
+    /// `expr` with every symbol renamed by `rename` (an injective renaming
+    /// keeps the structure: a family element kernel's local coordinates
+    /// become a single model's global ones).
+    pub fn subst(&mut self, expr: Id, rename: &dyn Fn(Sym) -> Sym, memo: &mut HashMap<Id, Id>) -> Id {
+        if let Some(&d) = memo.get(&expr) {
+            return d;
+        }
+        let out = match self.node(expr).clone() {
+            Node::Const(_) => expr,
+            Node::Sym(s) => self.sym(rename(s)),
+            Node::Add(ts) => {
+                let ts: Vec<Id> = ts.iter().map(|&t| self.subst(t, rename, memo)).collect();
+                self.add(&ts)
+            }
+            Node::Mul(fs) => {
+                let fs: Vec<Id> = fs.iter().map(|&f| self.subst(f, rename, memo)).collect();
+                self.mul(&fs)
+            }
+            Node::Pow(b, n) => {
+                let b = self.subst(b, rename, memo);
+                self.pow(b, n)
+            }
+            Node::Sin(a) => {
+                let a = self.subst(a, rename, memo);
+                self.sin(a)
+            }
+            Node::Cos(a) => {
+                let a = self.subst(a, rename, memo);
+                self.cos(a)
+            }
+            Node::Sqrt(a) => {
+                let a = self.subst(a, rename, memo);
+                self.sqrt(a)
+            }
+        };
+        memo.insert(expr, out);
+        out
+    }
+}

@@ -18,7 +18,6 @@
 
 mod diff;
 mod display;
-pub use display::{latex_name, latex_rate};
 
 use std::collections::HashMap;
 
