@@ -12,6 +12,7 @@ pub mod plot;
 pub mod precision;
 pub mod progress;
 pub mod run;
+pub mod scale;
 
 pub use ezy_core;
 pub use ezy_models as models;

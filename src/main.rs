@@ -1,5 +1,6 @@
 //! The `ezy` command line: `ezy run [SCENE | FILE.toml]`, `ezy list`,
-//! `ezy precision SCENE`, `ezy equations MODEL`, `ezy check MODEL`.
+//! `ezy precision SCENE`, `ezy equations MODEL`, `ezy check MODEL`,
+//! `ezy scale MODEL`.
 
 use std::path::PathBuf;
 use std::process::ExitCode;
@@ -53,6 +54,31 @@ enum Command {
     Equations(EquationsArgs),
     /// Check the derived Jacobians and convective terms against finite differences.
     Check(CheckArgs),
+    /// Time one right-hand-side evaluation against the size of a model's family.
+    Scale(ScaleArgs),
+}
+
+#[derive(clap::Args, Debug)]
+struct ScaleArgs {
+    /// Model with a family count (see `ezy list`), e.g. snake.
+    model: String,
+    /// Family sizes, comma-separated.
+    #[arg(long, value_delimiter = ',', default_value = "10,100,1000,10000")]
+    n: Vec<usize>,
+    /// Output format.
+    #[arg(long, value_enum, default_value = "table")]
+    format: ScaleFormat,
+    /// Batches timed per size (the median is reported).
+    #[arg(long, default_value_t = 15)]
+    batches: usize,
+}
+
+#[derive(ValueEnum, Clone, Copy, Debug)]
+enum ScaleFormat {
+    /// Aligned columns and the fitted exponent.
+    Table,
+    /// n,nq,nc,seconds_per_rhs,path
+    Csv,
 }
 
 #[derive(clap::Args, Debug)]
@@ -84,40 +110,46 @@ struct CheckArgs {
     seed: u64,
 }
 
-/// Runs `ezy equations` or `ezy check` for the model type.
+/// Runs `ezy equations`, `ezy check` or `ezy scale` for the model type.
 enum ModelCommand {
     Equations(ezy::equations::Format),
     Check { states: usize, seed: u64 },
+    Scale { n: Vec<usize>, csv: bool, batches: usize },
 }
 
 impl ezy_core::ModelVisitor for ModelCommand {
-    type Output = (String, bool);
+    /// What to print, and the error if the command failed.
+    type Output = (String, Option<String>);
     fn visit<M: ezy_core::Model + Default>(self) -> Self::Output {
         match self {
-            Self::Equations(f) => (ezy::equations::render::<M>(f), true),
+            Self::Equations(f) => (ezy::equations::render::<M>(f), None),
             Self::Check { states, seed } => {
                 let checks = ezy::check::check::<M>(states, seed);
                 let ok = checks.iter().all(|c| c.passed());
-                (ezy::check::table(M::default().info().name, states, &checks), ok)
+                let name = M::default().info().name;
+                let err = (!ok).then(|| {
+                    format!(
+                        "model `{name}`: a derived term differs from its finite difference by more than {:e}",
+                        ezy::check::TOLERANCE
+                    )
+                });
+                (ezy::check::table(name, states, &checks), err)
             }
+            Self::Scale { n, csv, batches } => match ezy::scale::scale::<M>(&n, batches) {
+                Ok(points) => (ezy::scale::render(M::default().info().name, &points, csv), None),
+                Err(e) => (String::new(), Some(e.to_string())),
+            },
         }
     }
 }
 
 fn model_command(model: &str, cmd: ModelCommand) -> Result<(), String> {
-    let (out, ok) = ezy_models::visit(model, cmd).ok_or_else(|| {
+    let (out, err) = ezy_models::visit(model, cmd).ok_or_else(|| {
         let known: Vec<&str> = ezy_models::MODEL_KEYS.to_vec();
         format!("unknown model `{model}`; known models: {}", known.join(", "))
     })?;
     out_raw!("{out}");
-    if ok {
-        Ok(())
-    } else {
-        Err(format!(
-            "model `{model}`: a derived term differs from its finite difference by more than {:e}",
-            ezy::check::TOLERANCE
-        ))
-    }
+    err.map_or(Ok(()), Err)
 }
 
 #[derive(clap::Args, Debug, Default)]
@@ -238,6 +270,14 @@ fn main() -> ExitCode {
                 EqFormat::Latex => ezy::equations::Format::Latex,
             }),
         ),
+        Command::Scale(args) => {
+            if args.n.is_empty() || args.batches == 0 {
+                Err("--n needs at least one size and --batches at least 1".to_string())
+            } else {
+                let csv = matches!(args.format, ScaleFormat::Csv);
+                model_command(&args.model, ModelCommand::Scale { n: args.n, csv, batches: args.batches })
+            }
+        }
         Command::Check(args) => {
             if args.states == 0 {
                 Err("--states = 0: check at least one state".to_string())

@@ -1,11 +1,13 @@
-//! A tractor with two trailers (a fixed count until the model language has
-//! families): the tractor has a driven rear axle and a front axle steered
-//! at a fixed angle; each trailer has one axle and hangs on the hitch of
-//! the body in front.
+//! A tractor with `n` trailers (a family: `n` is a count, 2 by default):
+//! the tractor has a driven rear axle and a front axle steered at a fixed
+//! angle; each trailer has one axle and hangs on the hitch of the body in
+//! front.
 
 ezy_core::model! {
-    /// A tractor with a steered front axle pulling two single-axle trailers.
+    /// A tractor with a steered front axle pulling n single-axle trailers.
     pub struct Trailer {
+        /// Number of trailers
+        count n = 2;
         /// Wheelbase of the tractor [m]
         param L = 2.5;
         /// Steering angle of the tractor's front axle [rad]
@@ -25,25 +27,23 @@ ezy_core::model! {
 
         /// The tractor.
         body tractor(x0, y0, phi0) { mass: m0, inertia: I0 }
-        /// The first trailer.
-        body trailer1(x1, y1, phi1) { mass: m, inertia: I }
-        /// The second trailer.
-        body trailer2(x2, y2, phi2) { mass: m, inertia: I }
-
         point R on tractor at (-L / 2, 0);
         point F on tractor at (L / 2, 0);
         point H0 on tractor at (-L / 2 - h, 0);
-        point T1 on trailer1 at (l / 2, 0);
-        point A1 on trailer1 at (-l / 2, 0);
-        point H1 on trailer1 at (-l / 2 - h, 0);
-        point T2 on trailer2 at (l / 2, 0);
-        point A2 on trailer2 at (-l / 2, 0);
-
-        hinge K1: T1 = H0;
-        hinge K2: T2 = H1;
         skate R: R along (1, 0);
         skate F: F along (cos(delta), sin(delta));
-        skate A1: A1 along (1, 0);
-        skate A2: A2 along (1, 0);
+
+        for i in 1..n + 1 {
+            body trailer[i](x, y, phi) { mass: m, inertia: I }
+            /// tongue, axle and rear hitch of trailer i
+            point T[i] on trailer[i] at (l / 2, 0);
+            point A[i] on trailer[i] at (-l / 2, 0);
+            point H[i] on trailer[i] at (-l / 2 - h, 0);
+            skate A[i]: A[i] along (1, 0);
+        }
+        hinge K1: T[1] = H0;
+        for i in 2..n + 1 {
+            hinge K[i]: T[i] = H[i - 1];
+        }
     }
 }

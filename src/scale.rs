@@ -1,0 +1,203 @@
+//! `ezy scale MODEL --n 10,100,1000`: the cost of one right-hand-side
+//! evaluation (generated constraint terms, KKT solve) against the size of
+//! a model's family, the measurement behind issue 6's linear-cost target.
+//!
+//! For each count the model is put in a consistent state (random angles,
+//! projected onto the constraints) and `Dynamics::rhs` is timed: batches
+//! of evaluations long enough for the clock (>= 2 ms), the median over
+//! batches. One thread; the KKT path is the one `KktMethod::Auto` takes.
+
+use std::time::{Duration, Instant};
+
+use ezy_core::kkt::KktMethod;
+use ezy_core::projection::Projector;
+use ezy_core::{Dynamics, Model, ProjectionKind};
+use rand::rngs::StdRng;
+use rand::{Rng, SeedableRng};
+
+/// One measured size.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ScalePoint {
+    /// The family count.
+    pub n: usize,
+    /// Number of coordinates nq.
+    pub nq: usize,
+    /// Number of constraint rows nc.
+    pub nc: usize,
+    /// Median time of one RHS evaluation [s].
+    pub seconds_per_rhs: f64,
+    /// The KKT path (`schur-cholesky` dense, `sparse-cholesky`).
+    pub path: &'static str,
+}
+
+/// Why a size could not be measured.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum ScaleError {
+    /// The model has no family count.
+    #[error("model {model} has no family count (`count N = ..;`), so it has no size to scale")]
+    NoCount {
+        /// Model name.
+        model: &'static str,
+    },
+    /// A count the model does not accept.
+    #[error("{name} = {n}: {message}")]
+    BadCount {
+        /// The count's name.
+        name: &'static str,
+        /// The value asked for.
+        n: usize,
+        /// Why not.
+        message: String,
+    },
+    /// The state could not be made consistent, or the RHS failed.
+    #[error("{name} = {n}: {message}")]
+    Failed {
+        /// The count's name.
+        name: &'static str,
+        /// The value.
+        n: usize,
+        /// The solver's error.
+        message: String,
+    },
+}
+
+/// Times one RHS of `M` at each count in `ns` (the model's first count),
+/// with at least `min_batches` batches per size.
+///
+/// # Errors
+/// [`ScaleError`] for a model without a count, a count the model does not
+/// accept, or a state the KKT solve fails on.
+pub fn scale<M: Model + Default>(ns: &[usize], min_batches: usize) -> Result<Vec<ScalePoint>, ScaleError> {
+    let base = M::default();
+    let info = base.info();
+    let (index, name) = info
+        .params
+        .iter()
+        .enumerate()
+        .find(|(_, p)| p.count)
+        .map(|(i, p)| (i, p.name))
+        .ok_or(ScaleError::NoCount { model: info.name })?;
+    let mut out = Vec::with_capacity(ns.len());
+    for &n in ns {
+        let fail = |message: String| ScaleError::Failed { name, n, message };
+        if let Err(e) = ezy_core::scene::check_count(name, n as f64) {
+            return Err(ScaleError::BadCount { name, n, message: e.message });
+        }
+        let mut model = base.clone();
+        model.set_param(index, n as f64);
+        model.check_counts().map_err(|message| ScaleError::BadCount { name, n, message })?;
+        let mut sys = Dynamics::new(model, Vec::new(), KktMethod::Auto);
+        let nq = sys.nq();
+        let nc = sys.info.nc();
+        // a consistent state: random headings (+-0.3 rad), projected
+        let mut rng = StdRng::seed_from_u64(n as u64);
+        let mut q: Vec<f64> = (0..nq).map(|k| if k % 3 == 2 { rng.random_range(-0.3..0.3) } else { 0.0 }).collect();
+        let mut qd: Vec<f64> = (0..nq).map(|_| rng.random_range(-0.5..0.5)).collect();
+        let mut proj = Projector::new(&sys.model, ProjectionKind::MassWeighted, &sys.mass);
+        for _ in 0..3 {
+            proj.project(&sys.model, 0.0, &mut q, &mut qd).map_err(|e| fail(e.to_string()))?;
+        }
+        let mut y = q;
+        y.extend_from_slice(&qd);
+        let mut dy = vec![0.0; y.len()];
+        sys.rhs(0.0, &y, &mut dy).map_err(|e| fail(e.to_string()))?;
+        // batch size: about 2 ms per batch
+        let clock = Instant::now();
+        let mut reps = 0usize;
+        while clock.elapsed() < Duration::from_millis(2) || reps == 0 {
+            sys.rhs(0.0, &y, &mut dy).map_err(|e| fail(e.to_string()))?;
+            reps += 1;
+        }
+        let mut times = Vec::with_capacity(min_batches);
+        for _ in 0..min_batches {
+            let t0 = Instant::now();
+            for _ in 0..reps {
+                sys.rhs(std::hint::black_box(0.0), std::hint::black_box(&y), &mut dy)
+                    .map_err(|e| fail(e.to_string()))?;
+            }
+            times.push(t0.elapsed().as_secs_f64() / reps as f64);
+        }
+        times.sort_by(f64::total_cmp);
+        out.push(ScalePoint { n, nq, nc, seconds_per_rhs: times[times.len() / 2], path: sys.kkt_name() });
+    }
+    Ok(out)
+}
+
+/// Least-squares slope of `log(seconds_per_rhs)` against `log(n)` over the
+/// points with `n >= from` (the cost's exponent); `None` with fewer than
+/// two such points.
+pub fn fitted_exponent(points: &[ScalePoint], from: usize) -> Option<f64> {
+    let xy: Vec<(f64, f64)> =
+        points.iter().filter(|p| p.n >= from).map(|p| ((p.n as f64).ln(), p.seconds_per_rhs.ln())).collect();
+    if xy.len() < 2 {
+        return None;
+    }
+    let k = xy.len() as f64;
+    let (mx, my) = (xy.iter().map(|p| p.0).sum::<f64>() / k, xy.iter().map(|p| p.1).sum::<f64>() / k);
+    let sxx: f64 = xy.iter().map(|p| (p.0 - mx).powi(2)).sum();
+    let sxy: f64 = xy.iter().map(|p| (p.0 - mx) * (p.1 - my)).sum();
+    (sxx > 0.0).then(|| sxy / sxx)
+}
+
+/// The points as a table (with the fitted exponent) or CSV.
+pub fn render(model: &str, points: &[ScalePoint], csv: bool) -> String {
+    let mut out = String::new();
+    if csv {
+        out.push_str("n,nq,nc,seconds_per_rhs,path\n");
+        for p in points {
+            out.push_str(&format!("{},{},{},{:e},{}\n", p.n, p.nq, p.nc, p.seconds_per_rhs, p.path));
+        }
+        return out;
+    }
+    out.push_str(&format!("{model}: one RHS evaluation (G, gamma, KKT solve), median, one thread\n"));
+    out.push_str(&format!(
+        "{:>8} {:>8} {:>8} {:>16} {:>14}  path\n",
+        "n", "nq", "nc", "seconds_per_rhs", "per element"
+    ));
+    for p in points {
+        out.push_str(&format!(
+            "{:>8} {:>8} {:>8} {:>16.3e} {:>14.3e}  {}\n",
+            p.n,
+            p.nq,
+            p.nc,
+            p.seconds_per_rhs,
+            p.seconds_per_rhs / p.n as f64,
+            p.path
+        ));
+    }
+    if let Some(e) = fitted_exponent(points, 100) {
+        out.push_str(&format!("fitted exponent of seconds_per_rhs ~ n^k for n >= 100: k = {e:.3}\n"));
+    }
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn pt(n: usize, s: f64) -> ScalePoint {
+        ScalePoint { n, nq: 3 * n, nc: 3 * n - 1, seconds_per_rhs: s, path: "sparse-cholesky" }
+    }
+
+    #[test]
+    fn exponent_of_a_power_law_is_recovered() {
+        let pts: Vec<ScalePoint> =
+            [10, 100, 1000, 10000].iter().map(|&n| pt(n, 3e-8 * (n as f64).powf(1.05))).collect();
+        let k = fitted_exponent(&pts, 100).unwrap();
+        assert!((k - 1.05).abs() < 1e-12, "{k}");
+        assert_eq!(fitted_exponent(&pts[..2], 100), None);
+    }
+
+    #[test]
+    fn the_snake_is_measured_and_a_model_without_count_is_refused() {
+        let pts = scale::<ezy_models::Snake>(&[3, 20], 3).unwrap();
+        assert_eq!((pts[0].nq, pts[0].nc), (9, 2 * 2 + 3));
+        assert_eq!((pts[1].nq, pts[1].nc), (60, 2 * 19 + 20));
+        assert_eq!((pts[0].path, pts[1].path), ("schur-cholesky", "sparse-cholesky"));
+        assert!(pts.iter().all(|p| p.seconds_per_rhs > 0.0 && p.seconds_per_rhs.is_finite()));
+        assert!(matches!(scale::<ezy_models::EzyRoller>(&[10], 3), Err(ScaleError::NoCount { .. })));
+        assert!(matches!(scale::<ezy_models::Snake>(&[0], 3), Err(ScaleError::BadCount { .. })));
+        let csv = render("Snake", &pts, true);
+        assert!(csv.starts_with("n,nq,nc,seconds_per_rhs,path\n3,9,7,"), "{csv}");
+    }
+}
