@@ -6,6 +6,7 @@ mod ezyroller;
 mod ezyroller_driven;
 pub mod scenes;
 mod snake;
+mod snakeboard;
 mod trailer;
 
 pub use chaplygin_sleigh::ChaplyginSleigh;
@@ -13,6 +14,7 @@ use ezy_core::{Model, ModelInfo, ModelVisitor};
 pub use ezyroller::EzyRoller;
 pub use ezyroller_driven::EzyRollerDriven;
 pub use snake::Snake;
+pub use snakeboard::Snakeboard;
 pub use trailer::Trailer;
 
 /// The model registry: `(key, static description)`, one line per vehicle.
@@ -22,6 +24,7 @@ pub const MODELS: &[(&str, ModelInfo)] = &[
     ("chaplygin_sleigh", ChaplyginSleigh::INFO),
     ("trailer", Trailer::INFO),
     ("snake", Snake::INFO),
+    ("snakeboard", Snakeboard::INFO),
 ];
 
 /// Runs `visitor` with the model registered as `key`; `None` if unknown.
@@ -32,6 +35,7 @@ pub fn visit<V: ModelVisitor>(key: &str, visitor: V) -> Option<V::Output> {
         "chaplygin_sleigh" => Some(visitor.visit::<ChaplyginSleigh>()),
         "trailer" => Some(visitor.visit::<Trailer>()),
         "snake" => Some(visitor.visit::<Snake>()),
+        "snakeboard" => Some(visitor.visit::<Snakeboard>()),
         _ => None,
     }
 }
