@@ -9,7 +9,7 @@ mod common;
 use common::{random_model, random_state, rng};
 use ezy_core::Model;
 use ezy_core::model::scatter_dense;
-use ezy_models::{ChaplyginSleigh, EzyRoller};
+use ezy_models::{ChaplyginSleigh, EzyRoller, Snakeboard};
 use num_dual::Dual64;
 
 const STATES: usize = 100;
@@ -174,6 +174,12 @@ fn ezyroller_matches_dual_numbers() {
 #[test]
 fn sleigh_matches_dual_numbers() {
     check_against_dual_numbers::<ChaplyginSleigh>(4);
+}
+
+#[test]
+fn snakeboard_matches_finite_differences_and_dual_numbers() {
+    check_against_finite_differences::<Snakeboard>(5);
+    check_against_dual_numbers::<Snakeboard>(6);
 }
 
 /// SPEC §1's formulas, typed here (and only here) to compare with what the

@@ -22,7 +22,7 @@ fn tmp_dir(name: &str) -> PathBuf {
 #[test]
 fn every_builtin_scene_runs_one_second_and_closes_its_ledger() {
     let all = scenes::builtin();
-    assert_eq!(all.len(), 10);
+    assert_eq!(all.len(), 11);
     for src in all {
         let s = &src.scene;
         let opts = RunOptions { out: tmp_dir(&s.name), t_end: Some(1.0), figures: true, ..RunOptions::default() };

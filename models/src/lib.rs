@@ -6,6 +6,7 @@ mod ezyroller;
 mod ezyroller_driven;
 pub mod scenes;
 mod snake;
+mod snakeboard;
 mod trailer;
 
 pub use chaplygin_sleigh::ChaplyginSleigh;
@@ -13,11 +14,13 @@ use ezy_core::{Model, ModelInfo, ModelVisitor};
 pub use ezyroller::EzyRoller;
 pub use ezyroller_driven::EzyRollerDriven;
 pub use snake::Snake;
+pub use snakeboard::Snakeboard;
 pub use trailer::Trailer;
 
 /// The keys of the model registry, one per vehicle, in the order `ezy
 /// list` shows them.
-pub const MODEL_KEYS: &[&str] = &["ezyroller", "ezyroller_driven", "chaplygin_sleigh", "trailer", "snake"];
+pub const MODEL_KEYS: &[&str] =
+    &["ezyroller", "ezyroller_driven", "chaplygin_sleigh", "trailer", "snake", "snakeboard"];
 
 /// The registry with each model's description at its default counts.
 pub fn models() -> Vec<(&'static str, ModelInfo)> {
@@ -40,6 +43,7 @@ pub fn visit<V: ModelVisitor>(key: &str, visitor: V) -> Option<V::Output> {
         "chaplygin_sleigh" => Some(visitor.visit::<ChaplyginSleigh>()),
         "trailer" => Some(visitor.visit::<Trailer>()),
         "snake" => Some(visitor.visit::<Snake>()),
+        "snakeboard" => Some(visitor.visit::<Snakeboard>()),
         _ => None,
     }
 }

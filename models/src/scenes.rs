@@ -19,6 +19,7 @@ pub const BUILTIN: &[(&str, &str)] = &[
     ("trailer.toml", include_str!("../scenes/trailer.toml")),
     ("snake.toml", include_str!("../scenes/snake.toml")),
     ("drive-prescribed.toml", include_str!("../scenes/drive-prescribed.toml")),
+    ("snakeboard.toml", include_str!("../scenes/snakeboard.toml")),
 ];
 
 /// A loaded scene with its source text and where it came from.
