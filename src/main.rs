@@ -71,6 +71,21 @@ struct ScaleArgs {
     /// Batches timed per size (the median is reported).
     #[arg(long, default_value_t = 15)]
     batches: usize,
+    /// KKT path: auto (dense below 16 rows, sparse from 16), schur (dense), sparse, lu.
+    #[arg(long, value_enum, default_value = "auto")]
+    kkt: KktArg,
+}
+
+#[derive(ValueEnum, Clone, Copy, Debug)]
+enum KktArg {
+    /// Dense Schur complement below 16 constraint rows, sparse from 16.
+    Auto,
+    /// Dense Schur complement (LDL^T of G M^-1 G^T).
+    Schur,
+    /// Sparse Schur complement (faer, symbolic factor once).
+    Sparse,
+    /// Dense LU of the whole KKT matrix.
+    Lu,
 }
 
 #[derive(ValueEnum, Clone, Copy, Debug)]
@@ -114,7 +129,7 @@ struct CheckArgs {
 enum ModelCommand {
     Equations(ezy::equations::Format),
     Check { states: usize, seed: u64 },
-    Scale { n: Vec<usize>, csv: bool, batches: usize },
+    Scale { n: Vec<usize>, csv: bool, batches: usize, kkt: ezy_core::kkt::KktMethod },
 }
 
 impl ezy_core::ModelVisitor for ModelCommand {
@@ -135,7 +150,7 @@ impl ezy_core::ModelVisitor for ModelCommand {
                 });
                 (ezy::check::table(name, states, &checks), err)
             }
-            Self::Scale { n, csv, batches } => match ezy::scale::scale::<M>(&n, batches) {
+            Self::Scale { n, csv, batches, kkt } => match ezy::scale::scale::<M>(&n, batches, kkt) {
                 Ok(points) => (ezy::scale::render(M::default().info().name, &points, csv), None),
                 Err(e) => (String::new(), Some(e.to_string())),
             },
@@ -275,7 +290,14 @@ fn main() -> ExitCode {
                 Err("--n needs at least one size and --batches at least 1".to_string())
             } else {
                 let csv = matches!(args.format, ScaleFormat::Csv);
-                model_command(&args.model, ModelCommand::Scale { n: args.n, csv, batches: args.batches })
+                use ezy_core::kkt::KktMethod;
+                let kkt = match args.kkt {
+                    KktArg::Auto => KktMethod::Auto,
+                    KktArg::Schur => KktMethod::Schur,
+                    KktArg::Sparse => KktMethod::Sparse,
+                    KktArg::Lu => KktMethod::Lu,
+                };
+                model_command(&args.model, ModelCommand::Scale { n: args.n, csv, batches: args.batches, kkt })
             }
         }
         Command::Check(args) => {

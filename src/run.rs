@@ -174,6 +174,7 @@ pub fn setup<M: Model + Default>(scene: &Scene, sets: &[(String, f64)]) -> Resul
     }
     model.check_counts().map_err(|message| SimError::Scene { key: "params".into(), message })?;
     let info = &model.info();
+    let scene = scene.expand_families(info).map_err(scene_error)?;
     scene.check(info).map_err(scene_error)?;
     for (name, value) in &scene.params {
         model.set_param(info.param_index(name).expect("checked"), *value);
@@ -186,14 +187,25 @@ pub fn setup<M: Model + Default>(scene: &Scene, sets: &[(String, f64)]) -> Resul
             }
         }
     };
-    let mut given_q = Vec::new();
-    for (name, v) in &scene.initial.q {
-        given_q.push((lookup(info, "coordinate", name, &info.coords)?, value(v)?));
-    }
-    let mut given_qd = Vec::new();
-    for (name, v) in &scene.initial.qd {
-        given_qd.push((lookup(info, "coordinate", name, &info.coords)?, value(v)?));
-    }
+    // a name, or `stem*` for every coordinate of a family; a later entry
+    // overrides an earlier one (`"phi*" = 0.0, phi3 = 0.5`)
+    let given = |list: &[(String, InitValue)]| -> Result<Vec<(usize, f64)>, SimError> {
+        let mut out: Vec<(usize, f64)> = Vec::new();
+        for (name, v) in list {
+            let ks = info.coords_matching(name);
+            if ks.is_empty() {
+                lookup(info, "coordinate", name, &info.coords)?;
+            }
+            let x = value(v)?;
+            for k in ks {
+                out.retain(|(j, _)| *j != k);
+                out.push((k, x));
+            }
+        }
+        Ok(out)
+    };
+    let given_q = given(&scene.initial.q)?;
+    let given_qd = given(&scene.initial.qd)?;
     let mut mass = vec![0.0; info.nq()];
     model.mass_diagonal(&mut mass);
     for b in &info.bodies {

@@ -62,12 +62,17 @@ pub enum ScaleError {
 }
 
 /// Times one RHS of `M` at each count in `ns` (the model's first count),
-/// with at least `min_batches` batches per size.
+/// with at least `min_batches` batches per size, on the KKT path `kkt`
+/// (`Auto`: dense below [`ezy_core::kkt::SPARSE_FROM_ROWS`] rows).
 ///
 /// # Errors
 /// [`ScaleError`] for a model without a count, a count the model does not
 /// accept, or a state the KKT solve fails on.
-pub fn scale<M: Model + Default>(ns: &[usize], min_batches: usize) -> Result<Vec<ScalePoint>, ScaleError> {
+pub fn scale<M: Model + Default>(
+    ns: &[usize],
+    min_batches: usize,
+    kkt: KktMethod,
+) -> Result<Vec<ScalePoint>, ScaleError> {
     let base = M::default();
     let info = base.info();
     let (index, name) = info
@@ -86,7 +91,7 @@ pub fn scale<M: Model + Default>(ns: &[usize], min_batches: usize) -> Result<Vec
         let mut model = base.clone();
         model.set_param(index, n as f64);
         model.check_counts().map_err(|message| ScaleError::BadCount { name, n, message })?;
-        let mut sys = Dynamics::new(model, Vec::new(), KktMethod::Auto);
+        let mut sys = Dynamics::new(model, Vec::new(), kkt);
         let nq = sys.nq();
         let nc = sys.info.nc();
         // a consistent state: random headings (+-0.3 rad), projected
@@ -190,13 +195,16 @@ mod tests {
 
     #[test]
     fn the_snake_is_measured_and_a_model_without_count_is_refused() {
-        let pts = scale::<ezy_models::Snake>(&[3, 20], 3).unwrap();
+        let pts = scale::<ezy_models::Snake>(&[3, 20], 3, KktMethod::Auto).unwrap();
         assert_eq!((pts[0].nq, pts[0].nc), (9, 2 * 2 + 3));
         assert_eq!((pts[1].nq, pts[1].nc), (60, 2 * 19 + 20));
-        assert_eq!((pts[0].path, pts[1].path), ("schur-cholesky", "sparse-cholesky"));
+        // a model with families takes the sparse path at every size
+        assert_eq!((pts[0].path, pts[1].path), ("sparse-cholesky", "sparse-cholesky"));
         assert!(pts.iter().all(|p| p.seconds_per_rhs > 0.0 && p.seconds_per_rhs.is_finite()));
-        assert!(matches!(scale::<ezy_models::EzyRoller>(&[10], 3), Err(ScaleError::NoCount { .. })));
-        assert!(matches!(scale::<ezy_models::Snake>(&[0], 3), Err(ScaleError::BadCount { .. })));
+        assert!(matches!(scale::<ezy_models::EzyRoller>(&[10], 3, KktMethod::Auto), Err(ScaleError::NoCount { .. })));
+        assert!(matches!(scale::<ezy_models::Snake>(&[0], 3, KktMethod::Auto), Err(ScaleError::BadCount { .. })));
+        let dense = scale::<ezy_models::Snake>(&[20], 3, KktMethod::Schur).unwrap();
+        assert_eq!(dense[0].path, "schur-cholesky");
         let csv = render("Snake", &pts, true);
         assert!(csv.starts_with("n,nq,nc,seconds_per_rhs,path\n3,9,7,"), "{csv}");
     }

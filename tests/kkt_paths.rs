@@ -9,6 +9,7 @@ use ezy::run::build;
 use ezy_core::kkt::KktMethod;
 use ezy_core::{Dynamics, Model, ProjectionKind, RunSettings, simulate};
 use ezy_models::{ChaplyginSleigh, EzyRoller, scenes};
+use rand::Rng;
 
 /// `dy` and `lambda` of the three paths agree to 1e-12 relative to the
 /// largest entry at 100 random states and parameter sets.
@@ -33,6 +34,39 @@ fn paths_agree<M: Model + Default>(seed: u64) {
         for (name, dy, lambda) in &out[1..] {
             for (a, b) in dy.iter().chain(lambda).zip(out[0].1.iter().chain(&out[0].2)) {
                 assert!((a - b).abs() <= 1e-12 * scale, "{} state {s}, {name}: {a} vs {b}", info.name);
+            }
+        }
+    }
+}
+
+/// Sparse and dense paths on the snake family for N = 2 ... 50 links
+/// (nc = 3N - 2 = 4 ... 148 rows): five random states each (headings in
+/// [-pi, pi], positions and velocities as in `random_state`), agreement to
+/// 1e-12 relative to the largest entry of `dy` and `lambda`.
+#[test]
+fn snake_paths_agree_for_2_to_50_links() {
+    let mut r = rng(31);
+    for n in 2..=50 {
+        let m = ezy_models::Snake { N: n, ..Default::default() };
+        let nq = 3 * n;
+        for s in 0..5 {
+            let q: Vec<f64> = (0..nq).map(|_| r.random_range(-3.0..3.0)).collect();
+            let qd: Vec<f64> = (0..nq).map(|_| r.random_range(-2.0..2.0)).collect();
+            let mut y = q;
+            y.extend_from_slice(&qd);
+            let mut out = Vec::new();
+            for method in [KktMethod::Schur, KktMethod::Lu, KktMethod::Sparse] {
+                let mut sys = Dynamics::new(m.clone(), vec![], method);
+                let mut dy = vec![0.0; 2 * nq];
+                sys.rhs(0.0, &y, &mut dy).unwrap();
+                out.push((sys.kkt_name(), dy, sys.lambda().to_vec()));
+            }
+            assert_eq!((out[0].0, out[1].0, out[2].0), ("schur-cholesky", "dense-lu", "sparse-cholesky"));
+            let scale = out[0].1.iter().chain(&out[0].2).fold(1.0f64, |a, v| a.max(v.abs()));
+            for (name, dy, lambda) in &out[1..] {
+                for (a, b) in dy.iter().chain(lambda).zip(out[0].1.iter().chain(&out[0].2)) {
+                    assert!((a - b).abs() <= 1e-12 * scale, "N = {n} state {s}, {name}: {a} vs {b} (scale {scale:e})");
+                }
             }
         }
     }
@@ -93,7 +127,8 @@ fn projections_agree<M: Model + Default>(seed: u64) {
             let (q0, qd0) = random_state::<M>(&mut r);
             // a consistent state, then a perturbation
             let (mut q, mut qd) = (q0.clone(), qd0.clone());
-            let mut dense = Projector::<M>::new(&m, kind, &mass);
+            let mut dense = Projector::<M>::new_dense(&m, kind, &mass);
+            assert_eq!(dense.path(), "normal-ldl");
             if dense.project(&m, 0.0, &mut q, &mut qd).is_err() {
                 continue;
             }

@@ -75,3 +75,83 @@ fn the_snake_advances_head_first() {
     assert!(s.max_energy_error <= 1e-8, "ledger {:e}", s.max_energy_error);
     assert!(s.max_residual_position <= 1e-12);
 }
+
+/// The snake scene's family effects expand to one effect per element, the
+/// motors' phases stepping by -pi/2 along the hinges; with `N = 20` the
+/// same scene expands to 19 motors, 20 resistances, 19 springs, and the
+/// `"phi*"` initial value reaches every heading.
+#[test]
+fn family_effects_expand_per_element() {
+    use ezy::run::setup;
+    use ezy_core::effects::{EffectSpec, Waveform};
+    let scene = scenes::get("snake");
+    let s = setup::<Snake>(&scene, &[]).unwrap();
+    let names: Vec<&str> = s.scene.effects.iter().map(|(n, _)| n.as_str()).collect();
+    assert_eq!(
+        names,
+        [
+            "motor2", "motor3", "motor4", "motor5", "roll1", "roll2", "roll3", "roll4", "roll5", "spring2", "spring3",
+            "spring4", "spring5"
+        ]
+    );
+    for (k, (_, spec)) in s.scene.effects[..4].iter().enumerate() {
+        let EffectSpec::HingeMotor { hinge, torque: Waveform::Sin(h) } = spec else { panic!("{spec:?}") };
+        assert_eq!(hinge, &format!("J{}", k + 2));
+        assert!((h.phase + k as f64 * std::f64::consts::FRAC_PI_2).abs() <= 1e-15 && h.phase_step == 0.0, "{h:?}");
+    }
+    let s20 = setup::<Snake>(&scene, &[("N".into(), 20.0)]).unwrap();
+    assert_eq!(s20.effects.len(), 19 + 20 + 19);
+    assert_eq!(s20.y0.len(), 2 * 60 + 58);
+    // phi* = 0 except phi2, phi4: the later entries win
+    let phi: Vec<f64> = (0..20).map(|i| s20.y0[3 * i + 2]).collect();
+    assert_eq!((phi[1], phi[3]), (0.2, -0.2));
+    assert!(phi.iter().enumerate().all(|(i, p)| i == 1 || i == 3 || *p == 0.0), "{phi:?}");
+}
+
+/// Family effect errors: a family the model does not have, and a
+/// `phase_step` on an effect that is not over a family, name the effect.
+#[test]
+fn family_effect_errors_name_the_effect() {
+    use ezy::run::setup;
+    let text = scenes::BUILTIN.iter().find(|(f, _)| *f == "snake.toml").unwrap().1;
+    let bad = text.replace("hinge = \"J[*]\"\ntorque", "hinge = \"K[*]\"\ntorque");
+    let err = scenes::check(ezy_core::Scene::from_toml(&bad, "bad.toml").unwrap(), &bad, "bad.toml").unwrap_err();
+    let msg = err.to_string();
+    assert!(msg.contains("effects.motor.hinge") && msg.contains("no hinge family `K`") && msg.contains("J2"), "{msg}");
+    let mut scene = scenes::get("drive");
+    let ezy_core::EffectSpec::HingeMotor { torque: ezy_core::effects::Waveform::Cos(h), .. } = &mut scene.effects[0].1
+    else {
+        panic!("drive's motor is a cos waveform")
+    };
+    h.phase_step = 1.0;
+    let e = setup::<ezy_models::EzyRoller>(&scene, &[]).map(|_| ()).unwrap_err().to_string();
+    assert!(e.contains("phase_step") && e.contains("effects.motor"), "{e}");
+}
+
+/// A family whose reference leaves the family at some count is refused at
+/// run time with the element and the range; counts below 1 are refused.
+#[test]
+fn out_of_range_family_references_are_errors() {
+    ezy_core::model! {
+        /// A chain whose first hinge refers to a link before the first.
+        pub struct Broken {
+            count N = 3;
+            param l = 1.0;
+            for i in 0..N {
+                body link[i](x, y, phi) { mass: 1.0, inertia: 0.1 }
+                point B[i] on link[i] at (-l, 0);
+                point F[i] on link[i] at (l, 0);
+            }
+            for i in 0..N {
+                hinge J[i]: B[i - 1] = F[i];
+            }
+        }
+    }
+    let m = Broken::default();
+    let e = m.check_counts().unwrap_err();
+    assert!(e.contains("hinge `J0`") && e.contains("B[i - 1] = B-1") && e.contains("0..3"), "{e}");
+    let mut ok = Snake::default();
+    assert!(ok.check_counts().is_ok());
+    ok.N = 0;
+    assert!(ok.check_counts().unwrap_err().contains("count `N` is 0"));
+}

@@ -223,6 +223,7 @@ fn overrides_reach_the_model_and_the_motor() {
         amplitude: 3.0,
         omega: std::f64::consts::PI,
         phase: 0.0,
+        phase_step: 0.0,
     });
     assert!(matches!(motor, ezy_core::EffectSpec::HingeMotor { torque, .. } if *torque == want), "{motor:?}");
     // the full key path works too, and the scene given is not changed

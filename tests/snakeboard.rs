@@ -341,7 +341,9 @@ fn the_full_model_follows_the_reduced_equations() {
     let mut rotate = drive.clone();
     for (name, spec) in &mut rotate.drives {
         if name == "psi" {
-            *spec = DriveSpec { angle: Waveform::Sin(Harmonic { amplitude: 0.8, omega: 2.0 * PI, phase: 0.3 }) };
+            *spec = DriveSpec {
+                angle: Waveform::Sin(Harmonic { amplitude: 0.8, omega: 2.0 * PI, phase: 0.3, phase_step: 0.0 }),
+            };
         }
     }
     const TOL: f64 = 5e-10;

@@ -167,8 +167,14 @@ impl<M: Model> Projector<M> {
     /// system instead of inverting `M`.
     pub fn new(model: &M, kind: ProjectionKind, mass: &[f64]) -> Self {
         let info = model.info();
-        let sparse = info.nc() >= crate::kkt::SPARSE_FROM_ROWS;
+        let sparse = info.nc() >= crate::kkt::SPARSE_FROM_ROWS || !model.unrolled_kernels();
         Self::build(info, kind, mass, sparse)
+    }
+
+    /// As [`Projector::new`], with the dense normal systems whatever the
+    /// model's size (for tests and benchmarks of the two paths).
+    pub fn new_dense(model: &M, kind: ProjectionKind, mass: &[f64]) -> Self {
+        Self::build(model.info(), kind, mass, false)
     }
 
     /// As [`Projector::new`], with the sparse normal systems whatever the

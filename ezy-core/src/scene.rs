@@ -645,11 +645,11 @@ impl Scene {
         }
         for (group, list) in [("q", &self.initial.q), ("qd", &self.initial.qd)] {
             for (name, v) in list {
-                if info.coord_index(name).is_none() {
+                if info.coords_matching(name).is_empty() {
                     return Err(SceneError::at(
                         &["initial", group, name],
                         format!(
-                            "unknown coordinate `{name}` in model {}; its coordinates: {}",
+                            "unknown coordinate `{name}` in model {} (`stem*` names a family's coordinates); its coordinates: {}",
                             info.name,
                             info.coords.join(", ")
                         ),
@@ -908,12 +908,110 @@ impl Scene {
             .collect()
     }
 
+    /// The scene with its family effects expanded for a model with `info`:
+    /// an effect whose `hinge` or `skate` is written `NAME[*]` becomes one
+    /// effect per element of that family (`J[*]`: `J2`, `J3`, ...), named
+    /// by the effect's name and the element's index (`gait` on `J3`:
+    /// `gait3`); in its waveforms, `phase_step` [rad] is added to the
+    /// phase once per element along the family (a travelling wave, e.g.
+    /// the serpenoid gait `tau_i = A sin(omega t + i delta)`).
+    ///
+    /// # Errors
+    /// A [`SceneError`] at the effect for a family the model does not
+    /// have, a `phase_step` on an effect that is not over a family, or an
+    /// expanded name that another effect already has.
+    pub fn expand_families(&self, info: &ModelInfo) -> Result<Scene, SceneError> {
+        let mut out = self.clone();
+        out.effects.clear();
+        for (name, spec) in &self.effects {
+            let tree = toml::Value::try_from(spec).expect("an effect serializes");
+            let field = ["hinge", "skate"]
+                .into_iter()
+                .find(|f| tree.get(f).and_then(toml::Value::as_str).is_some_and(|v| v.ends_with("[*]")));
+            let Some(field) = field else {
+                if has_phase_step(&tree) {
+                    return Err(SceneError::at(
+                        &["effects", name],
+                        "`phase_step` only applies to an effect over a family (`hinge = \"J[*]\"` or `skate = \"S[*]\"`)",
+                    ));
+                }
+                out.effects.push((name.clone(), spec.clone()));
+                continue;
+            };
+            let pattern = tree[field].as_str().expect("checked").to_string();
+            let stem = pattern.trim_end_matches("[*]");
+            let all: Vec<&str> = match field {
+                "hinge" => info.hinges.iter().map(|h| h.name.as_str()).collect(),
+                _ => info.skates.iter().map(|s| s.name.as_str()).collect(),
+            };
+            let elements: Vec<&str> = all.iter().copied().filter(|n| crate::model::is_element_of(n, stem)).collect();
+            if elements.is_empty() {
+                return Err(SceneError::at(
+                    &["effects", name, field],
+                    format!(
+                        "`{pattern}`: model {} has no {field} family `{stem}`; its {field}s: {}",
+                        info.name,
+                        known_or_none(&all)
+                    ),
+                ));
+            }
+            for (k, element) in elements.iter().enumerate() {
+                let mut t = tree.clone();
+                t[field] = toml::Value::String(element.to_string());
+                apply_phase_step(&mut t, k as f64);
+                let spec: EffectSpec = t.try_into().map_err(|e: toml::de::Error| {
+                    SceneError::at(&["effects", name], format!("expanding over `{pattern}`: {}", e.message()))
+                })?;
+                let expanded = format!("{name}{}", &element[stem.len()..]);
+                if self.effects.iter().any(|(n, _)| *n == expanded) || out.effects.iter().any(|(n, _)| *n == expanded) {
+                    return Err(SceneError::at(
+                        &["effects", name],
+                        format!("expanding over `{pattern}` gives an effect `{expanded}`, a name already taken"),
+                    ));
+                }
+                out.effects.push((expanded, spec));
+            }
+        }
+        Ok(out)
+    }
+
     /// Resolves the scene's effects against `model`.
     ///
     /// # Errors
     /// As [`EffectSpec::resolve`].
     pub fn resolve_effects<M: Model>(&self, model: &M) -> Result<Vec<crate::Effect>, crate::SimError> {
         self.effects.iter().map(|(n, e)| e.resolve(n, model)).collect()
+    }
+}
+
+/// Whether a serialized effect has a nonzero `phase_step` anywhere.
+fn has_phase_step(v: &toml::Value) -> bool {
+    match v {
+        toml::Value::Table(t) => t.iter().any(|(k, v)| {
+            (k == "phase_step" && v.as_float().or(v.as_integer().map(|i| i as f64)) != Some(0.0)) || has_phase_step(v)
+        }),
+        toml::Value::Array(a) => a.iter().any(has_phase_step),
+        _ => false,
+    }
+}
+
+/// `phase += k * phase_step` in every harmonic of a serialized effect,
+/// and `phase_step` removed.
+fn apply_phase_step(v: &mut toml::Value, k: f64) {
+    match v {
+        toml::Value::Table(t) => {
+            if let Some(step) = t.remove("phase_step") {
+                let step = step.as_float().or(step.as_integer().map(|i| i as f64)).unwrap_or(0.0);
+                let phase =
+                    t.get("phase").and_then(|p| p.as_float().or(p.as_integer().map(|i| i as f64))).unwrap_or(0.0);
+                t.insert("phase".into(), toml::Value::Float(phase + k * step));
+            }
+            for (_, v) in t.iter_mut() {
+                apply_phase_step(v, k);
+            }
+        }
+        toml::Value::Array(a) => a.iter_mut().for_each(|v| apply_phase_step(v, k)),
+        _ => {}
     }
 }
 

@@ -544,6 +544,10 @@ pub fn emit(def: &ModelDef, res: &Resolved, d: &mut Derived) -> TokenStream {
         quote! {
             #kernels
 
+            fn unrolled_kernels(&self) -> bool {
+                true
+            }
+
             #[inline]
             fn phi<S: #private::Scalar>(&self, q: &[S], phi: &mut [S]) {
                 let q = &q[..#nq];

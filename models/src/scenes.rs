@@ -18,6 +18,7 @@ pub const BUILTIN: &[(&str, &str)] = &[
     ("sleigh-drag.toml", include_str!("../scenes/sleigh-drag.toml")),
     ("trailer.toml", include_str!("../scenes/trailer.toml")),
     ("snake.toml", include_str!("../scenes/snake.toml")),
+    ("snake-long.toml", include_str!("../scenes/snake-long.toml")),
     ("drive-prescribed.toml", include_str!("../scenes/drive-prescribed.toml")),
     ("snakeboard.toml", include_str!("../scenes/snakeboard.toml")),
 ];
@@ -87,7 +88,8 @@ pub fn check(scene: Scene, text: &str, file: &str) -> Result<SceneSource, SceneF
         return Err(Scene::locate_error(text, file, e));
     };
     let info = info.map_err(|e| Scene::locate_error(text, file, e))?;
-    scene.check(&info).map_err(|e| Scene::locate_error(text, file, e))?;
+    let expanded = scene.expand_families(&info).map_err(|e| Scene::locate_error(text, file, e))?;
+    expanded.check(&info).map_err(|e| Scene::locate_error(text, file, e))?;
     Ok(SceneSource { scene, text: text.to_string(), file: file.to_string() })
 }
 

@@ -14,6 +14,15 @@ pub struct Harmonic {
     /// Phase [rad].
     #[serde(default)]
     pub phase: f64,
+    /// Phase added per element when the effect runs over a family
+    /// (`hinge = "J[*]"`, see `Scene::expand_families`) [rad]; must be 0
+    /// otherwise.
+    #[serde(default, skip_serializing_if = "is_zero")]
+    pub phase_step: f64,
+}
+
+fn is_zero(v: &f64) -> bool {
+    *v == 0.0
 }
 
 /// A piecewise-linear function of time through the points `(t_k, value_k)`,
@@ -302,11 +311,11 @@ mod tests {
 
     #[test]
     fn each_waveform_at_hand_computed_values() {
-        let h = Harmonic { amplitude: 2.0, omega: 3.0, phase: 0.5 };
+        let h = Harmonic { amplitude: 2.0, omega: 3.0, phase: 0.5, phase_step: 0.0 };
         assert_eq!(Waveform::Constant(1.5).eval(7.0), 1.5);
         assert_eq!(Waveform::Cos(h).eval(0.25), 2.0 * (0.75f64 + 0.5).cos());
         assert_eq!(Waveform::Sin(h).eval(0.25), 2.0 * (0.75f64 + 0.5).sin());
-        let two = Waveform::Harmonics(vec![h, Harmonic { amplitude: -1.0, omega: 1.0, phase: 0.0 }]);
+        let two = Waveform::Harmonics(vec![h, Harmonic { amplitude: -1.0, omega: 1.0, phase: 0.0, phase_step: 0.0 }]);
         assert_eq!(two.eval(0.25), 2.0 * 1.25f64.cos() - 0.25f64.cos());
         let tab = Waveform::Table(Table { t: vec![0.0, 1.0, 3.0], value: vec![0.0, 2.0, -2.0] });
         for (t, v) in
@@ -321,7 +330,7 @@ mod tests {
     /// about 1e-12 / h).
     #[test]
     fn derivatives_match_differences_of_the_values() {
-        let h = Harmonic { amplitude: 2.0, omega: 3.0, phase: 0.5 };
+        let h = Harmonic { amplitude: 2.0, omega: 3.0, phase: 0.5, phase_step: 0.0 };
         let knots = SplineData {
             t: vec![0.0, 0.4, 1.0, 1.7, 2.0],
             value: vec![0.0, 0.3, -0.2, 0.5, 0.1],
@@ -331,7 +340,7 @@ mod tests {
         let waves = [
             Waveform::Cos(h),
             Waveform::Sin(h),
-            Waveform::Harmonics(vec![h, Harmonic { amplitude: 0.5, omega: 7.0, phase: -1.0 }]),
+            Waveform::Harmonics(vec![h, Harmonic { amplitude: 0.5, omega: 7.0, phase: -1.0, phase_step: 0.0 }]),
             Waveform::Spline(Spline::new(knots)),
         ];
         let d = 1e-4;

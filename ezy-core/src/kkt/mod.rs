@@ -161,7 +161,8 @@ impl<M: Model> AnyKktSolver<M> {
             },
             KktMethod::Lu => Self::Lu(DenseLu::new(nq, nc)),
             KktMethod::Sparse | KktMethod::Auto
-                if invertible && (method == KktMethod::Sparse || nc >= SPARSE_FROM_ROWS) =>
+                if invertible
+                    && (method == KktMethod::Sparse || nc >= SPARSE_FROM_ROWS || !model.unrolled_kernels()) =>
             {
                 Self::Sparse(Box::new(SparseSchur::new(&info.pattern, nc, mass).expect("positive masses")))
             }
