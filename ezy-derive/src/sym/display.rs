@@ -19,11 +19,14 @@ impl Arena {
             Node::Sym(s) => (name(*s), 3),
             Node::Add(ts) => (self.sum(ts, &|t| self.fmt_prec(t, name, 0)), 0),
             Node::Mul(fs) => {
-                let (sign, fs) = match self.as_const(fs[0]) {
-                    Some(-1.0) => ("-", &fs[1..]),
-                    _ => ("", &fs[..]),
+                // a negative coefficient is a sign: `-0.5*l`, not `(-0.5)*l`
+                let (sign, coef, fs) = match self.as_const(fs[0]) {
+                    Some(-1.0) => ("-", None, &fs[1..]),
+                    Some(c) if c < 0.0 => ("-", Some(fmt_num(-c)), &fs[1..]),
+                    _ => ("", None, &fs[..]),
                 };
-                let body: Vec<String> = self.reading_order(fs).into_iter().map(|f| self.fmt_prec(f, name, 1)).collect();
+                let mut body: Vec<String> = coef.into_iter().collect();
+                body.extend(self.reading_order(fs).into_iter().map(|f| self.fmt_prec(f, name, 1)));
                 (format!("{sign}{}", body.join("*")), if sign.is_empty() { 1 } else { 0 })
             }
             Node::Pow(b, n) => (format!("{}^{}", self.fmt_prec(*b, name, 2), fmt_exp(*n)), 2),
