@@ -108,3 +108,35 @@ fn the_singular_mass_path_does_not_allocate() {
         assert_eq!(short, long, "{method:?}: 0.01 s allocates {short} times, 1 s {long} times");
     }
 }
+
+/// The same for a model with families on the sparse paths (KKT and
+/// projection): the snake scene with 20 links and its family effects.
+#[test]
+fn the_family_sparse_path_does_not_allocate() {
+    let run = |t_end: f64| {
+        let sets = [("N".to_string(), 20.0)];
+        let (mut sys, y0) = build::<ezy_models::Snake>(&scenes::get("snake"), &sets, KktMethod::Auto).unwrap();
+        assert_eq!(sys.kkt_name(), "sparse-cholesky");
+        let settings = RunSettings {
+            dt: 1e-3,
+            t_end,
+            every: 0.01,
+            projection: ProjectionKind::MassWeighted,
+            method: Method::Rk4,
+            rtol: 1e-9,
+            atol: 1e-9,
+            balance_limit: None,
+        };
+        let mut sink = Sink(0.0);
+        let before = allocations();
+        let s = simulate(&mut sys, &y0, &settings, &mut sink).unwrap();
+        assert!(
+            s.steps > 0 && sink.0.is_finite() && s.projection_path == "normal-sparse-cholesky",
+            "{}",
+            s.projection_path
+        );
+        allocations() - before
+    };
+    let (short, long) = (run(0.01), run(1.0));
+    assert_eq!(short, long, "0.01 s allocates {short} times, 1 s {long} times");
+}
