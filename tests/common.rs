@@ -12,7 +12,11 @@ pub fn rng(seed: u64) -> StdRng {
 
 /// A random state: positions in [-2, 2] m, angles in [-pi, pi], velocities in [-2, 2].
 pub fn random_state<M: Model + Default>(rng: &mut StdRng) -> (Vec<f64>, Vec<f64>) {
-    let nq = M::default().info().nq();
+    random_state_n(M::default().info().nq(), rng)
+}
+
+/// A random state of `nq` coordinates, as [`random_state`].
+pub fn random_state_n(nq: usize, rng: &mut StdRng) -> (Vec<f64>, Vec<f64>) {
     let q = (0..nq).map(|_| rng.random_range(-2.0..2.0) * 1.6).collect();
     let qd = (0..nq).map(|_| rng.random_range(-2.0..2.0)).collect();
     (q, qd)
@@ -21,7 +25,13 @@ pub fn random_state<M: Model + Default>(rng: &mut StdRng) -> (Vec<f64>, Vec<f64>
 /// The default model with every real parameter scaled by a random factor
 /// in [0.5, 1.5] (family counts stay at their defaults).
 pub fn random_model<M: Model + Default>(rng: &mut StdRng) -> M {
-    let mut m = M::default();
+    random_model_from(&M::default(), rng)
+}
+
+/// `base` with every real parameter scaled by a random factor in
+/// [0.5, 1.5] (its family counts kept).
+pub fn random_model_from<M: Model>(base: &M, rng: &mut StdRng) -> M {
+    let mut m = base.clone();
     for (i, p) in m.info().params.iter().enumerate() {
         if p.count {
             continue;

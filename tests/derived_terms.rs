@@ -6,7 +6,7 @@
 
 mod common;
 
-use common::{random_model, random_state, rng};
+use common::{random_model, random_model_from, random_state, random_state_n, rng};
 use ezy_core::Model;
 use ezy_core::model::scatter_dense;
 use ezy_models::{ChaplyginSleigh, EzyRoller, Snakeboard};
@@ -46,12 +46,17 @@ fn close(a: f64, b: f64, rtol: f64, scale: f64) -> bool {
 }
 
 fn check_against_finite_differences<M: Model + Default>(seed: u64) {
-    let info = &M::default().info();
+    check_against_finite_differences_at(&M::default(), seed);
+}
+
+/// As above, for `base` (its family counts) with random real parameters.
+fn check_against_finite_differences_at<M: Model>(base: &M, seed: u64) {
+    let info = &base.info();
     let (nq, nh, nc) = (info.nq(), info.n_holonomic, info.nc());
     let mut r = rng(seed);
     for s in 0..STATES {
-        let m: M = random_model(&mut r);
-        let (q, qd) = random_state::<M>(&mut r);
+        let m: M = random_model_from(base, &mut r);
+        let (q, qd) = random_state_n(nq, &mut r);
         let g = dense_g(&m, &q);
         // also the sparsity pattern claim: entries outside it are zero
         let shifted = |k: usize, h: f64| {
@@ -94,11 +99,16 @@ fn check_against_finite_differences<M: Model + Default>(seed: u64) {
             assert!(close(v[i], fd, FD_RTOL, 1.0), "{} state {s}: point velocity {i} = {} vs FD {fd}", info.name, v[i]);
         }
         // skate rows: S qd is the contact point's velocity across the blade,
-        // whose normal is n = (-sin phi, cos phi) for the blades along (1, 0) here
-        for sk in &info.skates {
+        // whose world normal is R(phi) (-t_y, t_x) for the body-frame blade t
+        let mut local = vec![0.0; 2 * np];
+        let mut blades = vec![0.0; 2 * info.skates.len()];
+        m.local_geometry(&mut local, &mut blades);
+        for (j, sk) in info.skates.iter().enumerate() {
             let p = sk.point;
             let phi = q[info.bodies[info.points[p].body].coords[2]];
-            let lateral = -phi.sin() * v[2 * p] + phi.cos() * v[2 * p + 1];
+            let (nx, ny) = (-blades[2 * j + 1], blades[2 * j]);
+            let (wx, wy) = (phi.cos() * nx - phi.sin() * ny, phi.sin() * nx + phi.cos() * ny);
+            let lateral = wx * v[2 * p] + wy * v[2 * p + 1];
             let gq = g_times(&m, &q, &qd)[sk.row];
             assert!(
                 close(gq, lateral, 1e-12, 1.0),
@@ -111,12 +121,17 @@ fn check_against_finite_differences<M: Model + Default>(seed: u64) {
 }
 
 fn check_against_dual_numbers<M: Model + Default>(seed: u64) {
-    let info = &M::default().info();
+    check_against_dual_numbers_at(&M::default(), seed);
+}
+
+/// As above, for `base` (its family counts) with random real parameters.
+fn check_against_dual_numbers_at<M: Model>(base: &M, seed: u64) {
+    let info = &base.info();
     let (nq, nh, nc) = (info.nq(), info.n_holonomic, info.nc());
     let mut r = rng(seed);
     for s in 0..STATES {
-        let m: M = random_model(&mut r);
-        let (q, qd) = random_state::<M>(&mut r);
+        let m: M = random_model_from(base, &mut r);
+        let (q, qd) = random_state_n(nq, &mut r);
         let g = dense_g(&m, &q);
         for k in 0..nq {
             let qk: Vec<Dual64> =
@@ -184,6 +199,25 @@ fn snakeboard_matches_finite_differences_and_dual_numbers() {
 
 /// SPEC §1's formulas, typed here (and only here) to compare with what the
 /// macro derived.
+/// The models with families at their default and at other counts, and the
+/// prescribed-angle EzyRoller.
+#[test]
+fn family_and_driven_models_match_finite_differences_and_dual_numbers() {
+    use ezy_models::{EzyRollerDriven, Snake, Trailer};
+    for n in [1, 2, 5, 9] {
+        let snake = Snake { N: n, ..Default::default() };
+        check_against_finite_differences_at(&snake, 40 + n as u64);
+        check_against_dual_numbers_at(&snake, 50 + n as u64);
+    }
+    for n in [1, 2, 4] {
+        let trailer = Trailer { n, ..Default::default() };
+        check_against_finite_differences_at(&trailer, 60 + n as u64);
+        check_against_dual_numbers_at(&trailer, 70 + n as u64);
+    }
+    check_against_finite_differences::<EzyRollerDriven>(81);
+    check_against_dual_numbers::<EzyRollerDriven>(82);
+}
+
 #[test]
 fn ezyroller_matches_spec_formulas() {
     let mut r = rng(5);
