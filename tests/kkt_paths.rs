@@ -1,73 +1,61 @@
 //! The three KKT paths (dense Schur, dense LU, sparse Schur) give the same
-//! accelerations and multipliers for every registered model at random
-//! states, and the same trajectory over a second of `drive`.
+//! accelerations and multipliers at random states (EzyRoller, sleigh, the
+//! snake family for 2 to 50 links), the same trajectory over a second of
+//! `drive`, and the sparse projection the dense one's state.
 
 mod common;
 
-use common::{random_model, random_state, rng};
+use common::{random_model, random_state, random_state_n, rng};
 use ezy::run::build;
 use ezy_core::kkt::KktMethod;
 use ezy_core::{Dynamics, Model, ProjectionKind, RunSettings, simulate};
 use ezy_models::{ChaplyginSleigh, EzyRoller, scenes};
-use rand::Rng;
 
-/// `dy` and `lambda` of the three paths agree to 1e-12 relative to the
-/// largest entry at 100 random states and parameter sets.
-fn paths_agree<M: Model + Default>(seed: u64) {
-    let mut r = rng(seed);
-    let info = M::default().info();
-    let nq = info.nq();
-    for s in 0..100 {
-        let m: M = random_model(&mut r);
-        let (q, qd) = random_state::<M>(&mut r);
-        let mut y = q.clone();
-        y.extend_from_slice(&qd);
-        let mut out = Vec::new();
-        for method in [KktMethod::Schur, KktMethod::Lu, KktMethod::Sparse] {
-            let mut sys = Dynamics::new(m.clone(), vec![], method);
-            let mut dy = vec![0.0; 2 * nq];
-            sys.rhs(0.0, &y, &mut dy).unwrap();
-            out.push((sys.kkt_name(), dy, sys.lambda().to_vec()));
-        }
-        assert_eq!(out[2].0, "sparse-cholesky");
-        let scale = out[0].1.iter().chain(&out[0].2).fold(1.0f64, |a, v| a.max(v.abs()));
-        for (name, dy, lambda) in &out[1..] {
-            for (a, b) in dy.iter().chain(lambda).zip(out[0].1.iter().chain(&out[0].2)) {
-                assert!((a - b).abs() <= 1e-12 * scale, "{} state {s}, {name}: {a} vs {b}", info.name);
-            }
+/// Dense Schur, dense LU and sparse Schur at the state `(q, qd)` of `m`:
+/// `dy` and `lambda` agree to 1e-12 relative to the largest entry
+/// (`context` names the case in a failure).
+fn three_paths_agree<M: Model>(m: &M, q: &[f64], qd: &[f64], context: &str) {
+    let mut y = q.to_vec();
+    y.extend_from_slice(qd);
+    let mut out = Vec::new();
+    for method in [KktMethod::Schur, KktMethod::Lu, KktMethod::Sparse] {
+        let mut sys = Dynamics::new(m.clone(), vec![], method);
+        let mut dy = vec![0.0; y.len()];
+        sys.rhs(0.0, &y, &mut dy).unwrap();
+        out.push((sys.kkt_name(), dy, sys.lambda().to_vec()));
+    }
+    assert_eq!((out[0].0, out[1].0, out[2].0), ("schur-cholesky", "dense-lu", "sparse-cholesky"));
+    let scale = out[0].1.iter().chain(&out[0].2).fold(1.0f64, |a, v| a.max(v.abs()));
+    for (name, dy, lambda) in &out[1..] {
+        for (a, b) in dy.iter().chain(lambda).zip(out[0].1.iter().chain(&out[0].2)) {
+            assert!((a - b).abs() <= 1e-12 * scale, "{context}, {name}: {a} vs {b} (scale {scale:e})");
         }
     }
 }
 
+/// The three paths agree at 100 random states and parameter sets.
+fn paths_agree<M: Model + Default>(seed: u64) {
+    let mut r = rng(seed);
+    let name = M::default().info().name;
+    for s in 0..100 {
+        let m: M = random_model(&mut r);
+        let (q, qd) = random_state::<M>(&mut r);
+        three_paths_agree(&m, &q, &qd, &format!("{name} state {s}"));
+    }
+}
+
 /// Sparse and dense paths on the snake family for N = 2 ... 50 links
-/// (nc = 3N - 2 = 4 ... 148 rows): five random states each (headings in
-/// [-pi, pi], positions and velocities as in `random_state`), agreement to
-/// 1e-12 relative to the largest entry of `dy` and `lambda`.
+/// (nc = 3N - 2 = 4 ... 148 rows): five random states each (as
+/// `random_state`), agreement to 1e-12 relative to the largest entry of
+/// `dy` and `lambda`.
 #[test]
 fn snake_paths_agree_for_2_to_50_links() {
     let mut r = rng(31);
     for n in 2..=50 {
         let m = ezy_models::Snake { N: n, ..Default::default() };
-        let nq = 3 * n;
         for s in 0..5 {
-            let q: Vec<f64> = (0..nq).map(|_| r.random_range(-3.0..3.0)).collect();
-            let qd: Vec<f64> = (0..nq).map(|_| r.random_range(-2.0..2.0)).collect();
-            let mut y = q;
-            y.extend_from_slice(&qd);
-            let mut out = Vec::new();
-            for method in [KktMethod::Schur, KktMethod::Lu, KktMethod::Sparse] {
-                let mut sys = Dynamics::new(m.clone(), vec![], method);
-                let mut dy = vec![0.0; 2 * nq];
-                sys.rhs(0.0, &y, &mut dy).unwrap();
-                out.push((sys.kkt_name(), dy, sys.lambda().to_vec()));
-            }
-            assert_eq!((out[0].0, out[1].0, out[2].0), ("schur-cholesky", "dense-lu", "sparse-cholesky"));
-            let scale = out[0].1.iter().chain(&out[0].2).fold(1.0f64, |a, v| a.max(v.abs()));
-            for (name, dy, lambda) in &out[1..] {
-                for (a, b) in dy.iter().chain(lambda).zip(out[0].1.iter().chain(&out[0].2)) {
-                    assert!((a - b).abs() <= 1e-12 * scale, "N = {n} state {s}, {name}: {a} vs {b} (scale {scale:e})");
-                }
-            }
+            let (q, qd) = random_state_n(3 * n, &mut r);
+            three_paths_agree(&m, &q, &qd, &format!("N = {n} state {s}"));
         }
     }
 }

@@ -541,6 +541,10 @@ pub fn emit(def: &ModelDef, res: &Resolved, d: &mut Derived) -> TokenStream {
         let points_body = assign(d, def, &[("out", &st.points)]);
         let vel_body = assign(d, def, &[("out", &st.vel)]);
         let kernels = sparse_kernels(&st.pattern, nq, st.nc);
+        let q_only = quote!(let q = &q[..#nq];);
+        let q_qd = quote!(let q = &q[..#nq]; let qd = &qd[..#nq];);
+        let fns =
+            numeric_fns(&q_only, &q_qd, [phi_body, jac_body, g_body, phi_g_body, terms_body, points_body, vel_body]);
         quote! {
             #kernels
 
@@ -548,49 +552,7 @@ pub fn emit(def: &ModelDef, res: &Resolved, d: &mut Derived) -> TokenStream {
                 true
             }
 
-            #[inline]
-            fn phi<S: #private::Scalar>(&self, q: &[S], phi: &mut [S]) {
-                let q = &q[..#nq];
-                #phi_body
-            }
-
-            #[inline]
-            fn holonomic_jacobian<S: #private::Scalar>(&self, q: &[S], values: &mut [S]) {
-                let q = &q[..#nq];
-                #jac_body
-            }
-
-            #[inline]
-            fn constraint_matrix<S: #private::Scalar>(&self, q: &[S], values: &mut [S]) {
-                let q = &q[..#nq];
-                #g_body
-            }
-
-            #[inline]
-            fn phi_and_constraint_matrix<S: #private::Scalar>(&self, q: &[S], phi: &mut [S], values: &mut [S]) {
-                let q = &q[..#nq];
-                #phi_g_body
-            }
-
-            #[inline]
-            fn constraint_terms<S: #private::Scalar>(&self, q: &[S], qd: &[S], values: &mut [S], gamma: &mut [S]) {
-                let q = &q[..#nq];
-                let qd = &qd[..#nq];
-                #terms_body
-            }
-
-            #[inline]
-            fn points<S: #private::Scalar>(&self, q: &[S], out: &mut [S]) {
-                let q = &q[..#nq];
-                #points_body
-            }
-
-            #[inline]
-            fn point_velocities<S: #private::Scalar>(&self, q: &[S], qd: &[S], out: &mut [S]) {
-                let q = &q[..#nq];
-                let qd = &qd[..#nq];
-                #vel_body
-            }
+            #fns
         }
     } else {
         let o = |phi, values, gamma, holonomic_only| Outputs { phi, values, gamma, holonomic_only };
@@ -601,49 +563,8 @@ pub fn emit(def: &ModelDef, res: &Resolved, d: &mut Derived) -> TokenStream {
         let terms_body = group_loops(d, def, o(false, true, true, false));
         let points_body = point_loops(d, def, res, false);
         let vel_body = point_loops(d, def, res, true);
-        quote! {
-            #[inline]
-            fn phi<S: #private::Scalar>(&self, q: &[S], phi: &mut [S]) {
-                let l = self.__ezy_layout();
-                #phi_body
-            }
-
-            #[inline]
-            fn holonomic_jacobian<S: #private::Scalar>(&self, q: &[S], values: &mut [S]) {
-                let l = self.__ezy_layout();
-                #jac_body
-            }
-
-            #[inline]
-            fn constraint_matrix<S: #private::Scalar>(&self, q: &[S], values: &mut [S]) {
-                let l = self.__ezy_layout();
-                #g_body
-            }
-
-            #[inline]
-            fn phi_and_constraint_matrix<S: #private::Scalar>(&self, q: &[S], phi: &mut [S], values: &mut [S]) {
-                let l = self.__ezy_layout();
-                #phi_g_body
-            }
-
-            #[inline]
-            fn constraint_terms<S: #private::Scalar>(&self, q: &[S], qd: &[S], values: &mut [S], gamma: &mut [S]) {
-                let l = self.__ezy_layout();
-                #terms_body
-            }
-
-            #[inline]
-            fn points<S: #private::Scalar>(&self, q: &[S], out: &mut [S]) {
-                let l = self.__ezy_layout();
-                #points_body
-            }
-
-            #[inline]
-            fn point_velocities<S: #private::Scalar>(&self, q: &[S], qd: &[S], out: &mut [S]) {
-                let l = self.__ezy_layout();
-                #vel_body
-            }
-        }
+        let layout = quote!(let l = self.__ezy_layout(););
+        numeric_fns(&layout, &layout, [phi_body, jac_body, g_body, phi_g_body, terms_body, points_body, vel_body])
     };
 
     quote! {
@@ -778,6 +699,59 @@ fn sparse_kernels(pattern: &[(usize, usize)], nq: usize, nc: usize) -> TokenStre
             let x = &x[..#nc];
             let v = &mut v[..#nq];
             #gt
+        }
+    }
+}
+
+/// The seven generic numeric functions of `Model` around their bodies
+/// (`phi`, `holonomic_jacobian`, `constraint_matrix`,
+/// `phi_and_constraint_matrix`, `constraint_terms`, `points`,
+/// `point_velocities`), each opening with `q_prelude` or, when it takes
+/// `qd`, `qd_prelude`.
+fn numeric_fns(q_prelude: &TokenStream, qd_prelude: &TokenStream, bodies: [TokenStream; 7]) -> TokenStream {
+    let private = quote!(::ezy_core::__private);
+    let [phi, jac, g, phi_g, terms, points, vel] = bodies;
+    quote! {
+        #[inline]
+        fn phi<S: #private::Scalar>(&self, q: &[S], phi: &mut [S]) {
+            #q_prelude
+            #phi
+        }
+
+        #[inline]
+        fn holonomic_jacobian<S: #private::Scalar>(&self, q: &[S], values: &mut [S]) {
+            #q_prelude
+            #jac
+        }
+
+        #[inline]
+        fn constraint_matrix<S: #private::Scalar>(&self, q: &[S], values: &mut [S]) {
+            #q_prelude
+            #g
+        }
+
+        #[inline]
+        fn phi_and_constraint_matrix<S: #private::Scalar>(&self, q: &[S], phi: &mut [S], values: &mut [S]) {
+            #q_prelude
+            #phi_g
+        }
+
+        #[inline]
+        fn constraint_terms<S: #private::Scalar>(&self, q: &[S], qd: &[S], values: &mut [S], gamma: &mut [S]) {
+            #qd_prelude
+            #terms
+        }
+
+        #[inline]
+        fn points<S: #private::Scalar>(&self, q: &[S], out: &mut [S]) {
+            #q_prelude
+            #points
+        }
+
+        #[inline]
+        fn point_velocities<S: #private::Scalar>(&self, q: &[S], qd: &[S], out: &mut [S]) {
+            #qd_prelude
+            #vel
         }
     }
 }
