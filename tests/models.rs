@@ -150,6 +150,19 @@ fn out_of_range_family_references_are_errors() {
     let m = Broken::default();
     let e = m.check_counts().unwrap_err();
     assert!(e.contains("hinge `J0`") && e.contains("B[i - 1] = B-1") && e.contains("0..3"), "{e}");
+    // a family's element names can collide with a single item's
+    ezy_core::model! {
+        /// A single body `x1` next to a family whose first element is also `x1`.
+        pub struct Clash {
+            count N = 2;
+            body base(x1, y1, phi1) { mass: 1.0, inertia: 0.1 }
+            for i in 1..N + 1 {
+                body link[i](x, y, phi) { mass: 1.0, inertia: 0.1 }
+            }
+        }
+    }
+    let e = Clash::default().check_counts().unwrap_err();
+    assert!(e.contains("two coordinates are named `x1`"), "{e}");
     let mut ok = Snake::default();
     assert!(ok.check_counts().is_ok());
     ok.N = 0;
