@@ -66,7 +66,12 @@ impl Acc {
 /// random factor in [0.5, 1.5] of its default (seeded, so reproducible);
 /// family counts stay at their defaults.
 pub fn check<M: Model + Default>(states: usize, seed: u64) -> Vec<TermCheck> {
-    let info = &M::default().info();
+    check_at(&M::default(), states, seed)
+}
+
+/// As [`check`], around `base` (its family counts, its parameters scaled).
+pub fn check_at<M: Model>(base: &M, states: usize, seed: u64) -> Vec<TermCheck> {
+    let info = &base.info();
     let (nq, nh, nc) = (info.nq(), info.n_holonomic, info.nc());
     let np = info.points.len();
     let mut rng = StdRng::seed_from_u64(seed);
@@ -76,7 +81,7 @@ pub fn check<M: Model + Default>(states: usize, seed: u64) -> Vec<TermCheck> {
     let mut vel = Acc::new("point velocities = d r_P/dt");
     let h = FD_STEP;
     for s in 0..states {
-        let mut m = M::default();
+        let mut m = base.clone();
         for (i, p) in info.params.iter().enumerate() {
             if p.count {
                 continue;

@@ -12,11 +12,11 @@ pub enum Format {
     Latex,
 }
 
-/// The derived equations of model `M` in `format`.
-pub fn render<M: Model + Default>(format: Format) -> String {
+/// The derived equations of `model` (at its family counts) in `format`.
+pub fn render<M: Model>(model: &M, format: Format) -> String {
     match format {
-        Format::Text => text::<M>(),
-        Format::Latex => latex::<M>(),
+        Format::Text => text(model),
+        Format::Latex => latex(model),
     }
 }
 
@@ -42,8 +42,7 @@ fn target(info: &ModelInfo, i: usize, level: &str) -> &'static str {
     }
 }
 
-fn text<M: Model + Default>() -> String {
-    let m = M::default();
+fn text<M: Model>(m: &M) -> String {
     let (info, eq) = (&m.info(), &m.equations());
     let mut out = String::new();
     let w = info.constraints.iter().map(|c| c.len()).max().unwrap_or(0);
@@ -83,8 +82,7 @@ fn tex_text(s: &str) -> String {
     format!("\\text{{{}}}", s.replace('_', "\\_"))
 }
 
-fn latex<M: Model + Default>() -> String {
-    let m = M::default();
+fn latex<M: Model>(m: &M) -> String {
     let (info, eq) = (&m.info(), &m.equations());
     let mut out = String::new();
     out.push_str("\\documentclass{article}\n\\usepackage{amsmath}\n\\allowdisplaybreaks\n\\begin{document}\n");

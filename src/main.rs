@@ -100,6 +100,9 @@ enum ScaleFormat {
 struct EquationsArgs {
     /// Model name (see `ezy list`).
     model: String,
+    /// Set a parameter or a family count first (`--set N=3`); repeatable.
+    #[arg(long = "set", value_parser = parse_set)]
+    sets: Vec<(String, f64)>,
     /// Output format.
     #[arg(long, value_enum, default_value = "text")]
     format: EqFormat,
@@ -117,6 +120,9 @@ enum EqFormat {
 struct CheckArgs {
     /// Model name (see `ezy list`).
     model: String,
+    /// Set a family count (or a parameter's centre) first (`--set N=3`); repeatable.
+    #[arg(long = "set", value_parser = parse_set)]
+    sets: Vec<(String, f64)>,
     /// Number of random states (and random parameter sets).
     #[arg(long, default_value_t = 100)]
     states: usize,
@@ -127,8 +133,8 @@ struct CheckArgs {
 
 /// Runs `ezy equations`, `ezy check` or `ezy scale` for the model type.
 enum ModelCommand {
-    Equations(ezy::equations::Format),
-    Check { states: usize, seed: u64 },
+    Equations { format: ezy::equations::Format, sets: Vec<(String, f64)> },
+    Check { states: usize, seed: u64, sets: Vec<(String, f64)> },
     Scale { n: Vec<usize>, csv: bool, batches: usize, kkt: ezy_core::kkt::KktMethod },
 }
 
@@ -137,9 +143,16 @@ impl ezy_core::ModelVisitor for ModelCommand {
     type Output = (String, Option<String>);
     fn visit<M: ezy_core::Model + Default>(self) -> Self::Output {
         match self {
-            Self::Equations(f) => (ezy::equations::render::<M>(f), None),
-            Self::Check { states, seed } => {
-                let checks = ezy::check::check::<M>(states, seed);
+            Self::Equations { format, sets } => match with_sets::<M>(&sets) {
+                Ok(m) => (ezy::equations::render(&m, format), None),
+                Err(e) => (String::new(), Some(e)),
+            },
+            Self::Check { states, seed, sets } => {
+                let base = match with_sets::<M>(&sets) {
+                    Ok(m) => m,
+                    Err(e) => return (String::new(), Some(e)),
+                };
+                let checks = ezy::check::check_at(&base, states, seed);
                 let ok = checks.iter().all(|c| c.passed());
                 let name = M::default().info().name;
                 let err = (!ok).then(|| {
@@ -156,6 +169,24 @@ impl ezy_core::ModelVisitor for ModelCommand {
             },
         }
     }
+}
+
+/// The default model with `sets` applied (parameters and family counts).
+fn with_sets<M: ezy_core::Model + Default>(sets: &[(String, f64)]) -> Result<M, String> {
+    let mut m = M::default();
+    let info = m.info();
+    for (name, value) in sets {
+        let i = info.param_index(name).ok_or_else(|| {
+            let known: Vec<&str> = info.params.iter().map(|p| p.name).collect();
+            format!("unknown parameter `{name}` in model {}; its parameters: {}", info.name, known.join(", "))
+        })?;
+        if info.params[i].count {
+            ezy_core::scene::check_count(name, *value).map_err(|e| e.message)?;
+        }
+        m.set_param(i, *value);
+    }
+    m.check_counts()?;
+    Ok(m)
 }
 
 fn model_command(model: &str, cmd: ModelCommand) -> Result<(), String> {
@@ -280,10 +311,13 @@ fn main() -> ExitCode {
         Command::Precision(args) => precision(args),
         Command::Equations(args) => model_command(
             &args.model,
-            ModelCommand::Equations(match args.format {
-                EqFormat::Text => ezy::equations::Format::Text,
-                EqFormat::Latex => ezy::equations::Format::Latex,
-            }),
+            ModelCommand::Equations {
+                format: match args.format {
+                    EqFormat::Text => ezy::equations::Format::Text,
+                    EqFormat::Latex => ezy::equations::Format::Latex,
+                },
+                sets: args.sets,
+            },
         ),
         Command::Scale(args) => {
             if args.n.is_empty() || args.batches == 0 {
@@ -304,7 +338,10 @@ fn main() -> ExitCode {
             if args.states == 0 {
                 Err("--states = 0: check at least one state".to_string())
             } else {
-                model_command(&args.model, ModelCommand::Check { states: args.states, seed: args.seed })
+                model_command(
+                    &args.model,
+                    ModelCommand::Check { states: args.states, seed: args.seed, sets: args.sets },
+                )
             }
         }
     };

@@ -296,3 +296,24 @@ fn check_passes_for_every_model() {
         assert!(!out.contains("FAILED"), "{out}");
     }
 }
+
+/// `ezy equations` and `ezy check` take `--set` for family counts: the
+/// snake at two links has six coordinates and one hinge, at twelve links
+/// the check compares 3 x 22 x 36 entries of `C_q`; a bad count or name is
+/// an error that names it.
+#[test]
+fn equations_and_check_take_family_counts() {
+    let o = ezy(&["equations", "snake", "--set", "N=2"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let out = String::from_utf8_lossy(&o.stdout);
+    assert!(out.contains("(nq = 6, nc = 4)") && out.contains("J2.x") && !out.contains("J3"), "{out}");
+    let o = ezy(&["check", "snake", "--set", "N=12", "--states", "3"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    // C_q compared at 3 states x 22 hinge rows x 36 coordinates
+    let out = String::from_utf8_lossy(&o.stdout);
+    assert!(out.lines().any(|l| l.starts_with("C_q") && l.contains(" 2376 ")), "{out}");
+    let o = ezy(&["equations", "snake", "--set", "N=0"]);
+    assert!(!o.status.success() && stderr(&o).contains("N = 0 is a count"), "{}", stderr(&o));
+    let o = ezy(&["equations", "snake", "--set", "Q=1"]);
+    assert!(!o.status.success() && stderr(&o).contains("unknown parameter `Q`"), "{}", stderr(&o));
+}
