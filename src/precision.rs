@@ -111,16 +111,17 @@ fn run_once<M: Model + Default>(
     history: bool,
 ) -> Result<(Last, ezy_core::Summary), SimError> {
     let (mut sys, y0) = build::<M>(scene, &[], KktMethod::Auto)?;
+    let base = scene.run_settings();
     let settings = RunSettings {
-        dt: setting.dt.unwrap_or(scene.integrator.dt),
-        t_end: scene.t_end,
+        dt: setting.dt.unwrap_or(base.dt),
         every,
         projection: setting.projection,
         method: setting.method,
-        rtol: setting.tol.unwrap_or(scene.integrator.rtol),
-        atol: setting.tol.unwrap_or(scene.integrator.atol),
+        rtol: setting.tol.unwrap_or(base.rtol),
+        atol: setting.tol.unwrap_or(base.atol),
         // accuracy is what is measured here, not a reason to stop
         balance_limit: None,
+        ..base
     };
     let mut last = Last { history: history.then(Vec::new), ..Last::default() };
     let summary = ezy_core::simulate(&mut sys, &y0, &settings, &mut last).map_err(|e| match e {

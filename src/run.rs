@@ -247,15 +247,16 @@ pub fn build<M: Model + Default>(
 
 fn run_model<M: Model + Default>(scene: &Scene, opts: &RunOptions) -> Result<Report, Error> {
     let wall = Instant::now();
+    let base = scene.run_settings();
     let settings = RunSettings {
-        dt: opts.dt.unwrap_or(scene.integrator.dt),
-        t_end: opts.t_end.unwrap_or(scene.t_end),
-        every: opts.every.unwrap_or(scene.output.every),
-        projection: opts.projection.unwrap_or(scene.integrator.projection),
-        method: opts.method.unwrap_or(scene.integrator.method),
-        rtol: opts.rtol.unwrap_or(scene.integrator.rtol),
-        atol: opts.atol.unwrap_or(scene.integrator.atol),
-        balance_limit: Some(ezy_core::simulate::BALANCE_LIMIT),
+        dt: opts.dt.unwrap_or(base.dt),
+        t_end: opts.t_end.unwrap_or(base.t_end),
+        every: opts.every.unwrap_or(base.every),
+        projection: opts.projection.unwrap_or(base.projection),
+        method: opts.method.unwrap_or(base.method),
+        rtol: opts.rtol.unwrap_or(base.rtol),
+        atol: opts.atol.unwrap_or(base.atol),
+        ..base
     };
     settings.validate()?;
     scene.check_drives_cover(settings.t_end).map_err(|e| SimError::Scene { key: e.key(), message: e.message })?;

@@ -5,6 +5,22 @@ use ezy_core::{Dynamics, Model, Observer, Sample};
 use rand::rngs::StdRng;
 use rand::{Rng, SeedableRng};
 
+/// DOP853 at `rtol = atol = tol` with mass-weighted projection, output
+/// every `every` [s] to `t_end` [s], no energy-balance guard: the tests'
+/// reference runs.
+pub fn dop853(t_end: f64, every: f64, tol: f64) -> ezy_core::RunSettings {
+    ezy_core::RunSettings {
+        dt: 1e-3,
+        t_end,
+        every,
+        projection: ezy_core::ProjectionKind::MassWeighted,
+        method: ezy_core::Method::Dop853,
+        rtol: tol,
+        atol: tol,
+        balance_limit: None,
+    }
+}
+
 /// A deterministic random generator for a test.
 pub fn rng(seed: u64) -> StdRng {
     StdRng::seed_from_u64(seed)

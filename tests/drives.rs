@@ -11,23 +11,14 @@ use common::Recorder;
 use ezy::run::build;
 use ezy_core::effects::{Spline, SplineData, Waveform};
 use ezy_core::kkt::KktMethod;
-use ezy_core::{DriveSpec, InitValue, Method, ProjectionKind, RunSettings, simulate};
+use ezy_core::{DriveSpec, InitValue, RunSettings, simulate};
 use ezy_models::{EzyRoller, EzyRollerDriven, scenes};
 
 const T_END: f64 = 10.0;
 const EVERY: f64 = 0.01;
 
 fn settings() -> RunSettings {
-    RunSettings {
-        dt: 1e-3,
-        t_end: T_END,
-        every: EVERY,
-        projection: ProjectionKind::MassWeighted,
-        method: Method::Dop853,
-        rtol: 1e-12,
-        atol: 1e-12,
-        balance_limit: None,
-    }
+    common::dop853(T_END, EVERY, 1e-12)
 }
 
 #[test]

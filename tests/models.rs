@@ -10,16 +10,7 @@ use ezy_models::{Snake, Trailer, scenes};
 fn run_scene<M: Model + Default>(name: &str) -> (ezy_core::Dynamics<M>, ezy_core::Summary, Vec<f64>) {
     let scene = scenes::get(name);
     let (mut sys, y0) = build::<M>(&scene, &[], KktMethod::Auto).unwrap();
-    let settings = RunSettings {
-        dt: scene.integrator.dt,
-        t_end: scene.t_end,
-        every: scene.t_end,
-        projection: scene.integrator.projection,
-        method: scene.integrator.method,
-        rtol: scene.integrator.rtol,
-        atol: scene.integrator.atol,
-        balance_limit: None,
-    };
+    let settings = RunSettings { every: scene.t_end, balance_limit: None, ..scene.run_settings() };
     let s = simulate(&mut sys, &y0, &settings, &mut Last).unwrap();
     (sys, s, y0)
 }

@@ -16,16 +16,7 @@ fn run<M: Model + Default>(
     projection: ProjectionKind,
 ) -> (Recorder, ezy_core::Summary) {
     let (mut sys, y0_scene) = build::<M>(scene, &[], KktMethod::Auto).expect("scene sets up");
-    let settings = RunSettings {
-        dt: scene.integrator.dt,
-        t_end: scene.t_end,
-        every: scene.output.every,
-        projection,
-        method: scene.integrator.method,
-        rtol: scene.integrator.rtol,
-        atol: scene.integrator.atol,
-        balance_limit: None,
-    };
+    let settings = RunSettings { projection, balance_limit: None, ..scene.run_settings() };
     let mut rec = Recorder::default();
     let summary = simulate(&mut sys, &y0.unwrap_or(y0_scene), &settings, &mut rec).expect("scene runs");
     (rec, summary)

@@ -76,7 +76,7 @@ use common::Recorder;
 use ezy::run::build;
 use ezy_core::effects::{Harmonic, Waveform};
 use ezy_core::kkt::KktMethod;
-use ezy_core::{DriveSpec, Method, ProjectionKind, RunSettings, Scene, simulate};
+use ezy_core::{DriveSpec, Scene, simulate};
 use ezy_models::{Snakeboard, scenes};
 
 /// Output interval of the full model [s].
@@ -254,16 +254,7 @@ fn compare(scene: &Scene, sets: &[(&str, f64)]) -> Agreement {
     let c = coords();
     let sets: Vec<(String, f64)> = sets.iter().map(|(k, v)| (k.to_string(), *v)).collect();
     let (mut sys, y0) = build::<Snakeboard>(scene, &sets, KktMethod::Auto).unwrap();
-    let settings = RunSettings {
-        dt: 1e-3,
-        t_end: scene.t_end,
-        every: EVERY,
-        projection: ProjectionKind::MassWeighted,
-        method: Method::Dop853,
-        rtol: 1e-12,
-        atol: 1e-12,
-        balance_limit: None,
-    };
+    let settings = common::dop853(scene.t_end, EVERY, 1e-12);
     let mut rec = Recorder::default();
     let summary = simulate(&mut sys, &y0, &settings, &mut rec).unwrap();
     let l = Lumped::of(&sys.model);

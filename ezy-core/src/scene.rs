@@ -908,6 +908,23 @@ impl Scene {
             .collect()
     }
 
+    /// The run settings this scene asks for: its integrator, tolerances,
+    /// projection, `t_end` and output interval, with the default energy
+    /// balance guard ([`crate::simulate::BALANCE_LIMIT`]). Callers override
+    /// fields with struct update syntax.
+    pub fn run_settings(&self) -> crate::RunSettings {
+        crate::RunSettings {
+            dt: self.integrator.dt,
+            t_end: self.t_end,
+            every: self.output.every,
+            projection: self.integrator.projection,
+            method: self.integrator.method,
+            rtol: self.integrator.rtol,
+            atol: self.integrator.atol,
+            balance_limit: Some(crate::simulate::BALANCE_LIMIT),
+        }
+    }
+
     /// The scene with its family effects expanded for a model with `info`:
     /// an effect whose `hinge` or `skate` is written `NAME[*]` becomes one
     /// effect per element of that family (`J[*]`: `J2`, `J3`, ...), named
