@@ -1,10 +1,13 @@
 //! ezy: planar vehicles and mechanisms with hinges and skates.
 //!
-//! Models are declared with [`ezy_core::model!`] (see `models/`), scenes
-//! are run with [`run::run_scene`], which writes `trajectory.csv` and the
-//! scene's figures. The `ezy` binary is the command-line front end.
+//! A model is declared with [`model!`]; [`App`] runs the command line
+//! (`run`, `list`, `precision`, `equations`, `check`, `scale`) over the
+//! built-in vehicles and any added with [`App::model`]; [`testing`]
+//! checks a model's derived terms in its author's tests. The `ezy` binary
+//! is `App::new().main()`.
 
-pub mod check;
+pub mod app;
+mod cli;
 pub mod equations;
 pub mod figures;
 pub mod output;
@@ -13,6 +16,17 @@ pub mod precision;
 pub mod progress;
 pub mod run;
 pub mod scale;
+pub mod testing;
 
+pub use app::App;
 pub use ezy_core;
+pub use ezy_core::{Model, model};
 pub use ezy_models as models;
+
+/// Paths the code `model!` generates uses in a crate that depends on
+/// `ezy` alone; not public API.
+#[doc(hidden)]
+pub use ezy_core::__private;
+
+// `::ezy` paths of `model!` expansions resolve inside this crate too.
+extern crate self as ezy;

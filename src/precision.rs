@@ -9,7 +9,7 @@ use std::path::{Path, PathBuf};
 
 use ezy_core::integrator::Method;
 use ezy_core::kkt::KktMethod;
-use ezy_core::{Dynamics, Model, ModelVisitor, Observer, ProjectionKind, RunSettings, Sample, Scene, SimError};
+use ezy_core::{Dynamics, Model, Observer, ProjectionKind, RunSettings, Sample, Scene, SimError};
 
 use crate::plot::{Chart, Series, render_png};
 use crate::run::{Error, build};
@@ -149,29 +149,13 @@ fn state_error(a: &[f64], b: &[f64]) -> f64 {
     a.iter().zip(b).fold(0.0, |m, (x, y)| m.max((x - y).abs()))
 }
 
-struct Precision<'a> {
-    scene: &'a Scene,
-    out: &'a Path,
-}
-
-impl ModelVisitor for Precision<'_> {
-    type Output = Result<Report, Error>;
-    fn visit<M: Model + Default>(self) -> Self::Output {
-        precision_model::<M>(self.scene, self.out)
-    }
-}
-
-/// Runs the ladder for `scene`, writes `precision.csv` and the figures
-/// into `out`.
+/// Runs the ladder for `scene` on model type `M` (what
+/// [`crate::App::precision`] calls for the model the scene names), writes
+/// `precision.csv` and the figures into `out`.
 ///
 /// # Errors
 /// [`Error`] if the reference run fails or a file cannot be written.
-pub fn precision(scene: &Scene, out: &Path) -> Result<Report, Error> {
-    ezy_models::visit(&scene.model, Precision { scene, out })
-        .unwrap_or_else(|| Err(Error::UnknownModel { scene: scene.name.clone(), model: scene.model.clone() }))
-}
-
-fn precision_model<M: Model + Default>(scene: &Scene, out: &Path) -> Result<Report, Error> {
+pub fn precision_model<M: Model + Default>(scene: &Scene, out: &Path) -> Result<Report, Error> {
     let reference =
         Setting { method: Method::Dop853, dt: None, tol: Some(1e-13), projection: ProjectionKind::MassWeighted };
     let (ref_run, _) = run_once::<M>(scene, &reference, scene.t_end, false)?;

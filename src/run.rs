@@ -7,8 +7,7 @@ use std::time::{Duration, Instant};
 use ezy_core::initial::{InitialReport, consistent_state};
 use ezy_core::kkt::KktMethod;
 use ezy_core::{
-    Baumgarte, Dynamics, InitValue, Method, Model, ModelVisitor, ProjectionKind, RunError, RunSettings, Scene,
-    SimError, Summary,
+    Baumgarte, Dynamics, InitValue, Method, Model, ProjectionKind, RunError, RunSettings, Scene, SimError, Summary,
 };
 
 use crate::figures::FigureError;
@@ -91,27 +90,6 @@ pub struct Report {
     pub wall: Duration,
     /// Warnings (corrections of the initial values).
     pub warnings: Vec<String>,
-}
-
-/// Runs `scene` with `opts`.
-///
-/// # Errors
-/// [`Error`] naming the bad setting, parameter, or file.
-pub fn run_scene(scene: &Scene, opts: &RunOptions) -> Result<Report, Error> {
-    ezy_models::visit(&scene.model, Runner { scene, opts })
-        .unwrap_or_else(|| Err(Error::UnknownModel { scene: scene.name.clone(), model: scene.model.clone() }))
-}
-
-struct Runner<'a> {
-    scene: &'a Scene,
-    opts: &'a RunOptions,
-}
-
-impl ModelVisitor for Runner<'_> {
-    type Output = Result<Report, Error>;
-    fn visit<M: Model + Default>(self) -> Self::Output {
-        run_model::<M>(self.scene, self.opts)
-    }
 }
 
 /// Looks up `name` in `names`, or an [`SimError::UnknownName`] listing them.
@@ -245,7 +223,14 @@ pub fn build<M: Model + Default>(
     Ok((Dynamics::new(s.model, s.effects, kkt).with_drives(s.drives), s.y0))
 }
 
-fn run_model<M: Model + Default>(scene: &Scene, opts: &RunOptions) -> Result<Report, Error> {
+/// Runs `scene` with `opts` on model type `M` (what [`crate::App::run_scene`]
+/// calls for the model the scene names): resolves the overrides, finds
+/// consistent initial values, integrates, writes `trajectory.csv` and the
+/// figures into `opts.out`.
+///
+/// # Errors
+/// [`Error`] naming the bad setting, parameter, or file.
+pub fn run_model<M: Model + Default>(scene: &Scene, opts: &RunOptions) -> Result<Report, Error> {
     let wall = Instant::now();
     let base = scene.run_settings();
     let settings = RunSettings {
@@ -300,4 +285,50 @@ fn run_model<M: Model + Default>(scene: &Scene, opts: &RunOptions) -> Result<Rep
         ));
     }
     Ok(Report { summary, table, settings, state_names, files, wall: wall.elapsed(), warnings })
+}
+
+/// The summary `run` prints: method and steps, RHS evaluations and times,
+/// residuals, the energy balance, the final state and the files written.
+pub fn summary(scene: &str, r: &Report) -> String {
+    use std::fmt::Write as _;
+    let mut out = String::new();
+    let s = &r.summary;
+    let t = s.integration_time.as_secs_f64();
+    let how = if s.method.is_adaptive() {
+        format!(
+            "{} steps ({} rejected), rtol = {:e}, atol = {:e}",
+            s.steps, s.rejected, r.settings.rtol, r.settings.atol
+        )
+    } else {
+        format!("{} steps of h = {} s", s.steps, r.settings.dt)
+    };
+    let _ = writeln!(
+        out,
+        "{scene}: {} {how} to t = {} s, projection {} ({}), {} KKT path",
+        s.method.name(),
+        r.settings.t_end,
+        r.settings.projection.name(),
+        s.projection_path,
+        s.kkt
+    );
+    let _ = writeln!(
+        out,
+        "  RHS evaluations {}, integration {:.3} s ({:.0} ns per RHS incl. projection), whole run {:.3} s",
+        s.counters.rhs_evals,
+        t,
+        t / s.counters.rhs_evals.max(1) as f64 * 1e9,
+        r.wall.as_secs_f64()
+    );
+    let _ = writeln!(
+        out,
+        "  max residuals |C| = {:.2e} m, |G qd| = {:.2e} m/s (largest drift of one step before projection {:.2e} m)",
+        s.max_residual_position, s.max_residual_velocity, s.max_step_drift
+    );
+    let _ = writeln!(out, "  max |T - T0 - W| = {:.3e} J", s.max_energy_error);
+    let state: Vec<String> = r.state_names.iter().zip(&s.final_state).map(|(n, v)| format!("{n} = {v:.9}")).collect();
+    let _ = writeln!(out, "  final state: {}", state.join(", "));
+    for f in &r.files {
+        let _ = writeln!(out, "  wrote {}", f.display());
+    }
+    out
 }

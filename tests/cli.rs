@@ -288,7 +288,8 @@ fn equations_print_what_the_macro_derived() {
 /// `ezy check` passes for every registered model and prints one line per term.
 #[test]
 fn check_passes_for_every_model() {
-    for model in ezy_models::MODEL_KEYS {
+    use ezy_core::registry::ModelCatalog;
+    for model in ezy_models::builtins().keys() {
         let o = ezy(&["check", model, "--states", "20"]);
         assert!(o.status.success(), "{model}: {}{}", String::from_utf8_lossy(&o.stdout), stderr(&o));
         let out = String::from_utf8_lossy(&o.stdout);

@@ -4,7 +4,7 @@ mod common;
 
 use common::{Recorder, max_abs};
 use ezy::output::FIGURE_ROWS;
-use ezy::run::{RunOptions, build, run_scene, setup};
+use ezy::run::{RunOptions, build, setup};
 use ezy_core::kkt::KktMethod;
 use ezy_core::{Dynamics, InitValue, Method, Model, ProjectionKind, RunSettings, simulate};
 use ezy_models::{EzyRoller, scenes};
@@ -61,7 +61,7 @@ fn one_hour_keeps_constraints_and_energy() {
         figures: false,
         ..RunOptions::default()
     };
-    let r = run_scene(&scenes::drive(), &opts).unwrap();
+    let r = ezy::App::new().run_scene(&scenes::drive(), &opts).unwrap();
     let s = &r.summary;
     assert!(s.max_residual_position <= 1e-9 && s.max_residual_velocity <= 1e-9);
     let w = s.final_state[12];
@@ -84,7 +84,7 @@ fn output_memory_is_bounded() {
         figures: false,
         ..RunOptions::default()
     };
-    let r = run_scene(&scenes::sleigh(), &opts).unwrap();
+    let r = ezy::App::new().run_scene(&scenes::sleigh(), &opts).unwrap();
     assert!(r.table.rows() <= FIGURE_ROWS, "{} rows kept", r.table.rows());
     assert!(r.table.rows() >= FIGURE_ROWS / 2);
     let lines = std::fs::read_to_string(dir.join("trajectory.csv")).unwrap().lines().count();

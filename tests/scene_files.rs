@@ -4,7 +4,7 @@
 
 use std::path::PathBuf;
 
-use ezy::run::{RunOptions, run_scene};
+use ezy::run::RunOptions;
 use ezy_core::Scene;
 use ezy_models::scenes;
 
@@ -28,7 +28,7 @@ fn every_builtin_scene_runs_one_second_and_closes_its_ledger() {
         // family effects (`hinge = "J[*]"`) run as one effect per element
         let s = &src.scene.expand_families(&info).unwrap();
         let opts = RunOptions { out: tmp_dir(&s.name), t_end: Some(1.0), figures: true, ..RunOptions::default() };
-        let r = run_scene(s, &opts).unwrap_or_else(|e| panic!("{}: {e}", s.name));
+        let r = ezy::App::new().run_scene(s, &opts).unwrap_or_else(|e| panic!("{}: {e}", s.name));
         let gap = r.summary.max_energy_error;
         assert!(gap <= 1e-8, "{}: ledger gap {gap:e} J", s.name);
         for (name, _) in &s.effects {

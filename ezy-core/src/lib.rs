@@ -2,6 +2,9 @@
 //! solve, the RK4 integrator, coordinate projection, effects, consistent
 //! initial conditions and the step loop.
 
+// `::ezy_core` paths of `model!` expansions resolve inside this crate too.
+extern crate self as ezy_core;
+
 pub mod drive;
 pub mod dynamics;
 pub mod effects;
@@ -11,6 +14,7 @@ pub mod integrator;
 pub mod kkt;
 pub mod model;
 pub mod projection;
+pub mod registry;
 pub mod scalar;
 pub mod scene;
 pub mod simulate;

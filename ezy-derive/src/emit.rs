@@ -51,7 +51,8 @@ enum Coords {
 
 /// Straight-line code computing `outputs`: `(let bindings, one expression per output)`.
 fn lower(d: &Derived, def: &ModelDef, outputs: &[Id], coords: Coords) -> (TokenStream, Vec<TokenStream>) {
-    let scalar = quote!(<S as ::ezy_core::__private::Scalar>);
+    let private = runtime();
+    let scalar = quote!(<S as #private::Scalar>);
     let reach = d.ar.reachable(outputs);
     let refer = |id: Id| -> TokenStream {
         match d.ar.node(id) {
@@ -429,12 +430,48 @@ fn templates(d: &Derived, id: Id) -> (String, String) {
     (d.ar.display(id, &name), d.ar.latex(id, &name))
 }
 
+/// The path of the runtime crate as the user's crate names it, found at
+/// expansion time from the user's `Cargo.toml` (never from what the user
+/// imported): `ezy-core` if it is a dependency (`::ezy_core`, or its
+/// renamed name), else `ezy` (`::ezy`, which re-exports the runtime).
+/// Inside `ezy-core` itself, `::ezy_core` resolves through its
+/// `extern crate self as ezy_core`, and likewise `::ezy` inside `ezy`.
+///
+/// # Errors
+/// A message for the user when neither crate is a dependency.
+pub fn runtime_root() -> Result<TokenStream, String> {
+    use proc_macro_crate::{FoundCrate, crate_name};
+    let named = |found: FoundCrate, own: &str| -> TokenStream {
+        let name = match found {
+            FoundCrate::Itself => own.to_string(),
+            FoundCrate::Name(n) => n,
+        };
+        let id = proc_macro2::Ident::new(&name, proc_macro2::Span::call_site());
+        quote!(::#id)
+    };
+    if let Ok(found) = crate_name("ezy-core") {
+        return Ok(named(found, "ezy_core"));
+    }
+    match crate_name("ezy") {
+        Ok(found) => Ok(named(found, "ezy")),
+        Err(e) => Err(format!(
+            "`model!` needs the `ezy` crate (or `ezy-core`) as a dependency of this crate: add `ezy` to [dependencies] in Cargo.toml ({e})"
+        )),
+    }
+}
+
+/// `ROOT::__private`, the paths the generated code uses (see [`runtime_root`]).
+fn runtime() -> TokenStream {
+    let root = runtime_root().unwrap_or_else(|_| quote!(::ezy));
+    quote!(#root::__private)
+}
+
 /// The whole expansion.
 pub fn emit(def: &ModelDef, res: &Resolved, d: &mut Derived) -> TokenStream {
     let name = &def.name;
     let vis = &def.vis;
     let attrs = &def.attrs;
-    let private = quote!(::ezy_core::__private);
+    let private = runtime();
     let is_static = def.families.is_empty() && def.counts.is_empty();
 
     // struct and Default
@@ -709,7 +746,7 @@ fn sparse_kernels(pattern: &[(usize, usize)], nq: usize, nc: usize) -> TokenStre
 /// `point_velocities`), each opening with `q_prelude` or, when it takes
 /// `qd`, `qd_prelude`.
 fn numeric_fns(q_prelude: &TokenStream, qd_prelude: &TokenStream, bodies: [TokenStream; 7]) -> TokenStream {
-    let private = quote!(::ezy_core::__private);
+    let private = runtime();
     let [phi, jac, g, phi_g, terms, points, vel] = bodies;
     quote! {
         #[inline]
@@ -793,7 +830,7 @@ fn item_name(def: &ModelDef, g: &Group) -> String {
 /// `fn __ezy_layout(&self)`: where every item's elements sit in `q`, the
 /// rows of `G` and its pattern values, at the current counts.
 fn layout_fn(def: &ModelDef, d: &Derived) -> TokenStream {
-    let private = quote!(::ezy_core::__private);
+    let private = runtime();
     let (nf, nb, np, ng) = (def.families.len(), def.bodies.len(), def.points.len(), d.groups.len());
     let counts = count_lets(def);
     let mut body = TokenStream::new();
@@ -847,7 +884,7 @@ fn layout_fn(def: &ModelDef, d: &Derived) -> TokenStream {
 
 /// `fn info(&self)`: names, indices and the pattern at the current counts.
 fn info_fn(def: &ModelDef, res: &Resolved, d: &Derived) -> TokenStream {
-    let private = quote!(::ezy_core::__private);
+    let private = runtime();
     let model_name = def.name.to_string();
     let model_doc = doc_of(&def.attrs).split(". ").next().unwrap_or("").trim_end_matches('.').to_string();
     let mut params_info: Vec<TokenStream> = def
@@ -980,6 +1017,7 @@ fn info_fn(def: &ModelDef, res: &Resolved, d: &Derived) -> TokenStream {
 /// `fn check_counts(&self)`: every family reference stays inside the
 /// family it names, joints join distinct bodies, and names are unique.
 fn check_fn(def: &ModelDef, res: &Resolved, d: &Derived) -> TokenStream {
+    let private = runtime();
     let mut body = TokenStream::new();
     for c in &def.counts {
         let n = &c.name;
@@ -1059,15 +1097,15 @@ fn check_fn(def: &ModelDef, res: &Resolved, d: &Derived) -> TokenStream {
         fn check_counts(&self) -> ::core::result::Result<(), ::std::string::String> {
             let l = self.__ezy_layout();
             #body
-            let info = <Self as ::ezy_core::__private::Model>::info(self);
-            ::ezy_core::__private::unique_names(&info)
+            let info = <Self as #private::Model>::info(self);
+            #private::unique_names(&info)
         }
     }
 }
 
 /// `fn equations(&self)`: each item's templates rendered per element.
 fn equations_fn(def: &ModelDef, res: &Resolved, d: &Derived) -> TokenStream {
-    let private = quote!(::ezy_core::__private);
+    let private = runtime();
     let params: Vec<String> = def.params.iter().map(|p| p.name.to_string()).collect();
     let render = |id: Id, out: &str| -> TokenStream {
         let (t, x) = templates(d, id);

@@ -33,5 +33,6 @@ fn expand(def: &ast::ModelDef) -> syn::Result<proc_macro2::TokenStream> {
     let resolved = check::check(def, &mut errs);
     let mut derived = kinematics::derive(def, &resolved, &mut errs);
     errs.finish()?;
+    emit::runtime_root().map_err(|msg| syn::Error::new(def.name.span(), msg))?;
     Ok(emit::emit(def, &resolved, &mut derived))
 }

@@ -1,5 +1,9 @@
-//! Vehicles written in ezy's model language, one file each, the model
-//! registry the CLI reads, and the built-in scenes.
+//! Vehicles written in ezy's model language, one file each, their
+//! registration under the keys scene files use, and the built-in scenes.
+//!
+//! This crate depends on `ezy-core` alone: it is the in-repository
+//! example of a model crate of that kind (`model!` finds the runtime as
+//! `::ezy_core`); a user's crate usually depends on `ezy` alone instead.
 
 mod chaplygin_sleigh;
 mod ezyroller;
@@ -10,40 +14,28 @@ mod snakeboard;
 mod trailer;
 
 pub use chaplygin_sleigh::ChaplyginSleigh;
-use ezy_core::{Model, ModelInfo, ModelVisitor};
+use ezy_core::registry::{InfoOnly, Register};
 pub use ezyroller::EzyRoller;
 pub use ezyroller_driven::EzyRollerDriven;
 pub use snake::Snake;
 pub use snakeboard::Snakeboard;
 pub use trailer::Trailer;
 
-/// The keys of the model registry, one per vehicle, in the order `ezy
-/// list` shows them.
-pub const MODEL_KEYS: &[&str] =
-    &["ezyroller", "ezyroller_driven", "chaplygin_sleigh", "trailer", "snake", "snakeboard"];
-
-/// The registry with each model's description at its default counts.
-pub fn models() -> Vec<(&'static str, ModelInfo)> {
-    MODEL_KEYS.iter().map(|&k| (k, visit(k, DefaultInfo).expect("registered"))).collect()
+/// Registers every built-in vehicle under its key, in the order `ezy
+/// list` shows them. Adding a vehicle to the repository is one line here.
+pub fn register<R: Register>(r: &mut R) {
+    r.register::<EzyRoller>("ezyroller");
+    r.register::<EzyRollerDriven>("ezyroller_driven");
+    r.register::<ChaplyginSleigh>("chaplygin_sleigh");
+    r.register::<Trailer>("trailer");
+    r.register::<Snake>("snake");
+    r.register::<Snakeboard>("snakeboard");
 }
 
-struct DefaultInfo;
-impl ModelVisitor for DefaultInfo {
-    type Output = ModelInfo;
-    fn visit<M: Model + Default>(self) -> ModelInfo {
-        M::default().info()
-    }
-}
-
-/// Runs `visitor` with the model registered as `key`; `None` if unknown.
-pub fn visit<V: ModelVisitor>(key: &str, visitor: V) -> Option<V::Output> {
-    match key {
-        "ezyroller" => Some(visitor.visit::<EzyRoller>()),
-        "ezyroller_driven" => Some(visitor.visit::<EzyRollerDriven>()),
-        "chaplygin_sleigh" => Some(visitor.visit::<ChaplyginSleigh>()),
-        "trailer" => Some(visitor.visit::<Trailer>()),
-        "snake" => Some(visitor.visit::<Snake>()),
-        "snakeboard" => Some(visitor.visit::<Snakeboard>()),
-        _ => None,
-    }
+/// The built-in vehicles alone, enough to check the built-in scenes (the
+/// `ezy` crate's `App` holds them with everything else a command needs).
+pub fn builtins() -> InfoOnly {
+    let mut r = InfoOnly::default();
+    register(&mut r);
+    r
 }

@@ -1,9 +1,9 @@
 //! The built-in scenes: the TOML files in `models/scenes/`, embedded in the
-//! binary so that `ezy run NAME` works from any directory; and loading of
-//! scene files given by path.
+//! binary so that `ezy run NAME` works from any directory, and their
+//! checking against the built-in models (the `ezy` crate's `App` loads
+//! scene files given by path, and a user's scenes, against its own table).
 
-use std::path::Path;
-
+use ezy_core::registry::{ModelCatalog, check_scene};
 use ezy_core::{ModelInfo, Scene, SceneError, SceneFileError};
 
 /// `(file name, text)` of every built-in scene, in the order `ezy list`
@@ -23,74 +23,32 @@ pub const BUILTIN: &[(&str, &str)] = &[
     ("snakeboard.toml", include_str!("../scenes/snakeboard.toml")),
 ];
 
-/// A loaded scene with its source text and where it came from.
-#[derive(Debug, Clone)]
-pub struct SceneSource {
-    /// The checked scene.
-    pub scene: Scene,
-    /// The TOML text (for locating later errors).
-    pub text: String,
-    /// The file as errors name it (`models/scenes/drive.toml`, or the path given).
-    pub file: String,
-}
+pub use ezy_core::registry::SceneSource;
 
-/// The description of the model registered as `key`, at its default counts.
+/// The description of the built-in model registered as `key`, at its
+/// default counts; `None` for an unknown key.
 pub fn model_info(key: &str) -> Option<ModelInfo> {
     model_info_with(key, &[]).map(|r| r.expect("default counts are valid"))
 }
 
-/// The description of the model registered as `key` with the family
-/// counts among `params` applied (other parameters do not change it).
-/// `None` for an unknown model.
+/// The description of the built-in model registered as `key` with the
+/// family counts among `params` applied (other parameters do not change
+/// it). `None` for an unknown model.
 ///
 /// # Errors
 /// The inner `Err` is a [`SceneError`] at `params.COUNT` when a count is
 /// not a whole number >= 1 or makes a family refer to an element that does
 /// not exist.
 pub fn model_info_with(key: &str, params: &[(String, f64)]) -> Option<Result<ModelInfo, SceneError>> {
-    struct WithCounts<'a>(&'a [(String, f64)]);
-    impl ezy_core::ModelVisitor for WithCounts<'_> {
-        type Output = Result<ModelInfo, SceneError>;
-        fn visit<M: ezy_core::Model + Default>(self) -> Self::Output {
-            let mut model = M::default();
-            let base = model.info();
-            let mut last = None;
-            for (name, value) in self.0 {
-                if let Some(i) = base.param_index(name)
-                    && base.params[i].count
-                {
-                    ezy_core::scene::check_count(name, *value)?;
-                    model.set_param(i, *value);
-                    last = Some(name.clone());
-                }
-            }
-            model
-                .check_counts()
-                .map_err(|message| SceneError { path: vec!["params".into(), last.unwrap_or_default()], message })?;
-            Ok(model.info())
-        }
-    }
-    crate::visit(key, WithCounts(params))
+    crate::builtins().info_with(key, params)
 }
 
-/// Checks a parsed scene against its model.
+/// Checks a parsed scene against the built-in models.
 ///
 /// # Errors
-/// [`SceneFileError`] at the `model` key for an unknown model (listing the
-/// known ones), else as [`Scene::check`], located in `text`.
+/// As [`check_scene`].
 pub fn check(scene: Scene, text: &str, file: &str) -> Result<SceneSource, SceneFileError> {
-    let Some(info) = model_info_with(&scene.model, &scene.params) else {
-        let known: Vec<&str> = crate::MODEL_KEYS.to_vec();
-        let e = ezy_core::SceneError {
-            path: vec!["model".into()],
-            message: format!("unknown model `{}`; known models: {}", scene.model, known.join(", ")),
-        };
-        return Err(Scene::locate_error(text, file, e));
-    };
-    let info = info.map_err(|e| Scene::locate_error(text, file, e))?;
-    let expanded = scene.expand_families(&info).map_err(|e| Scene::locate_error(text, file, e))?;
-    expanded.check(&info).map_err(|e| Scene::locate_error(text, file, e))?;
-    Ok(SceneSource { scene, text: text.to_string(), file: file.to_string() })
+    check_scene(&crate::builtins(), scene, text, file)
 }
 
 /// Every built-in scene, parsed and checked.
@@ -106,41 +64,6 @@ pub fn builtin() -> Vec<SceneSource> {
             check(scene, text, &file).unwrap_or_else(|e| panic!("built-in scene: {e}"))
         })
         .collect()
-}
-
-/// Why a scene could not be found or loaded.
-#[derive(Debug, Clone, PartialEq, thiserror::Error)]
-pub enum LoadError {
-    /// Neither a built-in name nor a `.toml` file.
-    #[error("unknown scene `{name}`; known scenes: {known} (or give a path to a .toml scene file)")]
-    Unknown {
-        /// What was asked for.
-        name: String,
-        /// The built-in names.
-        known: String,
-    },
-    /// The file is bad.
-    #[error(transparent)]
-    File(#[from] SceneFileError),
-}
-
-/// A built-in scene by name, or a scene file by path (anything ending in
-/// `.toml` or naming an existing file).
-///
-/// # Errors
-/// [`LoadError`]: unknown name, unreadable file, or a bad scene file with
-/// its line, column and key.
-pub fn load(name_or_path: &str) -> Result<SceneSource, LoadError> {
-    let path = Path::new(name_or_path);
-    if name_or_path.ends_with(".toml") || path.is_file() {
-        let (scene, text) = Scene::read(path)?;
-        return Ok(check(scene, &text, name_or_path)?);
-    }
-    let all = builtin();
-    let known = all.iter().map(|s| s.scene.name.clone()).collect::<Vec<_>>().join(", ");
-    all.into_iter()
-        .find(|s| s.scene.name == name_or_path)
-        .ok_or_else(|| LoadError::Unknown { name: name_or_path.to_string(), known })
 }
 
 /// The built-in scene called `name`, parsed and checked.

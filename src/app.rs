@@ -1,0 +1,494 @@
+//! The application: a table of models and scenes, and the command line
+//! over it. The `ezy` binary is `App::new().main()`; a user's binary adds
+//! their own vehicles and scenes and gets every command for them:
+//!
+//! ```no_run
+//! # ezy::model! {
+//! #     /// A sleigh.
+//! #     pub struct MySleigh {
+//! #         /// Distance from the centre of mass back to the skate [m]
+//! #         param a = 0.5;
+//! #         body s(x, y, phi) { mass: 1.0, inertia: 0.1 }
+//! #         point P on s at (-a, 0);
+//! #         skate P: P along (1, 0);
+//! #     }
+//! # }
+//! fn main() -> std::process::ExitCode {
+//!     ezy::App::new() // the built-in vehicles and scenes
+//!         .model::<MySleigh>("my_sleigh")
+//!         .scene("my-sleigh.toml", r#"name = "my-sleigh" ..."#)
+//!         .main() // parses std::env::args like the `ezy` binary
+//! }
+//! ```
+
+use std::borrow::Cow;
+use std::ffi::OsString;
+use std::io::Write;
+use std::path::{Path, PathBuf};
+use std::process::ExitCode;
+
+use clap::Parser;
+use ezy_core::kkt::KktMethod;
+use ezy_core::registry::{ModelCatalog, Register, SceneSource, check_scene, info_at};
+use ezy_core::{Model, ModelInfo, Scene, SceneError};
+
+use crate::cli::{self, Cli, Command};
+use crate::run::{Report, RunOptions};
+use crate::{equations, precision, run, scale, testing};
+
+/// What one command does with a model type, as plain function pointers
+/// (one monomorphized copy per registered model), so the table holds
+/// models of any type.
+/// `NAME=VALUE` settings of parameters and family counts (`--set`).
+type Sets = [(String, f64)];
+/// What `check` and `scale` print: the model's description and the result.
+type Described<T> = (ModelInfo, T);
+/// What `scale` measures per size.
+type Scaled = Described<Vec<scale::ScalePoint>>;
+
+#[derive(Clone, Copy)]
+struct ModelOps {
+    info_with: ezy_core::registry::InfoFn,
+    run: fn(&Scene, &RunOptions) -> Result<Report, run::Error>,
+    precision: fn(&Scene, &Path) -> Result<precision::Report, run::Error>,
+    equations: fn(&Sets, equations::Format) -> Result<String, String>,
+    check: fn(&Sets, usize, u64) -> Result<Described<testing::Report>, String>,
+    scale: fn(&[usize], usize, KktMethod) -> Result<Scaled, scale::ScaleError>,
+}
+
+impl ModelOps {
+    fn of<M: Model + Default + 'static>() -> Self {
+        Self {
+            info_with: info_at::<M>,
+            run: run::run_model::<M>,
+            precision: precision::precision_model::<M>,
+            equations: |sets, format| Ok(equations::render(&with_sets::<M>(sets)?, format)),
+            check: |sets, states, seed| {
+                let m = with_sets::<M>(sets)?;
+                Ok((m.info(), testing::check_derivatives_with(&m, states, seed)))
+            },
+            scale: |n, batches, kkt| Ok((M::default().info(), scale::scale::<M>(n, batches, kkt)?)),
+        }
+    }
+}
+
+/// The default model `M` with `sets` applied (parameters and family counts).
+///
+/// # Errors
+/// An unknown parameter (listing the model's), a count that is not a whole
+/// number >= 1, or one that makes a family refer to a missing element.
+pub fn with_sets<M: Model + Default>(sets: &[(String, f64)]) -> Result<M, String> {
+    let mut m = M::default();
+    let info = m.info();
+    for (name, value) in sets {
+        let i = info.param_index(name).ok_or_else(|| {
+            let known: Vec<&str> = info.params.iter().map(|p| p.name).collect();
+            format!("unknown parameter `{name}` in model {}; its parameters: {}", info.name, known.join(", "))
+        })?;
+        if info.params[i].count {
+            ezy_core::scene::check_count(name, *value).map_err(|e| e.message)?;
+        }
+        m.set_param(i, *value);
+    }
+    m.check_counts()?;
+    Ok(m)
+}
+
+/// A scene the application knows by name: its file as errors name it and
+/// its text, or a path read when the scene is first needed.
+#[derive(Debug, Clone)]
+enum SceneEntry {
+    Text { file: String, text: Cow<'static, str> },
+    Path(PathBuf),
+}
+
+/// Why a command could not be carried out.
+#[derive(Debug, thiserror::Error)]
+pub enum AppError {
+    /// The command line is wrong (or asked for `--help`/`--version`, whose
+    /// text is the error's display).
+    #[error("{0}")]
+    Usage(#[from] clap::Error),
+    /// The command failed; the message names the culprit (file, line,
+    /// column and key for a scene file; the parameter, model or setting
+    /// otherwise).
+    #[error("{0}")]
+    Failed(String),
+    /// Writing to the output stream failed (a closed pipe ends quietly in
+    /// [`App::main`]).
+    #[error("writing the output: {0}")]
+    Io(#[from] std::io::Error),
+}
+
+impl AppError {
+    fn failed(e: impl std::fmt::Display) -> Self {
+        Self::Failed(e.to_string())
+    }
+}
+
+/// Why a scene could not be found or loaded.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum LoadError {
+    /// Neither a known scene name nor a `.toml` file.
+    #[error("unknown scene `{name}`; known scenes: {known} (or give a path to a .toml scene file)")]
+    Unknown {
+        /// What was asked for.
+        name: String,
+        /// The known names.
+        known: String,
+    },
+    /// A bare name that is both a known scene and a file in the working
+    /// directory.
+    #[error(
+        "`{name}` is both a known scene and a file in the working directory; write `./{name}` for the file or rename it"
+    )]
+    Ambiguous {
+        /// What was asked for.
+        name: String,
+    },
+    /// The application's table is inconsistent (a key or scene name given
+    /// twice).
+    #[error("{0}")]
+    Registry(String),
+    /// The file is bad.
+    #[error(transparent)]
+    File(#[from] ezy_core::SceneFileError),
+}
+
+/// The models and scenes an `ezy` command line knows, and the commands
+/// over them: `run`, `list`, `precision`, `equations`, `check`, `scale`.
+///
+/// Mistakes in building the table (a model key or a scene name given
+/// twice) are kept and reported by every command, so the program never
+/// runs with a table other than the one written.
+#[derive(Clone)]
+pub struct App {
+    models: Vec<(String, ModelOps)>,
+    scenes: Vec<SceneEntry>,
+    default_scene: String,
+    errors: Vec<String>,
+}
+
+impl Default for App {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+impl std::fmt::Debug for App {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("App")
+            .field("models", &self.models.iter().map(|(k, _)| k).collect::<Vec<_>>())
+            .field("scenes", &self.scenes)
+            .field("default_scene", &self.default_scene)
+            .field("errors", &self.errors)
+            .finish()
+    }
+}
+
+impl Register for App {
+    fn register<M: Model + Default + 'static>(&mut self, key: &str) {
+        if self.models.iter().any(|(k, _)| k == key) {
+            self.errors.push(format!("model key `{key}` is registered twice"));
+        } else if key.is_empty() || key.chars().any(char::is_whitespace) {
+            self.errors.push(format!("model key `{key}` must be non-empty and without spaces"));
+        } else {
+            self.models.push((key.to_string(), ModelOps::of::<M>()));
+        }
+    }
+}
+
+impl ModelCatalog for App {
+    fn keys(&self) -> Vec<&str> {
+        self.models.iter().map(|(k, _)| k.as_str()).collect()
+    }
+    fn info_with(&self, key: &str, params: &[(String, f64)]) -> Option<Result<ModelInfo, SceneError>> {
+        self.ops(key).map(|ops| (ops.info_with)(params))
+    }
+}
+
+impl App {
+    /// The built-in vehicles and scenes (what the `ezy` binary knows);
+    /// `drive` is the scene `run` takes without a name.
+    pub fn new() -> Self {
+        let mut app = Self::empty();
+        ezy_models::register(&mut app);
+        for (file, text) in ezy_models::scenes::BUILTIN {
+            app.scenes.push(SceneEntry::Text { file: format!("models/scenes/{file}"), text: Cow::Borrowed(text) });
+        }
+        app.default_scene = "drive".into();
+        app
+    }
+
+    /// No models and no scenes: only what the caller adds.
+    pub fn empty() -> Self {
+        Self { models: Vec::new(), scenes: Vec::new(), default_scene: String::new(), errors: Vec::new() }
+    }
+
+    /// Adds model type `M` under `key` (the name scene files give in
+    /// `model = "KEY"` and the commands `equations`, `check`, `scale` take).
+    /// A key given twice is reported by every command.
+    #[must_use]
+    pub fn model<M: Model + Default + 'static>(mut self, key: &str) -> Self {
+        self.register::<M>(key);
+        self
+    }
+
+    /// Adds a scene from its TOML text, usually `include_str!`-ed so the
+    /// binary runs it from any directory; `file` is how errors name it. It
+    /// is checked against its model when first used; a scene name given
+    /// twice is reported by every command.
+    #[must_use]
+    pub fn scene(mut self, file: &str, text: &'static str) -> Self {
+        self.scenes.push(SceneEntry::Text { file: file.to_string(), text: Cow::Borrowed(text) });
+        self
+    }
+
+    /// Adds a scene file by path, read when the scenes are first needed
+    /// (an unreadable or bad file is reported then, with its path).
+    #[must_use]
+    pub fn scene_file(mut self, path: impl Into<PathBuf>) -> Self {
+        self.scenes.push(SceneEntry::Path(path.into()));
+        self
+    }
+
+    /// The scene `run` takes when none is named (`App::new`: `drive`).
+    #[must_use]
+    pub fn default_scene(mut self, name: &str) -> Self {
+        self.default_scene = name.to_string();
+        self
+    }
+
+    fn ops(&self, key: &str) -> Option<&ModelOps> {
+        self.models.iter().find(|(k, _)| k == key).map(|(_, ops)| ops)
+    }
+
+    fn registry_ok(&self) -> Result<(), LoadError> {
+        match self.errors.first() {
+            Some(e) => Err(LoadError::Registry(e.clone())),
+            None => Ok(()),
+        }
+    }
+
+    /// Every known scene, read, parsed and checked against its model, in
+    /// the order added.
+    ///
+    /// # Errors
+    /// [`LoadError`]: a table mistake, an unreadable or bad scene file
+    /// (file, line, column, key), or two scenes with one name.
+    pub fn scenes(&self) -> Result<Vec<SceneSource>, LoadError> {
+        self.registry_ok()?;
+        let mut out: Vec<SceneSource> = Vec::new();
+        for entry in &self.scenes {
+            let src = match entry {
+                SceneEntry::Text { file, text } => {
+                    let scene = Scene::from_toml(text, file)?;
+                    check_scene(self, scene, text, file)?
+                }
+                SceneEntry::Path(path) => self.load_file(path)?,
+            };
+            if let Some(first) = out.iter().find(|s| s.scene.name == src.scene.name) {
+                return Err(LoadError::Registry(format!(
+                    "scene `{}` is given twice: in {} and in {}",
+                    src.scene.name, first.file, src.file
+                )));
+            }
+            out.push(src);
+        }
+        Ok(out)
+    }
+
+    fn load_file(&self, path: &Path) -> Result<SceneSource, LoadError> {
+        let (scene, text) = Scene::read(path)?;
+        Ok(check_scene(self, scene, &text, &path.display().to_string())?)
+    }
+
+    /// A known scene by name, or a scene file by path: a name containing
+    /// `/` (or the platform's separator) or ending in `.toml` is a path,
+    /// any other name is a known scene. A bare name that is both a known
+    /// scene and a file in the working directory is refused as ambiguous.
+    ///
+    /// # Errors
+    /// [`LoadError`]: unknown or ambiguous name, unreadable file, or a bad
+    /// scene file with its line, column and key.
+    pub fn load_scene(&self, name_or_path: &str) -> Result<SceneSource, LoadError> {
+        self.registry_ok()?;
+        let is_path = name_or_path.ends_with(".toml")
+            || name_or_path.contains('/')
+            || name_or_path.contains(std::path::MAIN_SEPARATOR);
+        if is_path {
+            return self.load_file(Path::new(name_or_path));
+        }
+        let all = self.scenes()?;
+        let known = all.iter().map(|s| s.scene.name.clone()).collect::<Vec<_>>().join(", ");
+        match all.into_iter().find(|s| s.scene.name == name_or_path) {
+            Some(_) if Path::new(name_or_path).is_file() => {
+                Err(LoadError::Ambiguous { name: name_or_path.to_string() })
+            }
+            Some(s) => Ok(s),
+            None => Err(LoadError::Unknown { name: name_or_path.to_string(), known }),
+        }
+    }
+
+    fn model_ops(&self, key: &str) -> Result<&ModelOps, AppError> {
+        self.registry_ok().map_err(AppError::failed)?;
+        self.ops(key)
+            .ok_or_else(|| AppError::Failed(format!("unknown model `{key}`; known models: {}", self.keys().join(", "))))
+    }
+
+    /// Runs `scene` with `opts` on the model its `model` key names: writes
+    /// `trajectory.csv` and the figures into `opts.out`.
+    ///
+    /// # Errors
+    /// [`run::Error`] naming the bad setting, parameter, or file;
+    /// [`run::Error::UnknownModel`] for a key this application lacks.
+    pub fn run_scene(&self, scene: &Scene, opts: &RunOptions) -> Result<Report, run::Error> {
+        match self.ops(&scene.model) {
+            Some(ops) => (ops.run)(scene, opts),
+            None => Err(run::Error::UnknownModel { scene: scene.name.clone(), model: scene.model.clone() }),
+        }
+    }
+
+    /// Runs the work-precision ladder of `scene` and writes
+    /// `precision.csv` and its figures into `out`.
+    ///
+    /// # Errors
+    /// As [`precision::precision_model`]; [`run::Error::UnknownModel`] for
+    /// a key this application lacks.
+    pub fn precision(&self, scene: &Scene, out: &Path) -> Result<precision::Report, run::Error> {
+        match self.ops(&scene.model) {
+            Some(ops) => (ops.precision)(scene, out),
+            None => Err(run::Error::UnknownModel { scene: scene.name.clone(), model: scene.model.clone() }),
+        }
+    }
+
+    /// The `ezy list` text: every model (key, doc, sizes, counts) and every
+    /// scene (name, description).
+    ///
+    /// # Errors
+    /// As [`App::scenes`].
+    pub fn list(&self) -> Result<String, LoadError> {
+        let scenes = self.scenes()?;
+        let mut s = String::from("models:\n");
+        for (key, ops) in &self.models {
+            let info =
+                (ops.info_with)(&[]).map_err(|e| LoadError::Registry(format!("model `{key}`: {}", e.message)))?;
+            let counts: Vec<String> =
+                info.params.iter().filter(|p| p.count).map(|p| format!("{} = {}", p.name, p.default)).collect();
+            let counts = if counts.is_empty() { String::new() } else { format!(", {}", counts.join(", ")) };
+            s.push_str(&format!("  {key:<26} {} (nq = {}, nc = {}{counts})\n", info.doc, info.nq(), info.nc()));
+        }
+        s.push_str("scenes:\n");
+        for src in &scenes {
+            s.push_str(&format!("  {:<26} {}\n", src.scene.name, src.scene.description));
+        }
+        Ok(s)
+    }
+
+    /// Parses `std::env::args` like the `ezy` binary, runs the command,
+    /// prints its output on stdout and any error on stderr (`error: ...`).
+    /// Returns success, or failure (1) when the command failed; a usage
+    /// mistake exits with clap's status (2) and `--help` with 0. A closed
+    /// stdout (`... | head`) ends quietly.
+    pub fn main(self) -> ExitCode {
+        let stdout = std::io::stdout();
+        let mut out = stdout.lock();
+        match self.run_cli(std::env::args_os(), &mut out) {
+            Ok(()) => ExitCode::SUCCESS,
+            Err(AppError::Usage(e)) => e.exit(),
+            Err(AppError::Io(e)) if e.kind() == std::io::ErrorKind::BrokenPipe => ExitCode::SUCCESS,
+            Err(e) => {
+                let _ = out.flush();
+                eprintln!("error: {e}");
+                ExitCode::FAILURE
+            }
+        }
+    }
+
+    /// Parses `args` (the first is the program name, as in
+    /// `std::env::args_os`) and runs the command, writing what it prints to
+    /// `out`; warnings and the progress bar go to stderr. This is
+    /// [`App::main`] without the process around it, for tests and for
+    /// programs that run commands themselves.
+    ///
+    /// # Errors
+    /// [`AppError`]: a usage mistake, a failed command (its message names
+    /// the culprit), or a failed write to `out`.
+    pub fn run_cli<I, T>(&self, args: I, out: &mut dyn Write) -> Result<(), AppError>
+    where
+        I: IntoIterator<Item = T>,
+        T: Into<OsString> + Clone,
+    {
+        let cli = Cli::try_parse_from(args)?;
+        match cli.command {
+            None => self.cmd_run(cli::RunArgs { scene: None, ..cli::RunArgs::default() }, out),
+            Some(Command::Run(args)) => self.cmd_run(args, out),
+            Some(Command::List) => Ok(out.write_all(self.list().map_err(AppError::failed)?.as_bytes())?),
+            Some(Command::Precision(args)) => self.cmd_precision(args, out),
+            Some(Command::Equations(args)) => {
+                let ops = self.model_ops(&args.model)?;
+                let text = (ops.equations)(&args.sets, args.format.into()).map_err(AppError::Failed)?;
+                Ok(out.write_all(text.as_bytes())?)
+            }
+            Some(Command::Check(args)) => {
+                if args.states == 0 {
+                    return Err(AppError::Failed("--states = 0: check at least one state".into()));
+                }
+                let ops = self.model_ops(&args.model)?;
+                let (info, report) = (ops.check)(&args.sets, args.states, args.seed).map_err(AppError::Failed)?;
+                out.write_all(report.table(info.name).as_bytes())?;
+                if report.passed() {
+                    Ok(())
+                } else {
+                    Err(AppError::Failed(format!(
+                        "model `{}`: a derived term differs from its reference by more than its tolerance ({})",
+                        info.name,
+                        report.worst()
+                    )))
+                }
+            }
+            Some(Command::Scale(args)) => {
+                if args.n.is_empty() || args.batches == 0 {
+                    return Err(AppError::Failed("--n needs at least one size and --batches at least 1".into()));
+                }
+                let ops = self.model_ops(&args.model)?;
+                let csv = matches!(args.format, cli::ScaleFormat::Csv);
+                let (info, points) = (ops.scale)(&args.n, args.batches, args.kkt.into()).map_err(AppError::failed)?;
+                Ok(out.write_all(scale::render(info.name, &points, csv).as_bytes())?)
+            }
+        }
+    }
+
+    fn cmd_precision(&self, args: cli::PrecisionArgs, out: &mut dyn Write) -> Result<(), AppError> {
+        let src = self.load_scene(&args.scene).map_err(AppError::failed)?;
+        let scene = &src.scene;
+        let dir = args.out.unwrap_or_else(|| PathBuf::from("out").join("precision").join(&scene.name));
+        let report = self.precision(scene, &dir).map_err(AppError::failed)?;
+        match args.format {
+            cli::Format::Table => {
+                write!(out, "{}", precision::table(&report))?;
+                for f in &report.files {
+                    writeln!(out, "wrote {}", f.display())?;
+                }
+            }
+            cli::Format::Csv => write!(out, "{}", precision::csv(&report.rows))?,
+        }
+        Ok(())
+    }
+
+    fn cmd_run(&self, args: cli::RunArgs, out: &mut dyn Write) -> Result<(), AppError> {
+        let name = args.scene.clone().unwrap_or_else(|| self.default_scene.clone());
+        if name.is_empty() {
+            return Err(AppError::Failed("no scene given and this program has no default scene".into()));
+        }
+        let src = self.load_scene(&name).map_err(AppError::failed)?;
+        let scene = &src.scene;
+        let opts = args.options(&scene.name);
+        let report = self.run_scene(scene, &opts).map_err(AppError::failed)?;
+        for w in &report.warnings {
+            eprintln!("warning: {w}");
+        }
+        out.write_all(run::summary(&scene.name, &report).as_bytes())?;
+        Ok(())
+    }
+}

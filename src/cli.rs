@@ -1,0 +1,258 @@
+//! The command line's arguments (clap): one definition for the `ezy`
+//! binary and every user program built with [`crate::App`].
+
+use std::path::PathBuf;
+
+use clap::{Parser, Subcommand, ValueEnum};
+use ezy_core::kkt::KktMethod;
+use ezy_core::{Baumgarte, Method, ProjectionKind};
+
+use crate::run::RunOptions;
+
+/// Planar vehicles with hinges and skates: simulate a scene, write CSV and figures.
+#[derive(Parser, Debug)]
+#[command(name = "ezy", version, about)]
+pub struct Cli {
+    #[command(subcommand)]
+    pub command: Option<Command>,
+}
+
+#[derive(Subcommand, Debug)]
+pub enum Command {
+    /// Run a scene and write trajectory.csv and its figures (default: drive).
+    Run(RunArgs),
+    /// List the models and scenes, one line each.
+    List,
+    /// Measure error against wall time over a ladder of integrators and settings.
+    Precision(PrecisionArgs),
+    /// Print the equations the model! macro derived (phi, G = [C_q; S], gamma).
+    Equations(EquationsArgs),
+    /// Check the derived Jacobians and convective terms against finite differences.
+    Check(CheckArgs),
+    /// Time one right-hand-side evaluation against the size of a model's family.
+    Scale(ScaleArgs),
+}
+
+#[derive(clap::Args, Debug)]
+pub struct ScaleArgs {
+    /// Model with a family count (see `ezy list`), e.g. snake.
+    pub model: String,
+    /// Family sizes, comma-separated.
+    #[arg(long, value_delimiter = ',', default_value = "10,100,1000,10000")]
+    pub n: Vec<usize>,
+    /// Output format.
+    #[arg(long, value_enum, default_value = "table")]
+    pub format: ScaleFormat,
+    /// Batches timed per size (the median is reported).
+    #[arg(long, default_value_t = 15)]
+    pub batches: usize,
+    /// KKT path: auto (dense below 16 rows, sparse from 16), schur (dense), sparse, lu.
+    #[arg(long, value_enum, default_value = "auto")]
+    pub kkt: KktArg,
+}
+
+#[derive(ValueEnum, Clone, Copy, Debug)]
+pub enum KktArg {
+    /// Dense Schur complement below 16 constraint rows, sparse from 16.
+    Auto,
+    /// Dense Schur complement (LDL^T of G M^-1 G^T).
+    Schur,
+    /// Sparse Schur complement (faer, symbolic factor once).
+    Sparse,
+    /// Dense LU of the whole KKT matrix.
+    Lu,
+}
+
+#[derive(ValueEnum, Clone, Copy, Debug)]
+pub enum ScaleFormat {
+    /// Aligned columns and the fitted exponent.
+    Table,
+    /// n,nq,nc,seconds_per_rhs,path
+    Csv,
+}
+
+#[derive(clap::Args, Debug)]
+pub struct EquationsArgs {
+    /// Model name (see `ezy list`).
+    pub model: String,
+    /// Set a parameter or a family count first (`--set N=3`); repeatable.
+    #[arg(long = "set", value_parser = parse_set)]
+    pub sets: Vec<(String, f64)>,
+    /// Output format.
+    #[arg(long, value_enum, default_value = "text")]
+    pub format: EqFormat,
+}
+
+#[derive(ValueEnum, Clone, Copy, Debug)]
+pub enum EqFormat {
+    /// Plain text in SPEC §1's notation.
+    Text,
+    /// A LaTeX document (amsmath).
+    Latex,
+}
+
+#[derive(clap::Args, Debug)]
+pub struct CheckArgs {
+    /// Model name (see `ezy list`).
+    pub model: String,
+    /// Set a family count (or a parameter's centre) first (`--set N=3`); repeatable.
+    #[arg(long = "set", value_parser = parse_set)]
+    pub sets: Vec<(String, f64)>,
+    /// Number of random states (and random parameter sets).
+    #[arg(long, default_value_t = 100)]
+    pub states: usize,
+    /// Seed of the random states.
+    #[arg(long, default_value_t = 1)]
+    pub seed: u64,
+}
+
+#[derive(clap::Args, Debug, Default)]
+#[command(allow_negative_numbers = true)]
+pub struct RunArgs {
+    /// Scene: a known name (see `list`; default: drive) or a path to a
+    /// .toml scene file (a name with `/` or ending in `.toml`).
+    pub scene: Option<String>,
+    /// Output directory [default: out/SCENE].
+    #[arg(long)]
+    pub out: Option<PathBuf>,
+    /// Override a model parameter (--set m2=2) or a number of an effect, by
+    /// EFFECT.KEY with the full key or its last part (--set motor.amplitude=3).
+    #[arg(long = "set", value_name = "NAME=VALUE", value_parser = parse_set)]
+    pub sets: Vec<(String, f64)>,
+    /// Step size [s] (scene default: 1e-4).
+    #[arg(long, value_name = "H")]
+    pub dt: Option<f64>,
+    /// Duration [s].
+    #[arg(long, value_name = "T")]
+    pub t_end: Option<f64>,
+    /// Output interval [s] (default 0.01; the final time is always written).
+    #[arg(long, value_name = "DT")]
+    pub every: Option<f64>,
+    /// Coordinate projection after every step.
+    #[arg(long, value_enum)]
+    pub projection: Option<Projection>,
+    /// Baumgarte stabilization `ALPHA,BETA` [1/s] (with or instead of --projection).
+    #[arg(long, value_name = "ALPHA,BETA", value_parser = parse_baumgarte)]
+    pub baumgarte: Option<Baumgarte>,
+    /// Integration method (scene default: rk4).
+    #[arg(long, value_enum)]
+    pub integrator: Option<Integrator>,
+    /// Relative tolerance of the adaptive methods (default 1e-9).
+    #[arg(long, value_name = "R")]
+    pub rtol: Option<f64>,
+    /// Absolute tolerance of the adaptive methods (default 1e-9).
+    #[arg(long, value_name = "A")]
+    pub atol: Option<f64>,
+    /// Skip the figures (CSV only).
+    #[arg(long)]
+    pub no_figures: bool,
+}
+
+#[derive(clap::Args, Debug)]
+pub struct PrecisionArgs {
+    /// Scene name (see `ezy list`).
+    pub scene: String,
+    /// Output format on stdout.
+    #[arg(long, value_enum, default_value = "table")]
+    pub format: Format,
+    /// Directory for precision.csv and the figures [default: out/precision/SCENE].
+    #[arg(long)]
+    pub out: Option<PathBuf>,
+}
+
+#[derive(ValueEnum, Clone, Copy, Debug)]
+pub enum Format {
+    /// A table for people.
+    Table,
+    /// CSV: method,dt,rtol,atol,projection,error,wall_s,rhs_evals,max_residual.
+    Csv,
+}
+
+#[derive(ValueEnum, Clone, Copy, Debug)]
+pub enum Integrator {
+    /// Explicit Euler, order 1, fixed step (--dt).
+    Euler,
+    /// Classic Runge-Kutta, order 4, fixed step (--dt).
+    Rk4,
+    /// Dormand-Prince 5(4), adaptive (--rtol, --atol).
+    Dopri5,
+    /// Dormand-Prince 8(5,3), adaptive (--rtol, --atol).
+    Dop853,
+}
+
+#[derive(ValueEnum, Clone, Copy, Debug)]
+pub enum Projection {
+    /// No projection.
+    None,
+    /// Euclidean, as in the seed.
+    Euclidean,
+    /// Mass-weighted (kinetic-energy metric), the default.
+    Mass,
+}
+
+pub fn parse_baumgarte(s: &str) -> Result<Baumgarte, String> {
+    let (a, b) = s.split_once(',').ok_or_else(|| format!("`{s}`: expected ALPHA,BETA"))?;
+    let num = |v: &str| -> Result<f64, String> {
+        let x: f64 = v.trim().parse().map_err(|_| format!("`{s}`: `{v}` is not a number"))?;
+        if x.is_finite() && x >= 0.0 { Ok(x) } else { Err(format!("`{s}`: `{v}` must be finite and >= 0")) }
+    };
+    Ok(Baumgarte { alpha: num(a)?, beta: num(b)? })
+}
+
+pub fn parse_set(s: &str) -> Result<(String, f64), String> {
+    let (name, value) = s.split_once('=').ok_or_else(|| format!("`{s}`: expected NAME=VALUE"))?;
+    let v: f64 = value.trim().parse().map_err(|_| format!("`{s}`: `{value}` is not a number"))?;
+    if !v.is_finite() {
+        return Err(format!("`{s}`: the value must be finite"));
+    }
+    Ok((name.trim().to_string(), v))
+}
+
+impl From<KktArg> for KktMethod {
+    fn from(k: KktArg) -> Self {
+        match k {
+            KktArg::Auto => KktMethod::Auto,
+            KktArg::Schur => KktMethod::Schur,
+            KktArg::Sparse => KktMethod::Sparse,
+            KktArg::Lu => KktMethod::Lu,
+        }
+    }
+}
+
+impl From<EqFormat> for crate::equations::Format {
+    fn from(f: EqFormat) -> Self {
+        match f {
+            EqFormat::Text => Self::Text,
+            EqFormat::Latex => Self::Latex,
+        }
+    }
+}
+
+impl RunArgs {
+    /// The run's overrides; the output directory defaults to `out/SCENE`.
+    pub fn options(self, scene: &str) -> RunOptions {
+        RunOptions {
+            out: self.out.unwrap_or_else(|| PathBuf::from("out").join(scene)),
+            sets: self.sets,
+            dt: self.dt,
+            t_end: self.t_end,
+            every: self.every,
+            projection: self.projection.map(|p| match p {
+                Projection::None => ProjectionKind::None,
+                Projection::Euclidean => ProjectionKind::Euclidean,
+                Projection::Mass => ProjectionKind::MassWeighted,
+            }),
+            method: self.integrator.map(|m| match m {
+                Integrator::Euler => Method::Euler,
+                Integrator::Rk4 => Method::Rk4,
+                Integrator::Dopri5 => Method::Dopri5,
+                Integrator::Dop853 => Method::Dop853,
+            }),
+            baumgarte: self.baumgarte,
+            rtol: self.rtol,
+            atol: self.atol,
+            figures: !self.no_figures,
+            progress: true,
+        }
+    }
+}

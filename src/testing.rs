@@ -1,0 +1,427 @@
+//! Checks of a model's derived terms, for a model author's own tests:
+//! [`assert_derivatives`] in one line, or [`check_derivatives`] for a
+//! [`Report`] to inspect. The same check is `ezy check MODEL` on the
+//! command line.
+//!
+//! Every term the constraint solve uses is compared against two
+//! independent references at random states and parameters:
+//!
+//! | term | finite differences | dual numbers |
+//! |---|---|---|
+//! | holonomic Jacobian `C_q = d phi/dq` (nh x nq) | central differences of `phi` | forward-mode derivative of `phi` |
+//! | skate rows `S` (one per skate, x nq) | `n . d r_P/dq` by central differences of the point positions | `n . d r_P/dq` by dual numbers |
+//! | convective term `gamma = d/dq(G qd) qd` (nc) \[m/s^2\] | central difference of `G(q + e qd) qd` in `e` | dual derivative of `G(q + e qd) qd` |
+//! | point velocities `d r_P/dt` (2 x npoints) \[m/s\] | central difference of `r_P(q + e qd)` | dual derivative of `r_P(q + e qd)` |
+//!
+//! plus the agreement of the model's own entry points with each other
+//! (`holonomic_jacobian`, `phi_and_constraint_matrix` and
+//! `constraint_terms` against `constraint_matrix` and `phi`), which a
+//! hand-written [`Model`] can break.
+//!
+//! Errors are relative, `|generated - reference| / max(|generated|,
+//! |reference|, 1)`, so an O(1) mistake (a wrong sign, a missing factor)
+//! shows as an O(1) error. The tolerances:
+//!
+//! - finite differences, [`FD_TOLERANCE`] = 1e-6 at step [`FD_STEP`] = 1e-5:
+//!   the central difference's truncation error is `h^2 |f'''| / 6`, about
+//!   1e-10 for the metre-sized, O(1)-curvature terms of a vehicle, and its
+//!   rounding error is about `eps |f| / h`, 2e-11 |f|: the tolerance is
+//!   three to four orders above both (room for lengths of tens of metres)
+//!   and five below a real mistake.
+//! - dual numbers, [`DUAL_TOLERANCE`] = 1e-12: forward mode differentiates
+//!   exactly; generated and dual results differ only by the rounding of a
+//!   few dozen operations, ~1e-15 relative.
+//! - agreement of entry points, [`SAME_TOLERANCE`] = 1e-13: the same
+//!   quantity computed twice; generated code may share subexpressions
+//!   differently, nothing more.
+//!
+//! Sources: finite-difference error bounds, Nocedal & Wright, *Numerical
+//! Optimization*, 2nd ed., §8.1; forward-mode automatic differentiation
+//! with dual numbers, Griewank & Walther, *Evaluating Derivatives*, 2nd
+//! ed., ch. 3.
+
+use ezy_core::Model;
+use ezy_core::Scalar;
+use num_dual::Dual64;
+use rand::rngs::StdRng;
+use rand::{Rng, SeedableRng};
+
+/// Central-difference step [m, rad] (see the module docs).
+pub const FD_STEP: f64 = 1e-5;
+/// Largest relative error against central differences (see the module docs).
+pub const FD_TOLERANCE: f64 = 1e-6;
+/// Largest relative error against dual numbers (see the module docs).
+pub const DUAL_TOLERANCE: f64 = 1e-12;
+/// Largest relative difference between two entry points computing the
+/// same quantity (see the module docs).
+pub const SAME_TOLERANCE: f64 = 1e-13;
+/// Random states (with random parameters) [`assert_derivatives`] checks.
+pub const DEFAULT_STATES: usize = 50;
+
+/// What a term is compared with.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Reference {
+    /// Central finite differences of the generated positions.
+    FiniteDifference,
+    /// Forward-mode dual numbers through the generated positions.
+    DualNumber,
+    /// The same quantity from another entry point of the model.
+    SameModel,
+}
+
+impl Reference {
+    /// The tolerance on the relative error.
+    pub fn tolerance(self) -> f64 {
+        match self {
+            Self::FiniteDifference => FD_TOLERANCE,
+            Self::DualNumber => DUAL_TOLERANCE,
+            Self::SameModel => SAME_TOLERANCE,
+        }
+    }
+    /// Short name for tables.
+    pub fn name(self) -> &'static str {
+        match self {
+            Self::FiniteDifference => "finite diff.",
+            Self::DualNumber => "dual numbers",
+            Self::SameModel => "same model",
+        }
+    }
+}
+
+/// The result for one derived term against one reference.
+#[derive(Debug, Clone, PartialEq)]
+pub struct TermCheck {
+    /// What was compared, e.g. `C_q = d phi/dq (hinge rows of G)`.
+    pub term: &'static str,
+    /// What it was compared with.
+    pub reference: Reference,
+    /// Number of scalar comparisons.
+    pub compared: usize,
+    /// Largest `|generated - reference| / max(|generated|, |reference|, 1)`
+    /// (infinite for a NaN or infinite value).
+    pub max_error: f64,
+    /// Where it occurred: the state (numbered from 0) and the entry by
+    /// name (`G[B.y, y2]`), with both values.
+    pub worst_at: String,
+}
+
+impl TermCheck {
+    /// The largest error is within the reference's tolerance.
+    pub fn passed(&self) -> bool {
+        self.max_error <= self.reference.tolerance()
+    }
+}
+
+/// Every term of a model against every reference.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Report {
+    /// Number of random states (each with random parameters).
+    pub states: usize,
+    /// Seed of the random states.
+    pub seed: u64,
+    /// One entry per term and reference.
+    pub terms: Vec<TermCheck>,
+}
+
+impl Report {
+    /// Every term within its tolerance.
+    pub fn passed(&self) -> bool {
+        self.terms.iter().all(TermCheck::passed)
+    }
+
+    /// The failed term with the largest error relative to its tolerance,
+    /// as `term against reference: error at entry` (empty if all passed).
+    pub fn worst(&self) -> String {
+        self.terms
+            .iter()
+            .filter(|c| !c.passed())
+            .max_by(|a, b| (a.max_error / a.reference.tolerance()).total_cmp(&(b.max_error / b.reference.tolerance())))
+            .map(|c| {
+                format!(
+                    "{} against {}: relative error {:.3e} > {:e} at {}",
+                    c.term,
+                    c.reference.name(),
+                    c.max_error,
+                    c.reference.tolerance(),
+                    c.worst_at
+                )
+            })
+            .unwrap_or_default()
+    }
+
+    /// A table, one line per term and reference, naming the worst entry.
+    pub fn table(&self, model: &str) -> String {
+        let mut out = format!(
+            "{model}: generated terms at {} random states and parameters (seed {}), finite differences with h = {FD_STEP:e}\n",
+            self.states, self.seed
+        );
+        out.push_str(&format!(
+            "{:<36} {:<13} {:>8} {:>11} {:>7}  {:<6} worst at\n",
+            "term", "against", "compared", "max rel err", "tol", ""
+        ));
+        for c in &self.terms {
+            let verdict = if c.compared == 0 {
+                "none"
+            } else if c.passed() {
+                "ok"
+            } else {
+                "FAILED"
+            };
+            out.push_str(&format!(
+                "{:<36} {:<13} {:>8} {:>11.3e} {:>7.0e}  {:<6} {}\n",
+                c.term,
+                c.reference.name(),
+                c.compared,
+                c.max_error,
+                c.reference.tolerance(),
+                verdict,
+                c.worst_at
+            ));
+        }
+        out
+    }
+}
+
+/// Checks every derived term of `model` (at its family counts, around its
+/// parameters) against finite differences and dual numbers at
+/// [`DEFAULT_STATES`] random states, and panics with the table of
+/// [`Report::table`] naming the worst entry if any term is off.
+///
+/// ```
+/// # ezy::model! {
+/// #     /// A sleigh.
+/// #     pub struct Sleigh {
+/// #         /// Distance from the centre of mass back to the skate [m]
+/// #         param a = 0.5;
+/// #         body s(x, y, phi) { mass: 1.0, inertia: 0.1 }
+/// #         point P on s at (-a, 0);
+/// #         skate P: P along (1, 0);
+/// #     }
+/// # }
+/// ezy::testing::assert_derivatives(&Sleigh::default());
+/// ```
+///
+/// # Panics
+/// If a term exceeds its tolerance, or a value is NaN or infinite.
+#[track_caller]
+pub fn assert_derivatives<M: Model>(model: &M) {
+    let report = check_derivatives(model);
+    if !report.passed() {
+        panic!("{}\n{}", report.worst(), report.table(model.info().name));
+    }
+}
+
+/// As [`assert_derivatives`], returning the [`Report`] instead of panicking.
+pub fn check_derivatives<M: Model>(model: &M) -> Report {
+    check_derivatives_with(model, DEFAULT_STATES, 1)
+}
+
+/// The comparisons of [`check_derivatives`] at `states` random states
+/// drawn from `seed`: every coordinate uniform in \[-3, 3\] (metres or
+/// radians), every velocity in \[-2, 2\], every real parameter scaled by a
+/// factor uniform in \[0.5, 1.5\] (family counts kept).
+pub fn check_derivatives_with<M: Model>(base: &M, states: usize, seed: u64) -> Report {
+    use Reference::{DualNumber as Dual, FiniteDifference as Fd, SameModel as Same};
+    let info = &base.info();
+    let (nq, nh, nc, np) = (info.nq(), info.n_holonomic, info.nc(), info.points.len());
+    let nnz = info.pattern.len();
+    let nhz = info.n_holonomic_nonzeros();
+    let mut rng = StdRng::seed_from_u64(seed);
+    let names = Names(info);
+    let mut jac = [Acc::new(JAC, Fd), Acc::new(JAC, Dual)];
+    let mut skate = [Acc::new(SKATE, Fd), Acc::new(SKATE, Dual)];
+    let mut gamma = [Acc::new(GAMMA, Fd), Acc::new(GAMMA, Dual)];
+    let mut vel = [Acc::new(VEL, Fd), Acc::new(VEL, Dual)];
+    let mut same = Acc::new("entry points agree", Same);
+    let h = FD_STEP;
+    for s in 0..states {
+        let mut m = base.clone();
+        for (i, p) in info.params.iter().enumerate() {
+            if !p.count {
+                let v = m.param(i);
+                m.set_param(i, v * rng.random_range(0.5..1.5));
+            }
+        }
+        let q: Vec<f64> = (0..nq).map(|_| rng.random_range(-3.0..3.0)).collect();
+        let qd: Vec<f64> = (0..nq).map(|_| rng.random_range(-2.0..2.0)).collect();
+        let mut vals = vec![0.0; nnz];
+        m.constraint_matrix(&q, &mut vals);
+        let g = dense(info, &vals);
+
+        // the entry points against each other
+        let mut phi = vec![0.0; nh];
+        m.phi(&q, &mut phi);
+        let (mut phi2, mut vals2) = (vec![0.0; nh], vec![0.0; nnz]);
+        m.phi_and_constraint_matrix(&q, &mut phi2, &mut vals2);
+        let mut hj = vec![0.0; nhz];
+        m.holonomic_jacobian(&q, &mut hj);
+        let (mut vals3, mut gam) = (vec![0.0; nnz], vec![0.0; nc]);
+        m.constraint_terms(&q, &qd, &mut vals3, &mut gam);
+        for i in 0..nh {
+            same.add(phi2[i], phi[i], || format!("state {s}, phi[{}] of phi_and_constraint_matrix", names.row(i)));
+        }
+        for (k, &(r, c)) in info.pattern.iter().enumerate() {
+            let at = |what: &str| format!("state {s}, {} of {what}", names.g(r, c));
+            same.add(vals2[k], vals[k], || at("phi_and_constraint_matrix"));
+            same.add(vals3[k], vals[k], || at("constraint_terms"));
+            if k < nhz {
+                same.add(hj[k], vals[k], || at("holonomic_jacobian"));
+            }
+        }
+
+        // world normals of the skates' blades
+        let mut local = vec![0.0; 2 * np];
+        let mut blades = vec![0.0; 2 * info.skates.len()];
+        m.local_geometry(&mut local, &mut blades);
+        let normals: Vec<[f64; 2]> = info
+            .skates
+            .iter()
+            .enumerate()
+            .map(|(j, sk)| {
+                let phi = q[info.bodies[info.points[sk.point].body].coords[2]];
+                let (nx, ny) = (-blades[2 * j + 1], blades[2 * j]);
+                [phi.cos() * nx - phi.sin() * ny, phi.sin() * nx + phi.cos() * ny]
+            })
+            .collect();
+
+        // d/dq_k by central differences and by a dual seed in q_k
+        for k in 0..nq {
+            let shifted = |d: f64| {
+                let mut p = q.clone();
+                p[k] += d;
+                p
+            };
+            let (mut fp, mut fm) = (vec![0.0; nh], vec![0.0; nh]);
+            m.phi(&shifted(h), &mut fp);
+            m.phi(&shifted(-h), &mut fm);
+            let qk: Vec<Dual64> =
+                q.iter().enumerate().map(|(j, &x)| Dual64::new(x, if j == k { 1.0 } else { 0.0 })).collect();
+            let mut phid = vec![Dual64::from(0.0); nh];
+            m.phi(&qk, &mut phid);
+            for i in 0..nh {
+                let generated = g[i * nq + k];
+                let at = || format!("state {s}, {}", names.g(i, k));
+                jac[0].add(generated, (fp[i] - fm[i]) / (2.0 * h), at);
+                jac[1].add(generated, phid[i].eps, at);
+            }
+            let (pp, pm) = (points(&m, &shifted(h), np), points(&m, &shifted(-h), np));
+            let mut pd = vec![Dual64::from(0.0); 2 * np];
+            m.points(&qk, &mut pd);
+            for (j, sk) in info.skates.iter().enumerate() {
+                let (p, n) = (sk.point, normals[j]);
+                let generated = g[sk.row * nq + k];
+                let fd = (n[0] * (pp[2 * p] - pm[2 * p]) + n[1] * (pp[2 * p + 1] - pm[2 * p + 1])) / (2.0 * h);
+                let dual = n[0] * pd[2 * p].eps + n[1] * pd[2 * p + 1].eps;
+                let at = || format!("state {s}, {}", names.g(sk.row, k));
+                skate[0].add(generated, fd, at);
+                skate[1].add(generated, dual, at);
+            }
+        }
+
+        // d/de at q + e qd: gamma = d/de (G(q + e qd) qd), v_P = d/de r_P(q + e qd)
+        let along = |d: f64| -> Vec<f64> { q.iter().zip(&qd).map(|(a, b)| a + d * b).collect() };
+        let g_qd = |q: &[f64]| {
+            let mut v = vec![0.0; nnz];
+            m.constraint_matrix(q, &mut v);
+            times(info, &v, &qd)
+        };
+        let (gp, gm) = (g_qd(&along(h)), g_qd(&along(-h)));
+        let qe: Vec<Dual64> = q.iter().zip(&qd).map(|(&x, &v)| Dual64::new(x, v)).collect();
+        let mut vd = vec![Dual64::from(0.0); nnz];
+        m.constraint_matrix(&qe, &mut vd);
+        let qd_dual: Vec<Dual64> = qd.iter().map(|&v| Dual64::from(v)).collect();
+        let gqd_dual = times(info, &vd, &qd_dual);
+        for i in 0..nc {
+            let at = || format!("state {s}, gamma[{}]", names.row(i));
+            gamma[0].add(gam[i], (gp[i] - gm[i]) / (2.0 * h), at);
+            gamma[1].add(gam[i], gqd_dual[i].eps, at);
+        }
+        let (pp, pm) = (points(&m, &along(h), np), points(&m, &along(-h), np));
+        let mut pe = vec![Dual64::from(0.0); 2 * np];
+        m.points(&qe, &mut pe);
+        let mut v = vec![0.0; 2 * np];
+        m.point_velocities(&q, &qd, &mut v);
+        for i in 0..2 * np {
+            let axis = if i % 2 == 0 { "x" } else { "y" };
+            let at = || format!("state {s}, velocity {}.{axis}", info.points[i / 2].name);
+            vel[0].add(v[i], (pp[i] - pm[i]) / (2.0 * h), at);
+            vel[1].add(v[i], pe[i].eps, at);
+        }
+    }
+    let mut terms = Vec::new();
+    for pair in [jac, skate, gamma, vel] {
+        terms.extend(pair.into_iter().map(Acc::done));
+    }
+    terms.push(same.done());
+    Report { states, seed, terms }
+}
+
+const JAC: &str = "C_q = d phi/dq (holonomic rows of G)";
+const SKATE: &str = "S = n . d r_P/dq (skate rows of G)";
+const GAMMA: &str = "gamma = d/dq(G qd) qd";
+const VEL: &str = "point velocities d r_P/dt";
+
+/// Names of rows and entries for messages.
+struct Names<'a>(&'a ezy_core::ModelInfo);
+
+impl Names<'_> {
+    fn row(&self, i: usize) -> &str {
+        &self.0.constraints[i]
+    }
+    fn g(&self, r: usize, c: usize) -> String {
+        format!("G[{}, {}]", self.0.constraints[r], self.0.coords[c])
+    }
+}
+
+/// `G` (nc x nq, row-major) from its values at the pattern.
+fn dense(info: &ezy_core::ModelInfo, vals: &[f64]) -> Vec<f64> {
+    let mut g = vec![0.0; info.nc() * info.nq()];
+    ezy_core::model::scatter_dense(&info.pattern, vals, info.nq(), &mut g);
+    g
+}
+
+/// `G v` (nc) from the values of `G` at the pattern.
+fn times<S: Scalar>(info: &ezy_core::ModelInfo, vals: &[S], v: &[S]) -> Vec<S> {
+    let mut out = vec![S::from_f64(0.0); info.nc()];
+    for (&(r, c), &x) in info.pattern.iter().zip(vals) {
+        out[r] = out[r] + x * v[c];
+    }
+    out
+}
+
+fn points<M: Model>(m: &M, q: &[f64], np: usize) -> Vec<f64> {
+    let mut out = vec![0.0; 2 * np];
+    m.points(q, &mut out);
+    out
+}
+
+struct Acc {
+    term: &'static str,
+    reference: Reference,
+    compared: usize,
+    max_error: f64,
+    worst_at: String,
+}
+
+impl Acc {
+    fn new(term: &'static str, reference: Reference) -> Self {
+        Self { term, reference, compared: 0, max_error: 0.0, worst_at: String::new() }
+    }
+    fn add(&mut self, generated: f64, reference: f64, at: impl FnOnce() -> String) {
+        let e = (generated - reference).abs() / generated.abs().max(reference.abs()).max(1.0);
+        self.compared += 1;
+        if e > self.max_error || !e.is_finite() {
+            self.max_error = if e.is_finite() { e } else { f64::INFINITY };
+            self.worst_at = format!("{} (generated {generated:.6e}, reference {reference:.6e})", at());
+        }
+    }
+    fn done(self) -> TermCheck {
+        TermCheck {
+            term: self.term,
+            reference: self.reference,
+            compared: self.compared,
+            max_error: self.max_error,
+            worst_at: self.worst_at,
+        }
+    }
+}
