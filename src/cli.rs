@@ -85,7 +85,7 @@ pub struct EquationsArgs {
 
 #[derive(ValueEnum, Clone, Copy, Debug)]
 pub enum EqFormat {
-    /// Plain text in SPEC §1's notation.
+    /// Plain text (x1, phi1d for the rate of phi1, ...).
     Text,
     /// A LaTeX document (amsmath).
     Latex,
@@ -184,7 +184,7 @@ pub enum Integrator {
 pub enum Projection {
     /// No projection.
     None,
-    /// Euclidean, as in the seed.
+    /// Euclidean (the plain least-squares correction).
     Euclidean,
     /// Mass-weighted (kinetic-energy metric), the default.
     Mass,

@@ -318,3 +318,27 @@ fn equations_and_check_take_family_counts() {
     let o = ezy(&["equations", "snake", "--set", "Q=1"]);
     assert!(!o.status.success() && stderr(&o).contains("unknown parameter `Q`"), "{}", stderr(&o));
 }
+
+/// A bare name is a known scene, a name with `/` or ending in `.toml` a
+/// file; a bare name that is also a file in the working directory is
+/// refused as ambiguous, and nothing runs.
+#[test]
+fn a_bare_name_is_a_scene_and_a_path_is_a_file() {
+    let dir = tmp_dir("ambiguous");
+    std::fs::create_dir_all(&dir).unwrap();
+    std::fs::write(dir.join("drive"), "not a scene").unwrap();
+    let run = |args: &[&str]| Command::new(env!("CARGO_BIN_EXE_ezy")).args(args).current_dir(&dir).output().unwrap();
+    let o = run(&["run", "drive", "--t-end", "0.01"]);
+    assert_eq!(o.status.code(), Some(1));
+    assert!(stderr(&o).contains("`drive` is both a known scene and a file in the working directory"), "{}", stderr(&o));
+    assert!(!dir.join("out").exists(), "nothing is written");
+    // `./drive` is the file (not a scene: a located TOML error)
+    let o = run(&["run", "./drive"]);
+    assert_eq!(o.status.code(), Some(1));
+    assert!(stderr(&o).contains("./drive:1:"), "{}", stderr(&o));
+    // a bare name that is only a file is not read
+    std::fs::write(dir.join("mine"), "not a scene").unwrap();
+    let o = run(&["run", "mine"]);
+    assert!(stderr(&o).contains("unknown scene `mine`"), "{}", stderr(&o));
+    let _ = std::fs::remove_dir_all(&dir);
+}

@@ -3,6 +3,7 @@
 //! checking against the built-in models (the `ezy` crate's `App` loads
 //! scene files given by path, and a user's scenes, against its own table).
 
+pub use ezy_core::registry::SceneSource;
 use ezy_core::registry::{ModelCatalog, check_scene};
 use ezy_core::{ModelInfo, Scene, SceneError, SceneFileError};
 
@@ -22,8 +23,6 @@ pub const BUILTIN: &[(&str, &str)] = &[
     ("drive-prescribed.toml", include_str!("../scenes/drive-prescribed.toml")),
     ("snakeboard.toml", include_str!("../scenes/snakeboard.toml")),
 ];
-
-pub use ezy_core::registry::SceneSource;
 
 /// The description of the built-in model registered as `key`, at its
 /// default counts; `None` for an unknown key.
@@ -75,17 +74,17 @@ pub fn get(name: &str) -> Scene {
     builtin().into_iter().find(|s| s.scene.name == name).unwrap_or_else(|| panic!("no built-in scene `{name}`")).scene
 }
 
-/// The `drive` scene (seed questions f-j).
+/// The `drive` scene: the hinge motor drives the EzyRoller from rest.
 pub fn drive() -> Scene {
     get("drive")
 }
 
-/// The `free` scene (seed question e).
+/// The `free` scene: the EzyRoller coasts with no forces.
 pub fn free() -> Scene {
     get("free")
 }
 
-/// The `sleigh` scene (SPEC §5).
+/// The `sleigh` scene: the Chaplygin sleigh, which has a closed form.
 pub fn sleigh() -> Scene {
     get("sleigh")
 }
