@@ -115,8 +115,9 @@ pub struct RunArgs {
     /// Output directory [default: out/SCENE].
     #[arg(long)]
     pub out: Option<PathBuf>,
-    /// Override a model parameter (--set m2=2) or a number of an effect, by
-    /// EFFECT.KEY with the full key or its last part (--set motor.amplitude=3).
+    /// Override a scene parameter (--set M0=0.1: every number that names it),
+    /// a model parameter (--set m2=2) or a number of an effect, by EFFECT.KEY
+    /// with the full key or its last part (--set motor.amplitude=3).
     #[arg(long = "set", value_name = "NAME=VALUE", value_parser = parse_set)]
     pub sets: Vec<(String, f64)>,
     /// Step size [s] (scene default: 1e-4).

@@ -48,8 +48,8 @@ pub enum Error {
 pub struct RunOptions {
     /// Output directory.
     pub out: PathBuf,
-    /// `NAME=VALUE` overrides of model parameters or effect numbers
-    /// (`EFFECT.KEY`, see [`Scene::set`]).
+    /// `NAME=VALUE` overrides of scene parameters, model parameters or
+    /// effect numbers (`EFFECT.KEY`, see [`Scene::set`]).
     pub sets: Vec<(String, f64)>,
     /// Step size [s].
     pub dt: Option<f64>,
@@ -124,9 +124,9 @@ pub struct Setup<M: Model> {
     pub initial: InitialReport,
 }
 
-/// Applies the overrides `sets` (model parameters, `EFFECT.KEY` numbers) to
-/// `scene`, builds the model and its effects, checks the masses and finds
-/// the consistent initial state.
+/// Applies the overrides `sets` (scene parameters, model parameters,
+/// `EFFECT.KEY` numbers) to `scene`, builds the model and its effects,
+/// checks the masses and finds the consistent initial state.
 ///
 /// # Errors
 /// [`SimError::UnknownName`] for an unknown override or name,

@@ -205,7 +205,7 @@ fn a_scene_file_by_path_equals_the_builtin_scene() {
 
     let dir = tmp_dir("edited");
     std::fs::create_dir_all(&dir).unwrap();
-    let text = std::fs::read_to_string(file).unwrap().replace("amplitude = 2.0", "amplitude = 3.0");
+    let text = std::fs::read_to_string(file).unwrap().replace("M0 = 2.0", "M0 = 3.0");
     let mine = dir.join("my_scene.toml");
     std::fs::write(&mine, text).unwrap();
     let out = dir.join("out");
@@ -216,6 +216,57 @@ fn a_scene_file_by_path_equals_the_builtin_scene() {
     let k = header.iter().position(|c| *c == "tau_motor").unwrap();
     let first: Vec<f64> = csv.lines().nth(1).unwrap().split(',').map(|v| v.parse().unwrap()).collect();
     assert_eq!(first[k], 3.0);
+}
+
+/// `tau_motor` and the printed final state of `ezy run drive` for 1 s with
+/// `extra` arguments.
+fn drive_torque(name: &str, extra: &[&str]) -> (Vec<(f64, f64)>, String) {
+    let dir = tmp_dir(name);
+    let mut args = vec!["run", "drive", "--t-end", "1", "--no-figures", "--out", dir.to_str().unwrap()];
+    args.extend_from_slice(extra);
+    let o = ezy(&args);
+    assert!(o.status.success(), "{extra:?}: {}", stderr(&o));
+    let out = String::from_utf8_lossy(&o.stdout);
+    let last = out.lines().find(|l| l.contains("final state")).unwrap().to_string();
+    let csv = std::fs::read_to_string(dir.join("trajectory.csv")).unwrap();
+    let header: Vec<&str> = csv.lines().next().unwrap().split(',').collect();
+    let k = header.iter().position(|c| *c == "tau_motor").unwrap();
+    let tau = csv
+        .lines()
+        .skip(1)
+        .map(|l| {
+            let row: Vec<f64> = l.split(',').map(|v| v.parse().unwrap()).collect();
+            (row[0], row[k])
+        })
+        .collect();
+    (tau, last)
+}
+
+/// The drive scene's motor is `M0 cos(omega t)` with scene parameters `M0`
+/// and `omega`: `--set M0=0.1` and `--set omega=5` change the torque, the
+/// motor's own key still works, and an unknown name lists the scene
+/// parameters too.
+#[test]
+fn set_changes_scene_parameters() {
+    let (tau, state) = drive_torque("params-default", &[]);
+    let max = |tau: &[(f64, f64)]| tau.iter().map(|(_, v)| v.abs()).fold(0.0, f64::max);
+    assert_eq!(max(&tau), 2.0);
+    let (small, small_state) = drive_torque("params-m0", &["--set", "M0=0.1"]);
+    assert_ne!(small_state, state);
+    assert!((max(&small) - 0.1).abs() <= 1e-15, "max |tau| = {}", max(&small));
+    for ((t, a), (_, b)) in tau.iter().zip(&small) {
+        assert!((b - 0.05 * a).abs() <= 1e-15, "t = {t}: {b} vs {a} / 20");
+    }
+    let (fast, _) = drive_torque("params-omega", &["--set", "omega=5"]);
+    for (t, v) in &fast {
+        assert!((v - 2.0 * (5.0 * t).cos()).abs() <= 1e-12, "t = {t}: {v}");
+    }
+    // the number's own key still works, and wins over its scene parameter
+    let (three, _) = drive_torque("params-key", &["--set", "motor.amplitude=3", "--set", "M0=0.1"]);
+    assert_eq!(max(&three), 3.0);
+    let o = ezy(&["run", "drive", "--t-end", "0.1", "--no-figures", "--set", "M1=1"]);
+    let e = stderr(&o);
+    assert!(!o.status.success() && e.contains("unknown parameter `M1`") && e.contains("M0, omega"), "{e}");
 }
 
 /// A bad scene file: one line on stderr with file:line:column and the key,

@@ -173,13 +173,34 @@ fn every_documented_scene_file_error_names_file_line_column_and_key() {
         ),
         // a waveform table out of order
         (
-            "torque = { cos = { amplitude = 2.0, omega = 3.141592653589793 } }",
+            "torque = { cos = { amplitude = \"M0\", omega = \"omega\" } }",
             "torque = { table = { t = [0.0, 2.0, 1.0], value = [0.0, 1.0, 2.0] } }",
-            "torque",
+            "torque = { table",
             &["`effects.motor.torque`", "t[2] = 1 follows t[1] = 2"],
         ),
         // an output group that does not exist
         ("\"residuals\"]", "\"residual\"]", "include", &["unknown variant `residual`", "constraint-forces"]),
+        // a name in a number's place that is not a scene parameter lists the declared ones
+        (
+            "amplitude = \"M0\"",
+            "amplitude = \"M1\"",
+            "amplitude = \"M1\"",
+            &[
+                "`effects.motor.torque.cos.amplitude`",
+                "`M1` is neither a number nor a scene parameter; declared in [scene_params]: M0, omega",
+            ],
+        ),
+        // a scene parameter with a model parameter's name
+        (
+            "M0 = 2.0",
+            "M0 = 2.0\nm2 = 1.5",
+            "m2 = 1.5",
+            &["`scene_params.m2`", "`m2` is both a scene parameter and a parameter of model EzyRoller"],
+        ),
+        // a scene parameter that is not a number, or not an identifier
+        ("M0 = 2.0", "M0 = \"two\"", "M0 = \"two\"", &["`scene_params.M0`", "must be a number, not a string"]),
+        ("M0 = 2.0", "M0 = 2.0\n\"2M\" = 1.0", "\"2M\"", &["`scene_params.2M`", "must be an identifier"]),
+        ("M0 = 2.0", "M0 = inf", "M0 = inf", &["`scene_params.M0`", "M0 = inf must be finite"]),
     ];
     for (from, to, at, want) in cases {
         let text = drive_with(from, to);
@@ -256,4 +277,159 @@ fn review_cases_are_errors_with_names() {
     let err = driven.set(info, "D.amplitude", 0.5).unwrap_err().to_string();
     assert!(err.contains("matches several numbers") && err.contains("angle.harmonics.1.amplitude"), "{err}");
     driven.set(info, "D.harmonics.1.amplitude", 0.5).unwrap();
+}
+
+/// The drive scene's motor reads the scene parameters `M0` and `omega`:
+/// bit for bit the numbers it had when it wrote them inline; `set` of a
+/// scene parameter changes every number bound to it, `set` of the number's
+/// own key unbinds it, and a scene writes the names back.
+#[test]
+fn scene_parameters_give_numbers_that_set_changes() {
+    use ezy_core::effects::{Harmonic, Waveform};
+    use ezy_core::{Binding, EffectSpec};
+    let info = &scenes::model_info("ezyroller").unwrap();
+    let motor = |s: &Scene| match &s.effects[0].1 {
+        EffectSpec::HingeMotor { torque: Waveform::Cos(h), .. } => *h,
+        other => panic!("{other:?}"),
+    };
+    let mut drive = scenes::drive();
+    assert_eq!(drive.scene_params, [("M0".to_string(), 2.0), ("omega".to_string(), std::f64::consts::PI)]);
+    let bound = |leaf: &str, param: &str| Binding {
+        path: ["effects", "motor", "torque", "cos", leaf].map(String::from).to_vec(),
+        param: param.into(),
+    };
+    assert_eq!(drive.bindings, [bound("amplitude", "M0"), bound("omega", "omega")]);
+    let h = motor(&drive);
+    assert_eq!(h, Harmonic { amplitude: 2.0, omega: std::f64::consts::PI, phase: 0.0, phase_step: 0.0 });
+    let written = drive.to_toml();
+    assert!(written.contains("amplitude = \"M0\"") && written.contains("omega = \"omega\""), "{written}");
+
+    drive.set(info, "M0", 0.1).unwrap();
+    drive.set(info, "omega", 5.0).unwrap();
+    assert_eq!((motor(&drive).amplitude, motor(&drive).omega), (0.1, 5.0));
+    assert_eq!(drive.scene_params, [("M0".to_string(), 0.1), ("omega".to_string(), 5.0)]);
+    let back = Scene::from_toml(&drive.to_toml(), "written").unwrap();
+    assert_eq!(back, drive);
+
+    // the number's own key wins and unbinds it, in either order
+    drive.set(info, "motor.amplitude", 3.0).unwrap();
+    drive.set(info, "M0", 0.5).unwrap();
+    assert_eq!((motor(&drive).amplitude, motor(&drive).omega), (3.0, 5.0));
+    assert_eq!(drive.bindings, [bound("omega", "omega")]);
+    let written = drive.to_toml();
+    assert!(written.contains("amplitude = 3.0") && written.contains("M0 = 0.5"), "{written}");
+    assert_eq!(Scene::from_toml(&written, "written").unwrap(), drive);
+
+    // an unknown name lists model parameters, scene parameters and keys
+    let err = scenes::drive().set(info, "M1", 1.0).unwrap_err().to_string();
+    for want in ["unknown parameter `M1`", "m2", "M0", "omega", "motor.torque.cos.amplitude"] {
+        assert!(err.contains(want), "`{want}` missing from: {err}");
+    }
+    // a scene built in code with a scene parameter named like a model parameter
+    let mut clash = scenes::drive();
+    clash.scene_params.push(("m2".into(), 1.0));
+    let err = clash.set(info, "m2", 2.0).unwrap_err().to_string();
+    assert!(err.contains("`m2` is both a scene parameter and a parameter of model EzyRoller"), "{err}");
+}
+
+/// Scene parameters in a drive's waveform, in numbers that serialize only
+/// when not at their default (`rest_angle = 0`, a zero `fx`), and in a
+/// family effect (expanded per element; a `phase_step` is baked in).
+#[test]
+fn scene_parameters_in_drives_defaults_and_families() {
+    use ezy_core::EffectSpec;
+    use ezy_core::effects::Waveform;
+    // a drive's angle
+    let prescribed = scenes::BUILTIN.iter().find(|(f, _)| *f == "drive-prescribed.toml").unwrap().1;
+    let from = "{ amplitude = 0.3, omega = 3.141592653589793, phase = -1.5707963267948966 }";
+    assert_eq!(prescribed.matches(from).count(), 1);
+    let text = prescribed
+        .replace(from, "{ amplitude = \"swing\", omega = 3.141592653589793, phase = -1.5707963267948966 }")
+        .replace("[drives.D]", "[scene_params]\nswing = 0.3\n\n[drives.D]");
+    let mut scene = scenes::check(Scene::from_toml(&text, "swing.toml").unwrap(), &text, "swing.toml").unwrap().scene;
+    assert_eq!(scene.drives, scenes::get("drive-prescribed").drives);
+    let info = &scenes::model_info("ezyroller_driven").unwrap();
+    scene.set(info, "swing", 0.5).unwrap();
+    let Waveform::Harmonics(hs) = &scene.drives[0].1.angle else { panic!() };
+    assert_eq!(hs[1].amplitude, 0.5);
+    assert_eq!(Scene::from_toml(&scene.to_toml(), "written").unwrap(), scene);
+    // an unknown name in a drive is placed at it
+    let err = load_err(&text.replace("amplitude = \"swing\"", "amplitude = \"swung\""));
+    assert!(
+        err.contains("`drives.D.angle.harmonics[1].amplitude`") && err.contains("declared in [scene_params]: swing"),
+        "{err}"
+    );
+
+    // numbers at their defaults
+    let text = format!(
+        "{}\n[scene_params]\nrest = 0.0\nF0 = 0.0\n\n[effects.spring]\nkind = \"hinge-spring\"\nhinge = \"B\"\nstiffness = 1.0\nrest_angle = \"rest\"\n\n[effects.push]\nkind = \"force\"\nat = \"body1\"\nfx = {{ constant = \"F0\" }}\n",
+        scenes::BUILTIN[0].1.split("[scene_params]").next().unwrap()
+    );
+    let mut scene = Scene::from_toml(&text, "defaults.toml").unwrap();
+    assert_eq!(scene.bindings.len(), 2);
+    assert_eq!(Scene::from_toml(&scene.to_toml(), "written").unwrap(), scene, "{}", scene.to_toml());
+    let info = &scenes::model_info("ezyroller").unwrap();
+    scene.set(info, "rest", 0.2).unwrap();
+    scene.set(info, "F0", 1.5).unwrap();
+    assert!(matches!(scene.effects[0].1, EffectSpec::HingeSpring { rest_angle, .. } if rest_angle == 0.2));
+    assert!(matches!(&scene.effects[1].1, EffectSpec::Force { fx: Waveform::Constant(f), .. } if *f == 1.5));
+
+    // a family: the amplitude stays bound in every element, the phase step is baked in
+    let snake = scenes::BUILTIN.iter().find(|(f, _)| *f == "snake.toml").unwrap().1;
+    let from = "amplitude = 0.6, omega = 3.141592653589793, phase = 0.0, phase_step = -1.5707963267948966";
+    assert_eq!(snake.matches(from).count(), 1);
+    let text = snake
+        .replace(from, "amplitude = \"A\", omega = 3.141592653589793, phase = 0.0, phase_step = \"delta\"")
+        .replace("[effects.motor]", "[scene_params]\nA = 0.6\ndelta = -1.5707963267948966\n\n[effects.motor]");
+    let mut scene = Scene::from_toml(&text, "snake.toml").unwrap();
+    let info = &scenes::model_info("snake").unwrap();
+    scene.set(info, "delta", -1.0).unwrap();
+    let expanded = scene.expand_families(info).unwrap();
+    let params: Vec<(&str, &str)> = expanded.bindings.iter().map(|b| (b.path[1].as_str(), b.param.as_str())).collect();
+    assert_eq!(params, [("motor2", "A"), ("motor3", "A"), ("motor4", "A"), ("motor5", "A")]);
+    let phases: Vec<f64> = expanded.effects[..4]
+        .iter()
+        .map(|(_, e)| match e {
+            EffectSpec::HingeMotor { torque: Waveform::Sin(h), .. } => h.phase,
+            other => panic!("{other:?}"),
+        })
+        .collect();
+    assert_eq!(phases, [0.0, -1.0, -2.0, -3.0]);
+    let mut expanded = expanded;
+    expanded.set(info, "A", 0.9).unwrap();
+    assert!(
+        expanded.effects[..4]
+            .iter()
+            .all(|(_, e)| matches!(e, EffectSpec::HingeMotor { torque: Waveform::Sin(h), .. } if h.amplitude == 0.9))
+    );
+}
+
+/// Every string an effect kind serializes sits under one of its name keys:
+/// everywhere else a string in an effect names a scene parameter.
+#[test]
+fn effects_hold_strings_only_at_their_name_keys() {
+    use ezy_core::effects::{EFFECT_KINDS, NAME_KEYS};
+    let all = Scene::from_toml(include_str!("data/all_effects.toml"), "all_effects.toml").unwrap();
+    let mut kinds: Vec<&str> = all.effects.iter().map(|(_, e)| e.kind()).collect();
+    kinds.sort();
+    kinds.dedup();
+    let mut want = EFFECT_KINDS.to_vec();
+    want.sort();
+    assert_eq!(kinds, want, "all_effects.toml must have every kind");
+    fn strings(v: &toml::Value, out: &mut usize) {
+        match v {
+            toml::Value::String(_) => *out += 1,
+            toml::Value::Table(t) => t.values().for_each(|v| strings(v, out)),
+            toml::Value::Array(a) => a.iter().for_each(|v| strings(v, out)),
+            _ => {}
+        }
+    }
+    for (name, e) in &all.effects {
+        let toml::Value::Table(t) = toml::Value::try_from(e).unwrap() else { panic!() };
+        for (k, v) in &t {
+            let mut n = 0;
+            strings(v, &mut n);
+            assert!(n == 0 || NAME_KEYS.contains(&k.as_str()), "effect {name}: a string under `{k}`");
+        }
+    }
 }

@@ -63,6 +63,18 @@ impl<'de> Deserialize<'de> for InitValue {
     }
 }
 
+/// A number inside an effect or a drive that a scene parameter gives: the
+/// file wrote the parameter's name in the number's place (`amplitude =
+/// "M0"`), and [`Scene::set`] of that name changes it.
+#[derive(Debug, Clone, PartialEq, Eq, PartialOrd, Ord)]
+pub struct Binding {
+    /// Key path of the number from the file's root, array entries by index
+    /// (`["effects", "motor", "torque", "cos", "amplitude"]`).
+    pub path: Vec<String>,
+    /// Name of the scene parameter (a key of `[scene_params]`).
+    pub param: String,
+}
+
 /// A list of named items kept in file order, written as a TOML table
 /// (`[effects.motor]`, `q = { x1 = 0.0, ... }`).
 mod named_list {
@@ -362,6 +374,11 @@ pub struct Scene {
     /// Overrides of model parameters (SI units of each parameter).
     #[serde(default, with = "named_list", skip_serializing_if = "Vec::is_empty")]
     pub params: Vec<(String, f64)>,
+    /// The scene's own named numbers (`[scene_params]`, e.g. `M0 = 2.0`),
+    /// in the unit of the fields that use them; a number inside an effect
+    /// or a drive may be written as the name of one (`amplitude = "M0"`).
+    #[serde(default, with = "named_list", skip_serializing_if = "Vec::is_empty")]
+    pub scene_params: Vec<(String, f64)>,
     /// Given initial coordinates and velocities.
     #[serde(default)]
     pub initial: Initial,
@@ -381,6 +398,12 @@ pub struct Scene {
     /// Figures to draw.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub figures: Vec<FigureSpec>,
+    /// Which numbers of the effects and drives the scene parameters give,
+    /// sorted by path ([`Scene::from_toml`] finds them, [`Scene::set`]
+    /// keeps them, [`Scene::to_toml`] writes the names back). The numbers
+    /// themselves are in `effects` and `drives`, already substituted.
+    #[serde(skip)]
+    pub bindings: Vec<Binding>,
 }
 
 /// A semantic error in a scene: the key path (`["effects", "motor",
@@ -501,14 +524,23 @@ fn locate(src: &str, path: &[String]) -> Option<std::ops::Range<usize>> {
 impl Scene {
     /// Parses a scene file. `file` only names it in errors.
     ///
+    /// A number inside `[effects.NAME]` (except the name keys
+    /// [`crate::effects::NAME_KEYS`]) or `[drives.NAME]` may be written as
+    /// the name of a scene parameter (`amplitude = "M0"` with
+    /// `[scene_params] M0 = 2.0`): it takes that parameter's value, exactly
+    /// as written there, and the place is recorded in [`Scene::bindings`].
+    ///
     /// # Errors
     /// [`SceneFileError`] at the line and column of a syntax error, a value
     /// of the wrong type, an unknown or missing key, or an unknown effect
     /// kind (the message lists the known ones). An error inside an effect's
     /// fields is placed at the effect's `[effects.NAME]` header, with that
-    /// key (serde reads an internally tagged table as a whole).
+    /// key (serde reads an internally tagged table as a whole). A name in a
+    /// number's place that is not a scene parameter, and a scene parameter
+    /// that is not a number, are placed at the value itself (the message
+    /// lists the scene parameters).
     pub fn from_toml(src: &str, file: &str) -> Result<Scene, SceneFileError> {
-        toml::from_str(src).map_err(|e: toml::de::Error| {
+        let located = |e: toml::de::Error| {
             let start = e.span().map_or(0, |s| s.start);
             let (line, column) = line_column(src, start);
             // Inside an `[effects.NAME]` table (an internally tagged enum,
@@ -521,7 +553,13 @@ impl Scene {
                 .and_then(|r| r.split_once(']'))
                 .map(|(k, _)| k.trim().to_string());
             SceneFileError { file: file.to_string(), line, column, key, message: e.message().trim().to_string() }
-        })
+        };
+        let mut root = toml::de::DeTable::parse(src).map_err(located)?;
+        let bindings = bind_scene_params(root.get_mut()).map_err(|e| Self::locate_error(src, file, e))?;
+        // the tree keeps the spans of the text, so errors are placed as before
+        let mut scene = Scene::deserialize(toml::de::Deserializer::from(root)).map_err(located)?;
+        scene.bindings = bindings;
+        Ok(scene)
     }
 
     /// Parses and checks a scene file against the model `info`.
@@ -557,12 +595,22 @@ impl Scene {
         Ok((Self::from_toml(&src, &file)?, src))
     }
 
-    /// Writes the scene as TOML.
+    /// Writes the scene as TOML, with the name of its scene parameter in
+    /// the place of every bound number (so that [`Scene::from_toml`] gives
+    /// the same scene back).
     ///
     /// # Panics
     /// Never for a scene: every field has a TOML form.
     pub fn to_toml(&self) -> String {
-        toml::to_string(self).expect("a scene serializes to TOML")
+        if self.bindings.is_empty() {
+            return toml::to_string(self).expect("a scene serializes to TOML");
+        }
+        let mut tree = toml::Value::try_from(self).expect("a scene serializes to TOML");
+        for b in &self.bindings {
+            set_path(&mut tree, &b.path, toml::Value::String(b.param.clone()))
+                .expect("a binding's path leads through tables and arrays");
+        }
+        toml::to_string(&tree).expect("a scene serializes to TOML")
     }
 
     /// Whether output group `g` is asked for.
@@ -642,6 +690,40 @@ impl Scene {
             if info.params[info.param_index(name).expect("known")].count {
                 check_count(name, *v)?;
             }
+        }
+        for (name, v) in &self.scene_params {
+            let path = ["scene_params", name.as_str()];
+            if !is_identifier(name) {
+                return Err(SceneError::at(
+                    &path,
+                    format!(
+                        "scene parameter `{name}` must be an identifier: a letter or _, then letters, digits and _"
+                    ),
+                ));
+            }
+            if info.param_index(name).is_some() {
+                return Err(SceneError::at(
+                    &path,
+                    format!(
+                        "`{name}` is both a scene parameter and a parameter of model {}: rename the scene parameter (a model parameter is changed in [params])",
+                        info.name
+                    ),
+                ));
+            }
+            if !v.is_finite() {
+                return Err(SceneError::at(&path, format!("{name} = {v} must be finite")));
+            }
+        }
+        if let Some(b) = self.bindings.iter().find(|b| !self.scene_params.iter().any(|(n, _)| *n == b.param)) {
+            let names: Vec<&str> = self.scene_params.iter().map(|(n, _)| n.as_str()).collect();
+            return Err(SceneError {
+                path: b.path.clone(),
+                message: format!(
+                    "`{}` is not a scene parameter; declared in [scene_params]: {}",
+                    b.param,
+                    known_or_none(&names)
+                ),
+            });
         }
         for (group, list) in [("q", &self.initial.q), ("qd", &self.initial.qd)] {
             for (name, v) in list {
@@ -810,19 +892,43 @@ impl Scene {
         format!("; its columns would be: {}", all.columns(info).join(", "))
     }
 
-    /// Applies a command-line override `name = value`: a model parameter
-    /// (`m2`), or a number inside an effect or a drive, `ITEM.KEY` with the
-    /// full key path (`motor.torque.cos.amplitude`) or its last key when
-    /// that is unambiguous (`motor.amplitude`); a key left at its default
-    /// (`gravity.g`) is set by its name.
+    /// Applies a command-line override `name = value`: a scene parameter
+    /// (`M0`: every number bound to it changes, see [`Scene::bindings`]), a
+    /// model parameter (`m2`), or a number inside an effect or a drive,
+    /// `ITEM.KEY` with the full key path (`motor.torque.cos.amplitude`) or
+    /// its last key when that is unambiguous (`motor.amplitude`); a key left
+    /// at its default (`gravity.g`) is set by its name. A number set by its
+    /// key is no longer bound to a scene parameter. Apply it before
+    /// [`Scene::expand_families`] (which bakes a bound `phase` or
+    /// `phase_step` of a family's waveform into each element's phase).
     ///
     /// # Errors
-    /// [`crate::SimError::UnknownName`] listing the parameters and the
-    /// effects' numeric keys; [`crate::SimError::Setting`] for a value that
-    /// is not finite.
+    /// [`crate::SimError::UnknownName`] listing the model parameters, the
+    /// scene parameters and the effects' and drives' numeric keys;
+    /// [`crate::SimError::Setting`] for a value that is not finite;
+    /// [`crate::SimError::Scene`] for a name that is both a scene and a
+    /// model parameter, an ambiguous key, or a binding whose number is gone.
     pub fn set(&mut self, info: &ModelInfo, name: &str, value: f64) -> Result<(), crate::SimError> {
         if !value.is_finite() {
             return Err(crate::SimError::Setting { name: name.into(), value, reason: "must be a finite number" });
+        }
+        if let Some(k) = self.scene_params.iter().position(|(n, _)| n == name) {
+            if info.param_index(name).is_some() {
+                return Err(crate::SimError::Scene {
+                    key: format!("scene_params.{name}"),
+                    message: format!(
+                        "`{name}` is both a scene parameter and a parameter of model {}: rename the scene parameter",
+                        info.name
+                    ),
+                });
+            }
+            self.scene_params[k].1 = value;
+            let bound: Vec<Vec<String>> =
+                self.bindings.iter().filter(|b| b.param == name).map(|b| b.path.clone()).collect();
+            for path in bound {
+                self.set_bound(&path, value)?;
+            }
+            return Ok(());
         }
         if info.param_index(name).is_some() {
             match self.params.iter_mut().find(|(n, _)| n == name) {
@@ -832,19 +938,29 @@ impl Scene {
             return Ok(());
         }
         if let Some((item, key)) = name.split_once('.') {
-            if let Some((_, spec)) = self.effects.iter_mut().find(|(n, _)| n == item) {
-                if let Some(changed) = set_number(&*spec, key, value, name)? {
+            let changed = if let Some((_, spec)) = self.effects.iter_mut().find(|(n, _)| n == item) {
+                set_number(&*spec, key, value, name)?.map(|(changed, leaf)| {
                     *spec = changed;
-                    return Ok(());
-                }
-            } else if let Some((_, spec)) = self.drives.iter_mut().find(|(n, _)| n == item)
-                && let Some(changed) = set_number(&*spec, key, value, name)?
-            {
-                *spec = changed;
+                    ("effects", leaf)
+                })
+            } else if let Some((_, spec)) = self.drives.iter_mut().find(|(n, _)| n == item) {
+                set_number(&*spec, key, value, name)?.map(|(changed, leaf)| {
+                    *spec = changed;
+                    ("drives", leaf)
+                })
+            } else {
+                None
+            };
+            if let Some((section, leaf)) = changed {
+                // the number is now the one given, no longer a scene parameter's
+                let mut path = vec![section.to_string(), item.to_string()];
+                path.extend(leaf.split('.').map(str::to_string));
+                self.bindings.retain(|b| b.path != path);
                 return Ok(());
             }
         }
         let mut known: Vec<String> = info.params.iter().map(|p| p.name.to_string()).collect();
+        known.extend(self.scene_params.iter().map(|(n, _)| n.clone()));
         for (n, spec) in &self.effects {
             let tree = toml::Value::try_from(spec).expect("an effect serializes");
             known.extend(numeric_leaves(&tree).into_iter().map(|l| format!("{n}.{l}")));
@@ -859,6 +975,35 @@ impl Scene {
             model: info.name,
             known: known.join(", "),
         })
+    }
+
+    /// Sets the bound number at `path` (`effects.ITEM...` or `drives.ITEM...`).
+    fn set_bound(&mut self, path: &[String], value: f64) -> Result<(), crate::SimError> {
+        let fail = |message: String| crate::SimError::Scene {
+            key: SceneError { path: path.to_vec(), message: String::new() }.key(),
+            message,
+        };
+        let (section, item, leaf) = match path {
+            [section, item, leaf @ ..] if !leaf.is_empty() => (section.as_str(), item, leaf),
+            _ => return Err(fail("a scene parameter is bound to no number here".into())),
+        };
+        let changed = match section {
+            "effects" => self
+                .effects
+                .iter_mut()
+                .find(|(n, _)| n == item)
+                .map(|(_, spec)| with_number(&*spec, leaf, value).map(|changed| *spec = changed)),
+            "drives" => self
+                .drives
+                .iter_mut()
+                .find(|(n, _)| n == item)
+                .map(|(_, spec)| with_number(&*spec, leaf, value).map(|changed| *spec = changed)),
+            _ => None,
+        };
+        match changed {
+            Some(r) => r.map_err(fail),
+            None => Err(fail(format!("a scene parameter is bound to `{item}`, which the scene does not have"))),
+        }
     }
 
     /// Checks that every prescribed angle is smooth over `[0, t_end]`: no
@@ -931,7 +1076,10 @@ impl Scene {
     /// by the effect's name and the element's index (`gait` on `J3`:
     /// `gait3`); in its waveforms, `phase_step` [rad] is added to the
     /// phase once per element along the family (a travelling wave, e.g.
-    /// the serpenoid gait `tau_i = A sin(omega t + i delta)`).
+    /// the serpenoid gait `tau_i = A sin(omega t + i delta)`). The
+    /// elements' numbers stay bound to the scene parameters that gave them
+    /// ([`Scene::bindings`]), except a `phase_step` and the `phase` it
+    /// shifts, which differ per element: apply [`Scene::set`] first.
     ///
     /// # Errors
     /// A [`SceneError`] at the effect for a family the model does not
@@ -955,6 +1103,9 @@ impl Scene {
                 out.effects.push((name.clone(), spec.clone()));
                 continue;
             };
+            let bound: Vec<Binding> =
+                out.bindings.iter().filter(|b| is_bound_in("effects", name, b)).cloned().collect();
+            out.bindings.retain(|b| !is_bound_in("effects", name, b));
             let pattern = tree[field].as_str().expect("checked").to_string();
             let stem = pattern.trim_end_matches("[*]");
             let all: Vec<&str> = match field {
@@ -986,9 +1137,15 @@ impl Scene {
                         format!("expanding over `{pattern}` gives an effect `{expanded}`, a name already taken"),
                     ));
                 }
+                for b in bound.iter().filter(|b| !shifted_by_phase_step(&tree, &b.path[2..])) {
+                    let mut path = b.path.clone();
+                    path[1] = expanded.clone();
+                    out.bindings.push(Binding { path, param: b.param.clone() });
+                }
                 out.effects.push((expanded, spec));
             }
         }
+        out.bindings.sort();
         Ok(out)
     }
 
@@ -999,6 +1156,34 @@ impl Scene {
     pub fn resolve_effects<M: Model>(&self, model: &M) -> Result<Vec<crate::Effect>, crate::SimError> {
         self.effects.iter().map(|(n, e)| e.resolve(n, model)).collect()
     }
+}
+
+/// Whether binding `b` is to a number of `section.item`.
+fn is_bound_in(section: &str, item: &str, b: &Binding) -> bool {
+    b.path.len() > 2 && b.path[0] == section && b.path[1] == item
+}
+
+/// Whether the number at key path `leaf` of the serialized effect `tree` is
+/// a `phase_step`, or a `phase` next to a `phase_step` (family expansion
+/// changes both).
+fn shifted_by_phase_step(tree: &toml::Value, leaf: &[String]) -> bool {
+    let Some((last, parents)) = leaf.split_last() else { return false };
+    if last == "phase_step" {
+        return true;
+    }
+    let mut node = tree;
+    for p in parents {
+        let next = match node {
+            toml::Value::Table(t) => t.get(p),
+            toml::Value::Array(a) => p.parse::<usize>().ok().and_then(|i| a.get(i)),
+            _ => None,
+        };
+        match next {
+            Some(n) => node = n,
+            None => return false,
+        }
+    }
+    last == "phase" && node.get("phase_step").is_some()
 }
 
 /// Whether a serialized effect has a nonzero `phase_step` anywhere.
@@ -1036,10 +1221,10 @@ fn known_or_none(names: &[&str]) -> String {
     if names.is_empty() { "none".to_string() } else { names.join(", ") }
 }
 
-/// `spec` with the number at `key` set to `value`: `key` is a full dotted
-/// path or the unambiguous last part of one, or a top-level key the
-/// serialization left out (a default) that `spec`'s type accepts. `None`
-/// if no number matches.
+/// `spec` with the number at `key` set to `value`, and the full dotted path
+/// of that number: `key` is a full dotted path or the unambiguous last part
+/// of one, or a top-level key the serialization left out (a default) that
+/// `spec`'s type accepts. `None` if no number matches.
 ///
 /// # Errors
 /// [`crate::SimError::Scene`] when `key` matches several numbers.
@@ -1048,7 +1233,7 @@ fn set_number<T: Serialize + serde::de::DeserializeOwned>(
     key: &str,
     value: f64,
     name: &str,
-) -> Result<Option<T>, crate::SimError> {
+) -> Result<Option<(T, String)>, crate::SimError> {
     let mut tree = toml::Value::try_from(spec).expect("a scene item serializes");
     let leaves = numeric_leaves(&tree);
     let matches: Vec<&String> = leaves.iter().filter(|l| *l == key || l.ends_with(&format!(".{key}"))).collect();
@@ -1063,7 +1248,7 @@ fn set_number<T: Serialize + serde::de::DeserializeOwned>(
                 };
             }
             *node = toml::Value::Float(value);
-            Ok(Some(tree.try_into().expect("a number replaced by a number")))
+            Ok(Some((tree.try_into().expect("a number replaced by a number"), path.clone())))
         }
         [] => {
             // a key at its default is not serialized: try it as a new key
@@ -1072,7 +1257,7 @@ fn set_number<T: Serialize + serde::de::DeserializeOwned>(
                 && !t.contains_key(key)
             {
                 t.insert(key.to_string(), toml::Value::Float(value));
-                return Ok(tree.try_into().ok());
+                return Ok(tree.try_into().ok().map(|changed| (changed, key.to_string())));
             }
             Ok(None)
         }
@@ -1084,6 +1269,17 @@ fn set_number<T: Serialize + serde::de::DeserializeOwned>(
             ),
         }),
     }
+}
+
+/// `spec` with the number at the key path `path` set to `value` (a number
+/// at its default, left out of the serialization, is added).
+///
+/// # Errors
+/// What is wrong, when the path leads to no number of `spec`'s type.
+fn with_number<T: Serialize + serde::de::DeserializeOwned>(spec: &T, path: &[String], value: f64) -> Result<T, String> {
+    let mut tree = toml::Value::try_from(spec).map_err(|e| e.to_string())?;
+    set_path(&mut tree, path, toml::Value::Float(value)).ok_or("the key path leads to no number")?;
+    tree.try_into().map_err(|e: toml::de::Error| e.message().trim().to_string())
 }
 
 /// Dotted paths of the numbers in a TOML tree (`torque.cos.amplitude`,
@@ -1103,11 +1299,128 @@ fn numeric_leaves(v: &toml::Value) -> Vec<String> {
     out
 }
 
-/// Runs generic code for a model chosen by name at run time (the model
-/// registry calls [`ModelVisitor::visit`] with the concrete type).
-pub trait ModelVisitor {
-    /// Result of the visit.
-    type Output;
-    /// Called with the model type.
-    fn visit<M: Model + Default>(self) -> Self::Output;
+/// Whether `name` is an identifier: an ASCII letter or `_`, then ASCII
+/// letters, digits and `_`.
+fn is_identifier(name: &str) -> bool {
+    let mut chars = name.chars();
+    chars.next().is_some_and(|c| c.is_ascii_alphabetic() || c == '_')
+        && chars.all(|c| c.is_ascii_alphanumeric() || c == '_')
+}
+
+/// In the parsed file `root`: replaces every string in a number's place
+/// inside `[effects.NAME]` (keys other than [`crate::effects::NAME_KEYS`])
+/// and `[drives.NAME]` by the value of the scene parameter it names, the
+/// very token written in `[scene_params]` (so the number is bit for bit the
+/// one written there), keeping the string's span for later errors.
+/// Returns the places, sorted by path.
+///
+/// # Errors
+/// A [`SceneError`] at a scene parameter that is not a number, or at a
+/// string that names no scene parameter (listing the declared ones).
+fn bind_scene_params(root: &mut toml::de::DeTable<'_>) -> Result<Vec<Binding>, SceneError> {
+    use toml::de::DeValue;
+    let mut declared: Vec<(String, DeValue<'_>)> = Vec::new();
+    if let Some((_, table)) = root.iter().find(|(k, _)| k.get_ref().as_ref() == "scene_params")
+        && let DeValue::Table(table) = table.get_ref()
+    {
+        for (k, v) in table.iter() {
+            let name = k.get_ref().to_string();
+            match v.get_ref() {
+                DeValue::Integer(_) | DeValue::Float(_) => declared.push((name, v.get_ref().clone())),
+                other => {
+                    return Err(SceneError::at(
+                        &["scene_params", &name],
+                        format!("scene parameter `{name}` must be a number, not a {}", other.type_str()),
+                    ));
+                }
+            }
+        }
+    }
+    let mut bindings = Vec::new();
+    for section in ["effects", "drives"] {
+        let Some((_, items)) = root.iter_mut().find(|(k, _)| k.get_ref().as_ref() == section) else { continue };
+        let DeValue::Table(items) = items.get_mut() else { continue };
+        for (item, v) in items.iter_mut() {
+            let mut path = vec![section.to_string(), item.get_ref().to_string()];
+            bind_numbers(v, &mut path, section == "effects", &declared, &mut bindings)?;
+        }
+    }
+    bindings.sort();
+    Ok(bindings)
+}
+
+/// The recursion of [`bind_scene_params`] at `v` (key path `path`);
+/// `effect_table` skips the name keys of an effect's own table.
+fn bind_numbers<'i>(
+    v: &mut toml::Spanned<toml::de::DeValue<'i>>,
+    path: &mut Vec<String>,
+    effect_table: bool,
+    declared: &[(String, toml::de::DeValue<'i>)],
+    out: &mut Vec<Binding>,
+) -> Result<(), SceneError> {
+    use toml::de::DeValue;
+    match v.get_mut() {
+        DeValue::String(name) => {
+            let name = name.to_string();
+            let Some((_, value)) = declared.iter().find(|(n, _)| *n == name) else {
+                let names: Vec<&str> = declared.iter().map(|(n, _)| n.as_str()).collect();
+                return Err(SceneError {
+                    path: path.clone(),
+                    message: format!(
+                        "`{name}` is neither a number nor a scene parameter; declared in [scene_params]: {}",
+                        known_or_none(&names)
+                    ),
+                });
+            };
+            *v.get_mut() = value.clone();
+            out.push(Binding { path: path.clone(), param: name });
+        }
+        DeValue::Table(t) => {
+            for (k, v) in t.iter_mut() {
+                let k = k.get_ref().as_ref();
+                if effect_table && crate::effects::NAME_KEYS.contains(&k) {
+                    continue;
+                }
+                path.push(k.to_string());
+                bind_numbers(v, path, false, declared, out)?;
+                path.pop();
+            }
+        }
+        DeValue::Array(a) => {
+            for (i, v) in a.iter_mut().enumerate() {
+                path.push(i.to_string());
+                bind_numbers(v, path, false, declared, out)?;
+                path.pop();
+            }
+        }
+        _ => {}
+    }
+    Ok(())
+}
+
+/// Sets the value at `path` (keys; array entries by index) in `tree`,
+/// making the tables on the way that are missing (a number at its default
+/// is not serialized). `None` if the path runs into a non-table or past an
+/// array's end.
+fn set_path(tree: &mut toml::Value, path: &[String], value: toml::Value) -> Option<()> {
+    let Some((last, parents)) = path.split_last() else {
+        *tree = value;
+        return Some(());
+    };
+    let mut node = tree;
+    for part in parents {
+        node = match node {
+            toml::Value::Table(t) => t.entry(part.clone()).or_insert_with(|| toml::Value::Table(Default::default())),
+            toml::Value::Array(a) => a.get_mut(part.parse::<usize>().ok()?)?,
+            _ => return None,
+        };
+    }
+    match node {
+        toml::Value::Table(t) => {
+            t.insert(last.clone(), value);
+        }
+        toml::Value::Array(a) => *a.get_mut(last.parse::<usize>().ok()?)? = value,
+        _ => return None,
+    }
+    Some(())
 }

@@ -190,6 +190,13 @@ pub const EFFECT_KINDS: &[&str] = &[
     "quadratic-drag",
 ];
 
+/// The keys of an `[effects.NAME]` table whose values are names (the kind,
+/// the model's hinges, skates, bodies and points, the frame) rather than
+/// numbers. Every other value in an effect is a number or holds numbers,
+/// so a string there names a scene parameter (`amplitude = "M0"`, see
+/// [`crate::Scene::from_toml`]).
+pub const NAME_KEYS: &[&str] = &["kind", "hinge", "skate", "body", "at", "frame"];
+
 /// A name in an effect that the model does not have, or a bad number.
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub struct SpecError {
