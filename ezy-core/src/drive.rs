@@ -17,7 +17,7 @@ pub struct Drive {
     pub name: String,
     /// Its row in `phi` and `G`.
     pub row: usize,
-    /// The prescribed hinge angle `u(t)` [rad].
+    /// The prescribed hinge angle `u(t)` \[rad\].
     pub angle: Waveform,
 }
 

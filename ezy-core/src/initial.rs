@@ -14,8 +14,8 @@ use crate::SimError;
 use crate::model::{Model, scatter_dense};
 use crate::projection::max_abs;
 
-/// Tolerance of the consistent initial state: `max|C|` [m], and `max|G qd|`
-/// [m/s] relative to `max(1, max|qd|)`.
+/// Tolerance of the consistent initial state: `max|C|` \[m\], and `max|G qd|`
+/// \[m/s\] relative to `max(1, max|qd|)`.
 pub const INITIAL_TOL: f64 = 1e-12;
 
 /// Computes `(q, qd)` (nq each) from the given values.
@@ -211,15 +211,15 @@ pub fn consistent_state<M: Model>(
 #[derive(Debug, Clone, Default, PartialEq)]
 pub struct InitialReport {
     /// `max|C|` of the given coordinates, when they violated the holonomic
-    /// constraints (hinges, sliders, drives) [m or rad] (else 0).
+    /// constraints (hinges, sliders, drives) \[m or rad\] (else 0).
     pub position_violation: f64,
     /// The row violated most, e.g. `B.y`.
     pub position_worst: String,
-    /// Largest change of a coordinate by the projection [m or rad].
+    /// Largest change of a coordinate by the projection \[m or rad\].
     pub position_correction: f64,
-    /// `max|G qd|` of the given velocities, when they violated the constraints [m/s] (else 0).
+    /// `max|G qd|` of the given velocities, when they violated the constraints \[m/s\] (else 0).
     pub velocity_violation: f64,
-    /// Largest change of a velocity by the projection [m/s or rad/s].
+    /// Largest change of a velocity by the projection \[m/s or rad/s\].
     pub velocity_correction: f64,
 }
 

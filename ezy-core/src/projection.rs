@@ -17,7 +17,7 @@ use crate::kkt::{DenseLu, KktError, KktSolver, KktSystem, NormalSystem};
 use crate::model::Model;
 use crate::model::scatter_dense;
 
-/// Tolerance on `max|C|` of the position iteration [m] (SPEC §2).
+/// Tolerance on `max|C|` of the position iteration \[m\] (SPEC §2).
 pub const POSITION_TOL: f64 = 1e-12;
 /// Iteration limit of the position iteration (SPEC §2).
 pub const POSITION_MAX_ITER: usize = 10;
@@ -50,9 +50,9 @@ impl ProjectionKind {
 /// What one projection found and did.
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
 pub struct ProjectionReport {
-    /// `max|C(q)|` before projecting [m] (the drift of the step).
+    /// `max|C(q)|` before projecting \[m\] (the drift of the step).
     pub drift_position: f64,
-    /// `max|C(q)|` after projecting [m].
+    /// `max|C(q)|` after projecting \[m\].
     pub residual_position: f64,
     /// Gauss-Newton iterations done.
     pub iterations: usize,

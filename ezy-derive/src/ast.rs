@@ -111,7 +111,7 @@ pub struct Point {
 pub enum HingeTarget {
     /// Another named point.
     Point(Ref),
-    /// A fixed point of the ground, in world coordinates [m].
+    /// A fixed point of the ground, in world coordinates \[m\].
     Ground { at: Box<[Expr; 2]> },
 }
 

@@ -16,7 +16,7 @@
 //!   angle `u(t)` (and `u'`, `u''` at velocity and acceleration level).
 //! - Skate with blade direction `t` (body coordinates, normalized): the
 //!   world normal is `n = R(phi) (-t_y, t_x)` and the row of `S(q)` is
-//!   `n^T dr_P/dq`, so `S qd` is the contact point's lateral velocity [m/s].
+//!   `n^T dr_P/dq`, so `S qd` is the contact point's lateral velocity \[m/s\].
 //! - Convective term of every velocity-constraint row `g(q) qd`:
 //!   `gamma = d/dq(g(q) qd) qd`.
 //!

@@ -6,8 +6,8 @@
 //! convective terms and the point kinematics are derived symbolically at
 //! compile time (see `kinematics` and `sym`); parameters stay runtime fields.
 //!
-//! Data flows one way: tokens -> [`ast`] ([`parse`]) -> [`check`] ->
-//! [`kinematics`] (expressions in [`sym`]) -> [`emit`].
+//! Data flows one way through the private modules: tokens -> `ast`
+//! (`parse`) -> `check` -> `kinematics` (expressions in `sym`) -> `emit`.
 
 use proc_macro::TokenStream;
 
