@@ -3,9 +3,10 @@
 //! State layout `y = [q (nq), qd (nq), W_1 .. W_k]` with `W_e` \[J\] the
 //! work of effect `e`, integrated as a state (`W_e' = P_e`, its power) so
 //! that the energy balance `T - T0 = sum W_e` holds to the integrator's
-//! accuracy for any combination of effects (SPEC §3; the seed's Riemann
-//! sum did not). `y' = [qd, qdd, P_1 .. P_k]` with `qdd` from the KKT
-//! system (SPEC §1). A scene without effects has no work states.
+//! accuracy for any combination of effects (docs/physics.md §8; a Riemann
+//! sum of the power would not). `y' = [qd, qdd, P_1 .. P_k]` with `qdd` from
+//! the KKT system (docs/physics.md §5). A scene without effects has no work
+//! states.
 
 use crate::SimError;
 use crate::effects::Effect;

@@ -1,7 +1,7 @@
 //! The [`Model`] trait the `model!` macro implements, and the static
 //! description ([`ModelInfo`]) every generated model carries.
 //!
-//! Conventions (SPEC §1): every body has three generalized coordinates, the
+//! Conventions (docs/physics.md §1-§4): every body has three generalized coordinates, the
 //! position of its centre of mass and its heading, `(x [m], y [m], phi [rad])`,
 //! so the mass matrix is diagonal, `diag(m, m, I)` per body. The constraints
 //! are stacked as `G = [C_q; S]` (nc x nq): first the `nh` holonomic rows
@@ -184,7 +184,7 @@ impl ModelInfo {
     }
 }
 
-/// One derived expression, as text (SPEC §1's notation: `x1`, `phi1d` for
+/// One derived expression, as text (the notation of docs/physics.md: `x1`, `phi1d` for
 /// the rate of `phi1`) and as LaTeX.
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub struct EquationExpr {
@@ -288,7 +288,7 @@ pub trait Model: Clone + Send + Sync + 'static {
     /// body's frame (centre of mass at the origin, heading along x);
     /// `blades` (2 x nskates) gets each skate's unit blade direction
     /// `(tx, ty)` in its body's frame. Effects that act at a point or along
-    /// a blade are built from these (SPEC §1 conventions).
+    /// a blade are built from these (conventions of docs/physics.md §1).
     fn local_geometry(&self, points: &mut [f64], blades: &mut [f64]);
 
     /// Holonomic residual `phi(q)` (nh) \[m\].

@@ -41,7 +41,8 @@ pub const MIN_TOLERANCE: f64 = 1e-14;
 
 /// Default limit of the relative energy balance `|T - T0 - W| / max(1 J, |W|)`
 /// for `ezy run`. Ideal constraints do no work, so the balance is the
-/// integrator's own error: 6e-13 at the seed's settings, 1.3e-3 for `drive`
+/// integrator's own error: 6e-13 at the `drive` scene's settings (RK4,
+/// h = 1e-4 s), 1.3e-3 for `drive`
 /// at h = 0.3 s; at h = 0.7 s it passes 1e-2 within seconds.
 pub const BALANCE_LIMIT: f64 = 1e-2;
 

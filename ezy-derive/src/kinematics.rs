@@ -20,7 +20,8 @@
 //! - Convective term of every velocity-constraint row `g(q) qd`:
 //!   `gamma = d/dq(g(q) qd) qd`.
 //!
-//! Every formula of SPEC §1 follows from these definitions; none is typed in.
+//! Every formula of docs/physics.md §2-§4 and §10.2 follows from these
+//! definitions; none is typed in.
 //!
 //! Each constraint item (a single one, or a `for` family) is derived once,
 //! as an element kernel in *local* coordinates: the bodies it touches are

@@ -3,15 +3,15 @@
 //! Each effect adds its generalized force into `f` (nq) and returns its
 //! power `P = f_e . qd` \[W\]; the right-hand side integrates each power into
 //! the effect's own work state `W_<name>` \[J\], so that `T - T0 = sum W`
-//! holds for any combination (ideal constraints do no work, SPEC §1, §3).
+//! holds for any combination (ideal constraints do no work; docs/physics.md §8).
 //! Only the effects a scene lists are built; the right-hand side loops over
 //! exactly those, so an effect the scene does not name costs nothing.
 //!
-//! Conventions (SPEC §1): a force `F` (world frame) at a body point with
+//! Conventions (docs/physics.md §1, §8): a force `F` (world frame) at a body point with
 //! body-frame offset `p` from the centre of mass acts on the body's
 //! coordinates `(x, y, phi)` as `(F_x, F_y, r_x F_y - r_y F_x)` with
 //! `r = R(phi) p`; its power is `F . v_P`. A hinge torque `tau` acts `+tau`
-//! on the hinge's first body and `-tau` on its second (the seed's motor),
+//! on the hinge's first body and `-tau` on its second (as the `drive` scene's motor),
 //! and the hinge angle is `theta = phi_a - phi_b` (`phi_a` for a ground
 //! hinge), so a hinge torque's power is `tau theta_dot`.
 
@@ -57,8 +57,8 @@ pub enum Frame {
 #[serde(tag = "kind", rename_all = "kebab-case", deny_unknown_fields)]
 pub enum EffectSpec {
     /// Hinge motor: torque `tau(t)` \[N m\] given by a waveform, `+tau` on the
-    /// hinge's first body, `-tau` on the second (SPEC §3; the seed's motor
-    /// is `torque = { cos = { amplitude = 2, omega = pi } }`).
+    /// hinge's first body, `-tau` on the second (the `drive` scene's motor,
+    /// docs/physics.md §10.3, is `torque = { cos = { amplitude = 2, omega = pi } }`).
     HingeMotor {
         /// Hinge name.
         hinge: String,

@@ -50,7 +50,7 @@ pub struct Table {
 pub enum Waveform {
     /// `w(t) = value`.
     Constant(f64),
-    /// `w(t) = amplitude cos(omega t + phase)` (the seed's motor with phase 0).
+    /// `w(t) = amplitude cos(omega t + phase)` (the `drive` scene's motor with phase 0).
     Cos(Harmonic),
     /// `w(t) = amplitude sin(omega t + phase)`.
     Sin(Harmonic),

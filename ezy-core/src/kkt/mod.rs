@@ -1,4 +1,4 @@
-//! Solving the KKT system of the index-1 DAE (SPEC §1):
+//! Solving the KKT system of the index-1 DAE (docs/physics.md §5):
 //!
 //! ```text
 //! [ M  G^T ] [ qdd    ]   [ f      ]
