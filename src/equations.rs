@@ -1,5 +1,6 @@
-//! `ezy equations MODEL`: what the `model!` macro derived, in SPEC §1's
-//! notation, as text or as a LaTeX document.
+//! `ezy equations MODEL`: what the `model!` macro derived, in the notation
+//! of docs/physics.md (`phi1d` is the rate of `phi1`), as text or as a LaTeX
+//! document.
 
 use ezy_core::{Model, ModelInfo};
 

@@ -5,10 +5,10 @@
 //! Columns: `t`; the coordinates in model order; their velocities in the
 //! same order (`<coord>d`); then the optional groups the scene's
 //! `output.include` asks for, in this order (see [`OutputGroup`]): energy
-//! (`T`, `W`, `W_<effect>` [J]), points (`<point>.x`, `<point>.y` [m]),
-//! effects (`tau_<effect>` [N m] or `F_<effect>` [N]), constraint forces
-//! (`F_<hinge>.x`, `F_<hinge>.y`, `F_<skate>` [N]), residuals (`res_phi`
-//! = `max|C(q)|` [m], `res_vel` = `max|G(q) qd|` [m/s]).
+//! (`T`, `W`, `W_<effect>` \[J\]), points (`<point>.x`, `<point>.y` \[m\]),
+//! effects (`tau_<effect>` \[N m\] or `F_<effect>` \[N\]), constraint forces
+//! (`F_<hinge>.x`, `F_<hinge>.y`, `F_<skate>` \[N\]), residuals (`res_phi`
+//! = `max|C(q)|` \[m\], `res_vel` = `max|G(q) qd|` \[m/s\]).
 
 use std::fs::File;
 use std::io::BufWriter;

@@ -18,7 +18,7 @@ pub struct Progress {
 }
 
 impl Progress {
-    /// A bar for a run to `t_end` [s]; `None` if stderr is not a terminal.
+    /// A bar for a run to `t_end` \[s\]; `None` if stderr is not a terminal.
     pub fn new(t_end: f64) -> Option<Self> {
         if !std::io::stderr().is_terminal() {
             return None;
@@ -31,7 +31,7 @@ impl Progress {
         Some(Self { bar, start: Instant::now(), shown: false, t_end })
     }
 
-    /// Reports the current simulated time [s].
+    /// Reports the current simulated time \[s\].
     pub fn update(&mut self, t: f64) {
         if !self.shown && self.start.elapsed() >= SHOW_AFTER {
             self.bar.set_draw_target(ProgressDrawTarget::stderr());

@@ -24,7 +24,7 @@ pub struct ScalePoint {
     pub nq: usize,
     /// Number of constraint rows nc.
     pub nc: usize,
-    /// Median time of one RHS evaluation [s].
+    /// Median time of one RHS evaluation \[s\].
     pub seconds_per_rhs: f64,
     /// The KKT path (`schur-cholesky` dense, `sparse-cholesky`).
     pub path: &'static str,

@@ -1,5 +1,6 @@
 //! Drives: hinges whose angle follows a prescribed function of time `u(t)`
-//! (rheonomic constraints, as in the Twistcar literature). The macro emits
+//! (rheonomic constraints, as in the Twistcar literature: Chakon & Or
+//! 2017, see docs/physics.md §2 and §11). The macro emits
 //! the row `phi_a - phi_b` of `phi(q)` and `G`; the runtime makes it
 //! `phi_row(q) - u(t) = 0`, so the velocity constraint becomes
 //! `G_row qd = u'(t)` and the acceleration constraint
@@ -17,7 +18,7 @@ pub struct Drive {
     pub name: String,
     /// Its row in `phi` and `G`.
     pub row: usize,
-    /// The prescribed hinge angle `u(t)` [rad].
+    /// The prescribed hinge angle `u(t)` \[rad\].
     pub angle: Waveform,
 }
 

@@ -1,11 +1,12 @@
 //! The right-hand side of the index-1 DAE as a first-order ODE.
 //!
-//! State layout `y = [q (nq), qd (nq), W_1 .. W_k]` with `W_e` [J] the
+//! State layout `y = [q (nq), qd (nq), W_1 .. W_k]` with `W_e` \[J\] the
 //! work of effect `e`, integrated as a state (`W_e' = P_e`, its power) so
 //! that the energy balance `T - T0 = sum W_e` holds to the integrator's
-//! accuracy for any combination of effects (SPEC §3; the seed's Riemann
-//! sum did not). `y' = [qd, qdd, P_1 .. P_k]` with `qdd` from the KKT
-//! system (SPEC §1). A scene without effects has no work states.
+//! accuracy for any combination of effects (docs/physics.md §8; a Riemann
+//! sum of the power would not). `y' = [qd, qdd, P_1 .. P_k]` with `qdd` from
+//! the KKT system (docs/physics.md §5). A scene without effects has no work
+//! states.
 
 use crate::SimError;
 use crate::effects::Effect;
@@ -29,13 +30,13 @@ struct Workspace {
     /// `G` dense row-major (nc x nq), only for the dense LU path (empty
     /// otherwise); entries outside the pattern stay 0.
     g: Vec<f64>,
-    /// `gamma` (nc) [m/s^2].
+    /// `gamma` (nc) \[m/s^2\].
     gamma: Vec<f64>,
-    /// Generalized applied force (nq) [N, N m].
+    /// Generalized applied force (nq) \[N, N m\].
     f: Vec<f64>,
     /// Accelerations (nq).
     qdd: Vec<f64>,
-    /// Multipliers (nc) [N].
+    /// Multipliers (nc) \[N\].
     lambda: Vec<f64>,
     /// `u'(t)` of each drive at the last evaluation.
     drive_rates: Vec<f64>,
@@ -48,15 +49,15 @@ struct Workspace {
 /// Baumgarte stabilization (Baumgarte 1972): the acceleration-level
 /// constraints become `G qdd + gamma + 2 alpha G qd + beta^2 [C; 0] = 0`, so
 /// a violation decays like a damped oscillator instead of drifting. `alpha`
-/// [1/s] damps the velocity residual of every row, `beta` [1/s] pulls the
+/// \[1/s\] damps the velocity residual of every row, `beta` \[1/s\] pulls the
 /// holonomic rows back to `C = 0`. The classic alternative to projection:
 /// cheaper per step, but the residual stays at a level set by the step
 /// size and `alpha`, `beta` rather than at rounding.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Baumgarte {
-    /// Damping of `G qd` [1/s].
+    /// Damping of `G qd` \[1/s\].
     pub alpha: f64,
-    /// Stiffness of `C(q)` [1/s].
+    /// Stiffness of `C(q)` \[1/s\].
     pub beta: f64,
 }
 
@@ -72,7 +73,7 @@ pub struct Dynamics<M: Model> {
     /// Drives (prescribed hinge angles), one per drive of the model; set
     /// with [`Dynamics::with_drives`]. Their work states follow the effects'.
     pub drives: Vec<crate::drive::Drive>,
-    /// Mass-matrix diagonal (nq) [kg, kg m^2].
+    /// Mass-matrix diagonal (nq) \[kg, kg m^2\].
     pub mass: Vec<f64>,
     /// Work counters.
     pub counters: Counters,
@@ -103,7 +104,7 @@ impl<M: Model> Dynamics<M> {
         2 * self.nq() + self.effects.len() + self.drives.len()
     }
 
-    /// Total work of the effects `sum W_e` [J] in the state `y`.
+    /// Total work of the effects `sum W_e` \[J\] in the state `y`.
     pub fn work(&self, y: &[f64]) -> f64 {
         y[2 * self.nq()..].iter().sum()
     }
@@ -242,12 +243,12 @@ impl<M: Model> Dynamics<M> {
         Ok(())
     }
 
-    /// Constraint forces `lambda` (nc) [N] of the last [`Dynamics::rhs`] call.
+    /// Constraint forces `lambda` (nc) \[N\] of the last [`Dynamics::rhs`] call.
     pub fn lambda(&self) -> &[f64] {
         &self.ws.lambda
     }
 
-    /// Kinetic energy `T = qd^T M qd / 2` [J].
+    /// Kinetic energy `T = qd^T M qd / 2` \[J\].
     pub fn kinetic_energy(&self, qd: &[f64]) -> f64 {
         0.5 * self.mass.iter().zip(qd).map(|(m, v)| m * v * v).sum::<f64>()
     }

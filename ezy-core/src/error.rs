@@ -9,7 +9,7 @@ pub enum SimError {
     /// The KKT solve failed.
     #[error("at t = {t} s: {source}")]
     Kkt {
-        /// Time [s].
+        /// Time \[s\].
         t: f64,
         /// The linear-solver failure.
         source: KktError,
@@ -19,13 +19,13 @@ pub enum SimError {
         "at t = {t} s the state component `{quantity}` became {value}; the step h = {dt} s is too large for this scene, try a smaller --dt"
     )]
     NonFinite {
-        /// Time [s] at the start of the failing step.
+        /// Time \[s\] at the start of the failing step.
         t: f64,
         /// Name of the component (`x1`, `phi2d`, `W`).
         quantity: String,
         /// Its value (NaN or inf).
         value: f64,
-        /// The step size [s].
+        /// The step size \[s\].
         dt: f64,
     },
     /// The integration left the accuracy any result could be used at.
@@ -33,7 +33,7 @@ pub enum SimError {
         "at t = {t} s {quantity} reached {value:.3e} (limit {limit:.0e}): the step h = {dt} s is far too large for this scene; try a smaller --dt or an adaptive method (--integrator dop853)"
     )]
     Diverged {
-        /// Time [s].
+        /// Time \[s\].
         t: f64,
         /// What exceeded its limit.
         quantity: &'static str,
@@ -41,15 +41,15 @@ pub enum SimError {
         value: f64,
         /// The limit.
         limit: f64,
-        /// The step size [s].
+        /// The step size \[s\].
         dt: f64,
     },
     /// An adaptive method needed a step below the rounding level of `t`.
     #[error("at t = {t} s the step size fell to {h:e} s; the problem may be stiff or the tolerance too tight")]
     StepSizeTooSmall {
-        /// Time [s].
+        /// Time \[s\].
         t: f64,
-        /// The step size [s].
+        /// The step size \[s\].
         h: f64,
     },
     /// A name (coordinate, parameter, hinge) is not in the model.
@@ -94,7 +94,7 @@ pub enum SimError {
         "at t = {t} s the constraint `{constraint}` (row {row} of G) depends on the constraints before it ({before}); the model has redundant constraints (the multipliers are not unique): remove `{constraint}` or a constraint it depends on"
     )]
     DependentConstraints {
-        /// Time [s].
+        /// Time \[s\].
         t: f64,
         /// Name of the dependent row, e.g. `H2.x`.
         constraint: String,

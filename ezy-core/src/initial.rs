@@ -1,6 +1,6 @@
 //! Consistent initial conditions: the scene gives some coordinates and
 //! velocities, the solver computes the rest so that `C(q) = 0` and
-//! `G(q) qd = 0` (SPEC §3: for `free`, x1d = 1 and phi1d = 0 give
+//! `G(q) qd = 0` (docs/physics.md §7; for `free`, x1d = 1 and phi1d = 0 give
 //! y1d = 0, x2d = 0.5, y2d = 0, phi2d = 5).
 //!
 //! Positions: Newton on `C(q)` in the unknown coordinates (the Jacobian's
@@ -14,8 +14,8 @@ use crate::SimError;
 use crate::model::{Model, scatter_dense};
 use crate::projection::max_abs;
 
-/// Tolerance of the consistent initial state: `max|C|` [m], and `max|G qd|`
-/// [m/s] relative to `max(1, max|qd|)`.
+/// Tolerance of the consistent initial state: `max|C|` \[m\], and `max|G qd|`
+/// \[m/s\] relative to `max(1, max|qd|)`.
 pub const INITIAL_TOL: f64 = 1e-12;
 
 /// Computes `(q, qd)` (nq each) from the given values.
@@ -95,7 +95,7 @@ pub fn consistent_state<M: Model>(
     let res = max_abs(&phi);
     if res > INITIAL_TOL {
         // The given coordinates violate the holonomic rows: Gauss-Newton with the
-        // minimum-norm step in all coordinates (SPEC §2's projection).
+        // minimum-norm step in all coordinates (the projection of docs/physics.md §6).
         report.position_violation = res;
         report.position_worst = phi
             .iter()
@@ -184,7 +184,7 @@ pub fn consistent_state<M: Model>(
     let v_tol = INITIAL_TOL * max_abs(&qd).max(1.0);
     if res > v_tol {
         // The given velocities violate the constraints: least-squares
-        // projection of all velocities (SPEC §2).
+        // projection of all velocities (docs/physics.md §6).
         report.velocity_violation = res;
         let gm = DMatrix::from_row_slice(nc, nq, &g);
         let dv = gm
@@ -211,15 +211,15 @@ pub fn consistent_state<M: Model>(
 #[derive(Debug, Clone, Default, PartialEq)]
 pub struct InitialReport {
     /// `max|C|` of the given coordinates, when they violated the holonomic
-    /// constraints (hinges, sliders, drives) [m or rad] (else 0).
+    /// constraints (hinges, sliders, drives) \[m or rad\] (else 0).
     pub position_violation: f64,
     /// The row violated most, e.g. `B.y`.
     pub position_worst: String,
-    /// Largest change of a coordinate by the projection [m or rad].
+    /// Largest change of a coordinate by the projection \[m or rad\].
     pub position_correction: f64,
-    /// `max|G qd|` of the given velocities, when they violated the constraints [m/s] (else 0).
+    /// `max|G qd|` of the given velocities, when they violated the constraints \[m/s\] (else 0).
     pub velocity_violation: f64,
-    /// Largest change of a velocity by the projection [m/s or rad/s].
+    /// Largest change of a velocity by the projection \[m/s or rad/s\].
     pub velocity_correction: f64,
 }
 

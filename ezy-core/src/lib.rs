@@ -36,6 +36,13 @@ pub use scene::{
 };
 pub use simulate::{Observer, RunError, RunSettings, Sample, Summary, simulate};
 
+/// The examples of the `model!` documentation (ezy-derive/src/model.md,
+/// shown at [`model!`]), run as doctests of this crate, where
+/// `ezy_core::model!` resolves: ezy-derive cannot depend on ezy-core.
+#[cfg(doctest)]
+#[doc = include_str!("../../ezy-derive/src/model.md")]
+pub struct ModelDocExamples;
+
 /// Paths the generated code uses; not public API.
 #[doc(hidden)]
 pub mod __private {

@@ -1,13 +1,13 @@
 //! The [`Model`] trait the `model!` macro implements, and the static
 //! description ([`ModelInfo`]) every generated model carries.
 //!
-//! Conventions (SPEC §1): every body has three generalized coordinates, the
+//! Conventions (docs/physics.md §1-§4): every body has three generalized coordinates, the
 //! position of its centre of mass and its heading, `(x [m], y [m], phi [rad])`,
 //! so the mass matrix is diagonal, `diag(m, m, I)` per body. The constraints
 //! are stacked as `G = [C_q; S]` (nc x nq): first the `nh` holonomic rows
 //! (two per hinge, the Jacobian of `phi(q)`), then one row per skate (the
 //! skate constraint matrix `S(q)`, `S(q) qd` = lateral velocity of the skate's
-//! contact point [m/s]). `gamma` (nc) is the convective term,
+//! contact point \[m/s\]). `gamma` (nc) is the convective term,
 //! `gamma = d/dq(G(q) qd) qd`, so that `G qdd = -gamma` on the constraint
 //! manifold.
 
@@ -77,7 +77,7 @@ pub struct SliderInfo {
     /// Index of the moving body.
     pub body_b: usize,
     /// Index of its first residual row in `phi` (rows `row` = `S.n`, the
-    /// offset from the line [m], and `row + 1` = `S.phi`, the heading [rad]).
+    /// offset from the line \[m\], and `row + 1` = `S.phi`, the heading \[rad\]).
     pub row: usize,
 }
 
@@ -184,7 +184,7 @@ impl ModelInfo {
     }
 }
 
-/// One derived expression, as text (SPEC §1's notation: `x1`, `phi1d` for
+/// One derived expression, as text (the notation of docs/physics.md: `x1`, `phi1d` for
 /// the rate of `phi1`) and as LaTeX.
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub struct EquationExpr {
@@ -203,16 +203,16 @@ pub struct Equations {
     pub coords: Vec<EquationExpr>,
     /// Mass-matrix diagonal (nq), in terms of parameters.
     pub mass: Vec<EquationExpr>,
-    /// Holonomic residual rows `phi(q)` (nh) [m].
+    /// Holonomic residual rows `phi(q)` (nh) \[m\].
     pub phi: Vec<EquationExpr>,
     /// Velocity constraints `G_i(q) qd` (nc) [m/s]: `d phi_i/dt` for the
     /// holonomic rows, the skate's lateral velocity for the skate rows.
     pub velocity: Vec<EquationExpr>,
     /// Entries of `G = [C_q; S]` at [`ModelInfo::pattern`].
     pub jacobian: Vec<EquationExpr>,
-    /// Convective terms `gamma = d/dq(G qd) qd` (nc) [m/s^2].
+    /// Convective terms `gamma = d/dq(G qd) qd` (nc) \[m/s^2\].
     pub gamma: Vec<EquationExpr>,
-    /// Velocities of the named points (2 x npoints, x then y) [m/s].
+    /// Velocities of the named points (2 x npoints, x then y) \[m/s\].
     pub point_velocities: Vec<EquationExpr>,
 }
 
@@ -284,14 +284,14 @@ pub trait Model: Clone + Send + Sync + 'static {
     fn mass_diagonal(&self, out: &mut [f64]);
 
     /// Body-frame geometry at the current parameters: `points` (2 x
-    /// npoints) gets each named point's coordinates `(px, py)` [m] in its
+    /// npoints) gets each named point's coordinates `(px, py)` \[m\] in its
     /// body's frame (centre of mass at the origin, heading along x);
     /// `blades` (2 x nskates) gets each skate's unit blade direction
     /// `(tx, ty)` in its body's frame. Effects that act at a point or along
-    /// a blade are built from these (SPEC §1 conventions).
+    /// a blade are built from these (conventions of docs/physics.md §1).
     fn local_geometry(&self, points: &mut [f64], blades: &mut [f64]);
 
-    /// Holonomic residual `phi(q)` (nh) [m].
+    /// Holonomic residual `phi(q)` (nh) \[m\].
     fn phi<S: Scalar>(&self, q: &[S], phi: &mut [S]);
     /// Values of the holonomic Jacobian `C_q = d phi / dq` at the first
     /// [`ModelInfo::n_holonomic_nonzeros`] entries of [`ModelInfo::pattern`].
@@ -303,11 +303,11 @@ pub trait Model: Clone + Send + Sync + 'static {
     /// of the trigonometric terms for coordinate projection).
     fn phi_and_constraint_matrix<S: Scalar>(&self, q: &[S], phi: &mut [S], values: &mut [S]);
     /// `G(q)` (as in [`Model::constraint_matrix`]) and the convective term
-    /// `gamma(q, qd) = d/dq(G qd) qd` (nc) [m/s^2], sharing subexpressions.
+    /// `gamma(q, qd) = d/dq(G qd) qd` (nc) \[m/s^2\], sharing subexpressions.
     fn constraint_terms<S: Scalar>(&self, q: &[S], qd: &[S], values: &mut [S], gamma: &mut [S]);
-    /// Positions of the named points (2 x npoints, `x, y` per point) [m].
+    /// Positions of the named points (2 x npoints, `x, y` per point) \[m\].
     fn points<S: Scalar>(&self, q: &[S], out: &mut [S]);
-    /// Velocities of the named points (2 x npoints) [m/s].
+    /// Velocities of the named points (2 x npoints) \[m/s\].
     fn point_velocities<S: Scalar>(&self, q: &[S], qd: &[S], out: &mut [S]);
 }
 

@@ -1,4 +1,4 @@
-//! Coordinate projection after a step (SPEC §2).
+//! Coordinate projection after a step (docs/physics.md §6).
 //!
 //! - Positions: Gauss-Newton on the holonomic constraints only,
 //!   `q <- q - W^-1 C_q^T (C_q W^-1 C_q^T)^-1 C(q)`, re-evaluating `C` and
@@ -6,7 +6,7 @@
 //! - Velocities: one least-squares step on all velocity constraints,
 //!   `qd <- qd - W^-1 G^T (G W^-1 G^T)^-1 G qd`.
 //!
-//! `W = I` is the seed's Euclidean form; `W = M` the kinetic-energy
+//! `W = I` is the Euclidean form; `W = M` the kinetic-energy
 //! (mass-weighted) form. Mass-weighted is the default: it is the correction
 //! of least kinetic energy (the metric of the equations of motion), it does
 //! not depend on the units chosen for lengths vs angles (the Euclidean form
@@ -17,9 +17,9 @@ use crate::kkt::{DenseLu, KktError, KktSolver, KktSystem, NormalSystem};
 use crate::model::Model;
 use crate::model::scatter_dense;
 
-/// Tolerance on `max|C|` of the position iteration [m] (SPEC §2).
+/// Tolerance on `max|C|` of the position iteration \[m\] (docs/physics.md §6).
 pub const POSITION_TOL: f64 = 1e-12;
-/// Iteration limit of the position iteration (SPEC §2).
+/// Iteration limit of the position iteration (docs/physics.md §6).
 pub const POSITION_MAX_ITER: usize = 10;
 
 /// Which projection to apply after every step.
@@ -28,7 +28,7 @@ pub const POSITION_MAX_ITER: usize = 10;
 pub enum ProjectionKind {
     /// No projection: the constraints drift.
     None,
-    /// `W = I` (the seed's form).
+    /// `W = I`, the plain least-squares correction.
     Euclidean,
     /// `W = M`, the kinetic-energy metric (default, see module docs).
     #[default]
@@ -50,9 +50,9 @@ impl ProjectionKind {
 /// What one projection found and did.
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
 pub struct ProjectionReport {
-    /// `max|C(q)|` before projecting [m] (the drift of the step).
+    /// `max|C(q)|` before projecting \[m\] (the drift of the step).
     pub drift_position: f64,
-    /// `max|C(q)|` after projecting [m].
+    /// `max|C(q)|` after projecting \[m\].
     pub residual_position: f64,
     /// Gauss-Newton iterations done.
     pub iterations: usize,

@@ -15,11 +15,11 @@ use crate::projection::{ProjectionKind, Projector, max_abs};
 /// Settings of one run.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct RunSettings {
-    /// Step size `h` [s].
+    /// Step size `h` \[s\].
     pub dt: f64,
-    /// Final time [s] (start is 0).
+    /// Final time \[s\] (start is 0).
     pub t_end: f64,
-    /// Output interval [s]; rounded to a whole number of steps. The final
+    /// Output interval \[s\]; rounded to a whole number of steps. The final
     /// time is always output.
     pub every: f64,
     /// Projection after every step.
@@ -41,7 +41,8 @@ pub const MIN_TOLERANCE: f64 = 1e-14;
 
 /// Default limit of the relative energy balance `|T - T0 - W| / max(1 J, |W|)`
 /// for `ezy run`. Ideal constraints do no work, so the balance is the
-/// integrator's own error: 6e-13 at the seed's settings, 1.3e-3 for `drive`
+/// integrator's own error: 6e-13 at the `drive` scene's settings (RK4,
+/// h = 1e-4 s), 1.3e-3 for `drive`
 /// at h = 0.3 s; at h = 0.7 s it passes 1e-2 within seconds.
 pub const BALANCE_LIMIT: f64 = 1e-2;
 
@@ -88,22 +89,22 @@ impl RunSettings {
 /// One output sample.
 #[derive(Debug, Clone, Copy)]
 pub struct Sample<'a> {
-    /// Time [s].
+    /// Time \[s\].
     pub t: f64,
     /// Coordinates (nq).
     pub q: &'a [f64],
     /// Velocities (nq).
     pub qd: &'a [f64],
-    /// Kinetic energy [J].
+    /// Kinetic energy \[J\].
     pub kinetic_energy: f64,
-    /// Work of all applied forces since t = 0, `sum W_e` [J].
+    /// Work of all applied forces since t = 0, `sum W_e` \[J\].
     pub work: f64,
-    /// Work of each effect since t = 0, `W_e` [J], in the order of
+    /// Work of each effect since t = 0, `W_e` \[J\], in the order of
     /// [`Dynamics::effects`].
     pub works: &'a [f64],
-    /// `max|C(q)|` [m].
+    /// `max|C(q)|` \[m\].
     pub residual_position: f64,
-    /// `max|G(q) qd|` [m/s].
+    /// `max|G(q) qd|` \[m/s\].
     pub residual_velocity: f64,
 }
 
@@ -146,13 +147,13 @@ pub struct Summary {
     pub projections: u64,
     /// Wall time of the integration alone (steps and projections, no output).
     pub integration_time: Duration,
-    /// Largest `max|C|` over the outputs [m].
+    /// Largest `max|C|` over the outputs \[m\].
     pub max_residual_position: f64,
-    /// Largest `max|G qd|` over the outputs [m/s].
+    /// Largest `max|G qd|` over the outputs \[m/s\].
     pub max_residual_velocity: f64,
-    /// Largest drift `max|C|` a single step produced before projection [m].
+    /// Largest drift `max|C|` a single step produced before projection \[m\].
     pub max_step_drift: f64,
-    /// Largest `|T - T0 - W|` over all steps [J].
+    /// Largest `|T - T0 - W|` over all steps \[J\].
     pub max_energy_error: f64,
     /// Final state `y = [q, qd, W_1 .. W_k]` (one work state per effect).
     pub final_state: Vec<f64>,

@@ -111,7 +111,7 @@ pub struct Point {
 pub enum HingeTarget {
     /// Another named point.
     Point(Ref),
-    /// A fixed point of the ground, in world coordinates [m].
+    /// A fixed point of the ground, in world coordinates \[m\].
     Ground { at: Box<[Expr; 2]> },
 }
 
@@ -171,13 +171,119 @@ pub fn doc_of(attrs: &[Attribute]) -> String {
     lines.join(" ").trim().to_string()
 }
 
-/// Splits a trailing `[unit]` off a doc string: `("Distance", "m")`.
+/// Splits a trailing `[unit]` off a doc string: `("Distance", "m")`. A
+/// unit the user already escaped for rustdoc, `\[m\]`, is read the same.
 pub fn split_unit(doc: &str) -> (String, String) {
     let t = doc.trim_end();
-    if t.ends_with(']')
-        && let Some(open) = t.rfind('[')
-    {
-        return (t[..open].trim_end().to_string(), t[open + 1..t.len() - 1].trim().to_string());
+    let (head, open) = match t.strip_suffix("\\]") {
+        Some(head) => (head, "\\["),
+        None => match t.strip_suffix(']') {
+            Some(head) => (head, "["),
+            None => return (t.to_string(), String::new()),
+        },
+    };
+    match head.rfind(open) {
+        Some(i) => (head[..i].trim_end().to_string(), head[i + open.len()..].trim().to_string()),
+        None => (t.to_string(), String::new()),
     }
-    (t.to_string(), String::new())
+}
+
+/// `attrs` with the trailing `[unit]` of the doc comment (the one
+/// [`split_unit`] reads) written `\[unit\]` for the generated field, so
+/// that rustdoc shows it as text instead of taking it for an intra-doc
+/// link: `[kg]` would make a user's `cargo doc` warn "unresolved link to
+/// `kg`". Other attributes, other brackets and units already escaped are
+/// left as they are.
+pub fn escape_unit(attrs: &[Attribute]) -> Vec<Attribute> {
+    let mut out = attrs.to_vec();
+    // (index in `out`, the line's text) of every `#[doc = "..."]` line
+    let lines: Vec<(usize, syn::LitStr)> = out
+        .iter()
+        .enumerate()
+        .filter_map(|(k, attr)| match &attr.meta {
+            syn::Meta::NameValue(nv) if attr.path().is_ident("doc") => match &nv.value {
+                Expr::Lit(syn::ExprLit { lit: syn::Lit::Str(s), .. }) => Some((k, s.clone())),
+                _ => None,
+            },
+            _ => None,
+        })
+        .collect();
+    let Some(last) = lines.iter().rposition(|(_, s)| !s.value().trim().is_empty()) else {
+        return out;
+    };
+    let text = lines[last].1.value();
+    let end = text.trim_end().len();
+    if !text[..end].ends_with(']') || text[..end].ends_with("\\]") {
+        return out;
+    }
+    // The opening bracket: the last `[` before the closing one, on this line
+    // or an earlier one (as `split_unit` reads the joined lines).
+    let mut new: Vec<(usize, String)> = vec![(last, format!("{}\\]{}", &text[..end - 1], &text[end..]))];
+    let open = match text[..end - 1].rfind('[') {
+        Some(i) => Some((last, i)),
+        None => lines[..last].iter().enumerate().rev().find_map(|(j, (_, s))| s.value().rfind('[').map(|i| (j, i))),
+    };
+    let Some((j, i)) = open else {
+        return out;
+    };
+    let line = if j == last { new.pop().expect("the closing line").1 } else { lines[j].1.value() };
+    new.push((j, format!("{}\\{}", &line[..i], &line[i..])));
+    for (j, value) in new {
+        let (k, lit) = &lines[j];
+        let lit = syn::LitStr::new(&value, lit.span());
+        if let syn::Meta::NameValue(nv) = &mut out[*k].meta {
+            nv.value = syn::parse_quote!(#lit);
+        }
+    }
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn docs(attrs: &[Attribute]) -> Vec<String> {
+        attrs
+            .iter()
+            .filter_map(|a| match &a.meta {
+                syn::Meta::NameValue(nv) => match &nv.value {
+                    Expr::Lit(syn::ExprLit { lit: syn::Lit::Str(s), .. }) => Some(s.value()),
+                    _ => None,
+                },
+                _ => None,
+            })
+            .collect()
+    }
+
+    #[test]
+    fn split_unit_reads_plain_and_escaped_units() {
+        assert_eq!(split_unit("Mass of body 1 [kg]"), ("Mass of body 1".into(), "kg".into()));
+        assert_eq!(split_unit("Inertia \\[kg m^2\\] "), ("Inertia".into(), "kg m^2".into()));
+        assert_eq!(split_unit("Number of links"), ("Number of links".into(), String::new()));
+    }
+
+    #[test]
+    fn escape_unit_escapes_only_the_trailing_unit() {
+        let attrs: Vec<Attribute> = vec![
+            syn::parse_quote!(#[doc = " Mass [kg] of the"]),
+            syn::parse_quote!(#[doc = " front body, see [`Model`] [kg]"]),
+            syn::parse_quote!(#[allow(dead_code)]),
+        ];
+        let out = escape_unit(&attrs);
+        assert_eq!(docs(&out), [" Mass [kg] of the", " front body, see [`Model`] \\[kg\\]"]);
+        assert!(out[2].path().is_ident("allow"));
+        let (doc, unit) = split_unit(&doc_of(&out));
+        assert_eq!((doc.as_str(), unit.as_str()), ("Mass [kg] of the front body, see [`Model`]", "kg"));
+    }
+
+    #[test]
+    fn escape_unit_spans_lines_and_keeps_escaped_units() {
+        let attrs: Vec<Attribute> =
+            vec![syn::parse_quote!(#[doc = " Moment of inertia [kg"]), syn::parse_quote!(#[doc = " m^2]"])];
+        assert_eq!(docs(&escape_unit(&attrs)), [" Moment of inertia \\[kg", " m^2\\]"]);
+        let escaped: Vec<Attribute> = vec![syn::parse_quote!(#[doc = " Mass \\[kg\\]"])];
+        assert_eq!(docs(&escape_unit(&escaped)), [" Mass \\[kg\\]"]);
+        let plain: Vec<Attribute> = vec![syn::parse_quote!(#[doc = " Number of links"])];
+        assert_eq!(docs(&escape_unit(&plain)), [" Number of links"]);
+    }
 }

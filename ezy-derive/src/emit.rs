@@ -15,7 +15,7 @@ use quote::{format_ident, quote};
 
 use std::collections::HashMap;
 
-use crate::ast::{Affine, ModelDef, doc_of, split_unit};
+use crate::ast::{Affine, ModelDef, doc_of, escape_unit, split_unit};
 use crate::check::{BodyRef, PointRef, Resolved};
 use crate::kinematics::{Derived, Group, Kind};
 use crate::sym::{Id, Node, Sym};
@@ -476,12 +476,12 @@ pub fn emit(def: &ModelDef, res: &Resolved, d: &mut Derived) -> TokenStream {
 
     // struct and Default
     let fields = def.params.iter().map(|p| {
-        let pattrs = &p.attrs;
+        let pattrs = escape_unit(&p.attrs);
         let n = &p.name;
         quote!(#(#pattrs)* pub #n: f64,)
     });
     let count_fields = def.counts.iter().map(|c| {
-        let cattrs = &c.attrs;
+        let cattrs = escape_unit(&c.attrs);
         let n = &c.name;
         quote!(#(#cattrs)* pub #n: usize,)
     });

@@ -16,11 +16,12 @@
 //!   angle `u(t)` (and `u'`, `u''` at velocity and acceleration level).
 //! - Skate with blade direction `t` (body coordinates, normalized): the
 //!   world normal is `n = R(phi) (-t_y, t_x)` and the row of `S(q)` is
-//!   `n^T dr_P/dq`, so `S qd` is the contact point's lateral velocity [m/s].
+//!   `n^T dr_P/dq`, so `S qd` is the contact point's lateral velocity \[m/s\].
 //! - Convective term of every velocity-constraint row `g(q) qd`:
 //!   `gamma = d/dq(g(q) qd) qd`.
 //!
-//! Every formula of SPEC §1 follows from these definitions; none is typed in.
+//! Every formula of docs/physics.md §2-§4 and §10.2 follows from these
+//! definitions; none is typed in.
 //!
 //! Each constraint item (a single one, or a `for` family) is derived once,
 //! as an element kernel in *local* coordinates: the bodies it touches are

@@ -6,8 +6,8 @@
 //! convective terms and the point kinematics are derived symbolically at
 //! compile time (see `kinematics` and `sym`); parameters stay runtime fields.
 //!
-//! Data flows one way: tokens -> [`ast`] ([`parse`]) -> [`check`] ->
-//! [`kinematics`] (expressions in [`sym`]) -> [`emit`].
+//! Data flows one way through the private modules: tokens -> `ast`
+//! (`parse`) -> `check` -> `kinematics` (expressions in `sym`) -> `emit`.
 
 use proc_macro::TokenStream;
 
@@ -20,8 +20,12 @@ mod parse;
 #[cfg_attr(not(test), allow(dead_code))]
 mod sym;
 
-/// Declares a planar multibody model. See the `ezy_core::model!`
-/// re-export for the grammar and an example.
+// The whole documentation of the macro, shown here and, inlined, at the
+// re-exports `ezy_core::model!` and `ezy::model!`. Its examples use
+// `ezy_core::model!`, which this crate cannot depend on, so they run as
+// doctests of ezy-core (`ModelDocExamples` in ezy-core/src/lib.rs) and this
+// crate's doctests are off (`doctest = false` in its Cargo.toml).
+#[doc = include_str!("model.md")]
 #[proc_macro]
 pub fn model(input: TokenStream) -> TokenStream {
     let def = syn::parse_macro_input!(input as ast::ModelDef);

@@ -1,10 +1,10 @@
-//! The Chaplygin sleigh (SPEC §5): one body, one skate a distance `a`
+//! The Chaplygin sleigh (docs/physics.md §9): one body, one skate a distance `a`
 //! behind the centre of mass. Its closed-form solution checks the whole
 //! pipeline end to end.
 
 ezy_core::model! {
     /// The Chaplygin sleigh: one body with a skate at distance a behind its
-    /// centre of mass (SPEC §5).
+    /// centre of mass. Its closed-form solution: docs/physics.md §9.
     pub struct ChaplyginSleigh {
         /// Mass [kg]
         param m = 1.0;

@@ -1,10 +1,11 @@
-//! The EzyRoller (SPEC §1): two bodies joined by a hinge at B, one skate on
+//! The EzyRoller (docs/physics.md §10): two bodies joined by a hinge at B, one skate on
 //! each. Nothing but this declaration describes it: phi, its Jacobian, the
 //! skate matrix and all convective terms are derived by `model!`.
 
 ezy_core::model! {
     /// The EzyRoller: a rear frame (body 1, skate A) and a steering fork
-    /// (body 2, skate C) joined by a hinge at B (SPEC §1).
+    /// (body 2, skate C) joined by a hinge at B. Its equations and scenes:
+    /// docs/physics.md §10.
     pub struct EzyRoller {
         /// Distance from body 1's centre of mass back to its skate A [m]
         param a = 0.2;

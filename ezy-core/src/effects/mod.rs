@@ -1,17 +1,17 @@
 //! Applied forces (effects): documented force laws a scene lists by name.
 //!
 //! Each effect adds its generalized force into `f` (nq) and returns its
-//! power `P = f_e . qd` [W]; the right-hand side integrates each power into
-//! the effect's own work state `W_<name>` [J], so that `T - T0 = sum W`
-//! holds for any combination (ideal constraints do no work, SPEC §1, §3).
+//! power `P = f_e . qd` \[W\]; the right-hand side integrates each power into
+//! the effect's own work state `W_<name>` \[J\], so that `T - T0 = sum W`
+//! holds for any combination (ideal constraints do no work; docs/physics.md §8).
 //! Only the effects a scene lists are built; the right-hand side loops over
 //! exactly those, so an effect the scene does not name costs nothing.
 //!
-//! Conventions (SPEC §1): a force `F` (world frame) at a body point with
+//! Conventions (docs/physics.md §1, §8): a force `F` (world frame) at a body point with
 //! body-frame offset `p` from the centre of mass acts on the body's
 //! coordinates `(x, y, phi)` as `(F_x, F_y, r_x F_y - r_y F_x)` with
 //! `r = R(phi) p`; its power is `F . v_P`. A hinge torque `tau` acts `+tau`
-//! on the hinge's first body and `-tau` on its second (the seed's motor),
+//! on the hinge's first body and `-tau` on its second (as the `drive` scene's motor),
 //! and the hinge angle is `theta = phi_a - phi_b` (`phi_a` for a ground
 //! hinge), so a hinge torque's power is `tau theta_dot`.
 
@@ -23,7 +23,7 @@ pub use waveform::{Harmonic, Spline, SplineData, Table, Waveform};
 use crate::SimError;
 use crate::model::{Model, ModelInfo};
 
-/// Standard gravity [m/s^2] (the default of [`EffectSpec::Slope`]).
+/// Standard gravity \[m/s^2\] (the default of [`EffectSpec::Slope`]).
 pub const STANDARD_GRAVITY: f64 = 9.806_65;
 
 fn default_gravity() -> f64 {
@@ -56,13 +56,13 @@ pub enum Frame {
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(tag = "kind", rename_all = "kebab-case", deny_unknown_fields)]
 pub enum EffectSpec {
-    /// Hinge motor: torque `tau(t)` [N m] given by a waveform, `+tau` on the
-    /// hinge's first body, `-tau` on the second (SPEC §3; the seed's motor
-    /// is `torque = { cos = { amplitude = 2, omega = pi } }`).
+    /// Hinge motor: torque `tau(t)` \[N m\] given by a waveform, `+tau` on the
+    /// hinge's first body, `-tau` on the second (the `drive` scene's motor,
+    /// docs/physics.md §10.3, is `torque = { cos = { amplitude = 2, omega = pi } }`).
     HingeMotor {
         /// Hinge name.
         hinge: String,
-        /// Torque [N m] over time.
+        /// Torque \[N m\] over time.
         torque: Waveform,
     },
     /// Rotational spring at a hinge: `tau = -stiffness (theta - rest_angle)`,
@@ -71,26 +71,26 @@ pub enum EffectSpec {
     HingeSpring {
         /// Hinge name.
         hinge: String,
-        /// Stiffness [N m/rad].
+        /// Stiffness \[N m/rad\].
         stiffness: f64,
-        /// Angle of zero torque [rad].
+        /// Angle of zero torque \[rad\].
         #[serde(default, skip_serializing_if = "is_zero")]
         rest_angle: f64,
     },
     /// Viscous damper at a hinge: `tau = -damping theta_dot` (dissipates
-    /// `damping theta_dot^2` [W]).
+    /// `damping theta_dot^2` \[W\]).
     HingeDamper {
         /// Hinge name.
         hinge: String,
-        /// Damping [N m s/rad].
+        /// Damping \[N m s/rad\].
         damping: f64,
     },
     /// Viscous rolling resistance at a skate: a force `-damping v_t` along
-    /// the blade, `v_t` the contact point's velocity along the blade [m/s].
+    /// the blade, `v_t` the contact point's velocity along the blade \[m/s\].
     RollingViscous {
         /// Skate name.
         skate: String,
-        /// Damping [N s/m].
+        /// Damping \[N s/m\].
         damping: f64,
     },
     /// Smoothed Coulomb rolling resistance at a skate:
@@ -101,53 +101,53 @@ pub enum EffectSpec {
     RollingCoulomb {
         /// Skate name.
         skate: String,
-        /// Resistance force magnitude [N].
+        /// Resistance force magnitude \[N\].
         force: f64,
-        /// Speed below which the law is linear [m/s].
+        /// Speed below which the law is linear \[m/s\].
         smoothing: f64,
     },
-    /// Driven wheel: a force `force(t)` [N] along the blade at a skate's
+    /// Driven wheel: a force `force(t)` \[N\] along the blade at a skate's
     /// contact point (a wheel driven by a motor in its hub).
     DrivenWheel {
         /// Skate name.
         skate: String,
-        /// Force along the blade [N] over time.
+        /// Force along the blade \[N\] over time.
         force: Waveform,
     },
-    /// A force `(fx(t), fy(t))` [N] at a body's centre of mass (`at` names a
+    /// A force `(fx(t), fy(t))` \[N\] at a body's centre of mass (`at` names a
     /// body) or at a named point (`at` names a point), in world or body axes.
     Force {
         /// A body (centre of mass) or a point.
         at: String,
-        /// x component [N] over time.
+        /// x component \[N\] over time.
         #[serde(default, skip_serializing_if = "is_zero_waveform")]
         fx: Waveform,
-        /// y component [N] over time.
+        /// y component \[N\] over time.
         #[serde(default, skip_serializing_if = "is_zero_waveform")]
         fy: Waveform,
         /// Axes of `fx`, `fy`.
         #[serde(default)]
         frame: Frame,
     },
-    /// A torque `torque(t)` [N m] on a body.
+    /// A torque `torque(t)` \[N m\] on a body.
     Torque {
         /// Body name.
         body: String,
-        /// Torque [N m] over time.
+        /// Torque \[N m\] over time.
         torque: Waveform,
     },
     /// Gravity on a plane inclined by `angle`: every body feels
-    /// `m g sin(angle)` [N] along the downhill direction, at angle
+    /// `m g sin(angle)` \[N\] along the downhill direction, at angle
     /// `downhill` from the x axis (the normal component is carried by the
     /// skates' contact and does no work). Work is minus the change of
     /// potential energy `m g sin(angle) (height along the uphill direction)`.
     Slope {
-        /// Inclination of the plane [rad].
+        /// Inclination of the plane \[rad\].
         angle: f64,
-        /// Direction of steepest descent in the plane, from the x axis [rad].
+        /// Direction of steepest descent in the plane, from the x axis \[rad\].
         #[serde(default, skip_serializing_if = "is_zero")]
         downhill: f64,
-        /// Gravitational acceleration [m/s^2].
+        /// Gravitational acceleration \[m/s^2\].
         #[serde(default = "default_gravity", skip_serializing_if = "is_default_gravity")]
         g: f64,
     },
@@ -156,9 +156,9 @@ pub enum EffectSpec {
     LinearDrag {
         /// Body name.
         body: String,
-        /// Translational coefficient [N s/m].
+        /// Translational coefficient \[N s/m\].
         c: f64,
-        /// Rotational coefficient [N m s/rad].
+        /// Rotational coefficient \[N m s/rad\].
         #[serde(default, skip_serializing_if = "is_zero")]
         c_rot: f64,
     },
@@ -167,9 +167,9 @@ pub enum EffectSpec {
     QuadraticDrag {
         /// Body name.
         body: String,
-        /// Translational coefficient [N s^2/m^2].
+        /// Translational coefficient \[N s^2/m^2\].
         c: f64,
-        /// Rotational coefficient [N m s^2/rad^2].
+        /// Rotational coefficient \[N m s^2/rad^2\].
         #[serde(default, skip_serializing_if = "is_zero")]
         c_rot: f64,
     },
@@ -252,7 +252,7 @@ impl EffectSpec {
     }
 
     /// Name of the output column of the effect called `name`: `tau_<name>`
-    /// [N m] for torques (hinge laws, body torques), `F_<name>` [N] for
+    /// \[N m\] for torques (hinge laws, body torques), `F_<name>` \[N\] for
     /// forces (the signed force along the blade for skate laws, the
     /// magnitude otherwise).
     pub fn value_column(&self, name: &str) -> String {
@@ -419,7 +419,7 @@ impl EffectSpec {
 pub struct Blade {
     /// Indices of the body's `(x, y, phi)` in `q`.
     pub body: [usize; 3],
-    /// Contact point in the body frame [m].
+    /// Contact point in the body frame \[m\].
     pub offset: [f64; 2],
     /// Unit blade direction in the body frame.
     pub dir: [f64; 2],
@@ -432,14 +432,14 @@ pub enum HingeLaw {
     Motor(Waveform),
     /// `tau = -stiffness (theta - rest_angle)`.
     Spring {
-        /// [N m/rad].
+        /// \[N m/rad\].
         stiffness: f64,
-        /// [rad].
+        /// \[rad\].
         rest_angle: f64,
     },
     /// `tau = -damping theta_dot`.
     Damper {
-        /// [N m s/rad].
+        /// \[N m s/rad\].
         damping: f64,
     },
 }
@@ -449,14 +449,14 @@ pub enum HingeLaw {
 pub enum BladeLaw {
     /// `F = -damping v_t`.
     Viscous {
-        /// [N s/m].
+        /// \[N s/m\].
         damping: f64,
     },
     /// `F = -force v_t / sqrt(v_t^2 + smoothing^2)`.
     Coulomb {
-        /// [N].
+        /// \[N\].
         force: f64,
-        /// [m/s].
+        /// \[m/s\].
         smoothing: f64,
     },
     /// `F = w(t)`.
@@ -482,11 +482,11 @@ pub enum Law {
     Force {
         /// Indices of the body's `(x, y, phi)`.
         body: [usize; 3],
-        /// Point of application in the body frame [m].
+        /// Point of application in the body frame \[m\].
         offset: [f64; 2],
-        /// x component [N].
+        /// x component \[N\].
         fx: Waveform,
-        /// y component [N].
+        /// y component \[N\].
         fy: Waveform,
         /// Axes of the components.
         frame: Frame,
@@ -495,14 +495,14 @@ pub enum Law {
     Torque {
         /// Heading index of the body.
         phi: usize,
-        /// [N m].
+        /// \[N m\].
         torque: Waveform,
     },
     /// Gravity along an inclined plane on every body.
     Slope {
         /// `(x index, y index, mass [kg])` per body.
         bodies: Vec<(usize, usize, f64)>,
-        /// Downhill force per unit mass `g sin(angle) (cos, sin)(downhill)` [N/kg].
+        /// Downhill force per unit mass `g sin(angle) (cos, sin)(downhill)` \[N/kg\].
         force_per_kg: [f64; 2],
     },
     /// Drag at a body's centre of mass.
@@ -625,7 +625,7 @@ impl Effect {
         }
     }
 
-    /// Name of the effect's work column, `W_<name>` [J].
+    /// Name of the effect's work column, `W_<name>` \[J\].
     pub fn work_column(&self) -> String {
         format!("W_{}", self.name)
     }

@@ -7,15 +7,15 @@ use serde::{Deserialize, Serialize};
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct Harmonic {
-    /// Amplitude (unit of the quantity: [N m] for a torque, [N] for a force).
+    /// Amplitude (unit of the quantity: \[N m\] for a torque, \[N\] for a force).
     pub amplitude: f64,
-    /// Angular frequency [rad/s].
+    /// Angular frequency \[rad/s\].
     pub omega: f64,
-    /// Phase [rad].
+    /// Phase \[rad\].
     #[serde(default)]
     pub phase: f64,
     /// Phase added per element when the effect runs over a family
-    /// (`hinge = "J[*]"`, see `Scene::expand_families`) [rad]; must be 0
+    /// (`hinge = "J[*]"`, see `Scene::expand_families`) \[rad\]; must be 0
     /// otherwise.
     #[serde(default, skip_serializing_if = "is_zero")]
     pub phase_step: f64,
@@ -30,7 +30,7 @@ fn is_zero(v: &f64) -> bool {
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct Table {
-    /// Times [s], strictly increasing.
+    /// Times \[s\], strictly increasing.
     pub t: Vec<f64>,
     /// Values at those times (same length as `t`).
     pub value: Vec<f64>,
@@ -50,7 +50,7 @@ pub struct Table {
 pub enum Waveform {
     /// `w(t) = value`.
     Constant(f64),
-    /// `w(t) = amplitude cos(omega t + phase)` (the seed's motor with phase 0).
+    /// `w(t) = amplitude cos(omega t + phase)` (the `drive` scene's motor with phase 0).
     Cos(Harmonic),
     /// `w(t) = amplitude sin(omega t + phase)`.
     Sin(Harmonic),
@@ -81,7 +81,7 @@ pub struct Spline {
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct SplineData {
-    /// Times [s], strictly increasing, at least two.
+    /// Times \[s\], strictly increasing, at least two.
     pub t: Vec<f64>,
     /// Values at those times.
     pub value: Vec<f64>,

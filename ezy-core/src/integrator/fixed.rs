@@ -1,6 +1,6 @@
 //! Fixed-step methods: explicit Euler (order 1, the baseline) and classic
 //! RK4 (order 4; Hairer, Nørsett & Wanner, Solving ODEs I, §II.1, Table 1.2),
-//! the seed's method.
+//! the default of the built-in scenes.
 
 use super::Rhs;
 use crate::SimError;

@@ -44,7 +44,7 @@ impl<F: FnMut(f64, &[f64], &mut [f64])> Rhs for F {
 pub enum Method {
     /// Explicit Euler, order 1, fixed step.
     Euler,
-    /// Classic Runge-Kutta, order 4, fixed step (the seed's method).
+    /// Classic Runge-Kutta, order 4, fixed step (the built-in scenes' default).
     #[default]
     Rk4,
     /// Dormand-Prince 5(4), adaptive.

@@ -1,4 +1,4 @@
-//! Solving the KKT system of the index-1 DAE (SPEC §1):
+//! Solving the KKT system of the index-1 DAE (docs/physics.md §5):
 //!
 //! ```text
 //! [ M  G^T ] [ qdd    ]   [ f      ]
@@ -66,7 +66,7 @@ pub enum KktError {
     SingularMass {
         /// Coordinate index of the offending diagonal entry.
         index: usize,
-        /// Its value [kg] or [kg m^2].
+        /// Its value \[kg\] or \[kg m^2\].
         value: f64,
     },
 }
@@ -74,15 +74,15 @@ pub enum KktError {
 /// One KKT system, borrowed from the caller's workspace.
 #[derive(Debug, Clone, Copy)]
 pub struct KktSystem<'a> {
-    /// Diagonal of the mass matrix `M` (nq) [kg, kg m^2].
+    /// Diagonal of the mass matrix `M` (nq) \[kg, kg m^2\].
     pub mass: &'a [f64],
     /// Constraint matrix `G` (nc x nq), dense row-major.
     pub g: &'a [f64],
     /// The same `G` as values at the model's pattern (for the Schur path).
     pub g_values: &'a [f64],
-    /// Generalized applied force `f` (nq) [N, N m].
+    /// Generalized applied force `f` (nq) \[N, N m\].
     pub f: &'a [f64],
-    /// Convective term `gamma` (nc) [m/s^2].
+    /// Convective term `gamma` (nc) \[m/s^2\].
     pub gamma: &'a [f64],
 }
 
@@ -100,7 +100,7 @@ impl KktSystem<'_> {
 /// A linear solver for the KKT system. Implementations own their workspace,
 /// sized at construction, and do not allocate in [`KktSolver::solve`].
 pub trait KktSolver {
-    /// Solves for `qdd` (nq) [m/s^2, rad/s^2] and `lambda` (nc) [N].
+    /// Solves for `qdd` (nq) \[m/s^2, rad/s^2\] and `lambda` (nc) \[N\].
     ///
     /// # Errors
     /// [`KktError`] when the system is singular for this path.

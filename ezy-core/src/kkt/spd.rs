@@ -1,6 +1,6 @@
 //! Symmetric positive definite solves of the weighted normal matrix
 //! `A = G W^-1 G^T` (m x m), shared by the Schur-complement KKT path and by
-//! coordinate projection (SPEC §2), where `W` is `M` (mass-weighted) or the
+//! coordinate projection (docs/physics.md §6), where `W` is `M` (mass-weighted) or the
 //! identity (Euclidean).
 //!
 //! `A` is assembled by the model's generated [`Model::normal_matrix`]:

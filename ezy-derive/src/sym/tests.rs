@@ -269,7 +269,7 @@ fn derivative_matches_finite_difference() {
 
 #[test]
 fn display_reads_like_the_spec() {
-    // -b sin(phi1) as the hinge Jacobian entry of SPEC §1
+    // -b sin(phi1) as the hinge Jacobian entry of docs/physics.md §10.2
     let mut ar = Arena::new();
     let phi = ar.sym(Sym::Q(2));
     let b = ar.sym(Sym::Param(1));
