@@ -85,7 +85,7 @@ pub struct EquationsArgs {
 
 #[derive(ValueEnum, Clone, Copy, Debug)]
 pub enum EqFormat {
-    /// Plain text (x1, phi1d for the rate of phi1, ...).
+    /// Plain text in the notation of docs/physics.md (`phi1d` is the rate of `phi1`).
     Text,
     /// A LaTeX document (amsmath).
     Latex,

@@ -19,7 +19,7 @@ use crate::run::{Error, build};
 pub struct Setting {
     /// Method.
     pub method: Method,
-    /// Step size [s] (fixed-step methods).
+    /// Step size \[s\] (fixed-step methods).
     pub dt: Option<f64>,
     /// `rtol = atol` (adaptive methods).
     pub tol: Option<f64>,
@@ -35,7 +35,7 @@ pub struct Row {
     /// Max over `q` and `qd` of `|y(T) - y_ref(T)|` at the final time `T`
     /// (infinite if the run failed).
     pub error: f64,
-    /// Median integration wall time [s].
+    /// Median integration wall time \[s\].
     pub wall_s: f64,
     /// Right-hand-side evaluations.
     pub rhs_evals: u64,

@@ -51,11 +51,11 @@ pub struct RunOptions {
     /// `NAME=VALUE` overrides of scene parameters, model parameters or
     /// effect numbers (`EFFECT.KEY`, see [`Scene::set`]).
     pub sets: Vec<(String, f64)>,
-    /// Step size [s].
+    /// Step size \[s\].
     pub dt: Option<f64>,
-    /// Duration [s].
+    /// Duration \[s\].
     pub t_end: Option<f64>,
-    /// Output interval [s].
+    /// Output interval \[s\].
     pub every: Option<f64>,
     /// Projection kind.
     pub projection: Option<ProjectionKind>,

@@ -23,7 +23,7 @@ use crate::projection::ProjectionKind;
 /// a model parameter whose value it takes.
 #[derive(Debug, Clone, PartialEq)]
 pub enum InitValue {
-    /// A number [m], [rad], [m/s] or [rad/s].
+    /// A number \[m\], \[rad\], \[m/s\] or \[rad/s\].
     Num(f64),
     /// The current value of the named model parameter.
     Param(String),
@@ -104,7 +104,7 @@ mod named_list {
 }
 
 /// Given coordinates and velocities; the rest follow from the constraints
-/// (the consistent initial state of SPEC §3).
+/// (the consistent initial state of docs/physics.md §7).
 #[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct Initial {
@@ -133,7 +133,7 @@ pub struct IntegratorSettings {
     /// `euler`, `rk4`, `dopri5` or `dop853`.
     #[serde(default)]
     pub method: Method,
-    /// Step size of the fixed-step methods [s].
+    /// Step size of the fixed-step methods \[s\].
     #[serde(default = "default_dt")]
     pub dt: f64,
     /// Relative tolerance of the adaptive methods.
@@ -164,17 +164,17 @@ impl Default for IntegratorSettings {
 #[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Serialize, Deserialize)]
 #[serde(rename_all = "kebab-case")]
 pub enum OutputGroup {
-    /// `T` [J], `W` (total work) [J] and `W_<effect>` per effect [J].
+    /// `T` \[J\], `W` (total work) \[J\] and `W_<effect>` per effect \[J\].
     Energy,
-    /// `<point>.x`, `<point>.y` [m] for every named point.
+    /// `<point>.x`, `<point>.y` \[m\] for every named point.
     Points,
-    /// One value per effect: `tau_<effect>` [N m] or `F_<effect>` [N].
+    /// One value per effect: `tau_<effect>` \[N m\] or `F_<effect>` \[N\].
     Effects,
     /// Constraint forces from the multipliers: `F_<hinge>.x`, `F_<hinge>.y`
-    /// [N] (on the hinge's first body) and `F_<skate>` [N] (lateral, along
+    /// \[N\] (on the hinge's first body) and `F_<skate>` \[N\] (lateral, along
     /// the blade normal). Costs one KKT solve per output row.
     ConstraintForces,
-    /// `res_phi` = max|C(q)| [m] and `res_vel` = max|G(q) qd| [m/s].
+    /// `res_phi` = max|C(q)| \[m\] and `res_vel` = max|G(q) qd| \[m/s\].
     Residuals,
 }
 
@@ -199,7 +199,7 @@ impl OutputGroup {
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct OutputSettings {
-    /// Output interval [s] (rounded to whole steps for fixed-step methods;
+    /// Output interval \[s\] (rounded to whole steps for fixed-step methods;
     /// the final time is always written).
     #[serde(default = "default_every")]
     pub every: f64,
@@ -354,12 +354,12 @@ pub struct FigureSpec {
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct DriveSpec {
-    /// The hinge angle `phi_a - phi_b` [rad] over time; its first and
+    /// The hinge angle `phi_a - phi_b` \[rad\] over time; its first and
     /// second derivatives enter the constraints (use `spline` for tables).
     pub angle: crate::effects::Waveform,
 }
 
-/// A scene (SPEC §3), as a scene file writes it.
+/// A scene (such as those of docs/physics.md §10.3), as a scene file writes it.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct Scene {
@@ -369,7 +369,7 @@ pub struct Scene {
     pub description: String,
     /// Registry key of the model, e.g. `ezyroller`.
     pub model: String,
-    /// Duration [s].
+    /// Duration \[s\].
     pub t_end: f64,
     /// Overrides of model parameters (SI units of each parameter).
     #[serde(default, with = "named_list", skip_serializing_if = "Vec::is_empty")]
@@ -1074,7 +1074,7 @@ impl Scene {
     /// an effect whose `hinge` or `skate` is written `NAME[*]` becomes one
     /// effect per element of that family (`J[*]`: `J2`, `J3`, ...), named
     /// by the effect's name and the element's index (`gait` on `J3`:
-    /// `gait3`); in its waveforms, `phase_step` [rad] is added to the
+    /// `gait3`); in its waveforms, `phase_step` \[rad\] is added to the
     /// phase once per element along the family (a travelling wave, e.g.
     /// the serpenoid gait `tau_i = A sin(omega t + i delta)`). The
     /// elements' numbers stay bound to the scene parameters that gave them

@@ -74,17 +74,19 @@ pub fn get(name: &str) -> Scene {
     builtin().into_iter().find(|s| s.scene.name == name).unwrap_or_else(|| panic!("no built-in scene `{name}`")).scene
 }
 
-/// The `drive` scene: the hinge motor drives the EzyRoller from rest.
+/// The `drive` scene: the hinge motor drives the EzyRoller from rest
+/// (docs/physics.md §10.3).
 pub fn drive() -> Scene {
     get("drive")
 }
 
-/// The `free` scene: the EzyRoller coasts with no forces.
+/// The `free` scene: the EzyRoller coasts with no forces (docs/physics.md §10.3).
 pub fn free() -> Scene {
     get("free")
 }
 
-/// The `sleigh` scene: the Chaplygin sleigh, which has a closed form.
+/// The `sleigh` scene: the Chaplygin sleigh, which has a closed form
+/// (docs/physics.md §9).
 pub fn sleigh() -> Scene {
     get("sleigh")
 }
