@@ -100,6 +100,7 @@ fn scene(c: &mut Criterion) {
         rtol: 1e-9,
         atol: 1e-9,
         balance_limit: None,
+        max_steps: None,
     };
     let mut g = c.benchmark_group("drive");
     g.sample_size(10);

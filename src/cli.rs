@@ -121,13 +121,13 @@ pub struct RunArgs {
     #[arg(long = "set", value_name = "NAME=VALUE", value_parser = parse_set)]
     pub sets: Vec<(String, f64)>,
     /// Step size [s] (scene default: 1e-4).
-    #[arg(long, value_name = "H")]
+    #[arg(long, value_name = "H", allow_hyphen_values = true)]
     pub dt: Option<f64>,
     /// Duration [s].
-    #[arg(long, value_name = "T")]
+    #[arg(long, value_name = "T", allow_hyphen_values = true)]
     pub t_end: Option<f64>,
     /// Output interval [s] (default 0.01; the final time is always written).
-    #[arg(long, value_name = "DT")]
+    #[arg(long, value_name = "DT", allow_hyphen_values = true)]
     pub every: Option<f64>,
     /// Coordinate projection after every step.
     #[arg(long, value_enum)]
@@ -139,11 +139,19 @@ pub struct RunArgs {
     #[arg(long, value_enum)]
     pub integrator: Option<Integrator>,
     /// Relative tolerance of the adaptive methods (default 1e-9).
-    #[arg(long, value_name = "R")]
+    #[arg(long, value_name = "R", allow_hyphen_values = true)]
     pub rtol: Option<f64>,
     /// Absolute tolerance of the adaptive methods (default 1e-9).
-    #[arg(long, value_name = "A")]
+    #[arg(long, value_name = "A", allow_hyphen_values = true)]
     pub atol: Option<f64>,
+    /// Refuse runs that need more step attempts than this (adaptive runs
+    /// stop when they reach it) [default: 100000000].
+    #[arg(long, value_name = "N")]
+    pub max_steps: Option<u64>,
+    /// Refuse runs whose trajectory.csv would be larger than this many MB
+    /// (estimated before the run) [default: 1000].
+    #[arg(long, value_name = "MB", value_parser = parse_positive)]
+    pub max_output_mb: Option<f64>,
     /// Skip the figures (CSV only).
     #[arg(long)]
     pub no_figures: bool,
@@ -200,6 +208,15 @@ pub fn parse_baumgarte(s: &str) -> Result<Baumgarte, String> {
     Ok(Baumgarte { alpha: num(a)?, beta: num(b)? })
 }
 
+/// A finite number > 0.
+pub fn parse_positive(s: &str) -> Result<f64, String> {
+    match s.trim().parse::<f64>() {
+        Ok(v) if v.is_finite() && v > 0.0 => Ok(v),
+        Ok(_) => Err(format!("`{s}` must be a finite number > 0")),
+        Err(_) => Err(format!("`{s}` is not a number")),
+    }
+}
+
 pub fn parse_set(s: &str) -> Result<(String, f64), String> {
     let (name, value) = s.split_once('=').ok_or_else(|| format!("`{s}`: expected NAME=VALUE"))?;
     let v: f64 = value.trim().parse().map_err(|_| format!("`{s}`: `{value}` is not a number"))?;
@@ -254,6 +271,8 @@ impl RunArgs {
             atol: self.atol,
             figures: !self.no_figures,
             progress: true,
+            max_steps: self.max_steps,
+            max_output_mb: self.max_output_mb,
         }
     }
 }

@@ -121,6 +121,7 @@ fn run_once<M: Model + Default>(
         atol: setting.tol.unwrap_or(base.atol),
         // accuracy is what is measured here, not a reason to stop
         balance_limit: None,
+        max_steps: None,
         ..base
     };
     let mut last = Last { history: history.then(Vec::new), ..Last::default() };

@@ -69,9 +69,24 @@ pub struct RunOptions {
     pub atol: Option<f64>,
     /// Draw the scene's figures.
     pub figures: bool,
-    /// Show a progress bar (when stderr is a terminal and the run is long).
+    /// Show progress on stderr for long runs (a bar on a terminal, a line
+    /// every few seconds otherwise).
     pub progress: bool,
+    /// Most step attempts the run may take (`None`: the scene's, by default
+    /// [`ezy_core::simulate::DEFAULT_MAX_STEPS`]).
+    pub max_steps: Option<u64>,
+    /// Largest estimated size of `trajectory.csv` \[MB\] (`None`:
+    /// [`DEFAULT_MAX_OUTPUT_MB`]).
+    pub max_output_mb: Option<f64>,
 }
+
+/// Default cap on the estimated size of `trajectory.csv`: 1000 MB (the
+/// `drive` scene writes 1.6 MB).
+pub const DEFAULT_MAX_OUTPUT_MB: f64 = 1000.0;
+
+/// Bytes one CSV value takes at most: ryu's shortest round-trip form of an
+/// f64 (up to 24 characters) and a separator.
+const BYTES_PER_VALUE: f64 = 25.0;
 
 /// What a run produced.
 #[derive(Debug, Clone)]
@@ -188,14 +203,21 @@ pub fn setup<M: Model + Default>(scene: &Scene, sets: &[(String, f64)]) -> Resul
     model.mass_diagonal(&mut mass);
     for b in &info.bodies {
         for (what, k, param) in [("mass", b.coords[0], b.mass_param), ("inertia", b.coords[2], b.inertia_param)] {
-            if mass[k].is_nan() || mass[k] < 0.0 {
+            let reason = if !mass[k].is_finite() || mass[k] < 0.0 {
+                Some("must be a finite number, zero or positive")
+            } else if mass[k] > 0.0 && !(1.0 / mass[k]).is_finite() {
+                Some("is so small that its reciprocal overflows: give 0 for a massless body, or at least 1e-300")
+            } else {
+                None
+            };
+            if let Some(reason) = reason {
                 return Err(SimError::Setting {
                     name: match param {
                         Some(p) => format!("{p} ({what} of body {})", b.name),
                         None => format!("{what} of body {}", b.name),
                     },
                     value: mass[k],
-                    reason: "must be zero or positive",
+                    reason,
                 });
             }
         }
@@ -232,8 +254,22 @@ pub fn build<M: Model + Default>(
 /// [`Error`] naming the bad setting, parameter, or file.
 pub fn run_model<M: Model + Default>(scene: &Scene, opts: &RunOptions) -> Result<Report, Error> {
     let wall = Instant::now();
+    for (flag, name, value) in [
+        ("--dt", "dt", opts.dt),
+        ("--t-end", "t_end", opts.t_end),
+        ("--every", "every", opts.every),
+        ("--rtol", "rtol", opts.rtol),
+        ("--atol", "atol", opts.atol),
+    ] {
+        if let Some(v) = value
+            && let Some(reason) = RunSettings::reject(name, v)
+        {
+            return Err(SimError::Setting { name: flag.into(), value: v, reason }.into());
+        }
+    }
     let base = scene.run_settings();
     let settings = RunSettings {
+        max_steps: opts.max_steps.or(base.max_steps),
         dt: opts.dt.unwrap_or(base.dt),
         t_end: opts.t_end.unwrap_or(base.t_end),
         every: opts.every.unwrap_or(base.every),
@@ -255,6 +291,7 @@ pub fn run_model<M: Model + Default>(scene: &Scene, opts: &RunOptions) -> Result
     let progress = if opts.progress { crate::progress::Progress::new(settings.t_end) } else { None };
     let n_rows = settings.n_steps() / settings.output_stride() + 2;
     let rows = RowBuilder::new(scene, &sys);
+    output_budget(&settings, rows.columns.len(), opts.max_output_mb.unwrap_or(DEFAULT_MAX_OUTPUT_MB))?;
     let mut obs = CsvObserver::create(&csv_path, rows, progress, n_rows as usize)?;
     let summary = match ezy_core::simulate(&mut sys, &y0, &settings, &mut obs) {
         Ok(s) => s,
@@ -287,6 +324,31 @@ pub fn run_model<M: Model + Default>(scene: &Scene, opts: &RunOptions) -> Result
     Ok(Report { summary, table, settings, state_names, files, wall: wall.elapsed(), warnings })
 }
 
+/// Refuses a run whose `trajectory.csv` would exceed `max_mb` \[MB\]:
+/// rows (one per output interval, plus the first and the last) times
+/// `columns` values of at most [`BYTES_PER_VALUE`] bytes.
+///
+/// # Errors
+/// [`SimError::Budget`] with the estimate and the flag that raises the cap.
+pub fn output_budget(settings: &RunSettings, columns: usize, max_mb: f64) -> Result<(), SimError> {
+    let rows = if settings.method.is_adaptive() {
+        (settings.t_end / settings.every).floor() + 2.0
+    } else {
+        (settings.t_end / settings.dt).ceil() / (settings.every / settings.dt).round().max(1.0) + 2.0
+    };
+    let mb = rows * columns as f64 * BYTES_PER_VALUE / 1e6;
+    if mb > max_mb {
+        return Err(SimError::Budget {
+            what: "MB of output",
+            estimate: mb,
+            limit: max_mb,
+            flag: "--max-output-mb",
+            detail: format!("{rows:.3e} rows of {columns} columns in trajectory.csv"),
+        });
+    }
+    Ok(())
+}
+
 /// The summary `run` prints: method and steps, RHS evaluations and times,
 /// residuals, the energy balance, the final state and the files written.
 pub fn summary(scene: &str, r: &Report) -> String {
@@ -300,7 +362,8 @@ pub fn summary(scene: &str, r: &Report) -> String {
             s.steps, s.rejected, r.settings.rtol, r.settings.atol
         )
     } else {
-        format!("{} steps of h = {} s", s.steps, r.settings.dt)
+        // one shortened step when the step is longer than the run
+        format!("{} steps of h = {} s", s.steps, r.settings.dt.min(r.settings.t_end))
     };
     let _ = writeln!(
         out,

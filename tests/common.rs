@@ -18,6 +18,7 @@ pub fn dop853(t_end: f64, every: f64, tol: f64) -> ezy_core::RunSettings {
         rtol: tol,
         atol: tol,
         balance_limit: None,
+        max_steps: None,
     }
 }
 

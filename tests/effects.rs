@@ -147,6 +147,7 @@ fn power_is_the_derivative_of_the_work_column_and_the_ledger_closes() {
         rtol: 1e-12,
         atol: 1e-12,
         balance_limit: None,
+        max_steps: None,
     };
     let mut rec = Works::default();
     let summary = simulate(&mut sys, &y0, &settings, &mut rec).unwrap();

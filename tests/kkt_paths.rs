@@ -87,6 +87,7 @@ fn drive_on_the_sparse_path_matches_the_dense_one() {
             rtol: 1e-9,
             atol: 1e-9,
             balance_limit: None,
+            max_steps: None,
         };
         let s = simulate(&mut sys, &y0, &settings, &mut common::Recorder::default()).unwrap();
         assert_eq!(s.kkt, if method == KktMethod::Sparse { "sparse-cholesky" } else { "schur-cholesky" });

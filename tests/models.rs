@@ -10,7 +10,7 @@ use ezy_models::{Snake, Trailer, scenes};
 fn run_scene<M: Model + Default>(name: &str) -> (ezy_core::Dynamics<M>, ezy_core::Summary, Vec<f64>) {
     let scene = scenes::get(name);
     let (mut sys, y0) = build::<M>(&scene, &[], KktMethod::Auto).unwrap();
-    let settings = RunSettings { every: scene.t_end, balance_limit: None, ..scene.run_settings() };
+    let settings = RunSettings { every: scene.t_end, balance_limit: None, max_steps: None, ..scene.run_settings() };
     let s = simulate(&mut sys, &y0, &settings, &mut Last).unwrap();
     (sys, s, y0)
 }

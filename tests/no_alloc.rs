@@ -74,6 +74,7 @@ fn allocations_with(
         rtol: 1e-9,
         atol: 1e-9,
         balance_limit: Some(1e-2),
+        max_steps: None,
     };
     let mut sink = Sink(0.0);
     let before = allocations();
@@ -126,6 +127,7 @@ fn the_family_sparse_path_does_not_allocate() {
             rtol: 1e-9,
             atol: 1e-9,
             balance_limit: None,
+            max_steps: None,
         };
         let mut sink = Sink(0.0);
         let before = allocations();

@@ -54,7 +54,7 @@ proptest! {
         let (mut sys, y0) = built.unwrap();
         let settings = RunSettings {
             dt: 1e-3, t_end: 5.0, every: 0.05, projection: ProjectionKind::MassWeighted,
-            method: Method::Dop853, rtol: 1e-10, atol: 1e-10, balance_limit: None,
+            method: Method::Dop853, rtol: 1e-10, atol: 1e-10, balance_limit: None, max_steps: None,
         };
         let mut worst = Worst { residual: 0.0 };
         let s = simulate(&mut sys, &y0, &settings, &mut worst).unwrap();

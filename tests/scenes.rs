@@ -16,7 +16,7 @@ fn run<M: Model + Default>(
     projection: ProjectionKind,
 ) -> (Recorder, ezy_core::Summary) {
     let (mut sys, y0_scene) = build::<M>(scene, &[], KktMethod::Auto).expect("scene sets up");
-    let settings = RunSettings { projection, balance_limit: None, ..scene.run_settings() };
+    let settings = RunSettings { projection, balance_limit: None, max_steps: None, ..scene.run_settings() };
     let mut rec = Recorder::default();
     let summary = simulate(&mut sys, &y0.unwrap_or(y0_scene), &settings, &mut rec).expect("scene runs");
     (rec, summary)
@@ -163,6 +163,7 @@ fn baumgarte_keeps_the_drift_bounded() {
             rtol: 1e-9,
             atol: 1e-9,
             balance_limit: None,
+            max_steps: None,
         };
         let mut rec = Recorder::default();
         simulate(&mut sys, &y0, &settings, &mut rec).unwrap();

@@ -64,6 +64,7 @@ fn run<M: Model>(model: M, effects: Vec<EffectSpec>, y0: Vec<f64>, t_end: f64) -
         rtol: 1e-12,
         atol: 1e-12,
         balance_limit: None,
+        max_steps: None,
     };
     let s = simulate(&mut sys, &y0, &settings, &mut common::Recorder::default()).unwrap();
     let last = s.final_state.clone();

@@ -14,24 +14,23 @@ pub enum SimError {
         /// The linear-solver failure.
         source: KktError,
     },
-    /// A state component became NaN or infinite.
-    #[error(
-        "at t = {t} s the state component `{quantity}` became {value}; the step h = {dt} s is too large for this scene, try a smaller --dt"
-    )]
+    /// A state component or a derived quantity (kinetic energy, work,
+    /// residual, an output column) became NaN or infinite.
+    #[error("at t = {t} s {quantity} became {value}; {advice}")]
     NonFinite {
         /// Time \[s\] at the start of the failing step.
         t: f64,
-        /// Name of the component (`x1`, `phi2d`, `W`).
+        /// What became non-finite: "the state component `x1`", "the kinetic energy T".
         quantity: String,
         /// Its value (NaN or inf).
         value: f64,
         /// The step size \[s\].
         dt: f64,
+        /// What to do, fitted to the method in use ([`advice`]).
+        advice: String,
     },
     /// The integration left the accuracy any result could be used at.
-    #[error(
-        "at t = {t} s {quantity} reached {value:.3e} (limit {limit:.0e}): the step h = {dt} s is far too large for this scene; try a smaller --dt or an adaptive method (--integrator dop853)"
-    )]
+    #[error("at t = {t} s {quantity} reached {value:.3e} (limit {limit:.0e}); {advice}")]
     Diverged {
         /// Time \[s\].
         t: f64,
@@ -43,9 +42,13 @@ pub enum SimError {
         limit: f64,
         /// The step size \[s\].
         dt: f64,
+        /// What to do, fitted to the method in use ([`advice`]).
+        advice: String,
     },
     /// An adaptive method needed a step below the rounding level of `t`.
-    #[error("at t = {t} s the step size fell to {h:e} s; the problem may be stiff or the tolerance too tight")]
+    #[error(
+        "at t = {t} s the step size fell to {h:e} s, the rounding level of t: the problem may be stiff or the tolerance too tight"
+    )]
     StepSizeTooSmall {
         /// Time \[s\].
         t: f64,
@@ -103,6 +106,23 @@ pub enum SimError {
         /// Names of the rows before it.
         before: String,
     },
+    /// A run would take more steps or write more output than its budget.
+    #[error(
+        "the run would take {} {what} ({detail}), more than the limit of {}; {}",
+        fmt_value(*estimate), fmt_value(*limit), raise(*estimate, flag)
+    )]
+    Budget {
+        /// What is counted: "steps", "MB of output".
+        what: &'static str,
+        /// The estimate (or the count reached).
+        estimate: f64,
+        /// The limit.
+        limit: f64,
+        /// The flag that raises the limit, e.g. `--max-steps`.
+        flag: &'static str,
+        /// How the estimate was made.
+        detail: String,
+    },
     /// A setting is out of range.
     #[error("invalid setting {name} = {}: {reason}", fmt_value(*value))]
     Setting {
@@ -130,6 +150,32 @@ impl SimError {
             }
             source => SimError::Kkt { t, source },
         }
+    }
+}
+
+/// What to do when a run's numbers blow up, for the method in use: a
+/// fixed-step method's step `dt` \[s\] may be too large; an adaptive method
+/// met its tolerance, so the solution itself grows (forces, initial
+/// values); at t = 0 the scene's numbers themselves are out of range.
+pub fn advice(method: crate::Method, t: f64, dt: f64) -> String {
+    if t == 0.0 && dt == 0.0 {
+        "the scene's initial values or parameters are out of the range double precision can hold".into()
+    } else if method.is_adaptive() {
+        "the adaptive method met its tolerance up to here, so the solution itself grows without bound: check the scene's forces, parameters and initial values".into()
+    } else {
+        format!(
+            "the step h = {dt} s is too large for this scene: try a smaller --dt or an adaptive method (--integrator dop853)"
+        )
+    }
+}
+
+/// How to get past a budget: the flag with the estimate, or, for an
+/// estimate no machine could run, a change of settings.
+fn raise(estimate: f64, flag: &str) -> String {
+    if estimate.is_finite() && estimate < 1e15 {
+        format!("pass {flag} {} (or larger) to run it anyway", fmt_value(estimate.ceil()))
+    } else {
+        "no budget makes this feasible: change the step, duration or output interval".into()
     }
 }
 

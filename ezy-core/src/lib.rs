@@ -21,7 +21,7 @@ pub mod simulate;
 
 pub use dynamics::{Baumgarte, Dynamics};
 pub use effects::{Effect, EffectSpec};
-pub use error::SimError;
+pub use error::{SimError, advice};
 pub use ezy_derive::model;
 pub use integrator::Method;
 pub use model::{

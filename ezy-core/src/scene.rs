@@ -420,6 +420,10 @@ pub struct SceneError {
 /// needs gigabytes; larger counts are surely typos).
 pub const MAX_COUNT: f64 = 1e6;
 
+/// Largest scene file read \[bytes\]: 1 MiB. The largest built-in scene
+/// is under 4 KiB; a spline of 10,000 knots fits easily.
+pub const MAX_SCENE_BYTES: u64 = 1 << 20;
+
 /// Checks the value of a family count `name` (`count N = ..;` in the model).
 ///
 /// # Errors
@@ -555,6 +559,7 @@ impl Scene {
             SceneFileError { file: file.to_string(), line, column, key, message: e.message().trim().to_string() }
         };
         let mut root = toml::de::DeTable::parse(src).map_err(located)?;
+        refuse_misplaced_arrays(root.get_ref(), &mut Vec::new()).map_err(|e| Self::locate_error(src, file, e))?;
         let bindings = bind_scene_params(root.get_mut()).map_err(|e| Self::locate_error(src, file, e))?;
         // the tree keeps the spans of the text, so errors are placed as before
         let mut scene = Scene::deserialize(toml::de::Deserializer::from(root)).map_err(located)?;
@@ -584,14 +589,21 @@ impl Scene {
     /// [`SceneFileError`] (line 0) if the file cannot be read, else as
     /// [`Scene::from_toml`].
     pub fn read(path: &Path) -> Result<(Scene, String), SceneFileError> {
+        use std::io::Read;
         let file = path.display().to_string();
-        let src = std::fs::read_to_string(path).map_err(|e| SceneFileError {
-            file: file.clone(),
-            line: 0,
-            column: 0,
-            key: None,
-            message: format!("cannot read the scene file: {e}"),
-        })?;
+        let error = |message: String| SceneFileError { file: file.clone(), line: 0, column: 0, key: None, message };
+        let mut src = String::new();
+        // read at most one byte past the cap: a huge file or an endless one
+        // (a device, a pipe) is refused without being held in memory
+        std::fs::File::open(path)
+            .and_then(|f| f.take(MAX_SCENE_BYTES + 1).read_to_string(&mut src))
+            .map_err(|e| error(format!("cannot read the scene file: {e}")))?;
+        if src.len() as u64 > MAX_SCENE_BYTES {
+            return Err(error(format!(
+                "the scene file is larger than {} KiB, the most a scene file may be",
+                MAX_SCENE_BYTES / 1024
+            )));
+        }
         Ok((Self::from_toml(&src, &file)?, src))
     }
 
@@ -766,6 +778,17 @@ impl Scene {
         positive(&["integrator", "dt"], self.integrator.dt, "the step [s]")?;
         positive(&["integrator", "rtol"], self.integrator.rtol, "the relative tolerance")?;
         positive(&["integrator", "atol"], self.integrator.atol, "the absolute tolerance")?;
+        for (key, v) in [("rtol", self.integrator.rtol), ("atol", self.integrator.atol)] {
+            if v < crate::simulate::MIN_TOLERANCE {
+                return Err(SceneError::at(
+                    &["integrator", key],
+                    format!(
+                        "a tolerance below {:e} cannot be met in double precision, got {v:e}",
+                        crate::simulate::MIN_TOLERANCE
+                    ),
+                ));
+            }
+        }
         positive(&["output", "every"], self.output.every, "the output interval [s]")?;
         for (name, e) in &self.effects {
             if name.is_empty() || !name.chars().all(|c| c.is_ascii_alphanumeric() || c == '_') {
@@ -1067,6 +1090,7 @@ impl Scene {
             rtol: self.integrator.rtol,
             atol: self.integrator.atol,
             balance_limit: Some(crate::simulate::BALANCE_LIMIT),
+            max_steps: Some(crate::simulate::DEFAULT_MAX_STEPS),
         }
     }
 
@@ -1317,6 +1341,43 @@ fn is_identifier(name: &str) -> bool {
 /// # Errors
 /// A [`SceneError`] at a scene parameter that is not a number, or at a
 /// string that names no scene parameter (listing the declared ones).
+/// The keys whose value is an array in a scene file; an array anywhere
+/// else stands where a table or a single value belongs, and serde would
+/// read a struct from it by position (`integrator = ["euler", 0.01]`).
+const ARRAY_KEYS: &[&str] = &["include", "paths", "lines", "figures", "harmonics", "t", "value"];
+
+/// Refuses an array at a key not in [`ARRAY_KEYS`], and an array as an
+/// element of an array (the arrays of a scene hold tables or values).
+fn refuse_misplaced_arrays(table: &toml::de::DeTable<'_>, path: &mut Vec<String>) -> Result<(), SceneError> {
+    use toml::de::DeValue;
+    fn walk(v: &DeValue<'_>, path: &mut Vec<String>, array_ok: bool) -> Result<(), SceneError> {
+        match v {
+            DeValue::Table(t) => refuse_misplaced_arrays(t, path),
+            DeValue::Array(a) if array_ok => {
+                for (i, v) in a.iter().enumerate() {
+                    path.push(i.to_string());
+                    walk(v.get_ref(), path, false)?;
+                    path.pop();
+                }
+                Ok(())
+            }
+            DeValue::Array(_) => Err(SceneError {
+                path: path.clone(),
+                message: "an array is not allowed here: write a table (`{ key = value, ... }`) or a single value"
+                    .into(),
+            }),
+            _ => Ok(()),
+        }
+    }
+    for (k, v) in table.iter() {
+        let key = k.get_ref().as_ref();
+        path.push(key.to_string());
+        walk(v.get_ref(), path, ARRAY_KEYS.contains(&key))?;
+        path.pop();
+    }
+    Ok(())
+}
+
 fn bind_scene_params(root: &mut toml::de::DeTable<'_>) -> Result<Vec<Binding>, SceneError> {
     use toml::de::DeValue;
     let mut declared: Vec<(String, DeValue<'_>)> = Vec::new();

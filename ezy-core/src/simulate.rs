@@ -4,13 +4,13 @@
 
 use std::time::{Duration, Instant};
 
-use crate::SimError;
 use crate::dynamics::{Counters, Dynamics};
 use crate::integrator::adaptive::{Controller, initial_step};
 use crate::integrator::{Dop853, Dopri5, EmbeddedRk, Euler, Method, Rk4, Tolerance};
 use crate::kkt::KktError;
 use crate::model::Model;
 use crate::projection::{ProjectionKind, Projector, max_abs};
+use crate::{SimError, advice};
 
 /// Settings of one run.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -33,7 +33,17 @@ pub struct RunSettings {
     /// Stop with [`SimError::Diverged`] when the relative energy balance
     /// `|T - T0 - W| / max(1 J, |W|)` exceeds this (`None`: never).
     pub balance_limit: Option<f64>,
+    /// Most step attempts (accepted and rejected) a run may take: a
+    /// fixed-step run needing more is refused before it starts, an
+    /// adaptive run stops with [`SimError::Budget`] when it gets there
+    /// (`None`: no limit).
+    pub max_steps: Option<u64>,
 }
+
+/// Default of [`RunSettings::max_steps`] for scenes: 1e8 steps, about a
+/// minute of RK4 on the EzyRoller (4 RHS of ~150 ns each per step) and
+/// far more than any built-in scene needs (`drive`: 6e5).
+pub const DEFAULT_MAX_STEPS: u64 = 100_000_000;
 
 /// Smallest `rtol`/`atol` accepted: about 50 ulp of 1; tighter requests
 /// only make the adaptive step hunt rounding noise.
@@ -52,27 +62,47 @@ impl RunSettings {
     /// # Errors
     /// [`SimError::Setting`] naming the first bad setting.
     pub fn validate(&self) -> Result<(), SimError> {
-        let bad = |name: &str, value: f64, reason| Err(SimError::Setting { name: name.into(), value, reason });
-        if !(self.dt.is_finite() && self.dt > 0.0) {
-            return bad("--dt", self.dt, "the step must be a positive number of seconds");
+        for (name, value) in
+            [("dt", self.dt), ("t_end", self.t_end), ("every", self.every), ("rtol", self.rtol), ("atol", self.atol)]
+        {
+            if let Some(reason) = Self::reject(name, value) {
+                return Err(SimError::Setting { name: name.into(), value, reason });
+            }
         }
-        if !(self.t_end.is_finite() && self.t_end > 0.0) {
-            return bad("--t-end", self.t_end, "the duration must be a positive number of seconds");
-        }
-        if !(self.every.is_finite() && self.every > 0.0) {
-            return bad("--every", self.every, "the output interval must be a positive number of seconds");
-        }
-        if self.method.is_adaptive() {
-            for (name, v) in [("--rtol", self.rtol), ("--atol", self.atol)] {
-                if !(v.is_finite() && v > 0.0) {
-                    return bad(name, v, "a tolerance must be a positive number");
-                }
-                if v < MIN_TOLERANCE {
-                    return bad(name, v, "a tolerance below 1e-14 cannot be met in double precision");
-                }
+        if let Some(max) = self.max_steps
+            && !self.method.is_adaptive()
+        {
+            let needed = (self.t_end / self.dt).ceil();
+            if needed > max as f64 {
+                return Err(SimError::Budget {
+                    what: "steps",
+                    estimate: needed,
+                    limit: max as f64,
+                    flag: "--max-steps",
+                    detail: format!("t_end / dt = {:e} s / {:e} s", self.t_end, self.dt),
+                });
             }
         }
         Ok(())
+    }
+
+    /// Why `value` is not acceptable for the setting `name` (`dt`, `t_end`,
+    /// `every` \[s\], `rtol`, `atol`), or `None` if it is. Tolerances are
+    /// checked whatever the method, so a bad one never waits for the day
+    /// an adaptive method is chosen.
+    pub fn reject(name: &str, value: f64) -> Option<&'static str> {
+        match name {
+            "dt" if !(value.is_finite() && value > 0.0) => Some("the step must be a positive number of seconds"),
+            "t_end" if !(value.is_finite() && value > 0.0) => Some("the duration must be a positive number of seconds"),
+            "every" if !(value.is_finite() && value > 0.0) => {
+                Some("the output interval must be a positive number of seconds")
+            }
+            "rtol" | "atol" if !(value.is_finite() && value > 0.0) => Some("a tolerance must be a positive number"),
+            "rtol" | "atol" if value < MIN_TOLERANCE => {
+                Some("a tolerance below 1e-14 cannot be met in double precision")
+            }
+            _ => None,
+        }
     }
 
     /// Number of steps to reach `t_end` (the last one may be shorter).
@@ -212,6 +242,8 @@ struct Run<'a, M: Model, O: Observer<M>> {
     resid: Residuals,
     sample: Vec<f64>,
     t0_energy: f64,
+    /// Size of the last step \[s\] (0 before the first).
+    last_step: f64,
     summary: Summary,
     output_time: Duration,
 }
@@ -226,12 +258,24 @@ impl<M: Model, O: Observer<M>> Run<'_, M, O> {
         let (rp, rv) = self.resid.eval(&sys.model, &sys.drives, t, q, qd);
         self.summary.max_residual_position = self.summary.max_residual_position.max(rp);
         self.summary.max_residual_velocity = self.summary.max_residual_velocity.max(rv);
+        let (kinetic, work) = (sys.kinetic_energy(qd), sys.work(y));
+        for (quantity, value) in [
+            ("the kinetic energy T", kinetic),
+            ("the work W", work),
+            ("the position residual max|C(q)|", rp),
+            ("the velocity residual max|G(q) qd|", rv),
+        ] {
+            if !value.is_finite() {
+                let (dt, advice) = (self.last_step, advice(self.settings.method, t, self.last_step));
+                return Err(SimError::NonFinite { t, quantity: quantity.into(), value, dt, advice }.into());
+            }
+        }
         let sample = Sample {
             t,
             q,
             qd,
-            kinetic_energy: sys.kinetic_energy(qd),
-            work: sys.work(y),
+            kinetic_energy: kinetic,
+            work,
             works: &y[2 * nq..],
             residual_position: rp,
             residual_velocity: rv,
@@ -245,9 +289,12 @@ impl<M: Model, O: Observer<M>> Run<'_, M, O> {
     /// projection, energy balance. Returns whether `y` was changed.
     fn after_step(&mut self, sys: &Dynamics<M>, t: f64, t_new: f64, y: &mut [f64], h: f64) -> Result<bool, SimError> {
         let nq = sys.nq();
+        let method = self.settings.method;
         if let Some(k) = y.iter().position(|v| !v.is_finite()) {
-            return Err(SimError::NonFinite { t, quantity: sys.state_name(k), value: y[k], dt: h });
+            let quantity = format!("the state component `{}`", sys.state_name(k));
+            return Err(SimError::NonFinite { t, quantity, value: y[k], dt: h, advice: advice(method, t, h) });
         }
+        self.last_step = h;
         let mut changed = false;
         if self.settings.projection != ProjectionKind::None {
             let (q, rest) = y.split_at_mut(nq);
@@ -257,17 +304,27 @@ impl<M: Model, O: Observer<M>> Run<'_, M, O> {
             changed = true;
         }
         let work = sys.work(y);
-        let energy_error = (sys.kinetic_energy(&y[nq..2 * nq]) - self.t0_energy - work).abs();
+        let kinetic = sys.kinetic_energy(&y[nq..2 * nq]);
+        let energy_error = (kinetic - self.t0_energy - work).abs();
+        for (quantity, value) in [("the kinetic energy T", kinetic), ("the energy balance |T - T0 - W|", energy_error)]
+        {
+            if !value.is_finite() {
+                let advice = advice(method, t, h);
+                return Err(SimError::NonFinite { t: t_new, quantity: quantity.into(), value, dt: h, advice });
+            }
+        }
         self.summary.max_energy_error = self.summary.max_energy_error.max(energy_error);
         if let Some(limit) = self.settings.balance_limit {
             let relative = energy_error / work.abs().max(1.0);
-            if relative > limit {
+            // written so that a NaN fails it too
+            if !(relative <= limit) {
                 return Err(SimError::Diverged {
                     t: t_new,
                     quantity: "the relative energy balance |T - T0 - W| / max(1 J, |W|)",
                     value: relative,
                     limit,
                     dt: h,
+                    advice: advice(method, t, h),
                 });
             }
         }
@@ -321,6 +378,7 @@ pub fn simulate<M: Model, O: Observer<M>>(
         resid: Residuals::new(&sys.info),
         sample: y0.to_vec(),
         t0_energy,
+        last_step: 0.0,
         summary: Summary {
             method: settings.method,
             steps: 0,
@@ -405,11 +463,27 @@ fn adaptive<M: Model, O: Observer<M>, E: EmbeddedRk>(
     let mut n_out: u64 = 1;
     let out_time = |k: u64| (k as f64 * settings.every).min(settings.t_end);
     while t < settings.t_end {
+        let attempts = run.summary.steps + run.summary.rejected;
+        if let Some(max) = settings.max_steps
+            && attempts >= max
+        {
+            let estimate = if t > 0.0 { attempts as f64 * settings.t_end / t } else { f64::INFINITY };
+            return Err(SimError::Budget {
+                what: "steps",
+                estimate,
+                limit: max as f64,
+                flag: "--max-steps",
+                detail: format!("extrapolated from {attempts} step attempts to t = {t:.6e} s of {} s", settings.t_end),
+            }
+            .into());
+        }
         let last = t + h >= settings.t_end * (1.0 - 1e-15);
         if last {
             h = settings.t_end - t;
         }
-        if h.abs() <= 16.0 * f64::EPSILON * t.abs().max(1.0) {
+        // the rounding level of t, or of the run's own time scale for runs
+        // shorter than a second (a 1e-15 s run is not stiff)
+        if h.abs() <= 16.0 * f64::EPSILON * t.abs().max(settings.t_end.min(1.0)) {
             return Err(SimError::StepSizeTooSmall { t, h }.into());
         }
         let err = match stepper.attempt(sys, t, y, &k1, h, &tol, &mut y_new, &mut k_new) {
@@ -440,6 +514,9 @@ fn adaptive<M: Model, O: Observer<M>, E: EmbeddedRk>(
                 run.emit_sample(sys, t_out)?;
                 n_out += 1;
             }
+        }
+        // every 64 attempts, also when no output is due for long (tiny steps)
+        if (run.summary.steps + run.summary.rejected) % 64 == 0 {
             run.observer.progress(t_new);
         }
         y.copy_from_slice(&y_new);
