@@ -316,8 +316,8 @@ impl<M: Model, O: Observer<M>> Run<'_, M, O> {
         self.summary.max_energy_error = self.summary.max_energy_error.max(energy_error);
         if let Some(limit) = self.settings.balance_limit {
             let relative = energy_error / work.abs().max(1.0);
-            // written so that a NaN fails it too
-            if !(relative <= limit) {
+            // a NaN fails it too
+            if relative.is_nan() || relative > limit {
                 return Err(SimError::Diverged {
                     t: t_new,
                     quantity: "the relative energy balance |T - T0 - W| / max(1 J, |W|)",
@@ -516,7 +516,7 @@ fn adaptive<M: Model, O: Observer<M>, E: EmbeddedRk>(
             }
         }
         // every 64 attempts, also when no output is due for long (tiny steps)
-        if (run.summary.steps + run.summary.rejected) % 64 == 0 {
+        if (run.summary.steps + run.summary.rejected).is_multiple_of(64) {
             run.observer.progress(t_new);
         }
         y.copy_from_slice(&y_new);
