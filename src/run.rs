@@ -343,7 +343,7 @@ pub fn output_budget(settings: &RunSettings, columns: usize, max_mb: f64) -> Res
             estimate: mb,
             limit: max_mb,
             flag: "--max-output-mb",
-            detail: format!("{rows:.3e} rows of {columns} columns in trajectory.csv"),
+            detail: format!("{rows:.2e} rows of {columns} columns in trajectory.csv").replace(".00e", "e"),
         });
     }
     Ok(())

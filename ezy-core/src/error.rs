@@ -109,7 +109,7 @@ pub enum SimError {
     /// A run would take more steps or write more output than its budget.
     #[error(
         "the run would take {} {what} ({detail}), more than the limit of {}; {}",
-        fmt_value(*estimate), fmt_value(*limit), raise(*estimate, flag)
+        fmt_value(round3(*estimate)), fmt_value(*limit), raise(*estimate, flag)
     )]
     Budget {
         /// What is counted: "steps", "MB of output".
@@ -173,10 +173,22 @@ pub fn advice(method: crate::Method, t: f64, dt: f64) -> String {
 /// estimate no machine could run, a change of settings.
 fn raise(estimate: f64, flag: &str) -> String {
     if estimate.is_finite() && estimate < 1e15 {
-        format!("pass {flag} {} (or larger) to run it anyway", fmt_value(estimate.ceil()))
+        format!("pass {flag} {} (or larger) to run it anyway", fmt_value(ceil3(estimate)))
     } else {
         "no budget makes this feasible: change the step, duration or output interval".into()
     }
+}
+
+/// `v` to three significant digits (an estimate's precision).
+fn round3(v: f64) -> f64 {
+    format!("{v:.2e}").parse().unwrap_or(v)
+}
+
+/// The smallest number of three significant digits `>= v` (v > 0).
+fn ceil3(v: f64) -> f64 {
+    let scale = 10f64.powf(v.log10().floor() - 2.0);
+    let up = (v / scale).ceil() * scale;
+    format!("{up:.2e}").parse().unwrap_or(up)
 }
 
 /// A number as a person would write it: plain for ordinary magnitudes,
