@@ -30,7 +30,7 @@ pub enum FigureError {
         column: String,
         /// The value.
         value: f64,
-        /// The row's time [s].
+        /// The row's time in seconds.
         t: f64,
         /// Why it cannot be drawn.
         reason: &'static str,

@@ -150,7 +150,7 @@ pub enum PlotError {
     Timeout {
         /// Title of the offending chart.
         title: String,
-        /// The limit [s].
+        /// The limit in seconds.
         seconds: f64,
     },
     /// A file-system operation on the figure failed.

@@ -88,7 +88,7 @@ pub struct Interrupted {
     pub signal: Signal,
     /// The output directory, left as it was.
     pub dir: PathBuf,
-    /// Simulated time [s] the run had reached, when it had one.
+    /// Simulated time in seconds the run had reached, when it had one.
     pub t: Option<f64>,
     /// What the run was doing (`"drawing fig3.png"`), when not integrating.
     pub doing: Option<String>,
@@ -518,7 +518,7 @@ pub fn pending() -> Option<Signal> {
 ///
 /// # Errors
 /// [`TransactionError::Interrupted`] with the signal, `dir`, the simulated
-/// time `t` [s] reached and what the run was `doing`.
+/// time `t` reached (seconds) and what the run was `doing`.
 pub fn check_interrupt(dir: &Path, t: Option<f64>, doing: Option<String>) -> Result<(), TransactionError> {
     match pending() {
         None => Ok(()),
