@@ -245,7 +245,12 @@ fn png_within(chart: &Chart, limit: std::time::Duration) -> Result<Vec<u8>, Plot
         .map_err(|e| draw_error(format!("cannot start the drawing thread: {e}")))?;
     let pixels = match rx.recv_timeout(limit) {
         Ok(r) => r?,
-        Err(_) => return Err(PlotError::Timeout { title: chart.title.clone(), seconds: limit.as_secs_f64() }),
+        Err(std::sync::mpsc::RecvTimeoutError::Timeout) => {
+            return Err(PlotError::Timeout { title: chart.title.clone(), seconds: limit.as_secs_f64() });
+        }
+        Err(std::sync::mpsc::RecvTimeoutError::Disconnected) => {
+            return Err(draw_error("plotters panicked while drawing".into()));
+        }
     };
     let mut bytes = Vec::new();
     image::codecs::png::PngEncoder::new(&mut bytes)
@@ -255,8 +260,8 @@ fn png_within(chart: &Chart, limit: std::time::Duration) -> Result<Vec<u8>, Plot
 }
 
 /// Why a data range cannot be drawn, if it cannot: a bound that is not
-/// finite or beyond [`MAX_MAGNITUDE`], or a length beyond what plotters
-/// handles. Returns the offending value and the reason.
+/// finite or beyond [`MAX_MAGNITUDE`]. Returns the offending value and the
+/// reason.
 pub fn undrawable(range: &Range<f64>) -> Option<(f64, &'static str)> {
     for v in [range.start, range.end] {
         if !v.is_finite() {
