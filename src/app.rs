@@ -114,6 +114,10 @@ pub enum AppError {
     /// otherwise).
     #[error("{0}")]
     Failed(String),
+    /// A signal stopped the command before it committed its output
+    /// ([`App::main`] exits with 128 + the signal's number).
+    #[error("{0}")]
+    Interrupted(crate::transaction::Interrupted),
     /// Writing to the output stream failed (a closed pipe ends quietly in
     /// [`App::main`]).
     #[error("writing the output: {0}")]
@@ -123,6 +127,14 @@ pub enum AppError {
 impl AppError {
     fn failed(e: impl std::fmt::Display) -> Self {
         Self::Failed(e.to_string())
+    }
+
+    /// A failed run or measurement; an interruption keeps its signal.
+    fn from_run(e: run::Error) -> Self {
+        match e.interrupted() {
+            Some(i) => Self::Interrupted(i.clone()),
+            None => Self::failed(e),
+        }
     }
 }
 
@@ -389,14 +401,23 @@ impl App {
     /// prints its output on stdout and any error on stderr (`error: ...`).
     /// Returns success, or failure (1) when the command failed; a usage
     /// mistake exits with clap's status (2) and `--help` with 0. A closed
-    /// stdout (`... | head`) ends quietly.
+    /// stdout (`... | head`) ends quietly. `SIGINT` and `SIGTERM` stop a
+    /// run that is writing its output without changing the output directory
+    /// (see [`crate::transaction::handle_signals`]) and exit with 130 and
+    /// 143.
     pub fn main(self) -> ExitCode {
+        crate::transaction::handle_signals();
         let stdout = std::io::stdout();
         let mut out = stdout.lock();
         match self.run_cli(std::env::args_os(), &mut out) {
             Ok(()) => ExitCode::SUCCESS,
             Err(AppError::Usage(e)) => e.exit(),
             Err(AppError::Io(e)) if e.kind() == std::io::ErrorKind::BrokenPipe => ExitCode::SUCCESS,
+            Err(AppError::Interrupted(i)) => {
+                let _ = out.flush();
+                eprintln!("error: {i}");
+                ExitCode::from(i.signal.exit_code())
+            }
             Err(e) => {
                 let _ = out.flush();
                 eprintln!("error: {e}");
@@ -463,7 +484,7 @@ impl App {
         let src = self.load_scene(&args.scene).map_err(AppError::failed)?;
         let scene = &src.scene;
         let dir = args.out.unwrap_or_else(|| PathBuf::from("out").join("precision").join(&scene.name));
-        let report = self.precision(scene, &dir).map_err(AppError::failed)?;
+        let report = self.precision(scene, &dir).map_err(AppError::from_run)?;
         match args.format {
             cli::Format::Table => {
                 write!(out, "{}", precision::table(&report))?;
@@ -484,7 +505,7 @@ impl App {
         let src = self.load_scene(&name).map_err(AppError::failed)?;
         let scene = &src.scene;
         let opts = args.options(&scene.name);
-        let report = self.run_scene(scene, &opts).map_err(AppError::failed)?;
+        let report = self.run_scene(scene, &opts).map_err(AppError::from_run)?;
         for w in &report.warnings {
             eprintln!("warning: {w}");
         }

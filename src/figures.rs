@@ -1,12 +1,13 @@
 //! Scene figures: [`FigureSpec`]s resolved against the trajectory table and
-//! drawn with [`crate::plot`].
-
-use std::path::Path;
+//! drawn with [`crate::plot`]. Every value is checked before anything is
+//! drawn: a value that is not finite or beyond
+//! [`crate::plot::MAX_MAGNITUDE`] is an error naming the figure file, the
+//! column, the value and its time.
 
 use ezy_core::{Column, FigureSpec, ModelInfo};
 
 use crate::output::Table;
-use crate::plot::{Chart, PlotError, Series, render_png};
+use crate::plot::{Chart, PlotError, Series};
 
 /// Errors drawing a scene figure.
 #[derive(Debug, thiserror::Error)]
@@ -19,9 +20,30 @@ pub enum FigureError {
         /// Missing column.
         column: String,
     },
+    /// A value the figure would have to draw cannot be drawn: it is not
+    /// finite, or its magnitude is beyond [`crate::plot::MAX_MAGNITUDE`].
+    #[error("figure {figure}: column `{column}` is {value:e} at t = {t} s, which {reason}; the figure is not drawn")]
+    Value {
+        /// Figure file name.
+        figure: String,
+        /// The column (or column expression, `norm(x1d, y1d)`).
+        column: String,
+        /// The value.
+        value: f64,
+        /// The row's time in seconds.
+        t: f64,
+        /// Why it cannot be drawn.
+        reason: &'static str,
+    },
     /// Drawing failed.
-    #[error(transparent)]
-    Plot(#[from] PlotError),
+    #[error("figure {figure}: {source}")]
+    Plot {
+        /// Figure file name.
+        figure: String,
+        /// The cause.
+        #[source]
+        source: PlotError,
+    },
 }
 
 /// Floor of logarithmic axes: exact zeros (a residual projected to machine
@@ -57,11 +79,32 @@ fn named(table: &Table, name: &str, figure: &str) -> Result<Vec<f64>, FigureErro
     Ok(table.column(k).collect())
 }
 
-/// Draws `fig` from `table` into `path` (PNG).
+/// Checks that every value of `column` can be drawn (see
+/// [`FigureError::Value`]); `times` are the rows' times [s], `log` whether
+/// the column is drawn on a logarithmic axis (where any finite value can).
+fn check_values(figure: &str, column: String, values: &[f64], times: &[f64], log: bool) -> Result<(), FigureError> {
+    for (k, &v) in values.iter().enumerate() {
+        let reason = if !v.is_finite() {
+            "is not a finite number"
+        } else if !log && v.abs() > crate::plot::MAX_MAGNITUDE {
+            "is too large to plot (magnitude above 1e100)"
+        } else {
+            continue;
+        };
+        let t = times.get(k).copied().unwrap_or(f64::NAN);
+        return Err(FigureError::Value { figure: figure.into(), column, value: v, t, reason });
+    }
+    Ok(())
+}
+
+/// Draws `fig` from `table` as PNG and returns the file's bytes. Every
+/// value is checked before drawing.
 ///
 /// # Errors
-/// [`FigureError`] for a missing column or a drawing failure.
-pub fn render(info: &ModelInfo, fig: &FigureSpec, table: &Table, path: &Path) -> Result<(), FigureError> {
+/// [`FigureError::Column`] for a missing column, [`FigureError::Value`] for
+/// a value that is not finite or too large to draw, and
+/// [`FigureError::Plot`] for a drawing failure (see [`crate::plot::png`]).
+pub fn render(info: &ModelInfo, fig: &FigureSpec, table: &Table) -> Result<Vec<u8>, FigureError> {
     let mut chart = Chart {
         title: fig.title.clone(),
         x_label: fig.x_label.clone(),
@@ -71,11 +114,15 @@ pub fn render(info: &ModelInfo, fig: &FigureSpec, table: &Table, path: &Path) ->
         log_y: false,
         log_floor: LOG_FLOOR,
     };
+    let times: Vec<f64> = if table.columns.is_empty() { Vec::new() } else { table.column(0).collect() };
+    let check = |column: String, values: &[f64], log| check_values(&fig.file, column, values, &times, log);
     if fig.paths.is_empty() {
         chart.log_y = fig.log_y;
         let xs = values(table, &fig.x, &fig.file)?;
+        check(fig.x.to_string(), &xs, false)?;
         for line in &fig.lines {
             let vs = values(table, &line.y, &fig.file)?;
+            check(line.y.to_string(), &vs, fig.log_y)?;
             chart.series.push(Series { label: line.label.clone(), points: xs.iter().copied().zip(vs).collect() });
         }
     } else {
@@ -90,8 +137,10 @@ pub fn render(info: &ModelInfo, fig: &FigureSpec, table: &Table, path: &Path) ->
             };
             let xs = named(table, &x, &fig.file)?;
             let ys = named(table, &y, &fig.file)?;
+            check(x, &xs, false)?;
+            check(y, &ys, false)?;
             chart.series.push(Series { label, points: xs.into_iter().zip(ys).collect() });
         }
     }
-    Ok(render_png(&chart, path)?)
+    crate::plot::png(&chart).map_err(|source| FigureError::Plot { figure: fig.file.clone(), source })
 }

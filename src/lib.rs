@@ -17,6 +17,7 @@ pub mod progress;
 pub mod run;
 pub mod scale;
 pub mod testing;
+pub mod transaction;
 
 pub use app::App;
 pub use ezy_core;

@@ -1,6 +1,7 @@
-//! The trajectory table: written to `trajectory.csv` as the run goes (to a
-//! temporary file renamed on success, so a failed run never leaves a
-//! truncated file that looks complete) and kept in memory for the figures.
+//! The trajectory table: written to `trajectory.csv` as the run goes (into
+//! the run's [`Transaction`], committed with the figures only when the whole
+//! run succeeded, so a failed or interrupted run never leaves a truncated
+//! file that looks complete) and kept in memory for the figures.
 //!
 //! Columns: `t`; the coordinates in model order; their velocities in the
 //! same order (`<coord>d`); then the optional groups the scene's
@@ -12,16 +13,18 @@
 
 use std::fs::File;
 use std::io::BufWriter;
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 
 use ezy_core::kkt::KktMethod;
 use ezy_core::{Dynamics, Model, Observer, OutputGroup, Sample, Scene, SimError};
 
+use crate::transaction::{Transaction, TransactionError};
+
 /// Errors writing the table.
 #[derive(Debug, thiserror::Error)]
 pub enum OutputError {
-    /// A file could not be created, written or renamed.
-    #[error("{path}: {source}")]
+    /// A file could not be written (the path is the file's final name).
+    #[error("{}: {source}", path.display())]
     Io {
         /// The file.
         path: PathBuf,
@@ -31,14 +34,18 @@ pub enum OutputError {
     /// The constraint forces could not be computed at an output time.
     #[error(transparent)]
     Sim(#[from] SimError),
-    /// The CSV writer failed.
-    #[error("{path}: {source}")]
+    /// The CSV writer failed (the path is the file's final name).
+    #[error("{}: {source}", path.display())]
     Csv {
         /// The file.
         path: PathBuf,
         /// The cause.
         source: csv::Error,
     },
+    /// Creating the file in the run's transaction failed, or a signal
+    /// stopped the run.
+    #[error(transparent)]
+    Transaction(#[from] TransactionError),
 }
 
 /// Assembles one output row from a sample: `t`, `q`, `qd`, then exactly the
@@ -159,8 +166,10 @@ impl Table {
 
 /// Writes samples to CSV and keeps them for figures.
 pub struct CsvObserver<M: Model> {
+    /// The final path (errors name it).
     path: PathBuf,
-    tmp: PathBuf,
+    /// The output directory (an interruption names it).
+    dir: PathBuf,
     writer: csv::Writer<BufWriter<File>>,
     /// The rows kept for the figures: every `keep`-th row written, at most
     /// [`FIGURE_ROWS`] (the CSV streams every row; memory does not grow
@@ -174,26 +183,29 @@ pub struct CsvObserver<M: Model> {
 }
 
 impl<M: Model> CsvObserver<M> {
-    /// Creates `path`'s temporary sibling and writes the header; `rows` is
-    /// the expected number of rows (the table is preallocated).
+    /// Creates the table `name` (`trajectory.csv`) in the transaction `tx`
+    /// (the first file of the transaction, so the last one committed) and
+    /// writes the header; `rows` is the expected number of rows (the table
+    /// is preallocated).
     ///
     /// # Errors
     /// [`OutputError`] if the file cannot be created or written.
     pub fn create(
-        path: &Path,
+        tx: &mut Transaction,
+        name: &str,
         builder: RowBuilder<M>,
         progress: Option<crate::progress::Progress>,
         rows: usize,
     ) -> Result<Self, OutputError> {
         let columns = builder.columns.clone();
-        let tmp = path.with_extension("csv.partial");
-        let file = File::create(&tmp).map_err(|source| OutputError::Io { path: tmp.clone(), source })?;
+        let path = tx.path(name);
+        let file = tx.create(name)?;
         let mut writer = csv::Writer::from_writer(BufWriter::new(file));
-        writer.write_record(&columns).map_err(|source| OutputError::Csv { path: tmp.clone(), source })?;
+        writer.write_record(&columns).map_err(|source| OutputError::Csv { path: path.clone(), source })?;
         let n = columns.len();
         Ok(Self {
-            path: path.to_path_buf(),
-            tmp,
+            path,
+            dir: tx.dir().to_path_buf(),
             writer,
             table: Table { columns, data: Vec::with_capacity(rows.min(FIGURE_ROWS + 1) * n) },
             keep: 1,
@@ -204,27 +216,28 @@ impl<M: Model> CsvObserver<M> {
         })
     }
 
-    /// Flushes and renames the temporary file to its final name.
+    /// Flushes and syncs the file (its transaction commits it) and returns
+    /// the rows kept for the figures.
     ///
     /// # Errors
-    /// [`OutputError`] if flushing or renaming fails.
+    /// [`OutputError`] if flushing or syncing fails (a full disk).
     pub fn finish(mut self) -> Result<Table, OutputError> {
         if let Some(p) = self.progress.take() {
             p.finish();
         }
-        self.writer.flush().map_err(|source| OutputError::Io { path: self.tmp.clone(), source })?;
-        drop(self.writer);
-        std::fs::rename(&self.tmp, &self.path).map_err(|source| OutputError::Io { path: self.path.clone(), source })?;
+        let io = |source| OutputError::Io { path: self.path.clone(), source };
+        let file = self.writer.into_inner().map_err(|e| io(e.into_error()))?;
+        let file = file.into_inner().map_err(|e| io(e.into_error()))?;
+        crate::transaction::sync(&file, &self.path)?;
         Ok(self.table)
     }
 
-    /// Removes the temporary file (after a failed run).
+    /// Stops writing (after a failed run); the transaction, dropped
+    /// uncommitted, removes the file.
     pub fn abandon(self) {
         if let Some(p) = &self.progress {
             p.finish();
         }
-        drop(self.writer);
-        let _ = std::fs::remove_file(&self.tmp);
     }
 }
 
@@ -232,16 +245,17 @@ impl<M: Model> Observer<M> for CsvObserver<M> {
     type Error = OutputError;
 
     fn observe(&mut self, sys: &Dynamics<M>, s: &Sample<'_>) -> Result<(), OutputError> {
+        crate::transaction::check_interrupt(&self.dir, Some(s.t), None)?;
         self.builder.fill(sys, s, &mut self.row)?;
         let mut buf = ryu::Buffer::new();
         for &v in &self.row {
             self.writer
                 .write_field(buf.format(v))
-                .map_err(|source| OutputError::Csv { path: self.tmp.clone(), source })?;
+                .map_err(|source| OutputError::Csv { path: self.path.clone(), source })?;
         }
         self.writer
             .write_record(None::<&[u8]>)
-            .map_err(|source| OutputError::Csv { path: self.tmp.clone(), source })?;
+            .map_err(|source| OutputError::Csv { path: self.path.clone(), source })?;
         if self.written.is_multiple_of(self.keep) {
             if self.table.rows() >= FIGURE_ROWS {
                 let n = self.table.columns.len();
@@ -255,6 +269,11 @@ impl<M: Model> Observer<M> for CsvObserver<M> {
         }
         self.written += 1;
         Ok(())
+    }
+
+    /// Stops the run if a signal arrived (see [`crate::transaction`]).
+    fn poll(&mut self, t: f64) -> Result<(), OutputError> {
+        Ok(crate::transaction::check_interrupt(&self.dir, Some(t), None)?)
     }
 
     fn progress(&mut self, t: f64) {

@@ -6,14 +6,17 @@
 //! `dejavu` crate, so no system font (or fontconfig/freetype `-dev` package)
 //! is needed at build or run time.
 //!
-//! The figure is first written to a hidden temporary file next to the target
-//! and renamed into place only when it is complete, so a failed render never
-//! leaves a half-written figure behind.
+//! [`png`] checks the data ranges before drawing anything (a range plotters
+//! cannot draw is refused, see [`undrawable`]), draws on a worker thread
+//! with a time limit ([`DRAW_TIMEOUT`]) and encodes the PNG in memory;
+//! [`render_png`] writes it atomically, so a failed render never leaves a
+//! half-written figure behind.
 
 use std::ops::Range;
 use std::path::{Path, PathBuf};
 use std::sync::OnceLock;
 
+use image::ImageEncoder;
 use plotters::coord::ranged1d::{KeyPointHint, NoDefaultFormatting, Ranged, ValueFormatter};
 use plotters::coord::types::RangedCoordf64;
 use plotters::prelude::*;
@@ -118,12 +121,37 @@ pub enum PlotError {
     #[error("could not register the embedded DejaVu Sans font with plotters")]
     Font,
     /// plotters failed while drawing or encoding the figure.
-    #[error("drawing {path}: {message}")]
+    #[error("chart {title:?}: {message}")]
     Draw {
-        /// The figure that was being written.
-        path: PathBuf,
+        /// Title of the offending chart.
+        title: String,
         /// plotters' description of the failure.
         message: String,
+    },
+    /// A data range that cannot be drawn (see [`undrawable`]); nothing was
+    /// drawn.
+    #[error("chart {title:?}: the {axis} values from {start:e} to {end:e} cannot be plotted: {value:e} {reason}")]
+    Range {
+        /// Title of the offending chart.
+        title: String,
+        /// `"x"`, `"y"` or `"log10 y"`.
+        axis: &'static str,
+        /// Smallest value on the axis.
+        start: f64,
+        /// Largest value on the axis.
+        end: f64,
+        /// The offending value.
+        value: f64,
+        /// Why.
+        reason: &'static str,
+    },
+    /// Drawing took longer than [`DRAW_TIMEOUT`] and was given up.
+    #[error("chart {title:?}: drawing did not finish within {seconds} s and was given up")]
+    Timeout {
+        /// Title of the offending chart.
+        title: String,
+        /// The limit in seconds.
+        seconds: f64,
     },
     /// A file-system operation on the figure failed.
     #[error("writing {path}: {source}")]
@@ -136,39 +164,144 @@ pub enum PlotError {
     },
 }
 
+/// Largest magnitude of a plotted coordinate (in plot coordinates: `log10`
+/// of the value on a logarithmic axis). plotters loops forever once the
+/// length of a padded axis range overflows (measured: a y range from 0 to
+/// 1.5e308 is drawn, 0 to 1.7e308 or -1e308 to 1e308 never returns); spans
+/// down to one unit in the last place are drawn at any magnitude up to
+/// 1e120. 1e100 leaves a wide margin and is far beyond any physical
+/// quantity in SI units.
+pub const MAX_MAGNITUDE: f64 = 1e100;
+/// Largest length of an axis range after padding (and, for equal axes,
+/// equalizing): a second guard before plotters sees the range.
+const MAX_AXIS_LENGTH: f64 = 1e300;
+/// Longest a single figure may take to draw before it is given up
+/// ([`PlotError::Timeout`]): a safety net should plotters loop on a range
+/// the checks let through.
+pub const DRAW_TIMEOUT: std::time::Duration = std::time::Duration::from_secs(30);
+
 /// Render `chart` as a 1200 x 800 PNG at `path`.
 ///
-/// The image is drawn into a hidden temporary file `.<name>.tmp.png` in the
-/// same directory and renamed onto `path` only on success; on failure the
-/// temporary file is removed and any existing file at `path` is left as it
+/// The PNG is encoded in memory ([`png`]) and written with
+/// [`crate::transaction::write_atomically`]: into a uniquely named hidden
+/// temporary file next to `path`, created exclusively, renamed onto `path`
+/// only when complete; on failure any existing file at `path` is left as it
 /// was. The parent directory must exist.
+///
+/// # Errors
+/// As [`png`]; [`PlotError::Io`] if the file cannot be written or renamed.
+pub fn render_png(chart: &Chart, path: &Path) -> Result<(), PlotError> {
+    let bytes = png(chart)?;
+    crate::transaction::write_atomically(path, &bytes).map_err(|e| match e {
+        crate::transaction::TransactionError::Io { path, source } => PlotError::Io { path, source },
+        other => PlotError::Io { path: path.to_path_buf(), source: std::io::Error::other(other.to_string()) },
+    })
+}
+
+/// Render `chart` as a 1200 x 800 PNG, returned as the file's bytes.
+///
+/// The data ranges are checked before anything is drawn, and the drawing
+/// runs on a worker thread given at most [`DRAW_TIMEOUT`].
 ///
 /// # Errors
 /// [`PlotError::Empty`] if no series has a finite point,
 /// [`PlotError::InvalidLogFloor`] for a log axis with a bad floor,
-/// [`PlotError::Font`] if the embedded font cannot be loaded,
-/// [`PlotError::Draw`] if plotters fails (including an unwritable directory)
-/// and [`PlotError::Io`] if the final rename fails.
-pub fn render_png(chart: &Chart, path: &Path) -> Result<(), PlotError> {
+/// [`PlotError::Range`] for a range that cannot be drawn (a coordinate
+/// beyond [`MAX_MAGNITUDE`]), [`PlotError::Font`] if the embedded font cannot be loaded,
+/// [`PlotError::Draw`] if plotters or the PNG encoder fails and
+/// [`PlotError::Timeout`] if drawing takes longer than [`DRAW_TIMEOUT`].
+pub fn png(chart: &Chart) -> Result<Vec<u8>, PlotError> {
+    png_within(chart, DRAW_TIMEOUT)
+}
+
+/// [`png`] with a given time limit.
+fn png_within(chart: &Chart, limit: std::time::Duration) -> Result<Vec<u8>, PlotError> {
     if chart.log_y && !(chart.log_floor.is_finite() && chart.log_floor > 0.0) {
         return Err(PlotError::InvalidLogFloor { title: chart.title.clone(), floor: chart.log_floor });
     }
     let lines = chart_lines(chart);
     let (x_range, y_range) = data_bounds(&lines).ok_or_else(|| PlotError::Empty { title: chart.title.clone() })?;
-    ensure_font()?;
-
-    let tmp = temp_path(path);
-    let drawn = draw(chart, &lines, x_range, y_range, &tmp)
-        .map_err(|message| PlotError::Draw { path: path.to_path_buf(), message });
-    // The backend has been dropped by now, so nothing writes to `tmp` any more.
-    if let Err(e) = drawn {
-        let _ = std::fs::remove_file(&tmp);
-        return Err(e);
+    // Values plotters cannot draw are refused before anything is drawn;
+    // `draw` checks the padded ranges again.
+    for (axis, r) in [("x", &x_range), (y_axis_name(chart), &y_range)] {
+        check_range(&chart.title, axis, r, undrawable)?;
     }
-    std::fs::rename(&tmp, path).map_err(|source| {
-        let _ = std::fs::remove_file(&tmp);
-        PlotError::Io { path: path.to_path_buf(), source }
-    })
+    ensure_font()?;
+    let draw_error = |message| PlotError::Draw { title: chart.title.clone(), message };
+    // The worker owns a copy of the chart: if it never returns, the caller
+    // still does (and the process ends it on exit).
+    let owned = chart.clone();
+    let (tx, rx) = std::sync::mpsc::channel();
+    std::thread::Builder::new()
+        .name("ezy-plot".into())
+        .spawn(move || {
+            let lines = chart_lines(&owned);
+            let result = match data_bounds(&lines) {
+                Some((x, y)) => draw(&owned, &lines, x, y),
+                None => Err(PlotError::Empty { title: owned.title.clone() }),
+            };
+            let _ = tx.send(result);
+        })
+        .map_err(|e| draw_error(format!("cannot start the drawing thread: {e}")))?;
+    let pixels = match rx.recv_timeout(limit) {
+        Ok(r) => r?,
+        Err(std::sync::mpsc::RecvTimeoutError::Timeout) => {
+            return Err(PlotError::Timeout { title: chart.title.clone(), seconds: limit.as_secs_f64() });
+        }
+        Err(std::sync::mpsc::RecvTimeoutError::Disconnected) => {
+            return Err(draw_error("plotters panicked while drawing".into()));
+        }
+    };
+    let mut bytes = Vec::new();
+    image::codecs::png::PngEncoder::new(&mut bytes)
+        .write_image(&pixels, WIDTH, HEIGHT, image::ColorType::Rgb8)
+        .map_err(|e| draw_error(format!("encoding the PNG: {e}")))?;
+    Ok(bytes)
+}
+
+/// Why a data range cannot be drawn, if it cannot: a bound that is not
+/// finite or beyond [`MAX_MAGNITUDE`]. Returns the offending value and the
+/// reason.
+pub fn undrawable(range: &Range<f64>) -> Option<(f64, &'static str)> {
+    for v in [range.start, range.end] {
+        if !v.is_finite() {
+            return Some((v, "is not a finite number"));
+        }
+        if v.abs() > MAX_MAGNITUDE {
+            return Some((v, "is too large to plot (magnitude above 1e100)"));
+        }
+    }
+    None
+}
+
+/// [`undrawable`] for an axis' final range, which padding may have widened
+/// beyond [`MAX_MAGNITUDE`] but whose length must stay finite.
+fn undrawable_axis(range: &Range<f64>) -> Option<(f64, &'static str)> {
+    let len = range.end - range.start;
+    if !(range.start.is_finite() && range.end.is_finite() && len.is_finite() && len <= MAX_AXIS_LENGTH) {
+        return Some((len, "is the length of the padded axis, too long to plot"));
+    }
+    None
+}
+
+/// `"y"`, or `"log10 y"` for a logarithmic y axis (whose plot coordinate
+/// is the value's `log10`).
+fn y_axis_name(chart: &Chart) -> &'static str {
+    if chart.log_y { "log10 y" } else { "y" }
+}
+
+fn check_range(
+    title: &str,
+    axis: &'static str,
+    range: &Range<f64>,
+    test: fn(&Range<f64>) -> Option<(f64, &'static str)>,
+) -> Result<(), PlotError> {
+    match test(range) {
+        None => Ok(()),
+        Some((value, reason)) => {
+            Err(PlotError::Range { title: title.into(), axis, start: range.start, end: range.end, value, reason })
+        }
+    }
 }
 
 /// Register DejaVu Sans (regular and bold) for the "sans-serif" family once
@@ -181,13 +314,6 @@ fn ensure_font() -> Result<(), PlotError> {
         regular.is_ok() && bold.is_ok()
     });
     if ok { Ok(()) } else { Err(PlotError::Font) }
-}
-
-/// `dir/.<name>.tmp.png` for `dir/<name>`: hidden, and ending in `.png` because
-/// the bitmap backend picks the image format from the extension.
-fn temp_path(path: &Path) -> PathBuf {
-    let name = path.file_name().map_or_else(|| "figure".into(), |n| n.to_string_lossy());
-    path.with_file_name(format!(".{name}.tmp.png"))
 }
 
 /// One series prepared for drawing: its drawable pieces in plot coordinates
@@ -336,9 +462,42 @@ impl ValueFormatter<f64> for LogDecadeAxis {
     }
 }
 
-/// Draw the figure and write it as PNG to `tmp`. Errors are plotters' messages.
-fn draw(chart: &Chart, lines: &[Line<'_>], x_data: Range<f64>, y_data: Range<f64>, tmp: &Path) -> Result<(), String> {
-    let root = BitMapBackend::new(tmp, (WIDTH, HEIGHT)).into_drawing_area();
+/// Draw the figure into an RGB pixel buffer.
+///
+/// # Errors
+/// [`PlotError::Range`] if the axes' final ranges cannot be drawn (checked
+/// before any data is drawn), [`PlotError::Draw`] with plotters' message.
+fn draw(chart: &Chart, lines: &[Line<'_>], x_data: Range<f64>, y_data: Range<f64>) -> Result<Vec<u8>, PlotError> {
+    let mut pixels = vec![0u8; 3 * WIDTH as usize * HEIGHT as usize];
+    draw_into(&mut pixels, chart, lines, x_data, y_data).map_err(|e| match e {
+        Failed::Range(e) => e,
+        Failed::Draw(message) => PlotError::Draw { title: chart.title.clone(), message },
+    })?;
+    Ok(pixels)
+}
+
+/// Why [`draw_into`] stopped.
+enum Failed {
+    /// A final axis range that cannot be drawn.
+    Range(PlotError),
+    /// plotters' message.
+    Draw(String),
+}
+
+impl From<String> for Failed {
+    fn from(e: String) -> Self {
+        Self::Draw(e)
+    }
+}
+
+fn draw_into(
+    pixels: &mut [u8],
+    chart: &Chart,
+    lines: &[Line<'_>],
+    x_data: Range<f64>,
+    y_data: Range<f64>,
+) -> Result<(), Failed> {
+    let root = BitMapBackend::with_buffer(pixels, (WIDTH, HEIGHT)).into_drawing_area();
     root.fill(&WHITE).map_err(|e| e.to_string())?;
     // The top margin keeps the title's ascenders inside the image (see
     // `AB_GLYPH_RISE`).
@@ -367,6 +526,9 @@ fn draw(chart: &Chart, lines: &[Line<'_>], x_data: Range<f64>, y_data: Range<f64
         let x = if x_data.end > x_data.start { x_data } else { pad(x_data, 0.0) };
         (x, pad(y_data, PAD_FRACTION))
     };
+    for (axis, r) in [("x", &x_range), (y_axis_name(chart), &y_range)] {
+        check_range(&chart.title, axis, r, undrawable_axis).map_err(Failed::Range)?;
+    }
 
     if chart.log_y {
         let mut ctx = builder().build_cartesian_2d(x_range, LogDecadeAxis::new(y_range)).map_err(|e| e.to_string())?;
@@ -375,9 +537,8 @@ fn draw(chart: &Chart, lines: &[Line<'_>], x_data: Range<f64>, y_data: Range<f64
         let mut ctx = builder().build_cartesian_2d(x_range, y_range).map_err(|e| e.to_string())?;
         draw_contents(&mut ctx, chart, lines)?;
     }
-    // Encode and write explicitly: the backend's Drop also writes, but
-    // silently discards any error.
-    root.present().map_err(|e| e.to_string())
+    root.present().map_err(|e| e.to_string())?;
+    Ok(())
 }
 
 /// Padding inside the legend box in pixels.
@@ -570,7 +731,7 @@ mod tests {
         render_png(&c, &path).expect("render");
         let bytes = std::fs::read(&path).expect("read png");
         assert!(bytes.starts_with(&[0x89, b'P', b'N', b'G', 0x0D, 0x0A, 0x1A, 0x0A]));
-        assert!(!temp_path(&path).exists(), "temporary file left behind");
+        assert_eq!(std::fs::read_dir(&dir).unwrap().count(), 1, "temporary file left behind");
         std::fs::remove_dir_all(&dir).ok();
     }
 
@@ -584,5 +745,26 @@ mod tests {
         let none = chart(vec![]);
         assert!(matches!(render_png(&none, &path), Err(PlotError::Empty { .. })));
         std::fs::remove_dir_all(&dir).ok();
+    }
+
+    #[test]
+    fn undrawable_ranges_are_refused_before_drawing() {
+        for (x, y) in [(1e101, 0.0), (0.0, -1e300), (0.0, 1.7e308), (0.0, f64::MAX)] {
+            let c = chart(vec![Series { label: "a".into(), points: vec![(0.0, 0.0), (x, y)] }]);
+            let t = std::time::Instant::now();
+            assert!(matches!(png(&c), Err(PlotError::Range { .. })), "{x} {y}");
+            assert!(t.elapsed().as_secs_f64() < 1.0);
+        }
+        // tiny spans at any magnitude are drawn (a conserved energy)
+        let c = chart(vec![Series { label: "T".into(), points: vec![(0.0, 23.1875), (1.0, 23.1875 + 4e-15)] }]);
+        assert!(png(&c).is_ok());
+        let c = chart(vec![Series { label: "a".into(), points: vec![(0.0, 1e100), (1.0, -1e100)] }]);
+        assert!(png(&c).is_ok());
+    }
+
+    #[test]
+    fn a_drawing_that_takes_too_long_is_given_up() {
+        let c = chart(vec![Series { label: "a".into(), points: vec![(0.0, 0.0), (1.0, 1.0)] }]);
+        assert!(matches!(png_within(&c, std::time::Duration::ZERO), Err(PlotError::Timeout { .. })));
     }
 }

@@ -11,8 +11,9 @@ use ezy_core::integrator::Method;
 use ezy_core::kkt::KktMethod;
 use ezy_core::{Dynamics, Model, Observer, ProjectionKind, RunSettings, Sample, Scene, SimError};
 
-use crate::plot::{Chart, Series, render_png};
+use crate::plot::{Chart, Series};
 use crate::run::{Error, build};
+use crate::transaction::Transaction;
 
 /// One setting of the ladder.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -177,22 +178,16 @@ pub fn precision_model<M: Model + Default>(scene: &Scene, out: &Path) -> Result<
         };
         rows.push(row);
     }
-    std::fs::create_dir_all(out).map_err(|source| Error::OutDir { path: out.to_path_buf(), source })?;
-    let mut files = Vec::new();
-    let csv_path = out.join("precision.csv");
-    write_atomically(&csv_path, &csv(&rows))?;
-    files.push(csv_path);
-    files.push(work_precision_figure(&rows, scene, &out.join("work_precision.png"))?);
-    files.push(drift_figure::<M>(scene, &out.join("drift.png"))?);
+    // precision.csv and both figures are one transaction (see
+    // `crate::transaction`): committed together, precision.csv last.
+    let mut tx = Transaction::begin(out)?;
+    tx.write("precision.csv", csv(&rows).as_bytes())?;
+    tx.check(None, Some("drawing work_precision.png".into()))?;
+    tx.write("work_precision.png", &figure_png("work_precision.png", &work_precision_chart(&rows, scene))?)?;
+    tx.check(None, Some("drawing drift.png".into()))?;
+    tx.write("drift.png", &figure_png("drift.png", &drift_chart::<M>(scene)?)?)?;
+    let files = tx.commit()?;
     Ok(Report { reference, reference_error, rows, files })
-}
-
-fn write_atomically(path: &Path, text: &str) -> Result<(), Error> {
-    let tmp = path.with_extension("csv.partial");
-    let io = |source| crate::output::OutputError::Io { path: path.to_path_buf(), source };
-    std::fs::write(&tmp, text).map_err(io)?;
-    std::fs::rename(&tmp, path).map_err(io)?;
-    Ok(())
 }
 
 /// `dt` or `tol` as the CSV prints them (empty when not applicable).
@@ -251,7 +246,12 @@ pub fn table(report: &Report) -> String {
     s
 }
 
-fn work_precision_figure(rows: &[Row], scene: &Scene, path: &Path) -> Result<PathBuf, Error> {
+/// `chart` as PNG bytes; errors name the figure file `name`.
+fn figure_png(name: &str, chart: &Chart) -> Result<Vec<u8>, Error> {
+    crate::plot::png(chart).map_err(|source| crate::figures::FigureError::Plot { figure: name.into(), source }.into())
+}
+
+fn work_precision_chart(rows: &[Row], scene: &Scene) -> Chart {
     let mut series = Vec::new();
     for method in [Method::Euler, Method::Rk4, Method::Dopri5, Method::Dop853] {
         for projection in [ProjectionKind::MassWeighted, ProjectionKind::None] {
@@ -268,7 +268,7 @@ fn work_precision_figure(rows: &[Row], scene: &Scene, path: &Path) -> Result<Pat
             series.push(Series { label, points });
         }
     }
-    let chart = Chart {
+    Chart {
         title: format!("Work-precision: scene {}, error at t = {} s", scene.name, scene.t_end),
         x_label: "log10 of integration wall time [s]".into(),
         y_label: "log10 of max state error at the final time".into(),
@@ -276,12 +276,10 @@ fn work_precision_figure(rows: &[Row], scene: &Scene, path: &Path) -> Result<Pat
         equal_axes: false,
         log_y: false,
         log_floor: 1e-18,
-    };
-    render_png(&chart, path).map_err(crate::figures::FigureError::from)?;
-    Ok(path.to_path_buf())
+    }
 }
 
-fn drift_figure<M: Model + Default>(scene: &Scene, path: &Path) -> Result<PathBuf, Error> {
+fn drift_chart<M: Model + Default>(scene: &Scene) -> Result<Chart, Error> {
     let mut series = Vec::new();
     for projection in [ProjectionKind::None, ProjectionKind::MassWeighted] {
         let setting = Setting { method: Method::Rk4, dt: Some(1e-2), tol: None, projection };
@@ -292,7 +290,7 @@ fn drift_figure<M: Model + Default>(scene: &Scene, path: &Path) -> Result<PathBu
         series
             .push(Series { label: format!("max|G qd| [m/s], {name}"), points: h.iter().map(|p| (p.0, p.2)).collect() });
     }
-    let chart = Chart {
+    Ok(Chart {
         title: format!("Constraint drift, RK4 h = 0.01 s, scene {}", scene.name),
         x_label: "t [s]".into(),
         y_label: "residual [m], [m/s]".into(),
@@ -300,7 +298,5 @@ fn drift_figure<M: Model + Default>(scene: &Scene, path: &Path) -> Result<PathBu
         equal_axes: false,
         log_y: true,
         log_floor: crate::figures::LOG_FLOOR,
-    };
-    render_png(&chart, path).map_err(crate::figures::FigureError::from)?;
-    Ok(path.to_path_buf())
+    })
 }

@@ -12,6 +12,7 @@ use ezy_core::{
 
 use crate::figures::FigureError;
 use crate::output::{CsvObserver, OutputError, RowBuilder, Table};
+use crate::transaction::{Interrupted, Transaction, TransactionError};
 
 /// Everything that can stop `ezy run`.
 #[derive(Debug, thiserror::Error)]
@@ -25,6 +26,10 @@ pub enum Error {
     /// Drawing a figure.
     #[error(transparent)]
     Figure(#[from] FigureError),
+    /// Locking, writing or committing the output, or a signal that stopped
+    /// the run.
+    #[error(transparent)]
+    Transaction(#[from] TransactionError),
     /// A scene names a model the registry does not have.
     #[error("scene `{scene}` names unknown model `{model}`")]
     UnknownModel {
@@ -41,6 +46,17 @@ pub enum Error {
         /// The cause.
         source: std::io::Error,
     },
+}
+
+impl Error {
+    /// The interruption, if a signal stopped the run.
+    pub fn interrupted(&self) -> Option<&Interrupted> {
+        match self {
+            Self::Transaction(TransactionError::Interrupted(i))
+            | Self::Output(OutputError::Transaction(TransactionError::Interrupted(i))) => Some(i),
+            _ => None,
+        }
+    }
 }
 
 /// Overrides of a scene's settings, from the command line.
@@ -286,13 +302,16 @@ pub fn run_model<M: Model + Default>(scene: &Scene, opts: &RunOptions) -> Result
     let mut sys = Dynamics::new(model, effects, KktMethod::Auto).with_drives(drives);
     sys.baumgarte = opts.baumgarte;
 
-    std::fs::create_dir_all(&opts.out).map_err(|source| Error::OutDir { path: opts.out.clone(), source })?;
-    let csv_path = opts.out.join("trajectory.csv");
-    let progress = if opts.progress { crate::progress::Progress::new(settings.t_end) } else { None };
-    let n_rows = settings.n_steps() / settings.output_stride() + 2;
     let rows = RowBuilder::new(scene, &sys);
     output_budget(&settings, rows.columns.len(), opts.max_output_mb.unwrap_or(DEFAULT_MAX_OUTPUT_MB))?;
-    let mut obs = CsvObserver::create(&csv_path, rows, progress, n_rows as usize)?;
+
+    // The output is a transaction: trajectory.csv and the figures are
+    // written into a private directory and committed together (the CSV
+    // last) only when all of them succeeded.
+    let mut tx = Transaction::begin(&opts.out)?;
+    let progress = if opts.progress { crate::progress::Progress::new(settings.t_end) } else { None };
+    let n_rows = settings.n_steps() / settings.output_stride() + 2;
+    let mut obs = CsvObserver::create(&mut tx, "trajectory.csv", rows, progress, n_rows as usize)?;
     let summary = match ezy_core::simulate(&mut sys, &y0, &settings, &mut obs) {
         Ok(s) => s,
         Err(e) => {
@@ -304,14 +323,14 @@ pub fn run_model<M: Model + Default>(scene: &Scene, opts: &RunOptions) -> Result
         }
     };
     let table = obs.finish()?;
-    let mut files = vec![csv_path];
     if opts.figures {
         for fig in &scene.figures {
-            let path = opts.out.join(&fig.file);
-            crate::figures::render(&sys.info, fig, &table, &path)?;
-            files.push(path);
+            tx.check(Some(settings.t_end), Some(format!("drawing {}", fig.file)))?;
+            let png = crate::figures::render(&sys.info, fig, &table)?;
+            tx.write(&fig.file, &png)?;
         }
     }
+    let files = tx.commit()?;
     let state_names = (0..sys.ny()).map(|k| sys.state_name(k)).collect();
     let mut warnings = initial.warnings();
     if let Some((t, c)) = summary.ill_conditioned {

@@ -149,6 +149,14 @@ pub trait Observer<M: Model> {
     fn observe(&mut self, sys: &Dynamics<M>, sample: &Sample<'_>) -> Result<(), Self::Error>;
     /// Called now and then with the current time, for progress display.
     fn progress(&mut self, _t: f64) {}
+    /// Called after every accepted step with its end time [s], so a sink
+    /// can stop a run between output rows (a signal asking to stop).
+    ///
+    /// # Errors
+    /// Whatever the sink stops the run with; the default never stops it.
+    fn poll(&mut self, _t: f64) -> Result<(), Self::Error> {
+        Ok(())
+    }
 }
 
 /// Why a run stopped early.
@@ -435,6 +443,7 @@ fn fixed<M: Model, O: Observer<M>, S>(
         let t_next = if i + 1 == n { settings.t_end } else { (i + 1) as f64 * settings.dt };
         step(stepper, sys, t, y, t_next - t)?;
         run.after_step(sys, t, t_next, y, settings.dt)?;
+        run.observer.poll(t_next).map_err(RunError::Output)?;
         if (i + 1) % stride == 0 || i + 1 == n {
             run.emit(sys, t_next, y)?;
             if (i + 1) % (stride * 64) == 0 {
@@ -527,6 +536,7 @@ fn adaptive<M: Model, O: Observer<M>, E: EmbeddedRk>(
         }
         t = t_new;
         h = h_next;
+        run.observer.poll(t).map_err(RunError::Output)?;
     }
     // the final time is always written
     let wrote_final = (n_out - 1) as f64 * settings.every >= settings.t_end * (1.0 - 1e-12);
