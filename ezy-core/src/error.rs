@@ -47,7 +47,7 @@ pub enum SimError {
     },
     /// An adaptive method needed a step below the rounding level of `t`.
     #[error(
-        "at t = {t} s the step size fell to {h:e} s, the rounding level of t: the problem may be stiff or the tolerance too tight"
+        "at t = {t} s the step size fell to {h:e} s, the rounding level of t: the problem may be stiff, the tolerance too tight, or the forces or initial values too large"
     )]
     StepSizeTooSmall {
         /// Time \[s\].
