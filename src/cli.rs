@@ -189,6 +189,8 @@ pub enum Integrator {
     Dopri5,
     /// Dormand-Prince 8(5,3), adaptive (--rtol, --atol).
     Dop853,
+    /// Radau IIA of order 5, implicit and adaptive (--rtol, --atol): for stiff scenes.
+    Radau5,
 }
 
 #[derive(ValueEnum, Clone, Copy, Debug)]
@@ -285,6 +287,7 @@ impl RunArgs {
                 Integrator::Rk4 => Method::Rk4,
                 Integrator::Dopri5 => Method::Dopri5,
                 Integrator::Dop853 => Method::Dop853,
+                Integrator::Radau5 => Method::Radau5,
             }),
             baumgarte: self.baumgarte,
             rtol: self.rtol,

@@ -300,4 +300,13 @@ impl<M: Model> Observer<M> for CsvObserver<M> {
             p.update(t);
         }
     }
+
+    fn note(&mut self, text: &str) {
+        match &self.progress {
+            Some(p) => p.println(&format!("note: {text}")),
+            None => {
+                eprintln!("note: {text}");
+            }
+        }
+    }
 }

@@ -71,7 +71,7 @@ pub fn ladder() -> Vec<Setting> {
         for dt in [3e-2, 1e-2, 3e-3, 1e-3, 3e-4, 1e-4] {
             out.push(Setting { method: Method::Rk4, dt: Some(dt), tol: None, projection });
         }
-        for method in [Method::Dopri5, Method::Dop853] {
+        for method in [Method::Dopri5, Method::Dop853, Method::Radau5] {
             for tol in TOLERANCES {
                 out.push(Setting { method, dt: None, tol: Some(tol), projection });
             }
@@ -250,7 +250,63 @@ pub fn table(report: &Report) -> String {
             r.max_residual
         ));
     }
+    let ratios = equal_error_speedups(&report.rows);
+    if !ratios.is_empty() {
+        s.push_str(
+            "radau5 against dop853 at the same error (both projected; dop853's time interpolated on its ladder):\n",
+        );
+        s.push_str(&format!("{:>8} {:>10} {:>12} {:>12} {:>8}\n", "tol", "error", "radau5 [s]", "dop853 [s]", "ratio"));
+        for r in ratios {
+            s.push_str(&format!(
+                "{:>8} {:>10.2e} {:>12.2e} {:>12.2e} {:>7.1}x\n",
+                opt(Some(r.tol)),
+                r.error,
+                r.implicit_s,
+                r.explicit_s,
+                r.explicit_s / r.implicit_s
+            ));
+        }
+    }
     s
+}
+
+/// One line of [`equal_error_speedups`].
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Speedup {
+    /// radau5's tolerance.
+    pub tol: f64,
+    /// radau5's error at that tolerance.
+    pub error: f64,
+    /// radau5's wall time \[s\].
+    pub implicit_s: f64,
+    /// DOP853's wall time for the same error \[s\]: interpolated linearly
+    /// in `log(time)` against `log(error)` between the neighbouring rungs of
+    /// its ladder that bracket the error.
+    pub explicit_s: f64,
+}
+
+/// For each projected radau5 rung with a finite error that DOP853's
+/// projected ladder brackets: the time DOP853 takes for the same error.
+pub fn equal_error_speedups(rows: &[Row]) -> Vec<Speedup> {
+    let usable =
+        |r: &&Row| r.setting.projection == ProjectionKind::MassWeighted && r.error.is_finite() && r.error > 0.0;
+    let dop: Vec<&Row> = rows.iter().filter(|r| r.setting.method == Method::Dop853).filter(usable).collect();
+    let mut out = Vec::new();
+    for r in rows.iter().filter(|r| r.setting.method == Method::Radau5).filter(usable) {
+        // the rungs (loosest first) around radau5's error
+        if let Some(w) = dop.windows(2).find(|w| w[0].error > r.error && w[1].error <= r.error) {
+            let (a, b) = (w[0], w[1]);
+            let x = (r.error.ln() - a.error.ln()) / (b.error.ln() - a.error.ln());
+            let explicit_s = (a.wall_s.ln() + x * (b.wall_s.ln() - a.wall_s.ln())).exp();
+            out.push(Speedup {
+                tol: r.setting.tol.unwrap_or(f64::NAN),
+                error: r.error,
+                implicit_s: r.wall_s,
+                explicit_s,
+            });
+        }
+    }
+    out
 }
 
 /// `chart` as PNG bytes; errors name the figure file `name`.
@@ -260,7 +316,7 @@ fn figure_png(name: &str, chart: &Chart) -> Result<Vec<u8>, Error> {
 
 fn work_precision_chart(rows: &[Row], scene: &Scene) -> Chart {
     let mut series = Vec::new();
-    for method in [Method::Euler, Method::Rk4, Method::Dopri5, Method::Dop853] {
+    for method in [Method::Euler, Method::Rk4, Method::Dopri5, Method::Dop853, Method::Radau5] {
         for projection in [ProjectionKind::MassWeighted, ProjectionKind::None] {
             let points: Vec<(f64, f64)> = rows
                 .iter()

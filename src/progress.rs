@@ -64,6 +64,16 @@ impl Progress {
         }
     }
 
+    /// Prints a line above the bar (on stderr).
+    pub fn println(&self, line: &str) {
+        match &self.bar {
+            Some(bar) if self.shown => bar.println(line),
+            _ => {
+                let _ = writeln!(std::io::stderr().lock(), "{line}");
+            }
+        }
+    }
+
     /// Removes the bar.
     pub fn finish(&self) {
         if let Some(bar) = &self.bar {

@@ -60,6 +60,8 @@ fn by_hand(name: &str, m: &EzyRoller) -> (Vec<(usize, f64)>, f64) {
         "motor" => hinge(2.0 * (3.0 * T).cos() + 0.5 * (7.0 * T + 0.3).cos()),
         "spring" => hinge(-3.0 * (Q[2] - Q[5] + 3.0)),
         "damper" => hinge(-0.7 * (QD[2] - QD[5])),
+        // the commanded angle 0.2 sin(2t) and its rate 0.4 cos(2t)
+        "servo" => hinge(-5.0 * (Q[2] - Q[5] - 0.2 * (2.0 * T).sin()) - 0.3 * (QD[2] - QD[5] - 0.4 * (2.0 * T).cos())),
         "rolling" => {
             let f = -2.0 * dot(e1, va);
             (at_point(0, a, [f * e1[0], f * e1[1]]), f)
@@ -139,7 +141,7 @@ fn by_hand(name: &str, m: &EzyRoller) -> (Vec<(usize, f64)>, f64) {
 fn each_force_law_matches_a_hand_computation() {
     let scene = all_effects();
     let s = setup::<EzyRoller>(&scene, &[]).unwrap();
-    assert_eq!(s.effects.len(), 16);
+    assert_eq!(s.effects.len(), 17);
     for e in &s.effects {
         let mut f = [0.0; 6];
         let (power, value) = e.apply(T, &Q, &QD, &mut f);

@@ -1,4 +1,5 @@
-//! The step loop (RK4, KKT solve, projection, energy balance) does not
+//! The step loop (RK4 and the adaptive methods, RADAU5's Newton
+//! iterations and factorizations, KKT solve, projection, energy balance) does not
 //! allocate: a run of 10,000 steps makes exactly as many heap allocations
 //! as a run of 100 steps (only the fixed setup allocates).
 
@@ -88,7 +89,7 @@ fn allocations_with(
 fn the_step_loop_does_not_allocate() {
     for projection in [ProjectionKind::MassWeighted, ProjectionKind::Euclidean, ProjectionKind::None] {
         for kkt in [KktMethod::Schur, KktMethod::Lu] {
-            for method in [Method::Euler, Method::Rk4, Method::Dopri5, Method::Dop853] {
+            for method in [Method::Euler, Method::Rk4, Method::Dopri5, Method::Dop853, Method::Radau5] {
                 let short = allocations_for(0.01, projection, kkt, method);
                 let long = allocations_for(2.0, projection, kkt, method);
                 assert_eq!(
@@ -141,4 +142,29 @@ fn the_family_sparse_path_does_not_allocate() {
     };
     let (short, long) = (run(0.01), run(1.0));
     assert_eq!(short, long, "0.01 s allocates {short} times, 1 s {long} times");
+}
+
+/// RADAU5 on the stiff snake: its Newton system on the sparse path (faer's
+/// sparse LU, symbolic analysis once, numeric factors refreshed in place)
+/// allocates nothing per step either.
+#[test]
+fn the_implicit_sparse_path_does_not_allocate() {
+    let run = |t_end: f64| {
+        let (mut sys, y0) = build::<ezy_models::SnakeServo>(&scenes::get("snake-stiff"), &[], KktMethod::Auto).unwrap();
+        let settings = RunSettings {
+            t_end,
+            every: 0.01,
+            balance_limit: None,
+            max_steps: None,
+            ..scenes::get("snake-stiff").run_settings()
+        };
+        assert_eq!(settings.method, Method::Radau5);
+        let mut sink = Sink(0.0);
+        let before = allocations();
+        let s = simulate(&mut sys, &y0, &settings, &mut sink).unwrap();
+        assert!(s.steps > 0 && s.newton.factorizations > 1 && sink.0.is_finite());
+        allocations() - before
+    };
+    let (short, long) = (run(0.05), run(1.0));
+    assert_eq!(short, long, "0.05 s allocates {short} times, 1 s {long} times");
 }

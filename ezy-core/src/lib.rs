@@ -13,6 +13,7 @@ pub mod initial;
 pub mod integrator;
 pub mod kkt;
 pub mod model;
+pub mod newton;
 pub mod projection;
 pub mod registry;
 pub mod scalar;

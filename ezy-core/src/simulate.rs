@@ -157,6 +157,9 @@ pub trait Observer<M: Model> {
     fn observe(&mut self, sys: &Dynamics<M>, sample: &Sample<'_>) -> Result<(), Self::Error>;
     /// Called now and then with the current time, for progress display.
     fn progress(&mut self, _t: f64) {}
+    /// A remark on the run while it goes (said once: an explicit method
+    /// found the run stiff, [`stiff_note`]); the default ignores it.
+    fn note(&mut self, _text: &str) {}
     /// Called after every accepted step with its end time \[s\], so a sink
     /// can stop a run between output rows (a signal asking to stop).
     ///
@@ -210,6 +213,22 @@ pub struct Summary {
     /// First `(t [s], estimate)` where the KKT conditioning estimate passed
     /// [`crate::dynamics::CONDITION_WARNING`].
     pub ill_conditioned: Option<(f64, f64)>,
+    /// The implicit method's Newton iterations, Jacobians and
+    /// factorizations (zero for the explicit methods).
+    pub newton: crate::integrator::radau5::NewtonStats,
+    /// `(t [s], h |lambda|)` where DOPRI5's or DOP853's stiffness test
+    /// found the run stiff (their step held by stability, not accuracy;
+    /// see [`crate::integrator::adaptive::StiffnessTest`]).
+    pub stiff: Option<(f64, f64)>,
+}
+
+/// The note a stiff run gets (`method` found it stiff at `t` with
+/// `h |lambda| = hlambda` beyond `limit`).
+pub fn stiff_note(method: Method, t: f64, hlambda: f64, limit: f64) -> String {
+    format!(
+        "from t = {t:.6} s the run is stiff: {}'s steps are held by its stability (Hairer's test: h|lambda| = {hlambda:.1} > {limit} for 15 tests), not by accuracy; --integrator radau5 steps over the fast modes",
+        method.name()
+    )
 }
 
 /// Residual evaluation buffers.
@@ -262,6 +281,7 @@ struct Run<'a, M: Model, O: Observer<M>> {
     last_step: f64,
     summary: Summary,
     output_time: Duration,
+    newton: crate::integrator::radau5::NewtonStats,
 }
 
 impl<M: Model, O: Observer<M>> Run<'_, M, O> {
@@ -410,8 +430,11 @@ pub fn simulate<M: Model, O: Observer<M>>(
             kkt: sys.kkt_name(),
             projection_path: "none",
             ill_conditioned: None,
+            newton: Default::default(),
+            stiff: None,
         },
         output_time: Duration::ZERO,
+        newton: Default::default(),
     };
     run.summary.projection_path = run.proj.path();
     let mut y = y0.to_vec();
@@ -422,6 +445,7 @@ pub fn simulate<M: Model, O: Observer<M>>(
         Method::Rk4 => fixed(sys, &mut y, &mut run, &mut Rk4::new(y0.len()), Rk4::step::<Dynamics<M>>)?,
         Method::Dopri5 => adaptive::<M, O, Dopri5>(sys, &mut y, &mut run)?,
         Method::Dop853 => adaptive::<M, O, Dop853>(sys, &mut y, &mut run)?,
+        Method::Radau5 => implicit(sys, &mut y, &mut run)?,
     }
     let mut summary = run.summary;
     summary.integration_time = start.elapsed().saturating_sub(run.output_time);
@@ -430,6 +454,7 @@ pub fn simulate<M: Model, O: Observer<M>>(
         kkt_solves: sys.counters.kkt_solves - counters0.kkt_solves,
     };
     summary.final_state = y;
+    summary.newton = run.newton;
     summary.ill_conditioned = sys.ill_conditioned;
     Ok(summary)
 }
@@ -478,6 +503,8 @@ fn adaptive<M: Model, O: Observer<M>, E: EmbeddedRk>(
     let mut h = initial_step(sys, 0.0, y, &k1, E::ORDER, &tol, settings.t_end, &mut w1, &mut w2)?;
     let mut t = 0.0;
     let mut n_out: u64 = 1;
+    let mut stage_failure: Option<SimError> = None;
+    let mut stiffness = crate::integrator::adaptive::StiffnessTest::default();
     let out_time = |k: u64| (k as f64 * settings.every).min(settings.t_end);
     while t < settings.t_end {
         let attempts = run.summary.steps + run.summary.rejected;
@@ -501,11 +528,19 @@ fn adaptive<M: Model, O: Observer<M>, E: EmbeddedRk>(
         // the rounding level of t, or of the run's own time scale for runs
         // shorter than a second (a 1e-15 s run is not stiff)
         if h.abs() <= 16.0 * f64::EPSILON * t.abs().max(settings.t_end.min(1.0)) {
-            return Err(SimError::StepSizeTooSmall { t, h }.into());
+            // an effect that failed at every step size is the cause
+            return Err(stage_failure.unwrap_or(SimError::StepSizeTooSmall { t, h }).into());
         }
         let err = match stepper.attempt(sys, t, y, &k1, h, &tol, &mut y_new, &mut k_new) {
             // a stage overflowed: as for a non-finite error estimate below
             Err(SimError::Kkt { source: KktError::NonFinite { .. }, .. }) => f64::NAN,
+            // an effect failed at a stage: perhaps the stage overflowed
+            // (a stiff scene at a step beyond the method's stability), so
+            // a smaller step; the error is reported if no step helps
+            Err(e @ SimError::EffectFailed { .. }) => {
+                stage_failure = Some(e);
+                f64::NAN
+            }
             other => other?,
         };
         if !err.is_finite() {
@@ -519,6 +554,14 @@ fn adaptive<M: Model, O: Observer<M>, E: EmbeddedRk>(
             run.summary.rejected += 1;
             h = h_next;
             continue;
+        }
+        stage_failure = None;
+        let hlambda = stiffness.due().then(|| stepper.stiffness(h, &y_new, &k_new));
+        if stiffness.record(t + h, hlambda, E::STIFF_LIMIT)
+            && let Some((t_stiff, hl)) = stiffness.found
+        {
+            run.summary.stiff = stiffness.found;
+            run.observer.note(&stiff_note(settings.method, t_stiff, hl, E::STIFF_LIMIT));
         }
         let t_new = if last { settings.t_end } else { t + h };
         // outputs inside (t, t_new] from the dense output
@@ -547,6 +590,84 @@ fn adaptive<M: Model, O: Observer<M>, E: EmbeddedRk>(
         run.observer.poll(t).map_err(RunError::Output)?;
     }
     // the final time is always written
+    let wrote_final = (n_out - 1) as f64 * settings.every >= settings.t_end * (1.0 - 1e-12);
+    if !wrote_final {
+        run.emit(sys, settings.t_end, y)?;
+    }
+    Ok(())
+}
+
+/// The step loop of the implicit method (RADAU5): as [`adaptive`], with
+/// the Newton system of the model ([`crate::newton::KktNewton`]).
+fn implicit<M: Model, O: Observer<M>>(
+    sys: &mut Dynamics<M>,
+    y: &mut [f64],
+    run: &mut Run<'_, M, O>,
+) -> Result<(), RunError<O::Error>> {
+    use crate::integrator::radau5::{Attempt, Radau5};
+    let settings = run.settings;
+    let ny = y.len();
+    let tol = Tolerance { rtol: settings.rtol, atol: settings.atol };
+    let mut stepper = Radau5::new(ny, &tol);
+    let mut newton = crate::newton::KktNewton::new(sys);
+    let (mut f, mut y_new) = (vec![0.0; ny], vec![0.0; ny]);
+    let (mut w1, mut w2) = (vec![0.0; ny], vec![0.0; ny]);
+    sys.rhs(0.0, y, &mut f)?;
+    // the first step as for the order-3 error estimate
+    let mut h = initial_step(sys, 0.0, y, &f, 3, &tol, settings.t_end, &mut w1, &mut w2)?;
+    let mut t = 0.0;
+    let mut n_out: u64 = 1;
+    let out_time = |k: u64| (k as f64 * settings.every).min(settings.t_end);
+    while t < settings.t_end {
+        let attempts = run.summary.steps + run.summary.rejected;
+        if let Some(max) = settings.max_steps
+            && attempts >= max
+        {
+            let estimate = if t > 0.0 { attempts as f64 * settings.t_end / t } else { f64::INFINITY };
+            return Err(SimError::Budget {
+                what: "steps",
+                estimate,
+                limit: max as f64,
+                flag: "--max-steps",
+                detail: format!("extrapolated from {attempts} step attempts to t = {t:.6e} s of {} s", settings.t_end),
+            }
+            .into());
+        }
+        let last = t + h >= settings.t_end * (1.0 - 1e-15);
+        if last {
+            h = settings.t_end - t;
+        }
+        if h.abs() <= 16.0 * f64::EPSILON * t.abs().max(settings.t_end.min(1.0)) {
+            return Err(stepper.stage_failure.take().unwrap_or(SimError::StepSizeTooSmall { t, h }).into());
+        }
+        let h_next = match stepper.attempt(sys, &mut newton, t, y, &f, h, &mut y_new)? {
+            Attempt::Rejected { h_next } => {
+                run.summary.rejected += 1;
+                h = h_next;
+                run.newton = stepper.stats;
+                continue;
+            }
+            Attempt::Accepted { h_next } => h_next,
+        };
+        let t_new = if last { settings.t_end } else { t + h };
+        while n_out as f64 * settings.every <= settings.t_end * (1.0 + 1e-12) && out_time(n_out) <= t_new {
+            let t_out = out_time(n_out);
+            stepper.interpolate((t_out - t) / h, &mut run.sample);
+            run.project_sample(sys, t_out)?;
+            run.emit_sample(sys, t_out)?;
+            n_out += 1;
+        }
+        if (run.summary.steps + run.summary.rejected).is_multiple_of(64) {
+            run.observer.progress(t_new);
+        }
+        y.copy_from_slice(&y_new);
+        run.after_step(sys, t, t_new, y, h)?;
+        sys.rhs(t_new, y, &mut f)?;
+        t = t_new;
+        h = h_next;
+        run.newton = stepper.stats;
+        run.observer.poll(t).map_err(RunError::Output)?;
+    }
     let wrote_final = (n_out - 1) as f64 * settings.every >= settings.t_end * (1.0 - 1e-12);
     if !wrote_final {
         run.emit(sys, settings.t_end, y)?;

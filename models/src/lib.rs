@@ -18,8 +18,8 @@ pub use chaplygin_sleigh::ChaplyginSleigh;
 use ezy_core::registry::{InfoOnly, Register};
 pub use ezyroller::EzyRoller;
 pub use ezyroller_driven::EzyRollerDriven;
-pub use mechanisms::{DoublePendulum, FourBar, SliderCrank};
-pub use snake::{Snake, SnakeDriven};
+pub use mechanisms::{DoublePendulum, ElasticFourBar, FourBar, SliderCrank};
+pub use snake::{Snake, SnakeDriven, SnakeServo};
 pub use snakeboard::Snakeboard;
 pub use trailer::Trailer;
 
@@ -32,8 +32,10 @@ pub fn register<R: Register>(r: &mut R) {
     r.register::<Trailer>("trailer");
     r.register::<Snake>("snake");
     r.register::<SnakeDriven>("snake_driven");
+    r.register::<SnakeServo>("snake_servo");
     r.register::<Snakeboard>("snakeboard");
     r.register::<FourBar>("four_bar");
+    r.register::<ElasticFourBar>("elastic_four_bar");
     r.register::<SliderCrank>("slider_crank");
     r.register::<DoublePendulum>("double_pendulum");
 }

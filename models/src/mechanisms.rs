@@ -51,6 +51,38 @@ ezy_core::model! {
 }
 
 ezy_core::model! {
+    /// The four-bar's crank and rocker on their ground pivots without the
+    /// coupler: the scene joins the pins A and B by a spring-damper (a
+    /// massless elastic coupler; with a stiff one, `four-bar-stiff`, the
+    /// linkage moves as the rigid four-bar and the scene is stiff).
+    pub struct ElasticFourBar {
+        /// Length of the crank O2-A [m]
+        param a = 0.1;
+        /// Length of the rocker O4-B [m]
+        param c = 0.3;
+        /// Distance of the ground pivots O2-O4 [m]
+        param d = 0.3;
+        /// Mass of the crank [kg]
+        param m2 = 0.2;
+        /// Moment of inertia of the crank about its centre [kg m^2]
+        param I2 = 0.00016666666666666666;
+        /// Mass of the rocker [kg]
+        param m4 = 0.6;
+        /// Moment of inertia of the rocker about its centre [kg m^2]
+        param I4 = 0.0045;
+
+        body crank(x2, y2, phi2) { mass: m2, inertia: I2 }
+        body rocker(x4, y4, phi4) { mass: m4, inertia: I4 }
+        point O2 on crank at (-a / 2, 0);
+        point A2 on crank at (a / 2, 0);
+        point O4 on rocker at (-c / 2, 0);
+        point B4 on rocker at (c / 2, 0);
+        hinge O2: O2 = ground(0, 0);
+        hinge O4: O4 = ground(d, 0);
+    }
+}
+
+ezy_core::model! {
     /// A slider-crank: crank O-A on a ground pivot at the origin,
     /// connecting rod A-B, and a piston whose pin B slides on the x axis
     /// (its heading fixed), in a vertical plane.

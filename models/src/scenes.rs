@@ -20,9 +20,11 @@ pub const BUILTIN: &[(&str, &str)] = &[
     ("trailer.toml", include_str!("../scenes/trailer.toml")),
     ("snake.toml", include_str!("../scenes/snake.toml")),
     ("snake-long.toml", include_str!("../scenes/snake-long.toml")),
+    ("snake-stiff.toml", include_str!("../scenes/snake-stiff.toml")),
     ("drive-prescribed.toml", include_str!("../scenes/drive-prescribed.toml")),
     ("snakeboard.toml", include_str!("../scenes/snakeboard.toml")),
     ("four-bar.toml", include_str!("../scenes/four-bar.toml")),
+    ("four-bar-stiff.toml", include_str!("../scenes/four-bar-stiff.toml")),
     ("slider-crank.toml", include_str!("../scenes/slider-crank.toml")),
     ("double-pendulum.toml", include_str!("../scenes/double-pendulum.toml")),
 ];

@@ -3,7 +3,9 @@
 //! neighbouring links, driven by hinge motors in a serpenoid gait (the
 //! scene's effects). `SnakeDriven`: the hinge angles prescribed by a
 //! family of drives (the scene's serpenoid curve), the ground acting
-//! through anisotropic friction. The generated code is one element kernel
+//! through anisotropic friction. `SnakeServo`: the same snake with free
+//! hinges, for the scene's effects to drive (stiff hinge servos in
+//! `snake-stiff`). The generated code is one element kernel
 //! per item, looped over the links, so it does not grow with `N`.
 
 ezy_core::model! {
@@ -59,6 +61,34 @@ ezy_core::model! {
         for i in 2..N + 1 {
             hinge J[i]: B[i - 1] = F[i];
             drive D[i]: hinge J[i];
+        }
+    }
+}
+
+ezy_core::model! {
+    /// A snake robot of N links with free hinges, on ground that acts
+    /// through the scene's effects (anisotropic friction): the scene's
+    /// hinge effects drive it, as position servos in `snake-stiff`.
+    pub struct SnakeServo {
+        /// Number of links
+        count N = 10;
+        /// Length of a link [m]
+        param l = 0.3;
+        /// Mass of a link [kg]
+        param m = 1.0;
+        /// Moment of inertia of a link about its centre [kg m^2]
+        param I = 0.0075;
+
+        for i in 1..N + 1 {
+            body link[i](x, y, phi) { mass: m, inertia: I }
+            point S[i] on link[i] at (0, 0);
+            point B[i] on link[i] at (-l / 2, 0);
+            point F[i] on link[i] at (l / 2, 0);
+        }
+        // J[i] joins the back of link i - 1 to the front of link i; its
+        // angle is phi[i - 1] - phi[i]
+        for i in 2..N + 1 {
+            hinge J[i]: B[i - 1] = F[i];
         }
     }
 }

@@ -97,6 +97,24 @@ pub enum EffectSpec {
         /// Damping \[N m s/rad\].
         damping: f64,
     },
+    /// Position servo at a hinge (a PD controller, or a spring-damper whose
+    /// rest angle moves): `tau = -stiffness (theta - angle(t)) - damping
+    /// (theta_dot - angle'(t))` \[N m\]. With a large stiffness the hinge
+    /// follows `angle(t)` closely and the scene is stiff: the fast modes
+    /// have frequencies near `sqrt(stiffness / inertia)` (use
+    /// `--integrator radau5`).
+    HingeServo {
+        /// Hinge name.
+        hinge: String,
+        /// Stiffness \[N m/rad\].
+        stiffness: f64,
+        /// Damping \[N m s/rad\].
+        #[serde(default, skip_serializing_if = "is_zero")]
+        damping: f64,
+        /// Commanded hinge angle \[rad\] over time (its derivative is the
+        /// commanded rate).
+        angle: Waveform,
+    },
     /// Viscous rolling resistance at a skate: a force `-damping v_t` along
     /// the blade, `v_t` the contact point's velocity along the blade \[m/s\].
     RollingViscous {
@@ -250,6 +268,7 @@ pub const EFFECT_KINDS: &[&str] = &[
     "hinge-motor",
     "hinge-spring",
     "hinge-damper",
+    "hinge-servo",
     "rolling-viscous",
     "rolling-coulomb",
     "driven-wheel",
@@ -314,6 +333,7 @@ impl EffectSpec {
             Self::HingeMotor { .. } => "hinge-motor",
             Self::HingeSpring { .. } => "hinge-spring",
             Self::HingeDamper { .. } => "hinge-damper",
+            Self::HingeServo { .. } => "hinge-servo",
             Self::RollingViscous { .. } => "rolling-viscous",
             Self::RollingCoulomb { .. } => "rolling-coulomb",
             Self::DrivenWheel { .. } => "driven-wheel",
@@ -334,7 +354,11 @@ impl EffectSpec {
     /// magnitude otherwise).
     pub fn value_column(&self, name: &str) -> String {
         match self {
-            Self::HingeMotor { .. } | Self::HingeSpring { .. } | Self::HingeDamper { .. } | Self::Torque { .. } => {
+            Self::HingeMotor { .. }
+            | Self::HingeSpring { .. }
+            | Self::HingeDamper { .. }
+            | Self::HingeServo { .. }
+            | Self::Torque { .. } => {
                 format!("tau_{name}")
             }
             _ => format!("F_{name}"),
@@ -387,6 +411,12 @@ impl EffectSpec {
             Self::HingeDamper { hinge: h, damping } => {
                 hinge(h)?;
                 non_negative("damping", *damping)
+            }
+            Self::HingeServo { hinge: h, stiffness, damping, angle } => {
+                hinge(h)?;
+                finite("stiffness", *stiffness)?;
+                non_negative("damping", *damping)?;
+                wave("angle", angle)
             }
             Self::RollingViscous { skate: s, damping } => {
                 skate(s)?;
@@ -552,6 +582,10 @@ impl EffectSpec {
             Self::HingeDamper { hinge: h, damping } => {
                 let (a, b) = hinge(&h);
                 Law::Hinge { a, b, law: HingeLaw::Damper { damping } }
+            }
+            Self::HingeServo { hinge: h, stiffness, damping, angle } => {
+                let (a, b) = hinge(&h);
+                Law::Hinge { a, b, law: HingeLaw::Servo { stiffness, damping, angle } }
             }
             Self::RollingViscous { skate, damping } => Law::Blade(blade(&skate), BladeLaw::Viscous { damping }),
             Self::RollingCoulomb { skate, force, smoothing } => {
@@ -759,6 +793,15 @@ pub enum HingeLaw {
         /// \[N m s/rad\].
         damping: f64,
     },
+    /// `tau = -stiffness (theta - angle(t)) - damping (theta_dot - angle'(t))`.
+    Servo {
+        /// \[N m/rad\].
+        stiffness: f64,
+        /// \[N m s/rad\].
+        damping: f64,
+        /// Commanded angle \[rad\].
+        angle: Waveform,
+    },
 }
 
 /// Force laws along a blade (see [`EffectSpec`]).
@@ -897,6 +940,11 @@ impl Effect {
                         -stiffness * (theta - rest_angle)
                     }
                     HingeLaw::Damper { damping } => -damping * rate,
+                    HingeLaw::Servo { stiffness, damping, angle } => {
+                        let theta = q[*a] - b.map_or(0.0, |b| q[b]);
+                        let [target, target_rate, _] = angle.eval3(t);
+                        -stiffness * (theta - target) - damping * (rate - target_rate)
+                    }
                 };
                 f[*a] += tau;
                 if let Some(b) = b {
@@ -992,6 +1040,39 @@ impl Effect {
                 (force[0] * v[0] + force[1] * v[1] - k_rot * w * w, force[0].hypot(force[1]))
             }
         }
+    }
+
+    /// The coordinates a force that depends on time alone acts on (a body
+    /// torque, gravity or a slope): its power is `f . qd`, so `dP/dqd = f`
+    /// there. Empty for every other effect ([`Effect::coords`]).
+    pub fn constant_force_coords(&self) -> Vec<usize> {
+        match &self.law {
+            Law::Torque { phi, .. } => vec![*phi],
+            Law::Slope { bodies, .. } => bodies.iter().flat_map(|&(x, y, _)| [x, y]).collect(),
+            _ => Vec::new(),
+        }
+    }
+
+    /// The coordinates this effect's force depends on or acts on (its
+    /// coupling in the Jacobian of the applied forces; empty for a force
+    /// that depends on time alone).
+    pub fn coords(&self) -> Vec<usize> {
+        let mut out: Vec<usize> = match &self.law {
+            Law::Hinge { a, b, .. } => std::iter::once(*a).chain(*b).collect(),
+            Law::Blade(bl, _) | Law::Anisotropic { blade: bl, .. } => bl.body.to_vec(),
+            Law::Force { body, .. } | Law::Drag { body, .. } => body.to_vec(),
+            Law::Torque { .. } | Law::Slope { .. } => Vec::new(),
+            Law::SpringDamper { ends, .. } => ends
+                .iter()
+                .flat_map(|e| match e {
+                    Anchor::Body { body, .. } => body.to_vec(),
+                    Anchor::Ground(_) => Vec::new(),
+                })
+                .collect(),
+        };
+        out.sort_unstable();
+        out.dedup();
+        out
     }
 
     /// Why this effect's power came out NaN at `q` (for the error that

@@ -37,8 +37,21 @@ pub trait EmbeddedRk {
     /// See [`EmbeddedRk::FAC_MIN`].
     const FAC_MAX: f64;
 
+    /// The limit of `h |lambda|` in Hairer's stiffness test (DOPRI5 3.25,
+    /// DOP853 6.1): about where the method's stability region ends on the
+    /// negative real axis.
+    const STIFF_LIMIT: f64;
+
     /// Buffers for a state of length `ny`.
     fn new(ny: usize) -> Self;
+
+    /// `h |lambda|`, the estimate of Hairer's stiffness test (HW II §IV.2,
+    /// the codes' `HLAMB`): `h |k_new - k_s| / |y_new - s|`, with `s` the
+    /// argument of the last stage at `t + h` and `k_s` its value, which
+    /// approximates the dominant eigenvalue of the Jacobian times `h`.
+    /// Valid after an accepted `attempt` and before `prepare_dense`
+    /// (which reuses the stage buffers); 0 if `y_new = s`.
+    fn stiffness(&self, h: f64, y_new: &[f64], k_new: &[f64]) -> f64;
 
     /// Attempts a step of size `h` from `(t, y)` with `k1 = F(t, y)`.
     /// Writes the new state into `y_new` and `F(t + h, y_new)` into
@@ -169,4 +182,58 @@ pub fn initial_step<R: Rhs>(
 pub fn error_norm(err: &[f64], y: &[f64], y_new: &[f64], tol: &Tolerance) -> f64 {
     let sum: f64 = err.iter().zip(y).zip(y_new).map(|((e, a), b)| (e / tol.scale(*a, *b)).powi(2)).sum();
     (sum / err.len() as f64).sqrt()
+}
+
+/// `h |k - k_s| / |y - s|` (0 when `y = s`), for [`EmbeddedRk::stiffness`].
+pub fn stiffness_quotient(h: f64, y: &[f64], s: &[f64], k: &[f64], k_s: &[f64]) -> f64 {
+    let num: f64 = k.iter().zip(k_s).map(|(a, b)| (a - b) * (a - b)).sum();
+    let den: f64 = y.iter().zip(s).map(|(a, b)| (a - b) * (a - b)).sum();
+    if den > 0.0 { h.abs() * (num / den).sqrt() } else { 0.0 }
+}
+
+/// Hairer's bookkeeping of the stiffness test (DOPRI5 and DOP853): tested
+/// every [`StiffnessTest::EVERY`] accepted steps, and after every step
+/// while positive; stiff after 15 positive tests in a row (6 negative
+/// ones reset the count).
+#[derive(Debug, Clone, Copy, Default)]
+pub struct StiffnessTest {
+    accepted: u64,
+    positive: u32,
+    negative: u32,
+    /// `(t [s], h |lambda|)` when the run was found stiff.
+    pub found: Option<(f64, f64)>,
+}
+
+impl StiffnessTest {
+    /// Hairer's `NSTIFF`.
+    pub const EVERY: u64 = 1000;
+    /// Positive tests in a row that make a run stiff.
+    pub const POSITIVE: u32 = 15;
+
+    /// Whether the accepted step about to be counted is tested.
+    pub fn due(&self) -> bool {
+        self.found.is_none() && ((self.accepted + 1).is_multiple_of(Self::EVERY) || self.positive > 0)
+    }
+
+    /// Counts an accepted step at `t` \[s\] with the test's value
+    /// `hlambda` (when [`StiffnessTest::due`]); `true` the one time it
+    /// finds the run stiff.
+    pub fn record(&mut self, t: f64, hlambda: Option<f64>, limit: f64) -> bool {
+        self.accepted += 1;
+        let Some(hl) = hlambda else { return false };
+        if hl > limit {
+            self.negative = 0;
+            self.positive += 1;
+            if self.positive == Self::POSITIVE {
+                self.found = Some((t, hl));
+                return true;
+            }
+        } else {
+            self.negative += 1;
+            if self.negative == 6 {
+                self.positive = 0;
+            }
+        }
+        false
+    }
 }

@@ -209,9 +209,14 @@ impl EmbeddedRk for Dop853 {
     const BETA: f64 = 0.0;
     const FAC_MIN: f64 = 0.333;
     const FAC_MAX: f64 = 6.0;
+    const STIFF_LIMIT: f64 = 6.1;
     const DENSE_EVALS: u64 = 3;
     /// Stages 2..=12 plus `F(t + h, y_new)`.
     const STAGE_EVALS: u64 = 12;
+
+    fn stiffness(&self, h: f64, y_new: &[f64], k_new: &[f64]) -> f64 {
+        super::adaptive::stiffness_quotient(h, y_new, &self.tmp, k_new, &self.k[10])
+    }
 
     fn new(ny: usize) -> Self {
         let v = || vec![0.0; ny];

@@ -64,8 +64,13 @@ impl EmbeddedRk for Dopri5 {
     const BETA: f64 = 0.04;
     const FAC_MIN: f64 = 0.2;
     const FAC_MAX: f64 = 10.0;
+    const STIFF_LIMIT: f64 = 3.25;
     const DENSE_EVALS: u64 = 0;
     const STAGE_EVALS: u64 = 6;
+
+    fn stiffness(&self, h: f64, y_new: &[f64], k_new: &[f64]) -> f64 {
+        super::adaptive::stiffness_quotient(h, y_new, &self.tmp, k_new, &self.k6)
+    }
 
     fn new(ny: usize) -> Self {
         let v = || vec![0.0; ny];

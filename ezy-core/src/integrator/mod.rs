@@ -6,6 +6,7 @@
 //! | [`Method::Rk4`] | 4 | fixed | classic Runge-Kutta (Hairer, Nørsett & Wanner, *Solving ODEs I*, §II.1, Table 1.2) |
 //! | [`Method::Dopri5`] | 5(4) | adaptive, PI control, dense output of order 4 | Dormand & Prince 1980; HNW I §II.5 and §II.6, code DOPRI5 |
 //! | [`Method::Dop853`] | 8(5,3) | adaptive, PI control, dense output of order 7 | Dormand & Prince; HNW I §II.10, code DOP853 |
+//! | [`Method::Radau5`] | 5, implicit | adaptive (predictive control), simplified Newton, dense output of order 3 | Radau IIA; HW II §IV.8, code RADAU5 |
 //!
 //! The steppers see the right-hand side through [`Rhs`], so they are tested
 //! on plain ODEs as well as on models (`Dynamics` implements it).
@@ -14,6 +15,7 @@ pub mod adaptive;
 mod dop853;
 mod dopri5;
 mod fixed;
+pub mod radau5;
 
 pub use adaptive::{EmbeddedRk, Tolerance};
 pub use dop853::Dop853;
@@ -51,6 +53,8 @@ pub enum Method {
     Dopri5,
     /// Dormand-Prince 8(5,3), adaptive.
     Dop853,
+    /// Radau IIA of order 5, implicit and adaptive: for stiff problems.
+    Radau5,
 }
 
 impl Method {
@@ -61,6 +65,7 @@ impl Method {
             Self::Rk4 => "rk4",
             Self::Dopri5 => "dopri5",
             Self::Dop853 => "dop853",
+            Self::Radau5 => "radau5",
         }
     }
     /// Classical order of the propagated solution.
@@ -70,11 +75,12 @@ impl Method {
             Self::Rk4 => 4,
             Self::Dopri5 => 5,
             Self::Dop853 => 8,
+            Self::Radau5 => 5,
         }
     }
     /// Whether the step size is chosen by error control.
     pub fn is_adaptive(self) -> bool {
-        matches!(self, Self::Dopri5 | Self::Dop853)
+        matches!(self, Self::Dopri5 | Self::Dop853 | Self::Radau5)
     }
 }
 
