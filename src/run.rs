@@ -445,6 +445,17 @@ pub fn summary(scene: &str, r: &Report) -> String {
         r.setup.as_secs_f64(),
         r.wall.as_secs_f64()
     );
+    if s.method == Method::Radau5 {
+        let n = &s.newton;
+        let _ = writeln!(
+            out,
+            "  Newton iterations {} ({:.1} per step), Jacobians {}, LU factorizations {} (each a real and a complex one)",
+            n.newton_iterations,
+            n.newton_iterations as f64 / s.steps.max(1) as f64,
+            n.jacobians,
+            n.factorizations
+        );
+    }
     let _ = writeln!(
         out,
         "  max residuals |C| = {:.2e} m, |G qd| = {:.2e} m/s (largest drift of one step before projection {:.2e} m)",
