@@ -79,6 +79,10 @@ pub struct KktNewton {
     /// work states' rows.
     power_q: Vec<Vec<f64>>,
     power_v: Vec<Vec<f64>>,
+    /// Each effect's force at its coordinates and its power at the
+    /// Jacobian's point (the base of its differences).
+    base_force: Vec<Vec<f64>>,
+    base_power: Vec<f64>,
     /// The forces that depend on time alone: their coordinates, and the
     /// force there at the Jacobian's point (their `dP/dv`).
     constant_coords: Vec<Vec<usize>>,
@@ -238,6 +242,8 @@ impl KktNewton {
             c_values: vec![0.0; kc],
             constant_force: constant_coords.iter().map(|cs| vec![0.0; cs.len()]).collect(),
             constant_coords,
+            base_force: effect_coords.iter().map(|cs| vec![0.0; cs.len()]).collect(),
+            base_power: vec![0.0; effect_coords.len()],
             power_q: effect_coords.iter().map(|cs| vec![0.0; cs.len()]).collect(),
             power_v: effect_coords.iter().map(|cs| vec![0.0; cs.len()]).collect(),
             effect_coords,
@@ -311,16 +317,14 @@ impl KktNewton {
             let kcs = &self.effect_kc[k];
             let d = step(cs[lc]);
             for &r in cs {
-                self.f0[r] = 0.0;
                 self.f1[r] = 0.0;
             }
-            let (p0, _) = e.apply(t, q, v, &mut self.f0);
             let (p1, _) = e.apply(t, q1, v1, &mut self.f1);
             let dp = if positions { &mut self.power_q[k] } else { &mut self.power_v[k] };
-            dp[lc] = (p1 - p0) / d;
+            dp[lc] = (p1 - self.base_power[k]) / d;
             let values = if positions { &mut self.k_values } else { &mut self.c_values };
-            for (lr, &r) in cs.iter().enumerate() {
-                values[kcs[lr * cs.len() + lc]] += (self.f1[r] - self.f0[r]) / d;
+            for ((lr, &r), f0) in cs.iter().enumerate().zip(&self.base_force[k]) {
+                values[kcs[lr * cs.len() + lc]] += (self.f1[r] - f0) / d;
             }
         }
         // rows of G: their change belongs to their one coordinate in the group
@@ -359,6 +363,15 @@ impl<M: Model> NewtonSystem<Dynamics<M>> for KktNewton {
         Self::constraint_terms(sys, q, v, &mut self.g_values, &mut self.gamma0, &mut self.phi);
         self.k_values.fill(0.0);
         self.c_values.fill(0.0);
+        for (k, (e, cs)) in sys.effects.iter().zip(&self.effect_coords).enumerate() {
+            for &r in cs {
+                self.f0[r] = 0.0;
+            }
+            self.base_power[k] = e.apply(t, q, v, &mut self.f0).0;
+            for (f, &r) in self.base_force[k].iter_mut().zip(cs) {
+                *f = self.f0[r];
+            }
+        }
         for ((e, cs), fs) in sys.effects.iter().zip(&self.constant_coords).zip(&mut self.constant_force) {
             if cs.is_empty() {
                 continue;

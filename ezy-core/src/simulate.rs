@@ -369,6 +369,79 @@ impl<M: Model, O: Observer<M>> Run<'_, M, O> {
     }
 
     /// Writes the dense-output sample held in `self.sample`.
+    /// Before an adaptive method's step attempt from `t` with step `h`:
+    /// the step budget, `h` cut to end at `t_end` (returns whether this is
+    /// the last step), and a step at the rounding level of `t`, or of the
+    /// run's own time scale for runs shorter than a second (a 1e-15 s run
+    /// is not stiff), which stops the run: with `stage_failure`, an
+    /// effect that failed at every step size, as the cause.
+    fn begin_attempt(&self, t: f64, h: &mut f64, stage_failure: &mut Option<SimError>) -> Result<bool, SimError> {
+        let settings = self.settings;
+        let attempts = self.summary.steps + self.summary.rejected;
+        if let Some(max) = settings.max_steps
+            && attempts >= max
+        {
+            let estimate = if t > 0.0 { attempts as f64 * settings.t_end / t } else { f64::INFINITY };
+            return Err(SimError::Budget {
+                what: "steps",
+                estimate,
+                limit: max as f64,
+                flag: "--max-steps",
+                detail: format!("extrapolated from {attempts} step attempts to t = {t:.6e} s of {} s", settings.t_end),
+            });
+        }
+        let last = t + *h >= settings.t_end * (1.0 - 1e-15);
+        if last {
+            *h = settings.t_end - t;
+        }
+        if h.abs() <= 16.0 * f64::EPSILON * t.abs().max(settings.t_end.min(1.0)) {
+            return Err(stage_failure.take().unwrap_or(SimError::StepSizeTooSmall { t, h: *h }));
+        }
+        Ok(last)
+    }
+
+    /// The time of output number `k` (`k every`, the last one `t_end`).
+    fn out_time(&self, k: u64) -> f64 {
+        (k as f64 * self.settings.every).min(self.settings.t_end)
+    }
+
+    /// Whether output number `n_out` is due in a step ending at `t_new`.
+    fn output_due(&self, n_out: u64, t_new: f64) -> bool {
+        n_out as f64 * self.settings.every <= self.settings.t_end * (1.0 + 1e-12) && self.out_time(n_out) <= t_new
+    }
+
+    /// The outputs inside `(t, t_new]` of an accepted step of size `h`,
+    /// from its dense output `interpolate(theta, out)`, projected;
+    /// `n_out` counts them.
+    fn emit_dense(
+        &mut self,
+        sys: &Dynamics<M>,
+        t: f64,
+        h: f64,
+        t_new: f64,
+        n_out: &mut u64,
+        interpolate: impl Fn(f64, &mut [f64]),
+    ) -> Result<(), RunError<O::Error>> {
+        while self.output_due(*n_out, t_new) {
+            let t_out = self.out_time(*n_out);
+            interpolate((t_out - t) / h, &mut self.sample);
+            self.project_sample(sys, t_out)?;
+            self.emit_sample(sys, t_out)?;
+            *n_out += 1;
+        }
+        Ok(())
+    }
+
+    /// The final time is always written: `y` at `t_end` unless output
+    /// number `n_out - 1` was it.
+    fn finish_dense(&mut self, sys: &Dynamics<M>, n_out: u64, y: &[f64]) -> Result<(), RunError<O::Error>> {
+        let wrote_final = (n_out - 1) as f64 * self.settings.every >= self.settings.t_end * (1.0 - 1e-12);
+        if !wrote_final {
+            self.emit(sys, self.settings.t_end, y)?;
+        }
+        Ok(())
+    }
+
     fn emit_sample(&mut self, sys: &Dynamics<M>, t: f64) -> Result<(), RunError<O::Error>> {
         let sample = std::mem::take(&mut self.sample);
         let res = self.emit(sys, t, &sample);
@@ -505,32 +578,8 @@ fn adaptive<M: Model, O: Observer<M>, E: EmbeddedRk>(
     let mut n_out: u64 = 1;
     let mut stage_failure: Option<SimError> = None;
     let mut stiffness = crate::integrator::adaptive::StiffnessTest::default();
-    let out_time = |k: u64| (k as f64 * settings.every).min(settings.t_end);
     while t < settings.t_end {
-        let attempts = run.summary.steps + run.summary.rejected;
-        if let Some(max) = settings.max_steps
-            && attempts >= max
-        {
-            let estimate = if t > 0.0 { attempts as f64 * settings.t_end / t } else { f64::INFINITY };
-            return Err(SimError::Budget {
-                what: "steps",
-                estimate,
-                limit: max as f64,
-                flag: "--max-steps",
-                detail: format!("extrapolated from {attempts} step attempts to t = {t:.6e} s of {} s", settings.t_end),
-            }
-            .into());
-        }
-        let last = t + h >= settings.t_end * (1.0 - 1e-15);
-        if last {
-            h = settings.t_end - t;
-        }
-        // the rounding level of t, or of the run's own time scale for runs
-        // shorter than a second (a 1e-15 s run is not stiff)
-        if h.abs() <= 16.0 * f64::EPSILON * t.abs().max(settings.t_end.min(1.0)) {
-            // an effect that failed at every step size is the cause
-            return Err(stage_failure.unwrap_or(SimError::StepSizeTooSmall { t, h }).into());
-        }
+        let last = run.begin_attempt(t, &mut h, &mut stage_failure)?;
         let err = match stepper.attempt(sys, t, y, &k1, h, &tol, &mut y_new, &mut k_new) {
             // a stage overflowed: as for a non-finite error estimate below
             Err(SimError::Kkt { source: KktError::NonFinite { .. }, .. }) => f64::NAN,
@@ -565,15 +614,9 @@ fn adaptive<M: Model, O: Observer<M>, E: EmbeddedRk>(
         }
         let t_new = if last { settings.t_end } else { t + h };
         // outputs inside (t, t_new] from the dense output
-        if out_time(n_out) <= t_new {
+        if run.output_due(n_out, t_new) {
             stepper.prepare_dense(sys, t, y, &k1, h, &y_new, &k_new)?;
-            while n_out as f64 * settings.every <= settings.t_end * (1.0 + 1e-12) && out_time(n_out) <= t_new {
-                let t_out = out_time(n_out);
-                stepper.interpolate((t_out - t) / h, &mut run.sample);
-                run.project_sample(sys, t_out)?;
-                run.emit_sample(sys, t_out)?;
-                n_out += 1;
-            }
+            run.emit_dense(sys, t, h, t_new, &mut n_out, |theta, out| stepper.interpolate(theta, out))?;
         }
         // every 64 attempts, also when no output is due for long (tiny steps)
         if (run.summary.steps + run.summary.rejected).is_multiple_of(64) {
@@ -590,11 +633,7 @@ fn adaptive<M: Model, O: Observer<M>, E: EmbeddedRk>(
         run.observer.poll(t).map_err(RunError::Output)?;
     }
     // the final time is always written
-    let wrote_final = (n_out - 1) as f64 * settings.every >= settings.t_end * (1.0 - 1e-12);
-    if !wrote_final {
-        run.emit(sys, settings.t_end, y)?;
-    }
-    Ok(())
+    run.finish_dense(sys, n_out, y)
 }
 
 /// The step loop of the implicit method (RADAU5): as [`adaptive`], with
@@ -617,29 +656,8 @@ fn implicit<M: Model, O: Observer<M>>(
     let mut h = initial_step(sys, 0.0, y, &f, 3, &tol, settings.t_end, &mut w1, &mut w2)?;
     let mut t = 0.0;
     let mut n_out: u64 = 1;
-    let out_time = |k: u64| (k as f64 * settings.every).min(settings.t_end);
     while t < settings.t_end {
-        let attempts = run.summary.steps + run.summary.rejected;
-        if let Some(max) = settings.max_steps
-            && attempts >= max
-        {
-            let estimate = if t > 0.0 { attempts as f64 * settings.t_end / t } else { f64::INFINITY };
-            return Err(SimError::Budget {
-                what: "steps",
-                estimate,
-                limit: max as f64,
-                flag: "--max-steps",
-                detail: format!("extrapolated from {attempts} step attempts to t = {t:.6e} s of {} s", settings.t_end),
-            }
-            .into());
-        }
-        let last = t + h >= settings.t_end * (1.0 - 1e-15);
-        if last {
-            h = settings.t_end - t;
-        }
-        if h.abs() <= 16.0 * f64::EPSILON * t.abs().max(settings.t_end.min(1.0)) {
-            return Err(stepper.stage_failure.take().unwrap_or(SimError::StepSizeTooSmall { t, h }).into());
-        }
+        let last = run.begin_attempt(t, &mut h, &mut stepper.stage_failure)?;
         let h_next = match stepper.attempt(sys, &mut newton, t, y, &f, h, &mut y_new)? {
             Attempt::Rejected { h_next } => {
                 run.summary.rejected += 1;
@@ -650,13 +668,7 @@ fn implicit<M: Model, O: Observer<M>>(
             Attempt::Accepted { h_next } => h_next,
         };
         let t_new = if last { settings.t_end } else { t + h };
-        while n_out as f64 * settings.every <= settings.t_end * (1.0 + 1e-12) && out_time(n_out) <= t_new {
-            let t_out = out_time(n_out);
-            stepper.interpolate((t_out - t) / h, &mut run.sample);
-            run.project_sample(sys, t_out)?;
-            run.emit_sample(sys, t_out)?;
-            n_out += 1;
-        }
+        run.emit_dense(sys, t, h, t_new, &mut n_out, |theta, out| stepper.interpolate(theta, out))?;
         if (run.summary.steps + run.summary.rejected).is_multiple_of(64) {
             run.observer.progress(t_new);
         }
@@ -668,9 +680,5 @@ fn implicit<M: Model, O: Observer<M>>(
         run.newton = stepper.stats;
         run.observer.poll(t).map_err(RunError::Output)?;
     }
-    let wrote_final = (n_out - 1) as f64 * settings.every >= settings.t_end * (1.0 - 1e-12);
-    if !wrote_final {
-        run.emit(sys, settings.t_end, y)?;
-    }
-    Ok(())
+    run.finish_dense(sys, n_out, y)
 }
