@@ -34,7 +34,7 @@ use ezy_core::{Model, ModelInfo, Scene, SceneError};
 
 use crate::cli::{self, Cli, Command};
 use crate::run::{Report, RunOptions};
-use crate::{equations, precision, run, scale, testing};
+use crate::{equations, precision, run, scale, sweep, testing};
 
 /// What one command does with a model type, as plain function pointers
 /// (one monomorphized copy per registered model), so the table holds
@@ -56,6 +56,7 @@ struct ModelOps {
     equations: fn(&Sets, equations::Format) -> Result<String, String>,
     check: CheckFn,
     scale: fn(&[usize], usize, KktMethod) -> Result<Scaled, scale::ScaleError>,
+    sweep: fn(&sweep::SweepJob) -> Result<sweep::SweepReport, sweep::SweepError>,
 }
 
 impl ModelOps {
@@ -76,6 +77,7 @@ impl ModelOps {
                 Ok((info, report))
             },
             scale: |n, batches, kkt| Ok((M::default().info(), scale::scale::<M>(n, batches, kkt)?)),
+            sweep: sweep::sweep_model::<M>,
         }
     }
 }
@@ -454,6 +456,7 @@ impl App {
             Some(Command::Run(args)) => self.cmd_run(args, out),
             Some(Command::List) => Ok(out.write_all(self.list().map_err(AppError::failed)?.as_bytes())?),
             Some(Command::Precision(args)) => self.cmd_precision(args, out),
+            Some(Command::Sweep(args)) => self.cmd_sweep(*args, out),
             Some(Command::Equations(args)) => {
                 let ops = self.model_ops(&args.model)?;
                 let text = (ops.equations)(&args.sets, args.format.into()).map_err(AppError::Failed)?;
@@ -504,6 +507,150 @@ impl App {
             cli::Format::Csv => precision::csv(&report.rows),
         };
         committed(out, &text, &dir)
+    }
+
+    /// The sweep `args` define on the scene `src` (named `name` on the
+    /// command line): axes, metrics, overrides, output directory, jobs.
+    fn sweep_job(&self, src: &SceneSource, name: &str, args: &cli::SweepArgs) -> Result<sweep::SweepJob, AppError> {
+        let scene = &src.scene;
+        let mut axes = Vec::new();
+        for g in &args.grids {
+            axes.push(sweep::plan::grid(g).map_err(|e| AppError::Failed(format!("--grid {e}")))?);
+        }
+        for l in &args.lists {
+            axes.push(sweep::plan::list(l).map_err(|e| AppError::Failed(format!("--list {e}")))?);
+        }
+        for r in &args.randoms {
+            axes.push(sweep::plan::random(r).map_err(|e| AppError::Failed(format!("--random {e}")))?);
+        }
+        if let Some(a) = axes.iter().find(|a| args.overrides.sets.iter().any(|(n, _)| *n == a.name)) {
+            return Err(AppError::Failed(format!("`{}` is both swept and fixed by --set", a.name)));
+        }
+        let plan = sweep::Plan::new(axes, args.samples, args.seed).map_err(AppError::Failed)?;
+        let metrics = args
+            .metrics
+            .iter()
+            .map(|m| m.parse::<sweep::Metric>())
+            .collect::<Result<Vec<_>, _>>()
+            .map_err(AppError::Failed)?;
+        let jobs = match args.jobs {
+            Some(0) => return Err(AppError::Failed("--jobs 0: give at least 1".into())),
+            Some(j) => j,
+            None => std::thread::available_parallelism().map_or(1, std::num::NonZero::get),
+        };
+        let mut definition = Vec::new();
+        for (flag, list) in [("--grid", &args.grids), ("--list", &args.lists), ("--random", &args.randoms)] {
+            for v in list {
+                definition.extend([flag.to_string(), v.trim().to_string()]);
+            }
+        }
+        if let Some(n) = args.samples {
+            definition.extend(["--samples".into(), n.to_string(), "--seed".into(), args.seed.to_string()]);
+        }
+        for m in &metrics {
+            definition.extend(["--metric".into(), m.text.clone()]);
+        }
+        definition.extend(args.overrides.to_args());
+        let is_path = name.ends_with(".toml") || name.contains('/') || name.contains(std::path::MAIN_SEPARATOR);
+        let scene_ref = if is_path {
+            std::fs::canonicalize(name).map_or_else(|_| name.to_string(), |p| p.display().to_string())
+        } else {
+            scene.name.clone()
+        };
+        let manifest = sweep::Manifest {
+            scene: scene_ref,
+            scene_fingerprint: sweep::fingerprint(&src.text),
+            runs: plan.runs(),
+            args: definition,
+            shard: args.shard.map(|(k, n)| format!("{k}/{n}")),
+        };
+        let out = args.out.clone().unwrap_or_else(|| PathBuf::from("out").join("sweep").join(&scene.name));
+        Ok(sweep::SweepJob {
+            scene: scene.clone(),
+            manifest,
+            plan,
+            metrics,
+            opts: args.overrides.options(),
+            out,
+            jobs,
+            shard: args.shard,
+            save_runs: args.save_runs,
+            figures: !args.no_figures,
+            progress: true,
+            check_only: false,
+        })
+    }
+
+    fn cmd_sweep(&self, args: cli::SweepArgs, out: &mut dyn Write) -> Result<(), AppError> {
+        if let Some(cli::SweepCommand::Merge(m)) = args.command {
+            return self.cmd_merge(m, out);
+        }
+        let Some(name) = args.scene.clone() else {
+            return Err(AppError::Failed(
+                "sweep needs a scene and at least one axis: `ezy sweep SCENE --grid NAME=START:STOP:COUNT` (see `ezy sweep --help`)".into(),
+            ));
+        };
+        let src = self.load_scene(&name).map_err(AppError::failed)?;
+        let mut job = self.sweep_job(&src, &name, &args)?;
+        let ops = self.model_ops(&src.scene.model)?;
+        if let Some(file) = &args.emit_slurm {
+            if args.shard.is_some() {
+                return Err(AppError::Failed("--emit-slurm writes the shards itself: leave out --shard".into()));
+            }
+            job.check_only = true;
+            (ops.sweep)(&job).map_err(AppError::failed)?;
+            let runs = job.plan.runs();
+            let tasks = args.tasks.unwrap_or(4).min(runs);
+            let dir =
+                std::path::absolute(&job.out).map_err(|e| AppError::Failed(format!("{}: {e}", job.out.display())))?;
+            let exe =
+                std::env::current_exe().map_err(|e| AppError::Failed(format!("the path of this program: {e}")))?;
+            let text =
+                sweep::slurm::script(&exe, &job.manifest.scene, &job.manifest.args, &dir, tasks, runs, &src.scene.name);
+            crate::transaction::write_atomically(file, text.as_bytes()).map_err(AppError::failed)?;
+            let msg = format!(
+                "wrote {} ({runs} runs in {tasks} array tasks, merged into {}); submit it with `bash {}`\n",
+                file.display(),
+                dir.display(),
+                file.display()
+            );
+            return Ok(out.write_all(msg.as_bytes())?);
+        }
+        let report = (ops.sweep)(&job).map_err(|e| match e {
+            sweep::SweepError::Interrupted(i) => AppError::Interrupted(i),
+            e => AppError::failed(e),
+        })?;
+        committed(out, &report.summary(&src.scene.name), &job.out)
+    }
+
+    fn cmd_merge(&self, args: cli::MergeArgs, out: &mut dyn Write) -> Result<(), AppError> {
+        let (manifest, mut files) = sweep::merge(&args.dirs, &args.out).map_err(AppError::Failed)?;
+        let mut notes = Vec::new();
+        if !args.no_figures {
+            // the plan and the metrics, from the definition the shards share
+            let mut argv = vec!["ezy".to_string(), "sweep".into(), manifest.scene.clone()];
+            argv.extend(manifest.args.iter().cloned());
+            let parsed = match Cli::try_parse_from(&argv) {
+                Ok(Cli { command: Some(Command::Sweep(a)) }) => *a,
+                _ => {
+                    return Err(AppError::Failed(format!("the shards' sweep.toml does not parse: {}", argv.join(" "))));
+                }
+            };
+            let src = self.load_scene(&manifest.scene).map_err(AppError::failed)?;
+            let job = self.sweep_job(&src, &manifest.scene, &parsed)?;
+            let (f, n) = sweep::figure::draw(&args.out, &job.plan, &job.metrics).map_err(AppError::Failed)?;
+            files.extend(f);
+            notes = n;
+        }
+        let mut text =
+            format!("merged {} shards: {} runs into {}\n", args.dirs.len(), manifest.runs, args.out.display());
+        for n in notes {
+            text.push_str(&format!("  note: {n}\n"));
+        }
+        for f in files {
+            text.push_str(&format!("  wrote {}\n", f.display()));
+        }
+        committed(out, &text, &args.out)
     }
 
     fn cmd_run(&self, args: cli::RunArgs, out: &mut dyn Write) -> Result<(), AppError> {

@@ -31,6 +31,9 @@ pub enum Command {
     Check(CheckArgs),
     /// Time one right-hand-side evaluation against the size of a model's family.
     Scale(ScaleArgs),
+    /// Run a scene over a grid, a list or random draws of parameter values
+    /// in parallel: one row per run in sweep.csv, resumable and shardable.
+    Sweep(Box<SweepArgs>),
 }
 
 #[derive(clap::Args, Debug)]
@@ -117,6 +120,20 @@ pub struct RunArgs {
     /// Output directory [default: out/SCENE].
     #[arg(long)]
     pub out: Option<PathBuf>,
+    #[command(flatten)]
+    pub overrides: Overrides,
+    /// Refuse runs whose trajectory.csv would be larger than this many MB
+    /// (estimated before the run) [default: 1000].
+    #[arg(long, value_name = "MB", value_parser = parse_positive)]
+    pub max_output_mb: Option<f64>,
+    /// Skip the figures (CSV only).
+    #[arg(long)]
+    pub no_figures: bool,
+}
+
+/// The settings `run` and `sweep` take on top of a scene's.
+#[derive(clap::Args, Debug, Default, Clone)]
+pub struct Overrides {
     /// Override a scene parameter (--set M0=0.1: every number that names it),
     /// a model parameter (--set m2=2) or a number of an effect, by EFFECT.KEY
     /// with the full key or its last part (--set motor.amplitude=3).
@@ -150,13 +167,139 @@ pub struct RunArgs {
     /// stop when they reach it) [default: 100000000].
     #[arg(long, value_name = "N", value_parser = parse_count)]
     pub max_steps: Option<u64>,
-    /// Refuse runs whose trajectory.csv would be larger than this many MB
-    /// (estimated before the run) [default: 1000].
-    #[arg(long, value_name = "MB", value_parser = parse_positive)]
-    pub max_output_mb: Option<f64>,
-    /// Skip the figures (CSV only).
+}
+
+impl Overrides {
+    /// The overrides as command-line arguments that parse back to them
+    /// (what a Slurm script passes on, and how a sweep's manifest records
+    /// them).
+    pub fn to_args(&self) -> Vec<String> {
+        use clap::ValueEnum as _;
+        let mut a = Vec::new();
+        for (name, v) in &self.sets {
+            a.push("--set".into());
+            a.push(format!("{name}={v:?}"));
+        }
+        let mut num = |flag: &str, v: Option<f64>| {
+            if let Some(v) = v {
+                a.push(flag.into());
+                a.push(format!("{v:?}"));
+            }
+        };
+        num("--dt", self.dt);
+        num("--t-end", self.t_end);
+        num("--every", self.every);
+        num("--rtol", self.rtol);
+        num("--atol", self.atol);
+        let name = |v: Option<clap::builder::PossibleValue>| v.map(|p| p.get_name().to_string()).unwrap_or_default();
+        if let Some(p) = self.projection {
+            a.extend(["--projection".into(), name(p.to_possible_value())]);
+        }
+        if let Some(b) = self.baumgarte {
+            a.extend(["--baumgarte".into(), format!("{:?},{:?}", b.alpha, b.beta)]);
+        }
+        if let Some(m) = self.integrator {
+            a.extend(["--integrator".into(), name(m.to_possible_value())]);
+        }
+        if let Some(n) = self.max_steps {
+            a.extend(["--max-steps".into(), n.to_string()]);
+        }
+        a
+    }
+}
+
+/// `ezy sweep`: many runs of one scene over parameter values.
+#[derive(clap::Args, Debug, Default)]
+#[command(args_conflicts_with_subcommands = true, allow_negative_numbers = true)]
+pub struct SweepArgs {
+    #[command(subcommand)]
+    pub command: Option<SweepCommand>,
+    /// Scene: a known name (see `list`) or a path to a .toml scene file.
+    pub scene: Option<String>,
+    /// An axis of evenly spaced values, START and STOP included
+    /// (`--grid a=0.1:0.5:9`); repeatable, the first axis varies slowest.
+    #[arg(long = "grid", value_name = "NAME=START:STOP:COUNT")]
+    pub grids: Vec<String>,
+    /// An axis of given values (`--list m2=1,2,4`); repeatable, after the
+    /// --grid axes.
+    #[arg(long = "list", value_name = "NAME=V1,V2,...")]
+    pub lists: Vec<String>,
+    /// A parameter drawn uniformly from [LO, HI] (`--random omega=1:6`);
+    /// all random parameters are drawn together, --samples times, for
+    /// every point of the other axes.
+    #[arg(long = "random", value_name = "NAME=LO:HI")]
+    pub randoms: Vec<String>,
+    /// Number of random draws (with --random).
+    #[arg(long, value_name = "N", value_parser = parse_count)]
+    pub samples: Option<u64>,
+    /// Seed of the random draws (ChaCha8: the same seed gives the same
+    /// values on every machine).
+    #[arg(long, default_value_t = 1)]
+    pub seed: u64,
+    /// A quantity per run, a column of `trajectory.csv` or a figure's
+    /// column function, reduced over a time window [s]:
+    /// `mean(norm(x1d, y1d), 50, 60)`, `max(...)`, `min(...)`, `final(...)`
+    /// (window optional: the whole run); repeatable.
+    #[arg(long = "metric", value_name = "EXPR")]
+    pub metrics: Vec<String>,
+    /// Runs at once [default: every core].
+    #[arg(long, value_name = "J")]
+    pub jobs: Option<usize>,
+    /// Output directory [default: out/sweep/SCENE].
+    #[arg(long)]
+    pub out: Option<PathBuf>,
+    /// Run only every N-th run from the K-th (K from 0): one of N shards
+    /// that `ezy sweep merge` combines.
+    #[arg(long, value_name = "K/N", value_parser = parse_shard)]
+    pub shard: Option<(u64, u64)>,
+    /// Write a Slurm batch script for this sweep (a job array of shards
+    /// and the merge as a dependent job) instead of running it.
+    #[arg(long, value_name = "FILE")]
+    pub emit_slurm: Option<PathBuf>,
+    /// Number of array tasks in the Slurm script [default: 4].
+    #[arg(long, value_name = "N", value_parser = parse_count, requires = "emit_slurm")]
+    pub tasks: Option<u64>,
+    /// Also keep every run's trajectory.csv and figures, in DIR/runs/RUN.
+    #[arg(long)]
+    pub save_runs: bool,
+    /// Skip the sweep's figures.
     #[arg(long)]
     pub no_figures: bool,
+    #[command(flatten)]
+    pub overrides: Overrides,
+}
+
+#[derive(Subcommand, Debug)]
+pub enum SweepCommand {
+    /// Combine the outputs of a sweep's shards into one sweep.csv.
+    Merge(MergeArgs),
+}
+
+#[derive(clap::Args, Debug)]
+pub struct MergeArgs {
+    /// The shards' output directories.
+    #[arg(required = true)]
+    pub dirs: Vec<PathBuf>,
+    /// Directory of the merged sweep.csv and figures.
+    #[arg(long)]
+    pub out: PathBuf,
+    /// Skip the figures.
+    #[arg(long)]
+    pub no_figures: bool,
+}
+
+/// `K/N` of `--shard`: 0 <= K < N.
+///
+/// # Errors
+/// Not two whole numbers, N = 0 or K >= N.
+pub fn parse_shard(s: &str) -> Result<(u64, u64), String> {
+    let (k, n) = s.split_once('/').ok_or_else(|| format!("`{s}`: expected K/N (shard K of N, K from 0)"))?;
+    let k: u64 = k.trim().parse().map_err(|_| format!("`{s}`: `{k}` is not a whole number"))?;
+    let n: u64 = n.trim().parse().map_err(|_| format!("`{s}`: `{n}` is not a whole number"))?;
+    if n == 0 || k >= n {
+        return Err(format!("`{s}`: need 0 <= K < N"));
+    }
+    Ok((k, n))
 }
 
 #[derive(clap::Args, Debug)]
@@ -241,7 +384,13 @@ pub fn parse_count(s: &str) -> Result<u64, String> {
 /// No `=`, or a value that is not a finite number.
 pub fn parse_set(s: &str) -> Result<(String, f64), String> {
     let (name, value) = s.split_once('=').ok_or_else(|| format!("`{s}`: expected NAME=VALUE"))?;
-    let v: f64 = value.trim().parse().map_err(|_| format!("`{s}`: `{value}` is not a number"))?;
+    let v: f64 = value.trim().parse().map_err(|_| {
+        if value.contains(',') {
+            format!("`{s}`: one value per --set; for several values run `ezy sweep SCENE --list {}`", s.trim())
+        } else {
+            format!("`{s}`: `{value}` is not a number")
+        }
+    })?;
     if !v.is_finite() {
         return Err(format!("`{s}`: the value must be finite"));
     }
@@ -273,7 +422,21 @@ impl RunArgs {
     pub fn options(self, scene: &str) -> RunOptions {
         RunOptions {
             out: self.out.unwrap_or_else(|| PathBuf::from("out").join(scene)),
-            sets: self.sets,
+            figures: !self.no_figures,
+            progress: true,
+            max_output_mb: self.max_output_mb,
+            ..self.overrides.options()
+        }
+    }
+}
+
+impl Overrides {
+    /// The run options these overrides give (no output directory, no
+    /// figures, no progress display).
+    pub fn options(&self) -> RunOptions {
+        RunOptions {
+            out: PathBuf::new(),
+            sets: self.sets.clone(),
             dt: self.dt,
             t_end: self.t_end,
             every: self.every,
@@ -292,10 +455,10 @@ impl RunArgs {
             baumgarte: self.baumgarte,
             rtol: self.rtol,
             atol: self.atol,
-            figures: !self.no_figures,
-            progress: true,
+            figures: false,
+            progress: false,
             max_steps: self.max_steps,
-            max_output_mb: self.max_output_mb,
+            max_output_mb: None,
         }
     }
 }

@@ -16,6 +16,7 @@ pub mod precision;
 pub mod progress;
 pub mod run;
 pub mod scale;
+pub mod sweep;
 pub mod testing;
 pub mod transaction;
 

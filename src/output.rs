@@ -183,8 +183,12 @@ impl Table {
     }
 }
 
+/// What sees every output row as it is written (a sweep's metrics):
+/// the sample and the row.
+pub type Tap<'a> = &'a mut dyn FnMut(&Sample<'_>, &[f64]);
+
 /// Writes samples to CSV and keeps them for figures.
-pub struct CsvObserver<M: Model> {
+pub struct CsvObserver<'a, M: Model> {
     /// The final path (errors name it).
     path: PathBuf,
     /// The output directory (an interruption names it).
@@ -199,9 +203,10 @@ pub struct CsvObserver<M: Model> {
     row: Vec<f64>,
     builder: RowBuilder<M>,
     progress: Option<crate::progress::Progress>,
+    tap: Option<Tap<'a>>,
 }
 
-impl<M: Model> CsvObserver<M> {
+impl<'a, M: Model> CsvObserver<'a, M> {
     /// Creates the table `name` (`trajectory.csv`) in the transaction `tx`
     /// (the first file of the transaction, so the last one committed) and
     /// writes the header; `rows` is the expected number of rows (the table
@@ -232,7 +237,15 @@ impl<M: Model> CsvObserver<M> {
             row: Vec::with_capacity(n),
             builder,
             progress,
+            tap: None,
         })
+    }
+
+    /// Shows every row, as written, to `tap` too.
+    #[must_use]
+    pub fn with_tap(mut self, tap: Tap<'a>) -> Self {
+        self.tap = Some(tap);
+        self
     }
 
     /// Flushes and syncs the file (its transaction commits it) and returns
@@ -260,7 +273,7 @@ impl<M: Model> CsvObserver<M> {
     }
 }
 
-impl<M: Model> Observer<M> for CsvObserver<M> {
+impl<M: Model> Observer<M> for CsvObserver<'_, M> {
     type Error = OutputError;
 
     fn observe(&mut self, sys: &Dynamics<M>, s: &Sample<'_>) -> Result<(), OutputError> {
@@ -275,6 +288,9 @@ impl<M: Model> Observer<M> for CsvObserver<M> {
         self.writer
             .write_record(None::<&[u8]>)
             .map_err(|source| OutputError::Csv { path: self.path.clone(), source })?;
+        if let Some(tap) = &mut self.tap {
+            tap(s, &self.row);
+        }
         if self.written.is_multiple_of(self.keep) {
             if self.table.rows() >= FIGURE_ROWS {
                 let n = self.table.columns.len();

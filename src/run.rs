@@ -171,6 +171,51 @@ pub struct Setup<M: Model> {
 /// [`SimError::Setting`] for a negative mass, [`SimError::Initial`] if no
 /// consistent initial state is near the given one.
 pub fn setup<M: Model + Default>(scene: &Scene, sets: &[(String, f64)]) -> Result<Setup<M>, SimError> {
+    let Configured { model, scene, effects, drives, given } = configure::<M>(scene, sets)?;
+    let (q, qd, initial) = consistent_state_given(&model, &drives, &given)?;
+    let mut y0 = q;
+    y0.extend_from_slice(&qd);
+    y0.resize(y0.len() + effects.len() + drives.len(), 0.0);
+    Ok(Setup { model, scene, effects, drives, y0, initial })
+}
+
+/// A scene configured for a run, before its initial state is solved for:
+/// what [`configure`] returns.
+#[derive(Debug, Clone)]
+pub struct Configured<M: Model> {
+    /// The model with the scene's and the overrides' parameter values.
+    pub model: M,
+    /// The scene after the overrides, its families expanded.
+    pub scene: Scene,
+    /// The scene's effects, resolved against the model.
+    pub effects: Vec<ezy_core::Effect>,
+    /// The model's drives with the scene's prescribed angles.
+    pub drives: Vec<ezy_core::drive::Drive>,
+    /// The initial values the scene gives.
+    pub given: Given,
+}
+
+impl<M: Model> Configured<M> {
+    /// Names of the state components `y = [q, qd, W_effects.., W_drives..]`
+    /// (as [`Dynamics::state_name`] gives them).
+    pub fn state_names(&self) -> Vec<String> {
+        let info = self.model.info();
+        let mut names: Vec<String> = info.coords.iter().map(|c| c.to_string()).collect();
+        names.extend(info.coords.iter().map(|c| format!("{c}d")));
+        names.extend(self.effects.iter().map(|e| e.work_column()));
+        names.extend(self.drives.iter().map(|d| format!("W_{}", d.name)));
+        names
+    }
+}
+
+/// The first half of [`setup`]: applies the overrides, sets the family
+/// counts, expands the scene's families, checks every name and number,
+/// checks the masses and resolves the effects and drives; no initial
+/// state is solved for.
+///
+/// # Errors
+/// As [`setup`], but for [`SimError::Initial`].
+pub fn configure<M: Model + Default>(scene: &Scene, sets: &[(String, f64)]) -> Result<Configured<M>, SimError> {
     let mut model = M::default();
     let base = model.info();
     let mut scene = scene.clone();
@@ -260,11 +305,7 @@ pub fn setup<M: Model + Default>(scene: &Scene, sets: &[(String, f64)]) -> Resul
     let effects = scene.resolve_effects(&model)?;
     let drives = scene.resolve_drives(info);
     let given = Given { q: given_q, qd: given_qd, angles, guess };
-    let (q, qd, initial) = consistent_state_given(&model, &drives, &given)?;
-    let mut y0 = q;
-    y0.extend_from_slice(&qd);
-    y0.resize(y0.len() + effects.len() + drives.len(), 0.0);
-    Ok(Setup { model, scene, effects, drives, y0, initial })
+    Ok(Configured { model, scene, effects, drives, given })
 }
 
 /// The scene's model with overrides, its effects resolved, and the
@@ -281,15 +322,13 @@ pub fn build<M: Model + Default>(
     Ok((Dynamics::new(s.model, s.effects, kkt).with_drives(s.drives), s.y0))
 }
 
-/// Runs `scene` with `opts` on model type `M` (what [`crate::App::run_scene`]
-/// calls for the model the scene names): resolves the overrides, finds
-/// consistent initial values, integrates, writes `trajectory.csv` and the
-/// figures into `opts.out`.
+/// The settings of a run of `scene` with the overrides of `opts`
+/// (duration, step, tolerances, method, projection, step budget).
 ///
 /// # Errors
-/// [`Error`] naming the bad setting, parameter, or file.
-pub fn run_model<M: Model + Default>(scene: &Scene, opts: &RunOptions) -> Result<Report, Error> {
-    let wall = Instant::now();
+/// [`SimError::Setting`] naming the flag of a bad override (`--rtol`),
+/// or a setting the scene and overrides make invalid together.
+pub fn settings(scene: &Scene, opts: &RunOptions) -> Result<RunSettings, SimError> {
     for (flag, name, value) in [
         ("--dt", "dt", opts.dt),
         ("--t-end", "t_end", opts.t_end),
@@ -300,7 +339,7 @@ pub fn run_model<M: Model + Default>(scene: &Scene, opts: &RunOptions) -> Result
         if let Some(v) = value
             && let Some(reason) = RunSettings::reject(name, v)
         {
-            return Err(SimError::Setting { name: flag.into(), value: v, reason }.into());
+            return Err(SimError::Setting { name: flag.into(), value: v, reason });
         }
     }
     let base = scene.run_settings();
@@ -317,14 +356,70 @@ pub fn run_model<M: Model + Default>(scene: &Scene, opts: &RunOptions) -> Result
     };
     settings.validate()?;
     scene.check_drives_cover(settings.t_end).map_err(|e| SimError::Scene { key: e.key(), message: e.message })?;
+    Ok(settings)
+}
+
+/// A run ready to integrate: what [`prepare`] returns.
+#[derive(Debug)]
+pub struct Prepared<M: Model> {
+    /// The run's settings.
+    pub settings: RunSettings,
+    /// The scene after the overrides, its families expanded.
+    pub scene: Scene,
+    /// The right-hand side: model, effects, drives, KKT path, Baumgarte.
+    pub sys: Dynamics<M>,
+    /// Consistent initial state `y0 = [q, qd, W = 0 ...]`.
+    pub y0: Vec<f64>,
+    /// What the initial-condition solve had to correct.
+    pub initial: InitialReport,
+}
+
+/// Everything of a run before its first step: [`setup`] with `opts.sets`,
+/// and the dynamics with `opts.baumgarte`; `settings` from [`settings`].
+/// `ezy run` and every run of `ezy sweep` start here, so a sweep's run
+/// is the single run, number for number.
+///
+/// # Errors
+/// As [`setup`].
+pub fn prepare<M: Model + Default>(
+    scene: &Scene,
+    opts: &RunOptions,
+    settings: RunSettings,
+) -> Result<Prepared<M>, SimError> {
+    let Setup { model, scene, effects, drives, y0, initial } = setup::<M>(scene, &opts.sets)?;
+    let mut sys = Dynamics::new(model, effects, KktMethod::Auto).with_drives(drives);
+    sys.baumgarte = opts.baumgarte;
+    Ok(Prepared { settings, scene, sys, y0, initial })
+}
+
+/// Runs `scene` with `opts` on model type `M` (what [`crate::App::run_scene`]
+/// calls for the model the scene names): resolves the overrides, finds
+/// consistent initial values, integrates, writes `trajectory.csv` and the
+/// figures into `opts.out`.
+///
+/// # Errors
+/// [`Error`] naming the bad setting, parameter, or file.
+pub fn run_model<M: Model + Default>(scene: &Scene, opts: &RunOptions) -> Result<Report, Error> {
+    run_model_tapped::<M>(scene, opts, None)
+}
+
+/// [`run_model`] that shows every output row, as it is written, to `tap`
+/// (what `ezy sweep --save-runs` reduces its metrics from).
+///
+/// # Errors
+/// As [`run_model`].
+pub fn run_model_tapped<M: Model + Default>(
+    scene: &Scene,
+    opts: &RunOptions,
+    tap: Option<crate::output::Tap<'_>>,
+) -> Result<Report, Error> {
+    let wall = Instant::now();
+    let settings = settings(scene, opts)?;
     // a line on stderr every few seconds while a phase without its own
     // progress takes long (the setup of a huge family, many figures)
     let beat = opts.progress.then(|| crate::progress::Heartbeat::start(format!("setting up scene {}", scene.name)));
-    let Setup { model, scene, effects, drives, y0, initial } = setup::<M>(scene, &opts.sets)?;
+    let Prepared { scene, mut sys, y0, initial, .. } = prepare::<M>(scene, opts, settings)?;
     let scene = &scene;
-    let mut sys = Dynamics::new(model, effects, KktMethod::Auto).with_drives(drives);
-    sys.baumgarte = opts.baumgarte;
-
     let rows = RowBuilder::new(scene, &sys);
     output_budget(&settings, rows.columns.len(), opts.max_output_mb.unwrap_or(DEFAULT_MAX_OUTPUT_MB))?;
 
@@ -335,6 +430,9 @@ pub fn run_model<M: Model + Default>(scene: &Scene, opts: &RunOptions) -> Result
     let progress = if opts.progress { crate::progress::Progress::new(settings.t_end) } else { None };
     let n_rows = settings.n_steps() / settings.output_stride() + 2;
     let mut obs = CsvObserver::create(&mut tx, "trajectory.csv", rows, progress, n_rows as usize)?;
+    if let Some(tap) = tap {
+        obs = obs.with_tap(tap);
+    }
     let setup = wall.elapsed();
     if let Some(b) = &beat {
         b.quiet();

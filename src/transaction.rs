@@ -97,6 +97,9 @@ pub struct Interrupted {
     pub t: Option<f64>,
     /// What the run was doing (`"drawing fig3.png"`), when not integrating.
     pub doing: Option<String>,
+    /// What became of the output, when not "previous output in DIR left
+    /// as it was" (a sweep keeps the rows of its finished runs).
+    pub kept: Option<String>,
 }
 
 impl std::fmt::Display for Interrupted {
@@ -110,7 +113,10 @@ impl std::fmt::Display for Interrupted {
         if let Some(d) = &self.doing {
             write!(f, ", {d}")?;
         }
-        write!(f, "; previous output in {} left as it was", self.dir.display())
+        match &self.kept {
+            Some(k) => write!(f, "; {k}"),
+            None => write!(f, "; previous output in {} left as it was", self.dir.display()),
+        }
     }
 }
 
@@ -212,14 +218,14 @@ enum Previous {
 
 /// `O_NOFOLLOW`: opening a symbolic link fails instead of following it.
 #[cfg(unix)]
-fn no_follow(o: &mut OpenOptions) -> &mut OpenOptions {
+pub(crate) fn no_follow(o: &mut OpenOptions) -> &mut OpenOptions {
     use std::os::unix::fs::OpenOptionsExt;
     // O_NONBLOCK: a FIFO planted as the lock file cannot block the open.
     o.custom_flags(libc::O_NOFOLLOW | libc::O_NONBLOCK)
 }
 
 #[cfg(not(unix))]
-fn no_follow(o: &mut OpenOptions) -> &mut OpenOptions {
+pub(crate) fn no_follow(o: &mut OpenOptions) -> &mut OpenOptions {
     o
 }
 
@@ -467,7 +473,7 @@ static WHICH: AtomicUsize = AtomicUsize::new(0);
 /// files and returns [`Interrupted`]; a second one ends the process at once.
 /// Creates `dir` (and its parents) if needed and takes the exclusive lock
 /// on its lock file, without waiting and never through a link.
-fn lock(dir: &Path) -> Result<File, TransactionError> {
+pub(crate) fn lock(dir: &Path) -> Result<File, TransactionError> {
     std::fs::create_dir_all(dir).map_err(|source| TransactionError::OutDir { path: dir.into(), source })?;
     let lock_path = dir.join(LOCK_FILE);
     let lock =
@@ -505,7 +511,7 @@ pub fn handle_signals() {
 }
 
 /// Installs the handlers (once) if [`handle_signals`] was called.
-fn arm_signals() {
+pub(crate) fn arm_signals() {
     #[cfg(unix)]
     {
         static ARMED: std::sync::Once = std::sync::Once::new();
@@ -550,7 +556,9 @@ pub fn pending() -> Option<Signal> {
 pub fn check_interrupt(dir: &Path, t: Option<f64>, doing: Option<String>) -> Result<(), TransactionError> {
     match pending() {
         None => Ok(()),
-        Some(signal) => Err(TransactionError::Interrupted(Interrupted { signal, dir: dir.into(), t, doing })),
+        Some(signal) => {
+            Err(TransactionError::Interrupted(Interrupted { signal, dir: dir.into(), t, doing, kept: None }))
+        }
     }
 }
 

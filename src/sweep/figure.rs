@@ -1,0 +1,114 @@
+//! The sweep's figures, drawn from `sweep.csv` once every run is in: for
+//! each metric `k`, `sweep_<k>.png` (the metric against the first
+//! parameter, a line per value of the second) and, for two fixed axes,
+//! `sweep_<k>_map.png` (a heat map over both).
+
+use std::path::{Path, PathBuf};
+
+use super::metric::Metric;
+use super::plan::{Plan, Values};
+use crate::plot::{Chart, HeatMap, Series};
+
+/// Most lines in a figure (one per value of the second axis); beyond it
+/// only the heat map is drawn.
+pub const MAX_LINES: usize = 10;
+
+/// Draws the figures of the sweep in `dir` and returns the files written
+/// and notes on the figures not drawn (a metric whose every run failed,
+/// more than two axes).
+///
+/// # Errors
+/// `sweep.csv` cannot be read, or a figure cannot be written.
+pub fn draw(dir: &Path, plan: &Plan, metrics: &[Metric]) -> Result<(Vec<PathBuf>, Vec<String>), String> {
+    let (mut files, mut notes) = (Vec::new(), Vec::new());
+    if metrics.is_empty() {
+        notes.push("no figure: give a --metric to draw it against the parameters".into());
+        return Ok((files, notes));
+    }
+    let axes = plan.axes.len();
+    if axes > 2 {
+        notes.push(format!("no figure: {axes} swept parameters (figures are drawn for one or two)"));
+        return Ok((files, notes));
+    }
+    let random = plan.axes.iter().any(|a| matches!(a.values, Values::Random { .. }));
+    if random && axes > 1 {
+        notes.push("no figure: random draws over two parameters (figures are drawn for one random parameter)".into());
+        return Ok((files, notes));
+    }
+    let mut names = plan.names();
+    names.extend(metrics.iter().map(|m| m.text.clone()));
+    let rows = super::table::read_columns(dir, &names)?;
+    for (k, m) in metrics.iter().enumerate() {
+        let col = axes + k;
+        let file = format!("sweep_{}.png", k + 1);
+        let title = format!("{} against {}", m.text, plan.names().join(" and "));
+        let mut series = Vec::new();
+        if axes == 1 || random {
+            let mut pts: Vec<(f64, f64)> = rows.iter().map(|r| (r[0], r[col])).collect();
+            pts.sort_by(|a, b| a.0.total_cmp(&b.0));
+            series.push(Series { label: String::new(), points: pts });
+        } else {
+            let ys = plan.fixed_values(1).expect("fixed");
+            if ys.len() <= MAX_LINES {
+                for &y in ys {
+                    let pts: Vec<(f64, f64)> = rows.iter().filter(|r| r[1] == y).map(|r| (r[0], r[col])).collect();
+                    series.push(Series { label: format!("{} = {y}", plan.axes[1].name), points: pts });
+                }
+            }
+        }
+        if !series.is_empty() {
+            let chart = Chart {
+                title: title.clone(),
+                x_label: plan.axes[0].name.clone(),
+                y_label: m.text.clone(),
+                series,
+                equal_axes: false,
+                log_y: false,
+                log_floor: crate::figures::LOG_FLOOR,
+            };
+            match crate::plot::png(&chart) {
+                Ok(png) => files.push(write(dir, &file, &png)?),
+                Err(e) => notes.push(format!("{file} not drawn: {e}")),
+            }
+        }
+        if axes == 2 && !random {
+            let xs = sorted(plan.fixed_values(0).expect("fixed"));
+            let ys = sorted(plan.fixed_values(1).expect("fixed"));
+            let mut values = vec![f64::NAN; xs.len() * ys.len()];
+            for r in &rows {
+                if let (Some(i), Some(j)) = (xs.iter().position(|&x| x == r[0]), ys.iter().position(|&y| y == r[1])) {
+                    values[i * ys.len() + j] = r[col];
+                }
+            }
+            let map = HeatMap {
+                title,
+                x_label: plan.axes[0].name.clone(),
+                y_label: plan.axes[1].name.clone(),
+                value_label: m.text.clone(),
+                xs,
+                ys,
+                values,
+            };
+            let file = format!("sweep_{}_map.png", k + 1);
+            match crate::plot::heatmap_png(&map) {
+                Ok(png) => files.push(write(dir, &file, &png)?),
+                Err(e) => notes.push(format!("{file} not drawn: {e}")),
+            }
+        }
+    }
+    Ok((files, notes))
+}
+
+/// The distinct values, ascending.
+fn sorted(v: &[f64]) -> Vec<f64> {
+    let mut v = v.to_vec();
+    v.sort_by(f64::total_cmp);
+    v.dedup();
+    v
+}
+
+fn write(dir: &Path, name: &str, bytes: &[u8]) -> Result<PathBuf, String> {
+    let path = dir.join(name);
+    crate::transaction::write_atomically(&path, bytes).map_err(|e| e.to_string())?;
+    Ok(path)
+}

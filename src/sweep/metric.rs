@@ -1,0 +1,318 @@
+//! A sweep's metrics: one number per run, a column of the trajectory (or a
+//! figure's column function of columns) reduced over a time window, as the
+//! run goes (no table is kept).
+
+use ezy_core::Column;
+
+/// How a metric reduces its column over the window.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Reduce {
+    /// The time average `1/(t1 - t0) ∫ v dt` by the trapezoidal rule over
+    /// the output rows in the window.
+    Mean,
+    /// The largest value.
+    Max,
+    /// The smallest value.
+    Min,
+    /// The value at the last output row in the window.
+    Final,
+}
+
+impl Reduce {
+    fn name(self) -> &'static str {
+        match self {
+            Self::Mean => "mean",
+            Self::Max => "max",
+            Self::Min => "min",
+            Self::Final => "final",
+        }
+    }
+}
+
+/// `mean(norm(x1d, y1d), 50, 60)`: a reduction of a column expression
+/// over the output rows with `t0 <= t <= t1` \[s\].
+#[derive(Debug, Clone, PartialEq)]
+pub struct Metric {
+    /// The text as given (trimmed): the metric's column in `sweep.csv`.
+    pub text: String,
+    /// The reduction.
+    pub reduce: Reduce,
+    /// The column expression (the syntax of a figure's `y`).
+    pub column: Column,
+    /// Window start \[s\] (`None`: the start of the run).
+    pub t0: Option<f64>,
+    /// Window end \[s\] (`None`: the end of the run).
+    pub t1: Option<f64>,
+}
+
+/// Splits `s` at the commas outside parentheses.
+fn split_top(s: &str) -> Vec<&str> {
+    let (mut depth, mut start, mut out) = (0i32, 0, Vec::new());
+    for (i, c) in s.char_indices() {
+        match c {
+            '(' => depth += 1,
+            ')' => depth -= 1,
+            ',' if depth == 0 => {
+                out.push(&s[start..i]);
+                start = i + 1;
+            }
+            _ => {}
+        }
+    }
+    out.push(&s[start..]);
+    out
+}
+
+impl std::str::FromStr for Metric {
+    type Err = String;
+
+    /// `FUNC(COLUMN)` or `FUNC(COLUMN, T0, T1)` with FUNC one of `mean`,
+    /// `max`, `min`, `final` and COLUMN a column name or a column function
+    /// (`norm(a, b)`, `diff(a, b)`, `from_start(a)`, `balance_gap(a, b)`).
+    fn from_str(s: &str) -> Result<Self, String> {
+        let text = s.trim();
+        let usage = || {
+            format!(
+                "metric `{text}`: expected FUNC(COLUMN) or FUNC(COLUMN, T0, T1) with FUNC mean, max, min or final, e.g. `mean(norm(x1d, y1d), 50, 60)`"
+            )
+        };
+        let open = text.find('(').ok_or_else(usage)?;
+        let inner = text[open + 1..].strip_suffix(')').ok_or_else(usage)?;
+        let reduce = match text[..open].trim() {
+            "mean" => Reduce::Mean,
+            "max" => Reduce::Max,
+            "min" => Reduce::Min,
+            "final" => Reduce::Final,
+            other => return Err(format!("metric `{text}`: unknown function `{other}`; known: mean, max, min, final")),
+        };
+        let args = split_top(inner);
+        let column: Column = args[0].parse().map_err(|e| format!("metric `{text}`: {e}"))?;
+        let time = |a: &str| -> Result<f64, String> {
+            match a.trim().parse::<f64>() {
+                Ok(v) if v.is_finite() && v >= 0.0 => Ok(v),
+                _ => Err(format!("metric `{text}`: the window bound `{}` is not a time >= 0 [s]", a.trim())),
+            }
+        };
+        let (t0, t1) = match args.len() {
+            1 => (None, None),
+            3 => (Some(time(args[1])?), Some(time(args[2])?)),
+            n => return Err(format!("metric `{text}`: {n} arguments; give a column, or a column and a window T0, T1")),
+        };
+        if let (Some(a), Some(b)) = (t0, t1)
+            && a >= b
+        {
+            return Err(format!("metric `{text}`: the window [{a}, {b}] s is empty (T0 must be below T1)"));
+        }
+        Ok(Self { text: text.to_string(), reduce, column, t0, t1 })
+    }
+}
+
+impl Metric {
+    /// Checks the window against a run of `t_end` \[s\] with output every
+    /// `every` \[s\]: it must lie in the run and hold two output rows.
+    ///
+    /// # Errors
+    /// The metric, the window and why it does not fit.
+    pub fn check_window(&self, t_end: f64, every: f64) -> Result<(), String> {
+        let (t0, t1) = (self.t0.unwrap_or(0.0), self.t1.unwrap_or(t_end));
+        if t1 > t_end * (1.0 + 1e-12) {
+            return Err(format!("metric `{}`: the window ends at {t1} s, after the run's end at {t_end} s", self.text));
+        }
+        if self.t0.is_some() && t1 - t0 < every {
+            return Err(format!(
+                "metric `{}`: the window [{t0}, {t1}] s is shorter than the output interval {every} s, so it may hold no output row; widen it or give a smaller --every",
+                self.text
+            ));
+        }
+        Ok(())
+    }
+
+    /// The columns it reads, checked against the trajectory's `columns`.
+    ///
+    /// # Errors
+    /// The first column the trajectory lacks, with a hint of how to get it.
+    pub fn check_columns(&self, columns: &[String]) -> Result<(), String> {
+        for c in self.column.inputs() {
+            if !columns.iter().any(|k| k == c) {
+                let hint = if c == "T" || c == "W" || c.starts_with("W_") {
+                    " (energy columns need `energy` in the scene's output.include)"
+                } else if c.starts_with("res_") {
+                    " (residuals need `residuals` in the scene's output.include)"
+                } else {
+                    ""
+                };
+                return Err(format!(
+                    "metric `{}`: the trajectory has no column `{c}`{hint}; its columns: {}",
+                    self.text,
+                    columns.join(", ")
+                ));
+            }
+        }
+        Ok(())
+    }
+}
+
+/// A metric being reduced over a run's rows.
+#[derive(Debug, Clone)]
+pub struct Accumulator {
+    reduce: Reduce,
+    inputs: [usize; 2],
+    kind: Kind,
+    t0: f64,
+    t1: f64,
+    /// First value of the input column (`from_start`, `balance_gap`).
+    first: Option<f64>,
+    /// The previous row in the window: `(t, v)`.
+    last: Option<(f64, f64)>,
+    /// Integral (mean), extreme (max, min).
+    acc: f64,
+    /// First row's time in the window.
+    start: f64,
+}
+
+#[derive(Debug, Clone, Copy)]
+enum Kind {
+    Named,
+    Norm,
+    Diff,
+    FromStart,
+    BalanceGap,
+}
+
+impl Accumulator {
+    /// Reduces `m` over rows with the layout `columns` (checked with
+    /// [`Metric::check_columns`]).
+    ///
+    /// # Errors
+    /// A column the layout lacks.
+    pub fn new(m: &Metric, columns: &[String]) -> Result<Self, String> {
+        m.check_columns(columns)?;
+        let at = |c: &str| columns.iter().position(|k| k == c).expect("checked");
+        let ins = m.column.inputs();
+        let inputs = [at(ins[0]), at(ins.get(1).copied().unwrap_or(ins[0]))];
+        let kind = match m.column {
+            Column::Named(_) => Kind::Named,
+            Column::Norm(..) => Kind::Norm,
+            Column::Diff(..) => Kind::Diff,
+            Column::FromStart(_) => Kind::FromStart,
+            Column::BalanceGap(..) => Kind::BalanceGap,
+        };
+        let acc = match m.reduce {
+            Reduce::Max => f64::NEG_INFINITY,
+            Reduce::Min => f64::INFINITY,
+            _ => 0.0,
+        };
+        Ok(Self {
+            reduce: m.reduce,
+            inputs,
+            kind,
+            t0: m.t0.unwrap_or(f64::NEG_INFINITY),
+            t1: m.t1.unwrap_or(f64::INFINITY),
+            first: None,
+            last: None,
+            acc,
+            start: 0.0,
+        })
+    }
+
+    /// Takes one output row (`row[0]` is the time \[s\]).
+    pub fn push(&mut self, row: &[f64]) {
+        let (a, b) = (row[self.inputs[0]], row[self.inputs[1]]);
+        let a0 = *self.first.get_or_insert(a);
+        let t = row[0];
+        if t < self.t0 || t > self.t1 {
+            return;
+        }
+        let v = match self.kind {
+            Kind::Named => a,
+            Kind::Norm => a.hypot(b),
+            Kind::Diff => a - b,
+            Kind::FromStart => a - a0,
+            Kind::BalanceGap => (a - a0 - b).abs(),
+        };
+        match self.reduce {
+            Reduce::Mean => match self.last {
+                Some((tp, vp)) => self.acc += 0.5 * (t - tp) * (v + vp),
+                None => self.start = t,
+            },
+            Reduce::Max => self.acc = self.acc.max(v),
+            Reduce::Min => self.acc = self.acc.min(v),
+            Reduce::Final => self.acc = v,
+        }
+        self.last = Some((t, v));
+    }
+
+    /// The metric's value.
+    ///
+    /// # Errors
+    /// No row fell in the window, or the value is not finite.
+    pub fn value(&self, m: &Metric) -> Result<f64, String> {
+        let Some((t, v)) = self.last else {
+            return Err(format!("metric `{}`: no output row in its window", m.text));
+        };
+        let value = match self.reduce {
+            Reduce::Mean if t > self.start => self.acc / (t - self.start),
+            Reduce::Mean => v,
+            _ => self.acc,
+        };
+        if value.is_finite() {
+            Ok(value)
+        } else {
+            Err(format!("metric `{}` is {value} ({} of a value that is not finite)", m.text, self.reduce.name()))
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn cols() -> Vec<String> {
+        ["t", "x", "y"].iter().map(|s| s.to_string()).collect()
+    }
+
+    #[test]
+    fn parses_and_reduces() {
+        let m: Metric = "mean(norm(x, y), 1, 3)".parse().unwrap();
+        assert_eq!(m.reduce, Reduce::Mean);
+        assert_eq!((m.t0, m.t1), (Some(1.0), Some(3.0)));
+        let mut acc = Accumulator::new(&m, &cols()).unwrap();
+        // |(x, y)| = t on [1, 3]: mean 2; the row at t = 0 is outside
+        for t in 0..=4 {
+            let t = f64::from(t);
+            acc.push(&[t, 0.6 * t, 0.8 * t]);
+        }
+        assert!((acc.value(&m).unwrap() - 2.0).abs() < 1e-15);
+        let m: Metric = "final(from_start(x))".parse().unwrap();
+        let mut acc = Accumulator::new(&m, &cols()).unwrap();
+        for (t, x) in [(0.0, 5.0), (1.0, 7.0), (2.0, 6.5)] {
+            acc.push(&[t, x, 0.0]);
+        }
+        assert_eq!(acc.value(&m).unwrap(), 1.5);
+        for (text, v) in [("max(x)", 7.0), ("min(x)", 5.0)] {
+            let m: Metric = text.parse().unwrap();
+            let mut acc = Accumulator::new(&m, &cols()).unwrap();
+            for (t, x) in [(0.0, 5.0), (1.0, 7.0), (2.0, 6.5)] {
+                acc.push(&[t, x, 0.0]);
+            }
+            assert_eq!(acc.value(&m).unwrap(), v, "{text}");
+        }
+    }
+
+    #[test]
+    fn refuses_bad_metrics() {
+        for bad in ["mean", "avg(x)", "mean(x, 1)", "mean(x, 3, 1)", "mean(x, -1, 2)", "max(norm(x))", "mean(x"] {
+            assert!(bad.parse::<Metric>().is_err(), "{bad}");
+        }
+        let m: Metric = "max(z)".parse().unwrap();
+        assert!(Accumulator::new(&m, &cols()).unwrap_err().contains("no column `z`"));
+        let m: Metric = "mean(x, 50, 70)".parse().unwrap();
+        assert!(m.check_window(60.0, 0.01).unwrap_err().contains("after the run's end"));
+        let m: Metric = "mean(x, 50, 50.001)".parse().unwrap();
+        assert!(m.check_window(60.0, 0.01).is_err());
+        // no row in the window: an error, never NaN
+        let m: Metric = "mean(x, 1, 2)".parse().unwrap();
+        let acc = Accumulator::new(&m, &cols()).unwrap();
+        assert!(acc.value(&m).is_err());
+    }
+}

@@ -1,0 +1,653 @@
+//! `ezy sweep`: many runs of one scene over parameter values, in parallel
+//! on every core (rayon), resumable, and split into shards that run
+//! anywhere (a Slurm job array, Kubernetes indexed jobs) and merge into
+//! the same table.
+//!
+//! Each run is exactly `ezy run` with the run's `--set` values
+//! ([`crate::run::prepare`] and [`ezy_core::simulate`] with the same
+//! settings), so its numbers are the single run's, bit for bit; it
+//! writes no file unless `--save-runs` asks. The output directory holds:
+//!
+//! - `sweep.toml`: the sweep's definition (scene, axes, metrics,
+//!   overrides). Re-running the same command in the same directory
+//!   resumes the sweep; a different sweep there is refused.
+//! - `sweep.csv`: one row per run, in run order, appended as runs finish
+//!   (a row is written whole or, after a kill, cut off and re-run on
+//!   resume). Its columns ([`columns`]): `run`, the swept parameters,
+//!   `status` (`ok` or `error: ...`), `wall_s`, `steps`, `rejected`,
+//!   `rhs_evals`, the final state `y = [q, qd, W_...]` and `T` \[J\] (the
+//!   values of the last row of the run's `trajectory.csv`),
+//!   `max_res_phi` \[m\], `max_res_vel` \[m/s\], `max_energy_gap` \[J\] and
+//!   the metrics.
+//! - `sweep_<k>.png`: metric `k` against the parameters (a line per value
+//!   of a second axis, or a heat map for two), once every run is in.
+//!
+//! Only the table's rows are streamed: a sweep's memory does not grow
+//! with its number of runs (the plan computes run `i`'s values from `i`,
+//! and the runs already done are read back from `sweep.csv` as the
+//! dispatch passes them).
+
+pub mod figure;
+pub mod metric;
+pub mod plan;
+pub mod slurm;
+mod table;
+
+use std::collections::{BTreeMap, HashMap};
+use std::path::{Path, PathBuf};
+use std::sync::Mutex;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::time::{Duration, Instant};
+
+use ezy_core::{Dynamics, Model, Observer, RunError, Sample, Scene, SimError};
+
+pub use metric::Metric;
+pub use plan::Plan;
+pub use table::{Manifest, merge};
+
+use crate::output::RowBuilder;
+use crate::run::{self, RunOptions};
+use crate::transaction::Interrupted;
+
+/// A sweep to run: what `ezy sweep` parsed and checked.
+#[derive(Debug, Clone)]
+pub struct SweepJob {
+    /// The scene.
+    pub scene: Scene,
+    /// The sweep's definition, recorded in `sweep.toml`.
+    pub manifest: Manifest,
+    /// The runs.
+    pub plan: Plan,
+    /// The metrics.
+    pub metrics: Vec<Metric>,
+    /// The overrides every run takes (`--set`, `--integrator`, ...).
+    pub opts: RunOptions,
+    /// The output directory.
+    pub out: PathBuf,
+    /// Runs at once.
+    pub jobs: usize,
+    /// Shard `(k, n)`: runs `k, k + n, k + 2n, ...`.
+    pub shard: Option<(u64, u64)>,
+    /// Keep every run's trajectory and figures in `out/runs/RUN`.
+    pub save_runs: bool,
+    /// Draw the sweep's figures.
+    pub figures: bool,
+    /// A progress bar (terminal) or lines (log) on stderr.
+    pub progress: bool,
+    /// Check everything a run needs (names, metrics, windows) and stop
+    /// before the first run (`--emit-slurm`).
+    pub check_only: bool,
+}
+
+/// What a sweep did.
+#[derive(Debug, Clone, Default)]
+pub struct SweepReport {
+    /// Runs of this shard (all runs when not sharded).
+    pub runs: u64,
+    /// Runs already in `sweep.csv` when it started (skipped).
+    pub done_before: u64,
+    /// Runs carried out now.
+    pub ran: u64,
+    /// Of those, runs that failed (a row with their error).
+    pub failed: u64,
+    /// Wall time of the runs (dispatch to the last row).
+    pub wall: Duration,
+    /// Sum of the runs' own wall times (the work: busy time of the jobs).
+    pub busy: Duration,
+    /// Runs at once.
+    pub jobs: usize,
+    /// Files written.
+    pub files: Vec<PathBuf>,
+    /// Figures not drawn, and why.
+    pub notes: Vec<String>,
+}
+
+impl SweepReport {
+    /// Runs per second of wall time.
+    pub fn rate(&self) -> f64 {
+        self.ran as f64 / self.wall.as_secs_f64().max(1e-9)
+    }
+
+    /// Parallel efficiency: the jobs' busy time over `jobs` x wall time.
+    pub fn efficiency(&self) -> f64 {
+        self.busy.as_secs_f64() / (self.jobs as f64 * self.wall.as_secs_f64()).max(1e-9)
+    }
+
+    /// The summary `ezy sweep` prints.
+    pub fn summary(&self, scene: &str) -> String {
+        let mut s = if self.ran == 0 {
+            format!("sweep {scene}: {} runs, all done before: nothing to run\n", self.runs)
+        } else {
+            format!(
+                "sweep {scene}: {} runs, {} done before, {} ran ({} failed) in {:.3} s on {} jobs: {:.1} runs/s, {:.1} per job, parallel efficiency {:.0} %, mean run {:.2} ms\n",
+                self.runs,
+                self.done_before,
+                self.ran,
+                self.failed,
+                self.wall.as_secs_f64(),
+                self.jobs,
+                self.rate(),
+                self.rate() / self.jobs as f64,
+                100.0 * self.efficiency(),
+                1e3 * self.busy.as_secs_f64() / self.ran.max(1) as f64,
+            )
+        };
+        for n in &self.notes {
+            s.push_str(&format!("  note: {n}\n"));
+        }
+        for f in &self.files {
+            s.push_str(&format!("  wrote {}\n", f.display()));
+        }
+        s
+    }
+}
+
+/// Why a sweep stopped.
+#[derive(Debug, thiserror::Error)]
+pub enum SweepError {
+    /// Bad input or a failed write; the message names the culprit.
+    #[error("{0}")]
+    Failed(String),
+    /// A signal stopped the sweep; every row finished before it is in
+    /// `sweep.csv`, and re-running the command resumes.
+    #[error("{0}")]
+    Interrupted(Interrupted),
+}
+
+impl From<String> for SweepError {
+    fn from(s: String) -> Self {
+        Self::Failed(s)
+    }
+}
+
+/// The columns of `sweep.csv` before the final state.
+pub const LEAD: [&str; 5] = ["status", "wall_s", "steps", "rejected", "rhs_evals"];
+/// The columns after the final state, before the metrics.
+pub const TAIL: [&str; 4] = ["T", "max_res_phi", "max_res_vel", "max_energy_gap"];
+
+/// The header of `sweep.csv`: `run`, the axes, [`LEAD`], `state`, [`TAIL`],
+/// the metrics.
+pub fn columns(plan: &Plan, state: &[String], metrics: &[Metric]) -> Vec<String> {
+    let mut c = vec!["run".to_string()];
+    c.extend(plan.names());
+    c.extend(LEAD.iter().map(|s| s.to_string()));
+    c.extend(state.iter().cloned());
+    c.extend(TAIL.iter().map(|s| s.to_string()));
+    c.extend(metrics.iter().map(|m| m.text.clone()));
+    c
+}
+
+/// The overrides of run `i`: the job's, then the run's values.
+fn run_sets(job: &SweepJob, values: &[f64]) -> Vec<(String, f64)> {
+    let mut sets = job.opts.sets.clone();
+    sets.extend(job.plan.axes.iter().zip(values).map(|(a, &v)| (a.name.clone(), v)));
+    sets
+}
+
+/// Everything checked before the first run: the settings, the names the
+/// axes give, the metrics' columns and windows, and the final state's
+/// columns over every family count the sweep takes.
+struct Checked {
+    settings: ezy_core::RunSettings,
+    state: Vec<String>,
+}
+
+fn check<M: Model + Default>(job: &SweepJob) -> Result<Checked, String> {
+    let settings = run::settings(&job.scene, &job.opts).map_err(|e| e.to_string())?;
+    for m in &job.metrics {
+        m.check_window(settings.t_end, settings.every)?;
+    }
+    let base = M::default().info();
+    // every name, with the first value of its axis (unknown names and
+    // values a key refuses are caught here, before any run)
+    let first = job.plan.values(0);
+    let mut probe = job.scene.clone();
+    for (name, v) in run_sets(job, &first) {
+        probe.set(&base, &name, v).map_err(|e| format!("--set/axis `{name}`: {e}"))?;
+    }
+    // family counts: the final state's columns differ per count; the
+    // header takes every count's names in order of first appearance
+    let counts: Vec<usize> = job
+        .plan
+        .axes
+        .iter()
+        .enumerate()
+        .filter(|(_, a)| base.param_index(&a.name).is_some_and(|i| base.params[i].count))
+        .map(|(k, _)| k)
+        .collect();
+    let mut tuples: Vec<Vec<f64>> = vec![Vec::new()];
+    for &k in &counts {
+        let values = job.plan.fixed_values(k).ok_or_else(|| {
+            format!("family count `{}` cannot be drawn at random: give it with --grid or --list", job.plan.axes[k].name)
+        })?;
+        for v in values {
+            ezy_core::scene::check_count(&job.plan.axes[k].name, *v).map_err(|e| e.message)?;
+        }
+        tuples = tuples.iter().flat_map(|t| values.iter().map(move |v| [t.clone(), vec![*v]].concat())).collect();
+    }
+    let mut state: Vec<String> = Vec::new();
+    let mut seen: HashMap<String, ()> = HashMap::new();
+    let mut metrics_checked = false;
+    let mut last_error = None;
+    for tuple in &tuples {
+        // the columns depend on the family counts alone: the other swept
+        // values are left at the scene's (a run's bad value is its row's
+        // error, not the sweep's)
+        let mut sets = job.opts.sets.clone();
+        for (&k, &v) in counts.iter().zip(tuple) {
+            sets.push((job.plan.axes[k].name.clone(), v));
+        }
+        match run::configure::<M>(&job.scene, &sets) {
+            Ok(c) => {
+                for n in c.state_names() {
+                    if seen.insert(n.clone(), ()).is_none() {
+                        state.push(n);
+                    }
+                }
+                if !metrics_checked {
+                    let cols = c.scene.columns(&c.model.info());
+                    for m in &job.metrics {
+                        m.check_columns(&cols)?;
+                    }
+                    metrics_checked = true;
+                }
+            }
+            Err(e) => last_error = Some(e.to_string()),
+        }
+    }
+    if !metrics_checked && let Some(e) = last_error {
+        return Err(format!("no run of this sweep can be set up: {e}"));
+    }
+    Ok(Checked { settings, state })
+}
+
+/// Reduces the metrics and keeps the last sample: its state and kinetic
+/// energy are the run's final values, exactly the last row of the
+/// trajectory `ezy run` writes.
+struct Tap {
+    accs: Vec<metric::Accumulator>,
+    kinetic: f64,
+    state: Vec<f64>,
+}
+
+impl Tap {
+    fn new(accs: Vec<metric::Accumulator>) -> Self {
+        Self { accs, kinetic: f64::NAN, state: Vec::new() }
+    }
+
+    fn take(&mut self, s: &Sample<'_>, row: &[f64]) {
+        self.kinetic = s.kinetic_energy;
+        self.state.clear();
+        self.state.extend_from_slice(s.q);
+        self.state.extend_from_slice(s.qd);
+        self.state.extend_from_slice(s.works);
+        for a in &mut self.accs {
+            a.push(row);
+        }
+    }
+}
+
+/// The observer of a run that writes nothing: rows are built only when a
+/// metric needs them; a signal stops the run.
+struct Quiet<M: Model> {
+    rows: Option<RowBuilder<M>>,
+    row: Vec<f64>,
+    tap: Tap,
+}
+
+/// Why [`Quiet`] stopped a run.
+enum Stop {
+    /// A signal asked to stop.
+    Signal(crate::transaction::Signal),
+    /// A row could not be built (the constraint forces' solve failed).
+    Row(SimError),
+}
+
+impl<M: Model> Observer<M> for Quiet<M> {
+    type Error = Stop;
+
+    fn observe(&mut self, sys: &Dynamics<M>, s: &Sample<'_>) -> Result<(), Stop> {
+        if let Some(rows) = &mut self.rows {
+            rows.fill(sys, s, &mut self.row).map_err(Stop::Row)?;
+        }
+        self.tap.take(s, &self.row);
+        poll()
+    }
+
+    fn poll(&mut self, _t: f64) -> Result<(), Stop> {
+        poll()
+    }
+}
+
+fn poll() -> Result<(), Stop> {
+    match crate::transaction::pending() {
+        None => Ok(()),
+        Some(signal) => Err(Stop::Signal(signal)),
+    }
+}
+
+/// One run's outcome.
+enum Outcome {
+    /// Its row of `sweep.csv` (a line, with the newline).
+    Row { line: Vec<u8>, failed: bool, wall: Duration },
+    /// A signal stopped it.
+    Interrupted(crate::transaction::Signal),
+}
+
+/// What a run yields before it becomes a row.
+struct Done {
+    summary: ezy_core::Summary,
+    state_names: Vec<String>,
+    tap: Tap,
+}
+
+fn one_run<M: Model + Default>(
+    job: &SweepJob,
+    settings: &ezy_core::RunSettings,
+    opts: &RunOptions,
+    save: Option<PathBuf>,
+) -> Result<Done, Result<String, crate::transaction::Signal>> {
+    let fail = |e: String| Err(Ok(e));
+    if let Some(dir) = save {
+        let opts = RunOptions { out: dir, figures: true, progress: false, ..opts.clone() };
+        // the metrics need the row layout: from the configured scene
+        let layout = run::configure::<M>(&job.scene, &opts.sets).map_err(|e| Ok(e.to_string()))?;
+        let cols = layout.scene.columns(&layout.model.info());
+        let accs = job.metrics.iter().map(|m| metric::Accumulator::new(m, &cols)).collect::<Result<_, _>>();
+        let mut tap = Tap::new(accs.map_err(Ok)?);
+        let mut f = |s: &Sample<'_>, row: &[f64]| tap.take(s, row);
+        let report = match run::run_model_tapped::<M>(&job.scene, &opts, Some(&mut f)) {
+            Ok(r) => r,
+            Err(e) => {
+                return match e.interrupted() {
+                    Some(i) => Err(Err(i.signal)),
+                    None => fail(e.to_string()),
+                };
+            }
+        };
+        return Ok(Done { summary: report.summary, state_names: report.state_names, tap });
+    }
+    let p = run::prepare::<M>(&job.scene, opts, *settings).map_err(|e| Ok(e.to_string()))?;
+    let mut sys = p.sys;
+    let rows = (!job.metrics.is_empty()).then(|| RowBuilder::new(&p.scene, &sys));
+    let accs = match &rows {
+        Some(r) => job.metrics.iter().map(|m| metric::Accumulator::new(m, &r.columns)).collect::<Result<_, _>>(),
+        None => Ok(Vec::new()),
+    };
+    let mut obs = Quiet { rows, row: Vec::new(), tap: Tap::new(accs.map_err(Ok)?) };
+    match ezy_core::simulate(&mut sys, &p.y0, &p.settings, &mut obs) {
+        Ok(summary) => {
+            let state_names = (0..sys.ny()).map(|k| sys.state_name(k)).collect();
+            Ok(Done { summary, state_names, tap: obs.tap })
+        }
+        Err(RunError::Output(Stop::Signal(s))) => Err(Err(s)),
+        Err(RunError::Output(Stop::Row(e))) => fail(e.to_string()),
+        Err(RunError::Sim(e)) => fail(e.with_cause(&sys.mass, |k| sys.info.mass_entry_name(k)).to_string()),
+    }
+}
+
+/// Formats run `i`'s row.
+fn row_line(
+    i: u64,
+    values: &[f64],
+    result: Result<Done, String>,
+    wall: Duration,
+    state_at: &HashMap<String, usize>,
+    n_state: usize,
+    metrics: &[Metric],
+) -> (Vec<u8>, bool) {
+    let mut fields: Vec<String> = Vec::with_capacity(8 + values.len() + n_state + metrics.len());
+    let mut buf = ryu::Buffer::new();
+    let mut f = |v: f64| buf.format(v).to_string();
+    fields.push(i.to_string());
+    fields.extend(values.iter().map(|&v| f(v)));
+    let mut failed = false;
+    let done = result.and_then(|d| {
+        let m: Result<Vec<f64>, String> = d.tap.accs.iter().zip(metrics).map(|(a, m)| a.value(m)).collect();
+        m.map(|m| (d, m))
+    });
+    match done {
+        Ok((d, metric_values)) => {
+            let s = &d.summary;
+            fields.push("ok".into());
+            fields.push(f(wall.as_secs_f64()));
+            fields.push(s.steps.to_string());
+            fields.push(s.rejected.to_string());
+            fields.push(s.counters.rhs_evals.to_string());
+            let mut state = vec![String::new(); n_state];
+            for (name, &v) in d.state_names.iter().zip(&d.tap.state) {
+                if let Some(&k) = state_at.get(name) {
+                    state[k] = f(v);
+                }
+            }
+            fields.extend(state);
+            fields.push(if d.tap.kinetic.is_finite() { f(d.tap.kinetic) } else { String::new() });
+            fields.push(f(s.max_residual_position));
+            fields.push(f(s.max_residual_velocity));
+            fields.push(f(s.max_energy_error));
+            fields.extend(metric_values.into_iter().map(&mut f));
+        }
+        Err(e) => {
+            failed = true;
+            let one_line: String = e.split_whitespace().collect::<Vec<_>>().join(" ");
+            fields.push(format!("error: {one_line}"));
+            fields.push(f(wall.as_secs_f64()));
+            fields.extend(std::iter::repeat_n(String::new(), 3 + n_state + TAIL.len() + metrics.len()));
+        }
+    }
+    let mut w = csv::WriterBuilder::new().terminator(csv::Terminator::Any(b'\n')).from_writer(Vec::new());
+    w.write_record(&fields).expect("writing to memory");
+    (w.into_inner().expect("writing to memory"), failed)
+}
+
+/// The directory of run `i`'s own output (`--save-runs`).
+fn run_dir(out: &Path, i: u64, runs: u64) -> PathBuf {
+    let width = runs.saturating_sub(1).max(1).to_string().len();
+    out.join("runs").join(format!("{i:0width$}"))
+}
+
+/// Runs `job` on model type `M` (what [`crate::App`] calls for the model
+/// the scene names): checks everything first, then runs the runs not yet
+/// in `sweep.csv` on `job.jobs` threads and appends their rows in run
+/// order, then draws the figures.
+///
+/// # Errors
+/// [`SweepError::Failed`] for bad input (an unknown name, a metric's
+/// missing column, a window outside the run, a directory holding another
+/// sweep) before any run, or a failed write; [`SweepError::Interrupted`]
+/// if a signal stopped it.
+pub fn sweep_model<M: Model + Default>(job: &SweepJob) -> Result<SweepReport, SweepError> {
+    let checked = check::<M>(job)?;
+    if job.check_only {
+        return Ok(SweepReport::default());
+    }
+    let header = columns(&job.plan, &checked.state, &job.metrics);
+    let runs = job.plan.runs();
+    let (k0, stride) = job.shard.unwrap_or((0, 1));
+    let positions = if runs > k0 { (runs - k0).div_ceil(stride) } else { 0 };
+    crate::transaction::arm_signals();
+    let mut out = table::Output::open(&job.out, &job.manifest, &header, &job.plan, job.shard)?;
+    let done_before = out.done;
+    let todo = positions - done_before;
+    let state_at: HashMap<String, usize> = checked.state.iter().enumerate().map(|(k, n)| (n.clone(), k)).collect();
+    let n_state = checked.state.len();
+
+    let dispatch = Mutex::new((0u64, 0u64, out.done_cursor()?));
+    let stop = AtomicBool::new(false);
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(job.jobs)
+        .thread_name(|k| format!("ezy-sweep-{k}"))
+        .build()
+        .map_err(|e| format!("cannot start {} threads: {e}", job.jobs))?;
+    let progress = job.progress.then(|| Counter::new(todo, &job.scene.name));
+    let start = Instant::now();
+    let (tx, rx) = std::sync::mpsc::channel::<(u64, Outcome)>();
+    let mut report = SweepReport { runs: positions, done_before, jobs: job.jobs, ..SweepReport::default() };
+    let mut interrupted: Option<crate::transaction::Signal> = None;
+    let mut write_error: Option<String> = None;
+    pool.in_place_scope(|scope| {
+        for _ in 0..job.jobs {
+            let tx = tx.clone();
+            let (dispatch, stop, state_at) = (&dispatch, &stop, &state_at);
+            let settings = &checked.settings;
+            scope.spawn(move |_| {
+                let mut values = Vec::new();
+                loop {
+                    if stop.load(Ordering::SeqCst) || crate::transaction::pending().is_some() {
+                        return;
+                    }
+                    // the next run not yet done, and its place in the
+                    // order of rows
+                    let next = {
+                        let mut d = dispatch.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
+                        let (pos, seq, cursor) = &mut *d;
+                        let mut found = None;
+                        while *pos < positions {
+                            let i = k0 + *pos * stride;
+                            *pos += 1;
+                            if !cursor.is_done(i) {
+                                found = Some((*seq, i));
+                                *seq += 1;
+                                break;
+                            }
+                        }
+                        found
+                    };
+                    let Some((seq, i)) = next else { return };
+                    job.plan.values_into(i, &mut values);
+                    let opts = RunOptions { sets: run_sets(job, &values), ..job.opts.clone() };
+                    let save = job.save_runs.then(|| run_dir(&job.out, i, runs));
+                    let t = Instant::now();
+                    let outcome = match one_run::<M>(job, settings, &opts, save) {
+                        Err(Err(signal)) => Outcome::Interrupted(signal),
+                        r => {
+                            let wall = t.elapsed();
+                            let r = r.map_err(|e| e.unwrap_or_else(|_| unreachable!("signals handled above")));
+                            let (line, failed) = row_line(i, &values, r, wall, state_at, n_state, &job.metrics);
+                            Outcome::Row { line, failed, wall }
+                        }
+                    };
+                    if tx.send((seq, outcome)).is_err() {
+                        return;
+                    }
+                }
+            });
+        }
+        drop(tx);
+        // rows in run order: a finished run waits here for the ones
+        // before it (at most `jobs - 1` of them)
+        let mut pending: BTreeMap<u64, Outcome> = BTreeMap::new();
+        let mut next = 0u64;
+        for (seq, outcome) in rx {
+            pending.insert(seq, outcome);
+            while interrupted.is_none()
+                && write_error.is_none()
+                && let Some(o) = pending.remove(&next)
+            {
+                match o {
+                    Outcome::Row { line, failed, wall } => {
+                        if let Err(e) = out.append(&line) {
+                            write_error = Some(e);
+                            stop.store(true, Ordering::SeqCst);
+                            break;
+                        }
+                        report.ran += 1;
+                        report.failed += u64::from(failed);
+                        report.busy += wall;
+                        if let Some(p) = &progress {
+                            p.inc(report.ran, report.failed);
+                        }
+                    }
+                    Outcome::Interrupted(s) => {
+                        interrupted = Some(s);
+                        stop.store(true, Ordering::SeqCst);
+                    }
+                }
+                next += 1;
+            }
+        }
+    });
+    report.wall = start.elapsed();
+    if let Some(p) = progress {
+        p.finish();
+    }
+    out.finish()?;
+    if let Some(e) = write_error {
+        return Err(SweepError::Failed(e));
+    }
+    if let Some(signal) = interrupted.or_else(crate::transaction::pending) {
+        return Err(SweepError::Interrupted(Interrupted {
+            signal,
+            dir: job.out.clone(),
+            t: None,
+            doing: Some(format!("running the sweep ({} of {todo} runs finished)", report.ran)),
+            kept: Some(format!(
+                "their rows are in {}; the same command resumes the sweep",
+                job.out.join(table::CSV).display()
+            )),
+        }));
+    }
+    report.files.push(out.csv_path());
+    if job.figures && job.shard.is_none() {
+        let (files, notes) = figure::draw(&job.out, &job.plan, &job.metrics)?;
+        report.files.extend(files);
+        report.notes.extend(notes);
+    }
+    Ok(report)
+}
+
+/// Progress over runs: a bar with the rate and the time left on a
+/// terminal, a line every few seconds otherwise.
+struct Counter {
+    bar: Option<indicatif::ProgressBar>,
+    beat: Option<crate::progress::Heartbeat>,
+    total: u64,
+    scene: String,
+}
+
+impl Counter {
+    fn new(total: u64, scene: &str) -> Self {
+        use std::io::IsTerminal;
+        if std::io::stderr().is_terminal() {
+            let bar = indicatif::ProgressBar::new(total);
+            bar.set_style(
+                indicatif::ProgressStyle::with_template(
+                    "{bar:40} {pos}/{len} runs ({msg}), {per_sec}, {elapsed} elapsed, ~{eta} left",
+                )
+                .expect("static template"),
+            );
+            bar.set_message("0 failed");
+            Self { bar: Some(bar), beat: None, total, scene: scene.into() }
+        } else {
+            let beat = crate::progress::Heartbeat::start(format!("sweep {scene}: 0 of {total} runs"));
+            Self { bar: None, beat: Some(beat), total, scene: scene.into() }
+        }
+    }
+
+    fn inc(&self, done: u64, failed: u64) {
+        if let Some(bar) = &self.bar {
+            bar.set_position(done);
+            bar.set_message(format!("{failed} failed"));
+        }
+        if let Some(b) = &self.beat {
+            b.set(format!("sweep {}: {done} of {} runs ({failed} failed)", self.scene, self.total));
+        }
+    }
+
+    fn finish(self) {
+        if let Some(bar) = self.bar {
+            bar.finish_and_clear();
+        }
+    }
+}
+
+/// FNV-1a (64 bit) of `text`, as 16 hex digits: the scene text's
+/// fingerprint in `sweep.toml`.
+pub fn fingerprint(text: &str) -> String {
+    let mut h: u64 = 0xcbf2_9ce4_8422_2325;
+    for b in text.bytes() {
+        h ^= u64::from(b);
+        h = h.wrapping_mul(0x0000_0100_0000_01b3);
+    }
+    format!("{h:016x}")
+}
