@@ -638,7 +638,8 @@ impl App {
             };
             let src = self.load_scene(&manifest.scene).map_err(AppError::failed)?;
             let job = self.sweep_job(&src, &manifest.scene, &parsed)?;
-            let (f, n) = sweep::figure::draw(&args.out, &job.plan, &job.metrics).map_err(AppError::Failed)?;
+            let info = (self.model_ops(&src.scene.model)?.info_with)(&[]).map_err(|e| AppError::Failed(e.message))?;
+            let (f, n) = sweep::figure::draw(&args.out, &job.plan, &job.metrics, &info).map_err(AppError::Failed)?;
             files.extend(f);
             notes = n;
         }

@@ -306,3 +306,42 @@ fn the_sleighs_turn_against_its_skate_position_matches_the_closed_form() {
     let turn = |a: &str| rows.iter().find(|r| r[1] == a).unwrap()[h.len() - 1].parse::<f64>().unwrap();
     assert!(turn("-0.5") > 2.5 && turn("0.5") < 1.0, "skate ahead swings round, behind settles");
 }
+
+#[test]
+fn a_signal_keeps_the_finished_rows_and_the_same_command_resumes() {
+    let out = dir("signal");
+    // ten runs of about 0.1 s each (RK4 at 1e-4 s over 20 s) on one job
+    let argv = ["sweep", "drive", "--grid", "M0=1:2:10", "--t-end", "20", "--jobs", "1", "--no-figures"];
+    let child = Command::new(env!("CARGO_BIN_EXE_ezy"))
+        .args(argv)
+        .arg("--out")
+        .arg(&out)
+        .stdout(std::process::Stdio::null())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    let csv = out.join("sweep.csv");
+    let start = std::time::Instant::now();
+    while std::fs::read_to_string(&csv).map_or(0, |t| t.lines().count()) < 3 {
+        assert!(start.elapsed().as_secs() < 60, "no rows after 60 s");
+        std::thread::sleep(std::time::Duration::from_millis(20));
+    }
+    // a second sweep into the directory while this one runs is refused
+    let e = err(&ezy(args(&argv, &out)));
+    assert!(e.contains("another ezy run is writing into"), "{e}");
+    // SAFETY: kill(2) on the child's pid, which has not been waited for
+    assert_eq!(unsafe { libc::kill(child.id() as i32, libc::SIGTERM) }, 0);
+    let o = child.wait_with_output().unwrap();
+    let stderr = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(143), "{stderr}");
+    assert!(stderr.contains("interrupted (SIGTERM)") && stderr.contains("the same command resumes"), "{stderr}");
+    let text = std::fs::read_to_string(&csv).unwrap();
+    assert!(text.ends_with('\n'), "only whole rows");
+    let kept = text.lines().count() - 1;
+    assert!((2..10).contains(&kept), "{kept} rows kept");
+    let (_, rows) = table(&csv);
+    assert!(rows.iter().enumerate().all(|(k, r)| r[0] == k.to_string() && r[2] == "ok"), "{rows:?}");
+    let said = ok(&ezy(args(&argv, &out)));
+    assert!(said.contains(&format!("10 runs, {kept} done before, {} ran", 10 - kept)), "{said}");
+    assert_eq!(table(&csv).1.len(), 10);
+}

@@ -19,7 +19,13 @@ pub const MAX_LINES: usize = 10;
 ///
 /// # Errors
 /// `sweep.csv` cannot be read, or a figure cannot be written.
-pub fn draw(dir: &Path, plan: &Plan, metrics: &[Metric]) -> Result<(Vec<PathBuf>, Vec<String>), String> {
+pub fn draw(
+    dir: &Path,
+    plan: &Plan,
+    metrics: &[Metric],
+    info: &ezy_core::ModelInfo,
+) -> Result<(Vec<PathBuf>, Vec<String>), String> {
+    let labels = axis_labels(plan, info);
     let (mut files, mut notes) = (Vec::new(), Vec::new());
     if metrics.is_empty() {
         notes.push("no figure: give a --metric to draw it against the parameters".into());
@@ -52,14 +58,14 @@ pub fn draw(dir: &Path, plan: &Plan, metrics: &[Metric]) -> Result<(Vec<PathBuf>
             if ys.len() <= MAX_LINES {
                 for &y in ys {
                     let pts: Vec<(f64, f64)> = rows.iter().filter(|r| r[1] == y).map(|r| (r[0], r[col])).collect();
-                    series.push(Series { label: format!("{} = {y}", plan.axes[1].name), points: pts });
+                    series.push(Series { label: format!("{} = {y}", labels[1]), points: pts });
                 }
             }
         }
         if !series.is_empty() {
             let chart = Chart {
                 title: title.clone(),
-                x_label: plan.axes[0].name.clone(),
+                x_label: labels[0].clone(),
                 y_label: m.text.clone(),
                 series,
                 equal_axes: false,
@@ -82,8 +88,8 @@ pub fn draw(dir: &Path, plan: &Plan, metrics: &[Metric]) -> Result<(Vec<PathBuf>
             }
             let map = HeatMap {
                 title,
-                x_label: plan.axes[0].name.clone(),
-                y_label: plan.axes[1].name.clone(),
+                x_label: labels[0].clone(),
+                y_label: labels[1].clone(),
                 value_label: m.text.clone(),
                 xs,
                 ys,
@@ -97,6 +103,17 @@ pub fn draw(dir: &Path, plan: &Plan, metrics: &[Metric]) -> Result<(Vec<PathBuf>
         }
     }
     Ok((files, notes))
+}
+
+/// The axes' names, with the unit of a model parameter (`a [m]`).
+pub fn axis_labels(plan: &Plan, info: &ezy_core::ModelInfo) -> Vec<String> {
+    plan.axes
+        .iter()
+        .map(|a| match info.param_index(&a.name).map(|i| info.params[i].unit) {
+            Some(unit) if !unit.is_empty() => format!("{} [{unit}]", a.name),
+            _ => a.name.clone(),
+        })
+        .collect()
 }
 
 /// The distinct values, ascending.

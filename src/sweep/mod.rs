@@ -4,7 +4,7 @@
 //! the same table.
 //!
 //! Each run is exactly `ezy run` with the run's `--set` values
-//! ([`crate::run::prepare`] and [`ezy_core::simulate`] with the same
+//! ([`crate::run::prepare`] and [`ezy_core::simulate()`] with the same
 //! settings), so its numbers are the single run's, bit for bit; it
 //! writes no file unless `--save-runs` asks. The output directory holds:
 //!
@@ -589,7 +589,7 @@ pub fn sweep_model<M: Model + Default>(job: &SweepJob) -> Result<SweepReport, Sw
     }
     report.files.push(out.csv_path());
     if job.figures && job.shard.is_none() {
-        let (files, notes) = figure::draw(&job.out, &job.plan, &job.metrics)?;
+        let (files, notes) = figure::draw(&job.out, &job.plan, &job.metrics, &M::default().info())?;
         report.files.extend(files);
         report.notes.extend(notes);
     }

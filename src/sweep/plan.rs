@@ -83,9 +83,13 @@ pub fn grid(text: &str) -> Result<Axis, String> {
     if n > MAX_RUNS {
         return Err(format!("`{text}`: COUNT {n} is more than {MAX_RUNS} runs"));
     }
-    // the end points exactly, the rest by the same formula on every machine
-    let values =
-        (0..n).map(|k| if k + 1 == n { b } else { a + (b - a) * (k as f64 / (n - 1).max(1) as f64) }).collect();
+    // the end points exactly, the rest by the same formula on every machine,
+    // rounded to 15 significant digits so that a decimal grid gives its
+    // decimals (0.45, not 0.44999999999999996)
+    let values = (0..n)
+        .map(|k| if k + 1 == n { b } else { a + (b - a) * (k as f64 / (n - 1).max(1) as f64) })
+        .map(|v| format!("{v:.14e}").parse::<f64>().expect("a formatted number parses"))
+        .collect();
     Ok(Axis { name: name.into(), values: Values::Fixed(values) })
 }
 
@@ -253,5 +257,8 @@ mod tests {
         assert!(Plan::new(vec![list("a=1").unwrap()], Some(3), 1).is_err());
         assert!(Plan::new(vec![grid("a=0:1:2000000").unwrap(), grid("b=0:1:2000000").unwrap()], None, 1).is_err());
         assert_eq!(grid("a=2:2:1").unwrap().values, Values::Fixed(vec![2.0]));
+        let Values::Fixed(v) = grid("a=0.05:0.5:10").unwrap().values else { unreachable!() };
+        assert_eq!(v[8], 0.45);
+        assert_eq!(v[2], 0.15);
     }
 }

@@ -24,11 +24,13 @@ fn a_sweep_of_the_users_model_in_shards_equals_the_whole() {
     let out = Path::new(env!("CARGO_TARGET_TMPDIR")).join("roller-racer-sweep");
     let _ = std::fs::remove_dir_all(&out);
     let sweep = ["sweep", "roller", "--grid", "steer.amplitude=0.3:0.6:3", "--list", "d2=0.2,0.3", "--t-end", "4"];
-    let with = |extra: &[&str]| [&sweep[..], extra, &["--metric", "final(x1)", "--no-figures"]].concat();
-    let said = program(&with(&[]), &out.join("whole"));
+    fn with<'a>(sweep: &[&'a str], extra: &[&'a str]) -> Vec<&'a str> {
+        [sweep, extra, &["--metric", "final(x1)", "--no-figures"]].concat()
+    }
+    let said = program(&with(&sweep, &[]), &out.join("whole"));
     assert!(said.contains("6 runs, 0 done before, 6 ran (0 failed)"), "{said}");
-    program(&with(&["--shard", "0/2"]), &out.join("s0"));
-    program(&with(&["--shard", "1/2"]), &out.join("s1"));
+    program(&with(&sweep, &["--shard", "0/2"]), &out.join("s0"));
+    program(&with(&sweep, &["--shard", "1/2"]), &out.join("s1"));
     let s0 = out.join("s0").display().to_string();
     let s1 = out.join("s1").display().to_string();
     program(&["sweep", "merge", &s1, &s0, "--no-figures"], &out.join("merged"));
@@ -55,6 +57,6 @@ fn a_sweep_of_the_users_model_in_shards_equals_the_whole() {
     }
     assert_eq!(row[h.len() - 1], row[h.iter().position(|c| c == "x1").unwrap()], "final(x1) is x1");
     // the same command again: every run is done
-    let again = program(&with(&[]), &out.join("whole"));
+    let again = program(&with(&sweep, &[]), &out.join("whole"));
     assert!(again.contains("all done before"), "{again}");
 }
