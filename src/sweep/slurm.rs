@@ -41,7 +41,8 @@ pub fn script(exe: &Path, scene: &str, args: &[String], out: &Path, tasks: u64, 
 #
 #   bash THIS_FILE          submits the array and the merge; prints their job ids
 #   bash THIS_FILE --wait   the same, and returns when the merge has finished
-#   sbatch THIS_FILE        submits the array only
+#   sbatch THIS_FILE        submits the array only (its logs' directory
+#                           {logs} must exist)
 #
 # A task that fails (or a node lost) leaves its shard unfinished: submit the
 # script again; every task resumes its shard from its sweep.csv.
