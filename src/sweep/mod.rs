@@ -33,7 +33,7 @@ pub mod plan;
 pub mod slurm;
 mod table;
 
-use std::collections::{BTreeMap, HashMap};
+use std::collections::{BTreeMap, HashMap, HashSet};
 use std::path::{Path, PathBuf};
 use std::sync::Mutex;
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -226,7 +226,7 @@ fn check<M: Model + Default>(job: &SweepJob) -> Result<Checked, String> {
         tuples = tuples.iter().flat_map(|t| values.iter().map(move |v| [t.clone(), vec![*v]].concat())).collect();
     }
     let mut state: Vec<String> = Vec::new();
-    let mut seen: HashMap<String, ()> = HashMap::new();
+    let mut seen: HashSet<String> = HashSet::new();
     let mut metrics_checked = false;
     let mut last_error = None;
     for tuple in &tuples {
@@ -240,7 +240,7 @@ fn check<M: Model + Default>(job: &SweepJob) -> Result<Checked, String> {
         match run::configure::<M>(&job.scene, &sets) {
             Ok(c) => {
                 for n in c.state_names() {
-                    if seen.insert(n.clone(), ()).is_none() {
+                    if seen.insert(n.clone()) {
                         state.push(n);
                     }
                 }
@@ -435,9 +435,7 @@ fn row_line(
             fields.extend(std::iter::repeat_n(String::new(), 3 + n_state + TAIL.len() + metrics.len()));
         }
     }
-    let mut w = csv::WriterBuilder::new().terminator(csv::Terminator::Any(b'\n')).from_writer(Vec::new());
-    w.write_record(&fields).expect("writing to memory");
-    (w.into_inner().expect("writing to memory"), failed)
+    (table::line(&fields), failed)
 }
 
 /// The directory of run `i`'s own output (`--save-runs`).

@@ -156,13 +156,7 @@ impl Plan {
 
     /// Number of runs.
     pub fn runs(&self) -> u64 {
-        self.axes
-            .iter()
-            .filter_map(|a| match &a.values {
-                Values::Fixed(v) => Some(v.len() as u64),
-                Values::Random { .. } => None,
-            })
-            .product::<u64>()
+        (0..self.axes.len()).filter_map(|k| self.fixed_values(k)).map(|v| v.len() as u64).product::<u64>()
             * self.samples
     }
 
@@ -172,27 +166,23 @@ impl Plan {
     }
 
     /// The parameter values of run `i` (in the order of the axes), pushed
-    /// onto `out` after clearing it. Run `i`'s random draws come from the
-    /// ChaCha8 stream `i` of the seed, so they depend on `i` and the seed
-    /// alone (not on the shard or the order of the runs).
+    /// onto `out` after clearing it. Run `i` takes random draw `i mod
+    /// samples`, the ChaCha8 stream of that number from the seed: every
+    /// point of the fixed axes sees the same draws (common random
+    /// numbers), and a draw depends on its number and the seed alone (not
+    /// on the shard or the order of the runs).
     pub fn values_into(&self, i: u64, out: &mut Vec<f64>) {
+        // the fixed axes come first (`Plan::new` sorts them), the last
+        // varying fastest
+        let fixed = self.axes.iter().take_while(|a| matches!(a.values, Values::Fixed(_))).count();
         out.clear();
+        out.resize(fixed, 0.0);
         let mut rest = i / self.samples;
-        // the fixed axes, the last varying fastest
-        let fixed: Vec<&Vec<f64>> = self
-            .axes
-            .iter()
-            .filter_map(|a| match &a.values {
-                Values::Fixed(v) => Some(v),
-                Values::Random { .. } => None,
-            })
-            .collect();
-        let mut idx = vec![0usize; fixed.len()];
-        for (k, v) in fixed.iter().enumerate().rev() {
-            idx[k] = (rest % v.len() as u64) as usize;
+        for k in (0..fixed).rev() {
+            let v = self.fixed_values(k).expect("a fixed axis");
+            out[k] = v[(rest % v.len() as u64) as usize];
             rest /= v.len() as u64;
         }
-        out.extend(fixed.iter().zip(&idx).map(|(v, &k)| v[k]));
         let mut rng: Option<ChaCha8Rng> = None;
         for a in &self.axes {
             if let Values::Random { lo, hi } = a.values {

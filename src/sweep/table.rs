@@ -76,6 +76,18 @@ impl Manifest {
     }
 }
 
+/// A CSV writer of `sweep.csv`'s dialect (`\n` line ends) into `w`.
+fn writer<W: Write>(w: W) -> csv::Writer<W> {
+    csv::WriterBuilder::new().terminator(csv::Terminator::Any(b'\n')).from_writer(w)
+}
+
+/// One row of `sweep.csv`, with its line end.
+pub fn line<S: AsRef<[u8]>>(fields: &[S]) -> Vec<u8> {
+    let mut w = writer(Vec::new());
+    w.write_record(fields).expect("writing to memory");
+    w.into_inner().expect("writing to memory")
+}
+
 fn io(path: &Path, e: impl std::fmt::Display) -> String {
     format!("{}: {e}", path.display())
 }
@@ -226,9 +238,7 @@ impl Output {
         if !file.metadata().map_err(|e| io(&path, e))?.is_file() {
             return Err(format!("{} is not a regular file", path.display()));
         }
-        let mut w = csv::WriterBuilder::new().terminator(csv::Terminator::Any(b'\n')).from_writer(Vec::new());
-        w.write_record(header).expect("writing to memory");
-        let header_line = w.into_inner().expect("writing to memory");
+        let header_line = line(header);
         let len = if exists { complete_length(&mut file, &path)? } else { 0 };
         let mut done = 0;
         if len == 0 {
@@ -366,9 +376,7 @@ pub fn merge(dirs: &[PathBuf], out: &Path) -> Result<(Manifest, Vec<PathBuf>), S
     let csv_path = out.join(CSV);
     let mut tmp = tempfile::Builder::new().prefix(".sweep.csv.").tempfile_in(out).map_err(|e| io(&csv_path, e))?;
     {
-        let mut w = csv::WriterBuilder::new()
-            .terminator(csv::Terminator::Any(b'\n'))
-            .from_writer(std::io::BufWriter::new(tmp.as_file_mut()));
+        let mut w = writer(std::io::BufWriter::new(tmp.as_file_mut()));
         w.write_record(&header).map_err(|e| io(&csv_path, e))?;
         // run i is in shard i mod n, whose rows ascend
         for i in 0..merged.runs {
