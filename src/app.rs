@@ -52,12 +52,20 @@ type Scaled = Described<Vec<scale::ScalePoint>>;
 struct ModelOps {
     info_with: ezy_core::registry::InfoFn,
     run: fn(&Scene, &RunOptions) -> Result<Report, run::Error>,
-    precision: fn(&Scene, &Path) -> Result<precision::Report, run::Error>,
+    precision: fn(&Scene, &Path, &precision::PrecisionOptions) -> Result<precision::Report, run::Error>,
     equations: fn(&Sets, equations::Format) -> Result<String, String>,
     check: CheckFn,
     scale: fn(&[usize], usize, KktMethod) -> Result<Scaled, scale::ScaleError>,
     sweep: fn(&sweep::SweepJob) -> Result<sweep::SweepReport, sweep::SweepError>,
+    animate: AnimateFn,
 }
+
+/// `ezy animate` for one model type.
+type AnimateFn = fn(
+    &Scene,
+    &RunOptions,
+    &crate::animate::AnimateOptions,
+) -> Result<crate::animate::AnimateReport, crate::animate::AnimateError>;
 
 impl ModelOps {
     fn of<M: Model + Default + 'static>() -> Self {
@@ -78,6 +86,7 @@ impl ModelOps {
             },
             scale: |n, batches, kkt| Ok((M::default().info(), scale::scale::<M>(n, batches, kkt)?)),
             sweep: sweep::sweep_model::<M>,
+            animate: crate::animate::animate_model::<M>,
         }
     }
 }
@@ -378,8 +387,23 @@ impl App {
     /// As [`precision::precision_model`]; [`run::Error::UnknownModel`] for
     /// a key this application lacks.
     pub fn precision(&self, scene: &Scene, out: &Path) -> Result<precision::Report, run::Error> {
+        self.precision_with(scene, out, &precision::PrecisionOptions::default())
+    }
+
+    /// [`App::precision`] with other tools' points over the
+    /// work-precision diagram, or redrawing the figures of a saved ladder
+    /// (see [`precision::PrecisionOptions`]).
+    ///
+    /// # Errors
+    /// As [`App::precision`].
+    pub fn precision_with(
+        &self,
+        scene: &Scene,
+        out: &Path,
+        opts: &precision::PrecisionOptions,
+    ) -> Result<precision::Report, run::Error> {
         match self.ops(&scene.model) {
-            Some(ops) => (ops.precision)(scene, out),
+            Some(ops) => (ops.precision)(scene, out, opts),
             None => Err(run::Error::UnknownModel { scene: scene.name.clone(), model: scene.model.clone() }),
         }
     }
@@ -457,6 +481,7 @@ impl App {
             Some(Command::List) => Ok(out.write_all(self.list().map_err(AppError::failed)?.as_bytes())?),
             Some(Command::Precision(args)) => self.cmd_precision(args, out),
             Some(Command::Sweep(args)) => self.cmd_sweep(*args, out),
+            Some(Command::Animate(args)) => self.cmd_animate(args, out),
             Some(Command::Equations(args)) => {
                 let ops = self.model_ops(&args.model)?;
                 let text = (ops.equations)(&args.sets, args.format.into()).map_err(AppError::Failed)?;
@@ -495,7 +520,16 @@ impl App {
         let src = self.load_scene(&args.scene).map_err(AppError::failed)?;
         let scene = &src.scene;
         let dir = args.out.unwrap_or_else(|| PathBuf::from("out").join("precision").join(&scene.name));
-        let report = self.precision(scene, &dir).map_err(AppError::from_run)?;
+        let overlay = match &args.overlay {
+            Some(path) => precision::read_overlay(path).map_err(AppError::Failed)?,
+            None => Vec::new(),
+        };
+        let opts = precision::PrecisionOptions { overlay, replot: args.replot };
+        let report = self.precision_with(scene, &dir, &opts).map_err(AppError::from_run)?;
+        if args.replot {
+            let files: Vec<String> = report.files.iter().map(|f| format!("redrew {}\n", f.display())).collect();
+            return committed(out, &files.concat(), &dir);
+        }
         let text = match args.format {
             cli::Format::Table => {
                 let mut text = precision::table(&report);
@@ -639,7 +673,12 @@ impl App {
             let src = self.load_scene(&manifest.scene).map_err(AppError::failed)?;
             let job = self.sweep_job(&src, &manifest.scene, &parsed)?;
             let info = (self.model_ops(&src.scene.model)?.info_with)(&[]).map_err(|e| AppError::Failed(e.message))?;
-            let (f, n) = sweep::figure::draw(&args.out, &job.plan, &job.metrics, &info).map_err(AppError::Failed)?;
+            let look = (
+                job.opts.figure_format.unwrap_or(job.scene.output.figure_format),
+                job.opts.dpi.unwrap_or(job.scene.output.dpi),
+            );
+            let (f, n) =
+                sweep::figure::draw(&args.out, &job.plan, &job.metrics, &info, look).map_err(AppError::Failed)?;
             files.extend(f);
             notes = n;
         }
@@ -652,6 +691,24 @@ impl App {
             text.push_str(&format!("  wrote {}\n", f.display()));
         }
         committed(out, &text, &args.out)
+    }
+
+    fn cmd_animate(&self, args: cli::AnimateArgs, out: &mut dyn Write) -> Result<(), AppError> {
+        let name = args.scene.clone().unwrap_or_else(|| self.default_scene.clone());
+        if name.is_empty() {
+            return Err(AppError::Failed("no scene given and this program has no default scene".into()));
+        }
+        let src = self.load_scene(&name).map_err(AppError::failed)?;
+        let scene = &src.scene;
+        let anim = args.options(&scene.name).map_err(AppError::Failed)?;
+        let opts = args.overrides.options();
+        let ops = self.model_ops(&scene.model)?;
+        let report = (ops.animate)(scene, &opts, &anim).map_err(|e| match e {
+            crate::animate::AnimateError::Run(e) => AppError::from_run(e),
+            other => AppError::failed(other),
+        })?;
+        let dir = anim.out.parent().unwrap_or(Path::new("."));
+        committed(out, &report.summary(&anim), dir)
     }
 
     fn cmd_run(&self, args: cli::RunArgs, out: &mut dyn Write) -> Result<(), AppError> {

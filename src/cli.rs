@@ -5,7 +5,7 @@ use std::path::PathBuf;
 
 use clap::{Parser, Subcommand, ValueEnum};
 use ezy_core::kkt::KktMethod;
-use ezy_core::{Baumgarte, Method, ProjectionKind};
+use ezy_core::{Baumgarte, FigureFormat, Method, ProjectionKind};
 
 use crate::run::RunOptions;
 
@@ -34,6 +34,52 @@ pub enum Command {
     /// Run a scene over a grid, a list or random draws of parameter values
     /// in parallel: one row per run in sweep.csv, resumable and shardable.
     Sweep(Box<SweepArgs>),
+    /// Run a scene and draw its bodies moving, as an animated GIF.
+    Animate(AnimateArgs),
+}
+
+/// `ezy animate`: the scene's bodies, skates, hinges and springs drawn moving.
+#[derive(clap::Args, Debug, Default)]
+#[command(allow_negative_numbers = true)]
+pub struct AnimateArgs {
+    /// Scene: a known name (see `list`; default: drive) or a path to a
+    /// .toml scene file.
+    pub scene: Option<String>,
+    /// The GIF file to write [default: out/SCENE/animation.gif].
+    #[arg(long, value_name = "FILE.gif")]
+    pub out: Option<PathBuf>,
+    /// Frames per second (1 to 50).
+    #[arg(long, value_name = "F", default_value_t = 20.0)]
+    pub fps: f64,
+    /// Seconds of simulated time per second of animation.
+    #[arg(long, value_name = "S", default_value_t = 1.0)]
+    pub speed: f64,
+    /// Length of the fading trails of the skates' contact points (of every
+    /// point without skates), in seconds of simulated time (0: none).
+    #[arg(long, value_name = "T", default_value_t = 3.0)]
+    pub trail: f64,
+    #[command(flatten)]
+    pub overrides: Overrides,
+}
+
+impl AnimateArgs {
+    /// The animation's settings for scene `scene` (`--dpi` gives the frame
+    /// size, default 64 dpi: 640 x 427 pixels).
+    ///
+    /// # Errors
+    /// `--format`, which an animation does not take.
+    pub fn options(&self, scene: &str) -> Result<crate::animate::AnimateOptions, String> {
+        if let Some(f) = self.overrides.format {
+            return Err(format!("--format {f}: an animation is always a GIF; set its size with --dpi"));
+        }
+        Ok(crate::animate::AnimateOptions {
+            out: self.out.clone().unwrap_or_else(|| crate::animate::default_out(scene)),
+            fps: self.fps,
+            speed: self.speed,
+            trail: self.trail,
+            dpi: self.overrides.dpi.unwrap_or(64.0),
+        })
+    }
 }
 
 #[derive(clap::Args, Debug)]
@@ -129,6 +175,11 @@ pub struct RunArgs {
     /// Skip the figures (CSV only).
     #[arg(long)]
     pub no_figures: bool,
+    /// Also write report.html: the summary, the energy ledger, an
+    /// animation, every figure and the settings to reproduce the run, in
+    /// one self-contained file.
+    #[arg(long)]
+    pub report: bool,
 }
 
 /// The settings `run` and `sweep` take on top of a scene's.
@@ -167,6 +218,35 @@ pub struct Overrides {
     /// stop when they reach it) [default: 100000000].
     #[arg(long, value_name = "N", value_parser = parse_count)]
     pub max_steps: Option<u64>,
+    /// File format of the figures: png (anti-aliased), svg or pdf (vector)
+    /// [default: the scene's output.figure_format, else png].
+    #[arg(long, value_name = "FORMAT", value_parser = parse_figure_format)]
+    pub format: Option<FigureFormat>,
+    /// Resolution of PNG figures in dots per inch (a figure is 10 x 6.67
+    /// inches) [default: the scene's output.dpi, else 144].
+    #[arg(long, value_name = "DPI", value_parser = parse_dpi)]
+    pub dpi: Option<f64>,
+}
+
+/// `png`, `svg` or `pdf`.
+///
+/// # Errors
+/// Any other name.
+pub fn parse_figure_format(s: &str) -> Result<FigureFormat, String> {
+    s.trim().parse()
+}
+
+/// A PNG resolution from [`ezy_core::MIN_DPI`] to [`ezy_core::MAX_DPI`].
+///
+/// # Errors
+/// Not a number, or out of range.
+pub fn parse_dpi(s: &str) -> Result<f64, String> {
+    let v: f64 = s.trim().parse().map_err(|_| format!("`{s}` is not a number"))?;
+    if (ezy_core::MIN_DPI..=ezy_core::MAX_DPI).contains(&v) {
+        Ok(v)
+    } else {
+        Err(format!("`{s}`: the resolution is from {} to {} dpi", ezy_core::MIN_DPI, ezy_core::MAX_DPI))
+    }
 }
 
 impl Overrides {
@@ -191,6 +271,7 @@ impl Overrides {
         num("--every", self.every);
         num("--rtol", self.rtol);
         num("--atol", self.atol);
+        num("--dpi", self.dpi);
         let name = |v: Option<clap::builder::PossibleValue>| v.map(|p| p.get_name().to_string()).unwrap_or_default();
         if let Some(p) = self.projection {
             a.extend(["--projection".into(), name(p.to_possible_value())]);
@@ -203,6 +284,9 @@ impl Overrides {
         }
         if let Some(n) = self.max_steps {
             a.extend(["--max-steps".into(), n.to_string()]);
+        }
+        if let Some(f) = self.format {
+            a.extend(["--format".into(), f.name().into()]);
         }
         a
     }
@@ -312,6 +396,16 @@ pub struct PrecisionArgs {
     /// Directory for precision.csv and the figures [default: out/precision/SCENE].
     #[arg(long)]
     pub out: Option<PathBuf>,
+    /// Draw other tools' points over the work-precision diagram: a CSV
+    /// file with the header label,wall_s,error (wall time [s], max state
+    /// error at the final time), one point per row.
+    #[arg(long, value_name = "FILE")]
+    pub overlay: Option<PathBuf>,
+    /// Run no ladder: redraw the figures from the precision.csv already in
+    /// the output directory (with --overlay; the drift figure's two short
+    /// runs are still run).
+    #[arg(long)]
+    pub replot: bool,
 }
 
 #[derive(ValueEnum, Clone, Copy, Debug)]
@@ -423,6 +517,7 @@ impl RunArgs {
         RunOptions {
             out: self.out.unwrap_or_else(|| PathBuf::from("out").join(scene)),
             figures: !self.no_figures,
+            report: self.report,
             progress: true,
             max_output_mb: self.max_output_mb,
             ..self.overrides.options()
@@ -456,6 +551,9 @@ impl Overrides {
             rtol: self.rtol,
             atol: self.atol,
             figures: false,
+            figure_format: self.format,
+            dpi: self.dpi,
+            report: false,
             progress: false,
             max_steps: self.max_steps,
             max_output_mb: None,

@@ -4,7 +4,7 @@
 //! [`crate::plot::MAX_MAGNITUDE`] is an error naming the figure file, the
 //! column, the value and its time.
 
-use ezy_core::{Column, FigureSpec, ModelInfo};
+use ezy_core::{Column, FigureFormat, FigureSpec, ModelInfo};
 
 use crate::output::Table;
 use crate::plot::{Chart, PlotError, Series};
@@ -46,6 +46,86 @@ pub enum FigureError {
     },
 }
 
+/// Greek letter names written as their letters in [`typeset`] (names
+/// that are also English words, `eta`, `nu`, `xi`, are left alone).
+const GREEK: [(&str, char); 17] = [
+    ("alpha", 'α'),
+    ("beta", 'β'),
+    ("gamma", 'γ'),
+    ("delta", 'δ'),
+    ("epsilon", 'ε'),
+    ("theta", 'θ'),
+    ("kappa", 'κ'),
+    ("lambda", 'λ'),
+    ("mu", 'μ'),
+    ("pi", 'π'),
+    ("rho", 'ρ'),
+    ("sigma", 'σ'),
+    ("tau", 'τ'),
+    ("phi", 'φ'),
+    ("psi", 'ψ'),
+    ("omega", 'ω'),
+    ("Phi", 'Φ'),
+];
+
+/// A figure text with coordinate names typeset as mathematics in Unicode:
+/// a Greek letter name becomes the letter, trailing digits a subscript and
+/// a trailing `d` (`dd`) after them a dot (two dots) over the letter, so
+/// `phi2d - phi1d [rad/s]` reads `φ̇₂ − φ̇₁ [rad/s]`, `x1d` `ẋ₁` and
+/// `tau` `τ`; a ` - ` between spaces becomes a minus sign. Words with
+/// an underscore (`W_motor`) and other words are left as they are.
+pub fn typeset(text: &str) -> String {
+    let mut out = String::with_capacity(text.len() + 8);
+    let mut word = String::new();
+    let flush = |word: &mut String, out: &mut String| {
+        out.push_str(&typeset_word(word));
+        word.clear();
+    };
+    for c in text.chars() {
+        if c.is_ascii_alphanumeric() || c == '_' {
+            word.push(c);
+        } else {
+            flush(&mut word, &mut out);
+            out.push(c);
+        }
+    }
+    flush(&mut word, &mut out);
+    out.replace(" - ", " \u{2212} ")
+}
+
+/// One word of [`typeset`].
+fn typeset_word(w: &str) -> String {
+    for (suffix, dot) in [("dd", "\u{308}"), ("d", "\u{307}"), ("", "")] {
+        if let Some(base) = w.strip_suffix(suffix)
+            && let Some(t) = typeset_symbol(base, dot)
+        {
+            return t;
+        }
+    }
+    w.to_string()
+}
+
+/// `base` (a Greek letter name or a single letter, then digits) as its
+/// letter with `dot` over it and the digits as a subscript; `None` if it
+/// is no such symbol. Without digits, only Greek letters and (with a dot)
+/// `x`, `y` and `q` count: `a` or `d` alone are words.
+fn typeset_symbol(base: &str, dot: &str) -> Option<String> {
+    const SUB: [char; 10] = ['₀', '₁', '₂', '₃', '₄', '₅', '₆', '₇', '₈', '₉'];
+    let split = base.trim_end_matches(|c: char| c.is_ascii_digit()).len();
+    let (stem, digits) = base.split_at(split);
+    let greek = GREEK.iter().find(|(n, _)| *n == stem).map(|&(_, c)| c);
+    let single = (stem.len() == 1).then(|| stem.chars().next()).flatten().filter(char::is_ascii_alphabetic);
+    let letter = match (greek, single) {
+        (Some(g), _) => g,
+        (None, Some(c)) if !digits.is_empty() || (!dot.is_empty() && "xyq".contains(c)) => c,
+        _ => return None,
+    };
+    let mut s = String::from(letter);
+    s.push_str(dot);
+    s.extend(digits.bytes().map(|d| SUB[usize::from(d - b'0')]));
+    Some(s)
+}
+
 /// Floor of logarithmic axes: exact zeros (a residual projected to machine
 /// zero) are drawn here.
 pub const LOG_FLOOR: f64 = 1e-18;
@@ -80,7 +160,7 @@ fn named(table: &Table, name: &str, figure: &str) -> Result<Vec<f64>, FigureErro
 }
 
 /// Checks that every value of `column` can be drawn (see
-/// [`FigureError::Value`]); `times` are the rows' times [s], `log` whether
+/// [`FigureError::Value`]); `times` are the rows' times \[s\], `log` whether
 /// the column is drawn on a logarithmic axis (where any finite value can).
 fn check_values(figure: &str, column: String, values: &[f64], times: &[f64], log: bool) -> Result<(), FigureError> {
     for (k, &v) in values.iter().enumerate() {
@@ -97,33 +177,50 @@ fn check_values(figure: &str, column: String, values: &[f64], times: &[f64], log
     Ok(())
 }
 
-/// Draws `fig` from `table` as PNG and returns the file's bytes. Every
-/// value is checked before drawing.
+/// Draws `fig` from `table` in `format` (PNG at `dpi`) and returns the
+/// file's bytes; see [`chart`].
+///
+/// # Errors
+/// As [`chart`], and [`FigureError::Plot`] for a drawing failure (see
+/// [`crate::plot::figure`]).
+pub fn render(
+    info: &ModelInfo,
+    fig: &FigureSpec,
+    table: &Table,
+    format: FigureFormat,
+    dpi: f64,
+) -> Result<Vec<u8>, FigureError> {
+    crate::plot::figure(&chart(info, fig, table)?, format, dpi)
+        .map_err(|source| FigureError::Plot { figure: fig.file.clone(), source })
+}
+
+/// The chart of `fig` from `table`: lines over `fig.x` in one or two
+/// panels (lines with `panel = 2` in the lower one), or paths of points
+/// and bodies' centres of mass with equal axes. Every value is checked
+/// before drawing.
 ///
 /// # Errors
 /// [`FigureError::Column`] for a missing column, [`FigureError::Value`] for
-/// a value that is not finite or too large to draw, and
-/// [`FigureError::Plot`] for a drawing failure (see [`crate::plot::png`]).
-pub fn render(info: &ModelInfo, fig: &FigureSpec, table: &Table) -> Result<Vec<u8>, FigureError> {
-    let mut chart = Chart {
-        title: fig.title.clone(),
-        x_label: fig.x_label.clone(),
-        y_label: fig.y_label.clone(),
-        series: Vec::new(),
-        equal_axes: false,
-        log_y: false,
-        log_floor: LOG_FLOOR,
-    };
+/// a value that is not finite or too large to draw.
+pub fn chart(info: &ModelInfo, fig: &FigureSpec, table: &Table) -> Result<Chart, FigureError> {
+    let mut chart =
+        Chart { log_floor: LOG_FLOOR, ..Chart::new(typeset(&fig.title), typeset(&fig.x_label), typeset(&fig.y_label)) };
     let times: Vec<f64> = if table.columns.is_empty() { Vec::new() } else { table.column(0).collect() };
     let check = |column: String, values: &[f64], log| check_values(&fig.file, column, values, &times, log);
     if fig.paths.is_empty() {
         chart.log_y = fig.log_y;
+        if fig.lines.iter().any(|l| l.panel == 2) {
+            chart.lower = fig.y2_label.as_deref().map(typeset);
+        }
         let xs = values(table, &fig.x, &fig.file)?;
         check(fig.x.to_string(), &xs, false)?;
         for line in &fig.lines {
             let vs = values(table, &line.y, &fig.file)?;
             check(line.y.to_string(), &vs, fig.log_y)?;
-            chart.series.push(Series { label: line.label.clone(), points: xs.iter().copied().zip(vs).collect() });
+            let panel = usize::from(line.panel.saturating_sub(1));
+            chart
+                .series
+                .push(Series { panel, ..Series::new(typeset(&line.label), xs.iter().copied().zip(vs).collect()) });
         }
     } else {
         chart.equal_axes = true;
@@ -139,8 +236,30 @@ pub fn render(info: &ModelInfo, fig: &FigureSpec, table: &Table) -> Result<Vec<u
             let ys = named(table, &y, &fig.file)?;
             check(x, &xs, false)?;
             check(y, &ys, false)?;
-            chart.series.push(Series { label, points: xs.into_iter().zip(ys).collect() });
+            chart.series.push(Series::new(label, xs.into_iter().zip(ys).collect()));
         }
     }
-    crate::plot::png(&chart).map_err(|source| FigureError::Plot { figure: fig.file.clone(), source })
+    Ok(chart)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::typeset;
+
+    #[test]
+    fn coordinate_names_are_typeset() {
+        assert_eq!(typeset("phi2d - phi1d [rad/s]"), "φ̇₂ − φ̇₁ [rad/s]");
+        assert_eq!(typeset("|(x1d, y1d)| [m/s]"), "|(x\u{307}₁, y\u{307}₁)| [m/s]");
+        assert_eq!(typeset("tau [N m]"), "τ [N m]");
+        assert_eq!(typeset("x1dd"), "x\u{308}₁");
+        assert_eq!(typeset("phi1"), "φ₁");
+        assert_eq!(typeset("|(xd, yd)|"), "|(x\u{307}, y\u{307})|");
+        assert_eq!(typeset("phid"), "φ\u{307}");
+        // words, names with underscores and a lone d stay
+        assert_eq!(typeset("G(q) qd"), "G(q) q\u{307}");
+        for same in ["W_motor [J]", "T(0)", "speed [m/s]", "d", "rate", "a = 0.2", "S5x", "dt", "add", "dd"] {
+            assert_eq!(typeset(same), same.replace(" - ", " \u{2212} "));
+        }
+        assert_eq!(typeset("T - T(0)"), "T − T(0)");
+    }
 }

@@ -6,6 +6,7 @@
 //! checks a model's derived terms in its author's tests. The `ezy` binary
 //! is `App::new().main()`.
 
+pub mod animate;
 pub mod app;
 mod cli;
 pub mod equations;
@@ -14,6 +15,7 @@ pub mod output;
 pub mod plot;
 pub mod precision;
 pub mod progress;
+pub mod report;
 pub mod run;
 pub mod scale;
 pub mod sweep;

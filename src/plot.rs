@@ -1,60 +1,71 @@
-//! PNG line charts for the CLI's figures.
+//! Figures for the CLI: line charts, stacked panels, paths in the plane and
+//! heat maps, as SVG, PNG or PDF.
 //!
-//! [`render_png`] draws a [`Chart`] (title, axis labels with units, a light
-//! grid, a legend and one coloured line per [`Series`]) into a 1200 x 800 PNG
-//! with plotters' bitmap backend. Text uses DejaVu Sans embedded from the
-//! `dejavu` crate, so no system font (or fontconfig/freetype `-dev` package)
-//! is needed at build or run time.
+//! Every figure is drawn once, as SVG, with plotters' SVG backend
+//! ([`chart_svg`], [`heatmap_svg`]); [`encode`] turns that SVG into the
+//! requested [`FigureFormat`]: the SVG itself; an anti-aliased PNG at any
+//! resolution, rasterized by `resvg` (the renderer of the linebender
+//! project, pure Rust); or a vector PDF, converted by `svg2pdf` (Typst's
+//! converter, pure Rust, fonts embedded as subsets). Text is DejaVu Sans,
+//! embedded from the `dejavu` crate for layout and rasterization, so no
+//! system font, fontconfig or freetype is needed at build or run time.
 //!
-//! [`png`] checks the data ranges before drawing anything (a range plotters
-//! cannot draw is refused, see [`undrawable`]), draws on a worker thread
-//! with a time limit ([`DRAW_TIMEOUT`]) and encodes the PNG in memory;
-//! [`render_png`] writes it atomically, so a failed render never leaves a
-//! half-written figure behind.
+//! A figure is 960 x 640 CSS pixels (10 x 6.67 inches at 96 dpi). It is
+//! drawn on a canvas of twice that many units ([`SCALE`]) so that lines,
+//! dashes and markers sit on half-pixel positions, and the SVG's `width`
+//! and `height` give the nominal size.
+//!
+//! Readability rules applied to every chart (see [`Chart`]): a series
+//! that runs on top of an earlier one is drawn dashed (then dotted,
+//! dash-dotted) with hollow markers, so neither hides the other; paths get
+//! a start and an end marker, so a point that never moves still shows;
+//! the legend goes to the corner where it covers the fewest line segments;
+//! logarithmic axes are true decades on either axis, labelled `10⁻⁶`;
+//! a tick label never reads `-0`.
+//!
+//! [`chart_svg`] checks the data ranges before drawing anything (a range
+//! plotters cannot draw is refused, see [`undrawable`]) and draws on a
+//! worker thread with a time limit ([`DRAW_TIMEOUT`]).
 
 use std::ops::Range;
-use std::path::{Path, PathBuf};
 use std::sync::OnceLock;
 
+pub use ezy_core::FigureFormat;
 use image::ImageEncoder;
 use plotters::coord::ranged1d::{KeyPointHint, NoDefaultFormatting, Ranged, ValueFormatter};
 use plotters::coord::types::RangedCoordf64;
 use plotters::prelude::*;
 use plotters::style::FontStyle;
 
-/// Width of the rendered figure in pixels.
-const WIDTH: u32 = 1200;
-/// Height of the rendered figure in pixels.
-const HEIGHT: u32 = 800;
+/// Nominal width of a figure \[CSS px\] (10 inches at 96 dpi).
+pub const WIDTH: u32 = 960;
+/// Nominal height of a figure \[CSS px\].
+pub const HEIGHT: u32 = 640;
+/// Drawing units per nominal pixel: the canvas is `SCALE` times the
+/// nominal size, so integer drawing coordinates are half-pixel positions.
+pub const SCALE: u32 = 2;
 /// Font family name the embedded DejaVu Sans is registered under.
 const FONT: &str = "sans-serif";
-/// Width of every series line in pixels.
-const LINE_WIDTH: u32 = 2;
-/// Font size of the title in pixels.
-const TITLE_SIZE: u32 = 30;
-/// Font size of the axis descriptions (the x and y labels) in pixels.
-const DESC_SIZE: u32 = 22;
-/// Font size of tick labels and legend entries in pixels.
-const LABEL_SIZE: u32 = 18;
-/// How far, as a fraction of the font size, plotters' `ab_glyph` text sits
-/// above where plotters' layout expects it.
-///
-/// `ab_glyph` scales a font so that ascent - descent equals the font size
-/// (1.164 em for DejaVu Sans), and plotters draws a glyph at
-/// `size / 2 + glyph top` below the anchor while laying the line out as
-/// `size / 1.24` tall. For DejaVu Sans digits and capitals that puts the ink
-/// centre about 0.216 x size above the centre of the laid-out box, so
-/// vertically centred text (y tick labels, legend entries) would sit visibly
-/// high next to its tick or legend line, and top-anchored text (the title)
-/// would be clipped at the image edge.
-const AB_GLYPH_RISE: f64 = 0.216;
+/// The family name resvg knows the embedded font by.
+const FONT_NAME: &str = "DejaVu Sans";
+/// Width of every series line \[canvas units\].
+const LINE_WIDTH: u32 = 2 * SCALE;
+/// Font sizes [canvas units, plotters' convention: the SVG font size is
+/// 1/1.24 of it]: title, axis descriptions, tick labels and legend.
+const TITLE_SIZE: u32 = 28 * SCALE;
+const DESC_SIZE: u32 = 24 * SCALE;
+const LABEL_SIZE: u32 = 20 * SCALE;
 /// Fraction of the data range added on each side of the y axis (and of both
 /// axes for equal-axes charts).
 const PAD_FRACTION: f64 = 0.05;
+/// Dash and gap lengths \[canvas units\] of the line styles after solid.
+const DASHES: [(u32, u32); 3] = [(14 * SCALE, 7 * SCALE), (3 * SCALE, 5 * SCALE), (22 * SCALE, 6 * SCALE)];
+/// Markers drawn along a dashed series (hollow, in the series' colour).
+const MARKERS_PER_SERIES: usize = 14;
 
 /// Series colours, cycled when a chart has more series than entries
 /// (the "tab10" palette: distinct and readable on white).
-const PALETTE: [RGBColor; 10] = [
+pub const PALETTE: [RGBColor; 10] = [
     RGBColor(31, 119, 180),
     RGBColor(255, 127, 14),
     RGBColor(44, 160, 44),
@@ -67,8 +78,24 @@ const PALETTE: [RGBColor; 10] = [
     RGBColor(23, 190, 207),
 ];
 
+/// How a series' line is stroked.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum Stroke {
+    /// Solid, unless the series runs on top of an earlier series of its
+    /// panel (within 1 % of the panel's range at more than a fifth of its
+    /// points): then the next free dash style, with markers.
+    #[default]
+    Auto,
+    /// Always solid.
+    Solid,
+    /// Dash style `k` (0: dashed, 1: dotted, 2: long dashes), with markers.
+    Dash(usize),
+    /// No line: a filled diamond at every point (points given, not computed).
+    Points,
+}
+
 /// One line of a chart.
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone, PartialEq, Default)]
 pub struct Series {
     /// Legend text for this line; an empty label gives the line no legend entry.
     pub label: String,
@@ -76,34 +103,76 @@ pub struct Series {
     /// order. Points with a non-finite coordinate are skipped and break the
     /// line into separate pieces; an isolated point is drawn as a dot.
     pub points: Vec<(f64, f64)>,
+    /// The panel it is drawn in: 0 (upper) or 1 (lower, see [`Chart::lower`]).
+    pub panel: usize,
+    /// Stroke style.
+    pub stroke: Stroke,
+    /// Colour: an index into [`PALETTE`] (`None`: the series' own index).
+    pub color: Option<usize>,
 }
 
-/// A 2-D line chart.
+impl Series {
+    /// A series in the upper panel with an automatic stroke.
+    pub fn new(label: impl Into<String>, points: Vec<(f64, f64)>) -> Self {
+        Self { label: label.into(), points, ..Self::default() }
+    }
+}
+
+/// A 2-D chart: lines over x in one or two stacked panels sharing the x
+/// axis, or paths in the plane with equal axes.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Chart {
     /// Title drawn above the plot.
     pub title: String,
     /// Label of the x axis, including its unit, e.g. `"t [s]"`.
     pub x_label: String,
-    /// Label of the y axis, including its unit, e.g. `"x [m]"`.
+    /// Label of the (upper) y axis, including its unit, e.g. `"x [m]"`.
     pub y_label: String,
-    /// The lines to draw, coloured in order from a fixed palette.
+    /// The lines to draw, coloured in order from [`PALETTE`].
     pub series: Vec<Series>,
+    /// Label of the lower panel's y axis: `Some` draws the series with
+    /// `panel = 1` in a second panel below the first, for quantities in
+    /// another unit.
+    pub lower: Option<String>,
     /// Same scale on both axes (paths in the plane), data ranges padded so 1 m
-    /// is the same number of pixels in x and y.
+    /// is the same number of pixels in x and y; each series' first point
+    /// gets a filled circle and its last a filled square.
     pub equal_axes: bool,
-    /// Logarithmic y axis; values <= `log_floor` are drawn at `log_floor`.
+    /// Logarithmic x axis; values <= 0 are not drawn.
+    pub log_x: bool,
+    /// Logarithmic y axis (both panels); values <= `log_floor` are drawn at `log_floor`.
     pub log_y: bool,
     /// Smallest value shown on a logarithmic y axis, in the y axis' unit; must
     /// be finite and > 0 when `log_y` is set (ignored otherwise).
     pub log_floor: f64,
+    /// Legend to the right of the plot instead of inside it (for long
+    /// legends that would cover the data wherever they sat).
+    pub legend_outside: bool,
+}
+
+impl Chart {
+    /// A linear chart in one panel with no series yet.
+    pub fn new(title: impl Into<String>, x_label: impl Into<String>, y_label: impl Into<String>) -> Self {
+        Self {
+            title: title.into(),
+            x_label: x_label.into(),
+            y_label: y_label.into(),
+            series: Vec::new(),
+            lower: None,
+            equal_axes: false,
+            log_x: false,
+            log_y: false,
+            log_floor: 1e-18,
+            legend_outside: false,
+        }
+    }
 }
 
 /// Why a chart could not be rendered.
 #[derive(Debug, thiserror::Error)]
 pub enum PlotError {
-    /// The chart has no drawable point: every series is empty or holds only
-    /// non-finite values.
+    /// The chart has no drawable point: every series (of a panel) is empty
+    /// or holds only non-finite values.
     #[error("chart {title:?} has no finite data points to plot")]
     Empty {
         /// Title of the offending chart.
@@ -120,12 +189,12 @@ pub enum PlotError {
     /// The embedded DejaVu Sans font could not be registered with plotters.
     #[error("could not register the embedded DejaVu Sans font with plotters")]
     Font,
-    /// plotters failed while drawing or encoding the figure.
+    /// plotters failed while drawing, or the SVG could not be converted.
     #[error("chart {title:?}: {message}")]
     Draw {
         /// Title of the offending chart.
         title: String,
-        /// plotters' description of the failure.
+        /// plotters' (or the converter's) description of the failure.
         message: String,
     },
     /// A data range that cannot be drawn (see [`undrawable`]); nothing was
@@ -134,7 +203,7 @@ pub enum PlotError {
     Range {
         /// Title of the offending chart.
         title: String,
-        /// `"x"`, `"y"` or `"log10 y"`.
+        /// `"x"`, `"y"`, `"log10 x"` or `"log10 y"`.
         axis: &'static str,
         /// Smallest value on the axis.
         start: f64,
@@ -145,6 +214,12 @@ pub enum PlotError {
         /// Why.
         reason: &'static str,
     },
+    /// A PNG resolution outside [`ezy_core::MIN_DPI`]..=[`ezy_core::MAX_DPI`].
+    #[error("a PNG resolution of {dpi} dpi is outside {}..={} dpi", ezy_core::MIN_DPI, ezy_core::MAX_DPI)]
+    Dpi {
+        /// The rejected resolution.
+        dpi: f64,
+    },
     /// Drawing took longer than [`DRAW_TIMEOUT`] and was given up.
     #[error("chart {title:?}: drawing did not finish within {seconds} s and was given up")]
     Timeout {
@@ -152,15 +227,6 @@ pub enum PlotError {
         title: String,
         /// The limit in seconds.
         seconds: f64,
-    },
-    /// A file-system operation on the figure failed.
-    #[error("writing {path}: {source}")]
-    Io {
-        /// The file the operation was on.
-        path: PathBuf,
-        /// The underlying error.
-        #[source]
-        source: std::io::Error,
     },
 }
 
@@ -180,51 +246,138 @@ const MAX_AXIS_LENGTH: f64 = 1e300;
 /// the checks let through.
 pub const DRAW_TIMEOUT: std::time::Duration = std::time::Duration::from_secs(30);
 
-/// Render `chart` as a 1200 x 800 PNG at `path`.
-///
-/// The PNG is encoded in memory ([`png`]) and written with
-/// [`crate::transaction::write_atomically`]: into a uniquely named hidden
-/// temporary file next to `path`, created exclusively, renamed onto `path`
-/// only when complete; on failure any existing file at `path` is left as it
-/// was. The parent directory must exist.
+/// `chart` in `format` (PNG at `dpi`), returned as the file's bytes:
+/// [`chart_svg`] then [`encode`].
 ///
 /// # Errors
-/// As [`png`]; [`PlotError::Io`] if the file cannot be written or renamed.
-pub fn render_png(chart: &Chart, path: &Path) -> Result<(), PlotError> {
-    let bytes = png(chart)?;
-    crate::transaction::write_atomically(path, &bytes).map_err(|e| match e {
-        crate::transaction::TransactionError::Io { path, source } => PlotError::Io { path, source },
-        other => PlotError::Io { path: path.to_path_buf(), source: std::io::Error::other(other.to_string()) },
+/// As [`chart_svg`] and [`encode`].
+pub fn figure(chart: &Chart, format: FigureFormat, dpi: f64) -> Result<Vec<u8>, PlotError> {
+    check_dpi(dpi)?;
+    encode(&chart_svg(chart)?, format, dpi, &chart.title)
+}
+
+/// [`PlotError::Dpi`] for a resolution out of range.
+fn check_dpi(dpi: f64) -> Result<(), PlotError> {
+    if (ezy_core::MIN_DPI..=ezy_core::MAX_DPI).contains(&dpi) { Ok(()) } else { Err(PlotError::Dpi { dpi }) }
+}
+
+/// Turns an SVG drawn by this module into `format`: the SVG text itself,
+/// a PNG of `WIDTH x HEIGHT x dpi / 96` pixels (anti-aliased, white
+/// background, rasterized by resvg with the embedded DejaVu Sans) or a
+/// one-page PDF of `WIDTH x HEIGHT` points at 96 dpi (svg2pdf, text as
+/// embedded font subsets). `title` names the figure in errors.
+///
+/// # Errors
+/// [`PlotError::Dpi`] for a resolution out of range, [`PlotError::Draw`]
+/// if the SVG cannot be parsed or converted.
+pub fn encode(svg: &str, format: FigureFormat, dpi: f64, title: &str) -> Result<Vec<u8>, PlotError> {
+    check_dpi(dpi)?;
+    let fail = |message: String| PlotError::Draw { title: title.into(), message };
+    if format == FigureFormat::Svg {
+        return Ok(svg.as_bytes().to_vec());
+    }
+    let tree = resvg::usvg::Tree::from_str(svg, svg_options()).map_err(|e| fail(format!("reading the SVG: {e}")))?;
+    match format {
+        FigureFormat::Svg => unreachable!("returned above"),
+        FigureFormat::Png => {
+            // opaque on white: RGB, a quarter smaller than tiny-skia's RGBA
+            let p = raster(&tree, dpi)?;
+            let rgb: Vec<u8> = p.data().chunks_exact(4).flat_map(|px| [px[0], px[1], px[2]]).collect();
+            let mut bytes = Vec::new();
+            image::codecs::png::PngEncoder::new_with_quality(
+                &mut bytes,
+                image::codecs::png::CompressionType::Best,
+                image::codecs::png::FilterType::Adaptive,
+            )
+            .write_image(&rgb, p.width(), p.height(), image::ColorType::Rgb8)
+            .map_err(|e| fail(format!("encoding the PNG: {e}")))?;
+            Ok(bytes)
+        }
+        FigureFormat::Pdf => {
+            let page = svg2pdf::PageOptions { dpi: 96.0 };
+            svg2pdf::to_pdf(&tree, svg2pdf::ConversionOptions::default(), page)
+                .map_err(|e| fail(format!("converting to PDF: {e}")))
+        }
+    }
+}
+
+/// `tree` rasterized at `dpi` on white (the nominal size is at 96 dpi).
+fn raster(tree: &resvg::usvg::Tree, dpi: f64) -> Result<resvg::tiny_skia::Pixmap, PlotError> {
+    check_dpi(dpi)?;
+    let size = tree.size();
+    let s = (dpi / 96.0) as f32;
+    let (w, h) = ((size.width() * s).round() as u32, (size.height() * s).round() as u32);
+    let mut pixmap = resvg::tiny_skia::Pixmap::new(w.max(1), h.max(1))
+        .ok_or_else(|| PlotError::Draw { title: String::new(), message: format!("no {w} x {h} image") })?;
+    pixmap.fill(resvg::tiny_skia::Color::WHITE);
+    resvg::render(tree, resvg::tiny_skia::Transform::from_scale(s, s), &mut pixmap.as_mut());
+    Ok(pixmap)
+}
+
+/// An SVG drawn by this module rasterized at `dpi`, as RGBA bytes with its
+/// width and height: frames of an animation.
+///
+/// # Errors
+/// As [`encode`].
+pub fn rgba(svg: &str, dpi: f64) -> Result<(u32, u32, Vec<u8>), PlotError> {
+    let tree = resvg::usvg::Tree::from_str(svg, svg_options())
+        .map_err(|e| PlotError::Draw { title: String::new(), message: format!("reading the SVG: {e}") })?;
+    let p = raster(&tree, dpi)?;
+    Ok((p.width(), p.height(), p.take()))
+}
+
+/// resvg's options: the embedded DejaVu Sans (regular and bold) as the
+/// only font, and as every generic family.
+fn svg_options() -> &'static resvg::usvg::Options<'static> {
+    static OPTIONS: OnceLock<resvg::usvg::Options<'static>> = OnceLock::new();
+    OPTIONS.get_or_init(|| {
+        let mut o = resvg::usvg::Options { font_family: FONT_NAME.into(), ..Default::default() };
+        let db = o.fontdb_mut();
+        db.load_font_data(dejavu::sans::regular().to_vec());
+        db.load_font_data(dejavu::sans::bold().to_vec());
+        db.set_sans_serif_family(FONT_NAME);
+        db.set_serif_family(FONT_NAME);
+        db.set_monospace_family(FONT_NAME);
+        o
     })
 }
 
-/// Render `chart` as a 1200 x 800 PNG, returned as the file's bytes.
+/// The SVG plotters wrote for a `SCALE x` canvas, with `width` and
+/// `height` set to the nominal size (the `viewBox` keeps the canvas).
+fn nominal_size(svg: String) -> String {
+    let (w, h) = (WIDTH * SCALE, HEIGHT * SCALE);
+    svg.replacen(&format!("width=\"{w}\" height=\"{h}\""), &format!("width=\"{WIDTH}\" height=\"{HEIGHT}\""), 1)
+}
+
+/// `chart` as SVG text (see the module documentation for the layout and
+/// the readability rules).
 ///
 /// The data ranges are checked before anything is drawn, and the drawing
 /// runs on a worker thread given at most [`DRAW_TIMEOUT`].
 ///
 /// # Errors
-/// [`PlotError::Empty`] if no series has a finite point,
+/// [`PlotError::Empty`] if a panel has no finite point,
 /// [`PlotError::InvalidLogFloor`] for a log axis with a bad floor,
 /// [`PlotError::Range`] for a range that cannot be drawn (a coordinate
-/// beyond [`MAX_MAGNITUDE`]), [`PlotError::Font`] if the embedded font cannot be loaded,
-/// [`PlotError::Draw`] if plotters or the PNG encoder fails and
+/// beyond [`MAX_MAGNITUDE`]), [`PlotError::Font`] if the embedded font
+/// cannot be loaded, [`PlotError::Draw`] if plotters fails and
 /// [`PlotError::Timeout`] if drawing takes longer than [`DRAW_TIMEOUT`].
-pub fn png(chart: &Chart) -> Result<Vec<u8>, PlotError> {
-    png_within(chart, DRAW_TIMEOUT)
+pub fn chart_svg(chart: &Chart) -> Result<String, PlotError> {
+    svg_within(chart, DRAW_TIMEOUT)
 }
 
-/// [`png`] with a given time limit.
-fn png_within(chart: &Chart, limit: std::time::Duration) -> Result<Vec<u8>, PlotError> {
+/// [`chart_svg`] with a given time limit.
+fn svg_within(chart: &Chart, limit: std::time::Duration) -> Result<String, PlotError> {
     if chart.log_y && !(chart.log_floor.is_finite() && chart.log_floor > 0.0) {
         return Err(PlotError::InvalidLogFloor { title: chart.title.clone(), floor: chart.log_floor });
     }
     let lines = chart_lines(chart);
-    let (x_range, y_range) = data_bounds(&lines).ok_or_else(|| PlotError::Empty { title: chart.title.clone() })?;
+    let bounds = bounds(chart, &lines)?;
     // Values plotters cannot draw are refused before anything is drawn;
     // `draw` checks the padded ranges again.
-    for (axis, r) in [("x", &x_range), (y_axis_name(chart), &y_range)] {
-        check_range(&chart.title, axis, r, undrawable)?;
+    check_range(&chart.title, x_axis_name(chart), &bounds.0, undrawable)?;
+    for y in &bounds.1 {
+        check_range(&chart.title, y_axis_name(chart), y, undrawable)?;
     }
     ensure_font()?;
     let draw_error = |message| PlotError::Draw { title: chart.title.clone(), message };
@@ -236,27 +389,42 @@ fn png_within(chart: &Chart, limit: std::time::Duration) -> Result<Vec<u8>, Plot
         .name("ezy-plot".into())
         .spawn(move || {
             let lines = chart_lines(&owned);
-            let result = match data_bounds(&lines) {
-                Some((x, y)) => draw(&owned, &lines, x, y),
-                None => Err(PlotError::Empty { title: owned.title.clone() }),
-            };
+            let result = bounds_of(&owned, &lines).and_then(|(x, ys)| draw(&owned, &lines, x, ys));
             let _ = tx.send(result);
         })
         .map_err(|e| draw_error(format!("cannot start the drawing thread: {e}")))?;
-    let pixels = match rx.recv_timeout(limit) {
-        Ok(r) => r?,
+    match rx.recv_timeout(limit) {
+        Ok(r) => r,
         Err(std::sync::mpsc::RecvTimeoutError::Timeout) => {
-            return Err(PlotError::Timeout { title: chart.title.clone(), seconds: limit.as_secs_f64() });
+            Err(PlotError::Timeout { title: chart.title.clone(), seconds: limit.as_secs_f64() })
         }
         Err(std::sync::mpsc::RecvTimeoutError::Disconnected) => {
-            return Err(draw_error("plotters panicked while drawing".into()));
+            Err(draw_error("plotters panicked while drawing".into()))
         }
-    };
-    let mut bytes = Vec::new();
-    image::codecs::png::PngEncoder::new(&mut bytes)
-        .write_image(&pixels, WIDTH, HEIGHT, image::ColorType::Rgb8)
-        .map_err(|e| draw_error(format!("encoding the PNG: {e}")))?;
-    Ok(bytes)
+    }
+}
+
+/// [`bounds`] for the worker (same checks, already passed).
+fn bounds_of(chart: &Chart, lines: &[Line<'_>]) -> Result<(Range<f64>, Vec<Range<f64>>), PlotError> {
+    bounds(chart, lines)
+}
+
+/// The x range over all lines and the y range of each panel.
+///
+/// # Errors
+/// [`PlotError::Empty`] if a panel has no drawable point.
+fn bounds(chart: &Chart, lines: &[Line<'_>]) -> Result<(Range<f64>, Vec<Range<f64>>), PlotError> {
+    let empty = || PlotError::Empty { title: chart.title.clone() };
+    let (x, _) = data_bounds(lines.iter()).ok_or_else(empty)?;
+    let ys = (0..panels(chart))
+        .map(|p| data_bounds(lines.iter().filter(|l| l.panel == p)).map(|(_, y)| y).ok_or_else(empty))
+        .collect::<Result<_, _>>()?;
+    Ok((x, ys))
+}
+
+/// Number of panels: 2 with a lower panel, else 1.
+fn panels(chart: &Chart) -> usize {
+    if chart.lower.is_some() { 2 } else { 1 }
 }
 
 /// Why a data range cannot be drawn, if it cannot: a bound that is not
@@ -284,6 +452,11 @@ fn undrawable_axis(range: &Range<f64>) -> Option<(f64, &'static str)> {
     None
 }
 
+/// `"x"`, or `"log10 x"` for a logarithmic x axis.
+fn x_axis_name(chart: &Chart) -> &'static str {
+    if chart.log_x { "log10 x" } else { "x" }
+}
+
 /// `"y"`, or `"log10 y"` for a logarithmic y axis (whose plot coordinate
 /// is the value's `log10`).
 fn y_axis_name(chart: &Chart) -> &'static str {
@@ -305,7 +478,7 @@ fn check_range(
 }
 
 /// Register DejaVu Sans (regular and bold) for the "sans-serif" family once
-/// per process.
+/// per process: plotters measures text with it to lay the chart out.
 fn ensure_font() -> Result<(), PlotError> {
     static REGISTERED: OnceLock<bool> = OnceLock::new();
     let ok = *REGISTERED.get_or_init(|| {
@@ -317,24 +490,36 @@ fn ensure_font() -> Result<(), PlotError> {
 }
 
 /// One series prepared for drawing: its drawable pieces in plot coordinates
-/// (y is `log10` of the value for a log axis).
+/// (`log10` of the value on a log axis) and its resolved style.
 struct Line<'a> {
     /// Legend text (empty: no legend entry).
     label: &'a str,
     /// Maximal runs of consecutive drawable points.
     pieces: Vec<Vec<(f64, f64)>>,
+    /// Panel index.
+    panel: usize,
+    /// Colour.
+    color: RGBColor,
+    /// `None`: solid; `Some(k)`: dash style `k` of [`DASHES`], with markers.
+    dash: Option<usize>,
+    /// Markers only, no line ([`Stroke::Points`]).
+    points_only: bool,
 }
 
-/// Split every series into runs of drawable points in plot coordinates.
+/// Split every series into runs of drawable points in plot coordinates
+/// and resolve [`Stroke::Auto`].
 fn chart_lines(chart: &Chart) -> Vec<Line<'_>> {
     let floor_log = chart.log_floor.log10();
-    chart
+    let mut lines: Vec<Line<'_>> = chart
         .series
         .iter()
-        .map(|s| {
+        .enumerate()
+        .map(|(i, s)| {
             let mut pieces: Vec<Vec<(f64, f64)>> = Vec::new();
             let mut current = Vec::new();
             for &(x, y) in &s.points {
+                // a log x axis cannot show values <= 0 (NaN breaks the line)
+                let x = if chart.log_x { if x > 0.0 { x.log10() } else { f64::NAN } } else { x };
                 let y = if chart.log_y {
                     // NaN fails the comparison and stays NaN; -inf and zeros go to the floor.
                     if y <= chart.log_floor { floor_log } else { y.log10() }
@@ -350,22 +535,94 @@ fn chart_lines(chart: &Chart) -> Vec<Line<'_>> {
             if !current.is_empty() {
                 pieces.push(current);
             }
-            Line { label: &s.label, pieces }
+            let dash = match s.stroke {
+                Stroke::Dash(k) => Some(k % DASHES.len()),
+                Stroke::Auto | Stroke::Solid | Stroke::Points => None,
+            };
+            Line {
+                label: &s.label,
+                pieces,
+                panel: s.panel.min(panels(chart) - 1),
+                color: PALETTE[s.color.unwrap_or(i) % PALETTE.len()],
+                dash,
+                points_only: s.stroke == Stroke::Points,
+            }
         })
-        .collect()
+        .collect();
+    // a series on top of earlier ones of its panel takes the next dash style
+    let spans: Vec<(f64, f64)> = (0..panels(chart))
+        .map(|p| {
+            data_bounds(lines.iter().filter(|l| l.panel == p))
+                .map_or((0.0, 0.0), |(x, y)| (x.end - x.start, y.end - y.start))
+        })
+        .collect();
+    for j in 0..lines.len() {
+        if chart.series[j].stroke != Stroke::Auto {
+            continue;
+        }
+        let test = if chart.equal_axes { path_overlaps } else { overlaps };
+        let covered = (0..j)
+            .filter(|&i| lines[i].panel == lines[j].panel && test(&lines[i], &lines[j], spans[lines[j].panel]))
+            .count();
+        if covered > 0 {
+            lines[j].dash = Some((covered - 1) % DASHES.len());
+        }
+    }
+    lines
 }
 
-/// Smallest and largest x and y over all drawable points, or `None` if there
-/// are none.
-fn data_bounds(lines: &[Line<'_>]) -> Option<(Range<f64>, Range<f64>)> {
-    let mut points = lines.iter().flat_map(|l| l.pieces.iter().flatten());
-    let &(x0, y0) = points.next()?;
-    let (mut x, mut y) = (x0..x0, y0..y0);
-    for &(px, py) in points {
-        x = x.start.min(px)..x.end.max(px);
-        y = y.start.min(py)..y.end.max(py);
+/// Whether `b` runs on top of `a`: more than a fifth of `b`'s points lie
+/// within 1 % of the panel's extent `(x span, y span)` of `a`'s point of
+/// the same index (the lines of a figure share their x values).
+fn overlaps(a: &Line<'_>, b: &Line<'_>, (sx, sy): (f64, f64)) -> bool {
+    let pa: Vec<&(f64, f64)> = a.pieces.iter().flatten().collect();
+    let pb: Vec<&(f64, f64)> = b.pieces.iter().flatten().collect();
+    overlap_count(&pa, &pb, (sx, sy), false)
+}
+
+/// Whether `b` runs along `a` as a path: more than a fifth of (at most 400
+/// of) `b`'s points lie within 1 % of the extent of some point of `a`.
+fn path_overlaps(a: &Line<'_>, b: &Line<'_>, span: (f64, f64)) -> bool {
+    let sample = |l: &Line<'_>| -> Vec<(f64, f64)> {
+        let all: Vec<(f64, f64)> = l.pieces.iter().flatten().copied().collect();
+        let every = all.len().div_ceil(400).max(1);
+        all.into_iter().step_by(every).collect()
+    };
+    let (pa, pb) = (sample(a), sample(b));
+    let pa: Vec<&(f64, f64)> = pa.iter().collect();
+    let pb: Vec<&(f64, f64)> = pb.iter().collect();
+    overlap_count(&pa, &pb, span, true)
+}
+
+/// The test of [`overlaps`] (`nearest = false`: point by index) and
+/// [`path_overlaps`] (`nearest = true`: any point of `a`).
+fn overlap_count(pa: &[&(f64, f64)], pb: &[&(f64, f64)], (sx, sy): (f64, f64), nearest: bool) -> bool {
+    let s = sx.max(sy);
+    if nearest {
+        let close = pb.iter().filter(|q| pa.iter().any(|p| (p.0 - q.0).hypot(p.1 - q.1) <= 0.01 * s)).count();
+        return !pb.is_empty() && 5 * close > pb.len();
     }
-    Some((x, y))
+    if pa.len() != pb.len() || pb.is_empty() {
+        return false;
+    }
+    let (tx, ty) = (0.01 * sx, 0.01 * sy);
+    let close = pa.iter().zip(pb).filter(|(p, q)| (p.0 - q.0).abs() <= tx && (p.1 - q.1).abs() <= ty).count();
+    5 * close > pb.len()
+}
+
+/// Smallest and largest x and y over all drawable points of `lines`, or
+/// `None` if there are none.
+fn data_bounds<'a, 'b: 'a>(mut lines: impl Iterator<Item = &'a Line<'b>>) -> Option<(Range<f64>, Range<f64>)> {
+    let mut acc: Option<(Range<f64>, Range<f64>)> = None;
+    for l in lines.by_ref() {
+        for &(px, py) in l.pieces.iter().flatten() {
+            acc = Some(match acc {
+                None => (px..px, py..py),
+                Some((x, y)) => (x.start.min(px)..x.end.max(px), y.start.min(py)..y.end.max(py)),
+            });
+        }
+    }
+    acc
 }
 
 /// Widen `r` by `fraction` of its length on each side; a zero-length range is
@@ -393,28 +650,32 @@ fn equalize(x: Range<f64>, y: Range<f64>, (w, h): (u32, u32)) -> (Range<f64>, Ra
     (centred(&x, w), centred(&y, h))
 }
 
-/// A logarithmic y axis in plot coordinates: values are `log10(y)` mapped
-/// linearly, bold ticks sit on whole decades (and on 2 and 5 times them when
-/// the axis spans few decades) and are labelled like `1e-6` or `5e-3`.
+/// An axis in plot coordinates, linear or logarithmic (plot coordinate
+/// `log10` of the value, ticks on whole decades, and on 2 and 5 times them
+/// when the axis spans few decades, labelled `10⁻⁶`, `2·10⁻⁶`).
 ///
 /// plotters' own `log_scale()` is not used because it drops every tick below
 /// `f64::EPSILON` (its zero test is absolute), which hides the 1e-16 region
 /// that solver residuals live in.
-struct LogDecadeAxis {
-    /// Linear map of `log10(value)` onto pixels.
+pub(crate) struct Axis {
+    /// Linear map of the plot coordinate onto pixels.
     linear: RangedCoordf64,
-    /// Positions (`log10` of the value) that get a tick and a label.
-    bold: Vec<f64>,
-    /// Positions of the unlabelled grid lines (`log10` of the value).
-    light: Vec<f64>,
+    /// For a log axis: positions (`log10` of the value) of the labelled
+    /// ticks and of the light grid lines.
+    log: Option<(Vec<f64>, Vec<f64>)>,
 }
 
-impl LogDecadeAxis {
-    /// Axis over `log10` values `range`, widened outward to whole decades so
-    /// that at least two decades are labelled; at most ~12 labels, the
-    /// decades in between (or the 2..9 multiples when there are few decades)
-    /// get light grid lines.
-    fn new(range: Range<f64>) -> Self {
+impl Axis {
+    /// A linear axis over `range`.
+    pub(crate) fn linear(range: Range<f64>) -> Self {
+        Self { linear: range.into(), log: None }
+    }
+
+    /// A log axis over `log10` values `range`, widened outward to whole
+    /// decades so that at least two decades are labelled; at most ~12
+    /// labels, the decades in between (or the 2..9 multiples when there
+    /// are few decades) get light grid lines.
+    fn log(range: Range<f64>) -> Self {
         let (lo, hi) = (range.start.floor() as i64, range.end.ceil() as i64);
         let hi = hi.max(lo + 1);
         let range = lo as f64..hi as f64;
@@ -432,11 +693,11 @@ impl LogDecadeAxis {
             bold.extend((lo..hi).flat_map(|k| [2.0f64, 5.0].map(|m| k as f64 + m.log10())));
             bold.sort_by(f64::total_cmp);
         }
-        Self { linear: range.into(), bold, light }
+        Self { linear: range.into(), log: Some((bold, light)) }
     }
 }
 
-impl Ranged for LogDecadeAxis {
+impl Ranged for Axis {
     type FormatOption = NoDefaultFormatting;
     type ValueType = f64;
 
@@ -445,7 +706,16 @@ impl Ranged for LogDecadeAxis {
     }
 
     fn key_points<Hint: KeyPointHint>(&self, hint: Hint) -> Vec<f64> {
-        if hint.weight().allow_light_points() { self.light.clone() } else { self.bold.clone() }
+        match &self.log {
+            Some((bold, light)) => {
+                if hint.weight().allow_light_points() {
+                    light.clone()
+                } else {
+                    bold.clone()
+                }
+            }
+            None => self.linear.key_points(hint),
+        }
     }
 
     fn range(&self) -> Range<f64> {
@@ -453,27 +723,59 @@ impl Ranged for LogDecadeAxis {
     }
 }
 
-impl ValueFormatter<f64> for LogDecadeAxis {
-    /// `log10` value `v` as `<m>e<k>`, e.g. `1e-6` or `5e-3`.
-    fn format(value: &f64) -> String {
-        let k = (value + 1e-9).floor();
-        let m = 10f64.powf(value - k).round();
-        format!("{m}e{k}")
+impl ValueFormatter<f64> for Axis {
+    fn format_ext(&self, value: &f64) -> String {
+        match self.log {
+            Some(_) => decade_label(*value),
+            None => {
+                let r = self.linear.range();
+                // a tick at zero computed as -1e-17 reads 0, not -0
+                if value.abs() <= 1e-9 * (r.end - r.start).abs() {
+                    return "0".into();
+                }
+                // as many decimals as the tick spacing needs
+                let ticks = self.linear.key_points(12usize);
+                let step = ticks.windows(2).map(|w| w[1] - w[0]).fold(f64::INFINITY, f64::min);
+                let decimals =
+                    if step.is_finite() && step > 0.0 { (-step.log10().floor()).clamp(0.0, 15.0) } else { 3.0 };
+                format!("{:.*}", decimals as usize, value).replace('-', "\u{2212}")
+            }
+        }
     }
 }
 
-/// Draw the figure into an RGB pixel buffer.
+/// The label of a log-axis tick at plot coordinate `v` (`log10` of the
+/// value): `0.01` to `1000` written out, else `10⁻⁶` or `2·10⁻⁶`.
+fn decade_label(v: f64) -> String {
+    let k = (v + 1e-9).floor();
+    let m = 10f64.powf(v - k).round();
+    if (-2.0..=3.0).contains(&k) {
+        let value = m * 10f64.powf(k);
+        return format!("{}", (value * 100.0).round() / 100.0);
+    }
+    const SUP: [char; 10] = ['⁰', '¹', '²', '³', '⁴', '⁵', '⁶', '⁷', '⁸', '⁹'];
+    let mut exp = String::new();
+    if k < 0.0 {
+        exp.push('⁻');
+    }
+    for d in format!("{}", k.abs() as i64).bytes() {
+        exp.push(SUP[usize::from(d - b'0')]);
+    }
+    if m == 1.0 { format!("10{exp}") } else { format!("{m}·10{exp}") }
+}
+
+/// Draw the figure as SVG.
 ///
 /// # Errors
 /// [`PlotError::Range`] if the axes' final ranges cannot be drawn (checked
 /// before any data is drawn), [`PlotError::Draw`] with plotters' message.
-fn draw(chart: &Chart, lines: &[Line<'_>], x_data: Range<f64>, y_data: Range<f64>) -> Result<Vec<u8>, PlotError> {
-    let mut pixels = vec![0u8; 3 * WIDTH as usize * HEIGHT as usize];
-    draw_into(&mut pixels, chart, lines, x_data, y_data).map_err(|e| match e {
+fn draw(chart: &Chart, lines: &[Line<'_>], x_data: Range<f64>, y_data: Vec<Range<f64>>) -> Result<String, PlotError> {
+    let mut svg = String::new();
+    draw_into(&mut svg, chart, lines, x_data, y_data).map_err(|e| match e {
         Failed::Range(e) => e,
         Failed::Draw(message) => PlotError::Draw { title: chart.title.clone(), message },
     })?;
-    Ok(pixels)
+    Ok(nominal_size(svg))
 }
 
 /// Why [`draw_into`] stopped.
@@ -490,79 +792,162 @@ impl From<String> for Failed {
     }
 }
 
+/// A drawing area of the SVG backend.
+type Area<'a> = DrawingArea<SVGBackend<'a>, plotters::coord::Shift>;
+/// A chart context on both [`Axis`].
+type Ctx<'a> = ChartContext<'a, SVGBackend<'a>, Cartesian2d<Axis, Axis>>;
+
+/// The title font.
+fn title_font() -> TextStyle<'static> {
+    // `FontDesc::style` keeps the already loaded glyph data, so the bold
+    // face must be chosen when the font is created.
+    (FONT, TITLE_SIZE, FontStyle::Bold).into_font().color(&BLACK)
+}
+
 fn draw_into(
-    pixels: &mut [u8],
+    svg: &mut String,
     chart: &Chart,
     lines: &[Line<'_>],
     x_data: Range<f64>,
-    y_data: Range<f64>,
+    y_data: Vec<Range<f64>>,
 ) -> Result<(), Failed> {
-    let root = BitMapBackend::with_buffer(pixels, (WIDTH, HEIGHT)).into_drawing_area();
+    let root = SVGBackend::with_string(svg, (WIDTH * SCALE, HEIGHT * SCALE)).into_drawing_area();
     root.fill(&WHITE).map_err(|e| e.to_string())?;
-    // The top margin keeps the title's ascenders inside the image (see
-    // `AB_GLYPH_RISE`).
-    // `FontDesc::style` keeps the already loaded glyph data, so the bold face
-    // must be chosen when the font is created.
-    let title_font = (FONT, TITLE_SIZE, FontStyle::Bold).into_font().color(&BLACK);
-    let body =
-        root.margin(rise(TITLE_SIZE) + 6, 0, 0, 0).titled(&chart.title, title_font).map_err(|e| e.to_string())?;
-
-    let builder = || {
-        let mut b = ChartBuilder::on(&body);
-        b.margin_left(10).margin_right(30).margin_top(10).margin_bottom(10);
-        b.x_label_area_size(70).y_label_area_size(110);
-        b
-    };
-
-    // Work out the data ranges. For equal axes this needs the plotting area's
-    // size, which a throw-away layout (nothing is drawn without a caption)
-    // gives exactly.
-    let (x_range, y_range) = if chart.equal_axes {
-        let probe = builder().build_cartesian_2d(0.0..1.0, 0.0..1.0).map_err(|e| e.to_string())?;
-        let dim = probe.plotting_area().dim_in_pixel();
-        equalize(pad(x_data, PAD_FRACTION), pad(y_data, PAD_FRACTION), dim)
+    let body = root.margin(8 * SCALE, 0, 0, 0).titled(&chart.title, title_font()).map_err(|e| e.to_string())?;
+    let n = panels(chart);
+    let areas: Vec<Area<'_>> = if n == 2 {
+        let h = body.dim_in_pixel().1;
+        let (top, bottom) = body.split_vertically(h * 47 / 100);
+        vec![top, bottom]
     } else {
-        // Time-like x axes end exactly at the data; only a zero range is widened.
-        let x = if x_data.end > x_data.start { x_data } else { pad(x_data, 0.0) };
-        (x, pad(y_data, PAD_FRACTION))
+        vec![body]
     };
-    for (axis, r) in [("x", &x_range), (y_axis_name(chart), &y_range)] {
-        check_range(&chart.title, axis, r, undrawable_axis).map_err(Failed::Range)?;
-    }
-
-    if chart.log_y {
-        let mut ctx = builder().build_cartesian_2d(x_range, LogDecadeAxis::new(y_range)).map_err(|e| e.to_string())?;
-        draw_contents(&mut ctx, chart, lines)?;
+    // an outside legend: as wide as its longest entry
+    let right = if chart.legend_outside {
+        let font = TextStyle::from((FONT, LABEL_SIZE).into_font());
+        let w = lines.iter().filter_map(|l| root.estimate_text_size(l.label, &font).ok()).map(|(w, _)| w).max();
+        w.unwrap_or(0) + LEGEND_SAMPLE + 2 * LEGEND_MARGIN + 20 * SCALE
     } else {
-        let mut ctx = builder().build_cartesian_2d(x_range, y_range).map_err(|e| e.to_string())?;
-        draw_contents(&mut ctx, chart, lines)?;
+        30 * SCALE
+    };
+    for (p, area) in areas.iter().enumerate() {
+        let last = p + 1 == n;
+        let builder = || {
+            let mut b = ChartBuilder::on(area);
+            b.margin_left(10 * SCALE).margin_right(right).margin_top(6 * SCALE).margin_bottom(6 * SCALE);
+            b.x_label_area_size(if last { 62 * SCALE } else { 30 * SCALE }).y_label_area_size(100 * SCALE);
+            b
+        };
+        // Work out the data ranges. For equal axes this needs the plotting
+        // area's size, which a throw-away layout (nothing is drawn without a
+        // caption) gives exactly.
+        let (x_range, y_range) = if chart.equal_axes {
+            let probe = builder().build_cartesian_2d(0.0..1.0, 0.0..1.0).map_err(|e| e.to_string())?;
+            let dim = probe.plotting_area().dim_in_pixel();
+            equalize(pad(x_data.clone(), PAD_FRACTION), pad(y_data[p].clone(), PAD_FRACTION), dim)
+        } else if chart.log_x {
+            (x_data.clone(), pad(y_data[p].clone(), PAD_FRACTION))
+        } else {
+            // Time-like x axes end exactly at the data; only a zero range is widened.
+            let x = if x_data.end > x_data.start { x_data.clone() } else { pad(x_data.clone(), 0.0) };
+            (x, pad(y_data[p].clone(), PAD_FRACTION))
+        };
+        check_range(&chart.title, x_axis_name(chart), &x_range, undrawable_axis).map_err(Failed::Range)?;
+        check_range(&chart.title, y_axis_name(chart), &y_range, undrawable_axis).map_err(Failed::Range)?;
+        let axes = |y_range: Range<f64>| {
+            let x_axis = if chart.log_x { Axis::log(x_range.clone()) } else { Axis::linear(x_range.clone()) };
+            let y_axis = if chart.log_y { Axis::log(y_range) } else { Axis::linear(y_range) };
+            (x_axis, y_axis)
+        };
+        let mine: Vec<&Line<'_>> = lines.iter().filter(|l| l.panel == p).collect();
+        let mut ctx = builder()
+            .build_cartesian_2d(axes(y_range.clone()).0, axes(y_range.clone()).1)
+            .map_err(|e| e.to_string())?;
+        if !chart.equal_axes && !chart.legend_outside && mine.iter().any(|l| !l.label.is_empty()) {
+            // where every corner's legend would cover data, the y axis is
+            // raised until the legend fits above the data
+            let (_, hits, h) = legend_corner(&ctx, &mine, 0);
+            if hits > 0 {
+                let span = ctx.plotting_area().get_pixel_range().1;
+                let f = f64::from(h + 8 * SCALE as i32) / f64::from((span.end - span.start).max(1));
+                if f < 0.6 {
+                    let top = ctx.y_range();
+                    let raised = top.start..top.start + (top.end - top.start) / (1.0 - f);
+                    let (xa, ya) = axes(raised);
+                    ctx = builder().build_cartesian_2d(xa, ya).map_err(|e| e.to_string())?;
+                }
+            }
+        }
+        let y_label = if p == 0 { chart.y_label.as_str() } else { chart.lower.as_deref().unwrap_or_default() };
+        let x_label = if last { chart.x_label.as_str() } else { "" };
+        draw_contents(&mut ctx, chart, &mine, x_label, y_label)?;
+        if chart.legend_outside {
+            let (xr, yr) = ctx.plotting_area().get_pixel_range();
+            outside_legend(&root, &mine, xr.end + 14 * SCALE as i32, yr.start + 10 * SCALE as i32, chart.log_y)?;
+        }
     }
     root.present().map_err(|e| e.to_string())?;
     Ok(())
 }
 
-/// Padding inside the legend box in pixels.
-const LEGEND_MARGIN: u32 = 12;
-/// Width reserved for a legend entry's sample line, in pixels.
-const LEGEND_SAMPLE: u32 = 42;
+/// A legend right of the plot, from `(x, y)` down: a sample of every
+/// labelled line (its dash and marker, or its marker alone) and its label.
+fn outside_legend(root: &Area<'_>, lines: &[&Line<'_>], x: i32, y: i32, thin: bool) -> Result<(), String> {
+    let s = SCALE as i32;
+    let font = TextStyle::from((FONT, LABEL_SIZE).into_font()).pos(plotters::style::text_anchor::Pos::new(
+        plotters::style::text_anchor::HPos::Left,
+        plotters::style::text_anchor::VPos::Center,
+    ));
+    let step = (1.25 * f64::from(LABEL_SIZE)) as i32;
+    for (k, l) in lines.iter().filter(|l| !l.label.is_empty()).enumerate() {
+        let y = y + k as i32 * step;
+        let style = l.color.stroke_width(if thin { SCALE } else { LINE_WIDTH });
+        let err = |e: DrawingAreaErrorKind<_>| e.to_string();
+        if l.points_only {
+            let d = MARKER + 2 * s;
+            let c = (x + 16 * s, y);
+            root.draw(&Polygon::new(
+                vec![(c.0, c.1 - d), (c.0 + d, c.1), (c.0, c.1 + d), (c.0 - d, c.1)],
+                l.color.filled(),
+            ))
+            .map_err(err)?;
+        } else {
+            let (on, off) = l.dash.map_or((32 * s, 0), |k| (DASHES[k].0 as i32, DASHES[k].1 as i32));
+            let mut a = x;
+            while a < x + 32 * s {
+                root.draw(&PathElement::new(vec![(a, y), ((a + on).min(x + 32 * s), y)], style)).map_err(err)?;
+                a += on + off;
+            }
+            if l.dash.is_some() {
+                root.draw(&Circle::new((x + 16 * s, y), MARKER, l.color.stroke_width(SCALE))).map_err(err)?;
+            }
+        }
+        root.draw(&Text::new(l.label, (x + 42 * s, y), font.clone())).map_err(err)?;
+    }
+    Ok(())
+}
+
+/// Padding inside the legend box \[canvas units\].
+const LEGEND_MARGIN: u32 = 10 * SCALE;
+/// Width reserved for a legend entry's sample line \[canvas units\].
+const LEGEND_SAMPLE: u32 = 42 * SCALE;
+/// Radius of start and end markers, and of the markers along dashed lines
+/// \[canvas units\].
+const MARKER: i32 = 5 * SCALE as i32;
 
 /// The plot corner whose legend box would cover the fewest line segments
-/// (upper right, then upper left, lower right, lower left on ties).
-fn legend_corner<'a, Y>(
-    ctx: &ChartContext<'a, BitMapBackend<'a>, Cartesian2d<RangedCoordf64, Y>>,
-    lines: &[Line<'_>],
-) -> SeriesLabelPosition
-where
-    Y: Ranged<ValueType = f64>,
-{
+/// (upper right, then upper left, lower right, lower left on ties), the
+/// number it covers there and the box's height \[canvas units\]; `extra`
+/// legend entries besides the labelled lines.
+fn legend_corner(ctx: &Ctx<'_>, lines: &[&Line<'_>], extra: usize) -> (SeriesLabelPosition, usize, i32) {
     let area = ctx.plotting_area();
     let font = TextStyle::from((FONT, LABEL_SIZE).into_font());
-    let labels = lines.iter().filter(|l| !l.label.is_empty());
-    let text_w = labels.clone().filter_map(|l| area.estimate_text_size(l.label, &font).ok()).map(|(w, _)| w).max();
+    let labels: Vec<&str> = lines.iter().map(|l| l.label).filter(|l| !l.is_empty()).collect();
+    let text_w = labels.iter().filter_map(|l| area.estimate_text_size(l, &font).ok()).map(|(w, _)| w).max();
     // Same layout as plotters' legend: 5 px from the corner, `margin` inside,
     // lines about 1.25 x the font size apart.
     let w = (text_w.unwrap_or(0) + LEGEND_SAMPLE + 2 * LEGEND_MARGIN) as i32;
-    let h = (labels.count() as f64 * 1.25 * f64::from(LABEL_SIZE)) as i32 + 2 * LEGEND_MARGIN as i32;
+    let h = ((labels.len() + extra) as f64 * 1.25 * f64::from(LABEL_SIZE)) as i32 + 2 * LEGEND_MARGIN as i32;
     let (xr, yr) = area.get_pixel_range();
     let (left, right) = (xr.start + 5, xr.end - 5 - w);
     let (top, bottom) = (yr.start + 5, yr.end - 5 - h);
@@ -585,19 +970,21 @@ where
                 .collect()
         })
         .collect();
-    corners
-        .into_iter()
-        .min_by_key(|&(_, x0, y0)| {
-            let rect = (f64::from(x0), f64::from(y0), f64::from(x0 + w), f64::from(y0 + h));
-            pixels
-                .iter()
-                .map(|piece| match piece.as_slice() {
-                    [p] => usize::from(segment_hits_rect(*p, *p, rect)),
-                    _ => piece.windows(2).filter(|s| segment_hits_rect(s[0], s[1], rect)).count(),
-                })
-                .sum::<usize>()
-        })
-        .map_or(SeriesLabelPosition::UpperRight, |(pos, _, _)| pos)
+    let hits = |x0: i32, y0: i32| -> usize {
+        let rect = (f64::from(x0), f64::from(y0), f64::from(x0 + w), f64::from(y0 + h));
+        pixels
+            .iter()
+            .map(|piece| match piece.as_slice() {
+                [p] => usize::from(segment_hits_rect(*p, *p, rect)),
+                _ => piece.windows(2).filter(|s| segment_hits_rect(s[0], s[1], rect)).count(),
+            })
+            .sum()
+    };
+    corners.into_iter().map(|(pos, x0, y0)| (pos, hits(x0, y0), h)).min_by_key(|c| c.1).unwrap_or((
+        SeriesLabelPosition::UpperRight,
+        0,
+        h,
+    ))
 }
 
 /// Whether the segment `a`-`b` touches the axis-aligned rectangle
@@ -625,78 +1012,131 @@ fn segment_hits_rect(a: (f64, f64), b: (f64, f64), (x0, y0, x1, y1): (f64, f64, 
     true
 }
 
-/// Pixels by which `ab_glyph` text of font size `size` renders above
-/// plotters' layout (see [`AB_GLYPH_RISE`]).
-fn rise(size: u32) -> i32 {
-    (AB_GLYPH_RISE * f64::from(size)).round() as i32
-}
-
 /// Draw grid, axes, the series and the legend into an already laid-out chart.
-fn draw_contents<'a, Y>(
-    ctx: &mut ChartContext<'a, BitMapBackend<'a>, Cartesian2d<RangedCoordf64, Y>>,
+fn draw_contents<'a>(
+    ctx: &mut Ctx<'a>,
     chart: &Chart,
-    lines: &[Line<'_>],
-) -> Result<(), String>
-where
-    Y: Ranged<ValueType = f64> + ValueFormatter<f64>,
-{
-    let grid_light = RGBColor(235, 235, 235);
-    let grid_bold = RGBColor(200, 200, 200);
+    lines: &[&Line<'_>],
+    x_label: &str,
+    y_label: &str,
+) -> Result<(), String> {
+    let grid_light = RGBColor(238, 238, 238);
+    let grid_bold = RGBColor(205, 205, 205);
     let mut mesh = ctx.configure_mesh();
-    mesh.x_desc(chart.x_label.as_str())
-        .y_desc(chart.y_label.as_str())
+    mesh.x_desc(x_label)
+        .y_desc(y_label)
         .axis_desc_style((FONT, DESC_SIZE))
         .label_style((FONT, LABEL_SIZE))
-        .y_label_offset(rise(LABEL_SIZE))
         .x_labels(12)
-        .y_labels(10)
+        .y_labels(if chart.lower.is_some() { 6 } else { 10 })
         .light_line_style(grid_light)
-        .bold_line_style(grid_bold);
+        .bold_line_style(grid_bold.stroke_width(SCALE / 2));
     mesh.draw().map_err(|e| e.to_string())?;
 
+    let width = if chart.log_y { SCALE } else { LINE_WIDTH };
     let mut any_label = false;
-    for (i, line) in lines.iter().enumerate() {
-        let color = PALETTE[i % PALETTE.len()];
-        // plotters joins thick polyline segments with mitres, which spike far
-        // beyond the data where a noisy series (a residual on a log axis)
-        // reverses direction sharply; such charts are drawn 1 px wide.
-        let style = color.stroke_width(if chart.log_y { 1 } else { LINE_WIDTH });
-        for piece in &line.pieces {
+    for line in lines {
+        let color = line.color;
+        let style = color.stroke_width(width);
+        if line.points_only {
+            let d = MARKER + 2 * SCALE as i32;
+            let diamond = |p: &(f64, f64)| {
+                EmptyElement::at(*p) + Polygon::new(vec![(0, -d), (d, 0), (0, d), (-d, 0)], color.filled())
+            };
+            ctx.draw_series(line.pieces.iter().flatten().map(diamond)).map_err(|e| e.to_string())?;
+        }
+        for piece in line.pieces.iter().filter(|_| !line.points_only) {
             if let [p] = piece.as_slice() {
-                ctx.draw_series(std::iter::once(Circle::new(*p, 3, color.filled()))).map_err(|e| e.to_string())?;
-            } else {
-                ctx.draw_series(LineSeries::new(piece.iter().copied(), style)).map_err(|e| e.to_string())?;
+                ctx.draw_series(std::iter::once(Circle::new(*p, MARKER, color.filled()))).map_err(|e| e.to_string())?;
+                continue;
+            }
+            match line.dash {
+                None => {
+                    ctx.draw_series(LineSeries::new(piece.iter().copied(), style)).map_err(|e| e.to_string())?;
+                }
+                Some(k) => {
+                    let (on, off) = DASHES[k];
+                    ctx.draw_series(DashedLineSeries::new(piece.iter().copied(), on, off, style))
+                        .map_err(|e| e.to_string())?;
+                    let every = (piece.len() / MARKERS_PER_SERIES).max(1);
+                    let offset = every * (k + 1) / (DASHES.len() + 1);
+                    ctx.draw_series(
+                        piece
+                            .iter()
+                            .skip(offset)
+                            .step_by(every)
+                            .map(|p| Circle::new(*p, MARKER, color.stroke_width(SCALE))),
+                    )
+                    .map_err(|e| e.to_string())?;
+                }
+            }
+        }
+        if chart.equal_axes {
+            // start (circle) and end (square) of the path
+            let all: Vec<&(f64, f64)> = line.pieces.iter().flatten().collect();
+            if let (Some(&&first), Some(&&last)) = (all.first(), all.last()) {
+                ctx.draw_series(std::iter::once(Circle::new(first, MARKER + SCALE as i32, color.filled())))
+                    .map_err(|e| e.to_string())?;
+                ctx.draw_series(std::iter::once(
+                    EmptyElement::at(last) + Rectangle::new([(-MARKER, -MARKER), (MARKER, MARKER)], color.filled()),
+                ))
+                .map_err(|e| e.to_string())?;
             }
         }
         if !line.label.is_empty() {
             any_label = true;
             // An empty series carries the legend entry, so a line that is
             // broken into pieces (or has no drawable point) is listed once.
+            let (dash, points_only) = (line.dash, line.points_only);
             ctx.draw_series(LineSeries::new(std::iter::empty(), style))
                 .map_err(|e| e.to_string())?
                 .label(line.label)
                 .legend(move |(x, y)| {
-                    // Raise the sample line to the text's visual centre.
-                    let y = y - rise(LABEL_SIZE);
-                    PathElement::new(vec![(x, y), (x + 30, y)], style)
+                    let w = 32 * SCALE as i32;
+                    // solid: two touching halves and no marker; points: a marker alone
+                    let ((on, off), marker, stroke) = match (points_only, dash) {
+                        (true, _) => ((w as u32 / 2, 0), color.filled(), TRANSPARENT.stroke_width(0)),
+                        (false, None) => ((w as u32 / 2, 0), TRANSPARENT.stroke_width(0), style),
+                        (false, Some(k)) => (DASHES[k], color.stroke_width(SCALE), style),
+                    };
+                    EmptyElement::at((x, y))
+                        + PathElement::new(vec![(0, 0), (on as i32, 0)], stroke)
+                        + PathElement::new(vec![(on as i32 + off as i32, 0), (w, 0)], stroke)
+                        + Circle::new((w / 2, 0), MARKER, marker)
                 });
         }
     }
-    if any_label {
-        let position = legend_corner(ctx, lines);
+    let extra = if chart.equal_axes && any_label {
+        // legend entries for the markers
+        let black = BLACK.filled();
+        ctx.draw_series(LineSeries::new(std::iter::empty(), BLACK))
+            .map_err(|e| e.to_string())?
+            .label("start")
+            .legend(move |(x, y)| Circle::new((x + 16 * SCALE as i32, y), MARKER + SCALE as i32, black));
+        ctx.draw_series(LineSeries::new(std::iter::empty(), BLACK)).map_err(|e| e.to_string())?.label("end").legend(
+            move |(x, y)| {
+                let c = (x + 16 * SCALE as i32, y);
+                Rectangle::new([(c.0 - MARKER, c.1 - MARKER), (c.0 + MARKER, c.1 + MARKER)], black)
+            },
+        );
+        2
+    } else {
+        0
+    };
+    if any_label && !chart.legend_outside {
+        let position = legend_corner(ctx, lines, extra).0;
         ctx.configure_series_labels()
             .position(position)
             .margin(LEGEND_MARGIN)
             .legend_area_size(LEGEND_SAMPLE)
             .label_font((FONT, LABEL_SIZE))
-            .background_style(WHITE.filled())
-            .border_style(BLACK)
+            .background_style(WHITE.mix(0.9).filled())
+            .border_style(RGBColor(120, 120, 120))
             .draw()
             .map_err(|e| e.to_string())?;
     }
     Ok(())
 }
-
 /// A heat map: a value per point of a grid of two parameters, drawn as
 /// coloured cells (viridis, dark for low) with a colour bar.
 #[derive(Debug, Clone, PartialEq)]
@@ -732,13 +1172,13 @@ fn cell_edges(c: &[f64]) -> Vec<f64> {
     e
 }
 
-/// Render `map` as a 1200 x 800 PNG, returned as the file's bytes.
+/// `map` as SVG text (see [`encode`] for the other formats).
 ///
 /// # Errors
 /// [`PlotError::Empty`] if no value is finite or the grid is empty or not
 /// ascending, [`PlotError::Range`] for values beyond [`MAX_MAGNITUDE`],
-/// [`PlotError::Font`], [`PlotError::Draw`] as for [`png`].
-pub fn heatmap_png(map: &HeatMap) -> Result<Vec<u8>, PlotError> {
+/// [`PlotError::Font`], [`PlotError::Draw`] as for [`chart_svg`].
+pub fn heatmap_svg(map: &HeatMap) -> Result<String, PlotError> {
     let ascending = |v: &[f64]| !v.is_empty() && v.windows(2).all(|w| w[0] < w[1]) && v.iter().all(|x| x.is_finite());
     let finite: Vec<f64> = map.values.iter().copied().filter(|v| v.is_finite()).collect();
     if !ascending(&map.xs)
@@ -756,16 +1196,13 @@ pub fn heatmap_png(map: &HeatMap) -> Result<Vec<u8>, PlotError> {
     }
     ensure_font()?;
     let draw_error = |message: String| PlotError::Draw { title: map.title.clone(), message };
-    let mut pixels = vec![0u8; 3 * WIDTH as usize * HEIGHT as usize];
+    let mut svg = String::new();
     {
-        let root = BitMapBackend::with_buffer(&mut pixels, (WIDTH, HEIGHT)).into_drawing_area();
+        let root = SVGBackend::with_string(&mut svg, (WIDTH * SCALE, HEIGHT * SCALE)).into_drawing_area();
         root.fill(&WHITE).map_err(|e| draw_error(e.to_string()))?;
-        let title_font = (FONT, TITLE_SIZE, FontStyle::Bold).into_font().color(&BLACK);
-        let body = root
-            .margin(rise(TITLE_SIZE) + 6, 0, 0, 0)
-            .titled(&map.title, title_font)
-            .map_err(|e| draw_error(e.to_string()))?;
-        let (main, bar) = body.split_horizontally(WIDTH - 190);
+        let body =
+            root.margin(8 * SCALE, 0, 0, 0).titled(&map.title, title_font()).map_err(|e| draw_error(e.to_string()))?;
+        let (main, bar) = body.split_horizontally((WIDTH - 190) * SCALE);
         let (span, flat) = if hi > lo { (hi - lo, false) } else { (1.0, true) };
         let colour = |v: f64| -> RGBColor {
             if !v.is_finite() {
@@ -775,13 +1212,13 @@ pub fn heatmap_png(map: &HeatMap) -> Result<Vec<u8>, PlotError> {
             ViridisRGB::get_color_normalized(h, 0.0, 1.0)
         };
         let mut ctx = ChartBuilder::on(&main)
-            .margin_left(10)
-            .margin_right(10)
-            .margin_top(10)
-            .margin_bottom(10)
-            .x_label_area_size(70)
-            .y_label_area_size(110)
-            .build_cartesian_2d(xe[0]..xe[xe.len() - 1], ye[0]..ye[ye.len() - 1])
+            .margin_left(10 * SCALE)
+            .margin_right(10 * SCALE)
+            .margin_top(10 * SCALE)
+            .margin_bottom(10 * SCALE)
+            .x_label_area_size(62 * SCALE)
+            .y_label_area_size(100 * SCALE)
+            .build_cartesian_2d(Axis::linear(xe[0]..xe[xe.len() - 1]), Axis::linear(ye[0]..ye[ye.len() - 1]))
             .map_err(|e| draw_error(e.to_string()))?;
         ctx.configure_mesh()
             .disable_mesh()
@@ -789,24 +1226,28 @@ pub fn heatmap_png(map: &HeatMap) -> Result<Vec<u8>, PlotError> {
             .y_desc(map.y_label.as_str())
             .axis_desc_style((FONT, DESC_SIZE))
             .label_style((FONT, LABEL_SIZE))
-            .y_label_offset(rise(LABEL_SIZE))
             .x_labels(10)
             .y_labels(10)
             .draw()
             .map_err(|e| draw_error(e.to_string()))?;
         let cells = (0..map.xs.len()).flat_map(|i| (0..map.ys.len()).map(move |j| (i, j)));
         ctx.draw_series(cells.map(|(i, j)| {
-            Rectangle::new([(xe[i], ye[j]), (xe[i + 1], ye[j + 1])], colour(map.values[i * map.ys.len() + j]).filled())
+            // each cell reaches 2 % into the next one, so anti-aliased
+            // edges leave no light seams between equal neighbours
+            let (nx, ny) = (xe.len() - 2, ye.len() - 2);
+            let x1 = if i < nx { xe[i + 1] + 0.02 * (xe[i + 2] - xe[i + 1]) } else { xe[i + 1] };
+            let y1 = if j < ny { ye[j + 1] + 0.02 * (ye[j + 2] - ye[j + 1]) } else { ye[j + 1] };
+            Rectangle::new([(xe[i], ye[j]), (x1, y1)], colour(map.values[i * map.ys.len() + j]).filled())
         }))
         .map_err(|e| draw_error(e.to_string()))?;
         // the colour bar: 100 bands from lo to hi
         let mut cb = ChartBuilder::on(&bar)
-            .margin_left(10)
-            .margin_right(40)
-            .margin_top(10)
-            .margin_bottom(80)
-            .y_label_area_size(110)
-            .build_cartesian_2d(0.0..1.0, if flat { lo - 0.5..hi + 0.5 } else { lo..hi })
+            .margin_left(10 * SCALE)
+            .margin_right(40 * SCALE)
+            .margin_top(10 * SCALE)
+            .margin_bottom(72 * SCALE)
+            .y_label_area_size(110 * SCALE)
+            .build_cartesian_2d(0.0..1.0, Axis::linear(if flat { lo - 0.5..hi + 0.5 } else { lo..hi }))
             .map_err(|e| draw_error(e.to_string()))?;
         cb.configure_mesh()
             .disable_mesh()
@@ -814,93 +1255,160 @@ pub fn heatmap_png(map: &HeatMap) -> Result<Vec<u8>, PlotError> {
             .y_desc(map.value_label.as_str())
             .axis_desc_style((FONT, DESC_SIZE))
             .label_style((FONT, LABEL_SIZE))
-            .y_label_offset(rise(LABEL_SIZE))
             .y_labels(8)
             .draw()
             .map_err(|e| draw_error(e.to_string()))?;
         let (b0, b1) = if flat { (lo - 0.5, hi + 0.5) } else { (lo, hi) };
         cb.draw_series((0..100).map(|k| {
             let (y0, y1) = (b0 + (b1 - b0) * f64::from(k) / 100.0, b0 + (b1 - b0) * f64::from(k + 1) / 100.0);
-            Rectangle::new([(0.0, y0), (1.0, y1)], colour(0.5 * (y0 + y1)).filled())
+            let top = if k < 99 { y1 + 0.5 * (y1 - y0) } else { y1 };
+            Rectangle::new([(0.0, y0), (1.0, top)], colour(0.5 * (y0 + y1)).filled())
         }))
         .map_err(|e| draw_error(e.to_string()))?;
         root.present().map_err(|e| draw_error(e.to_string()))?;
     }
-    let mut bytes = Vec::new();
-    image::codecs::png::PngEncoder::new(&mut bytes)
-        .write_image(&pixels, WIDTH, HEIGHT, image::ColorType::Rgb8)
-        .map_err(|e| draw_error(format!("encoding the PNG: {e}")))?;
-    Ok(bytes)
+    Ok(nominal_size(svg))
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
 
-    fn scratch_dir(name: &str) -> PathBuf {
-        let nanos = std::time::SystemTime::now().duration_since(std::time::UNIX_EPOCH).map_or(0, |d| d.as_nanos());
-        let dir = std::env::temp_dir().join(format!("ezy-plot-{name}-{}-{nanos}", std::process::id()));
-        std::fs::create_dir_all(&dir).expect("create scratch dir");
-        dir
+    fn chart(series: Vec<Series>) -> Chart {
+        Chart { log_floor: 1e-16, ..Chart::new("test", "t [s]", "x [m]") }.with(series)
     }
 
-    fn chart(series: Vec<Series>) -> Chart {
-        Chart {
-            title: "test".into(),
-            x_label: "t [s]".into(),
-            y_label: "x [m]".into(),
-            series,
-            equal_axes: false,
-            log_y: false,
-            log_floor: 1e-16,
+    impl Chart {
+        fn with(mut self, series: Vec<Series>) -> Self {
+            self.series = series;
+            self
         }
     }
 
+    /// The texts of an SVG, trimmed.
+    fn texts(svg: &str) -> Vec<String> {
+        let doc = roxmltree::Document::parse(svg).expect("XML");
+        doc.descendants()
+            .filter(|n| n.has_tag_name("text"))
+            .filter_map(|n| n.text())
+            .map(|t| t.trim().to_string())
+            .collect()
+    }
+
+    fn two() -> Vec<Series> {
+        vec![
+            Series::new("ramp", vec![(0.0, 0.0), (1.0, 2.0), (2.0, 1.0)]),
+            Series::new("constant", vec![(0.0, 1.0), (2.0, 1.0)]),
+        ]
+    }
+
     #[test]
-    fn renders_png_file() {
-        let dir = scratch_dir("render");
-        let path = dir.join("small.png");
-        let c = chart(vec![
-            Series { label: "ramp".into(), points: vec![(0.0, 0.0), (1.0, 2.0), (2.0, 1.0)] },
-            Series { label: "constant".into(), points: vec![(0.0, 1.0), (2.0, 1.0)] },
+    fn every_format_is_a_file_of_its_kind() {
+        let c = chart(two());
+        let svg = chart_svg(&c).expect("svg");
+        let doc = roxmltree::Document::parse(&svg).expect("the SVG is XML");
+        assert_eq!(doc.root_element().tag_name().name(), "svg");
+        assert_eq!(doc.root_element().attribute("width"), Some("960"));
+        let png = figure(&c, FigureFormat::Png, 96.0).expect("png");
+        assert!(png.starts_with(&[0x89, b'P', b'N', b'G', 0x0D, 0x0A, 0x1A, 0x0A]));
+        // IHDR: width and height at bytes 16..24; 192 dpi doubles them
+        let big = figure(&c, FigureFormat::Png, 192.0).expect("png");
+        let size = |b: &[u8]| {
+            (u32::from_be_bytes(b[16..20].try_into().unwrap()), u32::from_be_bytes(b[20..24].try_into().unwrap()))
+        };
+        assert_eq!(size(&png), (960, 640));
+        assert_eq!(size(&big), (1920, 1280));
+        let pdf = figure(&c, FigureFormat::Pdf, 96.0).expect("pdf");
+        assert!(pdf.starts_with(b"%PDF-"));
+        assert!(pdf.windows(5).any(|w| w == b"%%EOF"));
+        assert!(matches!(figure(&c, FigureFormat::Png, 5000.0), Err(PlotError::Dpi { .. })));
+    }
+
+    #[test]
+    fn png_is_anti_aliased() {
+        // a diagonal line leaves pixels between its colour and white
+        let c = chart(vec![Series::new("d", vec![(0.0, 0.0), (1.0, 0.7)])]);
+        let (_, _, rgba) = rgba(&chart_svg(&c).unwrap(), 96.0).unwrap();
+        let mut shades = std::collections::BTreeSet::new();
+        for px in rgba.chunks(4) {
+            shades.insert((px[0], px[1], px[2]));
+        }
+        assert!(shades.len() > 50, "only {} colours: not anti-aliased", shades.len());
+    }
+
+    #[test]
+    fn an_overlapping_series_is_dashed_and_no_tick_reads_minus_zero() {
+        let pts: Vec<(f64, f64)> = (0..100).map(|k| (f64::from(k) * 0.1, (f64::from(k) * 0.1).sin())).collect();
+        let c = chart(vec![Series::new("a", pts.clone()), Series::new("b", pts.clone())]);
+        let lines = chart_lines(&c);
+        assert_eq!(lines[0].dash, None);
+        assert_eq!(lines[1].dash, Some(0));
+        let apart: Vec<(f64, f64)> = pts.iter().map(|p| (p.0, p.1 + 1.0)).collect();
+        let c2 = chart(vec![Series::new("a", pts.clone()), Series::new("b", apart)]);
+        assert_eq!(chart_lines(&c2)[1].dash, None);
+        // a symmetric range puts a tick at zero, computed as a tiny negative
+        let t = texts(&chart_svg(&c).unwrap());
+        assert!(!t.iter().any(|s| ["-0", "\u{2212}0", "-0.0", "\u{2212}0.0"].contains(&s.as_str())), "{t:?}");
+        assert!(t.iter().any(|s| s == "0"), "the zero tick is labelled 0: {t:?}");
+    }
+
+    #[test]
+    fn log_axes_label_decades() {
+        assert_eq!(decade_label(-6.0), "10⁻⁶");
+        assert_eq!(decade_label(-6.0 + 2f64.log10()), "2·10⁻⁶");
+        assert_eq!(decade_label(0.0), "1");
+        assert_eq!(decade_label(-2.0), "0.01");
+        assert_eq!(decade_label(2.0 + 5f64.log10()), "500");
+        let mut c = chart(vec![Series::new("w", vec![(1e-4, 1e-3), (1e-2, 1e-9)])]);
+        c.log_x = true;
+        c.log_y = true;
+        let t = texts(&chart_svg(&c).unwrap());
+        assert!(t.iter().any(|s| s == "10⁻⁴") && t.iter().any(|s| s == "10⁻⁹"), "decades on both axes: {t:?}");
+    }
+
+    #[test]
+    fn paths_get_start_and_end_markers_and_panels_their_own_axis() {
+        let mut c = chart(vec![Series::new("still", vec![(1.0, 1.0), (1.0, 1.0)])]);
+        c.equal_axes = true;
+        let t = texts(&chart_svg(&c).unwrap());
+        assert!(t.iter().any(|s| s == "start") && t.iter().any(|s| s == "end"), "{t:?}");
+        let mut c = chart(vec![
+            Series::new("a [m]", vec![(0.0, 0.0), (1.0, 1.0)]),
+            Series { panel: 1, ..Series::new("b [N]", vec![(0.0, 5.0), (1.0, 9.0)]) },
         ]);
-        render_png(&c, &path).expect("render");
-        let bytes = std::fs::read(&path).expect("read png");
-        assert!(bytes.starts_with(&[0x89, b'P', b'N', b'G', 0x0D, 0x0A, 0x1A, 0x0A]));
-        assert_eq!(std::fs::read_dir(&dir).unwrap().count(), 1, "temporary file left behind");
-        std::fs::remove_dir_all(&dir).ok();
+        c.lower = Some("force [N]".into());
+        let t = texts(&chart_svg(&c).unwrap());
+        assert!(t.iter().any(|s| s == "force [N]") && t.iter().any(|s| s == "x [m]"), "{t:?}");
     }
 
     #[test]
     fn empty_chart_is_an_error() {
-        let dir = scratch_dir("empty");
-        let path = dir.join("empty.png");
-        let c = chart(vec![Series { label: "a".into(), points: vec![] }, Series { label: "b".into(), points: vec![] }]);
-        assert!(matches!(render_png(&c, &path), Err(PlotError::Empty { .. })));
-        assert!(!path.exists());
-        let none = chart(vec![]);
-        assert!(matches!(render_png(&none, &path), Err(PlotError::Empty { .. })));
-        std::fs::remove_dir_all(&dir).ok();
+        let c = chart(vec![Series::new("a", vec![]), Series::new("b", vec![])]);
+        assert!(matches!(chart_svg(&c), Err(PlotError::Empty { .. })));
+        assert!(matches!(chart_svg(&chart(vec![])), Err(PlotError::Empty { .. })));
+        let mut lower_empty = chart(two());
+        lower_empty.lower = Some("y [N]".into());
+        assert!(matches!(chart_svg(&lower_empty), Err(PlotError::Empty { .. })));
     }
 
     #[test]
     fn undrawable_ranges_are_refused_before_drawing() {
         for (x, y) in [(1e101, 0.0), (0.0, -1e300), (0.0, 1.7e308), (0.0, f64::MAX)] {
-            let c = chart(vec![Series { label: "a".into(), points: vec![(0.0, 0.0), (x, y)] }]);
+            let c = chart(vec![Series::new("a", vec![(0.0, 0.0), (x, y)])]);
             let t = std::time::Instant::now();
-            assert!(matches!(png(&c), Err(PlotError::Range { .. })), "{x} {y}");
+            assert!(matches!(chart_svg(&c), Err(PlotError::Range { .. })), "{x} {y}");
             assert!(t.elapsed().as_secs_f64() < 1.0);
         }
         // tiny spans at any magnitude are drawn (a conserved energy)
-        let c = chart(vec![Series { label: "T".into(), points: vec![(0.0, 23.1875), (1.0, 23.1875 + 4e-15)] }]);
-        assert!(png(&c).is_ok());
-        let c = chart(vec![Series { label: "a".into(), points: vec![(0.0, 1e100), (1.0, -1e100)] }]);
-        assert!(png(&c).is_ok());
+        let c = chart(vec![Series::new("T", vec![(0.0, 23.1875), (1.0, 23.1875 + 4e-15)])]);
+        assert!(chart_svg(&c).is_ok());
+        let c = chart(vec![Series::new("a", vec![(0.0, 1e100), (1.0, -1e100)])]);
+        assert!(chart_svg(&c).is_ok());
     }
 
     #[test]
     fn a_drawing_that_takes_too_long_is_given_up() {
-        let c = chart(vec![Series { label: "a".into(), points: vec![(0.0, 0.0), (1.0, 1.0)] }]);
-        assert!(matches!(png_within(&c, std::time::Duration::ZERO), Err(PlotError::Timeout { .. })));
+        let c = chart(vec![Series::new("a", vec![(0.0, 0.0), (1.0, 1.0)])]);
+        assert!(matches!(svg_within(&c, std::time::Duration::ZERO), Err(PlotError::Timeout { .. })));
     }
 }

@@ -11,7 +11,7 @@ use ezy_core::integrator::Method;
 use ezy_core::kkt::KktMethod;
 use ezy_core::{Dynamics, Model, Observer, ProjectionKind, RunSettings, Sample, Scene, SimError};
 
-use crate::plot::{Chart, Series};
+use crate::plot::{Chart, Series, Stroke};
 use crate::run::{Error, build};
 use crate::transaction::Transaction;
 
@@ -159,46 +159,73 @@ fn state_error(a: &[f64], b: &[f64]) -> f64 {
     a.iter().zip(b).fold(0.0, |m, (x, y)| m.max((x - y).abs()))
 }
 
+/// What `ezy precision` draws besides the ladder.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct PrecisionOptions {
+    /// Other tools' points over the work-precision diagram.
+    pub overlay: Vec<Overlay>,
+    /// Run no ladder: redraw the figures from the `precision.csv` already
+    /// in the output directory (the drift figure's two short runs are
+    /// still run).
+    pub replot: bool,
+}
+
 /// Runs the ladder for `scene` on model type `M` (what
 /// [`crate::App::precision`] calls for the model the scene names), writes
-/// `precision.csv` and the figures into `out`.
+/// `precision.csv` and the figures into `out`; with `opts.replot`, reads
+/// the ladder from `out/precision.csv` instead and writes the figures only.
 ///
 /// # Errors
-/// [`Error`] if the reference run fails or a file cannot be written.
-pub fn precision_model<M: Model + Default>(scene: &Scene, out: &Path) -> Result<Report, Error> {
+/// [`Error`] if the reference run fails, a saved ladder does not read or
+/// a file cannot be written.
+pub fn precision_model<M: Model + Default>(
+    scene: &Scene,
+    out: &Path,
+    opts: &PrecisionOptions,
+) -> Result<Report, Error> {
     // an unusable or busy output directory is found before minutes of runs
     Transaction::preflight(out)?;
     let beat = crate::progress::Heartbeat::start(format!("precision of {}: the reference runs", scene.name));
     let reference =
         Setting { method: Method::Dop853, dt: None, tol: Some(1e-13), projection: ProjectionKind::MassWeighted };
-    let (ref_run, _) = run_once::<M>(scene, &reference, scene.t_end, false)?;
-    let looser = Setting { tol: Some(1e-12), ..reference };
-    let (loose_run, _) = run_once::<M>(scene, &looser, scene.t_end, false)?;
-    let reference_error = state_error(&ref_run.y, &loose_run.y);
-    let mut rows = Vec::new();
-    let settings = ladder();
-    let n = settings.len();
-    for (k, setting) in settings.into_iter().enumerate() {
-        beat.set(format!("precision of {}: setting {} of {n}", scene.name, k + 1));
-        let row = match timed::<M>(scene, &setting) {
-            Ok((last, summary, wall_s)) => Row {
-                setting,
-                error: state_error(&last.y, &ref_run.y),
-                wall_s,
-                rhs_evals: summary.counters.rhs_evals,
-                max_residual: last.residual,
-            },
-            Err(_) => Row { setting, error: f64::INFINITY, wall_s: f64::NAN, rhs_evals: 0, max_residual: f64::NAN },
-        };
-        rows.push(row);
-    }
+    let (rows, reference_error) = if opts.replot {
+        let rows = read_csv(&out.join("precision.csv"))
+            .map_err(|e| Error::Sim(ezy_core::SimError::Scene { key: "--replot".into(), message: e }))?;
+        (rows, f64::NAN)
+    } else {
+        let (ref_run, _) = run_once::<M>(scene, &reference, scene.t_end, false)?;
+        let looser = Setting { tol: Some(1e-12), ..reference };
+        let (loose_run, _) = run_once::<M>(scene, &looser, scene.t_end, false)?;
+        let reference_error = state_error(&ref_run.y, &loose_run.y);
+        let mut rows = Vec::new();
+        let settings = ladder();
+        let n = settings.len();
+        for (k, setting) in settings.into_iter().enumerate() {
+            beat.set(format!("precision of {}: setting {} of {n}", scene.name, k + 1));
+            let row = match timed::<M>(scene, &setting) {
+                Ok((last, summary, wall_s)) => Row {
+                    setting,
+                    error: state_error(&last.y, &ref_run.y),
+                    wall_s,
+                    rhs_evals: summary.counters.rhs_evals,
+                    max_residual: last.residual,
+                },
+                Err(_) => Row { setting, error: f64::INFINITY, wall_s: f64::NAN, rhs_evals: 0, max_residual: f64::NAN },
+            };
+            rows.push(row);
+        }
+        (rows, reference_error)
+    };
     // precision.csv and both figures are one transaction (see
     // `crate::transaction`): committed together, precision.csv last.
     beat.set(format!("precision of {}: drawing the figures", scene.name));
     let mut tx = Transaction::begin(out)?;
-    tx.write("precision.csv", csv(&rows).as_bytes())?;
+    if !opts.replot {
+        tx.write("precision.csv", csv(&rows).as_bytes())?;
+    }
     tx.check(None, Some("drawing work_precision.png".into()))?;
-    tx.write("work_precision.png", &figure_png("work_precision.png", &work_precision_chart(&rows, scene))?)?;
+    let chart = overlaid(work_precision_chart(&rows, scene), &opts.overlay);
+    tx.write("work_precision.png", &figure_png("work_precision.png", &chart)?)?;
     tx.check(None, Some("drawing drift.png".into()))?;
     tx.write("drift.png", &figure_png("drift.png", &drift_chart::<M>(scene)?)?)?;
     let files = tx.commit()?;
@@ -278,6 +305,109 @@ pub fn table(report: &Report) -> String {
     s
 }
 
+/// Points drawn over the work-precision diagram: another tool's (or a
+/// paper's) wall times and errors, from `ezy precision --overlay FILE`.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Overlay {
+    /// Legend label (the tool).
+    pub label: String,
+    /// `(wall time [s], max state error)` pairs.
+    pub points: Vec<(f64, f64)>,
+}
+
+/// Reads an overlay file: CSV with the header `label,wall_s,error` and one
+/// point per row; rows with the same label form one series, in the order
+/// of their first row.
+///
+/// # Errors
+/// The file, line and field of a missing header, a short row or a value
+/// that is not a finite number > 0.
+pub fn read_overlay(path: &Path) -> Result<Vec<Overlay>, String> {
+    let name = path.display();
+    let mut r = csv::ReaderBuilder::new()
+        .comment(Some(b'#'))
+        .trim(csv::Trim::All)
+        .from_path(path)
+        .map_err(|e| format!("{name}: {e}"))?;
+    let header = r.headers().map_err(|e| format!("{name}: {e}"))?.clone();
+    if header.iter().collect::<Vec<_>>() != ["label", "wall_s", "error"] {
+        return Err(format!(
+            "{name}:1: the header must be `label,wall_s,error`, got `{}`",
+            header.iter().collect::<Vec<_>>().join(",")
+        ));
+    }
+    let mut out: Vec<Overlay> = Vec::new();
+    for rec in r.records() {
+        let rec = rec.map_err(|e| format!("{name}: {e}"))?;
+        let line = rec.position().map_or(0, |p| p.line());
+        let num = |k: usize, field: &str| -> Result<f64, String> {
+            let v = rec.get(k).unwrap_or("");
+            match v.parse::<f64>() {
+                Ok(x) if x.is_finite() && x > 0.0 => Ok(x),
+                _ => Err(format!("{name}:{line}: `{field}` = `{v}` is not a finite number > 0")),
+            }
+        };
+        let (label, point) = (rec.get(0).unwrap_or("").to_string(), (num(1, "wall_s")?, num(2, "error")?));
+        match out.iter_mut().find(|o| o.label == label) {
+            Some(o) => o.points.push(point),
+            None => out.push(Overlay { label, points: vec![point] }),
+        }
+    }
+    Ok(out)
+}
+
+/// Reads the rows of a `precision.csv` that `ezy precision` wrote.
+///
+/// # Errors
+/// The file and line of a row that does not parse (an unknown method or
+/// projection, a value that is not a number).
+pub fn read_csv(path: &Path) -> Result<Vec<Row>, String> {
+    let name = path.display();
+    let text = std::fs::read_to_string(path).map_err(|e| format!("{name}: {e}"))?;
+    let mut lines = text.lines();
+    let header = "method,dt,rtol,atol,projection,error,wall_s,rhs_evals,max_residual";
+    if lines.next() != Some(header) {
+        return Err(format!("{name}:1: not a precision.csv (its header is `{header}`)"));
+    }
+    let methods = [Method::Euler, Method::Rk4, Method::Dopri5, Method::Dop853, Method::Radau5];
+    let projections = [ProjectionKind::None, ProjectionKind::Euclidean, ProjectionKind::MassWeighted];
+    lines
+        .enumerate()
+        .map(|(k, line)| {
+            let bad = |what: &str| format!("{name}:{}: {what} in `{line}`", k + 2);
+            let f: Vec<&str> = line.split(',').collect();
+            if f.len() != 9 {
+                return Err(bad("not 9 fields"));
+            }
+            let num =
+                |s: &str| -> Result<f64, String> { s.parse().map_err(|_| bad(&format!("`{s}` is not a number"))) };
+            let opt =
+                |s: &str| -> Result<Option<f64>, String> { if s.is_empty() { Ok(None) } else { num(s).map(Some) } };
+            let method = methods.into_iter().find(|m| m.name() == f[0]).ok_or_else(|| bad("unknown method"))?;
+            let projection =
+                projections.into_iter().find(|p| p.name() == f[4]).ok_or_else(|| bad("unknown projection"))?;
+            Ok(Row {
+                setting: Setting { method, dt: opt(f[1])?, tol: opt(f[2])?, projection },
+                error: num(f[5])?,
+                wall_s: num(f[6])?,
+                rhs_evals: f[7].parse().map_err(|_| bad("the RHS count is not a whole number"))?,
+                max_residual: num(f[8])?,
+            })
+        })
+        .collect()
+}
+
+/// `chart` with `overlay`'s points as diamonds, in the colours the
+/// methods leave free.
+fn overlaid(mut chart: Chart, overlay: &[Overlay]) -> Chart {
+    chart.series.extend(overlay.iter().enumerate().map(|(k, o)| Series {
+        stroke: Stroke::Points,
+        color: Some(5 + k),
+        ..Series::new(o.label.clone(), o.points.clone())
+    }));
+    chart
+}
+
 /// One line of [`equal_error_speedups`].
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Speedup {
@@ -317,36 +447,43 @@ pub fn equal_error_speedups(rows: &[Row]) -> Vec<Speedup> {
     out
 }
 
-/// `chart` as PNG bytes; errors name the figure file `name`.
+/// `chart` as PNG bytes at the default resolution; errors name the figure
+/// file `name`.
 fn figure_png(name: &str, chart: &Chart) -> Result<Vec<u8>, Error> {
-    crate::plot::png(chart).map_err(|source| crate::figures::FigureError::Plot { figure: name.into(), source }.into())
+    crate::plot::figure(chart, ezy_core::FigureFormat::Png, ezy_core::DEFAULT_DPI)
+        .map_err(|source| crate::figures::FigureError::Plot { figure: name.into(), source }.into())
 }
 
 fn work_precision_chart(rows: &[Row], scene: &Scene) -> Chart {
     let mut series = Vec::new();
-    for method in [Method::Euler, Method::Rk4, Method::Dopri5, Method::Dop853, Method::Radau5] {
+    let methods = [Method::Euler, Method::Rk4, Method::Dopri5, Method::Dop853, Method::Radau5];
+    for (c, method) in methods.into_iter().enumerate() {
         for projection in [ProjectionKind::MassWeighted, ProjectionKind::None] {
             let points: Vec<(f64, f64)> = rows
                 .iter()
                 .filter(|r| r.setting.method == method && r.setting.projection == projection)
                 .filter(|r| r.error.is_finite() && r.error > 0.0 && r.wall_s > 0.0)
-                .map(|r| (r.wall_s.log10(), r.error.log10()))
+                .map(|r| (r.wall_s, r.error))
                 .collect();
-            let label = match projection {
-                ProjectionKind::None => format!("{} (no projection)", method.name()),
-                _ => format!("{} (projected)", method.name()),
+            // a method's two variants share its colour; without projection dashed
+            let (label, stroke) = match projection {
+                ProjectionKind::None => (format!("{}, unprojected", method.name()), Stroke::Dash(0)),
+                _ => (method.name().to_string(), Stroke::Solid),
             };
-            series.push(Series { label, points });
+            series.push(Series { stroke, color: Some(c), ..Series::new(label, points) });
         }
     }
     Chart {
-        title: format!("Work-precision: scene {}, error at t = {} s", scene.name, scene.t_end),
-        x_label: "log10 of integration wall time [s]".into(),
-        y_label: "log10 of max state error at the final time".into(),
         series,
-        equal_axes: false,
-        log_y: false,
+        log_x: true,
+        log_y: true,
         log_floor: 1e-18,
+        legend_outside: true,
+        ..Chart::new(
+            format!("Work-precision: scene {}, error at t = {} s", scene.name, scene.t_end),
+            "integration wall time [s]",
+            "max state error at the final time",
+        )
     }
 }
 
@@ -378,17 +515,17 @@ fn drift_chart<M: Model + Default>(scene: &Scene) -> Result<Chart, Error> {
         let (last, _) = run_once::<M>(scene, &setting, every(&setting), true)?;
         let h = last.history.unwrap_or_default();
         let name = if projection == ProjectionKind::None { "no projection" } else { "projected" };
-        series.push(Series { label: format!("max|C| [m], {name}"), points: h.iter().map(|p| (p.0, p.1)).collect() });
-        series
-            .push(Series { label: format!("max|G qd| [m/s], {name}"), points: h.iter().map(|p| (p.0, p.2)).collect() });
+        series.push(Series::new(format!("max |Φ(q)| [m], {name}"), h.iter().map(|p| (p.0, p.1)).collect()));
+        series.push(Series {
+            panel: 1,
+            ..Series::new(format!("max |G(q) q̇| [m/s], {name}"), h.iter().map(|p| (p.0, p.2)).collect())
+        });
     }
     Ok(Chart {
-        title: format!("Constraint drift, {title}, scene {}", scene.name),
-        x_label: "t [s]".into(),
-        y_label: "residual [m], [m/s]".into(),
         series,
-        equal_axes: false,
+        lower: Some("velocity residual [m/s]".into()),
         log_y: true,
         log_floor: crate::figures::LOG_FLOOR,
+        ..Chart::new(format!("Constraint drift, {title}, scene {}", scene.name), "t [s]", "position residual [m]")
     })
 }

@@ -85,6 +85,12 @@ pub struct RunOptions {
     pub atol: Option<f64>,
     /// Draw the scene's figures.
     pub figures: bool,
+    /// File format of the figures (`None`: the scene's `output.figure_format`).
+    pub figure_format: Option<ezy_core::FigureFormat>,
+    /// Resolution of PNG figures \[dpi\] (`None`: the scene's `output.dpi`).
+    pub dpi: Option<f64>,
+    /// Also write `report.html` (see [`crate::report`]).
+    pub report: bool,
     /// Show progress on stderr for long runs (a bar on a terminal, a line
     /// every few seconds otherwise).
     pub progress: bool,
@@ -449,18 +455,28 @@ pub fn run_model_tapped<M: Model + Default>(
     };
     let table = obs.finish()?;
     if opts.figures {
-        for (k, fig) in scene.figures.iter().enumerate() {
-            if let Some(b) = &beat {
-                b.set(format!("drawing figure {} of {} ({})", k + 1, scene.figures.len(), fig.file));
+        let format = opts.figure_format.unwrap_or(scene.output.figure_format);
+        let dpi = opts.dpi.unwrap_or(scene.output.dpi);
+        if let Some(b) = &beat {
+            b.set(format!("drawing {} figures", scene.figures.len()));
+        }
+        // drawn in parallel, a chunk of one figure per thread at a time, and
+        // written in order; a signal stops the drawing at the next figure
+        use rayon::prelude::*;
+        for chunk in scene.figures.chunks(rayon::current_num_threads().max(1)) {
+            let drawn: Vec<Result<Vec<u8>, Error>> = chunk
+                .par_iter()
+                .map(|fig| {
+                    tx.check(Some(settings.t_end), Some(format!("drawing {}", fig.file)))?;
+                    Ok(crate::figures::render(&sys.info, fig, &table, format, dpi)?)
+                })
+                .collect();
+            for (fig, bytes) in chunk.iter().zip(drawn) {
+                tx.write(&format.file_name(&fig.file), &bytes?)?;
             }
-            tx.check(Some(settings.t_end), Some(format!("drawing {}", fig.file)))?;
-            let png = crate::figures::render(&sys.info, fig, &table)?;
-            tx.write(&fig.file, &png)?;
         }
     }
-    let files = tx.commit()?;
-    drop(beat);
-    let state_names = (0..sys.ny()).map(|k| sys.state_name(k)).collect();
+    let state_names: Vec<String> = (0..sys.ny()).map(|k| sys.state_name(k)).collect();
     let mut warnings = initial.warnings();
     if let Some((t, c)) = summary.ill_conditioned {
         warnings.push(format!(
@@ -470,7 +486,49 @@ pub fn run_model_tapped<M: Model + Default>(
         ));
     }
     let notes = initial.notes();
-    Ok(Report { summary, table, settings, state_names, files, setup, wall: wall.elapsed(), warnings, notes })
+    let mut report = Report {
+        summary,
+        table,
+        settings,
+        state_names,
+        files: Vec::new(),
+        setup,
+        wall: wall.elapsed(),
+        warnings,
+        notes,
+    };
+    if opts.report {
+        if let Some(b) = &beat {
+            b.set("writing report.html");
+        }
+        tx.check(Some(settings.t_end), Some("writing report.html".into()))?;
+        let html = report_html(scene, opts, &sys, &y0, &report);
+        tx.write("report.html", html.as_bytes())?;
+    }
+    report.files = tx.commit()?;
+    drop(beat);
+    report.wall = wall.elapsed();
+    Ok(report)
+}
+
+/// The page of `ezy run --report` (see [`crate::report`]).
+fn report_html<M: Model>(scene: &Scene, opts: &RunOptions, sys: &Dynamics<M>, y0: &[f64], r: &Report) -> String {
+    use crate::report::{REPORT_DPI, REPORT_FPS, REPORT_FRAMES};
+    let ledger = crate::report::ledger(sys, y0, &r.summary.final_state, &r.state_names);
+    let animation = crate::animate::gif_of_table(sys, scene, &r.table, REPORT_FRAMES, REPORT_FPS, REPORT_DPI)
+        .map_err(|e| e.to_string());
+    let text = summary(&scene.name, r);
+    let page = crate::report::Page {
+        scene,
+        model: sys.info.name,
+        summary: &text,
+        ledger: &ledger,
+        max_gap: r.summary.max_energy_error,
+        animation,
+        figures: crate::report::figures(&sys.info, scene, &r.table),
+        command: crate::report::command_line(&scene.name, opts),
+    };
+    crate::report::html(&page)
 }
 
 /// Refuses a run whose `trajectory.csv` would exceed `max_mb` \[MB\]:

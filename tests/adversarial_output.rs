@@ -366,7 +366,11 @@ fn a_failing_figure_or_commit_leaves_the_previous_output() {
     let cases = [
         (
             drive_with(&figure("fig4_speed.png"), root.path(), "duplicate.toml"),
-            "duplicate.toml:93:8: `figures[7].file`: `fig4_speed.png`: another figure of this scene writes that file",
+            "duplicate.toml:96:8: `figures[7].file`: `fig4_speed.png`: another figure of this scene writes that file",
+        ),
+        (
+            drive_with(&figure("fig4_speed.svg"), root.path(), "same-stem.toml"),
+            "same-stem.toml:96:8: `figures[7].file`: `fig4_speed.svg`: another figure of this scene writes that file",
         ),
         (
             drive_with(&figure(&long), root.path(), "long.toml"),
@@ -374,7 +378,7 @@ fn a_failing_figure_or_commit_leaves_the_previous_output() {
         ),
         (
             drive_with(&figure(".hidden.png"), root.path(), "hidden.toml"),
-            "hidden.toml:93:8: `figures[7].file`: `.hidden.png`: a figure file name must not start with `.`",
+            "hidden.toml:96:8: `figures[7].file`: `.hidden.png`: a figure file name must not start with `.`",
         ),
     ];
     for (scene, message) in &cases {

@@ -53,7 +53,7 @@ impl Model for HandRoller {
             ],
             bodies: vec![body("body1", 0), body("body2", 3)],
             points: vec![point("A", 0), point("B1", 0), point("B2", 1), point("C", 1)],
-            hinges: vec![HingeInfo { name: "B".into(), body_a: 0, body_b: Some(1), row: 0 }],
+            hinges: vec![HingeInfo { name: "B".into(), body_a: 0, body_b: Some(1), row: 0, point: 1 }],
             sliders: vec![],
             drives: vec![],
             skates: vec![

@@ -32,8 +32,9 @@ pub use model::{
 pub use projection::ProjectionKind;
 pub use scalar::Scalar;
 pub use scene::{
-    Binding, Column, DriveSpec, FigureSpec, InitValue, Initial, InitialName, IntegratorSettings, Line, OutputGroup,
-    OutputSettings, Scene, SceneError, SceneFileError,
+    Binding, Column, DEFAULT_DPI, DriveSpec, FigureFormat, FigureSpec, InitValue, Initial, InitialName,
+    IntegratorSettings, Line, MAX_DPI, MIN_DPI, OutputGroup, OutputSettings, Scene, SceneError, SceneFileError,
+    figure_stem,
 };
 pub use simulate::{Observer, RunError, RunSettings, Sample, Summary, simulate};
 

@@ -63,6 +63,9 @@ pub struct HingeInfo {
     pub body_b: Option<usize>,
     /// Index of its first residual row in `phi` (its rows are `row`, `row + 1`).
     pub row: usize,
+    /// Index of the hinge's point on body `body_a` in [`ModelInfo::points`]
+    /// (where the hinge is drawn).
+    pub point: usize,
 }
 
 /// A slider (prismatic joint): a point of body `body_b` stays on a line

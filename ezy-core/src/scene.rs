@@ -251,11 +251,92 @@ pub struct OutputSettings {
     /// Optional column groups to compute and write.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub include: Vec<OutputGroup>,
+    /// File format of the figures (`"png"`, `"svg"` or `"pdf"`); the
+    /// command line's `--format` wins.
+    #[serde(default, skip_serializing_if = "FigureFormat::is_png")]
+    pub figure_format: FigureFormat,
+    /// Resolution of PNG figures \[dots per inch\] (a figure is 10 x 6.67
+    /// inches: 96 dpi gives 960 x 640 pixels); between [`MIN_DPI`] and
+    /// [`MAX_DPI`]. The command line's `--dpi` wins.
+    #[serde(default = "default_dpi", skip_serializing_if = "is_default_dpi")]
+    pub dpi: f64,
 }
 
 impl Default for OutputSettings {
     fn default() -> Self {
-        Self { every: default_every(), include: Vec::new() }
+        Self { every: default_every(), include: Vec::new(), figure_format: FigureFormat::Png, dpi: DEFAULT_DPI }
+    }
+}
+
+/// Default resolution of PNG figures \[dots per inch\]: 1440 x 960 pixels.
+pub const DEFAULT_DPI: f64 = 144.0;
+/// Smallest resolution of PNG figures \[dots per inch\] (240 x 160 pixels).
+pub const MIN_DPI: f64 = 24.0;
+/// Largest resolution of PNG figures \[dots per inch\] (6000 x 4000 pixels).
+pub const MAX_DPI: f64 = 600.0;
+fn default_dpi() -> f64 {
+    DEFAULT_DPI
+}
+fn is_default_dpi(d: &f64) -> bool {
+    *d == DEFAULT_DPI
+}
+
+/// File format of figures.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Hash, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum FigureFormat {
+    /// Anti-aliased raster image at a chosen resolution (see
+    /// [`OutputSettings::dpi`]).
+    #[default]
+    Png,
+    /// Scalable vector graphics: the figure as drawn, text as text.
+    Svg,
+    /// A one-page vector PDF of the SVG (fonts embedded).
+    Pdf,
+}
+
+impl FigureFormat {
+    /// Every format, in the order of [`FigureFormat::name`]'s list.
+    pub const ALL: [FigureFormat; 3] = [Self::Png, Self::Svg, Self::Pdf];
+
+    /// The format's name and file extension: `png`, `svg` or `pdf`.
+    pub fn name(self) -> &'static str {
+        match self {
+            Self::Png => "png",
+            Self::Svg => "svg",
+            Self::Pdf => "pdf",
+        }
+    }
+
+    fn is_png(&self) -> bool {
+        *self == Self::Png
+    }
+
+    /// `file` with its extension (`.png`, `.svg` or `.pdf`, if any) replaced
+    /// by this format's: `fig3_paths.png` as SVG is `fig3_paths.svg`.
+    pub fn file_name(self, file: &str) -> String {
+        format!("{}.{}", figure_stem(file), self.name())
+    }
+}
+
+/// `file` without a figure extension (`.png`, `.svg`, `.pdf`).
+pub fn figure_stem(file: &str) -> &str {
+    FigureFormat::ALL.iter().find_map(|f| file.strip_suffix(&format!(".{}", f.name()))).unwrap_or(file)
+}
+
+impl fmt::Display for FigureFormat {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
+impl std::str::FromStr for FigureFormat {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, String> {
+        Self::ALL
+            .into_iter()
+            .find(|f| f.name() == s)
+            .ok_or_else(|| format!("unknown figure format `{s}`; known: png, svg, pdf"))
     }
 }
 
@@ -356,6 +437,19 @@ pub struct Line {
     pub label: String,
     /// Values.
     pub y: Column,
+    /// The panel it is drawn in: 1 (the upper, or only, one, labelled
+    /// `y_label`) or 2 (a lower panel with its own vertical axis
+    /// `y2_label` and the same horizontal axis), for quantities in
+    /// different units.
+    #[serde(default = "one", skip_serializing_if = "is_one")]
+    pub panel: u8,
+}
+
+fn one() -> u8 {
+    1
+}
+fn is_one(p: &u8) -> bool {
+    *p == 1
 }
 
 fn default_x() -> Column {
@@ -368,12 +462,14 @@ fn is_false(b: &bool) -> bool {
     !b
 }
 
-/// One PNG figure of a scene: either paths in the plane (`paths`, equal
-/// axes) or lines over `x` (`lines`).
+/// One figure of a scene: either paths in the plane (`paths`, equal
+/// axes, start and end marked) or lines over `x` (`lines`, in one or two
+/// stacked panels).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct FigureSpec {
-    /// File name in the output directory, e.g. `fig3_paths.png`.
+    /// File name in the output directory, e.g. `fig3_paths.png`; the
+    /// extension is that of the figure format ([`FigureFormat::file_name`]).
     pub file: String,
     /// Title.
     pub title: String,
@@ -390,7 +486,11 @@ pub struct FigureSpec {
     /// Lines of a line figure.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub lines: Vec<Line>,
-    /// Logarithmic vertical axis.
+    /// Vertical axis label with unit of the lower panel (lines with
+    /// `panel = 2`); required when there are such lines.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub y2_label: Option<String>,
+    /// Logarithmic vertical axis (of both panels).
     #[serde(default, skip_serializing_if = "is_false")]
     pub log_y: bool,
 }
@@ -443,6 +543,11 @@ pub struct Scene {
     /// Figures to draw.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub figures: Vec<FigureSpec>,
+    /// How `ezy animate` draws bodies: body name -> the points its outline
+    /// joins, in order (`body1 = ["A", "B1"]`; `"cm"` is the centre of
+    /// mass). A body not listed is drawn through all its points.
+    #[serde(default, with = "named_list", skip_serializing_if = "Vec::is_empty")]
+    pub draw: Vec<(String, Vec<String>)>,
     /// Which numbers of the effects and drives the scene parameters give,
     /// sorted by path ([`Scene::from_toml`] finds them, [`Scene::set`]
     /// keeps them, [`Scene::to_toml`] writes the names back). The numbers
@@ -876,6 +981,12 @@ impl Scene {
             ));
         }
         positive(&["output", "every"], self.output.every, "the output interval [s]")?;
+        if !(MIN_DPI..=MAX_DPI).contains(&self.output.dpi) {
+            return Err(SceneError::at(
+                &["output", "dpi"],
+                format!("the PNG resolution is between {MIN_DPI} and {MAX_DPI} dpi, got {}", self.output.dpi),
+            ));
+        }
         let names = crate::model::NameIndex::new(info);
         for (name, e) in &self.effects {
             if name.is_empty() || !name.chars().all(|c| c.is_ascii_alphanumeric() || c == '_') {
@@ -936,18 +1047,24 @@ impl Scene {
         let columns = self.columns(info);
         for (i, fig) in self.figures.iter().enumerate() {
             let i = i.to_string();
-            if !fig.file.ends_with(".png") || fig.file.contains(['/', '\\']) || fig.file.contains(char::is_control) {
+            let stem = figure_stem(&fig.file);
+            if stem.len() == fig.file.len()
+                || stem.is_empty()
+                || fig.file.contains(['/', '\\'])
+                || fig.file.contains(char::is_control)
+            {
                 return Err(SceneError::at(
                     &["figures", &i, "file"],
                     format!(
-                        "`{}` must be a file name ending in .png, without directories or control characters",
+                        "`{}` must be a file name ending in .png, .svg or .pdf, without directories or control characters",
                         fig.file.escape_debug()
                     ),
                 ));
             }
             // a file name longer than file systems take, hidden, the CSV's, or one
-            // another figure already writes: refused here, before any work
-            let earlier = self.figures[..i.parse::<usize>().expect("an index")].iter().any(|f| f.file == fig.file);
+            // another figure already writes (in any format): refused here, before any work
+            let earlier =
+                self.figures[..i.parse::<usize>().expect("an index")].iter().any(|f| figure_stem(&f.file) == stem);
             if fig.file.len() > MAX_FIGURE_NAME || fig.file.starts_with('.') || earlier {
                 let why = if earlier {
                     "another figure of this scene writes that file".to_string()
@@ -997,10 +1114,46 @@ impl Scene {
             }
             for (j, line) in fig.lines.iter().enumerate() {
                 let j = j.to_string();
+                if !(1..=2).contains(&line.panel) {
+                    return Err(SceneError::at(
+                        &["figures", &i, "lines", &j, "panel"],
+                        format!("panel is 1 (upper) or 2 (lower), got {}", line.panel),
+                    ));
+                }
+                if line.panel == 2 && fig.y2_label.is_none() {
+                    return Err(SceneError::at(
+                        &["figures", &i, "lines", &j, "panel"],
+                        "a line in panel 2 needs the figure's `y2_label` (the lower panel's axis label, with unit)",
+                    ));
+                }
                 for c in line.y.inputs() {
                     if let Some(m) = missing(c) {
                         return Err(SceneError::at(&["figures", &i, "lines", &j, "y"], m));
                     }
+                }
+            }
+        }
+        for (body, outline) in &self.draw {
+            let Some(b) = info.bodies.iter().position(|x| x.name == *body) else {
+                return Err(SceneError::at(
+                    &["draw", body],
+                    format!(
+                        "unknown body `{body}` in model {}; known: {}",
+                        info.name,
+                        known(info.bodies.iter().map(|b| b.name.as_str()).collect())
+                    ),
+                ));
+            };
+            for (j, p) in outline.iter().enumerate() {
+                let on_body = p == "cm" || info.point_index(p).is_some_and(|k| info.points[k].body == b);
+                if !on_body {
+                    let names: Vec<&str> = std::iter::once("cm")
+                        .chain(info.points.iter().filter(|q| q.body == b).map(|q| q.name.as_str()))
+                        .collect();
+                    return Err(SceneError::at(
+                        &["draw", body, &j.to_string()],
+                        format!("`{p}` is not a point of body {body}; its points: {}", known(names)),
+                    ));
                 }
             }
         }
@@ -1550,7 +1703,9 @@ fn refuse_misplaced_arrays(table: &toml::de::DeTable<'_>, path: &mut Vec<String>
     for (k, v) in table.iter() {
         let key = k.get_ref().as_ref();
         path.push(key.to_string());
-        walk(v.get_ref(), path, ARRAY_KEYS.contains(&key))?;
+        // the entries of `[draw]` are arrays of point names under body names
+        let in_draw = path.len() == 2 && path[0] == "draw";
+        walk(v.get_ref(), path, in_draw || ARRAY_KEYS.contains(&key))?;
         path.pop();
     }
     Ok(())

@@ -943,7 +943,8 @@ fn info_fn(def: &ModelDef, res: &Resolved, d: &Derived) -> TokenStream {
                     Some(b) => quote!(::core::option::Option::Some(#b)),
                     None => quote!(::core::option::Option::None),
                 };
-                quote!(hinges.push(#private::HingeInfo { name: #name, body_a: #a, body_b: #b, row: rb });)
+                let p = point_index(def, &res.hinge_points[g.item].0);
+                quote!(hinges.push(#private::HingeInfo { name: #name, body_a: #a, body_b: #b, row: rb, point: #p });)
             }
             Kind::Slider => {
                 let b = slot(0).expect("a slider has a body");

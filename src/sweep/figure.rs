@@ -1,13 +1,14 @@
 //! The sweep's figures, drawn from `sweep.csv` once every run is in: for
 //! each metric `k`, `sweep_<k>.png` (the metric against the first
 //! parameter, a line per value of the second) and, for two fixed axes,
-//! `sweep_<k>_map.png` (a heat map over both).
+//! `sweep_<k>_map.png` (a heat map over both); in the format and at the
+//! resolution `--format` and `--dpi` give (PNG at 144 dpi by default).
 
 use std::path::{Path, PathBuf};
 
 use super::metric::Metric;
 use super::plan::{Plan, Values};
-use crate::plot::{Chart, HeatMap, Series};
+use crate::plot::{Chart, FigureFormat, HeatMap, Series};
 
 /// Most lines in a figure (one per value of the second axis); beyond it
 /// only the heat map is drawn.
@@ -15,7 +16,7 @@ pub const MAX_LINES: usize = 10;
 
 /// Draws the figures of the sweep in `dir` and returns the files written
 /// and notes on the figures not drawn (a metric whose every run failed,
-/// more than two axes).
+/// more than two axes), in `format` (PNG at `dpi`).
 ///
 /// # Errors
 /// `sweep.csv` cannot be read, or a figure cannot be written.
@@ -24,6 +25,7 @@ pub fn draw(
     plan: &Plan,
     metrics: &[Metric],
     info: &ezy_core::ModelInfo,
+    (format, dpi): (FigureFormat, f64),
 ) -> Result<(Vec<PathBuf>, Vec<String>), String> {
     let labels = axis_labels(plan, info);
     let (mut files, mut notes) = (Vec::new(), Vec::new());
@@ -46,33 +48,25 @@ pub fn draw(
     let rows = super::table::read_columns(dir, &names)?;
     for (k, m) in metrics.iter().enumerate() {
         let col = axes + k;
-        let file = format!("sweep_{}.png", k + 1);
+        let file = format.file_name(&format!("sweep_{}", k + 1));
         let title = format!("{} against {}", m.text, plan.names().join(" and "));
         let mut series = Vec::new();
         if axes == 1 || random {
             let mut pts: Vec<(f64, f64)> = rows.iter().map(|r| (r[0], r[col])).collect();
             pts.sort_by(|a, b| a.0.total_cmp(&b.0));
-            series.push(Series { label: String::new(), points: pts });
+            series.push(Series::new("", pts));
         } else {
             let ys = plan.fixed_values(1).expect("fixed");
             if ys.len() <= MAX_LINES {
                 for &y in ys {
                     let pts: Vec<(f64, f64)> = rows.iter().filter(|r| r[1] == y).map(|r| (r[0], r[col])).collect();
-                    series.push(Series { label: format!("{} = {y}", labels[1]), points: pts });
+                    series.push(Series::new(format!("{} = {y}", labels[1]), pts));
                 }
             }
         }
         if !series.is_empty() {
-            let chart = Chart {
-                title: title.clone(),
-                x_label: labels[0].clone(),
-                y_label: m.text.clone(),
-                series,
-                equal_axes: false,
-                log_y: false,
-                log_floor: crate::figures::LOG_FLOOR,
-            };
-            match crate::plot::png(&chart) {
+            let chart = Chart { series, ..Chart::new(&title, &labels[0], &m.text) };
+            match crate::plot::figure(&chart, format, dpi) {
                 Ok(png) => files.push(write(dir, &file, &png)?),
                 Err(e) => notes.push(format!("{file} not drawn: {e}")),
             }
@@ -95,8 +89,9 @@ pub fn draw(
                 ys,
                 values,
             };
-            let file = format!("sweep_{}_map.png", k + 1);
-            match crate::plot::heatmap_png(&map) {
+            let file = format.file_name(&format!("sweep_{}_map", k + 1));
+            let png = crate::plot::heatmap_svg(&map).and_then(|svg| crate::plot::encode(&svg, format, dpi, &map.title));
+            match png {
                 Ok(png) => files.push(write(dir, &file, &png)?),
                 Err(e) => notes.push(format!("{file} not drawn: {e}")),
             }

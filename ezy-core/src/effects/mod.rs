@@ -1092,6 +1092,15 @@ impl Effect {
         "gave a force or power that is not a number (its inputs are not finite)".into()
     }
 
+    /// For a spring-damper: the world positions of its two ends at `q`
+    /// \[m\], each with whether it is a fixed ground point (what `ezy
+    /// animate` draws as a zig-zag); `None` for every other effect.
+    pub fn spring_ends(&self, q: &[f64]) -> Option<[([f64; 2], bool); 2]> {
+        let Law::SpringDamper { ends, .. } = &self.law else { return None };
+        let qd = vec![0.0; q.len()];
+        Some(ends.each_ref().map(|e| (e.state(q, &qd).0, matches!(e, Anchor::Ground(_)))))
+    }
+
     /// Name of the effect's work column, `W_<name>` \[J\].
     pub fn work_column(&self) -> String {
         format!("W_{}", self.name)
