@@ -11,13 +11,15 @@
 //! - hinges as white circles, skates (knife edges) as short thick blades
 //!   along their blade direction, fixed ground points as hatched anchors,
 //!   spring-dampers as zig-zags;
-//! - fading trails of the skates' contact points (of every point, for a
-//!   model without skates) over the last `trail` seconds;
+//! - fading trails of the skates' contact points (of the points, for a
+//!   model without skates; the first eight either way) over the last
+//!   `trail` seconds;
 //! - the time in the upper left corner.
 //!
 //! The view is fixed on the whole motion when it spans at most
 //! [`FOLLOW_FACTOR`] vehicle sizes, else it follows the vehicle (a window
-//! of [`FOLLOW_FACTOR`] vehicle sizes centred on the mean of its points).
+//! [`FOLLOW_WIDTH`] vehicle sizes wide centred on the mean of its points).
+//! A vehicle's size is the diagonal of the bounding box of its points.
 //! Frames are drawn as SVG by plotters and rasterized by resvg
 //! ([`crate::plot::rgba`]) in parallel, mapped onto one 256-colour palette
 //! (NeuQuant, trained on frames from the start, middle and end) and
@@ -39,7 +41,9 @@ pub const FOLLOW_FACTOR: f64 = 8.0;
 /// Width of the following view in vehicle sizes.
 pub const FOLLOW_WIDTH: f64 = 4.0;
 /// Most frames an animation may have (`ezy animate` refuses more before
-/// integrating; raise `--speed` or lower `--fps`).
+/// integrating; raise `--speed` or lower `--fps`). With a fixed-step
+/// method the frames are a whole number of steps apart, and the count and
+/// the frame rate are those of that spacing.
 pub const MAX_FRAMES: usize = 4000;
 /// Frames drawn and quantized at once (memory: this many RGBA frames).
 const CHUNK: usize = 32;
@@ -199,8 +203,28 @@ pub fn animate_model<M: Model + Default>(
 ) -> Result<AnimateReport, AnimateError> {
     let t_end = opts.t_end.unwrap_or(scene.t_end);
     frame_count(anim, t_end)?;
+    if let Some(every) = opts.every {
+        return Err(AnimateError::Setting(format!(
+            "--every {every}: an animation samples every speed / fps seconds; set --speed and --fps instead"
+        )));
+    }
     let opts = RunOptions { every: Some(anim.speed / anim.fps), ..opts.clone() };
     let settings = run::settings(scene, &opts).map_err(run::Error::from)?;
+    // a fixed-step method samples every whole number of steps: the frames
+    // are that far apart, and the GIF's frame rate follows
+    let mut anim = anim.clone();
+    if !settings.method.is_adaptive() {
+        let spacing = settings.output_stride() as f64 * settings.dt;
+        anim.fps = anim.speed / spacing;
+        let frames = settings.n_steps() / settings.output_stride() + 2;
+        if frames > MAX_FRAMES as u64 || !(1.0..=50.0).contains(&anim.fps) {
+            return Err(AnimateError::Setting(format!(
+                "with steps of {} s, frames are {spacing} s apart: {frames} frames at {:.1} fps (at most {MAX_FRAMES} frames from 1 to 50 fps); choose --speed as a multiple of {} s times --fps",
+                settings.dt, anim.fps, settings.dt
+            )));
+        }
+    }
+    let anim = &anim;
     let p = run::prepare::<M>(scene, &opts, settings).map_err(run::Error::from)?;
     let mut sys = p.sys;
     let wall = Instant::now();
@@ -332,14 +356,23 @@ impl Geometry {
                     hi[d] = hi[d].max(p[d]);
                 }
             }
-            for (i, a) in all.iter().enumerate() {
-                for b in &all[i + 1..] {
-                    size = size.max((a[0] - b[0]).hypot(a[1] - b[1]));
+            // the vehicle's size: the diagonal of its bounding box (linear in
+            // the number of points, where all pairs would be quadratic)
+            let (mut flo, mut fhi) = ([f64::INFINITY; 2], [f64::NEG_INFINITY; 2]);
+            for p in &all {
+                for d in 0..2 {
+                    flo[d] = flo[d].min(p[d]);
+                    fhi[d] = fhi[d].max(p[d]);
                 }
             }
+            size = size.max((fhi[0] - flo[0]).hypot(fhi[1] - flo[1]));
         }
-        if !(lo[0].is_finite() && lo[1].is_finite() && hi[0].is_finite() && hi[1].is_finite()) {
-            return Err(AnimateError::Setting("the motion has positions that are not finite numbers".into()));
+        let drawable = |v: f64| v.is_finite() && v.abs() <= crate::plot::MAX_MAGNITUDE;
+        if !(lo.iter().chain(&hi).all(|&v| drawable(v)) && size.is_finite()) {
+            return Err(AnimateError::Setting(format!(
+                "the motion reaches positions that cannot be drawn (not finite, or beyond {:e} m)",
+                crate::plot::MAX_MAGNITUDE
+            )));
         }
         let span = (hi[0] - lo[0]).max(hi[1] - lo[1]);
         let view = (span <= FOLLOW_FACTOR * size).then(|| {

@@ -54,8 +54,9 @@ pub struct AnimateArgs {
     /// Seconds of simulated time per second of animation.
     #[arg(long, value_name = "S", default_value_t = 1.0)]
     pub speed: f64,
-    /// Length of the fading trails of the skates' contact points (of every
-    /// point without skates), in seconds of simulated time (0: none).
+    /// Length of the fading trails of the skates' contact points (of the
+    /// points, without skates; the first eight), in seconds of simulated
+    /// time (0: none).
     #[arg(long, value_name = "T", default_value_t = 3.0)]
     pub trail: f64,
     #[command(flatten)]

@@ -83,7 +83,9 @@ pub const PALETTE: [RGBColor; 10] = [
 pub enum Stroke {
     /// Solid, unless the series runs on top of an earlier series of its
     /// panel (within 1 % of the panel's range at more than a fifth of its
-    /// points): then the next free dash style, with markers.
+    /// points, compared point by point, so both need the same number of
+    /// drawable points; paths are compared by nearest point): then the
+    /// first dash style none of those series has, with markers.
     #[default]
     Auto,
     /// Always solid.
@@ -561,11 +563,14 @@ fn chart_lines(chart: &Chart) -> Vec<Line<'_>> {
             continue;
         }
         let test = if chart.equal_axes { path_overlaps } else { overlaps };
-        let covered = (0..j)
+        let under: Vec<Option<usize>> = (0..j)
             .filter(|&i| lines[i].panel == lines[j].panel && test(&lines[i], &lines[j], spans[lines[j].panel]))
-            .count();
-        if covered > 0 {
-            lines[j].dash = Some((covered - 1) % DASHES.len());
+            .map(|i| lines[i].dash)
+            .collect();
+        if !under.is_empty() {
+            // the first dash style none of the series underneath has
+            let free = (0..DASHES.len()).find(|k| !under.contains(&Some(*k)));
+            lines[j].dash = Some(free.unwrap_or(under.len() % DASHES.len()));
         }
     }
     lines
@@ -1343,6 +1348,12 @@ mod tests {
         let lines = chart_lines(&c);
         assert_eq!(lines[0].dash, None);
         assert_eq!(lines[1].dash, Some(0));
+        // c lies on b only: it takes a style b does not have
+        let shifted: Vec<(f64, f64)> = pts.iter().map(|p| (p.0, p.1 + 0.015)).collect();
+        let c3 = chart(vec![Series::new("a", pts.clone()), Series::new("b", pts.clone()), Series::new("c", shifted)]);
+        let l3 = chart_lines(&c3);
+        assert_eq!((l3[1].dash, l3[2].dash.is_some()), (Some(0), true));
+        assert_ne!(l3[2].dash, Some(0), "c would hide b");
         let apart: Vec<(f64, f64)> = pts.iter().map(|p| (p.0, p.1 + 1.0)).collect();
         let c2 = chart(vec![Series::new("a", pts.clone()), Series::new("b", apart)]);
         assert_eq!(chart_lines(&c2)[1].dash, None);

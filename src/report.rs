@@ -67,8 +67,10 @@ pub fn ledger<M: Model>(sys: &Dynamics<M>, y0: &[f64], y1: &[f64], names: &[Stri
     out
 }
 
-/// The command line that reruns `scene` with `opts` (the scene by name,
-/// or by its file when it came from one).
+/// The command line that reruns `scene` with `opts`: the scene by name
+/// (a scene from a file is named by the file's path instead; the page
+/// shows the scene after the `--set` overrides), then every setting the
+/// run was given.
 pub fn command_line(scene: &str, opts: &RunOptions) -> String {
     let mut a = vec!["ezy".to_string(), "run".into(), scene.to_string()];
     for (name, v) in &opts.sets {
@@ -100,6 +102,17 @@ pub fn command_line(scene: &str, opts: &RunOptions) -> String {
     if let Some(b) = opts.baumgarte {
         a.push(format!("--baumgarte {:?},{:?}", b.alpha, b.beta));
     }
+    if let Some(n) = opts.max_steps {
+        a.push(format!("--max-steps {n}"));
+    }
+    num(&mut a, "--max-output-mb", opts.max_output_mb);
+    if let Some(f) = opts.figure_format {
+        a.push(format!("--format {f}"));
+    }
+    num(&mut a, "--dpi", opts.dpi);
+    if !opts.figures {
+        a.push("--no-figures".into());
+    }
     a.push("--report".into());
     a.join(" ")
 }
@@ -110,6 +123,8 @@ pub struct Page<'a> {
     pub scene: &'a Scene,
     /// Name of the model type (`EzyRoller`).
     pub model: &'a str,
+    /// Simulated duration \[s\] (after `--t-end`).
+    pub t_end: f64,
     /// The run summary (as `ezy run` prints it).
     pub summary: &'a str,
     /// The energy ledger.
@@ -134,7 +149,7 @@ pub fn html(p: &Page<'_>) -> String {
         "<!DOCTYPE html>\n<html lang=\"en\">\n<head>\n<meta charset=\"utf-8\">\n<title>ezy run: {name}</title>\n<style>\n{STYLE}</style>\n</head>\n<body>\n<h1>Scene {name}</h1>\n<p>{}</p>\n<p>Model: {} ({} s simulated).</p>\n",
         escape(&p.scene.description),
         escape(p.model),
-        p.scene.t_end
+        p.t_end
     );
     let _ = write!(h, "<h2>Summary</h2>\n<pre>{}</pre>\n", escape(p.summary));
     h.push_str("<h2>Energy ledger</h2>\n<table>\n<tr><th>quantity</th><th>value [J]</th><th></th></tr>\n");
@@ -176,7 +191,7 @@ pub fn html(p: &Page<'_>) -> String {
     }
     let _ = write!(
         h,
-        "<h2>To reproduce</h2>\n<pre>{}</pre>\n<p>The scene after the overrides:</p>\n<pre>{}</pre>\n</body>\n</html>\n",
+        "<h2>To reproduce</h2>\n<pre>{}</pre>\n<p>(For a scene read from a file, give the file's path instead of the name.) The scene after the <code>--set</code> overrides:</p>\n<pre>{}</pre>\n</body>\n</html>\n",
         escape(&p.command),
         escape(&p.scene.to_toml())
     );

@@ -521,6 +521,7 @@ fn report_html<M: Model>(scene: &Scene, opts: &RunOptions, sys: &Dynamics<M>, y0
     let page = crate::report::Page {
         scene,
         model: sys.info.name,
+        t_end: r.settings.t_end,
         summary: &text,
         ledger: &ledger,
         max_gap: r.summary.max_energy_error,

@@ -117,6 +117,33 @@ fn an_animation_has_a_frame_per_interval() {
     // 2 s at 10 frames per second of animation and half speed: 40 intervals
     assert_eq!(frames, 41, "{said}");
     assert!(said.contains("41 frames"), "{said}");
+    // a fixed-step method samples every whole number of steps: 1/40 s
+    // is 1.67 steps of 0.015 s, so frames are 2 steps (0.03 s) apart and
+    // play at 33.3 fps (3/100 s each): 67 steps, 34 samples and the end
+    let fixed = out.join("sleigh.gif");
+    let (ok, said) = ezy(&[
+        "animate",
+        "sleigh",
+        "--t-end",
+        "1",
+        "--dt",
+        "0.015",
+        "--fps",
+        "40",
+        "--dpi",
+        "24",
+        "--out",
+        fixed.to_str().unwrap(),
+    ]);
+    assert!(ok, "{said}");
+    let bytes = std::fs::read(&fixed).unwrap();
+    let mut d = gif::DecodeOptions::new().read_info(bytes.as_slice()).unwrap();
+    let mut delays = Vec::new();
+    while let Some(f) = d.read_next_frame().unwrap() {
+        delays.push(f.delay);
+    }
+    assert_eq!(delays.len(), 35, "{said}");
+    assert!(delays.iter().all(|&d| d == 3), "{delays:?}");
     // refused before any work, nothing written
     for (args, want) in [
         (vec!["--out", "x.mp4"], "must end in .gif"),
@@ -124,6 +151,7 @@ fn an_animation_has_a_frame_per_interval() {
         (vec!["--speed", "-1"], "--speed -1"),
         (vec!["--speed", "0.001"], "raise --speed"),
         (vec!["--format", "svg"], "always a GIF"),
+        (vec!["--every", "0.1"], "set --speed and --fps instead"),
     ] {
         let mut a = vec!["animate", "four-bar"];
         a.extend(&args);
@@ -133,6 +161,9 @@ fn an_animation_has_a_frame_per_interval() {
         let (ok, said) = ezy(&a);
         assert!(!ok && said.contains(want), "{args:?}: {said}");
     }
+    // frames 0.015 s apart would play at 66.7 fps
+    let (ok, said) = ezy(&["animate", "sleigh", "--dt", "0.015", "--fps", "50", "--out", "never.gif"]);
+    assert!(!ok && said.contains("choose --speed as a multiple of 0.015 s"), "{said}");
     assert!(!Path::new("never.gif").exists() && !Path::new("x.mp4").exists());
     let _ = std::fs::remove_dir_all(&out);
 }

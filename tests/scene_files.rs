@@ -201,6 +201,34 @@ fn every_documented_scene_file_error_names_file_line_column_and_key() {
         ("M0 = 2.0", "M0 = \"two\"", "M0 = \"two\"", &["`scene_params.M0`", "must be a number, not a string"]),
         ("M0 = 2.0", "M0 = 2.0\n\"2M\" = 1.0", "\"2M\"", &["`scene_params.2M`", "must be an identifier"]),
         ("M0 = 2.0", "M0 = inf", "M0 = inf", &["`scene_params.M0`", "M0 = inf must be finite"]),
+        // a lower-panel line without the lower panel's label, a panel that
+        // does not exist, a figure with no line in the upper panel
+        (
+            "{ label = \"phi1d [rad/s]\", y = \"phi1d\", panel = 2 }",
+            "{ label = \"phi1d [rad/s]\", y = \"phi1d\", panel = 3 }",
+            "panel = 3",
+            &["`figures[1].lines[1].panel`", "panel is 1 (upper) or 2 (lower), got 3"],
+        ),
+        (
+            "y2_label = \"yaw rate [rad/s]\"\n",
+            "",
+            "panel = 2",
+            &["`figures[1].lines[1].panel`", "needs the figure's `y2_label`"],
+        ),
+        (
+            "{ label = \"tau [N m]\", y = \"tau_motor\" }",
+            "{ label = \"tau [N m]\", y = \"tau_motor\", panel = 2 }",
+            "lines = [\n    { label = \"tau",
+            &["`figures[3].lines`", "the upper panel (1) needs at least one line"],
+        ),
+        // a figure file that is not .png, .svg or .pdf; the PNG resolution out of range
+        ("file = \"fig5_kinetic_energy.png\"", "file = \"fig5.jpg\"", "fig5.jpg", &["ending in .png, .svg or .pdf"]),
+        (
+            "every = 0.01",
+            "every = 0.01\ndpi = 5000",
+            "dpi = 5000",
+            &["`output.dpi`", "between 24 and 600 dpi, got 5000"],
+        ),
     ];
     for (from, to, at, want) in cases {
         let text = drive_with(from, to);

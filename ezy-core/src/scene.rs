@@ -251,8 +251,9 @@ pub struct OutputSettings {
     /// Optional column groups to compute and write.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub include: Vec<OutputGroup>,
-    /// File format of the figures (`"png"`, `"svg"` or `"pdf"`); the
-    /// command line's `--format` wins.
+    /// File format of the figures of `ezy run` and `ezy sweep` (`"png"`,
+    /// `"svg"` or `"pdf"`); the command line's `--format` wins. `ezy
+    /// precision` writes PNG.
     #[serde(default, skip_serializing_if = "FigureFormat::is_png")]
     pub figure_format: FigureFormat,
     /// Resolution of PNG figures \[dots per inch\] (a figure is 10 x 6.67
@@ -1111,6 +1112,12 @@ impl Scene {
                 if let Some(m) = missing(c) {
                     return Err(SceneError::at(&j_x, m));
                 }
+            }
+            if !fig.lines.is_empty() && fig.lines.iter().all(|l| l.panel == 2) {
+                return Err(SceneError::at(
+                    &["figures", &i, "lines"],
+                    "every line is in panel 2: the upper panel (1) needs at least one line",
+                ));
             }
             for (j, line) in fig.lines.iter().enumerate() {
                 let j = j.to_string();
