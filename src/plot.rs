@@ -288,7 +288,7 @@ pub fn encode(svg: &str, format: FigureFormat, dpi: f64, title: &str) -> Result<
             let mut bytes = Vec::new();
             image::codecs::png::PngEncoder::new_with_quality(
                 &mut bytes,
-                image::codecs::png::CompressionType::Best,
+                image::codecs::png::CompressionType::Default,
                 image::codecs::png::FilterType::Adaptive,
             )
             .write_image(&rgb, p.width(), p.height(), image::ColorType::Rgb8)
