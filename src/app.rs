@@ -58,6 +58,7 @@ struct ModelOps {
     scale: fn(&[usize], usize, KktMethod) -> Result<Scaled, scale::ScaleError>,
     sweep: fn(&sweep::SweepJob) -> Result<sweep::SweepReport, sweep::SweepError>,
     animate: AnimateFn,
+    bench: fn(&Scene, usize) -> Result<Vec<crate::bench::BenchRow>, run::Error>,
 }
 
 /// `ezy animate` for one model type.
@@ -87,6 +88,7 @@ impl ModelOps {
             scale: |n, batches, kkt| Ok((M::default().info(), scale::scale::<M>(n, batches, kkt)?)),
             sweep: sweep::sweep_model::<M>,
             animate: crate::animate::animate_model::<M>,
+            bench: crate::bench::bench_model::<M>,
         }
     }
 }
@@ -482,6 +484,7 @@ impl App {
             Some(Command::Precision(args)) => self.cmd_precision(args, out),
             Some(Command::Sweep(args)) => self.cmd_sweep(*args, out),
             Some(Command::Animate(args)) => self.cmd_animate(args, out),
+            Some(Command::Bench(args)) => self.cmd_bench(args, out),
             Some(Command::Equations(args)) => {
                 let ops = self.model_ops(&args.model)?;
                 let text = (ops.equations)(&args.sets, args.format.into()).map_err(AppError::Failed)?;
@@ -691,6 +694,45 @@ impl App {
             text.push_str(&format!("  wrote {}\n", f.display()));
         }
         committed(out, &text, &args.out)
+    }
+
+    fn cmd_bench(&self, args: cli::BenchArgs, out: &mut dyn Write) -> Result<(), AppError> {
+        let name = args.scene.clone().unwrap_or_else(|| self.default_scene.clone());
+        let src = self.load_scene(&name).map_err(AppError::failed)?;
+        let scene = &src.scene;
+        let ops = self.model_ops(&scene.model)?;
+        let repeat = usize::try_from(args.repeat).unwrap_or(usize::MAX).min(1000);
+        let mut rows = (ops.bench)(scene, repeat).map_err(AppError::from_run)?;
+        if !args.no_process {
+            // this very program, started anew for each setting: parse,
+            // setup, integration and CSV, no figures
+            let exe = std::env::current_exe().map_err(|e| AppError::Failed(format!("finding this program: {e}")))?;
+            let tmp = tempfile::tempdir().map_err(|e| AppError::Failed(format!("a scratch directory: {e}")))?;
+            for (k, row) in rows.iter_mut().enumerate() {
+                let dir = tmp.path().join(k.to_string());
+                let mut times = Vec::new();
+                for _ in 0..repeat {
+                    let start = std::time::Instant::now();
+                    let status = std::process::Command::new(&exe)
+                        .arg("run")
+                        .arg(&name)
+                        .args(&row.args)
+                        .arg("--no-figures")
+                        .arg("--out")
+                        .arg(&dir)
+                        .stdout(std::process::Stdio::null())
+                        .stderr(std::process::Stdio::null())
+                        .status()
+                        .map_err(|e| AppError::Failed(format!("starting {}: {e}", exe.display())))?;
+                    if !status.success() {
+                        return Err(AppError::Failed(format!("`run {name} {}` failed: {status}", row.args.join(" "))));
+                    }
+                    times.push(start.elapsed().as_secs_f64());
+                }
+                row.process_s = Some(crate::bench::median(&mut times));
+            }
+        }
+        Ok(out.write_all(crate::bench::table(&scene.name, &rows).as_bytes())?)
     }
 
     fn cmd_animate(&self, args: cli::AnimateArgs, out: &mut dyn Write) -> Result<(), AppError> {

@@ -36,6 +36,22 @@ pub enum Command {
     Sweep(Box<SweepArgs>),
     /// Run a scene and draw its bodies moving, as an animated GIF.
     Animate(AnimateArgs),
+    /// Time an accurate trajectory: DOP853 at 1e-11 with and without
+    /// output, the scene's own setting, and each whole `run` process.
+    Bench(BenchArgs),
+}
+
+/// `ezy bench`.
+#[derive(clap::Args, Debug, Default)]
+pub struct BenchArgs {
+    /// Scene: a known name (default: drive) or a path to a .toml scene file.
+    pub scene: Option<String>,
+    /// Runs per setting (the median is reported).
+    #[arg(long, value_name = "N", default_value_t = 5, value_parser = parse_count)]
+    pub repeat: u64,
+    /// Skip timing the whole `run` processes.
+    #[arg(long)]
+    pub no_process: bool,
 }
 
 /// `ezy animate`: the scene's bodies, skates, hinges and springs drawn moving.

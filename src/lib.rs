@@ -8,6 +8,7 @@
 
 pub mod animate;
 pub mod app;
+pub mod bench;
 mod cli;
 pub mod equations;
 pub mod figures;

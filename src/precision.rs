@@ -82,8 +82,9 @@ pub fn ladder() -> Vec<Setting> {
 
 /// Keeps only the last sample (and optionally the residual history).
 #[derive(Default)]
-struct Last {
-    y: Vec<f64>,
+pub(crate) struct Last {
+    /// The final state `[q, qd]`.
+    pub(crate) y: Vec<f64>,
     residual: f64,
     history: Option<Vec<(f64, f64, f64)>>,
 }
@@ -105,7 +106,7 @@ impl<M: Model> Observer<M> for Last {
 /// Runs `scene` with `setting`; `every` is the output interval (the final
 /// time is always sampled). Returns the final state, the summary and the
 /// residual history if asked for.
-fn run_once<M: Model + Default>(
+pub(crate) fn run_once<M: Model + Default>(
     scene: &Scene,
     setting: &Setting,
     every: f64,
@@ -155,7 +156,7 @@ fn timed<M: Model + Default>(scene: &Scene, setting: &Setting) -> Result<(Last, 
     Ok((last, summary, times[times.len() / 2]))
 }
 
-fn state_error(a: &[f64], b: &[f64]) -> f64 {
+pub(crate) fn state_error(a: &[f64], b: &[f64]) -> f64 {
     a.iter().zip(b).fold(0.0, |m, (x, y)| m.max((x - y).abs()))
 }
 

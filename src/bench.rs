@@ -1,0 +1,134 @@
+//! `ezy bench`: what an accurate trajectory costs, in one run.
+//!
+//! For a scene (the drive scene by default) it measures three settings
+//! in this process, against a reference computed by ezy itself (DOP853 at
+//! rtol = atol = 1e-13, projected):
+//!
+//! 1. DOP853 at rtol = atol = 1e-11, projected, one output at the end: the
+//!    integration alone;
+//! 2. the same with an output every 0.01 s (dense output at each sample);
+//! 3. the scene's own setting (for `drive`, the assignment's RK4 at
+//!    h = 1e-4 s with projection).
+//!
+//! Each integration time is the median of `repeat` runs. The whole
+//! process of the matching `run` command (`--no-figures`, CSV written) is
+//! timed by the caller, which starts the program itself ([`crate::App`]).
+
+use ezy_core::integrator::Method;
+use ezy_core::{Model, ProjectionKind, Scene};
+
+use crate::precision::{Setting, run_once, state_error};
+use crate::run::Error;
+
+/// One measured setting.
+#[derive(Debug, Clone, PartialEq)]
+pub struct BenchRow {
+    /// What was run.
+    pub what: String,
+    /// Median integration time \[s\].
+    pub integration_s: f64,
+    /// Right-hand-side evaluations of one run.
+    pub rhs_evals: u64,
+    /// Max over `q` and `qd` of the difference from the reference at the
+    /// final time.
+    pub error: f64,
+    /// The `run` arguments (after the scene) that reproduce the setting.
+    pub args: Vec<String>,
+    /// Median wall time of the whole `run` process \[s\] (`None`: not
+    /// measured).
+    pub process_s: Option<f64>,
+}
+
+/// Measures the three settings of the module documentation on `scene`,
+/// each integration `repeat` times (at least 1).
+///
+/// # Errors
+/// [`Error`] if a run fails.
+pub fn bench_model<M: Model + Default>(scene: &Scene, repeat: usize) -> Result<Vec<BenchRow>, Error> {
+    let t_end = scene.t_end;
+    let reference =
+        Setting { method: Method::Dop853, dt: None, tol: Some(1e-13), projection: ProjectionKind::MassWeighted };
+    let (ref_run, _) = run_once::<M>(scene, &reference, t_end, false)?;
+    let tight = Setting { tol: Some(1e-11), ..reference };
+    let own = scene.run_settings();
+    let own_setting = Setting {
+        method: own.method,
+        dt: (!own.method.is_adaptive()).then_some(own.dt),
+        tol: own.method.is_adaptive().then_some(own.rtol),
+        projection: own.projection,
+    };
+    let own_what = match own_setting.dt {
+        Some(h) => format!("{} h = {h} s, projection {} (the scene's)", own.method.name(), own.projection.name()),
+        None => format!("{} rtol = {:e} (the scene's)", own.method.name(), own.rtol),
+    };
+    let dop = ["--integrator", "dop853", "--rtol", "1e-11", "--atol", "1e-11"].map(String::from).to_vec();
+    let cases = [
+        (format!("dop853 rtol = atol = 1e-11, output at {t_end} s only"), tight, t_end, {
+            let mut a = dop.clone();
+            a.extend(["--every".to_string(), format!("{t_end}")]);
+            a
+        }),
+        ("dop853 rtol = atol = 1e-11, output every 0.01 s".to_string(), tight, 0.01, {
+            let mut a = dop.clone();
+            a.extend(["--every".to_string(), "0.01".to_string()]);
+            a
+        }),
+        (own_what, own_setting, own.every, Vec::new()),
+    ];
+    let mut rows = Vec::new();
+    for (what, setting, every, args) in cases {
+        let mut times = Vec::new();
+        let (mut error, mut rhs_evals) = (f64::NAN, 0);
+        for _ in 0..repeat.max(1) {
+            let (last, summary) = run_once::<M>(scene, &setting, every, false)?;
+            times.push(summary.integration_time.as_secs_f64());
+            error = state_error(&last.y, &ref_run.y);
+            rhs_evals = summary.counters.rhs_evals;
+        }
+        rows.push(BenchRow { what, integration_s: median(&mut times), rhs_evals, error, args, process_s: None });
+    }
+    Ok(rows)
+}
+
+/// The median of `v` (sorted in place); NaN for none.
+pub fn median(v: &mut [f64]) -> f64 {
+    if v.is_empty() {
+        return f64::NAN;
+    }
+    v.sort_by(f64::total_cmp);
+    v[v.len() / 2]
+}
+
+/// A time in the unit that reads best: `1.58 ms`, `0.40 s`.
+fn time(s: f64) -> String {
+    if s < 1e-3 {
+        format!("{:.1} µs", s * 1e6)
+    } else if s < 1.0 {
+        format!("{:.2} ms", s * 1e3)
+    } else {
+        format!("{s:.2} s")
+    }
+}
+
+/// The table for people.
+pub fn table(scene: &str, rows: &[BenchRow]) -> String {
+    let mut s = format!(
+        "ezy bench {scene}: error = max |y(t_end) - y_ref(t_end)| over q and qd against DOP853 at 1e-13; times are medians\n"
+    );
+    s.push_str(&format!(
+        "{:<58} {:>12} {:>10} {:>10} {:>14}\n",
+        "setting", "integration", "RHS evals", "error", "whole process"
+    ));
+    for r in rows {
+        s.push_str(&format!(
+            "{:<58} {:>12} {:>10} {:>10.1e} {:>14}\n",
+            r.what,
+            time(r.integration_s),
+            r.rhs_evals,
+            r.error,
+            r.process_s.map_or("-".into(), time)
+        ));
+    }
+    s.push_str("whole process: `ezy run SCENE ARGS --no-figures` started anew (parse, setup, integration, CSV)\n");
+    s
+}
