@@ -522,11 +522,7 @@ fn frame_svg(g: &Geometry, frames: &Frames, k: usize, anim: &AnimateOptions) -> 
             .map_err(|e| e.to_string())?;
         root.present().map_err(|e| e.to_string())?;
     }
-    Ok(svg.replacen(
-        &format!("width=\"{}\" height=\"{}\"", crate::plot::WIDTH * SCALE, crate::plot::HEIGHT * SCALE),
-        &format!("width=\"{}\" height=\"{}\"", crate::plot::WIDTH, crate::plot::HEIGHT),
-        1,
-    ))
+    Ok(crate::plot::nominal_size(svg))
 }
 
 /// No line at all (the mesh's light lines).

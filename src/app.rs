@@ -696,9 +696,19 @@ impl App {
         committed(out, &text, &args.out)
     }
 
-    fn cmd_bench(&self, args: cli::BenchArgs, out: &mut dyn Write) -> Result<(), AppError> {
-        let name = args.scene.clone().unwrap_or_else(|| self.default_scene.clone());
+    /// The scene a command names (`given`), or the default scene, loaded;
+    /// with the name as given.
+    fn named_scene(&self, given: Option<&str>) -> Result<(String, SceneSource), AppError> {
+        let name = given.map_or_else(|| self.default_scene.clone(), str::to_string);
+        if name.is_empty() {
+            return Err(AppError::Failed("no scene given and this program has no default scene".into()));
+        }
         let src = self.load_scene(&name).map_err(AppError::failed)?;
+        Ok((name, src))
+    }
+
+    fn cmd_bench(&self, args: cli::BenchArgs, out: &mut dyn Write) -> Result<(), AppError> {
+        let (name, src) = self.named_scene(args.scene.as_deref())?;
         let scene = &src.scene;
         let ops = self.model_ops(&scene.model)?;
         let repeat = usize::try_from(args.repeat).unwrap_or(usize::MAX).min(1000);
@@ -736,11 +746,7 @@ impl App {
     }
 
     fn cmd_animate(&self, args: cli::AnimateArgs, out: &mut dyn Write) -> Result<(), AppError> {
-        let name = args.scene.clone().unwrap_or_else(|| self.default_scene.clone());
-        if name.is_empty() {
-            return Err(AppError::Failed("no scene given and this program has no default scene".into()));
-        }
-        let src = self.load_scene(&name).map_err(AppError::failed)?;
+        let (_, src) = self.named_scene(args.scene.as_deref())?;
         let scene = &src.scene;
         let anim = args.options(&scene.name).map_err(AppError::Failed)?;
         let opts = args.overrides.options();
@@ -754,11 +760,7 @@ impl App {
     }
 
     fn cmd_run(&self, args: cli::RunArgs, out: &mut dyn Write) -> Result<(), AppError> {
-        let name = args.scene.clone().unwrap_or_else(|| self.default_scene.clone());
-        if name.is_empty() {
-            return Err(AppError::Failed("no scene given and this program has no default scene".into()));
-        }
-        let src = self.load_scene(&name).map_err(AppError::failed)?;
+        let (_, src) = self.named_scene(args.scene.as_deref())?;
         let scene = &src.scene;
         let opts = args.options(&scene.name);
         let report = self.run_scene(scene, &opts).map_err(AppError::from_run)?;

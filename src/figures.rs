@@ -177,21 +177,33 @@ fn check_values(figure: &str, column: String, values: &[f64], times: &[f64], log
     Ok(())
 }
 
-/// Draws `fig` from `table` in `format` (PNG at `dpi`) and returns the
-/// file's bytes; see [`chart`].
+/// Draws `fig` from `table` as SVG (see [`chart`] and
+/// [`crate::plot::chart_svg`]).
 ///
 /// # Errors
-/// As [`chart`], and [`FigureError::Plot`] for a drawing failure (see
-/// [`crate::plot::figure`]).
+/// As [`chart`], and [`FigureError::Plot`] for a drawing failure.
+pub fn svg(info: &ModelInfo, fig: &FigureSpec, table: &Table) -> Result<String, FigureError> {
+    crate::plot::chart_svg(&chart(info, fig, table)?)
+        .map_err(|source| FigureError::Plot { figure: fig.file.clone(), source })
+}
+
+/// Draws `fig` from `table` and returns its SVG and the file's bytes in
+/// `format` (PNG at `dpi`): the SVG once, encoded from it.
+///
+/// # Errors
+/// As [`svg`], and [`FigureError::Plot`] if the encoding fails (see
+/// [`crate::plot::encode`]).
 pub fn render(
     info: &ModelInfo,
     fig: &FigureSpec,
     table: &Table,
     format: FigureFormat,
     dpi: f64,
-) -> Result<Vec<u8>, FigureError> {
-    crate::plot::figure(&chart(info, fig, table)?, format, dpi)
-        .map_err(|source| FigureError::Plot { figure: fig.file.clone(), source })
+) -> Result<(String, Vec<u8>), FigureError> {
+    let svg = svg(info, fig, table)?;
+    let bytes = crate::plot::encode(&svg, format, dpi, &fig.title)
+        .map_err(|source| FigureError::Plot { figure: fig.file.clone(), source })?;
+    Ok((svg, bytes))
 }
 
 /// The chart of `fig` from `table`: lines over `fig.x` in one or two

@@ -346,7 +346,7 @@ fn svg_options() -> &'static resvg::usvg::Options<'static> {
 
 /// The SVG plotters wrote for a `SCALE x` canvas, with `width` and
 /// `height` set to the nominal size (the `viewBox` keeps the canvas).
-fn nominal_size(svg: String) -> String {
+pub(crate) fn nominal_size(svg: String) -> String {
     let (w, h) = (WIDTH * SCALE, HEIGHT * SCALE);
     svg.replacen(&format!("width=\"{w}\" height=\"{h}\""), &format!("width=\"{WIDTH}\" height=\"{HEIGHT}\""), 1)
 }

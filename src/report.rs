@@ -210,16 +210,15 @@ figure svg, img { max-width: 100%; height: auto; }
 figcaption { color: #666; font-size: 0.9em; }
 ";
 
-/// The figures of `scene` as SVG for the page.
+/// The figures of `scene` as SVG for the page, by stem (when the run drew
+/// none itself: `--no-figures`).
 pub fn figures(info: &ezy_core::ModelInfo, scene: &Scene, table: &Table) -> Vec<(String, Result<String, String>)> {
     use rayon::prelude::*;
     scene
         .figures
         .par_iter()
         .map(|fig| {
-            let svg = crate::figures::chart(info, fig, table)
-                .map_err(|e| e.to_string())
-                .and_then(|c| crate::plot::chart_svg(&c).map_err(|e| e.to_string()));
+            let svg = crate::figures::svg(info, fig, table).map_err(|e| e.to_string());
             (ezy_core::figure_stem(&fig.file).to_string(), svg)
         })
         .collect()

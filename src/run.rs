@@ -454,6 +454,7 @@ pub fn run_model_tapped<M: Model + Default>(
         }
     };
     let table = obs.finish()?;
+    let mut drawn_svgs = Vec::new();
     if opts.figures {
         let format = opts.figure_format.unwrap_or(scene.output.figure_format);
         let dpi = opts.dpi.unwrap_or(scene.output.dpi);
@@ -464,15 +465,20 @@ pub fn run_model_tapped<M: Model + Default>(
         // written in order; a signal stops the drawing at the next figure
         use rayon::prelude::*;
         for chunk in scene.figures.chunks(rayon::current_num_threads().max(1)) {
-            let drawn: Vec<Result<Vec<u8>, Error>> = chunk
+            let drawn: Vec<Result<(String, Vec<u8>), Error>> = chunk
                 .par_iter()
                 .map(|fig| {
                     tx.check(Some(settings.t_end), Some(format!("drawing {}", fig.file)))?;
                     Ok(crate::figures::render(&sys.info, fig, &table, format, dpi)?)
                 })
                 .collect();
-            for (fig, bytes) in chunk.iter().zip(drawn) {
-                tx.write(&format.file_name(&fig.file), &bytes?)?;
+            for (fig, drawn) in chunk.iter().zip(drawn) {
+                let (svg, bytes) = drawn?;
+                tx.write(&format.file_name(&fig.file), &bytes)?;
+                // the report shows the same drawing
+                if opts.report {
+                    drawn_svgs.push((ezy_core::figure_stem(&fig.file).to_string(), Ok(svg)));
+                }
             }
         }
     }
@@ -502,7 +508,8 @@ pub fn run_model_tapped<M: Model + Default>(
             b.set("writing report.html");
         }
         tx.check(Some(settings.t_end), Some("writing report.html".into()))?;
-        let html = report_html(scene, opts, &sys, &y0, &report);
+        let figures = if opts.figures { drawn_svgs } else { crate::report::figures(&sys.info, scene, &report.table) };
+        let html = report_html(scene, opts, &sys, &y0, &report, figures);
         tx.write("report.html", html.as_bytes())?;
     }
     report.files = tx.commit()?;
@@ -512,7 +519,15 @@ pub fn run_model_tapped<M: Model + Default>(
 }
 
 /// The page of `ezy run --report` (see [`crate::report`]).
-fn report_html<M: Model>(scene: &Scene, opts: &RunOptions, sys: &Dynamics<M>, y0: &[f64], r: &Report) -> String {
+/// `figures`: each figure's stem and SVG (or why it is missing).
+fn report_html<M: Model>(
+    scene: &Scene,
+    opts: &RunOptions,
+    sys: &Dynamics<M>,
+    y0: &[f64],
+    r: &Report,
+    figures: Vec<(String, Result<String, String>)>,
+) -> String {
     use crate::report::{REPORT_DPI, REPORT_FPS, REPORT_FRAMES};
     let ledger = crate::report::ledger(sys, y0, &r.summary.final_state, &r.state_names);
     let animation = crate::animate::gif_of_table(sys, scene, &r.table, REPORT_FRAMES, REPORT_FPS, REPORT_DPI)
@@ -526,7 +541,7 @@ fn report_html<M: Model>(scene: &Scene, opts: &RunOptions, sys: &Dynamics<M>, y0
         ledger: &ledger,
         max_gap: r.summary.max_energy_error,
         animation,
-        figures: crate::report::figures(&sys.info, scene, &r.table),
+        figures,
         command: crate::report::command_line(&scene.name, opts),
     };
     crate::report::html(&page)
