@@ -115,6 +115,28 @@ pub fn with_sets<M: Model + Default>(sets: &[(String, f64)]) -> Result<M, String
     Ok(m)
 }
 
+/// The `name` a scene's text declares, read without parsing it: a
+/// top-level line `name = "..."` (a basic string without escapes,
+/// perhaps followed by a comment) before the first table header. `None`
+/// when the text gives it otherwise; the caller then parses the text.
+fn declared_name(text: &str) -> Option<&str> {
+    for line in text.lines() {
+        let line = line.trim_start();
+        if line.starts_with('[') {
+            return None;
+        }
+        let Some(rest) = line.strip_prefix("name").map(str::trim_start).and_then(|r| r.strip_prefix('=')) else {
+            continue;
+        };
+        let rest = rest.trim_start().strip_prefix('"')?;
+        let end = rest.find('"')?;
+        let (value, after) = (&rest[..end], rest[end + 1..].trim());
+        let plain = !value.is_empty() && !value.contains('\\') && (after.is_empty() || after.starts_with('#'));
+        return plain.then_some(value);
+    }
+    None
+}
+
 /// A scene the application knows by name: its file as errors name it and
 /// its text, or a path read when the scene is first needed.
 #[derive(Debug, Clone)]
@@ -352,6 +374,9 @@ impl App {
         if is_path {
             return self.load_file(Path::new(name_or_path));
         }
+        if let Some(src) = self.quick_scene(name_or_path)? {
+            return Ok(src);
+        }
         let all = self.scenes()?;
         let known = all.iter().map(|s| s.scene.name.clone()).collect::<Vec<_>>().join(", ");
         match all.into_iter().find(|s| s.scene.name == name_or_path) {
@@ -361,6 +386,36 @@ impl App {
             Some(s) => Ok(s),
             None => Err(LoadError::Unknown { name: name_or_path.to_string(), known }),
         }
+    }
+
+    /// The known scene `name` with only its own text parsed and checked,
+    /// when every scene declares its name plainly ([`declared_name`]) and
+    /// the names are distinct; `None` leaves the lookup to
+    /// [`App::scenes`], which parses them all (and reports what is wrong
+    /// with any). Parsing and checking all 17 built-in scenes took most
+    /// of a short run's setup.
+    fn quick_scene(&self, name: &str) -> Result<Option<SceneSource>, LoadError> {
+        let mut found = None;
+        let mut names = std::collections::HashSet::new();
+        for entry in &self.scenes {
+            let SceneEntry::Text { file, text } = entry else { return Ok(None) };
+            let Some(declared) = declared_name(text) else { return Ok(None) };
+            if !names.insert(declared) {
+                return Ok(None);
+            }
+            if declared == name {
+                found = Some((file, text));
+            }
+        }
+        let Some((file, text)) = found else { return Ok(None) };
+        if Path::new(name).is_file() {
+            return Err(LoadError::Ambiguous { name: name.to_string() });
+        }
+        let scene = Scene::from_toml(text, file)?;
+        if scene.name != name {
+            return Ok(None);
+        }
+        Ok(Some(check_scene(self, scene, text, file)?))
     }
 
     fn model_ops(&self, key: &str) -> Result<&ModelOps, AppError> {
@@ -789,4 +844,28 @@ fn committed(out: &mut dyn Write, text: &str, dir: &Path) -> Result<(), AppError
             ))
         }
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::declared_name;
+
+    #[test]
+    fn declared_names_are_read_only_when_plain() {
+        assert_eq!(declared_name("# c\nname = \"drive\"\nmodel = \"m\"\n"), Some("drive"));
+        assert_eq!(declared_name("name=\"a-b\"   # the scene\n[initial]\n"), Some("a-b"));
+        assert_eq!(declared_name("model = \"m\"\nnames = 1\nname = \"x\"\n"), Some("x"));
+        // anything else is left to the TOML parser
+        for text in [
+            "[output]\nname = \"x\"\n",
+            "name = 'x'\n",
+            "name = \"a\\u0041\"\n",
+            "name = \"\"\"x\"\"\"\n",
+            "name = \"x\" extra\n",
+            "name = \"\"\n",
+            "model = \"m\"\n",
+        ] {
+            assert_eq!(declared_name(text), None, "{text}");
+        }
+    }
 }

@@ -27,6 +27,10 @@ pub struct BenchRow {
     pub what: String,
     /// Median integration time \[s\].
     pub integration_s: f64,
+    /// Median time of the output work in the same runs \[s\]: projecting
+    /// the dense-output samples, their energies and residuals
+    /// ([`ezy_core::Summary::output_time`]; no file is written here).
+    pub output_s: f64,
     /// Right-hand-side evaluations of one run.
     pub rhs_evals: u64,
     /// Max over `q` and `qd` of the difference from the reference at the
@@ -77,15 +81,17 @@ pub fn bench_model<M: Model + Default>(scene: &Scene, repeat: usize) -> Result<V
     ];
     let mut rows = Vec::new();
     for (what, setting, every, args) in cases {
-        let mut times = Vec::new();
+        let (mut times, mut outputs) = (Vec::new(), Vec::new());
         let (mut error, mut rhs_evals) = (f64::NAN, 0);
         for _ in 0..repeat.max(1) {
             let (last, summary) = run_once::<M>(scene, &setting, every, false)?;
             times.push(summary.integration_time.as_secs_f64());
+            outputs.push(summary.output_time.as_secs_f64());
             error = state_error(&last.y, &ref_run.y);
             rhs_evals = summary.counters.rhs_evals;
         }
-        rows.push(BenchRow { what, integration_s: median(&mut times), rhs_evals, error, args, process_s: None });
+        let (integration_s, output_s) = (median(&mut times), median(&mut outputs));
+        rows.push(BenchRow { what, integration_s, output_s, rhs_evals, error, args, process_s: None });
     }
     Ok(rows)
 }
@@ -116,19 +122,21 @@ pub fn table(scene: &str, rows: &[BenchRow]) -> String {
         "ezy bench {scene}: error = max |y(t_end) - y_ref(t_end)| over q and qd against DOP853 at 1e-13; times are medians\n"
     );
     s.push_str(&format!(
-        "{:<58} {:>12} {:>10} {:>10} {:>14}\n",
-        "setting", "integration", "RHS evals", "error", "whole process"
+        "{:<58} {:>12} {:>10} {:>10} {:>10} {:>14}\n",
+        "setting", "integration", "output", "RHS evals", "error", "whole process"
     ));
     for r in rows {
         s.push_str(&format!(
-            "{:<58} {:>12} {:>10} {:>10.1e} {:>14}\n",
+            "{:<58} {:>12} {:>10} {:>10} {:>10.1e} {:>14}\n",
             r.what,
             time(r.integration_s),
+            time(r.output_s),
             r.rhs_evals,
             r.error,
             r.process_s.map_or("-".into(), time)
         ));
     }
+    s.push_str("output: projecting the dense-output samples, their energies and residuals (no file)\n");
     s.push_str("whole process: `ezy run SCENE ARGS --no-figures` started anew (parse, setup, integration, CSV)\n");
     s
 }

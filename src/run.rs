@@ -610,10 +610,11 @@ pub fn summary(scene: &str, r: &Report) -> String {
     );
     let _ = writeln!(
         out,
-        "  RHS evaluations {}, integration {:.3} s ({:.0} ns per RHS incl. projection), setup {:.3} s, whole run {:.3} s",
+        "  RHS evaluations {}, integration {:.3} s ({:.0} ns per RHS incl. projection), output {:.3} s, setup {:.3} s, whole run {:.3} s",
         s.counters.rhs_evals,
         t,
         t / s.counters.rhs_evals.max(1) as f64 * 1e9,
+        s.output_time.as_secs_f64(),
         r.setup.as_secs_f64(),
         r.wall.as_secs_f64()
     );

@@ -40,6 +40,12 @@ struct Workspace {
     lambda: Vec<f64>,
     /// `u'(t)` of each drive at the last evaluation.
     drive_rates: Vec<f64>,
+    /// The time of `waves` and `drive_waves` (NaN: none yet).
+    wave_t: f64,
+    /// Each effect's waveforms at `wave_t` ([`crate::effects::Waveforms`]).
+    waves: Vec<crate::effects::Waveforms>,
+    /// Each drive's `[u, u', u'']` at `wave_t`.
+    drive_waves: Vec<[f64; 3]>,
     /// Baumgarte scratch: `G qd` (nc), `phi` (nh), unit weights (nq).
     gqd: Vec<f64>,
     phi: Vec<f64>,
@@ -68,7 +74,8 @@ pub struct Dynamics<M: Model> {
     pub model: M,
     /// Its sizes, names and pattern of `G` (from [`Model::info`]).
     pub info: ModelInfo,
-    /// Applied forces, exactly those the scene lists.
+    /// Applied forces, exactly those the scene lists (changed in place
+    /// between evaluations: see [`Dynamics::forget_waveforms`]).
     pub effects: Vec<Effect>,
     /// Drives (prescribed hinge angles), one per drive of the model; set
     /// with [`Dynamics::with_drives`]. Their work states follow the effects'.
@@ -143,6 +150,9 @@ impl<M: Model> Dynamics<M> {
             phi: vec![0.0; info.n_holonomic],
             ones: vec![1.0; nq],
             drive_rates: Vec::new(),
+            wave_t: f64::NAN,
+            waves: vec![[0.0; 3]; effects.len()],
+            drive_waves: Vec::new(),
         };
         Self {
             model,
@@ -161,8 +171,18 @@ impl<M: Model> Dynamics<M> {
     /// Sets the drives (prescribed hinge angles; see [`crate::drive`]).
     pub fn with_drives(mut self, drives: Vec<crate::drive::Drive>) -> Self {
         self.ws.drive_rates = vec![0.0; drives.len()];
+        self.ws.drive_waves = vec![[0.0; 3]; drives.len()];
+        self.ws.wave_t = f64::NAN;
         self.drives = drives;
         self
+    }
+
+    /// Forgets the waveform values kept from the last evaluation (the
+    /// right-hand side reuses them while `t` repeats): needed only after
+    /// changing [`Dynamics::effects`] or [`Dynamics::drives`] in place
+    /// between two evaluations at one time. [`crate::simulate`] calls it.
+    pub fn forget_waveforms(&mut self) {
+        self.ws.wave_t = f64::NAN;
     }
 
     /// The KKT path's conditioning estimate of the last solve (see
@@ -192,8 +212,23 @@ impl<M: Model> Dynamics<M> {
                 ws.g[r * nq + c] = v;
             }
         }
-        for (d, rate) in self.drives.iter().zip(&mut ws.drive_rates) {
-            let [_, ud, udd] = d.angle.eval3(t);
+        // waveforms once per time: stages often repeat one (RK4's midpoint,
+        // a step's end and the next step's start)
+        if t.to_bits() != ws.wave_t.to_bits()
+            || ws.waves.len() != self.effects.len()
+            || ws.drive_waves.len() != self.drives.len()
+        {
+            ws.waves.resize(self.effects.len(), [0.0; 3]);
+            ws.drive_waves.resize(self.drives.len(), [0.0; 3]);
+            for (e, w) in self.effects.iter().zip(&mut ws.waves) {
+                *w = e.waveforms(t);
+            }
+            for (d, w) in self.drives.iter().zip(&mut ws.drive_waves) {
+                *w = d.angle.eval3(t);
+            }
+            ws.wave_t = t;
+        }
+        for ((d, rate), &[_, ud, udd]) in self.drives.iter().zip(&mut ws.drive_rates).zip(&ws.drive_waves) {
             ws.gamma[d.row] -= udd;
             *rate = ud;
         }
@@ -218,8 +253,8 @@ impl<M: Model> Dynamics<M> {
         // is not touched (the `free` scene pays nothing for the library).
         if !self.effects.is_empty() {
             ws.f.fill(0.0);
-            for (e, p) in self.effects.iter().zip(power) {
-                *p = e.apply(t, q, qd, &mut ws.f).0;
+            for ((e, p), wave) in self.effects.iter().zip(power).zip(&ws.waves) {
+                *p = e.apply_with(wave, q, qd, &mut ws.f).0;
                 // a NaN from a finite state is the effect's own failure (a
                 // spring-damper of zero length); a non-finite state is
                 // reported where the state is checked

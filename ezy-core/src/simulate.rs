@@ -194,8 +194,12 @@ pub struct Summary {
     pub counters: Counters,
     /// Projections applied.
     pub projections: u64,
-    /// Wall time of the integration alone (steps and projections, no output).
+    /// Wall time of the integration alone (steps, projections and the
+    /// dense output's interpolation; no output work).
     pub integration_time: Duration,
+    /// Wall time of the output work: projecting dense-output samples,
+    /// their energies and residuals, and the observer (the CSV rows).
+    pub output_time: Duration,
     /// Largest `max|C|` over the outputs \[m\].
     pub max_residual_position: f64,
     /// Largest `max|G qd|` over the outputs \[m/s\].
@@ -275,19 +279,75 @@ struct Run<'a, M: Model, O: Observer<M>> {
     observer: &'a mut O,
     proj: Projector<M>,
     resid: Residuals,
-    sample: Vec<f64>,
     t0_energy: f64,
     /// Size of the last step \[s\] (0 before the first).
     last_step: f64,
     summary: Summary,
     output_time: Duration,
+    /// Samples `(t, y)` not yet observed, row after row.
+    pending: Vec<f64>,
+    /// For each of them: whether it is a dense-output sample to project.
+    pending_projected: Vec<bool>,
     newton: crate::integrator::radau5::NewtonStats,
 }
 
 impl<M: Model, O: Observer<M>> Run<'_, M, O> {
-    /// Writes the sample `(t, y)`.
+    /// Queues the sample `(t, y)`; the queue goes to the observer when
+    /// full ([`Run::flush`]), so the step loop only copies the state.
     fn emit(&mut self, sys: &Dynamics<M>, t: f64, y: &[f64]) -> Result<(), RunError<O::Error>> {
+        self.queue(sys, t, false, |row| row.copy_from_slice(y))
+    }
+
+    /// Queues a sample at `t` whose state `fill` writes in place; `project`:
+    /// it is to be projected before it is observed (a dense-output sample).
+    fn queue(
+        &mut self,
+        sys: &Dynamics<M>,
+        t: f64,
+        project: bool,
+        fill: impl FnOnce(&mut [f64]),
+    ) -> Result<(), RunError<O::Error>> {
+        let ny = sys.ny();
+        self.pending_projected.push(project && self.settings.projection != ProjectionKind::None);
+        self.pending.push(t);
+        let start = self.pending.len();
+        self.pending.resize(start + ny, 0.0);
+        fill(&mut self.pending[start..]);
+        if self.pending.len() + ny + 1 > self.pending.capacity() {
+            self.flush(sys)?;
+        }
+        Ok(())
+    }
+
+    /// Hands the queued samples to the observer, each with its kinetic
+    /// energy, work and residuals (computed here, once per sample, off the
+    /// step loop). Its time is left out of the integration time.
+    fn flush(&mut self, sys: &Dynamics<M>) -> Result<(), RunError<O::Error>> {
+        if self.pending.is_empty() {
+            return Ok(());
+        }
         let clock = Instant::now();
+        let mut pending = std::mem::take(&mut self.pending);
+        let flags = std::mem::take(&mut self.pending_projected);
+        let nq = sys.nq();
+        let res = pending.chunks_exact_mut(sys.ny() + 1).zip(&flags).try_for_each(|(row, &project)| {
+            let (t, y) = row.split_first_mut().expect("a row holds its time");
+            if project {
+                let (q, rest) = y.split_at_mut(nq);
+                self.proj.project(&sys.model, *t, q, &mut rest[..nq])?;
+            }
+            self.observe(sys, *t, y)
+        });
+        self.pending = pending;
+        self.pending.clear();
+        self.pending_projected = flags;
+        self.pending_projected.clear();
+        self.output_time += clock.elapsed();
+        res
+    }
+
+    /// The observer's view of the sample `(t, y)`.
+    fn observe(&mut self, sys: &Dynamics<M>, t: f64, y: &[f64]) -> Result<(), RunError<O::Error>> {
         let nq = sys.nq();
         let (q, rest) = y.split_at(nq);
         let qd = &rest[..nq];
@@ -316,9 +376,7 @@ impl<M: Model, O: Observer<M>> Run<'_, M, O> {
             residual_position: rp,
             residual_velocity: rv,
         };
-        self.observer.observe(sys, &sample).map_err(RunError::Output)?;
-        self.output_time += clock.elapsed();
-        Ok(())
+        self.observer.observe(sys, &sample).map_err(RunError::Output)
     }
 
     /// After an accepted step from `t` to `t_new`: non-finite check,
@@ -368,7 +426,6 @@ impl<M: Model, O: Observer<M>> Run<'_, M, O> {
         Ok(changed)
     }
 
-    /// Writes the dense-output sample held in `self.sample`.
     /// Before an adaptive method's step attempt from `t` with step `h`:
     /// the step budget, `h` cut to end at `t_end` (returns whether this is
     /// the last step), and a step at the rounding level of `t`, or of the
@@ -410,23 +467,20 @@ impl<M: Model, O: Observer<M>> Run<'_, M, O> {
         n_out as f64 * self.settings.every <= self.settings.t_end * (1.0 + 1e-12) && self.out_time(n_out) <= t_new
     }
 
-    /// The outputs inside `(t, t_new]` of an accepted step of size `h`,
-    /// from its dense output `interpolate(theta, out)`, projected;
-    /// `n_out` counts them.
+    /// The outputs inside `(t, t_new]` of an accepted step, from the
+    /// step's dense output `interpolate(t_out, out)`, queued to be
+    /// projected with the output's work ([`Run::flush`], off the step
+    /// loop); `n_out` counts them.
     fn emit_dense(
         &mut self,
         sys: &Dynamics<M>,
-        t: f64,
-        h: f64,
         t_new: f64,
         n_out: &mut u64,
         interpolate: impl Fn(f64, &mut [f64]),
     ) -> Result<(), RunError<O::Error>> {
         while self.output_due(*n_out, t_new) {
             let t_out = self.out_time(*n_out);
-            interpolate((t_out - t) / h, &mut self.sample);
-            self.project_sample(sys, t_out)?;
-            self.emit_sample(sys, t_out)?;
+            self.queue(sys, t_out, true, |row| interpolate(t_out, row))?;
             *n_out += 1;
         }
         Ok(())
@@ -441,30 +495,17 @@ impl<M: Model, O: Observer<M>> Run<'_, M, O> {
         }
         Ok(())
     }
-
-    fn emit_sample(&mut self, sys: &Dynamics<M>, t: f64) -> Result<(), RunError<O::Error>> {
-        let sample = std::mem::take(&mut self.sample);
-        let res = self.emit(sys, t, &sample);
-        self.sample = sample;
-        res
-    }
-
-    /// Projects a dense-output sample so that outputs lie on the constraints.
-    fn project_sample(&mut self, sys: &Dynamics<M>, t: f64) -> Result<(), SimError> {
-        if self.settings.projection != ProjectionKind::None {
-            let nq = sys.nq();
-            let (q, rest) = self.sample.split_at_mut(nq);
-            self.proj.project(&sys.model, t, q, &mut rest[..nq])?;
-        }
-        Ok(())
-    }
 }
 
 /// Integrates `sys` from `y0 = [q, qd, W_1 .. W_k]` with the method of `settings`
 /// and projection after every accepted step. Fixed-step methods output
 /// every `every` seconds (rounded to whole steps); adaptive methods output
-/// at exact multiples of `every` from their dense output (projected like
-/// the steps), never shortening a step for it.
+/// at exact multiples of `every` from the dense output of the step that
+/// holds them (built on the projected step end), projected like the steps,
+/// never shortening a step for it. Samples are queued and handed to the
+/// observer in batches, projected and with their energies and residuals,
+/// off the step loop: that work is the output's, left out of
+/// [`Summary::integration_time`] (see [`Summary::output_time`]).
 ///
 /// # Errors
 /// [`RunError::Sim`] on a singular KKT system, a non-finite state (with
@@ -477,6 +518,7 @@ pub fn simulate<M: Model, O: Observer<M>>(
     observer: &mut O,
 ) -> Result<Summary, RunError<O::Error>> {
     settings.validate()?;
+    sys.forget_waveforms();
     let nq = sys.nq();
     let t0_energy = sys.kinetic_energy(&y0[nq..2 * nq]);
     let counters0 = sys.counters;
@@ -485,7 +527,6 @@ pub fn simulate<M: Model, O: Observer<M>>(
         observer,
         proj: Projector::<M>::new(&sys.model, settings.projection, &sys.mass).with_drives(&sys.drives),
         resid: Residuals::new(&sys.info),
-        sample: y0.to_vec(),
         t0_energy,
         last_step: 0.0,
         summary: Summary {
@@ -495,6 +536,7 @@ pub fn simulate<M: Model, O: Observer<M>>(
             counters: Counters::default(),
             projections: 0,
             integration_time: Duration::ZERO,
+            output_time: Duration::ZERO,
             max_residual_position: 0.0,
             max_residual_velocity: 0.0,
             max_step_drift: 0.0,
@@ -507,21 +549,27 @@ pub fn simulate<M: Model, O: Observer<M>>(
             stiff: None,
         },
         output_time: Duration::ZERO,
+        pending: Vec::with_capacity(pending_rows(y0.len()) * (y0.len() + 1)),
+        pending_projected: Vec::with_capacity(pending_rows(y0.len())),
         newton: Default::default(),
     };
     run.summary.projection_path = run.proj.path();
     let mut y = y0.to_vec();
     run.emit(sys, 0.0, &y)?;
     let start = Instant::now();
-    match settings.method {
-        Method::Euler => fixed(sys, &mut y, &mut run, &mut Euler::new(y0.len()), Euler::step::<Dynamics<M>>)?,
-        Method::Rk4 => fixed(sys, &mut y, &mut run, &mut Rk4::new(y0.len()), Rk4::step::<Dynamics<M>>)?,
-        Method::Dopri5 => adaptive::<M, O, Dopri5>(sys, &mut y, &mut run)?,
-        Method::Dop853 => adaptive::<M, O, Dop853>(sys, &mut y, &mut run)?,
-        Method::Radau5 => implicit(sys, &mut y, &mut run)?,
-    }
+    let result = match settings.method {
+        Method::Euler => fixed(sys, &mut y, &mut run, &mut Euler::new(y0.len()), Euler::step::<Dynamics<M>>),
+        Method::Rk4 => fixed(sys, &mut y, &mut run, &mut Rk4::new(y0.len()), Rk4::step::<Dynamics<M>>),
+        Method::Dopri5 => adaptive::<M, O, Dopri5>(sys, &mut y, &mut run),
+        Method::Dop853 => adaptive::<M, O, Dop853>(sys, &mut y, &mut run),
+        Method::Radau5 => implicit(sys, &mut y, &mut run),
+    };
+    // the samples queued before a failure are observed before it is told
+    run.flush(sys)?;
+    result?;
     let mut summary = run.summary;
     summary.integration_time = start.elapsed().saturating_sub(run.output_time);
+    summary.output_time = run.output_time;
     summary.counters = Counters {
         rhs_evals: sys.counters.rhs_evals - counters0.rhs_evals,
         kkt_solves: sys.counters.kkt_solves - counters0.kkt_solves,
@@ -530,6 +578,12 @@ pub fn simulate<M: Model, O: Observer<M>>(
     summary.newton = run.newton;
     summary.ill_conditioned = sys.ill_conditioned;
     Ok(summary)
+}
+
+/// Samples queued before they go to the observer: about 512 KiB of
+/// states, at least one.
+fn pending_rows(ny: usize) -> usize {
+    (65_536 / (ny + 1)).clamp(1, 256)
 }
 
 type FixedStep<S, R> = fn(&mut S, &mut R, f64, &mut [f64], f64) -> Result<(), SimError>;
@@ -605,29 +659,31 @@ fn adaptive<M: Model, O: Observer<M>, E: EmbeddedRk>(
             continue;
         }
         stage_failure = None;
+        let t_new = if last { settings.t_end } else { t + h };
+        // the accepted state, projected, and F there: the next step's k1
+        let projected = run.after_step(sys, t, t_new, &mut y_new, h)?;
+        if projected || !E::FSAL_IN_ESTIMATE {
+            sys.rhs(t_new, &y_new, &mut k_new)?;
+        }
         let hlambda = stiffness.due().then(|| stepper.stiffness(h, &y_new, &k_new));
-        if stiffness.record(t + h, hlambda, E::STIFF_LIMIT)
+        if stiffness.record(t_new, hlambda, E::STIFF_LIMIT)
             && let Some((t_stiff, hl)) = stiffness.found
         {
             run.summary.stiff = stiffness.found;
             run.observer.note(&stiff_note(settings.method, t_stiff, hl, E::STIFF_LIMIT));
         }
-        let t_new = if last { settings.t_end } else { t + h };
-        // outputs inside (t, t_new] from the dense output
+        // outputs inside (t, t_new] from the dense output, built on the
+        // projected end point
         if run.output_due(n_out, t_new) {
             stepper.prepare_dense(sys, t, y, &k1, h, &y_new, &k_new)?;
-            run.emit_dense(sys, t, h, t_new, &mut n_out, |theta, out| stepper.interpolate(theta, out))?;
+            run.emit_dense(sys, t_new, &mut n_out, |t_out, out| stepper.interpolate((t_out - t) / h, out))?;
         }
         // every 64 attempts, also when no output is due for long (tiny steps)
         if (run.summary.steps + run.summary.rejected).is_multiple_of(64) {
             run.observer.progress(t_new);
         }
         y.copy_from_slice(&y_new);
-        if run.after_step(sys, t, t_new, y, h)? {
-            sys.rhs(t_new, y, &mut k1)?;
-        } else {
-            k1.copy_from_slice(&k_new);
-        }
+        k1.copy_from_slice(&k_new);
         t = t_new;
         h = h_next;
         run.observer.poll(t).map_err(RunError::Output)?;
@@ -668,7 +724,7 @@ fn implicit<M: Model, O: Observer<M>>(
             Attempt::Accepted { h_next } => h_next,
         };
         let t_new = if last { settings.t_end } else { t + h };
-        run.emit_dense(sys, t, h, t_new, &mut n_out, |theta, out| stepper.interpolate(theta, out))?;
+        run.emit_dense(sys, t_new, &mut n_out, |t_out, out| stepper.interpolate((t_out - t) / h, out))?;
         if (run.summary.steps + run.summary.rejected).is_multiple_of(64) {
             run.observer.progress(t_new);
         }

@@ -924,25 +924,55 @@ fn point_force(body: [usize; 3], p: [f64; 2], force: [f64; 2], q: &[f64], qd: &[
     [qd[body[0]] - w * r[1], qd[body[1]] + w * r[0]]
 }
 
+/// What an effect's force takes from the time alone: the values of its
+/// waveforms at one time ([`Effect::waveforms`]), so that stages at one
+/// time (RK4's two midpoints, a step's end and the next step's start)
+/// evaluate them once.
+pub type Waveforms = [f64; 3];
+
 impl Effect {
     /// Adds this effect's generalized force at `(t, q, qd)` into `f` (nq)
     /// and returns `(power [W], value)`, `value` being the effect's output
     /// quantity ([`Effect::value_column`]).
     #[inline]
     pub fn apply(&self, t: f64, q: &[f64], qd: &[f64], f: &mut [f64]) -> (f64, f64) {
+        self.apply_with(&self.waveforms(t), q, qd, f)
+    }
+
+    /// The values at time `t` \[s\] of the effect's waveforms: a motor's
+    /// torque, a servo's target angle and rate, a driven blade's force, a
+    /// force's two components, a torque, a spring-damper's added tension
+    /// (zeros for an effect without one).
+    #[inline]
+    pub fn waveforms(&self, t: f64) -> Waveforms {
+        match &self.law {
+            Law::Hinge { law: HingeLaw::Motor(w), .. }
+            | Law::Blade(_, BladeLaw::Driven(w))
+            | Law::Torque { torque: w, .. }
+            | Law::SpringDamper { force: w, .. } => [w.eval(t), 0.0, 0.0],
+            Law::Hinge { law: HingeLaw::Servo { angle, .. }, .. } => angle.eval3(t),
+            Law::Force { fx, fy, .. } => [fx.eval(t), fy.eval(t), 0.0],
+            _ => [0.0; 3],
+        }
+    }
+
+    /// [`Effect::apply`] with the waveforms' values `wave` at the time of the
+    /// state ([`Effect::waveforms`]).
+    #[inline]
+    pub fn apply_with(&self, wave: &Waveforms, q: &[f64], qd: &[f64], f: &mut [f64]) -> (f64, f64) {
         match &self.law {
             Law::Hinge { a, b, law } => {
                 let rate = qd[*a] - b.map_or(0.0, |b| qd[b]);
                 let tau = match law {
-                    HingeLaw::Motor(w) => w.eval(t),
+                    HingeLaw::Motor(_) => wave[0],
                     HingeLaw::Spring { stiffness, rest_angle } => {
                         let theta = q[*a] - b.map_or(0.0, |b| q[b]);
                         -stiffness * (theta - rest_angle)
                     }
                     HingeLaw::Damper { damping } => -damping * rate,
-                    HingeLaw::Servo { stiffness, damping, angle } => {
+                    HingeLaw::Servo { stiffness, damping, .. } => {
                         let theta = q[*a] - b.map_or(0.0, |b| q[b]);
-                        let [target, target_rate, _] = angle.eval3(t);
+                        let [target, target_rate, _] = *wave;
                         -stiffness * (theta - target) - damping * (rate - target_rate)
                     }
                 };
@@ -962,15 +992,15 @@ impl Effect {
                 let force = match law {
                     BladeLaw::Viscous { damping } => -damping * vt,
                     BladeLaw::Coulomb { force, smoothing } => -force * vt / vt.hypot(*smoothing),
-                    BladeLaw::Driven(w) => w.eval(t),
+                    BladeLaw::Driven(_) => wave[0],
                 };
                 f[bl.body[0]] += force * e[0];
                 f[bl.body[1]] += force * e[1];
                 f[bl.body[2]] += force * (r[0] * e[1] - r[1] * e[0]);
                 (force * vt, force)
             }
-            Law::Force { body, offset, fx, fy, frame } => {
-                let (x, y) = (fx.eval(t), fy.eval(t));
+            Law::Force { body, offset, frame, .. } => {
+                let (x, y) = (wave[0], wave[1]);
                 let force = match frame {
                     Frame::World => [x, y],
                     Frame::Body => {
@@ -981,8 +1011,8 @@ impl Effect {
                 let v = point_force(*body, *offset, force, q, qd, f);
                 (force[0] * v[0] + force[1] * v[1], force[0].hypot(force[1]))
             }
-            Law::Torque { phi, torque } => {
-                let tau = torque.eval(t);
+            Law::Torque { phi, .. } => {
+                let tau = wave[0];
                 f[*phi] += tau;
                 (tau * qd[*phi], tau)
             }
@@ -1013,7 +1043,7 @@ impl Effect {
                 f[bl.body[2]] += r[0] * force[1] - r[1] * force[0];
                 (force[0] * v[0] + force[1] * v[1], force[0].hypot(force[1]))
             }
-            Law::SpringDamper { ends: [a, b], stiffness, rest_length, damping, force } => {
+            Law::SpringDamper { ends: [a, b], stiffness, rest_length, damping, .. } => {
                 let (ra, va, la) = a.state(q, qd);
                 let (rb, vb, lb) = b.state(q, qd);
                 let d = [ra[0] - rb[0], ra[1] - rb[1]];
@@ -1024,7 +1054,7 @@ impl Effect {
                 }
                 let e = [d[0] / len, d[1] / len];
                 let rate = e[0] * (va[0] - vb[0]) + e[1] * (va[1] - vb[1]);
-                let tension = stiffness * (len - rest_length) + damping * rate + force.eval(t);
+                let tension = stiffness * (len - rest_length) + damping * rate + wave[0];
                 a.push(la, [-tension * e[0], -tension * e[1]], f);
                 b.push(lb, [tension * e[0], tension * e[1]], f);
                 (-tension * rate, tension)

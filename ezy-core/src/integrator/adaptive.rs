@@ -50,13 +50,17 @@ pub trait EmbeddedRk {
     /// argument of the last stage at `t + h` and `k_s` its value, which
     /// approximates the dominant eigenvalue of the Jacobian times `h`.
     /// Valid after an accepted `attempt` and before `prepare_dense`
-    /// (which reuses the stage buffers); 0 if `y_new = s`.
+    /// (which reuses the stage buffers), with `k_new = F(t + h, y_new)`;
+    /// 0 if `y_new = s`.
     fn stiffness(&self, h: f64, y_new: &[f64], k_new: &[f64]) -> f64;
 
     /// Attempts a step of size `h` from `(t, y)` with `k1 = F(t, y)`.
-    /// Writes the new state into `y_new` and `F(t + h, y_new)` into
-    /// `k_new` (both methods evaluate it as their last stage), and returns
-    /// the error norm (accept when <= 1).
+    /// Writes the new state into `y_new` and returns the error norm
+    /// (accept when <= 1). A method whose error estimate uses
+    /// `F(t + h, y_new)` ([`EmbeddedRk::FSAL_IN_ESTIMATE`], DOPRI5) writes
+    /// it into `k_new`; otherwise (DOP853) `k_new` is left alone and the
+    /// caller evaluates `F` once the step is accepted (and projected), so
+    /// a rejected step or a projected state costs no evaluation in vain.
     ///
     /// # Errors
     /// Whatever the right-hand side fails with.
@@ -92,8 +96,11 @@ pub trait EmbeddedRk {
 
     /// Right-hand-side evaluations done by `prepare_dense` (0 for DOPRI5, 3 for DOP853).
     const DENSE_EVALS: u64;
-    /// Right-hand-side evaluations of one `attempt`.
+    /// Right-hand-side evaluations of one `attempt` (DOPRI5 6, DOP853 11).
     const STAGE_EVALS: u64;
+    /// Whether `attempt` evaluates `F(t + h, y_new)` for its error
+    /// estimate (DOPRI5's `k7`); DOP853's estimate does without it.
+    const FSAL_IN_ESTIMATE: bool;
 
     /// The dense output `y(t + theta h)`, `theta` in [0, 1], after `prepare_dense`.
     fn interpolate(&self, theta: f64, out: &mut [f64]);

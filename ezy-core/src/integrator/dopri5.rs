@@ -67,6 +67,7 @@ impl EmbeddedRk for Dopri5 {
     const STIFF_LIMIT: f64 = 3.25;
     const DENSE_EVALS: u64 = 0;
     const STAGE_EVALS: u64 = 6;
+    const FSAL_IN_ESTIMATE: bool = true;
 
     fn stiffness(&self, h: f64, y_new: &[f64], k_new: &[f64]) -> f64 {
         super::adaptive::stiffness_quotient(h, y_new, &self.tmp, k_new, &self.k6)
