@@ -218,8 +218,11 @@ impl<M: Model> Dynamics<M> {
             || ws.waves.len() != self.effects.len()
             || ws.drive_waves.len() != self.drives.len()
         {
-            ws.waves.resize(self.effects.len(), [0.0; 3]);
-            ws.drive_waves.resize(self.drives.len(), [0.0; 3]);
+            if ws.waves.len() != self.effects.len() || ws.drive_waves.len() != self.drives.len() {
+                // effects or drives replaced in place
+                ws.waves.resize(self.effects.len(), [0.0; 3]);
+                ws.drive_waves.resize(self.drives.len(), [0.0; 3]);
+            }
             for (e, w) in self.effects.iter().zip(&mut ws.waves) {
                 *w = e.waveforms(t);
             }
