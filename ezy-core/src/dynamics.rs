@@ -214,26 +214,21 @@ impl<M: Model> Dynamics<M> {
         }
         // waveforms once per time: stages often repeat one (RK4's midpoint,
         // a step's end and the next step's start)
-        if t.to_bits() != ws.wave_t.to_bits()
-            || ws.waves.len() != self.effects.len()
-            || ws.drive_waves.len() != self.drives.len()
-        {
-            if ws.waves.len() != self.effects.len() || ws.drive_waves.len() != self.drives.len() {
-                // effects or drives replaced in place
-                ws.waves.resize(self.effects.len(), [0.0; 3]);
-                ws.drive_waves.resize(self.drives.len(), [0.0; 3]);
-            }
-            for (e, w) in self.effects.iter().zip(&mut ws.waves) {
-                *w = e.waveforms(t);
-            }
-            for (d, w) in self.drives.iter().zip(&mut ws.drive_waves) {
+        let fresh = t.to_bits() != ws.wave_t.to_bits();
+        if ws.waves.len() != self.effects.len() || ws.drive_waves.len() != self.drives.len() {
+            // effects or drives replaced in place (cold: once)
+            ws.waves = vec![[f64::NAN; 3]; self.effects.len()];
+            ws.drive_waves = vec![[f64::NAN; 3]; self.drives.len()];
+            ws.drive_rates = vec![0.0; self.drives.len()];
+            ws.wave_t = f64::NAN;
+            return self.rhs(t, y, dy);
+        }
+        for ((d, rate), w) in self.drives.iter().zip(&mut ws.drive_rates).zip(&mut ws.drive_waves) {
+            if fresh {
                 *w = d.angle.eval3(t);
             }
-            ws.wave_t = t;
-        }
-        for ((d, rate), &[_, ud, udd]) in self.drives.iter().zip(&mut ws.drive_rates).zip(&ws.drive_waves) {
-            ws.gamma[d.row] -= udd;
-            *rate = ud;
+            ws.gamma[d.row] -= w[2];
+            *rate = w[1];
         }
         if let Some(Baumgarte { alpha, beta }) = self.baumgarte {
             self.model.g_winv_mul(&self.info.pattern, &ws.g_values, &ws.ones, qd, &mut ws.gqd);
@@ -256,7 +251,10 @@ impl<M: Model> Dynamics<M> {
         // is not touched (the `free` scene pays nothing for the library).
         if !self.effects.is_empty() {
             ws.f.fill(0.0);
-            for ((e, p), wave) in self.effects.iter().zip(power).zip(&ws.waves) {
+            for ((e, p), wave) in self.effects.iter().zip(power).zip(&mut ws.waves) {
+                if fresh {
+                    *wave = e.waveforms(t);
+                }
                 *p = e.apply_with(wave, q, qd, &mut ws.f).0;
                 // a NaN from a finite state is the effect's own failure (a
                 // spring-damper of zero length); a non-finite state is
@@ -266,6 +264,8 @@ impl<M: Model> Dynamics<M> {
                 }
             }
         }
+        // every waveform is now at t (not after a failure above)
+        ws.wave_t = t;
         let sys = KktSystem { mass: &self.mass, g: &ws.g, g_values: &ws.g_values, f: &ws.f, gamma: &ws.gamma };
         self.kkt
             .solve(&sys, &mut ws.qdd, &mut ws.lambda)
