@@ -180,7 +180,7 @@ impl<M: Model> Dynamics<M> {
     /// Forgets the waveform values kept from the last evaluation (the
     /// right-hand side reuses them while `t` repeats): needed only after
     /// changing [`Dynamics::effects`] or [`Dynamics::drives`] in place
-    /// between two evaluations at one time. [`crate::simulate`] calls it.
+    /// between two evaluations at one time. [`crate::simulate()`] calls it.
     pub fn forget_waveforms(&mut self) {
         self.ws.wave_t = f64::NAN;
     }
