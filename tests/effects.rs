@@ -449,3 +449,54 @@ fn accelerations_and_point_velocities_are_the_derivatives_of_their_columns() {
     assert!(checked > 5000, "{checked}");
     assert!(worst <= 1e-7, "difference of the columns against the derivative columns: {worst:e}");
 }
+
+/// The right-hand side keeps each waveform's value while `t` repeats
+/// (RK4's two midpoints, a step's end and the next step's start): at
+/// repeated and interleaved times it gives the bits a fresh right-hand
+/// side gives, and a motor replaced in place at the same time is seen
+/// once `forget_waveforms` is called (what `simulate` does).
+#[test]
+fn waveforms_kept_per_time_change_no_bit() {
+    let scene = all_effects();
+    let (mut sys, _) = build::<EzyRoller>(&scene, &[], KktMethod::Auto).unwrap();
+    let y: Vec<f64> = Q.iter().chain(&QD).copied().chain(std::iter::repeat_n(0.0, sys.effects.len())).collect();
+    let (mut a, mut b) = (vec![0.0; y.len()], vec![0.0; y.len()]);
+    for t in [T, T, 0.35, 0.35, T, 1.7] {
+        sys.rhs(t, &y, &mut a).unwrap();
+        let (mut fresh, _) = build::<EzyRoller>(&scene, &[], KktMethod::Auto).unwrap();
+        fresh.rhs(t, &y, &mut b).unwrap();
+        assert!(a.iter().zip(&b).all(|(x, z)| x.to_bits() == z.to_bits()), "t = {t}: {a:?}\n{b:?}");
+    }
+    // the drive scene's motor at twice the amplitude, swapped in place
+    let drive = scenes::drive();
+    let (mut sys, y0) = build::<EzyRoller>(&drive, &[], KktMethod::Auto).unwrap();
+    let (mut doubled, _) = build::<EzyRoller>(&drive, &[("M0".into(), 4.0)], KktMethod::Auto).unwrap();
+    sys.rhs(T, &y0, &mut a).unwrap();
+    doubled.rhs(T, &y0, &mut b).unwrap();
+    let before = a.clone();
+    sys.effects = doubled.effects.clone();
+    sys.rhs(T, &y0, &mut a).unwrap();
+    assert_eq!(a, before, "the kept torque at the same time");
+    sys.forget_waveforms();
+    sys.rhs(T, &y0, &mut a).unwrap();
+    assert_eq!(a, b, "after forget_waveforms");
+    assert_ne!(a, before);
+}
+
+/// DOP853 evaluates `F(t + h, y_new)` once per accepted step, at the
+/// projected state, and never for a rejected one; an output at the final
+/// time needs no dense output: `F(0)`, the starting step's probe, 11
+/// stages per attempt and one per accepted step, exactly.
+#[test]
+fn dop853_spends_twelve_evaluations_per_accepted_step_and_eleven_per_rejected_one() {
+    let (mut sys, y0) = build::<EzyRoller>(&scenes::drive(), &[], KktMethod::Auto).unwrap();
+    let settings = RunSettings { every: 10.0, ..common::dop853(10.0, 10.0, 1e-10) };
+    let s = simulate(&mut sys, &y0, &settings, &mut common::Recorder::default()).unwrap();
+    assert!(s.rejected > 0, "{s:?}");
+    assert_eq!(s.counters.rhs_evals, 2 + 11 * (s.steps + s.rejected) + s.steps, "{s:?}");
+    // with outputs inside the steps, three more per step holding one
+    let settings = common::dop853(10.0, 0.01, 1e-10);
+    let d = simulate(&mut sys, &y0, &settings, &mut common::Recorder::default()).unwrap();
+    assert_eq!((d.steps, d.rejected), (s.steps, s.rejected), "outputs never change the steps");
+    assert_eq!(d.counters.rhs_evals, s.counters.rhs_evals + 3 * d.steps, "{d:?}");
+}

@@ -471,19 +471,32 @@ impl<M: Model, O: Observer<M>> Run<'_, M, O> {
     /// step's dense output `interpolate(t_out, out)`, queued to be
     /// projected with the output's work ([`Run::flush`], off the step
     /// loop); `n_out` counts them.
+    /// An output at the step's end `t_new` is the accepted state `y_new`
+    /// itself.
     fn emit_dense(
         &mut self,
         sys: &Dynamics<M>,
         t_new: f64,
+        y_new: &[f64],
         n_out: &mut u64,
         interpolate: impl Fn(f64, &mut [f64]),
     ) -> Result<(), RunError<O::Error>> {
         while self.output_due(*n_out, t_new) {
             let t_out = self.out_time(*n_out);
-            self.queue(sys, t_out, true, |row| interpolate(t_out, row))?;
+            if t_out == t_new {
+                self.emit(sys, t_out, y_new)?;
+            } else {
+                self.queue(sys, t_out, true, |row| interpolate(t_out, row))?;
+            }
             *n_out += 1;
         }
         Ok(())
+    }
+
+    /// Whether an output falls inside the step ending at `t_new`, not on
+    /// its end (only then is its dense output needed).
+    fn output_inside(&self, n_out: u64, t_new: f64) -> bool {
+        self.output_due(n_out, t_new) && self.out_time(n_out) < t_new
     }
 
     /// The final time is always written: `y` at `t_end` unless output
@@ -674,10 +687,10 @@ fn adaptive<M: Model, O: Observer<M>, E: EmbeddedRk>(
         }
         // outputs inside (t, t_new] from the dense output, built on the
         // projected end point
-        if run.output_due(n_out, t_new) {
+        if run.output_inside(n_out, t_new) {
             stepper.prepare_dense(sys, t, y, &k1, h, &y_new, &k_new)?;
-            run.emit_dense(sys, t_new, &mut n_out, |t_out, out| stepper.interpolate((t_out - t) / h, out))?;
         }
+        run.emit_dense(sys, t_new, &y_new, &mut n_out, |t_out, out| stepper.interpolate((t_out - t) / h, out))?;
         // every 64 attempts, also when no output is due for long (tiny steps)
         if (run.summary.steps + run.summary.rejected).is_multiple_of(64) {
             run.observer.progress(t_new);
@@ -724,12 +737,13 @@ fn implicit<M: Model, O: Observer<M>>(
             Attempt::Accepted { h_next } => h_next,
         };
         let t_new = if last { settings.t_end } else { t + h };
-        run.emit_dense(sys, t_new, &mut n_out, |t_out, out| stepper.interpolate((t_out - t) / h, out))?;
+        // the accepted state projected first: an output at t_new is it
+        run.after_step(sys, t, t_new, &mut y_new, h)?;
+        run.emit_dense(sys, t_new, &y_new, &mut n_out, |t_out, out| stepper.interpolate((t_out - t) / h, out))?;
         if (run.summary.steps + run.summary.rejected).is_multiple_of(64) {
             run.observer.progress(t_new);
         }
         y.copy_from_slice(&y_new);
-        run.after_step(sys, t, t_new, y, h)?;
         sys.rhs(t_new, y, &mut f)?;
         t = t_new;
         h = h_next;
