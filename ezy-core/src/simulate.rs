@@ -470,9 +470,8 @@ impl<M: Model, O: Observer<M>> Run<'_, M, O> {
     /// The outputs inside `(t, t_new]` of an accepted step, from the
     /// step's dense output `interpolate(t_out, out)`, queued to be
     /// projected with the output's work ([`Run::flush`], off the step
-    /// loop); `n_out` counts them.
-    /// An output at the step's end `t_new` is the accepted state `y_new`
-    /// itself.
+    /// loop); `n_out` counts them. An output at the step's end `t_new` is
+    /// the accepted state `y_new` itself.
     fn emit_dense(
         &mut self,
         sys: &Dynamics<M>,
