@@ -136,4 +136,17 @@ inline void print_state(const std::array<double, 13>& y, const std::array<double
     std::fprintf(stderr, "%-6s % .16e  ref % .16e  diff % .3e\n", n[k], y[k], ref[k], y[k] - ref[k]);
 }
 
+// Ends a peer's main(): DOP853's failure, or the CSV line (and, with
+// --print-state, the final state against the reference); the exit status.
+inline int report(const Args& args, const std::array<double, 13>& ref, int status, const char* formulation,
+                  long evals, double seconds, const std::array<double, 13>& y) {
+  if (status != 1) {
+    std::fprintf(stderr, "dop853 failed: %d\n", status);
+    return 1;
+  }
+  if (args.print_state) print_state(y, ref);
+  print_line("C++ hand-written (dop853.hpp)", formulation, args.rtol, evals, seconds, state_error(y, ref));
+  return 0;
+}
+
 }  // namespace ezyroller

@@ -193,14 +193,8 @@ int main(int argc, char** argv) {
     evals = f.evals;
   };
   const double secs = median_time(args.reps, once);
-  if (status != 1) {
-    std::fprintf(stderr, "dop853 failed: %d\n", status);
-    return 1;
-  }
-  if (args.print_state) print_state(y, ref);
-  print_line("C++ hand-written (dop853.hpp)",
-             args.no_projection ? "DAE index-1 Schur (no projection)"
-                                : "DAE index-1 Schur + mass-weighted projection",
-             args.rtol, evals, secs, state_error(y, ref));
-  return 0;
+  return report(args, ref, status,
+                args.no_projection ? "DAE index-1 Schur (no projection)"
+                                   : "DAE index-1 Schur + mass-weighted projection",
+                evals, secs, y);
 }

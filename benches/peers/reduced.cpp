@@ -147,13 +147,5 @@ int main(int argc, char** argv) {
     evals = f.evals;
   };
   const double secs = median_time(args.reps, once);
-  if (status != 1) {
-    std::fprintf(stderr, "dop853 failed: %d\n", status);
-    return 1;
-  }
-  const auto full = full_state(y);
-  if (args.print_state) print_state(full, ref);
-  print_line("C++ hand-written (dop853.hpp)", "reduced ODE (Kane/Maggi; 7 states)", args.rtol, evals,
-             secs, state_error(full, ref));
-  return 0;
+  return report(args, ref, status, "reduced ODE (Kane/Maggi; 7 states)", evals, secs, full_state(y));
 }
