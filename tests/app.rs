@@ -153,3 +153,21 @@ fn the_default_scene_and_usage_errors() {
     let help = cli(&app(), &["--help"]).unwrap_err().to_string();
     assert!(help.contains("precision") && help.contains("equations"), "{help}");
 }
+
+/// `run NAME` parses and checks only the scene it names when every scene
+/// declares its name plainly: a broken scene beside it does not stop the
+/// run, while `list` (which reads them all) names the broken one, and
+/// `run` of the broken one gives its error with its file.
+#[test]
+fn a_broken_scene_stops_only_what_reads_it() {
+    let broken = SCENE.replace("front-sleigh", "broken-sleigh").replace("t_end = 2.0", "t_end = -2.0");
+    let app = app().scene("broken.toml", Box::leak(broken.into_boxed_str()));
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().to_str().unwrap();
+    let ran = cli(&app, &["run", "front-sleigh", "--no-figures", "--t-end", "0.1", "--out", out]).unwrap();
+    assert!(ran.contains("front-sleigh: rk4"), "{ran}");
+    let err = cli(&app, &["list"]).unwrap_err().to_string();
+    assert!(err.contains("broken.toml") && err.contains("t_end"), "{err}");
+    let err = cli(&app, &["run", "broken-sleigh", "--out", out]).unwrap_err().to_string();
+    assert!(err.contains("broken.toml") && err.contains("t_end"), "{err}");
+}
