@@ -97,6 +97,7 @@ fn scene(c: &mut Criterion) {
         every: 0.01,
         projection: ProjectionKind::MassWeighted,
         method: Method::Rk4,
+        formulation: ezy_core::Formulation::Dae,
         rtol: 1e-9,
         atol: 1e-9,
         balance_limit: None,

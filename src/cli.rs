@@ -5,7 +5,7 @@ use std::path::PathBuf;
 
 use clap::{Parser, Subcommand, ValueEnum};
 use ezy_core::kkt::KktMethod;
-use ezy_core::{Baumgarte, FigureFormat, Method, ProjectionKind};
+use ezy_core::{Baumgarte, FigureFormat, Formulation, Method, ProjectionKind};
 
 use crate::run::RunOptions;
 
@@ -225,6 +225,10 @@ pub struct Overrides {
     /// Integration method (scene default: rk4).
     #[arg(long, value_enum)]
     pub integrator: Option<Integrator>,
+    /// Formulation: the DAE in all coordinates with projection, or only the
+    /// independent coordinates and velocities (coordinate partitioning).
+    #[arg(long, value_enum)]
+    pub formulation: Option<FormulationArg>,
     /// Relative tolerance of the adaptive methods (default 1e-9).
     #[arg(long, value_name = "R", allow_hyphen_values = true)]
     pub rtol: Option<f64>,
@@ -295,6 +299,9 @@ impl Overrides {
         }
         if let Some(b) = self.baumgarte {
             a.extend(["--baumgarte".into(), format!("{:?},{:?}", b.alpha, b.beta)]);
+        }
+        if let Some(f) = self.formulation {
+            a.extend(["--formulation".into(), name(f.to_possible_value())]);
         }
         if let Some(m) = self.integrator {
             a.extend(["--integrator".into(), name(m.to_possible_value())]);
@@ -448,6 +455,17 @@ pub enum Integrator {
 }
 
 #[derive(ValueEnum, Clone, Copy, Debug)]
+pub enum FormulationArg {
+    /// The index-1 DAE in all q, qd, projected after every step (the default).
+    Dae,
+    /// Only the independent q, qd are integrated; the dependent ones are
+    /// recovered from the constraints at every evaluation (Wehage & Haug).
+    Reduced,
+    /// Reduced for the explicit methods on models with at most 16 constraint rows.
+    Auto,
+}
+
+#[derive(ValueEnum, Clone, Copy, Debug)]
 pub enum Projection {
     /// No projection.
     None,
@@ -563,6 +581,11 @@ impl Overrides {
                 Integrator::Dopri5 => Method::Dopri5,
                 Integrator::Dop853 => Method::Dop853,
                 Integrator::Radau5 => Method::Radau5,
+            }),
+            formulation: self.formulation.map(|f| match f {
+                FormulationArg::Dae => Formulation::Dae,
+                FormulationArg::Reduced => Formulation::Reduced,
+                FormulationArg::Auto => Formulation::Auto,
             }),
             baumgarte: self.baumgarte,
             rtol: self.rtol,

@@ -77,6 +77,8 @@ pub struct RunOptions {
     pub projection: Option<ProjectionKind>,
     /// Integration method.
     pub method: Option<Method>,
+    /// Formulation (DAE or reduced).
+    pub formulation: Option<ezy_core::Formulation>,
     /// Baumgarte stabilization.
     pub baumgarte: Option<Baumgarte>,
     /// Relative tolerance (adaptive methods).
@@ -356,6 +358,7 @@ pub fn settings(scene: &Scene, opts: &RunOptions) -> Result<RunSettings, SimErro
         every: opts.every.unwrap_or(base.every),
         projection: opts.projection.unwrap_or(base.projection),
         method: opts.method.unwrap_or(base.method),
+        formulation: opts.formulation.unwrap_or(base.formulation),
         rtol: opts.rtol.unwrap_or(base.rtol),
         atol: opts.atol.unwrap_or(base.atol),
         ..base
@@ -599,13 +602,16 @@ pub fn summary(scene: &str, r: &Report) -> String {
         // one shortened step when the step is longer than the run
         format!("{} steps of h = {} s", s.steps, short(r.settings.dt.min(r.settings.t_end)))
     };
+    let kept = if s.formulation == ezy_core::Formulation::Reduced {
+        format!("reduced formulation ({} re-partitions)", s.repartitions)
+    } else {
+        format!("projection {} ({})", r.settings.projection.name(), s.projection_path)
+    };
     let _ = writeln!(
         out,
-        "{scene}: {} {how} to t = {} s, projection {} ({}), {} KKT path",
+        "{scene}: {} {how} to t = {} s, {kept}, {} KKT path",
         s.method.name(),
         short(r.settings.t_end),
-        r.settings.projection.name(),
-        s.projection_path,
         s.kkt
     );
     let _ = writeln!(

@@ -15,6 +15,7 @@ pub fn dop853(t_end: f64, every: f64, tol: f64) -> ezy_core::RunSettings {
         every,
         projection: ezy_core::ProjectionKind::MassWeighted,
         method: ezy_core::Method::Dop853,
+        formulation: ezy_core::Formulation::Dae,
         rtol: tol,
         atol: tol,
         balance_limit: None,

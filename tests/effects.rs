@@ -177,6 +177,7 @@ fn power_is_the_derivative_of_the_work_column_and_the_ledger_closes() {
         every: scene.output.every,
         projection: ProjectionKind::MassWeighted,
         method: Method::Dop853,
+        formulation: ezy_core::Formulation::Dae,
         rtol: 1e-12,
         atol: 1e-12,
         balance_limit: None,

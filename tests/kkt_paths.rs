@@ -84,6 +84,7 @@ fn drive_on_the_sparse_path_matches_the_dense_one() {
             every: 1.0,
             projection: ProjectionKind::MassWeighted,
             method: ezy_core::Method::Rk4,
+            formulation: ezy_core::Formulation::Dae,
             rtol: 1e-9,
             atol: 1e-9,
             balance_limit: None,

@@ -169,6 +169,7 @@ fn small_oscillations_match_the_linearized_frequencies() {
             every: 2e-4,
             projection: ProjectionKind::MassWeighted,
             method: Method::Dop853,
+            formulation: ezy_core::Formulation::Dae,
             rtol: 1e-12,
             atol: 1e-14,
             balance_limit: None,

@@ -8,7 +8,7 @@ use std::cell::Cell;
 
 use ezy::run::build;
 use ezy_core::kkt::KktMethod;
-use ezy_core::{Dynamics, Method, Model, Observer, ProjectionKind, RunSettings, Sample, simulate};
+use ezy_core::{Dynamics, Formulation, Method, Model, Observer, ProjectionKind, RunSettings, Sample, simulate};
 use ezy_models::{EzyRoller, scenes};
 
 struct Counting;
@@ -55,7 +55,7 @@ impl<M: Model> Observer<M> for Sink {
 }
 
 fn allocations_for(t_end: f64, projection: ProjectionKind, kkt: KktMethod, method: Method) -> usize {
-    allocations_with(&[], t_end, projection, kkt, method)
+    allocations_with(&[], t_end, projection, kkt, method, Formulation::Dae)
 }
 
 fn allocations_with(
@@ -64,6 +64,7 @@ fn allocations_with(
     projection: ProjectionKind,
     kkt: KktMethod,
     method: Method,
+    formulation: Formulation,
 ) -> usize {
     let (mut sys, y0) = build::<EzyRoller>(&scenes::drive(), sets, kkt).unwrap();
     let settings = RunSettings {
@@ -72,6 +73,7 @@ fn allocations_with(
         every: 0.01,
         projection,
         method,
+        formulation,
         rtol: 1e-9,
         atol: 1e-9,
         balance_limit: Some(1e-2),
@@ -101,12 +103,27 @@ fn the_step_loop_does_not_allocate() {
     }
 }
 
+/// The reduced formulation's expansions (Newton step, LU of `G_D`) and
+/// its step loop neither (the drive keeps its partition to 60 s; a new
+/// partition, which allocates, is rare).
+#[test]
+fn the_reduced_formulation_does_not_allocate() {
+    for method in [Method::Rk4, Method::Dopri5, Method::Dop853] {
+        let run =
+            |t_end| allocations_with(&[], t_end, ProjectionKind::None, KktMethod::Auto, method, Formulation::Reduced);
+        let (short, long) = (run(0.01), run(2.0));
+        assert_eq!(short, long, "{method:?}: 0.01 s allocates {short} times, 2 s {long} times");
+    }
+}
+
 #[test]
 fn the_singular_mass_path_does_not_allocate() {
     let sets = [("m2".to_string(), 0.0), ("I2".to_string(), 0.0)];
     for method in [Method::Rk4, Method::Dop853] {
-        let short = allocations_with(&sets, 0.01, ProjectionKind::MassWeighted, KktMethod::Auto, method);
-        let long = allocations_with(&sets, 1.0, ProjectionKind::MassWeighted, KktMethod::Auto, method);
+        let short =
+            allocations_with(&sets, 0.01, ProjectionKind::MassWeighted, KktMethod::Auto, method, Formulation::Dae);
+        let long =
+            allocations_with(&sets, 1.0, ProjectionKind::MassWeighted, KktMethod::Auto, method, Formulation::Dae);
         assert_eq!(short, long, "{method:?}: 0.01 s allocates {short} times, 1 s {long} times");
     }
 }
@@ -125,6 +142,7 @@ fn the_family_sparse_path_does_not_allocate() {
             every: 0.01,
             projection: ProjectionKind::MassWeighted,
             method: Method::Rk4,
+            formulation: ezy_core::Formulation::Dae,
             rtol: 1e-9,
             atol: 1e-9,
             balance_limit: None,

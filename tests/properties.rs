@@ -55,6 +55,7 @@ proptest! {
         let settings = RunSettings {
             dt: 1e-3, t_end: 5.0, every: 0.05, projection: ProjectionKind::MassWeighted,
             method: Method::Dop853, rtol: 1e-10, atol: 1e-10, balance_limit: None, max_steps: None,
+            formulation: ezy_core::Formulation::Dae,
         };
         let mut worst = Worst { residual: 0.0 };
         let s = simulate(&mut sys, &y0, &settings, &mut worst).unwrap();

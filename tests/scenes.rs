@@ -160,6 +160,7 @@ fn baumgarte_keeps_the_drift_bounded() {
             every: scene.output.every,
             projection: ProjectionKind::None,
             method: Method::Rk4,
+            formulation: ezy_core::Formulation::Dae,
             rtol: 1e-9,
             atol: 1e-9,
             balance_limit: None,

@@ -142,6 +142,14 @@ pub enum SimError {
         /// What in the model's masses and inertias explains it.
         cause: String,
     },
+    /// The reduced formulation cannot be used or cannot go on (dependent
+    /// constraints, a singular partition, Newton's method for the
+    /// dependent coordinates failing).
+    #[error("formulation reduced: {reason}")]
+    Formulation {
+        /// What failed, with the time.
+        reason: String,
+    },
     /// A setting is out of range.
     #[error("invalid setting {name} = {}: {reason}", fmt_value(*value))]
     Setting {

@@ -15,6 +15,7 @@ pub mod kkt;
 pub mod model;
 pub mod newton;
 pub mod projection;
+pub mod reduced;
 pub mod registry;
 pub mod scalar;
 pub mod scene;
@@ -30,6 +31,7 @@ pub use model::{
     SkateInfo, SliderInfo,
 };
 pub use projection::ProjectionKind;
+pub use reduced::Formulation;
 pub use scalar::Scalar;
 pub use scene::{
     Binding, Column, DEFAULT_DPI, DriveSpec, FigureFormat, FigureSpec, InitValue, Initial, InitialName,

@@ -175,6 +175,9 @@ pub struct IntegratorSettings {
     /// Projection after every step: `none`, `euclidean` or `mass`.
     #[serde(default)]
     pub projection: ProjectionKind,
+    /// `dae`, `reduced` or `auto` ([`crate::reduced::Formulation`]).
+    #[serde(default)]
+    pub formulation: crate::reduced::Formulation,
 }
 
 impl Default for IntegratorSettings {
@@ -185,6 +188,7 @@ impl Default for IntegratorSettings {
             rtol: default_tol(),
             atol: default_tol(),
             projection: ProjectionKind::default(),
+            formulation: crate::reduced::Formulation::default(),
         }
     }
 }
@@ -1356,6 +1360,7 @@ impl Scene {
             every: self.output.every,
             projection: self.integrator.projection,
             method: self.integrator.method,
+            formulation: self.integrator.formulation,
             rtol: self.integrator.rtol,
             atol: self.integrator.atol,
             balance_limit: Some(crate::simulate::BALANCE_LIMIT),

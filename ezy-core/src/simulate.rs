@@ -5,11 +5,13 @@
 use std::time::{Duration, Instant};
 
 use crate::dynamics::{Counters, Dynamics};
+use crate::integrator::Rhs;
 use crate::integrator::adaptive::{Controller, initial_step};
 use crate::integrator::{Dop853, Dopri5, EmbeddedRk, Euler, Method, Rk4, Tolerance};
 use crate::kkt::KktError;
 use crate::model::Model;
 use crate::projection::{ProjectionKind, Projector, max_abs};
+use crate::reduced::{Formulation, Reduced};
 use crate::{SimError, advice};
 
 /// Settings of one run.
@@ -26,6 +28,9 @@ pub struct RunSettings {
     pub projection: ProjectionKind,
     /// Integration method.
     pub method: Method,
+    /// The DAE in all `q, qd`, or the reduced formulation in the
+    /// independent ones ([`crate::reduced`]).
+    pub formulation: Formulation,
     /// Relative tolerance of adaptive methods.
     pub rtol: f64,
     /// Absolute tolerance of adaptive methods.
@@ -194,6 +199,10 @@ pub struct Summary {
     pub counters: Counters,
     /// Projections applied.
     pub projections: u64,
+    /// The formulation integrated ([`Formulation::Dae`] or [`Formulation::Reduced`]).
+    pub formulation: Formulation,
+    /// Times the reduced formulation re-chose its partition.
+    pub repartitions: u64,
     /// Wall time of the integration alone (steps, projections and the
     /// dense output's interpolation; no output work).
     pub integration_time: Duration,
@@ -468,24 +477,25 @@ impl<M: Model, O: Observer<M>> Run<'_, M, O> {
     }
 
     /// The outputs inside `(t, t_new]` of an accepted step, from the
-    /// step's dense output `interpolate(t_out, out)`, queued to be
-    /// projected with the output's work ([`Run::flush`], off the step
-    /// loop); `n_out` counts them. An output at the step's end `t_new` is
-    /// the accepted state `y_new` itself.
-    fn emit_dense(
+    /// step's dense output `interpolate(t_out, out)` (in the integrator's
+    /// state), queued with the output's work ([`Run::flush`], off the
+    /// step loop); `n_out` counts them. An output at the step's end
+    /// `t_new` is the accepted state `x_new` itself.
+    fn emit_dense<F: Integrand<M>>(
         &mut self,
+        form: &mut F,
         sys: &Dynamics<M>,
         t_new: f64,
-        y_new: &[f64],
+        x_new: &[f64],
         n_out: &mut u64,
         interpolate: impl Fn(f64, &mut [f64]),
     ) -> Result<(), RunError<O::Error>> {
         while self.output_due(*n_out, t_new) {
             let t_out = self.out_time(*n_out);
             if t_out == t_new {
-                self.emit(sys, t_out, y_new)?;
+                form.emit(self, sys, t_out, x_new)?;
             } else {
-                self.queue(sys, t_out, true, |row| interpolate(t_out, row))?;
+                form.emit_dense(self, sys, t_out, |x| interpolate(t_out, x))?;
             }
             *n_out += 1;
         }
@@ -498,14 +508,177 @@ impl<M: Model, O: Observer<M>> Run<'_, M, O> {
         self.output_due(n_out, t_new) && self.out_time(n_out) < t_new
     }
 
-    /// The final time is always written: `y` at `t_end` unless output
-    /// number `n_out - 1` was it.
-    fn finish_dense(&mut self, sys: &Dynamics<M>, n_out: u64, y: &[f64]) -> Result<(), RunError<O::Error>> {
+    /// The final time is always written: the accepted `x` at `t_end`
+    /// unless output number `n_out - 1` was it.
+    fn finish_dense<F: Integrand<M>>(
+        &mut self,
+        form: &mut F,
+        sys: &Dynamics<M>,
+        n_out: u64,
+        x: &[f64],
+    ) -> Result<(), RunError<O::Error>> {
         let wrote_final = (n_out - 1) as f64 * self.settings.every >= self.settings.t_end * (1.0 - 1e-12);
         if !wrote_final {
-            self.emit(sys, self.settings.t_end, y)?;
+            form.emit(self, sys, self.settings.t_end, x)?;
         }
         Ok(())
+    }
+}
+
+/// What the step loop integrates, `x' = F(t, x)`: the DAE's full state
+/// ([`Dae`]: `x = y`, projected after each step) or the reduced one
+/// ([`Reduced`]: `x = z`, expanded to `y` for every check and output).
+trait Integrand<M: Model> {
+    /// `dx = F(t, x)`.
+    fn eval(&mut self, sys: &mut Dynamics<M>, t: f64, x: &[f64], dx: &mut [f64]) -> Result<(), SimError>;
+    /// After an accepted step from `t` to `t_new` of size `h`: the full
+    /// state's checks ([`Run::after_step`]); returns whether `x` changed.
+    fn accept<O: Observer<M>>(
+        &mut self,
+        run: &mut Run<'_, M, O>,
+        sys: &Dynamics<M>,
+        t: f64,
+        t_new: f64,
+        x: &mut [f64],
+        h: f64,
+    ) -> Result<bool, SimError>;
+    /// Queues the accepted state `x` at `t` as a sample.
+    fn emit<O: Observer<M>>(
+        &mut self,
+        run: &mut Run<'_, M, O>,
+        sys: &Dynamics<M>,
+        t: f64,
+        x: &[f64],
+    ) -> Result<(), RunError<O::Error>>;
+    /// Queues the dense-output sample at `t` that `fill` writes (an `x`).
+    fn emit_dense<O: Observer<M>>(
+        &mut self,
+        run: &mut Run<'_, M, O>,
+        sys: &Dynamics<M>,
+        t: f64,
+        fill: impl FnOnce(&mut [f64]),
+    ) -> Result<(), RunError<O::Error>>;
+    /// After the accepted step's outputs: whether `x` was rewritten (a new
+    /// partition), so that `F` there is to be evaluated again.
+    fn settle(&mut self, _sys: &Dynamics<M>, _t: f64, _x: &mut [f64]) -> Result<bool, SimError> {
+        Ok(false)
+    }
+    /// The full state `y` of the accepted `x`.
+    fn full_state(&self, x: &[f64]) -> Vec<f64>;
+}
+
+/// The DAE formulation: `x = y = [q, qd, W]`.
+struct Dae;
+
+impl<M: Model> Integrand<M> for Dae {
+    #[inline]
+    fn eval(&mut self, sys: &mut Dynamics<M>, t: f64, x: &[f64], dx: &mut [f64]) -> Result<(), SimError> {
+        sys.rhs(t, x, dx)
+    }
+    fn accept<O: Observer<M>>(
+        &mut self,
+        run: &mut Run<'_, M, O>,
+        sys: &Dynamics<M>,
+        t: f64,
+        t_new: f64,
+        x: &mut [f64],
+        h: f64,
+    ) -> Result<bool, SimError> {
+        run.after_step(sys, t, t_new, x, h)
+    }
+    fn emit<O: Observer<M>>(
+        &mut self,
+        run: &mut Run<'_, M, O>,
+        sys: &Dynamics<M>,
+        t: f64,
+        x: &[f64],
+    ) -> Result<(), RunError<O::Error>> {
+        run.emit(sys, t, x)
+    }
+    fn emit_dense<O: Observer<M>>(
+        &mut self,
+        run: &mut Run<'_, M, O>,
+        sys: &Dynamics<M>,
+        t: f64,
+        fill: impl FnOnce(&mut [f64]),
+    ) -> Result<(), RunError<O::Error>> {
+        run.queue(sys, t, true, fill)
+    }
+    fn full_state(&self, x: &[f64]) -> Vec<f64> {
+        x.to_vec()
+    }
+}
+
+impl<M: Model> Integrand<M> for Reduced {
+    #[inline]
+    fn eval(&mut self, sys: &mut Dynamics<M>, t: f64, x: &[f64], dx: &mut [f64]) -> Result<(), SimError> {
+        Reduced::eval(self, sys, t, x, dx)
+    }
+    fn accept<O: Observer<M>>(
+        &mut self,
+        run: &mut Run<'_, M, O>,
+        sys: &Dynamics<M>,
+        t: f64,
+        t_new: f64,
+        x: &mut [f64],
+        h: f64,
+    ) -> Result<bool, SimError> {
+        if let Some(k) = x.iter().position(|v| !v.is_finite()) {
+            // named in the full state's terms
+            let quantity = format!("the reduced state's component {k}");
+            let advice = advice(run.settings.method, t, h);
+            return Err(SimError::NonFinite { t, quantity, value: x[k], dt: h, advice });
+        }
+        Reduced::accept(self, sys, t_new, x)?;
+        let mut full = std::mem::take(&mut self.scratch);
+        full.clear();
+        full.extend_from_slice(self.accepted());
+        let res = run.after_step(sys, t, t_new, &mut full, h);
+        self.scratch = full;
+        res.map(|_| false)
+    }
+    fn emit<O: Observer<M>>(
+        &mut self,
+        run: &mut Run<'_, M, O>,
+        sys: &Dynamics<M>,
+        t: f64,
+        _x: &[f64],
+    ) -> Result<(), RunError<O::Error>> {
+        run.emit(sys, t, self.accepted())
+    }
+    fn emit_dense<O: Observer<M>>(
+        &mut self,
+        run: &mut Run<'_, M, O>,
+        sys: &Dynamics<M>,
+        t: f64,
+        fill: impl FnOnce(&mut [f64]),
+    ) -> Result<(), RunError<O::Error>> {
+        let mut z = std::mem::take(&mut self.scratch);
+        z.resize(self.nz(sys.ny()), 0.0);
+        fill(&mut z);
+        let res = self.expand(sys, t, &z);
+        self.scratch = z;
+        res?;
+        run.queue(sys, t, false, |row| row.copy_from_slice(self.full()))
+    }
+    fn settle(&mut self, sys: &Dynamics<M>, t: f64, x: &mut [f64]) -> Result<bool, SimError> {
+        self.repartition(sys, t, x)
+    }
+    fn full_state(&self, _x: &[f64]) -> Vec<f64> {
+        self.accepted().to_vec()
+    }
+}
+
+/// A formulation bound to its dynamics: the [`Rhs`] the steppers call.
+struct Bound<'a, M: Model, F> {
+    sys: &'a mut Dynamics<M>,
+    form: &'a mut F,
+}
+
+impl<M: Model, F: Integrand<M>> Rhs for Bound<'_, M, F> {
+    #[inline]
+    fn eval(&mut self, t: f64, y: &[f64], dy: &mut [f64]) -> Result<(), SimError> {
+        self.form.eval(self.sys, t, y, dy)
     }
 }
 
@@ -530,8 +703,40 @@ pub fn simulate<M: Model, O: Observer<M>>(
     observer: &mut O,
 ) -> Result<Summary, RunError<O::Error>> {
     settings.validate()?;
+    let (nq, nc) = (sys.info.nq(), sys.info.nc());
+    // the reduced formulation, built at y0 (auto keeps it only where its
+    // dependent coordinates follow from one Newton step)
+    let reduced = match settings.formulation {
+        Formulation::Dae => None,
+        Formulation::Reduced => Some(Reduced::new(sys, 0.0, y0)?),
+        Formulation::Auto => (Formulation::auto_takes_reduced(settings.method, nq, nc)
+            && nc <= crate::reduced::MAX_CONSTRAINTS)
+            .then(|| Reduced::new(sys, 0.0, y0).ok())
+            .flatten()
+            .filter(Reduced::is_linear),
+    };
+    let formulation = if reduced.is_some() { Formulation::Reduced } else { Formulation::Dae };
+    let reduced_settings;
+    let settings = if formulation == Formulation::Reduced {
+        if settings.method == Method::Radau5 {
+            return Err(SimError::Formulation {
+                reason: "RADAU5's Newton iteration is built on the DAE's KKT matrix; take --formulation dae or an explicit method".into(),
+            }
+            .into());
+        }
+        if sys.baumgarte.is_some() {
+            return Err(SimError::Formulation {
+                reason: "Baumgarte stabilization is for the DAE; the reduced formulation keeps the constraints without it: drop --baumgarte or take --formulation dae".into(),
+            }
+            .into());
+        }
+        // the constraints hold at every expanded state: nothing to project
+        reduced_settings = RunSettings { projection: ProjectionKind::None, ..*settings };
+        &reduced_settings
+    } else {
+        settings
+    };
     sys.forget_waveforms();
-    let nq = sys.nq();
     let t0_energy = sys.kinetic_energy(&y0[nq..2 * nq]);
     let counters0 = sys.counters;
     let mut run = Run {
@@ -547,6 +752,8 @@ pub fn simulate<M: Model, O: Observer<M>>(
             rejected: 0,
             counters: Counters::default(),
             projections: 0,
+            formulation: Formulation::Dae,
+            repartitions: 0,
             integration_time: Duration::ZERO,
             output_time: Duration::ZERO,
             max_residual_position: 0.0,
@@ -566,15 +773,22 @@ pub fn simulate<M: Model, O: Observer<M>>(
         newton: Default::default(),
     };
     run.summary.projection_path = run.proj.path();
-    let mut y = y0.to_vec();
-    run.emit(sys, 0.0, &y)?;
+    run.emit(sys, 0.0, y0)?;
     let start = Instant::now();
-    let result = match settings.method {
-        Method::Euler => fixed(sys, &mut y, &mut run, &mut Euler::new(y0.len()), Euler::step::<Dynamics<M>>),
-        Method::Rk4 => fixed(sys, &mut y, &mut run, &mut Rk4::new(y0.len()), Rk4::step::<Dynamics<M>>),
-        Method::Dopri5 => adaptive::<M, O, Dopri5>(sys, &mut y, &mut run),
-        Method::Dop853 => adaptive::<M, O, Dop853>(sys, &mut y, &mut run),
-        Method::Radau5 => implicit(sys, &mut y, &mut run),
+    let (result, final_state) = match reduced {
+        Some(mut red) => {
+            run.summary.formulation = Formulation::Reduced;
+            run.summary.projection_path = "none: the reduced formulation keeps the constraints";
+            let mut z = vec![0.0; red.nz(y0.len())];
+            red.gather(y0, &mut z);
+            let r = integrate(sys, &mut red, &mut z, &mut run);
+            run.summary.repartitions = red.repartitions;
+            (r, Integrand::<M>::full_state(&red, &z))
+        }
+        None => {
+            let mut y = y0.to_vec();
+            (integrate(sys, &mut Dae, &mut y, &mut run), y)
+        }
     };
     // the samples queued before a failure are observed before it is told
     run.flush(sys)?;
@@ -586,10 +800,27 @@ pub fn simulate<M: Model, O: Observer<M>>(
         rhs_evals: sys.counters.rhs_evals - counters0.rhs_evals,
         kkt_solves: sys.counters.kkt_solves - counters0.kkt_solves,
     };
-    summary.final_state = y;
+    summary.final_state = final_state;
     summary.newton = run.newton;
     summary.ill_conditioned = sys.ill_conditioned;
     Ok(summary)
+}
+
+/// The step loop of the run's method on the formulation `form` from `x`.
+fn integrate<M: Model, O: Observer<M>, F: Integrand<M>>(
+    sys: &mut Dynamics<M>,
+    form: &mut F,
+    x: &mut [f64],
+    run: &mut Run<'_, M, O>,
+) -> Result<(), RunError<O::Error>> {
+    let n = x.len();
+    match run.settings.method {
+        Method::Euler => fixed(sys, form, x, run, &mut Euler::new(n)),
+        Method::Rk4 => fixed(sys, form, x, run, &mut Rk4::new(n)),
+        Method::Dopri5 => adaptive::<M, O, F, Dopri5>(sys, form, x, run),
+        Method::Dop853 => adaptive::<M, O, F, Dop853>(sys, form, x, run),
+        Method::Radau5 => implicit(sys, x, run),
+    }
 }
 
 /// Samples queued before they go to the observer: about 512 KiB of
@@ -598,14 +829,31 @@ fn pending_rows(ny: usize) -> usize {
     (65_536 / (ny + 1)).clamp(1, 256)
 }
 
-type FixedStep<S, R> = fn(&mut S, &mut R, f64, &mut [f64], f64) -> Result<(), SimError>;
+/// A fixed-step method, for [`fixed`].
+trait FixedStep {
+    fn advance<R: Rhs>(&mut self, rhs: &mut R, t: f64, y: &mut [f64], h: f64) -> Result<(), SimError>;
+}
 
-fn fixed<M: Model, O: Observer<M>, S>(
+impl FixedStep for Euler {
+    #[inline]
+    fn advance<R: Rhs>(&mut self, rhs: &mut R, t: f64, y: &mut [f64], h: f64) -> Result<(), SimError> {
+        self.step(rhs, t, y, h)
+    }
+}
+
+impl FixedStep for Rk4 {
+    #[inline]
+    fn advance<R: Rhs>(&mut self, rhs: &mut R, t: f64, y: &mut [f64], h: f64) -> Result<(), SimError> {
+        self.step(rhs, t, y, h)
+    }
+}
+
+fn fixed<M: Model, O: Observer<M>, F: Integrand<M>, S: FixedStep>(
     sys: &mut Dynamics<M>,
-    y: &mut [f64],
+    form: &mut F,
+    x: &mut [f64],
     run: &mut Run<'_, M, O>,
     stepper: &mut S,
-    step: FixedStep<S, Dynamics<M>>,
 ) -> Result<(), RunError<O::Error>> {
     let settings = run.settings;
     let n = settings.n_steps();
@@ -613,21 +861,23 @@ fn fixed<M: Model, O: Observer<M>, S>(
     for i in 0..n {
         let t = i as f64 * settings.dt;
         let t_next = if i + 1 == n { settings.t_end } else { (i + 1) as f64 * settings.dt };
-        step(stepper, sys, t, y, t_next - t)?;
-        run.after_step(sys, t, t_next, y, settings.dt)?;
+        stepper.advance(&mut Bound { sys, form }, t, x, t_next - t)?;
+        form.accept(run, sys, t, t_next, x, settings.dt)?;
         run.observer.poll(t_next).map_err(RunError::Output)?;
         if (i + 1) % stride == 0 || i + 1 == n {
-            run.emit(sys, t_next, y)?;
+            form.emit(run, sys, t_next, x)?;
             if (i + 1) % (stride * 64) == 0 {
                 run.observer.progress(t_next);
             }
         }
+        form.settle(sys, t_next, x)?;
     }
     Ok(())
 }
 
-fn adaptive<M: Model, O: Observer<M>, E: EmbeddedRk>(
+fn adaptive<M: Model, O: Observer<M>, F: Integrand<M>, E: EmbeddedRk>(
     sys: &mut Dynamics<M>,
+    form: &mut F,
     y: &mut [f64],
     run: &mut Run<'_, M, O>,
 ) -> Result<(), RunError<O::Error>> {
@@ -638,21 +888,22 @@ fn adaptive<M: Model, O: Observer<M>, E: EmbeddedRk>(
     let mut ctl = Controller::default();
     let (mut k1, mut y_new, mut k_new) = (vec![0.0; ny], vec![0.0; ny], vec![0.0; ny]);
     let (mut w1, mut w2) = (vec![0.0; ny], vec![0.0; ny]);
-    sys.rhs(0.0, y, &mut k1)?;
-    let mut h = initial_step(sys, 0.0, y, &k1, E::ORDER, &tol, settings.t_end, &mut w1, &mut w2)?;
+    form.eval(sys, 0.0, y, &mut k1)?;
+    let mut h = initial_step(&mut Bound { sys, form }, 0.0, y, &k1, E::ORDER, &tol, settings.t_end, &mut w1, &mut w2)?;
     let mut t = 0.0;
     let mut n_out: u64 = 1;
     let mut stage_failure: Option<SimError> = None;
     let mut stiffness = crate::integrator::adaptive::StiffnessTest::default();
     while t < settings.t_end {
         let last = run.begin_attempt(t, &mut h, &mut stage_failure)?;
-        let err = match stepper.attempt(sys, t, y, &k1, h, &tol, &mut y_new, &mut k_new) {
+        let err = match stepper.attempt(&mut Bound { sys, form }, t, y, &k1, h, &tol, &mut y_new, &mut k_new) {
             // a stage overflowed: as for a non-finite error estimate below
             Err(SimError::Kkt { source: KktError::NonFinite { .. }, .. }) => f64::NAN,
-            // an effect failed at a stage: perhaps the stage overflowed
-            // (a stiff scene at a step beyond the method's stability), so
-            // a smaller step; the error is reported if no step helps
-            Err(e @ SimError::EffectFailed { .. }) => {
+            // an effect failed at a stage, or the reduced formulation's
+            // Newton iteration: perhaps the stage went too far (a stiff
+            // scene at a step beyond the method's stability), so a smaller
+            // step; the error is reported if no step helps
+            Err(e @ (SimError::EffectFailed { .. } | SimError::Formulation { .. })) => {
                 stage_failure = Some(e);
                 f64::NAN
             }
@@ -673,9 +924,9 @@ fn adaptive<M: Model, O: Observer<M>, E: EmbeddedRk>(
         stage_failure = None;
         let t_new = if last { settings.t_end } else { t + h };
         // the accepted state, projected, and F there: the next step's k1
-        let projected = run.after_step(sys, t, t_new, &mut y_new, h)?;
+        let projected = form.accept(run, sys, t, t_new, &mut y_new, h)?;
         if projected || !E::FSAL_IN_ESTIMATE {
-            sys.rhs(t_new, &y_new, &mut k_new)?;
+            form.eval(sys, t_new, &y_new, &mut k_new)?;
         }
         let hlambda = stiffness.due().then(|| stepper.stiffness(h, &y_new, &k_new));
         if stiffness.record(t_new, hlambda, E::STIFF_LIMIT)
@@ -687,12 +938,16 @@ fn adaptive<M: Model, O: Observer<M>, E: EmbeddedRk>(
         // outputs inside (t, t_new] from the dense output, built on the
         // projected end point
         if run.output_inside(n_out, t_new) {
-            stepper.prepare_dense(sys, t, y, &k1, h, &y_new, &k_new)?;
+            stepper.prepare_dense(&mut Bound { sys, form }, t, y, &k1, h, &y_new, &k_new)?;
         }
-        run.emit_dense(sys, t_new, &y_new, &mut n_out, |t_out, out| stepper.interpolate((t_out - t) / h, out))?;
+        run.emit_dense(form, sys, t_new, &y_new, &mut n_out, |t_out, out| stepper.interpolate((t_out - t) / h, out))?;
         // every 64 attempts, also when no output is due for long (tiny steps)
         if (run.summary.steps + run.summary.rejected).is_multiple_of(64) {
             run.observer.progress(t_new);
+        }
+        // a new partition restarts the method from the same state
+        if form.settle(sys, t_new, &mut y_new)? {
+            form.eval(sys, t_new, &y_new, &mut k_new)?;
         }
         y.copy_from_slice(&y_new);
         k1.copy_from_slice(&k_new);
@@ -701,7 +956,7 @@ fn adaptive<M: Model, O: Observer<M>, E: EmbeddedRk>(
         run.observer.poll(t).map_err(RunError::Output)?;
     }
     // the final time is always written
-    run.finish_dense(sys, n_out, y)
+    run.finish_dense(form, sys, n_out, y)
 }
 
 /// The step loop of the implicit method (RADAU5): as [`adaptive`], with
@@ -738,7 +993,9 @@ fn implicit<M: Model, O: Observer<M>>(
         let t_new = if last { settings.t_end } else { t + h };
         // the accepted state projected first: an output at t_new is it
         run.after_step(sys, t, t_new, &mut y_new, h)?;
-        run.emit_dense(sys, t_new, &y_new, &mut n_out, |t_out, out| stepper.interpolate((t_out - t) / h, out))?;
+        run.emit_dense(&mut Dae, sys, t_new, &y_new, &mut n_out, |t_out, out| {
+            stepper.interpolate((t_out - t) / h, out)
+        })?;
         if (run.summary.steps + run.summary.rejected).is_multiple_of(64) {
             run.observer.progress(t_new);
         }
@@ -749,5 +1006,5 @@ fn implicit<M: Model, O: Observer<M>>(
         run.newton = stepper.stats;
         run.observer.poll(t).map_err(RunError::Output)?;
     }
-    run.finish_dense(sys, n_out, y)
+    run.finish_dense(&mut Dae, sys, n_out, y)
 }

@@ -1,0 +1,746 @@
+//! The reduced formulation: generalized coordinate partitioning (Wehage &
+//! Haug 1982, "Generalized coordinate partitioning for dimension reduction
+//! in analysis of constrained dynamic systems", J. Mech. Des. 104(1),
+//! 247-255; Haug, *Computer-Aided Kinematics and Dynamics of Mechanical
+//! Systems*, 1989, §6.3 and §7.3), extended to skates (nonholonomic rows)
+//! as in Nikravesh, *Computer-Aided Analysis of Mechanical Systems*, 1988,
+//! §13.
+//!
+//! The integrator advances only the independent coordinates `q_I`
+//! (nq - nh of them), the independent velocities `qd_I` (nq - nc) and the
+//! work states. At every evaluation the dependent coordinates `q_D` (nh)
+//! are recovered from `phi(q) = u(t)` by Newton's method and the dependent
+//! velocities `qd_D` (nc) from the linear `G(q) qd = b(t)` (`b` holds the
+//! drives' `u'(t)`); the accelerations come from the same KKT system as the
+//! DAE's, and only the independent ones are integrated. Every state the run
+//! outputs satisfies the constraints to rounding without projection, and
+//! the error control sees only the independent components.
+//!
+//! The dependent columns are chosen by Gaussian elimination with full
+//! pivoting (Wehage & Haug's choice) on the row-equilibrated `C_q`
+//! (positions) and `G` (velocities), preferring translational coordinates
+//! `x, y`: every holonomic row ezy's models have (hinge, slider, slot,
+//! drive) is affine in them, so Newton's method converges in one step.
+//! The partition is re-chosen when the pivots of its `C_D` or `G_D` fall
+//! to a tenth of their value when it was chosen (a vehicle turning through
+//! a heading where `G_D` is singular): the integrator then restarts from
+//! the same state, expressed in the new independent components.
+
+use crate::SimError;
+use crate::dynamics::Dynamics;
+use crate::model::Model;
+
+/// The integration formulation (`--formulation`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Formulation {
+    /// The reduced formulation where it pays, else the DAE
+    /// ([`Formulation::auto_takes_reduced`]).
+    Auto,
+    /// The index-1 DAE in all `q, qd` with coordinate projection.
+    #[default]
+    Dae,
+    /// Coordinate partitioning: only the independent `q_I, qd_I` are integrated.
+    Reduced,
+}
+
+/// Largest `nc` the reduced formulation takes: it factors the dense
+/// `nc x nc` `G_D` at every evaluation (`nc^3 / 3` flops), where the DAE's
+/// sparse KKT path grows as `nc`. At 300 rows (a 100-link snake) that is
+/// 9e6 flops per evaluation.
+pub const MAX_CONSTRAINTS: usize = 300;
+
+impl Formulation {
+    /// Name as the CLI spells it.
+    pub fn name(self) -> &'static str {
+        match self {
+            Self::Auto => "auto",
+            Self::Dae => "dae",
+            Self::Reduced => "reduced",
+        }
+    }
+
+    /// Whether `Auto` takes the reduced formulation for `method` on a
+    /// model with `nq` coordinates and `nc` constraint rows: an adaptive
+    /// explicit method (DOPRI5, DOP853) and one degree of freedom in
+    /// velocity (`nq - nc = 1`); [`simulate`](crate::simulate()) also
+    /// requires the dependent coordinates to follow from one Newton step
+    /// (all translations). Measured at equal accuracy (callgrind
+    /// instructions of the integration, docs/physics.md §6.1): there the
+    /// error control on the few independent components saves a third of
+    /// the steps and the run 1.1-1.2x (`trailer`), while at two or more
+    /// degrees of freedom the expansion (a Newton step, a dense LU of
+    /// `G_D`) outweighs what it saves (`drive` 2x, `snake` 2.3-7x), and a
+    /// fixed-step method saves no steps at all.
+    pub fn auto_takes_reduced(method: crate::Method, nq: usize, nc: usize) -> bool {
+        matches!(method, crate::Method::Dopri5 | crate::Method::Dop853) && nq == nc + 1
+    }
+}
+
+/// Which coordinates are independent and which are dependent.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct Partition {
+    /// Independent coordinates `q_I` (indices into `q`, nq - nh).
+    pub q_ind: Vec<usize>,
+    /// Dependent coordinates `q_D` (nh), found from `phi(q) = u(t)`.
+    pub q_dep: Vec<usize>,
+    /// Independent velocities `qd_I` (indices into `qd`, nq - nc).
+    pub v_ind: Vec<usize>,
+    /// Dependent velocities `qd_D` (nc), found from `G qd = b`.
+    pub v_dep: Vec<usize>,
+}
+
+/// A pivot taken from a preferred column when it is at least this
+/// fraction of the largest remaining entry.
+const PREFER: f64 = 0.25;
+
+/// A pivot below this fraction of its row's largest entry means the rows
+/// are dependent at this state.
+const RANK_TOL: f64 = 1e-10;
+
+/// Re-partition when a pivot ratio of `C_D` or `G_D` falls below this
+/// fraction of its value when the partition was chosen.
+const DEGRADE: f64 = 0.1;
+
+/// Newton iterations allowed for `q_D`.
+const MAX_NEWTON: usize = 12;
+
+/// A dense LU factorization with partial pivoting of an `n x n` matrix,
+/// in place (row-major).
+#[derive(Debug, Clone)]
+struct SquareLu {
+    n: usize,
+    a: Vec<f64>,
+    piv: Vec<usize>,
+}
+
+impl SquareLu {
+    fn new(n: usize) -> Self {
+        Self { n, a: vec![0.0; n * n], piv: vec![0; n] }
+    }
+
+    /// Factors `a`; returns `min |u_ii| / max |u_ii|` (1 for `n = 0`), 0
+    /// if a pivot vanished. Sizes up to 8 run unrolled code.
+    fn factor(&mut self) -> f64 {
+        match self.n {
+            0 => 1.0,
+            1 => lu_fixed::<1>(&mut self.a, &mut self.piv),
+            2 => lu_fixed::<2>(&mut self.a, &mut self.piv),
+            3 => lu_fixed::<3>(&mut self.a, &mut self.piv),
+            4 => lu_fixed::<4>(&mut self.a, &mut self.piv),
+            5 => lu_fixed::<5>(&mut self.a, &mut self.piv),
+            6 => lu_fixed::<6>(&mut self.a, &mut self.piv),
+            7 => lu_fixed::<7>(&mut self.a, &mut self.piv),
+            8 => lu_fixed::<8>(&mut self.a, &mut self.piv),
+            _ => lu_any(self.n, &mut self.a, &mut self.piv),
+        }
+    }
+
+    /// `b <- A^-1 b` with the factors of [`SquareLu::factor`].
+    fn solve(&self, b: &mut [f64]) {
+        match self.n {
+            0 => {}
+            1 => solve_fixed::<1>(&self.a, &self.piv, b),
+            2 => solve_fixed::<2>(&self.a, &self.piv, b),
+            3 => solve_fixed::<3>(&self.a, &self.piv, b),
+            4 => solve_fixed::<4>(&self.a, &self.piv, b),
+            5 => solve_fixed::<5>(&self.a, &self.piv, b),
+            6 => solve_fixed::<6>(&self.a, &self.piv, b),
+            7 => solve_fixed::<7>(&self.a, &self.piv, b),
+            8 => solve_fixed::<8>(&self.a, &self.piv, b),
+            n => solve_any(n, &self.a, &self.piv, b),
+        }
+    }
+}
+
+/// LU with partial pivoting of the `N x N` row-major `a` at a size known
+/// at compile time (loops the compiler unrolls); see [`SquareLu::factor`].
+#[inline]
+fn lu_fixed<const N: usize>(a: &mut [f64], piv: &mut [usize]) -> f64 {
+    let a = &mut a[..N * N];
+    let mut m = [[0.0; N]; N];
+    // element by element: a slice copy of a few numbers is a memcpy call
+    for (i, row) in m.iter_mut().enumerate() {
+        for (j, v) in row.iter_mut().enumerate() {
+            *v = a[i * N + j];
+        }
+    }
+    let (mut lo, mut hi) = (f64::INFINITY, 0.0f64);
+    for k in 0..N {
+        let mut p = k;
+        let mut best = m[k][k].abs();
+        for (i, row) in m.iter().enumerate().skip(k + 1) {
+            if row[k].abs() > best {
+                (p, best) = (i, row[k].abs());
+            }
+        }
+        piv[k] = p;
+        if p != k {
+            let (top, bottom) = m.split_at_mut(p);
+            for (x, y) in top[k].iter_mut().zip(bottom[0].iter_mut()) {
+                std::mem::swap(x, y);
+            }
+        }
+        lo = lo.min(best);
+        hi = hi.max(best);
+        if best == 0.0 || !best.is_finite() {
+            return 0.0;
+        }
+        let pivot_row = m[k];
+        for row in m.iter_mut().skip(k + 1) {
+            let l = row[k] / pivot_row[k];
+            row[k] = l;
+            for j in k + 1..N {
+                row[j] -= l * pivot_row[j];
+            }
+        }
+    }
+    for (i, row) in m.iter().enumerate() {
+        for (j, &v) in row.iter().enumerate() {
+            a[i * N + j] = v;
+        }
+    }
+    lo / hi
+}
+
+/// [`SquareLu::solve`] at a size known at compile time.
+#[inline]
+fn solve_fixed<const N: usize>(a: &[f64], piv: &[usize], b: &mut [f64]) {
+    let (a, b) = (&a[..N * N], &mut b[..N]);
+    let mut x = [0.0; N];
+    for (x, &v) in x.iter_mut().zip(b.iter()) {
+        *x = v;
+    }
+    for (k, &p) in piv.iter().enumerate().take(N) {
+        x.swap(k, p);
+    }
+    for i in 1..N {
+        for j in 0..i {
+            x[i] -= a[i * N + j] * x[j];
+        }
+    }
+    for i in (0..N).rev() {
+        for j in i + 1..N {
+            x[i] -= a[i * N + j] * x[j];
+        }
+        x[i] /= a[i * N + i];
+    }
+    for (v, &x) in b.iter_mut().zip(&x) {
+        *v = x;
+    }
+}
+
+/// [`SquareLu::factor`] at any size.
+fn lu_any(n: usize, a: &mut [f64], piv: &mut [usize]) -> f64 {
+    let a = &mut a[..n * n];
+    let (mut lo, mut hi) = (f64::INFINITY, 0.0f64);
+    for k in 0..n {
+        let mut p = k;
+        let mut best = a[k * n + k].abs();
+        for i in k + 1..n {
+            let v = a[i * n + k].abs();
+            if v > best {
+                (p, best) = (i, v);
+            }
+        }
+        piv[k] = p;
+        if p != k {
+            let (top, bottom) = a.split_at_mut(p * n);
+            top[k * n..k * n + n].swap_with_slice(&mut bottom[..n]);
+        }
+        lo = lo.min(best);
+        hi = hi.max(best);
+        if best == 0.0 || !best.is_finite() {
+            return 0.0;
+        }
+        let (upper, lower) = a.split_at_mut((k + 1) * n);
+        let pivot_row = &upper[k * n + k..k * n + n];
+        for row in lower.chunks_exact_mut(n) {
+            let row = &mut row[k..];
+            let l = row[0] / pivot_row[0];
+            row[0] = l;
+            for (x, &u) in row[1..].iter_mut().zip(&pivot_row[1..]) {
+                *x -= l * u;
+            }
+        }
+    }
+    lo / hi
+}
+
+/// [`SquareLu::solve`] at any size.
+fn solve_any(n: usize, a: &[f64], piv: &[usize], b: &mut [f64]) {
+    let (a, b) = (&a[..n * n], &mut b[..n]);
+    for (k, &p) in piv.iter().enumerate() {
+        b.swap(k, p);
+    }
+    for i in 1..n {
+        let s: f64 = a[i * n..i * n + i].iter().zip(&b[..i]).map(|(x, y)| x * y).sum();
+        b[i] -= s;
+    }
+    for i in (0..n).rev() {
+        let row = &a[i * n + i..i * n + n];
+        let s: f64 = row[1..].iter().zip(&b[i + 1..]).map(|(x, y)| x * y).sum();
+        b[i] = (b[i] - s) / row[0];
+    }
+}
+
+/// The pivot columns of Gaussian elimination with full pivoting on the
+/// `m x n` row-major `a` (destroyed), rows equilibrated first; a column
+/// with `prefer[j]` is taken when its best entry is at least [`PREFER`]
+/// times the largest remaining one.
+///
+/// # Errors
+/// The number of rows eliminated before the rest vanished (dependent rows).
+fn pivot_columns(a: &mut [f64], m: usize, n: usize, prefer: &[bool]) -> Result<Vec<usize>, usize> {
+    for row in a.chunks_exact_mut(n) {
+        let s = row.iter().fold(0.0f64, |s, v| s.max(v.abs()));
+        if s > 0.0 {
+            row.iter_mut().for_each(|v| *v /= s);
+        }
+    }
+    let mut rows: Vec<usize> = (0..m).collect();
+    let mut cols_left: Vec<bool> = vec![true; n];
+    let mut chosen = Vec::with_capacity(m);
+    for k in 0..m {
+        let (mut best, mut best_pref) = ((0.0f64, 0, 0), (0.0f64, 0, 0));
+        for (ri, &i) in rows.iter().enumerate().skip(k) {
+            for j in (0..n).filter(|&j| cols_left[j]) {
+                let v = a[i * n + j].abs();
+                if v > best.0 {
+                    best = (v, ri, j);
+                }
+                if prefer[j] && v > best_pref.0 {
+                    best_pref = (v, ri, j);
+                }
+            }
+        }
+        if best.0 <= RANK_TOL {
+            return Err(k);
+        }
+        let (_, ri, j) = if best_pref.0 >= PREFER * best.0 { best_pref } else { best };
+        rows.swap(k, ri);
+        let p = rows[k];
+        cols_left[j] = false;
+        chosen.push(j);
+        let d = a[p * n + j];
+        for &i in &rows[k + 1..] {
+            let l = a[i * n + j] / d;
+            if l != 0.0 {
+                for c in 0..n {
+                    a[i * n + c] -= l * a[p * n + c];
+                }
+            }
+        }
+    }
+    Ok(chosen)
+}
+
+/// The reduced state and the scratch that expands it to the full one.
+#[derive(Debug, Clone)]
+pub struct Reduced {
+    /// The current partition.
+    pub partition: Partition,
+    /// Times the partition was re-chosen.
+    pub repartitions: u64,
+    nq: usize,
+    nh: usize,
+    nc: usize,
+    /// For each coordinate its index in `q_dep` (`usize::MAX`: independent).
+    p_pos: Vec<usize>,
+    /// For each coordinate its index in `v_dep` (`usize::MAX`: independent).
+    v_pos: Vec<usize>,
+    /// Whether each coordinate is a translation `x` or `y`.
+    translational: Vec<bool>,
+    /// `C_q` is the same at every translation (`phi` affine in `x, y`).
+    c_translation_free: bool,
+    /// `G` is the same at every translation.
+    g_translation_free: bool,
+    /// Every dependent coordinate is a translation and `phi` is affine in
+    /// them: one Newton step is exact.
+    linear: bool,
+    c_d: SquareLu,
+    /// `C_D` as last factored (its LU is kept while the values repeat:
+    /// the hinges' `C_D` in translations is constant).
+    c_d_values: Vec<f64>,
+    g_d: SquareLu,
+    phi: Vec<f64>,
+    g_values: Vec<f64>,
+    r: Vec<f64>,
+    /// `q_D` of the last expansion: Newton's start.
+    q_dep_last: Vec<f64>,
+    /// Full state `[q, qd, W]` of the last expansion, and its derivative.
+    y: Vec<f64>,
+    /// The `(t, z)` of the last expansion (an evaluation at the accepted
+    /// state repeats it).
+    expanded_t: f64,
+    expanded_z: Vec<f64>,
+    dy: Vec<f64>,
+    /// The accepted state, expanded.
+    y_accepted: Vec<f64>,
+    /// Pivot ratios of `C_D`, `G_D`: when the partition was chosen, at the
+    /// last expansion and at the last accepted state.
+    quality0: [f64; 2],
+    quality: [f64; 2],
+    quality_accepted: [f64; 2],
+    /// Scratch of the step loop (a dense-output sample's `z`).
+    pub(crate) scratch: Vec<f64>,
+}
+
+impl Reduced {
+    /// The partition for the consistent full state `y = [q, qd, W]` of
+    /// `sys` at `t`.
+    ///
+    /// # Errors
+    /// [`SimError::Formulation`] if the constraints are dependent at `y`.
+    pub fn new<M: Model>(sys: &Dynamics<M>, t: f64, y: &[f64]) -> Result<Self, SimError> {
+        let info = &sys.info;
+        let (nq, nh, nc) = (info.nq(), info.n_holonomic, info.nc());
+        if nc > MAX_CONSTRAINTS {
+            return Err(SimError::Formulation {
+                reason: format!(
+                    "model {} has {nc} constraint rows, more than the {MAX_CONSTRAINTS} whose dense G_D the reduced formulation factors at every evaluation; take --formulation dae (its sparse KKT path)",
+                    info.name
+                ),
+            });
+        }
+        let mut translational = vec![false; nq];
+        for b in &info.bodies {
+            translational[b.coords[0]] = true;
+            translational[b.coords[1]] = true;
+        }
+        let nnz = info.pattern.len();
+        let (mut g0, mut g1) = (vec![0.0; nnz], vec![0.0; nnz]);
+        let mut shifted = y[..nq].to_vec();
+        for (k, v) in shifted.iter_mut().enumerate().filter(|(k, _)| translational[*k]) {
+            *v += 0.37 + 0.11 * k as f64;
+        }
+        sys.model.constraint_matrix(&y[..nq], &mut g0);
+        sys.model.constraint_matrix(&shifted, &mut g1);
+        let same = |k: usize| g0[k].to_bits() == g1[k].to_bits();
+        let nhz = info.n_holonomic_nonzeros();
+        let mut red = Self {
+            partition: Partition { q_ind: vec![], q_dep: vec![], v_ind: vec![], v_dep: vec![] },
+            repartitions: 0,
+            nq,
+            nh,
+            nc,
+            p_pos: vec![usize::MAX; nq],
+            v_pos: vec![usize::MAX; nq],
+            c_translation_free: (0..nhz).all(same),
+            g_translation_free: (0..nnz).all(same),
+            translational,
+            linear: false,
+            c_d: SquareLu::new(nh),
+            c_d_values: vec![f64::NAN; nh * nh],
+            g_d: SquareLu::new(nc),
+            phi: vec![0.0; nh],
+            g_values: g0,
+            r: vec![0.0; nc],
+            q_dep_last: vec![0.0; nh],
+            y: y.to_vec(),
+            expanded_t: f64::NAN,
+            expanded_z: Vec::new(),
+            dy: vec![0.0; y.len()],
+            y_accepted: y.to_vec(),
+            quality0: [1.0; 2],
+            quality: [1.0; 2],
+            quality_accepted: [1.0; 2],
+            scratch: Vec::new(),
+        };
+        red.choose(sys, t, y)?;
+        Ok(red)
+    }
+
+    /// Chooses the partition at the full state `y` (Gaussian elimination
+    /// with full pivoting) and records its pivot ratios.
+    fn choose<M: Model>(&mut self, sys: &Dynamics<M>, t: f64, y: &[f64]) -> Result<(), SimError> {
+        let info = &sys.info;
+        let (nq, nh, nc) = (self.nq, self.nh, self.nc);
+        sys.model.constraint_matrix(&y[..nq], &mut self.g_values);
+        let mut dense = vec![0.0; nc * nq];
+        crate::model::scatter_dense(&info.pattern, &self.g_values, nq, &mut dense);
+        let dependent = |rows: usize, k: usize| SimError::Formulation {
+            reason: format!(
+                "at t = {t} s only {k} of the {rows} {} rows of G are independent; the reduced formulation needs independent constraints (--formulation dae names the dependent one)",
+                if rows == nh { "holonomic" } else { "constraint" }
+            ),
+        };
+        let q_dep =
+            pivot_columns(&mut dense[..nh * nq].to_vec(), nh, nq, &self.translational).map_err(|k| dependent(nh, k))?;
+        let v_dep = pivot_columns(&mut dense, nc, nq, &self.translational).map_err(|k| dependent(nc, k))?;
+        let rest = |dep: &[usize]| (0..nq).filter(|j| !dep.contains(j)).collect::<Vec<_>>();
+        self.partition = Partition { q_ind: rest(&q_dep), v_ind: rest(&v_dep), q_dep, v_dep };
+        self.p_pos.fill(usize::MAX);
+        self.v_pos.fill(usize::MAX);
+        self.expanded_t = f64::NAN;
+        // zero outside the pattern, NaN inside it: refactored at once
+        self.c_d_values.fill(0.0);
+        for &(r, c) in info.pattern.iter().take_while(|(r, _)| *r < nh) {
+            if let Some(j) = self.partition.q_dep.iter().position(|&d| d == c) {
+                self.c_d_values[r * nh + j] = f64::NAN;
+            }
+        }
+        for (i, &j) in self.partition.q_dep.iter().enumerate() {
+            self.p_pos[j] = i;
+            self.q_dep_last[i] = y[j];
+        }
+        for (i, &j) in self.partition.v_dep.iter().enumerate() {
+            self.v_pos[j] = i;
+        }
+        self.linear = self.c_translation_free && self.partition.q_dep.iter().all(|&j| self.translational[j]);
+        let mut z = vec![0.0; self.nz(y.len())];
+        self.gather(y, &mut z);
+        self.expand(sys, t, &z)?;
+        self.quality0 = self.quality;
+        self.quality_accepted = self.quality;
+        Ok(())
+    }
+
+    /// Whether the dependent coordinates follow from one Newton step: all
+    /// are translations and `phi` is affine in them.
+    pub fn is_linear(&self) -> bool {
+        self.linear
+    }
+
+    /// Length of the reduced state for a full state of length `ny`:
+    /// `(nq - nh) + (nq - nc) + ` the work states.
+    pub fn nz(&self, ny: usize) -> usize {
+        ny - self.nh - self.nc
+    }
+
+    /// The reduced state `z = [q_I, qd_I, W]` of the full `y = [q, qd, W]`.
+    pub fn gather(&self, y: &[f64], z: &mut [f64]) {
+        let (ni, nf) = (self.partition.q_ind.len(), self.partition.v_ind.len());
+        for (zi, &j) in z.iter_mut().zip(&self.partition.q_ind) {
+            *zi = y[j];
+        }
+        for (zi, &j) in z[ni..].iter_mut().zip(&self.partition.v_ind) {
+            *zi = y[self.nq + j];
+        }
+        z[ni + nf..].copy_from_slice(&y[2 * self.nq..]);
+    }
+
+    /// The full state of the last expansion.
+    pub fn full(&self) -> &[f64] {
+        &self.y
+    }
+
+    /// Expands the reduced `z` at `t` into the full state ([`Reduced::full`]):
+    /// `q_D` by Newton's method on `phi(q) = u(t)`, `qd_D` from `G qd = b(t)`.
+    ///
+    /// # Errors
+    /// [`SimError::Formulation`] if Newton's method does not converge or
+    /// `C_D` or `G_D` is singular at this state.
+    pub fn expand<M: Model>(&mut self, sys: &Dynamics<M>, t: f64, z: &[f64]) -> Result<(), SimError> {
+        if t.to_bits() == self.expanded_t.to_bits() && z == self.expanded_z.as_slice() {
+            return Ok(());
+        }
+        // an expansion that fails leaves no key behind
+        self.expanded_t = f64::NAN;
+        let (nq, nh, nc) = (self.nq, self.nh, self.nc);
+        let (ni, nf) = (nq - nh, nq - nc);
+        let model = &sys.model;
+        let pattern = &sys.info.pattern;
+        let (q, rest) = self.y.split_at_mut(nq);
+        let (qd, works) = rest.split_at_mut(nq);
+        for (&zi, &j) in z.iter().zip(&self.partition.q_ind) {
+            q[j] = zi;
+        }
+        for (&v, &j) in self.q_dep_last.iter().zip(&self.partition.q_dep) {
+            q[j] = v;
+        }
+        works.copy_from_slice(&z[ni + nf..]);
+        // positions: Newton's method on phi(q) - u(t) = 0 over q_D
+        let mut g_fresh = false;
+        if nh > 0 {
+            let mut converged = false;
+            for _ in 0..MAX_NEWTON {
+                model.phi_and_constraint_matrix(q, &mut self.phi, &mut self.g_values);
+                crate::drive::shift_positions(&sys.drives, t, &mut self.phi);
+                let mut same = true;
+                for (&(r, c), &v) in pattern.iter().zip(&self.g_values).take_while(|((r, _), _)| *r < nh) {
+                    let j = self.p_pos[c];
+                    if j != usize::MAX {
+                        let old = &mut self.c_d_values[r * nh + j];
+                        same &= old.to_bits() == v.to_bits();
+                        *old = v;
+                    }
+                }
+                if !same {
+                    self.c_d.a.copy_from_slice(&self.c_d_values);
+                    self.quality[0] = self.c_d.factor();
+                }
+                if self.quality[0] == 0.0 {
+                    return Err(self.failure(t, "C_D, the dependent coordinates' columns of C_q, is singular"));
+                }
+                self.c_d.solve(&mut self.phi);
+                let mut step = 0.0f64;
+                let mut size = 1.0f64;
+                for (&d, &j) in self.phi.iter().zip(&self.partition.q_dep) {
+                    q[j] -= d;
+                    step = step.max(d.abs());
+                    size = size.max(q[j].abs());
+                }
+                // an affine phi is solved by one step; otherwise quadratic
+                // convergence leaves ~step^2 after a step below 1e-10
+                if self.linear || step <= 1e-10 * size {
+                    converged = step.is_finite();
+                    g_fresh = self.g_translation_free && self.linear;
+                    break;
+                }
+            }
+            if !converged {
+                return Err(self.failure(t, "Newton's method for the dependent coordinates did not converge"));
+            }
+            for (v, &j) in self.q_dep_last.iter_mut().zip(&self.partition.q_dep) {
+                *v = q[j];
+            }
+        }
+        if !g_fresh {
+            model.constraint_matrix(q, &mut self.g_values);
+        }
+        // velocities: G_D qd_D = b(t) - G_I qd_I
+        for (&zi, &j) in z[ni..].iter().zip(&self.partition.v_ind) {
+            qd[j] = zi;
+        }
+        for &j in &self.partition.v_dep {
+            qd[j] = 0.0;
+        }
+        self.r.fill(0.0);
+        self.g_d.a.fill(0.0);
+        for (&(r, c), &v) in pattern.iter().zip(&self.g_values) {
+            let j = self.v_pos[c];
+            if j == usize::MAX {
+                self.r[r] -= v * qd[c];
+            } else {
+                self.g_d.a[r * nc + j] = v;
+            }
+        }
+        for d in &sys.drives {
+            self.r[d.row] += d.angle.eval3(t)[1];
+        }
+        self.quality[1] = self.g_d.factor();
+        if self.quality[1] == 0.0 {
+            return Err(self.failure(t, "G_D, the dependent velocities' columns of G, is singular"));
+        }
+        self.g_d.solve(&mut self.r);
+        for (&v, &j) in self.r.iter().zip(&self.partition.v_dep) {
+            qd[j] = v;
+        }
+        self.expanded_t = t;
+        self.expanded_z.clear();
+        self.expanded_z.extend_from_slice(z);
+        Ok(())
+    }
+
+    fn failure(&self, t: f64, what: &str) -> SimError {
+        SimError::Formulation { reason: format!("at t = {t} s {what}; the reduced formulation cannot go on") }
+    }
+
+    /// `dz = F(t, z)`: the full state expanded, the DAE's right-hand side
+    /// there, its independent components kept.
+    ///
+    /// # Errors
+    /// As [`Reduced::expand`] and [`Dynamics::rhs`].
+    pub fn eval<M: Model>(&mut self, sys: &mut Dynamics<M>, t: f64, z: &[f64], dz: &mut [f64]) -> Result<(), SimError> {
+        self.expand(sys, t, z)?;
+        sys.rhs(t, &self.y, &mut self.dy)?;
+        let nq = self.nq;
+        let (ni, nf) = (self.partition.q_ind.len(), self.partition.v_ind.len());
+        for (d, &j) in dz.iter_mut().zip(&self.partition.q_ind) {
+            *d = self.dy[j];
+        }
+        for (d, &j) in dz[ni..].iter_mut().zip(&self.partition.v_ind) {
+            *d = self.dy[nq + j];
+        }
+        dz[ni + nf..].copy_from_slice(&self.dy[2 * nq..]);
+        Ok(())
+    }
+
+    /// Expands the accepted state `z` at `t` and keeps it
+    /// ([`Reduced::accepted`]) with its pivot ratios.
+    ///
+    /// # Errors
+    /// As [`Reduced::expand`].
+    pub fn accept<M: Model>(&mut self, sys: &Dynamics<M>, t: f64, z: &[f64]) -> Result<(), SimError> {
+        self.expand(sys, t, z)?;
+        self.y_accepted.copy_from_slice(&self.y);
+        self.quality_accepted = self.quality;
+        Ok(())
+    }
+
+    /// The full state of the last accepted one ([`Reduced::accept`]).
+    pub fn accepted(&self) -> &[f64] {
+        &self.y_accepted
+    }
+
+    /// After the accepted state's outputs: when a pivot ratio of `C_D` or
+    /// `G_D` there fell below a tenth of its value at the partition's
+    /// choice, a new partition at that state, and `z` rewritten in it.
+    /// Returns whether it did.
+    ///
+    /// # Errors
+    /// As [`Reduced::new`].
+    pub fn repartition<M: Model>(&mut self, sys: &Dynamics<M>, t: f64, z: &mut [f64]) -> Result<bool, SimError> {
+        let [c, g] = self.quality_accepted;
+        if c >= DEGRADE * self.quality0[0] && g >= DEGRADE * self.quality0[1] {
+            return Ok(false);
+        }
+        let y = self.y_accepted.clone();
+        self.choose(sys, t, &y)?;
+        self.gather(&y, z);
+        self.repartitions += 1;
+        Ok(true)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn unrolled_and_general_lu_agree() {
+        // a 9 x 9 system (general path) and its leading 5 x 5 (unrolled)
+        for n in [5, 9] {
+            let a: Vec<f64> = (0..n * n)
+                .map(|k| ((k * 7919 % 101) as f64 / 50.0 - 1.0) + if k % (n + 1) == 0 { 0.1 } else { 0.0 })
+                .collect();
+            let x: Vec<f64> = (0..n).map(|i| i as f64 - 2.5).collect();
+            let mut b: Vec<f64> = (0..n).map(|i| (0..n).map(|j| a[i * n + j] * x[j]).sum()).collect();
+            let mut lu = SquareLu::new(n);
+            lu.a.copy_from_slice(&a);
+            assert!(lu.factor() > 0.0);
+            lu.solve(&mut b);
+            for (v, want) in b.iter().zip(&x) {
+                assert!((v - want).abs() < 1e-11, "n = {n}: {b:?}");
+            }
+        }
+    }
+
+    #[test]
+    fn lu_solves_a_permuted_system() {
+        let mut lu = SquareLu::new(3);
+        lu.a.copy_from_slice(&[0.0, 2.0, 1.0, 1.0, 1.0, 0.0, 3.0, 0.0, 1.0]);
+        let ratio = lu.factor();
+        assert!(ratio > 0.0 && ratio <= 1.0);
+        // A x = b for x = (1, 2, 3)
+        let mut b = [7.0, 3.0, 6.0];
+        lu.solve(&mut b);
+        for (v, want) in b.iter().zip([1.0, 2.0, 3.0]) {
+            assert!((v - want).abs() < 1e-14, "{b:?}");
+        }
+    }
+
+    #[test]
+    fn full_pivoting_prefers_translations_and_finds_dependent_rows() {
+        // rows: x1 + 0.9 phi = .., y1 - 0.9 phi = ..; translations 0 and 1
+        let mut a = vec![1.0, 0.0, 0.9, 0.0, 1.0, -0.9];
+        assert_eq!(pivot_columns(&mut a, 2, 3, &[true, true, false]), Ok(vec![0, 1]));
+        // the same without preference takes the largest entries
+        let mut a = vec![0.2, 0.0, 1.0, 0.0, 1.0, 0.1];
+        assert_eq!(pivot_columns(&mut a, 2, 3, &[false; 3]), Ok(vec![2, 1]));
+        // a repeated row
+        let mut a = vec![1.0, 2.0, 3.0, 2.0, 4.0, 6.0];
+        assert_eq!(pivot_columns(&mut a, 2, 3, &[false; 3]), Err(1));
+    }
+}

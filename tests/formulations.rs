@@ -1,0 +1,170 @@
+//! The reduced formulation (coordinate partitioning, `--formulation
+//! reduced`) against the DAE: the same trajectories to the tolerance, the
+//! constraints kept to rounding at every output without projection, a new
+//! partition where the old one degrades, `auto`'s choice, and the errors
+//! of what it cannot do.
+
+mod common;
+
+use common::{Recorder, max_abs};
+use ezy::run::build;
+use ezy_core::kkt::KktMethod;
+use ezy_core::{Formulation, Method, Model, ProjectionKind, RunSettings, SimError, simulate};
+use ezy_models::{EzyRoller, EzyRollerDriven, FourBar, SliderCrank, Snake, Snakeboard, Trailer, scenes};
+
+/// `scene` with `formulation`, DOP853 at `tol`, outputs every `every`.
+fn run<M: Model + Default>(
+    scene: &str,
+    formulation: Formulation,
+    tol: f64,
+    every: f64,
+) -> (Recorder, ezy_core::Summary) {
+    let scene = scenes::get(scene);
+    let (mut sys, y0) = build::<M>(&scene, &[], KktMethod::Auto).unwrap();
+    let settings = RunSettings {
+        every,
+        formulation,
+        projection: if formulation == Formulation::Reduced {
+            ProjectionKind::None
+        } else {
+            ProjectionKind::MassWeighted
+        },
+        ..common::dop853(scene.t_end, every, tol)
+    };
+    let mut rec = Recorder::default();
+    let summary = simulate(&mut sys, &y0, &settings, &mut rec).unwrap();
+    (rec, summary)
+}
+
+/// Each scene's reduced run at rtol = atol = 1e-10 against its DAE run at
+/// 1e-12: every output on the constraints to rounding (`|C|` <= 1e-12 m,
+/// `|G qd|` <= 1e-12 m/s, where a run without projection drifts by the
+/// integration error, ~1e-9), the whole trajectory as accurate as the
+/// DAE's at the same tolerance (within 10x of its error, in the mixed norm
+/// `|a - b| / max(1, |b|)`; the error at 1e-10 ranges from 1e-9 on the
+/// EzyRoller to 1e-6 on the slider-crank's 100 rad of crank angle), the
+/// energy ledger closed to 1e-7 of the work done.
+#[test]
+fn the_reduced_formulation_follows_the_dae_and_keeps_the_constraints() {
+    fn gap(a: &Recorder, b: &Recorder) -> f64 {
+        a.y.iter()
+            .zip(&b.y)
+            .map(|(a, b)| max_abs(a.iter().zip(b).map(|(x, y)| (x - y) / y.abs().max(1.0))))
+            .fold(0.0, f64::max)
+    }
+    fn check<M: Model + Default>(scene: &str, every: f64) -> u64 {
+        let (red, s) = run::<M>(scene, Formulation::Reduced, 1e-10, every);
+        let (dae, _) = run::<M>(scene, Formulation::Dae, 1e-10, every);
+        let (reference, _) = run::<M>(scene, Formulation::Dae, 1e-12, every);
+        assert_eq!(s.formulation, Formulation::Reduced);
+        assert_eq!((s.projections, red.t.len()), (0, dae.t.len()), "{scene}");
+        assert!(max_abs(red.res_phi.iter().copied()) <= 1e-12, "{scene}: |C| = {:?}", red.res_phi);
+        assert!(max_abs(red.res_vel.iter().copied()) <= 1e-12, "{scene}: |G qd|");
+        let (e_red, e_dae) = (gap(&red, &reference), gap(&dae, &reference));
+        assert!(e_red <= (10.0 * e_dae).max(1e-9), "{scene}: error {e_red:e} reduced, {e_dae:e} DAE");
+        let work = max_abs(red.y.iter().map(|y| y[y.len() - 1])).max(1.0);
+        assert!(s.max_energy_error <= 1e-7 * work, "{scene}: |T - T0 - W| = {:e}", s.max_energy_error);
+        s.repartitions
+    }
+    // hinges and skates (Newton in one step), a new partition on the way
+    assert_eq!(check::<EzyRoller>("drive", 0.5), 0);
+    assert!(check::<EzyRoller>("free", 0.05) >= 1, "the free EzyRoller turns through a singular G_D");
+    assert!(check::<Trailer>("trailer", 5.0) >= 1);
+    // a drive (a dependent angle: Newton iterates), a closed loop, a slider
+    check::<EzyRollerDriven>("drive-prescribed", 0.5);
+    check::<FourBar>("four-bar", 0.1);
+    check::<SliderCrank>("slider-crank", 0.05);
+}
+
+/// The drive scene at DOP853 rtol = atol = 1e-11 against the reference
+/// state at 60 s (DOP853 of the DAE at 1e-13, benches/peers/reference.csv):
+/// within 1e-9, the accuracy the peer comparison asks of every tool (it
+/// reaches 3.7e-10; the DAE at the same tolerance 5.3e-10).
+#[test]
+fn the_reduced_drive_reaches_the_reference_at_60_s() {
+    let (_, s) = run::<EzyRoller>("drive", Formulation::Reduced, 1e-11, 60.0);
+    let text = std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/benches/peers/reference.csv")).unwrap();
+    let mut lines = text.lines().filter(|l| !l.starts_with('#'));
+    let names: Vec<&str> = lines.next().unwrap().split(',').collect();
+    let values: Vec<f64> = lines.next().unwrap().split(',').map(|v| v.parse().unwrap()).collect();
+    // the reference row: t, q (6), qd (6), W; the final state: q, qd, W
+    assert_eq!((names[0], names.len(), s.final_state.len()), ("t", 14, 13));
+    let err = max_abs(values[1..].iter().zip(&s.final_state).map(|(r, y)| r - y));
+    assert!(err <= 1e-9, "max error at 60 s {err:e}");
+}
+
+/// `auto` takes the reduced formulation only where it was measured to pay:
+/// an adaptive explicit method on a model with one degree of freedom in
+/// velocity whose dependent coordinates follow from one Newton step.
+#[test]
+fn auto_takes_the_reduced_formulation_only_where_it_pays() {
+    fn chosen<M: Model + Default>(scene: &str, method: Method) -> Formulation {
+        let scene = scenes::get(scene);
+        let (mut sys, y0) = build::<M>(&scene, &[], KktMethod::Auto).unwrap();
+        let settings = RunSettings {
+            t_end: 0.05,
+            every: 0.05,
+            dt: 1e-3,
+            method,
+            formulation: Formulation::Auto,
+            ..scene.run_settings()
+        };
+        simulate(&mut sys, &y0, &settings, &mut Recorder::default()).unwrap().formulation
+    }
+    assert_eq!(chosen::<Trailer>("trailer", Method::Dop853), Formulation::Reduced);
+    assert_eq!(chosen::<Trailer>("trailer", Method::Dopri5), Formulation::Reduced);
+    // a fixed step saves nothing; RADAU5 is built on the DAE
+    assert_eq!(chosen::<Trailer>("trailer", Method::Rk4), Formulation::Dae);
+    assert_eq!(chosen::<Trailer>("trailer", Method::Radau5), Formulation::Dae);
+    // two degrees of freedom; one, but a drive makes an angle dependent
+    assert_eq!(chosen::<EzyRoller>("drive", Method::Dop853), Formulation::Dae);
+    assert_eq!(chosen::<Snakeboard>("snakeboard", Method::Dop853), Formulation::Dae);
+}
+
+/// What the reduced formulation cannot do is refused before any step,
+/// with the reason and the way out.
+#[test]
+fn the_reduced_formulation_refuses_what_it_cannot_do() {
+    let reason = |e: ezy_core::RunError<std::convert::Infallible>| match e {
+        ezy_core::RunError::Sim(SimError::Formulation { reason }) => reason,
+        other => panic!("{other}"),
+    };
+    let scene = scenes::drive();
+    let (mut sys, y0) = build::<EzyRoller>(&scene, &[], KktMethod::Auto).unwrap();
+    let base = RunSettings { t_end: 0.1, every: 0.1, formulation: Formulation::Reduced, ..scene.run_settings() };
+    let radau = RunSettings { method: Method::Radau5, ..base };
+    let e = reason(simulate(&mut sys, &y0, &radau, &mut Recorder::default()).unwrap_err());
+    assert!(e.contains("RADAU5") && e.contains("--formulation dae"), "{e}");
+    sys.baumgarte = Some(ezy_core::Baumgarte { alpha: 10.0, beta: 10.0 });
+    let e = reason(simulate(&mut sys, &y0, &base, &mut Recorder::default()).unwrap_err());
+    assert!(e.contains("Baumgarte") && e.contains("--formulation dae"), "{e}");
+    // a 101-link snake: 2 x 100 hinge rows and 101 skates
+    let snake = scenes::get("snake");
+    let (mut sys, y0) = build::<Snake>(&snake, &[("N".into(), 101.0)], KktMethod::Auto).unwrap();
+    let e = reason(simulate(&mut sys, &y0, &base, &mut Recorder::default()).unwrap_err());
+    assert!(e.contains("301 constraint rows") && e.contains("--formulation dae"), "{e}");
+}
+
+/// Through the program: the same CSV columns as the DAE's, the summary
+/// names the formulation.
+#[test]
+fn the_program_writes_the_same_columns_in_either_formulation() {
+    let dir = std::path::Path::new(env!("CARGO_TARGET_TMPDIR")).join("formulations");
+    let _ = std::fs::remove_dir_all(&dir);
+    let header = |formulation: &str| {
+        let out = dir.join(formulation);
+        let o = std::process::Command::new(env!("CARGO_BIN_EXE_ezy"))
+            .args(["run", "free", "--no-figures", "--formulation", formulation, "--out"])
+            .arg(&out)
+            .output()
+            .unwrap();
+        let said = String::from_utf8_lossy(&o.stdout).to_string();
+        assert!(o.status.success(), "{said}{}", String::from_utf8_lossy(&o.stderr));
+        let csv = std::fs::read_to_string(out.join("trajectory.csv")).unwrap();
+        (csv.lines().next().unwrap().to_string(), csv.lines().count(), said)
+    };
+    let (dae, rows, _) = header("dae");
+    let (reduced, reduced_rows, said) = header("reduced");
+    assert_eq!((dae, rows), (reduced, reduced_rows));
+    assert!(said.contains("reduced formulation ("), "{said}");
+}
