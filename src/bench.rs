@@ -7,7 +7,9 @@
 //! 1. DOP853 at rtol = atol = 1e-11, projected, one output at the end: the
 //!    integration alone;
 //! 2. the same with an output every 0.01 s (dense output at each sample);
-//! 3. the scene's own setting (for `drive`, the assignment's RK4 at
+//! 3. DOP853 at rtol = atol = 3e-11 in the reduced formulation
+//!    (coordinate partitioning, no projection), one output at the end;
+//! 4. the scene's own setting (for `drive`, the assignment's RK4 at
 //!    h = 1e-4 s with projection).
 //!
 //! Each integration time is the median of `repeat` runs. The whole
@@ -15,9 +17,9 @@
 //! timed by the caller, which starts the program itself ([`crate::App`]).
 
 use ezy_core::integrator::Method;
-use ezy_core::{Model, ProjectionKind, Scene};
+use ezy_core::{Formulation, Model, ProjectionKind, Scene};
 
-use crate::precision::{Setting, run_once, state_error};
+use crate::precision::{Setting, run_once_as, state_error};
 use crate::run::Error;
 
 /// One measured setting.
@@ -43,7 +45,7 @@ pub struct BenchRow {
     pub process_s: Option<f64>,
 }
 
-/// Measures the three settings of the module documentation on `scene`,
+/// Measures the four settings of the module documentation on `scene`,
 /// each integration `repeat` times (at least 1).
 ///
 /// # Errors
@@ -52,7 +54,7 @@ pub fn bench_model<M: Model + Default>(scene: &Scene, repeat: usize) -> Result<V
     let t_end = scene.t_end;
     let reference =
         Setting { method: Method::Dop853, dt: None, tol: Some(1e-13), projection: ProjectionKind::MassWeighted };
-    let (ref_run, _) = run_once::<M>(scene, &reference, t_end, false)?;
+    let (ref_run, _) = run_once_as::<M>(scene, &reference, t_end, false, Formulation::Dae)?;
     let tight = Setting { tol: Some(1e-11), ..reference };
     let own = scene.run_settings();
     let own_setting = Setting {
@@ -66,25 +68,54 @@ pub fn bench_model<M: Model + Default>(scene: &Scene, repeat: usize) -> Result<V
         None => format!("{} rtol = {:e} (the scene's)", own.method.name(), own.rtol),
     };
     let dop = ["--integrator", "dop853", "--rtol", "1e-11", "--atol", "1e-11"].map(String::from).to_vec();
+    let args = |base: &[String], extra: &[&str]| -> Vec<String> {
+        base.iter().cloned().chain(extra.iter().map(|s| s.to_string())).collect()
+    };
+    let reduced = Setting { tol: Some(3e-11), projection: ProjectionKind::None, ..reference };
     let cases = [
-        (format!("dop853 rtol = atol = 1e-11, output at {t_end} s only"), tight, t_end, {
-            let mut a = dop.clone();
-            a.extend(["--every".to_string(), format!("{t_end}")]);
-            a
-        }),
-        ("dop853 rtol = atol = 1e-11, output every 0.01 s".to_string(), tight, 0.01, {
-            let mut a = dop.clone();
-            a.extend(["--every".to_string(), "0.01".to_string()]);
-            a
-        }),
-        (own_what, own_setting, own.every, Vec::new()),
+        (
+            format!("dop853 rtol = atol = 1e-11, output at {t_end} s only"),
+            tight,
+            Formulation::Dae,
+            t_end,
+            args(&dop, &["--every", &format!("{t_end}")]),
+        ),
+        (
+            "dop853 rtol = atol = 1e-11, output every 0.01 s".to_string(),
+            tight,
+            Formulation::Dae,
+            0.01,
+            args(&dop, &["--every", "0.01"]),
+        ),
+        (
+            format!("dop853 rtol = atol = 3e-11, reduced, output at {t_end} s only"),
+            reduced,
+            Formulation::Reduced,
+            t_end,
+            args(
+                &[],
+                &[
+                    "--integrator",
+                    "dop853",
+                    "--rtol",
+                    "3e-11",
+                    "--atol",
+                    "3e-11",
+                    "--formulation",
+                    "reduced",
+                    "--every",
+                    &format!("{t_end}"),
+                ],
+            ),
+        ),
+        (own_what, own_setting, own.formulation, own.every, Vec::new()),
     ];
     let mut rows = Vec::new();
-    for (what, setting, every, args) in cases {
+    for (what, setting, formulation, every, args) in cases {
         let (mut times, mut outputs) = (Vec::new(), Vec::new());
         let (mut error, mut rhs_evals) = (f64::NAN, 0);
         for _ in 0..repeat.max(1) {
-            let (last, summary) = run_once::<M>(scene, &setting, every, false)?;
+            let (last, summary) = run_once_as::<M>(scene, &setting, every, false, formulation)?;
             times.push(summary.integration_time.as_secs_f64());
             outputs.push(summary.output_time.as_secs_f64());
             error = state_error(&last.y, &ref_run.y);

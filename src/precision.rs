@@ -112,6 +112,17 @@ pub(crate) fn run_once<M: Model + Default>(
     every: f64,
     history: bool,
 ) -> Result<(Last, ezy_core::Summary), SimError> {
+    run_once_as::<M>(scene, setting, every, history, ezy_core::Formulation::Dae)
+}
+
+/// [`run_once`] in the given formulation.
+pub(crate) fn run_once_as<M: Model + Default>(
+    scene: &Scene,
+    setting: &Setting,
+    every: f64,
+    history: bool,
+    formulation: ezy_core::Formulation,
+) -> Result<(Last, ezy_core::Summary), SimError> {
     let (mut sys, y0) = build::<M>(scene, &[], KktMethod::Auto)?;
     let base = scene.run_settings();
     let settings = RunSettings {
@@ -119,6 +130,7 @@ pub(crate) fn run_once<M: Model + Default>(
         every,
         projection: setting.projection,
         method: setting.method,
+        formulation,
         rtol: setting.tol.unwrap_or(base.rtol),
         atol: setting.tol.unwrap_or(base.atol),
         // accuracy is what is measured here, not a reason to stop

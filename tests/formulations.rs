@@ -168,3 +168,16 @@ fn the_program_writes_the_same_columns_in_either_formulation() {
     assert_eq!((dae, rows), (reduced, reduced_rows));
     assert!(said.contains("reduced formulation ("), "{said}");
 }
+
+/// A scene file asks for its formulation in `[integrator]`; a misspelt
+/// one is refused with its file, line and column and the choices.
+#[test]
+fn a_scene_file_asks_for_its_formulation() {
+    let text = std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/models/scenes/free.toml")).unwrap();
+    let ask = |value: &str| text.replace("[integrator]", &format!("[integrator]\nformulation = \"{value}\""));
+    let scene = ezy_core::Scene::from_toml(&ask("reduced"), "free.toml").unwrap();
+    assert_eq!(scene.run_settings().formulation, Formulation::Reduced);
+    assert_eq!(ezy_core::Scene::from_toml(&text, "free.toml").unwrap().run_settings().formulation, Formulation::Dae);
+    let e = ezy_core::Scene::from_toml(&ask("reduce"), "free.toml").unwrap_err().to_string();
+    assert!(e.starts_with("free.toml:13:") && e.contains("`reduce`") && e.contains("`dae`, `reduced`"), "{e}");
+}

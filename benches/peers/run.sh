@@ -135,7 +135,9 @@ for line in ezy.splitlines():
     setting, integ, _output, evals, err, whole = cells
     m = re.search(r"rtol = atol = (\S+?),", setting)
     tol = m.group(1) if m else setting.split(",")[0]
-    print(f"| ezy `bench` | DAE index-1 Schur + mass-weighted projection; {setting} | {tol} | "
+    form = ("reduced: coordinate partitioning, 7 states, dependent coordinates by Newton"
+            if ", reduced," in setting else "DAE index-1 Schur + mass-weighted projection")
+    print(f"| ezy `bench` | {form}; {setting} | {tol} | "
           f"{evals} | {integ} | {whole} | {err} |")
 for line in open(sys.argv[1]):
     f = line.strip().split(",")

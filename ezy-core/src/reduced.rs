@@ -28,6 +28,7 @@
 
 use crate::SimError;
 use crate::dynamics::Dynamics;
+use crate::kkt::spd::small_size;
 use crate::model::Model;
 
 /// The integration formulation (`--formulation`).
@@ -124,15 +125,7 @@ impl SquareLu {
     fn factor(&mut self) -> f64 {
         match self.n {
             0 => 1.0,
-            1 => lu_fixed::<1>(&mut self.a, &mut self.piv),
-            2 => lu_fixed::<2>(&mut self.a, &mut self.piv),
-            3 => lu_fixed::<3>(&mut self.a, &mut self.piv),
-            4 => lu_fixed::<4>(&mut self.a, &mut self.piv),
-            5 => lu_fixed::<5>(&mut self.a, &mut self.piv),
-            6 => lu_fixed::<6>(&mut self.a, &mut self.piv),
-            7 => lu_fixed::<7>(&mut self.a, &mut self.piv),
-            8 => lu_fixed::<8>(&mut self.a, &mut self.piv),
-            _ => lu_any(self.n, &mut self.a, &mut self.piv),
+            n => small_size!(n, lu_fixed(&mut self.a, &mut self.piv), lu_any(n, &mut self.a, &mut self.piv)),
         }
     }
 
@@ -140,15 +133,7 @@ impl SquareLu {
     fn solve(&self, b: &mut [f64]) {
         match self.n {
             0 => {}
-            1 => solve_fixed::<1>(&self.a, &self.piv, b),
-            2 => solve_fixed::<2>(&self.a, &self.piv, b),
-            3 => solve_fixed::<3>(&self.a, &self.piv, b),
-            4 => solve_fixed::<4>(&self.a, &self.piv, b),
-            5 => solve_fixed::<5>(&self.a, &self.piv, b),
-            6 => solve_fixed::<6>(&self.a, &self.piv, b),
-            7 => solve_fixed::<7>(&self.a, &self.piv, b),
-            8 => solve_fixed::<8>(&self.a, &self.piv, b),
-            n => solve_any(n, &self.a, &self.piv, b),
+            n => small_size!(n, solve_fixed(&self.a, &self.piv, b), solve_any(n, &self.a, &self.piv, b)),
         }
     }
 }

@@ -26,7 +26,7 @@
 
 mod dense_lu;
 mod sparse;
-mod spd;
+pub(crate) mod spd;
 
 pub use dense_lu::DenseLu;
 pub use sparse::{SparseSchur, synthetic_chain};

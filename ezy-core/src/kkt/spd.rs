@@ -43,6 +43,7 @@ macro_rules! small_size {
         }
     };
 }
+pub(crate) use small_size;
 
 /// Solves `A x = r` for the leading m x m block of the SPD matrix `a`
 /// (row-major with row stride `lda`; only the lower triangle is read; `a`
