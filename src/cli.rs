@@ -459,7 +459,8 @@ pub enum FormulationArg {
     /// The index-1 DAE in all q, qd, projected after every step (the default).
     Dae,
     /// Only the independent q, qd are integrated; the dependent ones are
-    /// recovered from the constraints at every evaluation (Wehage & Haug).
+    /// recovered from the constraints at every evaluation (Wehage & Haug),
+    /// so no projection is needed or done.
     Reduced,
     /// Reduced for the explicit methods on models with at most 16 constraint rows.
     Auto,

@@ -1419,7 +1419,11 @@ mod tests {
 
     #[test]
     fn a_drawing_that_takes_too_long_is_given_up() {
-        let c = chart(vec![Series::new("a", vec![(0.0, 0.0), (1.0, 1.0)])]);
+        // long enough to draw (100,000 points, tens of ms) that the worker
+        // cannot answer before a zero limit runs out, even on a loaded
+        // machine where a two-point chart sometimes did
+        let points = (0..100_000).map(|i| (i as f64, (i as f64 * 0.01).sin())).collect();
+        let c = chart(vec![Series::new("a", points)]);
         assert!(matches!(svg_within(&c, std::time::Duration::ZERO), Err(PlotError::Timeout { .. })));
     }
 }

@@ -603,7 +603,7 @@ pub fn summary(scene: &str, r: &Report) -> String {
         format!("{} steps of h = {} s", s.steps, short(r.settings.dt.min(r.settings.t_end)))
     };
     let kept = if s.formulation == ezy_core::Formulation::Reduced {
-        format!("reduced formulation ({} re-partitions)", s.repartitions)
+        format!("reduced formulation ({} re-partitions, no projection)", s.repartitions)
     } else {
         format!("projection {} ({})", r.settings.projection.name(), s.projection_path)
     };

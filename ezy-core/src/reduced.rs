@@ -505,6 +505,19 @@ impl Reduced {
         z[ni + nf..].copy_from_slice(&y[2 * self.nq..]);
     }
 
+    /// Name of component `k` of the reduced state `z`, as
+    /// [`Dynamics::state_name`] names the full one (`phi2`, `x1d`, `W_motor`).
+    pub fn state_name<M: Model>(&self, sys: &Dynamics<M>, k: usize) -> String {
+        let (ni, nf) = (self.partition.q_ind.len(), self.partition.v_ind.len());
+        if k < ni {
+            sys.state_name(self.partition.q_ind[k])
+        } else if k < ni + nf {
+            sys.state_name(self.nq + self.partition.v_ind[k - ni])
+        } else {
+            sys.state_name(2 * self.nq + k - ni - nf)
+        }
+    }
+
     /// The full state of the last expansion.
     pub fn full(&self) -> &[f64] {
         &self.y

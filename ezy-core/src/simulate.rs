@@ -624,8 +624,7 @@ impl<M: Model> Integrand<M> for Reduced {
         h: f64,
     ) -> Result<bool, SimError> {
         if let Some(k) = x.iter().position(|v| !v.is_finite()) {
-            // named in the full state's terms
-            let quantity = format!("the reduced state's component {k}");
+            let quantity = format!("the state component `{}`", self.state_name(sys, k));
             let advice = advice(run.settings.method, t, h);
             return Err(SimError::NonFinite { t, quantity, value: x[k], dt: h, advice });
         }

@@ -62,7 +62,9 @@ impl Rk4 {
         axpy(tmp, y, h, k3);
         rhs.eval(t + h, tmp, k4)?;
         let h6 = h / 6.0;
-        for i in 0..y.len() {
+        let n = y.len();
+        let (k1, k2, k3, k4) = (&k1[..n], &k2[..n], &k3[..n], &k4[..n]);
+        for i in 0..n {
             y[i] += h6 * (k1[i] + 2.0 * (k2[i] + k3[i]) + k4[i]);
         }
         Ok(())
