@@ -69,9 +69,9 @@ impl Formulation {
     /// (all translations). Measured at equal accuracy (callgrind
     /// instructions of the integration, docs/physics.md §6.1): there the
     /// error control on the few independent components saves a third of
-    /// the steps and the run 1.1-1.2x (`trailer`), while at two or more
+    /// the steps and the run 1.15-1.25x (`trailer`), while at two or more
     /// degrees of freedom the expansion (a Newton step, a dense LU of
-    /// `G_D`) outweighs what it saves (`drive` 2x, `snake` 2.3-7x), and a
+    /// `G_D`) outweighs what it saves (`drive` 1.65x, `snake` 2.2-7x), and a
     /// fixed-step method saves no steps at all.
     pub fn auto_takes_reduced(method: crate::Method, nq: usize, nc: usize) -> bool {
         matches!(method, crate::Method::Dopri5 | crate::Method::Dop853) && nq == nc + 1
@@ -120,12 +120,16 @@ impl SquareLu {
         Self { n, a: vec![0.0; n * n], piv: vec![0; n] }
     }
 
-    /// Factors `a`; returns `min |u_ii| / max |u_ii|` (1 for `n = 0`), 0
-    /// if a pivot vanished. Sizes up to 8 run unrolled code.
-    fn factor(&mut self) -> f64 {
+    /// Factors the `n x n` row-major `src` into `a`; returns
+    /// `min |u_ii| / max |u_ii|` (1 for `n = 0`), 0 if a pivot vanished.
+    /// Sizes up to 8 run unrolled code.
+    fn factor(&mut self, src: &[f64]) -> f64 {
         match self.n {
             0 => 1.0,
-            n => small_size!(n, lu_fixed(&mut self.a, &mut self.piv), lu_any(n, &mut self.a, &mut self.piv)),
+            n => small_size!(n, lu_fixed(src, &mut self.a, &mut self.piv), {
+                self.a.copy_from_slice(&src[..n * n]);
+                lu_any(n, &mut self.a, &mut self.piv)
+            }),
         }
     }
 
@@ -141,42 +145,43 @@ impl SquareLu {
 /// LU with partial pivoting of the `N x N` row-major `a` at a size known
 /// at compile time (loops the compiler unrolls); see [`SquareLu::factor`].
 #[inline]
-fn lu_fixed<const N: usize>(a: &mut [f64], piv: &mut [usize]) -> f64 {
-    let a = &mut a[..N * N];
+#[allow(clippy::needless_range_loop)] // index loops unroll; iterators with skip(k) did not (3x the instructions)
+fn lu_fixed<const N: usize>(src: &[f64], a: &mut [f64], piv: &mut [usize]) -> f64 {
+    let (src, a) = (&src[..N * N], &mut a[..N * N]);
     let mut m = [[0.0; N]; N];
     // element by element: a slice copy of a few numbers is a memcpy call
     for (i, row) in m.iter_mut().enumerate() {
         for (j, v) in row.iter_mut().enumerate() {
-            *v = a[i * N + j];
+            *v = src[i * N + j];
         }
     }
     let (mut lo, mut hi) = (f64::INFINITY, 0.0f64);
+    let mut bad = false;
+    // plain index loops without an early exit: the compiler unrolls them
+    // (a vanished or NaN pivot leaves non-finite factors, never read)
     for k in 0..N {
         let mut p = k;
         let mut best = m[k][k].abs();
-        for (i, row) in m.iter().enumerate().skip(k + 1) {
-            if row[k].abs() > best {
-                (p, best) = (i, row[k].abs());
+        for i in k + 1..N {
+            if m[i][k].abs() > best {
+                p = i;
+                best = m[i][k].abs();
             }
         }
         piv[k] = p;
         if p != k {
             let (top, bottom) = m.split_at_mut(p);
-            for (x, y) in top[k].iter_mut().zip(bottom[0].iter_mut()) {
-                std::mem::swap(x, y);
-            }
+            std::mem::swap(&mut top[k], &mut bottom[0]);
         }
-        lo = lo.min(best);
-        hi = hi.max(best);
-        if best == 0.0 || !best.is_finite() {
-            return 0.0;
-        }
-        let pivot_row = m[k];
-        for row in m.iter_mut().skip(k + 1) {
-            let l = row[k] / pivot_row[k];
-            row[k] = l;
+        bad |= !(best > 0.0 && best.is_finite());
+        lo = if best < lo { best } else { lo };
+        hi = if best > hi { best } else { hi };
+        let d = m[k][k];
+        for i in k + 1..N {
+            let l = m[i][k] / d;
+            m[i][k] = l;
             for j in k + 1..N {
-                row[j] -= l * pivot_row[j];
+                m[i][j] -= l * m[k][j];
             }
         }
     }
@@ -185,7 +190,7 @@ fn lu_fixed<const N: usize>(a: &mut [f64], piv: &mut [usize]) -> f64 {
             a[i * N + j] = v;
         }
     }
-    lo / hi
+    if bad { 0.0 } else { lo / hi }
 }
 
 /// [`SquareLu::solve`] at a size known at compile time.
@@ -330,10 +335,12 @@ pub struct Reduced {
     nq: usize,
     nh: usize,
     nc: usize,
-    /// For each coordinate its index in `q_dep` (`usize::MAX`: independent).
-    p_pos: Vec<usize>,
-    /// For each coordinate its index in `v_dep` (`usize::MAX`: independent).
-    v_pos: Vec<usize>,
+    /// The pattern entries of `C_D`: `(entry, slot in the nh x nh C_D)`.
+    c_route: Vec<(usize, usize)>,
+    /// The pattern entries of `G_D`: `(entry, slot in the nc x nc G_D)`.
+    gd_route: Vec<(usize, usize)>,
+    /// The pattern entries of `G_I`: `(entry, row, column)`.
+    gi_route: Vec<(usize, usize, usize)>,
     /// Whether each coordinate is a translation `x` or `y`.
     translational: Vec<bool>,
     /// `C_q` is the same at every translation (`phi` affine in `x, y`).
@@ -348,6 +355,8 @@ pub struct Reduced {
     /// the hinges' `C_D` in translations is constant).
     c_d_values: Vec<f64>,
     g_d: SquareLu,
+    /// `G_D` (nc x nc): zero but at the entries of `gd_route`.
+    g_d_values: Vec<f64>,
     phi: Vec<f64>,
     g_values: Vec<f64>,
     r: Vec<f64>,
@@ -409,8 +418,9 @@ impl Reduced {
             nq,
             nh,
             nc,
-            p_pos: vec![usize::MAX; nq],
-            v_pos: vec![usize::MAX; nq],
+            c_route: Vec::new(),
+            gd_route: Vec::new(),
+            gi_route: Vec::new(),
             c_translation_free: (0..nhz).all(same),
             g_translation_free: (0..nnz).all(same),
             translational,
@@ -418,6 +428,7 @@ impl Reduced {
             c_d: SquareLu::new(nh),
             c_d_values: vec![f64::NAN; nh * nh],
             g_d: SquareLu::new(nc),
+            g_d_values: vec![0.0; nc * nc],
             phi: vec![0.0; nh],
             g_values: g0,
             r: vec![0.0; nc],
@@ -455,22 +466,29 @@ impl Reduced {
         let v_dep = pivot_columns(&mut dense, nc, nq, &self.translational).map_err(|k| dependent(nc, k))?;
         let rest = |dep: &[usize]| (0..nq).filter(|j| !dep.contains(j)).collect::<Vec<_>>();
         self.partition = Partition { q_ind: rest(&q_dep), v_ind: rest(&v_dep), q_dep, v_dep };
-        self.p_pos.fill(usize::MAX);
-        self.v_pos.fill(usize::MAX);
         self.expanded_t = f64::NAN;
-        // zero outside the pattern, NaN inside it: refactored at once
+        // the routes of the pattern's entries into C_D, G_D and G_I; C_D
+        // zero outside them and NaN at them (refactored at once), G_D zero
+        let position = |dep: &[usize], c: usize| dep.iter().position(|&d| d == c);
         self.c_d_values.fill(0.0);
-        for &(r, c) in info.pattern.iter().take_while(|(r, _)| *r < nh) {
-            if let Some(j) = self.partition.q_dep.iter().position(|&d| d == c) {
+        self.g_d_values.fill(0.0);
+        self.c_route.clear();
+        self.gd_route.clear();
+        self.gi_route.clear();
+        for (k, &(r, c)) in info.pattern.iter().enumerate() {
+            if r < nh
+                && let Some(j) = position(&self.partition.q_dep, c)
+            {
+                self.c_route.push((k, r * nh + j));
                 self.c_d_values[r * nh + j] = f64::NAN;
+            }
+            match position(&self.partition.v_dep, c) {
+                Some(j) => self.gd_route.push((k, r * nc + j)),
+                None => self.gi_route.push((k, r, c)),
             }
         }
         for (i, &j) in self.partition.q_dep.iter().enumerate() {
-            self.p_pos[j] = i;
             self.q_dep_last[i] = y[j];
-        }
-        for (i, &j) in self.partition.v_dep.iter().enumerate() {
-            self.v_pos[j] = i;
         }
         self.linear = self.c_translation_free && self.partition.q_dep.iter().all(|&j| self.translational[j]);
         let mut z = vec![0.0; self.nz(y.len())];
@@ -538,7 +556,6 @@ impl Reduced {
         let (nq, nh, nc) = (self.nq, self.nh, self.nc);
         let (ni, nf) = (nq - nh, nq - nc);
         let model = &sys.model;
-        let pattern = &sys.info.pattern;
         let (q, rest) = self.y.split_at_mut(nq);
         let (qd, works) = rest.split_at_mut(nq);
         for (&zi, &j) in z.iter().zip(&self.partition.q_ind) {
@@ -556,17 +573,13 @@ impl Reduced {
                 model.phi_and_constraint_matrix(q, &mut self.phi, &mut self.g_values);
                 crate::drive::shift_positions(&sys.drives, t, &mut self.phi);
                 let mut same = true;
-                for (&(r, c), &v) in pattern.iter().zip(&self.g_values).take_while(|((r, _), _)| *r < nh) {
-                    let j = self.p_pos[c];
-                    if j != usize::MAX {
-                        let old = &mut self.c_d_values[r * nh + j];
-                        same &= old.to_bits() == v.to_bits();
-                        *old = v;
-                    }
+                for &(k, slot) in &self.c_route {
+                    let (old, v) = (&mut self.c_d_values[slot], self.g_values[k]);
+                    same &= old.to_bits() == v.to_bits();
+                    *old = v;
                 }
                 if !same {
-                    self.c_d.a.copy_from_slice(&self.c_d_values);
-                    self.quality[0] = self.c_d.factor();
+                    self.quality[0] = self.c_d.factor(&self.c_d_values);
                 }
                 if self.quality[0] == 0.0 {
                     return Err(self.failure(t, "C_D, the dependent coordinates' columns of C_q, is singular"));
@@ -601,23 +614,17 @@ impl Reduced {
         for (&zi, &j) in z[ni..].iter().zip(&self.partition.v_ind) {
             qd[j] = zi;
         }
-        for &j in &self.partition.v_dep {
-            qd[j] = 0.0;
-        }
         self.r.fill(0.0);
-        self.g_d.a.fill(0.0);
-        for (&(r, c), &v) in pattern.iter().zip(&self.g_values) {
-            let j = self.v_pos[c];
-            if j == usize::MAX {
-                self.r[r] -= v * qd[c];
-            } else {
-                self.g_d.a[r * nc + j] = v;
-            }
+        for &(k, slot) in &self.gd_route {
+            self.g_d_values[slot] = self.g_values[k];
+        }
+        for &(k, r, c) in &self.gi_route {
+            self.r[r] -= self.g_values[k] * qd[c];
         }
         for d in &sys.drives {
             self.r[d.row] += d.angle.eval3(t)[1];
         }
-        self.quality[1] = self.g_d.factor();
+        self.quality[1] = self.g_d.factor(&self.g_d_values);
         if self.quality[1] == 0.0 {
             return Err(self.failure(t, "G_D, the dependent velocities' columns of G, is singular"));
         }
@@ -706,8 +713,7 @@ mod tests {
             let x: Vec<f64> = (0..n).map(|i| i as f64 - 2.5).collect();
             let mut b: Vec<f64> = (0..n).map(|i| (0..n).map(|j| a[i * n + j] * x[j]).sum()).collect();
             let mut lu = SquareLu::new(n);
-            lu.a.copy_from_slice(&a);
-            assert!(lu.factor() > 0.0);
+            assert!(lu.factor(&a) > 0.0);
             lu.solve(&mut b);
             for (v, want) in b.iter().zip(&x) {
                 assert!((v - want).abs() < 1e-11, "n = {n}: {b:?}");
@@ -716,10 +722,25 @@ mod tests {
     }
 
     #[test]
+    fn a_singular_or_non_finite_matrix_has_ratio_zero() {
+        for n in [3, 10] {
+            let mut lu = SquareLu::new(n);
+            let mut a = vec![0.0; n * n];
+            for i in 0..n {
+                a[i * n + i] = 1.0;
+            }
+            assert_eq!(lu.factor(&a), 1.0);
+            a[n * n - 1] = 0.0;
+            assert_eq!(lu.factor(&a), 0.0, "n = {n}: a zero pivot");
+            a[n * n - 1] = f64::NAN;
+            assert_eq!(lu.factor(&a), 0.0, "n = {n}: a NaN");
+        }
+    }
+
+    #[test]
     fn lu_solves_a_permuted_system() {
         let mut lu = SquareLu::new(3);
-        lu.a.copy_from_slice(&[0.0, 2.0, 1.0, 1.0, 1.0, 0.0, 3.0, 0.0, 1.0]);
-        let ratio = lu.factor();
+        let ratio = lu.factor(&[0.0, 2.0, 1.0, 1.0, 1.0, 0.0, 3.0, 0.0, 1.0]);
         assert!(ratio > 0.0 && ratio <= 1.0);
         // A x = b for x = (1, 2, 3)
         let mut b = [7.0, 3.0, 6.0];
