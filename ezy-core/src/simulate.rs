@@ -542,6 +542,8 @@ trait Integrand<M: Model> {
         x: &mut [f64],
         h: f64,
     ) -> Result<bool, SimError>;
+    /// The full state `y` of the accepted `x` (as [`Integrand::accept`] left it).
+    fn accepted_full<'a>(&'a self, x: &'a [f64]) -> &'a [f64];
     /// Queues the accepted state `x` at `t` as a sample.
     fn emit<O: Observer<M>>(
         &mut self,
@@ -549,7 +551,9 @@ trait Integrand<M: Model> {
         sys: &Dynamics<M>,
         t: f64,
         x: &[f64],
-    ) -> Result<(), RunError<O::Error>>;
+    ) -> Result<(), RunError<O::Error>> {
+        run.emit(sys, t, self.accepted_full(x))
+    }
     /// Queues the dense-output sample at `t` that `fill` writes (an `x`).
     fn emit_dense<O: Observer<M>>(
         &mut self,
@@ -563,8 +567,6 @@ trait Integrand<M: Model> {
     fn settle(&mut self, _sys: &Dynamics<M>, _t: f64, _x: &mut [f64]) -> Result<bool, SimError> {
         Ok(false)
     }
-    /// The full state `y` of the accepted `x`.
-    fn full_state(&self, x: &[f64]) -> Vec<f64>;
 }
 
 /// The DAE formulation: `x = y = [q, qd, W]`.
@@ -586,14 +588,8 @@ impl<M: Model> Integrand<M> for Dae {
     ) -> Result<bool, SimError> {
         run.after_step(sys, t, t_new, x, h)
     }
-    fn emit<O: Observer<M>>(
-        &mut self,
-        run: &mut Run<'_, M, O>,
-        sys: &Dynamics<M>,
-        t: f64,
-        x: &[f64],
-    ) -> Result<(), RunError<O::Error>> {
-        run.emit(sys, t, x)
+    fn accepted_full<'a>(&'a self, x: &'a [f64]) -> &'a [f64] {
+        x
     }
     fn emit_dense<O: Observer<M>>(
         &mut self,
@@ -603,9 +599,6 @@ impl<M: Model> Integrand<M> for Dae {
         fill: impl FnOnce(&mut [f64]),
     ) -> Result<(), RunError<O::Error>> {
         run.queue(sys, t, true, fill)
-    }
-    fn full_state(&self, x: &[f64]) -> Vec<f64> {
-        x.to_vec()
     }
 }
 
@@ -636,14 +629,8 @@ impl<M: Model> Integrand<M> for Reduced {
         self.scratch = full;
         res.map(|_| false)
     }
-    fn emit<O: Observer<M>>(
-        &mut self,
-        run: &mut Run<'_, M, O>,
-        sys: &Dynamics<M>,
-        t: f64,
-        _x: &[f64],
-    ) -> Result<(), RunError<O::Error>> {
-        run.emit(sys, t, self.accepted())
+    fn accepted_full<'a>(&'a self, _x: &'a [f64]) -> &'a [f64] {
+        self.accepted()
     }
     fn emit_dense<O: Observer<M>>(
         &mut self,
@@ -662,9 +649,6 @@ impl<M: Model> Integrand<M> for Reduced {
     }
     fn settle(&mut self, sys: &Dynamics<M>, t: f64, x: &mut [f64]) -> Result<bool, SimError> {
         self.repartition(sys, t, x)
-    }
-    fn full_state(&self, _x: &[f64]) -> Vec<f64> {
-        self.accepted().to_vec()
     }
 }
 
@@ -782,7 +766,7 @@ pub fn simulate<M: Model, O: Observer<M>>(
             red.gather(y0, &mut z);
             let r = integrate(sys, &mut red, &mut z, &mut run);
             run.summary.repartitions = red.repartitions;
-            (r, Integrand::<M>::full_state(&red, &z))
+            (r, Integrand::<M>::accepted_full(&red, &z).to_vec())
         }
         None => {
             let mut y = y0.to_vec();
