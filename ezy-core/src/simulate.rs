@@ -203,6 +203,10 @@ pub struct Summary {
     pub formulation: Formulation,
     /// Times the reduced formulation re-chose its partition.
     pub repartitions: u64,
+    /// Whether the reduced formulation ran on the model's minimal
+    /// coordinates (partition and expansion in closed form, from `model!`:
+    /// [`crate::MinimalLayout`]).
+    pub minimal_coordinates: bool,
     /// Wall time of the integration alone (steps, projections and the
     /// dense output's interpolation; no output work).
     pub integration_time: Duration,
@@ -737,6 +741,7 @@ pub fn simulate<M: Model, O: Observer<M>>(
             projections: 0,
             formulation: Formulation::Dae,
             repartitions: 0,
+            minimal_coordinates: false,
             integration_time: Duration::ZERO,
             output_time: Duration::ZERO,
             max_residual_position: 0.0,
@@ -762,6 +767,7 @@ pub fn simulate<M: Model, O: Observer<M>>(
         Some(mut red) => {
             run.summary.formulation = Formulation::Reduced;
             run.summary.projection_path = "none: the reduced formulation keeps the constraints";
+            run.summary.minimal_coordinates = red.is_minimal();
             let mut z = vec![0.0; red.nz(y0.len())];
             red.gather(y0, &mut z);
             let r = integrate(sys, &mut red, &mut z, &mut run);

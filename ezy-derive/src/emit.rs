@@ -582,8 +582,11 @@ pub fn emit(def: &ModelDef, res: &Resolved, d: &mut Derived) -> TokenStream {
         let q_qd = quote!(let q = &q[..#nq]; let qd = &qd[..#nq];);
         let fns =
             numeric_fns(&q_only, &q_qd, [phi_body, jac_body, g_body, phi_g_body, terms_body, points_body, vel_body]);
+        let minimal = crate::minimal::derive(&mut d.ar, def, res, &st.phi, &st.pattern, &st.values, st.nc);
+        let minimal = minimal_fns(d, def, minimal);
         quote! {
             #kernels
+            #minimal
 
             fn unrolled_kernels(&self) -> bool {
                 true
@@ -601,7 +604,10 @@ pub fn emit(def: &ModelDef, res: &Resolved, d: &mut Derived) -> TokenStream {
         let points_body = point_loops(d, def, res, false);
         let vel_body = point_loops(d, def, res, true);
         let layout = quote!(let l = self.__ezy_layout(););
-        numeric_fns(&layout, &layout, [phi_body, jac_body, g_body, phi_g_body, terms_body, points_body, vel_body])
+        let fns =
+            numeric_fns(&layout, &layout, [phi_body, jac_body, g_body, phi_g_body, terms_body, points_body, vel_body]);
+        let minimal = minimal_fns(d, def, Err("it has families (`for`), whose minimal form is not derived yet".into()));
+        quote!(#fns #minimal)
     };
 
     quote! {
@@ -659,6 +665,64 @@ pub fn emit(def: &ModelDef, res: &Resolved, d: &mut Derived) -> TokenStream {
             }
 
             #numerics
+        }
+    }
+}
+
+/// `minimal_layout` and `minimal_expand` (`ezy_core::MinimalLayout`) from
+/// the derived minimal form, or a `minimal_layout` that says why there is none.
+fn minimal_fns(d: &Derived, def: &ModelDef, m: Result<crate::minimal::Minimal, String>) -> TokenStream {
+    let private = runtime();
+    let m = match m {
+        Ok(m) => m,
+        Err(why) => {
+            let why = format!("model {} has no minimal coordinates: {why}", def.name);
+            return quote! {
+                fn minimal_layout(&self) -> ::core::result::Result<#private::MinimalLayout, ::std::string::String> {
+                    ::core::result::Result::Err(::std::string::String::from(#why))
+                }
+            };
+        }
+    };
+    let pivots: Vec<Id> = m.pivots.iter().map(|p| p.2).collect();
+    let (pivot_lets, pivot_exprs) = lower(d, def, &pivots, Coords::Global);
+    let pivot_items =
+        m.pivots.iter().zip(&pivot_exprs).map(|((name, k, _), e)| quote!((::std::string::String::from(#name), #k, #e)));
+    let (coords, speeds) = (&m.coords, &m.speeds);
+    let mut outputs: Vec<Id> = m.q_dep.iter().chain(&m.qd_dep).map(|p| p.1).collect();
+    outputs.extend(&m.b);
+    outputs.extend(&m.c);
+    let (lets, exprs) = lower(d, def, &outputs, Coords::Global);
+    let mut sets = TokenStream::new();
+    let (nqd, nqdd) = (m.q_dep.len(), m.qd_dep.len());
+    for ((j, _), e) in m.q_dep.iter().zip(&exprs) {
+        sets.extend(quote!(q[#j] = #e;));
+    }
+    for ((j, _), e) in m.qd_dep.iter().zip(&exprs[nqd..]) {
+        sets.extend(quote!(qd[#j] = #e;));
+    }
+    let nb = m.b.len();
+    for (k, e) in exprs[nqd + nqdd..nqd + nqdd + nb].iter().enumerate() {
+        sets.extend(quote!(b[#k] = #e;));
+    }
+    for (k, e) in exprs[nqd + nqdd + nb..].iter().enumerate() {
+        sets.extend(quote!(c[#k] = #e;));
+    }
+    quote! {
+        fn minimal_layout(&self) -> ::core::result::Result<#private::MinimalLayout, ::std::string::String> {
+            type S = f64;
+            #pivot_lets
+            ::core::result::Result::Ok(#private::MinimalLayout {
+                coords: ::std::vec![#(#coords),*],
+                speeds: ::std::vec![#(#speeds),*],
+                pivots: ::std::vec![#(#pivot_items),*],
+            })
+        }
+
+        #[inline]
+        fn minimal_expand<S: #private::Scalar>(&self, q: &mut [S], qd: &mut [S], b: &mut [S], c: &mut [S]) {
+            #lets
+            #sets
         }
     }
 }

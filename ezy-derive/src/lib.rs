@@ -15,6 +15,7 @@ mod ast;
 mod check;
 mod emit;
 mod kinematics;
+mod minimal;
 mod parse;
 // `eval`/`display` serve the tests now and readable equations later.
 #[cfg_attr(not(test), allow(dead_code))]

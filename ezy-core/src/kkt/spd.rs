@@ -78,7 +78,12 @@ pub fn ldl_solve(
 // `!(d > tol)` also rejects NaN pivots, which `d <= tol` would let through.
 #[allow(clippy::neg_cmp_op_on_partial_ord, clippy::needless_range_loop)]
 #[inline(always)]
-fn ldl_solve_fixed<const M: usize>(a: &[f64], lda: usize, r: &[f64], x: &mut [f64]) -> Result<f64, KktError> {
+pub(crate) fn ldl_solve_fixed<const M: usize>(
+    a: &[f64],
+    lda: usize,
+    r: &[f64],
+    x: &mut [f64],
+) -> Result<f64, KktError> {
     let mut l = [[0.0f64; M]; M];
     for i in 0..M {
         for j in 0..=i {

@@ -70,34 +70,66 @@ impl Arena {
     /// keeps the structure: a family element kernel's local coordinates
     /// become a single model's global ones).
     pub fn subst(&mut self, expr: Id, rename: &dyn Fn(Sym) -> Sym, memo: &mut HashMap<Id, Id>) -> Id {
+        self.map_leaves(expr, &mut |ar, s| ar.sym(rename(s)), false, memo)
+    }
+
+    /// `expr` with the symbols `with` maps replaced by those expressions
+    /// (the others kept), simplified on the way up; a numeric coefficient
+    /// of a sum that a replacement created is distributed over its terms,
+    /// so that like terms meet (`x - (x + y)` is `-y`).
+    pub fn replace(&mut self, expr: Id, with: &dyn Fn(Sym) -> Option<Id>, memo: &mut HashMap<Id, Id>) -> Id {
+        self.map_leaves(expr, &mut |ar, s| with(s).unwrap_or_else(|| ar.sym(s)), true, memo)
+    }
+
+    /// Whether `expr` mentions a symbol for which `which` holds.
+    pub fn mentions(&self, expr: Id, which: &dyn Fn(Sym) -> bool) -> bool {
+        self.reachable(&[expr]).into_iter().any(|id| matches!(self.node(id), Node::Sym(s) if which(*s)))
+    }
+
+    fn map_leaves(
+        &mut self,
+        expr: Id,
+        leaf: &mut dyn FnMut(&mut Arena, Sym) -> Id,
+        distribute: bool,
+        memo: &mut HashMap<Id, Id>,
+    ) -> Id {
         if let Some(&d) = memo.get(&expr) {
             return d;
         }
         let out = match self.node(expr).clone() {
             Node::Const(_) => expr,
-            Node::Sym(s) => self.sym(rename(s)),
+            Node::Sym(s) => leaf(self, s),
             Node::Add(ts) => {
-                let ts: Vec<Id> = ts.iter().map(|&t| self.subst(t, rename, memo)).collect();
+                let ts: Vec<Id> = ts.iter().map(|&t| self.map_leaves(t, leaf, distribute, memo)).collect();
                 self.add(&ts)
             }
             Node::Mul(fs) => {
-                let fs: Vec<Id> = fs.iter().map(|&f| self.subst(f, rename, memo)).collect();
-                self.mul(&fs)
+                let fs: Vec<Id> = fs.iter().map(|&f| self.map_leaves(f, leaf, distribute, memo)).collect();
+                match (distribute, &fs[..]) {
+                    (true, &[k, sum]) | (true, &[sum, k])
+                        if self.as_const(k).is_some() && matches!(self.node(sum), Node::Add(_)) =>
+                    {
+                        let Node::Add(ts) = self.node(sum).clone() else { unreachable!("matched") };
+                        let ts: Vec<Id> = ts.iter().map(|&t| self.mul2(k, t)).collect();
+                        self.add(&ts)
+                    }
+                    _ => self.mul(&fs),
+                }
             }
             Node::Pow(b, n) => {
-                let b = self.subst(b, rename, memo);
+                let b = self.map_leaves(b, leaf, distribute, memo);
                 self.pow(b, n)
             }
             Node::Sin(a) => {
-                let a = self.subst(a, rename, memo);
+                let a = self.map_leaves(a, leaf, distribute, memo);
                 self.sin(a)
             }
             Node::Cos(a) => {
-                let a = self.subst(a, rename, memo);
+                let a = self.map_leaves(a, leaf, distribute, memo);
                 self.cos(a)
             }
             Node::Sqrt(a) => {
-                let a = self.subst(a, rename, memo);
+                let a = self.map_leaves(a, leaf, distribute, memo);
                 self.sqrt(a)
             }
         };
