@@ -458,11 +458,14 @@ pub enum Integrator {
 pub enum FormulationArg {
     /// The index-1 DAE in all q, qd, projected after every step (the default).
     Dae,
-    /// Only the independent q, qd are integrated; the dependent ones are
-    /// recovered from the constraints at every evaluation (Wehage & Haug),
-    /// so no projection is needed or done.
+    /// Only the independent q, qd are integrated, so no projection is
+    /// needed or done: on the minimal coordinates model! derived where it
+    /// could (the dependent ones in closed form), else on a partition
+    /// whose dependent ones are recovered from the constraints at every
+    /// evaluation (Wehage & Haug).
     Reduced,
-    /// Reduced for the explicit methods on models with at most 16 constraint rows.
+    /// Reduced on the minimal coordinates model! derived (explicit
+    /// methods), or with one degree of freedom (DOPRI5, DOP853); else the DAE.
     Auto,
 }
 

@@ -174,9 +174,16 @@ fn auto_takes_the_reduced_formulation_only_where_it_pays() {
     // a fixed step saves nothing; RADAU5 is built on the DAE
     assert_eq!(chosen::<Trailer>("trailer", Method::Rk4), Formulation::Dae);
     assert_eq!(chosen::<Trailer>("trailer", Method::Radau5), Formulation::Dae);
-    // two degrees of freedom; one, but a drive makes an angle dependent
-    assert_eq!(chosen::<EzyRoller>("drive", Method::Dop853), Formulation::Dae);
+    // two degrees of freedom on a numeric partition
+    assert_eq!(chosen::<Numeric<EzyRoller>>("drive", Method::Dop853), Formulation::Dae);
     assert_eq!(chosen::<Snakeboard>("snakeboard", Method::Dop853), Formulation::Dae);
+    // minimal coordinates: every explicit method, not RADAU5
+    for method in [Method::Rk4, Method::Dopri5, Method::Dop853] {
+        assert_eq!(chosen::<EzyRoller>("drive", method), Formulation::Reduced, "{method:?}");
+    }
+    assert_eq!(chosen::<EzyRoller>("drive", Method::Radau5), Formulation::Dae);
+    // a drive makes an angle dependent: no minimal coordinates
+    assert_eq!(chosen::<EzyRollerDriven>("drive-prescribed", Method::Dop853), Formulation::Dae);
 }
 
 /// What the reduced formulation cannot do is refused before any step,

@@ -412,6 +412,27 @@ pub trait Model: Clone + Send + Sync + 'static {
     fn minimal_expand<S: Scalar>(&self, q: &mut [S], qd: &mut [S], b: &mut [S], c: &mut [S]) {
         let _ = (q, qd, b, c);
     }
+
+    /// Maggi's equations on the minimal coordinates from the expansion's
+    /// `b` (nq x nu) and `c` (nq), the mass diagonal `mass` (nq) and the
+    /// applied force `f` (nq): the lower triangle of `a = B^T M B`
+    /// (nu x nu, row-major) \[kg, kg m, kg m^2\] and `r = B^T (f - M c)`
+    /// (nu) \[N, N m\]. `model!` generates it over `B`'s structural
+    /// nonzeros with its constant entries inlined; this default loops.
+    fn minimal_maggi(&self, mass: &[f64], b: &[f64], c: &[f64], f: &[f64], a: &mut [f64], r: &mut [f64]) {
+        let nu = r.len();
+        a.fill(0.0);
+        r.fill(0.0);
+        for (((row, &cj), &mj), &fj) in b.chunks_exact(nu).zip(c).zip(mass).zip(f) {
+            let fj = fj - mj * cj;
+            for (i, &bi) in row.iter().enumerate() {
+                r[i] += bi * fj;
+                for (k, &bk) in row[..=i].iter().enumerate() {
+                    a[i * nu + k] += mj * bi * bk;
+                }
+            }
+        }
+    }
 }
 
 /// Minimal coordinates of a model whose hinges form a tree and whose

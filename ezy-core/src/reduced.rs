@@ -35,8 +35,9 @@ use crate::model::Model;
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize, serde::Deserialize)]
 #[serde(rename_all = "lowercase")]
 pub enum Formulation {
-    /// The reduced formulation where it pays, else the DAE
-    /// ([`Formulation::auto_takes_reduced`]).
+    /// The reduced formulation where it pays, else the DAE: on the
+    /// minimal coordinates `model!` derived ([`crate::MinimalLayout`]) for
+    /// every explicit method, else by [`Formulation::auto_takes_reduced`].
     Auto,
     /// The index-1 DAE in all `q, qd` with coordinate projection.
     #[default]
@@ -72,53 +73,12 @@ impl Formulation {
     /// the steps and the run 1.15-1.25x (`trailer`), while at two or more
     /// degrees of freedom the expansion (a Newton step, a dense LU of
     /// `G_D`) outweighs what it saves (`drive` 1.65x, `snake` 2.2-7x), and a
-    /// fixed-step method saves no steps at all.
+    /// fixed-step method saves no steps at all. (On the minimal
+    /// coordinates `model!` derives, with no Newton step and no `G_D`,
+    /// `Auto` takes the reduced formulation for every explicit method:
+    /// docs/physics.md §6.2.)
     pub fn auto_takes_reduced(method: crate::Method, nq: usize, nc: usize) -> bool {
         matches!(method, crate::Method::Dopri5 | crate::Method::Dop853) && nq == nc + 1
-    }
-}
-
-/// Maggi's equations `B^T M B x = B^T (f - M c)` for `NU` speeds, in
-/// registers: `b` (nq x NU), `c`, `mass` (the diagonal of `M`), `f` (nq).
-///
-/// # Errors
-/// As [`crate::kkt::spd::ldl_solve`].
-#[inline(always)]
-#[allow(clippy::needless_range_loop)]
-fn maggi_fixed<const NU: usize>(
-    b: &[f64],
-    c: &[f64],
-    mass: &[f64],
-    f: &[f64],
-    x: &mut [f64],
-) -> Result<(), crate::kkt::KktError> {
-    let mut a = [[0.0f64; NU]; NU];
-    let mut r = [0.0f64; NU];
-    for (((row, &cj), &mj), &fj) in b.chunks_exact(NU).zip(c).zip(mass).zip(f) {
-        let fj = fj - mj * cj;
-        for i in 0..NU {
-            let mb = mj * row[i];
-            r[i] += row[i] * fj;
-            for k in 0..=i {
-                a[i][k] += mb * row[k];
-            }
-        }
-    }
-    crate::kkt::spd::ldl_solve_fixed::<NU>(a.as_flattened(), NU, &r, x).map(|_| ())
-}
-
-/// [`maggi_fixed`]'s `B^T M B` (lower triangle) and `B^T (f - M c)` at any size.
-fn maggi_any(nu: usize, b: &[f64], c: &[f64], mass: &[f64], f: &[f64], a: &mut [f64], r: &mut [f64]) {
-    a.fill(0.0);
-    r.fill(0.0);
-    for (((row, &cj), &mj), &fj) in b.chunks_exact(nu).zip(c).zip(mass).zip(f) {
-        let fj = fj - mj * cj;
-        for (i, &bi) in row.iter().enumerate() {
-            r[i] += bi * fj;
-            for (k, &bk) in row[..=i].iter().enumerate() {
-                a[i * nu + k] += mj * bi * bk;
-            }
-        }
     }
 }
 
@@ -437,7 +397,7 @@ struct Minimal {
     b: Vec<f64>,
     c: Vec<f64>,
     /// `B^T M B` (nu x nu), `B^T (f - M c)` (nu) and the LDL^T scratch
-    /// (for nu > 8; smaller systems stay in registers).
+    /// (for nu > 8; smaller systems are factored in registers).
     a: Vec<f64>,
     r: Vec<f64>,
     ldl: Vec<f64>,
@@ -696,6 +656,13 @@ impl Reduced {
         if t.to_bits() == self.expanded_t.to_bits() && z == self.expanded_z.as_slice() {
             return Ok(());
         }
+        if self.minimal.is_some() {
+            self.expand_minimal(&sys.model, z);
+            self.expanded_t = t;
+            self.expanded_z.clear();
+            self.expanded_z.extend_from_slice(z);
+            return Ok(());
+        }
         // an expansion that fails leaves no key behind
         self.expanded_t = f64::NAN;
         let (nq, nh, nc) = (self.nq, self.nh, self.nc);
@@ -705,17 +672,6 @@ impl Reduced {
         let (qd, works) = rest.split_at_mut(nq);
         for (&zi, &j) in z.iter().zip(&self.partition.q_ind) {
             q[j] = zi;
-        }
-        if let Some(m) = &mut self.minimal {
-            for (&zi, &j) in z[ni..].iter().zip(&self.partition.v_ind) {
-                qd[j] = zi;
-            }
-            works.copy_from_slice(&z[ni + nf..]);
-            model.minimal_expand(q, qd, &mut m.b, &mut m.c);
-            self.expanded_t = t;
-            self.expanded_z.clear();
-            self.expanded_z.extend_from_slice(z);
-            return Ok(());
         }
         for (&v, &j) in self.q_dep_last.iter().zip(&self.partition.q_dep) {
             q[j] = v;
@@ -804,10 +760,13 @@ impl Reduced {
     /// # Errors
     /// As [`Reduced::expand`] and [`Dynamics::rhs`].
     pub fn eval<M: Model>(&mut self, sys: &mut Dynamics<M>, t: f64, z: &[f64], dz: &mut [f64]) -> Result<(), SimError> {
-        self.expand(sys, t, z)?;
         if self.minimal.is_some() {
+            // stages rarely repeat a state: expand without the key's check
+            self.expand_minimal(&sys.model, z);
+            self.expanded_t = f64::NAN;
             return self.eval_minimal(sys, t, dz);
         }
+        self.expand(sys, t, z)?;
         sys.rhs(t, &self.y, &mut self.dy)?;
         let nq = self.nq;
         let (ni, nf) = (self.partition.q_ind.len(), self.partition.v_ind.len());
@@ -819,6 +778,25 @@ impl Reduced {
         }
         dz[ni + nf..].copy_from_slice(&self.dy[2 * nq..]);
         Ok(())
+    }
+
+    /// The full state of `z` on minimal coordinates: the kept coordinates,
+    /// the independent speeds and the work states copied, the rest, `B`
+    /// and `c` from the model's [`Model::minimal_expand`].
+    #[inline]
+    fn expand_minimal<M: Model>(&mut self, model: &M, z: &[f64]) {
+        let m = self.minimal.as_mut().expect("minimal path");
+        let (nq, ni, nf) = (self.nq, self.partition.q_ind.len(), self.partition.v_ind.len());
+        let (q, rest) = self.y.split_at_mut(nq);
+        let (qd, works) = rest.split_at_mut(nq);
+        for (&zi, &j) in z.iter().zip(&self.partition.q_ind) {
+            q[j] = zi;
+        }
+        for (&zi, &j) in z[ni..].iter().zip(&self.partition.v_ind) {
+            qd[j] = zi;
+        }
+        works.copy_from_slice(&z[ni + nf..]);
+        model.minimal_expand(q, qd, &mut m.b, &mut m.c);
     }
 
     /// [`Reduced::eval`] on minimal coordinates, at the expanded state:
@@ -833,11 +811,8 @@ impl Reduced {
         let (ud, power) = rest.split_at_mut(nu);
         let qd = &self.y[nq..2 * nq];
         sys.applied_forces(t, q, qd, power)?;
-        let (f, mass) = (sys.applied_force(), &sys.mass[..]);
-        let solved = small_size!(nu, maggi_fixed(&m.b, &m.c, mass, f, ud), {
-            maggi_any(nu, &m.b, &m.c, mass, f, &mut m.a, &mut m.r);
-            crate::kkt::spd::ldl_solve(&m.a, nu, nu, &m.r, ud, &mut m.ldl).map(|_| ())
-        });
+        sys.model.minimal_maggi(&sys.mass, &m.b, &m.c, sys.applied_force(), &mut m.a, &mut m.r);
+        let solved = crate::kkt::spd::ldl_solve(&m.a, nu, nu, &m.r, ud, &mut m.ldl);
         solved.map_err(|source| SimError::Formulation {
             reason: format!("at t = {t} s the mass matrix of the minimal coordinates is singular ({source})"),
         })?;

@@ -696,11 +696,15 @@ pub fn simulate<M: Model, O: Observer<M>>(
     let reduced = match settings.formulation {
         Formulation::Dae => None,
         Formulation::Reduced => Some(Reduced::new(sys, 0.0, y0)?),
-        Formulation::Auto => (Formulation::auto_takes_reduced(settings.method, nq, nc)
-            && nc <= crate::reduced::MAX_CONSTRAINTS)
-            .then(|| Reduced::new(sys, 0.0, y0).ok())
-            .flatten()
-            .filter(Reduced::is_linear),
+        Formulation::Auto => {
+            let explicit = settings.method != Method::Radau5 && sys.baumgarte.is_none();
+            let minimal = explicit && sys.drives.is_empty() && sys.model.minimal_layout().is_ok();
+            ((minimal || Formulation::auto_takes_reduced(settings.method, nq, nc))
+                && nc <= crate::reduced::MAX_CONSTRAINTS)
+                .then(|| Reduced::new(sys, 0.0, y0).ok())
+                .flatten()
+                .filter(|r| r.is_minimal() || r.is_linear())
+        }
     };
     let formulation = if reduced.is_some() { Formulation::Reduced } else { Formulation::Dae };
     let reduced_settings;

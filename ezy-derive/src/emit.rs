@@ -708,7 +708,55 @@ fn minimal_fns(d: &Derived, def: &ModelDef, m: Result<crate::minimal::Minimal, S
     for (k, e) in exprs[nqd + nqdd + nb..].iter().enumerate() {
         sets.extend(quote!(c[#k] = #e;));
     }
+    // Maggi's B^T M B (lower triangle) and B^T (f - M c) over B's and c's
+    // structural nonzeros, with B's constant entries inlined
+    let nu = m.speeds.len();
+    let entry = |j: usize, i: usize| -> Option<TokenStream> {
+        let id = m.b[j * nu + i];
+        match d.ar.as_const(id) {
+            Some(v) if v == 0.0 => None,
+            Some(v) if v == 1.0 => Some(TokenStream::new()),
+            Some(v) => {
+                let v = lit_f64(v);
+                Some(quote!(#v *))
+            }
+            None => {
+                let k = j * nu + i;
+                Some(quote!(b[#k] *))
+            }
+        }
+    };
+    let nq = m.c.len();
+    let mut maggi = TokenStream::new();
+    for i in 0..nu {
+        for k in 0..=i {
+            let terms: Vec<TokenStream> = (0..nq)
+                .filter_map(|j| {
+                    let (bi, bk) = (entry(j, i)?, entry(j, k)?);
+                    Some(quote!(#bi #bk mass[#j]))
+                })
+                .collect();
+            let sum = if terms.is_empty() { quote!(0.0) } else { join(terms.into_iter(), quote!(+)) };
+            let at = i * nu + k;
+            maggi.extend(quote!(a[#at] = #sum;));
+        }
+        let terms: Vec<TokenStream> = (0..nq)
+            .filter_map(|j| {
+                let bi = entry(j, i)?;
+                Some(if d.ar.is_zero(m.c[j]) { quote!(#bi f[#j]) } else { quote!(#bi (f[#j] - mass[#j] * c[#j])) })
+            })
+            .collect();
+        let sum = if terms.is_empty() { quote!(0.0) } else { join(terms.into_iter(), quote!(+)) };
+        maggi.extend(quote!(r[#i] = #sum;));
+    }
     quote! {
+        #[inline]
+        fn minimal_maggi(&self, mass: &[f64], b: &[f64], c: &[f64], f: &[f64], a: &mut [f64], r: &mut [f64]) {
+            let (mass, b, c, f) = (&mass[..#nq], &b[..#nq * #nu], &c[..#nq], &f[..#nq]);
+            let (a, r) = (&mut a[..#nu * #nu], &mut r[..#nu]);
+            #maggi
+        }
+
         fn minimal_layout(&self) -> ::core::result::Result<#private::MinimalLayout, ::std::string::String> {
             type S = f64;
             #pivot_lets

@@ -2,6 +2,8 @@
 //! the constructors and asserts they intern to the same node (hash-consing
 //! makes structural equality an id comparison).
 
+use std::collections::HashMap;
+
 use super::{Arena, Id, Sym};
 
 const X: Sym = Sym::Q(0);
@@ -282,4 +284,22 @@ fn display_reads_like_the_spec() {
         _ => "?".to_string(),
     };
     assert_eq!(ar.display(e, &name), "-b*sin(phi1)");
+}
+
+#[test]
+fn replace_substitutes_and_cancels_like_terms() {
+    // x2 - (x1 + b cos(phi1)) with x2 := x1 + b cos(phi1) is zero: the
+    // replacement's -1 is distributed over the sum so its terms meet
+    let mut ar = Arena::new();
+    let (x1, x2, phi1, b) = (ar.sym(Sym::Q(0)), ar.sym(Sym::Q(3)), ar.sym(Sym::Q(2)), ar.sym(Sym::Param(1)));
+    let c = ar.cos(phi1);
+    let bc = ar.mul2(b, c);
+    let hinge = ar.add2(x1, bc);
+    let row = ar.sub(x2, hinge);
+    let solved = ar.replace(row, &|s| (s == Sym::Q(3)).then_some(hinge), &mut HashMap::new());
+    assert!(ar.is_zero(solved));
+    // symbols not mapped stay; mentions finds what remains
+    let kept = ar.replace(row, &|_| None, &mut HashMap::new());
+    assert_eq!(kept, row);
+    assert!(ar.mentions(row, &|s| s == Sym::Q(3)) && !ar.mentions(bc, &|s| s == Sym::Q(3)));
 }
