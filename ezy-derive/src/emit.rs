@@ -714,8 +714,8 @@ fn minimal_fns(d: &Derived, def: &ModelDef, m: Result<crate::minimal::Minimal, S
     let entry = |j: usize, i: usize| -> Option<TokenStream> {
         let id = m.b[j * nu + i];
         match d.ar.as_const(id) {
-            Some(v) if v == 0.0 => None,
-            Some(v) if v == 1.0 => Some(TokenStream::new()),
+            Some(0.0) => None,
+            Some(1.0) => Some(TokenStream::new()),
             Some(v) => {
                 let v = lit_f64(v);
                 Some(quote!(#v *))
