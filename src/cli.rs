@@ -464,8 +464,8 @@ pub enum FormulationArg {
     /// whose dependent ones are recovered from the constraints at every
     /// evaluation (Wehage & Haug).
     Reduced,
-    /// Reduced on the minimal coordinates model! derived (explicit
-    /// methods), or with one degree of freedom (DOPRI5, DOP853); else the DAE.
+    /// Reduced for DOPRI5 and DOP853 on the minimal coordinates model!
+    /// derived or with one degree of freedom; else the DAE.
     Auto,
 }
 

@@ -23,5 +23,5 @@ fn bench_measures_four_settings_and_their_processes() {
         assert!(error.is_finite() && error < 1e-6, "{r:?}");
         assert!(["µs", "ms", "s"].contains(&r[n - 1]), "a whole-process time in {r:?}");
     }
-    assert!(text.contains("output every 0.01 s") && text.contains("3e-11, reduced"), "{text}");
+    assert!(text.contains("output every 0.01 s") && text.contains("3e-11, reduced (minimal coordinates)"), "{text}");
 }

@@ -177,11 +177,14 @@ fn auto_takes_the_reduced_formulation_only_where_it_pays() {
     // two degrees of freedom on a numeric partition
     assert_eq!(chosen::<Numeric<EzyRoller>>("drive", Method::Dop853), Formulation::Dae);
     assert_eq!(chosen::<Snakeboard>("snakeboard", Method::Dop853), Formulation::Dae);
-    // minimal coordinates: every explicit method, not RADAU5
-    for method in [Method::Rk4, Method::Dopri5, Method::Dop853] {
+    // minimal coordinates: the adaptive explicit methods (RK4 at the
+    // assignment's step is slower on them: 0.32 against 0.30 s)
+    for method in [Method::Dopri5, Method::Dop853] {
         assert_eq!(chosen::<EzyRoller>("drive", method), Formulation::Reduced, "{method:?}");
     }
-    assert_eq!(chosen::<EzyRoller>("drive", Method::Radau5), Formulation::Dae);
+    for method in [Method::Rk4, Method::Radau5] {
+        assert_eq!(chosen::<EzyRoller>("drive", method), Formulation::Dae, "{method:?}");
+    }
     // a drive makes an angle dependent: no minimal coordinates
     assert_eq!(chosen::<EzyRollerDriven>("drive-prescribed", Method::Dop853), Formulation::Dae);
 }

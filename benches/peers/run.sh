@@ -135,8 +135,10 @@ for line in ezy.splitlines():
     setting, integ, _output, evals, err, whole = cells
     m = re.search(r"rtol = atol = (\S+?),", setting)
     tol = m.group(1) if m else setting.split(",")[0]
-    form = ("reduced: coordinate partitioning, 7 states, dependent coordinates by Newton"
-            if ", reduced," in setting else "DAE index-1 Schur + mass-weighted projection")
+    form = ("reduced on the minimal coordinates model! derives: 7 states, closed form, Maggi 2 x 2"
+            if "reduced (minimal coordinates)" in setting else
+            "reduced: coordinate partitioning, 7 states, dependent coordinates by Newton"
+            if "reduced" in setting else "DAE index-1 Schur + mass-weighted projection")
     print(f"| ezy `bench` | {form}; {setting} | {tol} | "
           f"{evals} | {integ} | {whole} | {err} |")
 for line in open(sys.argv[1]):

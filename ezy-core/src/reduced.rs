@@ -37,7 +37,7 @@ use crate::model::Model;
 pub enum Formulation {
     /// The reduced formulation where it pays, else the DAE: on the
     /// minimal coordinates `model!` derived ([`crate::MinimalLayout`]) for
-    /// every explicit method, else by [`Formulation::auto_takes_reduced`].
+    /// DOPRI5 and DOP853, else by [`Formulation::auto_takes_reduced`].
     Auto,
     /// The index-1 DAE in all `q, qd` with coordinate projection.
     #[default]
@@ -75,8 +75,8 @@ impl Formulation {
     /// `G_D`) outweighs what it saves (`drive` 1.65x, `snake` 2.2-7x), and a
     /// fixed-step method saves no steps at all. (On the minimal
     /// coordinates `model!` derives, with no Newton step and no `G_D`,
-    /// `Auto` takes the reduced formulation for every explicit method:
-    /// docs/physics.md §6.2.)
+    /// `Auto` takes the reduced formulation for DOPRI5 and DOP853 at any
+    /// number of degrees of freedom: docs/physics.md §6.2.)
     pub fn auto_takes_reduced(method: crate::Method, nq: usize, nc: usize) -> bool {
         matches!(method, crate::Method::Dopri5 | crate::Method::Dop853) && nq == nc + 1
     }

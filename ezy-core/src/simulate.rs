@@ -697,8 +697,10 @@ pub fn simulate<M: Model, O: Observer<M>>(
         Formulation::Dae => None,
         Formulation::Reduced => Some(Reduced::new(sys, 0.0, y0)?),
         Formulation::Auto => {
-            let explicit = settings.method != Method::Radau5 && sys.baumgarte.is_none();
-            let minimal = explicit && sys.drives.is_empty() && sys.model.minimal_layout().is_ok();
+            // minimal coordinates pay with the adaptive explicit methods
+            // (docs/physics.md §6.2): fewer evaluations at equal error
+            let adaptive = matches!(settings.method, Method::Dopri5 | Method::Dop853) && sys.baumgarte.is_none();
+            let minimal = adaptive && sys.drives.is_empty() && sys.model.minimal_layout().is_ok();
             ((minimal || Formulation::auto_takes_reduced(settings.method, nq, nc))
                 && nc <= crate::reduced::MAX_CONSTRAINTS)
                 .then(|| Reduced::new(sys, 0.0, y0).ok())
