@@ -438,19 +438,11 @@ impl Reduced {
         sys.model.constraint_matrix(&shifted, &mut g1);
         let same = |k: usize| g0[k].to_bits() == g1[k].to_bits();
         let nhz = info.n_holonomic_nonzeros();
+        let empty = Partition { q_ind: vec![], q_dep: vec![], v_ind: vec![], v_dep: vec![] };
         let mut red = Self {
-            partition: Partition { q_ind: vec![], q_dep: vec![], v_ind: vec![], v_dep: vec![] },
-            repartitions: 0,
-            nq,
-            nh,
-            nc,
-            c_route: Vec::new(),
-            gd_route: Vec::new(),
-            gi_route: Vec::new(),
             c_translation_free: (0..nhz).all(same),
             g_translation_free: (0..nnz).all(same),
             translational,
-            linear: false,
             c_d: SquareLu::new(nh),
             c_d_values: vec![f64::NAN; nh * nh],
             g_d: SquareLu::new(nc),
@@ -459,19 +451,48 @@ impl Reduced {
             g_values: g0,
             r: vec![0.0; nc],
             q_dep_last: vec![0.0; nh],
+            dy: vec![0.0; y.len()],
+            ..Self::with_partition(empty, (nq, nh, nc), y)
+        };
+        red.choose(sys, t, y)?;
+        Ok(red)
+    }
+
+    /// A reduced state on `partition` at the full state `y`, with no
+    /// scratch for either expansion: what the two constructors share.
+    fn with_partition(partition: Partition, (nq, nh, nc): (usize, usize, usize), y: &[f64]) -> Self {
+        Self {
+            partition,
+            repartitions: 0,
+            nq,
+            nh,
+            nc,
+            c_route: Vec::new(),
+            gd_route: Vec::new(),
+            gi_route: Vec::new(),
+            translational: Vec::new(),
+            c_translation_free: true,
+            g_translation_free: true,
+            linear: false,
+            c_d: SquareLu::new(0),
+            c_d_values: Vec::new(),
+            g_d: SquareLu::new(0),
+            g_d_values: Vec::new(),
+            phi: Vec::new(),
+            g_values: Vec::new(),
+            r: Vec::new(),
+            q_dep_last: Vec::new(),
             y: y.to_vec(),
             expanded_t: f64::NAN,
             expanded_z: Vec::new(),
-            dy: vec![0.0; y.len()],
+            dy: Vec::new(),
             y_accepted: y.to_vec(),
             quality0: [1.0; 2],
             quality: [1.0; 2],
             quality_accepted: [1.0; 2],
             scratch: Vec::new(),
             minimal: None,
-        };
-        red.choose(sys, t, y)?;
-        Ok(red)
+        }
     }
 
     /// The reduced state on the model's minimal coordinates, if `model!`
@@ -501,35 +522,7 @@ impl Reduced {
             return Ok(None);
         }
         let mut red = Self {
-            partition,
-            repartitions: 0,
-            nq,
-            nh,
-            nc,
-            c_route: Vec::new(),
-            gd_route: Vec::new(),
-            gi_route: Vec::new(),
-            translational: Vec::new(),
-            c_translation_free: true,
-            g_translation_free: true,
             linear: true,
-            c_d: SquareLu::new(0),
-            c_d_values: Vec::new(),
-            g_d: SquareLu::new(0),
-            g_d_values: Vec::new(),
-            phi: Vec::new(),
-            g_values: Vec::new(),
-            r: Vec::new(),
-            q_dep_last: Vec::new(),
-            y: y.to_vec(),
-            expanded_t: f64::NAN,
-            expanded_z: Vec::new(),
-            dy: Vec::new(),
-            y_accepted: y.to_vec(),
-            quality0: [1.0; 2],
-            quality: [1.0; 2],
-            quality_accepted: [1.0; 2],
-            scratch: Vec::new(),
             minimal: Some(Minimal {
                 b: vec![0.0; nq * nu],
                 c: vec![0.0; nq],
@@ -537,6 +530,7 @@ impl Reduced {
                 r: vec![0.0; nu],
                 ldl: vec![0.0; nu * (nu + 1)],
             }),
+            ..Self::with_partition(partition, (nq, nh, nc), y)
         };
         let mut z = vec![0.0; red.nz(y.len())];
         red.gather(y, &mut z);
