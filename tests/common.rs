@@ -100,3 +100,50 @@ pub const DRIVE_FIGURES: [&str; 7] = [
     "energy_gap.png",
     "residuals.png",
 ];
+
+/// A model as `M` but without the minimal coordinates `model!` derived
+/// for it: the reduced formulation takes the numeric partition.
+#[derive(Debug, Clone, Default)]
+pub struct Numeric<M>(pub M);
+
+impl<M: ezy_core::Model> ezy_core::Model for Numeric<M> {
+    fn info(&self) -> ezy_core::ModelInfo {
+        self.0.info()
+    }
+    fn equations(&self) -> ezy_core::Equations {
+        self.0.equations()
+    }
+    fn param(&self, index: usize) -> f64 {
+        self.0.param(index)
+    }
+    fn set_param(&mut self, index: usize, value: f64) {
+        self.0.set_param(index, value);
+    }
+    fn mass_diagonal(&self, out: &mut [f64]) {
+        self.0.mass_diagonal(out);
+    }
+    fn local_geometry(&self, points: &mut [f64], blades: &mut [f64]) {
+        self.0.local_geometry(points, blades);
+    }
+    fn phi<S: ezy_core::Scalar>(&self, q: &[S], phi: &mut [S]) {
+        self.0.phi(q, phi);
+    }
+    fn holonomic_jacobian<S: ezy_core::Scalar>(&self, q: &[S], values: &mut [S]) {
+        self.0.holonomic_jacobian(q, values);
+    }
+    fn constraint_matrix<S: ezy_core::Scalar>(&self, q: &[S], values: &mut [S]) {
+        self.0.constraint_matrix(q, values);
+    }
+    fn phi_and_constraint_matrix<S: ezy_core::Scalar>(&self, q: &[S], phi: &mut [S], values: &mut [S]) {
+        self.0.phi_and_constraint_matrix(q, phi, values);
+    }
+    fn constraint_terms<S: ezy_core::Scalar>(&self, q: &[S], qd: &[S], values: &mut [S], gamma: &mut [S]) {
+        self.0.constraint_terms(q, qd, values, gamma);
+    }
+    fn points<S: ezy_core::Scalar>(&self, q: &[S], out: &mut [S]) {
+        self.0.points(q, out);
+    }
+    fn point_velocities<S: ezy_core::Scalar>(&self, q: &[S], qd: &[S], out: &mut [S]) {
+        self.0.point_velocities(q, qd, out);
+    }
+}

@@ -6,58 +6,11 @@
 
 mod common;
 
-use common::{Recorder, max_abs};
+use common::{Numeric, Recorder, max_abs};
 use ezy::run::build;
 use ezy_core::kkt::KktMethod;
 use ezy_core::{Formulation, Method, Model, ProjectionKind, RunSettings, SimError, simulate};
 use ezy_models::{EzyRoller, EzyRollerDriven, FourBar, SliderCrank, Snake, Snakeboard, Trailer, scenes};
-
-/// A model as `M` but without the minimal coordinates `model!` derived
-/// for it: the reduced formulation takes the numeric partition.
-#[derive(Debug, Clone, Default)]
-struct Numeric<M>(M);
-
-impl<M: Model> Model for Numeric<M> {
-    fn info(&self) -> ezy_core::ModelInfo {
-        self.0.info()
-    }
-    fn equations(&self) -> ezy_core::Equations {
-        self.0.equations()
-    }
-    fn param(&self, index: usize) -> f64 {
-        self.0.param(index)
-    }
-    fn set_param(&mut self, index: usize, value: f64) {
-        self.0.set_param(index, value);
-    }
-    fn mass_diagonal(&self, out: &mut [f64]) {
-        self.0.mass_diagonal(out);
-    }
-    fn local_geometry(&self, points: &mut [f64], blades: &mut [f64]) {
-        self.0.local_geometry(points, blades);
-    }
-    fn phi<S: ezy_core::Scalar>(&self, q: &[S], phi: &mut [S]) {
-        self.0.phi(q, phi);
-    }
-    fn holonomic_jacobian<S: ezy_core::Scalar>(&self, q: &[S], values: &mut [S]) {
-        self.0.holonomic_jacobian(q, values);
-    }
-    fn constraint_matrix<S: ezy_core::Scalar>(&self, q: &[S], values: &mut [S]) {
-        self.0.constraint_matrix(q, values);
-    }
-    fn phi_and_constraint_matrix<S: ezy_core::Scalar>(&self, q: &[S], phi: &mut [S], values: &mut [S]) {
-        self.0.phi_and_constraint_matrix(q, phi, values);
-    }
-    fn constraint_terms<S: ezy_core::Scalar>(&self, q: &[S], qd: &[S], values: &mut [S], gamma: &mut [S]) {
-        self.0.constraint_terms(q, qd, values, gamma);
-    }
-    fn points<S: ezy_core::Scalar>(&self, q: &[S], out: &mut [S]) {
-        self.0.points(q, out);
-    }
-    fn point_velocities<S: ezy_core::Scalar>(&self, q: &[S], qd: &[S], out: &mut [S]) {
-        self.0.point_velocities(q, qd, out);
-    }
-}
 
 /// `scene` with `formulation`, DOP853 at `tol`, outputs every `every`.
 fn run<M: Model + Default>(

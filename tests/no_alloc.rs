@@ -3,9 +3,12 @@
 //! allocate: a run of 10,000 steps makes exactly as many heap allocations
 //! as a run of 100 steps (only the fixed setup allocates).
 
+mod common;
+
 use std::alloc::{GlobalAlloc, Layout, System};
 use std::cell::Cell;
 
+use common::Numeric;
 use ezy::run::build;
 use ezy_core::kkt::KktMethod;
 use ezy_core::{Dynamics, Formulation, Method, Model, Observer, ProjectionKind, RunSettings, Sample, simulate};
@@ -55,10 +58,10 @@ impl<M: Model> Observer<M> for Sink {
 }
 
 fn allocations_for(t_end: f64, projection: ProjectionKind, kkt: KktMethod, method: Method) -> usize {
-    allocations_with(&[], t_end, projection, kkt, method, Formulation::Dae)
+    allocations_with::<EzyRoller>(&[], t_end, projection, kkt, method, Formulation::Dae)
 }
 
-fn allocations_with(
+fn allocations_with<M: Model + Default>(
     sets: &[(String, f64)],
     t_end: f64,
     projection: ProjectionKind,
@@ -66,7 +69,7 @@ fn allocations_with(
     method: Method,
     formulation: Formulation,
 ) -> usize {
-    let (mut sys, y0) = build::<EzyRoller>(&scenes::drive(), sets, kkt).unwrap();
+    let (mut sys, y0) = build::<M>(&scenes::drive(), sets, kkt).unwrap();
     let settings = RunSettings {
         dt: 1e-4,
         t_end,
@@ -103,16 +106,20 @@ fn the_step_loop_does_not_allocate() {
     }
 }
 
-/// The reduced formulation's expansions (Newton step, LU of `G_D`) and
-/// its step loop neither (the drive keeps its partition to 60 s; a new
-/// partition, which allocates, is rare).
+/// The reduced formulation's expansions, on minimal coordinates (closed
+/// form, Maggi's equations) and on a numeric partition (Newton step, LU of
+/// `G_D`), and its step loop neither (the drive keeps its partition to
+/// 60 s; a new partition, which allocates, is rare).
 #[test]
 fn the_reduced_formulation_does_not_allocate() {
     for method in [Method::Rk4, Method::Dopri5, Method::Dop853] {
-        let run =
-            |t_end| allocations_with(&[], t_end, ProjectionKind::None, KktMethod::Auto, method, Formulation::Reduced);
-        let (short, long) = (run(0.01), run(2.0));
-        assert_eq!(short, long, "{method:?}: 0.01 s allocates {short} times, 2 s {long} times");
+        let f = (ProjectionKind::None, KktMethod::Auto, method, Formulation::Reduced);
+        let minimal = |t_end| allocations_with::<EzyRoller>(&[], t_end, f.0, f.1, f.2, f.3);
+        let numeric = |t_end| allocations_with::<Numeric<EzyRoller>>(&[], t_end, f.0, f.1, f.2, f.3);
+        for (what, run) in [("minimal", &minimal as &dyn Fn(f64) -> usize), ("numeric", &numeric)] {
+            let (short, long) = (run(0.01), run(2.0));
+            assert_eq!(short, long, "{what} {method:?}: 0.01 s allocates {short} times, 2 s {long} times");
+        }
     }
 }
 
@@ -120,10 +127,22 @@ fn the_reduced_formulation_does_not_allocate() {
 fn the_singular_mass_path_does_not_allocate() {
     let sets = [("m2".to_string(), 0.0), ("I2".to_string(), 0.0)];
     for method in [Method::Rk4, Method::Dop853] {
-        let short =
-            allocations_with(&sets, 0.01, ProjectionKind::MassWeighted, KktMethod::Auto, method, Formulation::Dae);
-        let long =
-            allocations_with(&sets, 1.0, ProjectionKind::MassWeighted, KktMethod::Auto, method, Formulation::Dae);
+        let short = allocations_with::<EzyRoller>(
+            &sets,
+            0.01,
+            ProjectionKind::MassWeighted,
+            KktMethod::Auto,
+            method,
+            Formulation::Dae,
+        );
+        let long = allocations_with::<EzyRoller>(
+            &sets,
+            1.0,
+            ProjectionKind::MassWeighted,
+            KktMethod::Auto,
+            method,
+            Formulation::Dae,
+        );
         assert_eq!(short, long, "{method:?}: 0.01 s allocates {short} times, 1 s {long} times");
     }
 }
