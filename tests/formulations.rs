@@ -202,3 +202,143 @@ fn a_scene_file_asks_for_its_formulation() {
     let e = ezy_core::Scene::from_toml(&ask("reduce"), "free.toml").unwrap_err().to_string();
     assert!(e.starts_with("free.toml:13:") && e.contains("`reduce`") && e.contains("`dae`, `reduced`"), "{e}");
 }
+
+ezy_core::model! {
+    /// Three bodies in a chain, each with a skate off its hinges: a
+    /// tractor and two trailers (the minimal coordinates of a deeper tree).
+    pub struct TwoTrailers {
+        param a = 0.3;
+        param h = 0.8;
+        param e = 0.6;
+        param f = 0.2;
+        body tractor(x1, y1, phi1) { mass: 20.0, inertia: 1.5 }
+        body first(x2, y2, phi2) { mass: 8.0, inertia: 0.6 }
+        body second(x3, y3, phi3) { mass: 6.0, inertia: 0.4 }
+        point R on tractor at (-a, 0);
+        point H1 on tractor at (-h, 0);
+        point H2 on first at (e, 0);
+        point T2 on first at (-f, 0);
+        point K2 on first at (-e, 0);
+        point K3 on second at (e, 0);
+        point T3 on second at (-f, 0);
+        hinge H: H1 = H2;
+        hinge K: K2 = K3;
+        skate R: R along (1, 0);
+        skate T2: T2 along (1, 0);
+        skate T3: T3 along (1, 0);
+    }
+}
+
+ezy_core::model! {
+    /// Two bodies whose hinges close a loop through the ground.
+    pub struct GroundLoop {
+        body left(x1, y1, phi1) { mass: 1.0, inertia: 0.1 }
+        body right(x2, y2, phi2) { mass: 1.0, inertia: 0.1 }
+        point L0 on left at (-0.5, 0);
+        point L1 on left at (0.5, 0);
+        point R1 on right at (-0.5, 0);
+        point R0 on right at (0.5, 0);
+        hinge A: L0 = ground(0, 0);
+        hinge B: L1 = R1;
+        hinge C: R0 = ground(1.5, 0);
+    }
+}
+
+ezy_core::model! {
+    /// A skate whose axle (the line through its contact point across the
+    /// blade) runs through the hinge: its row has no constant coefficient.
+    pub struct AxleThroughHinge {
+        body base(x1, y1, phi1) { mass: 5.0, inertia: 0.5 }
+        body arm(x2, y2, phi2) { mass: 1.0, inertia: 0.1 }
+        point S on base at (-0.4, 0);
+        point B1 on base at (0.5, 0);
+        point B2 on arm at (0, 0);
+        point C on arm at (0, 0.3);
+        hinge B: B1 = B2;
+        skate S: S along (1, 0);
+        skate C: C along (1, 0);
+    }
+}
+
+/// `model!`'s minimal coordinates: the kept coordinates and independent
+/// speeds of the tree models, the terms checked against finite
+/// differences and dual numbers, and the reason each other model gives.
+#[test]
+fn model_derives_minimal_coordinates_for_trees_and_says_why_not_otherwise() {
+    let layout = TwoTrailers::default().minimal_layout().unwrap();
+    // the tractor's x, y, phi and each trailer's phi; each skate fixes its
+    // body's angular rate
+    assert_eq!((layout.coords, layout.speeds), (vec![0, 1, 2, 5, 8], vec![0, 1]));
+    assert_eq!(layout.pivots.iter().map(|p| p.1).collect::<Vec<_>>(), [2, 5, 8]);
+    ezy::testing::assert_derivatives(&TwoTrailers::default());
+    // a chain hinged to the ground keeps only angles, and every speed
+    let layout = ezy_models::DoublePendulum::default().minimal_layout().unwrap();
+    assert_eq!((layout.coords, layout.speeds), (vec![2, 5], vec![2, 5]));
+    ezy::testing::assert_derivatives(&ezy_models::DoublePendulum::default());
+    let why = |m: Result<ezy_core::MinimalLayout, String>| m.unwrap_err();
+    for (reason, want) in [
+        (why(GroundLoop::default().minimal_layout()), "hinge `C` closes a loop"),
+        (why(FourBar::default().minimal_layout()), "closes a loop"),
+        (why(AxleThroughHinge::default().minimal_layout()), "skate `C`"),
+        (why(SliderCrank::default().minimal_layout()), "slider or slot"),
+        (why(EzyRollerDriven::default().minimal_layout()), "drive"),
+        (why(Trailer::default().minimal_layout()), "families"),
+    ] {
+        assert!(reason.contains(want), "{reason}");
+    }
+    // parameters that zero a pivot (skate A at body 1's centre of mass)
+    // put the run on a numeric partition
+    let (mut sys, y0) = build::<EzyRoller>(&scenes::get("drive"), &[("a".into(), 0.0)], KktMethod::Auto).unwrap();
+    let pivot = sys.model.minimal_layout().unwrap().pivots[0].2;
+    let settings = RunSettings {
+        formulation: Formulation::Reduced,
+        projection: ProjectionKind::None,
+        ..common::dop853(0.5, 0.5, 1e-8)
+    };
+    let s = simulate(&mut sys, &y0, &settings, &mut Recorder::default()).unwrap();
+    assert_eq!((pivot, s.formulation, s.minimal_coordinates), (0.0, Formulation::Reduced, false));
+}
+
+/// A scene of a model with three skates on its minimal coordinates: the
+/// same trajectory as the DAE's and the constraints to rounding.
+#[test]
+fn a_deeper_tree_runs_on_its_minimal_coordinates() {
+    let scene = ezy_core::Scene::from_toml(
+        r#"
+name = "train"
+description = "tractor and two trailers coasting into a turn"
+model = "two_trailers"
+t_end = 5.0
+[initial]
+q = { x1 = 0.0, y1 = 0.0, phi1 = 0.0, phi2 = 0.2, phi3 = -0.1 }
+qd = { x1 = 1.0, y1 = 0.1 }
+"#,
+        "train.toml",
+    )
+    .unwrap();
+    let (mut sys, y0) = build::<TwoTrailers>(&scene, &[], KktMethod::Auto).unwrap();
+    let mut runs = Vec::new();
+    for (formulation, tol) in [(Formulation::Reduced, 1e-11), (Formulation::Dae, 1e-12)] {
+        let settings = RunSettings {
+            formulation,
+            projection: if formulation == Formulation::Dae {
+                ProjectionKind::MassWeighted
+            } else {
+                ProjectionKind::None
+            },
+            ..common::dop853(5.0, 0.5, tol)
+        };
+        let mut rec = Recorder::default();
+        let s = simulate(&mut sys, &y0, &settings, &mut rec).unwrap();
+        runs.push((rec, s));
+    }
+    let ((red, s), (dae, _)) = (&runs[0], &runs[1]);
+    assert!(s.minimal_coordinates);
+    assert!(max_abs(red.res_phi.iter().copied()) <= 1e-12 && max_abs(red.res_vel.iter().copied()) <= 1e-12);
+    // DOP853 at 1e-11 and 1e-12 over 5 s: ~1e-10 apart; an O(1) mistake
+    // in B or c moves the trailers by centimetres
+    let gap =
+        red.y.iter().zip(&dae.y).flat_map(|(a, b)| a.iter().zip(b).map(|(x, y)| (x - y).abs())).fold(0.0, f64::max);
+    assert!(gap <= 1e-8, "{gap:e}");
+    assert!(red.y.last().unwrap()[0] > 2.0, "the train coasts forward");
+}

@@ -447,8 +447,9 @@ pub trait Model: Clone + Send + Sync + 'static {
 ///   `p` (indices into `q`) are every root body's `x, y, phi` and every
 ///   other body's `phi` (a body hinged to the ground keeps only `phi`).
 /// - Every skate row, linear in `pd`, is solved for one velocity whose
-///   coefficient is a constant (a body's angular rate: the distance of its
-///   blade line from the hinge or the centre of mass); the others are the
+///   coefficient is a constant (a body's angular rate: the distance from
+///   the hinge, or a root's centre of mass, to the contact point along the
+///   blade); the others are the
 ///   independent speeds `u` (indices into `qd`), `pd = N(p) u`.
 ///
 /// The equations of motion are then Maggi's (Kane's) `B^T M B u' = B^T (f -
@@ -461,8 +462,9 @@ pub struct MinimalLayout {
     pub speeds: Vec<usize>,
     /// Each skate row's constant coefficient at the current parameters:
     /// `(skate, index of the velocity it fixes, coefficient [m or 1])`. A
-    /// zero (parameters that put the blade line through the hinge) leaves
-    /// that velocity undetermined.
+    /// zero (parameters that put the hinge on the skate's axle, the line
+    /// through the contact point across the blade) leaves that velocity
+    /// undetermined, and the reduced formulation takes a numeric partition.
     pub pivots: Vec<(String, usize, f64)>,
 }
 
