@@ -603,19 +603,14 @@ pub fn summary(scene: &str, r: &Report) -> String {
         format!("{} steps of h = {} s", s.steps, short(r.settings.dt.min(r.settings.t_end)))
     };
     let kept = if s.minimal_coordinates {
-        "reduced formulation on the minimal coordinates model! derived (no projection)".to_string()
+        // no KKT system: Maggi's equations in the independent speeds
+        "reduced formulation on the minimal coordinates model! derived (no projection, Maggi's equations)".to_string()
     } else if s.formulation == ezy_core::Formulation::Reduced {
-        format!("reduced formulation ({} re-partitions, no projection)", s.repartitions)
+        format!("reduced formulation ({} re-partitions, no projection), {} KKT path", s.repartitions, s.kkt)
     } else {
-        format!("projection {} ({})", r.settings.projection.name(), s.projection_path)
+        format!("projection {} ({}), {} KKT path", r.settings.projection.name(), s.projection_path, s.kkt)
     };
-    let _ = writeln!(
-        out,
-        "{scene}: {} {how} to t = {} s, {kept}, {} KKT path",
-        s.method.name(),
-        short(r.settings.t_end),
-        s.kkt
-    );
+    let _ = writeln!(out, "{scene}: {} {how} to t = {} s, {kept}", s.method.name(), short(r.settings.t_end));
     let _ = writeln!(
         out,
         "  RHS evaluations {}, integration {:.3} s ({:.0} ns per RHS incl. projection), output {:.3} s, setup {:.3} s, whole run {:.3} s",
