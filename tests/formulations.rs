@@ -297,6 +297,10 @@ fn model_derives_minimal_coordinates_for_trees_and_says_why_not_otherwise() {
     };
     let s = simulate(&mut sys, &y0, &settings, &mut Recorder::default()).unwrap();
     assert_eq!((pivot, s.formulation, s.minimal_coordinates), (0.0, Formulation::Reduced, false));
+    // where auto keeps the DAE: two degrees of freedom on that partition
+    let auto = RunSettings { formulation: Formulation::Auto, ..settings };
+    let s = simulate(&mut sys, &y0, &auto, &mut Recorder::default()).unwrap();
+    assert_eq!(s.formulation, Formulation::Dae);
 }
 
 /// A scene of a model with three skates on its minimal coordinates: the

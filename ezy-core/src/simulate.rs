@@ -698,14 +698,16 @@ pub fn simulate<M: Model, O: Observer<M>>(
         Formulation::Reduced => Some(Reduced::new(sys, 0.0, y0)?),
         Formulation::Auto => {
             // minimal coordinates pay with the adaptive explicit methods
-            // (docs/physics.md §6.2): fewer evaluations at equal error
-            let adaptive = matches!(settings.method, Method::Dopri5 | Method::Dop853) && sys.baumgarte.is_none();
+            // (docs/physics.md §6.2): fewer evaluations at equal error; a
+            // numeric partition only with one degree of freedom (§6.1)
+            let free = sys.baumgarte.is_none();
+            let adaptive = free && matches!(settings.method, Method::Dopri5 | Method::Dop853);
             let minimal = adaptive && sys.drives.is_empty() && sys.model.minimal_layout().is_ok();
-            ((minimal || Formulation::auto_takes_reduced(settings.method, nq, nc))
-                && nc <= crate::reduced::MAX_CONSTRAINTS)
+            let numeric = free && Formulation::auto_takes_reduced(settings.method, nq, nc);
+            ((minimal || numeric) && nc <= crate::reduced::MAX_CONSTRAINTS)
                 .then(|| Reduced::new(sys, 0.0, y0).ok())
                 .flatten()
-                .filter(|r| r.is_minimal() || r.is_linear())
+                .filter(|r| if r.is_minimal() { minimal } else { numeric && r.is_linear() })
         }
     };
     let formulation = if reduced.is_some() { Formulation::Reduced } else { Formulation::Dae };
