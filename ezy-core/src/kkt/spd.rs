@@ -15,7 +15,13 @@
 //! [`ldl_solve`]), unrolled for m <= 8, that reports a
 //! pivot small *relative to its diagonal entry* as dependent constraints
 //! (nalgebra's Cholesky only rejects pivots <= 0, which lets a duplicated
-//! constraint through with multipliers of 1e18).
+//! constraint through with multipliers of 1e18). For m = 2 and m = 4 (the
+//! EzyRoller's hinge rows, its whole `G`, and Maggi's 2 x 2 on minimal
+//! coordinates) explicit 2 x 2 inverses replace the factorization's chain
+//! of divisions, one per pivot, by one per block, with the same pivots
+//! checked: the right-hand side's longest chain of dependent operations
+//! (RK4 at h = 1e-4 s on `drive`: 0.296 s -> 0.28 s; DOP853 at 1e-11:
+//! 1.17 -> 1.09 ms).
 
 use crate::model::Model;
 
@@ -72,7 +78,88 @@ pub fn ldl_solve(
     if m == 0 {
         return Ok(1.0);
     }
-    small_size!(m, ldl_solve_fixed(a, lda, r, x), ldl_solve_dynamic(a, m, lda, r, x, scratch))
+    match m {
+        2 => solve_2(a, lda, r, x),
+        4 => solve_4(a, lda, r, x),
+        _ => small_size!(m, ldl_solve_fixed(a, lda, r, x), ldl_solve_dynamic(a, m, lda, r, x, scratch)),
+    }
+}
+
+/// [`ldl_solve`] for m = 2 by the explicit inverse: one division where the
+/// factorization chains two. The pivots `D_00 = a00`, `D_11 = det / a00`
+/// are checked as [`ldl_solve_fixed`] checks them (by products: no
+/// division on the way), so the same rows are refused.
+#[inline(always)]
+fn solve_2(a: &[f64], lda: usize, r: &[f64], x: &mut [f64]) -> Result<f64, KktError> {
+    let (a00, a10, a11) = (a[0], a[lda], a[lda + 1]);
+    let det = pivot_pair([a00, a10, a11], [a00, a11], 0, 2)?;
+    let idet = 1.0 / det;
+    x[0] = (a11 * r[0] - a10 * r[1]) * idet;
+    x[1] = (a00 * r[1] - a10 * r[0]) * idet;
+    Ok((a11 * a00 * idet).max(1.0))
+}
+
+/// The pivots of the SPD 2 x 2 block `[[a00, a10], [a10, a11]]` (a
+/// Schur complement for the second block) at rows `row`, `row + 1` of an
+/// n x n matrix, checked as [`ldl_solve_fixed`] checks `D_jj`: non-finite,
+/// then `D_jj <= PIVOT_RTOL A_jj` with `A_jj` the matrix's own diagonal
+/// `diag` (`D_00 = a00`, `D_11 = det / a00`, multiplied through by
+/// `a00 > 0`). Returns the determinant `a00 D_11`.
+#[allow(clippy::neg_cmp_op_on_partial_ord)]
+#[inline(always)]
+fn pivot_pair(block: [f64; 3], diag: [f64; 2], row: usize, n: usize) -> Result<f64, KktError> {
+    let [a00, a10, a11] = block;
+    if !a00.is_finite() {
+        return Err(KktError::NonFinite { n });
+    }
+    if !(a00 > PIVOT_RTOL * diag[0]) {
+        return Err(KktError::DependentConstraints { n, row });
+    }
+    let det = a00 * a11 - a10 * a10;
+    if !det.is_finite() {
+        return Err(KktError::NonFinite { n });
+    }
+    if !(det > PIVOT_RTOL * diag[1] * a00) {
+        return Err(KktError::DependentConstraints { n, row: row + 1 });
+    }
+    Ok(det)
+}
+
+/// [`ldl_solve`] for m = 4 by 2 x 2 blocks: `A11^-1` and the Schur
+/// complement `S = A22 - A21 A11^-1 A12` by explicit 2 x 2 inverses, two
+/// divisions in the chain where the factorization has four (the
+/// EzyRoller's hinge and skate rows: the right-hand side's longest chain
+/// of dependent operations). `D_22 = S_00` and `D_33 = det S / S_00` are
+/// the factorization's pivots, checked as it checks them.
+#[inline(always)]
+fn solve_4(a: &[f64], lda: usize, r: &[f64], x: &mut [f64]) -> Result<f64, KktError> {
+    let e = |i: usize, j: usize| a[i * lda + j];
+    let (a00, a10, a11) = (e(0, 0), e(1, 0), e(1, 1));
+    let (a20, a21, a22) = (e(2, 0), e(2, 1), e(2, 2));
+    let (a30, a31, a32, a33) = (e(3, 0), e(3, 1), e(3, 2), e(3, 3));
+    let det1 = pivot_pair([a00, a10, a11], [a00, a11], 0, 4)?;
+    let i1 = 1.0 / det1;
+    // Y = A11^-1 A12, A12 = [[a20, a30], [a21, a31]]
+    let y00 = (a11 * a20 - a10 * a21) * i1;
+    let y01 = (a11 * a30 - a10 * a31) * i1;
+    let y10 = (a00 * a21 - a10 * a20) * i1;
+    let y11 = (a00 * a31 - a10 * a30) * i1;
+    let s00 = a22 - (a20 * y00 + a21 * y10);
+    let s10 = a32 - (a30 * y00 + a31 * y10);
+    let s11 = a33 - (a30 * y01 + a31 * y11);
+    let det2 = pivot_pair([s00, s10, s11], [a22, a33], 2, 4)?;
+    let i2 = 1.0 / det2;
+    let w0 = (a11 * r[0] - a10 * r[1]) * i1;
+    let w1 = (a00 * r[1] - a10 * r[0]) * i1;
+    let b2 = r[2] - (a20 * w0 + a21 * w1);
+    let b3 = r[3] - (a30 * w0 + a31 * w1);
+    let x2 = (s11 * b2 - s10 * b3) * i2;
+    let x3 = (s00 * b3 - s10 * b2) * i2;
+    x[0] = w0 - (y00 * x2 + y01 * x3);
+    x[1] = w1 - (y10 * x2 + y11 * x3);
+    x[2] = x2;
+    x[3] = x3;
+    Ok((a11 * a00 * i1).max(a22 / s00).max(a33 * s00 * i2).max(1.0))
 }
 
 // `!(d > tol)` also rejects NaN pivots, which `d <= tol` would let through.
@@ -332,6 +419,48 @@ mod tests {
                 let ax: f64 = (0..m).map(|j| a[i * m + j] * x[j]).sum();
                 assert!((ax - r[i]).abs() < 1e-12 * r[i].abs().max(1.0), "m = {m}, row {i}: {ax} vs {}", r[i]);
             }
+        }
+    }
+
+    /// The explicit 2 x 2 and 4 x 4 block solves give the factorization's
+    /// solution, pivot growth and refusals (the same row for a dependent
+    /// constraint at each position, inside a larger matrix too).
+    #[test]
+    fn block_solves_match_the_factorization() {
+        for m in [2, 4] {
+            for shift in [0.0, 1e-3, 10.0] {
+                let mut a = spd(m);
+                for i in 0..m {
+                    a[i * m + i] += shift;
+                }
+                let r: Vec<f64> = (0..m).map(|i| 1.0 - 0.7 * i as f64).collect();
+                let (mut x, mut y) = (vec![0.0; m], vec![0.0; m]);
+                let g = ldl_solve(&a, m, m, &r, &mut x, &mut []).unwrap();
+                let h = ldl_solve_dynamic(&a, m, m, &r, &mut y, &mut vec![0.0; m * (m + 1)]).unwrap();
+                assert!((g - h).abs() <= 1e-12 * h, "m = {m}: growth {g} vs {h}");
+                for (u, v) in x.iter().zip(&y) {
+                    assert!((u - v).abs() <= 1e-12 * v.abs().max(1.0), "m = {m}: {x:?} vs {y:?}");
+                }
+            }
+            // row k a copy of row k - 1 (Gram matrix of dependent vectors)
+            for k in 1..m {
+                let v = |i: usize| -> Vec<f64> {
+                    let i = if i == k { k - 1 } else { i };
+                    (0..m).map(|j| if i == j { 1.0 } else { 0.1 * (i + j) as f64 }).collect()
+                };
+                let a: Vec<f64> = (0..m * m).map(|n| v(n / m).iter().zip(v(n % m)).map(|(p, q)| p * q).sum()).collect();
+                let mut x = vec![0.0; m];
+                let fast = ldl_solve(&a, m, m, &vec![1.0; m], &mut x, &mut []);
+                let slow = ldl_solve_dynamic(&a, m, m, &vec![1.0; m], &mut x, &mut vec![0.0; m * (m + 1)]);
+                assert_eq!(fast, slow, "m = {m}, row {k}");
+                assert_eq!(fast, Err(KktError::DependentConstraints { n: m, row: k }));
+            }
+            let mut a = spd(m);
+            a[m * m - 1] = f64::NAN;
+            assert_eq!(
+                ldl_solve(&a, m, m, &vec![1.0; m], &mut vec![0.0; m], &mut []),
+                Err(KktError::NonFinite { n: m })
+            );
         }
     }
 
