@@ -131,7 +131,7 @@ fn auto_takes_the_reduced_formulation_only_where_it_pays() {
     assert_eq!(chosen::<Numeric<EzyRoller>>("drive", Method::Dop853), Formulation::Dae);
     assert_eq!(chosen::<Snakeboard>("snakeboard", Method::Dop853), Formulation::Dae);
     // minimal coordinates: the adaptive explicit methods (RK4 at the
-    // assignment's step is slower on them: 0.32 against 0.30 s)
+    // assignment's step is slower on them: 0.29-0.32 against 0.28 s)
     for method in [Method::Dopri5, Method::Dop853] {
         assert_eq!(chosen::<EzyRoller>("drive", method), Formulation::Reduced, "{method:?}");
     }
