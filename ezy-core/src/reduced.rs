@@ -808,7 +808,7 @@ impl Reduced {
         sys.model.minimal_maggi(&sys.mass, &m.b, &m.c, sys.applied_force(), &mut m.a, &mut m.r);
         let solved = crate::kkt::spd::ldl_solve(&m.a, nu, nu, &m.r, ud, &mut m.ldl);
         solved.map_err(|source| SimError::Formulation {
-            reason: format!("at t = {t} s the mass matrix of the minimal coordinates is singular ({source})"),
+            reason: format!("at t = {t} s Maggi's equations on the minimal coordinates cannot be solved: {source}"),
         })?;
         for (d, &j) in pd.iter_mut().zip(&self.partition.q_ind) {
             *d = self.y[nq + j];
