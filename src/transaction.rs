@@ -348,10 +348,13 @@ impl Transaction {
             }
         }
         // Hard links of the previous files, to put them back if a rename
-        // fails half-way. The links live in the private directory.
+        // fails half-way. The links live in the private directory. The
+        // last file renamed needs none (its failed rename leaves it as it
+        // was), so a single file (`--no-figures`) takes no link at all.
         let previous = self.tmp.path().join(".previous");
-        let kept = std::fs::create_dir(&previous).is_ok();
-        let before: Vec<Previous> = order
+        let backed_up = &order[..order.len().saturating_sub(1)];
+        let kept = !backed_up.is_empty() && std::fs::create_dir(&previous).is_ok();
+        let before: Vec<Previous> = backed_up
             .iter()
             .map(|name| {
                 let target = self.path(name);
@@ -617,6 +620,40 @@ mod tests {
         assert_eq!(std::fs::read(dir.join("a.csv")).unwrap(), b"old table");
         assert_eq!(std::fs::read(dir.join("b.png")).unwrap(), b"old b");
         assert!(!c.exists());
+    }
+
+    /// The table is renamed last and backed up by no link: when its rename
+    /// fails, the figures renamed before it are put back and the previous
+    /// table is untouched; a single file takes no link and fails the same.
+    #[test]
+    fn a_failed_last_rename_leaves_the_previous_table() {
+        let root = tempfile::tempdir().unwrap();
+        let dir = root.path();
+        std::fs::write(dir.join("a.csv"), b"old table").unwrap();
+        std::fs::write(dir.join("b.png"), b"old b").unwrap();
+        let mut tx = Transaction::begin(dir).unwrap();
+        tx.write("a.csv", b"new table").unwrap();
+        tx.write("b.png", b"new b").unwrap();
+        std::fs::remove_file(tx.tmp.path().join("a.csv")).unwrap();
+        let err = tx.commit().unwrap_err();
+        assert!(matches!(err, TransactionError::Commit { restored: true, .. }), "{err}");
+        assert_eq!(std::fs::read(dir.join("a.csv")).unwrap(), b"old table");
+        assert_eq!(std::fs::read(dir.join("b.png")).unwrap(), b"old b");
+
+        let mut tx = Transaction::begin(dir).unwrap();
+        tx.write("a.csv", b"new table").unwrap();
+        std::fs::remove_file(tx.tmp.path().join("a.csv")).unwrap();
+        let err = tx.commit().unwrap_err();
+        assert!(matches!(err, TransactionError::Commit { restored: true, .. }), "{err}");
+        assert_eq!(std::fs::read(dir.join("a.csv")).unwrap(), b"old table");
+        let mut tx = Transaction::begin(dir).unwrap();
+        tx.write("a.csv", b"new table").unwrap();
+        tx.commit().unwrap();
+        assert_eq!(std::fs::read(dir.join("a.csv")).unwrap(), b"new table");
+        let mut names: Vec<String> =
+            std::fs::read_dir(dir).unwrap().map(|e| e.unwrap().file_name().to_string_lossy().into_owned()).collect();
+        names.sort();
+        assert_eq!(names, [LOCK_FILE, "a.csv", "b.png"]);
     }
 
     #[test]
