@@ -60,7 +60,8 @@ pub fn random_model_from<M: Model>(base: &M, rng: &mut StdRng) -> M {
     m
 }
 
-/// Keeps every sample: `(t, y = [q, qd, sum W], T, res_phi, res_vel)`.
+/// Keeps every sample: `(t, y = [q, qd, sum W], T, res_phi, res_vel)`,
+/// and the run's notes.
 #[derive(Default)]
 pub struct Recorder {
     pub t: Vec<f64>,
@@ -68,6 +69,7 @@ pub struct Recorder {
     pub kinetic: Vec<f64>,
     pub res_phi: Vec<f64>,
     pub res_vel: Vec<f64>,
+    pub notes: Vec<String>,
 }
 
 impl<M: Model> Observer<M> for Recorder {
@@ -82,6 +84,9 @@ impl<M: Model> Observer<M> for Recorder {
         self.res_phi.push(s.residual_position);
         self.res_vel.push(s.residual_velocity);
         Ok(())
+    }
+    fn note(&mut self, text: &str) {
+        self.notes.push(text.to_string());
     }
 }
 

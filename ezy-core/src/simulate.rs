@@ -769,6 +769,25 @@ pub fn simulate<M: Model, O: Observer<M>>(
         newton: Default::default(),
     };
     run.summary.projection_path = run.proj.path();
+    // minimal coordinates asked for and refused for a pivot: say why
+    if settings.formulation == Formulation::Reduced
+        && reduced.as_ref().is_some_and(|r| !r.is_minimal())
+        && let Ok(layout) = sys.model.minimal_layout()
+        && let Some((skate, p, rho)) = crate::reduced::small_pivot(&sys.info, &sys.mass, &layout)
+    {
+        let why = if rho > 0.0 {
+            format!(
+                "is {:.2e} m, below {} of its body's radius of gyration {rho:.3} m (an ill-conditioned speed)",
+                p.abs(),
+                crate::reduced::MIN_PIVOT_GYRATION
+            )
+        } else {
+            format!("is {p} at these parameters")
+        };
+        run.observer.note(&format!(
+            "minimal coordinates not taken: the pivot of skate `{skate}` (the distance along its blade from the hinge or centre of mass to the contact point) {why}; the reduced formulation runs on a numeric partition"
+        ));
+    }
     run.emit(sys, 0.0, y0)?;
     let start = Instant::now();
     let (result, final_state) = match reduced {
