@@ -181,7 +181,7 @@ struct RowWriter {
 
 enum Writing {
     /// No batch handed over yet: the file is written here.
-    Here(csv::Writer<File>),
+    Here(Box<csv::Writer<File>>),
     /// A writer thread owns the file; emptied batches come back for reuse.
     Thread {
         send: std::sync::mpsc::SyncSender<Vec<f64>>,
@@ -206,7 +206,7 @@ fn write_rows(writer: &mut csv::Writer<File>, rows: &[f64], ncols: usize) -> Res
 
 impl RowWriter {
     fn new(path: PathBuf, writer: csv::Writer<File>, ncols: usize) -> Self {
-        Self { path, ncols, batch: Vec::with_capacity(BATCH_ROWS * ncols), state: Writing::Here(writer) }
+        Self { path, ncols, batch: Vec::with_capacity(BATCH_ROWS * ncols), state: Writing::Here(Box::new(writer)) }
     }
 
     fn csv_error(&self, source: csv::Error) -> OutputError {
@@ -236,7 +236,7 @@ impl RowWriter {
                         rows.clear();
                         let _ = give_back.send(rows);
                     }
-                    Ok(writer)
+                    Ok(*writer)
                 })
                 .map_err(|source| OutputError::Io { path: self.path.clone(), source })?;
             self.state = Writing::Thread { send, recycled, handle };
@@ -271,7 +271,7 @@ impl RowWriter {
     /// Writes the rows left and returns the file, flushed.
     fn finish(mut self) -> Result<File, OutputError> {
         let mut writer = match std::mem::replace(&mut self.state, Writing::Closed) {
-            Writing::Here(w) => w,
+            Writing::Here(w) => *w,
             thread @ Writing::Thread { .. } => {
                 self.state = thread;
                 self.join().expect("a thread").map_err(|e| self.csv_error(e))?
@@ -455,6 +455,36 @@ impl<M: Model> Observer<M> for CsvObserver<'_, M> {
             None => {
                 eprintln!("note: {text}");
             }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Rows written here (a short run) and by the writer thread (several
+    /// batches and a partial one) are the same bytes as formatting each
+    /// number with `ryu` and joining with commas.
+    #[test]
+    fn rows_are_the_same_bytes_here_and_on_the_writer_thread() {
+        let dir = tempfile::tempdir().unwrap();
+        for n in [3, 2 * BATCH_ROWS + 7] {
+            let path = dir.path().join(format!("rows{n}.csv"));
+            let file = File::create(&path).unwrap();
+            let writer = csv::WriterBuilder::new().quote_style(csv::QuoteStyle::Never).from_writer(file);
+            let mut w = RowWriter::new(path.clone(), writer, 3);
+            let mut want = String::new();
+            for k in 0..n {
+                let row = [k as f64, 0.1 * k as f64, -1e-300 / (k as f64 + 1.0)];
+                w.push(&row).unwrap();
+                let fields: Vec<String> = row.iter().map(|v| ryu::Buffer::new().format(*v).to_string()).collect();
+                want.push_str(&fields.join(","));
+                want.push('\n');
+            }
+            assert_eq!(matches!(w.state, Writing::Thread { .. }), n > BATCH_ROWS);
+            drop(w.finish().unwrap());
+            assert_eq!(std::fs::read_to_string(&path).unwrap(), want, "{n} rows");
         }
     }
 }
