@@ -596,30 +596,46 @@ mod tests {
         tx.write("a.csv", b"other").unwrap();
         drop(tx);
         assert_eq!(std::fs::read(dir.join("a.csv")).unwrap(), b"new table");
-        let mut names: Vec<String> =
-            std::fs::read_dir(&dir).unwrap().map(|e| e.unwrap().file_name().to_string_lossy().into_owned()).collect();
-        names.sort();
-        assert_eq!(names, [LOCK_FILE, "a.csv", "b.png"]);
+        assert_eq!(names_in(&dir), [LOCK_FILE, "a.csv", "b.png"]);
     }
 
-    #[test]
-    fn a_failed_rename_puts_the_previous_files_back() {
+    /// The names in `dir`, sorted.
+    fn names_in(dir: &Path) -> Vec<String> {
+        let mut names: Vec<String> =
+            std::fs::read_dir(dir).unwrap().map(|e| e.unwrap().file_name().to_string_lossy().into_owned()).collect();
+        names.sort();
+        names
+    }
+
+    /// A directory holding the previous `a.csv` and `b.png`.
+    fn previous_output() -> tempfile::TempDir {
         let root = tempfile::tempdir().unwrap();
-        let dir = root.path();
-        std::fs::write(dir.join("a.csv"), b"old table").unwrap();
-        std::fs::write(dir.join("b.png"), b"old b").unwrap();
+        std::fs::write(root.path().join("a.csv"), b"old table").unwrap();
+        std::fs::write(root.path().join("b.png"), b"old b").unwrap();
+        root
+    }
+
+    /// Stages `files` (the first one the table) in a transaction into
+    /// `dir`, loses the staged `lost` and commits: the commit fails and
+    /// says the renamed files were put back.
+    fn failed_commit(dir: &Path, files: &[&str], lost: &str) {
         let mut tx = Transaction::begin(dir).unwrap();
-        tx.write("a.csv", b"new table").unwrap();
-        tx.write("b.png", b"new b").unwrap();
-        tx.write("c.png", b"new c").unwrap();
-        // renamed in the order b.png, c.png, a.csv: c.png's rename fails
-        let c = dir.join("c.png");
-        std::fs::remove_file(tx.tmp.path().join("c.png")).unwrap();
+        for f in files {
+            tx.write(f, format!("new {f}").as_bytes()).unwrap();
+        }
+        std::fs::remove_file(tx.tmp.path().join(lost)).unwrap();
         let err = tx.commit().unwrap_err();
         assert!(matches!(err, TransactionError::Commit { restored: true, .. }), "{err}");
         assert_eq!(std::fs::read(dir.join("a.csv")).unwrap(), b"old table");
         assert_eq!(std::fs::read(dir.join("b.png")).unwrap(), b"old b");
-        assert!(!c.exists());
+    }
+
+    #[test]
+    fn a_failed_rename_puts_the_previous_files_back() {
+        let root = previous_output();
+        // renamed in the order b.png, c.png, a.csv: c.png's rename fails
+        failed_commit(root.path(), &["a.csv", "b.png", "c.png"], "c.png");
+        assert!(!root.path().join("c.png").exists());
     }
 
     /// The table is renamed last and backed up by no link: when its rename
@@ -627,33 +643,15 @@ mod tests {
     /// table is untouched; a single file takes no link and fails the same.
     #[test]
     fn a_failed_last_rename_leaves_the_previous_table() {
-        let root = tempfile::tempdir().unwrap();
+        let root = previous_output();
         let dir = root.path();
-        std::fs::write(dir.join("a.csv"), b"old table").unwrap();
-        std::fs::write(dir.join("b.png"), b"old b").unwrap();
-        let mut tx = Transaction::begin(dir).unwrap();
-        tx.write("a.csv", b"new table").unwrap();
-        tx.write("b.png", b"new b").unwrap();
-        std::fs::remove_file(tx.tmp.path().join("a.csv")).unwrap();
-        let err = tx.commit().unwrap_err();
-        assert!(matches!(err, TransactionError::Commit { restored: true, .. }), "{err}");
-        assert_eq!(std::fs::read(dir.join("a.csv")).unwrap(), b"old table");
-        assert_eq!(std::fs::read(dir.join("b.png")).unwrap(), b"old b");
-
-        let mut tx = Transaction::begin(dir).unwrap();
-        tx.write("a.csv", b"new table").unwrap();
-        std::fs::remove_file(tx.tmp.path().join("a.csv")).unwrap();
-        let err = tx.commit().unwrap_err();
-        assert!(matches!(err, TransactionError::Commit { restored: true, .. }), "{err}");
-        assert_eq!(std::fs::read(dir.join("a.csv")).unwrap(), b"old table");
+        failed_commit(dir, &["a.csv", "b.png"], "a.csv");
+        failed_commit(dir, &["a.csv"], "a.csv");
         let mut tx = Transaction::begin(dir).unwrap();
         tx.write("a.csv", b"new table").unwrap();
         tx.commit().unwrap();
         assert_eq!(std::fs::read(dir.join("a.csv")).unwrap(), b"new table");
-        let mut names: Vec<String> =
-            std::fs::read_dir(dir).unwrap().map(|e| e.unwrap().file_name().to_string_lossy().into_owned()).collect();
-        names.sort();
-        assert_eq!(names, [LOCK_FILE, "a.csv", "b.png"]);
+        assert_eq!(names_in(dir), [LOCK_FILE, "a.csv", "b.png"]);
     }
 
     #[test]
