@@ -21,7 +21,10 @@
 //! `constraint_terms` against `constraint_matrix` and `phi`), which a
 //! hand-written [`Model`] can break, and, for minimal coordinates, every
 //! constraint at the expanded state (`phi = 0`, `G qd = 0`, to the same
-//! tolerance).
+//! tolerance, each residual divided by the size of the terms that cancel
+//! in it: the largest coordinate for `phi`, `sum_k |G_ik qd_k|` for
+//! `G qd`, at least 1). Below the table, the pivots of the minimal
+//! coordinates at the model's parameters ([`minimal_notes`]).
 //!
 //! Errors are relative, `|generated - reference| / max(|generated|,
 //! |reference|, 1)`, so an O(1) mistake (a wrong sign, a missing factor)
@@ -139,6 +142,10 @@ pub struct Report {
     pub seed: u64,
     /// One entry per term and reference.
     pub terms: Vec<TermCheck>,
+    /// What the table's rows do not say: whether the model has minimal
+    /// coordinates at its given parameters, and how well conditioned
+    /// each pivot is ([`minimal_notes`]).
+    pub notes: Vec<String>,
 }
 
 impl Report {
@@ -195,6 +202,10 @@ impl Report {
                 verdict,
                 c.worst_at
             ));
+        }
+        for n in &self.notes {
+            out.push_str(n);
+            out.push('\n');
         }
         out
     }
@@ -418,7 +429,55 @@ pub fn check_derivatives_observed<M: Model>(
         terms.extend(b.into_iter().chain(c).map(Acc::done));
     }
     terms.push(same.done());
-    Report { states, seed, terms }
+    Report { states, seed, terms, notes: minimal_notes(base) }
+}
+
+/// One line per pivot of the minimal coordinates of `model` at its
+/// parameters: the skate, the angular rate it fixes, the pivot \[m\] and
+/// its ratio to the body's radius of gyration `sqrt(I / m)`, which the
+/// reduced formulation needs to be at least
+/// [`ezy_core::reduced::MIN_PIVOT_GYRATION`] (docs/physics.md §6.2); or
+/// the reason `model!` derived none.
+pub fn minimal_notes<M: Model>(model: &M) -> Vec<String> {
+    let info = model.info();
+    let layout = match model.minimal_layout() {
+        Ok(layout) => layout,
+        Err(why) => return vec![format!("no minimal coordinates: {why}")],
+    };
+    let mut mass = vec![0.0; info.nq()];
+    model.mass_diagonal(&mut mass);
+    let refused = ezy_core::reduced::small_pivot(&info, &mass, &layout).map(|p| p.0.to_string());
+    let mut notes: Vec<String> = layout
+        .pivots
+        .iter()
+        .map(|(skate, j, p)| {
+            let fixes = format!("skate `{skate}` fixes `{}d` with pivot {p:.4} m", info.coords[*j]);
+            let body = info.bodies.iter().find(|b| b.coords[2] == *j);
+            let rho = body.map(|b| (b.name.as_str(), (mass[*j] / mass[b.coords[0]]).sqrt()));
+            match rho {
+                Some((name, rho)) if rho.is_finite() && rho > 0.0 => {
+                    format!("{fixes}, {:.3} of the radius of gyration {rho:.4} m of `{name}`", p.abs() / rho)
+                }
+                _ => fixes,
+            }
+        })
+        .collect();
+    notes.insert(
+        0,
+        match refused {
+            Some(skate) => format!(
+                "minimal coordinates refused at these parameters: the pivot of skate `{skate}` is below {} of its body's radius of gyration (--formulation reduced takes a numeric partition, auto the DAE)",
+                ezy_core::reduced::MIN_PIVOT_GYRATION
+            ),
+            None => format!(
+                "minimal coordinates: {} coordinates, {} speeds; every pivot at least {} of its body's radius of gyration",
+                layout.coords.len(),
+                layout.speeds.len(),
+                ezy_core::reduced::MIN_PIVOT_GYRATION
+            ),
+        },
+    );
+    notes
 }
 
 /// The minimal coordinates' expansion ([`Model::minimal_expand`]) at the
@@ -452,9 +511,17 @@ fn check_minimal<M: Model>(
     let mut vals = vec![0.0; info.pattern.len()];
     m.constraint_matrix(&q0, &mut vals);
     let gqd = times(&info, &vals, &qd0);
-    for (what, rows) in [("phi", &phi), ("G qd", &gqd)] {
-        for (i, r) in rows.iter().enumerate() {
-            kept.add(*r, 0.0, || format!("state {s}, {what}[{}] at the expanded state", info.constraints[i]));
+    // each residual against the size of the terms that cancel in it: the
+    // coordinates for phi, sum_k |G_ik qd_k| for G qd (a small pivot makes
+    // the expanded rates large and their rounding with them)
+    let abs = |v: &[f64]| v.iter().map(|x| x.abs()).collect::<Vec<f64>>();
+    let q_size = vec![max_abs_of(&q0).max(1.0); phi.len()];
+    let gqd_size = times(&info, &abs(&vals), &abs(&qd0));
+    for (what, rows, size) in [("phi", &phi, &q_size), ("G qd", &gqd, &gqd_size)] {
+        for (i, (r, w)) in rows.iter().zip(size.iter()).enumerate() {
+            kept.add(r / w.max(1.0), 0.0, || {
+                format!("state {s}, {what}[{}] at the expanded state (scaled)", info.constraints[i])
+            });
         }
     }
     let h = FD_STEP;
@@ -562,6 +629,10 @@ fn column_groups(pattern: &[(usize, usize)], nq: usize) -> (Vec<Vec<usize>>, ByC
 }
 
 /// `G v` (nc) from the values of `G` at the pattern.
+fn max_abs_of(v: &[f64]) -> f64 {
+    v.iter().fold(0.0f64, |m, x| m.max(x.abs()))
+}
+
 fn times<S: Scalar>(info: &ezy_core::ModelInfo, vals: &[S], v: &[S]) -> Vec<S> {
     let mut out = vec![S::from_f64(0.0); info.nc()];
     for (&(r, c), &x) in info.pattern.iter().zip(vals) {
