@@ -771,6 +771,7 @@ pub fn simulate<M: Model, O: Observer<M>>(
     run.summary.projection_path = run.proj.path();
     // minimal coordinates asked for and refused for a pivot: say why
     if settings.formulation == Formulation::Reduced
+        && sys.drives.is_empty()
         && reduced.as_ref().is_some_and(|r| !r.is_minimal())
         && let Ok(layout) = sys.model.minimal_layout()
         && let Some((skate, p, rho)) = crate::reduced::small_pivot(&sys.info, &sys.mass, &layout)
