@@ -276,7 +276,13 @@ impl RowWriter {
                 self.state = thread;
                 self.join().expect("a thread").map_err(|e| self.csv_error(e))?
             }
-            Writing::Closed => unreachable!("finished once"),
+            Writing::Closed => {
+                // a failed hand-over already reported its error
+                return Err(OutputError::Io {
+                    path: self.path.clone(),
+                    source: std::io::Error::other("the CSV writer stopped earlier"),
+                });
+            }
         };
         let rows = std::mem::take(&mut self.batch);
         write_rows(&mut writer, &rows, self.ncols).map_err(|e| self.csv_error(e))?;
