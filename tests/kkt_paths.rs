@@ -127,15 +127,38 @@ fn projections_agree<M: Model + Default>(seed: u64) {
                 *b += 1e-2 * ((k as f64) * 1.3).cos();
             }
             let (mut qs, mut qds) = (q.clone(), qd.clone());
-            dense.project(&m, 0.0, &mut q, &mut qd).unwrap();
+            let report = dense.project(&m, 0.0, &mut q, &mut qd).unwrap();
+            let velocity = dense.velocity_residual(&m, 0.0, &qd);
+            residuals_are_the_projections(&m, &q, &qd, report.residual_position, velocity);
             let mut sparse = Projector::<M>::new_sparse(&m, kind, &mass);
             assert_eq!(sparse.path(), "normal-sparse-cholesky");
-            sparse.project(&m, 0.0, &mut qs, &mut qds).unwrap();
+            let report = sparse.project(&m, 0.0, &mut qs, &mut qds).unwrap();
+            let velocity = sparse.velocity_residual(&m, 0.0, &qds);
+            residuals_are_the_projections(&m, &qs, &qds, report.residual_position, velocity);
             for (a, b) in q.iter().chain(&qd).zip(qs.iter().chain(&qds)) {
                 assert!((a - b).abs() <= 1e-10 * (1.0 + a.abs()), "{} {kind:?} state {s}: {a} vs {b}", info.name);
             }
         }
     }
+}
+
+/// The residuals a projection reports for the state it left (what the
+/// step loop writes for a projected dense-output sample) are, to the bit,
+/// `max|C(q)|` and `max|G(q) qd|` evaluated anew at that state.
+fn residuals_are_the_projections<M: Model>(m: &M, q: &[f64], qd: &[f64], position: f64, velocity: f64) {
+    let info = m.info();
+    let max_abs = |v: &[f64]| v.iter().fold(0.0f64, |a, x| a.max(x.abs()));
+    let mut phi = vec![0.0; info.n_holonomic];
+    m.phi(q, &mut phi);
+    let mut g = vec![0.0; info.pattern.len()];
+    m.constraint_matrix(q, &mut g);
+    let mut gqd = vec![0.0; info.nc()];
+    for (&(r, c), v) in info.pattern.iter().zip(&g) {
+        gqd[r] += v * qd[c];
+    }
+    assert_eq!(position.to_bits(), max_abs(&phi).to_bits(), "{}: max|C| {position} vs {}", info.name, max_abs(&phi));
+    // G qd summed in another order here: equal to rounding
+    assert!((velocity - max_abs(&gqd)).abs() <= 1e-15 * (1.0 + max_abs(qd)), "{}: max|G qd| {velocity}", info.name);
 }
 
 #[test]

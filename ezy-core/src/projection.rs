@@ -324,6 +324,22 @@ impl<M: Model> Projector<M> {
         }
         Ok(report)
     }
+
+    /// `max|G(q) qd - u'(t)|` \[m/s\] for the `q` the last
+    /// [`Projector::project`] left and any `qd` (the one it left: the
+    /// projected state's velocity residual), from the `G` that projection
+    /// evaluated at that `q`: no evaluation of the model. With
+    /// [`ProjectionReport::residual_position`], the residuals of a projected
+    /// state for the price of one product with `G`. Meaningless (0) for
+    /// [`ProjectionKind::None`], which evaluates nothing.
+    pub fn velocity_residual(&mut self, model: &M, t: f64, qd: &[f64]) -> f64 {
+        if self.kind == ProjectionKind::None {
+            return 0.0;
+        }
+        model.g_winv_mul(&self.info.pattern, &self.g_values, &self.ones, qd, &mut self.r);
+        crate::drive::shift_velocities(&self.drives, t, &mut self.r);
+        max_abs(&self.r)
+    }
 }
 
 /// `out = A v` for `A` dense row-major (out.len() x v.len()).

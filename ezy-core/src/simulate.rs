@@ -342,14 +342,20 @@ impl<M: Model, O: Observer<M>> Run<'_, M, O> {
         let clock = Instant::now();
         let mut pending = std::mem::take(&mut self.pending);
         let flags = std::mem::take(&mut self.pending_projected);
-        let nq = sys.nq();
         let res = pending.chunks_exact_mut(sys.ny() + 1).zip(&flags).try_for_each(|(row, &project)| {
             let (t, y) = row.split_first_mut().expect("a row holds its time");
-            if project {
-                let (q, rest) = y.split_at_mut(nq);
-                self.proj.project(&sys.model, *t, q, &mut rest[..nq])?;
+            if !project {
+                return self.observe(sys, *t, y);
             }
-            self.observe(sys, *t, y)
+            // a projected sample's residuals are the projection's own: its
+            // last evaluation of phi, at the final q, and G qd with its G
+            // there (the same numbers as evaluating them anew)
+            let nq = sys.nq();
+            let (q, rest) = y.split_at_mut(nq);
+            let report = self.proj.project(&sys.model, *t, q, &mut rest[..nq])?;
+            let rv = self.proj.velocity_residual(&sys.model, *t, &rest[..nq]);
+            let (kinetic, work) = (sys.kinetic_energy(&y[nq..2 * nq]), sys.work(y));
+            self.deliver(sys, *t, y, [kinetic, work, report.residual_position, rv])
         });
         self.pending = pending;
         self.pending.clear();
@@ -365,9 +371,23 @@ impl<M: Model, O: Observer<M>> Run<'_, M, O> {
         let (q, rest) = y.split_at(nq);
         let qd = &rest[..nq];
         let (rp, rv) = self.resid.eval(&sys.model, &sys.drives, t, q, qd);
+        self.deliver(sys, t, y, [sys.kinetic_energy(qd), sys.work(y), rp, rv])
+    }
+
+    /// Hands the sample `(t, y)` to the observer with its kinetic energy
+    /// \[J\], work \[J\], `max|C(q)|` \[m\] and `max|G(q) qd|` \[m/s\].
+    fn deliver(
+        &mut self,
+        sys: &Dynamics<M>,
+        t: f64,
+        y: &[f64],
+        [kinetic, work, rp, rv]: [f64; 4],
+    ) -> Result<(), RunError<O::Error>> {
+        let nq = sys.nq();
+        let (q, rest) = y.split_at(nq);
+        let qd = &rest[..nq];
         self.summary.max_residual_position = self.summary.max_residual_position.max(rp);
         self.summary.max_residual_velocity = self.summary.max_residual_velocity.max(rv);
-        let (kinetic, work) = (sys.kinetic_energy(qd), sys.work(y));
         for (quantity, value) in [
             ("the kinetic energy T", kinetic),
             ("the work W", work),
