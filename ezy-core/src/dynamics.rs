@@ -262,7 +262,7 @@ impl<M: Model> Dynamics<M> {
     /// (stages often share one: RK4's midpoints, a step's end and the next
     /// step's start); effects or drives replaced in place are noticed by
     /// their count (or by [`Dynamics::forget_waveforms`]).
-    #[inline]
+    #[inline(always)]
     fn refresh_waveforms(&mut self, t: f64) {
         let ws = &mut self.ws;
         if ws.waves.len() != self.effects.len() || ws.drive_waves.len() != self.drives.len() {
@@ -286,7 +286,7 @@ impl<M: Model> Dynamics<M> {
 
     /// The effects' generalized force into the workspace's `f` (nq), each
     /// effect's power into `power`, from the waveforms at `t`.
-    #[inline]
+    #[inline(always)]
     fn effect_forces(&mut self, t: f64, q: &[f64], qd: &[f64], power: &mut [f64]) -> Result<(), SimError> {
         // `f` is only ever written here: without effects it stays zero and
         // is not touched (the `free` scene pays nothing for the library).

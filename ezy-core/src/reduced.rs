@@ -690,7 +690,7 @@ impl Reduced {
             return Ok(());
         }
         if self.minimal.is_some() {
-            self.expand_minimal(&sys.model, z);
+            self.expand_minimal(&sys.model, z, true);
             self.expanded_t = t;
             self.expanded_z.clear();
             self.expanded_z.extend_from_slice(z);
@@ -795,7 +795,8 @@ impl Reduced {
     pub fn eval<M: Model>(&mut self, sys: &mut Dynamics<M>, t: f64, z: &[f64], dz: &mut [f64]) -> Result<(), SimError> {
         if self.minimal.is_some() {
             // stages rarely repeat a state: expand without the key's check
-            self.expand_minimal(&sys.model, z);
+            // not a full expansion (no work states): no cache key
+            self.expand_minimal(&sys.model, z, false);
             self.expanded_t = f64::NAN;
             return self.eval_minimal(sys, t, dz);
         }
@@ -813,22 +814,25 @@ impl Reduced {
         Ok(())
     }
 
-    /// The full state of `z` on minimal coordinates: the kept coordinates,
-    /// the independent speeds and the work states copied, the rest, `B`
-    /// and `c` from the model's [`Model::minimal_expand`].
+    /// The full state of `z` on minimal coordinates: the kept coordinates
+    /// and the independent speeds copied, the rest, `B` and `c` from the
+    /// model's [`Model::minimal_expand`]; the work states too if `works`
+    /// (a right-hand side reads none of them).
     #[inline]
-    fn expand_minimal<M: Model>(&mut self, model: &M, z: &[f64]) {
+    fn expand_minimal<M: Model>(&mut self, model: &M, z: &[f64], works: bool) {
         let m = self.minimal.as_mut().expect("minimal path");
         let (nq, ni, nf) = (self.nq, self.partition.q_ind.len(), self.partition.v_ind.len());
         let (q, rest) = self.y.split_at_mut(nq);
-        let (qd, works) = rest.split_at_mut(nq);
+        let (qd, w) = rest.split_at_mut(nq);
         for (&zi, &j) in z.iter().zip(&self.partition.q_ind) {
             q[j] = zi;
         }
         for (&zi, &j) in z[ni..].iter().zip(&self.partition.v_ind) {
             qd[j] = zi;
         }
-        works.copy_from_slice(&z[ni + nf..]);
+        if works {
+            w.copy_from_slice(&z[ni + nf..]);
+        }
         model.minimal_expand(q, qd, &mut m.b, &mut m.c);
     }
 
@@ -845,7 +849,7 @@ impl Reduced {
         let qd = &self.y[nq..2 * nq];
         sys.applied_forces(t, q, qd, power)?;
         sys.model.minimal_maggi(&sys.mass, &m.b, &m.c, sys.applied_force(), &mut m.a, &mut m.r);
-        let solved = crate::kkt::spd::ldl_solve(&m.a, nu, nu, &m.r, ud, &mut m.ldl);
+        let solved = crate::kkt::spd::ldl_solve_inline_2(&m.a, nu, nu, &m.r, ud, &mut m.ldl);
         solved.map_err(|source| SimError::Formulation {
             reason: format!("at t = {t} s Maggi's equations on the minimal coordinates cannot be solved: {source}"),
         })?;

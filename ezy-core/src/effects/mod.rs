@@ -943,7 +943,7 @@ impl Effect {
     /// torque, a servo's target angle and rate, a driven blade's force, a
     /// force's two components, a torque, a spring-damper's added tension
     /// (zeros for an effect without one).
-    #[inline]
+    #[inline(always)]
     pub fn waveforms(&self, t: f64) -> Waveforms {
         match &self.law {
             Law::Hinge { law: HingeLaw::Motor(w), .. }
@@ -958,7 +958,7 @@ impl Effect {
 
     /// [`Effect::apply`] with the waveforms' values `wave` at the time of the
     /// state ([`Effect::waveforms`]).
-    #[inline]
+    #[inline(always)]
     pub fn apply_with(&self, wave: &Waveforms, q: &[f64], qd: &[f64], f: &mut [f64]) -> (f64, f64) {
         match &self.law {
             Law::Hinge { a, b, law } => {

@@ -85,6 +85,24 @@ pub fn ldl_solve(
     }
 }
 
+/// [`ldl_solve`] with its 2 x 2 case inlined into the caller (Maggi's
+/// equations of two speeds, once per right-hand side); other sizes call
+/// [`ldl_solve`].
+///
+/// # Errors
+/// As [`ldl_solve`].
+#[inline(always)]
+pub fn ldl_solve_inline_2(
+    a: &[f64],
+    m: usize,
+    lda: usize,
+    r: &[f64],
+    x: &mut [f64],
+    scratch: &mut [f64],
+) -> Result<f64, KktError> {
+    if m == 2 { solve_2(a, lda, r, x) } else { ldl_solve(a, m, lda, r, x, scratch) }
+}
+
 /// [`ldl_solve`] for m = 2 by the explicit inverse: one division where the
 /// factorization chains two. The pivots `D_00 = a00`, `D_11 = det / a00`
 /// are checked as [`ldl_solve_fixed`] checks them (by products: no
