@@ -108,9 +108,9 @@ pub struct RunOptions {
 /// `drive` scene writes 1.6 MB).
 pub const DEFAULT_MAX_OUTPUT_MB: f64 = 1000.0;
 
-/// Bytes one CSV value takes at most: ryu's shortest round-trip form of an
-/// f64 (up to 24 characters) and a separator.
-pub const BYTES_PER_VALUE: f64 = 25.0;
+/// Bytes one CSV value takes at most: its shortest round-trip form (up to
+/// 24 characters, [`crate::output::format_number`]) and a separator.
+pub const BYTES_PER_VALUE: f64 = crate::output::BYTES_PER_NUMBER as f64;
 
 /// What a run produced.
 #[derive(Debug, Clone)]

@@ -80,7 +80,7 @@ fn rows_equal_single_runs_bit_for_bit() {
         let (th, trows) = table(&run_dir.join("trajectory.csv"));
         let last = trows.last().unwrap();
         // every state component and T: the same digits as the last row of
-        // the single run's trajectory.csv (ryu's shortest round trip on
+        // the single run's trajectory.csv (the same shortest round trip on
         // both sides, so equal strings are equal bits)
         let state = h.iter().position(|c| c == "x1").unwrap()..h.iter().position(|c| c == "T").unwrap() + 1;
         for c in state {

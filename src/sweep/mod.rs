@@ -397,8 +397,8 @@ fn row_line(
     metrics: &[Metric],
 ) -> (Vec<u8>, bool) {
     let mut fields: Vec<String> = Vec::with_capacity(8 + values.len() + n_state + metrics.len());
-    let mut buf = ryu::Buffer::new();
-    let mut f = |v: f64| buf.format(v).to_string();
+    let mut buf = zmij::Buffer::new();
+    let mut f = |v: f64| crate::output::format_number(&mut buf, v).to_string();
     fields.push(i.to_string());
     fields.extend(values.iter().map(|&v| f(v)));
     let mut failed = false;

@@ -252,7 +252,7 @@ impl Output {
             let (k0, stride) = shard.unwrap_or((0, 1));
             let mut last: Option<u64> = None;
             let mut values = Vec::new();
-            let mut buf = ryu::Buffer::new();
+            let mut buf = zmij::Buffer::new();
             while let Some(i) = rows.next()? {
                 let line = rows.line();
                 let bad = |why: String| format!("{} line {line}: {why}; give another --out", path.display());
@@ -265,11 +265,13 @@ impl Output {
                 plan.values_into(i, &mut values);
                 for (k, v) in values.iter().enumerate() {
                     let found = rows.record.get(k + 1).unwrap_or("");
-                    if found != buf.format(*v) {
+                    // the number read back, so that any shortest round-trip
+                    // form of the value is the value
+                    if found.parse::<f64>().map(f64::to_bits) != Ok(v.to_bits()) {
                         return Err(bad(format!(
                             "run {i} has {} = {found}, but this sweep's run {i} has {}",
                             plan.axes[k].name,
-                            buf.format(*v)
+                            crate::output::format_number(&mut buf, *v)
                         )));
                     }
                 }
