@@ -85,30 +85,12 @@ pub fn ldl_solve(
     }
 }
 
-/// [`ldl_solve`] with its 2 x 2 case inlined into the caller (Maggi's
-/// equations of two speeds, once per right-hand side); other sizes call
-/// [`ldl_solve`].
-///
-/// # Errors
-/// As [`ldl_solve`].
-#[inline(always)]
-pub fn ldl_solve_inline_2(
-    a: &[f64],
-    m: usize,
-    lda: usize,
-    r: &[f64],
-    x: &mut [f64],
-    scratch: &mut [f64],
-) -> Result<f64, KktError> {
-    if m == 2 { solve_2(a, lda, r, x) } else { ldl_solve(a, m, lda, r, x, scratch) }
-}
-
 /// [`ldl_solve`] for m = 2 by the explicit inverse: one division where the
 /// factorization chains two. The pivots `D_00 = a00`, `D_11 = det / a00`
 /// are checked as [`ldl_solve_fixed`] checks them (by products: no
 /// division on the way), so the same rows are refused.
 #[inline(always)]
-fn solve_2(a: &[f64], lda: usize, r: &[f64], x: &mut [f64]) -> Result<f64, KktError> {
+pub(crate) fn solve_2(a: &[f64], lda: usize, r: &[f64], x: &mut [f64]) -> Result<f64, KktError> {
     let (a00, a10, a11) = (a[0], a[lda], a[lda + 1]);
     let det = pivot_pair([a00, a10, a11], [a00, a11], 0, 2)?;
     let idet = 1.0 / det;
