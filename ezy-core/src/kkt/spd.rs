@@ -133,10 +133,13 @@ fn pivot_pair(block: [f64; 3], diag: [f64; 2], row: usize, n: usize) -> Result<f
 /// the factorization's pivots, checked as it checks them.
 #[inline(always)]
 fn solve_4(a: &[f64], lda: usize, r: &[f64], x: &mut [f64]) -> Result<f64, KktError> {
-    let e = |i: usize, j: usize| a[i * lda + j];
-    let (a00, a10, a11) = (e(0, 0), e(1, 0), e(1, 1));
-    let (a20, a21, a22) = (e(2, 0), e(2, 1), e(2, 2));
-    let (a30, a31, a32, a33) = (e(3, 0), e(3, 1), e(3, 2), e(3, 3));
+    // the lower triangle by rows of known length: one bounds check a row
+    let a00 = a[0];
+    let [a10, a11] = fixed::<2>(&a[lda..]);
+    let [a20, a21, a22] = fixed::<3>(&a[2 * lda..]);
+    let [a30, a31, a32, a33] = fixed::<4>(&a[3 * lda..]);
+    let r = fixed::<4>(r);
+    let x: &mut [f64; 4] = (&mut x[..4]).try_into().expect("x has 4 rows");
     let det1 = pivot_pair([a00, a10, a11], [a00, a11], 0, 4)?;
     let i1 = 1.0 / det1;
     // Y = A11^-1 A12, A12 = [[a20, a30], [a21, a31]]
@@ -160,6 +163,12 @@ fn solve_4(a: &[f64], lda: usize, r: &[f64], x: &mut [f64]) -> Result<f64, KktEr
     x[2] = x2;
     x[3] = x3;
     Ok((a11 * a00 * i1).max(a22 / s00).max(a33 * s00 * i2).max(1.0))
+}
+
+/// The first `N` values of `v` as an array (one bounds check).
+#[inline(always)]
+fn fixed<const N: usize>(v: &[f64]) -> [f64; N] {
+    v[..N].try_into().expect("a slice of N values")
 }
 
 // `!(d > tol)` also rejects NaN pivots, which `d <= tol` would let through.
