@@ -849,13 +849,7 @@ impl Reduced {
         let qd = &self.y[nq..2 * nq];
         sys.applied_forces(t, q, qd, power)?;
         sys.model.minimal_maggi(&sys.mass, &m.b, &m.c, sys.applied_force(), &mut m.a, &mut m.r);
-        // two speeds (a vehicle's usual case) solved inline, once per evaluation
-        let solved = if nu == 2 {
-            crate::kkt::spd::solve_2(&m.a, nu, &m.r, ud)
-        } else {
-            crate::kkt::spd::ldl_solve(&m.a, nu, nu, &m.r, ud, &mut m.ldl)
-        };
-        solved.map_err(|source| SimError::Formulation {
+        crate::kkt::spd::ldl_solve(&m.a, nu, nu, &m.r, ud, &mut m.ldl).map_err(|source| SimError::Formulation {
             reason: format!("at t = {t} s Maggi's equations on the minimal coordinates cannot be solved: {source}"),
         })?;
         for (d, &j) in pd.iter_mut().zip(&self.partition.q_ind) {

@@ -66,7 +66,10 @@ pub(crate) use small_size;
 ///
 /// # Errors
 /// [`KktError::DependentConstraints`] for a pivot `D_jj <= PIVOT_RTOL * A_jj`.
-#[inline]
+///
+/// The 2 x 2 and 4 x 4 cases (a vehicle's speeds, the EzyRoller's
+/// constraints) are inlined into the caller; the other sizes are one call.
+#[inline(always)]
 pub fn ldl_solve(
     a: &[f64],
     m: usize,
@@ -75,14 +78,25 @@ pub fn ldl_solve(
     x: &mut [f64],
     scratch: &mut [f64],
 ) -> Result<f64, KktError> {
-    if m == 0 {
-        return Ok(1.0);
-    }
     match m {
+        0 => Ok(1.0),
         2 => solve_2(a, lda, r, x),
         4 => solve_4(a, lda, r, x),
-        _ => small_size!(m, ldl_solve_fixed(a, lda, r, x), ldl_solve_dynamic(a, m, lda, r, x, scratch)),
+        _ => ldl_solve_other(a, m, lda, r, x, scratch),
     }
+}
+
+/// [`ldl_solve`] for the sizes other than 0, 2 and 4.
+#[inline(never)]
+fn ldl_solve_other(
+    a: &[f64],
+    m: usize,
+    lda: usize,
+    r: &[f64],
+    x: &mut [f64],
+    scratch: &mut [f64],
+) -> Result<f64, KktError> {
+    small_size!(m, ldl_solve_fixed(a, lda, r, x), ldl_solve_dynamic(a, m, lda, r, x, scratch))
 }
 
 /// [`ldl_solve`] for m = 2 by the explicit inverse: one division where the
@@ -90,7 +104,7 @@ pub fn ldl_solve(
 /// are checked as [`ldl_solve_fixed`] checks them (by products: no
 /// division on the way), so the same rows are refused.
 #[inline(always)]
-pub(crate) fn solve_2(a: &[f64], lda: usize, r: &[f64], x: &mut [f64]) -> Result<f64, KktError> {
+fn solve_2(a: &[f64], lda: usize, r: &[f64], x: &mut [f64]) -> Result<f64, KktError> {
     let (a00, a10, a11) = (a[0], a[lda], a[lda + 1]);
     let det = pivot_pair([a00, a10, a11], [a00, a11], 0, 2)?;
     let idet = 1.0 / det;
