@@ -11,7 +11,9 @@
 //!    minimal coordinates `model!` derived where there are some, else a
 //!    numeric partition; no projection), one output at the end;
 //! 4. the scene's own setting (for `drive`, the assignment's RK4 at
-//!    h = 1e-4 s with projection).
+//!    h = 1e-4 s with projection);
+//! 5. the same in the `auto` formulation (for `drive`, RK4 on the minimal
+//!    coordinates, no projection needed).
 //!
 //! Each integration time is the median of `repeat` runs. The whole
 //! process of the matching `run` command (`--no-figures`, CSV written) is
@@ -46,7 +48,7 @@ pub struct BenchRow {
     pub process_s: Option<f64>,
 }
 
-/// Measures the four settings of the module documentation on `scene`,
+/// Measures the five settings of the module documentation on `scene`,
 /// each integration `repeat` times (at least 1).
 ///
 /// # Errors
@@ -67,6 +69,10 @@ pub fn bench_model<M: Model + Default>(scene: &Scene, repeat: usize) -> Result<V
     let own_what = match own_setting.dt {
         Some(h) => format!("{} h = {h} s, projection {} (the scene's)", own.method.name(), own.projection.name()),
         None => format!("{} rtol = {:e} (the scene's)", own.method.name(), own.rtol),
+    };
+    let own_auto = match own_setting.dt {
+        Some(h) => format!("{} h = {h} s, formulation auto", own.method.name()),
+        None => format!("{} rtol = {:e}, formulation auto", own.method.name(), own.rtol),
     };
     let dop = ["--integrator", "dop853", "--rtol", "1e-11", "--atol", "1e-11"].map(String::from).to_vec();
     let args = |base: &[String], extra: &[&str]| -> Vec<String> {
@@ -110,6 +116,7 @@ pub fn bench_model<M: Model + Default>(scene: &Scene, repeat: usize) -> Result<V
             ),
         ),
         (own_what, own_setting, own.formulation, own.every, Vec::new()),
+        (own_auto, own_setting, Formulation::Auto, own.every, args(&[], &["--formulation", "auto"])),
     ];
     let mut rows = Vec::new();
     for (what, setting, formulation, every, args) in cases {
@@ -126,11 +133,17 @@ pub fn bench_model<M: Model + Default>(scene: &Scene, repeat: usize) -> Result<V
             rhs_evals = summary.counters.rhs_evals;
         }
         let (integration_s, output_s) = (median(&mut times), median(&mut outputs));
-        // the reduced formulation says which partition it ran on
-        let what = match minimal {
-            Some(true) => what.replace(", reduced,", ", reduced (minimal coordinates),"),
-            Some(false) => what.replace(", reduced,", ", reduced (numeric partition),"),
-            None => what,
+        // the reduced formulation says which partition it ran on, auto
+        // which formulation it took
+        let partition = match minimal {
+            Some(true) => "reduced (minimal coordinates)",
+            Some(false) => "reduced (numeric partition)",
+            None => "dae",
+        };
+        let what = if formulation == Formulation::Auto {
+            format!("{what}: {partition}")
+        } else {
+            what.replace(", reduced,", &format!(", {partition},"))
         };
         rows.push(BenchRow { what, integration_s, output_s, rhs_evals, error, args, process_s: None });
     }
@@ -163,12 +176,12 @@ pub fn table(scene: &str, rows: &[BenchRow]) -> String {
         "ezy bench {scene}: error = max |y(t_end) - y_ref(t_end)| over q and qd against DOP853 at 1e-13; times are medians\n"
     );
     s.push_str(&format!(
-        "{:<78} {:>12} {:>10} {:>10} {:>10} {:>14}\n",
+        "{:<80} {:>12} {:>10} {:>10} {:>10} {:>14}\n",
         "setting", "integration", "output", "RHS evals", "error", "whole process"
     ));
     for r in rows {
         s.push_str(&format!(
-            "{:<78} {:>12} {:>10} {:>10} {:>10.1e} {:>14}\n",
+            "{:<80} {:>12} {:>10} {:>10} {:>10.1e} {:>14}\n",
             r.what,
             time(r.integration_s),
             time(r.output_s),

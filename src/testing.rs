@@ -13,8 +13,8 @@
 //! | convective term `gamma = d/dq(G qd) qd` (nc) \[m/s^2\] | central difference of `G(q + e qd) qd` in `e` | dual derivative of `G(q + e qd) qd` |
 //! | point velocities `d r_P/dt` (2 x npoints) \[m/s\] | central difference of `r_P(q + e qd)` | dual derivative of `r_P(q + e qd)` |
 //!
-//! | minimal coordinates, where `model!` derived them: `B = dqd/du` (nq x nu) | central differences of the expanded `qd` in each speed | dual derivative of the expanded `qd` |
-//! | minimal coordinates: `c = (d/dt B) u` (nq) \[m/s^2\] | central difference of the expanded `qd` along `pd` at fixed `u` | dual derivative along `pd` |
+//! | minimal coordinates, where `model!` derived them: `B = dV/du` (nq x nu), `V` the body-frame velocities | central differences of the expanded `V` in each speed | dual derivative of the expanded `V` |
+//! | minimal coordinates: `c`, the body-frame acceleration at `u' = 0` (nq) \[m/s^2\] | central difference of the expanded `V` along `pd` at fixed `u`, plus the frame's turning | dual derivative along `pd`, plus the turning |
 //!
 //! plus the agreement of the model's own entry points with each other
 //! (`holonomic_jacobian`, `phi_and_constraint_matrix` and
@@ -433,8 +433,9 @@ pub fn check_derivatives_observed<M: Model>(
 }
 
 /// One line per pivot of the minimal coordinates of `model` at its
-/// parameters: the skate, the angular rate it fixes, the pivot \[m\] and
-/// its ratio to the body's radius of gyration `sqrt(I / m)`, which the
+/// parameters: the skate, the body-frame velocity it fixes and the pivot;
+/// for an angular rate, the pivot \[m\] and its ratio to the body's
+/// radius of gyration `sqrt(I / m)`, which the
 /// reduced formulation needs to be at least
 /// [`ezy_core::reduced::MIN_PIVOT_GYRATION`] (docs/physics.md §6.2); or
 /// the reason `model!` derived none.
@@ -451,6 +452,12 @@ pub fn minimal_notes<M: Model>(model: &M) -> Vec<String> {
         .pivots
         .iter()
         .map(|(skate, j, p)| {
+            if j % 3 != 2 {
+                // a translational speed: a dimensionless pivot, no gyration
+                let body = info.bodies.iter().find(|b| b.coords[j % 3] == *j).map_or("?", |b| b.name.as_str());
+                let axis = ["forward", "lateral"][j % 3];
+                return format!("skate `{skate}` fixes the {axis} velocity of `{body}` in its frame with pivot {p:.4}");
+            }
             let fixes = format!("skate `{skate}` fixes `{}d` with pivot {p:.4} m", info.coords[*j]);
             let body = info.bodies.iter().find(|b| b.coords[2] == *j);
             let rho = body.map(|b| (b.name.as_str(), (mass[*j] / mass[b.coords[0]]).sqrt()));
@@ -480,32 +487,38 @@ pub fn minimal_notes<M: Model>(model: &M) -> Vec<String> {
     notes
 }
 
-/// The minimal coordinates' expansion ([`Model::minimal_expand`]) at the
-/// state's kept coordinates and independent speeds: every constraint
-/// holds (`phi = 0`, `G qd = 0` against zero), `B = dqd/du` by seeding each
-/// speed, and `c` as the derivative of `qd` along `pd` at fixed `u`.
+/// The minimal coordinates' expansion at `(q, v)`, `v` holding the
+/// body-frame speeds: the expansion keeps the kept coordinates and the
+/// speeds and satisfies the constraints (`phi = 0`, `G qd = 0` against
+/// zero), `B = dV/du` by seeding each speed (central differences and
+/// dual numbers), `c` (the body-frame acceleration at `u' = 0`) by moving
+/// the kept coordinates along `pd` at fixed `u` and adding the frame's
+/// turning, and the frames' `cos phi, sin phi` exactly.
 fn check_minimal<M: Model>(
     m: &M,
     layout: &ezy_core::MinimalLayout,
     q: &[f64],
-    qd: &[f64],
+    v: &[f64],
     s: usize,
     (kept, b_acc, c_acc): &mut (Acc, [Acc; 2], [Acc; 2]),
 ) {
     let info = m.info();
     let (nq, nu) = (q.len(), layout.speeds.len());
-    let expand = |q: &[f64], qd: &[f64]| {
-        let (mut q, mut qd, mut b, mut c) = (q.to_vec(), qd.to_vec(), vec![0.0; nq * nu], vec![0.0; nq]);
+    let nc = nq + 2 * (nq / 3);
+    let expand = |q: &[f64], v: &[f64]| {
+        let (mut q, mut qd, mut b, mut c) = (q.to_vec(), v.to_vec(), vec![0.0; nq * nu], vec![0.0; nc]);
         m.minimal_expand(&mut q, &mut qd, &mut b, &mut c);
         (q, qd, b, c)
     };
-    let expand_dual = |q: Vec<Dual64>, qd: Vec<Dual64>| {
-        let (mut q, mut qd) = (q, qd);
-        let (mut b, mut c) = (vec![Dual64::from(0.0); nq * nu], vec![Dual64::from(0.0); nq]);
+    // the body-frame velocities of the expansion of (q, v)
+    let expand_dual = |q: Vec<Dual64>, v: Vec<Dual64>| {
+        let (mut q, mut qd) = (q, v);
+        let (mut b, mut c) = (vec![Dual64::from(0.0); nq * nu], vec![Dual64::from(0.0); nc]);
         m.minimal_expand(&mut q, &mut qd, &mut b, &mut c);
-        qd
+        body_frame(&q, &qd)
     };
-    let (q0, qd0, b, c) = expand(q, qd);
+    let (q0, qd0, b, c) = expand(q, v);
+    let v0 = body_frame(&q0, &qd0);
     let mut phi = vec![0.0; info.n_holonomic];
     m.phi(&q0, &mut phi);
     let mut vals = vec![0.0; info.pattern.len()];
@@ -524,20 +537,34 @@ fn check_minimal<M: Model>(
             });
         }
     }
-    let h = FD_STEP;
     let coord = |j: usize| info.coords[j].as_str();
+    // the kept coordinates and the speeds come back as they went in
+    for &j in &layout.coords {
+        kept.add(q0[j] - q[j], 0.0, || format!("state {s}, kept coordinate {}", coord(j)));
+    }
+    for &u in &layout.speeds {
+        kept.add((v0[u] - v[u]) / v[u].abs().max(1.0), 0.0, || format!("state {s}, speed {} (body frame)", coord(u)));
+    }
+    // each body's cos, sin behind c's nq entries, as the forces use them
+    for i in 0..nq / 3 {
+        let (sn, cs) = q0[3 * i + 2].sin_cos();
+        kept.add(c[nq + 2 * i] - cs, 0.0, || format!("state {s}, c's cos {}", coord(3 * i + 2)));
+        kept.add(c[nq + 2 * i + 1] - sn, 0.0, || format!("state {s}, c's sin {}", coord(3 * i + 2)));
+    }
+    let h = FD_STEP;
     for (k, &u) in layout.speeds.iter().enumerate() {
         let seeded = |d: f64| {
-            let mut v = qd0.clone();
-            v[u] += d;
-            expand(&q0, &v).1
+            let mut w = v0.clone();
+            w[u] += d;
+            let (qq, qd, ..) = expand(&q0, &w);
+            body_frame(&qq, &qd)
         };
         let (p, mn) = (seeded(h), seeded(-h));
-        let mut qdk: Vec<Dual64> = qd0.iter().map(|&v| Dual64::from(v)).collect();
-        qdk[u].eps = 1.0;
-        let dual = expand_dual(q0.iter().map(|&v| Dual64::from(v)).collect(), qdk);
+        let mut vk: Vec<Dual64> = v0.iter().map(|&x| Dual64::from(x)).collect();
+        vk[u].eps = 1.0;
+        let dual = expand_dual(q0.iter().map(|&x| Dual64::from(x)).collect(), vk);
         for j in 0..nq {
-            let at = || format!("state {s}, B[{}d, {}d]", coord(j), coord(u));
+            let at = || format!("state {s}, B[V {}, {}]", coord(j), coord(u));
             b_acc[0].add(b[j * nu + k], (p[j] - mn[j]) / (2.0 * h), at);
             b_acc[1].add(b[j * nu + k], dual[j].eps, at);
         }
@@ -547,28 +574,51 @@ fn check_minimal<M: Model>(
     // truncation error stays that of the module docs for fast states
     let scale = layout.coords.iter().fold(1.0f64, |a, &j| a.max(qd0[j].abs()));
     let moved = |d: f64| {
-        let mut v = q0.clone();
+        let mut w = q0.clone();
         for &j in &layout.coords {
-            v[j] += d * qd0[j] / scale;
+            w[j] += d * qd0[j] / scale;
         }
-        expand(&v, &qd0).1
+        let (qq, qd, ..) = expand(&w, &v0);
+        body_frame(&qq, &qd)
     };
     let (p, mn) = (moved(h), moved(-h));
-    let mut qe: Vec<Dual64> = q0.iter().map(|&v| Dual64::from(v)).collect();
+    let mut qe: Vec<Dual64> = q0.iter().map(|&x| Dual64::from(x)).collect();
     for &j in &layout.coords {
         qe[j].eps = qd0[j];
     }
-    let dual = expand_dual(qe, qd0.iter().map(|&v| Dual64::from(v)).collect());
+    let dual = expand_dual(qe, v0.iter().map(|&x| Dual64::from(x)).collect());
     for j in 0..nq {
-        let at = || format!("state {s}, c[{}]", coord(j));
-        c_acc[0].add(c[j], scale * (p[j] - mn[j]) / (2.0 * h), at);
-        c_acc[1].add(c[j], dual[j].eps, at);
+        // the frame's turning: (-w v_y, w v_x, 0)
+        let w = v0[3 * (j / 3) + 2];
+        let turning = match j % 3 {
+            0 => -w * v0[j + 1],
+            1 => w * v0[j - 1],
+            _ => 0.0,
+        };
+        let at = || format!("state {s}, c[V {}]", coord(j));
+        c_acc[0].add(c[j], scale * (p[j] - mn[j]) / (2.0 * h) + turning, at);
+        c_acc[1].add(c[j], dual[j].eps + turning, at);
     }
 }
 
+/// The body-frame velocities `V` (nq) of the global rates `qd` (nq) at
+/// `q` (three coordinates a body, `x, y, phi`): `(v_x, v_y) = R(phi)^T
+/// (xd, yd)` \[m/s\] and the angular rate \[rad/s\], as
+/// [`ezy_core::reduced::body_velocity`] gives them one at a time.
+fn body_frame<S: Scalar>(q: &[S], qd: &[S]) -> Vec<S> {
+    let mut v = qd.to_vec();
+    for i in 0..q.len() / 3 {
+        let (c, sn) = (q[3 * i + 2].cos(), q[3 * i + 2].sin());
+        let (xd, yd) = (qd[3 * i], qd[3 * i + 1]);
+        v[3 * i] = c * xd + sn * yd;
+        v[3 * i + 1] = c * yd - sn * xd;
+    }
+    v
+}
+
 const MIN_KEPT: &str = "minimal: phi = 0, G qd = 0 expanded";
-const MIN_B: &str = "minimal: B = dqd/du";
-const MIN_C: &str = "minimal: c = (d/dt B) u";
+const MIN_B: &str = "minimal: B = dV/du, body frame";
+const MIN_C: &str = "minimal: c = V'(u' = 0), body frame";
 const JAC: &str = "C_q = d phi/dq (holonomic rows of G)";
 const SKATE: &str = "S = n . d r_P/dq (skate rows of G)";
 const GAMMA: &str = "gamma = d/dq(G qd) qd";

@@ -354,25 +354,30 @@ fn check_passes_for_every_model() {
 
 /// `ezy check` names the pivots of the minimal coordinates at the given
 /// parameters and which one rules them out; a skate 1 mm from body 1's
-/// centre of mass (expanded rates of thousands of rad/s) still passes:
-/// each residual of the expanded state is measured against the terms
-/// that cancel in it (it failed at 1.1e-13 against 1e-13 before).
+/// centre of mass (its lateral velocity the pivot, body 1's rates as on
+/// any other geometry) passes, and one 1 mm from the hinge on body 2
+/// (an angular-rate pivot of 1 mm) is refused.
 #[test]
 fn check_names_the_pivots_of_minimal_coordinates() {
     let o = ezy(&["check", "ezyroller", "--states", "20"]);
     let out = String::from_utf8_lossy(&o.stdout);
     assert!(o.status.success(), "{out}{}", stderr(&o));
     assert!(out.contains("minimal coordinates: 4 coordinates, 2 speeds"), "{out}");
+    assert!(out.contains("skate `A` fixes the lateral velocity of `body1` in its frame with pivot 1.0000"), "{out}");
     assert!(
         out.contains(
-            "skate `A` fixes `phi1d` with pivot -0.2000 m, 0.429 of the radius of gyration 0.4663 m of `body1`"
+            "skate `C` fixes `phi2d` with pivot 0.2000 m, 2.828 of the radius of gyration 0.0707 m of `body2`"
         ),
         "{out}"
     );
     let o = ezy(&["check", "ezyroller", "--set", "a=0.001"]);
     let out = String::from_utf8_lossy(&o.stdout);
     assert!(o.status.success(), "{out}{}", stderr(&o));
-    assert!(out.contains("minimal coordinates refused at these parameters: the pivot of skate `A`"), "{out}");
+    assert!(out.contains("minimal coordinates: 4 coordinates, 2 speeds"), "{out}");
+    let o = ezy(&["check", "ezyroller", "--set", "c=-0.099"]);
+    let out = String::from_utf8_lossy(&o.stdout);
+    assert!(o.status.success(), "{out}{}", stderr(&o));
+    assert!(out.contains("minimal coordinates refused at these parameters: the pivot of skate `C`"), "{out}");
     let o = ezy(&["check", "trailer", "--states", "2"]);
     assert!(String::from_utf8_lossy(&o.stdout).contains("no minimal coordinates: "), "{}", stderr(&o));
 }

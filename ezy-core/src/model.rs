@@ -404,31 +404,45 @@ pub trait Model: Clone + Send + Sync + 'static {
     }
 
     /// The full state from the minimal one ([`MinimalLayout`]): reads the
-    /// kept coordinates `q[p]` and the independent speeds `qd[u]`, writes
-    /// every other entry of `q` (nq) and `qd` (nq), `b = dqd/du` (nq x nu,
-    /// row-major) and the convective acceleration `c = (d/dt b) u` (nq), so
-    /// that `qdd = b u' + c`. Straight-line code with shared
-    /// subexpressions; does nothing for a model without a layout.
+    /// kept coordinates `q[p]` and the independent speeds `qd[u]`, these
+    /// being body-frame velocities `V` (`V[3 i]`, `V[3 i + 1]` body `i`'s
+    /// forward and lateral velocity in its own frame \[m/s\], `V[3 i + 2]`
+    /// its angular rate \[rad/s\]); writes every other entry of `q` (nq),
+    /// all of `qd` (nq) as global rates, `b = dV/du` (nq x nu, row-major)
+    /// and `c` (nq + 2 nb, nb = nq / 3): first the body-frame acceleration
+    /// at `u' = 0` (the rate of `V` along `pd` plus the frame's turning
+    /// `(-w v_y, w v_x, 0)`), so that a body's acceleration in its frame
+    /// is `b u' + c[..nq]` \[m/s^2, rad/s^2\], then each body's `cos phi,
+    /// sin phi`. Straight-line code with shared subexpressions; does
+    /// nothing for a model without a layout.
     fn minimal_expand<S: Scalar>(&self, q: &mut [S], qd: &mut [S], b: &mut [S], c: &mut [S]) {
         let _ = (q, qd, b, c);
     }
 
-    /// Maggi's equations on the minimal coordinates from the expansion's
-    /// `b` (nq x nu) and `c` (nq), the mass diagonal `mass` (nq) and the
-    /// applied force `f` (nq): the lower triangle of `a = B^T M B`
-    /// (nu x nu, row-major) \[kg, kg m, kg m^2\] and `r = B^T (f - M c)`
-    /// (nu) \[N, N m\]. `model!` generates it over `B`'s structural
-    /// nonzeros with its constant entries inlined; this default loops.
+    /// Maggi's equations on the minimal coordinates in the body frames,
+    /// from the expansion's `b` (nq x nu) and `c` (nq + 2 nb), the mass
+    /// diagonal `mass` (nq, each body's alike along x and y) and the
+    /// applied force `f` (nq, global): with `F` the force turned into each
+    /// body's frame by `c`'s cos and sin, the lower triangle of
+    /// `a = B^T M B` (nu x nu, row-major) \[kg, kg m, kg m^2\] and
+    /// `r = B^T (F - M c)` (nu) \[N, N m\] (Kane & Levinson 1985, ch. 6).
+    /// `model!` generates it over `B`'s structural nonzeros with its
+    /// constant entries inlined; this default loops.
     fn minimal_maggi(&self, mass: &[f64], b: &[f64], c: &[f64], f: &[f64], a: &mut [f64], r: &mut [f64]) {
-        let nu = r.len();
+        let (nu, nq) = (r.len(), f.len());
         a.fill(0.0);
         r.fill(0.0);
-        for (((row, &cj), &mj), &fj) in b.chunks_exact(nu).zip(c).zip(mass).zip(f) {
-            let fj = fj - mj * cj;
-            for (i, &bi) in row.iter().enumerate() {
-                r[i] += bi * fj;
-                for (k, &bk) in row[..=i].iter().enumerate() {
-                    a[i * nu + k] += mj * bi * bk;
+        for (j, ((row, &cj), &mj)) in b.chunks_exact(nu).zip(c).zip(mass).enumerate() {
+            let (i, (cs, sn)) = (j / 3, (c[nq + 2 * (j / 3)], c[nq + 2 * (j / 3) + 1]));
+            let fj = match j % 3 {
+                0 => cs * f[3 * i] + sn * f[3 * i + 1],
+                1 => cs * f[3 * i + 1] - sn * f[3 * i],
+                _ => f[j],
+            } - mj * cj;
+            for (k, &bk) in row.iter().enumerate() {
+                r[k] += bk * fj;
+                for (l, &bl) in row[..=k].iter().enumerate() {
+                    a[k * nu + l] += mj * bk * bl;
                 }
             }
         }
@@ -446,19 +460,25 @@ pub trait Model: Clone + Send + Sync + 'static {
 ///   the parent's coordinates and the child's angle; the kept coordinates
 ///   `p` (indices into `q`) are every root body's `x, y, phi` and every
 ///   other body's `phi` (a body hinged to the ground keeps only `phi`).
-/// - Every skate row, linear in `pd`, is solved for one velocity whose
-///   coefficient is a constant (a body's angular rate: the distance from
-///   the hinge, or a root's centre of mass, to the contact point along the
-///   blade); the others are the
-///   independent speeds `u` (indices into `qd`), `pd = N(p) u`.
+/// - The speeds are body-frame velocities (Kane's choice of generalized
+///   speeds): each body's forward and lateral velocity in its own frame
+///   and its angular rate, `V` (nq, indexed as `q`).
+/// - Every skate row, linear in `V`, is solved for one of them whose
+///   coefficient is a constant: a root body's lateral (or forward)
+///   velocity first, with a dimensionless pivot that no geometry zeroes,
+///   else a body's angular rate (the pivot the distance from the hinge to
+///   the contact point along the blade); the others are the independent
+///   speeds `u` (indices into `V`), `pd = N(p) u`.
 ///
-/// The equations of motion are then Maggi's (Kane's) `B^T M B u' = B^T (f -
-/// M c)` (nu x nu), with no constraint left to drift.
+/// The equations of motion are then Maggi's (Kane's) `B^T M B u' = B^T (F -
+/// M c)` (nu x nu) in the body frames, `F` the applied force turned into
+/// them, with no constraint left to drift.
 #[derive(Debug, Clone, PartialEq)]
 pub struct MinimalLayout {
     /// Kept coordinates `p` (indices into `q`, ascending).
     pub coords: Vec<usize>,
-    /// Independent speeds `u` (indices into `qd`, ascending; a subset of `coords`).
+    /// Independent speeds `u` (indices into the body-frame velocities `V`,
+    /// ascending; a subset of `coords`).
     pub speeds: Vec<usize>,
     /// Each skate row's constant coefficient at the current parameters:
     /// `(skate, index of the velocity it fixes, coefficient [m or 1])`. A

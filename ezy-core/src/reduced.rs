@@ -37,7 +37,7 @@ use crate::model::Model;
 pub enum Formulation {
     /// The reduced formulation where it pays, else the DAE: on the
     /// minimal coordinates `model!` derived ([`crate::MinimalLayout`]) for
-    /// DOPRI5 and DOP853, else by [`Formulation::auto_takes_reduced`].
+    /// DOPRI5, DOP853 and RK4, else by [`Formulation::auto_takes_reduced`].
     Auto,
     /// The index-1 DAE in all `q, qd` with coordinate projection.
     #[default]
@@ -75,8 +75,8 @@ impl Formulation {
     /// `G_D`) outweighs what it saves (`drive` 1.65x, `snake` 2.2-7x), and a
     /// fixed-step method saves no steps at all. (On the minimal
     /// coordinates `model!` derives, with no Newton step and no `G_D`,
-    /// `Auto` takes the reduced formulation for DOPRI5 and DOP853 at any
-    /// number of degrees of freedom: docs/physics.md §6.2.)
+    /// `Auto` takes the reduced formulation for DOPRI5, DOP853 and RK4 at
+    /// any number of degrees of freedom: docs/physics.md §6.2.)
     pub fn auto_takes_reduced(method: crate::Method, nq: usize, nc: usize) -> bool {
         matches!(method, crate::Method::Dopri5 | crate::Method::Dop853) && nq == nc + 1
     }
@@ -118,8 +118,11 @@ const MAX_NEWTON: usize = 12;
 /// passes the integration error of the lateral speed `v_lat` on to `w`
 /// magnified `1 / p`; the Maggi mass matrix `B^T M B` then holds
 /// `I / p^2` beside `m`, a condition number of about `(rho / p)^2` with
-/// `rho = sqrt(I / m)`. Measured on the drive scene (DOP853 at 1e-10,
-/// radius of gyration 0.47 m): at `p = 0.03 m` minimal coordinates take
+/// `rho = sqrt(I / m)`. `model!` solves a root body's skate for its
+/// lateral velocity instead (pivot 1), so this concerns the skates of
+/// hinged bodies (the pivot their distance from the hinge). Measured on
+/// the drive scene when skate A's row still fixed body 1's angular rate
+/// (DOP853 at 1e-10, radius of gyration 0.47 m): at `p = 0.03 m` minimal coordinates take
 /// 5 % more evaluations than the DAE, at 3e-3 m 25 % more and are 10x
 /// less accurate, at 1e-3 m 54 % more with an error of 5e-6, and at
 /// 1e-6 m the run diverges. Below this fraction (`p < rho / 20`, a
@@ -146,6 +149,21 @@ pub fn small_pivot<'a>(
         let rho = (inertia / m).sqrt();
         (rho.is_finite() && p.abs() < MIN_PIVOT_GYRATION * rho).then_some((skate.as_str(), *p, rho))
     })
+}
+
+/// Body `j / 3`'s velocity component `j % 3` in its own frame, from the
+/// full state `y = [q, qd, W]` (nq coordinates, three a body: `x, y, phi`):
+/// forward and lateral \[m/s\], `(v_x, v_y) = R(phi)^T (xd, yd)`, or the
+/// angular rate \[rad/s\]. The speeds of minimal coordinates are these.
+pub fn body_velocity(y: &[f64], nq: usize, j: usize) -> f64 {
+    let i = j / 3;
+    let (s, c) = y[3 * i + 2].sin_cos();
+    let (xd, yd) = (y[nq + 3 * i], y[nq + 3 * i + 1]);
+    match j % 3 {
+        0 => c * xd + s * yd,
+        1 => c * yd - s * xd,
+        _ => y[nq + j],
+    }
 }
 
 /// A dense LU factorization with partial pivoting of an `n x n` matrix,
@@ -547,6 +565,11 @@ impl Reduced {
         if !sys.drives.is_empty() || small_pivot(&sys.info, &sys.mass, &layout).is_some() {
             return Ok(None);
         }
+        // Maggi's equations in the body frames take each body's mass alike
+        // along x and y (a rotation leaves M unchanged)
+        if sys.mass.chunks_exact(3).any(|m| m[0].to_bits() != m[1].to_bits()) {
+            return Ok(None);
+        }
         let info = &sys.info;
         let (nq, nh, nc) = (info.nq(), info.n_holonomic, info.nc());
         let nu = layout.speeds.len();
@@ -564,7 +587,7 @@ impl Reduced {
             linear: true,
             minimal: Some(Minimal {
                 b: vec![0.0; nq * nu],
-                c: vec![0.0; nq],
+                c: vec![0.0; nq + 2 * (nq / 3)],
                 a: vec![0.0; nu * nu],
                 r: vec![0.0; nu],
                 ldl: vec![0.0; nu * (nu + 1)],
@@ -649,14 +672,16 @@ impl Reduced {
         ny - self.nh - self.nc
     }
 
-    /// The reduced state `z = [q_I, qd_I, W]` of the full `y = [q, qd, W]`.
+    /// The reduced state `z = [q_I, qd_I, W]` of the full `y = [q, qd, W]`
+    /// (on minimal coordinates the speeds are body-frame velocities,
+    /// [`body_velocity`]).
     pub fn gather(&self, y: &[f64], z: &mut [f64]) {
         let (ni, nf) = (self.partition.q_ind.len(), self.partition.v_ind.len());
         for (zi, &j) in z.iter_mut().zip(&self.partition.q_ind) {
             *zi = y[j];
         }
         for (zi, &j) in z[ni..].iter_mut().zip(&self.partition.v_ind) {
-            *zi = y[self.nq + j];
+            *zi = if self.minimal.is_some() { body_velocity(y, self.nq, j) } else { y[self.nq + j] };
         }
         z[ni + nf..].copy_from_slice(&y[2 * self.nq..]);
     }
@@ -668,7 +693,14 @@ impl Reduced {
         if k < ni {
             sys.state_name(self.partition.q_ind[k])
         } else if k < ni + nf {
-            sys.state_name(self.nq + self.partition.v_ind[k - ni])
+            let j = self.partition.v_ind[k - ni];
+            match (&self.minimal, j % 3) {
+                (Some(_), axis @ (0 | 1)) => {
+                    let body = sys.info.bodies.iter().find(|b| b.coords[axis] == j).map_or("?", |b| b.name.as_str());
+                    format!("{} velocity of {body} in its frame", ["forward", "lateral"][axis])
+                }
+                _ => sys.state_name(self.nq + j),
+            }
         } else {
             sys.state_name(2 * self.nq + k - ni - nf)
         }
@@ -794,10 +826,14 @@ impl Reduced {
     /// As [`Reduced::expand`] and [`Dynamics::rhs`].
     pub fn eval<M: Model>(&mut self, sys: &mut Dynamics<M>, t: f64, z: &[f64], dz: &mut [f64]) -> Result<(), SimError> {
         if self.minimal.is_some() {
-            // stages rarely repeat a state: expand without the key's check
-            // not a full expansion (no work states): no cache key
-            self.expand_minimal(&sys.model, z, false);
-            self.expanded_t = f64::NAN;
+            // the accepted state was expanded by `accept`, and F there (the
+            // next step's k1) reuses it; a stage's time differs from the
+            // key's, so the check costs one comparison. A stage's expansion
+            // leaves out the work states, so it leaves no key.
+            if t.to_bits() != self.expanded_t.to_bits() || z != self.expanded_z.as_slice() {
+                self.expand_minimal(&sys.model, z, false);
+                self.expanded_t = f64::NAN;
+            }
             return self.eval_minimal(sys, t, dz);
         }
         self.expand(sys, t, z)?;

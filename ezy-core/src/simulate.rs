@@ -717,12 +717,13 @@ pub fn simulate<M: Model, O: Observer<M>>(
         Formulation::Dae => None,
         Formulation::Reduced => Some(Reduced::new(sys, 0.0, y0)?),
         Formulation::Auto => {
-            // minimal coordinates pay with the adaptive explicit methods
-            // (docs/physics.md §6.2): fewer evaluations at equal error; a
-            // numeric partition only with one degree of freedom (§6.1)
+            // minimal coordinates pay with the explicit methods
+            // (docs/physics.md §6.2): fewer evaluations at equal error with
+            // DOPRI5 and DOP853, cheaper ones with RK4; a numeric partition
+            // only with one degree of freedom (§6.1)
             let free = sys.baumgarte.is_none();
-            let adaptive = free && matches!(settings.method, Method::Dopri5 | Method::Dop853);
-            let minimal = adaptive && sys.drives.is_empty() && sys.model.minimal_layout().is_ok();
+            let explicit = free && matches!(settings.method, Method::Dopri5 | Method::Dop853 | Method::Rk4);
+            let minimal = explicit && sys.drives.is_empty() && sys.model.minimal_layout().is_ok();
             let numeric = free && Formulation::auto_takes_reduced(settings.method, nq, nc);
             ((minimal || numeric) && nc <= crate::reduced::MAX_CONSTRAINTS)
                 .then(|| Reduced::new(sys, 0.0, y0).ok())

@@ -689,27 +689,32 @@ fn minimal_fns(d: &Derived, def: &ModelDef, m: Result<crate::minimal::Minimal, S
     let pivot_items =
         m.pivots.iter().zip(&pivot_exprs).map(|((name, k, _), e)| quote!((::std::string::String::from(#name), #k, #e)));
     let (coords, speeds) = (&m.coords, &m.speeds);
-    let mut outputs: Vec<Id> = m.q_dep.iter().chain(&m.qd_dep).map(|p| p.1).collect();
+    let nq = m.qd.len();
+    let mut outputs: Vec<Id> = m.q_dep.iter().map(|p| p.1).collect();
+    outputs.extend(&m.qd);
     outputs.extend(&m.b);
     outputs.extend(&m.c);
+    outputs.extend(&m.frames);
     let (lets, exprs) = lower(d, def, &outputs, Coords::Global);
     let mut sets = TokenStream::new();
-    let (nqd, nqdd) = (m.q_dep.len(), m.qd_dep.len());
+    let nqd = m.q_dep.len();
     for ((j, _), e) in m.q_dep.iter().zip(&exprs) {
         sets.extend(quote!(q[#j] = #e;));
     }
-    for ((j, _), e) in m.qd_dep.iter().zip(&exprs[nqd..]) {
-        sets.extend(quote!(qd[#j] = #e;));
+    let mut rest = exprs[nqd..].iter();
+    for (j, e) in rest.by_ref().take(nq).enumerate() {
+        sets.extend(quote!(qd_out[#j] = #e;));
     }
-    let nb = m.b.len();
-    for (k, e) in exprs[nqd + nqdd..nqd + nqdd + nb].iter().enumerate() {
+    for (k, e) in rest.by_ref().take(m.b.len()).enumerate() {
         sets.extend(quote!(b[#k] = #e;));
     }
-    for (k, e) in exprs[nqd + nqdd + nb..].iter().enumerate() {
+    for (k, e) in rest.enumerate() {
         sets.extend(quote!(c[#k] = #e;));
     }
-    // Maggi's B^T M B (lower triangle) and B^T (f - M c) over B's and c's
-    // structural nonzeros, with B's constant entries inlined
+    // Maggi's B^T M B (lower triangle) and B^T (F - M c) in the body
+    // frames over B's structural nonzeros, with B's constant entries
+    // inlined; F is f turned into each body's frame by the expansion's
+    // cos, sin (c[nq..])
     let nu = m.speeds.len();
     let entry = |j: usize, i: usize| -> Option<TokenStream> {
         let id = m.b[j * nu + i];
@@ -726,7 +731,16 @@ fn minimal_fns(d: &Derived, def: &ModelDef, m: Result<crate::minimal::Minimal, S
             }
         }
     };
-    let nq = m.c.len();
+    let force = |j: usize| -> TokenStream {
+        let (i, axis) = (j / 3, j % 3);
+        let (cs, sn) = (nq + 2 * i, nq + 2 * i + 1);
+        let (x, y) = (3 * i, 3 * i + 1);
+        match axis {
+            0 => quote!((c[#cs] * f[#x] + c[#sn] * f[#y])),
+            1 => quote!((c[#cs] * f[#y] - c[#sn] * f[#x])),
+            _ => quote!(f[#j]),
+        }
+    };
     let mut maggi = TokenStream::new();
     for i in 0..nu {
         for k in 0..=i {
@@ -743,16 +757,18 @@ fn minimal_fns(d: &Derived, def: &ModelDef, m: Result<crate::minimal::Minimal, S
         let terms: Vec<TokenStream> = (0..nq)
             .filter_map(|j| {
                 let bi = entry(j, i)?;
-                Some(if d.ar.is_zero(m.c[j]) { quote!(#bi f[#j]) } else { quote!(#bi (f[#j] - mass[#j] * c[#j])) })
+                let fj = force(j);
+                Some(if d.ar.is_zero(m.c[j]) { quote!(#bi #fj) } else { quote!(#bi (#fj - mass[#j] * c[#j])) })
             })
             .collect();
         let sum = if terms.is_empty() { quote!(0.0) } else { join(terms.into_iter(), quote!(+)) };
         maggi.extend(quote!(r[#i] = #sum;));
     }
+    let nc_len = nq + m.frames.len();
     quote! {
         #[inline]
         fn minimal_maggi(&self, mass: &[f64], b: &[f64], c: &[f64], f: &[f64], a: &mut [f64], r: &mut [f64]) {
-            let (mass, b, c, f) = (&mass[..#nq], &b[..#nq * #nu], &c[..#nq], &f[..#nq]);
+            let (mass, b, c, f) = (&mass[..#nq], &b[..#nq * #nu], &c[..#nc_len], &f[..#nq]);
             let (a, r) = (&mut a[..#nu * #nu], &mut r[..#nu]);
             #maggi
         }
@@ -768,7 +784,10 @@ fn minimal_fns(d: &Derived, def: &ModelDef, m: Result<crate::minimal::Minimal, S
         }
 
         #[inline]
-        fn minimal_expand<S: #private::Scalar>(&self, q: &mut [S], qd: &mut [S], b: &mut [S], c: &mut [S]) {
+        fn minimal_expand<S: #private::Scalar>(&self, q: &mut [S], qd_out: &mut [S], b: &mut [S], c: &mut [S]) {
+            // the speeds in, read before anything is written
+            #[allow(unused_variables)]
+            let qd: [S; #nq] = ::core::array::from_fn(|k| qd_out[k]);
             #lets
             #sets
         }

@@ -9,13 +9,20 @@
 //!   coefficient +-1 on them), with the parent's already eliminated. A
 //!   hinge between two bodies already reached closes a loop: no minimal
 //!   form.
-//! - Skates: in row order, the row `a(p) . pd = 0` (the hinges'
-//!   velocities substituted, earlier solutions too) is solved for the
-//!   first velocity, angular rates first, whose coefficient mentions no
-//!   coordinate: `pd_k = -(row - a_k pd_k) / a_k`; earlier solutions are
-//!   updated. The rest are the independent speeds `u`.
-//! - `qd = B(p) u` for every coordinate, `B = dqd/du`, and the convective
-//!   `c = sum_i (dqd/dp_i) pd_i`, so `qdd = B u' + c`.
+//! - Speeds: body-frame velocities `V` (each body's forward and lateral
+//!   velocity in its own frame, its angular rate; Kane's generalized
+//!   speeds), `Sym::Qd(j)` standing for `V[j]` in this derivation.
+//! - Skates: in row order, the row `a(p) . V = 0` (the hinges' velocities
+//!   substituted, earlier solutions too) is solved for the velocity whose
+//!   coefficient mentions no coordinate, a translational one first (the
+//!   largest at the declared parameters), else an angular rate:
+//!   `V_k = -(row - a_k V_k) / a_k`; earlier solutions are updated. The
+//!   rest are the independent speeds `u`.
+//! - `V = B(p) u` for every body, `B = dV/du`, the global rates `qd`, and
+//!   `c`, the body-frame acceleration at `u' = 0` (the rate of `V` along
+//!   `pd` plus the frame's turning), so a body's acceleration in its frame
+//!   is `B u' + c`; products of sines and cosines are rewritten over angle
+//!   differences (`sym::trig`) and common factors pulled out.
 
 use std::collections::HashMap;
 
@@ -27,17 +34,21 @@ use crate::sym::{Arena, Id, Sym};
 pub struct Minimal {
     /// Kept coordinates `p` (indices into `q`, ascending).
     pub coords: Vec<usize>,
-    /// Independent speeds `u` (indices into `qd`, ascending).
+    /// Independent speeds `u` (indices into the body-frame velocities
+    /// `V`, ascending: `V[3 i + k]` is body `i`'s forward, lateral or
+    /// angular velocity in its own frame).
     pub speeds: Vec<usize>,
     /// Every eliminated coordinate: `(index, q_j(p))`.
     pub q_dep: Vec<(usize, Id)>,
-    /// Every velocity not in `speeds`: `(index, qd_j(p, u))`.
-    pub qd_dep: Vec<(usize, Id)>,
-    /// `B = dqd/du` (nq x nu, row-major).
+    /// Every global velocity `qd_j(p, u)` (nq).
+    pub qd: Vec<Id>,
+    /// `B = dV/du` (nq x nu, row-major), body frames.
     pub b: Vec<Id>,
-    /// `c = (d/dt B) u` (nq).
+    /// `c`, the body-frame acceleration at `u' = 0` (nq): `V' = B u' + c`.
     pub c: Vec<Id>,
-    /// Per skate row: `(skate name, velocity index, coefficient)`.
+    /// Each body's `cos phi, sin phi` (2 nb): the forces into its frame.
+    pub frames: Vec<Id>,
+    /// Per skate row: `(skate name, body-frame velocity index, coefficient)`.
     pub pivots: Vec<(String, usize, Id)>,
 }
 
@@ -142,28 +153,71 @@ pub fn derive(
         }
     }
     let coords: Vec<usize> = (0..nq).filter(|j| !qmap.contains_key(&Sym::Q(*j))).collect();
-    let rate = |ar: &mut Arena, e: Id, coords: &[usize]| -> Id {
+
+    // Velocities in the body frames: `Sym::Qd(j)` stands, in this
+    // derivation, for body `j / 3`'s velocity component `j % 3` in its own
+    // frame (forward, lateral [m/s], angular rate [rad/s]); the global rates
+    // are `(xd, yd) = R(phi) (v_x, v_y)`.
+    let trig: Vec<(Id, Id)> = (0..nb)
+        .map(|i| {
+            let a = ar.sym(Sym::Q(3 * i + 2));
+            (ar.cos(a), ar.sin(a))
+        })
+        .collect();
+    let rotate = |ar: &mut Arena, i: usize, vx: Id, vy: Id, inverse: bool| -> (Id, Id) {
+        let (c, s) = trig[i];
+        let s = if inverse { ar.neg(s) } else { s };
+        let (cx, sy, sx, cy) = (ar.mul2(c, vx), ar.mul2(s, vy), ar.mul2(s, vx), ar.mul2(c, vy));
+        (ar.sub(cx, sy), ar.add2(sx, cy))
+    };
+    // the global rate of every kept coordinate in the body-frame symbols
+    let mut rates: HashMap<usize, Id> = HashMap::new();
+    for &k in &coords {
+        let i = k / 3;
+        let e = match k % 3 {
+            2 => ar.sym(Sym::Qd(k)),
+            axis => {
+                let (vx, vy) = (ar.sym(Sym::Qd(3 * i)), ar.sym(Sym::Qd(3 * i + 1)));
+                let (x, y) = rotate(ar, i, vx, vy, false);
+                ar.linearize(if axis == 0 { x } else { y })
+            }
+        };
+        rates.insert(k, e);
+    }
+    // each eliminated position's global rate, then its body's frame velocity
+    let rate = |ar: &mut Arena, e: Id, rates: &HashMap<usize, Id>| -> Id {
         let terms: Vec<Id> = coords
             .iter()
             .map(|&k| {
                 let d = ar.diff(e, Sym::Q(k));
-                let v = ar.sym(Sym::Qd(k));
-                ar.mul2(d, v)
+                ar.mul2(d, rates[&k])
             })
             .collect();
-        ar.add(&terms)
+        let sum = ar.add(&terms);
+        ar.linearize(sum)
     };
-    let mut qdmap: HashMap<Sym, Id> = HashMap::new();
+    let mut global: HashMap<usize, Id> = rates.clone();
     for (&var, &sol) in &qmap {
         let Sym::Q(j) = var else { unreachable!("positions only") };
-        let v = rate(ar, sol, &coords);
-        qdmap.insert(Sym::Qd(j), v);
+        let v = rate(ar, sol, &rates);
+        global.insert(j, v);
+    }
+    let mut vmap: HashMap<Sym, Id> = HashMap::new();
+    for &(child, _) in &order {
+        if let (Some(&xd), Some(&yd)) = (global.get(&(3 * child)), global.get(&(3 * child + 1)))
+            && qmap.contains_key(&Sym::Q(3 * child))
+        {
+            let (vx, vy) = rotate(ar, child, xd, yd, true);
+            vmap.insert(Sym::Qd(3 * child), ar.linearize(vx));
+            vmap.insert(Sym::Qd(3 * child + 1), ar.linearize(vy));
+        }
     }
 
-    // skates: each row solved for one velocity with a constant coefficient
+    // skates: each row solved for one body-frame velocity with a constant
+    // coefficient, a root body's translational one first (the largest
+    // coefficient), else an angular rate
     let is_state = |s: Sym| matches!(s, Sym::Q(_) | Sym::Qd(_));
-    let mut candidates: Vec<usize> = coords.iter().copied().filter(|k| k % 3 == 2).collect();
-    candidates.extend(coords.iter().copied().filter(|k| k % 3 != 2));
+    let candidates: Vec<usize> = coords.clone();
     let mut sol: HashMap<Sym, Id> = HashMap::new();
     let mut pivots = Vec::new();
     for (si, i) in (nh..nc).enumerate() {
@@ -172,19 +226,29 @@ pub fn derive(
             .zip(values)
             .filter(|((r, _), _)| *r == i)
             .map(|(&(_, c), &g)| {
-                let v = ar.sym(Sym::Qd(c));
+                let v = global.get(&c).copied().unwrap_or_else(|| ar.sym(Sym::Qd(c)));
                 ar.mul2(g, v)
             })
             .collect();
         let row = ar.add(&terms);
-        let row = ar.replace(row, &|s| qmap.get(&s).or_else(|| qdmap.get(&s)).copied(), &mut HashMap::new());
+        let row = ar.replace(row, &|s| qmap.get(&s).copied(), &mut HashMap::new());
         let row = ar.replace(row, &|s| sol.get(&s).copied(), &mut HashMap::new());
-        let chosen = candidates.iter().copied().filter(|k| !sol.contains_key(&Sym::Qd(*k))).find_map(|k| {
-            let a = ar.diff(row, Sym::Qd(k));
-            (!ar.is_zero(a) && !ar.mentions(a, &is_state)).then_some((k, a))
-        });
+        let row = ar.linearize(row);
         let name = def.skates[si].name.to_string();
-        let Some((k, a)) = chosen else {
+        let mut best: Option<(usize, Id, f64)> = None;
+        for &k in candidates.iter().filter(|k| !sol.contains_key(&Sym::Qd(**k))) {
+            let a = ar.diff(row, Sym::Qd(k));
+            if ar.is_zero(a) || ar.mentions(a, &is_state) {
+                continue;
+            }
+            // translational pivots (dimensionless) by size, at the
+            // declared parameter values; an angular rate only without one
+            let size = if k % 3 == 2 { 0.0 } else { param_size(ar, a, def) };
+            if best.is_none_or(|(_, _, s)| size > s) {
+                best = Some((k, a, size));
+            }
+        }
+        let Some((k, a, _)) = best else {
             return Err(format!(
                 "no velocity enters the row of skate `{name}` with a coefficient free of the coordinates"
             ));
@@ -192,45 +256,79 @@ pub fn derive(
         let var = Sym::Qd(k);
         let rest = ar.replace(row, &|s| (s == var).then_some(zero), &mut HashMap::new());
         let minus = ar.neg(rest);
-        let solved = ar.div(minus, a);
+        let inv = ar.pow(a, -1);
+        let solved = ar.mul2(minus, inv);
+        let solved = ar.linearize(solved);
         if ar.mentions(solved, &|s| s == var) {
             return Err(format!("the row of skate `{name}` is not linear in the velocities"));
         }
         for e in sol.values_mut() {
-            *e = ar.replace(*e, &|s| (s == var).then_some(solved), &mut HashMap::new());
+            let r = ar.replace(*e, &|s| (s == var).then_some(solved), &mut HashMap::new());
+            *e = ar.linearize(r);
         }
         sol.insert(var, solved);
         pivots.push((name, k, a));
     }
-    let speeds: Vec<usize> = coords.iter().copied().filter(|k| !sol.contains_key(&Sym::Qd(*k))).collect();
+    let speeds: Vec<usize> = candidates.iter().copied().filter(|k| !sol.contains_key(&Sym::Qd(*k))).collect();
 
-    // velocities of every coordinate in the independent speeds
-    let mut qd_full = Vec::with_capacity(nq);
+    // every body-frame velocity in the independent speeds
+    let mut v_full = Vec::with_capacity(nq);
     for j in 0..nq {
-        let e = match (sol.get(&Sym::Qd(j)), qdmap.get(&Sym::Qd(j))) {
+        let e = match (sol.get(&Sym::Qd(j)), vmap.get(&Sym::Qd(j))) {
             (Some(&s), _) => s,
-            (None, Some(&v)) => ar.replace(v, &|s| sol.get(&s).copied(), &mut HashMap::new()),
+            (None, Some(&v)) => {
+                let r = ar.replace(v, &|s| sol.get(&s).copied(), &mut HashMap::new());
+                ar.linearize(r)
+            }
             (None, None) => ar.sym(Sym::Qd(j)),
         };
-        qd_full.push(e);
+        v_full.push(e);
     }
     let mut b = Vec::with_capacity(nq * speeds.len());
-    for &e in &qd_full {
+    for &e in &v_full {
         for &k in &speeds {
             b.push(ar.diff(e, Sym::Qd(k)));
         }
     }
-    let pd: Vec<Id> = coords.iter().map(|&k| qd_full[k]).collect();
+    // the global rates of the kept coordinates in the speeds
+    let mut qd = Vec::with_capacity(nq);
+    for i in 0..nb {
+        let (x, y) = rotate(ar, i, v_full[3 * i], v_full[3 * i + 1], false);
+        qd.extend([x, y, v_full[3 * i + 2]]);
+    }
+    // c = dV/dt at fixed u (along the kept coordinates' rates) plus the
+    // frame's turning, (-w v_y, w v_x, 0): the body-frame acceleration is
+    // `B u' + c`
+    // (d/dt B) u as sum_k u_k sum_m dB_jk/dp_m pd_m, each pd_m once
+    let nu = speeds.len();
+    let u: Vec<Id> = speeds.iter().map(|&k| ar.sym(Sym::Qd(k))).collect();
     let mut c = Vec::with_capacity(nq);
-    for &e in &qd_full {
-        let terms: Vec<Id> = coords
-            .iter()
-            .zip(&pd)
-            .map(|(&k, &v)| {
-                let d = ar.diff(e, Sym::Q(k));
-                ar.mul2(d, v)
-            })
-            .collect();
+    for j in 0..nq {
+        let mut terms = Vec::new();
+        for (k, &uk) in u.iter().enumerate() {
+            let bjk = b[j * nu + k];
+            let rates: Vec<Id> = coords
+                .iter()
+                .filter_map(|&m| {
+                    let d = ar.diff(bjk, Sym::Q(m));
+                    (!ar.is_zero(d)).then(|| ar.mul2(d, qd[m]))
+                })
+                .collect();
+            if !rates.is_empty() {
+                let bd = ar.add(&rates);
+                terms.push(ar.mul2(bd, uk));
+            }
+        }
+        let (i, axis) = (j / 3, j % 3);
+        let w = v_full[3 * i + 2];
+        match axis {
+            0 => {
+                let t = ar.mul2(w, v_full[3 * i + 1]);
+                terms.push(ar.neg(t));
+            }
+            1 => terms.push(ar.mul2(w, v_full[3 * i])),
+            _ => {}
+        }
         c.push(ar.add(&terms));
     }
     let mut q_dep: Vec<(usize, Id)> = qmap
@@ -241,8 +339,26 @@ pub fn derive(
         })
         .collect();
     q_dep.sort_by_key(|(j, _)| *j);
-    let qd_dep = (0..nq).filter(|j| !speeds.contains(j)).map(|j| (j, qd_full[j])).collect();
-    Ok(Minimal { coords, speeds, q_dep, qd_dep, b, c, pivots })
+    // cos(a - b), sin(a - b) from the angles' own sines and cosines
+    let mut memo = HashMap::new();
+    for e in qd.iter_mut().chain(&mut b).chain(&mut c) {
+        *e = ar.trig_products(*e, &mut memo);
+    }
+    let mut memo = HashMap::new();
+    for e in qd.iter_mut().chain(&mut b).chain(&mut c) {
+        *e = ar.factor(*e, &mut memo);
+    }
+    let frames = trig.iter().flat_map(|&(c, s)| [c, s]).collect();
+    Ok(Minimal { coords, speeds, q_dep, qd, b, c, frames, pivots })
+}
+
+/// `|e|` at the parameters' declared values (`NaN` if it mentions anything else).
+fn param_size(ar: &Arena, e: Id, def: &ModelDef) -> f64 {
+    ar.eval(e, &|s| match s {
+        Sym::Param(i) => def.params[i].value,
+        _ => f64::NAN,
+    })
+    .abs()
 }
 
 /// `k e` with the constant distributed over a sum, so that like terms

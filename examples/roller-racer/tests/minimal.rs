@@ -75,10 +75,14 @@ fn the_users_tree_model_has_minimal_coordinates_that_pass_the_check() {
     use ezy::Model;
     let layout = TowCart::default().minimal_layout().expect("a tree of hinges, skates off their hinges");
     // kept: the cart's x, y, phi and the trailer's phi; independent: the
-    // cart's x and y velocities; each skate fixes its body's angular rate
-    assert_eq!((layout.coords, layout.speeds), (vec![0, 1, 2, 5], vec![0, 1]));
-    let pivots: Vec<(String, usize)> = layout.pivots.iter().map(|p| (p.0.clone(), p.1)).collect();
-    assert_eq!(pivots, [("R".to_string(), 2), ("T".to_string(), 5)]);
+    // cart's forward velocity and yaw rate (body-frame speeds); skate R
+    // fixes the cart's lateral velocity (pivot 1), skate T the trailer's
+    // angular rate (pivot e + f)
+    assert_eq!((layout.coords, layout.speeds), (vec![0, 1, 2, 5], vec![0, 2]));
+    let pivots: Vec<(String, usize, f64)> = layout.pivots.iter().map(|p| (p.0.clone(), p.1, p.2)).collect();
+    assert_eq!(pivots[0], ("R".to_string(), 1, 1.0));
+    assert_eq!((pivots[1].0.as_str(), pivots[1].1), ("T", 5));
+    assert!((pivots[1].2.abs() - 0.8).abs() < 1e-15, "{pivots:?}");
     ezy::testing::assert_derivatives(&TowCart::default());
 }
 

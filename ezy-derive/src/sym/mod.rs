@@ -18,6 +18,7 @@
 
 mod diff;
 mod display;
+mod trig;
 
 use std::collections::HashMap;
 
@@ -294,6 +295,60 @@ impl Arena {
             out.insert(0, self.cst(coef));
         }
         self.intern(Node::Mul(out.into_boxed_slice()))
+    }
+
+    /// `e` multiplied out: every product of sums, and every positive
+    /// integer power of a sum, distributed, so that like terms meet and
+    /// cancel and `sin^2 + cos^2` folds (see [`Arena::add`]). Nothing is
+    /// distributed inside `sin`, `cos`, `sqrt` or a negative power.
+    pub fn expand(&mut self, e: Id) -> Id {
+        self.expand_memo(e, &mut HashMap::new())
+    }
+
+    fn expand_memo(&mut self, e: Id, memo: &mut HashMap<Id, Id>) -> Id {
+        if let Some(&d) = memo.get(&e) {
+            return d;
+        }
+        let out = match self.node(e).clone() {
+            Node::Add(ts) => {
+                let ts: Vec<Id> = ts.iter().map(|&t| self.expand_memo(t, memo)).collect();
+                self.add(&ts)
+            }
+            Node::Mul(fs) => {
+                let mut terms = vec![self.cst(1.0)];
+                for f in fs.iter() {
+                    let f = self.expand_memo(*f, memo);
+                    terms = self.distribute(&terms, f);
+                }
+                self.add(&terms)
+            }
+            Node::Pow(b, n) if n > 1 && matches!(self.node(b), Node::Add(_)) => {
+                let b = self.expand_memo(b, memo);
+                let mut terms = vec![self.cst(1.0)];
+                for _ in 0..n {
+                    terms = self.distribute(&terms, b);
+                }
+                self.add(&terms)
+            }
+            _ => e,
+        };
+        memo.insert(e, out);
+        out
+    }
+
+    /// The terms of `(sum of terms) * f`, `f`'s own terms distributed.
+    fn distribute(&mut self, terms: &[Id], f: Id) -> Vec<Id> {
+        let fs: Vec<Id> = match self.node(f) {
+            Node::Add(ts) => ts.to_vec(),
+            _ => vec![f],
+        };
+        let mut out = Vec::with_capacity(terms.len() * fs.len());
+        for &t in terms {
+            for &g in &fs {
+                out.push(self.mul2(t, g));
+            }
+        }
+        out
     }
 
     /// `b^n` for an integer `n`.
