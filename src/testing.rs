@@ -602,18 +602,9 @@ fn check_minimal<M: Model>(
 }
 
 /// The body-frame velocities `V` (nq) of the global rates `qd` (nq) at
-/// `q` (three coordinates a body, `x, y, phi`): `(v_x, v_y) = R(phi)^T
-/// (xd, yd)` \[m/s\] and the angular rate \[rad/s\], as
-/// [`ezy_core::reduced::body_velocity`] gives them one at a time.
+/// `q`, each by [`ezy_core::reduced::body_velocity`].
 fn body_frame<S: Scalar>(q: &[S], qd: &[S]) -> Vec<S> {
-    let mut v = qd.to_vec();
-    for i in 0..q.len() / 3 {
-        let (c, sn) = (q[3 * i + 2].cos(), q[3 * i + 2].sin());
-        let (xd, yd) = (qd[3 * i], qd[3 * i + 1]);
-        v[3 * i] = c * xd + sn * yd;
-        v[3 * i + 1] = c * yd - sn * xd;
-    }
-    v
+    (0..qd.len()).map(|j| ezy_core::reduced::body_velocity(q, qd, j)).collect()
 }
 
 const MIN_KEPT: &str = "minimal: phi = 0, G qd = 0 expanded";

@@ -152,17 +152,18 @@ pub fn small_pivot<'a>(
 }
 
 /// Body `j / 3`'s velocity component `j % 3` in its own frame, from the
-/// full state `y = [q, qd, W]` (nq coordinates, three a body: `x, y, phi`):
-/// forward and lateral \[m/s\], `(v_x, v_y) = R(phi)^T (xd, yd)`, or the
-/// angular rate \[rad/s\]. The speeds of minimal coordinates are these.
-pub fn body_velocity(y: &[f64], nq: usize, j: usize) -> f64 {
+/// coordinates `q` and global rates `qd` (nq each, three a body:
+/// `x, y, phi`): forward and lateral \[m/s\],
+/// `(v_x, v_y) = R(phi)^T (xd, yd)`, or the angular rate \[rad/s\]. The
+/// speeds of minimal coordinates are these (Kane & Levinson 1985, ch. 4).
+pub fn body_velocity<S: crate::Scalar>(q: &[S], qd: &[S], j: usize) -> S {
     let i = j / 3;
-    let (s, c) = y[3 * i + 2].sin_cos();
-    let (xd, yd) = (y[nq + 3 * i], y[nq + 3 * i + 1]);
+    let (s, c) = (q[3 * i + 2].sin(), q[3 * i + 2].cos());
+    let (xd, yd) = (qd[3 * i], qd[3 * i + 1]);
     match j % 3 {
         0 => c * xd + s * yd,
         1 => c * yd - s * xd,
-        _ => y[nq + j],
+        _ => qd[j],
     }
 }
 
@@ -681,7 +682,8 @@ impl Reduced {
             *zi = y[j];
         }
         for (zi, &j) in z[ni..].iter_mut().zip(&self.partition.v_ind) {
-            *zi = if self.minimal.is_some() { body_velocity(y, self.nq, j) } else { y[self.nq + j] };
+            let (q, qd) = y.split_at(self.nq);
+            *zi = if self.minimal.is_some() { body_velocity(q, qd, j) } else { qd[j] };
         }
         z[ni + nf..].copy_from_slice(&y[2 * self.nq..]);
     }

@@ -203,12 +203,19 @@ impl Arena {
         if constant != 0.0 {
             out.push(self.cst(constant));
         }
-        match out.len() {
+        self.add_raw(out)
+    }
+
+    /// The sum of `ts` as it is, with no like terms collected (what
+    /// [`Arena::add`] ends with, and what factoring needs so as not to be
+    /// undone): `0` for none, the term for one.
+    fn add_raw(&mut self, mut ts: Vec<Id>) -> Id {
+        match ts.len() {
             0 => self.cst(0.0),
-            1 => out[0],
+            1 => ts[0],
             _ => {
-                out.sort();
-                self.intern(Node::Add(out.into_boxed_slice()))
+                ts.sort();
+                self.intern(Node::Add(ts.into_boxed_slice()))
             }
         }
     }

@@ -78,24 +78,15 @@ impl Arena {
                 continue;
             };
             let (d, s) = (self.sub(a, b), self.add2(a, b));
-            match (k1, k2) {
-                (Kind::Cos, Kind::Cos) => {
-                    out.push(self.canon(0.5 * c, Kind::Cos, d));
-                    out.push(self.canon(0.5 * c, Kind::Cos, s));
-                }
-                (Kind::Sin, Kind::Sin) => {
-                    out.push(self.canon(0.5 * c, Kind::Cos, d));
-                    out.push(self.canon(-0.5 * c, Kind::Cos, s));
-                }
-                (Kind::Sin, Kind::Cos) => {
-                    out.push(self.canon(0.5 * c, Kind::Sin, s));
-                    out.push(self.canon(0.5 * c, Kind::Sin, d));
-                }
-                (Kind::Cos, Kind::Sin) => {
-                    out.push(self.canon(0.5 * c, Kind::Sin, s));
-                    out.push(self.canon(-0.5 * c, Kind::Sin, d));
-                }
-            }
+            // f(a) g(b) = (k_d t(a - b) + k_s t(a + b)) / 2
+            let (kind, k_d, k_s) = match (k1, k2) {
+                (Kind::Cos, Kind::Cos) => (Kind::Cos, 0.5, 0.5),
+                (Kind::Sin, Kind::Sin) => (Kind::Cos, 0.5, -0.5),
+                (Kind::Sin, Kind::Cos) => (Kind::Sin, 0.5, 0.5),
+                (Kind::Cos, Kind::Sin) => (Kind::Sin, -0.5, 0.5),
+            };
+            out.push(self.canon(k_d * c, kind, d));
+            out.push(self.canon(k_s * c, kind, s));
         }
         out
     }
@@ -255,18 +246,5 @@ impl Arena {
         }
         let rest = self.factor_sum(without);
         self.add_raw(vec![prod, rest])
-    }
-
-    /// A sum of `ts` kept as it is (no like terms collected: factoring
-    /// must not be undone).
-    fn add_raw(&mut self, mut ts: Vec<Id>) -> Id {
-        match ts.len() {
-            0 => self.cst(0.0),
-            1 => ts[0],
-            _ => {
-                ts.sort();
-                self.intern(Node::Add(ts.into_boxed_slice()))
-            }
-        }
     }
 }
