@@ -604,7 +604,10 @@ pub fn summary(scene: &str, r: &Report) -> String {
     };
     let kept = if s.minimal_coordinates {
         // no KKT system: Maggi's equations in the independent speeds
-        "reduced formulation on the minimal coordinates model! derived (no projection, Maggi's equations)".to_string()
+        let fused = if s.fused_rhs { ", fused right-hand side" } else { "" };
+        format!(
+            "reduced formulation on the minimal coordinates model! derived (no projection, Maggi's equations{fused})"
+        )
     } else if s.formulation == ezy_core::Formulation::Reduced {
         format!("reduced formulation ({} re-partitions, no projection), {} KKT path", s.repartitions, s.kkt)
     } else {

@@ -23,8 +23,12 @@
 //! constraint at the expanded state (`phi = 0`, `G qd = 0`, to the same
 //! tolerance, each residual divided by the size of the terms that cancel
 //! in it: the largest coordinate for `phi`, `sum_k |G_ik qd_k|` for
-//! `G qd`, at least 1). Below the table, the pivots of the minimal
-//! coordinates at the model's parameters ([`minimal_notes`]).
+//! `G qd`, at least 1), and the fused right-hand side `model!` generates
+//! for them ([`Model::minimal_rhs`]) against the expansion and Maggi's
+//! equations computed apart, under a force on every coordinate: the full
+//! state exactly, the speeds' rates by the backward error of Maggi's
+//! equations ([`MIN_FUSED`], same tolerance). Below the table, the pivots
+//! of the minimal coordinates at the model's parameters ([`minimal_notes`]).
 //!
 //! Errors are relative, `|generated - reference| / max(|generated|,
 //! |reference|, 1)`, so an O(1) mistake (a wrong sign, a missing factor)
@@ -278,6 +282,7 @@ pub fn check_derivatives_observed<M: Model>(
             Acc::new(MIN_KEPT, Same),
             [Acc::new(MIN_B, Fd), Acc::new(MIN_B, Dual)],
             [Acc::new(MIN_C, Fd), Acc::new(MIN_C, Dual)],
+            Acc::new(MIN_FUSED, Same),
         )
     });
     let h = FD_STEP;
@@ -424,9 +429,12 @@ pub fn check_derivatives_observed<M: Model>(
     for pair in [jac, skate, gamma, vel] {
         terms.extend(pair.into_iter().map(Acc::done));
     }
-    if let Some((kept, b, c)) = minimal {
+    if let Some((kept, b, c, fused)) = minimal {
         terms.push(kept.done());
         terms.extend(b.into_iter().chain(c).map(Acc::done));
+        if fused.compared > 0 {
+            terms.push(fused.done());
+        }
     }
     terms.push(same.done());
     Report { states, seed, terms, notes: minimal_notes(base) }
@@ -500,7 +508,7 @@ fn check_minimal<M: Model>(
     q: &[f64],
     v: &[f64],
     s: usize,
-    (kept, b_acc, c_acc): &mut (Acc, [Acc; 2], [Acc; 2]),
+    (kept, b_acc, c_acc, fused): &mut (Acc, [Acc; 2], [Acc; 2], Acc),
 ) {
     let info = m.info();
     let (nq, nu) = (q.len(), layout.speeds.len());
@@ -599,6 +607,79 @@ fn check_minimal<M: Model>(
         c_acc[0].add(c[j], scale * (p[j] - mn[j]) / (2.0 * h) + turning, at);
         c_acc[1].add(c[j], dual[j].eps + turning, at);
     }
+    check_fused(m, layout, (&q0, &qd0, v), (&b, &c), s, fused);
+}
+
+/// The fused right-hand side ([`Model::minimal_rhs`]), where the model has
+/// one and the run would take it (every pivot fit at these parameters,
+/// [`ezy_core::reduced::small_pivot`]), against the expansion and Maggi's
+/// equations apart ([`Model::minimal_expand`], [`Model::minimal_maggi`])
+/// at the state `(q0, qd0)` expanded from the speeds `v` (body-frame
+/// velocities, read at the independent speeds) with its `b`, `c`, under
+/// an applied force that loads every coordinate: the full state exactly,
+/// the kept coordinates' rates exactly, and `u'` by the residual of the
+/// separate Maggi equations, `|B^T M B u' - B^T (F - M c)|` divided by the
+/// size of the terms that cancel in it, `sum_k |A_ik u'_k|` and
+/// `sum_j |B_ji| (|F_j| + |m_j c_j|)`: a backward error, independent of the
+/// conditioning of `B^T M B` (a skate 1 mm from its hinge makes it 1e6).
+fn check_fused<M: Model>(
+    m: &M,
+    layout: &ezy_core::MinimalLayout,
+    (q0, qd0, v): (&[f64], &[f64], &[f64]),
+    (b, c): (&[f64], &[f64]),
+    s: usize,
+    acc: &mut Acc,
+) {
+    let Some(k) = m.minimal_constants() else { return };
+    let info = m.info();
+    let (nq, np, nu) = (q0.len(), layout.coords.len(), layout.speeds.len());
+    let mut mass = vec![0.0; nq];
+    m.mass_diagonal(&mut mass);
+    if ezy_core::reduced::small_pivot(&info, &mass, layout).is_some() {
+        return;
+    }
+    let coord = |j: usize| info.coords[j].as_str();
+    let force: Vec<f64> = (0..nq).map(|j| 10.0 * (1.3 * j as f64 + s as f64).sin()).collect();
+    let mut z: Vec<f64> = layout.coords.iter().map(|&j| q0[j]).collect();
+    z.extend(layout.speeds.iter().map(|&j| v[j]));
+    let (mut q, mut qd, mut dz) = (vec![f64::NAN; nq], vec![f64::NAN; nq], vec![f64::NAN; np + nu]);
+    let res = m.minimal_rhs(&k, &z, &mut q, &mut qd, &mut dz, |_, _, f: &mut [f64]| {
+        f.copy_from_slice(&force);
+        Ok::<(), ()>(())
+    });
+    if let Err(e) = res {
+        acc.add(f64::INFINITY, 0.0, || format!("state {s}, the fused right-hand side failed: {e:?}"));
+        return;
+    }
+    for j in 0..nq {
+        acc.add(q[j], q0[j], || format!("state {s}, fused q {}", coord(j)));
+        acc.add(qd[j], qd0[j], || format!("state {s}, fused qd {}", coord(j)));
+    }
+    for (i, &j) in layout.coords.iter().enumerate() {
+        acc.add(dz[i], qd0[j], || format!("state {s}, fused rate of {}", coord(j)));
+    }
+    let (mut a, mut r) = (vec![0.0; nu * nu], vec![0.0; nu]);
+    m.minimal_maggi(&mass, b, c, &force, &mut a, &mut r);
+    let ud = &dz[np..];
+    for i in 0..nu {
+        // the lower triangle holds the symmetric matrix
+        let at = |i: usize, k: usize| if k <= i { a[i * nu + k] } else { a[k * nu + i] };
+        // the size of r's terms B_ji (F_j - m_j c_j), F_j turned into the
+        // body's frame (at most |f_x| + |f_y| along either axis)
+        let mut size: f64 = (0..nq)
+            .map(|j| {
+                let (x, y) = (3 * (j / 3), 3 * (j / 3) + 1);
+                let fj = if j % 3 == 2 { force[j].abs() } else { force[x].abs() + force[y].abs() };
+                b[j * nu + i].abs() * (fj + (mass[j] * c[j]).abs())
+            })
+            .sum();
+        let mut lhs = 0.0;
+        for (k, &x) in ud.iter().enumerate() {
+            lhs += at(i, k) * x;
+            size += (at(i, k) * x).abs();
+        }
+        acc.add((lhs - r[i]) / size.max(1.0), 0.0, || format!("state {s}, fused u' {}", coord(layout.speeds[i])));
+    }
 }
 
 /// The body-frame velocities `V` (nq) of the global rates `qd` (nq) at
@@ -610,6 +691,9 @@ fn body_frame<S: Scalar>(q: &[S], qd: &[S]) -> Vec<S> {
 const MIN_KEPT: &str = "minimal: phi = 0, G qd = 0 expanded";
 const MIN_B: &str = "minimal: B = dV/du, body frame";
 const MIN_C: &str = "minimal: c = V'(u' = 0), body frame";
+/// The term of the fused right-hand side ([`Model::minimal_rhs`]) against
+/// the expansion and Maggi's equations apart, in a [`Report`].
+pub const MIN_FUSED: &str = "minimal: fused = expand + Maggi";
 const JAC: &str = "C_q = d phi/dq (holonomic rows of G)";
 const SKATE: &str = "S = n . d r_P/dq (skate rows of G)";
 const GAMMA: &str = "gamma = d/dq(G qd) qd";

@@ -295,16 +295,44 @@ impl<M: Model> Dynamics<M> {
         }
         let ws = &mut self.ws;
         ws.f.fill(0.0);
-        for ((e, p), wave) in self.effects.iter().zip(power).zip(&ws.waves) {
-            *p = e.apply_with(wave, q, qd, &mut ws.f).0;
-            // a NaN from a finite state is the effect's own failure (a
-            // spring-damper of zero length); a non-finite state is
-            // reported where the state is checked
-            if p.is_nan() && q.iter().chain(qd).all(|v| v.is_finite()) {
-                return Err(SimError::EffectFailed { t, effect: e.name.clone(), reason: e.failure(q) });
-            }
-        }
-        Ok(())
+        apply_effects(&self.effects, &ws.waves, t, q, qd, &mut ws.f, power)
+    }
+
+    /// The right-hand side on the model's minimal coordinates in one pass
+    /// ([`Model::minimal_rhs`] with the constants `k` of
+    /// [`Model::minimal_constants`]): from the reduced state `z = [p, u,
+    /// W]` at `t`, the full `q, qd` into `y[..2 nq]` (the work states
+    /// untouched) and `dz = [pd, u', P]` (the effects' powers last).
+    ///
+    /// # Errors
+    /// [`SimError::EffectFailed`] if an effect gives no force at a finite
+    /// state; [`SimError::Formulation`] if Maggi's `B^T M B` cannot be
+    /// factored.
+    #[inline]
+    pub(crate) fn minimal_rhs(
+        &mut self,
+        t: f64,
+        k: &[f64],
+        z: &[f64],
+        y: &mut [f64],
+        dz: &mut [f64],
+    ) -> Result<(), SimError> {
+        self.refresh_waveforms(t);
+        let nq = self.nq();
+        let (q, rest) = y.split_at_mut(nq);
+        let qd = &mut rest[..nq];
+        let (pd_ud, power) = dz.split_at_mut(dz.len() - self.effects.len());
+        let (effects, waves) = (&self.effects, &self.ws.waves);
+        self.model
+            .minimal_rhs(k, z, q, qd, pd_ud, |q, qd, f| apply_effects(effects, waves, t, q, qd, f, power))
+            .map_err(|e| match e {
+                crate::model::MinimalRhsError::Forces(e) => e,
+                crate::model::MinimalRhsError::Maggi(source) => SimError::Formulation {
+                    reason: format!(
+                        "at t = {t} s Maggi's equations on the minimal coordinates cannot be solved: {source}"
+                    ),
+                },
+            })
     }
 
     /// Computes the generalized applied force `f` (nq) \[N, N m\] of the effects at
@@ -338,6 +366,34 @@ impl<M: Model> Dynamics<M> {
     pub fn kinetic_energy(&self, qd: &[f64]) -> f64 {
         0.5 * self.mass.iter().zip(qd).map(|(m, v)| m * v * v).sum::<f64>()
     }
+}
+
+/// Adds each effect's generalized force at `(t, q, qd)` (nq each) to `f`
+/// (nq) and writes its power \[W\] to `power` (one per effect), from the
+/// effects' waveforms at `t` (`waves`, one per effect).
+///
+/// # Errors
+/// [`SimError::EffectFailed`] if an effect gives no force at a finite state.
+#[inline(always)]
+fn apply_effects(
+    effects: &[Effect],
+    waves: &[crate::effects::Waveforms],
+    t: f64,
+    q: &[f64],
+    qd: &[f64],
+    f: &mut [f64],
+    power: &mut [f64],
+) -> Result<(), SimError> {
+    for ((e, p), wave) in effects.iter().zip(power).zip(waves) {
+        *p = e.apply_with(wave, q, qd, f).0;
+        // a NaN from a finite state is the effect's own failure (a
+        // spring-damper of zero length); a non-finite state is reported
+        // where the state is checked
+        if p.is_nan() && q.iter().chain(qd).all(|v| v.is_finite()) {
+            return Err(SimError::EffectFailed { t, effect: e.name.clone(), reason: e.failure(q) });
+        }
+    }
+    Ok(())
 }
 
 impl<M: Model> crate::integrator::Rhs for Dynamics<M> {

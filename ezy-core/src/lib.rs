@@ -27,8 +27,8 @@ pub use error::{LISTED, MASS_SPREAD_WARNING, SimError, advice, fmt_value, name_l
 pub use ezy_derive::model;
 pub use integrator::Method;
 pub use model::{
-    BodyInfo, DriveInfo, EquationExpr, Equations, HingeInfo, MinimalLayout, Model, ModelInfo, NameIndex, ParamInfo,
-    PointInfo, SkateInfo, SliderInfo,
+    BodyInfo, DriveInfo, EquationExpr, Equations, HingeInfo, MinimalLayout, MinimalRhsError, Model, ModelInfo,
+    NameIndex, ParamInfo, PointInfo, SkateInfo, SliderInfo,
 };
 pub use projection::ProjectionKind;
 pub use reduced::Formulation;
@@ -50,9 +50,10 @@ pub struct ModelDocExamples;
 /// Paths the generated code uses; not public API.
 #[doc(hidden)]
 pub mod __private {
+    pub use crate::kkt::spd::ldl_solve;
     pub use crate::model::{
-        BodyInfo, DriveInfo, EquationExpr, Equations, HingeInfo, Layout, MinimalLayout, Model, ModelInfo, ParamInfo,
-        PointInfo, SkateInfo, SliderInfo, render_equation, unique_names,
+        BodyInfo, DriveInfo, EquationExpr, Equations, HingeInfo, Layout, MinimalLayout, MinimalRhsError, Model,
+        ModelInfo, ParamInfo, PointInfo, SkateInfo, SliderInfo, render_equation, unique_names,
     };
     pub use crate::scalar::Scalar;
 }

@@ -419,6 +419,54 @@ pub trait Model: Clone + Send + Sync + 'static {
         let _ = (q, qd, b, c);
     }
 
+    /// The table of fixed quantities [`Model::minimal_rhs`] reads: every
+    /// subexpression of it that mentions only parameters and numbers
+    /// (`d / (c + d)`, `m2 c^2 + I2`), computed once for the current
+    /// parameters, so that an evaluation does not repeat them (loop-invariant
+    /// code motion). `None` when the model has no fused right-hand side
+    /// (no [`MinimalLayout`], or a hand-written model): the default.
+    /// Computed anew after any parameter change.
+    fn minimal_constants(&self) -> Option<Vec<f64>> {
+        None
+    }
+
+    /// The right-hand side on the minimal coordinates in one pass, for a
+    /// model whose [`Model::minimal_constants`] is `Some(k)`: from
+    /// `z = [p, u]` (the kept coordinates and the independent speeds of
+    /// [`MinimalLayout`], np + nu, read), writes the full `q` and `qd`
+    /// (nq each, global rates \[m, rad, m/s, rad/s\]) exactly as
+    /// [`Model::minimal_expand`] does, calls `forces(q, qd, f)` once for
+    /// the generalized applied force `f` (nq, zero on entry, global)
+    /// \[N, N m\], and writes `dz = [pd, u']` (np + nu): the kept
+    /// coordinates' rates and the speeds' rates from Maggi's equations in
+    /// the body frames, `B^T M B u' = B^T (F - M c)` (Kane & Levinson 1985,
+    /// ch. 6; [`Model::minimal_maggi`] up to rounding), solved by LDL^T
+    /// with the checks of the KKT path. `model!` generates it as
+    /// straight-line code; the default does nothing (it is never called
+    /// without constants).
+    ///
+    /// # Errors
+    /// [`MinimalRhsError::Forces`] with what `forces` returned, or
+    /// [`MinimalRhsError::Maggi`] if `B^T M B` is not positive definite
+    /// (a non-finite state); `dz` is then partly written.
+    #[allow(clippy::too_many_arguments)]
+    #[inline]
+    fn minimal_rhs<E, F>(
+        &self,
+        k: &[f64],
+        z: &[f64],
+        q: &mut [f64],
+        qd: &mut [f64],
+        dz: &mut [f64],
+        forces: F,
+    ) -> Result<(), MinimalRhsError<E>>
+    where
+        F: FnOnce(&[f64], &[f64], &mut [f64]) -> Result<(), E>,
+    {
+        let _ = (k, z, q, qd, dz, forces);
+        Ok(())
+    }
+
     /// Maggi's equations on the minimal coordinates in the body frames,
     /// from the expansion's `b` (nq x nu) and `c` (nq + 2 nb), the mass
     /// diagonal `mass` (nq, each body's alike along x and y) and the
@@ -447,6 +495,16 @@ pub trait Model: Clone + Send + Sync + 'static {
             }
         }
     }
+}
+
+/// Why [`Model::minimal_rhs`] stopped.
+#[derive(Debug, Clone, PartialEq)]
+pub enum MinimalRhsError<E> {
+    /// The applied forces failed: what the `forces` callback returned.
+    Forces(E),
+    /// Maggi's mass matrix `B^T M B` could not be factored (a pivot not
+    /// positive, or non-finite entries: the state overflowed).
+    Maggi(crate::kkt::KktError),
 }
 
 /// Minimal coordinates of a model whose hinges form a tree and whose

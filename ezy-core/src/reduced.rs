@@ -447,7 +447,9 @@ pub struct Reduced {
 /// The minimal-coordinate path: the partition of [`crate::MinimalLayout`]
 /// (fixed: its pivots are constants), `q_D`, `qd_D`, `B = dqd/dqd_I` and
 /// `c` from the model's generated [`Model::minimal_expand`], and `qdd_I`
-/// from Maggi's equations `B^T M B qdd_I = B^T (f - M c)` (nu x nu).
+/// from Maggi's equations `B^T M B qdd_I = B^T (f - M c)` (nu x nu); or,
+/// where the model has it, all of this in one pass of its generated
+/// [`Model::minimal_rhs`] (the fused right-hand side).
 #[derive(Debug, Clone)]
 struct Minimal {
     /// `B` (nq x nu, row-major) and `c` (nq) of the last expansion.
@@ -458,6 +460,14 @@ struct Minimal {
     a: Vec<f64>,
     r: Vec<f64>,
     ldl: Vec<f64>,
+    /// The fused right-hand side's constants ([`Model::minimal_constants`]),
+    /// `None` where it is not taken.
+    constants: Option<Vec<f64>>,
+    /// `F` at the expansion's key (`Reduced::expanded_t`, `expanded_z`),
+    /// when `dz_cached`: an accepted state's, evaluated by `accept`, which
+    /// the next step's first stage then reads.
+    dz: Vec<f64>,
+    dz_cached: bool,
 }
 
 impl Reduced {
@@ -584,6 +594,11 @@ impl Reduced {
         if partition.q_dep.len() != nh || partition.v_dep.len() != nc {
             return Ok(None);
         }
+        // the fused right-hand side has the model's own masses built in
+        let mut own_mass = vec![0.0; nq];
+        sys.model.mass_diagonal(&mut own_mass);
+        let same_mass = own_mass.iter().zip(&sys.mass).all(|(a, b)| a.to_bits() == b.to_bits());
+        let constants = sys.model.minimal_constants().filter(|_| same_mass);
         let mut red = Self {
             linear: true,
             minimal: Some(Minimal {
@@ -592,6 +607,9 @@ impl Reduced {
                 a: vec![0.0; nu * nu],
                 r: vec![0.0; nu],
                 ldl: vec![0.0; nu * (nu + 1)],
+                constants,
+                dz: vec![0.0; y.len() - nh - nc],
+                dz_cached: false,
             }),
             ..Self::with_partition(partition, (nq, nh, nc), y)
         };
@@ -600,6 +618,12 @@ impl Reduced {
         red.expand(sys, t, &z)?;
         red.y_accepted.copy_from_slice(&red.y);
         Ok(Some(red))
+    }
+
+    /// Whether the right-hand side is the model's fused one
+    /// ([`Model::minimal_rhs`]).
+    pub fn is_fused(&self) -> bool {
+        self.minimal.as_ref().is_some_and(|m| m.constants.is_some())
     }
 
     /// Whether the partition and the expansion are the closed form of the
@@ -723,7 +747,8 @@ impl Reduced {
         if t.to_bits() == self.expanded_t.to_bits() && z == self.expanded_z.as_slice() {
             return Ok(());
         }
-        if self.minimal.is_some() {
+        if let Some(m) = &mut self.minimal {
+            m.dz_cached = false;
             self.expand_minimal(&sys.model, z, true);
             self.expanded_t = t;
             self.expanded_z.clear();
@@ -827,6 +852,19 @@ impl Reduced {
     /// # Errors
     /// As [`Reduced::expand`] and [`Dynamics::rhs`].
     pub fn eval<M: Model>(&mut self, sys: &mut Dynamics<M>, t: f64, z: &[f64], dz: &mut [f64]) -> Result<(), SimError> {
+        if let Some(m) = &self.minimal
+            && m.constants.is_some()
+        {
+            // the accepted state's F, evaluated by `accept`
+            if m.dz_cached && t.to_bits() == self.expanded_t.to_bits() && z == self.expanded_z.as_slice() {
+                dz.copy_from_slice(&m.dz);
+                self.minimal.as_mut().expect("minimal path").dz_cached = false;
+            } else {
+                self.eval_fused(sys, t, z, dz)?;
+            }
+            sys.counters.rhs_evals += 1;
+            return Ok(());
+        }
         if self.minimal.is_some() {
             // the accepted state was expanded by `accept`, and F there (the
             // next step's k1) reuses it; a stage's time differs from the
@@ -897,13 +935,57 @@ impl Reduced {
         Ok(())
     }
 
+    /// [`Reduced::eval`] by the model's fused [`Model::minimal_rhs`]: the
+    /// full `q, qd` into [`Reduced::full`] (no key: the work states are
+    /// not copied), `dz` whole. Counts no evaluation (the caller does).
+    #[inline]
+    fn eval_fused<M: Model>(
+        &mut self,
+        sys: &mut Dynamics<M>,
+        t: f64,
+        z: &[f64],
+        dz: &mut [f64],
+    ) -> Result<(), SimError> {
+        let m = self.minimal.as_mut().expect("minimal path");
+        self.expanded_t = f64::NAN;
+        m.dz_cached = false;
+        sys.minimal_rhs(t, m.constants.as_deref().expect("fused path"), z, &mut self.y, dz)
+    }
+
     /// Expands the accepted state `z` at `t` and keeps it
-    /// ([`Reduced::accepted`]) with its pivot ratios.
+    /// ([`Reduced::accepted`]) with its pivot ratios. On the fused path
+    /// ([`Reduced::is_fused`]) it evaluates `F` there as well, which the
+    /// next evaluation, the next step's first stage, then reads, unless
+    /// `evaluated`: the last evaluation was at this `z` (the last stage of
+    /// a method with the first-same-as-last property, DOPRI5), so its full
+    /// state is already there.
     ///
     /// # Errors
-    /// As [`Reduced::expand`].
-    pub fn accept<M: Model>(&mut self, sys: &Dynamics<M>, t: f64, z: &[f64]) -> Result<(), SimError> {
-        self.expand(sys, t, z)?;
+    /// As [`Reduced::expand`]; on the fused path as [`Reduced::eval`].
+    pub fn accept<M: Model>(
+        &mut self,
+        sys: &mut Dynamics<M>,
+        t: f64,
+        z: &[f64],
+        evaluated: bool,
+    ) -> Result<(), SimError> {
+        if self.is_fused() {
+            if !evaluated {
+                let mut dz = std::mem::take(&mut self.minimal.as_mut().expect("minimal path").dz);
+                let res = self.eval_fused(sys, t, z, &mut dz);
+                let m = self.minimal.as_mut().expect("minimal path");
+                m.dz = dz;
+                res?;
+                m.dz_cached = true;
+            }
+            let (nq, nw) = (self.nq, self.y.len() - 2 * self.nq);
+            self.y[2 * nq..].copy_from_slice(&z[z.len() - nw..]);
+            self.expanded_t = t;
+            self.expanded_z.clear();
+            self.expanded_z.extend_from_slice(z);
+        } else {
+            self.expand(sys, t, z)?;
+        }
         self.y_accepted.copy_from_slice(&self.y);
         self.quality_accepted = self.quality;
         Ok(())

@@ -207,6 +207,10 @@ pub struct Summary {
     /// coordinates (partition and expansion in closed form, from `model!`:
     /// [`crate::MinimalLayout`]).
     pub minimal_coordinates: bool,
+    /// Whether, on minimal coordinates, the right-hand side was the
+    /// model's fused one ([`crate::Model::minimal_rhs`]: the expansion, the
+    /// forces and Maggi's equations in one generated function).
+    pub fused_rhs: bool,
     /// Wall time of the integration alone (steps, projections and the
     /// dense output's interpolation; no output work).
     pub integration_time: Duration,
@@ -557,14 +561,18 @@ trait Integrand<M: Model> {
     fn eval(&mut self, sys: &mut Dynamics<M>, t: f64, x: &[f64], dx: &mut [f64]) -> Result<(), SimError>;
     /// After an accepted step from `t` to `t_new` of size `h`: the full
     /// state's checks ([`Run::after_step`]); returns whether `x` changed.
+    /// `evaluated`: the step's last evaluation of `F` was at `x` (DOPRI5's
+    /// last stage).
+    #[allow(clippy::too_many_arguments)]
     fn accept<O: Observer<M>>(
         &mut self,
         run: &mut Run<'_, M, O>,
-        sys: &Dynamics<M>,
+        sys: &mut Dynamics<M>,
         t: f64,
         t_new: f64,
         x: &mut [f64],
         h: f64,
+        evaluated: bool,
     ) -> Result<bool, SimError>;
     /// The full state `y` of the accepted `x` (as [`Integrand::accept`] left it).
     fn accepted_full<'a>(&'a self, x: &'a [f64]) -> &'a [f64];
@@ -604,12 +612,14 @@ impl<M: Model> Integrand<M> for Dae {
     fn accept<O: Observer<M>>(
         &mut self,
         run: &mut Run<'_, M, O>,
-        sys: &Dynamics<M>,
+        sys: &mut Dynamics<M>,
         t: f64,
         t_new: f64,
         x: &mut [f64],
         h: f64,
+        evaluated: bool,
     ) -> Result<bool, SimError> {
+        let _ = evaluated;
         run.after_step(sys, t, t_new, x, h)
     }
     fn accepted_full<'a>(&'a self, x: &'a [f64]) -> &'a [f64] {
@@ -634,18 +644,19 @@ impl<M: Model> Integrand<M> for Reduced {
     fn accept<O: Observer<M>>(
         &mut self,
         run: &mut Run<'_, M, O>,
-        sys: &Dynamics<M>,
+        sys: &mut Dynamics<M>,
         t: f64,
         t_new: f64,
         x: &mut [f64],
         h: f64,
+        evaluated: bool,
     ) -> Result<bool, SimError> {
         if let Some(k) = x.iter().position(|v| !v.is_finite()) {
             let quantity = format!("the state component `{}`", self.state_name(sys, k));
             let advice = advice(run.settings.method, t, h);
             return Err(SimError::NonFinite { t, quantity, value: x[k], dt: h, advice });
         }
-        Reduced::accept(self, sys, t_new, x)?;
+        Reduced::accept(self, sys, t_new, x, evaluated)?;
         let mut full = std::mem::take(&mut self.scratch);
         full.clear();
         full.extend_from_slice(self.accepted());
@@ -771,6 +782,7 @@ pub fn simulate<M: Model, O: Observer<M>>(
             formulation: Formulation::Dae,
             repartitions: 0,
             minimal_coordinates: false,
+            fused_rhs: false,
             integration_time: Duration::ZERO,
             output_time: Duration::ZERO,
             max_residual_position: 0.0,
@@ -817,6 +829,7 @@ pub fn simulate<M: Model, O: Observer<M>>(
             run.summary.formulation = Formulation::Reduced;
             run.summary.projection_path = "none: the reduced formulation keeps the constraints";
             run.summary.minimal_coordinates = red.is_minimal();
+            run.summary.fused_rhs = red.is_fused();
             let mut z = vec![0.0; red.nz(y0.len())];
             red.gather(y0, &mut z);
             let r = integrate(sys, &mut red, &mut z, &mut run);
@@ -900,7 +913,7 @@ fn fixed<M: Model, O: Observer<M>, F: Integrand<M>, S: FixedStep>(
         let t = i as f64 * settings.dt;
         let t_next = if i + 1 == n { settings.t_end } else { (i + 1) as f64 * settings.dt };
         stepper.advance(&mut Bound { sys, form }, t, x, t_next - t)?;
-        form.accept(run, sys, t, t_next, x, settings.dt)?;
+        form.accept(run, sys, t, t_next, x, settings.dt, false)?;
         run.observer.poll(t_next).map_err(RunError::Output)?;
         if (i + 1) % stride == 0 || i + 1 == n {
             form.emit(run, sys, t_next, x)?;
@@ -962,7 +975,7 @@ fn adaptive<M: Model, O: Observer<M>, F: Integrand<M>, E: EmbeddedRk>(
         stage_failure = None;
         let t_new = if last { settings.t_end } else { t + h };
         // the accepted state, projected, and F there: the next step's k1
-        let projected = form.accept(run, sys, t, t_new, &mut y_new, h)?;
+        let projected = form.accept(run, sys, t, t_new, &mut y_new, h, E::FSAL_IN_ESTIMATE)?;
         if projected || !E::FSAL_IN_ESTIMATE {
             form.eval(sys, t_new, &y_new, &mut k_new)?;
         }

@@ -51,31 +51,47 @@ enum Coords {
 
 /// Straight-line code computing `outputs`: `(let bindings, one expression per output)`.
 fn lower(d: &Derived, def: &ModelDef, outputs: &[Id], coords: Coords) -> (TokenStream, Vec<TokenStream>) {
-    let private = runtime();
-    let scalar = quote!(<S as #private::Scalar>);
-    let reach = d.ar.reachable(outputs);
     let refer = |id: Id| -> TokenStream {
         match d.ar.node(id) {
-            Node::Const(bits) => {
-                let l = lit_f64(f64::from_bits(*bits));
-                quote!(#scalar::from_f64(#l))
-            }
             Node::Sym(Sym::Q(k)) if coords == Coords::Global => quote!(q[#k]),
             Node::Sym(Sym::Qd(k)) if coords == Coords::Global => quote!(qd[#k]),
             Node::Sym(Sym::Q(k)) => quote!(ql[#k]),
             Node::Sym(Sym::Qd(k)) => quote!(qdl[#k]),
-            Node::Sym(Sym::Param(i)) => {
-                let p = format_ident!("p_{}", def.params[*i].name);
-                quote!(#p)
-            }
-            _ => {
-                let t = format_ident!("t{}", id.index());
-                quote!(#t)
-            }
+            _ => leaf_or_let(d, def, id),
         }
     };
+    let lets = let_bindings(d, def, &d.ar.reachable(outputs), &refer);
+    (lets, outputs.iter().map(|&o| refer(o)).collect())
+}
+
+/// How generated code refers to a number (`S::from_f64(..)`), a parameter
+/// (its `p_NAME` binding) or a computed node (its `tNN` binding).
+fn leaf_or_let(d: &Derived, def: &ModelDef, id: Id) -> TokenStream {
+    let private = runtime();
+    match d.ar.node(id) {
+        Node::Const(bits) => {
+            let l = lit_f64(f64::from_bits(*bits));
+            quote!(<S as #private::Scalar>::from_f64(#l))
+        }
+        Node::Sym(Sym::Param(i)) => {
+            let p = format_ident!("p_{}", def.params[*i].name);
+            quote!(#p)
+        }
+        _ => {
+            let t = format_ident!("t{}", id.index());
+            quote!(#t)
+        }
+    }
+}
+
+/// The `let` bindings of the nodes `ids` (ascending: an evaluation order):
+/// a parameter read from its field, every other non-leaf node computed
+/// from its children as `refer` names them.
+fn let_bindings(d: &Derived, def: &ModelDef, ids: &[Id], refer: &dyn Fn(Id) -> TokenStream) -> TokenStream {
+    let private = runtime();
+    let scalar = quote!(<S as #private::Scalar>);
     let mut lets = TokenStream::new();
-    for &id in &reach {
+    for &id in ids {
         let rhs = match d.ar.node(id) {
             Node::Sym(Sym::Param(i)) => {
                 let p = format_ident!("p_{}", def.params[*i].name);
@@ -119,7 +135,111 @@ fn lower(d: &Derived, def: &ModelDef, outputs: &[Id], coords: Coords) -> (TokenS
         let t = format_ident!("t{}", id.index());
         lets.extend(quote!(let #t: S = #rhs;));
     }
-    (lets, outputs.iter().map(|&o| refer(o)).collect())
+    lets
+}
+
+/// Straight-line code for a right-hand side whose fixed nodes (numbers
+/// and parameters only, `Arena::fixed_nodes`; not a single number or
+/// parameter) that another node or an output uses are read from the table
+/// `k` instead of computed. The bindings are emitted on demand, depth
+/// first, the costlier operand first (Sethi & Ullman), just before the
+/// statement that needs them, so that each value lives briefly: the
+/// compiler keeps the order of straight-line code, and a value computed
+/// long before its use is spilled to the stack and loaded again.
+struct Hoisted<'a> {
+    d: &'a Derived,
+    def: &'a ModelDef,
+    name: &'a dyn Fn(Sym) -> TokenStream,
+    /// The table's nodes, in the order of `k`, and each one's slot.
+    table: Vec<Id>,
+    slot: HashMap<Id, usize>,
+    /// Whether a node was bound already.
+    done: Vec<bool>,
+    /// Number of operations below each node (a DAG's shared nodes counted
+    /// once per use), for the order of operands.
+    weight: HashMap<Id, usize>,
+}
+
+impl<'a> Hoisted<'a> {
+    /// The table of the nodes `outputs` need.
+    fn new(d: &'a Derived, def: &'a ModelDef, outputs: &[Id], name: &'a dyn Fn(Sym) -> TokenStream) -> Self {
+        let fixed = d.ar.fixed_nodes();
+        let mut seen = vec![false; fixed.len()];
+        let mut stack: Vec<Id> = outputs.to_vec();
+        let mut table = Vec::new();
+        while let Some(id) = stack.pop() {
+            if std::mem::replace(&mut seen[id.index()], true) {
+                continue;
+            }
+            match d.ar.node(id) {
+                Node::Const(_) | Node::Sym(_) => {}
+                _ if fixed[id.index()] => table.push(id),
+                Node::Add(xs) | Node::Mul(xs) => stack.extend_from_slice(xs),
+                Node::Pow(a, _) | Node::Sin(a) | Node::Cos(a) | Node::Sqrt(a) => stack.push(*a),
+            }
+        }
+        table.sort();
+        let slot = table.iter().enumerate().map(|(i, &id)| (id, i)).collect();
+        Self { d, def, name, table, slot, done: vec![false; fixed.len()], weight: HashMap::new() }
+    }
+
+    /// Whether `id` is computed here: not a number, symbol or table entry.
+    fn computed(&self, id: Id) -> bool {
+        !matches!(self.d.ar.node(id), Node::Const(_) | Node::Sym(_)) && !self.slot.contains_key(&id)
+    }
+
+    fn children(&self, id: Id) -> Vec<Id> {
+        match self.d.ar.node(id) {
+            Node::Add(xs) | Node::Mul(xs) => xs.to_vec(),
+            Node::Pow(a, _) | Node::Sin(a) | Node::Cos(a) | Node::Sqrt(a) => vec![*a],
+            Node::Const(_) | Node::Sym(_) => Vec::new(),
+        }
+    }
+
+    fn weight(&mut self, id: Id) -> usize {
+        if !self.computed(id) {
+            return 0;
+        }
+        if let Some(&w) = self.weight.get(&id) {
+            return w;
+        }
+        let w = 1 + self.children(id).into_iter().map(|c| self.weight(c)).sum::<usize>();
+        self.weight.insert(id, w);
+        w
+    }
+
+    /// How the code names `id`.
+    fn refer(&self, id: Id) -> TokenStream {
+        match (self.slot.get(&id), self.d.ar.node(id)) {
+            (Some(i), _) => quote!(k[#i]),
+            (None, Node::Sym(s @ (Sym::Q(_) | Sym::Qd(_)))) => (self.name)(*s),
+            _ => leaf_or_let(self.d, self.def, id),
+        }
+    }
+
+    /// The bindings `roots` need that are not bound yet, depth first.
+    fn lets_for(&mut self, roots: &[Id]) -> TokenStream {
+        let mut order = Vec::new();
+        for &r in roots {
+            self.visit(r, &mut order);
+        }
+        let refer = |id: Id| self.refer(id);
+        let_bindings(self.d, self.def, &order, &refer)
+    }
+
+    fn visit(&mut self, id: Id, order: &mut Vec<Id>) {
+        let param = matches!(self.d.ar.node(id), Node::Sym(Sym::Param(_)));
+        if self.done[id.index()] || !(self.computed(id) || param) {
+            return;
+        }
+        self.done[id.index()] = true;
+        let mut kids = self.children(id);
+        kids.sort_by_key(|&c| std::cmp::Reverse(self.weight(c)));
+        for c in kids {
+            self.visit(c, order);
+        }
+        order.push(id);
+    }
 }
 
 /// `(index expression, as i64)` of an affine index at loop value `v`.
@@ -583,10 +703,19 @@ pub fn emit(def: &ModelDef, res: &Resolved, d: &mut Derived) -> TokenStream {
         let fns =
             numeric_fns(&q_only, &q_qd, [phi_body, jac_body, g_body, phi_g_body, terms_body, points_body, vel_body]);
         let minimal = crate::minimal::derive(&mut d.ar, def, res, &st.phi, &st.pattern, &st.values, st.nc);
+        let fused = match &minimal {
+            Ok(m) => {
+                let mass: Vec<Id> = d.mass.iter().flatten().copied().collect();
+                let maggi = crate::minimal::maggi(&mut d.ar, m, &mass);
+                fused_fns(d, def, m, &maggi)
+            }
+            Err(_) => TokenStream::new(),
+        };
         let minimal = minimal_fns(d, def, minimal);
         quote! {
             #kernels
             #minimal
+            #fused
 
             fn unrolled_kernels(&self) -> bool {
                 true
@@ -790,6 +919,155 @@ fn minimal_fns(d: &Derived, def: &ModelDef, m: Result<crate::minimal::Minimal, S
             let qd: [S; #nq] = ::core::array::from_fn(|k| qd_out[k]);
             #lets
             #sets
+        }
+    }
+}
+
+/// `minimal_constants` and `minimal_rhs`: the right-hand side on the
+/// minimal coordinates `m` in one straight-line function (the expansion,
+/// the applied force through a closure, Maggi's `B^T M B` and
+/// `B^T (F - M c)` from `maggi`), the fixed parts of its expressions read
+/// from a table computed once per run.
+fn fused_fns(d: &Derived, def: &ModelDef, m: &crate::minimal::Minimal, maggi: &crate::minimal::Maggi) -> TokenStream {
+    let (nq, np, nu) = (m.qd.len(), m.coords.len(), m.speeds.len());
+    let nz = np + nu;
+    // the kept coordinates and the speeds read from z
+    let name = |s: Sym| -> TokenStream {
+        let i = match s {
+            Sym::Q(j) => m.coords.iter().position(|&c| c == j),
+            Sym::Qd(j) => m.speeds.iter().position(|&c| c == j).map(|i| np + i),
+            Sym::Param(_) => None,
+        };
+        let i = i.unwrap_or_else(|| panic!("the minimal form mentions {s:?}, neither kept nor independent"));
+        quote!(z[#i])
+    };
+    let mut outputs: Vec<Id> = m.q_dep.iter().map(|p| p.1).collect();
+    outputs.extend(&m.qd);
+    outputs.extend(&maggi.a);
+    outputs.extend(&maggi.minus_bmc);
+    outputs.extend(&maggi.b);
+    outputs.extend(&m.frames);
+    let mut h = Hoisted::new(d, def, &outputs, &name);
+    let nk = h.table.len();
+    let (table_lets, table_exprs) = lower(d, def, &h.table, Coords::Global);
+    // the full state and the kept coordinates' rates, each value computed
+    // just before it is stored
+    let mut sets = TokenStream::new();
+    for (i, &j) in m.coords.iter().enumerate() {
+        sets.extend(quote!(q[#j] = z[#i];));
+    }
+    for &(j, e) in &m.q_dep {
+        sets.extend(h.lets_for(&[e]));
+        let e = h.refer(e);
+        sets.extend(quote!(q[#j] = #e;));
+    }
+    for (j, &e) in m.qd.iter().enumerate() {
+        sets.extend(h.lets_for(&[e]));
+        let e = h.refer(e);
+        sets.extend(quote!(qd[#j] = #e;));
+        if let Some(i) = m.coords.iter().position(|&c| c == j) {
+            sets.extend(quote!(pd[#i] = #e;));
+        }
+    }
+    // Maggi's B^T M B (lower triangle), then B^T (F - M c): -B^T M c
+    // first, then F, the force f turned into each body's frame, a body's
+    // force skipped where it is zero (a motor's hinge torque has none)
+    let mut maggi_sets = TokenStream::new();
+    let mut a = vec![quote!(0.0f64); nu * nu];
+    for i in 0..nu {
+        for k in 0..=i {
+            let e = maggi.a[i * (i + 1) / 2 + k];
+            maggi_sets.extend(h.lets_for(&[e]));
+            let (e, v) = (h.refer(e), format_ident!("a{}_{}", i, k));
+            maggi_sets.extend(quote!(let #v: S = #e;));
+            a[i * nu + k] = quote!(#v);
+        }
+    }
+    let r: Vec<proc_macro2::Ident> = (0..nu).map(|i| format_ident!("r{}", i)).collect();
+    for (ri, &bmc) in r.iter().zip(&maggi.minus_bmc) {
+        maggi_sets.extend(h.lets_for(&[bmc]));
+        let e = h.refer(bmc);
+        maggi_sets.extend(quote!(let mut #ri: S = #e;));
+    }
+    for body in 0..nq / 3 {
+        let (x, y, w) = (3 * body, 3 * body + 1, 3 * body + 2);
+        let (cs, sn) = (m.frames[2 * body], m.frames[2 * body + 1]);
+        // `r_i += B_ji F_j` over the body's velocities `j` in `axes`, in a
+        // block of its own that runs where the force is not zero (its
+        // bindings scoped to it)
+        let mut block = |h: &mut Hoisted, axes: &[usize], force: TokenStream, test: TokenStream| {
+            let saved = h.done.clone();
+            let mut lets = TokenStream::new();
+            let mut adds = TokenStream::new();
+            for &axis in axes {
+                let (j, fj) = (3 * body + axis, [quote!(fx), quote!(fy), quote!(f[#w])][axis].clone());
+                for (i, ri) in r.iter().enumerate() {
+                    let bji = maggi.b[j * nu + i];
+                    match d.ar.as_const(bji) {
+                        Some(0.0) => {}
+                        Some(1.0) => adds.extend(quote!(#ri += #fj;)),
+                        _ => {
+                            lets.extend(h.lets_for(&[bji]));
+                            let b = h.refer(bji);
+                            adds.extend(quote!(#ri += #b * #fj;));
+                        }
+                    }
+                }
+            }
+            if !adds.is_empty() {
+                let frame = if axes.contains(&0) { h.lets_for(&[cs, sn]) } else { TokenStream::new() };
+                maggi_sets.extend(quote!(if #test { #frame #lets #force #adds }));
+            }
+            h.done = saved;
+        };
+        let (c, s) = (h.refer(cs), h.refer(sn));
+        block(
+            &mut h,
+            &[0, 1],
+            quote!(let (fx, fy) = (#c * f[#x] + #s * f[#y], #c * f[#y] - #s * f[#x]);),
+            quote!(f[#x] != 0.0 || f[#y] != 0.0),
+        );
+        block(&mut h, &[2], TokenStream::new(), quote!(f[#w] != 0.0));
+    }
+    let private = runtime();
+    let scratch = if nu > 8 { nu * (nu + 1) } else { 0 };
+    maggi_sets.extend(quote! {
+        let a: [S; #nu * #nu] = [#(#a),*];
+        let r: [S; #nu] = [#(#r),*];
+        let mut scratch = [0.0f64; #scratch];
+        #private::ldl_solve(&a, #nu, #nu, &r, &mut dz[#np..], &mut scratch)
+            .map_err(#private::MinimalRhsError::Maggi)?;
+    });
+    quote! {
+        fn minimal_constants(&self) -> ::core::option::Option<::std::vec::Vec<f64>> {
+            type S = f64;
+            #table_lets
+            ::core::option::Option::Some(::std::vec![#(#table_exprs),*])
+        }
+
+        #[inline]
+        fn minimal_rhs<E, F>(
+            &self,
+            k: &[f64],
+            z: &[f64],
+            q: &mut [f64],
+            qd: &mut [f64],
+            dz: &mut [f64],
+            forces: F,
+        ) -> ::core::result::Result<(), #private::MinimalRhsError<E>>
+        where
+            F: ::core::ops::FnOnce(&[f64], &[f64], &mut [f64]) -> ::core::result::Result<(), E>,
+        {
+            type S = f64;
+            // every slice cut to its length once: no bounds check below
+            let (k, z) = (&k[..#nk], &z[..#nz]);
+            let (q, qd, dz) = (&mut q[..#nq], &mut qd[..#nq], &mut dz[..#nz]);
+            let pd = &mut dz[..#np];
+            #sets
+            let mut f = [0.0f64; #nq];
+            forces(q, qd, &mut f).map_err(#private::MinimalRhsError::Forces)?;
+            #maggi_sets
+            ::core::result::Result::Ok(())
         }
     }
 }

@@ -352,6 +352,43 @@ pub fn derive(
     Ok(Minimal { coords, speeds, q_dep, qd, b, c, frames, pivots })
 }
 
+/// The fused right-hand side's symbolic part (`Model::minimal_rhs`): with
+/// the mass diagonal `mass` (nq, parameters only; each body's alike along
+/// x and y), the lower triangle of Maggi's `B^T M B` (row by row: entry
+/// `(i, k)`, `k <= i`, at `i (i + 1) / 2 + k`) and `-B^T M c` (nu), and
+/// `B` (nq x nu), each with its fixed parts grouped for hoisting
+/// ([`Arena::group_fixed`]). The applied force's part of `B^T (F - M c)`
+/// is left to the generated code, `F` coming in at run time.
+pub struct Maggi {
+    pub a: Vec<Id>,
+    pub minus_bmc: Vec<Id>,
+    pub b: Vec<Id>,
+}
+
+/// [`Maggi`] of the minimal form `m`.
+pub fn maggi(ar: &mut Arena, m: &Minimal, mass: &[Id]) -> Maggi {
+    let (nq, nu) = (m.qd.len(), m.speeds.len());
+    let mut memo = crate::sym::Grouping::default();
+    let b: Vec<Id> = m.b.iter().map(|&e| ar.group_fixed(e, &mut memo)).collect();
+    let mut a = Vec::with_capacity(nu * (nu + 1) / 2);
+    for i in 0..nu {
+        for k in 0..=i {
+            let terms: Vec<Id> = (0..nq).map(|j| ar.mul(&[mass[j], m.b[j * nu + i], m.b[j * nu + k]])).collect();
+            let sum = ar.add(&terms);
+            a.push(ar.group_fixed(sum, &mut memo));
+        }
+    }
+    let minus = ar.cst(-1.0);
+    let minus_bmc = (0..nu)
+        .map(|i| {
+            let terms: Vec<Id> = (0..nq).map(|j| ar.mul(&[minus, mass[j], m.b[j * nu + i], m.c[j]])).collect();
+            let sum = ar.add(&terms);
+            ar.group_fixed(sum, &mut memo)
+        })
+        .collect();
+    Maggi { a, minus_bmc, b }
+}
+
 /// `|e|` at the parameters' declared values (`NaN` if it mentions anything else).
 fn param_size(ar: &Arena, e: Id, def: &ModelDef) -> f64 {
     ar.eval(e, &|s| match s {

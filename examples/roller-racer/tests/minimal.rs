@@ -84,6 +84,12 @@ fn the_users_tree_model_has_minimal_coordinates_that_pass_the_check() {
     assert_eq!((pivots[1].0.as_str(), pivots[1].1), ("T", 5));
     assert!((pivots[1].2.abs() - 0.8).abs() < 1e-15, "{pivots:?}");
     ezy::testing::assert_derivatives(&TowCart::default());
+    // the fused right-hand side `model!` generated for it (the one the
+    // reduced runs take) agrees with the expansion and Maggi's equations
+    let report = ezy::testing::check_derivatives(&TowCart::default());
+    let fused = report.terms.iter().find(|t| t.term == ezy::testing::MIN_FUSED).expect("the fused term is checked");
+    assert!(fused.compared > 0 && fused.passed(), "{fused:?}");
+    assert!(TowCart::default().minimal_constants().is_some());
 }
 
 #[test]
@@ -105,6 +111,7 @@ fn the_users_scene_runs_on_its_minimal_coordinates() {
     let (reduced_header, reduced, said) = run("reduced");
     assert_eq!(header, reduced_header);
     assert!(said.contains("reduced formulation on the minimal coordinates model! derived"), "{said}");
+    assert!(said.contains("fused right-hand side"), "{said}");
     // DOP853 at 1e-10 over 10 s: both within ~1e-9 of the exact state in
     // the mixed norm |a - b| / max(1, |b|); 1e-7 leaves room for the
     // reduced formulation's error control on fewer components

@@ -18,7 +18,10 @@
 
 mod diff;
 mod display;
+mod hoist;
 mod trig;
+
+pub use hoist::Grouping;
 
 use std::collections::HashMap;
 
