@@ -45,6 +45,9 @@ fn assert_terms<M: Model>(model: &M, seed: u64) {
         (t.term.starts_with("C_q") && info.n_holonomic == 0) || (t.term.starts_with("S =") && info.skates.is_empty())
     };
     assert!(report.terms.iter().all(|t| t.compared > 0 || absent(t)), "{report:?}");
+    // a model with a fused right-hand side has it checked
+    let fused = report.terms.iter().any(|t| t.term == ezy::testing::MIN_FUSED && t.compared > 0);
+    assert_eq!(fused, model.minimal_constants().is_some(), "{report:?}");
 }
 
 #[test]
