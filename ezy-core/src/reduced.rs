@@ -852,13 +852,13 @@ impl Reduced {
     /// # Errors
     /// As [`Reduced::expand`] and [`Dynamics::rhs`].
     pub fn eval<M: Model>(&mut self, sys: &mut Dynamics<M>, t: f64, z: &[f64], dz: &mut [f64]) -> Result<(), SimError> {
-        if let Some(m) = &self.minimal
+        if let Some(m) = &mut self.minimal
             && m.constants.is_some()
         {
             // the accepted state's F, evaluated by `accept`
             if m.dz_cached && t.to_bits() == self.expanded_t.to_bits() && z == self.expanded_z.as_slice() {
                 dz.copy_from_slice(&m.dz);
-                self.minimal.as_mut().expect("minimal path").dz_cached = false;
+                m.dz_cached = false;
             } else {
                 self.eval_fused(sys, t, z, dz)?;
             }

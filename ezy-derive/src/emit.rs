@@ -141,11 +141,12 @@ fn let_bindings(d: &Derived, def: &ModelDef, ids: &[Id], refer: &dyn Fn(Id) -> T
 /// Straight-line code for a right-hand side whose fixed nodes (numbers
 /// and parameters only, `Arena::fixed_nodes`; not a single number or
 /// parameter) that another node or an output uses are read from the table
-/// `k` instead of computed. The bindings are emitted on demand, depth
-/// first, the costlier operand first (Sethi & Ullman), just before the
-/// statement that needs them, so that each value lives briefly: the
-/// compiler keeps the order of straight-line code, and a value computed
-/// long before its use is spilled to the stack and loaded again.
+/// `k` instead of computed. The bindings are emitted on demand, just
+/// before the statement that needs them, so that a block that runs only
+/// sometimes (a body's force that is not zero) can bind its own values
+/// in its own scope. (The order is not a speed matter: the compiler
+/// schedules the straight-line code itself; a depth-first order with the
+/// costlier operand first executed the same instructions.)
 struct Hoisted<'a> {
     d: &'a Derived,
     def: &'a ModelDef,
@@ -155,9 +156,6 @@ struct Hoisted<'a> {
     slot: HashMap<Id, usize>,
     /// Whether a node was bound already.
     done: Vec<bool>,
-    /// Number of operations below each node (a DAG's shared nodes counted
-    /// once per use), for the order of operands.
-    weight: HashMap<Id, usize>,
 }
 
 impl<'a> Hoisted<'a> {
@@ -180,7 +178,7 @@ impl<'a> Hoisted<'a> {
         }
         table.sort();
         let slot = table.iter().enumerate().map(|(i, &id)| (id, i)).collect();
-        Self { d, def, name, table, slot, done: vec![false; fixed.len()], weight: HashMap::new() }
+        Self { d, def, name, table, slot, done: vec![false; fixed.len()] }
     }
 
     /// Whether `id` is computed here: not a number, symbol or table entry.
@@ -194,18 +192,6 @@ impl<'a> Hoisted<'a> {
             Node::Pow(a, _) | Node::Sin(a) | Node::Cos(a) | Node::Sqrt(a) => vec![*a],
             Node::Const(_) | Node::Sym(_) => Vec::new(),
         }
-    }
-
-    fn weight(&mut self, id: Id) -> usize {
-        if !self.computed(id) {
-            return 0;
-        }
-        if let Some(&w) = self.weight.get(&id) {
-            return w;
-        }
-        let w = 1 + self.children(id).into_iter().map(|c| self.weight(c)).sum::<usize>();
-        self.weight.insert(id, w);
-        w
     }
 
     /// How the code names `id`.
@@ -233,9 +219,7 @@ impl<'a> Hoisted<'a> {
             return;
         }
         self.done[id.index()] = true;
-        let mut kids = self.children(id);
-        kids.sort_by_key(|&c| std::cmp::Reverse(self.weight(c)));
-        for c in kids {
+        for c in self.children(id) {
             self.visit(c, order);
         }
         order.push(id);
