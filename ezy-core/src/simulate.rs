@@ -280,9 +280,9 @@ impl Residuals {
         q: &[f64],
         qd: &[f64],
     ) -> (f64, f64) {
-        model.phi(q, &mut self.phi);
+        // one evaluation of the trigonometric terms for both
+        model.phi_and_constraint_matrix(q, &mut self.phi, &mut self.g_values);
         crate::drive::shift_positions(drives, t, &mut self.phi);
-        model.constraint_matrix(q, &mut self.g_values);
         model.g_winv_mul(&self.pattern, &self.g_values, &self.ones, qd, &mut self.r);
         crate::drive::shift_velocities(drives, t, &mut self.r);
         (max_abs(&self.phi), max_abs(&self.r))

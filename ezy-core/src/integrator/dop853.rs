@@ -193,6 +193,122 @@ const D714: f64 = 0.96324553959188282948394950600e+02;
 const D715: f64 = -0.39177261675615439165231486172e+02;
 const D716: f64 = -0.14972683625798562581422125276e+03;
 
+/// The order-8 solution `y_new = y + h (b1 k1 + b6 k6 + ... + b12 k12)`
+/// and the sums of squares of the scaled order-5 and order-3 error
+/// estimates (HNW's `err` and `err2`), in one loop. `y_new` is its only
+/// output and a parameter of its own, so the loop needs no overlap checks
+/// (see `stage_arg!` in the parent module).
+#[inline(always)]
+fn solution(y: &[f64], ks: [&[f64]; 8], h: f64, tol: &Tolerance, y_new: &mut [f64]) -> (f64, f64) {
+    let n = y_new.len();
+    let y = &y[..n];
+    let [k1, k6, k7, k8, k9, k10, k11, k12] = ks.map(|v| &v[..n]);
+    let (mut err5, mut err3) = (0.0, 0.0);
+    for i in 0..n {
+        let bk =
+            B1 * k1[i] + B6 * k6[i] + B7 * k7[i] + B8 * k8[i] + B9 * k9[i] + B10 * k10[i] + B11 * k11[i] + B12 * k12[i];
+        y_new[i] = y[i] + h * bk;
+        let sk = tol.scale(y[i], y_new[i]);
+        let e3 = bk - BHH1 * k1[i] - BHH2 * k9[i] - BHH3 * k12[i];
+        let e5 = ER1 * k1[i]
+            + ER6 * k6[i]
+            + ER7 * k7[i]
+            + ER8 * k8[i]
+            + ER9 * k9[i]
+            + ER10 * k10[i]
+            + ER11 * k11[i]
+            + ER12 * k12[i];
+        err3 += (e3 / sk).powi(2);
+        err5 += (e5 / sk).powi(2);
+    }
+    (err5, err3)
+}
+
+/// HNW's dense-output coefficients `rcont1..8` of the step from `y` to
+/// `y_new` of size `h`, from its stages `k1, k6..k16`, in one loop whose
+/// eight outputs are parameters of their own (see `stage_arg!` in the parent module).
+#[allow(clippy::too_many_arguments)]
+#[inline(always)]
+fn dense_coefficients(
+    y: &[f64],
+    y_new: &[f64],
+    h: f64,
+    ks: [&[f64]; 12],
+    r1: &mut [f64],
+    r2: &mut [f64],
+    r3: &mut [f64],
+    r4: &mut [f64],
+    r5: &mut [f64],
+    r6: &mut [f64],
+    r7: &mut [f64],
+    r8: &mut [f64],
+) {
+    let n = r1.len();
+    let (y, y_new) = (&y[..n], &y_new[..n]);
+    let [k1, k6, k7, k8, k9, k10, k11, k12, k13, k14, k15, k16] = ks.map(|v| &v[..n]);
+    let [r2, r3, r4, r5, r6, r7, r8] = [r2, r3, r4, r5, r6, r7, r8].map(|v| &mut v[..n]);
+    for i in 0..n {
+        let ydiff = y_new[i] - y[i];
+        let bspl = h * k1[i] - ydiff;
+        r1[i] = y[i];
+        r2[i] = ydiff;
+        r3[i] = bspl;
+        r4[i] = ydiff - h * k13[i] - bspl;
+        r5[i] = h
+            * (D41 * k1[i]
+                + D46 * k6[i]
+                + D47 * k7[i]
+                + D48 * k8[i]
+                + D49 * k9[i]
+                + D410 * k10[i]
+                + D411 * k11[i]
+                + D412 * k12[i]
+                + D413 * k13[i]
+                + D414 * k14[i]
+                + D415 * k15[i]
+                + D416 * k16[i]);
+        r6[i] = h
+            * (D51 * k1[i]
+                + D56 * k6[i]
+                + D57 * k7[i]
+                + D58 * k8[i]
+                + D59 * k9[i]
+                + D510 * k10[i]
+                + D511 * k11[i]
+                + D512 * k12[i]
+                + D513 * k13[i]
+                + D514 * k14[i]
+                + D515 * k15[i]
+                + D516 * k16[i]);
+        r7[i] = h
+            * (D61 * k1[i]
+                + D66 * k6[i]
+                + D67 * k7[i]
+                + D68 * k8[i]
+                + D69 * k9[i]
+                + D610 * k10[i]
+                + D611 * k11[i]
+                + D612 * k12[i]
+                + D613 * k13[i]
+                + D614 * k14[i]
+                + D615 * k15[i]
+                + D616 * k16[i]);
+        r8[i] = h
+            * (D71 * k1[i]
+                + D76 * k6[i]
+                + D77 * k7[i]
+                + D78 * k8[i]
+                + D79 * k9[i]
+                + D710 * k10[i]
+                + D711 * k11[i]
+                + D712 * k12[i]
+                + D713 * k13[i]
+                + D714 * k14[i]
+                + D715 * k15[i]
+                + D716 * k16[i]);
+    }
+}
+
 /// Dormand-Prince 8(5,3) with its stage and dense-output buffers.
 #[derive(Debug, Clone)]
 pub struct Dop853 {
@@ -249,101 +365,39 @@ impl EmbeddedRk for Dop853 {
         // every slice cut to n once, so the loops below carry no bounds checks
         let [k2, k3, k4, k5, k6, k7, k8, k9, k10, k11, k12] = k.each_mut().map(|v| &mut v[..n]);
         let (tmp, k1, y_new) = (&mut tmp[..n], &k1[..n], &mut y_new[..n]);
-        for i in 0..n {
-            tmp[i] = y[i] + h * A21 * k1[i];
-        }
+        // HNW's `(h a21) k1`, in its order of operations
+        stage_arg!(tmp, y, h * A21, [1.0], [k1]);
         rhs.eval(t + C2 * h, tmp, k2)?;
-        for i in 0..n {
-            tmp[i] = y[i] + h * (A31 * k1[i] + A32 * k2[i]);
-        }
+        stage_arg!(tmp, y, h, [A31, A32], [k1, k2]);
         rhs.eval(t + C3 * h, tmp, k3)?;
-        for i in 0..n {
-            tmp[i] = y[i] + h * (A41 * k1[i] + A43 * k3[i]);
-        }
+        stage_arg!(tmp, y, h, [A41, A43], [k1, k3]);
         rhs.eval(t + C4 * h, tmp, k4)?;
-        for i in 0..n {
-            tmp[i] = y[i] + h * (A51 * k1[i] + A53 * k3[i] + A54 * k4[i]);
-        }
+        stage_arg!(tmp, y, h, [A51, A53, A54], [k1, k3, k4]);
         rhs.eval(t + C5 * h, tmp, k5)?;
-        for i in 0..n {
-            tmp[i] = y[i] + h * (A61 * k1[i] + A64 * k4[i] + A65 * k5[i]);
-        }
+        stage_arg!(tmp, y, h, [A61, A64, A65], [k1, k4, k5]);
         rhs.eval(t + C6 * h, tmp, k6)?;
-        for i in 0..n {
-            tmp[i] = y[i] + h * (A71 * k1[i] + A74 * k4[i] + A75 * k5[i] + A76 * k6[i]);
-        }
+        stage_arg!(tmp, y, h, [A71, A74, A75, A76], [k1, k4, k5, k6]);
         rhs.eval(t + C7 * h, tmp, k7)?;
-        for i in 0..n {
-            tmp[i] = y[i] + h * (A81 * k1[i] + A84 * k4[i] + A85 * k5[i] + A86 * k6[i] + A87 * k7[i]);
-        }
+        stage_arg!(tmp, y, h, [A81, A84, A85, A86, A87], [k1, k4, k5, k6, k7]);
         rhs.eval(t + C8 * h, tmp, k8)?;
-        for i in 0..n {
-            tmp[i] = y[i] + h * (A91 * k1[i] + A94 * k4[i] + A95 * k5[i] + A96 * k6[i] + A97 * k7[i] + A98 * k8[i]);
-        }
+        stage_arg!(tmp, y, h, [A91, A94, A95, A96, A97, A98], [k1, k4, k5, k6, k7, k8]);
         rhs.eval(t + C9 * h, tmp, k9)?;
-        for i in 0..n {
-            tmp[i] = y[i]
-                + h * (A101 * k1[i]
-                    + A104 * k4[i]
-                    + A105 * k5[i]
-                    + A106 * k6[i]
-                    + A107 * k7[i]
-                    + A108 * k8[i]
-                    + A109 * k9[i]);
-        }
+        stage_arg!(tmp, y, h, [A101, A104, A105, A106, A107, A108, A109], [k1, k4, k5, k6, k7, k8, k9]);
         rhs.eval(t + C10 * h, tmp, k10)?;
-        for i in 0..n {
-            tmp[i] = y[i]
-                + h * (A111 * k1[i]
-                    + A114 * k4[i]
-                    + A115 * k5[i]
-                    + A116 * k6[i]
-                    + A117 * k7[i]
-                    + A118 * k8[i]
-                    + A119 * k9[i]
-                    + A1110 * k10[i]);
-        }
+        stage_arg!(tmp, y, h, [A111, A114, A115, A116, A117, A118, A119, A1110], [k1, k4, k5, k6, k7, k8, k9, k10],);
         rhs.eval(t + C11 * h, tmp, k11)?;
-        for i in 0..n {
-            tmp[i] = y[i]
-                + h * (A121 * k1[i]
-                    + A124 * k4[i]
-                    + A125 * k5[i]
-                    + A126 * k6[i]
-                    + A127 * k7[i]
-                    + A128 * k8[i]
-                    + A129 * k9[i]
-                    + A1210 * k10[i]
-                    + A1211 * k11[i]);
-        }
+        stage_arg!(
+            tmp,
+            y,
+            h,
+            [A121, A124, A125, A126, A127, A128, A129, A1210, A1211],
+            [k1, k4, k5, k6, k7, k8, k9, k10, k11],
+        );
         rhs.eval(t + h, tmp, k12)?;
         // The solution, and the two error estimators of HNW's code: `err5`
         // (order 5) and `err3` (order 3), each a sum of squares of scaled
         // components, combined as `|h| err5 / sqrt(n (err5 + 0.01 err3))`.
-        let (mut err5, mut err3) = (0.0, 0.0);
-        for i in 0..n {
-            let bk = B1 * k1[i]
-                + B6 * k6[i]
-                + B7 * k7[i]
-                + B8 * k8[i]
-                + B9 * k9[i]
-                + B10 * k10[i]
-                + B11 * k11[i]
-                + B12 * k12[i];
-            y_new[i] = y[i] + h * bk;
-            let sk = tol.scale(y[i], y_new[i]);
-            let e3 = bk - BHH1 * k1[i] - BHH2 * k9[i] - BHH3 * k12[i];
-            let e5 = ER1 * k1[i]
-                + ER6 * k6[i]
-                + ER7 * k7[i]
-                + ER8 * k8[i]
-                + ER9 * k9[i]
-                + ER10 * k10[i]
-                + ER11 * k11[i]
-                + ER12 * k12[i];
-            err3 += (e3 / sk).powi(2);
-            err5 += (e5 / sk).powi(2);
-        }
+        let (err5, err3) = solution(y, [k1, k6, k7, k8, k9, k10, k11, k12], h, tol, y_new);
         if n == 0 {
             return Ok(0.0);
         }
@@ -370,102 +424,26 @@ impl EmbeddedRk for Dop853 {
         let [k14, k15, k16] = kd.each_mut().map(|v| &mut v[..n]);
         let [r1, r2, r3, r4, r5, r6, r7, r8] = cont.each_mut().map(|v| &mut v[..n]);
         let (tmp, k1, y_new, k13) = (&mut tmp[..n], &k1[..n], &y_new[..n], &k13[..n]);
-        for i in 0..n {
-            tmp[i] = y[i]
-                + h * (A141 * k1[i]
-                    + A147 * k7[i]
-                    + A148 * k8[i]
-                    + A149 * k9[i]
-                    + A1410 * k10[i]
-                    + A1411 * k11[i]
-                    + A1412 * k12[i]
-                    + A1413 * k13[i]);
-        }
+        stage_arg!(
+            tmp,
+            y,
+            h,
+            [A141, A147, A148, A149, A1410, A1411, A1412, A1413],
+            [k1, k7, k8, k9, k10, k11, k12, k13],
+        );
         rhs.eval(t + C14 * h, tmp, k14)?;
-        for i in 0..n {
-            tmp[i] = y[i]
-                + h * (A151 * k1[i]
-                    + A156 * k6[i]
-                    + A157 * k7[i]
-                    + A158 * k8[i]
-                    + A1511 * k11[i]
-                    + A1512 * k12[i]
-                    + A1513 * k13[i]
-                    + A1514 * k14[i]);
-        }
+        stage_arg!(
+            tmp,
+            y,
+            h,
+            [A151, A156, A157, A158, A1511, A1512, A1513, A1514],
+            [k1, k6, k7, k8, k11, k12, k13, k14],
+        );
         rhs.eval(t + C15 * h, tmp, k15)?;
-        for i in 0..n {
-            tmp[i] = y[i]
-                + h * (A161 * k1[i]
-                    + A166 * k6[i]
-                    + A167 * k7[i]
-                    + A168 * k8[i]
-                    + A169 * k9[i]
-                    + A1613 * k13[i]
-                    + A1614 * k14[i]
-                    + A1615 * k15[i]);
-        }
+        stage_arg!(tmp, y, h, [A161, A166, A167, A168, A169, A1613, A1614, A1615], [k1, k6, k7, k8, k9, k13, k14, k15],);
         rhs.eval(t + C16 * h, tmp, k16)?;
-        for i in 0..n {
-            let ydiff = y_new[i] - y[i];
-            let bspl = h * k1[i] - ydiff;
-            r1[i] = y[i];
-            r2[i] = ydiff;
-            r3[i] = bspl;
-            r4[i] = ydiff - h * k13[i] - bspl;
-            r5[i] = h
-                * (D41 * k1[i]
-                    + D46 * k6[i]
-                    + D47 * k7[i]
-                    + D48 * k8[i]
-                    + D49 * k9[i]
-                    + D410 * k10[i]
-                    + D411 * k11[i]
-                    + D412 * k12[i]
-                    + D413 * k13[i]
-                    + D414 * k14[i]
-                    + D415 * k15[i]
-                    + D416 * k16[i]);
-            r6[i] = h
-                * (D51 * k1[i]
-                    + D56 * k6[i]
-                    + D57 * k7[i]
-                    + D58 * k8[i]
-                    + D59 * k9[i]
-                    + D510 * k10[i]
-                    + D511 * k11[i]
-                    + D512 * k12[i]
-                    + D513 * k13[i]
-                    + D514 * k14[i]
-                    + D515 * k15[i]
-                    + D516 * k16[i]);
-            r7[i] = h
-                * (D61 * k1[i]
-                    + D66 * k6[i]
-                    + D67 * k7[i]
-                    + D68 * k8[i]
-                    + D69 * k9[i]
-                    + D610 * k10[i]
-                    + D611 * k11[i]
-                    + D612 * k12[i]
-                    + D613 * k13[i]
-                    + D614 * k14[i]
-                    + D615 * k15[i]
-                    + D616 * k16[i]);
-            r8[i] = h
-                * (D71 * k1[i]
-                    + D76 * k6[i]
-                    + D77 * k7[i]
-                    + D78 * k8[i]
-                    + D79 * k9[i]
-                    + D710 * k10[i]
-                    + D711 * k11[i]
-                    + D712 * k12[i]
-                    + D713 * k13[i]
-                    + D714 * k14[i]
-                    + D715 * k15[i]
-                    + D716 * k16[i]);
-        }
+        let ks = [k1, k6, k7, k8, k9, k10, k11, k12, k13, k14, k15, k16];
+        dense_coefficients(y, y_new, h, ks, r1, r2, r3, r4, r5, r6, r7, r8);
         Ok(())
     }
 

@@ -91,29 +91,18 @@ impl EmbeddedRk for Dopri5 {
     ) -> Result<f64, SimError> {
         let Self { k2, k3, k4, k5, k6, tmp, err, .. } = self;
         let n = y.len();
-        for i in 0..n {
-            tmp[i] = y[i] + h * A21 * k1[i];
-        }
+        // `(h a21) k1`, in that order of operations
+        stage_arg!(tmp, y, h * A21, [1.0], [k1]);
         rhs.eval(t + C2 * h, tmp, k2)?;
-        for i in 0..n {
-            tmp[i] = y[i] + h * (A31 * k1[i] + A32 * k2[i]);
-        }
+        stage_arg!(tmp, y, h, [A31, A32], [k1, k2]);
         rhs.eval(t + C3 * h, tmp, k3)?;
-        for i in 0..n {
-            tmp[i] = y[i] + h * (A41 * k1[i] + A42 * k2[i] + A43 * k3[i]);
-        }
+        stage_arg!(tmp, y, h, [A41, A42, A43], [k1, k2, k3]);
         rhs.eval(t + C4 * h, tmp, k4)?;
-        for i in 0..n {
-            tmp[i] = y[i] + h * (A51 * k1[i] + A52 * k2[i] + A53 * k3[i] + A54 * k4[i]);
-        }
+        stage_arg!(tmp, y, h, [A51, A52, A53, A54], [k1, k2, k3, k4]);
         rhs.eval(t + C5 * h, tmp, k5)?;
-        for i in 0..n {
-            tmp[i] = y[i] + h * (A61 * k1[i] + A62 * k2[i] + A63 * k3[i] + A64 * k4[i] + A65 * k5[i]);
-        }
+        stage_arg!(tmp, y, h, [A61, A62, A63, A64, A65], [k1, k2, k3, k4, k5]);
         rhs.eval(t + h, tmp, k6)?;
-        for i in 0..n {
-            y_new[i] = y[i] + h * (A71 * k1[i] + A73 * k3[i] + A74 * k4[i] + A75 * k5[i] + A76 * k6[i]);
-        }
+        stage_arg!(y_new, y, h, [A71, A73, A74, A75, A76], [k1, k3, k4, k5, k6]);
         rhs.eval(t + h, y_new, k7)?;
         for i in 0..n {
             err[i] = h * (E1 * k1[i] + E3 * k3[i] + E4 * k4[i] + E5 * k5[i] + E6 * k6[i] + E7 * k7[i]);

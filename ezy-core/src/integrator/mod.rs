@@ -11,6 +11,31 @@
 //! The steppers see the right-hand side through [`Rhs`], so they are tested
 //! on plain ODEs as well as on models (`Dynamics` implements it).
 
+/// `out[i] = y[i] + h * (a1 * k1[i] + a2 * k2[i] + ...)` for every `i`,
+/// summed left to right: a stage's argument, written
+/// `stage_arg!(out, y, h, [a1, a2, ...], [k1, k2, ...])`. The loop runs in
+/// a function of its own, inlined, whose slice parameters the compiler
+/// knows not to overlap (`out` is a `&mut` parameter: `noalias`), so it is
+/// vectorized without the run-time overlap checks that the same loop on
+/// slices cut from `self` needs (one per stage read). A generic function
+/// over `[&[f64]; K]` does the same but executes more instructions (drive,
+/// DOP853 reduced: 8.88 M against 8.46 M in `simulate`). Defined before
+/// the steppers' modules, which use it.
+macro_rules! stage_arg {
+    ($out:expr, $y:expr, $h:expr, [$a0:expr $(, $a:expr)*], [$k0:ident $(, $k:ident)*] $(,)?) => {{
+        #[allow(clippy::too_many_arguments)]
+        #[inline(always)]
+        fn combine(out: &mut [f64], y: &[f64], h: f64, $k0: &[f64] $(, $k: &[f64])*) {
+            let n = out.len();
+            let (y, $k0 $(, $k)*) = (&y[..n], &$k0[..n] $(, &$k[..n])*);
+            for i in 0..n {
+                out[i] = y[i] + h * ($a0 * $k0[i] $(+ $a * $k[i])*);
+            }
+        }
+        combine($out, $y, $h, $k0 $(, $k)*)
+    }};
+}
+
 pub mod adaptive;
 mod dop853;
 mod dopri5;
