@@ -498,7 +498,8 @@ pub fn minimal_notes<M: Model>(model: &M) -> Vec<String> {
 /// The minimal coordinates' expansion at `(q, v)`, `v` holding the
 /// body-frame speeds: the expansion keeps the kept coordinates and the
 /// speeds and satisfies the constraints (`phi = 0`, `G qd = 0` against
-/// zero), `B = dV/du` by seeding each speed (central differences and
+/// zero), the state alone ([`Model::minimal_state`]) equals it exactly,
+/// `B = dV/du` by seeding each speed (central differences and
 /// dual numbers), `c` (the body-frame acceleration at `u' = 0`) by moving
 /// the kept coordinates along `pd` at fixed `u` and adding the frame's
 /// turning, and the frames' `cos phi, sin phi` exactly.
@@ -546,6 +547,15 @@ fn check_minimal<M: Model>(
         }
     }
     let coord = |j: usize| info.coords[j].as_str();
+    // the state alone (a dense-output sample's, `minimal_state`) is the
+    // expansion's to the bit: the same expressions without B and c
+    let (mut qs, mut qds) = (q.to_vec(), v.to_vec());
+    if m.minimal_state(&mut qs, &mut qds) {
+        for j in 0..nq {
+            kept.add(qs[j] - q0[j], 0.0, || format!("state {s}, minimal_state q {}", coord(j)));
+            kept.add(qds[j] - qd0[j], 0.0, || format!("state {s}, minimal_state qd {}", coord(j)));
+        }
+    }
     // the kept coordinates and the speeds come back as they went in
     for &j in &layout.coords {
         kept.add(q0[j] - q[j], 0.0, || format!("state {s}, kept coordinate {}", coord(j)));

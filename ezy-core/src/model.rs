@@ -419,6 +419,17 @@ pub trait Model: Clone + Send + Sync + 'static {
         let _ = (q, qd, b, c);
     }
 
+    /// [`Model::minimal_expand`] without `b` and `c`: the full `q` and `qd`
+    /// (nq each) \[m, rad, m/s, rad/s\] from the kept coordinates `q[p]` and
+    /// the independent speeds `qd[u]`, the same expressions and so the same
+    /// numbers, for a state that is only output (a dense-output sample).
+    /// Returns whether it did so; the default does nothing and returns
+    /// `false`, and the caller then uses [`Model::minimal_expand`].
+    fn minimal_state<S: Scalar>(&self, q: &mut [S], qd: &mut [S]) -> bool {
+        let _ = (q, qd);
+        false
+    }
+
     /// The table of fixed quantities [`Model::minimal_rhs`] reads: every
     /// subexpression of it that mentions only parameters and numbers
     /// (`d / (c + d)`, `m2 c^2 + I2`), computed once for the current

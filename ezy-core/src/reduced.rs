@@ -890,6 +890,35 @@ impl Reduced {
         Ok(())
     }
 
+    /// [`Reduced::expand`] for a state that is only output (a dense-output
+    /// sample): on minimal coordinates by the model's [`Model::minimal_state`]
+    /// when it has one, the same `q` and `qd` without `B` and `c` (about
+    /// 240 instructions fewer per sample on the EzyRoller, callgrind); it
+    /// leaves no key, so the next evaluation expands its own state.
+    ///
+    /// # Errors
+    /// As [`Reduced::expand`].
+    pub fn expand_sample<M: Model>(&mut self, sys: &Dynamics<M>, t: f64, z: &[f64]) -> Result<(), SimError> {
+        if let Some(m) = &mut self.minimal {
+            let (nq, ni, nf) = (self.nq, self.partition.q_ind.len(), self.partition.v_ind.len());
+            let (q, rest) = self.y.split_at_mut(nq);
+            let (qd, w) = rest.split_at_mut(nq);
+            for (&zi, &j) in z.iter().zip(&self.partition.q_ind) {
+                q[j] = zi;
+            }
+            for (&zi, &j) in z[ni..].iter().zip(&self.partition.v_ind) {
+                qd[j] = zi;
+            }
+            if sys.model.minimal_state(q, qd) {
+                w.copy_from_slice(&z[ni + nf..]);
+                m.dz_cached = false;
+                self.expanded_t = f64::NAN;
+                return Ok(());
+            }
+        }
+        self.expand(sys, t, z)
+    }
+
     /// The full state of `z` on minimal coordinates: the kept coordinates
     /// and the independent speeds copied, the rest, `B` and `c` from the
     /// model's [`Model::minimal_expand`]; the work states too if `works`

@@ -677,7 +677,7 @@ impl<M: Model> Integrand<M> for Reduced {
         let mut z = std::mem::take(&mut self.scratch);
         z.resize(self.nz(sys.ny()), 0.0);
         fill(&mut z);
-        let res = self.expand(sys, t, &z);
+        let res = self.expand_sample(sys, t, &z);
         self.scratch = z;
         res?;
         run.queue(sys, t, false, |row| row.copy_from_slice(self.full()))

@@ -809,6 +809,16 @@ fn minimal_fns(d: &Derived, def: &ModelDef, m: Result<crate::minimal::Minimal, S
     outputs.extend(&m.c);
     outputs.extend(&m.frames);
     let (lets, exprs) = lower(d, def, &outputs, Coords::Global);
+    // the state alone (`minimal_state`): the same expressions for q_D and
+    // qd, lowered on their own so that none of B's or c's is computed
+    let (state_lets, state_exprs) = lower(d, def, &outputs[..m.q_dep.len() + nq], Coords::Global);
+    let mut state_sets = TokenStream::new();
+    for ((j, _), e) in m.q_dep.iter().zip(&state_exprs) {
+        state_sets.extend(quote!(q[#j] = #e;));
+    }
+    for (j, e) in state_exprs[m.q_dep.len()..].iter().enumerate() {
+        state_sets.extend(quote!(qd_out[#j] = #e;));
+    }
     let mut sets = TokenStream::new();
     let nqd = m.q_dep.len();
     for ((j, _), e) in m.q_dep.iter().zip(&exprs) {
@@ -903,6 +913,15 @@ fn minimal_fns(d: &Derived, def: &ModelDef, m: Result<crate::minimal::Minimal, S
             let qd: [S; #nq] = ::core::array::from_fn(|k| qd_out[k]);
             #lets
             #sets
+        }
+
+        #[inline]
+        fn minimal_state<S: #private::Scalar>(&self, q: &mut [S], qd_out: &mut [S]) -> bool {
+            #[allow(unused_variables)]
+            let qd: [S; #nq] = ::core::array::from_fn(|k| qd_out[k]);
+            #state_lets
+            #state_sets
+            true
         }
     }
 }
