@@ -47,6 +47,13 @@ for p in dae_schur reduced; do
   $NICE "$CXX" $CXXFLAGS -o "build/$p" "$p.cpp"
 done
 
+# ezy-core's own DOP853 on the same hand-derived reduced ODE, in Rust
+# (ezy-core/examples/peer_reduced.rs): the integrator's share of the gap
+echo "building the Rust peer: cargo build --release -p ezy-core --example peer_reduced" >&2
+(cd "$HERE/../.." && $NICE cargo build --release -q -p ezy-core --example peer_reduced)
+TARGET_DIR=${CARGO_TARGET_DIR:-$HERE/../../target}
+RUST_PEER="$(cd "$TARGET_DIR" && pwd)/release/examples/peer_reduced"
+
 # --- Python environment ------------------------------------------------------
 PY=.venv/bin/python
 if [ ! -x "$PY" ]; then
@@ -59,6 +66,7 @@ fi
 # --- the peers: command | tuned tolerance | integration repetitions ----------
 # Tolerances (rtol = atol) from SCAN=1 on the reference machine; errors there:
 #   dae_schur 1e-11: 4.2e-10 (3e-11: 1.4e-9)    reduced 3e-11: 5.3e-10 (1e-10: 2.2e-9)
+#   peer_reduced (Rust) 3e-11: 5.1e-10 (1e-10: 2.0e-9, measured with ezy's own DOP853 on minimal coordinates)
 #   dae_schur --no-projection 1e-11: 7.3e-10     scipy_numpy 1e-11: 7.2e-10 (3e-11: 2.1e-9)
 #   casadi_cvodes 3e-14: 4.7e-10 (1e-13: 1.2e-9) sympy_codegen 3e-11: 5.9e-10 (1e-10: 1.7e-9)
 #   pydy_scipy 1e-11: 7.0e-10 (3e-11: 2.3e-9)
@@ -66,6 +74,7 @@ PEERS=(
   "build/dae_schur|1e-11|$CPP_REPS"
   "build/dae_schur --no-projection|1e-11|$CPP_REPS"
   "build/reduced|3e-11|$CPP_REPS"
+  "$RUST_PEER|3e-11|$CPP_REPS"
   "$PY scipy_numpy.py|1e-11|$PY_REPS"
   "$PY casadi_cvodes.py|3e-14|$PY_REPS"
   "$PY sympy_codegen.py|3e-11|$PY_REPS"
