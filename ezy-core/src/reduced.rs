@@ -900,17 +900,8 @@ impl Reduced {
     /// As [`Reduced::expand`].
     pub fn expand_sample<M: Model>(&mut self, sys: &Dynamics<M>, t: f64, z: &[f64]) -> Result<(), SimError> {
         if let Some(m) = &mut self.minimal {
-            let (nq, ni, nf) = (self.nq, self.partition.q_ind.len(), self.partition.v_ind.len());
-            let (q, rest) = self.y.split_at_mut(nq);
-            let (qd, w) = rest.split_at_mut(nq);
-            for (&zi, &j) in z.iter().zip(&self.partition.q_ind) {
-                q[j] = zi;
-            }
-            for (&zi, &j) in z[ni..].iter().zip(&self.partition.v_ind) {
-                qd[j] = zi;
-            }
+            let (q, qd) = place_minimal(&self.partition, self.nq, &mut self.y, z, true);
             if sys.model.minimal_state(q, qd) {
-                w.copy_from_slice(&z[ni + nf..]);
                 m.dz_cached = false;
                 self.expanded_t = f64::NAN;
                 return Ok(());
@@ -926,18 +917,7 @@ impl Reduced {
     #[inline]
     fn expand_minimal<M: Model>(&mut self, model: &M, z: &[f64], works: bool) {
         let m = self.minimal.as_mut().expect("minimal path");
-        let (nq, ni, nf) = (self.nq, self.partition.q_ind.len(), self.partition.v_ind.len());
-        let (q, rest) = self.y.split_at_mut(nq);
-        let (qd, w) = rest.split_at_mut(nq);
-        for (&zi, &j) in z.iter().zip(&self.partition.q_ind) {
-            q[j] = zi;
-        }
-        for (&zi, &j) in z[ni..].iter().zip(&self.partition.v_ind) {
-            qd[j] = zi;
-        }
-        if works {
-            w.copy_from_slice(&z[ni + nf..]);
-        }
+        let (q, qd) = place_minimal(&self.partition, self.nq, &mut self.y, z, works);
         model.minimal_expand(q, qd, &mut m.b, &mut m.c);
     }
 
@@ -1043,6 +1023,33 @@ impl Reduced {
         self.repartitions += 1;
         Ok(true)
     }
+}
+
+/// The kept coordinates and the independent speeds of `z` into the full
+/// state `y = [q, qd, W]` (nq coordinates; `partition`'s places), its work states too if
+/// `works`; returns `q` and `qd` (nq each) for the model's expansion to
+/// complete.
+#[inline(always)]
+fn place_minimal<'y>(
+    partition: &Partition,
+    nq: usize,
+    y: &'y mut [f64],
+    z: &[f64],
+    works: bool,
+) -> (&'y mut [f64], &'y mut [f64]) {
+    let (ni, nf) = (partition.q_ind.len(), partition.v_ind.len());
+    let (q, rest) = y.split_at_mut(nq);
+    let (qd, w) = rest.split_at_mut(nq);
+    for (&zi, &j) in z.iter().zip(&partition.q_ind) {
+        q[j] = zi;
+    }
+    for (&zi, &j) in z[ni..].iter().zip(&partition.v_ind) {
+        qd[j] = zi;
+    }
+    if works {
+        w.copy_from_slice(&z[ni + nf..]);
+    }
+    (q, qd)
 }
 
 #[cfg(test)]
