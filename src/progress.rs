@@ -135,6 +135,15 @@ impl Heartbeat {
         Self { shared, thread: Some(thread) }
     }
 
+    /// Reports `what` from now on on `beat`, started now if it is `None`
+    /// (a phase that was too short for a heartbeat of its own).
+    pub fn report(beat: &mut Option<Self>, what: impl Into<String>) {
+        match beat {
+            Some(b) => b.set(what),
+            None => *beat = Some(Self::start(what)),
+        }
+    }
+
     /// Reports `what` from now on.
     pub fn set(&self, what: impl Into<String>) {
         self.shared.state.lock().unwrap_or_else(std::sync::PoisonError::into_inner).0 = Some(what.into());

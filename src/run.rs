@@ -401,6 +401,32 @@ pub fn prepare<M: Model + Default>(
     Ok(Prepared { settings, scene, sys, y0, initial })
 }
 
+/// Elements of a model's families (the sum of its counts) from which a
+/// run's setup may take seconds and gets a heartbeat: the snake's setup
+/// takes 0.03 s at 1,000 links, 0.45 s at 10,000 and 6.7 s at 100,000
+/// (README "Scale", 2 cores), and the heartbeat's first line comes
+/// after [`crate::progress::LINE_EVERY`]; below it the thread's start and
+/// join (about 0.3 ms) would be a tenth of a small run's whole process.
+pub const LONG_SETUP_ELEMENTS: f64 = 1000.0;
+
+/// Whether setting `scene` up on model `M` with the overrides `sets` may
+/// take long: its family counts (the model's defaults, the scene's
+/// `[params]`, then `sets`, the last value of each winning) sum to at
+/// least [`LONG_SETUP_ELEMENTS`]. A value the setup will refuse counts as
+/// it is; the answer only decides whether a heartbeat thread is started.
+pub fn setup_may_be_long<M: Model + Default>(scene: &Scene, sets: &[(String, f64)]) -> bool {
+    let model = M::default();
+    let info = model.info();
+    let elements: f64 = (info.params.iter().enumerate())
+        .filter(|(_, p)| p.count)
+        .map(|(i, p)| {
+            let given = sets.iter().rev().chain(scene.params.iter().rev()).find(|(name, _)| name == p.name);
+            given.map_or(model.param(i), |(_, v)| *v)
+        })
+        .sum();
+    elements >= LONG_SETUP_ELEMENTS
+}
+
 /// Runs `scene` with `opts` on model type `M` (what [`crate::App::run_scene`]
 /// calls for the model the scene names): resolves the overrides, finds
 /// consistent initial values, integrates, writes `trajectory.csv` and the
@@ -425,8 +451,10 @@ pub fn run_model_tapped<M: Model + Default>(
     let wall = Instant::now();
     let settings = settings(scene, opts)?;
     // a line on stderr every few seconds while a phase without its own
-    // progress takes long (the setup of a huge family, many figures)
-    let beat = opts.progress.then(|| crate::progress::Heartbeat::start(format!("setting up scene {}", scene.name)));
+    // progress takes long: the setup of a large family (a short setup gets
+    // no thread, see `setup_may_be_long`), the figures, the report
+    let mut beat = (opts.progress && setup_may_be_long::<M>(scene, &opts.sets))
+        .then(|| crate::progress::Heartbeat::start(format!("setting up scene {}", scene.name)));
     let Prepared { scene, mut sys, y0, initial, .. } = prepare::<M>(scene, opts, settings)?;
     let scene = &scene;
     let rows = RowBuilder::new(scene, &sys);
@@ -461,8 +489,8 @@ pub fn run_model_tapped<M: Model + Default>(
     if opts.figures {
         let format = opts.figure_format.unwrap_or(scene.output.figure_format);
         let dpi = opts.dpi.unwrap_or(scene.output.dpi);
-        if let Some(b) = &beat {
-            b.set(format!("drawing {} figures", scene.figures.len()));
+        if opts.progress && !scene.figures.is_empty() {
+            crate::progress::Heartbeat::report(&mut beat, format!("drawing {} figures", scene.figures.len()));
         }
         // drawn in parallel, a chunk of one figure per thread at a time, and
         // written in order; a signal stops the drawing at the next figure
@@ -507,8 +535,8 @@ pub fn run_model_tapped<M: Model + Default>(
         notes,
     };
     if opts.report {
-        if let Some(b) = &beat {
-            b.set("writing report.html");
+        if opts.progress {
+            crate::progress::Heartbeat::report(&mut beat, "writing report.html");
         }
         tx.check(Some(settings.t_end), Some("writing report.html".into()))?;
         let figures = if opts.figures { drawn_svgs } else { crate::report::figures(&sys.info, scene, &report.table) };

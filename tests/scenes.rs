@@ -231,3 +231,27 @@ fn overrides_reach_the_model_and_the_motor() {
         "{err}"
     );
 }
+
+/// A run starts a heartbeat thread for its setup only when its families
+/// sum to at least `LONG_SETUP_ELEMENTS` elements (its start and join cost
+/// about 0.3 ms, a tenth of a small run): the count is read from the
+/// model's default, the scene's `[params]` and the overrides, the last
+/// override winning, and a model without families never gets one.
+#[test]
+fn only_a_large_family_sets_up_with_a_heartbeat() {
+    use ezy::run::{LONG_SETUP_ELEMENTS, setup_may_be_long};
+    let named = |name: &str| scenes::builtin().into_iter().find(|s| s.scene.name == name).unwrap().scene;
+    let (snake, long, drive) = (named("snake"), named("snake-long"), named("drive"));
+    let n = |v: f64| vec![("N".to_string(), v)];
+    let big = LONG_SETUP_ELEMENTS;
+    assert!(!setup_may_be_long::<ezy_models::Snake>(&snake, &[]), "the model's N = 5");
+    assert!(setup_may_be_long::<ezy_models::Snake>(&snake, &n(big)));
+    assert!(!setup_may_be_long::<ezy_models::Snake>(&snake, &n(big - 1.0)));
+    let last_wins = [n(big), n(big - 1.0)].concat();
+    assert!(!setup_may_be_long::<ezy_models::Snake>(&snake, &last_wins));
+    let mut huge = long.clone();
+    huge.params.iter_mut().filter(|(name, _)| name == "N").for_each(|(_, v)| *v = big);
+    assert!(setup_may_be_long::<ezy_models::SnakeDriven>(&huge, &[]), "the scene's [params]");
+    assert!(!setup_may_be_long::<ezy_models::SnakeDriven>(&huge, &n(30.0)), "an override beats the scene");
+    assert!(!setup_may_be_long::<EzyRoller>(&drive, &[]));
+}
