@@ -8,19 +8,16 @@
 #                                            over a grid of tolerances
 #
 # Environment: NICE (prefix of every measured command, e.g. "nice -n 10"),
-# CPP_REPS (21), PY_REPS (5), PROCESS_REPS (3), EZY_REPEAT (5).
+# CPP_REPS (21), PY_REPS (5), PROCESS_REPS (21 for a compiled peer, 3 for a
+# Python one), EZY_REPEAT (21).
 #
 # Builds the C++ peers into build/, creates .venv with requirements.txt,
 # runs every peer at its tuned tolerance (the loosest of {1, 3} x 10^-k
 # with error <= 1e-9 at t = 60 s against reference.csv, found with SCAN=1),
-# times each whole process (median of PROCESS_REPS runs with one
-# integration each) and prints a Markdown table.
+# times each whole process (median of PROCESS_REPS starts with one
+# integration each, by spawn_time.py: posix_spawn, as `ezy bench` starts
+# its own) and prints a Markdown table.
 set -euo pipefail
-
-if [ -z "${EPOCHREALTIME:-}" ]; then
-  echo "run.sh needs bash >= 5 (EPOCHREALTIME: a wall clock read without forking)" >&2
-  exit 1
-fi
 HERE=$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)
 EZY=${1:-}
 if [ -n "$EZY" ]; then
@@ -34,8 +31,8 @@ cd "$HERE"
 NICE=${NICE:-}
 CPP_REPS=${CPP_REPS:-21}
 PY_REPS=${PY_REPS:-5}
-PROCESS_REPS=${PROCESS_REPS:-3}
-EZY_REPEAT=${EZY_REPEAT:-5}
+PROCESS_REPS=${PROCESS_REPS:-}
+EZY_REPEAT=${EZY_REPEAT:-21}
 CXX=${CXX:-g++}
 CXXFLAGS=${CXXFLAGS:--O3 -march=native -std=c++17}
 
@@ -63,28 +60,30 @@ if [ ! -x "$PY" ]; then
 fi
 .venv/bin/pip install -q -r requirements.txt >&2
 
-# --- the peers: command | tuned tolerance | integration repetitions ----------
+# --- the peers: command | tuned tolerance | integration repetitions | starts --
 # Tolerances (rtol = atol) from SCAN=1 on the reference machine; errors there:
 #   dae_schur 1e-11: 4.2e-10 (3e-11: 1.4e-9)    reduced 3e-11: 5.3e-10 (1e-10: 2.2e-9)
 #   peer_reduced (Rust) 3e-11: 5.1e-10 (1e-10: 2.0e-9, measured with ezy's own DOP853 on minimal coordinates)
 #   dae_schur --no-projection 1e-11: 7.3e-10     scipy_numpy 1e-11: 7.2e-10 (3e-11: 2.1e-9)
 #   casadi_cvodes 3e-14: 4.7e-10 (1e-13: 1.2e-9) sympy_codegen 3e-11: 5.9e-10 (1e-10: 1.7e-9)
 #   pydy_scipy 1e-11: 7.0e-10 (3e-11: 2.3e-9)
+FAST=${PROCESS_REPS:-21}   # whole-process starts of a compiled peer
+SLOW=${PROCESS_REPS:-3}    # of a Python one (seconds each for SymPy, PyDy)
 PEERS=(
-  "build/dae_schur|1e-11|$CPP_REPS"
-  "build/dae_schur --no-projection|1e-11|$CPP_REPS"
-  "build/reduced|3e-11|$CPP_REPS"
-  "$RUST_PEER|3e-11|$CPP_REPS"
-  "$PY scipy_numpy.py|1e-11|$PY_REPS"
-  "$PY casadi_cvodes.py|3e-14|$PY_REPS"
-  "$PY sympy_codegen.py|3e-11|$PY_REPS"
-  "$PY pydy_scipy.py|1e-11|$PY_REPS"
+  "build/dae_schur|1e-11|$CPP_REPS|$FAST"
+  "build/dae_schur --no-projection|1e-11|$CPP_REPS|$FAST"
+  "build/reduced|3e-11|$CPP_REPS|$FAST"
+  "$RUST_PEER|3e-11|$CPP_REPS|$FAST"
+  "$PY scipy_numpy.py|1e-11|$PY_REPS|$SLOW"
+  "$PY casadi_cvodes.py|3e-14|$PY_REPS|$SLOW"
+  "$PY sympy_codegen.py|3e-11|$PY_REPS|$SLOW"
+  "$PY pydy_scipy.py|1e-11|$PY_REPS|$SLOW"
 )
 
 if [ "${SCAN:-0}" = 1 ]; then
   echo "## tolerance scan (error = max |q, qd - reference| at t = 60 s)"
   for entry in "${PEERS[@]}"; do
-    IFS='|' read -r cmd _ _ <<<"$entry"
+    IFS='|' read -r cmd _ _ _ <<<"$entry"
     for tol in 1e-9 3e-10 1e-10 3e-11 1e-11 3e-12 1e-12 3e-13 1e-13 3e-14 1e-14; do
       # shellcheck disable=SC2086
       $NICE $cmd --rtol "$tol" --reps 1 2>/dev/null | awk -F, '{print $1 " | " $2 " | " $3 " | " $6}'
@@ -93,23 +92,16 @@ if [ "${SCAN:-0}" = 1 ]; then
   echo
 fi
 
-median() { sort -g | awk '{v[NR] = $1} END {print v[int((NR + 1) / 2)]}'; }
-
 RESULTS=$(mktemp)
 trap 'rm -f "$RESULTS"' EXIT
 for entry in "${PEERS[@]}"; do
-  IFS='|' read -r cmd tol reps <<<"$entry"
+  IFS='|' read -r cmd tol reps starts <<<"$entry"
   echo "running: $cmd --rtol $tol --reps $reps" >&2
   # shellcheck disable=SC2086
   line=$($NICE $cmd --rtol "$tol" --reps "$reps" 2>/dev/null | tail -1)
-  whole=$(for _ in $(seq "$PROCESS_REPS"); do
-    t0=${EPOCHREALTIME/,/.}
-    # shellcheck disable=SC2086
-    $NICE $cmd --rtol "$tol" --reps 1 >/dev/null 2>&1
-    t1=${EPOCHREALTIME/,/.}
-    awk -v a="$t0" -v b="$t1" 'BEGIN { printf "%.6f\n", b - a }'
-  done | median)
-  echo "$line,$whole" >>"$RESULTS"
+  # shellcheck disable=SC2086
+  whole=$($NICE "$PY" spawn_time.py "$starts" $cmd --rtol "$tol" --reps 1)
+  echo "$line,$whole,$starts" >>"$RESULTS"
 done
 
 EZY_OUT=""
@@ -119,7 +111,7 @@ if [ -n "$EZY" ]; then
   EZY_OUT=$($NICE "$EZY" bench drive --repeat "$EZY_REPEAT")
 fi
 
-EZY_OUT="$EZY_OUT" CPP_REPS="$CPP_REPS" PY_REPS="$PY_REPS" PROCESS_REPS="$PROCESS_REPS" \
+EZY_OUT="$EZY_OUT" CPP_REPS="$CPP_REPS" PY_REPS="$PY_REPS" EZY_REPEAT="$EZY_REPEAT" FAST="$FAST" SLOW="$SLOW" \
   "$PY" - "$RESULTS" <<'EOF'
 import os, re, sys
 
@@ -152,15 +144,17 @@ for line in ezy.splitlines():
           f"{evals} | {integ} | {whole} | {err} |")
 for line in open(sys.argv[1]):
     f = line.strip().split(",")
-    tool, form = f[0], ",".join(f[1:-5])
-    tol, evals, integ, err, whole = f[-5:]
+    tool, form = f[0], ",".join(f[1:-6])
+    tol, evals, integ, err, whole, _starts = f[-6:]
     print(f"| {tool} | {form} | {tol} | {evals} | {t(integ)} | {t(whole)} | {float(err):.1e} |")
 print()
 e = os.environ
 print(f"integration: median of the peer's own repetitions (C++ {e['CPP_REPS']}, Python {e['PY_REPS']}) "
       "inside one process;")
-print(f"whole process: median of {e['PROCESS_REPS']} fresh processes with one integration each (interpreter start,")
-print("imports, symbolic derivation and C compilation where the peer does them, integration).")
+print(f"whole process: median of fresh processes with one integration each (C++ and Rust {e['FAST']}, Python {e['SLOW']},")
+print(f"ezy {e['EZY_REPEAT']} by `ezy bench`), each started by posix_spawn with no shell in between: interpreter")
+print("start, imports, symbolic derivation and C compilation where the peer does them, integration, and for")
+print("ezy the CSV written and synced.")
 if ezy:
     print()
     print("```")
