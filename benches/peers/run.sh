@@ -31,7 +31,6 @@ cd "$HERE"
 NICE=${NICE:-}
 CPP_REPS=${CPP_REPS:-21}
 PY_REPS=${PY_REPS:-5}
-PROCESS_REPS=${PROCESS_REPS:-}
 EZY_REPEAT=${EZY_REPEAT:-21}
 CXX=${CXX:-g++}
 CXXFLAGS=${CXXFLAGS:--O3 -march=native -std=c++17}
@@ -101,7 +100,7 @@ for entry in "${PEERS[@]}"; do
   line=$($NICE $cmd --rtol "$tol" --reps "$reps" 2>/dev/null | tail -1)
   # shellcheck disable=SC2086
   whole=$($NICE "$PY" spawn_time.py "$starts" $cmd --rtol "$tol" --reps 1)
-  echo "$line,$whole,$starts" >>"$RESULTS"
+  echo "$line,$whole" >>"$RESULTS"
 done
 
 EZY_OUT=""
@@ -144,8 +143,8 @@ for line in ezy.splitlines():
           f"{evals} | {integ} | {whole} | {err} |")
 for line in open(sys.argv[1]):
     f = line.strip().split(",")
-    tool, form = f[0], ",".join(f[1:-6])
-    tol, evals, integ, err, whole, _starts = f[-6:]
+    tool, form = f[0], ",".join(f[1:-5])
+    tol, evals, integ, err, whole = f[-5:]
     print(f"| {tool} | {form} | {tol} | {evals} | {t(integ)} | {t(whole)} | {float(err):.1e} |")
 print()
 e = os.environ
