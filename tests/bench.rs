@@ -1,16 +1,16 @@
-//! `ezy bench`: five settings measured against ezy's own reference, with
+//! `ezy bench`: six settings measured against ezy's own reference, with
 //! the whole `run` process of each; the numbers are correct, not fast
 //! (speed lives in the command's output, not in a test).
 
 use std::process::Command;
 
 #[test]
-fn bench_measures_five_settings_and_their_processes() {
+fn bench_measures_six_settings_and_their_processes() {
     let o = Command::new(env!("CARGO_BIN_EXE_ezy")).args(["bench", "free", "--repeat", "1"]).output().expect("runs");
     let text = String::from_utf8_lossy(&o.stdout).into_owned();
     assert!(o.status.success(), "{text}{}", String::from_utf8_lossy(&o.stderr));
-    let rows: Vec<Vec<&str>> = text.lines().skip(2).take(5).map(|l| l.split_whitespace().collect()).collect();
-    assert_eq!(rows.len(), 5, "{text}");
+    let rows: Vec<Vec<&str>> = text.lines().skip(2).take(6).map(|l| l.split_whitespace().collect()).collect();
+    assert_eq!(rows.len(), 6, "{text}");
     for r in &rows {
         // ... integration (value unit), RHS evals, error, whole process (value unit)
         let n = r.len();
@@ -23,7 +23,11 @@ fn bench_measures_five_settings_and_their_processes() {
         assert!(error.is_finite() && error < 1e-6, "{r:?}");
         assert!(["µs", "ms", "s"].contains(&r[n - 1]), "a whole-process time in {r:?}");
     }
-    assert!(text.contains("output every 0.01 s") && text.contains("3e-11, reduced (minimal coordinates)"), "{text}");
+    assert!(
+        text.contains("1e-11, output every 0.01 s") && text.contains("3e-11, reduced (minimal coordinates)"),
+        "{text}"
+    );
+    assert!(text.contains("3e-11, reduced (minimal coordinates), output every 0.01 s"), "{text}");
     // auto takes RK4 onto the minimal coordinates
     assert!(text.contains("formulation auto: reduced (minimal coordinates)"), "{text}");
 }
