@@ -77,6 +77,9 @@ pub fn bench_model<M: Model + Default>(scene: &Scene, repeat: usize) -> Result<V
         None => format!("{} rtol = {:e}, formulation auto", own.method.name(), own.rtol),
     };
     let dop = ["--integrator", "dop853", "--rtol", "1e-11", "--atol", "1e-11"].map(String::from).to_vec();
+    let dop_reduced = ["--integrator", "dop853", "--rtol", "3e-11", "--atol", "3e-11", "--formulation", "reduced"]
+        .map(String::from)
+        .to_vec();
     let args = |base: &[String], extra: &[&str]| -> Vec<String> {
         base.iter().cloned().chain(extra.iter().map(|s| s.to_string())).collect()
     };
@@ -101,42 +104,14 @@ pub fn bench_model<M: Model + Default>(scene: &Scene, repeat: usize) -> Result<V
             reduced,
             Formulation::Reduced,
             t_end,
-            args(
-                &[],
-                &[
-                    "--integrator",
-                    "dop853",
-                    "--rtol",
-                    "3e-11",
-                    "--atol",
-                    "3e-11",
-                    "--formulation",
-                    "reduced",
-                    "--every",
-                    &format!("{t_end}"),
-                ],
-            ),
+            args(&dop_reduced, &["--every", &format!("{t_end}")]),
         ),
         (
             "dop853 rtol = atol = 3e-11, reduced, output every 0.01 s".to_string(),
             reduced,
             Formulation::Reduced,
             0.01,
-            args(
-                &[],
-                &[
-                    "--integrator",
-                    "dop853",
-                    "--rtol",
-                    "3e-11",
-                    "--atol",
-                    "3e-11",
-                    "--formulation",
-                    "reduced",
-                    "--every",
-                    "0.01",
-                ],
-            ),
+            args(&dop_reduced, &["--every", "0.01"]),
         ),
         (own_what, own_setting, own.formulation, own.every, Vec::new()),
         (own_auto, own_setting, Formulation::Auto, own.every, args(&[], &["--formulation", "auto"])),
