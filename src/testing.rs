@@ -25,7 +25,9 @@
 //! in it: the largest coordinate for `phi`, `sum_k |G_ik qd_k|` for
 //! `G qd`, at least 1), and the fused right-hand side `model!` generates
 //! for them ([`Model::minimal_rhs`]) against the expansion and Maggi's
-//! equations computed apart, under a force on every coordinate: the full
+//! equations computed apart, under a force on every coordinate and a
+//! torque at every hinge (which the fused function takes apart and maps
+//! at compile time): the full
 //! state exactly, the speeds' rates by the backward error of Maggi's
 //! equations ([`MIN_FUSED`], same tolerance). Below the table, the pivots
 //! of the minimal coordinates at the model's parameters ([`minimal_notes`]).
@@ -626,7 +628,9 @@ fn check_minimal<M: Model>(
 /// equations apart ([`Model::minimal_expand`], [`Model::minimal_maggi`])
 /// at the state `(q0, qd0)` expanded from the speeds `v` (body-frame
 /// velocities, read at the independent speeds) with its `b`, `c`, under
-/// an applied force that loads every coordinate: the full state exactly,
+/// an applied force that loads every coordinate and a torque at every
+/// hinge (given apart, [`Model::minimal_rhs`]'s `tau`, one per entry of
+/// `ModelInfo::hinges`): the full state exactly,
 /// the kept coordinates' rates exactly, and `u'` by the residual of the
 /// separate Maggi equations, `|B^T M B u' - B^T (F - M c)|` divided by the
 /// size of the terms that cancel in it, `sum_k |A_ik u'_k|` and
@@ -653,10 +657,37 @@ fn check_fused<M: Model>(
     let mut z: Vec<f64> = layout.coords.iter().map(|&j| q0[j]).collect();
     z.extend(layout.speeds.iter().map(|&j| v[j]));
     let (mut q, mut qd, mut dz) = (vec![f64::NAN; nq], vec![f64::NAN; nq], vec![f64::NAN; np + nu]);
-    let res = m.minimal_rhs(&k, &z, &mut q, &mut qd, &mut dz, |_, _, f: &mut [f64]| {
+    // a torque at every hinge as well, given apart (the model maps it at
+    // compile time) and added into the separate equations' force
+    let torque: Vec<f64> = (0..info.hinges.len()).map(|h| 5.0 * (0.7 * h as f64 + s as f64).cos()).collect();
+    let mut hinge_slots = 0;
+    let res = m.minimal_rhs(&k, &z, &mut q, &mut qd, &mut dz, |_, _, f: &mut [f64], tau: &mut [f64]| {
         f.copy_from_slice(&force);
+        hinge_slots = tau.len();
+        for (slot, &v) in tau.iter_mut().zip(&torque) {
+            *slot = v;
+        }
         Ok::<(), ()>(())
     });
+    if hinge_slots != torque.len() {
+        acc.add(f64::INFINITY, 0.0, || {
+            format!(
+                "state {s}, the fused right-hand side takes {hinge_slots} hinge torques, the model has {}",
+                torque.len()
+            )
+        });
+        return;
+    }
+    // the force with the torques added, and the size of its terms
+    let (mut force, mut force_size) = (force.clone(), force.iter().map(|f| f.abs()).collect::<Vec<f64>>());
+    for (hi, &tau) in info.hinges.iter().zip(&torque) {
+        for (body, sign) in [(hi.body_a, 1.0), (hi.body_b.unwrap_or(usize::MAX), -1.0)] {
+            if let Some(body) = info.bodies.get(body) {
+                force[body.coords[2]] += sign * tau;
+                force_size[body.coords[2]] += tau.abs();
+            }
+        }
+    }
     if let Err(e) = res {
         acc.add(f64::INFINITY, 0.0, || format!("state {s}, the fused right-hand side failed: {e:?}"));
         return;
@@ -679,7 +710,7 @@ fn check_fused<M: Model>(
         let mut size: f64 = (0..nq)
             .map(|j| {
                 let (x, y) = (3 * (j / 3), 3 * (j / 3) + 1);
-                let fj = if j % 3 == 2 { force[j].abs() } else { force[x].abs() + force[y].abs() };
+                let fj = if j % 3 == 2 { force_size[j] } else { force_size[x] + force_size[y] };
                 b[j * nu + i].abs() * (fj + (mass[j] * c[j]).abs())
             })
             .sum();

@@ -399,3 +399,68 @@ qd = { x1 = 1.0, y1 = 0.1 }
     assert!(gap <= 1e-8, "{gap:e}");
     assert!(red.y.last().unwrap()[0] > 2.0, "the train coasts forward");
 }
+
+/// A scene whose effects are all hinge torques hands them to the model's
+/// fused right-hand side as such (`model!` maps each hinge's torque onto
+/// the speeds at compile time, and the force vector's part folds away);
+/// with any other effect beside them they go through the force vector.
+/// At one state both give the same `dz` (rates and each hinge effect's
+/// power) to rounding: the two routes differ only in how `B^T` meets the
+/// torque, so 1e-13 of the largest term, where a wrong sign, hinge or law
+/// is O(1).
+#[test]
+fn hinge_torques_compiled_in_match_the_generic_forces() {
+    use ezy_core::Scene;
+    use ezy_core::reduced::Reduced;
+    const HINGES: &str = r#"
+name = "hinges"
+description = "every hinge law at hinge B"
+model = "ezyroller"
+t_end = 1.0
+[initial]
+q = { x1 = 0.0, y1 = 0.0, phi1 = 0.3, phi2 = 2.6 }
+qd = { x1 = 0.4, phi1 = 0.2 }
+[effects.motor]
+kind = "hinge-motor"
+hinge = "B"
+torque = { harmonics = [{ amplitude = 2.0, omega = 3.0 }, { amplitude = 0.5, omega = 7.0, phase = 0.3 }] }
+[effects.spring]
+kind = "hinge-spring"
+hinge = "B"
+stiffness = 3.0
+rest_angle = -3.0
+[effects.damper]
+kind = "hinge-damper"
+hinge = "B"
+damping = 0.7
+[effects.servo]
+kind = "hinge-servo"
+hinge = "B"
+stiffness = 5.0
+damping = 0.3
+angle = { sin = { amplitude = 0.2, omega = 2.0 } }
+"#;
+    // the same torques with a force of zero beside them: the generic route
+    let generic = format!("{HINGES}[effects.nothing]\nkind = \"force\"\nat = \"body1\"\nfx = {{ constant = 0.0 }}\n");
+    let t = 0.8;
+    let dz = |text: &str| {
+        let scene = Scene::from_toml(text, "hinges.toml").unwrap();
+        let (mut sys, y0) = build::<EzyRoller>(&scene, &[], KktMethod::Auto).unwrap();
+        let mut red = Reduced::new(&sys, t, &y0).unwrap();
+        assert!(red.is_fused());
+        let mut z = vec![0.0; red.nz(y0.len())];
+        red.gather(&y0, &mut z);
+        let mut dz = vec![f64::NAN; z.len()];
+        red.eval(&mut sys, t, &z, &mut dz).unwrap();
+        dz
+    };
+    let (compiled, generic) = (dz(HINGES), dz(&generic));
+    // the generic run has one more work state, the zero force's, last
+    assert_eq!((compiled.len() + 1, generic[generic.len() - 1]), (generic.len(), 0.0));
+    let size = max_abs(compiled.iter().copied()).max(1.0);
+    for (k, (a, b)) in compiled.iter().zip(&generic).enumerate() {
+        assert!((a - b).abs() <= 1e-13 * size, "dz[{k}]: {a:e} compiled in, {b:e} through the forces");
+    }
+    // every torque is there: the hinge's rate changes with each law
+    assert!(compiled[compiled.len() - 4..].iter().all(|p| *p != 0.0), "{compiled:?}");
+}

@@ -9,7 +9,7 @@
 //! states.
 
 use crate::SimError;
-use crate::effects::Effect;
+use crate::effects::{Effect, Law};
 use crate::kkt::{AnyKktSolver, KktMethod, KktSolver, KktSystem};
 use crate::model::{Model, ModelInfo};
 
@@ -317,22 +317,30 @@ impl<M: Model> Dynamics<M> {
         y: &mut [f64],
         dz: &mut [f64],
     ) -> Result<(), SimError> {
-        self.refresh_waveforms(t);
         let nq = self.nq();
         let (q, rest) = y.split_at_mut(nq);
         let qd = &mut rest[..nq];
         let (pd_ud, power) = dz.split_at_mut(dz.len() - self.effects.len());
-        let (effects, waves) = (&self.effects, &self.ws.waves);
-        self.model
-            .minimal_rhs(k, z, q, qd, pd_ud, |q, qd, f| apply_effects(effects, waves, t, q, qd, f, power))
-            .map_err(|e| match e {
-                crate::model::MinimalRhsError::Forces(e) => e,
-                crate::model::MinimalRhsError::Maggi(source) => SimError::Formulation {
-                    reason: format!(
-                        "at t = {t} s Maggi's equations on the minimal coordinates cannot be solved: {source}"
-                    ),
-                },
+        // a scene whose effects are all hinge torques (or none) hands them
+        // over as such: the model maps them at compile time and its
+        // applied-force part, never written, folds away
+        let res = if self.effects.iter().all(|e| matches!(e.law, Law::Hinge { .. })) {
+            let effects = &self.effects;
+            self.model.minimal_rhs(k, z, q, qd, pd_ud, |q, qd, _, tau| {
+                hinge_torques(effects, t, q, qd, tau, power);
+                Ok(())
             })
+        } else {
+            self.refresh_waveforms(t);
+            let (effects, waves) = (&self.effects, &self.ws.waves);
+            self.model.minimal_rhs(k, z, q, qd, pd_ud, |q, qd, f, _| apply_effects(effects, waves, t, q, qd, f, power))
+        };
+        res.map_err(|e| match e {
+            crate::model::MinimalRhsError::Forces(e) => e,
+            crate::model::MinimalRhsError::Maggi(source) => SimError::Formulation {
+                reason: format!("at t = {t} s Maggi's equations on the minimal coordinates cannot be solved: {source}"),
+            },
+        })
     }
 
     /// Computes the generalized applied force `f` (nq) \[N, N m\] of the effects at
@@ -394,6 +402,27 @@ fn apply_effects(
         }
     }
     Ok(())
+}
+
+/// Adds each hinge effect's torque at `(t, q, qd)` (nq each) to its
+/// hinge's entry of `tau` (nh, [`crate::model::ModelInfo::hinges`]) and
+/// writes its power \[W\] to `power` (one per effect), its waveforms
+/// evaluated at `t` (for [`Model::minimal_rhs`]; effects of other laws are
+/// skipped: the caller passes only hinge effects). A hinge law gives a
+/// finite torque at a finite state, so nothing here fails.
+#[inline(always)]
+fn hinge_torques(effects: &[Effect], t: f64, q: &[f64], qd: &[f64], tau: &mut [f64], power: &mut [f64]) {
+    for (e, p) in effects.iter().zip(power) {
+        if let Law::Hinge { hinge, a, b, law } = &e.law {
+            let (torque, rate) = match law {
+                // a motor's torque is its waveform's value: one dispatch
+                crate::effects::HingeLaw::Motor(w) => (w.eval(t), qd[*a] - b.map_or(0.0, |b| qd[b])),
+                law => law.torque(&law.waveforms(t), *a, *b, q, qd),
+            };
+            tau[*hinge] += torque;
+            *p = torque * rate;
+        }
+    }
 }
 
 impl<M: Model> crate::integrator::Rhs for Dynamics<M> {

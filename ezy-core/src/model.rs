@@ -446,15 +446,23 @@ pub trait Model: Clone + Send + Sync + 'static {
     /// `z = [p, u]` (the kept coordinates and the independent speeds of
     /// [`MinimalLayout`], np + nu, read), writes the full `q` and `qd`
     /// (nq each, global rates \[m, rad, m/s, rad/s\]) exactly as
-    /// [`Model::minimal_expand`] does, calls `forces(q, qd, f)` once for
-    /// the generalized applied force `f` (nq, zero on entry, global)
-    /// \[N, N m\], and writes `dz = [pd, u']` (np + nu): the kept
+    /// [`Model::minimal_expand`] does, calls `forces(q, qd, f, tau)` once
+    /// for the generalized applied force `f` (nq, zero on entry, global)
+    /// \[N, N m\] and the hinges' torques `tau` (nh, zero on entry, in
+    /// the order of [`ModelInfo::hinges`]) \[N m\], each acting `+tau` on
+    /// its hinge's first body and `-tau` on its second (a motor, spring,
+    /// damper or servo at a hinge, [`crate::effects::HingeLaw`]), and
+    /// writes `dz = [pd, u']` (np + nu): the kept
     /// coordinates' rates and the speeds' rates from Maggi's equations in
     /// the body frames, `B^T M B u' = B^T (F - M c)` (Kane & Levinson 1985,
     /// ch. 6; [`Model::minimal_maggi`] up to rounding), solved by LDL^T
     /// with the checks of the KKT path. `model!` generates it as
-    /// straight-line code; the default does nothing (it is never called
-    /// without constants).
+    /// straight-line code, with each hinge's torque mapped onto the
+    /// speeds at compile time (`B^T` of the two headings' rows) and each
+    /// body's force skipped where it is zero: where `forces` writes no `f`
+    /// (a scene whose effects are all hinge torques, or none) the
+    /// optimizer removes `f`'s part entirely. The default does nothing (it
+    /// is never called without constants).
     ///
     /// # Errors
     /// [`MinimalRhsError::Forces`] with what `forces` returned, or
@@ -472,7 +480,7 @@ pub trait Model: Clone + Send + Sync + 'static {
         forces: F,
     ) -> Result<(), MinimalRhsError<E>>
     where
-        F: FnOnce(&[f64], &[f64], &mut [f64]) -> Result<(), E>,
+        F: FnOnce(&[f64], &[f64], &mut [f64], &mut [f64]) -> Result<(), E>,
     {
         let _ = (k, z, q, qd, dz, forces);
         Ok(())

@@ -947,7 +947,7 @@ impl Reduced {
     /// [`Reduced::eval`] by the model's fused [`Model::minimal_rhs`]: the
     /// full `q, qd` into [`Reduced::full`] (no key: the work states are
     /// not copied), `dz` whole. Counts no evaluation (the caller does).
-    #[inline]
+    #[inline(always)]
     fn eval_fused<M: Model>(
         &mut self,
         sys: &mut Dynamics<M>,

@@ -690,7 +690,15 @@ pub fn emit(def: &ModelDef, res: &Resolved, d: &mut Derived) -> TokenStream {
         let fused = match &minimal {
             Ok(m) => {
                 let mass: Vec<Id> = d.mass.iter().flatten().copied().collect();
-                let maggi = crate::minimal::maggi(&mut d.ar, m, &mass);
+                // the hinges in `ModelInfo::hinges`' order (a model with
+                // minimal coordinates has no families: a body's slot is its index)
+                let hinges: Vec<(usize, Option<usize>)> = d
+                    .groups
+                    .iter()
+                    .filter(|g| g.kind == Kind::Hinge)
+                    .map(|g| (g.slots[0].0, g.slots.get(1).map(|b| b.0)))
+                    .collect();
+                let maggi = crate::minimal::maggi(&mut d.ar, m, &mass, &hinges);
                 fused_fns(d, def, m, &maggi)
             }
             Err(_) => TokenStream::new(),
@@ -1032,6 +1040,30 @@ fn fused_fns(d: &Derived, def: &ModelDef, m: &crate::minimal::Minimal, maggi: &c
         );
         block(&mut h, &[2], TokenStream::new(), quote!(f[#w] != 0.0));
     }
+    // each hinge's torque along its row `B_a - B_b`, where it is not zero
+    let nh = d.groups.iter().filter(|g| g.kind == Kind::Hinge).count();
+    for hinge in 0..nh {
+        let saved = h.done.clone();
+        let mut lets = TokenStream::new();
+        let mut adds = TokenStream::new();
+        for (i, ri) in r.iter().enumerate() {
+            let coef = maggi.hinge[hinge * nu + i];
+            match d.ar.as_const(coef) {
+                Some(0.0) => {}
+                Some(1.0) => adds.extend(quote!(#ri += tau[#hinge];)),
+                Some(-1.0) => adds.extend(quote!(#ri -= tau[#hinge];)),
+                _ => {
+                    lets.extend(h.lets_for(&[coef]));
+                    let c = h.refer(coef);
+                    adds.extend(quote!(#ri += #c * tau[#hinge];));
+                }
+            }
+        }
+        if !adds.is_empty() {
+            maggi_sets.extend(quote!(if tau[#hinge] != 0.0 { #lets #adds }));
+        }
+        h.done = saved;
+    }
     let private = runtime();
     let scratch = if nu > 8 { nu * (nu + 1) } else { 0 };
     maggi_sets.extend(quote! {
@@ -1059,7 +1091,7 @@ fn fused_fns(d: &Derived, def: &ModelDef, m: &crate::minimal::Minimal, maggi: &c
             forces: F,
         ) -> ::core::result::Result<(), #private::MinimalRhsError<E>>
         where
-            F: ::core::ops::FnOnce(&[f64], &[f64], &mut [f64]) -> ::core::result::Result<(), E>,
+            F: ::core::ops::FnOnce(&[f64], &[f64], &mut [f64], &mut [f64]) -> ::core::result::Result<(), E>,
         {
             type S = f64;
             // every slice cut to its length once: no bounds check below
@@ -1068,7 +1100,8 @@ fn fused_fns(d: &Derived, def: &ModelDef, m: &crate::minimal::Minimal, maggi: &c
             let pd = &mut dz[..#np];
             #sets
             let mut f = [0.0f64; #nq];
-            forces(q, qd, &mut f).map_err(#private::MinimalRhsError::Forces)?;
+            let mut tau = [0.0f64; #nh];
+            forces(q, qd, &mut f, &mut tau).map_err(#private::MinimalRhsError::Forces)?;
             #maggi_sets
             ::core::result::Result::Ok(())
         }

@@ -358,15 +358,22 @@ pub fn derive(
 /// `(i, k)`, `k <= i`, at `i (i + 1) / 2 + k`) and `-B^T M c` (nu), and
 /// `B` (nq x nu), each with its fixed parts grouped for hoisting
 /// ([`Arena::group_fixed`]). The applied force's part of `B^T (F - M c)`
-/// is left to the generated code, `F` coming in at run time.
+/// is left to the generated code, `F` coming in at run time, and so is
+/// the hinges' torques' part: `hinge` (nh x nu, row-major) holds each
+/// hinge's row `B_a - B_b` of its bodies' headings (`B_a` alone for a
+/// ground hinge), so that a torque `tau` adds `tau (B_a - B_b)` to the
+/// right-hand side, the two rows' common terms cancelled symbolically.
 pub struct Maggi {
     pub a: Vec<Id>,
     pub minus_bmc: Vec<Id>,
     pub b: Vec<Id>,
+    pub hinge: Vec<Id>,
 }
 
-/// [`Maggi`] of the minimal form `m`.
-pub fn maggi(ar: &mut Arena, m: &Minimal, mass: &[Id]) -> Maggi {
+/// [`Maggi`] of the minimal form `m`, with the hinges' bodies `hinges`
+/// (first, second or `None` for the ground), in the order of the model's
+/// `ModelInfo::hinges`.
+pub fn maggi(ar: &mut Arena, m: &Minimal, mass: &[Id], hinges: &[(usize, Option<usize>)]) -> Maggi {
     let (nq, nu) = (m.qd.len(), m.speeds.len());
     let mut memo = crate::sym::Grouping::default();
     let b: Vec<Id> = m.b.iter().map(|&e| ar.group_fixed(e, &mut memo)).collect();
@@ -386,7 +393,21 @@ pub fn maggi(ar: &mut Arena, m: &Minimal, mass: &[Id]) -> Maggi {
             ar.group_fixed(sum, &mut memo)
         })
         .collect();
-    Maggi { a, minus_bmc, b }
+    let mut hinge = Vec::with_capacity(hinges.len() * nu);
+    for &(body_a, body_b) in hinges {
+        for i in 0..nu {
+            let ba = m.b[(3 * body_a + 2) * nu + i];
+            let row = match body_b {
+                Some(body_b) => {
+                    let bb = scaled(ar, m.b[(3 * body_b + 2) * nu + i], -1.0);
+                    ar.add(&[ba, bb])
+                }
+                None => ba,
+            };
+            hinge.push(ar.group_fixed(row, &mut memo));
+        }
+    }
+    Maggi { a, minus_bmc, b, hinge }
 }
 
 /// `|e|` at the parameters' declared values (`NaN` if it mentions anything else).

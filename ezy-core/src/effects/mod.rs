@@ -558,8 +558,9 @@ impl EffectSpec {
         let (points, blades, mass) = (&cx.points, &cx.blades, &cx.mass);
         let body_of = |b: &str| info.bodies[names.body(b).expect("checked")].coords;
         let hinge = |h: &str| {
-            let hi = &info.hinges[names.hinge(h).expect("checked")];
-            (info.bodies[hi.body_a].coords[2], hi.body_b.map(|b| info.bodies[b].coords[2]))
+            let index = names.hinge(h).expect("checked");
+            let hi = &info.hinges[index];
+            (index, info.bodies[hi.body_a].coords[2], hi.body_b.map(|b| info.bodies[b].coords[2]))
         };
         let blade = |s: &str| {
             let k = names.skate(s).expect("checked");
@@ -572,20 +573,20 @@ impl EffectSpec {
         };
         let law = match self.clone() {
             Self::HingeMotor { hinge: h, torque } => {
-                let (a, b) = hinge(&h);
-                Law::Hinge { a, b, law: HingeLaw::Motor(torque) }
+                let (hinge, a, b) = hinge(&h);
+                Law::Hinge { hinge, a, b, law: HingeLaw::Motor(torque) }
             }
             Self::HingeSpring { hinge: h, stiffness, rest_angle } => {
-                let (a, b) = hinge(&h);
-                Law::Hinge { a, b, law: HingeLaw::Spring { stiffness, rest_angle } }
+                let (hinge, a, b) = hinge(&h);
+                Law::Hinge { hinge, a, b, law: HingeLaw::Spring { stiffness, rest_angle } }
             }
             Self::HingeDamper { hinge: h, damping } => {
-                let (a, b) = hinge(&h);
-                Law::Hinge { a, b, law: HingeLaw::Damper { damping } }
+                let (hinge, a, b) = hinge(&h);
+                Law::Hinge { hinge, a, b, law: HingeLaw::Damper { damping } }
             }
             Self::HingeServo { hinge: h, stiffness, damping, angle } => {
-                let (a, b) = hinge(&h);
-                Law::Hinge { a, b, law: HingeLaw::Servo { stiffness, damping, angle } }
+                let (hinge, a, b) = hinge(&h);
+                Law::Hinge { hinge, a, b, law: HingeLaw::Servo { stiffness, damping, angle } }
             }
             Self::RollingViscous { skate, damping } => Law::Blade(blade(&skate), BladeLaw::Viscous { damping }),
             Self::RollingCoulomb { skate, force, smoothing } => {
@@ -804,6 +805,41 @@ pub enum HingeLaw {
     },
 }
 
+impl HingeLaw {
+    /// The values at time `t` \[s\] of the law's waveforms: a motor's
+    /// torque \[N m\], a servo's target angle \[rad\] and rate \[rad/s\]
+    /// (zeros for a spring or a damper).
+    #[inline(always)]
+    pub fn waveforms(&self, t: f64) -> Waveforms {
+        match self {
+            HingeLaw::Motor(w) => [w.eval(t), 0.0, 0.0],
+            HingeLaw::Servo { angle, .. } => angle.eval3(t),
+            HingeLaw::Spring { .. } | HingeLaw::Damper { .. } => [0.0; 3],
+        }
+    }
+
+    /// The torque `tau` \[N m\] of the hinge whose bodies' headings are
+    /// `q[a]` and `q[b]` (`b` `None` for the ground) at `(q, qd)` (nq each),
+    /// with the waveforms' values `wave` ([`HingeLaw::waveforms`]), and the
+    /// hinge's rate `theta_dot = qd[a] - qd[b]` \[rad/s\]: the torque's
+    /// power is `tau theta_dot`.
+    #[inline(always)]
+    pub fn torque(&self, wave: &Waveforms, a: usize, b: Option<usize>, q: &[f64], qd: &[f64]) -> (f64, f64) {
+        let rate = qd[a] - b.map_or(0.0, |b| qd[b]);
+        let theta = || q[a] - b.map_or(0.0, |b| q[b]);
+        let tau = match self {
+            HingeLaw::Motor(_) => wave[0],
+            HingeLaw::Spring { stiffness, rest_angle } => -stiffness * (theta() - rest_angle),
+            HingeLaw::Damper { damping } => -damping * rate,
+            HingeLaw::Servo { stiffness, damping, .. } => {
+                let [target, target_rate, _] = *wave;
+                -stiffness * (theta() - target) - damping * (rate - target_rate)
+            }
+        };
+        (tau, rate)
+    }
+}
+
 /// Force laws along a blade (see [`EffectSpec`]).
 #[derive(Debug, Clone, PartialEq)]
 pub enum BladeLaw {
@@ -829,6 +865,9 @@ pub enum Law {
     /// A torque pair at a hinge: `+tau` on `q[a]` (first body's heading),
     /// `-tau` on `q[b]` (second body's, `None` for the ground).
     Hinge {
+        /// Index of the hinge in [`ModelInfo::hinges`] (where a fused
+        /// right-hand side, [`Model::minimal_rhs`], takes its torque).
+        hinge: usize,
         /// Heading index of the first body.
         a: usize,
         /// Heading index of the second body.
@@ -946,11 +985,10 @@ impl Effect {
     #[inline(always)]
     pub fn waveforms(&self, t: f64) -> Waveforms {
         match &self.law {
-            Law::Hinge { law: HingeLaw::Motor(w), .. }
-            | Law::Blade(_, BladeLaw::Driven(w))
-            | Law::Torque { torque: w, .. }
-            | Law::SpringDamper { force: w, .. } => [w.eval(t), 0.0, 0.0],
-            Law::Hinge { law: HingeLaw::Servo { angle, .. }, .. } => angle.eval3(t),
+            Law::Hinge { law, .. } => law.waveforms(t),
+            Law::Blade(_, BladeLaw::Driven(w)) | Law::Torque { torque: w, .. } | Law::SpringDamper { force: w, .. } => {
+                [w.eval(t), 0.0, 0.0]
+            }
             Law::Force { fx, fy, .. } => [fx.eval(t), fy.eval(t), 0.0],
             _ => [0.0; 3],
         }
@@ -961,21 +999,8 @@ impl Effect {
     #[inline(always)]
     pub fn apply_with(&self, wave: &Waveforms, q: &[f64], qd: &[f64], f: &mut [f64]) -> (f64, f64) {
         match &self.law {
-            Law::Hinge { a, b, law } => {
-                let rate = qd[*a] - b.map_or(0.0, |b| qd[b]);
-                let tau = match law {
-                    HingeLaw::Motor(_) => wave[0],
-                    HingeLaw::Spring { stiffness, rest_angle } => {
-                        let theta = q[*a] - b.map_or(0.0, |b| q[b]);
-                        -stiffness * (theta - rest_angle)
-                    }
-                    HingeLaw::Damper { damping } => -damping * rate,
-                    HingeLaw::Servo { stiffness, damping, .. } => {
-                        let theta = q[*a] - b.map_or(0.0, |b| q[b]);
-                        let [target, target_rate, _] = *wave;
-                        -stiffness * (theta - target) - damping * (rate - target_rate)
-                    }
-                };
+            Law::Hinge { a, b, law, .. } => {
+                let (tau, rate) = law.torque(wave, *a, *b, q, qd);
                 f[*a] += tau;
                 if let Some(b) = b {
                     f[*b] -= tau;
