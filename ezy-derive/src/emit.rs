@@ -958,6 +958,7 @@ fn fused_fns(d: &Derived, def: &ModelDef, m: &crate::minimal::Minimal, maggi: &c
     outputs.extend(&maggi.minus_bmc);
     outputs.extend(&maggi.b);
     outputs.extend(&m.frames);
+    outputs.extend(&maggi.hinge);
     let mut h = Hoisted::new(d, def, &outputs, &name);
     let nk = h.table.len();
     let (table_lets, table_exprs) = lower(d, def, &h.table, Coords::Global);
