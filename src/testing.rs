@@ -681,11 +681,10 @@ fn check_fused<M: Model>(
     // the force with the torques added, and the size of its terms
     let (mut force, mut force_size) = (force.clone(), force.iter().map(|f| f.abs()).collect::<Vec<f64>>());
     for (hi, &tau) in info.hinges.iter().zip(&torque) {
-        for (body, sign) in [(hi.body_a, 1.0), (hi.body_b.unwrap_or(usize::MAX), -1.0)] {
-            if let Some(body) = info.bodies.get(body) {
-                force[body.coords[2]] += sign * tau;
-                force_size[body.coords[2]] += tau.abs();
-            }
+        for (body, sign) in std::iter::once((hi.body_a, 1.0)).chain(hi.body_b.map(|b| (b, -1.0))) {
+            let phi = info.bodies[body].coords[2];
+            force[phi] += sign * tau;
+            force_size[phi] += tau.abs();
         }
     }
     if let Err(e) = res {

@@ -411,41 +411,31 @@ qd = { x1 = 1.0, y1 = 0.1 }
 #[test]
 fn hinge_torques_compiled_in_match_the_generic_forces() {
     use ezy_core::Scene;
+    use ezy_core::effects::{EffectSpec, Waveform};
     use ezy_core::reduced::Reduced;
-    const HINGES: &str = r#"
-name = "hinges"
-description = "every hinge law at hinge B"
-model = "ezyroller"
-t_end = 1.0
-[initial]
-q = { x1 = 0.0, y1 = 0.0, phi1 = 0.3, phi2 = 2.6 }
-qd = { x1 = 0.4, phi1 = 0.2 }
-[effects.motor]
-kind = "hinge-motor"
-hinge = "B"
-torque = { harmonics = [{ amplitude = 2.0, omega = 3.0 }, { amplitude = 0.5, omega = 7.0, phase = 0.3 }] }
-[effects.spring]
-kind = "hinge-spring"
-hinge = "B"
-stiffness = 3.0
-rest_angle = -3.0
-[effects.damper]
-kind = "hinge-damper"
-hinge = "B"
-damping = 0.7
-[effects.servo]
-kind = "hinge-servo"
-hinge = "B"
-stiffness = 5.0
-damping = 0.3
-angle = { sin = { amplitude = 0.2, omega = 2.0 } }
-"#;
-    // the same torques with a force of zero beside them: the generic route
-    let generic = format!("{HINGES}[effects.nothing]\nkind = \"force\"\nat = \"body1\"\nfx = {{ constant = 0.0 }}\n");
+    // the all-effects scene's four hinge laws at hinge B, alone and with
+    // its force `wind`, made zero, beside them (the generic route)
+    let all = Scene::from_toml(include_str!("data/all_effects.toml"), "all_effects.toml").unwrap();
+    let is_hinge = |e: &EffectSpec| {
+        matches!(
+            e,
+            EffectSpec::HingeMotor { .. }
+                | EffectSpec::HingeSpring { .. }
+                | EffectSpec::HingeDamper { .. }
+                | EffectSpec::HingeServo { .. }
+        )
+    };
+    let mut hinges = all.clone();
+    hinges.effects.retain(|(_, e)| is_hinge(e));
+    assert_eq!(hinges.effects.len(), 4);
+    let mut generic = hinges.clone();
+    let mut wind = all.effects.iter().find(|(name, _)| name == "wind").unwrap().clone();
+    let EffectSpec::Force { fx, fy, .. } = &mut wind.1 else { panic!("`wind` is a force") };
+    (*fx, *fy) = (Waveform::Constant(0.0), Waveform::Constant(0.0));
+    generic.effects.push(wind);
     let t = 0.8;
-    let dz = |text: &str| {
-        let scene = Scene::from_toml(text, "hinges.toml").unwrap();
-        let (mut sys, y0) = build::<EzyRoller>(&scene, &[], KktMethod::Auto).unwrap();
+    let dz = |scene: &Scene| {
+        let (mut sys, y0) = build::<EzyRoller>(scene, &[], KktMethod::Auto).unwrap();
         let mut red = Reduced::new(&sys, t, &y0).unwrap();
         assert!(red.is_fused());
         let mut z = vec![0.0; red.nz(y0.len())];
@@ -454,7 +444,7 @@ angle = { sin = { amplitude = 0.2, omega = 2.0 } }
         red.eval(&mut sys, t, &z, &mut dz).unwrap();
         dz
     };
-    let (compiled, generic) = (dz(HINGES), dz(&generic));
+    let (compiled, generic) = (dz(&hinges), dz(&generic));
     // the generic run has one more work state, the zero force's, last
     assert_eq!((compiled.len() + 1, generic[generic.len() - 1]), (generic.len(), 0.0));
     let size = max_abs(compiled.iter().copied()).max(1.0);

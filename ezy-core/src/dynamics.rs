@@ -9,7 +9,7 @@
 //! states.
 
 use crate::SimError;
-use crate::effects::{Effect, Law};
+use crate::effects::{Effect, HingeLaw, Law};
 use crate::kkt::{AnyKktSolver, KktMethod, KktSolver, KktSystem};
 use crate::model::{Model, ModelInfo};
 
@@ -416,7 +416,7 @@ fn hinge_torques(effects: &[Effect], t: f64, q: &[f64], qd: &[f64], tau: &mut [f
         if let Law::Hinge { hinge, a, b, law } = &e.law {
             let (torque, rate) = match law {
                 // a motor's torque is its waveform's value: one dispatch
-                crate::effects::HingeLaw::Motor(w) => (w.eval(t), qd[*a] - b.map_or(0.0, |b| qd[b])),
+                HingeLaw::Motor(w) => (w.eval(t), HingeLaw::rate(*a, *b, qd)),
                 law => law.torque(&law.waveforms(t), *a, *b, q, qd),
             };
             tau[*hinge] += torque;

@@ -958,7 +958,7 @@ fn fused_fns(d: &Derived, def: &ModelDef, m: &crate::minimal::Minimal, maggi: &c
     outputs.extend(&maggi.minus_bmc);
     outputs.extend(&maggi.b);
     outputs.extend(&m.frames);
-    outputs.extend(&maggi.hinge);
+    outputs.extend(maggi.hinge.iter().flatten());
     let mut h = Hoisted::new(d, def, &outputs, &name);
     let nk = h.table.len();
     let (table_lets, table_exprs) = lower(d, def, &h.table, Coords::Global);
@@ -1042,13 +1042,12 @@ fn fused_fns(d: &Derived, def: &ModelDef, m: &crate::minimal::Minimal, maggi: &c
         block(&mut h, &[2], TokenStream::new(), quote!(f[#w] != 0.0));
     }
     // each hinge's torque along its row `B_a - B_b`, where it is not zero
-    let nh = d.groups.iter().filter(|g| g.kind == Kind::Hinge).count();
-    for hinge in 0..nh {
+    let nh = maggi.hinge.len();
+    for (hinge, row) in maggi.hinge.iter().enumerate() {
         let saved = h.done.clone();
         let mut lets = TokenStream::new();
         let mut adds = TokenStream::new();
-        for (i, ri) in r.iter().enumerate() {
-            let coef = maggi.hinge[hinge * nu + i];
+        for (ri, &coef) in r.iter().zip(row) {
             match d.ar.as_const(coef) {
                 Some(0.0) => {}
                 Some(1.0) => adds.extend(quote!(#ri += tau[#hinge];)),

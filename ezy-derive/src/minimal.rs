@@ -359,7 +359,7 @@ pub fn derive(
 /// `B` (nq x nu), each with its fixed parts grouped for hoisting
 /// ([`Arena::group_fixed`]). The applied force's part of `B^T (F - M c)`
 /// is left to the generated code, `F` coming in at run time, and so is
-/// the hinges' torques' part: `hinge` (nh x nu, row-major) holds each
+/// the hinges' torques' part: `hinge` (nh rows of nu) holds each
 /// hinge's row `B_a - B_b` of its bodies' headings (`B_a` alone for a
 /// ground hinge), so that a torque `tau` adds `tau (B_a - B_b)` to the
 /// right-hand side, the two rows' common terms cancelled symbolically.
@@ -367,7 +367,7 @@ pub struct Maggi {
     pub a: Vec<Id>,
     pub minus_bmc: Vec<Id>,
     pub b: Vec<Id>,
-    pub hinge: Vec<Id>,
+    pub hinge: Vec<Vec<Id>>,
 }
 
 /// [`Maggi`] of the minimal form `m`, with the hinges' bodies `hinges`
@@ -393,20 +393,24 @@ pub fn maggi(ar: &mut Arena, m: &Minimal, mass: &[Id], hinges: &[(usize, Option<
             ar.group_fixed(sum, &mut memo)
         })
         .collect();
-    let mut hinge = Vec::with_capacity(hinges.len() * nu);
-    for &(body_a, body_b) in hinges {
-        for i in 0..nu {
-            let ba = m.b[(3 * body_a + 2) * nu + i];
-            let row = match body_b {
-                Some(body_b) => {
-                    let bb = scaled(ar, m.b[(3 * body_b + 2) * nu + i], -1.0);
-                    ar.add(&[ba, bb])
-                }
-                None => ba,
-            };
-            hinge.push(ar.group_fixed(row, &mut memo));
-        }
-    }
+    let hinge = hinges
+        .iter()
+        .map(|&(body_a, body_b)| {
+            (0..nu)
+                .map(|i| {
+                    let ba = m.b[(3 * body_a + 2) * nu + i];
+                    let row = match body_b {
+                        Some(body_b) => {
+                            let bb = scaled(ar, m.b[(3 * body_b + 2) * nu + i], -1.0);
+                            ar.add(&[ba, bb])
+                        }
+                        None => ba,
+                    };
+                    ar.group_fixed(row, &mut memo)
+                })
+                .collect()
+        })
+        .collect();
     Maggi { a, minus_bmc, b, hinge }
 }
 

@@ -806,6 +806,13 @@ pub enum HingeLaw {
 }
 
 impl HingeLaw {
+    /// The rate `theta_dot = qd[a] - qd[b]` \[rad/s\] of the hinge whose
+    /// bodies' headings are `q[a]` and `q[b]` (`b` `None` for the ground).
+    #[inline(always)]
+    pub fn rate(a: usize, b: Option<usize>, qd: &[f64]) -> f64 {
+        qd[a] - b.map_or(0.0, |b| qd[b])
+    }
+
     /// The values at time `t` \[s\] of the law's waveforms: a motor's
     /// torque \[N m\], a servo's target angle \[rad\] and rate \[rad/s\]
     /// (zeros for a spring or a damper).
@@ -825,7 +832,7 @@ impl HingeLaw {
     /// power is `tau theta_dot`.
     #[inline(always)]
     pub fn torque(&self, wave: &Waveforms, a: usize, b: Option<usize>, q: &[f64], qd: &[f64]) -> (f64, f64) {
-        let rate = qd[a] - b.map_or(0.0, |b| qd[b]);
+        let rate = Self::rate(a, b, qd);
         let theta = || q[a] - b.map_or(0.0, |b| q[b]);
         let tau = match self {
             HingeLaw::Motor(_) => wave[0],
