@@ -20,6 +20,10 @@ pub struct Counters {
     pub rhs_evals: u64,
     /// KKT solves (one per right-hand side here).
     pub kkt_solves: u64,
+    /// KKT solves that found `G` rank-deficient and solved the
+    /// regularized system ([`crate::kkt::KktSolver::was_singular`]): a
+    /// singular position passed.
+    pub singular_solves: u64,
 }
 
 /// Scratch space of the right-hand side, grouped by stage (MuJoCo mjData).
@@ -91,6 +95,9 @@ pub struct Dynamics<M: Model> {
     /// The first `(t [s], estimate)` at which the KKT conditioning estimate
     /// passed [`CONDITION_WARNING`] (recorded once).
     pub ill_conditioned: Option<(f64, f64)>,
+    /// The time \[s\] of the last KKT solve that found `G` rank-deficient
+    /// (see [`Counters::singular_solves`]; NaN: none yet).
+    pub last_singular: f64,
 }
 
 /// Threshold of the (equilibrated) KKT conditioning estimate above which a
@@ -165,6 +172,7 @@ impl<M: Model> Dynamics<M> {
             ws,
             baumgarte: None,
             ill_conditioned: None,
+            last_singular: f64::NAN,
         }
     }
 
@@ -241,7 +249,9 @@ impl<M: Model> Dynamics<M> {
         self.kkt
             .solve(&sys, &mut ws.qdd, &mut ws.lambda)
             .map_err(|source| SimError::from_kkt(&self.info, t, source))?;
-        if self.ill_conditioned.is_none()
+        if self.kkt.was_singular() {
+            note_singular(&mut self.counters, &mut self.last_singular, t);
+        } else if self.ill_conditioned.is_none()
             && let Some(c) = self.kkt.condition_estimate()
             && c > CONDITION_WARNING
         {
@@ -374,6 +384,15 @@ impl<M: Model> Dynamics<M> {
     pub fn kinetic_energy(&self, qd: &[f64]) -> f64 {
         0.5 * self.mass.iter().zip(qd).map(|(m, v)| m * v * v).sum::<f64>()
     }
+}
+
+/// Counts a KKT solve at `t` \[s\] that found `G` rank-deficient
+/// (kept out of the right-hand side's line: rare).
+#[cold]
+#[inline(never)]
+fn note_singular(counters: &mut Counters, last: &mut f64, t: f64) {
+    counters.singular_solves += 1;
+    *last = t;
 }
 
 /// Adds each effect's generalized force at `(t, q, qd)` (nq each) to `f`

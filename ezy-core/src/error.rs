@@ -116,6 +116,27 @@ pub enum SimError {
         /// Names of the rows before it.
         before: String,
     },
+    /// Constraints that stayed dependent along the motion: every KKT solve
+    /// of [`crate::SINGULAR_PERSIST_STEPS`] accepted steps in a row found
+    /// `G` rank-deficient, so the run is not passing a singular position
+    /// but staying in one (the multipliers are not unique along it).
+    #[error(
+        "from t = {t0} s to t = {t1} s the constraint `{constraint}` (row {row} of G) stayed dependent on the constraints before it ({before}) at every evaluation of {steps} steps in a row: the motion stays at a singular position instead of passing it, so the multipliers are not unique along it; start from other initial values, or remove `{constraint}` or a constraint it depends on"
+    )]
+    SingularPersists {
+        /// When the steps began \[s\].
+        t0: f64,
+        /// When the run stopped \[s\].
+        t1: f64,
+        /// Accepted steps whose every solve was singular.
+        steps: u64,
+        /// Name of the dependent row, e.g. `H2.x`.
+        constraint: String,
+        /// Its row in `G`.
+        row: usize,
+        /// Names of the rows before it.
+        before: String,
+    },
     /// A run would take more steps or write more output than its budget.
     #[error(
         "the run would take {} {what} ({detail}), more than the limit of {}; {}",
@@ -207,6 +228,7 @@ impl SimError {
         let dependent = matches!(
             &self,
             SimError::DependentConstraints { .. }
+                | SimError::SingularPersists { .. }
                 | SimError::Kkt { source: KktError::DependentConstraints { .. } | KktError::NonFinite { .. }, .. }
         );
         let singular = matches!(&self, SimError::Kkt { source: KktError::SingularKkt { .. }, .. });

@@ -38,7 +38,7 @@ pub use scene::{
     IntegratorSettings, Line, MAX_DPI, MIN_DPI, OutputGroup, OutputSettings, Scene, SceneError, SceneFileError,
     figure_stem,
 };
-pub use simulate::{Observer, RunError, RunSettings, Sample, Summary, simulate};
+pub use simulate::{Observer, RunError, RunSettings, SINGULAR_PERSIST_STEPS, Sample, Summary, simulate};
 
 /// The examples of the `model!` documentation (ezy-derive/src/model.md,
 /// shown at [`model!`]), run as doctests of this crate, where

@@ -241,6 +241,42 @@ pub struct Summary {
     /// found the run stiff (their step held by stability, not accuracy;
     /// see [`crate::integrator::adaptive::StiffnessTest`]).
     pub stiff: Option<(f64, f64)>,
+    /// The singular positions passed: `(t [s], singular solves)`, the time
+    /// of the first accepted step whose KKT solves found `G`
+    /// rank-deficient and how many did, one entry per passage (each is
+    /// also told to the observer as a note).
+    pub singular_passages: Vec<(f64, u64)>,
+}
+
+/// Accepted steps in a row whose every KKT solve found `G` rank-deficient
+/// after which a run stops with [`SimError::SingularPersists`] (or two
+/// such steps spanning a hundredth of the run): a singular position that
+/// the motion passes is met by a few stages of one or two steps (the rank
+/// returns on either side), one the motion stays in by every stage of
+/// every step.
+pub const SINGULAR_PERSIST_STEPS: u64 = 8;
+
+/// The singular position being passed, for [`Run::track_singular`].
+#[derive(Debug, Clone, Copy, Default)]
+struct SingularTrack {
+    /// Counters at the last accepted step.
+    solves: u64,
+    evals: u64,
+    /// `(time of the passage's first step, singular solves so far)`.
+    open: Option<(f64, u64)>,
+    /// Accepted steps in a row whose every solve was singular, and when
+    /// they began.
+    persistent: u64,
+    since: f64,
+}
+
+/// The note of a singular position passed at `t` \[s\] (`solves` KKT
+/// solves found `G` rank-deficient there).
+pub fn singular_note(t: f64, solves: u64) -> String {
+    format!(
+        "passed a singular position at t = {t:.6} s: the constraint Jacobian G lost rank there ({solves} KKT solve{} found its rows dependent and took the regularized solve, whose accelerations are unique and whose multipliers are the least ones)",
+        if solves == 1 { "" } else { "s" }
+    )
 }
 
 /// The note a stiff run gets (`method` found it stiff at `t` with
@@ -297,6 +333,8 @@ struct Run<'a, M: Model, O: Observer<M>> {
     proj: Projector<M>,
     resid: Residuals,
     t0_energy: f64,
+    /// The singular position being passed, if any.
+    singular: SingularTrack,
     /// Size of the last step \[s\] (0 before the first).
     last_step: f64,
     summary: Summary,
@@ -425,6 +463,10 @@ impl<M: Model, O: Observer<M>> Run<'_, M, O> {
             let quantity = format!("the state component `{}`", sys.state_name(k));
             return Err(SimError::NonFinite { t, quantity, value: y[k], dt: h, advice: advice(method, t, h) });
         }
+        if sys.counters.singular_solves != self.singular.solves || self.singular.open.is_some() {
+            self.track_singular(sys, t, t_new, &y[..nq])?;
+        }
+        self.singular.evals = sys.counters.rhs_evals;
         self.last_step = h;
         let mut changed = false;
         if self.settings.projection != ProjectionKind::None {
@@ -461,6 +503,74 @@ impl<M: Model, O: Observer<M>> Run<'_, M, O> {
         }
         self.summary.steps += 1;
         Ok(changed)
+    }
+
+    /// After an accepted step from `t` to `t_new` (positions `q`) whose
+    /// KKT solves found `G` rank-deficient, or the first after such
+    /// steps: opens a passage, closes it with a note when a step has no
+    /// singular solve, and stops the run when every solve of
+    /// [`SINGULAR_PERSIST_STEPS`] steps in a row was singular.
+    #[cold]
+    fn track_singular(&mut self, sys: &Dynamics<M>, t: f64, t_new: f64, q: &[f64]) -> Result<(), SimError> {
+        let c = sys.counters;
+        let (solves, evals) = (c.singular_solves - self.singular.solves, c.rhs_evals - self.singular.evals);
+        self.singular.solves = c.singular_solves;
+        if solves == 0 {
+            if let Some((t0, n)) = self.singular.open.take() {
+                self.summary.singular_passages.push((t0, n));
+                self.observer.note(&singular_note(t0, n));
+            }
+            self.singular.persistent = 0;
+            return Ok(());
+        }
+        let open = self.singular.open.get_or_insert((t, 0));
+        open.1 += solves;
+        if solves < evals {
+            self.singular.persistent = 0;
+            return Ok(());
+        }
+        if self.singular.persistent == 0 {
+            self.singular.since = t;
+        }
+        self.singular.persistent += 1;
+        // steps in a row, or a hundredth of the run (a slow motion's few
+        // long steps): never the few stages of a passage
+        let span = t_new - self.singular.since;
+        if self.singular.persistent < SINGULAR_PERSIST_STEPS
+            && (self.singular.persistent < 2 || span < 0.01 * self.settings.t_end)
+        {
+            return Ok(());
+        }
+        // which row: in the Euclidean metric, else in the mass-weighted one
+        // (masses too far apart for double precision)
+        let info = &sys.info;
+        let Some(row) = crate::kkt::dependent_row(&sys.model, info, q, None)
+            .ok()
+            .flatten()
+            .or_else(|| crate::kkt::dependent_row(&sys.model, info, q, Some(&sys.mass)).ok().flatten())
+        else {
+            // ill-conditioned here, not singular: the regularized solves
+            // are exact to rounding
+            self.singular.persistent = 0;
+            return Ok(());
+        };
+        Err(SimError::SingularPersists {
+            t0: self.singular.since,
+            t1: t_new,
+            steps: self.singular.persistent,
+            constraint: info.constraints.get(row).cloned().unwrap_or_default(),
+            row,
+            before: crate::error::name_list(&info.constraints[..row.min(info.constraints.len())]),
+        })
+    }
+
+    /// At the end of a run: a singular position passed in its last steps
+    /// gets its note too.
+    fn close_singular(&mut self) {
+        if let Some((t0, n)) = self.singular.open.take() {
+            self.summary.singular_passages.push((t0, n));
+            self.observer.note(&singular_note(t0, n));
+        }
     }
 
     /// Before an adaptive method's step attempt from `t` with step `h`:
@@ -722,6 +832,13 @@ pub fn simulate<M: Model, O: Observer<M>>(
 ) -> Result<Summary, RunError<O::Error>> {
     settings.validate()?;
     let (nq, nc) = (sys.info.nq(), sys.info.nc());
+    // constraints dependent at every configuration are the model's error;
+    // at an instant (this one included) they are a singular position
+    if let Some(row) = crate::kkt::redundant_row(&sys.model, &sys.info, &sys.drives, &sys.mass, &y0[..nq])
+        .map_err(|source| SimError::from_kkt(&sys.info, 0.0, source))?
+    {
+        return Err(SimError::from_kkt(&sys.info, 0.0, KktError::DependentConstraints { n: nc, row }).into());
+    }
     // the reduced formulation, built at y0 (auto keeps it only where its
     // dependent coordinates follow from one Newton step)
     let reduced = match settings.formulation {
@@ -795,8 +912,14 @@ pub fn simulate<M: Model, O: Observer<M>>(
             ill_conditioned: None,
             newton: Default::default(),
             stiff: None,
+            singular_passages: Vec::new(),
         },
         output_time: Duration::ZERO,
+        singular: SingularTrack {
+            solves: sys.counters.singular_solves,
+            evals: sys.counters.rhs_evals,
+            ..SingularTrack::default()
+        },
         pending: Vec::with_capacity(pending_rows(y0.len()) * (y0.len() + 1)),
         pending_projected: Vec::with_capacity(pending_rows(y0.len())),
         newton: Default::default(),
@@ -844,12 +967,14 @@ pub fn simulate<M: Model, O: Observer<M>>(
     // the samples queued before a failure are observed before it is told
     run.flush(sys)?;
     result?;
+    run.close_singular();
     let mut summary = run.summary;
     summary.integration_time = start.elapsed().saturating_sub(run.output_time);
     summary.output_time = run.output_time;
     summary.counters = Counters {
         rhs_evals: sys.counters.rhs_evals - counters0.rhs_evals,
         kkt_solves: sys.counters.kkt_solves - counters0.kkt_solves,
+        singular_solves: sys.counters.singular_solves - counters0.singular_solves,
     };
     summary.final_state = final_state;
     summary.newton = run.newton;

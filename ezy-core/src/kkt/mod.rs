@@ -30,7 +30,7 @@ pub(crate) mod spd;
 
 pub use dense_lu::DenseLu;
 pub use sparse::{SparseSchur, synthetic_chain};
-pub use spd::{NormalSystem, PIVOT_RTOL, SchurCholesky, ldl_solve};
+pub use spd::{NormalSystem, PIVOT_RTOL, SINGULAR_MU, SchurCholesky, ldl_solve, regularized_solve};
 
 use crate::model::Model;
 
@@ -111,6 +111,13 @@ pub trait KktSolver {
     /// of units and diagonal scaling (`None` if the path has none).
     fn condition_estimate(&self) -> Option<f64> {
         None
+    }
+    /// Whether the last solve found `G` rank-deficient (dependent rows at
+    /// this state: a singular position) and solved a regularized system
+    /// instead ([`spd::regularized_solve`]): the accelerations are exact to
+    /// the regularization's level, the multipliers are the least ones.
+    fn was_singular(&self) -> bool {
+        false
     }
 }
 
@@ -215,4 +222,92 @@ impl<M: Model> KktSolver for AnyKktSolver<M> {
             Self::Sparse(s) => s.condition_estimate(),
         }
     }
+    #[inline]
+    fn was_singular(&self) -> bool {
+        match self {
+            Self::Schur(s) => s.was_singular(),
+            Self::Lu(s) => s.was_singular(),
+            Self::Sparse(s) => s.was_singular(),
+        }
+    }
+}
+
+/// The first row of `G(q)` (nc x nq) that depends on the rows before it in
+/// the Euclidean metric (`G G^T`, so masses play no part; with `mass`
+/// (nq), the mass-weighted `G M^-1 G^T`), by the strict
+/// pivot test ([`PIVOT_RTOL`]) without regularization; `None` when `G(q)`
+/// has full row rank. Dense `L D L^T` below [`SPARSE_FROM_ROWS`] rows, the
+/// sparse Cholesky from there (linear in a chain's length).
+///
+/// # Errors
+/// [`KktError::NonFinite`] if `G(q)` has a non-finite entry.
+pub fn dependent_row<M: Model>(
+    model: &M,
+    info: &crate::ModelInfo,
+    q: &[f64],
+    mass: Option<&[f64]>,
+) -> Result<Option<usize>, KktError> {
+    let (nq, nc) = (info.nq(), info.nc());
+    if nc == 0 {
+        return Ok(None);
+    }
+    let mut g = vec![0.0; info.pattern.len()];
+    model.constraint_matrix(q, &mut g);
+    let weights = match mass {
+        Some(m) if m.iter().all(|&v| v > 0.0 && v.is_finite()) => m.to_vec(),
+        _ => vec![1.0; nq],
+    };
+    if nc < SPARSE_FROM_ROWS && model.unrolled_kernels() {
+        let winv: Vec<f64> = weights.iter().map(|w| 1.0 / w).collect();
+        let mut normal = NormalSystem::new(nc);
+        normal.assemble(model, &info.pattern, &g, &winv);
+        match normal.strict_rank_check(nc) {
+            Ok(()) => Ok(None),
+            Err(KktError::DependentConstraints { row, .. }) => Ok(Some(row)),
+            Err(e) => Err(e),
+        }
+    } else {
+        SparseSchur::new(&info.pattern, nc, &weights).expect("positive weights").dependent_row(&g)
+    }
+}
+
+/// Whether the model's constraints are dependent at every configuration
+/// near the consistent positions `q0` (nq), as a duplicated hinge or a
+/// closed loop counted twice makes them, rather than at an instant (a dead
+/// point, the flat position of a parallelogram: a singular position the
+/// motion passes). `G` is checked at `q0` and, where it is rank-deficient
+/// there, at two nearby consistent configurations: `q0` moved by fixed,
+/// generic offsets of about 1e-2 in each coordinate and projected back
+/// onto `phi(q) = u(0)` (with the `drives`). Returns the dependent row at
+/// `q0` when it stays dependent at both.
+///
+/// # Errors
+/// [`KktError::NonFinite`] if `G` has a non-finite entry at `q0`.
+pub fn redundant_row<M: Model>(
+    model: &M,
+    info: &crate::ModelInfo,
+    drives: &[crate::drive::Drive],
+    mass: &[f64],
+    q0: &[f64],
+) -> Result<Option<usize>, KktError> {
+    let Some(row) = dependent_row(model, info, q0, None)? else { return Ok(None) };
+    let mut projector =
+        crate::projection::Projector::new(model, crate::ProjectionKind::Euclidean, mass).with_drives(drives);
+    for k in [1.7, 2.9] {
+        let mut q: Vec<f64> = q0
+            .iter()
+            .enumerate()
+            .map(|(i, &v)| {
+                let s = (k * (i as f64 + 1.0)).sin();
+                v + 1e-2 * (0.3 + 0.7 * s.abs()) * s.signum()
+            })
+            .collect();
+        let mut qd = vec![0.0; q.len()];
+        let projected = projector.project(model, 0.0, &mut q, &mut qd);
+        // a configuration where the rows are independent: an instant
+        if projected.is_ok_and(|r| r.residual_position <= 1e-9) && dependent_row(model, info, &q, None) == Ok(None) {
+            return Ok(None);
+        }
+    }
+    Ok(Some(row))
 }

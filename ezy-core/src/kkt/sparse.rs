@@ -14,12 +14,14 @@ use faer::dyn_stack::{MemBuffer, MemStack};
 use faer::linalg::cholesky::llt::factor::LltError;
 use faer::sparse::linalg::SupernodalThreshold;
 use faer::sparse::linalg::cholesky::{
-    CholeskySymbolicParams, SymbolicCholesky, SymbolicCholeskyRaw, SymmetricOrdering, factorize_symbolic_cholesky,
+    CholeskySymbolicParams, LltRef, SymbolicCholesky, SymbolicCholeskyRaw, SymmetricOrdering,
+    factorize_symbolic_cholesky,
 };
 use faer::sparse::{SparseColMatRef, SymbolicSparseColMatRef};
 use faer::{Conj, MatMut, Par, Side};
 
-use super::{KktError, KktSolver, KktSystem, PIVOT_RTOL};
+use super::spd::SINGULAR_SWEEPS;
+use super::{KktError, KktSolver, KktSystem, PIVOT_RTOL, SINGULAR_MU};
 
 /// One product term of `A = G M^-1 G^T`: `A[a] += G[gi] G[gj] / M[k]`
 /// (indices into `A`'s values, `G`'s pattern values and `M`'s diagonal).
@@ -58,6 +60,14 @@ pub struct SparseSchur {
     l_diag: Vec<usize>,
     /// Pivot growth `max_j A_jj / L_jj^2` of the last solve.
     growth: f64,
+    /// Whether the last solve found `A` singular and took the regularized
+    /// sweeps ([`super::regularized_solve`], the same method in sparse form).
+    singular: bool,
+    /// Scratch of the regularized sweeps (nc each): `G M^-1 f + gamma`,
+    /// the regularization's scale `diag(A)`, the residual.
+    b: Vec<f64>,
+    scale: Vec<f64>,
+    res: Vec<f64>,
 }
 
 impl std::fmt::Debug for SparseSchur {
@@ -175,6 +185,10 @@ impl SparseSchur {
             perm,
             l_diag,
             growth: 1.0,
+            singular: false,
+            b: vec![0.0; nc],
+            scale: vec![0.0; nc],
+            res: vec![0.0; nc],
         })
     }
 
@@ -206,40 +220,21 @@ impl KktSolver for SparseSchur {
         for (&(r, c), &v) in self.pattern.iter().zip(g) {
             self.rhs[r] += v * self.minv[c] * sys.f[c];
         }
-        let a = SparseColMatRef::new(
-            SymbolicSparseColMatRef::new_checked(nc, nc, &self.col_ptr, None, &self.row_idx),
-            &self.a_values,
-        );
-        let llt = self
-            .symbolic
-            .factorize_numeric_llt(
-                &mut self.l_values,
-                a,
-                Side::Lower,
-                Default::default(),
-                Par::Seq,
-                MemStack::new(&mut self.factor_mem),
-                Default::default(),
-            )
-            .map_err(|LltError::NonPositivePivot { index }| {
-                // faer counts the failing pivot from 1, in the AMD order
-                KktError::DependentConstraints { n: nc, row: self.perm[index.saturating_sub(1).min(nc - 1)] }
-            })?;
-        let x = MatMut::from_column_major_slice_mut(&mut self.rhs, nc, 1);
-        llt.solve_in_place_with_conj(Conj::No, x, Par::Seq, MemStack::new(&mut self.solve_mem));
-        // pivot growth, as the dense path (see `ldl_solve`): a row that
-        // lost all but 1e-13 of its diagonal depends on the rows before it
-        self.growth = 1.0;
-        for (j, &p) in self.l_diag.iter().enumerate() {
-            let row = self.perm[j];
-            let l = self.l_values[p];
-            let g = self.a_values[self.diag[row]] / (l * l);
-            if g.is_nan() || g > 1.0 / PIVOT_RTOL {
-                return Err(KktError::DependentConstraints { n: nc, row });
+        self.singular = false;
+        match self.factor() {
+            Ok(()) => {
+                let x = MatMut::from_column_major_slice_mut(&mut self.rhs, nc, 1);
+                LltRef::new(&self.symbolic, &self.l_values).solve_in_place_with_conj(
+                    Conj::No,
+                    x,
+                    Par::Seq,
+                    MemStack::new(&mut self.solve_mem),
+                );
+                lambda.copy_from_slice(&self.rhs);
             }
-            self.growth = self.growth.max(g);
+            Err(KktError::DependentConstraints { .. }) => self.solve_singular(lambda)?,
+            Err(e) => return Err(e),
         }
-        lambda.copy_from_slice(&self.rhs);
         // qdd = M^-1 (f - G^T lambda)
         qdd.copy_from_slice(sys.f);
         for (&(r, c), &v) in self.pattern.iter().zip(g) {
@@ -257,6 +252,124 @@ impl KktSolver for SparseSchur {
 
     fn condition_estimate(&self) -> Option<f64> {
         Some(self.growth)
+    }
+
+    fn was_singular(&self) -> bool {
+        self.singular
+    }
+}
+
+impl SparseSchur {
+    /// The first row of `G` (values `g` at the pattern) that depends on the
+    /// rows before it in `A = G M^-1 G^T`, by the strict pivot test alone
+    /// (no regularization): `None` when `G` has full row rank.
+    ///
+    /// # Errors
+    /// [`KktError::NonFinite`] if `G` has a non-finite entry.
+    pub fn dependent_row(&mut self, g: &[f64]) -> Result<Option<usize>, KktError> {
+        self.a_values.fill(0.0);
+        for t in &self.terms {
+            self.a_values[t.a as usize] += g[t.gi as usize] * g[t.gj as usize] * self.minv[t.k as usize];
+        }
+        if self.a_values.iter().any(|v| !v.is_finite()) {
+            return Err(KktError::NonFinite { n: self.nc });
+        }
+        match self.factor() {
+            Ok(()) => Ok(None),
+            Err(KktError::DependentConstraints { row, .. }) => Ok(Some(row)),
+            Err(e) => Err(e),
+        }
+    }
+
+    /// Factors `A` (assembled in `a_values`) into `l_values` and checks the
+    /// pivot growth, as the dense path does (see `ldl_solve`): a row that
+    /// lost all but 1e-13 of its diagonal depends on the rows before it.
+    fn factor(&mut self) -> Result<(), KktError> {
+        let nc = self.nc;
+        let a = SparseColMatRef::new(
+            SymbolicSparseColMatRef::new_checked(nc, nc, &self.col_ptr, None, &self.row_idx),
+            &self.a_values,
+        );
+        self.symbolic
+            .factorize_numeric_llt(
+                &mut self.l_values,
+                a,
+                Side::Lower,
+                Default::default(),
+                Par::Seq,
+                MemStack::new(&mut self.factor_mem),
+                Default::default(),
+            )
+            .map_err(|LltError::NonPositivePivot { index }| {
+                // faer counts the failing pivot from 1, in the AMD order
+                KktError::DependentConstraints { n: nc, row: self.perm[index.saturating_sub(1).min(nc - 1)] }
+            })?;
+        self.growth = 1.0;
+        for (j, &p) in self.l_diag.iter().enumerate() {
+            let row = self.perm[j];
+            let l = self.l_values[p];
+            let g = self.a_values[self.diag[row]] / (l * l);
+            if g.is_nan() || g > 1.0 / PIVOT_RTOL {
+                return Err(KktError::DependentConstraints { n: nc, row });
+            }
+            self.growth = self.growth.max(g);
+        }
+        Ok(())
+    }
+
+    /// The singular `A` of this solve (right-hand side in `rhs`) by the
+    /// regularized sweeps of [`super::regularized_solve`]: `A + mu diag(A)`
+    /// factored once, `x += A_mu^-1 (b - A x)` from `x = 0`.
+    #[cold]
+    #[inline(never)]
+    fn solve_singular(&mut self, x: &mut [f64]) -> Result<(), KktError> {
+        let nc = self.nc;
+        self.b.copy_from_slice(&self.rhs);
+        let dmax = self.diag.iter().map(|&p| self.a_values[p]).fold(0.0, f64::max);
+        x.fill(0.0);
+        if dmax.is_nan() || dmax <= 0.0 {
+            return Ok(());
+        }
+        for (j, s) in self.scale.iter_mut().enumerate() {
+            *s = self.a_values[self.diag[j]].max(f64::EPSILON * dmax);
+            self.a_values[self.diag[j]] += SINGULAR_MU * *s;
+        }
+        // positive definite, its pivot growth at most about 1 / mu
+        self.factor()?;
+        self.singular = true;
+        self.growth = 1.0 / PIVOT_RTOL;
+        for _ in 0..SINGULAR_SWEEPS {
+            // res = b - A x, with A = A_mu - mu diag(scale) from its lower triangle
+            self.res.copy_from_slice(&self.b);
+            for j in 0..nc {
+                self.res[j] += SINGULAR_MU * self.scale[j] * x[j];
+                for p in self.col_ptr[j]..self.col_ptr[j + 1] {
+                    let (i, v) = (self.row_idx[p], self.a_values[p]);
+                    self.res[i] -= v * x[j];
+                    if i != j {
+                        self.res[j] -= v * x[i];
+                    }
+                }
+            }
+            let dx = MatMut::from_column_major_slice_mut(&mut self.res, nc, 1);
+            LltRef::new(&self.symbolic, &self.l_values).solve_in_place_with_conj(
+                Conj::No,
+                dx,
+                Par::Seq,
+                MemStack::new(&mut self.solve_mem),
+            );
+            let (mut step, mut size) = (0.0f64, 0.0f64);
+            for ((xj, d), s) in x.iter_mut().zip(&self.res).zip(&self.scale) {
+                *xj += d;
+                let w = s.sqrt();
+                step = step.max((d * w).abs());
+                size = size.max((*xj * w).abs());
+            }
+            if !(step > 8.0 * f64::EPSILON * size) {
+                break;
+            }
+        }
+        Ok(())
     }
 }
 
@@ -364,9 +477,12 @@ mod tests {
         }
     }
 
-    /// A row repeated is named as dependent, not solved with made-up multipliers.
+    /// A row repeated: the strict check names it; the solve takes the
+    /// regularized sweeps, says so, and its accelerations satisfy every
+    /// row (`G qdd = -gamma`, consistent: the copy's gamma repeats too)
+    /// with the multipliers of the two copies equal (the least ones).
     #[test]
-    fn dependent_rows_are_refused() {
+    fn dependent_rows_are_named_and_solved_regularized() {
         let (mut pattern, mut g, nc, mass) = synthetic_chain(4);
         let first: Vec<(usize, f64)> =
             pattern.iter().zip(&g).filter(|((r, _), _)| *r == 0).map(|((_, c), v)| (*c, *v)).collect();
@@ -376,10 +492,23 @@ mod tests {
         }
         let mut s = SparseSchur::new(&pattern, nc + 1, &mass).unwrap();
         let nq = mass.len();
-        let (f, gamma) = (vec![0.0; nq], vec![0.0; nc + 1]);
+        let row = s.dependent_row(&g).unwrap();
+        assert!(row == Some(0) || row == Some(nc), "{row:?}");
+        let f: Vec<f64> = (0..nq).map(|k| (0.7 * k as f64).sin()).collect();
+        let mut gamma: Vec<f64> = (0..nc).map(|i| (0.3 * i as f64).cos()).collect();
+        gamma.push(gamma[0]);
         let sys = KktSystem { mass: &mass, g: &[], g_values: &g, f: &f, gamma: &gamma };
-        let err = s.solve(&sys, &mut vec![0.0; nq], &mut vec![0.0; nc + 1]).unwrap_err();
-        assert!(matches!(err, KktError::DependentConstraints { row, .. } if row == 0 || row == nc), "{err:?}");
+        let (mut qdd, mut lambda) = (vec![0.0; nq], vec![0.0; nc + 1]);
+        s.solve(&sys, &mut qdd, &mut lambda).unwrap();
+        assert!(s.was_singular());
+        // the same accelerations as the chain without the copy
+        let (pattern0, g0, _, _) = synthetic_chain(4);
+        let (qdd0, _) = dense(&pattern0, &g0, nc, &mass, &f, &gamma[..nc]);
+        let scale = qdd0.iter().fold(1.0f64, |m, v| m.max(v.abs()));
+        for (a, b) in qdd.iter().zip(&qdd0) {
+            assert!((a - b).abs() <= 1e-9 * scale, "{a} vs {b}");
+        }
+        assert!((lambda[0] - lambda[nc]).abs() <= 1e-3 * lambda[0].abs().max(1.0), "{} vs {}", lambda[0], lambda[nc]);
     }
 
     /// The factor of a chain stays linear in its length (AMD finds the

@@ -307,6 +307,141 @@ fn ldl_solve_dynamic(
     Ok((0..m).map(|j| a[j * lda + j] * inv[j]).fold(1.0, f64::max))
 }
 
+/// Relative regularization of [`regularized_solve`]: `A + mu diag(A)` is
+/// factored with `mu = SINGULAR_MU`, ten times the pivot threshold
+/// [`PIVOT_RTOL`] below which the plain factorization gives up.
+pub const SINGULAR_MU: f64 = 1e-12;
+
+/// Most refinement sweeps of [`regularized_solve`]. A component of `x`
+/// along an eigenvector of the equilibrated `A` with eigenvalue `s` loses
+/// the factor `mu / (s + mu)` per sweep, so the well-determined components
+/// converge to rounding in two or three sweeps; the sweeps stop earlier
+/// when the update falls to rounding.
+pub const SINGULAR_SWEEPS: usize = 16;
+
+/// Length of the workspace [`regularized_solve`] needs for an m x m system.
+pub const fn regularized_scratch(m: usize) -> usize {
+    m * m + 4 * m
+}
+
+/// Solves the symmetric positive *semi*-definite system `A x = r` (m x m,
+/// row-major with stride `lda`, lower triangle read) where the plain
+/// factorization ([`ldl_solve`]) found `A` singular: a rank-deficient
+/// constraint Jacobian at an instant (a dead point, a lock-up, the flat
+/// position of a parallelogram), where the accelerations are still unique
+/// but the multipliers are not.
+///
+/// Iterated Tikhonov regularization (the dual form of the augmented
+/// Lagrangian method: Bayo & Ledesma, "Augmented Lagrangian and
+/// mass-orthogonal projection methods for constrained multibody dynamics",
+/// Nonlinear Dynamics 9 (1996) 113-130): `A_mu = A + mu D` with `D =
+/// diag(A)` (so the regularization does not depend on units or mass
+/// ratios) is factored once by `L D L^T`, and from `x = 0` each sweep adds
+/// `A_mu^-1 (r - A x)`. For a consistent `r` this converges to the solution
+/// of least `x^T D x` (the minimum-norm multipliers in the equilibrated
+/// metric); the components along directions that are singular to rounding
+/// stay bounded by `1 / mu` per sweep instead of the `1 / eps` of an exact
+/// solve, so `W^-1 G^T x`, the part of the multipliers that moves the
+/// system, stays exact to the regularization's level.
+///
+/// `work` holds at least [`regularized_scratch`]`(m)` values. Returns the
+/// number of sweeps done.
+///
+/// # Errors
+/// [`KktError::NonFinite`] if `A` or `r` has a non-finite entry.
+#[allow(clippy::neg_cmp_op_on_partial_ord)]
+pub fn regularized_solve(
+    a: &[f64],
+    m: usize,
+    lda: usize,
+    r: &[f64],
+    x: &mut [f64],
+    work: &mut [f64],
+) -> Result<usize, KktError> {
+    let (l, rest) = work[..regularized_scratch(m)].split_at_mut(m * m);
+    let (inv, rest) = rest.split_at_mut(m);
+    let (scale, rest) = rest.split_at_mut(m);
+    let (res, dx) = rest.split_at_mut(m);
+    let dmax = (0..m).map(|j| a[j * lda + j]).fold(0.0, f64::max);
+    if !dmax.is_finite() || r[..m].iter().any(|v| !v.is_finite()) {
+        return Err(KktError::NonFinite { n: m });
+    }
+    x[..m].fill(0.0);
+    if !(dmax > 0.0) {
+        // G = 0: every multiplier does, the least is 0
+        return Ok(0);
+    }
+    // a zero row of G (A_jj = 0) is regularized at the scale of the others
+    for (j, s) in scale.iter_mut().enumerate() {
+        *s = a[j * lda + j].max(f64::EPSILON * dmax);
+    }
+    for i in 0..m {
+        for j in 0..=i {
+            l[i * m + j] = a[i * lda + j];
+        }
+        l[i * m + i] += SINGULAR_MU * scale[i];
+    }
+    for j in 0..m {
+        let mut d = l[j * m + j];
+        for k in 0..j {
+            d -= l[j * m + k] * l[j * m + k] * l[k * m + k];
+        }
+        if !d.is_finite() {
+            return Err(KktError::NonFinite { n: m });
+        }
+        // A_mu is positive definite in exact arithmetic; a pivot lost to
+        // rounding anyway keeps the regularization's own size
+        let d = if d > 0.5 * SINGULAR_MU * scale[j] { d } else { SINGULAR_MU * scale[j] };
+        l[j * m + j] = d;
+        inv[j] = 1.0 / d;
+        for i in j + 1..m {
+            let mut s = l[i * m + j];
+            for k in 0..j {
+                s -= l[i * m + k] * l[j * m + k] * l[k * m + k];
+            }
+            l[i * m + j] = s * inv[j];
+        }
+    }
+    let mut sweeps = 0;
+    for _ in 0..SINGULAR_SWEEPS {
+        // res = r - A x, A symmetric from its lower triangle
+        for i in 0..m {
+            let mut s = r[i];
+            for j in 0..m {
+                let aij = if j <= i { a[i * lda + j] } else { a[j * lda + i] };
+                s -= aij * x[j];
+            }
+            res[i] = s;
+        }
+        for i in 0..m {
+            let mut s = res[i];
+            for k in 0..i {
+                s -= l[i * m + k] * dx[k];
+            }
+            dx[i] = s;
+        }
+        for i in (0..m).rev() {
+            let mut s = dx[i] * inv[i];
+            for k in i + 1..m {
+                s -= l[k * m + i] * dx[k];
+            }
+            dx[i] = s;
+        }
+        sweeps += 1;
+        let (mut step, mut size) = (0.0f64, 0.0f64);
+        for j in 0..m {
+            x[j] += dx[j];
+            let w = scale[j].sqrt();
+            step = step.max((dx[j] * w).abs());
+            size = size.max((x[j] * w).abs());
+        }
+        if !(step > 8.0 * f64::EPSILON * size) {
+            break;
+        }
+    }
+    Ok(sweeps)
+}
+
 /// `A = G W^-1 G^T` for model `Mo`, or its leading block (the holonomic
 /// rows come first in `G`, so the leading nh x nh block is
 /// `C_q W^-1 C_q^T`, used by position projection), assembled and solved.
@@ -315,21 +450,32 @@ pub struct NormalSystem {
     nc: usize,
     a: Vec<f64>,
     scratch: Vec<f64>,
+    /// Whether the last solve found the block singular and took
+    /// [`regularized_solve`].
+    singular: bool,
 }
 
 impl NormalSystem {
     /// Workspace for `nc` constraint rows.
     pub fn new(nc: usize) -> Self {
-        Self { nc, a: vec![0.0; nc * nc], scratch: vec![0.0; nc * (nc + 1)] }
+        Self { nc, a: vec![0.0; nc * nc], scratch: vec![0.0; regularized_scratch(nc)], singular: false }
+    }
+
+    /// Whether the last [`NormalSystem::solve`] found its block singular
+    /// (a rank-deficient `G` at this state) and solved it regularized.
+    pub fn was_singular(&self) -> bool {
+        self.singular
     }
 
     /// Assembles `A` from `G`'s pattern values and `winv` (nq) and solves
     /// `A_m x = r` with `A_m` its leading `m` x `m` block (x, r: m);
-    /// returns the pivot growth (see [`ldl_solve`]).
+    /// returns the pivot growth (see [`ldl_solve`]). A block that is
+    /// singular to rounding (dependent rows of `G` at this state) is solved
+    /// by [`regularized_solve`], reported by [`NormalSystem::was_singular`],
+    /// with the growth `1 / PIVOT_RTOL`.
     ///
     /// # Errors
-    /// [`KktError::DependentConstraints`] if that block is not (numerically)
-    /// positive definite.
+    /// [`KktError::NonFinite`] if `A` or `r` has a non-finite entry.
     #[inline]
     #[allow(clippy::too_many_arguments)]
     pub fn solve<Mo: Model>(
@@ -343,7 +489,37 @@ impl NormalSystem {
         x: &mut [f64],
     ) -> Result<f64, KktError> {
         model.normal_matrix(pattern, self.nc, values, winv, &mut self.a);
-        ldl_solve(&self.a, m, self.nc, r, x, &mut self.scratch)
+        self.singular = false;
+        match ldl_solve(&self.a, m, self.nc, r, x, &mut self.scratch) {
+            Err(KktError::DependentConstraints { .. }) => self.solve_singular(m, r, x),
+            other => other,
+        }
+    }
+
+    /// The block assembled by the last [`NormalSystem::solve`], solved by
+    /// [`regularized_solve`] (kept out of line: rare).
+    #[cold]
+    #[inline(never)]
+    fn solve_singular(&mut self, m: usize, r: &[f64], x: &mut [f64]) -> Result<f64, KktError> {
+        regularized_solve(&self.a, m, self.nc, r, x, &mut self.scratch)?;
+        self.singular = true;
+        Ok(1.0 / PIVOT_RTOL)
+    }
+
+    /// Assembles `A = G W^-1 G^T` from `G`'s pattern values and `winv`
+    /// (nq) without solving (for [`NormalSystem::strict_rank_check`]).
+    pub fn assemble<Mo: Model>(&mut self, model: &Mo, pattern: &[(usize, usize)], values: &[f64], winv: &[f64]) {
+        model.normal_matrix(pattern, self.nc, values, winv, &mut self.a);
+    }
+
+    /// Solves the block assembled by the last [`NormalSystem::solve`] or
+    /// [`NormalSystem::assemble`] with
+    /// the strict pivot test only (no regularization): whether its leading
+    /// `m` rows are independent, and if not the first dependent row.
+    pub fn strict_rank_check(&mut self, m: usize) -> Result<(), KktError> {
+        let r = vec![1.0; m];
+        let mut x = vec![0.0; m];
+        ldl_solve(&self.a, m, self.nc, &r, &mut x, &mut self.scratch).map(|_| ())
     }
 }
 
@@ -412,6 +588,9 @@ impl<Mo: Model> KktSolver for SchurCholesky<Mo> {
     }
     fn condition_estimate(&self) -> Option<f64> {
         Some(self.growth)
+    }
+    fn was_singular(&self) -> bool {
+        self.normal.was_singular()
     }
 }
 
@@ -485,6 +664,60 @@ mod tests {
                 Err(KktError::NonFinite { n: m })
             );
         }
+    }
+
+    /// A rank-deficient, consistent system (G with a repeated row, so
+    /// `G G^T` has rank m - 1) is solved by the regularized sweeps to the
+    /// least solution: `A x = r` to rounding, and `x` splits the repeated
+    /// row's share evenly (the minimum-norm multipliers, to `eps / mu`). A nearly
+    /// singular one (the copy tilted by 1e-9) gives the same `G^T x`.
+    #[test]
+    fn regularized_solve_gives_the_least_solution() {
+        for m in [3, 5, 9] {
+            for tilt in [0.0, 1e-9] {
+                // rows of G (m x m+1): row m-1 repeats row m-2, tilted
+                let g = |i: usize, j: usize| -> f64 {
+                    let i2 = if i == m - 1 { m - 2 } else { i };
+                    let base = if i2 == j { 2.0 } else { 0.1 * ((i2 * 3 + j) % 4) as f64 };
+                    base + if i == m - 1 && j == m { tilt } else { 0.0 }
+                };
+                let n = m + 1;
+                let a: Vec<f64> = (0..m * m).map(|k| (0..n).map(|l| g(k / m, l) * g(k % m, l)).sum()).collect();
+                // consistent: r = G v for some v
+                let v: Vec<f64> = (0..n).map(|j| 1.0 - 0.3 * j as f64).collect();
+                let r: Vec<f64> = (0..m).map(|i| (0..n).map(|j| g(i, j) * v[j]).sum()).collect();
+                let mut x = vec![0.0; m];
+                let mut work = vec![0.0; regularized_scratch(m)];
+                let sweeps = regularized_solve(&a, m, m, &r, &mut x, &mut work).unwrap();
+                assert!(sweeps <= SINGULAR_SWEEPS);
+                let scale = r.iter().fold(0.0f64, |s, v| s.max(v.abs()));
+                for i in 0..m {
+                    let ax: f64 = (0..m).map(|j| a[i * m + j] * x[j]).sum();
+                    assert!((ax - r[i]).abs() < 1e-9 * scale, "m = {m}, tilt {tilt}, row {i}: {ax} vs {}", r[i]);
+                }
+                // least to eps / mu: rounding in the residual grows by
+                // 1 / mu along the null direction (harmless: G^T there is 0)
+                if tilt == 0.0 {
+                    assert!((x[m - 1] - x[m - 2]).abs() < 1e-3 * x[m - 2].abs().max(1.0), "least: {x:?}");
+                }
+                // G^T x, what moves the system, equals that of the exact
+                // (full-rank) solution of the other rows
+                let gtx: Vec<f64> = (0..n).map(|j| (0..m).map(|i| g(i, j) * x[i]).sum()).collect();
+                let mut y = vec![0.0; m - 1];
+                let b: Vec<f64> = (0..m - 1).map(|i| a[i * m..i * m + m - 1].to_vec()).flatten().collect();
+                ldl_solve_dynamic(&b, m - 1, m - 1, &r, &mut y, &mut vec![0.0; m * m]).unwrap();
+                let gty: Vec<f64> = (0..n).map(|j| (0..m - 1).map(|i| g(i, j) * y[i]).sum()).collect();
+                for j in 0..n {
+                    assert!((gtx[j] - gty[j]).abs() < 1e-6 * scale, "m = {m}, tilt {tilt}: {gtx:?} vs {gty:?}");
+                }
+            }
+        }
+        // and a non-finite system is refused
+        let mut x = [0.0; 2];
+        assert_eq!(
+            regularized_solve(&[f64::NAN, 0.0, 0.0, 1.0], 2, 2, &[1.0, 1.0], &mut x, &mut [0.0; 12]),
+            Err(KktError::NonFinite { n: 2 })
+        );
     }
 
     #[test]
