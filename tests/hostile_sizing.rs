@@ -340,7 +340,8 @@ fn replot_without_a_ladder_names_the_flag() {
 }
 
 /// An initial state whose kinetic energy overflows is blamed on the
-/// scene's initial values, naming the velocity, whatever the method.
+/// scene's initial values, naming the velocity, whatever the method and
+/// formulation.
 /// Before, Euler without projection advised a smaller --dt.
 #[test]
 fn an_infinite_initial_state_is_not_blamed_on_the_step() {
@@ -348,12 +349,14 @@ fn an_infinite_initial_state_is_not_blamed_on_the_step() {
     let drive = std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/models/scenes/drive.toml")).unwrap();
     let scene = dir.path().join("fast.toml");
     std::fs::write(&scene, drive.replace("qd = { x1 = 0.0, phi1 = 0.0 }", "qd = { x1 = 1e160, phi1 = 0.0 }")).unwrap();
-    for method in ["euler", "rk4", "dop853"] {
+    for (method, formulation) in [("euler", "dae"), ("rk4", "dae"), ("dop853", "dae"), ("dop853", "reduced")] {
         let e = cli(&[
             "run",
             s(&scene),
             "--integrator",
             method,
+            "--formulation",
+            formulation,
             "--projection",
             "none",
             "--t-end",

@@ -723,6 +723,8 @@ pub fn simulate<M: Model, O: Observer<M>>(
     observer: &mut O,
 ) -> Result<Summary, RunError<O::Error>> {
     settings.validate()?;
+    // before any formulation is built on it
+    check_initial(sys, y0)?;
     let (nq, nc) = (sys.info.nq(), sys.info.nc());
     // the reduced formulation, built at y0 (auto keeps it only where its
     // dependent coordinates follow from one Newton step)
@@ -766,7 +768,6 @@ pub fn simulate<M: Model, O: Observer<M>>(
         settings
     };
     sys.forget_waveforms();
-    check_initial(sys, y0)?;
     let t0_energy = sys.kinetic_energy(&y0[nq..2 * nq]);
     let counters0 = sys.counters;
     let mut run = Run {

@@ -58,7 +58,7 @@ pub const MAX_RUNS: u64 = 1 << 40;
 
 impl Values {
     /// Number of values of a fixed axis (`None` for a random one).
-    pub fn len(&self) -> Option<u64> {
+    pub fn count(&self) -> Option<u64> {
         match self {
             Self::Fixed(v) => Some(v.len() as u64),
             Self::Grid { count, .. } => Some(*count),
@@ -66,7 +66,7 @@ impl Values {
         }
     }
 
-    /// Value `j` of a fixed axis (`j` below [`Values::len`]).
+    /// Value `j` of a fixed axis (`j` below [`Values::count`]).
     ///
     /// # Panics
     /// For a random axis, or `j` out of range.
@@ -209,13 +209,13 @@ impl Plan {
         // the product of the axes' lengths, counted before any run
         let mut runs: u64 = plan.samples;
         for a in &plan.axes {
-            if let Some(n) = a.values.len() {
+            if let Some(n) = a.values.count() {
                 runs = runs.saturating_mul(n);
             }
         }
         if runs > MAX_RUNS {
             let lengths: Vec<String> =
-                (plan.axes.iter().filter_map(|a| a.values.len().map(|n| format!("{} ({n})", a.name))))
+                (plan.axes.iter().filter_map(|a| a.values.count().map(|n| format!("{} ({n})", a.name))))
                     .chain((random).then(|| format!("--samples ({})", plan.samples)))
                     .collect();
             return Err(format!(
@@ -229,7 +229,7 @@ impl Plan {
 
     /// Number of runs.
     pub fn runs(&self) -> u64 {
-        self.axes.iter().filter_map(|a| a.values.len()).product::<u64>() * self.samples
+        self.axes.iter().filter_map(|a| a.values.count()).product::<u64>() * self.samples
     }
 
     /// The axes' names, in column order.
@@ -246,13 +246,13 @@ impl Plan {
     pub fn values_into(&self, i: u64, out: &mut Vec<f64>) {
         // the fixed axes come first (`Plan::new` sorts them), the last
         // varying fastest
-        let fixed = self.axes.iter().take_while(|a| a.values.len().is_some()).count();
+        let fixed = self.axes.iter().take_while(|a| a.values.count().is_some()).count();
         out.clear();
         out.resize(fixed, 0.0);
         let mut rest = i / self.samples;
         for k in (0..fixed).rev() {
             let values = &self.axes[k].values;
-            let n = values.len().expect("a fixed axis");
+            let n = values.count().expect("a fixed axis");
             out[k] = values.get(rest % n);
             rest /= n;
         }
@@ -279,14 +279,14 @@ impl Plan {
 
     /// Number of values of axis `k` (`None` for a random one).
     pub fn fixed_len(&self, k: usize) -> Option<u64> {
-        self.axes[k].values.len()
+        self.axes[k].values.count()
     }
 
     /// The values of the fixed axis `k` (`None` for a random one), as an
     /// iterator: a grid's are computed one by one.
     pub fn fixed_iter(&self, k: usize) -> Option<impl Iterator<Item = f64> + '_> {
         let values = &self.axes[k].values;
-        values.len().map(|n| (0..n).map(move |j| values.get(j)))
+        values.count().map(|n| (0..n).map(move |j| values.get(j)))
     }
 }
 
@@ -331,11 +331,11 @@ mod tests {
         // an axis of 2^40 values is not built, and finite bounds give
         // finite values even where their difference overflows
         let huge = grid("a=-1e308:1e308:1099511627776").unwrap().values;
-        assert_eq!(huge.len(), Some(1 << 40));
+        assert_eq!(huge.count(), Some(1 << 40));
         assert_eq!((huge.get(0), huge.get((1 << 40) - 1)), (-1e308, 1e308));
         assert!((0..1000).all(|k| huge.get(k * 1_000_000_007).is_finite()));
         assert!(grid("a=0:1:1099511627777").unwrap_err().contains("more than 1099511627776"));
-        assert_eq!(grid("a=0:1:1e3").unwrap().values.len(), Some(1000));
+        assert_eq!(grid("a=0:1:1e3").unwrap().values.count(), Some(1000));
         let wide = Plan::new(vec![random("w=-1.7e308:1.7e308").unwrap()], Some(50), 3).unwrap();
         assert!((0..50).all(|i| wide.values(i)[0].is_finite()));
     }
