@@ -28,7 +28,7 @@
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
-use ezy_core::{Dynamics, Model, Observer, Sample, Scene};
+use ezy_core::{Dynamics, Model, Observer, Sample, Scene, fmt_value};
 use plotters::prelude::*;
 use rayon::prelude::*;
 
@@ -152,18 +152,18 @@ impl<M: Model> Observer<M> for Frames {
 fn frame_count(anim: &AnimateOptions, t_end: f64) -> Result<usize, AnimateError> {
     let bad = |m: String| Err(AnimateError::Setting(m));
     if !(anim.fps.is_finite() && (1.0..=50.0).contains(&anim.fps)) {
-        return bad(format!("--fps {}: the frame rate is from 1 to 50 frames per second", anim.fps));
+        return bad(format!("--fps {}: the frame rate is from 1 to 50 frames per second", fmt_value(anim.fps)));
     }
     if !(anim.speed.is_finite() && anim.speed > 0.0) {
-        return bad(format!("--speed {}: the speed (simulated seconds per second) must be > 0", anim.speed));
+        return bad(format!("--speed {}: the speed (simulated seconds per second) must be > 0", fmt_value(anim.speed)));
     }
     if !(anim.trail.is_finite() && anim.trail >= 0.0) {
-        return bad(format!("--trail {}: the trail length [s] must be >= 0", anim.trail));
+        return bad(format!("--trail {}: the trail length [s] must be >= 0", fmt_value(anim.trail)));
     }
     if !(ezy_core::MIN_DPI..=ezy_core::MAX_DPI).contains(&anim.dpi) {
         return bad(format!(
             "--dpi {}: the resolution is from {} to {} dpi",
-            anim.dpi,
+            fmt_value(anim.dpi),
             ezy_core::MIN_DPI,
             ezy_core::MAX_DPI
         ));
@@ -180,10 +180,12 @@ fn frame_count(anim: &AnimateOptions, t_end: f64) -> Result<usize, AnimateError>
     let frames = (t_end * anim.fps / anim.speed).floor() + 2.0;
     if frames > MAX_FRAMES as f64 {
         return bad(format!(
-            "{frames:.0} frames ({t_end} s at {} fps and speed {}) are more than {MAX_FRAMES}: raise --speed to at least {:.3} or lower --fps",
-            anim.fps,
-            anim.speed,
-            t_end * anim.fps / (MAX_FRAMES as f64 - 2.0)
+            "{} frames ({} s at {} fps and speed {}) are more than {MAX_FRAMES}: raise --speed to at least {} or lower --fps",
+            fmt_value(frames),
+            fmt_value(t_end),
+            fmt_value(anim.fps),
+            fmt_value(anim.speed),
+            fmt_value(format!("{:.3e}", t_end * anim.fps / (MAX_FRAMES as f64 - 2.0)).parse().unwrap_or(f64::NAN))
         ));
     }
     Ok(frames as usize)
@@ -205,7 +207,8 @@ pub fn animate_model<M: Model + Default>(
     frame_count(anim, t_end)?;
     if let Some(every) = opts.every {
         return Err(AnimateError::Setting(format!(
-            "--every {every}: an animation samples every speed / fps seconds; set --speed and --fps instead"
+            "--every {}: an animation samples every speed / fps seconds; set --speed and --fps instead",
+            fmt_value(every)
         )));
     }
     let opts = RunOptions { every: Some(anim.speed / anim.fps), ..opts.clone() };
@@ -219,8 +222,11 @@ pub fn animate_model<M: Model + Default>(
         let frames = settings.n_steps() / settings.output_stride() + 2;
         if frames > MAX_FRAMES as u64 || !(1.0..=50.0).contains(&anim.fps) {
             return Err(AnimateError::Setting(format!(
-                "with steps of {} s, frames are {spacing} s apart: {frames} frames at {:.1} fps (at most {MAX_FRAMES} frames from 1 to 50 fps); choose --speed as a multiple of {} s times --fps",
-                settings.dt, anim.fps, settings.dt
+                "with steps of {} s, frames are {} s apart: {frames} frames at {} fps (at most {MAX_FRAMES} frames from 1 to 50 fps); choose --speed as a multiple of {} s times --fps",
+                fmt_value(settings.dt),
+                fmt_value(spacing),
+                fmt_value(format!("{:.1}", anim.fps).parse().unwrap_or(anim.fps)),
+                fmt_value(settings.dt)
             )));
         }
     }

@@ -766,17 +766,26 @@ impl App {
         let (name, src) = self.named_scene(args.scene.as_deref())?;
         let scene = &src.scene;
         let ops = self.model_ops(&scene.model)?;
-        let repeat = usize::try_from(args.repeat).unwrap_or(usize::MAX).min(1000);
+        // `--repeat` is at most bench::MAX_REPEAT (its parser), and
+        // bench_model refuses more for callers that build the arguments
+        let repeat = usize::try_from(args.repeat).unwrap_or(usize::MAX);
         let mut rows = (ops.bench)(scene, repeat).map_err(AppError::from_run)?;
         if !args.no_process {
             // this very program, started anew for each setting: parse,
             // setup, integration and CSV, no figures
             let exe = std::env::current_exe().map_err(|e| AppError::Failed(format!("finding this program: {e}")))?;
             let tmp = tempfile::tempdir().map_err(|e| AppError::Failed(format!("a scratch directory: {e}")))?;
+            let beat = crate::progress::Heartbeat::start(format!("bench {name}: timing the run processes"));
+            let n_rows = rows.len();
             for (k, row) in rows.iter_mut().enumerate() {
                 let dir = tmp.path().join(k.to_string());
                 let mut times = Vec::new();
-                for _ in 0..repeat {
+                for r in 0..repeat {
+                    beat.set(format!(
+                        "bench {name}: process of setting {} of {n_rows}, run {} of {repeat}",
+                        k + 1,
+                        r + 1
+                    ));
                     let start = std::time::Instant::now();
                     let status = std::process::Command::new(&exe)
                         .arg("run")

@@ -27,6 +27,12 @@ use ezy_core::{Formulation, Model, ProjectionKind, Scene};
 use crate::precision::{Setting, run_once_as, state_error};
 use crate::run::Error;
 
+/// Most runs per setting `ezy bench --repeat` takes: each repeat runs the
+/// six settings once more in this process and, unless `--no-process`,
+/// starts the program six more times (the median of a few is already
+/// stable).
+pub const MAX_REPEAT: u64 = 100;
+
 /// One measured setting.
 #[derive(Debug, Clone, PartialEq)]
 pub struct BenchRow {
@@ -51,11 +57,17 @@ pub struct BenchRow {
 }
 
 /// Measures the six settings of the module documentation on `scene`,
-/// each integration `repeat` times (at least 1).
+/// each integration `repeat` times (at least 1, at most [`MAX_REPEAT`]);
+/// a line on stderr every few seconds says which run is going.
 ///
 /// # Errors
-/// [`Error`] if a run fails.
+/// [`Error`] if a run fails, [`Error::Input`] for `repeat` above
+/// [`MAX_REPEAT`] (before any run).
 pub fn bench_model<M: Model + Default>(scene: &Scene, repeat: usize) -> Result<Vec<BenchRow>, Error> {
+    if repeat as u64 > MAX_REPEAT {
+        return Err(Error::Input(format!("--repeat {repeat} is more than {MAX_REPEAT}, the most runs per setting")));
+    }
+    let beat = crate::progress::Heartbeat::start(format!("bench {}: the reference run", scene.name));
     let t_end = scene.t_end;
     let reference =
         Setting { method: Method::Dop853, dt: None, tol: Some(1e-13), projection: ProjectionKind::MassWeighted };
@@ -69,11 +81,16 @@ pub fn bench_model<M: Model + Default>(scene: &Scene, repeat: usize) -> Result<V
         projection: own.projection,
     };
     let own_what = match own_setting.dt {
-        Some(h) => format!("{} h = {h} s, projection {} (the scene's)", own.method.name(), own.projection.name()),
+        Some(h) => format!(
+            "{} h = {} s, projection {} (the scene's)",
+            own.method.name(),
+            ezy_core::fmt_value(h),
+            own.projection.name()
+        ),
         None => format!("{} rtol = {:e} (the scene's)", own.method.name(), own.rtol),
     };
     let own_auto = match own_setting.dt {
-        Some(h) => format!("{} h = {h} s, formulation auto", own.method.name()),
+        Some(h) => format!("{} h = {} s, formulation auto", own.method.name(), ezy_core::fmt_value(h)),
         None => format!("{} rtol = {:e}, formulation auto", own.method.name(), own.rtol),
     };
     let dop = ["--integrator", "dop853", "--rtol", "1e-11", "--atol", "1e-11"].map(String::from).to_vec();
@@ -117,10 +134,18 @@ pub fn bench_model<M: Model + Default>(scene: &Scene, repeat: usize) -> Result<V
         (own_auto, own_setting, Formulation::Auto, own.every, args(&[], &["--formulation", "auto"])),
     ];
     let mut rows = Vec::new();
-    for (what, setting, formulation, every, args) in cases {
+    let n_cases = cases.len();
+    for (k, (what, setting, formulation, every, args)) in cases.into_iter().enumerate() {
         let (mut times, mut outputs) = (Vec::new(), Vec::new());
         let (mut error, mut rhs_evals, mut minimal) = (f64::NAN, 0, None);
-        for _ in 0..repeat.max(1) {
+        for r in 0..repeat.max(1) {
+            beat.set(format!(
+                "bench {}: setting {} of {n_cases}, run {} of {}",
+                scene.name,
+                k + 1,
+                r + 1,
+                repeat.max(1)
+            ));
             let (last, summary) = run_once_as::<M>(scene, &setting, every, false, formulation)?;
             if summary.formulation == Formulation::Reduced {
                 minimal = Some(summary.minimal_coordinates);

@@ -46,8 +46,8 @@ pub enum Command {
 pub struct BenchArgs {
     /// Scene: a known name (default: drive) or a path to a .toml scene file.
     pub scene: Option<String>,
-    /// Runs per setting (the median is reported).
-    #[arg(long, value_name = "N", default_value_t = 5, value_parser = parse_count)]
+    /// Runs per setting (the median is reported), at most 100.
+    #[arg(long, value_name = "N", default_value_t = 5, value_parser = parse_repeat)]
     pub repeat: u64,
     /// Skip timing the whole `run` processes.
     #[arg(long)]
@@ -103,14 +103,14 @@ impl AnimateArgs {
 pub struct ScaleArgs {
     /// Model with a family count (see `ezy list`), e.g. snake.
     pub model: String,
-    /// Family sizes, comma-separated.
-    #[arg(long, value_delimiter = ',', default_value = "10,100,1000,10000")]
+    /// Family sizes, comma-separated (each from 1 to 1e6).
+    #[arg(long, value_delimiter = ',', default_value = "10,100,1000,10000", value_parser = parse_size)]
     pub n: Vec<usize>,
     /// Output format.
     #[arg(long, value_enum, default_value = "table")]
     pub format: ScaleFormat,
-    /// Batches timed per size (the median is reported).
-    #[arg(long, default_value_t = 15)]
+    /// Batches timed per size (the median is reported), at most 1000.
+    #[arg(long, default_value_t = 15, value_parser = parse_batches)]
     pub batches: usize,
     /// KKT path: auto (dense below 16 rows, sparse from 16), schur (dense), sparse, lu.
     #[arg(long, value_enum, default_value = "auto")]
@@ -509,6 +509,60 @@ pub fn parse_count(s: &str) -> Result<u64, String> {
     } else {
         Err(format!("`{s}` must be a whole number from 1 to 2^53"))
     }
+}
+
+/// A whole number from 1 to `max`, also written as a float (`1e3`), for
+/// a flag whose every unit costs time: `what` says what it counts.
+///
+/// # Errors
+/// Not a whole number >= 1, or more than `max` (the message gives the
+/// value and the limit).
+fn parse_capped(s: &str, max: u64, what: &str) -> Result<u64, String> {
+    let n = parse_count(s).map_err(|e| {
+        if s.trim().parse::<f64>().is_ok_and(|v| v > max as f64) {
+            format!("`{s}` is more than {max}, the most {what}")
+        } else {
+            e
+        }
+    })?;
+    if n > max {
+        return Err(format!("`{}` is more than {max}, the most {what}", s.trim()));
+    }
+    Ok(n)
+}
+
+/// `--repeat` of `ezy bench`: from 1 to [`crate::bench::MAX_REPEAT`].
+///
+/// # Errors
+/// Not a whole number from 1 to the limit.
+pub fn parse_repeat(s: &str) -> Result<u64, String> {
+    parse_capped(
+        s,
+        crate::bench::MAX_REPEAT,
+        "runs per setting (each repeat runs the six settings again, and as many whole processes)",
+    )
+}
+
+/// `--batches` of `ezy scale`: from 1 to [`crate::scale::MAX_BATCHES`].
+///
+/// # Errors
+/// Not a whole number from 1 to the limit.
+pub fn parse_batches(s: &str) -> Result<usize, String> {
+    parse_capped(
+        s,
+        crate::scale::MAX_BATCHES as u64,
+        "batches per size (each takes at least 2 ms, more for large sizes)",
+    )
+    .map(|n| n as usize)
+}
+
+/// A family size of `ezy scale --n`: a whole number (also `1e4`) from 1
+/// to [`ezy_core::scene::MAX_COUNT`].
+///
+/// # Errors
+/// Not a whole number from 1 to the limit.
+pub fn parse_size(s: &str) -> Result<usize, String> {
+    parse_capped(s, ezy_core::scene::MAX_COUNT as u64, "elements of a family (1e6)").map(|n| n as usize)
 }
 
 /// `NAME=VALUE` of `--set`, with a finite value.

@@ -22,7 +22,7 @@ pub enum FigureError {
     },
     /// A value the figure would have to draw cannot be drawn: it is not
     /// finite, or its magnitude is beyond [`crate::plot::MAX_MAGNITUDE`].
-    #[error("figure {figure}: column `{column}` is {value:e} at t = {t} s, which {reason}; the figure is not drawn")]
+    #[error("figure {figure}: column `{column}` is {value:e} at t = {} s, which {reason}; the figure is not drawn", ezy_core::fmt_value(*t))]
     Value {
         /// Figure file name.
         figure: String,

@@ -367,6 +367,10 @@ pub struct CsvObserver<'a, M: Model> {
     builder: RowBuilder<M>,
     progress: Option<crate::progress::Progress>,
     tap: Option<Tap<'a>>,
+    /// The latest simulated time the run reported \[s\] (samples are
+    /// observed in batches, behind the step loop): what an interruption
+    /// names.
+    reached: f64,
 }
 
 impl<'a, M: Model> CsvObserver<'a, M> {
@@ -405,6 +409,7 @@ impl<'a, M: Model> CsvObserver<'a, M> {
             builder,
             progress,
             tap: None,
+            reached: 0.0,
         })
     }
 
@@ -442,7 +447,8 @@ impl<M: Model> Observer<M> for CsvObserver<'_, M> {
     type Error = OutputError;
 
     fn observe(&mut self, sys: &Dynamics<M>, s: &Sample<'_>) -> Result<(), OutputError> {
-        crate::transaction::check_interrupt(&self.dir, Some(s.t), None)?;
+        self.reached = self.reached.max(s.t);
+        crate::transaction::check_interrupt(&self.dir, Some(self.reached), None)?;
         self.builder.fill(sys, s, &mut self.row)?;
         self.writer.push(&self.row)?;
         if let Some(tap) = &mut self.tap {
@@ -465,10 +471,12 @@ impl<M: Model> Observer<M> for CsvObserver<'_, M> {
 
     /// Stops the run if a signal arrived (see [`crate::transaction`]).
     fn poll(&mut self, t: f64) -> Result<(), OutputError> {
-        Ok(crate::transaction::check_interrupt(&self.dir, Some(t), None)?)
+        self.reached = self.reached.max(t);
+        Ok(crate::transaction::check_interrupt(&self.dir, Some(self.reached), None)?)
     }
 
     fn progress(&mut self, t: f64) {
+        self.reached = self.reached.max(t);
         if let Some(p) = &mut self.progress {
             p.update(t);
         }

@@ -202,8 +202,11 @@ pub fn precision_model<M: Model + Default>(
     let reference =
         Setting { method: Method::Dop853, dt: None, tol: Some(1e-13), projection: ProjectionKind::MassWeighted };
     let (rows, reference_error) = if opts.replot {
-        let rows = read_csv(&out.join("precision.csv"))
-            .map_err(|e| Error::Sim(ezy_core::SimError::Scene { key: "--replot".into(), message: e }))?;
+        let rows = read_csv(&out.join("precision.csv")).map_err(|e| {
+            Error::Input(format!(
+                "--replot redraws the figures from the precision.csv of an earlier `ezy precision` in the output directory: {e}"
+            ))
+        })?;
         (rows, f64::NAN)
     } else {
         let (ref_run, _) = run_once::<M>(scene, &reference, scene.t_end, false)?;
@@ -328,20 +331,30 @@ pub struct Overlay {
     pub points: Vec<(f64, f64)>,
 }
 
+/// Largest overlay file `ezy precision --overlay` reads \[bytes\]: 32 MiB,
+/// about a million points (a diagram shows a few dozen).
+pub const MAX_OVERLAY_BYTES: u64 = 32 << 20;
+
+/// Largest `precision.csv` `ezy precision --replot` reads \[bytes\]:
+/// 16 MiB (the ladder writes about 4 KiB).
+pub const MAX_PRECISION_CSV_BYTES: u64 = 16 << 20;
+
 /// Reads an overlay file: CSV with the header `label,wall_s,error` and one
 /// point per row; rows with the same label form one series, in the order
 /// of their first row.
 ///
 /// # Errors
-/// The file, line and field of a missing header, a short row or a value
-/// that is not a finite number > 0.
+/// A file that is not a regular one (a FIFO, a device) or is larger than
+/// [`MAX_OVERLAY_BYTES`] (nothing past the cap is read); the file, line
+/// and field of a missing header, a short row or a value that is not a
+/// finite number > 0.
 pub fn read_overlay(path: &Path) -> Result<Vec<Overlay>, String> {
     let name = path.display();
-    let mut r = csv::ReaderBuilder::new()
-        .comment(Some(b'#'))
-        .trim(csv::Trim::All)
-        .from_path(path)
-        .map_err(|e| format!("{name}: {e}"))?;
+    // a regular file of at most MAX_OVERLAY_BYTES, read whole: a device,
+    // a FIFO or an endless file is refused at once
+    let bytes = ezy_core::files::read_capped(path, MAX_OVERLAY_BYTES, "the overlay file")
+        .map_err(|e| format!("--overlay {name}: {e}"))?;
+    let mut r = csv::ReaderBuilder::new().comment(Some(b'#')).trim(csv::Trim::All).from_reader(bytes.as_slice());
     let header = r.headers().map_err(|e| format!("{name}: {e}"))?.clone();
     if header.iter().collect::<Vec<_>>() != ["label", "wall_s", "error"] {
         return Err(format!(
@@ -372,11 +385,13 @@ pub fn read_overlay(path: &Path) -> Result<Vec<Overlay>, String> {
 /// Reads the rows of a `precision.csv` that `ezy precision` wrote.
 ///
 /// # Errors
-/// The file and line of a row that does not parse (an unknown method or
-/// projection, a value that is not a number).
+/// A missing file, one that is not a regular file or is larger than
+/// [`MAX_PRECISION_CSV_BYTES`]; the file and line of a row that does not
+/// parse (an unknown method or projection, a value that is not a number).
 pub fn read_csv(path: &Path) -> Result<Vec<Row>, String> {
     let name = path.display();
-    let text = std::fs::read_to_string(path).map_err(|e| format!("{name}: {e}"))?;
+    let text = ezy_core::files::read_capped_text(path, MAX_PRECISION_CSV_BYTES, "a precision.csv")
+        .map_err(|e| format!("{name}: {e}"))?;
     let mut lines = text.lines();
     let header = "method,dt,rtol,atol,projection,error,wall_s,rhs_evals,max_residual";
     if lines.next() != Some(header) {

@@ -38,6 +38,11 @@ pub enum Error {
         /// Model key.
         model: String,
     },
+    /// A file the command reads besides the scene (the `precision.csv`
+    /// that `ezy precision --replot` redraws) is missing or bad; the
+    /// message names the file and the flag that asked for it.
+    #[error("{0}")]
+    Input(String),
     /// The output directory cannot be created.
     #[error("cannot create output directory {path}: {source}")]
     OutDir {
@@ -517,7 +522,8 @@ pub fn run_model_tapped<M: Model + Default>(
     let mut warnings = initial.warnings();
     if let Some((t, c)) = summary.ill_conditioned {
         warnings.push(format!(
-            "from t = {t} s the KKT system is ill-conditioned (estimate {c:.1e} > {:.0e}): constraints are nearly dependent, expect about {:.0e} relative accuracy in the constraint forces",
+            "from t = {} s the KKT system is ill-conditioned (estimate {c:.1e} > {:.0e}): constraints are nearly dependent, expect about {:.0e} relative accuracy in the constraint forces",
+            ezy_core::fmt_value(t),
             ezy_core::dynamics::CONDITION_WARNING,
             c * f64::EPSILON
         ));

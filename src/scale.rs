@@ -15,6 +15,11 @@ use ezy_core::{Dynamics, Model, ProjectionKind};
 use rand::rngs::StdRng;
 use rand::{Rng, SeedableRng};
 
+/// Most batches `ezy scale` times per size (`--batches`): each takes at
+/// least 2 ms, and one evaluation of a family of a million elements
+/// about 0.1 s, so 1000 batches of it take minutes.
+pub const MAX_BATCHES: usize = 1000;
+
 /// One measured size.
 #[derive(Debug, Clone, PartialEq)]
 pub struct ScalePoint {
@@ -39,8 +44,14 @@ pub enum ScaleError {
         /// Model name.
         model: &'static str,
     },
+    /// More batches than [`MAX_BATCHES`].
+    #[error("--batches {batches} is more than {MAX_BATCHES}, the most batches per size")]
+    Batches {
+        /// The batches asked for.
+        batches: usize,
+    },
     /// A count the model does not accept.
-    #[error("{name} = {n}: {message}")]
+    #[error("--n {n}: {message}")]
     BadCount {
         /// The count's name.
         name: &'static str,
@@ -82,11 +93,24 @@ pub fn scale<M: Model + Default>(
         .find(|(_, p)| p.count)
         .map(|(i, p)| (i, p.name))
         .ok_or(ScaleError::NoCount { model: info.name })?;
-    let mut out = Vec::with_capacity(ns.len());
+    // every size and the batches checked before any model is built
     for &n in ns {
-        let fail = |message: String| ScaleError::Failed { name, n, message };
         if let Err(e) = ezy_core::scene::check_count(name, n as f64) {
             return Err(ScaleError::BadCount { name, n, message: e.message });
+        }
+    }
+    if min_batches > MAX_BATCHES {
+        return Err(ScaleError::Batches { batches: min_batches });
+    }
+    let mut out = Vec::with_capacity(ns.len());
+    let beat = ns
+        .iter()
+        .any(|&n| n as f64 >= crate::run::LONG_SETUP_ELEMENTS)
+        .then(|| crate::progress::Heartbeat::start(format!("scale {}: setting up {name} = {}", info.name, ns[0])));
+    for (k, &n) in ns.iter().enumerate() {
+        let fail = |message: String| ScaleError::Failed { name, n, message };
+        if let Some(b) = &beat {
+            b.set(format!("scale {}: {name} = {n} (size {} of {}): setting up and timing", info.name, k + 1, ns.len()));
         }
         let mut model = base.clone();
         model.set_param(index, n as f64);

@@ -107,8 +107,9 @@ impl std::fmt::Display for Interrupted {
         write!(f, "interrupted ({})", self.signal.name())?;
         if let Some(t) = self.t {
             // 9 significant digits at most: `25.41`, not `25.410000000000004`
+            // (and `1e300`, not 301 digits)
             let t: f64 = format!("{t:.8e}").parse().unwrap_or(t);
-            write!(f, " at t = {t} s")?;
+            write!(f, " at t = {} s", ezy_core::fmt_value(t))?;
         }
         if let Some(d) = &self.doing {
             write!(f, ", {d}")?;
@@ -131,7 +132,7 @@ pub enum TransactionError {
         dir: PathBuf,
     },
     /// The output directory cannot be created.
-    #[error("cannot create output directory {}: {source}", path.display())]
+    #[error("{}", ezy_core::files::io_message(path, source, &format!("cannot create output directory {}", path.display())))]
     OutDir {
         /// The directory.
         path: PathBuf,
@@ -141,7 +142,7 @@ pub enum TransactionError {
     /// A file could not be created, written, synced or renamed. `path` is
     /// the file's final name (its temporary copy lives in the run's
     /// private directory).
-    #[error("{}: {source}", path.display())]
+    #[error("{}", ezy_core::files::io_message(path, source, &path.display().to_string()))]
     Io {
         /// The file.
         path: PathBuf,

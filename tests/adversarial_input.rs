@@ -189,7 +189,7 @@ fn bad_numbers_and_misplaced_values_are_named() {
     let big = dir.path().join("big.toml");
     std::fs::write(&big, format!("{drive}\n{}", "# padding\n".repeat(120_000))).unwrap();
     let err = cli(&["run", big.to_str().unwrap(), "--out", o]).unwrap_err();
-    assert!(err.contains("larger than 1024 KiB"), "{err}");
+    assert!(err.contains("larger than 1 MiB"), "{err}");
 }
 
 /// The budget's advice is a value the flag takes, in the notation the

@@ -348,7 +348,10 @@ impl<M: Model> Dynamics<M> {
         res.map_err(|e| match e {
             crate::model::MinimalRhsError::Forces(e) => e,
             crate::model::MinimalRhsError::Maggi(source) => SimError::Formulation {
-                reason: format!("at t = {t} s Maggi's equations on the minimal coordinates cannot be solved: {source}"),
+                reason: format!(
+                    "at t = {} s Maggi's equations on the minimal coordinates cannot be solved: {source}",
+                    crate::error::fmt_value(t)
+                ),
             },
         })
     }

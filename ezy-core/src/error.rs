@@ -7,7 +7,7 @@ use crate::kkt::KktError;
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 pub enum SimError {
     /// The KKT solve failed.
-    #[error("at t = {t} s: {source}")]
+    #[error("at t = {} s: {source}", fmt_value(*t))]
     Kkt {
         /// Time \[s\].
         t: f64,
@@ -16,7 +16,7 @@ pub enum SimError {
     },
     /// A state component or a derived quantity (kinetic energy, work,
     /// residual, an output column) became NaN or infinite.
-    #[error("at t = {t} s {quantity} became {value}; {advice}")]
+    #[error("at t = {} s {quantity} became {value}; {advice}", fmt_value(*t))]
     NonFinite {
         /// Time \[s\] at the start of the failing step.
         t: f64,
@@ -30,7 +30,7 @@ pub enum SimError {
         advice: String,
     },
     /// The integration left the accuracy any result could be used at.
-    #[error("at t = {t} s {quantity} reached {value:.3e} (limit {limit:.0e}); {advice}")]
+    #[error("at t = {} s {quantity} reached {value:.3e} (limit {limit:.0e}); {advice}", fmt_value(*t))]
     Diverged {
         /// Time \[s\].
         t: f64,
@@ -47,7 +47,8 @@ pub enum SimError {
     },
     /// An adaptive method needed a step below the rounding level of `t`.
     #[error(
-        "at t = {t} s the step size fell to {h:e} s, the rounding level of t: the problem may be stiff, the tolerance too tight, or the forces or initial values too large"
+        "at t = {} s the step size fell to {h:e} s, the rounding level of t: the problem may be stiff, the tolerance too tight, or the forces or initial values too large",
+        fmt_value(*t)
     )]
     StepSizeTooSmall {
         /// Time \[s\].
@@ -56,7 +57,7 @@ pub enum SimError {
         h: f64,
     },
     /// An effect could not be evaluated (a spring-damper of zero length).
-    #[error("at t = {t} s the effect `{effect}` {reason}")]
+    #[error("at t = {} s the effect `{effect}` {reason}", fmt_value(*t))]
     EffectFailed {
         /// Time \[s\].
         t: f64,
@@ -104,7 +105,8 @@ pub enum SimError {
     /// Constraints that are not independent (a duplicated hinge, a
     /// redundant closed loop): the multipliers are not unique.
     #[error(
-        "at t = {t} s the constraint `{constraint}` (row {row} of G) depends on the constraints before it ({before}); the model has redundant constraints (the multipliers are not unique): remove `{constraint}` or a constraint it depends on"
+        "at t = {} s the constraint `{constraint}` (row {row} of G) depends on the constraints before it ({before}); the model has redundant constraints (the multipliers are not unique): remove `{constraint}` or a constraint it depends on",
+        fmt_value(*t)
     )]
     DependentConstraints {
         /// Time \[s\].
@@ -267,7 +269,8 @@ pub fn advice(method: crate::Method, t: f64, dt: f64) -> String {
         "the adaptive method met its tolerance up to here, so the solution itself grows without bound: check the scene's forces, parameters and initial values".into()
     } else {
         format!(
-            "the step h = {dt} s is too large for this scene: try a smaller --dt or an adaptive method (--integrator dop853)"
+            "the step h = {} s is too large for this scene: try a smaller --dt or an adaptive method (--integrator dop853)",
+            fmt_value(dt)
         )
     }
 }

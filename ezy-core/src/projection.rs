@@ -191,6 +191,24 @@ impl<M: Model> Projector<M> {
     }
 
     fn build(info: crate::ModelInfo, kind: ProjectionKind, mass: &[f64], sparse: bool) -> Self {
+        if kind == ProjectionKind::None {
+            // nothing is projected: no workspace (a dense normal system of
+            // a 30,000-link snake would take 64 GB)
+            return Self {
+                kind,
+                winv: Vec::new(),
+                sparse: None,
+                ones: Vec::new(),
+                g_values: Vec::new(),
+                r: Vec::new(),
+                x: Vec::new(),
+                normal: NormalSystem::new(0),
+                singular: None,
+                drives: Vec::new(),
+                info,
+                _model: std::marker::PhantomData,
+            };
+        }
         let (nq, nc) = (info.nq(), info.nc());
         let invertible = mass.iter().all(|&m| m > 0.0);
         let winv = match kind {
@@ -208,7 +226,7 @@ impl<M: Model> Projector<M> {
             })
         });
         let nh = info.n_holonomic;
-        let sparse = (sparse && kind != ProjectionKind::None && singular.is_none()).then(|| {
+        let sparse = (sparse && singular.is_none()).then(|| {
             let weights: Vec<f64> = winv.iter().map(|w| 1.0 / w).collect();
             let nnz_h = info.n_holonomic_nonzeros();
             Box::new(SparseProjection {
@@ -222,6 +240,9 @@ impl<M: Model> Projector<M> {
                 lambda: vec![0.0; nc],
             })
         });
+        // the dense normal systems only where they serve: a small model,
+        // or positions next to the singular mass' LU (which the run takes
+        // up to `DENSE_LU_MAX_ROWS` rows only)
         let dense_rows = if sparse.is_some() { 0 } else { nc };
         Self {
             kind,

@@ -643,7 +643,8 @@ impl Reduced {
         crate::model::scatter_dense(&info.pattern, &self.g_values, nq, &mut dense);
         let dependent = |rows: usize, k: usize| SimError::Formulation {
             reason: format!(
-                "at t = {t} s only {k} of the {rows} {} rows of G are independent; the reduced formulation needs independent constraints (--formulation dae names the dependent one)",
+                "at t = {} s only {k} of the {rows} {} rows of G are independent; the reduced formulation needs independent constraints (--formulation dae names the dependent one)",
+                crate::error::fmt_value(t),
                 if rows == nh { "holonomic" } else { "constraint" }
             ),
         };
@@ -843,7 +844,9 @@ impl Reduced {
     }
 
     fn failure(&self, t: f64, what: &str) -> SimError {
-        SimError::Formulation { reason: format!("at t = {t} s {what}; the reduced formulation cannot go on") }
+        SimError::Formulation {
+            reason: format!("at t = {} s {what}; the reduced formulation cannot go on", crate::error::fmt_value(t)),
+        }
     }
 
     /// `dz = F(t, z)`: the full state expanded, the DAE's right-hand side
@@ -935,7 +938,10 @@ impl Reduced {
         sys.applied_forces(t, q, qd, power)?;
         sys.model.minimal_maggi(&sys.mass, &m.b, &m.c, sys.applied_force(), &mut m.a, &mut m.r);
         crate::kkt::spd::ldl_solve(&m.a, nu, nu, &m.r, ud, &mut m.ldl).map_err(|source| SimError::Formulation {
-            reason: format!("at t = {t} s Maggi's equations on the minimal coordinates cannot be solved: {source}"),
+            reason: format!(
+                "at t = {} s Maggi's equations on the minimal coordinates cannot be solved: {source}",
+                crate::error::fmt_value(t)
+            ),
         })?;
         for (d, &j) in pd.iter_mut().zip(&self.partition.q_ind) {
             *d = self.y[nq + j];

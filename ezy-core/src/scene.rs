@@ -398,11 +398,59 @@ impl TryFrom<String> for Column {
     }
 }
 
+/// Splits `s` at the commas outside parentheses.
+fn split_outside_parentheses(s: &str) -> Vec<&str> {
+    let (mut depth, mut start, mut out) = (0i32, 0, Vec::new());
+    for (i, c) in s.char_indices() {
+        match c {
+            '(' => depth += 1,
+            ')' => depth -= 1,
+            ',' if depth == 0 => {
+                out.push(&s[start..i]);
+                start = i + 1;
+            }
+            _ => {}
+        }
+    }
+    out.push(&s[start..]);
+    out
+}
+
+/// Why the parentheses of `s` do not pair up, if they do not: an
+/// unmatched `)` (with its position) or unclosed `(`.
+pub fn unbalanced_parentheses(s: &str) -> Option<String> {
+    let mut depth = 0usize;
+    for (i, c) in s.chars().enumerate() {
+        match c {
+            '(' => depth += 1,
+            ')' if depth == 0 => return Some(format!("the `)` at character {} closes no `(`", i + 1)),
+            ')' => depth -= 1,
+            _ => {}
+        }
+    }
+    match depth {
+        0 => None,
+        1 => Some("a `(` is not closed".to_string()),
+        n => Some(format!("{n} `(` are not closed")),
+    }
+}
+
 impl std::str::FromStr for Column {
     type Err = String;
+    /// A column name, or `FUNCTION(COLUMN, ...)` with FUNCTION one of
+    /// `norm`, `diff`, `from_start`, `balance_gap` and column names as
+    /// arguments (functions do not nest).
+    ///
+    /// # Errors
+    /// The whole text and what is wrong with it: unbalanced parentheses,
+    /// text after the closing one, an unknown function, a wrong number of
+    /// arguments, an argument that is a function or not a name.
     fn from_str(s: &str) -> Result<Self, String> {
         let s = s.trim();
         let name_ok = |n: &str| !n.is_empty() && n.chars().all(|c| c.is_alphanumeric() || "_.-".contains(c));
+        if let Some(why) = unbalanced_parentheses(s) {
+            return Err(format!("`{s}`: {why}"));
+        }
         let Some(open) = s.find('(') else {
             return if name_ok(s) {
                 Ok(Self::Named(s.to_string()))
@@ -411,25 +459,50 @@ impl std::str::FromStr for Column {
             };
         };
         let (func, rest) = s.split_at(open);
-        let args: Vec<String> = rest
-            .strip_prefix('(')
-            .and_then(|r| r.strip_suffix(')'))
-            .ok_or_else(|| format!("`{s}`: expected FUNCTION(COLUMN, ...)"))?
-            .split(',')
-            .map(|a| a.trim().to_string())
-            .collect();
+        let func = func.trim();
+        // the parenthesis that closes the first one must end the text
+        let mut depth = 0usize;
+        let close = rest
+            .char_indices()
+            .find(|&(_, c)| {
+                match c {
+                    '(' => depth += 1,
+                    ')' => depth -= 1,
+                    _ => {}
+                }
+                depth == 0
+            })
+            .map_or(rest.len(), |(i, _)| i);
+        if rest[close + 1..].trim() != "" {
+            return Err(format!(
+                "`{s}`: `{}` follows the closing parenthesis of {func}(...); write FUNCTION(COLUMN, ...)",
+                rest[close + 1..].trim()
+            ));
+        }
+        let inner = &rest[1..close];
+        let args: Vec<String> = split_outside_parentheses(inner).into_iter().map(|a| a.trim().to_string()).collect();
+        let known = "known: norm, diff, from_start, balance_gap";
+        if !name_ok(func) {
+            return Err(format!("`{s}`: `{func}` is not a function name; {known}"));
+        }
+        if let Some(nested) = args.iter().find(|a| a.contains('(')) {
+            return Err(format!(
+                "`{s}`: the argument `{nested}` of {func} is a function; functions of columns do not nest: each argument is a column name"
+            ));
+        }
         if let Some(bad) = args.iter().find(|a| !name_ok(a)) {
-            return Err(format!("`{s}`: `{bad}` is not a column name"));
+            let what = if bad.is_empty() { "an empty argument".to_string() } else { format!("`{bad}`") };
+            return Err(format!("`{s}`: {what} is not a column name (an argument of {func})"));
         }
         let want = |n: usize| {
             if args.len() == n { Ok(()) } else { Err(format!("`{s}`: {func} takes {n} column(s), got {}", args.len())) }
         };
-        match func.trim() {
+        match func {
             "norm" => want(2).map(|_| Self::Norm(args[0].clone(), args[1].clone())),
             "diff" => want(2).map(|_| Self::Diff(args[0].clone(), args[1].clone())),
             "from_start" => want(1).map(|_| Self::FromStart(args[0].clone())),
             "balance_gap" => want(2).map(|_| Self::BalanceGap(args[0].clone(), args[1].clone())),
-            other => Err(format!("`{s}`: unknown function `{other}`; known: norm, diff, from_start, balance_gap")),
+            other => Err(format!("`{s}`: unknown function `{other}`; {known}")),
         }
     }
 }
@@ -594,7 +667,11 @@ pub fn check_count(name: &str, value: f64) -> Result<(), SceneError> {
     } else {
         Err(SceneError::at(
             &["params", name],
-            format!("{name} = {value} is a count of elements: it must be a whole number from 1 to {MAX_COUNT}"),
+            format!(
+                "{name} = {} is a count of elements: it must be a whole number from 1 to {}",
+                crate::error::fmt_value(value),
+                crate::error::fmt_value(MAX_COUNT)
+            ),
         ))
     }
 }
@@ -745,24 +822,16 @@ impl Scene {
     /// Reads and parses a scene file from disk.
     ///
     /// # Errors
-    /// [`SceneFileError`] (line 0) if the file cannot be read, else as
-    /// [`Scene::from_toml`].
+    /// [`SceneFileError`] (line 0) if the file cannot be read, is not a
+    /// regular file (a FIFO, a device, a directory) or is larger than
+    /// [`MAX_SCENE_BYTES`], else as [`Scene::from_toml`].
     pub fn read(path: &Path) -> Result<(Scene, String), SceneFileError> {
-        use std::io::Read;
         let file = path.display().to_string();
         let error = |message: String| SceneFileError { file: file.clone(), line: 0, column: 0, key: None, message };
-        let mut src = String::new();
-        // read at most one byte past the cap: a huge file or an endless one
-        // (a device, a pipe) is refused without being held in memory
-        std::fs::File::open(path)
-            .and_then(|f| f.take(MAX_SCENE_BYTES + 1).read_to_string(&mut src))
-            .map_err(|e| error(format!("cannot read the scene file: {e}")))?;
-        if src.len() as u64 > MAX_SCENE_BYTES {
-            return Err(error(format!(
-                "the scene file is larger than {} KiB, the most a scene file may be",
-                MAX_SCENE_BYTES / 1024
-            )));
-        }
+        // a regular file only, and at most one byte past the cap: a huge
+        // file, a device or a FIFO is refused without being held in memory
+        // or waited on
+        let src = crate::files::read_capped_text(path, MAX_SCENE_BYTES, "the scene file").map_err(error)?;
         Ok((Self::from_toml(&src, &file)?, src))
     }
 
@@ -957,7 +1026,10 @@ impl Scene {
             if v.is_finite() && v > 0.0 {
                 Ok(())
             } else {
-                Err(SceneError::at(path, format!("{what} must be a positive number, got {v}")))
+                Err(SceneError::at(
+                    path,
+                    format!("{what} must be a positive number, got {}", crate::error::fmt_value(v)),
+                ))
             }
         };
         positive(&["t_end"], self.t_end, "the duration [s]")?;

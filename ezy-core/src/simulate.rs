@@ -437,7 +437,9 @@ impl<M: Model, O: Observer<M>> Run<'_, M, O> {
             ("the velocity residual max|G(q) qd|", rv),
         ] {
             if !value.is_finite() {
-                let (dt, advice) = (self.last_step, advice(self.settings.method, t, self.last_step));
+                // the first sample is the initial state: no step made it
+                let step = if t == 0.0 { 0.0 } else { self.last_step };
+                let (dt, advice) = (step, advice(self.settings.method, t, step));
                 return Err(SimError::NonFinite { t, quantity: quantity.into(), value, dt, advice }.into());
             }
         }
@@ -831,6 +833,8 @@ pub fn simulate<M: Model, O: Observer<M>>(
     observer: &mut O,
 ) -> Result<Summary, RunError<O::Error>> {
     settings.validate()?;
+    // before any formulation is built on it
+    check_initial(sys, y0)?;
     let (nq, nc) = (sys.info.nq(), sys.info.nc());
     // constraints dependent at every configuration are the model's error;
     // at an instant (this one included) they are a singular position
@@ -964,9 +968,17 @@ pub fn simulate<M: Model, O: Observer<M>>(
             (integrate(sys, &mut Dae, &mut y, &mut run), y)
         }
     };
-    // the samples queued before a failure are observed before it is told
-    run.flush(sys)?;
+    // the samples queued before a failure are observed before it is
+    // told; an observer that stopped the run (a signal) is not shown them:
+    // it would stop again at the first of them and name its time, not the
+    // time the run reached
+    let result = match result {
+        Err(RunError::Output(e)) => return Err(RunError::Output(e)),
+        r => r,
+    };
+    let flushed = run.flush(sys);
     result?;
+    flushed?;
     run.close_singular();
     let mut summary = run.summary;
     summary.integration_time = start.elapsed().saturating_sub(run.output_time);
@@ -980,6 +992,47 @@ pub fn simulate<M: Model, O: Observer<M>>(
     summary.newton = run.newton;
     summary.ill_conditioned = sys.ill_conditioned;
     Ok(summary)
+}
+
+/// Refuses an initial state `y0` that is not finite, or whose kinetic
+/// energy or work is not: no step size helps, so the error names the
+/// component (or the velocity whose share of the kinetic energy
+/// overflows) and says the scene's initial values are at fault.
+fn check_initial<M: Model>(sys: &Dynamics<M>, y0: &[f64]) -> Result<(), SimError> {
+    let nq = sys.nq();
+    let at_start = |quantity: String, value: f64, why: &str| SimError::NonFinite {
+        t: 0.0,
+        quantity,
+        value,
+        dt: 0.0,
+        advice: format!(
+            "{why}: the scene's initial values or parameters are out of the range double precision can hold (no step size helps)"
+        ),
+    };
+    if let Some(k) = y0.iter().position(|v| !v.is_finite()) {
+        return Err(at_start(
+            format!("the initial state component `{}`", sys.state_name(k)),
+            y0[k],
+            "the initial state is not finite",
+        ));
+    }
+    let kinetic = sys.kinetic_energy(&y0[nq..2 * nq]);
+    if !kinetic.is_finite() {
+        // the velocity with the largest share m qd^2 / 2 of T
+        let share = |k: usize| 0.5 * sys.mass[k] * y0[nq + k] * y0[nq + k];
+        let k = (0..nq).max_by(|&a, &b| share(a).total_cmp(&share(b))).unwrap_or(0);
+        return Err(at_start(
+            "the kinetic energy T".into(),
+            kinetic,
+            &format!(
+                "the initial velocity {} = {} (share m qd^2 / 2 = {}) makes the initial state's kinetic energy overflow",
+                sys.state_name(nq + k),
+                crate::error::fmt_value(y0[nq + k]),
+                crate::error::fmt_value(share(k))
+            ),
+        ));
+    }
+    Ok(())
 }
 
 /// The step loop of the run's method on the formulation `form` from `x`.

@@ -14,6 +14,11 @@ use crate::plot::{Chart, FigureFormat, HeatMap, Series};
 /// only the heat map is drawn.
 pub const MAX_LINES: usize = 10;
 
+/// Most runs the figures are drawn from: the figures hold every run's
+/// point in memory (and a heat map a cell per run), so a larger sweep
+/// gets its table only.
+pub const MAX_FIGURE_RUNS: u64 = 1_000_000;
+
 /// Draws the figures of the sweep in `dir` and returns the files written
 /// and notes on the figures not drawn (a metric whose every run failed,
 /// more than two axes), in `format` (PNG at `dpi`).
@@ -43,6 +48,13 @@ pub fn draw(
         notes.push("no figure: random draws over two parameters (figures are drawn for one random parameter)".into());
         return Ok((files, notes));
     }
+    let runs = plan.runs();
+    if runs > MAX_FIGURE_RUNS {
+        notes.push(format!(
+            "no figure: {runs} runs, more than the {MAX_FIGURE_RUNS} a figure is drawn from (sweep.csv has every run)"
+        ));
+        return Ok((files, notes));
+    }
     let mut names = plan.names();
     names.extend(metrics.iter().map(|m| m.text.clone()));
     let rows = super::table::read_columns(dir, &names)?;
@@ -56,11 +68,10 @@ pub fn draw(
             pts.sort_by(|a, b| a.0.total_cmp(&b.0));
             series.push(Series::new("", pts));
         } else {
-            let ys = plan.fixed_values(1).expect("fixed");
-            if ys.len() <= MAX_LINES {
-                for &y in ys {
+            if plan.fixed_len(1).is_some_and(|n| n <= MAX_LINES as u64) {
+                for y in plan.fixed_iter(1).expect("fixed") {
                     let pts: Vec<(f64, f64)> = rows.iter().filter(|r| r[1] == y).map(|r| (r[0], r[col])).collect();
-                    series.push(Series::new(format!("{} = {y}", labels[1]), pts));
+                    series.push(Series::new(format!("{} = {}", labels[1], ezy_core::fmt_value(y)), pts));
                 }
             }
         }
@@ -72,11 +83,13 @@ pub fn draw(
             }
         }
         if axes == 2 && !random {
-            let xs = sorted(plan.fixed_values(0).expect("fixed"));
-            let ys = sorted(plan.fixed_values(1).expect("fixed"));
+            // at most MAX_FIGURE_RUNS cells: the product of the axes' lengths
+            let xs = sorted(plan.fixed_iter(0).expect("fixed").collect());
+            let ys = sorted(plan.fixed_iter(1).expect("fixed").collect());
             let mut values = vec![f64::NAN; xs.len() * ys.len()];
+            let at = |v: &[f64], x: f64| v.binary_search_by(|a| a.total_cmp(&x)).ok();
             for r in &rows {
-                if let (Some(i), Some(j)) = (xs.iter().position(|&x| x == r[0]), ys.iter().position(|&y| y == r[1])) {
+                if let (Some(i), Some(j)) = (at(&xs, r[0]), at(&ys, r[1])) {
                     values[i * ys.len() + j] = r[col];
                 }
             }
@@ -112,8 +125,7 @@ pub fn axis_labels(plan: &Plan, info: &ezy_core::ModelInfo) -> Vec<String> {
 }
 
 /// The distinct values, ascending.
-fn sorted(v: &[f64]) -> Vec<f64> {
-    let mut v = v.to_vec();
+fn sorted(mut v: Vec<f64>) -> Vec<f64> {
     v.sort_by(f64::total_cmp);
     v.dedup();
     v

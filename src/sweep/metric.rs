@@ -76,6 +76,9 @@ impl std::str::FromStr for Metric {
                 "metric `{text}`: expected FUNC(COLUMN) or FUNC(COLUMN, T0, T1) with FUNC mean, max, min or final, e.g. `mean(norm(x1d, y1d), 50, 60)`"
             )
         };
+        if let Some(why) = ezy_core::scene::unbalanced_parentheses(text) {
+            return Err(format!("metric `{text}`: {why}"));
+        }
         let open = text.find('(').ok_or_else(usage)?;
         let inner = text[open + 1..].strip_suffix(')').ok_or_else(usage)?;
         let reduce = match text[..open].trim() {
@@ -101,7 +104,11 @@ impl std::str::FromStr for Metric {
         if let (Some(a), Some(b)) = (t0, t1)
             && a >= b
         {
-            return Err(format!("metric `{text}`: the window [{a}, {b}] s is empty (T0 must be below T1)"));
+            return Err(format!(
+                "metric `{text}`: the window [{}, {}] s is empty (T0 must be below T1)",
+                ezy_core::fmt_value(a),
+                ezy_core::fmt_value(b)
+            ));
         }
         Ok(Self { text: text.to_string(), reduce, column, t0, t1 })
     }
@@ -116,12 +123,20 @@ impl Metric {
     pub fn check_window(&self, t_end: f64, every: f64) -> Result<(), String> {
         let (t0, t1) = (self.t0.unwrap_or(0.0), self.t1.unwrap_or(t_end));
         if t1 > t_end * (1.0 + 1e-12) {
-            return Err(format!("metric `{}`: the window ends at {t1} s, after the run's end at {t_end} s", self.text));
+            return Err(format!(
+                "metric `{}`: the window ends at {} s, after the run's end at {} s",
+                self.text,
+                ezy_core::fmt_value(t1),
+                ezy_core::fmt_value(t_end)
+            ));
         }
         if self.t0.is_some() && t1 - t0 < every {
             return Err(format!(
-                "metric `{}`: the window [{t0}, {t1}] s is shorter than the output interval {every} s, so it may hold no output row; widen it or give a smaller --every",
-                self.text
+                "metric `{}`: the window [{}, {}] s is shorter than the output interval {} s, so it may hold no output row; widen it or give a smaller --every",
+                self.text,
+                ezy_core::fmt_value(t0),
+                ezy_core::fmt_value(t1),
+                ezy_core::fmt_value(every)
             ));
         }
         Ok(())

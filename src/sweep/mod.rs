@@ -184,6 +184,24 @@ fn run_sets(job: &SweepJob, values: &[f64]) -> Vec<(String, f64)> {
     sets
 }
 
+/// Most elements (the sum of the family counts over every combination of
+/// the swept family sizes) a sweep sets up before its first run, to check
+/// the names and columns at each size: 1e7, minutes of setup (the snake
+/// sets up about 15,000 links a second).
+pub const MAX_CHECKED_ELEMENTS: f64 = 1e7;
+
+/// The flag and text that gave the axis `name` (`--list N=1,1000000`).
+fn axis_flag(job: &SweepJob, name: &str) -> String {
+    let args = &job.manifest.args;
+    args.iter()
+        .zip(args.iter().skip(1))
+        .find(|(f, v)| {
+            matches!(f.as_str(), "--grid" | "--list" | "--random")
+                && v.split_once('=').is_some_and(|(n, _)| n.trim() == name)
+        })
+        .map_or_else(|| format!("axis `{name}`"), |(f, v)| format!("{f} {v}"))
+}
+
 /// Everything checked before the first run: the settings, the names the
 /// axes give, the metrics' columns and windows, and the final state's
 /// columns over every family count the sweep takes.
@@ -215,26 +233,75 @@ fn check<M: Model + Default>(job: &SweepJob) -> Result<Checked, String> {
         .filter(|(_, a)| base.param_index(&a.name).is_some_and(|i| base.params[i].count))
         .map(|(k, _)| k)
         .collect();
-    let mut tuples: Vec<Vec<f64>> = vec![Vec::new()];
+    // the family sizes are counted before any model is built: every
+    // combination of the count axes' values is set up once below, so
+    // their number and their elements are bounded
+    let mut combinations: u64 = 1;
     for &k in &counts {
-        let values = job.plan.fixed_values(k).ok_or_else(|| {
+        let n = job.plan.fixed_len(k).ok_or_else(|| {
             format!("family count `{}` cannot be drawn at random: give it with --grid or --list", job.plan.axes[k].name)
         })?;
-        for v in values {
-            ezy_core::scene::check_count(&job.plan.axes[k].name, *v).map_err(|e| e.message)?;
-        }
-        tuples = tuples.iter().flat_map(|t| values.iter().map(move |v| [t.clone(), vec![*v]].concat())).collect();
+        combinations = combinations.saturating_mul(n);
     }
+    let too_many = |elements: f64| {
+        let axes: Vec<String> = counts.iter().map(|&k| axis_flag(job, &job.plan.axes[k].name)).collect();
+        format!(
+            "{}: the sweep's family sizes come to {} elements over {combinations} combinations of sizes, more than the limit of {}: ezy sets up the model at each family size before the first run (to check names and columns), and that many elements would take hours and gigabytes; sweep fewer or smaller family sizes",
+            axes.join(", "),
+            ezy_core::fmt_value(elements),
+            ezy_core::fmt_value(MAX_CHECKED_ELEMENTS)
+        )
+    };
+    // each size is at least 1 element: refused before any value is looked at
+    if combinations as f64 * counts.len() as f64 > MAX_CHECKED_ELEMENTS {
+        return Err(too_many(combinations as f64 * counts.len() as f64).replace(" come to ", " come to at least "));
+    }
+    let (mut elements, mut seen_combinations) = (0f64, 1u64);
+    for &k in &counts {
+        let n = job.plan.fixed_len(k).expect("a fixed axis");
+        let name = &job.plan.axes[k].name;
+        let mut sum = 0f64;
+        for v in job.plan.fixed_iter(k).expect("a fixed axis") {
+            ezy_core::scene::check_count(name, v).map_err(|e| format!("{}: {}", axis_flag(job, name), e.message))?;
+            sum += v;
+        }
+        // every value of this axis meets every combination of the others
+        elements = elements * n as f64 + sum * seen_combinations as f64;
+        seen_combinations *= n;
+    }
+    if elements > MAX_CHECKED_ELEMENTS {
+        return Err(too_many(elements));
+    }
+    let beat = (job.progress && elements >= run::LONG_SETUP_ELEMENTS)
+        .then(|| crate::progress::Heartbeat::start(format!("sweep {}: checking the family sizes", job.scene.name)));
     let mut state: Vec<String> = Vec::new();
     let mut seen: HashSet<String> = HashSet::new();
     let mut metrics_checked = false;
     let mut last_error = None;
-    for tuple in &tuples {
+    for c in 0..combinations {
+        // combination `c` of the count axes' values, the last varying fastest
+        let mut tuple = vec![0.0; counts.len()];
+        let mut rest = c;
+        for (slot, &k) in tuple.iter_mut().zip(&counts).rev() {
+            let n = job.plan.fixed_len(k).expect("a fixed axis");
+            *slot = job.plan.axes[k].values.get(rest % n);
+            rest /= n;
+        }
+        if let Some(b) = &beat {
+            let sizes: Vec<String> =
+                counts.iter().zip(&tuple).map(|(&k, v)| format!("{} = {v}", job.plan.axes[k].name)).collect();
+            b.set(format!(
+                "sweep {}: setting up the model at {} ({} of {combinations}) to check names and columns",
+                job.scene.name,
+                sizes.join(", "),
+                c + 1
+            ));
+        }
         // the columns depend on the family counts alone: the other swept
         // values are left at the scene's (a run's bad value is its row's
         // error, not the sweep's)
         let mut sets = job.opts.sets.clone();
-        for (&k, &v) in counts.iter().zip(tuple) {
+        for (&k, &v) in counts.iter().zip(&tuple) {
             sets.push((job.plan.axes[k].name.clone(), v));
         }
         match run::configure::<M>(&job.scene, &sets) {

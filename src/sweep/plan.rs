@@ -8,8 +8,19 @@ use rand_chacha::ChaCha8Rng;
 /// How an axis' values are given.
 #[derive(Debug, Clone, PartialEq)]
 pub enum Values {
-    /// Given values (`--grid` evenly spaced, `--list` as listed).
+    /// Given values (`--list`, as listed).
     Fixed(Vec<f64>),
+    /// `count` evenly spaced values from `start` to `stop`, both included
+    /// (`--grid`): computed when asked ([`grid_value`]), never stored, so
+    /// an axis of a billion values takes no memory.
+    Grid {
+        /// First value.
+        start: f64,
+        /// Last value.
+        stop: f64,
+        /// Number of values (from 1 to [`MAX_RUNS`]).
+        count: u64,
+    },
     /// Uniform in `[lo, hi]` (`--random`).
     Random {
         /// Lower bound.
@@ -45,6 +56,64 @@ pub struct Plan {
 /// Most runs one sweep may have.
 pub const MAX_RUNS: u64 = 1 << 40;
 
+impl Values {
+    /// Number of values of a fixed axis (`None` for a random one).
+    pub fn count(&self) -> Option<u64> {
+        match self {
+            Self::Fixed(v) => Some(v.len() as u64),
+            Self::Grid { count, .. } => Some(*count),
+            Self::Random { .. } => None,
+        }
+    }
+
+    /// Value `j` of a fixed axis (`j` below [`Values::count`]).
+    ///
+    /// # Panics
+    /// For a random axis, or `j` out of range.
+    pub fn get(&self, j: u64) -> f64 {
+        match self {
+            Self::Fixed(v) => v[usize::try_from(j).expect("an index of a stored list")],
+            Self::Grid { start, stop, count } => grid_value(*start, *stop, *count, j),
+            Self::Random { .. } => panic!("a random axis has no fixed values"),
+        }
+    }
+}
+
+/// `v` rounded to 15 significant digits (so that a decimal grid gives
+/// its decimals: 0.45, not 0.44999999999999996), or `v` itself where the
+/// rounding would overflow (next to `f64::MAX`).
+fn decimal(v: f64) -> f64 {
+    let r: f64 = format!("{v:.14e}").parse().unwrap_or(v);
+    if r.is_finite() { r } else { v }
+}
+
+/// Value `k` of `n` evenly spaced values from `a` to `b` (finite), both
+/// included: the end points as given, the rest by the same formula on
+/// every machine, all rounded to 15 significant digits; finite whenever `a`
+/// and `b` are (bounds whose difference overflows, such as -1e308 and
+/// 1e308, are combined as `a (1 - s) + b s`).
+pub fn grid_value(a: f64, b: f64, n: u64, k: u64) -> f64 {
+    if k + 1 == n {
+        return decimal(b);
+    }
+    let s = k as f64 / (n - 1).max(1) as f64;
+    let d = b - a;
+    decimal(if d.is_finite() { a + d * s } else { a * (1.0 - s) + b * s })
+}
+
+/// `u` in `[0, 1)` mapped onto `[lo, hi]` (finite): finite whenever the
+/// bounds are, even where `hi - lo` overflows.
+fn between(lo: f64, hi: f64, u: f64) -> f64 {
+    let d = hi - lo;
+    if d.is_finite() { lo + d * u } else { lo * (1.0 - u) + hi * u }
+}
+
+/// A whole number from 1 to 2^53, also written as a float (`1e9`).
+fn whole(v: &str) -> Option<u64> {
+    let x: f64 = v.trim().parse().ok()?;
+    (x.is_finite() && x >= 1.0 && x.fract() == 0.0 && x <= 9_007_199_254_740_992.0).then_some(x as u64)
+}
+
 fn number(text: &str, what: &str, v: &str) -> Result<f64, String> {
     match v.trim().parse::<f64>() {
         Ok(x) if x.is_finite() => Ok(x),
@@ -71,26 +140,21 @@ pub fn grid(text: &str) -> Result<Axis, String> {
     let parts: Vec<&str> = rest.split(':').collect();
     let [a, b, n] = parts[..] else { return Err(format!("`{text}`: expected NAME=START:STOP:COUNT")) };
     let (a, b) = (number(text, "START", a)?, number(text, "STOP", b)?);
-    let n: u64 = n
-        .trim()
-        .parse()
-        .ok()
-        .filter(|&n| n >= 1)
-        .ok_or_else(|| format!("`{text}`: COUNT `{}` must be a whole number >= 1", n.trim()))?;
+    let count = n.trim();
+    let n = whole(count).ok_or_else(|| format!("`{text}`: COUNT `{count}` must be a whole number >= 1"))?;
     if n == 1 && a != b {
-        return Err(format!("`{text}`: one value from {a} to {b}: give COUNT >= 2, or START = STOP"));
+        return Err(format!(
+            "`{text}`: one value from {} to {}: give COUNT >= 2, or START = STOP",
+            ezy_core::fmt_value(a),
+            ezy_core::fmt_value(b)
+        ));
     }
+    // the count is checked before anything is built for it; the values
+    // are computed run by run (`Values::Grid`)
     if n > MAX_RUNS {
-        return Err(format!("`{text}`: COUNT {n} is more than {MAX_RUNS} runs"));
+        return Err(format!("`{text}`: COUNT {count} is more than {MAX_RUNS} (2^40), the most runs a sweep may have"));
     }
-    // the end points exactly, the rest by the same formula on every machine,
-    // rounded to 15 significant digits so that a decimal grid gives its
-    // decimals (0.45, not 0.44999999999999996)
-    let values = (0..n)
-        .map(|k| if k + 1 == n { b } else { a + (b - a) * (k as f64 / (n - 1).max(1) as f64) })
-        .map(|v| format!("{v:.14e}").parse::<f64>().expect("a formatted number parses"))
-        .collect();
-    Ok(Axis { name: name.into(), values: Values::Fixed(values) })
+    Ok(Axis { name: name.into(), values: Values::Grid { start: a, stop: b, count: n } })
 }
 
 /// `NAME=V1,V2,...`.
@@ -142,22 +206,30 @@ impl Plan {
             (false, None) => 1,
         };
         let plan = Self { axes, samples, seed };
+        // the product of the axes' lengths, counted before any run
         let mut runs: u64 = plan.samples;
         for a in &plan.axes {
-            if let Values::Fixed(v) = &a.values {
-                runs = runs.saturating_mul(v.len() as u64);
+            if let Some(n) = a.values.count() {
+                runs = runs.saturating_mul(n);
             }
         }
         if runs > MAX_RUNS {
-            return Err(format!("the sweep has {runs} runs, more than {MAX_RUNS}"));
+            let lengths: Vec<String> =
+                (plan.axes.iter().filter_map(|a| a.values.count().map(|n| format!("{} ({n})", a.name))))
+                    .chain((random).then(|| format!("--samples ({})", plan.samples)))
+                    .collect();
+            return Err(format!(
+                "the sweep has {} runs ({}), more than {MAX_RUNS} (2^40), the most a sweep may have",
+                if runs == u64::MAX { "more than 2^64".to_string() } else { runs.to_string() },
+                lengths.join(" x ")
+            ));
         }
         Ok(plan)
     }
 
     /// Number of runs.
     pub fn runs(&self) -> u64 {
-        (0..self.axes.len()).filter_map(|k| self.fixed_values(k)).map(|v| v.len() as u64).product::<u64>()
-            * self.samples
+        self.axes.iter().filter_map(|a| a.values.count()).product::<u64>() * self.samples
     }
 
     /// The axes' names, in column order.
@@ -174,14 +246,15 @@ impl Plan {
     pub fn values_into(&self, i: u64, out: &mut Vec<f64>) {
         // the fixed axes come first (`Plan::new` sorts them), the last
         // varying fastest
-        let fixed = self.axes.iter().take_while(|a| matches!(a.values, Values::Fixed(_))).count();
+        let fixed = self.axes.iter().take_while(|a| a.values.count().is_some()).count();
         out.clear();
         out.resize(fixed, 0.0);
         let mut rest = i / self.samples;
         for k in (0..fixed).rev() {
-            let v = self.fixed_values(k).expect("a fixed axis");
-            out[k] = v[(rest % v.len() as u64) as usize];
-            rest /= v.len() as u64;
+            let values = &self.axes[k].values;
+            let n = values.count().expect("a fixed axis");
+            out[k] = values.get(rest % n);
+            rest /= n;
         }
         let mut rng: Option<ChaCha8Rng> = None;
         for a in &self.axes {
@@ -192,7 +265,7 @@ impl Plan {
                     r
                 });
                 let u: f64 = rng.random();
-                out.push(lo + (hi - lo) * u);
+                out.push(between(lo, hi, u));
             }
         }
     }
@@ -204,12 +277,16 @@ impl Plan {
         v
     }
 
-    /// The distinct values of the fixed axis `k` (`None` for a random one).
-    pub fn fixed_values(&self, k: usize) -> Option<&[f64]> {
-        match &self.axes[k].values {
-            Values::Fixed(v) => Some(v),
-            Values::Random { .. } => None,
-        }
+    /// Number of values of axis `k` (`None` for a random one).
+    pub fn fixed_len(&self, k: usize) -> Option<u64> {
+        self.axes[k].values.count()
+    }
+
+    /// The values of the fixed axis `k` (`None` for a random one), as an
+    /// iterator: a grid's are computed one by one.
+    pub fn fixed_iter(&self, k: usize) -> Option<impl Iterator<Item = f64> + '_> {
+        let values = &self.axes[k].values;
+        values.count().map(|n| (0..n).map(move |j| values.get(j)))
     }
 }
 
@@ -246,9 +323,20 @@ mod tests {
         assert!(Plan::new(vec![random("a=1:2").unwrap()], None, 1).is_err());
         assert!(Plan::new(vec![list("a=1").unwrap()], Some(3), 1).is_err());
         assert!(Plan::new(vec![grid("a=0:1:2000000").unwrap(), grid("b=0:1:2000000").unwrap()], None, 1).is_err());
-        assert_eq!(grid("a=2:2:1").unwrap().values, Values::Fixed(vec![2.0]));
-        let Values::Fixed(v) = grid("a=0.05:0.5:10").unwrap().values else { unreachable!() };
-        assert_eq!(v[8], 0.45);
-        assert_eq!(v[2], 0.15);
+        assert_eq!(grid("a=2:2:1").unwrap().values.get(0), 2.0);
+        let v = grid("a=0.05:0.5:10").unwrap().values;
+        assert_eq!(v.get(8), 0.45);
+        assert_eq!(v.get(2), 0.15);
+        assert_eq!(v.get(9), 0.5);
+        // an axis of 2^40 values is not built, and finite bounds give
+        // finite values even where their difference overflows
+        let huge = grid("a=-1e308:1e308:1099511627776").unwrap().values;
+        assert_eq!(huge.count(), Some(1 << 40));
+        assert_eq!((huge.get(0), huge.get((1 << 40) - 1)), (-1e308, 1e308));
+        assert!((0..1000).all(|k| huge.get(k * 1_000_000_007).is_finite()));
+        assert!(grid("a=0:1:1099511627777").unwrap_err().contains("more than 1099511627776"));
+        assert_eq!(grid("a=0:1:1e3").unwrap().values.count(), Some(1000));
+        let wide = Plan::new(vec![random("w=-1.7e308:1.7e308").unwrap()], Some(50), 3).unwrap();
+        assert!((0..50).all(|i| wide.values(i)[0].is_finite()));
     }
 }

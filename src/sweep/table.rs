@@ -42,7 +42,8 @@ impl Manifest {
             }
             Ok(_) => {}
         }
-        let text = std::fs::read_to_string(&path).map_err(|e| format!("reading {}: {e}", path.display()))?;
+        let text = ezy_core::files::read_capped_text(&path, 1 << 20, "a sweep definition")
+            .map_err(|e| format!("{}: {e}", path.display()))?;
         toml::from_str(&text).map(Some).map_err(|e| format!("{}: not a sweep definition: {e}", path.display()))
     }
 
@@ -113,6 +114,27 @@ fn complete_length(file: &mut File, path: &Path) -> Result<u64, String> {
     Ok(good)
 }
 
+/// Where the header `found` first differs from `want`: the first column
+/// (by number and name) that is not the same, or the columns one has
+/// beyond the other.
+fn header_difference(found: &[String], want: &[String]) -> String {
+    match found.iter().zip(want).position(|(f, w)| f != w) {
+        Some(k) => format!("column {} is `{}`, this sweep's is `{}`", k + 1, found[k], want[k]),
+        None if found.len() > want.len() => format!(
+            "it has {} columns, this sweep {}: `{}` and after it are not this sweep's",
+            found.len(),
+            want.len(),
+            found[want.len()]
+        ),
+        None => format!(
+            "it has {} columns, this sweep {}: it lacks `{}` and the columns after it",
+            found.len(),
+            want.len(),
+            want[found.len()]
+        ),
+    }
+}
+
 /// The rows of a `sweep.csv` (its first `len` bytes) as `(run, record)`.
 struct Rows {
     reader: csv::Reader<std::io::Take<File>>,
@@ -123,7 +145,9 @@ struct Rows {
 impl Rows {
     /// Opens `path`, reads the header and checks it against `header`.
     fn open(path: &Path, len: Option<u64>, header: Option<&[String]>) -> Result<(Self, Vec<String>), String> {
-        let file = crate::transaction::no_follow(OpenOptions::new().read(true)).open(path).map_err(|e| io(path, e))?;
+        let file = crate::transaction::no_follow(OpenOptions::new().read(true))
+            .open(path)
+            .map_err(|e| ezy_core::files::io_message(path, &e, &format!("cannot open {}", path.display())))?;
         let len = match len {
             Some(l) => l,
             None => file.metadata().map_err(|e| io(path, e))?.len(),
@@ -134,10 +158,9 @@ impl Rows {
             && found != h
         {
             return Err(format!(
-                "{}: its columns are not this sweep's (found {} columns, expected {}); use another --out",
+                "{}: its header is not this sweep's ({}); use another --out",
                 path.display(),
-                found.len(),
-                h.len()
+                header_difference(&found, h)
             ));
         }
         Ok((Self { reader, path: path.into(), record: csv::StringRecord::new() }, found))
@@ -234,7 +257,7 @@ impl Output {
         let exists = std::fs::symlink_metadata(&path).is_ok();
         let mut file = crate::transaction::no_follow(OpenOptions::new().read(true).append(true).create(true))
             .open(&path)
-            .map_err(|e| io(&path, e))?;
+            .map_err(|e| ezy_core::files::io_message(&path, &e, &format!("cannot open {}", path.display())))?;
         if !file.metadata().map_err(|e| io(&path, e))?.is_file() {
             return Err(format!("{} is not a regular file", path.display()));
         }

@@ -318,7 +318,10 @@ fn non_negative(field: &'static str, v: f64) -> Result<(), SpecError> {
     if v.is_finite() && v >= 0.0 {
         Ok(())
     } else {
-        Err(SpecError { field, message: format!("{field} = {v} must be zero or positive (a dissipative law)") })
+        Err(SpecError {
+            field,
+            message: format!("{field} = {} must be zero or positive (a dissipative law)", crate::error::fmt_value(v)),
+        })
     }
 }
 

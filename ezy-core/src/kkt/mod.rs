@@ -62,7 +62,7 @@ pub enum KktError {
         n: usize,
     },
     /// The Schur path needs every mass-matrix entry positive.
-    #[error("the Schur-complement path needs an invertible mass matrix; M[{index}] = {value}")]
+    #[error("the Schur-complement path needs an invertible mass matrix; M[{index}] = {}", crate::error::fmt_value(*value))]
     SingularMass {
         /// Coordinate index of the offending diagonal entry.
         index: usize,
