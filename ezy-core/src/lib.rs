@@ -9,6 +9,7 @@ pub mod drive;
 pub mod dynamics;
 pub mod effects;
 mod error;
+pub mod guard;
 pub mod initial;
 pub mod integrator;
 pub mod kkt;
