@@ -22,7 +22,7 @@ fn tmp_dir(name: &str) -> PathBuf {
 #[test]
 fn every_builtin_scene_runs_one_second_and_closes_its_ledger() {
     let all = scenes::builtin();
-    assert_eq!(all.len(), 17);
+    assert_eq!(all.len(), 18);
     for src in all {
         let info = scenes::model_info_with(&src.scene.model, &src.scene.params).unwrap().unwrap();
         // family effects (`hinge = "J[*]"`) run as one effect per element

@@ -258,15 +258,24 @@ impl SimError {
     }
 }
 
-/// What to do when a run's numbers blow up, for the method in use: a
-/// fixed-step method's step `dt` \[s\] may be too large; an adaptive method
-/// met its tolerance, so the solution itself grows (forces, initial
-/// values); at t = 0 the scene's numbers themselves are out of range.
-pub fn advice(method: crate::Method, t: f64, dt: f64) -> String {
+/// What to do when a run's numbers blow up, for the method in use: at
+/// t = 0 the scene's numbers themselves are out of range; an adaptive
+/// method met its tolerance, so the solution itself grows (forces,
+/// initial values); a fixed-step method's step `dt` \[s\] may be too large,
+/// unless the energy balance held up to the last accepted state
+/// (`balance`: `|T - T0 - W|` relative to the run's energy scale there,
+/// [`crate::guard`]; `None`: no step accepted or not known): then the
+/// forces did the work, the solution itself grows and a smaller step
+/// would not help.
+pub fn advice(method: crate::Method, t: f64, dt: f64, balance: Option<f64>) -> String {
     if t == 0.0 && dt == 0.0 {
         "the scene's initial values or parameters are out of the range double precision can hold".into()
     } else if method.is_adaptive() {
         "the adaptive method met its tolerance up to here, so the solution itself grows without bound: check the scene's forces, parameters and initial values".into()
+    } else if let Some(b) = balance.filter(|b| *b <= crate::simulate::BALANCE_LIMIT) {
+        format!(
+            "the energy balance held to {b:.1e} of the run's energy up to here (the forces did the work), so the solution itself grows without bound and a smaller step would not help: check the scene's forces, parameters and initial values"
+        )
     } else {
         format!(
             "the step h = {} s is too large for this scene: try a smaller --dt or an adaptive method (--integrator dop853)",

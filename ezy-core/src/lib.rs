@@ -10,6 +10,7 @@ pub mod dynamics;
 pub mod effects;
 mod error;
 pub mod files;
+pub mod guard;
 pub mod initial;
 pub mod integrator;
 pub mod kkt;

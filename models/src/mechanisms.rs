@@ -1,10 +1,13 @@
 //! Planar mechanisms of the textbooks, each with a check that does not
 //! come from ezy: a four-bar linkage against Freudenstein's equation, a
-//! slider-crank against the closed form of its piston's position, and a
+//! slider-crank against the closed form of its piston's position, a
 //! double pendulum against the frequencies of its linearization (the
-//! tests in `tests/mechanisms.rs`). Links are uniform bars: a link of
-//! length `L` and mass `m` has its centre of mass at its middle and the
-//! inertia `m L^2 / 12` (the four-bar's defaults: 2 kg/m).
+//! tests in `tests/mechanisms.rs`), and the simple pendulum of IFToMM's
+//! benchmark A01 against its closed form in Jacobi's elliptic functions
+//! (`tests/guards.rs`). Links are uniform bars, except the simple
+//! pendulum's massless one: a link of length `L` and mass `m` has its
+//! centre of mass at its middle and the inertia `m L^2 / 12` (the
+//! four-bar's defaults: 2 kg/m).
 
 ezy_core::model! {
     /// A four-bar linkage: crank O2-A, coupler A-B and rocker O4-B on the
@@ -137,5 +140,29 @@ ezy_core::model! {
         point T on lower at (L2 / 2, 0);
         hinge O: O = ground(0, 0);
         hinge J: E1 = E2;
+    }
+}
+
+ezy_core::model! {
+    /// The simple pendulum of the IFToMM multibody benchmark A01: a point
+    /// mass `m` on a massless link of length `L` hinged to the ground at the
+    /// origin. The body's frame sits at the point mass (its centre of mass,
+    /// with inertia `I = 0`: a point), the hinge point `L` behind it along its
+    /// axis, so the heading `phi` is the link's angle from the x axis and
+    /// `(x, y) = L (cos phi, sin phi)`; `phi = -pi/2` hangs straight down.
+    /// Its mass matrix is singular (no inertia for `phi`): the hinge fixes
+    /// `phi` from `(x, y)` and the KKT matrix is regular.
+    pub struct Pendulum {
+        /// Length of the link [m]
+        param L = 1.0;
+        /// The point mass [kg]
+        param m = 1.0;
+        /// Moment of inertia of the bob about its centre [kg m^2]: 0 for
+        /// the benchmark's point mass
+        param I = 0.0;
+
+        body bob(x, y, phi) { mass: m, inertia: I }
+        point O on bob at (-L, 0);
+        hinge O: O = ground(0, 0);
     }
 }

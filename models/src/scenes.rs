@@ -27,6 +27,7 @@ pub const BUILTIN: &[(&str, &str)] = &[
     ("four-bar-stiff.toml", include_str!("../scenes/four-bar-stiff.toml")),
     ("slider-crank.toml", include_str!("../scenes/slider-crank.toml")),
     ("double-pendulum.toml", include_str!("../scenes/double-pendulum.toml")),
+    ("pendulum.toml", include_str!("../scenes/pendulum.toml")),
 ];
 
 /// The description of the built-in model registered as `key`, at its
