@@ -27,6 +27,8 @@ pub const BUILTIN: &[(&str, &str)] = &[
     ("four-bar-stiff.toml", include_str!("../scenes/four-bar-stiff.toml")),
     ("slider-crank.toml", include_str!("../scenes/slider-crank.toml")),
     ("double-pendulum.toml", include_str!("../scenes/double-pendulum.toml")),
+    ("four-bar-n2.toml", include_str!("../scenes/four-bar-n2.toml")),
+    ("four-bar-n40.toml", include_str!("../scenes/four-bar-n40.toml")),
 ];
 
 /// The description of the built-in model registered as `key`, at its
