@@ -147,9 +147,10 @@ ezy_core::model! {
     /// (problem A02): N + 1 cranks on ground pivots at (i L, 0), i = 0..N,
     /// and N couplers, each joining the tips of two neighbouring cranks;
     /// all bars alike. One degree of freedom: 3 (2N + 1) coordinates and
-    /// 2 (3N + 1) constraint rows, every row but one redundant along the
-    /// singular configuration (all bars on the x axis) that it passes twice
-    /// a revolution.
+    /// 2 (3N + 1) independent constraint rows, except in the singular
+    /// configuration (all bars on the x axis), passed twice a revolution,
+    /// where their rank is 5N + 2 (each of the N loops may leave it as a
+    /// parallelogram or not).
     pub struct NFourBar {
         /// Number of couplers (there are N + 1 cranks)
         count N = 2;
