@@ -57,8 +57,9 @@ fn every_model_matches_finite_differences_and_dual_numbers() {
     assert_terms(&Snakeboard::default(), 5);
 }
 
-/// The models with families at their default and at other counts, and the
-/// prescribed-angle EzyRoller.
+/// The models with families at their default and at other counts (the
+/// N-four-bar too, up to the benchmark's N = 40), and the prescribed-angle
+/// EzyRoller.
 #[test]
 fn family_and_driven_models_match_finite_differences_and_dual_numbers() {
     use ezy_models::{EzyRollerDriven, Snake, Trailer};
@@ -69,6 +70,10 @@ fn family_and_driven_models_match_finite_differences_and_dual_numbers() {
         assert_terms(&Trailer { n, ..Default::default() }, 60 + n as u64);
     }
     assert_terms(&EzyRollerDriven::default(), 81);
+    // the N-four-bar: its ground pivots at (i L, 0) name the index
+    for n in [1, 2, 5, 40] {
+        assert_terms(&ezy_models::NFourBar { N: n, ..Default::default() }, 120 + n as u64);
+    }
     // a family of drives: each element's row is its hinge's angle
     for n in [2, 3, 7] {
         let m = ezy_models::SnakeDriven { N: n, ..Default::default() };
@@ -199,4 +204,137 @@ fn generated_sparse_kernels_match_dense_products() {
     kernels_match_dense_products::<EzyRoller>(6);
     kernels_match_dense_products::<ezy_models::Trailer>(7);
     kernels_match_dense_products::<ezy_models::Snake>(8);
+}
+
+ezy_core::model! {
+    /// Every expression of a family item names the family's index: masses
+    /// and inertias, point offsets (read by a neighbour, `P[i - 1]`, by the
+    /// count, `P[N]`, and by a fixed element, `Q[1]`), a ground point, a
+    /// slider's direction and angle, a slot's line, a skate's blade.
+    pub struct Indexed {
+        count N = 3;
+        param a = 0.3;
+        param m = 1.5;
+        for i in 1..N + 1 {
+            body link[i](x, y, phi) { mass: m * i, inertia: m * (1 + i * i) / 12 }
+            point P[i] on link[i] at (i * a, 0.1 * i);
+            point Q[i] on link[i] at (-a, sin(i));
+            skate S[i]: Q[i] along (1, i);
+        }
+        for i in 1..N + 1 {
+            body block[i](u, w, th) { mass: m, inertia: 0.1 * i }
+            point C[i] on block[i] at (0.05 * i, -a);
+        }
+        for i in 2..N + 1 {
+            hinge J[i]: P[i - 1] = Q[i];
+        }
+        hinge K: P[N] = ground(a, 2);
+        hinge K0: Q[1] = ground(1, a);
+        for i in 2..N + 1 {
+            slider R[i]: C[i] on P[i - 1] along (cos(i), 1) angle 0.1 * i;
+        }
+        for i in 1..N + 1 {
+            slot W[i]: C[i] on ground(i * a, i) along (i, 2);
+        }
+    }
+}
+
+ezy_core::model! {
+    /// `Indexed` at N = 3 written out by hand, element by element, every
+    /// index a number: no family.
+    pub struct Unrolled {
+        param a = 0.3;
+        param m = 1.5;
+        body link1(x1, y1, phi1) { mass: m * 1, inertia: m * (1 + 1 * 1) / 12 }
+        body link2(x2, y2, phi2) { mass: m * 2, inertia: m * (1 + 2 * 2) / 12 }
+        body link3(x3, y3, phi3) { mass: m * 3, inertia: m * (1 + 3 * 3) / 12 }
+        body block1(u1, w1, th1) { mass: m, inertia: 0.1 * 1 }
+        body block2(u2, w2, th2) { mass: m, inertia: 0.1 * 2 }
+        body block3(u3, w3, th3) { mass: m, inertia: 0.1 * 3 }
+        point P1 on link1 at (1 * a, 0.1 * 1);
+        point P2 on link2 at (2 * a, 0.1 * 2);
+        point P3 on link3 at (3 * a, 0.1 * 3);
+        point Q1 on link1 at (-a, sin(1));
+        point Q2 on link2 at (-a, sin(2));
+        point Q3 on link3 at (-a, sin(3));
+        point C1 on block1 at (0.05 * 1, -a);
+        point C2 on block2 at (0.05 * 2, -a);
+        point C3 on block3 at (0.05 * 3, -a);
+        skate S1: Q1 along (1, 1);
+        skate S2: Q2 along (1, 2);
+        skate S3: Q3 along (1, 3);
+        hinge J2: P1 = Q2;
+        hinge J3: P2 = Q3;
+        hinge K: P3 = ground(a, 2);
+        hinge K0: Q1 = ground(1, a);
+        slider R2: C2 on P1 along (cos(2), 1) angle 0.1 * 2;
+        slider R3: C3 on P2 along (cos(3), 1) angle 0.1 * 3;
+        slot W1: C1 on ground(1 * a, 1) along (1, 2);
+        slot W2: C2 on ground(2 * a, 2) along (2, 2);
+        slot W3: C3 on ground(3 * a, 3) along (3, 2);
+    }
+}
+
+/// A family whose expressions name the index computes, element by
+/// element, what the same model written out by hand computes: the names,
+/// `phi`, `G` (dense), `gamma`, the points and their velocities, the mass
+/// matrix and the body-frame geometry, at random states and parameters
+/// (to rounding: the family multiplies by the index at run time where the
+/// written-out model folds the numbers). Then its derived terms against
+/// finite differences and dual numbers at N = 3 and other counts.
+#[test]
+fn family_index_expressions_match_the_model_written_out() {
+    let mut r = rng(17);
+    let close_all = |what: &str, a: &[f64], b: &[f64]| {
+        assert_eq!(a.len(), b.len(), "{what}");
+        for (k, (x, y)) in a.iter().zip(b).enumerate() {
+            assert!(close(*x, *y, 1e-13, 1.0), "{what}[{k}]: family {x} vs written out {y}");
+        }
+    };
+    let (fi, ui) = (Indexed::default().info(), Unrolled::default().info());
+    assert_eq!(fi.coords, ui.coords);
+    assert_eq!(fi.constraints, ui.constraints);
+    assert_eq!(fi.n_holonomic, ui.n_holonomic);
+    let names = |i: &ezy_core::ModelInfo| i.points.iter().map(|p| p.name.clone()).collect::<Vec<_>>();
+    assert_eq!(names(&fi), names(&ui));
+    let (nq, nc, np) = (fi.nq(), fi.nc(), fi.points.len());
+    for _ in 0..STATES {
+        let f: Indexed = random_model(&mut r);
+        let u = Unrolled { a: f.a, m: f.m };
+        let (q, qd) = random_state::<Indexed>(&mut r);
+        let (mut pf, mut pu) = (vec![0.0; fi.n_holonomic], vec![0.0; ui.n_holonomic]);
+        f.phi(&q, &mut pf);
+        u.phi(&q, &mut pu);
+        close_all("phi", &pf, &pu);
+        close_all("G", &dense_g(&f, &q), &dense_g(&u, &q));
+        close_all("gamma", &gamma(&f, &q, &qd), &gamma(&u, &q, &qd));
+        let (mut a, mut b) = (vec![0.0; 2 * np], vec![0.0; 2 * np]);
+        f.points(&q, &mut a);
+        u.points(&q, &mut b);
+        close_all("points", &a, &b);
+        f.point_velocities(&q, &qd, &mut a);
+        u.point_velocities(&q, &qd, &mut b);
+        close_all("point velocities", &a, &b);
+        let (mut a, mut b) = (vec![0.0; nq], vec![0.0; nq]);
+        f.mass_diagonal(&mut a);
+        u.mass_diagonal(&mut b);
+        close_all("mass", &a, &b);
+        let (mut a, mut b, mut ba, mut bb) = (vec![0.0; 2 * np], vec![0.0; 2 * np], vec![0.0; 6], vec![0.0; 6]);
+        f.local_geometry(&mut a, &mut ba);
+        u.local_geometry(&mut b, &mut bb);
+        close_all("local points", &a, &b);
+        close_all("blades", &ba, &bb);
+    }
+    assert_eq!(nc, 2 * 4 + 2 * 2 + 3 + 3);
+    // `ezy equations` shows each element's index as its number: P[i - 1]
+    // of J3 at 2, P[N] of K at 3, the slot W2's ground point at 2
+    let eq = Indexed::default().equations();
+    let row = |name: &str| eq.phi[fi.constraints.iter().position(|c| c == name).unwrap()].text.clone();
+    assert!(row("J3.x").contains("2*a*cos(phi2)"), "{}", row("J3.x"));
+    assert!(row("K.x").contains("3*a*cos(phi3)"), "{}", row("K.x"));
+    assert!(row("W2.n").contains("2*a"), "{}", row("W2.n"));
+    assert_terms(&Indexed::default(), 111);
+    for n in [1, 2, 6] {
+        assert_terms(&Indexed { N: n, ..Default::default() }, 111 + n as u64);
+    }
 }

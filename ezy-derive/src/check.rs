@@ -164,6 +164,23 @@ pub fn check(def: &ModelDef, errs: &mut Errors) -> Resolved {
     for f in &def.families {
         check_index(errs, def, &f.start);
         check_index(errs, def, &f.end);
+        // the variable names the element's index in the family's expressions
+        let kind = if def.params.iter().any(|p| p.name == f.var) {
+            Some("parameter")
+        } else if def.counts.iter().any(|c| c.name == f.var) {
+            Some("count")
+        } else {
+            None
+        };
+        if let Some(kind) = kind {
+            errs.at(
+                &f.var,
+                format!(
+                    "the family variable `{v}` has the name of {kind} `{v}`; in the family's expressions `{v}` names the element's index, so rename one",
+                    v = f.var
+                ),
+            );
+        }
     }
     if def.bodies.is_empty() {
         errs.at(

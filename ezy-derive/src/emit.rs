@@ -17,7 +17,7 @@ use std::collections::HashMap;
 
 use crate::ast::{Affine, ModelDef, doc_of, escape_unit, split_unit};
 use crate::check::{BodyRef, PointRef, Resolved};
-use crate::kinematics::{Derived, Group, Kind};
+use crate::kinematics::{Derived, Group, Kind, own_index};
 use crate::sym::{Id, Node, Sym};
 
 fn lit_f64(v: f64) -> TokenStream {
@@ -49,8 +49,16 @@ enum Coords {
     Local,
 }
 
-/// Straight-line code computing `outputs`: `(let bindings, one expression per output)`.
-fn lower(d: &Derived, def: &ModelDef, outputs: &[Id], coords: Coords) -> (TokenStream, Vec<TokenStream>) {
+/// Straight-line code computing `outputs`: `(let bindings, one expression
+/// per output)`. `Sym::Index(k)` is the value of `indices[k]` at the loop
+/// value `v` of [`each_element`] (empty outside a family).
+fn lower(
+    d: &Derived,
+    def: &ModelDef,
+    outputs: &[Id],
+    coords: Coords,
+    indices: &[Affine],
+) -> (TokenStream, Vec<TokenStream>) {
     let refer = |id: Id| -> TokenStream {
         match d.ar.node(id) {
             Node::Sym(Sym::Q(k)) if coords == Coords::Global => quote!(q[#k]),
@@ -60,12 +68,13 @@ fn lower(d: &Derived, def: &ModelDef, outputs: &[Id], coords: Coords) -> (TokenS
             _ => leaf_or_let(d, def, id),
         }
     };
-    let lets = let_bindings(d, def, &d.ar.reachable(outputs), &refer);
+    let lets = let_bindings(d, def, &d.ar.reachable(outputs), &refer, indices);
     (lets, outputs.iter().map(|&o| refer(o)).collect())
 }
 
 /// How generated code refers to a number (`S::from_f64(..)`), a parameter
-/// (its `p_NAME` binding) or a computed node (its `tNN` binding).
+/// (its `p_NAME` binding), a family index (its `ixK` binding) or a
+/// computed node (its `tNN` binding).
 fn leaf_or_let(d: &Derived, def: &ModelDef, id: Id) -> TokenStream {
     let private = runtime();
     match d.ar.node(id) {
@@ -77,6 +86,10 @@ fn leaf_or_let(d: &Derived, def: &ModelDef, id: Id) -> TokenStream {
             let p = format_ident!("p_{}", def.params[*i].name);
             quote!(#p)
         }
+        Node::Sym(Sym::Index(k)) => {
+            let ix = format_ident!("ix{}", k);
+            quote!(#ix)
+        }
         _ => {
             let t = format_ident!("t{}", id.index());
             quote!(#t)
@@ -85,9 +98,17 @@ fn leaf_or_let(d: &Derived, def: &ModelDef, id: Id) -> TokenStream {
 }
 
 /// The `let` bindings of the nodes `ids` (ascending: an evaluation order):
-/// a parameter read from its field, every other non-leaf node computed
-/// from its children as `refer` names them.
-fn let_bindings(d: &Derived, def: &ModelDef, ids: &[Id], refer: &dyn Fn(Id) -> TokenStream) -> TokenStream {
+/// a parameter read from its field, a family index `Sym::Index(k)`
+/// computed from the loop value `v` (the value of `indices[k]`, an
+/// integer, as a real), every other non-leaf node computed from its
+/// children as `refer` names them.
+fn let_bindings(
+    d: &Derived,
+    def: &ModelDef,
+    ids: &[Id],
+    refer: &dyn Fn(Id) -> TokenStream,
+    indices: &[Affine],
+) -> TokenStream {
     let private = runtime();
     let scalar = quote!(<S as #private::Scalar>);
     let mut lets = TokenStream::new();
@@ -97,6 +118,12 @@ fn let_bindings(d: &Derived, def: &ModelDef, ids: &[Id], refer: &dyn Fn(Id) -> T
                 let p = format_ident!("p_{}", def.params[*i].name);
                 let field = &def.params[*i].name;
                 lets.extend(quote!(let #p: S = #scalar::from_f64(self.#field);));
+                continue;
+            }
+            Node::Sym(Sym::Index(k)) => {
+                let ix = format_ident!("ix{}", k);
+                let a = affine_tokens(indices.get(*k).expect("a family index names an index of its kernel"));
+                lets.extend(quote!(let #ix: S = #scalar::from_f64(#a as f64);));
                 continue;
             }
             Node::Const(_) | Node::Sym(_) => continue,
@@ -210,11 +237,12 @@ impl<'a> Hoisted<'a> {
             self.visit(r, &mut order);
         }
         let refer = |id: Id| self.refer(id);
-        let_bindings(self.d, self.def, &order, &refer)
+        // the table serves a model without families: no index
+        let_bindings(self.d, self.def, &order, &refer, &[])
     }
 
     fn visit(&mut self, id: Id, order: &mut Vec<Id>) {
-        let param = matches!(self.d.ar.node(id), Node::Sym(Sym::Param(_)));
+        let param = matches!(self.d.ar.node(id), Node::Sym(Sym::Param(_) | Sym::Index(_)));
         if self.done[id.index()] || !(self.computed(id) || param) {
             return;
         }
@@ -238,6 +266,14 @@ fn affine_tokens(a: &Affine) -> TokenStream {
     }
     let c = a.c;
     quote!((#t + #c))
+}
+
+/// `let l = self.__ezy_layout();` and the counts (`c_N`, which
+/// [`affine_tokens`] names): the opening of every generated function that
+/// walks the items.
+fn layout_prelude(def: &ModelDef) -> TokenStream {
+    let counts = count_lets(def);
+    quote!(let l = self.__ezy_layout(); #counts)
 }
 
 /// The runtime counts as `let c_N: i64` bindings.
@@ -363,7 +399,7 @@ fn group_loops(d: &Derived, def: &ModelDef, o: Outputs) -> TokenStream {
         if o.gamma {
             ids.extend(&g.gamma);
         }
-        let (lets, exprs) = lower(d, def, &ids, Coords::Local);
+        let (lets, exprs) = lower(d, def, &ids, Coords::Local, &g.indices);
         let mut writes = TokenStream::new();
         let mut k = 0;
         if o.phi && g.holonomic() {
@@ -410,7 +446,7 @@ fn point_loops(d: &Derived, def: &ModelDef, res: &Resolved, vel: bool) -> TokenS
             continue;
         }
         let ids: Vec<Id> = if vel { p.vel.to_vec() } else { p.pos.to_vec() };
-        let (lets, ex) = lower(d, def, &ids, Coords::Local);
+        let (lets, ex) = lower(d, def, &ids, Coords::Local, &[own_index()]);
         let (e0, e1) = (&ex[0], &ex[1]);
         let gat = gather(def, &[point_body(def, res, pi)], vel);
         out.extend(each_element(
@@ -507,7 +543,7 @@ fn static_form(d: &mut Derived, def: &ModelDef, res: &Resolved) -> Static {
 /// Assignments `out[k] = expr_k` with their bindings (global coordinates).
 fn assign(d: &Derived, def: &ModelDef, groups: &[(&str, &[Id])]) -> TokenStream {
     let all: Vec<Id> = groups.iter().flat_map(|(_, ids)| ids.iter().copied()).collect();
-    let (lets, exprs) = lower(d, def, &all, Coords::Global);
+    let (lets, exprs) = lower(d, def, &all, Coords::Global, &[]);
     let mut body = lets;
     let mut start = 0;
     for (name, ids) in groups {
@@ -524,14 +560,23 @@ fn assign(d: &Derived, def: &ModelDef, groups: &[(&str, &[Id])]) -> TokenStream 
 
 /// Template of an expression for [`ezy_core::__private::render_equation`]:
 /// symbols as markers `\u{1}q3\u{2}` (local coordinate 3), `d` (its
-/// rate), `p` (parameter).
+/// rate), `p` (parameter); a family index `Sym::Index(k)` as
+/// [`index_marker`], which the generated code replaces by the element's
+/// index before rendering.
 fn templates(d: &Derived, id: Id) -> (String, String) {
     let name = |s: Sym| match s {
         Sym::Q(k) => format!("\u{1}q{k}\u{2}"),
         Sym::Qd(k) => format!("\u{1}d{k}\u{2}"),
         Sym::Param(i) => format!("\u{1}p{i}\u{2}"),
+        Sym::Index(k) => index_marker(k),
     };
     (d.ar.display(id, &name), d.ar.latex(id, &name))
+}
+
+/// The marker of `Sym::Index(k)` in a template: control characters that
+/// neither the templates' other markers nor a name contain.
+fn index_marker(k: usize) -> String {
+    format!("\u{3}{k}\u{4}")
 }
 
 /// The path of the runtime crate as the user's crate names it, found at
@@ -623,6 +668,7 @@ pub fn emit(def: &ModelDef, res: &Resolved, d: &mut Derived) -> TokenStream {
         })
     });
 
+    let prelude = layout_prelude(def);
     let layout = layout_fn(def, d);
     let info = info_fn(def, res, d);
     let check = check_fn(def, res, d);
@@ -631,7 +677,7 @@ pub fn emit(def: &ModelDef, res: &Resolved, d: &mut Derived) -> TokenStream {
     // mass and local geometry: loops over items (constant per element)
     let mut mass_body = TokenStream::new();
     for (bi, b) in def.bodies.iter().enumerate() {
-        let (lets, ex) = lower(d, def, &d.mass[bi], Coords::Local);
+        let (lets, ex) = lower(d, def, &d.mass[bi], Coords::Local, &[own_index()]);
         let (m0, m1, m2) = (&ex[0], &ex[1], &ex[2]);
         mass_body.extend(each_element(
             b.family,
@@ -644,7 +690,7 @@ pub fn emit(def: &ModelDef, res: &Resolved, d: &mut Derived) -> TokenStream {
     }
     let mut local_body = TokenStream::new();
     for (pi, p) in def.points.iter().enumerate() {
-        let (lets, ex) = lower(d, def, &d.points[pi].local, Coords::Local);
+        let (lets, ex) = lower(d, def, &d.points[pi].local, Coords::Local, &[own_index()]);
         let (a, b) = (&ex[0], &ex[1]);
         local_body.extend(each_element(
             p.family,
@@ -656,7 +702,7 @@ pub fn emit(def: &ModelDef, res: &Resolved, d: &mut Derived) -> TokenStream {
         ));
     }
     for (ki, s) in def.skates.iter().enumerate() {
-        let (lets, ex) = lower(d, def, &d.blades[ki], Coords::Local);
+        let (lets, ex) = lower(d, def, &d.blades[ki], Coords::Local, &[own_index()]);
         let (a, b) = (&ex[0], &ex[1]);
         let gi = d.groups.iter().position(|g| g.kind == Kind::Skate && g.item == ki).expect("one group per skate");
         local_body.extend(each_element(
@@ -724,7 +770,7 @@ pub fn emit(def: &ModelDef, res: &Resolved, d: &mut Derived) -> TokenStream {
         let terms_body = group_loops(d, def, o(false, true, true, false));
         let points_body = point_loops(d, def, res, false);
         let vel_body = point_loops(d, def, res, true);
-        let layout = quote!(let l = self.__ezy_layout(););
+        let layout = layout_prelude(def);
         let fns =
             numeric_fns(&layout, &layout, [phi_body, jac_body, g_body, phi_g_body, terms_body, points_body, vel_body]);
         let minimal = minimal_fns(d, def, Err("it has families (`for`), whose minimal form is not derived yet".into()));
@@ -775,13 +821,13 @@ pub fn emit(def: &ModelDef, res: &Resolved, d: &mut Derived) -> TokenStream {
 
             fn mass_diagonal(&self, out: &mut [f64]) {
                 type S = f64;
-                let l = self.__ezy_layout();
+                #prelude
                 #mass_body
             }
 
             fn local_geometry(&self, points: &mut [f64], blades: &mut [f64]) {
                 type S = f64;
-                let l = self.__ezy_layout();
+                #prelude
                 #local_body
             }
 
@@ -806,7 +852,7 @@ fn minimal_fns(d: &Derived, def: &ModelDef, m: Result<crate::minimal::Minimal, S
         }
     };
     let pivots: Vec<Id> = m.pivots.iter().map(|p| p.2).collect();
-    let (pivot_lets, pivot_exprs) = lower(d, def, &pivots, Coords::Global);
+    let (pivot_lets, pivot_exprs) = lower(d, def, &pivots, Coords::Global, &[]);
     let pivot_items =
         m.pivots.iter().zip(&pivot_exprs).map(|((name, k, _), e)| quote!((::std::string::String::from(#name), #k, #e)));
     let (coords, speeds) = (&m.coords, &m.speeds);
@@ -816,10 +862,10 @@ fn minimal_fns(d: &Derived, def: &ModelDef, m: Result<crate::minimal::Minimal, S
     outputs.extend(&m.b);
     outputs.extend(&m.c);
     outputs.extend(&m.frames);
-    let (lets, exprs) = lower(d, def, &outputs, Coords::Global);
+    let (lets, exprs) = lower(d, def, &outputs, Coords::Global, &[]);
     // the state alone (`minimal_state`): the same expressions for q_D and
     // qd, lowered on their own so that none of B's or c's is computed
-    let (state_lets, state_exprs) = lower(d, def, &outputs[..m.q_dep.len() + nq], Coords::Global);
+    let (state_lets, state_exprs) = lower(d, def, &outputs[..m.q_dep.len() + nq], Coords::Global, &[]);
     let mut state_sets = TokenStream::new();
     for ((j, _), e) in m.q_dep.iter().zip(&state_exprs) {
         state_sets.extend(quote!(q[#j] = #e;));
@@ -947,7 +993,7 @@ fn fused_fns(d: &Derived, def: &ModelDef, m: &crate::minimal::Minimal, maggi: &c
         let i = match s {
             Sym::Q(j) => m.coords.iter().position(|&c| c == j),
             Sym::Qd(j) => m.speeds.iter().position(|&c| c == j).map(|i| np + i),
-            Sym::Param(_) => None,
+            Sym::Param(_) | Sym::Index(_) => None,
         };
         let i = i.unwrap_or_else(|| panic!("the minimal form mentions {s:?}, neither kept nor independent"));
         quote!(z[#i])
@@ -961,7 +1007,7 @@ fn fused_fns(d: &Derived, def: &ModelDef, m: &crate::minimal::Minimal, maggi: &c
     outputs.extend(maggi.hinge.iter().flatten());
     let mut h = Hoisted::new(d, def, &outputs, &name);
     let nk = h.table.len();
-    let (table_lets, table_exprs) = lower(d, def, &h.table, Coords::Global);
+    let (table_lets, table_exprs) = lower(d, def, &h.table, Coords::Global, &[]);
     // the full state and the kept coordinates' rates, each value computed
     // just before it is stored
     let mut sets = TokenStream::new();
@@ -1330,6 +1376,7 @@ fn layout_fn(def: &ModelDef, d: &Derived) -> TokenStream {
 /// `fn info(&self)`: names, indices and the pattern at the current counts.
 fn info_fn(def: &ModelDef, res: &Resolved, d: &Derived) -> TokenStream {
     let private = runtime();
+    let prelude = layout_prelude(def);
     let model_name = def.name.to_string();
     let model_doc = doc_of(&def.attrs).split(". ").next().unwrap_or("").trim_end_matches('.').to_string();
     let mut params_info: Vec<TokenStream> = def
@@ -1348,9 +1395,10 @@ fn info_fn(def: &ModelDef, res: &Resolved, d: &Derived) -> TokenStream {
         let v = lit_f64(c.value as f64);
         quote!(#private::ParamInfo { name: #n, default: #v, unit: "", doc: #doc, count: true })
     }));
+    // a parameter alone (not a family's index variable, not a number)
     let param_of = |e: &syn::Expr| -> TokenStream {
         match e {
-            syn::Expr::Path(p) if p.path.get_ident().is_some() => {
+            syn::Expr::Path(p) if p.path.get_ident().is_some_and(|id| def.params.iter().any(|q| q.name == *id)) => {
                 let n = p.path.get_ident().expect("checked").to_string();
                 quote!(::core::option::Option::Some(#n))
             }
@@ -1432,7 +1480,7 @@ fn info_fn(def: &ModelDef, res: &Resolved, d: &Derived) -> TokenStream {
     }
     quote! {
         fn info(&self) -> #private::ModelInfo {
-            let l = self.__ezy_layout();
+            #prelude
             let mut coords = ::std::vec::Vec::with_capacity(l.nq);
             let mut bodies = ::std::vec::Vec::with_capacity(l.n_bodies);
             let mut points = ::std::vec::Vec::with_capacity(l.n_points);
@@ -1466,6 +1514,7 @@ fn info_fn(def: &ModelDef, res: &Resolved, d: &Derived) -> TokenStream {
 /// family it names, joints join distinct bodies, and names are unique.
 fn check_fn(def: &ModelDef, res: &Resolved, d: &Derived) -> TokenStream {
     let private = runtime();
+    let prelude = layout_prelude(def);
     let mut body = TokenStream::new();
     for c in &def.counts {
         let n = &c.name;
@@ -1544,7 +1593,7 @@ fn check_fn(def: &ModelDef, res: &Resolved, d: &Derived) -> TokenStream {
     }
     quote! {
         fn check_counts(&self) -> ::core::result::Result<(), ::std::string::String> {
-            let l = self.__ezy_layout();
+            #prelude
             #body
             let info = <Self as #private::Model>::info(self);
             #private::unique_names(&info)
@@ -1555,11 +1604,34 @@ fn check_fn(def: &ModelDef, res: &Resolved, d: &Derived) -> TokenStream {
 /// `fn equations(&self)`: each item's templates rendered per element.
 fn equations_fn(def: &ModelDef, res: &Resolved, d: &Derived) -> TokenStream {
     let private = runtime();
+    let prelude = layout_prelude(def);
     let params: Vec<String> = def.params.iter().map(|p| p.name.to_string()).collect();
-    let render = |id: Id, out: &str| -> TokenStream {
+    // a template naming family indices gets the element's values first
+    // (an integer; a negative one in parentheses)
+    let render = |id: Id, out: &str, indices: &[Affine]| -> TokenStream {
         let (t, x) = templates(d, id);
         let out = format_ident!("{}", out);
-        quote!(eq.#out.push(#private::render_equation(#t, #x, &names, &params));)
+        let mut subs = TokenStream::new();
+        for (k, a) in indices.iter().enumerate() {
+            let m = index_marker(k);
+            if t.contains(&m) || x.contains(&m) {
+                let a = affine_tokens(a);
+                subs.extend(quote! {
+                    let n: i64 = #a;
+                    let n = if n < 0 { ::std::format!("({})", n) } else { ::std::format!("{}", n) };
+                    let (t, x) = (t.replace(#m, &n), x.replace(#m, &n));
+                });
+            }
+        }
+        if subs.is_empty() {
+            quote!(eq.#out.push(#private::render_equation(#t, #x, &names, &params));)
+        } else {
+            quote!({
+                let (t, x) = (::std::string::String::from(#t), ::std::string::String::from(#x));
+                #subs
+                eq.#out.push(#private::render_equation(&t, &x, &names, &params));
+            })
+        }
     };
     let names_of = |slots: &[BodyRef]| -> TokenStream {
         let cols: Vec<TokenStream> = slots.iter().map(|b| body_column(def, b)).collect();
@@ -1574,9 +1646,10 @@ fn equations_fn(def: &ModelDef, res: &Resolved, d: &Derived) -> TokenStream {
             let names: [&str; #n] = [#(#idx),*];
         }
     };
+    let own = [own_index()];
     let mut body = TokenStream::new();
     for (bi, b) in def.bodies.iter().enumerate() {
-        let pushes: Vec<TokenStream> = d.mass[bi].iter().map(|&m| render(m, "mass")).collect();
+        let pushes: Vec<TokenStream> = d.mass[bi].iter().map(|&m| render(m, "mass", &own)).collect();
         body.extend(each_element(b.family, quote!(let names: [&str; 0] = []; #(#pushes)*)));
     }
     for g in &d.groups {
@@ -1585,12 +1658,13 @@ fn equations_fn(def: &ModelDef, res: &Resolved, d: &Derived) -> TokenStream {
         }
         let names = names_of(&g.slots);
         let mut pushes = TokenStream::new();
+        let ix = &g.indices;
         if g.holonomic() {
-            pushes.extend(g.phi.iter().map(|&x| render(x, "phi")));
+            pushes.extend(g.phi.iter().map(|&x| render(x, "phi", ix)));
         }
-        pushes.extend(g.velocity.iter().map(|&x| render(x, "velocity")));
-        pushes.extend(g.local_pattern(&d.ar).into_iter().map(|(r, c)| render(g.g[r][c], "jacobian")));
-        pushes.extend(g.gamma.iter().map(|&x| render(x, "gamma")));
+        pushes.extend(g.velocity.iter().map(|&x| render(x, "velocity", ix)));
+        pushes.extend(g.local_pattern(&d.ar).into_iter().map(|(r, c)| render(g.g[r][c], "jacobian", ix)));
+        pushes.extend(g.gamma.iter().map(|&x| render(x, "gamma", ix)));
         body.extend(each_element(g.family, quote!(#names #pushes)));
     }
     for (pi, p) in d.points.iter().enumerate() {
@@ -1598,12 +1672,12 @@ fn equations_fn(def: &ModelDef, res: &Resolved, d: &Derived) -> TokenStream {
             continue;
         }
         let names = names_of(&[point_body(def, res, pi)]);
-        let pushes: Vec<TokenStream> = p.vel.iter().map(|&x| render(x, "point_velocities")).collect();
+        let pushes: Vec<TokenStream> = p.vel.iter().map(|&x| render(x, "point_velocities", &own)).collect();
         body.extend(each_element(def.points[pi].family, quote!(#names #(#pushes)*)));
     }
     quote! {
         fn equations(&self) -> #private::Equations {
-            let l = self.__ezy_layout();
+            #prelude
             let info = <Self as #private::Model>::info(self);
             let params: &[&str] = &[#(#params),*];
             let mut eq = #private::Equations::default();

@@ -30,9 +30,11 @@
 //! runtime maps slots to columns of `q` per element; a model without
 //! families is also renamed to global coordinates (straight-line code).
 
-use syn::{BinOp, Expr, UnOp};
+use std::collections::HashMap;
 
-use crate::ast::{HingeTarget, ModelDef};
+use syn::{BinOp, Expr, Ident, UnOp};
+
+use crate::ast::{Affine, HingeTarget, ModelDef};
 use crate::check::{BodyRef, Errors, PointRef, Resolved, same_body};
 use crate::sym::{Arena, Id, Sym};
 
@@ -54,6 +56,11 @@ pub struct Group {
     pub family: Option<usize>,
     /// The bodies it touches: slot `s` has local coordinates `3s..3s+3`.
     pub slots: Vec<BodyRef>,
+    /// The family indices its expressions name: `Sym::Index(k)` is the
+    /// value of `indices[k]` at the element (`indices[0]` is the item's
+    /// own index, `i`; a family point's offsets named by `P[i - 1]` read
+    /// `i - 1`, by `P[N]` the count).
+    pub indices: Vec<Affine>,
     /// Holonomic residual rows (empty for a skate).
     pub phi: Vec<Id>,
     /// Rows of `G` over the local coordinates (rows x 3 slots).
@@ -89,7 +96,8 @@ impl Group {
     }
 }
 
-/// A point item in local coordinates of its body (slot 0).
+/// A point item in local coordinates of its body (slot 0); a family
+/// point's expressions name its own index as `Sym::Index(0)`.
 pub struct PointDerived {
     /// Its body item (`None` if unresolved); a family point sits on the
     /// element of the same index, a single point on
@@ -109,14 +117,37 @@ pub struct Derived {
     /// then skates.
     pub groups: Vec<Group>,
     pub points: Vec<PointDerived>,
-    /// Mass-matrix diagonal `(m, m, I)` of every body item, in parameters.
+    /// Mass-matrix diagonal `(m, m, I)` of every body item, in parameters
+    /// (and a family body's own index, `Sym::Index(0)`).
     pub mass: Vec<[Id; 3]>,
-    /// Unit blade direction `(tx, ty)` of every skate item, body frame.
+    /// Unit blade direction `(tx, ty)` of every skate item, body frame
+    /// (a family skate's own index is `Sym::Index(0)`).
     pub blades: Vec<[Id; 2]>,
 }
 
-/// Converts a user expression (numbers, parameters, + - * /, sqrt/sin/cos).
-pub fn expr_to_sym(ar: &mut Arena, e: &Expr, params: &[String], what: &str, errs: &mut Errors) -> Id {
+/// What a user expression may name: the parameters and, in an item of a
+/// family, the family's index variable.
+pub struct Scope<'a> {
+    pub params: &'a [String],
+    /// The variable of the item's family (`i` of `for i in ..`), read as
+    /// the element's index, `Sym::Index(0)`; `None` outside a family.
+    pub var: Option<&'a Ident>,
+    /// The variables of every family, to tell a variable named outside
+    /// its family from an unknown parameter.
+    pub vars: &'a [String],
+}
+
+impl<'a> Scope<'a> {
+    /// The scope of an item of `family` (`None`: a single item).
+    fn of(def: &'a ModelDef, params: &'a [String], vars: &'a [String], family: Option<usize>) -> Self {
+        Scope { params, var: family.map(|f| &def.families[f].var), vars }
+    }
+}
+
+/// Converts a user expression (numbers, parameters, the family's index
+/// variable, + - * /, sqrt/sin/cos).
+pub fn expr_to_sym(ar: &mut Arena, e: &Expr, scope: &Scope, what: &str, errs: &mut Errors) -> Id {
+    let params = scope.params;
     match e {
         Expr::Lit(_) => match crate::parse::literal_value(e) {
             Some(v) => ar.cst(v),
@@ -127,8 +158,24 @@ pub fn expr_to_sym(ar: &mut Arena, e: &Expr, params: &[String], what: &str, errs
         },
         Expr::Path(p) if p.path.get_ident().is_some() => {
             let id = p.path.get_ident().expect("checked");
+            if scope.var == Some(id) {
+                return ar.sym(Sym::Index(0));
+            }
             match params.iter().position(|n| id == n) {
                 Some(i) => ar.sym(Sym::Param(i)),
+                None if scope.vars.iter().any(|v| id == v) => {
+                    let here = match scope.var {
+                        Some(v) => format!("this item's family runs over `{v}`"),
+                        None => "this item is not in a family".to_string(),
+                    };
+                    errs.at(
+                        id,
+                        format!(
+                            "{what}: `{id}` is the index of a family (`for {id} in ..`) and names an element's index only in the items of that family; {here}"
+                        ),
+                    );
+                    ar.cst(0.0)
+                }
                 None => {
                     let known = if params.is_empty() { "none".to_string() } else { params.join(", ") };
                     errs.at(id, format!("{what}: unknown parameter `{id}`; known parameters: {known}"));
@@ -136,15 +183,15 @@ pub fn expr_to_sym(ar: &mut Arena, e: &Expr, params: &[String], what: &str, errs
                 }
             }
         }
-        Expr::Paren(p) => expr_to_sym(ar, &p.expr, params, what, errs),
-        Expr::Group(g) => expr_to_sym(ar, &g.expr, params, what, errs),
+        Expr::Paren(p) => expr_to_sym(ar, &p.expr, scope, what, errs),
+        Expr::Group(g) => expr_to_sym(ar, &g.expr, scope, what, errs),
         Expr::Unary(u) if matches!(u.op, UnOp::Neg(_)) => {
-            let a = expr_to_sym(ar, &u.expr, params, what, errs);
+            let a = expr_to_sym(ar, &u.expr, scope, what, errs);
             ar.neg(a)
         }
         Expr::Binary(b) => {
-            let l = expr_to_sym(ar, &b.left, params, what, errs);
-            let r = expr_to_sym(ar, &b.right, params, what, errs);
+            let l = expr_to_sym(ar, &b.left, scope, what, errs);
+            let r = expr_to_sym(ar, &b.right, scope, what, errs);
             match b.op {
                 BinOp::Add(_) => ar.add2(l, r),
                 BinOp::Sub(_) => ar.sub(l, r),
@@ -161,7 +208,7 @@ pub fn expr_to_sym(ar: &mut Arena, e: &Expr, params: &[String], what: &str, errs
                 Expr::Path(p) => p.path.get_ident().map(|i| i.to_string()),
                 _ => None,
             };
-            let a = expr_to_sym(ar, &c.args[0], params, what, errs);
+            let a = expr_to_sym(ar, &c.args[0], scope, what, errs);
             match f.as_deref() {
                 Some("sqrt") => ar.sqrt(a),
                 Some("sin") => ar.sin(a),
@@ -173,8 +220,28 @@ pub fn expr_to_sym(ar: &mut Arena, e: &Expr, params: &[String], what: &str, errs
             }
         }
         other => {
-            errs.at(other, format!("{what}: unsupported expression; use numbers, parameters, + - * /, sqrt, sin, cos"));
+            let index = scope.var.map_or(String::new(), |v| format!(", the family's index `{v}`"));
+            errs.at(
+                other,
+                format!("{what}: unsupported expression; use numbers, parameters{index}, + - * /, sqrt, sin, cos"),
+            );
             ar.cst(0.0)
+        }
+    }
+}
+
+/// The index `i` of a family item's own element (`Group::indices[0]`).
+pub fn own_index() -> Affine {
+    Affine { var: true, count: None, c: 0, span: proc_macro2::Span::call_site() }
+}
+
+/// Position of `index` in `indices`, added if new.
+fn index_of(indices: &mut Vec<Affine>, index: &Affine) -> usize {
+    match indices.iter().position(|a| a.same(index)) {
+        Some(k) => k,
+        None => {
+            indices.push(index.clone());
+            indices.len() - 1
         }
     }
 }
@@ -206,13 +273,16 @@ fn unit_and_normal(ar: &mut Arena, tx: Id, ty: Id) -> ([Id; 2], [Id; 2]) {
 pub fn derive(def: &ModelDef, res: &Resolved, errs: &mut Errors) -> Derived {
     let mut ar = Arena::new();
     let params: Vec<String> = def.params.iter().map(|p| p.name.to_string()).collect();
+    let vars: Vec<String> = def.families.iter().map(|f| f.var.to_string()).collect();
+    let scope = |family: Option<usize>| Scope::of(def, &params, &vars, family);
 
     let mut mass = Vec::with_capacity(def.bodies.len());
     for b in &def.bodies {
         let before = errs.count();
-        let m = expr_to_sym(&mut ar, &b.mass, &params, &format!("mass of body `{}`", b.name), errs);
+        let sc = scope(b.family);
+        let m = expr_to_sym(&mut ar, &b.mass, &sc, &format!("mass of body `{}`", b.name), errs);
         let after_m = errs.count();
-        let i = expr_to_sym(&mut ar, &b.inertia, &params, &format!("inertia of body `{}`", b.name), errs);
+        let i = expr_to_sym(&mut ar, &b.inertia, &sc, &format!("inertia of body `{}`", b.name), errs);
         let (m_ok, i_ok) = (after_m == before, errs.count() == after_m);
         for (what, e, tok, ok) in [("mass", m, &b.mass, m_ok), ("inertia", i, &b.inertia, i_ok)] {
             if !ok {
@@ -249,8 +319,9 @@ pub fn derive(def: &ModelDef, res: &Resolved, errs: &mut Errors) -> Derived {
     let mut points = Vec::with_capacity(def.points.len());
     for (p, &b) in def.points.iter().zip(&res.point_body) {
         let what = format!("point `{}`", p.name);
-        let px = expr_to_sym(&mut ar, &p.at[0], &params, &what, errs);
-        let py = expr_to_sym(&mut ar, &p.at[1], &params, &what, errs);
+        let sc = scope(p.family);
+        let px = expr_to_sym(&mut ar, &p.at[0], &sc, &what, errs);
+        let py = expr_to_sym(&mut ar, &p.at[1], &sc, &what, errs);
         if b == usize::MAX {
             let z = ar.cst(0.0);
             points.push(PointDerived { body: None, pos: [z, z], vel: [z, z], local: [px, py] });
@@ -270,11 +341,22 @@ pub fn derive(def: &ModelDef, res: &Resolved, errs: &mut Errors) -> Derived {
             }
         }
     };
-    // a point reference's world position in the group's local coordinates
+    // a point reference's world position in the group's local coordinates:
+    // a family point's offsets name its own index, `Sym::Index(0)`, which
+    // is the group's index `pr.1` (`P[i - 1]`: one less than the group's)
     let resolved = |pr: &PointRef| pr.0 != usize::MAX && res.point_body[pr.0] != usize::MAX;
-    let at = |ar: &mut Arena, slots: &mut Vec<BodyRef>, pr: &PointRef| -> ([Id; 2], usize) {
-        let s = slot_of(slots, res.body_of(def, pr));
-        let [px, py] = points[pr.0].local;
+    let at = |ar: &mut Arena, g: &mut Group, pr: &PointRef| -> ([Id; 2], usize) {
+        let s = slot_of(&mut g.slots, res.body_of(def, pr));
+        let [mut px, mut py] = points[pr.0].local;
+        if let Some(index) = &pr.1 {
+            let k = index_of(&mut g.indices, index);
+            if k != 0 {
+                let rename = |s: Sym| if s == Sym::Index(0) { Sym::Index(k) } else { s };
+                let mut memo = HashMap::new();
+                px = ar.subst(px, &rename, &mut memo);
+                py = ar.subst(py, &rename, &mut memo);
+            }
+        }
         (world(ar, s, px, py), s)
     };
 
@@ -284,6 +366,7 @@ pub fn derive(def: &ModelDef, res: &Resolved, errs: &mut Errors) -> Derived {
         item,
         family,
         slots: Vec::new(),
+        indices: vec![own_index()],
         phi: Vec::new(),
         g: Vec::new(),
         gamma: Vec::new(),
@@ -296,12 +379,13 @@ pub fn derive(def: &ModelDef, res: &Resolved, errs: &mut Errors) -> Derived {
             groups.push(g);
             continue;
         }
-        let (ra, _) = at(&mut ar, &mut g.slots, a);
+        let (ra, _) = at(&mut ar, &mut g, a);
         let other = match (&h.target, b) {
-            (HingeTarget::Point(_), Some(b)) => at(&mut ar, &mut g.slots, b).0,
+            (HingeTarget::Point(_), Some(b)) => at(&mut ar, &mut g, b).0,
             (HingeTarget::Ground { at, .. }, _) => {
                 let what = format!("ground point of hinge `{}`", h.name);
-                [expr_to_sym(&mut ar, &at[0], &params, &what, errs), expr_to_sym(&mut ar, &at[1], &params, &what, errs)]
+                let sc = scope(h.family);
+                [expr_to_sym(&mut ar, &at[0], &sc, &what, errs), expr_to_sym(&mut ar, &at[1], &sc, &what, errs)]
             }
             _ => unreachable!("hinge target and resolution agree"),
         };
@@ -316,10 +400,11 @@ pub fn derive(def: &ModelDef, res: &Resolved, errs: &mut Errors) -> Derived {
         let mut g = new_group(Kind::Slider, si, sl.family);
         let kind = if sl.heading { "slider" } else { "slot" };
         let what = format!("{kind} `{}`", sl.name);
-        let tx = expr_to_sym(&mut ar, &sl.along[0], &params, &format!("direction of {what}"), errs);
-        let ty = expr_to_sym(&mut ar, &sl.along[1], &params, &format!("direction of {what}"), errs);
+        let sc = scope(sl.family);
+        let tx = expr_to_sym(&mut ar, &sl.along[0], &sc, &format!("direction of {what}"), errs);
+        let ty = expr_to_sym(&mut ar, &sl.along[1], &sc, &format!("direction of {what}"), errs);
         let angle = match &sl.angle {
-            Some(e) => expr_to_sym(&mut ar, e, &params, &format!("angle of {what}"), errs),
+            Some(e) => expr_to_sym(&mut ar, e, &sc, &format!("angle of {what}"), errs),
             None => ar.cst(0.0),
         };
         if ar.is_zero(tx) && ar.is_zero(ty) {
@@ -337,17 +422,17 @@ pub fn derive(def: &ModelDef, res: &Resolved, errs: &mut Errors) -> Derived {
         // unit normal of the line, in the guide's frame, and the guide's
         // point and heading (the ground: world frame, heading 0)
         let (_, [nx, ny]) = unit_and_normal(&mut ar, tx, ty);
-        let (rp, sp) = at(&mut ar, &mut g.slots, p);
+        let (rp, sp) = at(&mut ar, &mut g, p);
         let (origin, normal, heading) = match (&sl.target, guide) {
             (HingeTarget::Point(_), Some(gp)) => {
-                let (origin, sa) = at(&mut ar, &mut g.slots, gp);
+                let (origin, sa) = at(&mut ar, &mut g, gp);
                 let phi_a = lq(&mut ar, sa, 2);
                 (origin, rotate(&mut ar, phi_a, nx, ny), phi_a)
             }
             (HingeTarget::Ground { at }, _) => {
                 let at = [
-                    expr_to_sym(&mut ar, &at[0], &params, &format!("ground point of {what}"), errs),
-                    expr_to_sym(&mut ar, &at[1], &params, &format!("ground point of {what}"), errs),
+                    expr_to_sym(&mut ar, &at[0], &sc, &format!("ground point of {what}"), errs),
+                    expr_to_sym(&mut ar, &at[1], &sc, &format!("ground point of {what}"), errs),
                 ];
                 (at, [nx, ny], ar.cst(0.0))
             }
@@ -404,8 +489,9 @@ pub fn derive(def: &ModelDef, res: &Resolved, errs: &mut Errors) -> Derived {
     for (ki, (s, p)) in def.skates.iter().zip(&res.skate_point).enumerate() {
         let mut g = new_group(Kind::Skate, ki, s.family);
         let what = format!("blade direction of skate `{}`", s.name);
-        let tx = expr_to_sym(&mut ar, &s.along[0], &params, &what, errs);
-        let ty = expr_to_sym(&mut ar, &s.along[1], &params, &what, errs);
+        let sc = scope(s.family);
+        let tx = expr_to_sym(&mut ar, &s.along[0], &sc, &what, errs);
+        let ty = expr_to_sym(&mut ar, &s.along[1], &sc, &what, errs);
         let zero = ar.cst(0.0);
         if ar.is_zero(tx) && ar.is_zero(ty) {
             errs.push(syn::Error::new(
@@ -423,7 +509,7 @@ pub fn derive(def: &ModelDef, res: &Resolved, errs: &mut Errors) -> Derived {
             groups.push(g);
             continue;
         }
-        let (r, sl) = at(&mut ar, &mut g.slots, p);
+        let (r, sl) = at(&mut ar, &mut g, p);
         let phi = lq(&mut ar, sl, 2);
         let [nwx, nwy] = rotate(&mut ar, phi, nbx, nby);
         let n = 3 * g.slots.len();

@@ -17,7 +17,8 @@
 //!         | "slot" NAME ":" REF "on" ( REF | "ground" "(" EXPR "," EXPR ")" ) "along" "(" EXPR "," EXPR ")" ";"
 //!         | "drive" NAME ":" "hinge" REF ";"   (in a family: drive D[i]: hinge J[i];)
 //!         | "skate" NAME ":" REF "along" "(" EXPR "," EXPR ")" ";"
-//! EXPR   := numbers, parameter names, + - * /, parentheses, sqrt/sin/cos(...)
+//! EXPR   := numbers, parameter names, + - * /, parentheses, sqrt/sin/cos(...),
+//!           and in a family's items its VAR (the element's index, a real number)
 //! ```
 
 use syn::parse::{Parse, ParseStream};

@@ -18,7 +18,7 @@ pub use chaplygin_sleigh::ChaplyginSleigh;
 use ezy_core::registry::{InfoOnly, Register};
 pub use ezyroller::EzyRoller;
 pub use ezyroller_driven::EzyRollerDriven;
-pub use mechanisms::{DoublePendulum, ElasticFourBar, FourBar, Pendulum, SliderCrank};
+pub use mechanisms::{DoublePendulum, ElasticFourBar, FourBar, NFourBar, Pendulum, SliderCrank};
 pub use snake::{Snake, SnakeDriven, SnakeServo};
 pub use snakeboard::Snakeboard;
 pub use trailer::Trailer;
@@ -39,6 +39,7 @@ pub fn register<R: Register>(r: &mut R) {
     r.register::<SliderCrank>("slider_crank");
     r.register::<DoublePendulum>("double_pendulum");
     r.register::<Pendulum>("pendulum");
+    r.register::<NFourBar>("n_four_bar");
 }
 
 /// The built-in vehicles alone, enough to check the built-in scenes (the

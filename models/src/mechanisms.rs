@@ -1,9 +1,11 @@
 //! Planar mechanisms of the textbooks, each with a check that does not
 //! come from ezy: a four-bar linkage against Freudenstein's equation, a
 //! slider-crank against the closed form of its piston's position, a
-//! double pendulum against the frequencies of its linearization (the
-//! tests in `tests/mechanisms.rs`), and the simple pendulum of IFToMM's
-//! benchmark A01 against its closed form in Jacobi's elliptic functions
+//! double pendulum against the frequencies of its linearization, the
+//! IFToMM benchmark's N-four-bar (A02) against the one-degree-of-freedom
+//! equation of its parallelogram motion (the tests in
+//! `tests/mechanisms.rs`), and the simple pendulum of IFToMM's benchmark
+//! A01 against its closed form in Jacobi's elliptic functions
 //! (`tests/guards.rs`). Links are uniform bars, except the simple
 //! pendulum's massless one: a link of length `L` and mass `m` has its
 //! centre of mass at its middle and the inertia `m L^2 / 12` (the
@@ -164,5 +166,42 @@ ezy_core::model! {
         body bob(x, y, phi) { mass: m, inertia: I }
         point O on bob at (-L, 0);
         hinge O: O = ground(0, 0);
+    }
+}
+
+ezy_core::model! {
+    /// The N-four-bar mechanism of the IFToMM multibody benchmark library
+    /// (problem A02): N + 1 cranks on ground pivots at (i L, 0), i = 0..N,
+    /// and N couplers, each joining the tips of two neighbouring cranks;
+    /// all bars alike. One degree of freedom: 3 (2N + 1) coordinates and
+    /// 2 (3N + 1) independent constraint rows, except in the singular
+    /// configuration (all bars on the x axis), passed twice a revolution,
+    /// where their rank is 5N + 2 (each of the N loops may leave it as a
+    /// parallelogram or not).
+    pub struct NFourBar {
+        /// Number of couplers (there are N + 1 cranks)
+        count N = 2;
+        /// Length of every bar [m]
+        param L = 1.0;
+        /// Mass of every bar [kg]
+        param m = 1.0;
+
+        for i in 0..N + 1 {
+            /// Crank i, its axis from its ground pivot O[i] to its tip
+            /// T[i]: its heading theta_i is the crank angle.
+            body crank[i](xc, yc, theta) { mass: m, inertia: m * L * L / 12 }
+            point O[i] on crank[i] at (-L / 2, 0);
+            point T[i] on crank[i] at (L / 2, 0);
+            hinge O[i]: O[i] = ground(i * L, 0);
+        }
+        for i in 1..N + 1 {
+            /// Coupler i, its axis from the tip of crank i - 1 (A[i]) to
+            /// the tip of crank i (B[i]).
+            body coupler[i](xk, yk, psi) { mass: m, inertia: m * L * L / 12 }
+            point A[i] on coupler[i] at (-L / 2, 0);
+            point B[i] on coupler[i] at (L / 2, 0);
+            hinge A[i]: A[i] = T[i - 1];
+            hinge B[i]: B[i] = T[i];
+        }
     }
 }

@@ -28,6 +28,8 @@ pub const BUILTIN: &[(&str, &str)] = &[
     ("slider-crank.toml", include_str!("../scenes/slider-crank.toml")),
     ("double-pendulum.toml", include_str!("../scenes/double-pendulum.toml")),
     ("pendulum.toml", include_str!("../scenes/pendulum.toml")),
+    ("four-bar-n2.toml", include_str!("../scenes/four-bar-n2.toml")),
+    ("four-bar-n40.toml", include_str!("../scenes/four-bar-n40.toml")),
 ];
 
 /// The description of the built-in model registered as `key`, at its

@@ -76,16 +76,18 @@ impl Arena {
         out
     }
 
-    /// Factors of a product in reading order: numbers, parameters,
-    /// coordinates and rates, powers, functions, sums (`b*cos(phi1)`).
+    /// Factors of a product in reading order: numbers, family indices,
+    /// parameters, coordinates and rates, powers, functions, sums
+    /// (`b*cos(phi1)`, `2*i*L`).
     fn reading_order(&self, fs: &[Id]) -> Vec<Id> {
         let rank = |f: Id| match self.node(f) {
             Node::Const(_) => 0,
-            Node::Sym(Sym::Param(_)) => 1,
-            Node::Sym(_) => 2,
-            Node::Pow(..) => 3,
-            Node::Sin(_) | Node::Cos(_) | Node::Sqrt(_) => 4,
-            _ => 5,
+            Node::Sym(Sym::Index(_)) => 1,
+            Node::Sym(Sym::Param(_)) => 2,
+            Node::Sym(_) => 3,
+            Node::Pow(..) => 4,
+            Node::Sin(_) | Node::Cos(_) | Node::Sqrt(_) => 5,
+            _ => 6,
         };
         let mut out = fs.to_vec();
         out.sort_by_key(|&f| rank(f));

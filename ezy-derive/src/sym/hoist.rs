@@ -20,9 +20,9 @@ pub struct Grouping {
 }
 
 impl Arena {
-    /// For every node of the arena, whether it mentions no coordinate and
-    /// no velocity (numbers and parameters only), indexed by
-    /// [`Id::index`].
+    /// For every node of the arena, whether it mentions no coordinate, no
+    /// velocity and no family index (numbers and parameters only: the
+    /// same for every element), indexed by [`Id::index`].
     pub fn fixed_nodes(&self) -> Vec<bool> {
         let mut fixed = Vec::with_capacity(self.nodes.len());
         self.extend_fixed(&mut fixed);

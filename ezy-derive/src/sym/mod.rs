@@ -36,7 +36,8 @@ impl Id {
     }
 }
 
-/// A symbol: generalized coordinate, velocity, or model parameter.
+/// A symbol: generalized coordinate, velocity, model parameter, or the
+/// index of a family element.
 #[derive(Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord, Debug)]
 pub enum Sym {
     /// Generalized coordinate `q[i]`.
@@ -45,6 +46,13 @@ pub enum Sym {
     Qd(usize),
     /// Model parameter number `i`.
     Param(usize),
+    /// The index of a family element as a real number, `i` in
+    /// `ground(i * L, 0)`: index number `k` of the element kernel it
+    /// appears in (`Group::indices` in `kinematics`; 0 is the kernel's own
+    /// element). A constant for the derivatives (not a coordinate), but
+    /// not fixed across the elements: never hoisted into a table of
+    /// constants (`Arena::fixed_nodes`).
+    Index(usize),
 }
 
 /// One node of the arena.

@@ -304,7 +304,7 @@ fn replace_substitutes_and_cancels_like_terms() {
     let at = |s: Sym| match s {
         Sym::Q(k) => 0.3 + k as f64,
         Sym::Qd(_) => 0.0,
-        Sym::Param(_) => 0.7,
+        Sym::Param(_) | Sym::Index(_) => 0.7,
     };
     assert!((ar.eval(kept, &at) - ar.eval(row, &at)).abs() < 1e-15);
     assert!(ar.mentions(row, &|s| s == Sym::Q(3)) && !ar.mentions(bc, &|s| s == Sym::Q(3)));
@@ -352,4 +352,33 @@ fn trigonometric_passes_keep_the_value() {
     let want = t.ar.cos(d);
     let got = t.ar.linearize(sum);
     assert_eq!(got, want, "{}", t.ar.display(got, &names));
+}
+
+/// A family index is a constant for the derivatives (`d(i a cos x)/dx =
+/// -i a sin x`, nothing from `i`) but not fixed: a table of constants
+/// computed once per run must not hold it, nor a product that mentions
+/// it, while the parameter-only nodes stay fixed.
+#[test]
+fn a_family_index_is_constant_in_q_but_not_fixed() {
+    let mut ar = Arena::new();
+    let (x, i, a) = (ar.sym(X), ar.sym(Sym::Index(0)), ar.sym(A));
+    let c = ar.cos(x);
+    let e = ar.mul(&[i, a, c]);
+    let d = ar.diff(e, X);
+    let s = ar.sin(x);
+    let m1 = ar.cst(-1.0);
+    let want = ar.mul(&[m1, i, a, s]);
+    assert_eq!(d, want);
+    let ia = ar.mul2(i, a);
+    let d_ia = ar.diff(ia, X);
+    assert!(ar.is_zero(d_ia));
+    let two = ar.cst(2.0);
+    let a2 = ar.mul2(two, a);
+    let fixed = ar.fixed_nodes();
+    assert!(!fixed[i.index()] && !fixed[ia.index()] && !fixed[e.index()]);
+    assert!(fixed[a.index()] && fixed[a2.index()]);
+    // read numbers first, then the index, then parameters
+    let name = |s: Sym| if s == Sym::Index(0) { "i".to_string() } else { names(s) };
+    let e2 = ar.mul(&[a2, i, c]);
+    assert_eq!(ar.display(e2, &name), "2*i*a*cos(x)");
 }
