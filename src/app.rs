@@ -625,10 +625,13 @@ impl App {
             .map(|m| m.parse::<sweep::Metric>())
             .collect::<Result<Vec<_>, _>>()
             .map_err(AppError::Failed)?;
+        // at most the cores this process may use: more threads only
+        // contend (and a huge --jobs would start them all)
+        let cores = std::thread::available_parallelism().map_or(1, std::num::NonZero::get);
         let jobs = match args.jobs {
             Some(0) => return Err(AppError::Failed("--jobs 0: give at least 1".into())),
-            Some(j) => j,
-            None => std::thread::available_parallelism().map_or(1, std::num::NonZero::get),
+            Some(j) => j.min(cores),
+            None => cores,
         };
         let mut definition = Vec::new();
         for (flag, list) in [("--grid", &args.grids), ("--list", &args.lists), ("--random", &args.randoms)] {
@@ -698,8 +701,12 @@ impl App {
             let exe =
                 std::env::current_exe().map_err(|e| AppError::Failed(format!("the path of this program: {e}")))?;
             let text =
-                sweep::slurm::script(&exe, &job.manifest.scene, &job.manifest.args, &dir, tasks, runs, &src.scene.name);
-            crate::transaction::write_atomically(file, text.as_bytes()).map_err(AppError::failed)?;
+                sweep::slurm::script(&exe, &job.manifest.scene, &job.manifest.args, &dir, tasks, runs, &src.scene.name)
+                    .map_err(AppError::Failed)?;
+            // the scene's file (a known scene is none), never replaced
+            let scene_file = Path::new(&job.manifest.scene);
+            let scene_file = scene_file.is_absolute().then_some(scene_file);
+            sweep::slurm::write_script(file, &text, scene_file).map_err(AppError::Failed)?;
             let msg = format!(
                 "wrote {} ({runs} runs in {tasks} array tasks, merged into {}); submit it with `bash {}`\n",
                 file.display(),
@@ -707,6 +714,9 @@ impl App {
                 file.display()
             );
             return Ok(out.write_all(msg.as_bytes())?);
+        }
+        if let Some(asked) = args.jobs.filter(|&j| j > job.jobs) {
+            eprintln!("note: --jobs {asked} capped to {}, the number of cores this process may use", job.jobs);
         }
         let report = (ops.sweep)(&job).map_err(|e| match e {
             sweep::SweepError::Interrupted(i) => AppError::Interrupted(i),
@@ -735,8 +745,10 @@ impl App {
                 job.opts.figure_format.unwrap_or(job.scene.output.figure_format),
                 job.opts.dpi.unwrap_or(job.scene.output.dpi),
             );
-            let (f, n) =
-                sweep::figure::draw(&args.out, &job.plan, &job.metrics, &info, look).map_err(AppError::Failed)?;
+            let (f, n) = sweep::figure::draw(&args.out, &job.plan, &job.metrics, &info, look).map_err(|e| match e {
+                sweep::SweepError::Interrupted(i) => AppError::Interrupted(i),
+                e => AppError::failed(e),
+            })?;
             files.extend(f);
             notes = n;
         }

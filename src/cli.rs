@@ -350,7 +350,8 @@ pub struct SweepArgs {
     /// (window optional: the whole run); repeatable.
     #[arg(long = "metric", value_name = "EXPR")]
     pub metrics: Vec<String>,
-    /// Runs at once [default: every core].
+    /// Runs at once [default: every core]; at most the number of cores
+    /// this process may use (a larger value is capped, with a note).
     #[arg(long, value_name = "J")]
     pub jobs: Option<usize>,
     /// Output directory [default: out/sweep/SCENE].
@@ -361,13 +362,20 @@ pub struct SweepArgs {
     #[arg(long, value_name = "K/N", value_parser = parse_shard)]
     pub shard: Option<(u64, u64)>,
     /// Write a Slurm batch script for this sweep (a job array of shards
-    /// and the merge as a dependent job) instead of running it.
+    /// and the merge as a dependent job) instead of running it. An
+    /// existing FILE is replaced only if it is a script ezy wrote (never
+    /// the scene, another file, a link, a FIFO or a device); paths and
+    /// arguments are quoted in it, and one holding a control character
+    /// (a newline) is refused.
     #[arg(long, value_name = "FILE")]
     pub emit_slurm: Option<PathBuf>,
-    /// Number of array tasks in the Slurm script [default: 4].
+    /// Number of array tasks in the Slurm script, at most the number of
+    /// runs and 1000000 [default: 4].
     #[arg(long, value_name = "N", value_parser = parse_count, requires = "emit_slurm")]
     pub tasks: Option<u64>,
-    /// Also keep every run's trajectory.csv and figures, in DIR/runs/RUN.
+    /// Also keep every run's trajectory.csv and figures, in DIR/runs/RUN
+    /// (a symbolic link at DIR/runs or DIR/runs/RUN is refused, never
+    /// followed).
     #[arg(long)]
     pub save_runs: bool,
     /// Skip the sweep's figures.

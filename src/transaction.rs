@@ -410,6 +410,24 @@ pub fn sync(file: &File, path: &Path) -> Result<(), TransactionError> {
 /// [`TransactionError::Io`] naming `path`.
 pub fn write_atomically(path: &Path, bytes: &[u8]) -> Result<(), TransactionError> {
     let io = |source| TransactionError::Io { path: path.into(), source };
+    let mut tmp = temp_beside(path).map_err(io)?;
+    tmp.write_all(bytes).map_err(io)?;
+    tmp.as_file().sync_all().map_err(io)?;
+    tmp.persist(path).map_err(|e| io(e.error))?;
+    Ok(())
+}
+
+/// A uniquely named hidden temporary file next to `path` (`.NAME.XXXXXX`
+/// in the same directory, so that renaming it onto `path` is atomic),
+/// created exclusively, never through a link, with the mode a file
+/// created by [`File::create`] gets: 0666 less the umask (a bare
+/// [`tempfile::NamedTempFile`] is 0600 whatever the umask). Every file ezy
+/// persists from a temporary file is made here. The parent directory must
+/// exist.
+///
+/// # Errors
+/// The file cannot be created (a missing or read-only directory).
+pub fn temp_beside(path: &Path) -> std::io::Result<tempfile::NamedTempFile> {
     let dir = match path.parent() {
         Some(p) if !p.as_os_str().is_empty() => p,
         _ => Path::new("."),
@@ -424,11 +442,7 @@ pub fn write_atomically(path: &Path, bytes: &[u8]) -> Result<(), TransactionErro
         use std::os::unix::fs::PermissionsExt;
         builder.permissions(std::fs::Permissions::from_mode(0o666));
     }
-    let mut tmp = builder.tempfile_in(dir).map_err(io)?;
-    tmp.write_all(bytes).map_err(io)?;
-    tmp.as_file().sync_all().map_err(io)?;
-    tmp.persist(path).map_err(|e| io(e.error))?;
-    Ok(())
+    builder.tempfile_in(dir)
 }
 
 /// A name ezy may give an output file: one plain path component, not one

@@ -269,7 +269,8 @@ fn the_slurm_script_runs_shards_and_merges() {
         "--dependency=\"afterok:$array\"",
         "sweep drive --grid M0=1:2:5 --metric 'mean(T, 1, 2)'",
         "--shard \"$SLURM_ARRAY_TASK_ID/2\"",
-        "sweep merge --out \"$DIR\" \"$DIR/shard-0\" \"$DIR/shard-1\"",
+        "while [ \"$k\" -lt 2 ]; do set -- \"$@\" \"$DIR/shard-$k\"",
+        "exec \"$EZY\" sweep merge --out \"$DIR\" \"$@\"",
     ] {
         assert!(text.contains(want), "{want}\n{text}");
     }

@@ -6,9 +6,11 @@
 
 use std::path::{Path, PathBuf};
 
+use super::SweepError;
 use super::metric::Metric;
 use super::plan::{Plan, Values};
 use crate::plot::{Chart, FigureFormat, HeatMap, Series};
+use crate::transaction::Interrupted;
 
 /// Most lines in a figure (one per value of the second axis); beyond it
 /// only the heat map is drawn.
@@ -21,17 +23,20 @@ pub const MAX_FIGURE_RUNS: u64 = 1_000_000;
 
 /// Draws the figures of the sweep in `dir` and returns the files written
 /// and notes on the figures not drawn (a metric whose every run failed,
-/// more than two axes), in `format` (PNG at `dpi`).
+/// more than two axes), in `format` (PNG at `dpi`). A signal (once
+/// [`crate::transaction::arm_signals`] handles them) stops it before the
+/// next figure; each figure is written whole (a rename) or not at all.
 ///
 /// # Errors
-/// `sweep.csv` cannot be read, or a figure cannot be written.
+/// [`SweepError::Failed`]: `sweep.csv` cannot be read, or a figure cannot
+/// be written; [`SweepError::Interrupted`]: a signal arrived.
 pub fn draw(
     dir: &Path,
     plan: &Plan,
     metrics: &[Metric],
     info: &ezy_core::ModelInfo,
     (format, dpi): (FigureFormat, f64),
-) -> Result<(Vec<PathBuf>, Vec<String>), String> {
+) -> Result<(Vec<PathBuf>, Vec<String>), SweepError> {
     let labels = axis_labels(plan, info);
     let (mut files, mut notes) = (Vec::new(), Vec::new());
     if metrics.is_empty() {
@@ -76,6 +81,7 @@ pub fn draw(
             }
         }
         if !series.is_empty() {
+            stop_if_signalled(dir, &file)?;
             let chart = Chart { series, ..Chart::new(&title, &labels[0], &m.text) };
             match crate::plot::figure(&chart, format, dpi) {
                 Ok(png) => files.push(write(dir, &file, &png)?),
@@ -103,6 +109,7 @@ pub fn draw(
                 values,
             };
             let file = format.file_name(&format!("sweep_{}_map", k + 1));
+            stop_if_signalled(dir, &file)?;
             let png = crate::plot::heatmap_svg(&map).and_then(|svg| crate::plot::encode(&svg, format, dpi, &map.title));
             match png {
                 Ok(png) => files.push(write(dir, &file, &png)?),
@@ -111,6 +118,24 @@ pub fn draw(
         }
     }
     Ok((files, notes))
+}
+
+/// [`SweepError::Interrupted`] if a signal asked to stop before `file`
+/// is drawn.
+fn stop_if_signalled(dir: &Path, file: &str) -> Result<(), SweepError> {
+    match crate::transaction::pending() {
+        None => Ok(()),
+        Some(signal) => Err(SweepError::Interrupted(Interrupted {
+            signal,
+            dir: dir.into(),
+            t: None,
+            doing: Some(format!("drawing {file}")),
+            kept: Some(format!(
+                "every row is in {}; the same command draws the figures",
+                dir.join(super::table::CSV).display()
+            )),
+        })),
+    }
 }
 
 /// The axes' names, with the unit of a model parameter (`a [m]`).

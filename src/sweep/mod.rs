@@ -13,7 +13,8 @@
 //!   resumes the sweep; a different sweep there is refused.
 //! - `sweep.csv`: one row per run, in run order, appended as runs finish
 //!   (a row is written whole or, after a kill, cut off and re-run on
-//!   resume). Its columns ([`columns`]): `run`, the swept parameters,
+//!   resume; a row deleted by hand is re-run on resume and the table
+//!   written anew in run order). Its columns ([`columns`]): `run`, the swept parameters,
 //!   `status` (`ok` or `error: ...`), `wall_s`, `steps`, `rejected`,
 //!   `rhs_evals`, the final state `y = [q, qd, W_...]` and `T` \[J\] (the
 //!   values of the last row of the run's `trajectory.csv`),
@@ -64,7 +65,8 @@ pub struct SweepJob {
     pub opts: RunOptions,
     /// The output directory.
     pub out: PathBuf,
-    /// Runs at once.
+    /// Runs at once; [`sweep_model`] takes at most the cores this process
+    /// may use (`std::thread::available_parallelism`) and at least 1.
     pub jobs: usize,
     /// Shard `(k, n)`: runs `k, k + n, k + 2n, ...`.
     pub shard: Option<(u64, u64)>,
@@ -395,10 +397,12 @@ fn poll() -> Result<(), Stop> {
 
 /// One run's outcome.
 enum Outcome {
-    /// Its row of `sweep.csv` (a line, with the newline).
-    Row { line: Vec<u8>, failed: bool, wall: Duration },
+    /// Run `run`'s row of `sweep.csv` (a line, with the newline).
+    Row { run: u64, line: Vec<u8>, failed: bool, wall: Duration },
     /// A signal stopped it.
     Interrupted(crate::transaction::Signal),
+    /// Its output directory (`--save-runs`) cannot be used: the sweep stops.
+    Unusable(String),
 }
 
 /// What a run yields before it becomes a row.
@@ -511,9 +515,38 @@ fn run_dir(out: &Path, i: u64, runs: u64) -> PathBuf {
     out.join("runs").join(format!("{i:0width$}"))
 }
 
+/// Creates directory `dir` if it is missing, and checks that it is a
+/// directory and not a symbolic link (a link planted at `OUT/runs` or
+/// `OUT/runs/RUN` would have a run write wherever it points).
+///
+/// # Errors
+/// `dir` is a link or not a directory, or cannot be created; the message
+/// names it.
+fn real_dir(dir: &Path) -> Result<(), String> {
+    if let Err(e) = std::fs::create_dir(dir)
+        && e.kind() != std::io::ErrorKind::AlreadyExists
+    {
+        return Err(format!("cannot create {}: {e}", dir.display()));
+    }
+    let meta = std::fs::symlink_metadata(dir).map_err(|e| format!("{}: {e}", dir.display()))?;
+    if meta.file_type().is_symlink() {
+        return Err(format!(
+            "{} is a symbolic link; ezy never follows links in its output directory (remove it)",
+            dir.display()
+        ));
+    }
+    if !meta.is_dir() {
+        return Err(format!(
+            "{} is not a directory; --save-runs writes each run's output there (remove it)",
+            dir.display()
+        ));
+    }
+    Ok(())
+}
+
 /// Runs `job` on model type `M` (what [`crate::App`] calls for the model
 /// the scene names): checks everything first, then runs the runs not yet
-/// in `sweep.csv` on `job.jobs` threads and appends their rows in run
+/// in `sweep.csv` on `job.jobs` threads (at most one per core) and appends their rows in run
 /// order, then draws the figures.
 ///
 /// # Errors
@@ -531,27 +564,50 @@ pub fn sweep_model<M: Model + Default>(job: &SweepJob) -> Result<SweepReport, Sw
     let (k0, stride) = job.shard.unwrap_or((0, 1));
     let positions = if runs > k0 { (runs - k0).div_ceil(stride) } else { 0 };
     crate::transaction::arm_signals();
-    let mut out = table::Output::open(&job.out, &job.manifest, &header, &job.plan, job.shard)?;
+    let mut out = match table::Output::open(&job.out, &job.manifest, &header, &job.plan, job.shard) {
+        Ok(out) => out,
+        Err(e) => {
+            return Err(match crate::transaction::pending() {
+                Some(signal) => SweepError::Interrupted(Interrupted {
+                    signal,
+                    dir: job.out.clone(),
+                    t: None,
+                    doing: Some("checking the rows already done".into()),
+                    kept: Some(format!(
+                        "the rows in {} are kept; the same command resumes the sweep",
+                        job.out.join(table::CSV).display()
+                    )),
+                }),
+                None => SweepError::Failed(e),
+            });
+        }
+    };
     let done_before = out.done;
+    if job.save_runs {
+        real_dir(&job.out.join("runs"))?;
+    }
     let todo = positions - done_before;
     let state_at: HashMap<String, usize> = checked.state.iter().enumerate().map(|(k, n)| (n.clone(), k)).collect();
     let n_state = checked.state.len();
 
+    // never more threads than cores, whatever the caller asked
+    let cores = std::thread::available_parallelism().map_or(1, std::num::NonZero::get);
+    let jobs = job.jobs.clamp(1, cores);
     let dispatch = Mutex::new((0u64, 0u64, out.done_cursor()?));
     let stop = AtomicBool::new(false);
     let pool = rayon::ThreadPoolBuilder::new()
-        .num_threads(job.jobs)
+        .num_threads(jobs)
         .thread_name(|k| format!("ezy-sweep-{k}"))
         .build()
-        .map_err(|e| format!("cannot start {} threads: {e}", job.jobs))?;
+        .map_err(|e| format!("cannot start {jobs} threads: {e}"))?;
     let progress = job.progress.then(|| Counter::new(todo, &job.scene.name));
     let start = Instant::now();
     let (tx, rx) = std::sync::mpsc::channel::<(u64, Outcome)>();
-    let mut report = SweepReport { runs: positions, done_before, jobs: job.jobs, ..SweepReport::default() };
+    let mut report = SweepReport { runs: positions, done_before, jobs, ..SweepReport::default() };
     let mut interrupted: Option<crate::transaction::Signal> = None;
     let mut write_error: Option<String> = None;
     pool.in_place_scope(|scope| {
-        for _ in 0..job.jobs {
+        for _ in 0..jobs {
             let tx = tx.clone();
             let (dispatch, stop, state_at) = (&dispatch, &stop, &state_at);
             let settings = &checked.settings;
@@ -568,6 +624,11 @@ pub fn sweep_model<M: Model + Default>(job: &SweepJob) -> Result<SweepReport, Sw
                         let (pos, seq, cursor) = &mut *d;
                         let mut found = None;
                         while *pos < positions {
+                            // many runs done before are passed within a
+                            // second of a signal
+                            if *pos % 4096 == 0 && crate::transaction::pending().is_some() {
+                                break;
+                            }
                             let i = k0 + *pos * stride;
                             *pos += 1;
                             if !cursor.is_done(i) {
@@ -583,14 +644,17 @@ pub fn sweep_model<M: Model + Default>(job: &SweepJob) -> Result<SweepReport, Sw
                     let opts = RunOptions { sets: run_sets(job, &values), ..job.opts.clone() };
                     let save = job.save_runs.then(|| run_dir(&job.out, i, runs));
                     let t = Instant::now();
-                    let outcome = match one_run::<M>(job, settings, &opts, save) {
-                        Err(Err(signal)) => Outcome::Interrupted(signal),
-                        r => {
-                            let wall = t.elapsed();
-                            let r = r.map_err(|e| e.unwrap_or_else(|_| unreachable!("signals handled above")));
-                            let (line, failed) = row_line(i, &values, r, wall, state_at, n_state, &job.metrics);
-                            Outcome::Row { line, failed, wall }
-                        }
+                    let outcome = match save.as_deref().map(real_dir).transpose() {
+                        Err(e) => Outcome::Unusable(e),
+                        Ok(_) => match one_run::<M>(job, settings, &opts, save) {
+                            Err(Err(signal)) => Outcome::Interrupted(signal),
+                            r => {
+                                let wall = t.elapsed();
+                                let r = r.map_err(|e| e.unwrap_or_else(|_| unreachable!("signals handled above")));
+                                let (line, failed) = row_line(i, &values, r, wall, state_at, n_state, &job.metrics);
+                                Outcome::Row { run: i, line, failed, wall }
+                            }
+                        },
                     };
                     if tx.send((seq, outcome)).is_err() {
                         return;
@@ -610,8 +674,8 @@ pub fn sweep_model<M: Model + Default>(job: &SweepJob) -> Result<SweepReport, Sw
                 && let Some(o) = pending.remove(&next)
             {
                 match o {
-                    Outcome::Row { line, failed, wall } => {
-                        if let Err(e) = out.append(&line) {
+                    Outcome::Row { run, line, failed, wall } => {
+                        if let Err(e) = out.append(run, &line) {
                             write_error = Some(e);
                             stop.store(true, Ordering::SeqCst);
                             break;
@@ -625,6 +689,10 @@ pub fn sweep_model<M: Model + Default>(job: &SweepJob) -> Result<SweepReport, Sw
                     }
                     Outcome::Interrupted(s) => {
                         interrupted = Some(s);
+                        stop.store(true, Ordering::SeqCst);
+                    }
+                    Outcome::Unusable(e) => {
+                        write_error = Some(e);
                         stop.store(true, Ordering::SeqCst);
                     }
                 }

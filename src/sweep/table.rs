@@ -214,17 +214,56 @@ pub struct Output {
     len: u64,
     /// Runs already in `sweep.csv` when it was opened.
     pub done: u64,
+    /// When runs are missing between the rows already there (a row
+    /// deleted by hand): the table being rewritten in run order.
+    refill: Option<Refill>,
+}
+
+/// Prefix of the temporary table a resume that fills gaps writes (next
+/// to `sweep.csv`; one a kill left behind is removed by the next resume).
+const REFILL_PREFIX: &str = ".sweep.csv.";
+
+/// A resume that fills gaps: the new table (a temporary file next to
+/// `sweep.csv`) takes the rows already there and the new ones in run
+/// order, and replaces `sweep.csv` (a rename) when the sweep stops.
+struct Refill {
+    tmp: tempfile::NamedTempFile,
+    /// The rows already there, read as the new ones pass them.
+    old: Rows,
+    /// The run of the row in `old.record` not yet copied.
+    next_old: Option<u64>,
+}
+
+impl Refill {
+    /// Copies the rows already there whose run is below `i` (all with
+    /// `None`) into the new table, each written as ezy writes a row.
+    fn copy_below(&mut self, i: Option<u64>, path: &Path) -> Result<(), String> {
+        while let Some(j) = self.next_old {
+            if i.is_some_and(|i| j >= i) {
+                break;
+            }
+            let fields: Vec<&str> = self.old.record.iter().collect();
+            self.tmp.write_all(&line(&fields)).map_err(|e| io(path, e))?;
+            self.next_old = self.old.next()?;
+        }
+        Ok(())
+    }
 }
 
 impl Output {
     /// Locks `dir`, checks or writes `sweep.toml`, and opens `sweep.csv`:
     /// a new one with `header`, or the one there after checking each row
     /// against `plan` (its parameter values must be the plan's for its
-    /// run number) and cutting off a row a kill left unfinished.
+    /// run number) and cutting off a row a kill left unfinished. When
+    /// runs are missing between the rows there (a row deleted), the rows
+    /// of this sweep go into a new table in run order, which replaces
+    /// `sweep.csv` at [`Output::finish`] (the rows there are kept as they
+    /// are until then).
     ///
     /// # Errors
     /// `dir` locked by another run or holding another sweep, a row that
-    /// is not this sweep's, or an I/O error, each naming the file.
+    /// is not this sweep's, or an I/O error, each naming the file; a
+    /// signal that arrived while the rows were checked.
     pub fn open(
         dir: &Path,
         manifest: &Manifest,
@@ -254,6 +293,7 @@ impl Output {
                     .map_err(|e| e.to_string())?;
             }
         }
+        remove_stale_refills(dir);
         let exists = std::fs::symlink_metadata(&path).is_ok();
         let mut file = crate::transaction::no_follow(OpenOptions::new().read(true).append(true).create(true))
             .open(&path)
@@ -264,6 +304,7 @@ impl Output {
         let header_line = line(header);
         let len = if exists { complete_length(&mut file, &path)? } else { 0 };
         let mut done = 0;
+        let mut gaps = false;
         if len == 0 {
             file.set_len(0).map_err(|e| io(&path, e))?;
             file.write_all(&header_line).map_err(|e| io(&path, e))?;
@@ -277,6 +318,10 @@ impl Output {
             let mut values = Vec::new();
             let mut buf = zmij::Buffer::new();
             while let Some(i) = rows.next()? {
+                // a long table is read within a second of a signal
+                if done % 4096 == 0 && crate::transaction::pending().is_some() {
+                    return Err(format!("stopped while checking the rows of {}", path.display()));
+                }
                 let line = rows.line();
                 let bad = |why: String| format!("{} line {line}: {why}; give another --out", path.display());
                 if i >= plan.runs() || i % stride != k0 {
@@ -298,11 +343,22 @@ impl Output {
                         )));
                     }
                 }
+                // a run of this shard skipped since the row before
+                gaps |= (i - k0) / stride != done;
                 last = Some(i);
                 done += 1;
             }
         }
-        Ok(Self { _lock: lock, file, path, len, done })
+        let refill = if gaps {
+            let mut tmp = crate::transaction::temp_beside(&path).map_err(|e| io(&path, e))?;
+            tmp.write_all(&header_line).map_err(|e| io(&path, e))?;
+            let (mut old, _) = Rows::open(&path, Some(len), None)?;
+            let next_old = old.next()?;
+            Some(Refill { tmp, old, next_old })
+        } else {
+            None
+        };
+        Ok(Self { _lock: lock, file, path, len, done, refill })
     }
 
     /// The runs already done, for the dispatch.
@@ -318,20 +374,43 @@ impl Output {
         Ok(DoneCursor { rows: Some(rows), next })
     }
 
-    /// Appends one row (a whole line).
+    /// Appends run `i`'s row (a whole line); runs come in ascending order.
+    /// When gaps are being filled, the rows already there below `i` go
+    /// first.
     ///
     /// # Errors
     /// The write failed (a full disk), naming the file.
-    pub fn append(&mut self, line: &[u8]) -> Result<(), String> {
-        self.file.write_all(line).map_err(|e| io(&self.path, e))
+    pub fn append(&mut self, i: u64, line: &[u8]) -> Result<(), String> {
+        match &mut self.refill {
+            None => self.file.write_all(line).map_err(|e| io(&self.path, e)),
+            Some(r) => {
+                r.copy_below(Some(i), &self.path)?;
+                r.tmp.write_all(line).map_err(|e| io(&self.path, e))
+            }
+        }
     }
 
-    /// Syncs the table to disk.
+    /// Syncs the table to disk. When gaps are being filled, the rows
+    /// already there that remain go into the new table, which then
+    /// replaces `sweep.csv` (so a sweep stopped by a signal keeps every
+    /// row, in run order).
     ///
     /// # Errors
-    /// The sync failed, naming the file.
+    /// The sync or the rename failed, naming the file (`sweep.csv` is
+    /// then left as it was).
     pub fn finish(&mut self) -> Result<(), String> {
-        self.file.sync_all().map_err(|e| io(&self.path, e))
+        let Some(mut r) = self.refill.take() else {
+            return self.file.sync_all().map_err(|e| io(&self.path, e));
+        };
+        r.copy_below(None, &self.path)?;
+        r.tmp.as_file().sync_all().map_err(|e| io(&self.path, e))?;
+        r.tmp.persist(&self.path).map_err(|e| io(&self.path, e.error))?;
+        if let Some(dir) = self.path.parent()
+            && let Ok(d) = File::open(dir)
+        {
+            let _ = d.sync_all();
+        }
+        Ok(())
     }
 
     /// The table's path.
@@ -399,7 +478,8 @@ pub fn merge(dirs: &[PathBuf], out: &Path) -> Result<(Manifest, Vec<PathBuf>), S
         return Err(format!("{} holds another sweep: its {TOML} has {d}; merge into another directory", out.display()));
     }
     let csv_path = out.join(CSV);
-    let mut tmp = tempfile::Builder::new().prefix(".sweep.csv.").tempfile_in(out).map_err(|e| io(&csv_path, e))?;
+    // 0666 less the umask, as any table ezy writes
+    let mut tmp = crate::transaction::temp_beside(&csv_path).map_err(|e| io(&csv_path, e))?;
     {
         let mut w = writer(std::io::BufWriter::new(tmp.as_file_mut()));
         w.write_record(&header).map_err(|e| io(&csv_path, e))?;
@@ -445,6 +525,18 @@ pub fn merge(dirs: &[PathBuf], out: &Path) -> Result<(Manifest, Vec<PathBuf>), S
     tmp.persist(&csv_path).map_err(|e| io(&csv_path, e.error))?;
     drop(lock);
     Ok((merged, vec![csv_path, out.join(TOML)]))
+}
+
+/// Removes the temporary tables of resumes that were killed while
+/// filling gaps (the caller holds the directory's lock). Links and
+/// directories of such a name are left alone.
+fn remove_stale_refills(dir: &Path) {
+    let Ok(entries) = std::fs::read_dir(dir) else { return };
+    for e in entries.flatten() {
+        if e.file_name().to_string_lossy().starts_with(REFILL_PREFIX) && e.file_type().is_ok_and(|t| t.is_file()) {
+            let _ = std::fs::remove_file(e.path());
+        }
+    }
 }
 
 fn same_dir(a: &Path, b: &Path) -> bool {
