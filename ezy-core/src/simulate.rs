@@ -282,6 +282,14 @@ struct SingularTrack {
     since: f64,
 }
 
+/// `max / min` of the positive, finite entries of the mass diagonal (1
+/// when there are none).
+fn mass_spread(mass: &[f64]) -> f64 {
+    let positive = mass.iter().filter(|m| **m > 0.0 && m.is_finite());
+    let (lo, hi) = positive.fold((f64::INFINITY, 0.0f64), |(lo, hi), &m| (lo.min(m), hi.max(m)));
+    if hi > 0.0 { hi / lo } else { 1.0 }
+}
+
 /// The note of a singular position passed at `t` \[s\] (`solves` KKT
 /// solves found `G` rank-deficient there).
 pub fn singular_note(t: f64, solves: u64) -> String {
@@ -582,6 +590,16 @@ impl<M: Model, O: Observer<M>> Run<'_, M, O> {
             }
             self.singular.persistent = 0;
             return Ok(());
+        }
+        // rows dependent only in the mass-weighted metric, with masses too
+        // far apart for double precision: no singular position but the
+        // precision's limit, told as before (the caller adds the cause)
+        if self.singular.open.is_none() && mass_spread(&sys.mass) > crate::MASS_SPREAD_WARNING {
+            let info = &sys.info;
+            if crate::kkt::dependent_row(&sys.model, info, q, None) == Ok(None) {
+                let row = crate::kkt::dependent_row(&sys.model, info, q, Some(&sys.mass)).ok().flatten().unwrap_or(0);
+                return Err(SimError::from_kkt(info, t, KktError::DependentConstraints { n: info.nc(), row }));
+            }
         }
         let open = self.singular.open.get_or_insert((t, 0));
         open.1 += solves;
