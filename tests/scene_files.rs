@@ -162,7 +162,7 @@ fn every_documented_scene_file_error_names_file_line_column_and_key() {
             "dt = 1e-4",
             "dt = -1e-4",
             "dt = -1e-4",
-            &["`integrator.dt`", "the step [s] must be a positive number, got -0.0001"],
+            &["`integrator.dt`", "the step [s] must be a positive number, got -1e-4"],
         ),
         // a figure column the output does not include, with the group to add
         (

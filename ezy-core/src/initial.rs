@@ -213,6 +213,13 @@ impl ColumnSolve {
         let mut x = vec![0.0; nu];
         let sys = KktSystem { mass: &sp.ones, g: &[], g_values: &sp.values, f: b, gamma: &sp.zeros };
         sp.schur.solve(&sys, &mut sp.resid, &mut x)?;
+        // undetermined unknowns are named, not solved regularized
+        if sp.schur.was_singular() {
+            return Err(Fail::from(KktError::DependentConstraints {
+                n: nu,
+                row: sp.schur.dependent_row(&sp.values)?.unwrap_or(0),
+            }));
+        }
         // iterative refinement: the residual b - J_u x comes back as the
         // accelerations, and corrects the normal equations' rounding
         let mut resid = vec![0.0; self.rows];
@@ -262,6 +269,12 @@ impl MinNorm {
         for _ in 0..3 {
             let sys = KktSystem { mass: ones, g: &[], g_values: values, f: zeros, gamma: &left };
             schur.solve(&sys, &mut step, &mut y)?;
+            // the assembly names dependent rows rather than solving them
+            // regularized (a singular position is for the run, not the start)
+            if schur.was_singular() {
+                let row = schur.dependent_row(values)?.unwrap_or(0);
+                return Err(Fail::from(KktError::DependentConstraints { n: self.rows, row }));
+            }
             for (d, s) in dx.iter_mut().zip(&step) {
                 *d -= s;
             }
