@@ -290,6 +290,13 @@ fn ldl_solve_dynamic(
             l[i * m + j] = s * inv[j];
         }
     }
+    ldl_substitute(l, inv, m, r, x);
+    Ok((0..m).map(|j| a[j * lda + j] * inv[j]).fold(1.0, f64::max))
+}
+
+/// `x = (L D L^T)^-1 r` for the factor `L` (m x m, unit lower triangle
+/// below the diagonal, row-major) and `inv = D^-1` (m).
+fn ldl_substitute(l: &[f64], inv: &[f64], m: usize, r: &[f64], x: &mut [f64]) {
     for i in 0..m {
         let mut s = r[i];
         for k in 0..i {
@@ -304,7 +311,6 @@ fn ldl_solve_dynamic(
         }
         x[i] = s;
     }
-    Ok((0..m).map(|j| a[j * lda + j] * inv[j]).fold(1.0, f64::max))
 }
 
 /// Relative regularization of [`regularized_solve`]: `A + mu diag(A)` is
@@ -413,20 +419,7 @@ pub fn regularized_solve(
             }
             res[i] = s;
         }
-        for i in 0..m {
-            let mut s = res[i];
-            for k in 0..i {
-                s -= l[i * m + k] * dx[k];
-            }
-            dx[i] = s;
-        }
-        for i in (0..m).rev() {
-            let mut s = dx[i] * inv[i];
-            for k in i + 1..m {
-                s -= l[k * m + i] * dx[k];
-            }
-            dx[i] = s;
-        }
+        ldl_substitute(l, inv, m, res, dx);
         sweeps += 1;
         let (mut step, mut size) = (0.0f64, 0.0f64);
         for j in 0..m {
