@@ -194,6 +194,67 @@ fn out_of_range_family_references_are_errors() {
     assert!(ok.check_counts().unwrap_err().contains("count `N` is 0"));
 }
 
+/// A direction that names the family's index may be zero at one element
+/// (`along (i, 0)` at `i = 0`): `check_counts` refuses it, naming the
+/// element, the direction as written and its value, where the run would
+/// otherwise divide by its zero length (NaN in `G`); the same family from
+/// 1 is fine. A zero slot or slider direction likewise.
+#[test]
+fn a_direction_zero_at_an_element_is_refused() {
+    ezy_core::model! {
+        /// Skates whose blades turn with the index.
+        pub struct Blades {
+            count N = 3;
+            count K = 2;
+            param l = 1.0;
+            for i in 0..N {
+                body link[i](x, y, phi) { mass: 1.0, inertia: 0.1 }
+                point P[i] on link[i] at (l, 0);
+                skate S[i]: P[i] along (i, 0);
+            }
+            for j in 0..K {
+                body block[j](u, w, th) { mass: 1.0, inertia: 0.1 }
+                point C[j] on block[j] at (0, 0);
+                slot W[j]: C[j] on ground(0, 0) along (1 + j, 2 * j - 2);
+            }
+        }
+    }
+    let e = Blades::default().check_counts().unwrap_err();
+    assert!(e.contains("skate `S0`") && e.contains("`along (i, 0)` = (0, 0)"), "{e}");
+    let e = Blades { N: 1, K: 2, ..Default::default() }.check_counts().unwrap_err();
+    assert!(e.contains("skate `S0`"), "{e}");
+    ezy_core::model! {
+        /// The same skates from 1.
+        pub struct BladesFromOne {
+            count N = 3;
+            for i in 1..N + 1 {
+                body link[i](x, y, phi) { mass: 1.0, inertia: 0.1 }
+                point P[i] on link[i] at (0, 0);
+                skate S[i]: P[i] along (i, 0);
+            }
+            for j in 0..2 {
+                body block[j](u, w, th) { mass: 1.0, inertia: 0.1 }
+                point C[j] on block[j] at (0, 0);
+                slot W[j]: C[j] on ground(0, 0) along (1 - j, 2 * j - 2);
+            }
+        }
+    }
+    let e = BladesFromOne::default().check_counts().unwrap_err();
+    assert!(e.contains("slot `W1`") && e.contains("= (0, 0)"), "{e}");
+    ezy_core::model! {
+        /// Every direction nonzero.
+        pub struct Fine {
+            count N = 3;
+            for i in 1..N + 1 {
+                body link[i](x, y, phi) { mass: 1.0, inertia: 0.1 }
+                point P[i] on link[i] at (0, 0);
+                skate S[i]: P[i] along (i, 0);
+            }
+        }
+    }
+    assert!(Fine { N: 50 }.check_counts().is_ok());
+}
+
 /// A drive family in a scene: `[drives."D[*]"]` gives every element, its
 /// phase stepping along the family; a family the model lacks, an element
 /// given twice and a `phase_step` on a single drive are errors at the

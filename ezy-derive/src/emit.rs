@@ -1581,6 +1581,35 @@ fn check_fn(def: &ModelDef, res: &Resolved, d: &Derived) -> TokenStream {
                 checks.extend(in_range(fb, index, &var, owner.clone(), def.bodies[b.0].name.to_string()));
             }
         }
+        // a direction naming the family's index is not zero at any element
+        // (one zero at the compile-time numbers is a compile error)
+        if let Some([tx, ty]) = g.direction
+            && (d.ar.mentions(tx, &|s| matches!(s, Sym::Index(_)))
+                || d.ar.mentions(ty, &|s| matches!(s, Sym::Index(_))))
+        {
+            let (lets, ex) = lower(d, def, &[tx, ty], Coords::Local, &g.indices);
+            let (ex, ey) = (&ex[0], &ex[1]);
+            let shown = match g.kind {
+                Kind::Skate => "blade direction `along",
+                _ => "direction `along",
+            };
+            let (ax, ay) = match g.kind {
+                Kind::Skate => (&def.skates[g.item].along[0], &def.skates[g.item].along[1]),
+                _ => (&def.sliders[g.item].along[0], &def.sliders[g.item].along[1]),
+            };
+            let written = format!("{shown} ({}, {})`", quote!(#ax), quote!(#ay));
+            checks.extend(quote! {
+                #lets
+                let (tx, ty): (f64, f64) = (#ex, #ey);
+                let n2 = tx * tx + ty * ty;
+                if !(n2 > 0.0 && n2.is_finite()) {
+                    return ::core::result::Result::Err(::std::format!(
+                        "{} has its {} = ({}, {}) at this element and these parameters: not a direction; give one that is not zero at any element",
+                        #owner, #written, tx, ty
+                    ));
+                }
+            });
+        }
         if g.slots.len() == 2 && g.kind != Kind::Drive {
             let (a, b) = (body_index(def, &g.slots[0]), body_index(def, &g.slots[1]));
             checks.extend(quote! {
@@ -1593,6 +1622,7 @@ fn check_fn(def: &ModelDef, res: &Resolved, d: &Derived) -> TokenStream {
     }
     quote! {
         fn check_counts(&self) -> ::core::result::Result<(), ::std::string::String> {
+            type S = f64;
             #prelude
             #body
             let info = <Self as #private::Model>::info(self);

@@ -71,6 +71,9 @@ pub struct Group {
     pub velocity: Vec<Id>,
     /// Row name suffixes (`.x`, `.y`; `.n`, `.phi`; `` for drives, skates).
     pub suffixes: Vec<&'static str>,
+    /// A slider's, slot's or skate's direction as written, `(dx, dy)`,
+    /// before it is normalized (`None` for hinges and drives).
+    pub direction: Option<[Id; 2]>,
 }
 
 impl Group {
@@ -372,6 +375,7 @@ pub fn derive(def: &ModelDef, res: &Resolved, errs: &mut Errors) -> Derived {
         gamma: Vec::new(),
         velocity: Vec::new(),
         suffixes: Vec::new(),
+        direction: None,
     };
     for (hi, (h, (a, b))) in def.hinges.iter().zip(&res.hinge_points).enumerate() {
         let mut g = new_group(Kind::Hinge, hi, h.family);
@@ -421,6 +425,7 @@ pub fn derive(def: &ModelDef, res: &Resolved, errs: &mut Errors) -> Derived {
         }
         // unit normal of the line, in the guide's frame, and the guide's
         // point and heading (the ground: world frame, heading 0)
+        g.direction = Some([tx, ty]);
         let (_, [nx, ny]) = unit_and_normal(&mut ar, tx, ty);
         let (rp, sp) = at(&mut ar, &mut g, p);
         let (origin, normal, heading) = match (&sl.target, guide) {
@@ -503,6 +508,7 @@ pub fn derive(def: &ModelDef, res: &Resolved, errs: &mut Errors) -> Derived {
             continue;
         }
         // normalized blade direction and its body-frame normal (-ty, tx)
+        g.direction = Some([tx, ty]);
         let ([ux, uy], [nbx, nby]) = unit_and_normal(&mut ar, tx, ty);
         blades.push([ux, uy]);
         if !resolved(p) {
