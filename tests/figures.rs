@@ -36,9 +36,7 @@ fn every_builtin_scene_draws_in_every_format() {
         let info = scenes::model_info_with(&src.scene.model, &src.scene.params).unwrap().unwrap();
         let s = &src.scene.expand_families(&info).unwrap();
         let out = tmp(&s.name);
-        // the N-four-bar scenes 0.5 s: the solver does not pass their
-        // singular configuration at 0.714 s yet (issue 38)
-        let t_end = if s.name.starts_with("four-bar-n") { 0.5 } else { 1.0 };
+        let t_end = 1.0;
         let opts = RunOptions {
             out: out.clone(),
             t_end: Some(t_end),

@@ -138,6 +138,36 @@ fn projections_agree<M: Model + Default>(seed: u64) {
             for (a, b) in q.iter().chain(&qd).zip(qs.iter().chain(&qds)) {
                 assert!((a - b).abs() <= 1e-10 * (1.0 + a.abs()), "{} {kind:?} state {s}: {a} vs {b}", info.name);
             }
+            // the tangential part of an error estimate: C_q eq = 0 and
+            // G eqd = 0 after, a second removal changes nothing (a
+            // projector), and both paths agree
+            let e0: Vec<f64> = (0..2 * nq).map(|k| 1e-6 * ((k as f64) * 2.1).cos()).collect();
+            let (mut ed, mut es) = (e0.clone(), e0.clone());
+            let (dq, dqd) = ed.split_at_mut(nq);
+            dense.remove_normal(&m, 0.0, &q, dq, dqd).unwrap();
+            let (sq, sqd) = es.split_at_mut(nq);
+            sparse.remove_normal(&m, 0.0, &q, sq, sqd).unwrap();
+            let mut g = vec![0.0; info.pattern.len()];
+            m.constraint_matrix(&q, &mut g);
+            let mut rows = vec![0.0; 2 * info.nc()];
+            for (&(r, c), v) in info.pattern.iter().zip(&g) {
+                if r < info.n_holonomic {
+                    rows[r] += v * ed[c];
+                }
+                rows[info.nc() + r] += v * ed[nq + c];
+            }
+            let big = rows.iter().fold(0.0f64, |a, x| a.max(x.abs()));
+            assert!(big <= 1e-15, "{} {kind:?} state {s}: normal part left {big:e}", info.name);
+            let mut twice = ed.clone();
+            let (tq, tqd) = twice.split_at_mut(nq);
+            dense.remove_normal(&m, 0.0, &q, tq, tqd).unwrap();
+            for ((a, b), c) in ed.iter().zip(&twice).zip(&es) {
+                assert!(
+                    (a - b).abs() <= 1e-15 && (a - c).abs() <= 1e-15,
+                    "{} {kind:?} state {s}: {a} {b} {c}",
+                    info.name
+                );
+            }
         }
     }
 }

@@ -14,12 +14,11 @@ fn tmp_dir(name: &str) -> PathBuf {
     d
 }
 
-/// 1 s, or 0.5 s for the N-four-bar scenes (`four-bar-n2`, `four-bar-n40`):
-/// they pass their singular configuration (every bar on the x axis,
-/// 2 (3N + 1) rows of rank 5N + 2) at t = 0.714 s and 0.722 s, where the
-/// solver does not go on yet (issue 38: the step size collapses there).
-pub fn one_second(scene: &str) -> f64 {
-    if scene.starts_with("four-bar-n") { 0.5 } else { 1.0 }
+/// 1 s for every scene: the N-four-bar scenes pass their first singular
+/// configuration (every bar on the x axis, 2 (3N + 1) rows of rank
+/// 5N + 2) at t = 0.714 s (N = 2) and 0.722 s (N = 40) within it.
+pub fn one_second(_scene: &str) -> f64 {
+    1.0
 }
 
 /// Every built-in scene runs for 1 s with its own integrator settings, and

@@ -142,9 +142,9 @@ fn integrate(tol: &Tolerance) -> Result<([f64; 7], u64), SimError> {
 /// The reference's `q, qd` (the last data row of a `trajectory.csv`).
 fn reference(path: &str) -> Result<[f64; 12], String> {
     let text = std::fs::read_to_string(path).map_err(|e| format!("cannot read the reference {path}: {e}"))?;
-    let mut lines = text.lines().filter(|l| !l.is_empty() && !l.starts_with('#'));
-    let names: Vec<&str> = lines.next().ok_or(format!("{path}: no header"))?.split(',').collect();
-    let values: Vec<f64> = lines
+    let rows: Vec<&str> = text.lines().filter(|l| !l.is_empty() && !l.starts_with('#')).collect();
+    let names: Vec<&str> = rows.first().ok_or(format!("{path}: no header"))?.split(',').collect();
+    let values: Vec<f64> = rows[1..]
         .last()
         .ok_or(format!("{path}: no data row"))?
         .split(',')

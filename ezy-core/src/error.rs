@@ -45,6 +45,23 @@ pub enum SimError {
         /// What to do, fitted to the method in use ([`advice`]).
         advice: String,
     },
+    /// An adaptive method needed a step below the rounding level of `t`
+    /// next to a singular position of the constraints (the KKT
+    /// conditioning above [`crate::dynamics::NEAR_SINGULAR`]), even after
+    /// the step across it ([`crate::simulate`]): the tolerance is below
+    /// what double precision resolves there.
+    #[error(
+        "at t = {} s, next to a singular position of the constraints (G nearly rank-deficient), the step size fell to {h:e} s: there the rounding of the positions, amplified like 1 / distance, is above the tolerance rtol = {rtol:e}; a looser tolerance (1e-10 passes the IFToMM N-four-bar) or a fixed-step method passes it",
+        fmt_value(*t)
+    )]
+    SingularTolerance {
+        /// Time \[s\].
+        t: f64,
+        /// The step size \[s\].
+        h: f64,
+        /// The relative tolerance asked for.
+        rtol: f64,
+    },
     /// An adaptive method needed a step below the rounding level of `t`.
     #[error(
         "at t = {} s the step size fell to {h:e} s, the rounding level of t: the problem may be stiff, the tolerance too tight, or the forces or initial values too large",

@@ -19,6 +19,10 @@ use crate::model::scatter_dense;
 
 /// Tolerance on `max|C|` of the position iteration \[m\] (docs/physics.md §6).
 pub const POSITION_TOL: f64 = 1e-12;
+/// The refining position step ([`Projector::refine`]) is skipped when
+/// `max|C|` is at most this many units of rounding of the positions,
+/// `POSITION_ULPS eps max(1, |q|)` \[m\].
+pub const POSITION_ULPS: f64 = 16.0;
 /// Iteration limit of the position iteration (docs/physics.md §6).
 pub const POSITION_MAX_ITER: usize = 10;
 /// The velocity step is skipped when `max|G qd - b|` is at most this many
@@ -85,6 +89,8 @@ pub struct Projector<M: Model> {
     sparse: Option<Box<SparseProjection>>,
     /// The model's sizes, names and pattern of `G`.
     info: crate::ModelInfo,
+    /// See [`Projector::refine`].
+    refine: bool,
     _model: std::marker::PhantomData<M>,
 }
 
@@ -206,6 +212,7 @@ impl<M: Model> Projector<M> {
                 singular: None,
                 drives: Vec::new(),
                 info,
+                refine: false,
                 _model: std::marker::PhantomData,
             };
         }
@@ -256,6 +263,7 @@ impl<M: Model> Projector<M> {
             singular,
             drives: Vec::new(),
             info,
+            refine: false,
             _model: std::marker::PhantomData,
         }
     }
@@ -292,9 +300,7 @@ impl<M: Model> Projector<M> {
         if self.kind == ProjectionKind::None {
             return Ok(report);
         }
-        let info = &self.info;
-        let (nh, nc) = (info.n_holonomic, info.nc());
-        let wrap = |source: KktError| SimError::from_kkt(info, t, source);
+        let (nh, nc) = (self.info.n_holonomic, self.info.nc());
         // positions: Gauss-Newton on the leading (holonomic) block; G is
         // evaluated with phi, so the last evaluation serves the velocities.
         model.phi_and_constraint_matrix(q, &mut self.r[..nh], &mut self.g_values);
@@ -306,19 +312,13 @@ impl<M: Model> Projector<M> {
                     report.drift_position = res;
                 }
                 report.residual_position = res;
-                if res <= POSITION_TOL || it == POSITION_MAX_ITER {
+                // near a singular position one more step at rounding level
+                // (see `Projector::refine`)
+                let refine = self.refine && it == 0 && res > POSITION_ULPS * f64::EPSILON * max_abs(q).max(1.0);
+                if (res <= POSITION_TOL && !refine) || it == POSITION_MAX_ITER {
                     break;
                 }
-                if let Some(sp) = &mut self.sparse {
-                    let nnz_h = info.n_holonomic_nonzeros();
-                    sp.correct(true, &self.g_values[..nnz_h], &self.r[..nh], q).map_err(wrap)?;
-                } else {
-                    self.normal
-                        .solve(model, &info.pattern, &self.g_values, &self.winv, nh, &self.r[..nh], &mut self.x[..nh])
-                        .map_err(wrap)?;
-                    self.x[nh..].fill(0.0);
-                    model.sub_winv_gt_mul(&info.pattern, &self.g_values, &self.winv, &self.x, q);
-                }
+                self.correct_positions(model, q).map_err(|e| SimError::from_kkt(&self.info, t, e))?;
                 report.iterations = it + 1;
                 model.phi_and_constraint_matrix(q, &mut self.r[..nh], &mut self.g_values);
                 crate::drive::shift_positions(&self.drives, t, &mut self.r[..nh]);
@@ -326,24 +326,104 @@ impl<M: Model> Projector<M> {
         }
         // velocities: one least-squares step on all rows
         if nc > 0 {
-            model.g_winv_mul(&info.pattern, &self.g_values, &self.ones, qd, &mut self.r);
+            model.g_winv_mul(&self.info.pattern, &self.g_values, &self.ones, qd, &mut self.r);
             crate::drive::shift_velocities(&self.drives, t, &mut self.r);
             if max_abs(&self.r) <= VELOCITY_ULPS * f64::EPSILON * max_abs(qd).max(1.0) {
                 return Ok(report);
             }
             report.velocity_step = true;
-            if let Some(s) = &mut self.singular {
-                s.correct(&info.pattern, &self.g_values, &self.r, qd).map_err(wrap)?;
-            } else if let Some(sp) = &mut self.sparse {
-                sp.correct(false, &self.g_values, &self.r, qd).map_err(wrap)?;
-            } else {
-                self.normal
-                    .solve(model, &info.pattern, &self.g_values, &self.winv, nc, &self.r, &mut self.x)
-                    .map_err(wrap)?;
-                model.sub_winv_gt_mul(&info.pattern, &self.g_values, &self.winv, &self.x, qd);
-            }
+            self.correct_velocities(model, qd).map_err(|e| SimError::from_kkt(&self.info, t, e))?;
         }
         Ok(report)
+    }
+
+    /// `q -= W^-1 C_q^T (C_q W^-1 C_q^T)^-1 r` with `r` the first `nh`
+    /// entries of the residual buffer and `C_q` the holonomic rows of the
+    /// `G` last evaluated: one Gauss-Newton step on the positions.
+    fn correct_positions(&mut self, model: &M, q: &mut [f64]) -> Result<(), KktError> {
+        let (info, nh) = (&self.info, self.info.n_holonomic);
+        if let Some(sp) = &mut self.sparse {
+            let nnz_h = info.n_holonomic_nonzeros();
+            sp.correct(true, &self.g_values[..nnz_h], &self.r[..nh], q)
+        } else {
+            self.normal.solve(
+                model,
+                &info.pattern,
+                &self.g_values,
+                &self.winv,
+                nh,
+                &self.r[..nh],
+                &mut self.x[..nh],
+            )?;
+            self.x[nh..].fill(0.0);
+            model.sub_winv_gt_mul(&info.pattern, &self.g_values, &self.winv, &self.x, q);
+            Ok(())
+        }
+    }
+
+    /// `qd += dqd`, the correction of least `dqd^T W dqd` with
+    /// `G dqd = -r` (`r` the residual buffer, `G` the last evaluated).
+    fn correct_velocities(&mut self, model: &M, qd: &mut [f64]) -> Result<(), KktError> {
+        let (info, nc) = (&self.info, self.info.nc());
+        if let Some(s) = &mut self.singular {
+            s.correct(&info.pattern, &self.g_values, &self.r, qd)
+        } else if let Some(sp) = &mut self.sparse {
+            sp.correct(false, &self.g_values, &self.r, qd)
+        } else {
+            self.normal.solve(model, &info.pattern, &self.g_values, &self.winv, nc, &self.r, &mut self.x)?;
+            model.sub_winv_gt_mul(&info.pattern, &self.g_values, &self.winv, &self.x, qd);
+            Ok(())
+        }
+    }
+
+    /// Removes from an error estimate `(eq, eqd)` (nq each: positions
+    /// \[m, rad\], velocities \[m/s, rad/s\]) its components normal to the
+    /// constraint manifold at `q`, in the projection's metric: what the
+    /// projection after the step removes anyway, to first order, so that
+    /// only the tangential error is left (Hairer & Wanner, *Solving ODE
+    /// II*, §VII.2, on the local error of projected methods). `eq` loses its
+    /// part in the range of `W^-1 C_q^T` (holonomic rows), `eqd` its part in
+    /// the range of `W^-1 G^T` (all rows). Used near singular positions,
+    /// where the estimate is dominated by a mode the projection removes
+    /// (see `simulate`). Does nothing for [`ProjectionKind::None`].
+    ///
+    /// # Errors
+    /// [`SimError::Kkt`] when a normal system cannot be solved.
+    pub fn remove_normal(
+        &mut self,
+        model: &M,
+        t: f64,
+        q: &[f64],
+        eq: &mut [f64],
+        eqd: &mut [f64],
+    ) -> Result<(), SimError> {
+        if self.kind == ProjectionKind::None {
+            return Ok(());
+        }
+        let (nh, nc) = (self.info.n_holonomic, self.info.nc());
+        model.phi_and_constraint_matrix(q, &mut self.r[..nh], &mut self.g_values);
+        if nh > 0 {
+            model.g_winv_mul(&self.info.pattern, &self.g_values, &self.ones, eq, &mut self.r);
+            self.correct_positions(model, eq).map_err(|e| SimError::from_kkt(&self.info, t, e))?;
+        }
+        if nc > 0 {
+            model.g_winv_mul(&self.info.pattern, &self.g_values, &self.ones, eqd, &mut self.r);
+            self.correct_velocities(model, eqd).map_err(|e| SimError::from_kkt(&self.info, t, e))?;
+        }
+        Ok(())
+    }
+
+    /// Sets whether [`Projector::project`] takes one more Gauss-Newton step
+    /// when the position residual is below [`POSITION_TOL`] but above
+    /// rounding ([`POSITION_ULPS`]). Near a singular position a
+    /// constraint's sensitivity to some direction `d` vanishes like the
+    /// distance `s` to it, so a residual of `POSITION_TOL` hides an error of
+    /// `POSITION_TOL / s` along `d`, which the equations of motion then
+    /// amplify like `1 / s` (the branch of a bifurcation is unstable);
+    /// one step at rounding level removes it. The run sets it from the
+    /// KKT conditioning ([`crate::dynamics::NEAR_SINGULAR`]).
+    pub fn refine(&mut self, on: bool) {
+        self.refine = on;
     }
 
     /// `max|G(q) qd - u'(t)|` \[m/s\] for the `q` the last

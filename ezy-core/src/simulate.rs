@@ -4,6 +4,7 @@
 
 use std::time::{Duration, Instant};
 
+use crate::dynamics::NEAR_SINGULAR;
 use crate::dynamics::{Counters, Dynamics};
 use crate::guard::{EnergyGuard, GROWTH_LIMIT, Verdict, drift_note};
 use crate::integrator::Rhs;
@@ -508,6 +509,8 @@ impl<M: Model, O: Observer<M>> Run<'_, M, O> {
         self.singular.evals = sys.counters.rhs_evals;
         self.last_step = h;
         let mut changed = false;
+        self.proj.refine(sys.max_growth > NEAR_SINGULAR);
+        sys.max_growth = 0.0;
         if self.settings.projection != ProjectionKind::None {
             let (q, rest) = y.split_at_mut(nq);
             let report = self.proj.project(&sys.model, t_new, q, &mut rest[..nq])?;
@@ -782,6 +785,25 @@ trait Integrand<M: Model> {
         t: f64,
         fill: impl FnOnce(&mut [f64]),
     ) -> Result<(), RunError<O::Error>>;
+    /// The error norm of the attempt just made from `(t, x)` to `x_new`
+    /// with its part normal to the constraints removed
+    /// ([`Projector::remove_normal`]), or `None` where nothing is projected
+    /// (the reduced formulation, `--projection none`). `ea`, `eb`: scratch
+    /// (nx each).
+    #[allow(clippy::too_many_arguments)]
+    fn tangential_error<O: Observer<M>, E: EmbeddedRk>(
+        &mut self,
+        _run: &mut Run<'_, M, O>,
+        _sys: &Dynamics<M>,
+        _stepper: &E,
+        _step: (f64, f64, &Tolerance),
+        _k1: &[f64],
+        _x: &[f64],
+        _x_new: &[f64],
+        _scratch: (&mut [f64], &mut [f64]),
+    ) -> Result<Option<f64>, SimError> {
+        Ok(None)
+    }
     /// After the accepted step's outputs: whether `x` was rewritten (a new
     /// partition), so that `F` there is to be evaluated again.
     fn settle(&mut self, _sys: &Dynamics<M>, _t: f64, _x: &mut [f64]) -> Result<bool, SimError> {
@@ -809,6 +831,28 @@ impl<M: Model> Integrand<M> for Dae {
     ) -> Result<bool, SimError> {
         let _ = evaluated;
         run.after_step(sys, t, t_new, x, h)
+    }
+    fn tangential_error<O: Observer<M>, E: EmbeddedRk>(
+        &mut self,
+        run: &mut Run<'_, M, O>,
+        sys: &Dynamics<M>,
+        stepper: &E,
+        (t_new, h, tol): (f64, f64, &Tolerance),
+        k1: &[f64],
+        x: &[f64],
+        x_new: &[f64],
+        (ea, eb): (&mut [f64], &mut [f64]),
+    ) -> Result<Option<f64>, SimError> {
+        if run.settings.projection == ProjectionKind::None {
+            return Ok(None);
+        }
+        let nq = sys.nq();
+        stepper.error_vectors(k1, h, ea, eb);
+        for e in [&mut *ea, &mut *eb] {
+            let (eq, rest) = e.split_at_mut(nq);
+            run.proj.remove_normal(&sys.model, t_new, &x_new[..nq], eq, &mut rest[..nq])?;
+        }
+        Ok(Some(E::error_from(h, ea, eb, x, x_new, tol)))
     }
     fn accepted_full<'a>(&'a self, x: &'a [f64]) -> &'a [f64] {
         x
@@ -1197,13 +1241,22 @@ fn adaptive<M: Model, O: Observer<M>, F: Integrand<M>, E: EmbeddedRk>(
     let (mut w1, mut w2) = (vec![0.0; ny], vec![0.0; ny]);
     form.eval(sys, 0.0, y, &mut k1)?;
     let mut h = initial_step(&mut Bound { sys, form }, 0.0, y, &k1, E::ORDER, &tol, settings.t_end, &mut w1, &mut w2)?;
+    // the tangential error's scratch (see `Integrand::tangential_error`)
+    let (mut ea, mut eb) = (Vec::new(), Vec::new());
+    let mut straddle = Straddle { h_far: f64::INFINITY, used: false, active: false, worst: 0.0 };
     let mut t = 0.0;
     let mut n_out: u64 = 1;
     let mut stage_failure: Option<SimError> = None;
     let mut stiffness = crate::integrator::adaptive::StiffnessTest::default();
     while t < settings.t_end {
-        let last = run.begin_attempt(t, &mut h, &mut stage_failure)?;
-        let err = match stepper.attempt(&mut Bound { sys, form }, t, y, &k1, h, &tol, &mut y_new, &mut k_new) {
+        let last = match run.begin_attempt(t, &mut h, &mut stage_failure) {
+            Err(SimError::StepSizeTooSmall { t, h }) if sys.max_growth > NEAR_SINGULAR => {
+                return Err(SimError::SingularTolerance { t, h, rtol: settings.rtol }.into());
+            }
+            other => other?,
+        };
+        sys.max_growth = 0.0;
+        let mut err = match stepper.attempt(&mut Bound { sys, form }, t, y, &k1, h, &tol, &mut y_new, &mut k_new) {
             // a stage overflowed: as for a non-finite error estimate below
             Err(SimError::Kkt { source: KktError::NonFinite { .. }, .. }) => f64::NAN,
             // an effect failed at a stage, or the reduced formulation's
@@ -1222,7 +1275,52 @@ fn adaptive<M: Model, O: Observer<M>, F: Integrand<M>, E: EmbeddedRk>(
             h *= 0.1;
             continue;
         }
-        let (accepted, h_next) = ctl.next::<E>(err, h);
+        // Near a singular position the estimate is dominated by a mode
+        // normal to the constraints that grows like 1 / s at a distance s
+        // (the branch of a bifurcation is unstable), and which the
+        // projection removes: resolving it would shrink the steps onto the
+        // singular time without end. Only the tangential error counts
+        // there.
+        if err > 1.0 && sys.max_growth > NEAR_SINGULAR {
+            ea.resize(ny, 0.0);
+            eb.resize(ny, 0.0);
+            let t_new = if last { settings.t_end } else { t + h };
+            let step = (t_new, h, &tol);
+            if let Some(e) = form.tangential_error(run, sys, &stepper, step, &k1, y, &y_new, (&mut ea, &mut eb))? {
+                err = e;
+            }
+        }
+        let (mut accepted, h_next) = ctl.next::<E>(err, h);
+        let near = sys.max_growth > NEAR_SINGULAR;
+        if !near && accepted {
+            straddle.h_far = h;
+            straddle.used = false;
+        }
+        // The fallback when that is not enough: at rtol near 1e-12 the
+        // rounding of the positions (eps / s along the other branch) is
+        // itself amplified above the tolerance. Once the step size has
+        // collapsed by STRADDLE_COLLAPSE, one step of half the last size
+        // used away from the singularity (halved until it holds) is taken
+        // across it and accepted at up to STRADDLE_CAP tolerances, with a
+        // note saying so.
+        let mut h_next = h_next;
+        if straddle.active && !accepted && err < STRADDLE_CAP {
+            accepted = true;
+            straddle.worst = straddle.worst.max(err);
+            run.observer.note(&format!(
+                "the step across the singular position near t = {t:.6} s (h = {h:.3e} s) was accepted with its error estimate at {err:.1} times the tolerance: near a singular position the rounding of the positions, amplified like 1 / distance, is above this tolerance; --rtol 1e-10 passes without it"
+            ));
+        } else if straddle.active && !accepted {
+            h_next = 0.5 * h;
+            straddle.active = h_next >= STRADDLE_COLLAPSE * straddle.h_far;
+        } else if !accepted && near && h_next < STRADDLE_COLLAPSE * straddle.h_far && !straddle.used {
+            straddle.used = true;
+            straddle.active = true;
+            h_next = 0.5 * straddle.h_far;
+        }
+        if accepted {
+            straddle.active = false;
+        }
         if !accepted {
             run.summary.rejected += 1;
             h = h_next;
@@ -1264,6 +1362,26 @@ fn adaptive<M: Model, O: Observer<M>, F: Integrand<M>, E: EmbeddedRk>(
     }
     // the final time is always written
     run.finish_dense(form, sys, n_out, y)
+}
+
+/// A step size collapsed by this factor near a singular position (against
+/// the last step taken away from it) starts the step across it (see
+/// [`adaptive`]).
+const STRADDLE_COLLAPSE: f64 = 1e-3;
+/// The largest error estimate (in tolerances) at which the step across a
+/// singular position is accepted, with a note.
+const STRADDLE_CAP: f64 = 1e3;
+
+/// The state of [`adaptive`]'s step across a singular position.
+struct Straddle {
+    /// The last step size accepted away from a singular position \[s\].
+    h_far: f64,
+    /// Whether this approach already tried the step across.
+    used: bool,
+    /// Whether the attempts now are the step across.
+    active: bool,
+    /// The largest error estimate accepted across one.
+    worst: f64,
 }
 
 /// The step loop of the implicit method (RADAU5): as [`adaptive`], with

@@ -102,6 +102,17 @@ pub trait EmbeddedRk {
     /// estimate (DOPRI5's `k7`); DOP853's estimate does without it.
     const FSAL_IN_ESTIMATE: bool;
 
+    /// The error estimate of the last `attempt` as vectors (ny each,
+    /// unscaled): `ea` and, for a method with a second estimator (DOP853's
+    /// order-3 one), `eb` (DOPRI5 leaves it alone). Valid right after
+    /// `attempt` (before `prepare_dense`), with the same `k1` and `h`.
+    fn error_vectors(&self, k1: &[f64], h: f64, ea: &mut [f64], eb: &mut [f64]);
+
+    /// The error norm `attempt` returns, from vectors of
+    /// [`EmbeddedRk::error_vectors`] (perhaps changed since: see
+    /// [`crate::projection::Projector::remove_normal`]).
+    fn error_from(h: f64, ea: &[f64], eb: &[f64], y: &[f64], y_new: &[f64], tol: &Tolerance) -> f64;
+
     /// The dense output `y(t + theta h)`, `theta` in [0, 1], after `prepare_dense`.
     fn interpolate(&self, theta: f64, out: &mut [f64]);
 }

@@ -408,6 +408,48 @@ impl EmbeddedRk for Dop853 {
         Ok(h.abs() * err5 / (n as f64 * deno).sqrt())
     }
 
+    fn error_vectors(&self, k1: &[f64], _h: f64, ea: &mut [f64], eb: &mut [f64]) {
+        let n = ea.len();
+        let [_, _, _, _, k6, k7, k8, k9, k10, k11, k12] = self.k.each_ref().map(|v| &v[..n]);
+        for i in 0..n {
+            let bk = B1 * k1[i]
+                + B6 * k6[i]
+                + B7 * k7[i]
+                + B8 * k8[i]
+                + B9 * k9[i]
+                + B10 * k10[i]
+                + B11 * k11[i]
+                + B12 * k12[i];
+            eb[i] = bk - BHH1 * k1[i] - BHH2 * k9[i] - BHH3 * k12[i];
+            ea[i] = ER1 * k1[i]
+                + ER6 * k6[i]
+                + ER7 * k7[i]
+                + ER8 * k8[i]
+                + ER9 * k9[i]
+                + ER10 * k10[i]
+                + ER11 * k11[i]
+                + ER12 * k12[i];
+        }
+    }
+
+    fn error_from(h: f64, ea: &[f64], eb: &[f64], y: &[f64], y_new: &[f64], tol: &Tolerance) -> f64 {
+        let n = ea.len();
+        if n == 0 {
+            return 0.0;
+        }
+        let (mut err5, mut err3) = (0.0, 0.0);
+        for i in 0..n {
+            let sk = tol.scale(y[i], y_new[i]);
+            err5 += (ea[i] / sk).powi(2);
+            err3 += (eb[i] / sk).powi(2);
+        }
+        let mut deno = err5 + 0.01 * err3;
+        if deno <= 0.0 {
+            deno = 1.0;
+        }
+        h.abs() * err5 / (n as f64 * deno).sqrt()
+    }
+
     fn prepare_dense<R: Rhs>(
         &mut self,
         rhs: &mut R,

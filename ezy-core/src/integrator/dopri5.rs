@@ -110,6 +110,14 @@ impl EmbeddedRk for Dopri5 {
         Ok(error_norm(err, y, y_new, tol))
     }
 
+    fn error_vectors(&self, _k1: &[f64], _h: f64, ea: &mut [f64], _eb: &mut [f64]) {
+        ea.copy_from_slice(&self.err);
+    }
+
+    fn error_from(_h: f64, ea: &[f64], _eb: &[f64], y: &[f64], y_new: &[f64], tol: &Tolerance) -> f64 {
+        error_norm(ea, y, y_new, tol)
+    }
+
     fn prepare_dense<R: Rhs>(
         &mut self,
         _rhs: &mut R,

@@ -697,7 +697,7 @@ mod tests {
                 // (full-rank) solution of the other rows
                 let gtx: Vec<f64> = (0..n).map(|j| (0..m).map(|i| g(i, j) * x[i]).sum()).collect();
                 let mut y = vec![0.0; m - 1];
-                let b: Vec<f64> = (0..m - 1).map(|i| a[i * m..i * m + m - 1].to_vec()).flatten().collect();
+                let b: Vec<f64> = (0..m - 1).flat_map(|i| a[i * m..i * m + m - 1].to_vec()).collect();
                 ldl_solve_dynamic(&b, m - 1, m - 1, &r, &mut y, &mut vec![0.0; m * m]).unwrap();
                 let gty: Vec<f64> = (0..n).map(|j| (0..m - 1).map(|i| g(i, j) * y[i]).sum()).collect();
                 for j in 0..n {
