@@ -51,7 +51,7 @@ pub enum SimError {
     /// the step across it ([`crate::simulate`]): the tolerance is below
     /// what double precision resolves there.
     #[error(
-        "at t = {} s, next to a singular position of the constraints (G nearly rank-deficient), the step size fell to {h:e} s: there the rounding of the positions, amplified like 1 / distance, is above the tolerance rtol = {rtol:e}; a looser tolerance (1e-10 passes the IFToMM N-four-bar) or a fixed-step method passes it",
+        "at t = {} s, next to a singular position of the constraints (G nearly rank-deficient), the step size fell to {h:e} s: there the rounding of the positions, amplified like 1 / distance, is above the tolerance rtol = {rtol:e}; a looser tolerance or a fixed-step method (rk4) passes it",
         fmt_value(*t)
     )]
     SingularTolerance {

@@ -1243,7 +1243,11 @@ fn adaptive<M: Model, O: Observer<M>, F: Integrand<M>, E: EmbeddedRk>(
     let mut h = initial_step(&mut Bound { sys, form }, 0.0, y, &k1, E::ORDER, &tol, settings.t_end, &mut w1, &mut w2)?;
     // the tangential error's scratch (see `Integrand::tangential_error`)
     let (mut ea, mut eb) = (Vec::new(), Vec::new());
-    let mut straddle = Straddle { h_far: f64::INFINITY, used: false, active: false, worst: 0.0 };
+    // the last step size accepted away from a singular position [s] (the
+    // first one until then)
+    let mut h_far = h;
+    // the KKT conditioning at the step's start (see SINGULAR_LANDING)
+    let mut start_growth = sys.last_growth;
     let mut t = 0.0;
     let mut n_out: u64 = 1;
     let mut stage_failure: Option<SimError> = None;
@@ -1290,36 +1294,28 @@ fn adaptive<M: Model, O: Observer<M>, F: Integrand<M>, E: EmbeddedRk>(
                 err = e;
             }
         }
-        let (mut accepted, h_next) = ctl.next::<E>(err, h);
+        let end_growth = sys.last_growth;
+        let (mut accepted, mut h_next) = ctl.next::<E>(err, h);
+        // A step that would end right next to a singular time (its last
+        // stage, at t + h, conditioned SINGULAR_LANDING times worse than
+        // its start: about 100 times closer, the growth going like
+        // 1 / s^2) is taken half as long: from a state that close, every
+        // later step's first stage sits on the singularity.
+        if accepted && !last && end_growth > NEAR_SINGULAR && end_growth > SINGULAR_LANDING * start_growth {
+            accepted = false;
+            h_next = 0.5 * h;
+        }
         let near = sys.max_growth > NEAR_SINGULAR;
         if !near && accepted {
-            straddle.h_far = h;
-            straddle.used = false;
+            h_far = h;
         }
-        // The fallback when that is not enough: at rtol near 1e-12 the
-        // rounding of the positions (eps / s along the other branch) is
-        // itself amplified above the tolerance. Once the step size has
-        // collapsed by STRADDLE_COLLAPSE, one step of half the last size
-        // used away from the singularity (halved until it holds) is taken
-        // across it and accepted at up to STRADDLE_CAP tolerances, with a
-        // note saying so.
-        let mut h_next = h_next;
-        if straddle.active && !accepted && err < STRADDLE_CAP {
-            accepted = true;
-            straddle.worst = straddle.worst.max(err);
-            run.observer.note(&format!(
-                "the step across the singular position near t = {t:.6} s (h = {h:.3e} s) was accepted with its error estimate at {err:.1} times the tolerance: near a singular position the rounding of the positions, amplified like 1 / distance, is above this tolerance; --rtol 1e-10 passes without it"
-            ));
-        } else if straddle.active && !accepted {
-            h_next = 0.5 * h;
-            straddle.active = h_next >= STRADDLE_COLLAPSE * straddle.h_far;
-        } else if !accepted && near && h_next < STRADDLE_COLLAPSE * straddle.h_far && !straddle.used {
-            straddle.used = true;
-            straddle.active = true;
-            h_next = 0.5 * straddle.h_far;
-        }
-        if accepted {
-            straddle.active = false;
+        // Should that not be enough (the rounding of the positions, eps / s
+        // along the other branch, amplified above the tolerance: not seen
+        // on the N-four-bars down to rtol 1e-14), the step size collapses
+        // onto the singular time: stop at once with the cause rather than
+        // after thousands of steps at the rounding level of t.
+        if !accepted && near && h_next < SINGULAR_COLLAPSE * h_far {
+            return Err(SimError::SingularTolerance { t, h: h_next, rtol: settings.rtol }.into());
         }
         if !accepted {
             run.summary.rejected += 1;
@@ -1333,6 +1329,7 @@ fn adaptive<M: Model, O: Observer<M>, F: Integrand<M>, E: EmbeddedRk>(
         if projected || !E::FSAL_IN_ESTIMATE {
             form.eval(sys, t_new, &y_new, &mut k_new)?;
         }
+        start_growth = sys.last_growth;
         let hlambda = stiffness.due().then(|| stepper.stiffness(h, &y_new, &k_new));
         if stiffness.record(t_new, hlambda, E::STIFF_LIMIT)
             && let Some((t_stiff, hl)) = stiffness.found
@@ -1364,25 +1361,14 @@ fn adaptive<M: Model, O: Observer<M>, F: Integrand<M>, E: EmbeddedRk>(
     run.finish_dense(form, sys, n_out, y)
 }
 
-/// A step size collapsed by this factor near a singular position (against
-/// the last step taken away from it) starts the step across it (see
-/// [`adaptive`]).
-const STRADDLE_COLLAPSE: f64 = 1e-3;
-/// The largest error estimate (in tolerances) at which the step across a
-/// singular position is accepted, with a note.
-const STRADDLE_CAP: f64 = 1e3;
-
-/// The state of [`adaptive`]'s step across a singular position.
-struct Straddle {
-    /// The last step size accepted away from a singular position \[s\].
-    h_far: f64,
-    /// Whether this approach already tried the step across.
-    used: bool,
-    /// Whether the attempts now are the step across.
-    active: bool,
-    /// The largest error estimate accepted across one.
-    worst: f64,
-}
+/// A step size collapsed by this factor near a singular position, against
+/// the last step taken away from it, stops an adaptive run with
+/// [`SimError::SingularTolerance`] (see [`adaptive`]).
+const SINGULAR_COLLAPSE: f64 = 1e-4;
+/// Ratio of the KKT conditioning at a step's end to that at its start
+/// above which (and above [`NEAR_SINGULAR`] at the end) the step is halved
+/// (see [`adaptive`]).
+const SINGULAR_LANDING: f64 = 1e4;
 
 /// The step loop of the implicit method (RADAU5): as [`adaptive`], with
 /// the Newton system of the model ([`crate::newton::KktNewton`]).
