@@ -392,7 +392,7 @@ impl App {
     /// when every scene declares its name plainly ([`declared_name`]) and
     /// the names are distinct; `None` leaves the lookup to
     /// [`App::scenes`], which parses them all (and reports what is wrong
-    /// with any). Parsing and checking all 17 built-in scenes took most
+    /// with any). Parsing and checking every built-in scene took most
     /// of a short run's setup.
     fn quick_scene(&self, name: &str) -> Result<Option<SceneSource>, LoadError> {
         let mut found = None;
