@@ -234,3 +234,30 @@ fn the_n_four_bar_of_forty_passes_its_singular_positions() {
         assert!(branch < 1e-8, "rtol {tol}: cranks apart by {branch:e} rad (branch switched)");
     }
 }
+
+/// Below what double precision resolves at a singular position (DOP853 at
+/// rtol 1e-14 on `four-bar-n2`: the rounding of the positions, amplified
+/// near the crossing, stays above the tolerance) the run stops at once
+/// with an error that names the cause, not after thousands of steps at
+/// the rounding level of t with "step size fell", nor with "redundant
+/// constraints".
+#[test]
+fn a_tolerance_beyond_the_rounding_at_a_singular_position_is_named() {
+    let dir = tempfile::tempdir().unwrap();
+    let o = dir.path().join("out");
+    let argv = [
+        "ezy",
+        "run",
+        "four-bar-n2",
+        "--no-figures",
+        "--rtol",
+        "1e-14",
+        "--atol",
+        "1e-14",
+        "--out",
+        o.to_str().unwrap(),
+    ];
+    let err = App::new().run_cli(argv, &mut Vec::new()).expect_err("rtol 1e-14 is beyond rounding there").to_string();
+    assert!(err.contains("next to a singular position") && err.contains("a looser tolerance"), "{err}");
+    assert!(!err.contains("redundant"), "{err}");
+}
