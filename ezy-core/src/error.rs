@@ -45,11 +45,12 @@ pub enum SimError {
         /// What to do, fitted to the method in use ([`advice`]).
         advice: String,
     },
-    /// An adaptive method needed a step below the rounding level of `t`
-    /// next to a singular position of the constraints (the KKT
-    /// conditioning above [`crate::dynamics::NEAR_SINGULAR`]), even after
-    /// the step across it ([`crate::simulate`]): the tolerance is below
-    /// what double precision resolves there.
+    /// An adaptive method's step size collapsed 1e4-fold next to a
+    /// singular position of the constraints (the KKT conditioning above
+    /// [`crate::dynamics::NEAR_SINGULAR`]) despite the measures `simulate`
+    /// takes there (docs/physics.md §5.1): the tolerance is below what
+    /// double precision resolves there. `h` is the step size asked for
+    /// \[s\].
     #[error(
         "at t = {} s, next to a singular position of the constraints (G nearly rank-deficient), the step size fell to {h:e} s: there the rounding of the positions, amplified like 1 / distance, is above the tolerance rtol = {rtol:e}; a looser tolerance or a fixed-step method (rk4) passes it",
         fmt_value(*t)

@@ -24,7 +24,7 @@ pub const MAX_FIGURE_RUNS: u64 = 1_000_000;
 /// Draws the figures of the sweep in `dir` and returns the files written
 /// and notes on the figures not drawn (a metric whose every run failed,
 /// more than two axes), in `format` (PNG at `dpi`). A signal (once
-/// [`crate::transaction::arm_signals`] handles them) stops it before the
+/// `transaction::arm_signals` handles them) stops it before the
 /// next figure; each figure is written whole (a rename) or not at all.
 ///
 /// # Errors

@@ -350,7 +350,7 @@ pub const fn regularized_scratch(m: usize) -> usize {
 /// solve, so `W^-1 G^T x`, the part of the multipliers that moves the
 /// system, stays exact to the regularization's level.
 ///
-/// `work` holds at least [`regularized_scratch`]`(m)` values. Returns the
+/// `work` holds at least `regularized_scratch(m)` values. Returns the
 /// number of sweeps done.
 ///
 /// # Errors
