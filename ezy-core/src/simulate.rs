@@ -360,6 +360,11 @@ struct Run<'a, M: Model, O: Observer<M>> {
     guard: EnergyGuard,
     /// Size of the last step \[s\] (0 before the first).
     last_step: f64,
+    /// The time of the last accepted step \[s\] (where a hand-over from
+    /// the reduced formulation to the DAE starts).
+    t_reached: f64,
+    /// The time the step loop starts at \[s\]: 0, or the hand-over's.
+    t_start: f64,
     summary: Summary,
     output_time: Duration,
     /// Samples `(t, y)` not yet observed, row after row.
@@ -508,6 +513,7 @@ impl<M: Model, O: Observer<M>> Run<'_, M, O> {
         }
         self.singular.evals = sys.counters.rhs_evals;
         self.last_step = h;
+        self.t_reached = t_new;
         let mut changed = false;
         self.proj.refine(sys.max_growth > NEAR_SINGULAR);
         sys.max_growth = 0.0;
@@ -804,6 +810,12 @@ trait Integrand<M: Model> {
     ) -> Result<Option<f64>, SimError> {
         Ok(None)
     }
+    /// Whether this formulation stops near a singular position so that
+    /// the DAE can take over (see [`simulate`]): the reduced one, whose
+    /// dependent coordinates are not determined there.
+    fn hands_over_near_singular(&self) -> bool {
+        false
+    }
     /// After the accepted step's outputs: whether `x` was rewritten (a new
     /// partition), so that `F` there is to be evaluated again.
     fn settle(&mut self, _sys: &Dynamics<M>, _t: f64, _x: &mut [f64]) -> Result<bool, SimError> {
@@ -917,6 +929,9 @@ impl<M: Model> Integrand<M> for Reduced {
     fn settle(&mut self, sys: &Dynamics<M>, t: f64, x: &mut [f64]) -> Result<bool, SimError> {
         self.repartition(sys, t, x)
     }
+    fn hands_over_near_singular(&self) -> bool {
+        true
+    }
 }
 
 /// A formulation bound to its dynamics: the [`Rhs`] the steppers call.
@@ -984,6 +999,8 @@ pub fn simulate<M: Model, O: Observer<M>>(
         }
     };
     let formulation = if reduced.is_some() { Formulation::Reduced } else { Formulation::Dae };
+    // the DAE's settings, for a hand-over from the reduced formulation
+    let dae_settings = settings;
     let reduced_settings;
     let settings = if formulation == Formulation::Reduced {
         if settings.method == Method::Radau5 {
@@ -1015,6 +1032,8 @@ pub fn simulate<M: Model, O: Observer<M>>(
         t0_energy,
         guard: EnergyGuard::new(sys, y0),
         last_step: 0.0,
+        t_reached: 0.0,
+        t_start: 0.0,
         summary: Summary {
             method: settings.method,
             steps: 0,
@@ -1081,9 +1100,29 @@ pub fn simulate<M: Model, O: Observer<M>>(
             run.summary.fused_rhs = red.is_fused();
             let mut z = vec![0.0; red.nz(y0.len())];
             red.gather(y0, &mut z);
-            let r = integrate(sys, &mut red, &mut z, &mut run);
+            let mut r = integrate(sys, &mut red, &mut z, &mut run);
             run.summary.repartitions = red.repartitions;
-            (r, Integrand::<M>::accepted_full(&red, &z).to_vec())
+            let mut full = Integrand::<M>::accepted_full(&red, &z).to_vec();
+            // Where the dependent coordinates cannot be solved for (a
+            // singular position: the partition's block of G loses rank with
+            // G), an adaptive run hands over to the DAE, which passes it,
+            // from the last accepted state.
+            if let Err(RunError::Sim(SimError::Formulation { reason })) = &r
+                && settings.method.is_adaptive()
+                && dae_settings.formulation != Formulation::Dae
+            {
+                let t = run.t_reached;
+                run.observer.note(&format!(
+                    "the reduced formulation stopped ({reason}): the DAE, projected with {}, takes over from the last accepted state, t = {t:.6} s",
+                    dae_settings.projection.name()
+                ));
+                run.settings = dae_settings;
+                run.proj = Projector::<M>::new(&sys.model, dae_settings.projection, &sys.mass).with_drives(&sys.drives);
+                run.summary.projection_path = run.proj.path();
+                run.t_start = t;
+                r = integrate(sys, &mut Dae, &mut full, &mut run);
+            }
+            (r, full)
         }
         None => {
             let mut y = y0.to_vec();
@@ -1239,8 +1278,10 @@ fn adaptive<M: Model, O: Observer<M>, F: Integrand<M>, E: EmbeddedRk>(
     let mut ctl = Controller::default();
     let (mut k1, mut y_new, mut k_new) = (vec![0.0; ny], vec![0.0; ny], vec![0.0; ny]);
     let (mut w1, mut w2) = (vec![0.0; ny], vec![0.0; ny]);
-    form.eval(sys, 0.0, y, &mut k1)?;
-    let mut h = initial_step(&mut Bound { sys, form }, 0.0, y, &k1, E::ORDER, &tol, settings.t_end, &mut w1, &mut w2)?;
+    let mut t = run.t_start;
+    form.eval(sys, t, y, &mut k1)?;
+    let h_max = settings.t_end - t;
+    let mut h = initial_step(&mut Bound { sys, form }, t, y, &k1, E::ORDER, &tol, h_max, &mut w1, &mut w2)?;
     // the tangential error's scratch (see `Integrand::tangential_error`)
     let (mut ea, mut eb) = (Vec::new(), Vec::new());
     // the last step size accepted away from a singular position [s] (the
@@ -1248,8 +1289,11 @@ fn adaptive<M: Model, O: Observer<M>, F: Integrand<M>, E: EmbeddedRk>(
     let mut h_far = h;
     // the KKT conditioning at the step's start (see SINGULAR_LANDING)
     let mut start_growth = sys.last_growth;
-    let mut t = 0.0;
-    let mut n_out: u64 = 1;
+    // the first output after the start (all up to it are written)
+    let mut n_out: u64 = (t / settings.every).floor() as u64 + 1;
+    while run.out_time(n_out) <= t && n_out as f64 * settings.every <= settings.t_end {
+        n_out += 1;
+    }
     let mut stage_failure: Option<SimError> = None;
     let mut stiffness = crate::integrator::adaptive::StiffnessTest::default();
     while t < settings.t_end {
@@ -1308,6 +1352,15 @@ fn adaptive<M: Model, O: Observer<M>, F: Integrand<M>, E: EmbeddedRk>(
         let near = sys.max_growth > NEAR_SINGULAR;
         if !near && accepted {
             h_far = h;
+        }
+        if near && form.hands_over_near_singular() {
+            return Err(SimError::Formulation {
+                reason: format!(
+                    "at t = {t:.6} s a singular position is near (KKT conditioning {:.1e}), where the dependent coordinates are not determined",
+                    sys.max_growth
+                ),
+            }
+            .into());
         }
         // Should that not be enough (the rounding of the positions, eps / s
         // along the other branch, amplified above the tolerance: not seen
