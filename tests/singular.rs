@@ -204,17 +204,30 @@ fn a_run_started_at_the_singular_position_runs() {
 
 /// The built-in N = 40 scene (`four-bar-n40`: 81 bodies, 242 rows, the
 /// sparse paths) passes its ten passages of 10 s with DOP853 from 1e-6 to
-/// 1e-12 on the parallelogram branch (all 41 cranks at one angle, to
-/// 1e-8 rad). Measured (2 cores, 0.12-0.20 s per run): errors 3.7e-5,
-/// 3.0e-7, 1.8e-9 and 1.4e-9 rad at 1e-6, 1e-8, 1e-10 and 1e-12; bounds as
-/// for N = 2 (200 rtol, 2e-8 at 1e-12).
+/// 1e-12, RK4, RADAU5 and the reduced formulation (handing over to the
+/// DAE) on the parallelogram branch (all 41 cranks at one angle, to
+/// 1e-8 rad). Measured (2 cores): errors 3.7e-5, 3.0e-7, 1.8e-9 and
+/// 1.4e-9 rad with DOP853 at 1e-6, 1e-8, 1e-10 and 1e-12 (0.14-0.20 s per
+/// run), 2.4e-9 with RK4 at h = 1e-3 s (1.2 s), 3.7e-7 with RADAU5 at 1e-8,
+/// 7.7e-8 reduced at 1e-8 (1.6 s); bounds as for N = 2.
 #[test]
 fn the_n_four_bar_of_forty_passes_its_singular_positions() {
-    for (tol, bound) in [("1e-6", 2e-4), ("1e-8", 2e-6), ("1e-10", 2e-8), ("1e-12", 2e-8)] {
+    let dop853 = |tol: &'static str| vec!["--rtol", tol, "--atol", tol];
+    for (args, bound) in [
+        (dop853("1e-6"), 2e-4),
+        (dop853("1e-8"), 2e-6),
+        (dop853("1e-10"), 2e-8),
+        (dop853("1e-12"), 2e-8),
+        (vec!["--integrator", "rk4", "--dt", "1e-3"], 1e-8),
+        (vec!["--integrator", "radau5", "--rtol", "1e-8", "--atol", "1e-8"], 2e-6),
+        (vec!["--formulation", "reduced", "--rtol", "1e-8", "--atol", "1e-8"], 2e-6),
+    ] {
+        let tol = format!("{args:?}");
         let dir = tempfile::tempdir().unwrap();
         let o = dir.path().join("out");
-        let argv =
-            ["ezy", "run", "four-bar-n40", "--no-figures", "--rtol", tol, "--atol", tol, "--out", o.to_str().unwrap()];
+        let argv = ["ezy", "run", "four-bar-n40", "--no-figures", "--out", o.to_str().unwrap()]
+            .into_iter()
+            .chain(args.iter().copied());
         let mut out = Vec::new();
         if let Err(e) = App::new().run_cli(argv, &mut out) {
             panic!("rtol {tol}: {e}");
