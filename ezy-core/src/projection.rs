@@ -401,7 +401,7 @@ impl<M: Model> Projector<M> {
             return Ok(());
         }
         let (nh, nc) = (self.info.n_holonomic, self.info.nc());
-        model.phi_and_constraint_matrix(q, &mut self.r[..nh], &mut self.g_values);
+        model.constraint_matrix(q, &mut self.g_values);
         if nh > 0 {
             model.g_winv_mul(&self.info.pattern, &self.g_values, &self.ones, eq, &mut self.r);
             self.correct_positions(model, eq).map_err(|e| SimError::from_kkt(&self.info, t, e))?;

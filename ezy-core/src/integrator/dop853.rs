@@ -205,23 +205,44 @@ fn solution(y: &[f64], ks: [&[f64]; 8], h: f64, tol: &Tolerance, y_new: &mut [f6
     let [k1, k6, k7, k8, k9, k10, k11, k12] = ks.map(|v| &v[..n]);
     let (mut err5, mut err3) = (0.0, 0.0);
     for i in 0..n {
-        let bk =
-            B1 * k1[i] + B6 * k6[i] + B7 * k7[i] + B8 * k8[i] + B9 * k9[i] + B10 * k10[i] + B11 * k11[i] + B12 * k12[i];
+        let (bk, e5, e3) = combinations([k1, k6, k7, k8, k9, k10, k11, k12], i);
         y_new[i] = y[i] + h * bk;
         let sk = tol.scale(y[i], y_new[i]);
-        let e3 = bk - BHH1 * k1[i] - BHH2 * k9[i] - BHH3 * k12[i];
-        let e5 = ER1 * k1[i]
-            + ER6 * k6[i]
-            + ER7 * k7[i]
-            + ER8 * k8[i]
-            + ER9 * k9[i]
-            + ER10 * k10[i]
-            + ER11 * k11[i]
-            + ER12 * k12[i];
         err3 += (e3 / sk).powi(2);
         err5 += (e5 / sk).powi(2);
     }
     (err5, err3)
+}
+
+/// Component `i` of the stages' three combinations: the order-8 slope
+/// `b1 k1 + b6 k6 + ... + b12 k12` and the order-5 and order-3 error
+/// estimates (without the factor `h`), for [`solution`] and
+/// [`EmbeddedRk::error_vectors`].
+#[inline(always)]
+fn combinations([k1, k6, k7, k8, k9, k10, k11, k12]: [&[f64]; 8], i: usize) -> (f64, f64, f64) {
+    let bk =
+        B1 * k1[i] + B6 * k6[i] + B7 * k7[i] + B8 * k8[i] + B9 * k9[i] + B10 * k10[i] + B11 * k11[i] + B12 * k12[i];
+    let e3 = bk - BHH1 * k1[i] - BHH2 * k9[i] - BHH3 * k12[i];
+    let e5 = ER1 * k1[i]
+        + ER6 * k6[i]
+        + ER7 * k7[i]
+        + ER8 * k8[i]
+        + ER9 * k9[i]
+        + ER10 * k10[i]
+        + ER11 * k11[i]
+        + ER12 * k12[i];
+    (bk, e5, e3)
+}
+
+/// HNW's norm `|h| err5 / sqrt(n (err5 + 0.01 err3))` from the sums of
+/// squares of the scaled order-5 and order-3 estimates.
+#[inline(always)]
+fn error_norm_853(h: f64, err5: f64, err3: f64, n: usize) -> f64 {
+    let mut deno = err5 + 0.01 * err3;
+    if deno <= 0.0 {
+        deno = 1.0;
+    }
+    h.abs() * err5 / (n as f64 * deno).sqrt()
 }
 
 /// HNW's dense-output coefficients `rcont1..8` of the step from `y` to
@@ -401,34 +422,14 @@ impl EmbeddedRk for Dop853 {
         if n == 0 {
             return Ok(0.0);
         }
-        let mut deno = err5 + 0.01 * err3;
-        if deno <= 0.0 {
-            deno = 1.0;
-        }
-        Ok(h.abs() * err5 / (n as f64 * deno).sqrt())
+        Ok(error_norm_853(h, err5, err3, n))
     }
 
     fn error_vectors(&self, k1: &[f64], _h: f64, ea: &mut [f64], eb: &mut [f64]) {
         let n = ea.len();
         let [_, _, _, _, k6, k7, k8, k9, k10, k11, k12] = self.k.each_ref().map(|v| &v[..n]);
         for i in 0..n {
-            let bk = B1 * k1[i]
-                + B6 * k6[i]
-                + B7 * k7[i]
-                + B8 * k8[i]
-                + B9 * k9[i]
-                + B10 * k10[i]
-                + B11 * k11[i]
-                + B12 * k12[i];
-            eb[i] = bk - BHH1 * k1[i] - BHH2 * k9[i] - BHH3 * k12[i];
-            ea[i] = ER1 * k1[i]
-                + ER6 * k6[i]
-                + ER7 * k7[i]
-                + ER8 * k8[i]
-                + ER9 * k9[i]
-                + ER10 * k10[i]
-                + ER11 * k11[i]
-                + ER12 * k12[i];
+            (_, ea[i], eb[i]) = combinations([&k1[..n], k6, k7, k8, k9, k10, k11, k12], i);
         }
     }
 
@@ -443,11 +444,7 @@ impl EmbeddedRk for Dop853 {
             err5 += (ea[i] / sk).powi(2);
             err3 += (eb[i] / sk).powi(2);
         }
-        let mut deno = err5 + 0.01 * err3;
-        if deno <= 0.0 {
-            deno = 1.0;
-        }
-        h.abs() * err5 / (n as f64 * deno).sqrt()
+        error_norm_853(h, err5, err3, n)
     }
 
     fn prepare_dense<R: Rhs>(
