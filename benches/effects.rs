@@ -10,9 +10,8 @@ use std::hint::black_box;
 
 use bare_rhs::BareRhs;
 use criterion::{Criterion, criterion_group, criterion_main};
-use ezy::run::build;
+use ezy_core::Problem;
 use ezy_core::integrator::Rhs;
-use ezy_core::kkt::KktMethod;
 use ezy_models::{EzyRoller, scenes};
 
 /// A moving state `[q, qd]` of the EzyRoller (on no particular scene).
@@ -24,9 +23,9 @@ fn absent_effects(c: &mut Criterion) {
     let mut dy = vec![0.0; 12];
     let mut bare = BareRhs::new(EzyRoller::default());
     g.bench_function("bare-model", |b| b.iter(|| bare.eval(black_box(1.3), black_box(&y), &mut dy).unwrap()));
-    let (mut free, _) = build::<EzyRoller>(&scenes::free(), &[], KktMethod::Auto).unwrap();
+    let (mut free, _, _) = Problem::<EzyRoller>::from_scene(&scenes::free(), &[]).unwrap().0.into_system().unwrap();
     g.bench_function("free-scene", |b| b.iter(|| free.rhs(black_box(1.3), black_box(&y), &mut dy).unwrap()));
-    let (mut drive, _) = build::<EzyRoller>(&scenes::drive(), &[], KktMethod::Auto).unwrap();
+    let (mut drive, _, _) = Problem::<EzyRoller>::from_scene(&scenes::drive(), &[]).unwrap().0.into_system().unwrap();
     let mut yw = y.clone();
     yw.push(0.0);
     let mut dyw = vec![0.0; 13];

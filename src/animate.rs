@@ -32,8 +32,8 @@ use ezy_core::{Dynamics, Model, Observer, Sample, Scene, fmt_value};
 use plotters::prelude::*;
 use rayon::prelude::*;
 
+use crate::commands::run::{self, RunOptions};
 use crate::plot::{Axis, PALETTE, PlotError, SCALE};
-use crate::run::{self, RunOptions};
 
 /// The view follows the vehicle when its motion spans more than this many
 /// vehicle sizes.
@@ -231,23 +231,23 @@ pub fn animate_model<M: Model + Default>(
         }
     }
     let anim = &anim;
-    let p = run::prepare::<M>(scene, &opts, settings).map_err(run::Error::from)?;
-    let mut sys = p.sys;
+    let (problem, run_scene) = run::problem::<M>(scene, &opts, settings).map_err(run::Error::from)?;
+    let (mut sys, y0, _) = problem.into_system().map_err(run::Error::from)?;
     let wall = Instant::now();
     let mut frames = Frames { t: Vec::new(), q: Vec::new() };
-    ezy_core::simulate(&mut sys, &p.y0, &p.settings, &mut frames).map_err(|e| match e {
+    ezy_core::simulate(&mut sys, &y0, &settings, &mut frames).map_err(|e| match e {
         ezy_core::RunError::Sim(e) => run::Error::from(e.with_cause(&sys.mass, |k| sys.info.mass_entry_name(k))),
         ezy_core::RunError::Output(never) => match never {},
     })?;
     let integrate_s = wall.elapsed().as_secs_f64();
     let wall = Instant::now();
-    let geometry = Geometry::new(&sys, &p.scene, &frames)?;
+    let geometry = Geometry::new(&sys, &run_scene, &frames)?;
     let size = write_gif(&geometry, &frames, anim)?;
     Ok(AnimateReport {
         path: anim.out.clone(),
         frames: frames.t.len(),
         size,
-        t_end: p.settings.t_end,
+        t_end: settings.t_end,
         integrate_s,
         draw_s: wall.elapsed().as_secs_f64(),
     })

@@ -28,13 +28,15 @@ use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
 use clap::Parser;
+use ezy_core::effects::{EffectKind, EffectKinds};
 use ezy_core::kkt::KktMethod;
 use ezy_core::registry::{ModelCatalog, Register, SceneSource, check_scene, info_at};
 use ezy_core::{Model, ModelInfo, Scene, SceneError};
 
 use crate::cli::{self, Cli, Command};
-use crate::run::{Report, RunOptions};
-use crate::{equations, precision, run, scale, sweep, testing};
+use crate::commands::run;
+use crate::commands::run::{Report, RunOptions};
+use crate::{equations, precision, scale, sweep, testing};
 
 /// What one command does with a model type, as plain function pointers
 /// (one monomorphized copy per registered model), so the table holds
@@ -59,6 +61,7 @@ struct ModelOps {
     sweep: fn(&sweep::SweepJob) -> Result<sweep::SweepReport, sweep::SweepError>,
     animate: AnimateFn,
     bench: fn(&Scene, usize) -> Result<Vec<crate::bench::BenchRow>, run::Error>,
+    check_user_effects: fn(&Scene) -> Result<(), SceneError>,
 }
 
 /// `ezy animate` for one model type.
@@ -89,6 +92,7 @@ impl ModelOps {
             sweep: sweep::sweep_model::<M>,
             animate: crate::animate::animate_model::<M>,
             bench: crate::bench::bench_model::<M>,
+            check_user_effects: ezy_core::registry::check_user_effects::<M>,
         }
     }
 }
@@ -219,6 +223,7 @@ pub enum LoadError {
 #[derive(Clone)]
 pub struct App {
     models: Vec<(String, ModelOps)>,
+    kinds: EffectKinds,
     scenes: Vec<SceneEntry>,
     default_scene: String,
     errors: Vec<String>,
@@ -234,6 +239,7 @@ impl std::fmt::Debug for App {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         f.debug_struct("App")
             .field("models", &self.models.iter().map(|(k, _)| k).collect::<Vec<_>>())
+            .field("effect_kinds", &self.kinds.names())
             .field("scenes", &self.scenes)
             .field("default_scene", &self.default_scene)
             .field("errors", &self.errors)
@@ -260,6 +266,12 @@ impl ModelCatalog for App {
     fn info_with(&self, key: &str, params: &[(String, f64)]) -> Option<Result<ModelInfo, SceneError>> {
         self.ops(key).map(|ops| (ops.info_with)(params))
     }
+    fn effect_kinds(&self) -> Option<&EffectKinds> {
+        Some(&self.kinds)
+    }
+    fn check_user_effects(&self, key: &str, scene: &Scene) -> Result<(), SceneError> {
+        self.ops(key).map_or(Ok(()), |ops| (ops.check_user_effects)(scene))
+    }
 }
 
 impl App {
@@ -277,7 +289,13 @@ impl App {
 
     /// No models and no scenes: only what the caller adds.
     pub fn empty() -> Self {
-        Self { models: Vec::new(), scenes: Vec::new(), default_scene: String::new(), errors: Vec::new() }
+        Self {
+            models: Vec::new(),
+            kinds: EffectKinds::default(),
+            scenes: Vec::new(),
+            default_scene: String::new(),
+            errors: Vec::new(),
+        }
     }
 
     /// Adds model type `M` under `key` (the name scene files give in
@@ -286,6 +304,21 @@ impl App {
     #[must_use]
     pub fn model<M: Model + Default + 'static>(mut self, key: &str) -> Self {
         self.register::<M>(key);
+        self
+    }
+
+    /// Adds effect kind `T`, a force law of the user's own, under `kind`:
+    /// scene files then write `[effects.NAME] kind = "KIND"` with `T`'s
+    /// fields, exactly as for a built-in kind (its work column closes the
+    /// energy ledger, `--set NAME.KEY` changes its numbers, every
+    /// integrator runs it, its errors are placed in the file). A kind
+    /// given twice, or a built-in kind's name, is reported by every
+    /// command.
+    #[must_use]
+    pub fn effect<T: EffectKind>(mut self, kind: &str) -> Self {
+        if let Err(e) = self.kinds.add::<T>(kind) {
+            self.errors.push(e);
+        }
         self
     }
 

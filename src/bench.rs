@@ -24,8 +24,8 @@
 use ezy_core::integrator::Method;
 use ezy_core::{Formulation, Model, ProjectionKind, Scene};
 
+use crate::commands::run::Error;
 use crate::precision::{Setting, run_once_as, state_error};
-use crate::run::Error;
 
 /// Most runs per setting `ezy bench --repeat` takes: each repeat runs the
 /// six settings once more in this process and, unless `--no-process`,

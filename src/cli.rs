@@ -7,7 +7,7 @@ use clap::{Parser, Subcommand, ValueEnum};
 use ezy_core::kkt::KktMethod;
 use ezy_core::{Baumgarte, FigureFormat, Formulation, Method, ProjectionKind};
 
-use crate::run::RunOptions;
+use crate::commands::run::RunOptions;
 
 /// Planar vehicles with hinges and skates: simulate a scene, write CSV and figures.
 #[derive(Parser, Debug)]

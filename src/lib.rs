@@ -10,6 +10,7 @@ pub mod animate;
 pub mod app;
 pub mod bench;
 mod cli;
+pub mod commands;
 pub mod equations;
 pub mod figures;
 pub mod output;
@@ -17,16 +18,20 @@ pub mod plot;
 pub mod precision;
 pub mod progress;
 pub mod report;
-pub mod run;
 pub mod scale;
 pub mod sweep;
 pub mod testing;
 pub mod transaction;
 
 pub use app::App;
+pub use commands::run::{Report, RunOptions};
 pub use ezy_core;
-pub use ezy_core::{Model, model};
+pub use ezy_core::effects;
+pub use ezy_core::{Model, Problem, Solution, model};
 pub use ezy_models as models;
+/// serde, for the `Deserialize` and `Serialize` of an effect kind of the
+/// user's own (`#[serde(crate = "ezy::serde")]`).
+pub use serde;
 
 /// Paths the code `model!` generates uses in a crate that depends on
 /// `ezy` alone; not public API.

@@ -8,11 +8,10 @@
 use std::path::{Path, PathBuf};
 
 use ezy_core::integrator::Method;
-use ezy_core::kkt::KktMethod;
 use ezy_core::{Dynamics, Model, Observer, ProjectionKind, RunSettings, Sample, Scene, SimError};
 
+use crate::commands::run::Error;
 use crate::plot::{Chart, Series, Stroke};
-use crate::run::{Error, build};
 use crate::transaction::Transaction;
 
 /// One setting of the ladder.
@@ -123,7 +122,7 @@ pub(crate) fn run_once_as<M: Model + Default>(
     history: bool,
     formulation: ezy_core::Formulation,
 ) -> Result<(Last, ezy_core::Summary), SimError> {
-    let (mut sys, y0) = build::<M>(scene, &[], KktMethod::Auto)?;
+    let (mut sys, y0, _) = ezy_core::Problem::<M>::from_scene(scene, &[])?.0.into_system()?;
     let base = scene.run_settings();
     let settings = RunSettings {
         dt: setting.dt.unwrap_or(base.dt),

@@ -13,8 +13,8 @@
 use base64::Engine as _;
 use ezy_core::{Dynamics, Model, Scene};
 
+use crate::commands::run::RunOptions;
 use crate::output::Table;
-use crate::run::RunOptions;
 
 /// Rows of the report's animation at most.
 pub const REPORT_FRAMES: usize = 240;

@@ -105,7 +105,7 @@ pub fn scale<M: Model + Default>(
     let mut out = Vec::with_capacity(ns.len());
     let beat = ns
         .iter()
-        .any(|&n| n as f64 >= crate::run::LONG_SETUP_ELEMENTS)
+        .any(|&n| n as f64 >= crate::commands::run::LONG_SETUP_ELEMENTS)
         .then(|| crate::progress::Heartbeat::start(format!("scale {}: setting up {name} = {}", info.name, ns[0])));
     for (k, &n) in ns.iter().enumerate() {
         let fail = |message: String| ScaleError::Failed { name, n, message };

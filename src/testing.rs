@@ -842,3 +842,75 @@ impl Acc {
         }
     }
 }
+
+/// Checks a force law of the user's own ([`ezy_core::effects::ForceLaw`])
+/// at `states` random states `(t, q, qd)` of a model with `nq`
+/// coordinates (`t` in [0, 10] s, every `q` and `qd` in [-2, 2]), seed
+/// `seed`: what RADAU5's coupling and the energy ledger rely on.
+///
+/// 1. It writes `f` only at its [`ForceLaw::coords`](ezy_core::effects::ForceLaw::coords),
+///    each below `nq`.
+/// 2. The power it returns is `f_law . qd` to [`SAME_TOLERANCE`] relative
+///    to `sum_k |f_k qd_k|` (at least 1 W): its work column then closes
+///    the ledger `T - T0 = sum W`.
+/// 3. Its force, power and value do not change when `q` or `qd` change
+///    outside its coordinates (each such entry moved by 0.5, compared
+///    exactly): otherwise RADAU5's Jacobian misses a coupling.
+/// 4. Force, power and value are finite.
+///
+/// # Errors
+/// The first violation, with the state and the entry.
+pub fn check_force_law(
+    law: &dyn ezy_core::effects::ForceLaw,
+    nq: usize,
+    states: usize,
+    seed: u64,
+) -> Result<(), String> {
+    let coords = law.coords();
+    if let Some(k) = coords.iter().find(|&&k| k >= nq) {
+        return Err(format!("coords() lists {k}, but the model has nq = {nq}"));
+    }
+    let mut rng = StdRng::seed_from_u64(seed);
+    let eval = |t: f64, q: &[f64], qd: &[f64]| {
+        let mut f = vec![0.0; nq];
+        let (p, v) = law.apply(t, q, qd, &mut f);
+        (f, p, v)
+    };
+    for s in 0..states {
+        let t = rng.random_range(0.0..10.0);
+        let q: Vec<f64> = (0..nq).map(|_| rng.random_range(-2.0..2.0)).collect();
+        let qd: Vec<f64> = (0..nq).map(|_| rng.random_range(-2.0..2.0)).collect();
+        let at = format!("state {s} (t = {t}, seed {seed})");
+        let (f, p, v) = eval(t, &q, &qd);
+        if !(f.iter().all(|x| x.is_finite()) && p.is_finite() && v.is_finite()) {
+            return Err(format!("{at}: force {f:?}, power {p} or value {v} is not finite"));
+        }
+        if let Some(k) = (0..nq).find(|k| f[*k] != 0.0 && !coords.contains(k)) {
+            return Err(format!("{at}: f[{k}] = {} but {k} is not among coords() = {coords:?}", f[k]));
+        }
+        let fqd: f64 = f.iter().zip(&qd).map(|(a, b)| a * b).sum();
+        let scale = f.iter().zip(&qd).map(|(a, b)| (a * b).abs()).sum::<f64>().max(1.0);
+        if (p - fqd).abs() > SAME_TOLERANCE * scale {
+            return Err(format!("{at}: power {p} W, but f . qd = {fqd} W"));
+        }
+        for j in (0..nq).filter(|j| !coords.contains(j)) {
+            for moved_velocity in [false, true] {
+                let (mut q2, mut qd2) = (q.clone(), qd.clone());
+                if moved_velocity {
+                    qd2[j] += 0.5
+                } else {
+                    q2[j] += 0.5
+                }
+                let (f2, p2, v2) = eval(t, &q2, &qd2);
+                // the power reads qd[j] only through f[j] = 0
+                if f2 != f || v2 != v || (!moved_velocity && p2 != p) {
+                    let what = if moved_velocity { "qd" } else { "q" };
+                    return Err(format!(
+                        "{at}: the law changes when {what}[{j}] changes, but {j} is not among coords() = {coords:?}"
+                    ));
+                }
+            }
+        }
+    }
+    Ok(())
+}

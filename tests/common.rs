@@ -1,7 +1,9 @@
 //! Helpers shared by the integration tests.
 #![allow(dead_code)]
 
-use ezy_core::{Dynamics, Model, Observer, Sample};
+use ezy_core::initial::InitialReport;
+use ezy_core::kkt::KktMethod;
+use ezy_core::{Dynamics, Model, Observer, Problem, Sample, Scene, SimError};
 use rand::rngs::StdRng;
 use rand::{Rng, SeedableRng};
 
@@ -151,4 +153,40 @@ impl<M: ezy_core::Model> ezy_core::Model for Numeric<M> {
     fn point_velocities<S: ezy_core::Scalar>(&self, q: &[S], qd: &[S], out: &mut [S]) {
         self.0.point_velocities(q, qd, out);
     }
+}
+
+/// What the tests read of a scene set up for model `M`: the problem's
+/// parts, the scene as run and the consistent initial state.
+#[derive(Debug)]
+pub struct Setup<M: Model> {
+    /// The model with the scene's parameters.
+    pub model: M,
+    /// The scene after the overrides, families expanded.
+    pub scene: Scene,
+    /// The resolved effects.
+    pub effects: Vec<ezy_core::Effect>,
+    /// The drives with their angles.
+    pub drives: Vec<ezy_core::drive::Drive>,
+    /// Consistent initial state `y0 = [q, qd, W = 0 ...]`.
+    pub y0: Vec<f64>,
+    /// What the initial-condition solve corrected.
+    pub initial: InitialReport,
+}
+
+/// [`Problem::from_scene`] with the overrides `sets`, and its initial state.
+pub fn setup<M: Model + Default>(scene: &Scene, sets: &[(String, f64)]) -> Result<Setup<M>, SimError> {
+    let (p, scene) = Problem::<M>::from_scene(scene, sets)?;
+    let (y0, initial) = p.initial_state()?;
+    Ok(Setup { model: p.model, scene, effects: p.effects, drives: p.drives, y0, initial })
+}
+
+/// The right-hand side of `scene` on model `M` with the overrides `sets`
+/// and KKT path `kkt`, and its consistent initial state.
+pub fn build<M: Model + Default>(
+    scene: &Scene,
+    sets: &[(String, f64)],
+    kkt: KktMethod,
+) -> Result<(Dynamics<M>, Vec<f64>), SimError> {
+    let (sys, y0, _) = Problem::<M>::from_scene(scene, sets)?.0.kkt(kkt).into_system()?;
+    Ok((sys, y0))
 }

@@ -8,7 +8,7 @@ mod common;
 use std::f64::consts::PI;
 
 use common::Recorder;
-use ezy::run::build;
+use common::build;
 use ezy_core::effects::{Spline, SplineData, Waveform};
 use ezy_core::kkt::KktMethod;
 use ezy_core::{DriveSpec, InitValue, RunSettings, simulate};

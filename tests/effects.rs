@@ -12,8 +12,8 @@ use std::f64::consts::PI;
 
 use bare_rhs::BareRhs;
 use common::max_abs;
+use common::{build, setup};
 use ezy::output::RowBuilder;
-use ezy::run::{build, setup};
 use ezy_core::integrator::Rhs;
 use ezy_core::kkt::KktMethod;
 use ezy_core::{Dynamics, Method, Model, ProjectionKind, RunSettings, Sample, Scene, simulate};

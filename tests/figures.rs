@@ -2,12 +2,14 @@
 //! every built-in scene's figures in every format, one animation frame per
 //! interval, and a report that loads nothing from elsewhere.
 
+mod common;
+
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
+use ezy::RunOptions;
 use ezy::models::scenes;
 use ezy::plot::{self, FigureFormat};
-use ezy::run::RunOptions;
 
 fn tmp(name: &str) -> PathBuf {
     let d = Path::new(env!("CARGO_TARGET_TMPDIR")).join(format!("figures-{name}"));

@@ -6,8 +6,8 @@
 
 mod common;
 
+use common::build;
 use common::{Numeric, Recorder, max_abs};
-use ezy::run::build;
 use ezy_core::kkt::KktMethod;
 use ezy_core::{Formulation, Method, Model, ProjectionKind, RunSettings, SimError, simulate};
 use ezy_models::{EzyRoller, EzyRollerDriven, FourBar, SliderCrank, Snake, Snakeboard, Trailer, scenes};

@@ -8,7 +8,7 @@ mod common;
 use std::f64::consts::{FRAC_PI_2, PI};
 
 use common::Recorder;
-use ezy::run::build;
+use common::build;
 use ezy_core::kkt::KktMethod;
 use ezy_core::{InitValue, Method, RunSettings, simulate};
 use ezy_models::{ChaplyginSleigh, Pendulum, scenes};

@@ -3,8 +3,9 @@
 mod common;
 
 use common::{Recorder, max_abs};
+use common::{build, setup};
+use ezy::RunOptions;
 use ezy::output::FIGURE_ROWS;
-use ezy::run::{RunOptions, build, setup};
 use ezy_core::kkt::KktMethod;
 use ezy_core::{Dynamics, InitValue, Method, Model, ProjectionKind, RunSettings, simulate};
 use ezy_models::{EzyRoller, scenes};
@@ -165,7 +166,7 @@ fn inconsistent_initial_conditions_are_projected_or_refused() {
     scene.initial.q.push(("x2".into(), InitValue::Num(0.5 + 1e-3)));
     scene.initial.q.push(("y2".into(), InitValue::Num(-2e-3)));
     scene.initial.qd.push(("y1".into(), InitValue::Num(0.01)));
-    let ezy::run::Setup { model: m, y0, initial: report, .. } = setup::<EzyRoller>(&scene, &[]).unwrap();
+    let common::Setup { model: m, y0, initial: report, .. } = setup::<EzyRoller>(&scene, &[]).unwrap();
     assert!((report.position_violation - 2e-3).abs() < 1e-14, "{report:?}");
     assert!(report.position_correction > 1e-4 && report.position_correction < 3e-3, "{report:?}");
     // what least squares in the unknowns leaves of the 0.01 m/s given in y1d
@@ -333,7 +334,7 @@ fn overflowing_stages_stop_with_step_size_too_small() {
 fn overflowing_stages_stop(rate: f64, want: &str) {
     let mut scene = scenes::free();
     scene.initial.qd = vec![("x1".into(), InitValue::Num(rate)), ("phi1".into(), InitValue::Num(rate))];
-    let ezy::run::Setup { model, y0, .. } = setup::<EzyRoller>(&scene, &[]).unwrap();
+    let common::Setup { model, y0, .. } = setup::<EzyRoller>(&scene, &[]).unwrap();
     let mut sys = Dynamics::new(model, vec![], KktMethod::Auto);
     let settings = RunSettings {
         dt: 1e-3,

@@ -5,8 +5,8 @@
 
 mod common;
 
+use common::build;
 use common::{random_model, random_state, random_state_n, rng};
-use ezy::run::build;
 use ezy_core::kkt::KktMethod;
 use ezy_core::{Dynamics, Model, ProjectionKind, RunSettings, simulate};
 use ezy_models::{ChaplyginSleigh, EzyRoller, scenes};

@@ -10,13 +10,13 @@
 
 mod common;
 
-use ezy::run::setup;
+use common::setup;
 use ezy_core::kkt::KktMethod;
 use ezy_core::{Dynamics, EffectSpec, Method, Model, ProjectionKind, RunSettings, simulate};
 use ezy_models::{DoublePendulum, FourBar, NFourBar, SliderCrank, scenes};
 
 /// Runs a built-in scene with its own settings, keeping every sample.
-fn run_scene<M: Model + Default>(name: &str) -> (ezy_core::Summary, common::Recorder, ezy::run::Setup<M>) {
+fn run_scene<M: Model + Default>(name: &str) -> (ezy_core::Summary, common::Recorder, common::Setup<M>) {
     let scene = scenes::get(name);
     let s = setup::<M>(&scene, &[]).unwrap();
     let mut sys = Dynamics::new(s.model.clone(), s.effects.clone(), KktMethod::Auto).with_drives(s.drives.clone());

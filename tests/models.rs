@@ -2,7 +2,9 @@
 //! against its closed form, the snake's gait moving it head first, and both
 //! energy ledgers.
 
-use ezy::run::build;
+mod common;
+
+use common::build;
 use ezy_core::kkt::KktMethod;
 use ezy_core::{Model, RunSettings, simulate};
 use ezy_models::{Snake, Trailer, scenes};
@@ -107,7 +109,7 @@ fn the_driven_snake_advances_head_first() {
 /// `"phi*"` initial value reaches every heading.
 #[test]
 fn family_effects_expand_per_element() {
-    use ezy::run::setup;
+    use crate::common::setup;
     use ezy_core::effects::{EffectSpec, Waveform};
     let scene = scenes::get("snake");
     let s = setup::<Snake>(&scene, &[]).unwrap();
@@ -137,7 +139,7 @@ fn family_effects_expand_per_element() {
 /// `phase_step` on an effect that is not over a family, name the effect.
 #[test]
 fn family_effect_errors_name_the_effect() {
-    use ezy::run::setup;
+    use crate::common::setup;
     let text = scenes::BUILTIN.iter().find(|(f, _)| *f == "snake.toml").unwrap().1;
     let bad = text.replace("hinge = \"J[*]\"\ntorque", "hinge = \"K[*]\"\ntorque");
     let err = scenes::check(ezy_core::Scene::from_toml(&bad, "bad.toml").unwrap(), &bad, "bad.toml").unwrap_err();

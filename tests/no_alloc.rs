@@ -9,7 +9,7 @@ use std::alloc::{GlobalAlloc, Layout, System};
 use std::cell::Cell;
 
 use common::Numeric;
-use ezy::run::build;
+use common::build;
 use ezy_core::kkt::KktMethod;
 use ezy_core::{Dynamics, Formulation, Method, Model, Observer, ProjectionKind, RunSettings, Sample, simulate};
 use ezy_models::{EzyRoller, scenes};

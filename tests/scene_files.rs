@@ -2,9 +2,11 @@
 //! closes its energy ledger; scene files round-trip; every documented
 //! error of a bad scene file names the file, line, column and key.
 
+mod common;
+
 use std::path::PathBuf;
 
-use ezy::run::RunOptions;
+use ezy::RunOptions;
 use ezy_core::Scene;
 use ezy_models::scenes;
 
@@ -112,7 +114,7 @@ fn every_documented_scene_file_error_names_file_line_column_and_key() {
             "kind = \"hinge-motor\"",
             "kind = \"hinge-motr\"",
             "kind = \"hinge-motr\"",
-            &["unknown variant `hinge-motr`", "hinge-motor", "rolling-viscous", "quadratic-drag"],
+            &["unknown effect kind `hinge-motr`", "hinge-motor", "rolling-viscous", "quadratic-drag"],
         ),
         // an unknown waveform
         (

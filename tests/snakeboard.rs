@@ -73,7 +73,7 @@ mod common;
 use std::f64::consts::PI;
 
 use common::Recorder;
-use ezy::run::build;
+use common::build;
 use ezy_core::effects::{Harmonic, Waveform};
 use ezy_core::kkt::KktMethod;
 use ezy_core::{DriveSpec, Scene, simulate};

@@ -6,7 +6,7 @@
 
 mod common;
 
-use ezy::run::build;
+use common::build;
 use ezy_core::integrator::radau5::{DenseNewton, MU_COMPLEX, MU_REAL, NewtonSystem, c64};
 use ezy_core::kkt::KktMethod;
 use ezy_core::newton::KktNewton;

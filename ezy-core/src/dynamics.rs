@@ -436,7 +436,7 @@ fn apply_effects(
     power: &mut [f64],
 ) -> Result<(), SimError> {
     for ((e, p), wave) in effects.iter().zip(power).zip(waves) {
-        *p = e.apply_with(wave, q, qd, f).0;
+        *p = e.apply_with(t, wave, q, qd, f).0;
         // a NaN from a finite state is the effect's own failure (a
         // spring-damper of zero length); a non-finite state is reported
         // where the state is checked

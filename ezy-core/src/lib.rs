@@ -1,6 +1,10 @@
-//! ezy runtime: the [`Model`] trait generated models implement, the KKT
-//! solve, the RK4 integrator, coordinate projection, effects, consistent
-//! initial conditions and the step loop.
+//! ezy runtime: the [`Model`] trait generated models implement, the
+//! [`Problem`] a run integrates (a model, its effects, drives, initial
+//! values and settings, solved in memory), the KKT solve, the integrators
+//! (RK4, DOPRI5, DOP853, RADAU5), coordinate projection, the effects and
+//! the force-law traits a user's own laws implement
+//! ([`effects::EffectKind`], [`effects::ForceLaw`]), consistent initial
+//! conditions and the step loop.
 
 // `::ezy_core` paths of `model!` expansions resolve inside this crate too.
 extern crate self as ezy_core;
@@ -16,6 +20,7 @@ pub mod integrator;
 pub mod kkt;
 pub mod model;
 pub mod newton;
+pub mod problem;
 pub mod projection;
 pub mod reduced;
 pub mod registry;
@@ -32,6 +37,7 @@ pub use model::{
     BodyInfo, DriveInfo, EquationExpr, Equations, HingeInfo, MinimalLayout, MinimalRhsError, Model, ModelInfo,
     NameIndex, ParamInfo, PointInfo, SkateInfo, SliderInfo,
 };
+pub use problem::{Problem, Solution};
 pub use projection::ProjectionKind;
 pub use reduced::Formulation;
 pub use scalar::Scalar;

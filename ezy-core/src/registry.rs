@@ -8,7 +8,8 @@
 //! [`ModelCatalog`] and [`check_scene`], so a user's scene is checked
 //! against the user's model exactly as a built-in one is.
 
-use crate::{Model, ModelInfo, Scene, SceneError, SceneFileError};
+use crate::effects::{EffectContext, EffectKinds, EffectSpec};
+use crate::{Model, ModelInfo, NameIndex, Scene, SceneError, SceneFileError, SimError};
 
 /// Something models can be registered with under a key.
 ///
@@ -51,6 +52,58 @@ pub trait ModelCatalog {
     /// is not a whole number >= 1 or makes a family refer to an element
     /// that does not exist.
     fn info_with(&self, key: &str, params: &[(String, f64)]) -> Option<Result<ModelInfo, SceneError>>;
+
+    /// The effect kinds of the user's own that scenes may name (default:
+    /// none, the built-in kinds only).
+    fn effect_kinds(&self) -> Option<&EffectKinds> {
+        None
+    }
+
+    /// Resolves the effects of kinds of the user's own in `scene` (bound,
+    /// families expanded) against the model registered as `key` at the
+    /// scene's parameters (default: nothing to do; see
+    /// [`check_user_effects`]).
+    ///
+    /// # Errors
+    /// A [`SceneError`] at the effect's key the law refuses.
+    fn check_user_effects(&self, _key: &str, _scene: &Scene) -> Result<(), SceneError> {
+        Ok(())
+    }
+}
+
+/// Resolves the effects of kinds of the user's own ([`EffectSpec::User`])
+/// in `scene` (bound, families expanded, checked) against model `M` at
+/// the scene's parameters, so that a name the law looks up or a number it
+/// refuses is reported at its key in the file before any work (what
+/// [`ModelCatalog::check_user_effects`] does for the `ezy` crate's `App`).
+///
+/// # Errors
+/// A [`SceneError`] at `effects.NAME.KEY`, the key the law names.
+pub fn check_user_effects<M: Model + Default>(scene: &Scene) -> Result<(), SceneError> {
+    if !scene.effects.iter().any(|(_, e)| matches!(e, EffectSpec::User(_))) {
+        return Ok(());
+    }
+    let mut model = M::default();
+    let base = model.info();
+    for (name, value) in &scene.params {
+        if let Some(i) = base.param_index(name) {
+            model.set_param(i, *value);
+        }
+    }
+    let info = model.info();
+    let names = NameIndex::new(&info);
+    let cx = EffectContext::new(&model, &names).with_scene_params(&scene.scene_params);
+    for (name, spec) in scene.effects.iter().filter(|(_, e)| matches!(e, EffectSpec::User(_))) {
+        if let Err(e) = spec.resolve_in(name, &cx) {
+            return Err(match e {
+                SimError::Effect { field, message, .. } if !field.is_empty() => {
+                    SceneError { path: vec!["effects".into(), name.clone(), field.into()], message }
+                }
+                e => SceneError { path: vec!["effects".into(), name.clone()], message: e.to_string() },
+            });
+        }
+    }
+    Ok(())
 }
 
 /// [`InfoFn`] of model type `M`: its default with the counts among
@@ -126,7 +179,7 @@ pub struct SceneSource {
 /// column, key).
 pub fn check_scene(
     models: &dyn ModelCatalog,
-    scene: Scene,
+    mut scene: Scene,
     text: &str,
     file: &str,
 ) -> Result<SceneSource, SceneFileError> {
@@ -138,7 +191,11 @@ pub fn check_scene(
         return Err(Scene::locate_error(text, file, e));
     };
     let info = info.map_err(|e| Scene::locate_error(text, file, e))?;
+    scene
+        .bind_kinds(models.effect_kinds().unwrap_or(&EffectKinds::default()))
+        .map_err(|e| Scene::locate_error(text, file, e))?;
     let expanded = scene.expand_families(&info).map_err(|e| Scene::locate_error(text, file, e))?;
     expanded.check(&info).map_err(|e| Scene::locate_error(text, file, e))?;
+    models.check_user_effects(&scene.model, &expanded).map_err(|e| Scene::locate_error(text, file, e))?;
     Ok(SceneSource { scene, text: text.to_string(), file: file.to_string() })
 }

@@ -147,13 +147,13 @@ impl Initial {
 }
 
 fn default_dt() -> f64 {
-    1e-4
+    crate::simulate::DEFAULT_DT
 }
 fn default_tol() -> f64 {
-    1e-9
+    crate::simulate::DEFAULT_TOLERANCE
 }
 fn default_every() -> f64 {
-    0.01
+    crate::simulate::DEFAULT_EVERY
 }
 
 /// Integrator settings of a scene (the CLI flags override them).
@@ -1072,8 +1072,11 @@ impl Scene {
                     format!("effect name `{name}` must be letters, digits and _ (it names the column W_{name})"),
                 ));
             }
-            e.check_in(&names, &self.scene_params)
-                .map_err(|err| SceneError::at(&["effects", name, err.field], err.message))?;
+            e.check_in(&names, &self.scene_params).map_err(|err| {
+                let path: &[&str] =
+                    if err.field.is_empty() { &["effects", name] } else { &["effects", name, err.field] };
+                SceneError::at(path, err.message)
+            })?;
         }
         let model_drives: std::collections::HashSet<&str> = info.drives.iter().map(|d| d.name.as_str()).collect();
         let scene_drives: std::collections::HashSet<&str> = self.drives.iter().map(|(n, _)| n.as_str()).collect();
@@ -1306,7 +1309,7 @@ impl Scene {
         if let Some((item, key)) = name.split_once('.') {
             let changed = if let Some((_, spec)) = self.effects.iter_mut().find(|(n, _)| n == item) {
                 set_number(&*spec, key, value, name)?.map(|(changed, leaf)| {
-                    *spec = changed;
+                    *spec = changed.inherit_kind(spec);
                     ("effects", leaf)
                 })
             } else if let Some((_, spec)) = self.drives.iter_mut().find(|(n, _)| n == item) {
@@ -1353,19 +1356,18 @@ impl Scene {
             [section, item, leaf @ ..] if !leaf.is_empty() => (section.as_str(), item, leaf),
             _ => return Err(fail("a scene parameter is bound to no number here".into())),
         };
-        let changed = match section {
-            "effects" => self
-                .effects
-                .iter_mut()
-                .find(|(n, _)| n == item)
-                .map(|(_, spec)| with_number(&*spec, leaf, value).map(|changed| *spec = changed)),
-            "drives" => self
-                .drives
-                .iter_mut()
-                .find(|(n, _)| n == item)
-                .map(|(_, spec)| with_number(&*spec, leaf, value).map(|changed| *spec = changed)),
-            _ => None,
-        };
+        let changed =
+            match section {
+                "effects" => self.effects.iter_mut().find(|(n, _)| n == item).map(|(_, spec)| {
+                    with_number(&*spec, leaf, value).map(|changed| *spec = changed.inherit_kind(spec))
+                }),
+                "drives" => self
+                    .drives
+                    .iter_mut()
+                    .find(|(n, _)| n == item)
+                    .map(|(_, spec)| with_number(&*spec, leaf, value).map(|changed| *spec = changed)),
+                _ => None,
+            };
         match changed {
             Some(r) => r.map_err(fail),
             None => Err(fail(format!("a scene parameter is bound to `{item}`, which the scene does not have"))),
@@ -1506,9 +1508,10 @@ impl Scene {
                 let mut t = tree.clone();
                 t[field] = toml::Value::String(element.to_string());
                 apply_phase_step(&mut t, k as f64);
-                let spec: EffectSpec = t.try_into().map_err(|e: toml::de::Error| {
+                let element_spec: EffectSpec = t.try_into().map_err(|e: toml::de::Error| {
                     SceneError::at(&["effects", name], format!("expanding over `{pattern}`: {}", e.message()))
                 })?;
+                let element_spec = element_spec.inherit_kind(spec);
                 let expanded = format!("{name}{}", &element[stem.len()..]);
                 if !taken.insert(expanded.clone()) {
                     return Err(SceneError::at(
@@ -1517,7 +1520,7 @@ impl Scene {
                     ));
                 }
                 rebind(&bound, &tree, &expanded, &mut out.bindings);
-                out.effects.push((expanded, spec));
+                out.effects.push((expanded, element_spec));
             }
         }
         // drives: `[drives."D[*]"]` gives every element of the drive family D
@@ -1563,6 +1566,34 @@ impl Scene {
         }
         out.bindings.sort();
         Ok(out)
+    }
+
+    /// Binds the scene's effects of kinds of the user's own
+    /// ([`EffectSpec::User`]) to the kinds `kinds` registers, so that
+    /// [`Scene::check`] reads their fields and resolving builds their laws.
+    ///
+    /// # Errors
+    /// A [`SceneError`] at `effects.NAME.kind` for a kind neither built in
+    /// nor in `kinds`, listing the known kinds.
+    pub fn bind_kinds(&mut self, kinds: &crate::effects::EffectKinds) -> Result<(), SceneError> {
+        for (name, spec) in &mut self.effects {
+            if let EffectSpec::User(u) = spec {
+                match kinds.get(&u.kind) {
+                    Some(h) => u.handle = Some(h.clone()),
+                    None => {
+                        return Err(SceneError::at(
+                            &["effects", name, "kind"],
+                            format!(
+                                "unknown effect kind `{}`; {}",
+                                u.kind,
+                                crate::effects::known_kinds(&kinds.names())
+                            ),
+                        ));
+                    }
+                }
+            }
+        }
+        Ok(())
     }
 
     /// Resolves the scene's effects against `model`.

@@ -53,6 +53,35 @@ pub struct RunSettings {
     pub max_steps: Option<u64>,
 }
 
+/// Default step size of fixed-step methods \[s\].
+pub const DEFAULT_DT: f64 = 1e-4;
+/// Default relative and absolute tolerance of adaptive methods.
+pub const DEFAULT_TOLERANCE: f64 = 1e-9;
+/// Default output interval \[s\].
+pub const DEFAULT_EVERY: f64 = 0.01;
+
+impl Default for RunSettings {
+    /// One second with the default method and tolerances
+    /// ([`DEFAULT_DT`], [`DEFAULT_TOLERANCE`], [`DEFAULT_EVERY`]), the
+    /// default projection and formulation, the energy balance guarded
+    /// ([`BALANCE_LIMIT`]) and at most [`DEFAULT_MAX_STEPS`] steps: what a
+    /// scene file without an `[integrator]` table asks for.
+    fn default() -> Self {
+        Self {
+            dt: DEFAULT_DT,
+            t_end: 1.0,
+            every: DEFAULT_EVERY,
+            projection: ProjectionKind::default(),
+            method: Method::default(),
+            formulation: Formulation::default(),
+            rtol: DEFAULT_TOLERANCE,
+            atol: DEFAULT_TOLERANCE,
+            balance_limit: Some(BALANCE_LIMIT),
+            max_steps: Some(DEFAULT_MAX_STEPS),
+        }
+    }
+}
+
 /// Default of [`RunSettings::max_steps`] for scenes: 1e8 steps, about a
 /// minute of RK4 on the EzyRoller (4 RHS of ~150 ns each per step) and
 /// far more than any built-in scene needs (`drive`: 6e5).

@@ -4,7 +4,7 @@
 //! the same table.
 //!
 //! Each run is exactly `ezy run` with the run's `--set` values
-//! ([`crate::run::prepare`] and [`ezy_core::simulate()`] with the same
+//! ([`crate::commands::run::problem`] and [`ezy_core::simulate()`] with the same
 //! settings), so its numbers are the single run's, bit for bit; it
 //! writes no file unless `--save-runs` asks. The output directory holds:
 //!
@@ -46,8 +46,8 @@ pub use metric::Metric;
 pub use plan::Plan;
 pub use table::{Manifest, merge};
 
+use crate::commands::run::{self, RunOptions};
 use crate::output::RowBuilder;
-use crate::run::{self, RunOptions};
 use crate::transaction::Interrupted;
 
 /// A sweep to run: what `ezy sweep` parsed and checked.
@@ -306,15 +306,15 @@ fn check<M: Model + Default>(job: &SweepJob) -> Result<Checked, String> {
         for (&k, &v) in counts.iter().zip(&tuple) {
             sets.push((job.plan.axes[k].name.clone(), v));
         }
-        match run::configure::<M>(&job.scene, &sets) {
-            Ok(c) => {
-                for n in c.state_names() {
+        match ezy_core::Problem::<M>::from_scene(&job.scene, &sets) {
+            Ok((p, scene)) => {
+                for n in p.state_names() {
                     if seen.insert(n.clone()) {
                         state.push(n);
                     }
                 }
                 if !metrics_checked {
-                    let cols = c.scene.columns(&c.model.info());
+                    let cols = scene.columns(&p.model.info());
                     for m in &job.metrics {
                         m.check_columns(&cols)?;
                     }
@@ -422,8 +422,9 @@ fn one_run<M: Model + Default>(
     if let Some(dir) = save {
         let opts = RunOptions { out: dir, figures: true, progress: false, ..opts.clone() };
         // the metrics need the row layout: from the configured scene
-        let layout = run::configure::<M>(&job.scene, &opts.sets).map_err(|e| Ok(e.to_string()))?;
-        let cols = layout.scene.columns(&layout.model.info());
+        let (layout, scene) =
+            ezy_core::Problem::<M>::from_scene(&job.scene, &opts.sets).map_err(|e| Ok(e.to_string()))?;
+        let cols = scene.columns(&layout.model.info());
         let accs = job.metrics.iter().map(|m| metric::Accumulator::new(m, &cols)).collect::<Result<_, _>>();
         let mut tap = Tap::new(accs.map_err(Ok)?);
         let mut f = |s: &Sample<'_>, row: &[f64]| tap.take(s, row);
@@ -438,15 +439,15 @@ fn one_run<M: Model + Default>(
         };
         return Ok(Done { summary: report.summary, state_names: report.state_names, tap });
     }
-    let p = run::prepare::<M>(&job.scene, opts, *settings).map_err(|e| Ok(e.to_string()))?;
-    let mut sys = p.sys;
-    let rows = (!job.metrics.is_empty()).then(|| RowBuilder::new(&p.scene, &sys));
+    let (problem, scene) = run::problem::<M>(&job.scene, opts, *settings).map_err(|e| Ok(e.to_string()))?;
+    let (mut sys, y0, _) = problem.into_system().map_err(|e| Ok(e.to_string()))?;
+    let rows = (!job.metrics.is_empty()).then(|| RowBuilder::new(&scene, &sys));
     let accs = match &rows {
         Some(r) => job.metrics.iter().map(|m| metric::Accumulator::new(m, &r.columns)).collect::<Result<_, _>>(),
         None => Ok(Vec::new()),
     };
     let mut obs = Quiet { rows, row: Vec::new(), tap: Tap::new(accs.map_err(Ok)?) };
-    match ezy_core::simulate(&mut sys, &p.y0, &p.settings, &mut obs) {
+    match ezy_core::simulate(&mut sys, &y0, settings, &mut obs) {
         Ok(summary) => {
             let state_names = (0..sys.ny()).map(|k| sys.state_name(k)).collect();
             Ok(Done { summary, state_names, tap: obs.tap })

@@ -15,9 +15,13 @@
 //! and the hinge angle is `theta = phi_a - phi_b` (`phi_a` for a ground
 //! hinge), so a hinge torque's power is `tau theta_dot`.
 
+mod user;
 mod waveform;
 
-use serde::{Deserialize, Serialize};
+use std::sync::Arc;
+
+use serde::{Deserialize, Deserializer, Serialize, Serializer};
+pub use user::{Controller, EffectKind, EffectKinds, ForceLaw, KindHandle, UserSpec};
 pub use waveform::{Harmonic, Spline, SplineData, Table, Waveform};
 
 use crate::SimError;
@@ -64,9 +68,10 @@ pub enum Frame {
 
 /// An effect as a scene file writes it, by the model's names. In a scene
 /// file each is a table `[effects.NAME]` with a `kind` key; every field is
-/// in SI units. The kinds, with their force laws:
+/// in SI units. The built-in kinds, with their force laws, and the kinds
+/// of the user's own ([`EffectSpec::User`]):
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[serde(tag = "kind", rename_all = "kebab-case", deny_unknown_fields)]
+#[serde(remote = "Self", tag = "kind", rename_all = "kebab-case", deny_unknown_fields)]
 pub enum EffectSpec {
     /// Hinge motor: torque `tau(t)` \[N m\] given by a waveform, `+tau` on the
     /// hinge's first body, `-tau` on the second (the `drive` scene's motor,
@@ -261,6 +266,55 @@ pub enum EffectSpec {
         #[serde(default, skip_serializing_if = "is_zero")]
         c_rot: f64,
     },
+    /// A kind of the user's own ([`EffectKind`]): any `kind` that is not
+    /// built in reads as this, and is checked against the kinds the
+    /// application registered when the scene is bound to them
+    /// ([`crate::Scene::bind_kinds`]).
+    #[serde(skip)]
+    User(UserSpec),
+}
+
+// A table whose `kind` is built in reads as that variant (the derived,
+// internally tagged form); any other kind is kept as the table, for the
+// application's kinds to read.
+impl<'de> Deserialize<'de> for EffectSpec {
+    fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        use serde::de::Error as _;
+        let mut table = toml::Table::deserialize(d)?;
+        let kind = match table.get("kind") {
+            None => return Err(D::Error::missing_field("kind")),
+            Some(toml::Value::String(k)) => k.clone(),
+            Some(other) => {
+                return Err(D::Error::custom(format!(
+                    "`kind` must be a string naming the effect kind, got {}",
+                    other.type_str()
+                )));
+            }
+        };
+        if EFFECT_KINDS.contains(&kind.as_str()) {
+            return EffectSpec::deserialize(toml::Value::Table(table))
+                .map_err(|e: toml::de::Error| D::Error::custom(e.message().trim()));
+        }
+        table.remove("kind");
+        Ok(EffectSpec::User(UserSpec { kind, params: table, handle: None }))
+    }
+}
+
+impl Serialize for EffectSpec {
+    fn serialize<S: Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        use serde::ser::SerializeMap as _;
+        match self {
+            EffectSpec::User(u) => {
+                let mut map = s.serialize_map(Some(u.params.len() + 1))?;
+                map.serialize_entry("kind", &u.kind)?;
+                for (k, v) in &u.params {
+                    map.serialize_entry(k, v)?;
+                }
+                map.end()
+            }
+            builtin => EffectSpec::serialize(builtin, s),
+        }
+    }
 }
 
 /// The kinds a scene file may name, as it spells them.
@@ -289,13 +343,32 @@ pub const EFFECT_KINDS: &[&str] = &[
 /// [`crate::Scene::from_toml`]).
 pub const NAME_KEYS: &[&str] = &["kind", "hinge", "skate", "body", "at", "frame", "from", "to", "bodies"];
 
+/// The known kinds as an error lists them: the built-in ones and `user`.
+pub(crate) fn known_kinds(user: &[&str]) -> String {
+    let mut all: Vec<&str> = EFFECT_KINDS.to_vec();
+    all.extend_from_slice(user);
+    format!("known kinds: {}", crate::name_list(all))
+}
+
 /// A name in an effect that the model does not have, or a bad number.
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub struct SpecError {
-    /// The effect's key that is wrong (`hinge`, `skate`, `torque`, ...).
+    /// The effect's key that is wrong (`hinge`, `skate`, `torque`, ...;
+    /// empty for the effect as a whole: a missing or unknown key).
     pub field: &'static str,
     /// What is wrong.
     pub message: String,
+}
+
+impl SpecError {
+    /// `Ok` if `ok`, else an error at `field` with the message `message()`
+    /// (for range checks in [`EffectKind::resolve`]).
+    ///
+    /// # Errors
+    /// As described.
+    pub fn check(ok: bool, field: &'static str, message: impl FnOnce() -> String) -> Result<(), SpecError> {
+        if ok { Ok(()) } else { Err(SpecError { field, message: message() }) }
+    }
 }
 
 fn unknown(field: &'static str, kind: &str, name: &str, model: &str, known: Vec<&str>) -> SpecError {
@@ -331,8 +404,9 @@ fn wave(field: &'static str, w: &Waveform) -> Result<(), SpecError> {
 
 impl EffectSpec {
     /// The kind as a scene file spells it.
-    pub fn kind(&self) -> &'static str {
+    pub fn kind(&self) -> &str {
         match self {
+            Self::User(u) => &u.kind,
             Self::HingeMotor { .. } => "hinge-motor",
             Self::HingeSpring { .. } => "hinge-spring",
             Self::HingeDamper { .. } => "hinge-damper",
@@ -364,8 +438,21 @@ impl EffectSpec {
             | Self::Torque { .. } => {
                 format!("tau_{name}")
             }
+            Self::User(u) => format!("{}_{name}", u.value_prefix()),
             _ => format!("F_{name}"),
         }
+    }
+
+    /// This spec, bound to the kind `from` is bound to when both are of
+    /// the same kind of the user's own (a spec read back from its TOML
+    /// form, by `--set` or a family's expansion, is not bound).
+    pub fn inherit_kind(mut self, from: &EffectSpec) -> Self {
+        if let (EffectSpec::User(u), EffectSpec::User(f)) = (&mut self, from)
+            && u.kind == f.kind
+        {
+            u.handle = f.handle.clone();
+        }
+        self
     }
 
     /// Checks names against the model and numbers against their ranges.
@@ -402,6 +489,7 @@ impl EffectSpec {
                 .ok_or_else(|| unknown(field, "body", b, model, info.bodies.iter().map(|k| k.name.as_str()).collect()))
         };
         match self {
+            Self::User(u) => u.check(&known_kinds(&[])),
             Self::HingeMotor { hinge: h, torque } => {
                 hinge(h)?;
                 wave("torque", torque)
@@ -650,6 +738,11 @@ impl EffectSpec {
             },
             Self::LinearDrag { body, c, c_rot } => Law::Drag { body: body_of(&body), c, c_rot, quadratic: false },
             Self::QuadraticDrag { body, c, c_rot } => Law::Drag { body: body_of(&body), c, c_rot, quadratic: true },
+            Self::User(u) => Law::User(UserLaw(u.resolve(cx, &known_kinds(&[])).map_err(|e| SimError::Effect {
+                effect: name.to_string(),
+                field: e.field,
+                message: e.message,
+            })?)),
         };
         Ok(Effect { name: name.to_string(), value_column: self.value_column(name), law })
     }
@@ -691,6 +784,106 @@ impl<'a> EffectContext<'a> {
         self.scene_params = scene_params.to_vec();
         self
     }
+
+    /// The model's description.
+    pub fn info(&self) -> &ModelInfo {
+        self.names.info
+    }
+
+    /// Number of generalized coordinates nq.
+    pub fn nq(&self) -> usize {
+        self.mass.len()
+    }
+
+    /// The mass diagonal (nq) \[kg, kg m^2\].
+    pub fn mass(&self) -> &[f64] {
+        &self.mass
+    }
+
+    /// The value of a model parameter, else of a scene parameter, called `name`.
+    pub fn param(&self, name: &str) -> Option<f64> {
+        match self.names.info.param_index(name) {
+            Some(i) => Some(self.model_params[i]),
+            None => self.scene_params.iter().find(|(n, _)| n == name).map(|(_, v)| *v),
+        }
+    }
+
+    /// The hinge called `name`, for the effect's key `field`.
+    ///
+    /// # Errors
+    /// A [`SpecError`] at `field` listing the model's hinges.
+    pub fn hinge(&self, field: &'static str, name: &str) -> Result<HingeRef, SpecError> {
+        let info = self.names.info;
+        let index = self.names.hinge(name).ok_or_else(|| {
+            unknown(field, "hinge", name, info.name, info.hinges.iter().map(|h| h.name.as_str()).collect())
+        })?;
+        let h = &info.hinges[index];
+        Ok(HingeRef { index, a: info.bodies[h.body_a].coords[2], b: h.body_b.map(|b| info.bodies[b].coords[2]) })
+    }
+
+    /// The indices of the `(x, y, phi)` of the body called `name`, for the
+    /// effect's key `field`.
+    ///
+    /// # Errors
+    /// A [`SpecError`] at `field` listing the model's bodies.
+    pub fn body(&self, field: &'static str, name: &str) -> Result<[usize; 3], SpecError> {
+        let info = self.names.info;
+        let b = self.names.body(name).ok_or_else(|| {
+            unknown(field, "body", name, info.name, info.bodies.iter().map(|b| b.name.as_str()).collect())
+        })?;
+        Ok(info.bodies[b].coords)
+    }
+
+    /// The point called `name` (or a body's centre of mass): its body's
+    /// `(x, y, phi)` indices and its body-frame offset \[m\], for the
+    /// effect's key `field`.
+    ///
+    /// # Errors
+    /// A [`SpecError`] at `field` listing the model's points and bodies.
+    pub fn point(&self, field: &'static str, name: &str) -> Result<([usize; 3], [f64; 2]), SpecError> {
+        let info = self.names.info;
+        if let Some(p) = self.names.point(name) {
+            return Ok((info.bodies[info.points[p].body].coords, [self.points[2 * p], self.points[2 * p + 1]]));
+        }
+        match self.names.body(name) {
+            Some(b) => Ok((info.bodies[b].coords, [0.0, 0.0])),
+            None => {
+                let mut known: Vec<&str> = info.points.iter().map(|p| p.name.as_str()).collect();
+                known.extend(info.bodies.iter().map(|b| b.name.as_str()));
+                Err(unknown(field, "point or body", name, info.name, known))
+            }
+        }
+    }
+
+    /// The blade of the skate called `name`, for the effect's key `field`.
+    ///
+    /// # Errors
+    /// A [`SpecError`] at `field` listing the model's skates.
+    pub fn skate(&self, field: &'static str, name: &str) -> Result<Blade, SpecError> {
+        let info = self.names.info;
+        let k = self.names.skate(name).ok_or_else(|| {
+            unknown(field, "skate", name, info.name, info.skates.iter().map(|k| k.name.as_str()).collect())
+        })?;
+        let p = info.skates[k].point;
+        Ok(Blade {
+            body: info.bodies[info.points[p].body].coords,
+            offset: [self.points[2 * p], self.points[2 * p + 1]],
+            dir: [self.blades[2 * k], self.blades[2 * k + 1]],
+        })
+    }
+}
+
+/// A hinge as a force law uses it: its index in [`ModelInfo::hinges`]
+/// and the indices in `q` of its bodies' headings; its angle is
+/// `theta = q[a] - q[b]` \[rad\] (`q[a]` for a ground hinge).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct HingeRef {
+    /// Index of the hinge in [`ModelInfo::hinges`].
+    pub index: usize,
+    /// Heading index of the first body.
+    pub a: usize,
+    /// Heading index of the second body (`None` for the ground).
+    pub b: Option<usize>,
 }
 
 /// The two coordinates of `ground(x, y)`, as written (`None` for another name).
@@ -936,6 +1129,8 @@ pub enum Law {
         /// Actuator force \[N\].
         force: Waveform,
     },
+    /// A law of the user's own ([`ForceLaw`]).
+    User(UserLaw),
     /// Drag at a body's centre of mass.
     Drag {
         /// Indices of the body's `(x, y, phi)`.
@@ -947,6 +1142,17 @@ pub enum Law {
         /// `|v| v` instead of `v`.
         quadratic: bool,
     },
+}
+
+/// A resolved law of the user's own, shared by the copies of its
+/// effect (two are equal when they are the same law).
+#[derive(Debug, Clone)]
+pub struct UserLaw(pub Arc<dyn ForceLaw>);
+
+impl PartialEq for UserLaw {
+    fn eq(&self, other: &Self) -> bool {
+        Arc::ptr_eq(&self.0, &other.0)
+    }
 }
 
 /// An effect resolved against a model, ready for the right-hand side.
@@ -985,7 +1191,7 @@ impl Effect {
     /// quantity ([`Effect::value_column`]).
     #[inline]
     pub fn apply(&self, t: f64, q: &[f64], qd: &[f64], f: &mut [f64]) -> (f64, f64) {
-        self.apply_with(&self.waveforms(t), q, qd, f)
+        self.apply_with(t, &self.waveforms(t), q, qd, f)
     }
 
     /// The values at time `t` \[s\] of the effect's waveforms: a motor's
@@ -1004,11 +1210,12 @@ impl Effect {
         }
     }
 
-    /// [`Effect::apply`] with the waveforms' values `wave` at the time of the
-    /// state ([`Effect::waveforms`]).
+    /// [`Effect::apply`] with the waveforms' values `wave` at the time `t`
+    /// \[s\] of the state ([`Effect::waveforms`]).
     #[inline(always)]
-    pub fn apply_with(&self, wave: &Waveforms, q: &[f64], qd: &[f64], f: &mut [f64]) -> (f64, f64) {
+    pub fn apply_with(&self, t: f64, wave: &Waveforms, q: &[f64], qd: &[f64], f: &mut [f64]) -> (f64, f64) {
         match &self.law {
+            Law::User(law) => law.0.apply(t, q, qd, f),
             Law::Hinge { a, b, law, .. } => {
                 let (tau, rate) = law.torque(wave, *a, *b, q, qd);
                 f[*a] += tau;
@@ -1127,6 +1334,7 @@ impl Effect {
             Law::Blade(bl, _) | Law::Anisotropic { blade: bl, .. } => bl.body.to_vec(),
             Law::Force { body, .. } | Law::Drag { body, .. } => body.to_vec(),
             Law::Torque { .. } | Law::Slope { .. } => Vec::new(),
+            Law::User(law) => law.0.coords(),
             Law::SpringDamper { ends, .. } => ends
                 .iter()
                 .flat_map(|e| match e {
@@ -1143,6 +1351,9 @@ impl Effect {
     /// Why this effect's power came out NaN at `q` (for the error that
     /// stops the run): a spring-damper of zero length has no direction.
     pub fn failure(&self, q: &[f64]) -> String {
+        if let Law::User(law) = &self.law {
+            return law.0.failure(q);
+        }
         if let Law::SpringDamper { ends: [a, b], .. } = &self.law {
             let qd = vec![0.0; q.len()];
             let (ra, _, _) = a.state(q, &qd);

@@ -197,6 +197,16 @@ impl Default for Waveform {
 }
 
 impl Waveform {
+    /// `w(t) = amplitude cos(omega t)` (`omega` \[rad/s\]).
+    pub fn cos(amplitude: f64, omega: f64) -> Self {
+        Self::Cos(Harmonic { amplitude, omega, phase: 0.0, phase_step: 0.0 })
+    }
+
+    /// `w(t) = amplitude sin(omega t)` (`omega` \[rad/s\]).
+    pub fn sin(amplitude: f64, omega: f64) -> Self {
+        Self::Sin(Harmonic { amplitude, omega, phase: 0.0, phase_step: 0.0 })
+    }
+
     /// `w(t)`.
     #[inline]
     pub fn eval(&self, t: f64) -> f64 {

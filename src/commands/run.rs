@@ -4,10 +4,8 @@
 use std::path::PathBuf;
 use std::time::{Duration, Instant};
 
-use ezy_core::initial::{Given, InitialReport, consistent_state_given};
-use ezy_core::kkt::KktMethod;
 use ezy_core::{
-    Baumgarte, Dynamics, InitValue, Method, Model, ProjectionKind, RunError, RunSettings, Scene, SimError, Summary,
+    Baumgarte, Dynamics, Method, Model, Problem, ProjectionKind, RunError, RunSettings, Scene, SimError, Summary,
 };
 
 use crate::figures::FigureError;
@@ -142,199 +140,6 @@ pub struct Report {
     pub notes: Vec<String>,
 }
 
-/// Looks up `name` in `names`, or an [`SimError::UnknownName`] listing them.
-fn lookup<S: AsRef<str>>(
-    info: &ezy_core::ModelInfo,
-    kind: &'static str,
-    name: &str,
-    names: &[S],
-) -> Result<usize, SimError> {
-    names.iter().position(|n| n.as_ref() == name).ok_or_else(|| SimError::UnknownName {
-        kind,
-        name: name.into(),
-        model: info.name,
-        known: ezy_core::name_list(names),
-    })
-}
-
-/// Everything a run of a scene starts from.
-#[derive(Debug, Clone)]
-pub struct Setup<M: Model> {
-    /// The model with the scene's and the command line's parameter values.
-    pub model: M,
-    /// The scene after the command-line overrides.
-    pub scene: Scene,
-    /// The scene's effects, resolved against the model.
-    pub effects: Vec<ezy_core::Effect>,
-    /// The model's drives with the scene's prescribed angles.
-    pub drives: Vec<ezy_core::drive::Drive>,
-    /// Consistent initial state `y0 = [q, qd, W_e = 0 ...]`.
-    pub y0: Vec<f64>,
-    /// What the initial-condition solve had to correct.
-    pub initial: InitialReport,
-}
-
-/// Applies the overrides `sets` (scene parameters, model parameters,
-/// `EFFECT.KEY` numbers) to `scene`, builds the model and its effects,
-/// checks the masses and finds the consistent initial state.
-///
-/// # Errors
-/// [`SimError::UnknownName`] for an unknown override or name,
-/// [`SimError::Scene`] for an override that breaks a scene key,
-/// [`SimError::Setting`] for a negative mass, [`SimError::Initial`] if no
-/// consistent initial state is near the given one.
-pub fn setup<M: Model + Default>(scene: &Scene, sets: &[(String, f64)]) -> Result<Setup<M>, SimError> {
-    let Configured { model, scene, effects, drives, given } = configure::<M>(scene, sets)?;
-    let (q, qd, initial) = consistent_state_given(&model, &drives, &given)?;
-    let mut y0 = q;
-    y0.extend_from_slice(&qd);
-    y0.resize(y0.len() + effects.len() + drives.len(), 0.0);
-    Ok(Setup { model, scene, effects, drives, y0, initial })
-}
-
-/// A scene configured for a run, before its initial state is solved for:
-/// what [`configure`] returns.
-#[derive(Debug, Clone)]
-pub struct Configured<M: Model> {
-    /// The model with the scene's and the overrides' parameter values.
-    pub model: M,
-    /// The scene after the overrides, its families expanded.
-    pub scene: Scene,
-    /// The scene's effects, resolved against the model.
-    pub effects: Vec<ezy_core::Effect>,
-    /// The model's drives with the scene's prescribed angles.
-    pub drives: Vec<ezy_core::drive::Drive>,
-    /// The initial values the scene gives.
-    pub given: Given,
-}
-
-impl<M: Model> Configured<M> {
-    /// Names of the state components `y = [q, qd, W_effects.., W_drives..]`
-    /// (as [`Dynamics::state_name`] gives them).
-    pub fn state_names(&self) -> Vec<String> {
-        let info = self.model.info();
-        let mut names: Vec<String> = info.coords.iter().map(|c| c.to_string()).collect();
-        names.extend(info.coords.iter().map(|c| format!("{c}d")));
-        names.extend(self.effects.iter().map(|e| e.work_column()));
-        names.extend(self.drives.iter().map(|d| format!("W_{}", d.name)));
-        names
-    }
-}
-
-/// The first half of [`setup`]: applies the overrides, sets the family
-/// counts, expands the scene's families, checks every name and number,
-/// checks the masses and resolves the effects and drives; no initial
-/// state is solved for.
-///
-/// # Errors
-/// As [`setup`], but for [`SimError::Initial`].
-pub fn configure<M: Model + Default>(scene: &Scene, sets: &[(String, f64)]) -> Result<Configured<M>, SimError> {
-    let mut model = M::default();
-    let base = model.info();
-    let mut scene = scene.clone();
-    for (name, value) in sets {
-        scene.set(&base, name, *value)?;
-    }
-    let scene_error = |e: ezy_core::SceneError| SimError::Scene { key: e.key(), message: e.message };
-    // counts first: they decide the coordinates the rest of the scene names
-    for (name, value) in &scene.params {
-        if let Some(i) = base.param_index(name)
-            && base.params[i].count
-        {
-            ezy_core::scene::check_count(name, *value).map_err(scene_error)?;
-            model.set_param(i, *value);
-        }
-    }
-    model.check_counts().map_err(|message| SimError::Scene { key: "params".into(), message })?;
-    let info = &model.info();
-    let scene = scene.expand_families(info).map_err(scene_error)?;
-    scene.check(info).map_err(scene_error)?;
-    for (name, value) in &scene.params {
-        model.set_param(info.param_index(name).expect("checked"), *value);
-    }
-    let value = |v: &InitValue| -> Result<f64, SimError> {
-        match v {
-            InitValue::Num(x) => Ok(*x),
-            InitValue::Param(p) => {
-                Ok(model.param(lookup(info, "parameter", p, &info.params.iter().map(|p| p.name).collect::<Vec<_>>())?))
-            }
-        }
-    };
-    // a name, `stem*` for every coordinate of a family, or `theta_<hinge>`
-    // (positions only); a later entry overrides an earlier one (`"phi*" =
-    // 0.0, phi3 = 0.5`)
-    type Values = Vec<(usize, f64)>;
-    let given = |list: &[(String, InitValue)]| -> Result<(Values, Values), SimError> {
-        let mut value_of: Vec<Option<f64>> = vec![None; info.nq()];
-        let mut angle_of: Vec<Option<f64>> = vec![None; info.hinges.len()];
-        for (name, v) in list {
-            let x = value(v)?;
-            match ezy_core::Initial::resolve_name(info, name) {
-                Some(ezy_core::InitialName::Coords(ks)) => ks.into_iter().for_each(|k| value_of[k] = Some(x)),
-                Some(ezy_core::InitialName::HingeAngle(h)) => angle_of[h] = Some(x),
-                None => return Err(lookup(info, "coordinate", name, &info.coords).expect_err("not a coordinate")),
-            }
-        }
-        let listed = |v: Vec<Option<f64>>| v.into_iter().enumerate().filter_map(|(k, v)| v.map(|x| (k, x))).collect();
-        Ok((listed(value_of), listed(angle_of)))
-    };
-    let (given_q, angles) = given(&scene.initial.q)?;
-    let (given_qd, _) = given(&scene.initial.qd)?;
-    let (guess, _) = given(&scene.initial.guess)?;
-    if let Some(&(k, _)) = guess.iter().find(|(k, _)| given_q.iter().any(|(j, _)| j == k)) {
-        return Err(SimError::Scene {
-            key: format!("initial.guess.{}", info.coords[k]),
-            message: format!(
-                "`{}` is given in `initial.q`, so it is fixed; a starting value is for a coordinate the constraints determine",
-                info.coords[k]
-            ),
-        });
-    }
-    let mut mass = vec![0.0; info.nq()];
-    model.mass_diagonal(&mut mass);
-    for (k, &m) in mass.iter().enumerate() {
-        let reason = if !m.is_finite() || m < 0.0 {
-            Some("must be a finite number, zero or positive")
-        } else if m > 0.0 && !(1.0 / m).is_finite() {
-            Some("is so small that its reciprocal overflows: give 0 for a massless body, or at least 1e-300")
-        } else {
-            None
-        };
-        if let Some(reason) = reason {
-            return Err(SimError::Setting { name: info.mass_entry_name(k), value: m, reason });
-        }
-    }
-    // a massless part takes the dense LU path of the whole KKT matrix,
-    // O((nq + nc)^3) per right-hand side: refused for a large family
-    if info.nq() + info.nc() > ezy_core::kkt::DENSE_LU_MAX_ROWS
-        && let Some(k) = mass.iter().position(|&m| m == 0.0)
-    {
-        return Err(SimError::Setting {
-            name: info.mass_entry_name(k),
-            value: mass[k],
-            reason: "a massless part needs the dense LU path of the KKT matrix, which ezy takes up to 1000 rows (nq + nc): this model has more; give every body a positive mass and inertia",
-        });
-    }
-    let effects = scene.resolve_effects(&model)?;
-    let drives = scene.resolve_drives(info);
-    let given = Given { q: given_q, qd: given_qd, angles, guess };
-    Ok(Configured { model, scene, effects, drives, given })
-}
-
-/// The scene's model with overrides, its effects resolved, and the
-/// consistent initial state: everything a run integrates.
-///
-/// # Errors
-/// As [`setup`].
-pub fn build<M: Model + Default>(
-    scene: &Scene,
-    sets: &[(String, f64)],
-    kkt: KktMethod,
-) -> Result<(Dynamics<M>, Vec<f64>), SimError> {
-    let s = setup::<M>(scene, sets)?;
-    Ok((Dynamics::new(s.model, s.effects, kkt).with_drives(s.drives), s.y0))
-}
-
 /// The settings of a run of `scene` with the overrides of `opts`
 /// (duration, step, tolerances, method, projection, step budget).
 ///
@@ -373,37 +178,23 @@ pub fn settings(scene: &Scene, opts: &RunOptions) -> Result<RunSettings, SimErro
     Ok(settings)
 }
 
-/// A run ready to integrate: what [`prepare`] returns.
-#[derive(Debug)]
-pub struct Prepared<M: Model> {
-    /// The run's settings.
-    pub settings: RunSettings,
-    /// The scene after the overrides, its families expanded.
-    pub scene: Scene,
-    /// The right-hand side: model, effects, drives, KKT path, Baumgarte.
-    pub sys: Dynamics<M>,
-    /// Consistent initial state `y0 = [q, qd, W = 0 ...]`.
-    pub y0: Vec<f64>,
-    /// What the initial-condition solve had to correct.
-    pub initial: InitialReport,
-}
-
-/// Everything of a run before its first step: [`setup`] with `opts.sets`,
-/// and the dynamics with `opts.baumgarte`; `settings` from [`settings`].
-/// `ezy run` and every run of `ezy sweep` start here, so a sweep's run
-/// is the single run, number for number.
+/// The problem `scene` describes for model `M` with the overrides of
+/// `opts` (`--set`, `--baumgarte`) and the run's `settings` (from
+/// [`settings`]), and the scene as run (overrides applied, families
+/// expanded). `ezy run`, `ezy animate` and every run of `ezy sweep` start
+/// here, so a sweep's run is the single run, number for number.
 ///
 /// # Errors
-/// As [`setup`].
-pub fn prepare<M: Model + Default>(
+/// As [`Problem::from_scene`].
+pub fn problem<M: Model + Default>(
     scene: &Scene,
     opts: &RunOptions,
     settings: RunSettings,
-) -> Result<Prepared<M>, SimError> {
-    let Setup { model, scene, effects, drives, y0, initial } = setup::<M>(scene, &opts.sets)?;
-    let mut sys = Dynamics::new(model, effects, KktMethod::Auto).with_drives(drives);
-    sys.baumgarte = opts.baumgarte;
-    Ok(Prepared { settings, scene, sys, y0, initial })
+) -> Result<(Problem<M>, Scene), SimError> {
+    let (mut problem, scene) = Problem::<M>::from_scene(scene, &opts.sets)?;
+    problem.settings = settings;
+    problem.baumgarte = opts.baumgarte;
+    Ok((problem, scene))
 }
 
 /// Elements of a model's families (the sum of its counts) from which a
@@ -460,7 +251,8 @@ pub fn run_model_tapped<M: Model + Default>(
     // no thread, see `setup_may_be_long`), the figures, the report
     let mut beat = (opts.progress && setup_may_be_long::<M>(scene, &opts.sets))
         .then(|| crate::progress::Heartbeat::start(format!("setting up scene {}", scene.name)));
-    let Prepared { scene, mut sys, y0, initial, .. } = prepare::<M>(scene, opts, settings)?;
+    let (problem, scene) = problem::<M>(scene, opts, settings)?;
+    let (mut sys, y0, initial) = problem.into_system()?;
     let scene = &scene;
     let rows = RowBuilder::new(scene, &sys);
     output_budget(&settings, rows.columns.len(), opts.max_output_mb.unwrap_or(DEFAULT_MAX_OUTPUT_MB))?;

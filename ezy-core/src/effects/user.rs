@@ -1,0 +1,337 @@
+//! Force laws of the user's own: a trait for the law the right-hand side
+//! calls ([`ForceLaw`]), a trait for its scene-file form ([`EffectKind`]),
+//! the table of kinds an application knows ([`EffectKinds`]), and a
+//! closure as a law ([`Controller`]).
+//!
+//! A law of the user's own gets what a built-in effect gets: its work
+//! state `W_<name>` closes the energy ledger with the power it returns,
+//! its value column `<prefix>_<name>`, `--set NAME.KEY` on its numbers,
+//! families (`hinge = "J[*]"`), every integrator (RADAU5 takes its
+//! coupling from [`ForceLaw::coords`]) and errors located in the scene
+//! file. The built-in kinds stay an enum ([`super::EffectSpec`]) so that
+//! the right-hand side dispatches them without a virtual call; a user law
+//! costs one virtual call per evaluation.
+
+use std::fmt;
+use std::marker::PhantomData;
+use std::sync::Arc;
+
+use serde::Serialize;
+use serde::de::DeserializeOwned;
+
+use super::{EffectContext, SpecError};
+
+/// A resolved force law: what the right-hand side calls at every
+/// evaluation. Implement it for the law of an [`EffectKind`], or pass a
+/// closure as a [`Controller`].
+///
+/// Conventions as for the built-in effects (docs/physics.md §1, §8): a
+/// world force `F` \[N\] at a body point with world lever arm `r` \[m\]
+/// from the centre of mass adds `(F_x, F_y, r_x F_y - r_y F_x)` to the
+/// body's `(x, y, phi)` entries of `f`; a hinge torque `tau` \[N m\] adds
+/// `+tau` to the first body's heading and `-tau` to the second's.
+pub trait ForceLaw: Send + Sync + fmt::Debug + 'static {
+    /// Adds the law's generalized force at `(t, q, qd)` (`t` \[s\], `q`
+    /// and `qd` nq each) into `f` (nq) \[N, N m\] and returns `(power,
+    /// value)`: `power = f_law . qd` \[W\], the rate of the law's work
+    /// state `W_<name>`, and `value` the number written to its value
+    /// column (a torque \[N m\] or a force \[N\]).
+    ///
+    /// Called at every right-hand-side evaluation: it should not allocate.
+    /// A NaN power at a finite state stops the run with
+    /// [`crate::SimError::EffectFailed`] and [`ForceLaw::failure`]'s text.
+    fn apply(&self, t: f64, q: &[f64], qd: &[f64], f: &mut [f64]) -> (f64, f64);
+
+    /// The coordinates (indices into `q`) the force reads or acts on: the
+    /// law's coupling in the Jacobian RADAU5 factors. Give every one: a
+    /// coordinate left out makes the Newton iteration converge slowly or
+    /// not at all (the results stay right where it converges).
+    fn coords(&self) -> Vec<usize>;
+
+    /// Why the law gave a NaN power at `q` (nq), for the error that stops
+    /// the run.
+    fn failure(&self, _q: &[f64]) -> String {
+        "gave a force or power that is not a number".into()
+    }
+}
+
+/// An effect kind of the user's own, as scene files write it: the fields
+/// of its `[effects.NAME]` table (read through serde, `kind` excepted)
+/// and how they resolve against a model. Register it with
+/// `App::effect::<T>("my-kind")` (crate `ezy`) or [`EffectKinds::add`].
+///
+/// Strings in the table are names only under the keys
+/// [`super::NAME_KEYS`] (`hinge`, `skate`, `body`, `at`, `from`, `to`,
+/// ...); in any other key a string names a scene parameter
+/// (`k = "K0"` with `[scene_params] K0 = 2.0`). A key `hinge`, `skate` or
+/// `at` written `"J[*]"` makes one effect per element of the family.
+///
+/// ```
+/// use ezy_core::effects::{EffectContext, EffectKind, ForceLaw, SpecError};
+/// use serde::{Deserialize, Serialize};
+///
+/// /// A torsion spring at a hinge, `tau = -k theta` [N m].
+/// #[derive(Debug, Clone, Serialize, Deserialize)]
+/// #[serde(deny_unknown_fields)]
+/// struct Torsion {
+///     hinge: String,
+///     /// Stiffness [N m/rad].
+///     k: f64,
+/// }
+///
+/// #[derive(Debug)]
+/// struct TorsionLaw {
+///     a: usize,
+///     b: Option<usize>,
+///     k: f64,
+/// }
+///
+/// impl ForceLaw for TorsionLaw {
+///     fn apply(&self, _t: f64, q: &[f64], qd: &[f64], f: &mut [f64]) -> (f64, f64) {
+///         let phi_b = |v: &[f64]| self.b.map_or(0.0, |b| v[b]);
+///         let tau = -self.k * (q[self.a] - phi_b(q));
+///         f[self.a] += tau;
+///         if let Some(b) = self.b {
+///             f[b] -= tau;
+///         }
+///         (tau * (qd[self.a] - phi_b(qd)), tau)
+///     }
+///     fn coords(&self) -> Vec<usize> {
+///         std::iter::once(self.a).chain(self.b).collect()
+///     }
+/// }
+///
+/// impl EffectKind for Torsion {
+///     type Law = TorsionLaw;
+///     const VALUE_PREFIX: &'static str = "tau";
+///     fn resolve(&self, cx: &EffectContext<'_>) -> Result<TorsionLaw, SpecError> {
+///         let h = cx.hinge("hinge", &self.hinge)?;
+///         SpecError::check(self.k >= 0.0, "k", || format!("k = {} must be zero or positive", self.k))?;
+///         Ok(TorsionLaw { a: h.a, b: h.b, k: self.k })
+///     }
+/// }
+/// ```
+pub trait EffectKind: Serialize + DeserializeOwned + Clone + fmt::Debug + Send + Sync + 'static {
+    /// The law the right-hand side calls.
+    type Law: ForceLaw;
+
+    /// Prefix of the effect's value column `<prefix>_<name>`: `tau` for a
+    /// torque \[N m\], `F` (the default) for a force \[N\].
+    const VALUE_PREFIX: &'static str = "F";
+
+    /// Checks the fields against the model `cx` describes and builds the
+    /// law (indices into `q`, body-frame geometry at the model's parameter
+    /// values).
+    ///
+    /// # Errors
+    /// A [`SpecError`] naming the field at fault: a name the model does
+    /// not have (the [`EffectContext`] lookups give these), a number out
+    /// of range. The scene file's check places it at that key.
+    fn resolve(&self, cx: &EffectContext<'_>) -> Result<Self::Law, SpecError>;
+}
+
+/// An [`EffectKind`] without its type: what a scene's effect of that kind
+/// holds, shared by every effect of the kind.
+trait ErasedKind: Send + Sync {
+    fn value_prefix(&self) -> &'static str;
+    fn check(&self, params: &toml::Table) -> Result<(), SpecError>;
+    fn resolve(&self, params: &toml::Table, cx: &EffectContext<'_>) -> Result<Arc<dyn ForceLaw>, SpecError>;
+}
+
+struct Typed<T>(PhantomData<fn() -> T>);
+
+impl<T: EffectKind> Typed<T> {
+    fn parse(params: &toml::Table) -> Result<T, SpecError> {
+        toml::Value::Table(params.clone())
+            .try_into()
+            .map_err(|e: toml::de::Error| SpecError { field: "", message: e.message().trim().to_string() })
+    }
+}
+
+impl<T: EffectKind> ErasedKind for Typed<T> {
+    fn value_prefix(&self) -> &'static str {
+        T::VALUE_PREFIX
+    }
+    fn check(&self, params: &toml::Table) -> Result<(), SpecError> {
+        Self::parse(params).map(|_| ())
+    }
+    fn resolve(&self, params: &toml::Table, cx: &EffectContext<'_>) -> Result<Arc<dyn ForceLaw>, SpecError> {
+        Ok(Arc::new(Self::parse(params)?.resolve(cx)?))
+    }
+}
+
+/// A registered kind: its name and its type's functions.
+#[derive(Clone)]
+pub struct KindHandle {
+    name: Arc<str>,
+    kind: Arc<dyn ErasedKind>,
+}
+
+impl fmt::Debug for KindHandle {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "KindHandle({})", self.name)
+    }
+}
+
+/// The effect kinds of the user's own an application knows, by the name
+/// scene files give in `kind = "..."`.
+#[derive(Debug, Clone, Default)]
+pub struct EffectKinds {
+    kinds: Vec<KindHandle>,
+}
+
+impl EffectKinds {
+    /// Registers kind `T` as `name`.
+    ///
+    /// # Errors
+    /// A message if `name` is a built-in kind ([`super::EFFECT_KINDS`]),
+    /// is already registered, or is not lowercase letters, digits and `-`.
+    pub fn add<T: EffectKind>(&mut self, name: &str) -> Result<(), String> {
+        if name.is_empty() || !name.chars().all(|c| c.is_ascii_lowercase() || c.is_ascii_digit() || c == '-') {
+            return Err(format!(
+                "effect kind `{name}` must be lowercase letters, digits and - (as scene files write it)"
+            ));
+        }
+        if super::EFFECT_KINDS.contains(&name) {
+            return Err(format!("effect kind `{name}` is a built-in kind: give yours another name"));
+        }
+        if self.get(name).is_some() {
+            return Err(format!("effect kind `{name}` is registered twice"));
+        }
+        self.kinds.push(KindHandle { name: name.into(), kind: Arc::new(Typed::<T>(PhantomData)) });
+        Ok(())
+    }
+
+    /// The kind registered as `name`.
+    pub fn get(&self, name: &str) -> Option<&KindHandle> {
+        self.kinds.iter().find(|k| &*k.name == name)
+    }
+
+    /// The registered names, in registration order.
+    pub fn names(&self) -> Vec<&str> {
+        self.kinds.iter().map(|k| &*k.name).collect()
+    }
+}
+
+/// An effect of a kind of the user's own as a scene holds it: the kind's
+/// name and the rest of its `[effects.NAME]` table, and, once the scene
+/// is bound to an application's kinds ([`crate::Scene::bind_kinds`]), the
+/// kind's functions.
+#[derive(Clone)]
+pub struct UserSpec {
+    /// The kind, as the scene writes it.
+    pub kind: String,
+    /// The table's other keys.
+    pub params: toml::Table,
+    pub(crate) handle: Option<KindHandle>,
+}
+
+impl UserSpec {
+    /// An effect of kind `kind` with the fields of `params` (what the
+    /// scene file's table gives, `kind` excepted).
+    ///
+    /// # Errors
+    /// A message if `params` does not serialize to a table.
+    pub fn new<T: EffectKind>(kind: &str, params: &T) -> Result<Self, String> {
+        match toml::Value::try_from(params).map_err(|e| e.to_string())? {
+            toml::Value::Table(params) => Ok(Self { kind: kind.into(), params, handle: None }),
+            _ => Err(format!("effect kind `{kind}`: its fields must serialize to a table")),
+        }
+    }
+
+    /// Whether the kind is bound to its functions.
+    pub fn is_bound(&self) -> bool {
+        self.handle.is_some()
+    }
+
+    /// The value column's prefix (`F` while unbound).
+    pub(crate) fn value_prefix(&self) -> &'static str {
+        self.handle.as_ref().map_or("F", |h| h.kind.value_prefix())
+    }
+
+    /// Checks that the fields read as the kind's type.
+    pub(crate) fn check(&self, known: &str) -> Result<(), SpecError> {
+        match &self.handle {
+            Some(h) => h.kind.check(&self.params),
+            None => Err(SpecError { field: "kind", message: format!("unknown effect kind `{}`; {known}", self.kind) }),
+        }
+    }
+
+    /// The kind's law for the model `cx` describes.
+    pub(crate) fn resolve(&self, cx: &EffectContext<'_>, known: &str) -> Result<Arc<dyn ForceLaw>, SpecError> {
+        match &self.handle {
+            Some(h) => h.kind.resolve(&self.params, cx),
+            None => Err(SpecError { field: "kind", message: format!("unknown effect kind `{}`; {known}", self.kind) }),
+        }
+    }
+}
+
+impl fmt::Debug for UserSpec {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.debug_struct("UserSpec").field("kind", &self.kind).field("params", &self.params).finish()
+    }
+}
+
+impl PartialEq for UserSpec {
+    fn eq(&self, other: &Self) -> bool {
+        self.kind == other.kind && self.params == other.params
+    }
+}
+
+/// A closure as a force law (a feedback controller): it adds its
+/// generalized force at `(t, q, qd)` into `f` (nq) and returns the value
+/// of its column (a torque \[N m\] or a force \[N\]); its power, `f_law .
+/// qd` \[W\], is computed from what it added at [`Controller::coords`].
+///
+/// ```
+/// use ezy_core::effects::Controller;
+/// // a PD torque holding heading 2 at zero, +tau on q[2]
+/// let pd = Controller::new(vec![2], |_t, q: &[f64], qd: &[f64], f: &mut [f64]| {
+///     let tau = -5.0 * q[2] - 0.5 * qd[2];
+///     f[2] += tau;
+///     tau
+/// });
+/// # let _ = pd;
+/// ```
+pub struct Controller<F> {
+    coords: Vec<usize>,
+    law: F,
+}
+
+impl<F> Controller<F>
+where
+    F: Fn(f64, &[f64], &[f64], &mut [f64]) -> f64 + Send + Sync + 'static,
+{
+    /// A controller that writes only `f[k]` for `k` in `coords` and reads
+    /// only those entries of `q`, `qd` (give all `0..nq` when unsure: the
+    /// power and RADAU5's coupling are then right at a little cost).
+    pub fn new(mut coords: Vec<usize>, law: F) -> Self {
+        coords.sort_unstable();
+        coords.dedup();
+        Self { coords, law }
+    }
+}
+
+impl<F> fmt::Debug for Controller<F> {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.debug_struct("Controller").field("coords", &self.coords).finish_non_exhaustive()
+    }
+}
+
+impl<F> ForceLaw for Controller<F>
+where
+    F: Fn(f64, &[f64], &[f64], &mut [f64]) -> f64 + Send + Sync + 'static,
+{
+    #[inline]
+    fn apply(&self, t: f64, q: &[f64], qd: &[f64], f: &mut [f64]) -> (f64, f64) {
+        // the power of what the closure adds: sum over its coordinates of
+        // (f after - f before) qd, without scratch space
+        let before: f64 = self.coords.iter().map(|&k| f[k] * qd[k]).sum();
+        let value = (self.law)(t, q, qd, f);
+        let after: f64 = self.coords.iter().map(|&k| f[k] * qd[k]).sum();
+        (after - before, value)
+    }
+    fn coords(&self) -> Vec<usize> {
+        self.coords.clone()
+    }
+}

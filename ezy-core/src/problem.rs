@@ -1,0 +1,552 @@
+//! A problem: a model with its parameters, the effects acting on it, its
+//! drives, initial values by name and the run's settings; solved in
+//! memory, without files (as a problem in diffsol or
+//! DifferentialEquations.jl).
+//!
+//! The EzyRoller's `drive` scene (docs/physics.md §10.3), written in Rust:
+//!
+//! ```
+//! use ezy_core::effects::{EffectSpec, Waveform};
+//! use ezy_core::{Method, Problem};
+//! # ezy_core::model! {
+//! #     /// The EzyRoller.
+//! #     pub struct EzyRoller {
+//! #         param a = 0.2;
+//! #         param b = 0.1;
+//! #         param c = 0.12;
+//! #         param m1 = 1.0;
+//! #         param I1 = 0.1;
+//! #         param m2 = 0.5;
+//! #         param I2 = 0.01;
+//! #         body body1(x1, y1, phi1) { mass: m1, inertia: I1 }
+//! #         body body2(x2, y2, phi2) { mass: m2, inertia: I2 }
+//! #         point A on body1 at (a, 0);
+//! #         point B1 on body1 at (-b, 0);
+//! #         point B2 on body2 at (c, 0);
+//! #         point C on body2 at (0, 0);
+//! #         hinge B: B1 = B2;
+//! #         skate A: A along (1, 0);
+//! #         skate C: C along (1, 0);
+//! #     }
+//! # }
+//!
+//! # fn main() -> Result<(), ezy_core::SimError> {
+//! let motor = EffectSpec::HingeMotor { hinge: "B".into(), torque: Waveform::cos(2.0, std::f64::consts::PI) };
+//! let solution = Problem::new(EzyRoller::default())
+//!     .effect("motor", motor)?
+//!     .q("phi2", 0.1)?
+//!     .t_end(2.0)
+//!     .method(Method::Dop853)
+//!     .tolerances(1e-9, 1e-9)
+//!     .solve()?;
+//! let x1 = solution.column("x1").expect("a coordinate");
+//! println!("x1({}) = {} m", solution.t.last().unwrap(), x1.last().unwrap());
+//! # assert_eq!(solution.t.len(), x1.len());
+//! # Ok(())
+//! # }
+//! ```
+
+use std::sync::Arc;
+
+use crate::drive::Drive;
+use crate::effects::{Effect, EffectContext, EffectSpec, ForceLaw, Law, UserLaw, Waveform};
+use crate::initial::{Given, InitialReport, consistent_state_given};
+use crate::kkt::KktMethod;
+use crate::model::{Model, ModelInfo, NameIndex};
+use crate::simulate::{Observer, RunError, RunSettings, Sample, Summary, simulate};
+use crate::{Baumgarte, Dynamics, Formulation, InitValue, Method, ProjectionKind, Scene, SimError};
+
+/// A model with its effects, drives, initial values and settings: what a
+/// run integrates. Build it in Rust ([`Problem::new`] and the builder
+/// methods) or from a scene ([`Problem::from_scene`]); solve it in memory
+/// ([`Problem::solve`]) or with an observer of your own
+/// ([`Problem::solve_with`]).
+#[derive(Debug, Clone)]
+pub struct Problem<M: Model> {
+    /// The model, its parameters fixed for the run.
+    pub model: M,
+    /// The effects, resolved against the model.
+    pub effects: Vec<Effect>,
+    /// The model's drives with their prescribed angles.
+    pub drives: Vec<Drive>,
+    /// The initial values given (the rest is solved for consistency).
+    pub given: Given,
+    /// Duration, method, tolerances, projection, formulation.
+    pub settings: RunSettings,
+    /// Baumgarte stabilization (`None`: projection only).
+    pub baumgarte: Option<Baumgarte>,
+    /// How the KKT system is solved.
+    pub kkt: KktMethod,
+}
+
+/// The result of [`Problem::solve`]: the samples in memory.
+#[derive(Debug, Clone)]
+pub struct Solution {
+    /// Times of the samples \[s\]: 0, every output interval, the end.
+    pub t: Vec<f64>,
+    /// Names of the state components `y = [q, qd, W_effects.., W_drives..]`
+    /// (`x1`, `x1d`, `W_motor`): the columns of [`Solution::y`].
+    pub names: Vec<String>,
+    /// The state at each sample, one row of `names.len()` values per time.
+    pub y: Vec<Vec<f64>>,
+    /// Kinetic energy at each sample \[J\].
+    pub kinetic_energy: Vec<f64>,
+    /// The step loop's summary (steps, evaluations, residuals, balance).
+    pub summary: Summary,
+    /// What the initial-condition solve had to correct.
+    pub initial: InitialReport,
+}
+
+impl Solution {
+    /// The values of the state component `name` over time (one per
+    /// [`Solution::t`]); `None` for a name the state does not have.
+    pub fn column(&self, name: &str) -> Option<Vec<f64>> {
+        let k = self.names.iter().position(|n| n == name)?;
+        Some(self.y.iter().map(|row| row[k]).collect())
+    }
+
+    /// The final state, in the order of [`Solution::names`].
+    pub fn final_state(&self) -> &[f64] {
+        &self.summary.final_state
+    }
+}
+
+/// Collects the samples of a run in memory.
+struct Collect {
+    t: Vec<f64>,
+    y: Vec<Vec<f64>>,
+    kinetic_energy: Vec<f64>,
+}
+
+impl<M: Model> Observer<M> for Collect {
+    type Error = std::convert::Infallible;
+    fn observe(&mut self, _sys: &Dynamics<M>, s: &Sample<'_>) -> Result<(), Self::Error> {
+        self.t.push(s.t);
+        let mut row = Vec::with_capacity(2 * s.q.len() + s.works.len());
+        row.extend_from_slice(s.q);
+        row.extend_from_slice(s.qd);
+        row.extend_from_slice(s.works);
+        self.y.push(row);
+        self.kinetic_energy.push(s.kinetic_energy);
+        Ok(())
+    }
+}
+
+/// Looks up `name` in `names`, or an [`SimError::UnknownName`] listing them.
+fn lookup<S: AsRef<str>>(info: &ModelInfo, kind: &'static str, name: &str, names: &[S]) -> Result<usize, SimError> {
+    names.iter().position(|n| n.as_ref() == name).ok_or_else(|| SimError::UnknownName {
+        kind,
+        name: name.into(),
+        model: info.name,
+        known: crate::name_list(names),
+    })
+}
+
+/// Refuses a mass diagonal with a negative, non-finite or vanishing-but-
+/// nonzero entry, and a massless part in a model too large for the dense
+/// LU path of the KKT matrix.
+fn check_masses<M: Model>(model: &M, info: &ModelInfo) -> Result<(), SimError> {
+    let mut mass = vec![0.0; info.nq()];
+    model.mass_diagonal(&mut mass);
+    for (k, &m) in mass.iter().enumerate() {
+        let reason = if !m.is_finite() || m < 0.0 {
+            Some("must be a finite number, zero or positive")
+        } else if m > 0.0 && !(1.0 / m).is_finite() {
+            Some("is so small that its reciprocal overflows: give 0 for a massless body, or at least 1e-300")
+        } else {
+            None
+        };
+        if let Some(reason) = reason {
+            return Err(SimError::Setting { name: info.mass_entry_name(k), value: m, reason });
+        }
+    }
+    // a massless part takes the dense LU path of the whole KKT matrix,
+    // O((nq + nc)^3) per right-hand side: refused for a large family
+    if info.nq() + info.nc() > crate::kkt::DENSE_LU_MAX_ROWS
+        && let Some(k) = mass.iter().position(|&m| m == 0.0)
+    {
+        return Err(SimError::Setting {
+            name: info.mass_entry_name(k),
+            value: mass[k],
+            reason: "a massless part needs the dense LU path of the KKT matrix, which ezy takes up to 1000 rows (nq + nc): this model has more; give every body a positive mass and inertia",
+        });
+    }
+    Ok(())
+}
+
+/// Which coordinates (or hinge) an initial value's name gives: a
+/// coordinate, `stem*` for every coordinate of a family, or `theta_<hinge>`.
+fn initial_targets(info: &ModelInfo, name: &str) -> Result<crate::InitialName, SimError> {
+    crate::Initial::resolve_name(info, name)
+        .ok_or_else(|| lookup(info, "coordinate", name, &info.coords).expect_err("not a coordinate"))
+}
+
+impl<M: Model> Problem<M> {
+    /// `model` at its parameter values, without effects or initial values,
+    /// with the default settings ([`RunSettings::default`]: one second).
+    pub fn new(model: M) -> Self {
+        Self {
+            model,
+            effects: Vec::new(),
+            drives: Vec::new(),
+            given: Given::default(),
+            settings: RunSettings::default(),
+            baumgarte: None,
+            kkt: KktMethod::Auto,
+        }
+    }
+
+    fn check_effect_name(&self, name: &str) -> Result<(), SimError> {
+        if name.is_empty() || !name.chars().all(|c| c.is_ascii_alphanumeric() || c == '_') {
+            return Err(SimError::Scene {
+                key: format!("effects.{name}"),
+                message: format!("effect name `{name}` must be letters, digits and _ (it names the column W_{name})"),
+            });
+        }
+        if self.effects.iter().any(|e| e.name == name) {
+            return Err(SimError::Scene {
+                key: format!("effects.{name}"),
+                message: format!("an effect called `{name}` is already given"),
+            });
+        }
+        Ok(())
+    }
+
+    /// Adds the effect `spec` (a built-in kind, or one of the user's own
+    /// bound to its kind) as `name`, resolved against the model at its
+    /// current parameters (set them first).
+    ///
+    /// # Errors
+    /// [`SimError::Scene`] for a bad or repeated name; [`SimError::Effect`]
+    /// for a name the model does not have or a bad number in `spec`.
+    pub fn effect(mut self, name: &str, spec: EffectSpec) -> Result<Self, SimError> {
+        self.check_effect_name(name)?;
+        let effect = spec.resolve(name, &self.model)?;
+        self.effects.push(effect);
+        Ok(self)
+    }
+
+    /// Adds a force law of the user's own as effect `name`: its work state
+    /// `W_<name>` integrates the power it returns.
+    ///
+    /// # Errors
+    /// [`SimError::Scene`] for a bad or repeated name, or a coordinate
+    /// index in [`ForceLaw::coords`] beyond nq.
+    pub fn law(mut self, name: &str, law: impl ForceLaw) -> Result<Self, SimError> {
+        self.check_effect_name(name)?;
+        let nq = self.model.info().nq();
+        if let Some(k) = law.coords().into_iter().find(|&k| k >= nq) {
+            return Err(SimError::Scene {
+                key: format!("effects.{name}"),
+                message: format!("the law acts on coordinate {k}, but the model has {nq} (0 to {})", nq - 1),
+            });
+        }
+        self.effects.push(Effect {
+            name: name.to_string(),
+            value_column: format!("F_{name}"),
+            law: Law::User(UserLaw(Arc::new(law))),
+        });
+        Ok(self)
+    }
+
+    /// Adds a closure as a feedback controller named `name`
+    /// ([`crate::effects::Controller`]): `law(t, q, qd, f)` adds its
+    /// generalized force into `f` (nq) and returns its value column's
+    /// value; it reads and writes only the entries `coords` (indices
+    /// into `q`).
+    ///
+    /// # Errors
+    /// As [`Problem::law`].
+    pub fn controller<F>(self, name: &str, coords: Vec<usize>, law: F) -> Result<Self, SimError>
+    where
+        F: Fn(f64, &[f64], &[f64], &mut [f64]) -> f64 + Send + Sync + 'static,
+    {
+        self.law(name, crate::effects::Controller::new(coords, law))
+    }
+
+    /// Prescribes the angle of the model's drive `name` \[rad\].
+    ///
+    /// # Errors
+    /// [`SimError::UnknownName`] listing the model's drives; a bad waveform.
+    pub fn drive(mut self, name: &str, angle: Waveform) -> Result<Self, SimError> {
+        let info = self.model.info();
+        let names: Vec<&str> = info.drives.iter().map(|d| d.name.as_str()).collect();
+        let k = lookup(&info, "drive", name, &names)?;
+        angle.validate().map_err(|reason| SimError::Scene { key: format!("drives.{name}.angle"), message: reason })?;
+        self.drives.retain(|d| d.name != name);
+        self.drives.push(Drive { name: name.to_string(), row: info.drives[k].row, angle });
+        // in the model's order, as the work states are
+        let order = |d: &Drive| names.iter().position(|n| *n == d.name);
+        self.drives.sort_by_key(order);
+        Ok(self)
+    }
+
+    /// Gives the initial value of coordinate `name` (or of every
+    /// coordinate of a family, `stem*`, or the hinge angle `theta_<hinge>`)
+    /// \[m or rad\]; a later value overrides an earlier one.
+    ///
+    /// # Errors
+    /// [`SimError::UnknownName`] listing the model's coordinates.
+    pub fn q(mut self, name: &str, value: f64) -> Result<Self, SimError> {
+        let info = self.model.info();
+        match initial_targets(&info, name)? {
+            crate::InitialName::Coords(ks) => ks.into_iter().for_each(|k| set(&mut self.given.q, k, value)),
+            crate::InitialName::HingeAngle(h) => set(&mut self.given.angles, h, value),
+        }
+        Ok(self)
+    }
+
+    /// Gives the initial velocity of coordinate `name` (or `stem*`)
+    /// \[m/s or rad/s\].
+    ///
+    /// # Errors
+    /// [`SimError::UnknownName`] listing the model's coordinates.
+    pub fn qd(mut self, name: &str, value: f64) -> Result<Self, SimError> {
+        let info = self.model.info();
+        match initial_targets(&info, name)? {
+            crate::InitialName::Coords(ks) => ks.into_iter().for_each(|k| set(&mut self.given.qd, k, value)),
+            crate::InitialName::HingeAngle(_) => {
+                return Err(SimError::Scene {
+                    key: format!("initial.qd.{name}"),
+                    message: "a hinge angle is given in positions only".into(),
+                });
+            }
+        }
+        Ok(self)
+    }
+
+    /// Duration \[s\].
+    #[must_use]
+    pub fn t_end(mut self, t_end: f64) -> Self {
+        self.settings.t_end = t_end;
+        self
+    }
+
+    /// Integration method.
+    #[must_use]
+    pub fn method(mut self, method: Method) -> Self {
+        self.settings.method = method;
+        self
+    }
+
+    /// Relative and absolute tolerance of the adaptive methods.
+    #[must_use]
+    pub fn tolerances(mut self, rtol: f64, atol: f64) -> Self {
+        self.settings.rtol = rtol;
+        self.settings.atol = atol;
+        self
+    }
+
+    /// Step size of the fixed-step methods \[s\].
+    #[must_use]
+    pub fn dt(mut self, dt: f64) -> Self {
+        self.settings.dt = dt;
+        self
+    }
+
+    /// Output interval \[s\].
+    #[must_use]
+    pub fn every(mut self, every: f64) -> Self {
+        self.settings.every = every;
+        self
+    }
+
+    /// Projection after every step.
+    #[must_use]
+    pub fn projection(mut self, projection: ProjectionKind) -> Self {
+        self.settings.projection = projection;
+        self
+    }
+
+    /// The DAE or the reduced formulation.
+    #[must_use]
+    pub fn formulation(mut self, formulation: Formulation) -> Self {
+        self.settings.formulation = formulation;
+        self
+    }
+
+    /// How the KKT system is solved (default [`KktMethod::Auto`]).
+    #[must_use]
+    pub fn kkt(mut self, kkt: KktMethod) -> Self {
+        self.kkt = kkt;
+        self
+    }
+
+    /// Names of the state components `y = [q, qd, W_effects..,
+    /// W_drives..]` (as [`Dynamics::state_name`] gives them).
+    pub fn state_names(&self) -> Vec<String> {
+        let info = self.model.info();
+        let mut names: Vec<String> = info.coords.iter().map(|c| c.to_string()).collect();
+        names.extend(info.coords.iter().map(|c| format!("{c}d")));
+        names.extend(self.effects.iter().map(|e| e.work_column()));
+        names.extend(self.drives.iter().map(|d| format!("W_{}", d.name)));
+        names
+    }
+
+    /// The consistent initial state `y0 = [q, qd, W = 0 ...]` and what
+    /// the solve had to correct.
+    ///
+    /// # Errors
+    /// [`SimError::Setting`] for a bad mass; [`SimError::Scene`] for a
+    /// drive without an angle; [`SimError::Initial`] if no consistent
+    /// state is near the given one.
+    pub fn initial_state(&self) -> Result<(Vec<f64>, InitialReport), SimError> {
+        let info = self.model.info();
+        check_masses(&self.model, &info)?;
+        if let Some(missing) = info.drives.iter().find(|d| !self.drives.iter().any(|g| g.name == d.name)) {
+            return Err(SimError::Scene {
+                key: "drives".into(),
+                message: format!(
+                    "model {} drives hinge `{}` by `{}`: give its angle",
+                    info.name, info.hinges[missing.hinge].name, missing.name
+                ),
+            });
+        }
+        let (q, qd, report) = consistent_state_given(&self.model, &self.drives, &self.given)?;
+        let mut y0 = q;
+        y0.extend_from_slice(&qd);
+        y0.resize(y0.len() + self.effects.len() + self.drives.len(), 0.0);
+        Ok((y0, report))
+    }
+
+    /// The right-hand side (model, effects, drives, KKT path, Baumgarte)
+    /// and the consistent initial state: what [`simulate`] integrates.
+    ///
+    /// # Errors
+    /// As [`Problem::initial_state`].
+    pub fn into_system(self) -> Result<(Dynamics<M>, Vec<f64>, InitialReport), SimError> {
+        let (y0, report) = self.initial_state()?;
+        let mut sys = Dynamics::new(self.model, self.effects, self.kkt).with_drives(self.drives);
+        sys.baumgarte = self.baumgarte;
+        Ok((sys, y0, report))
+    }
+
+    /// Integrates the problem and keeps every output sample in memory.
+    ///
+    /// # Errors
+    /// As [`Problem::initial_state`]; the [`SimError`] that stopped the
+    /// run (a bad setting, a singular position the method cannot pass, a
+    /// step budget spent, a diverging run).
+    pub fn solve(self) -> Result<Solution, SimError> {
+        let names = self.state_names();
+        let mut out = Collect { t: Vec::new(), y: Vec::new(), kinetic_energy: Vec::new() };
+        let (summary, initial) = self.solve_with(&mut out).map_err(|e| match e {
+            RunError::Sim(e) => e,
+            RunError::Output(never) => match never {},
+        })?;
+        Ok(Solution { t: out.t, names, y: out.y, kinetic_energy: out.kinetic_energy, summary, initial })
+    }
+
+    /// Integrates the problem, showing every output sample to `observer`.
+    ///
+    /// # Errors
+    /// As [`Problem::solve`], or the observer's error.
+    pub fn solve_with<O: Observer<M>>(self, observer: &mut O) -> Result<(Summary, InitialReport), RunError<O::Error>> {
+        let settings = self.settings;
+        let (mut sys, y0, initial) = self.into_system()?;
+        let summary = simulate(&mut sys, &y0, &settings, observer).map_err(|e| match e {
+            RunError::Sim(e) => RunError::Sim(e.with_cause(&sys.mass, |k| sys.info.mass_entry_name(k))),
+            e => e,
+        })?;
+        Ok((summary, initial))
+    }
+}
+
+/// Sets entry `k` of a list of `(index, value)` pairs.
+fn set(list: &mut Vec<(usize, f64)>, k: usize, value: f64) {
+    match list.iter_mut().find(|(j, _)| *j == k) {
+        Some((_, v)) => *v = value,
+        None => list.push((k, value)),
+    }
+}
+
+impl<M: Model + Default> Problem<M> {
+    /// The problem a scene describes for model `M`: the overrides `sets`
+    /// (scene parameters, model parameters, `EFFECT.KEY` numbers) applied,
+    /// the family counts set, the families expanded, every name and number
+    /// checked, the masses checked, the effects and drives resolved, the
+    /// initial values taken by name, the scene's settings. Returns the
+    /// scene as run (overrides applied, families expanded), whose output
+    /// columns and figures the caller draws.
+    ///
+    /// # Errors
+    /// [`SimError::UnknownName`] for an unknown override or name,
+    /// [`SimError::Scene`] for an override that breaks a scene key,
+    /// [`SimError::Setting`] for a bad mass, [`SimError::Effect`] for an
+    /// effect the model cannot take.
+    pub fn from_scene(scene: &Scene, sets: &[(String, f64)]) -> Result<(Self, Scene), SimError> {
+        let mut model = M::default();
+        let base = model.info();
+        let mut scene = scene.clone();
+        for (name, value) in sets {
+            scene.set(&base, name, *value)?;
+        }
+        let scene_error = |e: crate::SceneError| SimError::Scene { key: e.key(), message: e.message };
+        // counts first: they decide the coordinates the rest of the scene names
+        for (name, value) in &scene.params {
+            if let Some(i) = base.param_index(name)
+                && base.params[i].count
+            {
+                crate::scene::check_count(name, *value).map_err(scene_error)?;
+                model.set_param(i, *value);
+            }
+        }
+        model.check_counts().map_err(|message| SimError::Scene { key: "params".into(), message })?;
+        let info = &model.info();
+        let scene = scene.expand_families(info).map_err(scene_error)?;
+        scene.check(info).map_err(scene_error)?;
+        for (name, value) in &scene.params {
+            model.set_param(info.param_index(name).expect("checked"), *value);
+        }
+        let value = |v: &InitValue| -> Result<f64, SimError> {
+            match v {
+                InitValue::Num(x) => Ok(*x),
+                InitValue::Param(p) => Ok(model.param(lookup(
+                    info,
+                    "parameter",
+                    p,
+                    &info.params.iter().map(|p| p.name).collect::<Vec<_>>(),
+                )?)),
+            }
+        };
+        // a name, `stem*` for every coordinate of a family, or `theta_<hinge>`
+        // (positions only); a later entry overrides an earlier one (`"phi*" =
+        // 0.0, phi3 = 0.5`)
+        type Values = Vec<(usize, f64)>;
+        let given = |list: &[(String, InitValue)]| -> Result<(Values, Values), SimError> {
+            let mut value_of: Vec<Option<f64>> = vec![None; info.nq()];
+            let mut angle_of: Vec<Option<f64>> = vec![None; info.hinges.len()];
+            for (name, v) in list {
+                let x = value(v)?;
+                match initial_targets(info, name)? {
+                    crate::InitialName::Coords(ks) => ks.into_iter().for_each(|k| value_of[k] = Some(x)),
+                    crate::InitialName::HingeAngle(h) => angle_of[h] = Some(x),
+                }
+            }
+            let listed =
+                |v: Vec<Option<f64>>| v.into_iter().enumerate().filter_map(|(k, v)| v.map(|x| (k, x))).collect();
+            Ok((listed(value_of), listed(angle_of)))
+        };
+        let (given_q, angles) = given(&scene.initial.q)?;
+        let (given_qd, _) = given(&scene.initial.qd)?;
+        let (guess, _) = given(&scene.initial.guess)?;
+        if let Some(&(k, _)) = guess.iter().find(|(k, _)| given_q.iter().any(|(j, _)| j == k)) {
+            return Err(SimError::Scene {
+                key: format!("initial.guess.{}", info.coords[k]),
+                message: format!(
+                    "`{}` is given in `initial.q`, so it is fixed; a starting value is for a coordinate the constraints determine",
+                    info.coords[k]
+                ),
+            });
+        }
+        check_masses(&model, info)?;
+        let names = NameIndex::new(info);
+        let cx = EffectContext::new(&model, &names).with_scene_params(&scene.scene_params);
+        let effects = scene.effects.iter().map(|(n, e)| e.resolve_in(n, &cx)).collect::<Result<Vec<_>, _>>()?;
+        let drives = scene.resolve_drives(info);
+        let given = Given { q: given_q, qd: given_qd, angles, guess };
+        let settings = scene.run_settings();
+        let problem = Problem { model, effects, drives, given, settings, baumgarte: None, kkt: KktMethod::Auto };
+        Ok((problem, scene))
+    }
+}
