@@ -256,6 +256,26 @@ fn every_documented_scene_file_error_names_file_line_column_and_key() {
     }
 }
 
+/// Three independent mistakes (an effect's hinge, the step, a figure's
+/// column) are three errors from one check, each at its line and key, in
+/// the order of the file; a scene with one mistake gets one line.
+#[test]
+fn three_mistakes_in_three_parts_are_three_errors() {
+    let text = drive_with("hinge = \"B\"", "hinge = \"Q\"")
+        .replace("dt = 1e-4", "dt = -1e-4")
+        .replace("paths = [\"A\", \"C\"]", "paths = [\"A\", \"Z\"]");
+    let e = load_err(&text);
+    let lines: Vec<&str> = e.lines().collect();
+    assert_eq!(lines.len(), 3, "{e}");
+    let dt = format!("bad.toml:{}:", line_of(&text, "dt = -1e-4"));
+    let hinge = format!("bad.toml:{}:", line_of(&text, "hinge = \"Q\""));
+    let path = format!("bad.toml:{}:", line_of(&text, "paths = [\"A\", \"Z\"]"));
+    assert!(lines[0].starts_with(&dt) && lines[0].contains("`integrator.dt`"), "{e}");
+    assert!(lines[1].starts_with(&hinge) && lines[1].contains("unknown hinge `Q`"), "{e}");
+    assert!(lines[2].starts_with(&path) && lines[2].contains("`Z`"), "{e}");
+    assert_eq!(load_err(&drive_with("dt = 1e-4", "dt = -1e-4")).lines().count(), 1);
+}
+
 #[test]
 fn effect_names_must_make_column_names() {
     let text = drive_with("[effects.motor]", "[effects.\"my motor\"]");

@@ -34,7 +34,12 @@
 //! let motor = EffectSpec::HingeMotor { hinge: "B".into(), torque: Waveform::cos(2.0, std::f64::consts::PI) };
 //! let solution = Problem::new(EzyRoller::default())
 //!     .effect("motor", motor)?
-//!     .q("phi2", 0.1)?
+//!     .q("x1", 0.0)?
+//!     .q("y1", 0.0)?
+//!     .q("phi1", 0.0)?
+//!     .q("phi2", 3.0)?
+//!     .qd("x1", 0.0)?
+//!     .qd("phi1", 0.0)?
 //!     .t_end(2.0)
 //!     .method(Method::Dop853)
 //!     .tolerances(1e-9, 1e-9)

@@ -175,8 +175,8 @@ pub struct SceneSource {
 ///
 /// # Errors
 /// [`SceneFileError`] at the `model` key for an unknown model (listing the
-/// known ones), else as [`Scene::check`], located in `text` (file, line,
-/// column, key).
+/// known ones), else as [`Scene::check_all`], located in `text` (file,
+/// line, column, key): one error per part of the scene that has one.
 pub fn check_scene(
     models: &dyn ModelCatalog,
     mut scene: Scene,
@@ -195,7 +195,10 @@ pub fn check_scene(
         .bind_kinds(models.effect_kinds().unwrap_or(&EffectKinds::default()))
         .map_err(|e| Scene::locate_error(text, file, e))?;
     let expanded = scene.expand_families(&info).map_err(|e| Scene::locate_error(text, file, e))?;
-    expanded.check(&info).map_err(|e| Scene::locate_error(text, file, e))?;
+    let errors = expanded.check_all(&info).into_iter().map(|e| Scene::locate_error(text, file, e));
+    if let Some(e) = SceneFileError::collect(errors) {
+        return Err(e);
+    }
     models.check_user_effects(&scene.model, &expanded).map_err(|e| Scene::locate_error(text, file, e))?;
     Ok(SceneSource { scene, text: text.to_string(), file: file.to_string() })
 }

@@ -711,17 +711,35 @@ pub struct SceneFileError {
     pub key: Option<String>,
     /// What is wrong and what was expected.
     pub message: String,
+    /// Further mistakes the same check found in other parts of the file
+    /// ([`Scene::check_all`]), each shown on a line of its own.
+    pub also: Vec<SceneFileError>,
 }
 
 impl SceneFileError {
-    /// `FILE:LINE:COLUMN: `KEY`: MESSAGE`, or `FILE: MESSAGE` for the file as a whole.
+    /// `FILE:LINE:COLUMN: `KEY`: MESSAGE`, or `FILE: MESSAGE` for the file
+    /// as a whole; then each of [`SceneFileError::also`] on its own line.
     fn render(&self) -> String {
         let key = self.key.as_ref().map(|k| format!("`{k}`: ")).unwrap_or_default();
-        if self.line == 0 {
+        let mut out = if self.line == 0 {
             format!("{}: {key}{}", self.file, self.message)
         } else {
             format!("{}:{}:{}: {key}{}", self.file, self.line, self.column, self.message)
+        };
+        for e in &self.also {
+            out.push('\n');
+            out.push_str(&e.render());
         }
+        out
+    }
+
+    /// The first of `errors` with the others as [`SceneFileError::also`]
+    /// (`None` for none).
+    pub fn collect(errors: impl IntoIterator<Item = SceneFileError>) -> Option<SceneFileError> {
+        let mut errors = errors.into_iter();
+        let mut first = errors.next()?;
+        first.also.extend(errors);
+        Some(first)
     }
 }
 
@@ -792,7 +810,14 @@ impl Scene {
                 .filter(|r| at_line_start && r.starts_with(|c: char| c.is_alphabetic()))
                 .and_then(|r| r.split_once(']'))
                 .map(|(k, _)| k.trim().to_string());
-            SceneFileError { file: file.to_string(), line, column, key, message: e.message().trim().to_string() }
+            SceneFileError {
+                file: file.to_string(),
+                line,
+                column,
+                key,
+                message: e.message().trim().to_string(),
+                also: Vec::new(),
+            }
         };
         let mut root = toml::de::DeTable::parse(src).map_err(located)?;
         refuse_misplaced_arrays(root.get_ref(), &mut Vec::new()).map_err(|e| Self::locate_error(src, file, e))?;
@@ -806,17 +831,28 @@ impl Scene {
     /// Parses and checks a scene file against the model `info`.
     ///
     /// # Errors
-    /// As [`Scene::from_toml`] and [`Scene::check`], located in the file.
+    /// As [`Scene::from_toml`] and [`Scene::check_all`], located in the
+    /// file (every part's mistake, [`SceneFileError::also`]).
     pub fn load(src: &str, file: &str, info: &ModelInfo) -> Result<Scene, SceneFileError> {
         let scene = Self::from_toml(src, file)?;
-        scene.check(info).map_err(|e| Self::locate_error(src, file, e))?;
-        Ok(scene)
+        let errors = scene.check_all(info).into_iter().map(|e| Self::locate_error(src, file, e));
+        match SceneFileError::collect(errors) {
+            Some(e) => Err(e),
+            None => Ok(scene),
+        }
     }
 
     /// Places a [`SceneError`] in the file text.
     pub fn locate_error(src: &str, file: &str, e: SceneError) -> SceneFileError {
         let (line, column) = locate(src, &e.path).map_or((1, 1), |s| line_column(src, s.start));
-        SceneFileError { file: file.to_string(), line, column, key: Some(e.key()), message: e.message }
+        SceneFileError {
+            file: file.to_string(),
+            line,
+            column,
+            key: Some(e.key()),
+            message: e.message,
+            also: Vec::new(),
+        }
     }
 
     /// Reads and parses a scene file from disk.
@@ -827,7 +863,14 @@ impl Scene {
     /// [`MAX_SCENE_BYTES`], else as [`Scene::from_toml`].
     pub fn read(path: &Path) -> Result<(Scene, String), SceneFileError> {
         let file = path.display().to_string();
-        let error = |message: String| SceneFileError { file: file.clone(), line: 0, column: 0, key: None, message };
+        let error = |message: String| SceneFileError {
+            file: file.clone(),
+            line: 0,
+            column: 0,
+            key: None,
+            message,
+            also: Vec::new(),
+        };
         // a regular file only, and at most one byte past the cap: a huge
         // file, a device or a FIFO is refused without being held in memory
         // or waited on
@@ -923,105 +966,151 @@ impl Scene {
     /// # Errors
     /// The first [`SceneError`], with the key path and the known names.
     pub fn check(&self, info: &ModelInfo) -> Result<(), SceneError> {
+        match self.check_all(info).into_iter().next() {
+            Some(e) => Err(e),
+            None => Ok(()),
+        }
+    }
+
+    /// As [`Scene::check`], collecting the first error of each part
+    /// that can be checked apart: the name, the parameters, the initial
+    /// values, the settings, each effect, the drives, the output columns,
+    /// each figure and each drawn body (a scene with mistakes in three
+    /// parts gets three errors, in the order of the file's sections).
+    pub fn check_all(&self, info: &ModelInfo) -> Vec<SceneError> {
+        fn keep(errors: &mut Vec<SceneError>, r: Result<(), SceneError>) {
+            errors.extend(r.err());
+        }
+        let mut errors = Vec::new();
         let known = |names: Vec<&str>| if names.is_empty() { "none".to_string() } else { crate::name_list(names) };
-        if self.name.is_empty() || !self.name.chars().all(|c| c.is_ascii_alphanumeric() || c == '-' || c == '_') {
-            return Err(SceneError::at(
-                &["name"],
-                format!("scene name `{}` must be letters, digits, - and _ (it names the output directory)", self.name),
-            ));
-        }
-        let params: Vec<&str> = info.params.iter().map(|p| p.name).collect();
-        for (name, v) in &self.params {
-            if info.param_index(name).is_none() {
-                return Err(SceneError::at(
-                    &["params", name],
-                    format!("unknown parameter `{name}` in model {}; its parameters: {}", info.name, known(params)),
-                ));
-            }
-            if !v.is_finite() {
-                return Err(SceneError::at(&["params", name], format!("{name} = {v} must be finite")));
-            }
-            if info.params[info.param_index(name).expect("known")].count {
-                check_count(name, *v)?;
-            }
-        }
-        for (name, v) in &self.scene_params {
-            let path = ["scene_params", name.as_str()];
-            if !is_identifier(name) {
-                return Err(SceneError::at(
-                    &path,
-                    format!(
-                        "scene parameter `{name}` must be an identifier: a letter or _, then letters, digits and _"
-                    ),
-                ));
-            }
-            if info.param_index(name).is_some() {
-                return Err(SceneError::at(
-                    &path,
-                    format!(
-                        "`{name}` is both a scene parameter and a parameter of model {}: rename the scene parameter (a model parameter is changed in [params])",
-                        info.name
-                    ),
-                ));
-            }
-            if !v.is_finite() {
-                return Err(SceneError::at(&path, format!("{name} = {v} must be finite")));
-            }
-        }
-        if let Some(b) = self.bindings.iter().find(|b| !self.scene_params.iter().any(|(n, _)| *n == b.param)) {
-            let names: Vec<&str> = self.scene_params.iter().map(|(n, _)| n.as_str()).collect();
-            return Err(SceneError {
-                path: b.path.clone(),
-                message: format!(
-                    "`{}` is not a scene parameter; declared in [scene_params]: {}",
-                    b.param,
-                    known_or_none(&names)
-                ),
-            });
-        }
-        for (group, list) in [("q", &self.initial.q), ("qd", &self.initial.qd), ("guess", &self.initial.guess)] {
-            for (name, v) in list {
-                let known_name = match Initial::resolve_name(info, name) {
-                    Some(InitialName::HingeAngle(_)) => group == "q",
-                    Some(InitialName::Coords(_)) => true,
-                    None => false,
-                };
-                if !known_name {
-                    let angles = if group == "q" {
-                        format!(
-                            ", or a hinge angle `theta_<hinge>` (hinges: {})",
-                            known_or_none(&info.hinges.iter().map(|h| h.name.as_str()).collect::<Vec<_>>())
-                        )
-                    } else {
-                        String::new()
-                    };
+        keep(
+            &mut errors,
+            (|| {
+                if self.name.is_empty() || !self.name.chars().all(|c| c.is_ascii_alphanumeric() || c == '-' || c == '_')
+                {
                     return Err(SceneError::at(
-                        &["initial", group, name],
+                        &["name"],
                         format!(
-                            "unknown coordinate `{name}` in model {} (`stem*` names a family's coordinates){angles}; its coordinates: {}",
-                            info.name,
-                            crate::name_list(&info.coords)
+                            "scene name `{}` must be letters, digits, - and _ (it names the output directory)",
+                            self.name
                         ),
                     ));
                 }
-                match v {
-                    InitValue::Num(x) if !x.is_finite() => {
-                        return Err(SceneError::at(&["initial", group, name], format!("{name} = {x} must be finite")));
-                    }
-                    InitValue::Param(p) if info.param_index(p).is_none() => {
+                Ok(())
+            })(),
+        );
+        let params: Vec<&str> = info.params.iter().map(|p| p.name).collect();
+        keep(
+            &mut errors,
+            (|| {
+                for (name, v) in &self.params {
+                    if info.param_index(name).is_none() {
                         return Err(SceneError::at(
-                            &["initial", group, name],
+                            &["params", name],
                             format!(
-                                "`{p}` is neither a number nor a parameter of model {}; its parameters: {}",
+                                "unknown parameter `{name}` in model {}; its parameters: {}",
                                 info.name,
                                 known(params.clone())
                             ),
                         ));
                     }
-                    _ => {}
+                    if !v.is_finite() {
+                        return Err(SceneError::at(&["params", name], format!("{name} = {v} must be finite")));
+                    }
+                    if info.params[info.param_index(name).expect("known")].count {
+                        check_count(name, *v)?;
+                    }
                 }
-            }
-        }
+                for (name, v) in &self.scene_params {
+                    let path = ["scene_params", name.as_str()];
+                    if !is_identifier(name) {
+                        return Err(SceneError::at(
+                            &path,
+                            format!(
+                                "scene parameter `{name}` must be an identifier: a letter or _, then letters, digits and _"
+                            ),
+                        ));
+                    }
+                    if info.param_index(name).is_some() {
+                        return Err(SceneError::at(
+                            &path,
+                            format!(
+                                "`{name}` is both a scene parameter and a parameter of model {}: rename the scene parameter (a model parameter is changed in [params])",
+                                info.name
+                            ),
+                        ));
+                    }
+                    if !v.is_finite() {
+                        return Err(SceneError::at(&path, format!("{name} = {v} must be finite")));
+                    }
+                }
+                if let Some(b) = self.bindings.iter().find(|b| !self.scene_params.iter().any(|(n, _)| *n == b.param)) {
+                    let names: Vec<&str> = self.scene_params.iter().map(|(n, _)| n.as_str()).collect();
+                    return Err(SceneError {
+                        path: b.path.clone(),
+                        message: format!(
+                            "`{}` is not a scene parameter; declared in [scene_params]: {}",
+                            b.param,
+                            known_or_none(&names)
+                        ),
+                    });
+                }
+                Ok(())
+            })(),
+        );
+        keep(
+            &mut errors,
+            (|| {
+                for (group, list) in [("q", &self.initial.q), ("qd", &self.initial.qd), ("guess", &self.initial.guess)]
+                {
+                    for (name, v) in list {
+                        let known_name = match Initial::resolve_name(info, name) {
+                            Some(InitialName::HingeAngle(_)) => group == "q",
+                            Some(InitialName::Coords(_)) => true,
+                            None => false,
+                        };
+                        if !known_name {
+                            let angles = if group == "q" {
+                                format!(
+                                    ", or a hinge angle `theta_<hinge>` (hinges: {})",
+                                    known_or_none(&info.hinges.iter().map(|h| h.name.as_str()).collect::<Vec<_>>())
+                                )
+                            } else {
+                                String::new()
+                            };
+                            return Err(SceneError::at(
+                                &["initial", group, name],
+                                format!(
+                                    "unknown coordinate `{name}` in model {} (`stem*` names a family's coordinates){angles}; its coordinates: {}",
+                                    info.name,
+                                    crate::name_list(&info.coords)
+                                ),
+                            ));
+                        }
+                        match v {
+                            InitValue::Num(x) if !x.is_finite() => {
+                                return Err(SceneError::at(
+                                    &["initial", group, name],
+                                    format!("{name} = {x} must be finite"),
+                                ));
+                            }
+                            InitValue::Param(p) if info.param_index(p).is_none() => {
+                                return Err(SceneError::at(
+                                    &["initial", group, name],
+                                    format!(
+                                        "`{p}` is neither a number nor a parameter of model {}; its parameters: {}",
+                                        info.name,
+                                        known(params.clone())
+                                    ),
+                                ));
+                            }
+                            _ => {}
+                        }
+                    }
+                }
+                Ok(())
+            })(),
+        );
         let positive = |path: &[&str], v: f64, what: &str| {
             if v.is_finite() && v > 0.0 {
                 Ok(())
@@ -1032,218 +1121,266 @@ impl Scene {
                 ))
             }
         };
-        positive(&["t_end"], self.t_end, "the duration [s]")?;
-        positive(&["integrator", "dt"], self.integrator.dt, "the step [s]")?;
-        positive(&["integrator", "rtol"], self.integrator.rtol, "the relative tolerance")?;
-        positive(&["integrator", "atol"], self.integrator.atol, "the absolute tolerance")?;
-        for (key, v) in [("rtol", self.integrator.rtol), ("atol", self.integrator.atol)] {
-            if v < crate::simulate::MIN_TOLERANCE {
-                return Err(SceneError::at(
-                    &["integrator", key],
-                    format!(
-                        "a tolerance below {:e} cannot be met in double precision, got {v:e}",
-                        crate::simulate::MIN_TOLERANCE
-                    ),
-                ));
-            }
-        }
-        if self.integrator.rtol > crate::simulate::MAX_RTOL {
-            return Err(SceneError::at(
-                &["integrator", "rtol"],
-                format!(
-                    "a relative tolerance above {} asks for less than one correct digit, got {:e}",
-                    crate::simulate::MAX_RTOL,
-                    self.integrator.rtol
-                ),
-            ));
-        }
-        positive(&["output", "every"], self.output.every, "the output interval [s]")?;
-        if !(MIN_DPI..=MAX_DPI).contains(&self.output.dpi) {
-            return Err(SceneError::at(
-                &["output", "dpi"],
-                format!("the PNG resolution is between {MIN_DPI} and {MAX_DPI} dpi, got {}", self.output.dpi),
-            ));
-        }
+        keep(
+            &mut errors,
+            (|| {
+                positive(&["t_end"], self.t_end, "the duration [s]")?;
+                positive(&["integrator", "dt"], self.integrator.dt, "the step [s]")?;
+                positive(&["integrator", "rtol"], self.integrator.rtol, "the relative tolerance")?;
+                positive(&["integrator", "atol"], self.integrator.atol, "the absolute tolerance")?;
+                for (key, v) in [("rtol", self.integrator.rtol), ("atol", self.integrator.atol)] {
+                    if v < crate::simulate::MIN_TOLERANCE {
+                        return Err(SceneError::at(
+                            &["integrator", key],
+                            format!(
+                                "a tolerance below {:e} cannot be met in double precision, got {v:e}",
+                                crate::simulate::MIN_TOLERANCE
+                            ),
+                        ));
+                    }
+                }
+                if self.integrator.rtol > crate::simulate::MAX_RTOL {
+                    return Err(SceneError::at(
+                        &["integrator", "rtol"],
+                        format!(
+                            "a relative tolerance above {} asks for less than one correct digit, got {:e}",
+                            crate::simulate::MAX_RTOL,
+                            self.integrator.rtol
+                        ),
+                    ));
+                }
+                positive(&["output", "every"], self.output.every, "the output interval [s]")?;
+                if !(MIN_DPI..=MAX_DPI).contains(&self.output.dpi) {
+                    return Err(SceneError::at(
+                        &["output", "dpi"],
+                        format!("the PNG resolution is between {MIN_DPI} and {MAX_DPI} dpi, got {}", self.output.dpi),
+                    ));
+                }
+                Ok(())
+            })(),
+        );
         let names = crate::model::NameIndex::new(info);
         for (name, e) in &self.effects {
-            if name.is_empty() || !name.chars().all(|c| c.is_ascii_alphanumeric() || c == '_') {
-                return Err(SceneError::at(
-                    &["effects", name],
-                    format!("effect name `{name}` must be letters, digits and _ (it names the column W_{name})"),
-                ));
-            }
-            e.check_in(&names, &self.scene_params).map_err(|err| {
-                let path: &[&str] =
-                    if err.field.is_empty() { &["effects", name] } else { &["effects", name, err.field] };
-                SceneError::at(path, err.message)
-            })?;
+            keep(
+                &mut errors,
+                (|| {
+                    if name.is_empty() || !name.chars().all(|c| c.is_ascii_alphanumeric() || c == '_') {
+                        return Err(SceneError::at(
+                            &["effects", name],
+                            format!(
+                                "effect name `{name}` must be letters, digits and _ (it names the column W_{name})"
+                            ),
+                        ));
+                    }
+                    e.check_in(&names, &self.scene_params).map_err(|err| {
+                        let path: &[&str] =
+                            if err.field.is_empty() { &["effects", name] } else { &["effects", name, err.field] };
+                        SceneError::at(path, err.message)
+                    })?;
+                    Ok(())
+                })(),
+            );
         }
-        let model_drives: std::collections::HashSet<&str> = info.drives.iter().map(|d| d.name.as_str()).collect();
-        let scene_drives: std::collections::HashSet<&str> = self.drives.iter().map(|(n, _)| n.as_str()).collect();
-        for (name, d) in &self.drives {
-            if !model_drives.contains(name.as_str()) {
-                let known: Vec<&str> = info.drives.iter().map(|d| d.name.as_str()).collect();
-                return Err(SceneError::at(
-                    &["drives", name],
-                    format!("unknown drive `{name}` in model {}; its drives: {}", info.name, known_or_none(&known)),
-                ));
-            }
-            d.angle.validate().map_err(|m| SceneError::at(&["drives", name, "angle"], m))?;
-        }
-        self.check_drives_cover(self.t_end)?;
-        if let Some(missing) = info.drives.iter().find(|m| !scene_drives.contains(m.name.as_str())) {
-            return Err(SceneError::at(
-                &["drives"],
-                format!(
-                    "model {} drives hinge `{}` by `{}`: give its angle, [drives.{}] angle = ...",
-                    info.name, info.hinges[missing.hinge].name, missing.name, missing.name
-                ),
-            ));
-        }
-        let all = Scene {
-            output: OutputSettings { include: OutputGroup::ALL.to_vec(), ..self.output.clone() },
-            ..self.clone()
-        };
-        let all_columns = all.columns(info);
-        let mut seen = std::collections::HashSet::with_capacity(all_columns.len());
-        for c in &all_columns {
-            if !seen.insert(c.as_str()) {
-                let culprit = self
-                    .effects
-                    .iter()
-                    .find(|(n, e)| c == &format!("W_{n}") || c == &e.value_column(n))
-                    .map(|(n, _)| n.clone());
-                return Err(match culprit {
-                    Some(n) => SceneError::at(
-                        &["effects", &n],
+        keep(
+            &mut errors,
+            (|| {
+                let model_drives: std::collections::HashSet<&str> =
+                    info.drives.iter().map(|d| d.name.as_str()).collect();
+                let scene_drives: std::collections::HashSet<&str> =
+                    self.drives.iter().map(|(n, _)| n.as_str()).collect();
+                for (name, d) in &self.drives {
+                    if !model_drives.contains(name.as_str()) {
+                        let known: Vec<&str> = info.drives.iter().map(|d| d.name.as_str()).collect();
+                        return Err(SceneError::at(
+                            &["drives", name],
+                            format!(
+                                "unknown drive `{name}` in model {}; its drives: {}",
+                                info.name,
+                                known_or_none(&known)
+                            ),
+                        ));
+                    }
+                    d.angle.validate().map_err(|m| SceneError::at(&["drives", name, "angle"], m))?;
+                }
+                self.check_drives_cover(self.t_end)?;
+                if let Some(missing) = info.drives.iter().find(|m| !scene_drives.contains(m.name.as_str())) {
+                    return Err(SceneError::at(
+                        &["drives"],
                         format!(
-                            "effect `{n}` makes the column `{c}`, which the model's drives or rows also make: rename the effect"
+                            "model {} drives hinge `{}` by `{}`: give its angle, [drives.{}] angle = ...",
+                            info.name, info.hinges[missing.hinge].name, missing.name, missing.name
                         ),
-                    ),
-                    None => SceneError::at(&["model"], format!("two output columns are called `{c}`")),
-                });
-            }
-        }
+                    ));
+                }
+                Ok(())
+            })(),
+        );
+        keep(
+            &mut errors,
+            (|| {
+                let all = Scene {
+                    output: OutputSettings { include: OutputGroup::ALL.to_vec(), ..self.output.clone() },
+                    ..self.clone()
+                };
+                let all_columns = all.columns(info);
+                let mut seen = std::collections::HashSet::with_capacity(all_columns.len());
+                for c in &all_columns {
+                    if !seen.insert(c.as_str()) {
+                        let culprit = self
+                            .effects
+                            .iter()
+                            .find(|(n, e)| c == &format!("W_{n}") || c == &e.value_column(n))
+                            .map(|(n, _)| n.clone());
+                        return Err(match culprit {
+                            Some(n) => SceneError::at(
+                                &["effects", &n],
+                                format!(
+                                    "effect `{n}` makes the column `{c}`, which the model's drives or rows also make: rename the effect"
+                                ),
+                            ),
+                            None => SceneError::at(&["model"], format!("two output columns are called `{c}`")),
+                        });
+                    }
+                }
+                Ok(())
+            })(),
+        );
         let columns = self.columns(info);
         for (i, fig) in self.figures.iter().enumerate() {
-            let i = i.to_string();
-            let stem = figure_stem(&fig.file);
-            if stem.len() == fig.file.len()
-                || stem.is_empty()
-                || fig.file.contains(['/', '\\'])
-                || fig.file.contains(char::is_control)
-            {
-                return Err(SceneError::at(
-                    &["figures", &i, "file"],
-                    format!(
-                        "`{}` must be a file name ending in .png, .svg or .pdf, without directories or control characters",
-                        fig.file.escape_debug()
-                    ),
-                ));
-            }
-            // a file name longer than file systems take, hidden, the CSV's, or one
-            // another figure already writes (in any format): refused here, before any work
-            let earlier =
-                self.figures[..i.parse::<usize>().expect("an index")].iter().any(|f| figure_stem(&f.file) == stem);
-            if fig.file.len() > MAX_FIGURE_NAME || fig.file.starts_with('.') || earlier {
-                let why = if earlier {
-                    "another figure of this scene writes that file".to_string()
-                } else if fig.file.starts_with('.') {
-                    "a figure file name must not start with `.`".to_string()
-                } else {
-                    format!("a figure file name has at most {MAX_FIGURE_NAME} bytes, this one {}", fig.file.len())
-                };
-                return Err(SceneError::at(&["figures", &i, "file"], format!("`{}`: {why}", fig.file)));
-            }
-            if fig.paths.is_empty() == fig.lines.is_empty() {
-                return Err(SceneError::at(
-                    &["figures", &i],
-                    "a figure has either `paths` (bodies or points) or `lines`, not both and not neither",
-                ));
-            }
-            let missing = |col: &str| -> Option<String> {
-                if columns.iter().any(|c| c == col) {
-                    return None;
-                }
-                let hint = self.column_hint(info, col);
-                Some(format!("no column `{col}` in this scene's output{hint}"))
-            };
-            for (j, p) in fig.paths.iter().enumerate() {
-                let path = ["figures", &i, "paths", &j.to_string()];
-                let path: Vec<&str> = path.iter().map(|s| s.as_ref()).collect();
-                if let Some(b) = info.bodies.iter().find(|b| b.name == *p) {
-                    let _ = b;
-                } else if info.point_index(p).is_some() {
-                    if let Some(m) = missing(&format!("{p}.x")) {
-                        return Err(SceneError::at(&path, m));
+            keep(
+                &mut errors,
+                (|| {
+                    let i = i.to_string();
+                    let stem = figure_stem(&fig.file);
+                    if stem.len() == fig.file.len()
+                        || stem.is_empty()
+                        || fig.file.contains(['/', '\\'])
+                        || fig.file.contains(char::is_control)
+                    {
+                        return Err(SceneError::at(
+                            &["figures", &i, "file"],
+                            format!(
+                                "`{}` must be a file name ending in .png, .svg or .pdf, without directories or control characters",
+                                fig.file.escape_debug()
+                            ),
+                        ));
                     }
-                } else {
-                    let mut names: Vec<&str> = info.bodies.iter().map(|b| b.name.as_str()).collect();
-                    names.extend(info.points.iter().map(|p| p.name.as_str()));
-                    return Err(SceneError::at(
-                        &path,
-                        format!("unknown body or point `{p}` in model {}; known: {}", info.name, known(names)),
-                    ));
-                }
-            }
-            let j_x = ["figures", i.as_str(), "x"];
-            for c in fig.x.inputs() {
-                if let Some(m) = missing(c) {
-                    return Err(SceneError::at(&j_x, m));
-                }
-            }
-            if !fig.lines.is_empty() && fig.lines.iter().all(|l| l.panel == 2) {
-                return Err(SceneError::at(
-                    &["figures", &i, "lines"],
-                    "every line is in panel 2: the upper panel (1) needs at least one line",
-                ));
-            }
-            for (j, line) in fig.lines.iter().enumerate() {
-                let j = j.to_string();
-                if !(1..=2).contains(&line.panel) {
-                    return Err(SceneError::at(
-                        &["figures", &i, "lines", &j, "panel"],
-                        format!("panel is 1 (upper) or 2 (lower), got {}", line.panel),
-                    ));
-                }
-                if line.panel == 2 && fig.y2_label.is_none() {
-                    return Err(SceneError::at(
-                        &["figures", &i, "lines", &j, "panel"],
-                        "a line in panel 2 needs the figure's `y2_label` (the lower panel's axis label, with unit)",
-                    ));
-                }
-                for c in line.y.inputs() {
-                    if let Some(m) = missing(c) {
-                        return Err(SceneError::at(&["figures", &i, "lines", &j, "y"], m));
+                    // a file name longer than file systems take, hidden, the CSV's, or one
+                    // another figure already writes (in any format): refused here, before any work
+                    let earlier = self.figures[..i.parse::<usize>().expect("an index")]
+                        .iter()
+                        .any(|f| figure_stem(&f.file) == stem);
+                    if fig.file.len() > MAX_FIGURE_NAME || fig.file.starts_with('.') || earlier {
+                        let why = if earlier {
+                            "another figure of this scene writes that file".to_string()
+                        } else if fig.file.starts_with('.') {
+                            "a figure file name must not start with `.`".to_string()
+                        } else {
+                            format!(
+                                "a figure file name has at most {MAX_FIGURE_NAME} bytes, this one {}",
+                                fig.file.len()
+                            )
+                        };
+                        return Err(SceneError::at(&["figures", &i, "file"], format!("`{}`: {why}", fig.file)));
                     }
-                }
-            }
+                    if fig.paths.is_empty() == fig.lines.is_empty() {
+                        return Err(SceneError::at(
+                            &["figures", &i],
+                            "a figure has either `paths` (bodies or points) or `lines`, not both and not neither",
+                        ));
+                    }
+                    let missing = |col: &str| -> Option<String> {
+                        if columns.iter().any(|c| c == col) {
+                            return None;
+                        }
+                        let hint = self.column_hint(info, col);
+                        Some(format!("no column `{col}` in this scene's output{hint}"))
+                    };
+                    for (j, p) in fig.paths.iter().enumerate() {
+                        let path = ["figures", &i, "paths", &j.to_string()];
+                        let path: Vec<&str> = path.iter().map(|s| s.as_ref()).collect();
+                        if let Some(b) = info.bodies.iter().find(|b| b.name == *p) {
+                            let _ = b;
+                        } else if info.point_index(p).is_some() {
+                            if let Some(m) = missing(&format!("{p}.x")) {
+                                return Err(SceneError::at(&path, m));
+                            }
+                        } else {
+                            let mut names: Vec<&str> = info.bodies.iter().map(|b| b.name.as_str()).collect();
+                            names.extend(info.points.iter().map(|p| p.name.as_str()));
+                            return Err(SceneError::at(
+                                &path,
+                                format!("unknown body or point `{p}` in model {}; known: {}", info.name, known(names)),
+                            ));
+                        }
+                    }
+                    let j_x = ["figures", i.as_str(), "x"];
+                    for c in fig.x.inputs() {
+                        if let Some(m) = missing(c) {
+                            return Err(SceneError::at(&j_x, m));
+                        }
+                    }
+                    if !fig.lines.is_empty() && fig.lines.iter().all(|l| l.panel == 2) {
+                        return Err(SceneError::at(
+                            &["figures", &i, "lines"],
+                            "every line is in panel 2: the upper panel (1) needs at least one line",
+                        ));
+                    }
+                    for (j, line) in fig.lines.iter().enumerate() {
+                        let j = j.to_string();
+                        if !(1..=2).contains(&line.panel) {
+                            return Err(SceneError::at(
+                                &["figures", &i, "lines", &j, "panel"],
+                                format!("panel is 1 (upper) or 2 (lower), got {}", line.panel),
+                            ));
+                        }
+                        if line.panel == 2 && fig.y2_label.is_none() {
+                            return Err(SceneError::at(
+                                &["figures", &i, "lines", &j, "panel"],
+                                "a line in panel 2 needs the figure's `y2_label` (the lower panel's axis label, with unit)",
+                            ));
+                        }
+                        for c in line.y.inputs() {
+                            if let Some(m) = missing(c) {
+                                return Err(SceneError::at(&["figures", &i, "lines", &j, "y"], m));
+                            }
+                        }
+                    }
+                    Ok(())
+                })(),
+            );
         }
         for (body, outline) in &self.draw {
-            let Some(b) = info.bodies.iter().position(|x| x.name == *body) else {
-                return Err(SceneError::at(
-                    &["draw", body],
-                    format!(
-                        "unknown body `{body}` in model {}; known: {}",
-                        info.name,
-                        known(info.bodies.iter().map(|b| b.name.as_str()).collect())
-                    ),
-                ));
-            };
-            for (j, p) in outline.iter().enumerate() {
-                let on_body = p == "cm" || info.point_index(p).is_some_and(|k| info.points[k].body == b);
-                if !on_body {
-                    let names: Vec<&str> = std::iter::once("cm")
-                        .chain(info.points.iter().filter(|q| q.body == b).map(|q| q.name.as_str()))
-                        .collect();
-                    return Err(SceneError::at(
-                        &["draw", body, &j.to_string()],
-                        format!("`{p}` is not a point of body {body}; its points: {}", known(names)),
-                    ));
-                }
-            }
+            keep(
+                &mut errors,
+                (|| {
+                    let Some(b) = info.bodies.iter().position(|x| x.name == *body) else {
+                        return Err(SceneError::at(
+                            &["draw", body],
+                            format!(
+                                "unknown body `{body}` in model {}; known: {}",
+                                info.name,
+                                known(info.bodies.iter().map(|b| b.name.as_str()).collect())
+                            ),
+                        ));
+                    };
+                    for (j, p) in outline.iter().enumerate() {
+                        let on_body = p == "cm" || info.point_index(p).is_some_and(|k| info.points[k].body == b);
+                        if !on_body {
+                            let names: Vec<&str> = std::iter::once("cm")
+                                .chain(info.points.iter().filter(|q| q.body == b).map(|q| q.name.as_str()))
+                                .collect();
+                            return Err(SceneError::at(
+                                &["draw", body, &j.to_string()],
+                                format!("`{p}` is not a point of body {body}; its points: {}", known(names)),
+                            ));
+                        }
+                    }
+                    Ok(())
+                })(),
+            );
         }
-        Ok(())
+        errors
     }
 
     /// For a column the output does not have: the group that would add it.
