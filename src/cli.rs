@@ -5,7 +5,7 @@ use std::path::PathBuf;
 
 use clap::{Parser, Subcommand, ValueEnum};
 use ezy_core::kkt::KktMethod;
-use ezy_core::{Baumgarte, FigureFormat, Formulation, Method, ProjectionKind};
+use ezy_core::{Baumgarte, Choice, FigureFormat, Formulation, Method, ProjectionKind};
 
 use crate::commands::run::RunOptions;
 
@@ -217,18 +217,18 @@ pub struct Overrides {
     #[arg(long, value_name = "DT", allow_hyphen_values = true)]
     pub every: Option<f64>,
     /// Coordinate projection after every step.
-    #[arg(long, value_enum)]
-    pub projection: Option<Projection>,
+    #[arg(long, value_parser = choice::<ProjectionKind>())]
+    pub projection: Option<ProjectionKind>,
     /// Baumgarte stabilization `ALPHA,BETA` [1/s] (with or instead of --projection).
     #[arg(long, value_name = "ALPHA,BETA", value_parser = parse_baumgarte)]
     pub baumgarte: Option<Baumgarte>,
     /// Integration method (scene default: rk4).
-    #[arg(long, value_enum)]
-    pub integrator: Option<Integrator>,
+    #[arg(long, value_parser = choice::<Method>())]
+    pub integrator: Option<Method>,
     /// Formulation: the DAE in all coordinates with projection, or only the
     /// independent coordinates and velocities (coordinate partitioning).
-    #[arg(long, value_enum)]
-    pub formulation: Option<FormulationArg>,
+    #[arg(long, value_parser = choice::<Formulation>())]
+    pub formulation: Option<Formulation>,
     /// Relative tolerance of the adaptive methods (default 1e-9).
     #[arg(long, value_name = "R", allow_hyphen_values = true)]
     pub rtol: Option<f64>,
@@ -275,7 +275,6 @@ impl Overrides {
     /// (what a Slurm script passes on, and how a sweep's manifest records
     /// them).
     pub fn to_args(&self) -> Vec<String> {
-        use clap::ValueEnum as _;
         let mut a = Vec::new();
         for (name, v) in &self.sets {
             a.push("--set".into());
@@ -293,18 +292,17 @@ impl Overrides {
         num("--rtol", self.rtol);
         num("--atol", self.atol);
         num("--dpi", self.dpi);
-        let name = |v: Option<clap::builder::PossibleValue>| v.map(|p| p.get_name().to_string()).unwrap_or_default();
         if let Some(p) = self.projection {
-            a.extend(["--projection".into(), name(p.to_possible_value())]);
+            a.extend(["--projection".into(), p.name().into()]);
         }
         if let Some(b) = self.baumgarte {
             a.extend(["--baumgarte".into(), format!("{:?},{:?}", b.alpha, b.beta)]);
         }
         if let Some(f) = self.formulation {
-            a.extend(["--formulation".into(), name(f.to_possible_value())]);
+            a.extend(["--formulation".into(), f.name().into()]);
         }
         if let Some(m) = self.integrator {
-            a.extend(["--integrator".into(), name(m.to_possible_value())]);
+            a.extend(["--integrator".into(), m.name().into()]);
         }
         if let Some(n) = self.max_steps {
             a.extend(["--max-steps".into(), n.to_string()]);
@@ -448,43 +446,13 @@ pub enum Format {
     Csv,
 }
 
-#[derive(ValueEnum, Clone, Copy, Debug)]
-pub enum Integrator {
-    /// Explicit Euler, order 1, fixed step (--dt).
-    Euler,
-    /// Classic Runge-Kutta, order 4, fixed step (--dt).
-    Rk4,
-    /// Dormand-Prince 5(4), adaptive (--rtol, --atol).
-    Dopri5,
-    /// Dormand-Prince 8(5,3), adaptive (--rtol, --atol).
-    Dop853,
-    /// Radau IIA of order 5, implicit and adaptive (--rtol, --atol): for stiff scenes.
-    Radau5,
-}
-
-#[derive(ValueEnum, Clone, Copy, Debug)]
-pub enum FormulationArg {
-    /// The index-1 DAE in all q, qd, projected after every step (the default).
-    Dae,
-    /// Only the independent q, qd are integrated, so no projection is
-    /// needed or done: on the minimal coordinates model! derived where it
-    /// could (the dependent ones in closed form), else on a partition
-    /// whose dependent ones are recovered from the constraints at every
-    /// evaluation (Wehage & Haug).
-    Reduced,
-    /// Reduced for DOPRI5 and DOP853 on the minimal coordinates model!
-    /// derived or with one degree of freedom; else the DAE.
-    Auto,
-}
-
-#[derive(ValueEnum, Clone, Copy, Debug)]
-pub enum Projection {
-    /// No projection.
-    None,
-    /// Euclidean (the plain least-squares correction).
-    Euclidean,
-    /// Mass-weighted (kinetic-energy metric), the default.
-    Mass,
+/// The command line's parser of a [`Choice`] (an integrator, a
+/// projection, a formulation): its values and their help from the one
+/// list the library keeps ([`Choice::ALL`]).
+fn choice<T: Choice>() -> impl clap::builder::TypedValueParser<Value = T> {
+    use clap::builder::{PossibleValue, PossibleValuesParser, TypedValueParser as _};
+    PossibleValuesParser::new(T::ALL.iter().map(|v| PossibleValue::new(v.name()).help(v.help())))
+        .map(|name: String| T::parse(&name).expect("one of the possible values"))
 }
 
 pub fn parse_baumgarte(s: &str) -> Result<Baumgarte, String> {
@@ -636,23 +604,9 @@ impl Overrides {
             dt: self.dt,
             t_end: self.t_end,
             every: self.every,
-            projection: self.projection.map(|p| match p {
-                Projection::None => ProjectionKind::None,
-                Projection::Euclidean => ProjectionKind::Euclidean,
-                Projection::Mass => ProjectionKind::MassWeighted,
-            }),
-            method: self.integrator.map(|m| match m {
-                Integrator::Euler => Method::Euler,
-                Integrator::Rk4 => Method::Rk4,
-                Integrator::Dopri5 => Method::Dopri5,
-                Integrator::Dop853 => Method::Dop853,
-                Integrator::Radau5 => Method::Radau5,
-            }),
-            formulation: self.formulation.map(|f| match f {
-                FormulationArg::Dae => Formulation::Dae,
-                FormulationArg::Reduced => Formulation::Reduced,
-                FormulationArg::Auto => Formulation::Auto,
-            }),
+            projection: self.projection,
+            method: self.integrator,
+            formulation: self.formulation,
             baumgarte: self.baumgarte,
             rtol: self.rtol,
             atol: self.atol,

@@ -8,7 +8,7 @@
 use std::path::{Path, PathBuf};
 
 use ezy_core::integrator::Method;
-use ezy_core::{Dynamics, Model, Observer, ProjectionKind, RunSettings, Sample, Scene, SimError};
+use ezy_core::{Choice, Dynamics, Model, Observer, ProjectionKind, RunSettings, Sample, Scene, SimError};
 
 use crate::commands::run::Error;
 use crate::plot::{Chart, Series, Stroke};
@@ -396,8 +396,6 @@ pub fn read_csv(path: &Path) -> Result<Vec<Row>, String> {
     if lines.next() != Some(header) {
         return Err(format!("{name}:1: not a precision.csv (its header is `{header}`)"));
     }
-    let methods = [Method::Euler, Method::Rk4, Method::Dopri5, Method::Dop853, Method::Radau5];
-    let projections = [ProjectionKind::None, ProjectionKind::Euclidean, ProjectionKind::MassWeighted];
     lines
         .enumerate()
         .map(|(k, line)| {
@@ -410,9 +408,8 @@ pub fn read_csv(path: &Path) -> Result<Vec<Row>, String> {
                 |s: &str| -> Result<f64, String> { s.parse().map_err(|_| bad(&format!("`{s}` is not a number"))) };
             let opt =
                 |s: &str| -> Result<Option<f64>, String> { if s.is_empty() { Ok(None) } else { num(s).map(Some) } };
-            let method = methods.into_iter().find(|m| m.name() == f[0]).ok_or_else(|| bad("unknown method"))?;
-            let projection =
-                projections.into_iter().find(|p| p.name() == f[4]).ok_or_else(|| bad("unknown projection"))?;
+            let method = Method::parse(f[0]).map_err(|e| bad(&format!("unknown method {e}")))?;
+            let projection = ProjectionKind::parse(f[4]).map_err(|e| bad(&format!("unknown projection {e}")))?;
             Ok(Row {
                 setting: Setting { method, dt: opt(f[1])?, tol: opt(f[2])?, projection },
                 error: num(f[5])?,
@@ -483,8 +480,7 @@ fn figure_png(name: &str, chart: &Chart) -> Result<Vec<u8>, Error> {
 
 fn work_precision_chart(rows: &[Row], scene: &Scene) -> Chart {
     let mut series = Vec::new();
-    let methods = [Method::Euler, Method::Rk4, Method::Dopri5, Method::Dop853, Method::Radau5];
-    for (c, method) in methods.into_iter().enumerate() {
+    for (c, &method) in Method::ALL.iter().enumerate() {
         for projection in [ProjectionKind::MassWeighted, ProjectionKind::None] {
             let points: Vec<(f64, f64)> = rows
                 .iter()

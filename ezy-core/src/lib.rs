@@ -48,6 +48,31 @@ pub use scene::{
 };
 pub use simulate::{Observer, RunError, RunSettings, SINGULAR_PERSIST_STEPS, Sample, Summary, simulate};
 
+/// A setting with a few named values (the integrator, the projection,
+/// the formulation): one list that scene files, the command line and
+/// reports share. Scene files spell each value by [`Choice::name`]
+/// (serde), the command line offers [`Choice::ALL`] with
+/// [`Choice::help`].
+pub trait Choice: Copy + PartialEq + Send + Sync + 'static {
+    /// Every value, in the order help lists them.
+    const ALL: &'static [Self];
+    /// The value as scene files and the command line spell it.
+    fn name(self) -> &'static str;
+    /// One line on what it is.
+    fn help(self) -> &'static str;
+    /// The value spelled `name`.
+    ///
+    /// # Errors
+    /// A message listing the names.
+    fn parse(name: &str) -> Result<Self, String> {
+        Self::ALL
+            .iter()
+            .copied()
+            .find(|v| v.name() == name)
+            .ok_or_else(|| format!("`{name}`: expected one of {}", name_list(Self::ALL.iter().map(|v| v.name()))))
+    }
+}
+
 /// The examples of the `model!` documentation (ezy-derive/src/model.md,
 /// shown at [`model!`]), run as doctests of this crate, where
 /// `ezy_core::model!` resolves: ezy-derive cannot depend on ezy-core.
@@ -64,4 +89,28 @@ pub mod __private {
         ModelInfo, ParamInfo, PointInfo, SkateInfo, SliderInfo, render_equation, unique_names,
     };
     pub use crate::scalar::Scalar;
+}
+
+#[cfg(test)]
+mod tests {
+    use super::Choice;
+
+    /// Scene files (serde) and the command line ([`Choice::name`]) spell
+    /// every value alike, and each name parses back to its value.
+    fn same_names<T: Choice + serde::Serialize + std::fmt::Debug>() {
+        for &v in T::ALL {
+            let serde_name = toml::Value::try_from(v).expect("a unit variant serializes");
+            assert_eq!(serde_name.as_str(), Some(v.name()), "{v:?}");
+            assert_eq!(T::parse(v.name()), Ok(v));
+            assert!(!v.help().is_empty());
+        }
+        assert!(T::parse("no-such").unwrap_err().contains(T::ALL[0].name()));
+    }
+
+    #[test]
+    fn choices_have_one_name_each() {
+        same_names::<crate::Method>();
+        same_names::<crate::ProjectionKind>();
+        same_names::<crate::Formulation>();
+    }
 }

@@ -44,6 +44,20 @@ pub enum ProjectionKind {
     MassWeighted,
 }
 
+impl crate::Choice for ProjectionKind {
+    const ALL: &'static [Self] = &[Self::None, Self::Euclidean, Self::MassWeighted];
+    fn name(self) -> &'static str {
+        ProjectionKind::name(self)
+    }
+    fn help(self) -> &'static str {
+        match self {
+            Self::None => "No projection",
+            Self::Euclidean => "Euclidean (the plain least-squares correction)",
+            Self::MassWeighted => "Mass-weighted (kinetic-energy metric), the default",
+        }
+    }
+}
+
 impl ProjectionKind {
     /// Name as the CLI spells it.
     pub fn name(self) -> &'static str {

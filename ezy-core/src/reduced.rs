@@ -52,6 +52,24 @@ pub enum Formulation {
 /// 9e6 flops per evaluation.
 pub const MAX_CONSTRAINTS: usize = 300;
 
+impl crate::Choice for Formulation {
+    const ALL: &'static [Self] = &[Self::Dae, Self::Reduced, Self::Auto];
+    fn name(self) -> &'static str {
+        Formulation::name(self)
+    }
+    fn help(self) -> &'static str {
+        match self {
+            Self::Dae => "The index-1 DAE in all q, qd, projected after every step (the default)",
+            Self::Reduced => {
+                "Only the independent q, qd are integrated, so no projection is needed or done: on the minimal coordinates model! derived where it could (the dependent ones in closed form), else on a partition whose dependent ones are recovered from the constraints at every evaluation (Wehage & Haug)"
+            }
+            Self::Auto => {
+                "Reduced for DOPRI5 and DOP853 on the minimal coordinates model! derived or with one degree of freedom; else the DAE"
+            }
+        }
+    }
+}
+
 impl Formulation {
     /// Name as the CLI spells it.
     pub fn name(self) -> &'static str {

@@ -82,6 +82,22 @@ pub enum Method {
     Radau5,
 }
 
+impl crate::Choice for Method {
+    const ALL: &'static [Self] = &[Self::Euler, Self::Rk4, Self::Dopri5, Self::Dop853, Self::Radau5];
+    fn name(self) -> &'static str {
+        Method::name(self)
+    }
+    fn help(self) -> &'static str {
+        match self {
+            Self::Euler => "Explicit Euler, order 1, fixed step (--dt)",
+            Self::Rk4 => "Classic Runge-Kutta, order 4, fixed step (--dt)",
+            Self::Dopri5 => "Dormand-Prince 5(4), adaptive (--rtol, --atol)",
+            Self::Dop853 => "Dormand-Prince 8(5,3), adaptive (--rtol, --atol)",
+            Self::Radau5 => "Radau IIA of order 5, implicit and adaptive (--rtol, --atol): for stiff scenes",
+        }
+    }
+}
+
 impl Method {
     /// Name as the CLI spells it.
     pub fn name(self) -> &'static str {
@@ -107,19 +123,4 @@ impl Method {
     pub fn is_adaptive(self) -> bool {
         matches!(self, Self::Dopri5 | Self::Dop853 | Self::Radau5)
     }
-}
-
-/// Work done by an integration.
-#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
-pub struct Stats {
-    /// Accepted steps.
-    pub steps: u64,
-    /// Rejected step attempts (adaptive methods).
-    pub rejected: u64,
-    /// Right-hand-side evaluations.
-    pub rhs_evals: u64,
-    /// KKT solves.
-    pub kkt_solves: u64,
-    /// Projections applied.
-    pub projections: u64,
 }
