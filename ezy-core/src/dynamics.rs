@@ -139,18 +139,23 @@ impl<M: Model> Dynamics<M> {
         y[2 * self.nq()..].iter().sum()
     }
 
-    /// Name of state component `k` of `y`: coordinates, `<coord>d`, `W_<effect>`.
+    /// Names of all state components of `y` ([`state_names`]).
+    pub fn state_names(&self) -> Vec<String> {
+        state_names(&self.info.coords, &self.effects, &self.drives)
+    }
+
+    /// Name of state component `k` of `y` ([`state_names`]).
     pub fn state_name(&self, k: usize) -> String {
         let coords = &self.info.coords;
         let nq = self.nq();
         if k < nq {
             coords[k].to_string()
         } else if k < 2 * nq {
-            format!("{}d", coords[k - nq])
+            velocity_name(&coords[k - nq])
         } else if k < 2 * nq + self.effects.len() {
             self.effects[k - 2 * nq].work_column()
         } else {
-            format!("W_{}", self.drives[k - 2 * nq - self.effects.len()].name)
+            work_name(&self.drives[k - 2 * nq - self.effects.len()].name)
         }
     }
 
@@ -408,6 +413,28 @@ impl<M: Model> Dynamics<M> {
     pub fn kinetic_energy(&self, qd: &[f64]) -> f64 {
         0.5 * self.mass.iter().zip(qd).map(|(m, v)| m * v * v).sum::<f64>()
     }
+}
+
+/// The name of the velocity of coordinate `coord`: `<coord>d` (`x1d`).
+pub fn velocity_name(coord: &str) -> String {
+    format!("{coord}d")
+}
+
+/// The name of the work state \[J\] of the effect or drive `name`: `W_<name>`.
+pub fn work_name(name: &str) -> String {
+    format!("W_{name}")
+}
+
+/// Names of the state components `y = [q, qd, W_effects.., W_drives..]`
+/// of a run on a model with coordinates `coords`, effects `effects` and
+/// drives `drives`: `x1`, `x1d`, `W_motor` (what [`Dynamics::state_name`]
+/// gives one at a time, and the columns of a [`crate::Solution`]).
+pub fn state_names<S: AsRef<str>>(coords: &[S], effects: &[Effect], drives: &[crate::drive::Drive]) -> Vec<String> {
+    let mut names: Vec<String> = coords.iter().map(|c| c.as_ref().to_string()).collect();
+    names.extend(coords.iter().map(|c| velocity_name(c.as_ref())));
+    names.extend(effects.iter().map(|e| e.work_column()));
+    names.extend(drives.iter().map(|d| work_name(&d.name)));
+    names
 }
 
 /// Counts a KKT solve at `t` \[s\] that found `G` rank-deficient

@@ -54,7 +54,7 @@
 use std::sync::Arc;
 
 use crate::drive::Drive;
-use crate::effects::{Effect, EffectContext, EffectSpec, ForceLaw, Law, UserLaw, Waveform};
+use crate::effects::{Effect, EffectContext, EffectKind, EffectSpec, ForceLaw, Law, UserLaw, Waveform};
 use crate::initial::{Given, InitialReport, consistent_state_given};
 use crate::kkt::KktMethod;
 use crate::model::{Model, ModelInfo, NameIndex};
@@ -231,6 +231,32 @@ impl<M: Model> Problem<M> {
         Ok(self)
     }
 
+    /// Adds an effect of a kind of the user's own ([`EffectKind`]) as
+    /// `name`, resolved against the model at its current parameters: what
+    /// a scene's `[effects.NAME] kind = "..."` table of that kind gives,
+    /// in Rust (its value column takes [`EffectKind::VALUE_PREFIX`]).
+    ///
+    /// # Errors
+    /// [`SimError::Scene`] for a bad or repeated name; [`SimError::Effect`]
+    /// with the field the kind's [`EffectKind::resolve`] refuses.
+    pub fn kind<T: EffectKind>(mut self, name: &str, spec: &T) -> Result<Self, SimError> {
+        self.check_effect_name(name)?;
+        let info = self.model.info();
+        let names = NameIndex::new(&info);
+        let cx = EffectContext::new(&self.model, &names);
+        let law = spec.resolve(&cx).map_err(|e| SimError::Effect {
+            effect: name.to_string(),
+            field: e.field,
+            message: e.message,
+        })?;
+        self.effects.push(Effect {
+            name: name.to_string(),
+            value_column: format!("{}_{name}", T::VALUE_PREFIX),
+            law: Law::User(UserLaw(Arc::new(law))),
+        });
+        Ok(self)
+    }
+
     /// Adds a force law of the user's own as effect `name`: its work state
     /// `W_<name>` integrates the power it returns.
     ///
@@ -380,12 +406,7 @@ impl<M: Model> Problem<M> {
     /// Names of the state components `y = [q, qd, W_effects..,
     /// W_drives..]` (as [`Dynamics::state_name`] gives them).
     pub fn state_names(&self) -> Vec<String> {
-        let info = self.model.info();
-        let mut names: Vec<String> = info.coords.iter().map(|c| c.to_string()).collect();
-        names.extend(info.coords.iter().map(|c| format!("{c}d")));
-        names.extend(self.effects.iter().map(|e| e.work_column()));
-        names.extend(self.drives.iter().map(|d| format!("W_{}", d.name)));
-        names
+        crate::dynamics::state_names(&self.model.info().coords, &self.effects, &self.drives)
     }
 
     /// The consistent initial state `y0 = [q, qd, W = 0 ...]` and what
@@ -488,15 +509,7 @@ impl<M: Model + Default> Problem<M> {
         }
         let scene_error = |e: crate::SceneError| SimError::Scene { key: e.key(), message: e.message };
         // counts first: they decide the coordinates the rest of the scene names
-        for (name, value) in &scene.params {
-            if let Some(i) = base.param_index(name)
-                && base.params[i].count
-            {
-                crate::scene::check_count(name, *value).map_err(scene_error)?;
-                model.set_param(i, *value);
-            }
-        }
-        model.check_counts().map_err(|message| SimError::Scene { key: "params".into(), message })?;
+        crate::registry::set_counts(&mut model, &scene.params).map_err(scene_error)?;
         let info = &model.info();
         let scene = scene.expand_families(info).map_err(scene_error)?;
         scene.check(info).map_err(scene_error)?;

@@ -113,6 +113,18 @@ pub fn check_user_effects<M: Model + Default>(scene: &Scene) -> Result<(), Scene
 /// As [`ModelCatalog::info_with`].
 pub fn info_at<M: Model + Default>(params: &[(String, f64)]) -> Result<ModelInfo, SceneError> {
     let mut model = M::default();
+    set_counts(&mut model, params)?;
+    Ok(model.info())
+}
+
+/// Sets the family counts among `params` (name, value; other parameters
+/// are left alone) on `model`, each checked to be a whole number >= 1,
+/// then checks that every family refers to elements that exist: the one
+/// place counts are applied (scene check, [`crate::Problem::from_scene`]).
+///
+/// # Errors
+/// A [`SceneError`] at `params.COUNT`.
+pub fn set_counts<M: Model>(model: &mut M, params: &[(String, f64)]) -> Result<(), SceneError> {
     let base = model.info();
     let mut last = None;
     for (name, value) in params {
@@ -126,8 +138,7 @@ pub fn info_at<M: Model + Default>(params: &[(String, f64)]) -> Result<ModelInfo
     }
     model
         .check_counts()
-        .map_err(|message| SceneError { path: vec!["params".into(), last.unwrap_or_default()], message })?;
-    Ok(model.info())
+        .map_err(|message| SceneError { path: vec!["params".into(), last.unwrap_or_default()], message })
 }
 
 /// The smallest [`Register`] + [`ModelCatalog`]: keys and descriptions,

@@ -907,7 +907,7 @@ impl Scene {
     pub fn columns(&self, info: &ModelInfo) -> Vec<String> {
         let mut cols = vec!["t".to_string()];
         cols.extend(info.coords.iter().map(|c| c.to_string()));
-        cols.extend(info.coords.iter().map(|c| format!("{c}d")));
+        cols.extend(info.coords.iter().map(|c| crate::dynamics::velocity_name(c)));
         for g in OutputGroup::ALL {
             if !self.includes(g) {
                 continue;
@@ -916,8 +916,8 @@ impl Scene {
                 OutputGroup::Energy => {
                     cols.push("T".into());
                     cols.push("W".into());
-                    cols.extend(self.effects.iter().map(|(n, _)| format!("W_{n}")));
-                    cols.extend(info.drives.iter().map(|d| format!("W_{}", d.name)));
+                    cols.extend(self.effects.iter().map(|(n, _)| crate::dynamics::work_name(n)));
+                    cols.extend(info.drives.iter().map(|d| crate::dynamics::work_name(&d.name)));
                 }
                 OutputGroup::Points => {
                     for p in &info.points {

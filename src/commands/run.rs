@@ -310,7 +310,7 @@ pub fn run_model_tapped<M: Model + Default>(
             }
         }
     }
-    let state_names: Vec<String> = (0..sys.ny()).map(|k| sys.state_name(k)).collect();
+    let state_names = sys.state_names();
     let mut warnings = initial.warnings();
     if let Some((t, c)) = summary.ill_conditioned {
         warnings.push(format!(

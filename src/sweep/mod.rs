@@ -449,7 +449,7 @@ fn one_run<M: Model + Default>(
     let mut obs = Quiet { rows, row: Vec::new(), tap: Tap::new(accs.map_err(Ok)?) };
     match ezy_core::simulate(&mut sys, &y0, settings, &mut obs) {
         Ok(summary) => {
-            let state_names = (0..sys.ny()).map(|k| sys.state_name(k)).collect();
+            let state_names = sys.state_names();
             Ok(Done { summary, state_names, tap: obs.tap })
         }
         Err(RunError::Output(Stop::Signal(s))) => Err(Err(s)),

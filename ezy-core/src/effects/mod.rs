@@ -1379,6 +1379,6 @@ impl Effect {
 
     /// Name of the effect's work column, `W_<name>` \[J\].
     pub fn work_column(&self) -> String {
-        format!("W_{}", self.name)
+        crate::dynamics::work_name(&self.name)
     }
 }
