@@ -1,3 +1,4 @@
+#![warn(missing_docs)]
 //! ezy: planar vehicles and mechanisms with hinges and skates.
 //!
 //! A model is declared with [`model!`]; [`App`] runs the command line

@@ -1,3 +1,4 @@
+#![warn(missing_docs)]
 //! ezy runtime: the [`Model`] trait generated models implement, the
 //! [`Problem`] a run integrates (a model, its effects, drives, initial
 //! values and settings, solved in memory), the KKT solve, the integrators

@@ -1,3 +1,4 @@
+#![warn(missing_docs)]
 //! The `model!` macro of ezy: a declarative planar multibody model (bodies,
 //! points, hinges, skates) in, a struct with the `ezy_core::Model` impl out.
 //! Families (`for i in 0..N { .. }`) of bodies, points, hinges, sliders

@@ -1,3 +1,4 @@
+#![warn(missing_docs)]
 //! Vehicles written in ezy's model language, one file each, their
 //! registration under the keys scene files use, and the built-in scenes.
 //!
