@@ -589,3 +589,84 @@ fn a_users_law_over_a_family_is_the_builtin_it_rewrites() {
     let e = Problem::new(EzyRoller::default()).kind("spring", &bad).unwrap_err().to_string();
     assert!(e.contains("effect `spring`, key `hinge`: unknown hinge `Q`"), "{e}");
 }
+
+/// A user's kind with a whole-number field: `tau = -n theta`.
+#[derive(Debug, Clone, ezy::serde::Serialize, ezy::serde::Deserialize)]
+#[serde(crate = "ezy::serde", deny_unknown_fields)]
+struct Turns {
+    hinge: String,
+    n: u32,
+}
+
+impl ezy::effects::EffectKind for Turns {
+    type Law = TorsionLaw;
+    fn resolve(&self, cx: &ezy::effects::EffectContext<'_>) -> Result<TorsionLaw, ezy::effects::SpecError> {
+        let h = cx.hinge("hinge", &self.hinge)?;
+        Ok(TorsionLaw { a: h.a, b: h.b, k: f64::from(self.n) })
+    }
+}
+
+/// A law that claims a coordinate the model does not have.
+#[derive(Debug, Clone, ezy::serde::Serialize, ezy::serde::Deserialize)]
+#[serde(crate = "ezy::serde")]
+struct Beyond {}
+
+#[derive(Debug)]
+struct BeyondLaw;
+
+impl ezy::effects::ForceLaw for BeyondLaw {
+    fn apply(&self, _t: f64, _q: &[f64], _qd: &[f64], _f: &mut [f64]) -> (f64, f64) {
+        (0.0, 0.0)
+    }
+    fn coords(&self) -> Vec<usize> {
+        vec![99]
+    }
+}
+
+impl ezy::effects::EffectKind for Beyond {
+    type Law = BeyondLaw;
+    fn resolve(&self, _cx: &ezy::effects::EffectContext<'_>) -> Result<BeyondLaw, ezy::effects::SpecError> {
+        Ok(BeyondLaw)
+    }
+}
+
+/// Hostile or unusual user kinds: `--set` keeps a whole-number field a
+/// whole number (`c.n=4` is the run with `n = 4`); a law whose `coords()`
+/// names a coordinate beyond nq is refused by name from a scene and from
+/// Rust, before any work (RADAU5 would index out of range); a drive angle
+/// given in Rust as a table (whose slope jumps) is refused as in a scene.
+#[test]
+fn users_kinds_keep_whole_numbers_and_refuse_foreign_coordinates() {
+    use ezy::effects::{EffectKinds, Table, Waveform};
+    use ezy_core::{Problem, SimError};
+    let mut kinds = EffectKinds::default();
+    kinds.add::<Turns>("turns").unwrap();
+    kinds.add::<Beyond>("beyond").unwrap();
+    let free = scenes::BUILTIN.iter().find(|(f, _)| *f == "free.toml").unwrap().1;
+    let scene = |extra: &str| {
+        let mut s = Scene::from_toml(&format!("{free}\n{extra}"), "user.toml").unwrap();
+        s.bind_kinds(&kinds).unwrap();
+        s
+    };
+    let run = |s: &Scene, sets: &[(String, f64)]| {
+        Problem::<EzyRoller>::from_scene(s, sets).unwrap().0.t_end(0.5).solve().unwrap().final_state().to_vec()
+    };
+    let three = scene("[effects.c]\nkind = \"turns\"\nhinge = \"B\"\nn = 3\n");
+    let four = scene("[effects.c]\nkind = \"turns\"\nhinge = \"B\"\nn = 4\n");
+    assert_eq!(run(&three, &[("c.n".into(), 4.0)]), run(&four, &[]));
+    assert_ne!(run(&three, &[]), run(&four, &[]));
+    let e = Problem::<EzyRoller>::from_scene(&three, &[("c.n".into(), 4.5)]).unwrap_err().to_string();
+    assert!(e.contains("effects.c") && e.contains("4.5") && e.contains("u32"), "a fraction is refused by name: {e}");
+
+    let beyond = scene("[effects.far]\nkind = \"beyond\"\n");
+    let e = Problem::<EzyRoller>::from_scene(&beyond, &[]).unwrap_err();
+    assert!(matches!(&e, SimError::Effect { effect, .. } if effect == "far"), "{e}");
+    assert!(e.to_string().contains("coords() lists coordinate 99, but the model has 6"), "{e}");
+    let e = Problem::new(EzyRoller::default()).kind("far", &Beyond {}).unwrap_err().to_string();
+    assert!(e.contains("coordinate 99"), "{e}");
+
+    let table = Waveform::Table(Table { t: vec![0.0, 1.0], value: vec![0.0, 1.0] });
+    let p = Problem::new(ezy_models::EzyRollerDriven::default()).drive("D", table).unwrap();
+    let e = p.initial_state().unwrap_err().to_string();
+    assert!(e.contains("drives.D.angle") && e.contains("table's slope jumps"), "{e}");
+}

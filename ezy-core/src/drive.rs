@@ -35,3 +35,30 @@ pub fn shift_velocities(drives: &[Drive], t: f64, r: &mut [f64]) {
         r[d.row] -= d.angle.eval3(t)[1];
     }
 }
+
+/// Checks that a prescribed angle is smooth over `[0, t_end]` \[s\]: no
+/// `table` (its slope jumps at the knots), and a `spline` whose knots
+/// cover the run (outside them the angle is held, and its rate would
+/// jump to zero).
+///
+/// # Errors
+/// What is wrong, for the angle's key.
+pub fn check_angle(angle: &Waveform, t_end: f64) -> Result<(), String> {
+    match angle {
+        Waveform::Table(_) => {
+            Err("a table's slope jumps at its knots, which a prescribed motion cannot follow; give a `spline`".into())
+        }
+        Waveform::Spline(sp) => {
+            let t = &sp.data().t;
+            let (first, last) = (t[0], t[t.len() - 1]);
+            if first > 0.0 || last < t_end {
+                Err(format!(
+                    "the spline's knots cover [{first}, {last}] s but the run covers [0, {t_end}] s; outside its knots the angle would stop abruptly"
+                ))
+            } else {
+                Ok(())
+            }
+        }
+        _ => angle.validate(),
+    }
+}

@@ -54,7 +54,7 @@
 use std::sync::Arc;
 
 use crate::drive::Drive;
-use crate::effects::{Effect, EffectContext, EffectKind, EffectSpec, ForceLaw, Law, UserLaw, Waveform};
+use crate::effects::{Effect, EffectContext, EffectKind, EffectSpec, ForceLaw, Law, Waveform};
 use crate::initial::{Given, InitialReport, consistent_state_given};
 use crate::kkt::KktMethod;
 use crate::model::{Model, ModelInfo, NameIndex};
@@ -249,11 +249,8 @@ impl<M: Model> Problem<M> {
             field: e.field,
             message: e.message,
         })?;
-        self.effects.push(Effect {
-            name: name.to_string(),
-            value_column: format!("{}_{name}", T::VALUE_PREFIX),
-            law: Law::User(UserLaw(Arc::new(law))),
-        });
+        let law = Law::user(name, Arc::new(law), cx.nq())?;
+        self.effects.push(Effect { name: name.to_string(), value_column: format!("{}_{name}", T::VALUE_PREFIX), law });
         Ok(self)
     }
 
@@ -261,22 +258,12 @@ impl<M: Model> Problem<M> {
     /// `W_<name>` integrates the power it returns.
     ///
     /// # Errors
-    /// [`SimError::Scene`] for a bad or repeated name, or a coordinate
-    /// index in [`ForceLaw::coords`] beyond nq.
+    /// [`SimError::Scene`] for a bad or repeated name; [`SimError::Effect`]
+    /// for a coordinate index in [`ForceLaw::coords`] beyond nq.
     pub fn law(mut self, name: &str, law: impl ForceLaw) -> Result<Self, SimError> {
         self.check_effect_name(name)?;
-        let nq = self.model.info().nq();
-        if let Some(k) = law.coords().into_iter().find(|&k| k >= nq) {
-            return Err(SimError::Scene {
-                key: format!("effects.{name}"),
-                message: format!("the law acts on coordinate {k}, but the model has {nq} (0 to {})", nq - 1),
-            });
-        }
-        self.effects.push(Effect {
-            name: name.to_string(),
-            value_column: format!("F_{name}"),
-            law: Law::User(UserLaw(Arc::new(law))),
-        });
+        let law = Law::user(name, Arc::new(law), self.model.info().nq())?;
+        self.effects.push(Effect { name: name.to_string(), value_column: format!("F_{name}"), law });
         Ok(self)
     }
 
@@ -414,7 +401,8 @@ impl<M: Model> Problem<M> {
     ///
     /// # Errors
     /// [`SimError::Setting`] for a bad mass; [`SimError::Scene`] for a
-    /// drive without an angle; [`SimError::Initial`] if no consistent
+    /// drive without an angle or one that is not smooth over the run
+    /// ([`crate::drive::check_angle`]); [`SimError::Initial`] if no consistent
     /// state is near the given one.
     pub fn initial_state(&self) -> Result<(Vec<f64>, InitialReport), SimError> {
         let info = self.model.info();
@@ -427,6 +415,10 @@ impl<M: Model> Problem<M> {
                     info.name, info.hinges[missing.hinge].name, missing.name
                 ),
             });
+        }
+        for d in &self.drives {
+            crate::drive::check_angle(&d.angle, self.settings.t_end)
+                .map_err(|message| SimError::Scene { key: format!("drives.{}.angle", d.name), message })?;
         }
         let (q, qd, report) = consistent_state_given(&self.model, &self.drives, &self.given)?;
         let mut y0 = q;

@@ -1520,28 +1520,8 @@ impl Scene {
     /// [`SceneError`] at the drive's `angle`.
     pub fn check_drives_cover(&self, t_end: f64) -> Result<(), SceneError> {
         for (name, d) in &self.drives {
-            let path = ["drives", name.as_str(), "angle"];
-            match &d.angle {
-                crate::effects::Waveform::Table(_) => {
-                    return Err(SceneError::at(
-                        &path,
-                        "a table's slope jumps at its knots, which a prescribed motion cannot follow; give a `spline`",
-                    ));
-                }
-                crate::effects::Waveform::Spline(sp) => {
-                    let t = &sp.data().t;
-                    let (first, last) = (t[0], t[t.len() - 1]);
-                    if first > 0.0 || last < t_end {
-                        return Err(SceneError::at(
-                            &path,
-                            format!(
-                                "the spline's knots cover [{first}, {last}] s but the run covers [0, {t_end}] s; outside its knots the angle would stop abruptly"
-                            ),
-                        ));
-                    }
-                }
-                _ => {}
-            }
+            crate::drive::check_angle(&d.angle, t_end)
+                .map_err(|m| SceneError::at(&["drives", name.as_str(), "angle"], m))?;
         }
         Ok(())
     }
@@ -1845,16 +1825,26 @@ fn set_number<T: Serialize + serde::de::DeserializeOwned>(
     let matches: Vec<&String> = leaves.iter().filter(|l| *l == key || l.ends_with(&format!(".{key}"))).collect();
     match matches[..] {
         [path] => {
+            let unreachable = || crate::SimError::Scene {
+                key: name.to_string(),
+                message: format!("`{path}` cannot be set: a key on its way contains a `.`"),
+            };
             let mut node = &mut tree;
             for part in path.split('.') {
                 node = match node {
-                    toml::Value::Table(t) => t.get_mut(part).expect("leaf path exists"),
-                    toml::Value::Array(a) => &mut a[part.parse::<usize>().expect("index")],
-                    _ => unreachable!("leaf paths go through tables and arrays"),
+                    toml::Value::Table(t) => t.get_mut(part).ok_or_else(unreachable)?,
+                    toml::Value::Array(a) => {
+                        part.parse::<usize>().ok().and_then(|i| a.get_mut(i)).ok_or_else(unreachable)?
+                    }
+                    _ => return Err(unreachable()),
                 };
             }
-            *node = toml::Value::Float(value);
-            Ok(Some((tree.try_into().expect("a number replaced by a number"), path.clone())))
+            *node = number_like(node, value);
+            let changed = tree.try_into().map_err(|e: toml::de::Error| crate::SimError::Scene {
+                key: name.to_string(),
+                message: e.message().trim().to_string(),
+            })?;
+            Ok(Some((changed, path.clone())))
         }
         [] => {
             // a key at its default is not serialized: try it as a new key
@@ -1877,6 +1867,17 @@ fn set_number<T: Serialize + serde::de::DeserializeOwned>(
     }
 }
 
+/// `value` as the TOML number that replaces `old`: an integer where `old`
+/// is one and `value` is whole (a count field of a user's effect kind
+/// stays an integer), a float otherwise.
+fn number_like(old: &toml::Value, value: f64) -> toml::Value {
+    if old.is_integer() && value.fract() == 0.0 && value.abs() < 9e15 {
+        toml::Value::Integer(value as i64)
+    } else {
+        toml::Value::Float(value)
+    }
+}
+
 /// `spec` with the number at the key path `path` set to `value` (a number
 /// at its default, left out of the serialization, is added).
 ///
@@ -1884,7 +1885,13 @@ fn set_number<T: Serialize + serde::de::DeserializeOwned>(
 /// What is wrong, when the path leads to no number of `spec`'s type.
 fn with_number<T: Serialize + serde::de::DeserializeOwned>(spec: &T, path: &[String], value: f64) -> Result<T, String> {
     let mut tree = toml::Value::try_from(spec).map_err(|e| e.to_string())?;
-    set_path(&mut tree, path, toml::Value::Float(value)).ok_or("the key path leads to no number")?;
+    let old = path.iter().try_fold(&tree, |node, part| match node {
+        toml::Value::Table(t) => t.get(part),
+        toml::Value::Array(a) => a.get(part.parse::<usize>().ok()?),
+        _ => None,
+    });
+    let new = old.map_or(toml::Value::Float(value), |old| number_like(old, value));
+    set_path(&mut tree, path, new).ok_or("the key path leads to no number")?;
     tree.try_into().map_err(|e: toml::de::Error| e.message().trim().to_string())
 }
 

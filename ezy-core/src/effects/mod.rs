@@ -738,11 +738,14 @@ impl EffectSpec {
             },
             Self::LinearDrag { body, c, c_rot } => Law::Drag { body: body_of(&body), c, c_rot, quadratic: false },
             Self::QuadraticDrag { body, c, c_rot } => Law::Drag { body: body_of(&body), c, c_rot, quadratic: true },
-            Self::User(u) => Law::User(UserLaw(u.resolve(cx, &known_kinds(&[])).map_err(|e| SimError::Effect {
-                effect: name.to_string(),
-                field: e.field,
-                message: e.message,
-            })?)),
+            Self::User(u) => {
+                let law = u.resolve(cx, &known_kinds(&[])).map_err(|e| SimError::Effect {
+                    effect: name.to_string(),
+                    field: e.field,
+                    message: e.message,
+                })?;
+                Law::user(name, law, cx.nq())?
+            }
         };
         Ok(Effect { name: name.to_string(), value_column: self.value_column(name), law })
     }
@@ -1142,6 +1145,26 @@ pub enum Law {
         /// `|v| v` instead of `v`.
         quadratic: bool,
     },
+}
+
+impl Law {
+    /// A law of the user's own for the effect `name` on a model with `nq`
+    /// coordinates.
+    ///
+    /// # Errors
+    /// [`SimError::Effect`] if [`ForceLaw::coords`] lists a coordinate
+    /// beyond the model's (the right-hand side and RADAU5's coupling index
+    /// `q` with them).
+    pub fn user(name: &str, law: Arc<dyn ForceLaw>, nq: usize) -> Result<Law, SimError> {
+        if let Some(k) = law.coords().into_iter().find(|&k| k >= nq) {
+            return Err(SimError::Effect {
+                effect: name.to_string(),
+                field: "",
+                message: format!("the law's coords() lists coordinate {k}, but the model has {nq}"),
+            });
+        }
+        Ok(Law::User(UserLaw(law)))
+    }
 }
 
 /// A resolved law of the user's own, shared by the copies of its
