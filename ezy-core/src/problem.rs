@@ -202,12 +202,8 @@ impl<M: Model> Problem<M> {
     }
 
     fn check_effect_name(&self, name: &str) -> Result<(), SimError> {
-        if name.is_empty() || !name.chars().all(|c| c.is_ascii_alphanumeric() || c == '_') {
-            return Err(SimError::Scene {
-                key: format!("effects.{name}"),
-                message: format!("effect name `{name}` must be letters, digits and _ (it names the column W_{name})"),
-            });
-        }
+        crate::effects::check_effect_name(name)
+            .map_err(|message| SimError::Scene { key: format!("effects.{name}"), message })?;
         if self.effects.iter().any(|e| e.name == name) {
             return Err(SimError::Scene {
                 key: format!("effects.{name}"),

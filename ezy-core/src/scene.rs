@@ -1164,14 +1164,7 @@ impl Scene {
             keep(
                 &mut errors,
                 (|| {
-                    if name.is_empty() || !name.chars().all(|c| c.is_ascii_alphanumeric() || c == '_') {
-                        return Err(SceneError::at(
-                            &["effects", name],
-                            format!(
-                                "effect name `{name}` must be letters, digits and _ (it names the column W_{name})"
-                            ),
-                        ));
-                    }
+                    crate::effects::check_effect_name(name).map_err(|m| SceneError::at(&["effects", name], m))?;
                     e.check_in(&names, &self.scene_params).map_err(|err| {
                         let path: &[&str] =
                             if err.field.is_empty() { &["effects", name] } else { &["effects", name, err.field] };

@@ -343,6 +343,19 @@ pub const EFFECT_KINDS: &[&str] = &[
 /// [`crate::Scene::from_toml`]).
 pub const NAME_KEYS: &[&str] = &["kind", "hinge", "skate", "body", "at", "frame", "from", "to", "bodies"];
 
+/// Checks an effect's name: letters, digits and `_`, since it names the
+/// columns `W_<name>` and `F_<name>`/`tau_<name>` (scene files and
+/// [`crate::Problem`] alike).
+///
+/// # Errors
+/// What is wrong with it.
+pub fn check_effect_name(name: &str) -> Result<(), String> {
+    if name.is_empty() || !name.chars().all(|c| c.is_ascii_alphanumeric() || c == '_') {
+        return Err(format!("effect name `{name}` must be letters, digits and _ (it names the column W_{name})"));
+    }
+    Ok(())
+}
+
 /// The known kinds as an error lists them: the built-in ones and `user`.
 pub(crate) fn known_kinds(user: &[&str]) -> String {
     let mut all: Vec<&str> = EFFECT_KINDS.to_vec();

@@ -249,20 +249,23 @@ impl UserSpec {
         self.handle.as_ref().map_or("F", |h| h.kind.value_prefix())
     }
 
+    /// The kind's functions, or an error at `kind` listing the `known`
+    /// kinds when the spec is not bound to any.
+    fn bound(&self, known: &str) -> Result<&dyn ErasedKind, SpecError> {
+        self.handle.as_ref().map(|h| &*h.kind).ok_or_else(|| SpecError {
+            field: "kind",
+            message: format!("unknown effect kind `{}`; {known}", self.kind),
+        })
+    }
+
     /// Checks that the fields read as the kind's type.
     pub(crate) fn check(&self, known: &str) -> Result<(), SpecError> {
-        match &self.handle {
-            Some(h) => h.kind.check(&self.params),
-            None => Err(SpecError { field: "kind", message: format!("unknown effect kind `{}`; {known}", self.kind) }),
-        }
+        self.bound(known)?.check(&self.params)
     }
 
     /// The kind's law for the model `cx` describes.
     pub(crate) fn resolve(&self, cx: &EffectContext<'_>, known: &str) -> Result<Arc<dyn ForceLaw>, SpecError> {
-        match &self.handle {
-            Some(h) => h.kind.resolve(&self.params, cx),
-            None => Err(SpecError { field: "kind", message: format!("unknown effect kind `{}`; {known}", self.kind) }),
-        }
+        self.bound(known)?.resolve(&self.params, cx)
     }
 }
 
