@@ -10,7 +10,6 @@ use std::hint::black_box;
 
 use bare_rhs::BareRhs;
 use criterion::{Criterion, criterion_group, criterion_main};
-use ezy_core::Problem;
 use ezy_core::integrator::Rhs;
 use ezy_models::{EzyRoller, scenes};
 
@@ -23,9 +22,9 @@ fn absent_effects(c: &mut Criterion) {
     let mut dy = vec![0.0; 12];
     let mut bare = BareRhs::new(EzyRoller::default());
     g.bench_function("bare-model", |b| b.iter(|| bare.eval(black_box(1.3), black_box(&y), &mut dy).unwrap()));
-    let (mut free, _, _) = Problem::<EzyRoller>::from_scene(&scenes::free(), &[]).unwrap().0.into_system().unwrap();
+    let (mut free, _, _) = scenes::free().problem::<EzyRoller>(&[]).unwrap().0.into_system().unwrap();
     g.bench_function("free-scene", |b| b.iter(|| free.rhs(black_box(1.3), black_box(&y), &mut dy).unwrap()));
-    let (mut drive, _, _) = Problem::<EzyRoller>::from_scene(&scenes::drive(), &[]).unwrap().0.into_system().unwrap();
+    let (mut drive, _, _) = scenes::drive().problem::<EzyRoller>(&[]).unwrap().0.into_system().unwrap();
     let mut yw = y.clone();
     yw.push(0.0);
     let mut dyw = vec![0.0; 13];

@@ -9,7 +9,7 @@ use criterion::{Criterion, criterion_group, criterion_main};
 use ezy_core::integrator::{Dop853, EmbeddedRk, Rk4, Tolerance};
 use ezy_core::kkt::{DenseLu, KktMethod, KktSolver, KktSystem, SchurCholesky};
 use ezy_core::model::scatter_dense;
-use ezy_core::{Dynamics, Method, Model, Observer, Problem, ProjectionKind, RunSettings, Sample, simulate};
+use ezy_core::{Dynamics, Method, Model, Observer, ProjectionKind, RunSettings, Sample, simulate};
 use ezy_models::{EzyRoller, scenes};
 
 /// A state of the `drive` scene after a few seconds.
@@ -18,7 +18,7 @@ fn state() -> Vec<f64> {
 }
 
 fn dynamics(method: KktMethod) -> Dynamics<EzyRoller> {
-    Problem::<EzyRoller>::from_scene(&scenes::drive(), &[]).unwrap().0.kkt(method).into_system().unwrap().0
+    scenes::drive().problem::<EzyRoller>(&[]).unwrap().0.kkt(method).into_system().unwrap().0
 }
 
 fn rhs(c: &mut Criterion) {
@@ -89,7 +89,7 @@ impl<M: Model> Observer<M> for Sink {
 }
 
 fn scene(c: &mut Criterion) {
-    let y0 = Problem::<EzyRoller>::from_scene(&scenes::drive(), &[]).unwrap().0.initial_state().unwrap().0;
+    let y0 = scenes::drive().problem::<EzyRoller>(&[]).unwrap().0.initial_state().unwrap().0;
     let settings = RunSettings {
         dt: 1e-4,
         t_end: 1.0,

@@ -10,11 +10,13 @@
 use std::hint::black_box;
 
 use criterion::{BenchmarkId, Criterion, criterion_group, criterion_main};
+use ezy_core::Dynamics;
 use ezy_core::integrator::Rhs;
 use ezy_core::integrator::radau5::{MU_COMPLEX, MU_REAL, NewtonSystem, c64};
 use ezy_core::newton::KktNewton;
-use ezy_core::{Dynamics, Problem, Scene};
+
 use ezy_models::SnakeServo;
+use ezy_scene::Scene;
 
 /// `snake-stiff` at any N: the straight snake at rest (the scene's own
 /// initial values name the ten links of N = 10).
@@ -35,8 +37,7 @@ fn newton_step(c: &mut Criterion) {
     let mut g = c.benchmark_group("radau5-snake");
     g.sample_size(10);
     for n in [100usize, 300, 1000, 3000, 10000] {
-        let (mut sys, y, _) =
-            Problem::<SnakeServo>::from_scene(&scene, &[("N".into(), n as f64)]).unwrap().0.into_system().unwrap();
+        let (mut sys, y, _) = scene.problem::<SnakeServo>(&[("N".into(), n as f64)]).unwrap().0.into_system().unwrap();
         let ny = y.len();
         let mut f = vec![0.0; ny];
         sys.rhs(0.1, &y, &mut f).unwrap();

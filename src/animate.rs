@@ -28,7 +28,9 @@
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
-use ezy_core::{Dynamics, Model, Observer, Sample, Scene, fmt_value};
+use ezy_core::{Dynamics, Model, Observer, Sample, fmt_value};
+
+use ezy_scene::Scene;
 use plotters::prelude::*;
 use rayon::prelude::*;
 
@@ -160,12 +162,12 @@ fn frame_count(anim: &AnimateOptions, t_end: f64) -> Result<usize, AnimateError>
     if !(anim.trail.is_finite() && anim.trail >= 0.0) {
         return bad(format!("--trail {}: the trail length [s] must be >= 0", fmt_value(anim.trail)));
     }
-    if !(ezy_core::MIN_DPI..=ezy_core::MAX_DPI).contains(&anim.dpi) {
+    if !(ezy_scene::MIN_DPI..=ezy_scene::MAX_DPI).contains(&anim.dpi) {
         return bad(format!(
             "--dpi {}: the resolution is from {} to {} dpi",
             fmt_value(anim.dpi),
-            ezy_core::MIN_DPI,
-            ezy_core::MAX_DPI
+            ezy_scene::MIN_DPI,
+            ezy_scene::MAX_DPI
         ));
     }
     match anim.out.extension().and_then(|e| e.to_str()) {

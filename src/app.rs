@@ -28,10 +28,13 @@ use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
 use clap::Parser;
-use ezy_core::effects::{EffectKind, EffectKinds};
+use ezy_core::effects::EffectKind;
 use ezy_core::kkt::KktMethod;
-use ezy_core::registry::{ModelCatalog, Register, SceneSource, check_scene, info_at};
-use ezy_core::{Model, ModelInfo, Scene, SceneError};
+use ezy_core::{Model, ModelInfo};
+use ezy_scene::EffectKinds;
+use ezy_scene::registry::{ModelCatalog, Register, SceneSource, check_scene, info_at};
+
+use ezy_scene::{Scene, SceneError};
 
 use crate::cli::{self, Cli, Command};
 use crate::commands::run;
@@ -52,7 +55,7 @@ type Scaled = Described<Vec<scale::ScalePoint>>;
 
 #[derive(Clone, Copy)]
 struct ModelOps {
-    info_with: ezy_core::registry::InfoFn,
+    info_with: ezy_scene::registry::InfoFn,
     run: fn(&Scene, &RunOptions) -> Result<Report, run::Error>,
     precision: fn(&Scene, &Path, &precision::PrecisionOptions) -> Result<precision::Report, run::Error>,
     equations: fn(&Sets, equations::Format) -> Result<String, String>,
@@ -92,7 +95,7 @@ impl ModelOps {
             sweep: sweep::sweep_model::<M>,
             animate: crate::animate::animate_model::<M>,
             bench: crate::bench::bench_model::<M>,
-            check_user_effects: ezy_core::registry::check_user_effects::<M>,
+            check_user_effects: ezy_scene::registry::check_user_effects::<M>,
         }
     }
 }
@@ -111,7 +114,7 @@ pub fn with_sets<M: Model + Default>(sets: &[(String, f64)]) -> Result<M, String
             format!("unknown parameter `{name}` in model {}; its parameters: {}", info.name, known.join(", "))
         })?;
         if info.params[i].count {
-            ezy_core::scene::check_count(name, *value).map_err(|e| e.message)?;
+            ezy_scene::scene::check_count(name, *value).map_err(|e| e.message)?;
         }
         m.set_param(i, *value);
     }
@@ -211,7 +214,7 @@ pub enum LoadError {
     Registry(String),
     /// The file is bad.
     #[error(transparent)]
-    File(#[from] ezy_core::SceneFileError),
+    File(#[from] ezy_scene::SceneFileError),
 }
 
 /// The models and scenes an `ezy` command line knows, and the commands

@@ -22,7 +22,9 @@
 //! timed by the caller, which starts the program itself ([`crate::App`]).
 
 use ezy_core::integrator::Method;
-use ezy_core::{Formulation, Model, ProjectionKind, Scene};
+use ezy_core::{Formulation, Model, ProjectionKind};
+
+use ezy_scene::Scene;
 
 use crate::commands::run::Error;
 use crate::precision::{Setting, run_once_as, state_error};

@@ -5,7 +5,9 @@ use std::path::PathBuf;
 
 use clap::{Parser, Subcommand, ValueEnum};
 use ezy_core::kkt::KktMethod;
-use ezy_core::{Baumgarte, Choice, FigureFormat, Formulation, Method, ProjectionKind};
+use ezy_core::{Baumgarte, Choice, Formulation, Method, ProjectionKind};
+
+use ezy_scene::FigureFormat;
 
 use crate::commands::run::RunOptions;
 
@@ -257,16 +259,16 @@ pub fn parse_figure_format(s: &str) -> Result<FigureFormat, String> {
     s.trim().parse()
 }
 
-/// A PNG resolution from [`ezy_core::MIN_DPI`] to [`ezy_core::MAX_DPI`].
+/// A PNG resolution from [`ezy_scene::MIN_DPI`] to [`ezy_scene::MAX_DPI`].
 ///
 /// # Errors
 /// Not a number, or out of range.
 pub fn parse_dpi(s: &str) -> Result<f64, String> {
     let v: f64 = s.trim().parse().map_err(|_| format!("`{s}` is not a number"))?;
-    if (ezy_core::MIN_DPI..=ezy_core::MAX_DPI).contains(&v) {
+    if (ezy_scene::MIN_DPI..=ezy_scene::MAX_DPI).contains(&v) {
         Ok(v)
     } else {
-        Err(format!("`{s}`: the resolution is from {} to {} dpi", ezy_core::MIN_DPI, ezy_core::MAX_DPI))
+        Err(format!("`{s}`: the resolution is from {} to {} dpi", ezy_scene::MIN_DPI, ezy_scene::MAX_DPI))
     }
 }
 
@@ -533,12 +535,12 @@ pub fn parse_batches(s: &str) -> Result<usize, String> {
 }
 
 /// A family size of `ezy scale --n`: a whole number (also `1e4`) from 1
-/// to [`ezy_core::scene::MAX_COUNT`].
+/// to [`ezy_scene::scene::MAX_COUNT`].
 ///
 /// # Errors
 /// Not a whole number from 1 to the limit.
 pub fn parse_size(s: &str) -> Result<usize, String> {
-    parse_capped(s, ezy_core::scene::MAX_COUNT as u64, "elements of a family (1e6)").map(|n| n as usize)
+    parse_capped(s, ezy_scene::scene::MAX_COUNT as u64, "elements of a family (1e6)").map(|n| n as usize)
 }
 
 /// `NAME=VALUE` of `--set`, with a finite value.

@@ -4,7 +4,9 @@
 //! [`crate::plot::MAX_MAGNITUDE`] is an error naming the figure file, the
 //! column, the value and its time.
 
-use ezy_core::{Column, FigureFormat, FigureSpec, ModelInfo};
+use ezy_core::ModelInfo;
+
+use ezy_scene::{Column, FigureFormat, FigureSpec};
 
 use crate::output::Table;
 use crate::plot::{Chart, PlotError, Series};

@@ -30,6 +30,8 @@ pub use ezy_core;
 pub use ezy_core::effects;
 pub use ezy_core::{Model, Problem, Solution, model};
 pub use ezy_models as models;
+pub use ezy_scene;
+pub use ezy_scene::Scene;
 /// serde, for the `Deserialize` and `Serialize` of an effect kind of the
 /// user's own (`#[serde(crate = "ezy::serde")]`).
 pub use serde;
@@ -38,6 +40,3 @@ pub use serde;
 /// `ezy` alone; not public API.
 #[doc(hidden)]
 pub use ezy_core::__private;
-
-// `::ezy` paths of `model!` expansions resolve inside this crate too.
-extern crate self as ezy;

@@ -18,7 +18,9 @@ use std::io::{BufWriter, Write};
 use std::path::PathBuf;
 
 use ezy_core::kkt::KktMethod;
-use ezy_core::{Dynamics, Model, Observer, OutputGroup, Sample, Scene, SimError};
+use ezy_core::{Dynamics, Model, Observer, Sample, SimError};
+
+use ezy_scene::{OutputGroup, Scene};
 
 use crate::transaction::{Transaction, TransactionError};
 

@@ -30,7 +30,7 @@
 use std::ops::Range;
 use std::sync::OnceLock;
 
-pub use ezy_core::FigureFormat;
+pub use ezy_scene::FigureFormat;
 use image::ImageEncoder;
 use plotters::coord::ranged1d::{KeyPointHint, NoDefaultFormatting, Ranged, ValueFormatter};
 use plotters::coord::types::RangedCoordf64;
@@ -216,8 +216,8 @@ pub enum PlotError {
         /// Why.
         reason: &'static str,
     },
-    /// A PNG resolution outside [`ezy_core::MIN_DPI`]..=[`ezy_core::MAX_DPI`].
-    #[error("a PNG resolution of {dpi} dpi is outside {}..={} dpi", ezy_core::MIN_DPI, ezy_core::MAX_DPI)]
+    /// A PNG resolution outside [`ezy_scene::MIN_DPI`]..=[`ezy_scene::MAX_DPI`].
+    #[error("a PNG resolution of {dpi} dpi is outside {}..={} dpi", ezy_scene::MIN_DPI, ezy_scene::MAX_DPI)]
     Dpi {
         /// The rejected resolution.
         dpi: f64,
@@ -260,7 +260,7 @@ pub fn figure(chart: &Chart, format: FigureFormat, dpi: f64) -> Result<Vec<u8>, 
 
 /// [`PlotError::Dpi`] for a resolution out of range.
 fn check_dpi(dpi: f64) -> Result<(), PlotError> {
-    if (ezy_core::MIN_DPI..=ezy_core::MAX_DPI).contains(&dpi) { Ok(()) } else { Err(PlotError::Dpi { dpi }) }
+    if (ezy_scene::MIN_DPI..=ezy_scene::MAX_DPI).contains(&dpi) { Ok(()) } else { Err(PlotError::Dpi { dpi }) }
 }
 
 /// Turns an SVG drawn by this module into `format`: the SVG text itself,

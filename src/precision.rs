@@ -8,7 +8,9 @@
 use std::path::{Path, PathBuf};
 
 use ezy_core::integrator::Method;
-use ezy_core::{Choice, Dynamics, Model, Observer, ProjectionKind, RunSettings, Sample, Scene, SimError};
+use ezy_core::{Choice, Dynamics, Model, Observer, ProjectionKind, RunSettings, Sample, SimError};
+
+use ezy_scene::Scene;
 
 use crate::commands::run::Error;
 use crate::plot::{Chart, Series, Stroke};
@@ -122,7 +124,7 @@ pub(crate) fn run_once_as<M: Model + Default>(
     history: bool,
     formulation: ezy_core::Formulation,
 ) -> Result<(Last, ezy_core::Summary), SimError> {
-    let (mut sys, y0, _) = ezy_core::Problem::<M>::from_scene(scene, &[])?.0.into_system()?;
+    let (mut sys, y0, _) = scene.problem::<M>(&[])?.0.into_system()?;
     let base = scene.run_settings();
     let settings = RunSettings {
         dt: setting.dt.unwrap_or(base.dt),
@@ -351,7 +353,7 @@ pub fn read_overlay(path: &Path) -> Result<Vec<Overlay>, String> {
     let name = path.display();
     // a regular file of at most MAX_OVERLAY_BYTES, read whole: a device,
     // a FIFO or an endless file is refused at once
-    let bytes = ezy_core::files::read_capped(path, MAX_OVERLAY_BYTES, "the overlay file")
+    let bytes = ezy_scene::files::read_capped(path, MAX_OVERLAY_BYTES, "the overlay file")
         .map_err(|e| format!("--overlay {name}: {e}"))?;
     let mut r = csv::ReaderBuilder::new().comment(Some(b'#')).trim(csv::Trim::All).from_reader(bytes.as_slice());
     let header = r.headers().map_err(|e| format!("{name}: {e}"))?.clone();
@@ -389,7 +391,7 @@ pub fn read_overlay(path: &Path) -> Result<Vec<Overlay>, String> {
 /// parse (an unknown method or projection, a value that is not a number).
 pub fn read_csv(path: &Path) -> Result<Vec<Row>, String> {
     let name = path.display();
-    let text = ezy_core::files::read_capped_text(path, MAX_PRECISION_CSV_BYTES, "a precision.csv")
+    let text = ezy_scene::files::read_capped_text(path, MAX_PRECISION_CSV_BYTES, "a precision.csv")
         .map_err(|e| format!("{name}: {e}"))?;
     let mut lines = text.lines();
     let header = "method,dt,rtol,atol,projection,error,wall_s,rhs_evals,max_residual";
@@ -474,7 +476,7 @@ pub fn equal_error_speedups(rows: &[Row]) -> Vec<Speedup> {
 /// `chart` as PNG bytes at the default resolution; errors name the figure
 /// file `name`.
 fn figure_png(name: &str, chart: &Chart) -> Result<Vec<u8>, Error> {
-    crate::plot::figure(chart, ezy_core::FigureFormat::Png, ezy_core::DEFAULT_DPI)
+    crate::plot::figure(chart, ezy_scene::FigureFormat::Png, ezy_scene::DEFAULT_DPI)
         .map_err(|source| crate::figures::FigureError::Plot { figure: name.into(), source }.into())
 }
 

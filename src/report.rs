@@ -11,7 +11,9 @@
 //! offline.
 
 use base64::Engine as _;
-use ezy_core::{Dynamics, Model, Scene};
+use ezy_core::{Dynamics, Model};
+
+use ezy_scene::Scene;
 
 use crate::commands::run::RunOptions;
 use crate::output::Table;
@@ -219,7 +221,7 @@ pub fn figures(info: &ezy_core::ModelInfo, scene: &Scene, table: &Table) -> Vec<
         .par_iter()
         .map(|fig| {
             let svg = crate::figures::svg(info, fig, table).map_err(|e| e.to_string());
-            (ezy_core::figure_stem(&fig.file).to_string(), svg)
+            (ezy_scene::figure_stem(&fig.file).to_string(), svg)
         })
         .collect()
 }

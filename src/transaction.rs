@@ -132,7 +132,7 @@ pub enum TransactionError {
         dir: PathBuf,
     },
     /// The output directory cannot be created.
-    #[error("{}", ezy_core::files::io_message(path, source, &format!("cannot create output directory {}", path.display())))]
+    #[error("{}", ezy_scene::files::io_message(path, source, &format!("cannot create output directory {}", path.display())))]
     OutDir {
         /// The directory.
         path: PathBuf,
@@ -142,7 +142,7 @@ pub enum TransactionError {
     /// A file could not be created, written, synced or renamed. `path` is
     /// the file's final name (its temporary copy lives in the run's
     /// private directory).
-    #[error("{}", ezy_core::files::io_message(path, source, &path.display().to_string()))]
+    #[error("{}", ezy_scene::files::io_message(path, source, &path.display().to_string()))]
     Io {
         /// The file.
         path: PathBuf,

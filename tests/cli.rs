@@ -342,7 +342,7 @@ fn equations_print_what_the_macro_derived() {
 /// `ezy check` passes for every registered model and prints one line per term.
 #[test]
 fn check_passes_for_every_model() {
-    use ezy_core::registry::ModelCatalog;
+    use ezy_scene::registry::ModelCatalog;
     for model in ezy_models::builtins().keys() {
         let o = ezy(&["check", model, "--states", "20"]);
         assert!(o.status.success(), "{model}: {}{}", String::from_utf8_lossy(&o.stdout), stderr(&o));

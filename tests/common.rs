@@ -3,7 +3,9 @@
 
 use ezy_core::initial::InitialReport;
 use ezy_core::kkt::KktMethod;
-use ezy_core::{Dynamics, Model, Observer, Problem, Sample, Scene, SimError};
+use ezy_core::{Dynamics, Model, Observer, Sample, SimError};
+
+use ezy_scene::Scene;
 use rand::rngs::StdRng;
 use rand::{Rng, SeedableRng};
 
@@ -173,9 +175,9 @@ pub struct Setup<M: Model> {
     pub initial: InitialReport,
 }
 
-/// [`Problem::from_scene`] with the overrides `sets`, and its initial state.
+/// [`ezy_scene::Scene::problem`] with the overrides `sets`, and its initial state.
 pub fn setup<M: Model + Default>(scene: &Scene, sets: &[(String, f64)]) -> Result<Setup<M>, SimError> {
-    let (p, scene) = Problem::<M>::from_scene(scene, sets)?;
+    let (p, scene) = scene.problem::<M>(sets)?;
     let (y0, initial) = p.initial_state()?;
     Ok(Setup { model: p.model, scene, effects: p.effects, drives: p.drives, y0, initial })
 }
@@ -187,6 +189,6 @@ pub fn build<M: Model + Default>(
     sets: &[(String, f64)],
     kkt: KktMethod,
 ) -> Result<(Dynamics<M>, Vec<f64>), SimError> {
-    let (sys, y0, _) = Problem::<M>::from_scene(scene, sets)?.0.kkt(kkt).into_system()?;
+    let (sys, y0, _) = scene.problem::<M>(sets)?.0.kkt(kkt).into_system()?;
     Ok((sys, y0))
 }

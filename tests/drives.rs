@@ -11,8 +11,10 @@ use common::Recorder;
 use common::build;
 use ezy_core::effects::{Spline, SplineData, Waveform};
 use ezy_core::kkt::KktMethod;
-use ezy_core::{DriveSpec, InitValue, RunSettings, simulate};
+use ezy_core::{RunSettings, simulate};
+
 use ezy_models::{EzyRoller, EzyRollerDriven, scenes};
+use ezy_scene::{DriveSpec, InitValue};
 
 const T_END: f64 = 10.0;
 const EVERY: f64 = 0.01;

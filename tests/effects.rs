@@ -16,9 +16,11 @@ use common::{build, setup};
 use ezy::output::RowBuilder;
 use ezy_core::integrator::Rhs;
 use ezy_core::kkt::KktMethod;
-use ezy_core::{Dynamics, Method, Model, ProjectionKind, RunSettings, Sample, Scene, simulate};
+use ezy_core::{Dynamics, Method, Model, ProjectionKind, RunSettings, Sample, simulate};
+
 use ezy_models::scenes;
 use ezy_models::{ChaplyginSleigh, EzyRoller};
+use ezy_scene::Scene;
 
 /// The EzyRoller with one effect of every kind, each with nonzero numbers.
 const ALL_EFFECTS: &str = include_str!("data/all_effects.toml");
@@ -240,7 +242,7 @@ impl<M: Model> ezy_core::Observer<M> for Works {
 #[test]
 fn constraint_forces_satisfy_newton_euler_per_body() {
     let mut scene = scenes::drive();
-    scene.output.include.push(ezy_core::OutputGroup::ConstraintForces);
+    scene.output.include.push(ezy_scene::OutputGroup::ConstraintForces);
     let s = setup::<EzyRoller>(&scene, &[]).unwrap();
     let mut sys = Dynamics::new(s.model.clone(), s.effects.clone(), KktMethod::Auto);
     let mut rows = RowBuilder::new(&s.scene, &sys);
@@ -301,7 +303,7 @@ fn constraint_forces_satisfy_newton_euler_per_body() {
 #[test]
 fn sleigh_skate_force_is_the_mass_times_acceleration() {
     let mut scene = scenes::sleigh();
-    scene.output.include.push(ezy_core::OutputGroup::ConstraintForces);
+    scene.output.include.push(ezy_scene::OutputGroup::ConstraintForces);
     let s = setup::<ChaplyginSleigh>(&scene, &[]).unwrap();
     let mut sys = Dynamics::new(s.model.clone(), vec![], KktMethod::Auto);
     let mut rows = RowBuilder::new(&s.scene, &sys);
@@ -552,20 +554,21 @@ impl ezy::effects::EffectKind for Torsion {
 /// on the EzyRoller as the built-in spring.
 #[test]
 fn a_users_law_over_a_family_is_the_builtin_it_rewrites() {
-    use ezy::effects::{EffectKinds, EffectSpec};
+    use ezy::effects::EffectSpec;
     use ezy_core::Problem;
     use ezy_models::Snake;
+    use ezy_scene::{EffectKinds, SceneEffect};
     let text = scenes::BUILTIN.iter().find(|(f, _)| *f == "snake.toml").unwrap().1;
     let builtin = Scene::from_toml(text, "snake.toml").unwrap();
     let mut kinds = EffectKinds::default();
     kinds.add::<Torsion>("torsion").unwrap();
     let mut user =
         Scene::from_toml(&text.replace("kind = \"hinge-spring\"", "kind = \"torsion\""), "user.toml").unwrap();
-    assert!(matches!(user.effects[2].1, EffectSpec::User(_)));
+    assert!(matches!(user.effects[2].1, SceneEffect::User(_)));
     user.bind_kinds(&kinds).unwrap();
     for sets in [vec![], vec![("spring.stiffness".to_string(), 4.0)]] {
         let run = |scene: &Scene| {
-            let (p, expanded) = Problem::<Snake>::from_scene(scene, &sets).unwrap();
+            let (p, expanded) = scene.problem::<Snake>(&sets).unwrap();
             assert_eq!(expanded.effects.len(), 4 + 5 + 4, "motors, skates and springs over the families");
             p.t_end(2.0).solve().unwrap()
         };
@@ -637,8 +640,9 @@ impl ezy::effects::EffectKind for Beyond {
 /// given in Rust as a table (whose slope jumps) is refused as in a scene.
 #[test]
 fn users_kinds_keep_whole_numbers_and_refuse_foreign_coordinates() {
-    use ezy::effects::{EffectKinds, Table, Waveform};
+    use ezy::effects::{Table, Waveform};
     use ezy_core::{Problem, SimError};
+    use ezy_scene::EffectKinds;
     let mut kinds = EffectKinds::default();
     kinds.add::<Turns>("turns").unwrap();
     kinds.add::<Beyond>("beyond").unwrap();
@@ -649,17 +653,17 @@ fn users_kinds_keep_whole_numbers_and_refuse_foreign_coordinates() {
         s
     };
     let run = |s: &Scene, sets: &[(String, f64)]| {
-        Problem::<EzyRoller>::from_scene(s, sets).unwrap().0.t_end(0.5).solve().unwrap().final_state().to_vec()
+        s.problem::<EzyRoller>(sets).unwrap().0.t_end(0.5).solve().unwrap().final_state().to_vec()
     };
     let three = scene("[effects.c]\nkind = \"turns\"\nhinge = \"B\"\nn = 3\n");
     let four = scene("[effects.c]\nkind = \"turns\"\nhinge = \"B\"\nn = 4\n");
     assert_eq!(run(&three, &[("c.n".into(), 4.0)]), run(&four, &[]));
     assert_ne!(run(&three, &[]), run(&four, &[]));
-    let e = Problem::<EzyRoller>::from_scene(&three, &[("c.n".into(), 4.5)]).unwrap_err().to_string();
+    let e = three.problem::<EzyRoller>(&[("c.n".into(), 4.5)]).unwrap_err().to_string();
     assert!(e.contains("effects.c") && e.contains("4.5") && e.contains("u32"), "a fraction is refused by name: {e}");
 
     let beyond = scene("[effects.far]\nkind = \"beyond\"\n");
-    let e = Problem::<EzyRoller>::from_scene(&beyond, &[]).unwrap_err();
+    let e = beyond.problem::<EzyRoller>(&[]).unwrap_err();
     assert!(matches!(&e, SimError::Effect { effect, .. } if effect == "far"), "{e}");
     assert!(e.to_string().contains("coords() lists coordinate 99, but the model has 6"), "{e}");
     let e = Problem::new(EzyRoller::default()).kind("far", &Beyond {}).unwrap_err().to_string();

@@ -197,10 +197,10 @@ fn the_program_writes_the_same_columns_in_either_formulation() {
 fn a_scene_file_asks_for_its_formulation() {
     let text = std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/models/scenes/free.toml")).unwrap();
     let ask = |value: &str| text.replace("[integrator]", &format!("[integrator]\nformulation = \"{value}\""));
-    let scene = ezy_core::Scene::from_toml(&ask("reduced"), "free.toml").unwrap();
+    let scene = ezy_scene::Scene::from_toml(&ask("reduced"), "free.toml").unwrap();
     assert_eq!(scene.run_settings().formulation, Formulation::Reduced);
-    assert_eq!(ezy_core::Scene::from_toml(&text, "free.toml").unwrap().run_settings().formulation, Formulation::Dae);
-    let e = ezy_core::Scene::from_toml(&ask("reduce"), "free.toml").unwrap_err().to_string();
+    assert_eq!(ezy_scene::Scene::from_toml(&text, "free.toml").unwrap().run_settings().formulation, Formulation::Dae);
+    let e = ezy_scene::Scene::from_toml(&ask("reduce"), "free.toml").unwrap_err().to_string();
     assert!(e.starts_with("free.toml:13:") && e.contains("`reduce`") && e.contains("`dae`, `reduced`"), "{e}");
 }
 
@@ -360,7 +360,7 @@ fn a_skate_at_the_centre_of_mass_runs_and_a_small_angular_pivot_is_refused() {
 /// same trajectory as the DAE's and the constraints to rounding.
 #[test]
 fn a_deeper_tree_runs_on_its_minimal_coordinates() {
-    let scene = ezy_core::Scene::from_toml(
+    let scene = ezy_scene::Scene::from_toml(
         r#"
 name = "train"
 description = "tractor and two trailers coasting into a turn"
@@ -410,19 +410,22 @@ qd = { x1 = 1.0, y1 = 0.1 }
 /// is O(1).
 #[test]
 fn hinge_torques_compiled_in_match_the_generic_forces() {
-    use ezy_core::Scene;
     use ezy_core::effects::{EffectSpec, Waveform};
     use ezy_core::reduced::Reduced;
+    use ezy_scene::Scene;
+    use ezy_scene::SceneEffect;
     // the all-effects scene's four hinge laws at hinge B, alone and with
     // its force `wind`, made zero, beside them (the generic route)
     let all = Scene::from_toml(include_str!("data/all_effects.toml"), "all_effects.toml").unwrap();
-    let is_hinge = |e: &EffectSpec| {
+    let is_hinge = |e: &SceneEffect| {
         matches!(
             e,
-            EffectSpec::HingeMotor { .. }
-                | EffectSpec::HingeSpring { .. }
-                | EffectSpec::HingeDamper { .. }
-                | EffectSpec::HingeServo { .. }
+            SceneEffect::Builtin(
+                EffectSpec::HingeMotor { .. }
+                    | EffectSpec::HingeSpring { .. }
+                    | EffectSpec::HingeDamper { .. }
+                    | EffectSpec::HingeServo { .. }
+            )
         )
     };
     let mut hinges = all.clone();
@@ -430,7 +433,7 @@ fn hinge_torques_compiled_in_match_the_generic_forces() {
     assert_eq!(hinges.effects.len(), 4);
     let mut generic = hinges.clone();
     let mut wind = all.effects.iter().find(|(name, _)| name == "wind").unwrap().clone();
-    let EffectSpec::Force { fx, fy, .. } = &mut wind.1 else { panic!("`wind` is a force") };
+    let SceneEffect::Builtin(EffectSpec::Force { fx, fy, .. }) = &mut wind.1 else { panic!("`wind` is a force") };
     (*fx, *fy) = (Waveform::Constant(0.0), Waveform::Constant(0.0));
     generic.effects.push(wind);
     let t = 0.8;

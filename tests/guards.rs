@@ -10,8 +10,10 @@ use std::f64::consts::{FRAC_PI_2, PI};
 use common::Recorder;
 use common::build;
 use ezy_core::kkt::KktMethod;
-use ezy_core::{InitValue, Method, RunSettings, simulate};
+use ezy_core::{Method, RunSettings, simulate};
+
 use ezy_models::{ChaplyginSleigh, Pendulum, scenes};
+use ezy_scene::InitValue;
 
 /// `(K(k), sn(u, k))` for `0 <= k < 1` by the arithmetic-geometric mean and
 /// the descending Landen transformation (Abramowitz & Stegun 16.4, 17.6):

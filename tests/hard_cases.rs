@@ -7,8 +7,10 @@ use common::{build, setup};
 use ezy::RunOptions;
 use ezy::output::FIGURE_ROWS;
 use ezy_core::kkt::KktMethod;
-use ezy_core::{Dynamics, InitValue, Method, Model, ProjectionKind, RunSettings, simulate};
+use ezy_core::{Dynamics, Method, Model, ProjectionKind, RunSettings, simulate};
+
 use ezy_models::{EzyRoller, scenes};
+use ezy_scene::InitValue;
 
 /// A massless steering fork (m2 = I2 = 0): `M` is singular but the KKT
 /// matrix is regular. The automatic choice is the LU path, and
@@ -178,7 +180,7 @@ fn inconsistent_initial_conditions_are_projected_or_refused() {
     m.phi(&y0[..6], &mut phi);
     assert!(phi.iter().all(|c: &f64| c.abs() <= 1e-12), "{phi:?}");
 
-    let scene = ezy_core::Scene {
+    let scene = ezy_scene::Scene {
         model: "bar".into(),
         initial: Default::default(),
         figures: vec![],

@@ -72,14 +72,14 @@ fn starting_values_pick_the_assembly_branch() {
     let scene = scenes::get("four-bar");
     let mut crossed = scene.clone();
     crossed.initial.guess =
-        vec![("phi3".into(), ezy_core::InitValue::Num(-1.2)), ("phi4".into(), ezy_core::InitValue::Num(-1.9))];
+        vec![("phi3".into(), ezy_scene::InitValue::Num(-1.2)), ("phi4".into(), ezy_scene::InitValue::Num(-1.9))];
     let s = setup::<FourBar>(&crossed, &[]).unwrap();
     // the crossed branch: theta4 = 4.3762700 - 2 pi
     assert!((s.y0[8] - (4.37627 - std::f64::consts::TAU)).abs() < 1e-5, "crossed: phi4 = {}", s.y0[8]);
     assert_eq!(s.y0[2], 0.5);
     assert!(s.initial.notes()[0].contains("phi4 = -1.90"), "{:?}", s.initial.notes());
     let mut both = scene.clone();
-    both.initial.q.push(("phi3".into(), ezy_core::InitValue::Num(0.8)));
+    both.initial.q.push(("phi3".into(), ezy_scene::InitValue::Num(0.8)));
     let err = setup::<FourBar>(&both, &[]).unwrap_err().to_string();
     assert!(err.contains("`phi3` is given in `initial.q`, so it is fixed"), "{err}");
 }

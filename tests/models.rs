@@ -122,7 +122,9 @@ fn family_effects_expand_per_element() {
         ]
     );
     for (k, (_, spec)) in s.scene.effects[..4].iter().enumerate() {
-        let EffectSpec::HingeMotor { hinge, torque: Waveform::Sin(h) } = spec else { panic!("{spec:?}") };
+        let ezy_scene::SceneEffect::Builtin(EffectSpec::HingeMotor { hinge, torque: Waveform::Sin(h) }) = spec else {
+            panic!("{spec:?}")
+        };
         assert_eq!(hinge, &format!("J{}", k + 2));
         assert!((h.phase + k as f64 * std::f64::consts::FRAC_PI_2).abs() <= 1e-15 && h.phase_step == 0.0, "{h:?}");
     }
@@ -142,11 +144,14 @@ fn family_effect_errors_name_the_effect() {
     use crate::common::setup;
     let text = scenes::BUILTIN.iter().find(|(f, _)| *f == "snake.toml").unwrap().1;
     let bad = text.replace("hinge = \"J[*]\"\ntorque", "hinge = \"K[*]\"\ntorque");
-    let err = scenes::check(ezy_core::Scene::from_toml(&bad, "bad.toml").unwrap(), &bad, "bad.toml").unwrap_err();
+    let err = scenes::check(ezy_scene::Scene::from_toml(&bad, "bad.toml").unwrap(), &bad, "bad.toml").unwrap_err();
     let msg = err.to_string();
     assert!(msg.contains("effects.motor.hinge") && msg.contains("no hinge family `K`") && msg.contains("J2"), "{msg}");
     let mut scene = scenes::get("drive");
-    let ezy_core::EffectSpec::HingeMotor { torque: ezy_core::effects::Waveform::Cos(h), .. } = &mut scene.effects[0].1
+    let ezy_scene::SceneEffect::Builtin(ezy_core::EffectSpec::HingeMotor {
+        torque: ezy_core::effects::Waveform::Cos(h),
+        ..
+    }) = &mut scene.effects[0].1
     else {
         panic!("drive's motor is a cos waveform")
     };
@@ -268,7 +273,7 @@ fn drive_families_expand_and_their_errors_name_the_drive() {
         let text = format!(
             "name = \"s\"\ndescription = \"d\"\nmodel = \"snake_driven\"\nt_end = 1.0\n[initial]\nq = {{ x1 = 0.0, y1 = 0.0, phi1 = 0.0 }}\nqd = {{ x1 = 0.0, y1 = 0.0, phi1 = 0.0 }}\n{drives}"
         );
-        ezy_core::Scene::from_toml(&text, "s.toml").unwrap()
+        ezy_scene::Scene::from_toml(&text, "s.toml").unwrap()
     };
     let s =
         scene("[drives.\"D[*]\"]\nangle = { sin = { amplitude = 0.5, omega = 2.0, phase = 0.1, phase_step = -0.3 } }")

@@ -10,8 +10,10 @@ mod common;
 
 use common::build;
 use ezy_core::kkt::KktMethod;
-use ezy_core::{Dynamics, InitValue, Method, Model, Observer, ProjectionKind, RunSettings, Sample, simulate};
+use ezy_core::{Dynamics, Method, Model, Observer, ProjectionKind, RunSettings, Sample, simulate};
+
 use ezy_models::{EzyRoller, scenes};
+use ezy_scene::InitValue;
 use proptest::prelude::*;
 
 struct Worst {

@@ -7,8 +7,8 @@ mod common;
 use std::path::PathBuf;
 
 use ezy::RunOptions;
-use ezy_core::Scene;
 use ezy_models::scenes;
+use ezy_scene::{Scene, SceneEffect};
 
 fn tmp_dir(name: &str) -> PathBuf {
     let d = std::env::temp_dir().join(format!("ezy-scene-files-{}-{name}", std::process::id()));
@@ -347,11 +347,13 @@ fn review_cases_are_errors_with_names() {
 /// own key unbinds it, and a scene writes the names back.
 #[test]
 fn scene_parameters_give_numbers_that_set_changes() {
+    use ezy_core::EffectSpec;
     use ezy_core::effects::{Harmonic, Waveform};
-    use ezy_core::{Binding, EffectSpec};
+
+    use ezy_scene::Binding;
     let info = &scenes::model_info("ezyroller").unwrap();
     let motor = |s: &Scene| match &s.effects[0].1 {
-        EffectSpec::HingeMotor { torque: Waveform::Cos(h), .. } => *h,
+        SceneEffect::Builtin(EffectSpec::HingeMotor { torque: Waveform::Cos(h), .. }) => *h,
         other => panic!("{other:?}"),
     };
     let mut drive = scenes::drive();
@@ -433,8 +435,12 @@ fn scene_parameters_in_drives_defaults_and_families() {
     let info = &scenes::model_info("ezyroller").unwrap();
     scene.set(info, "rest", 0.2).unwrap();
     scene.set(info, "F0", 1.5).unwrap();
-    assert!(matches!(scene.effects[0].1, EffectSpec::HingeSpring { rest_angle, .. } if rest_angle == 0.2));
-    assert!(matches!(&scene.effects[1].1, EffectSpec::Force { fx: Waveform::Constant(f), .. } if *f == 1.5));
+    assert!(
+        matches!(scene.effects[0].1, SceneEffect::Builtin(EffectSpec::HingeSpring { rest_angle, .. }) if rest_angle == 0.2)
+    );
+    assert!(
+        matches!(&scene.effects[1].1, SceneEffect::Builtin(EffectSpec::Force { fx: Waveform::Constant(f), .. }) if *f == 1.5)
+    );
 
     // a family: the amplitude stays bound in every element, the phase step is baked in
     let snake = scenes::BUILTIN.iter().find(|(f, _)| *f == "snake.toml").unwrap().1;
@@ -452,7 +458,7 @@ fn scene_parameters_in_drives_defaults_and_families() {
     let phases: Vec<f64> = expanded.effects[..4]
         .iter()
         .map(|(_, e)| match e {
-            EffectSpec::HingeMotor { torque: Waveform::Sin(h), .. } => h.phase,
+            SceneEffect::Builtin(EffectSpec::HingeMotor { torque: Waveform::Sin(h), .. }) => h.phase,
             other => panic!("{other:?}"),
         })
         .collect();
@@ -462,7 +468,7 @@ fn scene_parameters_in_drives_defaults_and_families() {
     assert!(
         expanded.effects[..4]
             .iter()
-            .all(|(_, e)| matches!(e, EffectSpec::HingeMotor { torque: Waveform::Sin(h), .. } if h.amplitude == 0.9))
+            .all(|(_, e)| matches!(e, SceneEffect::Builtin(EffectSpec::HingeMotor { torque: Waveform::Sin(h), .. }) if h.amplitude == 0.9))
     );
 }
 
@@ -470,7 +476,8 @@ fn scene_parameters_in_drives_defaults_and_families() {
 /// everywhere else a string in an effect names a scene parameter.
 #[test]
 fn effects_hold_strings_only_at_their_name_keys() {
-    use ezy_core::effects::{EFFECT_KINDS, NAME_KEYS};
+    use ezy_core::effects::EFFECT_KINDS;
+    use ezy_scene::NAME_KEYS;
     let all = Scene::from_toml(include_str!("data/all_effects.toml"), "all_effects.toml").unwrap();
     let mut kinds: Vec<&str> = all.effects.iter().map(|(_, e)| e.kind()).collect();
     kinds.sort();

@@ -6,9 +6,11 @@ mod common;
 use common::{Recorder, max_abs};
 use common::{build, setup};
 use ezy_core::kkt::KktMethod;
-use ezy_core::{Baumgarte, Method, Model, ProjectionKind, RunSettings, Scene, simulate};
+use ezy_core::{Baumgarte, Method, Model, ProjectionKind, RunSettings, simulate};
+
 use ezy_models::scenes;
 use ezy_models::{ChaplyginSleigh, EzyRoller};
+use ezy_scene::Scene;
 
 fn run<M: Model + Default>(
     scene: &Scene,
@@ -218,11 +220,14 @@ fn overrides_reach_the_model_and_the_motor() {
         phase: 0.0,
         phase_step: 0.0,
     });
-    assert!(matches!(motor, ezy_core::EffectSpec::HingeMotor { torque, .. } if *torque == want), "{motor:?}");
+    assert!(
+        matches!(motor, ezy_scene::SceneEffect::Builtin(ezy_core::EffectSpec::HingeMotor { torque, .. }) if *torque == want),
+        "{motor:?}"
+    );
     // the full key path works too, and the scene given is not changed
     let s = setup::<EzyRoller>(&scene, &[("motor.torque.cos.omega".into(), 2.0)]).unwrap();
     assert!(
-        matches!(&s.scene.effects[0].1, ezy_core::EffectSpec::HingeMotor { torque: ezy_core::effects::Waveform::Cos(h), .. } if h.omega == 2.0)
+        matches!(&s.scene.effects[0].1, ezy_scene::SceneEffect::Builtin(ezy_core::EffectSpec::HingeMotor { torque: ezy_core::effects::Waveform::Cos(h), .. }) if h.omega == 2.0)
     );
     assert_eq!(scene, scenes::drive());
     let err = setup::<EzyRoller>(&scene, &[("mass".into(), 1.0)]).unwrap_err().to_string();

@@ -76,8 +76,10 @@ use common::Recorder;
 use common::build;
 use ezy_core::effects::{Harmonic, Waveform};
 use ezy_core::kkt::KktMethod;
-use ezy_core::{DriveSpec, Scene, simulate};
+use ezy_core::simulate;
+
 use ezy_models::{Snakeboard, scenes};
+use ezy_scene::{DriveSpec, Scene};
 
 /// Output interval of the full model [s].
 const EVERY: f64 = 0.01;

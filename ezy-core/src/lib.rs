@@ -7,14 +7,10 @@
 //! ([`effects::EffectKind`], [`effects::ForceLaw`]), consistent initial
 //! conditions and the step loop.
 
-// `::ezy_core` paths of `model!` expansions resolve inside this crate too.
-extern crate self as ezy_core;
-
 pub mod drive;
 pub mod dynamics;
 pub mod effects;
 mod error;
-pub mod files;
 pub mod guard;
 pub mod initial;
 pub mod integrator;
@@ -24,29 +20,21 @@ pub mod newton;
 pub mod problem;
 pub mod projection;
 pub mod reduced;
-pub mod registry;
 pub mod scalar;
-pub mod scene;
 pub mod simulate;
 
 pub use dynamics::{Baumgarte, Dynamics};
 pub use effects::{Effect, EffectSpec};
 pub use error::{LISTED, MASS_SPREAD_WARNING, SimError, advice, fmt_value, name_list};
-pub use ezy_derive::model;
 pub use integrator::Method;
 pub use model::{
-    BodyInfo, DriveInfo, EquationExpr, Equations, HingeInfo, MinimalLayout, MinimalRhsError, Model, ModelInfo,
-    NameIndex, ParamInfo, PointInfo, SkateInfo, SliderInfo,
+    BodyInfo, DriveInfo, EquationExpr, Equations, HingeInfo, InitialName, MinimalLayout, MinimalRhsError, Model,
+    ModelInfo, NameIndex, ParamInfo, PointInfo, SkateInfo, SliderInfo,
 };
 pub use problem::{Problem, Solution};
 pub use projection::ProjectionKind;
 pub use reduced::Formulation;
 pub use scalar::Scalar;
-pub use scene::{
-    Binding, Column, DEFAULT_DPI, DriveSpec, FigureFormat, FigureSpec, InitValue, Initial, InitialName,
-    IntegratorSettings, Line, MAX_DPI, MIN_DPI, OutputGroup, OutputSettings, Scene, SceneError, SceneFileError,
-    figure_stem,
-};
 pub use simulate::{Observer, RunError, RunSettings, SINGULAR_PERSIST_STEPS, Sample, Summary, simulate};
 
 /// A setting with a few named values (the integrator, the projection,
@@ -74,12 +62,18 @@ pub trait Choice: Copy + PartialEq + Send + Sync + 'static {
     }
 }
 
-/// The examples of the `model!` documentation (ezy-derive/src/model.md,
-/// shown at [`model!`]), run as doctests of this crate, where
-/// `ezy_core::model!` resolves: ezy-derive cannot depend on ezy-core.
-#[cfg(doctest)]
 #[doc = include_str!("../../ezy-derive/src/model.md")]
-pub struct ModelDocExamples;
+// A `macro_rules!` wrapper around the procedural macro, passing its
+// `$crate` as the path of this crate: the generated code names the runtime
+// however the user's crate depends on it (directly, through `ezy`'s
+// re-export, renamed). Its examples (ezy-derive/src/model.md) run as
+// doctests of this crate, where `ezy_core::model!` resolves.
+#[macro_export]
+macro_rules! model {
+    ($($model:tt)*) => {
+        $crate::__private::model_with_root! { @root($crate) $($model)* }
+    };
+}
 
 /// Paths the generated code uses; not public API.
 #[doc(hidden)]
@@ -90,28 +84,5 @@ pub mod __private {
         ModelInfo, ParamInfo, PointInfo, SkateInfo, SliderInfo, render_equation, unique_names,
     };
     pub use crate::scalar::Scalar;
-}
-
-#[cfg(test)]
-mod tests {
-    use super::Choice;
-
-    /// Scene files (serde) and the command line ([`Choice::name`]) spell
-    /// every value alike, and each name parses back to its value.
-    fn same_names<T: Choice + serde::Serialize + std::fmt::Debug>() {
-        for &v in T::ALL {
-            let serde_name = toml::Value::try_from(v).expect("a unit variant serializes");
-            assert_eq!(serde_name.as_str(), Some(v.name()), "{v:?}");
-            assert_eq!(T::parse(v.name()), Ok(v));
-            assert!(!v.help().is_empty());
-        }
-        assert!(T::parse("no-such").unwrap_err().contains(T::ALL[0].name()));
-    }
-
-    #[test]
-    fn choices_have_one_name_each() {
-        same_names::<crate::Method>();
-        same_names::<crate::ProjectionKind>();
-        same_names::<crate::Formulation>();
-    }
+    pub use ezy_derive::model as model_with_root;
 }

@@ -734,3 +734,27 @@ pub fn unique_names(info: &ModelInfo) -> Result<(), String> {
     )?;
     once("skate", info.skates.iter().map(|s| s.name.as_str()))
 }
+
+/// What a name of an initial value stands for in a model (a scene's
+/// `[initial] q` key, [`crate::Problem::q`]).
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub enum InitialName {
+    /// Coordinates, by index (one, or a family's for `stem*`).
+    Coords(Vec<usize>),
+    /// A hinge's angle, by the hinge's index.
+    HingeAngle(usize),
+}
+
+impl ModelInfo {
+    /// What `name` stands for as an initial value: coordinates (a name,
+    /// or `stem*` for a family), or `theta_<hinge>` a hinge angle (a
+    /// coordinate of that name wins); `None` for neither.
+    pub fn initial_name(&self, name: &str) -> Option<InitialName> {
+        let ks = self.coords_matching(name);
+        if !ks.is_empty() {
+            return Some(InitialName::Coords(ks));
+        }
+        let hinge = name.strip_prefix("theta_")?;
+        self.hinge_index(hinge).map(InitialName::HingeAngle)
+    }
+}

@@ -59,11 +59,11 @@ use crate::initial::{Given, InitialReport, consistent_state_given};
 use crate::kkt::KktMethod;
 use crate::model::{Model, ModelInfo, NameIndex};
 use crate::simulate::{Observer, RunError, RunSettings, Sample, Summary, simulate};
-use crate::{Baumgarte, Dynamics, Formulation, InitValue, Method, ProjectionKind, Scene, SimError};
+use crate::{Baumgarte, Dynamics, Formulation, Method, ProjectionKind, SimError};
 
 /// A model with its effects, drives, initial values and settings: what a
 /// run integrates. Build it in Rust ([`Problem::new`] and the builder
-/// methods) or from a scene ([`Problem::from_scene`]); solve it in memory
+/// methods) or from a scene file (`Scene::problem`, crate `ezy-scene`); solve it in memory
 /// ([`Problem::solve`]) or with an observer of your own
 /// ([`Problem::solve_with`]).
 #[derive(Debug, Clone)]
@@ -137,8 +137,12 @@ impl<M: Model> Observer<M> for Collect {
     }
 }
 
-/// Looks up `name` in `names`, or an [`SimError::UnknownName`] listing them.
-fn lookup<S: AsRef<str>>(info: &ModelInfo, kind: &'static str, name: &str, names: &[S]) -> Result<usize, SimError> {
+/// The index of `name` in `names`, the model's names of a `kind`
+/// (`"parameter"`, `"drive"`).
+///
+/// # Errors
+/// [`SimError::UnknownName`] listing `names`.
+pub fn lookup<S: AsRef<str>>(info: &ModelInfo, kind: &'static str, name: &str, names: &[S]) -> Result<usize, SimError> {
     names.iter().position(|n| n.as_ref() == name).ok_or_else(|| SimError::UnknownName {
         kind,
         name: name.into(),
@@ -150,7 +154,10 @@ fn lookup<S: AsRef<str>>(info: &ModelInfo, kind: &'static str, name: &str, names
 /// Refuses a mass diagonal with a negative, non-finite or vanishing-but-
 /// nonzero entry, and a massless part in a model too large for the dense
 /// LU path of the KKT matrix.
-fn check_masses<M: Model>(model: &M, info: &ModelInfo) -> Result<(), SimError> {
+///
+/// # Errors
+/// [`SimError::Setting`] naming the mass entry (`m1`, `I1`) and why.
+pub fn check_masses<M: Model>(model: &M, info: &ModelInfo) -> Result<(), SimError> {
     let mut mass = vec![0.0; info.nq()];
     model.mass_diagonal(&mut mass);
     for (k, &m) in mass.iter().enumerate() {
@@ -181,9 +188,11 @@ fn check_masses<M: Model>(model: &M, info: &ModelInfo) -> Result<(), SimError> {
 
 /// Which coordinates (or hinge) an initial value's name gives: a
 /// coordinate, `stem*` for every coordinate of a family, or `theta_<hinge>`.
-fn initial_targets(info: &ModelInfo, name: &str) -> Result<crate::InitialName, SimError> {
-    crate::Initial::resolve_name(info, name)
-        .ok_or_else(|| lookup(info, "coordinate", name, &info.coords).expect_err("not a coordinate"))
+///
+/// # Errors
+/// [`SimError::UnknownName`] listing the model's coordinates.
+pub fn initial_targets(info: &ModelInfo, name: &str) -> Result<crate::InitialName, SimError> {
+    info.initial_name(name).ok_or_else(|| lookup(info, "coordinate", name, &info.coords).expect_err("not a coordinate"))
 }
 
 impl<M: Model> Problem<M> {
@@ -471,88 +480,5 @@ fn set(list: &mut Vec<(usize, f64)>, k: usize, value: f64) {
     match list.iter_mut().find(|(j, _)| *j == k) {
         Some((_, v)) => *v = value,
         None => list.push((k, value)),
-    }
-}
-
-impl<M: Model + Default> Problem<M> {
-    /// The problem a scene describes for model `M`: the overrides `sets`
-    /// (scene parameters, model parameters, `EFFECT.KEY` numbers) applied,
-    /// the family counts set, the families expanded, every name and number
-    /// checked, the masses checked, the effects and drives resolved, the
-    /// initial values taken by name, the scene's settings. Returns the
-    /// scene as run (overrides applied, families expanded), whose output
-    /// columns and figures the caller draws.
-    ///
-    /// # Errors
-    /// [`SimError::UnknownName`] for an unknown override or name,
-    /// [`SimError::Scene`] for an override that breaks a scene key,
-    /// [`SimError::Setting`] for a bad mass, [`SimError::Effect`] for an
-    /// effect the model cannot take.
-    pub fn from_scene(scene: &Scene, sets: &[(String, f64)]) -> Result<(Self, Scene), SimError> {
-        let mut model = M::default();
-        let base = model.info();
-        let mut scene = scene.clone();
-        for (name, value) in sets {
-            scene.set(&base, name, *value)?;
-        }
-        let scene_error = |e: crate::SceneError| SimError::Scene { key: e.key(), message: e.message };
-        // counts first: they decide the coordinates the rest of the scene names
-        crate::registry::set_counts(&mut model, &scene.params).map_err(scene_error)?;
-        let info = &model.info();
-        let scene = scene.expand_families(info).map_err(scene_error)?;
-        scene.check(info).map_err(scene_error)?;
-        for (name, value) in &scene.params {
-            model.set_param(info.param_index(name).expect("checked"), *value);
-        }
-        let value = |v: &InitValue| -> Result<f64, SimError> {
-            match v {
-                InitValue::Num(x) => Ok(*x),
-                InitValue::Param(p) => Ok(model.param(lookup(
-                    info,
-                    "parameter",
-                    p,
-                    &info.params.iter().map(|p| p.name).collect::<Vec<_>>(),
-                )?)),
-            }
-        };
-        // a name, `stem*` for every coordinate of a family, or `theta_<hinge>`
-        // (positions only); a later entry overrides an earlier one (`"phi*" =
-        // 0.0, phi3 = 0.5`)
-        type Values = Vec<(usize, f64)>;
-        let given = |list: &[(String, InitValue)]| -> Result<(Values, Values), SimError> {
-            let mut value_of: Vec<Option<f64>> = vec![None; info.nq()];
-            let mut angle_of: Vec<Option<f64>> = vec![None; info.hinges.len()];
-            for (name, v) in list {
-                let x = value(v)?;
-                match initial_targets(info, name)? {
-                    crate::InitialName::Coords(ks) => ks.into_iter().for_each(|k| value_of[k] = Some(x)),
-                    crate::InitialName::HingeAngle(h) => angle_of[h] = Some(x),
-                }
-            }
-            let listed =
-                |v: Vec<Option<f64>>| v.into_iter().enumerate().filter_map(|(k, v)| v.map(|x| (k, x))).collect();
-            Ok((listed(value_of), listed(angle_of)))
-        };
-        let (given_q, angles) = given(&scene.initial.q)?;
-        let (given_qd, _) = given(&scene.initial.qd)?;
-        let (guess, _) = given(&scene.initial.guess)?;
-        if let Some(&(k, _)) = guess.iter().find(|(k, _)| given_q.iter().any(|(j, _)| j == k)) {
-            return Err(SimError::Scene {
-                key: format!("initial.guess.{}", info.coords[k]),
-                message: format!(
-                    "`{}` is given in `initial.q`, so it is fixed; a starting value is for a coordinate the constraints determine",
-                    info.coords[k]
-                ),
-            });
-        }
-        check_masses(&model, info)?;
-        let names = NameIndex::new(info);
-        let cx = EffectContext::new(&model, &names).with_scene_params(&scene.scene_params);
-        let effects = scene.effects.iter().map(|(n, e)| e.resolve_in(n, &cx)).collect::<Result<Vec<_>, _>>()?;
-        let drives = scene.resolve_drives(info);
-        let given = Given { q: given_q, qd: given_qd, angles, guess };
-        let settings = scene.run_settings();
-        let problem = Problem { model, effects, drives, given, settings, baumgarte: None, kkt: KktMethod::Auto };
-        Ok((problem, scene))
     }
 }

@@ -579,40 +579,29 @@ fn index_marker(k: usize) -> String {
     format!("\u{3}{k}\u{4}")
 }
 
-/// The path of the runtime crate as the user's crate names it, found at
-/// expansion time from the user's `Cargo.toml` (never from what the user
-/// imported): `ezy-core` if it is a dependency (`::ezy_core`, or its
-/// renamed name), else `ezy` (`::ezy`, which re-exports the runtime).
-/// Inside `ezy-core` itself, `::ezy_core` resolves through its
-/// `extern crate self as ezy_core`, and likewise `::ezy` inside `ezy`.
-///
-/// # Errors
-/// A message for the user when neither crate is a dependency.
-pub fn runtime_root() -> Result<TokenStream, String> {
-    use proc_macro_crate::{FoundCrate, crate_name};
-    let named = |found: FoundCrate, own: &str| -> TokenStream {
-        let name = match found {
-            FoundCrate::Itself => own.to_string(),
-            FoundCrate::Name(n) => n,
-        };
-        let id = proc_macro2::Ident::new(&name, proc_macro2::Span::call_site());
-        quote!(::#id)
-    };
-    if let Ok(found) = crate_name("ezy-core") {
-        return Ok(named(found, "ezy_core"));
-    }
-    match crate_name("ezy") {
-        Ok(found) => Ok(named(found, "ezy")),
-        Err(e) => Err(format!(
-            "`model!` needs the `ezy` crate (or `ezy-core`) as a dependency of this crate: add `ezy` to [dependencies] in Cargo.toml ({e})"
-        )),
-    }
+thread_local! {
+    /// The runtime crate's path for the expansion under way ([`with_root`]).
+    static ROOT: std::cell::RefCell<TokenStream> = std::cell::RefCell::new(quote!(::ezy_core));
 }
 
-/// `ROOT::__private`, the paths the generated code uses (see [`runtime_root`]).
+/// Runs `f` with `root` as the path of the runtime crate: the `$crate` of
+/// the `model!` the user called (`ezy_core::model!`, re-exported as
+/// `ezy::model!`, passes its own), so the generated code names the crate
+/// that defined the macro however the user depends on it (directly,
+/// through `ezy`, renamed), without reading their `Cargo.toml`.
+pub fn with_root<T>(root: TokenStream, f: impl FnOnce() -> T) -> T {
+    let old = ROOT.with(|r| r.replace(root));
+    let out = f();
+    ROOT.with(|r| r.replace(old));
+    out
+}
+
+/// `ROOT::__private`, the paths the generated code uses (see [`with_root`]).
 fn runtime() -> TokenStream {
-    let root = runtime_root().unwrap_or_else(|_| quote!(::ezy));
-    quote!(#root::__private)
+    ROOT.with(|r| {
+        let root = r.borrow().clone();
+        quote!(#root::__private)
+    })
 }
 
 /// The whole expansion.

@@ -22,16 +22,37 @@ mod parse;
 #[cfg_attr(not(test), allow(dead_code))]
 mod sym;
 
-// The whole documentation of the macro, shown here and, inlined, at the
-// re-exports `ezy_core::model!` and `ezy::model!`. Its examples use
-// `ezy_core::model!`, which this crate cannot depend on, so they run as
-// doctests of ezy-core (`ModelDocExamples` in ezy-core/src/lib.rs) and this
-// crate's doctests are off (`doctest = false` in its Cargo.toml).
-#[doc = include_str!("model.md")]
+// The whole documentation of the macro is at `ezy_core::model!` (the
+// `macro_rules!` wrapper users call, which passes its `$crate` as the
+// runtime's path: `@root($crate)`); its examples run as doctests of
+// ezy-core, since this crate cannot depend on ezy-core (`doctest = false`
+// in its Cargo.toml).
+/// The `model!` procedural macro: called through `ezy_core::model!` (or
+/// `ezy::model!`), whose documentation gives the language. The input may
+/// begin with `@root(PATH)`, the runtime crate's path (default
+/// `::ezy_core`).
 #[proc_macro]
 pub fn model(input: TokenStream) -> TokenStream {
-    let def = syn::parse_macro_input!(input as ast::ModelDef);
-    expand(&def).unwrap_or_else(|e| e.to_compile_error()).into()
+    let (root, input) = split_root(input.into());
+    let def = match syn::parse2::<ast::ModelDef>(input) {
+        Ok(def) => def,
+        Err(e) => return e.to_compile_error().into(),
+    };
+    emit::with_root(root, || expand(&def)).unwrap_or_else(|e| e.to_compile_error()).into()
+}
+
+/// Splits a leading `@root(PATH)` off the input: the path and the rest.
+fn split_root(input: proc_macro2::TokenStream) -> (proc_macro2::TokenStream, proc_macro2::TokenStream) {
+    use proc_macro2::{Delimiter, TokenTree};
+    let tokens: Vec<TokenTree> = input.clone().into_iter().collect();
+    if let [TokenTree::Punct(at), TokenTree::Ident(root), TokenTree::Group(path), ..] = &tokens[..]
+        && at.as_char() == '@'
+        && root == "root"
+        && path.delimiter() == Delimiter::Parenthesis
+    {
+        return (path.stream(), tokens[3..].iter().cloned().collect());
+    }
+    (quote::quote!(::ezy_core), input)
 }
 
 fn expand(def: &ast::ModelDef) -> syn::Result<proc_macro2::TokenStream> {
@@ -39,6 +60,5 @@ fn expand(def: &ast::ModelDef) -> syn::Result<proc_macro2::TokenStream> {
     let resolved = check::check(def, &mut errs);
     let mut derived = kinematics::derive(def, &resolved, &mut errs);
     errs.finish()?;
-    emit::runtime_root().map_err(|msg| syn::Error::new(def.name.span(), msg))?;
     Ok(emit::emit(def, &resolved, &mut derived))
 }

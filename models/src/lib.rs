@@ -16,7 +16,7 @@ mod snakeboard;
 mod trailer;
 
 pub use chaplygin_sleigh::ChaplyginSleigh;
-use ezy_core::registry::{InfoOnly, Register};
+use ezy_scene::registry::{InfoOnly, Register};
 pub use ezyroller::EzyRoller;
 pub use ezyroller_driven::EzyRollerDriven;
 pub use mechanisms::{DoublePendulum, ElasticFourBar, FourBar, NFourBar, Pendulum, SliderCrank};

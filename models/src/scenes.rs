@@ -3,9 +3,11 @@
 //! checking against the built-in models (the `ezy` crate's `App` loads
 //! scene files given by path, and a user's scenes, against its own table).
 
-pub use ezy_core::registry::SceneSource;
-use ezy_core::registry::{ModelCatalog, check_scene};
-use ezy_core::{ModelInfo, Scene, SceneError, SceneFileError};
+use ezy_core::ModelInfo;
+pub use ezy_scene::registry::SceneSource;
+use ezy_scene::registry::{ModelCatalog, check_scene};
+
+use ezy_scene::{Scene, SceneError, SceneFileError};
 
 /// `(file name, text)` of every built-in scene, in the order `ezy list`
 /// shows them.

@@ -4,9 +4,9 @@
 use std::path::PathBuf;
 use std::time::{Duration, Instant};
 
-use ezy_core::{
-    Baumgarte, Dynamics, Method, Model, Problem, ProjectionKind, RunError, RunSettings, Scene, SimError, Summary,
-};
+use ezy_core::{Baumgarte, Dynamics, Method, Model, Problem, ProjectionKind, RunError, RunSettings, SimError, Summary};
+
+use ezy_scene::Scene;
 
 use crate::figures::FigureError;
 use crate::output::{CsvObserver, OutputError, RowBuilder, Table};
@@ -91,7 +91,7 @@ pub struct RunOptions {
     /// Draw the scene's figures.
     pub figures: bool,
     /// File format of the figures (`None`: the scene's `output.figure_format`).
-    pub figure_format: Option<ezy_core::FigureFormat>,
+    pub figure_format: Option<ezy_scene::FigureFormat>,
     /// Resolution of PNG figures \[dpi\] (`None`: the scene's `output.dpi`).
     pub dpi: Option<f64>,
     /// Also write `report.html` (see [`crate::report`]).
@@ -185,13 +185,13 @@ pub fn settings(scene: &Scene, opts: &RunOptions) -> Result<RunSettings, SimErro
 /// here, so a sweep's run is the single run, number for number.
 ///
 /// # Errors
-/// As [`Problem::from_scene`].
+/// As [`ezy_scene::Scene::problem`].
 pub fn problem<M: Model + Default>(
     scene: &Scene,
     opts: &RunOptions,
     settings: RunSettings,
 ) -> Result<(Problem<M>, Scene), SimError> {
-    let (mut problem, scene) = Problem::<M>::from_scene(scene, &opts.sets)?;
+    let (mut problem, scene) = scene.problem::<M>(&opts.sets)?;
     problem.settings = settings;
     problem.baumgarte = opts.baumgarte;
     Ok((problem, scene))
@@ -305,7 +305,7 @@ pub fn run_model_tapped<M: Model + Default>(
                 tx.write(&format.file_name(&fig.file), &bytes)?;
                 // the report shows the same drawing
                 if opts.report {
-                    drawn_svgs.push((ezy_core::figure_stem(&fig.file).to_string(), Ok(svg)));
+                    drawn_svgs.push((ezy_scene::figure_stem(&fig.file).to_string(), Ok(svg)));
                 }
             }
         }

@@ -2,7 +2,7 @@
 //! figure's column function of columns) reduced over a time window, as the
 //! run goes (no table is kept).
 
-use ezy_core::Column;
+use ezy_scene::Column;
 
 /// How a metric reduces its column over the window.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -76,7 +76,7 @@ impl std::str::FromStr for Metric {
                 "metric `{text}`: expected FUNC(COLUMN) or FUNC(COLUMN, T0, T1) with FUNC mean, max, min or final, e.g. `mean(norm(x1d, y1d), 50, 60)`"
             )
         };
-        if let Some(why) = ezy_core::scene::unbalanced_parentheses(text) {
+        if let Some(why) = ezy_scene::scene::unbalanced_parentheses(text) {
             return Err(format!("metric `{text}`: {why}"));
         }
         let open = text.find('(').ok_or_else(usage)?;

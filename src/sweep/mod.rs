@@ -40,7 +40,9 @@ use std::sync::Mutex;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::{Duration, Instant};
 
-use ezy_core::{Dynamics, Model, Observer, RunError, Sample, Scene, SimError};
+use ezy_core::{Dynamics, Model, Observer, RunError, Sample, SimError};
+
+use ezy_scene::Scene;
 
 pub use metric::Metric;
 pub use plan::Plan;
@@ -264,7 +266,7 @@ fn check<M: Model + Default>(job: &SweepJob) -> Result<Checked, String> {
         let name = &job.plan.axes[k].name;
         let mut sum = 0f64;
         for v in job.plan.fixed_iter(k).expect("a fixed axis") {
-            ezy_core::scene::check_count(name, v).map_err(|e| format!("{}: {}", axis_flag(job, name), e.message))?;
+            ezy_scene::scene::check_count(name, v).map_err(|e| format!("{}: {}", axis_flag(job, name), e.message))?;
             sum += v;
         }
         // every value of this axis meets every combination of the others
@@ -306,7 +308,7 @@ fn check<M: Model + Default>(job: &SweepJob) -> Result<Checked, String> {
         for (&k, &v) in counts.iter().zip(&tuple) {
             sets.push((job.plan.axes[k].name.clone(), v));
         }
-        match ezy_core::Problem::<M>::from_scene(&job.scene, &sets) {
+        match job.scene.problem::<M>(&sets) {
             Ok((p, scene)) => {
                 for n in p.state_names() {
                     if seen.insert(n.clone()) {
@@ -422,8 +424,7 @@ fn one_run<M: Model + Default>(
     if let Some(dir) = save {
         let opts = RunOptions { out: dir, figures: true, progress: false, ..opts.clone() };
         // the metrics need the row layout: from the configured scene
-        let (layout, scene) =
-            ezy_core::Problem::<M>::from_scene(&job.scene, &opts.sets).map_err(|e| Ok(e.to_string()))?;
+        let (layout, scene) = job.scene.problem::<M>(&opts.sets).map_err(|e| Ok(e.to_string()))?;
         let cols = scene.columns(&layout.model.info());
         let accs = job.metrics.iter().map(|m| metric::Accumulator::new(m, &cols)).collect::<Result<_, _>>();
         let mut tap = Tap::new(accs.map_err(Ok)?);

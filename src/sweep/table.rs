@@ -42,7 +42,7 @@ impl Manifest {
             }
             Ok(_) => {}
         }
-        let text = ezy_core::files::read_capped_text(&path, 1 << 20, "a sweep definition")
+        let text = ezy_scene::files::read_capped_text(&path, 1 << 20, "a sweep definition")
             .map_err(|e| format!("{}: {e}", path.display()))?;
         toml::from_str(&text).map(Some).map_err(|e| format!("{}: not a sweep definition: {e}", path.display()))
     }
@@ -147,7 +147,7 @@ impl Rows {
     fn open(path: &Path, len: Option<u64>, header: Option<&[String]>) -> Result<(Self, Vec<String>), String> {
         let file = crate::transaction::no_follow(OpenOptions::new().read(true))
             .open(path)
-            .map_err(|e| ezy_core::files::io_message(path, &e, &format!("cannot open {}", path.display())))?;
+            .map_err(|e| ezy_scene::files::io_message(path, &e, &format!("cannot open {}", path.display())))?;
         let len = match len {
             Some(l) => l,
             None => file.metadata().map_err(|e| io(path, e))?.len(),
@@ -297,7 +297,7 @@ impl Output {
         let exists = std::fs::symlink_metadata(&path).is_ok();
         let mut file = crate::transaction::no_follow(OpenOptions::new().read(true).append(true).create(true))
             .open(&path)
-            .map_err(|e| ezy_core::files::io_message(&path, &e, &format!("cannot open {}", path.display())))?;
+            .map_err(|e| ezy_scene::files::io_message(&path, &e, &format!("cannot open {}", path.display())))?;
         if !file.metadata().map_err(|e| io(&path, e))?.is_file() {
             return Err(format!("{} is not a regular file", path.display()));
         }

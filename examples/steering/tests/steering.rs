@@ -3,9 +3,9 @@
 //! with the same result, closing the energy ledger, under RADAU5, through
 //! `--set`, with its mistakes placed in the file.
 
-use ezy::Problem;
+use ezy::Scene;
 use ezy::effects::{EffectKind, ForceLaw};
-use ezy::ezy_core::{Method, Scene};
+use ezy::ezy_core::Method;
 use ezy::models::EzyRoller;
 use steering::{Steering, app, steer_in_rust};
 
@@ -27,7 +27,7 @@ fn scene() -> Scene {
 /// run being 1e-10 m).
 #[test]
 fn the_scene_and_the_closure_give_the_same_final_state() {
-    let from_file = Problem::<EzyRoller>::from_scene(&scene(), &[]).unwrap().0.solve().unwrap();
+    let from_file = scene().problem::<EzyRoller>(&[]).unwrap().0.solve().unwrap();
     let from_rust = steer_in_rust(20.0, 0.5).unwrap().solve().unwrap();
     assert_eq!(from_file.names, from_rust.names);
     assert_eq!(from_file.t.len(), 1001, "samples every 0.01 s to 10 s");
@@ -48,7 +48,7 @@ fn the_scene_and_the_closure_give_the_same_final_state() {
 /// here) would miss by tenths of a joule.
 #[test]
 fn the_energy_ledger_closes_with_the_laws_power() {
-    let s = Problem::<EzyRoller>::from_scene(&scene(), &[]).unwrap().0.solve().unwrap();
+    let s = scene().problem::<EzyRoller>(&[]).unwrap().0.solve().unwrap();
     let (t0, t1) = (s.kinetic_energy[0], *s.kinetic_energy.last().unwrap());
     let w = *s.column("W_steer").unwrap().last().unwrap();
     assert!(w.abs() > 0.1, "the controller does work: W = {w} J");
@@ -64,7 +64,7 @@ fn the_energy_ledger_closes_with_the_laws_power() {
 #[test]
 fn radau5_runs_the_users_law() {
     let run = |m: Method| {
-        let mut p = Problem::<EzyRoller>::from_scene(&scene(), &[]).unwrap().0.t_end(2.0).method(m);
+        let mut p = scene().problem::<EzyRoller>(&[]).unwrap().0.t_end(2.0).method(m);
         p = p.tolerances(1e-8, 1e-8);
         p.solve().unwrap()
     };
@@ -80,12 +80,12 @@ fn radau5_runs_the_users_law() {
 #[test]
 fn set_changes_the_laws_numbers() {
     let with = |name: &str| {
-        let (p, scene) = Problem::<EzyRoller>::from_scene(&scene(), &[(name.into(), 5.0)]).unwrap();
+        let (p, scene) = scene().problem::<EzyRoller>(&[(name.into(), 5.0)]).unwrap();
         (p.t_end(1.0).solve().unwrap().final_state().to_vec(), scene)
     };
     let (by_key, scene_k) = with("steer.k");
     let (by_param, _) = with("K");
-    let base = Problem::<EzyRoller>::from_scene(&scene(), &[]).unwrap().0.t_end(1.0).solve().unwrap();
+    let base = scene().problem::<EzyRoller>(&[]).unwrap().0.t_end(1.0).solve().unwrap();
     assert_eq!(by_key, by_param, "steer.k = 5 and K = 5 are the same run");
     assert_ne!(by_key, base.final_state(), "k = 5 is another run than k = 20");
     let toml = scene_k.to_toml();

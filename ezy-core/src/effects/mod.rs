@@ -20,8 +20,8 @@ mod waveform;
 
 use std::sync::Arc;
 
-use serde::{Deserialize, Deserializer, Serialize, Serializer};
-pub use user::{Controller, EffectKind, EffectKinds, ForceLaw, KindHandle, UserSpec};
+use serde::{Deserialize, Serialize};
+pub use user::{Controller, EffectKind, ForceLaw, UserSpec};
 pub use waveform::{Harmonic, Spline, SplineData, Table, Waveform};
 
 use crate::SimError;
@@ -71,7 +71,7 @@ pub enum Frame {
 /// in SI units. The built-in kinds, with their force laws, and the kinds
 /// of the user's own ([`EffectSpec::User`]):
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[serde(remote = "Self", tag = "kind", rename_all = "kebab-case", deny_unknown_fields)]
+#[serde(tag = "kind", rename_all = "kebab-case", deny_unknown_fields)]
 pub enum EffectSpec {
     /// Hinge motor: torque `tau(t)` \[N m\] given by a waveform, `+tau` on the
     /// hinge's first body, `-tau` on the second (the `drive` scene's motor,
@@ -266,55 +266,12 @@ pub enum EffectSpec {
         #[serde(default, skip_serializing_if = "is_zero")]
         c_rot: f64,
     },
-    /// A kind of the user's own ([`EffectKind`]): any `kind` that is not
-    /// built in reads as this, and is checked against the kinds the
-    /// application registered when the scene is bound to them
-    /// ([`crate::Scene::bind_kinds`]).
+    /// A kind of the user's own ([`EffectKind`]), its value read and
+    /// checked by its type. Serde skips it: a scene file reads a table of
+    /// such a kind through the kinds an application registers (crate
+    /// `ezy-scene`), which gives this value.
     #[serde(skip)]
     User(UserSpec),
-}
-
-// A table whose `kind` is built in reads as that variant (the derived,
-// internally tagged form); any other kind is kept as the table, for the
-// application's kinds to read.
-impl<'de> Deserialize<'de> for EffectSpec {
-    fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
-        use serde::de::Error as _;
-        let mut table = toml::Table::deserialize(d)?;
-        let kind = match table.get("kind") {
-            None => return Err(D::Error::missing_field("kind")),
-            Some(toml::Value::String(k)) => k.clone(),
-            Some(other) => {
-                return Err(D::Error::custom(format!(
-                    "`kind` must be a string naming the effect kind, got {}",
-                    other.type_str()
-                )));
-            }
-        };
-        if EFFECT_KINDS.contains(&kind.as_str()) {
-            return EffectSpec::deserialize(toml::Value::Table(table))
-                .map_err(|e: toml::de::Error| D::Error::custom(e.message().trim()));
-        }
-        table.remove("kind");
-        Ok(EffectSpec::User(UserSpec { kind, params: table, handle: None }))
-    }
-}
-
-impl Serialize for EffectSpec {
-    fn serialize<S: Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
-        use serde::ser::SerializeMap as _;
-        match self {
-            EffectSpec::User(u) => {
-                let mut map = s.serialize_map(Some(u.params.len() + 1))?;
-                map.serialize_entry("kind", &u.kind)?;
-                for (k, v) in &u.params {
-                    map.serialize_entry(k, v)?;
-                }
-                map.end()
-            }
-            builtin => EffectSpec::serialize(builtin, s),
-        }
-    }
 }
 
 /// The kinds a scene file may name, as it spells them.
@@ -336,13 +293,6 @@ pub const EFFECT_KINDS: &[&str] = &[
     "anisotropic-drag",
 ];
 
-/// The keys of an `[effects.NAME]` table whose values are names (the kind,
-/// the model's hinges, skates, bodies and points, the frame) rather than
-/// numbers. Every other value in an effect is a number or holds numbers,
-/// so a string there names a scene parameter (`amplitude = "M0"`, see
-/// [`crate::Scene::from_toml`]).
-pub const NAME_KEYS: &[&str] = &["kind", "hinge", "skate", "body", "at", "frame", "from", "to", "bodies"];
-
 /// Checks an effect's name: letters, digits and `_`, since it names the
 /// columns `W_<name>` and `F_<name>`/`tau_<name>` (scene files and
 /// [`crate::Problem`] alike).
@@ -354,13 +304,6 @@ pub fn check_effect_name(name: &str) -> Result<(), String> {
         return Err(format!("effect name `{name}` must be letters, digits and _ (it names the column W_{name})"));
     }
     Ok(())
-}
-
-/// The known kinds as an error lists them: the built-in ones and `user`.
-pub(crate) fn known_kinds(user: &[&str]) -> String {
-    let mut all: Vec<&str> = EFFECT_KINDS.to_vec();
-    all.extend_from_slice(user);
-    format!("known kinds: {}", crate::name_list(all))
 }
 
 /// A name in an effect that the model does not have, or a bad number.
@@ -419,7 +362,7 @@ impl EffectSpec {
     /// The kind as a scene file spells it.
     pub fn kind(&self) -> &str {
         match self {
-            Self::User(u) => &u.kind,
+            Self::User(u) => u.kind(),
             Self::HingeMotor { .. } => "hinge-motor",
             Self::HingeSpring { .. } => "hinge-spring",
             Self::HingeDamper { .. } => "hinge-damper",
@@ -456,18 +399,6 @@ impl EffectSpec {
         }
     }
 
-    /// This spec, bound to the kind `from` is bound to when both are of
-    /// the same kind of the user's own (a spec read back from its TOML
-    /// form, by `--set` or a family's expansion, is not bound).
-    pub fn inherit_kind(mut self, from: &EffectSpec) -> Self {
-        if let (EffectSpec::User(u), EffectSpec::User(f)) = (&mut self, from)
-            && u.kind == f.kind
-        {
-            u.handle = f.handle.clone();
-        }
-        self
-    }
-
     /// Checks names against the model and numbers against their ranges.
     ///
     /// # Errors
@@ -502,7 +433,8 @@ impl EffectSpec {
                 .ok_or_else(|| unknown(field, "body", b, model, info.bodies.iter().map(|k| k.name.as_str()).collect()))
         };
         match self {
-            Self::User(u) => u.check(&known_kinds(&[])),
+            // read and checked by its type; its names are checked as it resolves
+            Self::User(_) => Ok(()),
             Self::HingeMotor { hinge: h, torque } => {
                 hinge(h)?;
                 wave("torque", torque)
@@ -752,7 +684,7 @@ impl EffectSpec {
             Self::LinearDrag { body, c, c_rot } => Law::Drag { body: body_of(&body), c, c_rot, quadratic: false },
             Self::QuadraticDrag { body, c, c_rot } => Law::Drag { body: body_of(&body), c, c_rot, quadratic: true },
             Self::User(u) => {
-                let law = u.resolve(cx, &known_kinds(&[])).map_err(|e| SimError::Effect {
+                let law = u.resolve(cx).map_err(|e| SimError::Effect {
                     effect: name.to_string(),
                     field: e.field,
                     message: e.message,

@@ -1,7 +1,7 @@
 //! Force laws of the user's own: a trait for the law the right-hand side
-//! calls ([`ForceLaw`]), a trait for its scene-file form ([`EffectKind`]),
-//! the table of kinds an application knows ([`EffectKinds`]), and a
-//! closure as a law ([`Controller`]).
+//! calls ([`ForceLaw`]), a trait for its serialized form ([`EffectKind`]:
+//! the fields a scene file's table gives, read by serde), an effect of
+//! such a kind ([`UserSpec`]), and a closure as a law ([`Controller`]).
 //!
 //! A law of the user's own gets what a built-in effect gets: its work
 //! state `W_<name>` closes the energy ledger with the power it returns,
@@ -13,7 +13,6 @@
 //! costs one virtual call per evaluation.
 
 use std::fmt;
-use std::marker::PhantomData;
 use std::sync::Arc;
 
 use serde::Serialize;
@@ -58,11 +57,12 @@ pub trait ForceLaw: Send + Sync + fmt::Debug + 'static {
 /// An effect kind of the user's own, as scene files write it: the fields
 /// of its `[effects.NAME]` table (read through serde, `kind` excepted)
 /// and how they resolve against a model. Register it with
-/// `App::effect::<T>("my-kind")` (crate `ezy`) or [`EffectKinds::add`].
+/// `App::effect::<T>("my-kind")` (crate `ezy`) or `EffectKinds::add`
+/// (crate `ezy-scene`); in Rust, pass a value to `Problem::kind`.
 ///
-/// Strings in the table are names only under the keys
-/// [`super::NAME_KEYS`] (`hinge`, `skate`, `body`, `at`, `from`, `to`,
-/// ...); in any other key a string names a scene parameter
+/// Strings in a scene file's table are names only under the name keys
+/// (`hinge`, `skate`, `body`, `at`, `frame`, `from`, `to`, `bodies`,
+/// `ezy_scene::NAME_KEYS`); in any other key a string names a scene parameter
 /// (`k = "K0"` with `[scene_params] K0 = 2.0`). A key `hinge`, `skate` or
 /// `at` written `"J[*]"` makes one effect per element of the family.
 ///
@@ -130,154 +130,64 @@ pub trait EffectKind: Serialize + DeserializeOwned + Clone + fmt::Debug + Send +
     fn resolve(&self, cx: &EffectContext<'_>) -> Result<Self::Law, SpecError>;
 }
 
-/// An [`EffectKind`] without its type: what a scene's effect of that kind
-/// holds, shared by every effect of the kind.
-trait ErasedKind: Send + Sync {
+/// An [`EffectKind`] value without its type.
+trait BoundKind: fmt::Debug + Send + Sync {
     fn value_prefix(&self) -> &'static str;
-    fn check(&self, params: &toml::Table) -> Result<(), SpecError>;
-    fn resolve(&self, params: &toml::Table, cx: &EffectContext<'_>) -> Result<Arc<dyn ForceLaw>, SpecError>;
+    fn resolve(&self, cx: &EffectContext<'_>) -> Result<Arc<dyn ForceLaw>, SpecError>;
 }
 
-struct Typed<T>(PhantomData<fn() -> T>);
-
-impl<T: EffectKind> Typed<T> {
-    fn parse(params: &toml::Table) -> Result<T, SpecError> {
-        toml::Value::Table(params.clone())
-            .try_into()
-            .map_err(|e: toml::de::Error| SpecError { field: "", message: e.message().trim().to_string() })
-    }
-}
-
-impl<T: EffectKind> ErasedKind for Typed<T> {
+impl<T: EffectKind> BoundKind for T {
     fn value_prefix(&self) -> &'static str {
         T::VALUE_PREFIX
     }
-    fn check(&self, params: &toml::Table) -> Result<(), SpecError> {
-        Self::parse(params).map(|_| ())
-    }
-    fn resolve(&self, params: &toml::Table, cx: &EffectContext<'_>) -> Result<Arc<dyn ForceLaw>, SpecError> {
-        Ok(Arc::new(Self::parse(params)?.resolve(cx)?))
+    fn resolve(&self, cx: &EffectContext<'_>) -> Result<Arc<dyn ForceLaw>, SpecError> {
+        Ok(Arc::new(EffectKind::resolve(self, cx)?))
     }
 }
 
-/// A registered kind: its name and its type's functions.
-#[derive(Clone)]
-pub struct KindHandle {
-    name: Arc<str>,
-    kind: Arc<dyn ErasedKind>,
-}
-
-impl fmt::Debug for KindHandle {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        write!(f, "KindHandle({})", self.name)
-    }
-}
-
-/// The effect kinds of the user's own an application knows, by the name
-/// scene files give in `kind = "..."`.
-#[derive(Debug, Clone, Default)]
-pub struct EffectKinds {
-    kinds: Vec<KindHandle>,
-}
-
-impl EffectKinds {
-    /// Registers kind `T` as `name`.
-    ///
-    /// # Errors
-    /// A message if `name` is a built-in kind ([`super::EFFECT_KINDS`]),
-    /// is already registered, or is not lowercase letters, digits and `-`.
-    pub fn add<T: EffectKind>(&mut self, name: &str) -> Result<(), String> {
-        if name.is_empty() || !name.chars().all(|c| c.is_ascii_lowercase() || c.is_ascii_digit() || c == '-') {
-            return Err(format!(
-                "effect kind `{name}` must be lowercase letters, digits and - (as scene files write it)"
-            ));
-        }
-        if super::EFFECT_KINDS.contains(&name) {
-            return Err(format!("effect kind `{name}` is a built-in kind: give yours another name"));
-        }
-        if self.get(name).is_some() {
-            return Err(format!("effect kind `{name}` is registered twice"));
-        }
-        self.kinds.push(KindHandle { name: name.into(), kind: Arc::new(Typed::<T>(PhantomData)) });
-        Ok(())
-    }
-
-    /// The kind registered as `name`.
-    pub fn get(&self, name: &str) -> Option<&KindHandle> {
-        self.kinds.iter().find(|k| &*k.name == name)
-    }
-
-    /// The registered names, in registration order.
-    pub fn names(&self) -> Vec<&str> {
-        self.kinds.iter().map(|k| &*k.name).collect()
-    }
-}
-
-/// An effect of a kind of the user's own as a scene holds it: the kind's
-/// name and the rest of its `[effects.NAME]` table, and, once the scene
-/// is bound to an application's kinds ([`crate::Scene::bind_kinds`]), the
-/// kind's functions.
+/// An effect of a kind of the user's own ([`EffectKind`]): the kind's
+/// name and its value, read and checked (a scene file's table of that
+/// kind, once parsed, or a value built in Rust).
 #[derive(Clone)]
 pub struct UserSpec {
-    /// The kind, as the scene writes it.
-    pub kind: String,
-    /// The table's other keys.
-    pub params: toml::Table,
-    pub(crate) handle: Option<KindHandle>,
+    kind: String,
+    value: Arc<dyn BoundKind>,
 }
 
 impl UserSpec {
-    /// An effect of kind `kind` with the fields of `params` (what the
-    /// scene file's table gives, `kind` excepted).
-    ///
-    /// # Errors
-    /// A message if `params` does not serialize to a table.
-    pub fn new<T: EffectKind>(kind: &str, params: &T) -> Result<Self, String> {
-        match toml::Value::try_from(params).map_err(|e| e.to_string())? {
-            toml::Value::Table(params) => Ok(Self { kind: kind.into(), params, handle: None }),
-            _ => Err(format!("effect kind `{kind}`: its fields must serialize to a table")),
-        }
+    /// The effect `value` of the kind registered as `kind`.
+    pub fn new<T: EffectKind>(kind: &str, value: T) -> Self {
+        Self { kind: kind.into(), value: Arc::new(value) }
     }
 
-    /// Whether the kind is bound to its functions.
-    pub fn is_bound(&self) -> bool {
-        self.handle.is_some()
+    /// The kind, as scene files write it.
+    pub fn kind(&self) -> &str {
+        &self.kind
     }
 
-    /// The value column's prefix (`F` while unbound).
-    pub(crate) fn value_prefix(&self) -> &'static str {
-        self.handle.as_ref().map_or("F", |h| h.kind.value_prefix())
-    }
-
-    /// The kind's functions, or an error at `kind` listing the `known`
-    /// kinds when the spec is not bound to any.
-    fn bound(&self, known: &str) -> Result<&dyn ErasedKind, SpecError> {
-        self.handle.as_ref().map(|h| &*h.kind).ok_or_else(|| SpecError {
-            field: "kind",
-            message: format!("unknown effect kind `{}`; {known}", self.kind),
-        })
-    }
-
-    /// Checks that the fields read as the kind's type.
-    pub(crate) fn check(&self, known: &str) -> Result<(), SpecError> {
-        self.bound(known)?.check(&self.params)
+    /// The value column's prefix ([`EffectKind::VALUE_PREFIX`]).
+    pub fn value_prefix(&self) -> &'static str {
+        self.value.value_prefix()
     }
 
     /// The kind's law for the model `cx` describes.
-    pub(crate) fn resolve(&self, cx: &EffectContext<'_>, known: &str) -> Result<Arc<dyn ForceLaw>, SpecError> {
-        self.bound(known)?.resolve(&self.params, cx)
+    pub(crate) fn resolve(&self, cx: &EffectContext<'_>) -> Result<Arc<dyn ForceLaw>, SpecError> {
+        self.value.resolve(cx)
     }
 }
 
 impl fmt::Debug for UserSpec {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        f.debug_struct("UserSpec").field("kind", &self.kind).field("params", &self.params).finish()
+        f.debug_struct("UserSpec").field("kind", &self.kind).field("value", &self.value).finish()
     }
 }
 
+/// Two specs are equal when their kinds are and their values print alike
+/// (an [`EffectKind`] need not implement `PartialEq`; its `Debug` form
+/// shows every field).
 impl PartialEq for UserSpec {
     fn eq(&self, other: &Self) -> bool {
-        self.kind == other.kind && self.params == other.params
+        self.kind == other.kind && format!("{:?}", self.value) == format!("{:?}", other.value)
     }
 }
 

@@ -14,10 +14,11 @@ use std::path::Path;
 use serde::de::{self, MapAccess, Visitor};
 use serde::{Deserialize, Deserializer, Serialize, Serializer};
 
-use crate::effects::EffectSpec;
-use crate::integrator::Method;
-use crate::model::{Model, ModelInfo};
-use crate::projection::ProjectionKind;
+use ezy_core::integrator::Method;
+use ezy_core::model::{Model, ModelInfo};
+use ezy_core::projection::ProjectionKind;
+
+use crate::kinds::SceneEffect;
 
 /// An initial value: a number (SI units of the coordinate) or the name of
 /// a model parameter whose value it takes.
@@ -123,37 +124,14 @@ pub struct Initial {
     pub guess: Vec<(String, InitValue)>,
 }
 
-/// What an `[initial] q` name stands for in a model (see [`Initial::q`]).
-#[derive(Debug, Clone, PartialEq, Eq)]
-pub enum InitialName {
-    /// Coordinates, by index (one, or a family's for `stem*`).
-    Coords(Vec<usize>),
-    /// A hinge's angle, by the hinge's index.
-    HingeAngle(usize),
-}
-
-impl Initial {
-    /// What `name` stands for in the model `info`: coordinates (a name,
-    /// or `stem*`), or `theta_<hinge>` a hinge angle (a coordinate of
-    /// that name wins); `None` for neither.
-    pub fn resolve_name(info: &ModelInfo, name: &str) -> Option<InitialName> {
-        let ks = info.coords_matching(name);
-        if !ks.is_empty() {
-            return Some(InitialName::Coords(ks));
-        }
-        let hinge = name.strip_prefix("theta_")?;
-        info.hinge_index(hinge).map(InitialName::HingeAngle)
-    }
-}
-
 fn default_dt() -> f64 {
-    crate::simulate::DEFAULT_DT
+    ezy_core::simulate::DEFAULT_DT
 }
 fn default_tol() -> f64 {
-    crate::simulate::DEFAULT_TOLERANCE
+    ezy_core::simulate::DEFAULT_TOLERANCE
 }
 fn default_every() -> f64 {
-    crate::simulate::DEFAULT_EVERY
+    ezy_core::simulate::DEFAULT_EVERY
 }
 
 /// Integrator settings of a scene (the CLI flags override them).
@@ -175,9 +153,9 @@ pub struct IntegratorSettings {
     /// Projection after every step: `none`, `euclidean` or `mass`.
     #[serde(default)]
     pub projection: ProjectionKind,
-    /// `dae`, `reduced` or `auto` ([`crate::reduced::Formulation`]).
+    /// `dae`, `reduced` or `auto` ([`ezy_core::Formulation`]).
     #[serde(default)]
-    pub formulation: crate::reduced::Formulation,
+    pub formulation: ezy_core::Formulation,
 }
 
 impl Default for IntegratorSettings {
@@ -188,7 +166,7 @@ impl Default for IntegratorSettings {
             rtol: default_tol(),
             atol: default_tol(),
             projection: ProjectionKind::default(),
-            formulation: crate::reduced::Formulation::default(),
+            formulation: ezy_core::Formulation::default(),
         }
     }
 }
@@ -579,7 +557,7 @@ pub struct FigureSpec {
 pub struct DriveSpec {
     /// The hinge angle `phi_a - phi_b` \[rad\] over time; its first and
     /// second derivatives enter the constraints (use `spline` for tables).
-    pub angle: crate::effects::Waveform,
+    pub angle: ezy_core::effects::Waveform,
 }
 
 /// A scene (such as those of docs/physics.md §10.3), as a scene file writes it.
@@ -613,7 +591,7 @@ pub struct Scene {
     pub output: OutputSettings,
     /// Applied forces by name, in order (`[effects.NAME]` tables).
     #[serde(default, with = "named_list", skip_serializing_if = "Vec::is_empty")]
-    pub effects: Vec<(String, EffectSpec)>,
+    pub effects: Vec<(String, SceneEffect)>,
     /// Prescribed angles of the model's drives, by drive name
     /// (`[drives.NAME] angle = ...`); every drive of the model needs one.
     #[serde(default, with = "named_list", skip_serializing_if = "Vec::is_empty")]
@@ -669,8 +647,8 @@ pub fn check_count(name: &str, value: f64) -> Result<(), SceneError> {
             &["params", name],
             format!(
                 "{name} = {} is a count of elements: it must be a whole number from 1 to {}",
-                crate::error::fmt_value(value),
-                crate::error::fmt_value(MAX_COUNT)
+                ezy_core::fmt_value(value),
+                ezy_core::fmt_value(MAX_COUNT)
             ),
         ))
     }
@@ -783,7 +761,7 @@ impl Scene {
     /// Parses a scene file. `file` only names it in errors.
     ///
     /// A number inside `[effects.NAME]` (except the name keys
-    /// [`crate::effects::NAME_KEYS`]) or `[drives.NAME]` may be written as
+    /// [`crate::NAME_KEYS`]) or `[drives.NAME]` may be written as
     /// the name of a scene parameter (`amplitude = "M0"` with
     /// `[scene_params] M0 = 2.0`): it takes that parameter's value, exactly
     /// as written there, and the place is recorded in [`Scene::bindings`].
@@ -907,7 +885,7 @@ impl Scene {
     pub fn columns(&self, info: &ModelInfo) -> Vec<String> {
         let mut cols = vec!["t".to_string()];
         cols.extend(info.coords.iter().map(|c| c.to_string()));
-        cols.extend(info.coords.iter().map(|c| crate::dynamics::velocity_name(c)));
+        cols.extend(info.coords.iter().map(|c| ezy_core::dynamics::velocity_name(c)));
         for g in OutputGroup::ALL {
             if !self.includes(g) {
                 continue;
@@ -916,8 +894,8 @@ impl Scene {
                 OutputGroup::Energy => {
                     cols.push("T".into());
                     cols.push("W".into());
-                    cols.extend(self.effects.iter().map(|(n, _)| crate::dynamics::work_name(n)));
-                    cols.extend(info.drives.iter().map(|d| crate::dynamics::work_name(&d.name)));
+                    cols.extend(self.effects.iter().map(|(n, _)| ezy_core::dynamics::work_name(n)));
+                    cols.extend(info.drives.iter().map(|d| ezy_core::dynamics::work_name(&d.name)));
                 }
                 OutputGroup::Points => {
                     for p in &info.points {
@@ -982,7 +960,7 @@ impl Scene {
             errors.extend(r.err());
         }
         let mut errors = Vec::new();
-        let known = |names: Vec<&str>| if names.is_empty() { "none".to_string() } else { crate::name_list(names) };
+        let known = |names: Vec<&str>| if names.is_empty() { "none".to_string() } else { ezy_core::name_list(names) };
         keep(
             &mut errors,
             (|| {
@@ -1064,9 +1042,9 @@ impl Scene {
                 for (group, list) in [("q", &self.initial.q), ("qd", &self.initial.qd), ("guess", &self.initial.guess)]
                 {
                     for (name, v) in list {
-                        let known_name = match Initial::resolve_name(info, name) {
-                            Some(InitialName::HingeAngle(_)) => group == "q",
-                            Some(InitialName::Coords(_)) => true,
+                        let known_name = match info.initial_name(name) {
+                            Some(ezy_core::InitialName::HingeAngle(_)) => group == "q",
+                            Some(ezy_core::InitialName::Coords(_)) => true,
                             None => false,
                         };
                         if !known_name {
@@ -1083,7 +1061,7 @@ impl Scene {
                                 format!(
                                     "unknown coordinate `{name}` in model {} (`stem*` names a family's coordinates){angles}; its coordinates: {}",
                                     info.name,
-                                    crate::name_list(&info.coords)
+                                    ezy_core::name_list(&info.coords)
                                 ),
                             ));
                         }
@@ -1115,10 +1093,7 @@ impl Scene {
             if v.is_finite() && v > 0.0 {
                 Ok(())
             } else {
-                Err(SceneError::at(
-                    path,
-                    format!("{what} must be a positive number, got {}", crate::error::fmt_value(v)),
-                ))
+                Err(SceneError::at(path, format!("{what} must be a positive number, got {}", ezy_core::fmt_value(v))))
             }
         };
         keep(
@@ -1129,22 +1104,22 @@ impl Scene {
                 positive(&["integrator", "rtol"], self.integrator.rtol, "the relative tolerance")?;
                 positive(&["integrator", "atol"], self.integrator.atol, "the absolute tolerance")?;
                 for (key, v) in [("rtol", self.integrator.rtol), ("atol", self.integrator.atol)] {
-                    if v < crate::simulate::MIN_TOLERANCE {
+                    if v < ezy_core::simulate::MIN_TOLERANCE {
                         return Err(SceneError::at(
                             &["integrator", key],
                             format!(
                                 "a tolerance below {:e} cannot be met in double precision, got {v:e}",
-                                crate::simulate::MIN_TOLERANCE
+                                ezy_core::simulate::MIN_TOLERANCE
                             ),
                         ));
                     }
                 }
-                if self.integrator.rtol > crate::simulate::MAX_RTOL {
+                if self.integrator.rtol > ezy_core::simulate::MAX_RTOL {
                     return Err(SceneError::at(
                         &["integrator", "rtol"],
                         format!(
                             "a relative tolerance above {} asks for less than one correct digit, got {:e}",
-                            crate::simulate::MAX_RTOL,
+                            ezy_core::simulate::MAX_RTOL,
                             self.integrator.rtol
                         ),
                     ));
@@ -1159,12 +1134,12 @@ impl Scene {
                 Ok(())
             })(),
         );
-        let names = crate::model::NameIndex::new(info);
+        let names = ezy_core::model::NameIndex::new(info);
         for (name, e) in &self.effects {
             keep(
                 &mut errors,
                 (|| {
-                    crate::effects::check_effect_name(name).map_err(|m| SceneError::at(&["effects", name], m))?;
+                    ezy_core::effects::check_effect_name(name).map_err(|m| SceneError::at(&["effects", name], m))?;
                     e.check_in(&names, &self.scene_params).map_err(|err| {
                         let path: &[&str] =
                             if err.field.is_empty() { &["effects", name] } else { &["effects", name, err.field] };
@@ -1388,7 +1363,7 @@ impl Scene {
                 return format!(" (add \"{}\" to output.include)", g.name());
             }
         }
-        format!("; its columns would be: {}", crate::name_list(all.columns(info)))
+        format!("; its columns would be: {}", ezy_core::name_list(all.columns(info)))
     }
 
     /// Applies a command-line override `name = value`: a scene parameter
@@ -1402,18 +1377,18 @@ impl Scene {
     /// `phase_step` of a family's waveform into each element's phase).
     ///
     /// # Errors
-    /// [`crate::SimError::UnknownName`] listing the model parameters, the
+    /// [`ezy_core::SimError::UnknownName`] listing the model parameters, the
     /// scene parameters and the effects' and drives' numeric keys;
-    /// [`crate::SimError::Setting`] for a value that is not finite;
-    /// [`crate::SimError::Scene`] for a name that is both a scene and a
+    /// [`ezy_core::SimError::Setting`] for a value that is not finite;
+    /// [`ezy_core::SimError::Scene`] for a name that is both a scene and a
     /// model parameter, an ambiguous key, or a binding whose number is gone.
-    pub fn set(&mut self, info: &ModelInfo, name: &str, value: f64) -> Result<(), crate::SimError> {
+    pub fn set(&mut self, info: &ModelInfo, name: &str, value: f64) -> Result<(), ezy_core::SimError> {
         if !value.is_finite() {
-            return Err(crate::SimError::Setting { name: name.into(), value, reason: "must be a finite number" });
+            return Err(ezy_core::SimError::Setting { name: name.into(), value, reason: "must be a finite number" });
         }
         if let Some(k) = self.scene_params.iter().position(|(n, _)| n == name) {
             if info.param_index(name).is_some() {
-                return Err(crate::SimError::Scene {
+                return Err(ezy_core::SimError::Scene {
                     key: format!("scene_params.{name}"),
                     message: format!(
                         "`{name}` is both a scene parameter and a parameter of model {}: rename the scene parameter",
@@ -1468,7 +1443,7 @@ impl Scene {
             let tree = toml::Value::try_from(spec).expect("a drive serializes");
             known.extend(numeric_leaves(&tree).into_iter().map(|l| format!("{n}.{l}")));
         }
-        Err(crate::SimError::UnknownName {
+        Err(ezy_core::SimError::UnknownName {
             kind: "parameter",
             name: name.to_string(),
             model: info.name,
@@ -1477,8 +1452,8 @@ impl Scene {
     }
 
     /// Sets the bound number at `path` (`effects.ITEM...` or `drives.ITEM...`).
-    fn set_bound(&mut self, path: &[String], value: f64) -> Result<(), crate::SimError> {
-        let fail = |message: String| crate::SimError::Scene {
+    fn set_bound(&mut self, path: &[String], value: f64) -> Result<(), ezy_core::SimError> {
+        let fail = |message: String| ezy_core::SimError::Scene {
             key: SceneError { path: path.to_vec(), message: String::new() }.key(),
             message,
         };
@@ -1513,7 +1488,7 @@ impl Scene {
     /// [`SceneError`] at the drive's `angle`.
     pub fn check_drives_cover(&self, t_end: f64) -> Result<(), SceneError> {
         for (name, d) in &self.drives {
-            crate::drive::check_angle(&d.angle, t_end)
+            ezy_core::drive::check_angle(&d.angle, t_end)
                 .map_err(|m| SceneError::at(&["drives", name.as_str(), "angle"], m))?;
         }
         Ok(())
@@ -1521,24 +1496,24 @@ impl Scene {
 
     /// The model's drives with the scene's prescribed angles, in the
     /// model's order (a checked scene gives every one).
-    pub fn resolve_drives(&self, info: &ModelInfo) -> Vec<crate::drive::Drive> {
+    pub fn resolve_drives(&self, info: &ModelInfo) -> Vec<ezy_core::drive::Drive> {
         let by_name: std::collections::HashMap<&str, &DriveSpec> =
             self.drives.iter().map(|(n, d)| (n.as_str(), d)).collect();
         info.drives
             .iter()
             .filter_map(|d| {
                 let spec = by_name.get(d.name.as_str())?;
-                Some(crate::drive::Drive { name: d.name.to_string(), row: d.row, angle: spec.angle.clone() })
+                Some(ezy_core::drive::Drive { name: d.name.to_string(), row: d.row, angle: spec.angle.clone() })
             })
             .collect()
     }
 
     /// The run settings this scene asks for: its integrator, tolerances,
     /// projection, `t_end` and output interval, with the default energy
-    /// balance guard ([`crate::simulate::BALANCE_LIMIT`]). Callers override
+    /// balance guard ([`ezy_core::simulate::BALANCE_LIMIT`]). Callers override
     /// fields with struct update syntax.
-    pub fn run_settings(&self) -> crate::RunSettings {
-        crate::RunSettings {
+    pub fn run_settings(&self) -> ezy_core::RunSettings {
+        ezy_core::RunSettings {
             dt: self.integrator.dt,
             t_end: self.t_end,
             every: self.output.every,
@@ -1547,8 +1522,8 @@ impl Scene {
             formulation: self.integrator.formulation,
             rtol: self.integrator.rtol,
             atol: self.integrator.atol,
-            balance_limit: Some(crate::simulate::BALANCE_LIMIT),
-            max_steps: Some(crate::simulate::DEFAULT_MAX_STEPS),
+            balance_limit: Some(ezy_core::simulate::BALANCE_LIMIT),
+            max_steps: Some(ezy_core::simulate::DEFAULT_MAX_STEPS),
         }
     }
 
@@ -1596,14 +1571,14 @@ impl Scene {
                 // `at`: a point family, else a body family
                 _ => {
                     let points: Vec<&str> = info.points.iter().map(|p| p.name.as_str()).collect();
-                    if points.iter().any(|n| crate::model::is_element_of(n, stem)) {
+                    if points.iter().any(|n| ezy_core::model::is_element_of(n, stem)) {
                         points
                     } else {
                         info.bodies.iter().map(|b| b.name.as_str()).collect()
                     }
                 }
             };
-            let elements: Vec<&str> = all.iter().copied().filter(|n| crate::model::is_element_of(n, stem)).collect();
+            let elements: Vec<&str> = all.iter().copied().filter(|n| ezy_core::model::is_element_of(n, stem)).collect();
             if elements.is_empty() {
                 return Err(SceneError::at(
                     &["effects", name, field],
@@ -1618,7 +1593,7 @@ impl Scene {
                 let mut t = tree.clone();
                 t[field] = toml::Value::String(element.to_string());
                 apply_phase_step(&mut t, k as f64);
-                let element_spec: EffectSpec = t.try_into().map_err(|e: toml::de::Error| {
+                let element_spec: SceneEffect = t.try_into().map_err(|e: toml::de::Error| {
                     SceneError::at(&["effects", name], format!("expanding over `{pattern}`: {}", e.message()))
                 })?;
                 let element_spec = element_spec.inherit_kind(spec);
@@ -1649,8 +1624,12 @@ impl Scene {
                 continue;
             };
             let bound = take_bindings(&mut out.bindings, "drives", name);
-            let elements: Vec<&str> =
-                info.drives.iter().map(|d| d.name.as_str()).filter(|n| crate::model::is_element_of(n, stem)).collect();
+            let elements: Vec<&str> = info
+                .drives
+                .iter()
+                .map(|d| d.name.as_str())
+                .filter(|n| ezy_core::model::is_element_of(n, stem))
+                .collect();
             if elements.is_empty() {
                 let all: Vec<&str> = info.drives.iter().map(|d| d.name.as_str()).collect();
                 return Err(SceneError::at(
@@ -1679,29 +1658,15 @@ impl Scene {
     }
 
     /// Binds the scene's effects of kinds of the user's own
-    /// ([`EffectSpec::User`]) to the kinds `kinds` registers, so that
+    /// ([`SceneEffect::User`]) to the kinds `kinds` registers, so that
     /// [`Scene::check`] reads their fields and resolving builds their laws.
     ///
     /// # Errors
     /// A [`SceneError`] at `effects.NAME.kind` for a kind neither built in
     /// nor in `kinds`, listing the known kinds.
-    pub fn bind_kinds(&mut self, kinds: &crate::effects::EffectKinds) -> Result<(), SceneError> {
+    pub fn bind_kinds(&mut self, kinds: &crate::EffectKinds) -> Result<(), SceneError> {
         for (name, spec) in &mut self.effects {
-            if let EffectSpec::User(u) = spec {
-                match kinds.get(&u.kind) {
-                    Some(h) => u.handle = Some(h.clone()),
-                    None => {
-                        return Err(SceneError::at(
-                            &["effects", name, "kind"],
-                            format!(
-                                "unknown effect kind `{}`; {}",
-                                u.kind,
-                                crate::effects::known_kinds(&kinds.names())
-                            ),
-                        ));
-                    }
-                }
-            }
+            spec.bind(kinds).map_err(|e| SceneError::at(&["effects", name, e.field], e.message))?;
         }
         Ok(())
     }
@@ -1709,11 +1674,11 @@ impl Scene {
     /// Resolves the scene's effects against `model`.
     ///
     /// # Errors
-    /// As [`EffectSpec::resolve`].
-    pub fn resolve_effects<M: Model>(&self, model: &M) -> Result<Vec<crate::Effect>, crate::SimError> {
+    /// As [`SceneEffect::resolve_in`].
+    pub fn resolve_effects<M: Model>(&self, model: &M) -> Result<Vec<ezy_core::Effect>, ezy_core::SimError> {
         let info = model.info();
-        let names = crate::model::NameIndex::new(&info);
-        let cx = crate::effects::EffectContext::new(model, &names).with_scene_params(&self.scene_params);
+        let names = ezy_core::model::NameIndex::new(&info);
+        let cx = ezy_core::effects::EffectContext::new(model, &names).with_scene_params(&self.scene_params);
         self.effects.iter().map(|(n, e)| e.resolve_in(n, &cx)).collect()
     }
 }
@@ -1797,7 +1762,7 @@ fn apply_phase_step(v: &mut toml::Value, k: f64) {
 }
 
 fn known_or_none(names: &[&str]) -> String {
-    if names.is_empty() { "none".to_string() } else { crate::name_list(names) }
+    if names.is_empty() { "none".to_string() } else { ezy_core::name_list(names) }
 }
 
 /// `spec` with the number at `key` set to `value`, and the full dotted path
@@ -1806,19 +1771,19 @@ fn known_or_none(names: &[&str]) -> String {
 /// `spec`'s type accepts. `None` if no number matches.
 ///
 /// # Errors
-/// [`crate::SimError::Scene`] when `key` matches several numbers.
+/// [`ezy_core::SimError::Scene`] when `key` matches several numbers.
 fn set_number<T: Serialize + serde::de::DeserializeOwned>(
     spec: &T,
     key: &str,
     value: f64,
     name: &str,
-) -> Result<Option<(T, String)>, crate::SimError> {
+) -> Result<Option<(T, String)>, ezy_core::SimError> {
     let mut tree = toml::Value::try_from(spec).expect("a scene item serializes");
     let leaves = numeric_leaves(&tree);
     let matches: Vec<&String> = leaves.iter().filter(|l| *l == key || l.ends_with(&format!(".{key}"))).collect();
     match matches[..] {
         [path] => {
-            let unreachable = || crate::SimError::Scene {
+            let unreachable = || ezy_core::SimError::Scene {
                 key: name.to_string(),
                 message: format!("`{path}` cannot be set: a key on its way contains a `.`"),
             };
@@ -1833,7 +1798,7 @@ fn set_number<T: Serialize + serde::de::DeserializeOwned>(
                 };
             }
             *node = number_like(node, value);
-            let changed = tree.try_into().map_err(|e: toml::de::Error| crate::SimError::Scene {
+            let changed = tree.try_into().map_err(|e: toml::de::Error| ezy_core::SimError::Scene {
                 key: name.to_string(),
                 message: e.message().trim().to_string(),
             })?;
@@ -1850,7 +1815,7 @@ fn set_number<T: Serialize + serde::de::DeserializeOwned>(
             }
             Ok(None)
         }
-        _ => Err(crate::SimError::Scene {
+        _ => Err(ezy_core::SimError::Scene {
             key: name.to_string(),
             message: format!(
                 "`{key}` matches several numbers ({}); give the full key",
@@ -1914,7 +1879,7 @@ fn is_identifier(name: &str) -> bool {
 }
 
 /// In the parsed file `root`: replaces every string in a number's place
-/// inside `[effects.NAME]` (keys other than [`crate::effects::NAME_KEYS`])
+/// inside `[effects.NAME]` (keys other than [`crate::NAME_KEYS`])
 /// and `[drives.NAME]` by the value of the scene parameter it names, the
 /// very token written in `[scene_params]` (so the number is bit for bit the
 /// one written there), keeping the string's span for later errors.
@@ -2024,7 +1989,7 @@ fn bind_numbers<'i>(
         DeValue::Table(t) => {
             for (k, v) in t.iter_mut() {
                 let k = k.get_ref().as_ref();
-                if effect_table && crate::effects::NAME_KEYS.contains(&k) {
+                if effect_table && crate::NAME_KEYS.contains(&k) {
                     continue;
                 }
                 path.push(k.to_string());

@@ -8,13 +8,15 @@
 //! [`ModelCatalog`] and [`check_scene`], so a user's scene is checked
 //! against the user's model exactly as a built-in one is.
 
-use crate::effects::{EffectContext, EffectKinds, EffectSpec};
-use crate::{Model, ModelInfo, NameIndex, Scene, SceneError, SceneFileError, SimError};
+use ezy_core::effects::EffectContext;
+use ezy_core::{Model, ModelInfo, NameIndex, SimError};
+
+use crate::{EffectKinds, Scene, SceneEffect, SceneError, SceneFileError};
 
 /// Something models can be registered with under a key.
 ///
 /// ```
-/// # use ezy_core::registry::{Register, InfoOnly, ModelCatalog};
+/// # use ezy_scene::registry::{Register, InfoOnly, ModelCatalog};
 /// # ezy_core::model! {
 /// #     /// A sleigh.
 /// #     pub struct Sleigh {
@@ -71,7 +73,7 @@ pub trait ModelCatalog {
     }
 }
 
-/// Resolves the effects of kinds of the user's own ([`EffectSpec::User`])
+/// Resolves the effects of kinds of the user's own ([`SceneEffect::User`])
 /// in `scene` (bound, families expanded, checked) against model `M` at
 /// the scene's parameters, so that a name the law looks up or a number it
 /// refuses is reported at its key in the file before any work (what
@@ -80,7 +82,7 @@ pub trait ModelCatalog {
 /// # Errors
 /// A [`SceneError`] at `effects.NAME.KEY`, the key the law names.
 pub fn check_user_effects<M: Model + Default>(scene: &Scene) -> Result<(), SceneError> {
-    if !scene.effects.iter().any(|(_, e)| matches!(e, EffectSpec::User(_))) {
+    if !scene.effects.iter().any(|(_, e)| matches!(e, SceneEffect::User(_))) {
         return Ok(());
     }
     let mut model = M::default();
@@ -93,7 +95,7 @@ pub fn check_user_effects<M: Model + Default>(scene: &Scene) -> Result<(), Scene
     let info = model.info();
     let names = NameIndex::new(&info);
     let cx = EffectContext::new(&model, &names).with_scene_params(&scene.scene_params);
-    for (name, spec) in scene.effects.iter().filter(|(_, e)| matches!(e, EffectSpec::User(_))) {
+    for (name, spec) in scene.effects.iter().filter(|(_, e)| matches!(e, SceneEffect::User(_))) {
         if let Err(e) = spec.resolve_in(name, &cx) {
             return Err(match e {
                 SimError::Effect { field, message, .. } if !field.is_empty() => {
@@ -120,7 +122,7 @@ pub fn info_at<M: Model + Default>(params: &[(String, f64)]) -> Result<ModelInfo
 /// Sets the family counts among `params` (name, value; other parameters
 /// are left alone) on `model`, each checked to be a whole number >= 1,
 /// then checks that every family refers to elements that exist: the one
-/// place counts are applied (scene check, [`crate::Problem::from_scene`]).
+/// place counts are applied (scene check, [`crate::Scene::problem`]).
 ///
 /// # Errors
 /// A [`SceneError`] at `params.COUNT`.
