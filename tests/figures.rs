@@ -205,7 +205,7 @@ fn the_report_is_self_contained() {
 fn the_work_precision_diagram_takes_an_overlay() {
     let out = tmp("overlay");
     std::fs::create_dir_all(&out).unwrap();
-    let docs = Path::new(env!("CARGO_MANIFEST_DIR")).join("docs/precision");
+    let docs = Path::new(env!("CARGO_MANIFEST_DIR")).join("docs/book/src/figures/precision");
     std::fs::copy(docs.join("precision.csv"), out.join("precision.csv")).unwrap();
     let dir = out.display().to_string();
     let peers = docs.join("peers.csv").display().to_string();

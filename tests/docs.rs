@@ -1,0 +1,208 @@
+//! The documentation stays true to the code: README.md is a front page
+//! that opens with the two commands CI runs; every relative link in the
+//! README, the guide (`docs/book/src`), `docs/physics.md` and `docs/dev`
+//! leads to a file; every chapter is in the guide's table of contents;
+//! and the guide's reference pages generated from the code (the named
+//! settings, the output columns, the commands' help) match it. A stale
+//! page fails here; `EZY_BLESS=1 cargo test --release --test docs`
+//! rewrites the pages from the code.
+
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+use ezy_core::{Choice, Formulation, Method, Model, ProjectionKind};
+use ezy_scene::{OutputGroup, OutputSettings};
+
+fn root() -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+}
+
+fn read(rel: &str) -> String {
+    std::fs::read_to_string(root().join(rel)).unwrap_or_else(|e| panic!("{rel}: {e}"))
+}
+
+/// The Markdown files whose links are checked.
+fn markdown_files() -> Vec<PathBuf> {
+    let mut files = vec![root().join("README.md"), root().join("docs/physics.md")];
+    for dir in ["docs/book/src", "docs/book/src/reference", "docs/dev"] {
+        let mut found: Vec<PathBuf> = std::fs::read_dir(root().join(dir))
+            .unwrap_or_else(|e| panic!("{dir}: {e}"))
+            .map(|e| e.unwrap().path())
+            .filter(|p| p.extension().is_some_and(|x| x == "md"))
+            .collect();
+        found.sort();
+        files.extend(found);
+    }
+    files
+}
+
+/// The targets of the Markdown links `[text](target)` and images in `text`
+/// that are paths in the repository (not URLs, not anchors alone), without
+/// their `#anchor`, skipping code blocks and code spans.
+fn relative_links(text: &str) -> Vec<String> {
+    let mut out = Vec::new();
+    let mut in_block = false;
+    for line in text.lines() {
+        if line.trim_start().starts_with("```") {
+            in_block = !in_block;
+            continue;
+        }
+        if in_block || line.starts_with("    ") {
+            continue;
+        }
+        // drop code spans: a link inside backticks is code, not a link
+        let mut plain = String::new();
+        for (k, part) in line.split('`').enumerate() {
+            if k % 2 == 0 {
+                plain.push_str(part);
+            }
+        }
+        let mut rest = plain.as_str();
+        while let Some(i) = rest.find("](") {
+            let after = &rest[i + 2..];
+            let Some(end) = after.find(')') else { break };
+            let target = after[..end].split_whitespace().next().unwrap_or("");
+            let path = target.split('#').next().unwrap_or("");
+            if !path.is_empty() && !path.contains("://") && !path.starts_with("mailto:") {
+                out.push(path.to_string());
+            }
+            rest = &after[end..];
+        }
+    }
+    out
+}
+
+/// The README is a front page (at most 12 kB) that opens with the two
+/// commands a new user types, and CI runs exactly its test command.
+#[test]
+fn the_readme_is_a_front_page_with_the_two_commands() {
+    let readme = read("README.md");
+    assert!(readme.len() <= 12 * 1024, "README.md is {} bytes; the front page is at most 12 kB", readme.len());
+    let first_block: String =
+        readme.split("```").nth(1).expect("README.md opens with a code block").lines().skip(1).collect();
+    for command in ["cargo run --release", "cargo test --release --workspace"] {
+        assert!(first_block.contains(command), "README.md's first code block lacks `{command}`");
+    }
+    let ci = read(".ci/run");
+    assert!(
+        ci.lines().any(|l| l.trim() == "cargo test --release --workspace"),
+        ".ci/run must run the README's test command"
+    );
+}
+
+/// Every relative link and image of the documentation names a file that
+/// exists, and every chapter of the guide is in its SUMMARY.md.
+#[test]
+fn every_link_of_the_docs_leads_to_a_file() {
+    let mut broken = Vec::new();
+    for file in markdown_files() {
+        let text = std::fs::read_to_string(&file).unwrap();
+        let dir = file.parent().unwrap();
+        for link in relative_links(&text) {
+            if !dir.join(&link).exists() {
+                broken.push(format!("{}: {link}", file.strip_prefix(root()).unwrap().display()));
+            }
+        }
+    }
+    assert!(broken.is_empty(), "links to missing files:\n{}", broken.join("\n"));
+    let summary = read("docs/book/src/SUMMARY.md");
+    let listed = relative_links(&summary);
+    for file in markdown_files() {
+        let Ok(rel) = file.strip_prefix(root().join("docs/book/src")) else { continue };
+        let rel = rel.to_string_lossy().to_string();
+        if rel != "SUMMARY.md" {
+            assert!(listed.contains(&rel), "docs/book/src/{rel} is not in SUMMARY.md");
+        }
+    }
+}
+
+/// Compares the page `rel` with what the code generates, or rewrites it
+/// under `EZY_BLESS`.
+fn check_page(rel: &str, source: &str, body: &str) {
+    let page = format!(
+        "<!-- Generated from {source} by tests/docs.rs: edit the source, then run\n     EZY_BLESS=1 cargo test --release --test docs -->\n\n{body}"
+    );
+    let path = root().join(rel);
+    if std::env::var_os("EZY_BLESS").is_some() {
+        std::fs::create_dir_all(path.parent().unwrap()).unwrap();
+        std::fs::write(&path, &page).unwrap();
+        return;
+    }
+    let on_disk = std::fs::read_to_string(&path).unwrap_or_default();
+    assert!(
+        on_disk == page,
+        "{rel} differs from what {source} gives: regenerate it with `EZY_BLESS=1 cargo test --release --test docs`"
+    );
+}
+
+fn choice_table<T: Choice>(title: &str, key: &str, flag: &str) -> String {
+    let mut s = format!("## {title}\n\nScene key `{key}`, flag `{flag}`.\n\n| value | what it is |\n|---|---|\n");
+    for &v in T::ALL {
+        s.push_str(&format!("| `{}` | {} |\n", v.name(), v.help()));
+    }
+    s
+}
+
+/// The named settings (integrator, projection, formulation) as the code
+/// lists them ([`Choice`]).
+#[test]
+fn the_settings_reference_is_the_code_s() {
+    let body = format!(
+        "# Integrators, projections, formulations\n\nThe values scene files and the command line accept, with the help the\ncommand line prints.\n\n{}\n{}\n{}",
+        choice_table::<Method>("Integrators", "[integrator] method", "--integrator"),
+        choice_table::<ProjectionKind>("Projections", "[integrator] projection", "--projection"),
+        choice_table::<Formulation>("Formulations", "[integrator] formulation", "--formulation"),
+    );
+    check_page("docs/book/src/reference/settings.md", "ezy_core::Choice (Method, ProjectionKind, Formulation)", &body);
+}
+
+/// The output columns each group adds, as `Scene::columns` names them for
+/// the EzyRoller's `drive` scene.
+#[test]
+fn the_columns_reference_is_the_code_s() {
+    let info = ezy::models::EzyRoller::default().info();
+    let mut scene = ezy::models::scenes::drive();
+    scene.output = OutputSettings { include: Vec::new(), ..scene.output };
+    let always = scene.columns(&info);
+    let mut body = String::from(
+        "# Output columns\n\nThe columns of `trajectory.csv`, as the `drive` scene of the EzyRoller\nnames them (one coordinate per body axis and heading, one effect `motor`).\nAlways written:\n\n",
+    );
+    body.push_str(&format!("    {}\n\n", always.join(",")));
+    body.push_str("Each group of `[output] include = [...]` adds:\n\n| group | columns it adds |\n|---|---|\n");
+    for g in OutputGroup::ALL {
+        scene.output.include = vec![g];
+        let cols = scene.columns(&info);
+        let added: Vec<String> = cols[always.len()..].iter().map(|c| format!("`{c}`")).collect();
+        body.push_str(&format!("| `{}` | {} |\n", g.name(), added.join(" ")));
+    }
+    body.push_str(
+        "\nUnits: coordinates \\[m, rad\\], velocities (`..d`) \\[m/s, rad/s\\], accelerations\n(`..dd`) \\[m/s^2, rad/s^2\\], energies and works (`T`, `W`, `W_..`) \\[J\\], `tau_..`\n\\[N m\\], `F_..` \\[N\\], points \\[m\\] and their velocities \\[m/s\\], `res_phi` \\[m\\],\n`res_vel` \\[m/s\\].\n",
+    );
+    check_page("docs/book/src/reference/columns.md", "ezy_scene::Scene::columns", &body);
+}
+
+/// The help of every command, as clap prints it.
+#[test]
+fn the_commands_reference_is_clap_s() {
+    let ezy = Path::new(env!("CARGO_BIN_EXE_ezy"));
+    let help = |args: &[&str]| {
+        let out = Command::new(ezy).args(args).output().unwrap();
+        assert!(out.status.success(), "ezy {args:?}");
+        String::from_utf8(out.stdout).unwrap()
+    };
+    let top = help(&["--help"]);
+    let commands: Vec<String> = top
+        .lines()
+        .skip_while(|l| !l.starts_with("Commands:"))
+        .skip(1)
+        .take_while(|l| l.starts_with("  "))
+        .filter_map(|l| l.split_whitespace().next().map(str::to_string))
+        .filter(|c| c != "help")
+        .collect();
+    assert!(commands.len() >= 5, "{top}");
+    let mut body = format!("# Commands\n\n```text\n$ ezy --help\n{top}```\n");
+    for c in &commands {
+        body.push_str(&format!("\n## ezy {c}\n\n```text\n$ ezy {c} --help\n{}```\n", help(&[c, "--help"])));
+    }
+    check_page("docs/book/src/reference/commands.md", "the command line's help (clap)", &body);
+}
