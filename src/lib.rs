@@ -1,11 +1,62 @@
 #![warn(missing_docs)]
 //! ezy: planar vehicles and mechanisms with hinges and skates.
 //!
-//! A model is declared with [`model!`]; [`App`] runs the command line
-//! (`run`, `list`, `precision`, `equations`, `check`, `scale`) over the
-//! built-in vehicles and any added with [`App::model`]; [`testing`]
-//! checks a model's derived terms in its author's tests. The `ezy` binary
-//! is `App::new().main()`.
+//! Data flows one way:
+//!
+//! ```text
+//! model! { .. }        the model text, in your crate
+//!   -> ezy-derive      phi(q), its Jacobian, the skate rows S(q), gamma, the
+//!                      sparsity pattern: generated Rust, at compile time
+//!   -> Problem         the model with its parameters, effects, drives, initial
+//!                      values and settings (ezy-core; from a scene file: ezy-scene)
+//!   -> integrator      RK4, DOPRI5, DOP853 or RADAU5 on the KKT system, with
+//!                      coordinate projection (or the reduced formulation)
+//!   -> samples         in memory (Solution), or trajectory.csv and figures (App)
+//! ```
+//!
+//! A whole program with a vehicle of its own, a scene and every command
+//! (`run`, `list`, `sweep`, `precision`, `animate`, `bench`, `check`,
+//! `equations`, `scale`):
+//!
+//! ```no_run
+//! ezy::model! {
+//!     /// The Chaplygin sleigh: one body, a skate `a` behind its centre of mass.
+//!     pub struct Sleigh {
+//!         /// Distance from the centre of mass back to the skate [m]
+//!         param a = 0.5;
+//!         body s(x, y, phi) { mass: 1.0, inertia: 0.1 }
+//!         point P on s at (-a, 0);
+//!         skate P: P along (1, 0);
+//!     }
+//! }
+//!
+//! fn main() -> std::process::ExitCode {
+//!     let scene = r#"
+//!         name = "glide"
+//!         description = "The sleigh from 1 m/s and 1 rad/s: yaw turns into speed"
+//!         model = "sleigh"
+//!         t_end = 10.0
+//!         [initial]
+//!         q = { x = 0.0, y = 0.0, phi = 0.0 }
+//!         qd = { x = 1.0, phi = 1.0 }
+//!     "#;
+//!     // `my-sleigh run glide` writes out/glide/trajectory.csv
+//!     ezy::App::new().model::<Sleigh>("sleigh").scene("glide.toml", scene).main()
+//! }
+//! ```
+//!
+//! The same run in memory, without files: [`Problem`] (its documentation
+//! opens with the EzyRoller's drive scene written in Rust). A force law
+//! or controller of your own: [`effects::EffectKind`] and
+//! [`effects::ForceLaw`], registered with [`App::effect`]; a closure with
+//! [`Problem::controller`].
+//!
+//! Modules: [`app`] (the model and scene table, the command line),
+//! [`commands`], [`output`] (CSV), [`figures`] and [`plot`], [`animate`],
+//! [`report`], [`sweep`], [`precision`], [`bench`](mod@bench), [`scale`],
+//! [`equations`], [`transaction`] (the locked output directory),
+//! [`progress`], and [`testing`] (a model's derived terms checked in its
+//! author's tests). The `ezy` binary is `App::new().main()`.
 
 pub mod animate;
 pub mod app;
@@ -40,3 +91,17 @@ pub use serde;
 /// `ezy` alone; not public API.
 #[doc(hidden)]
 pub use ezy_core::__private;
+
+/// The README's and the guide's Rust examples (docs/book), compiled and
+/// run as doctests of this crate (`cargo test --release --workspace`), so
+/// an example a user copies cannot rot. The guide's other chapters show
+/// compiled sources through mdBook's `{{#include}}`.
+#[cfg(doctest)]
+pub mod book_examples {
+    #[doc = include_str!("../README.md")]
+    pub struct Readme;
+    #[doc = include_str!("../docs/book/src/library.md")]
+    pub struct Library;
+    #[doc = include_str!("../docs/book/src/models.md")]
+    pub struct Models;
+}

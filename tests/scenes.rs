@@ -36,6 +36,43 @@ fn free_initial_velocities_follow_from_the_constraints() {
     }
 }
 
+/// Over-specified initial velocities (all six given, the lateral speed at
+/// skate A among them nonzero) are projected onto the constraints, and
+/// the warning says which given values changed, from what to what: each
+/// listed pair is the value given and the one the run starts from.
+#[test]
+fn a_projected_velocity_is_named_with_its_given_and_new_value() {
+    let mut p = ezy::Problem::new(EzyRoller::default());
+    let m = EzyRoller::default();
+    let q = [
+        ("x1", m.a),
+        ("y1", 0.0),
+        ("phi1", 0.0),
+        ("x2", m.a + m.b),
+        ("y2", m.d),
+        ("phi2", std::f64::consts::FRAC_PI_2),
+    ];
+    let qd = [("x1", 1.0), ("y1", 0.3), ("phi1", 0.0), ("x2", 0.5), ("y2", 0.0), ("phi2", 5.0)];
+    for (name, v) in q {
+        p = p.q(name, v).unwrap();
+    }
+    for (name, v) in qd {
+        p = p.qd(name, v).unwrap();
+    }
+    let (y0, report) = p.initial_state().unwrap();
+    assert!(report.velocity_violation > 0.1, "{report:?}");
+    assert!(!report.velocity_changes.is_empty() && report.velocity_changes.len() <= 3, "{report:?}");
+    for (name, given, now) in &report.velocity_changes {
+        let k = qd.iter().position(|(n, _)| format!("{n}d") == *name).expect("a given velocity");
+        assert_eq!(*given, qd[k].1, "{name}");
+        assert_eq!(*now, y0[6 + k], "{name}");
+        assert!((now - given).abs() > 1e-3, "{name}: {given} -> {now}");
+    }
+    let warning = report.warnings().join("\n");
+    let (first, given, _) = &report.velocity_changes[0];
+    assert!(warning.contains(&format!("given values changed: {first} {given} -> ")), "{warning}");
+}
+
 #[test]
 fn free_conserves_kinetic_energy() {
     let (rec, s) = run::<EzyRoller>(&scenes::free(), None, ProjectionKind::default());

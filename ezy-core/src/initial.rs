@@ -501,6 +501,7 @@ pub fn consistent_state_with<M: Model>(
             )));
         }
         report.position_correction = q.iter().zip(&q_given).fold(0.0, |m, (a, b)| m.max((a - b).abs()));
+        report.position_changes = largest_changes(&q_given, &q, &known_q, |i| info.coords[i].to_string());
     }
     report.branch = given.guess.iter().map(|&(i, g)| (info.coords[i].clone(), g, q[i])).collect();
 
@@ -561,6 +562,9 @@ pub fn consistent_state_with<M: Model>(
             qd[i] -= dv[i];
         }
         report.velocity_correction = max_abs(&dv);
+        let qd_given: Vec<f64> = qd.iter().zip(&dv).map(|(v, d)| v + d).collect();
+        report.velocity_changes =
+            largest_changes(&qd_given, &qd, &known_v, |i| crate::dynamics::velocity_name(&info.coords[i]));
         g_times(&qd, &|_| true, &mut r);
         crate::drive::shift_velocities(drives, 0.0, &mut r);
         let left = max_abs(&r);
@@ -571,6 +575,21 @@ pub fn consistent_state_with<M: Model>(
         }
     }
     Ok((q, qd, report))
+}
+
+/// The given values (`given[i]` for `known[i]`) the projection changed
+/// most, at most three: `(name, given, projected)`, largest change first.
+fn largest_changes(
+    before: &[f64],
+    after: &[f64],
+    known: &[bool],
+    name: impl Fn(usize) -> String,
+) -> Vec<(String, f64, f64)> {
+    let mut changed: Vec<usize> = (0..before.len())
+        .filter(|&i| known[i] && (after[i] - before[i]).abs() > 1e-12 * before[i].abs().max(1.0))
+        .collect();
+    changed.sort_by(|&a, &b| (after[b] - before[b]).abs().total_cmp(&(after[a] - before[a]).abs()));
+    changed.into_iter().take(3).map(|i| (name(i), before[i], after[i])).collect()
 }
 
 /// "coordinates" or, for the suffix `d`, "velocities".
@@ -592,6 +611,12 @@ pub struct InitialReport {
     pub velocity_violation: f64,
     /// Largest change of a velocity by the projection \[m/s or rad/s\].
     pub velocity_correction: f64,
+    /// The given coordinates the projection changed most (at most three):
+    /// `(name, given, projected)` \[m or rad\].
+    pub position_changes: Vec<(String, f64, f64)>,
+    /// The given velocities the projection changed most (at most three):
+    /// `(name, given, projected)` \[m/s or rad/s\].
+    pub velocity_changes: Vec<(String, f64, f64)>,
     /// The assembly branch taken: `(coordinate, starting value, solved
     /// value)` for every coordinate given a starting value.
     pub branch: Vec<(String, f64, f64)>,
@@ -610,16 +635,28 @@ impl InitialReport {
     /// One warning line per correction made.
     pub fn warnings(&self) -> Vec<String> {
         let mut w = Vec::new();
+        let changes = |list: &[(String, f64, f64)]| {
+            if list.is_empty() {
+                return String::new();
+            }
+            let each: Vec<String> = list.iter().map(|(n, a, b)| format!("{n} {a} -> {b:.6e}")).collect();
+            format!("; given values changed: {}", each.join(", "))
+        };
         if self.position_violation > 0.0 {
             w.push(format!(
-                "the initial coordinates violate the holonomic constraints by {:.3e} (most: `{}`); projected onto them (largest change {:.3e})",
-                self.position_violation, self.position_worst, self.position_correction
+                "the initial coordinates violate the holonomic constraints by {:.3e} (most: `{}`); projected onto them (largest change {:.3e}){}",
+                self.position_violation,
+                self.position_worst,
+                self.position_correction,
+                changes(&self.position_changes)
             ));
         }
         if self.velocity_violation > 0.0 {
             w.push(format!(
-                "the initial velocities violate the constraints by {:.3e} m/s; projected onto them (largest change {:.3e})",
-                self.velocity_violation, self.velocity_correction
+                "the initial velocities violate the constraints by {:.3e} m/s; projected onto them (largest change {:.3e}){}",
+                self.velocity_violation,
+                self.velocity_correction,
+                changes(&self.velocity_changes)
             ));
         }
         w

@@ -1,11 +1,51 @@
 #![warn(missing_docs)]
-//! ezy runtime: the [`Model`] trait generated models implement, the
-//! [`Problem`] a run integrates (a model, its effects, drives, initial
-//! values and settings, solved in memory), the KKT solve, the integrators
-//! (RK4, DOPRI5, DOP853, RADAU5), coordinate projection, the effects and
-//! the force-law traits a user's own laws implement
-//! ([`effects::EffectKind`], [`effects::ForceLaw`]), consistent initial
-//! conditions and the step loop.
+//! ezy runtime: no files, no TOML, no command line.
+//!
+//! A model (a type the [`model!`] macro generates, implementing [`Model`])
+//! gives at any state its mass diagonal, the constraint residual `phi(q)`,
+//! the constraint Jacobian `G = [C_q; S]` (nc x nq), the convective term
+//! `gamma` and its sparsity pattern. A [`Problem`] holds the model with its
+//! parameters, the effects acting on it ([`effects`]: the built-in kinds of
+//! [`EffectSpec`], or laws of the user's own through
+//! [`effects::EffectKind`] and [`effects::ForceLaw`]), its drives, the
+//! initial values given by name (the rest solved for consistency,
+//! [`initial`]) and the settings ([`RunSettings`]). Solving it builds the
+//! right-hand side ([`Dynamics`]: the KKT system
+//! `[M G^T; G 0] [qdd; lambda] = [f; -gamma]`, [`kkt`], or the reduced
+//! formulation, [`reduced`]) and integrates it ([`integrator`]: RK4,
+//! DOPRI5, DOP853, RADAU5) with coordinate projection ([`projection`]),
+//! showing every sample to an [`Observer`] or keeping them in a
+//! [`Solution`].
+//!
+//! ```
+//! # ezy_core::model! {
+//! #     /// The Chaplygin sleigh.
+//! #     pub struct Sleigh {
+//! #         param a = 0.5;
+//! #         body s(x, y, phi) { mass: 1.0, inertia: 0.1 }
+//! #         point P on s at (-a, 0);
+//! #         skate P: P along (1, 0);
+//! #     }
+//! # }
+//! # fn main() -> Result<(), ezy_core::SimError> {
+//! use ezy_core::{Method, Problem};
+//! // the sleigh from 1 m/s and 1 rad/s: the skate turns yaw into forward speed
+//! let solution = Problem::new(Sleigh::default())
+//!     .q("x", 0.0)?.q("y", 0.0)?.q("phi", 0.0)?
+//!     .qd("x", 1.0)?.qd("phi", 1.0)?
+//!     .t_end(10.0)
+//!     .method(Method::Dop853)
+//!     .tolerances(1e-10, 1e-10)
+//!     .solve()?;
+//! let omega = solution.column("phid").unwrap();
+//! assert!(omega.last().unwrap().abs() < 0.1); // the yaw rate decays
+//! # Ok(())
+//! # }
+//! ```
+//!
+//! Scene files (TOML) are read by the `ezy-scene` crate into a
+//! [`Problem`]; the `ezy` crate adds the command line, CSV and figures.
+//! The formulation and its sources: `docs/physics.md`.
 
 pub mod drive;
 pub mod dynamics;

@@ -8,6 +8,49 @@
 //!
 //! The runtime (`ezy-core`) knows nothing of files or TOML; this crate is
 //! its reader, as a format crate is apart from serde.
+//!
+//! ```text
+//! scene.toml -> Scene::from_toml   syntax, types, unknown keys, scene parameters
+//!            -> Scene::bind_kinds  kinds of the user's own (EffectKinds)
+//!            -> Scene::check_all   every name and number against the model, every error
+//!            -> Scene::problem     overrides (--set), family counts and expansion,
+//!                                  effects resolved: an ezy_core::Problem
+//! ```
+//!
+//! ```
+//! # ezy_core::model! {
+//! #     /// The Chaplygin sleigh.
+//! #     pub struct Sleigh {
+//! #         param a = 0.5;
+//! #         body s(x, y, phi) { mass: 1.0, inertia: 0.1 }
+//! #         point P on s at (-a, 0);
+//! #         skate P: P along (1, 0);
+//! #     }
+//! # }
+//! use ezy_scene::Scene;
+//! let text = r#"
+//!     name = "glide"
+//!     description = "The sleigh from 1 m/s and 1 rad/s"
+//!     model = "sleigh"
+//!     t_end = 2.0
+//!     [initial]
+//!     q = { x = 0.0, y = 0.0, phi = 0.0 }
+//!     qd = { x = 1.0, phi = 1.0 }
+//! "#;
+//! let scene = Scene::from_toml(text, "glide.toml").unwrap();
+//! let (problem, _as_run) = scene.problem::<Sleigh>(&[("a".into(), 0.4)]).unwrap();
+//! let solution = problem.solve().unwrap();
+//! assert_eq!(solution.t.last(), Some(&2.0));
+//!
+//! // a mistake is reported at its place in the file
+//! let bad = Scene::from_toml(&text.replace("t_end = 2.0", "t_end = \"two\""), "glide.toml");
+//! assert!(bad.unwrap_err().to_string().starts_with("glide.toml:5:"), "the line of `t_end`");
+//! ```
+//!
+//! Modules: [`scene`] (the document, its check, `--set`, families),
+//! [`kinds`] (effects as scene files write them; kinds of the user's own),
+//! [`registry`] (models by the key scenes name them by), [`files`]
+//! (bounded reads of the files a user names).
 
 pub mod files;
 pub mod kinds;

@@ -13,6 +13,7 @@
 //! drive (a prescribed function of time that each scene gives); the
 //! torque it takes is the drive's multiplier, `tau_steer` in the output.
 
+// ANCHOR: app
 ezy::model! {
     /// The Roller Racer: main platform with the rear axle (skate A) and a
     /// front platform with its axle (skate C), joined by the hinge J whose
@@ -48,12 +49,20 @@ ezy::model! {
     }
 }
 
+/// The key scene files name the model by (`model = "roller_racer"`).
+pub const MODEL: &str = "roller_racer";
+
+/// The scene `run` takes by default (`name = "roller"` in
+/// `scenes/roller.toml`); the tests run it by this name.
+pub const SCENE: &str = "roller";
+
 /// The application: ezy's built-in vehicles and scenes, the Roller Racer
-/// under the key `roller_racer`, and its scene `roller` (the default of
+/// under the key [`MODEL`], and its scene [`SCENE`] (the default of
 /// `run`), embedded so the program runs from any directory.
 pub fn app() -> ezy::App {
     ezy::App::new()
-        .model::<RollerRacer>("roller_racer")
+        .model::<RollerRacer>(MODEL)
         .scene("scenes/roller.toml", include_str!("../scenes/roller.toml"))
-        .default_scene("roller")
+        .default_scene(SCENE)
 }
+// ANCHOR_END: app

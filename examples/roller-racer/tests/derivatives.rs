@@ -1,7 +1,8 @@
 //! The derived constraint terms of the Roller Racer against finite
 //! differences and dual numbers, at random states and parameters.
 
-use roller_racer::RollerRacer;
+mod common;
+use common::vehicle::RollerRacer;
 
 #[test]
 fn derived_terms_match_finite_differences_and_dual_numbers() {

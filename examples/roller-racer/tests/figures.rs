@@ -2,11 +2,11 @@
 //! with one frame per interval (its `[draw]` table used), and a run report
 //! with the scene's figures inline as SVG.
 
-use std::path::Path;
-use std::process::Command;
+mod common;
+use common::SCENE;
 
 fn program(args: &[&str]) -> String {
-    let o = Command::new(env!("CARGO_BIN_EXE_roller-racer")).args(args).output().expect("runs");
+    let o = common::program().args(args).output().expect("runs");
     let text = format!("{}{}", String::from_utf8_lossy(&o.stdout), String::from_utf8_lossy(&o.stderr));
     assert!(o.status.success(), "{args:?}: {text}");
     text
@@ -14,17 +14,16 @@ fn program(args: &[&str]) -> String {
 
 #[test]
 fn the_users_scene_animates_and_reports() {
-    let out = Path::new(env!("CARGO_TARGET_TMPDIR")).join("roller-racer-figures");
-    let _ = std::fs::remove_dir_all(&out);
-    let gif = out.join("roller.gif");
+    let out = common::out_dir("figures");
+    let gif = out.join(format!("{SCENE}.gif"));
     let said =
-        program(&["animate", "roller", "--t-end", "2", "--fps", "5", "--dpi", "24", "--out", gif.to_str().unwrap()]);
+        program(&["animate", SCENE, "--t-end", "2", "--fps", "5", "--dpi", "24", "--out", gif.to_str().unwrap()]);
     // 2 s at 5 frames per second: 10 intervals and the start
     assert!(said.contains("11 frames of 240 x 160 px"), "{said}");
     let bytes = std::fs::read(&gif).unwrap();
     assert!(bytes.starts_with(b"GIF89a"));
     let dir = out.join("run");
-    program(&["run", "roller", "--t-end", "2", "--format", "svg", "--report", "--out", dir.to_str().unwrap()]);
+    program(&["run", SCENE, "--t-end", "2", "--format", "svg", "--report", "--out", dir.to_str().unwrap()]);
     for f in ["paths.svg", "speed.svg", "energy.svg", "trajectory.csv"] {
         assert!(dir.join(f).is_file(), "{f}");
     }

@@ -2,17 +2,13 @@
 //! the three figures, the vehicle moves forward (about 13 m in 20 s), the
 //! energy ledger closes.
 
-use std::process::Command;
+mod common;
+use common::SCENE;
 
 #[test]
 fn the_roller_scene_writes_its_csv_and_figures() {
-    let out = std::path::Path::new(env!("CARGO_TARGET_TMPDIR")).join("roller-racer-scene");
-    let _ = std::fs::remove_dir_all(&out);
-    let o = Command::new(env!("CARGO_BIN_EXE_roller-racer"))
-        .args(["run", "roller", "--out"])
-        .arg(&out)
-        .output()
-        .expect("the program runs");
+    let out = common::out_dir("scene");
+    let o = common::program().args(["run", SCENE, "--out"]).arg(&out).output().expect("the program runs");
     let text = String::from_utf8_lossy(&o.stdout);
     assert!(o.status.success(), "{text}{}", String::from_utf8_lossy(&o.stderr));
     let csv = std::fs::read_to_string(out.join("trajectory.csv")).expect("trajectory.csv");
@@ -46,10 +42,9 @@ fn the_roller_scene_writes_its_csv_and_figures() {
 #[test]
 fn the_users_model_runs_in_the_reduced_formulation() {
     let run = |formulation: &str| {
-        let out = std::path::Path::new(env!("CARGO_TARGET_TMPDIR")).join(format!("roller-racer-{formulation}"));
-        let _ = std::fs::remove_dir_all(&out);
-        let o = Command::new(env!("CARGO_BIN_EXE_roller-racer"))
-            .args(["run", "roller", "--no-figures", "--integrator", "dop853", "--rtol", "1e-10", "--atol", "1e-10"])
+        let out = common::out_dir(formulation);
+        let o = common::program()
+            .args(["run", SCENE, "--no-figures", "--integrator", "dop853", "--rtol", "1e-10", "--atol", "1e-10"])
             .args(["--every", "20", "--formulation", formulation, "--out"])
             .arg(&out)
             .output()

@@ -3,11 +3,12 @@
 //! shards merged into the whole, each row the single run's numbers.
 
 use std::path::Path;
-use std::process::{Command, Output};
+
+mod common;
+use common::{SCENE, SWEPT};
 
 fn program(args: &[&str], out: &Path) -> String {
-    let o: Output =
-        Command::new(env!("CARGO_BIN_EXE_roller-racer")).args(args).arg("--out").arg(out).output().expect("runs");
+    let o = common::program().args(args).arg("--out").arg(out).output().expect("runs");
     let text = String::from_utf8_lossy(&o.stdout).into_owned();
     assert!(o.status.success(), "{args:?}: {text}{}", String::from_utf8_lossy(&o.stderr));
     text
@@ -21,9 +22,9 @@ fn rows(path: &Path) -> (Vec<String>, Vec<Vec<String>>) {
 
 #[test]
 fn a_sweep_of_the_users_model_in_shards_equals_the_whole() {
-    let out = Path::new(env!("CARGO_TARGET_TMPDIR")).join("roller-racer-sweep");
-    let _ = std::fs::remove_dir_all(&out);
-    let sweep = ["sweep", "roller", "--grid", "steer.amplitude=0.3:0.6:3", "--list", "d2=0.2,0.3", "--t-end", "4"];
+    let out = common::out_dir("sweep");
+    let grid = format!("{SWEPT}=0.3:0.6:3");
+    let sweep = ["sweep", SCENE, "--grid", &grid, "--list", "d2=0.2,0.3", "--t-end", "4"];
     fn with<'a>(sweep: &[&'a str], extra: &[&'a str]) -> Vec<&'a str> {
         [sweep, extra, &["--metric", "final(x1)", "--no-figures"]].concat()
     }
@@ -42,11 +43,10 @@ fn a_sweep_of_the_users_model_in_shards_equals_the_whole() {
     };
     assert_eq!(strip(&merged), strip(&whole));
     // run 5 (amplitude 0.6, d2 = 0.3) is the single run, digit for digit
-    let run = program(
-        &["run", "roller", "--set", "steer.amplitude=0.6", "--set", "d2=0.3", "--t-end", "4", "--no-figures"],
-        &out.join("single"),
-    );
-    assert!(run.contains("roller: rk4"), "{run}");
+    let set = format!("{SWEPT}=0.6");
+    let run =
+        program(&["run", SCENE, "--set", &set, "--set", "d2=0.3", "--t-end", "4", "--no-figures"], &out.join("single"));
+    assert!(run.contains(&format!("{SCENE}: rk4")), "{run}");
     let (th, traj) = rows(&out.join("single/trajectory.csv"));
     let last = traj.last().unwrap();
     let row = &whole[5];
