@@ -206,3 +206,39 @@ fn the_commands_reference_is_clap_s() {
     }
     check_page("docs/book/src/reference/commands.md", "the command line's help (clap)", &body);
 }
+
+/// The guide's table of effect kinds (docs/book/src/scenes.md) has one row
+/// per built-in kind, no other, and each row names every key the kind
+/// accepts: the keys as serde knows them, read from its refusal of an
+/// unknown key ("expected `hinge` or `torque`").
+#[test]
+fn the_effects_table_names_every_kind_and_key() {
+    use ezy_core::effects::{EFFECT_KINDS, EffectSpec};
+    let page = read("docs/book/src/scenes.md");
+    let rows: Vec<(&str, &str)> = page
+        .lines()
+        .filter_map(|l| {
+            let rest = l.strip_prefix("| `")?;
+            let (kind, rest) = rest.split_once("` | ")?;
+            let keys = rest.split(" | ").next()?;
+            Some((kind, keys))
+        })
+        .filter(|(kind, _)| *kind != "kind" && kind.chars().all(|c| c.is_ascii_lowercase() || c == '-'))
+        .collect();
+    let documented: Vec<&str> = rows.iter().map(|(k, _)| *k).collect();
+    assert_eq!(documented, EFFECT_KINDS, "the table's kinds, in order, are the built-in kinds");
+    for (kind, keys) in rows {
+        let e = toml::from_str::<EffectSpec>(&format!("kind = \"{kind}\"\nzz_no_such_key = 1"))
+            .expect_err("an unknown key is refused")
+            .to_string();
+        let expected = e.split("expected").nth(1).unwrap_or_else(|| panic!("{kind}: {e}"));
+        let fields: Vec<&str> = expected.split('`').skip(1).step_by(2).collect();
+        assert!(!fields.is_empty(), "{kind}: {e}");
+        for f in fields {
+            let named = keys.match_indices(&format!("`{f}")).any(|(i, m)| {
+                keys[i + m.len()..].chars().next().is_some_and(|c| !(c.is_ascii_alphanumeric() || c == '_'))
+            });
+            assert!(named, "the row of `{kind}` in docs/book/src/scenes.md does not name its key `{f}`: {keys}");
+        }
+    }
+}
