@@ -557,7 +557,10 @@ impl App {
     /// `std::env::args_os`) and runs the command, writing what it prints to
     /// `out`; warnings and the progress bar go to stderr. This is
     /// [`App::main`] without the process around it, for tests and for
-    /// programs that run commands themselves.
+    /// programs that run commands themselves. From its first call on,
+    /// the process spells the settings its messages advise as this
+    /// command line's flags (`--dt`, `--formulation dae`:
+    /// [`ezy_core::spell_settings_as_flags`]).
     ///
     /// # Errors
     /// [`AppError`]: a usage mistake, a failed command (its message names
@@ -567,6 +570,7 @@ impl App {
         I: IntoIterator<Item = T>,
         T: Into<OsString> + Clone,
     {
+        ezy_core::spell_settings_as_flags();
         let cli = Cli::try_parse_from(args)?;
         match cli.command {
             None => self.cmd_run(cli::RunArgs { scene: None, ..cli::RunArgs::default() }, out),

@@ -1,7 +1,76 @@
 //! Errors of the runtime (DESIGN.md: a `thiserror` enum with data, no
 //! catch-all string variant).
 
+use std::sync::atomic::{AtomicBool, Ordering};
+
 use crate::kkt::KktError;
+
+/// A run setting an error or a help text advises changing. How it is
+/// spelled is the caller's: as a library names it (`` `dt` ``,
+/// `` `formulation = dae` ``, the fields of [`crate::RunSettings`] and the
+/// keys of a scene's `[integrator]`), or, once a command line calls
+/// [`spell_settings_as_flags`], as its flags (`--dt`, `--formulation dae`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Setting {
+    /// The fixed step size \[s\].
+    Dt,
+    /// The relative tolerance.
+    Rtol,
+    /// The step budget.
+    MaxSteps,
+    /// The output budget \[MB\].
+    MaxOutputMb,
+    /// The integration method, with the value advised.
+    Method(crate::Method),
+    /// The formulation, with the value advised.
+    Formulation(crate::Formulation),
+    /// Baumgarte stabilization.
+    Baumgarte,
+}
+
+static AS_FLAGS: AtomicBool = AtomicBool::new(false);
+
+/// From now on, [`Setting`]s (in every error message and help text of
+/// this process) are spelled as the `ezy` command line's flags. The
+/// command line calls it once at its start; a library leaves it.
+pub fn spell_settings_as_flags() {
+    AS_FLAGS.store(true, Ordering::Relaxed);
+}
+
+impl Setting {
+    /// Whether settings are spelled as flags ([`spell_settings_as_flags`]).
+    pub fn as_flags() -> bool {
+        AS_FLAGS.load(Ordering::Relaxed)
+    }
+}
+
+impl Setting {
+    /// The flag, the library's name (a field of [`crate::RunSettings`],
+    /// a key of a scene's `[integrator]`) and the value advised.
+    fn names(self) -> (&'static str, &'static str, Option<&'static str>) {
+        match self {
+            Self::Dt => ("--dt", "dt", None),
+            Self::Rtol => ("--rtol", "rtol", None),
+            Self::MaxSteps => ("--max-steps", "max_steps", None),
+            Self::MaxOutputMb => ("--max-output-mb", "max_output_mb", None),
+            Self::Method(m) => ("--integrator", "method", Some(m.name())),
+            Self::Formulation(x) => ("--formulation", "formulation", Some(x.name())),
+            Self::Baumgarte => ("--baumgarte", "baumgarte", None),
+        }
+    }
+}
+
+impl std::fmt::Display for Setting {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let (flag, name, value) = self.names();
+        match (Setting::as_flags(), value) {
+            (true, None) => f.write_str(flag),
+            (true, Some(v)) => write!(f, "{flag} {v}"),
+            (false, None) => write!(f, "`{name}`"),
+            (false, Some(v)) => write!(f, "`{name} = {v}`"),
+        }
+    }
+}
 
 /// What can stop a simulation or its setup.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
@@ -160,7 +229,7 @@ pub enum SimError {
     /// A run would take more steps or write more output than its budget.
     #[error(
         "the run would take {} {what} ({detail}), more than the limit of {}; {}",
-        fmt_value(round3(*estimate)), fmt_value(*limit), raise(*estimate, flag)
+        fmt_value(round3(*estimate)), fmt_value(*limit), raise(*estimate, *setting)
     )]
     Budget {
         /// What is counted: "steps", "MB of output".
@@ -169,8 +238,9 @@ pub enum SimError {
         estimate: f64,
         /// The limit.
         limit: f64,
-        /// The flag that raises the limit, e.g. `--max-steps`.
-        flag: &'static str,
+        /// The setting that raises the limit ([`Setting::MaxSteps`],
+        /// [`Setting::MaxOutputMb`]).
+        setting: Setting,
         /// How the estimate was made.
         detail: String,
     },
@@ -296,17 +366,24 @@ pub fn advice(method: crate::Method, t: f64, dt: f64, balance: Option<f64>) -> S
         )
     } else {
         format!(
-            "the step h = {} s is too large for this scene: try a smaller --dt or an adaptive method (--integrator dop853)",
-            fmt_value(dt)
+            "the step h = {} s is too large for this scene: try a smaller {} or an adaptive method ({})",
+            fmt_value(dt),
+            Setting::Dt,
+            Setting::Method(crate::Method::Dop853)
         )
     }
 }
 
-/// How to get past a budget: the flag with the estimate, or, for an
+/// How to get past a budget: the setting with the estimate, or, for an
 /// estimate no machine could run, a change of settings.
-fn raise(estimate: f64, flag: &str) -> String {
+fn raise(estimate: f64, setting: Setting) -> String {
     if estimate.is_finite() && estimate < 1e15 {
-        format!("pass {flag} {} (or larger) to run it anyway", fmt_value(ceil3(estimate)))
+        let value = fmt_value(ceil3(estimate));
+        if Setting::as_flags() {
+            format!("pass {setting} {value} (or larger) to run it anyway")
+        } else {
+            format!("set {setting} to {value} (or larger) to run it anyway")
+        }
     } else {
         "no budget makes this feasible: change the step, duration or output interval".into()
     }

@@ -197,8 +197,9 @@ pub fn drift_note(
     [relative, error, scale]: [f64; 3],
 ) -> String {
     format!(
-        "from t = {t:.6} s the energy balance |T - T0 - W| = {error:.3e} J is {relative:.3e} of the run's energy scale {scale:.3e} J (the largest energy it has handled), beyond {limit:e}: {} met rtol = {rtol:e}, atol = {atol:e} at every step and its error accumulates over the run; a tighter --rtol keeps the energy",
-        method.name()
+        "from t = {t:.6} s the energy balance |T - T0 - W| = {error:.3e} J is {relative:.3e} of the run's energy scale {scale:.3e} J (the largest energy it has handled), beyond {limit:e}: {} met rtol = {rtol:e}, atol = {atol:e} at every step and its error accumulates over the run; a tighter {} keeps the energy",
+        method.name(),
+        crate::error::Setting::Rtol
     )
 }
 

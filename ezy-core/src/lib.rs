@@ -65,7 +65,9 @@ pub mod simulate;
 
 pub use dynamics::{Baumgarte, Dynamics};
 pub use effects::{Effect, EffectSpec};
-pub use error::{LISTED, MASS_SPREAD_WARNING, SimError, advice, fmt_value, name_list};
+pub use error::{
+    LISTED, MASS_SPREAD_WARNING, Setting, SimError, advice, fmt_value, name_list, spell_settings_as_flags,
+};
 pub use integrator::Method;
 pub use model::{
     BodyInfo, DriveInfo, EquationExpr, Equations, HingeInfo, InitialName, MinimalLayout, MinimalRhsError, Model,

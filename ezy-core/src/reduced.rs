@@ -500,8 +500,9 @@ impl Reduced {
         if nc > MAX_CONSTRAINTS {
             return Err(SimError::Formulation {
                 reason: format!(
-                    "model {} has {nc} constraint rows, more than the {MAX_CONSTRAINTS} whose dense G_D the reduced formulation factors at every evaluation; take --formulation dae (its sparse KKT path)",
-                    info.name
+                    "model {} has {nc} constraint rows, more than the {MAX_CONSTRAINTS} whose dense G_D the reduced formulation factors at every evaluation; take {} (its sparse KKT path)",
+                    info.name,
+                    crate::error::Setting::Formulation(crate::Formulation::Dae)
                 ),
             });
         }
@@ -661,9 +662,10 @@ impl Reduced {
         crate::model::scatter_dense(&info.pattern, &self.g_values, nq, &mut dense);
         let dependent = |rows: usize, k: usize| SimError::Formulation {
             reason: format!(
-                "at t = {} s only {k} of the {rows} {} rows of G are independent; the reduced formulation needs independent constraints (--formulation dae names the dependent one)",
+                "at t = {} s only {k} of the {rows} {} rows of G are independent; the reduced formulation needs independent constraints ({} names the dependent one)",
                 crate::error::fmt_value(t),
-                if rows == nh { "holonomic" } else { "constraint" }
+                if rows == nh { "holonomic" } else { "constraint" },
+                crate::error::Setting::Formulation(crate::Formulation::Dae)
             ),
         };
         let q_dep =

@@ -125,7 +125,7 @@ impl RunSettings {
                     what: "steps",
                     estimate: needed,
                     limit: max as f64,
-                    flag: "--max-steps",
+                    setting: crate::error::Setting::MaxSteps,
                     detail: format!("t_end / dt = {:e} s / {:e} s", self.t_end, self.dt),
                 });
             }
@@ -333,8 +333,9 @@ pub fn singular_note(t: f64, solves: u64) -> String {
 /// `h |lambda| = hlambda` beyond `limit`).
 pub fn stiff_note(method: Method, t: f64, hlambda: f64, limit: f64) -> String {
     format!(
-        "from t = {t:.6} s the run is stiff: {}'s steps are held by its stability (Hairer's test: h|lambda| = {hlambda:.1} > {limit} for 15 tests), not by accuracy; --integrator radau5 steps over the fast modes",
-        method.name()
+        "from t = {t:.6} s the run is stiff: {}'s steps are held by its stability (Hairer's test: h|lambda| = {hlambda:.1} > {limit} for 15 tests), not by accuracy; {} steps over the fast modes",
+        method.name(),
+        crate::error::Setting::Method(Method::Radau5)
     )
 }
 
@@ -569,8 +570,10 @@ impl<M: Model, O: Observer<M>> Run<'_, M, O> {
             Verdict::Diverged { kinetic, given } => {
                 let cause = if method.is_adaptive() {
                     format!(
-                        "the forces did not supply it (it is not T0 + W), so {} made it while meeting its tolerance: a tighter --rtol, or --integrator radau5 if the scene is stiff",
-                        method.name()
+                        "the forces did not supply it (it is not T0 + W), so {} made it while meeting its tolerance: a tighter {}, or {} if the scene is stiff",
+                        method.name(),
+                        crate::error::Setting::Rtol,
+                        crate::error::Setting::Method(Method::Radau5)
                     )
                 } else {
                     advice(method, t, h, None)
@@ -706,7 +709,7 @@ impl<M: Model, O: Observer<M>> Run<'_, M, O> {
                 what: "steps",
                 estimate,
                 limit: max as f64,
-                flag: "--max-steps",
+                setting: crate::error::Setting::MaxSteps,
                 detail: format!("extrapolated from {attempts} step attempts to t = {t:.6e} s of {} s", settings.t_end),
             });
         }
@@ -1034,13 +1037,20 @@ pub fn simulate<M: Model, O: Observer<M>>(
     let settings = if formulation == Formulation::Reduced {
         if settings.method == Method::Radau5 {
             return Err(SimError::Formulation {
-                reason: "RADAU5's Newton iteration is built on the DAE's KKT matrix; take --formulation dae or an explicit method".into(),
+                reason: format!(
+                    "RADAU5's Newton iteration is built on the DAE's KKT matrix; take {} or an explicit method",
+                    crate::error::Setting::Formulation(crate::Formulation::Dae)
+                ),
             }
             .into());
         }
         if sys.baumgarte.is_some() {
             return Err(SimError::Formulation {
-                reason: "Baumgarte stabilization is for the DAE; the reduced formulation keeps the constraints without it: drop --baumgarte or take --formulation dae".into(),
+                reason: format!(
+                    "Baumgarte stabilization is for the DAE; the reduced formulation keeps the constraints without it: drop {} or take {}",
+                    crate::error::Setting::Baumgarte,
+                    crate::error::Setting::Formulation(crate::Formulation::Dae)
+                ),
             }
             .into());
         }

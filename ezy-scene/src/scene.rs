@@ -1,6 +1,7 @@
 //! Scenes: which model, which parameters, where it starts, which effects
 //! act, how long, which integrator, which outputs and figures. A scene is a
-//! small TOML file (the README documents the format); the built-in scenes
+//! small TOML file (the guide's "Scenes and effects" chapter documents the
+//! format); the built-in scenes
 //! are files in `models/scenes/`.
 //!
 //! Loading has two stages, each with errors that name the file, line and

@@ -200,7 +200,7 @@ pub fn problem<M: Model + Default>(
 /// Elements of a model's families (the sum of its counts) from which a
 /// run's setup may take seconds and gets a heartbeat: the snake's setup
 /// takes 0.03 s at 1,000 links, 0.45 s at 10,000 and 6.7 s at 100,000
-/// (README "Scale", 2 cores), and the heartbeat's first line comes
+/// (the guide's "Scale" chapter, 2 cores), and the heartbeat's first line comes
 /// after [`crate::progress::LINE_EVERY`]; below it the thread's start and
 /// join (about 0.3 ms) would be a tenth of a small run's whole process.
 pub const LONG_SETUP_ELEMENTS: f64 = 1000.0;
@@ -394,7 +394,7 @@ pub fn output_budget(settings: &RunSettings, columns: usize, max_mb: f64) -> Res
             what: "MB of output",
             estimate: mb,
             limit: max_mb,
-            flag: "--max-output-mb",
+            setting: ezy_core::Setting::MaxOutputMb,
             detail: format!("{rows:.2e} rows of {columns} columns in trajectory.csv").replace(".00e", "e"),
         });
     }

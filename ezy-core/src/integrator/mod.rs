@@ -89,11 +89,11 @@ impl crate::Choice for Method {
     }
     fn help(self) -> &'static str {
         match self {
-            Self::Euler => "Explicit Euler, order 1, fixed step (--dt)",
-            Self::Rk4 => "Classic Runge-Kutta, order 4, fixed step (--dt)",
-            Self::Dopri5 => "Dormand-Prince 5(4), adaptive (--rtol, --atol)",
-            Self::Dop853 => "Dormand-Prince 8(5,3), adaptive (--rtol, --atol)",
-            Self::Radau5 => "Radau IIA of order 5, implicit and adaptive (--rtol, --atol): for stiff scenes",
+            Self::Euler => "Explicit Euler, order 1, fixed step dt",
+            Self::Rk4 => "Classic Runge-Kutta, order 4, fixed step dt",
+            Self::Dopri5 => "Dormand-Prince 5(4), adaptive to the tolerances rtol, atol",
+            Self::Dop853 => "Dormand-Prince 8(5,3), adaptive to the tolerances rtol, atol",
+            Self::Radau5 => "Radau IIA of order 5, implicit and adaptive to rtol, atol: for stiff scenes",
         }
     }
 }

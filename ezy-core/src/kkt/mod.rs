@@ -21,7 +21,7 @@
 //!   with the ordering and symbolic factor computed once, for large models.
 //!
 //! [`KktMethod::Auto`] picks the Schur path when every mass entry is positive
-//! (measured faster: see `benches/` and the README), the sparse one from
+//! (measured faster: see `benches/` and the guide's "Numerics" chapter), the sparse one from
 //! [`SPARSE_FROM_ROWS`] constraint rows, else LU.
 
 mod dense_lu;
