@@ -515,23 +515,17 @@ struct Torsion {
 
 #[derive(Debug)]
 struct TorsionLaw {
-    a: usize,
-    b: Option<usize>,
+    hinge: ezy::effects::HingeRef,
     k: f64,
 }
 
 impl ezy::effects::ForceLaw for TorsionLaw {
     fn apply(&self, _t: f64, q: &[f64], qd: &[f64], f: &mut [f64]) -> (f64, f64) {
-        let rate = qd[self.a] - self.b.map_or(0.0, |b| qd[b]);
-        let tau = -self.k * (q[self.a] - self.b.map_or(0.0, |b| q[b]));
-        f[self.a] += tau;
-        if let Some(b) = self.b {
-            f[b] -= tau;
-        }
-        (tau * rate, tau)
+        let tau = -self.k * self.hinge.angle(q);
+        (self.hinge.add_torque(tau, qd, f), tau)
     }
     fn coords(&self) -> Vec<usize> {
-        std::iter::once(self.a).chain(self.b).collect()
+        self.hinge.coords()
     }
 }
 
@@ -540,7 +534,7 @@ impl ezy::effects::EffectKind for Torsion {
     const VALUE_PREFIX: &'static str = "tau";
     fn resolve(&self, cx: &ezy::effects::EffectContext<'_>) -> Result<TorsionLaw, ezy::effects::SpecError> {
         let h = cx.hinge("hinge", &self.hinge)?;
-        Ok(TorsionLaw { a: h.a, b: h.b, k: self.stiffness })
+        Ok(TorsionLaw { hinge: h, k: self.stiffness })
     }
 }
 
@@ -605,7 +599,7 @@ impl ezy::effects::EffectKind for Turns {
     type Law = TorsionLaw;
     fn resolve(&self, cx: &ezy::effects::EffectContext<'_>) -> Result<TorsionLaw, ezy::effects::SpecError> {
         let h = cx.hinge("hinge", &self.hinge)?;
-        Ok(TorsionLaw { a: h.a, b: h.b, k: f64::from(self.n) })
+        Ok(TorsionLaw { hinge: h, k: f64::from(self.n) })
     }
 }
 

@@ -377,8 +377,9 @@ impl TryFrom<String> for Column {
     }
 }
 
-/// Splits `s` at the commas outside parentheses.
-fn split_outside_parentheses(s: &str) -> Vec<&str> {
+/// Splits `s` at the commas outside parentheses (a column's or a
+/// metric's arguments: `norm(x1d, y1d), 100`).
+pub fn split_outside_parentheses(s: &str) -> Vec<&str> {
     let (mut depth, mut start, mut out) = (0i32, 0, Vec::new());
     for (i, c) in s.char_indices() {
         match c {

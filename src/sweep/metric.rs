@@ -45,24 +45,6 @@ pub struct Metric {
     pub t1: Option<f64>,
 }
 
-/// Splits `s` at the commas outside parentheses.
-fn split_top(s: &str) -> Vec<&str> {
-    let (mut depth, mut start, mut out) = (0i32, 0, Vec::new());
-    for (i, c) in s.char_indices() {
-        match c {
-            '(' => depth += 1,
-            ')' => depth -= 1,
-            ',' if depth == 0 => {
-                out.push(&s[start..i]);
-                start = i + 1;
-            }
-            _ => {}
-        }
-    }
-    out.push(&s[start..]);
-    out
-}
-
 impl std::str::FromStr for Metric {
     type Err = String;
 
@@ -88,7 +70,7 @@ impl std::str::FromStr for Metric {
             "final" => Reduce::Final,
             other => return Err(format!("metric `{text}`: unknown function `{other}`; known: mean, max, min, final")),
         };
-        let args = split_top(inner);
+        let args = ezy_scene::scene::split_outside_parentheses(inner);
         let column: Column = args[0].parse().map_err(|e| format!("metric `{text}`: {e}"))?;
         let time = |a: &str| -> Result<f64, String> {
             match a.trim().parse::<f64>() {

@@ -23,7 +23,7 @@
 //!
 //! and one line registers it: `App::new().effect::<Steering>("steering")`.
 
-use ezy::effects::{EffectContext, EffectKind, ForceLaw, SpecError};
+use ezy::effects::{EffectContext, EffectKind, ForceLaw, HingeRef, SpecError};
 use ezy::serde::{Deserialize, Serialize};
 
 /// The fields of a `steering` effect as a scene file writes them.
@@ -45,14 +45,11 @@ pub struct Steering {
     pub omega: f64,
 }
 
-/// The steering law resolved against a model: the hinge's heading
-/// indices and the gains.
+/// The steering law resolved against a model: the hinge and the gains.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct SteeringLaw {
-    /// Heading index of the hinge's first body in `q`.
-    pub a: usize,
-    /// Heading index of its second body (`None`: the ground).
-    pub b: Option<usize>,
+    /// The hinge (its bodies' heading indices in `q`).
+    pub hinge: HingeRef,
     /// \[N m/rad\].
     pub k: f64,
     /// \[N m s/rad\].
@@ -66,28 +63,22 @@ pub struct SteeringLaw {
 }
 
 impl SteeringLaw {
-    /// The torque `tau` \[N m\] at `(t, q, qd)` and the hinge rate
-    /// `theta_dot` \[rad/s\].
-    pub fn torque(&self, t: f64, q: &[f64], qd: &[f64]) -> (f64, f64) {
-        let theta = q[self.a] - self.b.map_or(0.0, |b| q[b]);
-        let rate = qd[self.a] - self.b.map_or(0.0, |b| qd[b]);
+    /// The torque `tau` \[N m\] at `(t, q, qd)`.
+    pub fn torque(&self, t: f64, q: &[f64], qd: &[f64]) -> f64 {
+        let (theta, rate) = (self.hinge.angle(q), self.hinge.rate(qd));
         let reference = self.offset + self.amplitude * (self.omega * t).sin();
-        (-self.k * (theta - reference) - self.c * rate, rate)
+        -self.k * (theta - reference) - self.c * rate
     }
 }
 
 impl ForceLaw for SteeringLaw {
     fn apply(&self, t: f64, q: &[f64], qd: &[f64], f: &mut [f64]) -> (f64, f64) {
-        let (tau, rate) = self.torque(t, q, qd);
-        f[self.a] += tau;
-        if let Some(b) = self.b {
-            f[b] -= tau;
-        }
-        (tau * rate, tau)
+        let tau = self.torque(t, q, qd);
+        (self.hinge.add_torque(tau, qd, f), tau)
     }
 
     fn coords(&self) -> Vec<usize> {
-        std::iter::once(self.a).chain(self.b).collect()
+        self.hinge.coords()
     }
 }
 
@@ -107,7 +98,7 @@ impl EffectKind for Steering {
             SpecError::check(v.is_finite(), field, || format!("{field} = {v} must be finite"))?;
         }
         let Steering { k, c, offset, amplitude, omega, .. } = *self;
-        Ok(SteeringLaw { a: hinge.a, b: hinge.b, k, c, offset, amplitude, omega })
+        Ok(SteeringLaw { hinge, k, c, offset, amplitude, omega })
     }
 }
 

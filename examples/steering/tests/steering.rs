@@ -113,7 +113,7 @@ fn the_law_passes_the_force_law_check() {
             self.0.apply(t, q, qd, f)
         }
         fn coords(&self) -> Vec<usize> {
-            vec![self.0.a]
+            vec![self.0.hinge.a]
         }
     }
     let err = ezy::testing::check_force_law(&Hidden(resolved), info.nq(), 5, 1).unwrap_err();

@@ -834,6 +834,40 @@ pub struct HingeRef {
     pub b: Option<usize>,
 }
 
+impl HingeRef {
+    /// The hinge angle `theta = q[a] - q[b]` \[rad\] (`q[a]` for a ground
+    /// hinge), `q` (nq).
+    #[inline]
+    pub fn angle(&self, q: &[f64]) -> f64 {
+        q[self.a] - self.b.map_or(0.0, |b| q[b])
+    }
+
+    /// Its rate `theta_dot` \[rad/s\], `qd` (nq).
+    #[inline]
+    pub fn rate(&self, qd: &[f64]) -> f64 {
+        self.angle(qd)
+    }
+
+    /// Adds a hinge torque `tau` \[N m\] into `f` (nq): `+tau` on the
+    /// first body's heading, `-tau` on the second's (docs/physics.md §8).
+    /// Returns its power `tau theta_dot` \[W\], what
+    /// [`ForceLaw::apply`] returns for the ledger.
+    #[inline]
+    pub fn add_torque(&self, tau: f64, qd: &[f64], f: &mut [f64]) -> f64 {
+        f[self.a] += tau;
+        if let Some(b) = self.b {
+            f[b] -= tau;
+        }
+        tau * self.rate(qd)
+    }
+
+    /// The coordinates a hinge torque reads and acts on (the two
+    /// headings, or one): what [`ForceLaw::coords`] returns for it.
+    pub fn coords(&self) -> Vec<usize> {
+        std::iter::once(self.a).chain(self.b).collect()
+    }
+}
+
 /// The two coordinates of `ground(x, y)`, as written (`None` for another name).
 fn ground_point(s: &str) -> Option<[&str; 2]> {
     let inner = s.trim().strip_prefix("ground")?.trim_start().strip_prefix('(')?.strip_suffix(')')?;

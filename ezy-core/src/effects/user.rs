@@ -67,7 +67,7 @@ pub trait ForceLaw: Send + Sync + fmt::Debug + 'static {
 /// `at` written `"J[*]"` makes one effect per element of the family.
 ///
 /// ```
-/// use ezy_core::effects::{EffectContext, EffectKind, ForceLaw, SpecError};
+/// use ezy_core::effects::{EffectContext, EffectKind, ForceLaw, HingeRef, SpecError};
 /// use serde::{Deserialize, Serialize};
 ///
 /// /// A torsion spring at a hinge, `tau = -k theta` [N m].
@@ -81,23 +81,17 @@ pub trait ForceLaw: Send + Sync + fmt::Debug + 'static {
 ///
 /// #[derive(Debug)]
 /// struct TorsionLaw {
-///     a: usize,
-///     b: Option<usize>,
+///     hinge: HingeRef,
 ///     k: f64,
 /// }
 ///
 /// impl ForceLaw for TorsionLaw {
 ///     fn apply(&self, _t: f64, q: &[f64], qd: &[f64], f: &mut [f64]) -> (f64, f64) {
-///         let phi_b = |v: &[f64]| self.b.map_or(0.0, |b| v[b]);
-///         let tau = -self.k * (q[self.a] - phi_b(q));
-///         f[self.a] += tau;
-///         if let Some(b) = self.b {
-///             f[b] -= tau;
-///         }
-///         (tau * (qd[self.a] - phi_b(qd)), tau)
+///         let tau = -self.k * self.hinge.angle(q);
+///         (self.hinge.add_torque(tau, qd, f), tau) // (power, value)
 ///     }
 ///     fn coords(&self) -> Vec<usize> {
-///         std::iter::once(self.a).chain(self.b).collect()
+///         self.hinge.coords()
 ///     }
 /// }
 ///
@@ -107,7 +101,7 @@ pub trait ForceLaw: Send + Sync + fmt::Debug + 'static {
 ///     fn resolve(&self, cx: &EffectContext<'_>) -> Result<TorsionLaw, SpecError> {
 ///         let h = cx.hinge("hinge", &self.hinge)?;
 ///         SpecError::check(self.k >= 0.0, "k", || format!("k = {} must be zero or positive", self.k))?;
-///         Ok(TorsionLaw { a: h.a, b: h.b, k: self.k })
+///         Ok(TorsionLaw { hinge: h, k: self.k })
 ///     }
 /// }
 /// ```
