@@ -47,6 +47,7 @@
 //! [`Problem`]; the `ezy` crate adds the command line, CSV and figures.
 //! The formulation and its sources: `docs/physics.md`.
 
+pub mod analysis;
 pub mod drive;
 pub mod dynamics;
 pub mod effects;

@@ -444,6 +444,18 @@ impl<M: Model> Problem<M> {
         Ok((sys, y0, report))
     }
 
+    /// The problem's right-hand side ready for the analyses
+    /// (linearization, steady motions, periodic orbits) and its consistent
+    /// initial state `[q, qd]` (2 nq).
+    ///
+    /// # Errors
+    /// As [`Problem::initial_state`].
+    pub fn analysis(self) -> Result<(crate::analysis::Analysis<M>, Vec<f64>), SimError> {
+        let (sys, mut y0, _) = self.into_system()?;
+        y0.truncate(2 * sys.nq());
+        Ok((crate::analysis::Analysis::new(sys), y0))
+    }
+
     /// Integrates the problem and keeps every output sample in memory.
     ///
     /// # Errors

@@ -10,8 +10,7 @@ use core::ops::{Add, Div, Mul, Neg, Sub};
 
 /// A real number type the generated model code can evaluate on.
 ///
-/// Implemented for `f64` and, with the `dual` feature, for
-/// `num_dual::Dual64`.
+/// Implemented for `f64` and for `num_dual::Dual64`.
 pub trait Scalar:
     Copy + Add<Output = Self> + Sub<Output = Self> + Mul<Output = Self> + Div<Output = Self> + Neg<Output = Self>
 {
@@ -62,7 +61,6 @@ impl Scalar for f64 {
     }
 }
 
-#[cfg(feature = "dual")]
 impl Scalar for num_dual::Dual64 {
     fn from_f64(value: f64) -> Self {
         <num_dual::Dual64 as num_dual::DualNum>::from_re(value)

@@ -22,7 +22,7 @@ use std::sync::Arc;
 
 use serde::{Deserialize, Serialize};
 pub use user::{Controller, EffectKind, ForceLaw, UserSpec};
-pub use waveform::{Harmonic, Spline, SplineData, Table, Waveform};
+pub use waveform::{Harmonic, Periodicity, Spline, SplineData, Table, Waveform};
 
 use crate::SimError;
 use crate::model::{Model, ModelInfo, NameIndex};
@@ -1194,6 +1194,23 @@ impl Effect {
     #[inline]
     pub fn apply(&self, t: f64, q: &[f64], qd: &[f64], f: &mut [f64]) -> (f64, f64) {
         self.apply_with(t, &self.waveforms(t), q, qd, f)
+    }
+
+    /// How the effect's force depends on time at a fixed state: through
+    /// its waveforms (a motor's torque, a servo's angle, a force's
+    /// components); `None` for a law of the user's own, which ezy cannot
+    /// see into.
+    pub fn periodicity(&self) -> Option<Periodicity> {
+        let of = |w: &Waveform| w.periodicity();
+        Some(match &self.law {
+            Law::Hinge { law: HingeLaw::Motor(w) | HingeLaw::Servo { angle: w, .. }, .. }
+            | Law::Blade(_, BladeLaw::Driven(w))
+            | Law::Torque { torque: w, .. }
+            | Law::SpringDamper { force: w, .. } => of(w),
+            Law::Force { fx, fy, .. } => Periodicity::combine([of(fx), of(fy)]),
+            Law::User(_) => return None,
+            _ => Periodicity::Constant,
+        })
     }
 
     /// The values at time `t` \[s\] of the effect's waveforms: a motor's

@@ -397,3 +397,58 @@ mod tests {
         assert!(Waveform::Constant(f64::NAN).validate().unwrap_err().contains("must be finite"));
     }
 }
+
+/// How a quantity depends on time, for the analyses that need a scene's
+/// forcing period ([`crate::analysis`]).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Periodicity {
+    /// Does not change with time.
+    Constant,
+    /// Repeats with this period \[s\] (the smallest one known).
+    Period(f64),
+    /// Changes with time without a period (a table, a spline).
+    Aperiodic,
+}
+
+impl Periodicity {
+    /// The periodicity of a sum or combination of quantities with these
+    /// periodicities: constant if all are, the smallest common period if
+    /// every period divides it (found among the first 64 multiples of the
+    /// longest, each ratio whole to 1e-9), aperiodic otherwise.
+    pub fn combine(parts: impl IntoIterator<Item = Periodicity>) -> Periodicity {
+        let mut periods = Vec::new();
+        for p in parts {
+            match p {
+                Periodicity::Constant => {}
+                Periodicity::Period(t) => periods.push(t),
+                Periodicity::Aperiodic => return Periodicity::Aperiodic,
+            }
+        }
+        let Some(longest) = periods.iter().copied().reduce(f64::max) else { return Periodicity::Constant };
+        (1..=64)
+            .map(|n| n as f64 * longest)
+            .find(|t| periods.iter().all(|p| ((t / p) - (t / p).round()).abs() < 1e-9))
+            .map_or(Periodicity::Aperiodic, Periodicity::Period)
+    }
+}
+
+impl Waveform {
+    /// How the waveform depends on time: a harmonic of angular frequency
+    /// `omega` repeats every `2 pi / |omega|` (constant when `omega = 0`
+    /// or its amplitude is 0); tables and splines are aperiodic.
+    pub fn periodicity(&self) -> Periodicity {
+        let harmonic = |h: &Harmonic| {
+            if h.omega == 0.0 || h.amplitude == 0.0 {
+                Periodicity::Constant
+            } else {
+                Periodicity::Period(2.0 * std::f64::consts::PI / h.omega.abs())
+            }
+        };
+        match self {
+            Waveform::Constant(_) => Periodicity::Constant,
+            Waveform::Cos(h) | Waveform::Sin(h) => harmonic(h),
+            Waveform::Harmonics(hs) => Periodicity::combine(hs.iter().map(harmonic)),
+            Waveform::Table(_) | Waveform::Spline(_) => Periodicity::Aperiodic,
+        }
+    }
+}

@@ -255,3 +255,74 @@ impl StiffnessTest {
         false
     }
 }
+
+/// The end of an integration by [`integrate`].
+#[derive(Debug, Clone, PartialEq)]
+pub struct Endpoint {
+    /// `y(t_end)`.
+    pub y: Vec<f64>,
+    /// Accepted steps.
+    pub steps: u64,
+    /// Rejected step attempts.
+    pub rejected: u64,
+}
+
+/// Integrates `y' = F(t, y)` from `(t0, y0)` to exactly `t_end` with the
+/// embedded pair `E` and its PI controller, without projection or output:
+/// the generic interface for plain ODEs, such as the variational equations
+/// of [`crate::analysis`] (HNW I §II.4 for the step control, §I.14 for
+/// integrating the variational equations with the same error control as
+/// the state). At most `max_steps` attempted steps.
+///
+/// # Errors
+/// Whatever `F` fails with; [`SimError::StepSizeTooSmall`] when the step
+/// falls below rounding; [`SimError::Budget`] after `max_steps` attempts.
+pub fn integrate<E: EmbeddedRk, R: Rhs>(
+    rhs: &mut R,
+    t0: f64,
+    y0: &[f64],
+    t_end: f64,
+    tol: &Tolerance,
+    max_steps: u64,
+) -> Result<Endpoint, SimError> {
+    let n = y0.len();
+    let mut stepper = E::new(n);
+    let mut ctrl = Controller::default();
+    let (mut y, mut y_new, mut k1, mut k_new) = (y0.to_vec(), vec![0.0; n], vec![0.0; n], vec![0.0; n]);
+    let (mut w1, mut w2) = (vec![0.0; n], vec![0.0; n]);
+    rhs.eval(t0, &y, &mut k1)?;
+    let mut h = initial_step(rhs, t0, &y, &k1, E::ORDER, tol, t_end - t0, &mut w1, &mut w2)?;
+    let (mut t, mut steps, mut rejected) = (t0, 0u64, 0u64);
+    while t < t_end {
+        if steps + rejected >= max_steps {
+            return Err(SimError::Budget {
+                what: "steps",
+                estimate: max_steps as f64,
+                limit: max_steps as f64,
+                setting: crate::Setting::MaxSteps,
+                detail: format!("reached at t = {t} s, before t = {t_end} s"),
+            });
+        }
+        let last = t + h >= t_end;
+        let h_try = if last { t_end - t } else { h };
+        if h_try <= 16.0 * f64::EPSILON * t.abs().max(1e-300) {
+            return Err(SimError::StepSizeTooSmall { t, h: h_try });
+        }
+        let err = stepper.attempt(rhs, t, &y, &k1, h_try, tol, &mut y_new, &mut k_new)?;
+        let (accepted, h_next) = ctrl.next::<E>(if err.is_finite() { err } else { 1e10 }, h_try);
+        if accepted {
+            t = if last { t_end } else { t + h_try };
+            y.copy_from_slice(&y_new);
+            if E::FSAL_IN_ESTIMATE {
+                k1.copy_from_slice(&k_new);
+            } else {
+                rhs.eval(t, &y, &mut k1)?;
+            }
+            steps += 1;
+        } else {
+            rejected += 1;
+        }
+        h = h_next;
+    }
+    Ok(Endpoint { y, steps, rejected })
+}

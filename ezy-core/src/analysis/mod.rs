@@ -1,0 +1,326 @@
+//! Beyond simulation: exact linearization, steady motions (relative
+//! equilibria) with their stability, and periodic gaits with their Floquet
+//! multipliers.
+//!
+//! The analyses work on the state `x = [q, qd]` (2 nq) of the index-1 DAE
+//! written as an ODE, `x' = f(t, x) = [qd, qdd(t, q, qd)]`, with `qdd` from
+//! the KKT system `[M G^T; G 0] [qdd; mu] = [F; -gamma]` (docs/physics.md
+//! §5), restricted to the tangent space of the constraint manifold
+//! `{phi(q) = 0, G(q) qd = 0}` (the manifold is invariant, so its tangent
+//! space is invariant under the linearization: Hairer & Wanner, *Solving
+//! ODEs II*, §VII.1; for nonholonomic systems Bloch, *Nonholonomic
+//! Mechanics and Control*, 2nd ed., §5.3 and §8.5).
+//!
+//! - [`Analysis::linearize`]: `A = df/dx` (2nq x 2nq) and `B = df/du` for
+//!   named inputs. The model's generated terms (`G`, `gamma`) are
+//!   differentiated exactly in forward mode (dual numbers through the
+//!   code the `model!` macro generated); `qdd`'s derivative then follows
+//!   exactly from the KKT system by implicit differentiation. Applied
+//!   forces are differentiated by central differences (step
+//!   `eps^(1/3) max(1, |x_j|)`, error about 1e-10 relative), since a
+//!   force law is arbitrary user code.
+//! - [`Analysis::steady_motion`]: a relative equilibrium, a motion
+//!   `x(t) = exp(t xi) x0` along the plane's rigid motions (going straight,
+//!   turning steadily with fixed shape), found by Newton from a guess; its
+//!   eigenvalues modulo the symmetry (Marsden & Ratiu, *Introduction to
+//!   Mechanics and Symmetry*, §9; Zenkov, Bloch & Marsden, "The energy
+//!   momentum method for the stability of nonholonomic systems", Dyn.
+//!   Stab. Sys. 13, 1998). Without symmetry (a mechanism on the ground) it
+//!   is an ordinary equilibrium.
+//! - [`Analysis::periodic_orbit`]: a gait of a periodically forced scene,
+//!   the fixed point of the period map modulo the symmetry, by shooting
+//!   with Newton and the variational equations integrated alongside the
+//!   state (Seydel, *Practical Bifurcation and Stability Analysis*, 3rd
+//!   ed., §7.1-7.3); its Floquet multipliers, mean speed and the net
+//!   displacement and heading change per period.
+//!
+//! The plane's symmetry (translations, rotations) is found numerically
+//! ([`Analysis::symmetry`]): a scene is invariant under a rigid motion when
+//! its constraints and accelerations are equivariant at test states, so a
+//! force law of the user's own is treated exactly as a built-in one.
+
+mod dense;
+mod linear;
+mod periodic;
+mod steady;
+mod symmetry;
+
+pub use faer::c64;
+pub use linear::{Input, Linearization};
+pub use periodic::{PeriodicOrbit, PeriodicSettings};
+pub use steady::{Stability, SteadyMotion};
+pub use symmetry::{Generator, Pose, Symmetry};
+
+use faer::Mat;
+use num_dual::Dual64;
+
+use crate::effects::Periodicity;
+use crate::model::{Model, scatter_dense};
+use crate::{Dynamics, SimError};
+
+/// Why an analysis failed.
+#[derive(Debug, thiserror::Error)]
+pub enum AnalysisError {
+    /// The right-hand side failed (an effect without a force at a state).
+    #[error(transparent)]
+    Sim(#[from] SimError),
+    /// Newton's method did not reach the tolerance.
+    #[error(
+        "the search for {what} did not converge: after {iterations} Newton iterations the residual is {residual:.3e} (tolerance {tolerance:.1e}); start from another guess"
+    )]
+    NotConverged {
+        /// What was sought: "a steady motion", "a periodic orbit".
+        what: &'static str,
+        /// Iterations done.
+        iterations: usize,
+        /// The last residual (max norm).
+        residual: f64,
+        /// The tolerance it had to reach.
+        tolerance: f64,
+    },
+    /// A linear-algebra step failed (a singular KKT system, an SVD or
+    /// eigenvalue iteration that did not converge).
+    #[error("{reason}")]
+    Numerics {
+        /// What failed.
+        reason: String,
+    },
+    /// A request that does not fit the scene: a steady motion of a
+    /// time-dependent scene, a periodic orbit without a period, an input
+    /// the model does not have.
+    #[error("{reason}")]
+    Request {
+        /// What is wrong, naming the culprit.
+        reason: String,
+    },
+}
+
+/// A model with its effects and drives, ready for the analyses: the
+/// right-hand side of a run ([`Dynamics`]) seen as `x' = f(t, x)`.
+///
+/// Built from a [`crate::Problem`] by [`crate::Problem::analysis`], or from
+/// a [`Dynamics`] by [`Analysis::new`].
+#[derive(Debug)]
+pub struct Analysis<M: Model> {
+    sys: Dynamics<M>,
+    /// `(x, y, phi)` indices of each body.
+    bodies: Vec<[usize; 3]>,
+    /// Scratch: effect and drive powers.
+    power: Vec<f64>,
+}
+
+/// What the KKT solve gives at one state.
+#[derive(Debug, Clone)]
+pub(crate) struct Point {
+    /// `qdd` (nq).
+    pub qdd: Vec<f64>,
+    /// The KKT multipliers `mu` (nc) of `[M G^T; G 0] [qdd; mu] = [F; -gamma]`.
+    pub mu: Vec<f64>,
+    /// `G` (nc x nq).
+    pub g: Mat<f64>,
+    /// The KKT matrix ((nq + nc) x (nq + nc)).
+    pub kkt: Mat<f64>,
+}
+
+impl<M: Model> Analysis<M> {
+    /// Wraps a right-hand side (its model, effects and drives).
+    pub fn new(sys: Dynamics<M>) -> Self {
+        let bodies = sys.info.bodies.iter().map(|b| b.coords).collect();
+        let power = vec![0.0; sys.effects.len()];
+        Self { sys, bodies, power }
+    }
+
+    /// The right-hand side analysed.
+    pub fn dynamics(&self) -> &Dynamics<M> {
+        &self.sys
+    }
+
+    /// Number of coordinates nq (the state has 2 nq components).
+    pub fn nq(&self) -> usize {
+        self.sys.nq()
+    }
+
+    /// Names of the state components `[q, qd]` (2 nq): `x1`, ..., `x1d`, ....
+    pub fn state_names(&self) -> Vec<String> {
+        let mut names = self.sys.state_names();
+        names.truncate(2 * self.nq());
+        names
+    }
+
+    /// How the scene's forcing depends on time: the combined
+    /// [`Periodicity`] of its effects' waveforms and its drives' angles;
+    /// `None` when an effect is a law of the user's own (whose time
+    /// dependence ezy cannot see: give the period).
+    pub fn forcing(&self) -> Option<Periodicity> {
+        let mut parts = Vec::new();
+        for e in &self.sys.effects {
+            parts.push(e.periodicity()?);
+        }
+        parts.extend(self.sys.drives.iter().map(|d| d.angle.periodicity()));
+        Some(Periodicity::combine(parts))
+    }
+
+    /// `x' = f(t, x)` (2 nq each).
+    ///
+    /// # Errors
+    /// [`AnalysisError::Numerics`] if the KKT system is singular at `x`;
+    /// [`AnalysisError::Sim`] if an effect fails.
+    pub fn rhs(&mut self, t: f64, x: &[f64]) -> Result<Vec<f64>, AnalysisError> {
+        let nq = self.nq();
+        let p = self.point(t, x)?;
+        let mut f = x[nq..2 * nq].to_vec();
+        f.extend_from_slice(&p.qdd);
+        Ok(f)
+    }
+
+    /// The generalized applied force `F` (nq) at `(t, q, qd)`.
+    fn forces(&mut self, t: f64, q: &[f64], qd: &[f64]) -> Result<Vec<f64>, AnalysisError> {
+        if self.sys.effects.is_empty() {
+            return Ok(vec![0.0; q.len()]);
+        }
+        self.sys.applied_forces(t, q, qd, &mut self.power)?;
+        Ok(self.sys.applied_force().to_vec())
+    }
+
+    /// `G` dense (nc x nq) from its values at the pattern.
+    fn dense_g(&self, values: &[f64]) -> Mat<f64> {
+        let (nc, nq) = (self.sys.info.nc(), self.nq());
+        let mut g = vec![0.0; nc * nq];
+        scatter_dense(&self.sys.info.pattern, values, nq, &mut g);
+        dense::from_rows(nc, nq, &g)
+    }
+
+    /// The constraint residuals at `(t, x)`: `phi(q)` less the drives'
+    /// angles (nh), then `G(q) qd` less the drives' rates (nc).
+    pub fn constraint_residual(&self, t: f64, x: &[f64]) -> Vec<f64> {
+        let info = &self.sys.info;
+        let (nq, nh, nc) = (self.nq(), info.n_holonomic, info.nc());
+        let (q, qd) = (&x[..nq], &x[nq..2 * nq]);
+        let mut phi = vec![0.0; nh];
+        self.sys.model.phi(q, &mut phi);
+        crate::drive::shift_positions(&self.sys.drives, t, &mut phi);
+        let mut values = vec![0.0; info.pattern.len()];
+        self.sys.model.constraint_matrix(q, &mut values);
+        let mut v = vec![0.0; nc];
+        for (&(r, c), &g) in info.pattern.iter().zip(&values) {
+            v[r] += g * qd[c];
+        }
+        crate::drive::shift_velocities(&self.sys.drives, t, &mut v);
+        phi.extend(v);
+        phi
+    }
+
+    /// Solves the KKT system at `(t, x)`.
+    pub(crate) fn point(&mut self, t: f64, x: &[f64]) -> Result<Point, AnalysisError> {
+        let info = &self.sys.info;
+        let (nq, nc) = (self.nq(), info.nc());
+        let (q, qd) = (&x[..nq], &x[nq..2 * nq]);
+        let mut values = vec![0.0; info.pattern.len()];
+        let mut gamma = vec![0.0; nc];
+        self.sys.model.constraint_terms(q, qd, &mut values, &mut gamma);
+        for d in &self.sys.drives {
+            gamma[d.row] -= d.angle.eval3(t)[2];
+        }
+        let g = self.dense_g(&values);
+        let f = self.forces(t, q, qd)?;
+        let mass = &self.sys.mass;
+        let n = nq + nc;
+        let kkt = Mat::from_fn(n, n, |i, j| match (i < nq, j < nq) {
+            (true, true) => {
+                if i == j {
+                    mass[i]
+                } else {
+                    0.0
+                }
+            }
+            (true, false) => g[(j - nq, i)],
+            (false, true) => g[(i - nq, j)],
+            (false, false) => 0.0,
+        });
+        let rhs = Mat::from_fn(n, 1, |i, _| if i < nq { f[i] } else { -gamma[i - nq] });
+        let sol = dense::solve(kkt.as_ref(), rhs.as_ref(), "the KKT matrix [M G^T; G 0]")?;
+        let qdd = (0..nq).map(|i| sol[(i, 0)]).collect();
+        let mu = (nq..n).map(|i| sol[(i, 0)]).collect();
+        Ok(Point { qdd, mu, g, kkt })
+    }
+
+    /// The exact Jacobian `A = df/dx` (2nq x 2nq) at `(t, x)` and the
+    /// Jacobian `C` ((nh + nc) x 2nq) of the constraint residuals
+    /// ([`Analysis::constraint_residual`]), from the KKT solution `p` at
+    /// that state.
+    pub(crate) fn jacobians(&mut self, t: f64, x: &[f64], p: &Point) -> Result<(Mat<f64>, Mat<f64>), AnalysisError> {
+        let dforces = self.force_jacobian(t, x)?;
+        let info = &self.sys.info;
+        let (nq, nh, nc) = (self.nq(), info.n_holonomic, info.nc());
+        let n2 = 2 * nq;
+        let (q, qd) = (&x[..nq], &x[nq..n2]);
+        let nnz = info.pattern.len();
+        let mut rhs = Mat::<f64>::zeros(nq + nc, n2);
+        let mut c = Mat::<f64>::zeros(nh + nc, n2);
+        let mut qdual: Vec<Dual64> = q.iter().map(|&v| Dual64::from(v)).collect();
+        let mut qddual: Vec<Dual64> = qd.iter().map(|&v| Dual64::from(v)).collect();
+        let (mut gv, mut gm) = (vec![Dual64::from(0.0); nnz], vec![Dual64::from(0.0); nc]);
+        for j in 0..n2 {
+            let seed = |v: &mut [Dual64], k: usize, on: bool| v[k].eps = if on { 1.0 } else { 0.0 };
+            if j < nq {
+                seed(&mut qdual, j, true);
+            } else {
+                seed(&mut qddual, j - nq, true);
+            }
+            self.sys.model.constraint_terms(&qdual, &qddual, &mut gv, &mut gm);
+            if j < nq {
+                seed(&mut qdual, j, false);
+            } else {
+                seed(&mut qddual, j - nq, false);
+            }
+            // dG along direction j (zero for velocity directions), d gamma
+            let mut dg = vec![0.0; nc * nq];
+            for (&(r, col), v) in info.pattern.iter().zip(&gv) {
+                dg[r * nq + col] = v.eps;
+            }
+            for i in 0..nq {
+                let dgt_mu: f64 = (0..nc).map(|r| dg[r * nq + i] * p.mu[r]).sum();
+                let df = dforces.as_ref().map_or(0.0, |d| d[(i, j)]);
+                rhs[(i, j)] = df - dgt_mu;
+            }
+            for r in 0..nc {
+                let dg_qdd: f64 = (0..nq).map(|k| dg[r * nq + k] * p.qdd[k]).sum();
+                rhs[(nq + r, j)] = -gm[r].eps - dg_qdd;
+                // velocity residual G(q) qd: d/dq = dG qd, d/dqd = G
+                c[(nh + r, j)] = if j < nq { (0..nq).map(|k| dg[r * nq + k] * qd[k]).sum() } else { p.g[(r, j - nq)] };
+            }
+            if j < nq {
+                for r in 0..nh {
+                    c[(r, j)] = p.g[(r, j)];
+                }
+            }
+        }
+        let dsol = dense::solve(p.kkt.as_ref(), rhs.as_ref(), "the KKT matrix [M G^T; G 0]")?;
+        let a =
+            Mat::from_fn(n2, n2, |i, j| if i < nq { if j == i + nq { 1.0 } else { 0.0 } } else { dsol[(i - nq, j)] });
+        Ok((a, c))
+    }
+
+    /// `dF/dx` (nq x 2nq) of the applied forces by central differences
+    /// (`None` without effects: zero).
+    fn force_jacobian(&mut self, t: f64, x: &[f64]) -> Result<Option<Mat<f64>>, AnalysisError> {
+        if self.sys.effects.is_empty() {
+            return Ok(None);
+        }
+        let nq = self.nq();
+        let mut d = Mat::<f64>::zeros(nq, 2 * nq);
+        let mut xp = x[..2 * nq].to_vec();
+        for j in 0..2 * nq {
+            let h = f64::EPSILON.cbrt() * x[j].abs().max(1.0);
+            xp[j] = x[j] + h;
+            let fp = self.forces(t, &xp[..nq], &xp[nq..])?;
+            xp[j] = x[j] - h;
+            let fm = self.forces(t, &xp[..nq], &xp[nq..])?;
+            xp[j] = x[j];
+            for i in 0..nq {
+                d[(i, j)] = (fp[i] - fm[i]) / (2.0 * h);
+            }
+        }
+        Ok(Some(d))
+    }
+}

@@ -1,0 +1,301 @@
+//! Periodic orbits of periodically forced scenes (gaits): shooting on the
+//! period map modulo the symmetry, with the variational equations.
+
+use faer::{Mat, c64};
+
+use super::steady::{MAX_NEWTON, Stability};
+use super::symmetry::{act, act_jacobian, body_pose, field};
+use super::{Analysis, AnalysisError, Generator, Pose, Symmetry, dense};
+use crate::SimError;
+use crate::integrator::adaptive::{self, Tolerance};
+use crate::integrator::{Dop853, Rhs};
+use crate::model::Model;
+
+/// Settings of the period map's integration and of the shooting Newton
+/// iteration.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct PeriodicSettings {
+    /// Tolerances of the DOP853 integration of the state and of the
+    /// variational equations (the same error control for both).
+    pub tolerance: Tolerance,
+    /// Most steps of one period's integration.
+    pub max_steps: u64,
+    /// The residual of the fixed-point equations (max norm, relative to
+    /// `1 + |x0|`) at which Newton stops; it cannot be much below the
+    /// integration's error.
+    pub newton_tolerance: f64,
+}
+
+impl Default for PeriodicSettings {
+    /// `rtol = atol = 1e-11`, 10^6 steps, Newton to 1e-9.
+    fn default() -> Self {
+        Self { tolerance: Tolerance { rtol: 1e-11, atol: 1e-11 }, max_steps: 1_000_000, newton_tolerance: 1e-9 }
+    }
+}
+
+/// A periodic orbit `x(t0 + T) = shift . x(t0)` ([`Analysis::periodic_orbit`]).
+#[derive(Debug, Clone)]
+pub struct PeriodicOrbit {
+    /// The phase \[s\]: the fixed point is the state at `t0`.
+    pub t0: f64,
+    /// The period `T` \[s\].
+    pub period: f64,
+    /// The fixed point `x(t0)` (2 nq), moved so that the reference body
+    /// (the model's first) is at the origin with heading 0, as far as the
+    /// symmetry allows.
+    pub state: Vec<f64>,
+    /// The symmetry the orbit is periodic modulo.
+    pub symmetry: Symmetry,
+    /// The rigid motion over one period: `x(t0 + T) = shift . x(t0)`.
+    pub shift: Pose,
+    /// Floquet multipliers of the period map on the constraint manifold
+    /// modulo the symmetry, largest modulus first.
+    pub multipliers: Vec<c64>,
+    /// Dimension of the family of periodic orbits through this one,
+    /// modulo the symmetry; as many multipliers are 1 along it and are left
+    /// out of the classification.
+    pub family: usize,
+    /// The classification of [`PeriodicOrbit::multipliers`].
+    pub stability: Stability,
+    /// The reference body's displacement over one period in its frame at
+    /// `t0`: forward, lateral \[m\].
+    pub displacement: [f64; 2],
+    /// The reference body's heading change over one period \[rad\].
+    pub heading_change: f64,
+    /// Newton iterations taken.
+    pub iterations: usize,
+    /// The final residual of the fixed-point equations (max norm).
+    pub residual: f64,
+    /// Accepted steps of the last period's integration (state and
+    /// variational equations together).
+    pub steps: u64,
+}
+
+impl PeriodicOrbit {
+    /// Mean speed of the reference body over a period, `|displacement| / T` \[m/s\].
+    pub fn mean_speed(&self) -> f64 {
+        self.displacement[0].hypot(self.displacement[1]) / self.period
+    }
+
+    /// Mean forward speed, the displacement along the reference body's
+    /// heading at `t0` over `T` \[m/s\].
+    pub fn mean_forward_speed(&self) -> f64 {
+        self.displacement[0] / self.period
+    }
+}
+
+/// The state and its variational equations `Phi' = A(t, x) Phi`, `Phi(t0) = I`
+/// (2nq + (2nq)^2, `Phi` row-major).
+struct Variational<'a, M: Model> {
+    analysis: &'a mut Analysis<M>,
+    failed: Option<AnalysisError>,
+}
+
+impl<M: Model> Rhs for Variational<'_, M> {
+    fn eval(&mut self, t: f64, y: &[f64], dy: &mut [f64]) -> Result<(), SimError> {
+        let n2 = 2 * self.analysis.nq();
+        let mut run = |an: &mut Analysis<M>| -> Result<(), AnalysisError> {
+            let x = &y[..n2];
+            let p = an.point(t, x)?;
+            let (a, _) = an.jacobians(t, x, &p)?;
+            dy[..n2 / 2].copy_from_slice(&x[n2 / 2..]);
+            dy[n2 / 2..n2].copy_from_slice(&p.qdd);
+            let phi = &y[n2..];
+            let dphi = &mut dy[n2..];
+            for i in 0..n2 {
+                for j in 0..n2 {
+                    dphi[i * n2 + j] = (0..n2).map(|k| a[(i, k)] * phi[k * n2 + j]).sum();
+                }
+            }
+            Ok(())
+        };
+        run(self.analysis).map_err(|e| match e {
+            AnalysisError::Sim(e) => e,
+            e => {
+                let reason = e.to_string();
+                self.failed = Some(e);
+                SimError::Formulation { reason }
+            }
+        })
+    }
+}
+
+impl<M: Model> Analysis<M> {
+    /// The state at `t0 + period` from `x0` at `t0`, and the monodromy
+    /// matrix `dx(t0 + T)/dx0` (2nq x 2nq) from the variational equations,
+    /// integrated with the state by DOP853 under one error control; and the
+    /// accepted steps.
+    ///
+    /// # Errors
+    /// As [`crate::integrator::adaptive::integrate`]; as [`Analysis::rhs`].
+    pub fn flow(
+        &mut self,
+        t0: f64,
+        x0: &[f64],
+        period: f64,
+        settings: &PeriodicSettings,
+    ) -> Result<(Vec<f64>, Mat<f64>, u64), AnalysisError> {
+        let n2 = x0.len();
+        let mut y0 = x0.to_vec();
+        y0.extend((0..n2 * n2).map(|k| if k / n2 == k % n2 { 1.0 } else { 0.0 }));
+        let mut var = Variational { analysis: self, failed: None };
+        let end =
+            adaptive::integrate::<Dop853, _>(&mut var, t0, &y0, t0 + period, &settings.tolerance, settings.max_steps);
+        if let Some(e) = var.failed.take() {
+            return Err(e);
+        }
+        let end = end?;
+        let m = dense::from_rows(n2, n2, &end.y[n2..]);
+        Ok((end.y[..n2].to_vec(), m, end.steps))
+    }
+
+    /// The periodic orbit of period `period` \[s\] nearest `guess` (2 nq)
+    /// at phase `t0` \[s\], modulo `symmetry`: Newton's method with
+    /// minimum-norm steps on `x(t0 + T; x0) = h . x0`, `phi(q0) = 0`,
+    /// `G(q0) qd0 = 0` in the unknowns `x0` and the rigid motion `h` (in
+    /// the symmetry group), its Jacobian from the variational equations
+    /// (not from differences of whole runs). The Floquet multipliers are
+    /// the eigenvalues of `d(h^-1 x(t0 + T))/dx0` on the constraint
+    /// manifold's tangent space at `x0` modulo the group orbit.
+    ///
+    /// # Errors
+    /// [`AnalysisError::Request`] for a period that is not positive and
+    /// finite or a guess of the wrong length; [`AnalysisError::NotConverged`];
+    /// as [`Analysis::flow`].
+    pub fn periodic_orbit(
+        &mut self,
+        t0: f64,
+        period: f64,
+        guess: &[f64],
+        symmetry: Symmetry,
+        settings: &PeriodicSettings,
+    ) -> Result<PeriodicOrbit, AnalysisError> {
+        let n2 = 2 * self.nq();
+        if !(period.is_finite() && period > 0.0) {
+            return Err(AnalysisError::Request {
+                reason: format!("the period must be positive and finite, not {period}"),
+            });
+        }
+        if guess.len() != n2 {
+            return Err(AnalysisError::Request {
+                reason: format!("the guess has {} components; the model needs 2 nq = {n2}", guess.len()),
+            });
+        }
+        let bodies = self.bodies().to_vec();
+        let gens = symmetry.generators();
+        let k = gens.len();
+        let mut x0 = guess.to_vec();
+        let (mut xt, mut m, mut steps) = self.flow(t0, &x0, period, settings)?;
+        let h0 = symmetry.restrict(body_pose(&bodies, 0, &xt).compose(body_pose(&bodies, 0, &x0).inverse()));
+        let mut p = symmetry.params(h0);
+        let norm = |r: &[f64]| r.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+        let tol = settings.newton_tolerance * (1.0 + norm(&x0));
+        let mut iterations = 0;
+        let residual = |this: &Self, x0: &[f64], xt: &[f64], p: &[f64]| {
+            let h = symmetry.pose(p);
+            let mut r: Vec<f64> = xt.iter().zip(act(&bodies, h, x0)).map(|(a, b)| a - b).collect();
+            r.extend(this.constraint_residual(t0, x0));
+            r
+        };
+        let mut r = residual(self, &x0, &xt, &p);
+        while norm(&r) > tol {
+            if iterations == MAX_NEWTON {
+                return Err(AnalysisError::NotConverged {
+                    what: "a periodic orbit",
+                    iterations,
+                    residual: norm(&r),
+                    tolerance: tol,
+                });
+            }
+            iterations += 1;
+            let j = self.shooting_jacobian(t0, &x0, &m, symmetry, &p)?;
+            let neg: Vec<f64> = r.iter().map(|v| -v).collect();
+            let (dz, _) = dense::min_norm_solve(j.as_ref(), &neg, 1e-12)?;
+            for (a, d) in x0.iter_mut().zip(&dz) {
+                *a += d;
+            }
+            for (a, d) in p.iter_mut().zip(&dz[n2..]) {
+                *a += d;
+            }
+            (xt, m, steps) = self.flow(t0, &x0, period, settings)?;
+            r = residual(self, &x0, &xt, &p);
+        }
+        let h = symmetry.pose(&p);
+        // Floquet multipliers of x0 -> h^-1 x(t0 + T; x0) modulo the orbit
+        let dp = act_jacobian(&bodies, h.inverse(), n2) * &m;
+        let pt = self.point(t0, &x0)?;
+        let (_, c) = self.jacobians(t0, &x0, &pt)?;
+        let tangent = dense::null_space(c.as_ref(), super::linear::RANK_RTOL)?;
+        let (q, orbit) = self.quotient_basis(&tangent, &x0, symmetry)?;
+        let reduced = q.transpose() * &dp * &q;
+        let multipliers = dense::eigenvalues(reduced.as_ref(), true)?;
+        let j = self.shooting_jacobian(t0, &x0, &m, symmetry, &p)?;
+        let rank = dense::numerical_rank(j.as_ref(), 1e-8)?;
+        let family = (n2 + k - rank).saturating_sub(orbit);
+        let rates = multipliers.iter().map(|z| z.re.hypot(z.im).max(1e-300).ln()).collect();
+        let stability = Stability::classify(rates, family, 1e-6);
+        // move the reference body's frame to the origin: x0' = g x0, h' = g h g^-1
+        let g = symmetry.restrict(body_pose(&bodies, 0, &x0)).inverse();
+        let state = act(&bodies, g, &x0);
+        let shift = g.compose(h).compose(g.inverse());
+        let start = body_pose(&bodies, 0, &state);
+        let end = shift.point([start.a, start.b]);
+        let d = Pose { theta: -start.theta, ..Pose::IDENTITY }.vector([end[0] - start.a, end[1] - start.b]);
+        Ok(PeriodicOrbit {
+            t0,
+            period,
+            state,
+            symmetry,
+            shift,
+            multipliers,
+            family,
+            stability,
+            displacement: d,
+            heading_change: shift.theta,
+            iterations,
+            residual: norm(&r),
+            steps,
+        })
+    }
+
+    /// The Jacobian of the shooting equations in `(x0, p)`:
+    /// `[[M - d(h x0)/dx0, -d(h x0)/dp]; [C(x0), 0]]`.
+    fn shooting_jacobian(
+        &mut self,
+        t0: f64,
+        x0: &[f64],
+        m: &Mat<f64>,
+        symmetry: Symmetry,
+        p: &[f64],
+    ) -> Result<Mat<f64>, AnalysisError> {
+        let n2 = x0.len();
+        let bodies = self.bodies().to_vec();
+        let gens = symmetry.generators();
+        let h = symmetry.pose(p);
+        let pt = self.point(t0, x0)?;
+        let (_, c) = self.jacobians(t0, x0, &pt)?;
+        let dact = act_jacobian(&bodies, h, n2);
+        let rows = n2 + c.nrows();
+        let mut j = Mat::<f64>::zeros(rows, n2 + gens.len());
+        for r in 0..n2 {
+            for col in 0..n2 {
+                j[(r, col)] = m[(r, col)] - dact[(r, col)];
+            }
+        }
+        // d(h x0)/dp: a translation's field, or the rotation's field at
+        // the rotated state (the translation is added after the rotation)
+        let rotated = act(&bodies, Pose { theta: h.theta, ..Pose::IDENTITY }, x0);
+        for (kk, g) in gens.iter().enumerate() {
+            let v = if *g == Generator::Rotate { field(&bodies, *g, &rotated) } else { field(&bodies, *g, x0) };
+            for (r, vi) in v.into_iter().enumerate() {
+                j[(r, n2 + kk)] = -vi;
+            }
+        }
+        for r in 0..c.nrows() {
+            for col in 0..n2 {
+                j[(n2 + r, col)] = c[(r, col)];
+            }
+        }
+        Ok(j)
+    }
+}

@@ -1,0 +1,282 @@
+//! The analyses (`ezy_core::analysis`) against closed forms and
+//! independent checks: the Chaplygin sleigh's steady motions, the double
+//! pendulum's linearized frequencies, the exact Jacobian against
+//! differences, the free EzyRoller's steady motions, and the gait of
+//! `drive-rolling-resistance`.
+
+use ezy::models::{ChaplyginSleigh, DoublePendulum, EzyRoller, scenes};
+use ezy_core::analysis::{Analysis, Input, PeriodicSettings, Stability, Symmetry};
+use ezy_core::kkt::KktMethod;
+use ezy_core::{Dynamics, Model};
+
+/// The analysis of a built-in scene and its consistent initial state.
+fn analysis<M: Model + Default>(scene: ezy_scene::Scene) -> (Analysis<M>, Vec<f64>) {
+    let (problem, _) = scene.problem::<M>(&[]).unwrap();
+    problem.analysis().unwrap()
+}
+
+/// The Chaplygin sleigh going straight at speed `U` is a relative
+/// equilibrium with eigenvalues 0 (the family of speeds) and
+/// `-m a U / (I + m a^2)` (docs/physics.md §9: linearize `omega' = -m a u
+/// omega / (I + m a^2)` at `omega = 0`): stable forward, unstable backward.
+/// Agreement to 1e-10: the eigenvalues come from exact derivatives (the
+/// sleigh has no applied forces) and a 2 x 2 eigenproblem.
+#[test]
+fn sleigh_straight_motion_has_the_closed_form_eigenvalues() {
+    let (mut an, _) = analysis::<ChaplyginSleigh>(scenes::sleigh());
+    let m = ChaplyginSleigh::default();
+    for u in [1.3, -0.8] {
+        // heading 0.4 rad, moving along it
+        let x = [0.2, -0.1, 0.4, u * 0.4f64.cos(), u * 0.4f64.sin(), 0.0];
+        let sym = an.symmetry(0.0, &x).unwrap();
+        assert_eq!(sym, Symmetry::SE2);
+        let s = an.steady_motion(0.0, &x, sym, None).unwrap();
+        let want = -m.m * m.a * u / (m.I + m.m * m.a * m.a);
+        assert_eq!(s.eigenvalues.len(), 2, "{:?}", s.eigenvalues);
+        assert_eq!(s.family, 1);
+        let (big, small) = (
+            s.eigenvalues.iter().find(|z| z.re.abs() > 1e-6).unwrap(),
+            s.eigenvalues.iter().find(|z| z.re.abs() <= 1e-6).unwrap(),
+        );
+        assert!((big.re - want).abs() < 1e-10 && big.im.abs() < 1e-12, "{big:?} want {want}");
+        assert!(small.re.abs() < 1e-10 && small.im.abs() < 1e-10, "{small:?}");
+        assert_eq!(s.stability, if u > 0.0 { Stability::Stable } else { Stability::Unstable });
+        assert!(
+            (s.body_velocity[0] - u).abs() < 1e-12
+                && s.body_velocity[1].abs() < 1e-12
+                && s.body_velocity[2].abs() < 1e-12
+        );
+        // moved to the origin, heading 0
+        assert!(s.state[..3].iter().all(|v| v.abs() < 1e-12), "{:?}", s.state);
+    }
+}
+
+/// The double pendulum hanging straight down: an ordinary equilibrium (no
+/// symmetry: hinged to the ground, under gravity) whose eigenvalues are
+/// `+-i w` with the normal-mode frequencies of `det(K - w^2 M) = 0`
+/// (Goldstein's small oscillations in the bars' absolute angles, as in
+/// tests/mechanisms.rs): 2.940 and 7.366 rad/s. Gravity is an applied
+/// force, differentiated by central differences (about 1e-10 relative),
+/// so the frequencies agree to 1e-8.
+#[test]
+fn double_pendulum_linearized_frequencies() {
+    let (mut an, _) = analysis::<DoublePendulum>(scenes::get("double-pendulum"));
+    let m = DoublePendulum::default();
+    let g = ezy_core::effects::STANDARD_GRAVITY;
+    let (l1, l2, m1, m2) = (m.L1, m.L2, m.m1, m.m2);
+    let (i1, i2) = (m1 * l1 * l1 / 12.0, m2 * l2 * l2 / 12.0);
+    let mm =
+        [[i1 + m1 * l1 * l1 / 4.0 + m2 * l1 * l1, m2 * l1 * l2 / 2.0], [m2 * l1 * l2 / 2.0, i2 + m2 * l2 * l2 / 4.0]];
+    let kk = [(m1 / 2.0 + m2) * g * l1, m2 * g * l2 / 2.0];
+    let (a, b, c) = (mm[0][0] * mm[1][1] - mm[0][1] * mm[0][1], -(kk[0] * mm[1][1] + kk[1] * mm[0][0]), kk[0] * kk[1]);
+    let disc = (b * b - 4.0 * a * c).sqrt();
+    let want = [((-b + disc) / (2.0 * a)).sqrt(), ((-b - disc) / (2.0 * a)).sqrt()];
+    assert!((want[0] - 7.366).abs() < 1e-3 && (want[1] - 2.940).abs() < 1e-3, "{want:?}");
+    // a guess off the equilibrium: both bars 0.2 rad out, moving
+    let (p1, p2) = (-std::f64::consts::FRAC_PI_2 + 0.2, -std::f64::consts::FRAC_PI_2 - 0.1);
+    let e1 = [l1 * p1.cos(), l1 * p1.sin()];
+    let x = [
+        l1 / 2.0 * p1.cos(),
+        l1 / 2.0 * p1.sin(),
+        p1,
+        e1[0] + l2 / 2.0 * p2.cos(),
+        e1[1] + l2 / 2.0 * p2.sin(),
+        p2,
+        0.1,
+        0.0,
+        0.3,
+        0.0,
+        0.0,
+        -0.2,
+    ];
+    let sym = an.symmetry(0.0, &x).unwrap();
+    assert_eq!(sym, Symmetry::NONE);
+    let s = an.steady_motion(0.0, &x, sym, None).unwrap();
+    assert!(
+        (s.state[2] + std::f64::consts::FRAC_PI_2).abs() < 1e-10
+            && (s.state[5] + std::f64::consts::FRAC_PI_2).abs() < 1e-10,
+        "{:?}",
+        s.state
+    );
+    assert_eq!(s.eigenvalues.len(), 4);
+    assert_eq!(s.stability, Stability::Neutral);
+    let mut freqs: Vec<f64> = s.eigenvalues.iter().map(|z| z.im.abs()).collect();
+    freqs.sort_by(|a, b| b.total_cmp(a));
+    for (k, w) in want.iter().enumerate() {
+        for f in &freqs[2 * k..2 * k + 2] {
+            assert!((f - w).abs() < 1e-8 * w, "{f} want {w}");
+        }
+    }
+    assert!(s.eigenvalues.iter().all(|z| z.re.abs() < 1e-7), "{:?}", s.eigenvalues);
+}
+
+/// The exact `A` and `B` against central differences of the right-hand
+/// side (step 1e-6, truncation and rounding about 1e-9 relative) on the
+/// EzyRoller under a motor and rolling resistance, at a state off any
+/// symmetry: a wrong dual-number seed or sign in the implicit
+/// differentiation of the KKT system shows as an O(1) error.
+#[test]
+fn linearization_matches_differences_of_the_right_hand_side() {
+    let (mut an, x0) = analysis::<EzyRoller>(scenes::get("drive-rolling-resistance"));
+    let nq = an.nq();
+    let mut x = x0.clone();
+    for (i, v) in x.iter_mut().enumerate() {
+        *v += 0.05 * (1.7 * i as f64).sin();
+    }
+    let t = 0.37;
+    let inputs = [Input::HingeTorque("B".into()), Input::EffectScale("rolling_A".into())];
+    let lin = an.linearize(t, &x, &inputs).unwrap();
+    assert!(lin.forces_by_differences);
+    let h = 1e-6;
+    let scale = lin.a.norm_max();
+    for j in 0..2 * nq {
+        let (mut xp, mut xm) = (x.clone(), x.clone());
+        xp[j] += h;
+        xm[j] -= h;
+        let (fp, fm) = (an.rhs(t, &xp).unwrap(), an.rhs(t, &xm).unwrap());
+        for i in 0..2 * nq {
+            let fd = (fp[i] - fm[i]) / (2.0 * h);
+            assert!((fd - lin.a[(i, j)]).abs() < 1e-7 * scale, "A[{i},{j}] = {} against {fd}", lin.a[(i, j)]);
+        }
+    }
+    // B: a torque at hinge B through the scene's motor (same convention),
+    // and the rolling resistance at A scaled
+    let m = EzyRoller::default();
+    let motor =
+        ezy_core::EffectSpec::HingeMotor { hinge: "B".into(), torque: ezy_core::effects::Waveform::Constant(1.0) };
+    let system = |effects| Analysis::new(Dynamics::new(m.clone(), effects, KktMethod::Auto));
+    let f_unit = system(vec![motor.resolve("u", &m).unwrap()]).rhs(t, &x).unwrap();
+    let f_bare = system(Vec::new()).rhs(t, &x).unwrap();
+    for i in 0..2 * nq {
+        assert!((f_unit[i] - f_bare[i] - lin.b[(i, 0)]).abs() < 1e-12 * (1.0 + lin.b.norm_max()), "B[{i},0]");
+    }
+    assert!(lin.b.col(1).iter().any(|v| v.abs() > 1e-6), "the rolling resistance has an effect");
+    assert_eq!(lin.input_names, ["tau_B", "scale_rolling_A"]);
+    // the reduced matrix lives on the constraint manifold: C T = 0
+    assert!((&lin.constraints * &lin.tangent).norm_max() < 1e-12);
+    // 12 states less 2 hinge positions, 2 hinge velocities, 2 skates
+    assert_eq!(lin.tangent.ncols(), 2 * nq - 6);
+}
+
+/// The free EzyRoller (no forces: the kinetic energy is conserved, so its
+/// steady motions come in families by energy and are sought at the
+/// scene's T0 = 23.1875 J) goes straight in two ways: the fork trailing
+/// (hinge angle pi), stable, and the fork leading (hinge angle 0),
+/// unstable. The scene's start (fork at 90 degrees) leads Newton to the
+/// unstable one; a 60 s simulation of `free` ends at the stable one: its
+/// end state has the stable motion's shape and speed to 1e-9 (its
+/// eigenvalues -0.78 and -5.0 1/s have damped the start away by e^-47).
+#[test]
+fn free_ezyroller_settles_on_its_stable_steady_motion() {
+    let (mut an, x0) = analysis::<EzyRoller>(scenes::free());
+    let t0 = an.dynamics().kinetic_energy(&x0[6..]);
+    assert!((t0 - 23.1875).abs() < 1e-9, "{t0}");
+    let sym = an.symmetry(0.0, &x0).unwrap();
+    assert_eq!(sym, Symmetry::SE2);
+    let hinge = |s: &[f64]| (s[5] - s[2]).rem_euclid(std::f64::consts::TAU);
+    let leading = an.steady_motion(0.0, &x0, sym, Some(t0)).unwrap();
+    assert_eq!(leading.stability, Stability::Unstable);
+    assert!(hinge(&leading.state).min(std::f64::consts::TAU - hinge(&leading.state)) < 1e-9, "{:?}", leading.state);
+    assert!(leading.eigenvalues[0].re > 1.0, "{:?}", leading.eigenvalues);
+
+    let (problem, _) = scenes::free().problem::<EzyRoller>(&[]).unwrap();
+    let sol = problem.t_end(60.0).method(ezy_core::Method::Dop853).tolerances(1e-11, 1e-11).solve().unwrap();
+    let end = &sol.final_state()[..12];
+    let trailing = an.steady_motion(0.0, end, sym, Some(t0)).unwrap();
+    assert_eq!(trailing.stability, Stability::Stable, "{:?}", trailing.eigenvalues);
+    assert_eq!(trailing.family, 1);
+    assert!((hinge(&trailing.state) - std::f64::consts::PI).abs() < 1e-9, "{:?}", trailing.state);
+    assert!((hinge(end) - std::f64::consts::PI).abs() < 1e-9);
+    let speed = end[6].hypot(end[7]);
+    assert!((speed - trailing.speed()).abs() < 1e-9, "{speed} against {}", trailing.speed());
+    assert!(trailing.eigenvalues.iter().skip(1).all(|z| z.re < -0.5), "{:?}", trailing.eigenvalues);
+}
+
+/// The gait of `drive-rolling-resistance` (motor `2 cos(pi t)`, period
+/// 2 s): found by shooting from the state the scene ends in, it is
+/// periodic modulo a translation (no net turn), its multipliers lie inside
+/// the unit circle (largest 0.884), a 300 s simulation averages its mean
+/// speed to 1e-7 (0.884^130 of the start is left), and a simulation
+/// started at the fixed point returns to it, moved by the orbit's shift,
+/// after one period to 1e-10 (the integrators' tolerances are 1e-11;
+/// measured 3e-12).
+#[test]
+fn rolling_resistance_gait_is_a_stable_periodic_orbit() {
+    let scene = scenes::get("drive-rolling-resistance");
+    let (problem, _) = scene.problem::<EzyRoller>(&[]).unwrap();
+    let sol = problem.t_end(300.0).solve().unwrap();
+    let (mut an, x0) = analysis::<EzyRoller>(scene.clone());
+    assert_eq!(an.forcing(), Some(ezy_core::effects::Periodicity::Period(2.0)));
+    let sym = an.symmetry(0.0, &x0).unwrap();
+    let k = sol.t.iter().position(|&t| t >= 120.0 - 1e-9).unwrap();
+    let guess: Vec<f64> = sol.y[k][..12].to_vec();
+    let orbit = an.periodic_orbit(0.0, 2.0, &guess, sym, &PeriodicSettings::default()).unwrap();
+    assert_eq!(orbit.stability, Stability::Stable);
+    assert_eq!(orbit.family, 0);
+    assert_eq!(orbit.multipliers.len(), 3);
+    assert!(orbit.multipliers.iter().all(|z| z.re.hypot(z.im) < 0.9), "{:?}", orbit.multipliers);
+    assert!(orbit.heading_change.abs() < 1e-9, "{}", orbit.heading_change);
+    let (x1, y1) = (sol.column("x1").unwrap(), sol.column("y1").unwrap());
+    let (n, j) = (sol.t.len(), sol.t.iter().position(|&t| t >= 260.0 - 1e-9).unwrap());
+    let mean = (x1[n - 1] - x1[j]).hypot(y1[n - 1] - y1[j]) / (sol.t[n - 1] - sol.t[j]);
+    eprintln!(
+        "mean speed: orbit {} simulated {mean} (diff {:e}); multipliers {:?}",
+        orbit.mean_speed(),
+        (mean - orbit.mean_speed()).abs(),
+        orbit.multipliers
+    );
+    assert!((mean - orbit.mean_speed()).abs() < 1e-7, "simulated {mean} against {}", orbit.mean_speed());
+    assert!((orbit.mean_speed() - 0.336).abs() < 1e-3);
+
+    // one period from the fixed point, by the ordinary simulation
+    let (mut p, _) = scene.problem::<EzyRoller>(&[]).unwrap();
+    let names = an.state_names();
+    for (name, v) in names[..6].iter().zip(&orbit.state) {
+        p = p.q(name, *v).unwrap();
+    }
+    for (name, v) in names[..6].iter().zip(&orbit.state[6..]) {
+        p = p.qd(name, *v).unwrap();
+    }
+    let back = p.t_end(2.0).tolerances(1e-11, 1e-11).solve().unwrap();
+    let end = &back.final_state()[..12];
+    let s = orbit.shift;
+    for (i, (e, x)) in end.iter().zip(&orbit.state).enumerate() {
+        let moved = match i {
+            0 | 3 => x + s.a,
+            1 | 4 => x + s.b,
+            _ => *x,
+        };
+        eprintln!("return {}: {:e}", names[i], (e - moved).abs());
+        assert!((e - moved).abs() < 1e-10, "{} after one period: {e} against {moved}", names[i]);
+    }
+}
+
+/// The monodromy matrix from the variational equations against central
+/// differences of whole one-period runs (step 1e-5, both at tolerances
+/// 1e-13: differencing noise about 1e-8, truncation about 1e-10; measured
+/// 1.7e-9 of the largest entry), from the scene's start.
+#[test]
+fn variational_equations_match_differences_of_whole_runs() {
+    let (mut an, x0) = analysis::<EzyRoller>(scenes::get("drive-rolling-resistance"));
+    let tight = PeriodicSettings {
+        tolerance: ezy_core::integrator::Tolerance { rtol: 1e-13, atol: 1e-13 },
+        ..PeriodicSettings::default()
+    };
+    let (_, m, _) = an.flow(0.0, &x0, 2.0, &tight).unwrap();
+    let h = 1e-5;
+    let scale = m.norm_max();
+    let mut worst = 0.0f64;
+    for j in 0..12 {
+        let (mut xp, mut xm) = (x0.clone(), x0.clone());
+        xp[j] += h;
+        xm[j] -= h;
+        let (fp, _, _) = an.flow(0.0, &xp, 2.0, &tight).unwrap();
+        let (fm, _, _) = an.flow(0.0, &xm, 2.0, &tight).unwrap();
+        for i in 0..12 {
+            let fd = (fp[i] - fm[i]) / (2.0 * h);
+            worst = worst.max((fd - m[(i, j)]).abs() / scale);
+            assert!((fd - m[(i, j)]).abs() < 1e-7 * scale, "M[{i},{j}] = {} against {fd}", m[(i, j)]);
+        }
+    }
+    eprintln!("variational against differences: {worst:e} relative");
+}
