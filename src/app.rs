@@ -37,8 +37,8 @@ use ezy_scene::registry::{ModelCatalog, Register, SceneSource, check_scene, info
 use ezy_scene::{Scene, SceneError};
 
 use crate::cli::{self, Cli, Command};
-use crate::commands::run;
 use crate::commands::run::{Report, RunOptions};
+use crate::commands::{analyze, run};
 use crate::{equations, precision, scale, sweep, testing};
 
 /// What one command does with a model type, as plain function pointers
@@ -65,6 +65,8 @@ struct ModelOps {
     animate: AnimateFn,
     bench: fn(&Scene, usize) -> Result<Vec<crate::bench::BenchRow>, run::Error>,
     check_user_effects: fn(&Scene) -> Result<(), SceneError>,
+    analyze: fn(&Scene, &analyze::AnalyzeOptions) -> Result<analyze::AnalyzeReport, run::Error>,
+    linearize: fn(&Scene, &analyze::LinearizeOptions) -> Result<analyze::LinearizeReport, run::Error>,
 }
 
 /// `ezy animate` for one model type.
@@ -95,6 +97,8 @@ impl ModelOps {
             sweep: sweep::sweep_model::<M>,
             animate: crate::animate::animate_model::<M>,
             bench: crate::bench::bench_model::<M>,
+            analyze: analyze::analyze_model::<M>,
+            linearize: analyze::linearize_model::<M>,
             check_user_effects: ezy_scene::registry::check_user_effects::<M>,
         }
     }
@@ -580,6 +584,8 @@ impl App {
             Some(Command::Sweep(args)) => self.cmd_sweep(*args, out),
             Some(Command::Animate(args)) => self.cmd_animate(args, out),
             Some(Command::Bench(args)) => self.cmd_bench(args, out),
+            Some(Command::Analyze(args)) => self.cmd_analyze(args, out),
+            Some(Command::Linearize(args)) => self.cmd_linearize(args, out),
             Some(Command::Equations(args)) => {
                 let ops = self.model_ops(&args.model)?;
                 let text = (ops.equations)(&args.sets, args.format.into()).map_err(AppError::Failed)?;
@@ -873,6 +879,55 @@ impl App {
         })?;
         let dir = anim.out.parent().unwrap_or(Path::new("."));
         committed(out, &report.summary(&anim), dir)
+    }
+
+    fn cmd_analyze(&self, args: cli::AnalyzeArgs, out: &mut dyn Write) -> Result<(), AppError> {
+        let (_, src) = self.named_scene(args.scene.as_deref())?;
+        let scene = &src.scene;
+        let continuation = match &args.continuation {
+            Some(text) => {
+                let axis = sweep::plan::grid(text).map_err(|e| AppError::Failed(format!("--continue {e}")))?;
+                let n = axis.values.count().unwrap_or(0);
+                if n > analyze::MAX_CONTINUATION {
+                    return Err(AppError::Failed(format!(
+                        "--continue `{text}`: {n} values is more than {}, the most a continuation takes",
+                        analyze::MAX_CONTINUATION
+                    )));
+                }
+                Some((axis.name.clone(), (0..n).map(|k| axis.values.get(k)).collect()))
+            }
+            None => None,
+        };
+        let opts = analyze::AnalyzeOptions {
+            run: RunOptions {
+                out: args.out.unwrap_or_else(|| PathBuf::from("out").join("analyze").join(&scene.name)),
+                figures: !args.no_figures,
+                progress: true,
+                ..args.overrides.options()
+            },
+            period: args.period,
+            energy: args.energy,
+            continuation,
+        };
+        let ops = self.model_ops(&scene.model)?;
+        let report = (ops.analyze)(scene, &opts).map_err(AppError::from_run)?;
+        committed(out, &analyze::summary(&scene.name, &report), &opts.run.out)
+    }
+
+    fn cmd_linearize(&self, args: cli::LinearizeArgs, out: &mut dyn Write) -> Result<(), AppError> {
+        let (_, src) = self.named_scene(args.scene.as_deref())?;
+        let scene = &src.scene;
+        let opts = analyze::LinearizeOptions {
+            run: RunOptions {
+                out: args.out.unwrap_or_else(|| PathBuf::from("out").join("linearize").join(&scene.name)),
+                ..args.overrides.options()
+            },
+            at: args.at,
+            inputs: args.inputs,
+        };
+        let ops = self.model_ops(&scene.model)?;
+        let report = (ops.linearize)(scene, &opts).map_err(AppError::from_run)?;
+        committed(out, &analyze::linearize_summary(&scene.name, &report), &opts.run.out)
     }
 
     fn cmd_run(&self, args: cli::RunArgs, out: &mut dyn Write) -> Result<(), AppError> {

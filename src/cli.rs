@@ -41,6 +41,62 @@ pub enum Command {
     /// Time an accurate trajectory: DOP853 at 1e-11 with and without
     /// output, the scene's own setting, and each whole `run` process.
     Bench(BenchArgs),
+    /// Find a scene's steady motions (or, driven periodically, its
+    /// periodic orbit) and their stability; follow them as a parameter
+    /// varies: equilibria.csv, periodic.csv, branch.csv and figures.
+    Analyze(AnalyzeArgs),
+    /// Linearize a scene at a time of its run: A.csv, B.csv (with
+    /// --input), eigenvalues.csv, state.csv.
+    Linearize(LinearizeArgs),
+}
+
+/// `ezy analyze`.
+#[derive(clap::Args, Debug, Default)]
+#[command(allow_negative_numbers = true)]
+pub struct AnalyzeArgs {
+    /// Scene: a known name (see `list`; default: drive) or a path to a
+    /// .toml scene file.
+    pub scene: Option<String>,
+    /// Output directory [default: out/analyze/SCENE].
+    #[arg(long)]
+    pub out: Option<PathBuf>,
+    /// The forcing period [s] [default: from the scene's waveforms].
+    #[arg(long, value_name = "T", value_parser = parse_positive)]
+    pub period: Option<f64>,
+    /// The kinetic energy [J] of the steady motions sought [default: the
+    /// guess's own in a scene without effects, where energy is conserved].
+    #[arg(long, value_name = "J", value_parser = parse_positive)]
+    pub energy: Option<f64>,
+    /// Follow the solution as a parameter takes COUNT evenly spaced
+    /// values from START to STOP (a NAME as for --set).
+    #[arg(long = "continue", value_name = "NAME=START:STOP:COUNT")]
+    pub continuation: Option<String>,
+    /// Do not draw the figures.
+    #[arg(long)]
+    pub no_figures: bool,
+    #[command(flatten)]
+    pub overrides: Overrides,
+}
+
+/// `ezy linearize`.
+#[derive(clap::Args, Debug, Default)]
+#[command(allow_negative_numbers = true)]
+pub struct LinearizeArgs {
+    /// Scene: a known name (see `list`; default: drive) or a path to a
+    /// .toml scene file.
+    pub scene: Option<String>,
+    /// The time [s] of the scene's run whose state is linearized about.
+    #[arg(long, value_name = "T", default_value_t = 0.0)]
+    pub at: f64,
+    /// An input, a column of B: tau_HINGE (a torque pair at a hinge) or
+    /// scale_EFFECT (an effect's force scaled by 1 + u); repeatable.
+    #[arg(long = "input", value_name = "NAME")]
+    pub inputs: Vec<String>,
+    /// Output directory [default: out/linearize/SCENE].
+    #[arg(long)]
+    pub out: Option<PathBuf>,
+    #[command(flatten)]
+    pub overrides: Overrides,
 }
 
 /// `ezy bench`.

@@ -140,6 +140,9 @@ pub struct Chart {
     /// is the same number of pixels in x and y; each series' first point
     /// gets a filled circle and its last a filled square.
     pub equal_axes: bool,
+    /// With `equal_axes`: mark each path's start and end (off for points
+    /// in a plane that are not paths, such as eigenvalues).
+    pub path_ends: bool,
     /// Logarithmic x axis; values <= 0 are not drawn.
     pub log_x: bool,
     /// Logarithmic y axis (both panels); values <= `log_floor` are drawn at `log_floor`.
@@ -162,6 +165,7 @@ impl Chart {
             series: Vec::new(),
             lower: None,
             equal_axes: false,
+            path_ends: true,
             log_x: false,
             log_y: false,
             log_floor: 1e-18,
@@ -1076,7 +1080,7 @@ fn draw_contents<'a>(
                 }
             }
         }
-        if chart.equal_axes {
+        if chart.equal_axes && chart.path_ends {
             // start (circle) and end (square) of the path
             let all: Vec<&(f64, f64)> = line.pieces.iter().flatten().collect();
             if let (Some(&&first), Some(&&last)) = (all.first(), all.last()) {
@@ -1111,7 +1115,7 @@ fn draw_contents<'a>(
                 });
         }
     }
-    let extra = if chart.equal_axes && any_label {
+    let extra = if chart.equal_axes && chart.path_ends && any_label {
         // legend entries for the markers
         let black = BLACK.filled();
         ctx.draw_series(LineSeries::new(std::iter::empty(), BLACK))

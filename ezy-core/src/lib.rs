@@ -69,6 +69,8 @@ pub use effects::{Effect, EffectSpec};
 pub use error::{
     LISTED, MASS_SPREAD_WARNING, Setting, SimError, advice, fmt_value, name_list, spell_settings_as_flags,
 };
+/// The dense linear algebra the analyses' matrices are in ([`analysis::Linearization::a`]).
+pub use faer;
 pub use integrator::Method;
 pub use model::{
     BodyInfo, DriveInfo, EquationExpr, Equations, HingeInfo, InitialName, MinimalLayout, MinimalRhsError, Model,

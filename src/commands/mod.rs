@@ -4,4 +4,5 @@
 //! (`sweep`, `animate`, `precision`, `bench`, `scale`, `equations`) still
 //! live in their own top-level modules.
 
+pub mod analyze;
 pub mod run;

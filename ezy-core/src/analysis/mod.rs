@@ -34,17 +34,22 @@
 //!   ed., §7.1-7.3); its Floquet multipliers, mean speed and the net
 //!   displacement and heading change per period.
 //!
+//! - [`branch::follow`]: a branch of either as a parameter varies, by
+//!   natural-parameter continuation, with its changes of stability.
+//!
 //! The plane's symmetry (translations, rotations) is found numerically
 //! ([`Analysis::symmetry`]): a scene is invariant under a rigid motion when
 //! its constraints and accelerations are equivariant at test states, so a
 //! force law of the user's own is treated exactly as a built-in one.
 
+pub mod branch;
 mod dense;
 mod linear;
 mod periodic;
 mod steady;
 mod symmetry;
 
+pub use branch::{BranchPoint, Follow, Solution};
 pub use faer::c64;
 pub use linear::{Input, Linearization};
 pub use periodic::{PeriodicOrbit, PeriodicSettings};

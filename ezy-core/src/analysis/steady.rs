@@ -19,8 +19,8 @@ pub enum Stability {
     /// the unit circle).
     Unstable,
     /// Neither: some eigenvalue lies on the imaginary axis (a multiplier
-    /// on the unit circle) and none beyond it; the linearization does not
-    /// decide.
+    /// on the unit circle) and none beyond it, or every eigenvalue is the
+    /// family's; the linearization does not decide.
     Neutral,
 }
 
@@ -43,7 +43,7 @@ impl Stability {
         let rest = &rates[family.min(rates.len())..];
         if rest.iter().any(|&r| r > tol) {
             Stability::Unstable
-        } else if rest.iter().all(|&r| r < -tol) {
+        } else if !rest.is_empty() && rest.iter().all(|&r| r < -tol) {
             Stability::Stable
         } else {
             Stability::Neutral

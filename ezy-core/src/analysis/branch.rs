@@ -1,0 +1,116 @@
+//! Natural-parameter continuation of steady motions and periodic orbits.
+
+use super::{Analysis, AnalysisError, PeriodicOrbit, PeriodicSettings, Stability, SteadyMotion};
+use crate::model::Model;
+
+/// A steady motion or a periodic orbit: a point of a branch.
+#[derive(Debug, Clone)]
+pub enum Solution {
+    /// A relative equilibrium ([`Analysis::steady_motion`]).
+    Steady(SteadyMotion),
+    /// A periodic orbit ([`Analysis::periodic_orbit`]).
+    Periodic(PeriodicOrbit),
+}
+
+impl Solution {
+    /// The state it is found at (2 nq).
+    pub fn state(&self) -> &[f64] {
+        match self {
+            Solution::Steady(s) => &s.state,
+            Solution::Periodic(p) => &p.state,
+        }
+    }
+
+    /// Its stability.
+    pub fn stability(&self) -> Stability {
+        match self {
+            Solution::Steady(s) => s.stability,
+            Solution::Periodic(p) => p.stability,
+        }
+    }
+
+    /// The reference body's speed \[m/s\]: steady, or the mean over a period.
+    pub fn speed(&self) -> f64 {
+        match self {
+            Solution::Steady(s) => s.speed(),
+            Solution::Periodic(p) => p.mean_speed(),
+        }
+    }
+}
+
+/// How a branch is followed: the solution kind's own settings.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Follow {
+    /// Steady motions, at this kinetic energy \[J\] if `Some` (a
+    /// conservative scene's family member; see [`Analysis::steady_motion`]).
+    Steady {
+        /// The energy level, if fixed.
+        energy: Option<f64>,
+    },
+    /// Periodic orbits of this period \[s\] at phase `t0` \[s\].
+    Periodic {
+        /// Phase.
+        t0: f64,
+        /// Period.
+        period: f64,
+        /// Integration and Newton settings.
+        settings: PeriodicSettings,
+    },
+}
+
+/// One point of a branch: the parameter's value and the solution there.
+#[derive(Debug, Clone)]
+pub struct BranchPoint {
+    /// The parameter's value.
+    pub value: f64,
+    /// The solution.
+    pub solution: Solution,
+}
+
+/// Follows a branch of solutions through the parameter values `values`
+/// by natural-parameter continuation (Seydel, *Practical Bifurcation and
+/// Stability Analysis*, 3rd ed., §4.1): at each value the scene is built
+/// anew by `build` and the solution is sought from a secant predictor,
+/// the last solution's state extrapolated along the last two (the first
+/// step starts from `start`'s state). Natural continuation cannot pass a
+/// fold, where the branch turns back in the parameter; there Newton fails
+/// and the branch ends, with the value and the error returned.
+/// Changes of stability show between consecutive points.
+///
+/// # Errors
+/// The branch so far and, when it ended early, the value and error that
+/// ended it.
+pub fn follow<M: Model>(
+    values: &[f64],
+    start: &[f64],
+    follow: Follow,
+    mut build: impl FnMut(f64) -> Result<Analysis<M>, AnalysisError>,
+    mut progress: impl FnMut(usize),
+) -> (Vec<BranchPoint>, Option<(f64, AnalysisError)>) {
+    let mut points: Vec<BranchPoint> = Vec::new();
+    for (k, &value) in values.iter().enumerate() {
+        progress(k);
+        let guess: Vec<f64> = match &points[..] {
+            [.., a, b] if a.value != b.value => {
+                let s = (value - b.value) / (b.value - a.value);
+                b.solution.state().iter().zip(a.solution.state()).map(|(xb, xa)| xb + s * (xb - xa)).collect()
+            }
+            [.., b] => b.solution.state().to_vec(),
+            [] => start.to_vec(),
+        };
+        let found = build(value).and_then(|mut an| {
+            let symmetry = an.symmetry(0.0, &guess)?;
+            match follow {
+                Follow::Steady { energy } => an.steady_motion(0.0, &guess, symmetry, energy).map(Solution::Steady),
+                Follow::Periodic { t0, period, settings } => {
+                    an.periodic_orbit(t0, period, &guess, symmetry, &settings).map(Solution::Periodic)
+                }
+            }
+        });
+        match found {
+            Ok(solution) => points.push(BranchPoint { value, solution }),
+            Err(e) => return (points, Some((value, e))),
+        }
+    }
+    (points, None)
+}

@@ -1,0 +1,582 @@
+//! `ezy analyze` and `ezy linearize`: the library's analyses
+//! ([`ezy_core::analysis`]) on a scene, written as CSV tables and figures.
+//!
+//! `analyze` decides from the scene what it can ask: a scene whose forces
+//! do not change with time has steady motions (relative equilibria, or
+//! equilibria of a mechanism), a scene driven periodically has periodic
+//! orbits. The guesses come from the scene itself: its consistent start
+//! and the state its own run ends in (a settled run ends near a stable
+//! solution). `--continue NAME=START:STOP:COUNT` follows the solution as a
+//! parameter varies (the same `NAME=...` as `--set` and `ezy sweep`).
+
+use std::fmt::Write as _;
+use std::path::PathBuf;
+use std::time::{Duration, Instant};
+
+use ezy_core::analysis::{
+    Analysis, AnalysisError, BranchPoint, Follow, Input, PeriodicOrbit, PeriodicSettings, Solution, Stability,
+    SteadyMotion, Symmetry, c64,
+};
+use ezy_core::effects::Periodicity;
+use ezy_core::{Model, fmt_value};
+use ezy_scene::Scene;
+
+use super::run::{self, Error, RunOptions};
+use crate::plot::{Chart, Series, Stroke};
+use crate::transaction::Transaction;
+
+/// Most parameter values a continuation may take.
+pub const MAX_CONTINUATION: u64 = 10_000;
+
+/// What `ezy analyze` is asked.
+#[derive(Debug, Clone, Default)]
+pub struct AnalyzeOptions {
+    /// Output directory, overrides, figure settings; `t_end` is the length
+    /// of the run whose end state is a guess.
+    pub run: RunOptions,
+    /// The forcing period \[s\] (`None`: from the scene's waveforms).
+    pub period: Option<f64>,
+    /// The kinetic energy \[J\] of the steady motions sought (`None`: the
+    /// guess's own for a scene without effects and drives, free otherwise).
+    pub energy: Option<f64>,
+    /// A parameter to follow the first solution through: its name and values.
+    pub continuation: Option<(String, Vec<f64>)>,
+}
+
+/// What `ezy analyze` found.
+#[derive(Debug, Clone)]
+pub struct AnalyzeReport {
+    /// The scene's symmetry.
+    pub symmetry: Symmetry,
+    /// The steady motions found (distinct), for a time-independent scene.
+    pub steady: Vec<SteadyMotion>,
+    /// The periodic orbit, for a periodically driven scene.
+    pub periodic: Option<PeriodicOrbit>,
+    /// The branch, with `--continue`.
+    pub branch: Vec<BranchPoint>,
+    /// Files written.
+    pub files: Vec<PathBuf>,
+    /// What took how long.
+    pub timings: Vec<(String, Duration)>,
+    /// Notes for the user (a guess that led nowhere, the end of a branch).
+    pub notes: Vec<String>,
+}
+
+/// The analysis of `scene` with the overrides `sets` and its consistent
+/// initial state.
+fn build<M: Model + Default>(scene: &Scene, sets: &[(String, f64)]) -> Result<(Analysis<M>, Vec<f64>), Error> {
+    let (problem, _) = scene.problem::<M>(sets)?;
+    Ok(problem.analysis()?)
+}
+
+/// The state `[q, qd]` a run of the scene (its own settings, overridden
+/// by `opts`) ends in at `t_end` \[s\].
+fn run_to<M: Model + Default>(scene: &Scene, opts: &RunOptions, t_end: f64) -> Result<Vec<f64>, Error> {
+    let mut settings = run::settings(scene, opts)?;
+    settings.t_end = t_end;
+    settings.every = t_end;
+    let (problem, _) = run::problem::<M>(scene, opts, settings)?;
+    let sol = problem.solve()?;
+    let n = sol.names.iter().position(|n| n.starts_with("W_")).unwrap_or(sol.names.len());
+    Ok(sol.final_state()[..n].to_vec())
+}
+
+fn analysis_error(e: AnalysisError) -> Error {
+    match e {
+        AnalysisError::Sim(e) => Error::Sim(e),
+        e => Error::Input(e.to_string()),
+    }
+}
+
+/// `ezy analyze` on model `M`.
+///
+/// # Errors
+/// [`Error::Input`] when the scene has neither steady motions nor a known
+/// period, or no search converged; the setup's errors; the output's.
+pub fn analyze_model<M: Model + Default>(scene: &Scene, opts: &AnalyzeOptions) -> Result<AnalyzeReport, Error> {
+    let ro = &opts.run;
+    let settings = run::settings(scene, ro)?;
+    if let Some(p) = opts.period
+        && !(p.is_finite() && p > 0.0)
+    {
+        return Err(Error::Input(format!("--period {p}: the period must be a positive number of seconds")));
+    }
+    let (mut an, x0) = build::<M>(scene, &ro.sets)?;
+    Transaction::preflight(&ro.out)?;
+    let mut timings = Vec::new();
+    let mut notes = Vec::new();
+    let clock = Instant::now();
+    let symmetry = an.symmetry(0.0, &x0).map_err(analysis_error)?;
+    let period = match (opts.period, an.forcing()) {
+        (Some(p), _) => Some(p),
+        (None, Some(Periodicity::Constant)) => None,
+        (None, Some(Periodicity::Period(p))) => Some(p),
+        (None, Some(Periodicity::Aperiodic)) => {
+            return Err(Error::Input(format!(
+                "scene `{}` is driven by a table or spline in time: it has neither steady motions nor a period; give --period if it repeats",
+                scene.name
+            )));
+        }
+        (None, None) => {
+            let (a, b) = (an.rhs(0.0, &x0).map_err(analysis_error)?, an.rhs(0.7391, &x0).map_err(analysis_error)?);
+            if a.iter().zip(&b).any(|(u, v)| (u - v).abs() > 1e-10 * (1.0 + u.abs())) {
+                return Err(Error::Input(format!(
+                    "scene `{}` changes with time through a force law of its own, whose period ezy cannot see: give --period",
+                    scene.name
+                )));
+            }
+            None
+        }
+    };
+    let end = run_to::<M>(scene, ro, settings.t_end)?;
+    timings.push((format!("run to t = {} s for a guess", fmt_value(settings.t_end)), clock.elapsed()));
+    let conservative = an.dynamics().effects.is_empty() && an.dynamics().drives.is_empty();
+    let energy_of = |an: &Analysis<M>, x: &[f64]| {
+        opts.energy.or_else(|| conservative.then(|| an.dynamics().kinetic_energy(&x[x.len() / 2..])))
+    };
+    let (mut steady, mut periodic) = (Vec::new(), None);
+    let follow;
+    match period {
+        None => {
+            for (label, guess) in [("the scene's start", &x0), ("the end of its run", &end)] {
+                let clock = Instant::now();
+                let energy = energy_of(&an, guess);
+                match an.steady_motion(0.0, guess, symmetry, energy) {
+                    Ok(s) => {
+                        timings.push((format!("steady motion from {label}"), clock.elapsed()));
+                        if !steady.iter().any(|o: &SteadyMotion| same_state(&o.state, &s.state)) {
+                            steady.push(s);
+                        }
+                    }
+                    Err(AnalysisError::Sim(e)) => return Err(Error::Sim(e)),
+                    Err(e) => notes.push(format!("from {label}: {e}")),
+                }
+            }
+            if steady.is_empty() {
+                return Err(Error::Input(format!(
+                    "no steady motion of scene `{}` was found: {}",
+                    scene.name,
+                    notes.join("; ")
+                )));
+            }
+            follow = Follow::Steady { energy: energy_of(&an, &steady[0].state) };
+        }
+        Some(p) => {
+            let clock = Instant::now();
+            let t0 = settings.t_end;
+            let ps = PeriodicSettings::default();
+            let orbit = an.periodic_orbit(t0, p, &end, symmetry, &ps).map_err(analysis_error)?;
+            timings.push(("periodic orbit".into(), clock.elapsed()));
+            follow = Follow::Periodic { t0, period: p, settings: ps };
+            periodic = Some(orbit);
+        }
+    }
+    let mut branch = Vec::new();
+    if let Some((name, values)) = &opts.continuation {
+        let clock = Instant::now();
+        let start = steady
+            .first()
+            .map_or_else(|| periodic.as_ref().map(|p| p.state.clone()).unwrap_or_default(), |s| s.state.clone());
+        let beat = ro.progress.then(|| crate::progress::Heartbeat::start(format!("following the branch in {name}")));
+        let (points, ended) = ezy_core::analysis::branch::follow(
+            values,
+            &start,
+            follow,
+            |v| {
+                let mut sets = ro.sets.clone();
+                sets.push((name.clone(), v));
+                build::<M>(scene, &sets).map(|(a, _)| a).map_err(|e| match e {
+                    Error::Sim(e) => AnalysisError::Sim(e),
+                    e => AnalysisError::Request { reason: e.to_string() },
+                })
+            },
+            |k| {
+                if let Some(b) = &beat {
+                    b.set(format!("following the branch in {name}: point {} of {}", k + 1, values.len()));
+                }
+            },
+        );
+        drop(beat);
+        if let Some((v, e)) = ended {
+            notes.push(format!("the branch ends at {name} = {}: {e}", fmt_value(v)));
+        }
+        for w in points.windows(2) {
+            if w[0].solution.stability() != w[1].solution.stability() {
+                notes.push(format!(
+                    "stability changes between {name} = {} ({}) and {} ({})",
+                    fmt_value(w[0].value),
+                    w[0].solution.stability().name(),
+                    fmt_value(w[1].value),
+                    w[1].solution.stability().name()
+                ));
+            }
+        }
+        timings.push((format!("branch of {} points", points.len()), clock.elapsed()));
+        branch = points;
+    }
+
+    // the output is a transaction: all files or none
+    let mut tx = Transaction::begin(&ro.out)?;
+    let names = an.state_names();
+    let shape = shape_columns(&an);
+    let format = ro.figure_format.unwrap_or(scene.output.figure_format);
+    let dpi = ro.dpi.unwrap_or(scene.output.dpi);
+    let mut figures: Vec<(String, Chart)> = Vec::new();
+    if !steady.is_empty() {
+        tx.write("equilibria.csv", steady_csv(&steady, &names, &shape).as_bytes())?;
+        let mut chart = Chart::new("Eigenvalues of the steady motions", "Re lambda [1/s]", "Im lambda [1/s]");
+        for (k, s) in steady.iter().enumerate() {
+            chart.series.push(points_series(format!("motion {} ({})", k + 1, s.stability.name()), &s.eigenvalues));
+        }
+        figures.push(("eigenvalues".into(), chart));
+    }
+    if let Some(p) = &periodic {
+        tx.write("periodic.csv", periodic_csv(p, &names, &shape).as_bytes())?;
+        let mut chart = Chart::new("Floquet multipliers of the periodic orbit", "Re mu", "Im mu");
+        let circle =
+            (0..=200).map(|k| (k as f64 * std::f64::consts::TAU / 200.0).sin_cos()).map(|(s, c)| (c, s)).collect();
+        chart.series.push(Series { stroke: Stroke::Solid, ..Series::new("unit circle", circle) });
+        chart.series.push(points_series(format!("multipliers ({})", p.stability.name()), &p.multipliers));
+        chart.equal_axes = true;
+        chart.path_ends = false;
+        figures.push(("multipliers".into(), chart));
+    }
+    if let Some((name, _)) = &opts.continuation
+        && !branch.is_empty()
+    {
+        tx.write("branch.csv", branch_csv(name, &branch, &names, &shape).as_bytes())?;
+        let speed = if periodic.is_some() { "mean speed [m/s]" } else { "speed [m/s]" };
+        let mut chart = Chart::new(format!("Branch in {name}: solid stable, dashed not"), name.clone(), speed);
+        for (label, stable) in [("stable", true), ("unstable or neutral", false)] {
+            let pts = branch
+                .iter()
+                .map(|b| {
+                    (
+                        b.value,
+                        if (b.solution.stability() == Stability::Stable) == stable {
+                            b.solution.speed()
+                        } else {
+                            f64::NAN
+                        },
+                    )
+                })
+                .collect();
+            chart.series.push(Series {
+                stroke: if stable { Stroke::Solid } else { Stroke::Dash(0) },
+                ..Series::new(label, pts)
+            });
+        }
+        figures.push(("branch".into(), chart));
+    }
+    if ro.figures {
+        for (stem, chart) in &figures {
+            tx.check(None, Some(format!("drawing {stem}")))?;
+            let bytes =
+                crate::plot::figure(chart, format, dpi).map_err(|e| Error::Input(format!("figure {stem}: {e}")))?;
+            tx.write(&format.file_name(stem), &bytes)?;
+        }
+    }
+    let files = tx.commit()?;
+    Ok(AnalyzeReport { symmetry, steady, periodic, branch, files, timings, notes })
+}
+
+/// Whether two normalized states are one solution (to 1e-6 relative).
+fn same_state(a: &[f64], b: &[f64]) -> bool {
+    let scale = 1.0 + a.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+    a.iter().zip(b).all(|(x, y)| (x - y).abs() < 1e-6 * scale)
+}
+
+/// The shape columns: each hinge between two bodies, its angle
+/// `theta_<H> = phi_a - phi_b` wrapped to (-pi, pi] \[rad\], with the
+/// headings' indices.
+fn shape_columns<M: Model>(an: &Analysis<M>) -> Vec<(String, usize, usize)> {
+    let info = &an.dynamics().info;
+    info.hinges
+        .iter()
+        .filter_map(|h| {
+            h.body_b.map(|b| (format!("theta_{}", h.name), info.bodies[h.body_a].coords[2], info.bodies[b].coords[2]))
+        })
+        .collect()
+}
+
+fn wrap(angle: f64) -> f64 {
+    let a = angle.rem_euclid(std::f64::consts::TAU);
+    if a > std::f64::consts::PI { a - std::f64::consts::TAU } else { a }
+}
+
+/// A number for a CSV cell: the shortest decimal that reads back as the
+/// same number, as in every CSV file ezy writes.
+fn num(v: f64) -> String {
+    crate::output::format_number(&mut zmij::Buffer::new(), v).to_string()
+}
+
+fn shape_cells(shape: &[(String, usize, usize)], x: &[f64]) -> Vec<String> {
+    shape.iter().map(|(_, a, b)| num(wrap(x[*a] - x[*b]))).collect()
+}
+
+fn spectrum_cells(values: &[c64]) -> Vec<String> {
+    values.iter().flat_map(|z| [num(z.re), num(z.im)]).collect()
+}
+
+fn spectrum_header(letter: &str, n: usize) -> Vec<String> {
+    (1..=n).flat_map(|k| [format!("{letter}{k}_re"), format!("{letter}{k}_im")]).collect()
+}
+
+/// One CSV record, quoted where a cell needs it (a parameter name given
+/// on the command line).
+fn row(cells: Vec<String>) -> String {
+    let mut w = csv::Writer::from_writer(Vec::new());
+    // writing to memory cannot fail
+    let _ = w.write_record(&cells);
+    String::from_utf8(w.into_inner().unwrap_or_default()).unwrap_or_default()
+}
+
+/// `equilibria.csv`: one row per steady motion.
+pub fn steady_csv(steady: &[SteadyMotion], names: &[String], shape: &[(String, usize, usize)]) -> String {
+    let n = steady.first().map_or(0, |s| s.eigenvalues.len());
+    let mut head: Vec<String> =
+        ["motion", "stability", "family", "u", "v", "omega", "speed", "curvature"].map(String::from).to_vec();
+    head.extend(shape.iter().map(|s| s.0.clone()));
+    head.extend(names.iter().cloned());
+    head.extend(spectrum_header("lambda", n));
+    let mut out = row(head);
+    for (k, s) in steady.iter().enumerate() {
+        let [u, v, w] = s.body_velocity;
+        let mut cells = vec![
+            (k + 1).to_string(),
+            s.stability.name().into(),
+            s.family.to_string(),
+            num(u),
+            num(v),
+            num(w),
+            num(s.speed()),
+            num(s.curvature()),
+        ];
+        cells.extend(shape_cells(shape, &s.state));
+        cells.extend(s.state.iter().map(|v| num(*v)));
+        cells.extend(spectrum_cells(&s.eigenvalues));
+        out.push_str(&row(cells));
+    }
+    out
+}
+
+/// `periodic.csv`: the orbit in one row.
+pub fn periodic_csv(p: &PeriodicOrbit, names: &[String], shape: &[(String, usize, usize)]) -> String {
+    let mut head: Vec<String> =
+        ["period", "t0", "stability", "family", "mean_speed", "mean_forward_speed", "dx", "dy", "dheading"]
+            .map(String::from)
+            .to_vec();
+    head.extend(shape.iter().map(|s| s.0.clone()));
+    head.extend(names.iter().cloned());
+    head.extend(spectrum_header("mu", p.multipliers.len()));
+    let mut cells = vec![
+        num(p.period),
+        num(p.t0),
+        p.stability.name().into(),
+        p.family.to_string(),
+        num(p.mean_speed()),
+        num(p.mean_forward_speed()),
+        num(p.displacement[0]),
+        num(p.displacement[1]),
+        num(p.heading_change),
+    ];
+    cells.extend(shape_cells(shape, &p.state));
+    cells.extend(p.state.iter().map(|v| num(*v)));
+    cells.extend(spectrum_cells(&p.multipliers));
+    row(head) + &row(cells)
+}
+
+/// `branch.csv`: one row per parameter value.
+pub fn branch_csv(name: &str, branch: &[BranchPoint], names: &[String], shape: &[(String, usize, usize)]) -> String {
+    let (letter, n) = match &branch[0].solution {
+        Solution::Steady(s) => ("lambda", s.eigenvalues.len()),
+        Solution::Periodic(p) => ("mu", p.multipliers.len()),
+    };
+    let mut head: Vec<String> = vec![name.to_string(), "stability".into(), "speed".into()];
+    head.extend(shape.iter().map(|s| s.0.clone()));
+    head.extend(names.iter().cloned());
+    head.extend(spectrum_header(letter, n));
+    let mut out = row(head);
+    for b in branch {
+        let mut cells = vec![num(b.value), b.solution.stability().name().into(), num(b.solution.speed())];
+        cells.extend(shape_cells(shape, b.solution.state()));
+        cells.extend(b.solution.state().iter().map(|v| num(*v)));
+        cells.extend(spectrum_cells(match &b.solution {
+            Solution::Steady(s) => &s.eigenvalues,
+            Solution::Periodic(p) => &p.multipliers,
+        }));
+        out.push_str(&row(cells));
+    }
+    out
+}
+
+fn points_series(label: String, values: &[c64]) -> Series {
+    Series { stroke: Stroke::Points, ..Series::new(label, values.iter().map(|z| (z.re, z.im)).collect()) }
+}
+
+/// The text `ezy analyze` prints.
+pub fn summary(scene: &str, r: &AnalyzeReport) -> String {
+    let mut s = String::new();
+    let sym: Vec<&str> = r.symmetry.generators().iter().map(|g| g.name()).collect();
+    let _ = writeln!(
+        s,
+        "scene {scene}: symmetry {}",
+        if sym.is_empty() {
+            "none (ordinary equilibria)".to_string()
+        } else {
+            format!("{} (steady motions relative to it)", sym.join(", "))
+        }
+    );
+    for (k, m) in r.steady.iter().enumerate() {
+        let ev: Vec<String> = m.eigenvalues.iter().map(|z| complex(*z)).collect();
+        let _ = writeln!(
+            s,
+            "steady motion {}: {}, speed {} m/s, yaw rate {} rad/s, family {}; eigenvalues [1/s]: {}",
+            k + 1,
+            m.stability.name(),
+            short(m.speed()),
+            short(m.body_velocity[2]),
+            m.family,
+            ev.join(", ")
+        );
+    }
+    if let Some(p) = &r.periodic {
+        let mu: Vec<String> = p.multipliers.iter().map(|z| complex(*z)).collect();
+        let _ = writeln!(
+            s,
+            "periodic orbit: period {} s, {}, mean speed {} m/s, displacement ({}, {}) m and heading change {} rad per period; multipliers: {}",
+            fmt_value(p.period),
+            p.stability.name(),
+            short(p.mean_speed()),
+            short(p.displacement[0]),
+            short(p.displacement[1]),
+            short(p.heading_change),
+            mu.join(", ")
+        );
+    }
+    for n in &r.notes {
+        let _ = writeln!(s, "note: {n}");
+    }
+    for (what, d) in &r.timings {
+        let _ = writeln!(s, "time: {what}: {:.3} s", d.as_secs_f64());
+    }
+    for f in &r.files {
+        let _ = writeln!(s, "wrote {}", f.display());
+    }
+    s
+}
+
+fn short(v: f64) -> String {
+    let v = if v.abs() < 1e-12 { 0.0 } else { v };
+    format!("{}", (v * 1e6).round() / 1e6)
+}
+
+fn complex(z: c64) -> String {
+    let (re, im) = (if z.re.abs() < 1e-12 { 0.0 } else { z.re }, if z.im.abs() < 1e-12 { 0.0 } else { z.im });
+    if im == 0.0 { format!("{re:.6}") } else { format!("{re:.6}{}{:.6}i", if im < 0.0 { "-" } else { "+" }, im.abs()) }
+}
+
+/// What `ezy linearize` is asked.
+#[derive(Debug, Clone, Default)]
+pub struct LinearizeOptions {
+    /// Output directory, overrides; `t_end` is ignored.
+    pub run: RunOptions,
+    /// The time \[s\] whose state (of the scene's run) is linearized about.
+    pub at: f64,
+    /// Inputs by column name: `tau_<hinge>`, `scale_<effect>`.
+    pub inputs: Vec<String>,
+}
+
+/// What `ezy linearize` found and wrote.
+#[derive(Debug, Clone)]
+pub struct LinearizeReport {
+    /// The linearization.
+    pub linearization: ezy_core::analysis::Linearization,
+    /// Eigenvalues on the constraint manifold.
+    pub eigenvalues: Vec<c64>,
+    /// Files written.
+    pub files: Vec<PathBuf>,
+}
+
+/// Parses an input's column name (`tau_<hinge>`, `scale_<effect>`).
+///
+/// # Errors
+/// A name of neither form.
+pub fn parse_input(text: &str) -> Result<Input, String> {
+    if let Some(h) = text.strip_prefix("tau_").filter(|h| !h.is_empty()) {
+        Ok(Input::HingeTorque(h.into()))
+    } else if let Some(e) = text.strip_prefix("scale_").filter(|e| !e.is_empty()) {
+        Ok(Input::EffectScale(e.into()))
+    } else {
+        Err(format!("input `{text}`: write tau_HINGE (a torque at a hinge) or scale_EFFECT (an effect's force scaled)"))
+    }
+}
+
+/// `ezy linearize` on model `M`: `A.csv`, `B.csv` (with inputs),
+/// `eigenvalues.csv` and `state.csv`.
+///
+/// # Errors
+/// A bad time or input, the setup's and the output's errors.
+pub fn linearize_model<M: Model + Default>(scene: &Scene, opts: &LinearizeOptions) -> Result<LinearizeReport, Error> {
+    let ro = &opts.run;
+    if !(opts.at.is_finite() && opts.at >= 0.0) {
+        return Err(Error::Input(format!("--at {}: the time must be zero or a positive number of seconds", opts.at)));
+    }
+    let inputs = opts.inputs.iter().map(|i| parse_input(i)).collect::<Result<Vec<_>, _>>().map_err(Error::Input)?;
+    let (mut an, x0) = build::<M>(scene, &ro.sets)?;
+    Transaction::preflight(&ro.out)?;
+    let x = if opts.at > 0.0 { run_to::<M>(scene, ro, opts.at)? } else { x0 };
+    let lin = an.linearize(opts.at, &x, &inputs).map_err(analysis_error)?;
+    let eigenvalues = lin.eigenvalues().map_err(analysis_error)?;
+    let names = &lin.state_names;
+    let matrix = |m: &ezy_core::faer::Mat<f64>, cols: &[String]| {
+        let mut head = vec!["row".to_string()];
+        head.extend(cols.iter().cloned());
+        let mut out = row(head);
+        for (i, name) in names.iter().enumerate() {
+            let mut cells = vec![name.clone()];
+            cells.extend((0..m.ncols()).map(|j| num(m[(i, j)])));
+            out.push_str(&row(cells));
+        }
+        out
+    };
+    let mut tx = Transaction::begin(&ro.out)?;
+    tx.write("A.csv", matrix(&lin.a, names).as_bytes())?;
+    if !inputs.is_empty() {
+        tx.write("B.csv", matrix(&lin.b, &lin.input_names).as_bytes())?;
+    }
+    let mut ev = row(vec!["k".into(), "re".into(), "im".into()]);
+    for (k, z) in eigenvalues.iter().enumerate() {
+        ev.push_str(&row(vec![(k + 1).to_string(), num(z.re), num(z.im)]));
+    }
+    tx.write("eigenvalues.csv", ev.as_bytes())?;
+    let mut st = row(vec!["name".into(), "value".into()]);
+    for (n, v) in names.iter().zip(&lin.state) {
+        st.push_str(&row(vec![n.clone(), num(*v)]));
+    }
+    tx.write("state.csv", st.as_bytes())?;
+    let files = tx.commit()?;
+    Ok(LinearizeReport { linearization: lin, eigenvalues, files })
+}
+
+/// The text `ezy linearize` prints.
+pub fn linearize_summary(scene: &str, r: &LinearizeReport) -> String {
+    let l = &r.linearization;
+    let mut s = format!(
+        "scene {scene} at t = {} s: A is {} x {}{}; on the constraint manifold ({} dimensions) the eigenvalues [1/s] are {}\n",
+        fmt_value(l.t),
+        l.a.nrows(),
+        l.a.ncols(),
+        if l.forces_by_differences {
+            " (applied forces differentiated by central differences, the model's terms exactly)"
+        } else {
+            " (exact)"
+        },
+        l.tangent.ncols(),
+        r.eigenvalues.iter().map(|z| complex(*z)).collect::<Vec<_>>().join(", ")
+    );
+    for f in &r.files {
+        let _ = writeln!(s, "wrote {}", f.display());
+    }
+    s
+}
