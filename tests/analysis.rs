@@ -280,3 +280,92 @@ fn variational_equations_match_differences_of_whole_runs() {
     }
     eprintln!("variational against differences: {worst:e} relative");
 }
+
+/// `ezy` with `args`, writing into `out`; its stdout, stderr and success.
+fn ezy(args: &[&str], out: &std::path::Path) -> (String, String, bool) {
+    let o = std::process::Command::new(env!("CARGO_BIN_EXE_ezy")).args(args).arg("--out").arg(out).output().unwrap();
+    (String::from_utf8_lossy(&o.stdout).into(), String::from_utf8_lossy(&o.stderr).into(), o.status.success())
+}
+
+/// A fresh directory under cargo's temporary directory.
+fn fresh(what: &str) -> std::path::PathBuf {
+    let d = std::path::PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join(format!("analysis-{what}"));
+    let _ = std::fs::remove_dir_all(&d);
+    d
+}
+
+/// The columns of a CSV file by name.
+fn table(path: &std::path::Path) -> (Vec<String>, Vec<Vec<String>>) {
+    let text = std::fs::read_to_string(path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+    let mut lines = text.lines().map(|l| l.split(',').map(String::from).collect::<Vec<_>>());
+    (lines.next().unwrap(), lines.collect())
+}
+
+/// `ezy analyze sleigh` finds the one steady motion at the scene's energy
+/// (the skate makes the start's `yd = a omega = 0.5 m/s`, so T0 = 0.675 J
+/// and U = sqrt(2 T0 / m)) with the closed-form eigenvalue; `--continue
+/// a=...` follows it through the skate's distance, the eigenvalue
+/// `-m a U / (I + m a^2)` at every point, to 1e-10.
+#[test]
+fn analyze_command_on_the_sleigh_and_its_branch_in_a() {
+    let out = fresh("sleigh");
+    let (said, err, ok) = ezy(&["analyze", "sleigh", "--continue", "a=0.3:0.6:4", "--no-figures"], &out);
+    assert!(ok, "{said}{err}");
+    let m = ChaplyginSleigh::default();
+    let u = (2.0 * 0.675 / m.m).sqrt();
+    let (head, rows) = table(&out.join("equilibria.csv"));
+    assert_eq!(rows.len(), 1, "{rows:?}");
+    let col = |row: &[String], name: &str| row[head.iter().position(|h| h == name).unwrap()].parse::<f64>().unwrap();
+    assert!((col(&rows[0], "speed") - u).abs() < 1e-10);
+    assert_eq!(rows[0][1], "stable");
+    let (bhead, branch) = table(&out.join("branch.csv"));
+    assert_eq!(bhead[0], "a");
+    assert_eq!(branch.len(), 4);
+    for row in &branch {
+        let a: f64 = row[0].parse().unwrap();
+        let want = -m.m * a * u / (m.I + m.m * a * a);
+        let ev: Vec<f64> = (1..=2)
+            .map(|k| row[bhead.iter().position(|h| *h == format!("lambda{k}_re")).unwrap()].parse().unwrap())
+            .collect();
+        assert!(ev.iter().any(|l| (l - want).abs() < 1e-10), "a = {a}: {ev:?} want {want}");
+    }
+    assert!(!out.join("eigenvalues.png").exists());
+}
+
+/// `ezy linearize` writes A and B with named rows and columns and the
+/// eigenvalues on the constraint manifold (the double pendulum: 12 states
+/// less 4 hinge positions and 4 velocities leave 4); an unknown input
+/// names the model's hinges and writes nothing.
+#[test]
+fn linearize_command_names_rows_and_columns() {
+    let out = fresh("linearize");
+    let (said, err, ok) =
+        ezy(&["linearize", "double-pendulum", "--at", "0.5", "--input", "tau_J", "--input", "scale_gravity"], &out);
+    assert!(ok, "{said}{err}");
+    let (head, rows) = table(&out.join("A.csv"));
+    assert_eq!(head[..4], ["row", "x1", "y1", "phi1"]);
+    assert_eq!(rows.len(), 12);
+    assert_eq!(rows[6][0], "x1d");
+    // the rows of q: d(q)/dt = qd
+    assert_eq!(rows[0][7], "1.0");
+    let (bhead, brows) = table(&out.join("B.csv"));
+    assert_eq!(bhead, ["row", "tau_J", "scale_gravity"]);
+    assert_eq!(brows.len(), 12);
+    assert_eq!(table(&out.join("eigenvalues.csv")).1.len(), 4);
+
+    let bad = fresh("linearize-bad");
+    let (_, err, ok) = ezy(&["linearize", "double-pendulum", "--input", "tau_Q"], &bad);
+    assert!(!ok && err.contains("no hinge `Q`") && err.contains("O, J"), "{err}");
+    assert!(!bad.exists());
+    let (_, err, ok) = ezy(&["linearize", "double-pendulum", "--input", "torque"], &bad);
+    assert!(!ok && err.contains("tau_HINGE"), "{err}");
+    let (_, err, ok) = ezy(&["analyze", "sleigh", "--continue", "a=1:2"], &bad);
+    assert!(!ok && err.contains("--continue") && err.contains("NAME=START:STOP:COUNT"), "{err}");
+    let (_, err, ok) = ezy(&["analyze", "sleigh", "--continue", "a=0:1:20000"], &bad);
+    assert!(!ok && err.contains("20000 values"), "{err}");
+    let (_, err, ok) = ezy(&["analyze", "sleigh", "--continue", "nope=0:1:3"], &bad);
+    assert!(!ok && err.contains("nope"), "{err}");
+    let (_, err, ok) = ezy(&["analyze", "sleigh", "--period", "0"], &bad);
+    assert!(!ok && err.contains("--period"), "{err}");
+    assert!(!bad.exists());
+}

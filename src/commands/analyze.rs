@@ -25,6 +25,9 @@ use super::run::{self, Error, RunOptions};
 use crate::plot::{Chart, Series, Stroke};
 use crate::transaction::Transaction;
 
+/// States of the scene's run that are guesses (evenly spaced, the end last).
+const GUESSES: u32 = 8;
+
 /// Most parameter values a continuation may take.
 pub const MAX_CONTINUATION: u64 = 10_000;
 
@@ -66,24 +69,62 @@ pub struct AnalyzeReport {
 /// initial state.
 fn build<M: Model + Default>(scene: &Scene, sets: &[(String, f64)]) -> Result<(Analysis<M>, Vec<f64>), Error> {
     let (problem, _) = scene.problem::<M>(sets)?;
-    Ok(problem.analysis()?)
+    let (mut an, x0) = problem.analysis()?;
+    an.stop_when(|| crate::transaction::pending().is_some());
+    Ok((an, x0))
 }
 
-/// The state `[q, qd]` a run of the scene (its own settings, overridden
-/// by `opts`) ends in at `t_end` \[s\].
-fn run_to<M: Model + Default>(scene: &Scene, opts: &RunOptions, t_end: f64) -> Result<Vec<f64>, Error> {
+/// The states `[q, qd]` of a run of the scene (its own settings,
+/// overridden by `opts`) to `t_end` \[s\] at `samples` evenly spaced
+/// times, the start excluded and the end last; a signal stops it within a
+/// step.
+fn run_to<M: Model + Default>(
+    scene: &Scene,
+    opts: &RunOptions,
+    t_end: f64,
+    samples: u32,
+) -> Result<Vec<Vec<f64>>, Error> {
     let mut settings = run::settings(scene, opts)?;
     settings.t_end = t_end;
-    settings.every = t_end;
+    settings.every = t_end / f64::from(samples);
     let (problem, _) = run::problem::<M>(scene, opts, settings)?;
-    let sol = problem.solve()?;
-    let n = sol.names.iter().position(|n| n.starts_with("W_")).unwrap_or(sol.names.len());
-    Ok(sol.final_state()[..n].to_vec())
+    let mut kept = States { dir: opts.out.clone(), x: Vec::new() };
+    problem.solve_with(&mut kept).map_err(|e| match e {
+        ezy_core::RunError::Sim(e) => Error::Sim(e),
+        ezy_core::RunError::Output(e) => Error::Transaction(e),
+    })?;
+    // the start is the scene's own, and a sample just short of the end
+    // (the output interval's rounding) is not kept twice
+    let mut x = kept.x.split_off(1.min(kept.x.len()));
+    x.truncate(samples as usize);
+    Ok(x)
 }
 
-fn analysis_error(e: AnalysisError) -> Error {
-    match e {
+/// Keeps the samples' `[q, qd]`; stops the run when a signal arrives.
+struct States {
+    dir: PathBuf,
+    x: Vec<Vec<f64>>,
+}
+
+impl<M: Model> ezy_core::Observer<M> for States {
+    type Error = crate::transaction::TransactionError;
+    fn observe(&mut self, _sys: &ezy_core::Dynamics<M>, s: &ezy_core::Sample<'_>) -> Result<(), Self::Error> {
+        self.x.push([s.q, s.qd].concat());
+        Ok(())
+    }
+    fn poll(&mut self, t: f64) -> Result<(), Self::Error> {
+        crate::transaction::check_interrupt(&self.dir, Some(t), Some("running the scene for a guess".into()))
+    }
+}
+
+/// The command's error for an analysis' error, `dir` the output directory.
+fn analysis_error(dir: &std::path::Path) -> impl Fn(AnalysisError) -> Error + '_ {
+    move |e| match e {
         AnalysisError::Sim(e) => Error::Sim(e),
+        AnalysisError::Stopped => match crate::transaction::check_interrupt(dir, None, Some("analysing".into())) {
+            Err(i) => Error::Transaction(i),
+            Ok(()) => Error::Input("the analysis was stopped".into()),
+        },
         e => Error::Input(e.to_string()),
     }
 }
@@ -102,11 +143,17 @@ pub fn analyze_model<M: Model + Default>(scene: &Scene, opts: &AnalyzeOptions) -
         return Err(Error::Input(format!("--period {p}: the period must be a positive number of seconds")));
     }
     let (mut an, x0) = build::<M>(scene, &ro.sets)?;
+    // the continuation's parameter is checked before anything is written
+    if let Some((name, values)) = &opts.continuation {
+        let mut sets = ro.sets.clone();
+        sets.push((name.clone(), values[0]));
+        build::<M>(scene, &sets).map_err(|e| Error::Input(format!("--continue {name}: {e}")))?;
+    }
     Transaction::preflight(&ro.out)?;
     let mut timings = Vec::new();
     let mut notes = Vec::new();
     let clock = Instant::now();
-    let symmetry = an.symmetry(0.0, &x0).map_err(analysis_error)?;
+    let symmetry = an.symmetry(0.0, &x0).map_err(analysis_error(&ro.out))?;
     let period = match (opts.period, an.forcing()) {
         (Some(p), _) => Some(p),
         (None, Some(Periodicity::Constant)) => None,
@@ -118,7 +165,10 @@ pub fn analyze_model<M: Model + Default>(scene: &Scene, opts: &AnalyzeOptions) -
             )));
         }
         (None, None) => {
-            let (a, b) = (an.rhs(0.0, &x0).map_err(analysis_error)?, an.rhs(0.7391, &x0).map_err(analysis_error)?);
+            let (a, b) = (
+                an.rhs(0.0, &x0).map_err(analysis_error(&ro.out))?,
+                an.rhs(0.7391, &x0).map_err(analysis_error(&ro.out))?,
+            );
             if a.iter().zip(&b).any(|(u, v)| (u - v).abs() > 1e-10 * (1.0 + u.abs())) {
                 return Err(Error::Input(format!(
                     "scene `{}` changes with time through a force law of its own, whose period ezy cannot see: give --period",
@@ -128,7 +178,8 @@ pub fn analyze_model<M: Model + Default>(scene: &Scene, opts: &AnalyzeOptions) -
             None
         }
     };
-    let end = run_to::<M>(scene, ro, settings.t_end)?;
+    let samples = run_to::<M>(scene, ro, settings.t_end, GUESSES)?;
+    let end = samples.last().cloned().unwrap_or_else(|| x0.clone());
     timings.push((format!("run to t = {} s for a guess", fmt_value(settings.t_end)), clock.elapsed()));
     let conservative = an.dynamics().effects.is_empty() && an.dynamics().drives.is_empty();
     let energy_of = |an: &Analysis<M>, x: &[f64]| {
@@ -138,13 +189,25 @@ pub fn analyze_model<M: Model + Default>(scene: &Scene, opts: &AnalyzeOptions) -
     let follow;
     match period {
         None => {
-            for (label, guess) in [("the scene's start", &x0), ("the end of its run", &end)] {
-                let clock = Instant::now();
+            // the start, the end, then the run's other samples; an
+            // equilibrium (no symmetry) is at rest: the samples' positions
+            let nq = x0.len() / 2;
+            let rest = |x: &Vec<f64>| {
+                if symmetry == Symmetry::NONE { [&x[..nq], &vec![0.0; nq][..]].concat() } else { x.clone() }
+            };
+            let mut guesses =
+                vec![("the scene's start".to_string(), x0.clone()), ("the end of its run".to_string(), rest(&end))];
+            let every = settings.t_end / f64::from(GUESSES);
+            for (k, x) in samples.iter().enumerate().rev().skip(1) {
+                guesses.push((format!("its run at t = {} s", fmt_value(every * (k + 1) as f64)), rest(x)));
+            }
+            let angles: Vec<usize> = an.dynamics().info.bodies.iter().map(|b| b.coords[2]).collect();
+            let clock = Instant::now();
+            for (label, guess) in &guesses {
                 let energy = energy_of(&an, guess);
                 match an.steady_motion(0.0, guess, symmetry, energy) {
                     Ok(s) => {
-                        timings.push((format!("steady motion from {label}"), clock.elapsed()));
-                        if !steady.iter().any(|o: &SteadyMotion| same_state(&o.state, &s.state)) {
+                        if !steady.iter().any(|o: &SteadyMotion| same_state(&o.state, &s.state, &angles)) {
                             steady.push(s);
                         }
                     }
@@ -152,6 +215,7 @@ pub fn analyze_model<M: Model + Default>(scene: &Scene, opts: &AnalyzeOptions) -
                     Err(e) => notes.push(format!("from {label}: {e}")),
                 }
             }
+            timings.push((format!("{} searches for steady motions", guesses.len()), clock.elapsed()));
             if steady.is_empty() {
                 return Err(Error::Input(format!(
                     "no steady motion of scene `{}` was found: {}",
@@ -165,7 +229,7 @@ pub fn analyze_model<M: Model + Default>(scene: &Scene, opts: &AnalyzeOptions) -
             let clock = Instant::now();
             let t0 = settings.t_end;
             let ps = PeriodicSettings::default();
-            let orbit = an.periodic_orbit(t0, p, &end, symmetry, &ps).map_err(analysis_error)?;
+            let orbit = an.periodic_orbit(t0, p, &end, symmetry, &ps).map_err(analysis_error(&ro.out))?;
             timings.push(("periodic orbit".into(), clock.elapsed()));
             follow = Follow::Periodic { t0, period: p, settings: ps };
             periodic = Some(orbit);
@@ -183,6 +247,10 @@ pub fn analyze_model<M: Model + Default>(scene: &Scene, opts: &AnalyzeOptions) -
             &start,
             follow,
             |v| {
+                // a signal ends the branch at the next point
+                if crate::transaction::pending().is_some() {
+                    return Err(AnalysisError::Request { reason: "stopped by a signal".into() });
+                }
                 let mut sets = ro.sets.clone();
                 sets.push((name.clone(), v));
                 build::<M>(scene, &sets).map(|(a, _)| a).map_err(|e| match e {
@@ -197,6 +265,7 @@ pub fn analyze_model<M: Model + Default>(scene: &Scene, opts: &AnalyzeOptions) -
             },
         );
         drop(beat);
+        crate::transaction::check_interrupt(&ro.out, None, Some(format!("following the branch in {name}")))?;
         if let Some((v, e)) = ended {
             notes.push(format!("the branch ends at {name} = {}: {e}", fmt_value(v)));
         }
@@ -280,10 +349,14 @@ pub fn analyze_model<M: Model + Default>(scene: &Scene, opts: &AnalyzeOptions) -
     Ok(AnalyzeReport { symmetry, steady, periodic, branch, files, timings, notes })
 }
 
-/// Whether two normalized states are one solution (to 1e-6 relative).
-fn same_state(a: &[f64], b: &[f64]) -> bool {
+/// Whether two normalized states are one solution (to 1e-6 relative),
+/// headings (indices `angles`) compared modulo a turn.
+fn same_state(a: &[f64], b: &[f64], angles: &[usize]) -> bool {
     let scale = 1.0 + a.iter().fold(0.0f64, |m, v| m.max(v.abs()));
-    a.iter().zip(b).all(|(x, y)| (x - y).abs() < 1e-6 * scale)
+    a.iter().zip(b).enumerate().all(|(i, (x, y))| {
+        let d = if angles.contains(&i) { wrap(x - y) } else { x - y };
+        d.abs() < 1e-6 * scale
+    })
 }
 
 /// The shape columns: each hinge between two bodies, its angle
@@ -524,10 +597,10 @@ pub fn linearize_model<M: Model + Default>(scene: &Scene, opts: &LinearizeOption
     }
     let inputs = opts.inputs.iter().map(|i| parse_input(i)).collect::<Result<Vec<_>, _>>().map_err(Error::Input)?;
     let (mut an, x0) = build::<M>(scene, &ro.sets)?;
+    let x = if opts.at > 0.0 { run_to::<M>(scene, ro, opts.at, 1)?.pop().unwrap_or(x0) } else { x0 };
+    let lin = an.linearize(opts.at, &x, &inputs).map_err(analysis_error(&ro.out))?;
+    let eigenvalues = lin.eigenvalues().map_err(analysis_error(&ro.out))?;
     Transaction::preflight(&ro.out)?;
-    let x = if opts.at > 0.0 { run_to::<M>(scene, ro, opts.at)? } else { x0 };
-    let lin = an.linearize(opts.at, &x, &inputs).map_err(analysis_error)?;
-    let eigenvalues = lin.eigenvalues().map_err(analysis_error)?;
     let names = &lin.state_names;
     let matrix = |m: &ezy_core::faer::Mat<f64>, cols: &[String]| {
         let mut head = vec!["row".to_string()];

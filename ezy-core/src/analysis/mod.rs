@@ -90,6 +90,9 @@ pub enum AnalysisError {
         /// What failed.
         reason: String,
     },
+    /// The stop hook ([`Analysis::stop_when`]) asked to stop.
+    #[error("the analysis was stopped")]
+    Stopped,
     /// A request that does not fit the scene: a steady motion of a
     /// time-dependent scene, a periodic orbit without a period, an input
     /// the model does not have.
@@ -112,6 +115,9 @@ pub struct Analysis<M: Model> {
     bodies: Vec<[usize; 3]>,
     /// Scratch: effect and drive powers.
     power: Vec<f64>,
+    /// Asked between Newton iterations and at every step of a period's
+    /// integration: `true` stops the analysis.
+    stop: Option<fn() -> bool>,
 }
 
 /// What the KKT solve gives at one state.
@@ -132,7 +138,23 @@ impl<M: Model> Analysis<M> {
     pub fn new(sys: Dynamics<M>) -> Self {
         let bodies = sys.info.bodies.iter().map(|b| b.coords).collect();
         let power = vec![0.0; sys.effects.len()];
-        Self { sys, bodies, power }
+        Self { sys, bodies, power, stop: None }
+    }
+
+    /// Sets a hook asked between Newton iterations and at every step of a
+    /// period's integration; when it returns `true` the analysis ends with
+    /// [`AnalysisError::Stopped`] (a signal handler's flag: `ezy` stops on
+    /// Ctrl-C within a step).
+    pub fn stop_when(&mut self, stop: fn() -> bool) {
+        self.stop = Some(stop);
+    }
+
+    /// [`AnalysisError::Stopped`] if the stop hook says so.
+    pub(crate) fn check_stop(&self) -> Result<(), AnalysisError> {
+        match self.stop {
+            Some(stop) if stop() => Err(AnalysisError::Stopped),
+            _ => Ok(()),
+        }
     }
 
     /// The right-hand side analysed.

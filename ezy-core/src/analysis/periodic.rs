@@ -3,13 +3,18 @@
 
 use faer::{Mat, c64};
 
-use super::steady::{MAX_NEWTON, Stability};
+use super::steady::Stability;
 use super::symmetry::{act, act_jacobian, body_pose, field};
 use super::{Analysis, AnalysisError, Generator, Pose, Symmetry, dense};
 use crate::SimError;
 use crate::integrator::adaptive::{self, Tolerance};
 use crate::integrator::{Dop853, Rhs};
 use crate::model::Model;
+
+/// Most Newton iterations of the shooting (each integrates a period, and
+/// up to three more when it damps its step): it converges in two to five
+/// from a guess in the orbit's basin.
+const MAX_SHOOTING: usize = 12;
 
 /// Settings of the period map's integration and of the shooting Newton
 /// iteration.
@@ -18,7 +23,9 @@ pub struct PeriodicSettings {
     /// Tolerances of the DOP853 integration of the state and of the
     /// variational equations (the same error control for both).
     pub tolerance: Tolerance,
-    /// Most steps of one period's integration.
+    /// Most steps (attempts) of one period's integration: a search that
+    /// wanders off to fast motions, whose period takes ever more steps,
+    /// ends here.
     pub max_steps: u64,
     /// The residual of the fixed-point equations (max norm, relative to
     /// `1 + |x0|`) at which Newton stops; it cannot be much below the
@@ -27,9 +34,9 @@ pub struct PeriodicSettings {
 }
 
 impl Default for PeriodicSettings {
-    /// `rtol = atol = 1e-11`, 10^6 steps, Newton to 1e-9.
+    /// `rtol = atol = 1e-11`, 10^5 steps per period, Newton to 1e-9.
     fn default() -> Self {
-        Self { tolerance: Tolerance { rtol: 1e-11, atol: 1e-11 }, max_steps: 1_000_000, newton_tolerance: 1e-9 }
+        Self { tolerance: Tolerance { rtol: 1e-11, atol: 1e-11 }, max_steps: 100_000, newton_tolerance: 1e-9 }
     }
 }
 
@@ -95,6 +102,7 @@ impl<M: Model> Rhs for Variational<'_, M> {
     fn eval(&mut self, t: f64, y: &[f64], dy: &mut [f64]) -> Result<(), SimError> {
         let n2 = 2 * self.analysis.nq();
         let mut run = |an: &mut Analysis<M>| -> Result<(), AnalysisError> {
+            an.check_stop()?;
             let x = &y[..n2];
             let p = an.point(t, x)?;
             let (a, _) = an.jacobians(t, x, &p)?;
@@ -185,7 +193,13 @@ impl<M: Model> Analysis<M> {
         let gens = symmetry.generators();
         let k = gens.len();
         let mut x0 = guess.to_vec();
-        let (mut xt, mut m, mut steps) = self.flow(t0, &x0, period, settings)?;
+        let (xt, mut m, mut steps) = self.flow(t0, &x0, period, settings)?;
+        // a search that wanders off to ever faster motion (a scene without
+        // a periodic orbit, whose speed grows) ends when a period takes
+        // many times the steps the guess's period took
+        let first_steps = steps;
+        let budget = PeriodicSettings { max_steps: settings.max_steps.min(20 * steps + 1000), ..*settings };
+        let settings = &budget;
         let h0 = symmetry.restrict(body_pose(&bodies, 0, &xt).compose(body_pose(&bodies, 0, &x0).inverse()));
         let mut p = symmetry.params(h0);
         let norm = |r: &[f64]| r.iter().fold(0.0f64, |m, v| m.max(v.abs()));
@@ -199,7 +213,7 @@ impl<M: Model> Analysis<M> {
         };
         let mut r = residual(self, &x0, &xt, &p);
         while norm(&r) > tol {
-            if iterations == MAX_NEWTON {
+            if iterations == MAX_SHOOTING {
                 return Err(AnalysisError::NotConverged {
                     what: "a periodic orbit",
                     iterations,
@@ -211,14 +225,34 @@ impl<M: Model> Analysis<M> {
             let j = self.shooting_jacobian(t0, &x0, &m, symmetry, &p)?;
             let neg: Vec<f64> = r.iter().map(|v| -v).collect();
             let (dz, _) = dense::min_norm_solve(j.as_ref(), &neg, 1e-12)?;
-            for (a, d) in x0.iter_mut().zip(&dz) {
-                *a += d;
+            // damped: halve the step until the residual falls (a full step
+            // that fails to integrate counts as not falling)
+            let mut lambda = 1.0;
+            loop {
+                let xt0: Vec<f64> = x0.iter().zip(&dz).map(|(a, d)| a + lambda * d).collect();
+                let pt: Vec<f64> = p.iter().zip(&dz[n2..]).map(|(a, d)| a + lambda * d).collect();
+                match self.flow(t0, &xt0, period, settings) {
+                    Err(AnalysisError::Stopped) => return Err(AnalysisError::Stopped),
+                    Ok((xt, mt, st)) => {
+                        let rt = residual(self, &xt0, &xt, &pt);
+                        if norm(&rt) < norm(&r) || lambda < 0.2 {
+                            (x0, p, m, steps, r) = (xt0, pt, mt, st, rt);
+                            break;
+                        }
+                    }
+                    Err(AnalysisError::Sim(SimError::Budget { .. })) if lambda < 0.2 => {
+                        return Err(AnalysisError::Request {
+                            reason: format!(
+                                "the search for a periodic orbit wandered off after {iterations} Newton iterations: a period now takes more than {} steps, where the guess's took {}; the scene may have no periodic orbit near the guess (its speed may grow without bound), or start from a guess nearer one",
+                                settings.max_steps, first_steps
+                            ),
+                        });
+                    }
+                    Err(e) if lambda < 0.2 => return Err(e),
+                    Err(_) => {}
+                }
+                lambda *= 0.5;
             }
-            for (a, d) in p.iter_mut().zip(&dz[n2..]) {
-                *a += d;
-            }
-            (xt, m, steps) = self.flow(t0, &x0, period, settings)?;
-            r = residual(self, &x0, &xt, &p);
         }
         let h = symmetry.pose(&p);
         // Floquet multipliers of x0 -> h^-1 x(t0 + T; x0) modulo the orbit

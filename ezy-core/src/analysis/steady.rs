@@ -170,6 +170,7 @@ impl<M: Model> Analysis<M> {
                 });
             }
             iterations += 1;
+            self.check_stop()?;
             let mut j = self.steady_jacobian(t, &x, &xi, symmetry)?;
             if energy.is_some() {
                 j = self.with_energy_row(j, &x);
