@@ -104,4 +104,6 @@ pub mod book_examples {
     pub struct Library;
     #[doc = include_str!("../docs/book/src/models.md")]
     pub struct Models;
+    #[doc = include_str!("../docs/book/src/analysis.md")]
+    pub struct Analysis;
 }
