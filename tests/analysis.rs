@@ -4,6 +4,8 @@
 //! differences, the free EzyRoller's steady motions, and the gait of
 //! `drive-rolling-resistance`.
 
+mod common;
+
 use ezy::models::{ChaplyginSleigh, DoublePendulum, EzyRoller, scenes};
 use ezy_core::analysis::{Analysis, Input, PeriodicSettings, Stability, Symmetry};
 use ezy_core::kkt::KktMethod;
@@ -62,15 +64,9 @@ fn sleigh_straight_motion_has_the_closed_form_eigenvalues() {
 fn double_pendulum_linearized_frequencies() {
     let (mut an, _) = analysis::<DoublePendulum>(scenes::get("double-pendulum"));
     let m = DoublePendulum::default();
-    let g = ezy_core::effects::STANDARD_GRAVITY;
-    let (l1, l2, m1, m2) = (m.L1, m.L2, m.m1, m.m2);
-    let (i1, i2) = (m1 * l1 * l1 / 12.0, m2 * l2 * l2 / 12.0);
-    let mm =
-        [[i1 + m1 * l1 * l1 / 4.0 + m2 * l1 * l1, m2 * l1 * l2 / 2.0], [m2 * l1 * l2 / 2.0, i2 + m2 * l2 * l2 / 4.0]];
-    let kk = [(m1 / 2.0 + m2) * g * l1, m2 * g * l2 / 2.0];
-    let (a, b, c) = (mm[0][0] * mm[1][1] - mm[0][1] * mm[0][1], -(kk[0] * mm[1][1] + kk[1] * mm[0][0]), kk[0] * kk[1]);
-    let disc = (b * b - 4.0 * a * c).sqrt();
-    let want = [((-b + disc) / (2.0 * a)).sqrt(), ((-b - disc) / (2.0 * a)).sqrt()];
+    let (l1, l2) = (m.L1, m.L2);
+    let (_, _, roots) = common::double_pendulum_modes(&m);
+    let want = [roots[1].sqrt(), roots[0].sqrt()];
     assert!((want[0] - 7.366).abs() < 1e-3 && (want[1] - 2.940).abs() < 1e-3, "{want:?}");
     // a guess off the equilibrium: both bars 0.2 rad out, moving
     let (p1, p2) = (-std::f64::consts::FRAC_PI_2 + 0.2, -std::f64::consts::FRAC_PI_2 - 0.1);

@@ -192,3 +192,21 @@ pub fn build<M: Model + Default>(
     let (sys, y0, _) = scene.problem::<M>(sets)?.0.kkt(kkt).into_system()?;
     Ok((sys, y0))
 }
+
+/// The double pendulum's small oscillations about hanging straight down,
+/// in the bars' absolute angles from the vertical (Goldstein, *Classical
+/// Mechanics*, small oscillations): `M theta'' + K theta = 0` with `M =
+/// [[I1 + m1 L1^2/4 + m2 L1^2, m2 L1 L2/2], [m2 L1 L2/2, I2 + m2 L2^2/4]]`,
+/// `K = diag((m1/2 + m2) g L1, m2 g L2/2)`, `I_i = m_i L_i^2/12`. Returns
+/// `M`, `K` and the roots `w^2` of `det(K - w^2 M) = 0`, smaller first.
+pub fn double_pendulum_modes(m: &ezy::models::DoublePendulum) -> ([[f64; 2]; 2], [f64; 2], [f64; 2]) {
+    let g = ezy_core::effects::STANDARD_GRAVITY;
+    let (l1, l2, m1, m2) = (m.L1, m.L2, m.m1, m.m2);
+    let (i1, i2) = (m1 * l1 * l1 / 12.0, m2 * l2 * l2 / 12.0);
+    let mm =
+        [[i1 + m1 * l1 * l1 / 4.0 + m2 * l1 * l1, m2 * l1 * l2 / 2.0], [m2 * l1 * l2 / 2.0, i2 + m2 * l2 * l2 / 4.0]];
+    let kk = [(m1 / 2.0 + m2) * g * l1, m2 * g * l2 / 2.0];
+    let (a, b, c) = (mm[0][0] * mm[1][1] - mm[0][1] * mm[0][1], -(kk[0] * mm[1][1] + kk[1] * mm[0][0]), kk[0] * kk[1]);
+    let disc = (b * b - 4.0 * a * c).sqrt();
+    (mm, kk, [(-b - disc) / (2.0 * a), (-b + disc) / (2.0 * a)])
+}

@@ -133,16 +133,10 @@ fn the_double_pendulum_conserves_its_energy() {
 #[test]
 fn small_oscillations_match_the_linearized_frequencies() {
     let m = DoublePendulum::default();
-    let g = ezy_core::effects::STANDARD_GRAVITY;
-    let (l1, l2, m1, m2) = (m.L1, m.L2, m.m1, m.m2);
-    let (i1, i2) = (m1 * l1 * l1 / 12.0, m2 * l2 * l2 / 12.0);
-    let mm =
-        [[i1 + m1 * l1 * l1 / 4.0 + m2 * l1 * l1, m2 * l1 * l2 / 2.0], [m2 * l1 * l2 / 2.0, i2 + m2 * l2 * l2 / 4.0]];
-    let kk = [(m1 / 2.0 + m2) * g * l1, m2 * g * l2 / 2.0];
-    let (a, b, c) = (mm[0][0] * mm[1][1] - mm[0][1] * mm[0][1], -(kk[0] * mm[1][1] + kk[1] * mm[0][0]), kk[0] * kk[1]);
-    let disc = (b * b - 4.0 * a * c).sqrt();
+    let (l1, l2) = (m.L1, m.L2);
+    let (mm, kk, roots) = common::double_pendulum_modes(&m);
     let gravity: EffectSpec = toml::from_str("kind = \"gravity\"").unwrap();
-    for w2 in [(-b - disc) / (2.0 * a), (-b + disc) / (2.0 * a)] {
+    for w2 in roots {
         let w = w2.sqrt();
         // mode shape from the first row of (K - w^2 M) v = 0
         let v = [w2 * mm[0][1], kk[0] - w2 * mm[0][0]];

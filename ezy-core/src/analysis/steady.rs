@@ -4,8 +4,8 @@
 
 use faer::{Mat, c64};
 
-use super::symmetry::{act, body_pose, field, field_jacobian};
-use super::{Analysis, AnalysisError, Symmetry, dense};
+use super::symmetry::{act, body_pose, field, field_jacobian, fields};
+use super::{Analysis, AnalysisError, Generator, Symmetry, dense};
 use crate::model::Model;
 
 /// The stability of a steady motion or a periodic orbit from its spectrum.
@@ -138,10 +138,8 @@ impl<M: Model> Analysis<M> {
         let k = gens.len();
         let bodies = self.bodies().to_vec();
         let mut x = guess.to_vec();
-        // xi by least squares from f(x) = xi . X(x)
         let f = self.rhs(t, &x)?;
-        let fields = Mat::from_fn(n2, k, |i, j| field(&bodies, gens[j], &x)[i]);
-        let mut xi = dense::min_norm_solve(fields.as_ref(), &f, 1e-12)?.0;
+        let mut xi = self.group_velocity(t, &x, &gens)?;
         let residual = |this: &mut Self, x: &[f64], xi: &[f64]| -> Result<Vec<f64>, AnalysisError> {
             let mut r = this.rhs(t, x)?;
             for (g, c) in gens.iter().zip(xi) {
@@ -203,9 +201,7 @@ impl<M: Model> Analysis<M> {
         // move the reference body's frame to the origin
         let g = symmetry.restrict(body_pose(&bodies, 0, &x)).inverse();
         let x = act(&bodies, g, &x);
-        let f = self.rhs(t, &x)?;
-        let fields = Mat::from_fn(n2, k, |i, j| field(&bodies, gens[j], &x)[i]);
-        let xi = dense::min_norm_solve(fields.as_ref(), &f, 1e-12)?.0;
+        let xi = self.group_velocity(t, &x, &gens)?;
         let j = self.steady_jacobian(t, &x, &xi, symmetry)?;
         let rank = dense::numerical_rank(j.as_ref(), 1e-8)?;
         let (eigenvalues, orbit) = self.reduced_spectrum(t, &x, &xi, symmetry)?;
@@ -315,15 +311,20 @@ impl<M: Model> Analysis<M> {
         x: &[f64],
         symmetry: Symmetry,
     ) -> Result<(Mat<f64>, usize), AnalysisError> {
-        let n2 = x.len();
         let bodies = self.bodies();
         let gens = symmetry.generators();
-        let fields = Mat::from_fn(n2, gens.len(), |i, j| field(bodies, gens[j], x)[i]);
-        let o = dense::orthonormal_range(fields.as_ref(), 1e-10)?;
+        let o = dense::orthonormal_range(fields(bodies, &gens, x).as_ref(), 1e-10)?;
         // the orbit lies in the tangent space: project to be safe of rounding
         let o = tangent * (tangent.transpose() * &o);
         let o = dense::orthonormal_range(o.as_ref(), 1e-10)?;
         Ok((dense::complement(tangent.as_ref(), o.as_ref())?, o.ncols()))
+    }
+
+    /// The group velocity `xi` that best explains `f(x)` as a motion along
+    /// the generators, `f(x) = xi . X(x)` by least squares.
+    fn group_velocity(&mut self, t: f64, x: &[f64], generators: &[Generator]) -> Result<Vec<f64>, AnalysisError> {
+        let f = self.rhs(t, x)?;
+        Ok(dense::min_norm_solve(fields(self.bodies(), generators, x).as_ref(), &f, 1e-12)?.0)
     }
 
     /// Refuses a steady-motion search on a scene whose accelerations

@@ -189,6 +189,12 @@ pub(crate) fn field(bodies: &[[usize; 3]], generator: Generator, x: &[f64]) -> V
     v
 }
 
+/// The generators' fields at `x` as the columns of a (2nq x k) matrix.
+pub(crate) fn fields(bodies: &[[usize; 3]], generators: &[Generator], x: &[f64]) -> Mat<f64> {
+    let cols: Vec<Vec<f64>> = generators.iter().map(|g| field(bodies, *g, x)).collect();
+    Mat::from_fn(x.len(), generators.len(), |i, j| cols[j][i])
+}
+
 /// The derivative of [`field`] with respect to `x` (2nq x 2nq): zero for
 /// a translation, the rotation's generator on positions and velocities.
 pub(crate) fn field_jacobian(bodies: &[[usize; 3]], generator: Generator, n2: usize) -> Mat<f64> {
