@@ -403,7 +403,8 @@ pub struct SweepArgs {
     /// A quantity per run, a column of `trajectory.csv` or a figure's
     /// column function, reduced over a time window [s]:
     /// `mean(norm(x1d, y1d), 50, 60)`, `max(...)`, `min(...)`, `final(...)`
-    /// (window optional: the whole run); repeatable.
+    /// (window optional: the whole run); or an event of the scene's:
+    /// `event_time(NAME)` [s] (its first), `event_count(NAME)`; repeatable.
     #[arg(long = "metric", value_name = "EXPR")]
     pub metrics: Vec<String>,
     /// Runs at once [default: every core]; at most the number of cores

@@ -79,7 +79,7 @@ pub use app::App;
 pub use commands::run::{Report, RunOptions};
 pub use ezy_core;
 pub use ezy_core::{Model, Problem, Solution, model};
-pub use ezy_core::{analysis, effects};
+pub use ezy_core::{analysis, effects, events};
 pub use ezy_models as models;
 pub use ezy_scene;
 pub use ezy_scene::Scene;
@@ -106,4 +106,6 @@ pub mod book_examples {
     pub struct Models;
     #[doc = include_str!("../docs/book/src/analysis.md")]
     pub struct Analysis;
+    #[doc = include_str!("../docs/book/src/events.md")]
+    pub struct Events;
 }

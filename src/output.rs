@@ -157,6 +157,33 @@ impl<M: Model> RowBuilder<M> {
     }
 }
 
+/// `events.csv` of a run: a header `t,event,direction,` and the state's
+/// names, then a row per event in time order (`direction`: `rising` or
+/// `falling`), numbers as in `trajectory.csv` ([`format_number`]). Event
+/// names are letters, digits, `_` and `-` ([`ezy_core::events::check_event_name`]),
+/// so no field needs quotes.
+pub fn events_csv(records: &[ezy_core::EventRecord], state_names: &[String]) -> String {
+    let mut buf = zmij::Buffer::new();
+    let mut out = String::from("t,event,direction");
+    for n in state_names {
+        out.push(',');
+        out.push_str(n);
+    }
+    out.push('\n');
+    for r in records {
+        out.push_str(format_number(&mut buf, r.t));
+        out.push(',');
+        out.push_str(&r.name);
+        out.push_str(if r.rising { ",rising" } else { ",falling" });
+        for &v in &r.y {
+            out.push(',');
+            out.push_str(format_number(&mut buf, v));
+        }
+        out.push('\n');
+    }
+    out
+}
+
 /// Bytes the CSV writer gathers before a write to the file.
 const CSV_BUFFER: usize = 1 << 16;
 

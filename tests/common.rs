@@ -210,3 +210,16 @@ pub fn double_pendulum_modes(m: &ezy::models::DoublePendulum) -> ([[f64; 2]; 2],
     let disc = (b * b - 4.0 * a * c).sqrt();
     (mm, kk, [(-b - disc) / (2.0 * a), (-b + disc) / (2.0 * a)])
 }
+
+/// The Chaplygin sleigh's closed form (docs/physics.md §9) from the
+/// forward speed `u0` [m/s] and yaw rate `w0` [rad/s] of the model's
+/// default parameters: `(U, k, s0)` with `U = sqrt(2 E / m)` [m/s],
+/// `k = m a / (I + m a^2)` [1/m] and `s0 = atanh(u0 / U)`, so that
+/// `u(t) = U tanh(k U t + s0)` and
+/// `omega(t) = w0 cosh(s0) / cosh(k U t + s0)`.
+pub fn sleigh_closed_form(u0: f64, w0: f64) -> (f64, f64, f64) {
+    let m = ezy::models::ChaplyginSleigh::default();
+    let energy = 0.5 * (m.m * u0 * u0 + (m.I + m.m * m.a * m.a) * w0 * w0);
+    let big_u = (2.0 * energy / m.m).sqrt();
+    (big_u, m.m * m.a / (m.I + m.m * m.a * m.a), (u0 / big_u).atanh())
+}

@@ -152,12 +152,8 @@ fn drive_is_se2_invariant() {
 /// Largest deviation of the forward speed u [m/s] and yaw rate [rad/s]
 /// from docs/physics.md §9's closed form over the recorded samples.
 fn sleigh_error(rec: &Recorder) -> f64 {
-    let m = ChaplyginSleigh::default();
-    let (u0, w0) = (1.0, 1.0);
-    let e = 0.5 * (m.m * u0 * u0 + (m.I + m.m * m.a * m.a) * w0 * w0);
-    let big_u = (2.0 * e / m.m).sqrt();
-    let k = m.m * m.a / (m.I + m.m * m.a * m.a);
-    let c0 = (u0 / big_u).atanh();
+    let w0 = 1.0;
+    let (big_u, k, c0) = common::sleigh_closed_form(1.0, w0);
     let mut worst: f64 = 0.0;
     for (t, y) in rec.t.iter().zip(&rec.y) {
         let (phi, xd, yd, phid) = (y[2], y[3], y[4], y[5]);

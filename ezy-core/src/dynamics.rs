@@ -92,6 +92,9 @@ pub struct Dynamics<M: Model> {
     ws: Workspace,
     /// Optional Baumgarte stabilization of the constraints.
     pub baumgarte: Option<Baumgarte>,
+    /// The events a run locates, records or stops at ([`crate::events`]);
+    /// set with [`Dynamics::with_events`].
+    pub events: Vec<crate::events::Event>,
     /// The first `(t [s], estimate)` at which the KKT conditioning estimate
     /// passed [`CONDITION_WARNING`] (recorded once).
     pub ill_conditioned: Option<(f64, f64)>,
@@ -192,6 +195,7 @@ impl<M: Model> Dynamics<M> {
             kkt,
             ws,
             baumgarte: None,
+            events: Vec::new(),
             ill_conditioned: None,
             last_singular: f64::NAN,
             max_growth: 0.0,
@@ -205,6 +209,12 @@ impl<M: Model> Dynamics<M> {
         self.ws.drive_waves = vec![[0.0; 3]; drives.len()];
         self.ws.wave_t = f64::NAN;
         self.drives = drives;
+        self
+    }
+
+    /// Sets the events a run watches ([`crate::events`]).
+    pub fn with_events(mut self, events: Vec<crate::events::Event>) -> Self {
+        self.events = events;
         self
     }
 

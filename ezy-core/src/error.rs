@@ -226,6 +226,48 @@ pub enum SimError {
         /// Names of the rows before it.
         before: String,
     },
+    /// An event is not acceptable: a name the run does not have, a level
+    /// that is not finite, a bad event name ([`crate::events`]).
+    #[error("event `{event}`{}: {message}", if field.is_empty() { String::new() } else { format!(", key `{field}`") })]
+    Event {
+        /// The event's name.
+        event: String,
+        /// The key at fault (`when`, `crosses`; empty: the name).
+        field: &'static str,
+        /// What is wrong.
+        message: String,
+    },
+    /// An event fired in each of [`crate::events::CHATTER_STEPS`] accepted
+    /// steps in a row: its quantity sits at its level within rounding or
+    /// switches back at once, so the run stops instead of looping on it.
+    #[error(
+        "the event `{event}` chatters: it fired in each of {steps} steps in a row from t = {} s to t = {} s; its quantity stays at its level within rounding (a level it sits on rather than crosses) or switches back at once: give a level it crosses, or a direction",
+        fmt_value(*t0), fmt_value(*t1)
+    )]
+    Chattering {
+        /// The event's name.
+        event: String,
+        /// When the steps with an event began \[s\].
+        t0: f64,
+        /// When the run stopped \[s\].
+        t1: f64,
+        /// Steps in a row with an event.
+        steps: u64,
+    },
+    /// A run recorded more events than it keeps
+    /// ([`crate::events::max_records`]).
+    #[error(
+        "at t = {} s the event `{event}` would be the run's record number {}, more than the {limit} it keeps (64 MiB of states): an event that fires this often records the motion, not events; give it a level it crosses less often, or sample the run with a shorter output interval instead",
+        fmt_value(*t), limit + 1
+    )]
+    EventLimit {
+        /// The event's name.
+        event: String,
+        /// Time \[s\].
+        t: f64,
+        /// The records kept.
+        limit: usize,
+    },
     /// A run would take more steps or write more output than its budget.
     #[error(
         "the run would take {} {what} ({detail}), more than the limit of {}; {}",

@@ -52,6 +52,7 @@ pub mod drive;
 pub mod dynamics;
 pub mod effects;
 mod error;
+pub mod events;
 pub mod guard;
 pub mod initial;
 pub mod integrator;
@@ -69,6 +70,7 @@ pub use effects::{Effect, EffectSpec};
 pub use error::{
     LISTED, MASS_SPREAD_WARNING, Setting, SimError, advice, fmt_value, name_list, spell_settings_as_flags,
 };
+pub use events::{Event, EventRecord, EventSpec};
 /// The dense linear algebra the analyses' matrices are in ([`analysis::Linearization::a`]).
 pub use faer;
 pub use integrator::Method;

@@ -55,6 +55,7 @@ use std::sync::Arc;
 
 use crate::drive::Drive;
 use crate::effects::{Effect, EffectContext, EffectKind, EffectSpec, ForceLaw, Law, Waveform};
+use crate::events::{Event, EventSpec};
 use crate::initial::{Given, InitialReport, consistent_state_given};
 use crate::kkt::KktMethod;
 use crate::model::{Model, ModelInfo, NameIndex};
@@ -82,6 +83,8 @@ pub struct Problem<M: Model> {
     pub baumgarte: Option<Baumgarte>,
     /// How the KKT system is solved.
     pub kkt: KktMethod,
+    /// The events the run locates, records or stops at ([`crate::events`]).
+    pub events: Vec<Event>,
 }
 
 /// The result of [`Problem::solve`]: the samples in memory.
@@ -207,6 +210,7 @@ impl<M: Model> Problem<M> {
             settings: RunSettings::default(),
             baumgarte: None,
             kkt: KktMethod::Auto,
+            events: Vec::new(),
         }
     }
 
@@ -285,6 +289,44 @@ impl<M: Model> Problem<M> {
         F: Fn(f64, &[f64], &[f64], &mut [f64]) -> f64 + Send + Sync + 'static,
     {
         self.law(name, crate::effects::Controller::new(coords, law))
+    }
+
+    /// Adds the event `name` watching a quantity of the run by its column
+    /// name (`spec.when`: `x1`, `theta_B`, `A.vy`, `tau_motor`, `T`, `t`;
+    /// [`crate::events::Quantity::resolve`]): located on the dense output,
+    /// recorded in [`Summary::events`], and the run's end if its action
+    /// is [`crate::events::Action::Stop`]. Add the effects and drives it
+    /// names first.
+    ///
+    /// # Errors
+    /// [`SimError::Event`] for a quantity the run does not have, a level
+    /// that is not finite, a bad or repeated name.
+    pub fn event(self, name: &str, spec: &EventSpec) -> Result<Self, SimError> {
+        let info = self.model.info();
+        let event = spec.resolve(name, &info, &self.effects, &self.drives)?;
+        self.with_event(event)
+    }
+
+    /// Adds an event built in Rust ([`Event::from_fn`]: a function
+    /// `g(t, q, qd)` of the user's own whose sign changes are the events).
+    ///
+    /// # Errors
+    /// [`SimError::Event`] for a repeated name.
+    pub fn with_event(mut self, event: Event) -> Result<Self, SimError> {
+        crate::events::check_event_name(&event.name).map_err(|message| SimError::Event {
+            event: event.name.clone(),
+            field: "",
+            message,
+        })?;
+        if self.events.iter().any(|e| e.name == event.name) {
+            return Err(SimError::Event {
+                event: event.name.clone(),
+                field: "",
+                message: "an event of this name is already given".into(),
+            });
+        }
+        self.events.push(event);
+        Ok(self)
     }
 
     /// Prescribes the angle of the model's drive `name` \[rad\].
@@ -439,7 +481,8 @@ impl<M: Model> Problem<M> {
     /// As [`Problem::initial_state`].
     pub fn into_system(self) -> Result<(Dynamics<M>, Vec<f64>, InitialReport), SimError> {
         let (y0, report) = self.initial_state()?;
-        let mut sys = Dynamics::new(self.model, self.effects, self.kkt).with_drives(self.drives);
+        let mut sys =
+            Dynamics::new(self.model, self.effects, self.kkt).with_drives(self.drives).with_events(self.events);
         sys.baumgarte = self.baumgarte;
         Ok((sys, y0, report))
     }

@@ -6,6 +6,7 @@ use std::time::{Duration, Instant};
 
 use crate::dynamics::NEAR_SINGULAR;
 use crate::dynamics::{Counters, Dynamics};
+use crate::events::{Crossing, Monitor};
 use crate::guard::{EnergyGuard, GROWTH_LIMIT, Verdict, drift_note};
 use crate::integrator::Rhs;
 use crate::integrator::adaptive::{Controller, initial_step};
@@ -283,6 +284,11 @@ pub struct Summary {
     /// rank-deficient and how many did, one entry per passage (each is
     /// also told to the observer as a note).
     pub singular_passages: Vec<(f64, u64)>,
+    /// The events that happened, in time order ([`crate::events`]).
+    pub events: Vec<crate::events::EventRecord>,
+    /// The event that ended the run (its name and time \[s\]), if one did
+    /// (an event with [`crate::events::Action::Stop`]).
+    pub stopped: Option<(String, f64)>,
     /// `(t [s], |T - T0 - W| / E)` where an adaptive run's energy balance
     /// first passed [`RunSettings::balance_limit`] relative to the run's
     /// energy scale `E` ([`crate::guard`]): the drift its tolerance lets
@@ -402,9 +408,120 @@ struct Run<'a, M: Model, O: Observer<M>> {
     /// For each of them: whether it is a dense-output sample to project.
     pending_projected: Vec<bool>,
     newton: crate::integrator::radau5::NewtonStats,
+    /// The events' watch ([`crate::events`]).
+    monitor: Monitor,
+    /// An integrator state's scratch for locating events.
+    event_x: Vec<f64>,
+    /// The full state at the event that stopped the run.
+    stop: Option<Vec<f64>>,
 }
 
 impl<M: Model, O: Observer<M>> Run<'_, M, O> {
+    /// Whether an event's sign changed in the accepted step ending at
+    /// `t_new` with the integrator state `x_new` (the step's dense output
+    /// is then needed: [`Run::locate_events`]); a step without counts
+    /// for the chattering test and moves the events' left values on.
+    ///
+    /// # Errors
+    /// None here; the signature matches the loops'.
+    #[inline]
+    fn event_crossed<F: Integrand<M>>(&mut self, form: &F, sys: &Dynamics<M>, t_new: f64, x_new: &[f64]) -> bool {
+        if sys.events.is_empty() {
+            return false;
+        }
+        let crossed = self.monitor.any_crossing(sys, t_new, form.accepted_full(x_new));
+        if !crossed {
+            self.monitor.streak = (0, t_new);
+            std::mem::swap(&mut self.monitor.left, &mut self.monitor.right);
+        }
+        crossed
+    }
+
+    /// The events of the accepted step from `t` to `t_new` whose signs
+    /// changed ([`Run::event_crossed`]), located on the step's continuous
+    /// extension `interpolate(t, x)` ([`crate::events::locate`]) and
+    /// recorded in time order with their states (projected, or expanded),
+    /// up to the first that stops the run: its time, its state kept in
+    /// [`Run::stop`].
+    ///
+    /// # Errors
+    /// As the formulation's expansion; [`SimError::Chattering`],
+    /// [`SimError::EventLimit`].
+    #[cold]
+    fn locate_events<F: Integrand<M>>(
+        &mut self,
+        form: &mut F,
+        sys: &Dynamics<M>,
+        (t, t_new): (f64, f64),
+        x_new: &[f64],
+        mut interpolate: impl FnMut(f64, &mut [f64]),
+    ) -> Result<Option<f64>, SimError> {
+        let mut found = std::mem::take(&mut self.monitor.found);
+        found.clear();
+        for (k, e) in sys.events.iter().enumerate() {
+            let (l, r) = (self.monitor.left[k], self.monitor.right[k]);
+            let Some(rising) = e.direction.crossing(l, r) else { continue };
+            let (x, scratch) = (&mut self.event_x, &mut self.monitor.scratch);
+            let g = |tau: f64| -> Result<f64, SimError> {
+                interpolate(tau, x);
+                let y = form.full_of(sys, tau, x)?;
+                Ok(e.value(sys, tau, y, scratch))
+            };
+            let te = crate::events::locate(g, t, l, t_new, r)?;
+            found.push(Crossing { event: k, t: te, rising });
+        }
+        found.sort_by(|a, b| a.t.total_cmp(&b.t));
+        let mut stop = None;
+        for c in &found {
+            let e = &sys.events[c.event];
+            let mut y = if c.t == t_new {
+                form.accepted_full(x_new).to_vec()
+            } else {
+                interpolate(c.t, &mut self.event_x);
+                form.full_of(sys, c.t, &self.event_x)?.to_vec()
+            };
+            if c.t != t_new && form.projects() && self.settings.projection != ProjectionKind::None {
+                let nq = sys.nq();
+                let (q, rest) = y.split_at_mut(nq);
+                self.proj.project(&sys.model, c.t, q, &mut rest[..nq])?;
+            }
+            self.monitor.record(&e.name, c.t, c.rising, &y)?;
+            if e.action == crate::events::Action::Stop {
+                self.summary.stopped = Some((e.name.clone(), c.t));
+                self.stop = Some(y);
+                stop = Some(c.t);
+                break;
+            }
+        }
+        let first = found.first().map(|c| c.event);
+        self.monitor.found = found;
+        self.monitor.count_step(&sys.events, t_new, first)?;
+        std::mem::swap(&mut self.monitor.left, &mut self.monitor.right);
+        Ok(stop)
+    }
+
+    /// Ends a run at the event at `t_stop` inside the step from `t`: the
+    /// outputs before it from the step's dense output, then the event's
+    /// state ([`Run::stop`]) as the last sample.
+    fn emit_stop<F: Integrand<M>>(
+        &mut self,
+        form: &mut F,
+        sys: &Dynamics<M>,
+        t_stop: f64,
+        n_out: &mut u64,
+        interpolate: impl Fn(f64, &mut [f64]),
+    ) -> Result<(), RunError<O::Error>> {
+        while self.output_due(*n_out, t_stop) && self.out_time(*n_out) < t_stop {
+            let t_out = self.out_time(*n_out);
+            form.emit_dense(self, sys, t_out, |x| interpolate(t_out, x))?;
+            *n_out += 1;
+        }
+        let y = self.stop.take().expect("a stop has its state");
+        let res = self.emit(sys, t_stop, &y);
+        self.stop = Some(y);
+        res
+    }
+
     /// Queues the sample `(t, y)`; the queue goes to the observer when
     /// full ([`Run::flush`]), so the step loop only copies the state.
     fn emit(&mut self, sys: &Dynamics<M>, t: f64, y: &[f64]) -> Result<(), RunError<O::Error>> {
@@ -805,6 +922,13 @@ trait Integrand<M: Model> {
     ) -> Result<bool, SimError>;
     /// The full state `y` of the accepted `x` (as [`Integrand::accept`] left it).
     fn accepted_full<'a>(&'a self, x: &'a [f64]) -> &'a [f64];
+    /// The full state `y` of a dense-output state `x` at `t` (the DAE's
+    /// is `x` itself, unprojected).
+    fn full_of<'a>(&'a mut self, sys: &Dynamics<M>, t: f64, x: &'a [f64]) -> Result<&'a [f64], SimError>;
+    /// Whether its states are projected onto the constraints (the DAE's).
+    fn projects(&self) -> bool {
+        false
+    }
     /// Queues the accepted state `x` at `t` as a sample.
     fn emit<O: Observer<M>>(
         &mut self,
@@ -901,6 +1025,12 @@ impl<M: Model> Integrand<M> for Dae {
     fn accepted_full<'a>(&'a self, x: &'a [f64]) -> &'a [f64] {
         x
     }
+    fn full_of<'a>(&'a mut self, _sys: &Dynamics<M>, _t: f64, x: &'a [f64]) -> Result<&'a [f64], SimError> {
+        Ok(x)
+    }
+    fn projects(&self) -> bool {
+        true
+    }
     fn emit_dense<O: Observer<M>>(
         &mut self,
         run: &mut Run<'_, M, O>,
@@ -942,6 +1072,10 @@ impl<M: Model> Integrand<M> for Reduced {
     }
     fn accepted_full<'a>(&'a self, _x: &'a [f64]) -> &'a [f64] {
         self.accepted()
+    }
+    fn full_of<'a>(&'a mut self, sys: &Dynamics<M>, t: f64, x: &'a [f64]) -> Result<&'a [f64], SimError> {
+        self.expand_sample(sys, t, x)?;
+        Ok(self.full())
     }
     fn emit_dense<O: Observer<M>>(
         &mut self,
@@ -1097,6 +1231,8 @@ pub fn simulate<M: Model, O: Observer<M>>(
             stiff: None,
             singular_passages: Vec::new(),
             energy_drift: None,
+            events: Vec::new(),
+            stopped: None,
         },
         output_time: Duration::ZERO,
         singular: SingularTrack {
@@ -1107,6 +1243,9 @@ pub fn simulate<M: Model, O: Observer<M>>(
         pending: Vec::with_capacity(pending_rows(y0.len()) * (y0.len() + 1)),
         pending_projected: Vec::with_capacity(pending_rows(y0.len())),
         newton: Default::default(),
+        monitor: Monitor::new(sys, 0.0, y0),
+        event_x: Vec::new(),
+        stop: None,
     };
     run.summary.projection_path = run.proj.path();
     // minimal coordinates asked for and refused for a pivot: say why
@@ -1188,7 +1327,8 @@ pub fn simulate<M: Model, O: Observer<M>>(
         kkt_solves: sys.counters.kkt_solves - counters0.kkt_solves,
         singular_solves: sys.counters.singular_solves - counters0.singular_solves,
     };
-    summary.final_state = final_state;
+    summary.final_state = run.stop.take().unwrap_or(final_state);
+    summary.events = std::mem::take(&mut run.monitor.records);
     summary.newton = run.newton;
     summary.ill_conditioned = sys.ill_conditioned;
     Ok(summary)
@@ -1243,6 +1383,7 @@ fn integrate<M: Model, O: Observer<M>, F: Integrand<M>>(
     run: &mut Run<'_, M, O>,
 ) -> Result<(), RunError<O::Error>> {
     let n = x.len();
+    run.event_x.resize(n, 0.0);
     match run.settings.method {
         Method::Euler => fixed(sys, form, x, run, &mut Euler::new(n)),
         Method::Rk4 => fixed(sys, form, x, run, &mut Rk4::new(n)),
@@ -1261,6 +1402,8 @@ fn pending_rows(ny: usize) -> usize {
 /// A fixed-step method, for [`fixed`].
 trait FixedStep {
     fn advance<R: Rhs>(&mut self, rhs: &mut R, t: f64, y: &mut [f64], h: f64) -> Result<(), SimError>;
+    /// `F` at the start of the last step.
+    fn start_slope(&self) -> &[f64];
 }
 
 impl FixedStep for Euler {
@@ -1268,12 +1411,18 @@ impl FixedStep for Euler {
     fn advance<R: Rhs>(&mut self, rhs: &mut R, t: f64, y: &mut [f64], h: f64) -> Result<(), SimError> {
         self.step(rhs, t, y, h)
     }
+    fn start_slope(&self) -> &[f64] {
+        Euler::start_slope(self)
+    }
 }
 
 impl FixedStep for Rk4 {
     #[inline]
     fn advance<R: Rhs>(&mut self, rhs: &mut R, t: f64, y: &mut [f64], h: f64) -> Result<(), SimError> {
         self.step(rhs, t, y, h)
+    }
+    fn start_slope(&self) -> &[f64] {
+        Rk4::start_slope(self)
     }
 }
 
@@ -1287,11 +1436,31 @@ fn fixed<M: Model, O: Observer<M>, F: Integrand<M>, S: FixedStep>(
     let settings = run.settings;
     let n = settings.n_steps();
     let stride = settings.output_stride();
+    // the step's start and the slopes at its ends, for the events' Hermite
+    // interpolant (only with events)
+    let watch = !sys.events.is_empty();
+    let (mut x_start, mut f_end) = if watch { (x.to_vec(), vec![0.0; x.len()]) } else { (Vec::new(), Vec::new()) };
     for i in 0..n {
         let t = i as f64 * settings.dt;
         let t_next = if i + 1 == n { settings.t_end } else { (i + 1) as f64 * settings.dt };
+        if watch {
+            x_start.copy_from_slice(x);
+        }
         stepper.advance(&mut Bound { sys, form }, t, x, t_next - t)?;
         form.accept(run, sys, t, t_next, x, settings.dt, false)?;
+        if run.event_crossed(form, sys, t_next, x) {
+            form.eval(sys, t_next, x, &mut f_end)?;
+            let f_start = stepper.start_slope();
+            let interpolate = |tau: f64, out: &mut [f64]| {
+                crate::integrator::hermite((t, &x_start, f_start), (t_next, x, &f_end), tau, out)
+            };
+            if let Some(t_stop) = run.locate_events(form, sys, (t, t_next), x, interpolate)? {
+                let y = run.stop.take().expect("a stop has its state");
+                let res = run.emit(sys, t_stop, &y);
+                run.stop = Some(y);
+                return res;
+            }
+        }
         run.observer.poll(t_next).map_err(RunError::Output)?;
         if (i + 1) % stride == 0 || i + 1 == n {
             form.emit(run, sys, t_next, x)?;
@@ -1429,10 +1598,17 @@ fn adaptive<M: Model, O: Observer<M>, F: Integrand<M>, E: EmbeddedRk>(
             run.summary.stiff = stiffness.found;
             run.observer.note(&stiff_note(settings.method, t_stiff, hl, E::STIFF_LIMIT));
         }
-        // outputs inside (t, t_new] from the dense output, built on the
-        // projected end point
-        if run.output_inside(n_out, t_new) {
+        // events and outputs inside (t, t_new] from the dense output, built
+        // on the projected end point
+        let crossed = run.event_crossed(form, sys, t_new, &y_new);
+        if crossed || run.output_inside(n_out, t_new) {
             stepper.prepare_dense(&mut Bound { sys, form }, t, y, &k1, h, &y_new, &k_new)?;
+        }
+        if crossed {
+            let interpolate = |t_out: f64, out: &mut [f64]| stepper.interpolate((t_out - t) / h, out);
+            if let Some(t_stop) = run.locate_events(form, sys, (t, t_new), &y_new, interpolate)? {
+                return run.emit_stop(form, sys, t_stop, &mut n_out, interpolate);
+            }
         }
         run.emit_dense(form, sys, t_new, &y_new, &mut n_out, |t_out, out| stepper.interpolate((t_out - t) / h, out))?;
         // every 64 attempts, also when no output is due for long (tiny steps)
@@ -1496,9 +1672,13 @@ fn implicit<M: Model, O: Observer<M>>(
         let t_new = if last { settings.t_end } else { t + h };
         // the accepted state projected first: an output at t_new is it
         run.after_step(sys, t, t_new, &mut y_new, h)?;
-        run.emit_dense(&mut Dae, sys, t_new, &y_new, &mut n_out, |t_out, out| {
-            stepper.interpolate((t_out - t) / h, out)
-        })?;
+        let interpolate = |t_out: f64, out: &mut [f64]| stepper.interpolate((t_out - t) / h, out);
+        if run.event_crossed(&Dae, sys, t_new, &y_new)
+            && let Some(t_stop) = run.locate_events(&mut Dae, sys, (t, t_new), &y_new, interpolate)?
+        {
+            return run.emit_stop(&mut Dae, sys, t_stop, &mut n_out, interpolate);
+        }
+        run.emit_dense(&mut Dae, sys, t_new, &y_new, &mut n_out, interpolate)?;
         if (run.summary.steps + run.summary.rejected).is_multiple_of(64) {
             run.observer.progress(t_new);
         }

@@ -86,7 +86,17 @@ impl Scene {
         let drives = scene.resolve_drives(info);
         let given = Given { q: given_q, qd: given_qd, angles, guess };
         let settings = scene.run_settings();
-        let problem = Problem { model, effects, drives, given, settings, baumgarte: None, kkt: KktMethod::Auto };
+        let problem = Problem {
+            model,
+            effects,
+            drives,
+            given,
+            settings,
+            baumgarte: None,
+            kkt: KktMethod::Auto,
+            events: Vec::new(),
+        };
+        let problem = scene.events.iter().try_fold(problem, |p, (name, e)| p.event(name, e))?;
         Ok((problem, scene))
     }
 }

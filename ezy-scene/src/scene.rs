@@ -598,6 +598,11 @@ pub struct Scene {
     /// (`[drives.NAME] angle = ...`); every drive of the model needs one.
     #[serde(default, with = "named_list", skip_serializing_if = "Vec::is_empty")]
     pub drives: Vec<(String, DriveSpec)>,
+    /// Events by name (`[events.NAME] when = "x1" crosses = 10.0`): located
+    /// on the dense output, written to `events.csv`, and the run's end
+    /// for `action = "stop"` ([`ezy_core::events`]).
+    #[serde(default, with = "named_list", skip_serializing_if = "Vec::is_empty")]
+    pub events: Vec<(String, ezy_core::EventSpec)>,
     /// Figures to draw.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub figures: Vec<FigureSpec>,
@@ -1185,6 +1190,27 @@ impl Scene {
                 Ok(())
             })(),
         );
+        let effect_columns: Vec<(String, String)> =
+            self.effects.iter().map(|(n, e)| (n.clone(), e.value_column(n))).collect();
+        let effect_columns: Vec<(&str, &str)> = effect_columns.iter().map(|(n, v)| (n.as_str(), v.as_str())).collect();
+        let drive_names: Vec<&str> = info.drives.iter().map(|d| d.name.as_str()).collect();
+        for (name, event) in &self.events {
+            keep(
+                &mut errors,
+                (|| {
+                    ezy_core::events::check_event_name(name).map_err(|m| SceneError::at(&["events", name], m))?;
+                    if !event.crosses.is_finite() {
+                        return Err(SceneError::at(
+                            &["events", name, "crosses"],
+                            format!("the level must be a finite number, not {}", event.crosses),
+                        ));
+                    }
+                    ezy_core::events::Quantity::resolve(&event.when, info, &effect_columns, &drive_names)
+                        .map_err(|m| SceneError::at(&["events", name, "when"], m))?;
+                    Ok(())
+                })(),
+            );
+        }
         keep(
             &mut errors,
             (|| {
@@ -1373,7 +1399,8 @@ impl Scene {
     /// model parameter (`m2`), or a number inside an effect or a drive,
     /// `ITEM.KEY` with the full key path (`motor.torque.cos.amplitude`) or
     /// its last key when that is unambiguous (`motor.amplitude`); a key left
-    /// at its default (`gravity.g`) is set by its name. A number set by its
+    /// at its default (`gravity.g`) is set by its name; an event's level,
+    /// `EVENT.crosses`. A number set by its
     /// key is no longer bound to a scene parameter. Apply it before
     /// [`Scene::expand_families`] (which bakes a bound `phase` or
     /// `phase_step` of a family's waveform into each element's phase).
@@ -1427,6 +1454,14 @@ impl Scene {
             } else {
                 None
             };
+            // an event's level: `EVENT.crosses`
+            if changed.is_none()
+                && key == "crosses"
+                && let Some((_, spec)) = self.events.iter_mut().find(|(n, _)| n == item)
+            {
+                spec.crosses = value;
+                return Ok(());
+            }
             if let Some((section, leaf)) = changed {
                 // the number is now the one given, no longer a scene parameter's
                 let mut path = vec![section.to_string(), item.to_string()];
@@ -1445,6 +1480,7 @@ impl Scene {
             let tree = toml::Value::try_from(spec).expect("a drive serializes");
             known.extend(numeric_leaves(&tree).into_iter().map(|l| format!("{n}.{l}")));
         }
+        known.extend(self.events.iter().map(|(n, _)| format!("{n}.crosses")));
         Err(ezy_core::SimError::UnknownName {
             kind: "parameter",
             name: name.to_string(),

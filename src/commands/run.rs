@@ -282,6 +282,11 @@ pub fn run_model_tapped<M: Model + Default>(
         }
     };
     let table = obs.finish()?;
+    let state_names = sys.state_names();
+    // the events' times and states, whenever the scene watches any
+    if !sys.events.is_empty() {
+        tx.write("events.csv", crate::output::events_csv(&summary.events, &state_names).as_bytes())?;
+    }
     let mut drawn_svgs = Vec::new();
     if opts.figures {
         let format = opts.figure_format.unwrap_or(scene.output.figure_format);
@@ -310,7 +315,6 @@ pub fn run_model_tapped<M: Model + Default>(
             }
         }
     }
-    let state_names = sys.state_names();
     let mut warnings = initial.warnings();
     if let Some((t, c)) = summary.ill_conditioned {
         warnings.push(format!(
@@ -412,6 +416,9 @@ fn short(v: f64) -> String {
 /// 30-link snake's 268 are all printed; a family of 10,000 links is not).
 pub const SUMMARY_STATES: usize = 300;
 
+/// At most this many events listed in the summary (all are in `events.csv`).
+pub const SUMMARY_EVENTS: usize = 10;
+
 /// The summary `run` prints: method and steps, RHS evaluations and times,
 /// residuals, the energy balance, the final state and the files written.
 pub fn summary(scene: &str, r: &Report) -> String {
@@ -467,6 +474,22 @@ pub fn summary(scene: &str, r: &Report) -> String {
         s.max_residual_position, s.max_residual_velocity, s.max_step_drift
     );
     let _ = writeln!(out, "  max |T - T0 - W| = {:.3e} J", s.max_energy_error);
+    if !s.events.is_empty() {
+        let listed: Vec<String> = s
+            .events
+            .iter()
+            .take(SUMMARY_EVENTS)
+            .map(|e| format!("{} {} at t = {:.9} s", e.name, if e.rising { "rising" } else { "falling" }, e.t))
+            .collect();
+        let more = match s.events.len().saturating_sub(SUMMARY_EVENTS) {
+            0 => String::new(),
+            n => format!(" and {n} more"),
+        };
+        let _ = writeln!(out, "  events ({}): {}{more} (events.csv)", s.events.len(), listed.join(", "));
+    }
+    if let Some((name, t)) = &s.stopped {
+        let _ = writeln!(out, "  stopped by the event {name} at t = {t:.9} s");
+    }
     // a family of thousands of links: the first components, the rest in the CSV
     let shown = s.final_state.len().min(SUMMARY_STATES);
     let state: Vec<String> =

@@ -16,6 +16,11 @@ pub enum Reduce {
     Min,
     /// The value at the last output row in the window.
     Final,
+    /// The time of an event's first occurrence \[s\] (`event_time(NAME)`,
+    /// from the run's events, not its rows).
+    EventTime,
+    /// How often an event happened (`event_count(NAME)`).
+    EventCount,
 }
 
 impl Reduce {
@@ -25,6 +30,8 @@ impl Reduce {
             Self::Max => "max",
             Self::Min => "min",
             Self::Final => "final",
+            Self::EventTime => "event_time",
+            Self::EventCount => "event_count",
         }
     }
 }
@@ -43,6 +50,9 @@ pub struct Metric {
     pub t0: Option<f64>,
     /// Window end \[s\] (`None`: the end of the run).
     pub t1: Option<f64>,
+    /// The event an `event_time` or `event_count` metric reads (its
+    /// `column` is then the time, read by nothing).
+    pub event: Option<String>,
 }
 
 impl std::str::FromStr for Metric {
@@ -50,7 +60,9 @@ impl std::str::FromStr for Metric {
 
     /// `FUNC(COLUMN)` or `FUNC(COLUMN, T0, T1)` with FUNC one of `mean`,
     /// `max`, `min`, `final` and COLUMN a column name or a column function
-    /// (`norm(a, b)`, `diff(a, b)`, `from_start(a)`, `balance_gap(a, b)`).
+    /// (`norm(a, b)`, `diff(a, b)`, `from_start(a)`, `balance_gap(a, b)`);
+    /// or `event_time(EVENT)`, `event_count(EVENT)` of an event of the
+    /// scene.
     fn from_str(s: &str) -> Result<Self, String> {
         let text = s.trim();
         let usage = || {
@@ -63,12 +75,27 @@ impl std::str::FromStr for Metric {
         }
         let open = text.find('(').ok_or_else(usage)?;
         let inner = text[open + 1..].strip_suffix(')').ok_or_else(usage)?;
+        let event = match text[..open].trim() {
+            "event_time" => Some(Reduce::EventTime),
+            "event_count" => Some(Reduce::EventCount),
+            _ => None,
+        };
+        if let Some(reduce) = event {
+            let name = inner.trim();
+            ezy_core::events::check_event_name(name).map_err(|e| format!("metric `{text}`: {e}"))?;
+            let column = Column::Named("t".into());
+            return Ok(Self { text: text.to_string(), reduce, column, t0: None, t1: None, event: Some(name.into()) });
+        }
         let reduce = match text[..open].trim() {
             "mean" => Reduce::Mean,
             "max" => Reduce::Max,
             "min" => Reduce::Min,
             "final" => Reduce::Final,
-            other => return Err(format!("metric `{text}`: unknown function `{other}`; known: mean, max, min, final")),
+            other => {
+                return Err(format!(
+                    "metric `{text}`: unknown function `{other}`; known: mean, max, min, final, event_time, event_count"
+                ));
+            }
         };
         let args = ezy_scene::scene::split_outside_parentheses(inner);
         let column: Column = args[0].parse().map_err(|e| format!("metric `{text}`: {e}"))?;
@@ -92,11 +119,44 @@ impl std::str::FromStr for Metric {
                 ezy_core::fmt_value(b)
             ));
         }
-        Ok(Self { text: text.to_string(), reduce, column, t0, t1 })
+        Ok(Self { text: text.to_string(), reduce, column, t0, t1, event: None })
     }
 }
 
 impl Metric {
+    /// Checks that an event metric names an event of the scene, whose
+    /// events are `events`.
+    ///
+    /// # Errors
+    /// The metric and the scene's events.
+    pub fn check_event(&self, events: &[&str]) -> Result<(), String> {
+        match &self.event {
+            Some(name) if !events.contains(&name.as_str()) => Err(format!(
+                "metric `{}`: the scene has no event `{name}`; its events: {}",
+                self.text,
+                if events.is_empty() { "none ([events.NAME] tables)".to_string() } else { events.join(", ") }
+            )),
+            _ => Ok(()),
+        }
+    }
+
+    /// The value of an event metric from the run's events (`None` for a
+    /// metric of the rows).
+    ///
+    /// # Errors
+    /// `event_time` of an event that did not happen.
+    pub fn event_value(&self, events: &[ezy_core::EventRecord]) -> Option<Result<f64, String>> {
+        let name = self.event.as_deref()?;
+        let mut of = events.iter().filter(|e| e.name == name);
+        Some(match self.reduce {
+            Reduce::EventCount => Ok(of.count() as f64),
+            _ => of
+                .next()
+                .map(|e| e.t)
+                .ok_or_else(|| format!("metric `{}`: the event `{name}` did not happen in the run", self.text)),
+        })
+    }
+
     /// Checks the window against a run of `t_end` \[s\] with output every
     /// `every` \[s\]: it must lie in the run and hold two output rows.
     ///
@@ -235,6 +295,8 @@ impl Accumulator {
             Reduce::Max => self.acc = self.acc.max(v),
             Reduce::Min => self.acc = self.acc.min(v),
             Reduce::Final => self.acc = v,
+            // read from the run's events ([`Metric::event_value`])
+            Reduce::EventTime | Reduce::EventCount => {}
         }
         self.last = Some((t, v));
     }

@@ -216,8 +216,10 @@ struct Checked {
 
 fn check<M: Model + Default>(job: &SweepJob) -> Result<Checked, String> {
     let settings = run::settings(&job.scene, &job.opts).map_err(|e| e.to_string())?;
+    let events: Vec<&str> = job.scene.events.iter().map(|(n, _)| n.as_str()).collect();
     for m in &job.metrics {
         m.check_window(settings.t_end, settings.every)?;
+        m.check_event(&events)?;
     }
     let base = M::default().info();
     // every name, with the first value of its axis (unknown names and
@@ -476,7 +478,9 @@ fn row_line(
     fields.extend(values.iter().map(|&v| f(v)));
     let mut failed = false;
     let done = result.and_then(|d| {
-        let m: Result<Vec<f64>, String> = d.tap.accs.iter().zip(metrics).map(|(a, m)| a.value(m)).collect();
+        let m: Result<Vec<f64>, String> = (d.tap.accs.iter().zip(metrics))
+            .map(|(a, m)| m.event_value(&d.summary.events).unwrap_or_else(|| a.value(m)))
+            .collect();
         m.map(|m| (d, m))
     });
     match done {

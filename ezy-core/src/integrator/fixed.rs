@@ -29,6 +29,11 @@ impl Euler {
         }
         Ok(())
     }
+
+    /// `F(t, y)` at the start of the last step (its slope).
+    pub fn start_slope(&self) -> &[f64] {
+        &self.k
+    }
 }
 
 /// Classic RK4 with preallocated stages; `step` does not allocate.
@@ -68,6 +73,25 @@ impl Rk4 {
             y[i] += h6 * (k1[i] + 2.0 * (k2[i] + k3[i]) + k4[i]);
         }
         Ok(())
+    }
+
+    /// `F(t, y)` at the start of the last step (its first stage).
+    pub fn start_slope(&self) -> &[f64] {
+        &self.k1
+    }
+}
+
+/// The cubic Hermite interpolant of a step from `(t0, y0, f0)` (time
+/// \[s\], state, slope) to `(t1, y1, f1)` at `t` into `out`: the continuous
+/// extension of order 3 of a fixed-step method (Hairer, Nørsett & Wanner,
+/// Solving ODEs I, §II.6), exact at both ends and for cubics.
+pub fn hermite((t0, y0, f0): (f64, &[f64], &[f64]), (t1, y1, f1): (f64, &[f64], &[f64]), t: f64, out: &mut [f64]) {
+    let h = t1 - t0;
+    let s = (t - t0) / h;
+    let (s2, s3) = (s * s, s * s * s);
+    let (h00, h10, h01, h11) = (2.0 * s3 - 3.0 * s2 + 1.0, s3 - 2.0 * s2 + s, -2.0 * s3 + 3.0 * s2, s3 - s2);
+    for i in 0..out.len() {
+        out[i] = h00 * y0[i] + h * h10 * f0[i] + h01 * y1[i] + h * h11 * f1[i];
     }
 }
 
@@ -110,6 +134,20 @@ mod tests {
         let mx = pts.iter().map(|p| p.0).sum::<f64>() / k;
         let my = pts.iter().map(|p| p.1).sum::<f64>() / k;
         pts.iter().map(|p| (p.0 - mx) * (p.1 - my)).sum::<f64>() / pts.iter().map(|p| (p.0 - mx).powi(2)).sum::<f64>()
+    }
+
+    #[test]
+    fn hermite_is_exact_for_cubics() {
+        let y = |t: f64| [t * t * t - 2.0 * t + 1.0, 0.5 * t * t];
+        let f = |t: f64| [3.0 * t * t - 2.0, t];
+        let (t0, t1) = (0.3, 1.1);
+        let mut out = [0.0; 2];
+        for t in [0.3, 0.5, 0.77, 1.1] {
+            hermite((t0, &y(t0), &f(t0)), (t1, &y(t1), &f(t1)), t, &mut out);
+            for (a, b) in out.iter().zip(y(t)) {
+                assert!((a - b).abs() < 1e-15, "{t}: {a} {b}");
+            }
+        }
     }
 
     #[test]

@@ -45,7 +45,7 @@ pub mod radau5;
 pub use adaptive::{EmbeddedRk, Tolerance};
 pub use dop853::Dop853;
 pub use dopri5::Dopri5;
-pub use fixed::{Euler, Rk4};
+pub use fixed::{Euler, Rk4, hermite};
 
 use crate::SimError;
 

@@ -1,0 +1,594 @@
+//! Located events: a function `g(t, q, qd)` whose zero crossings a run
+//! finds on its integrator's dense output, records, or stops at.
+//!
+//! An event watches a quantity of the run (a coordinate, a velocity, a
+//! hinge angle, a point, an effect's value, the kinetic energy, the time,
+//! or a function of the user's own) and fires when `g = quantity - level`
+//! changes sign in its [`Direction`] within an accepted step. The crossing
+//! is then located on the step's continuous extension (RK4 and Euler: the
+//! cubic Hermite interpolant of the step's ends and their derivatives;
+//! DOPRI5 and DOP853: their own dense output, of order 4 and 7; RADAU5: its
+//! collocation polynomial, order 3) by the Anderson-Björck variant of
+//! regula falsi (Hairer, Nørsett & Wanner, Solving ODEs I, §II.6 "Dense
+//! output, discontinuities"; Anderson & Björck, BIT 12 (1972) 103-106) to
+//! within a few units of rounding in `t`. Its accuracy in time is then the
+//! interpolant's: about the local error over `|g'|` (measured in
+//! docs/book's events chapter: 1e-12 s or better on the sleigh at rtol
+//! 1e-12 for every method).
+//!
+//! The event's time is the end of the final bracket, where `g` has taken
+//! its new sign (or is zero), so a run that goes on from there does not
+//! find the same crossing again. Crossings that come and go within one
+//! step (an even number of sign changes) are not seen; a step small enough
+//! to resolve the quantity's motion sees them.
+//!
+//! An event that fires in each of [`CHATTER_STEPS`] accepted steps in a
+//! row chatters (its quantity sits at the rounding level of its level, or
+//! switches without end): the run stops with [`SimError::Chattering`]
+//! instead of looping on it.
+
+use std::fmt;
+use std::sync::Arc;
+
+use serde::{Deserialize, Serialize};
+
+use crate::SimError;
+use crate::dynamics::Dynamics;
+use crate::effects::{Effect, HingeRef};
+use crate::model::{Model, ModelInfo};
+
+/// Which sign changes of `g = quantity - level` fire an event.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Direction {
+    /// From below the level to it or above (`g < 0` to `g >= 0`).
+    Rising,
+    /// From above the level to it or below (`g > 0` to `g <= 0`).
+    Falling,
+    /// Either way.
+    #[default]
+    Either,
+}
+
+impl Direction {
+    /// The name a scene file spells: `rising`, `falling`, `either`.
+    pub fn name(self) -> &'static str {
+        match self {
+            Self::Rising => "rising",
+            Self::Falling => "falling",
+            Self::Either => "either",
+        }
+    }
+
+    /// Whether `g` going from `left` to `right` is a crossing this way:
+    /// `Some(true)` rising, `Some(false)` falling, `None` none (a start at
+    /// exactly zero is no crossing).
+    #[inline]
+    pub fn crossing(self, left: f64, right: f64) -> Option<bool> {
+        let rising = left < 0.0 && right >= 0.0;
+        let falling = left > 0.0 && right <= 0.0;
+        match self {
+            Self::Rising if rising => Some(true),
+            Self::Falling if falling => Some(false),
+            Self::Either if rising || falling => Some(rising),
+            _ => None,
+        }
+    }
+}
+
+/// What a run does at an event.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Action {
+    /// Records it ([`Summary::events`](crate::Summary::events)) and goes on.
+    #[default]
+    Record,
+    /// Records it and ends the run there: the state at the event is the
+    /// last sample and the final state.
+    Stop,
+}
+
+impl Action {
+    /// The name a scene file spells: `record`, `stop`.
+    pub fn name(self) -> &'static str {
+        match self {
+            Self::Record => "record",
+            Self::Stop => "stop",
+        }
+    }
+}
+
+/// An event as a scene file or a library user writes it by name: `when`
+/// names the quantity ([`Quantity::resolve`]), `crosses` its level.
+///
+/// ```toml
+/// [events.ten_metres]
+/// when = "x1"          # a column of the run
+/// crosses = 10.0       # [the quantity's unit]
+/// direction = "rising" # rising, falling or either (default)
+/// action = "stop"      # record (default) or stop
+/// ```
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct EventSpec {
+    /// The quantity watched, by its column name (`x1`, `phi1d`,
+    /// `theta_B`, `A.x`, `C.vy`, `tau_motor`, `W_motor`, `T`, `t`).
+    pub when: String,
+    /// The level whose crossing fires the event, in the quantity's unit
+    /// \[m, rad, m/s, N, J, s\] (default 0).
+    #[serde(default)]
+    pub crosses: f64,
+    /// Which crossings fire it.
+    #[serde(default)]
+    pub direction: Direction,
+    /// What the run does then.
+    #[serde(default)]
+    pub action: Action,
+}
+
+impl EventSpec {
+    /// The event watching `when` for crossings of `crosses`, either way,
+    /// recorded (set the other fields by struct update:
+    /// `EventSpec { action: Action::Stop, ..EventSpec::new("x1", 10.0) }`).
+    pub fn new(when: &str, crosses: f64) -> Self {
+        Self { when: when.to_string(), crosses, direction: Direction::Either, action: Action::Record }
+    }
+
+    /// The event `name` of this spec for a run on a model with `info`,
+    /// `effects` and the drives named `drives`.
+    ///
+    /// # Errors
+    /// [`SimError::Event`] at `when` for a quantity the run does not have
+    /// (listing the names it has), at `crosses` for a level that is not
+    /// finite; a bad name ([`check_event_name`]).
+    pub fn resolve(
+        &self,
+        name: &str,
+        info: &ModelInfo,
+        effects: &[Effect],
+        drives: &[crate::drive::Drive],
+    ) -> Result<Event, SimError> {
+        check_event_name(name).map_err(|message| SimError::Event { event: name.into(), field: "", message })?;
+        if !self.crosses.is_finite() {
+            return Err(SimError::Event {
+                event: name.into(),
+                field: "crosses",
+                message: format!("the level must be a finite number, not {}", self.crosses),
+            });
+        }
+        let named: Vec<(&str, &str)> = effects.iter().map(|e| (e.name.as_str(), e.value_column.as_str())).collect();
+        let drives: Vec<&str> = drives.iter().map(|d| d.name.as_str()).collect();
+        let quantity = Quantity::resolve(&self.when, info, &named, &drives).map_err(|message| SimError::Event {
+            event: name.into(),
+            field: "when",
+            message,
+        })?;
+        Ok(Event {
+            name: name.to_string(),
+            quantity,
+            level: self.crosses,
+            direction: self.direction,
+            action: self.action,
+        })
+    }
+}
+
+/// Checks an event's name: 1 to 64 characters of letters, digits, `_`
+/// and `-` (it names a row of `events.csv` and a sweep metric's argument).
+///
+/// # Errors
+/// Why the name is not acceptable.
+pub fn check_event_name(name: &str) -> Result<(), String> {
+    let ok =
+        !name.is_empty() && name.len() <= 64 && name.chars().all(|c| c.is_ascii_alphanumeric() || c == '_' || c == '-');
+    if ok {
+        Ok(())
+    } else {
+        Err(format!(
+            "the event name `{}` must be 1 to 64 letters, digits, `_` or `-`",
+            name.escape_default().to_string().chars().take(80).collect::<String>()
+        ))
+    }
+}
+
+/// A function of the user's own, `g(t, q, qd)` (nq each), for
+/// [`Quantity::User`]: its sign changes are the events.
+pub type EventFn = Arc<dyn Fn(f64, &[f64], &[f64]) -> f64 + Send + Sync>;
+
+/// What an event watches.
+#[derive(Clone)]
+pub enum Quantity {
+    /// The time `t` \[s\].
+    Time,
+    /// Component `k` of the state `y = [q, qd, W_effects.., W_drives..]`.
+    State(usize),
+    /// A hinge angle `theta_<hinge>` \[rad\] ([`HingeRef::angle`]).
+    HingeAngle(HingeRef),
+    /// A hinge rate `theta_<hinge>d` \[rad/s\].
+    HingeRate(HingeRef),
+    /// Coordinate `axis` (0: x, 1: y) of point `index` of
+    /// [`ModelInfo::points`] \[m\] (`A.x`).
+    Point {
+        /// Index in [`ModelInfo::points`].
+        index: usize,
+        /// 0 for x, 1 for y.
+        axis: usize,
+    },
+    /// Velocity component `axis` of point `index` \[m/s\] (`A.vx`).
+    PointVelocity {
+        /// Index in [`ModelInfo::points`].
+        index: usize,
+        /// 0 for x, 1 for y.
+        axis: usize,
+    },
+    /// The value column of effect `k` (`tau_motor`, `F_drag`).
+    EffectValue(usize),
+    /// The kinetic energy `T` \[J\].
+    KineticEnergy,
+    /// A function of the user's own.
+    User(EventFn),
+}
+
+impl fmt::Debug for Quantity {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            Self::Time => f.write_str("Time"),
+            Self::State(k) => write!(f, "State({k})"),
+            Self::HingeAngle(h) => write!(f, "HingeAngle({h:?})"),
+            Self::HingeRate(h) => write!(f, "HingeRate({h:?})"),
+            Self::Point { index, axis } => write!(f, "Point({index}, {axis})"),
+            Self::PointVelocity { index, axis } => write!(f, "PointVelocity({index}, {axis})"),
+            Self::EffectValue(k) => write!(f, "EffectValue({k})"),
+            Self::KineticEnergy => f.write_str("KineticEnergy"),
+            Self::User(_) => f.write_str("User(..)"),
+        }
+    }
+}
+
+impl Quantity {
+    /// The quantity a column name stands for in a run on a model with
+    /// `info`, the effects `(name, value column)` and the drives named
+    /// `drives` (in the run's order): `t`, a state component (`x1`, `x1d`,
+    /// `W_motor`), `theta_<hinge>` and `theta_<hinge>d`, a point's
+    /// `<point>.x`, `.y`, `.vx`, `.vy`, an effect's value column
+    /// (`tau_motor`), `T`.
+    ///
+    /// # Errors
+    /// A message listing the names the run has.
+    pub fn resolve(
+        name: &str,
+        info: &ModelInfo,
+        effects: &[(&str, &str)],
+        drives: &[&str],
+    ) -> Result<Quantity, String> {
+        let mut states: Vec<String> = info.coords.clone();
+        states.extend(info.coords.iter().map(|c| crate::dynamics::velocity_name(c)));
+        states.extend(effects.iter().map(|(n, _)| crate::dynamics::work_name(n)));
+        states.extend(drives.iter().map(|d| crate::dynamics::work_name(d)));
+        if let Some(k) = states.iter().position(|s| s == name) {
+            return Ok(Quantity::State(k));
+        }
+        match name {
+            "t" => return Ok(Quantity::Time),
+            "T" => return Ok(Quantity::KineticEnergy),
+            _ => {}
+        }
+        let hinge = |h: &str| {
+            info.hinges.iter().position(|x| x.name == h).map(|index| {
+                let hi = &info.hinges[index];
+                HingeRef { index, a: info.bodies[hi.body_a].coords[2], b: hi.body_b.map(|b| info.bodies[b].coords[2]) }
+            })
+        };
+        if let Some(h) = name.strip_prefix("theta_") {
+            if let Some(r) = hinge(h) {
+                return Ok(Quantity::HingeAngle(r));
+            }
+            if let Some(r) = h.strip_suffix('d').and_then(hinge) {
+                return Ok(Quantity::HingeRate(r));
+            }
+        }
+        if let Some((p, axis)) = name.rsplit_once('.')
+            && let Some(index) = info.point_index(p)
+        {
+            match axis {
+                "x" => return Ok(Quantity::Point { index, axis: 0 }),
+                "y" => return Ok(Quantity::Point { index, axis: 1 }),
+                "vx" => return Ok(Quantity::PointVelocity { index, axis: 0 }),
+                "vy" => return Ok(Quantity::PointVelocity { index, axis: 1 }),
+                _ => {}
+            }
+        }
+        if let Some(k) = effects.iter().position(|(_, v)| *v == name) {
+            return Ok(Quantity::EffectValue(k));
+        }
+        let mut known = vec!["t".to_string(), "T".to_string()];
+        known.extend(states);
+        known.extend(info.hinges.iter().flat_map(|h| [format!("theta_{}", h.name), format!("theta_{}d", h.name)]));
+        known.extend(info.points.iter().flat_map(|p| ["x", "y", "vx", "vy"].map(|a| format!("{}.{a}", p.name))));
+        known.extend(effects.iter().map(|(_, v)| v.to_string()));
+        Err(format!("`{name}` is no quantity of this run; known: {}", crate::name_list(known)))
+    }
+}
+
+/// An event of a run (see the [module](self) documentation).
+#[derive(Debug, Clone)]
+pub struct Event {
+    /// Its name (a row of `events.csv`).
+    pub name: String,
+    /// What it watches.
+    pub quantity: Quantity,
+    /// The level whose crossing fires it, in the quantity's unit.
+    pub level: f64,
+    /// Which crossings fire it.
+    pub direction: Direction,
+    /// What the run does then.
+    pub action: Action,
+}
+
+impl Event {
+    /// The event `name` firing when `g(t, q, qd)` (nq each) changes sign
+    /// (a function of the user's own), either way, recorded.
+    ///
+    /// # Errors
+    /// A bad name ([`check_event_name`]), as [`SimError::Event`].
+    pub fn from_fn(
+        name: &str,
+        g: impl Fn(f64, &[f64], &[f64]) -> f64 + Send + Sync + 'static,
+    ) -> Result<Event, SimError> {
+        check_event_name(name).map_err(|message| SimError::Event { event: name.into(), field: "", message })?;
+        Ok(Event {
+            name: name.to_string(),
+            quantity: Quantity::User(Arc::new(g)),
+            level: 0.0,
+            direction: Direction::Either,
+            action: Action::Record,
+        })
+    }
+
+    /// The same event, firing only on crossings in `direction`.
+    #[must_use]
+    pub fn direction(mut self, direction: Direction) -> Self {
+        self.direction = direction;
+        self
+    }
+
+    /// The same event with `action`.
+    #[must_use]
+    pub fn action(mut self, action: Action) -> Self {
+        self.action = action;
+        self
+    }
+
+    /// `g = quantity - level` at the time `t` \[s\] and state `y` (ny) of
+    /// the run `sys`; `scratch` holds points or forces between calls.
+    pub fn value<M: Model>(&self, sys: &Dynamics<M>, t: f64, y: &[f64], scratch: &mut Vec<f64>) -> f64 {
+        let nq = sys.nq();
+        let (q, qd) = (&y[..nq], &y[nq..2 * nq]);
+        let v = match &self.quantity {
+            Quantity::Time => t,
+            Quantity::State(k) => y[*k],
+            Quantity::HingeAngle(h) => h.angle(q),
+            Quantity::HingeRate(h) => h.rate(qd),
+            Quantity::Point { index, axis } => {
+                scratch.resize(2 * sys.info.points.len(), 0.0);
+                sys.model.points(q, scratch);
+                scratch[2 * index + axis]
+            }
+            Quantity::PointVelocity { index, axis } => {
+                scratch.resize(2 * sys.info.points.len(), 0.0);
+                sys.model.point_velocities(q, qd, scratch);
+                scratch[2 * index + axis]
+            }
+            Quantity::EffectValue(k) => {
+                scratch.clear();
+                scratch.resize(nq, 0.0);
+                sys.effects[*k].apply(t, q, qd, scratch).1
+            }
+            Quantity::KineticEnergy => sys.kinetic_energy(qd),
+            Quantity::User(g) => g(t, q, qd),
+        };
+        v - self.level
+    }
+}
+
+/// An event that happened.
+#[derive(Debug, Clone, PartialEq)]
+pub struct EventRecord {
+    /// The event's name.
+    pub name: String,
+    /// Its time \[s\].
+    pub t: f64,
+    /// Whether its quantity rose through the level (`false`: fell).
+    pub rising: bool,
+    /// The state there, `y = [q, qd, W..]` (ny), consistent with the
+    /// constraints (projected, or expanded by the reduced formulation).
+    pub y: Vec<f64>,
+}
+
+/// Accepted steps in a row in each of which one event fired after which
+/// the run stops with [`SimError::Chattering`]: a quantity whose motion
+/// the steps resolve crosses a level far less often; one that sits at its
+/// level within rounding, or switches back at once, does so at every step.
+pub const CHATTER_STEPS: u64 = 64;
+
+/// Most bytes of event records a run keeps \[B\] (64 MiB): more events
+/// stop the run with [`SimError::EventLimit`] before the memory is taken.
+pub const MAX_EVENT_BYTES: usize = 64 << 20;
+
+/// Most event records a run with states of length `ny` keeps
+/// ([`MAX_EVENT_BYTES`] over a record's size).
+pub fn max_records(ny: usize) -> usize {
+    MAX_EVENT_BYTES / (8 * (ny + 2) + 64)
+}
+
+/// Finds where `g` changes sign in `(a, b]` given `ga = g(a)` of one sign
+/// (not zero) and `gb = g(b)` of the other or zero: the end of a bracket
+/// `[a', b']` no wider than a few units of rounding of `b'`, at which `g`
+/// has `gb`'s sign or is zero (Anderson-Björck regula falsi; at most 200
+/// evaluations, each halving the bracket at worst).
+///
+/// # Errors
+/// Whatever `g` fails with.
+pub fn locate<E>(
+    mut g: impl FnMut(f64) -> Result<f64, E>,
+    mut a: f64,
+    mut ga: f64,
+    mut b: f64,
+    mut gb: f64,
+) -> Result<f64, E> {
+    let before = ga.signum();
+    for k in 0..200 {
+        if gb == 0.0 || b - a <= 4.0 * f64::EPSILON * a.abs().max(b.abs()) {
+            break;
+        }
+        // the secant through the bracket's ends; bisection every few
+        // iterations and whenever the secant falls outside
+        let mut c = b - gb * (b - a) / (gb - ga);
+        if !(c > a && c < b) || k % 8 == 7 {
+            c = 0.5 * (a + b);
+        }
+        let gc = g(c)?;
+        if gc == 0.0 || gc.signum() != before {
+            // the root is in (a, c]
+            b = c;
+            gb = gc;
+        } else {
+            // in (c, b]: the Anderson-Björck weight on the kept end
+            let m = 1.0 - gc / ga;
+            gb *= if m > 0.0 { m } else { 0.5 };
+            a = c;
+            ga = gc;
+        }
+    }
+    Ok(b)
+}
+
+/// An event found in a step: its index in the run's events, its time and
+/// whether it rose.
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct Crossing {
+    pub event: usize,
+    pub t: f64,
+    pub rising: bool,
+}
+
+/// The run's watch over its events: `g` at the last accepted state, the
+/// steps in a row with an event, the records.
+#[derive(Debug, Default)]
+pub(crate) struct Monitor {
+    /// `g` of each event at the last accepted state.
+    pub left: Vec<f64>,
+    /// `g` of each event at the step's end.
+    pub right: Vec<f64>,
+    /// Scratch of [`Event::value`].
+    pub scratch: Vec<f64>,
+    /// The events found in the step, by time.
+    pub found: Vec<Crossing>,
+    /// Steps in a row with an event, from when.
+    pub streak: (u64, f64),
+    /// The records.
+    pub records: Vec<EventRecord>,
+    /// Most records kept ([`max_records`]).
+    pub limit: usize,
+}
+
+impl Monitor {
+    /// Watches the events of `sys` from the state `y` at `t`.
+    pub fn new<M: Model>(sys: &Dynamics<M>, t: f64, y: &[f64]) -> Self {
+        let mut m = Monitor { limit: max_records(y.len()), ..Monitor::default() };
+        m.left = sys.events.iter().map(|e| e.value(sys, t, y, &mut m.scratch)).collect();
+        m.right = m.left.clone();
+        m
+    }
+
+    /// Whether any event's sign changed between the last accepted state
+    /// and the accepted state `y` at `t`: fills `right` (no location yet).
+    #[inline]
+    pub fn any_crossing<M: Model>(&mut self, sys: &Dynamics<M>, t: f64, y: &[f64]) -> bool {
+        let mut any = false;
+        for ((e, l), r) in sys.events.iter().zip(&self.left).zip(&mut self.right) {
+            *r = e.value(sys, t, y, &mut self.scratch);
+            any |= e.direction.crossing(*l, *r).is_some();
+        }
+        any
+    }
+
+    /// After a step with an event or without: counts the streak, and
+    /// stops a run whose events chatter.
+    ///
+    /// # Errors
+    /// [`SimError::Chattering`] naming the event.
+    pub fn count_step(&mut self, sys_events: &[Event], t: f64, fired: Option<usize>) -> Result<(), SimError> {
+        match fired {
+            None => self.streak = (0, t),
+            Some(k) => {
+                if self.streak.0 == 0 {
+                    self.streak.1 = t;
+                }
+                self.streak.0 += 1;
+                if self.streak.0 >= CHATTER_STEPS {
+                    return Err(SimError::Chattering {
+                        event: sys_events[k].name.clone(),
+                        t0: self.streak.1,
+                        t1: t,
+                        steps: self.streak.0,
+                    });
+                }
+            }
+        }
+        Ok(())
+    }
+
+    /// Keeps a record.
+    ///
+    /// # Errors
+    /// [`SimError::EventLimit`] past [`Monitor::limit`] records.
+    pub fn record(&mut self, name: &str, t: f64, rising: bool, y: &[f64]) -> Result<(), SimError> {
+        if self.records.len() >= self.limit {
+            return Err(SimError::EventLimit { event: name.to_string(), t, limit: self.limit });
+        }
+        self.records.push(EventRecord { name: name.to_string(), t, rising, y: y.to_vec() });
+        Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn locate_finds_a_root_to_rounding_with_the_new_sign() {
+        let g = |t: f64| -> Result<f64, ()> { Ok((t - 0.3).powi(3) + 0.1 * (t - 0.3)) };
+        let t = locate(g, 0.0, g(0.0).unwrap(), 1.0, g(1.0).unwrap()).unwrap();
+        assert!((t - 0.3).abs() <= 4.0 * f64::EPSILON, "{t}");
+        assert!(g(t).unwrap() >= 0.0);
+        // a root at the bracket's end
+        let t = locate(|t: f64| Ok::<_, ()>(t - 1.0), 0.0, -1.0, 1.0, 0.0).unwrap();
+        assert_eq!(t, 1.0);
+        // falling, steep and flat parts
+        let h = |t: f64| -> Result<f64, ()> { Ok((2.0 - t).tanh() * 1e-3) };
+        let t = locate(h, 1.0, h(1.0).unwrap(), 5.0, h(5.0).unwrap()).unwrap();
+        assert!((t - 2.0).abs() <= 8.0 * f64::EPSILON, "{t}");
+        assert!(h(t).unwrap() <= 0.0);
+    }
+
+    #[test]
+    fn directions() {
+        assert_eq!(Direction::Rising.crossing(-1.0, 0.0), Some(true));
+        assert_eq!(Direction::Rising.crossing(0.0, 1.0), None);
+        assert_eq!(Direction::Rising.crossing(1.0, -1.0), None);
+        assert_eq!(Direction::Falling.crossing(1.0, -1.0), Some(false));
+        assert_eq!(Direction::Either.crossing(1.0, 0.0), Some(false));
+        assert_eq!(Direction::Either.crossing(-2.0, 3.0), Some(true));
+        assert_eq!(Direction::Either.crossing(2.0, 3.0), None);
+    }
+
+    #[test]
+    fn event_names() {
+        assert!(check_event_name("ten_metres").is_ok());
+        assert!(check_event_name("").is_err());
+        assert!(check_event_name("a b").is_err());
+        assert!(check_event_name("x\u{1b}[31m").is_err());
+        assert!(check_event_name(&"a".repeat(65)).is_err());
+    }
+}

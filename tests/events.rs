@@ -1,0 +1,268 @@
+//! Located events (`ezy_core::events`) against a closed form: the
+//! Chaplygin sleigh's heading crossing a level, for every integrator with
+//! a continuous extension and both formulations; a stop event ending the
+//! run at the event; a function of the user's own; chattering reported.
+
+mod common;
+
+use ezy::models::ChaplyginSleigh;
+use ezy_core::events::{Action, Direction, Event, EventSpec};
+use ezy_core::{Formulation, Method, Problem, SimError};
+
+/// The sleigh from `u0 = 1` m/s, `omega0 = 1` rad/s (the scene `sleigh`).
+fn sleigh() -> Problem<ChaplyginSleigh> {
+    Problem::new(ChaplyginSleigh::default())
+        .q("x", 0.0)
+        .and_then(|p| p.q("y", 0.0))
+        .and_then(|p| p.q("phi", 0.0))
+        .and_then(|p| p.qd("x", 1.0))
+        .and_then(|p| p.qd("phi", 1.0))
+        .unwrap()
+        .t_end(3.0)
+}
+
+/// When the sleigh's heading reaches `level` \[rad\] (docs/physics.md §9):
+/// `omega = omega0 cosh(s0) / cosh(k U t + s0)`, so
+/// `phi = omega0 cosh(s0) / (k U) (gd(k U t + s0) - gd(s0))` with the
+/// Gudermannian `gd(x) = 2 atan(tanh(x / 2))`, inverted by
+/// `gd^-1(y) = atanh(sin y)`.
+fn heading_time(level: f64) -> f64 {
+    let (big_u, k, s0) = common::sleigh_closed_form(1.0, 1.0);
+    let gd = |x: f64| 2.0 * (0.5 * x).tanh().atan();
+    let target = gd(s0) + level * k * big_u / s0.cosh();
+    (target.sin().atanh() - s0) / (k * big_u)
+}
+
+/// The sleigh's yaw rate at `t` \[rad/s\] (docs/physics.md §9).
+fn heading_rate(t: f64) -> f64 {
+    let (big_u, k, s0) = common::sleigh_closed_form(1.0, 1.0);
+    s0.cosh() / (k * big_u * t + s0).cosh()
+}
+
+/// Each integrator finds the heading's crossing of 0.5 rad at its closed
+/// form's time to 1e-10 s, in both formulations. The bound: the
+/// location itself is exact to rounding (a few 1e-16 s), so what is left
+/// is the continuous extension's error at rtol 1e-12 (RK4: h = 1e-3 s,
+/// local error about 1e-14) over the heading's rate there (about 0.2
+/// rad/s), well under 1e-10; a wrong interpolant (the step's end instead
+/// of the crossing, a linear one) is off by 1e-4 s or more.
+#[test]
+fn heading_crossing_is_located_to_1e_10_by_every_integrator() {
+    let want = heading_time(0.5);
+    assert!(want > 0.5 && want < 3.0, "{want}");
+    let spec = EventSpec { direction: Direction::Rising, ..EventSpec::new("phi", 0.5) };
+    for method in [Method::Rk4, Method::Dopri5, Method::Dop853, Method::Radau5] {
+        for formulation in [Formulation::Dae, Formulation::Reduced] {
+            if method == Method::Radau5 && formulation == Formulation::Reduced {
+                continue;
+            }
+            // RADAU5 meets rtol^(2/3) / 10 (Hairer's conversion of the
+            // tolerance): 1e-14 asks it for about 5e-11
+            let tol = if method == Method::Radau5 { 1e-14 } else { 1e-12 };
+            let p = sleigh().method(method).tolerances(tol, tol).dt(1e-3).formulation(formulation);
+            let clock = EventSpec::new("t", want);
+            let solution = p.event("half", &spec).unwrap().event("clock", &clock).unwrap().solve().unwrap();
+            let events = &solution.summary.events;
+            // the solution's own error there, against which the location is judged
+            let own = events.iter().find(|e| e.name == "clock").map(|e| e.y[2] - 0.5).unwrap();
+            eprintln!("{method:?} {formulation:?}: phi(t*) - 0.5 = {own:.1e} rad");
+            let events: Vec<_> = events.iter().filter(|e| e.name == "half").cloned().collect();
+            assert_eq!(events.len(), 1, "{method:?} {formulation:?}: {events:?}");
+            let e = &events[0];
+            assert_eq!(e.name, "half");
+            assert!(e.rising);
+            let err = (e.t - want).abs();
+            eprintln!("{method:?} {formulation:?}: t = {:.15} s, error {err:.1e} s", e.t);
+            assert!(err < 1e-10, "{method:?} {formulation:?}: t = {} against {want}: {err:e}", e.t);
+            // and what the location adds to the solution's own error
+            // (its heading off by `own` at t*, so its crossing off by
+            // -own / phid): below 1e-12 s, a tenth of DOP853's 6e-12
+            let added = (e.t - want) + own / heading_rate(want);
+            assert!(added.abs() < 1e-12, "{method:?} {formulation:?}: the location adds {added:e} s");
+            // the state recorded is at the crossing and on the constraints
+            assert!((e.y[2] - 0.5).abs() < 1e-9, "{method:?}: phi = {}", e.y[2]);
+            let (phi, xd, yd, w) = (e.y[2], e.y[3], e.y[4], e.y[5]);
+            let slip = -xd * phi.sin() + yd * phi.cos() - 0.5 * w;
+            assert!(slip.abs() < 1e-12, "{method:?}: skate residual {slip:e}");
+            // the run went on to its end
+            assert_eq!(solution.t.last(), Some(&3.0));
+            assert!(solution.summary.stopped.is_none());
+        }
+    }
+}
+
+/// A stop event ends the run at the event: its state is the last row and
+/// the final state, at the closed form's time; a falling event of the
+/// same quantity is not fired by a rising crossing.
+#[test]
+fn a_stop_event_ends_the_run_at_the_event_with_the_row_written() {
+    let want = heading_time(0.3);
+    for method in [Method::Rk4, Method::Dop853, Method::Radau5] {
+        let solution = sleigh()
+            .method(method)
+            .tolerances(1e-12, 1e-12)
+            .dt(1e-3)
+            .every(0.1)
+            .event("down", &EventSpec { direction: Direction::Falling, ..EventSpec::new("phi", 0.3) })
+            .unwrap()
+            .event("far", &EventSpec { action: Action::Stop, ..EventSpec::new("phi", 0.3) })
+            .unwrap()
+            .solve()
+            .unwrap();
+        let t_last = *solution.t.last().unwrap();
+        assert!((t_last - want).abs() < 1e-10, "{method:?}: {t_last} against {want}");
+        assert_eq!(solution.summary.stopped.as_ref().map(|(n, t)| (n.as_str(), *t)), Some(("far", t_last)));
+        assert_eq!(solution.summary.events.len(), 1, "{:?}", solution.summary.events);
+        let last = solution.y.last().unwrap();
+        assert_eq!(last.as_slice(), solution.final_state());
+        assert!((last[2] - 0.3).abs() < 1e-9, "{method:?}: phi = {}", last[2]);
+        // the rows before it are the output grid's, in order
+        let n = solution.t.len();
+        assert!(solution.t[n - 2] < t_last && t_last - solution.t[n - 2] <= 0.1 + 1e-12);
+    }
+}
+
+/// A function of the user's own gives the same event as the named
+/// quantity, and several events of one step are recorded in time order.
+#[test]
+fn a_user_function_and_several_events_in_time_order() {
+    let solution = sleigh()
+        .method(Method::Dop853)
+        .tolerances(1e-12, 1e-12)
+        .event("b", &EventSpec::new("phi", 0.45))
+        .unwrap()
+        .with_event(Event::from_fn("a", |_, q, _| q[2] - 0.4).unwrap())
+        .unwrap()
+        .event("clock", &EventSpec::new("t", 2.5))
+        .unwrap()
+        .solve()
+        .unwrap();
+    let names: Vec<&str> = solution.summary.events.iter().map(|e| e.name.as_str()).collect();
+    assert_eq!(names, ["a", "b", "clock"]);
+    let times: Vec<f64> = solution.summary.events.iter().map(|e| e.t).collect();
+    assert!((times[0] - heading_time(0.4)).abs() < 1e-10);
+    assert!((times[1] - heading_time(0.45)).abs() < 1e-10);
+    // a time event is exact to rounding
+    assert!((times[2] - 2.5).abs() < 1e-15, "{}", times[2]);
+}
+
+/// A quantity that changes sign at every step (it sits on its level)
+/// chatters: the run stops with the event named, not looping on it.
+#[test]
+fn chattering_is_reported_with_the_event_and_time() {
+    let flip = Event::from_fn("flip", |t, _, _| if ((t / 1e-3).round() as i64) % 2 == 0 { 1.0 } else { -1.0 }).unwrap();
+    let err = sleigh().method(Method::Rk4).dt(1e-3).with_event(flip).unwrap().solve().unwrap_err();
+    match &err {
+        SimError::Chattering { event, t0, t1, steps } => {
+            assert_eq!(event, "flip");
+            assert_eq!(*steps, ezy_core::events::CHATTER_STEPS);
+            assert!(*t0 < 0.01 && *t1 < 0.1, "{t0} {t1}");
+        }
+        other => panic!("{other}"),
+    }
+    assert!(err.to_string().contains("the event `flip` chatters"), "{err}");
+}
+
+/// Names the run does not have are refused with the names it has.
+#[test]
+fn unknown_quantities_and_bad_levels_are_refused() {
+    let err = sleigh().event("e", &EventSpec::new("x2", 1.0)).unwrap_err();
+    let text = err.to_string();
+    assert!(text.contains("event `e`, key `when`") && text.contains("`x2` is no quantity"), "{text}");
+    assert!(text.contains("phid") && text.contains("P.vy"), "{text}");
+    let err = sleigh().event("e", &EventSpec::new("x", f64::NAN)).unwrap_err();
+    assert!(err.to_string().contains("key `crosses`"), "{err}");
+    let err = sleigh().event("e", &EventSpec::new("x", 1.0)).unwrap().event("e", &EventSpec::new("y", 1.0));
+    assert!(err.unwrap_err().to_string().contains("already given"));
+}
+
+/// The guide's scene `sleigh-events` (docs/book/src/events.md, the
+/// ```toml block holding `name = "sleigh-events"`): the sleigh with three
+/// events, the heading's crossing of 0.5 rad recorded, the yaw rate's
+/// falls through 0.3 rad/s, and the centre's reaching x = 1.5 m ending
+/// the run. Read from the guide, so the example a user copies is the one
+/// tested.
+fn guide_scene() -> String {
+    let guide = std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/docs/book/src/events.md")).unwrap();
+    let blocks = guide.split("```toml\n").skip(1).map(|b| b.split("```").next().unwrap());
+    blocks.filter(|b| b.contains("name = \"sleigh-events\"")).map(str::to_string).next().expect("the guide's scene")
+}
+
+fn ezy(args: &[&str]) -> std::process::Output {
+    std::process::Command::new(env!("CARGO_BIN_EXE_ezy")).args(args).output().expect("ezy runs")
+}
+
+/// `ezy run` writes `events.csv` (time, name, direction, state), lists
+/// the events in its summary, and a stop event's state is the last row of
+/// `trajectory.csv`; `ezy sweep` reads `event_time` and `event_count`
+/// metrics; a scene naming a quantity the run lacks is refused at its line.
+#[test]
+fn the_command_line_writes_events_and_sweeps_read_them() {
+    let dir = std::env::temp_dir().join(format!("ezy-events-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    let scene = dir.join("sleigh-events.toml");
+    let text = guide_scene();
+    std::fs::write(&scene, &text).unwrap();
+    let out = dir.join("run");
+    let o = ezy(&["run", scene.to_str().unwrap(), "--no-figures", "--out", out.to_str().unwrap()]);
+    let stdout = String::from_utf8_lossy(&o.stdout);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    assert!(stdout.contains("events (3): slow falling at t = "), "{stdout}");
+    assert!(stdout.contains("stopped by the event far at t = "), "{stdout}");
+    let events = std::fs::read_to_string(out.join("events.csv")).unwrap();
+    let mut lines = events.lines();
+    assert_eq!(lines.next(), Some("t,event,direction,x,y,phi,xd,yd,phid"));
+    let rows: Vec<Vec<&str>> = lines.map(|l| l.split(',').collect()).collect();
+    let names: Vec<&str> = rows.iter().map(|r| r[1]).collect();
+    assert_eq!(names, ["slow", "half", "far"]);
+    assert_eq!(rows[1][2], "rising");
+    let t_half: f64 = rows[1][0].parse().unwrap();
+    assert!((t_half - heading_time(0.5)).abs() < 1e-10, "{t_half}");
+    // the stop: its row is the trajectory's last, number for number
+    let csv = std::fs::read_to_string(out.join("trajectory.csv")).unwrap();
+    let last: Vec<&str> = csv.lines().last().unwrap().split(',').collect();
+    assert_eq!(last[..7], [&[rows[2][0]], &rows[2][3..9]].concat()[..]);
+    assert!((last[1].parse::<f64>().unwrap() - 1.5).abs() < 1e-12, "{last:?}");
+
+    let sweep = dir.join("sweep");
+    let o = ezy(&[
+        "sweep",
+        scene.to_str().unwrap(),
+        "--list",
+        "far.crosses=1.5,1.2",
+        "--metric",
+        "event_time(half)",
+        "--metric",
+        "event_count(slow)",
+        "--jobs",
+        "1",
+        "--out",
+        sweep.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let table = std::fs::read_to_string(sweep.join("sweep.csv")).unwrap();
+    let header: Vec<&str> = table.lines().next().unwrap().split(',').collect();
+    let row: Vec<&str> = table.lines().nth(1).unwrap().split(',').collect();
+    let at = |c: &str| header.iter().position(|h| *h == c).unwrap();
+    assert_eq!(row[at("event_time(half)")], rows[1][0]);
+    assert_eq!(row[at("event_count(slow)")], "1.0");
+    // the second run stopped where its level was set
+    let second: Vec<&str> = table.lines().nth(2).unwrap().split(',').collect();
+    assert!((second[at("x")].parse::<f64>().unwrap() - 1.2).abs() < 1e-12, "{second:?}");
+    assert_eq!(second[at("event_time(half)")], rows[1][0]);
+    // an event metric of an event the scene lacks: refused before any run
+    let o = ezy(&["sweep", scene.to_str().unwrap(), "--list", "a=0.5", "--metric", "event_time(nope)"]);
+    assert!(!o.status.success());
+    assert!(String::from_utf8_lossy(&o.stderr).contains("the scene has no event `nope`; its events: half, slow, far"));
+
+    // a quantity the run lacks: the file, line and key
+    std::fs::write(&scene, text.replace("when = \"x\"", "when = \"x9\"")).unwrap();
+    let line = 1 + text.lines().position(|l| l == "when = \"x\"").unwrap();
+    let o = ezy(&["run", scene.to_str().unwrap(), "--no-figures", "--out", out.to_str().unwrap()]);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(!o.status.success());
+    assert!(err.contains(&format!("sleigh-events.toml:{line}:")) && err.contains("events.far.when"), "{err}");
+    assert!(err.contains("`x9` is no quantity of this run"), "{err}");
+    let _ = std::fs::remove_dir_all(&dir);
+}
