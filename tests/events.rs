@@ -146,6 +146,28 @@ fn a_user_function_and_several_events_in_time_order() {
     assert!((times[2] - 2.5).abs() < 1e-15, "{}", times[2]);
 }
 
+/// Events that record do not change the run: the samples with events
+/// are the samples without, bit for bit (RK4 and DOP853, events that fire
+/// several times).
+#[test]
+fn recording_events_leaves_the_run_bit_for_bit() {
+    for method in [Method::Rk4, Method::Dop853] {
+        let plain = sleigh().method(method).dt(1e-3).t_end(10.0);
+        let watched = plain
+            .clone()
+            .event("turn", &EventSpec::new("phi", 0.3))
+            .unwrap()
+            .event("slow", &EventSpec::new("phid", 0.1))
+            .unwrap()
+            .event("side", &EventSpec::new("P.vy", 0.5))
+            .unwrap();
+        let (a, b) = (plain.solve().unwrap(), watched.solve().unwrap());
+        assert!(b.summary.events.len() >= 3, "{method:?}: {:?}", b.summary.events);
+        assert_eq!(a.t, b.t);
+        assert_eq!(a.y, b.y, "{method:?}");
+    }
+}
+
 /// A quantity that changes sign at every step (it sits on its level)
 /// chatters: the run stops with the event named, not looping on it.
 #[test]
