@@ -183,6 +183,15 @@ fn chattering_is_reported_with_the_event_and_time() {
         other => panic!("{other}"),
     }
     assert!(err.to_string().contains("the event `flip` chatters"), "{err}");
+    // two events taking turns, each firing every other step: every step
+    // has an event, but neither chatters
+    let step = |t: f64| (t / 1e-3).round() as i64;
+    let sign = |k: i64| if k % 2 == 0 { 1.0 } else { -1.0 };
+    let even = Event::from_fn("even", move |t, _, _| sign(step(t) / 2)).unwrap();
+    let odd = Event::from_fn("odd", move |t, _, _| sign((step(t) + 1) / 2)).unwrap();
+    let run = sleigh().method(Method::Rk4).dt(1e-3).t_end(0.3).with_event(even).unwrap().with_event(odd).unwrap();
+    let events = run.solve().unwrap().summary.events;
+    assert!(events.len() >= 290, "{}", events.len());
 }
 
 /// Names the run does not have are refused with the names it has.

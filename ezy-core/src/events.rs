@@ -484,8 +484,11 @@ pub(crate) struct Monitor {
     pub scratch: Vec<f64>,
     /// The events found in the step, by time.
     pub found: Vec<Crossing>,
-    /// Steps in a row with an event, from when.
-    pub streak: (u64, f64),
+    /// For each event, the accepted steps in a row in which it fired and
+    /// the time the first of them ended.
+    pub streaks: Vec<(u64, f64)>,
+    /// Whether any streak is open (so a step without an event resets them).
+    pub streaking: bool,
     /// The records.
     pub records: Vec<EventRecord>,
     /// Most records kept ([`max_records`]).
@@ -498,7 +501,17 @@ impl Monitor {
         let mut m = Monitor { limit: max_records(y.len()), ..Monitor::default() };
         m.left = sys.events.iter().map(|e| e.value(sys, t, y, &mut m.scratch)).collect();
         m.right = m.left.clone();
+        m.streaks = vec![(0, t); sys.events.len()];
         m
+    }
+
+    /// After a step without an event: every streak ends.
+    #[inline]
+    pub fn quiet_step(&mut self) {
+        if self.streaking {
+            self.streaks.iter_mut().for_each(|s| s.0 = 0);
+            self.streaking = false;
+        }
     }
 
     /// Whether any event's sign changed between the last accepted state
@@ -513,29 +526,27 @@ impl Monitor {
         any
     }
 
-    /// After a step with an event or without: counts the streak, and
-    /// stops a run whose events chatter.
+    /// After a step ending at `t` \[s\] in which the events `fired`
+    /// (indices into `events`) were found: each one's streak grows, the
+    /// others' end; a streak of [`CHATTER_STEPS`] stops the run.
     ///
     /// # Errors
     /// [`SimError::Chattering`] naming the event.
-    pub fn count_step(&mut self, sys_events: &[Event], t: f64, fired: Option<usize>) -> Result<(), SimError> {
-        match fired {
-            None => self.streak = (0, t),
-            Some(k) => {
-                if self.streak.0 == 0 {
-                    self.streak.1 = t;
-                }
-                self.streak.0 += 1;
-                if self.streak.0 >= CHATTER_STEPS {
-                    return Err(SimError::Chattering {
-                        event: sys_events[k].name.clone(),
-                        t0: self.streak.1,
-                        t1: t,
-                        steps: self.streak.0,
-                    });
-                }
+    pub fn count_step(&mut self, events: &[Event], t: f64, fired: &[Crossing]) -> Result<(), SimError> {
+        for (k, s) in self.streaks.iter_mut().enumerate() {
+            if !fired.iter().any(|c| c.event == k) {
+                s.0 = 0;
+                continue;
+            }
+            if s.0 == 0 {
+                s.1 = t;
+            }
+            s.0 += 1;
+            if s.0 >= CHATTER_STEPS {
+                return Err(SimError::Chattering { event: events[k].name.clone(), t0: s.1, t1: t, steps: s.0 });
             }
         }
+        self.streaking = true;
         Ok(())
     }
 

@@ -421,9 +421,6 @@ impl<M: Model, O: Observer<M>> Run<'_, M, O> {
     /// `t_new` with the integrator state `x_new` (the step's dense output
     /// is then needed: [`Run::locate_events`]); a step without counts
     /// for the chattering test and moves the events' left values on.
-    ///
-    /// # Errors
-    /// None here; the signature matches the loops'.
     #[inline]
     fn event_crossed<F: Integrand<M>>(&mut self, form: &F, sys: &Dynamics<M>, t_new: f64, x_new: &[f64]) -> bool {
         if sys.events.is_empty() {
@@ -431,7 +428,7 @@ impl<M: Model, O: Observer<M>> Run<'_, M, O> {
         }
         let crossed = self.monitor.any_crossing(sys, t_new, form.accepted_full(x_new));
         if !crossed {
-            self.monitor.streak = (0, t_new);
+            self.monitor.quiet_step();
             std::mem::swap(&mut self.monitor.left, &mut self.monitor.right);
         }
         crossed
@@ -493,9 +490,9 @@ impl<M: Model, O: Observer<M>> Run<'_, M, O> {
                 break;
             }
         }
-        let first = found.first().map(|c| c.event);
+        let counted = self.monitor.count_step(&sys.events, t_new, &found);
         self.monitor.found = found;
-        self.monitor.count_step(&sys.events, t_new, first)?;
+        counted?;
         std::mem::swap(&mut self.monitor.left, &mut self.monitor.right);
         Ok(stop)
     }
