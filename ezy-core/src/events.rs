@@ -273,12 +273,7 @@ impl Quantity {
             "T" => return Ok(Quantity::KineticEnergy),
             _ => {}
         }
-        let hinge = |h: &str| {
-            info.hinges.iter().position(|x| x.name == h).map(|index| {
-                let hi = &info.hinges[index];
-                HingeRef { index, a: info.bodies[hi.body_a].coords[2], b: hi.body_b.map(|b| info.bodies[b].coords[2]) }
-            })
-        };
+        let hinge = |h: &str| info.hinge_index(h).map(|index| HingeRef::of(info, index));
         if let Some(h) = name.strip_prefix("theta_") {
             if let Some(r) = hinge(h) {
                 return Ok(Quantity::HingeAngle(r));

@@ -513,6 +513,12 @@ impl<M: Model, O: Observer<M>> Run<'_, M, O> {
             form.emit_dense(self, sys, t_out, |x| interpolate(t_out, x))?;
             *n_out += 1;
         }
+        self.emit_stop_state(sys, t_stop)
+    }
+
+    /// Queues the state of the event that stopped the run ([`Run::stop`]),
+    /// at `t_stop`, as the last sample.
+    fn emit_stop_state(&mut self, sys: &Dynamics<M>, t_stop: f64) -> Result<(), RunError<O::Error>> {
         let y = self.stop.take().expect("a stop has its state");
         let res = self.emit(sys, t_stop, &y);
         self.stop = Some(y);
@@ -1452,10 +1458,8 @@ fn fixed<M: Model, O: Observer<M>, F: Integrand<M>, S: FixedStep>(
                 crate::integrator::hermite((t, &x_start, f_start), (t_next, x, &f_end), tau, out)
             };
             if let Some(t_stop) = run.locate_events(form, sys, (t, t_next), x, interpolate)? {
-                let y = run.stop.take().expect("a stop has its state");
-                let res = run.emit(sys, t_stop, &y);
-                run.stop = Some(y);
-                return res;
+                // every grid output before it is written
+                return run.emit_stop_state(sys, t_stop);
             }
         }
         run.observer.poll(t_next).map_err(RunError::Output)?;

@@ -765,8 +765,7 @@ impl<'a> EffectContext<'a> {
         let index = self.names.hinge(name).ok_or_else(|| {
             unknown(field, "hinge", name, info.name, info.hinges.iter().map(|h| h.name.as_str()).collect())
         })?;
-        let h = &info.hinges[index];
-        Ok(HingeRef { index, a: info.bodies[h.body_a].coords[2], b: h.body_b.map(|b| info.bodies[b].coords[2]) })
+        Ok(HingeRef::of(info, index))
     }
 
     /// The indices of the `(x, y, phi)` of the body called `name`, for the
@@ -835,6 +834,12 @@ pub struct HingeRef {
 }
 
 impl HingeRef {
+    /// Hinge `index` of [`ModelInfo::hinges`] with its bodies' heading indices.
+    pub fn of(info: &ModelInfo, index: usize) -> Self {
+        let h = &info.hinges[index];
+        HingeRef { index, a: info.bodies[h.body_a].coords[2], b: h.body_b.map(|b| info.bodies[b].coords[2]) }
+    }
+
     /// The hinge angle `theta = q[a] - q[b]` \[rad\] (`q[a]` for a ground
     /// hinge), `q` (nq).
     #[inline]
