@@ -45,7 +45,7 @@ fn pieces(c: &mut Criterion) {
     let mut mass = vec![0.0; 6];
     m.mass_diagonal(&mut mass);
     let f = [0.0, 0.0, 1.5, 0.0, 0.0, -1.5];
-    let sys = KktSystem { mass: &mass, g: &g, g_values: &vals, f: &f, gamma: &gamma };
+    let sys = KktSystem { mass: &mass, g: &g, g_values: &vals, f: &f, gamma: &gamma, released: &[] };
     let (mut qdd, mut lambda) = (vec![0.0; 6], vec![0.0; 4]);
     let mut schur = SchurCholesky::<EzyRoller>::new(&m, &info, &mass).unwrap();
     c.bench_function("kkt/schur-cholesky", |b| b.iter(|| schur.solve(black_box(&sys), &mut qdd, &mut lambda).unwrap()));

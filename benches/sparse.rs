@@ -75,7 +75,7 @@ fn dense_vs_sparse(c: &mut Criterion) {
             });
         }
         let mut sparse = SparseSchur::new(&pattern, nc, &mass).unwrap();
-        let sys = KktSystem { mass: &mass, g: &[], g_values: &g, f: &f, gamma: &gamma };
+        let sys = KktSystem { mass: &mass, g: &[], g_values: &g, f: &f, gamma: &gamma, released: &[] };
         group.bench_with_input(BenchmarkId::new("sparse", nc), &nc, |b, _| {
             b.iter(|| sparse.solve(black_box(&sys), &mut qdd, &mut lambda).unwrap())
         });

@@ -9,6 +9,7 @@
 //!   the points a scene's `[draw]` table lists), filled lightly in the
 //!   body's colour, its centre of mass marked with a crossed circle;
 //! - hinges as white circles, skates (knife edges) as short thick blades
+//!   (red while a skate with friction slides)
 //!   along their blade direction, fixed ground points as hatched anchors,
 //!   spring-dampers as zig-zags;
 //! - fading trails of the skates' contact points (of the points, for a
@@ -136,16 +137,23 @@ pub enum AnimateError {
 struct Frames {
     t: Vec<f64>,
     q: Vec<Vec<f64>>,
+    /// Per frame: the skates (by index in the model's skates) that slide
+    /// ([`ezy_core::friction`]); empty without friction.
+    sliding: Vec<Vec<usize>>,
 }
 
 impl<M: Model> Observer<M> for Frames {
     type Error = std::convert::Infallible;
-    fn observe(&mut self, _sys: &Dynamics<M>, s: &Sample<'_>) -> Result<(), Self::Error> {
+    fn observe(&mut self, sys: &Dynamics<M>, s: &Sample<'_>) -> Result<(), Self::Error> {
         self.t.push(s.t);
         self.q.push(s.q.to_vec());
+        self.sliding.push(sys.friction.iter().filter(|f| f.mode.is_sliding()).map(|f| f.skate).collect());
         Ok(())
     }
 }
+
+/// The colour of a skate that slides.
+const SLIDING: RGBColor = RGBColor(214, 39, 40);
 
 /// Checks `anim` and returns the number of frames for `t_end`.
 ///
@@ -236,7 +244,7 @@ pub fn animate_model<M: Model + Default>(
     let (problem, run_scene) = run::problem::<M>(scene, &opts, settings).map_err(run::Error::from)?;
     let (mut sys, y0, _) = problem.into_system().map_err(run::Error::from)?;
     let wall = Instant::now();
-    let mut frames = Frames { t: Vec::new(), q: Vec::new() };
+    let mut frames = Frames { t: Vec::new(), q: Vec::new(), sliding: Vec::new() };
     ezy_core::simulate(&mut sys, &y0, &settings, &mut frames).map_err(|e| match e {
         ezy_core::RunError::Sim(e) => run::Error::from(e.with_cause(&sys.mass, |k| sys.info.mass_entry_name(k))),
         ezy_core::RunError::Output(never) => match never {},
@@ -271,8 +279,9 @@ struct Geometry {
     /// Per frame: positions of the points, then of the bodies' centres of
     /// mass \[m\].
     positions: Vec<Vec<[f64; 2]>>,
-    /// Per frame: each skate's contact point index and blade direction.
-    blades: Vec<Vec<(usize, [f64; 2])>>,
+    /// Per frame: each skate's contact point index, blade direction and
+    /// whether it slides (drawn red).
+    blades: Vec<Vec<(usize, [f64; 2], bool)>>,
     /// Per frame: each spring's ends (position, fixed to the ground).
     springs: Vec<Vec<SpringEnds>>,
     /// Hinge point indices, with whether the hinge is to the ground.
@@ -299,7 +308,8 @@ impl Geometry {
         let mut positions = Vec::with_capacity(frames.q.len());
         let mut blades = Vec::with_capacity(frames.q.len());
         let mut springs = Vec::with_capacity(frames.q.len());
-        for q in &frames.q {
+        for (frame, q) in frames.q.iter().enumerate() {
+            let sliding = frames.sliding.get(frame).map_or(&[][..], Vec::as_slice);
             sys.model.points(q, &mut buf);
             let mut pos: Vec<[f64; 2]> = buf.chunks_exact(2).map(|c| [c[0], c[1]]).collect();
             pos.extend(info.bodies.iter().map(|b| [q[b.coords[0]], q[b.coords[1]]]));
@@ -311,7 +321,7 @@ impl Geometry {
                         let phi = q[info.bodies[info.points[s.point].body].coords[2]];
                         let (sn, cs) = phi.sin_cos();
                         let (tx, ty) = (blade_local[2 * k], blade_local[2 * k + 1]);
-                        (s.point, [cs * tx - sn * ty, sn * tx + cs * ty])
+                        (s.point, [cs * tx - sn * ty, sn * tx + cs * ty], sliding.contains(&k))
                     })
                     .collect(),
             );
@@ -500,11 +510,13 @@ fn frame_svg(g: &Geometry, frames: &Frames, k: usize, anim: &AnimateOptions) -> 
         }
         // skates: short thick blades along their direction
         let half = 0.5 * m(36.0 * f64::from(SCALE)).min(0.25 * g.size);
-        for &(p, d) in &g.blades[k] {
+        for &(p, d, sliding) in &g.blades[k] {
             let c = pos[p];
             let a = (c[0] - half * d[0], c[1] - half * d[1]);
             let e = (c[0] + half * d[0], c[1] + half * d[1]);
-            ctx.draw_series(std::iter::once(PathElement::new(vec![a, e], BLACK.stroke_width(6 * SCALE))))
+            // a skate that slides sideways (friction at its limit): red
+            let colour = if sliding { SLIDING } else { BLACK };
+            ctx.draw_series(std::iter::once(PathElement::new(vec![a, e], colour.stroke_width(6 * SCALE))))
                 .map_err(err)?;
         }
         // hinges: white circles; to the ground: anchored
@@ -697,9 +709,14 @@ pub fn gif_of_table<M: Model>(
         rows.push(t.len() - 1);
     }
     let columns: Vec<Vec<f64>> = cols.iter().map(|&c| table.column(c).collect()).collect();
+    // the skates' modes, where the trajectory has them (`sliding_<skate>`)
+    let modes: Vec<(usize, Vec<f64>)> = (sys.info.skates.iter().enumerate())
+        .filter_map(|(k, s)| table.index(&format!("sliding_{}", s.name)).map(|c| (k, table.column(c).collect())))
+        .collect();
     let frames = Frames {
         t: rows.iter().map(|&r| t[r]).collect(),
         q: rows.iter().map(|&r| columns.iter().map(|c| c[r]).collect()).collect(),
+        sliding: rows.iter().map(|&r| modes.iter().filter(|(_, m)| m[r] != 0.0).map(|(k, _)| *k).collect()).collect(),
     };
     let span = frames.t.last().copied().unwrap_or(0.0) - frames.t[0];
     let speed = (span / (frames.t.len().max(2) - 1) as f64 * fps).max(f64::MIN_POSITIVE);

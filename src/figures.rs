@@ -228,6 +228,9 @@ pub fn chart(info: &ModelInfo, fig: &FigureSpec, table: &Table) -> Result<Chart,
         }
         let xs = values(table, &fig.x, &fig.file)?;
         check(fig.x.to_string(), &xs, false)?;
+        for c in &fig.shade {
+            chart.shade.extend(stretches(&times, &named(table, c, &fig.file)?));
+        }
         for line in &fig.lines {
             let vs = values(table, &line.y, &fig.file)?;
             check(line.y.to_string(), &vs, fig.log_y)?;
@@ -256,8 +259,38 @@ pub fn chart(info: &ModelInfo, fig: &FigureSpec, table: &Table) -> Result<Chart,
     Ok(chart)
 }
 
+/// The stretches `(from, to)` of `times` over which `flags` is nonzero
+/// (each from its first sample to the first sample after it).
+fn stretches(times: &[f64], flags: &[f64]) -> Vec<(f64, f64)> {
+    let mut out = Vec::new();
+    let mut start = None;
+    for (k, (&t, &f)) in times.iter().zip(flags).enumerate() {
+        match (start, f != 0.0) {
+            (None, true) => start = Some(t),
+            (Some(s), false) => {
+                out.push((s, t));
+                start = None;
+            }
+            _ => {}
+        }
+        if k + 1 == times.len()
+            && let Some(s) = start
+        {
+            out.push((s, t));
+        }
+    }
+    out
+}
+
 #[cfg(test)]
 mod tests {
+    #[test]
+    fn stretches_of_nonzero_flags() {
+        let t = [0.0, 1.0, 2.0, 3.0, 4.0];
+        assert_eq!(super::stretches(&t, &[0.0, 1.0, 1.0, 0.0, 1.0]), vec![(1.0, 3.0), (4.0, 4.0)]);
+        assert!(super::stretches(&t, &[0.0; 5]).is_empty());
+    }
+
     use super::typeset;
 
     #[test]

@@ -108,4 +108,6 @@ pub mod book_examples {
     pub struct Analysis;
     #[doc = include_str!("../docs/book/src/events.md")]
     pub struct Events;
+    #[doc = include_str!("../docs/book/src/friction.md")]
+    pub struct Friction;
 }

@@ -84,7 +84,8 @@ impl<M: Model> RowBuilder<M> {
     pub fn new(scene: &Scene, sys: &Dynamics<M>) -> Self {
         let forces = scene.includes(OutputGroup::ConstraintForces);
         let accelerations = scene.includes(OutputGroup::Accelerations);
-        let probe = (forces || accelerations).then(|| {
+        // skates with friction: their force and mode at each sample
+        let probe = (forces || accelerations || !sys.friction.is_empty()).then(|| {
             let mut copy =
                 Dynamics::new(sys.model.clone(), sys.effects.clone(), KktMethod::Auto).with_drives(sys.drives.clone());
             copy.baumgarte = sys.baumgarte;
@@ -128,17 +129,35 @@ impl<M: Model> RowBuilder<M> {
             sys.model.point_velocities(s.q, s.qd, &mut self.point_buf);
             row.extend_from_slice(&self.point_buf);
         }
-        if self.effects {
-            self.f_scratch.fill(0.0);
-            for e in &sys.effects {
-                row.push(e.apply(s.t, s.q, s.qd, &mut self.f_scratch).1);
-            }
-        }
         if let Some(p) = &mut self.probe {
             let nq = sys.nq();
             p.y[..nq].copy_from_slice(s.q);
             p.y[nq..2 * nq].copy_from_slice(s.qd);
+            // the skates' modes of the run at this sample
+            for (k, fr) in sys.friction.iter().enumerate() {
+                if p.sys.friction[k].mode != fr.mode {
+                    p.sys.set_skate_mode(k, fr.mode);
+                }
+            }
             p.sys.rhs(s.t, &p.y, &mut p.dy)?;
+        }
+        if self.effects {
+            self.f_scratch.fill(0.0);
+            let mut friction = 0;
+            for e in &sys.effects {
+                if let ezy_core::effects::Law::SkateFriction { .. } = e.law {
+                    // the lateral force, slip velocity and mode (probe: above)
+                    let p = self.probe.as_ref().expect("a probe with friction");
+                    let fr = &p.sys.friction[friction];
+                    row.extend([p.sys.skate_force(friction), fr.slip, f64::from(u8::from(fr.mode.is_sliding()))]);
+                    friction += 1;
+                } else {
+                    row.push(e.apply(s.t, s.q, s.qd, &mut self.f_scratch).1);
+                }
+            }
+        }
+        if let Some(p) = &mut self.probe {
+            let nq = sys.nq();
             // M qdd = f - G^T lambda: the constraint force on the
             // coordinates is -G^T lambda, so a hinge row `r_a - r_b` pushes
             // body a with -lambda and a skate row (unit normal n) with -lambda n.

@@ -153,6 +153,9 @@ pub struct Chart {
     /// Legend to the right of the plot instead of inside it (for long
     /// legends that would cover the data wherever they sat).
     pub legend_outside: bool,
+    /// Stretches of x `(from, to)` shaded in every panel (a skate that
+    /// slides), behind the lines.
+    pub shade: Vec<(f64, f64)>,
 }
 
 impl Chart {
@@ -170,6 +173,7 @@ impl Chart {
             log_y: false,
             log_floor: 1e-18,
             legend_outside: false,
+            shade: Vec::new(),
         }
     }
 }
@@ -1041,6 +1045,12 @@ fn draw_contents<'a>(
         .light_line_style(grid_light)
         .bold_line_style(grid_bold.stroke_width(SCALE / 2));
     mesh.draw().map_err(|e| e.to_string())?;
+    if !chart.shade.is_empty() {
+        let y = ctx.y_range();
+        let tint = RGBColor(214, 39, 40).mix(0.12).filled();
+        ctx.draw_series(chart.shade.iter().map(|&(a, b)| Rectangle::new([(a, y.start), (b, y.end)], tint)))
+            .map_err(|e| e.to_string())?;
+    }
 
     let width = if chart.log_y { SCALE } else { LINE_WIDTH };
     let mut any_label = false;

@@ -31,8 +31,10 @@ fn csvs_are_finite(dir: &Path) {
         let p = e.path();
         if p.extension().is_some_and(|x| x == "csv") {
             let text = std::fs::read_to_string(&p).unwrap();
+            // events.csv: `t,event,direction,<state>`, the two names text
+            let text_fields: &[usize] = if p.file_name().is_some_and(|n| n == "events.csv") { &[1, 2] } else { &[] };
             for (i, line) in text.lines().enumerate().skip(1) {
-                for v in line.split(',') {
+                for (_, v) in line.split(',').enumerate().filter(|(k, _)| !text_fields.contains(k)) {
                     let x: f64 =
                         v.parse().unwrap_or_else(|_| panic!("{}:{}: `{v}` is not a number", p.display(), i + 1));
                     assert!(x.is_finite(), "{}:{}: {v}", p.display(), i + 1);

@@ -10,6 +10,7 @@
 
 use crate::SimError;
 use crate::effects::{Effect, HingeLaw, Law};
+use crate::friction::{Released, SkateFriction, SkateMode, row_entries};
 use crate::kkt::{AnyKktSolver, KktMethod, KktSolver, KktSystem};
 use crate::model::{Model, ModelInfo};
 
@@ -54,6 +55,12 @@ struct Workspace {
     gqd: Vec<f64>,
     phi: Vec<f64>,
     ones: Vec<f64>,
+    /// The released rows' entries of `G` before they were zeroed (nnz,
+    /// only with skates that have friction).
+    g_saved: Vec<f64>,
+    /// A right-hand side's scratch (ny, only with skates that have
+    /// friction): evaluations for their modes.
+    probe: Vec<f64>,
 }
 
 /// Baumgarte stabilization (Baumgarte 1972): the acceleration-level
@@ -107,6 +114,35 @@ pub struct Dynamics<M: Model> {
     pub max_growth: f64,
     /// The KKT conditioning estimate of the last evaluation.
     pub last_growth: f64,
+    /// The skates with Coulomb friction and their modes
+    /// ([`crate::friction`]), one per effect of kind `skate-friction`.
+    pub friction: Vec<SkateFriction>,
+    /// The rows of the sliding skates, taken out of the KKT system.
+    released: Released,
+}
+
+/// The most skates with friction whose modes
+/// [`Dynamics::settle_friction`] decides together at one instant: up to
+/// `3^MAX_ENUMERATED` assignments (each sticks or slides either way),
+/// tried by the number sliding, so usually a handful.
+pub const MAX_ENUMERATED: usize = 8;
+
+/// The `k`-element subsets of `0..m`, in lexicographic order.
+fn subsets(m: usize, k: usize) -> Vec<Vec<usize>> {
+    let mut out = Vec::new();
+    let mut cur: Vec<usize> = (0..k).collect();
+    if k > m {
+        return out;
+    }
+    loop {
+        out.push(cur.clone());
+        // the rightmost index that can move on
+        let Some(i) = (0..k).rev().find(|&i| cur[i] < m - k + i) else { return out };
+        cur[i] += 1;
+        for j in i + 1..k {
+            cur[j] = cur[j - 1] + 1;
+        }
+    }
 }
 
 /// KKT conditioning estimate (pivot growth of the Schur complement, which
@@ -170,6 +206,7 @@ impl<M: Model> Dynamics<M> {
         model.mass_diagonal(&mut mass);
         let kkt = AnyKktSolver::new(&model, &info, method, &mass);
         let dense = if kkt.needs_dense_g() { nc * nq } else { 0 };
+        let friction = friction_table(&info, &effects);
         let ws = Workspace {
             g_values: vec![0.0; info.pattern.len()],
             g: vec![0.0; dense],
@@ -184,6 +221,8 @@ impl<M: Model> Dynamics<M> {
             wave_t: f64::NAN,
             waves: vec![[0.0; 3]; effects.len()],
             drive_waves: Vec::new(),
+            g_saved: if friction.is_empty() { Vec::new() } else { vec![0.0; info.pattern.len()] },
+            probe: Vec::new(),
         };
         Self {
             model,
@@ -200,6 +239,8 @@ impl<M: Model> Dynamics<M> {
             last_singular: f64::NAN,
             max_growth: 0.0,
             last_growth: 0.0,
+            friction,
+            released: Released::default(),
         }
     }
 
@@ -248,6 +289,9 @@ impl<M: Model> Dynamics<M> {
         let qd = &rest[..nq];
         let ws = &mut self.ws;
         self.model.constraint_terms(q, qd, &mut ws.g_values, &mut ws.gamma);
+        if !self.friction.is_empty() {
+            release_sliding(&mut self.friction, &self.info.pattern, qd, ws);
+        }
         if self.kkt.needs_dense_g() {
             for (&(r, c), &v) in self.info.pattern.iter().zip(&ws.g_values) {
                 ws.g[r * nq + c] = v;
@@ -278,10 +322,27 @@ impl<M: Model> Dynamics<M> {
         let (power, drive_power) = power.split_at_mut(self.effects.len());
         self.effect_forces(t, q, qd, power)?;
         let ws = &mut self.ws;
-        let sys = KktSystem { mass: &self.mass, g: &ws.g, g_values: &ws.g_values, f: &ws.f, gamma: &ws.gamma };
+        if !self.friction.is_empty() {
+            friction_forces(&self.friction, &self.info.pattern, ws, power);
+        }
+        let sys = KktSystem {
+            mass: &self.mass,
+            g: &ws.g,
+            g_values: &ws.g_values,
+            f: &ws.f,
+            gamma: &ws.gamma,
+            released: self.released.rows(),
+        };
         self.kkt
             .solve(&sys, &mut ws.qdd, &mut ws.lambda)
             .map_err(|source| SimError::from_kkt(&self.info, t, source))?;
+        for fr in &mut self.friction {
+            if fr.mode.is_sliding() {
+                ws.lambda[fr.row] = fr.sliding_lambda();
+            }
+            let pattern = &self.info.pattern;
+            fr.slip_rate = fr.entries.clone().map(|e| ws.g_saved[e] * ws.qdd[pattern[e].1]).sum::<f64>() + fr.gamma;
+        }
         let growth = if self.kkt.was_singular() { f64::INFINITY } else { self.kkt.condition_estimate().unwrap_or(1.0) };
         self.max_growth = self.max_growth.max(growth);
         self.last_growth = growth;
@@ -422,6 +483,249 @@ impl<M: Model> Dynamics<M> {
     /// Kinetic energy `T = qd^T M qd / 2` \[J\].
     pub fn kinetic_energy(&self, qd: &[f64]) -> f64 {
         0.5 * self.mass.iter().zip(qd).map(|(m, v)| m * v * v).sum::<f64>()
+    }
+    /// The constraint rows released by sliding skates (taken out of the
+    /// KKT system and the velocity projection; [`crate::friction`]).
+    pub fn released_rows(&self) -> &[usize] {
+        self.released.rows()
+    }
+
+    /// Sets the mode of skate-friction entry `k` of [`Dynamics::friction`]
+    /// (and the released rows with it).
+    pub fn set_skate_mode(&mut self, k: usize, mode: SkateMode) {
+        self.friction[k].mode = mode;
+        self.refresh_released();
+    }
+
+    /// The released rows from the skates' modes.
+    fn refresh_released(&mut self) {
+        let rows: Vec<usize> = self.friction.iter().filter(|f| f.mode.is_sliding()).map(|f| f.row).collect();
+        self.released.set(&self.info.pattern, &rows);
+    }
+
+    /// Each skate-friction entry's margin ([`SkateFriction::margin`]) at
+    /// the state of the last [`Dynamics::rhs`] call, into `out` (one per
+    /// entry of [`Dynamics::friction`]).
+    pub fn slip_margins(&self, out: &mut [f64]) {
+        for (o, fr) in out.iter_mut().zip(&self.friction) {
+            *o = fr.margin(self.ws.lambda[fr.row]);
+        }
+    }
+
+    /// Evaluates the right-hand side at `(t, y)` (into a scratch of its
+    /// own) and writes the skates' margins into `out`
+    /// ([`Dynamics::slip_margins`]).
+    ///
+    /// # Errors
+    /// As [`Dynamics::rhs`].
+    pub fn slip_margins_at(&mut self, t: f64, y: &[f64], out: &mut [f64]) -> Result<(), SimError> {
+        let mut probe = std::mem::take(&mut self.ws.probe);
+        probe.resize(y.len(), 0.0);
+        let res = self.rhs(t, y, &mut probe);
+        self.ws.probe = probe;
+        res?;
+        self.slip_margins(out);
+        Ok(())
+    }
+
+    /// Brings the skates with friction into the modes their state at `(t,
+    /// y)` calls for (module docs of [`crate::friction`]). The skates
+    /// whose mode no longer holds (a margin at or below zero: a sticking
+    /// one at its limit, a sliding one whose slip reached zero) are
+    /// *undetermined*; the first consistent assignment of them is taken,
+    /// with as few sliding as can be: each sticking skate needs `|lambda|
+    /// < mu N` (its force within the limit), each undetermined sliding one
+    /// the rate of its slip in its direction (`s dv/dt >= 0`). The
+    /// assignments are tried by the number of sliding skates, then in
+    /// order; a sticking skate that every assignment pushes past its limit
+    /// joins the undetermined, up to [`MAX_ENUMERATED`]. (The planar multi-contact Coulomb problem as a
+    /// linear complementarity problem solved by enumeration: Pfeiffer &
+    /// Glocker 1996, ch. 6; Stewart 2000 §3.) Returns the switches,
+    /// `(entry, old mode, new mode)`.
+    ///
+    /// # Errors
+    /// As [`Dynamics::rhs`]; [`SimError::SlipChattering`] (the skates'
+    /// names) when no assignment is consistent.
+    pub fn settle_friction(&mut self, t: f64, y: &[f64]) -> Result<Vec<(usize, SkateMode, SkateMode)>, SimError> {
+        let n = self.friction.len();
+        let mut margins = vec![0.0; n];
+        self.slip_margins_at(t, y, &mut margins)?;
+        let old: Vec<SkateMode> = self.friction.iter().map(|f| f.mode).collect();
+        // undetermined: those whose mode no longer holds; a sticking skate
+        // pushed past its limit by another's switch joins them
+        let mut free: Vec<usize> = (0..n).filter(|&k| margins[k] <= 0.0).collect();
+        if free.is_empty() {
+            return Ok(Vec::new());
+        }
+        // a slide that begins at the limit itself starts with a slip rate
+        // of zero, up to rounding (of the accelerations' size)
+        let consistent = |sys: &Self, margins: &[f64], free: &[usize]| {
+            let rounding = 1e-10 * (1.0 + crate::projection::max_abs(&sys.ws.qdd));
+            (0..n).all(|k| match sys.friction[k].mode {
+                SkateMode::Sticking => margins[k] > 0.0,
+                SkateMode::Sliding { sign } => !free.contains(&k) || sign * sys.friction[k].slip_rate >= -rounding,
+            })
+        };
+        let mut found = false;
+        while !found && free.len() <= MAX_ENUMERATED {
+            let m = free.len();
+            let mut pushed: Vec<usize> = Vec::new();
+            'search: for sliding in 0..=m {
+                for subset in subsets(m, sliding) {
+                    for signs in 0..1u32 << sliding {
+                        for (j, &k) in free.iter().enumerate() {
+                            self.friction[k].mode = match subset.iter().position(|&i| i == j) {
+                                None => SkateMode::Sticking,
+                                Some(i) => SkateMode::Sliding { sign: if signs >> i & 1 == 0 { 1.0 } else { -1.0 } },
+                            };
+                        }
+                        self.refresh_released();
+                        self.slip_margins_at(t, y, &mut margins)?;
+                        if consistent(self, &margins, &free) {
+                            found = true;
+                            break 'search;
+                        }
+                        pushed.extend((0..n).filter(|&k| {
+                            !free.contains(&k) && !self.friction[k].mode.is_sliding() && margins[k] <= 0.0
+                        }));
+                    }
+                }
+            }
+            if !found {
+                pushed.sort_unstable();
+                pushed.dedup();
+                if pushed.is_empty() {
+                    break;
+                }
+                for &k in &free {
+                    self.friction[k].mode = old[k];
+                }
+                free.extend(pushed);
+            }
+        }
+        if !found {
+            for (k, &mode) in old.iter().enumerate() {
+                self.friction[k].mode = mode;
+            }
+            self.refresh_released();
+            let names: Vec<String> = free.iter().map(|&k| self.friction[k].name.clone()).collect();
+            return Err(SimError::SlipChattering { skate: names.join("`, `"), t0: t, t1: t, switches: 0 });
+        }
+        Ok((0..n).filter(|&k| self.friction[k].mode != old[k]).map(|k| (k, old[k], self.friction[k].mode)).collect())
+    }
+
+    /// The modes at the start of a run from `(t, y)`: a skate with
+    /// friction whose lateral velocity is not zero (above `1e-10 max(1,
+    /// |qd|)`, the initial state's rounding) slides that way, the others
+    /// stick; then [`Dynamics::settle_friction`]. Returns the skates that
+    /// start sliding, `(entry, Sticking, its mode)`.
+    ///
+    /// # Errors
+    /// [`SimError::Effect`] for a second friction effect on one skate; as
+    /// [`Dynamics::settle_friction`].
+    pub fn start_friction(&mut self, t: f64, y: &[f64]) -> Result<Vec<(usize, SkateMode, SkateMode)>, SimError> {
+        self.friction = friction_table(&self.info, &self.effects);
+        self.ws.g_saved.resize(if self.friction.is_empty() { 0 } else { self.info.pattern.len() }, 0.0);
+        self.released = Released::default();
+        for (i, a) in self.friction.iter().enumerate() {
+            if let Some(b) = self.friction[..i].iter().find(|b| b.skate == a.skate) {
+                return Err(SimError::Effect {
+                    effect: self.effects[a.effect].name.clone(),
+                    field: "skate",
+                    message: format!(
+                        "skate `{}` already has friction (effect `{}`): one friction law per skate",
+                        a.name, self.effects[b.effect].name
+                    ),
+                });
+            }
+        }
+        if self.friction.is_empty() {
+            return Ok(Vec::new());
+        }
+        let nq = self.nq();
+        let (q, qd) = (&y[..nq], &y[nq..2 * nq]);
+        self.model.constraint_matrix(q, &mut self.ws.g_values);
+        let tol = 1e-10 * crate::projection::max_abs(qd).max(1.0);
+        for k in 0..self.friction.len() {
+            let fr = &self.friction[k];
+            let v: f64 = fr.entries.clone().map(|e| self.ws.g_values[e] * qd[self.info.pattern[e].1]).sum();
+            if v.abs() > tol {
+                self.set_skate_mode(k, SkateMode::Sliding { sign: v.signum() });
+            }
+        }
+        self.settle_friction(t, y)?;
+        // the modes it starts in, from sticking
+        Ok(self
+            .friction
+            .iter()
+            .enumerate()
+            .filter(|(_, f)| f.mode.is_sliding())
+            .map(|(k, f)| (k, SkateMode::Sticking, f.mode))
+            .collect())
+    }
+
+    /// The lateral force on skate-friction entry `k`'s contact point
+    /// \[N\] (along the blade's left normal) at the last
+    /// [`Dynamics::rhs`] call: `-lambda`, the ground's reaction while it
+    /// sticks, `-s mu N` while it slides.
+    pub fn skate_force(&self, k: usize) -> f64 {
+        -self.ws.lambda[self.friction[k].row]
+    }
+}
+
+/// The skates with friction among `effects` on the model `info`, each
+/// sticking ([`SkateFriction`]).
+fn friction_table(info: &ModelInfo, effects: &[Effect]) -> Vec<SkateFriction> {
+    effects
+        .iter()
+        .enumerate()
+        .filter_map(|(effect, e)| match e.law {
+            Law::SkateFriction { skate, limit, .. } => {
+                let row = info.skates[skate].row;
+                Some(SkateFriction {
+                    effect,
+                    skate,
+                    name: info.skates[skate].name.clone(),
+                    row,
+                    entries: row_entries(&info.pattern, row),
+                    limit,
+                    mode: SkateMode::Sticking,
+                    slip: 0.0,
+                    slip_rate: 0.0,
+                    gamma: 0.0,
+                })
+            }
+            _ => None,
+        })
+        .collect()
+}
+
+/// Each skate's slip velocity `G_row qd`; the sliding ones' rows of `G`
+/// saved and zeroed with their `gamma` (taken out of the KKT system).
+#[inline(never)]
+fn release_sliding(friction: &mut [SkateFriction], pattern: &[(usize, usize)], qd: &[f64], ws: &mut Workspace) {
+    for fr in friction {
+        let entries = fr.entries.clone();
+        fr.slip = entries.clone().map(|e| ws.g_values[e] * qd[pattern[e].1]).sum();
+        fr.gamma = ws.gamma[fr.row];
+        ws.g_saved[entries.clone()].copy_from_slice(&ws.g_values[entries.clone()]);
+        if fr.mode.is_sliding() {
+            ws.g_values[entries].fill(0.0);
+            ws.gamma[fr.row] = 0.0;
+        }
+    }
+}
+
+/// The sliding skates' Coulomb forces `-G_row^T s mu N` added into `f`,
+/// and each friction effect's power (`-mu N |v|` sliding, 0 sticking).
+#[inline(never)]
+fn friction_forces(friction: &[SkateFriction], pattern: &[(usize, usize)], ws: &mut Workspace, power: &mut [f64]) {
+    for fr in friction {
+        let lambda = fr.sliding_lambda();
+        for e in fr.entries.clone() {
+            ws.f[pattern[e].1] -= ws.g_saved[e] * lambda;
+        }
+        power[fr.effect] = -lambda * fr.slip;
     }
 }
 

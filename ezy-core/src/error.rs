@@ -254,6 +254,30 @@ pub enum SimError {
         /// Steps in a row with an event.
         steps: u64,
     },
+    /// A skate with friction switched between sticking and sliding
+    /// [`crate::events::CHATTER_STEPS`] times in a row, each within
+    /// [`crate::simulate::SLIP_CHATTER_GAP`] steps of the last, or its
+    /// modes found no rest at one instant ([`crate::friction`]): the force
+    /// that holds it sits at its limit `mu N`, so the run stops instead of
+    /// switching without end.
+    #[error(
+        "{}; the lateral force sits at the friction limit mu N (take a mu away from that force, or model the contact as a force law)",
+        if *switches == 0 {
+            format!("skates `{skate}`: no choice of sticking and sliding is consistent at t = {} s (a Coulomb contact problem without a solution there)", fmt_value(*t0))
+        } else {
+            format!("skate `{skate}` chatters between sticking and sliding: {switches} switches a few steps apart from t = {} s to t = {} s", fmt_value(*t0), fmt_value(*t1))
+        }
+    )]
+    SlipChattering {
+        /// The skate (or skates) switching.
+        skate: String,
+        /// When the switching began \[s\].
+        t0: f64,
+        /// When the run stopped \[s\].
+        t1: f64,
+        /// Switches in a row.
+        switches: u64,
+    },
     /// A run recorded more events than it keeps
     /// ([`crate::events::max_records`]).
     #[error(

@@ -211,7 +211,7 @@ impl ColumnSolve {
             *v = values[s];
         }
         let mut x = vec![0.0; nu];
-        let sys = KktSystem { mass: &sp.ones, g: &[], g_values: &sp.values, f: b, gamma: &sp.zeros };
+        let sys = KktSystem { mass: &sp.ones, g: &[], g_values: &sp.values, f: b, gamma: &sp.zeros, released: &[] };
         sp.schur.solve(&sys, &mut sp.resid, &mut x)?;
         // undetermined unknowns are named, not solved regularized
         if sp.schur.was_singular() {
@@ -225,7 +225,8 @@ impl ColumnSolve {
         let mut resid = vec![0.0; self.rows];
         for _ in 0..3 {
             std::mem::swap(&mut resid, &mut sp.resid);
-            let sys = KktSystem { mass: &sp.ones, g: &[], g_values: &sp.values, f: &resid, gamma: &sp.zeros };
+            let sys =
+                KktSystem { mass: &sp.ones, g: &[], g_values: &sp.values, f: &resid, gamma: &sp.zeros, released: &[] };
             sp.schur.solve(&sys, &mut sp.resid, &mut sp.dx)?;
             for (xi, d) in x.iter_mut().zip(&sp.dx) {
                 *xi += d;
@@ -267,7 +268,7 @@ impl MinNorm {
         let (mut step, mut y) = (vec![0.0; self.ncols], vec![0.0; self.rows]);
         let mut left = r.to_vec();
         for _ in 0..3 {
-            let sys = KktSystem { mass: ones, g: &[], g_values: values, f: zeros, gamma: &left };
+            let sys = KktSystem { mass: ones, g: &[], g_values: values, f: zeros, gamma: &left, released: &[] };
             schur.solve(&sys, &mut step, &mut y)?;
             // the assembly names dependent rows rather than solving them
             // regularized (a singular position is for the run, not the start)
@@ -306,6 +307,10 @@ pub struct Given {
     /// determine: the Newton iteration starts there, so it finds the
     /// assembly branch nearest them.
     pub guess: Vec<(usize, f64)>,
+    /// Skate rows of `G` the velocities need not satisfy (skates with
+    /// friction, which may start sliding: [`crate::friction`]); they are
+    /// left out of the velocity solve.
+    pub released: Vec<usize>,
 }
 
 /// Computes `(q, qd)` (nq each) from the given values.
@@ -512,12 +517,35 @@ pub fn consistent_state_with<M: Model>(
         known_v[i] = true;
     }
     let unknown_v: Vec<usize> = (0..nq).filter(|&i| !known_v[i]).collect();
-    let mut g_values = vec![0.0; info.pattern.len()];
-    model.constraint_matrix(&q, &mut g_values);
+    let mut g_all = vec![0.0; info.pattern.len()];
+    model.constraint_matrix(&q, &mut g_all);
+    // the rows the velocities satisfy: all but the released skate rows,
+    // renumbered (those come after every holonomic row, so a drive's row
+    // keeps its number)
+    let (pattern, g_values, nc) = if given.released.is_empty() {
+        (info.pattern.clone(), g_all, nc)
+    } else {
+        let renumber: Vec<Option<usize>> = {
+            let mut next = 0;
+            (0..nc)
+                .map(|r| {
+                    (!given.released.contains(&r)).then(|| {
+                        next += 1;
+                        next - 1
+                    })
+                })
+                .collect()
+        };
+        let kept = renumber.iter().flatten().count();
+        let (pattern, values): (Vec<(usize, usize)>, Vec<f64>) =
+            info.pattern.iter().zip(&g_all).filter_map(|(&(r, c), &v)| renumber[r].map(|r| ((r, c), v))).unzip();
+        (pattern, values, kept)
+    };
+    let info_pattern = &pattern;
     // G qd (nc) over the columns `keep`: dense as before on the dense path
     let g_dense = (!sparse).then(|| {
         let mut g = vec![0.0; nc * nq];
-        scatter_dense(&info.pattern, &g_values, nq, &mut g);
+        scatter_dense(info_pattern, &g_values, nq, &mut g);
         g
     });
     let g_times = |v: &[f64], keep: &dyn Fn(usize) -> bool, out: &mut [f64]| match &g_dense {
@@ -526,7 +554,7 @@ pub fn consistent_state_with<M: Model>(
                 *o = (0..nq).filter(|&k| keep(k)).map(|k| g[r * nq + k] * v[k]).sum::<f64>();
             }
         }
-        None => sparse_times(&info.pattern, &g_values, v, keep, out),
+        None => sparse_times(info_pattern, &g_values, v, keep, out),
     };
     if !unknown_v.is_empty() {
         if unknown_v.len() > nc {
@@ -537,8 +565,8 @@ pub fn consistent_state_with<M: Model>(
         let mut known_part = vec![0.0; nc];
         g_times(&qd, &|k| known_v[k], &mut known_part);
         let rhs: Vec<f64> = target.iter().zip(&known_part).map(|(t, g)| -t - g).collect();
-        let x = ColumnSolve::new(&info.pattern, nc, nq, &unknown_v, sparse)
-            .solve(&info.pattern, &g_values, &rhs)
+        let x = ColumnSolve::new(info_pattern, nc, nq, &unknown_v, sparse)
+            .solve(info_pattern, &g_values, &rhs)
             .map_err(|e| match e {
                 Fail::Dependent(k) => undetermined(k, &unknown_v, "the constraints", "d"),
                 Fail::Other(e) => initial(e),
@@ -557,7 +585,7 @@ pub fn consistent_state_with<M: Model>(
         // The given velocities violate the constraints: least-squares
         // projection of all velocities (docs/physics.md §6).
         report.velocity_violation = res;
-        let dv = MinNorm::new(&info.pattern, nc, nq, sparse).solve(&info.pattern, &g_values, &r).map_err(redundant)?;
+        let dv = MinNorm::new(info_pattern, nc, nq, sparse).solve(info_pattern, &g_values, &r).map_err(redundant)?;
         for i in 0..nq {
             qd[i] -= dv[i];
         }

@@ -53,6 +53,7 @@ pub mod dynamics;
 pub mod effects;
 mod error;
 pub mod events;
+pub mod friction;
 pub mod guard;
 pub mod initial;
 pub mod integrator;
@@ -73,6 +74,7 @@ pub use error::{
 pub use events::{Event, EventRecord, EventSpec};
 /// The dense linear algebra the analyses' matrices are in ([`analysis::Linearization::a`]).
 pub use faer;
+pub use friction::SkateMode;
 pub use integrator::Method;
 pub use model::{
     BodyInfo, DriveInfo, EquationExpr, Equations, HingeInfo, InitialName, MinimalLayout, MinimalRhsError, Model,
@@ -82,7 +84,9 @@ pub use problem::{Problem, Solution};
 pub use projection::ProjectionKind;
 pub use reduced::Formulation;
 pub use scalar::Scalar;
-pub use simulate::{Observer, RunError, RunSettings, SINGULAR_PERSIST_STEPS, Sample, Summary, simulate};
+pub use simulate::{
+    Observer, RunError, RunSettings, SINGULAR_PERSIST_STEPS, SLIP_CHATTER_GAP, Sample, Summary, simulate,
+};
 
 /// A setting with a few named values (the integrator, the projection,
 /// the formulation): one list that scene files, the command line and

@@ -467,7 +467,27 @@ impl<M: Model> Problem<M> {
             crate::drive::check_angle(&d.angle, self.settings.t_end)
                 .map_err(|message| SimError::Scene { key: format!("drives.{}.angle", d.name), message })?;
         }
-        let (q, qd, report) = consistent_state_given(&self.model, &self.drives, &self.given)?;
+        // skates with friction may start sliding: their rows are left out
+        // of the velocity solve where the given values determine the
+        // velocities without them (else every row holds: they stick)
+        let released: Vec<usize> = self
+            .effects
+            .iter()
+            .filter_map(|e| match e.law {
+                crate::effects::Law::SkateFriction { skate, .. } => Some(info.skates[skate].row),
+                _ => None,
+            })
+            .collect();
+        let free = (!released.is_empty())
+            .then(|| {
+                let given = Given { released, ..self.given.clone() };
+                consistent_state_given(&self.model, &self.drives, &given).ok()
+            })
+            .flatten();
+        let (q, qd, report) = match free {
+            Some(state) => state,
+            None => consistent_state_given(&self.model, &self.drives, &self.given)?,
+        };
         let mut y0 = q;
         y0.extend_from_slice(&qd);
         y0.resize(y0.len() + self.effects.len() + self.drives.len(), 0.0);

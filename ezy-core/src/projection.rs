@@ -105,6 +105,8 @@ pub struct Projector<M: Model> {
     info: crate::ModelInfo,
     /// See [`Projector::refine`].
     refine: bool,
+    /// Rows taken out of the velocity projection (sliding skates).
+    released: crate::friction::Released,
     _model: std::marker::PhantomData<M>,
 }
 
@@ -133,12 +135,20 @@ impl SparseProjection {
     /// `v -= W^-1 G_m^T (G_m W^-1 G_m^T)^-1 r` for the leading `m` rows
     /// (`m = nh`: positions, with `values` the holonomic entries; `m = nc`:
     /// velocities).
-    fn correct(&mut self, positions: bool, values: &[f64], r: &[f64], v: &mut [f64]) -> Result<(), KktError> {
+    fn correct(
+        &mut self,
+        positions: bool,
+        values: &[f64],
+        r: &[f64],
+        released: &[usize],
+        v: &mut [f64],
+    ) -> Result<(), KktError> {
         use crate::kkt::KktSolver;
         let solver =
             if positions { self.positions.as_mut().expect("holonomic rows exist") } else { &mut self.velocities };
         let m = r.len();
-        let sys = KktSystem { mass: &self.weights, g: &[], g_values: values, f: &self.zeros, gamma: r };
+        let released = if positions { &[] } else { released };
+        let sys = KktSystem { mass: &self.weights, g: &[], g_values: values, f: &self.zeros, gamma: r, released };
         solver.solve(&sys, &mut self.dq, &mut self.lambda[..m])?;
         // dq = -W^-1 G^T x with (G W^-1 G^T) x = r: the step that removes r
         for (vi, d) in v.iter_mut().zip(&self.dq) {
@@ -175,11 +185,12 @@ impl SingularMass {
         pattern: &[(usize, usize)],
         values: &[f64],
         r: &[f64],
+        released: &[usize],
         v: &mut [f64],
     ) -> Result<(), KktError> {
         let nq = self.mass.len();
         scatter_dense(pattern, values, nq, &mut self.g);
-        let sys = KktSystem { mass: &self.mass, g: &self.g, g_values: &[], f: &self.zeros, gamma: r };
+        let sys = KktSystem { mass: &self.mass, g: &self.g, g_values: &[], f: &self.zeros, gamma: r, released };
         self.lu.solve(&sys, &mut self.dq, &mut self.mu)?;
         for (vi, d) in v.iter_mut().zip(&self.dq) {
             *vi += d;
@@ -227,6 +238,7 @@ impl<M: Model> Projector<M> {
                 drives: Vec::new(),
                 info,
                 refine: false,
+                released: Default::default(),
                 _model: std::marker::PhantomData,
             };
         }
@@ -278,6 +290,7 @@ impl<M: Model> Projector<M> {
             drives: Vec::new(),
             info,
             refine: false,
+            released: Default::default(),
             _model: std::marker::PhantomData,
         }
     }
@@ -340,6 +353,7 @@ impl<M: Model> Projector<M> {
         }
         // velocities: one least-squares step on all rows
         if nc > 0 {
+            self.released.zero(&mut self.g_values);
             model.g_winv_mul(&self.info.pattern, &self.g_values, &self.ones, qd, &mut self.r);
             crate::drive::shift_velocities(&self.drives, t, &mut self.r);
             if max_abs(&self.r) <= VELOCITY_ULPS * f64::EPSILON * max_abs(qd).max(1.0) {
@@ -358,14 +372,14 @@ impl<M: Model> Projector<M> {
         let (info, nh) = (&self.info, self.info.n_holonomic);
         if let Some(sp) = &mut self.sparse {
             let nnz_h = info.n_holonomic_nonzeros();
-            sp.correct(true, &self.g_values[..nnz_h], &self.r[..nh], q)
+            sp.correct(true, &self.g_values[..nnz_h], &self.r[..nh], &[], q)
         } else {
             self.normal.solve(
                 model,
                 &info.pattern,
                 &self.g_values,
                 &self.winv,
-                nh,
+                (nh, &[]),
                 &self.r[..nh],
                 &mut self.x[..nh],
             )?;
@@ -379,12 +393,14 @@ impl<M: Model> Projector<M> {
     /// `G dqd = -r` (`r` the residual buffer, `G` the last evaluated).
     fn correct_velocities(&mut self, model: &M, qd: &mut [f64]) -> Result<(), KktError> {
         let (info, nc) = (&self.info, self.info.nc());
+        let released = self.released.rows();
         if let Some(s) = &mut self.singular {
-            s.correct(&info.pattern, &self.g_values, &self.r, qd)
+            s.correct(&info.pattern, &self.g_values, &self.r, released, qd)
         } else if let Some(sp) = &mut self.sparse {
-            sp.correct(false, &self.g_values, &self.r, qd)
+            sp.correct(false, &self.g_values, &self.r, released, qd)
         } else {
-            self.normal.solve(model, &info.pattern, &self.g_values, &self.winv, nc, &self.r, &mut self.x)?;
+            let released = (nc, released);
+            self.normal.solve(model, &info.pattern, &self.g_values, &self.winv, released, &self.r, &mut self.x)?;
             model.sub_winv_gt_mul(&info.pattern, &self.g_values, &self.winv, &self.x, qd);
             Ok(())
         }
@@ -421,10 +437,19 @@ impl<M: Model> Projector<M> {
             self.correct_positions(model, eq).map_err(|e| SimError::from_kkt(&self.info, t, e))?;
         }
         if nc > 0 {
+            self.released.zero(&mut self.g_values);
             model.g_winv_mul(&self.info.pattern, &self.g_values, &self.ones, eqd, &mut self.r);
             self.correct_velocities(model, eqd).map_err(|e| SimError::from_kkt(&self.info, t, e))?;
         }
         Ok(())
+    }
+
+    /// Takes the constraint rows `rows` out of the velocity projection
+    /// (skates that slide, [`crate::friction`]): `qd` is projected onto
+    /// the other rows' `G qd = 0` only, and
+    /// [`Projector::velocity_residual`] leaves them out. Empty: every row.
+    pub fn release(&mut self, rows: &[usize]) {
+        self.released.set(&self.info.pattern, rows);
     }
 
     /// Sets whether [`Projector::project`] takes one more Gauss-Newton step

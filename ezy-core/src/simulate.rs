@@ -7,6 +7,7 @@ use std::time::{Duration, Instant};
 use crate::dynamics::NEAR_SINGULAR;
 use crate::dynamics::{Counters, Dynamics};
 use crate::events::{Crossing, Monitor};
+use crate::friction::SkateMode;
 use crate::guard::{EnergyGuard, GROWTH_LIMIT, Verdict, drift_note};
 use crate::integrator::Rhs;
 use crate::integrator::adaptive::{Controller, initial_step};
@@ -353,6 +354,8 @@ struct Residuals {
     pattern: Vec<(usize, usize)>,
     ones: Vec<f64>,
     r: Vec<f64>,
+    /// Rows left out of `G qd` (sliding skates).
+    released: crate::friction::Released,
 }
 
 impl Residuals {
@@ -363,6 +366,7 @@ impl Residuals {
             pattern: i.pattern.clone(),
             ones: vec![1.0; i.nq()],
             r: vec![0.0; i.nc()],
+            released: Default::default(),
         }
     }
     fn eval<M: Model>(
@@ -376,6 +380,7 @@ impl Residuals {
         // one evaluation of the trigonometric terms for both
         model.phi_and_constraint_matrix(q, &mut self.phi, &mut self.g_values);
         crate::drive::shift_positions(drives, t, &mut self.phi);
+        self.released.zero(&mut self.g_values);
         model.g_winv_mul(&self.pattern, &self.g_values, &self.ones, qd, &mut self.r);
         crate::drive::shift_velocities(drives, t, &mut self.r);
         (max_abs(&self.phi), max_abs(&self.r))
@@ -414,6 +419,29 @@ struct Run<'a, M: Model, O: Observer<M>> {
     event_x: Vec<f64>,
     /// The full state at the event that stopped the run.
     stop: Option<Vec<f64>>,
+    /// The skates with friction: their switches' watch.
+    slip: SlipWatch,
+}
+
+/// Switches of one skate at most this many accepted steps apart count as
+/// one streak; [`crate::events::CHATTER_STEPS`] of them in a row are
+/// chattering ([`SimError::SlipChattering`]): a skate whose mode flips
+/// every few steps for that long sits at its friction limit at the
+/// step's resolution (a discontinuous force driving it back and forth,
+/// a holding force at `mu N`), not in a motion the steps resolve.
+pub const SLIP_CHATTER_GAP: u64 = 8;
+
+/// The watch on the modes of the skates with friction
+/// ([`crate::friction`]): each one's margin at the start and the end of
+/// the step, and its switches in a row.
+#[derive(Debug, Default)]
+struct SlipWatch {
+    left: Vec<f64>,
+    right: Vec<f64>,
+    scratch: Vec<f64>,
+    /// Per skate: `(steps in a row with a switch, when they began, the
+    /// step count at its last switch)`.
+    streaks: Vec<(u64, f64, u64)>,
 }
 
 impl<M: Model, O: Observer<M>> Run<'_, M, O> {
@@ -495,6 +523,114 @@ impl<M: Model, O: Observer<M>> Run<'_, M, O> {
         counted?;
         std::mem::swap(&mut self.monitor.left, &mut self.monitor.right);
         Ok(stop)
+    }
+
+    /// Whether a skate's mode stopped holding in the accepted step ending
+    /// at `t_new` with the full state `y_new` (its margin fell through
+    /// zero, [`crate::friction::SkateFriction::margin`]): the margins at
+    /// the end from the last right-hand side if `evaluated` (it was at
+    /// `y_new`), else from one evaluation. A step without moves the
+    /// margins on.
+    ///
+    /// # Errors
+    /// As [`Dynamics::rhs`].
+    fn slip_crossed(
+        &mut self,
+        sys: &mut Dynamics<M>,
+        t_new: f64,
+        y_new: &[f64],
+        evaluated: bool,
+    ) -> Result<bool, SimError> {
+        if sys.friction.is_empty() {
+            return Ok(false);
+        }
+        let w = &mut self.slip;
+        if evaluated {
+            sys.slip_margins(&mut w.right);
+        } else {
+            sys.slip_margins_at(t_new, y_new, &mut w.right)?;
+        }
+        let crossed = w.left.iter().zip(&w.right).any(|(&l, &r)| l > 0.0 && r <= 0.0);
+        if !crossed {
+            std::mem::swap(&mut w.left, &mut w.right);
+        }
+        Ok(crossed)
+    }
+
+    /// The earliest time in `(t, t_new]` at which a skate's margin falls
+    /// through zero ([`Run::slip_crossed`]), located on the step's
+    /// continuous extension `interpolate(t, y)` (full states) as an
+    /// event's crossing is ([`crate::events::locate`]).
+    ///
+    /// # Errors
+    /// As [`Dynamics::rhs`].
+    #[cold]
+    fn locate_slip(
+        &mut self,
+        sys: &mut Dynamics<M>,
+        (t, t_new): (f64, f64),
+        mut interpolate: impl FnMut(f64, &mut [f64]),
+    ) -> Result<f64, SimError> {
+        let mut t_switch = t_new;
+        let w = &mut self.slip;
+        for k in 0..w.left.len() {
+            let (l, r) = (w.left[k], w.right[k]);
+            if !(l > 0.0 && r <= 0.0) {
+                continue;
+            }
+            let (x, margins) = (&mut self.event_x, &mut w.scratch);
+            let g = |tau: f64| -> Result<f64, SimError> {
+                interpolate(tau, x);
+                sys.slip_margins_at(tau, x, margins)?;
+                Ok(margins[k])
+            };
+            t_switch = t_switch.min(crate::events::locate(g, t, l, t_new, r)?);
+        }
+        Ok(t_switch)
+    }
+
+    /// Switches the skates' modes at `(t, y)`, where one stopped holding
+    /// ([`Dynamics::settle_friction`]): the samples queued so far are
+    /// observed first (in the modes they were computed in), each switch is
+    /// recorded as an event (`slip_<skate>`, rising: it begins to slide;
+    /// `stick_<skate>`, falling: it sticks or turns), the projection and
+    /// the residuals take the new set of rows, `y` is projected onto it
+    /// and the margins start anew there.
+    ///
+    /// # Errors
+    /// As [`Dynamics::settle_friction`] and [`Run::flush`];
+    /// [`SimError::SlipChattering`] when a skate has switched
+    /// [`crate::events::CHATTER_STEPS`] times in a row, each within
+    /// [`SLIP_CHATTER_GAP`] steps of the one before.
+    #[cold]
+    fn switch_slip(&mut self, sys: &mut Dynamics<M>, t: f64, y: &mut [f64]) -> Result<(), RunError<O::Error>> {
+        self.flush(sys)?;
+        let switches = sys.settle_friction(t, y)?;
+        let step = self.summary.steps;
+        for &(k, old, new) in &switches {
+            let fr = &sys.friction[k];
+            let name = match old {
+                SkateMode::Sticking => format!("slip_{}", fr.name),
+                SkateMode::Sliding { .. } => format!("stick_{}", fr.name),
+            };
+            self.monitor.record(&name, t, new.is_sliding(), y)?;
+            let s = &mut self.slip.streaks[k];
+            *s = if s.0 > 0 && step <= s.2 + SLIP_CHATTER_GAP { (s.0 + 1, s.1, step) } else { (1, t, step) };
+            if s.0 >= crate::events::CHATTER_STEPS {
+                let (skate, t0, switches) = (fr.name.clone(), s.1, s.0);
+                return Err(SimError::SlipChattering { skate, t0, t1: t, switches }.into());
+            }
+        }
+        let rows = sys.released_rows();
+        self.proj.release(rows);
+        self.resid.released.set(&sys.info.pattern, rows);
+        if self.settings.projection != ProjectionKind::None {
+            let nq = sys.nq();
+            let (q, rest) = y.split_at_mut(nq);
+            self.proj.project(&sys.model, t, q, &mut rest[..nq])?;
+        }
+        sys.slip_margins_at(t, y, &mut self.slip.left)?;
+        Ok(())
     }
 
     /// Ends a run at the event at `t_stop` inside the step from `t`: the
@@ -1139,6 +1275,26 @@ pub fn simulate<M: Model, O: Observer<M>>(
     settings.validate()?;
     // before any formulation is built on it
     check_initial(sys, y0)?;
+    // the skates with friction: their modes at the start
+    let start_slides = sys.start_friction(0.0, y0)?;
+    if !sys.friction.is_empty() {
+        let refuse = if settings.method == Method::Radau5 {
+            Some(format!(
+                "RADAU5's Newton matrix does not take the rows of sliding skates out yet; skates with friction run with {} or another explicit method",
+                crate::error::Setting::Method(Method::Dopri5)
+            ))
+        } else if settings.formulation == Formulation::Reduced {
+            Some(format!(
+                "the reduced formulation keeps every skate's row; a skate with friction releases its row while it slides: take {}",
+                crate::error::Setting::Formulation(crate::Formulation::Dae)
+            ))
+        } else {
+            None
+        };
+        if let Some(reason) = refuse {
+            return Err(SimError::Formulation { reason }.into());
+        }
+    }
     let (nq, nc) = (sys.info.nq(), sys.info.nc());
     // constraints dependent at every configuration are the model's error;
     // at an instant (this one included) they are a singular position
@@ -1157,7 +1313,8 @@ pub fn simulate<M: Model, O: Observer<M>>(
             // (docs/physics.md §6.2): fewer evaluations at equal error with
             // DOPRI5 and DOP853, cheaper ones with RK4; a numeric partition
             // only with one degree of freedom (§6.1)
-            let free = sys.baumgarte.is_none();
+            // (skates with friction release rows: the DAE)
+            let free = sys.baumgarte.is_none() && sys.friction.is_empty();
             let explicit = free && matches!(settings.method, Method::Dopri5 | Method::Dop853 | Method::Rk4);
             let minimal = explicit && sys.drives.is_empty() && sys.model.minimal_layout().is_ok();
             let numeric = free && Formulation::auto_takes_reduced(settings.method, nq, nc);
@@ -1249,7 +1406,20 @@ pub fn simulate<M: Model, O: Observer<M>>(
         monitor: Monitor::new(sys, 0.0, y0),
         event_x: Vec::new(),
         stop: None,
+        slip: SlipWatch::default(),
     };
+    if !sys.friction.is_empty() {
+        let n = sys.friction.len();
+        let w = &mut run.slip;
+        (w.left, w.right, w.scratch, w.streaks) = (vec![0.0; n], vec![0.0; n], vec![0.0; n], vec![(0, 0.0, 0); n]);
+        sys.slip_margins_at(0.0, y0, &mut w.left)?;
+        for &(k, _, mode) in &start_slides {
+            run.monitor.record(&format!("slip_{}", sys.friction[k].name), 0.0, mode.is_sliding(), y0)?;
+        }
+        let rows = sys.released_rows();
+        run.proj.release(rows);
+        run.resid.released.set(&sys.info.pattern, rows);
+    }
     run.summary.projection_path = run.proj.path();
     // minimal coordinates asked for and refused for a pivot: say why
     if settings.formulation == Formulation::Reduced
@@ -1405,6 +1575,8 @@ fn pending_rows(ny: usize) -> usize {
 /// A fixed-step method, for [`fixed`].
 trait FixedStep {
     fn advance<R: Rhs>(&mut self, rhs: &mut R, t: f64, y: &mut [f64], h: f64) -> Result<(), SimError>;
+    /// As `advance`, with `F(t, y)` known: `f0`.
+    fn advance_from<R: Rhs>(&mut self, rhs: &mut R, t: f64, y: &mut [f64], h: f64, f0: &[f64]) -> Result<(), SimError>;
     /// `F` at the start of the last step.
     fn start_slope(&self) -> &[f64];
 }
@@ -1413,6 +1585,10 @@ impl FixedStep for Euler {
     #[inline]
     fn advance<R: Rhs>(&mut self, rhs: &mut R, t: f64, y: &mut [f64], h: f64) -> Result<(), SimError> {
         self.step(rhs, t, y, h)
+    }
+    fn advance_from<R: Rhs>(&mut self, _: &mut R, _: f64, y: &mut [f64], h: f64, f0: &[f64]) -> Result<(), SimError> {
+        self.step_from(y, h, f0);
+        Ok(())
     }
     fn start_slope(&self) -> &[f64] {
         Euler::start_slope(self)
@@ -1423,6 +1599,9 @@ impl FixedStep for Rk4 {
     #[inline]
     fn advance<R: Rhs>(&mut self, rhs: &mut R, t: f64, y: &mut [f64], h: f64) -> Result<(), SimError> {
         self.step(rhs, t, y, h)
+    }
+    fn advance_from<R: Rhs>(&mut self, rhs: &mut R, t: f64, y: &mut [f64], h: f64, f0: &[f64]) -> Result<(), SimError> {
+        self.step_from(rhs, t, y, h, f0)
     }
     fn start_slope(&self) -> &[f64] {
         Rk4::start_slope(self)
@@ -1441,26 +1620,82 @@ fn fixed<M: Model, O: Observer<M>, F: Integrand<M>, S: FixedStep>(
     let stride = settings.output_stride();
     // the step's start and the slopes at its ends, for the events' Hermite
     // interpolant (only with events)
-    let watch = !sys.events.is_empty();
+    let watch = !sys.events.is_empty() || !sys.friction.is_empty();
     let (mut x_start, mut f_end) = if watch { (x.to_vec(), vec![0.0; x.len()]) } else { (Vec::new(), Vec::new()) };
+    let friction = !sys.friction.is_empty();
+    let mut x_cut = if friction { x.to_vec() } else { Vec::new() };
+    // with friction, F at the step's end is evaluated for the skates'
+    // margins; the next step starts from it (unless a switch changed it)
+    let mut f_start = if friction { vec![0.0; x.len()] } else { Vec::new() };
+    let mut f_known = false;
     for i in 0..n {
         let t = i as f64 * settings.dt;
         let t_next = if i + 1 == n { settings.t_end } else { (i + 1) as f64 * settings.dt };
-        if watch {
-            x_start.copy_from_slice(x);
-        }
-        stepper.advance(&mut Bound { sys, form }, t, x, t_next - t)?;
-        form.accept(run, sys, t, t_next, x, settings.dt, false)?;
-        if run.event_crossed(form, sys, t_next, x) {
-            form.eval(sys, t_next, x, &mut f_end)?;
-            let f_start = stepper.start_slope();
-            let interpolate = |tau: f64, out: &mut [f64]| {
-                crate::integrator::hermite((t, &x_start, f_start), (t_next, x, &f_end), tau, out)
-            };
-            if let Some(t_stop) = run.locate_events(form, sys, (t, t_next), x, interpolate)? {
-                // every grid output before it is written
-                return run.emit_stop_state(sys, t_stop);
+        // a skate's switch cuts the step there: the method restarts from
+        // the switch to the grid point (Hairer, Nørsett & Wanner I, §II.6)
+        let mut t_cur = t;
+        loop {
+            if watch || friction {
+                x_start.copy_from_slice(x);
             }
+            if f_known {
+                stepper.advance_from(&mut Bound { sys, form }, t_cur, x, t_next - t_cur, &f_start)?;
+            } else {
+                stepper.advance(&mut Bound { sys, form }, t_cur, x, t_next - t_cur)?;
+            }
+            f_known = false;
+            // the step as set (a cut step: what is left of it)
+            let h = if t_cur == t { settings.dt } else { t_next - t_cur };
+            form.accept(run, sys, t_cur, t_next, x, h, false)?;
+            let slipped = friction && {
+                form.eval(sys, t_next, x, &mut f_end)?;
+                run.slip_crossed(sys, t_next, x, true)?
+            };
+            let mut t_end = t_next;
+            if slipped {
+                let f_start = stepper.start_slope();
+                let interpolate = |tau: f64, out: &mut [f64]| {
+                    crate::integrator::hermite((t_cur, &x_start, f_start), (t_next, x, &f_end), tau, out)
+                };
+                t_end = run.locate_slip(sys, (t_cur, t_next), interpolate)?;
+                if t_end < t_next {
+                    interpolate(t_end, &mut x_cut);
+                    if settings.projection != ProjectionKind::None {
+                        let nq = sys.nq();
+                        let (q, rest) = x_cut.split_at_mut(nq);
+                        run.proj.project(&sys.model, t_end, q, &mut rest[..nq])?;
+                    }
+                }
+            }
+            let x_end: &[f64] = if t_end < t_next { &x_cut } else { x };
+            if run.event_crossed(form, sys, t_end, x_end) {
+                if !friction {
+                    form.eval(sys, t_next, x, &mut f_end)?;
+                }
+                let f_start = stepper.start_slope();
+                let interpolate = |tau: f64, out: &mut [f64]| {
+                    crate::integrator::hermite((t_cur, &x_start, f_start), (t_next, x, &f_end), tau, out)
+                };
+                if let Some(t_stop) = run.locate_events(form, sys, (t_cur, t_end), x_end, interpolate)? {
+                    // every grid output before it is written
+                    return run.emit_stop_state(sys, t_stop);
+                }
+            }
+            if !slipped {
+                if friction {
+                    std::mem::swap(&mut f_start, &mut f_end);
+                    f_known = true;
+                }
+                break;
+            }
+            if t_end < t_next {
+                x.copy_from_slice(&x_cut);
+            }
+            run.switch_slip(sys, t_end, x)?;
+            if t_end == t_next {
+                break;
+            }
+            t_cur = t_end;
         }
         run.observer.poll(t_next).map_err(RunError::Output)?;
         if (i + 1) % stride == 0 || i + 1 == n {
@@ -1599,10 +1834,26 @@ fn adaptive<M: Model, O: Observer<M>, F: Integrand<M>, E: EmbeddedRk>(
             run.summary.stiff = stiffness.found;
             run.observer.note(&stiff_note(settings.method, t_stiff, hl, E::STIFF_LIMIT));
         }
+        // a skate's switch cuts the step there (its state from the dense
+        // output, projected), and the method restarts from it: k1 anew
+        let mut t_new = t_new;
+        let slipped = run.slip_crossed(sys, t_new, &y_new, projected || !E::FSAL_IN_ESTIMATE)?;
+        if slipped {
+            stepper.prepare_dense(&mut Bound { sys, form }, t, y, &k1, h, &y_new, &k_new)?;
+            let t_switch = run.locate_slip(sys, (t, t_new), |t_out: f64, out: &mut [f64]| {
+                stepper.interpolate((t_out - t) / h, out)
+            })?;
+            if t_switch < t_new {
+                stepper.interpolate((t_switch - t) / h, &mut y_new);
+                form.accept(run, sys, t, t_switch, &mut y_new, t_switch - t, false)?;
+                run.summary.steps -= 1;
+                t_new = t_switch;
+            }
+        }
         // events and outputs inside (t, t_new] from the dense output, built
         // on the projected end point
         let crossed = run.event_crossed(form, sys, t_new, &y_new);
-        if crossed || run.output_inside(n_out, t_new) {
+        if !slipped && (crossed || run.output_inside(n_out, t_new)) {
             stepper.prepare_dense(&mut Bound { sys, form }, t, y, &k1, h, &y_new, &k_new)?;
         }
         if crossed {
@@ -1612,6 +1863,10 @@ fn adaptive<M: Model, O: Observer<M>, F: Integrand<M>, E: EmbeddedRk>(
             }
         }
         run.emit_dense(form, sys, t_new, &y_new, &mut n_out, |t_out, out| stepper.interpolate((t_out - t) / h, out))?;
+        if slipped {
+            run.switch_slip(sys, t_new, &mut y_new)?;
+            form.eval(sys, t_new, &y_new, &mut k_new)?;
+        }
         // every 64 attempts, also when no output is due for long (tiny steps)
         if (run.summary.steps + run.summary.rejected).is_multiple_of(64) {
             run.observer.progress(t_new);

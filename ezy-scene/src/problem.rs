@@ -84,7 +84,7 @@ impl Scene {
         let cx = EffectContext::new(&model, &names).with_scene_params(&scene.scene_params);
         let effects = scene.effects.iter().map(|(n, e)| e.resolve_in(n, &cx)).collect::<Result<Vec<_>, _>>()?;
         let drives = scene.resolve_drives(info);
-        let given = Given { q: given_q, qd: given_qd, angles, guess };
+        let given = Given { q: given_q, qd: given_qd, angles, guess, released: Vec::new() };
         let settings = scene.run_settings();
         let problem = Problem {
             model,

@@ -551,6 +551,11 @@ pub struct FigureSpec {
     /// Logarithmic vertical axis (of both panels).
     #[serde(default, skip_serializing_if = "is_false")]
     pub log_y: bool,
+    /// Output columns (such as `sliding_C`, a skate with friction that
+    /// slides) whose nonzero stretches of time are shaded, in a line
+    /// figure over `t`.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub shade: Vec<String>,
 }
 
 /// The prescribed angle of a drive (a hinge whose angle follows time).
@@ -917,7 +922,17 @@ impl Scene {
                     }
                 }
                 OutputGroup::Effects => {
-                    cols.extend(self.effects.iter().map(|(n, e)| e.value_column(n)));
+                    for (n, e) in &self.effects {
+                        cols.push(e.value_column(n));
+                        // a skate with friction: its slip velocity [m/s] and mode
+                        if let crate::kinds::SceneEffect::Builtin(ezy_core::EffectSpec::SkateFriction {
+                            skate, ..
+                        }) = e
+                        {
+                            cols.push(format!("v_slip_{skate}"));
+                            cols.push(format!("sliding_{skate}"));
+                        }
+                    }
                 }
                 OutputGroup::ConstraintForces => {
                     // one per row of G: forces [N], torques [N m] for the
@@ -1308,6 +1323,15 @@ impl Scene {
                                 &path,
                                 format!("unknown body or point `{p}` in model {}; known: {}", info.name, known(names)),
                             ));
+                        }
+                    }
+                    for (j, c) in fig.shade.iter().enumerate() {
+                        let at = ["figures", i.as_str(), "shade", &j.to_string()];
+                        if !fig.paths.is_empty() || fig.x.to_string() != "t" {
+                            return Err(SceneError::at(&at, "`shade` marks stretches of time: a line figure over t"));
+                        }
+                        if let Some(m) = missing(c) {
+                            return Err(SceneError::at(&at, m));
                         }
                     }
                     let j_x = ["figures", i.as_str(), "x"];
@@ -1930,7 +1954,7 @@ fn is_identifier(name: &str) -> bool {
 /// else stands where a table or a single value belongs, and serde would
 /// read a struct from it by position (`integrator = ["euler", 0.01]`).
 const ARRAY_KEYS: &[&str] =
-    &["include", "paths", "lines", "figures", "harmonics", "t", "value", "g", "bodies", "along"];
+    &["include", "paths", "lines", "shade", "figures", "harmonics", "t", "value", "g", "bodies", "along"];
 
 /// Refuses an array at a key not in [`ARRAY_KEYS`], and an array as an
 /// element of an array (the arrays of a scene hold tables or values).

@@ -283,8 +283,9 @@ pub fn run_model_tapped<M: Model + Default>(
     };
     let table = obs.finish()?;
     let state_names = sys.state_names();
-    // the events' times and states, whenever the scene watches any
-    if !sys.events.is_empty() {
+    // the events' times and states, whenever the scene watches any (a
+    // skate with friction records its switches)
+    if !sys.events.is_empty() || !sys.friction.is_empty() {
         tx.write("events.csv", crate::output::events_csv(&summary.events, &state_names).as_bytes())?;
     }
     let mut drawn_svgs = Vec::new();

@@ -45,7 +45,14 @@ impl Rhs for BareRhs {
     fn eval(&mut self, _t: f64, y: &[f64], dy: &mut [f64]) -> Result<(), SimError> {
         let (q, qd) = y.split_at(6);
         self.model.constraint_terms(q, qd, &mut self.g_values, &mut self.gamma);
-        let sys = KktSystem { mass: &self.mass, g: &[], g_values: &self.g_values, f: &self.f, gamma: &self.gamma };
+        let sys = KktSystem {
+            mass: &self.mass,
+            g: &[],
+            g_values: &self.g_values,
+            f: &self.f,
+            gamma: &self.gamma,
+            released: &[],
+        };
         let (dq, dqd) = dy.split_at_mut(6);
         self.kkt.solve(&sys, dqd, &mut self.lambda).map_err(|e| SimError::from_kkt(&self.info, 0.0, e))?;
         dq.copy_from_slice(qd);

@@ -149,6 +149,31 @@ pub enum EffectSpec {
         /// Force along the blade \[N\] over time.
         force: Waveform,
     },
+    /// Coulomb friction at a skate (a knife edge that can slip,
+    /// [`crate::friction`]): the skate holds while the lateral force it
+    /// needs, `|lambda|`, is at most `mu N`; beyond that it slides
+    /// sideways against the force `mu N`, and it sticks again where the
+    /// slip velocity returns to zero with a holding force within the
+    /// limit. Both switches are located events. The normal load `N` \[N\]
+    /// is `normal`, or the static share `share` (0 < share <= 1) of the
+    /// whole model's weight `m g`. Its value column is the lateral force
+    /// on the skate \[N\] (along the blade's left normal); its work state
+    /// the friction's work (negative: it dissipates).
+    SkateFriction {
+        /// Skate name.
+        skate: String,
+        /// Friction coefficient (>= 0).
+        mu: f64,
+        /// Normal load \[N\] (or give `share`).
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        normal: Option<f64>,
+        /// Share of the model's weight the skate carries (or give `normal`).
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        share: Option<f64>,
+        /// Gravitational acceleration for `share` \[m/s^2\].
+        #[serde(default = "default_gravity", skip_serializing_if = "is_default_gravity")]
+        g: f64,
+    },
     /// A force `(fx(t), fy(t))` \[N\] at a body's centre of mass (`at` names a
     /// body) or at a named point (`at` names a point), in world or body axes.
     Force {
@@ -283,6 +308,7 @@ pub const EFFECT_KINDS: &[&str] = &[
     "rolling-viscous",
     "rolling-coulomb",
     "driven-wheel",
+    "skate-friction",
     "force",
     "torque",
     "slope",
@@ -370,6 +396,7 @@ impl EffectSpec {
             Self::RollingViscous { .. } => "rolling-viscous",
             Self::RollingCoulomb { .. } => "rolling-coulomb",
             Self::DrivenWheel { .. } => "driven-wheel",
+            Self::SkateFriction { .. } => "skate-friction",
             Self::Force { .. } => "force",
             Self::Torque { .. } => "torque",
             Self::Slope { .. } => "slope",
@@ -473,6 +500,34 @@ impl EffectSpec {
             Self::DrivenWheel { skate: s, force } => {
                 skate(s)?;
                 wave("force", force)
+            }
+            Self::SkateFriction { skate: s, mu, normal, share, g } => {
+                skate(s)?;
+                non_negative("mu", *mu)?;
+                match (normal, share) {
+                    (Some(n), None) => non_negative("normal", *n),
+                    (None, Some(share)) => {
+                        SpecError::check(share.is_finite() && *share > 0.0 && *share <= 1.0, "share", || {
+                            format!(
+                                "share = {} must be a fraction of the weight, 0 < share <= 1",
+                                crate::error::fmt_value(*share)
+                            )
+                        })?;
+                        SpecError::check(g.is_finite() && *g > 0.0, "g", || {
+                            format!("g = {} must be a positive acceleration [m/s^2]", crate::error::fmt_value(*g))
+                        })
+                    }
+                    (Some(_), Some(_)) => Err(SpecError {
+                        field: "share",
+                        message: "give the normal load either as `normal` [N] or as `share` of the weight, not both"
+                            .into(),
+                    }),
+                    (None, None) => Err(SpecError {
+                        field: "normal",
+                        message: "a skate with friction needs its normal load: `normal` [N], or `share` of the weight"
+                            .into(),
+                    }),
+                }
             }
             Self::Force { at, fx, fy, .. } => {
                 if names.point(at).is_none() && names.body(at).is_none() {
@@ -629,6 +684,13 @@ impl EffectSpec {
                 Law::Blade(blade(&skate), BladeLaw::Coulomb { force, smoothing })
             }
             Self::DrivenWheel { skate, force } => Law::Blade(blade(&skate), BladeLaw::Driven(force)),
+            Self::SkateFriction { skate, mu, normal, share, g } => {
+                let index = names.skate(&skate).expect("checked");
+                // the weight of the whole model: each body's mass once
+                let weight = || g * info.bodies.iter().map(|b| mass[b.coords[0]]).sum::<f64>();
+                let normal = normal.unwrap_or_else(|| share.unwrap_or(1.0) * weight());
+                Law::SkateFriction { skate: index, blade: blade(&skate), limit: mu * normal }
+            }
             Self::Force { at, fx, fy, frame } => {
                 let (body, offset) = match names.point(&at) {
                     Some(p) => (info.bodies[info.points[p].body].coords, [points[2 * p], points[2 * p + 1]]),
@@ -1116,6 +1178,17 @@ pub enum Law {
         /// Actuator force \[N\].
         force: Waveform,
     },
+    /// Coulomb friction at a skate ([`crate::friction`]): applied by
+    /// [`crate::Dynamics`] itself, which holds the skate's mode; its own
+    /// force here is nothing.
+    SkateFriction {
+        /// Index of the skate in [`ModelInfo::skates`].
+        skate: usize,
+        /// The skate's blade.
+        blade: Blade,
+        /// The friction limit `mu N` \[N\].
+        limit: f64,
+    },
     /// A law of the user's own ([`ForceLaw`]).
     User(UserLaw),
     /// Drag at a body's centre of mass.
@@ -1325,6 +1398,8 @@ impl Effect {
                 b.push(lb, [tension * e[0], tension * e[1]], f);
                 (-tension * rate, tension)
             }
+            // applied by the dynamics, which knows the skate's mode
+            Law::SkateFriction { .. } => (0.0, 0.0),
             Law::Drag { body, c, c_rot, quadratic } => {
                 let v = [qd[body[0]], qd[body[1]]];
                 let w = qd[body[2]];
@@ -1355,7 +1430,9 @@ impl Effect {
     pub fn coords(&self) -> Vec<usize> {
         let mut out: Vec<usize> = match &self.law {
             Law::Hinge { a, b, .. } => std::iter::once(*a).chain(*b).collect(),
-            Law::Blade(bl, _) | Law::Anisotropic { blade: bl, .. } => bl.body.to_vec(),
+            Law::Blade(bl, _) | Law::Anisotropic { blade: bl, .. } | Law::SkateFriction { blade: bl, .. } => {
+                bl.body.to_vec()
+            }
             Law::Force { body, .. } | Law::Drag { body, .. } => body.to_vec(),
             Law::Torque { .. } | Law::Slope { .. } => Vec::new(),
             Law::User(law) => law.0.coords(),

@@ -30,6 +30,15 @@ impl Euler {
         Ok(())
     }
 
+    /// As [`Euler::step`], with the slope at the start `f0 = F(t, y)`
+    /// already known (no evaluation).
+    pub fn step_from(&mut self, y: &mut [f64], h: f64, f0: &[f64]) {
+        self.k.copy_from_slice(f0);
+        for (yi, ki) in y.iter_mut().zip(&self.k) {
+            *yi += h * ki;
+        }
+    }
+
     /// `F(t, y)` at the start of the last step (its slope).
     pub fn start_slope(&self) -> &[f64] {
         &self.k
@@ -58,8 +67,32 @@ impl Rk4 {
     /// Whatever the right-hand side fails with.
     #[inline]
     pub fn step<R: Rhs>(&mut self, rhs: &mut R, t: f64, y: &mut [f64], h: f64) -> Result<(), SimError> {
+        rhs.eval(t, y, &mut self.k1)?;
+        self.stages(rhs, t, y, h)
+    }
+
+    /// As [`Rk4::step`], with the first stage `f0 = F(t, y)` already
+    /// known (three evaluations): a run that evaluated `F` at the end of
+    /// the last step (for a skate's switch) hands it on.
+    ///
+    /// # Errors
+    /// Whatever the right-hand side fails with.
+    pub fn step_from<R: Rhs>(
+        &mut self,
+        rhs: &mut R,
+        t: f64,
+        y: &mut [f64],
+        h: f64,
+        f0: &[f64],
+    ) -> Result<(), SimError> {
+        self.k1.copy_from_slice(f0);
+        self.stages(rhs, t, y, h)
+    }
+
+    /// The stages after the first (in `k1`) and the update.
+    #[inline(always)]
+    fn stages<R: Rhs>(&mut self, rhs: &mut R, t: f64, y: &mut [f64], h: f64) -> Result<(), SimError> {
         let Self { k1, k2, k3, k4, tmp } = self;
-        rhs.eval(t, y, k1)?;
         axpy(tmp, y, 0.5 * h, k1);
         rhs.eval(t + 0.5 * h, tmp, k2)?;
         axpy(tmp, y, 0.5 * h, k2);

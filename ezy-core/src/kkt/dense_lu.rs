@@ -122,6 +122,10 @@ impl DenseLu {
                 *s = s.max(v.abs());
             }
         }
+        for &row in sys.released {
+            self.lu.col_as_slice_mut(nq + row)[nq + row] = 1.0;
+            self.row_scale[nq + row] = 1.0;
+        }
         let rhs = self.rhs.col_as_slice_mut(0);
         rhs[..nq].copy_from_slice(sys.f);
         for (r, g) in rhs[nq..].iter_mut().zip(sys.gamma) {
@@ -289,7 +293,7 @@ mod tests {
             let g = rng.vec(nc * nq, -1.0, 1.0);
             let f = rng.vec(nq, -100.0, 100.0);
             let gamma = rng.vec(nc, -10.0, 10.0);
-            let sys = KktSystem { mass: &mass, g: &g, g_values: &[], f: &f, gamma: &gamma };
+            let sys = KktSystem { mass: &mass, g: &g, g_values: &[], f: &f, gamma: &gamma, released: &[] };
             let (mut qdd_lu, mut lam_lu) = (vec![0.0; nq], vec![0.0; nc]);
             lu.solve(&sys, &mut qdd_lu, &mut lam_lu).unwrap();
             let (qdd_s, lam_s) = reference(&sys);
@@ -315,7 +319,7 @@ mod tests {
         ];
         let f = [12.0, -451.26, 3.5, 7.0, -2.0, 1.5];
         let gamma = [0.25, -1.0, 0.5, 2.0];
-        let sys = KktSystem { mass: &mass, g: &g, g_values: &[], f: &f, gamma: &gamma };
+        let sys = KktSystem { mass: &mass, g: &g, g_values: &[], f: &f, gamma: &gamma, released: &[] };
 
         let (mut qdd, mut lambda) = (vec![0.0; nq], vec![0.0; nc]);
 
@@ -346,7 +350,7 @@ mod tests {
             // Row 3 := row 1 (two identical constraint rows).
             let (head, tail) = g.split_at_mut(3 * nq);
             tail.copy_from_slice(&head[nq..2 * nq]);
-            let sys = KktSystem { mass: &mass, g: &g, g_values: &[], f: &f, gamma: &gamma };
+            let sys = KktSystem { mass: &mass, g: &g, g_values: &[], f: &f, gamma: &gamma, released: &[] };
             let r = lu.solve(&sys, &mut qdd, &mut lambda);
             assert_eq!(r, Err(KktError::SingularKkt { n: nq + nc }), "case {case}: qdd {qdd:?} lambda {lambda:?}");
         }
@@ -368,7 +372,11 @@ mod tests {
         let mut g0 = g.clone();
         g0[2 * nq..3 * nq].fill(0.0);
         assert_eq!(
-            lu.solve(&KktSystem { mass: &mass, g: &g0, g_values: &[], f: &f, gamma: &gamma }, &mut qdd, &mut lambda),
+            lu.solve(
+                &KktSystem { mass: &mass, g: &g0, g_values: &[], f: &f, gamma: &gamma, released: &[] },
+                &mut qdd,
+                &mut lambda
+            ),
             singular
         );
 
@@ -378,7 +386,11 @@ mod tests {
         let mut g1 = g.clone();
         (0..nc).for_each(|i| g1[i * nq + 4] = 0.0);
         assert_eq!(
-            lu.solve(&KktSystem { mass: &m0, g: &g1, g_values: &[], f: &f, gamma: &gamma }, &mut qdd, &mut lambda),
+            lu.solve(
+                &KktSystem { mass: &m0, g: &g1, g_values: &[], f: &f, gamma: &gamma, released: &[] },
+                &mut qdd,
+                &mut lambda
+            ),
             singular
         );
 
@@ -386,18 +398,26 @@ mod tests {
         let mut f_nan = f.clone();
         f_nan[1] = f64::NAN;
         assert_eq!(
-            lu.solve(&KktSystem { mass: &mass, g: &g, g_values: &[], f: &f_nan, gamma: &gamma }, &mut qdd, &mut lambda),
+            lu.solve(
+                &KktSystem { mass: &mass, g: &g, g_values: &[], f: &f_nan, gamma: &gamma, released: &[] },
+                &mut qdd,
+                &mut lambda
+            ),
             singular
         );
         let mut g_inf = g.clone();
         g_inf[5] = f64::INFINITY;
         assert_eq!(
-            lu.solve(&KktSystem { mass: &mass, g: &g_inf, g_values: &[], f: &f, gamma: &gamma }, &mut qdd, &mut lambda),
+            lu.solve(
+                &KktSystem { mass: &mass, g: &g_inf, g_values: &[], f: &f, gamma: &gamma, released: &[] },
+                &mut qdd,
+                &mut lambda
+            ),
             singular
         );
 
         // The same solver still solves a regular system afterwards.
-        let sys = KktSystem { mass: &mass, g: &g, g_values: &[], f: &f, gamma: &gamma };
+        let sys = KktSystem { mass: &mass, g: &g, g_values: &[], f: &f, gamma: &gamma, released: &[] };
         lu.solve(&sys, &mut qdd, &mut lambda).unwrap();
         assert!(kkt_residual(&sys, &qdd, &lambda) < 1e-12);
         assert!(format!("{lu:?}").starts_with("DenseLu"));
@@ -409,9 +429,16 @@ mod tests {
         let f = [4.0, -1.0];
         let mut lu = DenseLu::new(2, 0);
         let mut qdd = [0.0; 2];
-        lu.solve(&KktSystem { mass: &mass, g: &[], g_values: &[], f: &f, gamma: &[] }, &mut qdd, &mut []).unwrap();
+        lu.solve(
+            &KktSystem { mass: &mass, g: &[], g_values: &[], f: &f, gamma: &[], released: &[] },
+            &mut qdd,
+            &mut [],
+        )
+        .unwrap();
         assert_eq!(qdd, [2.0, -2.0]);
         let mut empty = DenseLu::new(0, 0);
-        empty.solve(&KktSystem { mass: &[], g: &[], g_values: &[], f: &[], gamma: &[] }, &mut [], &mut []).unwrap();
+        empty
+            .solve(&KktSystem { mass: &[], g: &[], g_values: &[], f: &[], gamma: &[], released: &[] }, &mut [], &mut [])
+            .unwrap();
     }
 }

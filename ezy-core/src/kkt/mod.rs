@@ -84,6 +84,12 @@ pub struct KktSystem<'a> {
     pub f: &'a [f64],
     /// Convective term `gamma` (nc) \[m/s^2\].
     pub gamma: &'a [f64],
+    /// Released rows: constraint rows taken out of the system (a skate
+    /// that slides, [`crate::friction`]). The caller has zeroed their
+    /// entries of `G` and `gamma`; each solver puts a unit diagonal in
+    /// their place, so that the rest is solved as if the rows were absent
+    /// and their multipliers come out 0. Usually empty.
+    pub released: &'a [usize],
 }
 
 impl KktSystem<'_> {

@@ -212,6 +212,9 @@ impl KktSolver for SparseSchur {
         for t in &self.terms {
             self.a_values[t.a as usize] += g[t.gi as usize] * g[t.gj as usize] * self.minv[t.k as usize];
         }
+        for &row in sys.released {
+            self.a_values[self.diag[row]] = 1.0;
+        }
         if self.a_values.iter().any(|v| !v.is_finite()) {
             return Err(KktError::NonFinite { n: nc });
         }
@@ -462,7 +465,7 @@ mod tests {
             let f: Vec<f64> = (0..nq).map(|k| (0.7 * k as f64).sin()).collect();
             let gamma: Vec<f64> = (0..nc).map(|i| (0.3 * i as f64).cos()).collect();
             let mut s = SparseSchur::new(&pattern, nc, &mass).unwrap();
-            let sys = KktSystem { mass: &mass, g: &[], g_values: &g, f: &f, gamma: &gamma };
+            let sys = KktSystem { mass: &mass, g: &[], g_values: &g, f: &f, gamma: &gamma, released: &[] };
             let (mut qdd, mut lambda) = (vec![0.0; nq], vec![0.0; nc]);
             s.solve(&sys, &mut qdd, &mut lambda).unwrap();
             let (qdd_d, lambda_d) = dense(&pattern, &g, nc, &mass, &f, &gamma);
@@ -498,7 +501,7 @@ mod tests {
         let f: Vec<f64> = (0..nq).map(|k| (0.7 * k as f64).sin()).collect();
         let mut gamma: Vec<f64> = (0..nc).map(|i| (0.3 * i as f64).cos()).collect();
         gamma.push(gamma[0]);
-        let sys = KktSystem { mass: &mass, g: &[], g_values: &g, f: &f, gamma: &gamma };
+        let sys = KktSystem { mass: &mass, g: &[], g_values: &g, f: &f, gamma: &gamma, released: &[] };
         let (mut qdd, mut lambda) = (vec![0.0; nq], vec![0.0; nc + 1]);
         s.solve(&sys, &mut qdd, &mut lambda).unwrap();
         assert!(s.was_singular());

@@ -467,6 +467,9 @@ impl NormalSystem {
     /// by [`regularized_solve`], reported by [`NormalSystem::was_singular`],
     /// with the growth `1 / PIVOT_RTOL`.
     ///
+    /// The rows `released` (their entries of `G` zeroed by the caller:
+    /// rows taken out, [`KktSystem::released`]) get a unit diagonal.
+    ///
     /// # Errors
     /// [`KktError::NonFinite`] if `A` or `r` has a non-finite entry.
     #[inline]
@@ -477,11 +480,14 @@ impl NormalSystem {
         pattern: &[(usize, usize)],
         values: &[f64],
         winv: &[f64],
-        m: usize,
+        (m, released): (usize, &[usize]),
         r: &[f64],
         x: &mut [f64],
     ) -> Result<f64, KktError> {
         model.normal_matrix(pattern, self.nc, values, winv, &mut self.a);
+        for &row in released.iter().filter(|&&row| row < m) {
+            self.a[row * self.nc + row] = 1.0;
+        }
         self.singular = false;
         match ldl_solve(&self.a, m, self.nc, r, x, &mut self.scratch) {
             Err(KktError::DependentConstraints { .. }) => self.solve_singular(m, r, x),
@@ -569,7 +575,15 @@ impl<Mo: Model> KktSolver for SchurCholesky<Mo> {
         for (r, &g) in self.rhs.iter_mut().zip(sys.gamma) {
             *r += g;
         }
-        self.growth = self.normal.solve(&self.model, &self.pattern, sys.g_values, &self.minv, nc, &self.rhs, lambda)?;
+        self.growth = self.normal.solve(
+            &self.model,
+            &self.pattern,
+            sys.g_values,
+            &self.minv,
+            (nc, sys.released),
+            &self.rhs,
+            lambda,
+        )?;
         for ((a, &w), &f) in qdd.iter_mut().zip(&self.minv).zip(sys.f) {
             *a = w * f;
         }
