@@ -112,11 +112,11 @@ impl SkateFriction {
         }
     }
 
-    /// The name of the transition out of the current mode, for the run's
-    /// event records: `slip_<skate>` (sticking to sliding) or
-    /// `stick_<skate>` (sliding to sticking or reversing).
-    pub fn transition_name(&self) -> String {
-        match self.mode {
+    /// The event name of a switch out of the mode `from`, for the run's
+    /// records: `slip_<skate>` (from sticking: it begins to slide) or
+    /// `stick_<skate>` (from sliding: it sticks or turns).
+    pub fn transition_name(&self, from: SkateMode) -> String {
+        match from {
             SkateMode::Sticking => format!("slip_{}", self.name),
             SkateMode::Sliding { .. } => format!("stick_{}", self.name),
         }
@@ -199,11 +199,11 @@ mod tests {
         };
         assert_eq!(f.margin(-1.5), 0.5);
         assert_eq!(f.margin(2.5), -0.5);
-        assert_eq!(f.transition_name(), "slip_A");
+        assert_eq!(f.transition_name(SkateMode::Sticking), "slip_A");
         f.mode = SkateMode::Sliding { sign: -1.0 };
         f.slip = -0.25;
         assert_eq!(f.margin(0.0), 0.25);
         assert_eq!(f.sliding_lambda(), -2.0);
-        assert_eq!(f.transition_name(), "stick_A");
+        assert_eq!(f.transition_name(f.mode), "stick_A");
     }
 }

@@ -7,7 +7,6 @@ use std::time::{Duration, Instant};
 use crate::dynamics::NEAR_SINGULAR;
 use crate::dynamics::{Counters, Dynamics};
 use crate::events::{Crossing, Monitor};
-use crate::friction::SkateMode;
 use crate::guard::{EnergyGuard, GROWTH_LIMIT, Verdict, drift_note};
 use crate::integrator::Rhs;
 use crate::integrator::adaptive::{Controller, initial_step};
@@ -609,11 +608,7 @@ impl<M: Model, O: Observer<M>> Run<'_, M, O> {
         let step = self.summary.steps;
         for &(k, old, new) in &switches {
             let fr = &sys.friction[k];
-            let name = match old {
-                SkateMode::Sticking => format!("slip_{}", fr.name),
-                SkateMode::Sliding { .. } => format!("stick_{}", fr.name),
-            };
-            self.monitor.record(&name, t, new.is_sliding(), y)?;
+            self.monitor.record(&fr.transition_name(old), t, new.is_sliding(), y)?;
             let s = &mut self.slip.streaks[k];
             *s = if s.0 > 0 && step <= s.2 + SLIP_CHATTER_GAP { (s.0 + 1, s.1, step) } else { (1, t, step) };
             if s.0 >= crate::events::CHATTER_STEPS {
@@ -1413,8 +1408,8 @@ pub fn simulate<M: Model, O: Observer<M>>(
         let w = &mut run.slip;
         (w.left, w.right, w.scratch, w.streaks) = (vec![0.0; n], vec![0.0; n], vec![0.0; n], vec![(0, 0.0, 0); n]);
         sys.slip_margins_at(0.0, y0, &mut w.left)?;
-        for &(k, _, mode) in &start_slides {
-            run.monitor.record(&format!("slip_{}", sys.friction[k].name), 0.0, mode.is_sliding(), y0)?;
+        for &(k, old, mode) in &start_slides {
+            run.monitor.record(&sys.friction[k].transition_name(old), 0.0, mode.is_sliding(), y0)?;
         }
         let rows = sys.released_rows();
         run.proj.release(rows);
