@@ -14,13 +14,14 @@ use bare_rhs::BareRhs;
 use common::max_abs;
 use common::{build, setup};
 use ezy::output::RowBuilder;
+use ezy_core::effects::{EffectSpec, Law};
 use ezy_core::integrator::Rhs;
 use ezy_core::kkt::KktMethod;
 use ezy_core::{Dynamics, Method, Model, ProjectionKind, RunSettings, Sample, simulate};
 
 use ezy_models::scenes;
 use ezy_models::{ChaplyginSleigh, EzyRoller};
-use ezy_scene::Scene;
+use ezy_scene::{Scene, SceneEffect};
 
 /// The EzyRoller with one effect of every kind, each with nonzero numbers.
 const ALL_EFFECTS: &str = include_str!("data/all_effects.toml");
@@ -143,10 +144,16 @@ fn by_hand(name: &str, m: &EzyRoller) -> (Vec<(usize, f64)>, f64) {
 fn each_force_law_matches_a_hand_computation() {
     let scene = all_effects();
     let s = setup::<EzyRoller>(&scene, &[]).unwrap();
-    assert_eq!(s.effects.len(), 17);
+    assert_eq!(s.effects.len(), 18);
     for e in &s.effects {
         let mut f = [0.0; 6];
         let (power, value) = e.apply(T, &Q, &QD, &mut f);
+        if matches!(e.law, Law::SkateFriction { .. }) {
+            // a friction's force enters through its released KKT row, not
+            // the force vector: tests/friction.rs checks it (closed form)
+            assert!(f.iter().all(|v| *v == 0.0) && power == 0.0 && value == 0.0, "{}: {f:?}", e.name);
+            continue;
+        }
         let (entries, want_value) = by_hand(&e.name, &s.model);
         let mut want = [0.0; 6];
         for (k, v) in entries {
@@ -171,7 +178,12 @@ fn each_force_law_matches_a_hand_computation() {
 /// `T - T0 = sum W_e` closes to the integrator's tolerance (1e-12).
 #[test]
 fn power_is_the_derivative_of_the_work_column_and_the_ledger_closes() {
-    let scene = all_effects();
+    // without the skate friction: a slip makes the accelerations jump and
+    // the central difference across it first order; its power is not
+    // `apply`'s. tests/friction.rs closes the ledger through stick-slip.
+    let mut scene = all_effects();
+    scene.effects.retain(|(_, e)| !matches!(e, SceneEffect::Builtin(EffectSpec::SkateFriction { .. })));
+    assert_eq!(scene.effects.len(), 17);
     let (mut sys, y0) = build::<EzyRoller>(&scene, &[], KktMethod::Auto).unwrap();
     let settings = RunSettings {
         dt: 1e-3,
