@@ -4,7 +4,7 @@
 //! differences, the free EzyRoller's steady motions, and the gait of
 //! `drive-rolling-resistance`.
 
-mod common;
+use crate::common;
 
 use ezy::models::{ChaplyginSleigh, DoublePendulum, EzyRoller, scenes};
 use ezy_core::analysis::{Analysis, Input, PeriodicSettings, Stability, Symmetry};

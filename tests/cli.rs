@@ -3,7 +3,7 @@
 use std::path::PathBuf;
 use std::process::{Command, Output};
 
-mod common;
+use crate::common;
 
 fn ezy(args: &[&str]) -> Output {
     Command::new(env!("CARGO_BIN_EXE_ezy")).args(args).output().expect("ezy runs")

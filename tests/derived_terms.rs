@@ -4,7 +4,7 @@
 //!   `ezy::testing` (tolerances justified there),
 //! - for the EzyRoller, the hand formulas (docs/physics.md §10.2).
 
-mod common;
+use crate::common;
 
 use common::{random_model, random_state, rng};
 use ezy_core::Model;

@@ -3,7 +3,7 @@
 //! when its angle is the torque-driven run's recorded hinge angle, and the
 //! drive's torque (its multiplier) reproduces the motor's torque.
 
-mod common;
+use crate::common;
 
 use std::f64::consts::PI;
 

@@ -4,9 +4,8 @@
 //! once, constraint forces against Newton-Euler per body, and the `free`
 //! scene bit for bit against a right-hand side with no effect code at all.
 
-#[path = "support/bare_rhs.rs"]
-mod bare_rhs;
-mod common;
+use crate::bare_rhs;
+use crate::common;
 
 use std::f64::consts::PI;
 

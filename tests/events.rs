@@ -3,7 +3,7 @@
 //! a continuous extension and both formulations; a stop event ending the
 //! run at the event; a function of the user's own; chattering reported.
 
-mod common;
+use crate::common;
 
 use ezy::models::ChaplyginSleigh;
 use ezy_core::events::{Action, Direction, Event, EventSpec};

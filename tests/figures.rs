@@ -2,8 +2,6 @@
 //! every built-in scene's figures in every format, one animation frame per
 //! interval, and a report that loads nothing from elsewhere.
 
-mod common;
-
 use std::path::{Path, PathBuf};
 use std::process::Command;
 

@@ -6,8 +6,6 @@
 //! scene runs as with ideal skates; a skate at its limit is reported as
 //! chattering.
 
-mod common;
-
 use ezy::models::ChaplyginSleigh;
 use ezy_core::effects::STANDARD_GRAVITY;
 use ezy_core::{EffectSpec, Formulation, Method, Problem, SimError};

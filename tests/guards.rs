@@ -3,7 +3,7 @@
 //! at any mass scale, and still stopping a run whose state blows up. The
 //! simple pendulum of IFToMM benchmark A01 against its closed form.
 
-mod common;
+use crate::common;
 
 use std::f64::consts::{FRAC_PI_2, PI};
 

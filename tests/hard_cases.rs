@@ -1,6 +1,6 @@
 //! Hard cases that must stay numerically sound (issue 4, growing).
 
-mod common;
+use crate::common;
 
 use common::{Recorder, max_abs};
 use common::{build, setup};

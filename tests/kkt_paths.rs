@@ -3,7 +3,7 @@
 //! snake family for 2 to 50 links), the same trajectory over a second of
 //! `drive`, and the sparse projection the dense one's state.
 
-mod common;
+use crate::common;
 
 use common::build;
 use common::{random_model, random_state, random_state_n, rng};

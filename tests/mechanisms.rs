@@ -8,7 +8,7 @@
 //! and every model's derived terms against finite differences and dual
 //! numbers.
 
-mod common;
+use crate::common;
 
 use common::setup;
 use ezy_core::kkt::KktMethod;

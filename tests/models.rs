@@ -2,7 +2,7 @@
 //! against its closed form, the snake's gait moving it head first, and both
 //! energy ledgers.
 
-mod common;
+use crate::common;
 
 use common::build;
 use ezy_core::kkt::KktMethod;

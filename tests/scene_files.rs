@@ -2,8 +2,6 @@
 //! closes its energy ledger; scene files round-trip; every documented
 //! error of a bad scene file names the file, line, column and key.
 
-mod common;
-
 use std::path::PathBuf;
 
 use ezy::RunOptions;

@@ -1,7 +1,7 @@
 //! The scenes of docs/physics.md §9 and §10.3, end to end through the generated models,
 //! the KKT solve, RK4 and projection, at the assignment's settings.
 
-mod common;
+use crate::common;
 
 use common::{Recorder, max_abs};
 use common::{build, setup};

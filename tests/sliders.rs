@@ -4,7 +4,7 @@
 //! whose energy ledger closes, and a bar whose end pin runs in a ground
 //! slot (its heading free) against the conservation laws that fix it.
 
-mod common;
+use crate::common;
 
 use ezy_core::kkt::KktMethod;
 use ezy_core::{Dynamics, EffectSpec, Model, simulate};

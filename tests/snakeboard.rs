@@ -68,7 +68,7 @@
 //! (`x, y, theta` and `p` from it) with classic RK4 at `h = 1e-4 s`, the
 //! shape `(phi, psi)` and its rates taken from the scene's drive waveforms.
 
-mod common;
+use crate::common;
 
 use std::f64::consts::PI;
 

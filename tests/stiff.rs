@@ -4,7 +4,7 @@
 //! structure, derivatives by grouped differences) against the dense
 //! finite-difference Jacobian of the whole right-hand side.
 
-mod common;
+use crate::common;
 
 use common::build;
 use ezy_core::integrator::radau5::{DenseNewton, MU_COMPLEX, MU_REAL, NewtonSystem, c64};

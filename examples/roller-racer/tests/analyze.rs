@@ -11,7 +11,7 @@ use ezy::analysis::Stability;
 use ezy::effects::Waveform;
 use roller_racer::RollerRacer;
 
-mod common;
+use crate::common;
 
 /// The steady turn's curvature [1/m] of the rear axle at steering angle
 /// `phi1 - phi2 = delta` [rad], from the geometry alone.

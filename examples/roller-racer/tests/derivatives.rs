@@ -1,7 +1,7 @@
 //! The derived constraint terms of the Roller Racer against finite
 //! differences and dual numbers, at random states and parameters.
 
-mod common;
+use crate::common;
 use common::vehicle::RollerRacer;
 
 #[test]

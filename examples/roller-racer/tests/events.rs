@@ -7,7 +7,7 @@
 
 use roller_racer::RollerRacer;
 
-mod common;
+use crate::common;
 
 const TURN: &str = r#"name = "turn-events"
 description = "Roller Racer with the handlebar held at 0.3 rad, stopped when it has turned 1 rad"

@@ -2,7 +2,7 @@
 //! with one frame per interval (its `[draw]` table used), and a run report
 //! with the scene's figures inline as SVG.
 
-mod common;
+use crate::common;
 use common::SCENE;
 
 fn program(args: &[&str]) -> String {

@@ -6,7 +6,7 @@
 //! from the start, the switches are written to `events.csv`, and the
 //! friction's work closes the energy balance.
 
-mod common;
+use crate::common;
 
 const TURN: &str = r#"name = "turn-friction"
 description = "Roller Racer with the handlebar held at 0.3 rad, its axles on a floor with friction"

@@ -2,7 +2,7 @@
 //! the three figures, the vehicle moves forward (about 13 m in 20 s), the
 //! energy ledger closes.
 
-mod common;
+use crate::common;
 use common::SCENE;
 
 #[test]

@@ -4,7 +4,7 @@
 
 use std::path::Path;
 
-mod common;
+use crate::common;
 use common::{SCENE, SWEPT};
 
 fn program(args: &[&str], out: &Path) -> String {

@@ -1,0 +1,43 @@
+//! The integration tests, one module per file beside this one, built as
+//! one test binary: each file used to be its own binary, and each linked
+//! and instantiated ezy's generic solver for its models again (43 release
+//! binaries took most of CI's build). `tests/no_alloc.rs` (it installs a
+//! counting global allocator) and `tests/docs.rs` stay binaries of their own.
+//!
+//! Run one file's tests with its module name as the filter:
+//! `cargo test --release --test suite -- friction::`.
+
+#[path = "support/bare_rhs.rs"]
+mod bare_rhs;
+mod common;
+
+mod adversarial_input;
+mod adversarial_output;
+mod analysis;
+mod app;
+mod bench;
+mod cli;
+mod derived_terms;
+mod drives;
+mod effects;
+mod events;
+mod figures;
+mod formulations;
+mod friction;
+mod guards;
+mod hard_cases;
+mod hostile_sizing;
+mod hostile_sweep;
+mod kkt_paths;
+mod mechanisms;
+mod models;
+mod properties;
+mod scene_files;
+mod scenes;
+mod singular;
+mod sliders;
+mod slurm;
+mod snakeboard;
+mod stiff;
+mod sweep;
+mod testing;
