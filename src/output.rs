@@ -133,7 +133,11 @@ impl<M: Model> RowBuilder<M> {
             let nq = sys.nq();
             p.y[..nq].copy_from_slice(s.q);
             p.y[nq..2 * nq].copy_from_slice(s.qd);
-            // the skates' modes of the run at this sample
+            // the effects switched on and off and the skates' modes of
+            // the run at this sample
+            for (pe, e) in p.sys.effects.iter_mut().zip(&sys.effects) {
+                pe.on = e.on;
+            }
             for (k, fr) in sys.friction.iter().enumerate() {
                 if p.sys.friction[k].mode != fr.mode {
                     p.sys.set_skate_mode(k, fr.mode);

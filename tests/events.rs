@@ -6,6 +6,7 @@
 use crate::common;
 
 use ezy::models::ChaplyginSleigh;
+use ezy_core::effects::{EffectSpec, Frame, Waveform};
 use ezy_core::events::{Action, Direction, Event, EventSpec};
 use ezy_core::{Formulation, Method, Problem, SimError};
 
@@ -192,6 +193,114 @@ fn chattering_is_reported_with_the_event_and_time() {
     let run = sleigh().method(Method::Rk4).dt(1e-3).t_end(0.3).with_event(even).unwrap().with_event(odd).unwrap();
     let events = run.solve().unwrap().summary.events;
     assert!(events.len() >= 290, "{}", events.len());
+}
+
+/// The sleigh from rest at `phi = 0`, pushed along x at its centre of
+/// mass by `F = 0.5` N (`push`), its push turned off by a switch where
+/// the centre has gone `L = 2` m.
+fn pushed_sleigh(method: Method) -> Problem<ChaplyginSleigh> {
+    let push = EffectSpec::Force {
+        at: "sleigh".into(),
+        fx: Waveform::Constant(0.5),
+        fy: Waveform::Constant(0.0),
+        frame: Frame::World,
+    };
+    let coast = EventSpec { action: Action::Switch, switch_off: vec!["push".into()], ..EventSpec::new("x", 2.0) };
+    Problem::new(ChaplyginSleigh::default())
+        .effect("push", push)
+        .and_then(|p| p.event("coast", &coast))
+        .and_then(|p| p.q("x", 0.0))
+        .and_then(|p| p.q("y", 0.0))
+        .and_then(|p| p.q("phi", 0.0))
+        .and_then(|p| p.qd("x", 0.0))
+        .and_then(|p| p.qd("phi", 0.0))
+        .unwrap()
+        .method(method)
+        .tolerances(1e-12, 1e-12)
+        .dt(1e-3)
+        .every(0.5)
+        .t_end(5.0)
+}
+
+/// A switch turns the push off at the event: the sleigh goes straight
+/// (the force is along its skate, through its centre of mass, so the
+/// skate holds it with no lateral force) with `x = F t^2 / (2 m)` until
+/// `x = L` at `t* = sqrt(2 m L / F) = 2.828 s`, then coasts at
+/// `v* = F t* / m`: `x(t_end) = L + v* (t_end - t*)`, and the push's work
+/// is `F L`. Each explicit method and its continuous extension are exact
+/// on a quadratic and a line, so the event's time, the final position
+/// and the work hold to rounding (1e-12); a switch taken at the step's
+/// end instead of the event is off by `F/m h (t_end - t*)`, 1e-3 m at
+/// `h` = 1e-3 s (RK4) and more with the adaptive steps.
+#[test]
+fn a_switch_turns_an_effect_off_at_the_event_and_the_motion_follows_the_closed_form() {
+    let (f, m, l, t_end): (f64, f64, f64, f64) = (0.5, 1.0, 2.0, 5.0);
+    let t_star = (2.0 * m * l / f).sqrt();
+    let v_star = f * t_star / m;
+    for method in [Method::Rk4, Method::Dopri5, Method::Dop853] {
+        let solution = pushed_sleigh(method).solve().unwrap_or_else(|e| panic!("{method:?}: {e}"));
+        let s = &solution.summary;
+        assert_eq!(s.events.len(), 1, "{method:?}: {:?}", s.events);
+        let (name, t_event) = (&s.events[0].name, s.events[0].t);
+        assert!(name == "coast" && s.events[0].rising, "{method:?}: {:?}", s.events[0]);
+        assert!((t_event - t_star).abs() <= 1e-12 * t_star, "{method:?}: {t_event} against {t_star}");
+        let end = solution.final_state();
+        let x = |name: &str| end[solution.names.iter().position(|n| n == name).unwrap()];
+        let want = l + v_star * (t_end - t_star);
+        assert!((x("x") - want).abs() <= 1e-12 * want, "{method:?}: x = {} against {want}", x("x"));
+        assert!((x("xd") - v_star).abs() <= 1e-12 * v_star, "{method:?}: xd = {} against {v_star}", x("xd"));
+        assert!(x("y").abs() <= 1e-12 && x("phi").abs() <= 1e-12, "{method:?}: y {} phi {}", x("y"), x("phi"));
+        assert!((x("W_push") - f * l).abs() <= 1e-12, "{method:?}: W_push = {}", x("W_push"));
+        // the samples before the event keep the push, those after coast
+        let xd = solution.column("xd").unwrap();
+        for (t, v) in solution.t.iter().zip(&xd) {
+            let want = if *t <= t_star { f * t / m } else { v_star };
+            assert!((v - want).abs() <= 1e-12, "{method:?}: xd({t}) = {v} against {want}");
+        }
+    }
+}
+
+/// A switch names effects the run has (not a skate's friction), each
+/// once, under `action = "switch"`; RADAU5 and the reduced formulation
+/// refuse a switch with the way out; a run leaves its effects as it
+/// found them.
+#[test]
+fn switches_are_checked_refused_where_unsupported_and_undone_after_the_run() {
+    let base = pushed_sleigh(Method::Dop853);
+    let event = |spec: EventSpec| base.clone().event("e", &spec).map(|_| ()).unwrap_err().to_string();
+    let text = event(EventSpec { action: Action::Switch, switch_on: vec!["pull".into()], ..EventSpec::new("x", 1.0) });
+    assert!(
+        text.contains("key `switch_on`") && text.contains("`pull` is no effect") && text.contains("push"),
+        "{text}"
+    );
+    let text = event(EventSpec { switch_off: vec!["push".into()], ..EventSpec::new("x", 1.0) });
+    assert!(text.contains("key `switch_off`") && text.contains("only `action = \"switch\"`"), "{text}");
+    let text = event(EventSpec { action: Action::Switch, ..EventSpec::new("x", 1.0) });
+    assert!(text.contains("key `action`") && text.contains("`switch_on`, `switch_off`"), "{text}");
+    let both = vec!["push".to_string()];
+    let text = event(EventSpec {
+        action: Action::Switch,
+        switch_on: both.clone(),
+        switch_off: both,
+        ..EventSpec::new("x", 1.0)
+    });
+    assert!(text.contains("switched on and off at once"), "{text}");
+    for (method, formulation, says) in
+        [(Method::Radau5, Formulation::Dae, "RADAU5"), (Method::Dop853, Formulation::Reduced, "reduced formulation")]
+    {
+        let err = pushed_sleigh(method).formulation(formulation).solve().unwrap_err().to_string();
+        assert!(err.contains(says) && err.contains("switch"), "{err}");
+    }
+    // a library user's switch by index, checked before the first step
+    let (mut sys, y0, _) = pushed_sleigh(Method::Dop853).into_system().unwrap();
+    let settings = common::dop853(5.0, 0.5, 1e-12);
+    sys.events[0] = sys.events[0].clone().switching(&[], &[7]);
+    let err = ezy_core::simulate(&mut sys, &y0, &settings, &mut common::Recorder::default()).unwrap_err();
+    assert!(err.to_string().contains("effect 7 does not exist"), "{err}");
+    let push = sys.effect_index("push").unwrap();
+    sys.events[0] = sys.events[0].clone().switching(&[], &[push]);
+    ezy_core::simulate(&mut sys, &y0, &settings, &mut common::Recorder::default()).unwrap();
+    assert!(sys.effects[push].on, "the run switched `push` off and left it so");
 }
 
 /// Names the run does not have are refused with the names it has.

@@ -503,6 +503,19 @@ impl<M: Model> Dynamics<M> {
         self.released.set(&self.info.pattern, &rows);
     }
 
+    /// The index in [`Dynamics::effects`] of the effect named `name`.
+    pub fn effect_index(&self, name: &str) -> Option<usize> {
+        self.effects.iter().position(|e| e.name == name)
+    }
+
+    /// Whether the run's set of forces or rows can change at an instant:
+    /// skates with friction, or events that switch effects
+    /// ([`crate::events::Action::Switch`]). Such a run cuts its steps
+    /// there and restarts: explicit methods on the DAE formulation.
+    pub fn switches(&self) -> bool {
+        !self.friction.is_empty() || self.events.iter().any(|e| e.action == crate::events::Action::Switch)
+    }
+
     /// Each skate-friction entry's margin ([`SkateFriction::margin`]) at
     /// the state of the last [`Dynamics::rhs`] call, into `out` (one per
     /// entry of [`Dynamics::friction`]).
@@ -797,7 +810,9 @@ fn apply_effects(
 #[inline(always)]
 fn hinge_torques(effects: &[Effect], t: f64, q: &[f64], qd: &[f64], tau: &mut [f64], power: &mut [f64]) {
     for (e, p) in effects.iter().zip(power) {
-        if let Law::Hinge { hinge, a, b, law } = &e.law {
+        if !e.on {
+            *p = 0.0;
+        } else if let Law::Hinge { hinge, a, b, law } = &e.law {
             let (torque, rate) = match law {
                 // a motor's torque is its waveform's value: one dispatch
                 HingeLaw::Motor(w) => (w.eval(t), HingeLaw::rate(*a, *b, qd)),

@@ -22,6 +22,12 @@
 //! step (an even number of sign changes) are not seen; a step small enough
 //! to resolve the quantity's motion sees them.
 //!
+//! A switch ([`Action::Switch`]) turns effects on or off where it fires:
+//! the step is cut at the crossing and the integrator restarts there with
+//! the new forces (no stage of the old ones carried over: Hairer, Nørsett
+//! & Wanner I, §II.6), as a skate's stick-slip switch does
+//! ([`crate::friction`]).
+//!
 //! An event that fires in each of [`CHATTER_STEPS`] accepted steps in a
 //! row chatters (its quantity sits at the rounding level of its level, or
 //! switches without end): the run stops with [`SimError::Chattering`]
@@ -86,6 +92,13 @@ pub enum Action {
     /// Records it and ends the run there: the state at the event is the
     /// last sample and the final state.
     Stop,
+    /// Records it and switches the effects it names on or off
+    /// ([`Event::switch_on`], [`Event::switch_off`]; scene keys
+    /// `switch_on`, `switch_off`): the step is cut at the event, the
+    /// samples before it keep the old forces, and the integrator restarts
+    /// there. Explicit methods on the DAE formulation only (RADAU5 and
+    /// the reduced formulation refuse it with the way out).
+    Switch,
 }
 
 impl Action {
@@ -94,9 +107,13 @@ impl Action {
         match self {
             Self::Record => "record",
             Self::Stop => "stop",
+            Self::Switch => "switch",
         }
     }
 }
+
+/// A key of an event's table and what is wrong with it.
+pub type KeyError = (&'static str, String);
 
 /// An event as a scene file or a library user writes it by name: `when`
 /// names the quantity ([`Quantity::resolve`]), `crosses` its level.
@@ -106,7 +123,13 @@ impl Action {
 /// when = "x1"          # a column of the run
 /// crosses = 10.0       # [the quantity's unit]
 /// direction = "rising" # rising, falling or either (default)
-/// action = "stop"      # record (default) or stop
+/// action = "stop"      # record (default), stop or switch
+///
+/// [events.coast]
+/// when = "x1"
+/// crosses = 2.0
+/// action = "switch"
+/// switch_off = ["push"] # effects by name (and `switch_on`)
 /// ```
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -124,6 +147,12 @@ pub struct EventSpec {
     /// What the run does then.
     #[serde(default)]
     pub action: Action,
+    /// With `action = "switch"`: the effects (by name) it turns on.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub switch_on: Vec<String>,
+    /// With `action = "switch"`: the effects (by name) it turns off.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub switch_off: Vec<String>,
 }
 
 impl EventSpec {
@@ -131,7 +160,58 @@ impl EventSpec {
     /// recorded (set the other fields by struct update:
     /// `EventSpec { action: Action::Stop, ..EventSpec::new("x1", 10.0) }`).
     pub fn new(when: &str, crosses: f64) -> Self {
-        Self { when: when.to_string(), crosses, direction: Direction::Either, action: Action::Record }
+        Self {
+            when: when.to_string(),
+            crosses,
+            direction: Direction::Either,
+            action: Action::Record,
+            switch_on: Vec::new(),
+            switch_off: Vec::new(),
+        }
+    }
+
+    /// The effects this spec switches on and off, as indices into
+    /// `effects` (each effect's name and whether it is a skate's
+    /// friction, in the run's order).
+    ///
+    /// # Errors
+    /// The key (`switch_on`, `switch_off`, `action`) and why: a name that
+    /// is no effect (listing them), a skate's friction, an effect in both
+    /// lists, a list without `action = "switch"`, a switch without a list.
+    pub fn switched(&self, effects: &[(&str, bool)]) -> Result<(Vec<usize>, Vec<usize>), KeyError> {
+        let list = |field: &'static str, names: &[String]| -> Result<Vec<usize>, KeyError> {
+            if !names.is_empty() && self.action != Action::Switch {
+                return Err((
+                    field,
+                    format!("only `action = \"switch\"` switches effects, not `{}`", self.action.name()),
+                ));
+            }
+            names
+                .iter()
+                .map(|n| match effects.iter().position(|(e, _)| e == n) {
+                    None => Err((
+                        field,
+                        format!(
+                            "`{n}` is no effect of this run; known: {}",
+                            crate::name_list(effects.iter().map(|e| e.0))
+                        ),
+                    )),
+                    Some(k) if effects[k].1 => Err((
+                        field,
+                        format!("`{n}` is a skate's friction: its skate's mode switches itself, an event cannot"),
+                    )),
+                    Some(k) => Ok(k),
+                })
+                .collect()
+        };
+        let (on, off) = (list("switch_on", &self.switch_on)?, list("switch_off", &self.switch_off)?);
+        if let Some(k) = on.iter().find(|k| off.contains(k)) {
+            return Err(("switch_off", format!("`{}` is switched on and off at once", effects[*k].0)));
+        }
+        if self.action == Action::Switch && on.is_empty() && off.is_empty() {
+            return Err(("action", "a switch names the effects it turns on or off: `switch_on`, `switch_off`".into()));
+        }
+        Ok((on, off))
     }
 
     /// The event `name` of this spec for a run on a model with `info`,
@@ -140,7 +220,10 @@ impl EventSpec {
     /// # Errors
     /// [`SimError::Event`] at `when` for a quantity the run does not have
     /// (listing the names it has), at `crosses` for a level that is not
-    /// finite; a bad name ([`check_event_name`]).
+    /// finite, at `switch_on` or `switch_off` for a name that is no effect
+    /// of the run (listing them), a skate's friction, an effect in both,
+    /// a list without `action = "switch"` or a switch without a list; a
+    /// bad name ([`check_event_name`]).
     pub fn resolve(
         &self,
         name: &str,
@@ -163,12 +246,20 @@ impl EventSpec {
             field: "when",
             message,
         })?;
+        let named: Vec<(&str, bool)> = effects
+            .iter()
+            .map(|e| (e.name.as_str(), matches!(e.law, crate::effects::Law::SkateFriction { .. })))
+            .collect();
+        let (switch_on, switch_off) =
+            self.switched(&named).map_err(|(field, message)| SimError::Event { event: name.into(), field, message })?;
         Ok(Event {
             name: name.to_string(),
             quantity,
             level: self.crosses,
             direction: self.direction,
             action: self.action,
+            switch_on,
+            switch_off,
         })
     }
 }
@@ -318,6 +409,12 @@ pub struct Event {
     pub direction: Direction,
     /// What the run does then.
     pub action: Action,
+    /// With [`Action::Switch`]: the effects it turns on (indices into
+    /// [`Dynamics::effects`]).
+    pub switch_on: Vec<usize>,
+    /// With [`Action::Switch`]: the effects it turns off (indices into
+    /// [`Dynamics::effects`]).
+    pub switch_off: Vec<usize>,
 }
 
 impl Event {
@@ -337,6 +434,8 @@ impl Event {
             level: 0.0,
             direction: Direction::Either,
             action: Action::Record,
+            switch_on: Vec::new(),
+            switch_off: Vec::new(),
         })
     }
 
@@ -351,6 +450,18 @@ impl Event {
     #[must_use]
     pub fn action(mut self, action: Action) -> Self {
         self.action = action;
+        self
+    }
+
+    /// The same event as a switch ([`Action::Switch`]) that turns the
+    /// effects `on` on and the effects `off` off (indices into
+    /// [`Dynamics::effects`]; [`Dynamics::effect_index`] finds one by
+    /// name). `simulate` checks the indices before the first step.
+    #[must_use]
+    pub fn switching(mut self, on: &[usize], off: &[usize]) -> Self {
+        self.action = Action::Switch;
+        self.switch_on = on.to_vec();
+        self.switch_off = off.to_vec();
         self
     }
 
@@ -515,6 +626,10 @@ impl Monitor {
     pub fn any_crossing<M: Model>(&mut self, sys: &Dynamics<M>, t: f64, y: &[f64]) -> bool {
         let mut any = false;
         for ((e, l), r) in sys.events.iter().zip(&self.left).zip(&mut self.right) {
+            // a switch cuts the step: the run's switch watch has it
+            if e.action == Action::Switch {
+                continue;
+            }
             *r = e.value(sys, t, y, &mut self.scratch);
             any |= e.direction.crossing(*l, *r).is_some();
         }

@@ -259,7 +259,12 @@ impl<M: Model> Problem<M> {
             message: e.message,
         })?;
         let law = Law::user(name, Arc::new(law), cx.nq())?;
-        self.effects.push(Effect { name: name.to_string(), value_column: format!("{}_{name}", T::VALUE_PREFIX), law });
+        self.effects.push(Effect {
+            name: name.to_string(),
+            value_column: format!("{}_{name}", T::VALUE_PREFIX),
+            law,
+            on: true,
+        });
         Ok(self)
     }
 
@@ -272,7 +277,7 @@ impl<M: Model> Problem<M> {
     pub fn law(mut self, name: &str, law: impl ForceLaw) -> Result<Self, SimError> {
         self.check_effect_name(name)?;
         let law = Law::user(name, Arc::new(law), self.model.info().nq())?;
-        self.effects.push(Effect { name: name.to_string(), value_column: format!("F_{name}"), law });
+        self.effects.push(Effect { name: name.to_string(), value_column: format!("F_{name}"), law, on: true });
         Ok(self)
     }
 

@@ -430,17 +430,40 @@ struct Run<'a, M: Model, O: Observer<M>> {
 /// a holding force at `mu N`), not in a motion the steps resolve.
 pub const SLIP_CHATTER_GAP: u64 = 8;
 
-/// The watch on the modes of the skates with friction
-/// ([`crate::friction`]): each one's margin at the start and the end of
-/// the step, and its switches in a row.
+/// The watch on what switches the run's forces or rows: the skates with
+/// friction ([`crate::friction`]: each one's margin) and then the events
+/// that switch effects ([`crate::events::Action::Switch`]: each one's
+/// `g`), at the start and the end of the step, and their switches in a row.
 #[derive(Debug, Default)]
 struct SlipWatch {
     left: Vec<f64>,
     right: Vec<f64>,
+    /// The skates' margins (one per skate).
     scratch: Vec<f64>,
-    /// Per skate: `(steps in a row with a switch, when they began, the
-    /// step count at its last switch)`.
+    /// Per skate, then per switch event: `(steps in a row with a switch,
+    /// when they began, the step count at its last switch)`.
     streaks: Vec<(u64, f64, u64)>,
+    /// The switch events: indices into [`Dynamics::events`].
+    switches: Vec<usize>,
+    /// Per skate, then per switch event: where it crossed in the step
+    /// being cut (infinite where it did not).
+    times: Vec<f64>,
+    /// Scratch of [`crate::events::Event::value`].
+    values: Vec<f64>,
+}
+
+impl SlipWatch {
+    /// Whether watch `k` (a skate, then a switch event) crossed from
+    /// `left` to `right`, and which way (`Some(true)`: a skate begins to
+    /// slide or turns, an event rises).
+    fn crossing<M: Model>(&self, sys: &Dynamics<M>, k: usize) -> Option<bool> {
+        let (l, r, nf) = (self.left[k], self.right[k], sys.friction.len());
+        if k < nf {
+            (l > 0.0 && r <= 0.0).then_some(true)
+        } else {
+            sys.events[self.switches[k - nf]].direction.crossing(l, r)
+        }
+    }
 }
 
 impl<M: Model, O: Observer<M>> Run<'_, M, O> {
@@ -540,16 +563,21 @@ impl<M: Model, O: Observer<M>> Run<'_, M, O> {
         y_new: &[f64],
         evaluated: bool,
     ) -> Result<bool, SimError> {
-        if sys.friction.is_empty() {
+        let w = &mut self.slip;
+        if w.left.is_empty() {
             return Ok(false);
         }
-        let w = &mut self.slip;
-        if evaluated {
-            sys.slip_margins(&mut w.right);
+        let nf = sys.friction.len();
+        if nf == 0 {
+        } else if evaluated {
+            sys.slip_margins(&mut w.right[..nf]);
         } else {
-            sys.slip_margins_at(t_new, y_new, &mut w.right)?;
+            sys.slip_margins_at(t_new, y_new, &mut w.right[..nf])?;
         }
-        let crossed = w.left.iter().zip(&w.right).any(|(&l, &r)| l > 0.0 && r <= 0.0);
+        for (j, &k) in w.switches.iter().enumerate() {
+            w.right[nf + j] = sys.events[k].value(sys, t_new, y_new, &mut w.values);
+        }
+        let crossed = (0..w.left.len()).any(|k| w.crossing(sys, k).is_some());
         if !crossed {
             std::mem::swap(&mut w.left, &mut w.right);
         }
@@ -571,19 +599,33 @@ impl<M: Model, O: Observer<M>> Run<'_, M, O> {
         mut interpolate: impl FnMut(f64, &mut [f64]),
     ) -> Result<f64, SimError> {
         let mut t_switch = t_new;
-        let w = &mut self.slip;
+        let (w, nf) = (&mut self.slip, sys.friction.len());
+        w.times.fill(f64::INFINITY);
         for k in 0..w.left.len() {
-            let (l, r) = (w.left[k], w.right[k]);
-            if !(l > 0.0 && r <= 0.0) {
+            if w.crossing(sys, k).is_none() {
                 continue;
             }
-            let (x, margins) = (&mut self.event_x, &mut w.scratch);
-            let g = |tau: f64| -> Result<f64, SimError> {
-                interpolate(tau, x);
-                sys.slip_margins_at(tau, x, margins)?;
-                Ok(margins[k])
+            let (l, r) = (w.left[k], w.right[k]);
+            let x = &mut self.event_x;
+            let te = if k < nf {
+                let margins = &mut w.scratch;
+                let g = |tau: f64| -> Result<f64, SimError> {
+                    interpolate(tau, x);
+                    sys.slip_margins_at(tau, x, margins)?;
+                    Ok(margins[k])
+                };
+                crate::events::locate(g, t, l, t_new, r)?
+            } else {
+                let (sys, values) = (&*sys, &mut w.values);
+                let e = &sys.events[w.switches[k - nf]];
+                let g = |tau: f64| -> Result<f64, SimError> {
+                    interpolate(tau, x);
+                    Ok(e.value(sys, tau, x, values))
+                };
+                crate::events::locate(g, t, l, t_new, r)?
             };
-            t_switch = t_switch.min(crate::events::locate(g, t, l, t_new, r)?);
+            w.times[k] = te;
+            t_switch = t_switch.min(te);
         }
         Ok(t_switch)
     }
@@ -604,8 +646,25 @@ impl<M: Model, O: Observer<M>> Run<'_, M, O> {
     #[cold]
     fn switch_slip(&mut self, sys: &mut Dynamics<M>, t: f64, y: &mut [f64]) -> Result<(), RunError<O::Error>> {
         self.flush(sys)?;
-        let switches = sys.settle_friction(t, y)?;
         let step = self.summary.steps;
+        // the events that fire here switch their effects first: the skates'
+        // modes are then decided under the new forces
+        let nf = sys.friction.len();
+        for j in 0..self.slip.switches.len() {
+            let w = &mut self.slip;
+            let Some(rising) = w.crossing(sys, nf + j).filter(|_| w.times[nf + j] <= t) else { continue };
+            let e = &sys.events[w.switches[j]];
+            let (name, on, off) = (e.name.clone(), e.switch_on.clone(), e.switch_off.clone());
+            let s = &mut w.streaks[nf + j];
+            *s = if s.0 > 0 && step <= s.2 + SLIP_CHATTER_GAP { (s.0 + 1, s.1, step) } else { (1, t, step) };
+            if s.0 >= crate::events::CHATTER_STEPS {
+                return Err(SimError::Chattering { event: name, t0: s.1, t1: t, steps: s.0 }.into());
+            }
+            self.monitor.record(&name, t, rising, y)?;
+            on.iter().for_each(|&k| sys.effects[k].on = true);
+            off.iter().for_each(|&k| sys.effects[k].on = false);
+        }
+        let switches = if nf > 0 { sys.settle_friction(t, y)? } else { Vec::new() };
         for &(k, old, new) in &switches {
             let fr = &sys.friction[k];
             self.monitor.record(&fr.transition_name(old), t, new.is_sliding(), y)?;
@@ -624,7 +683,19 @@ impl<M: Model, O: Observer<M>> Run<'_, M, O> {
             let (q, rest) = y.split_at_mut(nq);
             self.proj.project(&sys.model, t, q, &mut rest[..nq])?;
         }
-        sys.slip_margins_at(t, y, &mut self.slip.left)?;
+        let w = &mut self.slip;
+        if nf > 0 {
+            sys.slip_margins_at(t, y, &mut w.left[..nf])?;
+        }
+        for (j, &k) in w.switches.iter().enumerate() {
+            let g = sys.events[k].value(sys, t, y, &mut w.values);
+            // an event that fired here starts on its new side: where the
+            // projection put `g` back across its level by rounding, at it
+            // (a start at zero is no crossing)
+            let fired = w.times[nf + j] <= t;
+            let back = fired && sys.events[k].direction.crossing(w.left[nf + j], g).is_none() && g != 0.0;
+            w.left[nf + j] = if back { 0.0 } else { g };
+        }
         Ok(())
     }
 
@@ -1272,23 +1343,38 @@ pub fn simulate<M: Model, O: Observer<M>>(
     check_initial(sys, y0)?;
     // the skates with friction: their modes at the start
     let start_slides = sys.start_friction(0.0, y0)?;
-    if !sys.friction.is_empty() {
-        let refuse = if settings.method == Method::Radau5 {
-            Some(format!(
-                "RADAU5's Newton matrix does not take the rows of sliding skates out yet; skates with friction run with {} or another explicit method",
-                crate::error::Setting::Method(Method::Dopri5)
-            ))
-        } else if settings.formulation == Formulation::Reduced {
-            Some(format!(
-                "the reduced formulation keeps every skate's row; a skate with friction releases its row while it slides: take {}",
-                crate::error::Setting::Formulation(crate::Formulation::Dae)
-            ))
-        } else {
-            None
+    check_switches(sys)?;
+    // what restarts at a switch: explicit methods on the DAE only
+    let switching = sys.events.iter().any(|e| e.action == crate::events::Action::Switch);
+    let (radau, reduced) =
+        (crate::error::Setting::Method(Method::Dopri5), crate::error::Setting::Formulation(Formulation::Dae));
+    let refusals = [
+        (
+            switching,
+            format!(
+                "RADAU5 does not restart at a switch yet; events that switch effects run with {radau} or another explicit method"
+            ),
+            format!(
+                "the reduced formulation does not restart at a switch yet; events that switch effects run with {reduced}"
+            ),
+        ),
+        (
+            !sys.friction.is_empty(),
+            format!(
+                "RADAU5's Newton matrix does not take the rows of sliding skates out yet; skates with friction run with {radau} or another explicit method"
+            ),
+            format!(
+                "the reduced formulation keeps every skate's row; a skate with friction releases its row while it slides: take {reduced}"
+            ),
+        ),
+    ];
+    for (applies, radau, reduced) in refusals {
+        let reason = match (applies, settings.method, settings.formulation) {
+            (true, Method::Radau5, _) => radau,
+            (true, _, Formulation::Reduced) => reduced,
+            _ => continue,
         };
-        if let Some(reason) = refuse {
-            return Err(SimError::Formulation { reason }.into());
-        }
+        return Err(SimError::Formulation { reason }.into());
     }
     let (nq, nc) = (sys.info.nq(), sys.info.nc());
     // constraints dependent at every configuration are the model's error;
@@ -1308,8 +1394,8 @@ pub fn simulate<M: Model, O: Observer<M>>(
             // (docs/physics.md §6.2): fewer evaluations at equal error with
             // DOPRI5 and DOP853, cheaper ones with RK4; a numeric partition
             // only with one degree of freedom (§6.1)
-            // (skates with friction release rows: the DAE)
-            let free = sys.baumgarte.is_none() && sys.friction.is_empty();
+            // (skates with friction release rows, switches restart: the DAE)
+            let free = sys.baumgarte.is_none() && !sys.switches();
             let explicit = free && matches!(settings.method, Method::Dopri5 | Method::Dop853 | Method::Rk4);
             let minimal = explicit && sys.drives.is_empty() && sys.model.minimal_layout().is_ok();
             let numeric = free && Formulation::auto_takes_reduced(settings.method, nq, nc);
@@ -1350,6 +1436,7 @@ pub fn simulate<M: Model, O: Observer<M>>(
         settings
     };
     sys.forget_waveforms();
+    let effects_on: Vec<bool> = sys.effects.iter().map(|e| e.on).collect();
     let t0_energy = sys.kinetic_energy(&y0[nq..2 * nq]);
     let counters0 = sys.counters;
     let mut run = Run {
@@ -1403,11 +1490,18 @@ pub fn simulate<M: Model, O: Observer<M>>(
         stop: None,
         slip: SlipWatch::default(),
     };
-    if !sys.friction.is_empty() {
-        let n = sys.friction.len();
-        let w = &mut run.slip;
-        (w.left, w.right, w.scratch, w.streaks) = (vec![0.0; n], vec![0.0; n], vec![0.0; n], vec![(0, 0.0, 0); n]);
-        sys.slip_margins_at(0.0, y0, &mut w.left)?;
+    if sys.switches() {
+        let (nf, w) = (sys.friction.len(), &mut run.slip);
+        w.switches = (0..sys.events.len()).filter(|&k| sys.events[k].action == crate::events::Action::Switch).collect();
+        let n = nf + w.switches.len();
+        (w.left, w.right, w.scratch, w.streaks) = (vec![0.0; n], vec![0.0; n], vec![0.0; nf], vec![(0, 0.0, 0); n]);
+        w.times = vec![f64::INFINITY; n];
+        if nf > 0 {
+            sys.slip_margins_at(0.0, y0, &mut w.left[..nf])?;
+        }
+        for (j, &k) in w.switches.iter().enumerate() {
+            w.left[nf + j] = sys.events[k].value(sys, 0.0, y0, &mut w.values);
+        }
         for &(k, old, mode) in &start_slides {
             run.monitor.record(&sys.friction[k].transition_name(old), 0.0, mode.is_sliding(), y0)?;
         }
@@ -1480,10 +1574,15 @@ pub fn simulate<M: Model, O: Observer<M>>(
     // it would stop again at the first of them and name its time, not the
     // time the run reached
     let result = match result {
-        Err(RunError::Output(e)) => return Err(RunError::Output(e)),
+        Err(RunError::Output(e)) => {
+            restore_effects(sys, &effects_on);
+            return Err(RunError::Output(e));
+        }
         r => r,
     };
     let flushed = run.flush(sys);
+    // the effects as they were before the run's switches
+    restore_effects(sys, &effects_on);
     result?;
     flushed?;
     run.close_singular();
@@ -1500,6 +1599,46 @@ pub fn simulate<M: Model, O: Observer<M>>(
     summary.newton = run.newton;
     summary.ill_conditioned = sys.ill_conditioned;
     Ok(summary)
+}
+
+/// Sets each effect of `sys` on or off as `on` says (one per effect).
+fn restore_effects<M: Model>(sys: &mut Dynamics<M>, on: &[bool]) {
+    for (e, &on) in sys.effects.iter_mut().zip(on) {
+        e.on = on;
+    }
+}
+
+/// Refuses a switch event ([`crate::events::Action::Switch`]) whose
+/// effects are not effects of `sys` or are a skate's friction, or that
+/// names none: a library user's [`crate::events::Event::switching`] is
+/// checked here as a scene's `switch_on` is when it is resolved.
+fn check_switches<M: Model>(sys: &Dynamics<M>) -> Result<(), SimError> {
+    for e in sys.events.iter().filter(|e| e.action == crate::events::Action::Switch) {
+        let err = |field: &'static str, message: String| SimError::Event { event: e.name.clone(), field, message };
+        if e.switch_on.is_empty() && e.switch_off.is_empty() {
+            return Err(err("action", "a switch names the effects it turns on or off".into()));
+        }
+        for (field, list) in [("switch_on", &e.switch_on), ("switch_off", &e.switch_off)] {
+            for &k in list {
+                match sys.effects.get(k) {
+                    None => {
+                        return Err(err(
+                            field,
+                            format!("effect {k} does not exist: the run has {}", sys.effects.len()),
+                        ));
+                    }
+                    Some(x) if matches!(x.law, crate::effects::Law::SkateFriction { .. }) => {
+                        return Err(err(
+                            field,
+                            format!("`{}` is a skate's friction: an event cannot switch it", x.name),
+                        ));
+                    }
+                    Some(_) => {}
+                }
+            }
+        }
+    }
+    Ok(())
 }
 
 /// Refuses an initial state `y0` that is not finite, or whose kinetic
@@ -1617,7 +1756,8 @@ fn fixed<M: Model, O: Observer<M>, F: Integrand<M>, S: FixedStep>(
     // interpolant (only with events)
     let watch = !sys.events.is_empty() || !sys.friction.is_empty();
     let (mut x_start, mut f_end) = if watch { (x.to_vec(), vec![0.0; x.len()]) } else { (Vec::new(), Vec::new()) };
-    let friction = !sys.friction.is_empty();
+    // skates with friction or switch events: the step is cut at a switch
+    let friction = sys.switches();
     let mut x_cut = if friction { x.to_vec() } else { Vec::new() };
     // with friction, F at the step's end is evaluated for the skates'
     // margins; the next step starts from it (unless a switch changed it)

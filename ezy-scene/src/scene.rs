@@ -1209,6 +1209,11 @@ impl Scene {
             self.effects.iter().map(|(n, e)| (n.clone(), e.value_column(n))).collect();
         let effect_columns: Vec<(&str, &str)> = effect_columns.iter().map(|(n, v)| (n.as_str(), v.as_str())).collect();
         let drive_names: Vec<&str> = info.drives.iter().map(|d| d.name.as_str()).collect();
+        let switchable: Vec<(&str, bool)> = self
+            .effects
+            .iter()
+            .map(|(n, e)| (n.as_str(), matches!(e, SceneEffect::Builtin(ezy_core::EffectSpec::SkateFriction { .. }))))
+            .collect();
         for (name, event) in &self.events {
             keep(
                 &mut errors,
@@ -1222,6 +1227,7 @@ impl Scene {
                     }
                     ezy_core::events::Quantity::resolve(&event.when, info, &effect_columns, &drive_names)
                         .map_err(|m| SceneError::at(&["events", name, "when"], m))?;
+                    event.switched(&switchable).map_err(|(key, m)| SceneError::at(&["events", name, key], m))?;
                     Ok(())
                 })(),
             );
@@ -1953,8 +1959,21 @@ fn is_identifier(name: &str) -> bool {
 /// The keys whose value is an array in a scene file; an array anywhere
 /// else stands where a table or a single value belongs, and serde would
 /// read a struct from it by position (`integrator = ["euler", 0.01]`).
-const ARRAY_KEYS: &[&str] =
-    &["include", "paths", "lines", "shade", "figures", "harmonics", "t", "value", "g", "bodies", "along"];
+const ARRAY_KEYS: &[&str] = &[
+    "include",
+    "paths",
+    "lines",
+    "shade",
+    "switch_on",
+    "switch_off",
+    "figures",
+    "harmonics",
+    "t",
+    "value",
+    "g",
+    "bodies",
+    "along",
+];
 
 /// Refuses an array at a key not in [`ARRAY_KEYS`], and an array as an
 /// element of an array (the arrays of a scene hold tables or values).

@@ -70,3 +70,46 @@ fn the_users_program_stops_at_its_models_event() {
     assert_eq!(last[0], rows[0][0]);
     assert_eq!(last[3], rows[0][5]);
 }
+
+/// The same turn pushed along the main platform (2 N, body axes) until
+/// the rear axle's centre has gone 1 m, where the user's scene switches
+/// the push off: `events.csv` has the switch, and the push's value column
+/// reads 2 N before it and 0 after, its work `W_push` holding still.
+#[test]
+fn the_users_program_switches_an_effect_off_at_its_models_event() {
+    let scene_text = TURN.replace(
+        "[events.turned]\nwhen = \"phi1\"\ncrosses = -1.0\naction = \"stop\"\n",
+        "[output]\nevery = 0.05\ninclude = [\"energy\", \"effects\"]\n\n[effects.push]\nkind = \"force\"\nat = \"main\"\nfx = { constant = 2.0 }\nframe = \"body\"\n\n[events.coast]\nwhen = \"x1\"\ncrosses = 1.0\naction = \"switch\"\nswitch_off = [\"push\"]\n",
+    );
+    assert!(scene_text.contains("switch_off"), "the scene's text changed: {TURN}");
+    let out = common::out_dir("switch");
+    std::fs::create_dir_all(&out).unwrap();
+    let scene = out.join("turn-switch.toml");
+    std::fs::write(&scene, &scene_text).unwrap();
+    let o = common::program()
+        .args(["run", scene.to_str().unwrap(), "--no-figures", "--out"])
+        .arg(out.join("result"))
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}{}", String::from_utf8_lossy(&o.stdout), String::from_utf8_lossy(&o.stderr));
+    let events = std::fs::read_to_string(out.join("result/events.csv")).unwrap();
+    let coast: Vec<&str> =
+        events.lines().find(|l| l.contains(",coast,")).expect("the switch is recorded").split(',').collect();
+    assert_eq!(coast[2], "rising");
+    let t_switch: f64 = coast[0].parse().unwrap();
+    let csv = std::fs::read_to_string(out.join("result/trajectory.csv")).unwrap();
+    let header: Vec<&str> = csv.lines().next().unwrap().split(',').collect();
+    let col =
+        |name: &str| header.iter().position(|h| *h == name).unwrap_or_else(|| panic!("no column {name}: {header:?}"));
+    let (t, f, w) = (col("t"), col("F_push"), col("W_push"));
+    let rows: Vec<Vec<f64>> = csv.lines().skip(1).map(|l| l.split(',').map(|v| v.parse().unwrap()).collect()).collect();
+    let w_at_switch = rows.iter().find(|r| r[t] > t_switch).expect("rows after the switch")[w];
+    assert!(w_at_switch > 0.0);
+    for r in &rows {
+        if r[t] < t_switch {
+            assert_eq!(r[f], 2.0, "t = {}", r[t]);
+        } else if r[t] > t_switch {
+            assert_eq!((r[f], r[w]), (0.0, w_at_switch), "t = {}", r[t]);
+        }
+    }
+}

@@ -754,7 +754,7 @@ impl EffectSpec {
                 Law::user(name, law, cx.nq())?
             }
         };
-        Ok(Effect { name: name.to_string(), value_column: self.value_column(name), law })
+        Ok(Effect { name: name.to_string(), value_column: self.value_column(name), law, on: true })
     }
 }
 
@@ -1244,6 +1244,12 @@ pub struct Effect {
     pub value_column: String,
     /// The force law.
     pub law: Law,
+    /// Whether it acts. An effect switched off (by an event's
+    /// `switch_off`, [`crate::events::Action::Switch`], or by a library
+    /// user before the run) adds no force, its power is 0 (its work state
+    /// holds) and its value column reads 0. `simulate` restores each
+    /// effect's setting at the run's end.
+    pub on: bool,
 }
 
 /// Adds a world force `(fx_w, fy_w)` at body-frame offset `p` of `body` into
@@ -1311,6 +1317,9 @@ impl Effect {
     /// \[s\] of the state ([`Effect::waveforms`]).
     #[inline(always)]
     pub fn apply_with(&self, t: f64, wave: &Waveforms, q: &[f64], qd: &[f64], f: &mut [f64]) -> (f64, f64) {
+        if !self.on {
+            return (0.0, 0.0);
+        }
         match &self.law {
             Law::User(law) => law.0.apply(t, q, qd, f),
             Law::Hinge { a, b, law, .. } => {
