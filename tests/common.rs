@@ -99,6 +99,15 @@ pub fn max_abs(v: impl IntoIterator<Item = f64>) -> f64 {
     v.into_iter().fold(0.0, |m, x| m.max(x.abs()))
 }
 
+/// The runs a switch (a skate's stick-slip, an event switching an
+/// effect) is checked with: every method on the DAE, where each restarts
+/// its own way, and a fixed and an adaptive one on the reduced
+/// formulation (which hands over to the DAE while a skate slides).
+pub const SWITCHING_RUNS: [(ezy_core::Method, ezy_core::Formulation); 6] = {
+    use ezy_core::{Formulation::*, Method::*};
+    [(Rk4, Dae), (Dopri5, Dae), (Dop853, Dae), (Radau5, Dae), (Rk4, Reduced), (Dop853, Reduced)]
+};
+
 /// The figures the `drive` scene writes.
 pub const DRIVE_FIGURES: [&str; 7] = [
     "fig3_paths.png",

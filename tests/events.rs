@@ -227,45 +227,49 @@ fn pushed_sleigh(method: Method) -> Problem<ChaplyginSleigh> {
 /// skate holds it with no lateral force) with `x = F t^2 / (2 m)` until
 /// `x = L` at `t* = sqrt(2 m L / F) = 2.828 s`, then coasts at
 /// `v* = F t* / m`: `x(t_end) = L + v* (t_end - t*)`, and the push's work
-/// is `F L`. Each explicit method and its continuous extension are exact
-/// on a quadratic and a line, so the event's time, the final position
-/// and the work hold to rounding (1e-12); a switch taken at the step's
-/// end instead of the event is off by `F/m h (t_end - t*)`, 1e-3 m at
-/// `h` = 1e-3 s (RK4) and more with the adaptive steps.
+/// is `F L`. Each method and its continuous extension are exact on a
+/// quadratic and a line (RADAU5's collocation polynomial is cubic), so
+/// the event's time, the final position and the work hold to rounding
+/// (1e-12), on the DAE and on the reduced formulation (which restarts at
+/// the switch as the DAE does); a switch taken at the step's end instead
+/// of the event is off by `F/m h (t_end - t*)`, 1e-3 m at `h` = 1e-3 s
+/// (RK4) and more with the adaptive steps.
 #[test]
 fn a_switch_turns_an_effect_off_at_the_event_and_the_motion_follows_the_closed_form() {
     let (f, m, l, t_end): (f64, f64, f64, f64) = (0.5, 1.0, 2.0, 5.0);
     let t_star = (2.0 * m * l / f).sqrt();
     let v_star = f * t_star / m;
-    for method in [Method::Rk4, Method::Dopri5, Method::Dop853] {
-        let solution = pushed_sleigh(method).solve().unwrap_or_else(|e| panic!("{method:?}: {e}"));
+    for (method, formulation) in common::SWITCHING_RUNS {
+        let solution = pushed_sleigh(method).formulation(formulation).solve();
+        let method = format!("{method:?} {formulation:?}");
+        let solution = solution.unwrap_or_else(|e| panic!("{method}: {e}"));
+        assert_eq!(solution.summary.formulation, formulation, "{method}");
         let s = &solution.summary;
-        assert_eq!(s.events.len(), 1, "{method:?}: {:?}", s.events);
+        assert_eq!(s.events.len(), 1, "{method}: {:?}", s.events);
         let (name, t_event) = (&s.events[0].name, s.events[0].t);
-        assert!(name == "coast" && s.events[0].rising, "{method:?}: {:?}", s.events[0]);
-        assert!((t_event - t_star).abs() <= 1e-12 * t_star, "{method:?}: {t_event} against {t_star}");
+        assert!(name == "coast" && s.events[0].rising, "{method}: {:?}", s.events[0]);
+        assert!((t_event - t_star).abs() <= 1e-12 * t_star, "{method}: {t_event} against {t_star}");
         let end = solution.final_state();
         let x = |name: &str| end[solution.names.iter().position(|n| n == name).unwrap()];
         let want = l + v_star * (t_end - t_star);
-        assert!((x("x") - want).abs() <= 1e-12 * want, "{method:?}: x = {} against {want}", x("x"));
-        assert!((x("xd") - v_star).abs() <= 1e-12 * v_star, "{method:?}: xd = {} against {v_star}", x("xd"));
-        assert!(x("y").abs() <= 1e-12 && x("phi").abs() <= 1e-12, "{method:?}: y {} phi {}", x("y"), x("phi"));
-        assert!((x("W_push") - f * l).abs() <= 1e-12, "{method:?}: W_push = {}", x("W_push"));
+        assert!((x("x") - want).abs() <= 1e-12 * want, "{method}: x = {} against {want}", x("x"));
+        assert!((x("xd") - v_star).abs() <= 1e-12 * v_star, "{method}: xd = {} against {v_star}", x("xd"));
+        assert!(x("y").abs() <= 1e-12 && x("phi").abs() <= 1e-12, "{method}: y {} phi {}", x("y"), x("phi"));
+        assert!((x("W_push") - f * l).abs() <= 1e-12, "{method}: W_push = {}", x("W_push"));
         // the samples before the event keep the push, those after coast
         let xd = solution.column("xd").unwrap();
         for (t, v) in solution.t.iter().zip(&xd) {
             let want = if *t <= t_star { f * t / m } else { v_star };
-            assert!((v - want).abs() <= 1e-12, "{method:?}: xd({t}) = {v} against {want}");
+            assert!((v - want).abs() <= 1e-12, "{method}: xd({t}) = {v} against {want}");
         }
     }
 }
 
 /// A switch names effects the run has (not a skate's friction), each
-/// once, under `action = "switch"`; RADAU5 and the reduced formulation
-/// refuse a switch with the way out; a run leaves its effects as it
-/// found them.
+/// once, under `action = "switch"`; a run leaves its effects as it found
+/// them.
 #[test]
-fn switches_are_checked_refused_where_unsupported_and_undone_after_the_run() {
+fn switches_are_checked_and_undone_after_the_run() {
     let base = pushed_sleigh(Method::Dop853);
     let event = |spec: EventSpec| base.clone().event("e", &spec).map(|_| ()).unwrap_err().to_string();
     let text = event(EventSpec { action: Action::Switch, switch_on: vec!["pull".into()], ..EventSpec::new("x", 1.0) });
@@ -285,12 +289,6 @@ fn switches_are_checked_refused_where_unsupported_and_undone_after_the_run() {
         ..EventSpec::new("x", 1.0)
     });
     assert!(text.contains("switched on and off at once"), "{text}");
-    for (method, formulation, says) in
-        [(Method::Radau5, Formulation::Dae, "RADAU5"), (Method::Dop853, Formulation::Reduced, "reduced formulation")]
-    {
-        let err = pushed_sleigh(method).formulation(formulation).solve().unwrap_err().to_string();
-        assert!(err.contains(says) && err.contains("switch"), "{err}");
-    }
     // a library user's switch by index, checked before the first step
     let (mut sys, y0, _) = pushed_sleigh(Method::Dop853).into_system().unwrap();
     let settings = common::dop853(5.0, 0.5, 1e-12);
@@ -405,4 +403,34 @@ fn the_command_line_writes_events_and_sweeps_read_them() {
     assert!(err.contains(&format!("sleigh-events.toml:{line}:")) && err.contains("events.far.when"), "{err}");
     assert!(err.contains("`x9` is no quantity of this run"), "{err}");
     let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// An event that switches a family effect switches each of its elements:
+/// the `snake-slip` snake's serpenoid motors (`motor` over `J[*]`, four
+/// hinge motors `motor2` .. `motor5`) switched off at `t = 1` s, by the
+/// family's name, and its spring `spring3` alone. After the switch every
+/// motor's work and the one spring's hold still (no force, no power) while
+/// the other springs keep working.
+#[test]
+fn a_switch_of_a_family_effect_switches_each_element() {
+    let mut scene = ezy_models::scenes::get("snake-slip");
+    let rest = EventSpec {
+        action: Action::Switch,
+        switch_off: vec!["motor".into(), "spring3".into()],
+        ..EventSpec::new("t", 1.0)
+    };
+    scene.events.push(("rest".into(), rest));
+    let (p, _) = scene.problem::<ezy_models::Snake>(&[]).unwrap();
+    let s = p.t_end(2.0).solve().unwrap();
+    assert_eq!(s.summary.events.iter().filter(|e| e.name == "rest").count(), 1, "{:?}", s.summary.events);
+    let after: Vec<usize> = (0..s.t.len()).filter(|&k| s.t[k] >= 1.0).collect();
+    let moved = |name: &str| {
+        let w = s.column(name).unwrap_or_else(|| panic!("no column {name}: {:?}", s.names));
+        w[after[0]..].iter().any(|&v| v != w[after[0]])
+    };
+    for k in 2..=5 {
+        assert!(!moved(&format!("W_motor{k}")), "motor{k} worked after the switch");
+    }
+    assert!(!moved("W_spring3"), "spring3 worked after the switch");
+    assert!(moved("W_spring2") && moved("W_spring4"), "the other springs stopped too");
 }

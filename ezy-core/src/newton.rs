@@ -40,6 +40,13 @@
 //! whatever its length. The matrix is factored densely for small models
 //! and by faer's sparse LU (symbolic analysis once) for large ones, real
 //! and complex.
+//!
+//! A skate sliding with friction ([`crate::friction`]) has its row
+//! released: the row and column of its multiplier carry a unit diagonal
+//! and nothing else, its right-hand side is zero, and its multiplier in
+//! `K'` is the friction's `s mu N` (the Coulomb force `-G_r^T s mu N`
+//! turns with the body as a constraint force does). The set is read at
+//! each Jacobian; a switch restarts the method, and with it the Jacobian.
 
 use faer::c64;
 use faer::dyn_stack::{MemBuffer, MemStack};
@@ -115,6 +122,11 @@ pub struct KktNewton {
     u_complex: Vec<c64>,
     rhs_real: Vec<f64>,
     rhs_complex: Vec<c64>,
+    /// The rows released by sliding skates at the Jacobian's point
+    /// ([`Dynamics::released_rows`]): a unit diagonal and zero couplings
+    /// in the Newton matrix, a zero right-hand side (their multipliers
+    /// are the friction's, held in `lambda`).
+    released: Vec<usize>,
 }
 
 impl std::fmt::Debug for KktNewton {
@@ -150,6 +162,10 @@ struct SparseFactors {
     at_kc: Vec<usize>,
     at_g: Vec<usize>,
     at_gt: Vec<usize>,
+    /// The rows a skate's friction may release (sorted), and the position
+    /// of the diagonal entry `(n + r, n + r)` of each.
+    releasable: Vec<usize>,
+    at_diag: Vec<usize>,
     symbolic: SymbolicLu<usize>,
     values_real: Vec<f64>,
     values_complex: Vec<c64>,
@@ -222,7 +238,9 @@ impl KktNewton {
         }
         let sparse = n + nc >= SPARSE_NEWTON_FROM || !sys.model.unrolled_kernels();
         let factors = if sparse {
-            Factors::Sparse(Box::new(SparseFactors::new(n, &pairs, &g_pattern)))
+            // the rows a skate's friction may release get a diagonal entry
+            let releasable: Vec<usize> = sys.friction.iter().map(|f| f.row).collect();
+            Factors::Sparse(Box::new(SparseFactors::new(n, &pairs, &g_pattern, &releasable)))
         } else {
             Factors::Dense { real: Box::new(DenseFactor::new(n + nc)), complex: Box::new(DenseFactor::new(n + nc)) }
         };
@@ -270,6 +288,7 @@ impl KktNewton {
             u_complex: vec![c64::new(0.0, 0.0); n],
             rhs_real: vec![0.0; n + nc],
             rhs_complex: vec![c64::new(0.0, 0.0); n + nc],
+            released: Vec::new(),
         }
     }
 
@@ -359,7 +378,11 @@ impl<M: Model> NewtonSystem<Dynamics<M>> for KktNewton {
         // the accelerations and multipliers at this state
         sys.rhs(t, y, &mut self.dy)?;
         self.qdd.copy_from_slice(&self.dy[n..2 * n]);
+        // a sliding skate's multiplier is its friction `s mu N`: the
+        // geometric stiffness below takes its force's turn with the body
         self.lambda.copy_from_slice(sys.lambda());
+        self.released.clear();
+        self.released.extend_from_slice(sys.released_rows());
         Self::constraint_terms(sys, q, v, &mut self.g_values, &mut self.gamma0, &mut self.phi);
         self.k_values.fill(0.0);
         self.c_values.fill(0.0);
@@ -432,6 +455,17 @@ impl<M: Model> NewtonSystem<Dynamics<M>> for KktNewton {
                     fc.a[(n + r, c)] = lower_complex(k);
                     fc.a[(c, n + r)] = c64::new(g, 0.0);
                 }
+                for &r in &self.released {
+                    for &e in &self.g_row[r] {
+                        let c = self.g_pattern[e].1;
+                        fr.a[(n + r, c)] = 0.0;
+                        fr.a[(c, n + r)] = 0.0;
+                        fc.a[(n + r, c)] = c64::new(0.0, 0.0);
+                        fc.a[(c, n + r)] = c64::new(0.0, 0.0);
+                    }
+                    fr.a[(n + r, n + r)] = 1.0;
+                    fc.a[(n + r, n + r)] = c64::new(1.0, 0.0);
+                }
                 fr.factor() && fc.factor()
             }
             Factors::Sparse(sp) => {
@@ -450,6 +484,17 @@ impl<M: Model> NewtonSystem<Dynamics<M>> for KktNewton {
                     sp.values_real[sp.at_gt[k]] += g;
                     sp.values_complex[sp.at_g[k]] += lower_complex(k);
                     sp.values_complex[sp.at_gt[k]] += c64::new(g, 0.0);
+                }
+                for &r in &self.released {
+                    for &e in &self.g_row[r] {
+                        for at in [sp.at_g[e], sp.at_gt[e]] {
+                            sp.values_real[at] = 0.0;
+                            sp.values_complex[at] = c64::new(0.0, 0.0);
+                        }
+                    }
+                    let at = sp.at_diag[sp.releasable.binary_search(&r).expect("a friction row")];
+                    sp.values_real[at] = 1.0;
+                    sp.values_complex[at] = c64::new(1.0, 0.0);
                 }
                 sp.factor()
             }
@@ -473,6 +518,9 @@ impl<M: Model> NewtonSystem<Dynamics<M>> for KktNewton {
         self.rhs_real[n..].fill(0.0);
         for ((&(r, c), &g), &gv) in self.g_pattern.iter().zip(&self.g_values).zip(&self.gv_values) {
             self.rhs_real[n + r] += g * self.u_real[c] + s * s * gv * b[c];
+        }
+        for &r in &self.released {
+            self.rhs_real[n + r] = 0.0;
         }
         match &mut self.factors {
             Factors::Dense { real, .. } => real.solve(&mut self.rhs_real),
@@ -514,6 +562,9 @@ impl<M: Model> NewtonSystem<Dynamics<M>> for KktNewton {
         for ((&(r, c), &g), &gv) in self.g_pattern.iter().zip(&self.g_values).zip(&self.gv_values) {
             self.rhs_complex[n + r] += self.u_complex[c] * g + s2 * b[c] * gv;
         }
+        for &r in &self.released {
+            self.rhs_complex[n + r] = c64::new(0.0, 0.0);
+        }
         match &mut self.factors {
             Factors::Dense { complex, .. } => complex.solve(&mut self.rhs_complex),
             Factors::Sparse(sp) => sp.solve_complex(&mut self.rhs_complex),
@@ -540,15 +591,19 @@ impl<M: Model> NewtonSystem<Dynamics<M>> for KktNewton {
 }
 
 impl SparseFactors {
-    /// The pattern of `[M + coupling, G^T; G, 0]` and its symbolic LU.
-    fn new(n: usize, kc: &[(usize, usize)], g: &[(usize, usize)]) -> Self {
+    /// The pattern of `[M + coupling, G^T; G, 0]` (with a diagonal entry
+    /// at each row of `releasable`) and its symbolic LU.
+    fn new(n: usize, kc: &[(usize, usize)], g: &[(usize, usize)], releasable: &[usize]) -> Self {
         let nc = g.iter().map(|&(r, _)| r + 1).max().unwrap_or(0);
         let dim = n + nc;
-        let mut entries: Vec<(usize, usize)> = Vec::with_capacity(n + kc.len() + 2 * g.len());
+        let mut entries: Vec<(usize, usize)> = Vec::with_capacity(n + kc.len() + 2 * g.len() + releasable.len());
         entries.extend((0..n).map(|i| (i, i)));
         entries.extend_from_slice(kc);
         entries.extend(g.iter().map(|&(r, c)| (n + r, c)));
         entries.extend(g.iter().map(|&(r, c)| (c, n + r)));
+        let mut releasable = releasable.to_vec();
+        releasable.sort_unstable();
+        entries.extend(releasable.iter().map(|&r| (n + r, n + r)));
         // compressed columns, rows sorted, duplicates merged
         let mut by_col: Vec<Vec<usize>> = vec![Vec::new(); dim];
         for &(r, c) in &entries {
@@ -571,6 +626,7 @@ impl SparseFactors {
         let at_kc = kc.iter().map(|&(r, c)| position(r, c)).collect();
         let at_g = g.iter().map(|&(r, c)| position(n + r, c)).collect();
         let at_gt = g.iter().map(|&(r, c)| position(c, n + r)).collect();
+        let at_diag = releasable.iter().map(|&r| position(n + r, n + r)).collect();
         let sym = SymbolicSparseColMatRef::new_checked(dim, dim, &col_ptr, None, &row_idx);
         let symbolic = factorize_symbolic_lu(sym, Default::default()).expect("symbolic LU only fails on allocation");
         let req = faer::dyn_stack::StackReq::any_of(&[
@@ -587,6 +643,8 @@ impl SparseFactors {
             at_kc,
             at_g,
             at_gt,
+            releasable,
+            at_diag,
             symbolic,
             values_real: vec![0.0; nnz],
             values_complex: vec![c64::new(0.0, 0.0); nnz],

@@ -1026,6 +1026,17 @@ impl Reduced {
         Ok(())
     }
 
+    /// Forgets the right-hand side [`Reduced::accept`] evaluated ahead
+    /// (and the expansion it is keyed by): the forces changed at this
+    /// state (an effect switched at an event), so the next evaluation
+    /// computes its own.
+    pub fn forget_evaluation(&mut self) {
+        if let Some(m) = &mut self.minimal {
+            m.dz_cached = false;
+        }
+        self.expanded_t = f64::NAN;
+    }
+
     /// The full state of the last accepted one ([`Reduced::accept`]).
     pub fn accepted(&self) -> &[f64] {
         &self.y_accepted

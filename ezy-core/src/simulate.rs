@@ -241,6 +241,10 @@ pub struct Summary {
     pub formulation: Formulation,
     /// Times the reduced formulation re-chose its partition.
     pub repartitions: u64,
+    /// Times the run went from the reduced formulation to the DAE (a
+    /// skate began to slide, a singular position) or back (every skate
+    /// sticks again).
+    pub handovers: u64,
     /// Whether the reduced formulation ran on the model's minimal
     /// coordinates (partition and expansion in closed form, from `model!`:
     /// [`crate::MinimalLayout`]).
@@ -420,6 +424,12 @@ struct Run<'a, M: Model, O: Observer<M>> {
     stop: Option<Vec<f64>>,
     /// The skates with friction: their switches' watch.
     slip: SlipWatch,
+    /// Whether the DAE hands back to the reduced formulation when every
+    /// skate sticks again (a run asked for the reduced one, with friction).
+    hand_back: bool,
+    /// Where the step loop handed over to the other formulation, and the
+    /// full state there ([`Run::switch_form`]).
+    handover: Option<(f64, Vec<f64>)>,
 }
 
 /// Switches of one skate at most this many accepted steps apart count as
@@ -450,6 +460,8 @@ struct SlipWatch {
     times: Vec<f64>,
     /// Scratch of [`crate::events::Event::value`].
     values: Vec<f64>,
+    /// Scratch: a full state on the step's continuous extension.
+    full: Vec<f64>,
 }
 
 impl SlipWatch {
@@ -466,7 +478,7 @@ impl SlipWatch {
     }
 }
 
-impl<M: Model, O: Observer<M>> Run<'_, M, O> {
+impl<'a, M: Model, O: Observer<M>> Run<'a, M, O> {
     /// Whether an event's sign changed in the accepted step ending at
     /// `t_new` with the integrator state `x_new` (the step's dense output
     /// is then needed: [`Run::locate_events`]); a step without counts
@@ -586,31 +598,32 @@ impl<M: Model, O: Observer<M>> Run<'_, M, O> {
 
     /// The earliest time in `(t, t_new]` at which a skate's margin falls
     /// through zero ([`Run::slip_crossed`]), located on the step's
-    /// continuous extension `interpolate(t, y)` (full states) as an
+    /// continuous extension `interpolate(sys, t, y)` (full states) as an
     /// event's crossing is ([`crate::events::locate`]).
     ///
     /// # Errors
-    /// As [`Dynamics::rhs`].
+    /// As [`Dynamics::rhs`], and as `interpolate`.
     #[cold]
     fn locate_slip(
         &mut self,
         sys: &mut Dynamics<M>,
         (t, t_new): (f64, f64),
-        mut interpolate: impl FnMut(f64, &mut [f64]),
+        mut interpolate: impl FnMut(&Dynamics<M>, f64, &mut [f64]) -> Result<(), SimError>,
     ) -> Result<f64, SimError> {
         let mut t_switch = t_new;
         let (w, nf) = (&mut self.slip, sys.friction.len());
         w.times.fill(f64::INFINITY);
+        w.full.resize(sys.ny(), 0.0);
         for k in 0..w.left.len() {
             if w.crossing(sys, k).is_none() {
                 continue;
             }
             let (l, r) = (w.left[k], w.right[k]);
-            let x = &mut self.event_x;
+            let x = &mut w.full;
             let te = if k < nf {
                 let margins = &mut w.scratch;
                 let g = |tau: f64| -> Result<f64, SimError> {
-                    interpolate(tau, x);
+                    interpolate(sys, tau, x)?;
                     sys.slip_margins_at(tau, x, margins)?;
                     Ok(margins[k])
                 };
@@ -619,7 +632,7 @@ impl<M: Model, O: Observer<M>> Run<'_, M, O> {
                 let (sys, values) = (&*sys, &mut w.values);
                 let e = &sys.events[w.switches[k - nf]];
                 let g = |tau: f64| -> Result<f64, SimError> {
-                    interpolate(tau, x);
+                    interpolate(sys, tau, x)?;
                     Ok(e.value(sys, tau, x, values))
                 };
                 crate::events::locate(g, t, l, t_new, r)?
@@ -697,6 +710,58 @@ impl<M: Model, O: Observer<M>> Run<'_, M, O> {
             w.left[nf + j] = if back { 0.0 } else { g };
         }
         Ok(())
+    }
+
+    /// At a switch at `t`, the accepted state `x` of `form`: the skates'
+    /// modes and the effects switched on the full state
+    /// ([`Run::switch_slip`]). Returns whether the run hands over to the
+    /// other formulation there (the reduced one to the DAE when a skate
+    /// begins to slide: it keeps every skate's row; the DAE back to it when
+    /// every skate sticks again): the step loop then ends, and
+    /// [`Run::handover`] holds the time and the full state.
+    ///
+    /// # Errors
+    /// As [`Run::switch_slip`].
+    #[cold]
+    fn switch_form<F: Integrand<M>>(
+        &mut self,
+        form: &mut F,
+        sys: &mut Dynamics<M>,
+        t: f64,
+        x: &mut [f64],
+    ) -> Result<bool, RunError<O::Error>> {
+        let dae = form.solves_kkt();
+        let mut full = if dae { Vec::new() } else { form.accepted_full(x).to_vec() };
+        self.switch_slip(sys, t, if dae { &mut *x } else { &mut full })?;
+        // F at this state, evaluated ahead, had the old forces
+        form.forget_evaluation();
+        let sliding = !sys.released_rows().is_empty();
+        let hand = t < self.settings.t_end && if dae { self.hand_back && !sliding } else { sliding };
+        if hand {
+            self.handover = Some((t, if dae { x.to_vec() } else { full }));
+        }
+        Ok(hand)
+    }
+
+    /// Hands the run over to the DAE at `t` (`why`): its settings and a
+    /// projector with the released rows, and a note; the first hand-over
+    /// for a skate's slide is noted, the later ones are counted.
+    #[cold]
+    fn note_handover(&mut self, sys: &Dynamics<M>, t: f64, dae: &'a RunSettings, why: &str) {
+        self.settings = dae;
+        self.proj = Projector::<M>::new(&sys.model, dae.projection, &sys.mass).with_drives(&sys.drives);
+        let rows = sys.released_rows();
+        self.proj.release(rows);
+        self.resid.released.set(&sys.info.pattern, rows);
+        self.summary.projection_path = self.proj.path();
+        self.summary.handovers += 1;
+        if self.summary.handovers == 1 {
+            self.observer.note(&format!(
+                "{why}: the DAE, projected with {}, takes over from t = {t:.6} s{}",
+                dae.projection.name(),
+                if self.hand_back { " until every skate sticks again" } else { "" }
+            ));
+        }
     }
 
     /// Ends a run at the event at `t_stop` inside the step from `t`: the
@@ -1182,6 +1247,23 @@ trait Integrand<M: Model> {
     fn settle(&mut self, _sys: &Dynamics<M>, _t: f64, _x: &mut [f64]) -> Result<bool, SimError> {
         Ok(false)
     }
+    /// Whether `eval` solves the KKT system of the full state, so that
+    /// the skates' margins are read from its multipliers (the DAE's).
+    fn solves_kkt(&self) -> bool {
+        false
+    }
+    /// The full state of the integrator state `x` at `t` into `out` (as
+    /// [`Integrand::full_of`]).
+    ///
+    /// # Errors
+    /// As [`Integrand::full_of`].
+    fn full_into(&mut self, sys: &Dynamics<M>, t: f64, x: &[f64], out: &mut [f64]) -> Result<(), SimError> {
+        out.copy_from_slice(self.full_of(sys, t, x)?);
+        Ok(())
+    }
+    /// Forgets what was evaluated ahead at the accepted state (the
+    /// forces changed there: a switch).
+    fn forget_evaluation(&mut self) {}
 }
 
 /// The DAE formulation: `x = y = [q, qd, W]`.
@@ -1245,6 +1327,9 @@ impl<M: Model> Integrand<M> for Dae {
     ) -> Result<(), RunError<O::Error>> {
         run.queue(sys, t, true, fill)
     }
+    fn solves_kkt(&self) -> bool {
+        true
+    }
 }
 
 impl<M: Model> Integrand<M> for Reduced {
@@ -1303,6 +1388,9 @@ impl<M: Model> Integrand<M> for Reduced {
     fn hands_over_near_singular(&self) -> bool {
         true
     }
+    fn forget_evaluation(&mut self) {
+        Reduced::forget_evaluation(self);
+    }
 }
 
 /// A formulation bound to its dynamics: the [`Rhs`] the steppers call.
@@ -1344,38 +1432,6 @@ pub fn simulate<M: Model, O: Observer<M>>(
     // the skates with friction: their modes at the start
     let start_slides = sys.start_friction(0.0, y0)?;
     check_switches(sys)?;
-    // what restarts at a switch: explicit methods on the DAE only
-    let switching = sys.events.iter().any(|e| e.action == crate::events::Action::Switch);
-    let (radau, reduced) =
-        (crate::error::Setting::Method(Method::Dopri5), crate::error::Setting::Formulation(Formulation::Dae));
-    let refusals = [
-        (
-            switching,
-            format!(
-                "RADAU5 does not restart at a switch yet; events that switch effects run with {radau} or another explicit method"
-            ),
-            format!(
-                "the reduced formulation does not restart at a switch yet; events that switch effects run with {reduced}"
-            ),
-        ),
-        (
-            !sys.friction.is_empty(),
-            format!(
-                "RADAU5's Newton matrix does not take the rows of sliding skates out yet; skates with friction run with {radau} or another explicit method"
-            ),
-            format!(
-                "the reduced formulation keeps every skate's row; a skate with friction releases its row while it slides: take {reduced}"
-            ),
-        ),
-    ];
-    for (applies, radau, reduced) in refusals {
-        let reason = match (applies, settings.method, settings.formulation) {
-            (true, Method::Radau5, _) => radau,
-            (true, _, Formulation::Reduced) => reduced,
-            _ => continue,
-        };
-        return Err(SimError::Formulation { reason }.into());
-    }
     let (nq, nc) = (sys.info.nq(), sys.info.nc());
     // constraints dependent at every configuration are the model's error;
     // at an instant (this one included) they are a singular position
@@ -1457,6 +1513,7 @@ pub fn simulate<M: Model, O: Observer<M>>(
             projections: 0,
             formulation: Formulation::Dae,
             repartitions: 0,
+            handovers: 0,
             minimal_coordinates: false,
             fused_rhs: false,
             integration_time: Duration::ZERO,
@@ -1489,6 +1546,10 @@ pub fn simulate<M: Model, O: Observer<M>>(
         event_x: Vec::new(),
         stop: None,
         slip: SlipWatch::default(),
+        // the reduced formulation keeps every skate's row: the DAE runs
+        // while one slides, and hands back when all stick
+        hand_back: formulation == Formulation::Reduced && !sys.friction.is_empty(),
+        handover: None,
     };
     if sys.switches() {
         let (nf, w) = (sys.friction.len(), &mut run.slip);
@@ -1532,43 +1593,77 @@ pub fn simulate<M: Model, O: Observer<M>>(
     }
     run.emit(sys, 0.0, y0)?;
     let start = Instant::now();
-    let (result, final_state) = match reduced {
-        Some(mut red) => {
-            run.summary.formulation = Formulation::Reduced;
-            run.summary.projection_path = "none: the reduced formulation keeps the constraints";
-            run.summary.minimal_coordinates = red.is_minimal();
-            run.summary.fused_rhs = red.is_fused();
-            let mut z = vec![0.0; red.nz(y0.len())];
-            red.gather(y0, &mut z);
-            let mut r = integrate(sys, &mut red, &mut z, &mut run);
-            run.summary.repartitions = red.repartitions;
-            let mut full = Integrand::<M>::accepted_full(&red, &z).to_vec();
-            // Where the dependent coordinates cannot be solved for (a
-            // singular position: the partition's block of G loses rank with
-            // G), an adaptive run hands over to the DAE, which passes it,
-            // from the last accepted state.
-            if let Err(RunError::Sim(SimError::Formulation { reason })) = &r
-                && settings.method.is_adaptive()
-                && dae_settings.formulation != Formulation::Dae
-            {
-                let t = run.t_reached;
-                run.observer.note(&format!(
-                    "the reduced formulation stopped ({reason}): the DAE, projected with {}, takes over from the last accepted state, t = {t:.6} s",
-                    dae_settings.projection.name()
-                ));
-                run.settings = dae_settings;
-                run.proj = Projector::<M>::new(&sys.model, dae_settings.projection, &sys.mass).with_drives(&sys.drives);
-                run.summary.projection_path = run.proj.path();
-                run.t_start = t;
-                r = integrate(sys, &mut Dae, &mut full, &mut run);
+    let mut reduced = reduced;
+    if let Some(red) = &reduced {
+        run.summary.formulation = Formulation::Reduced;
+        run.summary.projection_path = "none: the reduced formulation keeps the constraints";
+        run.summary.minimal_coordinates = red.is_minimal();
+        run.summary.fused_rhs = red.is_fused();
+    }
+    // a skate sliding at the start: the DAE first
+    if run.hand_back && !sys.released_rows().is_empty() {
+        reduced = None;
+        run.note_handover(sys, 0.0, dae_settings, "a skate slides at the start");
+    }
+    let mut y = y0.to_vec();
+    let result = loop {
+        let r = match reduced.as_mut() {
+            Some(red) => {
+                let mut z = vec![0.0; red.nz(y.len())];
+                red.gather(&y, &mut z);
+                let r = integrate(sys, red, &mut z, &mut run);
+                run.summary.repartitions += red.repartitions;
+                red.repartitions = 0;
+                y.copy_from_slice(Integrand::<M>::accepted_full(red, &z));
+                r
             }
-            (r, full)
+            None => integrate(sys, &mut Dae, &mut y, &mut run),
+        };
+        // a switch handed over: a skate began to slide (to the DAE), or
+        // every one sticks again (back to the reduced formulation)
+        if let (Ok(()), Some((t, state))) = (&r, run.handover.take()) {
+            y = state;
+            run.t_start = t;
+            if reduced.take().is_some() {
+                run.note_handover(sys, t, dae_settings, "a skate began to slide");
+            } else {
+                match Reduced::new(sys, t, &y) {
+                    Ok(red) => {
+                        run.summary.handovers += 1;
+                        run.settings = settings;
+                        run.proj = Projector::<M>::new(&sys.model, settings.projection, &sys.mass);
+                        reduced = Some(red);
+                    }
+                    Err(e) => {
+                        run.hand_back = false;
+                        run.observer.note(&format!(
+                            "the reduced formulation could not take over again at t = {t:.6} s ({e}): the DAE goes on"
+                        ));
+                    }
+                }
+            }
+            continue;
         }
-        None => {
-            let mut y = y0.to_vec();
-            (integrate(sys, &mut Dae, &mut y, &mut run), y)
+        // Where the dependent coordinates cannot be solved for (a
+        // singular position: the partition's block of G loses rank with
+        // G), an adaptive run hands over to the DAE, which passes it,
+        // from the last accepted state.
+        if let Err(RunError::Sim(SimError::Formulation { reason })) = &r
+            && reduced.is_some()
+            && settings.method.is_adaptive()
+            && dae_settings.formulation != Formulation::Dae
+        {
+            let t = run.t_reached;
+            let why = format!("the reduced formulation stopped ({reason})");
+            run.note_handover(sys, t, dae_settings, &why);
+            run.hand_back = false;
+            run.t_start = t;
+            reduced = None;
+            continue;
         }
+        break r;
     };
+    let final_state = y;
     // the samples queued before a failure are observed before it is
     // told; an observer that stopped the run (a signal) is not shown them:
     // it would stop again at the first of them and name its time, not the
@@ -1763,12 +1858,18 @@ fn fixed<M: Model, O: Observer<M>, F: Integrand<M>, S: FixedStep>(
     // margins; the next step starts from it (unless a switch changed it)
     let mut f_start = if friction { vec![0.0; x.len()] } else { Vec::new() };
     let mut f_known = false;
-    for i in 0..n {
-        let t = i as f64 * settings.dt;
-        let t_next = if i + 1 == n { settings.t_end } else { (i + 1) as f64 * settings.dt };
+    let grid = |i: u64| if i == n { settings.t_end } else { i as f64 * settings.dt };
+    // a hand-over's start (`run.t_start`) may lie between grid points: the
+    // first step then goes from it to the next one
+    let mut i0 = ((run.t_start / settings.dt).floor() as u64).min(n);
+    while i0 < n && grid(i0 + 1) <= run.t_start {
+        i0 += 1;
+    }
+    for i in i0..n {
+        let (t, t_next) = (grid(i), grid(i + 1));
         // a skate's switch cuts the step there: the method restarts from
         // the switch to the grid point (Hairer, Nørsett & Wanner I, §II.6)
-        let mut t_cur = t;
+        let mut t_cur = if i == i0 { t.max(run.t_start) } else { t };
         loop {
             if watch || friction {
                 x_start.copy_from_slice(x);
@@ -1784,7 +1885,8 @@ fn fixed<M: Model, O: Observer<M>, F: Integrand<M>, S: FixedStep>(
             form.accept(run, sys, t_cur, t_next, x, h, false)?;
             let slipped = friction && {
                 form.eval(sys, t_next, x, &mut f_end)?;
-                run.slip_crossed(sys, t_next, x, true)?
+                let evaluated = form.solves_kkt();
+                run.slip_crossed(sys, t_next, form.accepted_full(x), evaluated)?
             };
             let mut t_end = t_next;
             if slipped {
@@ -1792,14 +1894,16 @@ fn fixed<M: Model, O: Observer<M>, F: Integrand<M>, S: FixedStep>(
                 let interpolate = |tau: f64, out: &mut [f64]| {
                     crate::integrator::hermite((t_cur, &x_start, f_start), (t_next, x, &f_end), tau, out)
                 };
-                t_end = run.locate_slip(sys, (t_cur, t_next), interpolate)?;
+                t_end = run.locate_slip(sys, (t_cur, t_next), |sys, tau, out| {
+                    interpolate(tau, &mut x_cut);
+                    form.full_into(sys, tau, &x_cut, out)
+                })?;
                 if t_end < t_next {
+                    // the cut state accepted as a step's end (projected),
+                    // counted with the step it cuts
                     interpolate(t_end, &mut x_cut);
-                    if settings.projection != ProjectionKind::None {
-                        let nq = sys.nq();
-                        let (q, rest) = x_cut.split_at_mut(nq);
-                        run.proj.project(&sys.model, t_end, q, &mut rest[..nq])?;
-                    }
+                    form.accept(run, sys, t_cur, t_end, &mut x_cut, t_end - t_cur, false)?;
+                    run.summary.steps -= 1;
                 }
             }
             let x_end: &[f64] = if t_end < t_next { &x_cut } else { x };
@@ -1826,7 +1930,14 @@ fn fixed<M: Model, O: Observer<M>, F: Integrand<M>, S: FixedStep>(
             if t_end < t_next {
                 x.copy_from_slice(&x_cut);
             }
-            run.switch_slip(sys, t_end, x)?;
+            if run.switch_form(form, sys, t_end, x)? {
+                // the other formulation goes on from here; a sample due at
+                // the grid point reached is written first
+                if t_end == t_next && ((i + 1) % stride == 0 || i + 1 == n) {
+                    form.emit(run, sys, t_next, x)?;
+                }
+                return Ok(());
+            }
             if t_end == t_next {
                 break;
             }
@@ -1972,11 +2083,14 @@ fn adaptive<M: Model, O: Observer<M>, F: Integrand<M>, E: EmbeddedRk>(
         // a skate's switch cuts the step there (its state from the dense
         // output, projected), and the method restarts from it: k1 anew
         let mut t_new = t_new;
-        let slipped = run.slip_crossed(sys, t_new, &y_new, projected || !E::FSAL_IN_ESTIMATE)?;
+        let evaluated = (projected || !E::FSAL_IN_ESTIMATE) && form.solves_kkt();
+        let slipped = run.slip_crossed(sys, t_new, form.accepted_full(&y_new), evaluated)?;
         if slipped {
             stepper.prepare_dense(&mut Bound { sys, form }, t, y, &k1, h, &y_new, &k_new)?;
-            let t_switch = run.locate_slip(sys, (t, t_new), |t_out: f64, out: &mut [f64]| {
-                stepper.interpolate((t_out - t) / h, out)
+            let mut x = vec![0.0; ny];
+            let t_switch = run.locate_slip(sys, (t, t_new), |sys, t_out, out| {
+                stepper.interpolate((t_out - t) / h, &mut x);
+                form.full_into(sys, t_out, &x, out)
             })?;
             if t_switch < t_new {
                 stepper.interpolate((t_switch - t) / h, &mut y_new);
@@ -1999,7 +2113,9 @@ fn adaptive<M: Model, O: Observer<M>, F: Integrand<M>, E: EmbeddedRk>(
         }
         run.emit_dense(form, sys, t_new, &y_new, &mut n_out, |t_out, out| stepper.interpolate((t_out - t) / h, out))?;
         if slipped {
-            run.switch_slip(sys, t_new, &mut y_new)?;
+            if run.switch_form(form, sys, t_new, &mut y_new)? {
+                return Ok(());
+            }
             form.eval(sys, t_new, &y_new, &mut k_new)?;
         }
         // every 64 attempts, also when no output is due for long (tiny steps)
@@ -2060,16 +2176,38 @@ fn implicit<M: Model, O: Observer<M>>(
             }
             Attempt::Accepted { h_next } => h_next,
         };
-        let t_new = if last { settings.t_end } else { t + h };
+        let mut t_new = if last { settings.t_end } else { t + h };
         // the accepted state projected first: an output at t_new is it
         run.after_step(sys, t, t_new, &mut y_new, h)?;
         let interpolate = |t_out: f64, out: &mut [f64]| stepper.interpolate((t_out - t) / h, out);
+        // a skate's switch or a switching event cuts the step there (its
+        // state from the collocation polynomial, projected); the method
+        // restarts from it (see `adaptive`)
+        let slipped = run.slip_crossed(sys, t_new, &y_new, false)?;
+        if slipped {
+            let t_switch = run.locate_slip(sys, (t, t_new), |_, t_out, out| {
+                interpolate(t_out, out);
+                Ok(())
+            })?;
+            if t_switch < t_new {
+                interpolate(t_switch, &mut y_new);
+                run.after_step(sys, t, t_switch, &mut y_new, t_switch - t)?;
+                run.summary.steps -= 1;
+                t_new = t_switch;
+            }
+        }
         if run.event_crossed(&Dae, sys, t_new, &y_new)
             && let Some(t_stop) = run.locate_events(&mut Dae, sys, (t, t_new), &y_new, interpolate)?
         {
             return run.emit_stop(&mut Dae, sys, t_stop, &mut n_out, interpolate);
         }
         run.emit_dense(&mut Dae, sys, t_new, &y_new, &mut n_out, interpolate)?;
+        if slipped {
+            if run.switch_form(&mut Dae, sys, t_new, &mut y_new)? {
+                return Ok(());
+            }
+            stepper.restart();
+        }
         if (run.summary.steps + run.summary.rejected).is_multiple_of(64) {
             run.observer.progress(t_new);
         }

@@ -1601,7 +1601,9 @@ impl Scene {
     /// by the effect's name and the element's index (`gait` on `J3`:
     /// `gait3`); in its waveforms, `phase_step` \[rad\] is added to the
     /// phase once per element along the family (a travelling wave, e.g.
-    /// the serpenoid gait `tau_i = A sin(omega t + i delta)`). The
+    /// the serpenoid gait `tau_i = A sin(omega t + i delta)`). An event
+    /// that switches a family effect (`switch_off = ["gait"]`) switches
+    /// each of its elements; an element may be named alone (`gait3`). The
     /// elements' numbers stay bound to the scene parameters that gave them
     /// ([`Scene::bindings`]), except a `phase_step` and the `phase` it
     /// shifts, which differ per element: apply [`Scene::set`] first.
@@ -1615,6 +1617,8 @@ impl Scene {
         out.effects.clear();
         // every name given or made so far (a family of 10,000 makes as many)
         let mut taken: std::collections::HashSet<String> = self.effects.iter().map(|(n, _)| n.clone()).collect();
+        // each family effect's elements, for the events that switch it
+        let mut families: Vec<(&str, Vec<String>)> = Vec::new();
         for (name, spec) in &self.effects {
             let tree = toml::Value::try_from(spec).expect("an effect serializes");
             let field = ["hinge", "skate", "at"]
@@ -1673,7 +1677,25 @@ impl Scene {
                     ));
                 }
                 rebind(&bound, &tree, &expanded, &mut out.bindings);
-                out.effects.push((expanded, element_spec));
+                out.effects.push((expanded.clone(), element_spec));
+                match families.last_mut() {
+                    Some((n, members)) if *n == name.as_str() => members.push(expanded),
+                    _ => families.push((name.as_str(), vec![expanded])),
+                }
+            }
+        }
+        // an event switching a family effect switches each of its elements
+        for (_, event) in &mut out.events {
+            for list in [&mut event.switch_on, &mut event.switch_off] {
+                if list.iter().any(|n| families.iter().any(|(f, _)| f == n)) {
+                    *list = list
+                        .iter()
+                        .flat_map(|n| match families.iter().find(|(f, _)| f == n) {
+                            Some((_, members)) => members.clone(),
+                            None => vec![n.clone()],
+                        })
+                        .collect();
+                }
             }
         }
         // drives: `[drives."D[*]"]` gives every element of the drive family D

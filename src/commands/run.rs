@@ -447,6 +447,11 @@ pub fn summary(scene: &str, r: &Report) -> String {
     } else {
         format!("projection {} ({}), {} KKT path", r.settings.projection.name(), s.projection_path, s.kkt)
     };
+    // the DAE's turns while a skate slid (or past a singular position)
+    let kept = match s.handovers {
+        0 => kept,
+        n => format!("{kept}; {n} hand-overs to and from the DAE"),
+    };
     let _ = writeln!(out, "{scene}: {} {how} to t = {} s, {kept}", s.method.name(), short(r.settings.t_end));
     let _ = writeln!(
         out,

@@ -313,6 +313,23 @@ impl Radau5 {
         Ok(Attempt::Accepted { h_next: h * factor })
     }
 
+    /// Forgets what the steps so far carried over: the predictor of the
+    /// stage values (the next one starts from zero), the Jacobian and its
+    /// factors, and the controller's memory of the last step and error.
+    /// Called where the right-hand side changed at an instant (a skate's
+    /// switch, an event switching an effect): the next step starts as
+    /// the first one did.
+    pub fn restart(&mut self) {
+        self.have_dense = false;
+        self.jac_valid = false;
+        self.current_jac = false;
+        self.lu_h = None;
+        self.h_old = None;
+        self.err_old = None;
+        self.rejected = false;
+        self.faccon = 1.0;
+    }
+
     /// Sets the Newton iteration's stopping tolerance (scaled as the error
     /// norm; [`Radau5::new`] derives it from the tolerance). A tight one
     /// with a loose error tolerance makes every attempt accepted at the
