@@ -57,6 +57,7 @@ type Scaled = Described<Vec<scale::ScalePoint>>;
 struct ModelOps {
     info_with: ezy_scene::registry::InfoFn,
     run: fn(&Scene, &RunOptions) -> Result<Report, run::Error>,
+    run_in_memory: fn(&Scene, &RunOptions, Option<run::StopHook<'_>>) -> Result<Report, run::Error>,
     precision: fn(&Scene, &Path, &precision::PrecisionOptions) -> Result<precision::Report, run::Error>,
     equations: fn(&Sets, equations::Format) -> Result<String, String>,
     check: CheckFn,
@@ -81,6 +82,7 @@ impl ModelOps {
         Self {
             info_with: info_at::<M>,
             run: run::run_model::<M>,
+            run_in_memory: run::run_model_in_memory::<M>,
             precision: precision::precision_model::<M>,
             equations: |sets, format| Ok(equations::render(&with_sets::<M>(sets)?, format)),
             check: |sets, states, seed| {
@@ -473,6 +475,26 @@ impl App {
     pub fn run_scene(&self, scene: &Scene, opts: &RunOptions) -> Result<Report, run::Error> {
         match self.ops(&scene.model) {
             Some(ops) => (ops.run)(scene, opts),
+            None => Err(run::Error::UnknownModel { scene: scene.name.clone(), model: scene.model.clone() }),
+        }
+    }
+
+    /// Runs `scene` with `opts` on the model its `model` key names, in
+    /// memory: every output row in [`Report::table`], no file written
+    /// ([`run::run_model_in_memory`]); `stop`, asked after every step,
+    /// may end the run.
+    ///
+    /// # Errors
+    /// As [`run::run_model_in_memory`]; [`run::Error::UnknownModel`] for
+    /// a key this application lacks.
+    pub fn run_scene_in_memory(
+        &self,
+        scene: &Scene,
+        opts: &RunOptions,
+        stop: Option<run::StopHook<'_>>,
+    ) -> Result<Report, run::Error> {
+        match self.ops(&scene.model) {
+            Some(ops) => (ops.run_in_memory)(scene, opts, stop),
             None => Err(run::Error::UnknownModel { scene: scene.name.clone(), model: scene.model.clone() }),
         }
     }

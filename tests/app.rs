@@ -171,3 +171,41 @@ fn a_broken_scene_stops_only_what_reads_it() {
     let err = cli(&app, &["run", "broken-sleigh", "--out", out]).unwrap_err().to_string();
     assert!(err.contains("broken.toml") && err.contains("t_end"), "{err}");
 }
+
+/// The user's scene run in memory gives every row of the file run's
+/// `trajectory.csv`, number for number (the CSV holds each number's
+/// shortest round-trip form), with the same columns, and writes nothing;
+/// a stop hook ends it between steps with the time it reached.
+#[test]
+fn a_run_in_memory_is_the_file_run_without_files() {
+    let app = app();
+    let dir = tempfile::tempdir().unwrap();
+    let out_dir = dir.path().join("out");
+    let scene = app.load_scene("front-sleigh").unwrap().scene;
+    let opts = ezy::RunOptions { out: out_dir.clone(), figures: false, ..Default::default() };
+    let file = app.run_scene(&scene, &opts).unwrap();
+    let csv = std::fs::read_to_string(out_dir.join("trajectory.csv")).unwrap();
+    let memory_out = dir.path().join("never");
+    let opts = ezy::RunOptions { out: memory_out.clone(), ..opts };
+    let memory = app.run_scene_in_memory(&scene, &opts, None).unwrap();
+    assert!(!memory_out.exists() && memory.files.is_empty(), "the in-memory run wrote {:?}", memory.files);
+    let table = &memory.table;
+    let mut lines = csv.lines();
+    assert_eq!(lines.next().unwrap().split(',').collect::<Vec<_>>(), table.columns);
+    let rows: Vec<Vec<f64>> = lines.map(|l| l.split(',').map(|v| v.parse().unwrap()).collect()).collect();
+    assert_eq!(rows.len(), 41);
+    assert_eq!(table.rows(), rows.len());
+    for (k, row) in rows.iter().enumerate() {
+        assert_eq!(&table.data[k * row.len()..(k + 1) * row.len()], &row[..], "row {k}");
+    }
+    assert_eq!(memory.summary.final_state, file.summary.final_state);
+    // a hook that stops the run once it has passed t = 0.5 s
+    let mut stop = |t: f64| (t >= 0.5).then(|| "enough".to_string());
+    let err = app.run_scene_in_memory(&scene, &opts, Some(&mut stop)).unwrap_err();
+    match err {
+        ezy::commands::run::Error::Stopped { t, ref reason } => {
+            assert!((0.5..0.5 + 2e-3).contains(&t) && reason == "enough", "{err}");
+        }
+        e => panic!("{e}"),
+    }
+}

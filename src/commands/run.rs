@@ -41,6 +41,15 @@ pub enum Error {
     /// message names the file and the flag that asked for it.
     #[error("{0}")]
     Input(String),
+    /// The caller's stop hook ended an in-memory run between two steps
+    /// ([`run_model_in_memory`]: a notebook's interrupt).
+    #[error("the run was stopped at t = {t} s: {reason}")]
+    Stopped {
+        /// The time the run had reached \[s\].
+        t: f64,
+        /// What the hook said.
+        reason: String,
+    },
     /// The output directory cannot be created.
     #[error("cannot create output directory {path}: {source}")]
     OutDir {
@@ -316,15 +325,7 @@ pub fn run_model_tapped<M: Model + Default>(
             }
         }
     }
-    let mut warnings = initial.warnings();
-    if let Some((t, c)) = summary.ill_conditioned {
-        warnings.push(format!(
-            "from t = {} s the KKT system is ill-conditioned (estimate {c:.1e} > {:.0e}): constraints are nearly dependent, expect about {:.0e} relative accuracy in the constraint forces",
-            ezy_core::fmt_value(t),
-            ezy_core::dynamics::CONDITION_WARNING,
-            c * f64::EPSILON
-        ));
-    }
+    let warnings = run_warnings(&initial, &summary);
     let notes = initial.notes();
     let mut report = Report {
         summary,
@@ -350,6 +351,104 @@ pub fn run_model_tapped<M: Model + Default>(
     drop(beat);
     report.wall = wall.elapsed();
     Ok(report)
+}
+
+/// A caller's hook, asked after every accepted step with the time reached
+/// \[s\] whether to stop an in-memory run ([`run_model_in_memory`]):
+/// `Some(reason)` stops it with [`Error::Stopped`]. It is called often
+/// (every step): a hook that costs more than a comparison should look at
+/// the clock and do its work every few milliseconds only.
+pub type StopHook<'a> = &'a mut dyn FnMut(f64) -> Option<String>;
+
+/// [`run_model`] without files: every output row in [`Report::table`],
+/// with the columns `trajectory.csv` would have, and nothing written
+/// ([`RunOptions::out`], `figures` and `report` are not read). The notes
+/// a file run prints on stderr are in [`Report::notes`]. The table's size
+/// is refused before the run as `trajectory.csv`'s would be
+/// ([`output_budget`], [`RunOptions::max_output_mb`]). What a library or
+/// a notebook embeds (the Python package's `ezy.run`).
+///
+/// # Errors
+/// As [`run_model`] (no file errors); [`Error::Stopped`] when `stop`
+/// asked.
+pub fn run_model_in_memory<M: Model + Default>(
+    scene: &Scene,
+    opts: &RunOptions,
+    stop: Option<StopHook<'_>>,
+) -> Result<Report, Error> {
+    let wall = Instant::now();
+    let settings = settings(scene, opts)?;
+    let (problem, scene) = problem::<M>(scene, opts, settings)?;
+    let (mut sys, y0, initial) = problem.into_system()?;
+    let builder = RowBuilder::new(&scene, &sys);
+    let n = builder.columns.len();
+    output_budget(&settings, n, opts.max_output_mb.unwrap_or(DEFAULT_MAX_OUTPUT_MB))?;
+    let n_rows = (settings.n_steps() / settings.output_stride() + 2) as usize;
+    let table = Table { columns: builder.columns.clone(), data: Vec::with_capacity(n_rows * n) };
+    let mut obs = MemoryObserver { builder, row: Vec::with_capacity(n), table, stop, notes: Vec::new() };
+    let setup = wall.elapsed();
+    let summary = ezy_core::simulate(&mut sys, &y0, &settings, &mut obs).map_err(|e| match e {
+        RunError::Sim(e) => e.with_cause(&sys.mass, |k| sys.info.mass_entry_name(k)).into(),
+        RunError::Output(e) => e,
+    })?;
+    let mut notes = initial.notes();
+    notes.append(&mut obs.notes);
+    Ok(Report {
+        warnings: run_warnings(&initial, &summary),
+        summary,
+        table: obs.table,
+        settings,
+        state_names: sys.state_names(),
+        files: Vec::new(),
+        setup,
+        wall: wall.elapsed(),
+        notes,
+    })
+}
+
+/// The warnings of a run: the initial values' corrections, and an
+/// ill-conditioned KKT system.
+fn run_warnings(initial: &ezy_core::initial::InitialReport, summary: &Summary) -> Vec<String> {
+    let mut warnings = initial.warnings();
+    if let Some((t, c)) = summary.ill_conditioned {
+        warnings.push(format!(
+            "from t = {} s the KKT system is ill-conditioned (estimate {c:.1e} > {:.0e}): constraints are nearly dependent, expect about {:.0e} relative accuracy in the constraint forces",
+            ezy_core::fmt_value(t),
+            ezy_core::dynamics::CONDITION_WARNING,
+            c * f64::EPSILON
+        ));
+    }
+    warnings
+}
+
+/// The sink of [`run_model_in_memory`]: every row into a table.
+struct MemoryObserver<'a, M: Model> {
+    builder: RowBuilder<M>,
+    row: Vec<f64>,
+    table: Table,
+    stop: Option<StopHook<'a>>,
+    notes: Vec<String>,
+}
+
+impl<M: Model> ezy_core::Observer<M> for MemoryObserver<'_, M> {
+    type Error = Error;
+
+    fn observe(&mut self, sys: &Dynamics<M>, s: &ezy_core::Sample<'_>) -> Result<(), Error> {
+        self.builder.fill(sys, s, &mut self.row)?;
+        self.table.data.extend_from_slice(&self.row);
+        Ok(())
+    }
+
+    fn poll(&mut self, t: f64) -> Result<(), Error> {
+        match self.stop.as_mut().and_then(|hook| hook(t)) {
+            Some(reason) => Err(Error::Stopped { t, reason }),
+            None => Ok(()),
+        }
+    }
+
+    fn note(&mut self, text: &str) {
+        self.notes.push(text.to_string());
+    }
 }
 
 /// The page of `ezy run --report` (see [`crate::report`]).
