@@ -548,6 +548,24 @@ pub(crate) fn arm_signals() {
     }
 }
 
+/// Asks every run, sweep and output transaction of this process to stop
+/// at its next check, as a first `SIGINT` would ([`pending`] then returns
+/// [`Signal::Int`]): for a program that embeds ezy and catches the
+/// interrupt itself (the Python package on `KeyboardInterrupt`). Undo it
+/// with [`clear_stop`] once the stopped command has returned.
+pub fn request_stop() {
+    #[cfg(unix)]
+    WHICH.store(signal_hook::consts::SIGINT as usize, Ordering::SeqCst);
+    STOP.store(true, Ordering::SeqCst);
+}
+
+/// Forgets a stop asked by [`request_stop`] (or a signal), so that the next
+/// command of an embedding program runs.
+pub fn clear_stop() {
+    STOP.store(false, Ordering::SeqCst);
+    WHICH.store(0, Ordering::SeqCst);
+}
+
 /// The signal that asked this process to stop, if any.
 pub fn pending() -> Option<Signal> {
     if !STOP.load(Ordering::SeqCst) {

@@ -98,8 +98,14 @@ pub fn check_user_effects<M: Model + Default>(scene: &Scene) -> Result<(), Scene
     for (name, spec) in scene.effects.iter().filter(|(_, e)| matches!(e, SceneEffect::User(_))) {
         if let Err(e) = spec.resolve_in(name, &cx) {
             return Err(match e {
-                SimError::Effect { field, message, .. } if !field.is_empty() => {
-                    SceneError { path: vec!["effects".into(), name.clone(), field.into()], message }
+                // a field's error at the field; one of the whole table (an
+                // unknown field) at the effect, without an empty key
+                SimError::Effect { field, message, .. } => {
+                    let mut path = vec!["effects".into(), name.clone()];
+                    if !field.is_empty() {
+                        path.push(field.into());
+                    }
+                    SceneError { path, message }
                 }
                 e => SceneError { path: vec!["effects".into(), name.clone()], message: e.to_string() },
             });

@@ -1519,6 +1519,40 @@ impl Scene {
         })
     }
 
+    /// The numbers of effect or drive `item`, each with its full key path
+    /// (`torque.cos.amplitude`) in the order the scene gives them: what
+    /// [`Scene::set`] changes as `ITEM.KEY`. `None` if the scene has no
+    /// effect or drive of that name.
+    pub fn numbers(&self, item: &str) -> Option<Vec<(String, f64)>> {
+        let tree = if let Some((_, spec)) = self.effects.iter().find(|(n, _)| n == item) {
+            toml::Value::try_from(spec).ok()?
+        } else {
+            let (_, spec) = self.drives.iter().find(|(n, _)| n == item)?;
+            toml::Value::try_from(spec).ok()?
+        };
+        Some(
+            numeric_leaves(&tree)
+                .into_iter()
+                .filter_map(|leaf| {
+                    let mut v = &tree;
+                    for k in leaf.split('.') {
+                        v = match v {
+                            toml::Value::Table(t) => t.get(k)?,
+                            toml::Value::Array(a) => a.get(k.parse::<usize>().ok()?)?,
+                            _ => return None,
+                        };
+                    }
+                    let x = match v {
+                        toml::Value::Float(x) => *x,
+                        toml::Value::Integer(i) => *i as f64,
+                        _ => return None,
+                    };
+                    Some((leaf, x))
+                })
+                .collect(),
+        )
+    }
+
     /// Sets the bound number at `path` (`effects.ITEM...` or `drives.ITEM...`).
     fn set_bound(&mut self, path: &[String], value: f64) -> Result<(), ezy_core::SimError> {
         let fail = |message: String| ezy_core::SimError::Scene {

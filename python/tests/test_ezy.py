@@ -1,0 +1,236 @@
+"""The `ezy` Python package against the `ezy` command line of the same build.
+
+Run by `cargo test` (python/tests/pytest.rs), which puts the freshly built
+module on PYTHONPATH and the command line's directory in EZY_BIN_DIR.
+"""
+
+import json
+import os
+import signal
+import subprocess
+import threading
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import ezy
+
+BIN = Path(os.environ["EZY_BIN_DIR"]) / "ezy"
+WORKSPACE = Path(os.environ["EZY_WORKSPACE"])
+
+
+def cli(*args, cwd=None):
+    """Runs the command line; returns (exit status, stdout, stderr)."""
+    p = subprocess.run([str(BIN), *args], capture_output=True, text=True, cwd=cwd)
+    return p.returncode, p.stdout, p.stderr
+
+
+def cli_error(*args, cwd=None):
+    """The command line's error message (its stderr without `error: `)."""
+    code, _, err = cli(*args, cwd=cwd)
+    assert code != 0, args
+    assert err.startswith("error: "), err
+    return err[len("error: ") :].strip()
+
+
+def trajectory(out):
+    """trajectory.csv as (columns, 2-D array)."""
+    path = Path(out) / "trajectory.csv"
+    with open(path) as f:
+        columns = f.readline().strip().split(",")
+    return columns, np.loadtxt(path, delimiter=",", skiprows=1, ndmin=2)
+
+
+RUN = dict(integrator="dop853", rtol=1e-11, every=0.5, t_end=10.0)
+FLAGS = ["--integrator", "dop853", "--rtol", "1e-11", "--every", "0.5", "--t-end", "10"]
+
+
+def test_models_and_scenes_are_the_command_lines():
+    models = ezy.models()
+    assert "ezyroller" in models and models["ezyroller"]
+    scenes = ezy.scenes()
+    assert "drive" in scenes and "four-bar" in scenes
+    _, listing, _ = cli("list")
+    for name in scenes:
+        assert f"  {name} " in listing
+    for key in models:
+        assert f"  {key} " in listing
+
+
+def test_a_run_equals_the_command_line_to_the_last_digit(tmp_path):
+    r = ezy.run("drive", **RUN)
+    code, _, err = cli("run", "drive", *FLAGS, "--no-figures", "--out", str(tmp_path))
+    assert code == 0, err
+    columns, table = trajectory(tmp_path)
+    assert r.columns == columns
+    # the CSV holds each number's shortest round-trip decimal: parsed back,
+    # it is the same double, so the arrays are equal bit for bit
+    assert r.data.shape == table.shape == (21, len(columns))
+    assert np.array_equal(r.data, table)
+    # the summary's final state line is the command line's
+    final = [l for l in r.summary.splitlines() if "final state" in l]
+    code, out, _ = cli("run", "drive", *FLAGS, "--no-figures", "--out", str(tmp_path / "again"))
+    assert final and final[0] in out
+
+
+def test_arrays_are_float64_views_of_one_table():
+    r = ezy.run("drive", **RUN)
+    assert r.data.dtype == np.float64 and r.data.ndim == 2
+    assert r.data.flags["C_CONTIGUOUS"]
+    t, x1 = r.t, r["x1"]
+    assert t.shape == x1.shape == (r.data.shape[0],)
+    assert np.shares_memory(t, r.data) and np.shares_memory(x1, r.data)
+    assert t[0] == 0.0 and t[-1] == 10.0 and np.all(np.diff(t) == 0.5)
+    assert "x1" in r and "nonsense" not in r and len(r) == len(r.columns)
+    with pytest.raises(KeyError, match="no column `nonsense`.*its columns: t, x1"):
+        r["nonsense"]
+    df = r.to_pandas()
+    assert list(df.columns) == r.columns and df.shape == r.data.shape
+    assert np.array_equal(df["phi2"].to_numpy(), r["phi2"])
+    assert r.stats["method"] == "dop853" and r.stats["steps"] > 0
+    assert r.stats["rhs_evals"] >= r.stats["steps"]
+    assert "drive" in repr(r) and "21 rows" in repr(r)
+
+
+def test_errors_carry_the_command_lines_messages(tmp_path):
+    with pytest.raises(ezy.EzyError) as e:
+        ezy.run("no-such-scene")
+    assert str(e.value) == cli_error("run", "no-such-scene")
+    with pytest.raises(ezy.EzyError) as e:
+        ezy.run("drive", set={"motor.bogus": 1.0})
+    assert str(e.value) == cli_error("run", "drive", "--set", "motor.bogus=1", "--out", str(tmp_path / "x"))
+    with pytest.raises(ezy.EzyError, match="rtol"):
+        ezy.run("drive", rtol=-1.0)
+    with pytest.raises(TypeError, match="unexpected keyword `rtl`; its settings: set, integrator"):
+        ezy.run("drive", rtl=1e-9)
+    with pytest.raises(ValueError, match="`rtol` = tight is not a number"):
+        ezy.run("drive", rtol="tight")
+    with pytest.raises(ezy.EzyError, match='integrator="rk5".*rk4'):
+        ezy.run("drive", integrator="rk5")
+    # a bad scene file: the file, line and key, as the command line says
+    bad = tmp_path / "bad.toml"
+    text = (WORKSPACE / "models" / "scenes" / "sleigh.toml").read_text()
+    bad.write_text(text.replace("t_end = ", "t_end = -", 1))
+    with pytest.raises(ezy.EzyError) as e:
+        ezy.run(str(bad))
+    assert str(e.value) == cli_error("run", str(bad))
+    assert "bad.toml" in str(e.value) and "t_end" in str(e.value)
+    with pytest.raises(ezy.EzyError) as e:
+        ezy.equations("no-such-model")
+    assert str(e.value) == cli_error("equations", "no-such-model")
+
+
+def test_a_scene_object_changes_what_set_changes(tmp_path):
+    s = ezy.scene("drive")
+    assert s.name == "drive" and s.model == "ezyroller"
+    motor = s.effects["motor"]
+    assert motor.amplitude == 2.0 and s["M0"] == 2.0
+    motor.amplitude = 1.0
+    assert motor.amplitude == 1.0 and s.sets == [("motor.amplitude", 1.0)]
+    assert motor.numbers()["torque.cos.amplitude"] == 1.0
+    r = s.run(**RUN)
+    code, _, err = cli("run", "drive", *FLAGS, "--set", "motor.amplitude=1", "--no-figures", "--out", str(tmp_path))
+    assert code == 0, err
+    _, table = trajectory(tmp_path)
+    assert np.array_equal(r.data, table)
+    # a scene parameter moves every number bound to it
+    s2 = ezy.scene("drive")
+    s2["M0"] = 0.5
+    assert s2.effects["motor"].amplitude == 0.5 and s2.params["M0"] == 0.5
+    assert np.array_equal(ezy.run(s2, **RUN).data, ezy.run("drive", set={"M0": 0.5}, **RUN).data)
+    # refused at once, with the command line's message
+    with pytest.raises(ezy.EzyError) as e:
+        s2.effects["motor"].bogus = 1.0
+    assert str(e.value) == cli_error("run", "drive", "--set", "motor.bogus=1", "--out", str(tmp_path / "y"))
+    with pytest.raises(ezy.EzyError, match="finite"):
+        s2["M0"] = float("nan")
+    with pytest.raises(AttributeError, match="its numbers: torque.cos.amplitude"):
+        s2.effects["motor"].bogus
+    assert s2.sets == [("M0", 0.5)]
+
+
+def test_ctrl_c_stops_a_run_within_a_second():
+    # about a minute of RK4 steps if nothing stopped it
+    timer = threading.Timer(0.5, lambda: os.kill(os.getpid(), signal.SIGINT))
+    timer.start()
+    start = time.monotonic()
+    with pytest.raises(KeyboardInterrupt):
+        ezy.run("drive", integrator="rk4", dt=1e-5, t_end=600.0, every=10.0)
+    elapsed = time.monotonic() - start - 0.5
+    timer.join()
+    assert elapsed < 1.0, f"the run took {elapsed:.2f} s to stop"
+    # and the module runs again afterwards
+    assert ezy.run("drive", **RUN).data.shape[0] == 21
+
+
+def test_a_sweep_is_a_dataframe_of_the_runs():
+    df = ezy.sweep("drive", {"M0": [1.0, 2.0, 3.0]}, metrics=["final(T)"], jobs=1, **RUN)
+    assert list(df["M0"]) == [1.0, 2.0, 3.0] and list(df["status"]) == ["ok"] * 3
+    for m0, final_t in zip(df["M0"], df["final(T)"]):
+        r = ezy.run("drive", set={"M0": m0}, **RUN)
+        assert final_t == r["T"][-1]
+    grid = ezy.sweep(ezy.scene("drive").set("omega", 2.0), {"M0": "1:2:3"}, jobs=2, **RUN)
+    assert list(grid["M0"]) == [1.0, 1.5, 2.0]
+    with pytest.raises(ezy.EzyError, match="--grid"):
+        ezy.sweep("drive", {"M0": "1:2"}, **RUN)
+    with pytest.raises(ezy.EzyError, match="grid"):
+        ezy.sweep("drive", {}, **RUN)
+
+
+def test_equations_render_as_latex_and_text():
+    e = ezy.equations("ezyroller")
+    latex = e._repr_latex_()
+    assert "\\begin{align*}" in latex and "\\documentclass" not in latex
+    assert "\\gamma_{\\text{A}}" in latex
+    _, text, _ = cli("equations", "ezyroller")
+    assert str(e) == text
+    assert ezy.equations("snake", set={"N": 3}).text != ezy.equations("snake", set={"N": 4}).text
+
+
+def test_check_passes_for_a_built_in_model():
+    c = ezy.check("ezyroller", states=2, seed=3)
+    assert c.passed and bool(c) and "ezyroller" in c.table.lower()
+
+
+def test_figures_are_drawn_only_when_asked():
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    r = ezy.run("drive", **RUN)
+    assert r.figures[:2] == ["fig3_paths", "fig4_speed"]
+    fig = r.plot("fig3_paths")
+    assert len(fig.axes) == 1 and fig.axes[0].get_title().startswith("Paths")
+    labels = [l.get_label() for l in fig.axes[0].get_lines()]
+    assert "point A" in labels and "point C" in labels
+    xs = [l for l in fig.axes[0].get_lines() if l.get_label() == "point A"][0].get_xdata()
+    assert np.array_equal(xs, r["A.x"])
+    fig4 = r.plot("fig4_speed.png")
+    assert len(fig4.axes) == 2
+    with pytest.raises(KeyError, match="its figures: fig3_paths"):
+        r.plot("fig99")
+    plt.close("all")
+
+
+def test_the_guides_notebook_runs(tmp_path):
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    nb = json.loads((WORKSPACE / "docs" / "book" / "src" / "python.ipynb").read_text())
+    code = [c for c in nb["cells"] if c["cell_type"] == "code"]
+    assert len(code) >= 5
+    scope = {}
+    for cell in code:
+        exec(compile("".join(cell["source"]), "python.ipynb", "exec"), scope)
+    assert set(scope["sweep"]["M0"]) and scope["result"].data.shape[0] > 1000
+    plt.close("all")
+    # the guide's page shows the same cells, in order
+    page = (WORKSPACE / "docs" / "book" / "src" / "python.md").read_text()
+    shown = page.split("## The notebook", 1)[1].split("```python\n")[1:]
+    shown = [b.split("```", 1)[0].rstrip("\n") for b in shown]
+    assert shown == ["".join(c["source"]).rstrip("\n") for c in code]
