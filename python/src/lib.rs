@@ -48,6 +48,19 @@ pyo3::create_exception!(
     "A scene, model, setting or run that ezy refused; the message names the culprit (file, line, key, flag or value)."
 );
 
+/// The docstring of every module [`init_module`] fills.
+const MODULE_DOC: &str = "Planar vehicles and mechanisms with hinges and skates (ezy).
+
+run(scene, **settings)      a scene in memory: a Result with NumPy arrays
+sweep(scene, grid, ...)     runs over parameter values: a pandas DataFrame
+scene(name)                 a Scene to change (parameters, effects' numbers) and run
+models(), scenes()          what this module knows
+equations(model)            the derived equations (LaTeX in Jupyter)
+check(model)                the derived terms against automatic differentiation
+
+Refused input raises EzyError with the command line's message; Ctrl-C stops
+a run (KeyboardInterrupt).";
+
 /// How often a running integration asks Python for pending signals (Ctrl-C).
 const SIGNAL_POLL: Duration = Duration::from_millis(50);
 
@@ -77,9 +90,9 @@ macro_rules! python_module {
     };
 }
 
-/// The `ezy` module: the built-in vehicles and scenes (what the `ezy`
-/// command line knows). Named by hand, not by [`python_module!`]: a Rust
-/// item called `ezy` would hide the `ezy` crate in this one.
+// The `ezy` module: the built-in vehicles and scenes (what the `ezy`
+// command line knows). Named by hand, not by `python_module!`: a Rust item
+// called `ezy` would hide the `ezy` crate in this one.
 #[pymodule]
 #[pyo3(name = "ezy")]
 fn ezy_module(m: &Bound<'_, PyModule>) -> PyResult<()> {
@@ -113,6 +126,7 @@ pub fn init_module(m: &Bound<'_, PyModule>, app: App) -> PyResult<()> {
         m.add(f, kit.getattr(f)?)?;
     }
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
+    m.setattr("__doc__", MODULE_DOC)?;
     Ok(())
 }
 
