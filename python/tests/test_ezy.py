@@ -8,6 +8,7 @@ import json
 import os
 import signal
 import subprocess
+import sys
 import threading
 import time
 from pathlib import Path
@@ -225,8 +226,15 @@ def test_the_guides_notebook_runs(tmp_path):
     code = [c for c in nb["cells"] if c["cell_type"] == "code"]
     assert len(code) >= 5
     scope = {}
-    for cell in code:
-        exec(compile("".join(cell["source"]), "python.ipynb", "exec"), scope)
+    # as Jupyter runs it: from the notebook's directory
+    here, argv = os.getcwd(), list(sys.argv)
+    os.chdir(WORKSPACE / "docs" / "book" / "src")
+    try:
+        for cell in code:
+            exec(compile("".join(cell["source"]), "python.ipynb", "exec"), scope)
+    finally:
+        os.chdir(here)
+        sys.argv = argv
     assert set(scope["sweep"]["M0"]) and scope["result"].data.shape[0] > 1000
     plt.close("all")
     # the guide's page shows the same cells, in order
