@@ -333,42 +333,7 @@ impl Overrides {
     /// (what a Slurm script passes on, and how a sweep's manifest records
     /// them).
     pub fn to_args(&self) -> Vec<String> {
-        let mut a = Vec::new();
-        for (name, v) in &self.sets {
-            a.push("--set".into());
-            a.push(format!("{name}={v:?}"));
-        }
-        let mut num = |flag: &str, v: Option<f64>| {
-            if let Some(v) = v {
-                a.push(flag.into());
-                a.push(format!("{v:?}"));
-            }
-        };
-        num("--dt", self.dt);
-        num("--t-end", self.t_end);
-        num("--every", self.every);
-        num("--rtol", self.rtol);
-        num("--atol", self.atol);
-        num("--dpi", self.dpi);
-        if let Some(p) = self.projection {
-            a.extend(["--projection".into(), p.name().into()]);
-        }
-        if let Some(b) = self.baumgarte {
-            a.extend(["--baumgarte".into(), format!("{:?},{:?}", b.alpha, b.beta)]);
-        }
-        if let Some(f) = self.formulation {
-            a.extend(["--formulation".into(), f.name().into()]);
-        }
-        if let Some(m) = self.integrator {
-            a.extend(["--integrator".into(), m.name().into()]);
-        }
-        if let Some(n) = self.max_steps {
-            a.extend(["--max-steps".into(), n.to_string()]);
-        }
-        if let Some(f) = self.format {
-            a.extend(["--format".into(), f.name().into()]);
-        }
-        a
+        self.options().to_args()
     }
 }
 

@@ -1530,27 +1530,7 @@ impl Scene {
             let (_, spec) = self.drives.iter().find(|(n, _)| n == item)?;
             toml::Value::try_from(spec).ok()?
         };
-        Some(
-            numeric_leaves(&tree)
-                .into_iter()
-                .filter_map(|leaf| {
-                    let mut v = &tree;
-                    for k in leaf.split('.') {
-                        v = match v {
-                            toml::Value::Table(t) => t.get(k)?,
-                            toml::Value::Array(a) => a.get(k.parse::<usize>().ok()?)?,
-                            _ => return None,
-                        };
-                    }
-                    let x = match v {
-                        toml::Value::Float(x) => *x,
-                        toml::Value::Integer(i) => *i as f64,
-                        _ => return None,
-                    };
-                    Some((leaf, x))
-                })
-                .collect(),
-        )
+        Some(numeric_values(&tree))
     }
 
     /// Sets the bound number at `path` (`effects.ITEM...` or `drives.ITEM...`).
@@ -1980,10 +1960,16 @@ fn with_number<T: Serialize + serde::de::DeserializeOwned>(spec: &T, path: &[Str
 /// Dotted paths of the numbers in a TOML tree (`torque.cos.amplitude`,
 /// `torque.harmonics.1.omega`).
 fn numeric_leaves(v: &toml::Value) -> Vec<String> {
-    fn walk(v: &toml::Value, prefix: &str, out: &mut Vec<String>) {
+    numeric_values(v).into_iter().map(|(leaf, _)| leaf).collect()
+}
+
+/// Every number in `v` with its dotted key path (array items by index).
+fn numeric_values(v: &toml::Value) -> Vec<(String, f64)> {
+    fn walk(v: &toml::Value, prefix: &str, out: &mut Vec<(String, f64)>) {
         let join = |k: &str| if prefix.is_empty() { k.to_string() } else { format!("{prefix}.{k}") };
         match v {
-            toml::Value::Float(_) | toml::Value::Integer(_) => out.push(prefix.to_string()),
+            toml::Value::Float(x) => out.push((prefix.to_string(), *x)),
+            toml::Value::Integer(i) => out.push((prefix.to_string(), *i as f64)),
             toml::Value::Table(t) => t.iter().for_each(|(k, v)| walk(v, &join(k), out)),
             toml::Value::Array(a) => a.iter().enumerate().for_each(|(i, v)| walk(v, &join(&i.to_string()), out)),
             _ => {}

@@ -28,7 +28,6 @@ pub use pyo3;
 
 use std::ffi::CString;
 use std::path::PathBuf;
-use std::sync::Arc;
 use std::time::{Duration, Instant};
 
 use ezy::commands::run;
@@ -121,7 +120,7 @@ pub fn init_module(m: &Bound<'_, PyModule>, app: App) -> PyResult<()> {
     m.add_class::<Equations>()?;
     m.add_class::<Check>()?;
     m.add_class::<Toolkit>()?;
-    let kit = Bound::new(py, Toolkit { app: Arc::new(app), helpers: helpers.unbind() })?;
+    let kit = Bound::new(py, Toolkit { app, helpers: helpers.unbind() })?;
     for f in ["models", "scenes", "scene", "run", "sweep", "equations", "check"] {
         m.add(f, kit.getattr(f)?)?;
     }
@@ -137,7 +136,7 @@ fn ezy_err(e: impl std::fmt::Display) -> PyErr {
 /// The application behind a module: its models, effect kinds and scenes.
 #[pyclass(module = "ezy", frozen)]
 pub struct Toolkit {
-    app: Arc<App>,
+    app: App,
     helpers: Py<PyModule>,
 }
 
@@ -211,37 +210,6 @@ impl Overrides {
             max_steps: self.max_steps,
             ..RunOptions::default()
         })
-    }
-
-    /// The same overrides as command-line arguments (for `ezy sweep`).
-    fn args(&self) -> Vec<String> {
-        let mut a = Vec::new();
-        for (name, v) in &self.sets {
-            a.extend(["--set".into(), format!("{name}={v:?}")]);
-        }
-        for (flag, v) in [("--integrator", &self.integrator), ("--formulation", &self.formulation)] {
-            if let Some(v) = v {
-                a.extend([flag.to_string(), v.clone()]);
-            }
-        }
-        if let Some(v) = &self.projection {
-            a.extend(["--projection".to_string(), v.clone()]);
-        }
-        for (flag, v) in [
-            ("--rtol", self.rtol),
-            ("--atol", self.atol),
-            ("--dt", self.dt),
-            ("--t-end", self.t_end),
-            ("--every", self.every),
-        ] {
-            if let Some(v) = v {
-                a.extend([flag.to_string(), format!("{v:?}")]);
-            }
-        }
-        if let Some(n) = self.max_steps {
-            a.extend(["--max-steps".into(), n.to_string()]);
-        }
-        a
     }
 }
 
@@ -355,17 +323,11 @@ impl Toolkit {
     /// then `run` it.
     ///
     /// Raises EzyError for an unknown name or a bad file (file, line, key).
-    fn scene(&self, py: Python<'_>, name: &str) -> PyResult<PyScene> {
-        let src = self.app.load_scene(name).map_err(ezy_err)?;
-        let info = self.info(&src.scene.model, &src.scene.params)?;
-        Ok(PyScene {
-            app: Arc::clone(&self.app),
-            helpers: self.helpers.clone_ref(py),
-            src,
-            info,
-            sets: Vec::new(),
-            reference: name.to_string(),
-        })
+    fn scene(slf: &Bound<'_, Self>, name: &str) -> PyResult<PyScene> {
+        let this = slf.get();
+        let src = this.app.load_scene(name).map_err(ezy_err)?;
+        let info = this.info(&src.scene.model, &src.scene.params)?;
+        Ok(PyScene { kit: slf.clone().unbind(), src, info, sets: Vec::new(), reference: name.to_string() })
     }
 
     /// Runs `scene` (a name, a path or a `Scene`) in memory and returns a
@@ -443,7 +405,7 @@ impl Toolkit {
     ) -> PyResult<Bound<'py, PyAny>> {
         let Resolved { sets, reference, .. } = self.resolve(scene)?;
         let o = Overrides::new(sets, settings, "sweep")?;
-        o.options()?; // the keywords' own errors first, named as keywords
+        let opts = o.options()?; // the keywords' own errors first, named as keywords
         let temp = tempfile::Builder::new().prefix("ezy-sweep-").tempdir().map_err(ezy_err)?;
         let dir = out.unwrap_or_else(|| temp.path().join("sweep"));
         // the scene as it was named: a known scene's name or its file's path
@@ -469,7 +431,7 @@ impl Toolkit {
         for m in metrics.unwrap_or_default() {
             args.extend(["--metric".into(), m]);
         }
-        args.extend(o.args());
+        args.extend(opts.to_args());
         if let Some(j) = jobs {
             args.extend(["--jobs".into(), j.to_string()]);
         }
@@ -754,8 +716,8 @@ impl RunResult {
 /// with the command line's message; `scene.run(...)` runs it.
 #[pyclass(module = "ezy", name = "Scene")]
 pub struct PyScene {
-    app: Arc<App>,
-    helpers: Py<PyModule>,
+    /// The module's application, which runs it.
+    kit: Py<Toolkit>,
     src: SceneSource,
     info: ModelInfo,
     sets: Vec<(String, f64)>,
@@ -778,7 +740,9 @@ impl PyScene {
         trial.set(&self.info, name, value).map_err(ezy_err)?;
         // an effect kind of the user's own reads its fields when the run
         // is set up: checked now, as the command line's run would
-        self.app
+        self.kit
+            .get()
+            .app
             .check_user_effects(&trial.model, &trial)
             .map_err(|e| ezy_err(ezy_core::SimError::Scene { key: e.key(), message: e.message }))?;
         self.sets.retain(|(n, _)| n != name);
@@ -886,12 +850,8 @@ impl PyScene {
     /// Runs this scene with its changes; keywords as `ezy.run`.
     #[pyo3(signature = (**kwargs))]
     fn run<'py>(slf: &Bound<'py, Self>, kwargs: Option<&Bound<'py, PyDict>>) -> PyResult<Bound<'py, PyAny>> {
-        let py = slf.py();
-        let kit = {
-            let this = slf.borrow();
-            Bound::new(py, Toolkit { app: Arc::clone(&this.app), helpers: this.helpers.clone_ref(py) })?
-        };
-        kit.getattr("run")?.call((slf,), kwargs)
+        let kit = slf.borrow().kit.clone_ref(slf.py());
+        kit.bind(slf.py()).getattr("run")?.call((slf,), kwargs)
     }
 
     fn __repr__(&self) -> String {

@@ -116,6 +116,54 @@ pub struct RunOptions {
     pub max_output_mb: Option<f64>,
 }
 
+impl RunOptions {
+    /// The overrides as `ezy run` flags that parse back to them (what a
+    /// sweep's manifest records, a Slurm script passes on, and the Python
+    /// package's `sweep` hands to the command line): `--set`, the step,
+    /// duration, interval and tolerances, the resolution, projection,
+    /// Baumgarte, formulation, integrator, step budget and figure format.
+    /// The output directory, `figures`, `report`, `progress` and
+    /// `max_output_mb` are not overrides of the scene and are left out.
+    pub fn to_args(&self) -> Vec<String> {
+        let mut a = Vec::new();
+        for (name, v) in &self.sets {
+            a.push("--set".into());
+            a.push(format!("{name}={v:?}"));
+        }
+        let mut num = |flag: &str, v: Option<f64>| {
+            if let Some(v) = v {
+                a.push(flag.into());
+                a.push(format!("{v:?}"));
+            }
+        };
+        num("--dt", self.dt);
+        num("--t-end", self.t_end);
+        num("--every", self.every);
+        num("--rtol", self.rtol);
+        num("--atol", self.atol);
+        num("--dpi", self.dpi);
+        if let Some(p) = self.projection {
+            a.extend(["--projection".into(), p.name().into()]);
+        }
+        if let Some(b) = self.baumgarte {
+            a.extend(["--baumgarte".into(), format!("{:?},{:?}", b.alpha, b.beta)]);
+        }
+        if let Some(f) = self.formulation {
+            a.extend(["--formulation".into(), f.name().into()]);
+        }
+        if let Some(m) = self.method {
+            a.extend(["--integrator".into(), m.name().into()]);
+        }
+        if let Some(n) = self.max_steps {
+            a.extend(["--max-steps".into(), n.to_string()]);
+        }
+        if let Some(f) = self.figure_format {
+            a.extend(["--format".into(), f.name().into()]);
+        }
+        a
+    }
+}
+
 /// Default cap on the estimated size of `trajectory.csv`: 1000 MB (the
 /// `drive` scene writes 1.6 MB).
 pub const DEFAULT_MAX_OUTPUT_MB: f64 = 1000.0;
@@ -260,19 +308,15 @@ pub fn run_model_tapped<M: Model + Default>(
     // no thread, see `setup_may_be_long`), the figures, the report
     let mut beat = (opts.progress && setup_may_be_long::<M>(scene, &opts.sets))
         .then(|| crate::progress::Heartbeat::start(format!("setting up scene {}", scene.name)));
-    let (problem, scene) = problem::<M>(scene, opts, settings)?;
-    let (mut sys, y0, initial) = problem.into_system()?;
+    let Prepared { scene, mut sys, y0, initial, rows, n_rows } = prepare::<M>(scene, opts, &settings)?;
     let scene = &scene;
-    let rows = RowBuilder::new(scene, &sys);
-    output_budget(&settings, rows.columns.len(), opts.max_output_mb.unwrap_or(DEFAULT_MAX_OUTPUT_MB))?;
 
     // The output is a transaction: trajectory.csv and the figures are
     // written into a private directory and committed together (the CSV
     // last) only when all of them succeeded.
     let mut tx = Transaction::begin(&opts.out)?;
     let progress = if opts.progress { crate::progress::Progress::new(settings.t_end) } else { None };
-    let n_rows = settings.n_steps() / settings.output_stride() + 2;
-    let mut obs = CsvObserver::create(&mut tx, "trajectory.csv", rows, progress, n_rows as usize)?;
+    let mut obs = CsvObserver::create(&mut tx, "trajectory.csv", rows, progress, n_rows)?;
     if let Some(tap) = tap {
         obs = obs.with_tap(tap);
     }
@@ -285,7 +329,7 @@ pub fn run_model_tapped<M: Model + Default>(
         Err(e) => {
             obs.abandon();
             return Err(match e {
-                RunError::Sim(e) => e.with_cause(&sys.mass, |k| sys.info.mass_entry_name(k)).into(),
+                RunError::Sim(e) => located(&sys, e).into(),
                 RunError::Output(e) => e.into(),
             });
         }
@@ -378,17 +422,13 @@ pub fn run_model_in_memory<M: Model + Default>(
 ) -> Result<Report, Error> {
     let wall = Instant::now();
     let settings = settings(scene, opts)?;
-    let (problem, scene) = problem::<M>(scene, opts, settings)?;
-    let (mut sys, y0, initial) = problem.into_system()?;
-    let builder = RowBuilder::new(&scene, &sys);
+    let Prepared { mut sys, y0, initial, rows: builder, n_rows, .. } = prepare::<M>(scene, opts, &settings)?;
     let n = builder.columns.len();
-    output_budget(&settings, n, opts.max_output_mb.unwrap_or(DEFAULT_MAX_OUTPUT_MB))?;
-    let n_rows = (settings.n_steps() / settings.output_stride() + 2) as usize;
     let table = Table { columns: builder.columns.clone(), data: Vec::with_capacity(n_rows * n) };
     let mut obs = MemoryObserver { builder, row: Vec::with_capacity(n), table, stop, notes: Vec::new() };
     let setup = wall.elapsed();
     let summary = ezy_core::simulate(&mut sys, &y0, &settings, &mut obs).map_err(|e| match e {
-        RunError::Sim(e) => e.with_cause(&sys.mass, |k| sys.info.mass_entry_name(k)).into(),
+        RunError::Sim(e) => located(&sys, e).into(),
         RunError::Output(e) => e,
     })?;
     let mut notes = initial.notes();
@@ -404,6 +444,34 @@ pub fn run_model_in_memory<M: Model + Default>(
         wall: wall.elapsed(),
         notes,
     })
+}
+
+/// What a run sets up before its first step, whether it writes files or
+/// not: the configured scene, the system and its consistent initial
+/// state, the row layout (its size refused by [`output_budget`]) and the
+/// number of rows to expect.
+struct Prepared<M: Model> {
+    scene: Scene,
+    sys: Dynamics<M>,
+    y0: Vec<f64>,
+    initial: ezy_core::initial::InitialReport,
+    rows: RowBuilder<M>,
+    n_rows: usize,
+}
+
+fn prepare<M: Model + Default>(scene: &Scene, opts: &RunOptions, settings: &RunSettings) -> Result<Prepared<M>, Error> {
+    let (problem, scene) = problem::<M>(scene, opts, *settings)?;
+    let (sys, y0, initial) = problem.into_system()?;
+    let rows = RowBuilder::new(&scene, &sys);
+    output_budget(settings, rows.columns.len(), opts.max_output_mb.unwrap_or(DEFAULT_MAX_OUTPUT_MB))?;
+    let n_rows = (settings.n_steps() / settings.output_stride() + 2) as usize;
+    Ok(Prepared { scene, sys, y0, initial, rows, n_rows })
+}
+
+/// A numerical failure of a run with its likely cause among the mass
+/// matrix's entries (a zero mass or inertia), named.
+fn located<M: Model>(sys: &Dynamics<M>, e: SimError) -> SimError {
+    e.with_cause(&sys.mass, |k| sys.info.mass_entry_name(k))
 }
 
 /// The warnings of a run: the initial values' corrections, and an
