@@ -296,7 +296,7 @@ pub fn encode(svg: &str, format: FigureFormat, dpi: f64, title: &str) -> Result<
             let mut bytes = Vec::new();
             image::codecs::png::PngEncoder::new_with_quality(
                 &mut bytes,
-                image::codecs::png::CompressionType::Default,
+                image::codecs::png::CompressionType::Fast,
                 image::codecs::png::FilterType::Adaptive,
             )
             .write_image(&rgb, p.width(), p.height(), image::ColorType::Rgb8)
@@ -1000,6 +1000,55 @@ fn legend_corner(ctx: &Ctx<'_>, lines: &[&Line<'_>], extra: usize) -> (SeriesLab
     ))
 }
 
+/// Largest distance \[drawing units, 1/192 inch\] by which a point of a
+/// line may lie off the line drawn: the drawing rounds every point to a
+/// whole unit (plotters' integer coordinates) anyway.
+const LINE_TOLERANCE: f64 = 0.5;
+
+/// The points of `piece` that its line needs on the drawing, where `at`
+/// maps a point to drawing units: those the Ramer-Douglas-Peucker
+/// simplification keeps at [`LINE_TOLERANCE`] (Douglas & Peucker 1973,
+/// Cartographica 10(2)), in order, first and last always. A trajectory's
+/// 6,001 points over 1,700 units wide are mostly less than a unit apart:
+/// the rasterizer's and the PNG's work was in segments nobody can see
+/// (measured on the `drive` scene's figures: see the guide's performance
+/// chapter).
+fn on_the_drawing(piece: &[(f64, f64)], at: impl Fn(&(f64, f64)) -> (i32, i32)) -> Vec<(f64, f64)> {
+    let px: Vec<(f64, f64)> = piece.iter().map(at).map(|(x, y)| (f64::from(x), f64::from(y))).collect();
+    let mut keep = vec![false; piece.len()];
+    let last = piece.len().saturating_sub(1);
+    keep[0] = true;
+    keep[last] = true;
+    // the spans still to look at (an explicit stack: no recursion depth)
+    let mut spans = vec![(0, last)];
+    while let Some((a, b)) = spans.pop() {
+        if b <= a + 1 {
+            continue;
+        }
+        let (pa, pb) = (px[a], px[b]);
+        let (dx, dy) = (pb.0 - pa.0, pb.1 - pa.1);
+        let len2 = dx * dx + dy * dy;
+        // the farthest point from the chord as a segment (a point beyond
+        // its ends, where the line turns back, is measured to the end),
+        // by its squared distance
+        let (mut far, mut dmax) = (a, -1.0);
+        for (i, p) in px.iter().enumerate().take(b).skip(a + 1) {
+            let s = if len2 > 0.0 { (((p.0 - pa.0) * dx + (p.1 - pa.1) * dy) / len2).clamp(0.0, 1.0) } else { 0.0 };
+            let (ex, ey) = (p.0 - pa.0 - s * dx, p.1 - pa.1 - s * dy);
+            let d2 = ex * ex + ey * ey;
+            if d2 > dmax {
+                (far, dmax) = (i, d2);
+            }
+        }
+        if dmax > LINE_TOLERANCE * LINE_TOLERANCE {
+            keep[far] = true;
+            spans.push((a, far));
+            spans.push((far, b));
+        }
+    }
+    piece.iter().zip(&keep).filter(|(_, k)| **k).map(|(p, _)| *p).collect()
+}
+
 /// Whether the segment `a`-`b` touches the axis-aligned rectangle
 /// `(x0, y0, x1, y1)` (Liang-Barsky clipping).
 fn segment_hits_rect(a: (f64, f64), b: (f64, f64), (x0, y0, x1, y1): (f64, f64, f64, f64)) -> bool {
@@ -1069,14 +1118,14 @@ fn draw_contents<'a>(
                 ctx.draw_series(std::iter::once(Circle::new(*p, MARKER, color.filled()))).map_err(|e| e.to_string())?;
                 continue;
             }
+            let drawn = on_the_drawing(piece, |p| ctx.backend_coord(p));
             match line.dash {
                 None => {
-                    ctx.draw_series(LineSeries::new(piece.iter().copied(), style)).map_err(|e| e.to_string())?;
+                    ctx.draw_series(LineSeries::new(drawn, style)).map_err(|e| e.to_string())?;
                 }
                 Some(k) => {
                     let (on, off) = DASHES[k];
-                    ctx.draw_series(DashedLineSeries::new(piece.iter().copied(), on, off, style))
-                        .map_err(|e| e.to_string())?;
+                    ctx.draw_series(DashedLineSeries::new(drawn, on, off, style)).map_err(|e| e.to_string())?;
                     let every = (piece.len() / MARKERS_PER_SERIES).max(1);
                     let offset = every * (k + 1) / (DASHES.len() + 1);
                     ctx.draw_series(

@@ -202,7 +202,8 @@ fn a_scene_file_asks_for_its_formulation() {
     let ask = |value: &str| text.replace("[integrator]", &format!("[integrator]\nformulation = \"{value}\""));
     let scene = ezy_scene::Scene::from_toml(&ask("reduced"), "free.toml").unwrap();
     assert_eq!(scene.run_settings().formulation, Formulation::Reduced);
-    assert_eq!(ezy_scene::Scene::from_toml(&text, "free.toml").unwrap().run_settings().formulation, Formulation::Dae);
+    // none asked: auto, the fastest of the two for the run
+    assert_eq!(ezy_scene::Scene::from_toml(&text, "free.toml").unwrap().run_settings().formulation, Formulation::Auto);
     let e = ezy_scene::Scene::from_toml(&ask("reduce"), "free.toml").unwrap_err().to_string();
     assert!(e.starts_with("free.toml:13:") && e.contains("`reduce`") && e.contains("`dae`, `reduced`"), "{e}");
 }

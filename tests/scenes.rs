@@ -18,7 +18,14 @@ fn run<M: Model + Default>(
     projection: ProjectionKind,
 ) -> (Recorder, ezy_core::Summary) {
     let (mut sys, y0_scene) = build::<M>(scene, &[], KktMethod::Auto).expect("scene sets up");
-    let settings = RunSettings { projection, balance_limit: None, max_steps: None, ..scene.run_settings() };
+    // the DAE, whose projection these tests look at
+    let settings = RunSettings {
+        projection,
+        formulation: ezy_core::Formulation::Dae,
+        balance_limit: None,
+        max_steps: None,
+        ..scene.run_settings()
+    };
     let mut rec = Recorder::default();
     let summary = simulate(&mut sys, &y0.unwrap_or(y0_scene), &settings, &mut rec).expect("scene runs");
     (rec, summary)

@@ -16,6 +16,7 @@ mod adversarial_output;
 mod analysis;
 mod app;
 mod bench;
+mod build_sharing;
 mod cli;
 mod derived_terms;
 mod drives;

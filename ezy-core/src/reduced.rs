@@ -35,12 +35,12 @@ use crate::model::Model;
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize, serde::Deserialize)]
 #[serde(rename_all = "lowercase")]
 pub enum Formulation {
-    /// The reduced formulation where it pays, else the DAE: on the
+    /// The reduced formulation where it pays, else the DAE (the default): on the
     /// minimal coordinates `model!` derived ([`crate::MinimalLayout`]) for
     /// DOPRI5, DOP853 and RK4, else by [`Formulation::auto_takes_reduced`].
+    #[default]
     Auto,
     /// The index-1 DAE in all `q, qd` with coordinate projection.
-    #[default]
     Dae,
     /// Coordinate partitioning: only the independent `q_I, qd_I` are integrated.
     Reduced,
@@ -59,12 +59,12 @@ impl crate::Choice for Formulation {
     }
     fn help(self) -> &'static str {
         match self {
-            Self::Dae => "The index-1 DAE in all q, qd, projected after every step (the default)",
+            Self::Dae => "The index-1 DAE in all q, qd, projected after every step",
             Self::Reduced => {
                 "Only the independent q, qd are integrated, so no projection is needed or done: on the minimal coordinates model! derived where it could (the dependent ones in closed form), else on a partition whose dependent ones are recovered from the constraints at every evaluation (Wehage & Haug)"
             }
             Self::Auto => {
-                "Reduced for DOPRI5 and DOP853 on the minimal coordinates model! derived or with one degree of freedom; else the DAE"
+                "The fastest of the two for the run (the default): reduced for DOPRI5, DOP853 and RK4 on the minimal coordinates model! derived, and for DOPRI5 and DOP853 with one degree of freedom; else the DAE. The summary says which was taken"
             }
         }
     }

@@ -211,6 +211,16 @@ pub trait Observer<M: Model> {
     fn poll(&mut self, _t: f64) -> Result<(), Self::Error> {
         Ok(())
     }
+    /// Whether the output at `t` \[s\] is wanted: one that is not is
+    /// neither interpolated from the dense output (which costs an adaptive
+    /// method's extra stages) nor observed. The start, the final time and
+    /// an event's stop are always observed. The default wants every one; a
+    /// sink that reads a time window only (a sweep's `final` or windowed
+    /// metrics) saves the samples outside it. Results inside the window
+    /// are unchanged: outputs never shorten a step.
+    fn wants(&self, _t: f64) -> bool {
+        true
+    }
 }
 
 /// Why a run stopped early.
@@ -511,9 +521,23 @@ impl<'a, M: Model, O: Observer<M>> Run<'a, M, O> {
         &mut self,
         form: &mut F,
         sys: &Dynamics<M>,
-        (t, t_new): (f64, f64),
+        span: (f64, f64),
         x_new: &[f64],
         mut interpolate: impl FnMut(f64, &mut [f64]),
+    ) -> Result<Option<f64>, SimError> {
+        // one copy per formulation, not one per step loop's extension
+        self.locate_events_on(form, sys, span, x_new, &mut interpolate)
+    }
+
+    /// [`Run::locate_events`] on any continuous extension.
+    #[cold]
+    fn locate_events_on<F: Integrand<M>>(
+        &mut self,
+        form: &mut F,
+        sys: &Dynamics<M>,
+        (t, t_new): (f64, f64),
+        x_new: &[f64],
+        interpolate: &mut dyn FnMut(f64, &mut [f64]),
     ) -> Result<Option<f64>, SimError> {
         let mut found = std::mem::take(&mut self.monitor.found);
         found.clear();
@@ -529,7 +553,7 @@ impl<'a, M: Model, O: Observer<M>> Run<'a, M, O> {
             let te = crate::events::locate(g, t, l, t_new, r)?;
             found.push(Crossing { event: k, t: te, rising });
         }
-        found.sort_by(|a, b| a.t.total_cmp(&b.t));
+        in_time_order(&mut found);
         let mut stop = None;
         for c in &found {
             let e = &sys.events[c.event];
@@ -777,7 +801,9 @@ impl<'a, M: Model, O: Observer<M>> Run<'a, M, O> {
     ) -> Result<(), RunError<O::Error>> {
         while self.output_due(*n_out, t_stop) && self.out_time(*n_out) < t_stop {
             let t_out = self.out_time(*n_out);
-            form.emit_dense(self, sys, t_out, |x| interpolate(t_out, x))?;
+            if self.wanted(t_out) {
+                form.emit_dense(self, sys, t_out, |x| interpolate(t_out, x))?;
+            }
             *n_out += 1;
         }
         self.emit_stop_state(sys, t_stop)
@@ -1115,6 +1141,12 @@ impl<'a, M: Model, O: Observer<M>> Run<'a, M, O> {
         (k as f64 * self.settings.every).min(self.settings.t_end)
     }
 
+    /// Whether the output at `t` is to be observed: the final one always,
+    /// the others as the observer wants ([`Observer::wants`]).
+    fn wanted(&self, t: f64) -> bool {
+        t >= self.settings.t_end || self.observer.wants(t)
+    }
+
     /// Whether output number `n_out` is due in a step ending at `t_new`.
     fn output_due(&self, n_out: u64, t_new: f64) -> bool {
         n_out as f64 * self.settings.every <= self.settings.t_end * (1.0 + 1e-12) && self.out_time(n_out) <= t_new
@@ -1136,7 +1168,9 @@ impl<'a, M: Model, O: Observer<M>> Run<'a, M, O> {
     ) -> Result<(), RunError<O::Error>> {
         while self.output_due(*n_out, t_new) {
             let t_out = self.out_time(*n_out);
-            if t_out == t_new {
+            if !self.wanted(t_out) {
+                // skipped
+            } else if t_out == t_new {
                 form.emit(self, sys, t_out, x_new)?;
             } else {
                 form.emit_dense(self, sys, t_out, |x| interpolate(t_out, x))?;
@@ -1146,10 +1180,12 @@ impl<'a, M: Model, O: Observer<M>> Run<'a, M, O> {
         Ok(())
     }
 
-    /// Whether an output falls inside the step ending at `t_new`, not on
-    /// its end (only then is its dense output needed).
+    /// Whether a wanted output falls inside the step ending at `t_new`,
+    /// not on its end (only then is its dense output needed).
     fn output_inside(&self, n_out: u64, t_new: f64) -> bool {
-        self.output_due(n_out, t_new) && self.out_time(n_out) < t_new
+        (n_out..)
+            .take_while(|&k| self.output_due(k, t_new) && self.out_time(k) < t_new)
+            .any(|k| self.wanted(self.out_time(k)))
     }
 
     /// The final time is always written: the accepted `x` at `t_end`
@@ -1426,6 +1462,94 @@ pub fn simulate<M: Model, O: Observer<M>>(
     settings: &RunSettings,
     observer: &mut O,
 ) -> Result<Summary, RunError<O::Error>> {
+    // the step loop is compiled once per model, not once per model and
+    // observer: it sees every observer as `Erased` (seven observer types
+    // had made seven copies of it per model, most of the `ezy` crate's
+    // build time). The observer is called per sample and per step, where
+    // one indirect call is nothing against a right-hand side.
+    let mut parked = Parked { observer, error: None, _model: std::marker::PhantomData };
+    let result = simulate_erased(sys, y0, settings, &mut Erased(&mut parked));
+    result.map_err(|e| match e {
+        RunError::Sim(e) => RunError::Sim(e),
+        RunError::Output(Stopped) => RunError::Output(parked.error.take().expect("a stopped run parked its error")),
+    })
+}
+
+/// Sorts crossings by time (not generic: one copy of the sort).
+fn in_time_order(found: &mut [Crossing]) {
+    found.sort_by(|a, b| a.t.total_cmp(&b.t));
+}
+
+/// The observer's error, kept aside while the step loop unwinds.
+#[derive(Debug)]
+struct Stopped;
+
+/// An observer whose error is parked ([`Stopped`] goes up instead).
+struct Parked<'a, O: Observer<M>, M: Model> {
+    observer: &'a mut O,
+    error: Option<O::Error>,
+    _model: std::marker::PhantomData<fn(&M)>,
+}
+
+/// Every observer as one type: what [`simulate`]'s step loop is compiled for.
+struct Erased<'a, M: Model>(&'a mut dyn Observer<M, Error = Stopped>);
+
+impl<M: Model, O: Observer<M>> Parked<'_, O, M> {
+    fn park<T>(&mut self, r: Result<T, O::Error>) -> Result<T, Stopped> {
+        r.map_err(|e| {
+            self.error = Some(e);
+            Stopped
+        })
+    }
+}
+
+impl<M: Model, O: Observer<M>> Observer<M> for Parked<'_, O, M> {
+    type Error = Stopped;
+    fn observe(&mut self, sys: &Dynamics<M>, sample: &Sample<'_>) -> Result<(), Stopped> {
+        let r = self.observer.observe(sys, sample);
+        self.park(r)
+    }
+    fn progress(&mut self, t: f64) {
+        self.observer.progress(t);
+    }
+    fn note(&mut self, text: &str) {
+        self.observer.note(text);
+    }
+    fn poll(&mut self, t: f64) -> Result<(), Stopped> {
+        let r = self.observer.poll(t);
+        self.park(r)
+    }
+    fn wants(&self, t: f64) -> bool {
+        self.observer.wants(t)
+    }
+}
+
+impl<M: Model> Observer<M> for Erased<'_, M> {
+    type Error = Stopped;
+    fn observe(&mut self, sys: &Dynamics<M>, sample: &Sample<'_>) -> Result<(), Stopped> {
+        self.0.observe(sys, sample)
+    }
+    fn progress(&mut self, t: f64) {
+        self.0.progress(t);
+    }
+    fn note(&mut self, text: &str) {
+        self.0.note(text);
+    }
+    fn poll(&mut self, t: f64) -> Result<(), Stopped> {
+        self.0.poll(t)
+    }
+    fn wants(&self, t: f64) -> bool {
+        self.0.wants(t)
+    }
+}
+
+/// [`simulate`] for the one observer type the step loop is built for.
+fn simulate_erased<M: Model>(
+    sys: &mut Dynamics<M>,
+    y0: &[f64],
+    settings: &RunSettings,
+    observer: &mut Erased<'_, M>,
+) -> Result<Summary, RunError<Stopped>> {
     settings.validate()?;
     // before any formulation is built on it
     check_initial(sys, y0)?;
@@ -1459,6 +1583,19 @@ pub fn simulate<M: Model, O: Observer<M>>(
                 .then(|| Reduced::new(sys, 0.0, y0).ok())
                 .flatten()
                 .filter(|r| if r.is_minimal() { minimal } else { numeric && r.is_linear() })
+                // and only if it evaluates at the start: where it cannot
+                // (masses spread beyond double precision), the DAE runs,
+                // and fails, if it does, with the cause named
+                .filter(|r| {
+                    let mut r = r.clone();
+                    let mut z = vec![0.0; r.nz(y0.len())];
+                    r.gather(y0, &mut z);
+                    let mut dz = vec![0.0; z.len()];
+                    let counters = sys.counters;
+                    let ok = Integrand::<M>::eval(&mut r, sys, 0.0, &z, &mut dz).is_ok();
+                    sys.counters = counters;
+                    ok
+                })
         }
     };
     let formulation = if reduced.is_some() { Formulation::Reduced } else { Formulation::Dae };
@@ -1944,11 +2081,11 @@ fn fixed<M: Model, O: Observer<M>, F: Integrand<M>, S: FixedStep>(
             t_cur = t_end;
         }
         run.observer.poll(t_next).map_err(RunError::Output)?;
-        if (i + 1) % stride == 0 || i + 1 == n {
+        if ((i + 1) % stride == 0 && run.wanted(t_next)) || i + 1 == n {
             form.emit(run, sys, t_next, x)?;
-            if (i + 1) % (stride * 64) == 0 {
-                run.observer.progress(t_next);
-            }
+        }
+        if (i + 1) % (stride * 64) == 0 {
+            run.observer.progress(t_next);
         }
         form.settle(sys, t_next, x)?;
     }

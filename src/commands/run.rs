@@ -614,6 +614,8 @@ pub fn summary(scene: &str, r: &Report) -> String {
     } else {
         format!("projection {} ({}), {} KKT path", r.settings.projection.name(), s.projection_path, s.kkt)
     };
+    // which formulation auto (the default) took, and that it chose
+    let kept = if r.settings.formulation == ezy_core::Formulation::Auto { format!("{kept} (auto)") } else { kept };
     // the DAE's turns while a skate slid (or past a singular position)
     let kept = match s.handovers {
         0 => kept,

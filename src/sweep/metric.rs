@@ -272,6 +272,21 @@ impl Accumulator {
         })
     }
 
+    /// Whether the output row at `t` \[s\] can change the value, on an
+    /// output grid of `every` \[s\]: a row in the window; for `final`,
+    /// only the window's last row (the run's last one without a window);
+    /// for the event metrics, none. (`from_start` and `balance_gap` also
+    /// read the run's first row, which a run always outputs.)
+    pub fn reads(&self, t: f64, every: f64) -> bool {
+        match self.reduce {
+            Reduce::EventTime | Reduce::EventCount => false,
+            // the last grid row at or before t1 lies within one interval
+            // of it (a margin of half an interval for rounding)
+            Reduce::Final => t <= self.t1 && t >= self.t0 && t > self.t1 - 1.5 * every,
+            Reduce::Mean | Reduce::Max | Reduce::Min => t >= self.t0 && t <= self.t1,
+        }
+    }
+
     /// Takes one output row (`row[0]` is the time \[s\]).
     pub fn push(&mut self, row: &[f64]) {
         let (a, b) = (row[self.inputs[0]], row[self.inputs[1]]);
@@ -356,6 +371,18 @@ mod tests {
             }
             assert_eq!(acc.value(&m).unwrap(), v, "{text}");
         }
+    }
+
+    #[test]
+    fn reads_only_its_window() {
+        let reads = |text: &str, t: f64| Accumulator::new(&text.parse().unwrap(), &cols()).unwrap().reads(t, 0.01);
+        // the run's last row is observed whatever the observer wants
+        assert!(!reads("final(x)", 59.0) && !reads("final(x)", 60.0));
+        assert!(reads("final(x, 1, 2)", 2.0) && reads("final(x, 1, 2)", 1.995) && !reads("final(x, 1, 2)", 1.98));
+        assert!(!reads("final(x, 1, 2)", 2.01));
+        assert!(reads("mean(x, 1, 2)", 1.0) && reads("mean(x, 1, 2)", 2.0) && !reads("mean(x, 1, 2)", 0.99));
+        assert!(reads("max(x)", 0.0) && reads("min(x)", 1e9));
+        assert!(!reads("max(x, 3, 4)", 2.0));
     }
 
     #[test]

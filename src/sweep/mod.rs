@@ -366,6 +366,9 @@ struct Quiet<M: Model> {
     rows: Option<RowBuilder<M>>,
     row: Vec<f64>,
     tap: Tap,
+    /// The output interval \[s\]: outputs the metrics do not read are
+    /// not made ([`Observer::wants`]).
+    every: f64,
 }
 
 /// Why [`Quiet`] stopped a run.
@@ -389,6 +392,10 @@ impl<M: Model> Observer<M> for Quiet<M> {
 
     fn poll(&mut self, _t: f64) -> Result<(), Stop> {
         poll()
+    }
+
+    fn wants(&self, t: f64) -> bool {
+        self.tap.accs.iter().any(|a| a.reads(t, self.every))
     }
 }
 
@@ -449,7 +456,7 @@ fn one_run<M: Model + Default>(
         Some(r) => job.metrics.iter().map(|m| metric::Accumulator::new(m, &r.columns)).collect::<Result<_, _>>(),
         None => Ok(Vec::new()),
     };
-    let mut obs = Quiet { rows, row: Vec::new(), tap: Tap::new(accs.map_err(Ok)?) };
+    let mut obs = Quiet { rows, row: Vec::new(), tap: Tap::new(accs.map_err(Ok)?), every: settings.every };
     match ezy_core::simulate(&mut sys, &y0, settings, &mut obs) {
         Ok(summary) => {
             let state_names = sys.state_names();
