@@ -1,21 +1,23 @@
 //! `ezy bench`: what an accurate trajectory costs, in one run.
 //!
-//! For a scene (the drive scene by default) it measures six settings
+//! For a scene (the drive scene by default) it measures seven settings
 //! in this process, against a reference computed by ezy itself (DOP853 at
 //! rtol = atol = 1e-13, projected):
 //!
-//! 1. DOP853 at rtol = atol = 1e-11, projected, one output at the end: the
-//!    integration alone;
+//! 1. DOP853 at rtol = atol = 1e-11 as typed without a formulation (the
+//!    default, `auto`: on the `drive` scene the minimal coordinates), one
+//!    output at the end: the integration alone;
 //! 2. the same with an output every 0.01 s (dense output at each sample);
-//! 3. DOP853 at rtol = atol = 3e-11 in the reduced formulation (on the
+//! 3. DOP853 at rtol = atol = 1e-11 in the DAE, projected, one output at
+//!    the end;
+//! 4. DOP853 at rtol = atol = 3e-11 in the reduced formulation (on the
 //!    minimal coordinates `model!` derived where there are some, else a
-//!    numeric partition; no projection), one output at the end;
-//! 4. the same with an output every 0.01 s (the fastest accurate setting
-//!    with the default output);
-//! 5. the scene's own setting (for `drive`, the assignment's RK4 at
-//!    h = 1e-4 s with projection);
-//! 6. the same in the `auto` formulation (for `drive`, RK4 on the minimal
-//!    coordinates, no projection needed).
+//!    numeric partition; no projection), one output at the end: about
+//!    the first's error at fewer steps;
+//! 5. the same with an output every 0.01 s;
+//! 6. the scene's own setting (for `drive`, the assignment's RK4 at
+//!    h = 1e-4 s, in the default formulation);
+//! 7. the same in the DAE with the scene's projection.
 //!
 //! Each integration time is the median of `repeat` runs. The whole
 //! process of the matching `run` command (`--no-figures`, CSV written) is
@@ -30,8 +32,8 @@ use crate::commands::run::Error;
 use crate::precision::{Setting, run_once_as, state_error};
 
 /// Most runs per setting `ezy bench --repeat` takes: each repeat runs the
-/// six settings once more in this process and, unless `--no-process`,
-/// starts the program six more times (the median of a few is already
+/// seven settings once more in this process and, unless `--no-process`,
+/// starts the program seven more times (the median of a few is already
 /// stable).
 pub const MAX_REPEAT: u64 = 100;
 
@@ -58,7 +60,7 @@ pub struct BenchRow {
     pub process_s: Option<f64>,
 }
 
-/// Measures the six settings of the module documentation on `scene`,
+/// Measures the seven settings of the module documentation on `scene`,
 /// each integration `repeat` times (at least 1, at most [`MAX_REPEAT`]);
 /// a line on stderr every few seconds says which run is going.
 ///
@@ -83,17 +85,14 @@ pub fn bench_model<M: Model + Default>(scene: &Scene, repeat: usize) -> Result<V
         projection: own.projection,
     };
     let own_what = match own_setting.dt {
-        Some(h) => format!(
-            "{} h = {} s, projection {} (the scene's)",
-            own.method.name(),
-            ezy_core::fmt_value(h),
-            own.projection.name()
-        ),
+        Some(h) => format!("{} h = {} s (the scene's)", own.method.name(), ezy_core::fmt_value(h)),
         None => format!("{} rtol = {:e} (the scene's)", own.method.name(), own.rtol),
     };
-    let own_auto = match own_setting.dt {
-        Some(h) => format!("{} h = {} s, formulation auto", own.method.name(), ezy_core::fmt_value(h)),
-        None => format!("{} rtol = {:e}, formulation auto", own.method.name(), own.rtol),
+    let own_dae = match own_setting.dt {
+        Some(h) => {
+            format!("{} h = {} s, dae, projection {}", own.method.name(), ezy_core::fmt_value(h), own.projection.name())
+        }
+        None => format!("{} rtol = {:e}, dae, projection {}", own.method.name(), own.rtol, own.projection.name()),
     };
     let dop = ["--integrator", "dop853", "--rtol", "1e-11", "--atol", "1e-11"].map(String::from).to_vec();
     let dop_reduced = ["--integrator", "dop853", "--rtol", "3e-11", "--atol", "3e-11", "--formulation", "reduced"]
@@ -107,16 +106,23 @@ pub fn bench_model<M: Model + Default>(scene: &Scene, repeat: usize) -> Result<V
         (
             format!("dop853 rtol = atol = 1e-11, output at {t_end} s only"),
             tight,
-            Formulation::Dae,
+            Formulation::Auto,
             t_end,
             args(&dop, &["--every", &format!("{t_end}")]),
         ),
         (
             "dop853 rtol = atol = 1e-11, output every 0.01 s".to_string(),
             tight,
-            Formulation::Dae,
+            Formulation::Auto,
             0.01,
             args(&dop, &["--every", "0.01"]),
+        ),
+        (
+            format!("dop853 rtol = atol = 1e-11, dae, output at {t_end} s only"),
+            tight,
+            Formulation::Dae,
+            t_end,
+            args(&dop, &["--formulation", "dae", "--every", &format!("{t_end}")]),
         ),
         (
             format!("dop853 rtol = atol = 3e-11, reduced, output at {t_end} s only"),
@@ -133,7 +139,7 @@ pub fn bench_model<M: Model + Default>(scene: &Scene, repeat: usize) -> Result<V
             args(&dop_reduced, &["--every", "0.01"]),
         ),
         (own_what, own_setting, own.formulation, own.every, Vec::new()),
-        (own_auto, own_setting, Formulation::Auto, own.every, args(&[], &["--formulation", "auto"])),
+        (own_dae, own_setting, Formulation::Dae, own.every, args(&[], &["--formulation", "dae"])),
     ];
     let mut rows = Vec::new();
     let n_cases = cases.len();

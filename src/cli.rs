@@ -539,7 +539,7 @@ pub fn parse_repeat(s: &str) -> Result<u64, String> {
     parse_capped(
         s,
         crate::bench::MAX_REPEAT,
-        "runs per setting (each repeat runs the six settings again, and as many whole processes)",
+        "runs per setting (each repeat runs the seven settings again, and as many whole processes)",
     )
 }
 
