@@ -1586,15 +1586,14 @@ fn simulate_erased<M: Model>(
                 // and only if it evaluates at the start: where it cannot
                 // (masses spread beyond double precision), the DAE runs,
                 // and fails, if it does, with the cause named
-                .filter(|r| {
-                    let mut r = r.clone();
+                .and_then(|mut r| {
                     let mut z = vec![0.0; r.nz(y0.len())];
                     r.gather(y0, &mut z);
                     let mut dz = vec![0.0; z.len()];
                     let counters = sys.counters;
                     let ok = Integrand::<M>::eval(&mut r, sys, 0.0, &z, &mut dz).is_ok();
                     sys.counters = counters;
-                    ok
+                    ok.then_some(r)
                 })
         }
     };
