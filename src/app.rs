@@ -194,6 +194,27 @@ impl AppError {
     }
 }
 
+/// PDF figures refused before any work where this build of ezy leaves out
+/// its `pdf` feature ([`crate::plot::check_format`]): `--format` if given,
+/// else the scene's `output.figure_format` (named with its file and
+/// line); nothing to check with `figures` off.
+fn check_figure_format(
+    src: &SceneSource,
+    format: Option<ezy_scene::FigureFormat>,
+    figures: bool,
+) -> Result<(), AppError> {
+    if !figures {
+        return Ok(());
+    }
+    if let Some(f) = format {
+        return crate::plot::check_format(f).map_err(|e| AppError::Failed(format!("--format {f}: {e}")));
+    }
+    crate::plot::check_format(src.scene.output.figure_format).map_err(|e| {
+        let e = SceneError { path: vec!["output".into(), "figure_format".into()], message: e.to_string() };
+        AppError::failed(Scene::locate_error(&src.text, &src.file, e))
+    })
+}
+
 /// Why a scene could not be found or loaded.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 pub enum LoadError {
@@ -755,6 +776,7 @@ impl App {
         };
         let src = self.load_scene(&name).map_err(AppError::failed)?;
         let mut job = self.sweep_job(&src, &name, &args)?;
+        check_figure_format(&src, job.opts.figure_format, job.figures)?;
         let ops = self.model_ops(&src.scene.model)?;
         if let Some(file) = &args.emit_slurm {
             if args.shard.is_some() {
@@ -931,6 +953,7 @@ impl App {
             energy: args.energy,
             continuation,
         };
+        check_figure_format(&src, opts.run.figure_format, opts.run.figures)?;
         let ops = self.model_ops(&scene.model)?;
         let report = (ops.analyze)(scene, &opts).map_err(AppError::from_run)?;
         committed(out, &analyze::summary(&scene.name, &report), &opts.run.out)
@@ -956,6 +979,7 @@ impl App {
         let (_, src) = self.named_scene(args.scene.as_deref())?;
         let scene = &src.scene;
         let opts = args.options(&scene.name);
+        check_figure_format(&src, opts.figure_format, opts.figures)?;
         let report = self.run_scene(scene, &opts).map_err(AppError::from_run)?;
         for w in &report.warnings {
             eprintln!("warning: {w}");

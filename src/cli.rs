@@ -310,9 +310,12 @@ pub struct Overrides {
 /// `png`, `svg` or `pdf`.
 ///
 /// # Errors
-/// Any other name.
+/// Any other name; `pdf` in a build without the `pdf` feature
+/// ([`crate::plot::check_format`]).
 pub fn parse_figure_format(s: &str) -> Result<FigureFormat, String> {
-    s.trim().parse()
+    let format = s.trim().parse()?;
+    crate::plot::check_format(format).map_err(|e| e.to_string())?;
+    Ok(format)
 }
 
 /// A PNG resolution from [`ezy_scene::MIN_DPI`] to [`ezy_scene::MAX_DPI`].

@@ -208,6 +208,86 @@ pub fn render(
     Ok((svg, bytes))
 }
 
+/// Draws every figure of `figs` from `table` as [`render`] does and hands
+/// each to `done(index, svg, bytes)` on the calling thread as soon as it
+/// is encoded, in the order they finish (not that of `figs`): the caller
+/// writes one figure while the others are drawn, and holds none longer.
+/// `check` is asked before each figure (a signal); its error, a
+/// drawing's or `done`'s stops the drawing at the next figure and is
+/// returned.
+///
+/// The SVGs are drawn first, in parallel (rayon); then
+/// `rayon::current_num_threads()` threads rasterize and encode them
+/// largest first, each taking the next figure as it finishes one: list
+/// scheduling in decreasing size (Graham's longest-processing-time rule,
+/// within 4/3 of the best schedule; R. L. Graham, "Bounds on
+/// multiprocessing timing anomalies", SIAM J. Appl. Math. 17 (1969)).
+/// An SVG's length stands for its cost, the rasterizer's work growing
+/// with the points it strokes. Taken in file order, two at a time, a
+/// drive run waited for the slower figure of each pair.
+///
+/// # Errors
+/// The first error: `check`'s, as [`render`], or `done`'s.
+pub fn render_all<E>(
+    info: &ModelInfo,
+    figs: &[FigureSpec],
+    table: &Table,
+    format: FigureFormat,
+    dpi: f64,
+    check: impl Fn(&FigureSpec) -> Result<(), E> + Sync,
+    mut done: impl FnMut(usize, &str, Vec<u8>) -> Result<(), E>,
+) -> Result<(), E>
+where
+    E: From<FigureError> + Send,
+{
+    use rayon::prelude::*;
+    use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
+    let svgs = figs
+        .par_iter()
+        .map(|fig| {
+            check(fig)?;
+            Ok(svg(info, fig, table)?)
+        })
+        .collect::<Result<Vec<String>, E>>()?;
+    let mut order: Vec<usize> = (0..figs.len()).collect();
+    order.sort_by_key(|&i| std::cmp::Reverse(svgs[i].len()));
+    let (next, stop) = (AtomicUsize::new(0), AtomicBool::new(false));
+    let encode = |i: usize| -> Result<Vec<u8>, E> {
+        let fig = &figs[i];
+        check(fig)?;
+        crate::plot::encode(&svgs[i], format, dpi, &fig.title)
+            .map_err(|source| FigureError::Plot { figure: fig.file.clone(), source }.into())
+    };
+    let threads = rayon::current_num_threads().clamp(1, figs.len().max(1));
+    std::thread::scope(|scope| {
+        let (send, receive) = std::sync::mpsc::channel::<(usize, Result<Vec<u8>, E>)>();
+        for _ in 0..threads {
+            let send = send.clone();
+            let (order, next, stop, encode) = (&order, &next, &stop, &encode);
+            scope.spawn(move || {
+                while !stop.load(Ordering::Relaxed)
+                    && let Some(&i) = order.get(next.fetch_add(1, Ordering::Relaxed))
+                {
+                    if send.send((i, encode(i))).is_err() {
+                        break;
+                    }
+                }
+            });
+        }
+        drop(send);
+        let mut outcome = Ok(());
+        // every figure arrives once, unless the drawing stopped
+        for (i, bytes) in receive.iter().take(figs.len()) {
+            if let Err(e) = bytes.and_then(|b| done(i, &svgs[i], b)) {
+                stop.store(true, Ordering::Relaxed);
+                outcome = Err(e);
+                break;
+            }
+        }
+        outcome
+    })
+}
+
 /// The chart of `fig` from `table`: lines over `fig.x` in one or two
 /// panels (lines with `panel = 2` in the lower one), or paths of points
 /// and bodies' centres of mass with equal axes. Every value is checked

@@ -199,6 +199,18 @@ pub enum PlotError {
     /// The embedded DejaVu Sans font could not be registered with plotters.
     #[error("could not register the embedded DejaVu Sans font with plotters")]
     Font,
+    /// The figure format's encoder is not in this build: PDF output is the
+    /// `pdf` feature (on by default; about 100 s of a fresh build's CPU
+    /// time for svg2pdf and its font crates).
+    #[error(
+        "{format} figures need ezy's `{feature}` feature, which this build of ezy leaves out (it is on by default; a crate that depends on ezy with default-features = false adds features = [\"{feature}\"])"
+    )]
+    Unavailable {
+        /// The format asked for (`pdf`).
+        format: &'static str,
+        /// The feature that provides it.
+        feature: &'static str,
+    },
     /// plotters failed while drawing, or the SVG could not be converted.
     #[error("chart {title:?}: {message}")]
     Draw {
@@ -263,6 +275,7 @@ pub const DRAW_TIMEOUT: std::time::Duration = std::time::Duration::from_secs(30)
 /// As [`chart_svg`] and [`encode`].
 pub fn figure(chart: &Chart, format: FigureFormat, dpi: f64) -> Result<Vec<u8>, PlotError> {
     check_dpi(dpi)?;
+    check_format(format)?;
     encode(&chart_svg(chart)?, format, dpi, &chart.title)
 }
 
@@ -282,6 +295,7 @@ fn check_dpi(dpi: f64) -> Result<(), PlotError> {
 /// if the SVG cannot be parsed or converted.
 pub fn encode(svg: &str, format: FigureFormat, dpi: f64, title: &str) -> Result<Vec<u8>, PlotError> {
     check_dpi(dpi)?;
+    check_format(format)?;
     let fail = |message: String| PlotError::Draw { title: title.into(), message };
     if format == FigureFormat::Svg {
         return Ok(svg.as_bytes().to_vec());
@@ -303,12 +317,36 @@ pub fn encode(svg: &str, format: FigureFormat, dpi: f64, title: &str) -> Result<
             .map_err(|e| fail(format!("encoding the PNG: {e}")))?;
             Ok(bytes)
         }
-        FigureFormat::Pdf => {
-            let page = svg2pdf::PageOptions { dpi: 96.0 };
-            svg2pdf::to_pdf(&tree, svg2pdf::ConversionOptions::default(), page)
-                .map_err(|e| fail(format!("converting to PDF: {e}")))
-        }
+        FigureFormat::Pdf => pdf(&tree).map_err(fail),
     }
+}
+
+/// Whether this build writes PDF figures (ezy's `pdf` feature, on by
+/// default).
+pub const PDF: bool = cfg!(feature = "pdf");
+
+/// Whether [`encode`] can write `format` in this build: every format but
+/// PDF always, PDF with the `pdf` feature ([`PDF`]). What a command asks
+/// before any work.
+///
+/// # Errors
+/// [`PlotError::Unavailable`] for PDF without the `pdf` feature.
+pub fn check_format(format: FigureFormat) -> Result<(), PlotError> {
+    match format {
+        FigureFormat::Pdf if !PDF => Err(PlotError::Unavailable { format: "pdf", feature: "pdf" }),
+        _ => Ok(()),
+    }
+}
+
+#[cfg(feature = "pdf")]
+fn pdf(tree: &resvg::usvg::Tree) -> Result<Vec<u8>, String> {
+    let page = svg2pdf::PageOptions { dpi: 96.0 };
+    svg2pdf::to_pdf(tree, svg2pdf::ConversionOptions::default(), page).map_err(|e| format!("converting to PDF: {e}"))
+}
+
+#[cfg(not(feature = "pdf"))]
+fn pdf(_: &resvg::usvg::Tree) -> Result<Vec<u8>, String> {
+    unreachable!("check_format refuses PDF without the `pdf` feature")
 }
 
 /// `tree` rasterized at `dpi` on white (the nominal size is at 96 dpi).
@@ -1386,9 +1424,15 @@ mod tests {
         };
         assert_eq!(size(&png), (960, 640));
         assert_eq!(size(&big), (1920, 1280));
-        let pdf = figure(&c, FigureFormat::Pdf, 96.0).expect("pdf");
-        assert!(pdf.starts_with(b"%PDF-"));
-        assert!(pdf.windows(5).any(|w| w == b"%%EOF"));
+        if PDF {
+            let pdf = figure(&c, FigureFormat::Pdf, 96.0).expect("pdf");
+            assert!(pdf.starts_with(b"%PDF-"));
+            assert!(pdf.windows(5).any(|w| w == b"%%EOF"));
+        } else {
+            // refused by name, before any drawing
+            let e = figure(&c, FigureFormat::Pdf, 96.0).expect_err("no pdf feature");
+            assert!(matches!(e, PlotError::Unavailable { format: "pdf", feature: "pdf" }), "{e}");
+        }
         assert!(matches!(figure(&c, FigureFormat::Png, 5000.0), Err(PlotError::Dpi { .. })));
     }
 

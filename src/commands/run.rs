@@ -308,6 +308,13 @@ pub fn run_model_tapped<M: Model + Default>(
     // no thread, see `setup_may_be_long`), the figures, the report
     let mut beat = (opts.progress && setup_may_be_long::<M>(scene, &opts.sets))
         .then(|| crate::progress::Heartbeat::start(format!("setting up scene {}", scene.name)));
+    if opts.figures {
+        // a library caller's PDF in a build without the `pdf` feature,
+        // before any work (the command line checks this when it loads
+        // the scene, with the file's line)
+        let format = opts.figure_format.unwrap_or(scene.output.figure_format);
+        crate::plot::check_format(format).map_err(|e| Error::Input(format!("scene `{}`: {e}", scene.name)))?;
+    }
     let Prepared { scene, mut sys, y0, initial, rows, n_rows } = prepare::<M>(scene, opts, &settings)?;
     let scene = &scene;
 
@@ -348,24 +355,24 @@ pub fn run_model_tapped<M: Model + Default>(
         if opts.progress && !scene.figures.is_empty() {
             crate::progress::Heartbeat::report(&mut beat, format!("drawing {} figures", scene.figures.len()));
         }
-        // drawn in parallel, a chunk of one figure per thread at a time, and
-        // written in order; a signal stops the drawing at the next figure
-        use rayon::prelude::*;
-        for chunk in scene.figures.chunks(rayon::current_num_threads().max(1)) {
-            let drawn: Vec<Result<(String, Vec<u8>), Error>> = chunk
-                .par_iter()
-                .map(|fig| {
-                    tx.check(Some(settings.t_end), Some(format!("drawing {}", fig.file)))?;
-                    Ok(crate::figures::render(&sys.info, fig, &table, format, dpi)?)
-                })
-                .collect();
-            for (fig, drawn) in chunk.iter().zip(drawn) {
-                let (svg, bytes) = drawn?;
-                tx.write(&format.file_name(&fig.file), &bytes)?;
-                // the report shows the same drawing
-                if opts.report {
-                    drawn_svgs.push((ezy_scene::figure_stem(&fig.file).to_string(), Ok(svg)));
-                }
+        // drawn in parallel, largest first, each written as it is done; a
+        // signal stops the drawing at the next figure
+        let dir = tx.dir().to_path_buf();
+        let check = |fig: &ezy_scene::FigureSpec| -> Result<(), Error> {
+            Ok(crate::transaction::check_interrupt(&dir, Some(settings.t_end), Some(format!("drawing {}", fig.file)))?)
+        };
+        let mut svgs = vec![None; scene.figures.len()];
+        crate::figures::render_all(&sys.info, &scene.figures, &table, format, dpi, check, |i, svg, bytes| {
+            tx.write(&format.file_name(&scene.figures[i].file), &bytes)?;
+            // the report shows the same drawing
+            if opts.report {
+                svgs[i] = Some(svg.to_string());
+            }
+            Ok(())
+        })?;
+        for (fig, svg) in scene.figures.iter().zip(svgs) {
+            if let Some(svg) = svg {
+                drawn_svgs.push((ezy_scene::figure_stem(&fig.file).to_string(), Ok(svg)));
             }
         }
     }
@@ -392,9 +399,28 @@ pub fn run_model_tapped<M: Model + Default>(
         tx.write("report.html", html.as_bytes())?;
     }
     report.files = tx.commit()?;
+    if opts.figures {
+        // written as they were finished: listed in the scene's order
+        let format = opts.figure_format.unwrap_or(scene.output.figure_format);
+        let names: Vec<String> = scene.figures.iter().map(|f| format.file_name(&f.file)).collect();
+        in_figure_order(&mut report.files, &names);
+    }
     drop(beat);
     report.wall = wall.elapsed();
     Ok(report)
+}
+
+/// Puts the paths among `files` whose file names are in `names` into the
+/// order of `names`, in the places they hold; the other paths stay where
+/// they are.
+fn in_figure_order(files: &mut [PathBuf], names: &[String]) {
+    let rank = |p: &PathBuf| p.file_name().and_then(|n| names.iter().position(|f| n == f.as_str()));
+    let places: Vec<usize> = (0..files.len()).filter(|&k| rank(&files[k]).is_some()).collect();
+    let mut figures: Vec<PathBuf> = places.iter().map(|&k| files[k].clone()).collect();
+    figures.sort_by_key(|p| rank(p));
+    for (k, p) in places.into_iter().zip(figures) {
+        files[k] = p;
+    }
 }
 
 /// A caller's hook, asked after every accepted step with the time reached
@@ -678,4 +704,25 @@ pub fn summary(scene: &str, r: &Report) -> String {
         let _ = writeln!(out, "  wrote {}", f.display());
     }
     out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn figures_are_listed_in_the_scenes_order_around_the_other_files() {
+        let mut files: Vec<PathBuf> =
+            ["out/trajectory.csv", "out/c.png", "out/a.png", "out/events.csv", "out/b.png", "out/report.html"]
+                .iter()
+                .map(PathBuf::from)
+                .collect();
+        let names: Vec<String> = ["a.png", "b.png", "c.png"].iter().map(|s| s.to_string()).collect();
+        in_figure_order(&mut files, &names);
+        let got: Vec<&str> = files.iter().map(|p| p.to_str().unwrap()).collect();
+        assert_eq!(
+            got,
+            ["out/trajectory.csv", "out/a.png", "out/b.png", "out/events.csv", "out/c.png", "out/report.html"]
+        );
+    }
 }
