@@ -776,7 +776,8 @@ impl App {
         };
         let src = self.load_scene(&name).map_err(AppError::failed)?;
         let mut job = self.sweep_job(&src, &name, &args)?;
-        check_figure_format(&src, job.opts.figure_format, job.figures)?;
+        // the sweep's own figures, and each saved run's
+        check_figure_format(&src, job.opts.figure_format, job.figures || job.save_runs)?;
         let ops = self.model_ops(&src.scene.model)?;
         if let Some(file) = &args.emit_slurm {
             if args.shard.is_some() {
@@ -824,12 +825,21 @@ impl App {
             argv.extend(manifest.args.iter().cloned());
             let parsed = match Cli::try_parse_from(&argv) {
                 Ok(Cli { command: Some(Command::Sweep(a)) }) => *a,
-                _ => {
+                Ok(_) => {
                     return Err(AppError::Failed(format!("the shards' sweep.toml does not parse: {}", argv.join(" "))));
+                }
+                Err(e) => {
+                    let why = e.to_string();
+                    let why = why.lines().next().unwrap_or_default().trim_start_matches("error: ");
+                    return Err(AppError::Failed(format!(
+                        "the shards' sweep.toml does not parse: {}: {why}",
+                        argv.join(" ")
+                    )));
                 }
             };
             let src = self.load_scene(&manifest.scene).map_err(AppError::failed)?;
             let job = self.sweep_job(&src, &manifest.scene, &parsed)?;
+            check_figure_format(&src, job.opts.figure_format, true)?;
             let info = (self.model_ops(&src.scene.model)?.info_with)(&[]).map_err(|e| AppError::Failed(e.message))?;
             let look = (
                 job.opts.figure_format.unwrap_or(job.scene.output.figure_format),

@@ -212,9 +212,9 @@ pub fn render(
 /// each to `done(index, svg, bytes)` on the calling thread as soon as it
 /// is encoded, in the order they finish (not that of `figs`): the caller
 /// writes one figure while the others are drawn, and holds none longer.
-/// `check` is asked before each figure (a signal); its error, a
-/// drawing's or `done`'s stops the drawing at the next figure and is
-/// returned.
+/// `check` is asked before a figure is drawn and again before it is
+/// encoded (a signal); its error, a drawing's or `done`'s stops the
+/// drawing at the next figure and is returned.
 ///
 /// The SVGs are drawn first, in parallel (rayon); then
 /// `rayon::current_num_threads()` threads rasterize and encode them
@@ -224,10 +224,14 @@ pub fn render(
 /// multiprocessing timing anomalies", SIAM J. Appl. Math. 17 (1969)).
 /// An SVG's length stands for its cost, the rasterizer's work growing
 /// with the points it strokes. Taken in file order, two at a time, a
-/// drive run waited for the slower figure of each pair.
+/// drive run waited for the slower figure of each pair. Called from a
+/// rayon worker (a sweep's saved runs, already one per core) or where no
+/// thread can be started, the calling thread encodes them one by one.
 ///
 /// # Errors
-/// The first error: `check`'s, as [`render`], or `done`'s.
+/// An SVG that cannot be drawn (the first in the order of `figs`), else
+/// the first error received: `check`'s, an encoding's (as [`render`]) or
+/// `done`'s.
 pub fn render_all<E>(
     info: &ModelInfo,
     figs: &[FigureSpec],
@@ -242,13 +246,14 @@ where
 {
     use rayon::prelude::*;
     use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
-    let svgs = figs
+    let drawn: Vec<Result<String, E>> = figs
         .par_iter()
         .map(|fig| {
             check(fig)?;
             Ok(svg(info, fig, table)?)
         })
-        .collect::<Result<Vec<String>, E>>()?;
+        .collect();
+    let svgs = drawn.into_iter().collect::<Result<Vec<String>, E>>()?;
     let mut order: Vec<usize> = (0..figs.len()).collect();
     order.sort_by_key(|&i| std::cmp::Reverse(svgs[i].len()));
     let (next, stop) = (AtomicUsize::new(0), AtomicBool::new(false));
@@ -258,13 +263,16 @@ where
         crate::plot::encode(&svgs[i], format, dpi, &fig.title)
             .map_err(|source| FigureError::Plot { figure: fig.file.clone(), source }.into())
     };
-    let threads = rayon::current_num_threads().clamp(1, figs.len().max(1));
+    // inside a rayon pool (a sweep's runs) its threads are busy already
+    let threads =
+        if rayon::current_thread_index().is_some() { 0 } else { rayon::current_num_threads().min(figs.len()) };
     std::thread::scope(|scope| {
         let (send, receive) = std::sync::mpsc::channel::<(usize, Result<Vec<u8>, E>)>();
+        let mut started = 0;
         for _ in 0..threads {
             let send = send.clone();
             let (order, next, stop, encode) = (&order, &next, &stop, &encode);
-            scope.spawn(move || {
+            let worker = move || {
                 while !stop.load(Ordering::Relaxed)
                     && let Some(&i) = order.get(next.fetch_add(1, Ordering::Relaxed))
                 {
@@ -272,9 +280,18 @@ where
                         break;
                     }
                 }
-            });
+            };
+            if std::thread::Builder::new().name("ezy-figures".into()).spawn_scoped(scope, worker).is_ok() {
+                started += 1;
+            }
         }
         drop(send);
+        if started == 0 {
+            for &i in &order {
+                done(i, &svgs[i], encode(i)?)?;
+            }
+            return Ok(());
+        }
         let mut outcome = Ok(());
         // every figure arrives once, unless the drawing stopped
         for (i, bytes) in receive.iter().take(figs.len()) {

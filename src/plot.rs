@@ -291,8 +291,9 @@ fn check_dpi(dpi: f64) -> Result<(), PlotError> {
 /// embedded font subsets). `title` names the figure in errors.
 ///
 /// # Errors
-/// [`PlotError::Dpi`] for a resolution out of range, [`PlotError::Draw`]
-/// if the SVG cannot be parsed or converted.
+/// [`PlotError::Dpi`] for a resolution out of range,
+/// [`PlotError::Unavailable`] for PDF in a build without the `pdf`
+/// feature, [`PlotError::Draw`] if the SVG cannot be parsed or converted.
 pub fn encode(svg: &str, format: FigureFormat, dpi: f64, title: &str) -> Result<Vec<u8>, PlotError> {
     check_dpi(dpi)?;
     check_format(format)?;
@@ -346,7 +347,8 @@ fn pdf(tree: &resvg::usvg::Tree) -> Result<Vec<u8>, String> {
 
 #[cfg(not(feature = "pdf"))]
 fn pdf(_: &resvg::usvg::Tree) -> Result<Vec<u8>, String> {
-    unreachable!("check_format refuses PDF without the `pdf` feature")
+    // check_format refuses PDF before this is reached
+    Err("PDF output needs ezy's `pdf` feature".into())
 }
 
 /// `tree` rasterized at `dpi` on white (the nominal size is at 96 dpi).

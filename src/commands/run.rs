@@ -37,8 +37,10 @@ pub enum Error {
         model: String,
     },
     /// A file the command reads besides the scene (the `precision.csv`
-    /// that `ezy precision --replot` redraws) is missing or bad; the
-    /// message names the file and the flag that asked for it.
+    /// that `ezy precision --replot` redraws) is missing or bad, the
+    /// message naming the file and the flag that asked for it; or the
+    /// figures' format is one this build cannot write (PDF without the
+    /// `pdf` feature), named before any work.
     #[error("{0}")]
     Input(String),
     /// The caller's stop hook ended an in-memory run between two steps
