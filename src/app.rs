@@ -841,10 +841,7 @@ impl App {
             let job = self.sweep_job(&src, &manifest.scene, &parsed)?;
             check_figure_format(&src, job.opts.figure_format, true)?;
             let info = (self.model_ops(&src.scene.model)?.info_with)(&[]).map_err(|e| AppError::Failed(e.message))?;
-            let look = (
-                job.opts.figure_format.unwrap_or(job.scene.output.figure_format),
-                job.opts.dpi.unwrap_or(job.scene.output.dpi),
-            );
+            let look = job.opts.look(&job.scene);
             let (f, n) = sweep::figure::draw(&args.out, &job.plan, &job.metrics, &info, look).map_err(|e| match e {
                 sweep::SweepError::Interrupted(i) => AppError::Interrupted(i),
                 e => AppError::failed(e),

@@ -288,8 +288,7 @@ pub fn analyze_model<M: Model + Default>(scene: &Scene, opts: &AnalyzeOptions) -
     let mut tx = Transaction::begin(&ro.out)?;
     let names = an.state_names();
     let shape = shape_columns(&an);
-    let format = ro.figure_format.unwrap_or(scene.output.figure_format);
-    let dpi = ro.dpi.unwrap_or(scene.output.dpi);
+    let (format, dpi) = ro.look(scene);
     let mut figures: Vec<(String, Chart)> = Vec::new();
     if !steady.is_empty() {
         tx.write("equilibria.csv", steady_csv(&steady, &names, &shape).as_bytes())?;

@@ -119,6 +119,12 @@ pub struct RunOptions {
 }
 
 impl RunOptions {
+    /// The figures' format and resolution \[dpi\] for `scene`: these
+    /// options' where given, else the scene's `[output]`.
+    pub fn look(&self, scene: &Scene) -> (ezy_scene::FigureFormat, f64) {
+        (self.figure_format.unwrap_or(scene.output.figure_format), self.dpi.unwrap_or(scene.output.dpi))
+    }
+
     /// The overrides as `ezy run` flags that parse back to them (what a
     /// sweep's manifest records, a Slurm script passes on, and the Python
     /// package's `sweep` hands to the command line): `--set`, the step,
@@ -310,11 +316,11 @@ pub fn run_model_tapped<M: Model + Default>(
     // no thread, see `setup_may_be_long`), the figures, the report
     let mut beat = (opts.progress && setup_may_be_long::<M>(scene, &opts.sets))
         .then(|| crate::progress::Heartbeat::start(format!("setting up scene {}", scene.name)));
+    let (format, dpi) = opts.look(scene);
     if opts.figures {
         // a library caller's PDF in a build without the `pdf` feature,
-        // before any work (the command line checks this when it loads
-        // the scene, with the file's line)
-        let format = opts.figure_format.unwrap_or(scene.output.figure_format);
+        // before any work (the command line checks this first, naming the
+        // scene file's line)
         crate::plot::check_format(format).map_err(|e| Error::Input(format!("scene `{}`: {e}", scene.name)))?;
     }
     let Prepared { scene, mut sys, y0, initial, rows, n_rows } = prepare::<M>(scene, opts, &settings)?;
@@ -352,8 +358,6 @@ pub fn run_model_tapped<M: Model + Default>(
     }
     let mut drawn_svgs = Vec::new();
     if opts.figures {
-        let format = opts.figure_format.unwrap_or(scene.output.figure_format);
-        let dpi = opts.dpi.unwrap_or(scene.output.dpi);
         if opts.progress && !scene.figures.is_empty() {
             crate::progress::Heartbeat::report(&mut beat, format!("drawing {} figures", scene.figures.len()));
         }
@@ -403,7 +407,6 @@ pub fn run_model_tapped<M: Model + Default>(
     report.files = tx.commit()?;
     if opts.figures {
         // written as they were finished: listed in the scene's order
-        let format = opts.figure_format.unwrap_or(scene.output.figure_format);
         let names: Vec<String> = scene.figures.iter().map(|f| format.file_name(&f.file)).collect();
         in_figure_order(&mut report.files, &names);
     }

@@ -735,10 +735,7 @@ pub fn sweep_model<M: Model + Default>(job: &SweepJob) -> Result<SweepReport, Sw
     }
     report.files.push(out.csv_path());
     if job.figures && job.shard.is_none() {
-        let look = (
-            job.opts.figure_format.unwrap_or(job.scene.output.figure_format),
-            job.opts.dpi.unwrap_or(job.scene.output.dpi),
-        );
+        let look = job.opts.look(&job.scene);
         let (files, notes) = figure::draw(&job.out, &job.plan, &job.metrics, &M::default().info(), look)?;
         report.files.extend(files);
         report.notes.extend(notes);
