@@ -32,6 +32,7 @@ mod hostile_sweep;
 mod kkt_paths;
 mod mechanisms;
 mod models;
+mod output_window;
 mod properties;
 mod scene_files;
 mod scenes;

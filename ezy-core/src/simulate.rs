@@ -221,6 +221,15 @@ pub trait Observer<M: Model> {
     fn wants(&self, _t: f64) -> bool {
         true
     }
+    /// The earliest time at or after `t` \[s\] whose output the observer
+    /// may want, asked after [`Observer::wants`] refused the output at
+    /// `t`: the outputs before it are skipped without asking again (a
+    /// sweep's `final` metric is asked twice a run, not once per output
+    /// row). It may be early, never late: `wants` still decides at and
+    /// after it. The default is `t` (ask about every output).
+    fn next_wanted(&self, t: f64) -> f64 {
+        t
+    }
 }
 
 /// Why a run stopped early.
@@ -440,6 +449,10 @@ struct Run<'a, M: Model, O: Observer<M>> {
     /// Where the step loop handed over to the other formulation, and the
     /// full state there ([`Run::switch_form`]).
     handover: Option<(f64, Vec<f64>)>,
+    /// Outputs in `[from, until)` \[s\] are not wanted: `from` an output
+    /// the observer refused, `until` its [`Observer::next_wanted`] (at
+    /// most `t_end`).
+    skip: std::cell::Cell<(f64, f64)>,
 }
 
 /// Switches of one skate at most this many accepted steps apart count as
@@ -1144,7 +1157,30 @@ impl<'a, M: Model, O: Observer<M>> Run<'a, M, O> {
     /// Whether the output at `t` is to be observed: the final one always,
     /// the others as the observer wants ([`Observer::wants`]).
     fn wanted(&self, t: f64) -> bool {
-        t >= self.settings.t_end || self.observer.wants(t)
+        if t >= self.settings.t_end {
+            return true;
+        }
+        let (from, until) = self.skip.get();
+        if t >= from && t < until {
+            return false;
+        }
+        if self.observer.wants(t) {
+            return true;
+        }
+        self.skip.set((t, self.observer.next_wanted(t).clamp(t, self.settings.t_end)));
+        false
+    }
+
+    /// The first output number at or after `n_out` that may be wanted:
+    /// past the refused outputs before [`Run::skip`]'s end in one jump.
+    fn skip_unwanted(&self, n_out: u64) -> u64 {
+        let (from, until) = self.skip.get();
+        let t = self.out_time(n_out);
+        if t < from || t >= until {
+            return n_out;
+        }
+        // output k - 1 lies at least one interval before `until`
+        n_out.max((until / self.settings.every).floor() as u64)
     }
 
     /// Whether output number `n_out` is due in a step ending at `t_new`.
@@ -1169,8 +1205,10 @@ impl<'a, M: Model, O: Observer<M>> Run<'a, M, O> {
         while self.output_due(*n_out, t_new) {
             let t_out = self.out_time(*n_out);
             if !self.wanted(t_out) {
-                // skipped
-            } else if t_out == t_new {
+                *n_out = self.skip_unwanted(*n_out + 1);
+                continue;
+            }
+            if t_out == t_new {
                 form.emit(self, sys, t_out, x_new)?;
             } else {
                 form.emit_dense(self, sys, t_out, |x| interpolate(t_out, x))?;
@@ -1183,9 +1221,14 @@ impl<'a, M: Model, O: Observer<M>> Run<'a, M, O> {
     /// Whether a wanted output falls inside the step ending at `t_new`,
     /// not on its end (only then is its dense output needed).
     fn output_inside(&self, n_out: u64, t_new: f64) -> bool {
-        (n_out..)
-            .take_while(|&k| self.output_due(k, t_new) && self.out_time(k) < t_new)
-            .any(|k| self.wanted(self.out_time(k)))
+        let mut k = n_out;
+        while self.output_due(k, t_new) && self.out_time(k) < t_new {
+            if self.wanted(self.out_time(k)) {
+                return true;
+            }
+            k = self.skip_unwanted(k + 1);
+        }
+        false
     }
 
     /// The final time is always written: the accepted `x` at `t_end`
@@ -1522,6 +1565,9 @@ impl<M: Model, O: Observer<M>> Observer<M> for Parked<'_, O, M> {
     fn wants(&self, t: f64) -> bool {
         self.observer.wants(t)
     }
+    fn next_wanted(&self, t: f64) -> f64 {
+        self.observer.next_wanted(t)
+    }
 }
 
 impl<M: Model> Observer<M> for Erased<'_, M> {
@@ -1540,6 +1586,9 @@ impl<M: Model> Observer<M> for Erased<'_, M> {
     }
     fn wants(&self, t: f64) -> bool {
         self.0.wants(t)
+    }
+    fn next_wanted(&self, t: f64) -> f64 {
+        self.0.next_wanted(t)
     }
 }
 
@@ -1686,6 +1735,7 @@ fn simulate_erased<M: Model>(
         // while one slides, and hands back when all stick
         hand_back: formulation == Formulation::Reduced && !sys.friction.is_empty(),
         handover: None,
+        skip: std::cell::Cell::new((f64::INFINITY, f64::INFINITY)),
     };
     if sys.switches() {
         let (nf, w) = (sys.friction.len(), &mut run.slip);

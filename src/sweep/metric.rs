@@ -287,6 +287,18 @@ impl Accumulator {
         }
     }
 
+    /// The earliest time at or after `t` \[s\] whose row
+    /// [`Accumulator::reads`] may read (on the same grid; infinite if
+    /// none): never later than the first such row.
+    pub fn next_read(&self, t: f64, every: f64) -> f64 {
+        let start = match self.reduce {
+            Reduce::EventTime | Reduce::EventCount => return f64::INFINITY,
+            Reduce::Final => self.t0.max(self.t1 - 1.5 * every),
+            Reduce::Mean | Reduce::Max | Reduce::Min => self.t0,
+        };
+        if t > self.t1 { f64::INFINITY } else { t.max(start) }
+    }
+
     /// Takes one output row (`row[0]` is the time \[s\]).
     pub fn push(&mut self, row: &[f64]) {
         let (a, b) = (row[self.inputs[0]], row[self.inputs[1]]);
@@ -383,6 +395,28 @@ mod tests {
         assert!(reads("mean(x, 1, 2)", 1.0) && reads("mean(x, 1, 2)", 2.0) && !reads("mean(x, 1, 2)", 0.99));
         assert!(reads("max(x)", 0.0) && reads("min(x)", 1e9));
         assert!(!reads("max(x, 3, 4)", 2.0));
+    }
+
+    #[test]
+    fn next_read_is_never_late() {
+        // on a grid of 0.01 s from 0 to 5 s, the first row at or after
+        // each time that the metric reads is at or after `next_read`
+        for text in ["final(x)", "final(x, 1, 2)", "mean(x, 1, 2)", "max(x)", "min(x, 3, 4)"] {
+            let acc = Accumulator::new(&text.parse().unwrap(), &cols()).unwrap();
+            let grid: Vec<f64> = (0..=500).map(|k| f64::from(k) * 0.01).collect();
+            for (i, &t) in grid.iter().enumerate() {
+                let next = acc.next_read(t, 0.01);
+                assert!(next >= t, "{text} at {t}: {next}");
+                if let Some(&first) = grid[i..].iter().find(|&&u| acc.reads(u, 0.01)) {
+                    assert!(next <= first, "{text} at {t}: next_read {next} after the row {first} it reads");
+                }
+            }
+        }
+        let reads = |text: &str, t: f64| Accumulator::new(&text.parse().unwrap(), &cols()).unwrap().next_read(t, 0.01);
+        // final(x, 1, 2) skips to just before its last row; a window past
+        // its end reads nothing more
+        assert!((reads("final(x, 1, 2)", 0.0) - 1.985).abs() < 1e-12);
+        assert_eq!(reads("mean(x, 1, 2)", 2.5), f64::INFINITY);
     }
 
     #[test]

@@ -397,6 +397,10 @@ impl<M: Model> Observer<M> for Quiet<M> {
     fn wants(&self, t: f64) -> bool {
         self.tap.accs.iter().any(|a| a.reads(t, self.every))
     }
+
+    fn next_wanted(&self, t: f64) -> f64 {
+        self.tap.accs.iter().map(|a| a.next_read(t, self.every)).fold(f64::INFINITY, f64::min)
+    }
 }
 
 fn poll() -> Result<(), Stop> {
