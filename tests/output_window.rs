@@ -96,3 +96,41 @@ fn a_window_observer_gets_the_full_runs_rows_and_is_asked_rarely() {
         assert!(asked[1] <= 2 * window + 4, "{method:?}: asked {} times with next_wanted, {window} wanted", asked[1]);
     }
 }
+
+/// Keeps nothing but what the step loop always observes.
+struct Nothing(Recorder);
+
+impl<M: Model> Observer<M> for Nothing {
+    type Error = std::convert::Infallible;
+    fn observe(&mut self, sys: &Dynamics<M>, s: &Sample<'_>) -> Result<(), Self::Error> {
+        self.0.observe(sys, s)
+    }
+    fn wants(&self, _t: f64) -> bool {
+        false
+    }
+    fn next_wanted(&self, _t: f64) -> f64 {
+        f64::INFINITY
+    }
+}
+
+#[test]
+fn the_final_row_is_observed_when_the_grid_rounds_below_the_end() {
+    // 30 x 0.03 = 0.8999999999999999 < 0.9: the grid's last row is the
+    // final one, and an observer that wants no row still gets it (a
+    // sweep's `final(...)` read the start here once)
+    assert!(30.0 * 0.03 < 0.9);
+    for (method, formulation) in [(Method::Dop853, Formulation::Auto), (Method::Radau5, Formulation::Dae)] {
+        let s = RunSettings { t_end: 0.9, every: 0.03, ..settings(method, formulation) };
+        let (mut sys, y0) = build::<EzyRoller>(&scenes::drive(), &[], KktMethod::Schur).unwrap();
+        let mut full = Recorder::default();
+        simulate(&mut sys, &y0, &s, &mut full).unwrap();
+        let (mut sys, y0) = build::<EzyRoller>(&scenes::drive(), &[], KktMethod::Schur).unwrap();
+        let mut none = Nothing(Recorder::default());
+        simulate(&mut sys, &y0, &s, &mut none).unwrap();
+        let (last, got) = (full.t.len() - 1, &none.0);
+        assert!(full.t[last] > 0.9 * (1.0 - 1e-12), "{method:?}: {:?}", full.t);
+        assert_eq!(got.t.len(), 2, "{method:?}: the first and the final row, got {:?}", got.t);
+        assert_eq!(got.t[1].to_bits(), full.t[last].to_bits(), "{method:?}");
+        assert!(got.y[1].iter().zip(&full.y[last]).all(|(a, b)| a.to_bits() == b.to_bits()), "{method:?}");
+    }
+}

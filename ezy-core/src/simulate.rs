@@ -217,16 +217,19 @@ pub trait Observer<M: Model> {
     /// an event's stop are always observed. The default wants every one; a
     /// sink that reads a time window only (a sweep's `final` or windowed
     /// metrics) saves the samples outside it. Results inside the window
-    /// are unchanged: outputs never shorten a step.
+    /// are unchanged: outputs never shorten a step. The answer must not
+    /// change during the run (it may be asked more than once, or not again).
     fn wants(&self, _t: f64) -> bool {
         true
     }
     /// The earliest time at or after `t` \[s\] whose output the observer
     /// may want, asked after [`Observer::wants`] refused the output at
-    /// `t`: the outputs before it are skipped without asking again (a
-    /// sweep's `final` metric is asked twice a run, not once per output
-    /// row). It may be early, never late: `wants` still decides at and
-    /// after it. The default is `t` (ask about every output).
+    /// `t`: the outputs in between are skipped without asking again, for
+    /// the rest of the run (a sweep's `final` metric is asked about once
+    /// or twice a run, not once per output row). It may be early, never
+    /// late: `wants` still decides at and after it. The default is `t`
+    /// (ask about every output); a value not after `t`, or NaN, skips
+    /// nothing, and the final time is observed whatever it says.
     fn next_wanted(&self, t: f64) -> f64 {
         t
     }
@@ -1154,10 +1157,12 @@ impl<'a, M: Model, O: Observer<M>> Run<'a, M, O> {
         (k as f64 * self.settings.every).min(self.settings.t_end)
     }
 
-    /// Whether the output at `t` is to be observed: the final one always,
+    /// Whether the output at `t` is to be observed: the final one always
+    /// (within the relative 1e-12 by which [`Run::finish_dense`] takes a
+    /// row for the final one: `k every` may round to just below `t_end`),
     /// the others as the observer wants ([`Observer::wants`]).
     fn wanted(&self, t: f64) -> bool {
-        if t >= self.settings.t_end {
+        if t >= self.settings.t_end * (1.0 - 1e-12) {
             return true;
         }
         let (from, until) = self.skip.get();
@@ -1179,7 +1184,8 @@ impl<'a, M: Model, O: Observer<M>> Run<'a, M, O> {
         if t < from || t >= until {
             return n_out;
         }
-        // output k - 1 lies at least one interval before `until`
+        // the outputs before k lie before `until` (output k - 1 at least
+        // one interval before it)
         n_out.max((until / self.settings.every).floor() as u64)
     }
 
