@@ -543,9 +543,58 @@ impl Magnitude for c64 {
     }
 }
 
-impl<T: faer::traits::ComplexField + Copy + Magnitude> DenseFactor<T> {
+/// The scalars [`DenseFactor`] factors (`f64` and `c64`). Its methods
+/// are compiled once, in this crate, for each of the two: a model's
+/// crate that runs RADAU5 calls them instead of building faer's LU and
+/// triangular solves again for its own model (a release build does not
+/// share generic code between crates).
+pub trait LuField: faer::traits::ComplexField + Copy + Magnitude {
+    /// [`DenseFactor::new`].
+    fn lu_new(n: usize) -> DenseFactor<Self>;
+    /// [`DenseFactor::factor`].
+    fn lu_factor(lu: &mut DenseFactor<Self>) -> bool;
+    /// [`DenseFactor::solve`].
+    fn lu_solve(lu: &mut DenseFactor<Self>, b: &mut [Self]);
+}
+
+macro_rules! lu_field {
+    ($t:ty) => {
+        impl LuField for $t {
+            #[inline(never)]
+            fn lu_new(n: usize) -> DenseFactor<Self> {
+                DenseFactor::new_impl(n)
+            }
+            #[inline(never)]
+            fn lu_factor(lu: &mut DenseFactor<Self>) -> bool {
+                lu.factor_impl()
+            }
+            #[inline(never)]
+            fn lu_solve(lu: &mut DenseFactor<Self>, b: &mut [Self]) {
+                lu.solve_impl(b);
+            }
+        }
+    };
+}
+lu_field!(f64);
+lu_field!(c64);
+
+impl<T: LuField> DenseFactor<T> {
     /// Buffers for `n x n`.
     pub fn new(n: usize) -> Self {
+        T::lu_new(n)
+    }
+
+    /// Factors `self.a` in place; `false` if a pivot is zero or not finite.
+    pub fn factor(&mut self) -> bool {
+        T::lu_factor(self)
+    }
+
+    /// Solves with the factors in place: `b` (n) is overwritten by the solution.
+    pub fn solve(&mut self, b: &mut [T]) {
+        T::lu_solve(self, b);
+    }
+
+    fn new_impl(n: usize) -> Self {
         let params = lu_params::<T>();
         let req = StackReq::any_of(&[
             factor::lu_in_place_scratch::<usize, T>(n, n, Par::Seq, params),
@@ -560,8 +609,7 @@ impl<T: faer::traits::ComplexField + Copy + Magnitude> DenseFactor<T> {
         }
     }
 
-    /// Factors `self.a` in place; `false` if a pivot is zero or not finite.
-    pub fn factor(&mut self) -> bool {
+    fn factor_impl(&mut self) -> bool {
         let n = self.a.nrows();
         let stack = MemStack::new(&mut self.mem);
         factor::lu_in_place(self.a.as_mut(), &mut self.perm, &mut self.perm_inv, Par::Seq, stack, lu_params::<T>());
@@ -571,8 +619,7 @@ impl<T: faer::traits::ComplexField + Copy + Magnitude> DenseFactor<T> {
         })
     }
 
-    /// Solves with the factors in place.
-    pub fn solve(&mut self, b: &mut [T]) {
+    fn solve_impl(&mut self, b: &mut [T]) {
         let n = b.len();
         self.rhs.col_as_slice_mut(0).copy_from_slice(b);
         let perm = faer::perm::PermRef::new_checked(&self.perm, &self.perm_inv, n);
