@@ -64,6 +64,21 @@ pub(crate) fn numerical_rank(a: MatRef<'_, f64>, rtol: f64) -> Result<usize, Ana
     Ok(rank(&svd(a, false)?.0, rtol))
 }
 
+/// The product `a b` (m x k times k x n). Not generic and not inlined:
+/// the analyses' model-generic code calls it instead of building faer's
+/// matrix product again in every model's crate (a release build shares
+/// no generic code between crates).
+#[inline(never)]
+pub(crate) fn mul(a: MatRef<'_, f64>, b: MatRef<'_, f64>) -> Mat<f64> {
+    a * b
+}
+
+/// `q^T a q` (q: n x k, a: n x n), as `(q^T a) q`; compiled once, as [`mul`].
+#[inline(never)]
+pub(crate) fn congruence(q: MatRef<'_, f64>, a: MatRef<'_, f64>) -> Mat<f64> {
+    q.transpose() * a * q
+}
+
 /// An orthonormal basis of the range of `v` (n x k), columns within
 /// `rtol` of dependence dropped.
 pub(crate) fn orthonormal_range(v: MatRef<'_, f64>, rtol: f64) -> Result<Mat<f64>, AnalysisError> {

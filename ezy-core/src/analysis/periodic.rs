@@ -256,12 +256,12 @@ impl<M: Model> Analysis<M> {
         }
         let h = symmetry.pose(&p);
         // Floquet multipliers of x0 -> h^-1 x(t0 + T; x0) modulo the orbit
-        let dp = act_jacobian(&bodies, h.inverse(), n2) * &m;
+        let dp = dense::mul(act_jacobian(&bodies, h.inverse(), n2).as_ref(), m.as_ref());
         let pt = self.point(t0, &x0)?;
         let (_, c) = self.jacobians(t0, &x0, &pt)?;
         let tangent = dense::null_space(c.as_ref(), super::linear::RANK_RTOL)?;
         let (q, orbit) = self.quotient_basis(&tangent, &x0, symmetry)?;
-        let reduced = q.transpose() * &dp * &q;
+        let reduced = dense::congruence(q.as_ref(), dp.as_ref());
         let multipliers = dense::eigenvalues(reduced.as_ref(), true)?;
         let j = self.shooting_jacobian(t0, &x0, &m, symmetry, &p)?;
         let rank = dense::numerical_rank(j.as_ref(), 1e-8)?;

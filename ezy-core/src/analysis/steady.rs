@@ -299,7 +299,7 @@ impl<M: Model> Analysis<M> {
         }
         let tangent = dense::null_space(c.as_ref(), super::linear::RANK_RTOL)?;
         let (q, orbit) = self.quotient_basis(&tangent, x, symmetry)?;
-        let reduced = q.transpose() * &df * &q;
+        let reduced = dense::congruence(q.as_ref(), df.as_ref());
         Ok((dense::eigenvalues(reduced.as_ref(), false)?, orbit))
     }
 
@@ -315,7 +315,7 @@ impl<M: Model> Analysis<M> {
         let gens = symmetry.generators();
         let o = dense::orthonormal_range(fields(bodies, &gens, x).as_ref(), 1e-10)?;
         // the orbit lies in the tangent space: project to be safe of rounding
-        let o = tangent * (tangent.transpose() * &o);
+        let o = dense::mul(tangent.as_ref(), dense::mul(tangent.transpose(), o.as_ref()).as_ref());
         let o = dense::orthonormal_range(o.as_ref(), 1e-10)?;
         Ok((dense::complement(tangent.as_ref(), o.as_ref())?, o.ncols()))
     }
