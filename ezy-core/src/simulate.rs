@@ -1157,12 +1157,17 @@ impl<'a, M: Model, O: Observer<M>> Run<'a, M, O> {
         (k as f64 * self.settings.every).min(self.settings.t_end)
     }
 
+    /// Whether an output at `t` \[s\] is the final one: within a relative
+    /// 1e-12 of `t_end` (`k every` may round to just below it).
+    fn at_end(&self, t: f64) -> bool {
+        t >= self.settings.t_end * (1.0 - 1e-12)
+    }
+
     /// Whether the output at `t` is to be observed: the final one always
-    /// (within the relative 1e-12 by which [`Run::finish_dense`] takes a
-    /// row for the final one: `k every` may round to just below `t_end`),
-    /// the others as the observer wants ([`Observer::wants`]).
+    /// ([`Run::at_end`]), the others as the observer wants
+    /// ([`Observer::wants`]).
     fn wanted(&self, t: f64) -> bool {
-        if t >= self.settings.t_end * (1.0 - 1e-12) {
+        if self.at_end(t) {
             return true;
         }
         let (from, until) = self.skip.get();
@@ -1246,7 +1251,7 @@ impl<'a, M: Model, O: Observer<M>> Run<'a, M, O> {
         n_out: u64,
         x: &[f64],
     ) -> Result<(), RunError<O::Error>> {
-        let wrote_final = (n_out - 1) as f64 * self.settings.every >= self.settings.t_end * (1.0 - 1e-12);
+        let wrote_final = self.at_end((n_out - 1) as f64 * self.settings.every);
         if !wrote_final {
             form.emit(self, sys, self.settings.t_end, x)?;
         }

@@ -280,11 +280,16 @@ impl Accumulator {
     pub fn reads(&self, t: f64, every: f64) -> bool {
         match self.reduce {
             Reduce::EventTime | Reduce::EventCount => false,
-            // the last grid row at or before t1 lies within one interval
-            // of it (a margin of half an interval for rounding)
-            Reduce::Final => t <= self.t1 && t >= self.t0 && t > self.t1 - 1.5 * every,
+            Reduce::Final => t <= self.t1 && t >= self.t0 && t > self.final_after(every),
             Reduce::Mean | Reduce::Max | Reduce::Min => t >= self.t0 && t <= self.t1,
         }
+    }
+
+    /// `final`'s rows lie after this time \[s\]: the last grid row at or
+    /// before `t1` lies within one interval `every` of it (a margin of
+    /// half an interval for rounding).
+    fn final_after(&self, every: f64) -> f64 {
+        self.t1 - 1.5 * every
     }
 
     /// The earliest time at or after `t` \[s\] whose row
@@ -293,7 +298,7 @@ impl Accumulator {
     pub fn next_read(&self, t: f64, every: f64) -> f64 {
         let start = match self.reduce {
             Reduce::EventTime | Reduce::EventCount => return f64::INFINITY,
-            Reduce::Final => self.t0.max(self.t1 - 1.5 * every),
+            Reduce::Final => self.t0.max(self.final_after(every)),
             Reduce::Mean | Reduce::Max | Reduce::Min => self.t0,
         };
         if t > self.t1 { f64::INFINITY } else { t.max(start) }
