@@ -202,13 +202,14 @@ fn frame_count(anim: &AnimateOptions, t_end: f64) -> Result<usize, AnimateError>
 }
 
 /// Integrates `scene` with `opts` (as `ezy run` does, one sample per
-/// frame) and writes the animation `anim.out` of model type `M`.
+/// frame) and writes the animation `anim.out` of `proto` (a model at its defaults).
 ///
 /// # Errors
 /// [`AnimateError::Setting`] for a setting out of range (checked before
 /// anything runs), [`AnimateError::Run`] as for [`run::run_model`],
 /// [`AnimateError::Draw`] and [`AnimateError::Write`].
-pub fn animate_model<M: Model + Default>(
+pub fn animate_model<M: Model>(
+    proto: &M,
     scene: &Scene,
     opts: &RunOptions,
     anim: &AnimateOptions,
@@ -241,7 +242,7 @@ pub fn animate_model<M: Model + Default>(
         }
     }
     let anim = &anim;
-    let (problem, run_scene) = run::problem::<M>(scene, &opts, settings).map_err(run::Error::from)?;
+    let (problem, run_scene) = run::problem(proto, scene, &opts, settings).map_err(run::Error::from)?;
     let (mut sys, y0, _) = problem.into_system().map_err(run::Error::from)?;
     let wall = Instant::now();
     let mut frames = Frames { t: Vec::new(), q: Vec::new(), sliding: Vec::new() };

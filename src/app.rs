@@ -30,9 +30,9 @@ use std::process::ExitCode;
 use clap::Parser;
 use ezy_core::effects::EffectKind;
 use ezy_core::kkt::KktMethod;
-use ezy_core::{Model, ModelInfo};
+use ezy_core::{AnyModel, Model, ModelInfo};
 use ezy_scene::EffectKinds;
-use ezy_scene::registry::{ModelCatalog, Register, SceneSource, check_scene, info_at};
+use ezy_scene::registry::{ModelCatalog, Register, SceneSource, check_scene, info_of};
 
 use ezy_scene::{Scene, SceneError};
 
@@ -48,71 +48,99 @@ use crate::{equations, precision, scale, sweep, testing};
 type Sets = [(String, f64)];
 /// What `check` and `scale` print: the model's description and the result.
 type Described<T> = (ModelInfo, T);
-/// `check`: the sets, the number of states (`None`: by the model's size), the seed.
-type CheckFn = fn(&Sets, Option<usize>, u64) -> Result<Described<testing::Report>, String>;
 /// What `scale` measures per size.
 type Scaled = Described<Vec<scale::ScalePoint>>;
 
-#[derive(Clone, Copy)]
+/// One registered model and what every command does with it. The model
+/// is held as an [`AnyModel`], so every command below is compiled once,
+/// in this crate, for all models: a crate that adds its own model with
+/// [`App::model`] compiles only the model's generated functions (see
+/// [`ezy_core::erased`]).
+#[derive(Clone)]
 struct ModelOps {
-    info_with: ezy_scene::registry::InfoFn,
-    run: fn(&Scene, &RunOptions) -> Result<Report, run::Error>,
-    run_in_memory: fn(&Scene, &RunOptions, Option<run::StopHook<'_>>) -> Result<Report, run::Error>,
-    precision: fn(&Scene, &Path, &precision::PrecisionOptions) -> Result<precision::Report, run::Error>,
-    equations: fn(&Sets, equations::Format) -> Result<String, String>,
-    check: CheckFn,
-    scale: fn(&[usize], usize, KktMethod) -> Result<Scaled, scale::ScaleError>,
-    sweep: fn(&sweep::SweepJob) -> Result<sweep::SweepReport, sweep::SweepError>,
-    animate: AnimateFn,
-    bench: fn(&Scene, usize) -> Result<Vec<crate::bench::BenchRow>, run::Error>,
-    check_user_effects: fn(&Scene) -> Result<(), SceneError>,
-    analyze: fn(&Scene, &analyze::AnalyzeOptions) -> Result<analyze::AnalyzeReport, run::Error>,
-    linearize: fn(&Scene, &analyze::LinearizeOptions) -> Result<analyze::LinearizeReport, run::Error>,
+    proto: AnyModel,
 }
-
-/// `ezy animate` for one model type.
-type AnimateFn = fn(
-    &Scene,
-    &RunOptions,
-    &crate::animate::AnimateOptions,
-) -> Result<crate::animate::AnimateReport, crate::animate::AnimateError>;
 
 impl ModelOps {
     fn of<M: Model + Default + 'static>() -> Self {
-        Self {
-            info_with: info_at::<M>,
-            run: run::run_model::<M>,
-            run_in_memory: run::run_model_in_memory::<M>,
-            precision: precision::precision_model::<M>,
-            equations: |sets, format| Ok(equations::render(&with_sets::<M>(sets)?, format)),
-            check: |sets, states, seed| {
-                let m = with_sets::<M>(sets)?;
-                let info = m.info();
-                let states = states.unwrap_or_else(|| testing::default_states(info.nq()));
-                let beat = crate::progress::Heartbeat::start(format!("checking {}", info.name));
-                let report = testing::check_derivatives_observed(&m, states, seed, |s| {
-                    beat.set(format!("checking {}: state {} of {states}", info.name, s + 1));
-                });
-                Ok((info, report))
-            },
-            scale: |n, batches, kkt| Ok((M::default().info(), scale::scale::<M>(n, batches, kkt)?)),
-            sweep: sweep::sweep_model::<M>,
-            animate: crate::animate::animate_model::<M>,
-            bench: crate::bench::bench_model::<M>,
-            analyze: analyze::analyze_model::<M>,
-            linearize: analyze::linearize_model::<M>,
-            check_user_effects: ezy_scene::registry::check_user_effects::<M>,
-        }
+        Self { proto: AnyModel::new(M::default()) }
+    }
+
+    fn info_with(&self, params: &[(String, f64)]) -> Result<ModelInfo, SceneError> {
+        info_of(&self.proto, params)
+    }
+    fn check_user_effects(&self, scene: &Scene) -> Result<(), SceneError> {
+        ezy_scene::registry::check_user_effects(&self.proto, scene)
+    }
+    fn run(&self, scene: &Scene, opts: &RunOptions) -> Result<Report, run::Error> {
+        run::run_model(&self.proto, scene, opts)
+    }
+    fn run_in_memory(
+        &self,
+        scene: &Scene,
+        opts: &RunOptions,
+        stop: Option<run::StopHook<'_>>,
+    ) -> Result<Report, run::Error> {
+        run::run_model_in_memory(&self.proto, scene, opts, stop)
+    }
+    fn precision(
+        &self,
+        scene: &Scene,
+        out: &Path,
+        opts: &precision::PrecisionOptions,
+    ) -> Result<precision::Report, run::Error> {
+        precision::precision_model(&self.proto, scene, out, opts)
+    }
+    fn equations(&self, sets: &Sets, format: equations::Format) -> Result<String, String> {
+        Ok(equations::render(&with_sets(&self.proto, sets)?, format))
+    }
+    /// `check`: the sets, the number of states (`None`: by the model's size), the seed.
+    fn check(&self, sets: &Sets, states: Option<usize>, seed: u64) -> Result<Described<testing::Report>, String> {
+        let m = with_sets(&self.proto, sets)?;
+        let info = m.info();
+        let states = states.unwrap_or_else(|| testing::default_states(info.nq()));
+        let beat = crate::progress::Heartbeat::start(format!("checking {}", info.name));
+        let report = testing::check_derivatives_observed(&m, states, seed, |s| {
+            beat.set(format!("checking {}: state {} of {states}", info.name, s + 1));
+        });
+        Ok((info, report))
+    }
+    fn scale(&self, n: &[usize], batches: usize, kkt: KktMethod) -> Result<Scaled, scale::ScaleError> {
+        Ok((self.proto.info(), scale::scale(&self.proto, n, batches, kkt)?))
+    }
+    fn sweep(&self, job: &sweep::SweepJob) -> Result<sweep::SweepReport, sweep::SweepError> {
+        sweep::sweep_model(&self.proto, job)
+    }
+    fn animate(
+        &self,
+        scene: &Scene,
+        opts: &RunOptions,
+        anim: &crate::animate::AnimateOptions,
+    ) -> Result<crate::animate::AnimateReport, crate::animate::AnimateError> {
+        crate::animate::animate_model(&self.proto, scene, opts, anim)
+    }
+    fn bench(&self, scene: &Scene, repeat: usize) -> Result<Vec<crate::bench::BenchRow>, run::Error> {
+        crate::bench::bench_model(&self.proto, scene, repeat)
+    }
+    fn analyze(&self, scene: &Scene, opts: &analyze::AnalyzeOptions) -> Result<analyze::AnalyzeReport, run::Error> {
+        analyze::analyze_model(&self.proto, scene, opts)
+    }
+    fn linearize(
+        &self,
+        scene: &Scene,
+        opts: &analyze::LinearizeOptions,
+    ) -> Result<analyze::LinearizeReport, run::Error> {
+        analyze::linearize_model(&self.proto, scene, opts)
     }
 }
 
-/// The default model `M` with `sets` applied (parameters and family counts).
+/// `proto` (a model at its defaults) with `sets` applied (parameters and family counts).
 ///
 /// # Errors
 /// An unknown parameter (listing the model's), a count that is not a whole
 /// number >= 1, or one that makes a family refer to a missing element.
-pub fn with_sets<M: Model + Default>(sets: &[(String, f64)]) -> Result<M, String> {
-    let mut m = M::default();
+pub fn with_sets<M: Model>(proto: &M, sets: &[(String, f64)]) -> Result<M, String> {
+    let mut m = proto.clone();
     let info = m.info();
     for (name, value) in sets {
         let i = info.param_index(name).ok_or_else(|| {
@@ -294,13 +322,13 @@ impl ModelCatalog for App {
         self.models.iter().map(|(k, _)| k.as_str()).collect()
     }
     fn info_with(&self, key: &str, params: &[(String, f64)]) -> Option<Result<ModelInfo, SceneError>> {
-        self.ops(key).map(|ops| (ops.info_with)(params))
+        self.ops(key).map(|ops| ops.info_with(params))
     }
     fn effect_kinds(&self) -> Option<&EffectKinds> {
         Some(&self.kinds)
     }
     fn check_user_effects(&self, key: &str, scene: &Scene) -> Result<(), SceneError> {
-        self.ops(key).map_or(Ok(()), |ops| (ops.check_user_effects)(scene))
+        self.ops(key).map_or(Ok(()), |ops| ops.check_user_effects(scene))
     }
 }
 
@@ -330,7 +358,9 @@ impl App {
 
     /// Adds model type `M` under `key` (the name scene files give in
     /// `model = "KEY"` and the commands `equations`, `check`, `scale` take).
-    /// A key given twice is reported by every command.
+    /// A key given twice is reported by every command. The commands run
+    /// the model as an [`AnyModel`], compiled once in this crate: the
+    /// caller's crate compiles only `M`'s own functions.
     #[must_use]
     pub fn model<M: Model + Default + 'static>(mut self, key: &str) -> Self {
         self.register::<M>(key);
@@ -495,7 +525,7 @@ impl App {
     /// [`run::Error::UnknownModel`] for a key this application lacks.
     pub fn run_scene(&self, scene: &Scene, opts: &RunOptions) -> Result<Report, run::Error> {
         match self.ops(&scene.model) {
-            Some(ops) => (ops.run)(scene, opts),
+            Some(ops) => ops.run(scene, opts),
             None => Err(run::Error::UnknownModel { scene: scene.name.clone(), model: scene.model.clone() }),
         }
     }
@@ -515,7 +545,7 @@ impl App {
         stop: Option<run::StopHook<'_>>,
     ) -> Result<Report, run::Error> {
         match self.ops(&scene.model) {
-            Some(ops) => (ops.run_in_memory)(scene, opts, stop),
+            Some(ops) => ops.run_in_memory(scene, opts, stop),
             None => Err(run::Error::UnknownModel { scene: scene.name.clone(), model: scene.model.clone() }),
         }
     }
@@ -543,7 +573,7 @@ impl App {
         opts: &precision::PrecisionOptions,
     ) -> Result<precision::Report, run::Error> {
         match self.ops(&scene.model) {
-            Some(ops) => (ops.precision)(scene, out, opts),
+            Some(ops) => ops.precision(scene, out, opts),
             None => Err(run::Error::UnknownModel { scene: scene.name.clone(), model: scene.model.clone() }),
         }
     }
@@ -557,8 +587,7 @@ impl App {
         let scenes = self.scenes()?;
         let mut s = String::from("models:\n");
         for (key, ops) in &self.models {
-            let info =
-                (ops.info_with)(&[]).map_err(|e| LoadError::Registry(format!("model `{key}`: {}", e.message)))?;
+            let info = ops.info_with(&[]).map_err(|e| LoadError::Registry(format!("model `{key}`: {}", e.message)))?;
             let counts: Vec<String> =
                 info.params.iter().filter(|p| p.count).map(|p| format!("{} = {}", p.name, p.default)).collect();
             let counts = if counts.is_empty() { String::new() } else { format!(", {}", counts.join(", ")) };
@@ -631,7 +660,7 @@ impl App {
             Some(Command::Linearize(args)) => self.cmd_linearize(args, out),
             Some(Command::Equations(args)) => {
                 let ops = self.model_ops(&args.model)?;
-                let text = (ops.equations)(&args.sets, args.format.into()).map_err(AppError::Failed)?;
+                let text = ops.equations(&args.sets, args.format.into()).map_err(AppError::Failed)?;
                 Ok(out.write_all(text.as_bytes())?)
             }
             Some(Command::Check(args)) => {
@@ -639,7 +668,7 @@ impl App {
                     return Err(AppError::Failed("--states = 0: check at least one state".into()));
                 }
                 let ops = self.model_ops(&args.model)?;
-                let (info, report) = (ops.check)(&args.sets, args.states, args.seed).map_err(AppError::Failed)?;
+                let (info, report) = ops.check(&args.sets, args.states, args.seed).map_err(AppError::Failed)?;
                 out.write_all(report.table(info.name).as_bytes())?;
                 if report.passed() {
                     Ok(())
@@ -657,7 +686,7 @@ impl App {
                 }
                 let ops = self.model_ops(&args.model)?;
                 let csv = matches!(args.format, cli::ScaleFormat::Csv);
-                let (info, points) = (ops.scale)(&args.n, args.batches, args.kkt.into()).map_err(AppError::failed)?;
+                let (info, points) = ops.scale(&args.n, args.batches, args.kkt.into()).map_err(AppError::failed)?;
                 Ok(out.write_all(scale::render(info.name, &points, csv).as_bytes())?)
             }
         }
@@ -784,7 +813,7 @@ impl App {
                 return Err(AppError::Failed("--emit-slurm writes the shards itself: leave out --shard".into()));
             }
             job.check_only = true;
-            (ops.sweep)(&job).map_err(AppError::failed)?;
+            ops.sweep(&job).map_err(AppError::failed)?;
             let runs = job.plan.runs();
             let tasks = args.tasks.unwrap_or(4).min(runs);
             let dir =
@@ -809,7 +838,7 @@ impl App {
         if let Some(asked) = args.jobs.filter(|&j| j > job.jobs) {
             eprintln!("note: --jobs {asked} capped to {}, the number of cores this process may use", job.jobs);
         }
-        let report = (ops.sweep)(&job).map_err(|e| match e {
+        let report = ops.sweep(&job).map_err(|e| match e {
             sweep::SweepError::Interrupted(i) => AppError::Interrupted(i),
             e => AppError::failed(e),
         })?;
@@ -840,7 +869,7 @@ impl App {
             let src = self.load_scene(&manifest.scene).map_err(AppError::failed)?;
             let job = self.sweep_job(&src, &manifest.scene, &parsed)?;
             check_figure_format(&src, job.opts.figure_format, true)?;
-            let info = (self.model_ops(&src.scene.model)?.info_with)(&[]).map_err(|e| AppError::Failed(e.message))?;
+            let info = self.model_ops(&src.scene.model)?.info_with(&[]).map_err(|e| AppError::Failed(e.message))?;
             let look = job.opts.look(&job.scene);
             let (f, n) = sweep::figure::draw(&args.out, &job.plan, &job.metrics, &info, look).map_err(|e| match e {
                 sweep::SweepError::Interrupted(i) => AppError::Interrupted(i),
@@ -878,7 +907,7 @@ impl App {
         // `--repeat` is at most bench::MAX_REPEAT (its parser), and
         // bench_model refuses more for callers that build the arguments
         let repeat = usize::try_from(args.repeat).unwrap_or(usize::MAX);
-        let mut rows = (ops.bench)(scene, repeat).map_err(AppError::from_run)?;
+        let mut rows = ops.bench(scene, repeat).map_err(AppError::from_run)?;
         if !args.no_process {
             // this very program, started anew for each setting: parse,
             // setup, integration and CSV, no figures
@@ -924,7 +953,7 @@ impl App {
         let anim = args.options(&scene.name).map_err(AppError::Failed)?;
         let opts = args.overrides.options();
         let ops = self.model_ops(&scene.model)?;
-        let report = (ops.animate)(scene, &opts, &anim).map_err(|e| match e {
+        let report = ops.animate(scene, &opts, &anim).map_err(|e| match e {
             crate::animate::AnimateError::Run(e) => AppError::from_run(e),
             other => AppError::failed(other),
         })?;
@@ -962,7 +991,7 @@ impl App {
         };
         check_figure_format(&src, opts.run.figure_format, opts.run.figures)?;
         let ops = self.model_ops(&scene.model)?;
-        let report = (ops.analyze)(scene, &opts).map_err(AppError::from_run)?;
+        let report = ops.analyze(scene, &opts).map_err(AppError::from_run)?;
         committed(out, &analyze::summary(&scene.name, &report), &opts.run.out)
     }
 
@@ -978,7 +1007,7 @@ impl App {
             inputs: args.inputs,
         };
         let ops = self.model_ops(&scene.model)?;
-        let report = (ops.linearize)(scene, &opts).map_err(AppError::from_run)?;
+        let report = ops.linearize(scene, &opts).map_err(AppError::from_run)?;
         committed(out, &analyze::linearize_summary(&scene.name, &report), &opts.run.out)
     }
 

@@ -67,7 +67,7 @@ pub struct BenchRow {
 /// # Errors
 /// [`Error`] if a run fails, [`Error::Input`] for `repeat` above
 /// [`MAX_REPEAT`] (before any run).
-pub fn bench_model<M: Model + Default>(scene: &Scene, repeat: usize) -> Result<Vec<BenchRow>, Error> {
+pub fn bench_model<M: Model>(proto: &M, scene: &Scene, repeat: usize) -> Result<Vec<BenchRow>, Error> {
     if repeat as u64 > MAX_REPEAT {
         return Err(Error::Input(format!("--repeat {repeat} is more than {MAX_REPEAT}, the most runs per setting")));
     }
@@ -75,7 +75,7 @@ pub fn bench_model<M: Model + Default>(scene: &Scene, repeat: usize) -> Result<V
     let t_end = scene.t_end;
     let reference =
         Setting { method: Method::Dop853, dt: None, tol: Some(1e-13), projection: ProjectionKind::MassWeighted };
-    let (ref_run, _) = run_once_as::<M>(scene, &reference, t_end, false, Formulation::Dae)?;
+    let (ref_run, _) = run_once_as(proto, scene, &reference, t_end, false, Formulation::Dae)?;
     let tight = Setting { tol: Some(1e-11), ..reference };
     let own = scene.run_settings();
     let own_setting = Setting {
@@ -154,7 +154,7 @@ pub fn bench_model<M: Model + Default>(scene: &Scene, repeat: usize) -> Result<V
                 r + 1,
                 repeat.max(1)
             ));
-            let (last, summary) = run_once_as::<M>(scene, &setting, every, false, formulation)?;
+            let (last, summary) = run_once_as(proto, scene, &setting, every, false, formulation)?;
             if summary.formulation == Formulation::Reduced {
                 minimal = Some(summary.minimal_coordinates);
             }

@@ -107,24 +107,26 @@ impl<M: Model> Observer<M> for Last {
 /// Runs `scene` with `setting`; `every` is the output interval (the final
 /// time is always sampled). Returns the final state, the summary and the
 /// residual history if asked for.
-pub(crate) fn run_once<M: Model + Default>(
+pub(crate) fn run_once<M: Model>(
+    proto: &M,
     scene: &Scene,
     setting: &Setting,
     every: f64,
     history: bool,
 ) -> Result<(Last, ezy_core::Summary), SimError> {
-    run_once_as::<M>(scene, setting, every, history, ezy_core::Formulation::Dae)
+    run_once_as(proto, scene, setting, every, history, ezy_core::Formulation::Dae)
 }
 
 /// [`run_once`] in the given formulation.
-pub(crate) fn run_once_as<M: Model + Default>(
+pub(crate) fn run_once_as<M: Model>(
+    proto: &M,
     scene: &Scene,
     setting: &Setting,
     every: f64,
     history: bool,
     formulation: ezy_core::Formulation,
 ) -> Result<(Last, ezy_core::Summary), SimError> {
-    let (mut sys, y0, _) = scene.problem::<M>(&[])?.0.into_system()?;
+    let (mut sys, y0, _) = scene.problem_with(proto.clone(), &[])?.0.into_system()?;
     let base = scene.run_settings();
     let settings = RunSettings {
         dt: setting.dt.unwrap_or(base.dt),
@@ -149,8 +151,8 @@ pub(crate) fn run_once_as<M: Model + Default>(
 
 /// Median integration time over enough repetitions to be stable (5 for
 /// runs under 50 ms, else 3).
-fn timed<M: Model + Default>(scene: &Scene, setting: &Setting) -> Result<(Last, ezy_core::Summary, f64), SimError> {
-    let (last, summary) = run_once::<M>(scene, setting, scene.t_end, false)?;
+fn timed<M: Model>(proto: &M, scene: &Scene, setting: &Setting) -> Result<(Last, ezy_core::Summary, f64), SimError> {
+    let (last, summary) = run_once(proto, scene, setting, scene.t_end, false)?;
     let first = summary.integration_time.as_secs_f64();
     // the median of 5 short runs, of 3 under a second; a longer run once
     // (a stiff scene's explicit rungs take 10 s and more)
@@ -163,7 +165,7 @@ fn timed<M: Model + Default>(scene: &Scene, setting: &Setting) -> Result<(Last, 
     };
     let mut times = vec![first];
     for _ in 1..reps {
-        times.push(run_once::<M>(scene, setting, scene.t_end, false)?.1.integration_time.as_secs_f64());
+        times.push(run_once(proto, scene, setting, scene.t_end, false)?.1.integration_time.as_secs_f64());
     }
     times.sort_by(f64::total_cmp);
     Ok((last, summary, times[times.len() / 2]))
@@ -184,7 +186,7 @@ pub struct PrecisionOptions {
     pub replot: bool,
 }
 
-/// Runs the ladder for `scene` on model type `M` (what
+/// Runs the ladder for `scene` on `proto`, a model at its defaults (what
 /// [`crate::App::precision`] calls for the model the scene names), writes
 /// `precision.csv` and the figures into `out`; with `opts.replot`, reads
 /// the ladder from `out/precision.csv` instead and writes the figures only.
@@ -192,7 +194,8 @@ pub struct PrecisionOptions {
 /// # Errors
 /// [`Error`] if the reference run fails, a saved ladder does not read or
 /// a file cannot be written.
-pub fn precision_model<M: Model + Default>(
+pub fn precision_model<M: Model>(
+    proto: &M,
     scene: &Scene,
     out: &Path,
     opts: &PrecisionOptions,
@@ -210,16 +213,16 @@ pub fn precision_model<M: Model + Default>(
         })?;
         (rows, f64::NAN)
     } else {
-        let (ref_run, _) = run_once::<M>(scene, &reference, scene.t_end, false)?;
+        let (ref_run, _) = run_once(proto, scene, &reference, scene.t_end, false)?;
         let looser = Setting { tol: Some(1e-12), ..reference };
-        let (loose_run, _) = run_once::<M>(scene, &looser, scene.t_end, false)?;
+        let (loose_run, _) = run_once(proto, scene, &looser, scene.t_end, false)?;
         let reference_error = state_error(&ref_run.y, &loose_run.y);
         let mut rows = Vec::new();
         let settings = ladder();
         let n = settings.len();
         for (k, setting) in settings.into_iter().enumerate() {
             beat.set(format!("precision of {}: setting {} of {n}", scene.name, k + 1));
-            let row = match timed::<M>(scene, &setting) {
+            let row = match timed(proto, scene, &setting) {
                 Ok((last, summary, wall_s)) => Row {
                     setting,
                     error: state_error(&last.y, &ref_run.y),
@@ -244,7 +247,7 @@ pub fn precision_model<M: Model + Default>(
     let chart = overlaid(work_precision_chart(&rows, scene), &opts.overlay);
     tx.write("work_precision.png", &figure_png("work_precision.png", &chart)?)?;
     tx.check(None, Some("drawing drift.png".into()))?;
-    tx.write("drift.png", &figure_png("drift.png", &drift_chart::<M>(scene)?)?)?;
+    tx.write("drift.png", &figure_png("drift.png", &drift_chart(proto, scene)?)?)?;
     let files = tx.commit()?;
     Ok(Report { reference, reference_error, rows, files })
 }
@@ -512,12 +515,12 @@ fn work_precision_chart(rows: &[Row], scene: &Scene) -> Chart {
     }
 }
 
-fn drift_chart<M: Model + Default>(scene: &Scene) -> Result<Chart, Error> {
+fn drift_chart<M: Model>(proto: &M, scene: &Scene) -> Result<Chart, Error> {
     // RK4 at 0.01 s; on a stiff scene, where that step is unstable, the
     // scene's own method (the ladder has RK4's numbers)
     let rk4 = Setting { method: Method::Rk4, dt: Some(1e-2), tol: None, projection: ProjectionKind::None };
     let every = |s: &Setting| (scene.t_end / 500.0).max(s.dt.unwrap_or(0.0));
-    let (base, title) = match run_once::<M>(scene, &rk4, every(&rk4), true) {
+    let (base, title) = match run_once(proto, scene, &rk4, every(&rk4), true) {
         Ok(_) => (rk4, "RK4 h = 0.01 s".to_string()),
         Err(_) => {
             let own = scene.run_settings();
@@ -537,7 +540,7 @@ fn drift_chart<M: Model + Default>(scene: &Scene) -> Result<Chart, Error> {
     let mut series = Vec::new();
     for projection in [ProjectionKind::None, ProjectionKind::MassWeighted] {
         let setting = Setting { projection, ..base };
-        let (last, _) = run_once::<M>(scene, &setting, every(&setting), true)?;
+        let (last, _) = run_once(proto, scene, &setting, every(&setting), true)?;
         let h = last.history.unwrap_or_default();
         let name = if projection == ProjectionKind::None { "no projection" } else { "projected" };
         series.push(Series::new(format!("max |Φ(q)| [m], {name}"), h.iter().map(|p| (p.0, p.1)).collect()));

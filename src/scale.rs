@@ -79,12 +79,13 @@ pub enum ScaleError {
 /// # Errors
 /// [`ScaleError`] for a model without a count, a count the model does not
 /// accept, or a state the KKT solve fails on.
-pub fn scale<M: Model + Default>(
+pub fn scale<M: Model>(
+    proto: &M,
     ns: &[usize],
     min_batches: usize,
     kkt: KktMethod,
 ) -> Result<Vec<ScalePoint>, ScaleError> {
-    let base = M::default();
+    let base = proto.clone();
     let info = base.info();
     let (index, name) = info
         .params
@@ -219,15 +220,21 @@ mod tests {
 
     #[test]
     fn the_snake_is_measured_and_a_model_without_count_is_refused() {
-        let pts = scale::<ezy_models::Snake>(&[3, 20], 3, KktMethod::Auto).unwrap();
+        let pts = scale(&ezy_models::Snake::default(), &[3, 20], 3, KktMethod::Auto).unwrap();
         assert_eq!((pts[0].nq, pts[0].nc), (9, 2 * 2 + 3));
         assert_eq!((pts[1].nq, pts[1].nc), (60, 2 * 19 + 20));
         // a model with families takes the sparse path at every size
         assert_eq!((pts[0].path, pts[1].path), ("sparse-cholesky", "sparse-cholesky"));
         assert!(pts.iter().all(|p| p.seconds_per_rhs > 0.0 && p.seconds_per_rhs.is_finite()));
-        assert!(matches!(scale::<ezy_models::EzyRoller>(&[10], 3, KktMethod::Auto), Err(ScaleError::NoCount { .. })));
-        assert!(matches!(scale::<ezy_models::Snake>(&[0], 3, KktMethod::Auto), Err(ScaleError::BadCount { .. })));
-        let dense = scale::<ezy_models::Snake>(&[20], 3, KktMethod::Schur).unwrap();
+        assert!(matches!(
+            scale(&ezy_models::EzyRoller::default(), &[10], 3, KktMethod::Auto),
+            Err(ScaleError::NoCount { .. })
+        ));
+        assert!(matches!(
+            scale(&ezy_models::Snake::default(), &[0], 3, KktMethod::Auto),
+            Err(ScaleError::BadCount { .. })
+        ));
+        let dense = scale(&ezy_models::Snake::default(), &[20], 3, KktMethod::Schur).unwrap();
         assert_eq!(dense[0].path, "schur-cholesky");
         let csv = render("Snake", &pts, true);
         assert!(csv.starts_with("n,nq,nc,seconds_per_rhs,path\n3,9,7,"), "{csv}");

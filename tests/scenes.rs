@@ -289,14 +289,14 @@ fn only_a_large_family_sets_up_with_a_heartbeat() {
     let (snake, long, drive) = (named("snake"), named("snake-long"), named("drive"));
     let n = |v: f64| vec![("N".to_string(), v)];
     let big = LONG_SETUP_ELEMENTS;
-    assert!(!setup_may_be_long::<ezy_models::Snake>(&snake, &[]), "the model's N = 5");
-    assert!(setup_may_be_long::<ezy_models::Snake>(&snake, &n(big)));
-    assert!(!setup_may_be_long::<ezy_models::Snake>(&snake, &n(big - 1.0)));
+    assert!(!setup_may_be_long(&ezy_models::Snake::default(), &snake, &[]), "the model's N = 5");
+    assert!(setup_may_be_long(&ezy_models::Snake::default(), &snake, &n(big)));
+    assert!(!setup_may_be_long(&ezy_models::Snake::default(), &snake, &n(big - 1.0)));
     let last_wins = [n(big), n(big - 1.0)].concat();
-    assert!(!setup_may_be_long::<ezy_models::Snake>(&snake, &last_wins));
+    assert!(!setup_may_be_long(&ezy_models::Snake::default(), &snake, &last_wins));
     let mut huge = long.clone();
     huge.params.iter_mut().filter(|(name, _)| name == "N").for_each(|(_, v)| *v = big);
-    assert!(setup_may_be_long::<ezy_models::SnakeDriven>(&huge, &[]), "the scene's [params]");
-    assert!(!setup_may_be_long::<ezy_models::SnakeDriven>(&huge, &n(30.0)), "an override beats the scene");
-    assert!(!setup_may_be_long::<EzyRoller>(&drive, &[]));
+    assert!(setup_may_be_long(&ezy_models::SnakeDriven::default(), &huge, &[]), "the scene's [params]");
+    assert!(!setup_may_be_long(&ezy_models::SnakeDriven::default(), &huge, &n(30.0)), "an override beats the scene");
+    assert!(!setup_may_be_long(&EzyRoller::default(), &drive, &[]));
 }

@@ -429,19 +429,13 @@ impl<M: Model> Dynamics<M> {
         let qd = &mut rest[..nq];
         let (pd_ud, power) = dz.split_at_mut(dz.len() - self.effects.len());
         // a scene whose effects are all hinge torques (or none) hands them
-        // over as such: the model maps them at compile time and its
-        // applied-force part, never written, folds away
-        let res = if self.effects.iter().all(|e| matches!(e.law, Law::Hinge { .. })) {
-            let effects = &self.effects;
-            self.model.minimal_rhs(k, z, q, qd, pd_ud, |q, qd, _, tau| {
-                hinge_torques(effects, t, q, qd, tau, power);
-                Ok(())
-            })
-        } else {
+        // over as such (`waves` empty): see `fused_rhs`
+        let hinges_only = self.effects.iter().all(|e| matches!(e.law, Law::Hinge { .. }));
+        if !hinges_only {
             self.refresh_waveforms(t);
-            let (effects, waves) = (&self.effects, &self.ws.waves);
-            self.model.minimal_rhs(k, z, q, qd, pd_ud, |q, qd, f, _| apply_effects(effects, waves, t, q, qd, f, power))
-        };
+        }
+        let waves: &[crate::effects::Waveforms] = if hinges_only { &[] } else { &self.ws.waves };
+        let res = self.model.minimal_rhs_effects(k, z, q, qd, pd_ud, t, &self.effects, waves, power);
         res.map_err(|e| match e {
             crate::model::MinimalRhsError::Forces(e) => e,
             crate::model::MinimalRhsError::Maggi(source) => SimError::Formulation {
@@ -771,6 +765,40 @@ pub fn state_names<S: AsRef<str>>(coords: &[S], effects: &[Effect], drives: &[cr
 fn note_singular(counters: &mut Counters, last: &mut f64, t: f64) {
     counters.singular_solves += 1;
     *last = t;
+}
+
+/// [`Model::minimal_rhs`] with ezy-core's effects as its `forces` (the
+/// body of [`Model::minimal_rhs_effects`]): with `waves` empty (every
+/// effect a hinge torque, or none) the effects are handed over as the
+/// hinges' torques, which the model maps at compile time, so its
+/// applied-force part, never written, folds away; otherwise every effect
+/// adds its generalized force from its waveforms `waves` at `t` (one per
+/// effect). Each effect's power \[W\] goes to `power`.
+///
+/// # Errors
+/// As [`Model::minimal_rhs`], the forces' error a [`SimError::EffectFailed`].
+#[allow(clippy::too_many_arguments)]
+#[inline(always)]
+pub(crate) fn fused_rhs<M: Model>(
+    model: &M,
+    k: &[f64],
+    z: &[f64],
+    q: &mut [f64],
+    qd: &mut [f64],
+    dz: &mut [f64],
+    t: f64,
+    effects: &[Effect],
+    waves: &[crate::effects::Waveforms],
+    power: &mut [f64],
+) -> Result<(), crate::model::MinimalRhsError<SimError>> {
+    if waves.is_empty() {
+        model.minimal_rhs(k, z, q, qd, dz, |q, qd, _, tau| {
+            hinge_torques(effects, t, q, qd, tau, power);
+            Ok(())
+        })
+    } else {
+        model.minimal_rhs(k, z, q, qd, dz, |q, qd, f, _| apply_effects(effects, waves, t, q, qd, f, power))
+    }
 }
 
 /// Adds each effect's generalized force at `(t, q, qd)` (nq each) to `f`

@@ -51,6 +51,7 @@ pub mod analysis;
 pub mod drive;
 pub mod dynamics;
 pub mod effects;
+pub mod erased;
 mod error;
 pub mod events;
 pub mod friction;
@@ -68,6 +69,7 @@ pub mod simulate;
 
 pub use dynamics::{Baumgarte, Dynamics};
 pub use effects::{Effect, EffectSpec};
+pub use erased::AnyModel;
 pub use error::{
     LISTED, MASS_SPREAD_WARNING, Setting, SimError, advice, fmt_value, name_list, spell_settings_as_flags,
 };

@@ -486,6 +486,36 @@ pub trait Model: Clone + Send + Sync + 'static {
         Ok(())
     }
 
+    /// [`Model::minimal_rhs`] with a run's effects as its `forces`, the
+    /// call [`crate::Dynamics`] makes at every evaluation of the fused
+    /// right-hand side: with `waves` empty (every effect a hinge torque, or
+    /// none) the effects are handed over as the hinges' torques, which the
+    /// model maps at compile time; otherwise each effect adds its
+    /// generalized force from its waveforms `waves` at `t` \[s\] (one per
+    /// effect). Each effect's power \[W\] goes to `power` (one per
+    /// effect). A method of the trait so that [`crate::AnyModel`] reaches
+    /// the model's own code in one indirect call; models do not override it.
+    ///
+    /// # Errors
+    /// As [`Model::minimal_rhs`], the forces' error a
+    /// [`crate::SimError::EffectFailed`].
+    #[allow(clippy::too_many_arguments)]
+    #[inline]
+    fn minimal_rhs_effects(
+        &self,
+        k: &[f64],
+        z: &[f64],
+        q: &mut [f64],
+        qd: &mut [f64],
+        dz: &mut [f64],
+        t: f64,
+        effects: &[crate::Effect],
+        waves: &[crate::effects::Waveforms],
+        power: &mut [f64],
+    ) -> Result<(), MinimalRhsError<crate::SimError>> {
+        crate::dynamics::fused_rhs(self, k, z, q, qd, dz, t, effects, waves, power)
+    }
+
     /// Maggi's equations on the minimal coordinates in the body frames,
     /// from the expansion's `b` (nq x nu) and `c` (nq + 2 nb), the mass
     /// diagonal `mass` (nq, each body's alike along x and y) and the

@@ -10,9 +10,18 @@ use core::ops::{Add, Div, Mul, Neg, Sub};
 
 /// A real number type the generated model code can evaluate on.
 ///
-/// Implemented for `f64` and for `num_dual::Dual64`.
+/// Implemented for `f64` and for `num_dual::Dual64`, and sealed to them:
+/// [`crate::AnyModel`] has one entry per scalar type for each generic
+/// method.
 pub trait Scalar:
-    Copy + Add<Output = Self> + Sub<Output = Self> + Mul<Output = Self> + Div<Output = Self> + Neg<Output = Self>
+    sealed::Sealed
+    + 'static
+    + Copy
+    + Add<Output = Self>
+    + Sub<Output = Self>
+    + Mul<Output = Self>
+    + Div<Output = Self>
+    + Neg<Output = Self>
 {
     /// Lifts a constant (a literal or a parameter value).
     fn from_f64(value: f64) -> Self;
@@ -28,6 +37,13 @@ pub trait Scalar:
     fn powi(self, n: i32) -> Self;
     /// Reciprocal `1 / self`.
     fn recip(self) -> Self;
+}
+
+mod sealed {
+    /// Keeps [`super::Scalar`] to the types [`crate::AnyModel`] dispatches on.
+    pub trait Sealed {}
+    impl Sealed for f64 {}
+    impl Sealed for num_dual::Dual64 {}
 }
 
 impl Scalar for f64 {

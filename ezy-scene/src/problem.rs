@@ -23,7 +23,21 @@ impl Scene {
     /// [`SimError::Setting`] for a bad mass, [`SimError::Effect`] for an
     /// effect the model cannot take.
     pub fn problem<M: Model + Default>(&self, sets: &[(String, f64)]) -> Result<(Problem<M>, Scene), SimError> {
-        let mut model = M::default();
+        self.problem_with(M::default(), sets)
+    }
+
+    /// [`Scene::problem`] on `model` as given (its parameters the starting
+    /// point the scene's `[params]` and `sets` change) instead of `M`'s
+    /// default: what the `ezy` crate's commands call with an
+    /// [`ezy_core::AnyModel`].
+    ///
+    /// # Errors
+    /// As [`Scene::problem`].
+    pub fn problem_with<M: Model>(
+        &self,
+        mut model: M,
+        sets: &[(String, f64)],
+    ) -> Result<(Problem<M>, Scene), SimError> {
         let base = model.info();
         let mut scene = self.clone();
         for (name, value) in sets {

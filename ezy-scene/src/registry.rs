@@ -74,18 +74,18 @@ pub trait ModelCatalog {
 }
 
 /// Resolves the effects of kinds of the user's own ([`SceneEffect::User`])
-/// in `scene` (bound, families expanded, checked) against model `M` at
+/// in `scene` (bound, families expanded, checked) against `model` at
 /// the scene's parameters, so that a name the law looks up or a number it
 /// refuses is reported at its key in the file before any work (what
 /// [`ModelCatalog::check_user_effects`] does for the `ezy` crate's `App`).
 ///
 /// # Errors
 /// A [`SceneError`] at `effects.NAME.KEY`, the key the law names.
-pub fn check_user_effects<M: Model + Default>(scene: &Scene) -> Result<(), SceneError> {
+pub fn check_user_effects<M: Model>(model: &M, scene: &Scene) -> Result<(), SceneError> {
     if !scene.effects.iter().any(|(_, e)| matches!(e, SceneEffect::User(_))) {
         return Ok(());
     }
-    let mut model = M::default();
+    let mut model = model.clone();
     let base = model.info();
     for (name, value) in &scene.params {
         if let Some(i) = base.param_index(name) {
@@ -120,7 +120,15 @@ pub fn check_user_effects<M: Model + Default>(scene: &Scene) -> Result<(), Scene
 /// # Errors
 /// As [`ModelCatalog::info_with`].
 pub fn info_at<M: Model + Default>(params: &[(String, f64)]) -> Result<ModelInfo, SceneError> {
-    let mut model = M::default();
+    info_of(&M::default(), params)
+}
+
+/// [`info_at`] of `model` as given instead of `M`'s default.
+///
+/// # Errors
+/// As [`ModelCatalog::info_with`].
+pub fn info_of<M: Model>(model: &M, params: &[(String, f64)]) -> Result<ModelInfo, SceneError> {
+    let mut model = model.clone();
     set_counts(&mut model, params)?;
     Ok(model.info())
 }

@@ -67,8 +67,8 @@ pub struct AnalyzeReport {
 
 /// The analysis of `scene` with the overrides `sets` and its consistent
 /// initial state.
-fn build<M: Model + Default>(scene: &Scene, sets: &[(String, f64)]) -> Result<(Analysis<M>, Vec<f64>), Error> {
-    let (problem, _) = scene.problem::<M>(sets)?;
+fn build<M: Model>(proto: &M, scene: &Scene, sets: &[(String, f64)]) -> Result<(Analysis<M>, Vec<f64>), Error> {
+    let (problem, _) = scene.problem_with(proto.clone(), sets)?;
     let (mut an, x0) = problem.analysis()?;
     an.stop_when(|| crate::transaction::pending().is_some());
     Ok((an, x0))
@@ -78,7 +78,8 @@ fn build<M: Model + Default>(scene: &Scene, sets: &[(String, f64)]) -> Result<(A
 /// overridden by `opts`) to `t_end` \[s\] at `samples` evenly spaced
 /// times, the start excluded and the end last; a signal stops it within a
 /// step.
-fn run_to<M: Model + Default>(
+fn run_to<M: Model>(
+    proto: &M,
     scene: &Scene,
     opts: &RunOptions,
     t_end: f64,
@@ -87,7 +88,7 @@ fn run_to<M: Model + Default>(
     let mut settings = run::settings(scene, opts)?;
     settings.t_end = t_end;
     settings.every = t_end / f64::from(samples);
-    let (problem, _) = run::problem::<M>(scene, opts, settings)?;
+    let (problem, _) = run::problem(proto, scene, opts, settings)?;
     let mut kept = States { dir: opts.out.clone(), x: Vec::new() };
     problem.solve_with(&mut kept).map_err(|e| match e {
         ezy_core::RunError::Sim(e) => Error::Sim(e),
@@ -129,12 +130,12 @@ fn analysis_error(dir: &std::path::Path) -> impl Fn(AnalysisError) -> Error + '_
     }
 }
 
-/// `ezy analyze` on model `M`.
+/// `ezy analyze` on `proto`, a model at its defaults.
 ///
 /// # Errors
 /// [`Error::Input`] when the scene has neither steady motions nor a known
 /// period, or no search converged; the setup's errors; the output's.
-pub fn analyze_model<M: Model + Default>(scene: &Scene, opts: &AnalyzeOptions) -> Result<AnalyzeReport, Error> {
+pub fn analyze_model<M: Model>(proto: &M, scene: &Scene, opts: &AnalyzeOptions) -> Result<AnalyzeReport, Error> {
     let ro = &opts.run;
     let settings = run::settings(scene, ro)?;
     if let Some(p) = opts.period
@@ -142,12 +143,12 @@ pub fn analyze_model<M: Model + Default>(scene: &Scene, opts: &AnalyzeOptions) -
     {
         return Err(Error::Input(format!("--period {p}: the period must be a positive number of seconds")));
     }
-    let (mut an, x0) = build::<M>(scene, &ro.sets)?;
+    let (mut an, x0) = build(proto, scene, &ro.sets)?;
     // the continuation's parameter is checked before anything is written
     if let Some((name, values)) = &opts.continuation {
         let mut sets = ro.sets.clone();
         sets.push((name.clone(), values[0]));
-        build::<M>(scene, &sets).map_err(|e| Error::Input(format!("--continue {name}: {e}")))?;
+        build(proto, scene, &sets).map_err(|e| Error::Input(format!("--continue {name}: {e}")))?;
     }
     Transaction::preflight(&ro.out)?;
     let mut timings = Vec::new();
@@ -178,7 +179,7 @@ pub fn analyze_model<M: Model + Default>(scene: &Scene, opts: &AnalyzeOptions) -
             None
         }
     };
-    let samples = run_to::<M>(scene, ro, settings.t_end, GUESSES)?;
+    let samples = run_to(proto, scene, ro, settings.t_end, GUESSES)?;
     let end = samples.last().cloned().unwrap_or_else(|| x0.clone());
     timings.push((format!("run to t = {} s for a guess", fmt_value(settings.t_end)), clock.elapsed()));
     let conservative = an.dynamics().effects.is_empty() && an.dynamics().drives.is_empty();
@@ -253,7 +254,7 @@ pub fn analyze_model<M: Model + Default>(scene: &Scene, opts: &AnalyzeOptions) -
                 }
                 let mut sets = ro.sets.clone();
                 sets.push((name.clone(), v));
-                build::<M>(scene, &sets).map(|(a, _)| a).map_err(|e| match e {
+                build(proto, scene, &sets).map(|(a, _)| a).map_err(|e| match e {
                     Error::Sim(e) => AnalysisError::Sim(e),
                     e => AnalysisError::Request { reason: e.to_string() },
                 })
@@ -584,19 +585,19 @@ pub fn parse_input(text: &str) -> Result<Input, String> {
     }
 }
 
-/// `ezy linearize` on model `M`: `A.csv`, `B.csv` (with inputs),
+/// `ezy linearize` on `proto`, a model at its defaults: `A.csv`, `B.csv` (with inputs),
 /// `eigenvalues.csv` and `state.csv`.
 ///
 /// # Errors
 /// A bad time or input, the setup's and the output's errors.
-pub fn linearize_model<M: Model + Default>(scene: &Scene, opts: &LinearizeOptions) -> Result<LinearizeReport, Error> {
+pub fn linearize_model<M: Model>(proto: &M, scene: &Scene, opts: &LinearizeOptions) -> Result<LinearizeReport, Error> {
     let ro = &opts.run;
     if !(opts.at.is_finite() && opts.at >= 0.0) {
         return Err(Error::Input(format!("--at {}: the time must be zero or a positive number of seconds", opts.at)));
     }
     let inputs = opts.inputs.iter().map(|i| parse_input(i)).collect::<Result<Vec<_>, _>>().map_err(Error::Input)?;
-    let (mut an, x0) = build::<M>(scene, &ro.sets)?;
-    let x = if opts.at > 0.0 { run_to::<M>(scene, ro, opts.at, 1)?.pop().unwrap_or(x0) } else { x0 };
+    let (mut an, x0) = build(proto, scene, &ro.sets)?;
+    let x = if opts.at > 0.0 { run_to(proto, scene, ro, opts.at, 1)?.pop().unwrap_or(x0) } else { x0 };
     let lin = an.linearize(opts.at, &x, &inputs).map_err(analysis_error(&ro.out))?;
     let eigenvalues = lin.eigenvalues().map_err(analysis_error(&ro.out))?;
     Transaction::preflight(&ro.out)?;

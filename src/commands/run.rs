@@ -243,7 +243,7 @@ pub fn settings(scene: &Scene, opts: &RunOptions) -> Result<RunSettings, SimErro
     Ok(settings)
 }
 
-/// The problem `scene` describes for model `M` with the overrides of
+/// The problem `scene` describes for `proto` (a model at its defaults) with the overrides of
 /// `opts` (`--set`, `--baumgarte`) and the run's `settings` (from
 /// [`settings`]), and the scene as run (overrides applied, families
 /// expanded). `ezy run`, `ezy animate` and every run of `ezy sweep` start
@@ -251,12 +251,13 @@ pub fn settings(scene: &Scene, opts: &RunOptions) -> Result<RunSettings, SimErro
 ///
 /// # Errors
 /// As [`ezy_scene::Scene::problem`].
-pub fn problem<M: Model + Default>(
+pub fn problem<M: Model>(
+    proto: &M,
     scene: &Scene,
     opts: &RunOptions,
     settings: RunSettings,
 ) -> Result<(Problem<M>, Scene), SimError> {
-    let (mut problem, scene) = scene.problem::<M>(&opts.sets)?;
+    let (mut problem, scene) = scene.problem_with(proto.clone(), &opts.sets)?;
     problem.settings = settings;
     problem.baumgarte = opts.baumgarte;
     Ok((problem, scene))
@@ -270,13 +271,13 @@ pub fn problem<M: Model + Default>(
 /// join (about 0.3 ms) would be a tenth of a small run's whole process.
 pub const LONG_SETUP_ELEMENTS: f64 = 1000.0;
 
-/// Whether setting `scene` up on model `M` with the overrides `sets` may
+/// Whether setting `scene` up on `proto` (a model at its defaults) with the overrides `sets` may
 /// take long: its family counts (the model's defaults, the scene's
 /// `[params]`, then `sets`, the last value of each winning) sum to at
 /// least [`LONG_SETUP_ELEMENTS`]. A value the setup will refuse counts as
 /// it is; the answer only decides whether a heartbeat thread is started.
-pub fn setup_may_be_long<M: Model + Default>(scene: &Scene, sets: &[(String, f64)]) -> bool {
-    let model = M::default();
+pub fn setup_may_be_long<M: Model>(proto: &M, scene: &Scene, sets: &[(String, f64)]) -> bool {
+    let model = proto.clone();
     let info = model.info();
     let elements: f64 = (info.params.iter().enumerate())
         .filter(|(_, p)| p.count)
@@ -288,15 +289,15 @@ pub fn setup_may_be_long<M: Model + Default>(scene: &Scene, sets: &[(String, f64
     elements >= LONG_SETUP_ELEMENTS
 }
 
-/// Runs `scene` with `opts` on model type `M` (what [`crate::App::run_scene`]
+/// Runs `scene` with `opts` on `proto`, a model at its defaults (what [`crate::App::run_scene`]
 /// calls for the model the scene names): resolves the overrides, finds
 /// consistent initial values, integrates, writes `trajectory.csv` and the
 /// figures into `opts.out`.
 ///
 /// # Errors
 /// [`Error`] naming the bad setting, parameter, or file.
-pub fn run_model<M: Model + Default>(scene: &Scene, opts: &RunOptions) -> Result<Report, Error> {
-    run_model_tapped::<M>(scene, opts, None)
+pub fn run_model<M: Model>(proto: &M, scene: &Scene, opts: &RunOptions) -> Result<Report, Error> {
+    run_model_tapped(proto, scene, opts, None)
 }
 
 /// [`run_model`] that shows every output row, as it is written, to `tap`
@@ -304,7 +305,8 @@ pub fn run_model<M: Model + Default>(scene: &Scene, opts: &RunOptions) -> Result
 ///
 /// # Errors
 /// As [`run_model`].
-pub fn run_model_tapped<M: Model + Default>(
+pub fn run_model_tapped<M: Model>(
+    proto: &M,
     scene: &Scene,
     opts: &RunOptions,
     tap: Option<crate::output::Tap<'_>>,
@@ -314,7 +316,7 @@ pub fn run_model_tapped<M: Model + Default>(
     // a line on stderr every few seconds while a phase without its own
     // progress takes long: the setup of a large family (a short setup gets
     // no thread, see `setup_may_be_long`), the figures, the report
-    let mut beat = (opts.progress && setup_may_be_long::<M>(scene, &opts.sets))
+    let mut beat = (opts.progress && setup_may_be_long(proto, scene, &opts.sets))
         .then(|| crate::progress::Heartbeat::start(format!("setting up scene {}", scene.name)));
     let (format, dpi) = opts.look(scene);
     if opts.figures {
@@ -323,7 +325,7 @@ pub fn run_model_tapped<M: Model + Default>(
         // scene file's line)
         crate::plot::check_format(format).map_err(|e| Error::Input(format!("scene `{}`: {e}", scene.name)))?;
     }
-    let Prepared { scene, mut sys, y0, initial, rows, n_rows } = prepare::<M>(scene, opts, &settings)?;
+    let Prepared { scene, mut sys, y0, initial, rows, n_rows } = prepare(proto, scene, opts, &settings)?;
     let scene = &scene;
 
     // The output is a transaction: trajectory.csv and the figures are
@@ -446,14 +448,15 @@ pub type StopHook<'a> = &'a mut dyn FnMut(f64) -> Option<String>;
 /// # Errors
 /// As [`run_model`] (no file errors); [`Error::Stopped`] when `stop`
 /// asked.
-pub fn run_model_in_memory<M: Model + Default>(
+pub fn run_model_in_memory<M: Model>(
+    proto: &M,
     scene: &Scene,
     opts: &RunOptions,
     stop: Option<StopHook<'_>>,
 ) -> Result<Report, Error> {
     let wall = Instant::now();
     let settings = settings(scene, opts)?;
-    let Prepared { mut sys, y0, initial, rows: builder, n_rows, .. } = prepare::<M>(scene, opts, &settings)?;
+    let Prepared { mut sys, y0, initial, rows: builder, n_rows, .. } = prepare(proto, scene, opts, &settings)?;
     let n = builder.columns.len();
     let table = Table { columns: builder.columns.clone(), data: Vec::with_capacity(n_rows * n) };
     let mut obs = MemoryObserver { builder, row: Vec::with_capacity(n), table, stop, notes: Vec::new() };
@@ -490,8 +493,13 @@ struct Prepared<M: Model> {
     n_rows: usize,
 }
 
-fn prepare<M: Model + Default>(scene: &Scene, opts: &RunOptions, settings: &RunSettings) -> Result<Prepared<M>, Error> {
-    let (problem, scene) = problem::<M>(scene, opts, *settings)?;
+fn prepare<M: Model>(
+    proto: &M,
+    scene: &Scene,
+    opts: &RunOptions,
+    settings: &RunSettings,
+) -> Result<Prepared<M>, Error> {
+    let (problem, scene) = problem(proto, scene, opts, *settings)?;
     let (sys, y0, initial) = problem.into_system()?;
     let rows = RowBuilder::new(&scene, &sys);
     output_budget(settings, rows.columns.len(), opts.max_output_mb.unwrap_or(DEFAULT_MAX_OUTPUT_MB))?;

@@ -214,14 +214,14 @@ struct Checked {
     state: Vec<String>,
 }
 
-fn check<M: Model + Default>(job: &SweepJob) -> Result<Checked, String> {
+fn check<M: Model>(proto: &M, job: &SweepJob) -> Result<Checked, String> {
     let settings = run::settings(&job.scene, &job.opts).map_err(|e| e.to_string())?;
     let events: Vec<&str> = job.scene.events.iter().map(|(n, _)| n.as_str()).collect();
     for m in &job.metrics {
         m.check_window(settings.t_end, settings.every)?;
         m.check_event(&events)?;
     }
-    let base = M::default().info();
+    let base = proto.clone().info();
     // every name, with the first value of its axis (unknown names and
     // values a key refuses are caught here, before any run)
     let first = job.plan.values(0);
@@ -310,7 +310,7 @@ fn check<M: Model + Default>(job: &SweepJob) -> Result<Checked, String> {
         for (&k, &v) in counts.iter().zip(&tuple) {
             sets.push((job.plan.axes[k].name.clone(), v));
         }
-        match job.scene.problem::<M>(&sets) {
+        match job.scene.problem_with(proto.clone(), &sets) {
             Ok((p, scene)) => {
                 for n in p.state_names() {
                     if seen.insert(n.clone()) {
@@ -427,7 +427,8 @@ struct Done {
     tap: Tap,
 }
 
-fn one_run<M: Model + Default>(
+fn one_run<M: Model>(
+    proto: &M,
     job: &SweepJob,
     settings: &ezy_core::RunSettings,
     opts: &RunOptions,
@@ -437,12 +438,12 @@ fn one_run<M: Model + Default>(
     if let Some(dir) = save {
         let opts = RunOptions { out: dir, figures: true, progress: false, ..opts.clone() };
         // the metrics need the row layout: from the configured scene
-        let (layout, scene) = job.scene.problem::<M>(&opts.sets).map_err(|e| Ok(e.to_string()))?;
+        let (layout, scene) = job.scene.problem_with(proto.clone(), &opts.sets).map_err(|e| Ok(e.to_string()))?;
         let cols = scene.columns(&layout.model.info());
         let accs = job.metrics.iter().map(|m| metric::Accumulator::new(m, &cols)).collect::<Result<_, _>>();
         let mut tap = Tap::new(accs.map_err(Ok)?);
         let mut f = |s: &Sample<'_>, row: &[f64]| tap.take(s, row);
-        let report = match run::run_model_tapped::<M>(&job.scene, &opts, Some(&mut f)) {
+        let report = match run::run_model_tapped(proto, &job.scene, &opts, Some(&mut f)) {
             Ok(r) => r,
             Err(e) => {
                 return match e.interrupted() {
@@ -453,7 +454,7 @@ fn one_run<M: Model + Default>(
         };
         return Ok(Done { summary: report.summary, state_names: report.state_names, tap });
     }
-    let (problem, scene) = run::problem::<M>(&job.scene, opts, *settings).map_err(|e| Ok(e.to_string()))?;
+    let (problem, scene) = run::problem(proto, &job.scene, opts, *settings).map_err(|e| Ok(e.to_string()))?;
     let (mut sys, y0, _) = problem.into_system().map_err(|e| Ok(e.to_string()))?;
     let rows = (!job.metrics.is_empty()).then(|| RowBuilder::new(&scene, &sys));
     let accs = match &rows {
@@ -561,7 +562,7 @@ fn real_dir(dir: &Path) -> Result<(), String> {
     Ok(())
 }
 
-/// Runs `job` on model type `M` (what [`crate::App`] calls for the model
+/// Runs `job` on `proto`, a model at its defaults (what [`crate::App`] calls for the model
 /// the scene names): checks everything first, then runs the runs not yet
 /// in `sweep.csv` on `job.jobs` threads (at most one per core) and appends their rows in run
 /// order, then draws the figures.
@@ -571,8 +572,8 @@ fn real_dir(dir: &Path) -> Result<(), String> {
 /// missing column, a window outside the run, a directory holding another
 /// sweep) before any run, or a failed write; [`SweepError::Interrupted`]
 /// if a signal stopped it.
-pub fn sweep_model<M: Model + Default>(job: &SweepJob) -> Result<SweepReport, SweepError> {
-    let checked = check::<M>(job)?;
+pub fn sweep_model<M: Model>(proto: &M, job: &SweepJob) -> Result<SweepReport, SweepError> {
+    let checked = check(proto, job)?;
     if job.check_only {
         return Ok(SweepReport::default());
     }
@@ -663,7 +664,7 @@ pub fn sweep_model<M: Model + Default>(job: &SweepJob) -> Result<SweepReport, Sw
                     let t = Instant::now();
                     let outcome = match save.as_deref().map(real_dir).transpose() {
                         Err(e) => Outcome::Unusable(e),
-                        Ok(_) => match one_run::<M>(job, settings, &opts, save) {
+                        Ok(_) => match one_run(proto, job, settings, &opts, save) {
                             Err(Err(signal)) => Outcome::Interrupted(signal),
                             r => {
                                 let wall = t.elapsed();
@@ -740,7 +741,7 @@ pub fn sweep_model<M: Model + Default>(job: &SweepJob) -> Result<SweepReport, Sw
     report.files.push(out.csv_path());
     if job.figures && job.shard.is_none() {
         let look = job.opts.look(&job.scene);
-        let (files, notes) = figure::draw(&job.out, &job.plan, &job.metrics, &M::default().info(), look)?;
+        let (files, notes) = figure::draw(&job.out, &job.plan, &job.metrics, &proto.clone().info(), look)?;
         report.files.extend(files);
         report.notes.extend(notes);
     }
