@@ -31,7 +31,6 @@ use std::ops::Range;
 use std::sync::OnceLock;
 
 pub use ezy_scene::FigureFormat;
-use image::ImageEncoder;
 use plotters::coord::ranged1d::{KeyPointHint, NoDefaultFormatting, Ranged, ValueFormatter};
 use plotters::coord::types::RangedCoordf64;
 use plotters::prelude::*;
@@ -308,14 +307,19 @@ pub fn encode(svg: &str, format: FigureFormat, dpi: f64, title: &str) -> Result<
             // opaque on white: RGB, a quarter smaller than tiny-skia's RGBA
             let p = raster(&tree, dpi)?;
             let rgb: Vec<u8> = p.data().chunks_exact(4).flat_map(|px| [px[0], px[1], px[2]]).collect();
+            // fast compression (fdeflate) with the adaptive filter choice
+            // per row: see the guide's performance chapter
             let mut bytes = Vec::new();
-            image::codecs::png::PngEncoder::new_with_quality(
-                &mut bytes,
-                image::codecs::png::CompressionType::Fast,
-                image::codecs::png::FilterType::Adaptive,
-            )
-            .write_image(&rgb, p.width(), p.height(), image::ColorType::Rgb8)
-            .map_err(|e| fail(format!("encoding the PNG: {e}")))?;
+            let mut encoder = png::Encoder::new(&mut bytes, p.width(), p.height());
+            encoder.set_color(png::ColorType::Rgb);
+            encoder.set_depth(png::BitDepth::Eight);
+            encoder.set_compression(png::Compression::Fast);
+            encoder.set_filter(png::FilterType::Sub);
+            encoder.set_adaptive_filter(png::AdaptiveFilterType::Adaptive);
+            encoder
+                .write_header()
+                .and_then(|mut writer| writer.write_image_data(&rgb))
+                .map_err(|e| fail(format!("encoding the PNG: {e}")))?;
             Ok(bytes)
         }
         FigureFormat::Pdf => pdf(&tree).map_err(fail),
