@@ -391,6 +391,14 @@ impl<M: Model> Dynamics<M> {
         ws.wave_t = t;
     }
 
+    /// [`Dynamics::refresh_waveforms`] as a call of its own, for
+    /// [`Dynamics::minimal_rhs`], which is inlined into the reduced
+    /// formulation's evaluation.
+    #[inline(never)]
+    fn refresh_waveforms_outlined(&mut self, t: f64) {
+        self.refresh_waveforms(t);
+    }
+
     /// The effects' generalized force into the workspace's `f` (nq), each
     /// effect's power into `power`, from the waveforms at `t`.
     #[inline(always)]
@@ -415,7 +423,7 @@ impl<M: Model> Dynamics<M> {
     /// [`SimError::EffectFailed`] if an effect gives no force at a finite
     /// state; [`SimError::Formulation`] if Maggi's `B^T M B` cannot be
     /// factored.
-    #[inline]
+    #[inline(always)]
     pub(crate) fn minimal_rhs(
         &mut self,
         t: f64,
@@ -432,7 +440,7 @@ impl<M: Model> Dynamics<M> {
         // over as such (`waves` empty): see `fused_rhs`
         let hinges_only = self.effects.iter().all(|e| matches!(e.law, Law::Hinge { .. }));
         if !hinges_only {
-            self.refresh_waveforms(t);
+            self.refresh_waveforms_outlined(t);
         }
         let waves: &[crate::effects::Waveforms] = if hinges_only { &[] } else { &self.ws.waves };
         let res = self.model.minimal_rhs_effects(k, z, q, qd, pd_ud, t, &self.effects, waves, power);
