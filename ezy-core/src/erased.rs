@@ -28,14 +28,15 @@ use crate::{Effect, Scalar, SimError};
 
 /// `f(q, qd, f, tau)` of [`ModelObject::minimal_rhs_dyn`]: `false` when
 /// the forces failed (the caller keeps the error).
-pub type ForcesFn<'a> = dyn FnMut(&[f64], &[f64], &mut [f64], &mut [f64]) -> bool + 'a;
+type ForcesFn<'a> = dyn FnMut(&[f64], &[f64], &mut [f64], &mut [f64]) -> bool + 'a;
 
 /// The object-safe face of [`Model`]: every method, the generic ones once
 /// per scalar type (`_f64`, `_dual` for `num_dual::Dual64`). Implemented
 /// for every [`Model`]; what [`AnyModel`] holds. Each method does what
 /// the [`Model`] method of its name documents (shapes and units there).
-#[allow(missing_docs, clippy::too_many_arguments)]
-pub trait ModelObject: Send + Sync {
+/// Private to ezy-core: [`AnyModel`] is its one user.
+#[allow(clippy::too_many_arguments)]
+pub(crate) trait ModelObject: Send + Sync {
     fn clone_box(&self) -> Box<dyn ModelObject>;
     fn info(&self) -> ModelInfo;
     fn equations(&self) -> Equations;
