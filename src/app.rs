@@ -29,7 +29,6 @@ use std::process::ExitCode;
 
 use clap::Parser;
 use ezy_core::effects::EffectKind;
-use ezy_core::kkt::KktMethod;
 use ezy_core::{AnyModel, Model, ModelInfo};
 use ezy_scene::EffectKinds;
 use ezy_scene::registry::{ModelCatalog, Register, SceneSource, check_scene, info_of};
@@ -48,90 +47,24 @@ use crate::{equations, precision, scale, sweep, testing};
 type Sets = [(String, f64)];
 /// What `check` and `scale` print: the model's description and the result.
 type Described<T> = (ModelInfo, T);
-/// What `scale` measures per size.
-type Scaled = Described<Vec<scale::ScalePoint>>;
 
-/// One registered model and what every command does with it. The model
-/// is held as an [`AnyModel`], so every command below is compiled once,
-/// in this crate, for all models: a crate that adds its own model with
-/// [`App::model`] compiles only the model's generated functions (see
-/// [`ezy_core::erased`]).
-#[derive(Clone)]
-struct ModelOps {
-    proto: AnyModel,
-}
-
-impl ModelOps {
-    fn of<M: Model + Default + 'static>() -> Self {
-        Self { proto: AnyModel::new(M::default()) }
-    }
-
-    fn info_with(&self, params: &[(String, f64)]) -> Result<ModelInfo, SceneError> {
-        info_of(&self.proto, params)
-    }
-    fn check_user_effects(&self, scene: &Scene) -> Result<(), SceneError> {
-        ezy_scene::registry::check_user_effects(&self.proto, scene)
-    }
-    fn run(&self, scene: &Scene, opts: &RunOptions) -> Result<Report, run::Error> {
-        run::run_model(&self.proto, scene, opts)
-    }
-    fn run_in_memory(
-        &self,
-        scene: &Scene,
-        opts: &RunOptions,
-        stop: Option<run::StopHook<'_>>,
-    ) -> Result<Report, run::Error> {
-        run::run_model_in_memory(&self.proto, scene, opts, stop)
-    }
-    fn precision(
-        &self,
-        scene: &Scene,
-        out: &Path,
-        opts: &precision::PrecisionOptions,
-    ) -> Result<precision::Report, run::Error> {
-        precision::precision_model(&self.proto, scene, out, opts)
-    }
-    fn equations(&self, sets: &Sets, format: equations::Format) -> Result<String, String> {
-        Ok(equations::render(&with_sets(&self.proto, sets)?, format))
-    }
-    /// `check`: the sets, the number of states (`None`: by the model's size), the seed.
-    fn check(&self, sets: &Sets, states: Option<usize>, seed: u64) -> Result<Described<testing::Report>, String> {
-        let m = with_sets(&self.proto, sets)?;
-        let info = m.info();
-        let states = states.unwrap_or_else(|| testing::default_states(info.nq()));
-        let beat = crate::progress::Heartbeat::start(format!("checking {}", info.name));
-        let report = testing::check_derivatives_observed(&m, states, seed, |s| {
-            beat.set(format!("checking {}: state {} of {states}", info.name, s + 1));
-        });
-        Ok((info, report))
-    }
-    fn scale(&self, n: &[usize], batches: usize, kkt: KktMethod) -> Result<Scaled, scale::ScaleError> {
-        Ok((self.proto.info(), scale::scale(&self.proto, n, batches, kkt)?))
-    }
-    fn sweep(&self, job: &sweep::SweepJob) -> Result<sweep::SweepReport, sweep::SweepError> {
-        sweep::sweep_model(&self.proto, job)
-    }
-    fn animate(
-        &self,
-        scene: &Scene,
-        opts: &RunOptions,
-        anim: &crate::animate::AnimateOptions,
-    ) -> Result<crate::animate::AnimateReport, crate::animate::AnimateError> {
-        crate::animate::animate_model(&self.proto, scene, opts, anim)
-    }
-    fn bench(&self, scene: &Scene, repeat: usize) -> Result<Vec<crate::bench::BenchRow>, run::Error> {
-        crate::bench::bench_model(&self.proto, scene, repeat)
-    }
-    fn analyze(&self, scene: &Scene, opts: &analyze::AnalyzeOptions) -> Result<analyze::AnalyzeReport, run::Error> {
-        analyze::analyze_model(&self.proto, scene, opts)
-    }
-    fn linearize(
-        &self,
-        scene: &Scene,
-        opts: &analyze::LinearizeOptions,
-    ) -> Result<analyze::LinearizeReport, run::Error> {
-        analyze::linearize_model(&self.proto, scene, opts)
-    }
+/// `ezy check` on `proto` with `sets` applied: the sets, the number of
+/// states (`None`: by the model's size), the seed; a heartbeat while it
+/// takes long.
+fn check_model(
+    proto: &AnyModel,
+    sets: &Sets,
+    states: Option<usize>,
+    seed: u64,
+) -> Result<Described<testing::Report>, String> {
+    let m = with_sets(proto, sets)?;
+    let info = m.info();
+    let states = states.unwrap_or_else(|| testing::default_states(info.nq()));
+    let beat = crate::progress::Heartbeat::start(format!("checking {}", info.name));
+    let report = testing::check_derivatives_observed(&m, states, seed, |s| {
+        beat.set(format!("checking {}: state {} of {states}", info.name, s + 1));
+    });
+    Ok((info, report))
 }
 
 /// `proto` (a model at its defaults) with `sets` applied (parameters and family counts).
@@ -280,7 +213,10 @@ pub enum LoadError {
 /// runs with a table other than the one written.
 #[derive(Clone)]
 pub struct App {
-    models: Vec<(String, ModelOps)>,
+    /// Each model as an [`AnyModel`], so that every command is compiled
+    /// once, in this crate, for all models: a crate that adds its own
+    /// model with [`App::model`] compiles only the model's functions.
+    models: Vec<(String, AnyModel)>,
     kinds: EffectKinds,
     scenes: Vec<SceneEntry>,
     default_scene: String,
@@ -312,7 +248,7 @@ impl Register for App {
         } else if key.is_empty() || key.chars().any(char::is_whitespace) {
             self.errors.push(format!("model key `{key}` must be non-empty and without spaces"));
         } else {
-            self.models.push((key.to_string(), ModelOps::of::<M>()));
+            self.models.push((key.to_string(), AnyModel::new(M::default())));
         }
     }
 }
@@ -322,13 +258,13 @@ impl ModelCatalog for App {
         self.models.iter().map(|(k, _)| k.as_str()).collect()
     }
     fn info_with(&self, key: &str, params: &[(String, f64)]) -> Option<Result<ModelInfo, SceneError>> {
-        self.ops(key).map(|ops| ops.info_with(params))
+        self.registered(key).map(|model| info_of(model, params))
     }
     fn effect_kinds(&self) -> Option<&EffectKinds> {
         Some(&self.kinds)
     }
     fn check_user_effects(&self, key: &str, scene: &Scene) -> Result<(), SceneError> {
-        self.ops(key).map_or(Ok(()), |ops| ops.check_user_effects(scene))
+        self.registered(key).map_or(Ok(()), |model| ezy_scene::registry::check_user_effects(model, scene))
     }
 }
 
@@ -407,8 +343,8 @@ impl App {
         self
     }
 
-    fn ops(&self, key: &str) -> Option<&ModelOps> {
-        self.models.iter().find(|(k, _)| k == key).map(|(_, ops)| ops)
+    fn registered(&self, key: &str) -> Option<&AnyModel> {
+        self.models.iter().find(|(k, _)| k == key).map(|(_, model)| model)
     }
 
     fn registry_ok(&self) -> Result<(), LoadError> {
@@ -511,9 +447,9 @@ impl App {
         Ok(Some(check_scene(self, scene, text, file)?))
     }
 
-    fn model_ops(&self, key: &str) -> Result<&ModelOps, AppError> {
+    fn model_or_error(&self, key: &str) -> Result<&AnyModel, AppError> {
         self.registry_ok().map_err(AppError::failed)?;
-        self.ops(key)
+        self.registered(key)
             .ok_or_else(|| AppError::Failed(format!("unknown model `{key}`; known models: {}", self.keys().join(", "))))
     }
 
@@ -524,8 +460,8 @@ impl App {
     /// [`run::Error`] naming the bad setting, parameter, or file;
     /// [`run::Error::UnknownModel`] for a key this application lacks.
     pub fn run_scene(&self, scene: &Scene, opts: &RunOptions) -> Result<Report, run::Error> {
-        match self.ops(&scene.model) {
-            Some(ops) => ops.run(scene, opts),
+        match self.registered(&scene.model) {
+            Some(model) => run::run_model(model, scene, opts),
             None => Err(run::Error::UnknownModel { scene: scene.name.clone(), model: scene.model.clone() }),
         }
     }
@@ -544,8 +480,8 @@ impl App {
         opts: &RunOptions,
         stop: Option<run::StopHook<'_>>,
     ) -> Result<Report, run::Error> {
-        match self.ops(&scene.model) {
-            Some(ops) => ops.run_in_memory(scene, opts, stop),
+        match self.registered(&scene.model) {
+            Some(model) => run::run_model_in_memory(model, scene, opts, stop),
             None => Err(run::Error::UnknownModel { scene: scene.name.clone(), model: scene.model.clone() }),
         }
     }
@@ -572,8 +508,8 @@ impl App {
         out: &Path,
         opts: &precision::PrecisionOptions,
     ) -> Result<precision::Report, run::Error> {
-        match self.ops(&scene.model) {
-            Some(ops) => ops.precision(scene, out, opts),
+        match self.registered(&scene.model) {
+            Some(model) => precision::precision_model(model, scene, out, opts),
             None => Err(run::Error::UnknownModel { scene: scene.name.clone(), model: scene.model.clone() }),
         }
     }
@@ -586,8 +522,8 @@ impl App {
     pub fn list(&self) -> Result<String, LoadError> {
         let scenes = self.scenes()?;
         let mut s = String::from("models:\n");
-        for (key, ops) in &self.models {
-            let info = ops.info_with(&[]).map_err(|e| LoadError::Registry(format!("model `{key}`: {}", e.message)))?;
+        for (key, model) in &self.models {
+            let info = info_of(model, &[]).map_err(|e| LoadError::Registry(format!("model `{key}`: {}", e.message)))?;
             let counts: Vec<String> =
                 info.params.iter().filter(|p| p.count).map(|p| format!("{} = {}", p.name, p.default)).collect();
             let counts = if counts.is_empty() { String::new() } else { format!(", {}", counts.join(", ")) };
@@ -659,16 +595,19 @@ impl App {
             Some(Command::Analyze(args)) => self.cmd_analyze(args, out),
             Some(Command::Linearize(args)) => self.cmd_linearize(args, out),
             Some(Command::Equations(args)) => {
-                let ops = self.model_ops(&args.model)?;
-                let text = ops.equations(&args.sets, args.format.into()).map_err(AppError::Failed)?;
+                let model = self.model_or_error(&args.model)?;
+                let text = with_sets(model, &args.sets)
+                    .map(|m| equations::render(&m, args.format.into()))
+                    .map_err(AppError::Failed)?;
                 Ok(out.write_all(text.as_bytes())?)
             }
             Some(Command::Check(args)) => {
                 if args.states == Some(0) {
                     return Err(AppError::Failed("--states = 0: check at least one state".into()));
                 }
-                let ops = self.model_ops(&args.model)?;
-                let (info, report) = ops.check(&args.sets, args.states, args.seed).map_err(AppError::Failed)?;
+                let model = self.model_or_error(&args.model)?;
+                let (info, report) =
+                    check_model(model, &args.sets, args.states, args.seed).map_err(AppError::Failed)?;
                 out.write_all(report.table(info.name).as_bytes())?;
                 if report.passed() {
                     Ok(())
@@ -684,9 +623,11 @@ impl App {
                 if args.n.is_empty() || args.batches == 0 {
                     return Err(AppError::Failed("--n needs at least one size and --batches at least 1".into()));
                 }
-                let ops = self.model_ops(&args.model)?;
+                let model = self.model_or_error(&args.model)?;
                 let csv = matches!(args.format, cli::ScaleFormat::Csv);
-                let (info, points) = ops.scale(&args.n, args.batches, args.kkt.into()).map_err(AppError::failed)?;
+                let (info, points) = scale::scale(model, &args.n, args.batches, args.kkt.into())
+                    .map(|p| (model.info(), p))
+                    .map_err(AppError::failed)?;
                 Ok(out.write_all(scale::render(info.name, &points, csv).as_bytes())?)
             }
         }
@@ -807,13 +748,13 @@ impl App {
         let mut job = self.sweep_job(&src, &name, &args)?;
         // the sweep's own figures, and each saved run's
         check_figure_format(&src, job.opts.figure_format, job.figures || job.save_runs)?;
-        let ops = self.model_ops(&src.scene.model)?;
+        let model = self.model_or_error(&src.scene.model)?;
         if let Some(file) = &args.emit_slurm {
             if args.shard.is_some() {
                 return Err(AppError::Failed("--emit-slurm writes the shards itself: leave out --shard".into()));
             }
             job.check_only = true;
-            ops.sweep(&job).map_err(AppError::failed)?;
+            sweep::sweep_model(model, &job).map_err(AppError::failed)?;
             let runs = job.plan.runs();
             let tasks = args.tasks.unwrap_or(4).min(runs);
             let dir =
@@ -838,7 +779,7 @@ impl App {
         if let Some(asked) = args.jobs.filter(|&j| j > job.jobs) {
             eprintln!("note: --jobs {asked} capped to {}, the number of cores this process may use", job.jobs);
         }
-        let report = ops.sweep(&job).map_err(|e| match e {
+        let report = sweep::sweep_model(model, &job).map_err(|e| match e {
             sweep::SweepError::Interrupted(i) => AppError::Interrupted(i),
             e => AppError::failed(e),
         })?;
@@ -869,7 +810,7 @@ impl App {
             let src = self.load_scene(&manifest.scene).map_err(AppError::failed)?;
             let job = self.sweep_job(&src, &manifest.scene, &parsed)?;
             check_figure_format(&src, job.opts.figure_format, true)?;
-            let info = self.model_ops(&src.scene.model)?.info_with(&[]).map_err(|e| AppError::Failed(e.message))?;
+            let info = info_of(self.model_or_error(&src.scene.model)?, &[]).map_err(|e| AppError::Failed(e.message))?;
             let look = job.opts.look(&job.scene);
             let (f, n) = sweep::figure::draw(&args.out, &job.plan, &job.metrics, &info, look).map_err(|e| match e {
                 sweep::SweepError::Interrupted(i) => AppError::Interrupted(i),
@@ -903,11 +844,11 @@ impl App {
     fn cmd_bench(&self, args: cli::BenchArgs, out: &mut dyn Write) -> Result<(), AppError> {
         let (name, src) = self.named_scene(args.scene.as_deref())?;
         let scene = &src.scene;
-        let ops = self.model_ops(&scene.model)?;
+        let model = self.model_or_error(&scene.model)?;
         // `--repeat` is at most bench::MAX_REPEAT (its parser), and
         // bench_model refuses more for callers that build the arguments
         let repeat = usize::try_from(args.repeat).unwrap_or(usize::MAX);
-        let mut rows = ops.bench(scene, repeat).map_err(AppError::from_run)?;
+        let mut rows = crate::bench::bench_model(model, scene, repeat).map_err(AppError::from_run)?;
         if !args.no_process {
             // this very program, started anew for each setting: parse,
             // setup, integration and CSV, no figures
@@ -952,8 +893,8 @@ impl App {
         let scene = &src.scene;
         let anim = args.options(&scene.name).map_err(AppError::Failed)?;
         let opts = args.overrides.options();
-        let ops = self.model_ops(&scene.model)?;
-        let report = ops.animate(scene, &opts, &anim).map_err(|e| match e {
+        let model = self.model_or_error(&scene.model)?;
+        let report = crate::animate::animate_model(model, scene, &opts, &anim).map_err(|e| match e {
             crate::animate::AnimateError::Run(e) => AppError::from_run(e),
             other => AppError::failed(other),
         })?;
@@ -990,8 +931,8 @@ impl App {
             continuation,
         };
         check_figure_format(&src, opts.run.figure_format, opts.run.figures)?;
-        let ops = self.model_ops(&scene.model)?;
-        let report = ops.analyze(scene, &opts).map_err(AppError::from_run)?;
+        let model = self.model_or_error(&scene.model)?;
+        let report = analyze::analyze_model(model, scene, &opts).map_err(AppError::from_run)?;
         committed(out, &analyze::summary(&scene.name, &report), &opts.run.out)
     }
 
@@ -1006,8 +947,8 @@ impl App {
             at: args.at,
             inputs: args.inputs,
         };
-        let ops = self.model_ops(&scene.model)?;
-        let report = ops.linearize(scene, &opts).map_err(AppError::from_run)?;
+        let model = self.model_or_error(&scene.model)?;
+        let report = analyze::linearize_model(model, scene, &opts).map_err(AppError::from_run)?;
         committed(out, &analyze::linearize_summary(&scene.name, &report), &opts.run.out)
     }
 

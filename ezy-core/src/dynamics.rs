@@ -437,7 +437,7 @@ impl<M: Model> Dynamics<M> {
         let qd = &mut rest[..nq];
         let (pd_ud, power) = dz.split_at_mut(dz.len() - self.effects.len());
         // a scene whose effects are all hinge torques (or none) hands them
-        // over as such (`waves` empty): see `fused_rhs`
+        // over as such (`waves` empty): see `Model::minimal_rhs_effects`
         let hinges_only = self.effects.iter().all(|e| matches!(e.law, Law::Hinge { .. }));
         if !hinges_only {
             self.refresh_waveforms_outlined(t);
@@ -775,40 +775,6 @@ fn note_singular(counters: &mut Counters, last: &mut f64, t: f64) {
     *last = t;
 }
 
-/// [`Model::minimal_rhs`] with ezy-core's effects as its `forces` (the
-/// body of [`Model::minimal_rhs_effects`]): with `waves` empty (every
-/// effect a hinge torque, or none) the effects are handed over as the
-/// hinges' torques, which the model maps at compile time, so its
-/// applied-force part, never written, folds away; otherwise every effect
-/// adds its generalized force from its waveforms `waves` at `t` (one per
-/// effect). Each effect's power \[W\] goes to `power`.
-///
-/// # Errors
-/// As [`Model::minimal_rhs`], the forces' error a [`SimError::EffectFailed`].
-#[allow(clippy::too_many_arguments)]
-#[inline(always)]
-pub(crate) fn fused_rhs<M: Model>(
-    model: &M,
-    k: &[f64],
-    z: &[f64],
-    q: &mut [f64],
-    qd: &mut [f64],
-    dz: &mut [f64],
-    t: f64,
-    effects: &[Effect],
-    waves: &[crate::effects::Waveforms],
-    power: &mut [f64],
-) -> Result<(), crate::model::MinimalRhsError<SimError>> {
-    if waves.is_empty() {
-        model.minimal_rhs(k, z, q, qd, dz, |q, qd, _, tau| {
-            hinge_torques(effects, t, q, qd, tau, power);
-            Ok(())
-        })
-    } else {
-        model.minimal_rhs(k, z, q, qd, dz, |q, qd, f, _| apply_effects(effects, waves, t, q, qd, f, power))
-    }
-}
-
 /// Adds each effect's generalized force at `(t, q, qd)` (nq each) to `f`
 /// (nq) and writes its power \[W\] to `power` (one per effect), from the
 /// effects' waveforms at `t` (`waves`, one per effect).
@@ -816,7 +782,7 @@ pub(crate) fn fused_rhs<M: Model>(
 /// # Errors
 /// [`SimError::EffectFailed`] if an effect gives no force at a finite state.
 #[inline(always)]
-fn apply_effects(
+pub(crate) fn apply_effects(
     effects: &[Effect],
     waves: &[crate::effects::Waveforms],
     t: f64,
@@ -844,7 +810,7 @@ fn apply_effects(
 /// skipped: the caller passes only hinge effects). A hinge law gives a
 /// finite torque at a finite state, so nothing here fails.
 #[inline(always)]
-fn hinge_torques(effects: &[Effect], t: f64, q: &[f64], qd: &[f64], tau: &mut [f64], power: &mut [f64]) {
+pub(crate) fn hinge_torques(effects: &[Effect], t: f64, q: &[f64], qd: &[f64], tau: &mut [f64], power: &mut [f64]) {
     for (e, p) in effects.iter().zip(power) {
         if !e.on {
             *p = 0.0;

@@ -513,7 +513,17 @@ pub trait Model: Clone + Send + Sync + 'static {
         waves: &[crate::effects::Waveforms],
         power: &mut [f64],
     ) -> Result<(), MinimalRhsError<crate::SimError>> {
-        crate::dynamics::fused_rhs(self, k, z, q, qd, dz, t, effects, waves, power)
+        use crate::dynamics::{apply_effects, hinge_torques};
+        if waves.is_empty() {
+            // the applied-force part of the generated code, never written,
+            // folds away
+            self.minimal_rhs(k, z, q, qd, dz, |q, qd, _, tau| {
+                hinge_torques(effects, t, q, qd, tau, power);
+                Ok(())
+            })
+        } else {
+            self.minimal_rhs(k, z, q, qd, dz, |q, qd, f, _| apply_effects(effects, waves, t, q, qd, f, power))
+        }
     }
 
     /// Maggi's equations on the minimal coordinates in the body frames,
