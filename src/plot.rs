@@ -6,7 +6,7 @@
 //! requested [`FigureFormat`]: the SVG itself; an anti-aliased PNG at any
 //! resolution, rasterized by `resvg` (the renderer of the linebender
 //! project, pure Rust); or a vector PDF, converted by `svg2pdf` (Typst's
-//! converter, pure Rust, fonts embedded as subsets). Text is DejaVu Sans,
+//! converter, pure Rust, text as glyph outlines). Text is DejaVu Sans,
 //! embedded from the `dejavu` crate for layout and rasterization, so no
 //! system font, fontconfig or freetype is needed at build or run time.
 //!
@@ -287,7 +287,7 @@ fn check_dpi(dpi: f64) -> Result<(), PlotError> {
 /// a PNG of `WIDTH x HEIGHT x dpi / 96` pixels (anti-aliased, white
 /// background, rasterized by resvg with the embedded DejaVu Sans) or a
 /// one-page PDF of `WIDTH x HEIGHT` points at 96 dpi (svg2pdf, text as
-/// embedded font subsets). `title` names the figure in errors.
+/// glyph outlines). `title` names the figure in errors.
 ///
 /// # Errors
 /// [`PlotError::Dpi`] for a resolution out of range,
@@ -343,10 +343,25 @@ pub fn check_format(format: FigureFormat) -> Result<(), PlotError> {
     }
 }
 
+/// The PDF of `tree`. Its text is first turned into outlines: usvg
+/// lays it out with the embedded DejaVu Sans and writes each glyph as a
+/// path (`WriteOptions::preserve_text` false), and the SVG read back has
+/// no text left. svg2pdf is then built without its `text` feature, whose
+/// font subsetter (write-fonts, read-fonts, skrifa) was some 60 s of a
+/// fresh build's CPU time. The page looks the same; its text cannot be
+/// selected or searched.
 #[cfg(feature = "pdf")]
 fn pdf(tree: &resvg::usvg::Tree) -> Result<Vec<u8>, String> {
+    let tree = outlined(tree)?;
     let page = svg2pdf::PageOptions { dpi: 96.0 };
-    svg2pdf::to_pdf(tree, svg2pdf::ConversionOptions::default(), page).map_err(|e| format!("converting to PDF: {e}"))
+    svg2pdf::to_pdf(&tree, svg2pdf::ConversionOptions::default(), page).map_err(|e| format!("converting to PDF: {e}"))
+}
+
+/// `tree` with every text node replaced by its glyphs' outlines (paths).
+#[cfg_attr(not(feature = "pdf"), allow(dead_code))]
+fn outlined(tree: &resvg::usvg::Tree) -> Result<resvg::usvg::Tree, String> {
+    let svg = tree.to_string(&resvg::usvg::WriteOptions { preserve_text: false, ..Default::default() });
+    resvg::usvg::Tree::from_str(&svg, svg_options()).map_err(|e| format!("reading the outlined SVG: {e}"))
 }
 
 #[cfg(not(feature = "pdf"))]
@@ -1412,6 +1427,34 @@ mod tests {
             Series::new("ramp", vec![(0.0, 0.0), (1.0, 2.0), (2.0, 1.0)]),
             Series::new("constant", vec![(0.0, 1.0), (2.0, 1.0)]),
         ]
+    }
+
+    /// (text nodes, path nodes) in `group` and below.
+    fn count_nodes(group: &resvg::usvg::Group) -> (usize, usize) {
+        group.children().iter().fold((0, 0), |(t, p), node| match node {
+            resvg::usvg::Node::Group(g) => {
+                let (tt, pp) = count_nodes(g);
+                (t + tt, p + pp)
+            }
+            resvg::usvg::Node::Text(_) => (t + 1, p),
+            resvg::usvg::Node::Path(_) => (t, p + 1),
+            resvg::usvg::Node::Image(_) => (t, p),
+        })
+    }
+
+    /// The PDF's text is drawn as outlines: none is left as text (svg2pdf
+    /// without its `text` feature would skip it), and every label became a
+    /// path (usvg writes a text span's glyphs as one path): the chart's
+    /// title, axis descriptions, tick labels and legend are 21 texts.
+    #[test]
+    fn pdf_text_becomes_outlines() {
+        let svg = chart_svg(&chart(two())).expect("svg");
+        let tree = resvg::usvg::Tree::from_str(&svg, svg_options()).expect("svg parses");
+        let (texts, paths) = count_nodes(tree.root());
+        assert!(texts >= 10, "{texts} texts");
+        let (texts_after, paths_after) = count_nodes(outlined(&tree).expect("outlined").root());
+        assert_eq!(texts_after, 0);
+        assert!(paths_after >= paths + texts, "{paths} -> {paths_after} paths for {texts} texts");
     }
 
     #[test]
