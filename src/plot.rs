@@ -199,8 +199,8 @@ pub enum PlotError {
     #[error("could not register the embedded DejaVu Sans font with plotters")]
     Font,
     /// The figure format's encoder is not in this build: PDF output is the
-    /// `pdf` feature (on by default; some 130 s of a fresh build's CPU
-    /// time for svg2pdf and its font crates).
+    /// `pdf` feature (on by default; some 10 s of a fresh build's CPU
+    /// time for svg2pdf and pdf-writer).
     #[error(
         "{format} figures need ezy's `{feature}` feature, which this build of ezy leaves out (it is on by default; a crate that depends on ezy with default-features = false adds features = [\"{feature}\"])"
     )]

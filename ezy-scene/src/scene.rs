@@ -275,7 +275,7 @@ pub enum FigureFormat {
     Png,
     /// Scalable vector graphics: the figure as drawn, text as text.
     Svg,
-    /// A one-page vector PDF of the SVG (fonts embedded).
+    /// A one-page vector PDF of the SVG (text as glyph outlines).
     Pdf,
 }
 
