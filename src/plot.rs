@@ -442,10 +442,13 @@ fn image_size(width: f32, height: f32, dpi: f64) -> (u32, u32) {
 /// Does, ahead of the figures, the work every figure would otherwise wait
 /// for: loads the embedded fonts into plotters and into resvg (some 8 ms
 /// that the first figure's threads would spend one waiting on the other)
-/// and, for PNG figures at `dpi`, makes `canvases` image buffers (at most
-/// [`KEEP_CANVASES`]) and touches their pages. Meant for a thread that
-/// runs while the integration does: `ezy run` starts one when it will
-/// draw figures. Needs no call: every figure does what is left itself.
+/// and, for PNG figures at `dpi`, makes `canvases` image buffers of
+/// `4 x width x height` bytes each (at most 4 are kept, of at most 32 MB
+/// each, for the life of the process) and touches their pages. Meant for
+/// a thread that runs while the integration does: `ezy run` starts one
+/// when it will draw figures. Needs no call: every figure does what is
+/// left itself. Returns nothing and cannot fail: what it could not do,
+/// the figures do.
 pub fn warm_up(format: FigureFormat, dpi: f64, canvases: usize) {
     let _ = ensure_font();
     let _ = svg_options();
