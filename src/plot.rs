@@ -300,7 +300,9 @@ pub fn encode(svg: &str, format: FigureFormat, dpi: f64, title: &str) -> Result<
     if format == FigureFormat::Svg {
         return Ok(svg.as_bytes().to_vec());
     }
-    let tree = resvg::usvg::Tree::from_str(svg, svg_options()).map_err(|e| fail(format!("reading the SVG: {e}")))?;
+    // the raster starts white: its white background is not drawn again
+    let svg = if format == FigureFormat::Png { without_white_background(svg) } else { std::borrow::Cow::Borrowed(svg) };
+    let tree = resvg::usvg::Tree::from_str(&svg, svg_options()).map_err(|e| fail(format!("reading the SVG: {e}")))?;
     match format {
         FigureFormat::Svg => unreachable!("returned above"),
         FigureFormat::Png => {
@@ -325,6 +327,26 @@ pub fn encode(svg: &str, format: FigureFormat, dpi: f64, title: &str) -> Result<
             Ok(bytes)
         }
         FigureFormat::Pdf => pdf(&tree).map_err(fail),
+    }
+}
+
+/// `svg` without the opaque white rectangle over its whole canvas that
+/// plotters draws first (`root.fill(&WHITE)`), if it has one: a raster
+/// already starts white (0.3 ms of a simple figure's 5.5 ms).
+fn without_white_background(svg: &str) -> std::borrow::Cow<'_, str> {
+    let Some(start) = svg.find("\n<rect ").map(|at| at + 1) else { return std::borrow::Cow::Borrowed(svg) };
+    let end = svg[start..].find('\n').map_or(svg.len(), |at| start + at + 1);
+    let rect = &svg[start..end];
+    let (w, h) = ((WIDTH * SCALE).to_string(), (HEIGHT * SCALE).to_string());
+    let whole = [("x", "0"), ("y", "0"), ("width", w.as_str()), ("height", h.as_str()), ("fill", "#FFFFFF")]
+        .iter()
+        .all(|(name, value)| attribute(rect, name) == Some(value))
+        && opaque_fill_only(rect);
+    // only plotters' first element: nothing is drawn before it
+    if whole && svg[..start].matches('<').count() == 1 {
+        std::borrow::Cow::Owned(format!("{}{}", &svg[..start], &svg[end..]))
+    } else {
+        std::borrow::Cow::Borrowed(svg)
     }
 }
 
@@ -1243,7 +1265,25 @@ const LINE_TOLERANCE: f64 = 0.5;
 /// (measured on the `drive` scene's figures: see the guide's performance
 /// chapter).
 fn on_the_drawing(piece: &[(f64, f64)], at: impl Fn(&(f64, f64)) -> (i32, i32)) -> Vec<(f64, f64)> {
-    let px: Vec<(f64, f64)> = piece.iter().map(at).map(|(x, y)| (f64::from(x), f64::from(y))).collect();
+    // a point on the same drawing unit as the one before it adds nothing
+    // to the drawing: left out before the simplification (the last point
+    // stays the piece's end)
+    let last = piece.len().saturating_sub(1);
+    let mut units: Vec<(i32, i32)> = Vec::with_capacity(piece.len());
+    let piece: Vec<(f64, f64)> = piece
+        .iter()
+        .enumerate()
+        .filter(|&(i, p)| {
+            let u = at(p);
+            let new = units.last() != Some(&u) || i == last;
+            if new {
+                units.push(u);
+            }
+            new
+        })
+        .map(|(_, p)| *p)
+        .collect();
+    let px: Vec<(f64, f64)> = units.iter().map(|&(x, y)| (f64::from(x), f64::from(y))).collect();
     let mut keep = vec![false; piece.len()];
     let last = piece.len().saturating_sub(1);
     keep[0] = true;
@@ -1863,6 +1903,23 @@ mod tests {
                 assert!(d <= f64::from(r) + 0.5, "r = {r}: vertex {v:?} {d} units from the run");
             }
         }
+    }
+
+    /// The white background is left out of a raster only where it is the
+    /// canvas-wide first element; the PNG is the same either way.
+    #[test]
+    fn the_white_background_is_not_rasterized_twice() {
+        let svg = chart_svg(&chart(two())).expect("svg");
+        let without = without_white_background(&svg);
+        assert_eq!(svg.len() - without.len(), svg.lines().nth(1).expect("a background").len() + 1);
+        assert!(matches!(without_white_background(&without), std::borrow::Cow::Borrowed(_)));
+        let tinted = svg.replacen("fill=\"#FFFFFF\"", "fill=\"#FFFFFE\"", 1);
+        assert!(matches!(without_white_background(&tinted), std::borrow::Cow::Borrowed(_)));
+        let png = |s: &str| {
+            let tree = resvg::usvg::Tree::from_str(s, svg_options()).expect("parses");
+            raster(&tree, 96.0).expect("raster").take()
+        };
+        assert!(png(&svg) == png(&without), "the background changed the image");
     }
 
     /// Every pixel's colour kept and its alpha dropped, for every length

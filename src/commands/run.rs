@@ -359,7 +359,9 @@ pub fn run_model_tapped<M: Model>(
             });
         }
     };
-    let table = obs.finish()?;
+    // the rows now; the CSV's flush and sync go on while the figures are
+    // drawn, and are waited for before the run's time is taken
+    let (table, csv) = obs.finish_later()?;
     let state_names = sys.state_names();
     // the events' times and states, whenever the scene watches any (a
     // skate with friction records its switches)
@@ -392,6 +394,7 @@ pub fn run_model_tapped<M: Model>(
             }
         }
     }
+    csv.wait()?;
     let warnings = run_warnings(&initial, &summary);
     let notes = initial.notes();
     let mut report = Report {
