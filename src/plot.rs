@@ -627,6 +627,43 @@ pub fn chart_svg(chart: &Chart) -> Result<String, PlotError> {
     svg_within(chart, DRAW_TIMEOUT)
 }
 
+/// A drawing to run on a drawer thread.
+type DrawJob = Box<dyn FnOnce() + Send>;
+
+thread_local! {
+    /// The thread that draws this thread's charts ([`on_drawer`]), kept
+    /// between charts: a new thread for every chart was a fresh stack and
+    /// allocator arena to fault in each time. Ends when this thread does
+    /// (its queue closes); replaced after a drawing that timed out.
+    static DRAWER: std::cell::RefCell<Option<std::sync::mpsc::Sender<DrawJob>>> =
+        const { std::cell::RefCell::new(None) };
+}
+
+/// Runs `job` on this thread's drawer (an `ezy-plot` thread), started
+/// on first use or after the last one was given up.
+fn on_drawer(job: DrawJob) -> std::io::Result<()> {
+    DRAWER.with_borrow_mut(|drawer| {
+        let job = match drawer.as_ref() {
+            Some(d) => match d.send(job) {
+                Ok(()) => return Ok(()),
+                // the drawer ended (a panic in plotters): a new one
+                Err(std::sync::mpsc::SendError(job)) => job,
+            },
+            None => job,
+        };
+        let (send, queue) = std::sync::mpsc::channel::<DrawJob>();
+        std::thread::Builder::new().name("ezy-plot".into()).spawn(move || {
+            for job in queue {
+                job();
+            }
+        })?;
+        // the new thread holds the queue: this cannot fail
+        let _ = send.send(job);
+        *drawer = Some(send);
+        Ok(())
+    })
+}
+
 /// [`chart_svg`] with a given time limit.
 fn svg_within(chart: &Chart, limit: std::time::Duration) -> Result<String, PlotError> {
     if chart.log_y && !(chart.log_floor.is_finite() && chart.log_floor > 0.0) {
@@ -646,17 +683,17 @@ fn svg_within(chart: &Chart, limit: std::time::Duration) -> Result<String, PlotE
     // still does (and the process ends it on exit).
     let owned = chart.clone();
     let (tx, rx) = std::sync::mpsc::channel();
-    std::thread::Builder::new()
-        .name("ezy-plot".into())
-        .spawn(move || {
-            let lines = chart_lines(&owned);
-            let result = bounds_of(&owned, &lines).and_then(|(x, ys)| draw(&owned, &lines, x, ys));
-            let _ = tx.send(result);
-        })
-        .map_err(|e| draw_error(format!("cannot start the drawing thread: {e}")))?;
+    on_drawer(Box::new(move || {
+        let lines = chart_lines(&owned);
+        let result = bounds_of(&owned, &lines).and_then(|(x, ys)| draw(&owned, &lines, x, ys));
+        let _ = tx.send(result);
+    }))
+    .map_err(|e| draw_error(format!("cannot start the drawing thread: {e}")))?;
     match rx.recv_timeout(limit) {
         Ok(r) => r,
         Err(std::sync::mpsc::RecvTimeoutError::Timeout) => {
+            // the drawer is busy for good: the next chart gets a new one
+            DRAWER.with_borrow_mut(|d| *d = None);
             Err(PlotError::Timeout { title: chart.title.clone(), seconds: limit.as_secs_f64() })
         }
         Err(std::sync::mpsc::RecvTimeoutError::Disconnected) => {
