@@ -208,6 +208,13 @@ pub fn render(
     Ok((svg, bytes))
 }
 
+/// How many threads [`render_all`] encodes `figures` figures on: one per
+/// core, at most one per figure, none (the calling thread) inside a rayon
+/// pool, whose threads (a sweep's runs) are busy already.
+pub fn encoding_threads(figures: usize) -> usize {
+    if rayon::current_thread_index().is_some() { 0 } else { rayon::current_num_threads().min(figures) }
+}
+
 /// Draws every figure of `figs` from `table` as [`render`] does and hands
 /// each to `done(index, svg, bytes)` on the calling thread as soon as it
 /// is encoded, in the order they finish (not that of `figs`): the caller
@@ -263,9 +270,7 @@ where
         crate::plot::encode(&svgs[i], format, dpi, &fig.title)
             .map_err(|source| FigureError::Plot { figure: fig.file.clone(), source }.into())
     };
-    // inside a rayon pool (a sweep's runs) its threads are busy already
-    let threads =
-        if rayon::current_thread_index().is_some() { 0 } else { rayon::current_num_threads().min(figs.len()) };
+    let threads = encoding_threads(figs.len());
     std::thread::scope(|scope| {
         let (send, receive) = std::sync::mpsc::channel::<(usize, Result<Vec<u8>, E>)>();
         let mut started = 0;

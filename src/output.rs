@@ -15,7 +15,7 @@
 
 use std::fs::File;
 use std::io::{BufWriter, Write};
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 use ezy_core::kkt::KktMethod;
 use ezy_core::{Dynamics, Model, Observer, Sample, SimError};
@@ -370,6 +370,13 @@ impl Drop for RowWriter {
     }
 }
 
+/// Writes `writer`'s rows left, flushes and syncs its file at `path`.
+fn close(writer: RowWriter, path: &Path) -> Result<(), OutputError> {
+    let file = writer.finish()?;
+    crate::transaction::sync(&file, path)?;
+    Ok(())
+}
+
 /// The end of a CSV file being written, flushed and synced on a thread of
 /// its own ([`CsvObserver::finish_later`]). Dropped without
 /// [`CsvTail::wait`] (a failed run), it still waits for the file to be
@@ -510,8 +517,7 @@ impl<'a, M: Model> CsvObserver<'a, M> {
         if let Some(p) = self.progress.take() {
             p.finish();
         }
-        let file = self.writer.finish()?;
-        crate::transaction::sync(&file, &self.path)?;
+        close(self.writer, &self.path)?;
         Ok(self.table)
     }
 
@@ -528,11 +534,7 @@ impl<'a, M: Model> CsvObserver<'a, M> {
         if let Some(p) = self.progress.take() {
             p.finish();
         }
-        let finish = |(writer, path): (RowWriter, PathBuf)| -> Result<(), OutputError> {
-            let file = writer.finish()?;
-            crate::transaction::sync(&file, &path)?;
-            Ok(())
-        };
+        let finish = |(writer, path): (RowWriter, PathBuf)| close(writer, &path);
         let parts = Arc::new(Mutex::new(Some((self.writer, self.path))));
         let theirs = Arc::clone(&parts);
         let spawned = std::thread::Builder::new().name("ezy-csv-sync".into()).spawn(move || {

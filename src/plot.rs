@@ -1293,15 +1293,19 @@ fn legend_corner(ctx: &Ctx<'_>, lines: &[&Line<'_>], extra: usize) -> (SeriesLab
 /// whole unit (plotters' integer coordinates) anyway.
 const LINE_TOLERANCE: f64 = 0.5;
 
+/// A line's points kept for the drawing and their drawing units.
+type OnTheDrawing = (Vec<(f64, f64)>, Vec<(i32, i32)>);
+
 /// The points of `piece` that its line needs on the drawing, where `at`
 /// maps a point to drawing units: those the Ramer-Douglas-Peucker
 /// simplification keeps at [`LINE_TOLERANCE`] (Douglas & Peucker 1973,
-/// Cartographica 10(2)), in order, first and last always. A trajectory's
+/// Cartographica 10(2)), in order, first and last always, with their
+/// drawing units (`at` of each, computed once). A trajectory's
 /// 6,001 points over 1,700 units wide are mostly less than a unit apart:
 /// the rasterizer's and the PNG's work was in segments nobody can see
 /// (measured on the `drive` scene's figures: see the guide's performance
 /// chapter).
-fn on_the_drawing(piece: &[(f64, f64)], at: impl Fn(&(f64, f64)) -> (i32, i32)) -> Vec<(f64, f64)> {
+fn on_the_drawing(piece: &[(f64, f64)], at: impl Fn(&(f64, f64)) -> (i32, i32)) -> OnTheDrawing {
     // a point on the same drawing unit as the one before it adds nothing
     // to the drawing: left out before the simplification (the last point
     // stays the piece's end)
@@ -1352,7 +1356,11 @@ fn on_the_drawing(piece: &[(f64, f64)], at: impl Fn(&(f64, f64)) -> (i32, i32)) 
             spans.push((far, b));
         }
     }
-    piece.iter().zip(&keep).filter(|(_, k)| **k).map(|(p, _)| *p).collect()
+    let kept = |k: &&bool| **k;
+    (
+        piece.iter().zip(&keep).filter(|(_, k)| kept(k)).map(|(p, _)| *p).collect(),
+        units.iter().zip(&keep).filter(|(_, k)| kept(k)).map(|(u, _)| *u).collect(),
+    )
 }
 
 /// Fewest points of a run drawn as a band (see [`banded`]).
@@ -1552,11 +1560,10 @@ fn draw_contents<'a>(
                 ctx.draw_series(std::iter::once(Circle::new(*p, MARKER, color.filled()))).map_err(|e| e.to_string())?;
                 continue;
             }
-            let drawn = on_the_drawing(piece, |p| ctx.backend_coord(p));
+            let (drawn, units) = on_the_drawing(piece, |p| ctx.backend_coord(p));
             match line.dash {
                 None => {
-                    let px: Vec<(i32, i32)> = drawn.iter().map(|p| ctx.backend_coord(p)).collect();
-                    for part in banded(&px, width as i32 / 2) {
+                    for part in banded(&units, width as i32 / 2) {
                         match part {
                             Part::Line(range) => {
                                 ctx.draw_series(LineSeries::new(drawn[range].iter().copied(), style))

@@ -341,13 +341,14 @@ pub fn run_model_tapped<M: Model>(
     if let Some(b) = &beat {
         b.quiet();
     }
-    if opts.figures && !scene.figures.is_empty() && rayon::current_thread_index().is_none() {
-        // the fonts and image buffers the figures need, made on another
-        // core while this one integrates (detached: it takes milliseconds)
-        let canvases = rayon::current_num_threads().min(scene.figures.len());
+    let encoders = crate::figures::encoding_threads(scene.figures.len());
+    if opts.figures && encoders > 0 {
+        // the fonts and an image buffer for each thread that will encode
+        // figures, made on another core while this one integrates
+        // (detached: it takes milliseconds)
         let _ = std::thread::Builder::new()
             .name("ezy-warm-up".into())
-            .spawn(move || crate::plot::warm_up(format, dpi, canvases));
+            .spawn(move || crate::plot::warm_up(format, dpi, encoders));
     }
     let summary = match ezy_core::simulate(&mut sys, &y0, &settings, &mut obs) {
         Ok(s) => s,
