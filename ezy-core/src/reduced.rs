@@ -486,6 +486,10 @@ struct Minimal {
     /// the next step's first stage then reads.
     dz: Vec<f64>,
     dz_cached: bool,
+    /// Whether the model expands a state that is only output by
+    /// [`Model::minimal_state`], so that a dense-output sample's
+    /// expansion can wait for the output ([`Reduced::place_sample`]).
+    state_only: bool,
 }
 
 impl Reduced {
@@ -629,11 +633,17 @@ impl Reduced {
                 constants,
                 dz: vec![0.0; y.len() - nh - nc],
                 dz_cached: false,
+                state_only: false,
             }),
             ..Self::with_partition(partition, (nq, nh, nc), y)
         };
         let mut z = vec![0.0; red.nz(y.len())];
         red.gather(y, &mut z);
+        // whether the model has `minimal_state`: asked once, on a copy
+        let mut probe = y.to_vec();
+        let (q, qd) = place_minimal(&red.partition, nq, &mut probe, &z, true);
+        let state_only = sys.model.minimal_state(q, qd);
+        red.minimal.as_mut().expect("minimal path").state_only = state_only;
         red.expand(sys, t, &z)?;
         red.y_accepted.copy_from_slice(&red.y);
         Ok(Some(red))
@@ -933,6 +943,22 @@ impl Reduced {
         self.expand(sys, t, z)
     }
 
+    /// Whether a dense-output sample's expansion waits for the output:
+    /// on minimal coordinates whose model has [`Model::minimal_state`],
+    /// the sample's row holds `z` placed by [`Reduced::place_sample`] and
+    /// [`complete_sample`] finishes it when it is observed (as the DAE's
+    /// samples are projected then), off the step loop.
+    pub fn defers_samples(&self) -> bool {
+        self.minimal.as_ref().is_some_and(|m| m.state_only)
+    }
+
+    /// Places the minimal state `z` into the full state's row `y`
+    /// (2 nq + works): the kept coordinates, the independent speeds and
+    /// the works, the rest left for [`complete_sample`].
+    pub fn place_sample(&self, z: &[f64], y: &mut [f64]) {
+        place_minimal(&self.partition, self.nq, y, z, true);
+    }
+
     /// The full state of `z` on minimal coordinates: the kept coordinates
     /// and the independent speeds copied, the rest, `B` and `c` from the
     /// model's [`Model::minimal_expand`]; the work states too if `works`
@@ -1067,6 +1093,16 @@ impl Reduced {
 /// `works`; returns `q` and `qd` (nq each) for the model's expansion to
 /// complete.
 #[inline(always)]
+/// Completes a row placed by [`Reduced::place_sample`]: the dependent
+/// coordinates and speeds of `y` (2 nq + works) by the model's
+/// [`Model::minimal_state`], the same expressions as
+/// [`Reduced::expand_sample`] and so the same numbers. Returns whether the
+/// model did so.
+pub fn complete_sample<M: Model>(model: &M, nq: usize, y: &mut [f64]) -> bool {
+    let (q, rest) = y.split_at_mut(nq);
+    model.minimal_state(q, &mut rest[..nq])
+}
+
 fn place_minimal<'y>(
     partition: &Partition,
     nq: usize,

@@ -435,8 +435,8 @@ struct Run<'a, M: Model, O: Observer<M>> {
     output_time: Duration,
     /// Samples `(t, y)` not yet observed, row after row.
     pending: Vec<f64>,
-    /// For each of them: whether it is a dense-output sample to project.
-    pending_projected: Vec<bool>,
+    /// For each of them: what is left to do before it is observed.
+    pending_kind: Vec<Pending>,
     newton: crate::integrator::radau5::NewtonStats,
     /// The events' watch ([`crate::events`]).
     monitor: Monitor,
@@ -837,20 +837,25 @@ impl<'a, M: Model, O: Observer<M>> Run<'a, M, O> {
     /// Queues the sample `(t, y)`; the queue goes to the observer when
     /// full ([`Run::flush`]), so the step loop only copies the state.
     fn emit(&mut self, sys: &Dynamics<M>, t: f64, y: &[f64]) -> Result<(), RunError<O::Error>> {
-        self.queue(sys, t, false, |row| row.copy_from_slice(y))
+        self.queue(sys, t, Pending::Ready, |row| row.copy_from_slice(y))
     }
 
-    /// Queues a sample at `t` whose state `fill` writes in place; `project`:
-    /// it is to be projected before it is observed (a dense-output sample).
+    /// Queues a sample at `t` whose state `fill` writes in place; `kind`:
+    /// what is left to do before it is observed (a dense-output sample is
+    /// projected, or expanded from minimal coordinates, then).
     fn queue(
         &mut self,
         sys: &Dynamics<M>,
         t: f64,
-        project: bool,
+        kind: Pending,
         fill: impl FnOnce(&mut [f64]),
     ) -> Result<(), RunError<O::Error>> {
         let ny = sys.ny();
-        self.pending_projected.push(project && self.settings.projection != ProjectionKind::None);
+        let kind = match kind {
+            Pending::Project if self.settings.projection == ProjectionKind::None => Pending::Ready,
+            kind => kind,
+        };
+        self.pending_kind.push(kind);
         self.pending.push(t);
         let start = self.pending.len();
         self.pending.resize(start + ny, 0.0);
@@ -870,11 +875,17 @@ impl<'a, M: Model, O: Observer<M>> Run<'a, M, O> {
         }
         let clock = Instant::now();
         let mut pending = std::mem::take(&mut self.pending);
-        let flags = std::mem::take(&mut self.pending_projected);
-        let res = pending.chunks_exact_mut(sys.ny() + 1).zip(&flags).try_for_each(|(row, &project)| {
+        let kinds = std::mem::take(&mut self.pending_kind);
+        let res = pending.chunks_exact_mut(sys.ny() + 1).zip(&kinds).try_for_each(|(row, &kind)| {
             let (t, y) = row.split_first_mut().expect("a row holds its time");
-            if !project {
-                return self.observe(sys, *t, y);
+            match kind {
+                Pending::Ready => return self.observe(sys, *t, y),
+                Pending::Expand => {
+                    let done = crate::reduced::complete_sample(&sys.model, sys.nq(), y);
+                    debug_assert!(done, "a deferred sample's model has minimal_state");
+                    return self.observe(sys, *t, y);
+                }
+                Pending::Project => {}
             }
             // a projected sample's residuals are the projection's own: its
             // last evaluation of phi, at the final q, and G qd with its G
@@ -888,8 +899,8 @@ impl<'a, M: Model, O: Observer<M>> Run<'a, M, O> {
         });
         self.pending = pending;
         self.pending.clear();
-        self.pending_projected = flags;
-        self.pending_projected.clear();
+        self.pending_kind = kinds;
+        self.pending_kind.clear();
         self.output_time += clock.elapsed();
         res
     }
@@ -1259,6 +1270,20 @@ impl<'a, M: Model, O: Observer<M>> Run<'a, M, O> {
     }
 }
 
+/// What is left to do to a queued sample before it is observed
+/// ([`Run::flush`]): the work of the output, timed as such.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Pending {
+    /// Nothing: a state the step loop accepted.
+    Ready,
+    /// A dense-output sample of the DAE, projected onto the constraints.
+    Project,
+    /// A dense-output sample of the reduced formulation on minimal
+    /// coordinates, its dependent coordinates and speeds computed
+    /// ([`crate::reduced::complete_sample`]).
+    Expand,
+}
+
 /// What the step loop integrates, `x' = F(t, x)`: the DAE's full state
 /// ([`Dae`]: `x = y`, projected after each step) or the reduced one
 /// ([`Reduced`]: `x = z`, expanded to `y` for every check and output).
@@ -1415,7 +1440,7 @@ impl<M: Model> Integrand<M> for Dae {
         t: f64,
         fill: impl FnOnce(&mut [f64]),
     ) -> Result<(), RunError<O::Error>> {
-        run.queue(sys, t, true, fill)
+        run.queue(sys, t, Pending::Project, fill)
     }
     fn solves_kkt(&self) -> bool {
         true
@@ -1467,10 +1492,16 @@ impl<M: Model> Integrand<M> for Reduced {
         let mut z = std::mem::take(&mut self.scratch);
         z.resize(self.nz(sys.ny()), 0.0);
         fill(&mut z);
+        if self.defers_samples() {
+            // the row is completed when it is observed (`Run::flush`)
+            let res = run.queue(sys, t, Pending::Expand, |row| self.place_sample(&z, row));
+            self.scratch = z;
+            return res;
+        }
         let res = self.expand_sample(sys, t, &z);
         self.scratch = z;
         res?;
-        run.queue(sys, t, false, |row| row.copy_from_slice(self.full()))
+        run.queue(sys, t, Pending::Ready, |row| row.copy_from_slice(self.full()))
     }
     fn settle(&mut self, sys: &Dynamics<M>, t: f64, x: &mut [f64]) -> Result<bool, SimError> {
         self.repartition(sys, t, x)
@@ -1736,7 +1767,7 @@ fn simulate_erased<M: Model>(
             ..SingularTrack::default()
         },
         pending: Vec::with_capacity(pending_rows(y0.len()) * (y0.len() + 1)),
-        pending_projected: Vec::with_capacity(pending_rows(y0.len())),
+        pending_kind: Vec::with_capacity(pending_rows(y0.len())),
         newton: Default::default(),
         monitor: Monitor::new(sys, 0.0, y0),
         event_x: Vec::new(),

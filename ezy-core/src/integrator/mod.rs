@@ -36,6 +36,44 @@ macro_rules! stage_arg {
     }};
 }
 
+/// Calls `f::<N, ..>(args)` with the state length `n` as the compile-time
+/// constant `N` where `n` is 1 to 13, else with `N = 0` (the length read
+/// at run time): `by_len!(n, f::<_, T>(a, b))`. With `N`
+/// known, every loop over the state has a constant trip count, which the
+/// compiler unrolls and vectorizes without a remainder loop, as C++ code
+/// on `std::array<double, N>` does (Hairer's DOP853 in `benches/peers`).
+/// The body reads `N` through [`state_len`]. The lengths cover the small
+/// models' states (the EzyRoller's 7 reduced and 13 DAE states, the
+/// sleigh's 6 and 7); each length is one more copy of the step in the
+/// binary.
+macro_rules! by_len {
+    ($n:expr, $f:ident :: <_ $(, $g:ty)*> ($($arg:expr),* $(,)?)) => {
+        match $n {
+            1 => $f::<1 $(, $g)*>($($arg),*),
+            2 => $f::<2 $(, $g)*>($($arg),*),
+            3 => $f::<3 $(, $g)*>($($arg),*),
+            4 => $f::<4 $(, $g)*>($($arg),*),
+            5 => $f::<5 $(, $g)*>($($arg),*),
+            6 => $f::<6 $(, $g)*>($($arg),*),
+            7 => $f::<7 $(, $g)*>($($arg),*),
+            8 => $f::<8 $(, $g)*>($($arg),*),
+            9 => $f::<9 $(, $g)*>($($arg),*),
+            10 => $f::<10 $(, $g)*>($($arg),*),
+            11 => $f::<11 $(, $g)*>($($arg),*),
+            12 => $f::<12 $(, $g)*>($($arg),*),
+            13 => $f::<13 $(, $g)*>($($arg),*),
+            _ => $f::<0 $(, $g)*>($($arg),*),
+        }
+    };
+}
+
+/// The state length inside a body called through [`by_len!`]: `N`, or
+/// `n` (the run-time length) where `N` is 0.
+#[inline(always)]
+pub(crate) const fn state_len<const N: usize>(n: usize) -> usize {
+    if N == 0 { n } else { N }
+}
+
 pub mod adaptive;
 mod dop853;
 mod dopri5;
