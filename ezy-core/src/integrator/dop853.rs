@@ -870,7 +870,7 @@ mod tests {
             let y0: Vec<f64> = (0..n).map(|i| (i as f64 * 0.7).sin() + 0.1).collect();
             let mut k1 = vec![0.0; n];
             chain(0.3, &y0, &mut k1);
-            let mut run = |fixed: bool| {
+            let run = |fixed: bool| {
                 let mut s = Dop853::new(n);
                 let mut rhs = chain;
                 let (mut y_new, mut k_new, mut out) = (vec![0.0; n], vec![0.0; n], vec![0.0; n]);
