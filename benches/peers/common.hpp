@@ -74,6 +74,7 @@ inline double state_error(const std::array<double, 13>& y, const std::array<doub
 struct Args {
   double rtol = 1e-10, atol = -1.0;  // atol < 0: atol = rtol
   int reps = 21;
+  double every = 0.0;  // > 0: dense output every `every` s (the reduced peer)
   std::string ref = "reference.csv";
   bool no_projection = false;
   bool print_state = false;
@@ -93,13 +94,14 @@ inline Args parse_args(int argc, char** argv) {
     if (s == "--rtol") a.rtol = std::atof(next());
     else if (s == "--atol") a.atol = std::atof(next());
     else if (s == "--reps") a.reps = std::atoi(next());
+    else if (s == "--every") a.every = std::atof(next());
     else if (s == "--ref") a.ref = next();
     else if (s == "--no-projection") a.no_projection = true;
     else if (s == "--print-state") a.print_state = true;
     else {
       std::fprintf(stderr,
                    "usage: %s [--rtol R] [--atol A (default R)] [--reps N] [--ref reference.csv]"
-                   " [--no-projection] [--print-state]\n",
+                   " [--no-projection] [--print-state] [--every E]\n",
                    argv[0]);
       std::exit(2);
     }

@@ -27,9 +27,11 @@
 // the starting step of his HINIT, FSAL (the 13th evaluation, at the new
 // state, is the next step's first stage), and the last step cut to end at
 // x_end when x + 1.01 h passes it, and his exits for too many steps and
-// for a step size at the rounding level of x (return codes -2, -3). Not
-// implemented: dense output (output only at x_end) and the stiffness test
-// (a diagnostic that does not change the steps).
+// for a step size at the rounding level of x (return codes -2, -3), and
+// his dense output of order 7 (CONTD8: three more stages in a step that
+// holds an output time, the coefficients rcont1..8, and the polynomial
+// evaluated at each output time, Options::every > 0). Not implemented: the
+// stiffness test (a diagnostic that does not change the steps).
 //
 // This is our own code, written from the book and read against Hairer's
 // code; any error in it is ours.
@@ -56,6 +58,7 @@ struct Options {
   double hmax = 0.0;     // 0: x_end - x
   long nmax = 100000000; // step attempts
   double safe = 0.9, fac1 = 0.333, fac2 = 6.0, beta = 0.0;
+  double every = 0.0;    // > 0: dense output at every multiple of it
 };
 
 struct Stats {
@@ -63,6 +66,8 @@ struct Stats {
   long nstep = 0;   // step attempts
   long naccpt = 0;  // accepted steps
   long nrejct = 0;  // rejected steps
+  long nout = 0;    // dense-output samples
+  double sink = 0.0;  // the sum of every sample's components (keeps them computed)
 };
 
 struct NoPost {
@@ -154,6 +159,82 @@ constexpr double a128 = -2.85899827713502369474065508674e0;
 constexpr double a129 = -8.87285693353062954433549289258e0;
 constexpr double a1210 = 1.23605671757943030647266201528e1;
 constexpr double a1211 = 6.43392746015763530355970484046e-1;
+// the dense output's stages 14-16 and its coefficients (CONTD8)
+constexpr double c14 = 0.1e+00;
+constexpr double c15 = 0.2e+00;
+constexpr double c16 = 0.777777777777777777777777777778e+00;
+constexpr double a141 = 5.61675022830479523392909219681e-2;
+constexpr double a147 = 2.53500210216624811088794765333e-1;
+constexpr double a148 = -2.46239037470802489917441475441e-1;
+constexpr double a149 = -1.24191423263816360469010140626e-1;
+constexpr double a1410 = 1.5329179827876569731206322685e-1;
+constexpr double a1411 = 8.20105229563468988491666602057e-3;
+constexpr double a1412 = 7.56789766054569976138603589584e-3;
+constexpr double a1413 = -8.298e-3;
+constexpr double a151 = 3.18346481635021405060768473261e-2;
+constexpr double a156 = 2.83009096723667755288322961402e-2;
+constexpr double a157 = 5.35419883074385676223797384372e-2;
+constexpr double a158 = -5.49237485713909884646569340306e-2;
+constexpr double a1511 = -1.08347328697249322858509316994e-4;
+constexpr double a1512 = 3.82571090835658412954920192323e-4;
+constexpr double a1513 = -3.40465008687404560802977114492e-4;
+constexpr double a1514 = 1.41312443674632500278074618366e-1;
+constexpr double a161 = -4.28896301583791923408573538692e-1;
+constexpr double a166 = -4.69762141536116384314449447206e0;
+constexpr double a167 = 7.68342119606259904184240953878e0;
+constexpr double a168 = 4.06898981839711007970213554331e0;
+constexpr double a169 = 3.56727187455281109270669543021e-1;
+constexpr double a1613 = -1.39902416515901462129418009734e-3;
+constexpr double a1614 = 2.9475147891527723389556272149e0;
+constexpr double a1615 = -9.15095847217987001081870187138e0;
+constexpr double d41 = -0.84289382761090128651353491142e+01;
+constexpr double d46 = 0.56671495351937776962531783590e+00;
+constexpr double d47 = -0.30689499459498916912797304727e+01;
+constexpr double d48 = 0.23846676565120698287728149680e+01;
+constexpr double d49 = 0.21170345824450282767155149946e+01;
+constexpr double d410 = -0.87139158377797299206789907490e+00;
+constexpr double d411 = 0.22404374302607882758541771650e+01;
+constexpr double d412 = 0.63157877876946881815570249290e+00;
+constexpr double d413 = -0.88990336451333310820698117400e-01;
+constexpr double d414 = 0.18148505520854727256656404962e+02;
+constexpr double d415 = -0.91946323924783554000451984436e+01;
+constexpr double d416 = -0.44360363875948939664310572000e+01;
+constexpr double d51 = 0.10427508642579134603413151009e+02;
+constexpr double d56 = 0.24228349177525818288430175319e+03;
+constexpr double d57 = 0.16520045171727028198505394887e+03;
+constexpr double d58 = -0.37454675472269020279518312152e+03;
+constexpr double d59 = -0.22113666853125306036270938578e+02;
+constexpr double d510 = 0.77334326684722638389603898808e+01;
+constexpr double d511 = -0.30674084731089398182061213626e+02;
+constexpr double d512 = -0.93321305264302278729567221706e+01;
+constexpr double d513 = 0.15697238121770843886131091075e+02;
+constexpr double d514 = -0.31139403219565177677282850411e+02;
+constexpr double d515 = -0.93529243588444783865713862664e+01;
+constexpr double d516 = 0.35816841486394083752465898540e+02;
+constexpr double d61 = 0.19985053242002433820987653617e+02;
+constexpr double d66 = -0.38703730874935176555105901742e+03;
+constexpr double d67 = -0.18917813819516756882830838328e+03;
+constexpr double d68 = 0.52780815920542364900561016686e+03;
+constexpr double d69 = -0.11573902539959630126141871134e+02;
+constexpr double d610 = 0.68812326946963000169666922661e+01;
+constexpr double d611 = -0.10006050966910838403183860980e+01;
+constexpr double d612 = 0.77771377980534432092869265740e+00;
+constexpr double d613 = -0.27782057523535084065932004339e+01;
+constexpr double d614 = -0.60196695231264120758267380846e+02;
+constexpr double d615 = 0.84320405506677161018159903784e+02;
+constexpr double d616 = 0.11992291136182789328035130030e+02;
+constexpr double d71 = -0.25693933462703749003312586129e+02;
+constexpr double d76 = -0.15418974869023643374053993627e+03;
+constexpr double d77 = -0.23152937917604549567536039109e+03;
+constexpr double d78 = 0.35763911791061412378285349910e+03;
+constexpr double d79 = 0.93405324183624310003907691704e+02;
+constexpr double d710 = -0.37458323136451633156875139351e+02;
+constexpr double d711 = 0.10409964950896230045147246184e+03;
+constexpr double d712 = 0.29840293426660503123344363579e+02;
+constexpr double d713 = -0.43533456590011143754432175058e+02;
+constexpr double d714 = 0.96324553959188282948394950600e+02;
+constexpr double d715 = -0.39177261675615439165231486172e+02;
+constexpr double d716 = -0.14972683625798562581422125276e+03;
 }  // namespace c
 
 // Hairer's HINIT: a first step such that h^8 max(|f0|, |f'|) = 0.01 in the
@@ -278,6 +359,63 @@ int integrate(F&& f, double x, std::array<double, N>& y, double xend,
     if (err <= 1.0) {
       facold = std::max(err, 1e-4);
       ++st.naccpt;
+      if (o.every > 0.0 && static_cast<double>(st.nout) * o.every <= xph) {
+        // CONTD8: the 13th evaluation at the new state first (it is the
+        // next step's first stage as well), three more stages, the
+        // coefficients, and the samples in (x, xph]; Hairer's order of
+        // operations. (Without a projecting hook: the reduced peer.)
+        V k13, k14, k15, k16;
+        f(xph, yn, k13);
+        for (std::size_t i = 0; i < N; ++i)
+          s[i] = y[i] + h * (a141 * k1[i] + a147 * k7[i] + a148 * k8[i] + a149 * k9[i] +
+                             a1410 * k10[i] + a1411 * k11[i] + a1412 * k12[i] + a1413 * k13[i]);
+        f(x + c14 * h, s, k14);
+        for (std::size_t i = 0; i < N; ++i)
+          s[i] = y[i] + h * (a151 * k1[i] + a156 * k6[i] + a157 * k7[i] + a158 * k8[i] +
+                             a1511 * k11[i] + a1512 * k12[i] + a1513 * k13[i] + a1514 * k14[i]);
+        f(x + c15 * h, s, k15);
+        for (std::size_t i = 0; i < N; ++i)
+          s[i] = y[i] + h * (a161 * k1[i] + a166 * k6[i] + a167 * k7[i] + a168 * k8[i] +
+                             a169 * k9[i] + a1613 * k13[i] + a1614 * k14[i] + a1615 * k15[i]);
+        f(x + c16 * h, s, k16);
+        st.nfcn += 4;
+        std::array<V, 8> r;
+        for (std::size_t i = 0; i < N; ++i) {
+          const double ydiff = yn[i] - y[i], bspl = h * k1[i] - ydiff;
+          r[0][i] = y[i];
+          r[1][i] = ydiff;
+          r[2][i] = bspl;
+          r[3][i] = ydiff - h * k13[i] - bspl;
+          r[4][i] = h * (d41 * k1[i] + d46 * k6[i] + d47 * k7[i] + d48 * k8[i] + d49 * k9[i] +
+                         d410 * k10[i] + d411 * k11[i] + d412 * k12[i] + d413 * k13[i] +
+                         d414 * k14[i] + d415 * k15[i] + d416 * k16[i]);
+          r[5][i] = h * (d51 * k1[i] + d56 * k6[i] + d57 * k7[i] + d58 * k8[i] + d59 * k9[i] +
+                         d510 * k10[i] + d511 * k11[i] + d512 * k12[i] + d513 * k13[i] +
+                         d514 * k14[i] + d515 * k15[i] + d516 * k16[i]);
+          r[6][i] = h * (d61 * k1[i] + d66 * k6[i] + d67 * k7[i] + d68 * k8[i] + d69 * k9[i] +
+                         d610 * k10[i] + d611 * k11[i] + d612 * k12[i] + d613 * k13[i] +
+                         d614 * k14[i] + d615 * k15[i] + d616 * k16[i]);
+          r[7][i] = h * (d71 * k1[i] + d76 * k6[i] + d77 * k7[i] + d78 * k8[i] + d79 * k9[i] +
+                         d710 * k10[i] + d711 * k11[i] + d712 * k12[i] + d713 * k13[i] +
+                         d714 * k14[i] + d715 * k15[i] + d716 * k16[i]);
+        }
+        for (double xo = static_cast<double>(st.nout) * o.every; xo <= xph;
+             xo = static_cast<double>(++st.nout) * o.every) {
+          const double th = (xo - x) / h, th1 = 1.0 - th;
+          for (std::size_t i = 0; i < N; ++i)
+            st.sink += r[0][i] + th * (r[1][i] + th1 * (r[2][i] + th * (r[3][i] + th1 *
+                       (r[4][i] + th * (r[5][i] + th1 * (r[6][i] + th * r[7][i]))))));
+        }
+        y = yn;
+        x = xph;
+        k1 = k13;
+        if (last) return 1;
+        if (std::fabs(hnew) > hmax) hnew = hmax;
+        if (reject) hnew = std::min(std::fabs(hnew), std::fabs(h));
+        reject = false;
+        h = hnew;
+        continue;
+      }
       y = yn;
       x = xph;
       // The 13th evaluation, at the new state, is the next step's first

@@ -72,6 +72,7 @@ PEERS=(
   "build/dae_schur|1e-11|$CPP_REPS|$FAST"
   "build/dae_schur --no-projection|1e-11|$CPP_REPS|$FAST"
   "build/reduced|3e-11|$CPP_REPS|$FAST"
+  "build/reduced --every 0.01|3e-11|$CPP_REPS|$FAST"
   "$RUST_PEER|3e-11|$CPP_REPS|$FAST"
   "$PY scipy_numpy.py|1e-11|$PY_REPS|$SLOW"
   "$PY casadi_cvodes.py|3e-14|$PY_REPS|$SLOW"
