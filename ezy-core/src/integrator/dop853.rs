@@ -851,7 +851,7 @@ mod tests {
 
     /// A step, its dense output and an interpolated state are the same,
     /// bit for bit, whether the state's length is a compile-time constant
-    /// (`by_len!`: 1 to 13) or read at run time (`N = 0`, what every
+    /// (`by_len!`: 1 to 12) or read at run time (`N = 0`, what every
     /// other length runs), for every length from 1 to 15: a linear system
     /// coupling each component to its neighbours, nonautonomous, so that
     /// every stage's argument and time enter.

@@ -37,15 +37,17 @@ macro_rules! stage_arg {
 }
 
 /// Calls `f::<N, ..>(args)` with the state length `n` as the compile-time
-/// constant `N` where `n` is 1 to 13, else with `N = 0` (the length read
+/// constant `N` where `n` is 1 to 12, else with `N = 0` (the length read
 /// at run time): `by_len!(n, f::<_, T>(a, b))`. With `N`
 /// known, every loop over the state has a constant trip count, which the
 /// compiler unrolls and vectorizes without a remainder loop, as C++ code
 /// on `std::array<double, N>` does (Hairer's DOP853 in `benches/peers`).
 /// The body reads `N` through [`state_len`]. The lengths cover the small
-/// models' states (the EzyRoller's 7 reduced and 13 DAE states, the
-/// sleigh's 6 and 7); each length is one more copy of the step in the
-/// binary.
+/// models' reduced states (the EzyRoller's 7, the sleigh's 6); each is one
+/// more copy of the step in the binary. 13, the EzyRoller's DAE state, is
+/// left to the run-time loop: unrolled it ran 2-5 % slower (`ezy bench
+/// drive`, row 3, four alternating runs), where 7 saves 29 % of the
+/// stage arithmetic's instructions.
 macro_rules! by_len {
     ($n:expr, $f:ident :: <_ $(, $g:ty)*> ($($arg:expr),* $(,)?)) => {
         match $n {
@@ -61,7 +63,6 @@ macro_rules! by_len {
             10 => $f::<10 $(, $g)*>($($arg),*),
             11 => $f::<11 $(, $g)*>($($arg),*),
             12 => $f::<12 $(, $g)*>($($arg),*),
-            13 => $f::<13 $(, $g)*>($($arg),*),
             _ => $f::<0 $(, $g)*>($($arg),*),
         }
     };
