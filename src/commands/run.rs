@@ -341,8 +341,10 @@ pub fn run_model_tapped<M: Model>(
     if let Some(b) = &beat {
         b.quiet();
     }
-    let encoders = crate::figures::encoding_threads(scene.figures.len());
-    if opts.figures && encoders > 0 {
+    // asked only when figures are drawn: the question starts rayon's pool,
+    // whose idle threads spin (sched_yield) through a run without figures
+    let encoders = if opts.figures { crate::figures::encoding_threads(scene.figures.len()) } else { 0 };
+    if encoders > 0 {
         // the fonts and an image buffer for each thread that will encode
         // figures, made on another core while this one integrates
         // (detached: it takes milliseconds)
