@@ -881,8 +881,18 @@ impl<'a, M: Model, O: Observer<M>> Run<'a, M, O> {
             match kind {
                 Pending::Ready => return self.observe(sys, *t, y),
                 Pending::Expand => {
-                    let done = crate::reduced::complete_sample(&sys.model, sys.nq(), y);
-                    debug_assert!(done, "a deferred sample's model has minimal_state");
+                    // the model said it has `minimal_state` when the run
+                    // began; one that stops having it is refused, not
+                    // written half-expanded
+                    if !crate::reduced::complete_sample(&sys.model, sys.nq(), y) {
+                        return Err(RunError::Sim(SimError::Formulation {
+                            reason: format!(
+                                "at t = {} s the model's minimal_state gave no full state for a dense-output \
+                                 sample, though it did at the start",
+                                crate::error::fmt_value(*t)
+                            ),
+                        }));
+                    }
                     return self.observe(sys, *t, y);
                 }
                 Pending::Project => {}
