@@ -45,7 +45,8 @@ pub struct BenchRow {
     /// Median integration time \[s\].
     pub integration_s: f64,
     /// Median time of the output work in the same runs \[s\]: projecting
-    /// the dense-output samples, their energies and residuals
+    /// the dense-output samples (the DAE) or expanding them to the full
+    /// state (the minimal coordinates), their energies and residuals
     /// ([`ezy_core::Summary::output_time`]; no file is written here).
     pub output_s: f64,
     /// Right-hand-side evaluations of one run.
@@ -221,7 +222,10 @@ pub fn table(scene: &str, rows: &[BenchRow]) -> String {
             r.process_s.map_or("-".into(), time)
         ));
     }
-    s.push_str("output: projecting the dense-output samples, their energies and residuals (no file)\n");
+    s.push_str(
+        "output: the dense-output samples projected (DAE) or expanded to q, qd (minimal coordinates), \
+         their energies and residuals (no file)\n",
+    );
     s.push_str("whole process: `ezy run SCENE ARGS --no-figures` started anew (parse, setup, integration, CSV)\n");
     s
 }

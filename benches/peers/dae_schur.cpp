@@ -170,6 +170,10 @@ inline void project(V& y) {
 
 int main(int argc, char** argv) {
   const Args args = parse_args(argc, argv);
+  if (args.every > 0.0) {
+    std::fprintf(stderr, "dae_schur has no dense output (--every is the reduced peer's)\n");
+    return 2;
+  }
   const auto ref = load_reference(args.ref);
   dop853::Options opt;
   opt.rtol = args.rtol;

@@ -48,6 +48,7 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <type_traits>
 
 namespace dop853 {
 
@@ -273,16 +274,20 @@ double hinit(F& f, double x, const std::array<double, N>& y,
 // the solution at x_end. f(x, y, dy) with std::array<double, N>. post(x, y)
 // is called after every accepted step (see the file comment). Returns 1 on
 // success, -2 when nmax step attempts were not enough, -3 when the step
-// size became too small.
+// size became too small, -4 for dense output asked with a projecting hook.
 template <std::size_t N, class F, class P = NoPost>
 int integrate(F&& f, double x, std::array<double, N>& y, double xend,
               const Options& o, Stats& st, P&& post = P{}) {
   using namespace c;
   using V = std::array<double, N>;
+  // the dense output takes the 13th evaluation at the unprojected state:
+  // a projecting hook and dense output do not go together here
+  constexpr bool projects = !std::is_same_v<std::decay_t<P>, NoPost>;
   const double uround = 2.3e-16;
   const double hmax = o.hmax > 0.0 ? o.hmax : xend - x;
   const double expo1 = 1.0 / 8.0 - o.beta * 0.2;
   const double facc1 = 1.0 / o.fac1, facc2 = 1.0 / o.fac2;
+  if (projects && o.every > 0.0) return -4;
   V k1, k2, k3, k4, k5, k6, k7, k8, k9, k10, k11, k12, yn, s;
   f(x, y, k1);
   ++st.nfcn;
@@ -399,9 +404,11 @@ int integrate(F&& f, double x, std::array<double, N>& y, double xend,
                          d710 * k10[i] + d711 * k11[i] + d712 * k12[i] + d713 * k13[i] +
                          d714 * k14[i] + d715 * k15[i] + d716 * k16[i]);
         }
-        for (double xo = static_cast<double>(st.nout) * o.every; xo <= xph;
+        // the output times within a relative 1e-12 of the step's end are
+        // its end (k every may round just past t_end), as in ezy
+        for (double xo = static_cast<double>(st.nout) * o.every; xo <= xph * (1.0 + 1e-12);
              xo = static_cast<double>(++st.nout) * o.every) {
-          const double th = (xo - x) / h, th1 = 1.0 - th;
+          const double th = std::min((xo - x) / h, 1.0), th1 = 1.0 - th;
           for (std::size_t i = 0; i < N; ++i)
             st.sink += r[0][i] + th * (r[1][i] + th1 * (r[2][i] + th * (r[3][i] + th1 *
                        (r[4][i] + th * (r[5][i] + th1 * (r[6][i] + th * r[7][i]))))));

@@ -424,7 +424,9 @@ pub trait Model: Clone + Send + Sync + 'static {
     /// the independent speeds `qd[u]`, the same expressions and so the same
     /// numbers, for a state that is only output (a dense-output sample).
     /// Returns whether it did so; the default does nothing and returns
-    /// `false`, and the caller then uses [`Model::minimal_expand`].
+    /// `false`, and the caller then uses [`Model::minimal_expand`]. The
+    /// answer is the model's, the same at every state: a run asks once,
+    /// at its start, and then leaves its dense-output samples to it.
     fn minimal_state<S: Scalar>(&self, q: &mut [S], qd: &mut [S]) -> bool {
         let _ = (q, qd);
         false

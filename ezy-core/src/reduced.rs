@@ -952,9 +952,10 @@ impl Reduced {
         self.minimal.as_ref().is_some_and(|m| m.state_only)
     }
 
-    /// Places the minimal state `z` into the full state's row `y`
-    /// (2 nq + works): the kept coordinates, the independent speeds and
-    /// the works, the rest left for [`complete_sample`].
+    /// Places the minimal state `z` (np + nu + works) into the full
+    /// state's row `y` (2 nq + works): the kept coordinates, the
+    /// independent speeds and the works, the rest left for
+    /// [`complete_sample`]; until then `y` is not a full state.
     pub fn place_sample(&self, z: &[f64], y: &mut [f64]) {
         place_minimal(&self.partition, self.nq, y, z, true);
     }
@@ -1088,14 +1089,11 @@ impl Reduced {
     }
 }
 
-/// The kept coordinates and the independent speeds of `z` into the full
-/// state `y = [q, qd, W]` (nq coordinates; `partition`'s places), its work states too if
-/// `works`; returns `q` and `qd` (nq each) for the model's expansion to
-/// complete.
-#[inline(always)]
-/// Completes a row placed by [`Reduced::place_sample`]: the dependent
-/// coordinates and speeds of `y` (2 nq + works) by the model's
-/// [`Model::minimal_state`], the same expressions as
+/// Completes a row placed by [`Reduced::place_sample`] into the full
+/// state `y = [q, qd, W]` (2 nq + works): the dependent coordinates of `q`
+/// and all of `qd` (the independent speeds placed there are body-frame
+/// speeds; the model writes the global rates) \[m, rad, m/s, rad/s\] by
+/// the model's [`Model::minimal_state`], the same expressions as
 /// [`Reduced::expand_sample`] and so the same numbers. Returns whether the
 /// model did so.
 pub fn complete_sample<M: Model>(model: &M, nq: usize, y: &mut [f64]) -> bool {
@@ -1103,6 +1101,11 @@ pub fn complete_sample<M: Model>(model: &M, nq: usize, y: &mut [f64]) -> bool {
     model.minimal_state(q, &mut rest[..nq])
 }
 
+/// The kept coordinates and the independent speeds of `z` into the full
+/// state `y = [q, qd, W]` (nq coordinates; `partition`'s places), its work states too if
+/// `works`; returns `q` and `qd` (nq each) for the model's expansion to
+/// complete.
+#[inline(always)]
 fn place_minimal<'y>(
     partition: &Partition,
     nq: usize,

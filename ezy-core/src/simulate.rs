@@ -278,8 +278,10 @@ pub struct Summary {
     /// Wall time of the integration alone (steps, projections and the
     /// dense output's interpolation; no output work).
     pub integration_time: Duration,
-    /// Wall time of the output work: projecting dense-output samples,
-    /// their energies and residuals, and the observer (the CSV rows).
+    /// Wall time of the output work: projecting dense-output samples (the
+    /// DAE) or expanding them to the full state (the reduced formulation
+    /// on minimal coordinates), their energies and residuals, and the
+    /// observer (the CSV rows).
     pub output_time: Duration,
     /// Largest `max|C|` over the outputs \[m\].
     pub max_residual_position: f64,
@@ -883,15 +885,19 @@ impl<'a, M: Model, O: Observer<M>> Run<'a, M, O> {
                 Pending::Expand => {
                     // the model said it has `minimal_state` when the run
                     // began; one that stops having it is refused, not
-                    // written half-expanded
+                    // written half-expanded (as a failure with its cause,
+                    // which no hand-over to the DAE takes for its own:
+                    // the rows queued with it are gone)
                     if !crate::reduced::complete_sample(&sys.model, sys.nq(), y) {
-                        return Err(RunError::Sim(SimError::Formulation {
+                        let error = SimError::Formulation {
                             reason: format!(
                                 "at t = {} s the model's minimal_state gave no full state for a dense-output \
                                  sample, though it did at the start",
                                 crate::error::fmt_value(*t)
                             ),
-                        }));
+                        };
+                        let cause = "Model::minimal_state's answer must be the same at every state".to_string();
+                        return Err(RunError::Sim(SimError::Caused { error: Box::new(error), cause }));
                     }
                     return self.observe(sys, *t, y);
                 }
@@ -1289,8 +1295,8 @@ enum Pending {
     /// A dense-output sample of the DAE, projected onto the constraints.
     Project,
     /// A dense-output sample of the reduced formulation on minimal
-    /// coordinates, its dependent coordinates and speeds computed
-    /// ([`crate::reduced::complete_sample`]).
+    /// coordinates, its dependent coordinates and its global rates
+    /// computed ([`crate::reduced::complete_sample`]).
     Expand,
 }
 

@@ -343,7 +343,11 @@ pub fn run_model_tapped<M: Model>(
     }
     // asked only when figures are drawn: the question starts rayon's pool,
     // whose idle threads spin (sched_yield) through a run without figures
-    let encoders = if opts.figures { crate::figures::encoding_threads(scene.figures.len()) } else { 0 };
+    let encoders = if opts.figures && !scene.figures.is_empty() {
+        crate::figures::encoding_threads(scene.figures.len())
+    } else {
+        0
+    };
     if encoders > 0 {
         // the fonts and an image buffer for each thread that will encode
         // figures, made on another core while this one integrates
