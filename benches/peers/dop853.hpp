@@ -364,12 +364,14 @@ int integrate(F&& f, double x, std::array<double, N>& y, double xend,
     if (err <= 1.0) {
       facold = std::max(err, 1e-4);
       ++st.naccpt;
-      if (o.every > 0.0 && static_cast<double>(st.nout) * o.every <= xph) {
+      const bool dense = o.every > 0.0 && static_cast<double>(st.nout) * o.every <= xph;
+      V k13;
+      if (dense) {
         // CONTD8: the 13th evaluation at the new state first (it is the
         // next step's first stage as well), three more stages, the
         // coefficients, and the samples in (x, xph]; Hairer's order of
         // operations. (Without a projecting hook: the reduced peer.)
-        V k13, k14, k15, k16;
+        V k14, k15, k16;
         f(xph, yn, k13);
         for (std::size_t i = 0; i < N; ++i)
           s[i] = y[i] + h * (a141 * k1[i] + a147 * k7[i] + a148 * k8[i] + a149 * k9[i] +
@@ -413,24 +415,19 @@ int integrate(F&& f, double x, std::array<double, N>& y, double xend,
             st.sink += r[0][i] + th * (r[1][i] + th1 * (r[2][i] + th * (r[3][i] + th1 *
                        (r[4][i] + th * (r[5][i] + th1 * (r[6][i] + th * r[7][i]))))));
         }
-        y = yn;
-        x = xph;
-        k1 = k13;
-        if (last) return 1;
-        if (std::fabs(hnew) > hmax) hnew = hmax;
-        if (reject) hnew = std::min(std::fabs(hnew), std::fabs(h));
-        reject = false;
-        h = hnew;
-        continue;
       }
       y = yn;
       x = xph;
-      // The 13th evaluation, at the new state, is the next step's first
-      // stage (FSAL). A projecting hook moves the state first, so the
-      // evaluation is at the projected state and costs nothing extra.
-      post(x, y);
-      f(x, y, k1);
-      ++st.nfcn;
+      if (dense) {
+        k1 = k13;
+      } else {
+        // The 13th evaluation, at the new state, is the next step's first
+        // stage (FSAL). A projecting hook moves the state first, so the
+        // evaluation is at the projected state and costs nothing extra.
+        post(x, y);
+        f(x, y, k1);
+        ++st.nfcn;
+      }
       if (last) return 1;
       if (std::fabs(hnew) > hmax) hnew = hmax;
       if (reject) hnew = std::min(std::fabs(hnew), std::fabs(h));
