@@ -1508,16 +1508,17 @@ impl<M: Model> Integrand<M> for Reduced {
         let mut z = std::mem::take(&mut self.scratch);
         z.resize(self.nz(sys.ny()), 0.0);
         fill(&mut z);
-        if self.defers_samples() {
+        let res = if self.defers_samples() {
             // the row is completed when it is observed (`Run::flush`)
-            let res = run.queue(sys, t, Pending::Expand, |row| self.place_sample(&z, row));
-            self.scratch = z;
-            return res;
-        }
-        let res = self.expand_sample(sys, t, &z);
+            run.queue(sys, t, Pending::Expand, |row| self.place_sample(&z, row))
+        } else {
+            match self.expand_sample(sys, t, &z) {
+                Ok(()) => run.queue(sys, t, Pending::Ready, |row| row.copy_from_slice(self.full())),
+                Err(e) => Err(e.into()),
+            }
+        };
         self.scratch = z;
-        res?;
-        run.queue(sys, t, Pending::Ready, |row| row.copy_from_slice(self.full()))
+        res
     }
     fn settle(&mut self, sys: &Dynamics<M>, t: f64, x: &mut [f64]) -> Result<bool, SimError> {
         self.repartition(sys, t, x)
