@@ -444,15 +444,7 @@ impl<M: Model> Dynamics<M> {
         }
         let waves: &[crate::effects::Waveforms] = if hinges_only { &[] } else { &self.ws.waves };
         let res = self.model.minimal_rhs_effects(k, z, q, qd, pd_ud, t, &self.effects, waves, power);
-        res.map_err(|e| match e {
-            crate::model::MinimalRhsError::Forces(e) => e,
-            crate::model::MinimalRhsError::Maggi(source) => SimError::Formulation {
-                reason: format!(
-                    "at t = {} s Maggi's equations on the minimal coordinates cannot be solved: {source}",
-                    crate::error::fmt_value(t)
-                ),
-            },
-        })
+        res.map_err(|e| minimal_rhs_failed(t, e))
     }
 
     /// Computes the generalized applied force `f` (nq) \[N, N m\] of the effects at
@@ -801,6 +793,22 @@ pub(crate) fn apply_effects(
         }
     }
     Ok(())
+}
+
+/// [`Dynamics::minimal_rhs`]'s error at `t` \[s\], out of the
+/// evaluation's line.
+#[cold]
+#[inline(never)]
+fn minimal_rhs_failed(t: f64, e: crate::model::MinimalRhsError<SimError>) -> SimError {
+    match e {
+        crate::model::MinimalRhsError::Forces(e) => e,
+        crate::model::MinimalRhsError::Maggi(source) => SimError::Formulation {
+            reason: format!(
+                "at t = {} s Maggi's equations on the minimal coordinates cannot be solved: {source}",
+                crate::error::fmt_value(t)
+            ),
+        },
+    }
 }
 
 /// Adds each hinge effect's torque at `(t, q, qd)` (nq each) to its

@@ -884,7 +884,30 @@ impl Reduced {
     ///
     /// # Errors
     /// As [`Reduced::expand`] and [`Dynamics::rhs`].
+    #[inline(always)]
     pub fn eval<M: Model>(&mut self, sys: &mut Dynamics<M>, t: f64, z: &[f64], dz: &mut [f64]) -> Result<(), SimError> {
+        // the fused path inline in the integrator's stage loop (one call,
+        // the model's, per evaluation); the rest out of line
+        if let Some(m) = &mut self.minimal
+            && m.constants.is_some()
+            && !m.dz_cached
+        {
+            self.eval_fused(sys, t, z, dz)?;
+            sys.counters.rhs_evals += 1;
+            return Ok(());
+        }
+        self.eval_general(sys, t, z, dz)
+    }
+
+    /// [`Reduced::eval`] but for the fused path's common case.
+    #[inline(never)]
+    fn eval_general<M: Model>(
+        &mut self,
+        sys: &mut Dynamics<M>,
+        t: f64,
+        z: &[f64],
+        dz: &mut [f64],
+    ) -> Result<(), SimError> {
         if let Some(m) = &mut self.minimal
             && m.constants.is_some()
         {

@@ -24,7 +24,7 @@
 //!   is `B u' + c`; products of sines and cosines are rewritten over angle
 //!   differences (`sym::trig`) and common factors pulled out.
 
-use std::collections::HashMap;
+use std::collections::{HashMap, HashSet};
 
 use crate::ast::ModelDef;
 use crate::check::Resolved;
@@ -46,6 +46,11 @@ pub struct Minimal {
     pub b: Vec<Id>,
     /// `c`, the body-frame acceleration at `u' = 0` (nq): `V' = B u' + c`.
     pub c: Vec<Id>,
+    /// `b` and `c` before their sines and cosines of angle differences
+    /// are written as products ([`Arena::trig_products`]): what
+    /// [`maggi`] multiplies out and collects.
+    pub b_lin: Vec<Id>,
+    pub c_lin: Vec<Id>,
     /// Each body's `cos phi, sin phi` (2 nb): the forces into its frame.
     pub frames: Vec<Id>,
     /// Per skate row: `(skate name, body-frame velocity index, coefficient)`.
@@ -339,6 +344,7 @@ pub fn derive(
         })
         .collect();
     q_dep.sort_by_key(|(j, _)| *j);
+    let (b_lin, c_lin) = (b.clone(), c.clone());
     // cos(a - b), sin(a - b) from the angles' own sines and cosines
     let mut memo = HashMap::new();
     for e in qd.iter_mut().chain(&mut b).chain(&mut c) {
@@ -349,7 +355,7 @@ pub fn derive(
         *e = ar.factor(*e, &mut memo);
     }
     let frames = trig.iter().flat_map(|&(c, s)| [c, s]).collect();
-    Ok(Minimal { coords, speeds, q_dep, qd, b, c, frames, pivots })
+    Ok(Minimal { coords, speeds, q_dep, qd, b, c, b_lin, c_lin, frames, pivots })
 }
 
 /// The fused right-hand side's symbolic part (`Model::minimal_rhs`): with
@@ -377,22 +383,49 @@ pub fn maggi(ar: &mut Arena, m: &Minimal, mass: &[Id], hinges: &[(usize, Option<
     let (nq, nu) = (m.qd.len(), m.speeds.len());
     let mut memo = crate::sym::Grouping::default();
     let b: Vec<Id> = m.b.iter().map(|&e| ar.group_fixed(e, &mut memo)).collect();
+    // each entry twice: as the sum of the factored products, and
+    // multiplied out and collected in the state (`Arena::collect_state`)
+    // over the sines and cosines of angle differences, then written in
+    // the angles' own and factored as the rest; the cheaper is kept
+    let (mut trig, mut fac) = (HashMap::new(), HashMap::new());
+    let mut both = |ar: &mut Arena, memo: &mut crate::sym::Grouping, factored: Id, linear: Id| {
+        let old = ar.group_fixed(factored, memo);
+        let new = ar.collect_state(linear).map(|e| {
+            let e = ar.trig_products(e, &mut trig);
+            let e = ar.factor_state(e, &mut fac);
+            ar.group_fixed(e, memo)
+        });
+        (old, new)
+    };
     let mut a = Vec::with_capacity(nu * (nu + 1) / 2);
     for i in 0..nu {
         for k in 0..=i {
-            let terms: Vec<Id> = (0..nq).map(|j| ar.mul(&[mass[j], m.b[j * nu + i], m.b[j * nu + k]])).collect();
-            let sum = ar.add(&terms);
-            a.push(ar.group_fixed(sum, &mut memo));
+            let sum = |ar: &mut Arena, b: &[Id]| {
+                let terms: Vec<Id> = (0..nq).map(|j| ar.mul(&[mass[j], b[j * nu + i], b[j * nu + k]])).collect();
+                ar.add(&terms)
+            };
+            let (f, l) = (sum(ar, &m.b), sum(ar, &m.b_lin));
+            a.push(both(ar, &mut memo, f, l));
         }
     }
     let minus = ar.cst(-1.0);
-    let minus_bmc = (0..nu)
+    let minus_bmc: Vec<(Id, Option<Id>)> = (0..nu)
         .map(|i| {
-            let terms: Vec<Id> = (0..nq).map(|j| ar.mul(&[minus, mass[j], m.b[j * nu + i], m.c[j]])).collect();
-            let sum = ar.add(&terms);
-            ar.group_fixed(sum, &mut memo)
+            let sum = |ar: &mut Arena, b: &[Id], c: &[Id]| {
+                let terms: Vec<Id> = (0..nq).map(|j| ar.mul(&[minus, mass[j], b[j * nu + i], c[j]])).collect();
+                ar.add(&terms)
+            };
+            let (f, l) = (sum(ar, &m.b, &m.c), sum(ar, &m.b_lin, &m.c_lin));
+            both(ar, &mut memo, f, l)
         })
         .collect();
+    // the choice, counted beyond what the expansion computes anyway
+    let fixed = ar.fixed_nodes();
+    let mut done = HashSet::new();
+    let pre: Vec<Id> = m.qd.iter().chain(&m.frames).chain(m.q_dep.iter().map(|p| &p.1)).copied().collect();
+    ar.op_count(&pre, &fixed, &mut done);
+    let a: Vec<Id> = a.into_iter().map(|(old, new)| ar.cheaper(old, new, &fixed, &mut done)).collect();
+    let minus_bmc: Vec<Id> = minus_bmc.into_iter().map(|(old, new)| ar.cheaper(old, new, &fixed, &mut done)).collect();
     let hinge = hinges
         .iter()
         .map(|&(body_a, body_b)| {

@@ -16,6 +16,7 @@
 //! - constants are folded everywhere; `-x` is `(-1) * x`, `x / y` is
 //!   `x * y^-1`.
 
+mod collect;
 mod diff;
 mod display;
 mod hoist;

@@ -192,16 +192,28 @@ impl Arena {
     /// sum of long monomials becomes a nest of short products (Horner's
     /// scheme in several variables).
     pub fn factor(&mut self, e: Id, memo: &mut HashMap<Id, Id>) -> Id {
+        self.factor_by(e, memo, false)
+    }
+
+    /// [`Arena::factor`] pulling out only factors that change during a
+    /// run (that mention a coordinate, a velocity or a family index): the
+    /// fixed ones stay with their terms' coefficients, which the table of
+    /// constants then holds whole.
+    pub fn factor_state(&mut self, e: Id, memo: &mut HashMap<Id, Id>) -> Id {
+        self.factor_by(e, memo, true)
+    }
+
+    fn factor_by(&mut self, e: Id, memo: &mut HashMap<Id, Id>, state_only: bool) -> Id {
         if let Some(&d) = memo.get(&e) {
             return d;
         }
         let out = match self.node(e).clone() {
             Node::Add(ts) => {
-                let ts: Vec<Id> = ts.iter().map(|&t| self.factor(t, memo)).collect();
-                self.factor_sum(ts)
+                let ts: Vec<Id> = ts.iter().map(|&t| self.factor_by(t, memo, state_only)).collect();
+                self.factor_sum(ts, state_only)
             }
             Node::Mul(fs) => {
-                let fs: Vec<Id> = fs.iter().map(|&f| self.factor(f, memo)).collect();
+                let fs: Vec<Id> = fs.iter().map(|&f| self.factor_by(f, memo, state_only)).collect();
                 self.mul(&fs)
             }
             _ => e,
@@ -210,14 +222,15 @@ impl Arena {
         out
     }
 
-    fn factor_sum(&mut self, ts: Vec<Id>) -> Id {
+    fn factor_sum(&mut self, ts: Vec<Id>, state_only: bool) -> Id {
         // count each non-numeric factor over the terms
+        let changes = |s: super::Sym| !matches!(s, super::Sym::Param(_));
         let mut count: HashMap<Id, usize> = HashMap::new();
         for &t in &ts {
             let mut fs = self.factors(t);
             fs.dedup();
             for f in fs {
-                if self.as_const(f).is_none() {
+                if self.as_const(f).is_none() && (!state_only || self.mentions(f, &changes)) {
                     *count.entry(f).or_default() += 1;
                 }
             }
@@ -239,12 +252,12 @@ impl Arena {
                 None => without.push(t),
             }
         }
-        let inner = self.factor_sum(with);
+        let inner = self.factor_sum(with, state_only);
         let prod = self.mul2(x, inner);
         if without.is_empty() {
             return prod;
         }
-        let rest = self.factor_sum(without);
+        let rest = self.factor_sum(without, state_only);
         self.add_raw(vec![prod, rest])
     }
 }
