@@ -488,7 +488,7 @@ struct Minimal {
     dz_cached: bool,
     /// Whether the model expands a state that is only output by
     /// [`Model::minimal_state`], so that a dense-output sample's
-    /// expansion can wait for the output ([`Reduced::place_sample`]).
+    /// expansion can wait for the output ([`Reduced::sample_places`]).
     state_only: bool,
 }
 
@@ -968,19 +968,26 @@ impl Reduced {
 
     /// Whether a dense-output sample's expansion waits for the output:
     /// on minimal coordinates whose model has [`Model::minimal_state`],
-    /// the sample's row holds `z` placed by [`Reduced::place_sample`] and
+    /// the sample's row holds `z` until it is placed ([`Reduced::sample_places`]) and
     /// [`complete_sample`] finishes it when it is observed (as the DAE's
     /// samples are projected then), off the step loop.
     pub fn defers_samples(&self) -> bool {
         self.minimal.as_ref().is_some_and(|m| m.state_only)
     }
 
-    /// Places the minimal state `z` (np + nu + works) into the full
-    /// state's row `y` (2 nq + works): the kept coordinates, the
-    /// independent speeds and the works, the rest left for
-    /// [`complete_sample`]; until then `y` is not a full state.
-    pub fn place_sample(&self, z: &[f64], y: &mut [f64]) {
-        place_minimal(&self.partition, self.nq, y, z, true);
+    /// Where each component of the minimal state `z` (np + nu + works)
+    /// goes in the full state `y = [q, qd, W]` (`ny` = 2 nq + works): the kept
+    /// coordinates, the independent speeds and the works, the rest left
+    /// for [`complete_sample`]. The same places as the expansion's; on
+    /// minimal coordinates the partition is fixed for the run.
+    pub fn sample_places(&self, ny: usize) -> Vec<usize> {
+        let nq = self.nq;
+        let works = ny - 2 * nq;
+        let mut places = Vec::with_capacity(ny - self.nh - self.nc);
+        places.extend(&self.partition.q_ind);
+        places.extend(self.partition.v_ind.iter().map(|&j| nq + j));
+        places.extend((0..works).map(|w| 2 * nq + w));
+        places
     }
 
     /// The full state of `z` on minimal coordinates: the kept coordinates
@@ -1112,7 +1119,7 @@ impl Reduced {
     }
 }
 
-/// Completes a row placed by [`Reduced::place_sample`] into the full
+/// Completes a row placed at [`Reduced::sample_places`] into the full
 /// state `y = [q, qd, W]` (2 nq + works): the dependent coordinates of `q`
 /// and all of `qd` (the independent speeds placed there are body-frame
 /// speeds; the model writes the global rates) \[m, rad, m/s, rad/s\] by

@@ -439,6 +439,12 @@ struct Run<'a, M: Model, O: Observer<M>> {
     pending: Vec<f64>,
     /// For each of them: what is left to do before it is observed.
     pending_kind: Vec<Pending>,
+    /// Where a [`Pending::Expand`] row's integrator state goes in the full
+    /// state `[q, qd, W]`: index `i` of `z` to `sample_places[i]`
+    /// ([`Reduced::sample_places`]); empty until the first such row.
+    sample_places: Vec<usize>,
+    /// Scratch for one such row's `z` while it is placed.
+    sample_z: Vec<f64>,
     newton: crate::integrator::radau5::NewtonStats,
     /// The events' watch ([`crate::events`]).
     monitor: Monitor,
@@ -868,6 +874,16 @@ impl<'a, M: Model, O: Observer<M>> Run<'a, M, O> {
         Ok(())
     }
 
+    /// Where `red`'s deferred dense-output samples go in the full state
+    /// ([`Run::sample_places`]), and the scratch to place one: set when a
+    /// reduced formulation takes the run (not in the step loop).
+    fn place_samples_of(&mut self, red: &Reduced, sys: &Dynamics<M>) {
+        if red.defers_samples() {
+            self.sample_places = red.sample_places(sys.ny());
+            self.sample_z = vec![0.0; self.sample_places.len()];
+        }
+    }
+
     /// Hands the queued samples to the observer, each with its kinetic
     /// energy, work and residuals (computed here, once per sample, off the
     /// step loop). Its time is left out of the integration time.
@@ -878,11 +894,19 @@ impl<'a, M: Model, O: Observer<M>> Run<'a, M, O> {
         let clock = Instant::now();
         let mut pending = std::mem::take(&mut self.pending);
         let kinds = std::mem::take(&mut self.pending_kind);
+        let places = std::mem::take(&mut self.sample_places);
+        let mut z = std::mem::take(&mut self.sample_z);
+        z.resize(places.len(), 0.0);
         let res = pending.chunks_exact_mut(sys.ny() + 1).zip(&kinds).try_for_each(|(row, &kind)| {
             let (t, y) = row.split_first_mut().expect("a row holds its time");
             match kind {
                 Pending::Ready => return self.observe(sys, *t, y),
                 Pending::Expand => {
+                    z.copy_from_slice(&y[..places.len()]);
+                    y.fill(0.0);
+                    for (&v, &j) in z.iter().zip(&places) {
+                        y[j] = v;
+                    }
                     // the model said it has `minimal_state` when the run
                     // began; one that stops having it is refused, not
                     // written half-expanded (as a failure with its cause,
@@ -917,6 +941,8 @@ impl<'a, M: Model, O: Observer<M>> Run<'a, M, O> {
         self.pending.clear();
         self.pending_kind = kinds;
         self.pending_kind.clear();
+        self.sample_places = places;
+        self.sample_z = z;
         self.output_time += clock.elapsed();
         res
     }
@@ -1295,8 +1321,10 @@ enum Pending {
     /// A dense-output sample of the DAE, projected onto the constraints.
     Project,
     /// A dense-output sample of the reduced formulation on minimal
-    /// coordinates, its dependent coordinates and its global rates
-    /// computed ([`crate::reduced::complete_sample`]).
+    /// coordinates, queued as the integrator's state `z` at the row's
+    /// start: placed into the full state ([`Run::sample_places`]), its
+    /// dependent coordinates and its global rates computed
+    /// ([`crate::reduced::complete_sample`]).
     Expand,
 }
 
@@ -1505,17 +1533,21 @@ impl<M: Model> Integrand<M> for Reduced {
         t: f64,
         fill: impl FnOnce(&mut [f64]),
     ) -> Result<(), RunError<O::Error>> {
-        let mut z = std::mem::take(&mut self.scratch);
-        z.resize(self.nz(sys.ny()), 0.0);
-        fill(&mut z);
-        let res = if self.defers_samples() {
-            // the row is completed when it is observed (`Run::flush`)
-            run.queue(sys, t, Pending::Expand, |row| self.place_sample(&z, row))
-        } else {
-            match self.expand_sample(sys, t, &z) {
-                Ok(()) => run.queue(sys, t, Pending::Ready, |row| row.copy_from_slice(self.full())),
-                Err(e) => Err(e.into()),
+        let nz = self.nz(sys.ny());
+        if self.defers_samples() {
+            // the interpolated `z` is the row until it is observed
+            // (`Run::flush` places and completes it), off the step loop
+            if run.sample_places.is_empty() {
+                run.sample_places = self.sample_places(sys.ny());
             }
+            return run.queue(sys, t, Pending::Expand, |row| fill(&mut row[..nz]));
+        }
+        let mut z = std::mem::take(&mut self.scratch);
+        z.resize(nz, 0.0);
+        fill(&mut z);
+        let res = match self.expand_sample(sys, t, &z) {
+            Ok(()) => run.queue(sys, t, Pending::Ready, |row| row.copy_from_slice(self.full())),
+            Err(e) => Err(e.into()),
         };
         self.scratch = z;
         res
@@ -1785,6 +1817,8 @@ fn simulate_erased<M: Model>(
         },
         pending: Vec::with_capacity(pending_rows(y0.len()) * (y0.len() + 1)),
         pending_kind: Vec::with_capacity(pending_rows(y0.len())),
+        sample_places: Vec::new(),
+        sample_z: Vec::new(),
         newton: Default::default(),
         monitor: Monitor::new(sys, 0.0, y0),
         event_x: Vec::new(),
@@ -1844,6 +1878,7 @@ fn simulate_erased<M: Model>(
         run.summary.projection_path = "none: the reduced formulation keeps the constraints";
         run.summary.minimal_coordinates = red.is_minimal();
         run.summary.fused_rhs = red.is_fused();
+        run.place_samples_of(red, sys);
     }
     // a skate sliding at the start: the DAE first
     if run.hand_back && !sys.released_rows().is_empty() {
@@ -1874,6 +1909,7 @@ fn simulate_erased<M: Model>(
             } else {
                 match Reduced::new(sys, t, &y) {
                     Ok(red) => {
+                        run.place_samples_of(&red, sys);
                         run.summary.handovers += 1;
                         run.settings = settings;
                         run.proj = Projector::<M>::new(&sys.model, settings.projection, &sys.mass);
