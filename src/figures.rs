@@ -209,10 +209,16 @@ pub fn render(
 }
 
 /// How many threads [`render_all`] encodes `figures` figures on: one per
-/// core, at most one per figure, none (the calling thread) inside a rayon
-/// pool, whose threads (a sweep's runs) are busy already.
+/// core (`std::thread::available_parallelism`), at most one per figure,
+/// none (the calling thread) inside a rayon pool, whose threads (a
+/// sweep's runs) are busy already. Asks rayon nothing that would start
+/// its global pool, whose idle workers would spin beside the run.
 pub fn encoding_threads(figures: usize) -> usize {
-    if rayon::current_thread_index().is_some() { 0 } else { rayon::current_num_threads().min(figures) }
+    if rayon::current_thread_index().is_some() {
+        0
+    } else {
+        std::thread::available_parallelism().map_or(1, std::num::NonZero::get).min(figures)
+    }
 }
 
 /// Draws every figure of `figs` from `table` as [`render`] does and hands
@@ -223,22 +229,25 @@ pub fn encoding_threads(figures: usize) -> usize {
 /// encoded (a signal); its error, a drawing's or `done`'s stops the
 /// drawing at the next figure and is returned.
 ///
-/// The SVGs are drawn first, in parallel (rayon); then
-/// `rayon::current_num_threads()` threads rasterize and encode them
-/// largest first, each taking the next figure as it finishes one: list
-/// scheduling in decreasing size (Graham's longest-processing-time rule,
-/// within 4/3 of the best schedule; R. L. Graham, "Bounds on
-/// multiprocessing timing anomalies", SIAM J. Appl. Math. 17 (1969)).
+/// One thread per core ([`encoding_threads`]) draws the SVGs, each
+/// taking the next figure as it finishes one, and then rasterizes and
+/// encodes them largest first, each taking the largest drawn figure no
+/// thread has taken: list scheduling in decreasing size (Graham's
+/// longest-processing-time rule, within 4/3 of the best schedule; R. L.
+/// Graham, "Bounds on multiprocessing timing anomalies", SIAM J. Appl.
+/// Math. 17 (1969)), without waiting for the other thread's last drawing.
 /// An SVG's length stands for its cost, the rasterizer's work growing
 /// with the points it strokes. Taken in file order, two at a time, a
 /// drive run waited for the slower figure of each pair. Called from a
 /// rayon worker (a sweep's saved runs, already one per core) or where no
-/// thread can be started, the calling thread encodes them one by one.
+/// thread can be started, the calling thread draws them all and then
+/// encodes them one by one.
 ///
 /// # Errors
-/// An SVG that cannot be drawn (the first in the order of `figs`), else
-/// the first error received: `check`'s, an encoding's (as [`render`]) or
-/// `done`'s.
+/// The first error received: `check`'s, a drawing's, an encoding's (as
+/// [`render`]) or `done`'s; on the calling thread, an SVG that cannot be
+/// drawn (the first in the order of `figs`) before any figure is
+/// encoded.
 pub fn render_all<E>(
     info: &ModelInfo,
     figs: &[FigureSpec],
@@ -251,37 +260,73 @@ pub fn render_all<E>(
 where
     E: From<FigureError> + Send,
 {
-    use rayon::prelude::*;
-    use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
-    let drawn: Vec<Result<String, E>> = figs
-        .par_iter()
-        .map(|fig| {
-            check(fig)?;
-            Ok(svg(info, fig, table)?)
-        })
-        .collect();
-    let svgs = drawn.into_iter().collect::<Result<Vec<String>, E>>()?;
-    let mut order: Vec<usize> = (0..figs.len()).collect();
-    order.sort_by_key(|&i| std::cmp::Reverse(svgs[i].len()));
-    let (next, stop) = (AtomicUsize::new(0), AtomicBool::new(false));
-    let encode = |i: usize| -> Result<Vec<u8>, E> {
+    use std::sync::atomic::{AtomicBool, Ordering};
+    let n = figs.len();
+    let draw = |i: usize| -> Result<String, E> {
+        check(&figs[i])?;
+        Ok(svg(info, &figs[i], table)?)
+    };
+    let encode = |i: usize, svg: &str| -> Result<Vec<u8>, E> {
         let fig = &figs[i];
         check(fig)?;
-        crate::plot::encode(&svgs[i], format, dpi, &fig.title)
+        crate::plot::encode(svg, format, dpi, &fig.title)
             .map_err(|source| FigureError::Plot { figure: fig.file.clone(), source }.into())
     };
-    let threads = encoding_threads(figs.len());
+    let threads = encoding_threads(n);
+    // the shared schedule: the next figure to draw, and each figure's
+    // SVG from its drawing until a thread takes it to encode
+    struct Board<E> {
+        next: usize,
+        drawn: Vec<Option<Result<String, E>>>,
+    }
+    let board = std::sync::Mutex::new(Board { next: 0, drawn: (0..n).map(|_| None).collect() });
+    let stop = AtomicBool::new(false);
+    // what a worker does next: draw the next figure while any is left,
+    // then encode the largest drawn one no thread has taken (its SVG's
+    // length standing for its cost); `None` when nothing is left for it
+    // (a figure still being drawn is encoded by its drawer)
+    enum Job<E> {
+        Draw(usize),
+        Encode(usize, String),
+        Failed(usize, E),
+    }
+    let take = |board: &mut Board<E>| -> Option<Job<E>> {
+        if board.next < n {
+            board.next += 1;
+            return Some(Job::Draw(board.next - 1));
+        }
+        let i = (0..n).filter(|&i| board.drawn[i].is_some()).max_by_key(|&i| {
+            (
+                matches!(board.drawn[i], Some(Err(_))),
+                board.drawn[i].as_ref().map_or(0, |d| d.as_ref().map_or(0, String::len)),
+            )
+        })?;
+        match board.drawn[i].take().expect("drawn") {
+            Ok(svg) => Some(Job::Encode(i, svg)),
+            Err(e) => Some(Job::Failed(i, e)),
+        }
+    };
+    type Message<E> = (usize, Result<(String, Vec<u8>), E>);
     std::thread::scope(|scope| {
-        let (send, receive) = std::sync::mpsc::channel::<(usize, Result<Vec<u8>, E>)>();
+        let (send, receive) = std::sync::mpsc::channel::<Message<E>>();
         let mut started = 0;
         for _ in 0..threads {
             let send = send.clone();
-            let (order, next, stop, encode) = (&order, &next, &stop, &encode);
+            let (board, stop, take, draw, encode) = (&board, &stop, &take, &draw, &encode);
             let worker = move || {
-                while !stop.load(Ordering::Relaxed)
-                    && let Some(&i) = order.get(next.fetch_add(1, Ordering::Relaxed))
-                {
-                    if send.send((i, encode(i))).is_err() {
+                while !stop.load(Ordering::Relaxed) {
+                    let job = take(&mut board.lock().unwrap_or_else(std::sync::PoisonError::into_inner));
+                    let message = match job {
+                        None => break,
+                        Some(Job::Draw(i)) => {
+                            let svg = draw(i);
+                            board.lock().unwrap_or_else(std::sync::PoisonError::into_inner).drawn[i] = Some(svg);
+                            continue;
+                        }
+                        Some(Job::Encode(i, svg)) => (i, encode(i, &svg).map(|bytes| (svg, bytes))),
+                        Some(Job::Failed(i, e)) => (i, Err(e)),
+                    };
+                    if send.send(message).is_err() {
                         break;
                     }
                 }
@@ -292,15 +337,20 @@ where
         }
         drop(send);
         if started == 0 {
-            for &i in &order {
-                done(i, &svgs[i], encode(i)?)?;
+            // on the calling thread: every drawing first, so that one that
+            // cannot be drawn is found before any figure is written
+            let svgs = (0..n).map(draw).collect::<Result<Vec<String>, E>>()?;
+            let mut order: Vec<usize> = (0..n).collect();
+            order.sort_by_key(|&i| std::cmp::Reverse(svgs[i].len()));
+            for i in order {
+                done(i, &svgs[i], encode(i, &svgs[i])?)?;
             }
             return Ok(());
         }
         let mut outcome = Ok(());
         // every figure arrives once, unless the drawing stopped
-        for (i, bytes) in receive.iter().take(figs.len()) {
-            if let Err(e) = bytes.and_then(|b| done(i, &svgs[i], b)) {
+        for (i, result) in receive.iter().take(n) {
+            if let Err(e) = result.and_then(|(svg, bytes)| done(i, &svg, bytes)) {
                 stop.store(true, Ordering::Relaxed);
                 outcome = Err(e);
                 break;

@@ -341,8 +341,7 @@ pub fn run_model_tapped<M: Model>(
     if let Some(b) = &beat {
         b.quiet();
     }
-    // asked only when figures are drawn: the question starts rayon's pool,
-    // whose idle threads spin (sched_yield) through a run without figures
+    // the threads that will draw the figures, none without figures
     let encoders = if opts.figures && !scene.figures.is_empty() {
         crate::figures::encoding_threads(scene.figures.len())
     } else {
