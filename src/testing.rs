@@ -720,6 +720,50 @@ fn check_fused<M: Model>(
         }
         acc.add((lhs - r[i]) / size.max(1.0), 0.0, || format!("state {s}, fused u' {}", coord(layout.speeds[i])));
     }
+    check_lean(m, &k, &z, q0, qd0, &torque, s, acc);
+}
+
+/// [`Model::minimal_rhs_lean`] (an integrator stage's evaluation, whose
+/// forces are hinge torques) against [`Model::minimal_rhs`] with the
+/// same torques: the same `dz` bit for bit, and the headings (each body's
+/// angle and angular rate, what a hinge torque reads) those of the state
+/// `(q0, qd0)`, both when the torques are asked for and after.
+#[allow(clippy::too_many_arguments)]
+fn check_lean<M: Model>(m: &M, k: &[f64], z: &[f64], q0: &[f64], qd0: &[f64], torque: &[f64], s: usize, acc: &mut Acc) {
+    let info = m.info();
+    let nq = q0.len();
+    let headings: Vec<usize> = info.bodies.iter().map(|b| b.coords[2]).collect();
+    let run = |lean: bool| {
+        let (mut q, mut qd, mut dz) = (vec![f64::NAN; nq], vec![f64::NAN; nq], vec![f64::NAN; z.len()]);
+        let mut seen = Vec::new();
+        let torques = |q: &[f64], qd: &[f64], _: &mut [f64], tau: &mut [f64]| {
+            seen = headings.iter().map(|&j| (q[j], qd[j])).collect();
+            tau.copy_from_slice(torque);
+            Ok::<(), ()>(())
+        };
+        let res = if lean {
+            m.minimal_rhs_lean(k, z, &mut q, &mut qd, &mut dz, torques)
+        } else {
+            m.minimal_rhs(k, z, &mut q, &mut qd, &mut dz, torques)
+        };
+        (res, dz, seen, headings.iter().map(|&j| (q[j], qd[j])).collect::<Vec<_>>())
+    };
+    let (full, lean) = (run(false), run(true));
+    if full.0.is_err() || lean.0.is_err() {
+        acc.add(f64::INFINITY, 0.0, || format!("state {s}, the lean right-hand side failed: {:?}", lean.0));
+        return;
+    }
+    for (i, (a, b)) in lean.1.iter().zip(&full.1).enumerate() {
+        let exact = if a.to_bits() == b.to_bits() { 0.0 } else { f64::INFINITY };
+        acc.add(exact, 0.0, || format!("state {s}, lean dz[{i}] {a:e} against {b:e}"));
+    }
+    for (at, pairs) in [("when the torques are asked", &lean.2), ("after", &lean.3)] {
+        for (&j, &(qj, qdj)) in headings.iter().zip(pairs.iter()) {
+            let name = info.coords[j].as_str();
+            acc.add(qj, q0[j], || format!("state {s}, lean q {name} {at}"));
+            acc.add(qdj, qd0[j], || format!("state {s}, lean qd {name} {at}"));
+        }
+    }
 }
 
 /// The body-frame velocities `V` (nq) of the global rates `qd` (nq) at

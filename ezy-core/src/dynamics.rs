@@ -417,7 +417,9 @@ impl<M: Model> Dynamics<M> {
     /// ([`Model::minimal_rhs`] with the constants `k` of
     /// [`Model::minimal_constants`]): from the reduced state `z = [p, u,
     /// W]` at `t`, the full `q, qd` into `y[..2 nq]` (the work states
-    /// untouched) and `dz = [pd, u', P]` (the effects' powers last).
+    /// untouched) and `dz = [pd, u', P]` (the effects' powers last). With
+    /// `lean` (a stage, whose full state no one reads), `y` may keep only
+    /// the headings ([`Model::minimal_rhs_lean`]).
     ///
     /// # Errors
     /// [`SimError::EffectFailed`] if an effect gives no force at a finite
@@ -431,6 +433,7 @@ impl<M: Model> Dynamics<M> {
         z: &[f64],
         y: &mut [f64],
         dz: &mut [f64],
+        lean: bool,
     ) -> Result<(), SimError> {
         let nq = self.nq();
         let (q, rest) = y.split_at_mut(nq);
@@ -443,7 +446,7 @@ impl<M: Model> Dynamics<M> {
             self.refresh_waveforms_outlined(t);
         }
         let waves: &[crate::effects::Waveforms] = if hinges_only { &[] } else { &self.ws.waves };
-        let res = self.model.minimal_rhs_effects(k, z, q, qd, pd_ud, t, &self.effects, waves, power);
+        let res = self.model.minimal_rhs_effects(k, z, q, qd, pd_ud, t, &self.effects, waves, power, lean);
         res.map_err(|e| minimal_rhs_failed(t, e))
     }
 

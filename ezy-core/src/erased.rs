@@ -92,6 +92,7 @@ pub(crate) trait ModelObject: Send + Sync {
         effects: &[Effect],
         waves: &[crate::effects::Waveforms],
         power: &mut [f64],
+        lean: bool,
     ) -> Result<(), MinimalRhsError<SimError>>;
     fn minimal_maggi(&self, mass: &[f64], b: &[f64], c: &[f64], f: &[f64], a: &mut [f64], r: &mut [f64]);
 }
@@ -219,8 +220,9 @@ impl<M: Model> ModelObject for M {
         effects: &[Effect],
         waves: &[crate::effects::Waveforms],
         power: &mut [f64],
+        lean: bool,
     ) -> Result<(), MinimalRhsError<SimError>> {
-        Model::minimal_rhs_effects(self, k, z, q, qd, dz, t, effects, waves, power)
+        Model::minimal_rhs_effects(self, k, z, q, qd, dz, t, effects, waves, power, lean)
     }
     fn minimal_maggi(&self, mass: &[f64], b: &[f64], c: &[f64], f: &[f64], a: &mut [f64], r: &mut [f64]) {
         Model::minimal_maggi(self, mass, b, c, f, a, r);
@@ -408,8 +410,9 @@ impl Model for AnyModel {
         effects: &[Effect],
         waves: &[crate::effects::Waveforms],
         power: &mut [f64],
+        lean: bool,
     ) -> Result<(), MinimalRhsError<SimError>> {
-        self.0.minimal_rhs_effects(k, z, q, qd, dz, t, effects, waves, power)
+        self.0.minimal_rhs_effects(k, z, q, qd, dz, t, effects, waves, power, lean)
     }
     fn minimal_maggi(&self, mass: &[f64], b: &[f64], c: &[f64], f: &[f64], a: &mut [f64], r: &mut [f64]) {
         self.0.minimal_maggi(mass, b, c, f, a, r);

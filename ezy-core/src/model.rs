@@ -488,15 +488,46 @@ pub trait Model: Clone + Send + Sync + 'static {
         Ok(())
     }
 
+    /// [`Model::minimal_rhs`] for an evaluation whose `q` and `qd` no one
+    /// reads afterwards (a stage of the integrator) and whose `forces`
+    /// read only the headings (hinge torques: each body's angle `q[3 i +
+    /// 2]` and angular rate `qd[3 i + 2]`): `dz` as
+    /// [`Model::minimal_rhs`] writes it, but of `q` and `qd` only the
+    /// headings are written, the rest left as they were, so that the
+    /// eliminated coordinates' positions and global rates are not
+    /// computed. `model!` generates it; the default calls
+    /// [`Model::minimal_rhs`].
+    ///
+    /// # Errors
+    /// As [`Model::minimal_rhs`].
+    #[allow(clippy::too_many_arguments)]
+    #[inline]
+    fn minimal_rhs_lean<E, F>(
+        &self,
+        k: &[f64],
+        z: &[f64],
+        q: &mut [f64],
+        qd: &mut [f64],
+        dz: &mut [f64],
+        forces: F,
+    ) -> Result<(), MinimalRhsError<E>>
+    where
+        F: FnOnce(&[f64], &[f64], &mut [f64], &mut [f64]) -> Result<(), E>,
+    {
+        self.minimal_rhs(k, z, q, qd, dz, forces)
+    }
+
     /// [`Model::minimal_rhs`] with a run's effects as its `forces`, the
     /// call [`crate::Dynamics`] makes at every evaluation of the fused
     /// right-hand side: with `waves` empty (every effect a hinge torque, or
     /// none) the effects are handed over as the hinges' torques, which the
-    /// model maps at compile time; otherwise each effect adds its
-    /// generalized force from its waveforms `waves` at `t` \[s\] (one per
-    /// effect). Each effect's power \[W\] goes to `power` (one per
-    /// effect). A method of the trait so that [`crate::AnyModel`] reaches
-    /// the model's own code in one indirect call; models do not override it.
+    /// model maps at compile time, and where `lean` (a stage, whose full
+    /// state no one reads) through [`Model::minimal_rhs_lean`]; otherwise
+    /// each effect adds its generalized force from its waveforms `waves`
+    /// at `t` \[s\] (one per effect). Each effect's power \[W\] goes to
+    /// `power` (one per effect). A method of the trait so that
+    /// [`crate::AnyModel`] reaches the model's own code in one indirect
+    /// call; models do not override it.
     ///
     /// # Errors
     /// As [`Model::minimal_rhs`], the forces' error a
@@ -514,15 +545,24 @@ pub trait Model: Clone + Send + Sync + 'static {
         effects: &[crate::Effect],
         waves: &[crate::effects::Waveforms],
         power: &mut [f64],
+        lean: bool,
     ) -> Result<(), MinimalRhsError<crate::SimError>> {
         use crate::dynamics::{apply_effects, hinge_torques};
         if waves.is_empty() {
             // the applied-force part of the generated code, never written,
             // folds away
-            self.minimal_rhs(k, z, q, qd, dz, |q, qd, _, tau| {
-                hinge_torques(effects, t, q, qd, tau, power);
-                Ok(())
-            })
+            // a closure for each call, so that each is inlined into its own
+            if lean {
+                self.minimal_rhs_lean(k, z, q, qd, dz, |q, qd, _, tau| {
+                    hinge_torques(effects, t, q, qd, tau, power);
+                    Ok(())
+                })
+            } else {
+                self.minimal_rhs(k, z, q, qd, dz, |q, qd, _, tau| {
+                    hinge_torques(effects, t, q, qd, tau, power);
+                    Ok(())
+                })
+            }
         } else {
             self.minimal_rhs(k, z, q, qd, dz, |q, qd, f, _| apply_effects(effects, waves, t, q, qd, f, power))
         }

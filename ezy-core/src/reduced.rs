@@ -446,6 +446,9 @@ pub struct Reduced {
     /// The `(t, z)` of the last expansion (an evaluation at the accepted
     /// state repeats it).
     expanded_t: f64,
+    /// Whether a stage's evaluation may write only the headings of the
+    /// full state ([`Reduced::set_lean_stages`]).
+    lean_stages: bool,
     expanded_z: Vec<f64>,
     dy: Vec<f64>,
     /// The accepted state, expanded.
@@ -574,6 +577,7 @@ impl Reduced {
             q_dep_last: Vec::new(),
             y: y.to_vec(),
             expanded_t: f64::NAN,
+            lean_stages: false,
             expanded_z: Vec::new(),
             dy: Vec::new(),
             y_accepted: y.to_vec(),
@@ -892,7 +896,7 @@ impl Reduced {
             && m.constants.is_some()
             && !m.dz_cached
         {
-            self.eval_fused(sys, t, z, dz)?;
+            self.eval_fused(sys, t, z, dz, self.lean_stages)?;
             sys.counters.rhs_evals += 1;
             return Ok(());
         }
@@ -916,7 +920,7 @@ impl Reduced {
                 dz.copy_from_slice(&m.dz);
                 m.dz_cached = false;
             } else {
-                self.eval_fused(sys, t, z, dz)?;
+                self.eval_fused(sys, t, z, dz, self.lean_stages)?;
             }
             sys.counters.rhs_evals += 1;
             return Ok(());
@@ -1029,7 +1033,9 @@ impl Reduced {
 
     /// [`Reduced::eval`] by the model's fused [`Model::minimal_rhs`]: the
     /// full `q, qd` into [`Reduced::full`] (no key: the work states are
-    /// not copied), `dz` whole. Counts no evaluation (the caller does).
+    /// not copied), or where `lean` only what the hinge torques read
+    /// ([`Model::minimal_rhs_lean`]); `dz` whole. Counts no evaluation
+    /// (the caller does).
     #[inline(always)]
     fn eval_fused<M: Model>(
         &mut self,
@@ -1037,11 +1043,21 @@ impl Reduced {
         t: f64,
         z: &[f64],
         dz: &mut [f64],
+        lean: bool,
     ) -> Result<(), SimError> {
         let m = self.minimal.as_mut().expect("minimal path");
         self.expanded_t = f64::NAN;
         m.dz_cached = false;
-        sys.minimal_rhs(t, m.constants.as_deref().expect("fused path"), z, &mut self.y, dz)
+        sys.minimal_rhs(t, m.constants.as_deref().expect("fused path"), z, &mut self.y, dz, lean)
+    }
+
+    /// Lets the stages' evaluations on the fused path leave the full
+    /// state unwritten but for the headings ([`Model::minimal_rhs_lean`]):
+    /// for a step loop that evaluates every accepted state anew
+    /// ([`Reduced::accept`] with `evaluated` false), so that the full
+    /// state it keeps is always a whole one. Off until a step loop says so.
+    pub fn set_lean_stages(&mut self, on: bool) {
+        self.lean_stages = on;
     }
 
     /// Expands the accepted state `z` at `t` and keeps it
@@ -1064,7 +1080,7 @@ impl Reduced {
         if self.is_fused() {
             if !evaluated {
                 let mut dz = std::mem::take(&mut self.minimal.as_mut().expect("minimal path").dz);
-                let res = self.eval_fused(sys, t, z, &mut dz);
+                let res = self.eval_fused(sys, t, z, &mut dz, false);
                 let m = self.minimal.as_mut().expect("minimal path");
                 m.dz = dz;
                 res?;

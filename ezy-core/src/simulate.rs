@@ -1423,6 +1423,11 @@ trait Integrand<M: Model> {
     /// Forgets what was evaluated ahead at the accepted state (the
     /// forces changed there: a switch).
     fn forget_evaluation(&mut self) {}
+    /// Whether the stages' evaluations may leave the full state partly
+    /// unwritten ([`Reduced::set_lean_stages`]): a step loop whose accepted
+    /// state is evaluated anew says so (not DOPRI5's, whose last stage
+    /// is the accepted state's evaluation).
+    fn lean_stages(&mut self, _on: bool) {}
 }
 
 /// The DAE formulation: `x = y = [q, qd, W]`.
@@ -1560,6 +1565,9 @@ impl<M: Model> Integrand<M> for Reduced {
     }
     fn forget_evaluation(&mut self) {
         Reduced::forget_evaluation(self);
+    }
+    fn lean_stages(&mut self, on: bool) {
+        self.set_lean_stages(on);
     }
 }
 
@@ -2128,6 +2136,8 @@ fn fixed<M: Model, O: Observer<M>, F: Integrand<M>, S: FixedStep>(
     let settings = run.settings;
     let n = settings.n_steps();
     let stride = settings.output_stride();
+    // every accepted state is evaluated anew (`Integrand::accept`)
+    form.lean_stages(true);
     // the step's start and the slopes at its ends, for the events' Hermite
     // interpolant (only with events)
     let watch = !sys.events.is_empty() || !sys.friction.is_empty();
@@ -2250,6 +2260,8 @@ fn adaptive<M: Model, O: Observer<M>, F: Integrand<M>, E: EmbeddedRk>(
     let (mut k1, mut y_new, mut k_new) = (vec![0.0; ny], vec![0.0; ny], vec![0.0; ny]);
     let (mut w1, mut w2) = (vec![0.0; ny], vec![0.0; ny]);
     let mut t = run.t_start;
+    // the accepted state is evaluated anew unless the last stage was it
+    form.lean_stages(!E::FSAL_IN_ESTIMATE);
     form.eval(sys, t, y, &mut k1)?;
     let h_max = settings.t_end - t;
     let mut h = initial_step(&mut Bound { sys, form }, t, y, &k1, E::ORDER, &tol, h_max, &mut w1, &mut w2)?;

@@ -997,6 +997,7 @@ fn fused_fns(d: &Derived, def: &ModelDef, m: &crate::minimal::Minimal, maggi: &c
     let mut h = Hoisted::new(d, def, &outputs, &name);
     let nk = h.table.len();
     let (table_lets, table_exprs) = lower(d, def, &h.table, Coords::Global, &[]);
+    let fresh = h.done.clone();
     // the full state and the kept coordinates' rates, each value computed
     // just before it is stored
     let mut sets = TokenStream::new();
@@ -1016,6 +1017,109 @@ fn fused_fns(d: &Derived, def: &ModelDef, m: &crate::minimal::Minimal, maggi: &c
             sets.extend(quote!(pd[#i] = #e;));
         }
     }
+    let maggi_sets = maggi_tokens(d, m, maggi, &mut h);
+    // the lean variant: the headings' angles and rates only (what a hinge
+    // torque reads), and the kept coordinates' rates
+    h.done = fresh;
+    let heading = |j: usize| j % 3 == 2;
+    let mut lean_sets = TokenStream::new();
+    for (i, &j) in m.coords.iter().enumerate() {
+        if heading(j) {
+            lean_sets.extend(quote!(q[#j] = z[#i];));
+        }
+    }
+    for &(j, e) in m.q_dep.iter().filter(|(j, _)| heading(*j)) {
+        lean_sets.extend(h.lets_for(&[e]));
+        let e = h.refer(e);
+        lean_sets.extend(quote!(q[#j] = #e;));
+    }
+    for (j, &e) in m.qd.iter().enumerate() {
+        let kept = m.coords.iter().position(|&c| c == j);
+        if !heading(j) && kept.is_none() {
+            continue;
+        }
+        lean_sets.extend(h.lets_for(&[e]));
+        let e = h.refer(e);
+        if heading(j) {
+            lean_sets.extend(quote!(qd[#j] = #e;));
+        }
+        if let Some(i) = kept {
+            lean_sets.extend(quote!(pd[#i] = #e;));
+        }
+    }
+    let lean_maggi = maggi_tokens(d, m, maggi, &mut h);
+    let nh = maggi.hinge.len();
+    let private = runtime();
+    quote! {
+        fn minimal_constants(&self) -> ::core::option::Option<::std::vec::Vec<f64>> {
+            type S = f64;
+            #table_lets
+            ::core::option::Option::Some(::std::vec![#(#table_exprs),*])
+        }
+
+        #[inline]
+        fn minimal_rhs<E, F>(
+            &self,
+            k: &[f64],
+            z: &[f64],
+            q: &mut [f64],
+            qd: &mut [f64],
+            dz: &mut [f64],
+            forces: F,
+        ) -> ::core::result::Result<(), #private::MinimalRhsError<E>>
+        where
+            F: ::core::ops::FnOnce(&[f64], &[f64], &mut [f64], &mut [f64]) -> ::core::result::Result<(), E>,
+        {
+            type S = f64;
+            // every slice cut to its length once: no bounds check below
+            let (k, z) = (&k[..#nk], &z[..#nz]);
+            let (q, qd, dz) = (&mut q[..#nq], &mut qd[..#nq], &mut dz[..#nz]);
+            let pd = &mut dz[..#np];
+            #sets
+            let mut f = [0.0f64; #nq];
+            let mut tau = [0.0f64; #nh];
+            forces(q, qd, &mut f, &mut tau).map_err(#private::MinimalRhsError::Forces)?;
+            #maggi_sets
+            ::core::result::Result::Ok(())
+        }
+
+        #[inline]
+        fn minimal_rhs_lean<E, F>(
+            &self,
+            k: &[f64],
+            z: &[f64],
+            q: &mut [f64],
+            qd: &mut [f64],
+            dz: &mut [f64],
+            forces: F,
+        ) -> ::core::result::Result<(), #private::MinimalRhsError<E>>
+        where
+            F: ::core::ops::FnOnce(&[f64], &[f64], &mut [f64], &mut [f64]) -> ::core::result::Result<(), E>,
+        {
+            type S = f64;
+            let (k, z) = (&k[..#nk], &z[..#nz]);
+            let (q, qd, dz) = (&mut q[..#nq], &mut qd[..#nq], &mut dz[..#nz]);
+            let pd = &mut dz[..#np];
+            #lean_sets
+            let mut f = [0.0f64; #nq];
+            let mut tau = [0.0f64; #nh];
+            forces(q, qd, &mut f, &mut tau).map_err(#private::MinimalRhsError::Forces)?;
+            #lean_maggi
+            ::core::result::Result::Ok(())
+        }
+    }
+}
+
+/// The Maggi part of the fused right-hand side (`B^T M B`, `B^T (F - M
+/// c)` with the applied force and the hinges' torques, and the solve),
+/// its bindings emitted where `h` has not bound them yet.
+fn maggi_tokens(
+    d: &Derived,
+    m: &crate::minimal::Minimal,
+    maggi: &crate::minimal::Maggi,
+    h: &mut Hoisted<'_>,
+) -> TokenStream {
+    let (nq, np, nu) = (m.qd.len(), m.coords.len(), m.speeds.len());
     // Maggi's B^T M B (lower triangle), then B^T (F - M c): -B^T M c
     // first, then F, the force f turned into each body's frame, a body's
     // force skipped where it is zero (a motor's hinge torque has none)
@@ -1069,15 +1173,14 @@ fn fused_fns(d: &Derived, def: &ModelDef, m: &crate::minimal::Minimal, maggi: &c
         };
         let (c, s) = (h.refer(cs), h.refer(sn));
         block(
-            &mut h,
+            h,
             &[0, 1],
             quote!(let (fx, fy) = (#c * f[#x] + #s * f[#y], #c * f[#y] - #s * f[#x]);),
             quote!(f[#x] != 0.0 || f[#y] != 0.0),
         );
-        block(&mut h, &[2], TokenStream::new(), quote!(f[#w] != 0.0));
+        block(h, &[2], TokenStream::new(), quote!(f[#w] != 0.0));
     }
     // each hinge's torque along its row `B_a - B_b`, where it is not zero
-    let nh = maggi.hinge.len();
     for (hinge, row) in maggi.hinge.iter().enumerate() {
         let saved = h.done.clone();
         let mut lets = TokenStream::new();
@@ -1108,39 +1211,7 @@ fn fused_fns(d: &Derived, def: &ModelDef, m: &crate::minimal::Minimal, maggi: &c
         #private::ldl_solve(&a, #nu, #nu, &r, &mut dz[#np..], &mut scratch)
             .map_err(#private::MinimalRhsError::Maggi)?;
     });
-    quote! {
-        fn minimal_constants(&self) -> ::core::option::Option<::std::vec::Vec<f64>> {
-            type S = f64;
-            #table_lets
-            ::core::option::Option::Some(::std::vec![#(#table_exprs),*])
-        }
-
-        #[inline]
-        fn minimal_rhs<E, F>(
-            &self,
-            k: &[f64],
-            z: &[f64],
-            q: &mut [f64],
-            qd: &mut [f64],
-            dz: &mut [f64],
-            forces: F,
-        ) -> ::core::result::Result<(), #private::MinimalRhsError<E>>
-        where
-            F: ::core::ops::FnOnce(&[f64], &[f64], &mut [f64], &mut [f64]) -> ::core::result::Result<(), E>,
-        {
-            type S = f64;
-            // every slice cut to its length once: no bounds check below
-            let (k, z) = (&k[..#nk], &z[..#nz]);
-            let (q, qd, dz) = (&mut q[..#nq], &mut qd[..#nq], &mut dz[..#nz]);
-            let pd = &mut dz[..#np];
-            #sets
-            let mut f = [0.0f64; #nq];
-            let mut tau = [0.0f64; #nh];
-            forces(q, qd, &mut f, &mut tau).map_err(#private::MinimalRhsError::Forces)?;
-            #maggi_sets
-            ::core::result::Result::Ok(())
-        }
-    }
+    maggi_sets
 }
 
 /// Straight-line products with `G` at its compile-time sparsity pattern:
