@@ -387,10 +387,10 @@ pub fn maggi(ar: &mut Arena, m: &Minimal, mass: &[Id], hinges: &[(usize, Option<
     // multiplied out and collected in the state (`Arena::collect_state`)
     // over the sines and cosines of angle differences, then written in
     // the angles' own and factored as the rest; the cheaper is kept
-    let (mut trig, mut fac) = (HashMap::new(), HashMap::new());
+    let (mut trig, mut fac, mut fixed) = (HashMap::new(), HashMap::new(), Vec::new());
     let mut both = |ar: &mut Arena, memo: &mut crate::sym::Grouping, factored: Id, linear: Id| {
         let old = ar.group_fixed(factored, memo);
-        let new = ar.collect_state(linear).map(|e| {
+        let new = ar.collect_state(linear, &mut fixed).map(|e| {
             let e = ar.trig_products(e, &mut trig);
             let e = ar.factor_state(e, &mut fac);
             ar.group_fixed(e, memo)
@@ -419,10 +419,16 @@ pub fn maggi(ar: &mut Arena, m: &Minimal, mass: &[Id], hinges: &[(usize, Option<
             both(ar, &mut memo, f, l)
         })
         .collect();
-    // the choice, counted beyond what the expansion computes anyway
+    // the choice, counted beyond what the stages compute anyway (the
+    // lean function's: the kept coordinates' and the headings' rates;
+    // `Model::minimal_rhs_lean`)
     let fixed = ar.fixed_nodes();
     let mut done = HashSet::new();
-    let pre: Vec<Id> = m.qd.iter().chain(&m.frames).chain(m.q_dep.iter().map(|p| &p.1)).copied().collect();
+    let pre: Vec<Id> = (0..nq)
+        .filter(|&j| j % 3 == 2 || m.coords.contains(&j))
+        .map(|j| m.qd[j])
+        .chain(m.frames.iter().copied())
+        .collect();
     ar.op_count(&pre, &fixed, &mut done);
     let a: Vec<Id> = a.into_iter().map(|(old, new)| ar.cheaper(old, new, &fixed, &mut done)).collect();
     let minus_bmc: Vec<Id> = minus_bmc.into_iter().map(|(old, new)| ar.cheaper(old, new, &fixed, &mut done)).collect();

@@ -17,6 +17,9 @@ use super::{Arena, Id, Node};
 /// up on it (a large model's products of sums grow as their product;
 /// the factored form is then kept).
 const MAX_TERMS: usize = 400;
+/// The most products one step of multiplying out may form before their
+/// like terms are collected.
+const MAX_PRODUCTS: usize = 2000;
 
 impl Arena {
     /// `e` multiplied out ([`Arena::expand`]; sines and cosines stay
@@ -24,17 +27,17 @@ impl Arena {
     /// cos^2 u + K_s sin^2 u` is `K_c + (K_s - K_c) sin^2 u`, and no power
     /// of a cosine above the first is left), and its terms gathered by
     /// their non-fixed factors, each gathered coefficient a sum of fixed
-    /// products. `None` when the multiplied-out sum has more than
-    /// [`MAX_TERMS`] terms.
-    pub fn collect_state(&mut self, e: Id) -> Option<Id> {
-        let x = self.expand(e);
-        let terms: Vec<Id> = match self.node(x) {
-            Node::Add(ts) => ts.to_vec(),
-            _ => vec![x],
-        };
-        if terms.len() > MAX_TERMS {
-            return None;
-        }
+    /// products. `None` as soon as a sum on the way has more than
+    /// [`MAX_TERMS`] terms (before it is built). `fixed` is
+    /// [`Arena::fixed_nodes`] as far as an earlier call extended it.
+    ///
+    /// Writing `K cos^2 u` as `K - K sin^2 u` moves its rounding: near
+    /// `u = +-pi/2` its relative error is about `eps / cos^2 u` of the
+    /// term, which matters only where such a term is most of an entry
+    /// that is small there (a mass matrix entry with no constant part);
+    /// the caller keeps the factored form where it is not more costly.
+    pub fn collect_state(&mut self, e: Id, fixed: &mut Vec<bool>) -> Option<Id> {
+        let terms = self.expand_bounded(e, &mut std::collections::HashMap::new())?;
         // cos^n u = cos^(n-2) u (1 - sin^2 u) until no cosine is squared:
         // a polynomial in the sines with each cosine at most linear
         let mut work = terms;
@@ -55,7 +58,7 @@ impl Arena {
                 None => reduced.push(t),
             }
         }
-        let fixed = self.fixed_nodes();
+        self.extend_fixed(fixed);
         // state monomial -> its fixed coefficients, in first-seen order
         let mut groups: Vec<(Id, Vec<Id>)> = Vec::new();
         for t in reduced {
@@ -82,6 +85,73 @@ impl Arena {
         }
         // as it is: a coefficient that is a sum stays one term
         Some(self.add_raw(out))
+    }
+
+    /// The terms of `e` multiplied out as [`Arena::expand`] does, or
+    /// `None` as soon as a product of sums or a power of a sum would have
+    /// more than [`MAX_TERMS`] terms, checked before it is formed (a large
+    /// model's entries grow as products of its sums).
+    fn expand_bounded(&mut self, e: Id, memo: &mut std::collections::HashMap<Id, Vec<Id>>) -> Option<Vec<Id>> {
+        if let Some(ts) = memo.get(&e) {
+            return Some(ts.clone());
+        }
+        let terms_of = |ar: &Arena, x: Id| match ar.node(x) {
+            Node::Add(ts) => ts.to_vec(),
+            _ => vec![x],
+        };
+        let out: Vec<Id> = match self.node(e).clone() {
+            Node::Add(ts) => {
+                let mut all = Vec::new();
+                for t in ts.iter() {
+                    all.extend(self.expand_bounded(*t, memo)?);
+                    if all.len() > MAX_TERMS {
+                        return None;
+                    }
+                }
+                let sum = self.add(&all);
+                terms_of(self, sum)
+            }
+            Node::Mul(fs) => {
+                let mut terms = vec![self.cst(1.0)];
+                for f in fs.iter() {
+                    let ft = self.expand_bounded(*f, memo)?;
+                    terms = self.times_bounded(&terms, &ft)?;
+                }
+                terms
+            }
+            Node::Pow(b, n) if n > 1 && matches!(self.node(b), Node::Add(_)) => {
+                let bt = self.expand_bounded(b, memo)?;
+                let mut terms = vec![self.cst(1.0)];
+                for _ in 0..n {
+                    terms = self.times_bounded(&terms, &bt)?;
+                }
+                terms
+            }
+            _ => vec![e],
+        };
+        memo.insert(e, out.clone());
+        Some(out)
+    }
+
+    /// The terms of `(sum of a) (sum of b)` with like terms collected, or
+    /// `None` if that would form more than [`MAX_PRODUCTS`] products or
+    /// leave more than [`MAX_TERMS`] terms.
+    fn times_bounded(&mut self, a: &[Id], b: &[Id]) -> Option<Vec<Id>> {
+        if a.len() * b.len() > MAX_PRODUCTS {
+            return None;
+        }
+        let mut products = Vec::with_capacity(a.len() * b.len());
+        for &x in a {
+            for &y in b {
+                products.push(self.mul2(x, y));
+            }
+        }
+        let sum = self.add(&products);
+        let terms = match self.node(sum) {
+            Node::Add(ts) => ts.to_vec(),
+            _ => vec![sum],
+        };
+        (terms.len() <= MAX_TERMS).then_some(terms)
     }
 
     /// `(rest, u, n)` if the monomial `m` is `rest cos^n u` with `n >= 2`.
@@ -194,7 +264,7 @@ mod tests {
     fn collection_keeps_the_value_and_leaves_one_sine_square() {
         let mut ar = Arena::new();
         let (e, th) = mass_entry(&mut ar);
-        let c = ar.collect_state(e).expect("small");
+        let c = ar.collect_state(e, &mut Vec::new()).expect("small");
         let (v0, v1) = (ar.eval(e, &env), ar.eval(c, &env));
         assert!((v0 - v1).abs() <= 4.0 * f64::EPSILON * v0.abs(), "{v0} != {v1}");
         // `K0 + K1 sin^2 th`: two terms, the state part of one of them
@@ -224,7 +294,7 @@ mod tests {
         let [x, y, z] = [0, 1, 2].map(|i| ar.sym(Sym::Qd(i)));
         let s = ar.add(&[x, y, z]);
         let e = ar.pow(s, 4);
-        let c = ar.collect_state(e);
+        let c = ar.collect_state(e, &mut Vec::new());
         let fixed = ar.fixed_nodes();
         assert_eq!(ar.cheaper(e, c, &fixed, &mut HashSet::new()), e);
         assert_eq!(ar.cheaper(e, None, &fixed, &mut HashSet::new()), e);
@@ -238,13 +308,19 @@ mod tests {
 
     #[test]
     fn a_sum_too_large_to_multiply_out_is_refused() {
-        // (x0 + ... + x9)^3: 220 monomials multiplied out, 1000 terms on the way
+        // (x0 + ... + x9)^3: 220 monomials, 1,000 products on the way;
+        // the fourth power: 2,200 products, refused before they are formed
         let mut ar = Arena::new();
         let xs: Vec<Id> = (0..10).map(|i| ar.sym(Sym::Qd(i))).collect();
         let s = ar.add(&xs);
         let e3 = ar.pow(s, 3);
-        assert!(ar.collect_state(e3).is_some());
+        let mut fixed = Vec::new();
+        let c3 = ar.collect_state(e3, &mut fixed).expect("220 terms");
+        let Node::Add(ts) = ar.node(c3).clone() else { panic!("a sum") };
+        assert_eq!(ts.len(), 220);
         let e4 = ar.pow(s, 4);
-        assert!(ar.collect_state(e4).is_none(), "715 monomials");
+        let before = ar.nodes.len();
+        assert!(ar.collect_state(e4, &mut fixed).is_none(), "715 monomials");
+        assert!(ar.nodes.len() - before < 100, "{} nodes made on the way", ar.nodes.len() - before);
     }
 }

@@ -31,7 +31,7 @@ impl Arena {
 
     /// [`Arena::fixed_nodes`] continued over the nodes added since `fixed`
     /// was last extended (children have smaller ids: one pass).
-    fn extend_fixed(&self, fixed: &mut Vec<bool>) {
+    pub(super) fn extend_fixed(&self, fixed: &mut Vec<bool>) {
         for node in &self.nodes[fixed.len()..] {
             let f = match node {
                 Node::Const(_) | Node::Sym(Sym::Param(_)) => true,
