@@ -997,79 +997,41 @@ fn fused_fns(d: &Derived, def: &ModelDef, m: &crate::minimal::Minimal, maggi: &c
     let mut h = Hoisted::new(d, def, &outputs, &name);
     let nk = h.table.len();
     let (table_lets, table_exprs) = lower(d, def, &h.table, Coords::Global, &[]);
-    let fresh = h.done.clone();
-    // the full state and the kept coordinates' rates, each value computed
-    // just before it is stored
-    let mut sets = TokenStream::new();
-    for (i, &j) in m.coords.iter().enumerate() {
-        sets.extend(quote!(q[#j] = z[#i];));
-    }
-    for &(j, e) in &m.q_dep {
-        sets.extend(h.lets_for(&[e]));
-        let e = h.refer(e);
-        sets.extend(quote!(q[#j] = #e;));
-    }
-    for (j, &e) in m.qd.iter().enumerate() {
-        sets.extend(h.lets_for(&[e]));
-        let e = h.refer(e);
-        sets.extend(quote!(qd[#j] = #e;));
-        if let Some(i) = m.coords.iter().position(|&c| c == j) {
-            sets.extend(quote!(pd[#i] = #e;));
-        }
-    }
-    let maggi_sets = maggi_tokens(d, m, maggi, &mut h);
-    // the lean variant: the headings' angles and rates only (what a hinge
-    // torque reads), and the kept coordinates' rates
-    h.done = fresh;
-    let heading = |j: usize| j % 3 == 2;
-    let mut lean_sets = TokenStream::new();
-    for (i, &j) in m.coords.iter().enumerate() {
-        if heading(j) {
-            lean_sets.extend(quote!(q[#j] = z[#i];));
-        }
-    }
-    for &(j, e) in m.q_dep.iter().filter(|(j, _)| heading(*j)) {
-        lean_sets.extend(h.lets_for(&[e]));
-        let e = h.refer(e);
-        lean_sets.extend(quote!(q[#j] = #e;));
-    }
-    for (j, &e) in m.qd.iter().enumerate() {
-        let kept = m.coords.iter().position(|&c| c == j);
-        if !heading(j) && kept.is_none() {
-            continue;
-        }
-        lean_sets.extend(h.lets_for(&[e]));
-        let e = h.refer(e);
-        if heading(j) {
-            lean_sets.extend(quote!(qd[#j] = #e;));
-        }
-        if let Some(i) = kept {
-            lean_sets.extend(quote!(pd[#i] = #e;));
-        }
-    }
-    let lean_maggi = maggi_tokens(d, m, maggi, &mut h);
+    // the body of `minimal_rhs` (every coordinate and rate written) or of
+    // `minimal_rhs_lean` (only the headings', what a hinge torque reads):
+    // the coordinates and rates `write` keeps and the kept coordinates'
+    // rates, each value computed just before it is stored, then Maggi's
+    // part with its own bindings
     let nh = maggi.hinge.len();
     let private = runtime();
-    quote! {
-        fn minimal_constants(&self) -> ::core::option::Option<::std::vec::Vec<f64>> {
-            type S = f64;
-            #table_lets
-            ::core::option::Option::Some(::std::vec![#(#table_exprs),*])
+    let fresh = h.done.clone();
+    let body = |h: &mut Hoisted, write: &dyn Fn(usize) -> bool| {
+        h.done = fresh.clone();
+        let mut sets = TokenStream::new();
+        for (i, &j) in m.coords.iter().enumerate().filter(|(_, j)| write(**j)) {
+            sets.extend(quote!(q[#j] = z[#i];));
         }
-
-        #[inline]
-        fn minimal_rhs<E, F>(
-            &self,
-            k: &[f64],
-            z: &[f64],
-            q: &mut [f64],
-            qd: &mut [f64],
-            dz: &mut [f64],
-            forces: F,
-        ) -> ::core::result::Result<(), #private::MinimalRhsError<E>>
-        where
-            F: ::core::ops::FnOnce(&[f64], &[f64], &mut [f64], &mut [f64]) -> ::core::result::Result<(), E>,
-        {
+        for &(j, e) in m.q_dep.iter().filter(|(j, _)| write(*j)) {
+            sets.extend(h.lets_for(&[e]));
+            let e = h.refer(e);
+            sets.extend(quote!(q[#j] = #e;));
+        }
+        for (j, &e) in m.qd.iter().enumerate() {
+            let kept = m.coords.iter().position(|&c| c == j);
+            if !write(j) && kept.is_none() {
+                continue;
+            }
+            sets.extend(h.lets_for(&[e]));
+            let e = h.refer(e);
+            if write(j) {
+                sets.extend(quote!(qd[#j] = #e;));
+            }
+            if let Some(i) = kept {
+                sets.extend(quote!(pd[#i] = #e;));
+            }
+        }
+        let maggi_sets = maggi_tokens(d, m, maggi, h);
+        quote! {
             type S = f64;
             // every slice cut to its length once: no bounds check below
             let (k, z) = (&k[..#nk], &z[..#nz]);
@@ -1082,31 +1044,36 @@ fn fused_fns(d: &Derived, def: &ModelDef, m: &crate::minimal::Minimal, maggi: &c
             #maggi_sets
             ::core::result::Result::Ok(())
         }
-
-        #[inline]
-        fn minimal_rhs_lean<E, F>(
-            &self,
-            k: &[f64],
-            z: &[f64],
-            q: &mut [f64],
-            qd: &mut [f64],
-            dz: &mut [f64],
-            forces: F,
-        ) -> ::core::result::Result<(), #private::MinimalRhsError<E>>
-        where
-            F: ::core::ops::FnOnce(&[f64], &[f64], &mut [f64], &mut [f64]) -> ::core::result::Result<(), E>,
-        {
-            type S = f64;
-            let (k, z) = (&k[..#nk], &z[..#nz]);
-            let (q, qd, dz) = (&mut q[..#nq], &mut qd[..#nq], &mut dz[..#nz]);
-            let pd = &mut dz[..#np];
-            #lean_sets
-            let mut f = [0.0f64; #nq];
-            let mut tau = [0.0f64; #nh];
-            forces(q, qd, &mut f, &mut tau).map_err(#private::MinimalRhsError::Forces)?;
-            #lean_maggi
-            ::core::result::Result::Ok(())
+    };
+    let full = body(&mut h, &|_| true);
+    let lean = body(&mut h, &|j| j % 3 == 2);
+    let signature = |name: proc_macro2::Ident| {
+        quote! {
+            #[inline]
+            fn #name<E, F>(
+                &self,
+                k: &[f64],
+                z: &[f64],
+                q: &mut [f64],
+                qd: &mut [f64],
+                dz: &mut [f64],
+                forces: F,
+            ) -> ::core::result::Result<(), #private::MinimalRhsError<E>>
+            where
+                F: ::core::ops::FnOnce(&[f64], &[f64], &mut [f64], &mut [f64]) -> ::core::result::Result<(), E>,
         }
+    };
+    let (rhs, rhs_lean) = (signature(format_ident!("minimal_rhs")), signature(format_ident!("minimal_rhs_lean")));
+    quote! {
+        fn minimal_constants(&self) -> ::core::option::Option<::std::vec::Vec<f64>> {
+            type S = f64;
+            #table_lets
+            ::core::option::Option::Some(::std::vec![#(#table_exprs),*])
+        }
+
+        #rhs { #full }
+
+        #rhs_lean { #lean }
     }
 }
 
