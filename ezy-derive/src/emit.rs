@@ -112,7 +112,33 @@ fn let_bindings(
     let private = runtime();
     let scalar = quote!(<S as #private::Scalar>);
     let mut lets = TokenStream::new();
+    // a sine and a cosine of one angle in this batch are one `sin_cos`
+    // (one argument reduction), bound where the first of the two is
+    let mut partner: HashMap<(Id, bool), Id> = HashMap::new();
     for &id in ids {
+        match d.ar.node(id) {
+            Node::Sin(a) => partner.insert((*a, true), id),
+            Node::Cos(a) => partner.insert((*a, false), id),
+            _ => None,
+        };
+    }
+    let mut paired: Vec<Id> = Vec::new();
+    for &id in ids {
+        if paired.contains(&id) {
+            continue;
+        }
+        let pair = match d.ar.node(id) {
+            Node::Sin(a) => partner.get(&(*a, false)).map(|&c| (*a, id, c)),
+            Node::Cos(a) => partner.get(&(*a, true)).map(|&s| (*a, s, id)),
+            _ => None,
+        };
+        if let Some((a, s, c)) = pair {
+            let a = refer(a);
+            let (ts, tc) = (format_ident!("t{}", s.index()), format_ident!("t{}", c.index()));
+            lets.extend(quote!(let (#ts, #tc): (S, S) = #scalar::sin_cos(#a);));
+            paired.push(if s == id { c } else { s });
+            continue;
+        }
         let rhs = match d.ar.node(id) {
             Node::Sym(Sym::Param(i)) => {
                 let p = format_ident!("p_{}", def.params[*i].name);

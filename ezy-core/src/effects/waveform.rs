@@ -212,9 +212,9 @@ impl Waveform {
     pub fn eval(&self, t: f64) -> f64 {
         match self {
             Self::Constant(v) => *v,
-            Self::Cos(h) => h.amplitude * (h.omega * t + h.phase).cos(),
-            Self::Sin(h) => h.amplitude * (h.omega * t + h.phase).sin(),
-            Self::Harmonics(hs) => hs.iter().map(|h| h.amplitude * (h.omega * t + h.phase).cos()).sum(),
+            Self::Cos(h) => h.amplitude * libm::cos(h.omega * t + h.phase),
+            Self::Sin(h) => h.amplitude * libm::sin(h.omega * t + h.phase),
+            Self::Harmonics(hs) => hs.iter().map(|h| h.amplitude * libm::cos(h.omega * t + h.phase)).sum(),
             Self::Table(tab) => tab.eval(t),
             Self::Spline(s) => s.eval3(t)[0],
         }
@@ -225,7 +225,7 @@ impl Waveform {
     /// is taken as zero (use `spline` for a prescribed motion).
     pub fn eval3(&self, t: f64) -> [f64; 3] {
         let harmonic = |h: &Harmonic, shift: f64| {
-            let (s, c) = (h.omega * t + h.phase + shift).sin_cos();
+            let (s, c) = libm::sincos(h.omega * t + h.phase + shift);
             [h.amplitude * c, -h.amplitude * h.omega * s, -h.amplitude * h.omega * h.omega * c]
         };
         match self {
