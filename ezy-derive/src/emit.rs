@@ -209,6 +209,13 @@ struct Hoisted<'a> {
     slot: HashMap<Id, usize>,
     /// Whether a node was bound already.
     done: Vec<bool>,
+    /// Where set, a sine or cosine is bound together with its partner
+    /// (the cosine or sine of the same angle) if the partner is marked
+    /// here: the nodes the function binds somewhere (one `sin_cos`, one
+    /// argument reduction, where the two would be bound apart).
+    pair_with: Option<Vec<bool>>,
+    /// Every node bound, in order (what `pair_with` is made of).
+    log: Vec<Id>,
 }
 
 impl<'a> Hoisted<'a> {
@@ -231,7 +238,7 @@ impl<'a> Hoisted<'a> {
         }
         table.sort();
         let slot = table.iter().enumerate().map(|(i, &id)| (id, i)).collect();
-        Self { d, def, name, table, slot, done: vec![false; fixed.len()] }
+        Self { d, def, name, table, slot, done: vec![false; fixed.len()], pair_with: None, log: Vec::new() }
     }
 
     /// Whether `id` is computed here: not a number, symbol or table entry.
@@ -277,6 +284,29 @@ impl<'a> Hoisted<'a> {
             self.visit(c, order);
         }
         order.push(id);
+        self.log.push(id);
+        if let Some(p) = self.partner(id) {
+            order.push(p);
+            self.log.push(p);
+        }
+    }
+
+    /// The cosine of `id`'s angle if `id` is a sine (the sine if a
+    /// cosine) that is to be bound with it now (see `pair_with`), marked
+    /// bound.
+    fn partner(&mut self, id: Id) -> Option<Id> {
+        let pair_with = self.pair_with.as_ref()?;
+        let other = match self.d.ar.node(id) {
+            Node::Sin(a) => Node::Cos(*a),
+            Node::Cos(a) => Node::Sin(*a),
+            _ => return None,
+        };
+        let p = self.d.ar.find(&other)?;
+        if !pair_with[p.index()] || self.done[p.index()] || !self.computed(p) {
+            return None;
+        }
+        self.done[p.index()] = true;
+        Some(p)
     }
 }
 
@@ -1071,8 +1101,23 @@ fn fused_fns(d: &Derived, def: &ModelDef, m: &crate::minimal::Minimal, maggi: &c
             ::core::result::Result::Ok(())
         }
     };
-    let full = body(&mut h, &|_| true);
-    let lean = body(&mut h, &|j| j % 3 == 2);
+    // each body twice: the second binds a sine and a cosine of one angle
+    // together wherever the first bound both (in separate statements)
+    let paired = |h: &mut Hoisted, write: &dyn Fn(usize) -> bool| {
+        h.log.clear();
+        h.pair_with = None;
+        body(h, write);
+        let mut bound = vec![false; h.done.len()];
+        for id in &h.log {
+            bound[id.index()] = true;
+        }
+        h.pair_with = Some(bound);
+        let tokens = body(h, write);
+        h.pair_with = None;
+        tokens
+    };
+    let full = paired(&mut h, &|_| true);
+    let lean = paired(&mut h, &|j| j % 3 == 2);
     let signature = |name: proc_macro2::Ident| {
         quote! {
             #[inline]

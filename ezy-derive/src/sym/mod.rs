@@ -95,6 +95,11 @@ impl Arena {
         &self.nodes[id.index()]
     }
 
+    /// The node `node` if the arena holds it (nothing is added).
+    pub fn find(&self, node: &Node) -> Option<Id> {
+        self.memo.get(node).copied()
+    }
+
     fn intern(&mut self, node: Node) -> Id {
         if let Some(&id) = self.memo.get(&node) {
             return id;
