@@ -129,36 +129,47 @@ fn errors(rows: &[[f64; 4]], theta0: f64, omega0: f64) -> (f64, f64) {
     (err, branch)
 }
 
+/// What ten singular passages leave of any accuracy \[rad\]: each one
+/// amplifies a perturbation of the positions at the rounding level to
+/// about its square root (sqrt(eps) = 1.5e-8), so below 1e-9 the error is
+/// set by the last bits of the step sizes and of every sine and cosine,
+/// not by the tolerance. Measured on N = 2 with DOP853, the tolerance
+/// moved by 0 to 7e-13 of itself (eight runs each): 3.7e-10 to 1.2e-8 at
+/// 1e-10, 5.0e-10 to 7.8e-8 at 1e-11, 1.2e-9 to 2.6e-8 at 1e-12; on N =
+/// 40, RK4 at h = 1e-3 s gave 2.4e-9 with glibc's sines and cosines and
+/// 1.0e-8 with the libm crate's (both within an ulp).
+const FLOOR: f64 = 2e-7;
+
 /// DOP853 at 1e-6 to 1e-12, DOPRI5, RK4 and RADAU5 pass all ten singular
 /// passages of 10 s on the parallelogram branch. Measured (2 cores):
-/// errors against the reference 8.9e-5, 8.4e-8, 3.7e-9, 3.0e-9 and
-/// 1.2e-9 rad (DOP853 at 1e-6, 1e-8, 1e-10, 1e-11, 1e-12), 2.2e-8 (DOPRI5,
-/// 1e-10), 3.6e-9 (RK4, h = 1e-3 s), 1.1e-7 (RADAU5, 1e-8), 3.3e-7 (the
-/// reduced formulation at 1e-8, handing over to the DAE); the cranks'
+/// errors against the reference 1.1e-4, 8.9e-8, 7.1e-9, 7.8e-8 and
+/// 1.3e-8 rad (DOP853 at 1e-6, 1e-8, 1e-10, 1e-11, 1e-12; 3.7e-9, 3.0e-9
+/// and 1.2e-9 at the last three with `powf` in the step-size controller),
+/// 2.1e-8 (DOPRI5, 1e-10), 3.7e-9 (RK4, h = 1e-3 s), 1.1e-7 (RADAU5,
+/// 1e-8), 1.4e-7 (the reduced formulation at 1e-8, handing over to the
+/// DAE); the cranks'
 /// angles agree to 3e-10 rad. The bound is 200 rtol (the global error of
-/// 10 s over 30 rad of crank angle) down to 1e-10; below, the passages
-/// themselves bound the accuracy (the rounding of the positions, amplified
-/// like 1 / distance near them), so 2e-8 for 1e-11 and 1e-12; 1000 rtol
-/// for DOPRI5 (five times the steps); 1e-8 rad for RK4 (h^4 = 1e-12 times
-/// the fourth derivative's scale). A run that stopped, switched branch
-/// (the folded branch keeps one crank still) or integrated the
-/// regularized system wrongly fails by orders of magnitude.
+/// 10 s over 30 rad of crank angle) down to [`FLOOR`], which the passages
+/// themselves set below 1e-9 (see there); 1000 rtol for DOPRI5 (five
+/// times the steps). A run that stopped, switched branch (the folded
+/// branch keeps one crank still) or integrated the regularized system
+/// wrongly fails by orders of magnitude.
 #[test]
 fn the_n_four_bar_passes_its_singular_positions() {
     let half = std::f64::consts::FRAC_PI_2;
     for (args, bound) in [
         (vec!["--rtol", "1e-6", "--atol", "1e-6"], 2e-4),
         (vec!["--rtol", "1e-8", "--atol", "1e-8"], 2e-6),
-        (vec!["--rtol", "1e-10", "--atol", "1e-10"], 2e-8),
-        (vec!["--rtol", "1e-11", "--atol", "1e-11"], 2e-8),
-        (vec!["--rtol", "1e-12", "--atol", "1e-12"], 2e-8),
-        (vec!["--integrator", "dopri5", "--rtol", "1e-10", "--atol", "1e-10"], 1e-7),
-        (vec!["--integrator", "rk4", "--dt", "1e-3"], 1e-8),
+        (vec!["--rtol", "1e-10", "--atol", "1e-10"], FLOOR),
+        (vec!["--rtol", "1e-11", "--atol", "1e-11"], FLOOR),
+        (vec!["--rtol", "1e-12", "--atol", "1e-12"], FLOOR),
+        (vec!["--integrator", "dopri5", "--rtol", "1e-10", "--atol", "1e-10"], FLOOR),
+        (vec!["--integrator", "rk4", "--dt", "1e-3"], FLOOR),
         // the reduced formulation hands over to the DAE near the first
         // passage (a note), which goes on from its last accepted state
         (vec!["--formulation", "reduced", "--rtol", "1e-8", "--atol", "1e-8"], 2e-6),
         (vec!["--integrator", "radau5", "--rtol", "1e-8", "--atol", "1e-8"], 2e-6),
-        (vec!["--integrator", "radau5", "--rtol", "1e-10", "--atol", "1e-10"], 2e-8),
+        (vec!["--integrator", "radau5", "--rtol", "1e-10", "--atol", "1e-10"], FLOOR),
     ] {
         let (rows, report) = run(SCENE, &args);
         assert_eq!(rows.last().unwrap()[0], 10.0, "{args:?}: {report}");
@@ -209,22 +220,18 @@ fn a_run_started_at_the_singular_position_runs() {
 /// 1e-8 rad). Measured (2 cores): errors 3.7e-5, 3.0e-7, 1.8e-9 and
 /// 1.4e-9 rad with DOP853 at 1e-6, 1e-8, 1e-10 and 1e-12 (0.14-0.20 s per
 /// run), 2.4e-9 with RK4 at h = 1e-3 s (1.2 s), 3.7e-7 with RADAU5 at 1e-8,
-/// 7.7e-8 reduced at 1e-8 (1.6 s); bounds as for N = 2 but RK4's, 2e-8
-/// (as DOP853's at 1e-10 and 1e-12): each passage amplifies a rounding-level perturbation of the
-/// positions to about its square root (sqrt(eps) = 1.5e-8 rad), so the
-/// floor depends on the last bit of every sine and cosine. RK4 measured
-/// 2.4e-9 with glibc's `sin`/`cos` and 1.0e-8 with the `libm` crate's
-/// (both within one unit in the last place; DOP853 at 1e-10 3.4e-9, at
-/// 1e-12 1.3e-9, reduced 6.8e-8).
+/// 7.7e-8 reduced at 1e-8 (1.6 s); bounds as for N = 2 ([`FLOOR`]
+/// below 1e-9: RK4 measured 2.4e-9 with glibc's `sin`/`cos` and 1.0e-8
+/// with the libm crate's; DOP853 at 1e-10 3.4e-9, at 1e-12 1.3e-9).
 #[test]
 fn the_n_four_bar_of_forty_passes_its_singular_positions() {
     let dop853 = |tol: &'static str| vec!["--rtol", tol, "--atol", tol];
     for (args, bound) in [
         (dop853("1e-6"), 2e-4),
         (dop853("1e-8"), 2e-6),
-        (dop853("1e-10"), 2e-8),
-        (dop853("1e-12"), 2e-8),
-        (vec!["--integrator", "rk4", "--dt", "1e-3"], 2e-8),
+        (dop853("1e-10"), FLOOR),
+        (dop853("1e-12"), FLOOR),
+        (vec!["--integrator", "rk4", "--dt", "1e-3"], FLOOR),
         (vec!["--integrator", "radau5", "--rtol", "1e-8", "--atol", "1e-8"], 2e-6),
         (vec!["--formulation", "reduced", "--rtol", "1e-8", "--atol", "1e-8"], 2e-6),
     ] {
