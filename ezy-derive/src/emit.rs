@@ -122,7 +122,7 @@ fn let_bindings(
             _ => None,
         };
     }
-    let mut paired: Vec<Id> = Vec::new();
+    let mut paired: std::collections::HashSet<Id> = std::collections::HashSet::new();
     for &id in ids {
         if paired.contains(&id) {
             continue;
@@ -136,7 +136,7 @@ fn let_bindings(
             let a = refer(a);
             let (ts, tc) = (format_ident!("t{}", s.index()), format_ident!("t{}", c.index()));
             lets.extend(quote!(let (#ts, #tc): (S, S) = #scalar::sin_cos(#a);));
-            paired.push(if s == id { c } else { s });
+            paired.insert(if s == id { c } else { s });
             continue;
         }
         let rhs = match d.ar.node(id) {
