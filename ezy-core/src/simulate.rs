@@ -851,6 +851,7 @@ impl<'a, M: Model, O: Observer<M>> Run<'a, M, O> {
     /// Queues a sample at `t` whose state `fill` writes in place; `kind`:
     /// what is left to do before it is observed (a dense-output sample is
     /// projected, or expanded from minimal coordinates, then).
+    #[inline(always)]
     fn queue(
         &mut self,
         sys: &Dynamics<M>,
@@ -1531,6 +1532,7 @@ impl<M: Model> Integrand<M> for Reduced {
         self.expand_sample(sys, t, x)?;
         Ok(self.full())
     }
+    #[inline(always)]
     fn emit_dense<O: Observer<M>>(
         &mut self,
         run: &mut Run<'_, M, O>,
