@@ -54,7 +54,8 @@ mod sealed {
 /// dynamic linker, with a shorter argument reduction than glibc's
 /// `sincos` (drive scene, DOP853 at 3e-11 on the minimal coordinates:
 /// 7 % less integration time, 2.7 % fewer instructions; measured in
-/// `docs/dev/performance.md`, eighth pass).
+/// `docs/dev/performance.md`, eighth pass). The effects and waveforms
+/// take theirs from here too: the library is chosen in this one place.
 impl Scalar for f64 {
     #[inline(always)]
     fn from_f64(value: f64) -> Self {

@@ -26,6 +26,7 @@ pub use waveform::{Harmonic, Periodicity, Spline, SplineData, Table, Waveform};
 
 use crate::SimError;
 use crate::model::{Model, ModelInfo, NameIndex};
+use crate::scalar::Scalar;
 
 /// Standard gravity \[m/s^2\] (the default of [`EffectSpec::Slope`]).
 pub const STANDARD_GRAVITY: f64 = 9.806_65;
@@ -991,7 +992,7 @@ impl Anchor {
         match *self {
             Anchor::Ground(p) => (p, [0.0, 0.0], [0.0, 0.0]),
             Anchor::Body { body, offset } => {
-                let (s, c) = libm::sincos(q[body[2]]);
+                let (s, c) = Scalar::sin_cos(q[body[2]]);
                 let r = [c * offset[0] - s * offset[1], s * offset[0] + c * offset[1]];
                 let w = qd[body[2]];
                 ([q[body[0]] + r[0], q[body[1]] + r[1]], [qd[body[0]] - w * r[1], qd[body[1]] + w * r[0]], r)
@@ -1256,7 +1257,7 @@ pub struct Effect {
 /// `f`; returns the point's velocity `v_P` (world) for the power.
 #[inline]
 fn point_force(body: [usize; 3], p: [f64; 2], force: [f64; 2], q: &[f64], qd: &[f64], f: &mut [f64]) -> [f64; 2] {
-    let (s, c) = libm::sincos(q[body[2]]);
+    let (s, c) = Scalar::sin_cos(q[body[2]]);
     let r = [c * p[0] - s * p[1], s * p[0] + c * p[1]];
     let w = qd[body[2]];
     f[body[0]] += force[0];
@@ -1331,7 +1332,7 @@ impl Effect {
                 (tau * rate, tau)
             }
             Law::Blade(bl, law) => {
-                let (s, c) = libm::sincos(q[bl.body[2]]);
+                let (s, c) = Scalar::sin_cos(q[bl.body[2]]);
                 let e = [c * bl.dir[0] - s * bl.dir[1], s * bl.dir[0] + c * bl.dir[1]];
                 let r = [c * bl.offset[0] - s * bl.offset[1], s * bl.offset[0] + c * bl.offset[1]];
                 let w = qd[bl.body[2]];
@@ -1352,7 +1353,7 @@ impl Effect {
                 let force = match frame {
                     Frame::World => [x, y],
                     Frame::Body => {
-                        let (s, c) = libm::sincos(q[body[2]]);
+                        let (s, c) = Scalar::sin_cos(q[body[2]]);
                         [c * x - s * y, s * x + c * y]
                     }
                 };
@@ -1378,7 +1379,7 @@ impl Effect {
                 (power, total * force_per_kg[0].hypot(force_per_kg[1]))
             }
             Law::Anisotropic { blade: bl, c_along, c_across } => {
-                let (s, c) = libm::sincos(q[bl.body[2]]);
+                let (s, c) = Scalar::sin_cos(q[bl.body[2]]);
                 let e = [c * bl.dir[0] - s * bl.dir[1], s * bl.dir[0] + c * bl.dir[1]];
                 let r = [c * bl.offset[0] - s * bl.offset[1], s * bl.offset[0] + c * bl.offset[1]];
                 let w = qd[bl.body[2]];

@@ -3,6 +3,8 @@
 
 use serde::{Deserialize, Serialize};
 
+use crate::scalar::Scalar;
+
 /// One harmonic `amplitude cos(omega t + phase)`.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -212,9 +214,9 @@ impl Waveform {
     pub fn eval(&self, t: f64) -> f64 {
         match self {
             Self::Constant(v) => *v,
-            Self::Cos(h) => h.amplitude * libm::cos(h.omega * t + h.phase),
-            Self::Sin(h) => h.amplitude * libm::sin(h.omega * t + h.phase),
-            Self::Harmonics(hs) => hs.iter().map(|h| h.amplitude * libm::cos(h.omega * t + h.phase)).sum(),
+            Self::Cos(h) => h.amplitude * Scalar::cos(h.omega * t + h.phase),
+            Self::Sin(h) => h.amplitude * Scalar::sin(h.omega * t + h.phase),
+            Self::Harmonics(hs) => hs.iter().map(|h| h.amplitude * Scalar::cos(h.omega * t + h.phase)).sum(),
             Self::Table(tab) => tab.eval(t),
             Self::Spline(s) => s.eval3(t)[0],
         }
@@ -225,7 +227,7 @@ impl Waveform {
     /// is taken as zero (use `spline` for a prescribed motion).
     pub fn eval3(&self, t: f64) -> [f64; 3] {
         let harmonic = |h: &Harmonic, shift: f64| {
-            let (s, c) = libm::sincos(h.omega * t + h.phase + shift);
+            let (s, c) = Scalar::sin_cos(h.omega * t + h.phase + shift);
             [h.amplitude * c, -h.amplitude * h.omega * s, -h.amplitude * h.omega * h.omega * c]
         };
         match self {
@@ -323,12 +325,12 @@ mod tests {
     fn each_waveform_at_hand_computed_values() {
         let h = Harmonic { amplitude: 2.0, omega: 3.0, phase: 0.5, phase_step: 0.0 };
         assert_eq!(Waveform::Constant(1.5).eval(7.0), 1.5);
-        // the waveforms take the libm crate's sine and cosine, as the
-        // generated code does (`crate::scalar`)
-        assert_eq!(Waveform::Cos(h).eval(0.25), 2.0 * libm::cos(0.75f64 + 0.5));
-        assert_eq!(Waveform::Sin(h).eval(0.25), 2.0 * libm::sin(0.75f64 + 0.5));
+        // the waveforms take `Scalar`'s sine and cosine, as the generated
+        // code does (the libm crate's: `crate::scalar`)
+        assert_eq!(Waveform::Cos(h).eval(0.25), 2.0 * Scalar::cos(0.75f64 + 0.5));
+        assert_eq!(Waveform::Sin(h).eval(0.25), 2.0 * Scalar::sin(0.75f64 + 0.5));
         let two = Waveform::Harmonics(vec![h, Harmonic { amplitude: -1.0, omega: 1.0, phase: 0.0, phase_step: 0.0 }]);
-        assert_eq!(two.eval(0.25), 2.0 * libm::cos(1.25f64) - libm::cos(0.25f64));
+        assert_eq!(two.eval(0.25), 2.0 * Scalar::cos(1.25f64) - Scalar::cos(0.25f64));
         let tab = Waveform::Table(Table { t: vec![0.0, 1.0, 3.0], value: vec![0.0, 2.0, -2.0] });
         for (t, v) in
             [(-1.0, 0.0), (0.0, 0.0), (0.5, 1.0), (1.0, 2.0), (2.0, 0.0), (2.5, -1.0), (3.0, -2.0), (9.0, -2.0)]
