@@ -435,10 +435,18 @@ const KEEP_CANVASES: usize = 4;
 /// [`KEEP_CANVAS`] bytes each stay allocated for the life of the process.
 static CANVASES: std::sync::Mutex<Vec<Vec<u8>>> = std::sync::Mutex::new(Vec::new());
 
+/// A pool of image buffers: [`CANVASES`], or a test's own.
+type Pool = std::sync::Mutex<Vec<Vec<u8>>>;
+
 /// Keeps `buffer` for a next figure's image (see [`CANVASES`]).
 fn recycle_canvas(buffer: Vec<u8>) {
+    recycle_into(&CANVASES, buffer);
+}
+
+/// Keeps `buffer` in `pool` if it is small enough and the pool not full.
+fn recycle_into(pool: &Pool, buffer: Vec<u8>) {
     if buffer.capacity() <= KEEP_CANVAS {
-        let mut kept = CANVASES.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
+        let mut kept = pool.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
         if kept.len() < KEEP_CANVASES {
             kept.push(buffer);
         }
@@ -448,11 +456,30 @@ fn recycle_canvas(buffer: Vec<u8>) {
 /// `bytes` of opaque white (premultiplied RGBA), in a kept buffer if
 /// there is one.
 fn white_canvas(bytes: usize) -> Vec<u8> {
-    let kept = CANVASES.lock().unwrap_or_else(std::sync::PoisonError::into_inner).pop();
+    white_from(&CANVASES, bytes)
+}
+
+/// [`white_canvas`] from `pool`.
+fn white_from(pool: &Pool, bytes: usize) -> Vec<u8> {
+    let kept = pool.lock().unwrap_or_else(std::sync::PoisonError::into_inner).pop();
     let mut data = kept.unwrap_or_default();
     data.clear();
     data.resize(bytes, 255);
     data
+}
+
+/// Fills `pool` up to `wanted` buffers (at most [`KEEP_CANVASES`]) of
+/// `bytes` each, every page touched. All are made before any is kept:
+/// made and kept one at a time, the second was the first taken back
+/// out, and a run with two drawing threads kept one buffer where it
+/// asked for two (the second thread's first figure then faulted in a
+/// fresh 5.5 MB image, some 1,350-1,800 page faults and 5-8 ms).
+fn stock(pool: &Pool, wanted: usize, bytes: usize) {
+    let have = pool.lock().map_or(0, |kept| kept.len());
+    let fresh: Vec<Vec<u8>> = (have..wanted.min(KEEP_CANVASES)).map(|_| vec![255; bytes]).collect();
+    for buffer in fresh {
+        recycle_into(pool, buffer);
+    }
 }
 
 /// The image size \[pixels\] of a figure's SVG tree at `dpi`.
@@ -479,10 +506,7 @@ pub fn warm_up(format: FigureFormat, dpi: f64, canvases: usize) {
     }
     let (w, h) = image_size(WIDTH as f32, HEIGHT as f32, dpi);
     let bytes = 4 * w as usize * h as usize;
-    let missing = canvases.min(KEEP_CANVASES).saturating_sub(CANVASES.lock().map_or(0, |kept| kept.len()));
-    for _ in 0..missing {
-        recycle_canvas(white_canvas(bytes));
-    }
+    stock(&CANVASES, canvases, bytes);
 }
 
 /// `tree` rasterized at `dpi` on white (the nominal size is at 96 dpi),
@@ -2129,5 +2153,30 @@ mod tests {
         let points = (0..100_000).map(|i| (i as f64, (i as f64 * 0.01).sin())).collect();
         let c = chart(vec![Series::new("a", points)]);
         assert!(matches!(svg_within(&c, std::time::Duration::ZERO), Err(PlotError::Timeout { .. })));
+    }
+
+    #[test]
+    fn warm_up_stocks_one_buffer_per_thread() {
+        // every thread that encodes finds a buffer of its own: two asked
+        // for, two kept, distinct and white; asked again, none added
+        let pool = Pool::new(Vec::new());
+        stock(&pool, 2, 4096);
+        {
+            let kept = pool.lock().unwrap();
+            assert_eq!(kept.len(), 2);
+            assert_ne!(kept[0].as_ptr(), kept[1].as_ptr());
+            assert!(kept.iter().all(|b| b.len() == 4096 && b.iter().all(|&v| v == 255)));
+        }
+        stock(&pool, 2, 4096);
+        assert_eq!(pool.lock().unwrap().len(), 2);
+        // never more than KEEP_CANVASES, however many are asked for
+        stock(&pool, 100, 16);
+        assert_eq!(pool.lock().unwrap().len(), KEEP_CANVASES);
+        // a buffer taken is white whatever was in it
+        let mut taken = white_from(&pool, 8);
+        assert_eq!(taken, vec![255; 8]);
+        taken.fill(0);
+        recycle_into(&pool, taken);
+        assert_eq!(white_from(&pool, 8), vec![255; 8]);
     }
 }
