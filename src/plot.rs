@@ -302,10 +302,7 @@ pub fn encode(svg: &str, format: FigureFormat, dpi: f64, title: &str) -> Result<
     }
     // the raster starts white: its white background is not drawn again
     let svg = if format == FigureFormat::Png {
-        match without_white_background(svg) {
-            std::borrow::Cow::Borrowed(svg) => one_pixel_crisp_lines(svg, dpi),
-            std::borrow::Cow::Owned(svg) => std::borrow::Cow::Owned(one_pixel_crisp_lines(&svg, dpi).into_owned()),
-        }
+        std::borrow::Cow::Owned(for_raster(&without_white_background(svg), dpi))
     } else {
         std::borrow::Cow::Borrowed(svg)
     };
@@ -357,8 +354,15 @@ fn without_white_background(svg: &str) -> std::borrow::Cow<'_, str> {
     }
 }
 
+/// An SVG drawn by this module, ready to rasterize at `dpi`: its thin
+/// lines along an axis snapped ([`snap`] with [`Snap::Lines`]), each a
+/// pixel wide on a pixel's centre ([`one_pixel_crisp_lines`]).
+fn for_raster(svg: &str, dpi: f64) -> String {
+    one_pixel_crisp_lines(&snap(svg, Snap::Lines), dpi).into_owned()
+}
+
 /// `svg` for a raster at `dpi`: every line drawn without anti-aliasing
-/// ([`snap_thin_axis_lines`]) that is narrower than a pixel there made
+/// ([`snap`]) that is narrower than a pixel there made
 /// one pixel wide and moved onto the centre of the pixel column (or row)
 /// it lies in. The rasterizer paints such a line on the pixels whose
 /// centres it covers, and a line of one drawing unit (0.75 px at 144 dpi,
@@ -649,7 +653,7 @@ fn raster(tree: &resvg::usvg::Tree, dpi: f64) -> Result<resvg::tiny_skia::Pixmap
 /// # Errors
 /// As [`encode`].
 pub fn rgba(svg: &str, dpi: f64) -> Result<(u32, u32, Vec<u8>), PlotError> {
-    let tree = resvg::usvg::Tree::from_str(&one_pixel_crisp_lines(svg, dpi), svg_options())
+    let tree = resvg::usvg::Tree::from_str(&for_raster(svg, dpi), svg_options())
         .map_err(|e| PlotError::Draw { title: String::new(), message: format!("reading the SVG: {e}") })?;
     let p = raster(&tree, dpi)?;
     Ok((p.width(), p.height(), p.take()))
@@ -673,19 +677,36 @@ fn svg_options() -> &'static resvg::usvg::Options<'static> {
 
 /// The SVG plotters wrote for a `SCALE x` canvas, with `width` and
 /// `height` set to the nominal size (the `viewBox` keeps the canvas) and
-/// its thin lines along an axis snapped to the pixel grid
-/// ([`snap_thin_axis_lines`]).
+/// its opaque rectangles snapped to the pixel grid ([`snap`]). Its thin
+/// lines are left to the viewer's anti-aliasing: a line of one drawing
+/// unit is half a pixel wide on a screen at 100 %, and drawn without
+/// anti-aliasing it covers no pixel's centre where it is centred on a
+/// pixel's edge. A raster snaps them itself ([`for_raster`]).
 pub(crate) fn nominal_size(svg: String) -> String {
     let (w, h) = (WIDTH * SCALE, HEIGHT * SCALE);
     let svg =
         svg.replacen(&format!("width=\"{w}\" height=\"{h}\""), &format!("width=\"{WIDTH}\" height=\"{HEIGHT}\""), 1);
-    snap_thin_axis_lines(&svg)
+    snap(&svg, Snap::Rectangles)
+}
+
+/// What [`snap`] marks `shape-rendering="crispEdges"`.
+#[derive(Clone, Copy, PartialEq, Eq, Debug)]
+enum Snap {
+    /// Opaque rectangles without a border (the background, a heat map's
+    /// cells): in every SVG, so that no viewer shows seams between cells.
+    Rectangles,
+    /// Solid lines at most one unit wide along an axis (the grid, the
+    /// axes, the ticks): for a raster only, made one pixel wide there
+    /// ([`one_pixel_crisp_lines`]).
+    Lines,
 }
 
 /// `svg` with `shape-rendering="crispEdges"` on every opaque rectangle
-/// without a border (the background, a heat map's cells) and on every
-/// solid line at most one drawing unit wide whose segments all run along
-/// an axis (the grid, the axes and their ticks). A renderer draws
+/// without a border (the background, a heat map's cells) or
+/// ([`Snap::Lines`]) on every solid line at most one drawing unit wide
+/// whose segments all run along an axis (the grid, the axes and their
+/// ticks); an element that already says how it is rendered is left as
+/// it is. A renderer draws
 /// these on whole pixels without anti-aliasing, as matplotlib snaps its
 /// grid, axes and rectangles (`Artist.set_snap`). At the default 144 dpi
 /// a unit is 0.75 px, so an anti-aliased grid line was smeared over two
@@ -697,18 +718,22 @@ pub(crate) fn nominal_size(svg: String) -> String {
 /// ([`CrispRun`]); a raster makes each snapped line one pixel wide
 /// ([`one_pixel_crisp_lines`]). Reads the one-element-per-line SVG
 /// plotters writes.
-fn snap_thin_axis_lines(svg: &str) -> String {
+fn snap(svg: &str, what: Snap) -> String {
     const CRISP: &str = " shape-rendering=\"crispEdges\"";
     let mut out = String::with_capacity(svg.len() + 32 * svg.matches("<line ").count());
     // consecutive opaque snapped lines of one style, drawn as one path
     let mut run = CrispRun::default();
+    let lines = what == Snap::Lines;
     for line in svg.split_inclusive('\n') {
         let tag = ["<line", "<polyline", "<rect"]
             .into_iter()
-            .find(|t| line.starts_with(t) && line[t.len()..].starts_with(' '));
+            .find(|t| line.starts_with(t) && line[t.len()..].starts_with(' ') && !line.contains(" shape-rendering="));
         match tag {
-            Some("<line") if thin_axis_line(line) && run.add(line, &mut out) => {}
-            Some(tag) if (tag == "<rect" && opaque_fill_only(line)) || (tag != "<rect" && thin_axis_line(line)) => {
+            Some("<line") if lines && thin_axis_line(line) && run.add(line, &mut out) => {}
+            Some(tag)
+                if (tag == "<rect" && !lines && opaque_fill_only(line))
+                    || (tag != "<rect" && lines && thin_axis_line(line)) =>
+            {
                 run.flush(&mut out);
                 out.push_str(tag);
                 out.push_str(CRISP);
@@ -725,7 +750,7 @@ fn snap_thin_axis_lines(svg: &str) -> String {
 }
 
 /// Snapped `<line>` elements in a row that share their style, gathered
-/// by [`snap_thin_axis_lines`] into one `<path>` of a subpath each: a
+/// by [`snap`] into one `<path>` of a subpath each: a
 /// figure's 60-250 grid lines were as many elements for resvg to read
 /// (four fifths of the grid's parsing time) and to paint one by one.
 /// Only opaque lines drawn without anti-aliasing are gathered: each
@@ -2065,7 +2090,20 @@ mod tests {
     /// (thicker), slanted, dashed and text are left as they are.
     #[test]
     fn only_thin_axis_lines_and_rectangles_snap() {
-        let crisp = |element: &str| snap_thin_axis_lines(element).contains("shape-rendering=\"crispEdges\"");
+        let crisp = |element: &str| {
+            [Snap::Rectangles, Snap::Lines]
+                .into_iter()
+                .any(|w| snap(element, w).contains("shape-rendering=\"crispEdges\""))
+        };
+        // rectangles in every SVG, lines for a raster only
+        let line = r##"<line opacity="1" stroke="#EEEEEE" stroke-width="1" x1="220" y1="1143" x2="220" y2="83"/>"##;
+        let rect = r##"<rect x="0" y="0" width="1920" height="1280" opacity="1" fill="#FFFFFF" stroke="none"/>"##;
+        assert_eq!(snap(line, Snap::Rectangles), line);
+        assert_eq!(snap(rect, Snap::Lines), rect);
+        // once snapped, an element is left as it is
+        let snapped = snap(rect, Snap::Rectangles);
+        assert_eq!(snap(&snapped, Snap::Rectangles), snapped);
+        assert_eq!(snapped.matches("shape-rendering").count(), 1);
         assert!(crisp(
             r##"<line opacity="1" stroke="#EEEEEE" stroke-width="1" x1="220" y1="1143" x2="220" y2="83"/>"##
         ));
@@ -2086,7 +2124,7 @@ mod tests {
         assert!(!crisp(r##"<text x="1" y="2" stroke-width="1">x</text>"##));
         // the rest of the document is kept byte for byte
         let doc = "<svg>\n<line stroke-width=\"1\" x1=\"1\" y1=\"2\" x2=\"1\" y2=\"9\"/>\n<circle r=\"2\"/>\n</svg>\n";
-        assert_eq!(snap_thin_axis_lines(doc).replacen(" shape-rendering=\"crispEdges\"", "", 1), doc);
+        assert_eq!(snap(doc, Snap::Lines).replacen(" shape-rendering=\"crispEdges\"", "", 1), doc);
     }
 
     /// Snapped opaque lines in a row of one style become one path of a
@@ -2116,7 +2154,7 @@ mod tests {
             r#"<svg width="960" height="640" viewBox="0 0 1920 1280" xmlns="http://www.w3.org/2000/svg">{}{body}</svg>"#,
             "\n"
         );
-        let snapped = snap_thin_axis_lines(&doc);
+        let snapped = snap(&doc, Snap::Lines);
         // ten grid lines in one path; the axis alone; the translucent
         // lines one by one (snapped all the same)
         assert_eq!(snapped.matches("<path ").count(), 1, "{snapped}");
@@ -2163,7 +2201,8 @@ mod tests {
                 );
             }
             doc += "</svg>\n";
-            let (w, _, pixels) = rgba(&snap_thin_axis_lines(&doc), dpi).expect("raster");
+            // the lines as a chart's SVG has them: snapped by the raster
+            let (w, _, pixels) = rgba(&doc, dpi).expect("raster");
             let row = (500.0 * s) as usize;
             let dark: Vec<usize> = (0..w as usize).filter(|&x| pixels[4 * (row * w as usize + x)] < 128).collect();
             let expected: Vec<usize> = xs.iter().map(|&x| (f64::from(x) * s).floor() as usize).collect();
