@@ -358,7 +358,7 @@ fn without_white_background(svg: &str) -> std::borrow::Cow<'_, str> {
 /// lines along an axis snapped ([`snap`] with [`Snap::Lines`]), each a
 /// pixel wide on a pixel's centre ([`one_pixel_crisp_lines`]).
 fn for_raster(svg: &str, dpi: f64) -> String {
-    one_pixel_crisp_lines(&snap(svg, Snap::Lines), dpi).into_owned()
+    one_pixel_crisp_lines(&snap(svg, Snap::Lines), dpi)
 }
 
 /// `svg` for a raster at `dpi`: every line drawn without anti-aliasing
@@ -373,19 +373,16 @@ fn for_raster(svg: &str, dpi: f64) -> String {
 /// from the centres it could round onto), and the lines that were drawn
 /// before are drawn on the same pixels as before. The SVG and PDF
 /// figures keep the lines as they were drawn.
-fn one_pixel_crisp_lines(svg: &str, dpi: f64) -> std::borrow::Cow<'_, str> {
+fn one_pixel_crisp_lines(svg: &str, dpi: f64) -> String {
     // pixels per drawing unit at `dpi` (the canvas is SCALE units a
     // nominal pixel, and a nominal pixel 1/96 in)
     let s = dpi / (96.0 * f64::from(SCALE));
     let thin = |element: &str| {
         ["<line", "<polyline", "<path"]
             .iter()
-            .any(|tag| element.strip_prefix(tag).is_some_and(|r| r.starts_with(" shape-rendering=\"crispEdges\"")))
+            .any(|tag| element.strip_prefix(tag).is_some_and(|r| r.starts_with(CRISP)))
             && attribute(element, "stroke-width").and_then(|w| w.parse::<f64>().ok()).is_some_and(|w| w * s < 1.0)
     };
-    if !svg.split_inclusive('\n').any(thin) {
-        return std::borrow::Cow::Borrowed(svg);
-    }
     let mut out = String::with_capacity(svg.len() + svg.len() / 4);
     for element in svg.split_inclusive('\n') {
         match thin(element).then(|| on_pixel_centres(element, s)).flatten() {
@@ -393,7 +390,7 @@ fn one_pixel_crisp_lines(svg: &str, dpi: f64) -> std::borrow::Cow<'_, str> {
             None => out.push_str(element),
         }
     }
-    std::borrow::Cow::Owned(out)
+    out
 }
 
 /// A snapped line's geometry attribute (`x1` for a `<line>`'s four),
@@ -689,6 +686,10 @@ pub(crate) fn nominal_size(svg: String) -> String {
     snap(&svg, Snap::Rectangles)
 }
 
+/// The attribute [`snap`] marks an element with: drawn on whole pixels,
+/// without anti-aliasing.
+const CRISP: &str = " shape-rendering=\"crispEdges\"";
+
 /// What [`snap`] marks `shape-rendering="crispEdges"`.
 #[derive(Clone, Copy, PartialEq, Eq, Debug)]
 enum Snap {
@@ -719,7 +720,6 @@ enum Snap {
 /// ([`one_pixel_crisp_lines`]). Reads the one-element-per-line SVG
 /// plotters writes.
 fn snap(svg: &str, what: Snap) -> String {
-    const CRISP: &str = " shape-rendering=\"crispEdges\"";
     let mut out = String::with_capacity(svg.len() + 32 * svg.matches("<line ").count());
     // consecutive opaque snapped lines of one style, drawn as one path
     let mut run = CrispRun::default();
@@ -802,7 +802,6 @@ impl<'a> CrispRun<'a> {
     /// Writes the run to `out` (one line as it was, more as a path) and
     /// empties it.
     fn flush(&mut self, out: &mut String) {
-        const CRISP: &str = " shape-rendering=\"crispEdges\"";
         match self.count {
             0 => {}
             1 => {
@@ -2237,7 +2236,7 @@ mod tests {
         assert!(moved.ends_with(&format!(r#" fill="none" d="M{x} 20L{x} 600M20 {y}L900 {y}"/>"#)), "{moved}");
         // at 300 dpi a unit is more than a pixel: nothing to do
         let svg = format!("<svg>\n{line}\n</svg>\n");
-        assert!(matches!(one_pixel_crisp_lines(&svg, 300.0), std::borrow::Cow::Borrowed(_)));
+        assert_eq!(one_pixel_crisp_lines(&svg, 300.0), svg);
         assert!(one_pixel_crisp_lines(&svg, 144.0).contains(&format!("x1=\"{}\"", 165.5 / s)));
     }
 
