@@ -363,5 +363,29 @@ fn linearize_command_names_rows_and_columns() {
     assert!(!ok && err.contains("nope"), "{err}");
     let (_, err, ok) = ezy(&["analyze", "sleigh", "--period", "0"], &bad);
     assert!(!ok && err.contains("--period"), "{err}");
+    // a continuation in a family's size used to panic (index out of
+    // bounds in the symmetry test): refused before any work, by name
+    let (_, err, ok) = ezy(&["analyze", "four-bar-n2", "--continue", "N=2:3:2"], &bad);
+    assert!(!ok && err.contains("--continue N") && err.contains("coordinates") && !err.contains("panicked"), "{err}");
     assert!(!bad.exists());
+}
+
+/// The library's analyses refuse a state of the wrong length or with a
+/// value that is not a number, by name, instead of indexing past it.
+#[test]
+fn analyses_refuse_states_that_do_not_fit() {
+    let (mut an, x0) = analysis::<ChaplyginSleigh>(ezy_models::scenes::get("sleigh"));
+    let short = &x0[..x0.len() - 1];
+    for e in [
+        an.rhs(0.0, short).unwrap_err(),
+        an.symmetry(0.0, short).unwrap_err(),
+        an.constraint_residual(0.0, short).unwrap_err(),
+    ] {
+        assert!(e.to_string().contains("a state of 5 values given to a model of 6"), "{e}");
+    }
+    let mut nan = x0.clone();
+    nan[4] = f64::NAN;
+    let e = an.symmetry(0.0, &nan).unwrap_err();
+    assert!(e.to_string().contains("`yd` is NaN"), "{e}");
+    assert_eq!(an.constraint_residual(0.0, &x0).unwrap().len(), 1);
 }

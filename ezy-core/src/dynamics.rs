@@ -61,6 +61,10 @@ struct Workspace {
     /// A right-hand side's scratch (ny, only with skates that have
     /// friction): evaluations for their modes.
     probe: Vec<f64>,
+    /// A state a little further along the motion, and its right-hand
+    /// side (ny each): the sticking skates' margin rates.
+    ahead: Vec<f64>,
+    ahead_rhs: Vec<f64>,
 }
 
 /// Baumgarte stabilization (Baumgarte 1972): the acceleration-level
@@ -223,6 +227,8 @@ impl<M: Model> Dynamics<M> {
             drive_waves: Vec::new(),
             g_saved: if friction.is_empty() { Vec::new() } else { vec![0.0; info.pattern.len()] },
             probe: Vec::new(),
+            ahead: Vec::new(),
+            ahead_rhs: Vec::new(),
         };
         Self {
             model,
@@ -536,6 +542,74 @@ impl<M: Model> Dynamics<M> {
         res?;
         self.slip_margins(out);
         Ok(())
+    }
+
+    /// Each skate-friction entry's margin and its rate along the motion at
+    /// `(t, y)`, into `m` and `r` (one per entry of
+    /// [`Dynamics::friction`]): a sliding skate's rate is `s dv/dt` from
+    /// the evaluation itself; a sticking one's, `d(mu N - |lambda|)/dt`,
+    /// by a forward difference along the motion, the right-hand side
+    /// evaluated again at `(t + delta, y + delta y')` with `delta = 1e-6
+    /// h` (at least a few units of rounding of `t`): its truncation,
+    /// `delta m''/2`, and its rounding, `eps |lambda| / delta`, both far
+    /// below what a step of size `h` \[s\] resolves. One evaluation, two
+    /// while a skate sticks.
+    ///
+    /// # Errors
+    /// As [`Dynamics::rhs`].
+    pub fn slip_samples_at(&mut self, t: f64, h: f64, y: &[f64], m: &mut [f64], r: &mut [f64]) -> Result<(), SimError> {
+        let mut probe = std::mem::take(&mut self.ws.probe);
+        probe.resize(y.len(), 0.0);
+        let res = self.rhs(t, y, &mut probe);
+        if let Err(e) = res {
+            self.ws.probe = probe;
+            return Err(e);
+        }
+        self.slip_margins(m);
+        for (rate, fr) in r.iter_mut().zip(&self.friction) {
+            *rate = match fr.mode {
+                SkateMode::Sliding { sign } => sign * fr.slip_rate,
+                SkateMode::Sticking => 0.0,
+            };
+        }
+        if self.friction.iter().any(|f| !f.mode.is_sliding()) {
+            let delta = (1e-6 * h.abs()).max(64.0 * f64::EPSILON * t.abs().max(1.0));
+            let (mut ahead, mut ahead_rhs) =
+                (std::mem::take(&mut self.ws.ahead), std::mem::take(&mut self.ws.ahead_rhs));
+            ahead.clear();
+            ahead.extend(y.iter().zip(&probe).map(|(y, d)| y + delta * d));
+            ahead_rhs.resize(y.len(), 0.0);
+            let res = self.rhs(t + delta, &ahead, &mut ahead_rhs);
+            (self.ws.ahead, self.ws.ahead_rhs) = (ahead, ahead_rhs);
+            if let Err(e) = res {
+                self.ws.probe = probe;
+                return Err(e);
+            }
+            for ((rate, fr), &m0) in r.iter_mut().zip(&self.friction).zip(m.iter()) {
+                if !fr.mode.is_sliding() {
+                    *rate = (fr.margin(self.ws.lambda[fr.row]) - m0) / delta;
+                }
+            }
+        }
+        self.ws.probe = probe;
+        Ok(())
+    }
+
+    /// The smallest margin that counts as a violation of each skate's
+    /// mode at the state of the last evaluation, into `out`, for a run
+    /// whose continuous extension is accurate to the relative tolerance
+    /// `rtol` (an adaptive method's; 0 for a fixed step): `r mu N` \[N\]
+    /// while sticking, `r max(1, |qd|)` \[m/s\] while sliding (as
+    /// [`Dynamics::start_friction`] tells a slip from rounding), `r =
+    /// max(1e-10, rtol)`. A margin that starts at zero (a slide begun at
+    /// the limit) dips by the interpolant's error on the first step, which
+    /// is no switch.
+    pub fn slip_tolerances(&self, qd: &[f64], rtol: f64, out: &mut [f64]) {
+        let r = rtol.max(1e-10);
+        let v = r * crate::projection::max_abs(qd).max(1.0);
+        for (o, fr) in out.iter_mut().zip(&self.friction) {
+            *o = if fr.mode.is_sliding() { v } else { r * fr.limit.abs() };
+        }
     }
 
     /// Brings the skates with friction into the modes their state at `(t,

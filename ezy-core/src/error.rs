@@ -255,8 +255,9 @@ pub enum SimError {
         steps: u64,
     },
     /// A skate with friction switched between sticking and sliding
-    /// [`crate::events::CHATTER_STEPS`] times in a row, each within
-    /// [`crate::simulate::SLIP_CHATTER_GAP`] steps of the last, or its
+    /// [`crate::events::CHATTER_STEPS`] times in a row at ever shorter
+    /// intervals or, with a fixed step, every few steps
+    /// ([`crate::friction::SwitchStreak`]), or its
     /// modes found no rest at one instant ([`crate::friction`]): the force
     /// that holds it sits at its limit `mu N`, so the run stops instead of
     /// switching without end.
@@ -265,7 +266,7 @@ pub enum SimError {
         if *switches == 0 {
             format!("skates `{skate}`: no choice of sticking and sliding is consistent at t = {} s (a Coulomb contact problem without a solution there)", fmt_value(*t0))
         } else {
-            format!("skate `{skate}` chatters between sticking and sliding: {switches} switches a few steps apart from t = {} s to t = {} s", fmt_value(*t0), fmt_value(*t1))
+            format!("skate `{skate}` chatters between sticking and sliding: {switches} switches at ever shorter intervals or a few steps apart from t = {} s to t = {} s", fmt_value(*t0), fmt_value(*t1))
         }
     )]
     SlipChattering {

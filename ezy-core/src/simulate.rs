@@ -7,6 +7,7 @@ use std::time::{Duration, Instant};
 use crate::dynamics::NEAR_SINGULAR;
 use crate::dynamics::{Counters, Dynamics};
 use crate::events::{Crossing, Monitor};
+use crate::friction::{MarginSample, MarginScan};
 use crate::guard::{EnergyGuard, GROWTH_LIMIT, Verdict, drift_note};
 use crate::integrator::Rhs;
 use crate::integrator::adaptive::{Controller, initial_step};
@@ -466,13 +467,21 @@ struct Run<'a, M: Model, O: Observer<M>> {
     skip: std::cell::Cell<(f64, f64)>,
 }
 
-/// Switches of one skate at most this many accepted steps apart count as
-/// one streak; [`crate::events::CHATTER_STEPS`] of them in a row are
-/// chattering ([`SimError::SlipChattering`]): a skate whose mode flips
-/// every few steps for that long sits at its friction limit at the
-/// step's resolution (a discontinuous force driving it back and forth,
-/// a holding force at `mu N`), not in a motion the steps resolve.
+/// Firings of one switching event, or with a fixed step switches of one
+/// skate, at most this many accepted steps apart count as one streak;
+/// [`crate::events::CHATTER_STEPS`] of them in a row are chattering
+/// ([`SimError::Chattering`], [`SimError::SlipChattering`]). (An adaptive
+/// run's skate switches count by their intervals instead,
+/// [`crate::friction::SwitchStreak`]: its margin is scanned inside every
+/// step, so a fast stick-slip motion is resolved with few steps between
+/// switches.)
 pub const SLIP_CHATTER_GAP: u64 = 8;
+
+/// Cuts of a step at a skate's switch in a row that each move the run on
+/// by rounding only after which it stops ([`SimError::SlipChattering`]):
+/// the skates' modes found at the cut are consistent by their rates, yet
+/// the margin falls below zero at once.
+const STALLED_CUTS: u32 = 16;
 
 /// The watch on what switches the run's forces or rows: the skates with
 /// friction ([`crate::friction`]: each one's margin) and then the events
@@ -482,11 +491,31 @@ pub const SLIP_CHATTER_GAP: u64 = 8;
 struct SlipWatch {
     left: Vec<f64>,
     right: Vec<f64>,
-    /// The skates' margins (one per skate).
+    /// The time of `left` \[s\].
+    t_left: f64,
+    /// The skates' margin rates at `left` and `right` (one per skate).
+    left_rate: Vec<f64>,
+    right_rate: Vec<f64>,
+    /// The smallest margin that counts as a violation, per skate
+    /// ([`Dynamics::slip_tolerances`]).
+    eps: Vec<f64>,
+    /// Per skate: whether its margin needs a look inside the step
+    /// ([`crate::friction::margin_suspect`]).
+    suspect: Vec<bool>,
+    /// The skates' margins and rates (one per skate).
     scratch: Vec<f64>,
+    scratch_rate: Vec<f64>,
+    /// The longest next step after a step cut where a margin was no longer
+    /// resolved ([`crate::friction::MarginScan::Unresolved`]) \[s\].
+    h_max: Option<f64>,
+    /// Cuts in a row that moved the run on by rounding only.
+    stalls: u32,
     /// Per skate, then per switch event: `(steps in a row with a switch,
-    /// when they began, the step count at its last switch)`.
+    /// when they began, the step count at its last switch)` (the skates'
+    /// entries unused: [`SlipWatch::skate_streaks`]).
     streaks: Vec<(u64, f64, u64)>,
+    /// Per skate: its switches at ever shorter intervals.
+    skate_streaks: Vec<crate::friction::SwitchStreak>,
     /// The switch events: indices into [`Dynamics::events`].
     switches: Vec<usize>,
     /// Per skate, then per switch event: where it crossed in the step
@@ -505,7 +534,7 @@ impl SlipWatch {
     fn crossing<M: Model>(&self, sys: &Dynamics<M>, k: usize) -> Option<bool> {
         let (l, r, nf) = (self.left[k], self.right[k], sys.friction.len());
         if k < nf {
-            (l > 0.0 && r <= 0.0).then_some(true)
+            self.suspect[k].then_some(true)
         } else {
             sys.events[self.switches[k - nf]].direction.crossing(l, r)
         }
@@ -607,32 +636,35 @@ impl<'a, M: Model, O: Observer<M>> Run<'a, M, O> {
         Ok(stop)
     }
 
-    /// Whether a skate's mode stopped holding in the accepted step ending
-    /// at `t_new` with the full state `y_new` (its margin fell through
-    /// zero, [`crate::friction::SkateFriction::margin`]): the margins at
-    /// the end from the last right-hand side if `evaluated` (it was at
-    /// `y_new`), else from one evaluation. A step without moves the
+    /// Whether a skate's mode may have stopped holding in the accepted
+    /// step ending at `t_new` with the full state `y_new`, or a switching
+    /// event fired: a skate's margin
+    /// ([`crate::friction::SkateFriction::margin`]) and its rate at the
+    /// step's ends leave a violation inside the step possible
+    /// ([`crate::friction::margin_suspect`]: it ends below zero, or comes
+    /// within the step's travel of it), so the step's continuous extension
+    /// is to be scanned ([`Run::locate_slip`]). A step without moves the
     /// margins on.
     ///
     /// # Errors
     /// As [`Dynamics::rhs`].
-    fn slip_crossed(
-        &mut self,
-        sys: &mut Dynamics<M>,
-        t_new: f64,
-        y_new: &[f64],
-        evaluated: bool,
-    ) -> Result<bool, SimError> {
-        let w = &mut self.slip;
-        if w.left.is_empty() {
+    fn slip_crossed(&mut self, sys: &mut Dynamics<M>, t_new: f64, y_new: &[f64]) -> Result<bool, SimError> {
+        if self.slip.left.is_empty() {
             return Ok(false);
         }
+        let rtol = if self.settings.method.is_adaptive() { self.settings.rtol } else { 0.0 };
+        let w = &mut self.slip;
         let nf = sys.friction.len();
-        if nf == 0 {
-        } else if evaluated {
-            sys.slip_margins(&mut w.right[..nf]);
-        } else {
-            sys.slip_margins_at(t_new, y_new, &mut w.right[..nf])?;
+        if nf > 0 {
+            let h = t_new - w.t_left;
+            sys.slip_samples_at(t_new, h, y_new, &mut w.right[..nf], &mut w.right_rate)?;
+            let nq = sys.nq();
+            sys.slip_tolerances(&y_new[nq..2 * nq], rtol, &mut w.eps);
+            for k in 0..nf {
+                let a = MarginSample { t: w.t_left, m: w.left[k], r: w.left_rate[k] };
+                let b = MarginSample { t: t_new, m: w.right[k], r: w.right_rate[k] };
+                w.suspect[k] = crate::friction::margin_suspect(&a, &b, w.eps[k]);
+            }
         }
         for (j, &k) in w.switches.iter().enumerate() {
             w.right[nf + j] = sys.events[k].value(sys, t_new, y_new, &mut w.values);
@@ -640,14 +672,20 @@ impl<'a, M: Model, O: Observer<M>> Run<'a, M, O> {
         let crossed = (0..w.left.len()).any(|k| w.crossing(sys, k).is_some());
         if !crossed {
             std::mem::swap(&mut w.left, &mut w.right);
+            std::mem::swap(&mut w.left_rate, &mut w.right_rate);
+            w.t_left = t_new;
         }
         Ok(crossed)
     }
 
     /// The earliest time in `(t, t_new]` at which a skate's margin falls
-    /// through zero ([`Run::slip_crossed`]), located on the step's
-    /// continuous extension `interpolate(sys, t, y)` (full states) as an
-    /// event's crossing is ([`crate::events::locate`]).
+    /// through zero or a switching event fires ([`Run::slip_crossed`]),
+    /// located on the step's continuous extension `interpolate(sys, t, y)`
+    /// (full states): each suspect skate's margin scanned
+    /// ([`crate::friction::scan_margin`]) and its first violation located
+    /// as an event's crossing is ([`crate::events::locate`]). A margin the
+    /// step does not resolve cuts it where it last was (no switch there),
+    /// and limits the next steps ([`SlipWatch::h_max`]).
     ///
     /// # Errors
     /// As [`Dynamics::rhs`], and as `interpolate`.
@@ -662,6 +700,7 @@ impl<'a, M: Model, O: Observer<M>> Run<'a, M, O> {
         let (w, nf) = (&mut self.slip, sys.friction.len());
         w.times.fill(f64::INFINITY);
         w.full.resize(sys.ny(), 0.0);
+        let h = t_new - t;
         for k in 0..w.left.len() {
             if w.crossing(sys, k).is_none() {
                 continue;
@@ -669,13 +708,32 @@ impl<'a, M: Model, O: Observer<M>> Run<'a, M, O> {
             let (l, r) = (w.left[k], w.right[k]);
             let x = &mut w.full;
             let te = if k < nf {
-                let margins = &mut w.scratch;
-                let g = |tau: f64| -> Result<f64, SimError> {
-                    interpolate(sys, tau, x)?;
-                    sys.slip_margins_at(tau, x, margins)?;
-                    Ok(margins[k])
-                };
-                crate::events::locate(g, t, l, t_new, r)?
+                let (margins, rates) = (&mut w.scratch, &mut w.scratch_rate);
+                let a = MarginSample { t, m: l, r: w.left_rate[k] };
+                let b = MarginSample { t: t_new, m: r, r: w.right_rate[k] };
+                let scan =
+                    crate::friction::scan_margin(a, b, w.eps[k], |tau: f64| -> Result<MarginSample, SimError> {
+                        interpolate(sys, tau, x)?;
+                        sys.slip_samples_at(tau, h, x, margins, rates)?;
+                        Ok(MarginSample { t: tau, m: margins[k], r: rates[k] })
+                    })?;
+                match scan {
+                    MarginScan::Holds => continue,
+                    MarginScan::Unresolved { at, h_max } => {
+                        t_switch = t_switch.min(at);
+                        w.h_max = Some(w.h_max.map_or(h_max, |m| m.min(h_max)));
+                        continue;
+                    }
+                    MarginScan::Crosses { lo, hi } => {
+                        let g = |tau: f64| -> Result<f64, SimError> {
+                            interpolate(sys, tau, x)?;
+                            sys.slip_margins_at(tau, x, margins)?;
+                            Ok(margins[k])
+                        };
+                        // a start within rounding of zero counts as holding
+                        crate::events::locate(g, lo.t, lo.m.max(f64::MIN_POSITIVE), hi.t, hi.m.min(-0.0))?
+                    }
+                }
             } else {
                 let (sys, values) = (&*sys, &mut w.values);
                 let e = &sys.events[w.switches[k - nf]];
@@ -687,6 +745,19 @@ impl<'a, M: Model, O: Observer<M>> Run<'a, M, O> {
             };
             w.times[k] = te;
             t_switch = t_switch.min(te);
+        }
+        // a cut that moves the run on by rounding only, again and again
+        // (a margin that falls below zero at once in the mode the skates
+        // settle back into) would loop without end: refused
+        if t_switch < t_new && t_switch - t <= 1e-12 * t.abs().max(1.0) {
+            w.stalls += 1;
+            if w.stalls >= STALLED_CUTS {
+                let k = (0..nf).find(|&k| w.times[k] == t_switch).unwrap_or(0);
+                let skate = sys.friction.get(k).map_or_else(String::new, |f| f.name.clone());
+                return Err(SimError::SlipChattering { skate, t0: t, t1: t, switches: 0 });
+            }
+        } else {
+            w.stalls = 0;
         }
         Ok(t_switch)
     }
@@ -729,10 +800,10 @@ impl<'a, M: Model, O: Observer<M>> Run<'a, M, O> {
         for &(k, old, new) in &switches {
             let fr = &sys.friction[k];
             self.monitor.record(&fr.transition_name(old), t, new.is_sliding(), y)?;
-            let s = &mut self.slip.streaks[k];
-            *s = if s.0 > 0 && step <= s.2 + SLIP_CHATTER_GAP { (s.0 + 1, s.1, step) } else { (1, t, step) };
-            if s.0 >= crate::events::CHATTER_STEPS {
-                let (skate, t0, switches) = (fr.name.clone(), s.1, s.0);
+            let s = &mut self.slip.skate_streaks[k];
+            let fixed = (!self.settings.method.is_adaptive()).then_some(SLIP_CHATTER_GAP as f64 * self.settings.dt);
+            if s.record(t, fixed) >= crate::events::CHATTER_STEPS {
+                let (skate, t0, switches) = (fr.name.clone(), s.since, s.count);
                 return Err(SimError::SlipChattering { skate, t0, t1: t, switches }.into());
             }
         }
@@ -745,8 +816,9 @@ impl<'a, M: Model, O: Observer<M>> Run<'a, M, O> {
             self.proj.project(&sys.model, t, q, &mut rest[..nq])?;
         }
         let w = &mut self.slip;
+        w.t_left = t;
         if nf > 0 {
-            sys.slip_margins_at(t, y, &mut w.left[..nf])?;
+            sys.slip_samples_at(t, self.last_step.max(t * f64::EPSILON), y, &mut w.left[..nf], &mut w.left_rate)?;
         }
         for (j, &k) in w.switches.iter().enumerate() {
             let g = sys.events[k].value(sys, t, y, &mut w.values);
@@ -1845,9 +1917,15 @@ fn simulate_erased<M: Model>(
         w.switches = (0..sys.events.len()).filter(|&k| sys.events[k].action == crate::events::Action::Switch).collect();
         let n = nf + w.switches.len();
         (w.left, w.right, w.scratch, w.streaks) = (vec![0.0; n], vec![0.0; n], vec![0.0; nf], vec![(0, 0.0, 0); n]);
+        (w.left_rate, w.right_rate, w.scratch_rate, w.eps) =
+            (vec![0.0; nf], vec![0.0; nf], vec![0.0; nf], vec![0.0; nf]);
+        w.suspect = vec![false; nf];
+        w.skate_streaks = vec![Default::default(); nf];
         w.times = vec![f64::INFINITY; n];
+        w.t_left = run.t_start;
         if nf > 0 {
-            sys.slip_margins_at(0.0, y0, &mut w.left[..nf])?;
+            let h = settings.dt.min(settings.t_end - run.t_start).max(f64::EPSILON);
+            sys.slip_samples_at(run.t_start, h, y0, &mut w.left[..nf], &mut w.left_rate)?;
         }
         for (j, &k) in w.switches.iter().enumerate() {
             w.left[nf + j] = sys.events[k].value(sys, 0.0, y0, &mut w.values);
@@ -2178,8 +2256,7 @@ fn fixed<M: Model, O: Observer<M>, F: Integrand<M>, S: FixedStep>(
             form.accept(run, sys, t_cur, t_next, x, h, false)?;
             let slipped = friction && {
                 form.eval(sys, t_next, x, &mut f_end)?;
-                let evaluated = form.solves_kkt();
-                run.slip_crossed(sys, t_next, form.accepted_full(x), evaluated)?
+                run.slip_crossed(sys, t_next, form.accepted_full(x))?
             };
             let mut t_end = t_next;
             if slipped {
@@ -2378,8 +2455,7 @@ fn adaptive<M: Model, O: Observer<M>, F: Integrand<M>, E: EmbeddedRk>(
         // a skate's switch cuts the step there (its state from the dense
         // output, projected), and the method restarts from it: k1 anew
         let mut t_new = t_new;
-        let evaluated = (projected || !E::FSAL_IN_ESTIMATE) && form.solves_kkt();
-        let slipped = run.slip_crossed(sys, t_new, form.accepted_full(&y_new), evaluated)?;
+        let slipped = run.slip_crossed(sys, t_new, form.accepted_full(&y_new))?;
         if slipped {
             stepper.prepare_dense(&mut Bound { sys, form }, t, y, &k1, h, &y_new, &k_new)?;
             let mut x = vec![0.0; ny];
@@ -2412,6 +2488,10 @@ fn adaptive<M: Model, O: Observer<M>, F: Integrand<M>, E: EmbeddedRk>(
                 return Ok(());
             }
             form.eval(sys, t_new, &y_new, &mut k_new)?;
+            // a margin the step did not resolve: the next ones shorter
+            if let Some(h_max) = run.slip.h_max.take() {
+                h_next = h_next.min(h_max);
+            }
         }
         // every 64 attempts, also when no output is due for long (tiny steps)
         if (run.summary.steps + run.summary.rejected).is_multiple_of(64) {
@@ -2462,7 +2542,7 @@ fn implicit<M: Model, O: Observer<M>>(
     let mut n_out: u64 = 1;
     while t < settings.t_end {
         let last = run.begin_attempt(t, &mut h, &mut stepper.stage_failure)?;
-        let h_next = match stepper.attempt(sys, &mut newton, t, y, &f, h, &mut y_new)? {
+        let mut h_next = match stepper.attempt(sys, &mut newton, t, y, &f, h, &mut y_new)? {
             Attempt::Rejected { h_next } => {
                 run.summary.rejected += 1;
                 h = h_next;
@@ -2478,7 +2558,7 @@ fn implicit<M: Model, O: Observer<M>>(
         // a skate's switch or a switching event cuts the step there (its
         // state from the collocation polynomial, projected); the method
         // restarts from it (see `adaptive`)
-        let slipped = run.slip_crossed(sys, t_new, &y_new, false)?;
+        let slipped = run.slip_crossed(sys, t_new, &y_new)?;
         if slipped {
             let t_switch = run.locate_slip(sys, (t, t_new), |_, t_out, out| {
                 interpolate(t_out, out);
@@ -2502,6 +2582,9 @@ fn implicit<M: Model, O: Observer<M>>(
                 return Ok(());
             }
             stepper.restart();
+            if let Some(h_max) = run.slip.h_max.take() {
+                h_next = h_next.min(h_max);
+            }
         }
         if (run.summary.steps + run.summary.rejected).is_multiple_of(64) {
             run.observer.progress(t_new);

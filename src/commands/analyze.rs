@@ -145,10 +145,21 @@ pub fn analyze_model<M: Model>(proto: &M, scene: &Scene, opts: &AnalyzeOptions) 
     }
     let (mut an, x0) = build(proto, scene, &ro.sets)?;
     // the continuation's parameter is checked before anything is written
+    // (its ends: a parameter that sizes a family changes the state, which
+    // a branch of one model cannot follow)
     if let Some((name, values)) = &opts.continuation {
-        let mut sets = ro.sets.clone();
-        sets.push((name.clone(), values[0]));
-        build(proto, scene, &sets).map_err(|e| Error::Input(format!("--continue {name}: {e}")))?;
+        for &value in [values[0], values[values.len() - 1]].iter() {
+            let mut sets = ro.sets.clone();
+            sets.push((name.clone(), value));
+            let (other, _) = build(proto, scene, &sets).map_err(|e| Error::Input(format!("--continue {name}: {e}")))?;
+            if other.nq() != an.nq() {
+                return Err(Error::Input(format!(
+                    "--continue {name}: at {name} = {value} the model has {} coordinates against {} at the start: a branch follows one model, so continue in a parameter that keeps its size",
+                    other.nq(),
+                    an.nq()
+                )));
+            }
+        }
     }
     Transaction::preflight(&ro.out)?;
     let mut timings = Vec::new();

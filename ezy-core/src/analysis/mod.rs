@@ -190,9 +190,11 @@ impl<M: Model> Analysis<M> {
     /// `x' = f(t, x)` (2 nq each).
     ///
     /// # Errors
-    /// [`AnalysisError::Numerics`] if the KKT system is singular at `x`;
-    /// [`AnalysisError::Sim`] if an effect fails.
+    /// As [`Analysis::check_state`]; [`AnalysisError::Numerics`] if the
+    /// KKT system is singular at `x`; [`AnalysisError::Sim`] if an effect
+    /// fails.
     pub fn rhs(&mut self, t: f64, x: &[f64]) -> Result<Vec<f64>, AnalysisError> {
+        self.check_state(x)?;
         let nq = self.nq();
         let p = self.point(t, x)?;
         let mut f = x[nq..2 * nq].to_vec();
@@ -217,9 +219,42 @@ impl<M: Model> Analysis<M> {
         dense::from_rows(nc, nq, &g)
     }
 
+    /// Checks that `x` is a state of the model: `2 nq` finite values, the
+    /// coordinates `q` then the velocities `qd`.
+    ///
+    /// # Errors
+    /// [`AnalysisError::Request`] naming the length or the first value
+    /// that is not finite (by its state name).
+    pub fn check_state(&self, x: &[f64]) -> Result<(), AnalysisError> {
+        let n = 2 * self.nq();
+        if x.len() != n {
+            return Err(AnalysisError::Request {
+                reason: format!(
+                    "a state of {} values given to a model of {n} (its {} coordinates q, then their velocities qd)",
+                    x.len(),
+                    n / 2
+                ),
+            });
+        }
+        if let Some(k) = x.iter().position(|v| !v.is_finite()) {
+            let name = self.state_names().get(k).cloned().unwrap_or_default();
+            return Err(AnalysisError::Request { reason: format!("the state's `{name}` is {}: not a number", x[k]) });
+        }
+        Ok(())
+    }
+
     /// The constraint residuals at `(t, x)`: `phi(q)` less the drives'
     /// angles (nh), then `G(q) qd` less the drives' rates (nc).
-    pub fn constraint_residual(&self, t: f64, x: &[f64]) -> Vec<f64> {
+    ///
+    /// # Errors
+    /// As [`Analysis::check_state`].
+    pub fn constraint_residual(&self, t: f64, x: &[f64]) -> Result<Vec<f64>, AnalysisError> {
+        self.check_state(x)?;
+        Ok(self.residual_at(t, x))
+    }
+
+    /// [`Analysis::constraint_residual`] of a state known to fit.
+    pub(crate) fn residual_at(&self, t: f64, x: &[f64]) -> Vec<f64> {
         let info = &self.sys.info;
         let (nq, nh, nc) = (self.nq(), info.n_holonomic, info.nc());
         let (q, qd) = (&x[..nq], &x[nq..2 * nq]);

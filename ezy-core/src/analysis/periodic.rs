@@ -189,6 +189,7 @@ impl<M: Model> Analysis<M> {
                 reason: format!("the guess has {} components; the model needs 2 nq = {n2}", guess.len()),
             });
         }
+        self.check_state(guess)?;
         let bodies = self.bodies().to_vec();
         let gens = symmetry.generators();
         let k = gens.len();
@@ -208,7 +209,7 @@ impl<M: Model> Analysis<M> {
         let residual = |this: &Self, x0: &[f64], xt: &[f64], p: &[f64]| {
             let h = symmetry.pose(p);
             let mut r: Vec<f64> = xt.iter().zip(act(&bodies, h, x0)).map(|(a, b)| a - b).collect();
-            r.extend(this.constraint_residual(t0, x0));
+            r.extend(this.residual_at(t0, x0));
             r
         };
         let mut r = residual(self, &x0, &xt, &p);

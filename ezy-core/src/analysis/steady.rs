@@ -147,7 +147,7 @@ impl<M: Model> Analysis<M> {
                     *ri -= c * v;
                 }
             }
-            r.extend(this.constraint_residual(t, x));
+            r.extend(this.residual_at(t, x));
             if let Some(e) = energy {
                 r.push(this.sys.kinetic_energy(&x[x.len() / 2..]) - e);
             }

@@ -248,6 +248,7 @@ impl<M: Model> Analysis<M> {
     /// # Errors
     /// As [`Analysis::rhs`].
     pub fn symmetry(&mut self, t: f64, x: &[f64]) -> Result<Symmetry, AnalysisError> {
+        self.check_state(x)?;
         let nq = self.nq();
         let perturbed: Vec<f64> =
             x.iter()
@@ -266,8 +267,7 @@ impl<M: Model> Analysis<M> {
                 // a hinge's residual is a vector that turns with the
                 // motion: compare lengths
                 let length = |r: Vec<f64>| r.iter().map(|v| v * v).sum::<f64>().sqrt();
-                let (r0, r1) =
-                    (length(self.constraint_residual(t, state)), length(self.constraint_residual(t, &moved)));
+                let (r0, r1) = (length(self.residual_at(t, state)), length(self.residual_at(t, &moved)));
                 let scale = 1.0 + state.iter().fold(0.0f64, |m, v| m.max(v.abs()));
                 if (r0 - r1).abs() > 1e-10 * scale {
                     return Ok(false);
