@@ -369,3 +369,59 @@ fn an_infinite_initial_state_is_not_blamed_on_the_step() {
         assert!(e.contains("no step size helps") && !e.contains("smaller --dt"), "{e}");
     }
 }
+
+/// The library's `Problem::solve` keeps its samples in memory: a run whose
+/// samples would take more than its budget (1,000 MB by default) is
+/// refused before it starts, with the size and the setting that raises it
+/// (it used to fill the memory and abort: `t_end(1e300)`, `every(1e-9)`).
+#[test]
+fn library_runs_size_their_samples_before_taking_memory() {
+    use ezy::models::ChaplyginSleigh;
+    use ezy_core::{Method, Problem, SimError};
+    let sleigh = || {
+        Problem::new(ChaplyginSleigh::default())
+            .q("x", 0.0)
+            .and_then(|p| p.q("y", 0.0))
+            .and_then(|p| p.q("phi", 0.0))
+            .and_then(|p| p.qd("x", 1.0))
+            .and_then(|p| p.qd("phi", 1.0))
+            .unwrap()
+            .method(Method::Dop853)
+    };
+    let cases = [
+        (sleigh().t_end(1e300), "1e302 samples of 6 values to t_end = 1e300 s", "no budget makes this feasible"),
+        // (the setting spelled as the library's field, or as the command
+        // line's flag where a test in this process ran the command line)
+        (sleigh().t_end(10.0).every(1e-9), "1e10 samples", "max_output_mb` to 881000"),
+    ];
+    for (p, rows, advice) in cases {
+        match p.solve() {
+            Err(e @ SimError::Budget { .. }) => {
+                let text = e.to_string();
+                assert!(text.contains(rows) && text.contains("MB of samples in memory"), "{text}");
+                let flag = advice.replace("max_output_mb` to", "--max-output-mb");
+                assert!(text.contains(advice) || text.contains(&flag), "{text}");
+            }
+            other => panic!("expected a budget error, got {:?}", other.map(|s| s.t.len())),
+        }
+    }
+    // a budget given is kept; within it the run goes on
+    let s = sleigh().t_end(1.0).every(1e-4).max_output_mb(10.0).solve().unwrap();
+    assert!((10_001..=10_002).contains(&s.t.len()), "{}", s.t.len());
+    assert!(matches!(sleigh().t_end(1.0).every(1e-5).max_output_mb(1.0).solve(), Err(SimError::Budget { .. })));
+}
+
+/// The analyses solve and differentiate densely: a snake of 10,000 links
+/// (30,000 coordinates) asked 7 GB and more of `linearize` and `analyze`,
+/// which aborted. Under a 4 GB cap both are refused with the size, before
+/// any matrix is taken.
+#[test]
+fn analyses_size_their_dense_matrices_first() {
+    let dir = tempfile::tempdir().unwrap();
+    for command in ["linearize", "analyze"] {
+        let o = bounded(dir.path(), &[command, "snake", "--set", "N=10000", "--out", "an"], 300);
+        let err = refused(&o, &["dense matrices", "GB each", "a family's size"]);
+        assert!(!err.contains("memory allocation"), "{command}: {err}");
+    }
+    assert!(!dir.path().join("an").exists());
+}

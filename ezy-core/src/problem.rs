@@ -85,7 +85,15 @@ pub struct Problem<M: Model> {
     pub kkt: KktMethod,
     /// The events the run locates, records or stops at ([`crate::events`]).
     pub events: Vec<Event>,
+    /// The most memory [`Problem::solve`] keeps its samples in \[MB\]
+    /// (default [`DEFAULT_MAX_MEMORY_MB`]); [`Problem::solve_with`] leaves
+    /// the samples to its observer and has none.
+    pub max_output_mb: f64,
 }
+
+/// The default of [`Problem::max_output_mb`] \[MB\] (as `ezy run`'s output
+/// budget).
+pub const DEFAULT_MAX_MEMORY_MB: f64 = 1000.0;
 
 /// The result of [`Problem::solve`]: the samples in memory.
 #[derive(Debug, Clone)]
@@ -211,7 +219,16 @@ impl<M: Model> Problem<M> {
             baumgarte: None,
             kkt: KktMethod::Auto,
             events: Vec::new(),
+            max_output_mb: DEFAULT_MAX_MEMORY_MB,
         }
+    }
+
+    /// Sets the memory [`Problem::solve`] may keep its samples in \[MB\]:
+    /// a run whose samples (one every `every` to `t_end`) would take more
+    /// is refused before it starts.
+    pub fn max_output_mb(mut self, mb: f64) -> Self {
+        self.max_output_mb = mb;
+        self
     }
 
     fn check_effect_name(&self, name: &str) -> Result<(), SimError> {
@@ -527,11 +544,29 @@ impl<M: Model> Problem<M> {
     /// Integrates the problem and keeps every output sample in memory.
     ///
     /// # Errors
-    /// As [`Problem::initial_state`]; the [`SimError`] that stopped the
-    /// run (a bad setting, a singular position the method cannot pass, a
-    /// step budget spent, a diverging run).
+    /// As [`Problem::initial_state`]; [`SimError::Budget`] before any
+    /// work when the samples would take more than
+    /// [`Problem::max_output_mb`]; the [`SimError`] that stopped the run
+    /// (a bad setting, a singular position the method cannot pass, a step
+    /// budget spent, a diverging run).
     pub fn solve(self) -> Result<Solution, SimError> {
         let names = self.state_names();
+        // each sample: its time, its kinetic energy, a row of the state
+        let rows = self.settings.output_rows();
+        let mb = rows * (8.0 * names.len() as f64 + 40.0) / 1e6;
+        if mb.is_nan() || self.max_output_mb.is_nan() || mb > self.max_output_mb {
+            return Err(SimError::Budget {
+                what: "MB of samples in memory",
+                estimate: mb,
+                limit: self.max_output_mb,
+                setting: crate::error::Setting::MaxOutputMb,
+                detail: format!("{rows:.2e} samples of {} values to t_end = {} s", names.len(), {
+                    let t = self.settings.t_end;
+                    if (1e-3..1e6).contains(&t.abs()) { format!("{t}") } else { format!("{t:e}") }
+                })
+                .replace(".00e", "e"),
+            });
+        }
         let mut out = Collect { t: Vec::new(), y: Vec::new(), kinetic_energy: Vec::new() };
         let (summary, initial) = self.solve_with(&mut out).map_err(|e| match e {
             RunError::Sim(e) => e,

@@ -162,6 +162,18 @@ impl RunSettings {
         ((self.t_end / self.dt) - 1e-9).ceil().max(1.0) as u64
     }
 
+    /// How many samples a run observes at most: one every `every` \[s\]
+    /// to `t_end`, the start and the end (with a fixed step, on its grid).
+    /// Computed in floating point, so that a request of `1e300` rows is
+    /// sized before anything is allocated for it.
+    pub fn output_rows(&self) -> f64 {
+        if self.method.is_adaptive() {
+            (self.t_end / self.every).floor() + 2.0
+        } else {
+            (self.t_end / self.dt).ceil() / (self.every / self.dt).round().max(1.0) + 2.0
+        }
+    }
+
     /// Steps between outputs.
     pub fn output_stride(&self) -> u64 {
         ((self.every / self.dt).round() as u64).max(1)

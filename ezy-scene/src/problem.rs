@@ -109,6 +109,7 @@ impl Scene {
             baumgarte: None,
             kkt: KktMethod::Auto,
             events: Vec::new(),
+            max_output_mb: ezy_core::problem::DEFAULT_MAX_MEMORY_MB,
         };
         let problem = scene.events.iter().try_fold(problem, |p, (name, e)| p.event(name, e))?;
         Ok((problem, scene))

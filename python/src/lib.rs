@@ -154,12 +154,24 @@ struct Overrides {
     t_end: Option<f64>,
     every: Option<f64>,
     max_steps: Option<u64>,
+    max_output_mb: Option<f64>,
 }
 
 impl Overrides {
     /// The keywords `run` and `sweep` take for settings.
-    const KEYWORDS: [&str; 10] =
-        ["set", "integrator", "formulation", "projection", "rtol", "atol", "dt", "t_end", "every", "max_steps"];
+    const KEYWORDS: [&str; 11] = [
+        "set",
+        "integrator",
+        "formulation",
+        "projection",
+        "rtol",
+        "atol",
+        "dt",
+        "t_end",
+        "every",
+        "max_steps",
+        "max_output_mb",
+    ];
 
     /// A `Scene` object's `sets`, then the keywords `settings` of a call
     /// to `function` (their `set` after the object's).
@@ -182,6 +194,13 @@ impl Overrides {
                 "t_end" => o.t_end = Some(number()?),
                 "every" => o.every = Some(number()?),
                 "max_steps" => o.max_steps = Some(v.extract().map_err(|_| bad("a whole number >= 0"))?),
+                "max_output_mb" => {
+                    let mb = number()?;
+                    if !(mb.is_finite() && mb > 0.0) {
+                        return Err(bad("a positive number of MB"));
+                    }
+                    o.max_output_mb = Some(mb);
+                }
                 _ => {
                     return Err(pyo3::exceptions::PyTypeError::new_err(format!(
                         "{function}() got an unexpected keyword `{key}`; its settings: {}",
@@ -208,6 +227,7 @@ impl Overrides {
             t_end: self.t_end,
             every: self.every,
             max_steps: self.max_steps,
+            max_output_mb: self.max_output_mb,
             ..RunOptions::default()
         })
     }
@@ -338,7 +358,8 @@ impl Toolkit {
     /// `set={"M0": 1.0, "motor.amplitude": 3.0}`, `integrator` ("rk4",
     /// "dopri5", "dop853", "radau5"), `formulation` ("auto", "dae",
     /// "reduced"), `projection`, `rtol`, `atol`, `dt` [s], `t_end` [s],
-    /// `every` [s] (output interval), `max_steps`.
+    /// `every` [s] (output interval), `max_steps`, `max_output_mb` (the
+    /// output budget [MB], as the command line's `--max-output-mb`).
     ///
     /// Raises EzyError naming the bad setting, parameter or scene key;
     /// KeyboardInterrupt on Ctrl-C (the run stops within a step).

@@ -166,6 +166,17 @@ def test_ctrl_c_stops_a_run_within_a_second():
     assert ezy.run("drive", **RUN).data.shape[0] == 21
 
 
+def test_the_output_budget_an_error_advises_can_be_passed():
+    with pytest.raises(ezy.EzyError, match="max.output.mb") as e:
+        ezy.run("drive", integrator="dop853", every=1e-6, t_end=60.0)
+    assert "MB of output" in str(e.value)
+    with pytest.raises(ezy.EzyError, match="MB of output"):
+        ezy.run("drive", every=0.001, t_end=60.0, max_output_mb=0.01)
+    assert ezy.run("drive", every=0.1, t_end=1.0, max_output_mb=1.0).data.shape[0] == 11
+    with pytest.raises(ValueError, match="max_output_mb"):
+        ezy.run("drive", max_output_mb=float("nan"))
+
+
 def test_a_sweep_is_a_dataframe_of_the_runs():
     df = ezy.sweep("drive", {"M0": [1.0, 2.0, 3.0]}, metrics=["final(T)"], jobs=1, **RUN)
     assert list(df["M0"]) == [1.0, 2.0, 3.0] and list(df["status"]) == ["ok"] * 3

@@ -70,6 +70,8 @@ pub struct AnalyzeReport {
 fn build<M: Model>(proto: &M, scene: &Scene, sets: &[(String, f64)]) -> Result<(Analysis<M>, Vec<f64>), Error> {
     let (problem, _) = scene.problem_with(proto.clone(), sets)?;
     let (mut an, x0) = problem.analysis()?;
+    // a model too large for the dense matrices is refused before any run
+    an.check_size().map_err(|e| Error::Input(e.to_string()))?;
     an.stop_when(|| crate::transaction::pending().is_some());
     Ok((an, x0))
 }

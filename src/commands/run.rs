@@ -611,11 +611,7 @@ fn report_html<M: Model>(
 /// # Errors
 /// [`SimError::Budget`] with the estimate and the flag that raises the cap.
 pub fn output_budget(settings: &RunSettings, columns: usize, max_mb: f64) -> Result<(), SimError> {
-    let rows = if settings.method.is_adaptive() {
-        (settings.t_end / settings.every).floor() + 2.0
-    } else {
-        (settings.t_end / settings.dt).ceil() / (settings.every / settings.dt).round().max(1.0) + 2.0
-    };
+    let rows = settings.output_rows();
     let mb = rows * columns as f64 * BYTES_PER_VALUE / 1e6;
     if mb > max_mb {
         return Err(SimError::Budget {

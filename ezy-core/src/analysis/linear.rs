@@ -87,6 +87,7 @@ impl<M: Model> Analysis<M> {
     /// have; [`AnalysisError::Numerics`] if the KKT system is singular at
     /// `x`; [`AnalysisError::Sim`] if an effect fails.
     pub fn linearize(&mut self, t: f64, x: &[f64], inputs: &[Input]) -> Result<Linearization, AnalysisError> {
+        self.check_size()?;
         let nq = self.nq();
         if x.len() != 2 * nq {
             return Err(AnalysisError::Request {

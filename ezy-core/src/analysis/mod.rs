@@ -103,6 +103,12 @@ pub enum AnalysisError {
     },
 }
 
+/// Most bytes one dense matrix of an analysis may take (1 GB): the
+/// analyses solve the KKT system and form Jacobians densely, so a model
+/// beyond about 11,000 coordinates and constraints is refused
+/// ([`Analysis::check_size`]) before the memory is taken.
+pub const MAX_DENSE_BYTES: f64 = 1e9;
+
 /// A model with its effects and drives, ready for the analyses: the
 /// right-hand side of a run ([`Dynamics`]) seen as `x' = f(t, x)`.
 ///
@@ -219,13 +225,38 @@ impl<M: Model> Analysis<M> {
         dense::from_rows(nc, nq, &g)
     }
 
+    /// Checks that the model is small enough for the analyses' dense
+    /// matrices: the KKT matrix `(nq + nc)^2` and the state Jacobian
+    /// `(2 nq)^2`, each at most [`MAX_DENSE_BYTES`].
+    ///
+    /// # Errors
+    /// [`AnalysisError::Request`] with the size it would take.
+    pub fn check_size(&self) -> Result<(), AnalysisError> {
+        let (nq, nc) = (self.nq(), self.sys.info.nc());
+        let n = (nq + nc).max(2 * nq);
+        let bytes = 8.0 * n as f64 * n as f64;
+        if bytes > MAX_DENSE_BYTES {
+            return Err(AnalysisError::Request {
+                reason: format!(
+                    "the analyses hold dense matrices of {n} x {n} values for a model of {nq} coordinates and {nc} constraints: {:.1} GB each, more than the {:.1} GB they may take (a family's size sets it: analyse a smaller one)",
+                    bytes / 1e9,
+                    MAX_DENSE_BYTES / 1e9
+                ),
+            });
+        }
+        Ok(())
+    }
+
     /// Checks that `x` is a state of the model: `2 nq` finite values, the
-    /// coordinates `q` then the velocities `qd`.
+    /// coordinates `q` then the velocities `qd` (and that the model fits
+    /// the analyses, [`Analysis::check_size`]).
     ///
     /// # Errors
     /// [`AnalysisError::Request`] naming the length or the first value
-    /// that is not finite (by its state name).
+    /// that is not finite (by its state name); as
+    /// [`Analysis::check_size`].
     pub fn check_state(&self, x: &[f64]) -> Result<(), AnalysisError> {
+        self.check_size()?;
         let n = 2 * self.nq();
         if x.len() != n {
             return Err(AnalysisError::Request {

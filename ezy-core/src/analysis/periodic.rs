@@ -178,6 +178,7 @@ impl<M: Model> Analysis<M> {
         symmetry: Symmetry,
         settings: &PeriodicSettings,
     ) -> Result<PeriodicOrbit, AnalysisError> {
+        self.check_size()?;
         let n2 = 2 * self.nq();
         if !(period.is_finite() && period > 0.0) {
             return Err(AnalysisError::Request {

@@ -126,6 +126,7 @@ impl<M: Model> Analysis<M> {
         symmetry: Symmetry,
         energy: Option<f64>,
     ) -> Result<SteadyMotion, AnalysisError> {
+        self.check_size()?;
         let nq = self.nq();
         let n2 = 2 * nq;
         if guess.len() != n2 {
