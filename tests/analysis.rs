@@ -389,3 +389,32 @@ fn analyses_refuse_states_that_do_not_fit() {
     assert!(e.to_string().contains("`yd` is NaN"), "{e}");
     assert_eq!(an.constraint_residual(0.0, &x0).unwrap().len(), 1);
 }
+
+/// A branch in the forcing's frequency: each point's periodic orbit has
+/// its own forcing's period (it used to keep the first point's for every
+/// point, so the later ones were orbits of the wrong map), written in
+/// `branch.csv`'s `period` column; a `--period` that is not a whole
+/// number of the forcing's periods is refused.
+#[test]
+fn a_branch_in_the_forcing_frequency_takes_each_points_period() {
+    let out = fresh("branch-omega");
+    let (_, err, ok) =
+        ezy(&["analyze", "drive-rolling-resistance", "--continue", "motor.omega=3.0:3.3:3", "--no-figures"], &out);
+    assert!(ok, "{err}");
+    let (head, rows) = table(&out.join("branch.csv"));
+    let col = head.iter().position(|h| h == "period").expect("a period column");
+    assert_eq!(rows.len(), 3);
+    for r in &rows {
+        let (omega, period): (f64, f64) = (r[0].parse().unwrap(), r[col].parse().unwrap());
+        let want = 2.0 * std::f64::consts::PI / omega;
+        assert!((period - want).abs() < 1e-12 * want, "omega {omega}: period {period} against {want}");
+    }
+    let bad = fresh("branch-omega-bad");
+    let (_, err, ok) = ezy(&["analyze", "drive-rolling-resistance", "--period", "3", "--no-figures"], &bad);
+    assert!(!ok && err.contains("--period 3") && err.contains("forced with period 2 s"), "{err}");
+    let (_, err, ok) = ezy(&["analyze", "drive-rolling-resistance", "--period", "1e-300", "--no-figures"], &bad);
+    assert!(!ok && err.contains("whole number"), "{err}");
+    // a whole multiple is taken
+    let (_, err, ok) = ezy(&["analyze", "drive-rolling-resistance", "--period", "4", "--no-figures"], &bad);
+    assert!(ok, "{err}");
+}

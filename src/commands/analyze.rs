@@ -169,6 +169,21 @@ pub fn analyze_model<M: Model>(proto: &M, scene: &Scene, opts: &AnalyzeOptions) 
     let clock = Instant::now();
     let symmetry = an.symmetry(0.0, &x0).map_err(analysis_error(&ro.out))?;
     let period = match (opts.period, an.forcing()) {
+        // a periodic orbit of a forced scene repeats with a whole number
+        // of the forcing's periods
+        (Some(p), Some(Periodicity::Period(forcing))) => {
+            let m = p / forcing;
+            if m < 0.5 || (m - m.round()).abs() > 1e-9 * m {
+                return Err(Error::Input(format!(
+                    "--period {p}: scene `{}` is forced with period {} s, and a periodic orbit repeats with a whole number of them ({} s, {} s, ...)",
+                    scene.name,
+                    fmt_value(forcing),
+                    fmt_value(forcing),
+                    fmt_value(2.0 * forcing)
+                )));
+            }
+            Some(p)
+        }
         (Some(p), _) => Some(p),
         (None, Some(Periodicity::Constant)) => None,
         (None, Some(Periodicity::Period(p))) => Some(p),
@@ -179,11 +194,15 @@ pub fn analyze_model<M: Model>(proto: &M, scene: &Scene, opts: &AnalyzeOptions) 
             )));
         }
         (None, None) => {
-            let (a, b) = (
-                an.rhs(0.0, &x0).map_err(analysis_error(&ro.out))?,
-                an.rhs(0.7391, &x0).map_err(analysis_error(&ro.out))?,
-            );
-            if a.iter().zip(&b).any(|(u, v)| (u - v).abs() > 1e-10 * (1.0 + u.abs())) {
+            // at several times no ratio of which is simple: a law forced
+            // with one of these offsets as its period still shows
+            let a = an.rhs(0.0, &x0).map_err(analysis_error(&ro.out))?;
+            let mut changes = false;
+            for offset in [0.7391, 0.0531, 2.1913, 13.371] {
+                let b = an.rhs(offset, &x0).map_err(analysis_error(&ro.out))?;
+                changes |= a.iter().zip(&b).any(|(u, v)| (u - v).abs() > 1e-10 * (1.0 + u.abs()));
+            }
+            if changes {
                 return Err(Error::Input(format!(
                     "scene `{}` changes with time through a force law of its own, whose period ezy cannot see: give --period",
                     scene.name
@@ -479,12 +498,18 @@ pub fn branch_csv(name: &str, branch: &[BranchPoint], names: &[String], shape: &
         Solution::Periodic(p) => ("mu", p.multipliers.len()),
     };
     let mut head: Vec<String> = vec![name.to_string(), "stability".into(), "speed".into()];
+    if letter == "mu" {
+        head.push("period".into());
+    }
     head.extend(shape.iter().map(|s| s.0.clone()));
     head.extend(names.iter().cloned());
     head.extend(spectrum_header(letter, n));
     let mut out = row(head);
     for b in branch {
         let mut cells = vec![num(b.value), b.solution.stability().name().into(), num(b.solution.speed())];
+        if let Solution::Periodic(p) = &b.solution {
+            cells.push(num(p.period));
+        }
         cells.extend(shape_cells(shape, b.solution.state()));
         cells.extend(b.solution.state().iter().map(|v| num(*v)));
         cells.extend(spectrum_cells(match &b.solution {

@@ -47,7 +47,10 @@ pub enum Follow {
         /// The energy level, if fixed.
         energy: Option<f64>,
     },
-    /// Periodic orbits of this period \[s\] at phase `t0` \[s\].
+    /// Periodic orbits of this period \[s\] at phase `t0` \[s\]: at the
+    /// first point; where the forcing repeats with a known period, each
+    /// later point takes the same whole multiple of its own forcing's
+    /// period (a branch in a forcing frequency).
     Periodic {
         /// Phase.
         t0: f64,
@@ -88,6 +91,10 @@ pub fn follow<M: Model>(
     mut progress: impl FnMut(usize),
 ) -> (Vec<BranchPoint>, Option<(f64, AnalysisError)>) {
     let mut points: Vec<BranchPoint> = Vec::new();
+    // a periodic branch's period as a multiple of the forcing's, taken at
+    // the first point and kept: a parameter that changes the forcing's
+    // frequency changes each point's period with it
+    let mut multiple: Option<f64> = None;
     for (k, &value) in values.iter().enumerate() {
         progress(k);
         let guess: Vec<f64> = match &points[..] {
@@ -103,6 +110,12 @@ pub fn follow<M: Model>(
             match follow {
                 Follow::Steady { energy } => an.steady_motion(0.0, &guess, symmetry, energy).map(Solution::Steady),
                 Follow::Periodic { t0, period, settings } => {
+                    let period = match an.forcing() {
+                        Some(crate::effects::Periodicity::Period(forcing)) => {
+                            forcing * *multiple.get_or_insert_with(|| (period / forcing).round().max(1.0))
+                        }
+                        _ => period,
+                    };
                     an.periodic_orbit(t0, period, &guess, symmetry, &settings).map(Solution::Periodic)
                 }
             }
