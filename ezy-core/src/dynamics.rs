@@ -560,11 +560,26 @@ impl<M: Model> Dynamics<M> {
     pub fn slip_samples_at(&mut self, t: f64, h: f64, y: &[f64], m: &mut [f64], r: &mut [f64]) -> Result<(), SimError> {
         let mut probe = std::mem::take(&mut self.ws.probe);
         probe.resize(y.len(), 0.0);
-        let res = self.rhs(t, y, &mut probe);
-        if let Err(e) = res {
-            self.ws.probe = probe;
-            return Err(e);
-        }
+        let res = self.rhs(t, y, &mut probe).and_then(|()| self.slip_samples_after(t, h, y, &probe, m, r));
+        self.ws.probe = probe;
+        res
+    }
+
+    /// [`Dynamics::slip_samples_at`] right after [`Dynamics::rhs`] was
+    /// evaluated at `(t, y)` with the result `dy` (ny): that evaluation
+    /// not repeated.
+    ///
+    /// # Errors
+    /// As [`Dynamics::rhs`].
+    pub fn slip_samples_after(
+        &mut self,
+        t: f64,
+        h: f64,
+        y: &[f64],
+        dy: &[f64],
+        m: &mut [f64],
+        r: &mut [f64],
+    ) -> Result<(), SimError> {
         self.slip_margins(m);
         for (rate, fr) in r.iter_mut().zip(&self.friction) {
             *rate = match fr.mode {
@@ -577,21 +592,17 @@ impl<M: Model> Dynamics<M> {
             let (mut ahead, mut ahead_rhs) =
                 (std::mem::take(&mut self.ws.ahead), std::mem::take(&mut self.ws.ahead_rhs));
             ahead.clear();
-            ahead.extend(y.iter().zip(&probe).map(|(y, d)| y + delta * d));
+            ahead.extend(y.iter().zip(dy).map(|(y, d)| y + delta * d));
             ahead_rhs.resize(y.len(), 0.0);
             let res = self.rhs(t + delta, &ahead, &mut ahead_rhs);
             (self.ws.ahead, self.ws.ahead_rhs) = (ahead, ahead_rhs);
-            if let Err(e) = res {
-                self.ws.probe = probe;
-                return Err(e);
-            }
+            res?;
             for ((rate, fr), &m0) in r.iter_mut().zip(&self.friction).zip(m.iter()) {
                 if !fr.mode.is_sliding() {
                     *rate = (fr.margin(self.ws.lambda[fr.row]) - m0) / delta;
                 }
             }
         }
-        self.ws.probe = probe;
         Ok(())
     }
 

@@ -522,9 +522,9 @@ struct SlipWatch {
     h_max: Option<f64>,
     /// Cuts in a row that moved the run on by rounding only.
     stalls: u32,
-    /// Per skate, then per switch event: `(steps in a row with a switch,
-    /// when they began, the step count at its last switch)` (the skates'
-    /// entries unused: [`SlipWatch::skate_streaks`]).
+    /// Per switch event: `(steps in a row with a switch, when they began,
+    /// the step count at its last switch)` (the skates':
+    /// [`SlipWatch::skate_streaks`]).
     streaks: Vec<(u64, f64, u64)>,
     /// Per skate: its switches at ever shorter intervals.
     skate_streaks: Vec<crate::friction::SwitchStreak>,
@@ -655,12 +655,20 @@ impl<'a, M: Model, O: Observer<M>> Run<'a, M, O> {
     /// step's ends leave a violation inside the step possible
     /// ([`crate::friction::margin_suspect`]: it ends below zero, or comes
     /// within the step's travel of it), so the step's continuous extension
-    /// is to be scanned ([`Run::locate_slip`]). A step without moves the
+    /// is to be scanned ([`Run::locate_slip`]). `evaluated`: the
+    /// right-hand side `dy` the last evaluation found at `y_new` (the
+    /// DAE's), which is then not repeated. A step without moves the
     /// margins on.
     ///
     /// # Errors
     /// As [`Dynamics::rhs`].
-    fn slip_crossed(&mut self, sys: &mut Dynamics<M>, t_new: f64, y_new: &[f64]) -> Result<bool, SimError> {
+    fn slip_crossed(
+        &mut self,
+        sys: &mut Dynamics<M>,
+        t_new: f64,
+        y_new: &[f64],
+        evaluated: Option<&[f64]>,
+    ) -> Result<bool, SimError> {
         if self.slip.left.is_empty() {
             return Ok(false);
         }
@@ -669,7 +677,10 @@ impl<'a, M: Model, O: Observer<M>> Run<'a, M, O> {
         let nf = sys.friction.len();
         if nf > 0 {
             let h = t_new - w.t_left;
-            sys.slip_samples_at(t_new, h, y_new, &mut w.right[..nf], &mut w.right_rate)?;
+            match evaluated {
+                Some(dy) => sys.slip_samples_after(t_new, h, y_new, dy, &mut w.right[..nf], &mut w.right_rate)?,
+                None => sys.slip_samples_at(t_new, h, y_new, &mut w.right[..nf], &mut w.right_rate)?,
+            }
             let nq = sys.nq();
             sys.slip_tolerances(&y_new[nq..2 * nq], rtol, &mut w.eps);
             for k in 0..nf {
@@ -799,7 +810,7 @@ impl<'a, M: Model, O: Observer<M>> Run<'a, M, O> {
             let Some(rising) = w.crossing(sys, nf + j).filter(|_| w.times[nf + j] <= t) else { continue };
             let e = &sys.events[w.switches[j]];
             let (name, on, off) = (e.name.clone(), e.switch_on.clone(), e.switch_off.clone());
-            let s = &mut w.streaks[nf + j];
+            let s = &mut w.streaks[j];
             *s = if s.0 > 0 && step <= s.2 + SLIP_CHATTER_GAP { (s.0 + 1, s.1, step) } else { (1, t, step) };
             if s.0 >= crate::events::CHATTER_STEPS {
                 return Err(SimError::Chattering { event: name, t0: s.1, t1: t, steps: s.0 }.into());
@@ -1928,7 +1939,8 @@ fn simulate_erased<M: Model>(
         let (nf, w) = (sys.friction.len(), &mut run.slip);
         w.switches = (0..sys.events.len()).filter(|&k| sys.events[k].action == crate::events::Action::Switch).collect();
         let n = nf + w.switches.len();
-        (w.left, w.right, w.scratch, w.streaks) = (vec![0.0; n], vec![0.0; n], vec![0.0; nf], vec![(0, 0.0, 0); n]);
+        (w.left, w.right, w.scratch, w.streaks) =
+            (vec![0.0; n], vec![0.0; n], vec![0.0; nf], vec![(0, 0.0, 0); n - nf]);
         (w.left_rate, w.right_rate, w.scratch_rate, w.eps) =
             (vec![0.0; nf], vec![0.0; nf], vec![0.0; nf], vec![0.0; nf]);
         w.suspect = vec![false; nf];
@@ -2268,7 +2280,8 @@ fn fixed<M: Model, O: Observer<M>, F: Integrand<M>, S: FixedStep>(
             form.accept(run, sys, t_cur, t_next, x, h, false)?;
             let slipped = friction && {
                 form.eval(sys, t_next, x, &mut f_end)?;
-                run.slip_crossed(sys, t_next, form.accepted_full(x))?
+                let evaluated = form.solves_kkt().then_some(&f_end[..]);
+                run.slip_crossed(sys, t_next, form.accepted_full(x), evaluated)?
             };
             let mut t_end = t_next;
             if slipped {
@@ -2467,7 +2480,8 @@ fn adaptive<M: Model, O: Observer<M>, F: Integrand<M>, E: EmbeddedRk>(
         // a skate's switch cuts the step there (its state from the dense
         // output, projected), and the method restarts from it: k1 anew
         let mut t_new = t_new;
-        let slipped = run.slip_crossed(sys, t_new, form.accepted_full(&y_new))?;
+        let evaluated = ((projected || !E::FSAL_IN_ESTIMATE) && form.solves_kkt()).then_some(&k_new[..]);
+        let slipped = run.slip_crossed(sys, t_new, form.accepted_full(&y_new), evaluated)?;
         if slipped {
             stepper.prepare_dense(&mut Bound { sys, form }, t, y, &k1, h, &y_new, &k_new)?;
             let mut x = vec![0.0; ny];
@@ -2570,7 +2584,7 @@ fn implicit<M: Model, O: Observer<M>>(
         // a skate's switch or a switching event cuts the step there (its
         // state from the collocation polynomial, projected); the method
         // restarts from it (see `adaptive`)
-        let slipped = run.slip_crossed(sys, t_new, &y_new)?;
+        let slipped = run.slip_crossed(sys, t_new, &y_new, None)?;
         if slipped {
             let t_switch = run.locate_slip(sys, (t, t_new), |_, t_out, out| {
                 interpolate(t_out, out);
