@@ -400,6 +400,15 @@ fn equations_and_check_take_family_counts() {
     assert!(out.lines().any(|l| l.starts_with("C_q") && l.contains(" 264 ")), "{out}");
     let o = ezy(&["equations", "snake", "--set", "N=0"]);
     assert!(!o.status.success() && stderr(&o).contains("N = 0 is a count"), "{}", stderr(&o));
+    // a family index of 0 or 1 is simplified away, not printed as a
+    // factor (it printed `xc0 - 0.5*L*cos(theta0) - 0*L` and `- 1*L`)
+    let o = ezy(&["equations", "n_four_bar"]);
+    let out = String::from_utf8_lossy(&o.stdout);
+    assert!(out.contains("O0.x  xc0 - 0.5*L*cos(theta0) = 0") && out.contains("O1.x  -L + xc1"), "{out}");
+    assert!(out.contains("- 2*L") && !out.contains("0*L") && !out.contains(" 1*L"), "{out}");
+    let o = ezy(&["equations", "n_four_bar", "--format", "latex"]);
+    let out = String::from_utf8_lossy(&o.stdout);
+    assert!(out.contains("2 L") && !out.contains("- 0 L") && !out.contains(" 1 L"), "{out}");
     let o = ezy(&["equations", "snake", "--set", "Q=1"]);
     assert!(!o.status.success() && stderr(&o).contains("unknown parameter `Q`"), "{}", stderr(&o));
 }

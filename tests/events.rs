@@ -434,3 +434,118 @@ fn a_switch_of_a_family_effect_switches_each_element() {
     assert!(!moved("W_spring3"), "spring3 worked after the switch");
     assert!(moved("W_spring2") && moved("W_spring4"), "the other springs stopped too");
 }
+
+ezy::model! {
+    /// A user's own cart, written in the test (not a built-in): one body
+    /// on a skate at its centre of mass, along its x axis.
+    pub struct OwnCart {
+        /// Mass [kg]
+        param m = 2.0;
+        /// Moment of inertia about the centre of mass [kg m^2]
+        param I = 0.1;
+
+        body c(x, y, phi) { mass: m, inertia: I }
+        point P on c at (0, 0);
+        skate P: P along (1, 0);
+    }
+}
+
+/// The user's cart from `xd = 0.5` m/s, pushed by `push` (0.5 N along x)
+/// and, from the start, not braked (`brake`, -1 N, switched off at
+/// 1e-9 s); `fast` turns the push off and the brake on where `xd` rises
+/// through 1 m/s (at `t* = (1 - 0.5) m / 0.5 = 2` s), and `slow`, when
+/// given, turns them back where `xd` falls through `slow_at`.
+fn cruise(method: Method, formulation: Formulation, slow_at: Option<f64>) -> Problem<OwnCart> {
+    let force = |fx: f64| EffectSpec::Force {
+        at: "c".into(),
+        fx: Waveform::Constant(fx),
+        fy: Waveform::Constant(0.0),
+        frame: Frame::World,
+    };
+    let switch = |when: &str, level: f64, direction: Direction, on: &str, off: &str| EventSpec {
+        action: Action::Switch,
+        direction,
+        switch_on: vec![on.into()],
+        switch_off: vec![off.into()],
+        ..EventSpec::new(when, level)
+    };
+    let start = EventSpec { action: Action::Switch, switch_off: vec!["brake".into()], ..EventSpec::new("t", 1e-9) };
+    let mut p = Problem::new(OwnCart::default())
+        .effect("push", force(0.5))
+        .and_then(|p| p.effect("brake", force(-1.0)))
+        .and_then(|p| p.event("start", &start))
+        .and_then(|p| p.event("fast", &switch("xd", 1.0, Direction::Rising, "brake", "push")))
+        .and_then(|p| p.q("x", 0.0))
+        .and_then(|p| p.q("y", 0.0))
+        .and_then(|p| p.q("phi", 0.0))
+        .and_then(|p| p.qd("x", 0.5))
+        .and_then(|p| p.qd("phi", 0.0))
+        .unwrap();
+    if let Some(level) = slow_at {
+        p = p.event("slow", &switch("xd", level, Direction::Falling, "push", "brake")).unwrap();
+    }
+    p.method(method).formulation(formulation).tolerances(1e-10, 1e-10).dt(1e-3).every(0.1).t_end(3.0)
+}
+
+/// A switch whose quantity the new forces send back across the level at
+/// once, where another switch turns the forces back (a sliding mode: the
+/// brake above 1 m/s, the push below), is refused by every method at the
+/// first switch, naming both. Before, every method recorded `fast` only
+/// and went on braking below 1 m/s with the push off, exit 0 (earlier,
+/// RK4 and RADAU5 stopped with "chatters" while DOPRI5 and DOP853 went
+/// on). The same switches with levels apart (`slow` at 0.9 m/s) run,
+/// and the brake alone (no `slow`) brakes the cart from 1 m/s at
+/// `t* = 2` s to `1 - (3 - 2) / 2 = 0.5` m/s.
+#[test]
+fn a_sliding_mode_is_refused_by_every_method() {
+    for (method, formulation) in common::SWITCHING_RUNS {
+        let run = format!("{method:?} {formulation:?}");
+        match cruise(method, formulation, Some(1.0)).solve() {
+            Err(SimError::SlidingMode { event, undo, t }) => {
+                assert!(event == "fast" && undo == "slow", "{run}: {event} {undo}");
+                assert!((t - 2.0).abs() <= 1e-8, "{run}: at {t}");
+            }
+            other => panic!("{run}: {:?}", other.map(|s| s.summary.events)),
+        }
+        let s = cruise(method, formulation, Some(0.9)).solve().unwrap_or_else(|e| panic!("{run}: {e}"));
+        let names: Vec<&str> = s.summary.events.iter().map(|e| e.name.as_str()).collect();
+        assert!(
+            names.len() >= 4 && names[1..].chunks(2).all(|p| p[0] == "fast" && p.get(1).is_none_or(|&n| n == "slow")),
+            "{run}: {names:?}"
+        );
+        let s = cruise(method, formulation, None).solve().unwrap_or_else(|e| panic!("{run}: {e}"));
+        let xd = *s.column("xd").unwrap().last().unwrap();
+        assert!((xd - 0.5).abs() <= 1e-8, "{run}: xd(3) = {xd}");
+    }
+}
+
+/// A recorded event on a quantity that jumps at a switch (the push's
+/// force `F_push`, 0.5 N, read 0 once the push is switched off) fires at
+/// the switch itself, taken on both sides of it: at the coast's time to
+/// the last bit, for every method. An event on a skate's friction force,
+/// which the skate's mode sets (not the state), is refused by name.
+#[test]
+fn events_on_a_quantity_that_jumps_at_a_switch_fire_there() {
+    let half = EventSpec { direction: Direction::Falling, ..EventSpec::new("F_push", 0.25) };
+    for (method, formulation) in common::SWITCHING_RUNS {
+        let run = format!("{method:?} {formulation:?}");
+        let s = pushed_sleigh(method).formulation(formulation).event("half", &half).unwrap().solve();
+        let s = s.unwrap_or_else(|e| panic!("{run}: {e}"));
+        let ev = &s.summary.events;
+        assert!(ev.len() == 2 && ev[0].name == "coast" && ev[1].name == "half" && !ev[1].rising, "{run}: {ev:?}");
+        assert_eq!(ev[1].t, ev[0].t, "{run}");
+    }
+    let friction = EffectSpec::SkateFriction {
+        skate: "P".into(),
+        mu: 0.1,
+        normal: None,
+        share: Some(1.0),
+        g: ezy_core::effects::STANDARD_GRAVITY,
+    };
+    let p = cruise(Method::Dop853, Formulation::Dae, None).effect("slip_P", friction).unwrap();
+    let e = p.event("grip", &EventSpec::new("F_slip_P", 0.5)).map(|_| ()).unwrap_err().to_string();
+    assert!(
+        e.contains("event `grip`, key `when`") && e.contains("`F_slip_P` is the friction force of effect `slip_P`"),
+        "{e}"
+    );
+}

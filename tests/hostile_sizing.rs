@@ -425,3 +425,28 @@ fn analyses_size_their_dense_matrices_first() {
     }
     assert!(!dir.path().join("an").exists());
 }
+
+/// A family count the scene accepts can still make a model too large to
+/// set up: the snake at N = 1,000,000 (3,000,000 coordinates, about 13 GB)
+/// aborted `ezy equations` (and the Python interpreter through
+/// `ezy.equations`), `run` and `sweep` under a 4 GB cap after 25 s of
+/// set-up. Each is refused at once with the size, by the count's name;
+/// a sweep runs its other rows.
+#[test]
+fn a_model_too_large_to_set_up_is_refused_by_its_count() {
+    let dir = tempfile::tempdir().unwrap();
+    let want = ["N = 1000000 gives 3000000 generalized coordinates", "13.2 GB"];
+    for args in [
+        &["equations", "snake", "--set", "N=1000000"][..],
+        &["run", "snake", "--set", "N=1000000", "--out", "r"],
+        &["analyze", "snake", "--set", "N=1000000", "--out", "a"],
+    ] {
+        let o = bounded(dir.path(), args, 60);
+        let err = refused(&o, &want);
+        assert!(!err.contains("memory allocation"), "{args:?}: {err}");
+    }
+    let o = bounded(dir.path(), &["sweep", "snake", "--list", "N=5,1000000", "--t-end", "0.01", "--out", "s"], 60);
+    let csv = std::fs::read_to_string(dir.path().join("s/sweep.csv")).unwrap_or_else(|e| panic!("{e}: {}", stderr(&o)));
+    assert!(csv.lines().count() == 3 && csv.contains("3000000 generalized coordinates"), "{csv}");
+    assert!(!dir.path().join("r").exists() && !dir.path().join("a").exists());
+}

@@ -6,7 +6,7 @@ use crate::common;
 
 use common::build;
 use ezy_core::kkt::KktMethod;
-use ezy_core::{Model, RunSettings, simulate};
+use ezy_core::{Model, Problem, RunSettings, simulate};
 use ezy_models::{Snake, Trailer, scenes};
 
 fn run_scene<M: Model + Default>(name: &str) -> (ezy_core::Dynamics<M>, ezy_core::Summary, Vec<f64>) {
@@ -260,6 +260,14 @@ fn a_direction_zero_at_an_element_is_refused() {
         }
     }
     assert!(Fine { N: 50 }.check_counts().is_ok());
+    // a user's family past `MAX_COORDS` coordinates is refused by its
+    // counts before any element is visited (the layout alone is summed)
+    assert!(Fine { N: 100_000 }.check_counts().is_ok());
+    let e = Fine { N: 100_001 }.check_counts().unwrap_err();
+    assert!(e.contains("N = 100001 gives 300003 generalized coordinates, more than the 300000"), "{e}");
+    let e = Problem::new(Fine { N: 1_000_000_000 }).solve().unwrap_err().to_string();
+    assert!(e.contains("scene key `params`: N = 1000000000 gives 3000000000 generalized coordinates"), "{e}");
+    assert!(e.contains("13200 GB for this model"), "{e}");
 }
 
 /// A drive family in a scene: `[drives."D[*]"]` gives every element, its

@@ -254,6 +254,23 @@ pub enum SimError {
         /// Steps in a row with an event.
         steps: u64,
     },
+    /// A switch sends its quantity back across its level at once, where
+    /// another switch (or the same) turns the forces back: a sliding mode
+    /// (Filippov), in which the motion stays on the level with the two
+    /// sets of forces blended. ezy does not follow one; every method
+    /// refuses it at the first switch.
+    #[error(
+        "at t = {} s the switch `{event}` sends its quantity back across its level at once, where the switch `{undo}` turns the forces back: a sliding mode (the motion would stay on the level with both sets of forces blended, which ezy does not follow); give the two switches levels apart (hysteresis), or replace them by a force law that varies continuously",
+        fmt_value(*t)
+    )]
+    SlidingMode {
+        /// The switch that fired.
+        event: String,
+        /// The switch its quantity's return fires at once.
+        undo: String,
+        /// Time \[s\].
+        t: f64,
+    },
     /// A skate with friction switched between sticking and sliding
     /// [`crate::events::CHATTER_STEPS`] times in a row at ever shorter
     /// intervals or, with a fixed step, every few steps

@@ -246,6 +246,12 @@ impl EventSpec {
             field: "when",
             message,
         })?;
+        if let Quantity::EffectValue(k) = quantity
+            && matches!(effects[k].law, crate::effects::Law::SkateFriction { .. })
+        {
+            let message = friction_force_unwatched(&self.when, &effects[k].name);
+            return Err(SimError::Event { event: name.into(), field: "when", message });
+        }
         let named: Vec<(&str, bool)> = effects
             .iter()
             .map(|e| (e.name.as_str(), matches!(e.law, crate::effects::Law::SkateFriction { .. })))
@@ -394,6 +400,16 @@ impl Quantity {
         known.extend(effects.iter().map(|(_, v)| v.to_string()));
         Err(format!("`{name}` is no quantity of this run; known: {}", crate::name_list(known)))
     }
+}
+
+/// Why an event cannot watch a skate's friction force `column` (of the
+/// skate-friction effect `effect`): the force is set by the skate's mode
+/// (its multiplier while it sticks, `mu N` while it slides), which only
+/// the right-hand side knows, and it jumps at each switch.
+pub fn friction_force_unwatched(column: &str, effect: &str) -> String {
+    format!(
+        "`{column}` is the friction force of effect `{effect}`, which the skate's mode sets (its constraint force while it sticks, mu N while it slides) and which jumps at each switch: an event cannot watch it; the switches themselves are events of the run (`slip_*`, `stick_*` in events.csv)"
+    )
 }
 
 /// An event of a run (see the [module](self) documentation).

@@ -79,8 +79,8 @@ pub use faer;
 pub use friction::SkateMode;
 pub use integrator::Method;
 pub use model::{
-    BodyInfo, DriveInfo, EquationExpr, Equations, HingeInfo, InitialName, MinimalLayout, MinimalRhsError, Model,
-    ModelInfo, NameIndex, ParamInfo, PointInfo, SkateInfo, SliderInfo,
+    BodyInfo, DriveInfo, EquationExpr, Equations, HingeInfo, InitialName, MAX_COORDS, MinimalLayout, MinimalRhsError,
+    Model, ModelInfo, NameIndex, ParamInfo, PointInfo, SETUP_BYTES_PER_COORD, SkateInfo, SliderInfo,
 };
 pub use problem::{Problem, Solution};
 pub use projection::ProjectionKind;
@@ -134,7 +134,7 @@ pub mod __private {
     pub use crate::kkt::spd::ldl_solve;
     pub use crate::model::{
         BodyInfo, DriveInfo, EquationExpr, Equations, HingeInfo, Layout, MinimalLayout, MinimalRhsError, Model,
-        ModelInfo, ParamInfo, PointInfo, SkateInfo, SliderInfo, render_equation, unique_names,
+        ModelInfo, ParamInfo, PointInfo, SkateInfo, SliderInfo, check_model_size, render_equation, unique_names,
     };
     pub use crate::scalar::Scalar;
     pub use ezy_derive::model as model_with_root;

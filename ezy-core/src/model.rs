@@ -786,6 +786,42 @@ pub struct Layout<const NF: usize, const NB: usize, const NP: usize, const NG: u
     pub n_points: usize,
 }
 
+/// Most generalized coordinates a model may have at its family counts:
+/// 300,000 (the snake at `N = 100,000`). Setting a run up takes about
+/// [`SETUP_BYTES_PER_COORD`] per coordinate (the snake at `N = 100,000`:
+/// 1.3 GB and 5 s on 2 cores; at `N = 1,000,000` it would take 13 GB),
+/// so a model past this is refused by [`Model::check_counts`] before any
+/// of it is allocated.
+pub const MAX_COORDS: usize = 300_000;
+
+/// Memory a run's set-up takes per generalized coordinate \[bytes\]:
+/// measured as the peak resident size of `ezy run snake --t-end 0.01`
+/// at `N = 100,000` and `300,000` (1.32 GB / 300,000 and 3.86 GB /
+/// 900,000 coordinates).
+pub const SETUP_BYTES_PER_COORD: f64 = 4.4e3;
+
+/// Refuses a model of more than [`MAX_COORDS`] coordinates, naming the
+/// family counts that make them (generated `check_counts`, before any
+/// element is visited).
+///
+/// # Errors
+/// A message naming the counts, the coordinates and the memory a run
+/// would take.
+#[doc(hidden)]
+pub fn check_model_size(nq: usize, counts: &[(&str, usize)]) -> Result<(), String> {
+    if nq <= MAX_COORDS {
+        return Ok(());
+    }
+    let given: Vec<String> = counts.iter().map(|(n, v)| format!("{n} = {v}")).collect();
+    Err(format!(
+        "{} give{} {nq} generalized coordinates, more than the {MAX_COORDS} ezy sets up (about {:.1} kB each: {} GB for this model); take a smaller count",
+        given.join(", "),
+        if counts.len() == 1 { "s" } else { "" },
+        SETUP_BYTES_PER_COORD / 1e3,
+        crate::fmt_value((nq as f64 * SETUP_BYTES_PER_COORD / 1e8).round() / 10.0),
+    ))
+}
+
 /// Checks that the names of `info` are unique per kind (coordinates,
 /// bodies, points, joints and drives, skates): family elements are named
 /// by their index, so `x1` of a family can collide with a single `x1`.

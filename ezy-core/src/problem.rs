@@ -522,11 +522,19 @@ impl<M: Model> Problem<M> {
     /// # Errors
     /// As [`Problem::initial_state`].
     pub fn into_system(self) -> Result<(Dynamics<M>, Vec<f64>, InitialReport), SimError> {
+        self.check_counts()?;
         let (y0, report) = self.initial_state()?;
         let mut sys =
             Dynamics::new(self.model, self.effects, self.kkt).with_drives(self.drives).with_events(self.events);
         sys.baumgarte = self.baumgarte;
         Ok((sys, y0, report))
+    }
+
+    /// The model's family counts checked before anything is set up at
+    /// them ([`Model::check_counts`]: elements that exist, names that
+    /// differ, at most [`crate::MAX_COORDS`] coordinates).
+    fn check_counts(&self) -> Result<(), SimError> {
+        self.model.check_counts().map_err(|message| SimError::Scene { key: "params".into(), message })
     }
 
     /// The problem's right-hand side ready for the analyses
@@ -544,12 +552,15 @@ impl<M: Model> Problem<M> {
     /// Integrates the problem and keeps every output sample in memory.
     ///
     /// # Errors
-    /// As [`Problem::initial_state`]; [`SimError::Budget`] before any
-    /// work when the samples would take more than
+    /// As [`Problem::initial_state`]; [`SimError::Scene`] at `params`
+    /// when the model's family counts are not well formed or give more
+    /// than [`crate::MAX_COORDS`] coordinates; [`SimError::Budget`] before
+    /// any work when the samples would take more than
     /// [`Problem::max_output_mb`]; the [`SimError`] that stopped the run
     /// (a bad setting, a singular position the method cannot pass, a step
     /// budget spent, a diverging run).
     pub fn solve(self) -> Result<Solution, SimError> {
+        self.check_counts()?;
         let names = self.state_names();
         // each sample: its time, its kinetic energy, a row of the state
         let rows = self.settings.output_rows();

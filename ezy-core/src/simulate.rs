@@ -838,6 +838,8 @@ impl<'a, M: Model, O: Observer<M>> Run<'a, M, O> {
             let (q, rest) = y.split_at_mut(nq);
             self.proj.project(&sys.model, t, q, &mut rest[..nq])?;
         }
+        self.jumped_events(sys, t, y)?;
+        self.sliding_mode(sys, t, y)?;
         let w = &mut self.slip;
         w.t_left = t;
         if nf > 0 {
@@ -851,6 +853,62 @@ impl<'a, M: Model, O: Observer<M>> Run<'a, M, O> {
             let fired = w.times[nf + j] <= t;
             let back = fired && sys.events[k].direction.crossing(w.left[nf + j], g).is_none() && g != 0.0;
             w.left[nf + j] = if back { 0.0 } else { g };
+        }
+        Ok(())
+    }
+
+    /// At a switch at `t` with the state `y` (after it): the recorded
+    /// events whose quantity jumped across its level there (an effect
+    /// switched off reads 0) recorded at `t`, and every recorded event's
+    /// `g` taken on the switch's new side, where the next step starts.
+    ///
+    /// # Errors
+    /// [`SimError::EventLimit`].
+    fn jumped_events(&mut self, sys: &Dynamics<M>, t: f64, y: &[f64]) -> Result<(), SimError> {
+        let m = &mut self.monitor;
+        for (k, e) in sys.events.iter().enumerate() {
+            if e.action == crate::events::Action::Switch {
+                continue;
+            }
+            let g = e.value(sys, t, y, &mut m.scratch);
+            if let Some(rising) = e.direction.crossing(m.left[k], g) {
+                m.record(&e.name, t, rising, y)?;
+            }
+            m.left[k] = g;
+        }
+        Ok(())
+    }
+
+    /// After the switch events that fired at `t` turned their effects,
+    /// with the state `y`: refuses a sliding mode, a switch event at its
+    /// level whose quantity the new forces move across it in its own
+    /// direction at once (its `g` on the linear motion over `t +- d`, `d`
+    /// a millionth of the last step, under the new forces) and whose
+    /// switch would change the forces back.
+    ///
+    /// # Errors
+    /// [`SimError::SlidingMode`] naming both switches; as [`Dynamics::rhs`].
+    fn sliding_mode(&mut self, sys: &mut Dynamics<M>, t: f64, y: &[f64]) -> Result<(), SimError> {
+        let nf = sys.friction.len();
+        let w = &mut self.slip;
+        let Some(j_fired) = (0..w.switches.len()).find(|&j| w.times[nf + j] <= t) else { return Ok(()) };
+        let d = (1e-6 * self.last_step).max(64.0 * f64::EPSILON * t.abs().max(1.0));
+        let mut dy = vec![0.0; y.len()];
+        sys.rhs(t, y, &mut dy)?;
+        let ahead: Vec<f64> = y.iter().zip(&dy).map(|(y, d_)| y + d * d_).collect();
+        for &k in &w.switches {
+            let e = &sys.events[k];
+            let changes =
+                e.switch_on.iter().any(|&i| !sys.effects[i].on) || e.switch_off.iter().any(|&i| sys.effects[i].on);
+            if !changes {
+                continue;
+            }
+            let g0 = e.value(sys, t, y, &mut w.values);
+            let g1 = e.value(sys, t + d, &ahead, &mut w.values);
+            if e.direction.crossing(2.0 * g0 - g1, g1).is_some() {
+                let event = sys.events[w.switches[j_fired]].name.clone();
+                return Err(SimError::SlidingMode { event, undo: e.name.clone(), t });
+            }
         }
         Ok(())
     }

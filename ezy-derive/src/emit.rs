@@ -18,7 +18,7 @@ use std::collections::HashMap;
 use crate::ast::{Affine, ModelDef, doc_of, escape_unit, split_unit};
 use crate::check::{BodyRef, PointRef, Resolved};
 use crate::kinematics::{Derived, Group, Kind, own_index};
-use crate::sym::{Id, Node, Sym};
+use crate::sym::{Arena, Id, Node, Sym};
 
 fn lit_f64(v: f64) -> TokenStream {
     if v.is_finite() {
@@ -556,7 +556,7 @@ fn static_form(d: &mut Derived, def: &ModelDef, res: &Resolved) -> Static {
             p => p,
         };
         let mut memo = HashMap::new();
-        let mut sub = |ar: &mut crate::sym::Arena, id: Id| ar.subst(id, &rename, &mut memo);
+        let mut sub = |ar: &mut Arena, id: Id| ar.subst(id, &rename, &mut memo);
         if g.holonomic() {
             for &p in &g.phi {
                 let x = sub(&mut d.ar, p);
@@ -619,14 +619,14 @@ fn assign(d: &Derived, def: &ModelDef, groups: &[(&str, &[Id])]) -> TokenStream 
 /// rate), `p` (parameter); a family index `Sym::Index(k)` as
 /// [`index_marker`], which the generated code replaces by the element's
 /// index before rendering.
-fn templates(d: &Derived, id: Id) -> (String, String) {
+fn templates(ar: &Arena, id: Id) -> (String, String) {
     let name = |s: Sym| match s {
         Sym::Q(k) => format!("\u{1}q{k}\u{2}"),
         Sym::Qd(k) => format!("\u{1}d{k}\u{2}"),
         Sym::Param(i) => format!("\u{1}p{i}\u{2}"),
         Sym::Index(k) => index_marker(k),
     };
-    (d.ar.display(id, &name), d.ar.latex(id, &name))
+    (ar.display(id, &name), ar.latex(id, &name))
 }
 
 /// The marker of `Sym::Index(k)` in a template: control characters that
@@ -1619,6 +1619,13 @@ fn check_fn(def: &ModelDef, res: &Resolved, d: &Derived) -> TokenStream {
         let msg = format!("count `{}` is 0; it must be at least 1", c.name);
         body.extend(quote!(if self.#n < 1 { return ::core::result::Result::Err(::std::string::String::from(#msg)); }));
     }
+    if !def.counts.is_empty() {
+        let pairs = def.counts.iter().map(|c| {
+            let (n, s) = (&c.name, c.name.to_string());
+            quote!((#s, self.#n))
+        });
+        body.extend(quote!(#private::check_model_size(l.nq, &[#(#pairs),*])?;));
+    }
     // does element `value` of family `f` exist? else an error naming `what`
     let in_range = |f: usize, index: &Affine, var: &str, owner: TokenStream, what: String| -> TokenStream {
         let a = affine_tokens(index);
@@ -1735,31 +1742,46 @@ fn equations_fn(def: &ModelDef, res: &Resolved, d: &Derived) -> TokenStream {
     let prelude = layout_prelude(def);
     let params: Vec<String> = def.params.iter().map(|p| p.name.to_string()).collect();
     // a template naming family indices gets the element's values first
-    // (an integer; a negative one in parentheses)
-    let render = |id: Id, out: &str, indices: &[Affine]| -> TokenStream {
-        let (t, x) = templates(d, id);
+    // (an integer; a negative one in parentheses); where it names one
+    // index, its forms at 0, 1 and -1 come simplified from the arena
+    // (`x - 0*L` is `x`, `x - 1*L` is `x - L`)
+    let mut ar = d.ar.clone();
+    let mut render = |id: Id, out: &str, indices: &[Affine]| -> TokenStream {
+        let (t, x) = templates(&ar, id);
         let out = format_ident!("{}", out);
-        let mut subs = TokenStream::new();
-        for (k, a) in indices.iter().enumerate() {
-            let m = index_marker(k);
-            if t.contains(&m) || x.contains(&m) {
-                let a = affine_tokens(a);
-                subs.extend(quote! {
-                    let n: i64 = #a;
-                    let n = if n < 0 { ::std::format!("({})", n) } else { ::std::format!("{}", n) };
-                    let (t, x) = (t.replace(#m, &n), x.replace(#m, &n));
-                });
-            }
-        }
-        if subs.is_empty() {
-            quote!(eq.#out.push(#private::render_equation(#t, #x, &names, &params));)
-        } else {
-            quote!({
-                let (t, x) = (::std::string::String::from(#t), ::std::string::String::from(#x));
-                #subs
-                eq.#out.push(#private::render_equation(&t, &x, &names, &params));
+        let named: Vec<usize> = (0..indices.len())
+            .filter(|&k| {
+                let m = index_marker(k);
+                t.contains(&m) || x.contains(&m)
             })
+            .collect();
+        if named.is_empty() {
+            return quote!(eq.#out.push(#private::render_equation(#t, #x, &names, &params)););
         }
+        let mut subs = TokenStream::new();
+        for &k in &named {
+            let m = index_marker(k);
+            let a = affine_tokens(&indices[k]);
+            subs.extend(quote! {
+                let n: i64 = #a;
+                let n = if n < 0 { ::std::format!("({})", n) } else { ::std::format!("{}", n) };
+                let (t, x) = (t.replace(#m, &n), x.replace(#m, &n));
+            });
+        }
+        let generic = quote!({
+            let (t, x) = (::std::string::String::from(#t), ::std::string::String::from(#x));
+            #subs
+            eq.#out.push(#private::render_equation(&t, &x, &names, &params));
+        });
+        let [k] = named[..] else { return generic };
+        let a = affine_tokens(&indices[k]);
+        let arms = [0i64, 1, -1].map(|v| {
+            let value = ar.cst(v as f64);
+            let at = ar.replace(id, &|s| (s == Sym::Index(k)).then_some(value), &mut Default::default());
+            let (t, x) = templates(&ar, at);
+            quote!(#v => eq.#out.push(#private::render_equation(#t, #x, &names, &params)),)
+        });
+        quote!(match #a as i64 { #(#arms)* _ => #generic })
     };
     let names_of = |slots: &[BodyRef]| -> TokenStream {
         let cols: Vec<TokenStream> = slots.iter().map(|b| body_column(def, b)).collect();

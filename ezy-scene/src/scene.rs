@@ -1225,8 +1225,15 @@ impl Scene {
                             format!("the level must be a finite number, not {}", event.crosses),
                         ));
                     }
-                    ezy_core::events::Quantity::resolve(&event.when, info, &effect_columns, &drive_names)
-                        .map_err(|m| SceneError::at(&["events", name, "when"], m))?;
+                    let quantity =
+                        ezy_core::events::Quantity::resolve(&event.when, info, &effect_columns, &drive_names)
+                            .map_err(|m| SceneError::at(&["events", name, "when"], m))?;
+                    if let ezy_core::events::Quantity::EffectValue(k) = quantity
+                        && let Some(&(effect, true)) = switchable.get(k)
+                    {
+                        let m = ezy_core::events::friction_force_unwatched(&event.when, effect);
+                        return Err(SceneError::at(&["events", name, "when"], m));
+                    }
                     event.switched(&switchable).map_err(|(key, m)| SceneError::at(&["events", name, key], m))?;
                     Ok(())
                 })(),

@@ -199,6 +199,10 @@ def test_equations_render_as_latex_and_text():
     _, text, _ = cli("equations", "ezyroller")
     assert str(e) == text
     assert ezy.equations("snake", set={"N": 3}).text != ezy.equations("snake", set={"N": 4}).text
+    # a count the model cannot be set up at is an error, not an abort of
+    # the interpreter (it allocated 13 GB and aborted)
+    with pytest.raises(ezy.EzyError, match="3000000 generalized coordinates"):
+        ezy.equations("snake", set={"N": 1000000})
 
 
 def test_check_passes_for_a_built_in_model():

@@ -78,7 +78,7 @@ pub enum Node {
 }
 
 /// The expression arena.
-#[derive(Default, Debug)]
+#[derive(Default, Debug, Clone)]
 pub struct Arena {
     nodes: Vec<Node>,
     memo: HashMap<Node, Id>,
