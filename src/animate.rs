@@ -15,7 +15,11 @@
 //! - fading trails of the skates' contact points (of the points, for a
 //!   model without skates; the first eight either way) over the last
 //!   `trail` seconds;
-//! - the time in the upper left corner.
+//! - the time in the upper left corner, and how many times faster than
+//!   real time the animation plays.
+//!
+//! Text is at least [`MIN_TEXT_PX`] pixels high at any resolution: below
+//! about 80 dpi the frame's text, and the margins that hold it, grow.
 //!
 //! The view is fixed on the whole motion when it spans at most
 //! [`FOLLOW_FACTOR`] vehicle sizes, else it follows the vehicle (a window
@@ -50,6 +54,23 @@ pub const FOLLOW_WIDTH: f64 = 4.0;
 pub const MAX_FRAMES: usize = 4000;
 /// Frames drawn and quantized at once (memory: this many RGBA frames).
 const CHUNK: usize = 32;
+/// Smallest height of a frame's text in the GIF \[px\] (the font size
+/// of its tick labels).
+pub const MIN_TEXT_PX: f64 = 11.0;
+/// Font sizes of a frame's tick labels, axis descriptions and time
+/// label \[nominal px, plotters' convention: the font's size is 1/1.24 of
+/// it\], before [`text_zoom`].
+const TICK_SIZE: f64 = 16.0;
+const DESC_SIZE: f64 = 18.0;
+const TIME_SIZE: f64 = 22.0;
+
+/// How much a frame's text is enlarged at `dpi` so that its smallest
+/// text, the tick labels, is [`MIN_TEXT_PX`] high or more: 1 from about
+/// 82 dpi up (the report's 48 dpi: 1.7).
+pub fn text_zoom(dpi: f64) -> f64 {
+    let tick_px = TICK_SIZE / 1.24 * dpi / 96.0;
+    (MIN_TEXT_PX / tick_px).max(1.0)
+}
 /// The palette index of a pixel unchanged since the previous frame.
 const TRANSPARENT: u8 = 255;
 
@@ -66,7 +87,7 @@ pub struct AnimateOptions {
     /// Length of the fading trails \[s of simulated time\] (0: none).
     pub trail: f64,
     /// Resolution \[dpi\]: the frame is 10 x 6.67 inches (64 dpi: 640 x 427
-    /// pixels).
+    /// pixels); its text is enlarged at low resolutions ([`text_zoom`]).
     pub dpi: f64,
 }
 
@@ -91,7 +112,7 @@ impl AnimateReport {
     /// One line for people.
     pub fn summary(&self, opts: &AnimateOptions) -> String {
         format!(
-            "wrote {}: {} frames of {} x {} px, {:.1} s of animation for {} s simulated (x{}); integration {:.3} s, drawing {:.2} s\n",
+            "wrote {}: {} frames of {} x {} px, {:.1} s of animation for {} s simulated ({}x real time); integration {:.3} s, drawing {:.2} s\n",
             self.path.display(),
             self.frames,
             self.size.0,
@@ -427,8 +448,11 @@ fn frame_svg(g: &Geometry, frames: &Frames, k: usize, anim: &AnimateOptions) -> 
         let (w, h) = (crate::plot::WIDTH * SCALE, crate::plot::HEIGHT * SCALE);
         let root = SVGBackend::with_string(&mut svg, (w, h)).into_drawing_area();
         root.fill(&WHITE).map_err(|e| e.to_string())?;
+        // text, and the margins that hold it, enlarged at low resolutions
+        let zoom = text_zoom(anim.dpi);
+        let z = |size: f64| (size * zoom * f64::from(SCALE)).round() as u32;
         let mut builder = ChartBuilder::on(&root);
-        builder.margin(12 * SCALE).x_label_area_size(40 * SCALE).y_label_area_size(70 * SCALE);
+        builder.margin(12 * SCALE).x_label_area_size(z(40.0)).y_label_area_size(z(70.0));
         let probe = builder.build_cartesian_2d(0.0..1.0, 0.0..1.0).map_err(|e| e.to_string())?;
         let dim = probe.plotting_area().dim_in_pixel();
         let (xr, yr) = g.view_at(k, dim);
@@ -438,10 +462,10 @@ fn frame_svg(g: &Geometry, frames: &Frames, k: usize, anim: &AnimateOptions) -> 
         ctx.configure_mesh()
             .light_line_style(TRANSPARENT_COLOUR)
             .bold_line_style(RGBColor(220, 220, 220))
-            .label_style(("sans-serif", 16 * SCALE))
+            .label_style(("sans-serif", z(TICK_SIZE)))
             .x_desc("x [m]")
             .y_desc("y [m]")
-            .axis_desc_style(("sans-serif", 18 * SCALE))
+            .axis_desc_style(("sans-serif", z(DESC_SIZE)))
             .draw()
             .map_err(|e| e.to_string())?;
         let px_per_m = f64::from(dim.0) / (xr[1] - xr[0]);
@@ -535,12 +559,12 @@ fn frame_svg(g: &Geometry, frames: &Frames, k: usize, anim: &AnimateOptions) -> 
             .map_err(err)?;
         }
         let label = if anim.speed == 1.0 {
-            format!("t = {:.2} s", frames.t[k])
+            format!("t = {:.2} s (real time)", frames.t[k])
         } else {
-            format!("t = {:.2} s (x{})", frames.t[k], (anim.speed * 1000.0).round() / 1000.0)
+            format!("t = {:.2} s ({}x real time)", frames.t[k], (anim.speed * 1000.0).round() / 1000.0)
         };
-        root.draw(&Text::new(label, (90 * SCALE as i32, 18 * SCALE as i32), ("sans-serif", 22 * SCALE).into_font()))
-            .map_err(|e| e.to_string())?;
+        let at = (z(90.0) as i32, z(18.0) as i32);
+        root.draw(&Text::new(label, at, ("sans-serif", z(TIME_SIZE)).into_font())).map_err(|e| e.to_string())?;
         root.present().map_err(|e| e.to_string())?;
     }
     Ok(crate::plot::nominal_size(svg))

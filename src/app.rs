@@ -397,10 +397,7 @@ impl App {
     /// scene file with its line, column and key.
     pub fn load_scene(&self, name_or_path: &str) -> Result<SceneSource, LoadError> {
         self.registry_ok()?;
-        let is_path = name_or_path.ends_with(".toml")
-            || name_or_path.contains('/')
-            || name_or_path.contains(std::path::MAIN_SEPARATOR);
-        if is_path {
+        if is_scene_path(name_or_path) {
             return self.load_file(Path::new(name_or_path));
         }
         if let Some(src) = self.quick_scene(name_or_path)? {
@@ -705,8 +702,7 @@ impl App {
             definition.extend(["--metric".into(), m.text.clone()]);
         }
         definition.extend(args.overrides.to_args());
-        let is_path = name.ends_with(".toml") || name.contains('/') || name.contains(std::path::MAIN_SEPARATOR);
-        let scene_ref = if is_path {
+        let scene_ref = if is_scene_path(name) {
             std::fs::canonicalize(name).map_or_else(|_| name.to_string(), |p| p.display().to_string())
         } else {
             scene.name.clone()
@@ -953,9 +949,10 @@ impl App {
     }
 
     fn cmd_run(&self, args: cli::RunArgs, out: &mut dyn Write) -> Result<(), AppError> {
-        let (_, src) = self.named_scene(args.scene.as_deref())?;
+        let (name, src) = self.named_scene(args.scene.as_deref())?;
         let scene = &src.scene;
-        let opts = args.options(&scene.name);
+        // a scene file given by its path: the report's command line names it
+        let opts = RunOptions { scene_file: is_scene_path(&name).then(|| name.clone()), ..args.options(&scene.name) };
         check_figure_format(&src, opts.figure_format, opts.figures)?;
         let report = self.run_scene(scene, &opts).map_err(AppError::from_run)?;
         for w in &report.warnings {
@@ -966,6 +963,13 @@ impl App {
         }
         committed(out, &run::summary(&scene.name, &report), &opts.out)
     }
+}
+
+/// Whether a scene given on the command line is a file's path rather than
+/// a known scene's name: it contains `/` (or the platform's separator) or
+/// ends in `.toml` ([`App::load_scene`]).
+fn is_scene_path(name: &str) -> bool {
+    name.ends_with(".toml") || name.contains('/') || name.contains(std::path::MAIN_SEPARATOR)
 }
 
 /// Writes `text`, the report of a command whose output is already

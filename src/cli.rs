@@ -644,6 +644,7 @@ impl Overrides {
             progress: false,
             max_steps: self.max_steps,
             max_output_mb: None,
+            scene_file: None,
         }
     }
 }

@@ -19,6 +19,9 @@
 //! that runs on top of an earlier one is drawn dashed (then dotted,
 //! dash-dotted) with hollow markers, so neither hides the other; paths get
 //! a start and an end marker, so a point that never moves still shows;
+//! a chart of points alone (eigenvalues) is padded on both axes, so no
+//! marker sits on the frame, and a point that falls on an earlier
+//! series' marker is drawn as a ring around it, so neither hides the other;
 //! the legend goes to the corner where it covers the fewest line segments;
 //! logarithmic axes are true decades on either axis, labelled `10⁻⁶`;
 //! a tick label never reads `-0`.
@@ -91,7 +94,10 @@ pub enum Stroke {
     Solid,
     /// Dash style `k` (0: dashed, 1: dotted, 2: long dashes), with markers.
     Dash(usize),
-    /// No line: a filled diamond at every point (points given, not computed).
+    /// No line: a filled diamond at every point (points given, not
+    /// computed); a point on a marker of an earlier series of its panel
+    /// is drawn as a hollow diamond around that marker instead (larger
+    /// for each marker it would cover), so both stay visible.
     Points,
 }
 
@@ -1407,8 +1413,16 @@ fn draw_into(
         } else if chart.log_x {
             (x_data.clone(), pad(y_data[p].clone(), PAD_FRACTION))
         } else {
-            // Time-like x axes end exactly at the data; only a zero range is widened.
-            let x = if x_data.end > x_data.start { x_data.clone() } else { pad(x_data.clone(), 0.0) };
+            // Time-like x axes end exactly at the data; only a zero range is
+            // widened. A chart with points alone (eigenvalues) is padded as
+            // its y axis is, so that no marker sits on the frame.
+            let x = if lines.iter().any(|l| l.points_only) {
+                pad(x_data.clone(), PAD_FRACTION)
+            } else if x_data.end > x_data.start {
+                x_data.clone()
+            } else {
+                pad(x_data.clone(), 0.0)
+            };
             (x, pad(y_data[p].clone(), PAD_FRACTION))
         };
         check_range(&chart.title, x_axis_name(chart), &x_range, undrawable_axis).map_err(Failed::Range)?;
@@ -1463,13 +1477,7 @@ fn outside_legend(root: &Area<'_>, lines: &[&Line<'_>], x: i32, y: i32, thin: bo
         let style = l.color.stroke_width(if thin { SCALE } else { LINE_WIDTH });
         let err = |e: DrawingAreaErrorKind<_>| e.to_string();
         if l.points_only {
-            let d = MARKER + 2 * s;
-            let c = (x + 16 * s, y);
-            root.draw(&Polygon::new(
-                vec![(c.0, c.1 - d), (c.0 + d, c.1), (c.0, c.1 + d), (c.0 - d, c.1)],
-                l.color.filled(),
-            ))
-            .map_err(err)?;
+            root.draw(&(EmptyElement::at((x + 16 * s, y)) + diamond(l.color))).map_err(err)?;
         } else {
             let (on, off) = l.dash.map_or((32 * s, 0), |k| (DASHES[k].0 as i32, DASHES[k].1 as i32));
             let mut a = x;
@@ -1493,6 +1501,29 @@ const LEGEND_SAMPLE: u32 = 42 * SCALE;
 /// Radius of start and end markers, and of the markers along dashed lines
 /// \[canvas units\].
 const MARKER: i32 = 5 * SCALE as i32;
+/// Half diagonal of the diamond of a [`Stroke::Points`] point \[canvas units\].
+const DIAMOND: i32 = MARKER + 2 * SCALE as i32;
+/// How much larger each ring around a covered diamond is \[canvas units\]
+/// (see [`Stroke::Points`]).
+const RING_STEP: i32 = 4 * SCALE as i32;
+
+/// The filled diamond of a [`Stroke::Points`] point at `(0, 0)`.
+fn diamond(color: RGBColor) -> Polygon<(i32, i32)> {
+    let d = DIAMOND;
+    Polygon::new(vec![(0, -d), (d, 0), (0, d), (-d, 0)], color.filled())
+}
+
+/// The outline of a diamond of half diagonal `d` at `(0, 0)`, started and
+/// ended in the middle of an edge so that every corner is a join.
+fn ring(d: i32, color: RGBColor) -> PathElement<(i32, i32)> {
+    let h = d / 2;
+    PathElement::new(vec![(-h, -h), (0, -d), (d, 0), (0, d), (-d, 0), (-h, -h)], color.stroke_width(LINE_WIDTH))
+}
+
+/// Whether two diamonds centred at `a` and `b` \[canvas units\] overlap.
+fn diamonds_touch(a: (i32, i32), b: (i32, i32)) -> bool {
+    (a.0 - b.0).abs() + (a.1 - b.1).abs() < 2 * DIAMOND
+}
 
 /// The plot corner whose legend box would cover the fewest line segments
 /// (upper right, then upper left, lower right, lower left on ties), the
@@ -1803,15 +1834,26 @@ fn draw_contents<'a>(
 
     let width = if chart.log_y { SCALE } else { LINE_WIDTH };
     let mut any_label = false;
+    // the points of the panel's earlier point series [canvas units]
+    let mut placed: Vec<(i32, i32)> = Vec::new();
     for line in lines {
         let color = line.color;
         let style = color.stroke_width(width);
         if line.points_only {
-            let d = MARKER + 2 * SCALE as i32;
-            let diamond = |p: &(f64, f64)| {
-                EmptyElement::at(*p) + Polygon::new(vec![(0, -d), (d, 0), (0, d), (-d, 0)], color.filled())
-            };
-            ctx.draw_series(line.pieces.iter().flatten().map(diamond)).map_err(|e| e.to_string())?;
+            // a point on earlier markers: a ring around them, larger for each
+            let mine: Vec<((f64, f64), (i32, i32))> =
+                line.pieces.iter().flatten().map(|&p| (p, ctx.backend_coord(&p))).collect();
+            let covered = |u: (i32, i32)| placed.iter().filter(|&&q| diamonds_touch(q, u)).count();
+            ctx.draw_series(
+                mine.iter().filter(|(_, u)| covered(*u) == 0).map(|(p, _)| EmptyElement::at(*p) + diamond(color)),
+            )
+            .map_err(|e| e.to_string())?;
+            ctx.draw_series(mine.iter().filter_map(|&(p, u)| {
+                let k = covered(u) as i32;
+                (k > 0).then(|| EmptyElement::at(p) + ring(DIAMOND + k * RING_STEP, color))
+            }))
+            .map_err(|e| e.to_string())?;
+            placed.extend(mine.iter().map(|(_, u)| *u));
         }
         for piece in line.pieces.iter().filter(|_| !line.points_only) {
             if let [p] = piece.as_slice() {
@@ -1876,16 +1918,20 @@ fn draw_contents<'a>(
                 .label(line.label)
                 .legend(move |(x, y)| {
                     let w = 32 * SCALE as i32;
-                    // solid: two touching halves and no marker; points: a marker alone
+                    let none = TRANSPARENT.stroke_width(0);
+                    // solid: two touching halves and no marker; points: their diamond alone
                     let ((on, off), marker, stroke) = match (points_only, dash) {
-                        (true, _) => ((w as u32 / 2, 0), color.filled(), TRANSPARENT.stroke_width(0)),
-                        (false, None) => ((w as u32 / 2, 0), TRANSPARENT.stroke_width(0), style),
+                        (true, _) => ((w as u32 / 2, 0), none, none),
+                        (false, None) => ((w as u32 / 2, 0), none, style),
                         (false, Some(k)) => (DASHES[k], color.stroke_width(SCALE), style),
                     };
+                    let d = if points_only { DIAMOND } else { 0 };
+                    let fill = if points_only { color.filled() } else { TRANSPARENT.filled() };
                     EmptyElement::at((x, y))
                         + PathElement::new(vec![(0, 0), (on as i32, 0)], stroke)
                         + PathElement::new(vec![(on as i32 + off as i32, 0), (w, 0)], stroke)
                         + Circle::new((w / 2, 0), MARKER, marker)
+                        + Polygon::new(vec![(w / 2, -d), (w / 2 + d, 0), (w / 2, d), (w / 2 - d, 0)], fill)
                 });
         }
     }
@@ -2450,6 +2496,52 @@ mod tests {
         let t = texts(&chart_svg(&c).unwrap());
         assert!(!t.iter().any(|s| ["-0", "\u{2212}0", "-0.0", "\u{2212}0.0"].contains(&s.as_str())), "{t:?}");
         assert!(t.iter().any(|s| s == "0"), "the zero tick is labelled 0: {t:?}");
+    }
+
+    /// Points alone (eigenvalues): the x axis is padded so no marker sits
+    /// on the frame, and a point on an earlier series' marker is drawn as
+    /// a ring around it; the legend shows each series' diamond.
+    #[test]
+    fn points_keep_off_the_frame_and_out_of_each_other_s_way() {
+        let points = |label: &str, re: &[f64]| Series {
+            stroke: Stroke::Points,
+            ..Series::new(label, re.iter().map(|&x| (x, 0.0)).collect())
+        };
+        let c = chart(vec![points("one", &[5.0, 0.0, -0.78]), points("two", &[0.0, -0.78, -5.0])]);
+        let svg = chart_svg(&c).unwrap();
+        let doc = roxmltree::Document::parse(&svg).expect("XML");
+        let hex = |c: RGBColor| format!("#{:02X}{:02X}{:02X}", c.0, c.1, c.2);
+        let count = |tag: &str, attribute: &str, colour: RGBColor| {
+            doc.descendants()
+                .filter(|n| n.has_tag_name(tag) && n.attribute(attribute) == Some(hex(colour).as_str()))
+                .count()
+        };
+        // three diamonds of the first series and one in the legend; the
+        // second's point apart is a diamond, its two on the first's rings
+        assert_eq!(count("polygon", "fill", PALETTE[0]), 4);
+        assert_eq!(count("polygon", "fill", PALETTE[1]), 2);
+        assert_eq!(count("polyline", "stroke", PALETTE[1]), 2);
+        // the diamonds' centres [canvas units] lie inside the frame, none on it
+        let frame = doc
+            .descendants()
+            .filter(|n| n.has_tag_name("polyline") && n.attribute("stroke") == Some("#000000"))
+            .filter_map(|n| n.attribute("points"))
+            .flat_map(|p| p.split_whitespace().filter_map(|xy| xy.split(',').next()?.parse::<f64>().ok()))
+            .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), x| (lo.min(x), hi.max(x)));
+        let centres: Vec<f64> = doc
+            .descendants()
+            .filter(|n| n.has_tag_name("polygon") && n.attribute("fill") != Some("#FFFFFF"))
+            .filter_map(|n| n.attribute("points"))
+            .map(|p| {
+                let xs: Vec<f64> = p.split_whitespace().filter_map(|xy| xy.split(',').next()?.parse().ok()).collect();
+                xs.iter().sum::<f64>() / xs.len() as f64
+            })
+            .collect();
+        assert!(!centres.is_empty());
+        let margin = f64::from(2 * DIAMOND);
+        for x in centres {
+            assert!(x > frame.0 + margin && x < frame.1 - margin, "a diamond at x = {x} on the frame {frame:?}");
+        }
     }
 
     #[test]

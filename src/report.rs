@@ -5,7 +5,8 @@
 //! the balance of docs/physics.md §8), an animation of the run (a GIF
 //! inlined as a `data:` URI, drawn from the trajectory's rows by
 //! [`crate::animate::gif_of_table`]), every figure as inline SVG, and
-//! what reproduces the run: the command line and the scene file after the
+//! what reproduces the run: the command line (naming the scene file a run
+//! was given, [`RunOptions::scene_file`]) and the scene file after the
 //! overrides. Nothing is loaded from elsewhere: no scripts, style sheets,
 //! fonts or images by address, so the file can be mailed and opened
 //! offline.
@@ -20,8 +21,10 @@ use crate::output::Table;
 
 /// Rows of the report's animation at most.
 pub const REPORT_FRAMES: usize = 240;
-/// Frame rate of the report's animation \[1/s\].
-pub const REPORT_FPS: f64 = 12.0;
+/// Frame rate of the report's animation \[1/s\]: a GIF gives each frame a
+/// whole number of hundredths of a second, so the rate is one that plays
+/// exactly (10 hundredths a frame; 12 fps would play at 12.5).
+pub const REPORT_FPS: f64 = 10.0;
 /// Resolution of the report's animation \[dpi\] (480 x 320 pixels).
 pub const REPORT_DPI: f64 = 48.0;
 
@@ -69,14 +72,32 @@ pub fn ledger<M: Model>(sys: &Dynamics<M>, y0: &[f64], y1: &[f64], names: &[Stri
     out
 }
 
-/// The command line that reruns `scene` with `opts`: the scene by name
-/// (a scene from a file is named by the file's path instead; the page
-/// shows the scene after the `--set` overrides), then every setting the
-/// run was given.
+/// `word` as one word of a POSIX shell's command line: as it is when it
+/// holds only characters no shell treats specially, else in single
+/// quotes (a `'` inside written `'\''`).
+pub fn shell_quote(word: &str) -> String {
+    let plain = |c: char| c.is_ascii_alphanumeric() || "-_./:=,+@%".contains(c);
+    if !word.is_empty() && word.chars().all(plain) {
+        word.to_string()
+    } else {
+        format!("'{}'", word.replace('\'', "'\\''"))
+    }
+}
+
+/// The command line that reruns `scene` with `opts`: the scene by name,
+/// or the scene file the run was given ([`RunOptions::scene_file`]),
+/// quoted for a shell; then every setting the run was given (the page
+/// also shows the scene after the `--set` overrides).
 pub fn command_line(scene: &str, opts: &RunOptions) -> String {
-    let mut a = vec!["ezy".to_string(), "run".into(), scene.to_string()];
+    let scene = match opts.scene_file.clone() {
+        // a relative path that starts like a flag stays a path
+        Some(f) if f.starts_with('-') => format!("./{f}"),
+        Some(f) => f,
+        None => scene.to_string(),
+    };
+    let mut a = vec!["ezy".to_string(), "run".into(), shell_quote(&scene)];
     for (name, v) in &opts.sets {
-        a.push(format!("--set {name}={v:?}"));
+        a.push(format!("--set {}", shell_quote(&format!("{name}={v:?}"))));
     }
     let num = |a: &mut Vec<String>, flag: &str, v: Option<f64>| {
         if let Some(v) = v {
@@ -90,6 +111,9 @@ pub fn command_line(scene: &str, opts: &RunOptions) -> String {
     num(&mut a, "--atol", opts.atol);
     if let Some(m) = opts.method {
         a.push(format!("--integrator {}", m.name()));
+    }
+    if let Some(f) = opts.formulation {
+        a.push(format!("--formulation {}", f.name()));
     }
     if let Some(p) = opts.projection {
         a.push(format!(
@@ -139,6 +163,8 @@ pub struct Page<'a> {
     pub figures: Vec<(String, Result<String, String>)>,
     /// The command line that reruns it.
     pub command: String,
+    /// The scene file the run was given, as given (`None`: a known scene).
+    pub scene_file: Option<&'a str>,
 }
 
 /// The HTML page.
@@ -154,24 +180,30 @@ pub fn html(p: &Page<'_>) -> String {
         p.t_end
     );
     let _ = write!(h, "<h2>Summary</h2>\n<pre>{}</pre>\n", escape(p.summary));
-    h.push_str("<h2>Energy ledger</h2>\n<table>\n<tr><th>quantity</th><th>value [J]</th><th></th></tr>\n");
+    h.push_str(
+        "<h2>Energy ledger</h2>\n<div class=\"wide\">\n<table>\n<tr><th>quantity</th><th>value [J]</th><th></th></tr>\n",
+    );
     for l in p.ledger {
         let _ = writeln!(
             h,
-            "<tr><td>{}</td><td class=\"num\">{:.9e}</td><td>{}</td></tr>",
+            "<tr><td class=\"name\">{}</td><td class=\"num\">{:.9e}</td><td>{}</td></tr>",
             escape(&l.name),
             l.value,
             escape(&l.what)
         );
     }
-    let _ =
-        write!(h, "</table>\n<p>Largest |T - T(0) - W| over the run: {:.3e} J.</p>\n<h2>Animation</h2>\n", p.max_gap);
+    let _ = write!(
+        h,
+        "</table>\n</div>\n<p>Largest |T - T(0) - W| over the run: {:.3e} J.</p>\n<h2>Animation</h2>\n",
+        p.max_gap
+    );
     match &p.animation {
         Ok(gif) => {
             let _ = writeln!(
                 h,
-                "<img alt=\"the bodies of scene {name} moving\" src=\"data:image/gif;base64,{}\">",
-                base64::engine::general_purpose::STANDARD.encode(gif)
+                "<img alt=\"the bodies of scene {name} moving\" src=\"data:image/gif;base64,{}\">\n<p>{} frames per second. The label gives the simulated time <code>t</code> and how many times faster than real time the animation plays.</p>",
+                base64::engine::general_purpose::STANDARD.encode(gif),
+                REPORT_FPS
             );
         }
         Err(why) => {
@@ -191,10 +223,20 @@ pub fn html(p: &Page<'_>) -> String {
             }
         }
     }
+    let _ = write!(h, "<h2>To reproduce</h2>\n<pre>{}</pre>\n", escape(&p.command));
+    // a relative path reruns from the directory the run was started in
+    let relative = p.scene_file.filter(|f| std::path::Path::new(f).is_relative());
+    if let (Some(file), Ok(dir)) = (relative, std::env::current_dir()) {
+        let _ = writeln!(
+            h,
+            "<p>The scene file <code>{}</code> is relative to the directory the run was started in, <code>{}</code>.</p>",
+            escape(&file),
+            escape(&dir.display().to_string())
+        );
+    }
     let _ = write!(
         h,
-        "<h2>To reproduce</h2>\n<pre>{}</pre>\n<p>(For a scene read from a file, give the file's path instead of the name.) The scene after the <code>--set</code> overrides:</p>\n<pre>{}</pre>\n</body>\n</html>\n",
-        escape(&p.command),
+        "<p>The scene after the <code>--set</code> overrides:</p>\n<pre>{}</pre>\n</body>\n</html>\n",
         escape(&p.scene.to_toml())
     );
     h
@@ -204,8 +246,10 @@ pub fn html(p: &Page<'_>) -> String {
 const STYLE: &str =
     "body { font-family: 'DejaVu Sans', sans-serif; max-width: 1000px; margin: 2em auto; padding: 0 1em; color: #222; }
 pre { background: #f6f6f6; padding: 0.8em; overflow-x: auto; font-size: 0.85em; }
+div.wide { overflow-x: auto; }
 table { border-collapse: collapse; }
 td, th { border-bottom: 1px solid #ddd; padding: 0.3em 0.8em; text-align: left; }
+td.name, td.num { white-space: nowrap; }
 td.num { text-align: right; font-family: monospace; }
 figure { margin: 1.5em 0; }
 figure svg, img { max-width: 100%; height: auto; }
@@ -224,4 +268,39 @@ pub fn figures(info: &ezy_core::ModelInfo, scene: &Scene, table: &Table) -> Vec<
             (ezy_scene::figure_stem(&fig.file).to_string(), svg)
         })
         .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn words_are_quoted_for_a_shell_only_when_they_need_it() {
+        assert_eq!(shell_quote("drive"), "drive");
+        assert_eq!(shell_quote("scenes/my-drive.toml"), "scenes/my-drive.toml");
+        assert_eq!(shell_quote("M0=0.5"), "M0=0.5");
+        assert_eq!(shell_quote("my scene.toml"), "'my scene.toml'");
+        assert_eq!(shell_quote("it's.toml"), "'it'\\''s.toml'");
+        assert_eq!(shell_quote("$HOME/a;b`c`.toml"), "'$HOME/a;b`c`.toml'");
+        assert_eq!(shell_quote(""), "''");
+    }
+
+    #[test]
+    fn a_run_given_a_file_is_reproduced_from_it() {
+        let opts = RunOptions { t_end: Some(3.0), figures: true, ..RunOptions::default() };
+        assert_eq!(command_line("drive", &opts), "ezy run drive --t-end 3.0 --report");
+        let file = |f: &str| RunOptions { scene_file: Some(f.into()), ..opts.clone() };
+        let named = command_line("drive", &file("my dir/drive.toml"));
+        assert_eq!(named, "ezy run 'my dir/drive.toml' --t-end 3.0 --report");
+        let flag_like = command_line("x", &file("-x.toml"));
+        assert_eq!(flag_like, "ezy run ./-x.toml --t-end 3.0 --report");
+    }
+
+    /// A GIF's frame lasts a whole number of hundredths of a second: the
+    /// report's rate is one a GIF plays exactly.
+    #[test]
+    fn the_report_s_frame_rate_is_one_a_gif_plays() {
+        let delay = 100.0 / REPORT_FPS;
+        assert_eq!(delay, delay.round(), "{REPORT_FPS} fps");
+    }
 }

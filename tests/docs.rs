@@ -242,3 +242,77 @@ fn the_effects_table_names_every_kind_and_key() {
         }
     }
 }
+
+/// The numbers the drive chapter quotes (docs/book/src/drive.md includes
+/// the page), from `ezy run drive`, what `cargo run --release` runs: the
+/// method and formulation the run takes, the largest gap of the energy
+/// balance and residuals over the run, and the state at its end.
+#[test]
+fn the_drive_chapter_quotes_the_run() {
+    let out = PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join("docs-drive-run");
+    let _ = std::fs::remove_dir_all(&out);
+    let o = Command::new(env!("CARGO_BIN_EXE_ezy"))
+        .args(["run", "drive", "--no-figures", "--out", out.to_str().unwrap()])
+        .output()
+        .unwrap();
+    let said = String::from_utf8_lossy(&o.stdout).to_string();
+    assert!(o.status.success(), "ezy run drive: {said}{}", String::from_utf8_lossy(&o.stderr));
+    let _ = std::fs::remove_dir_all(&out);
+    // the rest of the line that starts with `start`
+    let after = |start: &str| {
+        said.lines()
+            .find_map(|l| l.trim().strip_prefix(start))
+            .unwrap_or_else(|| panic!("no line `{start}`: {said}"))
+            .to_string()
+    };
+    // the text of `text` between `from` and the next `to`
+    fn between(text: &str, from: &str, to: &str) -> String {
+        let rest = text.split(from).nth(1).unwrap_or_else(|| panic!("no `{from}` in `{text}`"));
+        rest.split(to).next().unwrap().trim().to_string()
+    }
+    let first = said.lines().next().unwrap();
+    let gap = after("max |T - T0 - W| = ");
+    let residuals = after("max residuals ");
+    let (c, g) = (between(&residuals, "|C| = ", ","), between(&residuals, "|G qd| = ", " ("));
+    let unit = |name: &str| match name {
+        n if n.starts_with('W') => "J",
+        n if n.starts_with("phi") && n.ends_with('d') => "rad/s",
+        n if n.starts_with("phi") => "rad",
+        n if n.ends_with('d') => "m/s",
+        _ => "m",
+    };
+    let state: Vec<String> = after("final state: ")
+        .split(", ")
+        .map(|kv| {
+            let (name, value) = kv.split_once(" = ").unwrap_or_else(|| panic!("`{kv}` in the final state"));
+            format!("{name} = {value} {}", unit(name))
+        })
+        .collect();
+    let body = format!(
+        "`ezy run drive` (what `cargo run --release` runs) says which method and\nformulation it took in its first line:\n\n```text\n{first}\n```\n\nOver the run, the largest gap of the energy balance `abs(T - T(0) - W)`\nis {gap}, the largest position residual `abs(C)` {c} and the\nlargest velocity residual `abs(G qd)` {g}. The state at t = 60 s:\n{}.\n\nThe test suite reruns the scene and checks these numbers against this\npage (tests/docs.rs).\n",
+        state.join(", ")
+    );
+    check_page("docs/book/src/generated/drive-run.md", "`ezy run drive`", &body);
+}
+
+/// The contents list at the top of docs/physics.md (the guide's physics
+/// chapter) names every numbered section, in order.
+#[test]
+fn the_physics_contents_list_every_section() {
+    let text = read("docs/physics.md");
+    let sections: Vec<&str> = text
+        .lines()
+        .filter_map(|l| l.strip_prefix("## "))
+        .filter(|h| h.starts_with(|c: char| c.is_ascii_digit()))
+        .collect();
+    let listed: Vec<&str> = text
+        .split("Contents:\n")
+        .nth(1)
+        .expect("docs/physics.md has a contents list")
+        .lines()
+        .skip_while(|l| l.trim().is_empty())
+        .take_while(|l| !l.trim().is_empty())
+        .collect();
+    assert!(sections.len() >= 12, "{sections:?}");
+    assert_eq!(listed, sections, "the contents list of docs/physics.md against its sections");
+}

@@ -206,6 +206,83 @@ fn the_report_is_self_contained() {
     let _ = std::fs::remove_dir_all(&out);
 }
 
+/// `text` as one word of a POSIX shell's command line.
+fn sh_word(text: &str) -> String {
+    format!("'{}'", text.replace('\'', "'\\''"))
+}
+
+/// The report of a run given a scene file names that file in the command
+/// that reproduces the run, quoted for a shell, and that command reruns
+/// it; the frame rate the report states is the one its GIF plays; the
+/// ledger's names and numbers do not wrap.
+#[test]
+fn the_report_reproduces_a_scene_file_and_states_its_frame_rate() {
+    let out = tmp("report-file");
+    std::fs::create_dir_all(&out).unwrap();
+    let file = out.join("Bob's drive $1.toml");
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    std::fs::copy(root.join("models/scenes/drive.toml"), &file).unwrap();
+    let first = out.join("first");
+    let (ok, said) = ezy(&[
+        "run",
+        file.to_str().unwrap(),
+        "--t-end",
+        "2",
+        "--set",
+        "M0=0.5",
+        "--no-figures",
+        "--report",
+        "--out",
+        first.to_str().unwrap(),
+    ]);
+    assert!(ok, "{said}");
+    let html = std::fs::read_to_string(first.join("report.html")).unwrap();
+    let unescape = |s: &str| s.replace("&quot;", "\"").replace("&lt;", "<").replace("&gt;", ">").replace("&amp;", "&");
+    let command = |html: &str| {
+        let after = html.split("<h2>To reproduce</h2>\n<pre>").nth(1).expect("a command to reproduce the run");
+        unescape(after.split("</pre>").next().unwrap())
+    };
+    let given = command(&html);
+    let want =
+        format!("ezy run {} --set M0=0.5 --t-end 2.0 --no-figures --report", sh_word(&file.display().to_string()));
+    assert_eq!(given, want);
+    // the command reruns the run, from any directory
+    let again = out.join("again");
+    let script = format!(
+        "{} --out {}",
+        given.replacen("ezy", &sh_word(env!("CARGO_BIN_EXE_ezy")), 1),
+        sh_word(&again.display().to_string())
+    );
+    let o = Command::new("sh").arg("-c").arg(&script).current_dir(std::env::temp_dir()).output().unwrap();
+    assert!(o.status.success(), "{script}: {}", String::from_utf8_lossy(&o.stderr));
+    let rerun = std::fs::read_to_string(again.join("report.html")).unwrap();
+    assert_eq!(command(&rerun), given);
+    // the frame rate stated is the GIF's: each frame 100 / fps hundredths of a second
+    let stated: f64 = html
+        .split(" frames per second")
+        .next()
+        .and_then(|s| s.rsplit('>').next())
+        .and_then(|s| s.trim().parse().ok())
+        .expect("the report states the animation's frame rate");
+    let data = html.split("data:image/gif;base64,").nth(1).unwrap().split('"').next().unwrap();
+    use base64::Engine as _;
+    let gif = base64::engine::general_purpose::STANDARD.decode(data).unwrap();
+    let mut d = gif::DecodeOptions::new().read_info(gif.as_slice()).unwrap();
+    let mut delays = Vec::new();
+    while let Some(f) = d.read_next_frame().unwrap() {
+        delays.push(f.delay);
+    }
+    assert!(!delays.is_empty());
+    for delay in delays {
+        assert_eq!(100.0 / f64::from(delay), stated, "a frame of {delay}/100 s plays at {stated} fps");
+    }
+    // the ledger scrolls rather than wrapping its names and numbers
+    assert!(html.contains("<div class=\"wide\">\n<table>"), "the ledger in a scrolling box");
+    assert!(html.contains("td.name, td.num { white-space: nowrap; }"));
+    assert!(html.contains("<td class=\"num\">"));
+    let _ = std::fs::remove_dir_all(&out);
+}
+
 /// `ezy precision --replot --overlay`: the figures redrawn from a saved
 /// ladder with other tools' points, the ladder kept; a bad overlay file
 /// is refused at its line.

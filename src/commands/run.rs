@@ -116,6 +116,10 @@ pub struct RunOptions {
     /// Largest estimated size of `trajectory.csv` \[MB\] (`None`:
     /// [`DEFAULT_MAX_OUTPUT_MB`]).
     pub max_output_mb: Option<f64>,
+    /// The scene file the run was given, as its command line gave it
+    /// (`None`: a known scene by name): the report's command line names it
+    /// ([`crate::report::command_line`]).
+    pub scene_file: Option<String>,
 }
 
 impl RunOptions {
@@ -600,6 +604,7 @@ fn report_html<M: Model>(
         animation,
         figures,
         command: crate::report::command_line(&scene.name, opts),
+        scene_file: opts.scene_file.as_deref(),
     };
     crate::report::html(&page)
 }
