@@ -230,7 +230,7 @@ pub fn html(p: &Page<'_>) -> String {
         let _ = writeln!(
             h,
             "<p>The scene file <code>{}</code> is relative to the directory the run was started in, <code>{}</code>.</p>",
-            escape(&file),
+            escape(file),
             escape(&dir.display().to_string())
         );
     }
