@@ -418,3 +418,83 @@ fn a_branch_in_the_forcing_frequency_takes_each_points_period() {
     let (_, err, ok) = ezy(&["analyze", "drive-rolling-resistance", "--period", "4", "--no-figures"], &bad);
     assert!(ok, "{err}");
 }
+
+/// What the analyses cannot follow is refused with its reason, before
+/// anything is written (they used to answer as if it were not there):
+/// skates with friction that slide on the motion found (a trailer on ice:
+/// the ideal circle was "stable"; `linearize drive-slip --input
+/// scale_slip_C` at a slide gave B = 0), a switch (a push switched off at
+/// once still gave its motion), `--at` past a stop event (the stop's state
+/// was labelled with the later time).
+#[test]
+fn analyses_refuse_slides_switches_and_stops() {
+    let dir = fresh("refusals");
+    std::fs::create_dir_all(&dir).unwrap();
+    // the trailer on ice: every skate with friction mu = 0.002
+    let mut ice = std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/models/scenes/trailer.toml")).unwrap();
+    ice.truncate(ice.find("[[figures]]").unwrap_or(ice.len()));
+    for k in ["R", "F", "A1", "A2"] {
+        ice.push_str(&format!(
+            "\n[effects.slip_{k}]\nkind = \"skate-friction\"\nskate = \"{k}\"\nmu = 0.002\nshare = 0.25\n"
+        ));
+    }
+    let ice_file = dir.join("trailer-ice.toml");
+    std::fs::write(&ice_file, &ice).unwrap();
+    let ice_file = ice_file.to_str().unwrap();
+    let (_, err, ok) = ezy(&["analyze", ice_file, "--no-figures"], &dir.join("a1"));
+    assert!(!ok && err.contains("no steady motion") && err.contains("and 8 other guesses"), "{err}");
+    assert!(err.contains("skate `F` slides on this steady motion") && err.contains("mu N = 34.32 N"), "{err}");
+    assert_eq!(err.matches("skate `F` slides").count(), 1, "the guesses' reasons once: {err}");
+    let (_, err, ok) = ezy(&["linearize", "drive-slip", "--at", "5", "--input", "scale_slip_C"], &dir.join("l1"));
+    assert!(
+        !ok && err.contains("skate `C` slides on the state linearized") && err.contains("(effect `slip_C`)"),
+        "{err}"
+    );
+    // a switch: the scene's effects at the start are not those of its run
+    let sleigh = std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/models/scenes/sleigh.toml")).unwrap();
+    let base = &sleigh[..sleigh.find("[[figures]]").unwrap()];
+    let push = "\n[effects.push]\nkind = \"force\"\nat = \"sleigh\"\nfx = { constant = 0.5 }\n";
+    let off = "\n[events.off]\nwhen = \"t\"\ncrosses = 1e-9\naction = \"switch\"\nswitch_off = [\"push\"]\n";
+    let switched = dir.join("switched.toml");
+    std::fs::write(&switched, format!("{base}{push}{off}")).unwrap();
+    for command in ["analyze", "linearize"] {
+        let (_, err, ok) = ezy(&[command, switched.to_str().unwrap()], &dir.join(command));
+        assert!(!ok && err.contains("event `off` switches effects during a run"), "{command}: {err}");
+        assert!(!dir.join(command).exists(), "{command}");
+    }
+    // a stop at x = 1.5 m (t = 1.545 s)
+    let stop = "\n[events.far]\nwhen = \"x\"\ncrosses = 1.5\naction = \"stop\"\n";
+    let stopped = dir.join("stopped.toml");
+    std::fs::write(&stopped, format!("{base}{stop}")).unwrap();
+    let (_, err, ok) = ezy(&["linearize", stopped.to_str().unwrap(), "--at", "5"], &dir.join("l2"));
+    assert!(!ok && err.contains("--at 5: the run stops at the event `far` at t = 1.545"), "{err}");
+    let (out, err, ok) = ezy(&["linearize", stopped.to_str().unwrap(), "--at", "1"], &dir.join("l3"));
+    assert!(ok, "{err}");
+    // at a moving state the frame of the eigenvalues is named
+    assert!(out.contains("note: the state moves") && out.contains("depend on the frame"), "{out}");
+}
+
+/// `analyze sleigh-ice` listed the straight run twice (2.161999 and
+/// 2.161984 m/s, one family of speeds) and two motions at 1e-6 and 1e-5
+/// m/s, where the search's absolute residual (1e-12) cannot tell a steady
+/// motion from any slow state: it lists the straight run once and notes
+/// the two as rest. `--energy` standing for a speed below 1e-3 m/s is
+/// refused.
+#[test]
+fn steady_motions_are_listed_once_and_rest_is_not_one() {
+    let dir = fresh("once");
+    let (out, err, ok) = ezy(&["analyze", "sleigh-ice", "--no-figures"], &dir.join("a"));
+    assert!(ok, "{err}");
+    assert!(out.contains("steady motion 1: stable, speed 2.16") && !out.contains("steady motion 2"), "{out}");
+    assert!(out.contains("2 searches ended at speeds below") && out.contains("not listed"), "{out}");
+    let (_, rows) = table(&dir.join("a/equilibria.csv"));
+    assert_eq!(rows.len(), 1);
+    for e in ["1e-300", "1e-7", "0", "-1"] {
+        let (_, err, ok) = ezy(&["analyze", "sleigh", "--energy", e, "--no-figures"], &dir.join("e"));
+        assert!(!ok && err.contains("--energy") && err.contains(e), "{e}: {err}");
+    }
+    let (_, err, ok) = ezy(&["analyze", "sleigh", "--energy", "1e-7", "--no-figures"], &dir.join("e"));
+    assert!(!ok && err.contains("about 4.5e-4 m/s, below the 0.001 m/s"), "{err}");
+    let (out, err, ok) = ezy(&["analyze", "sleigh", "--energy", "0.5", "--no-figures"], &dir.join("e"));
+    assert!(ok && out.contains("steady motion 1: stable, speed 1"), "{out}{err}");
+}

@@ -78,21 +78,22 @@ fn build<M: Model>(proto: &M, scene: &Scene, sets: &[(String, f64)]) -> Result<(
 
 /// The states `[q, qd]` of a run of the scene (its own settings,
 /// overridden by `opts`) to `t_end` \[s\] at `samples` evenly spaced
-/// times, the start excluded and the end last; a signal stops it within a
-/// step.
+/// times, the start excluded and the end last (the stop's state where a
+/// stop event ended it, with its name and time); a signal stops it within
+/// a step.
 fn run_to<M: Model>(
     proto: &M,
     scene: &Scene,
     opts: &RunOptions,
     t_end: f64,
     samples: u32,
-) -> Result<Vec<Vec<f64>>, Error> {
+) -> Result<(Vec<Vec<f64>>, Option<(String, f64)>), Error> {
     let mut settings = run::settings(scene, opts)?;
     settings.t_end = t_end;
     settings.every = t_end / f64::from(samples);
     let (problem, _) = run::problem(proto, scene, opts, settings)?;
     let mut kept = States { dir: opts.out.clone(), x: Vec::new() };
-    problem.solve_with(&mut kept).map_err(|e| match e {
+    let (summary, _) = problem.solve_with(&mut kept).map_err(|e| match e {
         ezy_core::RunError::Sim(e) => Error::Sim(e),
         ezy_core::RunError::Output(e) => Error::Transaction(e),
     })?;
@@ -100,7 +101,7 @@ fn run_to<M: Model>(
     // (the output interval's rounding) is not kept twice
     let mut x = kept.x.split_off(1.min(kept.x.len()));
     x.truncate(samples as usize);
-    Ok(x)
+    Ok((x, summary.stopped))
 }
 
 /// Keeps the samples' `[q, qd]`; stops the run when a signal arrives.
@@ -145,7 +146,25 @@ pub fn analyze_model<M: Model>(proto: &M, scene: &Scene, opts: &AnalyzeOptions) 
     {
         return Err(Error::Input(format!("--period {p}: the period must be a positive number of seconds")));
     }
+    if let Some(e) = opts.energy
+        && !(e.is_finite() && e > 0.0)
+    {
+        return Err(Error::Input(format!("--energy {e}: the kinetic energy must be a positive number of joules")));
+    }
     let (mut an, x0) = build(proto, scene, &ro.sets)?;
+    if let Some(e) = opts.energy {
+        // the speed it stands for, on all the bodies' mass at once
+        let mass: f64 = an.dynamics().mass.iter().step_by(3).sum();
+        let v = (2.0 * e / mass).sqrt();
+        if !(v >= NEAR_REST) {
+            return Err(Error::Input(format!(
+                "--energy {}: the scene would move at about {} m/s, below the {} m/s from which the search tells a motion from rest (give a larger energy)",
+                fmt_value(e),
+                format!("{v:.1e}"),
+                fmt_value(NEAR_REST)
+            )));
+        }
+    }
     // the continuation's parameter is checked before anything is written
     // (its ends: a parameter that sizes a family changes the state, which
     // a branch of one model cannot follow)
@@ -211,7 +230,7 @@ pub fn analyze_model<M: Model>(proto: &M, scene: &Scene, opts: &AnalyzeOptions) 
             None
         }
     };
-    let samples = run_to(proto, scene, ro, settings.t_end, GUESSES)?;
+    let (samples, _) = run_to(proto, scene, ro, settings.t_end, GUESSES)?;
     let end = samples.last().cloned().unwrap_or_else(|| x0.clone());
     timings.push((format!("run to t = {} s for a guess", fmt_value(settings.t_end)), clock.elapsed()));
     let conservative = an.dynamics().effects.is_empty() && an.dynamics().drives.is_empty();
@@ -235,20 +254,53 @@ pub fn analyze_model<M: Model>(proto: &M, scene: &Scene, opts: &AnalyzeOptions) 
                 guesses.push((format!("its run at t = {} s", fmt_value(every * (k + 1) as f64)), rest(x)));
             }
             let angles: Vec<usize> = an.dynamics().info.bodies.iter().map(|b| b.coords[2]).collect();
+            let mut failed: Vec<(String, String)> = Vec::new();
             let clock = Instant::now();
+            // the run's speed: a motion found far below it is rest to the
+            // search's resolution ([`NEAR_REST`])
+            let speed_of = |x: &[f64]| x[nq..].iter().fold(0.0f64, |m, v| m.max(v.abs()));
+            let run_speed = guesses.iter().map(|(_, x)| speed_of(x)).fold(0.0f64, f64::max);
+            let rest_below = NEAR_REST * (1.0 + run_speed).sqrt();
+            let mut near_rest = Vec::new();
             for (label, guess) in &guesses {
                 let energy = energy_of(&an, guess);
                 match an.steady_motion(0.0, guess, symmetry, energy) {
+                    Ok(s) if symmetry != Symmetry::NONE && speed_of(&s.state) < rest_below => {
+                        near_rest.push(speed_of(&s.state));
+                    }
                     Ok(s) => {
-                        if !steady.iter().any(|o: &SteadyMotion| same_state(&o.state, &s.state, &angles)) {
+                        if !steady.iter().any(|o: &SteadyMotion| same_motion(o, &s, &angles)) {
                             steady.push(s);
                         }
                     }
                     Err(AnalysisError::Sim(e)) => return Err(Error::Sim(e)),
-                    Err(e) => notes.push(format!("from {label}: {e}")),
+                    Err(e) => failed.push((label.clone(), e.to_string())),
                 }
             }
             timings.push((format!("{} searches for steady motions", guesses.len()), clock.elapsed()));
+            // the guesses that failed alike, once
+            let mut grouped: Vec<(Vec<String>, String)> = Vec::new();
+            for (label, why) in failed {
+                match grouped.iter_mut().find(|(_, w)| *w == why) {
+                    Some((labels, _)) => labels.push(label),
+                    None => grouped.push((vec![label], why)),
+                }
+            }
+            for (labels, why) in grouped {
+                let from = match labels.len() {
+                    1 => labels[0].clone(),
+                    n => format!("{} and {} other guesses", labels[0], n - 1),
+                };
+                notes.push(format!("from {from}: {why}"));
+            }
+            if !near_rest.is_empty() {
+                notes.push(format!(
+                    "{} searches ended at speeds below {:.1e} m/s (at most {:.1e} m/s), where the search cannot tell a steady motion from any slow state: rest, to its resolution, and not listed",
+                    near_rest.len(),
+                    rest_below,
+                    near_rest.iter().fold(0.0f64, |m, &v| m.max(v))
+                ));
+            }
             if steady.is_empty() {
                 return Err(Error::Input(format!(
                     "no steady motion of scene `{}` was found: {}",
@@ -379,6 +431,40 @@ pub fn analyze_model<M: Model>(proto: &M, scene: &Scene, opts: &AnalyzeOptions) 
     }
     let files = tx.commit()?;
     Ok(AnalyzeReport { symmetry, steady, periodic, branch, files, timings, notes })
+}
+
+/// Slowest speed \[m/s\] a steady motion is told from rest at: the
+/// search stops at an absolute residual of `1e-12 (1 + |x| + |f|)`
+/// (m/s^2 in the accelerations), while the accelerations that make a
+/// motion steady (centripetal, Coriolis) grow as `v^2`; below `v =
+/// sqrt(1e-12 / 1e-6) = 1e-3` m/s (times `sqrt(1 + |x| + |f|)`) they are
+/// resolved to worse than the `1e-6` to which motions are told apart
+/// ([`same_state`]), and any slow state passes as steady. A `--energy`
+/// standing for less is refused; a motion found slower than
+/// `NEAR_REST sqrt(1 + V)` (`V` the run's speed) is rest, not listed.
+const NEAR_REST: f64 = 1e-3;
+
+/// Whether two steady motions are one: the same normalized state
+/// ([`same_state`]) or, in a family of motions (a free speed), the same
+/// state with the velocities divided by their largest (one motion at
+/// another speed: a straight run at 2.161999 m/s and at 2.161984 m/s).
+fn same_motion(a: &SteadyMotion, b: &SteadyMotion, angles: &[usize]) -> bool {
+    if same_state(&a.state, &b.state, angles) {
+        return true;
+    }
+    if a.family == 0 || b.family == 0 || a.stability != b.stability {
+        return false;
+    }
+    let nq = a.state.len() / 2;
+    let unit = |x: &[f64]| {
+        let v = x[nq..].iter().fold(0.0f64, |m, v| m.max(v.abs()));
+        let mut u = x.to_vec();
+        if v > 0.0 {
+            u[nq..].iter_mut().for_each(|c| *c /= v);
+        }
+        u
+    };
+    same_state(&unit(&a.state), &unit(&b.state), angles)
 }
 
 /// Whether two normalized states are one solution (to 1e-6 relative),
@@ -635,7 +721,20 @@ pub fn linearize_model<M: Model>(proto: &M, scene: &Scene, opts: &LinearizeOptio
     }
     let inputs = opts.inputs.iter().map(|i| parse_input(i)).collect::<Result<Vec<_>, _>>().map_err(Error::Input)?;
     let (mut an, x0) = build(proto, scene, &ro.sets)?;
-    let x = if opts.at > 0.0 { run_to(proto, scene, ro, opts.at, 1)?.pop().unwrap_or(x0) } else { x0 };
+    let x = if opts.at > 0.0 {
+        let (mut x, stopped) = run_to(proto, scene, ro, opts.at, 1)?;
+        // the state of a run that stopped short is not the state at --at
+        if let Some((event, t)) = stopped.filter(|(_, t)| *t < opts.at) {
+            return Err(Error::Input(format!(
+                "--at {}: the run stops at the event `{event}` at t = {} s, before it; linearize at a time the run reaches",
+                fmt_value(opts.at),
+                fmt_value(t)
+            )));
+        }
+        x.pop().unwrap_or(x0)
+    } else {
+        x0
+    };
     let lin = an.linearize(opts.at, &x, &inputs).map_err(analysis_error(&ro.out))?;
     let eigenvalues = lin.eigenvalues().map_err(analysis_error(&ro.out))?;
     Transaction::preflight(&ro.out)?;
@@ -686,6 +785,18 @@ pub fn linearize_summary(scene: &str, r: &LinearizeReport) -> String {
         l.tangent.ncols(),
         r.eigenvalues.iter().map(|z| complex(*z)).collect::<Vec<_>>().join(", ")
     );
+    // at a moving state the eigenvalues are those of the world frame's
+    // coordinates along the passing motion: no verdict on stability
+    let nq = l.state.len() / 2;
+    let speed = l.state[nq..].iter().fold(0.0f64, |m, v| m.max(v.abs()));
+    if speed > 0.0 {
+        let _ = writeln!(
+            s,
+            "note: the state moves (largest velocity {} in q's units per second): A and its eigenvalues are those of the world frame's coordinates q, qd along the motion passing through it at t = {} s; they depend on the frame and say nothing of the stability of a steady motion or gait, which `ezy analyze` gives, modulo the plane's rigid motions",
+            short(speed),
+            fmt_value(l.t)
+        );
+    }
     for f in &r.files {
         let _ = writeln!(s, "wrote {}", f.display());
     }

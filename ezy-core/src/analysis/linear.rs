@@ -84,7 +84,8 @@ impl<M: Model> Analysis<M> {
     ///
     /// # Errors
     /// [`AnalysisError::Request`] for an input the model or scene does not
-    /// have; [`AnalysisError::Numerics`] if the KKT system is singular at
+    /// have, or a skate with friction that slides at `x` (its holding
+    /// force past `mu N`); [`AnalysisError::Numerics`] if the KKT system is singular at
     /// `x`; [`AnalysisError::Sim`] if an effect fails.
     pub fn linearize(&mut self, t: f64, x: &[f64], inputs: &[Input]) -> Result<Linearization, AnalysisError> {
         self.check_size()?;
@@ -95,7 +96,9 @@ impl<M: Model> Analysis<M> {
             });
         }
         let columns = inputs.iter().map(|i| self.input_force(t, x, i)).collect::<Result<Vec<_>, _>>()?;
+        self.watch_grip();
         let p = self.point(t, x)?;
+        self.check_grip("the state linearized")?;
         let (a, c) = self.jacobians(t, x, &p)?;
         let nc = p.mu.len();
         let mut rhs = Mat::<f64>::zeros(nq + nc, inputs.len());

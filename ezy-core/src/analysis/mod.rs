@@ -124,7 +124,36 @@ pub struct Analysis<M: Model> {
     /// Asked between Newton iterations and at every step of a period's
     /// integration: `true` stops the analysis.
     stop: Option<fn() -> bool>,
+    /// The skate with friction nearest to sliding over the KKT solves
+    /// since [`Analysis::watch_grip`] ([`Analysis::check_grip`]).
+    grip: Option<Grip>,
 }
+
+/// The worst grip of a skate with friction seen over some KKT solves: the
+/// lateral force holding it against its friction limit.
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct Grip {
+    /// Index into [`Dynamics::friction`].
+    skate: usize,
+    /// Time \[s\].
+    t: f64,
+    /// `|lambda|`, the lateral force holding the skate \[N\].
+    force: f64,
+}
+
+/// `v` to 4 significant digits, short.
+fn sig(v: f64) -> String {
+    if v == 0.0 || !v.is_finite() {
+        return crate::fmt_value(v);
+    }
+    let scale = 10f64.powi(3 - v.abs().log10().floor() as i32);
+    crate::fmt_value((v * scale).round() / scale)
+}
+
+/// Relative excess of a skate's holding force over its friction limit
+/// `mu N` that the analyses accept as rounding (the KKT solve's error is
+/// far below it; a skate that slides needs more).
+const GRIP_RTOL: f64 = 1e-9;
 
 /// What the KKT solve gives at one state.
 #[derive(Debug, Clone)]
@@ -144,7 +173,7 @@ impl<M: Model> Analysis<M> {
     pub fn new(sys: Dynamics<M>) -> Self {
         let bodies = sys.info.bodies.iter().map(|b| b.coords).collect();
         let power = vec![0.0; sys.effects.len()];
-        Self { sys, bodies, power, stop: None }
+        Self { sys, bodies, power, stop: None, grip: None }
     }
 
     /// Sets a hook asked between Newton iterations and at every step of a
@@ -153,6 +182,57 @@ impl<M: Model> Analysis<M> {
     /// Ctrl-C within a step).
     pub fn stop_when(&mut self, stop: fn() -> bool) {
         self.stop = Some(stop);
+    }
+
+    /// Starts watching the skates with friction over the KKT solves that
+    /// follow ([`Analysis::check_grip`]).
+    pub(crate) fn watch_grip(&mut self) {
+        self.grip = None;
+    }
+
+    /// Refuses what the KKT solves since [`Analysis::watch_grip`] found: a
+    /// skate with friction whose holding force passed its limit `mu N`.
+    /// The analyses take every skate as holding (an ideal knife edge); a
+    /// motion on which one slides is not that (Coulomb friction switches
+    /// the skate's row off; a run follows it, an analysis does not).
+    ///
+    /// # Errors
+    /// [`AnalysisError::Request`] naming the skate, its force, its limit,
+    /// the time and `what` was analysed.
+    pub(crate) fn check_grip(&self, what: &str) -> Result<(), AnalysisError> {
+        let Some(g) = self.grip else { return Ok(()) };
+        let fr = &self.sys.friction[g.skate];
+        if g.force <= fr.limit * (1.0 + GRIP_RTOL) {
+            return Ok(());
+        }
+        Err(AnalysisError::Request {
+            reason: format!(
+                "skate `{}` slides on {what}: holding it takes a lateral force of {} N (at t = {} s), more than its friction limit mu N = {} N (effect `{}`); the analyses take every skate as holding, so a motion on which one slides is not theirs to analyse (run it: `ezy run` follows the slide)",
+                fr.name,
+                sig(g.force),
+                sig(g.t),
+                sig(fr.limit),
+                self.sys.effects[fr.effect].name
+            ),
+        })
+    }
+
+    /// Refuses a scene with what the analyses cannot follow: an event
+    /// that switches effects (the analyses take the forces as the scene
+    /// starts them, and no switch).
+    ///
+    /// # Errors
+    /// [`AnalysisError::Request`] naming the event.
+    pub fn check_scope(&self) -> Result<(), AnalysisError> {
+        if let Some(e) = self.sys.events.iter().find(|e| e.action == crate::events::Action::Switch) {
+            return Err(AnalysisError::Request {
+                reason: format!(
+                    "event `{}` switches effects during a run; the analyses take the forces as the scene starts them and follow no switch: remove the event (or give the effects as they are after it)",
+                    e.name
+                ),
+            });
+        }
+        Ok(())
     }
 
     /// [`AnalysisError::Stopped`] if the stop hook says so.
@@ -227,11 +307,14 @@ impl<M: Model> Analysis<M> {
 
     /// Checks that the model is small enough for the analyses' dense
     /// matrices: the KKT matrix `(nq + nc)^2` and the state Jacobian
-    /// `(2 nq)^2`, each at most [`MAX_DENSE_BYTES`].
+    /// `(2 nq)^2`, each at most [`MAX_DENSE_BYTES`]; and that the scene
+    /// has nothing they cannot follow ([`Analysis::check_scope`]).
     ///
     /// # Errors
-    /// [`AnalysisError::Request`] with the size it would take.
+    /// [`AnalysisError::Request`] with the size it would take; as
+    /// [`Analysis::check_scope`].
     pub fn check_size(&self) -> Result<(), AnalysisError> {
+        self.check_scope()?;
         let (nq, nc) = (self.nq(), self.sys.info.nc());
         let n = (nq + nc).max(2 * nq);
         let bytes = 8.0 * n as f64 * n as f64;
@@ -333,7 +416,19 @@ impl<M: Model> Analysis<M> {
         let rhs = Mat::from_fn(n, 1, |i, _| if i < nq { f[i] } else { -gamma[i - nq] });
         let sol = dense::solve(kkt.as_ref(), rhs.as_ref(), "the KKT matrix [M G^T; G 0]")?;
         let qdd = (0..nq).map(|i| sol[(i, 0)]).collect();
-        let mu = (nq..n).map(|i| sol[(i, 0)]).collect();
+        let mu: Vec<f64> = (nq..n).map(|i| sol[(i, 0)]).collect();
+        // each skate's holding force over its limit (a NaN force first)
+        let ratio = |force: f64, limit: f64| if force == 0.0 { 0.0 } else { force / limit };
+        for (k, fr) in self.sys.friction.iter().enumerate() {
+            let force = mu[fr.row].abs();
+            let worse = self.grip.is_none_or(|g| {
+                let r = ratio(force, fr.limit);
+                r.is_nan() || r > ratio(g.force, self.sys.friction[g.skate].limit)
+            });
+            if worse {
+                self.grip = Some(Grip { skate: k, t, force });
+            }
+        }
         Ok(Point { qdd, mu, g, kkt })
     }
 

@@ -168,7 +168,9 @@ impl<M: Model> Analysis<M> {
     ///
     /// # Errors
     /// [`AnalysisError::Request`] for a period that is not positive and
-    /// finite or a guess of the wrong length; [`AnalysisError::NotConverged`];
+    /// finite or a guess of the wrong length, or a skate with friction
+    /// that slides on the orbit found (its holding force past `mu N`);
+    /// [`AnalysisError::NotConverged`];
     /// as [`Analysis::flow`].
     pub fn periodic_orbit(
         &mut self,
@@ -195,6 +197,9 @@ impl<M: Model> Analysis<M> {
         let gens = symmetry.generators();
         let k = gens.len();
         let mut x0 = guess.to_vec();
+        // the skates' grip over the last period integrated (the orbit's,
+        // once the search has converged)
+        self.watch_grip();
         let (xt, mut m, mut steps) = self.flow(t0, &x0, period, settings)?;
         // a search that wanders off to ever faster motion (a scene without
         // a periodic orbit, whose speed grows) ends when a period takes
@@ -233,6 +238,7 @@ impl<M: Model> Analysis<M> {
             loop {
                 let xt0: Vec<f64> = x0.iter().zip(&dz).map(|(a, d)| a + lambda * d).collect();
                 let pt: Vec<f64> = p.iter().zip(&dz[n2..]).map(|(a, d)| a + lambda * d).collect();
+                self.watch_grip();
                 match self.flow(t0, &xt0, period, settings) {
                     Err(AnalysisError::Stopped) => return Err(AnalysisError::Stopped),
                     Ok((xt, mt, st)) => {
@@ -256,6 +262,7 @@ impl<M: Model> Analysis<M> {
                 lambda *= 0.5;
             }
         }
+        self.check_grip("this periodic orbit")?;
         let h = symmetry.pose(&p);
         // Floquet multipliers of x0 -> h^-1 x(t0 + T; x0) modulo the orbit
         let dp = dense::mul(act_jacobian(&bodies, h.inverse(), n2).as_ref(), m.as_ref());

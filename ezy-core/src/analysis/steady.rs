@@ -117,8 +117,10 @@ impl<M: Model> Analysis<M> {
     /// the group orbit, which that map leaves invariant.
     ///
     /// # Errors
-    /// [`AnalysisError::Request`] if the scene changes with time;
-    /// [`AnalysisError::NotConverged`]; as [`Analysis::linearize`].
+    /// [`AnalysisError::Request`] if the scene changes with time, or a
+    /// skate with friction slides on the motion found (its holding force
+    /// past `mu N`); [`AnalysisError::NotConverged`]; as
+    /// [`Analysis::linearize`].
     pub fn steady_motion(
         &mut self,
         t: f64,
@@ -202,6 +204,11 @@ impl<M: Model> Analysis<M> {
         // move the reference body's frame to the origin
         let g = symmetry.restrict(body_pose(&bodies, 0, &x)).inverse();
         let x = act(&bodies, g, &x);
+        // every skate with friction holds on it (the motion is steady:
+        // its forces are those at this state)
+        self.watch_grip();
+        self.rhs(t, &x)?;
+        self.check_grip("this steady motion")?;
         let xi = self.group_velocity(t, &x, &gens)?;
         let j = self.steady_jacobian(t, &x, &xi, symmetry)?;
         let rank = dense::numerical_rank(j.as_ref(), 1e-8)?;
