@@ -76,6 +76,9 @@ fn build<M: Model>(proto: &M, scene: &Scene, sets: &[(String, f64)]) -> Result<(
     Ok((an, x0))
 }
 
+/// The stop event that ended a run early, and its time \[s\].
+type Stopped = Option<(String, f64)>;
+
 /// The states `[q, qd]` of a run of the scene (its own settings,
 /// overridden by `opts`) to `t_end` \[s\] at `samples` evenly spaced
 /// times, the start excluded and the end last (the stop's state where a
@@ -87,7 +90,7 @@ fn run_to<M: Model>(
     opts: &RunOptions,
     t_end: f64,
     samples: u32,
-) -> Result<(Vec<Vec<f64>>, Option<(String, f64)>), Error> {
+) -> Result<(Vec<Vec<f64>>, Stopped), Error> {
     let mut settings = run::settings(scene, opts)?;
     settings.t_end = t_end;
     settings.every = t_end / f64::from(samples);
@@ -156,11 +159,10 @@ pub fn analyze_model<M: Model>(proto: &M, scene: &Scene, opts: &AnalyzeOptions) 
         // the speed it stands for, on all the bodies' mass at once
         let mass: f64 = an.dynamics().mass.iter().step_by(3).sum();
         let v = (2.0 * e / mass).sqrt();
-        if !(v >= NEAR_REST) {
+        if v.is_nan() || v < NEAR_REST {
             return Err(Error::Input(format!(
-                "--energy {}: the scene would move at about {} m/s, below the {} m/s from which the search tells a motion from rest (give a larger energy)",
+                "--energy {}: the scene would move at about {v:.1e} m/s, below the {} m/s from which the search tells a motion from rest (give a larger energy)",
                 fmt_value(e),
-                format!("{v:.1e}"),
                 fmt_value(NEAR_REST)
             )));
         }
