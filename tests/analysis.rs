@@ -498,3 +498,71 @@ fn steady_motions_are_listed_once_and_rest_is_not_one() {
     let (out, err, ok) = ezy(&["analyze", "sleigh", "--energy", "0.5", "--no-figures"], &dir.join("e"));
     assert!(ok && out.contains("steady motion 1: stable, speed 1"), "{out}{err}");
 }
+
+ezy::model! {
+    /// A user's own sleigh carrying an internal rotor (not a built-in): a
+    /// balanced disc on a hinge at the sleigh's centre of mass, free to
+    /// spin; the skate `a` behind the centre of mass.
+    pub struct RotorSleigh {
+        /// Sleigh mass [kg]
+        param m = 1.0;
+        /// Sleigh moment of inertia [kg m^2]
+        param I = 0.1;
+        /// Rotor mass [kg]
+        param mr = 0.5;
+        /// Rotor moment of inertia [kg m^2]
+        param Ir = 0.05;
+        /// Distance from the centre of mass back to the skate [m]
+        param a = 0.5;
+
+        body s(x, y, phi) { mass: m, inertia: I }
+        body r(xr, yr, th) { mass: mr, inertia: Ir }
+        point C on s at (0, 0);
+        point R on r at (0, 0);
+        point P on s at (-a, 0);
+        hinge H: C = R;
+        skate P: P along (1, 0);
+    }
+}
+
+/// An internal rotor's angle is a cyclic coordinate (nothing depends on
+/// it): found as a symmetry beside the plane's rigid motions, so a sleigh
+/// coasting straight at `U` with its rotor spinning at `w` is one steady
+/// motion (it was "neutral", listed once per guess, and the rotor's spin
+/// was forced to 0). Its eigenvalues: the family's zeros and the
+/// sleigh's yaw decay `-M a U / (I + M a^2)`, `M = m + mr` (the free
+/// rotor carries no torque, so its inertia does not enter; docs/physics.md
+/// §9 with the rotor's mass at the centre).
+#[test]
+fn an_internal_rotor_is_a_symmetry_and_its_spin_is_kept() {
+    let (u, w) = (1.2, 3.0);
+    let p = ezy_core::Problem::new(RotorSleigh::default())
+        .q("x", 0.0)
+        .and_then(|p| p.q("y", 0.0))
+        .and_then(|p| p.q("phi", 0.0))
+        .and_then(|p| p.q("th", 0.7))
+        .and_then(|p| p.qd("x", u))
+        .and_then(|p| p.qd("phi", 0.0))
+        .and_then(|p| p.qd("th", w))
+        .unwrap();
+    let (mut an, x0) = p.analysis().unwrap();
+    let sym = an.symmetry(0.0, &x0).unwrap();
+    assert!(sym.translate_x && sym.translate_y && sym.rotate, "{sym:?}");
+    let th = an.dynamics().info.coords.iter().position(|c| c == "th").unwrap();
+    assert_eq!(sym.cyclic, 1 << th, "{sym:?}");
+    let s = an.steady_motion(0.0, &x0, sym, None).unwrap();
+    let nq = an.nq();
+    assert!((s.state[nq + th] - w).abs() <= 1e-12 && s.state[th] == 0.0, "rotor {:?}", &s.state);
+    assert!((s.body_velocity[0] - u).abs() <= 1e-12, "{:?}", s.body_velocity);
+    let m = RotorSleigh::default();
+    let big = m.m + m.mr;
+    let want = -big * m.a * u / (m.I + big * m.a * m.a);
+    let decay: Vec<f64> = s.eigenvalues.iter().filter(|z| z.re.abs() > 1e-6).map(|z| z.re).collect();
+    assert!(decay.len() == 1 && (decay[0] - want).abs() <= 1e-9 * want.abs(), "{:?} against {want}", s.eigenvalues);
+    assert_eq!(s.stability, Stability::Stable, "{:?}", s.eigenvalues);
+    // the same motion from another rotor angle: one motion
+    let mut x1 = x0.clone();
+    x1[th] = -2.0;
+    let s1 = an.steady_motion(0.0, &x1, sym, None).unwrap();
+    assert!(s.state.iter().zip(&s1.state).all(|(a, b)| (a - b).abs() <= 1e-12), "{:?} {:?}", s.state, s1.state);
+}

@@ -51,6 +51,8 @@ pub struct AnalyzeOptions {
 pub struct AnalyzeReport {
     /// The scene's symmetry.
     pub symmetry: Symmetry,
+    /// The model's coordinates (the names of its cyclic ones' rates).
+    pub coords: Vec<String>,
     /// The steady motions found (distinct), for a time-independent scene.
     pub steady: Vec<SteadyMotion>,
     /// The periodic orbit, for a periodically driven scene.
@@ -432,7 +434,8 @@ pub fn analyze_model<M: Model>(proto: &M, scene: &Scene, opts: &AnalyzeOptions) 
         }
     }
     let files = tx.commit()?;
-    Ok(AnalyzeReport { symmetry, steady, periodic, branch, files, timings, notes })
+    let coords = an.dynamics().info.coords.clone();
+    Ok(AnalyzeReport { symmetry, coords, steady, periodic, branch, files, timings, notes })
 }
 
 /// Slowest speed \[m/s\] a steady motion is told from rest at: the
@@ -616,7 +619,7 @@ fn points_series(label: String, values: &[c64]) -> Series {
 /// The text `ezy analyze` prints.
 pub fn summary(scene: &str, r: &AnalyzeReport) -> String {
     let mut s = String::new();
-    let sym: Vec<&str> = r.symmetry.generators().iter().map(|g| g.name()).collect();
+    let sym: Vec<String> = r.symmetry.generators().iter().map(|g| g.name(&r.coords)).collect();
     let _ = writeln!(
         s,
         "scene {scene}: symmetry {}",

@@ -181,6 +181,9 @@ impl<M: Model> Analysis<M> {
         settings: &PeriodicSettings,
     ) -> Result<PeriodicOrbit, AnalysisError> {
         self.check_size()?;
+        // modulo the plane's rigid motions (a cyclic coordinate's shift is
+        // not taken out of a period map)
+        let symmetry = symmetry.rigid();
         let n2 = 2 * self.nq();
         if !(period.is_finite() && period > 0.0) {
             return Err(AnalysisError::Request {

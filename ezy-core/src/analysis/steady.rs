@@ -203,7 +203,13 @@ impl<M: Model> Analysis<M> {
         }
         // move the reference body's frame to the origin
         let g = symmetry.restrict(body_pose(&bodies, 0, &x)).inverse();
-        let x = act(&bodies, g, &x);
+        let mut x = act(&bodies, g, &x);
+        // and each cyclic coordinate to zero
+        for g in &gens {
+            if let Generator::Shift(k) = *g {
+                x[k] = 0.0;
+            }
+        }
         // every skate with friction holds on it (the motion is steady:
         // its forces are those at this state)
         self.watch_grip();

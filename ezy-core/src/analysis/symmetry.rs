@@ -49,9 +49,11 @@ impl Pose {
     }
 }
 
-/// A one-parameter subgroup of SE(2): its generator, whose coefficient in
-/// a group velocity `xi` is a speed along x or y \[m/s\] or a yaw rate
-/// about the origin \[rad/s\].
+/// A one-parameter symmetry group: a subgroup of SE(2), whose
+/// coefficient in a group velocity `xi` is a speed along x or y \[m/s\]
+/// or a yaw rate about the origin \[rad/s\]; or the shift of one cyclic
+/// coordinate (an internal rotor's angle), whose coefficient is that
+/// coordinate's rate.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Generator {
     /// Translation along x.
@@ -60,30 +62,42 @@ pub enum Generator {
     TranslateY,
     /// Rotation about the origin.
     Rotate,
+    /// The shift of coordinate `q[k]` alone: a cyclic coordinate, which
+    /// neither the constraints, the mass matrix nor the forces depend on
+    /// (an internal rotor's angle; Marsden & Ratiu, §8.5 on cyclic
+    /// variables).
+    Shift(usize),
 }
 
 impl Generator {
-    /// The name of the coefficient: `vx`, `vy`, `omega`.
-    pub fn name(self) -> &'static str {
+    /// The name of the coefficient: `vx`, `vy`, `omega`, or for a shift
+    /// the rate of its coordinate (`coords` the model's coordinate names:
+    /// `thetad`).
+    pub fn name(self, coords: &[String]) -> String {
         match self {
-            Generator::TranslateX => "vx",
-            Generator::TranslateY => "vy",
-            Generator::Rotate => "omega",
+            Generator::TranslateX => "vx".into(),
+            Generator::TranslateY => "vy".into(),
+            Generator::Rotate => "omega".into(),
+            Generator::Shift(k) => {
+                coords.get(k).map_or_else(|| format!("q{k}d"), |c| crate::dynamics::velocity_name(c))
+            }
         }
     }
 
-    /// `exp(s * self)`.
+    /// `exp(s * self)` in SE(2) (the identity for a shift, which moves no
+    /// body in the plane).
     pub fn exp(self, s: f64) -> Pose {
         match self {
             Generator::TranslateX => Pose { a: s, ..Pose::IDENTITY },
             Generator::TranslateY => Pose { b: s, ..Pose::IDENTITY },
             Generator::Rotate => Pose { theta: s, ..Pose::IDENTITY },
+            Generator::Shift(_) => Pose::IDENTITY,
         }
     }
 }
 
-/// The rigid motions that leave a scene invariant, as found by
-/// [`Analysis::symmetry`].
+/// The rigid motions and cyclic coordinates that leave a scene
+/// invariant, as found by [`Analysis::symmetry`].
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub struct Symmetry {
     /// Invariant under translations along x.
@@ -92,25 +106,38 @@ pub struct Symmetry {
     pub translate_y: bool,
     /// Invariant under rotations about the origin.
     pub rotate: bool,
+    /// Bit `k`: invariant under a shift of coordinate `q[k]` alone (a
+    /// cyclic heading, such as an internal rotor's; among the first 64
+    /// coordinates).
+    pub cyclic: u64,
 }
 
 impl Symmetry {
     /// None: a mechanism fixed to the ground, a scene with gravity in the
     /// plane and a hinge to the ground.
-    pub const NONE: Symmetry = Symmetry { translate_x: false, translate_y: false, rotate: false };
+    pub const NONE: Symmetry = Symmetry { translate_x: false, translate_y: false, rotate: false, cyclic: 0 };
     /// All of SE(2): a vehicle on a level plane.
-    pub const SE2: Symmetry = Symmetry { translate_x: true, translate_y: true, rotate: true };
+    pub const SE2: Symmetry = Symmetry { translate_x: true, translate_y: true, rotate: true, cyclic: 0 };
 
-    /// The generators of the symmetry group, in the order x, y, rotation.
+    /// The generators of the symmetry group, in the order x, y, rotation,
+    /// then the cyclic coordinates' shifts by index.
     pub fn generators(self) -> Vec<Generator> {
-        [
+        let mut g: Vec<Generator> = [
             (self.translate_x, Generator::TranslateX),
             (self.translate_y, Generator::TranslateY),
             (self.rotate, Generator::Rotate),
         ]
         .into_iter()
         .filter_map(|(on, g)| on.then_some(g))
-        .collect()
+        .collect();
+        g.extend((0..64).filter(|k| self.cyclic >> k & 1 == 1).map(Generator::Shift));
+        g
+    }
+
+    /// The rigid motions alone (no cyclic coordinate): the group the
+    /// periodic orbits are taken modulo.
+    pub fn rigid(self) -> Symmetry {
+        Symmetry { cyclic: 0, ..self }
     }
 
     /// A pose built from the parameters `p` (one per generator, in the
@@ -122,6 +149,7 @@ impl Symmetry {
                 Generator::TranslateX => pose.a = *v,
                 Generator::TranslateY => pose.b = *v,
                 Generator::Rotate => pose.theta = *v,
+                Generator::Shift(_) => {}
             }
         }
         pose
@@ -136,6 +164,7 @@ impl Symmetry {
                 Generator::TranslateX => pose.a,
                 Generator::TranslateY => pose.b,
                 Generator::Rotate => pose.theta,
+                Generator::Shift(_) => 0.0,
             })
             .collect()
     }
@@ -176,6 +205,10 @@ fn act_accel(bodies: &[[usize; 3]], g: Pose, qdd: &[f64]) -> Vec<f64> {
 pub(crate) fn field(bodies: &[[usize; 3]], generator: Generator, x: &[f64]) -> Vec<f64> {
     let nq = x.len() / 2;
     let mut v = vec![0.0; x.len()];
+    if let Generator::Shift(k) = generator {
+        v[k] = 1.0;
+        return v;
+    }
     for &[i, j, k] in bodies {
         match generator {
             Generator::TranslateX => v[i] = 1.0,
@@ -184,6 +217,7 @@ pub(crate) fn field(bodies: &[[usize; 3]], generator: Generator, x: &[f64]) -> V
                 [v[i], v[j], v[k]] = [-x[j], x[i], 1.0];
                 [v[nq + i], v[nq + j]] = [-x[nq + j], x[nq + i]];
             }
+            Generator::Shift(_) => {}
         }
     }
     v
@@ -196,7 +230,8 @@ pub(crate) fn fields(bodies: &[[usize; 3]], generators: &[Generator], x: &[f64])
 }
 
 /// The derivative of [`field`] with respect to `x` (2nq x 2nq): zero for
-/// a translation, the rotation's generator on positions and velocities.
+/// a translation and a shift, the rotation's generator on positions and
+/// velocities.
 pub(crate) fn field_jacobian(bodies: &[[usize; 3]], generator: Generator, n2: usize) -> Mat<f64> {
     let nq = n2 / 2;
     let mut m = Mat::zeros(n2, n2);
@@ -242,8 +277,11 @@ impl<M: Model> Analysis<M> {
     /// 0.41 rad) counts when the constraint residual at `g x` is as long
     /// as at `x` (a hinge's residual turns with the motion; one to the
     /// ground does not) and the accelerations at `g x` are those at `x` carried by
-    /// `g`, to 1e-9 relative. Found numerically, so it holds for the
-    /// user's own force laws exactly as for the built-in ones.
+    /// `g`, to 1e-9 relative. A body's heading is cyclic when turning that
+    /// body alone (by 0.41 rad) leaves the residual and the accelerations
+    /// as they were (an internal rotor on a hinge at its centre of mass,
+    /// with no torque that depends on its angle). Found numerically, so it
+    /// holds for the user's own force laws exactly as for the built-in ones.
     ///
     /// # Errors
     /// As [`Analysis::rhs`].
@@ -281,11 +319,38 @@ impl<M: Model> Analysis<M> {
             }
             Ok(true)
         };
-        Ok(Symmetry {
+        let mut sym = Symmetry {
             translate_x: invariant(Pose { a: 0.37, ..Pose::IDENTITY })?,
             translate_y: invariant(Pose { b: -0.29, ..Pose::IDENTITY })?,
             rotate: invariant(Pose { theta: 0.41, ..Pose::IDENTITY })?,
-        })
+            cyclic: 0,
+        };
+        // a heading nothing depends on: the constraint residual and the
+        // accelerations the same after turning that body alone
+        let headings: Vec<usize> = self.bodies.iter().map(|b| b[2]).filter(|&k| k < 64).collect();
+        for k in headings {
+            let mut cyclic = true;
+            for state in [x, &perturbed[..]] {
+                let mut moved = state.to_vec();
+                moved[k] += 0.41;
+                let (r0, r1) = (self.residual_at(t, state), self.residual_at(t, &moved));
+                let scale = 1.0 + state.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+                if r0.iter().zip(&r1).any(|(a, b)| (a - b).abs() > 1e-10 * scale) {
+                    cyclic = false;
+                    break;
+                }
+                let (p0, p1) = (self.point(t, state)?, self.point(t, &moved)?);
+                let scale = 1.0 + p0.qdd.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+                if p0.qdd.iter().zip(&p1.qdd).any(|(a, b)| (a - b).abs() > 1e-9 * scale) {
+                    cyclic = false;
+                    break;
+                }
+            }
+            if cyclic {
+                sym.cyclic |= 1 << k;
+            }
+        }
+        Ok(sym)
     }
 
     /// Bodies' `(x, y, phi)` indices.
