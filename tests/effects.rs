@@ -695,3 +695,64 @@ fn users_kinds_keep_whole_numbers_and_refuse_foreign_coordinates() {
     let e = p.initial_state().unwrap_err().to_string();
     assert!(e.contains("drives.D.angle") && e.contains("table's slope jumps"), "{e}");
 }
+
+/// A user's law that fails (a NaN power) once `t = 0.3` s was reached,
+/// at any time after, and raises a flag then: a signal that arrives
+/// while a run rejects step after step.
+#[derive(Debug)]
+struct FailingLaw(std::sync::Arc<std::sync::atomic::AtomicBool>);
+
+impl ezy::effects::ForceLaw for FailingLaw {
+    fn apply(&self, t: f64, _q: &[f64], _qd: &[f64], _f: &mut [f64]) -> (f64, f64) {
+        if t > 0.3 || self.0.load(std::sync::atomic::Ordering::Relaxed) {
+            self.0.store(true, std::sync::atomic::Ordering::Relaxed);
+            return (f64::NAN, 0.0);
+        }
+        (0.0, 0.0)
+    }
+    fn coords(&self) -> Vec<usize> {
+        vec![0]
+    }
+}
+
+/// Stops the run at the first poll after the flag was raised.
+struct Interrupted(std::sync::Arc<std::sync::atomic::AtomicBool>);
+
+impl<M: ezy_core::Model> ezy_core::Observer<M> for Interrupted {
+    type Error = &'static str;
+    fn observe(&mut self, _: &ezy_core::Dynamics<M>, _: &ezy_core::Sample<'_>) -> Result<(), &'static str> {
+        Ok(())
+    }
+    fn poll(&mut self, _t: f64) -> Result<(), &'static str> {
+        if self.0.load(std::sync::atomic::Ordering::Relaxed) { Err("interrupted") } else { Ok(()) }
+    }
+}
+
+/// The rejected steps poll for a signal as the accepted ones do: a run
+/// whose every attempt fails from 0.3 s on stops with the signal at the
+/// first rejection, with every adaptive method (it went on rejecting
+/// until the step size fell, deaf to Ctrl-C).
+#[test]
+fn a_signal_stops_a_run_that_rejects_every_step() {
+    use ezy_core::{Method, Problem, RunError};
+    for method in [Method::Dopri5, Method::Dop853, Method::Radau5] {
+        let flag = std::sync::Arc::new(std::sync::atomic::AtomicBool::new(false));
+        let p = Problem::new(EzyRoller::default())
+            .law("fails", FailingLaw(flag.clone()))
+            .and_then(|p| p.q("x1", 0.0))
+            .and_then(|p| p.q("y1", 0.0))
+            .and_then(|p| p.q("phi1", 0.0))
+            .and_then(|p| p.q("phi2", 0.0))
+            .and_then(|p| p.qd("x1", 0.5))
+            .and_then(|p| p.qd("phi2", 0.2))
+            .unwrap()
+            .method(method)
+            .tolerances(1e-8, 1e-8)
+            .t_end(1.0);
+        match p.solve_with(&mut Interrupted(flag)) {
+            Err(RunError::Output("interrupted")) => {}
+            Err(RunError::Sim(e)) => panic!("{method:?}: the signal was not heard: {e}"),
+            other => panic!("{method:?}: {:?}", other.map(|(s, _)| s.steps)),
+        }
+    }
+}

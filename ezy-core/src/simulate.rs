@@ -2466,6 +2466,8 @@ fn adaptive<M: Model, O: Observer<M>, F: Integrand<M>, E: EmbeddedRk>(
             // a non-finite stage: retry with a much smaller step
             run.summary.rejected += 1;
             h *= 0.1;
+            // a signal stops a run that rejects step after step too
+            run.observer.poll(t).map_err(RunError::Output)?;
             continue;
         }
         // Near a singular position the estimate is dominated by a mode
@@ -2518,6 +2520,7 @@ fn adaptive<M: Model, O: Observer<M>, F: Integrand<M>, E: EmbeddedRk>(
         if !accepted {
             run.summary.rejected += 1;
             h = h_next;
+            run.observer.poll(t).map_err(RunError::Output)?;
             continue;
         }
         stage_failure = None;
@@ -2631,6 +2634,7 @@ fn implicit<M: Model, O: Observer<M>>(
                 run.summary.rejected += 1;
                 h = h_next;
                 run.newton = stepper.stats;
+                run.observer.poll(t).map_err(RunError::Output)?;
                 continue;
             }
             Attempt::Accepted { h_next } => h_next,

@@ -113,6 +113,16 @@ pub fn init_module(m: &Bound<'_, PyModule>, app: App) -> PyResult<()> {
     let file = CString::new(format!("{name}/helpers.py")).map_err(|e| PyValueError::new_err(e.to_string()))?;
     let module = CString::new(format!("{name}._helpers")).map_err(|e| PyValueError::new_err(e.to_string()))?;
     let helpers = PyModule::from_code(py, &code, &file, &module)?;
+    // NumPy's C API, loaded now rather than by the first run's result: that
+    // first use runs Python code (NumPy's version check), where a Ctrl-C
+    // that came after the run's last look at the signals (a short run, or
+    // the last 50 ms of one) was raised inside the loading and came out as
+    // a PanicException ("Failed to access NumPy array API capsule")
+    // instead of KeyboardInterrupt. After this, a run's result is made by C
+    // calls only, and such a Ctrl-C is raised as the call returns. (NumPy
+    // missing: the ImportError, not a panic.)
+    py.import("numpy")?;
+    PyArray1::from_vec(py, Vec::<f64>::new());
     m.add("EzyError", py.get_type::<EzyError>())?;
     m.add_class::<RunResult>()?;
     m.add_class::<PyScene>()?;
@@ -374,14 +384,19 @@ impl Toolkit {
         let o = Overrides::new(sets, settings, "run")?;
         let opts = o.options()?;
         let info = self.info(&src.scene.model, &src.scene.params)?;
+        // A Ctrl-C that came while this call held the GIL (Python runs its
+        // handler only when asked): raised before the run's setup
+        py.check_signals()?;
         let app = &self.app;
         let mut interrupt: Option<PyErr> = None;
-        let mut last = Instant::now();
+        // the first step asks at once (a Ctrl-C during the setup), then
+        // every SIGNAL_POLL
+        let mut last: Option<Instant> = None;
         let mut hook = |_t: f64| {
-            if last.elapsed() < SIGNAL_POLL {
+            if last.is_some_and(|l| l.elapsed() < SIGNAL_POLL) {
                 return None;
             }
-            last = Instant::now();
+            last = Some(Instant::now());
             match Python::attach(|py| py.check_signals()) {
                 Ok(()) => None,
                 Err(e) => {

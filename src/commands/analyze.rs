@@ -317,7 +317,12 @@ pub fn analyze_model<M: Model>(proto: &M, scene: &Scene, opts: &AnalyzeOptions) 
         Some(p) => {
             let clock = Instant::now();
             let t0 = settings.t_end;
-            let ps = PeriodicSettings::default();
+            // `--max-steps` bounds each period's integration (the advice of
+            // a budget error names it)
+            let ps = PeriodicSettings {
+                max_steps: ro.max_steps.unwrap_or(PeriodicSettings::default().max_steps),
+                ..PeriodicSettings::default()
+            };
             let orbit = an.periodic_orbit(t0, p, &end, symmetry, &ps).map_err(analysis_error(&ro.out))?;
             timings.push(("periodic orbit".into(), clock.elapsed()));
             follow = Follow::Periodic { t0, period: p, settings: ps };
