@@ -756,3 +756,42 @@ fn a_signal_stops_a_run_that_rejects_every_step() {
         }
     }
 }
+
+/// A closure controller that writes a force outside the coordinates it
+/// declared: its power was summed over the declared ones only, so the
+/// energy ledger broke silently (exit 0) under DOP853. Now the write is
+/// seen and the run refused with the controller's name; declared, the
+/// same controller runs and the ledger closes.
+#[test]
+fn a_controller_writing_outside_its_coordinates_is_refused() {
+    use ezy_core::{Method, Problem, SimError};
+    let run = |coords: Vec<usize>| {
+        Problem::new(EzyRoller::default())
+            .controller("pd", coords, |_t, q: &[f64], qd: &[f64], f: &mut [f64]| {
+                let tau = -2.0 * q[5] - 0.5 * qd[5];
+                f[5] += tau;
+                f[0] += 0.3; // a push along x1, outside [5]
+                tau
+            })
+            .and_then(|p| p.q("x1", 0.0))
+            .and_then(|p| p.q("y1", 0.0))
+            .and_then(|p| p.q("phi1", 0.0))
+            .and_then(|p| p.q("phi2", 0.3))
+            .and_then(|p| p.qd("x1", 0.5))
+            .and_then(|p| p.qd("phi2", 0.0))
+            .unwrap()
+            .method(Method::Dop853)
+            .tolerances(1e-10, 1e-10)
+            .t_end(2.0)
+            .solve()
+    };
+    match run(vec![5]) {
+        Err(e @ SimError::EffectFailed { .. }) => {
+            let text = e.to_string();
+            assert!(text.contains("`pd`") && text.contains("outside the coordinates it declared ([5])"), "{text}");
+        }
+        other => panic!("{:?}", other.map(|s| s.summary.max_energy_error)),
+    }
+    let s = run(vec![0, 5]).unwrap();
+    assert!(s.summary.max_energy_error < 1e-8, "{}", s.summary.max_energy_error);
+}

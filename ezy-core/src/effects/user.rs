@@ -185,6 +185,11 @@ impl PartialEq for UserSpec {
     }
 }
 
+/// Relative size, against `sum |f_k qd_k|`, of the power of a
+/// [`Controller`]'s writes outside its coordinates that is taken as
+/// rounding (two sums of `nq` products differ by far less).
+const OUTSIDE_RTOL: f64 = 1e-9;
+
 /// A closure as a force law (a feedback controller): it adds its
 /// generalized force at `(t, q, qd)` into `f` (nq) and returns the value
 /// of its column (a torque \[N m\] or a force \[N\]); its power, `f_law .
@@ -232,13 +237,28 @@ where
     #[inline]
     fn apply(&self, t: f64, q: &[f64], qd: &[f64], f: &mut [f64]) -> (f64, f64) {
         // the power of what the closure adds: sum over its coordinates of
-        // (f after - f before) qd, without scratch space
-        let before: f64 = self.coords.iter().map(|&k| f[k] * qd[k]).sum();
+        // (f after - f before) qd, without scratch space; and over all of
+        // them, to see a write outside its coordinates (which would break
+        // the power, and the energy ledger with it): a NaN power then
+        // stops the run with `failure`'s text
+        let power = |ks: &mut dyn Iterator<Item = usize>, f: &[f64]| ks.map(|k| f[k] * qd[k]).sum::<f64>();
+        let (before, all_before) = (power(&mut self.coords.iter().copied(), f), power(&mut (0..f.len()), f));
         let value = (self.law)(t, q, qd, f);
-        let after: f64 = self.coords.iter().map(|&k| f[k] * qd[k]).sum();
+        let (after, all_after) = (power(&mut self.coords.iter().copied(), f), power(&mut (0..f.len()), f));
+        let outside = (all_after - all_before) - (after - before);
+        let scale: f64 = f.iter().zip(qd).map(|(f, v)| (f * v).abs()).sum();
+        if outside.abs() > OUTSIDE_RTOL * scale {
+            return (f64::NAN, value);
+        }
         (after - before, value)
     }
     fn coords(&self) -> Vec<usize> {
         self.coords.clone()
+    }
+    fn failure(&self, _q: &[f64]) -> String {
+        format!(
+            "wrote a force outside the coordinates it declared ({:?}), whose power (and the energy ledger with it) would be wrong: give Controller::new every coordinate it writes (all of 0..nq when unsure)",
+            self.coords
+        )
     }
 }
