@@ -268,7 +268,7 @@ pub fn animate_model<M: Model>(
     let wall = Instant::now();
     let mut frames = Frames { t: Vec::new(), q: Vec::new(), sliding: Vec::new() };
     ezy_core::simulate(&mut sys, &y0, &settings, &mut frames).map_err(|e| match e {
-        ezy_core::RunError::Sim(e) => run::Error::from(e.with_cause(&sys.mass, |k| sys.info.mass_entry_name(k))),
+        ezy_core::RunError::Sim(e) => run::Error::from(sys.explain(e, &settings)),
         ezy_core::RunError::Output(never) => match never {},
     })?;
     let integrate_s = wall.elapsed().as_secs_f64();

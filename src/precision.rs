@@ -143,7 +143,7 @@ pub(crate) fn run_once_as<M: Model>(
     };
     let mut last = Last { history: history.then(Vec::new), ..Last::default() };
     let summary = ezy_core::simulate(&mut sys, &y0, &settings, &mut last).map_err(|e| match e {
-        ezy_core::RunError::Sim(e) => e.with_cause(&sys.mass, |k| sys.info.mass_entry_name(k)),
+        ezy_core::RunError::Sim(e) => sys.explain(e, &settings),
         ezy_core::RunError::Output(never) => match never {},
     })?;
     Ok((last, summary))

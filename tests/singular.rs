@@ -323,3 +323,17 @@ fn a_tolerance_beyond_the_rounding_at_a_singular_position_is_named() {
     assert!(err.contains("next to a singular position") && err.contains("a looser tolerance"), "{err}");
     assert!(!err.contains("redundant"), "{err}");
 }
+
+/// RK4 on the reduced formulation stops before the first singular
+/// passage, from the last step's start, saying why (it stopped after it,
+/// from a state the failed step had half advanced, with "Newton's method
+/// for the dependent coordinates did not converge").
+#[test]
+fn rk4_on_the_reduced_formulation_stops_before_a_passage() {
+    let dir = tempfile::tempdir().unwrap();
+    let o = dir.path().join("out");
+    let app = App::new().model::<A02N2>("a02n2").scene("scenes/a02n2.toml", SCENE);
+    let argv = ["ezy", "run", "a02n2", "--integrator", "rk4", "--formulation", "reduced", "--no-figures", "--out"];
+    let err = app.run_cli(argv.into_iter().chain([o.to_str().unwrap()]), &mut Vec::new()).unwrap_err().to_string();
+    assert!(err.contains("a singular position is near") && err.contains("at t = 0.70"), "{err}");
+}

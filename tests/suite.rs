@@ -19,6 +19,7 @@ mod app;
 mod bench;
 mod build_sharing;
 mod cli;
+mod culprits;
 mod derived_terms;
 mod drives;
 mod effects;

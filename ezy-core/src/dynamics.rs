@@ -279,6 +279,13 @@ impl<M: Model> Dynamics<M> {
         self.kkt.condition_estimate()
     }
 
+    /// A run's failure `e` with its likely cause named: a force law faster
+    /// than the run `settings` can follow ([`SimError::with_fast_law`]), a
+    /// massless part or masses spread too far ([`SimError::with_cause`]).
+    pub fn explain(&self, e: SimError, settings: &crate::RunSettings) -> SimError {
+        e.with_fast_law(&self.effects, &self.mass, settings).with_cause(&self.mass, |k| self.info.mass_entry_name(k))
+    }
+
     /// Name of the KKT path in use.
     pub fn kkt_name(&self) -> &'static str {
         self.kkt.name()

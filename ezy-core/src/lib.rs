@@ -79,8 +79,9 @@ pub use faer;
 pub use friction::SkateMode;
 pub use integrator::Method;
 pub use model::{
-    BodyInfo, DriveInfo, EquationExpr, Equations, HingeInfo, InitialName, MAX_COORDS, MinimalLayout, MinimalRhsError,
-    Model, ModelInfo, NameIndex, ParamInfo, PointInfo, SETUP_BYTES_PER_COORD, SkateInfo, SliderInfo,
+    BodyInfo, DriveInfo, EquationExpr, Equations, HingeInfo, InitialName, MAX_ANGLE, MAX_COORDS, MAX_MAGNITUDE,
+    MAX_RATE, MinimalLayout, MinimalRhsError, Model, ModelInfo, NameIndex, ParamInfo, PointInfo, SETUP_BYTES_PER_COORD,
+    SkateInfo, SliderInfo, check_angle, check_magnitude, check_rate,
 };
 pub use problem::{Problem, Solution};
 pub use projection::ProjectionKind;

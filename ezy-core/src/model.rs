@@ -794,6 +794,103 @@ pub struct Layout<const NF: usize, const NB: usize, const NP: usize, const NG: u
 /// of it is allocated.
 pub const MAX_COORDS: usize = 300_000;
 
+/// The largest magnitude ezy takes for a number of a model (a parameter,
+/// a mass or an inertia) or of an effect (a coefficient, a load, a
+/// waveform's amplitude), in SI units: 1e34.
+///
+/// Every entry of the right-hand side is a product of a few such numbers
+/// and the state (a spring's power is stiffness x stretch x rate, the
+/// gravity's m g v, an acceleration a force over a mass), and the adaptive
+/// methods square the entries divided by the tolerance (down to
+/// [`crate::simulate::MIN_TOLERANCE`] = 1e-14) in their error norm and
+/// their first step: past sqrt(1.8e308) x 1e-14 = 1.3e140 that square
+/// overflows and the step collapses to 0 at t = 0 (measured: a spring of
+/// 1e300 N/m, a mass of 1e150 kg under gravity, a torque of 1e300 N m
+/// stopped with "the step size fell to 0e0 s"). A product of four numbers
+/// up to 1e34 stays below 1e136. The numbers of a planar mechanism lie far
+/// inside (the Sun's mass is 2e30 kg); a larger one is a slip of the
+/// keyboard or a stand-in for "infinite", which ezy models otherwise (a
+/// contact that never slides is the ideal skate, a rigid link a hinge).
+/// The bound is necessary, not sufficient: a value inside it may still
+/// make a scene too stiff to integrate.
+pub const MAX_MAGNITUDE: f64 = 1e34;
+
+/// The fastest rate \[1/s\] (an angular frequency \[rad/s\], a Baumgarte
+/// rate) a run can follow: 1 / (16 eps) = 2.8e14 1/s. The shortest step an
+/// integrator takes at time t is 16 eps max(t, min(t_end, 1 s)), the
+/// rounding level of t (`simulate`'s floor, 3.6e-15 s at t = 1 s): a
+/// quantity that changes by a radian, or decays by a factor e, within it
+/// cannot be followed by any step.
+pub const MAX_RATE: f64 = 1.0 / (16.0 * f64::EPSILON);
+
+/// The largest magnitude of an angle a scene gives \[rad\] (a phase, a rest
+/// angle, a direction): 1e6 rad (160,000 turns). An angle carries the
+/// rounding eps |angle|, 2.2e-10 rad at 1e6 rad, about the tightest
+/// tolerances runs ask for (1e-9 to 1e-12); a phase of 1e300 rad swamps
+/// `omega t` entirely (the waveform is a constant).
+pub const MAX_ANGLE: f64 = 1e6;
+
+/// `Ok` if `v` is finite and at most [`MAX_MAGNITUDE`] in magnitude.
+///
+/// # Errors
+/// A sentence naming `name = v` and why it is refused.
+pub fn check_magnitude(name: &str, v: f64) -> Result<(), String> {
+    check_bound(
+        name,
+        v,
+        MAX_MAGNITUDE,
+        "numbers",
+        "the forces, powers and energies formed from a larger one overflow double precision",
+    )
+}
+
+/// `Ok` if `v` is finite and at most [`MAX_ANGLE`] in magnitude.
+///
+/// # Errors
+/// A sentence naming `name = v` and why it is refused.
+pub fn check_angle(name: &str, v: f64) -> Result<(), String> {
+    check_bound(
+        name,
+        v,
+        MAX_ANGLE,
+        "angles [rad]",
+        "beyond, the angle's rounding (eps |angle|) passes the tolerances a run keeps",
+    )
+}
+
+/// `Ok` if `v` is finite and at most [`MAX_RATE`] in magnitude.
+///
+/// # Errors
+/// A sentence naming `name = v` and why it is refused.
+pub fn check_rate(name: &str, v: f64) -> Result<(), String> {
+    check_bound(
+        name,
+        v,
+        MAX_RATE,
+        "rates [1/s]",
+        "a faster one changes within the rounding level of t (16 eps t, the shortest step), so no step can follow it",
+    )
+}
+
+fn check_bound(name: &str, v: f64, bound: f64, what: &str, why: &str) -> Result<(), String> {
+    if !v.is_finite() {
+        return Err(format!("{name} = {v} must be finite"));
+    }
+    if v.abs() <= bound {
+        return Ok(());
+    }
+    Err(format!(
+        "{name} = {} is out of range: ezy takes {what} up to {:e} in magnitude ({why})",
+        crate::fmt_value(v),
+        round_bound(bound),
+    ))
+}
+
+/// A bound as a message writes it (2.8e14, not 281474976710656).
+fn round_bound(b: f64) -> f64 {
+    format!("{b:.1e}").parse().unwrap_or(b)
+}
+
 /// Memory a run's set-up takes per generalized coordinate \[bytes\]:
 /// measured as the peak resident size of `ezy run snake --t-end 0.01`
 /// at `N = 100,000` and `300,000` (1.32 GB / 300,000 and 3.86 GB /

@@ -162,9 +162,27 @@ pub fn lookup<S: AsRef<str>>(info: &ModelInfo, kind: &'static str, name: &str, n
     })
 }
 
-/// Refuses a mass diagonal with a negative, non-finite or vanishing-but-
-/// nonzero entry, and a massless part in a model too large for the dense
-/// LU path of the KKT matrix.
+/// Refuses a model parameter (a length, a mass, an inertia; not a family
+/// count, which [`Model::check_counts`] checks) that is not finite or
+/// whose magnitude passes [`crate::MAX_MAGNITUDE`] (1e34: see there; a
+/// length of 1e300 m overflowed the KKT system at t = 0, a mass of 1e150
+/// kg under gravity collapsed the first step).
+///
+/// # Errors
+/// [`SimError::Scene`] at `params.NAME`, naming the parameter, its value
+/// and why.
+pub fn check_params<M: Model>(model: &M, info: &ModelInfo) -> Result<(), SimError> {
+    for (k, p) in info.params.iter().enumerate().filter(|(_, p)| !p.count) {
+        let what = if p.unit.is_empty() { p.name.to_string() } else { format!("{} [{}]", p.name, p.unit) };
+        crate::check_magnitude(&what, model.param(k))
+            .map_err(|message| SimError::Scene { key: format!("params.{}", p.name), message })?;
+    }
+    Ok(())
+}
+
+/// Refuses a mass diagonal with a negative, non-finite, vanishing-but-
+/// nonzero or huge (past [`crate::MAX_MAGNITUDE`]) entry, and a massless
+/// part in a model too large for the dense LU path of the KKT matrix.
 ///
 /// # Errors
 /// [`SimError::Setting`] naming the mass entry (`m1`, `I1`) and why.
@@ -174,6 +192,10 @@ pub fn check_masses<M: Model>(model: &M, info: &ModelInfo) -> Result<(), SimErro
     for (k, &m) in mass.iter().enumerate() {
         let reason = if !m.is_finite() || m < 0.0 {
             Some("must be a finite number, zero or positive")
+        } else if m > crate::MAX_MAGNITUDE {
+            Some(
+                "is out of range: ezy takes masses and inertias up to 1e34 (the energies and powers formed from a larger one overflow double precision)",
+            )
         } else if m > 0.0 && !(1.0 / m).is_finite() {
             Some("is so small that its reciprocal overflows: give 0 for a massless body, or at least 1e-300")
         } else {
@@ -469,12 +491,15 @@ impl<M: Model> Problem<M> {
     /// the solve had to correct.
     ///
     /// # Errors
-    /// [`SimError::Setting`] for a bad mass; [`SimError::Scene`] for a
-    /// drive without an angle or one that is not smooth over the run
+    /// [`SimError::Scene`] at `params.NAME` for a model parameter out of
+    /// range ([`check_params`]); [`SimError::Setting`] for a bad mass;
+    /// [`SimError::Scene`] for a drive without an angle or one that is not
+    /// smooth over the run
     /// ([`crate::drive::check_angle`]); [`SimError::Initial`] if no consistent
     /// state is near the given one.
     pub fn initial_state(&self) -> Result<(Vec<f64>, InitialReport), SimError> {
         let info = self.model.info();
+        check_params(&self.model, &info)?;
         check_masses(&self.model, &info)?;
         if let Some(missing) = info.drives.iter().find(|d| !self.drives.iter().any(|g| g.name == d.name)) {
             return Err(SimError::Scene {
@@ -520,14 +545,63 @@ impl<M: Model> Problem<M> {
     /// and the consistent initial state: what [`simulate`] integrates.
     ///
     /// # Errors
-    /// As [`Problem::initial_state`].
+    /// As [`Problem::initial_state`]; [`SimError::Setting`] for Baumgarte
+    /// rates the run cannot take (not finite, negative, past
+    /// [`crate::MAX_RATE`], or past a fixed step's stability limit).
     pub fn into_system(self) -> Result<(Dynamics<M>, Vec<f64>, InitialReport), SimError> {
         self.check_counts()?;
+        self.check_baumgarte()?;
         let (y0, report) = self.initial_state()?;
         let mut sys =
             Dynamics::new(self.model, self.effects, self.kkt).with_drives(self.drives).with_events(self.events);
         sys.baumgarte = self.baumgarte;
         Ok((sys, y0, report))
+    }
+
+    /// Refuses Baumgarte rates the run cannot take: not finite or
+    /// negative, faster than [`crate::MAX_RATE`] (no step follows them), or,
+    /// for a fixed-step method, past its stability limit. The drift `C` of
+    /// the constraints obeys `C'' + 2 alpha C' + beta^2 C = 0`, whose
+    /// eigenvalues `-alpha +- sqrt(alpha^2 - beta^2)` are at most
+    /// `max(2 alpha, beta)` in magnitude; explicit Euler is stable on the
+    /// negative real axis up to `h |lambda| = 2`, RK4 up to 2.785 (Hairer &
+    /// Wanner II, §IV.2): past that each step multiplies the drift it should
+    /// damp (measured on `drive`, RK4 at h = 1e-4 s without projection:
+    /// alpha = beta = 1e4 (h |lambda| = 2) keeps |C| at 6e-13 m, 1e5 broke
+    /// the energy balance, 1e300 overflowed the KKT system at t = 5e-5 s).
+    fn check_baumgarte(&self) -> Result<(), SimError> {
+        let Some(Baumgarte { alpha, beta }) = self.baumgarte else { return Ok(()) };
+        let name = |which: &str| format!("{} {which}", crate::Setting::Baumgarte);
+        for (which, v) in [("alpha", alpha), ("beta", beta)] {
+            if !(v.is_finite() && v >= 0.0) {
+                return Err(SimError::Setting {
+                    name: name(which),
+                    value: v,
+                    reason: "must be a finite rate >= 0 [1/s]",
+                });
+            }
+            if v > crate::MAX_RATE {
+                return Err(SimError::Setting {
+                    name: name(which),
+                    value: v,
+                    reason: "is faster than any step can follow: ezy takes rates up to 2.8e14 1/s (a decay within the rounding level of t, 16 eps t, the shortest step)",
+                });
+            }
+        }
+        let limit = match self.settings.method {
+            Method::Euler => 2.0,
+            Method::Rk4 => 2.785,
+            _ => return Ok(()),
+        };
+        let (which, value) = if 2.0 * alpha >= beta { ("alpha", alpha) } else { ("beta", beta) };
+        if (2.0 * alpha).max(beta) * self.settings.dt > limit {
+            return Err(SimError::Setting {
+                name: name(which),
+                value,
+                reason: "the drift's fastest rate, max(2 alpha, beta), times the step dt passes the fixed-step method's stability limit (2 for euler, 2.785 for rk4): the stabilization would amplify the drift it should damp; give smaller rates, a smaller step or an adaptive method",
+            });
+        }
+        Ok(())
     }
 
     /// The model's family counts checked before anything is set up at
@@ -542,9 +616,18 @@ impl<M: Model> Problem<M> {
     /// initial state `[q, qd]` (2 nq).
     ///
     /// # Errors
-    /// As [`Problem::initial_state`].
+    /// As [`Problem::into_system`]; the right-hand side's failure at the
+    /// initial state (a singular KKT matrix: a massless body), with its
+    /// cause ([`SimError::with_cause`]).
     pub fn analysis(self) -> Result<(crate::analysis::Analysis<M>, Vec<f64>), SimError> {
-        let (sys, mut y0, _) = self.into_system()?;
+        let (mut sys, mut y0, _) = self.into_system()?;
+        // the right-hand side once at the start, as a run's first step
+        // takes it: a singular KKT matrix (a massless body) is refused
+        // naming its cause, before an analysis differentiates through it
+        // (linearizing the sleigh at m = 0 ended in "the eigenvalue
+        // iteration did not converge")
+        let mut dy = vec![0.0; y0.len()];
+        sys.rhs(0.0, &y0, &mut dy).map_err(|e| e.with_cause(&sys.mass, |k| sys.info.mass_entry_name(k)))?;
         y0.truncate(2 * sys.nq());
         Ok((crate::analysis::Analysis::new(sys), y0))
     }
@@ -594,7 +677,7 @@ impl<M: Model> Problem<M> {
         let settings = self.settings;
         let (mut sys, y0, initial) = self.into_system()?;
         let summary = simulate(&mut sys, &y0, &settings, observer).map_err(|e| match e {
-            RunError::Sim(e) => RunError::Sim(e.with_cause(&sys.mass, |k| sys.info.mass_entry_name(k))),
+            RunError::Sim(e) => RunError::Sim(sys.explain(e, &settings)),
             e => e,
         })?;
         Ok((summary, initial))

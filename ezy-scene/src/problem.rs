@@ -3,7 +3,7 @@
 use ezy_core::effects::EffectContext;
 use ezy_core::initial::Given;
 use ezy_core::kkt::KktMethod;
-use ezy_core::problem::{check_masses, initial_targets, lookup};
+use ezy_core::problem::{check_masses, check_params, initial_targets, lookup};
 use ezy_core::{InitialName, Model, NameIndex, Problem, SimError};
 
 use crate::{InitValue, Scene, SceneError};
@@ -93,6 +93,7 @@ impl Scene {
                 ),
             });
         }
+        check_params(&model, info)?;
         check_masses(&model, info)?;
         let names = NameIndex::new(info);
         let cx = EffectContext::new(&model, &names).with_scene_params(&scene.scene_params);

@@ -1019,6 +1019,8 @@ impl Scene {
                     }
                     if info.params[info.param_index(name).expect("known")].count {
                         check_count(name, *v)?;
+                    } else {
+                        ezy_core::check_magnitude(name, *v).map_err(|m| SceneError::at(&["params", name], m))?;
                     }
                 }
                 for (name, v) in &self.scene_params {
@@ -1043,6 +1045,9 @@ impl Scene {
                     if !v.is_finite() {
                         return Err(SceneError::at(&path, format!("{name} = {v} must be finite")));
                     }
+                    // the numbers it gives are checked where they stand, by their key;
+                    // past this bound no key takes it
+                    ezy_core::check_magnitude(name, *v).map_err(|m| SceneError::at(&path, m))?;
                 }
                 if let Some(b) = self.bindings.iter().find(|b| !self.scene_params.iter().any(|(n, _)| *n == b.param)) {
                     let names: Vec<&str> = self.scene_params.iter().map(|(n, _)| n.as_str()).collect();

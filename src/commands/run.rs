@@ -364,7 +364,7 @@ pub fn run_model_tapped<M: Model>(
         Err(e) => {
             obs.abandon();
             return Err(match e {
-                RunError::Sim(e) => located(&sys, e).into(),
+                RunError::Sim(e) => sys.explain(e, &settings).into(),
                 RunError::Output(e) => e.into(),
             });
         }
@@ -483,7 +483,7 @@ pub fn run_model_in_memory<M: Model>(
     let mut obs = MemoryObserver { builder, row: Vec::with_capacity(n), table, stop, notes: Vec::new() };
     let setup = wall.elapsed();
     let summary = ezy_core::simulate(&mut sys, &y0, &settings, &mut obs).map_err(|e| match e {
-        RunError::Sim(e) => located(&sys, e).into(),
+        RunError::Sim(e) => sys.explain(e, &settings).into(),
         RunError::Output(e) => e,
     })?;
     let mut notes = initial.notes();
@@ -526,12 +526,6 @@ fn prepare<M: Model>(
     output_budget(settings, rows.columns.len(), opts.max_output_mb.unwrap_or(DEFAULT_MAX_OUTPUT_MB))?;
     let n_rows = (settings.n_steps() / settings.output_stride() + 2) as usize;
     Ok(Prepared { scene, sys, y0, initial, rows, n_rows })
-}
-
-/// A numerical failure of a run with its likely cause among the mass
-/// matrix's entries (a zero mass or inertia), named.
-fn located<M: Model>(sys: &Dynamics<M>, e: SimError) -> SimError {
-    e.with_cause(&sys.mass, |k| sys.info.mass_entry_name(k))
 }
 
 /// The warnings of a run: the initial values' corrections, and an

@@ -469,7 +469,7 @@ fn one_run<M: Model>(
         }
         Err(RunError::Output(Stop::Signal(s))) => Err(Err(s)),
         Err(RunError::Output(Stop::Row(e))) => fail(e.to_string()),
-        Err(RunError::Sim(e)) => fail(e.with_cause(&sys.mass, |k| sys.info.mass_entry_name(k)).to_string()),
+        Err(RunError::Sim(e)) => fail(sys.explain(e, settings).to_string()),
     }
 }
 

@@ -163,7 +163,7 @@ pub enum EffectSpec {
     SkateFriction {
         /// Skate name.
         skate: String,
-        /// Friction coefficient (>= 0).
+        /// Friction coefficient, from 0 to [`MAX_MU`] (1e9: see there).
         mu: f64,
         /// Normal load \[N\] (or give `share`).
         #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -203,7 +203,7 @@ pub enum EffectSpec {
     /// skates' contact and does no work). Work is minus the change of
     /// potential energy `m g sin(angle) (height along the uphill direction)`.
     Slope {
-        /// Inclination of the plane \[rad\].
+        /// Inclination of the plane, from -pi/2 to pi/2 \[rad\].
         angle: f64,
         /// Direction of steepest descent in the plane, from the x axis \[rad\].
         #[serde(default, skip_serializing_if = "is_zero")]
@@ -366,19 +366,50 @@ fn unknown(field: &'static str, kind: &str, name: &str, model: &str, known: Vec<
     SpecError { field, message: format!("unknown {kind} `{name}` in model {model}; its {plural}: {known}") }
 }
 
+/// The largest friction coefficient a skate takes, 1e9.
+///
+/// Measured coefficients between solids stay below about 16 (clean copper
+/// on copper in vacuum, where the surfaces weld; engineering pairs 0.05 to
+/// 1.5): a larger `mu` only says that the skate does not slide, which the
+/// ideal skate (no friction effect) models exactly, and values up to 1e9
+/// serve that end (friction that never acts: `tests/friction.rs`). The
+/// friction force `mu N` is summed with the forces of the size of the
+/// weight, which keep a relative accuracy of `mu eps` against it: 2.2e-7
+/// (six digits) at 1e9, none at 1e16. And a slide ends within `v / (mu g)`:
+/// at `mu = 1e9` and 1 m/s that is 1e-10 s, still 3e4 times the shortest
+/// step at t = 1 s ([`crate::MAX_RATE`]). Measured on `sleigh-ice` (a
+/// slide of 2 m/s): DOPRI5 ran to `mu = 1e13` and stopped from `1e14`
+/// with "the step size fell"; at `mu = 1e300` every method stopped so,
+/// RK4 with the friction's work `inf`, none naming `mu`.
+pub const MAX_MU: f64 = 1e9;
+
 fn finite(field: &'static str, v: f64) -> Result<(), SpecError> {
-    if v.is_finite() { Ok(()) } else { Err(SpecError { field, message: format!("{field} = {v} must be finite") }) }
+    crate::check_magnitude(field, v).map_err(|message| SpecError { field, message })
+}
+
+fn angle(field: &'static str, v: f64) -> Result<(), SpecError> {
+    crate::check_angle(field, v).map_err(|message| SpecError { field, message })
 }
 
 fn non_negative(field: &'static str, v: f64) -> Result<(), SpecError> {
-    if v.is_finite() && v >= 0.0 {
-        Ok(())
-    } else {
+    if v.is_finite() && v < 0.0 {
         Err(SpecError {
             field,
             message: format!("{field} = {} must be zero or positive (a dissipative law)", crate::error::fmt_value(v)),
         })
+    } else {
+        finite(field, v)
     }
+}
+
+fn friction_coefficient(v: f64) -> Result<(), SpecError> {
+    SpecError::check(!v.is_finite() || v <= MAX_MU, "mu", || {
+        format!(
+            "mu = {} is not a friction coefficient: give a number from 0 to {MAX_MU:e} (measured ones stay below about 16; for a skate that never slides, leave out its friction effect: the ideal skate)",
+            crate::error::fmt_value(v)
+        )
+    })?;
+    non_negative("mu", v)
 }
 
 fn wave(field: &'static str, w: &Waveform) -> Result<(), SpecError> {
@@ -470,7 +501,7 @@ impl EffectSpec {
             Self::HingeSpring { hinge: h, stiffness, rest_angle } => {
                 hinge(h)?;
                 finite("stiffness", *stiffness)?;
-                finite("rest_angle", *rest_angle)
+                angle("rest_angle", *rest_angle)
             }
             Self::HingeDamper { hinge: h, damping } => {
                 hinge(h)?;
@@ -490,7 +521,7 @@ impl EffectSpec {
                 skate(s)?;
                 non_negative("force", *force)?;
                 if smoothing.is_finite() && *smoothing > 0.0 {
-                    Ok(())
+                    finite("smoothing", *smoothing)
                 } else {
                     Err(SpecError {
                         field: "smoothing",
@@ -504,7 +535,7 @@ impl EffectSpec {
             }
             Self::SkateFriction { skate: s, mu, normal, share, g } => {
                 skate(s)?;
-                non_negative("mu", *mu)?;
+                friction_coefficient(*mu)?;
                 match (normal, share) {
                     (Some(n), None) => non_negative("normal", *n),
                     (None, Some(share)) => {
@@ -516,7 +547,8 @@ impl EffectSpec {
                         })?;
                         SpecError::check(g.is_finite() && *g > 0.0, "g", || {
                             format!("g = {} must be a positive acceleration [m/s^2]", crate::error::fmt_value(*g))
-                        })
+                        })?;
+                        finite("g", *g)
                     }
                     (Some(_), Some(_)) => Err(SpecError {
                         field: "share",
@@ -543,14 +575,28 @@ impl EffectSpec {
                 body("body", b)?;
                 wave("torque", torque)
             }
-            Self::Slope { angle, downhill, g } => {
-                finite("angle", *angle)?;
-                finite("downhill", *downhill)?;
+            Self::Slope { angle: inclination, downhill, g } => {
+                // an inclination: from level (0) to vertical (pi/2), either way
+                SpecError::check(
+                    inclination.is_finite() && inclination.abs() <= std::f64::consts::FRAC_PI_2,
+                    "angle",
+                    || {
+                        format!(
+                            "angle = {} is not the inclination of a plane: give an angle from -pi/2 to pi/2 [rad] (its direction is `downhill`)",
+                            crate::error::fmt_value(*inclination)
+                        )
+                    },
+                )?;
+                angle("downhill", *downhill)?;
                 finite("g", *g)
             }
             Self::Gravity { g, bodies } => {
                 if !(g[0].is_finite() && g[1].is_finite()) {
                     return Err(SpecError { field: "g", message: format!("g = {g:?} must be finite [m/s^2]") });
+                }
+                for (i, c) in g.iter().enumerate() {
+                    crate::check_magnitude(&format!("g[{i}]"), *c)
+                        .map_err(|message| SpecError { field: "g", message })?;
                 }
                 for b in bodies.iter().flatten() {
                     body("bodies", b)?;
@@ -563,7 +609,8 @@ impl EffectSpec {
                     known.extend(info.bodies.iter().map(|b| b.name.as_str()));
                     return Err(unknown("at", "point or body", at, model, known));
                 }
-                if !(along[0].is_finite() && along[1].is_finite()) || along[0].hypot(along[1]) == 0.0 {
+                let length = along[0].hypot(along[1]);
+                if !(length.is_finite() && length > 0.0) {
                     return Err(SpecError {
                         field: "along",
                         message: format!("along = {along:?} must be a finite nonzero direction"),
@@ -613,6 +660,7 @@ impl EffectSpec {
                         message: format!("rest_length = {rest_length} must be zero or positive [m]"),
                     });
                 }
+                finite("rest_length", *rest_length)?;
                 non_negative("damping", *damping)?;
                 wave("force", force)
             }
@@ -722,12 +770,15 @@ impl EffectSpec {
                 }
             }
             Self::SpringDamper { from, to, stiffness, rest_length, damping, force } => {
-                let end = |e: &str| -> Anchor {
-                    match ground_point(e) {
+                let end = |field: &'static str, e: &str| -> Result<Anchor, SimError> {
+                    Ok(match ground_point(e) {
                         Some([x, y]) => {
-                            let v =
-                                |a| ground_coord(a, info, &cx.scene_params, |i| cx.model_params[i]).expect("checked");
-                            Anchor::Ground([v(x), v(y)])
+                            // a model parameter it names is checked here, at its value
+                            let v = |a| {
+                                ground_coord(a, info, &cx.scene_params, |i| cx.model_params[i])
+                                    .map_err(|message| SimError::Effect { effect: name.to_string(), field, message })
+                            };
+                            Anchor::Ground([v(x)?, v(y)?])
                         }
                         None => match names.point(e) {
                             Some(p) => Anchor::Body {
@@ -736,9 +787,15 @@ impl EffectSpec {
                             },
                             None => Anchor::Body { body: body_of(e), offset: [0.0, 0.0] },
                         },
-                    }
+                    })
                 };
-                Law::SpringDamper { ends: [end(&from), end(&to)], stiffness, rest_length, damping, force }
+                Law::SpringDamper {
+                    ends: [end("from", &from)?, end("to", &to)?],
+                    stiffness,
+                    rest_length,
+                    damping,
+                    force,
+                }
             }
             Self::Slope { angle, downhill, g } => Law::Slope {
                 bodies: info.bodies.iter().map(|b| (b.coords[0], b.coords[1], mass[b.coords[0]])).collect(),
@@ -951,22 +1008,27 @@ fn ground_coord(
     scene_params: &[(String, f64)],
     model_param: impl Fn(usize) -> f64,
 ) -> Result<f64, String> {
-    if let Ok(v) = a.parse::<f64>() {
-        return if v.is_finite() { Ok(v) } else { Err(format!("the ground coordinate {a} must be finite [m]")) };
-    }
-    if let Some(i) = info.param_index(a) {
-        return Ok(model_param(i));
-    }
-    if let Some((_, v)) = scene_params.iter().find(|(n, _)| n == a) {
-        return Ok(*v);
-    }
-    let mut known: Vec<&str> = info.params.iter().map(|p| p.name).collect();
-    known.extend(scene_params.iter().map(|(n, _)| n.as_str()));
-    Err(format!(
-        "`{a}` in a ground point is neither a number nor a parameter of model {} or of the scene; known: {}",
-        info.name,
-        if known.is_empty() { "none".to_string() } else { crate::name_list(known) }
-    ))
+    let v = if let Ok(v) = a.parse::<f64>() {
+        if !v.is_finite() {
+            return Err(format!("the ground coordinate {a} must be finite [m]"));
+        }
+        v
+    } else if let Some(i) = info.param_index(a) {
+        model_param(i)
+    } else if let Some((_, v)) = scene_params.iter().find(|(n, _)| n == a) {
+        *v
+    } else {
+        let mut known: Vec<&str> = info.params.iter().map(|p| p.name).collect();
+        known.extend(scene_params.iter().map(|(n, _)| n.as_str()));
+        return Err(format!(
+            "`{a}` in a ground point is neither a number nor a parameter of model {} or of the scene; known: {}",
+            info.name,
+            if known.is_empty() { "none".to_string() } else { crate::name_list(known) }
+        ));
+    };
+    let what = if a.parse::<f64>().is_ok() { "the ground coordinate".to_string() } else { format!("`{a}`") };
+    crate::check_magnitude(&what, v)?;
+    Ok(v)
 }
 
 /// One end of a spring-damper.
@@ -1251,6 +1313,85 @@ pub struct Effect {
     /// holds) and its value column reads 0. `simulate` restores each
     /// effect's setting at the run's end.
     pub on: bool,
+}
+
+/// The time scale of a linear force law on the masses it acts on: what
+/// a step must resolve (an explicit method is stable only for steps of
+/// about this size or below).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct TimeScale {
+    /// The time scale \[s\]: `sqrt(m / |k|)` for a stiffness `k`, `m / c`
+    /// for a damping `c`.
+    pub seconds: f64,
+    /// The key of the effect that sets it (`stiffness`, `damping`, `c`,
+    /// `c_rot`, `c_along`, `c_across`).
+    pub key: &'static str,
+    /// Its value.
+    pub value: f64,
+    /// The mass or inertia it acts on: the smallest positive entry of the
+    /// mass diagonal at the law's coordinates \[kg or kg m^2\].
+    pub mass: f64,
+}
+
+impl Effect {
+    /// The shortest time scale of the effect's linear terms (hinge
+    /// springs, dampers and servos, viscous skate and drag laws,
+    /// spring-dampers) against the mass diagonal `mass` (nq); `None` for
+    /// other laws and for laws on massless coordinates only. Used to name
+    /// a law too fast for the run when the step size collapses
+    /// ([`SimError::with_fast_law`]).
+    pub fn time_scale(&self, mass: &[f64]) -> Option<TimeScale> {
+        let smallest = |idx: &mut dyn Iterator<Item = usize>| {
+            idx.filter_map(|k| mass.get(k).copied()).filter(|m| *m > 0.0 && m.is_finite()).min_by(f64::total_cmp)
+        };
+        let mut best: Option<TimeScale> = None;
+        let mut consider = |m: Option<f64>, key: &'static str, value: f64, stiffness: bool| {
+            let Some(m) = m else { return };
+            if value == 0.0 || !value.is_finite() {
+                return;
+            }
+            let seconds = if stiffness { (m / value.abs()).sqrt() } else { m / value.abs() };
+            if best.is_none_or(|b| seconds < b.seconds) {
+                best = Some(TimeScale { seconds, key, value, mass: m });
+            }
+        };
+        match &self.law {
+            Law::Hinge { a, b, law, .. } => {
+                let m = smallest(&mut std::iter::once(*a).chain(*b));
+                match law {
+                    HingeLaw::Spring { stiffness, .. } => consider(m, "stiffness", *stiffness, true),
+                    HingeLaw::Damper { damping } => consider(m, "damping", *damping, false),
+                    HingeLaw::Servo { stiffness, damping, .. } => {
+                        consider(m, "stiffness", *stiffness, true);
+                        consider(m, "damping", *damping, false);
+                    }
+                    HingeLaw::Motor(_) => {}
+                }
+            }
+            Law::Blade(blade, BladeLaw::Viscous { damping }) => {
+                consider(smallest(&mut blade.body[..2].iter().copied()), "damping", *damping, false);
+            }
+            Law::Anisotropic { blade, c_along, c_across } => {
+                let m = smallest(&mut blade.body[..2].iter().copied());
+                consider(m, "c_along", *c_along, false);
+                consider(m, "c_across", *c_across, false);
+            }
+            Law::SpringDamper { ends, stiffness, damping, .. } => {
+                let m = smallest(&mut ends.iter().filter_map(|e| match e {
+                    Anchor::Body { body, .. } => Some(body[0]),
+                    Anchor::Ground(_) => None,
+                }));
+                consider(m, "stiffness", *stiffness, true);
+                consider(m, "damping", *damping, false);
+            }
+            Law::Drag { body, c, c_rot, quadratic: false } => {
+                consider(smallest(&mut body[..2].iter().copied()), "c", *c, false);
+                consider(smallest(&mut std::iter::once(body[2])), "c_rot", *c_rot, false);
+            }
+            _ => {}
+        }
+        best
+    }
 }
 
 /// Adds a world force `(fx_w, fy_w)` at body-frame offset `p` of `body` into

@@ -250,17 +250,20 @@ impl Waveform {
         }
     }
 
-    /// Checks the numbers: all finite, tables sorted and of equal length.
+    /// Checks the numbers: all finite, values and times at most
+    /// [`crate::MAX_MAGNITUDE`], frequencies at most [`crate::MAX_RATE`]
+    /// (faster ones change within the rounding level of t), phases at most
+    /// [`crate::MAX_ANGLE`]; tables sorted and of equal length.
     ///
     /// # Errors
-    /// A sentence saying what is wrong.
+    /// A sentence saying what is wrong, naming the number and its value.
     pub fn validate(&self) -> Result<(), String> {
-        let finite =
-            |name: &str, v: f64| if v.is_finite() { Ok(()) } else { Err(format!("{name} = {v} must be finite")) };
+        let finite = crate::check_magnitude;
         let harmonic = |h: &Harmonic| -> Result<(), String> {
             finite("amplitude", h.amplitude)?;
-            finite("omega", h.omega)?;
-            finite("phase", h.phase)
+            crate::check_rate("omega", h.omega)?;
+            crate::check_angle("phase", h.phase)?;
+            crate::check_angle("phase_step", h.phase_step)
         };
         match self {
             Self::Constant(v) => finite("constant", *v),
@@ -286,7 +289,10 @@ impl Waveform {
                         tab.value.len()
                     ));
                 }
-                tab.t.iter().chain(&tab.value).try_for_each(|&v| finite("table entry", v))?;
+                for (k, (&t, &v)) in tab.t.iter().zip(&tab.value).enumerate() {
+                    finite(&format!("t[{k}]"), t)?;
+                    finite(&format!("value[{k}]"), v)?;
+                }
                 match tab.t.windows(2).position(|w| w[1] <= w[0]) {
                     Some(k) => Err(format!(
                         "table times must increase strictly: t[{}] = {} follows t[{k}] = {}",
