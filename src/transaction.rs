@@ -205,6 +205,9 @@ pub struct Transaction {
     _lock: File,
     dir: PathBuf,
     staged: Vec<String>,
+    /// Files of the command's own set this run does not write, removed
+    /// after the renames ([`Transaction::retire`]).
+    retired: Vec<String>,
 }
 
 /// What was at a final name before the commit.
@@ -255,7 +258,7 @@ impl Transaction {
         let tmp = builder
             .tempdir_in(dir)
             .map_err(|source| TransactionError::Io { path: dir.join(format!("{TEMP_PREFIX}XXXXXX")), source })?;
-        let tx = Self { tmp, _lock: lock, dir: dir.into(), staged: Vec::new() };
+        let tx = Self { tmp, _lock: lock, dir: dir.into(), staged: Vec::new(), retired: Vec::new() };
         tx.check(None, None)?;
         Ok(tx)
     }
@@ -315,6 +318,16 @@ impl Transaction {
         let path = self.path(name);
         file.write_all(bytes).map_err(|source| TransactionError::Io { path: path.clone(), source })?;
         sync(&file, &path)
+    }
+
+    /// Marks files of the command's own set that this run does not write
+    /// (`B.csv` of a `linearize` without inputs, `periodic.csv` of an
+    /// `analyze` that found steady motions): a previous run's are removed
+    /// on commit, after the renames, so the directory never holds this
+    /// run's files beside another's. Names written, or not plain file
+    /// names, are ignored; a directory of the name is left.
+    pub fn retire(&mut self, names: &[String]) {
+        self.retired.extend(names.iter().filter(|n| check_name(n).is_ok()).cloned());
     }
 
     /// [`check_interrupt`] for this transaction's directory.
@@ -382,6 +395,12 @@ impl Transaction {
                     };
                 }
                 return Err(TransactionError::Commit { path: target, source, restored });
+            }
+        }
+        for name in self.retired.iter().filter(|n| !self.staged.contains(n)) {
+            let target = self.path(name);
+            if std::fs::symlink_metadata(&target).is_ok_and(|m| !m.is_dir()) {
+                let _ = std::fs::remove_file(&target);
             }
         }
         if let Ok(d) = File::open(&self.dir) {

@@ -566,3 +566,19 @@ fn an_internal_rotor_is_a_symmetry_and_its_spin_is_kept() {
     let s1 = an.steady_motion(0.0, &x1, sym, None).unwrap();
     assert!(s.state.iter().zip(&s1.state).all(|(a, b)| (a - b).abs() <= 1e-12), "{:?} {:?}", s.state, s1.state);
 }
+
+/// `linearize` and `analyze` into a directory an earlier one wrote: the
+/// earlier run's files of the command's own set that this run does not
+/// write are removed on commit (a `B.csv` from a run with inputs stayed
+/// beside the new `A.csv`), and other files are left.
+#[test]
+fn an_analysis_leaves_no_earlier_file_beside_its_own() {
+    let dir = fresh("stale");
+    let (_, err, ok) = ezy(&["linearize", "drive", "--input", "tau_B"], &dir);
+    assert!(ok && dir.join("B.csv").exists(), "{err}");
+    std::fs::write(dir.join("notes.txt"), "mine").unwrap();
+    let (_, err, ok) = ezy(&["linearize", "drive"], &dir);
+    assert!(ok, "{err}");
+    assert!(dir.join("A.csv").exists() && !dir.join("B.csv").exists());
+    assert_eq!(std::fs::read_to_string(dir.join("notes.txt")).unwrap(), "mine");
+}

@@ -795,3 +795,35 @@ fn a_controller_writing_outside_its_coordinates_is_refused() {
     let s = run(vec![0, 5]).unwrap();
     assert!(s.summary.max_energy_error < 1e-8, "{}", s.summary.max_energy_error);
 }
+
+/// A user's law whose value column is NaN at a finite state (its power
+/// finite): the column reached `trajectory.csv` as NaN, exit 0. Now the
+/// run stops naming the effect and the value, with every method.
+#[test]
+fn a_law_whose_value_is_not_a_number_stops_the_run() {
+    use ezy_core::{Method, Problem, SimError};
+    for method in [Method::Rk4, Method::Dop853, Method::Radau5] {
+        let p = Problem::new(EzyRoller::default())
+            .controller(
+                "odd",
+                vec![5],
+                |t, _q: &[f64], _qd: &[f64], _f: &mut [f64]| if t > 0.2 { f64::NAN } else { 0.0 },
+            )
+            .and_then(|p| p.q("x1", 0.0))
+            .and_then(|p| p.q("y1", 0.0))
+            .and_then(|p| p.q("phi1", 0.0))
+            .and_then(|p| p.q("phi2", 0.3))
+            .and_then(|p| p.qd("x1", 0.5))
+            .and_then(|p| p.qd("phi2", 0.0))
+            .unwrap()
+            .method(method)
+            .t_end(0.5);
+        match p.solve() {
+            Err(e @ SimError::EffectFailed { .. }) => {
+                let text = e.to_string();
+                assert!(text.contains("`odd`") && text.contains("gave NaN for its value column"), "{method:?}: {text}");
+            }
+            other => panic!("{method:?}: {:?}", other.map(|s| s.column("F_odd"))),
+        }
+    }
+}

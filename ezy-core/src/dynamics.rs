@@ -879,15 +879,32 @@ pub(crate) fn apply_effects(
     power: &mut [f64],
 ) -> Result<(), SimError> {
     for ((e, p), wave) in effects.iter().zip(power).zip(waves) {
-        *p = e.apply_with(t, wave, q, qd, f).0;
+        let value;
+        (*p, value) = e.apply_with(t, wave, q, qd, f);
         // a NaN from a finite state is the effect's own failure (a
-        // spring-damper of zero length); a non-finite state is reported
+        // spring-damper of zero length); so is an infinite power or a
+        // value for its column that is not finite (a law of the user's
+        // own: it would reach the CSV); a non-finite state is reported
         // where the state is checked
-        if p.is_nan() && q.iter().chain(qd).all(|v| v.is_finite()) {
-            return Err(SimError::EffectFailed { t, effect: e.name.clone(), reason: e.failure(q) });
+        if !(p.is_finite() && value.is_finite()) && q.iter().chain(qd).all(|v| v.is_finite()) {
+            return Err(effect_failed(e, t, q, *p, value));
         }
     }
     Ok(())
+}
+
+/// The error of effect `e` whose power or value at `(t, q)` is not finite.
+#[cold]
+#[inline(never)]
+fn effect_failed(e: &Effect, t: f64, q: &[f64], power: f64, value: f64) -> SimError {
+    let reason = if power.is_nan() {
+        e.failure(q)
+    } else if !power.is_finite() {
+        format!("gave a power of {power} W")
+    } else {
+        format!("gave {value} for its value column, which is not a finite number")
+    };
+    SimError::EffectFailed { t, effect: e.name.clone(), reason }
 }
 
 /// [`Dynamics::minimal_rhs`]'s error at `t` \[s\], out of the

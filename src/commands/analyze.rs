@@ -234,6 +234,15 @@ pub fn analyze_model<M: Model>(proto: &M, scene: &Scene, opts: &AnalyzeOptions) 
             None
         }
     };
+    // a line every few seconds of a long analysis (a stiff scene's run
+    // and searches take minutes)
+    let beat = ro.progress.then(|| {
+        crate::progress::Heartbeat::start(format!(
+            "analyze {}: running the scene to t = {} s for guesses",
+            scene.name,
+            fmt_value(settings.t_end)
+        ))
+    });
     let (samples, _) = run_to(proto, scene, ro, settings.t_end, GUESSES)?;
     let end = samples.last().cloned().unwrap_or_else(|| x0.clone());
     timings.push((format!("run to t = {} s for a guess", fmt_value(settings.t_end)), clock.elapsed()));
@@ -266,7 +275,15 @@ pub fn analyze_model<M: Model>(proto: &M, scene: &Scene, opts: &AnalyzeOptions) 
             let run_speed = guesses.iter().map(|(_, x)| speed_of(x)).fold(0.0f64, f64::max);
             let rest_below = NEAR_REST * (1.0 + run_speed).sqrt();
             let mut near_rest = Vec::new();
-            for (label, guess) in &guesses {
+            for (k, (label, guess)) in guesses.iter().enumerate() {
+                if let Some(b) = &beat {
+                    b.set(format!(
+                        "analyze {}: searching for a steady motion from {label} ({} of {})",
+                        scene.name,
+                        k + 1,
+                        guesses.len()
+                    ));
+                }
                 let energy = energy_of(&an, guess);
                 match an.steady_motion(0.0, guess, symmetry, energy) {
                     Ok(s) if symmetry != Symmetry::NONE && speed_of(&s.state) < rest_below => {
@@ -323,12 +340,16 @@ pub fn analyze_model<M: Model>(proto: &M, scene: &Scene, opts: &AnalyzeOptions) 
                 max_steps: ro.max_steps.unwrap_or(PeriodicSettings::default().max_steps),
                 ..PeriodicSettings::default()
             };
+            if let Some(b) = &beat {
+                b.set(format!("analyze {}: searching for the periodic orbit of period {} s", scene.name, fmt_value(p)));
+            }
             let orbit = an.periodic_orbit(t0, p, &end, symmetry, &ps).map_err(analysis_error(&ro.out))?;
             timings.push(("periodic orbit".into(), clock.elapsed()));
             follow = Follow::Periodic { t0, period: p, settings: ps };
             periodic = Some(orbit);
         }
     }
+    drop(beat);
     let mut branch = Vec::new();
     if let Some((name, values)) = &opts.continuation {
         let clock = Instant::now();
@@ -378,8 +399,14 @@ pub fn analyze_model<M: Model>(proto: &M, scene: &Scene, opts: &AnalyzeOptions) 
         branch = points;
     }
 
-    // the output is a transaction: all files or none
+    // the output is a transaction: all files or none, and none of an
+    // earlier analysis left beside them
     let mut tx = Transaction::begin(&ro.out)?;
+    let mut own: Vec<String> = ["equilibria.csv", "periodic.csv", "branch.csv"].map(String::from).to_vec();
+    for stem in ["eigenvalues", "multipliers", "branch"] {
+        own.extend(ezy_scene::FigureFormat::ALL.iter().map(|f| f.file_name(stem)));
+    }
+    tx.retire(&own);
     let names = an.state_names();
     let shape = shape_columns(&an);
     let (format, dpi) = ro.look(scene);
@@ -761,6 +788,7 @@ pub fn linearize_model<M: Model>(proto: &M, scene: &Scene, opts: &LinearizeOptio
         out
     };
     let mut tx = Transaction::begin(&ro.out)?;
+    tx.retire(&["A.csv", "B.csv", "eigenvalues.csv", "state.csv"].map(String::from));
     tx.write("A.csv", matrix(&lin.a, names).as_bytes())?;
     if !inputs.is_empty() {
         tx.write("B.csv", matrix(&lin.b, &lin.input_names).as_bytes())?;
