@@ -413,6 +413,8 @@ fn a_branch_in_the_forcing_frequency_takes_each_points_period() {
     let (_, err, ok) = ezy(&["analyze", "drive-rolling-resistance", "--period", "3", "--no-figures"], &bad);
     assert!(!ok && err.contains("--period 3") && err.contains("forced with period 2 s"), "{err}");
     let (_, err, ok) = ezy(&["analyze", "drive-rolling-resistance", "--period", "1e-300", "--no-figures"], &bad);
+    assert!(!ok && err.contains("below 1.2e-7 s there is within the time's rounding"), "{err}");
+    let (_, err, ok) = ezy(&["analyze", "drive-rolling-resistance", "--period", "0.5", "--no-figures"], &bad);
     assert!(!ok && err.contains("whole number"), "{err}");
     // a whole multiple is taken
     let (_, err, ok) = ezy(&["analyze", "drive-rolling-resistance", "--period", "4", "--no-figures"], &bad);
@@ -495,6 +497,10 @@ fn steady_motions_are_listed_once_and_rest_is_not_one() {
     }
     let (_, err, ok) = ezy(&["analyze", "sleigh", "--energy", "1e-7", "--no-figures"], &dir.join("e"));
     assert!(!ok && err.contains("about 4.5e-4 m/s, below the 0.001 m/s"), "{err}");
+    // a period within the time's rounding (it gave a "neutral" orbit at
+    // a mean speed of 1.7e300 m/s)
+    let (_, err, ok) = ezy(&["analyze", "sleigh", "--period", "1e-300", "--no-figures"], &dir.join("p"));
+    assert!(!ok && err.contains("--period 1e-300") && err.contains("within the time's rounding"), "{err}");
     let (out, err, ok) = ezy(&["analyze", "sleigh", "--energy", "0.5", "--no-figures"], &dir.join("e"));
     assert!(ok && out.contains("steady motion 1: stable, speed 1"), "{out}{err}");
 }

@@ -151,6 +151,19 @@ pub fn analyze_model<M: Model>(proto: &M, scene: &Scene, opts: &AnalyzeOptions) 
     {
         return Err(Error::Input(format!("--period {p}: the period must be a positive number of seconds")));
     }
+    // the orbit is integrated from t_end over one period: a period below
+    // 1e-9 of that time is within 2e-7 of its rounding (eps t), coarser
+    // than the shooting's tolerance (1e-9 of the state)
+    if let Some(p) = opts.period
+        && p < MIN_PERIOD * settings.t_end.max(1.0)
+    {
+        return Err(Error::Input(format!(
+            "--period {}: a periodic orbit is sought from t = {} s (the scene's t_end), and a period below {:.1e} s there is within the time's rounding; give a longer period",
+            fmt_value(p),
+            fmt_value(settings.t_end),
+            MIN_PERIOD * settings.t_end.max(1.0)
+        )));
+    }
     if let Some(e) = opts.energy
         && !(e.is_finite() && e > 0.0)
     {
@@ -469,6 +482,11 @@ pub fn analyze_model<M: Model>(proto: &M, scene: &Scene, opts: &AnalyzeOptions) 
     let coords = an.dynamics().info.coords.clone();
     Ok(AnalyzeReport { symmetry, coords, steady, periodic, branch, files, timings, notes })
 }
+
+/// Shortest `--period`, as a fraction of the time `t0 = t_end` (at least
+/// 1 s) the orbit is sought from: there the time's rounding `eps t0` is
+/// 2.2e-7 of the period, above the shooting's tolerance (1e-9 relative).
+const MIN_PERIOD: f64 = 1e-9;
 
 /// Slowest speed \[m/s\] a steady motion is told from rest at: the
 /// search stops at an absolute residual of `1e-12 (1 + |x| + |f|)`
