@@ -696,6 +696,21 @@ fn users_kinds_keep_whole_numbers_and_refuse_foreign_coordinates() {
     assert!(e.contains("drives.D.angle") && e.contains("table's slope jumps"), "{e}");
 }
 
+/// `p` with the EzyRoller at the origin rolling at 0.5 m/s, its rear
+/// body at `phi2` \[rad\] turning at `phi2d` \[rad/s\].
+fn rolling(
+    p: ezy_core::Problem<EzyRoller>,
+    phi2: f64,
+    phi2d: f64,
+) -> Result<ezy_core::Problem<EzyRoller>, ezy_core::SimError> {
+    p.q("x1", 0.0)
+        .and_then(|p| p.q("y1", 0.0))
+        .and_then(|p| p.q("phi1", 0.0))
+        .and_then(|p| p.q("phi2", phi2))
+        .and_then(|p| p.qd("x1", 0.5))
+        .and_then(|p| p.qd("phi2", phi2d))
+}
+
 /// A user's law that fails (a NaN power) once `t = 0.3` s was reached,
 /// at any time after, and raises a flag then: a signal that arrives
 /// while a run rejects step after step.
@@ -739,12 +754,7 @@ fn a_signal_stops_a_run_that_rejects_every_step() {
         let flag = std::sync::Arc::new(std::sync::atomic::AtomicBool::new(false));
         let p = Problem::new(EzyRoller::default())
             .law("fails", FailingLaw(flag.clone()))
-            .and_then(|p| p.q("x1", 0.0))
-            .and_then(|p| p.q("y1", 0.0))
-            .and_then(|p| p.q("phi1", 0.0))
-            .and_then(|p| p.q("phi2", 0.0))
-            .and_then(|p| p.qd("x1", 0.5))
-            .and_then(|p| p.qd("phi2", 0.2))
+            .and_then(|p| rolling(p, 0.0, 0.2))
             .unwrap()
             .method(method)
             .tolerances(1e-8, 1e-8)
@@ -773,12 +783,7 @@ fn a_controller_writing_outside_its_coordinates_is_refused() {
                 f[0] += 0.3; // a push along x1, outside [5]
                 tau
             })
-            .and_then(|p| p.q("x1", 0.0))
-            .and_then(|p| p.q("y1", 0.0))
-            .and_then(|p| p.q("phi1", 0.0))
-            .and_then(|p| p.q("phi2", 0.3))
-            .and_then(|p| p.qd("x1", 0.5))
-            .and_then(|p| p.qd("phi2", 0.0))
+            .and_then(|p| rolling(p, 0.3, 0.0))
             .unwrap()
             .method(Method::Dop853)
             .tolerances(1e-10, 1e-10)
@@ -809,12 +814,7 @@ fn a_law_whose_value_is_not_a_number_stops_the_run() {
                 vec![5],
                 |t, _q: &[f64], _qd: &[f64], _f: &mut [f64]| if t > 0.2 { f64::NAN } else { 0.0 },
             )
-            .and_then(|p| p.q("x1", 0.0))
-            .and_then(|p| p.q("y1", 0.0))
-            .and_then(|p| p.q("phi1", 0.0))
-            .and_then(|p| p.q("phi2", 0.3))
-            .and_then(|p| p.qd("x1", 0.5))
-            .and_then(|p| p.qd("phi2", 0.0))
+            .and_then(|p| rolling(p, 0.3, 0.0))
             .unwrap()
             .method(method)
             .t_end(0.5);
