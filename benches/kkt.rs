@@ -8,7 +8,7 @@ use std::hint::black_box;
 use criterion::{Criterion, criterion_group, criterion_main};
 use ezy_core::integrator::{Dop853, EmbeddedRk, Rk4, Tolerance};
 use ezy_core::kkt::{DenseLu, KktMethod, KktSolver, KktSystem, SchurCholesky};
-use ezy_core::model::scatter_dense;
+use ezy_core::model::info::scatter_dense;
 use ezy_core::{Dynamics, Method, Model, Observer, ProjectionKind, RunSettings, Sample, simulate};
 use ezy_models::{EzyRoller, scenes};
 

@@ -11,9 +11,9 @@ use std::hint::black_box;
 
 use criterion::{BenchmarkId, Criterion, criterion_group, criterion_main};
 use ezy_core::Dynamics;
+use ezy_core::formulation::newton::KktNewton;
 use ezy_core::integrator::Rhs;
 use ezy_core::integrator::radau5::{MU_COMPLEX, MU_REAL, NewtonSystem, c64};
-use ezy_core::newton::KktNewton;
 
 use ezy_models::SnakeServo;
 use ezy_scene::Scene;

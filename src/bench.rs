@@ -23,7 +23,7 @@
 //! process of the matching `run` command (`--no-figures`, CSV written) is
 //! timed by the caller, which starts the program itself ([`crate::App`]).
 
-use ezy_core::integrator::Method;
+use ezy_core::settings::Method;
 use ezy_core::{Formulation, Model, ProjectionKind};
 
 use ezy_scene::Scene;

@@ -7,7 +7,7 @@
 
 use std::path::{Path, PathBuf};
 
-use ezy_core::integrator::Method;
+use ezy_core::settings::Method;
 use ezy_core::{Choice, Dynamics, Model, Observer, ProjectionKind, RunSettings, Sample, SimError};
 
 use ezy_scene::Scene;

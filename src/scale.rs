@@ -9,8 +9,8 @@
 
 use std::time::{Duration, Instant};
 
+use ezy_core::formulation::projection::Projector;
 use ezy_core::kkt::KktMethod;
-use ezy_core::projection::Projector;
 use ezy_core::{Dynamics, Model, ProjectionKind};
 use rand::rngs::StdRng;
 use rand::{Rng, SeedableRng};

@@ -447,7 +447,7 @@ pub fn check_derivatives_observed<M: Model>(
 /// for an angular rate, the pivot \[m\] and its ratio to the body's
 /// radius of gyration `sqrt(I / m)`, which the
 /// reduced formulation needs to be at least
-/// [`ezy_core::reduced::MIN_PIVOT_GYRATION`] (docs/physics.md §6.2); or
+/// [`ezy_core::formulation::reduced::MIN_PIVOT_GYRATION`] (docs/physics.md §6.2); or
 /// the reason `model!` derived none.
 pub fn minimal_notes<M: Model>(model: &M) -> Vec<String> {
     let info = model.info();
@@ -457,7 +457,7 @@ pub fn minimal_notes<M: Model>(model: &M) -> Vec<String> {
     };
     let mut mass = vec![0.0; info.nq()];
     model.mass_diagonal(&mut mass);
-    let refused = ezy_core::reduced::small_pivot(&info, &mass, &layout).map(|p| p.0.to_string());
+    let refused = ezy_core::formulation::reduced::small_pivot(&info, &mass, &layout).map(|p| p.0.to_string());
     let mut notes: Vec<String> = layout
         .pivots
         .iter()
@@ -484,13 +484,13 @@ pub fn minimal_notes<M: Model>(model: &M) -> Vec<String> {
         match refused {
             Some(skate) => format!(
                 "minimal coordinates refused at these parameters: the pivot of skate `{skate}` is below {} of its body's radius of gyration (--formulation reduced takes a numeric partition, auto the DAE)",
-                ezy_core::reduced::MIN_PIVOT_GYRATION
+                ezy_core::formulation::reduced::MIN_PIVOT_GYRATION
             ),
             None => format!(
                 "minimal coordinates: {} coordinates, {} speeds; every pivot at least {} of its body's radius of gyration",
                 layout.coords.len(),
                 layout.speeds.len(),
-                ezy_core::reduced::MIN_PIVOT_GYRATION
+                ezy_core::formulation::reduced::MIN_PIVOT_GYRATION
             ),
         },
     );
@@ -624,7 +624,7 @@ fn check_minimal<M: Model>(
 
 /// The fused right-hand side ([`Model::minimal_rhs`]), where the model has
 /// one and the run would take it (every pivot fit at these parameters,
-/// [`ezy_core::reduced::small_pivot`]), against the expansion and Maggi's
+/// [`ezy_core::formulation::reduced::small_pivot`]), against the expansion and Maggi's
 /// equations apart ([`Model::minimal_expand`], [`Model::minimal_maggi`])
 /// at the state `(q0, qd0)` expanded from the speeds `v` (body-frame
 /// velocities, read at the independent speeds) with its `b`, `c`, under
@@ -649,7 +649,7 @@ fn check_fused<M: Model>(
     let (nq, np, nu) = (q0.len(), layout.coords.len(), layout.speeds.len());
     let mut mass = vec![0.0; nq];
     m.mass_diagonal(&mut mass);
-    if ezy_core::reduced::small_pivot(&info, &mass, layout).is_some() {
+    if ezy_core::formulation::reduced::small_pivot(&info, &mass, layout).is_some() {
         return;
     }
     let coord = |j: usize| info.coords[j].as_str();
@@ -767,9 +767,9 @@ fn check_lean<M: Model>(m: &M, k: &[f64], z: &[f64], q0: &[f64], qd0: &[f64], to
 }
 
 /// The body-frame velocities `V` (nq) of the global rates `qd` (nq) at
-/// `q`, each by [`ezy_core::reduced::body_velocity`].
+/// `q`, each by [`ezy_core::formulation::reduced::body_velocity`].
 fn body_frame<S: Scalar>(q: &[S], qd: &[S]) -> Vec<S> {
-    (0..qd.len()).map(|j| ezy_core::reduced::body_velocity(q, qd, j)).collect()
+    (0..qd.len()).map(|j| ezy_core::formulation::reduced::body_velocity(q, qd, j)).collect()
 }
 
 const MIN_KEPT: &str = "minimal: phi = 0, G qd = 0 expanded";

@@ -1,7 +1,7 @@
 //! Helpers shared by the integration tests.
 #![allow(dead_code)]
 
-use ezy_core::initial::InitialReport;
+use ezy_core::formulation::initial::InitialReport;
 use ezy_core::kkt::KktMethod;
 use ezy_core::{Dynamics, Model, Observer, Sample, SimError};
 

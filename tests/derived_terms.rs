@@ -8,7 +8,7 @@ use crate::common;
 
 use common::{random_model, random_state, rng};
 use ezy_core::Model;
-use ezy_core::model::scatter_dense;
+use ezy_core::model::info::scatter_dense;
 use ezy_models::{ChaplyginSleigh, EzyRoller, Snakeboard};
 
 const STATES: usize = 100;

@@ -342,7 +342,7 @@ fn a_skate_at_the_centre_of_mass_runs_and_a_small_angular_pivot_is_refused() {
         let c = ("c".to_string(), pivot - 0.1);
         let (sys, _) = build::<EzyRoller>(&scenes::get("drive"), &[c], KktMethod::Auto).unwrap();
         let layout = sys.model.minimal_layout().unwrap();
-        let small = ezy_core::reduced::small_pivot(&sys.info, &sys.mass, &layout);
+        let small = ezy_core::formulation::reduced::small_pivot(&sys.info, &sys.mass, &layout);
         assert_eq!(small.is_none(), minimal, "c + d = {pivot}: {small:?}");
     }
     let (mut sys, y0) = build::<EzyRoller>(&scenes::get("drive"), &[("c".into(), -0.099)], KktMethod::Auto).unwrap();
@@ -415,7 +415,7 @@ qd = { x1 = 1.0, y1 = 0.1 }
 #[test]
 fn hinge_torques_compiled_in_match_the_generic_forces() {
     use ezy_core::effects::{EffectSpec, Waveform};
-    use ezy_core::reduced::Reduced;
+    use ezy_core::formulation::reduced::Reduced;
     use ezy_scene::Scene;
     use ezy_scene::SceneEffect;
     // the all-effects scene's four hinge laws at hinge B, alone and with

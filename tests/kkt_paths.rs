@@ -105,7 +105,7 @@ fn drive_on_the_sparse_path_matches_the_dense_one() {
 /// stop Gauss-Newton once max|C| <= 1e-12 and may stop one rounding-level
 /// step apart (measured up to 5e-12 on random snake configurations).
 fn projections_agree<M: Model + Default>(seed: u64) {
-    use ezy_core::projection::Projector;
+    use ezy_core::formulation::projection::Projector;
     let mut r = rng(seed);
     let info = M::default().info();
     let nq = info.nq();
@@ -200,7 +200,7 @@ fn sparse_projection_agrees_with_the_dense_one() {
 
 /// Consistent initial values on the dense path (SVD) and the sparse path
 /// (normal equations by sparse Cholesky, refined) of
-/// `ezy_core::initial::consistent_state_with` agree to 1e-12 m (1e-12
+/// `ezy_core::formulation::initial::consistent_state_with` agree to 1e-12 m (1e-12
 /// m/s relative to the largest velocity), for given values that determine
 /// the rest and for given values that violate the constraints (the
 /// minimum-norm projection, 1e-10: a nonlinear iteration that both paths
@@ -212,7 +212,7 @@ fn initial_paths_agree<M: Model>(
     qd: &[(usize, f64)],
     tol: f64,
 ) {
-    use ezy_core::initial::{Given, consistent_state_with};
+    use ezy_core::formulation::initial::{Given, consistent_state_with};
     let name = m.info().name;
     let given = Given { q: q.to_vec(), qd: qd.to_vec(), ..Given::default() };
     let (qa, qda, ra) = consistent_state_with(m, drives, &given, false).unwrap();
@@ -283,9 +283,12 @@ fn initial_value_paths_agree() {
     assert_eq!(drives.len(), 29);
     let q = [(0, 0.0), (1, 0.0), (2, -0.7694208842938135)];
     initial_paths_agree(&m, &drives, &q, &[(0, 0.0), (1, 0.0), (2, 0.0)], 1e-12);
-    let given =
-        ezy_core::initial::Given { q: q.to_vec(), qd: vec![(0, 0.0), (1, 0.0), (2, 0.0)], ..Default::default() };
-    let (_, _, report) = ezy_core::initial::consistent_state_with(&m, &drives, &given, false).unwrap();
+    let given = ezy_core::formulation::initial::Given {
+        q: q.to_vec(),
+        qd: vec![(0, 0.0), (1, 0.0), (2, 0.0)],
+        ..Default::default()
+    };
+    let (_, _, report) = ezy_core::formulation::initial::consistent_state_with(&m, &drives, &given, false).unwrap();
     assert_eq!(report.velocity_violation, 0.0, "consistent values need no projection: {report:?}");
 }
 
@@ -295,7 +298,7 @@ fn initial_value_paths_agree() {
 /// found dependent.
 #[test]
 fn undetermined_coordinates_are_named_on_both_paths() {
-    use ezy_core::initial::{Given, consistent_state_with};
+    use ezy_core::formulation::initial::{Given, consistent_state_with};
     let m = ezy_models::Snake { N: 30, ..Default::default() };
     // x1, y1, x30 and every heading but phi7 (which starts at 0) given:
     // x30 moves with sin(phi7), zero there, so nothing fixes phi7

@@ -7,9 +7,9 @@
 use crate::common;
 
 use common::build;
+use ezy_core::formulation::newton::KktNewton;
 use ezy_core::integrator::radau5::{DenseNewton, MU_COMPLEX, MU_REAL, NewtonSystem, c64};
 use ezy_core::kkt::KktMethod;
-use ezy_core::newton::KktNewton;
 use ezy_core::{Dynamics, Method, Model, RunSettings, Summary, simulate};
 use ezy_models::{ElasticFourBar, SnakeServo, scenes};
 

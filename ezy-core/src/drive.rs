@@ -9,7 +9,7 @@
 //! is integrated into the work state `W_<drive>`, so the energy ledger
 //! stays closed.
 
-use crate::effects::Waveform;
+use crate::effects::waveform::Waveform;
 
 /// A drive resolved against a model: its row and the prescribed angle.
 #[derive(Debug, Clone, PartialEq)]

@@ -22,9 +22,12 @@ use core::any::TypeId;
 
 use num_dual::Dual64;
 
-use crate::kkt::KktError;
-use crate::model::{Equations, MinimalLayout, MinimalRhsError, Model, ModelInfo};
-use crate::{Effect, Scalar, SimError};
+use crate::effects::Effect;
+use crate::error::KktError;
+use crate::error::SimError;
+use crate::model::info::{Equations, MinimalLayout, ModelInfo};
+use crate::model::{MinimalRhsError, Model};
+use crate::scalar::Scalar;
 
 /// `f(q, qd, f, tau)` of [`ModelObject::minimal_rhs_dyn`]: `false` when
 /// the forces failed (the caller keeps the error).

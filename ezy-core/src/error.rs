@@ -1,76 +1,10 @@
-//! Errors of the runtime (DESIGN.md: a `thiserror` enum with data, no
-//! catch-all string variant).
+//! Errors of the runtime: a `thiserror` enum with data, no catch-all
+//! string variant. Floor 0: it imports only [`crate::names`] (how numbers
+//! and names are written) and [`crate::settings`] (the settings a message
+//! advises, carried as data).
 
-use std::sync::atomic::{AtomicBool, Ordering};
-
-use crate::kkt::KktError;
-
-/// A run setting an error or a help text advises changing. How it is
-/// spelled is the caller's: as a library names it (`` `dt` ``,
-/// `` `formulation = dae` ``, the fields of [`crate::RunSettings`] and the
-/// keys of a scene's `[integrator]`), or, once a command line calls
-/// [`spell_settings_as_flags`], as its flags (`--dt`, `--formulation dae`).
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum Setting {
-    /// The fixed step size \[s\].
-    Dt,
-    /// The relative tolerance.
-    Rtol,
-    /// The step budget.
-    MaxSteps,
-    /// The output budget \[MB\].
-    MaxOutputMb,
-    /// The integration method, with the value advised.
-    Method(crate::Method),
-    /// The formulation, with the value advised.
-    Formulation(crate::Formulation),
-    /// Baumgarte stabilization.
-    Baumgarte,
-}
-
-static AS_FLAGS: AtomicBool = AtomicBool::new(false);
-
-/// From now on, [`Setting`]s (in every error message and help text of
-/// this process) are spelled as the `ezy` command line's flags. The
-/// command line calls it once at its start; a library leaves it.
-pub fn spell_settings_as_flags() {
-    AS_FLAGS.store(true, Ordering::Relaxed);
-}
-
-impl Setting {
-    /// Whether settings are spelled as flags ([`spell_settings_as_flags`]).
-    pub fn as_flags() -> bool {
-        AS_FLAGS.load(Ordering::Relaxed)
-    }
-}
-
-impl Setting {
-    /// The flag, the library's name (a field of [`crate::RunSettings`],
-    /// a key of a scene's `[integrator]`) and the value advised.
-    fn names(self) -> (&'static str, &'static str, Option<&'static str>) {
-        match self {
-            Self::Dt => ("--dt", "dt", None),
-            Self::Rtol => ("--rtol", "rtol", None),
-            Self::MaxSteps => ("--max-steps", "max_steps", None),
-            Self::MaxOutputMb => ("--max-output-mb", "max_output_mb", None),
-            Self::Method(m) => ("--integrator", "method", Some(m.name())),
-            Self::Formulation(x) => ("--formulation", "formulation", Some(x.name())),
-            Self::Baumgarte => ("--baumgarte", "baumgarte", None),
-        }
-    }
-}
-
-impl std::fmt::Display for Setting {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        let (flag, name, value) = self.names();
-        match (Setting::as_flags(), value) {
-            (true, None) => f.write_str(flag),
-            (true, Some(v)) => write!(f, "{flag} {v}"),
-            (false, None) => write!(f, "`{name}`"),
-            (false, Some(v)) => write!(f, "`{name} = {v}`"),
-        }
-    }
-}
+use crate::names::{fmt_value, name_list};
+use crate::settings::{BALANCE_LIMIT, Method, RunSettings, Setting};
 
 /// What can stop a simulation or its setup.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
@@ -116,7 +50,7 @@ pub enum SimError {
     },
     /// An adaptive method's step size collapsed 1e4-fold next to a
     /// singular position of the constraints (the KKT conditioning above
-    /// [`crate::dynamics::NEAR_SINGULAR`]) despite the measures `simulate`
+    /// [`crate::formulation::dae::NEAR_SINGULAR`]) despite the measures `simulate`
     /// takes there (docs/physics.md §5.1): the tolerance is below what
     /// double precision resolves there. `h` is the step size asked for
     /// \[s\].
@@ -150,7 +84,7 @@ pub enum SimError {
         t: f64,
         /// The effect's name in the scene.
         effect: String,
-        /// What went wrong, from [`crate::Effect::failure`].
+        /// What went wrong, from [`crate::effects::Effect::failure`].
         reason: String,
     },
     /// A name (coordinate, parameter, hinge) is not in the model.
@@ -206,7 +140,7 @@ pub enum SimError {
         before: String,
     },
     /// Constraints that stayed dependent along the motion: every KKT solve
-    /// of [`crate::SINGULAR_PERSIST_STEPS`] accepted steps in a row found
+    /// of [`crate::simulate::SINGULAR_PERSIST_STEPS`] accepted steps in a row found
     /// `G` rank-deficient, so the run is not passing a singular position
     /// but staying in one (the multipliers are not unique along it).
     #[error(
@@ -237,7 +171,7 @@ pub enum SimError {
         /// What is wrong.
         message: String,
     },
-    /// An event fired in each of [`crate::events::CHATTER_STEPS`] accepted
+    /// An event fired in each of [`crate::events::spec::CHATTER_STEPS`] accepted
     /// steps in a row: its quantity sits at its level within rounding or
     /// switches back at once, so the run stops instead of looping on it.
     #[error(
@@ -272,10 +206,10 @@ pub enum SimError {
         t: f64,
     },
     /// A skate with friction switched between sticking and sliding
-    /// [`crate::events::CHATTER_STEPS`] times in a row at ever shorter
+    /// [`crate::events::spec::CHATTER_STEPS`] times in a row at ever shorter
     /// intervals or, with a fixed step, every few steps
-    /// ([`crate::friction::SwitchStreak`]), or its
-    /// modes found no rest at one instant ([`crate::friction`]): the force
+    /// ([`crate::formulation::friction::SwitchStreak`]), or its
+    /// modes found no rest at one instant ([`crate::formulation::friction`]): the force
     /// that holds it sits at its limit `mu N`, so the run stops instead of
     /// switching without end.
     #[error(
@@ -297,7 +231,7 @@ pub enum SimError {
         switches: u64,
     },
     /// A run recorded more events than it keeps
-    /// ([`crate::events::max_records`]).
+    /// ([`crate::events::spec::max_records`]).
     #[error(
         "at t = {} s the event `{event}` would be the run's record number {}, more than the {limit} it keeps (64 MiB of states): an event that fires this often records the motion, not events; give it a level it crosses less often, or sample the run with a shorter output interval instead",
         fmt_value(*t), limit + 1
@@ -357,22 +291,41 @@ pub enum SimError {
     },
 }
 
-impl SimError {
-    /// A KKT failure at time `t`, with dependent rows named from the model's `info`.
-    pub fn from_kkt(info: &crate::ModelInfo, t: f64, source: KktError) -> Self {
-        match source {
-            KktError::DependentConstraints { row, .. } if row < info.nc() => {
-                let names = &info.constraints;
-                SimError::DependentConstraints {
-                    t,
-                    constraint: names[row].clone(),
-                    row,
-                    before: name_list(&names[..row]),
-                }
-            }
-            source => SimError::Kkt { t, source },
-        }
-    }
+/// Errors of a KKT solve.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum KktError {
+    /// The Schur complement `G M^-1 G^T` is not positive definite: the
+    /// constraint rows are (numerically) dependent.
+    #[error(
+        "the constraint matrix G has dependent rows: row {row} depends on the rows before it (G M^-1 G^T, {n} x {n}, is not positive definite)"
+    )]
+    DependentConstraints {
+        /// Size of the Schur complement (nc).
+        n: usize,
+        /// The first row of `G` found to depend on the rows before it.
+        row: usize,
+    },
+    /// The system has non-finite entries: the state it was built from
+    /// overflowed (a step far too large, or absurd initial values).
+    #[error("the KKT system ({n} x {n}) has non-finite entries: the state overflowed")]
+    NonFinite {
+        /// Size of the factored matrix.
+        n: usize,
+    },
+    /// The KKT matrix is singular (LU found a zero pivot).
+    #[error("the KKT matrix ({n} x {n}) is singular")]
+    SingularKkt {
+        /// Size of the KKT matrix (nq + nc).
+        n: usize,
+    },
+    /// The Schur path needs every mass-matrix entry positive.
+    #[error("the Schur-complement path needs an invertible mass matrix; M[{index}] = {}", fmt_value(*value))]
+    SingularMass {
+        /// Coordinate index of the offending diagonal entry.
+        index: usize,
+        /// Its value \[kg\] or \[kg m^2\].
+        value: f64,
+    },
 }
 
 /// Spread of the positive masses and inertias above which a solve's
@@ -430,77 +383,21 @@ impl SimError {
     }
 }
 
-impl SimError {
-    /// The failure with the force law named that is faster than the run
-    /// can follow, when one is: the step size of an adaptive method
-    /// collapsed ([`SimError::StepSizeTooSmall`]) or spent its budget, or a
-    /// fixed-step run blew up ([`SimError::NonFinite`],
-    /// [`SimError::Diverged`]). The law's time scale
-    /// ([`crate::effects::Effect::time_scale`], `sqrt(m / k)` or `m / c`)
-    /// is compared with the shortest a run resolves: a fixed step `dt`
-    /// resolves down to `dt / 2` (explicit Euler is stable on the negative
-    /// real axis up to `h |lambda| = 2`, RK4 to 2.785), an adaptive method
-    /// down to `10 t_end / max_steps` (an explicit method of order 5 to 8
-    /// takes about ten steps per time scale at the tolerances runs use, so
-    /// a faster law needs more steps than the budget). A failure without
-    /// such a law is returned as it is. (A spring of 1e17 N/m on the
-    /// four-bar, time scale 2.4e-9 s against 1e-8 s for 0.1 s in 1e8 steps,
-    /// used to stop with "the step size fell" and nothing more.)
-    pub fn with_fast_law(self, effects: &[crate::Effect], mass: &[f64], settings: &crate::RunSettings) -> Self {
-        let adaptive = settings.method.is_adaptive();
-        let applies = match &self {
-            SimError::StepSizeTooSmall { .. } => true,
-            SimError::Budget { what, .. } => adaptive && *what == "steps",
-            SimError::NonFinite { .. } | SimError::Diverged { .. } => !adaptive,
-            _ => false,
-        };
-        if !applies {
-            return self;
-        }
-        let (resolved, why) = if adaptive {
-            let budget = settings.max_steps.unwrap_or(crate::simulate::DEFAULT_MAX_STEPS) as f64;
-            (10.0 * settings.t_end / budget, "ten steps per time scale within the run's step budget")
-        } else {
-            (settings.dt / 2.0, "half the step dt")
-        };
-        let fastest = effects
-            .iter()
-            .filter_map(|e| e.time_scale(mass).map(|ts| (e, ts)))
-            .min_by(|a, b| a.1.seconds.total_cmp(&b.1.seconds));
-        match fastest {
-            Some((e, ts)) if ts.seconds < resolved => SimError::Caused {
-                error: Box::new(self),
-                cause: format!(
-                    "the effect `{}` is faster than the run can follow: its {} = {} on a mass or inertia of {} gives a time scale of {:.1e} s, below {:.1e} s ({why}); check its `{}`",
-                    e.name,
-                    ts.key,
-                    fmt_value(ts.value),
-                    fmt_value(ts.mass),
-                    ts.seconds,
-                    resolved,
-                    ts.key
-                ),
-            },
-            _ => self,
-        }
-    }
-}
-
 /// What to do when a run's numbers blow up, for the method in use: at
 /// t = 0 the scene's numbers themselves are out of range; an adaptive
 /// method met its tolerance, so the solution itself grows (forces,
 /// initial values); a fixed-step method's step `dt` \[s\] may be too large,
 /// unless the energy balance held up to the last accepted state
 /// (`balance`: `|T - T0 - W|` relative to the run's energy scale there,
-/// [`crate::guard`]; `None`: no step accepted or not known): then the
+/// [`crate::simulate::guard`]; `None`: no step accepted or not known): then the
 /// forces did the work, the solution itself grows and a smaller step
 /// would not help.
-pub fn advice(method: crate::Method, t: f64, dt: f64, balance: Option<f64>) -> String {
+pub fn advice(method: Method, t: f64, dt: f64, balance: Option<f64>) -> String {
     if t == 0.0 && dt == 0.0 {
         "the scene's initial values or parameters are out of the range double precision can hold".into()
     } else if method.is_adaptive() {
         "the adaptive method met its tolerance up to here, so the solution itself grows without bound: check the scene's forces, parameters and initial values".into()
-    } else if let Some(b) = balance.filter(|b| *b <= crate::simulate::BALANCE_LIMIT) {
+    } else if let Some(b) = balance.filter(|b| *b <= BALANCE_LIMIT) {
         format!(
             "the energy balance held to {b:.1e} of the run's energy up to here (the forces did the work), so the solution itself grows without bound and a smaller step would not help: check the scene's forces, parameters and initial values"
         )
@@ -509,7 +406,7 @@ pub fn advice(method: crate::Method, t: f64, dt: f64, balance: Option<f64>) -> S
             "the step h = {} s is too large for this scene: try a smaller {} or an adaptive method ({})",
             fmt_value(dt),
             Setting::Dt,
-            Setting::Method(crate::Method::Dop853)
+            Setting::Method(Method::Dop853)
         )
     }
 }
@@ -541,33 +438,33 @@ fn ceil3(v: f64) -> f64 {
     format!("{up:.2e}").parse().unwrap_or(up)
 }
 
-/// A number as a person would write it: plain for ordinary magnitudes,
-/// scientific below 1e-3 and from 1e6 (`1e-320`, not 320 digits).
-pub fn fmt_value(v: f64) -> String {
-    if v != 0.0 && v.is_finite() && (v.abs() < 1e-3 || v.abs() >= 1e6) { format!("{v:e}") } else { format!("{v}") }
-}
-
-/// At most this many names in a message listing coordinates or constraints
-/// ([`name_list`]).
-pub const LISTED: usize = 30;
-
-/// `names` joined by commas: the first [`LISTED`] of them and a count of
-/// the rest (a family of ten thousand links is not listed whole).
-pub fn name_list<S: AsRef<str>>(names: impl IntoIterator<Item = S>) -> String {
-    let mut out = String::new();
-    let mut more = 0usize;
-    for (k, n) in names.into_iter().enumerate() {
-        if k < LISTED {
-            if k > 0 {
-                out.push_str(", ");
+impl RunSettings {
+    /// Checks the settings.
+    ///
+    /// # Errors
+    /// [`SimError::Setting`] naming the first bad setting.
+    pub fn validate(&self) -> Result<(), SimError> {
+        for (name, value) in
+            [("dt", self.dt), ("t_end", self.t_end), ("every", self.every), ("rtol", self.rtol), ("atol", self.atol)]
+        {
+            if let Some(reason) = Self::reject(name, value) {
+                return Err(SimError::Setting { name: name.into(), value, reason });
             }
-            out.push_str(n.as_ref());
-        } else {
-            more += 1;
         }
+        if let Some(max) = self.max_steps
+            && !self.method.is_adaptive()
+        {
+            let needed = (self.t_end / self.dt).ceil();
+            if needed > max as f64 {
+                return Err(SimError::Budget {
+                    what: "steps",
+                    estimate: needed,
+                    limit: max as f64,
+                    setting: Setting::MaxSteps,
+                    detail: format!("t_end / dt = {:e} s / {:e} s", self.t_end, self.dt),
+                });
+            }
+        }
+        Ok(())
     }
-    if more > 0 {
-        out.push_str(&format!(" and {more} more"));
-    }
-    out
 }

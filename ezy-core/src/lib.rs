@@ -9,11 +9,11 @@
 //! [`EffectSpec`], or laws of the user's own through
 //! [`effects::EffectKind`] and [`effects::ForceLaw`]), its drives, the
 //! initial values given by name (the rest solved for consistency,
-//! [`initial`]) and the settings ([`RunSettings`]). Solving it builds the
+//! [`formulation::initial`]) and the settings ([`RunSettings`]). Solving it builds the
 //! right-hand side ([`Dynamics`]: the KKT system
 //! `[M G^T; G 0] [qdd; lambda] = [f; -gamma]`, [`kkt`], or the reduced
-//! formulation, [`reduced`]) and integrates it ([`integrator`]: RK4,
-//! DOPRI5, DOP853, RADAU5) with coordinate projection ([`projection`]),
+//! formulation, [`formulation::reduced`]) and integrates it ([`integrator`]: RK4,
+//! DOPRI5, DOP853, RADAU5) with coordinate projection ([`formulation::projection`]),
 //! showing every sample to an [`Observer`] or keeping them in a
 //! [`Solution`].
 //!
@@ -49,72 +49,41 @@
 
 pub mod analysis;
 pub mod drive;
-pub mod dynamics;
 pub mod effects;
 pub mod erased;
-mod error;
+pub mod error;
 pub mod events;
-pub mod friction;
-pub mod guard;
-pub mod initial;
+pub mod formulation;
 pub mod integrator;
 pub mod kkt;
 pub mod model;
-pub mod newton;
+pub mod names;
 pub mod problem;
-pub mod projection;
-pub mod reduced;
 pub mod scalar;
+pub mod settings;
 pub mod simulate;
 
-pub use dynamics::{Baumgarte, Dynamics};
 pub use effects::{Effect, EffectSpec};
 pub use erased::AnyModel;
-pub use error::{
-    LISTED, MASS_SPREAD_WARNING, Setting, SimError, advice, fmt_value, name_list, spell_settings_as_flags,
-};
-pub use events::{Event, EventRecord, EventSpec};
+pub use error::{KktError, MASS_SPREAD_WARNING, SimError, advice};
+pub use events::spec::{Event, EventRecord, EventSpec};
 /// The dense linear algebra the analyses' matrices are in ([`analysis::Linearization::a`]).
 pub use faer;
-pub use friction::SkateMode;
-pub use integrator::Method;
-pub use model::{
-    BodyInfo, DriveInfo, EquationExpr, Equations, HingeInfo, InitialName, MAX_ANGLE, MAX_COORDS, MAX_MAGNITUDE,
-    MAX_RATE, MinimalLayout, MinimalRhsError, Model, ModelInfo, NameIndex, ParamInfo, PointInfo, SETUP_BYTES_PER_COORD,
-    SkateInfo, SliderInfo, check_angle, check_magnitude, check_rate,
+pub use formulation::dae::{Baumgarte, Dynamics};
+pub use formulation::friction::SkateMode;
+pub use model::info::{
+    BodyInfo, DriveInfo, EquationExpr, Equations, HingeInfo, InitialName, MAX_COORDS, MinimalLayout, ModelInfo,
+    NameIndex, ParamInfo, PointInfo, SETUP_BYTES_PER_COORD, SkateInfo, SliderInfo,
 };
+pub use model::{MinimalRhsError, Model};
+pub use names::{LISTED, fmt_value, name_list};
 pub use problem::{Problem, Solution};
-pub use projection::ProjectionKind;
-pub use reduced::Formulation;
 pub use scalar::Scalar;
-pub use simulate::{
-    Observer, RunError, RunSettings, SINGULAR_PERSIST_STEPS, SLIP_CHATTER_GAP, Sample, Summary, simulate,
+pub use settings::{
+    Choice, Formulation, MAX_ANGLE, MAX_MAGNITUDE, MAX_RATE, Method, ProjectionKind, RunSettings, Setting, check_angle,
+    check_magnitude, check_rate, spell_settings_as_flags,
 };
-
-/// A setting with a few named values (the integrator, the projection,
-/// the formulation): one list that scene files, the command line and
-/// reports share. Scene files spell each value by [`Choice::name`]
-/// (serde), the command line offers [`Choice::ALL`] with
-/// [`Choice::help`].
-pub trait Choice: Copy + PartialEq + Send + Sync + 'static {
-    /// Every value, in the order help lists them.
-    const ALL: &'static [Self];
-    /// The value as scene files and the command line spell it.
-    fn name(self) -> &'static str;
-    /// One line on what it is.
-    fn help(self) -> &'static str;
-    /// The value spelled `name`.
-    ///
-    /// # Errors
-    /// A message listing the names.
-    fn parse(name: &str) -> Result<Self, String> {
-        Self::ALL
-            .iter()
-            .copied()
-            .find(|v| v.name() == name)
-            .ok_or_else(|| format!("`{name}`: expected one of {}", name_list(Self::ALL.iter().map(|v| v.name()))))
-    }
-}
+pub use simulate::{Observer, RunError, SINGULAR_PERSIST_STEPS, SLIP_CHATTER_GAP, Sample, Summary, simulate};
 
 #[doc = include_str!("../../ezy-derive/src/model.md")]
 // A `macro_rules!` wrapper around the procedural macro, passing its
@@ -133,10 +102,11 @@ macro_rules! model {
 #[doc(hidden)]
 pub mod __private {
     pub use crate::kkt::spd::ldl_solve;
-    pub use crate::model::{
-        BodyInfo, DriveInfo, EquationExpr, Equations, HingeInfo, Layout, MinimalLayout, MinimalRhsError, Model,
-        ModelInfo, ParamInfo, PointInfo, SkateInfo, SliderInfo, check_model_size, render_equation, unique_names,
+    pub use crate::model::info::{
+        BodyInfo, DriveInfo, EquationExpr, Equations, HingeInfo, Layout, MinimalLayout, ModelInfo, ParamInfo,
+        PointInfo, SkateInfo, SliderInfo, check_model_size, render_equation, unique_names,
     };
+    pub use crate::model::{MinimalRhsError, Model};
     pub use crate::scalar::Scalar;
     pub use ezy_derive::model as model_with_root;
 }

@@ -54,13 +54,19 @@
 use std::sync::Arc;
 
 use crate::drive::Drive;
-use crate::effects::{Effect, EffectContext, EffectKind, EffectSpec, ForceLaw, Law, Waveform};
-use crate::events::{Event, EventSpec};
-use crate::initial::{Given, InitialReport, consistent_state_given};
+use crate::effects::user::{EffectKind, ForceLaw};
+use crate::effects::waveform::Waveform;
+use crate::effects::{Effect, EffectContext, EffectSpec, Law};
+use crate::error::SimError;
+use crate::events::spec::{Event, EventSpec};
+use crate::formulation::dae::{Baumgarte, Dynamics};
+use crate::formulation::initial::{Given, InitialReport, consistent_state_given};
 use crate::kkt::KktMethod;
-use crate::model::{Model, ModelInfo, NameIndex};
-use crate::simulate::{Observer, RunError, RunSettings, Sample, Summary, simulate};
-use crate::{Baumgarte, Dynamics, Formulation, Method, ProjectionKind, SimError};
+use crate::model::Model;
+use crate::model::info::{ModelInfo, NameIndex};
+use crate::settings::RunSettings;
+use crate::settings::{Formulation, Method, ProjectionKind};
+use crate::simulate::{Observer, RunError, Sample, Summary, simulate};
 
 /// A model with its effects, drives, initial values and settings: what a
 /// run integrates. Build it in Rust ([`Problem::new`] and the builder
@@ -158,13 +164,13 @@ pub fn lookup<S: AsRef<str>>(info: &ModelInfo, kind: &'static str, name: &str, n
         kind,
         name: name.into(),
         model: info.name,
-        known: crate::name_list(names),
+        known: crate::names::name_list(names),
     })
 }
 
 /// Refuses a model parameter (a length, a mass, an inertia; not a family
 /// count, which [`Model::check_counts`] checks) that is not finite or
-/// whose magnitude passes [`crate::MAX_MAGNITUDE`] (1e34: see there; a
+/// whose magnitude passes [`crate::settings::MAX_MAGNITUDE`] (1e34: see there; a
 /// length of 1e300 m overflowed the KKT system at t = 0, a mass of 1e150
 /// kg under gravity collapsed the first step).
 ///
@@ -174,14 +180,14 @@ pub fn lookup<S: AsRef<str>>(info: &ModelInfo, kind: &'static str, name: &str, n
 pub fn check_params<M: Model>(model: &M, info: &ModelInfo) -> Result<(), SimError> {
     for (k, p) in info.params.iter().enumerate().filter(|(_, p)| !p.count) {
         let what = if p.unit.is_empty() { p.name.to_string() } else { format!("{} [{}]", p.name, p.unit) };
-        crate::check_magnitude(&what, model.param(k))
+        crate::settings::check_magnitude(&what, model.param(k))
             .map_err(|message| SimError::Scene { key: format!("params.{}", p.name), message })?;
     }
     Ok(())
 }
 
 /// Refuses a mass diagonal with a negative, non-finite, vanishing-but-
-/// nonzero or huge (past [`crate::MAX_MAGNITUDE`]) entry, and a massless
+/// nonzero or huge (past [`crate::settings::MAX_MAGNITUDE`]) entry, and a massless
 /// part in a model too large for the dense LU path of the KKT matrix.
 ///
 /// # Errors
@@ -192,7 +198,7 @@ pub fn check_masses<M: Model>(model: &M, info: &ModelInfo) -> Result<(), SimErro
     for (k, &m) in mass.iter().enumerate() {
         let reason = if !m.is_finite() || m < 0.0 {
             Some("must be a finite number, zero or positive")
-        } else if m > crate::MAX_MAGNITUDE {
+        } else if m > crate::settings::MAX_MAGNITUDE {
             Some(
                 "is out of range: ezy takes masses and inertias up to 1e34 (the energies and powers formed from a larger one overflow double precision)",
             )
@@ -224,7 +230,7 @@ pub fn check_masses<M: Model>(model: &M, info: &ModelInfo) -> Result<(), SimErro
 ///
 /// # Errors
 /// [`SimError::UnknownName`] listing the model's coordinates.
-pub fn initial_targets(info: &ModelInfo, name: &str) -> Result<crate::InitialName, SimError> {
+pub fn initial_targets(info: &ModelInfo, name: &str) -> Result<crate::model::info::InitialName, SimError> {
     info.initial_name(name).ok_or_else(|| lookup(info, "coordinate", name, &info.coords).expect_err("not a coordinate"))
 }
 
@@ -321,7 +327,7 @@ impl<M: Model> Problem<M> {
     }
 
     /// Adds a closure as a feedback controller named `name`
-    /// ([`crate::effects::Controller`]): `law(t, q, qd, f)` adds its
+    /// ([`crate::effects::user::Controller`]): `law(t, q, qd, f)` adds its
     /// generalized force into `f` (nq) and returns its value column's
     /// value; it reads and writes only the entries `coords` (indices
     /// into `q`).
@@ -332,14 +338,14 @@ impl<M: Model> Problem<M> {
     where
         F: Fn(f64, &[f64], &[f64], &mut [f64]) -> f64 + Send + Sync + 'static,
     {
-        self.law(name, crate::effects::Controller::new(coords, law))
+        self.law(name, crate::effects::user::Controller::new(coords, law))
     }
 
     /// Adds the event `name` watching a quantity of the run by its column
     /// name (`spec.when`: `x1`, `theta_B`, `A.vy`, `tau_motor`, `T`, `t`;
-    /// [`crate::events::Quantity::resolve`]): located on the dense output,
+    /// [`crate::events::spec::Quantity::resolve`]): located on the dense output,
     /// recorded in [`Summary::events`], and the run's end if its action
-    /// is [`crate::events::Action::Stop`]. Add the effects and drives it
+    /// is [`crate::events::spec::Action::Stop`]. Add the effects and drives it
     /// names first.
     ///
     /// # Errors
@@ -357,7 +363,7 @@ impl<M: Model> Problem<M> {
     /// # Errors
     /// [`SimError::Event`] for a repeated name.
     pub fn with_event(mut self, event: Event) -> Result<Self, SimError> {
-        crate::events::check_event_name(&event.name).map_err(|message| SimError::Event {
+        crate::events::spec::check_event_name(&event.name).map_err(|message| SimError::Event {
             event: event.name.clone(),
             field: "",
             message,
@@ -399,8 +405,10 @@ impl<M: Model> Problem<M> {
     pub fn q(mut self, name: &str, value: f64) -> Result<Self, SimError> {
         let info = self.model.info();
         match initial_targets(&info, name)? {
-            crate::InitialName::Coords(ks) => ks.into_iter().for_each(|k| set(&mut self.given.q, k, value)),
-            crate::InitialName::HingeAngle(h) => set(&mut self.given.angles, h, value),
+            crate::model::info::InitialName::Coords(ks) => {
+                ks.into_iter().for_each(|k| set(&mut self.given.q, k, value))
+            }
+            crate::model::info::InitialName::HingeAngle(h) => set(&mut self.given.angles, h, value),
         }
         Ok(self)
     }
@@ -413,8 +421,10 @@ impl<M: Model> Problem<M> {
     pub fn qd(mut self, name: &str, value: f64) -> Result<Self, SimError> {
         let info = self.model.info();
         match initial_targets(&info, name)? {
-            crate::InitialName::Coords(ks) => ks.into_iter().for_each(|k| set(&mut self.given.qd, k, value)),
-            crate::InitialName::HingeAngle(_) => {
+            crate::model::info::InitialName::Coords(ks) => {
+                ks.into_iter().for_each(|k| set(&mut self.given.qd, k, value))
+            }
+            crate::model::info::InitialName::HingeAngle(_) => {
                 return Err(SimError::Scene {
                     key: format!("initial.qd.{name}"),
                     message: "a hinge angle is given in positions only".into(),
@@ -484,7 +494,7 @@ impl<M: Model> Problem<M> {
     /// Names of the state components `y = [q, qd, W_effects..,
     /// W_drives..]` (as [`Dynamics::state_name`] gives them).
     pub fn state_names(&self) -> Vec<String> {
-        crate::dynamics::state_names(&self.model.info().coords, &self.effects, &self.drives)
+        crate::formulation::dae::state_names(&self.model.info().coords, &self.effects, &self.drives)
     }
 
     /// The consistent initial state `y0 = [q, qd, W = 0 ...]` and what
@@ -547,7 +557,7 @@ impl<M: Model> Problem<M> {
     /// # Errors
     /// As [`Problem::initial_state`]; [`SimError::Setting`] for Baumgarte
     /// rates the run cannot take (not finite, negative, past
-    /// [`crate::MAX_RATE`], or past a fixed step's stability limit).
+    /// [`crate::settings::MAX_RATE`], or past a fixed step's stability limit).
     pub fn into_system(self) -> Result<(Dynamics<M>, Vec<f64>, InitialReport), SimError> {
         self.check_counts()?;
         self.check_baumgarte()?;
@@ -559,7 +569,7 @@ impl<M: Model> Problem<M> {
     }
 
     /// Refuses Baumgarte rates the run cannot take: not finite or
-    /// negative, faster than [`crate::MAX_RATE`] (no step follows them), or,
+    /// negative, faster than [`crate::settings::MAX_RATE`] (no step follows them), or,
     /// for a fixed-step method, past its stability limit. The drift `C` of
     /// the constraints obeys `C'' + 2 alpha C' + beta^2 C = 0`, whose
     /// eigenvalues `-alpha +- sqrt(alpha^2 - beta^2)` are at most
@@ -571,7 +581,7 @@ impl<M: Model> Problem<M> {
     /// the energy balance, 1e300 overflowed the KKT system at t = 5e-5 s).
     fn check_baumgarte(&self) -> Result<(), SimError> {
         let Some(Baumgarte { alpha, beta }) = self.baumgarte else { return Ok(()) };
-        let name = |which: &str| format!("{} {which}", crate::Setting::Baumgarte);
+        let name = |which: &str| format!("{} {which}", crate::settings::Setting::Baumgarte);
         for (which, v) in [("alpha", alpha), ("beta", beta)] {
             if !(v.is_finite() && v >= 0.0) {
                 return Err(SimError::Setting {
@@ -580,7 +590,7 @@ impl<M: Model> Problem<M> {
                     reason: "must be a finite rate >= 0 [1/s]",
                 });
             }
-            if v > crate::MAX_RATE {
+            if v > crate::settings::MAX_RATE {
                 return Err(SimError::Setting {
                     name: name(which),
                     value: v,
@@ -606,7 +616,7 @@ impl<M: Model> Problem<M> {
 
     /// The model's family counts checked before anything is set up at
     /// them ([`Model::check_counts`]: elements that exist, names that
-    /// differ, at most [`crate::MAX_COORDS`] coordinates).
+    /// differ, at most [`crate::model::info::MAX_COORDS`] coordinates).
     fn check_counts(&self) -> Result<(), SimError> {
         self.model.check_counts().map_err(|message| SimError::Scene { key: "params".into(), message })
     }
@@ -637,7 +647,7 @@ impl<M: Model> Problem<M> {
     /// # Errors
     /// As [`Problem::initial_state`]; [`SimError::Scene`] at `params`
     /// when the model's family counts are not well formed or give more
-    /// than [`crate::MAX_COORDS`] coordinates; [`SimError::Budget`] before
+    /// than [`crate::model::info::MAX_COORDS`] coordinates; [`SimError::Budget`] before
     /// any work when the samples would take more than
     /// [`Problem::max_output_mb`]; the [`SimError`] that stopped the run
     /// (a bad setting, a singular position the method cannot pass, a step
@@ -653,7 +663,7 @@ impl<M: Model> Problem<M> {
                 what: "MB of samples in memory",
                 estimate: mb,
                 limit: self.max_output_mb,
-                setting: crate::error::Setting::MaxOutputMb,
+                setting: crate::settings::Setting::MaxOutputMb,
                 detail: format!("{rows:.2e} samples of {} values to t_end = {} s", names.len(), {
                     let t = self.settings.t_end;
                     if (1e-3..1e6).contains(&t.abs()) { format!("{t}") } else { format!("{t:e}") }

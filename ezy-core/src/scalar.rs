@@ -11,7 +11,7 @@ use core::ops::{Add, Div, Mul, Neg, Sub};
 /// A real number type the generated model code can evaluate on.
 ///
 /// Implemented for `f64` and for `num_dual::Dual64`, and sealed to them:
-/// [`crate::AnyModel`] has one entry per scalar type for each generic
+/// [`crate::erased::AnyModel`] has one entry per scalar type for each generic
 /// method.
 pub trait Scalar:
     sealed::Sealed
@@ -43,7 +43,7 @@ pub trait Scalar:
 }
 
 mod sealed {
-    /// Keeps [`super::Scalar`] to the types [`crate::AnyModel`] dispatches on.
+    /// Keeps [`super::Scalar`] to the types [`crate::erased::AnyModel`] dispatches on.
     pub trait Sealed {}
     impl Sealed for f64 {}
     impl Sealed for num_dual::Dual64 {}

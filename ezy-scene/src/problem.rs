@@ -1,7 +1,7 @@
 //! From a scene to the [`Problem`] it describes.
 
 use ezy_core::effects::EffectContext;
-use ezy_core::initial::Given;
+use ezy_core::formulation::initial::Given;
 use ezy_core::kkt::KktMethod;
 use ezy_core::problem::{check_masses, check_params, initial_targets, lookup};
 use ezy_core::{InitialName, Model, NameIndex, Problem, SimError};

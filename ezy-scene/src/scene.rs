@@ -15,9 +15,10 @@ use std::path::Path;
 use serde::de::{self, MapAccess, Visitor};
 use serde::{Deserialize, Deserializer, Serialize, Serializer};
 
-use ezy_core::integrator::Method;
-use ezy_core::model::{Model, ModelInfo};
-use ezy_core::projection::ProjectionKind;
+use ezy_core::model::Model;
+use ezy_core::model::info::ModelInfo;
+use ezy_core::settings::Method;
+use ezy_core::settings::ProjectionKind;
 
 use crate::kinds::SceneEffect;
 
@@ -126,13 +127,13 @@ pub struct Initial {
 }
 
 fn default_dt() -> f64 {
-    ezy_core::simulate::DEFAULT_DT
+    ezy_core::settings::DEFAULT_DT
 }
 fn default_tol() -> f64 {
-    ezy_core::simulate::DEFAULT_TOLERANCE
+    ezy_core::settings::DEFAULT_TOLERANCE
 }
 fn default_every() -> f64 {
-    ezy_core::simulate::DEFAULT_EVERY
+    ezy_core::settings::DEFAULT_EVERY
 }
 
 /// Integrator settings of a scene (the CLI flags override them).
@@ -897,7 +898,7 @@ impl Scene {
     pub fn columns(&self, info: &ModelInfo) -> Vec<String> {
         let mut cols = vec!["t".to_string()];
         cols.extend(info.coords.iter().map(|c| c.to_string()));
-        cols.extend(info.coords.iter().map(|c| ezy_core::dynamics::velocity_name(c)));
+        cols.extend(info.coords.iter().map(|c| ezy_core::names::velocity_name(c)));
         for g in OutputGroup::ALL {
             if !self.includes(g) {
                 continue;
@@ -906,8 +907,8 @@ impl Scene {
                 OutputGroup::Energy => {
                     cols.push("T".into());
                     cols.push("W".into());
-                    cols.extend(self.effects.iter().map(|(n, _)| ezy_core::dynamics::work_name(n)));
-                    cols.extend(info.drives.iter().map(|d| ezy_core::dynamics::work_name(&d.name)));
+                    cols.extend(self.effects.iter().map(|(n, _)| ezy_core::names::work_name(n)));
+                    cols.extend(info.drives.iter().map(|d| ezy_core::names::work_name(&d.name)));
                 }
                 OutputGroup::Points => {
                     for p in &info.points {
@@ -1131,22 +1132,22 @@ impl Scene {
                 positive(&["integrator", "rtol"], self.integrator.rtol, "the relative tolerance")?;
                 positive(&["integrator", "atol"], self.integrator.atol, "the absolute tolerance")?;
                 for (key, v) in [("rtol", self.integrator.rtol), ("atol", self.integrator.atol)] {
-                    if v < ezy_core::simulate::MIN_TOLERANCE {
+                    if v < ezy_core::settings::MIN_TOLERANCE {
                         return Err(SceneError::at(
                             &["integrator", key],
                             format!(
                                 "a tolerance below {:e} cannot be met in double precision, got {v:e}",
-                                ezy_core::simulate::MIN_TOLERANCE
+                                ezy_core::settings::MIN_TOLERANCE
                             ),
                         ));
                     }
                 }
-                if self.integrator.rtol > ezy_core::simulate::MAX_RTOL {
+                if self.integrator.rtol > ezy_core::settings::MAX_RTOL {
                     return Err(SceneError::at(
                         &["integrator", "rtol"],
                         format!(
                             "a relative tolerance above {} asks for less than one correct digit, got {:e}",
-                            ezy_core::simulate::MAX_RTOL,
+                            ezy_core::settings::MAX_RTOL,
                             self.integrator.rtol
                         ),
                     ));
@@ -1161,7 +1162,7 @@ impl Scene {
                 Ok(())
             })(),
         );
-        let names = ezy_core::model::NameIndex::new(info);
+        let names = ezy_core::model::info::NameIndex::new(info);
         for (name, e) in &self.effects {
             keep(
                 &mut errors,
@@ -1604,7 +1605,7 @@ impl Scene {
 
     /// The run settings this scene asks for: its integrator, tolerances,
     /// projection, `t_end` and output interval, with the default energy
-    /// balance guard ([`ezy_core::simulate::BALANCE_LIMIT`]). Callers override
+    /// balance guard ([`ezy_core::settings::BALANCE_LIMIT`]). Callers override
     /// fields with struct update syntax.
     pub fn run_settings(&self) -> ezy_core::RunSettings {
         ezy_core::RunSettings {
@@ -1616,8 +1617,8 @@ impl Scene {
             formulation: self.integrator.formulation,
             rtol: self.integrator.rtol,
             atol: self.integrator.atol,
-            balance_limit: Some(ezy_core::simulate::BALANCE_LIMIT),
-            max_steps: Some(ezy_core::simulate::DEFAULT_MAX_STEPS),
+            balance_limit: Some(ezy_core::settings::BALANCE_LIMIT),
+            max_steps: Some(ezy_core::settings::DEFAULT_MAX_STEPS),
         }
     }
 
@@ -1669,14 +1670,15 @@ impl Scene {
                 // `at`: a point family, else a body family
                 _ => {
                     let points: Vec<&str> = info.points.iter().map(|p| p.name.as_str()).collect();
-                    if points.iter().any(|n| ezy_core::model::is_element_of(n, stem)) {
+                    if points.iter().any(|n| ezy_core::model::info::is_element_of(n, stem)) {
                         points
                     } else {
                         info.bodies.iter().map(|b| b.name.as_str()).collect()
                     }
                 }
             };
-            let elements: Vec<&str> = all.iter().copied().filter(|n| ezy_core::model::is_element_of(n, stem)).collect();
+            let elements: Vec<&str> =
+                all.iter().copied().filter(|n| ezy_core::model::info::is_element_of(n, stem)).collect();
             if elements.is_empty() {
                 return Err(SceneError::at(
                     &["effects", name, field],
@@ -1744,7 +1746,7 @@ impl Scene {
                 .drives
                 .iter()
                 .map(|d| d.name.as_str())
-                .filter(|n| ezy_core::model::is_element_of(n, stem))
+                .filter(|n| ezy_core::model::info::is_element_of(n, stem))
                 .collect();
             if elements.is_empty() {
                 let all: Vec<&str> = info.drives.iter().map(|d| d.name.as_str()).collect();
@@ -1793,7 +1795,7 @@ impl Scene {
     /// As [`SceneEffect::resolve_in`].
     pub fn resolve_effects<M: Model>(&self, model: &M) -> Result<Vec<ezy_core::Effect>, ezy_core::SimError> {
         let info = model.info();
-        let names = ezy_core::model::NameIndex::new(&info);
+        let names = ezy_core::model::info::NameIndex::new(&info);
         let cx = ezy_core::effects::EffectContext::new(model, &names).with_scene_params(&self.scene_params);
         self.effects.iter().map(|(n, e)| e.resolve_in(n, &cx)).collect()
     }

@@ -111,7 +111,7 @@ pub struct RunOptions {
     /// every few seconds otherwise).
     pub progress: bool,
     /// Most step attempts the run may take (`None`: the scene's, by default
-    /// [`ezy_core::simulate::DEFAULT_MAX_STEPS`]).
+    /// [`ezy_core::settings::DEFAULT_MAX_STEPS`]).
     pub max_steps: Option<u64>,
     /// Largest estimated size of `trajectory.csv` \[MB\] (`None`:
     /// [`DEFAULT_MAX_OUTPUT_MB`]).
@@ -509,7 +509,7 @@ struct Prepared<M: Model> {
     scene: Scene,
     sys: Dynamics<M>,
     y0: Vec<f64>,
-    initial: ezy_core::initial::InitialReport,
+    initial: ezy_core::formulation::initial::InitialReport,
     rows: RowBuilder<M>,
     n_rows: usize,
 }
@@ -530,13 +530,13 @@ fn prepare<M: Model>(
 
 /// The warnings of a run: the initial values' corrections, and an
 /// ill-conditioned KKT system.
-fn run_warnings(initial: &ezy_core::initial::InitialReport, summary: &Summary) -> Vec<String> {
+fn run_warnings(initial: &ezy_core::formulation::initial::InitialReport, summary: &Summary) -> Vec<String> {
     let mut warnings = initial.warnings();
     if let Some((t, c)) = summary.ill_conditioned {
         warnings.push(format!(
             "from t = {} s the KKT system is ill-conditioned (estimate {c:.1e} > {:.0e}): constraints are nearly dependent, expect about {:.0e} relative accuracy in the constraint forces",
             ezy_core::fmt_value(t),
-            ezy_core::dynamics::CONDITION_WARNING,
+            ezy_core::formulation::dae::CONDITION_WARNING,
             c * f64::EPSILON
         ));
     }

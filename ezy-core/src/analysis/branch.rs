@@ -1,6 +1,8 @@
 //! Natural-parameter continuation of steady motions and periodic orbits.
 
-use super::{Analysis, AnalysisError, PeriodicOrbit, PeriodicSettings, Stability, SteadyMotion};
+use super::{Analysis, AnalysisError};
+use crate::analysis::periodic::{PeriodicOrbit, PeriodicSettings};
+use crate::analysis::steady::{Stability, SteadyMotion};
 use crate::model::Model;
 
 /// A steady motion or a periodic orbit: a point of a branch.
@@ -111,7 +113,7 @@ pub fn follow<M: Model>(
                 Follow::Steady { energy } => an.steady_motion(0.0, &guess, symmetry, energy).map(Solution::Steady),
                 Follow::Periodic { t0, period, settings } => {
                     let period = match an.forcing() {
-                        Some(crate::effects::Periodicity::Period(forcing)) => {
+                        Some(crate::effects::waveform::Periodicity::Period(forcing)) => {
                             forcing * *multiple.get_or_insert_with(|| (period / forcing).round().max(1.0))
                         }
                         _ => period,

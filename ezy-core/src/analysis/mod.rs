@@ -59,9 +59,11 @@ pub use symmetry::{Generator, Pose, Symmetry};
 use faer::Mat;
 use num_dual::Dual64;
 
-use crate::effects::Periodicity;
-use crate::model::{Model, scatter_dense};
-use crate::{Dynamics, SimError};
+use crate::effects::waveform::Periodicity;
+use crate::error::SimError;
+use crate::formulation::dae::Dynamics;
+use crate::model::Model;
+use crate::model::info::scatter_dense;
 
 /// Why an analysis failed.
 #[derive(Debug, thiserror::Error)]
@@ -112,7 +114,7 @@ pub const MAX_DENSE_BYTES: f64 = 1e9;
 /// A model with its effects and drives, ready for the analyses: the
 /// right-hand side of a run ([`Dynamics`]) seen as `x' = f(t, x)`.
 ///
-/// Built from a [`crate::Problem`] by [`crate::Problem::analysis`], or from
+/// Built from a [`crate::problem::Problem`] by [`crate::problem::Problem::analysis`], or from
 /// a [`Dynamics`] by [`Analysis::new`].
 #[derive(Debug)]
 pub struct Analysis<M: Model> {
@@ -144,10 +146,10 @@ pub(crate) struct Grip {
 /// `v` to 4 significant digits, short.
 fn sig(v: f64) -> String {
     if v == 0.0 || !v.is_finite() {
-        return crate::fmt_value(v);
+        return crate::names::fmt_value(v);
     }
     let scale = 10f64.powi(3 - v.abs().log10().floor() as i32);
-    crate::fmt_value((v * scale).round() / scale)
+    crate::names::fmt_value((v * scale).round() / scale)
 }
 
 /// Relative excess of a skate's holding force over its friction limit
@@ -224,7 +226,7 @@ impl<M: Model> Analysis<M> {
     /// # Errors
     /// [`AnalysisError::Request`] naming the event.
     pub fn check_scope(&self) -> Result<(), AnalysisError> {
-        if let Some(e) = self.sys.events.iter().find(|e| e.action == crate::events::Action::Switch) {
+        if let Some(e) = self.sys.events.iter().find(|e| e.action == crate::events::spec::Action::Switch) {
             return Err(AnalysisError::Request {
                 reason: format!(
                     "event `{}` switches effects during a run; the analyses take the forces as the scene starts them and follow no switch: remove the event (or give the effects as they are after it)",

@@ -5,10 +5,12 @@ use faer::{Mat, c64};
 
 use super::steady::Stability;
 use super::symmetry::{act, act_jacobian, body_pose, field};
-use super::{Analysis, AnalysisError, Generator, Pose, Symmetry, dense};
-use crate::SimError;
+use super::{Analysis, AnalysisError, dense};
+use crate::analysis::symmetry::{Generator, Pose, Symmetry};
+use crate::error::SimError;
+use crate::integrator::Rhs;
 use crate::integrator::adaptive::{self, Tolerance};
-use crate::integrator::{Dop853, Rhs};
+use crate::integrator::dop853::Dop853;
 use crate::model::Model;
 
 /// Most Newton iterations of the shooting (each integrates a period, and

@@ -5,7 +5,8 @@
 use faer::{Mat, c64};
 
 use super::symmetry::{act, body_pose, field, field_jacobian, fields};
-use super::{Analysis, AnalysisError, Generator, Symmetry, dense};
+use super::{Analysis, AnalysisError, dense};
+use crate::analysis::symmetry::{Generator, Symmetry};
 use crate::model::Model;
 
 /// The stability of a steady motion or a periodic orbit from its spectrum.

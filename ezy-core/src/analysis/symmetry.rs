@@ -78,9 +78,7 @@ impl Generator {
             Generator::TranslateX => "vx".into(),
             Generator::TranslateY => "vy".into(),
             Generator::Rotate => "omega".into(),
-            Generator::Shift(k) => {
-                coords.get(k).map_or_else(|| format!("q{k}d"), |c| crate::dynamics::velocity_name(c))
-            }
+            Generator::Shift(k) => coords.get(k).map_or_else(|| format!("q{k}d"), |c| crate::names::velocity_name(c)),
         }
     }
 

@@ -15,8 +15,8 @@
 //! and the hinge angle is `theta = phi_a - phi_b` (`phi_a` for a ground
 //! hinge), so a hinge torque's power is `tau theta_dot`.
 
-mod user;
-mod waveform;
+pub(crate) mod user;
+pub(crate) mod waveform;
 
 use std::sync::Arc;
 
@@ -24,8 +24,9 @@ use serde::{Deserialize, Serialize};
 pub use user::{Controller, EffectKind, ForceLaw, UserSpec};
 pub use waveform::{Harmonic, Periodicity, Spline, SplineData, Table, Waveform};
 
-use crate::SimError;
-use crate::model::{Model, ModelInfo, NameIndex};
+use crate::error::SimError;
+use crate::model::Model;
+use crate::model::info::{ModelInfo, NameIndex};
 use crate::scalar::Scalar;
 
 /// Standard gravity \[m/s^2\] (the default of [`EffectSpec::Slope`]).
@@ -151,7 +152,7 @@ pub enum EffectSpec {
         force: Waveform,
     },
     /// Coulomb friction at a skate (a knife edge that can slip,
-    /// [`crate::friction`]): the skate holds while the lateral force it
+    /// [`crate::formulation::friction`]): the skate holds while the lateral force it
     /// needs, `|lambda|`, is at most `mu N`; beyond that it slides
     /// sideways against the force `mu N`, and it sticks again where the
     /// slip velocity returns to zero with a holding force within the
@@ -395,7 +396,7 @@ fn non_negative(field: &'static str, v: f64) -> Result<(), SpecError> {
     if v.is_finite() && v < 0.0 {
         Err(SpecError {
             field,
-            message: format!("{field} = {} must be zero or positive (a dissipative law)", crate::error::fmt_value(v)),
+            message: format!("{field} = {} must be zero or positive (a dissipative law)", crate::names::fmt_value(v)),
         })
     } else {
         finite(field, v)
@@ -406,7 +407,7 @@ fn friction_coefficient(v: f64) -> Result<(), SpecError> {
     SpecError::check(!v.is_finite() || v <= MAX_MU, "mu", || {
         format!(
             "mu = {} is not a friction coefficient: give a number from 0 to {MAX_MU:e} (measured ones stay below about 16; for a skate that never slides, leave out its friction effect: the ideal skate)",
-            crate::error::fmt_value(v)
+            crate::names::fmt_value(v)
         )
     })?;
     non_negative("mu", v)
@@ -542,11 +543,11 @@ impl EffectSpec {
                         SpecError::check(share.is_finite() && *share > 0.0 && *share <= 1.0, "share", || {
                             format!(
                                 "share = {} must be a fraction of the weight, 0 < share <= 1",
-                                crate::error::fmt_value(*share)
+                                crate::names::fmt_value(*share)
                             )
                         })?;
                         SpecError::check(g.is_finite() && *g > 0.0, "g", || {
-                            format!("g = {} must be a positive acceleration [m/s^2]", crate::error::fmt_value(*g))
+                            format!("g = {} must be a positive acceleration [m/s^2]", crate::names::fmt_value(*g))
                         })?;
                         finite("g", *g)
                     }
@@ -583,7 +584,7 @@ impl EffectSpec {
                     || {
                         format!(
                             "angle = {} is not the inclination of a plane: give an angle from -pi/2 to pi/2 [rad] (its direction is `downhill`)",
-                            crate::error::fmt_value(*inclination)
+                            crate::names::fmt_value(*inclination)
                         )
                     },
                 )?;
@@ -1241,7 +1242,7 @@ pub enum Law {
         /// Actuator force \[N\].
         force: Waveform,
     },
-    /// Coulomb friction at a skate ([`crate::friction`]): applied by
+    /// Coulomb friction at a skate ([`crate::formulation::friction`]): applied by
     /// [`crate::Dynamics`] itself, which holds the skate's mode; its own
     /// force here is nothing.
     SkateFriction {
@@ -1308,7 +1309,7 @@ pub struct Effect {
     /// The force law.
     pub law: Law,
     /// Whether it acts. An effect switched off (by an event's
-    /// `switch_off`, [`crate::events::Action::Switch`], or by a library
+    /// `switch_off`, [`crate::events::spec::Action::Switch`], or by a library
     /// user before the run) adds no force, its power is 0 (its work state
     /// holds) and its value column reads 0. `simulate` restores each
     /// effect's setting at the run's end.
@@ -1631,6 +1632,6 @@ impl Effect {
 
     /// Name of the effect's work column, `W_<name>` \[J\].
     pub fn work_column(&self) -> String {
-        crate::dynamics::work_name(&self.name)
+        crate::names::work_name(&self.name)
     }
 }

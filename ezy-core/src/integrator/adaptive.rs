@@ -1,7 +1,7 @@
 //! Embedded explicit Runge-Kutta pairs with error control and dense output.
 
 use super::Rhs;
-use crate::SimError;
+use crate::error::SimError;
 
 /// Error tolerances: a component `i` of the local error is compared with
 /// `atol + rtol * max(|y_i|, |y_new_i|)` (HNW I, eq. II.4.10).
@@ -110,7 +110,7 @@ pub trait EmbeddedRk {
 
     /// The error norm `attempt` returns, from vectors of
     /// [`EmbeddedRk::error_vectors`] (perhaps changed since: see
-    /// [`crate::projection::Projector::remove_normal`]).
+    /// [`crate::formulation::projection::Projector::remove_normal`]).
     fn error_from(h: f64, ea: &[f64], eb: &[f64], y: &[f64], y_new: &[f64], tol: &Tolerance) -> f64;
 
     /// The dense output `y(t + theta h)`, `theta` in [0, 1], after `prepare_dense`.
@@ -315,7 +315,7 @@ pub fn integrate<E: EmbeddedRk, R: Rhs>(
                 what: "steps",
                 estimate: max_steps as f64,
                 limit: max_steps as f64,
-                setting: crate::Setting::MaxSteps,
+                setting: crate::settings::Setting::MaxSteps,
                 detail: format!("reached at t = {t} s, before t = {t_end} s"),
             });
         }

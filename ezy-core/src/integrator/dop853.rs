@@ -22,8 +22,9 @@
 // they can be compared with them digit for digit.
 #![allow(clippy::excessive_precision)]
 
-use super::{EmbeddedRk, Rhs, Tolerance, state_len};
-use crate::SimError;
+use super::{Rhs, state_len};
+use crate::error::SimError;
+use crate::integrator::adaptive::{EmbeddedRk, Tolerance};
 
 /// `let v = &v[..n];` (or `&mut`) for each named slice or vector. Cut one
 /// by one rather than through `array::map`: the map's closure runs in an

@@ -3,9 +3,10 @@
 //! order-4 dense output, as in Hairer's code DOPRI5 (Hairer, Nørsett &
 //! Wanner, Solving ODEs I, 2nd ed., §II.5 Table 5.2 and §II.6).
 
+use super::Rhs;
 use super::adaptive::error_norm;
-use super::{EmbeddedRk, Rhs, Tolerance};
-use crate::SimError;
+use crate::error::SimError;
+use crate::integrator::adaptive::{EmbeddedRk, Tolerance};
 
 const C2: f64 = 1.0 / 5.0;
 const C3: f64 = 3.0 / 10.0;

@@ -3,7 +3,7 @@
 //! the default of the built-in scenes.
 
 use super::Rhs;
-use crate::SimError;
+use crate::error::SimError;
 
 /// Explicit Euler, `y <- y + h F(t, y)`: one evaluation per step.
 #[derive(Debug, Clone)]

@@ -2,11 +2,11 @@
 //!
 //! | method | order | step | source |
 //! |---|---|---|---|
-//! | [`Method::Euler`] | 1 | fixed | explicit Euler, the baseline |
-//! | [`Method::Rk4`] | 4 | fixed | classic Runge-Kutta (Hairer, Nørsett & Wanner, *Solving ODEs I*, §II.1, Table 1.2) |
-//! | [`Method::Dopri5`] | 5(4) | adaptive, PI control, dense output of order 4 | Dormand & Prince 1980; HNW I §II.5 and §II.6, code DOPRI5 |
-//! | [`Method::Dop853`] | 8(5,3) | adaptive, PI control, dense output of order 7 | Dormand & Prince; HNW I §II.10, code DOP853 |
-//! | [`Method::Radau5`] | 5, implicit | adaptive (predictive control), simplified Newton, dense output of order 3 | Radau IIA; HW II §IV.8, code RADAU5 |
+//! | [`Method::Euler`](crate::settings::Method::Euler) | 1 | fixed | explicit Euler, the baseline |
+//! | [`Method::Rk4`](crate::settings::Method::Rk4) | 4 | fixed | classic Runge-Kutta (Hairer, Nørsett & Wanner, *Solving ODEs I*, §II.1, Table 1.2) |
+//! | [`Method::Dopri5`](crate::settings::Method::Dopri5) | 5(4) | adaptive, PI control, dense output of order 4 | Dormand & Prince 1980; HNW I §II.5 and §II.6, code DOPRI5 |
+//! | [`Method::Dop853`](crate::settings::Method::Dop853) | 8(5,3) | adaptive, PI control, dense output of order 7 | Dormand & Prince; HNW I §II.10, code DOP853 |
+//! | [`Method::Radau5`](crate::settings::Method::Radau5) | 5, implicit | adaptive (predictive control), simplified Newton, dense output of order 3 | Radau IIA; HW II §IV.8, code RADAU5 |
 //!
 //! The steppers see the right-hand side through [`Rhs`], so they are tested
 //! on plain ODEs as well as on models (`Dynamics` implements it).
@@ -76,9 +76,9 @@ pub(crate) const fn state_len<const N: usize>(n: usize) -> usize {
 }
 
 pub mod adaptive;
-mod dop853;
-mod dopri5;
-mod fixed;
+pub(crate) mod dop853;
+pub(crate) mod dopri5;
+pub(crate) mod fixed;
 pub mod radau5;
 
 pub use adaptive::{EmbeddedRk, Tolerance};
@@ -86,7 +86,7 @@ pub use dop853::Dop853;
 pub use dopri5::Dopri5;
 pub use fixed::{Euler, Rk4, hermite};
 
-use crate::SimError;
+use crate::error::SimError;
 
 /// A right-hand side `y' = F(t, y)`.
 pub trait Rhs {
@@ -101,65 +101,5 @@ impl<F: FnMut(f64, &[f64], &mut [f64])> Rhs for F {
     fn eval(&mut self, t: f64, y: &[f64], dy: &mut [f64]) -> Result<(), SimError> {
         self(t, y, dy);
         Ok(())
-    }
-}
-
-/// The integration method.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize, serde::Deserialize)]
-#[serde(rename_all = "lowercase")]
-pub enum Method {
-    /// Explicit Euler, order 1, fixed step.
-    Euler,
-    /// Classic Runge-Kutta, order 4, fixed step (the built-in scenes' default).
-    #[default]
-    Rk4,
-    /// Dormand-Prince 5(4), adaptive.
-    Dopri5,
-    /// Dormand-Prince 8(5,3), adaptive.
-    Dop853,
-    /// Radau IIA of order 5, implicit and adaptive: for stiff problems.
-    Radau5,
-}
-
-impl crate::Choice for Method {
-    const ALL: &'static [Self] = &[Self::Euler, Self::Rk4, Self::Dopri5, Self::Dop853, Self::Radau5];
-    fn name(self) -> &'static str {
-        Method::name(self)
-    }
-    fn help(self) -> &'static str {
-        match self {
-            Self::Euler => "Explicit Euler, order 1, fixed step dt",
-            Self::Rk4 => "Classic Runge-Kutta, order 4, fixed step dt",
-            Self::Dopri5 => "Dormand-Prince 5(4), adaptive to the tolerances rtol, atol",
-            Self::Dop853 => "Dormand-Prince 8(5,3), adaptive to the tolerances rtol, atol",
-            Self::Radau5 => "Radau IIA of order 5, implicit and adaptive to rtol, atol: for stiff scenes",
-        }
-    }
-}
-
-impl Method {
-    /// Name as the CLI spells it.
-    pub fn name(self) -> &'static str {
-        match self {
-            Self::Euler => "euler",
-            Self::Rk4 => "rk4",
-            Self::Dopri5 => "dopri5",
-            Self::Dop853 => "dop853",
-            Self::Radau5 => "radau5",
-        }
-    }
-    /// Classical order of the propagated solution.
-    pub fn order(self) -> u32 {
-        match self {
-            Self::Euler => 1,
-            Self::Rk4 => 4,
-            Self::Dopri5 => 5,
-            Self::Dop853 => 8,
-            Self::Radau5 => 5,
-        }
-    }
-    /// Whether the step size is chosen by error control.
-    pub fn is_adaptive(self) -> bool {
-        matches!(self, Self::Dopri5 | Self::Dop853 | Self::Radau5)
     }
 }

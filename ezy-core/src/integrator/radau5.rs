@@ -14,7 +14,7 @@
 //! the Jacobian of any right-hand side by finite differences and factors
 //! `(mu/h) I - J` densely (faer's LU, real and complex); the multibody
 //! runtime has its own system built on the KKT structure
-//! ([`crate::newton`]). Nothing is allocated per step.
+//! ([`crate::formulation::newton`]). Nothing is allocated per step.
 
 // the stage loops index several arrays at once, as RADAU5's Fortran does
 #![allow(clippy::needless_range_loop)]
@@ -27,8 +27,8 @@ use faer::{Mat, Par, Spec};
 
 use super::Rhs;
 use super::adaptive::Tolerance;
-use crate::SimError;
-use crate::kkt::KktError;
+use crate::error::KktError;
+use crate::error::SimError;
 
 /// Nodes of Radau IIA of order 5: `(4 - sqrt 6)/10, (4 + sqrt 6)/10, 1`.
 pub const C: [f64; 3] = [0.15505102572168222, 0.6449489742783178, 1.0];
@@ -511,7 +511,7 @@ fn predict_factor(h: f64, h_old: Option<f64>, err: f64, err_old: Option<f64>) ->
 
 /// A dense LU with partial pivoting of an `n x n` matrix of `f64` or
 /// `c64` on preallocated buffers (faer's unblocked variant, which does
-/// not allocate; see [`crate::kkt::DenseLu`]).
+/// not allocate; see [`crate::kkt::dense_lu::DenseLu`]).
 pub struct DenseFactor<T: faer::traits::ComplexField> {
     /// The matrix, overwritten by its factors by [`DenseFactor::factor`].
     pub a: Mat<T>,

@@ -32,7 +32,8 @@ use faer::linalg::lu::partial_pivoting::factor::{self, PartialPivLuParams};
 use faer::linalg::lu::partial_pivoting::solve;
 use faer::{Mat, Par, Spec};
 
-use super::{KktError, KktSolver, KktSystem};
+use super::{KktSolver, KktSystem};
+use crate::error::KktError;
 
 /// LU with partial pivoting of the (nq + nc) KKT matrix; works for a mass
 /// diagonal with zero entries, as long as the whole KKT matrix is regular.

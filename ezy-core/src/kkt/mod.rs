@@ -24,52 +24,18 @@
 //! (measured faster: see `benches/` and the guide's "Numerics" chapter), the sparse one from
 //! [`SPARSE_FROM_ROWS`] constraint rows, else LU.
 
-mod dense_lu;
-mod sparse;
+pub(crate) mod dense_lu;
+pub(crate) mod sparse;
 pub(crate) mod spd;
 
 pub use dense_lu::DenseLu;
 pub use sparse::{SparseSchur, synthetic_chain};
 pub use spd::{NormalSystem, PIVOT_RTOL, SINGULAR_MU, SchurCholesky, ldl_solve, regularized_solve};
 
+use crate::error::{KktError, SimError};
 use crate::model::Model;
-
-/// Errors of a KKT solve.
-#[derive(Debug, Clone, PartialEq, thiserror::Error)]
-pub enum KktError {
-    /// The Schur complement `G M^-1 G^T` is not positive definite: the
-    /// constraint rows are (numerically) dependent.
-    #[error(
-        "the constraint matrix G has dependent rows: row {row} depends on the rows before it (G M^-1 G^T, {n} x {n}, is not positive definite)"
-    )]
-    DependentConstraints {
-        /// Size of the Schur complement (nc).
-        n: usize,
-        /// The first row of `G` found to depend on the rows before it.
-        row: usize,
-    },
-    /// The system has non-finite entries: the state it was built from
-    /// overflowed (a step far too large, or absurd initial values).
-    #[error("the KKT system ({n} x {n}) has non-finite entries: the state overflowed")]
-    NonFinite {
-        /// Size of the factored matrix.
-        n: usize,
-    },
-    /// The KKT matrix is singular (LU found a zero pivot).
-    #[error("the KKT matrix ({n} x {n}) is singular")]
-    SingularKkt {
-        /// Size of the KKT matrix (nq + nc).
-        n: usize,
-    },
-    /// The Schur path needs every mass-matrix entry positive.
-    #[error("the Schur-complement path needs an invertible mass matrix; M[{index}] = {}", crate::error::fmt_value(*value))]
-    SingularMass {
-        /// Coordinate index of the offending diagonal entry.
-        index: usize,
-        /// Its value \[kg\] or \[kg m^2\].
-        value: f64,
-    },
-}
+use crate::model::info::ModelInfo;
+use crate::names::name_list;
 
 /// One KKT system, borrowed from the caller's workspace.
 #[derive(Debug, Clone, Copy)]
@@ -85,7 +51,7 @@ pub struct KktSystem<'a> {
     /// Convective term `gamma` (nc) \[m/s^2\].
     pub gamma: &'a [f64],
     /// Released rows: constraint rows taken out of the system (a skate
-    /// that slides, [`crate::friction`]). The caller has zeroed their
+    /// that slides, [`crate::formulation::friction`]). The caller has zeroed their
     /// entries of `G` and `gamma`; each solver puts a unit diagonal in
     /// their place, so that the rest is solved as if the rows were absent
     /// and their multipliers come out 0. Usually empty.
@@ -170,7 +136,7 @@ pub enum AnyKktSolver<M: Model> {
 impl<M: Model> AnyKktSolver<M> {
     /// Builds the solver for `method` and `model` (with its `info`);
     /// `Auto` inspects the mass diagonal (nq) and the number of rows.
-    pub fn new(model: &M, info: &crate::ModelInfo, method: KktMethod, mass: &[f64]) -> Self {
+    pub fn new(model: &M, info: &crate::model::info::ModelInfo, method: KktMethod, mass: &[f64]) -> Self {
         let (nq, nc) = (info.nq(), info.nc());
         let invertible = mass.iter().all(|&m| m > 0.0);
         match method {
@@ -249,7 +215,7 @@ impl<M: Model> KktSolver for AnyKktSolver<M> {
 /// [`KktError::NonFinite`] if `G(q)` has a non-finite entry.
 pub fn dependent_row<M: Model>(
     model: &M,
-    info: &crate::ModelInfo,
+    info: &crate::model::info::ModelInfo,
     q: &[f64],
     mass: Option<&[f64]>,
 ) -> Result<Option<usize>, KktError> {
@@ -277,43 +243,20 @@ pub fn dependent_row<M: Model>(
     }
 }
 
-/// Whether the model's constraints are dependent at every configuration
-/// near the consistent positions `q0` (nq), as a duplicated hinge or a
-/// closed loop counted twice makes them, rather than at an instant (a dead
-/// point, the flat position of a parallelogram: a singular position the
-/// motion passes). `G` is checked at `q0` and, where it is rank-deficient
-/// there, at two nearby consistent configurations: `q0` moved by fixed,
-/// generic offsets of about 1e-2 in each coordinate and projected back
-/// onto `phi(q) = u(0)` (with the `drives`). Returns the dependent row at
-/// `q0` when it stays dependent at both.
-///
-/// # Errors
-/// [`KktError::NonFinite`] if `G` has a non-finite entry at `q0`.
-pub fn redundant_row<M: Model>(
-    model: &M,
-    info: &crate::ModelInfo,
-    drives: &[crate::drive::Drive],
-    mass: &[f64],
-    q0: &[f64],
-) -> Result<Option<usize>, KktError> {
-    let Some(row) = dependent_row(model, info, q0, None)? else { return Ok(None) };
-    let mut projector =
-        crate::projection::Projector::new(model, crate::ProjectionKind::Euclidean, mass).with_drives(drives);
-    for k in [1.7, 2.9] {
-        let mut q: Vec<f64> = q0
-            .iter()
-            .enumerate()
-            .map(|(i, &v)| {
-                let s = (k * (i as f64 + 1.0)).sin();
-                v + 1e-2 * (0.3 + 0.7 * s.abs()) * s.signum()
-            })
-            .collect();
-        let mut qd = vec![0.0; q.len()];
-        let projected = projector.project(model, 0.0, &mut q, &mut qd);
-        // a configuration where the rows are independent: an instant
-        if projected.is_ok_and(|r| r.residual_position <= 1e-9) && dependent_row(model, info, &q, None) == Ok(None) {
-            return Ok(None);
+impl SimError {
+    /// A KKT failure at time `t`, with dependent rows named from the model's `info`.
+    pub fn from_kkt(info: &ModelInfo, t: f64, source: KktError) -> Self {
+        match source {
+            KktError::DependentConstraints { row, .. } if row < info.nc() => {
+                let names = &info.constraints;
+                SimError::DependentConstraints {
+                    t,
+                    constraint: names[row].clone(),
+                    row,
+                    before: name_list(&names[..row]),
+                }
+            }
+            source => SimError::Kkt { t, source },
         }
     }
-    Ok(Some(row))
 }

@@ -21,7 +21,9 @@ use faer::sparse::{SparseColMatRef, SymbolicSparseColMatRef};
 use faer::{Conj, MatMut, Par, Side};
 
 use super::spd::SINGULAR_SWEEPS;
-use super::{KktError, KktSolver, KktSystem, PIVOT_RTOL, SINGULAR_MU};
+use super::{KktSolver, KktSystem};
+use crate::error::KktError;
+use crate::kkt::spd::{PIVOT_RTOL, SINGULAR_MU};
 
 /// One product term of `A = G M^-1 G^T`: `A[a] += G[gi] G[gj] / M[k]`
 /// (indices into `A`'s values, `G`'s pattern values and `M`'s diagonal).
@@ -424,7 +426,7 @@ pub fn synthetic_chain(n: usize) -> SyntheticKkt {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::kkt::ldl_solve;
+    use crate::kkt::spd::ldl_solve;
 
     /// Dense reference: `A` assembled densely, `ldl_solve`, then `qdd`.
     fn dense(

@@ -25,7 +25,8 @@
 
 use crate::model::Model;
 
-use super::{KktError, KktSolver, KktSystem};
+use super::{KktSolver, KktSystem};
+use crate::error::KktError;
 
 /// Relative pivot threshold: a pivot `D_jj` with
 /// `D_jj <= PIVOT_RTOL * A_jj` means row j of `G` depends on the earlier
@@ -545,7 +546,7 @@ impl<Mo: Model> SchurCholesky<Mo> {
     ///
     /// # Errors
     /// [`KktError::SingularMass`] if an entry is not positive and finite.
-    pub fn new(model: &Mo, info: &crate::ModelInfo, mass: &[f64]) -> Result<Self, KktError> {
+    pub fn new(model: &Mo, info: &crate::model::info::ModelInfo, mass: &[f64]) -> Result<Self, KktError> {
         let (nq, nc) = (info.nq(), info.nc());
         let mut minv = vec![0.0; nq];
         for (k, (&m, w)) in mass.iter().zip(&mut minv).enumerate() {

@@ -22,11 +22,14 @@
 //!   1996, §2.9 and §6.6). Nothing of size `nc x nq` is formed: the cost
 //!   is linear in the length of a chain.
 
-use crate::SimError;
-use crate::error::name_list;
-use crate::kkt::{KktError, KktSolver, KktSystem, SparseSchur};
-use crate::model::{Model, scatter_dense};
-use crate::projection::max_abs;
+use crate::error::KktError;
+use crate::error::SimError;
+use crate::formulation::projection::max_abs;
+use crate::kkt::sparse::SparseSchur;
+use crate::kkt::{KktSolver, KktSystem};
+use crate::model::Model;
+use crate::model::info::scatter_dense;
+use crate::names::name_list;
 
 /// Tolerance of the consistent initial state: `max|C|` \[m\], and `max|G qd|`
 /// \[m/s\] relative to `max(1, max|qd|)`.
@@ -308,7 +311,7 @@ pub struct Given {
     /// assembly branch nearest them.
     pub guess: Vec<(usize, f64)>,
     /// Skate rows of `G` the velocities need not satisfy (skates with
-    /// friction, which may start sliding: [`crate::friction`]); they are
+    /// friction, which may start sliding: [`crate::formulation::friction`]); they are
     /// left out of the velocity solve.
     pub released: Vec<usize>,
 }
@@ -592,7 +595,7 @@ pub fn consistent_state_with<M: Model>(
         report.velocity_correction = max_abs(&dv);
         let qd_given: Vec<f64> = qd.iter().zip(&dv).map(|(v, d)| v + d).collect();
         report.velocity_changes =
-            largest_changes(&qd_given, &qd, &known_v, |i| crate::dynamics::velocity_name(&info.coords[i]));
+            largest_changes(&qd_given, &qd, &known_v, |i| crate::names::velocity_name(&info.coords[i]));
         g_times(&qd, &|_| true, &mut r);
         crate::drive::shift_velocities(drives, 0.0, &mut r);
         let left = max_abs(&r);
@@ -689,4 +692,48 @@ impl InitialReport {
         }
         w
     }
+}
+
+/// Whether the model's constraints are dependent at every configuration
+/// near the consistent positions `q0` (nq), as a duplicated hinge or a
+/// closed loop counted twice makes them, rather than at an instant (a dead
+/// point, the flat position of a parallelogram: a singular position the
+/// motion passes). `G` is checked at `q0` and, where it is rank-deficient
+/// there, at two nearby consistent configurations: `q0` moved by fixed,
+/// generic offsets of about 1e-2 in each coordinate and projected back
+/// onto `phi(q) = u(0)` (with the `drives`). Returns the dependent row at
+/// `q0` when it stays dependent at both.
+///
+/// # Errors
+/// [`KktError::NonFinite`] if `G` has a non-finite entry at `q0`.
+pub fn redundant_row<M: Model>(
+    model: &M,
+    info: &crate::model::info::ModelInfo,
+    drives: &[crate::drive::Drive],
+    mass: &[f64],
+    q0: &[f64],
+) -> Result<Option<usize>, crate::error::KktError> {
+    let Some(row) = crate::kkt::dependent_row(model, info, q0, None)? else { return Ok(None) };
+    let mut projector =
+        crate::formulation::projection::Projector::new(model, crate::settings::ProjectionKind::Euclidean, mass)
+            .with_drives(drives);
+    for k in [1.7, 2.9] {
+        let mut q: Vec<f64> = q0
+            .iter()
+            .enumerate()
+            .map(|(i, &v)| {
+                let s = (k * (i as f64 + 1.0)).sin();
+                v + 1e-2 * (0.3 + 0.7 * s.abs()) * s.signum()
+            })
+            .collect();
+        let mut qd = vec![0.0; q.len()];
+        let projected = projector.project(model, 0.0, &mut q, &mut qd);
+        // a configuration where the rows are independent: an instant
+        if projected.is_ok_and(|r| r.residual_position <= 1e-9)
+            && crate::kkt::dependent_row(model, info, &q, None) == Ok(None)
+        {
+            return Ok(None);
+        }
+    }
+    Ok(Some(row))
 }

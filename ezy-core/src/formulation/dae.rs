@@ -8,11 +8,14 @@
 //! the KKT system (docs/physics.md §5). A scene without effects has no work
 //! states.
 
-use crate::SimError;
 use crate::effects::{Effect, HingeLaw, Law};
-use crate::friction::{Released, SkateFriction, SkateMode, row_entries};
+use crate::error::SimError;
+use crate::formulation::friction::{Released, SkateFriction, SkateMode, row_entries};
 use crate::kkt::{AnyKktSolver, KktMethod, KktSolver, KktSystem};
-use crate::model::{Model, ModelInfo};
+use crate::model::Model;
+use crate::model::info::ModelInfo;
+use crate::names::fmt_value;
+use crate::names::{velocity_name, work_name};
 
 /// Counters of the work done, for reports and benchmarks.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
@@ -105,7 +108,7 @@ pub struct Dynamics<M: Model> {
     pub baumgarte: Option<Baumgarte>,
     /// The events a run locates, records or stops at ([`crate::events`]);
     /// set with [`Dynamics::with_events`].
-    pub events: Vec<crate::events::Event>,
+    pub events: Vec<crate::events::spec::Event>,
     /// The first `(t [s], estimate)` at which the KKT conditioning estimate
     /// passed [`CONDITION_WARNING`] (recorded once).
     pub ill_conditioned: Option<(f64, f64)>,
@@ -119,7 +122,7 @@ pub struct Dynamics<M: Model> {
     /// The KKT conditioning estimate of the last evaluation.
     pub last_growth: f64,
     /// The skates with Coulomb friction and their modes
-    /// ([`crate::friction`]), one per effect of kind `skate-friction`.
+    /// ([`crate::formulation::friction`]), one per effect of kind `skate-friction`.
     pub friction: Vec<SkateFriction>,
     /// The rows of the sliding skates, taken out of the KKT system.
     released: Released,
@@ -260,7 +263,7 @@ impl<M: Model> Dynamics<M> {
     }
 
     /// Sets the events a run watches ([`crate::events`]).
-    pub fn with_events(mut self, events: Vec<crate::events::Event>) -> Self {
+    pub fn with_events(mut self, events: Vec<crate::events::spec::Event>) -> Self {
         self.events = events;
         self
     }
@@ -282,7 +285,7 @@ impl<M: Model> Dynamics<M> {
     /// A run's failure `e` with its likely cause named: a force law faster
     /// than the run `settings` can follow ([`SimError::with_fast_law`]), a
     /// massless part or masses spread too far ([`SimError::with_cause`]).
-    pub fn explain(&self, e: SimError, settings: &crate::RunSettings) -> SimError {
+    pub fn explain(&self, e: SimError, settings: &crate::settings::RunSettings) -> SimError {
         e.with_fast_law(&self.effects, &self.mass, settings).with_cause(&self.mass, |k| self.info.mass_entry_name(k))
     }
 
@@ -467,7 +470,7 @@ impl<M: Model> Dynamics<M> {
     /// `(t, q, qd)` (nq each), with each effect's power \[W\] written to
     /// `power` (one per effect): the right-hand side's forces without the
     /// KKT solve, for formulations that project them themselves
-    /// ([`crate::reduced`]'s minimal coordinates); read it with
+    /// ([`crate::formulation::reduced`]'s minimal coordinates); read it with
     /// [`Dynamics::applied_force`].
     ///
     /// # Errors
@@ -495,7 +498,7 @@ impl<M: Model> Dynamics<M> {
         0.5 * self.mass.iter().zip(qd).map(|(m, v)| m * v * v).sum::<f64>()
     }
     /// The constraint rows released by sliding skates (taken out of the
-    /// KKT system and the velocity projection; [`crate::friction`]).
+    /// KKT system and the velocity projection; [`crate::formulation::friction`]).
     pub fn released_rows(&self) -> &[usize] {
         self.released.rows()
     }
@@ -520,10 +523,10 @@ impl<M: Model> Dynamics<M> {
 
     /// Whether the run's set of forces or rows can change at an instant:
     /// skates with friction, or events that switch effects
-    /// ([`crate::events::Action::Switch`]). Such a run cuts its steps
+    /// ([`crate::events::spec::Action::Switch`]). Such a run cuts its steps
     /// there and restarts: explicit methods on the DAE formulation.
     pub fn switches(&self) -> bool {
-        !self.friction.is_empty() || self.events.iter().any(|e| e.action == crate::events::Action::Switch)
+        !self.friction.is_empty() || self.events.iter().any(|e| e.action == crate::events::spec::Action::Switch)
     }
 
     /// Each skate-friction entry's margin ([`SkateFriction::margin`]) at
@@ -624,14 +627,14 @@ impl<M: Model> Dynamics<M> {
     /// is no switch.
     pub fn slip_tolerances(&self, qd: &[f64], rtol: f64, out: &mut [f64]) {
         let r = rtol.max(1e-10);
-        let v = r * crate::projection::max_abs(qd).max(1.0);
+        let v = r * crate::formulation::projection::max_abs(qd).max(1.0);
         for (o, fr) in out.iter_mut().zip(&self.friction) {
             *o = if fr.mode.is_sliding() { v } else { r * fr.limit.abs() };
         }
     }
 
     /// Brings the skates with friction into the modes their state at `(t,
-    /// y)` calls for (module docs of [`crate::friction`]). The skates
+    /// y)` calls for (module docs of [`crate::formulation::friction`]). The skates
     /// whose mode no longer holds (a margin at or below zero: a sticking
     /// one at its limit, a sliding one whose slip reached zero) are
     /// *undetermined*; the first consistent assignment of them is taken,
@@ -662,7 +665,7 @@ impl<M: Model> Dynamics<M> {
         // a slide that begins at the limit itself starts with a slip rate
         // of zero, up to rounding (of the accelerations' size)
         let consistent = |sys: &Self, margins: &[f64], free: &[usize]| {
-            let rounding = 1e-10 * (1.0 + crate::projection::max_abs(&sys.ws.qdd));
+            let rounding = 1e-10 * (1.0 + crate::formulation::projection::max_abs(&sys.ws.qdd));
             (0..n).all(|k| match sys.friction[k].mode {
                 SkateMode::Sticking => margins[k] > 0.0,
                 SkateMode::Sliding { sign } => !free.contains(&k) || sign * sys.friction[k].slip_rate >= -rounding,
@@ -747,7 +750,7 @@ impl<M: Model> Dynamics<M> {
         let nq = self.nq();
         let (q, qd) = (&y[..nq], &y[nq..2 * nq]);
         self.model.constraint_matrix(q, &mut self.ws.g_values);
-        let tol = 1e-10 * crate::projection::max_abs(qd).max(1.0);
+        let tol = 1e-10 * crate::formulation::projection::max_abs(qd).max(1.0);
         for k in 0..self.friction.len() {
             let fr = &self.friction[k];
             let v: f64 = fr.entries.clone().map(|e| self.ws.g_values[e] * qd[self.info.pattern[e].1]).sum();
@@ -831,16 +834,6 @@ fn friction_forces(friction: &[SkateFriction], pattern: &[(usize, usize)], ws: &
     }
 }
 
-/// The name of the velocity of coordinate `coord`: `<coord>d` (`x1d`).
-pub fn velocity_name(coord: &str) -> String {
-    format!("{coord}d")
-}
-
-/// The name of the work state \[J\] of the effect or drive `name`: `W_<name>`.
-pub fn work_name(name: &str) -> String {
-    format!("W_{name}")
-}
-
 /// Names of the state components `y = [q, qd, W_effects.., W_drives..]`
 /// of a run on a model with coordinates `coords`, effects `effects` and
 /// drives `drives`: `x1`, `x1d`, `W_motor` (what [`Dynamics::state_name`]
@@ -917,14 +910,14 @@ fn minimal_rhs_failed(t: f64, e: crate::model::MinimalRhsError<SimError>) -> Sim
         crate::model::MinimalRhsError::Maggi(source) => SimError::Formulation {
             reason: format!(
                 "at t = {} s Maggi's equations on the minimal coordinates cannot be solved: {source}",
-                crate::error::fmt_value(t)
+                crate::names::fmt_value(t)
             ),
         },
     }
 }
 
 /// Adds each hinge effect's torque at `(t, q, qd)` (nq each) to its
-/// hinge's entry of `tau` (nh, [`crate::model::ModelInfo::hinges`]) and
+/// hinge's entry of `tau` (nh, [`crate::model::info::ModelInfo::hinges`]) and
 /// writes its power \[W\] to `power` (one per effect), its waveforms
 /// evaluated at `t` (for [`Model::minimal_rhs`]; effects of other laws are
 /// skipped: the caller passes only hinge effects). A hinge law gives a
@@ -950,5 +943,66 @@ impl<M: Model> crate::integrator::Rhs for Dynamics<M> {
     #[inline]
     fn eval(&mut self, t: f64, y: &[f64], dy: &mut [f64]) -> Result<(), SimError> {
         self.rhs(t, y, dy)
+    }
+}
+
+impl SimError {
+    /// The failure with the force law named that is faster than the run
+    /// can follow, when one is: the step size of an adaptive method
+    /// collapsed ([`SimError::StepSizeTooSmall`]) or spent its budget, or a
+    /// fixed-step run blew up ([`SimError::NonFinite`],
+    /// [`SimError::Diverged`]). The law's time scale
+    /// ([`crate::effects::Effect::time_scale`], `sqrt(m / k)` or `m / c`)
+    /// is compared with the shortest a run resolves: a fixed step `dt`
+    /// resolves down to `dt / 2` (explicit Euler is stable on the negative
+    /// real axis up to `h |lambda| = 2`, RK4 to 2.785), an adaptive method
+    /// down to `10 t_end / max_steps` (an explicit method of order 5 to 8
+    /// takes about ten steps per time scale at the tolerances runs use, so
+    /// a faster law needs more steps than the budget). A failure without
+    /// such a law is returned as it is. (A spring of 1e17 N/m on the
+    /// four-bar, time scale 2.4e-9 s against 1e-8 s for 0.1 s in 1e8 steps,
+    /// used to stop with "the step size fell" and nothing more.)
+    pub fn with_fast_law(
+        self,
+        effects: &[crate::effects::Effect],
+        mass: &[f64],
+        settings: &crate::settings::RunSettings,
+    ) -> Self {
+        let adaptive = settings.method.is_adaptive();
+        let applies = match &self {
+            SimError::StepSizeTooSmall { .. } => true,
+            SimError::Budget { what, .. } => adaptive && *what == "steps",
+            SimError::NonFinite { .. } | SimError::Diverged { .. } => !adaptive,
+            _ => false,
+        };
+        if !applies {
+            return self;
+        }
+        let (resolved, why) = if adaptive {
+            let budget = settings.max_steps.unwrap_or(crate::settings::DEFAULT_MAX_STEPS) as f64;
+            (10.0 * settings.t_end / budget, "ten steps per time scale within the run's step budget")
+        } else {
+            (settings.dt / 2.0, "half the step dt")
+        };
+        let fastest = effects
+            .iter()
+            .filter_map(|e| e.time_scale(mass).map(|ts| (e, ts)))
+            .min_by(|a, b| a.1.seconds.total_cmp(&b.1.seconds));
+        match fastest {
+            Some((e, ts)) if ts.seconds < resolved => SimError::Caused {
+                error: Box::new(self),
+                cause: format!(
+                    "the effect `{}` is faster than the run can follow: its {} = {} on a mass or inertia of {} gives a time scale of {:.1e} s, below {:.1e} s ({why}); check its `{}`",
+                    e.name,
+                    ts.key,
+                    fmt_value(ts.value),
+                    fmt_value(ts.mass),
+                    ts.seconds,
+                    resolved,
+                    ts.key
+                ),
+            },
+            _ => self,
+        }
     }
 }

@@ -25,9 +25,9 @@
 //! scene, or the accumulated error of an adaptive method that met the
 //! tolerance it was asked for at every step (a note, not an error).
 
-use crate::Method;
-use crate::dynamics::Dynamics;
+use crate::formulation::dae::Dynamics;
 use crate::model::Model;
+use crate::settings::Method;
 
 /// The factor by which the kinetic energy must exceed every energy the
 /// run was given (the largest ledger `T0 + sum_e |W_e|` and the applied
@@ -199,7 +199,7 @@ pub fn drift_note(
     format!(
         "from t = {t:.6} s the energy balance |T - T0 - W| = {error:.3e} J is {relative:.3e} of the run's energy scale {scale:.3e} J (the largest energy it has handled), beyond {limit:e}: {} met rtol = {rtol:e}, atol = {atol:e} at every step and its error accumulates over the run; a tighter {} keeps the energy",
         method.name(),
-        crate::error::Setting::Rtol
+        crate::settings::Setting::Rtol
     )
 }
 

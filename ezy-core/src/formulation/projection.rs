@@ -12,10 +12,14 @@
 //! not depend on the units chosen for lengths vs angles (the Euclidean form
 //! adds metres and radians), and it reuses the Schur complement's structure.
 
-use crate::SimError;
-use crate::kkt::{DenseLu, KktError, KktSolver, KktSystem, NormalSystem};
+use crate::error::KktError;
+use crate::error::SimError;
+use crate::kkt::dense_lu::DenseLu;
+use crate::kkt::spd::NormalSystem;
+use crate::kkt::{KktSolver, KktSystem};
 use crate::model::Model;
-use crate::model::scatter_dense;
+use crate::model::info::scatter_dense;
+use crate::settings::ProjectionKind;
 
 /// Tolerance on `max|C|` of the position iteration \[m\] (docs/physics.md §6).
 pub const POSITION_TOL: f64 = 1e-12;
@@ -29,45 +33,6 @@ pub const POSITION_MAX_ITER: usize = 10;
 /// units of rounding of the velocities, `VELOCITY_ULPS eps max(1, |qd|)`
 /// \[m/s\]: the correction would be rounding noise (docs/physics.md §6).
 pub const VELOCITY_ULPS: f64 = 16.0;
-
-/// Which projection to apply after every step.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize, serde::Deserialize)]
-#[serde(rename_all = "lowercase")]
-pub enum ProjectionKind {
-    /// No projection: the constraints drift.
-    None,
-    /// `W = I`, the plain least-squares correction.
-    Euclidean,
-    /// `W = M`, the kinetic-energy metric (default, see module docs).
-    #[default]
-    #[serde(rename = "mass")]
-    MassWeighted,
-}
-
-impl crate::Choice for ProjectionKind {
-    const ALL: &'static [Self] = &[Self::None, Self::Euclidean, Self::MassWeighted];
-    fn name(self) -> &'static str {
-        ProjectionKind::name(self)
-    }
-    fn help(self) -> &'static str {
-        match self {
-            Self::None => "No projection",
-            Self::Euclidean => "Euclidean (the plain least-squares correction)",
-            Self::MassWeighted => "Mass-weighted (kinetic-energy metric), the default",
-        }
-    }
-}
-
-impl ProjectionKind {
-    /// Name as the CLI spells it.
-    pub fn name(self) -> &'static str {
-        match self {
-            Self::None => "none",
-            Self::Euclidean => "euclidean",
-            Self::MassWeighted => "mass",
-        }
-    }
-}
 
 /// What one projection found and did.
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
@@ -102,11 +67,11 @@ pub struct Projector<M: Model> {
     /// [`SparseProjection`]).
     sparse: Option<Box<SparseProjection>>,
     /// The model's sizes, names and pattern of `G`.
-    info: crate::ModelInfo,
+    info: crate::model::info::ModelInfo,
     /// See [`Projector::refine`].
     refine: bool,
     /// Rows taken out of the velocity projection (sliding skates).
-    released: crate::friction::Released,
+    released: crate::formulation::friction::Released,
     _model: std::marker::PhantomData<M>,
 }
 
@@ -117,8 +82,8 @@ pub struct Projector<M: Model> {
 /// `O(nc^3)`. The correction `W^-1 G^T x` is the sparse path's
 /// `-qdd` with `f = 0` and `gamma = r`.
 struct SparseProjection {
-    positions: Option<crate::kkt::SparseSchur>,
-    velocities: crate::kkt::SparseSchur,
+    positions: Option<crate::kkt::sparse::SparseSchur>,
+    velocities: crate::kkt::sparse::SparseSchur,
     weights: Vec<f64>,
     zeros: Vec<f64>,
     dq: Vec<f64>,
@@ -221,7 +186,7 @@ impl<M: Model> Projector<M> {
         Self::build(model.info(), kind, mass, true)
     }
 
-    fn build(info: crate::ModelInfo, kind: ProjectionKind, mass: &[f64], sparse: bool) -> Self {
+    fn build(info: crate::model::info::ModelInfo, kind: ProjectionKind, mass: &[f64], sparse: bool) -> Self {
         if kind == ProjectionKind::None {
             // nothing is projected: no workspace (a dense normal system of
             // a 30,000-link snake would take 64 GB)
@@ -264,9 +229,11 @@ impl<M: Model> Projector<M> {
             let nnz_h = info.n_holonomic_nonzeros();
             Box::new(SparseProjection {
                 positions: (nh > 0).then(|| {
-                    crate::kkt::SparseSchur::new(&info.pattern[..nnz_h], nh, &weights).expect("positive weights")
+                    crate::kkt::sparse::SparseSchur::new(&info.pattern[..nnz_h], nh, &weights)
+                        .expect("positive weights")
                 }),
-                velocities: crate::kkt::SparseSchur::new(&info.pattern, nc, &weights).expect("positive weights"),
+                velocities: crate::kkt::sparse::SparseSchur::new(&info.pattern, nc, &weights)
+                    .expect("positive weights"),
                 weights,
                 zeros: vec![0.0; nq],
                 dq: vec![0.0; nq],
@@ -445,7 +412,7 @@ impl<M: Model> Projector<M> {
     }
 
     /// Takes the constraint rows `rows` out of the velocity projection
-    /// (skates that slide, [`crate::friction`]): `qd` is projected onto
+    /// (skates that slide, [`crate::formulation::friction`]): `qd` is projected onto
     /// the other rows' `G qd = 0` only, and
     /// [`Projector::velocity_residual`] leaves them out. Empty: every row.
     pub fn release(&mut self, rows: &[usize]) {
@@ -460,7 +427,7 @@ impl<M: Model> Projector<M> {
     /// `POSITION_TOL / s` along `d`, which the equations of motion then
     /// amplify like `1 / s` (the branch of a bifurcation is unstable);
     /// one step at rounding level removes it. The run sets it from the
-    /// KKT conditioning ([`crate::dynamics::NEAR_SINGULAR`]).
+    /// KKT conditioning ([`crate::formulation::dae::NEAR_SINGULAR`]).
     pub fn refine(&mut self, on: bool) {
         self.refine = on;
     }

@@ -2,183 +2,31 @@
 //! interval, energy balance tracked at every step. The loop itself does not
 //! allocate; output goes to an [`Observer`].
 
+pub mod events;
+pub mod guard;
+
+use crate::settings::RunSettings;
 use std::time::{Duration, Instant};
 
-use crate::dynamics::NEAR_SINGULAR;
-use crate::dynamics::{Counters, Dynamics};
-use crate::events::{Crossing, Monitor};
-use crate::friction::{MarginSample, MarginScan};
-use crate::guard::{EnergyGuard, GROWTH_LIMIT, Verdict, drift_note};
+use crate::error::KktError;
+use crate::error::{SimError, advice};
+use crate::formulation::dae::NEAR_SINGULAR;
+use crate::formulation::dae::{Counters, Dynamics};
+use crate::formulation::friction::{MarginSample, MarginScan};
+use crate::formulation::projection::{Projector, max_abs};
+use crate::formulation::reduced::Reduced;
 use crate::integrator::Rhs;
 use crate::integrator::adaptive::{Controller, initial_step};
-use crate::integrator::{Dop853, Dopri5, EmbeddedRk, Euler, Method, Rk4, Tolerance};
-use crate::kkt::KktError;
+use crate::integrator::adaptive::{EmbeddedRk, Tolerance};
+use crate::integrator::dop853::Dop853;
+use crate::integrator::dopri5::Dopri5;
+use crate::integrator::fixed::{Euler, Rk4};
 use crate::model::Model;
-use crate::projection::{ProjectionKind, Projector, max_abs};
-use crate::reduced::{Formulation, Reduced};
-use crate::{SimError, advice};
-
-/// Settings of one run.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct RunSettings {
-    /// Step size `h` \[s\].
-    pub dt: f64,
-    /// Final time \[s\] (start is 0).
-    pub t_end: f64,
-    /// Output interval \[s\]; rounded to a whole number of steps. The final
-    /// time is always output.
-    pub every: f64,
-    /// Projection after every step.
-    pub projection: ProjectionKind,
-    /// Integration method.
-    pub method: Method,
-    /// The DAE in all `q, qd`, or the reduced formulation in the
-    /// independent ones ([`crate::reduced`]).
-    pub formulation: Formulation,
-    /// Relative tolerance of adaptive methods.
-    pub rtol: f64,
-    /// Absolute tolerance of adaptive methods.
-    pub atol: f64,
-    /// Limit of the relative energy balance `|T - T0 - W| / E`, `E` the
-    /// run's own energy scale ([`crate::guard`]; `None`: no energy check).
-    /// A fixed-step run beyond it stops with [`SimError::Diverged`] (its
-    /// step is too large for the scene); an adaptive run, which met the
-    /// tolerance it was asked for at every step, goes on with a note and
-    /// [`Summary::energy_drift`]. Any run whose kinetic energy grows
-    /// [`crate::guard::GROWTH_LIMIT`] times beyond the energy it was given
-    /// stops with [`SimError::Diverged`].
-    pub balance_limit: Option<f64>,
-    /// Most step attempts (accepted and rejected) a run may take: a
-    /// fixed-step run needing more is refused before it starts, an
-    /// adaptive run stops with [`SimError::Budget`] when it gets there
-    /// (`None`: no limit).
-    pub max_steps: Option<u64>,
-}
-
-/// Default step size of fixed-step methods \[s\].
-pub const DEFAULT_DT: f64 = 1e-4;
-/// Default relative and absolute tolerance of adaptive methods.
-pub const DEFAULT_TOLERANCE: f64 = 1e-9;
-/// Default output interval \[s\].
-pub const DEFAULT_EVERY: f64 = 0.01;
-
-impl Default for RunSettings {
-    /// One second with the default method and tolerances
-    /// ([`DEFAULT_DT`], [`DEFAULT_TOLERANCE`], [`DEFAULT_EVERY`]), the
-    /// default projection and formulation, the energy balance guarded
-    /// ([`BALANCE_LIMIT`]) and at most [`DEFAULT_MAX_STEPS`] steps: what a
-    /// scene file without an `[integrator]` table asks for.
-    fn default() -> Self {
-        Self {
-            dt: DEFAULT_DT,
-            t_end: 1.0,
-            every: DEFAULT_EVERY,
-            projection: ProjectionKind::default(),
-            method: Method::default(),
-            formulation: Formulation::default(),
-            rtol: DEFAULT_TOLERANCE,
-            atol: DEFAULT_TOLERANCE,
-            balance_limit: Some(BALANCE_LIMIT),
-            max_steps: Some(DEFAULT_MAX_STEPS),
-        }
-    }
-}
-
-/// Default of [`RunSettings::max_steps`] for scenes: 1e8 steps, about a
-/// minute of RK4 on the EzyRoller (4 RHS of ~150 ns each per step) and
-/// far more than any built-in scene needs (`drive`: 6e5).
-pub const DEFAULT_MAX_STEPS: u64 = 100_000_000;
-
-/// Smallest `rtol`/`atol` accepted: about 50 ulp of 1; tighter requests
-/// only make the adaptive step hunt rounding noise.
-pub const MIN_TOLERANCE: f64 = 1e-14;
-
-/// Largest `rtol` accepted: 0.1, one correct digit. A looser request lets
-/// an adaptive method take steps whose error is as large as the solution:
-/// a result no check could tell from a wrong one.
-pub const MAX_RTOL: f64 = 0.1;
-
-/// Default limit of the relative energy balance `|T - T0 - W| / E` for
-/// `ezy run` (`E`: the run's energy scale, [`crate::guard`]). Ideal
-/// constraints do no work, so the balance is the integrator's own error:
-/// 5.8e-14 of the `drive` scene's 13 J at its settings (RK4, h = 1e-4 s),
-/// 4.1e-3 at h = 0.3 s; at h = 0.7 s it passes 1e-2 at t = 1.4 s.
-pub const BALANCE_LIMIT: f64 = 1e-2;
-
-impl RunSettings {
-    /// Checks the settings.
-    ///
-    /// # Errors
-    /// [`SimError::Setting`] naming the first bad setting.
-    pub fn validate(&self) -> Result<(), SimError> {
-        for (name, value) in
-            [("dt", self.dt), ("t_end", self.t_end), ("every", self.every), ("rtol", self.rtol), ("atol", self.atol)]
-        {
-            if let Some(reason) = Self::reject(name, value) {
-                return Err(SimError::Setting { name: name.into(), value, reason });
-            }
-        }
-        if let Some(max) = self.max_steps
-            && !self.method.is_adaptive()
-        {
-            let needed = (self.t_end / self.dt).ceil();
-            if needed > max as f64 {
-                return Err(SimError::Budget {
-                    what: "steps",
-                    estimate: needed,
-                    limit: max as f64,
-                    setting: crate::error::Setting::MaxSteps,
-                    detail: format!("t_end / dt = {:e} s / {:e} s", self.t_end, self.dt),
-                });
-            }
-        }
-        Ok(())
-    }
-
-    /// Why `value` is not acceptable for the setting `name` (`dt`, `t_end`,
-    /// `every` \[s\], `rtol`, `atol`), or `None` if it is. Tolerances are
-    /// checked whatever the method, so a bad one never waits for the day
-    /// an adaptive method is chosen.
-    pub fn reject(name: &str, value: f64) -> Option<&'static str> {
-        match name {
-            "dt" if !(value.is_finite() && value > 0.0) => Some("the step must be a positive number of seconds"),
-            "t_end" if !(value.is_finite() && value > 0.0) => Some("the duration must be a positive number of seconds"),
-            "every" if !(value.is_finite() && value > 0.0) => {
-                Some("the output interval must be a positive number of seconds")
-            }
-            "rtol" | "atol" if !(value.is_finite() && value > 0.0) => Some("a tolerance must be a positive number"),
-            "rtol" | "atol" if value < MIN_TOLERANCE => {
-                Some("a tolerance below 1e-14 cannot be met in double precision")
-            }
-            "rtol" if value > MAX_RTOL => Some(
-                "a relative tolerance above 0.1 asks for less than one correct digit: the run could not be trusted",
-            ),
-            _ => None,
-        }
-    }
-
-    /// Number of steps to reach `t_end` (the last one may be shorter).
-    pub fn n_steps(&self) -> u64 {
-        ((self.t_end / self.dt) - 1e-9).ceil().max(1.0) as u64
-    }
-
-    /// How many samples a run observes at most: one every `every` \[s\]
-    /// to `t_end`, the start and the end (with a fixed step, on its grid).
-    /// Computed in floating point, so that a request of `1e300` rows is
-    /// sized before anything is allocated for it.
-    pub fn output_rows(&self) -> f64 {
-        if self.method.is_adaptive() {
-            (self.t_end / self.every).floor() + 2.0
-        } else {
-            (self.t_end / self.dt).ceil() / (self.every / self.dt).round().max(1.0) + 2.0
-        }
-    }
-
-    /// Steps between outputs.
-    pub fn output_stride(&self) -> u64 {
-        ((self.every / self.dt).round() as u64).max(1)
-    }
-}
+use crate::settings::Formulation;
+use crate::settings::Method;
+use crate::settings::ProjectionKind;
+use crate::simulate::events::{Crossing, Monitor};
+use crate::simulate::guard::{EnergyGuard, GROWTH_LIMIT, Verdict, drift_note};
 
 /// One output sample.
 #[derive(Debug, Clone, Copy)]
@@ -282,10 +130,10 @@ pub struct Summary {
     pub handovers: u64,
     /// Whether the reduced formulation ran on the model's minimal
     /// coordinates (partition and expansion in closed form, from `model!`:
-    /// [`crate::MinimalLayout`]).
+    /// [`crate::model::info::MinimalLayout`]).
     pub minimal_coordinates: bool,
     /// Whether, on minimal coordinates, the right-hand side was the
-    /// model's fused one ([`crate::Model::minimal_rhs`]: the expansion, the
+    /// model's fused one ([`crate::model::Model::minimal_rhs`]: the expansion, the
     /// forces and Maggi's equations in one generated function).
     pub fused_rhs: bool,
     /// Wall time of the integration alone (steps, projections and the
@@ -311,7 +159,7 @@ pub struct Summary {
     /// Linear algebra of the projection.
     pub projection_path: &'static str,
     /// First `(t [s], estimate)` where the KKT conditioning estimate passed
-    /// [`crate::dynamics::CONDITION_WARNING`].
+    /// [`crate::formulation::dae::CONDITION_WARNING`].
     pub ill_conditioned: Option<(f64, f64)>,
     /// The implicit method's Newton iterations, Jacobians and
     /// factorizations (zero for the explicit methods).
@@ -326,13 +174,13 @@ pub struct Summary {
     /// also told to the observer as a note).
     pub singular_passages: Vec<(f64, u64)>,
     /// The events that happened, in time order ([`crate::events`]).
-    pub events: Vec<crate::events::EventRecord>,
+    pub events: Vec<crate::events::spec::EventRecord>,
     /// The event that ended the run (its name and time \[s\]), if one did
-    /// (an event with [`crate::events::Action::Stop`]).
+    /// (an event with [`crate::events::spec::Action::Stop`]).
     pub stopped: Option<(String, f64)>,
     /// `(t [s], |T - T0 - W| / E)` where an adaptive run's energy balance
     /// first passed [`RunSettings::balance_limit`] relative to the run's
-    /// energy scale `E` ([`crate::guard`]): the drift its tolerance lets
+    /// energy scale `E` ([`crate::simulate::guard`]): the drift its tolerance lets
     /// through, noted, not an error.
     pub energy_drift: Option<(f64, f64)>,
 }
@@ -382,7 +230,7 @@ pub fn stiff_note(method: Method, t: f64, hlambda: f64, limit: f64) -> String {
     format!(
         "from t = {t:.6} s the run is stiff: {}'s steps are held by its stability (Hairer's test: h|lambda| = {hlambda:.1} > {limit} for 15 tests), not by accuracy; {} steps over the fast modes",
         method.name(),
-        crate::error::Setting::Method(Method::Radau5)
+        crate::settings::Setting::Method(Method::Radau5)
     )
 }
 
@@ -395,11 +243,11 @@ struct Residuals {
     ones: Vec<f64>,
     r: Vec<f64>,
     /// Rows left out of `G qd` (sliding skates).
-    released: crate::friction::Released,
+    released: crate::formulation::friction::Released,
 }
 
 impl Residuals {
-    fn new(i: &crate::ModelInfo) -> Self {
+    fn new(i: &crate::model::info::ModelInfo) -> Self {
         Self {
             phi: vec![0.0; i.n_holonomic],
             g_values: vec![0.0; i.pattern.len()],
@@ -437,7 +285,7 @@ struct Run<'a, M: Model, O: Observer<M>> {
     t0_energy: f64,
     /// The singular position being passed, if any.
     singular: SingularTrack,
-    /// The energy balance's scales ([`crate::guard`]).
+    /// The energy balance's scales ([`crate::simulate::guard`]).
     guard: EnergyGuard,
     /// Size of the last step \[s\] (0 before the first).
     last_step: f64,
@@ -481,10 +329,10 @@ struct Run<'a, M: Model, O: Observer<M>> {
 
 /// Firings of one switching event, or with a fixed step switches of one
 /// skate, at most this many accepted steps apart count as one streak;
-/// [`crate::events::CHATTER_STEPS`] of them in a row are chattering
+/// [`crate::events::spec::CHATTER_STEPS`] of them in a row are chattering
 /// ([`SimError::Chattering`], [`SimError::SlipChattering`]). (An adaptive
 /// run's skate switches count by their intervals instead,
-/// [`crate::friction::SwitchStreak`]: its margin is scanned inside every
+/// [`crate::formulation::friction::SwitchStreak`]: its margin is scanned inside every
 /// step, so a fast stick-slip motion is resolved with few steps between
 /// switches.)
 pub const SLIP_CHATTER_GAP: u64 = 8;
@@ -496,8 +344,8 @@ pub const SLIP_CHATTER_GAP: u64 = 8;
 const STALLED_CUTS: u32 = 16;
 
 /// The watch on what switches the run's forces or rows: the skates with
-/// friction ([`crate::friction`]: each one's margin) and then the events
-/// that switch effects ([`crate::events::Action::Switch`]: each one's
+/// friction ([`crate::formulation::friction`]: each one's margin) and then the events
+/// that switch effects ([`crate::events::spec::Action::Switch`]: each one's
 /// `g`), at the start and the end of the step, and their switches in a row.
 #[derive(Debug, Default)]
 struct SlipWatch {
@@ -512,13 +360,13 @@ struct SlipWatch {
     /// ([`Dynamics::slip_tolerances`]).
     eps: Vec<f64>,
     /// Per skate: whether its margin needs a look inside the step
-    /// ([`crate::friction::margin_suspect`]).
+    /// ([`crate::formulation::friction::margin_suspect`]).
     suspect: Vec<bool>,
     /// The skates' margins and rates (one per skate).
     scratch: Vec<f64>,
     scratch_rate: Vec<f64>,
     /// The longest next step after a step cut where a margin was no longer
-    /// resolved ([`crate::friction::MarginScan::Unresolved`]) \[s\].
+    /// resolved ([`crate::formulation::friction::MarginScan::Unresolved`]) \[s\].
     h_max: Option<f64>,
     /// Cuts in a row that moved the run on by rounding only.
     stalls: u32,
@@ -527,13 +375,13 @@ struct SlipWatch {
     /// [`SlipWatch::skate_streaks`]).
     streaks: Vec<(u64, f64, u64)>,
     /// Per skate: its switches at ever shorter intervals.
-    skate_streaks: Vec<crate::friction::SwitchStreak>,
+    skate_streaks: Vec<crate::formulation::friction::SwitchStreak>,
     /// The switch events: indices into [`Dynamics::events`].
     switches: Vec<usize>,
     /// Per skate, then per switch event: where it crossed in the step
     /// being cut (infinite where it did not).
     times: Vec<f64>,
-    /// Scratch of [`crate::events::Event::value`].
+    /// Scratch of [`crate::events::spec::Event::value`].
     values: Vec<f64>,
     /// Scratch: a full state on the step's continuous extension.
     full: Vec<f64>,
@@ -573,7 +421,7 @@ impl<'a, M: Model, O: Observer<M>> Run<'a, M, O> {
 
     /// The events of the accepted step from `t` to `t_new` whose signs
     /// changed ([`Run::event_crossed`]), located on the step's continuous
-    /// extension `interpolate(t, x)` ([`crate::events::locate`]) and
+    /// extension `interpolate(t, x)` ([`crate::simulate::events::locate`]) and
     /// recorded in time order with their states (projected, or expanded),
     /// up to the first that stops the run: its time, its state kept in
     /// [`Run::stop`].
@@ -615,7 +463,7 @@ impl<'a, M: Model, O: Observer<M>> Run<'a, M, O> {
                 let y = form.full_of(sys, tau, x)?;
                 Ok(e.value(sys, tau, y, scratch))
             };
-            let te = crate::events::locate(g, t, l, t_new, r)?;
+            let te = crate::simulate::events::locate(g, t, l, t_new, r)?;
             found.push(Crossing { event: k, t: te, rising });
         }
         in_time_order(&mut found);
@@ -634,7 +482,7 @@ impl<'a, M: Model, O: Observer<M>> Run<'a, M, O> {
                 self.proj.project(&sys.model, c.t, q, &mut rest[..nq])?;
             }
             self.monitor.record(&e.name, c.t, c.rising, &y)?;
-            if e.action == crate::events::Action::Stop {
+            if e.action == crate::events::spec::Action::Stop {
                 self.summary.stopped = Some((e.name.clone(), c.t));
                 self.stop = Some(y);
                 stop = Some(c.t);
@@ -651,9 +499,9 @@ impl<'a, M: Model, O: Observer<M>> Run<'a, M, O> {
     /// Whether a skate's mode may have stopped holding in the accepted
     /// step ending at `t_new` with the full state `y_new`, or a switching
     /// event fired: a skate's margin
-    /// ([`crate::friction::SkateFriction::margin`]) and its rate at the
+    /// ([`crate::formulation::friction::SkateFriction::margin`]) and its rate at the
     /// step's ends leave a violation inside the step possible
-    /// ([`crate::friction::margin_suspect`]: it ends below zero, or comes
+    /// ([`crate::formulation::friction::margin_suspect`]: it ends below zero, or comes
     /// within the step's travel of it), so the step's continuous extension
     /// is to be scanned ([`Run::locate_slip`]). `evaluated`: the
     /// right-hand side `dy` the last evaluation found at `y_new` (the
@@ -686,7 +534,7 @@ impl<'a, M: Model, O: Observer<M>> Run<'a, M, O> {
             for k in 0..nf {
                 let a = MarginSample { t: w.t_left, m: w.left[k], r: w.left_rate[k] };
                 let b = MarginSample { t: t_new, m: w.right[k], r: w.right_rate[k] };
-                w.suspect[k] = crate::friction::margin_suspect(&a, &b, w.eps[k]);
+                w.suspect[k] = crate::formulation::friction::margin_suspect(&a, &b, w.eps[k]);
             }
         }
         for (j, &k) in w.switches.iter().enumerate() {
@@ -705,8 +553,8 @@ impl<'a, M: Model, O: Observer<M>> Run<'a, M, O> {
     /// through zero or a switching event fires ([`Run::slip_crossed`]),
     /// located on the step's continuous extension `interpolate(sys, t, y)`
     /// (full states): each suspect skate's margin scanned
-    /// ([`crate::friction::scan_margin`]) and its first violation located
-    /// as an event's crossing is ([`crate::events::locate`]). A margin the
+    /// ([`crate::formulation::friction::scan_margin`]) and its first violation located
+    /// as an event's crossing is ([`crate::simulate::events::locate`]). A margin the
     /// step does not resolve cuts it where it last was (no switch there),
     /// and limits the next steps ([`SlipWatch::h_max`]).
     ///
@@ -734,12 +582,16 @@ impl<'a, M: Model, O: Observer<M>> Run<'a, M, O> {
                 let (margins, rates) = (&mut w.scratch, &mut w.scratch_rate);
                 let a = MarginSample { t, m: l, r: w.left_rate[k] };
                 let b = MarginSample { t: t_new, m: r, r: w.right_rate[k] };
-                let scan =
-                    crate::friction::scan_margin(a, b, w.eps[k], |tau: f64| -> Result<MarginSample, SimError> {
+                let scan = crate::formulation::friction::scan_margin(
+                    a,
+                    b,
+                    w.eps[k],
+                    |tau: f64| -> Result<MarginSample, SimError> {
                         interpolate(sys, tau, x)?;
                         sys.slip_samples_at(tau, h, x, margins, rates)?;
                         Ok(MarginSample { t: tau, m: margins[k], r: rates[k] })
-                    })?;
+                    },
+                )?;
                 match scan {
                     MarginScan::Holds => continue,
                     MarginScan::Unresolved { at, h_max } => {
@@ -754,7 +606,7 @@ impl<'a, M: Model, O: Observer<M>> Run<'a, M, O> {
                             Ok(margins[k])
                         };
                         // a start within rounding of zero counts as holding
-                        crate::events::locate(g, lo.t, lo.m.max(f64::MIN_POSITIVE), hi.t, hi.m.min(-0.0))?
+                        crate::simulate::events::locate(g, lo.t, lo.m.max(f64::MIN_POSITIVE), hi.t, hi.m.min(-0.0))?
                     }
                 }
             } else {
@@ -764,7 +616,7 @@ impl<'a, M: Model, O: Observer<M>> Run<'a, M, O> {
                     interpolate(sys, tau, x)?;
                     Ok(e.value(sys, tau, x, values))
                 };
-                crate::events::locate(g, t, l, t_new, r)?
+                crate::simulate::events::locate(g, t, l, t_new, r)?
             };
             w.times[k] = te;
             t_switch = t_switch.min(te);
@@ -796,7 +648,7 @@ impl<'a, M: Model, O: Observer<M>> Run<'a, M, O> {
     /// # Errors
     /// As [`Dynamics::settle_friction`] and [`Run::flush`];
     /// [`SimError::SlipChattering`] when a skate has switched
-    /// [`crate::events::CHATTER_STEPS`] times in a row, each within
+    /// [`crate::events::spec::CHATTER_STEPS`] times in a row, each within
     /// [`SLIP_CHATTER_GAP`] steps of the one before.
     #[cold]
     fn switch_slip(&mut self, sys: &mut Dynamics<M>, t: f64, y: &mut [f64]) -> Result<(), RunError<O::Error>> {
@@ -812,7 +664,7 @@ impl<'a, M: Model, O: Observer<M>> Run<'a, M, O> {
             let (name, on, off) = (e.name.clone(), e.switch_on.clone(), e.switch_off.clone());
             let s = &mut w.streaks[j];
             *s = if s.0 > 0 && step <= s.2 + SLIP_CHATTER_GAP { (s.0 + 1, s.1, step) } else { (1, t, step) };
-            if s.0 >= crate::events::CHATTER_STEPS {
+            if s.0 >= crate::events::spec::CHATTER_STEPS {
                 return Err(SimError::Chattering { event: name, t0: s.1, t1: t, steps: s.0 }.into());
             }
             self.monitor.record(&name, t, rising, y)?;
@@ -825,7 +677,7 @@ impl<'a, M: Model, O: Observer<M>> Run<'a, M, O> {
             self.monitor.record(&fr.transition_name(old), t, new.is_sliding(), y)?;
             let s = &mut self.slip.skate_streaks[k];
             let fixed = (!self.settings.method.is_adaptive()).then_some(SLIP_CHATTER_GAP as f64 * self.settings.dt);
-            if s.record(t, fixed) >= crate::events::CHATTER_STEPS {
+            if s.record(t, fixed) >= crate::events::spec::CHATTER_STEPS {
                 let (skate, t0, switches) = (fr.name.clone(), s.since, s.count);
                 return Err(SimError::SlipChattering { skate, t0, t1: t, switches }.into());
             }
@@ -867,7 +719,7 @@ impl<'a, M: Model, O: Observer<M>> Run<'a, M, O> {
     fn jumped_events(&mut self, sys: &Dynamics<M>, t: f64, y: &[f64]) -> Result<(), SimError> {
         let m = &mut self.monitor;
         for (k, e) in sys.events.iter().enumerate() {
-            if e.action == crate::events::Action::Switch {
+            if e.action == crate::events::spec::Action::Switch {
                 continue;
             }
             let g = e.value(sys, t, y, &mut m.scratch);
@@ -1066,12 +918,12 @@ impl<'a, M: Model, O: Observer<M>> Run<'a, M, O> {
                     // written half-expanded (as a failure with its cause,
                     // which no hand-over to the DAE takes for its own:
                     // the rows queued with it are gone)
-                    if !crate::reduced::complete_sample(&sys.model, sys.nq(), y) {
+                    if !crate::formulation::reduced::complete_sample(&sys.model, sys.nq(), y) {
                         let error = SimError::Formulation {
                             reason: format!(
                                 "at t = {} s the model's minimal_state gave no full state for a dense-output \
                                  sample, though it did at the start",
-                                crate::error::fmt_value(*t)
+                                crate::names::fmt_value(*t)
                             ),
                         };
                         let cause = "Model::minimal_state's answer must be the same at every state".to_string();
@@ -1208,8 +1060,8 @@ impl<'a, M: Model, O: Observer<M>> Run<'a, M, O> {
                     format!(
                         "the forces did not supply it (it is not T0 + W), so {} made it while meeting its tolerance: a tighter {}, or {} if the scene is stiff",
                         method.name(),
-                        crate::error::Setting::Rtol,
-                        crate::error::Setting::Method(Method::Radau5)
+                        crate::settings::Setting::Rtol,
+                        crate::settings::Setting::Method(Method::Radau5)
                     )
                 } else {
                     advice(method, t, h, None)
@@ -1271,7 +1123,7 @@ impl<'a, M: Model, O: Observer<M>> Run<'a, M, O> {
         // rows dependent only in the mass-weighted metric, with masses too
         // far apart for double precision: no singular position but the
         // precision's limit, told as before (the caller adds the cause)
-        if self.singular.open.is_none() && mass_spread(&sys.mass) > crate::MASS_SPREAD_WARNING {
+        if self.singular.open.is_none() && mass_spread(&sys.mass) > crate::error::MASS_SPREAD_WARNING {
             let info = &sys.info;
             if crate::kkt::dependent_row(&sys.model, info, q, None) == Ok(None) {
                 let row = crate::kkt::dependent_row(&sys.model, info, q, Some(&sys.mass)).ok().flatten().unwrap_or(0);
@@ -1315,7 +1167,7 @@ impl<'a, M: Model, O: Observer<M>> Run<'a, M, O> {
             steps: self.singular.persistent,
             constraint: info.constraints.get(row).cloned().unwrap_or_default(),
             row,
-            before: crate::error::name_list(&info.constraints[..row.min(info.constraints.len())]),
+            before: crate::names::name_list(&info.constraints[..row.min(info.constraints.len())]),
         })
     }
 
@@ -1345,7 +1197,7 @@ impl<'a, M: Model, O: Observer<M>> Run<'a, M, O> {
                 what: "steps",
                 estimate,
                 limit: max as f64,
-                setting: crate::error::Setting::MaxSteps,
+                setting: crate::settings::Setting::MaxSteps,
                 detail: format!("extrapolated from {attempts} step attempts to t = {t:.6e} s of {} s", settings.t_end),
             });
         }
@@ -1478,7 +1330,7 @@ enum Pending {
     /// coordinates, queued as the integrator's state `z` at the row's
     /// start: placed into the full state ([`Run::sample_places`]), its
     /// dependent coordinates and its global rates computed
-    /// ([`crate::reduced::complete_sample`]).
+    /// ([`crate::formulation::reduced::complete_sample`]).
     Expand,
 }
 
@@ -1862,8 +1714,9 @@ fn simulate_erased<M: Model>(
     let (nq, nc) = (sys.info.nq(), sys.info.nc());
     // constraints dependent at every configuration are the model's error;
     // at an instant (this one included) they are a singular position
-    if let Some(row) = crate::kkt::redundant_row(&sys.model, &sys.info, &sys.drives, &sys.mass, &y0[..nq])
-        .map_err(|source| SimError::from_kkt(&sys.info, 0.0, source))?
+    if let Some(row) =
+        crate::formulation::initial::redundant_row(&sys.model, &sys.info, &sys.drives, &sys.mass, &y0[..nq])
+            .map_err(|source| SimError::from_kkt(&sys.info, 0.0, source))?
     {
         return Err(SimError::from_kkt(&sys.info, 0.0, KktError::DependentConstraints { n: nc, row }).into());
     }
@@ -1882,7 +1735,7 @@ fn simulate_erased<M: Model>(
             let explicit = free && matches!(settings.method, Method::Dopri5 | Method::Dop853 | Method::Rk4);
             let minimal = explicit && sys.drives.is_empty() && sys.model.minimal_layout().is_ok();
             let numeric = free && Formulation::auto_takes_reduced(settings.method, nq, nc);
-            ((minimal || numeric) && nc <= crate::reduced::MAX_CONSTRAINTS)
+            ((minimal || numeric) && nc <= crate::formulation::reduced::MAX_CONSTRAINTS)
                 .then(|| Reduced::new(sys, 0.0, y0).ok())
                 .flatten()
                 .filter(|r| if r.is_minimal() { minimal } else { numeric && r.is_linear() })
@@ -1909,7 +1762,7 @@ fn simulate_erased<M: Model>(
             return Err(SimError::Formulation {
                 reason: format!(
                     "RADAU5's Newton iteration is built on the DAE's KKT matrix; take {} or an explicit method",
-                    crate::error::Setting::Formulation(crate::Formulation::Dae)
+                    crate::settings::Setting::Formulation(crate::settings::Formulation::Dae)
                 ),
             }
             .into());
@@ -1918,8 +1771,8 @@ fn simulate_erased<M: Model>(
             return Err(SimError::Formulation {
                 reason: format!(
                     "Baumgarte stabilization is for the DAE; the reduced formulation keeps the constraints without it: drop {} or take {}",
-                    crate::error::Setting::Baumgarte,
-                    crate::error::Setting::Formulation(crate::Formulation::Dae)
+                    crate::settings::Setting::Baumgarte,
+                    crate::settings::Setting::Formulation(crate::settings::Formulation::Dae)
                 ),
             }
             .into());
@@ -1995,7 +1848,8 @@ fn simulate_erased<M: Model>(
     };
     if sys.switches() {
         let (nf, w) = (sys.friction.len(), &mut run.slip);
-        w.switches = (0..sys.events.len()).filter(|&k| sys.events[k].action == crate::events::Action::Switch).collect();
+        w.switches =
+            (0..sys.events.len()).filter(|&k| sys.events[k].action == crate::events::spec::Action::Switch).collect();
         let n = nf + w.switches.len();
         (w.left, w.right, w.scratch, w.streaks) =
             (vec![0.0; n], vec![0.0; n], vec![0.0; nf], vec![(0, 0.0, 0); n - nf]);
@@ -2025,13 +1879,13 @@ fn simulate_erased<M: Model>(
         && sys.drives.is_empty()
         && reduced.as_ref().is_some_and(|r| !r.is_minimal())
         && let Ok(layout) = sys.model.minimal_layout()
-        && let Some((skate, p, rho)) = crate::reduced::small_pivot(&sys.info, &sys.mass, &layout)
+        && let Some((skate, p, rho)) = crate::formulation::reduced::small_pivot(&sys.info, &sys.mass, &layout)
     {
         let why = if rho > 0.0 {
             format!(
                 "is {:.2e} m, below {} of its body's radius of gyration {rho:.3} m (an ill-conditioned speed)",
                 p.abs(),
-                crate::reduced::MIN_PIVOT_GYRATION
+                crate::formulation::reduced::MIN_PIVOT_GYRATION
             )
         } else {
             format!("is {p} at these parameters")
@@ -2157,12 +2011,12 @@ fn restore_effects<M: Model>(sys: &mut Dynamics<M>, on: &[bool]) {
     }
 }
 
-/// Refuses a switch event ([`crate::events::Action::Switch`]) whose
+/// Refuses a switch event ([`crate::events::spec::Action::Switch`]) whose
 /// effects are not effects of `sys` or are a skate's friction, or that
-/// names none: a library user's [`crate::events::Event::switching`] is
+/// names none: a library user's [`crate::events::spec::Event::switching`] is
 /// checked here as a scene's `switch_on` is when it is resolved.
 fn check_switches<M: Model>(sys: &Dynamics<M>) -> Result<(), SimError> {
-    for e in sys.events.iter().filter(|e| e.action == crate::events::Action::Switch) {
+    for e in sys.events.iter().filter(|e| e.action == crate::events::spec::Action::Switch) {
         let err = |field: &'static str, message: String| SimError::Event { event: e.name.clone(), field, message };
         if e.switch_on.is_empty() && e.switch_off.is_empty() {
             return Err(err("action", "a switch names the effects it turns on or off".into()));
@@ -2223,8 +2077,8 @@ fn check_initial<M: Model>(sys: &Dynamics<M>, y0: &[f64]) -> Result<(), SimError
             &format!(
                 "the initial velocity {} = {} (share m qd^2 / 2 = {}) makes the initial state's kinetic energy overflow",
                 sys.state_name(nq + k),
-                crate::error::fmt_value(y0[nq + k]),
-                crate::error::fmt_value(share(k))
+                crate::names::fmt_value(y0[nq + k]),
+                crate::names::fmt_value(share(k))
             ),
         ));
     }
@@ -2365,7 +2219,7 @@ fn fixed<M: Model, O: Observer<M>, F: Integrand<M>, S: FixedStep>(
             if slipped {
                 let f_start = stepper.start_slope();
                 let interpolate = |tau: f64, out: &mut [f64]| {
-                    crate::integrator::hermite((t_cur, &x_start, f_start), (t_next, x, &f_end), tau, out)
+                    crate::integrator::fixed::hermite((t_cur, &x_start, f_start), (t_next, x, &f_end), tau, out)
                 };
                 t_end = run.locate_slip(sys, (t_cur, t_next), |sys, tau, out| {
                     interpolate(tau, &mut x_cut);
@@ -2386,7 +2240,7 @@ fn fixed<M: Model, O: Observer<M>, F: Integrand<M>, S: FixedStep>(
                 }
                 let f_start = stepper.start_slope();
                 let interpolate = |tau: f64, out: &mut [f64]| {
-                    crate::integrator::hermite((t_cur, &x_start, f_start), (t_next, x, &f_end), tau, out)
+                    crate::integrator::fixed::hermite((t_cur, &x_start, f_start), (t_next, x, &f_end), tau, out)
                 };
                 if let Some(t_stop) = run.locate_events(form, sys, (t_cur, t_end), x_end, interpolate)? {
                     // every grid output before it is written
@@ -2628,7 +2482,7 @@ const SINGULAR_COLLAPSE: f64 = 1e-4;
 const SINGULAR_LANDING: f64 = 1e4;
 
 /// The step loop of the implicit method (RADAU5): as [`adaptive`], with
-/// the Newton system of the model ([`crate::newton::KktNewton`]).
+/// the Newton system of the model ([`crate::formulation::newton::KktNewton`]).
 fn implicit<M: Model, O: Observer<M>>(
     sys: &mut Dynamics<M>,
     y: &mut [f64],
@@ -2639,7 +2493,7 @@ fn implicit<M: Model, O: Observer<M>>(
     let ny = y.len();
     let tol = Tolerance { rtol: settings.rtol, atol: settings.atol };
     let mut stepper = Radau5::new(ny, &tol);
-    let mut newton = crate::newton::KktNewton::new(sys);
+    let mut newton = crate::formulation::newton::KktNewton::new(sys);
     let (mut f, mut y_new) = (vec![0.0; ny], vec![0.0; ny]);
     let (mut w1, mut w2) = (vec![0.0; ny], vec![0.0; ny]);
     sys.rhs(0.0, y, &mut f)?;

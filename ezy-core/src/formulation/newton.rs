@@ -41,7 +41,7 @@
 //! and by faer's sparse LU (symbolic analysis once) for large ones, real
 //! and complex.
 //!
-//! A skate sliding with friction ([`crate::friction`]) has its row
+//! A skate sliding with friction ([`crate::formulation::friction`]) has its row
 //! released: the row and column of its multiplier carry a unit diagonal
 //! and nothing else, its right-hand side is zero, and its multiplier in
 //! `K'` is the friction's `s mu N` (the Coulomb force `-G_r^T s mu N`
@@ -54,8 +54,8 @@ use faer::sparse::linalg::lu::{LuRef, NumericLu, SymbolicLu, factorize_symbolic_
 use faer::sparse::{SparseColMatRef, SymbolicSparseColMatRef};
 use faer::{Conj, MatMut, Par};
 
-use crate::SimError;
-use crate::dynamics::Dynamics;
+use crate::error::SimError;
+use crate::formulation::dae::Dynamics;
 use crate::integrator::radau5::{DenseFactor, NewtonSystem};
 use crate::model::Model;
 
@@ -313,7 +313,7 @@ impl KktNewton {
         phi: &mut [f64],
     ) {
         sys.model.constraint_terms(q, v, g, gamma);
-        if let Some(crate::dynamics::Baumgarte { alpha, beta }) = sys.baumgarte {
+        if let Some(crate::formulation::dae::Baumgarte { alpha, beta }) = sys.baumgarte {
             for (&(r, c), &gv) in sys.info.pattern.iter().zip(g.iter()) {
                 gamma[r] += 2.0 * alpha * gv * v[c];
             }

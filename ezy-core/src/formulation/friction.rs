@@ -61,20 +61,20 @@ impl SkateMode {
 }
 
 /// A skate with Coulomb friction in a run: where its row is, its limit
-/// and its mode (built by [`crate::Dynamics`] from the effects of kind
+/// and its mode (built by [`crate::formulation::dae::Dynamics`] from the effects of kind
 /// `skate-friction`).
 #[derive(Debug, Clone, PartialEq)]
 pub struct SkateFriction {
-    /// Index of its effect in [`crate::Dynamics::effects`] (whose work
+    /// Index of its effect in [`crate::formulation::dae::Dynamics::effects`] (whose work
     /// state holds the friction's work).
     pub effect: usize,
-    /// Index of the skate in [`crate::ModelInfo::skates`].
+    /// Index of the skate in [`crate::model::info::ModelInfo::skates`].
     pub skate: usize,
     /// The skate's name.
     pub name: String,
     /// Its row in `G`.
     pub row: usize,
-    /// Its entries in [`crate::ModelInfo::pattern`].
+    /// Its entries in [`crate::model::info::ModelInfo::pattern`].
     pub entries: Range<usize>,
     /// The friction limit `mu N` \[N\].
     pub limit: f64,
@@ -143,7 +143,7 @@ pub enum MarginScan {
     Holds,
     /// The margin falls below zero in `(lo.t, hi.t]`, first there: `lo`
     /// at or above `-eps`, `hi` below (a bracket for
-    /// [`crate::events::locate`]).
+    /// [`crate::simulate::events::locate`]).
     Crosses {
         /// The bracket's start (the mode still holds).
         lo: MarginSample,
@@ -381,8 +381,8 @@ pub const CHATTER_SHRINK: f64 = 0.9;
 /// One skate's switches in a row at ever shorter intervals (each at most
 /// [`CHATTER_SHRINK`] of the one before, or within a few units of
 /// rounding of the last), or, with a fixed step, a few steps apart
-/// ([`SwitchStreak::record`]): [`crate::events::CHATTER_STEPS`] of them
-/// are chattering ([`crate::SimError::SlipChattering`]), switches piling
+/// ([`SwitchStreak::record`]): [`crate::events::spec::CHATTER_STEPS`] of them
+/// are chattering ([`crate::error::SimError::SlipChattering`]), switches piling
 /// up at a finite time (Zeno), sitting at the limit within rounding, or
 /// faster than the fixed step. A stick-slip motion that an adaptive
 /// method's steps resolve, however fast, switches at intervals that do not
@@ -400,7 +400,7 @@ pub struct SwitchStreak {
 impl SwitchStreak {
     /// Records a switch at `t` and returns the streak's length. With a
     /// fixed step, a switch within `fixed` \[s\] of the last (a few
-    /// steps: [`crate::SLIP_CHATTER_GAP`]) continues the streak too: such a
+    /// steps: [`crate::simulate::SLIP_CHATTER_GAP`]) continues the streak too: such a
     /// step does not resolve the motion between the switches (it cannot
     /// shrink to follow them, as an adaptive one does), so a run switching
     /// every few steps for that long is refused with the advice of a

@@ -26,79 +26,16 @@
 //! a heading where `G_D` is singular): the integrator then restarts from
 //! the same state, expressed in the new independent components.
 
-use crate::SimError;
-use crate::dynamics::Dynamics;
+use crate::error::SimError;
+use crate::formulation::dae::Dynamics;
 use crate::kkt::spd::small_size;
 use crate::model::Model;
-
-/// The integration formulation (`--formulation`).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize, serde::Deserialize)]
-#[serde(rename_all = "lowercase")]
-pub enum Formulation {
-    /// The reduced formulation where it pays, else the DAE (the default): on the
-    /// minimal coordinates `model!` derived ([`crate::MinimalLayout`]) for
-    /// DOPRI5, DOP853 and RK4, else by [`Formulation::auto_takes_reduced`].
-    #[default]
-    Auto,
-    /// The index-1 DAE in all `q, qd` with coordinate projection.
-    Dae,
-    /// Coordinate partitioning: only the independent `q_I, qd_I` are integrated.
-    Reduced,
-}
 
 /// Largest `nc` the reduced formulation takes: it factors the dense
 /// `nc x nc` `G_D` at every evaluation (`nc^3 / 3` flops), where the DAE's
 /// sparse KKT path grows as `nc`. At 300 rows (a 100-link snake) that is
 /// 9e6 flops per evaluation.
 pub const MAX_CONSTRAINTS: usize = 300;
-
-impl crate::Choice for Formulation {
-    const ALL: &'static [Self] = &[Self::Dae, Self::Reduced, Self::Auto];
-    fn name(self) -> &'static str {
-        Formulation::name(self)
-    }
-    fn help(self) -> &'static str {
-        match self {
-            Self::Dae => "The index-1 DAE in all q, qd, projected after every step",
-            Self::Reduced => {
-                "Only the independent q, qd are integrated, so no projection is needed or done: on the minimal coordinates model! derived where it could (the dependent ones in closed form), else on a partition whose dependent ones are recovered from the constraints at every evaluation (Wehage & Haug)"
-            }
-            Self::Auto => {
-                "The fastest of the two for the run (the default): reduced for DOPRI5, DOP853 and RK4 on the minimal coordinates model! derived, and for DOPRI5 and DOP853 with one degree of freedom; else the DAE. The summary says which was taken"
-            }
-        }
-    }
-}
-
-impl Formulation {
-    /// Name as the CLI spells it.
-    pub fn name(self) -> &'static str {
-        match self {
-            Self::Auto => "auto",
-            Self::Dae => "dae",
-            Self::Reduced => "reduced",
-        }
-    }
-
-    /// Whether `Auto` takes the reduced formulation for `method` on a
-    /// model with `nq` coordinates and `nc` constraint rows: an adaptive
-    /// explicit method (DOPRI5, DOP853) and one degree of freedom in
-    /// velocity (`nq - nc = 1`); [`simulate`](crate::simulate()) also
-    /// requires the dependent coordinates to follow from one Newton step
-    /// (all translations). Measured at equal accuracy (callgrind
-    /// instructions of the integration, docs/physics.md §6.1): there the
-    /// error control on the few independent components saves a third of
-    /// the steps and the run 1.15-1.25x (`trailer`), while at two or more
-    /// degrees of freedom the expansion (a Newton step, a dense LU of
-    /// `G_D`) outweighs what it saves (`drive` 1.65x, `snake` 2.2-7x), and a
-    /// fixed-step method saves no steps at all. (On the minimal
-    /// coordinates `model!` derives, with no Newton step and no `G_D`,
-    /// `Auto` takes the reduced formulation for DOPRI5, DOP853 and RK4 at
-    /// any number of degrees of freedom: docs/physics.md §6.2.)
-    pub fn auto_takes_reduced(method: crate::Method, nq: usize, nc: usize) -> bool {
-        matches!(method, crate::Method::Dopri5 | crate::Method::Dop853) && nq == nc + 1
-    }
-}
 
 /// Which coordinates are independent and which are dependent.
 #[derive(Debug, Clone, PartialEq, Eq)]
@@ -154,9 +91,9 @@ pub const MIN_PIVOT_GYRATION: f64 = 0.05;
 /// nq); `None` if every pivot is fit. Returns `(skate, pivot [m], radius
 /// of gyration [m])`, the radius 0 for a zero or non-finite pivot.
 pub fn small_pivot<'a>(
-    info: &crate::ModelInfo,
+    info: &crate::model::info::ModelInfo,
     mass: &[f64],
-    layout: &'a crate::MinimalLayout,
+    layout: &'a crate::model::info::MinimalLayout,
 ) -> Option<(&'a str, f64, f64)> {
     layout.pivots.iter().find_map(|(skate, j, p)| {
         if !(*p != 0.0 && p.is_finite()) {
@@ -174,7 +111,7 @@ pub fn small_pivot<'a>(
 /// `x, y, phi`): forward and lateral \[m/s\],
 /// `(v_x, v_y) = R(phi)^T (xd, yd)`, or the angular rate \[rad/s\]. The
 /// speeds of minimal coordinates are these (Kane & Levinson 1985, ch. 4).
-pub fn body_velocity<S: crate::Scalar>(q: &[S], qd: &[S], j: usize) -> S {
+pub fn body_velocity<S: crate::scalar::Scalar>(q: &[S], qd: &[S], j: usize) -> S {
     let i = j / 3;
     let (s, c) = (q[3 * i + 2].sin(), q[3 * i + 2].cos());
     let (xd, yd) = (qd[3 * i], qd[3 * i + 1]);
@@ -461,11 +398,11 @@ pub struct Reduced {
     /// Scratch of the step loop (a dense-output sample's `z`).
     pub(crate) scratch: Vec<f64>,
     /// The partition and the expansion in closed form, when `model!`
-    /// derived the model's minimal coordinates ([`crate::MinimalLayout`]).
+    /// derived the model's minimal coordinates ([`crate::model::info::MinimalLayout`]).
     minimal: Option<Minimal>,
 }
 
-/// The minimal-coordinate path: the partition of [`crate::MinimalLayout`]
+/// The minimal-coordinate path: the partition of [`crate::model::info::MinimalLayout`]
 /// (fixed: its pivots are constants), `q_D`, `qd_D`, `B = dqd/dqd_I` and
 /// `c` from the model's generated [`Model::minimal_expand`], and `qdd_I`
 /// from Maggi's equations `B^T M B qdd_I = B^T (f - M c)` (nu x nu); or,
@@ -509,7 +446,7 @@ impl Reduced {
                 reason: format!(
                     "model {} has {nc} constraint rows, more than the {MAX_CONSTRAINTS} whose dense G_D the reduced formulation factors at every evaluation; take {} (its sparse KKT path)",
                     info.name,
-                    crate::error::Setting::Formulation(crate::Formulation::Dae)
+                    crate::settings::Setting::Formulation(crate::settings::Formulation::Dae)
                 ),
             });
         }
@@ -660,7 +597,7 @@ impl Reduced {
     }
 
     /// Whether the partition and the expansion are the closed form of the
-    /// model's minimal coordinates ([`crate::MinimalLayout`]): no Newton
+    /// model's minimal coordinates ([`crate::model::info::MinimalLayout`]): no Newton
     /// step, no factorization of `G_D`, never a new partition.
     pub fn is_minimal(&self) -> bool {
         self.minimal.is_some()
@@ -673,13 +610,13 @@ impl Reduced {
         let (nq, nh, nc) = (self.nq, self.nh, self.nc);
         sys.model.constraint_matrix(&y[..nq], &mut self.g_values);
         let mut dense = vec![0.0; nc * nq];
-        crate::model::scatter_dense(&info.pattern, &self.g_values, nq, &mut dense);
+        crate::model::info::scatter_dense(&info.pattern, &self.g_values, nq, &mut dense);
         let dependent = |rows: usize, k: usize| SimError::Formulation {
             reason: format!(
                 "at t = {} s only {k} of the {rows} {} rows of G are independent; the reduced formulation needs independent constraints ({} names the dependent one)",
-                crate::error::fmt_value(t),
+                crate::names::fmt_value(t),
                 if rows == nh { "holonomic" } else { "constraint" },
-                crate::error::Setting::Formulation(crate::Formulation::Dae)
+                crate::settings::Setting::Formulation(crate::settings::Formulation::Dae)
             ),
         };
         let q_dep =
@@ -879,7 +816,7 @@ impl Reduced {
 
     fn failure(&self, t: f64, what: &str) -> SimError {
         SimError::Formulation {
-            reason: format!("at t = {} s {what}; the reduced formulation cannot go on", crate::error::fmt_value(t)),
+            reason: format!("at t = {} s {what}; the reduced formulation cannot go on", crate::names::fmt_value(t)),
         }
     }
 
@@ -1021,7 +958,7 @@ impl Reduced {
         crate::kkt::spd::ldl_solve(&m.a, nu, nu, &m.r, ud, &mut m.ldl).map_err(|source| SimError::Formulation {
             reason: format!(
                 "at t = {} s Maggi's equations on the minimal coordinates cannot be solved: {source}",
-                crate::error::fmt_value(t)
+                crate::names::fmt_value(t)
             ),
         })?;
         for (d, &j) in pd.iter_mut().zip(&self.partition.q_ind) {
