@@ -14,6 +14,7 @@ use proc_macro::TokenStream;
 
 mod ast;
 mod check;
+mod dump;
 mod emit;
 mod kinematics;
 mod minimal;
@@ -38,7 +39,9 @@ pub fn model(input: TokenStream) -> TokenStream {
         Ok(def) => def,
         Err(e) => return e.to_compile_error().into(),
     };
-    emit::with_root(root, || expand(&def)).unwrap_or_else(|e| e.to_compile_error()).into()
+    let out = emit::with_root(root, || expand(&def)).unwrap_or_else(|e| e.to_compile_error());
+    dump::dump(&def.name.to_string(), &out);
+    out.into()
 }
 
 /// Splits a leading `@root(PATH)` off the input: the path and the rest.
