@@ -64,7 +64,10 @@ pub trait EmbeddedRk {
     ///
     /// # Errors
     /// Whatever the right-hand side fails with.
-    #[allow(clippy::too_many_arguments)]
+    #[expect(
+        clippy::too_many_arguments,
+        reason = "a step or an evaluation takes its state as flat borrowed slices (as Hairer's codes pass them): no struct is built per call"
+    )]
     fn attempt<R: Rhs>(
         &mut self,
         rhs: &mut R,
@@ -82,7 +85,10 @@ pub trait EmbeddedRk {
     ///
     /// # Errors
     /// Whatever the right-hand side fails with.
-    #[allow(clippy::too_many_arguments)]
+    #[expect(
+        clippy::too_many_arguments,
+        reason = "a step or an evaluation takes its state as flat borrowed slices (as Hairer's codes pass them): no struct is built per call"
+    )]
     fn prepare_dense<R: Rhs>(
         &mut self,
         rhs: &mut R,
@@ -181,7 +187,10 @@ fn power(x: f64, e: f64) -> f64 {
 ///
 /// # Errors
 /// Whatever the right-hand side fails with.
-#[allow(clippy::too_many_arguments)]
+#[expect(
+    clippy::too_many_arguments,
+    reason = "a step or an evaluation takes its state as flat borrowed slices (as Hairer's codes pass them): no struct is built per call"
+)]
 pub fn initial_step<R: Rhs>(
     rhs: &mut R,
     t: f64,

@@ -20,7 +20,7 @@
 
 // The constants are kept with the sources' 30 digits, verbatim, so that
 // they can be compared with them digit for digit.
-#![allow(clippy::excessive_precision)]
+#![expect(clippy::excessive_precision, reason = "the coefficients as the reference code prints them, digit for digit")]
 
 use super::{Rhs, state_len};
 use crate::error::SimError;
@@ -260,7 +260,10 @@ fn error_norm_853(h: f64, err5: f64, err3: f64, n: usize) -> f64 {
 /// HNW's dense-output coefficients `rcont1..8` of the step from `y` to
 /// `y_new` of size `h`, from its stages `k1, k6..k16`, in one loop whose
 /// eight outputs are parameters of their own (see `stage_arg!` in the parent module).
-#[allow(clippy::too_many_arguments)]
+#[expect(
+    clippy::too_many_arguments,
+    reason = "a step or an evaluation takes its state as flat borrowed slices (as Hairer's codes pass them): no struct is built per call"
+)]
 #[inline(always)]
 fn dense_coefficients(
     y: &[f64],
@@ -345,7 +348,10 @@ fn dense_coefficients(
 
 /// One attempt of [`Dop853`] ([`EmbeddedRk::attempt`]) on a state of
 /// length `N` known at compile time (0: read at run time; see `by_len!`).
-#[allow(clippy::too_many_arguments)]
+#[expect(
+    clippy::too_many_arguments,
+    reason = "a step or an evaluation takes its state as flat borrowed slices (as Hairer's codes pass them): no struct is built per call"
+)]
 #[inline(always)]
 fn attempt_len<const N: usize, R: Rhs>(
     s: &mut Dop853,
@@ -404,7 +410,10 @@ fn attempt_len<const N: usize, R: Rhs>(
 
 /// [`EmbeddedRk::prepare_dense`] of [`Dop853`] on a state of length `N`
 /// (as [`attempt_len`]).
-#[allow(clippy::too_many_arguments)]
+#[expect(
+    clippy::too_many_arguments,
+    reason = "a step or an evaluation takes its state as flat borrowed slices (as Hairer's codes pass them): no struct is built per call"
+)]
 #[inline(always)]
 fn prepare_dense_len<const N: usize, R: Rhs>(
     s: &mut Dop853,

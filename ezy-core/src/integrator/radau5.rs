@@ -17,7 +17,10 @@
 //! ([`crate::formulation::newton`]). Nothing is allocated per step.
 
 // the stage loops index several arrays at once, as RADAU5's Fortran does
-#![allow(clippy::needless_range_loop)]
+#![expect(
+    clippy::needless_range_loop,
+    reason = "index loops over the small fixed sizes unroll; iterator chains with skip(k) did not"
+)]
 
 pub use faer::c64;
 use faer::dyn_stack::{MemBuffer, MemStack, StackReq};
@@ -41,14 +44,14 @@ pub const MU_REAL: f64 = 3.637834252744496;
 pub const MU_COMPLEX: (f64, f64) = (2.6810828736277523, -3.050430199247411);
 /// The eigenvectors `T` of the coefficient matrix, `A = T diag(1/mu) T^-1`
 /// (the digits of RADAU5's `T11 .. T33`).
-#[allow(clippy::excessive_precision)]
+#[expect(clippy::excessive_precision, reason = "the coefficients as the reference code prints them, digit for digit")]
 const T: [[f64; 3]; 3] = [
     [0.09443876248897524, -0.14125529502095421, 0.03002919410514742],
     [0.25021312296533332, 0.20412935229379994, -0.38294211275726192],
     [1.0, 1.0, 0.0],
 ];
 /// `T^-1` (RADAU5's `TI11 .. TI33`).
-#[allow(clippy::excessive_precision)]
+#[expect(clippy::excessive_precision, reason = "the coefficients as the reference code prints them, digit for digit")]
 const TI: [[f64; 3]; 3] = [
     [4.17871859155190428, 0.32768282076106237, 0.52337644549944951],
     [-4.17871859155190428, -0.32768282076106237, 0.47662355450055044],
@@ -202,7 +205,10 @@ impl Radau5 {
     /// # Errors
     /// Whatever the right-hand side or the Jacobian fails with, except a
     /// non-finite stage, which rejects the step.
-    #[allow(clippy::too_many_arguments)]
+    #[expect(
+        clippy::too_many_arguments,
+        reason = "a step or an evaluation takes its state as flat borrowed slices (as Hairer's codes pass them): no struct is built per call"
+    )]
     pub fn attempt<R: Rhs + ?Sized, N: NewtonSystem<R>>(
         &mut self,
         rhs: &mut R,

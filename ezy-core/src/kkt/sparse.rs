@@ -327,7 +327,10 @@ impl SparseSchur {
     /// factored once, `x += A_mu^-1 (b - A x)` from `x = 0`.
     #[cold]
     #[inline(never)]
-    #[allow(clippy::neg_cmp_op_on_partial_ord)]
+    #[expect(
+        clippy::neg_cmp_op_on_partial_ord,
+        reason = "`!(x > 0.0)` is also true for NaN, which a pivot test must refuse"
+    )]
     fn solve_singular(&mut self, x: &mut [f64]) -> Result<(), KktError> {
         let nc = self.nc;
         self.b.copy_from_slice(&self.rhs);

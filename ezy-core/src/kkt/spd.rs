@@ -120,7 +120,10 @@ fn solve_2(a: &[f64], lda: usize, r: &[f64], x: &mut [f64]) -> Result<f64, KktEr
 /// then `D_jj <= PIVOT_RTOL A_jj` with `A_jj` the matrix's own diagonal
 /// `diag` (`D_00 = a00`, `D_11 = det / a00`, multiplied through by
 /// `a00 > 0`). Returns the determinant `a00 D_11`.
-#[allow(clippy::neg_cmp_op_on_partial_ord)]
+#[expect(
+    clippy::neg_cmp_op_on_partial_ord,
+    reason = "`!(x > 0.0)` is also true for NaN, which a pivot test must refuse"
+)]
 #[inline(always)]
 fn pivot_pair(block: [f64; 3], diag: [f64; 2], row: usize, n: usize) -> Result<f64, KktError> {
     let [a00, a10, a11] = block;
@@ -187,7 +190,11 @@ fn fixed<const N: usize>(v: &[f64]) -> [f64; N] {
 }
 
 // `!(d > tol)` also rejects NaN pivots, which `d <= tol` would let through.
-#[allow(clippy::neg_cmp_op_on_partial_ord, clippy::needless_range_loop)]
+#[expect(
+    clippy::neg_cmp_op_on_partial_ord,
+    clippy::needless_range_loop,
+    reason = "`!(x > 0.0)` is also true for NaN, which a pivot test must refuse and index loops over the small fixed sizes unroll; iterator chains with skip(k) did not"
+)]
 #[inline(always)]
 pub(crate) fn ldl_solve_fixed<const M: usize>(
     a: &[f64],
@@ -256,7 +263,10 @@ fn l_diag(a: &[f64], lda: usize, j: usize) -> f64 {
 }
 
 /// The same for any m, with the factor in `scratch` (m * (m + 1)).
-#[allow(clippy::neg_cmp_op_on_partial_ord)]
+#[expect(
+    clippy::neg_cmp_op_on_partial_ord,
+    reason = "`!(x > 0.0)` is also true for NaN, which a pivot test must refuse"
+)]
 fn ldl_solve_dynamic(
     a: &[f64],
     m: usize,
@@ -356,7 +366,10 @@ pub const fn regularized_scratch(m: usize) -> usize {
 ///
 /// # Errors
 /// [`KktError::NonFinite`] if `A` or `r` has a non-finite entry.
-#[allow(clippy::neg_cmp_op_on_partial_ord)]
+#[expect(
+    clippy::neg_cmp_op_on_partial_ord,
+    reason = "`!(x > 0.0)` is also true for NaN, which a pivot test must refuse"
+)]
 pub fn regularized_solve(
     a: &[f64],
     m: usize,
@@ -474,7 +487,10 @@ impl NormalSystem {
     /// # Errors
     /// [`KktError::NonFinite`] if `A` or `r` has a non-finite entry.
     #[inline]
-    #[allow(clippy::too_many_arguments)]
+    #[expect(
+        clippy::too_many_arguments,
+        reason = "a step or an evaluation takes its state as flat borrowed slices (as Hairer's codes pass them): no struct is built per call"
+    )]
     pub fn solve<Mo: Model>(
         &mut self,
         model: &Mo,

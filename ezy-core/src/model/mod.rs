@@ -184,7 +184,6 @@ pub trait Model: Clone + Send + Sync + 'static {
     /// [`MinimalRhsError::Forces`] with what `forces` returned, or
     /// [`MinimalRhsError::Maggi`] if `B^T M B` is not positive definite
     /// (a non-finite state); `dz` is then partly written.
-    #[allow(clippy::too_many_arguments)]
     #[inline]
     fn minimal_rhs<E, F>(
         &self,
@@ -214,7 +213,6 @@ pub trait Model: Clone + Send + Sync + 'static {
     ///
     /// # Errors
     /// As [`Model::minimal_rhs`].
-    #[allow(clippy::too_many_arguments)]
     #[inline]
     fn minimal_rhs_lean<E, F>(
         &self,
@@ -246,7 +244,10 @@ pub trait Model: Clone + Send + Sync + 'static {
     /// # Errors
     /// As [`Model::minimal_rhs`], the forces' error a
     /// [`crate::error::SimError::EffectFailed`].
-    #[allow(clippy::too_many_arguments)]
+    #[expect(
+        clippy::too_many_arguments,
+        reason = "a step or an evaluation takes its state as flat borrowed slices (as Hairer's codes pass them): no struct is built per call"
+    )]
     #[inline]
     fn minimal_rhs_effects(
         &self,

@@ -53,7 +53,10 @@ impl SquareLu {
 /// LU with partial pivoting of the `N x N` row-major `a` at a size known
 /// at compile time (loops the compiler unrolls); see [`SquareLu::factor`].
 #[inline]
-#[allow(clippy::needless_range_loop)] // index loops unroll; iterators with skip(k) did not (3x the instructions)
+#[expect(
+    clippy::needless_range_loop,
+    reason = "index loops unroll; iterators with skip(k) did not (3x the instructions)"
+)]
 fn lu_fixed<const N: usize>(src: &[f64], a: &mut [f64], piv: &mut [usize]) -> f64 {
     let (src, a) = (&src[..N * N], &mut a[..N * N]);
     let mut m = [[0.0; N]; N];
