@@ -81,7 +81,7 @@ pub fn with_sets<M: Model>(proto: &M, sets: &[(String, f64)]) -> Result<M, Strin
             format!("unknown parameter `{name}` in model {}; its parameters: {}", info.name, known.join(", "))
         })?;
         if info.params[i].count {
-            ezy_scene::scene::check_count(name, *value).map_err(|e| e.message)?;
+            ezy_scene::check_count(name, *value).map_err(|e| e.message)?;
         }
         m.set_param(i, *value);
     }
@@ -263,8 +263,8 @@ impl ModelCatalog for App {
     fn effect_kinds(&self) -> Option<&EffectKinds> {
         Some(&self.kinds)
     }
-    fn check_user_effects(&self, key: &str, scene: &Scene) -> Result<(), SceneError> {
-        self.registered(key).map_or(Ok(()), |model| ezy_scene::registry::check_user_effects(model, scene))
+    fn check_user_effects(&self, key: &str, checked: &ezy_scene::Checked) -> Result<(), SceneError> {
+        self.registered(key).map_or(Ok(()), |model| ezy_scene::registry::check_user_effects(model, checked))
     }
 }
 

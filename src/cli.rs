@@ -560,12 +560,12 @@ pub fn parse_batches(s: &str) -> Result<usize, String> {
 }
 
 /// A family size of `ezy scale --n`: a whole number (also `1e4`) from 1
-/// to [`ezy_scene::scene::MAX_COUNT`].
+/// to [`ezy_scene::MAX_COUNT`].
 ///
 /// # Errors
 /// Not a whole number from 1 to the limit.
 pub fn parse_size(s: &str) -> Result<usize, String> {
-    parse_capped(s, ezy_scene::scene::MAX_COUNT as u64, "elements of a family (1e6)").map(|n| n as usize)
+    parse_capped(s, ezy_scene::MAX_COUNT as u64, "elements of a family (1e6)").map(|n| n as usize)
 }
 
 /// `NAME=VALUE` of `--set`, with a finite value.

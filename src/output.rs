@@ -3,24 +3,15 @@
 //! run succeeded, so a failed or interrupted run never leaves a truncated
 //! file that looks complete) and kept in memory for the figures.
 //!
-//! Columns: `t`; the coordinates in model order; their velocities in the
-//! same order (`<coord>d`); then the optional groups the scene's
-//! `output.include` asks for, in this order (see [`OutputGroup`]): energy
-//! (`T`, `W`, `W_<effect>` \[J\]), points (`<point>.x`, `<point>.y` \[m\]),
-//! point velocities (`<point>.vx`, `<point>.vy` \[m/s\]), effects
-//! (`tau_<effect>` \[N m\] or `F_<effect>` \[N\]), constraint forces
-//! (`F_<hinge>.x`, `F_<hinge>.y`, `F_<skate>` \[N\]), accelerations
-//! (`<coord>dd`), residuals (`res_phi`
-//! = `max|C(q)|` \[m\], `res_vel` = `max|G(q) qd|` \[m/s\]).
+//! Columns: `t`, the coordinates, their velocities, then the groups the
+//! scene's `output.include` asks for, each named and valued in one place,
+//! [`ezy_scene::columns`] ([`RowBuilder`]).
 
 use std::fs::File;
 use std::io::{BufWriter, Write};
 use std::path::{Path, PathBuf};
 
-use ezy_core::kkt::KktMethod;
 use ezy_core::{Dynamics, Model, Observer, Sample, SimError};
-
-use ezy_scene::{OutputGroup, Scene};
 
 use crate::transaction::{Transaction, TransactionError};
 
@@ -52,133 +43,9 @@ pub enum OutputError {
     Transaction(#[from] TransactionError),
 }
 
-/// Assembles one output row from a sample: `t`, `q`, `qd`, then exactly the
-/// groups the scene asks for (see [`OutputGroup`]); a group not asked for
-/// is not computed.
-pub struct RowBuilder<M: Model> {
-    /// Column names, from [`Scene::columns`].
-    pub columns: Vec<String>,
-    energy: bool,
-    points: bool,
-    point_velocities: bool,
-    effects: bool,
-    forces: bool,
-    accelerations: bool,
-    residuals: bool,
-    /// A copy of the dynamics for the multipliers and accelerations at
-    /// output times (constraint forces or accelerations asked for).
-    probe: Option<Box<ForceProbe<M>>>,
-    point_buf: Vec<f64>,
-    f_scratch: Vec<f64>,
-}
-
-/// Solves the KKT system at an output sample for the constraint forces.
-struct ForceProbe<M: Model> {
-    sys: Dynamics<M>,
-    y: Vec<f64>,
-    dy: Vec<f64>,
-}
-
-impl<M: Model> RowBuilder<M> {
-    /// The row layout of `scene` for the run `sys`.
-    pub fn new(scene: &Scene, sys: &Dynamics<M>) -> Self {
-        let forces = scene.includes(OutputGroup::ConstraintForces);
-        let accelerations = scene.includes(OutputGroup::Accelerations);
-        // skates with friction: their force and mode at each sample
-        let probe = (forces || accelerations || !sys.friction.is_empty()).then(|| {
-            let mut copy =
-                Dynamics::new(sys.model.clone(), sys.effects.clone(), KktMethod::Auto).with_drives(sys.drives.clone());
-            copy.baumgarte = sys.baumgarte;
-            let ny = copy.ny();
-            Box::new(ForceProbe { sys: copy, y: vec![0.0; ny], dy: vec![0.0; ny] })
-        });
-        Self {
-            columns: scene.columns(&sys.info),
-            energy: scene.includes(OutputGroup::Energy),
-            points: scene.includes(OutputGroup::Points),
-            point_velocities: scene.includes(OutputGroup::PointVelocities),
-            effects: scene.includes(OutputGroup::Effects),
-            forces,
-            accelerations,
-            residuals: scene.includes(OutputGroup::Residuals),
-            probe,
-            point_buf: vec![0.0; 2 * sys.info.points.len()],
-            f_scratch: vec![0.0; sys.nq()],
-        }
-    }
-
-    /// Fills `row` for sample `s` of the run `sys`.
-    ///
-    /// # Errors
-    /// [`SimError`] if the KKT solve for the constraint forces fails.
-    pub fn fill(&mut self, sys: &Dynamics<M>, s: &Sample<'_>, row: &mut Vec<f64>) -> Result<(), SimError> {
-        row.clear();
-        row.push(s.t);
-        row.extend_from_slice(s.q);
-        row.extend_from_slice(s.qd);
-        if self.energy {
-            row.push(s.kinetic_energy);
-            row.push(s.work);
-            row.extend_from_slice(s.works);
-        }
-        if self.points {
-            sys.model.points(s.q, &mut self.point_buf);
-            row.extend_from_slice(&self.point_buf);
-        }
-        if self.point_velocities {
-            sys.model.point_velocities(s.q, s.qd, &mut self.point_buf);
-            row.extend_from_slice(&self.point_buf);
-        }
-        if let Some(p) = &mut self.probe {
-            let nq = sys.nq();
-            p.y[..nq].copy_from_slice(s.q);
-            p.y[nq..2 * nq].copy_from_slice(s.qd);
-            // the effects switched on and off and the skates' modes of
-            // the run at this sample
-            for (pe, e) in p.sys.effects.iter_mut().zip(&sys.effects) {
-                pe.on = e.on;
-            }
-            for (k, fr) in sys.friction.iter().enumerate() {
-                if p.sys.friction[k].mode != fr.mode {
-                    p.sys.set_skate_mode(k, fr.mode);
-                }
-            }
-            p.sys.rhs(s.t, &p.y, &mut p.dy)?;
-        }
-        if self.effects {
-            self.f_scratch.fill(0.0);
-            let mut friction = 0;
-            for e in &sys.effects {
-                if let ezy_core::effects::Law::SkateFriction { .. } = e.law {
-                    // the lateral force, slip velocity and mode (probe: above)
-                    let p = self.probe.as_ref().expect("a probe with friction");
-                    let fr = &p.sys.friction[friction];
-                    row.extend([p.sys.skate_force(friction), fr.slip, f64::from(u8::from(fr.mode.is_sliding()))]);
-                    friction += 1;
-                } else {
-                    row.push(e.apply(s.t, s.q, s.qd, &mut self.f_scratch).1);
-                }
-            }
-        }
-        if let Some(p) = &mut self.probe {
-            let nq = sys.nq();
-            // M qdd = f - G^T lambda: the constraint force on the
-            // coordinates is -G^T lambda, so a hinge row `r_a - r_b` pushes
-            // body a with -lambda and a skate row (unit normal n) with -lambda n.
-            if self.forces {
-                row.extend(p.sys.lambda().iter().map(|l| -l));
-            }
-            if self.accelerations {
-                row.extend_from_slice(&p.dy[nq..2 * nq]);
-            }
-        }
-        if self.residuals {
-            row.push(s.residual_position);
-            row.push(s.residual_velocity);
-        }
-        Ok(())
-    }
-}
+/// The row of an output sample: `t`, `q`, `qd`, then the groups the scene
+/// asks for, named and valued in one place ([`ezy_scene::columns`]).
+pub use ezy_scene::RowBuilder;
 
 /// `events.csv` of a run: a header `t,event,direction,` and the state's
 /// names, then a row per event in time order (`direction`: `rising` or

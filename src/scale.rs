@@ -96,7 +96,7 @@ pub fn scale<M: Model>(
         .ok_or(ScaleError::NoCount { model: info.name })?;
     // every size and the batches checked before any model is built
     for &n in ns {
-        if let Err(e) = ezy_scene::scene::check_count(name, n as f64) {
+        if let Err(e) = ezy_scene::check_count(name, n as f64) {
             return Err(ScaleError::BadCount { name, n, message: e.message });
         }
     }

@@ -265,11 +265,11 @@ fn initial_value_paths_agree() {
     let s = scenes::get("drive-prescribed");
     let m: ezy_models::EzyRollerDriven = Default::default();
     let drives = s.resolve_drives(&m.info());
-    let given = |list: &[(String, ezy_scene::scene::InitValue)]| -> Vec<(usize, f64)> {
+    let given = |list: &[(String, ezy_scene::InitValue)]| -> Vec<(usize, f64)> {
         list.iter()
             .map(|(n, v)| match v {
-                ezy_scene::scene::InitValue::Num(x) => (m.info().coord_index(n).unwrap(), *x),
-                ezy_scene::scene::InitValue::Param(_) => unreachable!("numbers in this scene"),
+                ezy_scene::InitValue::Num(x) => (m.info().coord_index(n).unwrap(), *x),
+                ezy_scene::InitValue::Param(_) => unreachable!("numbers in this scene"),
             })
             .collect()
     };

@@ -10,12 +10,22 @@
 //! its reader, as a format crate is apart from serde.
 //!
 //! ```text
-//! scene.toml -> Scene::from_toml   syntax, types, unknown keys, scene parameters
-//!            -> Scene::bind_kinds  kinds of the user's own (EffectKinds)
-//!            -> Scene::check_all   every name and number against the model, every error
-//!            -> Scene::problem     overrides (--set), family counts and expansion,
-//!                                  effects resolved: an ezy_core::Problem
+//! scene.toml -> Scene::from_toml      (file)    syntax, types, unknown keys, scene parameters
+//!            -> Scene::bind_kinds     (bind)    kinds of the user's own (EffectKinds)
+//!            -> Scene::with_sets      (bind)    overrides (--set): scene and model parameters,
+//!                                               EFFECT.KEY numbers
+//!            -> set_counts            (registry) the family counts on the model
+//!            -> Scene::checked        (family, check/) families expanded; every name and
+//!                                               number against the model, every error:
+//!                                               a Checked scene (indices, typed effect
+//!                                               specs, drives, events)
+//!            -> Checked -> Problem    (problem) no re-check: what needs the model's
+//!                                               values (masses, the effects' laws)
 //! ```
+//!
+//! [`Scene::problem`] runs the stages from `with_sets` on. The output's
+//! columns are named and filled in one place ([`columns`]); the figures
+//! are data ([`view`]).
 //!
 //! ```
 //! # ezy_core::model! {
@@ -47,21 +57,35 @@
 //! assert!(bad.unwrap_err().to_string().starts_with("glide.toml:5:"), "the line of `t_end`");
 //! ```
 //!
-//! Modules: [`scene`] (the document, its check, `--set`, families),
+//! Modules: [`schema`] (the document's types), [`file`](mod@file) (text in and
+//! out, located errors), [`bind`] (scene parameters, `--set`, phase
+//! steps), [`family`] (family expansion), [`check`] (one module per
+//! section, returning [`Checked`]), [`problem`] (`Checked -> Problem`),
+//! [`columns`] (output groups, names and values), [`view`] (figure specs),
 //! [`kinds`] (effects as scene files write them; kinds of the user's own),
 //! [`registry`] (models by the key scenes name them by), [`files`]
 //! (bounded reads of the files a user names).
 
+pub mod bind;
+pub mod check;
+pub mod columns;
+pub mod family;
+pub mod file;
 pub mod files;
 pub mod kinds;
-mod problem;
+pub mod problem;
 pub mod registry;
-pub mod scene;
+pub mod schema;
+pub mod view;
 
+pub use check::{Checked, MAX_COUNT, MAX_FIGURE_NAME, check_count};
+pub use columns::{OutputGroup, RowBuilder};
+pub use file::{MAX_SCENE_BYTES, SceneError, SceneFileError};
 pub use kinds::{EffectKinds, KindHandle, NAME_KEYS, SceneEffect, UserTable};
-pub use scene::{
-    Binding, Column, DEFAULT_DPI, DriveSpec, FigureFormat, FigureSpec, InitValue, Initial, IntegratorSettings, Line,
-    MAX_DPI, MIN_DPI, OutputGroup, OutputSettings, Scene, SceneError, SceneFileError, figure_stem,
+pub use schema::{Binding, DriveSpec, InitValue, Initial, IntegratorSettings, OutputSettings, Scene};
+pub use view::{
+    Column, DEFAULT_DPI, FigureFormat, FigureSpec, Line, MAX_DPI, MIN_DPI, figure_stem, split_outside_parentheses,
+    unbalanced_parentheses,
 };
 
 #[cfg(test)]

@@ -9,9 +9,9 @@
 //! against the user's model exactly as a built-in one is.
 
 use ezy_core::effects::EffectContext;
-use ezy_core::{Model, ModelInfo, NameIndex, SimError};
+use ezy_core::{EffectSpec, Model, ModelInfo, NameIndex, SimError};
 
-use crate::{EffectKinds, Scene, SceneEffect, SceneError, SceneFileError};
+use crate::{Checked, EffectKinds, Scene, SceneError, SceneFileError};
 
 /// Something models can be registered with under a key.
 ///
@@ -61,30 +61,33 @@ pub trait ModelCatalog {
         None
     }
 
-    /// Resolves the effects of kinds of the user's own in `scene` (bound,
-    /// families expanded) against the model registered as `key` at the
-    /// scene's parameters (default: nothing to do; see
-    /// [`check_user_effects`]).
+    /// Resolves the effects of kinds of the user's own in `checked` (the
+    /// scene bound, families expanded, checked) against the model
+    /// registered as `key` at the scene's parameters (default: nothing to
+    /// do; see [`check_user_effects`]).
     ///
     /// # Errors
     /// A [`SceneError`] at the effect's key the law refuses.
-    fn check_user_effects(&self, _key: &str, _scene: &Scene) -> Result<(), SceneError> {
+    fn check_user_effects(&self, _key: &str, _checked: &Checked) -> Result<(), SceneError> {
         Ok(())
     }
 }
 
-/// Resolves the effects of kinds of the user's own ([`SceneEffect::User`])
-/// in `scene` (bound, families expanded, checked) against `model` at
-/// the scene's parameters, so that a name the law looks up or a number it
-/// refuses is reported at its key in the file before any work (what
-/// [`ModelCatalog::check_user_effects`] does for the `ezy` crate's `App`).
+/// Resolves the effects of kinds of the user's own
+/// ([`ezy_core::EffectSpec::User`], read into their types by the check)
+/// in `checked` against `model` at the scene's parameters, so that a name
+/// the law looks up or a number it refuses is reported at its key in the
+/// file before any work (what [`ModelCatalog::check_user_effects`] does
+/// for the `ezy` crate's `App`).
 ///
 /// # Errors
 /// A [`SceneError`] at `effects.NAME.KEY`, the key the law names.
-pub fn check_user_effects<M: Model>(model: &M, scene: &Scene) -> Result<(), SceneError> {
-    if !scene.effects.iter().any(|(_, e)| matches!(e, SceneEffect::User(_))) {
+pub fn check_user_effects<M: Model>(model: &M, checked: &Checked) -> Result<(), SceneError> {
+    let is_user = |spec: &EffectSpec| matches!(spec, EffectSpec::User(_));
+    if !checked.effects().any(|(_, spec)| is_user(spec)) {
         return Ok(());
     }
+    let scene = checked.scene();
     let mut model = model.clone();
     let base = model.info();
     for (name, value) in &scene.params {
@@ -95,19 +98,19 @@ pub fn check_user_effects<M: Model>(model: &M, scene: &Scene) -> Result<(), Scen
     let info = model.info();
     let names = NameIndex::new(&info);
     let cx = EffectContext::new(&model, &names).with_scene_params(&scene.scene_params);
-    for (name, spec) in scene.effects.iter().filter(|(_, e)| matches!(e, SceneEffect::User(_))) {
+    for (name, spec) in checked.effects().filter(|(_, spec)| is_user(spec)) {
         if let Err(e) = spec.resolve_in(name, &cx) {
             return Err(match e {
                 // a field's error at the field; one of the whole table (an
                 // unknown field) at the effect, without an empty key
                 SimError::Effect { field, message, .. } => {
-                    let mut path = vec!["effects".into(), name.clone()];
+                    let mut path = vec!["effects".into(), name.to_string()];
                     if !field.is_empty() {
                         path.push(field.into());
                     }
                     SceneError { path, message }
                 }
-                e => SceneError { path: vec!["effects".into(), name.clone()], message: e.to_string() },
+                e => SceneError { path: vec!["effects".into(), name.to_string()], message: e.to_string() },
             });
         }
     }
@@ -147,7 +150,7 @@ pub fn set_counts<M: Model>(model: &mut M, params: &[(String, f64)]) -> Result<(
         if let Some(i) = base.param_index(name)
             && base.params[i].count
         {
-            crate::scene::check_count(name, *value)?;
+            crate::check_count(name, *value)?;
             model.set_param(i, *value);
             last = Some(name.clone());
         }
@@ -198,7 +201,8 @@ pub struct SceneSource {
 
 /// Checks a parsed scene against the model `models` registers under its
 /// `model` key: counts, family expansion, and every name and number the
-/// scene gives ([`Scene::check`]).
+/// scene gives ([`Scene::checked`]), then the laws of the user's own
+/// kinds ([`ModelCatalog::check_user_effects`]).
 ///
 /// # Errors
 /// [`SceneFileError`] at the `model` key for an unknown model (listing the
@@ -221,11 +225,10 @@ pub fn check_scene(
     scene
         .bind_kinds(models.effect_kinds().unwrap_or(&EffectKinds::default()))
         .map_err(|e| Scene::locate_error(text, file, e))?;
-    let expanded = scene.expand_families(&info).map_err(|e| Scene::locate_error(text, file, e))?;
-    let errors = expanded.check_all(&info).into_iter().map(|e| Scene::locate_error(text, file, e));
-    if let Some(e) = SceneFileError::collect(errors) {
-        return Err(e);
-    }
-    models.check_user_effects(&scene.model, &expanded).map_err(|e| Scene::locate_error(text, file, e))?;
+    let locate = |errors: Vec<SceneError>| {
+        SceneFileError::collect(errors.into_iter().map(|e| Scene::locate_error(text, file, e))).expect("an error")
+    };
+    let checked = scene.clone().checked(&info).map_err(locate)?;
+    models.check_user_effects(&scene.model, &checked).map_err(|e| Scene::locate_error(text, file, e))?;
     Ok(SceneSource { scene, text: text.to_string(), file: file.to_string() })
 }

@@ -776,11 +776,13 @@ impl PyScene {
         trial.set(&self.info, name, value).map_err(ezy_err)?;
         // an effect kind of the user's own reads its fields when the run
         // is set up: checked now, as the command line's run would
-        self.kit
-            .get()
-            .app
-            .check_user_effects(&trial.model, &trial)
-            .map_err(|e| ezy_err(ezy_core::SimError::Scene { key: e.key(), message: e.message }))?;
+        let app = &self.kit.get().app;
+        if let Some(Ok(info)) = app.info_with(&trial.model, &trial.params) {
+            let refused =
+                |e: ezy_scene::SceneError| ezy_err(ezy_core::SimError::Scene { key: e.key(), message: e.message });
+            let checked = trial.clone().checked(&info).map_err(|e| refused(e.into_iter().next().expect("an error")))?;
+            app.check_user_effects(&trial.model, &checked).map_err(refused)?;
+        }
         self.sets.retain(|(n, _)| n != name);
         self.sets.push((name.to_string(), value));
         Ok(())

@@ -70,7 +70,7 @@ impl std::str::FromStr for Metric {
                 "metric `{text}`: expected FUNC(COLUMN) or FUNC(COLUMN, T0, T1) with FUNC mean, max, min or final, e.g. `mean(norm(x1d, y1d), 50, 60)`"
             )
         };
-        if let Some(why) = ezy_scene::scene::unbalanced_parentheses(text) {
+        if let Some(why) = ezy_scene::unbalanced_parentheses(text) {
             return Err(format!("metric `{text}`: {why}"));
         }
         let open = text.find('(').ok_or_else(usage)?;
@@ -97,7 +97,7 @@ impl std::str::FromStr for Metric {
                 ));
             }
         };
-        let args = ezy_scene::scene::split_outside_parentheses(inner);
+        let args = ezy_scene::split_outside_parentheses(inner);
         let column: Column = args[0].parse().map_err(|e| format!("metric `{text}`: {e}"))?;
         let time = |a: &str| -> Result<f64, String> {
             match a.trim().parse::<f64>() {

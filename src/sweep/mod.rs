@@ -268,7 +268,7 @@ fn check<M: Model>(proto: &M, job: &SweepJob) -> Result<Checked, String> {
         let name = &job.plan.axes[k].name;
         let mut sum = 0f64;
         for v in job.plan.fixed_iter(k).expect("a fixed axis") {
-            ezy_scene::scene::check_count(name, v).map_err(|e| format!("{}: {}", axis_flag(job, name), e.message))?;
+            ezy_scene::check_count(name, v).map_err(|e| format!("{}: {}", axis_flag(job, name), e.message))?;
             sum += v;
         }
         // every value of this axis meets every combination of the others
