@@ -5,7 +5,7 @@ use std::collections::HashMap;
 
 use syn::Ident;
 
-use crate::ast::{Affine, HingeTarget, ModelDef, Ref};
+use crate::ast::{Affine, Drive, HingeTarget, ModelDef, Ref};
 
 /// Collects errors; `finish` combines them into one.
 #[derive(Default)]
@@ -141,6 +141,42 @@ fn resolve(
 
 /// Checks names and references; returns the resolved indices.
 pub fn check(def: &ModelDef, errs: &mut Errors) -> Resolved {
+    check_names(def, errs);
+    let lookup = Lookup {
+        def,
+        body_names: def.bodies.iter().map(|b| b.name.to_string()).collect(),
+        body_families: def.bodies.iter().map(|b| b.family).collect(),
+        point_names: def.points.iter().map(|p| p.name.to_string()).collect(),
+        point_families: def.points.iter().map(|p| p.family).collect(),
+    };
+    let (point_body, point_body_index) = point_bodies(def, &lookup, errs);
+    let res_points = Resolved {
+        point_body: point_body.clone(),
+        point_body_index: point_body_index.clone(),
+        hinge_points: Vec::new(),
+        slider_points: Vec::new(),
+        drive_hinge: Vec::new(),
+        skate_point: Vec::new(),
+    };
+    let hinge_points =
+        def.hinges.iter().map(|h| joint(errs, &lookup, &res_points, "hinge", &h.name, &h.point, &h.target)).collect();
+    let slider_points = def
+        .sliders
+        .iter()
+        .map(|s| {
+            let kind = if s.heading { "slider" } else { "slot" };
+            joint(errs, &lookup, &res_points, kind, &s.name, &s.point, &s.target)
+        })
+        .collect();
+    let hinge_names: Vec<String> = def.hinges.iter().map(|h| h.name.to_string()).collect();
+    let drive_hinge = def.drives.iter().map(|d| drive_hinge(errs, def, &hinge_names, d)).collect();
+    let skate_point = def.skates.iter().map(|s| lookup.point(errs, &format!("skate `{}`", s.name), &s.point)).collect();
+    Resolved { point_body, point_body_index, hinge_points, slider_points, drive_hinge, skate_point }
+}
+
+/// Checks that names are unique, parameters finite, family variables
+/// named apart from parameters and counts, and that there is a body.
+fn check_names(def: &ModelDef, errs: &mut Errors) {
     check_unique(errs, "parameter", def.params.iter().map(|p| &p.name).chain(def.counts.iter().map(|c| &c.name)));
     check_unique(errs, "body", def.bodies.iter().map(|b| &b.name));
     check_unique(errs, "point", def.points.iter().map(|p| &p.name));
@@ -188,15 +224,33 @@ pub fn check(def: &ModelDef, errs: &mut Errors) -> Resolved {
             format!("model `{}` has no body; add `body NAME(x, y, phi) {{ mass: .., inertia: .. }}`", def.name),
         );
     }
-    let body_names: Vec<String> = def.bodies.iter().map(|b| b.name.to_string()).collect();
-    let body_families: Vec<Option<usize>> = def.bodies.iter().map(|b| b.family).collect();
-    let point_names: Vec<String> = def.points.iter().map(|p| p.name.to_string()).collect();
-    let point_families: Vec<Option<usize>> = def.points.iter().map(|p| p.family).collect();
+}
+
+/// The names and families of the bodies and points a reference may name.
+struct Lookup<'a> {
+    def: &'a ModelDef,
+    body_names: Vec<String>,
+    body_families: Vec<Option<usize>>,
+    point_names: Vec<String>,
+    point_families: Vec<Option<usize>>,
+}
+
+impl Lookup<'_> {
+    /// Resolves a reference to a point of `owner`.
+    fn point(&self, errs: &mut Errors, owner: &str, r: &Ref) -> PointRef {
+        (resolve(errs, self.def, "point", owner, r, &self.point_names, &self.point_families), r.index.clone())
+    }
+}
+
+/// Every point's body item and, for a single point, the element of a body
+/// family it sits on ([`Resolved::point_body`], [`Resolved::point_body_index`]);
+/// a family point sits on the element of the same index of a body family.
+fn point_bodies(def: &ModelDef, lookup: &Lookup, errs: &mut Errors) -> (Vec<usize>, Vec<Option<Affine>>) {
     let mut point_body = Vec::with_capacity(def.points.len());
     let mut point_body_index = Vec::with_capacity(def.points.len());
     for p in &def.points {
         let owner = format!("point `{}`", p.name);
-        let b = resolve(errs, def, "body", &owner, &p.body, &body_names, &body_families);
+        let b = resolve(errs, def, "body", &owner, &p.body, &lookup.body_names, &lookup.body_families);
         point_body.push(b);
         let exact = p.body.index.as_ref().is_some_and(|a| a.var && a.count.is_none() && a.c == 0);
         match p.family {
@@ -215,126 +269,112 @@ pub fn check(def: &ModelDef, errs: &mut Errors) -> Resolved {
             None => point_body_index.push(p.body.index.clone()),
         }
     }
-    let find_point = |errs: &mut Errors, owner: &str, r: &Ref| -> PointRef {
-        (resolve(errs, def, "point", owner, r, &point_names, &point_families), r.index.clone())
-    };
-    let res_points = Resolved {
-        point_body: point_body.clone(),
-        point_body_index: point_body_index.clone(),
-        hinge_points: Vec::new(),
-        slider_points: Vec::new(),
-        drive_hinge: Vec::new(),
-        skate_point: Vec::new(),
-    };
-    // the two points a joint relates: distinct, on different bodies
-    let joint = |errs: &mut Errors, kind: &str, name: &Ident, point: &Ref, target: &HingeTarget| {
-        let owner = format!("{kind} `{name}`");
-        let a = find_point(errs, &owner, point);
-        let b = match target {
-            HingeTarget::Point(p) => {
-                let b = find_point(errs, &owner, p);
-                if a.0 != usize::MAX && b.0 != usize::MAX {
-                    let same_point = a.0 == b.0
-                        && match (&a.1, &b.1) {
-                            (None, None) => true,
-                            (Some(x), Some(y)) => x.same(y),
-                            _ => false,
-                        };
-                    if same_point {
-                        errs.at(&p.name, format!("{kind} `{name}` joins point `{}` to itself", p.name));
-                    } else if point_body[a.0] != usize::MAX
-                        && point_body[b.0] != usize::MAX
-                        && same_body(&res_points.body_of(def, &a), &res_points.body_of(def, &b))
-                    {
-                        errs.at(
-                            &p.name,
-                            format!(
-                                "{kind} `{name}` joins two points of the same body `{}`; a {kind} joins two bodies (or a body and `ground(x, y)`)",
-                                body_names[point_body[a.0]]
-                            ),
-                        );
-                    }
+    (point_body, point_body_index)
+}
+
+/// The two points a joint relates: distinct, on different bodies
+/// (`res_points` has the points' bodies resolved).
+fn joint(
+    errs: &mut Errors,
+    lookup: &Lookup,
+    res_points: &Resolved,
+    kind: &str,
+    name: &Ident,
+    point: &Ref,
+    target: &HingeTarget,
+) -> (PointRef, Option<PointRef>) {
+    let (def, point_body) = (lookup.def, &res_points.point_body);
+    let owner = format!("{kind} `{name}`");
+    let a = lookup.point(errs, &owner, point);
+    let b = match target {
+        HingeTarget::Point(p) => {
+            let b = lookup.point(errs, &owner, p);
+            if a.0 != usize::MAX && b.0 != usize::MAX {
+                let same_point = a.0 == b.0
+                    && match (&a.1, &b.1) {
+                        (None, None) => true,
+                        (Some(x), Some(y)) => x.same(y),
+                        _ => false,
+                    };
+                if same_point {
+                    errs.at(&p.name, format!("{kind} `{name}` joins point `{}` to itself", p.name));
+                } else if point_body[a.0] != usize::MAX
+                    && point_body[b.0] != usize::MAX
+                    && same_body(&res_points.body_of(def, &a), &res_points.body_of(def, &b))
+                {
+                    errs.at(
+                        &p.name,
+                        format!(
+                            "{kind} `{name}` joins two points of the same body `{}`; a {kind} joins two bodies (or a body and `ground(x, y)`)",
+                            lookup.body_names[point_body[a.0]]
+                        ),
+                    );
                 }
-                Some(b)
             }
-            HingeTarget::Ground { .. } => None,
-        };
-        (a, b)
+            Some(b)
+        }
+        HingeTarget::Ground { .. } => None,
     };
-    let hinge_points = def.hinges.iter().map(|h| joint(errs, "hinge", &h.name, &h.point, &h.target)).collect();
-    let slider_points = def
-        .sliders
-        .iter()
-        .map(|s| joint(errs, if s.heading { "slider" } else { "slot" }, &s.name, &s.point, &s.target))
-        .collect();
-    let hinge_names: Vec<String> = def.hinges.iter().map(|h| h.name.to_string()).collect();
-    let drive_hinge = def
-        .drives
-        .iter()
-        .map(|d| {
-            let owner = format!("drive `{}`", d.name);
-            let Some(h) = hinge_names.iter().position(|h| d.hinge.name == h) else {
+    (a, b)
+}
+
+/// The hinge a drive drives, among `hinge_names` (`usize::MAX` if
+/// unknown): a family drive drives the hinge element of its own index,
+/// over the hinge family's very range; a single drive a single hinge.
+fn drive_hinge(errs: &mut Errors, def: &ModelDef, hinge_names: &[String], d: &Drive) -> usize {
+    let owner = format!("drive `{}`", d.name);
+    let Some(h) = hinge_names.iter().position(|h| d.hinge.name == h) else {
+        errs.at(
+            &d.hinge.name,
+            format!("{owner} refers to unknown hinge `{}`; known hinges: {}", d.hinge.name, known(hinge_names)),
+        );
+        return usize::MAX;
+    };
+    if let Some(a) = &d.hinge.index {
+        check_index(errs, def, a);
+    }
+    match (d.family, def.hinges[h].family) {
+        (Some(fd), Some(fh)) => {
+            let exact = d.hinge.index.as_ref().is_some_and(|a| a.var && a.count.is_none() && a.c == 0);
+            let (rd, rh) = (&def.families[fd], &def.families[fh]);
+            if !exact {
+                errs.at(
+                    &d.hinge.name,
+                    format!("{owner}: a family drive drives the hinge of its own index: write `hinge {}[{}]`", d.hinge.name, rd.var),
+                );
+            } else if !(rd.start.same(&rh.start) && rd.end.same(&rh.end)) {
                 errs.at(
                     &d.hinge.name,
                     format!(
-                        "{owner} refers to unknown hinge `{}`; known hinges: {}",
+                        "{owner}: the drive family ranges over {}..{} but the hinge family `{}` over {}..{}; declare the drive in a `for` with the hinge's range",
+                        rd.start.show(&rd.var.to_string()),
+                        rd.end.show(&rd.var.to_string()),
                         d.hinge.name,
-                        known(&hinge_names)
+                        rh.start.show(&rh.var.to_string()),
+                        rh.end.show(&rh.var.to_string())
                     ),
                 );
-                return usize::MAX;
-            };
+            }
+        }
+        (None, Some(fh)) => errs.at(
+            &d.hinge.name,
+            format!(
+                "{owner}: `{}` is a hinge family: drive all of it with `for {} in ..` and `drive {}[{}]: hinge {}[{}];` (one element alone cannot be driven)",
+                d.hinge.name, def.families[fh].var, d.name, def.families[fh].var, d.hinge.name, def.families[fh].var
+            ),
+        ),
+        (Some(_), None) => errs.at(
+            &d.hinge.name,
+            format!("{owner}: `{}` is a single hinge; a single drive drives it (`drive {}: hinge {};` outside the `for`)", d.hinge.name, d.name, d.hinge.name),
+        ),
+        (None, None) => {
             if let Some(a) = &d.hinge.index {
-                check_index(errs, def, a);
+                errs.push(syn::Error::new(
+                    a.span,
+                    format!("{owner}: `{}` is a single hinge, not a family; drop the index", d.hinge.name),
+                ));
             }
-            // a family drive drives the hinge element of its own index, over
-            // the hinge family's very range; a single drive a single hinge
-            match (d.family, def.hinges[h].family) {
-                (Some(fd), Some(fh)) => {
-                    let exact = d.hinge.index.as_ref().is_some_and(|a| a.var && a.count.is_none() && a.c == 0);
-                    let (rd, rh) = (&def.families[fd], &def.families[fh]);
-                    if !exact {
-                        errs.at(
-                            &d.hinge.name,
-                            format!("{owner}: a family drive drives the hinge of its own index: write `hinge {}[{}]`", d.hinge.name, rd.var),
-                        );
-                    } else if !(rd.start.same(&rh.start) && rd.end.same(&rh.end)) {
-                        errs.at(
-                            &d.hinge.name,
-                            format!(
-                                "{owner}: the drive family ranges over {}..{} but the hinge family `{}` over {}..{}; declare the drive in a `for` with the hinge's range",
-                                rd.start.show(&rd.var.to_string()),
-                                rd.end.show(&rd.var.to_string()),
-                                d.hinge.name,
-                                rh.start.show(&rh.var.to_string()),
-                                rh.end.show(&rh.var.to_string())
-                            ),
-                        );
-                    }
-                }
-                (None, Some(fh)) => errs.at(
-                    &d.hinge.name,
-                    format!(
-                        "{owner}: `{}` is a hinge family: drive all of it with `for {} in ..` and `drive {}[{}]: hinge {}[{}];` (one element alone cannot be driven)",
-                        d.hinge.name, def.families[fh].var, d.name, def.families[fh].var, d.hinge.name, def.families[fh].var
-                    ),
-                ),
-                (Some(_), None) => errs.at(
-                    &d.hinge.name,
-                    format!("{owner}: `{}` is a single hinge; a single drive drives it (`drive {}: hinge {};` outside the `for`)", d.hinge.name, d.name, d.hinge.name),
-                ),
-                (None, None) => {
-                    if let Some(a) = &d.hinge.index {
-                        errs.push(syn::Error::new(
-                            a.span,
-                            format!("{owner}: `{}` is a single hinge, not a family; drop the index", d.hinge.name),
-                        ));
-                    }
-                }
-            }
-            h
-        })
-        .collect();
-    let skate_point = def.skates.iter().map(|s| find_point(errs, &format!("skate `{}`", s.name), &s.point)).collect();
-    Resolved { point_body, point_body_index, hinge_points, slider_points, drive_hinge, skate_point }
+        }
+    }
+    h
 }

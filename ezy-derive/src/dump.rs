@@ -3,7 +3,11 @@
 //! macro to prove that the generated code did not change (dump before,
 //! dump after, `diff -r`). Cargo does not track the variable: a crate is
 //! dumped only when it is compiled again (after a change to this crate,
-//! every dependent is).
+//! every dependent is). A model whose minimal form eliminates positions
+//! through a `HashMap` walk (`minimal::frame_velocities`) may number its
+//! bindings differently from one compilation to the next (the map's
+//! random order): compare such a model's expansions as a set, or run
+//! both versions of the macro with a fixed-key hasher.
 
 use proc_macro2::TokenStream;
 

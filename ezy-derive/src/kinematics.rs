@@ -34,7 +34,7 @@ use std::collections::HashMap;
 
 use syn::{BinOp, Expr, Ident, UnOp};
 
-use crate::ast::{Affine, HingeTarget, ModelDef};
+use crate::ast::{Affine, Body, HingeTarget, ModelDef, Point};
 use crate::check::{BodyRef, Errors, PointRef, Resolved, same_body};
 use crate::sym::{Arena, Id, Sym};
 
@@ -275,264 +275,37 @@ fn unit_and_normal(ar: &mut Arena, tx: Id, ty: Id) -> ([Id; 2], [Id; 2]) {
 /// Derives all constraint expressions of a checked model.
 pub fn derive(def: &ModelDef, res: &Resolved, errs: &mut Errors) -> Derived {
     let mut ar = Arena::new();
-    let params: Vec<String> = def.params.iter().map(|p| p.name.to_string()).collect();
-    let vars: Vec<String> = def.families.iter().map(|f| f.var.to_string()).collect();
-    let scope = |family: Option<usize>| Scope::of(def, &params, &vars, family);
-
-    let mut mass = Vec::with_capacity(def.bodies.len());
-    for b in &def.bodies {
-        let before = errs.count();
-        let sc = scope(b.family);
-        let m = expr_to_sym(&mut ar, &b.mass, &sc, &format!("mass of body `{}`", b.name), errs);
-        let after_m = errs.count();
-        let i = expr_to_sym(&mut ar, &b.inertia, &sc, &format!("inertia of body `{}`", b.name), errs);
-        let (m_ok, i_ok) = (after_m == before, errs.count() == after_m);
-        for (what, e, tok, ok) in [("mass", m, &b.mass, m_ok), ("inertia", i, &b.inertia, i_ok)] {
-            if !ok {
-                continue;
-            }
-            if let Some(v) = ar.as_const(e)
-                && v <= 0.0
-            {
-                errs.at(tok, format!("{what} of body `{}` must be positive, got {v}", b.name));
-            }
-        }
-        mass.push([m, m, i]);
-    }
-
-    // local coordinates of slot `s`
-    let lq = |ar: &mut Arena, s: usize, k: usize| ar.sym(Sym::Q(3 * s + k));
-    // world position of a body point (px, py) on slot `s`
-    let world = |ar: &mut Arena, s: usize, px: Id, py: Id| -> [Id; 2] {
-        let (x, y, phi) = (lq(ar, s, 0), lq(ar, s, 1), lq(ar, s, 2));
-        let [rx, ry] = rotate(ar, phi, px, py);
-        [ar.add2(x, rx), ar.add2(y, ry)]
+    let mut cx = Ctx {
+        def,
+        res,
+        params: def.params.iter().map(|p| p.name.to_string()).collect(),
+        vars: def.families.iter().map(|f| f.var.to_string()).collect(),
+        points: Vec::new(),
     };
-    let time_derivative = |ar: &mut Arena, e: Id, n: usize| -> Id {
-        let terms: Vec<Id> = (0..n)
-            .map(|k| {
-                let d = ar.diff(e, Sym::Q(k));
-                let v = ar.sym(Sym::Qd(k));
-                ar.mul2(d, v)
-            })
-            .collect();
-        ar.add(&terms)
-    };
-
-    let mut points = Vec::with_capacity(def.points.len());
-    for (p, &b) in def.points.iter().zip(&res.point_body) {
-        let what = format!("point `{}`", p.name);
-        let sc = scope(p.family);
-        let px = expr_to_sym(&mut ar, &p.at[0], &sc, &what, errs);
-        let py = expr_to_sym(&mut ar, &p.at[1], &sc, &what, errs);
-        if b == usize::MAX {
-            let z = ar.cst(0.0);
-            points.push(PointDerived { body: None, pos: [z, z], vel: [z, z], local: [px, py] });
-            continue;
-        }
-        let r = world(&mut ar, 0, px, py);
-        let v = [time_derivative(&mut ar, r[0], 3), time_derivative(&mut ar, r[1], 3)];
-        points.push(PointDerived { body: Some(b), pos: r, vel: v, local: [px, py] });
-    }
-    // slot of a body element in `slots`, added if new
-    let slot_of = |slots: &mut Vec<BodyRef>, b: BodyRef| -> usize {
-        match slots.iter().position(|s| same_body(s, &b)) {
-            Some(k) => k,
-            None => {
-                slots.push(b);
-                slots.len() - 1
-            }
-        }
-    };
-    // a point reference's world position in the group's local coordinates:
-    // a family point's offsets name its own index, `Sym::Index(0)`, which
-    // is the group's index `pr.1` (`P[i - 1]`: one less than the group's)
-    let resolved = |pr: &PointRef| pr.0 != usize::MAX && res.point_body[pr.0] != usize::MAX;
-    let at = |ar: &mut Arena, g: &mut Group, pr: &PointRef| -> ([Id; 2], usize) {
-        let s = slot_of(&mut g.slots, res.body_of(def, pr));
-        let [mut px, mut py] = points[pr.0].local;
-        if let Some(index) = &pr.1 {
-            let k = index_of(&mut g.indices, index);
-            if k != 0 {
-                let rename = |s: Sym| if s == Sym::Index(0) { Sym::Index(k) } else { s };
-                let mut memo = HashMap::new();
-                px = ar.subst(px, &rename, &mut memo);
-                py = ar.subst(py, &rename, &mut memo);
-            }
-        }
-        (world(ar, s, px, py), s)
-    };
+    let mass = def.bodies.iter().map(|b| body_mass(&mut ar, &cx, b, errs)).collect();
+    let points = def.points.iter().zip(&res.point_body).map(|(p, &b)| point(&mut ar, &cx, p, b, errs)).collect();
+    cx.points = points;
 
     let mut groups = Vec::new();
-    let new_group = |kind, item, family| Group {
-        kind,
-        item,
-        family,
-        slots: Vec::new(),
-        indices: vec![own_index()],
-        phi: Vec::new(),
-        g: Vec::new(),
-        gamma: Vec::new(),
-        velocity: Vec::new(),
-        suffixes: Vec::new(),
-        direction: None,
-    };
-    for (hi, (h, (a, b))) in def.hinges.iter().zip(&res.hinge_points).enumerate() {
-        let mut g = new_group(Kind::Hinge, hi, h.family);
-        if !resolved(a) || b.as_ref().is_some_and(|b| !resolved(b)) {
-            groups.push(g);
-            continue;
-        }
-        let (ra, _) = at(&mut ar, &mut g, a);
-        let other = match (&h.target, b) {
-            (HingeTarget::Point(_), Some(b)) => at(&mut ar, &mut g, b).0,
-            (HingeTarget::Ground { at, .. }, _) => {
-                let what = format!("ground point of hinge `{}`", h.name);
-                let sc = scope(h.family);
-                [expr_to_sym(&mut ar, &at[0], &sc, &what, errs), expr_to_sym(&mut ar, &at[1], &sc, &what, errs)]
-            }
-            _ => unreachable!("hinge target and resolution agree"),
-        };
-        for (k, axis) in [".x", ".y"].into_iter().enumerate() {
-            g.phi.push(ar.sub(ra[k], other[k]));
-            g.suffixes.push(axis);
-        }
-        groups.push(g);
+    for hi in 0..def.hinges.len() {
+        groups.push(hinge(&mut ar, &cx, hi, errs));
     }
-
-    for (si, (sl, (p, guide))) in def.sliders.iter().zip(&res.slider_points).enumerate() {
-        let mut g = new_group(Kind::Slider, si, sl.family);
-        let kind = if sl.heading { "slider" } else { "slot" };
-        let what = format!("{kind} `{}`", sl.name);
-        let sc = scope(sl.family);
-        let tx = expr_to_sym(&mut ar, &sl.along[0], &sc, &format!("direction of {what}"), errs);
-        let ty = expr_to_sym(&mut ar, &sl.along[1], &sc, &format!("direction of {what}"), errs);
-        let angle = match &sl.angle {
-            Some(e) => expr_to_sym(&mut ar, e, &sc, &format!("angle of {what}"), errs),
-            None => ar.cst(0.0),
-        };
-        if ar.is_zero(tx) && ar.is_zero(ty) {
-            errs.push(syn::Error::new(
-                sl.along_span,
-                format!("{kind} `{}` has a zero direction; give a nonzero (dx, dy)", sl.name),
-            ));
-            groups.push(g);
-            continue;
-        }
-        if !resolved(p) || guide.as_ref().is_some_and(|g| !resolved(g)) {
-            groups.push(g);
-            continue;
-        }
-        // unit normal of the line, in the guide's frame, and the guide's
-        // point and heading (the ground: world frame, heading 0)
-        g.direction = Some([tx, ty]);
-        let (_, [nx, ny]) = unit_and_normal(&mut ar, tx, ty);
-        let (rp, sp) = at(&mut ar, &mut g, p);
-        let (origin, normal, heading) = match (&sl.target, guide) {
-            (HingeTarget::Point(_), Some(gp)) => {
-                let (origin, sa) = at(&mut ar, &mut g, gp);
-                let phi_a = lq(&mut ar, sa, 2);
-                (origin, rotate(&mut ar, phi_a, nx, ny), phi_a)
-            }
-            (HingeTarget::Ground { at }, _) => {
-                let at = [
-                    expr_to_sym(&mut ar, &at[0], &sc, &format!("ground point of {what}"), errs),
-                    expr_to_sym(&mut ar, &at[1], &sc, &format!("ground point of {what}"), errs),
-                ];
-                (at, [nx, ny], ar.cst(0.0))
-            }
-            _ => unreachable!("slider target and resolution agree"),
-        };
-        let dx = ar.sub(rp[0], origin[0]);
-        let dy = ar.sub(rp[1], origin[1]);
-        let ex = ar.mul2(normal[0], dx);
-        let ey = ar.mul2(normal[1], dy);
-        g.phi.push(ar.add2(ex, ey));
-        g.suffixes.push(".n");
-        if sl.heading {
-            let phi_b = lq(&mut ar, sp, 2);
-            let rel = ar.sub(phi_b, heading);
-            g.phi.push(ar.sub(rel, angle));
-            g.suffixes.push(".phi");
-        }
-        groups.push(g);
+    for si in 0..def.sliders.len() {
+        groups.push(slider(&mut ar, &cx, si, errs));
     }
-
-    for (di, &h) in res.drive_hinge.iter().enumerate() {
-        // a family drive's element i drives the hinge element i (same range,
-        // checked), so the hinge's point references serve as they are
-        let mut g = new_group(Kind::Drive, di, def.drives[di].family);
-        let Some((a, b)) = res.hinge_points.get(h) else {
-            groups.push(g);
-            continue;
-        };
-        if !resolved(a) || b.as_ref().is_some_and(|b| !resolved(b)) {
-            groups.push(g);
-            continue;
-        }
-        let sa = slot_of(&mut g.slots, res.body_of(def, a));
-        let phi_a = lq(&mut ar, sa, 2);
-        let angle = match b {
-            Some(b) => {
-                let sb = slot_of(&mut g.slots, res.body_of(def, b));
-                let phi_b = lq(&mut ar, sb, 2);
-                ar.sub(phi_a, phi_b)
-            }
-            None => phi_a,
-        };
-        g.phi.push(angle);
-        g.suffixes.push("");
-        groups.push(g);
+    for di in 0..res.drive_hinge.len() {
+        groups.push(drive(&mut ar, &cx, di));
     }
-
     for g in &mut groups {
         let n = 3 * g.slots.len();
         g.g = g.phi.iter().map(|&row| (0..n).map(|k| ar.diff(row, Sym::Q(k))).collect()).collect();
     }
-
     let mut blades = Vec::with_capacity(def.skates.len());
-    for (ki, (s, p)) in def.skates.iter().zip(&res.skate_point).enumerate() {
-        let mut g = new_group(Kind::Skate, ki, s.family);
-        let what = format!("blade direction of skate `{}`", s.name);
-        let sc = scope(s.family);
-        let tx = expr_to_sym(&mut ar, &s.along[0], &sc, &what, errs);
-        let ty = expr_to_sym(&mut ar, &s.along[1], &sc, &what, errs);
-        let zero = ar.cst(0.0);
-        if ar.is_zero(tx) && ar.is_zero(ty) {
-            errs.push(syn::Error::new(
-                s.along_span,
-                format!("skate `{}` has a zero blade direction; give a nonzero (dx, dy)", s.name),
-            ));
-            blades.push([zero, zero]);
-            groups.push(g);
-            continue;
-        }
-        // normalized blade direction and its body-frame normal (-ty, tx)
-        g.direction = Some([tx, ty]);
-        let ([ux, uy], [nbx, nby]) = unit_and_normal(&mut ar, tx, ty);
-        blades.push([ux, uy]);
-        if !resolved(p) {
-            groups.push(g);
-            continue;
-        }
-        let (r, sl) = at(&mut ar, &mut g, p);
-        let phi = lq(&mut ar, sl, 2);
-        let [nwx, nwy] = rotate(&mut ar, phi, nbx, nby);
-        let n = 3 * g.slots.len();
-        let row: Vec<Id> = (0..n)
-            .map(|k| {
-                let dx = ar.diff(r[0], Sym::Q(k));
-                let dy = ar.diff(r[1], Sym::Q(k));
-                let ex = ar.mul2(nwx, dx);
-                let ey = ar.mul2(nwy, dy);
-                ar.add2(ex, ey)
-            })
-            .collect();
-        g.g.push(row);
-        g.suffixes.push("");
+    for ki in 0..def.skates.len() {
+        let (g, blade) = skate(&mut ar, &cx, ki, errs);
+        blades.push(blade);
         groups.push(g);
     }
-
     for g in &mut groups {
         let n = 3 * g.slots.len();
         g.velocity =
@@ -552,5 +325,289 @@ pub fn derive(def: &ModelDef, res: &Resolved, errs: &mut Errors) -> Derived {
         g.gamma = g.velocity.clone().into_iter().map(|gv| time_derivative(&mut ar, gv, n)).collect();
     }
 
-    Derived { ar, groups, points, mass, blades }
+    Derived { ar, groups, points: cx.points, mass, blades }
+}
+
+/// What the derivations of the items share: the model, its resolution,
+/// the names an expression may use, and the points derived so far.
+struct Ctx<'a> {
+    def: &'a ModelDef,
+    res: &'a Resolved,
+    params: Vec<String>,
+    vars: Vec<String>,
+    points: Vec<PointDerived>,
+}
+
+impl Ctx<'_> {
+    /// The scope of an item of `family`.
+    fn scope(&self, family: Option<usize>) -> Scope<'_> {
+        Scope::of(self.def, &self.params, &self.vars, family)
+    }
+
+    /// Whether a point reference and its point's body are resolved.
+    fn resolved(&self, pr: &PointRef) -> bool {
+        pr.0 != usize::MAX && self.res.point_body[pr.0] != usize::MAX
+    }
+}
+
+/// A body's mass diagonal `(m, m, I)`; a mass or inertia that is a
+/// number must be positive.
+fn body_mass(ar: &mut Arena, cx: &Ctx, b: &Body, errs: &mut Errors) -> [Id; 3] {
+    let before = errs.count();
+    let sc = cx.scope(b.family);
+    let m = expr_to_sym(ar, &b.mass, &sc, &format!("mass of body `{}`", b.name), errs);
+    let after_m = errs.count();
+    let i = expr_to_sym(ar, &b.inertia, &sc, &format!("inertia of body `{}`", b.name), errs);
+    let (m_ok, i_ok) = (after_m == before, errs.count() == after_m);
+    for (what, e, tok, ok) in [("mass", m, &b.mass, m_ok), ("inertia", i, &b.inertia, i_ok)] {
+        if !ok {
+            continue;
+        }
+        if let Some(v) = ar.as_const(e)
+            && v <= 0.0
+        {
+            errs.at(tok, format!("{what} of body `{}` must be positive, got {v}", b.name));
+        }
+    }
+    [m, m, i]
+}
+
+/// A point on body item `b` (`usize::MAX`: unresolved), in the local
+/// coordinates of slot 0.
+fn point(ar: &mut Arena, cx: &Ctx, p: &Point, b: usize, errs: &mut Errors) -> PointDerived {
+    let what = format!("point `{}`", p.name);
+    let sc = cx.scope(p.family);
+    let px = expr_to_sym(ar, &p.at[0], &sc, &what, errs);
+    let py = expr_to_sym(ar, &p.at[1], &sc, &what, errs);
+    if b == usize::MAX {
+        let z = ar.cst(0.0);
+        return PointDerived { body: None, pos: [z, z], vel: [z, z], local: [px, py] };
+    }
+    let r = world(ar, 0, px, py);
+    let v = [time_derivative(ar, r[0], 3), time_derivative(ar, r[1], 3)];
+    PointDerived { body: Some(b), pos: r, vel: v, local: [px, py] }
+}
+
+/// Local coordinate `k` of slot `s`.
+fn lq(ar: &mut Arena, s: usize, k: usize) -> Id {
+    ar.sym(Sym::Q(3 * s + k))
+}
+
+/// World position of a body point `(px, py)` on slot `s`.
+fn world(ar: &mut Arena, s: usize, px: Id, py: Id) -> [Id; 2] {
+    let (x, y, phi) = (lq(ar, s, 0), lq(ar, s, 1), lq(ar, s, 2));
+    let [rx, ry] = rotate(ar, phi, px, py);
+    [ar.add2(x, rx), ar.add2(y, ry)]
+}
+
+/// `de/dt` along the first `n` local coordinates: `sum_k de/dq_k qd_k`.
+fn time_derivative(ar: &mut Arena, e: Id, n: usize) -> Id {
+    let terms: Vec<Id> = (0..n)
+        .map(|k| {
+            let d = ar.diff(e, Sym::Q(k));
+            let v = ar.sym(Sym::Qd(k));
+            ar.mul2(d, v)
+        })
+        .collect();
+    ar.add(&terms)
+}
+
+/// Slot of a body element in `slots`, added if new.
+fn slot_of(slots: &mut Vec<BodyRef>, b: BodyRef) -> usize {
+    match slots.iter().position(|s| same_body(s, &b)) {
+        Some(k) => k,
+        None => {
+            slots.push(b);
+            slots.len() - 1
+        }
+    }
+}
+
+/// A point reference's world position in the group's local coordinates,
+/// and its body's slot: a family point's offsets name its own index,
+/// `Sym::Index(0)`, which is the group's index `pr.1` (`P[i - 1]`: one
+/// less than the group's).
+fn at(ar: &mut Arena, cx: &Ctx, g: &mut Group, pr: &PointRef) -> ([Id; 2], usize) {
+    let s = slot_of(&mut g.slots, cx.res.body_of(cx.def, pr));
+    let [mut px, mut py] = cx.points[pr.0].local;
+    if let Some(index) = &pr.1 {
+        let k = index_of(&mut g.indices, index);
+        if k != 0 {
+            let rename = |s: Sym| if s == Sym::Index(0) { Sym::Index(k) } else { s };
+            let mut memo = HashMap::new();
+            px = ar.subst(px, &rename, &mut memo);
+            py = ar.subst(py, &rename, &mut memo);
+        }
+    }
+    (world(ar, s, px, py), s)
+}
+
+/// An item's group before its rows are derived.
+fn new_group(kind: Kind, item: usize, family: Option<usize>) -> Group {
+    Group {
+        kind,
+        item,
+        family,
+        slots: Vec::new(),
+        indices: vec![own_index()],
+        phi: Vec::new(),
+        g: Vec::new(),
+        gamma: Vec::new(),
+        velocity: Vec::new(),
+        suffixes: Vec::new(),
+        direction: None,
+    }
+}
+
+/// Hinge `hi`: `r_P - r_Q` (or `r_P - ground`), rows `.x`, `.y`.
+fn hinge(ar: &mut Arena, cx: &Ctx, hi: usize, errs: &mut Errors) -> Group {
+    let (h, (a, b)) = (&cx.def.hinges[hi], &cx.res.hinge_points[hi]);
+    let mut g = new_group(Kind::Hinge, hi, h.family);
+    if !cx.resolved(a) || b.as_ref().is_some_and(|b| !cx.resolved(b)) {
+        return g;
+    }
+    let (ra, _) = at(ar, cx, &mut g, a);
+    let other = match (&h.target, b) {
+        (HingeTarget::Point(_), Some(b)) => at(ar, cx, &mut g, b).0,
+        (HingeTarget::Ground { at, .. }, _) => {
+            let what = format!("ground point of hinge `{}`", h.name);
+            let sc = cx.scope(h.family);
+            [expr_to_sym(ar, &at[0], &sc, &what, errs), expr_to_sym(ar, &at[1], &sc, &what, errs)]
+        }
+        _ => unreachable!("hinge target and resolution agree"),
+    };
+    for (k, axis) in [".x", ".y"].into_iter().enumerate() {
+        g.phi.push(ar.sub(ra[k], other[k]));
+        g.suffixes.push(axis);
+    }
+    g
+}
+
+/// Slider or slot `si`: the row `.n` (the point on the line), and for a
+/// slider `.phi` (the heading).
+fn slider(ar: &mut Arena, cx: &Ctx, si: usize, errs: &mut Errors) -> Group {
+    let (sl, (p, guide)) = (&cx.def.sliders[si], &cx.res.slider_points[si]);
+    let mut g = new_group(Kind::Slider, si, sl.family);
+    let kind = if sl.heading { "slider" } else { "slot" };
+    let what = format!("{kind} `{}`", sl.name);
+    let sc = cx.scope(sl.family);
+    let tx = expr_to_sym(ar, &sl.along[0], &sc, &format!("direction of {what}"), errs);
+    let ty = expr_to_sym(ar, &sl.along[1], &sc, &format!("direction of {what}"), errs);
+    let angle = match &sl.angle {
+        Some(e) => expr_to_sym(ar, e, &sc, &format!("angle of {what}"), errs),
+        None => ar.cst(0.0),
+    };
+    if ar.is_zero(tx) && ar.is_zero(ty) {
+        errs.push(syn::Error::new(
+            sl.along_span,
+            format!("{kind} `{}` has a zero direction; give a nonzero (dx, dy)", sl.name),
+        ));
+        return g;
+    }
+    if !cx.resolved(p) || guide.as_ref().is_some_and(|g| !cx.resolved(g)) {
+        return g;
+    }
+    // unit normal of the line, in the guide's frame, and the guide's
+    // point and heading (the ground: world frame, heading 0)
+    g.direction = Some([tx, ty]);
+    let (_, [nx, ny]) = unit_and_normal(ar, tx, ty);
+    let (rp, sp) = at(ar, cx, &mut g, p);
+    let (origin, normal, heading) = match (&sl.target, guide) {
+        (HingeTarget::Point(_), Some(gp)) => {
+            let (origin, sa) = at(ar, cx, &mut g, gp);
+            let phi_a = lq(ar, sa, 2);
+            (origin, rotate(ar, phi_a, nx, ny), phi_a)
+        }
+        (HingeTarget::Ground { at }, _) => {
+            let at = [
+                expr_to_sym(ar, &at[0], &sc, &format!("ground point of {what}"), errs),
+                expr_to_sym(ar, &at[1], &sc, &format!("ground point of {what}"), errs),
+            ];
+            (at, [nx, ny], ar.cst(0.0))
+        }
+        _ => unreachable!("slider target and resolution agree"),
+    };
+    let dx = ar.sub(rp[0], origin[0]);
+    let dy = ar.sub(rp[1], origin[1]);
+    let ex = ar.mul2(normal[0], dx);
+    let ey = ar.mul2(normal[1], dy);
+    g.phi.push(ar.add2(ex, ey));
+    g.suffixes.push(".n");
+    if sl.heading {
+        let phi_b = lq(ar, sp, 2);
+        let rel = ar.sub(phi_b, heading);
+        g.phi.push(ar.sub(rel, angle));
+        g.suffixes.push(".phi");
+    }
+    g
+}
+
+/// Drive `di` of its hinge: the row `phi_a - phi_b` (`phi_a` for a
+/// ground hinge).
+fn drive(ar: &mut Arena, cx: &Ctx, di: usize) -> Group {
+    let (def, res) = (cx.def, cx.res);
+    let h = res.drive_hinge[di];
+    // a family drive's element i drives the hinge element i (same range,
+    // checked), so the hinge's point references serve as they are
+    let mut g = new_group(Kind::Drive, di, def.drives[di].family);
+    let Some((a, b)) = res.hinge_points.get(h) else {
+        return g;
+    };
+    if !cx.resolved(a) || b.as_ref().is_some_and(|b| !cx.resolved(b)) {
+        return g;
+    }
+    let sa = slot_of(&mut g.slots, res.body_of(def, a));
+    let phi_a = lq(ar, sa, 2);
+    let angle = match b {
+        Some(b) => {
+            let sb = slot_of(&mut g.slots, res.body_of(def, b));
+            let phi_b = lq(ar, sb, 2);
+            ar.sub(phi_a, phi_b)
+        }
+        None => phi_a,
+    };
+    g.phi.push(angle);
+    g.suffixes.push("");
+    g
+}
+
+/// Skate `ki`: the row of `S`, `n^T dr_P/dq`, and its unit blade
+/// direction in the body frame.
+fn skate(ar: &mut Arena, cx: &Ctx, ki: usize, errs: &mut Errors) -> (Group, [Id; 2]) {
+    let (s, p) = (&cx.def.skates[ki], &cx.res.skate_point[ki]);
+    let mut g = new_group(Kind::Skate, ki, s.family);
+    let what = format!("blade direction of skate `{}`", s.name);
+    let sc = cx.scope(s.family);
+    let tx = expr_to_sym(ar, &s.along[0], &sc, &what, errs);
+    let ty = expr_to_sym(ar, &s.along[1], &sc, &what, errs);
+    let zero = ar.cst(0.0);
+    if ar.is_zero(tx) && ar.is_zero(ty) {
+        errs.push(syn::Error::new(
+            s.along_span,
+            format!("skate `{}` has a zero blade direction; give a nonzero (dx, dy)", s.name),
+        ));
+        return (g, [zero, zero]);
+    }
+    // normalized blade direction and its body-frame normal (-ty, tx)
+    g.direction = Some([tx, ty]);
+    let ([ux, uy], [nbx, nby]) = unit_and_normal(ar, tx, ty);
+    if !cx.resolved(p) {
+        return (g, [ux, uy]);
+    }
+    let (r, sl) = at(ar, cx, &mut g, p);
+    let phi = lq(ar, sl, 2);
+    let [nwx, nwy] = rotate(ar, phi, nbx, nby);
+    let n = 3 * g.slots.len();
+    let row: Vec<Id> = (0..n)
+        .map(|k| {
+            let dx = ar.diff(r[0], Sym::Q(k));
+            let dy = ar.diff(r[1], Sym::Q(k));
+            let ex = ar.mul2(nwx, dx);
+            let ey = ar.mul2(nwy, dy);
+            ar.add2(ex, ey)
+        })
+        .collect();
+    g.g.push(row);
+    g.suffixes.push("");
+    (g, [ux, uy])
 }

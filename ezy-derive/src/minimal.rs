@@ -84,6 +84,77 @@ pub fn derive(
     if nh != 2 * def.hinges.len() {
         return Err("its holonomic rows are not all hinges".into());
     }
+    let order = hinge_tree(def, res)?;
+    let zero = ar.cst(0.0);
+    let qmap = positions(ar, def, phi, &order, zero)?;
+    let coords: Vec<usize> = (0..nq).filter(|j| !qmap.contains_key(&Sym::Q(*j))).collect();
+    let trig: Vec<(Id, Id)> = (0..nb)
+        .map(|i| {
+            let a = ar.sym(Sym::Q(3 * i + 2));
+            (ar.cos(a), ar.sin(a))
+        })
+        .collect();
+    let (global, vmap) = frame_velocities(ar, &trig, &coords, &qmap, &order);
+    let rows = Rows { pattern, values, skates: nh..nc };
+    let (sol, pivots) = solve_skates(ar, def, &rows, &coords, &global, &qmap, zero)?;
+    let speeds: Vec<usize> = coords.iter().copied().filter(|k| !sol.contains_key(&Sym::Qd(*k))).collect();
+
+    // every body-frame velocity in the independent speeds
+    let mut v_full = Vec::with_capacity(nq);
+    for j in 0..nq {
+        let e = match (sol.get(&Sym::Qd(j)), vmap.get(&Sym::Qd(j))) {
+            (Some(&s), _) => s,
+            (None, Some(&v)) => {
+                let r = ar.replace(v, &|s| sol.get(&s).copied(), &mut HashMap::new());
+                ar.linearize(r)
+            }
+            (None, None) => ar.sym(Sym::Qd(j)),
+        };
+        v_full.push(e);
+    }
+    let mut b = Vec::with_capacity(nq * speeds.len());
+    for &e in &v_full {
+        for &k in &speeds {
+            b.push(ar.diff(e, Sym::Qd(k)));
+        }
+    }
+    // the global rates of the kept coordinates in the speeds
+    let mut qd = Vec::with_capacity(nq);
+    for i in 0..nb {
+        let (x, y) = rotate(ar, trig[i], v_full[3 * i], v_full[3 * i + 1], false);
+        qd.extend([x, y, v_full[3 * i + 2]]);
+    }
+    let mut c = convective(ar, &b, &v_full, &qd, &coords, &speeds);
+    let mut q_dep: Vec<(usize, Id)> = qmap
+        .iter()
+        .map(|(s, &e)| match s {
+            Sym::Q(j) => (*j, e),
+            _ => unreachable!("positions only"),
+        })
+        .collect();
+    q_dep.sort_by_key(|(j, _)| *j);
+    let (b_lin, c_lin) = (b.clone(), c.clone());
+    // cos(a - b), sin(a - b) from the angles' own sines and cosines
+    let mut memo = HashMap::new();
+    for e in qd.iter_mut().chain(&mut b).chain(&mut c) {
+        *e = ar.trig_products(*e, &mut memo);
+    }
+    let mut memo = HashMap::new();
+    for e in qd.iter_mut().chain(&mut b).chain(&mut c) {
+        *e = ar.factor(*e, &mut memo);
+    }
+    let frames = trig.iter().flat_map(|&(c, s)| [c, s]).collect();
+    Ok(Minimal { coords, speeds, q_dep, qd, b, c, b_lin, c_lin, frames, pivots })
+}
+
+/// The tree of hinges: `(child body, hinge)` in visiting order,
+/// breadth-first from the ground (a body hinged to it), then from the
+/// lowest-numbered body not reached yet.
+///
+/// # Errors
+/// A hinge between two bodies already reached (a loop).
+fn hinge_tree(def: &ModelDef, res: &Resolved) -> Result<Vec<(usize, usize)>, String> {
+    let nb = def.bodies.len();
     // the tree: (child body, hinge) in visiting order
     let ends: Vec<(usize, Option<usize>)> = res
         .hinge_points
@@ -134,11 +205,25 @@ pub fn derive(
             visit(b, &mut reached, &mut used, &mut order)?;
         }
     }
+    Ok(order)
+}
 
-    // positions: each child's x, y from its hinge's rows
-    let zero = ar.cst(0.0);
+/// Each child's `x, y` in the tree's `order`, solved from its hinge's
+/// rows of `phi` (the parent's already eliminated); `zero` is the
+/// arena's 0.
+///
+/// # Errors
+/// A hinge not affine in the body's position, or one whose rows do not
+/// vanish in the tree's coordinates.
+fn positions(
+    ar: &mut Arena,
+    def: &ModelDef,
+    phi: &[Id],
+    order: &[(usize, usize)],
+    zero: Id,
+) -> Result<HashMap<Sym, Id>, String> {
     let mut qmap: HashMap<Sym, Id> = HashMap::new();
-    for &(child, h) in &order {
+    for &(child, h) in order {
         for k in 0..2 {
             let row = ar.replace(phi[2 * h + k], &|s| qmap.get(&s).copied(), &mut HashMap::new());
             let var = Sym::Q(3 * child + k);
@@ -157,33 +242,40 @@ pub fn derive(
             return Err(format!("hinge `{}` does not vanish in the tree's coordinates", def.hinges[r / 2].name));
         }
     }
-    let coords: Vec<usize> = (0..nq).filter(|j| !qmap.contains_key(&Sym::Q(*j))).collect();
+    Ok(qmap)
+}
 
-    // Velocities in the body frames: `Sym::Qd(j)` stands, in this
-    // derivation, for body `j / 3`'s velocity component `j % 3` in its own
-    // frame (forward, lateral [m/s], angular rate [rad/s]); the global rates
-    // are `(xd, yd) = R(phi) (v_x, v_y)`.
-    let trig: Vec<(Id, Id)> = (0..nb)
-        .map(|i| {
-            let a = ar.sym(Sym::Q(3 * i + 2));
-            (ar.cos(a), ar.sin(a))
-        })
-        .collect();
-    let rotate = |ar: &mut Arena, i: usize, vx: Id, vy: Id, inverse: bool| -> (Id, Id) {
-        let (c, s) = trig[i];
-        let s = if inverse { ar.neg(s) } else { s };
-        let (cx, sy, sx, cy) = (ar.mul2(c, vx), ar.mul2(s, vy), ar.mul2(s, vx), ar.mul2(c, vy));
-        (ar.sub(cx, sy), ar.add2(sx, cy))
-    };
+/// `R(phi) (vx, vy)` (`R(phi)^T` if `inverse`) with `trig = (cos phi, sin phi)`.
+fn rotate(ar: &mut Arena, trig: (Id, Id), vx: Id, vy: Id, inverse: bool) -> (Id, Id) {
+    let (c, s) = trig;
+    let s = if inverse { ar.neg(s) } else { s };
+    let (cx, sy, sx, cy) = (ar.mul2(c, vx), ar.mul2(s, vy), ar.mul2(s, vx), ar.mul2(c, vy));
+    (ar.sub(cx, sy), ar.add2(sx, cy))
+}
+
+/// Velocities in the body frames: `Sym::Qd(j)` stands, in this
+/// derivation, for body `j / 3`'s velocity component `j % 3` in its own
+/// frame (forward, lateral [m/s], angular rate [rad/s]); the global rates
+/// are `(xd, yd) = R(phi) (v_x, v_y)`, with `trig` each body's
+/// `(cos phi, sin phi)`. Returns the global rate of every coordinate
+/// (kept and eliminated, `qmap`) in these symbols, and each eliminated
+/// child's frame velocity.
+fn frame_velocities(
+    ar: &mut Arena,
+    trig: &[(Id, Id)],
+    coords: &[usize],
+    qmap: &HashMap<Sym, Id>,
+    order: &[(usize, usize)],
+) -> (HashMap<usize, Id>, HashMap<Sym, Id>) {
     // the global rate of every kept coordinate in the body-frame symbols
     let mut rates: HashMap<usize, Id> = HashMap::new();
-    for &k in &coords {
+    for &k in coords {
         let i = k / 3;
         let e = match k % 3 {
             2 => ar.sym(Sym::Qd(k)),
             axis => {
                 let (vx, vy) = (ar.sym(Sym::Qd(3 * i)), ar.sym(Sym::Qd(3 * i + 1)));
-                let (x, y) = rotate(ar, i, vx, vy, false);
+                let (x, y) = rotate(ar, trig[i], vx, vy, false);
                 ar.linearize(if axis == 0 { x } else { y })
             }
         };
@@ -202,33 +294,64 @@ pub fn derive(
         ar.linearize(sum)
     };
     let mut global: HashMap<usize, Id> = rates.clone();
-    for (&var, &sol) in &qmap {
+    for (&var, &sol) in qmap {
         let Sym::Q(j) = var else { unreachable!("positions only") };
         let v = rate(ar, sol, &rates);
         global.insert(j, v);
     }
     let mut vmap: HashMap<Sym, Id> = HashMap::new();
-    for &(child, _) in &order {
+    for &(child, _) in order {
         if let (Some(&xd), Some(&yd)) = (global.get(&(3 * child)), global.get(&(3 * child + 1)))
             && qmap.contains_key(&Sym::Q(3 * child))
         {
-            let (vx, vy) = rotate(ar, child, xd, yd, true);
+            let (vx, vy) = rotate(ar, trig[child], xd, yd, true);
             vmap.insert(Sym::Qd(3 * child), ar.linearize(vx));
             vmap.insert(Sym::Qd(3 * child + 1), ar.linearize(vy));
         }
     }
+    (global, vmap)
+}
 
-    // skates: each row solved for one body-frame velocity with a constant
-    // coefficient, a root body's translational one first (the largest
-    // coefficient), else an angular rate
+/// `G`'s `values` at `pattern`, of which the rows `skates` are the
+/// skates'.
+struct Rows<'a> {
+    pattern: &'a [(usize, usize)],
+    values: &'a [Id],
+    skates: std::ops::Range<usize>,
+}
+
+/// The skates' rows solved: each pivot velocity's solution, and the
+/// pivots ([`Minimal::pivots`]).
+type SkateSolution = (HashMap<Sym, Id>, Vec<(String, usize, Id)>);
+
+/// Per skate row, in order, the body-frame velocity it is solved for and
+/// its solution (earlier solutions updated), and the row's pivot
+/// `(skate name, velocity index, coefficient)`: a velocity of `coords`
+/// whose coefficient is free of the coordinates, a root body's
+/// translational one first (the largest coefficient), else an angular
+/// rate. `global` is every coordinate's global rate, `qmap` the
+/// eliminated positions, `zero` the arena's 0.
+///
+/// # Errors
+/// A skate row with no such velocity, or one not linear in the
+/// velocities.
+fn solve_skates(
+    ar: &mut Arena,
+    def: &ModelDef,
+    rows: &Rows,
+    coords: &[usize],
+    global: &HashMap<usize, Id>,
+    qmap: &HashMap<Sym, Id>,
+    zero: Id,
+) -> Result<SkateSolution, String> {
     let is_state = |s: Sym| matches!(s, Sym::Q(_) | Sym::Qd(_));
-    let candidates: Vec<usize> = coords.clone();
     let mut sol: HashMap<Sym, Id> = HashMap::new();
     let mut pivots = Vec::new();
-    for (si, i) in (nh..nc).enumerate() {
-        let terms: Vec<Id> = pattern
+    for (si, i) in rows.skates.clone().enumerate() {
+        let terms: Vec<Id> = rows
+            .pattern
             .iter()
-            .zip(values)
+            .zip(rows.values)
             .filter(|((r, _), _)| *r == i)
             .map(|(&(_, c), &g)| {
                 let v = global.get(&c).copied().unwrap_or_else(|| ar.sym(Sym::Qd(c)));
@@ -241,7 +364,7 @@ pub fn derive(
         let row = ar.linearize(row);
         let name = def.skates[si].name.to_string();
         let mut best: Option<(usize, Id, f64)> = None;
-        for &k in candidates.iter().filter(|k| !sol.contains_key(&Sym::Qd(**k))) {
+        for &k in coords.iter().filter(|k| !sol.contains_key(&Sym::Qd(**k))) {
             let a = ar.diff(row, Sym::Qd(k));
             if ar.is_zero(a) || ar.mentions(a, &is_state) {
                 continue;
@@ -274,37 +397,15 @@ pub fn derive(
         sol.insert(var, solved);
         pivots.push((name, k, a));
     }
-    let speeds: Vec<usize> = candidates.iter().copied().filter(|k| !sol.contains_key(&Sym::Qd(*k))).collect();
+    Ok((sol, pivots))
+}
 
-    // every body-frame velocity in the independent speeds
-    let mut v_full = Vec::with_capacity(nq);
-    for j in 0..nq {
-        let e = match (sol.get(&Sym::Qd(j)), vmap.get(&Sym::Qd(j))) {
-            (Some(&s), _) => s,
-            (None, Some(&v)) => {
-                let r = ar.replace(v, &|s| sol.get(&s).copied(), &mut HashMap::new());
-                ar.linearize(r)
-            }
-            (None, None) => ar.sym(Sym::Qd(j)),
-        };
-        v_full.push(e);
-    }
-    let mut b = Vec::with_capacity(nq * speeds.len());
-    for &e in &v_full {
-        for &k in &speeds {
-            b.push(ar.diff(e, Sym::Qd(k)));
-        }
-    }
-    // the global rates of the kept coordinates in the speeds
-    let mut qd = Vec::with_capacity(nq);
-    for i in 0..nb {
-        let (x, y) = rotate(ar, i, v_full[3 * i], v_full[3 * i + 1], false);
-        qd.extend([x, y, v_full[3 * i + 2]]);
-    }
-    // c = dV/dt at fixed u (along the kept coordinates' rates) plus the
-    // frame's turning, (-w v_y, w v_x, 0): the body-frame acceleration is
-    // `B u' + c`
-    // (d/dt B) u as sum_k u_k sum_m dB_jk/dp_m pd_m, each pd_m once
+/// `c = dV/dt` at fixed `u` (along the kept coordinates' rates `qd`) plus
+/// the frame's turning, `(-w v_y, w v_x, 0)`: the body-frame acceleration
+/// is `B u' + c`; `(d/dt B) u` as `sum_k u_k sum_m dB_jk/dp_m pd_m`, each
+/// `pd_m` once.
+fn convective(ar: &mut Arena, b: &[Id], v_full: &[Id], qd: &[Id], coords: &[usize], speeds: &[usize]) -> Vec<Id> {
+    let nq = v_full.len();
     let nu = speeds.len();
     let u: Vec<Id> = speeds.iter().map(|&k| ar.sym(Sym::Qd(k))).collect();
     let mut c = Vec::with_capacity(nq);
@@ -336,26 +437,7 @@ pub fn derive(
         }
         c.push(ar.add(&terms));
     }
-    let mut q_dep: Vec<(usize, Id)> = qmap
-        .iter()
-        .map(|(s, &e)| match s {
-            Sym::Q(j) => (*j, e),
-            _ => unreachable!("positions only"),
-        })
-        .collect();
-    q_dep.sort_by_key(|(j, _)| *j);
-    let (b_lin, c_lin) = (b.clone(), c.clone());
-    // cos(a - b), sin(a - b) from the angles' own sines and cosines
-    let mut memo = HashMap::new();
-    for e in qd.iter_mut().chain(&mut b).chain(&mut c) {
-        *e = ar.trig_products(*e, &mut memo);
-    }
-    let mut memo = HashMap::new();
-    for e in qd.iter_mut().chain(&mut b).chain(&mut c) {
-        *e = ar.factor(*e, &mut memo);
-    }
-    let frames = trig.iter().flat_map(|&(c, s)| [c, s]).collect();
-    Ok(Minimal { coords, speeds, q_dep, qd, b, c, b_lin, c_lin, frames, pivots })
+    c
 }
 
 /// The fused right-hand side's symbolic part (`Model::minimal_rhs`): with

@@ -1,0 +1,125 @@
+//! The keywords `run` and `sweep` take, turned into what the command
+//! line's flags would give: [`Overrides`] (a `Scene` object's sets, then
+//! `set=`, `integrator=`, `rtol=`, ...) and the `set={name: value}` dicts.
+
+use ezy::RunOptions;
+use ezy_core::{Choice, Formulation, Method, ProjectionKind};
+use pyo3::exceptions::PyValueError;
+use pyo3::prelude::*;
+use pyo3::types::PyDict;
+
+use crate::ezy_err;
+
+/// What `run` and `sweep` take on top of a scene, as the command line's
+/// flags would give it.
+#[derive(Default)]
+pub(crate) struct Overrides {
+    sets: Vec<(String, f64)>,
+    integrator: Option<String>,
+    formulation: Option<String>,
+    projection: Option<String>,
+    rtol: Option<f64>,
+    atol: Option<f64>,
+    dt: Option<f64>,
+    t_end: Option<f64>,
+    every: Option<f64>,
+    max_steps: Option<u64>,
+    max_output_mb: Option<f64>,
+}
+
+impl Overrides {
+    /// The keywords `run` and `sweep` take for settings.
+    const KEYWORDS: [&str; 11] = [
+        "set",
+        "integrator",
+        "formulation",
+        "projection",
+        "rtol",
+        "atol",
+        "dt",
+        "t_end",
+        "every",
+        "max_steps",
+        "max_output_mb",
+    ];
+
+    /// A `Scene` object's `sets`, then the keywords `settings` of a call
+    /// to `function` (their `set` after the object's).
+    pub(crate) fn new(
+        sets: Vec<(String, f64)>,
+        settings: Option<&Bound<'_, PyDict>>,
+        function: &str,
+    ) -> PyResult<Self> {
+        let mut o = Self { sets, ..Self::default() };
+        let Some(settings) = settings else { return Ok(o) };
+        for (k, v) in settings.iter() {
+            let key: String = k.extract()?;
+            let bad = |what: &str| PyValueError::new_err(format!("{function}(): `{key}` = {v} is not {what}"));
+            let number = || v.extract::<f64>().map_err(|_| bad("a number"));
+            let text = || v.extract::<String>().map_err(|_| bad("a string"));
+            match key.as_str() {
+                "set" => o.sets.extend(sets_of(Some(v.cast::<PyDict>().map_err(|_| bad("a dict"))?))?),
+                "integrator" => o.integrator = Some(text()?),
+                "formulation" => o.formulation = Some(text()?),
+                "projection" => o.projection = Some(text()?),
+                "rtol" => o.rtol = Some(number()?),
+                "atol" => o.atol = Some(number()?),
+                "dt" => o.dt = Some(number()?),
+                "t_end" => o.t_end = Some(number()?),
+                "every" => o.every = Some(number()?),
+                "max_steps" => o.max_steps = Some(v.extract().map_err(|_| bad("a whole number >= 0"))?),
+                "max_output_mb" => {
+                    let mb = number()?;
+                    if !(mb.is_finite() && mb > 0.0) {
+                        return Err(bad("a positive number of MB"));
+                    }
+                    o.max_output_mb = Some(mb);
+                }
+                _ => {
+                    return Err(pyo3::exceptions::PyTypeError::new_err(format!(
+                        "{function}() got an unexpected keyword `{key}`; its settings: {}",
+                        Self::KEYWORDS.join(", ")
+                    )));
+                }
+            }
+        }
+        Ok(o)
+    }
+
+    /// The run's options, each choice parsed (an unknown one named by its
+    /// keyword).
+    pub(crate) fn options(&self) -> PyResult<RunOptions> {
+        fn choice<T: Choice>(what: &str, v: &Option<String>) -> PyResult<Option<T>> {
+            v.as_deref().map(|s| T::parse(s).map_err(|e| ezy_err(format!("{what}={s:?}: {e}")))).transpose()
+        }
+        Ok(RunOptions {
+            sets: self.sets.clone(),
+            method: choice::<Method>("integrator", &self.integrator)?,
+            formulation: choice::<Formulation>("formulation", &self.formulation)?,
+            projection: choice::<ProjectionKind>("projection", &self.projection)?,
+            rtol: self.rtol,
+            atol: self.atol,
+            dt: self.dt,
+            t_end: self.t_end,
+            every: self.every,
+            max_steps: self.max_steps,
+            max_output_mb: self.max_output_mb,
+            ..RunOptions::default()
+        })
+    }
+}
+
+/// `{name: value}` as `(name, value)` pairs, in the dict's order.
+pub(crate) fn sets_of(set: Option<&Bound<'_, PyDict>>) -> PyResult<Vec<(String, f64)>> {
+    let mut out = Vec::new();
+    if let Some(d) = set {
+        for (k, v) in d.iter() {
+            let name: String =
+                k.extract().map_err(|_| PyValueError::new_err(format!("set: key {k} is not a string")))?;
+            let value: f64 =
+                v.extract().map_err(|_| PyValueError::new_err(format!("set: `{name}` = {v} is not a number")))?;
+            out.push((name, value));
+        }
+    }
+    Ok(out)
+}

@@ -1,0 +1,308 @@
+//! The module's functions: [`Toolkit`], the application behind a module,
+//! whose methods `models`, `scenes`, `scene`, `run`, `sweep`, `equations`
+//! and `check` the module offers as functions; a run in memory with the
+//! GIL released and Python's signals polled, a command line run the same
+//! way (Ctrl-C stops either and raises `KeyboardInterrupt`).
+
+use std::path::PathBuf;
+use std::time::{Duration, Instant};
+
+use ezy::App;
+use ezy_core::ModelInfo;
+use ezy_scene::registry::ModelCatalog as _;
+use ezy_scene::registry::SceneSource;
+use pyo3::exceptions::PyValueError;
+use pyo3::prelude::*;
+use pyo3::types::PyDict;
+
+use crate::reports::{Check, Equations};
+use crate::result::RunResult;
+use crate::scene::PyScene;
+use crate::settings::{Overrides, sets_of};
+use crate::{EzyError, ezy_err};
+
+/// How often a running integration asks Python for pending signals (Ctrl-C).
+const SIGNAL_POLL: Duration = Duration::from_millis(50);
+
+/// The application behind a module: its models, effect kinds and scenes.
+#[pyclass(module = "ezy", frozen)]
+pub struct Toolkit {
+    pub(crate) app: App,
+    pub(crate) helpers: Py<PyModule>,
+}
+
+/// The scene a call names, with the changes a `Scene` object carries.
+struct Resolved {
+    /// The scene as loaded and checked.
+    src: SceneSource,
+    /// A `Scene` object's sets (none for a name or a path).
+    sets: Vec<(String, f64)>,
+    /// How it was named: a known scene's name or a file's path.
+    reference: String,
+}
+
+impl Toolkit {
+    /// The scene `scene` names (a known name or a path), or a `Scene`
+    /// object's, with the object's own sets.
+    fn resolve(&self, scene: &Bound<'_, PyAny>) -> PyResult<Resolved> {
+        if let Ok(s) = scene.cast::<PyScene>() {
+            let s = s.borrow();
+            return Ok(Resolved { src: s.src.clone(), sets: s.sets.clone(), reference: s.reference.clone() });
+        }
+        let name: String = scene.extract().map_err(|_| {
+            PyValueError::new_err("scene: give a scene's name, a path to a .toml file, or an ezy.Scene")
+        })?;
+        let src = self.app.load_scene(&name).map_err(ezy_err)?;
+        Ok(Resolved { src, sets: Vec::new(), reference: name })
+    }
+
+    fn info(&self, model: &str, params: &[(String, f64)]) -> PyResult<ModelInfo> {
+        match self.app.info_with(model, params) {
+            Some(Ok(info)) => Ok(info),
+            Some(Err(e)) => Err(ezy_err(e.message)),
+            None => Err(ezy_err(format!("unknown model `{model}`; known models: {}", self.app.keys().join(", ")))),
+        }
+    }
+
+    /// Runs the command line `args` (after the program name) with the GIL
+    /// released; Ctrl-C asks the command to stop ([`ezy::transaction::request_stop`])
+    /// and raises `KeyboardInterrupt` once it has. Returns what it printed.
+    fn cli(&self, py: Python<'_>, args: Vec<String>) -> PyResult<Result<String, (String, ezy::app::AppError)>> {
+        let app = &self.app;
+        let mut interrupt: Option<PyErr> = None;
+        let out = py.detach(|| {
+            std::thread::scope(|s| {
+                let worker = s.spawn(|| {
+                    let mut buf = Vec::new();
+                    let argv = std::iter::once("ezy".to_string()).chain(args);
+                    let r = app.run_cli(argv, &mut buf);
+                    let text = String::from_utf8_lossy(&buf).into_owned();
+                    r.map(|()| text.clone()).map_err(|e| (text, e))
+                });
+                while !worker.is_finished() {
+                    std::thread::sleep(Duration::from_millis(10));
+                    if interrupt.is_none()
+                        && let Err(e) = Python::attach(|py| py.check_signals())
+                    {
+                        interrupt = Some(e);
+                        ezy::transaction::request_stop();
+                    }
+                }
+                worker.join()
+            })
+        });
+        ezy::transaction::clear_stop();
+        if let Some(e) = interrupt {
+            return Err(e);
+        }
+        out.map_err(|_| EzyError::new_err("the command panicked"))
+    }
+}
+
+#[pymethods]
+impl Toolkit {
+    /// The models this module knows: `{key: description}`.
+    fn models<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
+        let d = PyDict::new(py);
+        for key in self.app.keys() {
+            d.set_item(key, self.info(key, &[])?.doc)?;
+        }
+        Ok(d)
+    }
+
+    /// The scenes this module knows: `{name: description}`.
+    ///
+    /// Raises EzyError for a bad scene file (its file, line and key).
+    fn scenes<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
+        let d = PyDict::new(py);
+        for src in self.app.scenes().map_err(ezy_err)? {
+            d.set_item(&src.scene.name, &src.scene.description)?;
+        }
+        Ok(d)
+    }
+
+    /// The scene `name` (a known scene's name, or a path to a .toml file)
+    /// as an editable `Scene`: change its parameters and effects' numbers,
+    /// then `run` it.
+    ///
+    /// Raises EzyError for an unknown name or a bad file (file, line, key).
+    fn scene(slf: &Bound<'_, Self>, name: &str) -> PyResult<PyScene> {
+        let this = slf.get();
+        let src = this.app.load_scene(name).map_err(ezy_err)?;
+        let info = this.info(&src.scene.model, &src.scene.params)?;
+        Ok(PyScene { kit: slf.clone().unbind(), src, info, sets: Vec::new(), reference: name.to_string() })
+    }
+
+    /// Runs `scene` (a name, a path or a `Scene`) in memory and returns a
+    /// `Result`: every output row (the columns of the command line's
+    /// trajectory.csv) as NumPy arrays, and the run's summary.
+    ///
+    /// Keyword arguments override the scene as `ezy run`'s flags do:
+    /// `set={"M0": 1.0, "motor.amplitude": 3.0}`, `integrator` ("rk4",
+    /// "dopri5", "dop853", "radau5"), `formulation` ("auto", "dae",
+    /// "reduced"), `projection`, `rtol`, `atol`, `dt` [s], `t_end` [s],
+    /// `every` [s] (output interval), `max_steps`, `max_output_mb` (the
+    /// output budget [MB], as the command line's `--max-output-mb`).
+    ///
+    /// Raises EzyError naming the bad setting, parameter or scene key;
+    /// KeyboardInterrupt on Ctrl-C (the run stops within a step).
+    #[pyo3(signature = (scene, **settings))]
+    fn run(
+        &self,
+        py: Python<'_>,
+        scene: &Bound<'_, PyAny>,
+        settings: Option<&Bound<'_, PyDict>>,
+    ) -> PyResult<RunResult> {
+        let Resolved { src, sets, .. } = self.resolve(scene)?;
+        let o = Overrides::new(sets, settings, "run")?;
+        let opts = o.options()?;
+        let info = self.info(&src.scene.model, &src.scene.params)?;
+        // A Ctrl-C that came while this call held the GIL (Python runs its
+        // handler only when asked): raised before the run's setup
+        py.check_signals()?;
+        let app = &self.app;
+        let mut interrupt: Option<PyErr> = None;
+        // the first step asks at once (a Ctrl-C during the setup), then
+        // every SIGNAL_POLL
+        let mut last: Option<Instant> = None;
+        let mut hook = |_t: f64| {
+            if last.is_some_and(|l| l.elapsed() < SIGNAL_POLL) {
+                return None;
+            }
+            last = Some(Instant::now());
+            match Python::attach(|py| py.check_signals()) {
+                Ok(()) => None,
+                Err(e) => {
+                    interrupt = Some(e);
+                    Some("interrupted from Python".to_string())
+                }
+            }
+        };
+        let report = py.detach(|| app.run_scene_in_memory(&src.scene, &opts, Some(&mut hook)));
+        if let Some(e) = interrupt {
+            return Err(e);
+        }
+        let report = report.map_err(ezy_err)?;
+        RunResult::new(py, &src, info, report, self.helpers.clone_ref(py))
+    }
+
+    /// Runs `scene` over a grid of parameter values (in parallel, on at
+    /// most `jobs` cores) and returns the table of runs as a pandas
+    /// DataFrame: one row per run with its values, status, cost, final
+    /// state and `metrics`.
+    ///
+    /// `grid={"M0": [1, 2, 3]}` gives an axis of values, `{"M0": "1:3:5"}`
+    /// 5 evenly spaced values from 1 to 3; the first axis varies slowest.
+    /// `metrics=["mean(norm(x1d, y1d), 50, 60)", "final(T)"]` as `ezy sweep
+    /// --metric`. `out` keeps the sweep's directory (sweep.csv, resumable);
+    /// without it the files live in a temporary directory. Other keywords
+    /// as `run`.
+    ///
+    /// Raises EzyError naming the bad axis, metric or setting (by the
+    /// command line's flag); KeyboardInterrupt on Ctrl-C.
+    #[pyo3(signature = (scene, grid, *, metrics=None, jobs=None, out=None, **settings))]
+    #[allow(clippy::too_many_arguments)] // Python's keywords, one argument each
+    fn sweep<'py>(
+        &self,
+        py: Python<'py>,
+        scene: &Bound<'py, PyAny>,
+        grid: &Bound<'py, PyDict>,
+        metrics: Option<Vec<String>>,
+        jobs: Option<usize>,
+        out: Option<PathBuf>,
+        settings: Option<&Bound<'py, PyDict>>,
+    ) -> PyResult<Bound<'py, PyAny>> {
+        let Resolved { sets, reference, .. } = self.resolve(scene)?;
+        let o = Overrides::new(sets, settings, "sweep")?;
+        let opts = o.options()?; // the keywords' own errors first, named as keywords
+        let temp = tempfile::Builder::new().prefix("ezy-sweep-").tempdir().map_err(ezy_err)?;
+        let dir = out.unwrap_or_else(|| temp.path().join("sweep"));
+        // the scene as it was named: a known scene's name or its file's path
+        let mut args = vec!["sweep".to_string(), reference];
+        if grid.is_empty() {
+            return Err(ezy_err("grid: give at least one axis, e.g. grid={\"M0\": [1, 2, 3]}"));
+        }
+        for (k, v) in grid.iter() {
+            let name: String =
+                k.extract().map_err(|_| PyValueError::new_err(format!("grid: key {k} is not a string")))?;
+            if let Ok(spec) = v.extract::<String>() {
+                args.extend(["--grid".into(), format!("{name}={spec}")]);
+            } else {
+                let values: Vec<f64> = v.extract().map_err(|_| {
+                    PyValueError::new_err(format!(
+                        "grid: `{name}` needs a list of numbers or \"START:STOP:COUNT\", not {v}"
+                    ))
+                })?;
+                let list: Vec<String> = values.iter().map(|x| format!("{x:?}")).collect();
+                args.extend(["--list".into(), format!("{name}={}", list.join(","))]);
+            }
+        }
+        for m in metrics.unwrap_or_default() {
+            args.extend(["--metric".into(), m]);
+        }
+        args.extend(opts.to_args());
+        if let Some(j) = jobs {
+            args.extend(["--jobs".into(), j.to_string()]);
+        }
+        args.extend(["--out".into(), dir.display().to_string(), "--no-figures".into()]);
+        match self.cli(py, args)? {
+            Ok(_) => {}
+            Err((_, e)) => return Err(ezy_err(e)),
+        }
+        let frame = self.helpers.bind(py).call_method1("sweep_frame", (dir.join("sweep.csv"),))?;
+        drop(temp);
+        Ok(frame)
+    }
+
+    /// The derived equations of `model` (with `set` applied to its
+    /// parameters and family counts): constraints, Jacobian, convective
+    /// terms, point velocities. Jupyter renders them as LaTeX; `str()`
+    /// gives the plain text.
+    ///
+    /// Raises EzyError for an unknown model or parameter.
+    #[pyo3(signature = (model, *, set=None))]
+    fn equations(&self, py: Python<'_>, model: &str, set: Option<&Bound<'_, PyDict>>) -> PyResult<Equations> {
+        let sets = sets_of(set)?;
+        let mut args = vec!["equations".to_string(), model.to_string()];
+        for (n, v) in &sets {
+            args.extend(["--set".into(), format!("{n}={v:?}")]);
+        }
+        let text = self.cli(py, args.clone())?.map_err(|(_, e)| ezy_err(e))?;
+        args.extend(["--format".into(), "latex".into()]);
+        let latex = self.cli(py, args)?.map_err(|(_, e)| ezy_err(e))?;
+        Ok(Equations { text, latex })
+    }
+
+    /// Checks `model`'s derived terms (the constraint Jacobian, the skate
+    /// rows, gamma, the point velocities) against automatic
+    /// differentiation at `states` random states: a `Check` with `passed`
+    /// and the table `ezy check` prints.
+    ///
+    /// Raises EzyError for an unknown model or parameter.
+    #[pyo3(signature = (model, *, set=None, states=None, seed=None))]
+    fn check(
+        &self,
+        py: Python<'_>,
+        model: &str,
+        set: Option<&Bound<'_, PyDict>>,
+        states: Option<usize>,
+        seed: Option<u64>,
+    ) -> PyResult<Check> {
+        let mut args = vec!["check".to_string(), model.to_string()];
+        for (n, v) in sets_of(set)? {
+            args.extend(["--set".into(), format!("{n}={v:?}")]);
+        }
+        if let Some(s) = states {
+            args.extend(["--states".into(), s.to_string()]);
+        }
+        if let Some(s) = seed {
+            args.extend(["--seed".into(), s.to_string()]);
+        }
+        match self.cli(py, args)? {
+            Ok(table) => Ok(Check { passed: true, table, message: String::new() }),
+            // a failed check prints its table first; no table: a bad request
+            Err((table, e)) if !table.is_empty() => Ok(Check { passed: false, table, message: e.to_string() }),
+            Err((_, e)) => Err(ezy_err(e)),
+        }
+    }
+}
