@@ -65,3 +65,35 @@ fn expand(def: &ast::ModelDef) -> syn::Result<proc_macro2::TokenStream> {
     errs.finish()?;
     Ok(emit::emit(def, &resolved, &mut derived))
 }
+
+#[cfg(test)]
+mod tests {
+    /// The expansion is the same at every compilation: the derivation
+    /// walks its maps in a fixed order (a hash map's random order once
+    /// renumbered the pendulum's bindings from build to build). Each
+    /// expansion below builds its maps with fresh random hash keys.
+    #[test]
+    fn the_expansion_does_not_depend_on_hash_order() {
+        let text = "
+            pub struct Pendulum {
+                param L = 1.0;
+                param m = 1.0;
+                body bob(x, y, phi) { mass: m, inertia: 0.1 }
+                point O on bob at (-L, 0);
+                hinge O: O = ground(0, 0);
+            }";
+        let expand = || {
+            let def: crate::ast::ModelDef = syn::parse_str(text).expect("the model parses");
+            crate::expand(&def).expect("the model expands").to_string()
+        };
+        let first = expand();
+        for _ in 0..8 {
+            let other = expand();
+            if other != first {
+                let (a, b): (Vec<&str>, Vec<&str>) = (first.split(';').collect(), other.split(';').collect());
+                let k = a.iter().zip(&b).position(|(x, y)| x != y).unwrap_or(0);
+                panic!("two expansions of the pendulum differ from statement {k}: `{}` against `{}`", a[k], b[k]);
+            }
+        }
+    }
+}

@@ -294,8 +294,17 @@ fn frame_velocities(
         ar.linearize(sum)
     };
     let mut global: HashMap<usize, Id> = rates.clone();
-    for (&var, &sol) in qmap {
-        let Sym::Q(j) = var else { unreachable!("positions only") };
+    // in the order of the coordinates, not of the hash map: the arena's
+    // ids, and so the generated code, are the same at every compilation
+    let mut eliminated: Vec<(usize, Id)> = qmap
+        .iter()
+        .map(|(&var, &sol)| {
+            let Sym::Q(j) = var else { unreachable!("positions only") };
+            (j, sol)
+        })
+        .collect();
+    eliminated.sort_unstable_by_key(|&(j, _)| j);
+    for (j, sol) in eliminated {
         let v = rate(ar, sol, &rates);
         global.insert(j, v);
     }
