@@ -12,9 +12,9 @@ use ezy_core::{Choice, Dynamics, Model, Observer, ProjectionKind, RunSettings, S
 
 use ezy_scene::Scene;
 
-use crate::commands::run::Error;
-use crate::plot::{Chart, Series, Stroke};
-use crate::transaction::Transaction;
+use crate::output::transaction::Transaction;
+use crate::render::plot::{Chart, Series, Stroke};
+use crate::session::Error;
 
 /// One setting of the ladder.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -202,7 +202,7 @@ pub fn precision_model<M: Model>(
 ) -> Result<Report, Error> {
     // an unusable or busy output directory is found before minutes of runs
     Transaction::preflight(out)?;
-    let beat = crate::progress::Heartbeat::start(format!("precision of {}: the reference runs", scene.name));
+    let beat = crate::output::progress::Heartbeat::start(format!("precision of {}: the reference runs", scene.name));
     let reference =
         Setting { method: Method::Dop853, dt: None, tol: Some(1e-13), projection: ProjectionKind::MassWeighted };
     let (rows, reference_error) = if opts.replot {
@@ -237,7 +237,7 @@ pub fn precision_model<M: Model>(
         (rows, reference_error)
     };
     // precision.csv and both figures are one transaction (see
-    // `crate::transaction`): committed together, precision.csv last.
+    // `crate::output::transaction`): committed together, precision.csv last.
     beat.set(format!("precision of {}: drawing the figures", scene.name));
     let mut tx = Transaction::begin(out)?;
     if !opts.replot {
@@ -479,8 +479,8 @@ pub fn equal_error_speedups(rows: &[Row]) -> Vec<Speedup> {
 /// `chart` as PNG bytes at the default resolution; errors name the figure
 /// file `name`.
 fn figure_png(name: &str, chart: &Chart) -> Result<Vec<u8>, Error> {
-    crate::plot::figure(chart, ezy_scene::FigureFormat::Png, ezy_scene::DEFAULT_DPI)
-        .map_err(|source| crate::figures::FigureError::Plot { figure: name.into(), source }.into())
+    crate::render::plot::figure(chart, ezy_scene::FigureFormat::Png, ezy_scene::DEFAULT_DPI)
+        .map_err(|source| crate::render::figures::FigureError::Plot { figure: name.into(), source }.into())
 }
 
 fn work_precision_chart(rows: &[Row], scene: &Scene) -> Chart {
@@ -553,7 +553,7 @@ fn drift_chart<M: Model>(proto: &M, scene: &Scene) -> Result<Chart, Error> {
         series,
         lower: Some("velocity residual [m/s]".into()),
         log_y: true,
-        log_floor: crate::figures::LOG_FLOOR,
+        log_floor: crate::render::figures::LOG_FLOOR,
         ..Chart::new(format!("Constraint drift, {title}, scene {}", scene.name), "t [s]", "position residual [m]")
     })
 }

@@ -30,7 +30,7 @@ use std::ffi::CString;
 use std::path::PathBuf;
 use std::time::{Duration, Instant};
 
-use ezy::commands::run;
+use ezy::session;
 use ezy::{App, RunOptions};
 use ezy_core::{Choice, Formulation, Method, ModelInfo, ProjectionKind};
 use ezy_scene::registry::ModelCatalog as _;
@@ -292,7 +292,7 @@ impl Toolkit {
     }
 
     /// Runs the command line `args` (after the program name) with the GIL
-    /// released; Ctrl-C asks the command to stop ([`ezy::transaction::request_stop`])
+    /// released; Ctrl-C asks the command to stop ([`ezy::output::transaction::request_stop`])
     /// and raises `KeyboardInterrupt` once it has. Returns what it printed.
     fn cli(&self, py: Python<'_>, args: Vec<String>) -> PyResult<Result<String, (String, ezy::app::AppError)>> {
         let app = &self.app;
@@ -312,13 +312,13 @@ impl Toolkit {
                         && let Err(e) = Python::attach(|py| py.check_signals())
                     {
                         interrupt = Some(e);
-                        ezy::transaction::request_stop();
+                        ezy::output::transaction::request_stop();
                     }
                 }
                 worker.join()
             })
         });
-        ezy::transaction::clear_stop();
+        ezy::output::transaction::clear_stop();
         if let Some(e) = interrupt {
             return Err(e);
         }
@@ -573,7 +573,7 @@ impl RunResult {
         report: ezy::Report,
         helpers: Py<PyModule>,
     ) -> PyResult<Self> {
-        let summary = run::summary(&src.scene.name, &report);
+        let summary = session::summary(&src.scene.name, &report);
         let s = &report.summary;
         let stats = PyDict::new(py);
         stats.set_item("method", s.method.name())?;
@@ -696,8 +696,8 @@ impl RunResult {
             ))
         })?;
         let data = self.data.bind(py).readonly();
-        let table = ezy::output::Table { columns: self.columns.clone(), data: data.as_slice()?.to_vec() };
-        let chart = ezy::figures::chart(&self.info, fig, &table).map_err(ezy_err)?;
+        let table = ezy::output::csv::Table { columns: self.columns.clone(), data: data.as_slice()?.to_vec() };
+        let chart = ezy::render::figures::chart(&self.info, fig, &table).map_err(ezy_err)?;
         let d = PyDict::new(py);
         d.set_item("file", &fig.file)?;
         d.set_item("title", &chart.title)?;
@@ -719,10 +719,10 @@ impl RunResult {
             e.set_item("y", PyArray1::from_vec(py, y))?;
             e.set_item("panel", s.panel)?;
             let stroke = match s.stroke {
-                ezy::plot::Stroke::Auto => "auto".to_string(),
-                ezy::plot::Stroke::Solid => "solid".to_string(),
-                ezy::plot::Stroke::Dash(k) => format!("dash{k}"),
-                ezy::plot::Stroke::Points => "points".to_string(),
+                ezy::render::plot::Stroke::Auto => "auto".to_string(),
+                ezy::render::plot::Stroke::Solid => "solid".to_string(),
+                ezy::render::plot::Stroke::Dash(k) => format!("dash{k}"),
+                ezy::render::plot::Stroke::Points => "points".to_string(),
             };
             e.set_item("stroke", stroke)?;
             e.set_item("color", s.color)?;

@@ -9,8 +9,8 @@ use std::path::{Path, PathBuf};
 use super::SweepError;
 use super::metric::Metric;
 use super::plan::{Plan, Values};
-use crate::plot::{Chart, FigureFormat, HeatMap, Series};
-use crate::transaction::Interrupted;
+use crate::output::transaction::Interrupted;
+use crate::render::plot::{Chart, FigureFormat, HeatMap, Series};
 
 /// Most lines in a figure (one per value of the second axis); beyond it
 /// only the heat map is drawn.
@@ -83,7 +83,7 @@ pub fn draw(
         if !series.is_empty() {
             stop_if_signalled(dir, &file)?;
             let chart = Chart { series, ..Chart::new(&title, &labels[0], &m.text) };
-            match crate::plot::figure(&chart, format, dpi) {
+            match crate::render::plot::figure(&chart, format, dpi) {
                 Ok(png) => files.push(write(dir, &file, &png)?),
                 Err(e) => notes.push(format!("{file} not drawn: {e}")),
             }
@@ -110,7 +110,8 @@ pub fn draw(
             };
             let file = format.file_name(&format!("sweep_{}_map", k + 1));
             stop_if_signalled(dir, &file)?;
-            let png = crate::plot::heatmap_svg(&map).and_then(|svg| crate::plot::encode(&svg, format, dpi, &map.title));
+            let png = crate::render::plot::heatmap_svg(&map)
+                .and_then(|svg| crate::render::plot::encode(&svg, format, dpi, &map.title));
             match png {
                 Ok(png) => files.push(write(dir, &file, &png)?),
                 Err(e) => notes.push(format!("{file} not drawn: {e}")),
@@ -123,7 +124,7 @@ pub fn draw(
 /// [`SweepError::Interrupted`] if a signal asked to stop before `file`
 /// is drawn.
 fn stop_if_signalled(dir: &Path, file: &str) -> Result<(), SweepError> {
-    match crate::transaction::pending() {
+    match crate::output::transaction::pending() {
         None => Ok(()),
         Some(signal) => Err(SweepError::Interrupted(Interrupted {
             signal,
@@ -158,6 +159,6 @@ fn sorted(mut v: Vec<f64>) -> Vec<f64> {
 
 fn write(dir: &Path, name: &str, bytes: &[u8]) -> Result<PathBuf, String> {
     let path = dir.join(name);
-    crate::transaction::write_atomically(&path, bytes).map_err(|e| e.to_string())?;
+    crate::output::transaction::write_atomically(&path, bytes).map_err(|e| e.to_string())?;
     Ok(path)
 }

@@ -4,7 +4,7 @@
 //! the same table.
 //!
 //! Each run is exactly `ezy run` with the run's `--set` values
-//! ([`crate::commands::run::problem`] and [`ezy_core::simulate()`] with the same
+//! (`crate::session::problem` and [`ezy_core::simulate()`] with the same
 //! settings), so its numbers are the single run's, bit for bit; it
 //! writes no file unless `--save-runs` asks. The output directory holds:
 //!
@@ -46,11 +46,12 @@ use ezy_scene::Scene;
 
 pub use metric::Metric;
 pub use plan::Plan;
+pub(crate) use table::parse_shard;
 pub use table::{Manifest, merge};
 
-use crate::commands::run::{self, RunOptions};
-use crate::output::RowBuilder;
-use crate::transaction::Interrupted;
+use crate::output::csv::RowBuilder;
+use crate::output::transaction::Interrupted;
+use crate::session::{self, RunOptions};
 
 /// A sweep to run: what `ezy sweep` parsed and checked.
 #[derive(Debug, Clone)]
@@ -215,7 +216,7 @@ struct Checked {
 }
 
 fn check<M: Model>(proto: &M, job: &SweepJob) -> Result<Checked, String> {
-    let settings = run::settings(&job.scene, &job.opts).map_err(|e| e.to_string())?;
+    let settings = session::settings(&job.scene, &job.opts).map_err(|e| e.to_string())?;
     let events: Vec<&str> = job.scene.events.iter().map(|(n, _)| n.as_str()).collect();
     for m in &job.metrics {
         m.check_window(settings.t_end, settings.every)?;
@@ -278,8 +279,9 @@ fn check<M: Model>(proto: &M, job: &SweepJob) -> Result<Checked, String> {
     if elements > MAX_CHECKED_ELEMENTS {
         return Err(too_many(elements));
     }
-    let beat = (job.progress && elements >= run::LONG_SETUP_ELEMENTS)
-        .then(|| crate::progress::Heartbeat::start(format!("sweep {}: checking the family sizes", job.scene.name)));
+    let beat = (job.progress && elements >= session::LONG_SETUP_ELEMENTS).then(|| {
+        crate::output::progress::Heartbeat::start(format!("sweep {}: checking the family sizes", job.scene.name))
+    });
     let mut state: Vec<String> = Vec::new();
     let mut seen: HashSet<String> = HashSet::new();
     let mut metrics_checked = false;
@@ -374,7 +376,7 @@ struct Quiet<M: Model> {
 /// Why [`Quiet`] stopped a run.
 enum Stop {
     /// A signal asked to stop.
-    Signal(crate::transaction::Signal),
+    Signal(crate::output::transaction::Signal),
     /// A row could not be built (the constraint forces' solve failed).
     Row(SimError),
 }
@@ -404,7 +406,7 @@ impl<M: Model> Observer<M> for Quiet<M> {
 }
 
 fn poll() -> Result<(), Stop> {
-    match crate::transaction::pending() {
+    match crate::output::transaction::pending() {
         None => Ok(()),
         Some(signal) => Err(Stop::Signal(signal)),
     }
@@ -415,7 +417,7 @@ enum Outcome {
     /// Run `run`'s row of `sweep.csv` (a line, with the newline).
     Row { run: u64, line: Vec<u8>, failed: bool, wall: Duration },
     /// A signal stopped it.
-    Interrupted(crate::transaction::Signal),
+    Interrupted(crate::output::transaction::Signal),
     /// Its output directory (`--save-runs`) cannot be used: the sweep stops.
     Unusable(String),
 }
@@ -433,7 +435,7 @@ fn one_run<M: Model>(
     settings: &ezy_core::RunSettings,
     opts: &RunOptions,
     save: Option<PathBuf>,
-) -> Result<Done, Result<String, crate::transaction::Signal>> {
+) -> Result<Done, Result<String, crate::output::transaction::Signal>> {
     let fail = |e: String| Err(Ok(e));
     if let Some(dir) = save {
         let opts = RunOptions { out: dir, figures: true, progress: false, ..opts.clone() };
@@ -443,7 +445,7 @@ fn one_run<M: Model>(
         let accs = job.metrics.iter().map(|m| metric::Accumulator::new(m, &cols)).collect::<Result<_, _>>();
         let mut tap = Tap::new(accs.map_err(Ok)?);
         let mut f = |s: &Sample<'_>, row: &[f64]| tap.take(s, row);
-        let report = match run::run_model_tapped(proto, &job.scene, &opts, Some(&mut f)) {
+        let report = match crate::run::run_model_tapped(proto, &job.scene, &opts, Some(&mut f)) {
             Ok(r) => r,
             Err(e) => {
                 return match e.interrupted() {
@@ -454,7 +456,7 @@ fn one_run<M: Model>(
         };
         return Ok(Done { summary: report.summary, state_names: report.state_names, tap });
     }
-    let (problem, scene) = run::problem(proto, &job.scene, opts, *settings).map_err(|e| Ok(e.to_string()))?;
+    let (problem, scene) = session::problem(proto, &job.scene, opts, *settings).map_err(|e| Ok(e.to_string()))?;
     let (mut sys, y0, _) = problem.into_system().map_err(|e| Ok(e.to_string()))?;
     let rows = (!job.metrics.is_empty()).then(|| RowBuilder::new(&scene, &sys));
     let accs = match &rows {
@@ -485,7 +487,7 @@ fn row_line(
 ) -> (Vec<u8>, bool) {
     let mut fields: Vec<String> = Vec::with_capacity(8 + values.len() + n_state + metrics.len());
     let mut buf = zmij::Buffer::new();
-    let mut f = |v: f64| crate::output::format_number(&mut buf, v).to_string();
+    let mut f = |v: f64| crate::output::csv::format_number(&mut buf, v).to_string();
     fields.push(i.to_string());
     fields.extend(values.iter().map(|&v| f(v)));
     let mut failed = false;
@@ -581,11 +583,11 @@ pub fn sweep_model<M: Model>(proto: &M, job: &SweepJob) -> Result<SweepReport, S
     let runs = job.plan.runs();
     let (k0, stride) = job.shard.unwrap_or((0, 1));
     let positions = if runs > k0 { (runs - k0).div_ceil(stride) } else { 0 };
-    crate::transaction::arm_signals();
+    crate::output::transaction::arm_signals();
     let mut out = match table::Output::open(&job.out, &job.manifest, &header, &job.plan, job.shard) {
         Ok(out) => out,
         Err(e) => {
-            return Err(match crate::transaction::pending() {
+            return Err(match crate::output::transaction::pending() {
                 Some(signal) => SweepError::Interrupted(Interrupted {
                     signal,
                     dir: job.out.clone(),
@@ -622,7 +624,7 @@ pub fn sweep_model<M: Model>(proto: &M, job: &SweepJob) -> Result<SweepReport, S
     let start = Instant::now();
     let (tx, rx) = std::sync::mpsc::channel::<(u64, Outcome)>();
     let mut report = SweepReport { runs: positions, done_before, jobs, ..SweepReport::default() };
-    let mut interrupted: Option<crate::transaction::Signal> = None;
+    let mut interrupted: Option<crate::output::transaction::Signal> = None;
     let mut write_error: Option<String> = None;
     pool.in_place_scope(|scope| {
         for _ in 0..jobs {
@@ -632,7 +634,7 @@ pub fn sweep_model<M: Model>(proto: &M, job: &SweepJob) -> Result<SweepReport, S
             scope.spawn(move |_| {
                 let mut values = Vec::new();
                 loop {
-                    if stop.load(Ordering::SeqCst) || crate::transaction::pending().is_some() {
+                    if stop.load(Ordering::SeqCst) || crate::output::transaction::pending().is_some() {
                         return;
                     }
                     // the next run not yet done, and its place in the
@@ -644,7 +646,7 @@ pub fn sweep_model<M: Model>(proto: &M, job: &SweepJob) -> Result<SweepReport, S
                         while *pos < positions {
                             // many runs done before are passed within a
                             // second of a signal
-                            if *pos % 4096 == 0 && crate::transaction::pending().is_some() {
+                            if *pos % 4096 == 0 && crate::output::transaction::pending().is_some() {
                                 break;
                             }
                             let i = k0 + *pos * stride;
@@ -726,7 +728,7 @@ pub fn sweep_model<M: Model>(proto: &M, job: &SweepJob) -> Result<SweepReport, S
     if let Some(e) = write_error {
         return Err(SweepError::Failed(e));
     }
-    if let Some(signal) = interrupted.or_else(crate::transaction::pending) {
+    if let Some(signal) = interrupted.or_else(crate::output::transaction::pending) {
         return Err(SweepError::Interrupted(Interrupted {
             signal,
             dir: job.out.clone(),
@@ -752,7 +754,7 @@ pub fn sweep_model<M: Model>(proto: &M, job: &SweepJob) -> Result<SweepReport, S
 /// terminal, a line every few seconds otherwise.
 struct Counter {
     bar: Option<indicatif::ProgressBar>,
-    beat: Option<crate::progress::Heartbeat>,
+    beat: Option<crate::output::progress::Heartbeat>,
     total: u64,
     scene: String,
 }
@@ -771,7 +773,7 @@ impl Counter {
             bar.set_message("0 failed");
             Self { bar: Some(bar), beat: None, total, scene: scene.into() }
         } else {
-            let beat = crate::progress::Heartbeat::start(format!("sweep {scene}: 0 of {total} runs"));
+            let beat = crate::output::progress::Heartbeat::start(format!("sweep {scene}: 0 of {total} runs"));
             Self { bar: None, beat: Some(beat), total, scene: scene.into() }
         }
     }

@@ -231,7 +231,7 @@ pub fn write_script(file: &Path, text: &str, scene: Option<&Path>) -> Result<(),
             ));
         }
     }
-    let mut tmp = crate::transaction::temp_beside(file).map_err(io)?;
+    let mut tmp = crate::output::transaction::temp_beside(file).map_err(io)?;
     std::io::Write::write_all(&mut tmp, text.as_bytes()).map_err(io)?;
     tmp.as_file().sync_all().map_err(io)?;
     match existing {
@@ -253,7 +253,7 @@ pub fn write_script(file: &Path, text: &str, scene: Option<&Path>) -> Result<(),
 /// [`HEADER`]: opened without following a link or blocking, and checked
 /// to be the file `meta` describes.
 fn written_by_ezy(file: &Path, meta: &std::fs::Metadata) -> std::io::Result<bool> {
-    let f = crate::transaction::no_follow(std::fs::OpenOptions::new().read(true)).open(file)?;
+    let f = crate::output::transaction::no_follow(std::fs::OpenOptions::new().read(true)).open(file)?;
     let opened = f.metadata()?;
     if !opened.is_file() || !same_file(&opened, meta) {
         return Ok(false);

@@ -145,7 +145,7 @@ struct Rows {
 impl Rows {
     /// Opens `path`, reads the header and checks it against `header`.
     fn open(path: &Path, len: Option<u64>, header: Option<&[String]>) -> Result<(Self, Vec<String>), String> {
-        let file = crate::transaction::no_follow(OpenOptions::new().read(true))
+        let file = crate::output::transaction::no_follow(OpenOptions::new().read(true))
             .open(path)
             .map_err(|e| ezy_scene::files::io_message(path, &e, &format!("cannot open {}", path.display())))?;
         let len = match len {
@@ -271,7 +271,7 @@ impl Output {
         plan: &Plan,
         shard: Option<(u64, u64)>,
     ) -> Result<Self, String> {
-        let lock = crate::transaction::lock(dir).map_err(|e| e.to_string())?;
+        let lock = crate::output::transaction::lock(dir).map_err(|e| e.to_string())?;
         let path = dir.join(CSV);
         match Manifest::read(dir)? {
             Some(found) => {
@@ -289,13 +289,13 @@ impl Output {
                         path.display()
                     ));
                 }
-                crate::transaction::write_atomically(&dir.join(TOML), manifest.text().as_bytes())
+                crate::output::transaction::write_atomically(&dir.join(TOML), manifest.text().as_bytes())
                     .map_err(|e| e.to_string())?;
             }
         }
         remove_stale_refills(dir);
         let exists = std::fs::symlink_metadata(&path).is_ok();
-        let mut file = crate::transaction::no_follow(OpenOptions::new().read(true).append(true).create(true))
+        let mut file = crate::output::transaction::no_follow(OpenOptions::new().read(true).append(true).create(true))
             .open(&path)
             .map_err(|e| ezy_scene::files::io_message(&path, &e, &format!("cannot open {}", path.display())))?;
         if !file.metadata().map_err(|e| io(&path, e))?.is_file() {
@@ -319,7 +319,7 @@ impl Output {
             let mut buf = zmij::Buffer::new();
             while let Some(i) = rows.next()? {
                 // a long table is read within a second of a signal
-                if done % 4096 == 0 && crate::transaction::pending().is_some() {
+                if done % 4096 == 0 && crate::output::transaction::pending().is_some() {
                     return Err(format!("stopped while checking the rows of {}", path.display()));
                 }
                 let line = rows.line();
@@ -339,7 +339,7 @@ impl Output {
                         return Err(bad(format!(
                             "run {i} has {} = {found}, but this sweep's run {i} has {}",
                             plan.axes[k].name,
-                            crate::output::format_number(&mut buf, *v)
+                            crate::output::csv::format_number(&mut buf, *v)
                         )));
                     }
                 }
@@ -350,7 +350,7 @@ impl Output {
             }
         }
         let refill = if gaps {
-            let mut tmp = crate::transaction::temp_beside(&path).map_err(|e| io(&path, e))?;
+            let mut tmp = crate::output::transaction::temp_beside(&path).map_err(|e| io(&path, e))?;
             tmp.write_all(&header_line).map_err(|e| io(&path, e))?;
             let (mut old, _) = Rows::open(&path, Some(len), None)?;
             let next_old = old.next()?;
@@ -434,7 +434,7 @@ pub fn merge(dirs: &[PathBuf], out: &Path) -> Result<(Manifest, Vec<PathBuf>), S
         let m =
             Manifest::read(d)?.ok_or_else(|| format!("{}: no {TOML}; not the output of `ezy sweep`", d.display()))?;
         let (k, n) = match &m.shard {
-            Some(s) => crate::cli::parse_shard(s).map_err(|e| format!("{}: shard {e}", d.join(TOML).display()))?,
+            Some(s) => parse_shard(s).map_err(|e| format!("{}: shard {e}", d.join(TOML).display()))?,
             None => (0, 1),
         };
         shards.push((k, n, d.clone(), m));
@@ -471,7 +471,7 @@ pub fn merge(dirs: &[PathBuf], out: &Path) -> Result<(Manifest, Vec<PathBuf>), S
         readers.push(rows);
     }
     let header = header.expect("at least one shard");
-    let lock = crate::transaction::lock(out).map_err(|e| e.to_string())?;
+    let lock = crate::output::transaction::lock(out).map_err(|e| e.to_string())?;
     if let Some(found) = Manifest::read(out)?
         && let Some(d) = found.differs(&merged)
     {
@@ -479,7 +479,7 @@ pub fn merge(dirs: &[PathBuf], out: &Path) -> Result<(Manifest, Vec<PathBuf>), S
     }
     let csv_path = out.join(CSV);
     // 0666 less the umask, as any table ezy writes
-    let mut tmp = crate::transaction::temp_beside(&csv_path).map_err(|e| io(&csv_path, e))?;
+    let mut tmp = crate::output::transaction::temp_beside(&csv_path).map_err(|e| io(&csv_path, e))?;
     {
         let mut w = writer(std::io::BufWriter::new(tmp.as_file_mut()));
         w.write_record(&header).map_err(|e| io(&csv_path, e))?;
@@ -521,7 +521,8 @@ pub fn merge(dirs: &[PathBuf], out: &Path) -> Result<(Manifest, Vec<PathBuf>), S
         w.flush().map_err(|e| io(&csv_path, e))?;
     }
     tmp.as_file().sync_all().map_err(|e| io(&csv_path, e))?;
-    crate::transaction::write_atomically(&out.join(TOML), merged.text().as_bytes()).map_err(|e| e.to_string())?;
+    crate::output::transaction::write_atomically(&out.join(TOML), merged.text().as_bytes())
+        .map_err(|e| e.to_string())?;
     tmp.persist(&csv_path).map_err(|e| io(&csv_path, e.error))?;
     drop(lock);
     Ok((merged, vec![csv_path, out.join(TOML)]))
@@ -568,4 +569,18 @@ pub fn read_columns(dir: &Path, names: &[String]) -> Result<Vec<Vec<f64>>, Strin
         out.push(at.iter().map(|&k| rows.record.get(k).and_then(|s| s.parse().ok()).unwrap_or(f64::NAN)).collect());
     }
     Ok(out)
+}
+
+/// `K/N` of `--shard`: 0 <= K < N.
+///
+/// # Errors
+/// Not two whole numbers, N = 0 or K >= N.
+pub(crate) fn parse_shard(s: &str) -> Result<(u64, u64), String> {
+    let (k, n) = s.split_once('/').ok_or_else(|| format!("`{s}`: expected K/N (shard K of N, K from 0)"))?;
+    let k: u64 = k.trim().parse().map_err(|_| format!("`{s}`: `{k}` is not a whole number"))?;
+    let n: u64 = n.trim().parse().map_err(|_| format!("`{s}`: `{n}` is not a whole number"))?;
+    if n == 0 || k >= n {
+        return Err(format!("`{s}`: need 0 <= K < N"));
+    }
+    Ok((k, n))
 }

@@ -4,7 +4,7 @@
 //! ledger (`T(t_end) - T(0)` against the work of every effect and drive,
 //! the balance of docs/physics.md §8), an animation of the run (a GIF
 //! inlined as a `data:` URI, drawn from the trajectory's rows by
-//! [`crate::animate::gif_of_table`]), every figure as inline SVG, and
+//! [`crate::render::animation::gif_of_table`]), every figure as inline SVG, and
 //! what reproduces the run: the command line (naming the scene file a run
 //! was given, [`RunOptions::scene_file`]) and the scene file after the
 //! overrides. Nothing is loaded from elsewhere: no scripts, style sheets,
@@ -16,8 +16,7 @@ use ezy_core::{Dynamics, Model};
 
 use ezy_scene::Scene;
 
-use crate::commands::run::RunOptions;
-use crate::output::Table;
+use crate::output::csv::Table;
 
 /// Rows of the report's animation at most.
 pub const REPORT_FRAMES: usize = 240;
@@ -82,65 +81,6 @@ pub fn shell_quote(word: &str) -> String {
     } else {
         format!("'{}'", word.replace('\'', "'\\''"))
     }
-}
-
-/// The command line that reruns `scene` with `opts`: the scene by name,
-/// or the scene file the run was given ([`RunOptions::scene_file`]),
-/// quoted for a shell; then every setting the run was given (the page
-/// also shows the scene after the `--set` overrides).
-pub fn command_line(scene: &str, opts: &RunOptions) -> String {
-    let scene = match opts.scene_file.clone() {
-        // a relative path that starts like a flag stays a path
-        Some(f) if f.starts_with('-') => format!("./{f}"),
-        Some(f) => f,
-        None => scene.to_string(),
-    };
-    let mut a = vec!["ezy".to_string(), "run".into(), shell_quote(&scene)];
-    for (name, v) in &opts.sets {
-        a.push(format!("--set {}", shell_quote(&format!("{name}={v:?}"))));
-    }
-    let num = |a: &mut Vec<String>, flag: &str, v: Option<f64>| {
-        if let Some(v) = v {
-            a.push(format!("{flag} {v:?}"));
-        }
-    };
-    num(&mut a, "--dt", opts.dt);
-    num(&mut a, "--t-end", opts.t_end);
-    num(&mut a, "--every", opts.every);
-    num(&mut a, "--rtol", opts.rtol);
-    num(&mut a, "--atol", opts.atol);
-    if let Some(m) = opts.method {
-        a.push(format!("--integrator {}", m.name()));
-    }
-    if let Some(f) = opts.formulation {
-        a.push(format!("--formulation {}", f.name()));
-    }
-    if let Some(p) = opts.projection {
-        a.push(format!(
-            "--projection {}",
-            match p {
-                ezy_core::ProjectionKind::None => "none",
-                ezy_core::ProjectionKind::Euclidean => "euclidean",
-                ezy_core::ProjectionKind::MassWeighted => "mass",
-            }
-        ));
-    }
-    if let Some(b) = opts.baumgarte {
-        a.push(format!("--baumgarte {:?},{:?}", b.alpha, b.beta));
-    }
-    if let Some(n) = opts.max_steps {
-        a.push(format!("--max-steps {n}"));
-    }
-    num(&mut a, "--max-output-mb", opts.max_output_mb);
-    if let Some(f) = opts.figure_format {
-        a.push(format!("--format {f}"));
-    }
-    num(&mut a, "--dpi", opts.dpi);
-    if !opts.figures {
-        a.push("--no-figures".into());
-    }
-    a.push("--report".into());
-    a.join(" ")
 }
 
 /// Everything the page shows.
@@ -264,7 +204,7 @@ pub fn figures(info: &ezy_core::ModelInfo, scene: &Scene, table: &Table) -> Vec<
         .figures
         .par_iter()
         .map(|fig| {
-            let svg = crate::figures::svg(info, fig, table).map_err(|e| e.to_string());
+            let svg = crate::render::figures::svg(info, fig, table).map_err(|e| e.to_string());
             (ezy_scene::figure_stem(&fig.file).to_string(), svg)
         })
         .collect()
@@ -283,17 +223,6 @@ mod tests {
         assert_eq!(shell_quote("it's.toml"), "'it'\\''s.toml'");
         assert_eq!(shell_quote("$HOME/a;b`c`.toml"), "'$HOME/a;b`c`.toml'");
         assert_eq!(shell_quote(""), "''");
-    }
-
-    #[test]
-    fn a_run_given_a_file_is_reproduced_from_it() {
-        let opts = RunOptions { t_end: Some(3.0), figures: true, ..RunOptions::default() };
-        assert_eq!(command_line("drive", &opts), "ezy run drive --t-end 3.0 --report");
-        let file = |f: &str| RunOptions { scene_file: Some(f.into()), ..opts.clone() };
-        let named = command_line("drive", &file("my dir/drive.toml"));
-        assert_eq!(named, "ezy run 'my dir/drive.toml' --t-end 3.0 --report");
-        let flag_like = command_line("x", &file("-x.toml"));
-        assert_eq!(flag_like, "ezy run ./-x.toml --t-end 3.0 --report");
     }
 
     /// A GIF's frame lasts a whole number of hundredths of a second: the

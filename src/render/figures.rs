@@ -1,15 +1,15 @@
 //! Scene figures: [`FigureSpec`]s resolved against the trajectory table and
-//! drawn with [`crate::plot`]. Every value is checked before anything is
+//! drawn with [`crate::render::plot`]. Every value is checked before anything is
 //! drawn: a value that is not finite or beyond
-//! [`crate::plot::MAX_MAGNITUDE`] is an error naming the figure file, the
+//! [`crate::render::plot::MAX_MAGNITUDE`] is an error naming the figure file, the
 //! column, the value and its time.
 
 use ezy_core::ModelInfo;
 
 use ezy_scene::{Column, FigureFormat, FigureSpec};
 
-use crate::output::Table;
-use crate::plot::{Chart, PlotError, Series};
+use crate::output::csv::Table;
+use crate::render::plot::{Chart, PlotError, Series};
 
 /// Errors drawing a scene figure.
 #[derive(Debug, thiserror::Error)]
@@ -23,7 +23,7 @@ pub enum FigureError {
         column: String,
     },
     /// A value the figure would have to draw cannot be drawn: it is not
-    /// finite, or its magnitude is beyond [`crate::plot::MAX_MAGNITUDE`].
+    /// finite, or its magnitude is beyond [`crate::render::plot::MAX_MAGNITUDE`].
     #[error("figure {figure}: column `{column}` is {value:e} at t = {} s, which {reason}; the figure is not drawn", ezy_core::fmt_value(*t))]
     Value {
         /// Figure file name.
@@ -168,7 +168,7 @@ fn check_values(figure: &str, column: String, values: &[f64], times: &[f64], log
     for (k, &v) in values.iter().enumerate() {
         let reason = if !v.is_finite() {
             "is not a finite number"
-        } else if !log && v.abs() > crate::plot::MAX_MAGNITUDE {
+        } else if !log && v.abs() > crate::render::plot::MAX_MAGNITUDE {
             "is too large to plot (magnitude above 1e100)"
         } else {
             continue;
@@ -180,12 +180,12 @@ fn check_values(figure: &str, column: String, values: &[f64], times: &[f64], log
 }
 
 /// Draws `fig` from `table` as SVG (see [`chart`] and
-/// [`crate::plot::chart_svg`]).
+/// [`crate::render::plot::chart_svg`]).
 ///
 /// # Errors
 /// As [`chart`], and [`FigureError::Plot`] for a drawing failure.
 pub fn svg(info: &ModelInfo, fig: &FigureSpec, table: &Table) -> Result<String, FigureError> {
-    crate::plot::chart_svg(&chart(info, fig, table)?)
+    crate::render::plot::chart_svg(&chart(info, fig, table)?)
         .map_err(|source| FigureError::Plot { figure: fig.file.clone(), source })
 }
 
@@ -194,7 +194,7 @@ pub fn svg(info: &ModelInfo, fig: &FigureSpec, table: &Table) -> Result<String, 
 ///
 /// # Errors
 /// As [`svg`], and [`FigureError::Plot`] if the encoding fails (see
-/// [`crate::plot::encode`]).
+/// [`crate::render::plot::encode`]).
 pub fn render(
     info: &ModelInfo,
     fig: &FigureSpec,
@@ -203,7 +203,7 @@ pub fn render(
     dpi: f64,
 ) -> Result<(String, Vec<u8>), FigureError> {
     let svg = svg(info, fig, table)?;
-    let bytes = crate::plot::encode(&svg, format, dpi, &fig.title)
+    let bytes = crate::render::plot::encode(&svg, format, dpi, &fig.title)
         .map_err(|source| FigureError::Plot { figure: fig.file.clone(), source })?;
     Ok((svg, bytes))
 }
@@ -269,7 +269,7 @@ where
     let encode = |i: usize, svg: &str| -> Result<Vec<u8>, E> {
         let fig = &figs[i];
         check(fig)?;
-        crate::plot::encode(svg, format, dpi, &fig.title)
+        crate::render::plot::encode(svg, format, dpi, &fig.title)
             .map_err(|source| FigureError::Plot { figure: fig.file.clone(), source }.into())
     };
     let threads = encoding_threads(n);

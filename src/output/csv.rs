@@ -22,7 +22,7 @@ use ezy_core::{Dynamics, Model, Observer, Sample, SimError};
 
 use ezy_scene::{OutputGroup, Scene};
 
-use crate::transaction::{Transaction, TransactionError};
+use crate::output::transaction::{Transaction, TransactionError};
 
 /// Errors writing the table.
 #[derive(Debug, thiserror::Error)]
@@ -373,7 +373,7 @@ impl Drop for RowWriter {
 /// Writes `writer`'s rows left, flushes and syncs its file at `path`.
 fn close(writer: RowWriter, path: &Path) -> Result<(), OutputError> {
     let file = writer.finish()?;
-    crate::transaction::sync(&file, path)?;
+    crate::output::transaction::sync(&file, path)?;
     Ok(())
 }
 
@@ -453,7 +453,7 @@ pub struct CsvObserver<'a, M: Model> {
     written: u64,
     row: Vec<f64>,
     builder: RowBuilder<M>,
-    progress: Option<crate::progress::Progress>,
+    progress: Option<crate::output::progress::Progress>,
     tap: Option<Tap<'a>>,
     /// The latest simulated time the run reported \[s\] (samples are
     /// observed in batches, behind the step loop): what an interruption
@@ -473,7 +473,7 @@ impl<'a, M: Model> CsvObserver<'a, M> {
         tx: &mut Transaction,
         name: &str,
         builder: RowBuilder<M>,
-        progress: Option<crate::progress::Progress>,
+        progress: Option<crate::output::progress::Progress>,
         rows: usize,
     ) -> Result<Self, OutputError> {
         let columns = builder.columns.clone();
@@ -570,7 +570,7 @@ impl<M: Model> Observer<M> for CsvObserver<'_, M> {
 
     fn observe(&mut self, sys: &Dynamics<M>, s: &Sample<'_>) -> Result<(), OutputError> {
         self.reached = self.reached.max(s.t);
-        crate::transaction::check_interrupt(&self.dir, Some(self.reached), None)?;
+        crate::output::transaction::check_interrupt(&self.dir, Some(self.reached), None)?;
         self.builder.fill(sys, s, &mut self.row)?;
         self.writer.push(&self.row)?;
         if let Some(tap) = &mut self.tap {
@@ -591,10 +591,10 @@ impl<M: Model> Observer<M> for CsvObserver<'_, M> {
         Ok(())
     }
 
-    /// Stops the run if a signal arrived (see [`crate::transaction`]).
+    /// Stops the run if a signal arrived (see [`crate::output::transaction`]).
     fn poll(&mut self, t: f64) -> Result<(), OutputError> {
         self.reached = self.reached.max(t);
-        Ok(crate::transaction::check_interrupt(&self.dir, Some(self.reached), None)?)
+        Ok(crate::output::transaction::check_interrupt(&self.dir, Some(self.reached), None)?)
     }
 
     fn progress(&mut self, t: f64) {
@@ -612,6 +612,21 @@ impl<M: Model> Observer<M> for CsvObserver<'_, M> {
             }
         }
     }
+}
+
+/// A number for a CSV cell: the shortest decimal that reads back as the
+/// same number, as in every CSV file ezy writes.
+pub(crate) fn number(v: f64) -> String {
+    format_number(&mut zmij::Buffer::new(), v).to_string()
+}
+
+/// One CSV record, quoted where a cell needs it (a parameter name given
+/// on the command line).
+pub(crate) fn record(cells: Vec<String>) -> String {
+    let mut w = csv::Writer::from_writer(Vec::new());
+    // writing to memory cannot fail
+    let _ = w.write_record(&cells);
+    String::from_utf8(w.into_inner().unwrap_or_default()).unwrap_or_default()
 }
 
 #[cfg(test)]

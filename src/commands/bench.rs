@@ -21,15 +21,103 @@
 //!
 //! Each integration time is the median of `repeat` runs. The whole
 //! process of the matching `run` command (`--no-figures`, CSV written) is
-//! timed by the caller, which starts the program itself ([`crate::App`]).
+//! timed by the command, which starts the program itself.
 
+use std::io::Write;
+
+use clap::{ArgMatches, Args, FromArgMatches};
 use ezy_core::integrator::Method;
 use ezy_core::{Formulation, Model, ProjectionKind};
-
 use ezy_scene::Scene;
 
-use crate::commands::run::Error;
+use crate::app::{App, AppError};
+use crate::cli::parse_capped;
+use crate::output::progress::Heartbeat;
 use crate::precision::{Setting, run_once_as, state_error};
+use crate::session::Error;
+
+/// Time an accurate trajectory: DOP853 at 1e-11 with and without
+/// output, the scene's own setting, and each whole `run` process.
+#[derive(Args, Debug, Default)]
+pub(crate) struct BenchArgs {
+    /// Scene: a known name (default: drive) or a path to a .toml scene file.
+    pub scene: Option<String>,
+    /// Runs per setting (the median is reported), at most 100.
+    #[arg(long, value_name = "N", default_value_t = 5, value_parser = parse_repeat)]
+    pub repeat: u64,
+    /// Skip timing the whole `run` processes.
+    #[arg(long)]
+    pub no_process: bool,
+}
+
+/// `--repeat` of `ezy bench`: from 1 to [`MAX_REPEAT`].
+///
+/// # Errors
+/// Not a whole number from 1 to the limit.
+fn parse_repeat(s: &str) -> Result<u64, String> {
+    parse_capped(
+        s,
+        MAX_REPEAT,
+        "runs per setting (each repeat runs the seven settings again, and as many whole processes)",
+    )
+}
+
+/// The arguments of `ezy bench`, on the subcommand `cmd`.
+pub(crate) fn cli(cmd: clap::Command) -> clap::Command {
+    BenchArgs::augment_args(cmd)
+}
+
+/// Measures the settings in this process, then (unless `--no-process`)
+/// each whole `run` process, and prints the table.
+pub(crate) fn exec(app: &App, args: &ArgMatches, out: &mut dyn Write) -> Result<(), AppError> {
+    let args = BenchArgs::from_arg_matches(args)?;
+    let (name, src) = app.named_scene(args.scene.as_deref())?;
+    let scene = &src.scene;
+    let model = app.model_or_error(&scene.model)?;
+    // `--repeat` is at most MAX_REPEAT (its parser), and bench_model
+    // refuses more for callers that build the arguments
+    let repeat = usize::try_from(args.repeat).unwrap_or(usize::MAX);
+    let mut rows = bench_model(model, scene, repeat).map_err(AppError::from_run)?;
+    if !args.no_process {
+        time_processes(&name, &mut rows, repeat)?;
+    }
+    Ok(out.write_all(table(&scene.name, &rows).as_bytes())?)
+}
+
+/// Times this very program, started anew `repeat` times for each row's
+/// setting on the scene `name`: parse, setup, integration and CSV, no
+/// figures; the median into the row's `process_s`.
+fn time_processes(name: &str, rows: &mut [BenchRow], repeat: usize) -> Result<(), AppError> {
+    let exe = std::env::current_exe().map_err(|e| AppError::Failed(format!("finding this program: {e}")))?;
+    let tmp = tempfile::tempdir().map_err(|e| AppError::Failed(format!("a scratch directory: {e}")))?;
+    let beat = Heartbeat::start(format!("bench {name}: timing the run processes"));
+    let n_rows = rows.len();
+    for (k, row) in rows.iter_mut().enumerate() {
+        let dir = tmp.path().join(k.to_string());
+        let mut times = Vec::new();
+        for r in 0..repeat {
+            beat.set(format!("bench {name}: process of setting {} of {n_rows}, run {} of {repeat}", k + 1, r + 1));
+            let start = std::time::Instant::now();
+            let status = std::process::Command::new(&exe)
+                .arg("run")
+                .arg(name)
+                .args(&row.args)
+                .arg("--no-figures")
+                .arg("--out")
+                .arg(&dir)
+                .stdout(std::process::Stdio::null())
+                .stderr(std::process::Stdio::null())
+                .status()
+                .map_err(|e| AppError::Failed(format!("starting {}: {e}", exe.display())))?;
+            if !status.success() {
+                return Err(AppError::Failed(format!("`run {name} {}` failed: {status}", row.args.join(" "))));
+            }
+            times.push(start.elapsed().as_secs_f64());
+        }
+        row.process_s = Some(median(&mut times));
+    }
+    Ok(())
+}
 
 /// Most runs per setting `ezy bench --repeat` takes: each repeat runs the
 /// seven settings once more in this process and, unless `--no-process`,
@@ -72,7 +160,7 @@ pub fn bench_model<M: Model>(proto: &M, scene: &Scene, repeat: usize) -> Result<
     if repeat as u64 > MAX_REPEAT {
         return Err(Error::Input(format!("--repeat {repeat} is more than {MAX_REPEAT}, the most runs per setting")));
     }
-    let beat = crate::progress::Heartbeat::start(format!("bench {}: the reference run", scene.name));
+    let beat = Heartbeat::start(format!("bench {}: the reference run", scene.name));
     let t_end = scene.t_end;
     let reference =
         Setting { method: Method::Dop853, dt: None, tol: Some(1e-13), projection: ProjectionKind::MassWeighted };
