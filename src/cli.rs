@@ -102,7 +102,7 @@ impl Overrides {
     /// The overrides as command-line arguments that parse back to them
     /// (what a Slurm script passes on, and how a sweep's manifest records
     /// them).
-    pub fn to_args(&self) -> Vec<String> {
+    pub(crate) fn to_args(&self) -> Vec<String> {
         self.options().to_args()
     }
 }
@@ -190,7 +190,7 @@ pub(crate) fn parse_set(s: &str) -> Result<(String, f64), String> {
 impl Overrides {
     /// The run options these overrides give (no output directory, no
     /// figures, no progress display).
-    pub fn options(&self) -> RunOptions {
+    pub(crate) fn options(&self) -> RunOptions {
         RunOptions {
             out: PathBuf::new(),
             sets: self.sets.clone(),

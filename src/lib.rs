@@ -15,8 +15,8 @@
 //! ```
 //!
 //! A whole program with a vehicle of its own, a scene and every command
-//! (`run`, `list`, `sweep`, `precision`, `animate`, `bench`, `check`,
-//! `equations`, `scale`):
+//! of the `ezy` binary (`run`, `sweep`, `analyze`, ...: `--help` lists
+//! them):
 //!
 //! ```no_run
 //! ezy::model! {
@@ -57,21 +57,22 @@
 //! app/        App: the table of models and scenes, main, run_cli (parse,
 //!             then the command's line in the table)
 //! cli         the top command and the overrides its commands share
-//! commands/   one file per command (run, list, precision, equations,
-//!             check, scale, sweep, animate, bench, analyze, linearize)
-//!             with its arguments and its exec; the table in mod.rs
+//! commands/   one file per command, its arguments and its exec; the
+//!             table of commands in mod.rs
 //! run         a scene run to trajectory.csv and figures, or in memory
-//! precision   the work-precision ladder     sweep/  many runs, sharded
+//! precision   the work-precision ladder
+//! sweep/      many runs of a scene, resumable and sharded
 //! session     what commands share: RunOptions, settings, Report, summary
-//! output/     csv, transaction (the locked output directory), progress
 //! render/     plot/ (charts, heat maps; SVG, PNG, PDF), figures,
 //!             animation, report
+//! output/     csv, transaction (the locked output directory), progress
 //! testing     a model's derived terms checked in its author's tests
 //! ```
 //!
-//! Imports go down that list, never up: a command imports no other
-//! command, [`render`] never imports the session or the commands, and
-//! [`output`] imports none of them. The public modules are [`app`],
+//! Imports go down this list (a command also sees the [`App`] it runs
+//! on): no command imports another, what they share is in [`session`];
+//! [`render`] never imports the session or the commands, and [`output`]
+//! imports none of the modules above it. The public modules are [`app`],
 //! [`session`] ([`RunOptions`], [`Report`]), [`output`] ([`output::csv`]
 //! the trajectory table, [`output::transaction`]), [`render`]
 //! ([`render::plot`], [`render::figures`]), [`precision`] and [`testing`].

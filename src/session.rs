@@ -125,7 +125,7 @@ pub struct RunOptions {
     pub max_output_mb: Option<f64>,
     /// The scene file the run was given, as its command line gave it
     /// (`None`: a known scene by name): the report's command line names it
-    /// ([`command_line`]).
+    /// (`command_line`).
     pub scene_file: Option<String>,
 }
 
@@ -189,7 +189,7 @@ pub const DEFAULT_MAX_OUTPUT_MB: f64 = 1000.0;
 
 /// Bytes one CSV value takes at most: its shortest round-trip form (up to
 /// 24 characters, [`crate::output::csv::format_number`]) and a separator.
-pub const BYTES_PER_VALUE: f64 = crate::output::csv::BYTES_PER_NUMBER as f64;
+pub(crate) const BYTES_PER_VALUE: f64 = crate::output::csv::BYTES_PER_NUMBER as f64;
 
 /// What a run produced.
 #[derive(Debug, Clone)]
@@ -222,7 +222,7 @@ pub struct Report {
 /// # Errors
 /// [`SimError::Setting`] naming the flag of a bad override (`--rtol`),
 /// or a setting the scene and overrides make invalid together.
-pub fn settings(scene: &Scene, opts: &RunOptions) -> Result<RunSettings, SimError> {
+pub(crate) fn settings(scene: &Scene, opts: &RunOptions) -> Result<RunSettings, SimError> {
     for (flag, name, value) in [
         ("--dt", "dt", opts.dt),
         ("--t-end", "t_end", opts.t_end),
@@ -262,7 +262,7 @@ pub fn settings(scene: &Scene, opts: &RunOptions) -> Result<RunSettings, SimErro
 ///
 /// # Errors
 /// As [`ezy_scene::Scene::problem`].
-pub fn problem<M: Model>(
+pub(crate) fn problem<M: Model>(
     proto: &M,
     scene: &Scene,
     opts: &RunOptions,
@@ -313,7 +313,7 @@ pub type StopHook<'a> = &'a mut dyn FnMut(f64) -> Option<String>;
 ///
 /// # Errors
 /// [`SimError::Budget`] with the estimate and the flag that raises the cap.
-pub fn output_budget(settings: &RunSettings, columns: usize, max_mb: f64) -> Result<(), SimError> {
+pub(crate) fn output_budget(settings: &RunSettings, columns: usize, max_mb: f64) -> Result<(), SimError> {
     let rows = settings.output_rows();
     let mb = rows * columns as f64 * BYTES_PER_VALUE / 1e6;
     if mb > max_mb {
@@ -340,7 +340,7 @@ fn short(v: f64) -> String {
 pub const SUMMARY_STATES: usize = 300;
 
 /// At most this many events listed in the summary (all are in `events.csv`).
-pub const SUMMARY_EVENTS: usize = 10;
+pub(crate) const SUMMARY_EVENTS: usize = 10;
 
 /// The summary `run` prints: method and steps, RHS evaluations and times,
 /// residuals, the energy balance, the final state and the files written.
@@ -439,7 +439,7 @@ pub fn summary(scene: &str, r: &Report) -> String {
 /// or the scene file the run was given ([`RunOptions::scene_file`]),
 /// quoted for a shell; then every setting the run was given (the page
 /// also shows the scene after the `--set` overrides).
-pub fn command_line(scene: &str, opts: &RunOptions) -> String {
+pub(crate) fn command_line(scene: &str, opts: &RunOptions) -> String {
     let scene = match opts.scene_file.clone() {
         // a relative path that starts like a flag stays a path
         Some(f) if f.starts_with('-') => format!("./{f}"),

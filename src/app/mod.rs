@@ -80,8 +80,8 @@ impl AppError {
     }
 }
 
-/// The models and scenes an `ezy` command line knows, and the commands
-/// over them: `run`, `list`, `precision`, `equations`, `check`, `scale`.
+/// The models and scenes an `ezy` command line knows, and every command
+/// of the `ezy` binary over them ([`App::main`], [`App::run_cli`]).
 ///
 /// Mistakes in building the table (a model key or a scene name given
 /// twice) are kept and reported by every command, so the program never
@@ -281,8 +281,9 @@ impl App {
     /// `precision.csv` and its figures into `out`.
     ///
     /// # Errors
-    /// As [`precision::precision_model`]; [`Error::UnknownModel`] for
-    /// a key this application lacks.
+    /// [`Error`] if the reference run fails, a saved ladder does not read
+    /// or a file cannot be written; [`Error::UnknownModel`] for a key this
+    /// application lacks.
     pub fn precision(&self, scene: &Scene, out: &Path) -> Result<precision::Report, Error> {
         self.precision_with(scene, out, &precision::PrecisionOptions::default())
     }

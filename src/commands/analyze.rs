@@ -37,29 +37,29 @@ use crate::session::{Error, RunOptions, analysis_error, complex, rounded, run_to
 /// varies: equilibria.csv, periodic.csv, branch.csv and figures.
 #[derive(Args, Debug, Default)]
 #[command(allow_negative_numbers = true)]
-pub(crate) struct AnalyzeArgs {
+struct AnalyzeArgs {
     /// Scene: a known name (see `list`; default: drive) or a path to a
     /// .toml scene file.
-    pub scene: Option<String>,
+    scene: Option<String>,
     /// Output directory [default: out/analyze/SCENE].
     #[arg(long)]
-    pub out: Option<PathBuf>,
+    out: Option<PathBuf>,
     /// The forcing period [s] [default: from the scene's waveforms].
     #[arg(long, value_name = "T", value_parser = parse_positive)]
-    pub period: Option<f64>,
+    period: Option<f64>,
     /// The kinetic energy [J] of the steady motions sought [default: the
     /// guess's own in a scene without effects, where energy is conserved].
     #[arg(long, value_name = "J", value_parser = parse_positive)]
-    pub energy: Option<f64>,
+    energy: Option<f64>,
     /// Follow the solution as a parameter takes COUNT evenly spaced
     /// values from START to STOP (a NAME as for --set).
     #[arg(long = "continue", value_name = "NAME=START:STOP:COUNT")]
-    pub continuation: Option<String>,
+    continuation: Option<String>,
     /// Do not draw the figures.
     #[arg(long)]
-    pub no_figures: bool,
+    no_figures: bool,
     #[command(flatten)]
-    pub overrides: Overrides,
+    overrides: Overrides,
 }
 
 /// The arguments of `ezy analyze`, on the subcommand `cmd`.
@@ -111,46 +111,119 @@ const MAX_CONTINUATION: u64 = 10_000;
 
 /// What `ezy analyze` is asked.
 #[derive(Debug, Clone, Default)]
-pub struct AnalyzeOptions {
+struct AnalyzeOptions {
     /// Output directory, overrides, figure settings; `t_end` is the length
     /// of the run whose end state is a guess.
-    pub run: RunOptions,
+    run: RunOptions,
     /// The forcing period \[s\] (`None`: from the scene's waveforms).
-    pub period: Option<f64>,
+    period: Option<f64>,
     /// The kinetic energy \[J\] of the steady motions sought (`None`: the
     /// guess's own for a scene without effects and drives, free otherwise).
-    pub energy: Option<f64>,
+    energy: Option<f64>,
     /// A parameter to follow the first solution through: its name and values.
-    pub continuation: Option<(String, Vec<f64>)>,
+    continuation: Option<(String, Vec<f64>)>,
 }
 
 /// What `ezy analyze` found.
 #[derive(Debug, Clone)]
-pub struct AnalyzeReport {
+struct AnalyzeReport {
     /// The scene's symmetry.
-    pub symmetry: Symmetry,
+    symmetry: Symmetry,
     /// The model's coordinates (the names of its cyclic ones' rates).
-    pub coords: Vec<String>,
+    coords: Vec<String>,
     /// The steady motions found (distinct), for a time-independent scene.
-    pub steady: Vec<SteadyMotion>,
+    steady: Vec<SteadyMotion>,
     /// The periodic orbit, for a periodically driven scene.
-    pub periodic: Option<PeriodicOrbit>,
+    periodic: Option<PeriodicOrbit>,
     /// Files written.
-    pub files: Vec<PathBuf>,
+    files: Vec<PathBuf>,
     /// What took how long.
-    pub timings: Vec<(String, Duration)>,
+    timings: Vec<(String, Duration)>,
     /// Notes for the user (a guess that led nowhere, the end of a branch).
-    pub notes: Vec<String>,
+    notes: Vec<String>,
 }
 
-/// `ezy analyze` on `proto`, a model at its defaults.
+/// `ezy analyze` on `proto`, a model at its defaults: the request
+/// checked, the scene's symmetry and period, its run for guesses, the
+/// steady motions or the periodic orbit, the branch, the output.
 ///
 /// # Errors
 /// [`Error::Input`] when the scene has neither steady motions nor a known
 /// period, or no search converged; the setup's errors; the output's.
-pub fn analyze_model<M: Model>(proto: &M, scene: &Scene, opts: &AnalyzeOptions) -> Result<AnalyzeReport, Error> {
+fn analyze_model<M: Model>(proto: &M, scene: &Scene, opts: &AnalyzeOptions) -> Result<AnalyzeReport, Error> {
     let ro = &opts.run;
     let settings = settings(scene, ro)?;
+    check_request(opts, settings.t_end)?;
+    let (mut an, x0) = scene_analysis(proto, scene, &ro.sets)?;
+    check_on_model(proto, scene, opts, &an)?;
+    Transaction::preflight(&ro.out)?;
+    let mut log = Log::default();
+    let clock = Instant::now();
+    let symmetry = an.symmetry(0.0, &x0).map_err(analysis_error(&ro.out))?;
+    let period = period(&mut an, &x0, opts.period, scene, &ro.out)?;
+    // a line every few seconds of a long analysis (a stiff scene's run
+    // and searches take minutes)
+    let beat = ro.progress.then(|| {
+        Heartbeat::start(format!(
+            "analyze {}: running the scene to t = {} s for guesses",
+            scene.name,
+            fmt_value(settings.t_end)
+        ))
+    });
+    let (samples, _) = run_to(proto, scene, ro, settings.t_end, GUESSES)?;
+    let end = samples.last().cloned().unwrap_or_else(|| x0.clone());
+    log.timings.push((format!("run to t = {} s for a guess", fmt_value(settings.t_end)), clock.elapsed()));
+    let (steady, periodic, follow) = match period {
+        None => {
+            let guesses = guesses(&x0, &end, &samples, settings.t_end, symmetry);
+            let (steady, follow) = steady_motions(&mut an, scene, opts, symmetry, &guesses, beat.as_ref(), &mut log)?;
+            (steady, None, follow)
+        }
+        Some(p) => {
+            let clock = Instant::now();
+            let t0 = settings.t_end;
+            // `--max-steps` bounds each period's integration (the advice of
+            // a budget error names it)
+            let ps = PeriodicSettings {
+                max_steps: ro.max_steps.unwrap_or(PeriodicSettings::default().max_steps),
+                ..PeriodicSettings::default()
+            };
+            if let Some(b) = &beat {
+                b.set(format!("analyze {}: searching for the periodic orbit of period {} s", scene.name, fmt_value(p)));
+            }
+            let orbit = an.periodic_orbit(t0, p, &end, symmetry, &ps).map_err(analysis_error(&ro.out))?;
+            log.timings.push(("periodic orbit".into(), clock.elapsed()));
+            (Vec::new(), Some(orbit), Follow::Periodic { t0, period: p, settings: ps })
+        }
+    };
+    drop(beat);
+    let branch = match &opts.continuation {
+        Some((name, values)) => {
+            let start = steady
+                .first()
+                .map_or_else(|| periodic.as_ref().map(|p| p.state.clone()).unwrap_or_default(), |s| s.state.clone());
+            follow_branch(proto, scene, ro, (name, values), &start, follow, &mut log)?
+        }
+        None => Vec::new(),
+    };
+    let files = write_analysis(&an, scene, opts, &steady, periodic.as_ref(), &branch)?;
+    let coords = an.dynamics().info.coords.clone();
+    let Log { timings, notes } = log;
+    Ok(AnalyzeReport { symmetry, coords, steady, periodic, files, timings, notes })
+}
+
+/// What an analysis tells besides its results: what took how long, and
+/// notes for the user.
+#[derive(Default)]
+struct Log {
+    timings: Vec<(String, Duration)>,
+    notes: Vec<String>,
+}
+
+/// The request's own numbers, before any work: a period that is not
+/// positive or within the time's rounding at `t_end` \[s\], an energy that
+/// is not positive.
+fn check_request(opts: &AnalyzeOptions, t_end: f64) -> Result<(), Error> {
     if let Some(p) = opts.period
         && !(p.is_finite() && p > 0.0)
     {
@@ -160,13 +233,13 @@ pub fn analyze_model<M: Model>(proto: &M, scene: &Scene, opts: &AnalyzeOptions) 
     // 1e-9 of that time is within 2e-7 of its rounding (eps t), coarser
     // than the shooting's tolerance (1e-9 of the state)
     if let Some(p) = opts.period
-        && p < MIN_PERIOD * settings.t_end.max(1.0)
+        && p < MIN_PERIOD * t_end.max(1.0)
     {
         return Err(Error::Input(format!(
             "--period {}: a periodic orbit is sought from t = {} s (the scene's t_end), and a period below {:.1e} s there is within the time's rounding; give a longer period",
             fmt_value(p),
-            fmt_value(settings.t_end),
-            MIN_PERIOD * settings.t_end.max(1.0)
+            fmt_value(t_end),
+            MIN_PERIOD * t_end.max(1.0)
         )));
     }
     if let Some(e) = opts.energy
@@ -174,7 +247,14 @@ pub fn analyze_model<M: Model>(proto: &M, scene: &Scene, opts: &AnalyzeOptions) 
     {
         return Err(Error::Input(format!("--energy {e}: the kinetic energy must be a positive number of joules")));
     }
-    let (mut an, x0) = scene_analysis(proto, scene, &ro.sets)?;
+    Ok(())
+}
+
+/// The request against the model: an energy that stands for a speed the
+/// search cannot tell from rest, a continuation whose ends change the
+/// model's size.
+fn check_on_model<M: Model>(proto: &M, scene: &Scene, opts: &AnalyzeOptions, an: &Analysis<M>) -> Result<(), Error> {
+    let ro = &opts.run;
     if let Some(e) = opts.energy {
         // the speed it stands for, on all the bodies' mass at once
         let mass: f64 = an.dynamics().mass.iter().step_by(3).sum();
@@ -205,12 +285,21 @@ pub fn analyze_model<M: Model>(proto: &M, scene: &Scene, opts: &AnalyzeOptions) 
             }
         }
     }
-    Transaction::preflight(&ro.out)?;
-    let mut timings = Vec::new();
-    let mut notes = Vec::new();
-    let clock = Instant::now();
-    let symmetry = an.symmetry(0.0, &x0).map_err(analysis_error(&ro.out))?;
-    let period = match (opts.period, an.forcing()) {
+    Ok(())
+}
+
+/// The period of the orbit sought (`None`: steady motions): `given`
+/// (`--period`, a whole number of the forcing's periods), else the
+/// forcing's; a scene driven by a table in time, or changing with time
+/// through a law of its own, needs `--period`.
+fn period<M: Model>(
+    an: &mut Analysis<M>,
+    x0: &[f64],
+    given: Option<f64>,
+    scene: &Scene,
+    dir: &std::path::Path,
+) -> Result<Option<f64>, Error> {
+    Ok(match (given, an.forcing()) {
         // a periodic orbit of a forced scene repeats with a whole number
         // of the forcing's periods
         (Some(p), Some(Periodicity::Period(forcing))) => {
@@ -238,10 +327,10 @@ pub fn analyze_model<M: Model>(proto: &M, scene: &Scene, opts: &AnalyzeOptions) 
         (None, None) => {
             // at several times no ratio of which is simple: a law forced
             // with one of these offsets as its period still shows
-            let a = an.rhs(0.0, &x0).map_err(analysis_error(&ro.out))?;
+            let a = an.rhs(0.0, x0).map_err(analysis_error(dir))?;
             let mut changes = false;
             for offset in [0.7391, 0.0531, 2.1913, 13.371] {
-                let b = an.rhs(offset, &x0).map_err(analysis_error(&ro.out))?;
+                let b = an.rhs(offset, x0).map_err(analysis_error(dir))?;
                 changes |= a.iter().zip(&b).any(|(u, v)| (u - v).abs() > 1e-10 * (1.0 + u.abs()));
             }
             if changes {
@@ -252,172 +341,180 @@ pub fn analyze_model<M: Model>(proto: &M, scene: &Scene, opts: &AnalyzeOptions) 
             }
             None
         }
+    })
+}
+
+/// The guesses of the steady motions, each with what it is: the scene's
+/// start `x0`, the `end` of its run to `t_end` \[s\], then the run's other
+/// `samples`, latest first; an equilibrium (no symmetry) is at rest: the
+/// samples' positions.
+fn guesses(x0: &[f64], end: &[f64], samples: &[Vec<f64>], t_end: f64, symmetry: Symmetry) -> Vec<(String, Vec<f64>)> {
+    let nq = x0.len() / 2;
+    let rest = |x: &[f64]| {
+        if symmetry == Symmetry::NONE { [&x[..nq], &vec![0.0; nq][..]].concat() } else { x.to_vec() }
     };
-    // a line every few seconds of a long analysis (a stiff scene's run
-    // and searches take minutes)
-    let beat = ro.progress.then(|| {
-        Heartbeat::start(format!(
-            "analyze {}: running the scene to t = {} s for guesses",
-            scene.name,
-            fmt_value(settings.t_end)
-        ))
-    });
-    let (samples, _) = run_to(proto, scene, ro, settings.t_end, GUESSES)?;
-    let end = samples.last().cloned().unwrap_or_else(|| x0.clone());
-    timings.push((format!("run to t = {} s for a guess", fmt_value(settings.t_end)), clock.elapsed()));
+    let mut guesses =
+        vec![("the scene's start".to_string(), x0.to_vec()), ("the end of its run".to_string(), rest(end))];
+    let every = t_end / f64::from(GUESSES);
+    for (k, x) in samples.iter().enumerate().rev().skip(1) {
+        guesses.push((format!("its run at t = {} s", fmt_value(every * (k + 1) as f64)), rest(x)));
+    }
+    guesses
+}
+
+/// The distinct steady motions found from the `guesses`, and how to
+/// follow the first. The guesses that failed alike are noted once, as
+/// are the searches that ended at rest.
+fn steady_motions<M: Model>(
+    an: &mut Analysis<M>,
+    scene: &Scene,
+    opts: &AnalyzeOptions,
+    symmetry: Symmetry,
+    guesses: &[(String, Vec<f64>)],
+    beat: Option<&Heartbeat>,
+    log: &mut Log,
+) -> Result<(Vec<SteadyMotion>, Follow), Error> {
     let conservative = an.dynamics().effects.is_empty() && an.dynamics().drives.is_empty();
     let energy_of = |an: &Analysis<M>, x: &[f64]| {
         opts.energy.or_else(|| conservative.then(|| an.dynamics().kinetic_energy(&x[x.len() / 2..])))
     };
-    let (mut steady, mut periodic) = (Vec::new(), None);
-    let follow;
-    match period {
-        None => {
-            // the start, the end, then the run's other samples; an
-            // equilibrium (no symmetry) is at rest: the samples' positions
-            let nq = x0.len() / 2;
-            let rest = |x: &Vec<f64>| {
-                if symmetry == Symmetry::NONE { [&x[..nq], &vec![0.0; nq][..]].concat() } else { x.clone() }
-            };
-            let mut guesses =
-                vec![("the scene's start".to_string(), x0.clone()), ("the end of its run".to_string(), rest(&end))];
-            let every = settings.t_end / f64::from(GUESSES);
-            for (k, x) in samples.iter().enumerate().rev().skip(1) {
-                guesses.push((format!("its run at t = {} s", fmt_value(every * (k + 1) as f64)), rest(x)));
-            }
-            let angles: Vec<usize> = an.dynamics().info.bodies.iter().map(|b| b.coords[2]).collect();
-            let mut failed: Vec<(String, String)> = Vec::new();
-            let clock = Instant::now();
-            // the run's speed: a motion found far below it is rest to the
-            // search's resolution ([`NEAR_REST`])
-            let speed_of = |x: &[f64]| x[nq..].iter().fold(0.0f64, |m, v| m.max(v.abs()));
-            let run_speed = guesses.iter().map(|(_, x)| speed_of(x)).fold(0.0f64, f64::max);
-            let rest_below = NEAR_REST * (1.0 + run_speed).sqrt();
-            let mut near_rest = Vec::new();
-            for (k, (label, guess)) in guesses.iter().enumerate() {
-                if let Some(b) = &beat {
-                    b.set(format!(
-                        "analyze {}: searching for a steady motion from {label} ({} of {})",
-                        scene.name,
-                        k + 1,
-                        guesses.len()
-                    ));
-                }
-                let energy = energy_of(&an, guess);
-                match an.steady_motion(0.0, guess, symmetry, energy) {
-                    Ok(s) if symmetry != Symmetry::NONE && speed_of(&s.state) < rest_below => {
-                        near_rest.push(speed_of(&s.state));
-                    }
-                    Ok(s) => {
-                        if !steady.iter().any(|o: &SteadyMotion| same_motion(o, &s, &angles)) {
-                            steady.push(s);
-                        }
-                    }
-                    Err(AnalysisError::Sim(e)) => return Err(Error::Sim(e)),
-                    Err(e) => failed.push((label.clone(), e.to_string())),
-                }
-            }
-            timings.push((format!("{} searches for steady motions", guesses.len()), clock.elapsed()));
-            // the guesses that failed alike, once
-            let mut grouped: Vec<(Vec<String>, String)> = Vec::new();
-            for (label, why) in failed {
-                match grouped.iter_mut().find(|(_, w)| *w == why) {
-                    Some((labels, _)) => labels.push(label),
-                    None => grouped.push((vec![label], why)),
-                }
-            }
-            for (labels, why) in grouped {
-                let from = match labels.len() {
-                    1 => labels[0].clone(),
-                    n => format!("{} and {} other guesses", labels[0], n - 1),
-                };
-                notes.push(format!("from {from}: {why}"));
-            }
-            if !near_rest.is_empty() {
-                notes.push(format!(
-                    "{} searches ended at speeds below {:.1e} m/s (at most {:.1e} m/s), where the search cannot tell a steady motion from any slow state: rest, to its resolution, and not listed",
-                    near_rest.len(),
-                    rest_below,
-                    near_rest.iter().fold(0.0f64, |m, &v| m.max(v))
-                ));
-            }
-            if steady.is_empty() {
-                return Err(Error::Input(format!(
-                    "no steady motion of scene `{}` was found: {}",
-                    scene.name,
-                    notes.join("; ")
-                )));
-            }
-            follow = Follow::Steady { energy: energy_of(&an, &steady[0].state) };
+    let mut steady: Vec<SteadyMotion> = Vec::new();
+    let nq = an.nq();
+    let angles: Vec<usize> = an.dynamics().info.bodies.iter().map(|b| b.coords[2]).collect();
+    let mut failed: Vec<(String, String)> = Vec::new();
+    let clock = Instant::now();
+    // the run's speed: a motion found far below it is rest to the
+    // search's resolution ([`NEAR_REST`])
+    let speed_of = |x: &[f64]| x[nq..].iter().fold(0.0f64, |m, v| m.max(v.abs()));
+    let run_speed = guesses.iter().map(|(_, x)| speed_of(x)).fold(0.0f64, f64::max);
+    let rest_below = NEAR_REST * (1.0 + run_speed).sqrt();
+    let mut near_rest = Vec::new();
+    for (k, (label, guess)) in guesses.iter().enumerate() {
+        if let Some(b) = beat {
+            b.set(format!(
+                "analyze {}: searching for a steady motion from {label} ({} of {})",
+                scene.name,
+                k + 1,
+                guesses.len()
+            ));
         }
-        Some(p) => {
-            let clock = Instant::now();
-            let t0 = settings.t_end;
-            // `--max-steps` bounds each period's integration (the advice of
-            // a budget error names it)
-            let ps = PeriodicSettings {
-                max_steps: ro.max_steps.unwrap_or(PeriodicSettings::default().max_steps),
-                ..PeriodicSettings::default()
-            };
-            if let Some(b) = &beat {
-                b.set(format!("analyze {}: searching for the periodic orbit of period {} s", scene.name, fmt_value(p)));
+        let energy = energy_of(an, guess);
+        match an.steady_motion(0.0, guess, symmetry, energy) {
+            Ok(s) if symmetry != Symmetry::NONE && speed_of(&s.state) < rest_below => {
+                near_rest.push(speed_of(&s.state));
             }
-            let orbit = an.periodic_orbit(t0, p, &end, symmetry, &ps).map_err(analysis_error(&ro.out))?;
-            timings.push(("periodic orbit".into(), clock.elapsed()));
-            follow = Follow::Periodic { t0, period: p, settings: ps };
-            periodic = Some(orbit);
+            Ok(s) => {
+                if !steady.iter().any(|o: &SteadyMotion| same_motion(o, &s, &angles)) {
+                    steady.push(s);
+                }
+            }
+            Err(AnalysisError::Sim(e)) => return Err(Error::Sim(e)),
+            Err(e) => failed.push((label.clone(), e.to_string())),
         }
     }
-    drop(beat);
-    let mut branch = Vec::new();
-    if let Some((name, values)) = &opts.continuation {
-        let clock = Instant::now();
-        let start = steady
-            .first()
-            .map_or_else(|| periodic.as_ref().map(|p| p.state.clone()).unwrap_or_default(), |s| s.state.clone());
-        let beat = ro.progress.then(|| Heartbeat::start(format!("following the branch in {name}")));
-        let (points, ended) = ezy_core::analysis::branch::follow(
-            values,
-            &start,
-            follow,
-            |v| {
-                // a signal ends the branch at the next point
-                if pending().is_some() {
-                    return Err(AnalysisError::Request { reason: "stopped by a signal".into() });
-                }
-                let mut sets = ro.sets.clone();
-                sets.push((name.clone(), v));
-                scene_analysis(proto, scene, &sets).map(|(a, _)| a).map_err(|e| match e {
-                    Error::Sim(e) => AnalysisError::Sim(e),
-                    e => AnalysisError::Request { reason: e.to_string() },
-                })
-            },
-            |k| {
-                if let Some(b) = &beat {
-                    b.set(format!("following the branch in {name}: point {} of {}", k + 1, values.len()));
-                }
-            },
-        );
-        drop(beat);
-        check_interrupt(&ro.out, None, Some(format!("following the branch in {name}")))?;
-        if let Some((v, e)) = ended {
-            notes.push(format!("the branch ends at {name} = {}: {e}", fmt_value(v)));
+    log.timings.push((format!("{} searches for steady motions", guesses.len()), clock.elapsed()));
+    // the guesses that failed alike, once
+    let mut grouped: Vec<(Vec<String>, String)> = Vec::new();
+    for (label, why) in failed {
+        match grouped.iter_mut().find(|(_, w)| *w == why) {
+            Some((labels, _)) => labels.push(label),
+            None => grouped.push((vec![label], why)),
         }
-        for w in points.windows(2) {
-            if w[0].solution.stability() != w[1].solution.stability() {
-                notes.push(format!(
-                    "stability changes between {name} = {} ({}) and {} ({})",
-                    fmt_value(w[0].value),
-                    w[0].solution.stability().name(),
-                    fmt_value(w[1].value),
-                    w[1].solution.stability().name()
-                ));
-            }
-        }
-        timings.push((format!("branch of {} points", points.len()), clock.elapsed()));
-        branch = points;
     }
+    for (labels, why) in grouped {
+        let from = match labels.len() {
+            1 => labels[0].clone(),
+            n => format!("{} and {} other guesses", labels[0], n - 1),
+        };
+        log.notes.push(format!("from {from}: {why}"));
+    }
+    if !near_rest.is_empty() {
+        log.notes.push(format!(
+            "{} searches ended at speeds below {:.1e} m/s (at most {:.1e} m/s), where the search cannot tell a steady motion from any slow state: rest, to its resolution, and not listed",
+            near_rest.len(),
+            rest_below,
+            near_rest.iter().fold(0.0f64, |m, &v| m.max(v))
+        ));
+    }
+    if steady.is_empty() {
+        return Err(Error::Input(format!(
+            "no steady motion of scene `{}` was found: {}",
+            scene.name,
+            log.notes.join("; ")
+        )));
+    }
+    let follow = Follow::Steady { energy: energy_of(an, &steady[0].state) };
+    Ok((steady, follow))
+}
 
+/// The branch of the solution from `start` as the parameter `name`
+/// takes `values`: the points found, with a note where it ends early and
+/// where its stability changes; a signal ends it at the next point.
+fn follow_branch<M: Model>(
+    proto: &M,
+    scene: &Scene,
+    ro: &RunOptions,
+    (name, values): (&String, &Vec<f64>),
+    start: &[f64],
+    follow: Follow,
+    log: &mut Log,
+) -> Result<Vec<BranchPoint>, Error> {
+    let clock = Instant::now();
+    let beat = ro.progress.then(|| Heartbeat::start(format!("following the branch in {name}")));
+    let (points, ended) = ezy_core::analysis::branch::follow(
+        values,
+        start,
+        follow,
+        |v| {
+            // a signal ends the branch at the next point
+            if pending().is_some() {
+                return Err(AnalysisError::Request { reason: "stopped by a signal".into() });
+            }
+            let mut sets = ro.sets.clone();
+            sets.push((name.clone(), v));
+            scene_analysis(proto, scene, &sets).map(|(a, _)| a).map_err(|e| match e {
+                Error::Sim(e) => AnalysisError::Sim(e),
+                e => AnalysisError::Request { reason: e.to_string() },
+            })
+        },
+        |k| {
+            if let Some(b) = &beat {
+                b.set(format!("following the branch in {name}: point {} of {}", k + 1, values.len()));
+            }
+        },
+    );
+    drop(beat);
+    check_interrupt(&ro.out, None, Some(format!("following the branch in {name}")))?;
+    if let Some((v, e)) = ended {
+        log.notes.push(format!("the branch ends at {name} = {}: {e}", fmt_value(v)));
+    }
+    for w in points.windows(2) {
+        if w[0].solution.stability() != w[1].solution.stability() {
+            log.notes.push(format!(
+                "stability changes between {name} = {} ({}) and {} ({})",
+                fmt_value(w[0].value),
+                w[0].solution.stability().name(),
+                fmt_value(w[1].value),
+                w[1].solution.stability().name()
+            ));
+        }
+    }
+    log.timings.push((format!("branch of {} points", points.len()), clock.elapsed()));
+    Ok(points)
+}
+
+/// Writes the analysis' tables and figures into `opts.run.out` as one
+/// transaction, retiring the files of an earlier analysis it does not
+/// write; returns the files written.
+fn write_analysis<M: Model>(
+    an: &Analysis<M>,
+    scene: &Scene,
+    opts: &AnalyzeOptions,
+    steady: &[SteadyMotion],
+    periodic: Option<&PeriodicOrbit>,
+    branch: &[BranchPoint],
+) -> Result<Vec<PathBuf>, Error> {
+    let ro = &opts.run;
     // the output is a transaction: all files or none, and none of an
     // earlier analysis left beside them
     let mut tx = Transaction::begin(&ro.out)?;
@@ -427,18 +524,18 @@ pub fn analyze_model<M: Model>(proto: &M, scene: &Scene, opts: &AnalyzeOptions) 
     }
     tx.retire(&own);
     let names = an.state_names();
-    let shape = shape_columns(&an);
+    let shape = shape_columns(an);
     let (format, dpi) = ro.look(scene);
     let mut figures: Vec<(String, Chart)> = Vec::new();
     if !steady.is_empty() {
-        tx.write("equilibria.csv", steady_csv(&steady, &names, &shape).as_bytes())?;
+        tx.write("equilibria.csv", steady_csv(steady, &names, &shape).as_bytes())?;
         let mut chart = Chart::new("Eigenvalues of the steady motions", "Re lambda [1/s]", "Im lambda [1/s]");
         for (k, s) in steady.iter().enumerate() {
             chart.series.push(points_series(format!("motion {} ({})", k + 1, s.stability.name()), &s.eigenvalues));
         }
         figures.push(("eigenvalues".into(), chart));
     }
-    if let Some(p) = &periodic {
+    if let Some(p) = periodic {
         tx.write("periodic.csv", periodic_csv(p, &names, &shape).as_bytes())?;
         let mut chart = Chart::new("Floquet multipliers of the periodic orbit", "Re mu", "Im mu");
         let circle =
@@ -452,7 +549,7 @@ pub fn analyze_model<M: Model>(proto: &M, scene: &Scene, opts: &AnalyzeOptions) 
     if let Some((name, _)) = &opts.continuation
         && !branch.is_empty()
     {
-        tx.write("branch.csv", branch_csv(name, &branch, &names, &shape).as_bytes())?;
+        tx.write("branch.csv", branch_csv(name, branch, &names, &shape).as_bytes())?;
         let speed = if periodic.is_some() { "mean speed [m/s]" } else { "speed [m/s]" };
         let mut chart = Chart::new(format!("Branch in {name}: solid stable, dashed not"), name.clone(), speed);
         for (label, stable) in [("stable", true), ("unstable or neutral", false)] {
@@ -484,9 +581,7 @@ pub fn analyze_model<M: Model>(proto: &M, scene: &Scene, opts: &AnalyzeOptions) 
             tx.write(&format.file_name(stem), &bytes)?;
         }
     }
-    let files = tx.commit()?;
-    let coords = an.dynamics().info.coords.clone();
-    Ok(AnalyzeReport { symmetry, coords, steady, periodic, files, timings, notes })
+    Ok(tx.commit()?)
 }
 
 /// Shortest `--period`, as a fraction of the time `t0 = t_end` (at least
@@ -569,7 +664,7 @@ fn spectrum_header(letter: &str, n: usize) -> Vec<String> {
 }
 
 /// `equilibria.csv`: one row per steady motion.
-pub fn steady_csv(steady: &[SteadyMotion], names: &[String], shape: &[(String, usize, usize)]) -> String {
+fn steady_csv(steady: &[SteadyMotion], names: &[String], shape: &[(String, usize, usize)]) -> String {
     let n = steady.first().map_or(0, |s| s.eigenvalues.len());
     let mut head: Vec<String> =
         ["motion", "stability", "family", "u", "v", "omega", "speed", "curvature"].map(String::from).to_vec();
@@ -598,7 +693,7 @@ pub fn steady_csv(steady: &[SteadyMotion], names: &[String], shape: &[(String, u
 }
 
 /// `periodic.csv`: the orbit in one row.
-pub fn periodic_csv(p: &PeriodicOrbit, names: &[String], shape: &[(String, usize, usize)]) -> String {
+fn periodic_csv(p: &PeriodicOrbit, names: &[String], shape: &[(String, usize, usize)]) -> String {
     let mut head: Vec<String> =
         ["period", "t0", "stability", "family", "mean_speed", "mean_forward_speed", "dx", "dy", "dheading"]
             .map(String::from)
@@ -624,7 +719,7 @@ pub fn periodic_csv(p: &PeriodicOrbit, names: &[String], shape: &[(String, usize
 }
 
 /// `branch.csv`: one row per parameter value.
-pub fn branch_csv(name: &str, branch: &[BranchPoint], names: &[String], shape: &[(String, usize, usize)]) -> String {
+fn branch_csv(name: &str, branch: &[BranchPoint], names: &[String], shape: &[(String, usize, usize)]) -> String {
     let (letter, n) = match &branch[0].solution {
         Solution::Steady(s) => ("lambda", s.eigenvalues.len()),
         Solution::Periodic(p) => ("mu", p.multipliers.len()),
@@ -658,7 +753,7 @@ fn points_series(label: String, values: &[c64]) -> Series {
 }
 
 /// The text `ezy analyze` prints.
-pub fn summary(scene: &str, r: &AnalyzeReport) -> String {
+fn summary(scene: &str, r: &AnalyzeReport) -> String {
     let mut s = String::new();
     let sym: Vec<String> = r.symmetry.generators().iter().map(|g| g.name(&r.coords)).collect();
     let _ = writeln!(

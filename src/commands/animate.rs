@@ -20,26 +20,26 @@ use crate::session::{Error, RunOptions, problem, settings};
 /// Run a scene and draw its bodies moving, as an animated GIF.
 #[derive(Args, Debug, Default)]
 #[command(allow_negative_numbers = true)]
-pub(crate) struct AnimateArgs {
+struct AnimateArgs {
     /// Scene: a known name (see `list`; default: drive) or a path to a
     /// .toml scene file.
-    pub scene: Option<String>,
+    scene: Option<String>,
     /// The GIF file to write [default: out/SCENE/animation.gif].
     #[arg(long, value_name = "FILE.gif")]
-    pub out: Option<PathBuf>,
+    out: Option<PathBuf>,
     /// Frames per second (1 to 50).
     #[arg(long, value_name = "F", default_value_t = 20.0)]
-    pub fps: f64,
+    fps: f64,
     /// Seconds of simulated time per second of animation.
     #[arg(long, value_name = "S", default_value_t = 1.0)]
-    pub speed: f64,
+    speed: f64,
     /// Length of the fading trails of the skates' contact points (of the
     /// points, without skates; the first eight), in seconds of simulated
     /// time (0: none).
     #[arg(long, value_name = "T", default_value_t = 3.0)]
-    pub trail: f64,
+    trail: f64,
     #[command(flatten)]
-    pub overrides: Overrides,
+    overrides: Overrides,
 }
 
 impl AnimateArgs {

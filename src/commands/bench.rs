@@ -39,15 +39,15 @@ use crate::session::Error;
 /// Time an accurate trajectory: DOP853 at 1e-11 with and without
 /// output, the scene's own setting, and each whole `run` process.
 #[derive(Args, Debug, Default)]
-pub(crate) struct BenchArgs {
+struct BenchArgs {
     /// Scene: a known name (default: drive) or a path to a .toml scene file.
-    pub scene: Option<String>,
+    scene: Option<String>,
     /// Runs per setting (the median is reported), at most 100.
     #[arg(long, value_name = "N", default_value_t = 5, value_parser = parse_repeat)]
-    pub repeat: u64,
+    repeat: u64,
     /// Skip timing the whole `run` processes.
     #[arg(long)]
-    pub no_process: bool,
+    no_process: bool,
 }
 
 /// `--repeat` of `ezy bench`: from 1 to [`MAX_REPEAT`].
@@ -123,30 +123,30 @@ fn time_processes(name: &str, rows: &mut [BenchRow], repeat: usize) -> Result<()
 /// seven settings once more in this process and, unless `--no-process`,
 /// starts the program seven more times (the median of a few is already
 /// stable).
-pub const MAX_REPEAT: u64 = 100;
+const MAX_REPEAT: u64 = 100;
 
 /// One measured setting.
 #[derive(Debug, Clone, PartialEq)]
-pub struct BenchRow {
+struct BenchRow {
     /// What was run.
-    pub what: String,
+    what: String,
     /// Median integration time \[s\].
-    pub integration_s: f64,
+    integration_s: f64,
     /// Median time of the output work in the same runs \[s\]: projecting
     /// the dense-output samples (the DAE) or expanding them to the full
     /// state (the minimal coordinates), their energies and residuals
     /// ([`ezy_core::Summary::output_time`]; no file is written here).
-    pub output_s: f64,
+    output_s: f64,
     /// Right-hand-side evaluations of one run.
-    pub rhs_evals: u64,
+    rhs_evals: u64,
     /// Max over `q` and `qd` of the difference from the reference at the
     /// final time.
-    pub error: f64,
+    error: f64,
     /// The `run` arguments (after the scene) that reproduce the setting.
-    pub args: Vec<String>,
+    args: Vec<String>,
     /// Median wall time of the whole `run` process \[s\] (`None`: not
     /// measured).
-    pub process_s: Option<f64>,
+    process_s: Option<f64>,
 }
 
 /// Measures the seven settings of the module documentation on `scene`,
@@ -156,7 +156,7 @@ pub struct BenchRow {
 /// # Errors
 /// [`Error`] if a run fails, [`Error::Input`] for `repeat` above
 /// [`MAX_REPEAT`] (before any run).
-pub fn bench_model<M: Model>(proto: &M, scene: &Scene, repeat: usize) -> Result<Vec<BenchRow>, Error> {
+fn bench_model<M: Model>(proto: &M, scene: &Scene, repeat: usize) -> Result<Vec<BenchRow>, Error> {
     if repeat as u64 > MAX_REPEAT {
         return Err(Error::Input(format!("--repeat {repeat} is more than {MAX_REPEAT}, the most runs per setting")));
     }
@@ -271,7 +271,7 @@ pub fn bench_model<M: Model>(proto: &M, scene: &Scene, repeat: usize) -> Result<
 }
 
 /// The median of `v` (sorted in place); NaN for none.
-pub fn median(v: &mut [f64]) -> f64 {
+fn median(v: &mut [f64]) -> f64 {
     if v.is_empty() {
         return f64::NAN;
     }
@@ -291,7 +291,7 @@ fn time(s: f64) -> String {
 }
 
 /// The table for people.
-pub fn table(scene: &str, rows: &[BenchRow]) -> String {
+fn table(scene: &str, rows: &[BenchRow]) -> String {
     let mut s = format!(
         "ezy bench {scene}: error = max |y(t_end) - y_ref(t_end)| over q and qd against DOP853 at 1e-13; times are medians\n"
     );

@@ -14,20 +14,20 @@ use crate::testing;
 
 /// Check the derived Jacobians and convective terms against finite differences.
 #[derive(Args, Debug)]
-pub(crate) struct CheckArgs {
+struct CheckArgs {
     /// Model name (see `ezy list`).
-    pub model: String,
+    model: String,
     /// Set a family count (or a parameter's centre) first (`--set N=3`); repeatable.
     #[arg(long = "set", value_parser = parse_set)]
-    pub sets: Vec<(String, f64)>,
+    sets: Vec<(String, f64)>,
     /// Number of random states (and random parameter sets) [default: 100;
     /// fewer above 3000 coordinates, where one state already checks every
     /// element of a family: states x coordinates about 3e5, at least 3].
     #[arg(long)]
-    pub states: Option<usize>,
+    states: Option<usize>,
     /// Seed of the random states.
     #[arg(long, default_value_t = 1)]
-    pub seed: u64,
+    seed: u64,
 }
 
 /// The arguments of `ezy check`, on the subcommand `cmd`.

@@ -13,20 +13,20 @@ use crate::session::with_sets;
 
 /// Print the equations the model! macro derived (phi, G = [C_q; S], gamma).
 #[derive(Args, Debug)]
-pub(crate) struct EquationsArgs {
+struct EquationsArgs {
     /// Model name (see `ezy list`).
-    pub model: String,
+    model: String,
     /// Set a parameter or a family count first (`--set N=3`); repeatable.
     #[arg(long = "set", value_parser = parse_set)]
-    pub sets: Vec<(String, f64)>,
+    sets: Vec<(String, f64)>,
     /// Output format.
     #[arg(long, value_enum, default_value = "text")]
-    pub format: Format,
+    format: Format,
 }
 
 /// Output format.
 #[derive(ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
-pub(crate) enum Format {
+enum Format {
     /// Plain text in the notation of docs/physics.md (`phi1d` is the rate of `phi1`).
     Text,
     /// A LaTeX document (amsmath).

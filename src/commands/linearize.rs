@@ -22,22 +22,22 @@ use crate::session::{Error, RunOptions, analysis_error, complex, rounded, run_to
 /// --input), eigenvalues.csv, state.csv.
 #[derive(Args, Debug, Default)]
 #[command(allow_negative_numbers = true)]
-pub(crate) struct LinearizeArgs {
+struct LinearizeArgs {
     /// Scene: a known name (see `list`; default: drive) or a path to a
     /// .toml scene file.
-    pub scene: Option<String>,
+    scene: Option<String>,
     /// The time [s] of the scene's run whose state is linearized about.
     #[arg(long, value_name = "T", default_value_t = 0.0)]
-    pub at: f64,
+    at: f64,
     /// An input, a column of B: tau_HINGE (a torque pair at a hinge) or
     /// scale_EFFECT (an effect's force scaled by 1 + u); repeatable.
     #[arg(long = "input", value_name = "NAME")]
-    pub inputs: Vec<String>,
+    inputs: Vec<String>,
     /// Output directory [default: out/linearize/SCENE].
     #[arg(long)]
-    pub out: Option<PathBuf>,
+    out: Option<PathBuf>,
     #[command(flatten)]
-    pub overrides: Overrides,
+    overrides: Overrides,
 }
 
 /// The arguments of `ezy linearize`, on the subcommand `cmd`.
@@ -68,22 +68,22 @@ pub(crate) fn exec(app: &App, args: &ArgMatches, out: &mut dyn Write) -> Result<
 #[derive(Debug, Clone, Default)]
 struct LinearizeOptions {
     /// Output directory, overrides; `t_end` is ignored.
-    pub run: RunOptions,
+    run: RunOptions,
     /// The time \[s\] whose state (of the scene's run) is linearized about.
-    pub at: f64,
+    at: f64,
     /// Inputs by column name: `tau_<hinge>`, `scale_<effect>`.
-    pub inputs: Vec<String>,
+    inputs: Vec<String>,
 }
 
 /// What `ezy linearize` found and wrote.
 #[derive(Debug, Clone)]
 struct LinearizeReport {
     /// The linearization.
-    pub linearization: ezy_core::analysis::Linearization,
+    linearization: ezy_core::analysis::Linearization,
     /// Eigenvalues on the constraint manifold.
-    pub eigenvalues: Vec<c64>,
+    eigenvalues: Vec<c64>,
     /// Files written.
-    pub files: Vec<PathBuf>,
+    files: Vec<PathBuf>,
 }
 
 /// Parses an input's column name (`tau_<hinge>`, `scale_<effect>`).

@@ -12,30 +12,30 @@ use crate::precision;
 
 /// Measure error against wall time over a ladder of integrators and settings.
 #[derive(Args, Debug)]
-pub(crate) struct PrecisionArgs {
+struct PrecisionArgs {
     /// Scene name (see `ezy list`).
-    pub scene: String,
+    scene: String,
     /// Output format on stdout.
     #[arg(long, value_enum, default_value = "table")]
-    pub format: Format,
+    format: Format,
     /// Directory for precision.csv and the figures [default: out/precision/SCENE].
     #[arg(long)]
-    pub out: Option<PathBuf>,
+    out: Option<PathBuf>,
     /// Draw other tools' points over the work-precision diagram: a CSV
     /// file with the header label,wall_s,error (wall time [s], max state
     /// error at the final time), one point per row.
     #[arg(long, value_name = "FILE")]
-    pub overlay: Option<PathBuf>,
+    overlay: Option<PathBuf>,
     /// Run no ladder: redraw the figures from the precision.csv already in
     /// the output directory (with --overlay; the drift figure's two short
     /// runs are still run).
     #[arg(long)]
-    pub replot: bool,
+    replot: bool,
 }
 
 /// What `ezy precision` prints.
 #[derive(ValueEnum, Clone, Copy, Debug)]
-pub(crate) enum Format {
+enum Format {
     /// A table for people.
     Table,
     /// CSV: method,dt,rtol,atol,projection,error,wall_s,rhs_evals,max_residual.

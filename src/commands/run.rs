@@ -15,27 +15,27 @@ use crate::session::{RunOptions, summary};
 /// Run a scene and write trajectory.csv and its figures (default: drive).
 #[derive(Args, Debug, Default)]
 #[command(allow_negative_numbers = true)]
-pub(crate) struct RunArgs {
+struct RunArgs {
     /// Scene: a known name (see `list`; default: drive) or a path to a
     /// .toml scene file (a name with `/` or ending in `.toml`).
-    pub scene: Option<String>,
+    scene: Option<String>,
     /// Output directory [default: out/SCENE].
     #[arg(long)]
-    pub out: Option<PathBuf>,
+    out: Option<PathBuf>,
     #[command(flatten)]
-    pub overrides: Overrides,
+    overrides: Overrides,
     /// Refuse runs whose trajectory.csv would be larger than this many MB
     /// (estimated before the run) [default: 1000].
     #[arg(long, value_name = "MB", value_parser = parse_positive)]
-    pub max_output_mb: Option<f64>,
+    max_output_mb: Option<f64>,
     /// Skip the figures (CSV only).
     #[arg(long)]
-    pub no_figures: bool,
+    no_figures: bool,
     /// Also write report.html: the summary, the energy ledger, an
     /// animation, every figure and the settings to reproduce the run, in
     /// one self-contained file.
     #[arg(long)]
-    pub report: bool,
+    report: bool,
 }
 
 impl RunArgs {

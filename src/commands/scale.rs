@@ -23,27 +23,27 @@ use crate::output::progress::Heartbeat;
 
 /// Time one right-hand-side evaluation against the size of a model's family.
 #[derive(Args, Debug)]
-pub(crate) struct ScaleArgs {
+struct ScaleArgs {
     /// Model with a family count (see `ezy list`), e.g. snake.
-    pub model: String,
+    model: String,
     /// Family sizes, comma-separated (each from 1 to 1e6).
     #[arg(long, value_delimiter = ',', default_value = "10,100,1000,10000", value_parser = parse_size)]
-    pub n: Vec<usize>,
+    n: Vec<usize>,
     /// Output format.
     #[arg(long, value_enum, default_value = "table")]
-    pub format: ScaleFormat,
+    format: ScaleFormat,
     /// Batches timed per size (the median is reported), at most 1000.
     #[arg(long, default_value_t = 15, value_parser = parse_batches)]
-    pub batches: usize,
+    batches: usize,
     /// KKT path: auto (dense below 16 rows, sparse from 16), schur (dense), sparse, lu.
     #[arg(long, value_enum, default_value = "auto")]
-    pub kkt: KktArg,
+    kkt: KktArg,
 }
 
 /// The KKT path of `--kkt` (the library's [`KktMethod`], which lives in
 /// ezy-core without clap).
 #[derive(ValueEnum, Clone, Copy, Debug)]
-pub(crate) enum KktArg {
+enum KktArg {
     /// Dense Schur complement below 16 constraint rows, sparse from 16.
     Auto,
     /// Dense Schur complement (LDL^T of G M^-1 G^T).
@@ -67,7 +67,7 @@ impl From<KktArg> for KktMethod {
 
 /// What `ezy scale` prints.
 #[derive(ValueEnum, Clone, Copy, Debug)]
-pub(crate) enum ScaleFormat {
+enum ScaleFormat {
     /// Aligned columns and the fitted exponent.
     Table,
     /// n,nq,nc,seconds_per_rhs,path
@@ -113,26 +113,26 @@ pub(crate) fn exec(app: &App, args: &ArgMatches, out: &mut dyn Write) -> Result<
 /// Most batches `ezy scale` times per size (`--batches`): each takes at
 /// least 2 ms, and one evaluation of a family of a million elements
 /// about 0.1 s, so 1000 batches of it take minutes.
-pub(crate) const MAX_BATCHES: usize = 1000;
+const MAX_BATCHES: usize = 1000;
 
 /// One measured size.
 #[derive(Debug, Clone, PartialEq)]
-pub(crate) struct ScalePoint {
+struct ScalePoint {
     /// The family count.
-    pub n: usize,
+    n: usize,
     /// Number of coordinates nq.
-    pub nq: usize,
+    nq: usize,
     /// Number of constraint rows nc.
-    pub nc: usize,
+    nc: usize,
     /// Median time of one RHS evaluation \[s\].
-    pub seconds_per_rhs: f64,
+    seconds_per_rhs: f64,
     /// The KKT path (`schur-cholesky` dense, `sparse-cholesky`).
-    pub path: &'static str,
+    path: &'static str,
 }
 
 /// Why a size could not be measured.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
-pub(crate) enum ScaleError {
+enum ScaleError {
     /// The model has no family count.
     #[error("model {model} has no family count (`count N = ..;`), so it has no size to scale")]
     NoCount {
@@ -174,12 +174,7 @@ pub(crate) enum ScaleError {
 /// # Errors
 /// [`ScaleError`] for a model without a count, a count the model does not
 /// accept, or a state the KKT solve fails on.
-pub(crate) fn scale<M: Model>(
-    proto: &M,
-    ns: &[usize],
-    min_batches: usize,
-    kkt: KktMethod,
-) -> Result<Vec<ScalePoint>, ScaleError> {
+fn scale<M: Model>(proto: &M, ns: &[usize], min_batches: usize, kkt: KktMethod) -> Result<Vec<ScalePoint>, ScaleError> {
     let base = proto.clone();
     let info = base.info();
     let (index, name) = info
@@ -251,7 +246,7 @@ pub(crate) fn scale<M: Model>(
 /// Least-squares slope of `log(seconds_per_rhs)` against `log(n)` over the
 /// points with `n >= from` (the cost's exponent); `None` with fewer than
 /// two such points.
-pub(crate) fn fitted_exponent(points: &[ScalePoint], from: usize) -> Option<f64> {
+fn fitted_exponent(points: &[ScalePoint], from: usize) -> Option<f64> {
     let xy: Vec<(f64, f64)> =
         points.iter().filter(|p| p.n >= from).map(|p| ((p.n as f64).ln(), p.seconds_per_rhs.ln())).collect();
     if xy.len() < 2 {
@@ -265,7 +260,7 @@ pub(crate) fn fitted_exponent(points: &[ScalePoint], from: usize) -> Option<f64>
 }
 
 /// The points as a table (with the fitted exponent) or CSV.
-pub(crate) fn render(model: &str, points: &[ScalePoint], csv: bool) -> String {
+fn render(model: &str, points: &[ScalePoint], csv: bool) -> String {
     let mut out = String::new();
     if csv {
         out.push_str("n,nq,nc,seconds_per_rhs,path\n");

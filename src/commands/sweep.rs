@@ -17,49 +17,49 @@ use crate::sweep::{self, parse_shard};
 /// in parallel: one row per run in sweep.csv, resumable and shardable.
 #[derive(Args, Debug, Default)]
 #[command(args_conflicts_with_subcommands = true, allow_negative_numbers = true)]
-pub(crate) struct SweepArgs {
+struct SweepArgs {
     #[command(subcommand)]
-    pub command: Option<SweepCommand>,
+    command: Option<SweepCommand>,
     /// Scene: a known name (see `list`) or a path to a .toml scene file.
-    pub scene: Option<String>,
+    scene: Option<String>,
     /// An axis of evenly spaced values, START and STOP included
     /// (`--grid a=0.1:0.5:9`); repeatable, the first axis varies slowest.
     #[arg(long = "grid", value_name = "NAME=START:STOP:COUNT")]
-    pub grids: Vec<String>,
+    grids: Vec<String>,
     /// An axis of given values (`--list m2=1,2,4`); repeatable, after the
     /// --grid axes.
     #[arg(long = "list", value_name = "NAME=V1,V2,...")]
-    pub lists: Vec<String>,
+    lists: Vec<String>,
     /// A parameter drawn uniformly from [LO, HI] (`--random omega=1:6`);
     /// all random parameters are drawn together, --samples times, for
     /// every point of the other axes.
     #[arg(long = "random", value_name = "NAME=LO:HI")]
-    pub randoms: Vec<String>,
+    randoms: Vec<String>,
     /// Number of random draws (with --random).
     #[arg(long, value_name = "N", value_parser = parse_count)]
-    pub samples: Option<u64>,
+    samples: Option<u64>,
     /// Seed of the random draws (ChaCha8: the same seed gives the same
     /// values on every machine).
     #[arg(long, default_value_t = 1)]
-    pub seed: u64,
+    seed: u64,
     /// A quantity per run, a column of `trajectory.csv` or a figure's
     /// column function, reduced over a time window [s]:
     /// `mean(norm(x1d, y1d), 50, 60)`, `max(...)`, `min(...)`, `final(...)`
     /// (window optional: the whole run); or an event of the scene's:
     /// `event_time(NAME)` [s] (its first), `event_count(NAME)`; repeatable.
     #[arg(long = "metric", value_name = "EXPR")]
-    pub metrics: Vec<String>,
+    metrics: Vec<String>,
     /// Runs at once [default: every core]; at most the number of cores
     /// this process may use (a larger value is capped, with a note).
     #[arg(long, value_name = "J")]
-    pub jobs: Option<usize>,
+    jobs: Option<usize>,
     /// Output directory [default: out/sweep/SCENE].
     #[arg(long)]
-    pub out: Option<PathBuf>,
+    out: Option<PathBuf>,
     /// Run only every N-th run from the K-th (K from 0): one of N shards
     /// that `ezy sweep merge` combines.
     #[arg(long, value_name = "K/N", value_parser = parse_shard)]
-    pub shard: Option<(u64, u64)>,
+    shard: Option<(u64, u64)>,
     /// Write a Slurm batch script for this sweep (a job array of shards
     /// and the merge as a dependent job) instead of running it. An
     /// existing FILE is replaced only if it is a script ezy wrote (never
@@ -67,40 +67,40 @@ pub(crate) struct SweepArgs {
     /// arguments are quoted in it, and one holding a control character
     /// (a newline) is refused.
     #[arg(long, value_name = "FILE")]
-    pub emit_slurm: Option<PathBuf>,
+    emit_slurm: Option<PathBuf>,
     /// Number of array tasks in the Slurm script, at most the number of
     /// runs and 1000000 [default: 4].
     #[arg(long, value_name = "N", value_parser = parse_count, requires = "emit_slurm")]
-    pub tasks: Option<u64>,
+    tasks: Option<u64>,
     /// Also keep every run's trajectory.csv and figures, in DIR/runs/RUN
     /// (a symbolic link at DIR/runs or DIR/runs/RUN is refused, never
     /// followed).
     #[arg(long)]
-    pub save_runs: bool,
+    save_runs: bool,
     /// Skip the sweep's figures.
     #[arg(long)]
-    pub no_figures: bool,
+    no_figures: bool,
     #[command(flatten)]
-    pub overrides: Overrides,
+    overrides: Overrides,
 }
 
 #[derive(Subcommand, Debug)]
-pub(crate) enum SweepCommand {
+enum SweepCommand {
     /// Combine the outputs of a sweep's shards into one sweep.csv.
     Merge(MergeArgs),
 }
 
 #[derive(Args, Debug)]
-pub(crate) struct MergeArgs {
+struct MergeArgs {
     /// The shards' output directories.
     #[arg(required = true)]
-    pub dirs: Vec<PathBuf>,
+    dirs: Vec<PathBuf>,
     /// Directory of the merged sweep.csv and figures.
     #[arg(long)]
-    pub out: PathBuf,
+    out: PathBuf,
     /// Skip the figures.
     #[arg(long)]
-    pub no_figures: bool,
+    no_figures: bool,
 }
 
 /// The sweep `args` define on the scene `src` (named `name` on the

@@ -1,5 +1,5 @@
 //! The trajectory table: written to `trajectory.csv` as the run goes (into
-//! the run's [`Transaction`], committed with the figures only when the whole
+//! the run's transaction, [`super::transaction`], committed with the figures only when the whole
 //! run succeeded, so a failed or interrupted run never leaves a truncated
 //! file that looks complete) and kept in memory for the figures.
 //!
@@ -185,7 +185,7 @@ impl<M: Model> RowBuilder<M> {
 /// `falling`), numbers as in `trajectory.csv` ([`format_number`]). Event
 /// names are letters, digits, `_` and `-` ([`ezy_core::events::check_event_name`]),
 /// so no field needs quotes.
-pub fn events_csv(records: &[ezy_core::EventRecord], state_names: &[String]) -> String {
+pub(crate) fn events_csv(records: &[ezy_core::EventRecord], state_names: &[String]) -> String {
     let mut buf = zmij::Buffer::new();
     let mut out = String::from("t,event,direction");
     for n in state_names {
@@ -266,13 +266,13 @@ fn write_rows(writer: &mut impl Write, rows: &[f64], ncols: usize) -> std::io::R
 
 /// Most bytes [`format_number`] writes for one number (and its comma):
 /// `-1.2345678901234567e-308`.
-pub const BYTES_PER_NUMBER: usize = 25;
+pub(crate) const BYTES_PER_NUMBER: usize = 25;
 
 /// `v` in the shortest decimal that reads back as the same `f64` (the
 /// Schubfach algorithm of the `zmij` crate, 1.7x as fast as `ryu` here:
 /// the same digits, an exponent from `e16` on written `e+16`). Every number
 /// of ezy's CSV files is written so.
-pub fn format_number(buf: &mut zmij::Buffer, v: f64) -> &str {
+pub(crate) fn format_number(buf: &mut zmij::Buffer, v: f64) -> &str {
     buf.format(v)
 }
 
@@ -381,7 +381,7 @@ fn close(writer: RowWriter, path: &Path) -> Result<(), OutputError> {
 /// its own ([`CsvObserver::finish_later`]). Dropped without
 /// [`CsvTail::wait`] (a failed run), it still waits for the file to be
 /// closed, before the transaction removes it.
-pub struct CsvTail {
+pub(crate) struct CsvTail {
     handle: Option<std::thread::JoinHandle<Result<(), OutputError>>>,
 }
 
@@ -389,8 +389,8 @@ impl CsvTail {
     /// Waits until the file is written and synced.
     ///
     /// # Errors
-    /// As [`CsvObserver::finish`].
-    pub fn wait(mut self) -> Result<(), OutputError> {
+    /// [`OutputError`] if flushing or syncing fails (a full disk).
+    pub(crate) fn wait(mut self) -> Result<(), OutputError> {
         match self.handle.take() {
             Some(handle) => handle.join().unwrap_or_else(|panic| std::panic::resume_unwind(panic)),
             None => Ok(()),
@@ -436,10 +436,10 @@ impl Table {
 
 /// What sees every output row as it is written (a sweep's metrics):
 /// the sample and the row.
-pub type Tap<'a> = &'a mut dyn FnMut(&Sample<'_>, &[f64]);
+pub(crate) type Tap<'a> = &'a mut dyn FnMut(&Sample<'_>, &[f64]);
 
 /// Writes samples to CSV and keeps them for figures.
-pub struct CsvObserver<'a, M: Model> {
+pub(crate) struct CsvObserver<'a, M: Model> {
     /// The final path (errors name it).
     path: PathBuf,
     /// The output directory (an interruption names it).
@@ -469,7 +469,7 @@ impl<'a, M: Model> CsvObserver<'a, M> {
     ///
     /// # Errors
     /// [`OutputError`] if the file cannot be created or written.
-    pub fn create(
+    pub(crate) fn create(
         tx: &mut Transaction,
         name: &str,
         builder: RowBuilder<M>,
@@ -503,33 +503,21 @@ impl<'a, M: Model> CsvObserver<'a, M> {
 
     /// Shows every row, as written, to `tap` too.
     #[must_use]
-    pub fn with_tap(mut self, tap: Tap<'a>) -> Self {
+    pub(crate) fn with_tap(mut self, tap: Tap<'a>) -> Self {
         self.tap = Some(tap);
         self
     }
 
-    /// Flushes and syncs the file (its transaction commits it) and returns
-    /// the rows kept for the figures.
+    /// Returns the rows kept for the figures at once and leaves the file's
+    /// last rows, flush and sync (its transaction commits it) to a thread
+    /// of their own ([`CsvTail`]), so that the figures are drawn while the
+    /// disk syncs (3-4 ms of a `drive` run). Where no thread can be
+    /// started, the file is finished here.
     ///
     /// # Errors
-    /// [`OutputError`] if flushing or syncing fails (a full disk).
-    pub fn finish(mut self) -> Result<Table, OutputError> {
-        if let Some(p) = self.progress.take() {
-            p.finish();
-        }
-        close(self.writer, &self.path)?;
-        Ok(self.table)
-    }
-
-    /// [`CsvObserver::finish`] that returns the rows at once and leaves
-    /// the file's last rows, flush and sync to a thread of their own
-    /// ([`CsvTail`]), so that the figures are drawn while the disk syncs
-    /// (3-4 ms of a `drive` run). Where no thread can be started, the file
-    /// is finished here.
-    ///
-    /// # Errors
-    /// As [`CsvObserver::finish`], where no thread could be started.
-    pub fn finish_later(mut self) -> Result<(Table, CsvTail), OutputError> {
+    /// [`OutputError`] if flushing or syncing fails (a full disk), where no
+    /// thread could be started.
+    pub(crate) fn finish_later(mut self) -> Result<(Table, CsvTail), OutputError> {
         use std::sync::{Arc, Mutex, PoisonError};
         if let Some(p) = self.progress.take() {
             p.finish();
@@ -558,7 +546,7 @@ impl<'a, M: Model> CsvObserver<'a, M> {
 
     /// Stops writing (after a failed run); the transaction, dropped
     /// uncommitted, removes the file.
-    pub fn abandon(self) {
+    pub(crate) fn abandon(self) {
         if let Some(p) = &self.progress {
             p.finish();
         }

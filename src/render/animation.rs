@@ -42,19 +42,19 @@ use crate::render::plot::{Axis, PALETTE, PlotError, SCALE};
 
 /// The view follows the vehicle when its motion spans more than this many
 /// vehicle sizes.
-pub const FOLLOW_FACTOR: f64 = 8.0;
+pub(crate) const FOLLOW_FACTOR: f64 = 8.0;
 /// Width of the following view in vehicle sizes.
-pub const FOLLOW_WIDTH: f64 = 4.0;
+pub(crate) const FOLLOW_WIDTH: f64 = 4.0;
 /// Most frames an animation may have (`ezy animate` refuses more before
 /// integrating; raise `--speed` or lower `--fps`). With a fixed-step
 /// method the frames are a whole number of steps apart, and the count and
 /// the frame rate are those of that spacing.
-pub const MAX_FRAMES: usize = 4000;
+pub(crate) const MAX_FRAMES: usize = 4000;
 /// Frames drawn and quantized at once (memory: this many RGBA frames).
 const CHUNK: usize = 32;
 /// Smallest height of a frame's text in the GIF \[px\] (the font size
 /// of its tick labels).
-pub const MIN_TEXT_PX: f64 = 11.0;
+pub(crate) const MIN_TEXT_PX: f64 = 11.0;
 /// Font sizes of a frame's tick labels, axis descriptions and time
 /// label \[nominal px, plotters' convention: the font's size is 1/1.24 of
 /// it\], before [`text_zoom`].
@@ -65,7 +65,7 @@ const TIME_SIZE: f64 = 22.0;
 /// How much a frame's text is enlarged at `dpi` so that its smallest
 /// text, the tick labels, is [`MIN_TEXT_PX`] high or more: 1 from about
 /// 82 dpi up (the report's 48 dpi: 1.7).
-pub fn text_zoom(dpi: f64) -> f64 {
+pub(crate) fn text_zoom(dpi: f64) -> f64 {
     let tick_px = TICK_SIZE / 1.24 * dpi / 96.0;
     (MIN_TEXT_PX / tick_px).max(1.0)
 }
@@ -74,7 +74,7 @@ const TRANSPARENT: u8 = 255;
 
 /// Settings of an animation.
 #[derive(Debug, Clone, PartialEq)]
-pub struct AnimateOptions {
+pub(crate) struct AnimateOptions {
     /// The GIF file to write.
     pub out: PathBuf,
     /// Frames per second of the GIF \[1/s\] (1 to 50; GIF delays are whole
@@ -633,7 +633,7 @@ fn encode_gif(g: &Geometry, frames: &Frames, anim: &AnimateOptions) -> Result<(V
 /// # Errors
 /// [`AnimationError::Setting`] if the table lacks a coordinate column or
 /// has no rows, [`AnimationError::Draw`] and [`AnimationError::Write`].
-pub fn gif_of_table<M: Model>(
+pub(crate) fn gif_of_table<M: Model>(
     sys: &Dynamics<M>,
     scene: &Scene,
     table: &crate::output::csv::Table,

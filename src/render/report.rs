@@ -19,22 +19,22 @@ use ezy_scene::Scene;
 use crate::output::csv::Table;
 
 /// Rows of the report's animation at most.
-pub const REPORT_FRAMES: usize = 240;
+pub(crate) const REPORT_FRAMES: usize = 240;
 /// Frame rate of the report's animation \[1/s\]: a GIF gives each frame a
 /// whole number of hundredths of a second, so the rate is one that plays
 /// exactly (10 hundredths a frame; 12 fps would play at 12.5).
-pub const REPORT_FPS: f64 = 10.0;
+pub(crate) const REPORT_FPS: f64 = 10.0;
 /// Resolution of the report's animation \[dpi\] (480 x 320 pixels).
-pub const REPORT_DPI: f64 = 48.0;
+pub(crate) const REPORT_DPI: f64 = 48.0;
 
 /// `text` with `&`, `<`, `>` and `"` escaped for HTML.
-pub fn escape(text: &str) -> String {
+pub(crate) fn escape(text: &str) -> String {
     text.replace('&', "&amp;").replace('<', "&lt;").replace('>', "&gt;").replace('"', "&quot;")
 }
 
 /// One line of the energy ledger: a name, a value \[J\] and what it is.
 #[derive(Debug, Clone, PartialEq)]
-pub struct LedgerLine {
+pub(crate) struct LedgerLine {
     /// The quantity (`T(0)`, `W_motor`, ...).
     pub name: String,
     /// Its value \[J\].
@@ -48,7 +48,7 @@ pub struct LedgerLine {
 /// `T = 1/2 qd^T M qd` at both ends (the mass matrix of a planar
 /// multibody system in absolute coordinates is diagonal), the work of
 /// every effect and drive, their sum, and the gap `T(t_end) - T(0) - sum W`.
-pub fn ledger<M: Model>(sys: &Dynamics<M>, y0: &[f64], y1: &[f64], names: &[String]) -> Vec<LedgerLine> {
+pub(crate) fn ledger<M: Model>(sys: &Dynamics<M>, y0: &[f64], y1: &[f64], names: &[String]) -> Vec<LedgerLine> {
     let nq = sys.info.nq();
     let t = |y: &[f64]| 0.5 * (0..nq).map(|k| sys.mass[k] * y[nq + k] * y[nq + k]).sum::<f64>();
     let (t0, t1) = (t(y0), t(y1));
@@ -74,7 +74,7 @@ pub fn ledger<M: Model>(sys: &Dynamics<M>, y0: &[f64], y1: &[f64], names: &[Stri
 /// `word` as one word of a POSIX shell's command line: as it is when it
 /// holds only characters no shell treats specially, else in single
 /// quotes (a `'` inside written `'\''`).
-pub fn shell_quote(word: &str) -> String {
+pub(crate) fn shell_quote(word: &str) -> String {
     let plain = |c: char| c.is_ascii_alphanumeric() || "-_./:=,+@%".contains(c);
     if !word.is_empty() && word.chars().all(plain) {
         word.to_string()
@@ -84,7 +84,7 @@ pub fn shell_quote(word: &str) -> String {
 }
 
 /// Everything the page shows.
-pub struct Page<'a> {
+pub(crate) struct Page<'a> {
     /// The scene after the overrides.
     pub scene: &'a Scene,
     /// Name of the model type (`EzyRoller`).
@@ -108,7 +108,7 @@ pub struct Page<'a> {
 }
 
 /// The HTML page.
-pub fn html(p: &Page<'_>) -> String {
+pub(crate) fn html(p: &Page<'_>) -> String {
     use std::fmt::Write as _;
     let mut h = String::new();
     let name = escape(&p.scene.name);
@@ -198,7 +198,11 @@ figcaption { color: #666; font-size: 0.9em; }
 
 /// The figures of `scene` as SVG for the page, by stem (when the run drew
 /// none itself: `--no-figures`).
-pub fn figures(info: &ezy_core::ModelInfo, scene: &Scene, table: &Table) -> Vec<(String, Result<String, String>)> {
+pub(crate) fn figures(
+    info: &ezy_core::ModelInfo,
+    scene: &Scene,
+    table: &Table,
+) -> Vec<(String, Result<String, String>)> {
     use rayon::prelude::*;
     scene
         .figures

@@ -14,12 +14,12 @@ use crate::render::plot::{Chart, FigureFormat, HeatMap, Series};
 
 /// Most lines in a figure (one per value of the second axis); beyond it
 /// only the heat map is drawn.
-pub const MAX_LINES: usize = 10;
+pub(crate) const MAX_LINES: usize = 10;
 
 /// Most runs the figures are drawn from: the figures hold every run's
 /// point in memory (and a heat map a cell per run), so a larger sweep
 /// gets its table only.
-pub const MAX_FIGURE_RUNS: u64 = 1_000_000;
+pub(crate) const MAX_FIGURE_RUNS: u64 = 1_000_000;
 
 /// Draws the figures of the sweep in `dir` and returns the files written
 /// and notes on the figures not drawn (a metric whose every run failed,
@@ -30,7 +30,7 @@ pub const MAX_FIGURE_RUNS: u64 = 1_000_000;
 /// # Errors
 /// [`SweepError::Failed`]: `sweep.csv` cannot be read, or a figure cannot
 /// be written; [`SweepError::Interrupted`]: a signal arrived.
-pub fn draw(
+pub(crate) fn draw(
     dir: &Path,
     plan: &Plan,
     metrics: &[Metric],
@@ -140,7 +140,7 @@ fn stop_if_signalled(dir: &Path, file: &str) -> Result<(), SweepError> {
 }
 
 /// The axes' names, with the unit of a model parameter (`a [m]`).
-pub fn axis_labels(plan: &Plan, info: &ezy_core::ModelInfo) -> Vec<String> {
+pub(crate) fn axis_labels(plan: &Plan, info: &ezy_core::ModelInfo) -> Vec<String> {
     plan.axes
         .iter()
         .map(|a| match info.param_index(&a.name).map(|i| info.params[i].unit) {

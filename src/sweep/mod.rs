@@ -28,10 +28,10 @@
 //! and the runs already done are read back from `sweep.csv` as the
 //! dispatch passes them).
 
-pub mod figure;
-pub mod metric;
-pub mod plan;
-pub mod slurm;
+pub(crate) mod figure;
+pub(crate) mod metric;
+pub(crate) mod plan;
+pub(crate) mod slurm;
 mod table;
 
 use std::collections::{BTreeMap, HashMap, HashSet};
@@ -44,10 +44,10 @@ use ezy_core::{Dynamics, Model, Observer, RunError, Sample, SimError};
 
 use ezy_scene::Scene;
 
-pub use metric::Metric;
-pub use plan::Plan;
+pub(crate) use metric::Metric;
+pub(crate) use plan::Plan;
 pub(crate) use table::parse_shard;
-pub use table::{Manifest, merge};
+pub(crate) use table::{Manifest, merge};
 
 use crate::output::csv::RowBuilder;
 use crate::output::transaction::Interrupted;
@@ -55,7 +55,7 @@ use crate::session::{self, RunOptions};
 
 /// A sweep to run: what `ezy sweep` parsed and checked.
 #[derive(Debug, Clone)]
-pub struct SweepJob {
+pub(crate) struct SweepJob {
     /// The scene.
     pub scene: Scene,
     /// The sweep's definition, recorded in `sweep.toml`.
@@ -86,7 +86,7 @@ pub struct SweepJob {
 
 /// What a sweep did.
 #[derive(Debug, Clone, Default)]
-pub struct SweepReport {
+pub(crate) struct SweepReport {
     /// Runs of this shard (all runs when not sharded).
     pub runs: u64,
     /// Runs already in `sweep.csv` when it started (skipped).
@@ -109,17 +109,17 @@ pub struct SweepReport {
 
 impl SweepReport {
     /// Runs per second of wall time.
-    pub fn rate(&self) -> f64 {
+    pub(crate) fn rate(&self) -> f64 {
         self.ran as f64 / self.wall.as_secs_f64().max(1e-9)
     }
 
     /// Parallel efficiency: the jobs' busy time over `jobs` x wall time.
-    pub fn efficiency(&self) -> f64 {
+    pub(crate) fn efficiency(&self) -> f64 {
         self.busy.as_secs_f64() / (self.jobs as f64 * self.wall.as_secs_f64()).max(1e-9)
     }
 
     /// The summary `ezy sweep` prints.
-    pub fn summary(&self, scene: &str) -> String {
+    pub(crate) fn summary(&self, scene: &str) -> String {
         let mut s = if self.ran == 0 {
             format!("sweep {scene}: {} runs, all done before: nothing to run\n", self.runs)
         } else {
@@ -149,7 +149,7 @@ impl SweepReport {
 
 /// Why a sweep stopped.
 #[derive(Debug, thiserror::Error)]
-pub enum SweepError {
+pub(crate) enum SweepError {
     /// Bad input or a failed write; the message names the culprit.
     #[error("{0}")]
     Failed(String),
@@ -166,13 +166,13 @@ impl From<String> for SweepError {
 }
 
 /// The columns of `sweep.csv` before the final state.
-pub const LEAD: [&str; 5] = ["status", "wall_s", "steps", "rejected", "rhs_evals"];
+pub(crate) const LEAD: [&str; 5] = ["status", "wall_s", "steps", "rejected", "rhs_evals"];
 /// The columns after the final state, before the metrics.
-pub const TAIL: [&str; 4] = ["T", "max_res_phi", "max_res_vel", "max_energy_gap"];
+pub(crate) const TAIL: [&str; 4] = ["T", "max_res_phi", "max_res_vel", "max_energy_gap"];
 
 /// The header of `sweep.csv`: `run`, the axes, [`LEAD`], `state`, [`TAIL`],
 /// the metrics.
-pub fn columns(plan: &Plan, state: &[String], metrics: &[Metric]) -> Vec<String> {
+pub(crate) fn columns(plan: &Plan, state: &[String], metrics: &[Metric]) -> Vec<String> {
     let mut c = vec!["run".to_string()];
     c.extend(plan.names());
     c.extend(LEAD.iter().map(|s| s.to_string()));
@@ -193,7 +193,7 @@ fn run_sets(job: &SweepJob, values: &[f64]) -> Vec<(String, f64)> {
 /// the swept family sizes) a sweep sets up before its first run, to check
 /// the names and columns at each size: 1e7, minutes of setup (the snake
 /// sets up about 15,000 links a second).
-pub const MAX_CHECKED_ELEMENTS: f64 = 1e7;
+pub(crate) const MAX_CHECKED_ELEMENTS: f64 = 1e7;
 
 /// The flag and text that gave the axis `name` (`--list N=1,1000000`).
 fn axis_flag(job: &SweepJob, name: &str) -> String {
@@ -574,7 +574,7 @@ fn real_dir(dir: &Path) -> Result<(), String> {
 /// missing column, a window outside the run, a directory holding another
 /// sweep) before any run, or a failed write; [`SweepError::Interrupted`]
 /// if a signal stopped it.
-pub fn sweep_model<M: Model>(proto: &M, job: &SweepJob) -> Result<SweepReport, SweepError> {
+pub(crate) fn sweep_model<M: Model>(proto: &M, job: &SweepJob) -> Result<SweepReport, SweepError> {
     let checked = check(proto, job)?;
     if job.check_only {
         return Ok(SweepReport::default());
@@ -584,37 +584,26 @@ pub fn sweep_model<M: Model>(proto: &M, job: &SweepJob) -> Result<SweepReport, S
     let (k0, stride) = job.shard.unwrap_or((0, 1));
     let positions = if runs > k0 { (runs - k0).div_ceil(stride) } else { 0 };
     crate::output::transaction::arm_signals();
-    let mut out = match table::Output::open(&job.out, &job.manifest, &header, &job.plan, job.shard) {
-        Ok(out) => out,
-        Err(e) => {
-            return Err(match crate::output::transaction::pending() {
-                Some(signal) => SweepError::Interrupted(Interrupted {
-                    signal,
-                    dir: job.out.clone(),
-                    t: None,
-                    doing: Some("checking the rows already done".into()),
-                    kept: Some(format!(
-                        "the rows in {} are kept; the same command resumes the sweep",
-                        job.out.join(table::CSV).display()
-                    )),
-                }),
-                None => SweepError::Failed(e),
-            });
-        }
-    };
+    let mut out = open_table(job, &header)?;
     let done_before = out.done;
     if job.save_runs {
         real_dir(&job.out.join("runs"))?;
     }
     let todo = positions - done_before;
-    let state_at: HashMap<String, usize> = checked.state.iter().enumerate().map(|(k, n)| (n.clone(), k)).collect();
-    let n_state = checked.state.len();
-
     // never more threads than cores, whatever the caller asked
     let cores = std::thread::available_parallelism().map_or(1, std::num::NonZero::get);
     let jobs = job.jobs.clamp(1, cores);
-    let dispatch = Mutex::new((0u64, 0u64, out.done_cursor()?));
-    let stop = AtomicBool::new(false);
+    let shared = Shared {
+        proto,
+        job,
+        settings: &checked.settings,
+        order: Mutex::new((0, 0, out.done_cursor()?)),
+        stop: AtomicBool::new(false),
+        state_at: checked.state.iter().enumerate().map(|(k, n)| (n.clone(), k)).collect(),
+        n_state: checked.state.len(),
+        shard: (k0, stride),
+        positions,
+    };
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(jobs)
         .thread_name(|k| format!("ezy-sweep-{k}"))
@@ -624,101 +613,13 @@ pub fn sweep_model<M: Model>(proto: &M, job: &SweepJob) -> Result<SweepReport, S
     let start = Instant::now();
     let (tx, rx) = std::sync::mpsc::channel::<(u64, Outcome)>();
     let mut report = SweepReport { runs: positions, done_before, jobs, ..SweepReport::default() };
-    let mut interrupted: Option<crate::output::transaction::Signal> = None;
-    let mut write_error: Option<String> = None;
-    pool.in_place_scope(|scope| {
+    let (interrupted, write_error) = pool.in_place_scope(|scope| {
         for _ in 0..jobs {
-            let tx = tx.clone();
-            let (dispatch, stop, state_at) = (&dispatch, &stop, &state_at);
-            let settings = &checked.settings;
-            scope.spawn(move |_| {
-                let mut values = Vec::new();
-                loop {
-                    if stop.load(Ordering::SeqCst) || crate::output::transaction::pending().is_some() {
-                        return;
-                    }
-                    // the next run not yet done, and its place in the
-                    // order of rows
-                    let next = {
-                        let mut d = dispatch.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
-                        let (pos, seq, cursor) = &mut *d;
-                        let mut found = None;
-                        while *pos < positions {
-                            // many runs done before are passed within a
-                            // second of a signal
-                            if *pos % 4096 == 0 && crate::output::transaction::pending().is_some() {
-                                break;
-                            }
-                            let i = k0 + *pos * stride;
-                            *pos += 1;
-                            if !cursor.is_done(i) {
-                                found = Some((*seq, i));
-                                *seq += 1;
-                                break;
-                            }
-                        }
-                        found
-                    };
-                    let Some((seq, i)) = next else { return };
-                    job.plan.values_into(i, &mut values);
-                    let opts = RunOptions { sets: run_sets(job, &values), ..job.opts.clone() };
-                    let save = job.save_runs.then(|| run_dir(&job.out, i, runs));
-                    let t = Instant::now();
-                    let outcome = match save.as_deref().map(real_dir).transpose() {
-                        Err(e) => Outcome::Unusable(e),
-                        Ok(_) => match one_run(proto, job, settings, &opts, save) {
-                            Err(Err(signal)) => Outcome::Interrupted(signal),
-                            r => {
-                                let wall = t.elapsed();
-                                let r = r.map_err(|e| e.unwrap_or_else(|_| unreachable!("signals handled above")));
-                                let (line, failed) = row_line(i, &values, r, wall, state_at, n_state, &job.metrics);
-                                Outcome::Row { run: i, line, failed, wall }
-                            }
-                        },
-                    };
-                    if tx.send((seq, outcome)).is_err() {
-                        return;
-                    }
-                }
-            });
+            let (tx, shared) = (tx.clone(), &shared);
+            scope.spawn(move |_| shared.work(&tx));
         }
         drop(tx);
-        // rows in run order: a finished run waits here for the ones
-        // before it (at most `jobs - 1` of them)
-        let mut pending: BTreeMap<u64, Outcome> = BTreeMap::new();
-        let mut next = 0u64;
-        for (seq, outcome) in rx {
-            pending.insert(seq, outcome);
-            while interrupted.is_none()
-                && write_error.is_none()
-                && let Some(o) = pending.remove(&next)
-            {
-                match o {
-                    Outcome::Row { run, line, failed, wall } => {
-                        if let Err(e) = out.append(run, &line) {
-                            write_error = Some(e);
-                            stop.store(true, Ordering::SeqCst);
-                            break;
-                        }
-                        report.ran += 1;
-                        report.failed += u64::from(failed);
-                        report.busy += wall;
-                        if let Some(p) = &progress {
-                            p.inc(report.ran, report.failed);
-                        }
-                    }
-                    Outcome::Interrupted(s) => {
-                        interrupted = Some(s);
-                        stop.store(true, Ordering::SeqCst);
-                    }
-                    Outcome::Unusable(e) => {
-                        write_error = Some(e);
-                        stop.store(true, Ordering::SeqCst);
-                    }
-                }
-                next += 1;
-            }
-        }
+        collect(rx, &mut out, &mut report, progress.as_ref(), &shared.stop)
     });
     report.wall = start.elapsed();
     if let Some(p) = progress {
@@ -748,6 +649,152 @@ pub fn sweep_model<M: Model>(proto: &M, job: &SweepJob) -> Result<SweepReport, S
         report.notes.extend(notes);
     }
     Ok(report)
+}
+
+/// `sweep.csv` opened (created, or its rows done before read back) for
+/// `job` with the columns `header`; a signal while it reads is an
+/// interruption that keeps the rows.
+fn open_table(job: &SweepJob, header: &[String]) -> Result<table::Output, SweepError> {
+    table::Output::open(&job.out, &job.manifest, header, &job.plan, job.shard).map_err(|e| {
+        match crate::output::transaction::pending() {
+            Some(signal) => SweepError::Interrupted(Interrupted {
+                signal,
+                dir: job.out.clone(),
+                t: None,
+                doing: Some("checking the rows already done".into()),
+                kept: Some(format!(
+                    "the rows in {} are kept; the same command resumes the sweep",
+                    job.out.join(table::CSV).display()
+                )),
+            }),
+            None => SweepError::Failed(e),
+        }
+    })
+}
+
+/// What the sweep's threads share.
+struct Shared<'a, M: Model> {
+    proto: &'a M,
+    job: &'a SweepJob,
+    settings: &'a ezy_core::RunSettings,
+    /// The next position among this shard's runs, the next row's place
+    /// in the order of rows, and the runs done before.
+    order: Mutex<(u64, u64, table::DoneCursor)>,
+    /// Set when the rows cannot be written: the threads stop.
+    stop: AtomicBool,
+    /// The column of each state component.
+    state_at: HashMap<String, usize>,
+    n_state: usize,
+    /// This shard's runs, `K + p N` for `(K, N)`, and how many.
+    shard: (u64, u64),
+    positions: u64,
+}
+
+impl<M: Model> Shared<'_, M> {
+    /// The next run not yet done, and its place in the order of rows.
+    fn next(&self) -> Option<(u64, u64)> {
+        let (k0, stride) = self.shard;
+        let mut d = self.order.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
+        let (pos, seq, cursor) = &mut *d;
+        while *pos < self.positions {
+            // many runs done before are passed within a second of a signal
+            if *pos % 4096 == 0 && crate::output::transaction::pending().is_some() {
+                break;
+            }
+            let i = k0 + *pos * stride;
+            *pos += 1;
+            if !cursor.is_done(i) {
+                let found = (*seq, i);
+                *seq += 1;
+                return Some(found);
+            }
+        }
+        None
+    }
+
+    /// A thread's work: the next run, until none is left, a signal
+    /// arrives or the rows cannot be written; each run's outcome sent to
+    /// `tx` with its place in the order of rows.
+    fn work(&self, tx: &std::sync::mpsc::Sender<(u64, Outcome)>) {
+        let job = self.job;
+        let mut values = Vec::new();
+        loop {
+            if self.stop.load(Ordering::SeqCst) || crate::output::transaction::pending().is_some() {
+                return;
+            }
+            let Some((seq, i)) = self.next() else { return };
+            job.plan.values_into(i, &mut values);
+            let opts = RunOptions { sets: run_sets(job, &values), ..job.opts.clone() };
+            let save = job.save_runs.then(|| run_dir(&job.out, i, job.plan.runs()));
+            let t = Instant::now();
+            let outcome = match save.as_deref().map(real_dir).transpose() {
+                Err(e) => Outcome::Unusable(e),
+                Ok(_) => match one_run(self.proto, job, self.settings, &opts, save) {
+                    Err(Err(signal)) => Outcome::Interrupted(signal),
+                    r => {
+                        let wall = t.elapsed();
+                        let r = r.map_err(|e| e.unwrap_or_else(|_| unreachable!("signals handled above")));
+                        let (line, failed) = row_line(i, &values, r, wall, &self.state_at, self.n_state, &job.metrics);
+                        Outcome::Row { run: i, line, failed, wall }
+                    }
+                },
+            };
+            if tx.send((seq, outcome)).is_err() {
+                return;
+            }
+        }
+    }
+}
+
+/// Appends the runs' rows to `out` in run order as their outcomes arrive
+/// (a finished run waits for the ones before it, at most one less than
+/// the threads), counted into `report` and `progress`; at a signal or a
+/// row that cannot be written it sets `stop` and writes no more. Returns
+/// the signal, or why the rows could not be written.
+fn collect(
+    rx: std::sync::mpsc::Receiver<(u64, Outcome)>,
+    out: &mut table::Output,
+    report: &mut SweepReport,
+    progress: Option<&Counter>,
+    stop: &AtomicBool,
+) -> (Option<crate::output::transaction::Signal>, Option<String>) {
+    let mut interrupted = None;
+    let mut write_error = None;
+    let mut pending: BTreeMap<u64, Outcome> = BTreeMap::new();
+    let mut next = 0u64;
+    for (seq, outcome) in rx {
+        pending.insert(seq, outcome);
+        while interrupted.is_none()
+            && write_error.is_none()
+            && let Some(o) = pending.remove(&next)
+        {
+            match o {
+                Outcome::Row { run, line, failed, wall } => {
+                    if let Err(e) = out.append(run, &line) {
+                        write_error = Some(e);
+                        stop.store(true, Ordering::SeqCst);
+                        break;
+                    }
+                    report.ran += 1;
+                    report.failed += u64::from(failed);
+                    report.busy += wall;
+                    if let Some(p) = progress {
+                        p.inc(report.ran, report.failed);
+                    }
+                }
+                Outcome::Interrupted(s) => {
+                    interrupted = Some(s);
+                    stop.store(true, Ordering::SeqCst);
+                }
+                Outcome::Unusable(e) => {
+                    write_error = Some(e);
+                    stop.store(true, Ordering::SeqCst);
+                }
+            }
+            next += 1;
+        }
+    }
+    (interrupted, write_error)
 }
 
 /// Progress over runs: a bar with the rate and the time left on a
@@ -797,7 +844,7 @@ impl Counter {
 
 /// FNV-1a (64 bit) of `text`, as 16 hex digits: the scene text's
 /// fingerprint in `sweep.toml`.
-pub fn fingerprint(text: &str) -> String {
+pub(crate) fn fingerprint(text: &str) -> String {
     let mut h: u64 = 0xcbf2_9ce4_8422_2325;
     for b in text.bytes() {
         h ^= u64::from(b);

@@ -9,15 +9,15 @@ use serde::{Deserialize, Serialize};
 use super::plan::Plan;
 
 /// The table's file name.
-pub const CSV: &str = "sweep.csv";
+pub(crate) const CSV: &str = "sweep.csv";
 /// The definition's file name.
-pub const TOML: &str = "sweep.toml";
+pub(crate) const TOML: &str = "sweep.toml";
 
 /// A sweep's definition, as `sweep.toml` records it: what makes two
 /// invocations the same sweep (resume) or shards of one sweep (merge).
 #[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
-pub struct Manifest {
+pub(crate) struct Manifest {
     /// The scene: a known name, or the absolute path of its file.
     pub scene: String,
     /// FNV-1a of the scene's text (an edited scene file is another sweep).
@@ -83,7 +83,7 @@ fn writer<W: Write>(w: W) -> csv::Writer<W> {
 }
 
 /// One row of `sweep.csv`, with its line end.
-pub fn line<S: AsRef<[u8]>>(fields: &[S]) -> Vec<u8> {
+pub(crate) fn line<S: AsRef<[u8]>>(fields: &[S]) -> Vec<u8> {
     let mut w = writer(Vec::new());
     w.write_record(fields).expect("writing to memory");
     w.into_inner().expect("writing to memory")
@@ -186,14 +186,14 @@ impl Rows {
 
 /// Which runs `sweep.csv` already has, read as the dispatch passes them
 /// (run numbers ascend in the file).
-pub struct DoneCursor {
+pub(crate) struct DoneCursor {
     rows: Option<Rows>,
     next: Option<u64>,
 }
 
 impl DoneCursor {
     /// Whether run `i` is done; `i` must not decrease between calls.
-    pub fn is_done(&mut self, i: u64) -> bool {
+    pub(crate) fn is_done(&mut self, i: u64) -> bool {
         while let Some(n) = self.next {
             if n >= i {
                 return n == i;
@@ -206,7 +206,7 @@ impl DoneCursor {
 
 /// A sweep's output directory, locked, with `sweep.csv` open for
 /// appending.
-pub struct Output {
+pub(crate) struct Output {
     _lock: File,
     file: File,
     path: PathBuf,
@@ -264,7 +264,7 @@ impl Output {
     /// `dir` locked by another run or holding another sweep, a row that
     /// is not this sweep's, or an I/O error, each naming the file; a
     /// signal that arrived while the rows were checked.
-    pub fn open(
+    pub(crate) fn open(
         dir: &Path,
         manifest: &Manifest,
         header: &[String],
@@ -365,7 +365,7 @@ impl Output {
     ///
     /// # Errors
     /// The file cannot be read again.
-    pub fn done_cursor(&self) -> Result<DoneCursor, String> {
+    pub(crate) fn done_cursor(&self) -> Result<DoneCursor, String> {
         if self.done == 0 {
             return Ok(DoneCursor { rows: None, next: None });
         }
@@ -380,7 +380,7 @@ impl Output {
     ///
     /// # Errors
     /// The write failed (a full disk), naming the file.
-    pub fn append(&mut self, i: u64, line: &[u8]) -> Result<(), String> {
+    pub(crate) fn append(&mut self, i: u64, line: &[u8]) -> Result<(), String> {
         match &mut self.refill {
             None => self.file.write_all(line).map_err(|e| io(&self.path, e)),
             Some(r) => {
@@ -398,7 +398,7 @@ impl Output {
     /// # Errors
     /// The sync or the rename failed, naming the file (`sweep.csv` is
     /// then left as it was).
-    pub fn finish(&mut self) -> Result<(), String> {
+    pub(crate) fn finish(&mut self) -> Result<(), String> {
         let Some(mut r) = self.refill.take() else {
             return self.file.sync_all().map_err(|e| io(&self.path, e));
         };
@@ -414,7 +414,7 @@ impl Output {
     }
 
     /// The table's path.
-    pub fn csv_path(&self) -> PathBuf {
+    pub(crate) fn csv_path(&self) -> PathBuf {
         self.path.clone()
     }
 }
@@ -428,7 +428,7 @@ impl Output {
 /// A directory that is not a shard of the same sweep, a shard missing or
 /// given twice, a run missing (its shard unfinished: re-run it to resume,
 /// then merge again), `out` among the shards or holding another sweep.
-pub fn merge(dirs: &[PathBuf], out: &Path) -> Result<(Manifest, Vec<PathBuf>), String> {
+pub(crate) fn merge(dirs: &[PathBuf], out: &Path) -> Result<(Manifest, Vec<PathBuf>), String> {
     let mut shards: Vec<(u64, u64, PathBuf, Manifest)> = Vec::new();
     for d in dirs {
         let m =
@@ -557,7 +557,7 @@ fn list_dirs(shards: &[(u64, u64, PathBuf, Manifest)]) -> String {
 ///
 /// # Errors
 /// The file cannot be read, or lacks a column.
-pub fn read_columns(dir: &Path, names: &[String]) -> Result<Vec<Vec<f64>>, String> {
+pub(crate) fn read_columns(dir: &Path, names: &[String]) -> Result<Vec<Vec<f64>>, String> {
     let path = dir.join(CSV);
     let (mut rows, header) = Rows::open(&path, None, None)?;
     let at: Vec<usize> = names

@@ -62,9 +62,9 @@ pub(crate) use raster::{rgba, warm_up};
 pub(crate) use snap::nominal_size;
 
 /// Nominal width of a figure \[CSS px\] (10 inches at 96 dpi).
-pub const WIDTH: u32 = 960;
+pub(crate) const WIDTH: u32 = 960;
 /// Nominal height of a figure \[CSS px\].
-pub const HEIGHT: u32 = 640;
+pub(crate) const HEIGHT: u32 = 640;
 /// Drawing units per nominal pixel: the canvas is `SCALE` times the
 /// nominal size, so integer drawing coordinates are half-pixel positions.
 pub(crate) const SCALE: u32 = 2;
