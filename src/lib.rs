@@ -15,8 +15,8 @@
 //! ```
 //!
 //! A whole program with a vehicle of its own, a scene and every command
-//! (`run`, `list`, `sweep`, `precision`, `animate`, `bench`, `check`,
-//! `equations`, `scale`):
+//! of the `ezy` binary (`run`, `sweep`, `analyze`, ...: `--help` lists
+//! them):
 //!
 //! ```no_run
 //! ezy::model! {
@@ -51,32 +51,45 @@
 //! [`effects::ForceLaw`], registered with [`App::effect`]; a closure with
 //! [`Problem::controller`].
 //!
-//! Modules: [`app`] (the model and scene table, the command line),
-//! [`commands`], [`output`] (CSV), [`figures`] and [`plot`], [`animate`],
-//! [`report`], [`sweep`], [`precision`], [`bench`](mod@bench), [`scale`],
-//! [`equations`], [`transaction`] (the locked output directory),
-//! [`progress`], and [`testing`] (a model's derived terms checked in its
-//! author's tests). The `ezy` binary is `App::new().main()`.
+//! Modules, from the command line down:
+//!
+//! ```text
+//! app/        App: the table of models and scenes, main, run_cli (parse,
+//!             then the command's line in the table)
+//! cli         the top command and the overrides its commands share
+//! commands/   one file per command, its arguments and its exec; the
+//!             table of commands in mod.rs
+//! run         a scene run to trajectory.csv and figures, or in memory
+//! precision   the work-precision ladder
+//! sweep/      many runs of a scene, resumable and sharded
+//! session     what commands share: RunOptions, settings, Report, summary
+//! render/     plot/ (charts, heat maps; SVG, PNG, PDF), figures,
+//!             animation, report
+//! output/     csv, transaction (the locked output directory), progress
+//! testing     a model's derived terms checked in its author's tests
+//! ```
+//!
+//! Imports go down this list (a command also sees the [`App`] it runs
+//! on): no command imports another, what they share is in [`session`];
+//! [`render`] never imports the session or the commands, and [`output`]
+//! imports none of the modules above it. The public modules are [`app`],
+//! [`session`] ([`RunOptions`], [`Report`]), [`output`] ([`output::csv`]
+//! the trajectory table, [`output::transaction`]), [`render`]
+//! ([`render::plot`], [`render::figures`]), [`precision`] and [`testing`].
+//! The `ezy` binary is `App::new().main()`.
 
-pub mod animate;
 pub mod app;
-pub mod bench;
 mod cli;
-pub mod commands;
-pub mod equations;
-pub mod figures;
+mod commands;
 pub mod output;
-pub mod plot;
 pub mod precision;
-pub mod progress;
-pub mod report;
-pub mod scale;
-pub mod sweep;
+pub mod render;
+mod run;
+pub mod session;
+mod sweep;
 pub mod testing;
-pub mod transaction;
 
 pub use app::App;
-pub use commands::run::{Report, RunOptions};
 pub use ezy_core;
 pub use ezy_core::{Model, Problem, Solution, model};
 pub use ezy_core::{analysis, effects, events};
@@ -86,6 +99,7 @@ pub use ezy_scene::Scene;
 /// serde, for the `Deserialize` and `Serialize` of an effect kind of the
 /// user's own (`#[serde(crate = "ezy::serde")]`).
 pub use serde;
+pub use session::{Report, RunOptions};
 
 /// Paths the code `model!` generates uses in a crate that depends on
 /// `ezy` alone; not public API.

@@ -1,8 +1,7 @@
-//! The `ezy` command line: `ezy run [SCENE | FILE.toml]`, `ezy list`,
-//! `ezy precision SCENE`, `ezy equations MODEL`, `ezy check MODEL`,
-//! `ezy scale MODEL`, over the built-in vehicles and scenes. A program
-//! with its own vehicles is the same line with `.model::<M>("key")` added
-//! (see [`ezy::App`]).
+//! The `ezy` command line: `ezy run [SCENE | FILE.toml]`, `ezy list` and
+//! the other commands (`ezy --help`), over the built-in vehicles and
+//! scenes. A program with its own vehicles is the same line with
+//! `.model::<M>("key")` added (see [`ezy::App`]).
 
 fn main() -> std::process::ExitCode {
     ezy::App::new().main()

@@ -12,9 +12,9 @@ use ezy_core::{Choice, Dynamics, Model, Observer, ProjectionKind, RunSettings, S
 
 use ezy_scene::Scene;
 
-use crate::commands::run::Error;
-use crate::plot::{Chart, Series, Stroke};
-use crate::transaction::Transaction;
+use crate::output::transaction::Transaction;
+use crate::render::plot::{Chart, Series, Stroke};
+use crate::session::Error;
 
 /// One setting of the ladder.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -60,7 +60,7 @@ pub struct Report {
 }
 
 /// Tolerances of the adaptive ladder.
-pub const TOLERANCES: [f64; 11] = [1e-3, 1e-4, 1e-5, 1e-6, 1e-7, 1e-8, 1e-9, 1e-10, 1e-11, 1e-12, 1e-13];
+pub(crate) const TOLERANCES: [f64; 11] = [1e-3, 1e-4, 1e-5, 1e-6, 1e-7, 1e-8, 1e-9, 1e-10, 1e-11, 1e-12, 1e-13];
 
 /// The ladder of settings, every method with and without projection.
 pub fn ladder() -> Vec<Setting> {
@@ -194,7 +194,7 @@ pub struct PrecisionOptions {
 /// # Errors
 /// [`Error`] if the reference run fails, a saved ladder does not read or
 /// a file cannot be written.
-pub fn precision_model<M: Model>(
+pub(crate) fn precision_model<M: Model>(
     proto: &M,
     scene: &Scene,
     out: &Path,
@@ -202,7 +202,7 @@ pub fn precision_model<M: Model>(
 ) -> Result<Report, Error> {
     // an unusable or busy output directory is found before minutes of runs
     Transaction::preflight(out)?;
-    let beat = crate::progress::Heartbeat::start(format!("precision of {}: the reference runs", scene.name));
+    let beat = crate::output::progress::Heartbeat::start(format!("precision of {}: the reference runs", scene.name));
     let reference =
         Setting { method: Method::Dop853, dt: None, tol: Some(1e-13), projection: ProjectionKind::MassWeighted };
     let (rows, reference_error) = if opts.replot {
@@ -237,7 +237,7 @@ pub fn precision_model<M: Model>(
         (rows, reference_error)
     };
     // precision.csv and both figures are one transaction (see
-    // `crate::transaction`): committed together, precision.csv last.
+    // `crate::output::transaction`): committed together, precision.csv last.
     beat.set(format!("precision of {}: drawing the figures", scene.name));
     let mut tx = Transaction::begin(out)?;
     if !opts.replot {
@@ -258,7 +258,7 @@ fn opt(v: Option<f64>) -> String {
 }
 
 /// The CSV: `method,dt,rtol,atol,projection,error,wall_s,rhs_evals,max_residual`.
-pub fn csv(rows: &[Row]) -> String {
+pub(crate) fn csv(rows: &[Row]) -> String {
     let mut s = String::from("method,dt,rtol,atol,projection,error,wall_s,rhs_evals,max_residual\n");
     for r in rows {
         let st = &r.setting;
@@ -279,7 +279,7 @@ pub fn csv(rows: &[Row]) -> String {
 }
 
 /// A fixed-width table for the terminal.
-pub fn table(report: &Report) -> String {
+pub(crate) fn table(report: &Report) -> String {
     let mut s = format!(
         "reference: {} rtol = atol = {:e}, projection {} (estimated error <= {:.1e})\n",
         report.reference.method.name(),
@@ -337,11 +337,11 @@ pub struct Overlay {
 
 /// Largest overlay file `ezy precision --overlay` reads \[bytes\]: 32 MiB,
 /// about a million points (a diagram shows a few dozen).
-pub const MAX_OVERLAY_BYTES: u64 = 32 << 20;
+pub(crate) const MAX_OVERLAY_BYTES: u64 = 32 << 20;
 
 /// Largest `precision.csv` `ezy precision --replot` reads \[bytes\]:
 /// 16 MiB (the ladder writes about 4 KiB).
-pub const MAX_PRECISION_CSV_BYTES: u64 = 16 << 20;
+pub(crate) const MAX_PRECISION_CSV_BYTES: u64 = 16 << 20;
 
 /// Reads an overlay file: CSV with the header `label,wall_s,error` and one
 /// point per row; rows with the same label form one series, in the order
@@ -352,7 +352,7 @@ pub const MAX_PRECISION_CSV_BYTES: u64 = 16 << 20;
 /// [`MAX_OVERLAY_BYTES`] (nothing past the cap is read); the file, line
 /// and field of a missing header, a short row or a value that is not a
 /// finite number > 0.
-pub fn read_overlay(path: &Path) -> Result<Vec<Overlay>, String> {
+pub(crate) fn read_overlay(path: &Path) -> Result<Vec<Overlay>, String> {
     let name = path.display();
     // a regular file of at most MAX_OVERLAY_BYTES, read whole: a device,
     // a FIFO or an endless file is refused at once
@@ -392,7 +392,7 @@ pub fn read_overlay(path: &Path) -> Result<Vec<Overlay>, String> {
 /// A missing file, one that is not a regular file or is larger than
 /// [`MAX_PRECISION_CSV_BYTES`]; the file and line of a row that does not
 /// parse (an unknown method or projection, a value that is not a number).
-pub fn read_csv(path: &Path) -> Result<Vec<Row>, String> {
+pub(crate) fn read_csv(path: &Path) -> Result<Vec<Row>, String> {
     let name = path.display();
     let text = ezy_scene::files::read_capped_text(path, MAX_PRECISION_CSV_BYTES, "a precision.csv")
         .map_err(|e| format!("{name}: {e}"))?;
@@ -439,7 +439,7 @@ fn overlaid(mut chart: Chart, overlay: &[Overlay]) -> Chart {
 
 /// One line of [`equal_error_speedups`].
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub struct Speedup {
+pub(crate) struct Speedup {
     /// radau5's tolerance.
     pub tol: f64,
     /// radau5's error at that tolerance.
@@ -454,7 +454,7 @@ pub struct Speedup {
 
 /// For each projected radau5 rung with a finite error that DOP853's
 /// projected ladder brackets: the time DOP853 takes for the same error.
-pub fn equal_error_speedups(rows: &[Row]) -> Vec<Speedup> {
+pub(crate) fn equal_error_speedups(rows: &[Row]) -> Vec<Speedup> {
     let usable =
         |r: &&Row| r.setting.projection == ProjectionKind::MassWeighted && r.error.is_finite() && r.error > 0.0;
     let dop: Vec<&Row> = rows.iter().filter(|r| r.setting.method == Method::Dop853).filter(usable).collect();
@@ -479,8 +479,8 @@ pub fn equal_error_speedups(rows: &[Row]) -> Vec<Speedup> {
 /// `chart` as PNG bytes at the default resolution; errors name the figure
 /// file `name`.
 fn figure_png(name: &str, chart: &Chart) -> Result<Vec<u8>, Error> {
-    crate::plot::figure(chart, ezy_scene::FigureFormat::Png, ezy_scene::DEFAULT_DPI)
-        .map_err(|source| crate::figures::FigureError::Plot { figure: name.into(), source }.into())
+    crate::render::plot::figure(chart, ezy_scene::FigureFormat::Png, ezy_scene::DEFAULT_DPI)
+        .map_err(|source| crate::render::figures::FigureError::Plot { figure: name.into(), source }.into())
 }
 
 fn work_precision_chart(rows: &[Row], scene: &Scene) -> Chart {
@@ -553,7 +553,7 @@ fn drift_chart<M: Model>(proto: &M, scene: &Scene) -> Result<Chart, Error> {
         series,
         lower: Some("velocity residual [m/s]".into()),
         log_y: true,
-        log_floor: crate::figures::LOG_FLOOR,
+        log_floor: crate::render::figures::LOG_FLOOR,
         ..Chart::new(format!("Constraint drift, {title}, scene {}", scene.name), "t [s]", "position residual [m]")
     })
 }

@@ -311,7 +311,7 @@ fn huge_families_run_and_check() {
     assert!(text.contains(", setup ") && text.contains("whole run"), "{text}");
     // 3N coordinates, 3N velocities, N - 1 motors, N resistances, N - 1 springs
     let states = 6 * 10_000 + 3 * 10_000 - 2;
-    let more = format!(" and {} more (the last row of trajectory.csv)", states - ezy::commands::run::SUMMARY_STATES);
+    let more = format!(" and {} more (the last row of trajectory.csv)", states - ezy::session::SUMMARY_STATES);
     assert!(text.contains(&more), "{}", &text[text.len().saturating_sub(300)..]);
     csvs_are_finite(&out);
     let rows = std::fs::read_to_string(out.join("trajectory.csv")).unwrap().lines().count();

@@ -203,7 +203,7 @@ fn a_run_in_memory_is_the_file_run_without_files() {
     let mut stop = |t: f64| (t >= 0.5).then(|| "enough".to_string());
     let err = app.run_scene_in_memory(&scene, &opts, Some(&mut stop)).unwrap_err();
     match err {
-        ezy::commands::run::Error::Stopped { t, ref reason } => {
+        ezy::session::Error::Stopped { t, ref reason } => {
             assert!((0.5..0.5 + 2e-3).contains(&t) && reason == "enough", "{err}");
         }
         e => panic!("{e}"),

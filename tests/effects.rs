@@ -12,7 +12,7 @@ use std::f64::consts::PI;
 use bare_rhs::BareRhs;
 use common::max_abs;
 use common::{build, setup};
-use ezy::output::RowBuilder;
+use ezy::output::csv::RowBuilder;
 use ezy_core::effects::{EffectSpec, Law};
 use ezy_core::integrator::Rhs;
 use ezy_core::kkt::KktMethod;

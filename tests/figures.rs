@@ -7,7 +7,7 @@ use std::process::Command;
 
 use ezy::RunOptions;
 use ezy::models::scenes;
-use ezy::plot::{self, FigureFormat};
+use ezy::render::plot::{self, FigureFormat};
 
 fn tmp(name: &str) -> PathBuf {
     let d = Path::new(env!("CARGO_TARGET_TMPDIR")).join(format!("figures-{name}"));

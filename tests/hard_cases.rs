@@ -5,7 +5,7 @@ use crate::common;
 use common::{Recorder, max_abs};
 use common::{build, setup};
 use ezy::RunOptions;
-use ezy::output::FIGURE_ROWS;
+use ezy::output::csv::FIGURE_ROWS;
 use ezy_core::kkt::KktMethod;
 use ezy_core::{Dynamics, Method, Model, ProjectionKind, RunSettings, simulate};
 

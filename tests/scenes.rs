@@ -284,7 +284,7 @@ fn overrides_reach_the_model_and_the_motor() {
 /// override winning, and a model without families never gets one.
 #[test]
 fn only_a_large_family_sets_up_with_a_heartbeat() {
-    use ezy::commands::run::{LONG_SETUP_ELEMENTS, setup_may_be_long};
+    use ezy::session::{LONG_SETUP_ELEMENTS, setup_may_be_long};
     let named = |name: &str| scenes::builtin().into_iter().find(|s| s.scene.name == name).unwrap().scene;
     let (snake, long, drive) = (named("snake"), named("snake-long"), named("drive"));
     let n = |v: f64| vec![("N".to_string(), v)];

@@ -2,7 +2,7 @@
 //! array with the columns as views into it, the run's summary and
 //! numbers, its figures drawn with matplotlib on request.
 
-use ezy::commands::run;
+use ezy::session;
 use ezy_core::ModelInfo;
 use ezy_scene::registry::SceneSource;
 use numpy::{PyArray1, PyArray2, PyArrayMethods, PyUntypedArrayMethods};
@@ -53,7 +53,7 @@ impl RunResult {
         report: ezy::Report,
         helpers: Py<PyModule>,
     ) -> PyResult<Self> {
-        let summary = run::summary(&src.scene.name, &report);
+        let summary = session::summary(&src.scene.name, &report);
         let s = &report.summary;
         let stats = PyDict::new(py);
         stats.set_item("method", s.method.name())?;
@@ -178,8 +178,8 @@ impl RunResult {
             ))
         })?;
         let data = self.data.bind(py).readonly();
-        let table = ezy::output::Table { columns: self.columns.clone(), data: data.as_slice()?.to_vec() };
-        let chart = ezy::figures::chart(&self.info, fig, &table).map_err(ezy_err)?;
+        let table = ezy::output::csv::Table { columns: self.columns.clone(), data: data.as_slice()?.to_vec() };
+        let chart = ezy::render::figures::chart(&self.info, fig, &table).map_err(ezy_err)?;
         let d = PyDict::new(py);
         d.set_item("file", &fig.file)?;
         d.set_item("title", &chart.title)?;
@@ -201,10 +201,10 @@ impl RunResult {
             e.set_item("y", PyArray1::from_vec(py, y))?;
             e.set_item("panel", s.panel)?;
             let stroke = match s.stroke {
-                ezy::plot::Stroke::Auto => "auto".to_string(),
-                ezy::plot::Stroke::Solid => "solid".to_string(),
-                ezy::plot::Stroke::Dash(k) => format!("dash{k}"),
-                ezy::plot::Stroke::Points => "points".to_string(),
+                ezy::render::plot::Stroke::Auto => "auto".to_string(),
+                ezy::render::plot::Stroke::Solid => "solid".to_string(),
+                ezy::render::plot::Stroke::Dash(k) => format!("dash{k}"),
+                ezy::render::plot::Stroke::Points => "points".to_string(),
             };
             e.set_item("stroke", stroke)?;
             e.set_item("color", s.color)?;

@@ -65,7 +65,7 @@ impl Toolkit {
     }
 
     /// Runs the command line `args` (after the program name) with the GIL
-    /// released; Ctrl-C asks the command to stop ([`ezy::transaction::request_stop`])
+    /// released; Ctrl-C asks the command to stop ([`ezy::output::transaction::request_stop`])
     /// and raises `KeyboardInterrupt` once it has. Returns what it printed.
     fn cli(&self, py: Python<'_>, args: Vec<String>) -> PyResult<Result<String, (String, ezy::app::AppError)>> {
         let app = &self.app;
@@ -85,13 +85,13 @@ impl Toolkit {
                         && let Err(e) = Python::attach(|py| py.check_signals())
                     {
                         interrupt = Some(e);
-                        ezy::transaction::request_stop();
+                        ezy::output::transaction::request_stop();
                     }
                 }
                 worker.join()
             })
         });
-        ezy::transaction::clear_stop();
+        ezy::output::transaction::clear_stop();
         if let Some(e) = interrupt {
             return Err(e);
         }

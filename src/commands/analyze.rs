@@ -1,5 +1,5 @@
-//! `ezy analyze` and `ezy linearize`: the library's analyses
-//! ([`ezy_core::analysis`]) on a scene, written as CSV tables and figures.
+//! `ezy analyze [SCENE]`: the library's analyses ([`ezy_core::analysis`])
+//! on a scene, written as CSV tables and figures.
 //!
 //! `analyze` decides from the scene what it can ask: a scene whose forces
 //! do not change with time has steady motions (relative equilibria, or
@@ -10,142 +10,220 @@
 //! parameter varies (the same `NAME=...` as `--set` and `ezy sweep`).
 
 use std::fmt::Write as _;
+use std::io::Write;
 use std::path::PathBuf;
 use std::time::{Duration, Instant};
 
+use clap::{ArgMatches, Args, FromArgMatches};
 use ezy_core::analysis::{
-    Analysis, AnalysisError, BranchPoint, Follow, Input, PeriodicOrbit, PeriodicSettings, Solution, Stability,
-    SteadyMotion, Symmetry, c64,
+    Analysis, AnalysisError, BranchPoint, Follow, PeriodicOrbit, PeriodicSettings, Solution, Stability, SteadyMotion,
+    Symmetry, c64,
 };
 use ezy_core::effects::Periodicity;
 use ezy_core::{Model, fmt_value};
 use ezy_scene::Scene;
 
-use super::run::{self, Error, RunOptions};
-use crate::plot::{Chart, Series, Stroke};
-use crate::transaction::Transaction;
+use super::{check_figure_format, committed};
+use crate::app::{App, AppError};
+use crate::cli::{Overrides, parse_positive};
+use crate::output::csv::{number, record};
+use crate::output::progress::Heartbeat;
+use crate::output::transaction::{Transaction, check_interrupt, pending};
+use crate::render::plot::{Chart, Series, Stroke};
+use crate::session::{Error, RunOptions, analysis_error, complex, rounded, run_to, scene_analysis, settings};
+
+/// Find a scene's steady motions (or, driven periodically, its
+/// periodic orbit) and their stability; follow them as a parameter
+/// varies: equilibria.csv, periodic.csv, branch.csv and figures.
+#[derive(Args, Debug, Default)]
+#[command(allow_negative_numbers = true)]
+struct AnalyzeArgs {
+    /// Scene: a known name (see `list`; default: drive) or a path to a
+    /// .toml scene file.
+    scene: Option<String>,
+    /// Output directory [default: out/analyze/SCENE].
+    #[arg(long)]
+    out: Option<PathBuf>,
+    /// The forcing period [s] [default: from the scene's waveforms].
+    #[arg(long, value_name = "T", value_parser = parse_positive)]
+    period: Option<f64>,
+    /// The kinetic energy [J] of the steady motions sought [default: the
+    /// guess's own in a scene without effects, where energy is conserved].
+    #[arg(long, value_name = "J", value_parser = parse_positive)]
+    energy: Option<f64>,
+    /// Follow the solution as a parameter takes COUNT evenly spaced
+    /// values from START to STOP (a NAME as for --set).
+    #[arg(long = "continue", value_name = "NAME=START:STOP:COUNT")]
+    continuation: Option<String>,
+    /// Do not draw the figures.
+    #[arg(long)]
+    no_figures: bool,
+    #[command(flatten)]
+    overrides: Overrides,
+}
+
+/// The arguments of `ezy analyze`, on the subcommand `cmd`.
+pub(crate) fn cli(cmd: clap::Command) -> clap::Command {
+    AnalyzeArgs::augment_args(cmd)
+}
+
+/// Analyzes the scene named (or the default scene) and prints what it
+/// found.
+pub(crate) fn exec(app: &App, args: &ArgMatches, out: &mut dyn Write) -> Result<(), AppError> {
+    let args = AnalyzeArgs::from_arg_matches(args)?;
+    let (_, src) = app.named_scene(args.scene.as_deref())?;
+    let scene = &src.scene;
+    let continuation = match &args.continuation {
+        Some(text) => {
+            let axis = crate::sweep::plan::grid(text).map_err(|e| AppError::Failed(format!("--continue {e}")))?;
+            let n = axis.values.count().unwrap_or(0);
+            if n > MAX_CONTINUATION {
+                return Err(AppError::Failed(format!(
+                    "--continue `{text}`: {n} values is more than {MAX_CONTINUATION}, the most a continuation takes"
+                )));
+            }
+            Some((axis.name.clone(), (0..n).map(|k| axis.values.get(k)).collect()))
+        }
+        None => None,
+    };
+    let opts = AnalyzeOptions {
+        run: RunOptions {
+            out: args.out.unwrap_or_else(|| PathBuf::from("out").join("analyze").join(&scene.name)),
+            figures: !args.no_figures,
+            progress: true,
+            ..args.overrides.options()
+        },
+        period: args.period,
+        energy: args.energy,
+        continuation,
+    };
+    check_figure_format(&src, opts.run.figure_format, opts.run.figures)?;
+    let model = app.model_or_error(&scene.model)?;
+    let report = analyze_model(model, scene, &opts).map_err(AppError::from_run)?;
+    committed(out, &summary(&scene.name, &report), &opts.run.out)
+}
 
 /// States of the scene's run that are guesses (evenly spaced, the end last).
 const GUESSES: u32 = 8;
 
 /// Most parameter values a continuation may take.
-pub const MAX_CONTINUATION: u64 = 10_000;
+const MAX_CONTINUATION: u64 = 10_000;
 
 /// What `ezy analyze` is asked.
 #[derive(Debug, Clone, Default)]
-pub struct AnalyzeOptions {
+struct AnalyzeOptions {
     /// Output directory, overrides, figure settings; `t_end` is the length
     /// of the run whose end state is a guess.
-    pub run: RunOptions,
+    run: RunOptions,
     /// The forcing period \[s\] (`None`: from the scene's waveforms).
-    pub period: Option<f64>,
+    period: Option<f64>,
     /// The kinetic energy \[J\] of the steady motions sought (`None`: the
     /// guess's own for a scene without effects and drives, free otherwise).
-    pub energy: Option<f64>,
+    energy: Option<f64>,
     /// A parameter to follow the first solution through: its name and values.
-    pub continuation: Option<(String, Vec<f64>)>,
+    continuation: Option<(String, Vec<f64>)>,
 }
 
 /// What `ezy analyze` found.
 #[derive(Debug, Clone)]
-pub struct AnalyzeReport {
+struct AnalyzeReport {
     /// The scene's symmetry.
-    pub symmetry: Symmetry,
+    symmetry: Symmetry,
     /// The model's coordinates (the names of its cyclic ones' rates).
-    pub coords: Vec<String>,
+    coords: Vec<String>,
     /// The steady motions found (distinct), for a time-independent scene.
-    pub steady: Vec<SteadyMotion>,
+    steady: Vec<SteadyMotion>,
     /// The periodic orbit, for a periodically driven scene.
-    pub periodic: Option<PeriodicOrbit>,
-    /// The branch, with `--continue`.
-    pub branch: Vec<BranchPoint>,
+    periodic: Option<PeriodicOrbit>,
     /// Files written.
-    pub files: Vec<PathBuf>,
+    files: Vec<PathBuf>,
     /// What took how long.
-    pub timings: Vec<(String, Duration)>,
+    timings: Vec<(String, Duration)>,
     /// Notes for the user (a guess that led nowhere, the end of a branch).
-    pub notes: Vec<String>,
+    notes: Vec<String>,
 }
 
-/// The analysis of `scene` with the overrides `sets` and its consistent
-/// initial state.
-fn build<M: Model>(proto: &M, scene: &Scene, sets: &[(String, f64)]) -> Result<(Analysis<M>, Vec<f64>), Error> {
-    let (problem, _) = scene.problem_with(proto.clone(), sets)?;
-    let (mut an, x0) = problem.analysis()?;
-    // a model too large for the dense matrices is refused before any run
-    an.check_size().map_err(|e| Error::Input(e.to_string()))?;
-    an.stop_when(|| crate::transaction::pending().is_some());
-    Ok((an, x0))
-}
-
-/// The stop event that ended a run early, and its time \[s\].
-type Stopped = Option<(String, f64)>;
-
-/// The states `[q, qd]` of a run of the scene (its own settings,
-/// overridden by `opts`) to `t_end` \[s\] at `samples` evenly spaced
-/// times, the start excluded and the end last (the stop's state where a
-/// stop event ended it, with its name and time); a signal stops it within
-/// a step.
-fn run_to<M: Model>(
-    proto: &M,
-    scene: &Scene,
-    opts: &RunOptions,
-    t_end: f64,
-    samples: u32,
-) -> Result<(Vec<Vec<f64>>, Stopped), Error> {
-    let mut settings = run::settings(scene, opts)?;
-    settings.t_end = t_end;
-    settings.every = t_end / f64::from(samples);
-    let (problem, _) = run::problem(proto, scene, opts, settings)?;
-    let mut kept = States { dir: opts.out.clone(), x: Vec::new() };
-    let (summary, _) = problem.solve_with(&mut kept).map_err(|e| match e {
-        ezy_core::RunError::Sim(e) => Error::Sim(e),
-        ezy_core::RunError::Output(e) => Error::Transaction(e),
-    })?;
-    // the start is the scene's own, and a sample just short of the end
-    // (the output interval's rounding) is not kept twice
-    let mut x = kept.x.split_off(1.min(kept.x.len()));
-    x.truncate(samples as usize);
-    Ok((x, summary.stopped))
-}
-
-/// Keeps the samples' `[q, qd]`; stops the run when a signal arrives.
-struct States {
-    dir: PathBuf,
-    x: Vec<Vec<f64>>,
-}
-
-impl<M: Model> ezy_core::Observer<M> for States {
-    type Error = crate::transaction::TransactionError;
-    fn observe(&mut self, _sys: &ezy_core::Dynamics<M>, s: &ezy_core::Sample<'_>) -> Result<(), Self::Error> {
-        self.x.push([s.q, s.qd].concat());
-        Ok(())
-    }
-    fn poll(&mut self, t: f64) -> Result<(), Self::Error> {
-        crate::transaction::check_interrupt(&self.dir, Some(t), Some("running the scene for a guess".into()))
-    }
-}
-
-/// The command's error for an analysis' error, `dir` the output directory.
-fn analysis_error(dir: &std::path::Path) -> impl Fn(AnalysisError) -> Error + '_ {
-    move |e| match e {
-        AnalysisError::Sim(e) => Error::Sim(e),
-        AnalysisError::Stopped => match crate::transaction::check_interrupt(dir, None, Some("analysing".into())) {
-            Err(i) => Error::Transaction(i),
-            Ok(()) => Error::Input("the analysis was stopped".into()),
-        },
-        e => Error::Input(e.to_string()),
-    }
-}
-
-/// `ezy analyze` on `proto`, a model at its defaults.
+/// `ezy analyze` on `proto`, a model at its defaults: the request
+/// checked, the scene's symmetry and period, its run for guesses, the
+/// steady motions or the periodic orbit, the branch, the output.
 ///
 /// # Errors
 /// [`Error::Input`] when the scene has neither steady motions nor a known
 /// period, or no search converged; the setup's errors; the output's.
-pub fn analyze_model<M: Model>(proto: &M, scene: &Scene, opts: &AnalyzeOptions) -> Result<AnalyzeReport, Error> {
+fn analyze_model<M: Model>(proto: &M, scene: &Scene, opts: &AnalyzeOptions) -> Result<AnalyzeReport, Error> {
     let ro = &opts.run;
-    let settings = run::settings(scene, ro)?;
+    let settings = settings(scene, ro)?;
+    check_request(opts, settings.t_end)?;
+    let (mut an, x0) = scene_analysis(proto, scene, &ro.sets)?;
+    check_on_model(proto, scene, opts, &an)?;
+    Transaction::preflight(&ro.out)?;
+    let mut log = Log::default();
+    let clock = Instant::now();
+    let symmetry = an.symmetry(0.0, &x0).map_err(analysis_error(&ro.out))?;
+    let period = period(&mut an, &x0, opts.period, scene, &ro.out)?;
+    // a line every few seconds of a long analysis (a stiff scene's run
+    // and searches take minutes)
+    let beat = ro.progress.then(|| {
+        Heartbeat::start(format!(
+            "analyze {}: running the scene to t = {} s for guesses",
+            scene.name,
+            fmt_value(settings.t_end)
+        ))
+    });
+    let (samples, _) = run_to(proto, scene, ro, settings.t_end, GUESSES)?;
+    let end = samples.last().cloned().unwrap_or_else(|| x0.clone());
+    log.timings.push((format!("run to t = {} s for a guess", fmt_value(settings.t_end)), clock.elapsed()));
+    let (steady, periodic, follow) = match period {
+        None => {
+            let guesses = guesses(&x0, &end, &samples, settings.t_end, symmetry);
+            let (steady, follow) = steady_motions(&mut an, scene, opts, symmetry, &guesses, beat.as_ref(), &mut log)?;
+            (steady, None, follow)
+        }
+        Some(p) => {
+            let clock = Instant::now();
+            let t0 = settings.t_end;
+            // `--max-steps` bounds each period's integration (the advice of
+            // a budget error names it)
+            let ps = PeriodicSettings {
+                max_steps: ro.max_steps.unwrap_or(PeriodicSettings::default().max_steps),
+                ..PeriodicSettings::default()
+            };
+            if let Some(b) = &beat {
+                b.set(format!("analyze {}: searching for the periodic orbit of period {} s", scene.name, fmt_value(p)));
+            }
+            let orbit = an.periodic_orbit(t0, p, &end, symmetry, &ps).map_err(analysis_error(&ro.out))?;
+            log.timings.push(("periodic orbit".into(), clock.elapsed()));
+            (Vec::new(), Some(orbit), Follow::Periodic { t0, period: p, settings: ps })
+        }
+    };
+    drop(beat);
+    let branch = match &opts.continuation {
+        Some((name, values)) => {
+            let start = steady
+                .first()
+                .map_or_else(|| periodic.as_ref().map(|p| p.state.clone()).unwrap_or_default(), |s| s.state.clone());
+            follow_branch(proto, scene, ro, (name, values), &start, follow, &mut log)?
+        }
+        None => Vec::new(),
+    };
+    let files = write_analysis(&an, scene, opts, &steady, periodic.as_ref(), &branch)?;
+    let coords = an.dynamics().info.coords.clone();
+    let Log { timings, notes } = log;
+    Ok(AnalyzeReport { symmetry, coords, steady, periodic, files, timings, notes })
+}
+
+/// What an analysis tells besides its results: what took how long, and
+/// notes for the user.
+#[derive(Default)]
+struct Log {
+    timings: Vec<(String, Duration)>,
+    notes: Vec<String>,
+}
+
+/// The request's own numbers, before any work: a period that is not
+/// positive or within the time's rounding at `t_end` \[s\], an energy that
+/// is not positive.
+fn check_request(opts: &AnalyzeOptions, t_end: f64) -> Result<(), Error> {
     if let Some(p) = opts.period
         && !(p.is_finite() && p > 0.0)
     {
@@ -155,13 +233,13 @@ pub fn analyze_model<M: Model>(proto: &M, scene: &Scene, opts: &AnalyzeOptions) 
     // 1e-9 of that time is within 2e-7 of its rounding (eps t), coarser
     // than the shooting's tolerance (1e-9 of the state)
     if let Some(p) = opts.period
-        && p < MIN_PERIOD * settings.t_end.max(1.0)
+        && p < MIN_PERIOD * t_end.max(1.0)
     {
         return Err(Error::Input(format!(
             "--period {}: a periodic orbit is sought from t = {} s (the scene's t_end), and a period below {:.1e} s there is within the time's rounding; give a longer period",
             fmt_value(p),
-            fmt_value(settings.t_end),
-            MIN_PERIOD * settings.t_end.max(1.0)
+            fmt_value(t_end),
+            MIN_PERIOD * t_end.max(1.0)
         )));
     }
     if let Some(e) = opts.energy
@@ -169,7 +247,14 @@ pub fn analyze_model<M: Model>(proto: &M, scene: &Scene, opts: &AnalyzeOptions) 
     {
         return Err(Error::Input(format!("--energy {e}: the kinetic energy must be a positive number of joules")));
     }
-    let (mut an, x0) = build(proto, scene, &ro.sets)?;
+    Ok(())
+}
+
+/// The request against the model: an energy that stands for a speed the
+/// search cannot tell from rest, a continuation whose ends change the
+/// model's size.
+fn check_on_model<M: Model>(proto: &M, scene: &Scene, opts: &AnalyzeOptions, an: &Analysis<M>) -> Result<(), Error> {
+    let ro = &opts.run;
     if let Some(e) = opts.energy {
         // the speed it stands for, on all the bodies' mass at once
         let mass: f64 = an.dynamics().mass.iter().step_by(3).sum();
@@ -189,7 +274,8 @@ pub fn analyze_model<M: Model>(proto: &M, scene: &Scene, opts: &AnalyzeOptions) 
         for &value in [values[0], values[values.len() - 1]].iter() {
             let mut sets = ro.sets.clone();
             sets.push((name.clone(), value));
-            let (other, _) = build(proto, scene, &sets).map_err(|e| Error::Input(format!("--continue {name}: {e}")))?;
+            let (other, _) =
+                scene_analysis(proto, scene, &sets).map_err(|e| Error::Input(format!("--continue {name}: {e}")))?;
             if other.nq() != an.nq() {
                 return Err(Error::Input(format!(
                     "--continue {name}: at {name} = {value} the model has {} coordinates against {} at the start: a branch follows one model, so continue in a parameter that keeps its size",
@@ -199,12 +285,21 @@ pub fn analyze_model<M: Model>(proto: &M, scene: &Scene, opts: &AnalyzeOptions) 
             }
         }
     }
-    Transaction::preflight(&ro.out)?;
-    let mut timings = Vec::new();
-    let mut notes = Vec::new();
-    let clock = Instant::now();
-    let symmetry = an.symmetry(0.0, &x0).map_err(analysis_error(&ro.out))?;
-    let period = match (opts.period, an.forcing()) {
+    Ok(())
+}
+
+/// The period of the orbit sought (`None`: steady motions): `given`
+/// (`--period`, a whole number of the forcing's periods), else the
+/// forcing's; a scene driven by a table in time, or changing with time
+/// through a law of its own, needs `--period`.
+fn period<M: Model>(
+    an: &mut Analysis<M>,
+    x0: &[f64],
+    given: Option<f64>,
+    scene: &Scene,
+    dir: &std::path::Path,
+) -> Result<Option<f64>, Error> {
+    Ok(match (given, an.forcing()) {
         // a periodic orbit of a forced scene repeats with a whole number
         // of the forcing's periods
         (Some(p), Some(Periodicity::Period(forcing))) => {
@@ -232,10 +327,10 @@ pub fn analyze_model<M: Model>(proto: &M, scene: &Scene, opts: &AnalyzeOptions) 
         (None, None) => {
             // at several times no ratio of which is simple: a law forced
             // with one of these offsets as its period still shows
-            let a = an.rhs(0.0, &x0).map_err(analysis_error(&ro.out))?;
+            let a = an.rhs(0.0, x0).map_err(analysis_error(dir))?;
             let mut changes = false;
             for offset in [0.7391, 0.0531, 2.1913, 13.371] {
-                let b = an.rhs(offset, &x0).map_err(analysis_error(&ro.out))?;
+                let b = an.rhs(offset, x0).map_err(analysis_error(dir))?;
                 changes |= a.iter().zip(&b).any(|(u, v)| (u - v).abs() > 1e-10 * (1.0 + u.abs()));
             }
             if changes {
@@ -246,172 +341,180 @@ pub fn analyze_model<M: Model>(proto: &M, scene: &Scene, opts: &AnalyzeOptions) 
             }
             None
         }
+    })
+}
+
+/// The guesses of the steady motions, each with what it is: the scene's
+/// start `x0`, the `end` of its run to `t_end` \[s\], then the run's other
+/// `samples`, latest first; an equilibrium (no symmetry) is at rest: the
+/// samples' positions.
+fn guesses(x0: &[f64], end: &[f64], samples: &[Vec<f64>], t_end: f64, symmetry: Symmetry) -> Vec<(String, Vec<f64>)> {
+    let nq = x0.len() / 2;
+    let rest = |x: &[f64]| {
+        if symmetry == Symmetry::NONE { [&x[..nq], &vec![0.0; nq][..]].concat() } else { x.to_vec() }
     };
-    // a line every few seconds of a long analysis (a stiff scene's run
-    // and searches take minutes)
-    let beat = ro.progress.then(|| {
-        crate::progress::Heartbeat::start(format!(
-            "analyze {}: running the scene to t = {} s for guesses",
-            scene.name,
-            fmt_value(settings.t_end)
-        ))
-    });
-    let (samples, _) = run_to(proto, scene, ro, settings.t_end, GUESSES)?;
-    let end = samples.last().cloned().unwrap_or_else(|| x0.clone());
-    timings.push((format!("run to t = {} s for a guess", fmt_value(settings.t_end)), clock.elapsed()));
+    let mut guesses =
+        vec![("the scene's start".to_string(), x0.to_vec()), ("the end of its run".to_string(), rest(end))];
+    let every = t_end / f64::from(GUESSES);
+    for (k, x) in samples.iter().enumerate().rev().skip(1) {
+        guesses.push((format!("its run at t = {} s", fmt_value(every * (k + 1) as f64)), rest(x)));
+    }
+    guesses
+}
+
+/// The distinct steady motions found from the `guesses`, and how to
+/// follow the first. The guesses that failed alike are noted once, as
+/// are the searches that ended at rest.
+fn steady_motions<M: Model>(
+    an: &mut Analysis<M>,
+    scene: &Scene,
+    opts: &AnalyzeOptions,
+    symmetry: Symmetry,
+    guesses: &[(String, Vec<f64>)],
+    beat: Option<&Heartbeat>,
+    log: &mut Log,
+) -> Result<(Vec<SteadyMotion>, Follow), Error> {
     let conservative = an.dynamics().effects.is_empty() && an.dynamics().drives.is_empty();
     let energy_of = |an: &Analysis<M>, x: &[f64]| {
         opts.energy.or_else(|| conservative.then(|| an.dynamics().kinetic_energy(&x[x.len() / 2..])))
     };
-    let (mut steady, mut periodic) = (Vec::new(), None);
-    let follow;
-    match period {
-        None => {
-            // the start, the end, then the run's other samples; an
-            // equilibrium (no symmetry) is at rest: the samples' positions
-            let nq = x0.len() / 2;
-            let rest = |x: &Vec<f64>| {
-                if symmetry == Symmetry::NONE { [&x[..nq], &vec![0.0; nq][..]].concat() } else { x.clone() }
-            };
-            let mut guesses =
-                vec![("the scene's start".to_string(), x0.clone()), ("the end of its run".to_string(), rest(&end))];
-            let every = settings.t_end / f64::from(GUESSES);
-            for (k, x) in samples.iter().enumerate().rev().skip(1) {
-                guesses.push((format!("its run at t = {} s", fmt_value(every * (k + 1) as f64)), rest(x)));
-            }
-            let angles: Vec<usize> = an.dynamics().info.bodies.iter().map(|b| b.coords[2]).collect();
-            let mut failed: Vec<(String, String)> = Vec::new();
-            let clock = Instant::now();
-            // the run's speed: a motion found far below it is rest to the
-            // search's resolution ([`NEAR_REST`])
-            let speed_of = |x: &[f64]| x[nq..].iter().fold(0.0f64, |m, v| m.max(v.abs()));
-            let run_speed = guesses.iter().map(|(_, x)| speed_of(x)).fold(0.0f64, f64::max);
-            let rest_below = NEAR_REST * (1.0 + run_speed).sqrt();
-            let mut near_rest = Vec::new();
-            for (k, (label, guess)) in guesses.iter().enumerate() {
-                if let Some(b) = &beat {
-                    b.set(format!(
-                        "analyze {}: searching for a steady motion from {label} ({} of {})",
-                        scene.name,
-                        k + 1,
-                        guesses.len()
-                    ));
-                }
-                let energy = energy_of(&an, guess);
-                match an.steady_motion(0.0, guess, symmetry, energy) {
-                    Ok(s) if symmetry != Symmetry::NONE && speed_of(&s.state) < rest_below => {
-                        near_rest.push(speed_of(&s.state));
-                    }
-                    Ok(s) => {
-                        if !steady.iter().any(|o: &SteadyMotion| same_motion(o, &s, &angles)) {
-                            steady.push(s);
-                        }
-                    }
-                    Err(AnalysisError::Sim(e)) => return Err(Error::Sim(e)),
-                    Err(e) => failed.push((label.clone(), e.to_string())),
-                }
-            }
-            timings.push((format!("{} searches for steady motions", guesses.len()), clock.elapsed()));
-            // the guesses that failed alike, once
-            let mut grouped: Vec<(Vec<String>, String)> = Vec::new();
-            for (label, why) in failed {
-                match grouped.iter_mut().find(|(_, w)| *w == why) {
-                    Some((labels, _)) => labels.push(label),
-                    None => grouped.push((vec![label], why)),
-                }
-            }
-            for (labels, why) in grouped {
-                let from = match labels.len() {
-                    1 => labels[0].clone(),
-                    n => format!("{} and {} other guesses", labels[0], n - 1),
-                };
-                notes.push(format!("from {from}: {why}"));
-            }
-            if !near_rest.is_empty() {
-                notes.push(format!(
-                    "{} searches ended at speeds below {:.1e} m/s (at most {:.1e} m/s), where the search cannot tell a steady motion from any slow state: rest, to its resolution, and not listed",
-                    near_rest.len(),
-                    rest_below,
-                    near_rest.iter().fold(0.0f64, |m, &v| m.max(v))
-                ));
-            }
-            if steady.is_empty() {
-                return Err(Error::Input(format!(
-                    "no steady motion of scene `{}` was found: {}",
-                    scene.name,
-                    notes.join("; ")
-                )));
-            }
-            follow = Follow::Steady { energy: energy_of(&an, &steady[0].state) };
+    let mut steady: Vec<SteadyMotion> = Vec::new();
+    let nq = an.nq();
+    let angles: Vec<usize> = an.dynamics().info.bodies.iter().map(|b| b.coords[2]).collect();
+    let mut failed: Vec<(String, String)> = Vec::new();
+    let clock = Instant::now();
+    // the run's speed: a motion found far below it is rest to the
+    // search's resolution ([`NEAR_REST`])
+    let speed_of = |x: &[f64]| x[nq..].iter().fold(0.0f64, |m, v| m.max(v.abs()));
+    let run_speed = guesses.iter().map(|(_, x)| speed_of(x)).fold(0.0f64, f64::max);
+    let rest_below = NEAR_REST * (1.0 + run_speed).sqrt();
+    let mut near_rest = Vec::new();
+    for (k, (label, guess)) in guesses.iter().enumerate() {
+        if let Some(b) = beat {
+            b.set(format!(
+                "analyze {}: searching for a steady motion from {label} ({} of {})",
+                scene.name,
+                k + 1,
+                guesses.len()
+            ));
         }
-        Some(p) => {
-            let clock = Instant::now();
-            let t0 = settings.t_end;
-            // `--max-steps` bounds each period's integration (the advice of
-            // a budget error names it)
-            let ps = PeriodicSettings {
-                max_steps: ro.max_steps.unwrap_or(PeriodicSettings::default().max_steps),
-                ..PeriodicSettings::default()
-            };
-            if let Some(b) = &beat {
-                b.set(format!("analyze {}: searching for the periodic orbit of period {} s", scene.name, fmt_value(p)));
+        let energy = energy_of(an, guess);
+        match an.steady_motion(0.0, guess, symmetry, energy) {
+            Ok(s) if symmetry != Symmetry::NONE && speed_of(&s.state) < rest_below => {
+                near_rest.push(speed_of(&s.state));
             }
-            let orbit = an.periodic_orbit(t0, p, &end, symmetry, &ps).map_err(analysis_error(&ro.out))?;
-            timings.push(("periodic orbit".into(), clock.elapsed()));
-            follow = Follow::Periodic { t0, period: p, settings: ps };
-            periodic = Some(orbit);
+            Ok(s) => {
+                if !steady.iter().any(|o: &SteadyMotion| same_motion(o, &s, &angles)) {
+                    steady.push(s);
+                }
+            }
+            Err(AnalysisError::Sim(e)) => return Err(Error::Sim(e)),
+            Err(e) => failed.push((label.clone(), e.to_string())),
         }
     }
-    drop(beat);
-    let mut branch = Vec::new();
-    if let Some((name, values)) = &opts.continuation {
-        let clock = Instant::now();
-        let start = steady
-            .first()
-            .map_or_else(|| periodic.as_ref().map(|p| p.state.clone()).unwrap_or_default(), |s| s.state.clone());
-        let beat = ro.progress.then(|| crate::progress::Heartbeat::start(format!("following the branch in {name}")));
-        let (points, ended) = ezy_core::analysis::branch::follow(
-            values,
-            &start,
-            follow,
-            |v| {
-                // a signal ends the branch at the next point
-                if crate::transaction::pending().is_some() {
-                    return Err(AnalysisError::Request { reason: "stopped by a signal".into() });
-                }
-                let mut sets = ro.sets.clone();
-                sets.push((name.clone(), v));
-                build(proto, scene, &sets).map(|(a, _)| a).map_err(|e| match e {
-                    Error::Sim(e) => AnalysisError::Sim(e),
-                    e => AnalysisError::Request { reason: e.to_string() },
-                })
-            },
-            |k| {
-                if let Some(b) = &beat {
-                    b.set(format!("following the branch in {name}: point {} of {}", k + 1, values.len()));
-                }
-            },
-        );
-        drop(beat);
-        crate::transaction::check_interrupt(&ro.out, None, Some(format!("following the branch in {name}")))?;
-        if let Some((v, e)) = ended {
-            notes.push(format!("the branch ends at {name} = {}: {e}", fmt_value(v)));
+    log.timings.push((format!("{} searches for steady motions", guesses.len()), clock.elapsed()));
+    // the guesses that failed alike, once
+    let mut grouped: Vec<(Vec<String>, String)> = Vec::new();
+    for (label, why) in failed {
+        match grouped.iter_mut().find(|(_, w)| *w == why) {
+            Some((labels, _)) => labels.push(label),
+            None => grouped.push((vec![label], why)),
         }
-        for w in points.windows(2) {
-            if w[0].solution.stability() != w[1].solution.stability() {
-                notes.push(format!(
-                    "stability changes between {name} = {} ({}) and {} ({})",
-                    fmt_value(w[0].value),
-                    w[0].solution.stability().name(),
-                    fmt_value(w[1].value),
-                    w[1].solution.stability().name()
-                ));
-            }
-        }
-        timings.push((format!("branch of {} points", points.len()), clock.elapsed()));
-        branch = points;
     }
+    for (labels, why) in grouped {
+        let from = match labels.len() {
+            1 => labels[0].clone(),
+            n => format!("{} and {} other guesses", labels[0], n - 1),
+        };
+        log.notes.push(format!("from {from}: {why}"));
+    }
+    if !near_rest.is_empty() {
+        log.notes.push(format!(
+            "{} searches ended at speeds below {:.1e} m/s (at most {:.1e} m/s), where the search cannot tell a steady motion from any slow state: rest, to its resolution, and not listed",
+            near_rest.len(),
+            rest_below,
+            near_rest.iter().fold(0.0f64, |m, &v| m.max(v))
+        ));
+    }
+    if steady.is_empty() {
+        return Err(Error::Input(format!(
+            "no steady motion of scene `{}` was found: {}",
+            scene.name,
+            log.notes.join("; ")
+        )));
+    }
+    let follow = Follow::Steady { energy: energy_of(an, &steady[0].state) };
+    Ok((steady, follow))
+}
 
+/// The branch of the solution from `start` as the parameter `name`
+/// takes `values`: the points found, with a note where it ends early and
+/// where its stability changes; a signal ends it at the next point.
+fn follow_branch<M: Model>(
+    proto: &M,
+    scene: &Scene,
+    ro: &RunOptions,
+    (name, values): (&String, &Vec<f64>),
+    start: &[f64],
+    follow: Follow,
+    log: &mut Log,
+) -> Result<Vec<BranchPoint>, Error> {
+    let clock = Instant::now();
+    let beat = ro.progress.then(|| Heartbeat::start(format!("following the branch in {name}")));
+    let (points, ended) = ezy_core::analysis::branch::follow(
+        values,
+        start,
+        follow,
+        |v| {
+            // a signal ends the branch at the next point
+            if pending().is_some() {
+                return Err(AnalysisError::Request { reason: "stopped by a signal".into() });
+            }
+            let mut sets = ro.sets.clone();
+            sets.push((name.clone(), v));
+            scene_analysis(proto, scene, &sets).map(|(a, _)| a).map_err(|e| match e {
+                Error::Sim(e) => AnalysisError::Sim(e),
+                e => AnalysisError::Request { reason: e.to_string() },
+            })
+        },
+        |k| {
+            if let Some(b) = &beat {
+                b.set(format!("following the branch in {name}: point {} of {}", k + 1, values.len()));
+            }
+        },
+    );
+    drop(beat);
+    check_interrupt(&ro.out, None, Some(format!("following the branch in {name}")))?;
+    if let Some((v, e)) = ended {
+        log.notes.push(format!("the branch ends at {name} = {}: {e}", fmt_value(v)));
+    }
+    for w in points.windows(2) {
+        if w[0].solution.stability() != w[1].solution.stability() {
+            log.notes.push(format!(
+                "stability changes between {name} = {} ({}) and {} ({})",
+                fmt_value(w[0].value),
+                w[0].solution.stability().name(),
+                fmt_value(w[1].value),
+                w[1].solution.stability().name()
+            ));
+        }
+    }
+    log.timings.push((format!("branch of {} points", points.len()), clock.elapsed()));
+    Ok(points)
+}
+
+/// Writes the analysis' tables and figures into `opts.run.out` as one
+/// transaction, retiring the files of an earlier analysis it does not
+/// write; returns the files written.
+fn write_analysis<M: Model>(
+    an: &Analysis<M>,
+    scene: &Scene,
+    opts: &AnalyzeOptions,
+    steady: &[SteadyMotion],
+    periodic: Option<&PeriodicOrbit>,
+    branch: &[BranchPoint],
+) -> Result<Vec<PathBuf>, Error> {
+    let ro = &opts.run;
     // the output is a transaction: all files or none, and none of an
     // earlier analysis left beside them
     let mut tx = Transaction::begin(&ro.out)?;
@@ -421,18 +524,18 @@ pub fn analyze_model<M: Model>(proto: &M, scene: &Scene, opts: &AnalyzeOptions) 
     }
     tx.retire(&own);
     let names = an.state_names();
-    let shape = shape_columns(&an);
+    let shape = shape_columns(an);
     let (format, dpi) = ro.look(scene);
     let mut figures: Vec<(String, Chart)> = Vec::new();
     if !steady.is_empty() {
-        tx.write("equilibria.csv", steady_csv(&steady, &names, &shape).as_bytes())?;
+        tx.write("equilibria.csv", steady_csv(steady, &names, &shape).as_bytes())?;
         let mut chart = Chart::new("Eigenvalues of the steady motions", "Re lambda [1/s]", "Im lambda [1/s]");
         for (k, s) in steady.iter().enumerate() {
             chart.series.push(points_series(format!("motion {} ({})", k + 1, s.stability.name()), &s.eigenvalues));
         }
         figures.push(("eigenvalues".into(), chart));
     }
-    if let Some(p) = &periodic {
+    if let Some(p) = periodic {
         tx.write("periodic.csv", periodic_csv(p, &names, &shape).as_bytes())?;
         let mut chart = Chart::new("Floquet multipliers of the periodic orbit", "Re mu", "Im mu");
         let circle =
@@ -446,7 +549,7 @@ pub fn analyze_model<M: Model>(proto: &M, scene: &Scene, opts: &AnalyzeOptions) 
     if let Some((name, _)) = &opts.continuation
         && !branch.is_empty()
     {
-        tx.write("branch.csv", branch_csv(name, &branch, &names, &shape).as_bytes())?;
+        tx.write("branch.csv", branch_csv(name, branch, &names, &shape).as_bytes())?;
         let speed = if periodic.is_some() { "mean speed [m/s]" } else { "speed [m/s]" };
         let mut chart = Chart::new(format!("Branch in {name}: solid stable, dashed not"), name.clone(), speed);
         for (label, stable) in [("stable", true), ("unstable or neutral", false)] {
@@ -473,14 +576,12 @@ pub fn analyze_model<M: Model>(proto: &M, scene: &Scene, opts: &AnalyzeOptions) 
     if ro.figures {
         for (stem, chart) in &figures {
             tx.check(None, Some(format!("drawing {stem}")))?;
-            let bytes =
-                crate::plot::figure(chart, format, dpi).map_err(|e| Error::Input(format!("figure {stem}: {e}")))?;
+            let bytes = crate::render::plot::figure(chart, format, dpi)
+                .map_err(|e| Error::Input(format!("figure {stem}: {e}")))?;
             tx.write(&format.file_name(stem), &bytes)?;
         }
     }
-    let files = tx.commit()?;
-    let coords = an.dynamics().info.coords.clone();
-    Ok(AnalyzeReport { symmetry, coords, steady, periodic, branch, files, timings, notes })
+    Ok(tx.commit()?)
 }
 
 /// Shortest `--period`, as a fraction of the time `t0 = t_end` (at least
@@ -550,64 +651,49 @@ fn wrap(angle: f64) -> f64 {
     if a > std::f64::consts::PI { a - std::f64::consts::TAU } else { a }
 }
 
-/// A number for a CSV cell: the shortest decimal that reads back as the
-/// same number, as in every CSV file ezy writes.
-fn num(v: f64) -> String {
-    crate::output::format_number(&mut zmij::Buffer::new(), v).to_string()
-}
-
 fn shape_cells(shape: &[(String, usize, usize)], x: &[f64]) -> Vec<String> {
-    shape.iter().map(|(_, a, b)| num(wrap(x[*a] - x[*b]))).collect()
+    shape.iter().map(|(_, a, b)| number(wrap(x[*a] - x[*b]))).collect()
 }
 
 fn spectrum_cells(values: &[c64]) -> Vec<String> {
-    values.iter().flat_map(|z| [num(z.re), num(z.im)]).collect()
+    values.iter().flat_map(|z| [number(z.re), number(z.im)]).collect()
 }
 
 fn spectrum_header(letter: &str, n: usize) -> Vec<String> {
     (1..=n).flat_map(|k| [format!("{letter}{k}_re"), format!("{letter}{k}_im")]).collect()
 }
 
-/// One CSV record, quoted where a cell needs it (a parameter name given
-/// on the command line).
-fn row(cells: Vec<String>) -> String {
-    let mut w = csv::Writer::from_writer(Vec::new());
-    // writing to memory cannot fail
-    let _ = w.write_record(&cells);
-    String::from_utf8(w.into_inner().unwrap_or_default()).unwrap_or_default()
-}
-
 /// `equilibria.csv`: one row per steady motion.
-pub fn steady_csv(steady: &[SteadyMotion], names: &[String], shape: &[(String, usize, usize)]) -> String {
+fn steady_csv(steady: &[SteadyMotion], names: &[String], shape: &[(String, usize, usize)]) -> String {
     let n = steady.first().map_or(0, |s| s.eigenvalues.len());
     let mut head: Vec<String> =
         ["motion", "stability", "family", "u", "v", "omega", "speed", "curvature"].map(String::from).to_vec();
     head.extend(shape.iter().map(|s| s.0.clone()));
     head.extend(names.iter().cloned());
     head.extend(spectrum_header("lambda", n));
-    let mut out = row(head);
+    let mut out = record(head);
     for (k, s) in steady.iter().enumerate() {
         let [u, v, w] = s.body_velocity;
         let mut cells = vec![
             (k + 1).to_string(),
             s.stability.name().into(),
             s.family.to_string(),
-            num(u),
-            num(v),
-            num(w),
-            num(s.speed()),
-            num(s.curvature()),
+            number(u),
+            number(v),
+            number(w),
+            number(s.speed()),
+            number(s.curvature()),
         ];
         cells.extend(shape_cells(shape, &s.state));
-        cells.extend(s.state.iter().map(|v| num(*v)));
+        cells.extend(s.state.iter().map(|v| number(*v)));
         cells.extend(spectrum_cells(&s.eigenvalues));
-        out.push_str(&row(cells));
+        out.push_str(&record(cells));
     }
     out
 }
 
 /// `periodic.csv`: the orbit in one row.
-pub fn periodic_csv(p: &PeriodicOrbit, names: &[String], shape: &[(String, usize, usize)]) -> String {
+fn periodic_csv(p: &PeriodicOrbit, names: &[String], shape: &[(String, usize, usize)]) -> String {
     let mut head: Vec<String> =
         ["period", "t0", "stability", "family", "mean_speed", "mean_forward_speed", "dx", "dy", "dheading"]
             .map(String::from)
@@ -616,24 +702,24 @@ pub fn periodic_csv(p: &PeriodicOrbit, names: &[String], shape: &[(String, usize
     head.extend(names.iter().cloned());
     head.extend(spectrum_header("mu", p.multipliers.len()));
     let mut cells = vec![
-        num(p.period),
-        num(p.t0),
+        number(p.period),
+        number(p.t0),
         p.stability.name().into(),
         p.family.to_string(),
-        num(p.mean_speed()),
-        num(p.mean_forward_speed()),
-        num(p.displacement[0]),
-        num(p.displacement[1]),
-        num(p.heading_change),
+        number(p.mean_speed()),
+        number(p.mean_forward_speed()),
+        number(p.displacement[0]),
+        number(p.displacement[1]),
+        number(p.heading_change),
     ];
     cells.extend(shape_cells(shape, &p.state));
-    cells.extend(p.state.iter().map(|v| num(*v)));
+    cells.extend(p.state.iter().map(|v| number(*v)));
     cells.extend(spectrum_cells(&p.multipliers));
-    row(head) + &row(cells)
+    record(head) + &record(cells)
 }
 
 /// `branch.csv`: one row per parameter value.
-pub fn branch_csv(name: &str, branch: &[BranchPoint], names: &[String], shape: &[(String, usize, usize)]) -> String {
+fn branch_csv(name: &str, branch: &[BranchPoint], names: &[String], shape: &[(String, usize, usize)]) -> String {
     let (letter, n) = match &branch[0].solution {
         Solution::Steady(s) => ("lambda", s.eigenvalues.len()),
         Solution::Periodic(p) => ("mu", p.multipliers.len()),
@@ -645,19 +731,19 @@ pub fn branch_csv(name: &str, branch: &[BranchPoint], names: &[String], shape: &
     head.extend(shape.iter().map(|s| s.0.clone()));
     head.extend(names.iter().cloned());
     head.extend(spectrum_header(letter, n));
-    let mut out = row(head);
+    let mut out = record(head);
     for b in branch {
-        let mut cells = vec![num(b.value), b.solution.stability().name().into(), num(b.solution.speed())];
+        let mut cells = vec![number(b.value), b.solution.stability().name().into(), number(b.solution.speed())];
         if let Solution::Periodic(p) = &b.solution {
-            cells.push(num(p.period));
+            cells.push(number(p.period));
         }
         cells.extend(shape_cells(shape, b.solution.state()));
-        cells.extend(b.solution.state().iter().map(|v| num(*v)));
+        cells.extend(b.solution.state().iter().map(|v| number(*v)));
         cells.extend(spectrum_cells(match &b.solution {
             Solution::Steady(s) => &s.eigenvalues,
             Solution::Periodic(p) => &p.multipliers,
         }));
-        out.push_str(&row(cells));
+        out.push_str(&record(cells));
     }
     out
 }
@@ -667,7 +753,7 @@ fn points_series(label: String, values: &[c64]) -> Series {
 }
 
 /// The text `ezy analyze` prints.
-pub fn summary(scene: &str, r: &AnalyzeReport) -> String {
+fn summary(scene: &str, r: &AnalyzeReport) -> String {
     let mut s = String::new();
     let sym: Vec<String> = r.symmetry.generators().iter().map(|g| g.name(&r.coords)).collect();
     let _ = writeln!(
@@ -686,8 +772,8 @@ pub fn summary(scene: &str, r: &AnalyzeReport) -> String {
             "steady motion {}: {}, speed {} m/s, yaw rate {} rad/s, family {}; eigenvalues [1/s]: {}",
             k + 1,
             m.stability.name(),
-            short(m.speed()),
-            short(m.body_velocity[2]),
+            rounded(m.speed()),
+            rounded(m.body_velocity[2]),
             m.family,
             ev.join(", ")
         );
@@ -699,10 +785,10 @@ pub fn summary(scene: &str, r: &AnalyzeReport) -> String {
             "periodic orbit: period {} s, {}, mean speed {} m/s, displacement ({}, {}) m and heading change {} rad per period; multipliers: {}",
             fmt_value(p.period),
             p.stability.name(),
-            short(p.mean_speed()),
-            short(p.displacement[0]),
-            short(p.displacement[1]),
-            short(p.heading_change),
+            rounded(p.mean_speed()),
+            rounded(p.displacement[0]),
+            rounded(p.displacement[1]),
+            rounded(p.heading_change),
             mu.join(", ")
         );
     }
@@ -711,147 +797,6 @@ pub fn summary(scene: &str, r: &AnalyzeReport) -> String {
     }
     for (what, d) in &r.timings {
         let _ = writeln!(s, "time: {what}: {:.3} s", d.as_secs_f64());
-    }
-    for f in &r.files {
-        let _ = writeln!(s, "wrote {}", f.display());
-    }
-    s
-}
-
-fn short(v: f64) -> String {
-    let v = if v.abs() < 1e-12 { 0.0 } else { v };
-    format!("{}", (v * 1e6).round() / 1e6)
-}
-
-fn complex(z: c64) -> String {
-    let (re, im) = (if z.re.abs() < 1e-12 { 0.0 } else { z.re }, if z.im.abs() < 1e-12 { 0.0 } else { z.im });
-    if im == 0.0 { format!("{re:.6}") } else { format!("{re:.6}{}{:.6}i", if im < 0.0 { "-" } else { "+" }, im.abs()) }
-}
-
-/// What `ezy linearize` is asked.
-#[derive(Debug, Clone, Default)]
-pub struct LinearizeOptions {
-    /// Output directory, overrides; `t_end` is ignored.
-    pub run: RunOptions,
-    /// The time \[s\] whose state (of the scene's run) is linearized about.
-    pub at: f64,
-    /// Inputs by column name: `tau_<hinge>`, `scale_<effect>`.
-    pub inputs: Vec<String>,
-}
-
-/// What `ezy linearize` found and wrote.
-#[derive(Debug, Clone)]
-pub struct LinearizeReport {
-    /// The linearization.
-    pub linearization: ezy_core::analysis::Linearization,
-    /// Eigenvalues on the constraint manifold.
-    pub eigenvalues: Vec<c64>,
-    /// Files written.
-    pub files: Vec<PathBuf>,
-}
-
-/// Parses an input's column name (`tau_<hinge>`, `scale_<effect>`).
-///
-/// # Errors
-/// A name of neither form.
-pub fn parse_input(text: &str) -> Result<Input, String> {
-    if let Some(h) = text.strip_prefix("tau_").filter(|h| !h.is_empty()) {
-        Ok(Input::HingeTorque(h.into()))
-    } else if let Some(e) = text.strip_prefix("scale_").filter(|e| !e.is_empty()) {
-        Ok(Input::EffectScale(e.into()))
-    } else {
-        Err(format!("input `{text}`: write tau_HINGE (a torque at a hinge) or scale_EFFECT (an effect's force scaled)"))
-    }
-}
-
-/// `ezy linearize` on `proto`, a model at its defaults: `A.csv`, `B.csv` (with inputs),
-/// `eigenvalues.csv` and `state.csv`.
-///
-/// # Errors
-/// A bad time or input, the setup's and the output's errors.
-pub fn linearize_model<M: Model>(proto: &M, scene: &Scene, opts: &LinearizeOptions) -> Result<LinearizeReport, Error> {
-    let ro = &opts.run;
-    if !(opts.at.is_finite() && opts.at >= 0.0) {
-        return Err(Error::Input(format!("--at {}: the time must be zero or a positive number of seconds", opts.at)));
-    }
-    let inputs = opts.inputs.iter().map(|i| parse_input(i)).collect::<Result<Vec<_>, _>>().map_err(Error::Input)?;
-    let (mut an, x0) = build(proto, scene, &ro.sets)?;
-    let x = if opts.at > 0.0 {
-        let (mut x, stopped) = run_to(proto, scene, ro, opts.at, 1)?;
-        // the state of a run that stopped short is not the state at --at
-        if let Some((event, t)) = stopped.filter(|(_, t)| *t < opts.at) {
-            return Err(Error::Input(format!(
-                "--at {}: the run stops at the event `{event}` at t = {} s, before it; linearize at a time the run reaches",
-                fmt_value(opts.at),
-                fmt_value(t)
-            )));
-        }
-        x.pop().unwrap_or(x0)
-    } else {
-        x0
-    };
-    let lin = an.linearize(opts.at, &x, &inputs).map_err(analysis_error(&ro.out))?;
-    let eigenvalues = lin.eigenvalues().map_err(analysis_error(&ro.out))?;
-    Transaction::preflight(&ro.out)?;
-    let names = &lin.state_names;
-    let matrix = |m: &ezy_core::faer::Mat<f64>, cols: &[String]| {
-        let mut head = vec!["row".to_string()];
-        head.extend(cols.iter().cloned());
-        let mut out = row(head);
-        for (i, name) in names.iter().enumerate() {
-            let mut cells = vec![name.clone()];
-            cells.extend((0..m.ncols()).map(|j| num(m[(i, j)])));
-            out.push_str(&row(cells));
-        }
-        out
-    };
-    let mut tx = Transaction::begin(&ro.out)?;
-    tx.retire(&["A.csv", "B.csv", "eigenvalues.csv", "state.csv"].map(String::from));
-    tx.write("A.csv", matrix(&lin.a, names).as_bytes())?;
-    if !inputs.is_empty() {
-        tx.write("B.csv", matrix(&lin.b, &lin.input_names).as_bytes())?;
-    }
-    let mut ev = row(vec!["k".into(), "re".into(), "im".into()]);
-    for (k, z) in eigenvalues.iter().enumerate() {
-        ev.push_str(&row(vec![(k + 1).to_string(), num(z.re), num(z.im)]));
-    }
-    tx.write("eigenvalues.csv", ev.as_bytes())?;
-    let mut st = row(vec!["name".into(), "value".into()]);
-    for (n, v) in names.iter().zip(&lin.state) {
-        st.push_str(&row(vec![n.clone(), num(*v)]));
-    }
-    tx.write("state.csv", st.as_bytes())?;
-    let files = tx.commit()?;
-    Ok(LinearizeReport { linearization: lin, eigenvalues, files })
-}
-
-/// The text `ezy linearize` prints.
-pub fn linearize_summary(scene: &str, r: &LinearizeReport) -> String {
-    let l = &r.linearization;
-    let mut s = format!(
-        "scene {scene} at t = {} s: A is {} x {}{}; on the constraint manifold ({} dimensions) the eigenvalues [1/s] are {}\n",
-        fmt_value(l.t),
-        l.a.nrows(),
-        l.a.ncols(),
-        if l.forces_by_differences {
-            " (applied forces differentiated by central differences, the model's terms exactly)"
-        } else {
-            " (exact)"
-        },
-        l.tangent.ncols(),
-        r.eigenvalues.iter().map(|z| complex(*z)).collect::<Vec<_>>().join(", ")
-    );
-    // at a moving state the eigenvalues are those of the world frame's
-    // coordinates along the passing motion: no verdict on stability
-    let nq = l.state.len() / 2;
-    let speed = l.state[nq..].iter().fold(0.0f64, |m, v| m.max(v.abs()));
-    if speed > 0.0 {
-        let _ = writeln!(
-            s,
-            "note: the state moves (largest velocity {} in q's units per second): A and its eigenvalues are those of the world frame's coordinates q, qd along the motion passing through it at t = {} s; they depend on the frame and say nothing of the stability of a steady motion or gait, which `ezy analyze` gives, modulo the plane's rigid motions",
-            short(speed),
-            fmt_value(l.t)
-        );
     }
     for f in &r.files {
         let _ = writeln!(s, "wrote {}", f.display());

@@ -1,8 +1,91 @@
-//! The commands of the command line, one module each (as cargo keeps
-//! `cargo/ops` apart from its `commands`): what a command does with its
-//! options, over the library's [`ezy_core::Problem`]. The other commands
-//! (`sweep`, `animate`, `precision`, `bench`, `scale`, `equations`) still
-//! live in their own top-level modules.
+//! The commands of the command line, one file each (as cargo's
+//! `src/bin/cargo/commands/`): its arguments (clap) and its `exec`, which
+//! loads what the arguments name, calls the work (the run, the sweep, the
+//! precision ladder, or the command's own below its `exec`) and prints
+//! what it did. [`COMMANDS`] is the one list of them: adding a command is
+//! a file here and a line there. A command imports no other command;
+//! what they share is in [`crate::session`] and [`crate::cli`].
 
-pub mod analyze;
-pub mod run;
+use std::io::Write;
+use std::path::Path;
+
+use clap::ArgMatches;
+use ezy_scene::registry::SceneSource;
+use ezy_scene::{FigureFormat, Scene, SceneError};
+
+use crate::app::{App, AppError};
+
+mod analyze;
+mod animate;
+mod bench;
+mod check;
+mod equations;
+mod linearize;
+mod list;
+mod precision;
+mod run;
+mod scale;
+mod sweep;
+
+/// A command of the command line.
+pub(crate) struct Command {
+    /// Its name (`ezy NAME`).
+    pub name: &'static str,
+    /// Its arguments and help, added to the subcommand `NAME`.
+    pub cli: fn(clap::Command) -> clap::Command,
+    /// Runs it on the application's models and scenes with the arguments
+    /// parsed, writing what it prints to `out`.
+    pub exec: fn(&App, &ArgMatches, &mut dyn Write) -> Result<(), AppError>,
+}
+
+/// Every command, in the order `ezy --help` lists them.
+pub(crate) const COMMANDS: &[Command] = &[
+    Command { name: "run", cli: run::cli, exec: run::exec },
+    Command { name: "list", cli: list::cli, exec: list::exec },
+    Command { name: "precision", cli: precision::cli, exec: precision::exec },
+    Command { name: "equations", cli: equations::cli, exec: equations::exec },
+    Command { name: "check", cli: check::cli, exec: check::exec },
+    Command { name: "scale", cli: scale::cli, exec: scale::exec },
+    Command { name: "sweep", cli: sweep::cli, exec: sweep::exec },
+    Command { name: "animate", cli: animate::cli, exec: animate::exec },
+    Command { name: "bench", cli: bench::cli, exec: bench::exec },
+    Command { name: "analyze", cli: analyze::cli, exec: analyze::exec },
+    Command { name: "linearize", cli: linearize::cli, exec: linearize::exec },
+];
+
+/// The command a bare `ezy` runs (with no arguments).
+pub(crate) const DEFAULT: &str = "run";
+
+/// PDF figures refused before any work where this build of ezy leaves out
+/// its `pdf` feature ([`crate::render::plot::check_format`]): `--format`
+/// if given, else the scene's `output.figure_format` (named with its file
+/// and line); nothing to check with `figures` off.
+fn check_figure_format(src: &SceneSource, format: Option<FigureFormat>, figures: bool) -> Result<(), AppError> {
+    if !figures {
+        return Ok(());
+    }
+    if let Some(f) = format {
+        return crate::render::plot::check_format(f).map_err(|e| AppError::Failed(format!("--format {f}: {e}")));
+    }
+    crate::render::plot::check_format(src.scene.output.figure_format).map_err(|e| {
+        let e = SceneError { path: vec!["output".into(), "figure_format".into()], message: e.to_string() };
+        AppError::failed(Scene::locate_error(&src.text, &src.file, e))
+    })
+}
+
+/// Writes `text`, the report of a command whose output is already
+/// committed in `dir`: a failure to write it says that the output is
+/// there (exit 1), a closed pipe ends quietly (exit 0, as for any reader
+/// that stops early).
+fn committed(out: &mut dyn Write, text: &str, dir: &Path) -> Result<(), AppError> {
+    out.write_all(text.as_bytes()).and_then(|()| out.flush()).map_err(|e| {
+        if e.kind() == std::io::ErrorKind::BrokenPipe {
+            AppError::Io(e)
+        } else {
+            AppError::Failed(format!(
+                "the run finished and its output is in {}, but its report could not be written to standard output: {e}",
+                dir.display()
+            ))
+        }
+    })
+}

@@ -9,17 +9,17 @@ use std::path::{Path, PathBuf};
 use super::SweepError;
 use super::metric::Metric;
 use super::plan::{Plan, Values};
-use crate::plot::{Chart, FigureFormat, HeatMap, Series};
-use crate::transaction::Interrupted;
+use crate::output::transaction::Interrupted;
+use crate::render::plot::{Chart, FigureFormat, HeatMap, Series};
 
 /// Most lines in a figure (one per value of the second axis); beyond it
 /// only the heat map is drawn.
-pub const MAX_LINES: usize = 10;
+pub(crate) const MAX_LINES: usize = 10;
 
 /// Most runs the figures are drawn from: the figures hold every run's
 /// point in memory (and a heat map a cell per run), so a larger sweep
 /// gets its table only.
-pub const MAX_FIGURE_RUNS: u64 = 1_000_000;
+pub(crate) const MAX_FIGURE_RUNS: u64 = 1_000_000;
 
 /// Draws the figures of the sweep in `dir` and returns the files written
 /// and notes on the figures not drawn (a metric whose every run failed,
@@ -30,7 +30,7 @@ pub const MAX_FIGURE_RUNS: u64 = 1_000_000;
 /// # Errors
 /// [`SweepError::Failed`]: `sweep.csv` cannot be read, or a figure cannot
 /// be written; [`SweepError::Interrupted`]: a signal arrived.
-pub fn draw(
+pub(crate) fn draw(
     dir: &Path,
     plan: &Plan,
     metrics: &[Metric],
@@ -83,7 +83,7 @@ pub fn draw(
         if !series.is_empty() {
             stop_if_signalled(dir, &file)?;
             let chart = Chart { series, ..Chart::new(&title, &labels[0], &m.text) };
-            match crate::plot::figure(&chart, format, dpi) {
+            match crate::render::plot::figure(&chart, format, dpi) {
                 Ok(png) => files.push(write(dir, &file, &png)?),
                 Err(e) => notes.push(format!("{file} not drawn: {e}")),
             }
@@ -110,7 +110,8 @@ pub fn draw(
             };
             let file = format.file_name(&format!("sweep_{}_map", k + 1));
             stop_if_signalled(dir, &file)?;
-            let png = crate::plot::heatmap_svg(&map).and_then(|svg| crate::plot::encode(&svg, format, dpi, &map.title));
+            let png = crate::render::plot::heatmap_svg(&map)
+                .and_then(|svg| crate::render::plot::encode(&svg, format, dpi, &map.title));
             match png {
                 Ok(png) => files.push(write(dir, &file, &png)?),
                 Err(e) => notes.push(format!("{file} not drawn: {e}")),
@@ -123,7 +124,7 @@ pub fn draw(
 /// [`SweepError::Interrupted`] if a signal asked to stop before `file`
 /// is drawn.
 fn stop_if_signalled(dir: &Path, file: &str) -> Result<(), SweepError> {
-    match crate::transaction::pending() {
+    match crate::output::transaction::pending() {
         None => Ok(()),
         Some(signal) => Err(SweepError::Interrupted(Interrupted {
             signal,
@@ -139,7 +140,7 @@ fn stop_if_signalled(dir: &Path, file: &str) -> Result<(), SweepError> {
 }
 
 /// The axes' names, with the unit of a model parameter (`a [m]`).
-pub fn axis_labels(plan: &Plan, info: &ezy_core::ModelInfo) -> Vec<String> {
+pub(crate) fn axis_labels(plan: &Plan, info: &ezy_core::ModelInfo) -> Vec<String> {
     plan.axes
         .iter()
         .map(|a| match info.param_index(&a.name).map(|i| info.params[i].unit) {
@@ -158,6 +159,6 @@ fn sorted(mut v: Vec<f64>) -> Vec<f64> {
 
 fn write(dir: &Path, name: &str, bytes: &[u8]) -> Result<PathBuf, String> {
     let path = dir.join(name);
-    crate::transaction::write_atomically(&path, bytes).map_err(|e| e.to_string())?;
+    crate::output::transaction::write_atomically(&path, bytes).map_err(|e| e.to_string())?;
     Ok(path)
 }

@@ -6,7 +6,7 @@ use ezy_scene::Column;
 
 /// How a metric reduces its column over the window.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum Reduce {
+pub(crate) enum Reduce {
     /// The time average `1/(t1 - t0) ∫ v dt` by the trapezoidal rule over
     /// the output rows in the window.
     Mean,
@@ -39,7 +39,7 @@ impl Reduce {
 /// `mean(norm(x1d, y1d), 50, 60)`: a reduction of a column expression
 /// over the output rows with `t0 <= t <= t1` \[s\].
 #[derive(Debug, Clone, PartialEq)]
-pub struct Metric {
+pub(crate) struct Metric {
     /// The text as given (trimmed): the metric's column in `sweep.csv`.
     pub text: String,
     /// The reduction.
@@ -129,7 +129,7 @@ impl Metric {
     ///
     /// # Errors
     /// The metric and the scene's events.
-    pub fn check_event(&self, events: &[&str]) -> Result<(), String> {
+    pub(crate) fn check_event(&self, events: &[&str]) -> Result<(), String> {
         match &self.event {
             Some(name) if !events.contains(&name.as_str()) => Err(format!(
                 "metric `{}`: the scene has no event `{name}`; its events: {}",
@@ -145,7 +145,7 @@ impl Metric {
     ///
     /// # Errors
     /// `event_time` of an event that did not happen.
-    pub fn event_value(&self, events: &[ezy_core::EventRecord]) -> Option<Result<f64, String>> {
+    pub(crate) fn event_value(&self, events: &[ezy_core::EventRecord]) -> Option<Result<f64, String>> {
         let name = self.event.as_deref()?;
         let mut of = events.iter().filter(|e| e.name == name);
         Some(match self.reduce {
@@ -162,7 +162,7 @@ impl Metric {
     ///
     /// # Errors
     /// The metric, the window and why it does not fit.
-    pub fn check_window(&self, t_end: f64, every: f64) -> Result<(), String> {
+    pub(crate) fn check_window(&self, t_end: f64, every: f64) -> Result<(), String> {
         let (t0, t1) = (self.t0.unwrap_or(0.0), self.t1.unwrap_or(t_end));
         if t1 > t_end * (1.0 + 1e-12) {
             return Err(format!(
@@ -188,7 +188,7 @@ impl Metric {
     ///
     /// # Errors
     /// The first column the trajectory lacks, with a hint of how to get it.
-    pub fn check_columns(&self, columns: &[String]) -> Result<(), String> {
+    pub(crate) fn check_columns(&self, columns: &[String]) -> Result<(), String> {
         for c in self.column.inputs() {
             if !columns.iter().any(|k| k == c) {
                 let hint = if c == "T" || c == "W" || c.starts_with("W_") {
@@ -211,7 +211,7 @@ impl Metric {
 
 /// A metric being reduced over a run's rows.
 #[derive(Debug, Clone)]
-pub struct Accumulator {
+pub(crate) struct Accumulator {
     reduce: Reduce,
     inputs: [usize; 2],
     kind: Kind,
@@ -242,7 +242,7 @@ impl Accumulator {
     ///
     /// # Errors
     /// A column the layout lacks.
-    pub fn new(m: &Metric, columns: &[String]) -> Result<Self, String> {
+    pub(crate) fn new(m: &Metric, columns: &[String]) -> Result<Self, String> {
         m.check_columns(columns)?;
         let at = |c: &str| columns.iter().position(|k| k == c).expect("checked");
         let ins = m.column.inputs();
@@ -277,7 +277,7 @@ impl Accumulator {
     /// only the window's last row (the run's last one without a window);
     /// for the event metrics, none. (`from_start` and `balance_gap` also
     /// read the run's first row, which a run always outputs.)
-    pub fn reads(&self, t: f64, every: f64) -> bool {
+    pub(crate) fn reads(&self, t: f64, every: f64) -> bool {
         match self.reduce {
             Reduce::EventTime | Reduce::EventCount => false,
             Reduce::Final => t <= self.t1 && t >= self.t0 && t > self.final_after(every),
@@ -295,7 +295,7 @@ impl Accumulator {
     /// The earliest time at or after `t` \[s\] whose row
     /// [`Accumulator::reads`] may read (on the same grid; infinite if
     /// none): never later than the first such row.
-    pub fn next_read(&self, t: f64, every: f64) -> f64 {
+    pub(crate) fn next_read(&self, t: f64, every: f64) -> f64 {
         let start = match self.reduce {
             Reduce::EventTime | Reduce::EventCount => return f64::INFINITY,
             Reduce::Final => self.t0.max(self.final_after(every)),
@@ -305,7 +305,7 @@ impl Accumulator {
     }
 
     /// Takes one output row (`row[0]` is the time \[s\]).
-    pub fn push(&mut self, row: &[f64]) {
+    pub(crate) fn push(&mut self, row: &[f64]) {
         let (a, b) = (row[self.inputs[0]], row[self.inputs[1]]);
         let a0 = *self.first.get_or_insert(a);
         let t = row[0];
@@ -337,7 +337,7 @@ impl Accumulator {
     ///
     /// # Errors
     /// No row fell in the window, or the value is not finite.
-    pub fn value(&self, m: &Metric) -> Result<f64, String> {
+    pub(crate) fn value(&self, m: &Metric) -> Result<f64, String> {
         let Some((t, v)) = self.last else {
             return Err(format!("metric `{}`: no output row in its window", m.text));
         };

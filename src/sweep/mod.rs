@@ -4,7 +4,7 @@
 //! the same table.
 //!
 //! Each run is exactly `ezy run` with the run's `--set` values
-//! ([`crate::commands::run::problem`] and [`ezy_core::simulate()`] with the same
+//! (`crate::session::problem` and [`ezy_core::simulate()`] with the same
 //! settings), so its numbers are the single run's, bit for bit; it
 //! writes no file unless `--save-runs` asks. The output directory holds:
 //!
@@ -28,10 +28,10 @@
 //! and the runs already done are read back from `sweep.csv` as the
 //! dispatch passes them).
 
-pub mod figure;
-pub mod metric;
-pub mod plan;
-pub mod slurm;
+pub(crate) mod figure;
+pub(crate) mod metric;
+pub(crate) mod plan;
+pub(crate) mod slurm;
 mod table;
 
 use std::collections::{BTreeMap, HashMap, HashSet};
@@ -44,17 +44,18 @@ use ezy_core::{Dynamics, Model, Observer, RunError, Sample, SimError};
 
 use ezy_scene::Scene;
 
-pub use metric::Metric;
-pub use plan::Plan;
-pub use table::{Manifest, merge};
+pub(crate) use metric::Metric;
+pub(crate) use plan::Plan;
+pub(crate) use table::parse_shard;
+pub(crate) use table::{Manifest, merge};
 
-use crate::commands::run::{self, RunOptions};
-use crate::output::RowBuilder;
-use crate::transaction::Interrupted;
+use crate::output::csv::RowBuilder;
+use crate::output::transaction::Interrupted;
+use crate::session::{self, RunOptions};
 
 /// A sweep to run: what `ezy sweep` parsed and checked.
 #[derive(Debug, Clone)]
-pub struct SweepJob {
+pub(crate) struct SweepJob {
     /// The scene.
     pub scene: Scene,
     /// The sweep's definition, recorded in `sweep.toml`.
@@ -85,7 +86,7 @@ pub struct SweepJob {
 
 /// What a sweep did.
 #[derive(Debug, Clone, Default)]
-pub struct SweepReport {
+pub(crate) struct SweepReport {
     /// Runs of this shard (all runs when not sharded).
     pub runs: u64,
     /// Runs already in `sweep.csv` when it started (skipped).
@@ -108,17 +109,17 @@ pub struct SweepReport {
 
 impl SweepReport {
     /// Runs per second of wall time.
-    pub fn rate(&self) -> f64 {
+    pub(crate) fn rate(&self) -> f64 {
         self.ran as f64 / self.wall.as_secs_f64().max(1e-9)
     }
 
     /// Parallel efficiency: the jobs' busy time over `jobs` x wall time.
-    pub fn efficiency(&self) -> f64 {
+    pub(crate) fn efficiency(&self) -> f64 {
         self.busy.as_secs_f64() / (self.jobs as f64 * self.wall.as_secs_f64()).max(1e-9)
     }
 
     /// The summary `ezy sweep` prints.
-    pub fn summary(&self, scene: &str) -> String {
+    pub(crate) fn summary(&self, scene: &str) -> String {
         let mut s = if self.ran == 0 {
             format!("sweep {scene}: {} runs, all done before: nothing to run\n", self.runs)
         } else {
@@ -148,7 +149,7 @@ impl SweepReport {
 
 /// Why a sweep stopped.
 #[derive(Debug, thiserror::Error)]
-pub enum SweepError {
+pub(crate) enum SweepError {
     /// Bad input or a failed write; the message names the culprit.
     #[error("{0}")]
     Failed(String),
@@ -165,13 +166,13 @@ impl From<String> for SweepError {
 }
 
 /// The columns of `sweep.csv` before the final state.
-pub const LEAD: [&str; 5] = ["status", "wall_s", "steps", "rejected", "rhs_evals"];
+pub(crate) const LEAD: [&str; 5] = ["status", "wall_s", "steps", "rejected", "rhs_evals"];
 /// The columns after the final state, before the metrics.
-pub const TAIL: [&str; 4] = ["T", "max_res_phi", "max_res_vel", "max_energy_gap"];
+pub(crate) const TAIL: [&str; 4] = ["T", "max_res_phi", "max_res_vel", "max_energy_gap"];
 
 /// The header of `sweep.csv`: `run`, the axes, [`LEAD`], `state`, [`TAIL`],
 /// the metrics.
-pub fn columns(plan: &Plan, state: &[String], metrics: &[Metric]) -> Vec<String> {
+pub(crate) fn columns(plan: &Plan, state: &[String], metrics: &[Metric]) -> Vec<String> {
     let mut c = vec!["run".to_string()];
     c.extend(plan.names());
     c.extend(LEAD.iter().map(|s| s.to_string()));
@@ -192,7 +193,7 @@ fn run_sets(job: &SweepJob, values: &[f64]) -> Vec<(String, f64)> {
 /// the swept family sizes) a sweep sets up before its first run, to check
 /// the names and columns at each size: 1e7, minutes of setup (the snake
 /// sets up about 15,000 links a second).
-pub const MAX_CHECKED_ELEMENTS: f64 = 1e7;
+pub(crate) const MAX_CHECKED_ELEMENTS: f64 = 1e7;
 
 /// The flag and text that gave the axis `name` (`--list N=1,1000000`).
 fn axis_flag(job: &SweepJob, name: &str) -> String {
@@ -215,7 +216,7 @@ struct Checked {
 }
 
 fn check<M: Model>(proto: &M, job: &SweepJob) -> Result<Checked, String> {
-    let settings = run::settings(&job.scene, &job.opts).map_err(|e| e.to_string())?;
+    let settings = session::settings(&job.scene, &job.opts).map_err(|e| e.to_string())?;
     let events: Vec<&str> = job.scene.events.iter().map(|(n, _)| n.as_str()).collect();
     for m in &job.metrics {
         m.check_window(settings.t_end, settings.every)?;
@@ -278,8 +279,9 @@ fn check<M: Model>(proto: &M, job: &SweepJob) -> Result<Checked, String> {
     if elements > MAX_CHECKED_ELEMENTS {
         return Err(too_many(elements));
     }
-    let beat = (job.progress && elements >= run::LONG_SETUP_ELEMENTS)
-        .then(|| crate::progress::Heartbeat::start(format!("sweep {}: checking the family sizes", job.scene.name)));
+    let beat = (job.progress && elements >= session::LONG_SETUP_ELEMENTS).then(|| {
+        crate::output::progress::Heartbeat::start(format!("sweep {}: checking the family sizes", job.scene.name))
+    });
     let mut state: Vec<String> = Vec::new();
     let mut seen: HashSet<String> = HashSet::new();
     let mut metrics_checked = false;
@@ -374,7 +376,7 @@ struct Quiet<M: Model> {
 /// Why [`Quiet`] stopped a run.
 enum Stop {
     /// A signal asked to stop.
-    Signal(crate::transaction::Signal),
+    Signal(crate::output::transaction::Signal),
     /// A row could not be built (the constraint forces' solve failed).
     Row(SimError),
 }
@@ -404,7 +406,7 @@ impl<M: Model> Observer<M> for Quiet<M> {
 }
 
 fn poll() -> Result<(), Stop> {
-    match crate::transaction::pending() {
+    match crate::output::transaction::pending() {
         None => Ok(()),
         Some(signal) => Err(Stop::Signal(signal)),
     }
@@ -415,7 +417,7 @@ enum Outcome {
     /// Run `run`'s row of `sweep.csv` (a line, with the newline).
     Row { run: u64, line: Vec<u8>, failed: bool, wall: Duration },
     /// A signal stopped it.
-    Interrupted(crate::transaction::Signal),
+    Interrupted(crate::output::transaction::Signal),
     /// Its output directory (`--save-runs`) cannot be used: the sweep stops.
     Unusable(String),
 }
@@ -433,7 +435,7 @@ fn one_run<M: Model>(
     settings: &ezy_core::RunSettings,
     opts: &RunOptions,
     save: Option<PathBuf>,
-) -> Result<Done, Result<String, crate::transaction::Signal>> {
+) -> Result<Done, Result<String, crate::output::transaction::Signal>> {
     let fail = |e: String| Err(Ok(e));
     if let Some(dir) = save {
         let opts = RunOptions { out: dir, figures: true, progress: false, ..opts.clone() };
@@ -443,7 +445,7 @@ fn one_run<M: Model>(
         let accs = job.metrics.iter().map(|m| metric::Accumulator::new(m, &cols)).collect::<Result<_, _>>();
         let mut tap = Tap::new(accs.map_err(Ok)?);
         let mut f = |s: &Sample<'_>, row: &[f64]| tap.take(s, row);
-        let report = match run::run_model_tapped(proto, &job.scene, &opts, Some(&mut f)) {
+        let report = match crate::run::run_model_tapped(proto, &job.scene, &opts, Some(&mut f)) {
             Ok(r) => r,
             Err(e) => {
                 return match e.interrupted() {
@@ -454,7 +456,7 @@ fn one_run<M: Model>(
         };
         return Ok(Done { summary: report.summary, state_names: report.state_names, tap });
     }
-    let (problem, scene) = run::problem(proto, &job.scene, opts, *settings).map_err(|e| Ok(e.to_string()))?;
+    let (problem, scene) = session::problem(proto, &job.scene, opts, *settings).map_err(|e| Ok(e.to_string()))?;
     let (mut sys, y0, _) = problem.into_system().map_err(|e| Ok(e.to_string()))?;
     let rows = (!job.metrics.is_empty()).then(|| RowBuilder::new(&scene, &sys));
     let accs = match &rows {
@@ -485,7 +487,7 @@ fn row_line(
 ) -> (Vec<u8>, bool) {
     let mut fields: Vec<String> = Vec::with_capacity(8 + values.len() + n_state + metrics.len());
     let mut buf = zmij::Buffer::new();
-    let mut f = |v: f64| crate::output::format_number(&mut buf, v).to_string();
+    let mut f = |v: f64| crate::output::csv::format_number(&mut buf, v).to_string();
     fields.push(i.to_string());
     fields.extend(values.iter().map(|&v| f(v)));
     let mut failed = false;
@@ -572,7 +574,7 @@ fn real_dir(dir: &Path) -> Result<(), String> {
 /// missing column, a window outside the run, a directory holding another
 /// sweep) before any run, or a failed write; [`SweepError::Interrupted`]
 /// if a signal stopped it.
-pub fn sweep_model<M: Model>(proto: &M, job: &SweepJob) -> Result<SweepReport, SweepError> {
+pub(crate) fn sweep_model<M: Model>(proto: &M, job: &SweepJob) -> Result<SweepReport, SweepError> {
     let checked = check(proto, job)?;
     if job.check_only {
         return Ok(SweepReport::default());
@@ -581,38 +583,27 @@ pub fn sweep_model<M: Model>(proto: &M, job: &SweepJob) -> Result<SweepReport, S
     let runs = job.plan.runs();
     let (k0, stride) = job.shard.unwrap_or((0, 1));
     let positions = if runs > k0 { (runs - k0).div_ceil(stride) } else { 0 };
-    crate::transaction::arm_signals();
-    let mut out = match table::Output::open(&job.out, &job.manifest, &header, &job.plan, job.shard) {
-        Ok(out) => out,
-        Err(e) => {
-            return Err(match crate::transaction::pending() {
-                Some(signal) => SweepError::Interrupted(Interrupted {
-                    signal,
-                    dir: job.out.clone(),
-                    t: None,
-                    doing: Some("checking the rows already done".into()),
-                    kept: Some(format!(
-                        "the rows in {} are kept; the same command resumes the sweep",
-                        job.out.join(table::CSV).display()
-                    )),
-                }),
-                None => SweepError::Failed(e),
-            });
-        }
-    };
+    crate::output::transaction::arm_signals();
+    let mut out = open_table(job, &header)?;
     let done_before = out.done;
     if job.save_runs {
         real_dir(&job.out.join("runs"))?;
     }
     let todo = positions - done_before;
-    let state_at: HashMap<String, usize> = checked.state.iter().enumerate().map(|(k, n)| (n.clone(), k)).collect();
-    let n_state = checked.state.len();
-
     // never more threads than cores, whatever the caller asked
     let cores = std::thread::available_parallelism().map_or(1, std::num::NonZero::get);
     let jobs = job.jobs.clamp(1, cores);
-    let dispatch = Mutex::new((0u64, 0u64, out.done_cursor()?));
-    let stop = AtomicBool::new(false);
+    let shared = Shared {
+        proto,
+        job,
+        settings: &checked.settings,
+        order: Mutex::new((0, 0, out.done_cursor()?)),
+        stop: AtomicBool::new(false),
+        state_at: checked.state.iter().enumerate().map(|(k, n)| (n.clone(), k)).collect(),
+        n_state: checked.state.len(),
+        shard: (k0, stride),
+        positions,
+    };
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(jobs)
         .thread_name(|k| format!("ezy-sweep-{k}"))
@@ -622,101 +613,13 @@ pub fn sweep_model<M: Model>(proto: &M, job: &SweepJob) -> Result<SweepReport, S
     let start = Instant::now();
     let (tx, rx) = std::sync::mpsc::channel::<(u64, Outcome)>();
     let mut report = SweepReport { runs: positions, done_before, jobs, ..SweepReport::default() };
-    let mut interrupted: Option<crate::transaction::Signal> = None;
-    let mut write_error: Option<String> = None;
-    pool.in_place_scope(|scope| {
+    let (interrupted, write_error) = pool.in_place_scope(|scope| {
         for _ in 0..jobs {
-            let tx = tx.clone();
-            let (dispatch, stop, state_at) = (&dispatch, &stop, &state_at);
-            let settings = &checked.settings;
-            scope.spawn(move |_| {
-                let mut values = Vec::new();
-                loop {
-                    if stop.load(Ordering::SeqCst) || crate::transaction::pending().is_some() {
-                        return;
-                    }
-                    // the next run not yet done, and its place in the
-                    // order of rows
-                    let next = {
-                        let mut d = dispatch.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
-                        let (pos, seq, cursor) = &mut *d;
-                        let mut found = None;
-                        while *pos < positions {
-                            // many runs done before are passed within a
-                            // second of a signal
-                            if *pos % 4096 == 0 && crate::transaction::pending().is_some() {
-                                break;
-                            }
-                            let i = k0 + *pos * stride;
-                            *pos += 1;
-                            if !cursor.is_done(i) {
-                                found = Some((*seq, i));
-                                *seq += 1;
-                                break;
-                            }
-                        }
-                        found
-                    };
-                    let Some((seq, i)) = next else { return };
-                    job.plan.values_into(i, &mut values);
-                    let opts = RunOptions { sets: run_sets(job, &values), ..job.opts.clone() };
-                    let save = job.save_runs.then(|| run_dir(&job.out, i, runs));
-                    let t = Instant::now();
-                    let outcome = match save.as_deref().map(real_dir).transpose() {
-                        Err(e) => Outcome::Unusable(e),
-                        Ok(_) => match one_run(proto, job, settings, &opts, save) {
-                            Err(Err(signal)) => Outcome::Interrupted(signal),
-                            r => {
-                                let wall = t.elapsed();
-                                let r = r.map_err(|e| e.unwrap_or_else(|_| unreachable!("signals handled above")));
-                                let (line, failed) = row_line(i, &values, r, wall, state_at, n_state, &job.metrics);
-                                Outcome::Row { run: i, line, failed, wall }
-                            }
-                        },
-                    };
-                    if tx.send((seq, outcome)).is_err() {
-                        return;
-                    }
-                }
-            });
+            let (tx, shared) = (tx.clone(), &shared);
+            scope.spawn(move |_| shared.work(&tx));
         }
         drop(tx);
-        // rows in run order: a finished run waits here for the ones
-        // before it (at most `jobs - 1` of them)
-        let mut pending: BTreeMap<u64, Outcome> = BTreeMap::new();
-        let mut next = 0u64;
-        for (seq, outcome) in rx {
-            pending.insert(seq, outcome);
-            while interrupted.is_none()
-                && write_error.is_none()
-                && let Some(o) = pending.remove(&next)
-            {
-                match o {
-                    Outcome::Row { run, line, failed, wall } => {
-                        if let Err(e) = out.append(run, &line) {
-                            write_error = Some(e);
-                            stop.store(true, Ordering::SeqCst);
-                            break;
-                        }
-                        report.ran += 1;
-                        report.failed += u64::from(failed);
-                        report.busy += wall;
-                        if let Some(p) = &progress {
-                            p.inc(report.ran, report.failed);
-                        }
-                    }
-                    Outcome::Interrupted(s) => {
-                        interrupted = Some(s);
-                        stop.store(true, Ordering::SeqCst);
-                    }
-                    Outcome::Unusable(e) => {
-                        write_error = Some(e);
-                        stop.store(true, Ordering::SeqCst);
-                    }
-                }
-                next += 1;
-            }
-        }
+        collect(rx, &mut out, &mut report, progress.as_ref(), &shared.stop)
     });
     report.wall = start.elapsed();
     if let Some(p) = progress {
@@ -726,7 +629,7 @@ pub fn sweep_model<M: Model>(proto: &M, job: &SweepJob) -> Result<SweepReport, S
     if let Some(e) = write_error {
         return Err(SweepError::Failed(e));
     }
-    if let Some(signal) = interrupted.or_else(crate::transaction::pending) {
+    if let Some(signal) = interrupted.or_else(crate::output::transaction::pending) {
         return Err(SweepError::Interrupted(Interrupted {
             signal,
             dir: job.out.clone(),
@@ -748,11 +651,157 @@ pub fn sweep_model<M: Model>(proto: &M, job: &SweepJob) -> Result<SweepReport, S
     Ok(report)
 }
 
+/// `sweep.csv` opened (created, or its rows done before read back) for
+/// `job` with the columns `header`; a signal while it reads is an
+/// interruption that keeps the rows.
+fn open_table(job: &SweepJob, header: &[String]) -> Result<table::Output, SweepError> {
+    table::Output::open(&job.out, &job.manifest, header, &job.plan, job.shard).map_err(|e| {
+        match crate::output::transaction::pending() {
+            Some(signal) => SweepError::Interrupted(Interrupted {
+                signal,
+                dir: job.out.clone(),
+                t: None,
+                doing: Some("checking the rows already done".into()),
+                kept: Some(format!(
+                    "the rows in {} are kept; the same command resumes the sweep",
+                    job.out.join(table::CSV).display()
+                )),
+            }),
+            None => SweepError::Failed(e),
+        }
+    })
+}
+
+/// What the sweep's threads share.
+struct Shared<'a, M: Model> {
+    proto: &'a M,
+    job: &'a SweepJob,
+    settings: &'a ezy_core::RunSettings,
+    /// The next position among this shard's runs, the next row's place
+    /// in the order of rows, and the runs done before.
+    order: Mutex<(u64, u64, table::DoneCursor)>,
+    /// Set when the rows cannot be written: the threads stop.
+    stop: AtomicBool,
+    /// The column of each state component.
+    state_at: HashMap<String, usize>,
+    n_state: usize,
+    /// This shard's runs, `K + p N` for `(K, N)`, and how many.
+    shard: (u64, u64),
+    positions: u64,
+}
+
+impl<M: Model> Shared<'_, M> {
+    /// The next run not yet done, and its place in the order of rows.
+    fn next(&self) -> Option<(u64, u64)> {
+        let (k0, stride) = self.shard;
+        let mut d = self.order.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
+        let (pos, seq, cursor) = &mut *d;
+        while *pos < self.positions {
+            // many runs done before are passed within a second of a signal
+            if *pos % 4096 == 0 && crate::output::transaction::pending().is_some() {
+                break;
+            }
+            let i = k0 + *pos * stride;
+            *pos += 1;
+            if !cursor.is_done(i) {
+                let found = (*seq, i);
+                *seq += 1;
+                return Some(found);
+            }
+        }
+        None
+    }
+
+    /// A thread's work: the next run, until none is left, a signal
+    /// arrives or the rows cannot be written; each run's outcome sent to
+    /// `tx` with its place in the order of rows.
+    fn work(&self, tx: &std::sync::mpsc::Sender<(u64, Outcome)>) {
+        let job = self.job;
+        let mut values = Vec::new();
+        loop {
+            if self.stop.load(Ordering::SeqCst) || crate::output::transaction::pending().is_some() {
+                return;
+            }
+            let Some((seq, i)) = self.next() else { return };
+            job.plan.values_into(i, &mut values);
+            let opts = RunOptions { sets: run_sets(job, &values), ..job.opts.clone() };
+            let save = job.save_runs.then(|| run_dir(&job.out, i, job.plan.runs()));
+            let t = Instant::now();
+            let outcome = match save.as_deref().map(real_dir).transpose() {
+                Err(e) => Outcome::Unusable(e),
+                Ok(_) => match one_run(self.proto, job, self.settings, &opts, save) {
+                    Err(Err(signal)) => Outcome::Interrupted(signal),
+                    r => {
+                        let wall = t.elapsed();
+                        let r = r.map_err(|e| e.unwrap_or_else(|_| unreachable!("signals handled above")));
+                        let (line, failed) = row_line(i, &values, r, wall, &self.state_at, self.n_state, &job.metrics);
+                        Outcome::Row { run: i, line, failed, wall }
+                    }
+                },
+            };
+            if tx.send((seq, outcome)).is_err() {
+                return;
+            }
+        }
+    }
+}
+
+/// Appends the runs' rows to `out` in run order as their outcomes arrive
+/// (a finished run waits for the ones before it, at most one less than
+/// the threads), counted into `report` and `progress`; at a signal or a
+/// row that cannot be written it sets `stop` and writes no more. Returns
+/// the signal, or why the rows could not be written.
+fn collect(
+    rx: std::sync::mpsc::Receiver<(u64, Outcome)>,
+    out: &mut table::Output,
+    report: &mut SweepReport,
+    progress: Option<&Counter>,
+    stop: &AtomicBool,
+) -> (Option<crate::output::transaction::Signal>, Option<String>) {
+    let mut interrupted = None;
+    let mut write_error = None;
+    let mut pending: BTreeMap<u64, Outcome> = BTreeMap::new();
+    let mut next = 0u64;
+    for (seq, outcome) in rx {
+        pending.insert(seq, outcome);
+        while interrupted.is_none()
+            && write_error.is_none()
+            && let Some(o) = pending.remove(&next)
+        {
+            match o {
+                Outcome::Row { run, line, failed, wall } => {
+                    if let Err(e) = out.append(run, &line) {
+                        write_error = Some(e);
+                        stop.store(true, Ordering::SeqCst);
+                        break;
+                    }
+                    report.ran += 1;
+                    report.failed += u64::from(failed);
+                    report.busy += wall;
+                    if let Some(p) = progress {
+                        p.inc(report.ran, report.failed);
+                    }
+                }
+                Outcome::Interrupted(s) => {
+                    interrupted = Some(s);
+                    stop.store(true, Ordering::SeqCst);
+                }
+                Outcome::Unusable(e) => {
+                    write_error = Some(e);
+                    stop.store(true, Ordering::SeqCst);
+                }
+            }
+            next += 1;
+        }
+    }
+    (interrupted, write_error)
+}
+
 /// Progress over runs: a bar with the rate and the time left on a
 /// terminal, a line every few seconds otherwise.
 struct Counter {
     bar: Option<indicatif::ProgressBar>,
-    beat: Option<crate::progress::Heartbeat>,
+    beat: Option<crate::output::progress::Heartbeat>,
     total: u64,
     scene: String,
 }
@@ -771,7 +820,7 @@ impl Counter {
             bar.set_message("0 failed");
             Self { bar: Some(bar), beat: None, total, scene: scene.into() }
         } else {
-            let beat = crate::progress::Heartbeat::start(format!("sweep {scene}: 0 of {total} runs"));
+            let beat = crate::output::progress::Heartbeat::start(format!("sweep {scene}: 0 of {total} runs"));
             Self { bar: None, beat: Some(beat), total, scene: scene.into() }
         }
     }
@@ -795,7 +844,7 @@ impl Counter {
 
 /// FNV-1a (64 bit) of `text`, as 16 hex digits: the scene text's
 /// fingerprint in `sweep.toml`.
-pub fn fingerprint(text: &str) -> String {
+pub(crate) fn fingerprint(text: &str) -> String {
     let mut h: u64 = 0xcbf2_9ce4_8422_2325;
     for b in text.bytes() {
         h ^= u64::from(b);

@@ -7,7 +7,7 @@ use rand_chacha::ChaCha8Rng;
 
 /// How an axis' values are given.
 #[derive(Debug, Clone, PartialEq)]
-pub enum Values {
+pub(crate) enum Values {
     /// Given values (`--list`, as listed).
     Fixed(Vec<f64>),
     /// `count` evenly spaced values from `start` to `stop`, both included
@@ -32,7 +32,7 @@ pub enum Values {
 
 /// One swept parameter.
 #[derive(Debug, Clone, PartialEq)]
-pub struct Axis {
+pub(crate) struct Axis {
     /// The name `--set` takes (a model or scene parameter, a family count,
     /// `EFFECT.KEY`).
     pub name: String,
@@ -44,7 +44,7 @@ pub struct Axis {
 /// slowest) and, for each of their points, `samples` draws of the random
 /// axes.
 #[derive(Debug, Clone, PartialEq)]
-pub struct Plan {
+pub(crate) struct Plan {
     /// The axes: fixed ones first, then the random ones.
     pub axes: Vec<Axis>,
     /// Random draws per point of the fixed axes (1 without random axes).
@@ -54,11 +54,11 @@ pub struct Plan {
 }
 
 /// Most runs one sweep may have.
-pub const MAX_RUNS: u64 = 1 << 40;
+pub(crate) const MAX_RUNS: u64 = 1 << 40;
 
 impl Values {
     /// Number of values of a fixed axis (`None` for a random one).
-    pub fn count(&self) -> Option<u64> {
+    pub(crate) fn count(&self) -> Option<u64> {
         match self {
             Self::Fixed(v) => Some(v.len() as u64),
             Self::Grid { count, .. } => Some(*count),
@@ -70,7 +70,7 @@ impl Values {
     ///
     /// # Panics
     /// For a random axis, or `j` out of range.
-    pub fn get(&self, j: u64) -> f64 {
+    pub(crate) fn get(&self, j: u64) -> f64 {
         match self {
             Self::Fixed(v) => v[usize::try_from(j).expect("an index of a stored list")],
             Self::Grid { start, stop, count } => grid_value(*start, *stop, *count, j),
@@ -92,7 +92,7 @@ fn decimal(v: f64) -> f64 {
 /// every machine, all rounded to 15 significant digits; finite whenever `a`
 /// and `b` are (bounds whose difference overflows, such as -1e308 and
 /// 1e308, are combined as `a (1 - s) + b s`).
-pub fn grid_value(a: f64, b: f64, n: u64, k: u64) -> f64 {
+pub(crate) fn grid_value(a: f64, b: f64, n: u64, k: u64) -> f64 {
     if k + 1 == n {
         return decimal(b);
     }
@@ -135,7 +135,7 @@ fn name_of<'a>(text: &'a str, form: &str) -> Result<(&'a str, &'a str), String> 
 /// # Errors
 /// A malformed text, a bound that is not finite, a COUNT that is not a
 /// whole number >= 1 (or 1 with START != STOP).
-pub fn grid(text: &str) -> Result<Axis, String> {
+pub(crate) fn grid(text: &str) -> Result<Axis, String> {
     let (name, rest) = name_of(text, "NAME=START:STOP:COUNT")?;
     let parts: Vec<&str> = rest.split(':').collect();
     let [a, b, n] = parts[..] else { return Err(format!("`{text}`: expected NAME=START:STOP:COUNT")) };
@@ -161,7 +161,7 @@ pub fn grid(text: &str) -> Result<Axis, String> {
 ///
 /// # Errors
 /// A malformed text or a value that is not a finite number.
-pub fn list(text: &str) -> Result<Axis, String> {
+pub(crate) fn list(text: &str) -> Result<Axis, String> {
     let (name, rest) = name_of(text, "NAME=V1,V2,...")?;
     let values = rest.split(',').map(|v| number(text, "value", v)).collect::<Result<Vec<_>, _>>()?;
     Ok(Axis { name: name.into(), values: Values::Fixed(values) })
@@ -171,7 +171,7 @@ pub fn list(text: &str) -> Result<Axis, String> {
 ///
 /// # Errors
 /// A malformed text, or bounds that are not finite with LO < HI.
-pub fn random(text: &str) -> Result<Axis, String> {
+pub(crate) fn random(text: &str) -> Result<Axis, String> {
     let (name, rest) = name_of(text, "NAME=LO:HI")?;
     let (lo, hi) = rest.split_once(':').ok_or_else(|| format!("`{text}`: expected NAME=LO:HI"))?;
     let (lo, hi) = (number(text, "LO", lo)?, number(text, "HI", hi)?);
@@ -188,7 +188,7 @@ impl Plan {
     /// # Errors
     /// A name given twice, random axes without `samples` (or `samples`
     /// without random axes), more than [`MAX_RUNS`] runs.
-    pub fn new(mut axes: Vec<Axis>, samples: Option<u64>, seed: u64) -> Result<Self, String> {
+    pub(crate) fn new(mut axes: Vec<Axis>, samples: Option<u64>, seed: u64) -> Result<Self, String> {
         if axes.is_empty() {
             return Err("no axis: give at least one --grid, --list or --random".into());
         }
@@ -228,12 +228,12 @@ impl Plan {
     }
 
     /// Number of runs.
-    pub fn runs(&self) -> u64 {
+    pub(crate) fn runs(&self) -> u64 {
         self.axes.iter().filter_map(|a| a.values.count()).product::<u64>() * self.samples
     }
 
     /// The axes' names, in column order.
-    pub fn names(&self) -> Vec<String> {
+    pub(crate) fn names(&self) -> Vec<String> {
         self.axes.iter().map(|a| a.name.clone()).collect()
     }
 
@@ -243,7 +243,7 @@ impl Plan {
     /// point of the fixed axes sees the same draws (common random
     /// numbers), and a draw depends on its number and the seed alone (not
     /// on the shard or the order of the runs).
-    pub fn values_into(&self, i: u64, out: &mut Vec<f64>) {
+    pub(crate) fn values_into(&self, i: u64, out: &mut Vec<f64>) {
         // the fixed axes come first (`Plan::new` sorts them), the last
         // varying fastest
         let fixed = self.axes.iter().take_while(|a| a.values.count().is_some()).count();
@@ -271,20 +271,20 @@ impl Plan {
     }
 
     /// The values of run `i`.
-    pub fn values(&self, i: u64) -> Vec<f64> {
+    pub(crate) fn values(&self, i: u64) -> Vec<f64> {
         let mut v = Vec::new();
         self.values_into(i, &mut v);
         v
     }
 
     /// Number of values of axis `k` (`None` for a random one).
-    pub fn fixed_len(&self, k: usize) -> Option<u64> {
+    pub(crate) fn fixed_len(&self, k: usize) -> Option<u64> {
         self.axes[k].values.count()
     }
 
     /// The values of the fixed axis `k` (`None` for a random one), as an
     /// iterator: a grid's are computed one by one.
-    pub fn fixed_iter(&self, k: usize) -> Option<impl Iterator<Item = f64> + '_> {
+    pub(crate) fn fixed_iter(&self, k: usize) -> Option<impl Iterator<Item = f64> + '_> {
         let values = &self.axes[k].values;
         values.count().map(|n| (0..n).map(move |j| values.get(j)))
     }

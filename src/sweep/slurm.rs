@@ -26,15 +26,15 @@ use std::path::Path;
 
 /// How every script ezy writes begins: what [`write_script`] recognises
 /// an earlier script by (the scripts of earlier versions begin so too).
-pub const HEADER: &str = "#!/bin/bash\n# ezy sweep ";
+pub(crate) const HEADER: &str = "#!/bin/bash\n# ezy sweep ";
 
 /// Most array tasks a script may have (Slurm's own limit, the largest
 /// `MaxArraySize`, is 4000001).
-pub const MAX_TASKS: u64 = 1_000_000;
+pub(crate) const MAX_TASKS: u64 = 1_000_000;
 
 /// Quotes `s` for the shell (single quotes; a quote inside as `'\''`);
 /// a word of only `[A-Za-z0-9-_./=:,+@%]` is left as it is.
-pub fn quote(s: &str) -> String {
+pub(crate) fn quote(s: &str) -> String {
     if !s.is_empty() && s.chars().all(|c| c.is_ascii_alphanumeric() || "-_./=:,+@%".contains(c)) {
         return s.to_string();
     }
@@ -76,7 +76,7 @@ fn char_name(c: char) -> String {
 ///
 /// # Errors
 /// The message names `what`, the value (escaped) and the character.
-pub fn plain(what: &str, value: &str) -> Result<(), String> {
+pub(crate) fn plain(what: &str, value: &str) -> Result<(), String> {
     match value.chars().find(|c| c.is_control()) {
         None => Ok(()),
         Some(c) => Err(format!(
@@ -98,7 +98,7 @@ pub fn plain(what: &str, value: &str) -> Result<(), String> {
 /// A path or argument that is not UTF-8 or holds a control character,
 /// named (`the path of this program`, `the scene`, `--out`, or the
 /// option an argument belongs to); `tasks` of 0 or above [`MAX_TASKS`].
-pub fn script(
+pub(crate) fn script(
     exe: &Path,
     scene: &str,
     args: &[String],
@@ -198,7 +198,7 @@ exec "$EZY" sweep {scene_q} {sweep_args} \
 /// `file` is a symbolic link, a directory, a FIFO, a device or a socket,
 /// the scene file, or a file ezy did not write; or the write failed.
 /// Each message names `file`.
-pub fn write_script(file: &Path, text: &str, scene: Option<&Path>) -> Result<(), String> {
+pub(crate) fn write_script(file: &Path, text: &str, scene: Option<&Path>) -> Result<(), String> {
     let show = file.display();
     let io = |e: std::io::Error| format!("{show}: {e}");
     let refuse = |what: &str| {
@@ -231,7 +231,7 @@ pub fn write_script(file: &Path, text: &str, scene: Option<&Path>) -> Result<(),
             ));
         }
     }
-    let mut tmp = crate::transaction::temp_beside(file).map_err(io)?;
+    let mut tmp = crate::output::transaction::temp_beside(file).map_err(io)?;
     std::io::Write::write_all(&mut tmp, text.as_bytes()).map_err(io)?;
     tmp.as_file().sync_all().map_err(io)?;
     match existing {
@@ -253,7 +253,7 @@ pub fn write_script(file: &Path, text: &str, scene: Option<&Path>) -> Result<(),
 /// [`HEADER`]: opened without following a link or blocking, and checked
 /// to be the file `meta` describes.
 fn written_by_ezy(file: &Path, meta: &std::fs::Metadata) -> std::io::Result<bool> {
-    let f = crate::transaction::no_follow(std::fs::OpenOptions::new().read(true)).open(file)?;
+    let f = crate::output::transaction::no_follow(std::fs::OpenOptions::new().read(true)).open(file)?;
     let opened = f.metadata()?;
     if !opened.is_file() || !same_file(&opened, meta) {
         return Ok(false);

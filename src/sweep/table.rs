@@ -9,15 +9,15 @@ use serde::{Deserialize, Serialize};
 use super::plan::Plan;
 
 /// The table's file name.
-pub const CSV: &str = "sweep.csv";
+pub(crate) const CSV: &str = "sweep.csv";
 /// The definition's file name.
-pub const TOML: &str = "sweep.toml";
+pub(crate) const TOML: &str = "sweep.toml";
 
 /// A sweep's definition, as `sweep.toml` records it: what makes two
 /// invocations the same sweep (resume) or shards of one sweep (merge).
 #[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
-pub struct Manifest {
+pub(crate) struct Manifest {
     /// The scene: a known name, or the absolute path of its file.
     pub scene: String,
     /// FNV-1a of the scene's text (an edited scene file is another sweep).
@@ -83,7 +83,7 @@ fn writer<W: Write>(w: W) -> csv::Writer<W> {
 }
 
 /// One row of `sweep.csv`, with its line end.
-pub fn line<S: AsRef<[u8]>>(fields: &[S]) -> Vec<u8> {
+pub(crate) fn line<S: AsRef<[u8]>>(fields: &[S]) -> Vec<u8> {
     let mut w = writer(Vec::new());
     w.write_record(fields).expect("writing to memory");
     w.into_inner().expect("writing to memory")
@@ -145,7 +145,7 @@ struct Rows {
 impl Rows {
     /// Opens `path`, reads the header and checks it against `header`.
     fn open(path: &Path, len: Option<u64>, header: Option<&[String]>) -> Result<(Self, Vec<String>), String> {
-        let file = crate::transaction::no_follow(OpenOptions::new().read(true))
+        let file = crate::output::transaction::no_follow(OpenOptions::new().read(true))
             .open(path)
             .map_err(|e| ezy_scene::files::io_message(path, &e, &format!("cannot open {}", path.display())))?;
         let len = match len {
@@ -186,14 +186,14 @@ impl Rows {
 
 /// Which runs `sweep.csv` already has, read as the dispatch passes them
 /// (run numbers ascend in the file).
-pub struct DoneCursor {
+pub(crate) struct DoneCursor {
     rows: Option<Rows>,
     next: Option<u64>,
 }
 
 impl DoneCursor {
     /// Whether run `i` is done; `i` must not decrease between calls.
-    pub fn is_done(&mut self, i: u64) -> bool {
+    pub(crate) fn is_done(&mut self, i: u64) -> bool {
         while let Some(n) = self.next {
             if n >= i {
                 return n == i;
@@ -206,7 +206,7 @@ impl DoneCursor {
 
 /// A sweep's output directory, locked, with `sweep.csv` open for
 /// appending.
-pub struct Output {
+pub(crate) struct Output {
     _lock: File,
     file: File,
     path: PathBuf,
@@ -264,14 +264,14 @@ impl Output {
     /// `dir` locked by another run or holding another sweep, a row that
     /// is not this sweep's, or an I/O error, each naming the file; a
     /// signal that arrived while the rows were checked.
-    pub fn open(
+    pub(crate) fn open(
         dir: &Path,
         manifest: &Manifest,
         header: &[String],
         plan: &Plan,
         shard: Option<(u64, u64)>,
     ) -> Result<Self, String> {
-        let lock = crate::transaction::lock(dir).map_err(|e| e.to_string())?;
+        let lock = crate::output::transaction::lock(dir).map_err(|e| e.to_string())?;
         let path = dir.join(CSV);
         match Manifest::read(dir)? {
             Some(found) => {
@@ -289,13 +289,13 @@ impl Output {
                         path.display()
                     ));
                 }
-                crate::transaction::write_atomically(&dir.join(TOML), manifest.text().as_bytes())
+                crate::output::transaction::write_atomically(&dir.join(TOML), manifest.text().as_bytes())
                     .map_err(|e| e.to_string())?;
             }
         }
         remove_stale_refills(dir);
         let exists = std::fs::symlink_metadata(&path).is_ok();
-        let mut file = crate::transaction::no_follow(OpenOptions::new().read(true).append(true).create(true))
+        let mut file = crate::output::transaction::no_follow(OpenOptions::new().read(true).append(true).create(true))
             .open(&path)
             .map_err(|e| ezy_scene::files::io_message(&path, &e, &format!("cannot open {}", path.display())))?;
         if !file.metadata().map_err(|e| io(&path, e))?.is_file() {
@@ -319,7 +319,7 @@ impl Output {
             let mut buf = zmij::Buffer::new();
             while let Some(i) = rows.next()? {
                 // a long table is read within a second of a signal
-                if done % 4096 == 0 && crate::transaction::pending().is_some() {
+                if done % 4096 == 0 && crate::output::transaction::pending().is_some() {
                     return Err(format!("stopped while checking the rows of {}", path.display()));
                 }
                 let line = rows.line();
@@ -339,7 +339,7 @@ impl Output {
                         return Err(bad(format!(
                             "run {i} has {} = {found}, but this sweep's run {i} has {}",
                             plan.axes[k].name,
-                            crate::output::format_number(&mut buf, *v)
+                            crate::output::csv::format_number(&mut buf, *v)
                         )));
                     }
                 }
@@ -350,7 +350,7 @@ impl Output {
             }
         }
         let refill = if gaps {
-            let mut tmp = crate::transaction::temp_beside(&path).map_err(|e| io(&path, e))?;
+            let mut tmp = crate::output::transaction::temp_beside(&path).map_err(|e| io(&path, e))?;
             tmp.write_all(&header_line).map_err(|e| io(&path, e))?;
             let (mut old, _) = Rows::open(&path, Some(len), None)?;
             let next_old = old.next()?;
@@ -365,7 +365,7 @@ impl Output {
     ///
     /// # Errors
     /// The file cannot be read again.
-    pub fn done_cursor(&self) -> Result<DoneCursor, String> {
+    pub(crate) fn done_cursor(&self) -> Result<DoneCursor, String> {
         if self.done == 0 {
             return Ok(DoneCursor { rows: None, next: None });
         }
@@ -380,7 +380,7 @@ impl Output {
     ///
     /// # Errors
     /// The write failed (a full disk), naming the file.
-    pub fn append(&mut self, i: u64, line: &[u8]) -> Result<(), String> {
+    pub(crate) fn append(&mut self, i: u64, line: &[u8]) -> Result<(), String> {
         match &mut self.refill {
             None => self.file.write_all(line).map_err(|e| io(&self.path, e)),
             Some(r) => {
@@ -398,7 +398,7 @@ impl Output {
     /// # Errors
     /// The sync or the rename failed, naming the file (`sweep.csv` is
     /// then left as it was).
-    pub fn finish(&mut self) -> Result<(), String> {
+    pub(crate) fn finish(&mut self) -> Result<(), String> {
         let Some(mut r) = self.refill.take() else {
             return self.file.sync_all().map_err(|e| io(&self.path, e));
         };
@@ -414,7 +414,7 @@ impl Output {
     }
 
     /// The table's path.
-    pub fn csv_path(&self) -> PathBuf {
+    pub(crate) fn csv_path(&self) -> PathBuf {
         self.path.clone()
     }
 }
@@ -428,13 +428,13 @@ impl Output {
 /// A directory that is not a shard of the same sweep, a shard missing or
 /// given twice, a run missing (its shard unfinished: re-run it to resume,
 /// then merge again), `out` among the shards or holding another sweep.
-pub fn merge(dirs: &[PathBuf], out: &Path) -> Result<(Manifest, Vec<PathBuf>), String> {
+pub(crate) fn merge(dirs: &[PathBuf], out: &Path) -> Result<(Manifest, Vec<PathBuf>), String> {
     let mut shards: Vec<(u64, u64, PathBuf, Manifest)> = Vec::new();
     for d in dirs {
         let m =
             Manifest::read(d)?.ok_or_else(|| format!("{}: no {TOML}; not the output of `ezy sweep`", d.display()))?;
         let (k, n) = match &m.shard {
-            Some(s) => crate::cli::parse_shard(s).map_err(|e| format!("{}: shard {e}", d.join(TOML).display()))?,
+            Some(s) => parse_shard(s).map_err(|e| format!("{}: shard {e}", d.join(TOML).display()))?,
             None => (0, 1),
         };
         shards.push((k, n, d.clone(), m));
@@ -471,7 +471,7 @@ pub fn merge(dirs: &[PathBuf], out: &Path) -> Result<(Manifest, Vec<PathBuf>), S
         readers.push(rows);
     }
     let header = header.expect("at least one shard");
-    let lock = crate::transaction::lock(out).map_err(|e| e.to_string())?;
+    let lock = crate::output::transaction::lock(out).map_err(|e| e.to_string())?;
     if let Some(found) = Manifest::read(out)?
         && let Some(d) = found.differs(&merged)
     {
@@ -479,7 +479,7 @@ pub fn merge(dirs: &[PathBuf], out: &Path) -> Result<(Manifest, Vec<PathBuf>), S
     }
     let csv_path = out.join(CSV);
     // 0666 less the umask, as any table ezy writes
-    let mut tmp = crate::transaction::temp_beside(&csv_path).map_err(|e| io(&csv_path, e))?;
+    let mut tmp = crate::output::transaction::temp_beside(&csv_path).map_err(|e| io(&csv_path, e))?;
     {
         let mut w = writer(std::io::BufWriter::new(tmp.as_file_mut()));
         w.write_record(&header).map_err(|e| io(&csv_path, e))?;
@@ -521,7 +521,8 @@ pub fn merge(dirs: &[PathBuf], out: &Path) -> Result<(Manifest, Vec<PathBuf>), S
         w.flush().map_err(|e| io(&csv_path, e))?;
     }
     tmp.as_file().sync_all().map_err(|e| io(&csv_path, e))?;
-    crate::transaction::write_atomically(&out.join(TOML), merged.text().as_bytes()).map_err(|e| e.to_string())?;
+    crate::output::transaction::write_atomically(&out.join(TOML), merged.text().as_bytes())
+        .map_err(|e| e.to_string())?;
     tmp.persist(&csv_path).map_err(|e| io(&csv_path, e.error))?;
     drop(lock);
     Ok((merged, vec![csv_path, out.join(TOML)]))
@@ -556,7 +557,7 @@ fn list_dirs(shards: &[(u64, u64, PathBuf, Manifest)]) -> String {
 ///
 /// # Errors
 /// The file cannot be read, or lacks a column.
-pub fn read_columns(dir: &Path, names: &[String]) -> Result<Vec<Vec<f64>>, String> {
+pub(crate) fn read_columns(dir: &Path, names: &[String]) -> Result<Vec<Vec<f64>>, String> {
     let path = dir.join(CSV);
     let (mut rows, header) = Rows::open(&path, None, None)?;
     let at: Vec<usize> = names
@@ -568,4 +569,18 @@ pub fn read_columns(dir: &Path, names: &[String]) -> Result<Vec<Vec<f64>>, Strin
         out.push(at.iter().map(|&k| rows.record.get(k).and_then(|s| s.parse().ok()).unwrap_or(f64::NAN)).collect());
     }
     Ok(out)
+}
+
+/// `K/N` of `--shard`: 0 <= K < N.
+///
+/// # Errors
+/// Not two whole numbers, N = 0 or K >= N.
+pub(crate) fn parse_shard(s: &str) -> Result<(u64, u64), String> {
+    let (k, n) = s.split_once('/').ok_or_else(|| format!("`{s}`: expected K/N (shard K of N, K from 0)"))?;
+    let k: u64 = k.trim().parse().map_err(|_| format!("`{s}`: `{k}` is not a whole number"))?;
+    let n: u64 = n.trim().parse().map_err(|_| format!("`{s}`: `{n}` is not a whole number"))?;
+    if n == 0 || k >= n {
+        return Err(format!("`{s}`: need 0 <= K < N"));
+    }
+    Ok((k, n))
 }

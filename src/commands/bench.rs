@@ -21,44 +21,132 @@
 //!
 //! Each integration time is the median of `repeat` runs. The whole
 //! process of the matching `run` command (`--no-figures`, CSV written) is
-//! timed by the caller, which starts the program itself ([`crate::App`]).
+//! timed by the command, which starts the program itself.
 
+use std::io::Write;
+
+use clap::{ArgMatches, Args, FromArgMatches};
 use ezy_core::settings::Method;
 use ezy_core::{Formulation, Model, ProjectionKind};
-
 use ezy_scene::Scene;
 
-use crate::commands::run::Error;
+use crate::app::{App, AppError};
+use crate::cli::parse_capped;
+use crate::output::progress::Heartbeat;
 use crate::precision::{Setting, run_once_as, state_error};
+use crate::session::Error;
+
+/// Time an accurate trajectory: DOP853 at 1e-11 with and without
+/// output, the scene's own setting, and each whole `run` process.
+#[derive(Args, Debug, Default)]
+struct BenchArgs {
+    /// Scene: a known name (default: drive) or a path to a .toml scene file.
+    scene: Option<String>,
+    /// Runs per setting (the median is reported), at most 100.
+    #[arg(long, value_name = "N", default_value_t = 5, value_parser = parse_repeat)]
+    repeat: u64,
+    /// Skip timing the whole `run` processes.
+    #[arg(long)]
+    no_process: bool,
+}
+
+/// `--repeat` of `ezy bench`: from 1 to [`MAX_REPEAT`].
+///
+/// # Errors
+/// Not a whole number from 1 to the limit.
+fn parse_repeat(s: &str) -> Result<u64, String> {
+    parse_capped(
+        s,
+        MAX_REPEAT,
+        "runs per setting (each repeat runs the seven settings again, and as many whole processes)",
+    )
+}
+
+/// The arguments of `ezy bench`, on the subcommand `cmd`.
+pub(crate) fn cli(cmd: clap::Command) -> clap::Command {
+    BenchArgs::augment_args(cmd)
+}
+
+/// Measures the settings in this process, then (unless `--no-process`)
+/// each whole `run` process, and prints the table.
+pub(crate) fn exec(app: &App, args: &ArgMatches, out: &mut dyn Write) -> Result<(), AppError> {
+    let args = BenchArgs::from_arg_matches(args)?;
+    let (name, src) = app.named_scene(args.scene.as_deref())?;
+    let scene = &src.scene;
+    let model = app.model_or_error(&scene.model)?;
+    // `--repeat` is at most MAX_REPEAT (its parser), and bench_model
+    // refuses more for callers that build the arguments
+    let repeat = usize::try_from(args.repeat).unwrap_or(usize::MAX);
+    let mut rows = bench_model(model, scene, repeat).map_err(AppError::from_run)?;
+    if !args.no_process {
+        time_processes(&name, &mut rows, repeat)?;
+    }
+    Ok(out.write_all(table(&scene.name, &rows).as_bytes())?)
+}
+
+/// Times this very program, started anew `repeat` times for each row's
+/// setting on the scene `name`: parse, setup, integration and CSV, no
+/// figures; the median into the row's `process_s`.
+fn time_processes(name: &str, rows: &mut [BenchRow], repeat: usize) -> Result<(), AppError> {
+    let exe = std::env::current_exe().map_err(|e| AppError::Failed(format!("finding this program: {e}")))?;
+    let tmp = tempfile::tempdir().map_err(|e| AppError::Failed(format!("a scratch directory: {e}")))?;
+    let beat = Heartbeat::start(format!("bench {name}: timing the run processes"));
+    let n_rows = rows.len();
+    for (k, row) in rows.iter_mut().enumerate() {
+        let dir = tmp.path().join(k.to_string());
+        let mut times = Vec::new();
+        for r in 0..repeat {
+            beat.set(format!("bench {name}: process of setting {} of {n_rows}, run {} of {repeat}", k + 1, r + 1));
+            let start = std::time::Instant::now();
+            let status = std::process::Command::new(&exe)
+                .arg("run")
+                .arg(name)
+                .args(&row.args)
+                .arg("--no-figures")
+                .arg("--out")
+                .arg(&dir)
+                .stdout(std::process::Stdio::null())
+                .stderr(std::process::Stdio::null())
+                .status()
+                .map_err(|e| AppError::Failed(format!("starting {}: {e}", exe.display())))?;
+            if !status.success() {
+                return Err(AppError::Failed(format!("`run {name} {}` failed: {status}", row.args.join(" "))));
+            }
+            times.push(start.elapsed().as_secs_f64());
+        }
+        row.process_s = Some(median(&mut times));
+    }
+    Ok(())
+}
 
 /// Most runs per setting `ezy bench --repeat` takes: each repeat runs the
 /// seven settings once more in this process and, unless `--no-process`,
 /// starts the program seven more times (the median of a few is already
 /// stable).
-pub const MAX_REPEAT: u64 = 100;
+const MAX_REPEAT: u64 = 100;
 
 /// One measured setting.
 #[derive(Debug, Clone, PartialEq)]
-pub struct BenchRow {
+struct BenchRow {
     /// What was run.
-    pub what: String,
+    what: String,
     /// Median integration time \[s\].
-    pub integration_s: f64,
+    integration_s: f64,
     /// Median time of the output work in the same runs \[s\]: projecting
     /// the dense-output samples (the DAE) or expanding them to the full
     /// state (the minimal coordinates), their energies and residuals
     /// ([`ezy_core::Summary::output_time`]; no file is written here).
-    pub output_s: f64,
+    output_s: f64,
     /// Right-hand-side evaluations of one run.
-    pub rhs_evals: u64,
+    rhs_evals: u64,
     /// Max over `q` and `qd` of the difference from the reference at the
     /// final time.
-    pub error: f64,
+    error: f64,
     /// The `run` arguments (after the scene) that reproduce the setting.
-    pub args: Vec<String>,
+    args: Vec<String>,
     /// Median wall time of the whole `run` process \[s\] (`None`: not
     /// measured).
-    pub process_s: Option<f64>,
+    process_s: Option<f64>,
 }
 
 /// Measures the seven settings of the module documentation on `scene`,
@@ -68,11 +156,11 @@ pub struct BenchRow {
 /// # Errors
 /// [`Error`] if a run fails, [`Error::Input`] for `repeat` above
 /// [`MAX_REPEAT`] (before any run).
-pub fn bench_model<M: Model>(proto: &M, scene: &Scene, repeat: usize) -> Result<Vec<BenchRow>, Error> {
+fn bench_model<M: Model>(proto: &M, scene: &Scene, repeat: usize) -> Result<Vec<BenchRow>, Error> {
     if repeat as u64 > MAX_REPEAT {
         return Err(Error::Input(format!("--repeat {repeat} is more than {MAX_REPEAT}, the most runs per setting")));
     }
-    let beat = crate::progress::Heartbeat::start(format!("bench {}: the reference run", scene.name));
+    let beat = Heartbeat::start(format!("bench {}: the reference run", scene.name));
     let t_end = scene.t_end;
     let reference =
         Setting { method: Method::Dop853, dt: None, tol: Some(1e-13), projection: ProjectionKind::MassWeighted };
@@ -183,7 +271,7 @@ pub fn bench_model<M: Model>(proto: &M, scene: &Scene, repeat: usize) -> Result<
 }
 
 /// The median of `v` (sorted in place); NaN for none.
-pub fn median(v: &mut [f64]) -> f64 {
+fn median(v: &mut [f64]) -> f64 {
     if v.is_empty() {
         return f64::NAN;
     }
@@ -203,7 +291,7 @@ fn time(s: f64) -> String {
 }
 
 /// The table for people.
-pub fn table(scene: &str, rows: &[BenchRow]) -> String {
+fn table(scene: &str, rows: &[BenchRow]) -> String {
     let mut s = format!(
         "ezy bench {scene}: error = max |y(t_end) - y_ref(t_end)| over q and qd against DOP853 at 1e-13; times are medians\n"
     );

@@ -7,37 +7,132 @@
 //! of evaluations long enough for the clock (>= 2 ms), the median over
 //! batches. One thread; the KKT path is the one `KktMethod::Auto` takes.
 
+use std::io::Write;
 use std::time::{Duration, Instant};
 
+use clap::{ArgMatches, Args, FromArgMatches, ValueEnum};
 use ezy_core::formulation::projection::Projector;
 use ezy_core::kkt::KktMethod;
 use ezy_core::{Dynamics, Model, ProjectionKind};
 use rand::rngs::StdRng;
 use rand::{Rng, SeedableRng};
 
+use crate::app::{App, AppError};
+use crate::cli::parse_capped;
+use crate::output::progress::Heartbeat;
+
+/// Time one right-hand-side evaluation against the size of a model's family.
+#[derive(Args, Debug)]
+struct ScaleArgs {
+    /// Model with a family count (see `ezy list`), e.g. snake.
+    model: String,
+    /// Family sizes, comma-separated (each from 1 to 1e6).
+    #[arg(long, value_delimiter = ',', default_value = "10,100,1000,10000", value_parser = parse_size)]
+    n: Vec<usize>,
+    /// Output format.
+    #[arg(long, value_enum, default_value = "table")]
+    format: ScaleFormat,
+    /// Batches timed per size (the median is reported), at most 1000.
+    #[arg(long, default_value_t = 15, value_parser = parse_batches)]
+    batches: usize,
+    /// KKT path: auto (dense below 16 rows, sparse from 16), schur (dense), sparse, lu.
+    #[arg(long, value_enum, default_value = "auto")]
+    kkt: KktArg,
+}
+
+/// The KKT path of `--kkt` (the library's [`KktMethod`], which lives in
+/// ezy-core without clap).
+#[derive(ValueEnum, Clone, Copy, Debug)]
+enum KktArg {
+    /// Dense Schur complement below 16 constraint rows, sparse from 16.
+    Auto,
+    /// Dense Schur complement (LDL^T of G M^-1 G^T).
+    Schur,
+    /// Sparse Schur complement (faer, symbolic factor once).
+    Sparse,
+    /// Dense LU of the whole KKT matrix.
+    Lu,
+}
+
+impl From<KktArg> for KktMethod {
+    fn from(k: KktArg) -> Self {
+        match k {
+            KktArg::Auto => KktMethod::Auto,
+            KktArg::Schur => KktMethod::Schur,
+            KktArg::Sparse => KktMethod::Sparse,
+            KktArg::Lu => KktMethod::Lu,
+        }
+    }
+}
+
+/// What `ezy scale` prints.
+#[derive(ValueEnum, Clone, Copy, Debug)]
+enum ScaleFormat {
+    /// Aligned columns and the fitted exponent.
+    Table,
+    /// n,nq,nc,seconds_per_rhs,path
+    Csv,
+}
+
+/// `--batches` of `ezy scale`: from 1 to [`MAX_BATCHES`].
+///
+/// # Errors
+/// Not a whole number from 1 to the limit.
+fn parse_batches(s: &str) -> Result<usize, String> {
+    parse_capped(s, MAX_BATCHES as u64, "batches per size (each takes at least 2 ms, more for large sizes)")
+        .map(|n| n as usize)
+}
+
+/// A family size of `ezy scale --n`: a whole number (also `1e4`) from 1
+/// to [`ezy_scene::MAX_COUNT`].
+///
+/// # Errors
+/// Not a whole number from 1 to the limit.
+fn parse_size(s: &str) -> Result<usize, String> {
+    parse_capped(s, ezy_scene::MAX_COUNT as u64, "elements of a family (1e6)").map(|n| n as usize)
+}
+
+/// The arguments of `ezy scale`, on the subcommand `cmd`.
+pub(crate) fn cli(cmd: clap::Command) -> clap::Command {
+    ScaleArgs::augment_args(cmd)
+}
+
+/// Times the model named at each size and prints the table or CSV.
+pub(crate) fn exec(app: &App, args: &ArgMatches, out: &mut dyn Write) -> Result<(), AppError> {
+    let args = ScaleArgs::from_arg_matches(args)?;
+    if args.n.is_empty() || args.batches == 0 {
+        return Err(AppError::Failed("--n needs at least one size and --batches at least 1".into()));
+    }
+    let model = app.model_or_error(&args.model)?;
+    let csv = matches!(args.format, ScaleFormat::Csv);
+    let (info, points) =
+        scale(model, &args.n, args.batches, args.kkt.into()).map(|p| (model.info(), p)).map_err(AppError::failed)?;
+    Ok(out.write_all(render(info.name, &points, csv).as_bytes())?)
+}
+
 /// Most batches `ezy scale` times per size (`--batches`): each takes at
 /// least 2 ms, and one evaluation of a family of a million elements
 /// about 0.1 s, so 1000 batches of it take minutes.
-pub const MAX_BATCHES: usize = 1000;
+const MAX_BATCHES: usize = 1000;
 
 /// One measured size.
 #[derive(Debug, Clone, PartialEq)]
-pub struct ScalePoint {
+struct ScalePoint {
     /// The family count.
-    pub n: usize,
+    n: usize,
     /// Number of coordinates nq.
-    pub nq: usize,
+    nq: usize,
     /// Number of constraint rows nc.
-    pub nc: usize,
+    nc: usize,
     /// Median time of one RHS evaluation \[s\].
-    pub seconds_per_rhs: f64,
+    seconds_per_rhs: f64,
     /// The KKT path (`schur-cholesky` dense, `sparse-cholesky`).
-    pub path: &'static str,
+    path: &'static str,
 }
 
 /// Why a size could not be measured.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
-pub enum ScaleError {
+enum ScaleError {
     /// The model has no family count.
     #[error("model {model} has no family count (`count N = ..;`), so it has no size to scale")]
     NoCount {
@@ -79,12 +174,7 @@ pub enum ScaleError {
 /// # Errors
 /// [`ScaleError`] for a model without a count, a count the model does not
 /// accept, or a state the KKT solve fails on.
-pub fn scale<M: Model>(
-    proto: &M,
-    ns: &[usize],
-    min_batches: usize,
-    kkt: KktMethod,
-) -> Result<Vec<ScalePoint>, ScaleError> {
+fn scale<M: Model>(proto: &M, ns: &[usize], min_batches: usize, kkt: KktMethod) -> Result<Vec<ScalePoint>, ScaleError> {
     let base = proto.clone();
     let info = base.info();
     let (index, name) = info
@@ -106,8 +196,8 @@ pub fn scale<M: Model>(
     let mut out = Vec::with_capacity(ns.len());
     let beat = ns
         .iter()
-        .any(|&n| n as f64 >= crate::commands::run::LONG_SETUP_ELEMENTS)
-        .then(|| crate::progress::Heartbeat::start(format!("scale {}: setting up {name} = {}", info.name, ns[0])));
+        .any(|&n| n as f64 >= crate::session::LONG_SETUP_ELEMENTS)
+        .then(|| Heartbeat::start(format!("scale {}: setting up {name} = {}", info.name, ns[0])));
     for (k, &n) in ns.iter().enumerate() {
         let fail = |message: String| ScaleError::Failed { name, n, message };
         if let Some(b) = &beat {
@@ -156,7 +246,7 @@ pub fn scale<M: Model>(
 /// Least-squares slope of `log(seconds_per_rhs)` against `log(n)` over the
 /// points with `n >= from` (the cost's exponent); `None` with fewer than
 /// two such points.
-pub fn fitted_exponent(points: &[ScalePoint], from: usize) -> Option<f64> {
+fn fitted_exponent(points: &[ScalePoint], from: usize) -> Option<f64> {
     let xy: Vec<(f64, f64)> =
         points.iter().filter(|p| p.n >= from).map(|p| ((p.n as f64).ln(), p.seconds_per_rhs.ln())).collect();
     if xy.len() < 2 {
@@ -170,7 +260,7 @@ pub fn fitted_exponent(points: &[ScalePoint], from: usize) -> Option<f64> {
 }
 
 /// The points as a table (with the fitted exponent) or CSV.
-pub fn render(model: &str, points: &[ScalePoint], csv: bool) -> String {
+fn render(model: &str, points: &[ScalePoint], csv: bool) -> String {
     let mut out = String::new();
     if csv {
         out.push_str("n,nq,nc,seconds_per_rhs,path\n");

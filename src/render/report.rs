@@ -4,7 +4,7 @@
 //! ledger (`T(t_end) - T(0)` against the work of every effect and drive,
 //! the balance of docs/physics.md §8), an animation of the run (a GIF
 //! inlined as a `data:` URI, drawn from the trajectory's rows by
-//! [`crate::animate::gif_of_table`]), every figure as inline SVG, and
+//! [`crate::render::animation::gif_of_table`]), every figure as inline SVG, and
 //! what reproduces the run: the command line (naming the scene file a run
 //! was given, [`RunOptions::scene_file`]) and the scene file after the
 //! overrides. Nothing is loaded from elsewhere: no scripts, style sheets,
@@ -16,26 +16,25 @@ use ezy_core::{Dynamics, Model};
 
 use ezy_scene::Scene;
 
-use crate::commands::run::RunOptions;
-use crate::output::Table;
+use crate::output::csv::Table;
 
 /// Rows of the report's animation at most.
-pub const REPORT_FRAMES: usize = 240;
+pub(crate) const REPORT_FRAMES: usize = 240;
 /// Frame rate of the report's animation \[1/s\]: a GIF gives each frame a
 /// whole number of hundredths of a second, so the rate is one that plays
 /// exactly (10 hundredths a frame; 12 fps would play at 12.5).
-pub const REPORT_FPS: f64 = 10.0;
+pub(crate) const REPORT_FPS: f64 = 10.0;
 /// Resolution of the report's animation \[dpi\] (480 x 320 pixels).
-pub const REPORT_DPI: f64 = 48.0;
+pub(crate) const REPORT_DPI: f64 = 48.0;
 
 /// `text` with `&`, `<`, `>` and `"` escaped for HTML.
-pub fn escape(text: &str) -> String {
+pub(crate) fn escape(text: &str) -> String {
     text.replace('&', "&amp;").replace('<', "&lt;").replace('>', "&gt;").replace('"', "&quot;")
 }
 
 /// One line of the energy ledger: a name, a value \[J\] and what it is.
 #[derive(Debug, Clone, PartialEq)]
-pub struct LedgerLine {
+pub(crate) struct LedgerLine {
     /// The quantity (`T(0)`, `W_motor`, ...).
     pub name: String,
     /// Its value \[J\].
@@ -49,7 +48,7 @@ pub struct LedgerLine {
 /// `T = 1/2 qd^T M qd` at both ends (the mass matrix of a planar
 /// multibody system in absolute coordinates is diagonal), the work of
 /// every effect and drive, their sum, and the gap `T(t_end) - T(0) - sum W`.
-pub fn ledger<M: Model>(sys: &Dynamics<M>, y0: &[f64], y1: &[f64], names: &[String]) -> Vec<LedgerLine> {
+pub(crate) fn ledger<M: Model>(sys: &Dynamics<M>, y0: &[f64], y1: &[f64], names: &[String]) -> Vec<LedgerLine> {
     let nq = sys.info.nq();
     let t = |y: &[f64]| 0.5 * (0..nq).map(|k| sys.mass[k] * y[nq + k] * y[nq + k]).sum::<f64>();
     let (t0, t1) = (t(y0), t(y1));
@@ -75,7 +74,7 @@ pub fn ledger<M: Model>(sys: &Dynamics<M>, y0: &[f64], y1: &[f64], names: &[Stri
 /// `word` as one word of a POSIX shell's command line: as it is when it
 /// holds only characters no shell treats specially, else in single
 /// quotes (a `'` inside written `'\''`).
-pub fn shell_quote(word: &str) -> String {
+pub(crate) fn shell_quote(word: &str) -> String {
     let plain = |c: char| c.is_ascii_alphanumeric() || "-_./:=,+@%".contains(c);
     if !word.is_empty() && word.chars().all(plain) {
         word.to_string()
@@ -84,67 +83,8 @@ pub fn shell_quote(word: &str) -> String {
     }
 }
 
-/// The command line that reruns `scene` with `opts`: the scene by name,
-/// or the scene file the run was given ([`RunOptions::scene_file`]),
-/// quoted for a shell; then every setting the run was given (the page
-/// also shows the scene after the `--set` overrides).
-pub fn command_line(scene: &str, opts: &RunOptions) -> String {
-    let scene = match opts.scene_file.clone() {
-        // a relative path that starts like a flag stays a path
-        Some(f) if f.starts_with('-') => format!("./{f}"),
-        Some(f) => f,
-        None => scene.to_string(),
-    };
-    let mut a = vec!["ezy".to_string(), "run".into(), shell_quote(&scene)];
-    for (name, v) in &opts.sets {
-        a.push(format!("--set {}", shell_quote(&format!("{name}={v:?}"))));
-    }
-    let num = |a: &mut Vec<String>, flag: &str, v: Option<f64>| {
-        if let Some(v) = v {
-            a.push(format!("{flag} {v:?}"));
-        }
-    };
-    num(&mut a, "--dt", opts.dt);
-    num(&mut a, "--t-end", opts.t_end);
-    num(&mut a, "--every", opts.every);
-    num(&mut a, "--rtol", opts.rtol);
-    num(&mut a, "--atol", opts.atol);
-    if let Some(m) = opts.method {
-        a.push(format!("--integrator {}", m.name()));
-    }
-    if let Some(f) = opts.formulation {
-        a.push(format!("--formulation {}", f.name()));
-    }
-    if let Some(p) = opts.projection {
-        a.push(format!(
-            "--projection {}",
-            match p {
-                ezy_core::ProjectionKind::None => "none",
-                ezy_core::ProjectionKind::Euclidean => "euclidean",
-                ezy_core::ProjectionKind::MassWeighted => "mass",
-            }
-        ));
-    }
-    if let Some(b) = opts.baumgarte {
-        a.push(format!("--baumgarte {:?},{:?}", b.alpha, b.beta));
-    }
-    if let Some(n) = opts.max_steps {
-        a.push(format!("--max-steps {n}"));
-    }
-    num(&mut a, "--max-output-mb", opts.max_output_mb);
-    if let Some(f) = opts.figure_format {
-        a.push(format!("--format {f}"));
-    }
-    num(&mut a, "--dpi", opts.dpi);
-    if !opts.figures {
-        a.push("--no-figures".into());
-    }
-    a.push("--report".into());
-    a.join(" ")
-}
-
 /// Everything the page shows.
-pub struct Page<'a> {
+pub(crate) struct Page<'a> {
     /// The scene after the overrides.
     pub scene: &'a Scene,
     /// Name of the model type (`EzyRoller`).
@@ -168,7 +108,7 @@ pub struct Page<'a> {
 }
 
 /// The HTML page.
-pub fn html(p: &Page<'_>) -> String {
+pub(crate) fn html(p: &Page<'_>) -> String {
     use std::fmt::Write as _;
     let mut h = String::new();
     let name = escape(&p.scene.name);
@@ -258,13 +198,17 @@ figcaption { color: #666; font-size: 0.9em; }
 
 /// The figures of `scene` as SVG for the page, by stem (when the run drew
 /// none itself: `--no-figures`).
-pub fn figures(info: &ezy_core::ModelInfo, scene: &Scene, table: &Table) -> Vec<(String, Result<String, String>)> {
+pub(crate) fn figures(
+    info: &ezy_core::ModelInfo,
+    scene: &Scene,
+    table: &Table,
+) -> Vec<(String, Result<String, String>)> {
     use rayon::prelude::*;
     scene
         .figures
         .par_iter()
         .map(|fig| {
-            let svg = crate::figures::svg(info, fig, table).map_err(|e| e.to_string());
+            let svg = crate::render::figures::svg(info, fig, table).map_err(|e| e.to_string());
             (ezy_scene::figure_stem(&fig.file).to_string(), svg)
         })
         .collect()
@@ -283,17 +227,6 @@ mod tests {
         assert_eq!(shell_quote("it's.toml"), "'it'\\''s.toml'");
         assert_eq!(shell_quote("$HOME/a;b`c`.toml"), "'$HOME/a;b`c`.toml'");
         assert_eq!(shell_quote(""), "''");
-    }
-
-    #[test]
-    fn a_run_given_a_file_is_reproduced_from_it() {
-        let opts = RunOptions { t_end: Some(3.0), figures: true, ..RunOptions::default() };
-        assert_eq!(command_line("drive", &opts), "ezy run drive --t-end 3.0 --report");
-        let file = |f: &str| RunOptions { scene_file: Some(f.into()), ..opts.clone() };
-        let named = command_line("drive", &file("my dir/drive.toml"));
-        assert_eq!(named, "ezy run 'my dir/drive.toml' --t-end 3.0 --report");
-        let flag_like = command_line("x", &file("-x.toml"));
-        assert_eq!(flag_like, "ezy run ./-x.toml --t-end 3.0 --report");
     }
 
     /// A GIF's frame lasts a whole number of hundredths of a second: the

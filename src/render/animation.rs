@@ -26,12 +26,11 @@
 //! [`FOLLOW_WIDTH`] vehicle sizes wide centred on the mean of its points).
 //! A vehicle's size is the diagonal of the bounding box of its points.
 //! Frames are drawn as SVG by plotters and rasterized by resvg
-//! ([`crate::plot::rgba`]) in parallel, mapped onto one 256-colour palette
+//! ([`crate::render::plot::rgba`]) in parallel, mapped onto one 256-colour palette
 //! (NeuQuant, trained on frames from the start, middle and end) and
 //! written with the `gif` crate; the file is written atomically.
 
-use std::path::{Path, PathBuf};
-use std::time::Instant;
+use std::path::PathBuf;
 
 use ezy_core::{Dynamics, Model, Observer, Sample, fmt_value};
 
@@ -39,24 +38,23 @@ use ezy_scene::Scene;
 use plotters::prelude::*;
 use rayon::prelude::*;
 
-use crate::commands::run::{self, RunOptions};
-use crate::plot::{Axis, PALETTE, PlotError, SCALE};
+use crate::render::plot::{Axis, PALETTE, PlotError, SCALE};
 
 /// The view follows the vehicle when its motion spans more than this many
 /// vehicle sizes.
-pub const FOLLOW_FACTOR: f64 = 8.0;
+pub(crate) const FOLLOW_FACTOR: f64 = 8.0;
 /// Width of the following view in vehicle sizes.
-pub const FOLLOW_WIDTH: f64 = 4.0;
+pub(crate) const FOLLOW_WIDTH: f64 = 4.0;
 /// Most frames an animation may have (`ezy animate` refuses more before
 /// integrating; raise `--speed` or lower `--fps`). With a fixed-step
 /// method the frames are a whole number of steps apart, and the count and
 /// the frame rate are those of that spacing.
-pub const MAX_FRAMES: usize = 4000;
+pub(crate) const MAX_FRAMES: usize = 4000;
 /// Frames drawn and quantized at once (memory: this many RGBA frames).
 const CHUNK: usize = 32;
 /// Smallest height of a frame's text in the GIF \[px\] (the font size
 /// of its tick labels).
-pub const MIN_TEXT_PX: f64 = 11.0;
+pub(crate) const MIN_TEXT_PX: f64 = 11.0;
 /// Font sizes of a frame's tick labels, axis descriptions and time
 /// label \[nominal px, plotters' convention: the font's size is 1/1.24 of
 /// it\], before [`text_zoom`].
@@ -67,7 +65,7 @@ const TIME_SIZE: f64 = 22.0;
 /// How much a frame's text is enlarged at `dpi` so that its smallest
 /// text, the tick labels, is [`MIN_TEXT_PX`] high or more: 1 from about
 /// 82 dpi up (the report's 48 dpi: 1.7).
-pub fn text_zoom(dpi: f64) -> f64 {
+pub(crate) fn text_zoom(dpi: f64) -> f64 {
     let tick_px = TICK_SIZE / 1.24 * dpi / 96.0;
     (MIN_TEXT_PX / tick_px).max(1.0)
 }
@@ -76,7 +74,7 @@ const TRANSPARENT: u8 = 255;
 
 /// Settings of an animation.
 #[derive(Debug, Clone, PartialEq)]
-pub struct AnimateOptions {
+pub(crate) struct AnimateOptions {
     /// The GIF file to write.
     pub out: PathBuf,
     /// Frames per second of the GIF \[1/s\] (1 to 50; GIF delays are whole
@@ -91,47 +89,9 @@ pub struct AnimateOptions {
     pub dpi: f64,
 }
 
-/// What an animation produced.
-#[derive(Debug, Clone)]
-pub struct AnimateReport {
-    /// The GIF written.
-    pub path: PathBuf,
-    /// Number of frames.
-    pub frames: usize,
-    /// Frame size in pixels.
-    pub size: (u32, u32),
-    /// Simulated duration \[s\].
-    pub t_end: f64,
-    /// Wall time of the integration \[s\].
-    pub integrate_s: f64,
-    /// Wall time of drawing and encoding \[s\].
-    pub draw_s: f64,
-}
-
-impl AnimateReport {
-    /// One line for people.
-    pub fn summary(&self, opts: &AnimateOptions) -> String {
-        format!(
-            "wrote {}: {} frames of {} x {} px, {:.1} s of animation for {} s simulated ({}x real time); integration {:.3} s, drawing {:.2} s\n",
-            self.path.display(),
-            self.frames,
-            self.size.0,
-            self.size.1,
-            self.frames as f64 / opts.fps,
-            self.t_end,
-            opts.speed,
-            self.integrate_s,
-            self.draw_s
-        )
-    }
-}
-
 /// Why an animation failed.
 #[derive(Debug, thiserror::Error)]
-pub enum AnimateError {
-    /// The run failed (bad scene, override or integration).
-    #[error(transparent)]
-    Run(#[from] run::Error),
+pub(crate) enum AnimationError {
     /// A setting out of range.
     #[error("{0}")]
     Setting(String),
@@ -154,8 +114,10 @@ pub enum AnimateError {
     },
 }
 
-/// The time of every frame's sample and its coordinates `q`.
-struct Frames {
+/// The time of every frame's sample and its coordinates `q`: an
+/// [`Observer`] of a run with one sample per frame.
+#[derive(Default)]
+pub(crate) struct Frames {
     t: Vec<f64>,
     q: Vec<Vec<f64>>,
     /// Per frame: the skates (by index in the model's skates) that slide
@@ -173,15 +135,39 @@ impl<M: Model> Observer<M> for Frames {
     }
 }
 
+impl Frames {
+    /// Number of frames.
+    pub(crate) fn len(&self) -> usize {
+        self.t.len()
+    }
+}
+
+/// Draws `frames` of a run of `scene` on `sys` and writes the GIF
+/// `anim.out` atomically; returns the frame size \[px\].
+///
+/// # Errors
+/// [`AnimationError::Setting`] for a `[draw]` table naming an unknown
+/// point or a motion that cannot be drawn, [`AnimationError::Draw`] and
+/// [`AnimationError::Write`].
+pub(crate) fn write<M: Model>(
+    sys: &Dynamics<M>,
+    scene: &Scene,
+    frames: &Frames,
+    anim: &AnimateOptions,
+) -> Result<(u32, u32), AnimationError> {
+    let geometry = Geometry::new(sys, scene, frames)?;
+    write_gif(&geometry, frames, anim)
+}
+
 /// The colour of a skate that slides.
 const SLIDING: RGBColor = RGBColor(214, 39, 40);
 
 /// Checks `anim` and returns the number of frames for `t_end`.
 ///
 /// # Errors
-/// [`AnimateError::Setting`] naming the flag.
-fn frame_count(anim: &AnimateOptions, t_end: f64) -> Result<usize, AnimateError> {
-    let bad = |m: String| Err(AnimateError::Setting(m));
+/// [`AnimationError::Setting`] naming the flag.
+pub(crate) fn frame_count(anim: &AnimateOptions, t_end: f64) -> Result<usize, AnimationError> {
+    let bad = |m: String| Err(AnimationError::Setting(m));
     if !(anim.fps.is_finite() && (1.0..=50.0).contains(&anim.fps)) {
         return bad(format!("--fps {}: the frame rate is from 1 to 50 frames per second", fmt_value(anim.fps)));
     }
@@ -222,69 +208,6 @@ fn frame_count(anim: &AnimateOptions, t_end: f64) -> Result<usize, AnimateError>
     Ok(frames as usize)
 }
 
-/// Integrates `scene` with `opts` (as `ezy run` does, one sample per
-/// frame) and writes the animation `anim.out` of `proto` (a model at its defaults).
-///
-/// # Errors
-/// [`AnimateError::Setting`] for a setting out of range (checked before
-/// anything runs), [`AnimateError::Run`] as for [`run::run_model`],
-/// [`AnimateError::Draw`] and [`AnimateError::Write`].
-pub fn animate_model<M: Model>(
-    proto: &M,
-    scene: &Scene,
-    opts: &RunOptions,
-    anim: &AnimateOptions,
-) -> Result<AnimateReport, AnimateError> {
-    let t_end = opts.t_end.unwrap_or(scene.t_end);
-    frame_count(anim, t_end)?;
-    if let Some(every) = opts.every {
-        return Err(AnimateError::Setting(format!(
-            "--every {}: an animation samples every speed / fps seconds; set --speed and --fps instead",
-            fmt_value(every)
-        )));
-    }
-    let opts = RunOptions { every: Some(anim.speed / anim.fps), ..opts.clone() };
-    let settings = run::settings(scene, &opts).map_err(run::Error::from)?;
-    // a fixed-step method samples every whole number of steps: the frames
-    // are that far apart, and the GIF's frame rate follows
-    let mut anim = anim.clone();
-    if !settings.method.is_adaptive() {
-        let spacing = settings.output_stride() as f64 * settings.dt;
-        anim.fps = anim.speed / spacing;
-        let frames = settings.n_steps() / settings.output_stride() + 2;
-        if frames > MAX_FRAMES as u64 || !(1.0..=50.0).contains(&anim.fps) {
-            return Err(AnimateError::Setting(format!(
-                "with steps of {} s, frames are {} s apart: {frames} frames at {} fps (at most {MAX_FRAMES} frames from 1 to 50 fps); choose --speed as a multiple of {} s times --fps",
-                fmt_value(settings.dt),
-                fmt_value(spacing),
-                fmt_value(format!("{:.1}", anim.fps).parse().unwrap_or(anim.fps)),
-                fmt_value(settings.dt)
-            )));
-        }
-    }
-    let anim = &anim;
-    let (problem, run_scene) = run::problem(proto, scene, &opts, settings).map_err(run::Error::from)?;
-    let (mut sys, y0, _) = problem.into_system().map_err(run::Error::from)?;
-    let wall = Instant::now();
-    let mut frames = Frames { t: Vec::new(), q: Vec::new(), sliding: Vec::new() };
-    ezy_core::simulate(&mut sys, &y0, &settings, &mut frames).map_err(|e| match e {
-        ezy_core::RunError::Sim(e) => run::Error::from(sys.explain(e, &settings)),
-        ezy_core::RunError::Output(never) => match never {},
-    })?;
-    let integrate_s = wall.elapsed().as_secs_f64();
-    let wall = Instant::now();
-    let geometry = Geometry::new(&sys, &run_scene, &frames)?;
-    let size = write_gif(&geometry, &frames, anim)?;
-    Ok(AnimateReport {
-        path: anim.out.clone(),
-        frames: frames.t.len(),
-        size,
-        t_end: settings.t_end,
-        integrate_s,
-        draw_s: wall.elapsed().as_secs_f64(),
-    })
-}
-
 /// A spring's two ends: position \[m\] and whether fixed to the ground.
 type SpringEnds = [([f64; 2], bool); 2];
 
@@ -320,7 +243,7 @@ struct Geometry {
 }
 
 impl Geometry {
-    fn new<M: Model>(sys: &Dynamics<M>, scene: &Scene, frames: &Frames) -> Result<Self, AnimateError> {
+    fn new<M: Model>(sys: &Dynamics<M>, scene: &Scene, frames: &Frames) -> Result<Self, AnimationError> {
         let info = &sys.info;
         let (np, nb) = (info.points.len(), info.bodies.len());
         let mut local = vec![0.0; 2 * np];
@@ -358,7 +281,7 @@ impl Geometry {
                         .iter()
                         .map(|p| if p == "cm" { Some(np + b) } else { info.point_index(p) })
                         .collect::<Option<_>>()
-                        .ok_or_else(|| AnimateError::Setting(format!("[draw] {name}: unknown point")))?;
+                        .ok_or_else(|| AnimationError::Setting(format!("[draw] {name}: unknown point")))?;
                     let closed = nodes.len() >= 3;
                     return Ok(Outline { nodes, closed });
                 }
@@ -378,7 +301,7 @@ impl Geometry {
                     }
                 })
             })
-            .collect::<Result<Vec<_>, AnimateError>>()?;
+            .collect::<Result<Vec<_>, AnimationError>>()?;
         let hinges = info.hinges.iter().map(|h| (h.point, h.body_b.is_none())).collect();
         let trails = if info.skates.is_empty() {
             (0..np).take(8).collect()
@@ -407,11 +330,11 @@ impl Geometry {
             }
             size = size.max((fhi[0] - flo[0]).hypot(fhi[1] - flo[1]));
         }
-        let drawable = |v: f64| v.is_finite() && v.abs() <= crate::plot::MAX_MAGNITUDE;
+        let drawable = |v: f64| v.is_finite() && v.abs() <= crate::render::plot::MAX_MAGNITUDE;
         if !(lo.iter().chain(&hi).all(|&v| drawable(v)) && size.is_finite()) {
-            return Err(AnimateError::Setting(format!(
+            return Err(AnimationError::Setting(format!(
                 "the motion reaches positions that cannot be drawn (not finite, or beyond {:e} m)",
-                crate::plot::MAX_MAGNITUDE
+                crate::render::plot::MAX_MAGNITUDE
             )));
         }
         let span = (hi[0] - lo[0]).max(hi[1] - lo[1]);
@@ -445,7 +368,7 @@ impl Geometry {
 fn frame_svg(g: &Geometry, frames: &Frames, k: usize, anim: &AnimateOptions) -> Result<String, String> {
     let mut svg = String::new();
     {
-        let (w, h) = (crate::plot::WIDTH * SCALE, crate::plot::HEIGHT * SCALE);
+        let (w, h) = (crate::render::plot::WIDTH * SCALE, crate::render::plot::HEIGHT * SCALE);
         let root = SVGBackend::with_string(&mut svg, (w, h)).into_drawing_area();
         root.fill(&WHITE).map_err(|e| e.to_string())?;
         // text, and the margins that hold it, enlarged at low resolutions
@@ -567,7 +490,7 @@ fn frame_svg(g: &Geometry, frames: &Frames, k: usize, anim: &AnimateOptions) -> 
         root.draw(&Text::new(label, at, ("sans-serif", z(TIME_SIZE)).into_font())).map_err(|e| e.to_string())?;
         root.present().map_err(|e| e.to_string())?;
     }
-    Ok(crate::plot::nominal_size(svg))
+    Ok(crate::render::plot::nominal_size(svg))
 }
 
 /// No line at all (the mesh's light lines).
@@ -624,25 +547,25 @@ fn anchor<'a>(
 
 /// Draws every frame, quantizes them onto one palette and writes the GIF
 /// atomically; returns the frame size.
-fn write_gif(g: &Geometry, frames: &Frames, anim: &AnimateOptions) -> Result<(u32, u32), AnimateError> {
-    let fail = |message: String| AnimateError::Write { path: anim.out.clone(), message };
+fn write_gif(g: &Geometry, frames: &Frames, anim: &AnimateOptions) -> Result<(u32, u32), AnimationError> {
+    let fail = |message: String| AnimationError::Write { path: anim.out.clone(), message };
     let (bytes, size) = encode_gif(g, frames, anim)?;
     if let Some(dir) = anim.out.parent().filter(|d| !d.as_os_str().is_empty()) {
         std::fs::create_dir_all(dir).map_err(|e| fail(format!("creating {}: {e}", dir.display())))?;
     }
-    crate::transaction::write_atomically(&anim.out, &bytes).map_err(|e| fail(e.to_string()))?;
+    crate::output::transaction::write_atomically(&anim.out, &bytes).map_err(|e| fail(e.to_string()))?;
     Ok(size)
 }
 
 /// The GIF of `frames` in memory, and its frame size.
-fn encode_gif(g: &Geometry, frames: &Frames, anim: &AnimateOptions) -> Result<(Vec<u8>, (u32, u32)), AnimateError> {
+fn encode_gif(g: &Geometry, frames: &Frames, anim: &AnimateOptions) -> Result<(Vec<u8>, (u32, u32)), AnimationError> {
     let n = frames.t.len();
-    let draw = |k: usize| -> Result<(u32, u32, Vec<u8>), AnimateError> {
-        let svg = frame_svg(g, frames, k, anim).map_err(|message| AnimateError::Draw {
+    let draw = |k: usize| -> Result<(u32, u32, Vec<u8>), AnimationError> {
+        let svg = frame_svg(g, frames, k, anim).map_err(|message| AnimationError::Draw {
             frame: k,
             source: PlotError::Draw { title: "animation".into(), message },
         })?;
-        crate::plot::rgba(&svg, anim.dpi).map_err(|source| AnimateError::Draw { frame: k, source })
+        crate::render::plot::rgba(&svg, anim.dpi).map_err(|source| AnimationError::Draw { frame: k, source })
     };
     // the palette: NeuQuant over the first, middle and last frames
     let mut sample = Vec::new();
@@ -658,7 +581,7 @@ fn encode_gif(g: &Geometry, frames: &Frames, anim: &AnimateOptions) -> Result<(V
     let mut palette = nq.color_map_rgb();
     palette.extend_from_slice(&[255, 0, 255]);
     let mut previous: Option<Vec<u8>> = None;
-    let fail = |message: String| AnimateError::Write { path: anim.out.clone(), message };
+    let fail = |message: String| AnimationError::Write { path: anim.out.clone(), message };
     let mut bytes = Vec::new();
     {
         let mut enc =
@@ -666,7 +589,7 @@ fn encode_gif(g: &Geometry, frames: &Frames, anim: &AnimateOptions) -> Result<(V
         enc.set_repeat(gif::Repeat::Infinite).map_err(|e| fail(e.to_string()))?;
         let delay = (100.0 / anim.fps).round().max(1.0) as u16;
         for start in (0..n).step_by(CHUNK) {
-            let chunk: Vec<Result<Vec<u8>, AnimateError>> = (start..(start + CHUNK).min(n))
+            let chunk: Vec<Result<Vec<u8>, AnimationError>> = (start..(start + CHUNK).min(n))
                 .into_par_iter()
                 .map(|k| {
                     let (_, _, px) = draw(k)?;
@@ -708,25 +631,25 @@ fn encode_gif(g: &Geometry, frames: &Frames, anim: &AnimateOptions) -> Result<(V
 /// frames, at `fps` frames per second and `dpi`; returns the GIF's bytes.
 ///
 /// # Errors
-/// [`AnimateError::Setting`] if the table lacks a coordinate column or
-/// has no rows, [`AnimateError::Draw`] and [`AnimateError::Write`].
-pub fn gif_of_table<M: Model>(
+/// [`AnimationError::Setting`] if the table lacks a coordinate column or
+/// has no rows, [`AnimationError::Draw`] and [`AnimationError::Write`].
+pub(crate) fn gif_of_table<M: Model>(
     sys: &Dynamics<M>,
     scene: &Scene,
-    table: &crate::output::Table,
+    table: &crate::output::csv::Table,
     max_frames: usize,
     fps: f64,
     dpi: f64,
-) -> Result<Vec<u8>, AnimateError> {
+) -> Result<Vec<u8>, AnimationError> {
     let cols: Vec<usize> = sys
         .info
         .coords
         .iter()
-        .map(|c| table.index(c).ok_or_else(|| AnimateError::Setting(format!("no column `{c}` in the trajectory"))))
+        .map(|c| table.index(c).ok_or_else(|| AnimationError::Setting(format!("no column `{c}` in the trajectory"))))
         .collect::<Result<_, _>>()?;
     let t: Vec<f64> = table.column(0).collect();
     if t.is_empty() {
-        return Err(AnimateError::Setting("the trajectory has no rows".into()));
+        return Err(AnimationError::Setting("the trajectory has no rows".into()));
     }
     let stride = t.len().div_ceil(max_frames.max(2) - 1).max(1);
     let mut rows: Vec<usize> = (0..t.len()).step_by(stride).collect();
@@ -748,9 +671,4 @@ pub fn gif_of_table<M: Model>(
     let anim = AnimateOptions { out: PathBuf::from("report.gif"), fps, speed, trail: 3.0 * speed, dpi };
     let geometry = Geometry::new(sys, scene, &frames)?;
     Ok(encode_gif(&geometry, &frames, &anim)?.0)
-}
-
-/// The default file of `ezy animate SCENE`: `out/SCENE/animation.gif`.
-pub fn default_out(scene: &str) -> PathBuf {
-    Path::new("out").join(scene).join("animation.gif")
 }

@@ -2,19 +2,52 @@
 //! of docs/physics.md (`phi1d` is the rate of `phi1`), as text or as a LaTeX
 //! document.
 
+use std::io::Write;
+
+use clap::{ArgMatches, Args, FromArgMatches, ValueEnum};
 use ezy_core::{Model, ModelInfo};
 
+use crate::app::{App, AppError};
+use crate::cli::parse_set;
+use crate::session::with_sets;
+
+/// Print the equations the model! macro derived (phi, G = [C_q; S], gamma).
+#[derive(Args, Debug)]
+struct EquationsArgs {
+    /// Model name (see `ezy list`).
+    model: String,
+    /// Set a parameter or a family count first (`--set N=3`); repeatable.
+    #[arg(long = "set", value_parser = parse_set)]
+    sets: Vec<(String, f64)>,
+    /// Output format.
+    #[arg(long, value_enum, default_value = "text")]
+    format: Format,
+}
+
 /// Output format.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum Format {
-    /// Plain text.
+#[derive(ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
+enum Format {
+    /// Plain text in the notation of docs/physics.md (`phi1d` is the rate of `phi1`).
     Text,
     /// A LaTeX document (amsmath).
     Latex,
 }
 
+/// The arguments of `ezy equations`, on the subcommand `cmd`.
+pub(crate) fn cli(cmd: clap::Command) -> clap::Command {
+    EquationsArgs::augment_args(cmd)
+}
+
+/// Prints the equations of the model named, with the `--set` values.
+pub(crate) fn exec(app: &App, args: &ArgMatches, out: &mut dyn Write) -> Result<(), AppError> {
+    let args = EquationsArgs::from_arg_matches(args)?;
+    let model = app.model_or_error(&args.model)?;
+    let text = with_sets(model, &args.sets).map(|m| render(&m, args.format)).map_err(AppError::Failed)?;
+    Ok(out.write_all(text.as_bytes())?)
+}
+
 /// The derived equations of `model` (at its family counts) in `format`.
-pub fn render<M: Model>(model: &M, format: Format) -> String {
+fn render<M: Model>(model: &M, format: Format) -> String {
     match format {
         Format::Text => text(model),
         Format::Latex => latex(model),

@@ -1,15 +1,15 @@
 //! Scene figures: [`FigureSpec`]s resolved against the trajectory table and
-//! drawn with [`crate::plot`]. Every value is checked before anything is
+//! drawn with [`crate::render::plot`]. Every value is checked before anything is
 //! drawn: a value that is not finite or beyond
-//! [`crate::plot::MAX_MAGNITUDE`] is an error naming the figure file, the
+//! [`crate::render::plot::MAX_MAGNITUDE`] is an error naming the figure file, the
 //! column, the value and its time.
 
 use ezy_core::ModelInfo;
 
 use ezy_scene::{Column, FigureFormat, FigureSpec};
 
-use crate::output::Table;
-use crate::plot::{Chart, PlotError, Series};
+use crate::output::csv::Table;
+use crate::render::plot::{Chart, PlotError, Series};
 
 /// Errors drawing a scene figure.
 #[derive(Debug, thiserror::Error)]
@@ -23,7 +23,7 @@ pub enum FigureError {
         column: String,
     },
     /// A value the figure would have to draw cannot be drawn: it is not
-    /// finite, or its magnitude is beyond [`crate::plot::MAX_MAGNITUDE`].
+    /// finite, or its magnitude is beyond [`crate::render::plot::MAX_MAGNITUDE`].
     #[error("figure {figure}: column `{column}` is {value:e} at t = {} s, which {reason}; the figure is not drawn", ezy_core::fmt_value(*t))]
     Value {
         /// Figure file name.
@@ -76,7 +76,7 @@ const GREEK: [(&str, char); 17] = [
 /// `phi2d - phi1d [rad/s]` reads `φ̇₂ − φ̇₁ [rad/s]`, `x1d` `ẋ₁` and
 /// `tau` `τ`; a ` - ` between spaces becomes a minus sign. Words with
 /// an underscore (`W_motor`) and other words are left as they are.
-pub fn typeset(text: &str) -> String {
+pub(crate) fn typeset(text: &str) -> String {
     let mut out = String::with_capacity(text.len() + 8);
     let mut word = String::new();
     let flush = |word: &mut String, out: &mut String| {
@@ -130,13 +130,13 @@ fn typeset_symbol(base: &str, dot: &str) -> Option<String> {
 
 /// Floor of logarithmic axes: exact zeros (a residual projected to machine
 /// zero) are drawn here.
-pub const LOG_FLOOR: f64 = 1e-18;
+pub(crate) const LOG_FLOOR: f64 = 1e-18;
 
 /// Values of a column expression, one per row.
 ///
 /// # Errors
 /// [`FigureError::Column`] if a named column does not exist.
-pub fn values(table: &Table, col: &Column, figure: &str) -> Result<Vec<f64>, FigureError> {
+pub(crate) fn values(table: &Table, col: &Column, figure: &str) -> Result<Vec<f64>, FigureError> {
     let get = |name: &str| named(table, name, figure);
     Ok(match col {
         Column::Named(a) => get(a)?,
@@ -168,7 +168,7 @@ fn check_values(figure: &str, column: String, values: &[f64], times: &[f64], log
     for (k, &v) in values.iter().enumerate() {
         let reason = if !v.is_finite() {
             "is not a finite number"
-        } else if !log && v.abs() > crate::plot::MAX_MAGNITUDE {
+        } else if !log && v.abs() > crate::render::plot::MAX_MAGNITUDE {
             "is too large to plot (magnitude above 1e100)"
         } else {
             continue;
@@ -180,32 +180,13 @@ fn check_values(figure: &str, column: String, values: &[f64], times: &[f64], log
 }
 
 /// Draws `fig` from `table` as SVG (see [`chart`] and
-/// [`crate::plot::chart_svg`]).
+/// [`crate::render::plot::chart_svg`]).
 ///
 /// # Errors
 /// As [`chart`], and [`FigureError::Plot`] for a drawing failure.
-pub fn svg(info: &ModelInfo, fig: &FigureSpec, table: &Table) -> Result<String, FigureError> {
-    crate::plot::chart_svg(&chart(info, fig, table)?)
+pub(crate) fn svg(info: &ModelInfo, fig: &FigureSpec, table: &Table) -> Result<String, FigureError> {
+    crate::render::plot::chart_svg(&chart(info, fig, table)?)
         .map_err(|source| FigureError::Plot { figure: fig.file.clone(), source })
-}
-
-/// Draws `fig` from `table` and returns its SVG and the file's bytes in
-/// `format` (PNG at `dpi`): the SVG once, encoded from it.
-///
-/// # Errors
-/// As [`svg`], and [`FigureError::Plot`] if the encoding fails (see
-/// [`crate::plot::encode`]).
-pub fn render(
-    info: &ModelInfo,
-    fig: &FigureSpec,
-    table: &Table,
-    format: FigureFormat,
-    dpi: f64,
-) -> Result<(String, Vec<u8>), FigureError> {
-    let svg = svg(info, fig, table)?;
-    let bytes = crate::plot::encode(&svg, format, dpi, &fig.title)
-        .map_err(|source| FigureError::Plot { figure: fig.file.clone(), source })?;
-    Ok((svg, bytes))
 }
 
 /// How many threads [`render_all`] encodes `figures` figures on: one per
@@ -213,7 +194,7 @@ pub fn render(
 /// none (the calling thread) inside a rayon pool, whose threads (a
 /// sweep's runs) are busy already. Asks rayon nothing that would start
 /// its global pool, whose idle workers would spin beside the run.
-pub fn encoding_threads(figures: usize) -> usize {
+pub(crate) fn encoding_threads(figures: usize) -> usize {
     if rayon::current_thread_index().is_some() {
         0
     } else {
@@ -221,7 +202,8 @@ pub fn encoding_threads(figures: usize) -> usize {
     }
 }
 
-/// Draws every figure of `figs` from `table` as [`render`] does and hands
+/// Draws every figure of `figs` from `table` (its SVG, [`svg`], then the
+/// file's bytes in `format`, PNG at `dpi`, encoded from it) and hands
 /// each to `done(index, svg, bytes)` on the calling thread as soon as it
 /// is encoded, in the order they finish (not that of `figs`): the caller
 /// writes one figure while the others are drawn, and holds none longer.
@@ -244,11 +226,11 @@ pub fn encoding_threads(figures: usize) -> usize {
 /// encodes them one by one.
 ///
 /// # Errors
-/// The first error received: `check`'s, a drawing's, an encoding's (as
-/// [`render`]) or `done`'s; on the calling thread, an SVG that cannot be
+/// The first error received: `check`'s, a drawing's, an encoding's
+/// ([`FigureError::Plot`]) or `done`'s; on the calling thread, an SVG that cannot be
 /// drawn (the first in the order of `figs`) before any figure is
 /// encoded.
-pub fn render_all<E>(
+pub(crate) fn render_all<E>(
     info: &ModelInfo,
     figs: &[FigureSpec],
     table: &Table,
@@ -269,7 +251,7 @@ where
     let encode = |i: usize, svg: &str| -> Result<Vec<u8>, E> {
         let fig = &figs[i];
         check(fig)?;
-        crate::plot::encode(svg, format, dpi, &fig.title)
+        crate::render::plot::encode(svg, format, dpi, &fig.title)
             .map_err(|source| FigureError::Plot { figure: fig.file.clone(), source }.into())
     };
     let threads = encoding_threads(n);

@@ -1,5 +1,5 @@
 //! The trajectory table: written to `trajectory.csv` as the run goes (into
-//! the run's [`Transaction`], committed with the figures only when the whole
+//! the run's transaction, [`super::transaction`], committed with the figures only when the whole
 //! run succeeded, so a failed or interrupted run never leaves a truncated
 //! file that looks complete) and kept in memory for the figures.
 //!
@@ -13,7 +13,7 @@ use std::path::{Path, PathBuf};
 
 use ezy_core::{Dynamics, Model, Observer, Sample, SimError};
 
-use crate::transaction::{Transaction, TransactionError};
+use crate::output::transaction::{Transaction, TransactionError};
 
 /// Errors writing the table.
 #[derive(Debug, thiserror::Error)]
@@ -52,7 +52,7 @@ pub use ezy_scene::RowBuilder;
 /// `falling`), numbers as in `trajectory.csv` ([`format_number`]). Event
 /// names are letters, digits, `_` and `-` ([`ezy_core::events::check_event_name`]),
 /// so no field needs quotes.
-pub fn events_csv(records: &[ezy_core::EventRecord], state_names: &[String]) -> String {
+pub(crate) fn events_csv(records: &[ezy_core::EventRecord], state_names: &[String]) -> String {
     let mut buf = zmij::Buffer::new();
     let mut out = String::from("t,event,direction");
     for n in state_names {
@@ -133,13 +133,13 @@ fn write_rows(writer: &mut impl Write, rows: &[f64], ncols: usize) -> std::io::R
 
 /// Most bytes [`format_number`] writes for one number (and its comma):
 /// `-1.2345678901234567e-308`.
-pub const BYTES_PER_NUMBER: usize = 25;
+pub(crate) const BYTES_PER_NUMBER: usize = 25;
 
 /// `v` in the shortest decimal that reads back as the same `f64` (the
 /// Schubfach algorithm of the `zmij` crate, 1.7x as fast as `ryu` here:
 /// the same digits, an exponent from `e16` on written `e+16`). Every number
 /// of ezy's CSV files is written so.
-pub fn format_number(buf: &mut zmij::Buffer, v: f64) -> &str {
+pub(crate) fn format_number(buf: &mut zmij::Buffer, v: f64) -> &str {
     buf.format(v)
 }
 
@@ -240,7 +240,7 @@ impl Drop for RowWriter {
 /// Writes `writer`'s rows left, flushes and syncs its file at `path`.
 fn close(writer: RowWriter, path: &Path) -> Result<(), OutputError> {
     let file = writer.finish()?;
-    crate::transaction::sync(&file, path)?;
+    crate::output::transaction::sync(&file, path)?;
     Ok(())
 }
 
@@ -248,7 +248,7 @@ fn close(writer: RowWriter, path: &Path) -> Result<(), OutputError> {
 /// its own ([`CsvObserver::finish_later`]). Dropped without
 /// [`CsvTail::wait`] (a failed run), it still waits for the file to be
 /// closed, before the transaction removes it.
-pub struct CsvTail {
+pub(crate) struct CsvTail {
     handle: Option<std::thread::JoinHandle<Result<(), OutputError>>>,
 }
 
@@ -256,8 +256,8 @@ impl CsvTail {
     /// Waits until the file is written and synced.
     ///
     /// # Errors
-    /// As [`CsvObserver::finish`].
-    pub fn wait(mut self) -> Result<(), OutputError> {
+    /// [`OutputError`] if flushing or syncing fails (a full disk).
+    pub(crate) fn wait(mut self) -> Result<(), OutputError> {
         match self.handle.take() {
             Some(handle) => handle.join().unwrap_or_else(|panic| std::panic::resume_unwind(panic)),
             None => Ok(()),
@@ -303,10 +303,10 @@ impl Table {
 
 /// What sees every output row as it is written (a sweep's metrics):
 /// the sample and the row.
-pub type Tap<'a> = &'a mut dyn FnMut(&Sample<'_>, &[f64]);
+pub(crate) type Tap<'a> = &'a mut dyn FnMut(&Sample<'_>, &[f64]);
 
 /// Writes samples to CSV and keeps them for figures.
-pub struct CsvObserver<'a, M: Model> {
+pub(crate) struct CsvObserver<'a, M: Model> {
     /// The final path (errors name it).
     path: PathBuf,
     /// The output directory (an interruption names it).
@@ -320,7 +320,7 @@ pub struct CsvObserver<'a, M: Model> {
     written: u64,
     row: Vec<f64>,
     builder: RowBuilder<M>,
-    progress: Option<crate::progress::Progress>,
+    progress: Option<crate::output::progress::Progress>,
     tap: Option<Tap<'a>>,
     /// The latest simulated time the run reported \[s\] (samples are
     /// observed in batches, behind the step loop): what an interruption
@@ -336,11 +336,11 @@ impl<'a, M: Model> CsvObserver<'a, M> {
     ///
     /// # Errors
     /// [`OutputError`] if the file cannot be created or written.
-    pub fn create(
+    pub(crate) fn create(
         tx: &mut Transaction,
         name: &str,
         builder: RowBuilder<M>,
-        progress: Option<crate::progress::Progress>,
+        progress: Option<crate::output::progress::Progress>,
         rows: usize,
     ) -> Result<Self, OutputError> {
         let columns = builder.columns.clone();
@@ -370,33 +370,21 @@ impl<'a, M: Model> CsvObserver<'a, M> {
 
     /// Shows every row, as written, to `tap` too.
     #[must_use]
-    pub fn with_tap(mut self, tap: Tap<'a>) -> Self {
+    pub(crate) fn with_tap(mut self, tap: Tap<'a>) -> Self {
         self.tap = Some(tap);
         self
     }
 
-    /// Flushes and syncs the file (its transaction commits it) and returns
-    /// the rows kept for the figures.
+    /// Returns the rows kept for the figures at once and leaves the file's
+    /// last rows, flush and sync (its transaction commits it) to a thread
+    /// of their own ([`CsvTail`]), so that the figures are drawn while the
+    /// disk syncs (3-4 ms of a `drive` run). Where no thread can be
+    /// started, the file is finished here.
     ///
     /// # Errors
-    /// [`OutputError`] if flushing or syncing fails (a full disk).
-    pub fn finish(mut self) -> Result<Table, OutputError> {
-        if let Some(p) = self.progress.take() {
-            p.finish();
-        }
-        close(self.writer, &self.path)?;
-        Ok(self.table)
-    }
-
-    /// [`CsvObserver::finish`] that returns the rows at once and leaves
-    /// the file's last rows, flush and sync to a thread of their own
-    /// ([`CsvTail`]), so that the figures are drawn while the disk syncs
-    /// (3-4 ms of a `drive` run). Where no thread can be started, the file
-    /// is finished here.
-    ///
-    /// # Errors
-    /// As [`CsvObserver::finish`], where no thread could be started.
-    pub fn finish_later(mut self) -> Result<(Table, CsvTail), OutputError> {
+    /// [`OutputError`] if flushing or syncing fails (a full disk), where no
+    /// thread could be started.
+    pub(crate) fn finish_later(mut self) -> Result<(Table, CsvTail), OutputError> {
         use std::sync::{Arc, Mutex, PoisonError};
         if let Some(p) = self.progress.take() {
             p.finish();
@@ -425,7 +413,7 @@ impl<'a, M: Model> CsvObserver<'a, M> {
 
     /// Stops writing (after a failed run); the transaction, dropped
     /// uncommitted, removes the file.
-    pub fn abandon(self) {
+    pub(crate) fn abandon(self) {
         if let Some(p) = &self.progress {
             p.finish();
         }
@@ -437,7 +425,7 @@ impl<M: Model> Observer<M> for CsvObserver<'_, M> {
 
     fn observe(&mut self, sys: &Dynamics<M>, s: &Sample<'_>) -> Result<(), OutputError> {
         self.reached = self.reached.max(s.t);
-        crate::transaction::check_interrupt(&self.dir, Some(self.reached), None)?;
+        crate::output::transaction::check_interrupt(&self.dir, Some(self.reached), None)?;
         self.builder.fill(sys, s, &mut self.row)?;
         self.writer.push(&self.row)?;
         if let Some(tap) = &mut self.tap {
@@ -458,10 +446,10 @@ impl<M: Model> Observer<M> for CsvObserver<'_, M> {
         Ok(())
     }
 
-    /// Stops the run if a signal arrived (see [`crate::transaction`]).
+    /// Stops the run if a signal arrived (see [`crate::output::transaction`]).
     fn poll(&mut self, t: f64) -> Result<(), OutputError> {
         self.reached = self.reached.max(t);
-        Ok(crate::transaction::check_interrupt(&self.dir, Some(self.reached), None)?)
+        Ok(crate::output::transaction::check_interrupt(&self.dir, Some(self.reached), None)?)
     }
 
     fn progress(&mut self, t: f64) {
@@ -479,6 +467,21 @@ impl<M: Model> Observer<M> for CsvObserver<'_, M> {
             }
         }
     }
+}
+
+/// A number for a CSV cell: the shortest decimal that reads back as the
+/// same number, as in every CSV file ezy writes.
+pub(crate) fn number(v: f64) -> String {
+    format_number(&mut zmij::Buffer::new(), v).to_string()
+}
+
+/// One CSV record, quoted where a cell needs it (a parameter name given
+/// on the command line).
+pub(crate) fn record(cells: Vec<String>) -> String {
+    let mut w = csv::Writer::from_writer(Vec::new());
+    // writing to memory cannot fail
+    let _ = w.write_record(&cells);
+    String::from_utf8(w.into_inner().unwrap_or_default()).unwrap_or_default()
 }
 
 #[cfg(test)]

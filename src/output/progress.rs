@@ -12,10 +12,10 @@ use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 const SHOW_AFTER: Duration = Duration::from_secs(1);
 /// Interval of the progress lines when stderr is not a terminal (the
 /// first comes after one interval).
-pub const LINE_EVERY: Duration = Duration::from_secs(5);
+pub(crate) const LINE_EVERY: Duration = Duration::from_secs(5);
 
 /// Progress over simulated time.
-pub struct Progress {
+pub(crate) struct Progress {
     bar: Option<ProgressBar>,
     start: Instant,
     shown: bool,
@@ -26,7 +26,7 @@ pub struct Progress {
 impl Progress {
     /// Progress of a run to `t_end` \[s\]: a bar on a terminal, lines
     /// otherwise.
-    pub fn new(t_end: f64) -> Option<Self> {
+    pub(crate) fn new(t_end: f64) -> Option<Self> {
         let bar = std::io::stderr().is_terminal().then(|| {
             let bar = ProgressBar::with_draw_target(Some(1000), ProgressDrawTarget::hidden());
             bar.set_style(
@@ -39,7 +39,7 @@ impl Progress {
     }
 
     /// Reports the current simulated time \[s\].
-    pub fn update(&mut self, t: f64) {
+    pub(crate) fn update(&mut self, t: f64) {
         let elapsed = self.start.elapsed();
         match &self.bar {
             Some(bar) => {
@@ -65,7 +65,7 @@ impl Progress {
     }
 
     /// Prints a line above the bar (on stderr).
-    pub fn println(&self, line: &str) {
+    pub(crate) fn println(&self, line: &str) {
         match &self.bar {
             Some(bar) if self.shown => bar.println(line),
             _ => {
@@ -75,7 +75,7 @@ impl Progress {
     }
 
     /// Removes the bar.
-    pub fn finish(&self) {
+    pub(crate) fn finish(&self) {
         if let Some(bar) = &self.bar {
             bar.finish_and_clear();
         }
@@ -89,7 +89,7 @@ impl Progress {
 /// `progress: drawing figure 12 of 9000 (f12.png), 10 s elapsed`. Nothing
 /// is printed for a phase shorter than [`LINE_EVERY`]. A background
 /// thread, stopped when the heartbeat is dropped.
-pub struct Heartbeat {
+pub(crate) struct Heartbeat {
     shared: std::sync::Arc<Beat>,
     thread: Option<std::thread::JoinHandle<()>>,
 }
@@ -103,7 +103,7 @@ struct Beat {
 
 impl Heartbeat {
     /// Starts reporting `what` (elapsed time counts from now).
-    pub fn start(what: impl Into<String>) -> Self {
+    pub(crate) fn start(what: impl Into<String>) -> Self {
         let shared = std::sync::Arc::new(Beat {
             state: std::sync::Mutex::new((Some(what.into()), false)),
             wake: std::sync::Condvar::new(),
@@ -137,7 +137,7 @@ impl Heartbeat {
 
     /// Reports `what` from now on on `beat`, started now if it is `None`
     /// (a phase that was too short for a heartbeat of its own).
-    pub fn report(beat: &mut Option<Self>, what: impl Into<String>) {
+    pub(crate) fn report(beat: &mut Option<Self>, what: impl Into<String>) {
         match beat {
             Some(b) => b.set(what),
             None => *beat = Some(Self::start(what)),
@@ -145,12 +145,12 @@ impl Heartbeat {
     }
 
     /// Reports `what` from now on.
-    pub fn set(&self, what: impl Into<String>) {
+    pub(crate) fn set(&self, what: impl Into<String>) {
         self.shared.state.lock().unwrap_or_else(std::sync::PoisonError::into_inner).0 = Some(what.into());
     }
 
     /// Stays silent while another report (a run's own progress) has the floor.
-    pub fn quiet(&self) {
+    pub(crate) fn quiet(&self) {
         self.shared.state.lock().unwrap_or_else(std::sync::PoisonError::into_inner).0 = None;
     }
 }

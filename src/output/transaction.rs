@@ -2,9 +2,9 @@
 //!
 //! A command that writes several files into an output directory (`ezy run`:
 //! `trajectory.csv` and the figures; `ezy precision`: `precision.csv` and
-//! its figures) writes them through a [`Transaction`]:
+//! its figures) writes them through a `Transaction`:
 //!
-//! 1. [`Transaction::begin`] creates the directory, opens the lock file
+//! 1. `Transaction::begin` creates the directory, opens the lock file
 //!    [`LOCK_FILE`] in it (never through a symbolic link) and takes an
 //!    exclusive advisory lock on it without waiting: a second run into the
 //!    same directory is refused with "another ezy run is writing into DIR".
@@ -14,7 +14,7 @@
 //!    `DIR/.ezy-run.XXXXXX` (random name, mode 0700, created exclusively).
 //! 2. Every file is written into that private directory, created
 //!    exclusively (`O_CREAT | O_EXCL | O_NOFOLLOW`), and synced to disk.
-//! 3. [`Transaction::commit`] renames each file onto its final name in the
+//! 3. `Transaction::commit` renames each file onto its final name in the
 //!    output directory, the *first* file staged (the table) *last*; a rename
 //!    replaces a symbolic link of that name, it never writes through it. If
 //!    a rename fails, the files already renamed are put back (from hard
@@ -36,7 +36,7 @@
 //! Signals: [`handle_signals`] (called by [`crate::App::main`]) makes the
 //! first `SIGINT` or `SIGTERM` received after a transaction began only
 //! set a flag; the run checks it at every output row and before every
-//! figure ([`check_interrupt`]) and stops with [`Interrupted`]. A second
+//! figure (`check_interrupt`) and stops with [`Interrupted`]. A second
 //! signal ends the process at once with the default action (its private
 //! directory is then removed by the next run into the same directory).
 
@@ -51,7 +51,7 @@ use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 pub const LOCK_FILE: &str = ".ezy.lock";
 
 /// Prefix of a run's private directory inside the output directory.
-pub const TEMP_PREFIX: &str = ".ezy-run.";
+pub(crate) const TEMP_PREFIX: &str = ".ezy-run.";
 
 /// A termination signal that stops a run.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -198,7 +198,7 @@ pub enum TransactionError {
 /// Dropping it without [`Transaction::commit`] removes the private
 /// directory and releases the lock, leaving the directory as it was.
 #[derive(Debug)]
-pub struct Transaction {
+pub(crate) struct Transaction {
     // Field order is drop order: the private directory goes before the
     // lock is released.
     tmp: tempfile::TempDir,
@@ -244,7 +244,7 @@ impl Transaction {
     /// not a regular file, [`TransactionError::Io`] if it cannot be opened or
     /// locked or the private directory cannot be created,
     /// [`TransactionError::Interrupted`] if a signal has already arrived.
-    pub fn begin(dir: &Path) -> Result<Self, TransactionError> {
+    pub(crate) fn begin(dir: &Path) -> Result<Self, TransactionError> {
         arm_signals();
         let lock = lock(dir)?;
         remove_stale(dir);
@@ -271,17 +271,17 @@ impl Transaction {
     ///
     /// # Errors
     /// As [`Transaction::begin`].
-    pub fn preflight(dir: &Path) -> Result<(), TransactionError> {
+    pub(crate) fn preflight(dir: &Path) -> Result<(), TransactionError> {
         lock(dir).map(drop)
     }
 
     /// The output directory.
-    pub fn dir(&self) -> &Path {
+    pub(crate) fn dir(&self) -> &Path {
         &self.dir
     }
 
     /// The final path of output file `name`.
-    pub fn path(&self, name: &str) -> PathBuf {
+    pub(crate) fn path(&self, name: &str) -> PathBuf {
         self.dir.join(name)
     }
 
@@ -295,7 +295,7 @@ impl Transaction {
     /// given twice, [`TransactionError::Io`] naming the final path if the
     /// file cannot be created (a name too long for the file system, a full
     /// disk).
-    pub fn create(&mut self, name: &str) -> Result<File, TransactionError> {
+    pub(crate) fn create(&mut self, name: &str) -> Result<File, TransactionError> {
         check_name(name)?;
         if self.staged.iter().any(|n| n == name) {
             return Err(TransactionError::Duplicate { path: self.path(name) });
@@ -313,7 +313,7 @@ impl Transaction {
     /// # Errors
     /// As [`Transaction::create`]; [`TransactionError::Io`] naming the final
     /// path if writing or syncing fails (a full disk).
-    pub fn write(&mut self, name: &str, bytes: &[u8]) -> Result<(), TransactionError> {
+    pub(crate) fn write(&mut self, name: &str, bytes: &[u8]) -> Result<(), TransactionError> {
         let mut file = self.create(name)?;
         let path = self.path(name);
         file.write_all(bytes).map_err(|source| TransactionError::Io { path: path.clone(), source })?;
@@ -326,7 +326,7 @@ impl Transaction {
     /// on commit, after the renames, so the directory never holds this
     /// run's files beside another's. Names written, or not plain file
     /// names, are ignored; a directory of the name is left.
-    pub fn retire(&mut self, names: &[String]) {
+    pub(crate) fn retire(&mut self, names: &[String]) {
         self.retired.extend(names.iter().filter(|n| check_name(n).is_ok()).cloned());
     }
 
@@ -334,7 +334,7 @@ impl Transaction {
     ///
     /// # Errors
     /// [`TransactionError::Interrupted`] if a signal has arrived.
-    pub fn check(&self, t: Option<f64>, doing: Option<String>) -> Result<(), TransactionError> {
+    pub(crate) fn check(&self, t: Option<f64>, doing: Option<String>) -> Result<(), TransactionError> {
         check_interrupt(&self.dir, t, doing)
     }
 
@@ -348,7 +348,7 @@ impl Transaction {
     /// a final name is a directory (nothing is renamed),
     /// [`TransactionError::Commit`] if a rename fails (the renamed files are
     /// put back).
-    pub fn commit(self) -> Result<Vec<PathBuf>, TransactionError> {
+    pub(crate) fn commit(self) -> Result<Vec<PathBuf>, TransactionError> {
         self.check(None, None)?;
         let mut order: Vec<&String> = self.staged.iter().skip(1).collect();
         order.extend(self.staged.first());
@@ -415,7 +415,7 @@ impl Transaction {
 ///
 /// # Errors
 /// [`TransactionError::Io`] if the data cannot be written (a full disk).
-pub fn sync(file: &File, path: &Path) -> Result<(), TransactionError> {
+pub(crate) fn sync(file: &File, path: &Path) -> Result<(), TransactionError> {
     file.sync_all().map_err(|source| TransactionError::Io { path: path.into(), source })
 }
 
@@ -427,7 +427,7 @@ pub fn sync(file: &File, path: &Path) -> Result<(), TransactionError> {
 ///
 /// # Errors
 /// [`TransactionError::Io`] naming `path`.
-pub fn write_atomically(path: &Path, bytes: &[u8]) -> Result<(), TransactionError> {
+pub(crate) fn write_atomically(path: &Path, bytes: &[u8]) -> Result<(), TransactionError> {
     let io = |source| TransactionError::Io { path: path.into(), source };
     let mut tmp = temp_beside(path).map_err(io)?;
     tmp.write_all(bytes).map_err(io)?;
@@ -446,7 +446,7 @@ pub fn write_atomically(path: &Path, bytes: &[u8]) -> Result<(), TransactionErro
 ///
 /// # Errors
 /// The file cannot be created (a missing or read-only directory).
-pub fn temp_beside(path: &Path) -> std::io::Result<tempfile::NamedTempFile> {
+pub(crate) fn temp_beside(path: &Path) -> std::io::Result<tempfile::NamedTempFile> {
     let dir = match path.parent() {
         Some(p) if !p.as_os_str().is_empty() => p,
         _ => Path::new("."),
@@ -608,7 +608,7 @@ pub fn pending() -> Option<Signal> {
 /// # Errors
 /// [`TransactionError::Interrupted`] with the signal, `dir`, the simulated
 /// time `t` reached (seconds) and what the run was `doing`.
-pub fn check_interrupt(dir: &Path, t: Option<f64>, doing: Option<String>) -> Result<(), TransactionError> {
+pub(crate) fn check_interrupt(dir: &Path, t: Option<f64>, doing: Option<String>) -> Result<(), TransactionError> {
     match pending() {
         None => Ok(()),
         Some(signal) => {

@@ -1,0 +1,390 @@
+//! The application: a table of models and scenes, and the command line
+//! over it. The `ezy` binary is `App::new().main()`; a user's binary adds
+//! their own vehicles and scenes and gets every command for them:
+//!
+//! ```no_run
+//! # ezy::model! {
+//! #     /// A sleigh.
+//! #     pub struct MySleigh {
+//! #         /// Distance from the centre of mass back to the skate [m]
+//! #         param a = 0.5;
+//! #         body s(x, y, phi) { mass: 1.0, inertia: 0.1 }
+//! #         point P on s at (-a, 0);
+//! #         skate P: P along (1, 0);
+//! #     }
+//! # }
+//! fn main() -> std::process::ExitCode {
+//!     ezy::App::new() // the built-in vehicles and scenes
+//!         .model::<MySleigh>("my_sleigh")
+//!         .scene("my-sleigh.toml", r#"name = "my-sleigh" ..."#)
+//!         .main() // parses std::env::args like the `ezy` binary
+//! }
+//! ```
+
+mod scenes;
+
+use std::borrow::Cow;
+use std::ffi::OsString;
+use std::io::Write;
+use std::path::{Path, PathBuf};
+use std::process::ExitCode;
+
+use ezy_core::effects::EffectKind;
+use ezy_core::{AnyModel, Model, ModelInfo};
+use ezy_scene::EffectKinds;
+use ezy_scene::registry::{ModelCatalog, Register, info_of};
+use ezy_scene::{Scene, SceneError};
+
+use crate::commands::{COMMANDS, DEFAULT};
+use crate::output::transaction::Interrupted;
+use crate::precision;
+use crate::session::{Error, Report, RunOptions, StopHook};
+pub use scenes::LoadError;
+use scenes::SceneEntry;
+pub(crate) use scenes::is_scene_path;
+
+/// Why a command could not be carried out.
+#[derive(Debug, thiserror::Error)]
+pub enum AppError {
+    /// The command line is wrong (or asked for `--help`/`--version`, whose
+    /// text is the error's display).
+    #[error("{0}")]
+    Usage(#[from] clap::Error),
+    /// The command failed; the message names the culprit (file, line,
+    /// column and key for a scene file; the parameter, model or setting
+    /// otherwise).
+    #[error("{0}")]
+    Failed(String),
+    /// A signal stopped the command before it committed its output
+    /// ([`App::main`] exits with 128 + the signal's number).
+    #[error("{0}")]
+    Interrupted(Interrupted),
+    /// Writing to the output stream failed (a closed pipe ends quietly in
+    /// [`App::main`]).
+    #[error("writing the output: {0}")]
+    Io(#[from] std::io::Error),
+}
+
+impl AppError {
+    /// A failed command, with `e` as its message.
+    pub(crate) fn failed(e: impl std::fmt::Display) -> Self {
+        Self::Failed(e.to_string())
+    }
+
+    /// A failed run or measurement; an interruption keeps its signal.
+    pub(crate) fn from_run(e: Error) -> Self {
+        match e.interrupted() {
+            Some(i) => Self::Interrupted(i.clone()),
+            None => Self::failed(e),
+        }
+    }
+}
+
+/// The models and scenes an `ezy` command line knows, and every command
+/// of the `ezy` binary over them ([`App::main`], [`App::run_cli`]).
+///
+/// Mistakes in building the table (a model key or a scene name given
+/// twice) are kept and reported by every command, so the program never
+/// runs with a table other than the one written.
+#[derive(Clone)]
+pub struct App {
+    /// Each model as an [`AnyModel`], so that every command is compiled
+    /// once, in this crate, for all models: a crate that adds its own
+    /// model with [`App::model`] compiles only the model's functions.
+    models: Vec<(String, AnyModel)>,
+    kinds: EffectKinds,
+    scenes: Vec<SceneEntry>,
+    default_scene: String,
+    errors: Vec<String>,
+}
+
+impl Default for App {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+impl std::fmt::Debug for App {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("App")
+            .field("models", &self.models.iter().map(|(k, _)| k).collect::<Vec<_>>())
+            .field("effect_kinds", &self.kinds.names())
+            .field("scenes", &self.scenes)
+            .field("default_scene", &self.default_scene)
+            .field("errors", &self.errors)
+            .finish()
+    }
+}
+
+impl Register for App {
+    fn register<M: Model + Default + 'static>(&mut self, key: &str) {
+        if self.models.iter().any(|(k, _)| k == key) {
+            self.errors.push(format!("model key `{key}` is registered twice"));
+        } else if key.is_empty() || key.chars().any(char::is_whitespace) {
+            self.errors.push(format!("model key `{key}` must be non-empty and without spaces"));
+        } else {
+            self.models.push((key.to_string(), AnyModel::new(M::default())));
+        }
+    }
+}
+
+impl ModelCatalog for App {
+    fn keys(&self) -> Vec<&str> {
+        self.models.iter().map(|(k, _)| k.as_str()).collect()
+    }
+    fn info_with(&self, key: &str, params: &[(String, f64)]) -> Option<Result<ModelInfo, SceneError>> {
+        self.registered(key).map(|model| info_of(model, params))
+    }
+    fn effect_kinds(&self) -> Option<&EffectKinds> {
+        Some(&self.kinds)
+    }
+    fn check_user_effects(&self, key: &str, checked: &ezy_scene::Checked) -> Result<(), SceneError> {
+        self.registered(key).map_or(Ok(()), |model| ezy_scene::registry::check_user_effects(model, checked))
+    }
+}
+
+impl App {
+    /// The built-in vehicles and scenes (what the `ezy` binary knows);
+    /// `drive` is the scene `run` takes without a name.
+    pub fn new() -> Self {
+        let mut app = Self::empty();
+        ezy_models::register(&mut app);
+        for (file, text) in ezy_models::scenes::BUILTIN {
+            app.scenes.push(SceneEntry::Text { file: format!("models/scenes/{file}"), text: Cow::Borrowed(text) });
+        }
+        app.default_scene = "drive".into();
+        app
+    }
+
+    /// No models and no scenes: only what the caller adds.
+    pub fn empty() -> Self {
+        Self {
+            models: Vec::new(),
+            kinds: EffectKinds::default(),
+            scenes: Vec::new(),
+            default_scene: String::new(),
+            errors: Vec::new(),
+        }
+    }
+
+    /// Adds model type `M` under `key` (the name scene files give in
+    /// `model = "KEY"` and the commands `equations`, `check`, `scale` take).
+    /// A key given twice is reported by every command. The commands run
+    /// the model as an [`AnyModel`], compiled once in this crate: the
+    /// caller's crate compiles only `M`'s own functions.
+    #[must_use]
+    pub fn model<M: Model + Default + 'static>(mut self, key: &str) -> Self {
+        self.register::<M>(key);
+        self
+    }
+
+    /// Adds effect kind `T`, a force law of the user's own, under `kind`:
+    /// scene files then write `[effects.NAME] kind = "KIND"` with `T`'s
+    /// fields, exactly as for a built-in kind (its work column closes the
+    /// energy ledger, `--set NAME.KEY` changes its numbers, every
+    /// integrator runs it, its errors are placed in the file). A kind
+    /// given twice, or a built-in kind's name, is reported by every
+    /// command.
+    #[must_use]
+    pub fn effect<T: EffectKind>(mut self, kind: &str) -> Self {
+        if let Err(e) = self.kinds.add::<T>(kind) {
+            self.errors.push(e);
+        }
+        self
+    }
+
+    /// Adds a scene from its TOML text, usually `include_str!`-ed so the
+    /// binary runs it from any directory; `file` is how errors name it. It
+    /// is checked against its model when first used; a scene name given
+    /// twice is reported by every command.
+    #[must_use]
+    pub fn scene(mut self, file: &str, text: &'static str) -> Self {
+        self.scenes.push(SceneEntry::Text { file: file.to_string(), text: Cow::Borrowed(text) });
+        self
+    }
+
+    /// Adds a scene file by path, read when the scenes are first needed
+    /// (an unreadable or bad file is reported then, with its path).
+    #[must_use]
+    pub fn scene_file(mut self, path: impl Into<PathBuf>) -> Self {
+        self.scenes.push(SceneEntry::Path(path.into()));
+        self
+    }
+
+    /// The scene `run` takes when none is named (`App::new`: `drive`).
+    #[must_use]
+    pub fn default_scene(mut self, name: &str) -> Self {
+        self.default_scene = name.to_string();
+        self
+    }
+
+    fn registered(&self, key: &str) -> Option<&AnyModel> {
+        self.models.iter().find(|(k, _)| k == key).map(|(_, model)| model)
+    }
+
+    fn registry_ok(&self) -> Result<(), LoadError> {
+        match self.errors.first() {
+            Some(e) => Err(LoadError::Registry(e.clone())),
+            None => Ok(()),
+        }
+    }
+
+    /// The model registered under `key`.
+    ///
+    /// # Errors
+    /// A table mistake, or an unknown key (listing the known ones).
+    pub(crate) fn model_or_error(&self, key: &str) -> Result<&AnyModel, AppError> {
+        self.registry_ok().map_err(AppError::failed)?;
+        self.registered(key)
+            .ok_or_else(|| AppError::Failed(format!("unknown model `{key}`; known models: {}", self.keys().join(", "))))
+    }
+
+    /// Runs `scene` with `opts` on the model its `model` key names: writes
+    /// `trajectory.csv` and the figures into `opts.out`.
+    ///
+    /// # Errors
+    /// [`Error`] naming the bad setting, parameter, or file;
+    /// [`Error::UnknownModel`] for a key this application lacks.
+    pub fn run_scene(&self, scene: &Scene, opts: &RunOptions) -> Result<Report, Error> {
+        match self.registered(&scene.model) {
+            Some(model) => crate::run::run_model(model, scene, opts),
+            None => Err(Error::UnknownModel { scene: scene.name.clone(), model: scene.model.clone() }),
+        }
+    }
+
+    /// Runs `scene` with `opts` on the model its `model` key names, in
+    /// memory: every output row in [`Report::table`], with the columns
+    /// `trajectory.csv` would have, and nothing written
+    /// ([`RunOptions::out`], `figures` and `report` are not read); the
+    /// notes a file run prints on stderr are in [`Report::notes`]. The
+    /// table's size is refused before the run as `trajectory.csv`'s would
+    /// be ([`RunOptions::max_output_mb`]). `stop`, asked after every step,
+    /// may end the run. What a library or a notebook embeds (the Python
+    /// package's `ezy.run`).
+    ///
+    /// # Errors
+    /// As [`App::run_scene`] (no file errors); [`Error::Stopped`] when
+    /// `stop` asked.
+    pub fn run_scene_in_memory(
+        &self,
+        scene: &Scene,
+        opts: &RunOptions,
+        stop: Option<StopHook<'_>>,
+    ) -> Result<Report, Error> {
+        match self.registered(&scene.model) {
+            Some(model) => crate::run::run_model_in_memory(model, scene, opts, stop),
+            None => Err(Error::UnknownModel { scene: scene.name.clone(), model: scene.model.clone() }),
+        }
+    }
+
+    /// Runs the work-precision ladder of `scene` and writes
+    /// `precision.csv` and its figures into `out`.
+    ///
+    /// # Errors
+    /// [`Error`] if the reference run fails, a saved ladder does not read
+    /// or a file cannot be written; [`Error::UnknownModel`] for a key this
+    /// application lacks.
+    pub fn precision(&self, scene: &Scene, out: &Path) -> Result<precision::Report, Error> {
+        self.precision_with(scene, out, &precision::PrecisionOptions::default())
+    }
+
+    /// [`App::precision`] with other tools' points over the
+    /// work-precision diagram, or redrawing the figures of a saved ladder
+    /// (see [`precision::PrecisionOptions`]).
+    ///
+    /// # Errors
+    /// As [`App::precision`].
+    pub fn precision_with(
+        &self,
+        scene: &Scene,
+        out: &Path,
+        opts: &precision::PrecisionOptions,
+    ) -> Result<precision::Report, Error> {
+        match self.registered(&scene.model) {
+            Some(model) => precision::precision_model(model, scene, out, opts),
+            None => Err(Error::UnknownModel { scene: scene.name.clone(), model: scene.model.clone() }),
+        }
+    }
+
+    /// The `ezy list` text: every model (key, doc, sizes, counts) and every
+    /// scene (name, description).
+    ///
+    /// # Errors
+    /// As [`App::scenes`].
+    pub fn list(&self) -> Result<String, LoadError> {
+        let scenes = self.scenes()?;
+        let mut s = String::from("models:\n");
+        for (key, model) in &self.models {
+            let info = info_of(model, &[]).map_err(|e| LoadError::Registry(format!("model `{key}`: {}", e.message)))?;
+            let counts: Vec<String> =
+                info.params.iter().filter(|p| p.count).map(|p| format!("{} = {}", p.name, p.default)).collect();
+            let counts = if counts.is_empty() { String::new() } else { format!(", {}", counts.join(", ")) };
+            s.push_str(&format!("  {key:<26} {} (nq = {}, nc = {}{counts})\n", info.doc, info.nq(), info.nc()));
+        }
+        s.push_str("scenes:\n");
+        for src in &scenes {
+            s.push_str(&format!("  {:<26} {}\n", src.scene.name, src.scene.description));
+        }
+        Ok(s)
+    }
+
+    /// Parses `std::env::args` like the `ezy` binary, runs the command,
+    /// prints its output on stdout and any error on stderr (`error: ...`).
+    /// Returns success, or failure (1) when the command failed; a usage
+    /// mistake exits with clap's status (2) and `--help` with 0. A closed
+    /// stdout (`... | head`) ends quietly. `SIGINT` and `SIGTERM` stop a
+    /// run that is writing its output without changing the output directory
+    /// (see [`crate::output::transaction::handle_signals`]) and exit with 130 and
+    /// 143.
+    pub fn main(self) -> ExitCode {
+        crate::output::transaction::handle_signals();
+        let stdout = std::io::stdout();
+        let mut out = stdout.lock();
+        match self.run_cli(std::env::args_os(), &mut out) {
+            Ok(()) => ExitCode::SUCCESS,
+            Err(AppError::Usage(e)) => e.exit(),
+            Err(AppError::Io(e)) if e.kind() == std::io::ErrorKind::BrokenPipe => ExitCode::SUCCESS,
+            Err(AppError::Interrupted(i)) => {
+                let _ = out.flush();
+                eprintln!("error: {i}");
+                ExitCode::from(i.signal.exit_code())
+            }
+            Err(e) => {
+                let _ = out.flush();
+                eprintln!("error: {e}");
+                ExitCode::FAILURE
+            }
+        }
+    }
+
+    /// Parses `args` (the first is the program name, as in
+    /// `std::env::args_os`) and runs the command, writing what it prints to
+    /// `out`; warnings and the progress bar go to stderr. This is
+    /// [`App::main`] without the process around it, for tests and for
+    /// programs that run commands themselves. From its first call on,
+    /// the process spells the settings its messages advise as this
+    /// command line's flags (`--dt`, `--formulation dae`:
+    /// [`ezy_core::spell_settings_as_flags`]).
+    ///
+    /// # Errors
+    /// [`AppError`]: a usage mistake, a failed command (its message names
+    /// the culprit), or a failed write to `out`.
+    pub fn run_cli<I, T>(&self, args: I, out: &mut dyn Write) -> Result<(), AppError>
+    where
+        I: IntoIterator<Item = T>,
+        T: Into<OsString> + Clone,
+    {
+        ezy_core::spell_settings_as_flags();
+        let args: Vec<OsString> = args.into_iter().map(Into::into).collect();
+        let cli = COMMANDS.iter().fold(crate::cli::top(), |top, c| top.subcommand((c.cli)(clap::Command::new(c.name))));
+        let matches = cli.clone().try_get_matches_from(&args)?;
+        let matches = match matches.subcommand() {
+            Some(_) => matches,
+            // a bare `ezy`: the default command without arguments
+            None => cli.try_get_matches_from([args.first().cloned().unwrap_or_default(), DEFAULT.into()])?,
+        };
+        let (name, args) = matches.subcommand().expect("a command, given or the default");
+        let command = COMMANDS.iter().find(|c| c.name == name).expect("clap matches only the table's commands");
+        (command.exec)(self, args, out)
+    }
+}
