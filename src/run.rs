@@ -11,12 +11,13 @@ use std::time::Instant;
 use ezy_core::{Dynamics, Model, RunError, RunSettings, Summary};
 use ezy_scene::Scene;
 
-use crate::output::csv::{CsvObserver, RowBuilder, Table};
+use crate::output::csv::{CsvObserver, Table};
 use crate::output::transaction::Transaction;
 use crate::session::{
     DEFAULT_MAX_OUTPUT_MB, Error, Report, RunOptions, StopHook, command_line, output_budget, problem, settings,
     setup_may_be_long, summary,
 };
+use ezy_scene::RowBuilder;
 
 /// Runs `scene` with `opts` on `proto`, a model at its defaults (what [`crate::App::run_scene`]
 /// calls for the model the scene names): resolves the overrides, finds

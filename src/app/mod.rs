@@ -21,13 +21,11 @@
 //! }
 //! ```
 
+mod dispatch;
 mod scenes;
 
 use std::borrow::Cow;
-use std::ffi::OsString;
-use std::io::Write;
 use std::path::{Path, PathBuf};
-use std::process::ExitCode;
 
 use ezy_core::effects::EffectKind;
 use ezy_core::{AnyModel, Model, ModelInfo};
@@ -35,7 +33,6 @@ use ezy_scene::EffectKinds;
 use ezy_scene::registry::{ModelCatalog, Register, info_of};
 use ezy_scene::{Scene, SceneError};
 
-use crate::commands::{COMMANDS, DEFAULT};
 use crate::output::transaction::Interrupted;
 use crate::precision;
 use crate::session::{Error, Report, RunOptions, StopHook};
@@ -326,65 +323,5 @@ impl App {
             s.push_str(&format!("  {:<26} {}\n", src.scene.name, src.scene.description));
         }
         Ok(s)
-    }
-
-    /// Parses `std::env::args` like the `ezy` binary, runs the command,
-    /// prints its output on stdout and any error on stderr (`error: ...`).
-    /// Returns success, or failure (1) when the command failed; a usage
-    /// mistake exits with clap's status (2) and `--help` with 0. A closed
-    /// stdout (`... | head`) ends quietly. `SIGINT` and `SIGTERM` stop a
-    /// run that is writing its output without changing the output directory
-    /// (see [`crate::output::transaction::handle_signals`]) and exit with 130 and
-    /// 143.
-    pub fn main(self) -> ExitCode {
-        crate::output::transaction::handle_signals();
-        let stdout = std::io::stdout();
-        let mut out = stdout.lock();
-        match self.run_cli(std::env::args_os(), &mut out) {
-            Ok(()) => ExitCode::SUCCESS,
-            Err(AppError::Usage(e)) => e.exit(),
-            Err(AppError::Io(e)) if e.kind() == std::io::ErrorKind::BrokenPipe => ExitCode::SUCCESS,
-            Err(AppError::Interrupted(i)) => {
-                let _ = out.flush();
-                eprintln!("error: {i}");
-                ExitCode::from(i.signal.exit_code())
-            }
-            Err(e) => {
-                let _ = out.flush();
-                eprintln!("error: {e}");
-                ExitCode::FAILURE
-            }
-        }
-    }
-
-    /// Parses `args` (the first is the program name, as in
-    /// `std::env::args_os`) and runs the command, writing what it prints to
-    /// `out`; warnings and the progress bar go to stderr. This is
-    /// [`App::main`] without the process around it, for tests and for
-    /// programs that run commands themselves. From its first call on,
-    /// the process spells the settings its messages advise as this
-    /// command line's flags (`--dt`, `--formulation dae`:
-    /// [`ezy_core::spell_settings_as_flags`]).
-    ///
-    /// # Errors
-    /// [`AppError`]: a usage mistake, a failed command (its message names
-    /// the culprit), or a failed write to `out`.
-    pub fn run_cli<I, T>(&self, args: I, out: &mut dyn Write) -> Result<(), AppError>
-    where
-        I: IntoIterator<Item = T>,
-        T: Into<OsString> + Clone,
-    {
-        ezy_core::spell_settings_as_flags();
-        let args: Vec<OsString> = args.into_iter().map(Into::into).collect();
-        let cli = COMMANDS.iter().fold(crate::cli::top(), |top, c| top.subcommand((c.cli)(clap::Command::new(c.name))));
-        let matches = cli.clone().try_get_matches_from(&args)?;
-        let matches = match matches.subcommand() {
-            Some(_) => matches,
-            // a bare `ezy`: the default command without arguments
-            None => cli.try_get_matches_from([args.first().cloned().unwrap_or_default(), DEFAULT.into()])?,
-        };
-        let (name, args) = matches.subcommand().expect("a command, given or the default");
-        let command = COMMANDS.iter().find(|c| c.name == name).expect("clap matches only the table's commands");
-        (command.exec)(self, args, out)
     }
 }

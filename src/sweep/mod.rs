@@ -49,9 +49,9 @@ pub(crate) use plan::Plan;
 pub(crate) use table::parse_shard;
 pub(crate) use table::{Manifest, merge};
 
-use crate::output::csv::RowBuilder;
 use crate::output::transaction::Interrupted;
 use crate::session::{self, RunOptions};
+use ezy_scene::RowBuilder;
 
 /// A sweep to run: what `ezy sweep` parsed and checked.
 #[derive(Debug, Clone)]
