@@ -1,5 +1,5 @@
 //! Helpers shared by the integration tests.
-#![allow(dead_code)]
+#![allow(dead_code, reason = "each test module uses a part")]
 
 use ezy_core::formulation::initial::InitialReport;
 use ezy_core::kkt::KktMethod;

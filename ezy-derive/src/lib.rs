@@ -19,8 +19,10 @@ mod emit;
 mod kinematics;
 mod minimal;
 mod parse;
-// `eval`/`display` serve the tests now and readable equations later.
-#[cfg_attr(not(test), allow(dead_code))]
+#[cfg_attr(
+    not(test),
+    allow(dead_code, reason = "`eval` and `display` serve the tests now and readable equations later")
+)]
 mod sym;
 
 // The whole documentation of the macro is at `ezy_core::model!` (the

@@ -1,7 +1,8 @@
 #![warn(missing_docs)]
-// The docstrings of the #[pymethods] are Python's help: a unit in them is
-// written `[s]`, as Python users read it, not as an intra-doc link.
-#![allow(rustdoc::broken_intra_doc_links)]
+#![allow(
+    rustdoc::broken_intra_doc_links,
+    reason = "the docstrings of the #[pymethods] are Python's help: a unit in them is written `[s]`, as Python users read it, not as an intra-doc link"
+)]
 //! ezy from Python: the extension module `ezy` (built by maturin from this
 //! crate: `pip install ./python`) and the means for a user's crate to
 //! become a Python module with its own vehicles and force laws

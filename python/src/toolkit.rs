@@ -201,7 +201,7 @@ impl Toolkit {
     /// Raises EzyError naming the bad axis, metric or setting (by the
     /// command line's flag); KeyboardInterrupt on Ctrl-C.
     #[pyo3(signature = (scene, grid, *, metrics=None, jobs=None, out=None, **settings))]
-    #[allow(clippy::too_many_arguments)] // Python's keywords, one argument each
+    #[expect(clippy::too_many_arguments, reason = "Python's keywords, one argument each")]
     fn sweep<'py>(
         &self,
         py: Python<'py>,

@@ -294,7 +294,10 @@ fn check_fused<M: Model>(
 /// same torques: the same `dz` bit for bit, and the headings (each body's
 /// angle and angular rate, what a hinge torque reads) those of the state
 /// `(q0, qd0)`, both when the torques are asked for and after.
-#[allow(clippy::too_many_arguments)]
+#[expect(
+    clippy::too_many_arguments,
+    reason = "the state, the torques and the accumulator of one check, as the fused right-hand side takes them"
+)]
 fn check_lean<M: Model>(m: &M, k: &[f64], z: &[f64], q0: &[f64], qd0: &[f64], torque: &[f64], s: usize, acc: &mut Acc) {
     let info = m.info();
     let nq = q0.len();

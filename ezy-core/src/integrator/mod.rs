@@ -23,7 +23,7 @@
 /// the steppers' modules, which use it.
 macro_rules! stage_arg {
     ($out:expr, $y:expr, $h:expr, [$a0:expr $(, $a:expr)*], [$k0:ident $(, $k:ident)*] $(,)?) => {{
-        #[allow(clippy::too_many_arguments)]
+        #[allow(clippy::too_many_arguments, reason = "one slice per stage of the method: up to 12; an allow, as the methods with few stages do not need it")]
         #[inline(always)]
         fn combine(out: &mut [f64], y: &[f64], h: f64, $k0: &[f64] $(, $k: &[f64])*) {
             let n = out.len();

@@ -120,7 +120,7 @@ pub(super) fn minimal_fns(d: &Derived, def: &ModelDef, m: Result<Minimal, String
         #[inline]
         fn minimal_expand<S: #private::Scalar>(&self, q: &mut [S], qd_out: &mut [S], b: &mut [S], c: &mut [S]) {
             // the speeds in, read before anything is written
-            #[allow(unused_variables)]
+            #[allow(unused_variables, reason = "a kernel reads only the terms its model has")]
             let qd: [S; #nq] = ::core::array::from_fn(|k| qd_out[k]);
             #lets
             #sets
@@ -128,7 +128,7 @@ pub(super) fn minimal_fns(d: &Derived, def: &ModelDef, m: Result<Minimal, String
 
         #[inline]
         fn minimal_state<S: #private::Scalar>(&self, q: &mut [S], qd_out: &mut [S]) -> bool {
-            #[allow(unused_variables)]
+            #[allow(unused_variables, reason = "a kernel reads only the terms its model has")]
             let qd: [S; #nq] = ::core::array::from_fn(|k| qd_out[k]);
             #state_lets
             #state_sets

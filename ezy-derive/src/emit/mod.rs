@@ -111,12 +111,12 @@ pub fn emit(def: &ModelDef, res: &Resolved, d: &mut Derived) -> TokenStream {
     quote! {
         #struct_and_default
 
-        #[allow(non_snake_case, unused_variables, unused_mut, unused_parens, clippy::all, clippy::pedantic)]
+        #[allow(non_snake_case, unused_variables, unused_mut, unused_parens, clippy::all, clippy::pedantic, reason = "generated: the model's own names, and terms a model may not use")]
         impl #name {
             #layout
         }
 
-        #[allow(non_snake_case, unused_variables, unused_mut, unused_parens, clippy::all, clippy::pedantic)]
+        #[allow(non_snake_case, unused_variables, unused_mut, unused_parens, clippy::all, clippy::pedantic, reason = "generated: the model's own names, and terms a model may not use")]
         impl #private::Model for #name {
             #info
             #equations
@@ -157,7 +157,7 @@ fn struct_and_default(def: &ModelDef) -> TokenStream {
     quote! {
         #(#attrs)*
         #[derive(Debug, Clone, PartialEq)]
-        #[allow(non_snake_case)]
+        #[allow(non_snake_case, reason = "the model's parameters keep the names its text gives them")]
         #vis struct #name {
             #(#fields)*
             #(#count_fields)*

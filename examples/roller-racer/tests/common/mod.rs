@@ -1,7 +1,7 @@
 //! What the tests share, in one place: a renamed copy of this crate edits
 //! the `use` below and nothing else in `tests/`.
 
-#![allow(dead_code, unused_imports)] // each test file uses a part
+#![allow(dead_code, unused_imports, reason = "each test file uses a part")]
 
 use std::path::PathBuf;
 use std::process::Command;
