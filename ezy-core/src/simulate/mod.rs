@@ -1344,7 +1344,10 @@ trait Integrand<M: Model> {
     /// state's checks ([`Run::after_step`]); returns whether `x` changed.
     /// `evaluated`: the step's last evaluation of `F` was at `x` (DOPRI5's
     /// last stage).
-    #[allow(clippy::too_many_arguments)]
+    #[expect(
+        clippy::too_many_arguments,
+        reason = "a step's state as the loop holds it, borrowed, no struct built per step"
+    )]
     fn accept<O: Observer<M>>(
         &mut self,
         run: &mut Run<'_, M, O>,
@@ -1387,7 +1390,10 @@ trait Integrand<M: Model> {
     /// ([`Projector::remove_normal`]), or `None` where nothing is projected
     /// (the reduced formulation, `--projection none`). `ea`, `eb`: scratch
     /// (nx each).
-    #[allow(clippy::too_many_arguments)]
+    #[expect(
+        clippy::too_many_arguments,
+        reason = "a step's state as the loop holds it, borrowed, no struct built per step"
+    )]
     fn tangential_error<O: Observer<M>, E: EmbeddedRk>(
         &mut self,
         _run: &mut Run<'_, M, O>,
