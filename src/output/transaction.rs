@@ -50,6 +50,10 @@ use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 /// different files of one name.
 pub const LOCK_FILE: &str = ".ezy.lock";
 
+/// How long a lock found taken is tried again before the run is refused
+/// as [`TransactionError::Busy`] (see [`lock`]): 0.3 s.
+const LOCK_PATIENCE: std::time::Duration = std::time::Duration::from_millis(300);
+
 /// Prefix of a run's private directory inside the output directory.
 pub(crate) const TEMP_PREFIX: &str = ".ezy-run.";
 
@@ -531,12 +535,23 @@ pub(crate) fn lock(dir: &Path) -> Result<File, TransactionError> {
             reason: "is not a regular file; ezy uses this name as its lock file (remove it)",
         });
     }
-    match lock.try_lock() {
-        Ok(()) => {}
-        Err(std::fs::TryLockError::WouldBlock) => return Err(TransactionError::Busy { dir: dir.into() }),
-        Err(std::fs::TryLockError::Error(source)) => return Err(TransactionError::Io { path: lock_path, source }),
+    // A lock found taken is tried again for up to LOCK_PATIENCE: a process
+    // forked by this one (a program, or a test harness, that starts
+    // processes from other threads) holds a copy of every open file until
+    // it execs, and with it this lock, for an instant after it was
+    // released here. A run that truly holds it still refuses at once to
+    // a person's eye.
+    let deadline = std::time::Instant::now() + LOCK_PATIENCE;
+    loop {
+        match lock.try_lock() {
+            Ok(()) => return Ok(lock),
+            Err(std::fs::TryLockError::WouldBlock) if std::time::Instant::now() < deadline => {
+                std::thread::sleep(std::time::Duration::from_millis(10));
+            }
+            Err(std::fs::TryLockError::WouldBlock) => return Err(TransactionError::Busy { dir: dir.into() }),
+            Err(std::fs::TryLockError::Error(source)) => return Err(TransactionError::Io { path: lock_path, source }),
+        }
     }
-    Ok(lock)
 }
 
 /// Before a transaction begins (setup, `ezy precision`'s measurements) the
