@@ -149,7 +149,7 @@ impl<M: Model> RowBuilder<M> {
             self.f_scratch.fill(0.0);
             let mut friction = 0;
             for e in &sys.effects {
-                if let ezy_core::effects::Law::SkateFriction { .. } = e.law {
+                if let ezy_core::effects::Law::SkateFriction(_) = e.law {
                     // the lateral force, slip velocity and mode (probe: above)
                     let p = self.probe.as_ref().expect("a probe with friction");
                     let fr = &p.sys.friction[friction];

@@ -13,7 +13,7 @@ use bare_rhs::BareRhs;
 use common::max_abs;
 use common::{build, setup};
 use ezy::output::RowBuilder;
-use ezy_core::effects::{EffectSpec, Law};
+use ezy_core::effects::{EFFECT_KINDS, EffectSpec, Law};
 use ezy_core::integrator::Rhs;
 use ezy_core::kkt::KktMethod;
 use ezy_core::{Dynamics, Method, Model, ProjectionKind, RunSettings, Sample, simulate};
@@ -143,11 +143,12 @@ fn by_hand(name: &str, m: &EzyRoller) -> (Vec<(usize, f64)>, f64) {
 fn each_force_law_matches_a_hand_computation() {
     let scene = all_effects();
     let s = setup::<EzyRoller>(&scene, &[]).unwrap();
-    assert_eq!(s.effects.len(), 18);
+    // one effect of each kind, two of `force` and of `spring-damper`
+    assert_eq!(s.effects.len(), EFFECT_KINDS.len() + 2);
     for e in &s.effects {
         let mut f = [0.0; 6];
         let (power, value) = e.apply(T, &Q, &QD, &mut f);
-        if matches!(e.law, Law::SkateFriction { .. }) {
+        if matches!(e.law, Law::SkateFriction(_)) {
             // a friction's force enters through its released KKT row, not
             // the force vector: tests/friction.rs checks it (closed form)
             assert!(f.iter().all(|v| *v == 0.0) && power == 0.0 && value == 0.0, "{}: {f:?}", e.name);
@@ -181,8 +182,8 @@ fn power_is_the_derivative_of_the_work_column_and_the_ledger_closes() {
     // the central difference across it first order; its power is not
     // `apply`'s. tests/friction.rs closes the ledger through stick-slip.
     let mut scene = all_effects();
-    scene.effects.retain(|(_, e)| !matches!(e, SceneEffect::Builtin(EffectSpec::SkateFriction { .. })));
-    assert_eq!(scene.effects.len(), 17);
+    scene.effects.retain(|(_, e)| !matches!(e, SceneEffect::Builtin(EffectSpec::SkateFriction(_))));
+    assert_eq!(scene.effects.len(), EFFECT_KINDS.len() + 1);
     let (mut sys, y0) = build::<EzyRoller>(&scene, &[], KktMethod::Auto).unwrap();
     let settings = RunSettings {
         dt: 1e-3,
@@ -594,7 +595,11 @@ fn a_users_law_over_a_family_is_the_builtin_it_rewrites() {
             let p = p.qd("x1", 0.5).unwrap().qd("phi1", 0.2).unwrap().method(Method::Dop853);
             p.t_end(2.0).formulation(formulation).solve().unwrap()
         };
-        let spec = EffectSpec::HingeSpring { hinge: "B".into(), stiffness: 2.0, rest_angle: 0.0 };
+        let spec = EffectSpec::HingeSpring(ezy_core::effects::HingeSpring {
+            hinge: "B".into(),
+            stiffness: 2.0,
+            rest_angle: 0.0,
+        });
         let a = start(Problem::new(EzyRoller::default()).effect("spring", spec).unwrap());
         let torsion = Torsion { hinge: "B".into(), stiffness: 2.0 };
         let b = start(Problem::new(EzyRoller::default()).kind("spring", &torsion).unwrap());

@@ -247,15 +247,13 @@ impl EventSpec {
             message,
         })?;
         if let Quantity::EffectValue(k) = quantity
-            && matches!(effects[k].law, crate::effects::Law::SkateFriction { .. })
+            && matches!(effects[k].law, crate::effects::Law::SkateFriction(_))
         {
             let message = friction_force_unwatched(&self.when, &effects[k].name);
             return Err(SimError::Event { event: name.into(), field: "when", message });
         }
-        let named: Vec<(&str, bool)> = effects
-            .iter()
-            .map(|e| (e.name.as_str(), matches!(e.law, crate::effects::Law::SkateFriction { .. })))
-            .collect();
+        let named: Vec<(&str, bool)> =
+            effects.iter().map(|e| (e.name.as_str(), matches!(e.law, crate::effects::Law::SkateFriction(_)))).collect();
         let (switch_on, switch_off) =
             self.switched(&named).map_err(|(field, message)| SimError::Event { event: name.into(), field, message })?;
         Ok(Event {

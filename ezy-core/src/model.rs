@@ -453,7 +453,7 @@ pub trait Model: Clone + Send + Sync + 'static {
     /// \[N, N m\] and the hinges' torques `tau` (nh, zero on entry, in
     /// the order of [`ModelInfo::hinges`]) \[N m\], each acting `+tau` on
     /// its hinge's first body and `-tau` on its second (a motor, spring,
-    /// damper or servo at a hinge, [`crate::effects::HingeLaw`]), and
+    /// damper or servo at a hinge, [`crate::effects::hinge::HingeLaw`]), and
     /// writes `dz = [pd, u']` (np + nu): the kept
     /// coordinates' rates and the speeds' rates from Maggi's equations in
     /// the body frames, `B^T M B u' = B^T (F - M c)` (Kane & Levinson 1985,
@@ -547,7 +547,7 @@ pub trait Model: Clone + Send + Sync + 'static {
         power: &mut [f64],
         lean: bool,
     ) -> Result<(), MinimalRhsError<crate::SimError>> {
-        use crate::dynamics::{apply_effects, hinge_torques};
+        use crate::effects::law::{apply_effects, hinge_torques};
         if waves.is_empty() {
             // the applied-force part of the generated code, never written,
             // folds away
@@ -606,6 +606,40 @@ pub enum MinimalRhsError<E> {
     /// Maggi's mass matrix `B^T M B` could not be factored (a pivot not
     /// positive, or non-finite entries: the state overflowed).
     Maggi(crate::kkt::KktError),
+}
+
+/// The effects' context read from a model (the effects, a floor below
+/// the [`Model`] trait, take the model's values as data:
+/// [`crate::effects::EffectContext::from_values`]).
+impl<'a> crate::effects::EffectContext<'a> {
+    /// The context of `model`, whose names `names` indexes: its body-frame
+    /// point offsets and blade directions, mass diagonal and parameter
+    /// values at its current parameters.
+    pub fn new<M: Model>(model: &M, names: &'a NameIndex<'a>) -> Self {
+        let info = names.info;
+        let mut points = vec![0.0; 2 * info.points.len()];
+        let mut blades = vec![0.0; 2 * info.skates.len()];
+        model.local_geometry(&mut points, &mut blades);
+        let mut mass = vec![0.0; info.nq()];
+        model.mass_diagonal(&mut mass);
+        let model_params = (0..info.params.len()).map(|i| model.param(i)).collect();
+        Self::from_values(names, points, blades, mass, model_params)
+    }
+}
+
+impl crate::effects::EffectSpec {
+    /// Resolves names to coordinate indices and body-frame geometry of
+    /// `model` (at its current parameters): the effect called `name`. For
+    /// many effects of one model build an
+    /// [`crate::effects::EffectContext`] once and call
+    /// [`crate::effects::EffectSpec::resolve_in`].
+    ///
+    /// # Errors
+    /// As [`crate::effects::EffectSpec::resolve_in`].
+    pub fn resolve<M: Model>(&self, name: &str, model: &M) -> Result<crate::effects::Effect, crate::SimError> {
+        let info = model.info();
+        self.resolve_in(name, &crate::effects::EffectContext::new(model, &NameIndex::new(&info)))
+    }
 }
 
 /// Minimal coordinates of a model whose hinges form a tree and whose

@@ -6,7 +6,7 @@
 //! The EzyRoller's `drive` scene (docs/physics.md §10.3), written in Rust:
 //!
 //! ```
-//! use ezy_core::effects::{EffectSpec, Waveform};
+//! use ezy_core::effects::{HingeMotor, Waveform};
 //! use ezy_core::{Method, Problem};
 //! # ezy_core::model! {
 //! #     /// The EzyRoller.
@@ -31,7 +31,7 @@
 //! # }
 //!
 //! # fn main() -> Result<(), ezy_core::SimError> {
-//! let motor = EffectSpec::HingeMotor { hinge: "B".into(), torque: Waveform::cos(2.0, std::f64::consts::PI) };
+//! let motor = HingeMotor { hinge: "B".into(), torque: Waveform::cos(2.0, std::f64::consts::PI) };
 //! let solution = Problem::new(EzyRoller::default())
 //!     .effect("motor", motor)?
 //!     .q("x1", 0.0)?
@@ -51,9 +51,8 @@
 //! # }
 //! ```
 
-use std::sync::Arc;
-
 use crate::drive::Drive;
+use crate::effects::kind::resolve_kind;
 use crate::effects::{Effect, EffectContext, EffectKind, EffectSpec, ForceLaw, Law, Waveform};
 use crate::events::{Event, EventSpec};
 use crate::initial::{Given, InitialReport, consistent_state_given};
@@ -272,9 +271,9 @@ impl<M: Model> Problem<M> {
     /// # Errors
     /// [`SimError::Scene`] for a bad or repeated name; [`SimError::Effect`]
     /// for a name the model does not have or a bad number in `spec`.
-    pub fn effect(mut self, name: &str, spec: EffectSpec) -> Result<Self, SimError> {
+    pub fn effect(mut self, name: &str, spec: impl Into<EffectSpec>) -> Result<Self, SimError> {
         self.check_effect_name(name)?;
-        let effect = spec.resolve(name, &self.model)?;
+        let effect = spec.into().resolve(name, &self.model)?;
         self.effects.push(effect);
         Ok(self)
     }
@@ -292,12 +291,12 @@ impl<M: Model> Problem<M> {
         let info = self.model.info();
         let names = NameIndex::new(&info);
         let cx = EffectContext::new(&self.model, &names);
-        let law = spec.resolve(&cx).map_err(|e| SimError::Effect {
+        let law = resolve_kind(spec, &cx).map_err(|e| SimError::Effect {
             effect: name.to_string(),
             field: e.field,
             message: e.message,
         })?;
-        let law = Law::user(name, Arc::new(law), cx.nq())?;
+        let law = Law::checked(name, law, cx.nq())?;
         self.effects.push(Effect {
             name: name.to_string(),
             value_column: format!("{}_{name}", T::VALUE_PREFIX),
@@ -315,7 +314,7 @@ impl<M: Model> Problem<M> {
     /// for a coordinate index in [`ForceLaw::coords`] beyond nq.
     pub fn law(mut self, name: &str, law: impl ForceLaw) -> Result<Self, SimError> {
         self.check_effect_name(name)?;
-        let law = Law::user(name, Arc::new(law), self.model.info().nq())?;
+        let law = Law::checked(name, law.into_law(), self.model.info().nq())?;
         self.effects.push(Effect { name: name.to_string(), value_column: format!("F_{name}"), law, on: true });
         Ok(self)
     }
@@ -521,7 +520,7 @@ impl<M: Model> Problem<M> {
             .effects
             .iter()
             .filter_map(|e| match e.law {
-                crate::effects::Law::SkateFriction { skate, .. } => Some(info.skates[skate].row),
+                crate::effects::Law::SkateFriction(ref fr) => Some(info.skates[fr.skate].row),
                 _ => None,
             })
             .collect();

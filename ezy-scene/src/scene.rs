@@ -925,9 +925,9 @@ impl Scene {
                     for (n, e) in &self.effects {
                         cols.push(e.value_column(n));
                         // a skate with friction: its slip velocity [m/s] and mode
-                        if let crate::kinds::SceneEffect::Builtin(ezy_core::EffectSpec::SkateFriction {
-                            skate, ..
-                        }) = e
+                        if let crate::kinds::SceneEffect::Builtin(ezy_core::EffectSpec::SkateFriction(
+                            ezy_core::effects::SkateFriction { skate, .. },
+                        )) = e
                         {
                             cols.push(format!("v_slip_{skate}"));
                             cols.push(format!("sliding_{skate}"));
@@ -1217,7 +1217,7 @@ impl Scene {
         let switchable: Vec<(&str, bool)> = self
             .effects
             .iter()
-            .map(|(n, e)| (n.as_str(), matches!(e, SceneEffect::Builtin(ezy_core::EffectSpec::SkateFriction { .. }))))
+            .map(|(n, e)| (n.as_str(), matches!(e, SceneEffect::Builtin(ezy_core::EffectSpec::SkateFriction(_)))))
             .collect();
         for (name, event) in &self.events {
             keep(

@@ -8,8 +8,8 @@
 //! ([`python_module!`]).
 //!
 //! Everything a module offers is [`init_module`] over an [`ezy::App`]:
-//! `models()`, `scenes()`, `scene(name)`, `run(scene, ...)`,
-//! `sweep(scene, ...)`, `equations(model)` and `check(model)`, the classes
+//! `models()`, `scenes()`, `effect_kinds()`, `scene(name)`, `run(scene,
+//! ...)`, `sweep(scene, ...)`, `equations(model)` and `check(model)`, the classes
 //! `Result`, `Scene` and `Equations`, and the exception `EzyError`, whose
 //! message is the command line's (the file, line, key or flag at fault).
 //!
@@ -54,6 +54,7 @@ run(scene, **settings)      a scene in memory: a Result with NumPy arrays
 sweep(scene, grid, ...)     runs over parameter values: a pandas DataFrame
 scene(name)                 a Scene to change (parameters, effects' numbers) and run
 models(), scenes()          what this module knows
+effect_kinds()              the effect kinds a scene may name, with keys and laws
 equations(model)            the derived equations (LaTeX in Jupyter)
 check(model)                the derived terms against automatic differentiation
 
@@ -99,7 +100,7 @@ fn ezy_module(m: &Bound<'_, PyModule>) -> PyResult<()> {
 }
 
 /// Fills module `m` with the API over `app`: the functions `models`,
-/// `scenes`, `scene`, `run`, `sweep`, `equations`, `check`, the classes
+/// `scenes`, `effect_kinds`, `scene`, `run`, `sweep`, `equations`, `check`, the classes
 /// `Result`, `Scene`, `Effect`, `Equations`, `Check` and the exception
 /// `EzyError`.
 ///
@@ -131,7 +132,7 @@ pub fn init_module(m: &Bound<'_, PyModule>, app: App) -> PyResult<()> {
     m.add_class::<Check>()?;
     m.add_class::<Toolkit>()?;
     let kit = Bound::new(py, Toolkit { app, helpers: helpers.unbind() })?;
-    for f in ["models", "scenes", "scene", "run", "sweep", "equations", "check"] {
+    for f in ["models", "scenes", "effect_kinds", "scene", "run", "sweep", "equations", "check"] {
         m.add(f, kit.getattr(f)?)?;
     }
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
@@ -344,6 +345,30 @@ impl Toolkit {
         let d = PyDict::new(py);
         for src in self.app.scenes().map_err(ezy_err)? {
             d.set_item(&src.scene.name, &src.scene.description)?;
+        }
+        Ok(d)
+    }
+
+    /// The effect kinds a scene's `[effects.NAME]` table may name by its
+    /// `kind`: `{kind: {"builtin": True, "keys": ..., "law": ...,
+    /// "value_column": "tau_<name>" or "F_<name>"}}` for the built-in
+    /// kinds, in the order of ezy's registry (the rows of the guide's
+    /// reference page "Effect kinds"), then `{kind: {"builtin": False}}`
+    /// for this module's own kinds.
+    fn effect_kinds<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
+        let d = PyDict::new(py);
+        for r in ezy_core::effects::REFERENCE {
+            let row = PyDict::new(py);
+            row.set_item("builtin", true)?;
+            row.set_item("keys", r.keys)?;
+            row.set_item("law", r.law)?;
+            row.set_item("value_column", format!("{}_<name>", r.value_prefix))?;
+            d.set_item(r.kind, row)?;
+        }
+        for kind in self.app.effect_kinds().map(|k| k.names()).unwrap_or_default() {
+            let row = PyDict::new(py);
+            row.set_item("builtin", false)?;
+            d.set_item(kind, row)?;
         }
         Ok(d)
     }
