@@ -1,6 +1,6 @@
 //! Hinge torque laws (one family, MuJoCo's `mj_passive` calls one
-//! function per family): a motor, a spring, a damper and a position servo at
-//! a hinge. Each kind is a spec struct (its
+//! function per family): a motor, a spring, a damper, a position servo and
+//! Coulomb-viscous friction at a hinge. Each kind is a spec struct (its
 //! scene table, read by serde) implementing [`EffectKind`]; all resolve
 //! to one law struct, [`HingeLaw`]: the hinge ([`HingeRef`]) and its
 //! torque law ([`HingeTorque`]).
@@ -21,7 +21,7 @@
 
 use serde::{Deserialize, Serialize};
 
-use super::context::{CheckContext, EffectContext, HingeRef, angle, finite, non_negative, wave};
+use super::context::{CheckContext, EffectContext, HingeRef, angle, finite, non_negative, positive, wave};
 use super::kind::{EffectKind, ForceLaw, SpecError, TimeScale, Waveforms};
 use super::law::Law;
 use super::registry::Reference;
@@ -91,6 +91,30 @@ pub struct HingeServo {
     pub angle: Waveform,
 }
 
+/// Coulomb-viscous friction at a hinge (`hinge-friction`; a bearing):
+/// `tau = -(damping theta_dot + torque tanh(theta_dot / smoothing))`
+/// \[N m\]. For `|theta_dot| >> smoothing` the Coulomb part is
+/// `-torque sign(theta_dot)`; below `smoothing` it is linear, so the law
+/// is smooth at rest (the fixed-step methods keep their order) and a
+/// hinge coasting down comes to rest within about `smoothing` of the
+/// rate where the pure Coulomb law would stop it (no stiction: Stribeck-
+/// free). It dissipates `-tau theta_dot >= 0` \[W\] (its work, negative,
+/// is in its `W_<name>`). A small `smoothing` makes the scene stiff near
+/// rest: the linear part's damping is `torque / smoothing`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct HingeFriction {
+    /// Hinge name.
+    pub hinge: String,
+    /// Viscous coefficient `c_v` \[N m s/rad\], zero or positive.
+    #[serde(default, skip_serializing_if = "is_zero")]
+    pub damping: f64,
+    /// Coulomb friction torque `T_c` \[N m\], zero or positive.
+    pub torque: f64,
+    /// Rate `w_s` below which the Coulomb part is linear \[rad/s\], positive.
+    pub smoothing: f64,
+}
+
 /// Torque laws at a hinge, the resolved form of the hinge kinds.
 #[derive(Debug, Clone, PartialEq)]
 pub enum HingeTorque {
@@ -118,6 +142,16 @@ pub enum HingeTorque {
         /// Commanded angle \[rad\].
         angle: Waveform,
     },
+    /// `tau = -(damping theta_dot + torque tanh(theta_dot / smoothing))`
+    /// ([`HingeFriction`]).
+    Friction {
+        /// \[N m s/rad\].
+        damping: f64,
+        /// \[N m\].
+        torque: f64,
+        /// \[rad/s\].
+        smoothing: f64,
+    },
 }
 
 /// A hinge torque law resolved against a model: the family's law struct,
@@ -139,7 +173,7 @@ impl HingeLaw {
         match &self.torque {
             HingeTorque::Motor(w) => [w.eval(t), 0.0, 0.0],
             HingeTorque::Servo { angle, .. } => angle.eval3(t),
-            HingeTorque::Spring { .. } | HingeTorque::Damper { .. } => [0.0; 3],
+            HingeTorque::Spring { .. } | HingeTorque::Damper { .. } | HingeTorque::Friction { .. } => [0.0; 3],
         }
     }
 
@@ -158,6 +192,9 @@ impl HingeLaw {
             HingeTorque::Servo { stiffness, damping, .. } => {
                 let [target, target_rate, _] = *wave;
                 -stiffness * (theta() - target) - damping * (rate - target_rate)
+            }
+            HingeTorque::Friction { damping, torque, smoothing } => {
+                -(damping * rate + torque * (rate / smoothing).tanh())
             }
         };
         (tau, rate)
@@ -219,6 +256,13 @@ impl ForceLaw for HingeLaw {
             HingeTorque::Servo { stiffness, damping, .. } => {
                 let best = TimeScale::shorter(None, m, "stiffness", *stiffness, true);
                 TimeScale::shorter(best, m, "damping", *damping, false)
+            }
+            HingeTorque::Friction { damping, torque, smoothing } => {
+                // near rest the Coulomb part is a damping torque / smoothing
+                let best = TimeScale::shorter(None, m, "damping", *damping, false);
+                let coulomb = TimeScale::shorter(None, m, "smoothing", torque / smoothing, false)
+                    .map(|ts| TimeScale { value: *smoothing, ..ts });
+                [best, coulomb].into_iter().flatten().reduce(|a, b| if b.seconds < a.seconds { b } else { a })
             }
             HingeTorque::Motor(_) => None,
         }
@@ -305,4 +349,24 @@ impl EffectKind for HingeServo {
 impl Reference for HingeServo {
     const KEYS: &'static str = "`hinge`, `stiffness` [N m/rad], `damping` [N m s/rad] (0), `angle` (waveform) [rad]";
     const LAW: &'static str = "`tau = -stiffness (theta - angle(t)) - damping (theta_dot - angle'(t))`: a position servo (PD controller) tracking `angle(t)`";
+}
+
+impl EffectKind for HingeFriction {
+    type Law = HingeLaw;
+    const VALUE_PREFIX: &'static str = "tau";
+    fn check(&self, cx: &CheckContext<'_>) -> Result<(), SpecError> {
+        cx.hinge("hinge", &self.hinge)?;
+        non_negative("damping", self.damping)?;
+        non_negative("torque", self.torque)?;
+        positive("smoothing", self.smoothing, "rate [rad/s]")
+    }
+    fn resolve(&self, cx: &EffectContext<'_>) -> Result<HingeLaw, SpecError> {
+        let (damping, torque, smoothing) = (self.damping, self.torque, self.smoothing);
+        at_hinge(cx, &self.hinge, HingeTorque::Friction { damping, torque, smoothing })
+    }
+}
+
+impl Reference for HingeFriction {
+    const KEYS: &'static str = "`hinge`, `damping` [N m s/rad] (0), `torque` [N m], `smoothing` [rad/s]";
+    const LAW: &'static str = "`tau = -(damping theta_dot + torque tanh(theta_dot / smoothing))`: Coulomb-viscous friction in a bearing, smooth at rest (no stiction); dissipates, its work `W_<name>` <= 0";
 }

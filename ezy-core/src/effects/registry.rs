@@ -200,6 +200,7 @@ registry! {
     HingeSpring(super::hinge::HingeSpring) = "hinge-spring",
     HingeDamper(super::hinge::HingeDamper) = "hinge-damper",
     HingeServo(super::hinge::HingeServo) = "hinge-servo",
+    HingeFriction(super::hinge::HingeFriction) = "hinge-friction",
     RollingViscous(super::blade::RollingViscous) = "rolling-viscous",
     RollingCoulomb(super::blade::RollingCoulomb) = "rolling-coulomb",
     DrivenWheel(super::blade::DrivenWheel) = "driven-wheel",
