@@ -138,8 +138,10 @@ fn linearization_matches_differences_of_the_right_hand_side() {
     // B: a torque at hinge B through the scene's motor (same convention),
     // and the rolling resistance at A scaled
     let m = EzyRoller::default();
-    let motor =
-        ezy_core::EffectSpec::HingeMotor { hinge: "B".into(), torque: ezy_core::effects::Waveform::Constant(1.0) };
+    let motor = ezy_core::EffectSpec::HingeMotor(ezy_core::effects::HingeMotor {
+        hinge: "B".into(),
+        torque: ezy_core::effects::Waveform::Constant(1.0),
+    });
     let system = |effects| Analysis::new(Dynamics::new(m.clone(), effects, KktMethod::Auto));
     let f_unit = system(vec![motor.resolve("u", &m).unwrap()]).rhs(t, &x).unwrap();
     let f_bare = system(Vec::new()).rhs(t, &x).unwrap();

@@ -235,21 +235,35 @@ fn a_massless_body_is_named_by_the_analyses() {
 /// range and Baumgarte rates past the step, naming them.
 #[test]
 fn the_library_names_the_culprit_too() {
-    let friction =
-        |mu: f64| EffectSpec::SkateFriction { skate: "P".into(), mu, normal: None, share: Some(1.0), g: 9.8 };
+    let friction = |mu: f64| {
+        EffectSpec::SkateFriction(ezy_core::effects::SkateFriction {
+            skate: "P".into(),
+            mu,
+            normal: None,
+            share: Some(1.0),
+            g: 9.8,
+        })
+    };
     let e = Problem::new(ChaplyginSleigh::default()).effect("slip_P", friction(1e300)).unwrap_err().to_string();
     assert!(e.starts_with("effect `slip_P`, key `mu`: mu = 1e300 is not a friction coefficient"), "{e}");
     Problem::new(ChaplyginSleigh::default()).effect("slip_P", friction(MAX_MU)).unwrap();
 
-    let spring = EffectSpec::HingeSpring { hinge: "B".into(), stiffness: 1e300, rest_angle: 0.0 };
+    let spring = EffectSpec::HingeSpring(ezy_core::effects::HingeSpring {
+        hinge: "B".into(),
+        stiffness: 1e300,
+        rest_angle: 0.0,
+    });
     let e = Problem::new(EzyRoller::default()).effect("k", spring).unwrap_err().to_string();
     assert!(e.starts_with("effect `k`, key `stiffness`: stiffness = 1e300 is out of range"), "{e}");
 
-    let slope = EffectSpec::Slope { angle: 1e300, downhill: 0.0, g: 9.8 };
+    let slope = EffectSpec::Slope(ezy_core::effects::Slope { angle: 1e300, downhill: 0.0, g: 9.8 });
     let e = Problem::new(EzyRoller::default()).effect("slope", slope).unwrap_err().to_string();
     assert!(e.contains("key `angle`: angle = 1e300 is not the inclination of a plane"), "{e}");
 
-    let motor = EffectSpec::HingeMotor { hinge: "B".into(), torque: ezy_core::effects::Waveform::cos(2.0, 1e300) };
+    let motor = EffectSpec::HingeMotor(ezy_core::effects::HingeMotor {
+        hinge: "B".into(),
+        torque: ezy_core::effects::Waveform::cos(2.0, 1e300),
+    });
     let e = Problem::new(EzyRoller::default()).effect("motor", motor).unwrap_err().to_string();
     assert!(e.contains("effect `motor`, key `torque`: omega = 1e300"), "{e}");
 

@@ -207,40 +207,42 @@ fn the_commands_reference_is_clap_s() {
     check_page("docs/book/src/reference/commands.md", "the command line's help (clap)", &body);
 }
 
-/// The guide's table of effect kinds (docs/book/src/scenes.md) has one row
-/// per built-in kind, no other, and each row names every key the kind
+/// The reference page of the effect kinds (docs/book/src/reference/effects.md)
+/// is the registry's list (`ezy_core::effects::REFERENCE`), one row per
+/// built-in kind in its order; and each row names every key the kind
 /// accepts: the keys as serde knows them, read from its refusal of an
 /// unknown key ("expected `hinge` or `torque`").
 #[test]
-fn the_effects_table_names_every_kind_and_key() {
-    use ezy_core::effects::{EFFECT_KINDS, EffectSpec};
-    let page = read("docs/book/src/scenes.md");
-    let rows: Vec<(&str, &str)> = page
-        .lines()
-        .filter_map(|l| {
-            let rest = l.strip_prefix("| `")?;
-            let (kind, rest) = rest.split_once("` | ")?;
-            let keys = rest.split(" | ").next()?;
-            Some((kind, keys))
-        })
-        .filter(|(kind, _)| *kind != "kind" && kind.chars().all(|c| c.is_ascii_lowercase() || c == '-'))
-        .collect();
-    let documented: Vec<&str> = rows.iter().map(|(k, _)| *k).collect();
-    assert_eq!(documented, EFFECT_KINDS, "the table's kinds, in order, are the built-in kinds");
-    for (kind, keys) in rows {
-        let e = toml::from_str::<EffectSpec>(&format!("kind = \"{kind}\"\nzz_no_such_key = 1"))
+fn the_effects_reference_is_the_registry_s() {
+    use ezy_core::effects::{EFFECT_KINDS, EffectSpec, REFERENCE};
+    let kinds: Vec<&str> = REFERENCE.iter().map(|r| r.kind).collect();
+    assert_eq!(kinds, EFFECT_KINDS, "the reference rows are the built-in kinds, in order");
+    let cell = |s: &str| s.replace('|', "\\|");
+    let mut body = String::from(
+        "# Effect kinds\n\nThe built-in kinds an `[effects.NAME]` table names by its `kind` key, in\nthe order of the registry (`ezy-core/src/effects/registry.rs`, the one list\nof them). Every number is in SI units; a key with a default shows it in\nparentheses. Each effect's work is its state `W_<name>` [J]; its value\ncolumn is `tau_<name>` [N m] for a torque, `F_<name>` [N] for a force. The\nconventions, the ranges of numbers and the waveforms: [Scenes and\neffects](../scenes.md).\n\n| `kind` | keys | force law | value column |\n|---|---|---|---|\n",
+    );
+    for r in REFERENCE {
+        let e = toml::from_str::<EffectSpec>(&format!("kind = \"{}\"\nzz_no_such_key = 1", r.kind))
             .expect_err("an unknown key is refused")
             .to_string();
-        let expected = e.split("expected").nth(1).unwrap_or_else(|| panic!("{kind}: {e}"));
+        let expected = e.split("expected").nth(1).unwrap_or_else(|| panic!("{}: {e}", r.kind));
         let fields: Vec<&str> = expected.split('`').skip(1).step_by(2).collect();
-        assert!(!fields.is_empty(), "{kind}: {e}");
+        assert!(!fields.is_empty(), "{}: {e}", r.kind);
         for f in fields {
-            let named = keys.match_indices(&format!("`{f}")).any(|(i, m)| {
-                keys[i + m.len()..].chars().next().is_some_and(|c| !(c.is_ascii_alphanumeric() || c == '_'))
+            let named = r.keys.match_indices(&format!("`{f}")).any(|(i, m)| {
+                r.keys[i + m.len()..].chars().next().is_some_and(|c| !(c.is_ascii_alphanumeric() || c == '_'))
             });
-            assert!(named, "the row of `{kind}` in docs/book/src/scenes.md does not name its key `{f}`: {keys}");
+            assert!(named, "the keys of `{}` (its Reference::KEYS) do not name its key `{f}`: {}", r.kind, r.keys);
         }
+        body.push_str(&format!(
+            "| `{}` | {} | {} | `{}_<name>` |\n",
+            r.kind,
+            cell(r.keys),
+            cell(r.law),
+            r.value_prefix
+        ));
     }
+    check_page("docs/book/src/reference/effects.md", "ezy_core::effects::REFERENCE (the registry)", &body);
 }
 
 /// The numbers the drive chapter quotes (docs/book/src/drive.md includes

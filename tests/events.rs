@@ -199,12 +199,12 @@ fn chattering_is_reported_with_the_event_and_time() {
 /// mass by `F = 0.5` N (`push`), its push turned off by a switch where
 /// the centre has gone `L = 2` m.
 fn pushed_sleigh(method: Method) -> Problem<ChaplyginSleigh> {
-    let push = EffectSpec::Force {
+    let push = EffectSpec::Force(ezy_core::effects::Force {
         at: "sleigh".into(),
         fx: Waveform::Constant(0.5),
         fy: Waveform::Constant(0.0),
         frame: Frame::World,
-    };
+    });
     let coast = EventSpec { action: Action::Switch, switch_off: vec!["push".into()], ..EventSpec::new("x", 2.0) };
     Problem::new(ChaplyginSleigh::default())
         .effect("push", push)
@@ -456,11 +456,13 @@ ezy::model! {
 /// through 1 m/s (at `t* = (1 - 0.5) m / 0.5 = 2` s), and `slow`, when
 /// given, turns them back where `xd` falls through `slow_at`.
 fn cruise(method: Method, formulation: Formulation, slow_at: Option<f64>) -> Problem<OwnCart> {
-    let force = |fx: f64| EffectSpec::Force {
-        at: "c".into(),
-        fx: Waveform::Constant(fx),
-        fy: Waveform::Constant(0.0),
-        frame: Frame::World,
+    let force = |fx: f64| {
+        EffectSpec::Force(ezy_core::effects::Force {
+            at: "c".into(),
+            fx: Waveform::Constant(fx),
+            fy: Waveform::Constant(0.0),
+            frame: Frame::World,
+        })
     };
     let switch = |when: &str, level: f64, direction: Direction, on: &str, off: &str| EventSpec {
         action: Action::Switch,
@@ -535,13 +537,13 @@ fn events_on_a_quantity_that_jumps_at_a_switch_fire_there() {
         assert!(ev.len() == 2 && ev[0].name == "coast" && ev[1].name == "half" && !ev[1].rising, "{run}: {ev:?}");
         assert_eq!(ev[1].t, ev[0].t, "{run}");
     }
-    let friction = EffectSpec::SkateFriction {
+    let friction = EffectSpec::SkateFriction(ezy_core::effects::SkateFriction {
         skate: "P".into(),
         mu: 0.1,
         normal: None,
         share: Some(1.0),
         g: ezy_core::effects::STANDARD_GRAVITY,
-    };
+    });
     let p = cruise(Method::Dop853, Formulation::Dae, None).effect("slip_P", friction).unwrap();
     let e = p.event("grip", &EventSpec::new("F_slip_P", 0.5)).map(|_| ()).unwrap_err().to_string();
     assert!(

@@ -425,10 +425,10 @@ fn hinge_torques_compiled_in_match_the_generic_forces() {
         matches!(
             e,
             SceneEffect::Builtin(
-                EffectSpec::HingeMotor { .. }
-                    | EffectSpec::HingeSpring { .. }
-                    | EffectSpec::HingeDamper { .. }
-                    | EffectSpec::HingeServo { .. }
+                EffectSpec::HingeMotor(_)
+                    | EffectSpec::HingeSpring(_)
+                    | EffectSpec::HingeDamper(_)
+                    | EffectSpec::HingeServo(_)
             )
         )
     };
@@ -437,7 +437,9 @@ fn hinge_torques_compiled_in_match_the_generic_forces() {
     assert_eq!(hinges.effects.len(), 4);
     let mut generic = hinges.clone();
     let mut wind = all.effects.iter().find(|(name, _)| name == "wind").unwrap().clone();
-    let SceneEffect::Builtin(EffectSpec::Force { fx, fy, .. }) = &mut wind.1 else { panic!("`wind` is a force") };
+    let SceneEffect::Builtin(EffectSpec::Force(ezy_core::effects::Force { fx, fy, .. })) = &mut wind.1 else {
+        panic!("`wind` is a force")
+    };
     (*fx, *fy) = (Waveform::Constant(0.0), Waveform::Constant(0.0));
     generic.effects.push(wind);
     let t = 0.8;

@@ -17,7 +17,13 @@ const U0: f64 = 1.0;
 const MU: f64 = 0.3;
 
 fn friction(skate: &str, mu: f64) -> EffectSpec {
-    EffectSpec::SkateFriction { skate: skate.into(), mu, normal: None, share: Some(1.0), g: STANDARD_GRAVITY }
+    EffectSpec::SkateFriction(ezy_core::effects::SkateFriction {
+        skate: skate.into(),
+        mu,
+        normal: None,
+        share: Some(1.0),
+        g: STANDARD_GRAVITY,
+    })
 }
 
 /// The sleigh with its skate at the centre of mass (`a = 0`), heading
@@ -332,7 +338,12 @@ fn shaken(amplitude: f64, omega: f64, mu: f64, t_end: f64) -> Problem<OwnSleigh>
         .and_then(|p| {
             p.effect(
                 "shake",
-                EffectSpec::Force { at: "P".into(), fx: Waveform::Constant(0.0), fy: shake, frame: Frame::Body },
+                EffectSpec::Force(ezy_core::effects::Force {
+                    at: "P".into(),
+                    fx: Waveform::Constant(0.0),
+                    fy: shake,
+                    frame: Frame::Body,
+                }),
             )
         })
         .and_then(|p| p.effect("slip_P", friction("P", mu)))

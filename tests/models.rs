@@ -122,7 +122,11 @@ fn family_effects_expand_per_element() {
         ]
     );
     for (k, (_, spec)) in s.scene.effects[..4].iter().enumerate() {
-        let ezy_scene::SceneEffect::Builtin(EffectSpec::HingeMotor { hinge, torque: Waveform::Sin(h) }) = spec else {
+        let ezy_scene::SceneEffect::Builtin(EffectSpec::HingeMotor(ezy_core::effects::HingeMotor {
+            hinge,
+            torque: Waveform::Sin(h),
+        })) = spec
+        else {
             panic!("{spec:?}")
         };
         assert_eq!(hinge, &format!("J{}", k + 2));
@@ -148,10 +152,10 @@ fn family_effect_errors_name_the_effect() {
     let msg = err.to_string();
     assert!(msg.contains("effects.motor.hinge") && msg.contains("no hinge family `K`") && msg.contains("J2"), "{msg}");
     let mut scene = scenes::get("drive");
-    let ezy_scene::SceneEffect::Builtin(ezy_core::EffectSpec::HingeMotor {
+    let ezy_scene::SceneEffect::Builtin(ezy_core::EffectSpec::HingeMotor(ezy_core::effects::HingeMotor {
         torque: ezy_core::effects::Waveform::Cos(h),
         ..
-    }) = &mut scene.effects[0].1
+    })) = &mut scene.effects[0].1
     else {
         panic!("drive's motor is a cos waveform")
     };

@@ -366,7 +366,10 @@ fn scene_parameters_give_numbers_that_set_changes() {
     use ezy_scene::Binding;
     let info = &scenes::model_info("ezyroller").unwrap();
     let motor = |s: &Scene| match &s.effects[0].1 {
-        SceneEffect::Builtin(EffectSpec::HingeMotor { torque: Waveform::Cos(h), .. }) => *h,
+        SceneEffect::Builtin(EffectSpec::HingeMotor(ezy_core::effects::HingeMotor {
+            torque: Waveform::Cos(h),
+            ..
+        })) => *h,
         other => panic!("{other:?}"),
     };
     let mut drive = scenes::drive();
@@ -449,10 +452,10 @@ fn scene_parameters_in_drives_defaults_and_families() {
     scene.set(info, "rest", 0.2).unwrap();
     scene.set(info, "F0", 1.5).unwrap();
     assert!(
-        matches!(scene.effects[0].1, SceneEffect::Builtin(EffectSpec::HingeSpring { rest_angle, .. }) if rest_angle == 0.2)
+        matches!(scene.effects[0].1, SceneEffect::Builtin(EffectSpec::HingeSpring(ezy_core::effects::HingeSpring { rest_angle, .. })) if rest_angle == 0.2)
     );
     assert!(
-        matches!(&scene.effects[1].1, SceneEffect::Builtin(EffectSpec::Force { fx: Waveform::Constant(f), .. }) if *f == 1.5)
+        matches!(&scene.effects[1].1, SceneEffect::Builtin(EffectSpec::Force(ezy_core::effects::Force { fx: Waveform::Constant(f), .. })) if *f == 1.5)
     );
 
     // a family: the amplitude stays bound in every element, the phase step is baked in
@@ -471,7 +474,10 @@ fn scene_parameters_in_drives_defaults_and_families() {
     let phases: Vec<f64> = expanded.effects[..4]
         .iter()
         .map(|(_, e)| match e {
-            SceneEffect::Builtin(EffectSpec::HingeMotor { torque: Waveform::Sin(h), .. }) => h.phase,
+            SceneEffect::Builtin(EffectSpec::HingeMotor(ezy_core::effects::HingeMotor {
+                torque: Waveform::Sin(h),
+                ..
+            })) => h.phase,
             other => panic!("{other:?}"),
         })
         .collect();
@@ -481,7 +487,7 @@ fn scene_parameters_in_drives_defaults_and_families() {
     assert!(
         expanded.effects[..4]
             .iter()
-            .all(|(_, e)| matches!(e, SceneEffect::Builtin(EffectSpec::HingeMotor { torque: Waveform::Sin(h), .. }) if h.amplitude == 0.9))
+            .all(|(_, e)| matches!(e, SceneEffect::Builtin(EffectSpec::HingeMotor(ezy_core::effects::HingeMotor { torque: Waveform::Sin(h), .. })) if h.amplitude == 0.9))
     );
 }
 

@@ -261,13 +261,13 @@ fn overrides_reach_the_model_and_the_motor() {
         phase_step: 0.0,
     });
     assert!(
-        matches!(motor, ezy_scene::SceneEffect::Builtin(ezy_core::EffectSpec::HingeMotor { torque, .. }) if *torque == want),
+        matches!(motor, ezy_scene::SceneEffect::Builtin(ezy_core::EffectSpec::HingeMotor(ezy_core::effects::HingeMotor { torque, .. })) if *torque == want),
         "{motor:?}"
     );
     // the full key path works too, and the scene given is not changed
     let s = setup::<EzyRoller>(&scene, &[("motor.torque.cos.omega".into(), 2.0)]).unwrap();
     assert!(
-        matches!(&s.scene.effects[0].1, ezy_scene::SceneEffect::Builtin(ezy_core::EffectSpec::HingeMotor { torque: ezy_core::effects::Waveform::Cos(h), .. }) if h.omega == 2.0)
+        matches!(&s.scene.effects[0].1, ezy_scene::SceneEffect::Builtin(ezy_core::EffectSpec::HingeMotor(ezy_core::effects::HingeMotor { torque: ezy_core::effects::Waveform::Cos(h), .. })) if h.omega == 2.0)
     );
     assert_eq!(scene, scenes::drive());
     let err = setup::<EzyRoller>(&scene, &[("mass".into(), 1.0)]).unwrap_err().to_string();

@@ -14,6 +14,7 @@ mod common;
 mod adversarial_input;
 mod adversarial_output;
 mod analysis;
+mod architecture;
 mod any_model;
 mod app;
 mod bench;

@@ -96,7 +96,7 @@ pub(crate) trait ModelObject: Send + Sync {
         dz: &mut [f64],
         t: f64,
         effects: &[Effect],
-        waves: &[crate::effects::Waveforms],
+        waves: &[crate::effects::kind::Waveforms],
         power: &mut [f64],
         lean: bool,
     ) -> Result<(), MinimalRhsError<SimError>>;
@@ -224,7 +224,7 @@ impl<M: Model> ModelObject for M {
         dz: &mut [f64],
         t: f64,
         effects: &[Effect],
-        waves: &[crate::effects::Waveforms],
+        waves: &[crate::effects::kind::Waveforms],
         power: &mut [f64],
         lean: bool,
     ) -> Result<(), MinimalRhsError<SimError>> {
@@ -414,7 +414,7 @@ impl Model for AnyModel {
         dz: &mut [f64],
         t: f64,
         effects: &[Effect],
-        waves: &[crate::effects::Waveforms],
+        waves: &[crate::effects::kind::Waveforms],
         power: &mut [f64],
         lean: bool,
     ) -> Result<(), MinimalRhsError<SimError>> {

@@ -6,7 +6,7 @@
 //! The EzyRoller's `drive` scene (docs/physics.md §10.3), written in Rust:
 //!
 //! ```
-//! use ezy_core::effects::{EffectSpec, Waveform};
+//! use ezy_core::effects::{HingeMotor, Waveform};
 //! use ezy_core::{Method, Problem};
 //! # ezy_core::model! {
 //! #     /// The EzyRoller.
@@ -31,7 +31,7 @@
 //! # }
 //!
 //! # fn main() -> Result<(), ezy_core::SimError> {
-//! let motor = EffectSpec::HingeMotor { hinge: "B".into(), torque: Waveform::cos(2.0, std::f64::consts::PI) };
+//! let motor = HingeMotor { hinge: "B".into(), torque: Waveform::cos(2.0, std::f64::consts::PI) };
 //! let solution = Problem::new(EzyRoller::default())
 //!     .effect("motor", motor)?
 //!     .q("x1", 0.0)?
@@ -51,12 +51,14 @@
 //! # }
 //! ```
 
-use std::sync::Arc;
-
 use crate::drive::Drive;
-use crate::effects::user::{EffectKind, ForceLaw};
+use crate::effects::Effect;
+use crate::effects::context::EffectContext;
+use crate::effects::kind::resolve_kind;
+use crate::effects::kind::{EffectKind, ForceLaw};
+use crate::effects::law::Law;
+use crate::effects::registry::EffectSpec;
 use crate::effects::waveform::Waveform;
-use crate::effects::{Effect, EffectContext, EffectSpec, Law};
 use crate::error::SimError;
 use crate::events::spec::{Event, EventSpec};
 use crate::formulation::dae::{Baumgarte, Dynamics};
@@ -260,7 +262,7 @@ impl<M: Model> Problem<M> {
     }
 
     fn check_effect_name(&self, name: &str) -> Result<(), SimError> {
-        crate::effects::check_effect_name(name)
+        crate::effects::registry::check_effect_name(name)
             .map_err(|message| SimError::Scene { key: format!("effects.{name}"), message })?;
         if self.effects.iter().any(|e| e.name == name) {
             return Err(SimError::Scene {
@@ -278,9 +280,9 @@ impl<M: Model> Problem<M> {
     /// # Errors
     /// [`SimError::Scene`] for a bad or repeated name; [`SimError::Effect`]
     /// for a name the model does not have or a bad number in `spec`.
-    pub fn effect(mut self, name: &str, spec: EffectSpec) -> Result<Self, SimError> {
+    pub fn effect(mut self, name: &str, spec: impl Into<EffectSpec>) -> Result<Self, SimError> {
         self.check_effect_name(name)?;
-        let effect = spec.resolve(name, &self.model)?;
+        let effect = spec.into().resolve(name, &self.model)?;
         self.effects.push(effect);
         Ok(self)
     }
@@ -298,12 +300,12 @@ impl<M: Model> Problem<M> {
         let info = self.model.info();
         let names = NameIndex::new(&info);
         let cx = EffectContext::new(&self.model, &names);
-        let law = spec.resolve(&cx).map_err(|e| SimError::Effect {
+        let law = resolve_kind(spec, &cx).map_err(|e| SimError::Effect {
             effect: name.to_string(),
             field: e.field,
             message: e.message,
         })?;
-        let law = Law::user(name, Arc::new(law), cx.nq())?;
+        let law = Law::checked(name, law, cx.nq())?;
         self.effects.push(Effect {
             name: name.to_string(),
             value_column: format!("{}_{name}", T::VALUE_PREFIX),
@@ -321,13 +323,13 @@ impl<M: Model> Problem<M> {
     /// for a coordinate index in [`ForceLaw::coords`] beyond nq.
     pub fn law(mut self, name: &str, law: impl ForceLaw) -> Result<Self, SimError> {
         self.check_effect_name(name)?;
-        let law = Law::user(name, Arc::new(law), self.model.info().nq())?;
+        let law = Law::checked(name, law.into_law(), self.model.info().nq())?;
         self.effects.push(Effect { name: name.to_string(), value_column: format!("F_{name}"), law, on: true });
         Ok(self)
     }
 
     /// Adds a closure as a feedback controller named `name`
-    /// ([`crate::effects::user::Controller`]): `law(t, q, qd, f)` adds its
+    /// ([`crate::effects::kind::Controller`]): `law(t, q, qd, f)` adds its
     /// generalized force into `f` (nq) and returns its value column's
     /// value; it reads and writes only the entries `coords` (indices
     /// into `q`).
@@ -338,7 +340,7 @@ impl<M: Model> Problem<M> {
     where
         F: Fn(f64, &[f64], &[f64], &mut [f64]) -> f64 + Send + Sync + 'static,
     {
-        self.law(name, crate::effects::user::Controller::new(coords, law))
+        self.law(name, crate::effects::kind::Controller::new(coords, law))
     }
 
     /// Adds the event `name` watching a quantity of the run by its column
@@ -531,7 +533,7 @@ impl<M: Model> Problem<M> {
             .effects
             .iter()
             .filter_map(|e| match e.law {
-                crate::effects::Law::SkateFriction { skate, .. } => Some(info.skates[skate].row),
+                crate::effects::law::Law::SkateFriction(ref fr) => Some(info.skates[fr.skate].row),
                 _ => None,
             })
             .collect();

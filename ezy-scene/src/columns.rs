@@ -172,7 +172,10 @@ fn group<M: Model>(g: OutputGroup, walk: &mut Walk<'_, M>) {
             for (n, e) in effects.iter() {
                 out.push(e.value_column(n));
                 // a skate with friction: its slip velocity [m/s] and mode
-                if let SceneEffect::Builtin(EffectSpec::SkateFriction { skate, .. }) = e {
+                if let SceneEffect::Builtin(EffectSpec::SkateFriction(ezy_core::effects::SkateFriction {
+                    skate, ..
+                })) = e
+                {
                     out.extend([format!("v_slip_{skate}"), format!("sliding_{skate}")]);
                 }
             }
@@ -181,7 +184,7 @@ fn group<M: Model>(g: OutputGroup, walk: &mut Walk<'_, M>) {
             scratch.forces.fill(0.0);
             let mut friction = 0;
             for e in &sys.effects {
-                if let Law::SkateFriction { .. } = e.law {
+                if let Law::SkateFriction(_) = e.law {
                     // the lateral force, slip velocity and mode (from the probe)
                     let p = scratch.probe.as_ref().expect("a probe with friction");
                     let fr = &p.sys.friction[friction];

@@ -9,8 +9,8 @@
 //! ([`python_module!`]).
 //!
 //! Everything a module offers is [`init_module`] over an [`ezy::App`]:
-//! `models()`, `scenes()`, `scene(name)`, `run(scene, ...)`,
-//! `sweep(scene, ...)`, `equations(model)` and `check(model)`, the classes
+//! `models()`, `scenes()`, `effect_kinds()`, `scene(name)`, `run(scene,
+//! ...)`, `sweep(scene, ...)`, `equations(model)` and `check(model)`, the classes
 //! `Result`, `Scene` and `Equations`, and the exception `EzyError`, whose
 //! message is the command line's (the file, line, key or flag at fault).
 //!
@@ -59,6 +59,7 @@ run(scene, **settings)      a scene in memory: a Result with NumPy arrays
 sweep(scene, grid, ...)     runs over parameter values: a pandas DataFrame
 scene(name)                 a Scene to change (parameters, effects' numbers) and run
 models(), scenes()          what this module knows
+effect_kinds()              the effect kinds a scene may name, with keys and laws
 equations(model)            the derived equations (LaTeX in Jupyter)
 check(model)                the derived terms against automatic differentiation
 
@@ -101,7 +102,7 @@ fn ezy_module(m: &Bound<'_, PyModule>) -> PyResult<()> {
 }
 
 /// Fills module `m` with the API over `app`: the functions `models`,
-/// `scenes`, `scene`, `run`, `sweep`, `equations`, `check`, the classes
+/// `scenes`, `effect_kinds`, `scene`, `run`, `sweep`, `equations`, `check`, the classes
 /// `Result`, `Scene`, `Effect`, `Equations`, `Check` and the exception
 /// `EzyError`.
 ///
@@ -133,7 +134,7 @@ pub fn init_module(m: &Bound<'_, PyModule>, app: App) -> PyResult<()> {
     m.add_class::<Check>()?;
     m.add_class::<Toolkit>()?;
     let kit = Bound::new(py, Toolkit { app, helpers: helpers.unbind() })?;
-    for f in ["models", "scenes", "scene", "run", "sweep", "equations", "check"] {
+    for f in ["models", "scenes", "effect_kinds", "scene", "run", "sweep", "equations", "check"] {
         m.add(f, kit.getattr(f)?)?;
     }
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;

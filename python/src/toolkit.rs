@@ -1,5 +1,5 @@
 //! The module's functions: [`Toolkit`], the application behind a module,
-//! whose methods `models`, `scenes`, `scene`, `run`, `sweep`, `equations`
+//! whose methods `models`, `scenes`, `effect_kinds`, `scene`, `run`, `sweep`, `equations`
 //! and `check` the module offers as functions; a run in memory with the
 //! GIL released and Python's signals polled, a command line run the same
 //! way (Ctrl-C stops either and raises `KeyboardInterrupt`).
@@ -117,6 +117,30 @@ impl Toolkit {
         let d = PyDict::new(py);
         for src in self.app.scenes().map_err(ezy_err)? {
             d.set_item(&src.scene.name, &src.scene.description)?;
+        }
+        Ok(d)
+    }
+
+    /// The effect kinds a scene's `[effects.NAME]` table may name by its
+    /// `kind`: `{kind: {"builtin": True, "keys": ..., "law": ...,
+    /// "value_column": "tau_<name>" or "F_<name>"}}` for the built-in
+    /// kinds, in the order of ezy's registry (the rows of the guide's
+    /// reference page "Effect kinds"), then `{kind: {"builtin": False}}`
+    /// for this module's own kinds.
+    fn effect_kinds<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
+        let d = PyDict::new(py);
+        for r in ezy_core::effects::REFERENCE {
+            let row = PyDict::new(py);
+            row.set_item("builtin", true)?;
+            row.set_item("keys", r.keys)?;
+            row.set_item("law", r.law)?;
+            row.set_item("value_column", format!("{}_<name>", r.value_prefix))?;
+            d.set_item(r.kind, row)?;
+        }
+        for kind in self.app.effect_kinds().map(|k| k.names()).unwrap_or_default() {
+            let row = PyDict::new(py);
+            row.set_item("builtin", false)?;
+            d.set_item(kind, row)?;
         }
         Ok(d)
     }

@@ -60,6 +60,15 @@ def test_models_and_scenes_are_the_command_lines():
         assert f"  {key} " in listing
 
 
+def test_effect_kinds_are_the_registry_s():
+    kinds = ezy.effect_kinds()
+    assert list(kinds)[:4] == ["hinge-motor", "hinge-spring", "hinge-damper", "hinge-servo"]
+    assert all(k["builtin"] for k in kinds.values())
+    damper = kinds["hinge-damper"]
+    assert "`damping`" in damper["keys"] and damper["value_column"] == "tau_<name>"
+    assert kinds["rolling-viscous"]["value_column"] == "F_<name>"
+
+
 def test_a_run_equals_the_command_line_to_the_last_digit(tmp_path):
     r = ezy.run("drive", **RUN)
     code, _, err = cli("run", "drive", *FLAGS, "--no-figures", "--out", str(tmp_path))

@@ -251,19 +251,19 @@ impl Waveform {
     }
 
     /// Checks the numbers: all finite, values and times at most
-    /// [`crate::MAX_MAGNITUDE`], frequencies at most [`crate::MAX_RATE`]
+    /// [`crate::settings::MAX_MAGNITUDE`], frequencies at most [`crate::settings::MAX_RATE`]
     /// (faster ones change within the rounding level of t), phases at most
-    /// [`crate::MAX_ANGLE`]; tables sorted and of equal length.
+    /// [`crate::settings::MAX_ANGLE`]; tables sorted and of equal length.
     ///
     /// # Errors
     /// A sentence saying what is wrong, naming the number and its value.
     pub fn validate(&self) -> Result<(), String> {
-        let finite = crate::check_magnitude;
+        let finite = crate::settings::check_magnitude;
         let harmonic = |h: &Harmonic| -> Result<(), String> {
             finite("amplitude", h.amplitude)?;
-            crate::check_rate("omega", h.omega)?;
-            crate::check_angle("phase", h.phase)?;
-            crate::check_angle("phase_step", h.phase_step)
+            crate::settings::check_rate("omega", h.omega)?;
+            crate::settings::check_angle("phase", h.phase)?;
+            crate::settings::check_angle("phase_step", h.phase_step)
         };
         match self {
             Self::Constant(v) => finite("constant", *v),

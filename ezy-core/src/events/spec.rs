@@ -38,7 +38,8 @@ use std::sync::Arc;
 
 use serde::{Deserialize, Serialize};
 
-use crate::effects::{Effect, HingeRef};
+use crate::effects::Effect;
+use crate::effects::context::HingeRef;
 use crate::error::SimError;
 use crate::model::info::ModelInfo;
 
@@ -246,14 +247,14 @@ impl EventSpec {
             message,
         })?;
         if let Quantity::EffectValue(k) = quantity
-            && matches!(effects[k].law, crate::effects::Law::SkateFriction { .. })
+            && matches!(effects[k].law, crate::effects::law::Law::SkateFriction(_))
         {
             let message = friction_force_unwatched(&self.when, &effects[k].name);
             return Err(SimError::Event { event: name.into(), field: "when", message });
         }
         let named: Vec<(&str, bool)> = effects
             .iter()
-            .map(|e| (e.name.as_str(), matches!(e.law, crate::effects::Law::SkateFriction { .. })))
+            .map(|e| (e.name.as_str(), matches!(e.law, crate::effects::law::Law::SkateFriction(_))))
             .collect();
         let (switch_on, switch_off) =
             self.switched(&named).map_err(|(field, message)| SimError::Event { event: name.into(), field, message })?;

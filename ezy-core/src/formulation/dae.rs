@@ -8,7 +8,9 @@
 //! the KKT system (docs/physics.md §5). A scene without effects has no work
 //! states.
 
-use crate::effects::{Effect, HingeLaw, Law};
+use crate::effects::Effect;
+use crate::effects::law::{Law, apply_effects, hinges_only};
+use crate::effects::skate_friction::SkateFrictionLaw;
 use crate::error::SimError;
 use crate::formulation::friction::{Released, SkateFriction, SkateMode, row_entries};
 use crate::kkt::{AnyKktSolver, KktMethod, KktSolver, KktSystem};
@@ -50,8 +52,8 @@ struct Workspace {
     drive_rates: Vec<f64>,
     /// The time of `waves` and `drive_waves` (NaN: none yet).
     wave_t: f64,
-    /// Each effect's waveforms at `wave_t` ([`crate::effects::Waveforms`]).
-    waves: Vec<crate::effects::Waveforms>,
+    /// Each effect's waveforms at `wave_t` ([`crate::effects::kind::Waveforms`]).
+    waves: Vec<crate::effects::kind::Waveforms>,
     /// Each drive's `[u, u', u'']` at `wave_t`.
     drive_waves: Vec<[f64; 3]>,
     /// Baumgarte scratch: `G qd` (nc), `phi` (nh), unit weights (nq).
@@ -457,11 +459,11 @@ impl<M: Model> Dynamics<M> {
         let (pd_ud, power) = dz.split_at_mut(dz.len() - self.effects.len());
         // a scene whose effects are all hinge torques (or none) hands them
         // over as such (`waves` empty): see `Model::minimal_rhs_effects`
-        let hinges_only = self.effects.iter().all(|e| matches!(e.law, Law::Hinge { .. }));
+        let hinges_only = hinges_only(&self.effects);
         if !hinges_only {
             self.refresh_waveforms_outlined(t);
         }
-        let waves: &[crate::effects::Waveforms] = if hinges_only { &[] } else { &self.ws.waves };
+        let waves: &[crate::effects::kind::Waveforms] = if hinges_only { &[] } else { &self.ws.waves };
         let res = self.model.minimal_rhs_effects(k, z, q, qd, pd_ud, t, &self.effects, waves, power, lean);
         res.map_err(|e| minimal_rhs_failed(t, e))
     }
@@ -785,7 +787,7 @@ fn friction_table(info: &ModelInfo, effects: &[Effect]) -> Vec<SkateFriction> {
         .iter()
         .enumerate()
         .filter_map(|(effect, e)| match e.law {
-            Law::SkateFriction { skate, limit, .. } => {
+            Law::SkateFriction(SkateFrictionLaw { skate, limit, .. }) => {
                 let row = info.skates[skate].row;
                 Some(SkateFriction {
                     effect,
@@ -855,51 +857,6 @@ fn note_singular(counters: &mut Counters, last: &mut f64, t: f64) {
     *last = t;
 }
 
-/// Adds each effect's generalized force at `(t, q, qd)` (nq each) to `f`
-/// (nq) and writes its power \[W\] to `power` (one per effect), from the
-/// effects' waveforms at `t` (`waves`, one per effect).
-///
-/// # Errors
-/// [`SimError::EffectFailed`] if an effect gives no force at a finite state.
-#[inline(always)]
-pub(crate) fn apply_effects(
-    effects: &[Effect],
-    waves: &[crate::effects::Waveforms],
-    t: f64,
-    q: &[f64],
-    qd: &[f64],
-    f: &mut [f64],
-    power: &mut [f64],
-) -> Result<(), SimError> {
-    for ((e, p), wave) in effects.iter().zip(power).zip(waves) {
-        let value;
-        (*p, value) = e.apply_with(t, wave, q, qd, f);
-        // a NaN from a finite state is the effect's own failure (a
-        // spring-damper of zero length); so is an infinite power or a
-        // value for its column that is not finite (a law of the user's
-        // own: it would reach the CSV); a non-finite state is reported
-        // where the state is checked
-        if !(p.is_finite() && value.is_finite()) && q.iter().chain(qd).all(|v| v.is_finite()) {
-            return Err(effect_failed(e, t, q, *p, value));
-        }
-    }
-    Ok(())
-}
-
-/// The error of effect `e` whose power or value at `(t, q)` is not finite.
-#[cold]
-#[inline(never)]
-fn effect_failed(e: &Effect, t: f64, q: &[f64], power: f64, value: f64) -> SimError {
-    let reason = if power.is_nan() {
-        e.failure(q)
-    } else if !power.is_finite() {
-        format!("gave a power of {power} W")
-    } else {
-        format!("gave {value} for its value column, which is not a finite number")
-    };
-    SimError::EffectFailed { t, effect: e.name.clone(), reason }
-}
-
 /// [`Dynamics::minimal_rhs`]'s error at `t` \[s\], out of the
 /// evaluation's line.
 #[cold]
@@ -913,29 +870,6 @@ fn minimal_rhs_failed(t: f64, e: crate::model::MinimalRhsError<SimError>) -> Sim
                 crate::names::fmt_value(t)
             ),
         },
-    }
-}
-
-/// Adds each hinge effect's torque at `(t, q, qd)` (nq each) to its
-/// hinge's entry of `tau` (nh, [`crate::model::info::ModelInfo::hinges`]) and
-/// writes its power \[W\] to `power` (one per effect), its waveforms
-/// evaluated at `t` (for [`Model::minimal_rhs`]; effects of other laws are
-/// skipped: the caller passes only hinge effects). A hinge law gives a
-/// finite torque at a finite state, so nothing here fails.
-#[inline(always)]
-pub(crate) fn hinge_torques(effects: &[Effect], t: f64, q: &[f64], qd: &[f64], tau: &mut [f64], power: &mut [f64]) {
-    for (e, p) in effects.iter().zip(power) {
-        if !e.on {
-            *p = 0.0;
-        } else if let Law::Hinge { hinge, a, b, law } = &e.law {
-            let (torque, rate) = match law {
-                // a motor's torque is its waveform's value: one dispatch
-                HingeLaw::Motor(w) => (w.eval(t), HingeLaw::rate(*a, *b, qd)),
-                law => law.torque(&law.waveforms(t), *a, *b, q, qd),
-            };
-            tau[*hinge] += torque;
-            *p = torque * rate;
-        }
     }
 }
 

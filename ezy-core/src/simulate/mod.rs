@@ -2036,7 +2036,7 @@ fn check_switches<M: Model>(sys: &Dynamics<M>) -> Result<(), SimError> {
                             format!("effect {k} does not exist: the run has {}", sys.effects.len()),
                         ));
                     }
-                    Some(x) if matches!(x.law, crate::effects::Law::SkateFriction { .. }) => {
+                    Some(x) if matches!(x.law, crate::effects::law::Law::SkateFriction(_)) => {
                         return Err(err(
                             field,
                             format!("`{}` is a skate's friction: an event cannot switch it", x.name),

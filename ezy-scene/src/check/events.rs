@@ -20,7 +20,7 @@ pub(super) fn check(scene: &Scene, info: &ModelInfo) -> Vec<Result<Event, SceneE
     let drive_names: Vec<&str> = info.drives.iter().map(|d| d.name.as_str()).collect();
     // a skate's friction switches itself: no event watches or switches it
     let switchable: Vec<(&str, bool)> = (scene.effects.iter())
-        .map(|(n, e)| (n.as_str(), matches!(e, SceneEffect::Builtin(EffectSpec::SkateFriction { .. }))))
+        .map(|(n, e)| (n.as_str(), matches!(e, SceneEffect::Builtin(EffectSpec::SkateFriction(_)))))
         .collect();
     (scene.events.iter())
         .map(|(name, event)| {

@@ -1,0 +1,192 @@
+//! Force laws along a skate's blade (one family): viscous and smoothed
+//! Coulomb rolling resistance, and a driven wheel. Each kind is a spec
+//! struct implementing [`EffectKind`]; all resolve to [`BladeLaw`]: the
+//! blade ([`Blade`]) and the force along it ([`BladeForce`]), a signed
+//! force `F` \[N\] along the blade at the contact point, `v_t` being that
+//! point's velocity along the blade \[m/s\] and `F v_t` the power \[W\].
+
+use serde::{Deserialize, Serialize};
+
+use super::context::{Blade, CheckContext, EffectContext, non_negative, positive, wave};
+use super::kind::{EffectKind, ForceLaw, SpecError, TimeScale, Waveforms};
+use super::law::Law;
+use super::registry::Reference;
+use super::waveform::{Periodicity, Waveform};
+
+/// Viscous rolling resistance at a skate (`rolling-viscous`): a force
+/// `-damping v_t` along the blade, `v_t` the contact point's velocity
+/// along the blade \[m/s\].
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RollingViscous {
+    /// Skate name.
+    pub skate: String,
+    /// Damping \[N s/m\].
+    pub damping: f64,
+}
+
+/// Smoothed Coulomb rolling resistance at a skate (`rolling-coulomb`):
+/// `-force v_t / sqrt(v_t^2 + smoothing^2)` along the blade, which tends
+/// to `-force sign(v_t)` for `|v_t| >> smoothing` and is smooth (so the
+/// fixed-step methods keep their order) at rest. `force` is the rolling
+/// resistance coefficient times the normal load.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RollingCoulomb {
+    /// Skate name.
+    pub skate: String,
+    /// Resistance force magnitude \[N\].
+    pub force: f64,
+    /// Speed below which the law is linear \[m/s\].
+    pub smoothing: f64,
+}
+
+/// Driven wheel (`driven-wheel`): a force `force(t)` \[N\] along the blade
+/// at a skate's contact point (a wheel driven by a motor in its hub).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct DrivenWheel {
+    /// Skate name.
+    pub skate: String,
+    /// Force along the blade \[N\] over time.
+    pub force: Waveform,
+}
+
+/// Force laws along a blade, the resolved form of the blade kinds.
+#[derive(Debug, Clone, PartialEq)]
+pub enum BladeForce {
+    /// `F = -damping v_t` ([`RollingViscous`]).
+    Viscous {
+        /// \[N s/m\].
+        damping: f64,
+    },
+    /// `F = -force v_t / sqrt(v_t^2 + smoothing^2)` ([`RollingCoulomb`]).
+    Coulomb {
+        /// \[N\].
+        force: f64,
+        /// \[m/s\].
+        smoothing: f64,
+    },
+    /// `F = w(t)` ([`DrivenWheel`]).
+    Driven(Waveform),
+}
+
+/// A blade law resolved against a model: the family's law struct, in the
+/// hot enum as [`Law::Blade`].
+#[derive(Debug, Clone, PartialEq)]
+pub struct BladeLaw {
+    /// The skate's blade.
+    pub blade: Blade,
+    /// The force along it.
+    pub force: BladeForce,
+}
+
+impl ForceLaw for BladeLaw {
+    #[inline]
+    fn apply(&self, t: f64, q: &[f64], qd: &[f64], f: &mut [f64]) -> (f64, f64) {
+        self.apply_with(t, &self.waveforms(t), q, qd, f)
+    }
+
+    #[inline(always)]
+    fn apply_with(&self, _t: f64, wave: &Waveforms, q: &[f64], qd: &[f64], f: &mut [f64]) -> (f64, f64) {
+        let bl = &self.blade;
+        let (e, r, v) = bl.frame(q, qd);
+        let vt = e[0] * v[0] + e[1] * v[1];
+        let force = match &self.force {
+            BladeForce::Viscous { damping } => -damping * vt,
+            BladeForce::Coulomb { force, smoothing } => -force * vt / vt.hypot(*smoothing),
+            BladeForce::Driven(_) => wave[0],
+        };
+        f[bl.body[0]] += force * e[0];
+        f[bl.body[1]] += force * e[1];
+        f[bl.body[2]] += force * (r[0] * e[1] - r[1] * e[0]);
+        (force * vt, force)
+    }
+
+    #[inline(always)]
+    fn waveforms(&self, t: f64) -> Waveforms {
+        match &self.force {
+            BladeForce::Driven(w) => [w.eval(t), 0.0, 0.0],
+            _ => [0.0; 3],
+        }
+    }
+
+    fn coords(&self) -> Vec<usize> {
+        self.blade.body.to_vec()
+    }
+
+    fn failure(&self, _q: &[f64]) -> String {
+        super::law::NOT_A_NUMBER.into()
+    }
+
+    fn periodicity(&self) -> Option<Periodicity> {
+        Some(match &self.force {
+            BladeForce::Driven(w) => w.periodicity(),
+            _ => Periodicity::Constant,
+        })
+    }
+
+    fn time_scale(&self, mass: &[f64]) -> Option<TimeScale> {
+        match &self.force {
+            BladeForce::Viscous { damping } => {
+                let m = TimeScale::smallest_mass(mass, self.blade.body[..2].iter().copied());
+                TimeScale::shorter(None, m, "damping", *damping, false)
+            }
+            _ => None,
+        }
+    }
+
+    fn into_law(self) -> Law {
+        Law::Blade(self)
+    }
+}
+
+impl EffectKind for RollingViscous {
+    type Law = BladeLaw;
+    fn check(&self, cx: &CheckContext<'_>) -> Result<(), SpecError> {
+        cx.skate("skate", &self.skate)?;
+        non_negative("damping", self.damping)
+    }
+    fn resolve(&self, cx: &EffectContext<'_>) -> Result<BladeLaw, SpecError> {
+        Ok(BladeLaw { blade: cx.skate("skate", &self.skate)?, force: BladeForce::Viscous { damping: self.damping } })
+    }
+}
+
+impl Reference for RollingViscous {
+    const KEYS: &'static str = "`skate`, `damping` [N s/m]";
+    const LAW: &'static str = "`F = -damping v_t` along the blade, `v_t` the contact point's speed along it";
+}
+
+impl EffectKind for RollingCoulomb {
+    type Law = BladeLaw;
+    fn check(&self, cx: &CheckContext<'_>) -> Result<(), SpecError> {
+        cx.skate("skate", &self.skate)?;
+        non_negative("force", self.force)?;
+        positive("smoothing", self.smoothing, "speed [m/s]")
+    }
+    fn resolve(&self, cx: &EffectContext<'_>) -> Result<BladeLaw, SpecError> {
+        let force = BladeForce::Coulomb { force: self.force, smoothing: self.smoothing };
+        Ok(BladeLaw { blade: cx.skate("skate", &self.skate)?, force })
+    }
+}
+
+impl Reference for RollingCoulomb {
+    const KEYS: &'static str = "`skate`, `force` [N], `smoothing` [m/s]";
+    const LAW: &'static str = "`F = -force v_t / sqrt(v_t^2 + smoothing^2)` (smoothed Coulomb)";
+}
+
+impl EffectKind for DrivenWheel {
+    type Law = BladeLaw;
+    fn check(&self, cx: &CheckContext<'_>) -> Result<(), SpecError> {
+        cx.skate("skate", &self.skate)?;
+        wave("force", &self.force)
+    }
+    fn resolve(&self, cx: &EffectContext<'_>) -> Result<BladeLaw, SpecError> {
+        Ok(BladeLaw { blade: cx.skate("skate", &self.skate)?, force: BladeForce::Driven(self.force.clone()) })
+    }
+}
+
+impl Reference for DrivenWheel {
+    const KEYS: &'static str = "`skate`, `force` (waveform) [N]";
+    const LAW: &'static str = "`F = force(t)` along the blade at the contact point";
+}

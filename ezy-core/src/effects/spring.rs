@@ -1,0 +1,322 @@
+//! Translational spring-damper-actuators between two points (the TSDA of
+//! multibody codes; one family, one kind: `spring-damper`). The spec
+//! [`SpringDamper`] implements [`EffectKind`] and resolves to
+//! [`SpringLaw`], its two ends ([`Anchor`]: a body point or a fixed
+//! ground point) and its coefficients.
+
+use serde::{Deserialize, Serialize};
+
+use super::context::{CheckContext, EffectContext, finite, non_negative, unknown, wave};
+use super::kind::{EffectKind, ForceLaw, SpecError, TimeScale, Waveforms};
+use super::law::Law;
+use super::registry::Reference;
+use super::waveform::{Periodicity, Waveform};
+use crate::model::info::ModelInfo;
+use crate::names::name_list;
+use crate::scalar::Scalar;
+use crate::settings::check_magnitude;
+
+fn is_zero(v: &f64) -> bool {
+    *v == 0.0
+}
+fn is_zero_waveform(w: &Waveform) -> bool {
+    *w == Waveform::Constant(0.0)
+}
+
+/// Translational spring-damper-actuator between two points
+/// (`spring-damper`): with `L = |r_from - r_to|` and `e` the unit vector
+/// from `to` to `from`, the tension `T = stiffness (L - rest_length) +
+/// damping dL/dt + force(t)` \[N\] pulls the ends together: `-T e` on
+/// `from`, `+T e` on `to`. Its power is `-T dL/dt`; its value column is
+/// `T`. `from` and `to` name points or bodies (their centres of mass);
+/// `to` may be a fixed ground point `"ground(x, y)"` \[m\], whose
+/// coordinates are numbers or the names of model or scene parameters. A
+/// length of zero stops the run (the force has no direction there).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SpringDamper {
+    /// A point or a body.
+    pub from: String,
+    /// A point, a body or `ground(x, y)`.
+    pub to: String,
+    /// Stiffness \[N/m\].
+    pub stiffness: f64,
+    /// Length of zero spring force \[m\].
+    pub rest_length: f64,
+    /// Damping along the line \[N s/m\].
+    #[serde(default, skip_serializing_if = "is_zero")]
+    pub damping: f64,
+    /// Actuator force along the line \[N\] over time (positive pulls).
+    #[serde(default, skip_serializing_if = "is_zero_waveform")]
+    pub force: Waveform,
+}
+
+/// One end of a spring-damper.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Anchor {
+    /// A point of a body: the body's `(x, y, phi)` indices and the point's
+    /// body-frame offset \[m\] (zero for the centre of mass).
+    Body {
+        /// Indices of the body's `(x, y, phi)` in `q`.
+        body: [usize; 3],
+        /// Body-frame offset from the centre of mass \[m\].
+        offset: [f64; 2],
+    },
+    /// A fixed point of the ground \[m\].
+    Ground([f64; 2]),
+}
+
+impl Anchor {
+    /// World position \[m\], velocity \[m/s\] and, for a body point, the
+    /// world lever arm from the centre of mass \[m\], at `(q, qd)` (nq each).
+    #[inline(always)]
+    fn state(&self, q: &[f64], qd: &[f64]) -> ([f64; 2], [f64; 2], [f64; 2]) {
+        match *self {
+            Anchor::Ground(p) => (p, [0.0, 0.0], [0.0, 0.0]),
+            Anchor::Body { body, offset } => {
+                let (s, c) = Scalar::sin_cos(q[body[2]]);
+                let r = [c * offset[0] - s * offset[1], s * offset[0] + c * offset[1]];
+                let w = qd[body[2]];
+                ([q[body[0]] + r[0], q[body[1]] + r[1]], [qd[body[0]] - w * r[1], qd[body[1]] + w * r[0]], r)
+            }
+        }
+    }
+
+    /// Adds a world force \[N\] at this end, lever arm `lever` \[m\], into
+    /// `f` (nq; nothing for the ground).
+    #[inline(always)]
+    fn push(&self, lever: [f64; 2], force: [f64; 2], f: &mut [f64]) {
+        if let Anchor::Body { body, .. } = *self {
+            f[body[0]] += force[0];
+            f[body[1]] += force[1];
+            f[body[2]] += lever[0] * force[1] - lever[1] * force[0];
+        }
+    }
+}
+
+/// A spring-damper resolved against a model: the family's law struct, in
+/// the hot enum as [`Law::Spring`].
+#[derive(Debug, Clone, PartialEq)]
+pub struct SpringLaw {
+    /// `from` and `to`.
+    pub ends: [Anchor; 2],
+    /// \[N/m\].
+    pub stiffness: f64,
+    /// \[m\].
+    pub rest_length: f64,
+    /// \[N s/m\].
+    pub damping: f64,
+    /// Actuator force \[N\].
+    pub force: Waveform,
+}
+
+impl SpringLaw {
+    /// The world positions of the two ends at `q` (nq) \[m\], each with
+    /// whether it is a fixed ground point (what `ezy animate` draws as a
+    /// zig-zag).
+    pub fn ends_at(&self, q: &[f64]) -> [([f64; 2], bool); 2] {
+        let qd = vec![0.0; q.len()];
+        self.ends.each_ref().map(|e| (e.state(q, &qd).0, matches!(e, Anchor::Ground(_))))
+    }
+}
+
+impl ForceLaw for SpringLaw {
+    #[inline]
+    fn apply(&self, t: f64, q: &[f64], qd: &[f64], f: &mut [f64]) -> (f64, f64) {
+        self.apply_with(t, &self.waveforms(t), q, qd, f)
+    }
+
+    #[inline(always)]
+    fn apply_with(&self, _t: f64, wave: &Waveforms, q: &[f64], qd: &[f64], f: &mut [f64]) -> (f64, f64) {
+        let [a, b] = &self.ends;
+        let (ra, va, la) = a.state(q, qd);
+        let (rb, vb, lb) = b.state(q, qd);
+        let d = [ra[0] - rb[0], ra[1] - rb[1]];
+        let len = d[0].hypot(d[1]);
+        if len.is_nan() || len <= 0.0 {
+            // no direction: the right-hand side reports it (see `failure`)
+            return (f64::NAN, f64::NAN);
+        }
+        let e = [d[0] / len, d[1] / len];
+        let rate = e[0] * (va[0] - vb[0]) + e[1] * (va[1] - vb[1]);
+        let tension = self.stiffness * (len - self.rest_length) + self.damping * rate + wave[0];
+        a.push(la, [-tension * e[0], -tension * e[1]], f);
+        b.push(lb, [tension * e[0], tension * e[1]], f);
+        (-tension * rate, tension)
+    }
+
+    #[inline(always)]
+    fn waveforms(&self, t: f64) -> Waveforms {
+        [self.force.eval(t), 0.0, 0.0]
+    }
+
+    fn coords(&self) -> Vec<usize> {
+        self.ends
+            .iter()
+            .flat_map(|e| match e {
+                Anchor::Body { body, .. } => body.to_vec(),
+                Anchor::Ground(_) => Vec::new(),
+            })
+            .collect()
+    }
+
+    /// A spring-damper of zero length has no direction.
+    fn failure(&self, q: &[f64]) -> String {
+        let [(ra, _), (rb, _)] = self.ends_at(q);
+        if (ra[0] - rb[0]).hypot(ra[1] - rb[1]) == 0.0 {
+            return format!(
+                "has length 0 m: its ends coincide at ({}, {}), so its force has no direction",
+                ra[0], ra[1]
+            );
+        }
+        super::law::NOT_A_NUMBER.into()
+    }
+
+    fn periodicity(&self) -> Option<Periodicity> {
+        Some(self.force.periodicity())
+    }
+
+    fn time_scale(&self, mass: &[f64]) -> Option<TimeScale> {
+        let m = TimeScale::smallest_mass(
+            mass,
+            self.ends.iter().filter_map(|e| match e {
+                Anchor::Body { body, .. } => Some(body[0]),
+                Anchor::Ground(_) => None,
+            }),
+        );
+        let best = TimeScale::shorter(None, m, "stiffness", self.stiffness, true);
+        TimeScale::shorter(best, m, "damping", self.damping, false)
+    }
+
+    fn into_law(self) -> Law {
+        Law::Spring(self)
+    }
+}
+
+/// The two coordinates of `ground(x, y)`, as written (`None` for another name).
+fn ground_point(s: &str) -> Option<[&str; 2]> {
+    let inner = s.trim().strip_prefix("ground")?.trim_start().strip_prefix('(')?.strip_suffix(')')?;
+    let (x, y) = inner.split_once(',')?;
+    Some([x.trim(), y.trim()])
+}
+
+/// A ground point's coordinate \[m\]: a number, or the name of a model
+/// parameter (its value `model_param(index)`) or of a scene parameter.
+fn ground_coord(
+    a: &str,
+    info: &ModelInfo,
+    scene_params: &[(String, f64)],
+    model_param: impl Fn(usize) -> f64,
+) -> Result<f64, String> {
+    let v = if let Ok(v) = a.parse::<f64>() {
+        if !v.is_finite() {
+            return Err(format!("the ground coordinate {a} must be finite [m]"));
+        }
+        v
+    } else if let Some(i) = info.param_index(a) {
+        model_param(i)
+    } else if let Some((_, v)) = scene_params.iter().find(|(n, _)| n == a) {
+        *v
+    } else {
+        let mut known: Vec<&str> = info.params.iter().map(|p| p.name).collect();
+        known.extend(scene_params.iter().map(|(n, _)| n.as_str()));
+        return Err(format!(
+            "`{a}` in a ground point is neither a number nor a parameter of model {} or of the scene; known: {}",
+            info.name,
+            if known.is_empty() { "none".to_string() } else { name_list(known) }
+        ));
+    };
+    let what = if a.parse::<f64>().is_ok() { "the ground coordinate".to_string() } else { format!("`{a}`") };
+    check_magnitude(&what, v)?;
+    Ok(v)
+}
+
+impl SpringDamper {
+    /// Checks the end `e` under the key `field`: a ground point's
+    /// coordinates (model parameters taken as 0: only their names are
+    /// checked here), or a point or body of the model.
+    fn check_end(cx: &CheckContext<'_>, field: &'static str, e: &str) -> Result<(), SpecError> {
+        match ground_point(e) {
+            Some(args) => {
+                for a in args {
+                    ground_coord(a, cx.info(), cx.scene_params(), |_| 0.0)
+                        .map_err(|message| SpecError { field, message })?;
+                }
+                Ok(())
+            }
+            None if cx.names().point(e).is_some() || cx.names().body(e).is_some() => Ok(()),
+            None => {
+                let info = cx.info();
+                let mut known: Vec<&str> = info.points.iter().map(|p| p.name.as_str()).collect();
+                known.extend(info.bodies.iter().map(|b| b.name.as_str()));
+                Err(unknown(field, "point or body", e, info.name, known))
+            }
+        }
+    }
+
+    /// The end `e` under the key `field`, resolved: a ground point (a
+    /// model parameter it names is checked here, at its value) or a body
+    /// point.
+    fn end(cx: &EffectContext<'_>, field: &'static str, e: &str) -> Result<Anchor, SpecError> {
+        Ok(match ground_point(e) {
+            Some([x, y]) => {
+                let scene_params = cx.check_context().scene_params();
+                let v = |a| {
+                    ground_coord(a, cx.info(), scene_params, |i| cx.model_params()[i])
+                        .map_err(|message| SpecError { field, message })
+                };
+                Anchor::Ground([v(x)?, v(y)?])
+            }
+            None => {
+                let (body, offset) = cx.point(field, e)?;
+                Anchor::Body { body, offset }
+            }
+        })
+    }
+}
+
+impl EffectKind for SpringDamper {
+    type Law = SpringLaw;
+    fn check(&self, cx: &CheckContext<'_>) -> Result<(), SpecError> {
+        let (from, to) = (&self.from, &self.to);
+        if ground_point(from).is_some() {
+            return Err(SpecError {
+                field: "from",
+                message: format!("`{from}`: `from` is a point or a body of the model; a ground point goes in `to`"),
+            });
+        }
+        Self::check_end(cx, "from", from)?;
+        Self::check_end(cx, "to", to)?;
+        if from == to {
+            return Err(SpecError {
+                field: "to",
+                message: format!("`{to}`: a spring-damper joins two different points"),
+            });
+        }
+        finite("stiffness", self.stiffness)?;
+        let rest_length = self.rest_length;
+        if !(rest_length.is_finite() && rest_length >= 0.0) {
+            return Err(SpecError {
+                field: "rest_length",
+                message: format!("rest_length = {rest_length} must be zero or positive [m]"),
+            });
+        }
+        finite("rest_length", rest_length)?;
+        non_negative("damping", self.damping)?;
+        wave("force", &self.force)
+    }
+    fn resolve(&self, cx: &EffectContext<'_>) -> Result<SpringLaw, SpecError> {
+        Ok(SpringLaw {
+            ends: [Self::end(cx, "from", &self.from)?, Self::end(cx, "to", &self.to)?],
+            stiffness: self.stiffness,
+            rest_length: self.rest_length,
+            damping: self.damping,
+            force: self.force.clone(),
+        })
+    }
+}
+
+impl Reference for SpringDamper {
+    const KEYS: &'static str = "`from` (point or body), `to` (point, body or `\"ground(x, y)\"`, the coordinates numbers or model or scene parameters), `stiffness` [N/m], `rest_length` [m], `damping` [N s/m] (0), `force` (waveform) [N] (0)";
+    const LAW: &'static str = "tension `T = stiffness (L - rest_length) + damping dL/dt + force(t)`, `L = |r_from - r_to|`: `-T e` on `from`, `+T e` on `to`, `e` the unit vector from `to` to `from`; value column `F_<name>` = `T`; a length of 0 stops the run naming the time and the point";
+}
