@@ -112,7 +112,7 @@ fn read_crate(src: &Path) -> Vec<Source> {
 /// library code imports. Newlines are kept so that line numbers hold.
 fn code_only(text: &str) -> String {
     let cut = text.find("#[cfg(test)]").unwrap_or(text.len());
-    let b = text[..cut].as_bytes();
+    let b = &text.as_bytes()[..cut];
     let mut out = String::with_capacity(b.len());
     let mut i = 0;
     while i < b.len() {
@@ -248,7 +248,9 @@ fn crate_paths(module: &str, code: &str) -> Vec<(usize, String)> {
     while let Some(k) = code[search..].find("crate::") {
         let at = search + k;
         search = at + 7;
-        if used[at] || (at > 0 && (bytes[at - 1].is_ascii_alphanumeric() || bytes[at - 1] == b'_' || bytes[at - 1] == b':')) {
+        if used[at]
+            || (at > 0 && (bytes[at - 1].is_ascii_alphanumeric() || bytes[at - 1] == b'_' || bytes[at - 1] == b':'))
+        {
             continue;
         }
         let len = code[at..].find(|c: char| !(c.is_alphanumeric() || c == '_' || c == ':')).unwrap_or(code.len() - at);
@@ -364,7 +366,7 @@ fn check(sources: &[Source], floors: &[(&str, u32)]) -> Vec<Violation> {
         }
     }
     // circles among the units of one floor
-    for (&start, _) in &edges {
+    for &start in edges.keys() {
         let mut path = vec![start];
         if let Some(circle) = find_circle(start, start, &edges, &mut path, &mut BTreeSet::new()) {
             let text = circle.join(" -> ");
@@ -439,7 +441,11 @@ fn a_command_importing_another_is_refused() {
     figures.text = format!("use crate::session::RunOptions;\n{}", figures.text);
     let bad = check(&sources, EZY_FLOORS);
     assert_eq!(bad.len(), 1, "{bad:#?}");
-    assert!(bad[0].contains("`render` (floor 1) imports `crate::session::RunOptions` from `session` (floor 2)"), "{}", bad[0]);
+    assert!(
+        bad[0].contains("`render` (floor 1) imports `crate::session::RunOptions` from `session` (floor 2)"),
+        "{}",
+        bad[0]
+    );
 }
 
 #[test]
@@ -451,7 +457,11 @@ fn an_import_up_a_floor_is_refused() {
     error.text = format!("use crate::simulate::Observer;\n{}", error.text);
     let bad = check(&sources, CORE_FLOORS);
     assert_eq!(bad.len(), 1, "{bad:#?}");
-    assert!(bad[0].contains("error.rs:1: `error` (floor 0) imports `crate::simulate::Observer` from `simulate` (floor 6)"), "{}", bad[0]);
+    assert!(
+        bad[0].contains("error.rs:1: `error` (floor 0) imports `crate::simulate::Observer` from `simulate` (floor 6)"),
+        "{}",
+        bad[0]
+    );
 
     // through the root's re-export, and through a module's
     let mut sources = core_sources();
