@@ -51,8 +51,10 @@ use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 pub const LOCK_FILE: &str = ".ezy.lock";
 
 /// How long a lock found taken is tried again before the run is refused
-/// as [`TransactionError::Busy`] (see [`lock`]): 0.3 s.
-const LOCK_PATIENCE: std::time::Duration = std::time::Duration::from_millis(300);
+/// as [`TransactionError::Busy`] (see [`lock`]): 50 ms, far longer than
+/// a fork takes to exec; a run that ends within it leaves the directory
+/// to this one, as if this one had started 50 ms later.
+const LOCK_PATIENCE: std::time::Duration = std::time::Duration::from_millis(50);
 
 /// Prefix of a run's private directory inside the output directory.
 pub(crate) const TEMP_PREFIX: &str = ".ezy-run.";
