@@ -473,7 +473,11 @@ impl NormalSystem {
     ///
     /// # Errors
     /// [`KktError::NonFinite`] if `A` or `r` has a non-finite entry.
-    #[inline]
+    // always into `Dynamics::rhs` (one call per evaluation): left to the
+    // inliner, it stayed out of line once `simulate` was split into
+    // modules (another partition of the instances), 11 M instructions
+    // more on `drive --formulation dae --t-end 6` (callgrind)
+    #[inline(always)]
     #[allow(clippy::too_many_arguments)]
     pub fn solve<Mo: Model>(
         &mut self,
