@@ -454,11 +454,13 @@ fn an_import_up_a_floor_is_refused() {
     // naming the step loop (floor 6)
     let mut sources = core_sources();
     let error = sources.iter_mut().find(|s| s.module == "error").unwrap();
-    error.text = format!("use crate::simulate::Observer;\n{}", error.text);
+    error.text = format!("use crate::simulate::observer::Observer;\n{}", error.text);
     let bad = check(&sources, CORE_FLOORS);
     assert_eq!(bad.len(), 1, "{bad:#?}");
     assert!(
-        bad[0].contains("error.rs:1: `error` (floor 0) imports `crate::simulate::Observer` from `simulate` (floor 6)"),
+        bad[0].contains(
+            "error.rs:1: `error` (floor 0) imports `crate::simulate::observer::Observer` from `simulate` (floor 6)"
+        ),
         "{}",
         bad[0]
     );

@@ -83,7 +83,10 @@ pub use settings::{
     Choice, Formulation, MAX_ANGLE, MAX_MAGNITUDE, MAX_RATE, Method, ProjectionKind, RunSettings, Setting, check_angle,
     check_magnitude, check_rate, spell_settings_as_flags,
 };
-pub use simulate::{Observer, RunError, SINGULAR_PERSIST_STEPS, SLIP_CHATTER_GAP, Sample, Summary, simulate};
+pub use simulate::observer::{Observer, RunError, Sample, Summary};
+pub use simulate::run::SINGULAR_PERSIST_STEPS;
+pub use simulate::simulate;
+pub use simulate::slip::SLIP_CHATTER_GAP;
 
 #[doc = include_str!("../../ezy-derive/src/model.md")]
 // A `macro_rules!` wrapper around the procedural macro, passing its

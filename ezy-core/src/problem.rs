@@ -68,7 +68,8 @@ use crate::model::Model;
 use crate::model::info::{ModelInfo, NameIndex};
 use crate::settings::RunSettings;
 use crate::settings::{Formulation, Method, ProjectionKind};
-use crate::simulate::{Observer, RunError, Sample, Summary, simulate};
+use crate::simulate::observer::{Observer, RunError, Sample, Summary};
+use crate::simulate::simulate;
 
 /// A model with its effects, drives, initial values and settings: what a
 /// run integrates. Build it in Rust ([`Problem::new`] and the builder

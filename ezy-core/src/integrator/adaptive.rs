@@ -1,6 +1,7 @@
 //! Embedded explicit Runge-Kutta pairs with error control and dense output.
 
 use super::Rhs;
+use super::stepper::{Control, Stats, Stepper, Trial};
 use crate::error::SimError;
 
 /// Error tolerances: a component `i` of the local error is compared with
@@ -278,6 +279,166 @@ impl StiffnessTest {
             }
         }
         false
+    }
+}
+
+/// An embedded pair `E` as a [`Stepper`]: its PI [`Controller`] on the
+/// error norm (which the caller may revise first, [`Trial::Estimate`]),
+/// the slope at the start carried from the accepted end (evaluated anew
+/// where the caller moved the end, or where the pair's last stage was not
+/// at it), Hairer's [`StiffnessTest`] and the pair's dense output.
+#[derive(Debug, Clone)]
+pub struct Embedded<E> {
+    pair: E,
+    ctl: Controller,
+    tol: Tolerance,
+    /// `F` at the step's start and at its end.
+    k1: Vec<f64>,
+    k_new: Vec<f64>,
+    /// The last attempt's start \[s\] and size \[s\].
+    t: f64,
+    h: f64,
+    dense: bool,
+    stiffness: StiffnessTest,
+    stage_failure: Option<SimError>,
+    /// Scratch of [`initial_step`].
+    work: [Vec<f64>; 2],
+}
+
+impl<E: EmbeddedRk> Embedded<E> {
+    /// The pair for a state of length `n` at tolerance `tol`.
+    pub fn new(n: usize, tol: Tolerance) -> Self {
+        let v = || vec![0.0; n];
+        Self {
+            pair: E::new(n),
+            ctl: Controller::default(),
+            tol,
+            k1: v(),
+            k_new: v(),
+            t: 0.0,
+            h: 0.0,
+            dense: false,
+            stiffness: StiffnessTest::default(),
+            stage_failure: None,
+            work: [v(), v()],
+        }
+    }
+}
+
+impl<R: Rhs, E: EmbeddedRk> Stepper<R> for Embedded<E> {
+    const CONTROL: Control = Control::Embedded;
+    const FSAL: bool = E::FSAL_IN_ESTIMATE;
+
+    fn start(&mut self, rhs: &mut R, t: f64, x: &[f64], h_max: f64) -> Result<f64, SimError> {
+        rhs.eval(t, x, &mut self.k1)?;
+        let [w1, w2] = &mut self.work;
+        initial_step(rhs, t, x, &self.k1, E::ORDER, &self.tol, h_max, w1, w2)
+    }
+
+    /// A stage that overflowed, or at which an effect or the reduced
+    /// formulation's Newton iteration failed (perhaps the stage went too
+    /// far: a stiff scene at a step beyond the method's stability), and a
+    /// non-finite error estimate reject the step for a tenth of its size;
+    /// the failure is kept ([`Stepper::stage_failure`]) and reported if no
+    /// step helps.
+    #[inline]
+    fn attempt(&mut self, rhs: &mut R, t: f64, x: &[f64], h: f64, x_new: &mut [f64]) -> Result<Trial, SimError> {
+        self.t = t;
+        self.h = h;
+        self.dense = false;
+        let err = match self.pair.attempt(rhs, t, x, &self.k1, h, &self.tol, x_new, &mut self.k_new) {
+            Err(SimError::Kkt { source: crate::error::KktError::NonFinite { .. }, .. }) => f64::NAN,
+            Err(e @ (SimError::EffectFailed { .. } | SimError::Formulation { .. })) => {
+                self.stage_failure = Some(e);
+                f64::NAN
+            }
+            other => other?,
+        };
+        if err.is_finite() { Ok(Trial::Estimate(err)) } else { Ok(Trial::Rejected { h_next: h * 0.1 }) }
+    }
+
+    fn control(&mut self, err: f64) -> (bool, f64) {
+        self.ctl.next::<E>(err, self.h)
+    }
+
+    fn revise_error(
+        &self,
+        x: &[f64],
+        x_new: &[f64],
+        ea: &mut [f64],
+        eb: &mut [f64],
+        mut remove: impl FnMut(&mut [f64]) -> Result<(), SimError>,
+    ) -> Result<Option<f64>, SimError> {
+        self.pair.error_vectors(&self.k1, self.h, ea, eb);
+        remove(ea)?;
+        remove(eb)?;
+        Ok(Some(E::error_from(self.h, ea, eb, x, x_new, &self.tol)))
+    }
+
+    #[inline]
+    fn accepted(
+        &mut self,
+        rhs: &mut R,
+        t_new: f64,
+        x_new: &[f64],
+        moved: bool,
+        _slope: bool,
+    ) -> Result<bool, SimError> {
+        let evaluate = moved || !E::FSAL_IN_ESTIMATE;
+        if evaluate {
+            rhs.eval(t_new, x_new, &mut self.k_new)?;
+        }
+        self.stage_failure = None;
+        Ok(evaluate)
+    }
+
+    fn end_slope(&self) -> &[f64] {
+        &self.k_new
+    }
+
+    #[inline]
+    fn test_stiffness(&mut self, t_new: f64, x_new: &[f64]) -> Option<(f64, f64, f64)> {
+        let hlambda = self.stiffness.due().then(|| self.pair.stiffness(self.h, x_new, &self.k_new));
+        if self.stiffness.record(t_new, hlambda, E::STIFF_LIMIT) {
+            return self.stiffness.found.map(|(t, hl)| (t, hl, E::STIFF_LIMIT));
+        }
+        None
+    }
+
+    fn dense_ready(&self) -> bool {
+        self.dense
+    }
+
+    fn prepare_dense(&mut self, rhs: &mut R, _t_new: f64, x: &[f64], x_new: &[f64]) -> Result<(), SimError> {
+        if !self.dense {
+            self.pair.prepare_dense(rhs, self.t, x, &self.k1, self.h, x_new, &self.k_new)?;
+            self.dense = true;
+        }
+        Ok(())
+    }
+
+    #[inline]
+    fn interpolate(&self, t: f64, out: &mut [f64]) {
+        self.pair.interpolate((t - self.t) / self.h, out);
+    }
+
+    /// The slope at the new state; the controller keeps its memory.
+    fn restart(&mut self, rhs: &mut R, t: f64, x: &[f64]) -> Result<(), SimError> {
+        rhs.eval(t, x, &mut self.k_new)
+    }
+
+    #[inline]
+    fn advance(&mut self, _rhs: &mut R, _t: f64, _x: &[f64]) -> Result<(), SimError> {
+        std::mem::swap(&mut self.k1, &mut self.k_new);
+        Ok(())
+    }
+
+    fn stage_failure(&mut self) -> &mut Option<SimError> {
+        &mut self.stage_failure
+    }
+
+    fn stats(&self) -> Stats {
+        Stats { newton: Default::default(), stiff: self.stiffness.found }
     }
 }
 

@@ -3,6 +3,7 @@
 //! the default of the built-in scenes.
 
 use super::Rhs;
+use super::stepper::{Control, Stats, Stepper, Trial};
 use crate::error::SimError;
 
 /// Explicit Euler, `y <- y + h F(t, y)`: one evaluation per step.
@@ -22,7 +23,7 @@ impl Euler {
     /// # Errors
     /// Whatever the right-hand side fails with.
     #[inline]
-    pub fn step<R: Rhs>(&mut self, rhs: &mut R, t: f64, y: &mut [f64], h: f64) -> Result<(), SimError> {
+    pub fn step<R: Rhs + ?Sized>(&mut self, rhs: &mut R, t: f64, y: &mut [f64], h: f64) -> Result<(), SimError> {
         rhs.eval(t, y, &mut self.k)?;
         for (yi, ki) in y.iter_mut().zip(&self.k) {
             *yi += h * ki;
@@ -36,6 +37,38 @@ impl Euler {
         self.k.copy_from_slice(f0);
         for (yi, ki) in y.iter_mut().zip(&self.k) {
             *yi += h * ki;
+        }
+    }
+
+    /// As [`Euler::step`], from `y` into `y_new`.
+    ///
+    /// # Errors
+    /// Whatever the right-hand side fails with.
+    #[inline]
+    pub fn step_to<R: Rhs + ?Sized>(
+        &mut self,
+        rhs: &mut R,
+        t: f64,
+        y: &[f64],
+        h: f64,
+        y_new: &mut [f64],
+    ) -> Result<(), SimError> {
+        rhs.eval(t, y, &mut self.k)?;
+        self.update(y, h, y_new);
+        Ok(())
+    }
+
+    /// As [`Euler::step_from`], from `y` into `y_new`.
+    pub fn step_from_to(&mut self, y: &[f64], h: f64, f0: &[f64], y_new: &mut [f64]) {
+        self.k.copy_from_slice(f0);
+        self.update(y, h, y_new);
+    }
+
+    /// `y_new = y + h k`.
+    #[inline(always)]
+    fn update(&self, y: &[f64], h: f64, y_new: &mut [f64]) {
+        for ((yn, yi), ki) in y_new.iter_mut().zip(y).zip(&self.k) {
+            *yn = yi + h * ki;
         }
     }
 
@@ -66,7 +99,7 @@ impl Rk4 {
     /// # Errors
     /// Whatever the right-hand side fails with.
     #[inline]
-    pub fn step<R: Rhs>(&mut self, rhs: &mut R, t: f64, y: &mut [f64], h: f64) -> Result<(), SimError> {
+    pub fn step<R: Rhs + ?Sized>(&mut self, rhs: &mut R, t: f64, y: &mut [f64], h: f64) -> Result<(), SimError> {
         rhs.eval(t, y, &mut self.k1)?;
         self.stages(rhs, t, y, h)
     }
@@ -77,7 +110,7 @@ impl Rk4 {
     ///
     /// # Errors
     /// Whatever the right-hand side fails with.
-    pub fn step_from<R: Rhs>(
+    pub fn step_from<R: Rhs + ?Sized>(
         &mut self,
         rhs: &mut R,
         t: f64,
@@ -89,18 +122,51 @@ impl Rk4 {
         self.stages(rhs, t, y, h)
     }
 
-    /// The stages after the first (in `k1`) and the update.
+    /// As [`Rk4::step`], from `y` into `y_new`.
+    ///
+    /// # Errors
+    /// Whatever the right-hand side fails with.
+    #[inline]
+    pub fn step_to<R: Rhs + ?Sized>(
+        &mut self,
+        rhs: &mut R,
+        t: f64,
+        y: &[f64],
+        h: f64,
+        y_new: &mut [f64],
+    ) -> Result<(), SimError> {
+        rhs.eval(t, y, &mut self.k1)?;
+        self.slopes(rhs, t, y, h)?;
+        self.update_to(y, h, y_new);
+        Ok(())
+    }
+
+    /// As [`Rk4::step_from`], from `y` into `y_new`.
+    ///
+    /// # Errors
+    /// Whatever the right-hand side fails with.
+    pub fn step_from_to<R: Rhs + ?Sized>(
+        &mut self,
+        rhs: &mut R,
+        t: f64,
+        y: &[f64],
+        h: f64,
+        f0: &[f64],
+        y_new: &mut [f64],
+    ) -> Result<(), SimError> {
+        self.k1.copy_from_slice(f0);
+        self.slopes(rhs, t, y, h)?;
+        self.update_to(y, h, y_new);
+        Ok(())
+    }
+
+    /// The stages after the first (in `k1`) and the update in place.
     #[inline(always)]
-    fn stages<R: Rhs>(&mut self, rhs: &mut R, t: f64, y: &mut [f64], h: f64) -> Result<(), SimError> {
-        let Self { k1, k2, k3, k4, tmp } = self;
-        axpy(tmp, y, 0.5 * h, k1);
-        rhs.eval(t + 0.5 * h, tmp, k2)?;
-        axpy(tmp, y, 0.5 * h, k2);
-        rhs.eval(t + 0.5 * h, tmp, k3)?;
-        axpy(tmp, y, h, k3);
-        rhs.eval(t + h, tmp, k4)?;
+    fn stages<R: Rhs + ?Sized>(&mut self, rhs: &mut R, t: f64, y: &mut [f64], h: f64) -> Result<(), SimError> {
+        self.slopes(rhs, t, y, h)?;
         let h6 = h / 6.0;
         let n = y.len();
+        let Self { k1, k2, k3, k4, .. } = self;
         let (k1, k2, k3, k4) = (&k1[..n], &k2[..n], &k3[..n], &k4[..n]);
         for i in 0..n {
             y[i] += h6 * (k1[i] + 2.0 * (k2[i] + k3[i]) + k4[i]);
@@ -108,9 +174,268 @@ impl Rk4 {
         Ok(())
     }
 
+    /// The stages after the first (in `k1`): `k2`, `k3`, `k4`.
+    #[inline(always)]
+    fn slopes<R: Rhs + ?Sized>(&mut self, rhs: &mut R, t: f64, y: &[f64], h: f64) -> Result<(), SimError> {
+        let Self { k1, k2, k3, k4, tmp } = self;
+        axpy(tmp, y, 0.5 * h, k1);
+        rhs.eval(t + 0.5 * h, tmp, k2)?;
+        axpy(tmp, y, 0.5 * h, k2);
+        rhs.eval(t + 0.5 * h, tmp, k3)?;
+        axpy(tmp, y, h, k3);
+        rhs.eval(t + h, tmp, k4)
+    }
+
+    /// `y_new = y + h/6 (k1 + 2 (k2 + k3) + k4)`, as the update in place
+    /// computes it.
+    #[inline(always)]
+    fn update_to(&self, y: &[f64], h: f64, y_new: &mut [f64]) {
+        let h6 = h / 6.0;
+        let n = y.len();
+        let (k1, k2, k3, k4, y_new) = (&self.k1[..n], &self.k2[..n], &self.k3[..n], &self.k4[..n], &mut y_new[..n]);
+        for i in 0..n {
+            y_new[i] = y[i] + h6 * (k1[i] + 2.0 * (k2[i] + k3[i]) + k4[i]);
+        }
+    }
+
     /// `F(t, y)` at the start of the last step (its first stage).
     pub fn start_slope(&self) -> &[f64] {
         &self.k1
+    }
+}
+
+/// A fixed-step method as [`Fixed`] drives it: Euler or RK4.
+pub trait FixedMethod {
+    /// Advances `y` from `t` to `t + h` into `y_new`.
+    ///
+    /// # Errors
+    /// Whatever the right-hand side fails with.
+    fn advance<R: Rhs + ?Sized>(
+        &mut self,
+        rhs: &mut R,
+        t: f64,
+        y: &[f64],
+        h: f64,
+        y_new: &mut [f64],
+    ) -> Result<(), SimError>;
+    /// As [`FixedMethod::advance`], with `f0 = F(t, y)` known.
+    ///
+    /// # Errors
+    /// Whatever the right-hand side fails with.
+    #[allow(clippy::too_many_arguments)]
+    fn advance_from<R: Rhs + ?Sized>(
+        &mut self,
+        rhs: &mut R,
+        t: f64,
+        y: &[f64],
+        h: f64,
+        f0: &[f64],
+        y_new: &mut [f64],
+    ) -> Result<(), SimError>;
+    /// `F` at the start of the last step.
+    fn start_slope(&self) -> &[f64];
+}
+
+impl FixedMethod for Euler {
+    #[inline]
+    fn advance<R: Rhs + ?Sized>(
+        &mut self,
+        rhs: &mut R,
+        t: f64,
+        y: &[f64],
+        h: f64,
+        y_new: &mut [f64],
+    ) -> Result<(), SimError> {
+        self.step_to(rhs, t, y, h, y_new)
+    }
+    fn advance_from<R: Rhs + ?Sized>(
+        &mut self,
+        _: &mut R,
+        _: f64,
+        y: &[f64],
+        h: f64,
+        f0: &[f64],
+        y_new: &mut [f64],
+    ) -> Result<(), SimError> {
+        self.step_from_to(y, h, f0, y_new);
+        Ok(())
+    }
+    fn start_slope(&self) -> &[f64] {
+        Euler::start_slope(self)
+    }
+}
+
+impl FixedMethod for Rk4 {
+    #[inline]
+    fn advance<R: Rhs + ?Sized>(
+        &mut self,
+        rhs: &mut R,
+        t: f64,
+        y: &[f64],
+        h: f64,
+        y_new: &mut [f64],
+    ) -> Result<(), SimError> {
+        self.step_to(rhs, t, y, h, y_new)
+    }
+    fn advance_from<R: Rhs + ?Sized>(
+        &mut self,
+        rhs: &mut R,
+        t: f64,
+        y: &[f64],
+        h: f64,
+        f0: &[f64],
+        y_new: &mut [f64],
+    ) -> Result<(), SimError> {
+        self.step_from_to(rhs, t, y, h, f0, y_new)
+    }
+    fn start_slope(&self) -> &[f64] {
+        Rk4::start_slope(self)
+    }
+}
+
+/// A fixed-step method as a [`Stepper`]: every attempt accepted, the
+/// slope at the accepted end carried to the next step's first stage
+/// where the caller asked for it ([`Stepper::accepted`] with `slope`),
+/// and the dense output the cubic [`hermite`] interpolant on the step's
+/// ends and slopes.
+#[derive(Debug, Clone)]
+pub struct Fixed<S> {
+    method: S,
+    /// The slope at the start of the next step, when `carried`.
+    f_start: Vec<f64>,
+    carried: bool,
+    /// `F` at the accepted end; whether it is (`end_known`), and whether
+    /// it goes on to the next step (`carry`).
+    f_end: Vec<f64>,
+    end_known: bool,
+    carry: bool,
+    /// The last step's ends `(t0, x0)`, `(t1, x1)` for the interpolant,
+    /// copied when it is prepared (`dense`).
+    t0: f64,
+    t1: f64,
+    x0: Vec<f64>,
+    x1: Vec<f64>,
+    dense: bool,
+    /// Never set: a fixed step has no failure to keep.
+    stage_failure: Option<SimError>,
+}
+
+impl<S: FixedMethod> Fixed<S> {
+    /// `method` for a state of length `n`.
+    pub fn new(method: S, n: usize) -> Self {
+        let v = || vec![0.0; n];
+        Self {
+            method,
+            f_start: v(),
+            carried: false,
+            f_end: v(),
+            end_known: false,
+            carry: false,
+            t0: 0.0,
+            t1: 0.0,
+            x0: v(),
+            x1: v(),
+            dense: false,
+            stage_failure: None,
+        }
+    }
+}
+
+impl<R: Rhs + ?Sized, S: FixedMethod> Stepper<R> for Fixed<S> {
+    const CONTROL: Control = Control::Fixed;
+    const FSAL: bool = false;
+
+    fn start(&mut self, _rhs: &mut R, _t: f64, _x: &[f64], h_max: f64) -> Result<f64, SimError> {
+        Ok(h_max)
+    }
+
+    #[inline]
+    fn attempt(&mut self, rhs: &mut R, t: f64, x: &[f64], h: f64, x_new: &mut [f64]) -> Result<Trial, SimError> {
+        let advanced = if self.carried {
+            self.method.advance_from(rhs, t, x, h, &self.f_start, x_new)
+        } else {
+            self.method.advance(rhs, t, x, h, x_new)
+        };
+        self.carried = false;
+        self.end_known = false;
+        self.carry = false;
+        self.dense = false;
+        self.t0 = t;
+        advanced?;
+        Ok(Trial::Accepted { h_next: h })
+    }
+
+    fn control(&mut self, _err: f64) -> (bool, f64) {
+        (true, self.t1 - self.t0)
+    }
+
+    #[inline]
+    fn accepted(
+        &mut self,
+        rhs: &mut R,
+        t_new: f64,
+        x_new: &[f64],
+        _moved: bool,
+        slope: bool,
+    ) -> Result<bool, SimError> {
+        if !slope {
+            return Ok(false);
+        }
+        rhs.eval(t_new, x_new, &mut self.f_end)?;
+        self.end_known = true;
+        self.carry = true;
+        Ok(true)
+    }
+
+    fn end_slope(&self) -> &[f64] {
+        &self.f_end
+    }
+
+    fn dense_ready(&self) -> bool {
+        self.dense
+    }
+
+    #[cold]
+    fn prepare_dense(&mut self, rhs: &mut R, t_new: f64, x: &[f64], x_new: &[f64]) -> Result<(), SimError> {
+        if self.dense {
+            return Ok(());
+        }
+        if !self.end_known {
+            rhs.eval(t_new, x_new, &mut self.f_end)?;
+            self.end_known = true;
+        }
+        self.t1 = t_new;
+        self.x0.copy_from_slice(x);
+        self.x1.copy_from_slice(x_new);
+        self.dense = true;
+        Ok(())
+    }
+
+    fn interpolate(&self, t: f64, out: &mut [f64]) {
+        hermite((self.t0, &self.x0, self.method.start_slope()), (self.t1, &self.x1, &self.f_end), t, out);
+    }
+
+    fn restart(&mut self, _rhs: &mut R, _t: f64, _x: &[f64]) -> Result<(), SimError> {
+        self.carry = false;
+        Ok(())
+    }
+
+    #[inline]
+    fn advance(&mut self, _rhs: &mut R, _t: f64, _x: &[f64]) -> Result<(), SimError> {
+        if self.carry {
+            std::mem::swap(&mut self.f_start, &mut self.f_end);
+            self.carried = true;
+        }
+        self.carry = false;
+        Ok(())
+    }
+
+    fn stage_failure(&mut self) -> &mut Option<SimError> {
+        &mut self.stage_failure
+    }
+
+    fn stats(&self) -> Stats {
+        Stats::default()
     }
 }
 

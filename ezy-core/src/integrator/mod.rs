@@ -9,7 +9,9 @@
 //! | [`Method::Radau5`](crate::settings::Method::Radau5) | 5, implicit | adaptive (predictive control), simplified Newton, dense output of order 3 | Radau IIA; HW II §IV.8, code RADAU5 |
 //!
 //! The steppers see the right-hand side through [`Rhs`], so they are tested
-//! on plain ODEs as well as on models (`Dynamics` implements it).
+//! on plain ODEs as well as on models (`Dynamics` implements it). The step
+//! loop drives each of them through one interface, [`stepper::Stepper`]
+//! ([`fixed::Fixed`], [`adaptive::Embedded`], [`radau5::Radau5Stepper`]).
 
 /// `out[i] = y[i] + h * (a1 * k1[i] + a2 * k2[i] + ...)` for every `i`,
 /// summed left to right: a stage's argument, written
@@ -80,11 +82,13 @@ pub(crate) mod dop853;
 pub(crate) mod dopri5;
 pub(crate) mod fixed;
 pub mod radau5;
+pub mod stepper;
 
-pub use adaptive::{EmbeddedRk, Tolerance};
+pub use adaptive::{Embedded, EmbeddedRk, Tolerance};
 pub use dop853::Dop853;
 pub use dopri5::Dopri5;
-pub use fixed::{Euler, Rk4, hermite};
+pub use fixed::{Euler, Fixed, FixedMethod, Rk4, hermite};
+pub use stepper::{Control, Stats, Stepper, Trial};
 
 use crate::error::SimError;
 

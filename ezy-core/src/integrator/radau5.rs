@@ -30,6 +30,7 @@ use faer::{Mat, Par, Spec};
 
 use super::Rhs;
 use super::adaptive::Tolerance;
+use super::stepper::{Control, Stats, Stepper, Trial};
 use crate::error::KktError;
 use crate::error::SimError;
 
@@ -712,6 +713,110 @@ impl<R: Rhs + ?Sized> NewtonSystem<R> for DenseNewton {
 
     fn solve_complex(&mut self, b: &mut [c64]) {
         self.complex.solve(b);
+    }
+}
+
+/// RADAU5 with its Newton system `N` as a [`Stepper`]: the method
+/// accepts or rejects by itself ([`Control::Internal`]), the slope at a
+/// step's start is evaluated when the step before it is done
+/// ([`Stepper::advance`]), and the dense output is the collocation
+/// polynomial.
+#[derive(Debug, Clone)]
+pub struct Radau5Stepper<N> {
+    method: Radau5,
+    newton: N,
+    tol: Tolerance,
+    /// `F` at the step's start.
+    f: Vec<f64>,
+    /// The last attempt's start \[s\] and size \[s\].
+    t: f64,
+    h: f64,
+    /// Scratch of [`super::adaptive::initial_step`].
+    work: [Vec<f64>; 2],
+}
+
+impl<N> Radau5Stepper<N> {
+    /// RADAU5 for a state of length `n` at tolerance `tol`, with the
+    /// Newton system `newton`.
+    pub fn new(n: usize, tol: &Tolerance, newton: N) -> Self {
+        Self {
+            method: Radau5::new(n, tol),
+            newton,
+            tol: *tol,
+            f: vec![0.0; n],
+            t: 0.0,
+            h: 0.0,
+            work: [vec![0.0; n], vec![0.0; n]],
+        }
+    }
+}
+
+impl<R: Rhs, N: NewtonSystem<R>> Stepper<R> for Radau5Stepper<N> {
+    const CONTROL: Control = Control::Internal;
+    const FSAL: bool = false;
+
+    /// The first step as for the order-3 error estimate.
+    fn start(&mut self, rhs: &mut R, t: f64, x: &[f64], h_max: f64) -> Result<f64, SimError> {
+        rhs.eval(t, x, &mut self.f)?;
+        let [w1, w2] = &mut self.work;
+        super::adaptive::initial_step(rhs, t, x, &self.f, 3, &self.tol, h_max, w1, w2)
+    }
+
+    fn attempt(&mut self, rhs: &mut R, t: f64, x: &[f64], h: f64, x_new: &mut [f64]) -> Result<Trial, SimError> {
+        self.t = t;
+        self.h = h;
+        Ok(match self.method.attempt(rhs, &mut self.newton, t, x, &self.f, h, x_new)? {
+            Attempt::Accepted { h_next } => Trial::Accepted { h_next },
+            Attempt::Rejected { h_next } => Trial::Rejected { h_next },
+        })
+    }
+
+    fn control(&mut self, _err: f64) -> (bool, f64) {
+        (true, self.h)
+    }
+
+    fn accepted(
+        &mut self,
+        _rhs: &mut R,
+        _t_new: f64,
+        _x_new: &[f64],
+        _moved: bool,
+        _slope: bool,
+    ) -> Result<bool, SimError> {
+        Ok(false)
+    }
+
+    fn end_slope(&self) -> &[f64] {
+        &self.f
+    }
+
+    fn dense_ready(&self) -> bool {
+        true
+    }
+
+    fn prepare_dense(&mut self, _rhs: &mut R, _t_new: f64, _x: &[f64], _x_new: &[f64]) -> Result<(), SimError> {
+        Ok(())
+    }
+
+    fn interpolate(&self, t: f64, out: &mut [f64]) {
+        self.method.interpolate((t - self.t) / self.h, out);
+    }
+
+    fn restart(&mut self, _rhs: &mut R, _t: f64, _x: &[f64]) -> Result<(), SimError> {
+        self.method.restart();
+        Ok(())
+    }
+
+    fn advance(&mut self, rhs: &mut R, t: f64, x: &[f64]) -> Result<(), SimError> {
+        rhs.eval(t, x, &mut self.f)
+    }
+
+    fn stage_failure(&mut self) -> &mut Option<SimError> {
+        &mut self.method.stage_failure
+    }
+
+    fn stats(&self) -> Stats {
+        Stats { newton: self.method.stats, stiff: None }
     }
 }
 

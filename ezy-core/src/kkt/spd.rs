@@ -486,7 +486,11 @@ impl NormalSystem {
     ///
     /// # Errors
     /// [`KktError::NonFinite`] if `A` or `r` has a non-finite entry.
-    #[inline]
+    // always into `Dynamics::rhs` (one call per evaluation): left to the
+    // inliner, it stayed out of line once `simulate` was split into
+    // modules (another partition of the instances), 11 M instructions
+    // more on `drive --formulation dae --t-end 6` (callgrind)
+    #[inline(always)]
     #[expect(
         clippy::too_many_arguments,
         reason = "a step or an evaluation takes its state as flat borrowed slices (as Hairer's codes pass them): no struct is built per call"

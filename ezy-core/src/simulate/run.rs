@@ -1,0 +1,588 @@
+//! The state of a run while it steps ([`Run`]): the projection, the
+//! residuals, the energy guard, the singular positions passed, the
+//! events' watch and the hand-overs between the formulations. The
+//! switches' watch is in [`super::slip`], the output queue in
+//! [`super::output`]; the loop that drives it all is [`super::driver`].
+
+use std::time::Duration;
+
+use crate::error::KktError;
+use crate::error::{SimError, advice};
+use crate::formulation::dae::NEAR_SINGULAR;
+use crate::formulation::dae::{Counters, Dynamics};
+use crate::formulation::projection::{Projector, max_abs};
+use crate::model::Model;
+use crate::settings::{Formulation, Method, ProjectionKind, RunSettings};
+use crate::simulate::events::{Crossing, Monitor};
+use crate::simulate::guard::{EnergyGuard, GROWTH_LIMIT, Verdict, drift_note};
+use crate::simulate::integrand::Integrand;
+use crate::simulate::observer::{Observer, RunError, Summary, singular_note};
+use crate::simulate::output::{Pending, pending_rows};
+use crate::simulate::slip::SlipWatch;
+
+/// Accepted steps in a row whose every KKT solve found `G` rank-deficient
+/// after which a run stops with [`SimError::SingularPersists`] (or two
+/// such steps spanning a hundredth of the run): a singular position that
+/// the motion passes is met by a few stages of one or two steps (the rank
+/// returns on either side), one the motion stays in by every stage of
+/// every step.
+pub const SINGULAR_PERSIST_STEPS: u64 = 8;
+
+/// The singular position being passed, for [`Run::track_singular`].
+#[derive(Debug, Clone, Copy, Default)]
+pub(super) struct SingularTrack {
+    /// Counters at the last accepted step.
+    solves: u64,
+    evals: u64,
+    /// `(time of the passage's first step, singular solves so far)`.
+    open: Option<(f64, u64)>,
+    /// Accepted steps in a row whose every solve was singular, and when
+    /// they began.
+    persistent: u64,
+    since: f64,
+}
+
+/// `max / min` of the positive, finite entries of the mass diagonal (1
+/// when there are none).
+fn mass_spread(mass: &[f64]) -> f64 {
+    let positive = mass.iter().filter(|m| **m > 0.0 && m.is_finite());
+    let (lo, hi) = positive.fold((f64::INFINITY, 0.0f64), |(lo, hi), &m| (lo.min(m), hi.max(m)));
+    if hi > 0.0 { hi / lo } else { 1.0 }
+}
+
+/// Residual evaluation buffers.
+#[derive(Debug, Clone)]
+pub(super) struct Residuals {
+    phi: Vec<f64>,
+    g_values: Vec<f64>,
+    pattern: Vec<(usize, usize)>,
+    ones: Vec<f64>,
+    r: Vec<f64>,
+    /// Rows left out of `G qd` (sliding skates).
+    pub(super) released: crate::formulation::friction::Released,
+}
+
+impl Residuals {
+    pub(super) fn new(i: &crate::model::info::ModelInfo) -> Self {
+        Self {
+            phi: vec![0.0; i.n_holonomic],
+            g_values: vec![0.0; i.pattern.len()],
+            pattern: i.pattern.clone(),
+            ones: vec![1.0; i.nq()],
+            r: vec![0.0; i.nc()],
+            released: Default::default(),
+        }
+    }
+    pub(super) fn eval<M: Model>(
+        &mut self,
+        model: &M,
+        drives: &[crate::drive::Drive],
+        t: f64,
+        q: &[f64],
+        qd: &[f64],
+    ) -> (f64, f64) {
+        // one evaluation of the trigonometric terms for both
+        model.phi_and_constraint_matrix(q, &mut self.phi, &mut self.g_values);
+        crate::drive::shift_positions(drives, t, &mut self.phi);
+        self.released.zero(&mut self.g_values);
+        model.g_winv_mul(&self.pattern, &self.g_values, &self.ones, qd, &mut self.r);
+        crate::drive::shift_velocities(drives, t, &mut self.r);
+        (max_abs(&self.phi), max_abs(&self.r))
+    }
+}
+
+/// The state of a run while it steps ([`super::driver::drive`] goes
+/// through it): projection, residuals, energy balance, output timing.
+pub(super) struct Run<'a, M: Model, O: Observer<M>> {
+    pub(super) settings: &'a RunSettings,
+    pub(super) observer: &'a mut O,
+    pub(super) proj: Projector<M>,
+    pub(super) resid: Residuals,
+    pub(super) t0_energy: f64,
+    /// The singular position being passed, if any.
+    pub(super) singular: SingularTrack,
+    /// The energy balance's scales ([`crate::simulate::guard`]).
+    pub(super) guard: EnergyGuard,
+    /// Size of the last step \[s\] (0 before the first).
+    pub(super) last_step: f64,
+    /// The time of the last accepted step \[s\] (where a hand-over from
+    /// the reduced formulation to the DAE starts).
+    pub(super) t_reached: f64,
+    /// The time the step loop starts at \[s\]: 0, or the hand-over's.
+    pub(super) t_start: f64,
+    pub(super) summary: Summary,
+    pub(super) output_time: Duration,
+    /// Samples `(t, y)` not yet observed, row after row.
+    pub(super) pending: Vec<f64>,
+    /// For each of them: what is left to do before it is observed.
+    pub(super) pending_kind: Vec<Pending>,
+    /// Where a [`Pending::Expand`] row's integrator state goes in the full
+    /// state `[q, qd, W]`: index `i` of `z` to `sample_places[i]`
+    /// ([`crate::formulation::reduced::Reduced::sample_places`]); empty until the first such row.
+    pub(super) sample_places: Vec<usize>,
+    /// Scratch for one such row's `z` while it is placed.
+    pub(super) sample_z: Vec<f64>,
+    pub(super) newton: crate::integrator::radau5::NewtonStats,
+    /// The events' watch ([`crate::events`]).
+    pub(super) monitor: Monitor,
+    /// An integrator state's scratch for locating events.
+    pub(super) event_x: Vec<f64>,
+    /// The full state at the event that stopped the run.
+    pub(super) stop: Option<Vec<f64>>,
+    /// The skates with friction: their switches' watch.
+    pub(super) slip: SlipWatch,
+    /// Whether the DAE hands back to the reduced formulation when every
+    /// skate sticks again (a run asked for the reduced one, with friction).
+    pub(super) hand_back: bool,
+    /// Where the step loop handed over to the other formulation, and the
+    /// full state there ([`Run::switch_form`]).
+    pub(super) handover: Option<(f64, Vec<f64>)>,
+    /// Outputs in `[from, until)` \[s\] are not wanted: `from` an output
+    /// the observer refused, `until` its [`Observer::next_wanted`] (at
+    /// most `t_end`).
+    pub(super) skip: std::cell::Cell<(f64, f64)>,
+}
+
+impl<'a, M: Model, O: Observer<M>> Run<'a, M, O> {
+    /// A run of `sys` from `y0` with `settings` (the projection they ask
+    /// for, the energy guard and the events' watch set at `y0`);
+    /// `hand_back`: whether the DAE hands back to the reduced formulation
+    /// when every skate sticks again.
+    pub(super) fn new(
+        sys: &Dynamics<M>,
+        y0: &[f64],
+        settings: &'a RunSettings,
+        observer: &'a mut O,
+        hand_back: bool,
+    ) -> Self {
+        let t0_energy = sys.kinetic_energy(&y0[sys.nq()..2 * sys.nq()]);
+        Run {
+            settings,
+            observer,
+            proj: Projector::<M>::new(&sys.model, settings.projection, &sys.mass).with_drives(&sys.drives),
+            resid: Residuals::new(&sys.info),
+            t0_energy,
+            guard: EnergyGuard::new(sys, y0),
+            last_step: 0.0,
+            t_reached: 0.0,
+            t_start: 0.0,
+            summary: Summary {
+                method: settings.method,
+                steps: 0,
+                rejected: 0,
+                counters: Counters::default(),
+                projections: 0,
+                formulation: Formulation::Dae,
+                repartitions: 0,
+                handovers: 0,
+                minimal_coordinates: false,
+                fused_rhs: false,
+                integration_time: Duration::ZERO,
+                output_time: Duration::ZERO,
+                max_residual_position: 0.0,
+                max_residual_velocity: 0.0,
+                max_step_drift: 0.0,
+                max_energy_error: 0.0,
+                final_state: Vec::new(),
+                kkt: sys.kkt_name(),
+                projection_path: "none",
+                ill_conditioned: None,
+                newton: Default::default(),
+                stiff: None,
+                singular_passages: Vec::new(),
+                energy_drift: None,
+                events: Vec::new(),
+                stopped: None,
+            },
+            output_time: Duration::ZERO,
+            singular: SingularTrack {
+                solves: sys.counters.singular_solves,
+                evals: sys.counters.rhs_evals,
+                ..SingularTrack::default()
+            },
+            pending: Vec::with_capacity(pending_rows(y0.len()) * (y0.len() + 1)),
+            pending_kind: Vec::with_capacity(pending_rows(y0.len())),
+            sample_places: Vec::new(),
+            sample_z: Vec::new(),
+            newton: Default::default(),
+            monitor: Monitor::new(sys, 0.0, y0),
+            event_x: Vec::new(),
+            stop: None,
+            slip: SlipWatch::default(),
+            hand_back,
+            handover: None,
+            skip: std::cell::Cell::new((f64::INFINITY, f64::INFINITY)),
+        }
+    }
+
+    /// What to do about numbers that blew up in the step from `t` of size
+    /// `h` ([`advice`], told how well the energy balance held up to the
+    /// last accepted state).
+    pub(super) fn advice(&self, t: f64, h: f64) -> String {
+        let balance = (self.summary.steps > 0).then(|| self.guard.balance());
+        advice(self.settings.method, t, h, balance)
+    }
+
+    /// After an accepted step from `t` to `t_new`: non-finite check,
+    /// projection, energy balance. Returns whether `y` was changed.
+    pub(super) fn after_step(
+        &mut self,
+        sys: &mut Dynamics<M>,
+        t: f64,
+        t_new: f64,
+        y: &mut [f64],
+        h: f64,
+    ) -> Result<bool, SimError> {
+        let nq = sys.nq();
+        let method = self.settings.method;
+        if let Some(k) = y.iter().position(|v| !v.is_finite()) {
+            let quantity = format!("the state component `{}`", sys.state_name(k));
+            return Err(SimError::NonFinite { t, quantity, value: y[k], dt: h, advice: self.advice(t, h) });
+        }
+        if sys.counters.singular_solves != self.singular.solves || self.singular.open.is_some() {
+            self.track_singular(sys, t, t_new, &y[..nq])?;
+        }
+        self.singular.evals = sys.counters.rhs_evals;
+        self.last_step = h;
+        self.t_reached = t_new;
+        let mut changed = false;
+        self.proj.refine(sys.max_growth > NEAR_SINGULAR);
+        sys.max_growth = 0.0;
+        if self.settings.projection != ProjectionKind::None {
+            let (q, rest) = y.split_at_mut(nq);
+            let report = self.proj.project(&sys.model, t_new, q, &mut rest[..nq])?;
+            self.summary.max_step_drift = self.summary.max_step_drift.max(report.drift_position);
+            self.summary.projections += 1;
+            changed = true;
+        }
+        let work = sys.work(y);
+        let kinetic = sys.kinetic_energy(&y[nq..2 * nq]);
+        let energy_error = (kinetic - self.t0_energy - work).abs();
+        for (quantity, value) in [("the kinetic energy T", kinetic), ("the energy balance |T - T0 - W|", energy_error)]
+        {
+            if !value.is_finite() {
+                let advice = self.advice(t, h);
+                return Err(SimError::NonFinite { t: t_new, quantity: quantity.into(), value, dt: h, advice });
+            }
+        }
+        self.summary.max_energy_error = self.summary.max_energy_error.max(energy_error);
+        match self.guard.check(sys, t_new, y, kinetic, energy_error, self.settings.balance_limit) {
+            Verdict::Fine => {}
+            Verdict::Diverged { kinetic, given } => {
+                let cause = if method.is_adaptive() {
+                    format!(
+                        "the forces did not supply it (it is not T0 + W), so {} made it while meeting its tolerance: a tighter {}, or {} if the scene is stiff",
+                        method.name(),
+                        crate::settings::Setting::Rtol,
+                        crate::settings::Setting::Method(Method::Radau5)
+                    )
+                } else {
+                    advice(method, t, h, None)
+                };
+                return Err(SimError::Diverged {
+                    t: t_new,
+                    quantity: "the kinetic energy T relative to the most energy the run was given",
+                    value: kinetic / given,
+                    limit: GROWTH_LIMIT,
+                    dt: h,
+                    advice: format!(
+                        "T = {kinetic:.3e} J against {given:.3e} J (T0 + sum |W_e| at its largest, or the applied forces' work over the mechanism's size): the state diverged; {cause}"
+                    ),
+                });
+            }
+            Verdict::Balance { relative, error, scale, limit } if !method.is_adaptive() => {
+                return Err(SimError::Diverged {
+                    t: t_new,
+                    quantity: "the energy balance |T - T0 - W| relative to the run's energy scale",
+                    value: relative,
+                    limit,
+                    dt: h,
+                    advice: format!(
+                        "|T - T0 - W| = {error:.3e} J against {scale:.3e} J, the largest energy the run has handled; {}",
+                        advice(method, t, h, None)
+                    ),
+                });
+            }
+            Verdict::Balance { relative, error, scale, limit } => {
+                if self.summary.energy_drift.is_none() {
+                    self.summary.energy_drift = Some((t_new, relative));
+                    let s = self.settings;
+                    self.observer.note(&drift_note(method, s.rtol, s.atol, limit, t_new, [relative, error, scale]));
+                }
+            }
+        }
+        self.summary.steps += 1;
+        Ok(changed)
+    }
+
+    /// After an accepted step from `t` to `t_new` (positions `q`) whose
+    /// KKT solves found `G` rank-deficient, or the first after such
+    /// steps: opens a passage, closes it with a note when a step has no
+    /// singular solve, and stops the run when every solve of
+    /// [`SINGULAR_PERSIST_STEPS`] steps in a row was singular.
+    #[cold]
+    pub(super) fn track_singular(&mut self, sys: &Dynamics<M>, t: f64, t_new: f64, q: &[f64]) -> Result<(), SimError> {
+        let c = sys.counters;
+        let (solves, evals) = (c.singular_solves - self.singular.solves, c.rhs_evals - self.singular.evals);
+        self.singular.solves = c.singular_solves;
+        if solves == 0 {
+            if let Some((t0, n)) = self.singular.open.take() {
+                self.summary.singular_passages.push((t0, n));
+                self.observer.note(&singular_note(t0, n));
+            }
+            self.singular.persistent = 0;
+            return Ok(());
+        }
+        // rows dependent only in the mass-weighted metric, with masses too
+        // far apart for double precision: no singular position but the
+        // precision's limit, told as before (the caller adds the cause)
+        if self.singular.open.is_none() && mass_spread(&sys.mass) > crate::error::MASS_SPREAD_WARNING {
+            let info = &sys.info;
+            if crate::kkt::dependent_row(&sys.model, info, q, None) == Ok(None) {
+                let row = crate::kkt::dependent_row(&sys.model, info, q, Some(&sys.mass)).ok().flatten().unwrap_or(0);
+                return Err(SimError::from_kkt(info, t, KktError::DependentConstraints { n: info.nc(), row }));
+            }
+        }
+        let open = self.singular.open.get_or_insert((t, 0));
+        open.1 += solves;
+        if solves < evals {
+            self.singular.persistent = 0;
+            return Ok(());
+        }
+        if self.singular.persistent == 0 {
+            self.singular.since = t;
+        }
+        self.singular.persistent += 1;
+        // steps in a row, or a hundredth of the run (a slow motion's few
+        // long steps): never the few stages of a passage
+        let span = t_new - self.singular.since;
+        if self.singular.persistent < SINGULAR_PERSIST_STEPS
+            && (self.singular.persistent < 2 || span < 0.01 * self.settings.t_end)
+        {
+            return Ok(());
+        }
+        // which row: in the Euclidean metric, else in the mass-weighted one
+        // (masses too far apart for double precision)
+        let info = &sys.info;
+        let Some(row) = crate::kkt::dependent_row(&sys.model, info, q, None)
+            .ok()
+            .flatten()
+            .or_else(|| crate::kkt::dependent_row(&sys.model, info, q, Some(&sys.mass)).ok().flatten())
+        else {
+            // ill-conditioned here, not singular: the regularized solves
+            // are exact to rounding
+            self.singular.persistent = 0;
+            return Ok(());
+        };
+        Err(SimError::SingularPersists {
+            t0: self.singular.since,
+            t1: t_new,
+            steps: self.singular.persistent,
+            constraint: info.constraints.get(row).cloned().unwrap_or_default(),
+            row,
+            before: crate::names::name_list(&info.constraints[..row.min(info.constraints.len())]),
+        })
+    }
+
+    /// At the end of a run: a singular position passed in its last steps
+    /// gets its note too.
+    pub(super) fn close_singular(&mut self) {
+        if let Some((t0, n)) = self.singular.open.take() {
+            self.summary.singular_passages.push((t0, n));
+            self.observer.note(&singular_note(t0, n));
+        }
+    }
+
+    /// Before an adaptive method's step attempt from `t` with step `h`:
+    /// the step budget, `h` cut to end at `t_end` (returns whether this is
+    /// the last step), and a step at the rounding level of `t`, or of the
+    /// run's own time scale for runs shorter than a second (a 1e-15 s run
+    /// is not stiff), which stops the run: with `stage_failure`, an
+    /// effect that failed at every step size, as the cause.
+    pub(super) fn begin_attempt(
+        &self,
+        t: f64,
+        h: &mut f64,
+        stage_failure: &mut Option<SimError>,
+    ) -> Result<bool, SimError> {
+        let settings = self.settings;
+        let attempts = self.summary.steps + self.summary.rejected;
+        if let Some(max) = settings.max_steps
+            && attempts >= max
+        {
+            let estimate = if t > 0.0 { attempts as f64 * settings.t_end / t } else { f64::INFINITY };
+            return Err(SimError::Budget {
+                what: "steps",
+                estimate,
+                limit: max as f64,
+                setting: crate::settings::Setting::MaxSteps,
+                detail: format!("extrapolated from {attempts} step attempts to t = {t:.6e} s of {} s", settings.t_end),
+            });
+        }
+        let last = t + *h >= settings.t_end * (1.0 - 1e-15);
+        if last {
+            *h = settings.t_end - t;
+        }
+        if h.abs() <= 16.0 * f64::EPSILON * t.abs().max(settings.t_end.min(1.0)) {
+            return Err(stage_failure.take().unwrap_or(SimError::StepSizeTooSmall { t, h: *h }));
+        }
+        Ok(last)
+    }
+
+    /// Whether an event's sign changed in the accepted step ending at
+    /// `t_new` with the integrator state `x_new` (the step's dense output
+    /// is then needed: [`Run::locate_events`]); a step without counts
+    /// for the chattering test and moves the events' left values on.
+    #[inline]
+    pub(super) fn event_crossed<F: Integrand<M>>(
+        &mut self,
+        form: &F,
+        sys: &Dynamics<M>,
+        t_new: f64,
+        x_new: &[f64],
+    ) -> bool {
+        if sys.events.is_empty() {
+            return false;
+        }
+        let crossed = self.monitor.any_crossing(sys, t_new, form.accepted_full(x_new));
+        if !crossed {
+            self.monitor.quiet_step();
+            std::mem::swap(&mut self.monitor.left, &mut self.monitor.right);
+        }
+        crossed
+    }
+
+    /// The events of the accepted step from `t` to `t_new` whose signs
+    /// changed ([`Run::event_crossed`]), located on the step's continuous
+    /// extension `interpolate(t, x)` ([`crate::simulate::events::locate`]) and
+    /// recorded in time order with their states (projected, or expanded),
+    /// up to the first that stops the run: its time, its state kept in
+    /// [`Run::stop`].
+    ///
+    /// # Errors
+    /// As the formulation's expansion; [`SimError::Chattering`],
+    /// [`SimError::EventLimit`].
+    #[cold]
+    pub(super) fn locate_events<F: Integrand<M>>(
+        &mut self,
+        form: &mut F,
+        sys: &Dynamics<M>,
+        span: (f64, f64),
+        x_new: &[f64],
+        mut interpolate: impl FnMut(f64, &mut [f64]),
+    ) -> Result<Option<f64>, SimError> {
+        // one copy per formulation, not one per step loop's extension
+        self.locate_events_on(form, sys, span, x_new, &mut interpolate)
+    }
+
+    /// [`Run::locate_events`] on any continuous extension.
+    #[cold]
+    pub(super) fn locate_events_on<F: Integrand<M>>(
+        &mut self,
+        form: &mut F,
+        sys: &Dynamics<M>,
+        (t, t_new): (f64, f64),
+        x_new: &[f64],
+        interpolate: &mut dyn FnMut(f64, &mut [f64]),
+    ) -> Result<Option<f64>, SimError> {
+        let mut found = std::mem::take(&mut self.monitor.found);
+        found.clear();
+        for (k, e) in sys.events.iter().enumerate() {
+            let (l, r) = (self.monitor.left[k], self.monitor.right[k]);
+            let Some(rising) = e.direction.crossing(l, r) else { continue };
+            let (x, scratch) = (&mut self.event_x, &mut self.monitor.scratch);
+            let g = |tau: f64| -> Result<f64, SimError> {
+                interpolate(tau, x);
+                let y = form.full_of(sys, tau, x)?;
+                Ok(e.value(sys, tau, y, scratch))
+            };
+            let te = crate::simulate::events::locate(g, t, l, t_new, r)?;
+            found.push(Crossing { event: k, t: te, rising });
+        }
+        in_time_order(&mut found);
+        let mut stop = None;
+        for c in &found {
+            let e = &sys.events[c.event];
+            let mut y = if c.t == t_new {
+                form.accepted_full(x_new).to_vec()
+            } else {
+                interpolate(c.t, &mut self.event_x);
+                form.full_of(sys, c.t, &self.event_x)?.to_vec()
+            };
+            if c.t != t_new && form.projects() && self.settings.projection != ProjectionKind::None {
+                let nq = sys.nq();
+                let (q, rest) = y.split_at_mut(nq);
+                self.proj.project(&sys.model, c.t, q, &mut rest[..nq])?;
+            }
+            self.monitor.record(&e.name, c.t, c.rising, &y)?;
+            if e.action == crate::events::spec::Action::Stop {
+                self.summary.stopped = Some((e.name.clone(), c.t));
+                self.stop = Some(y);
+                stop = Some(c.t);
+                break;
+            }
+        }
+        let counted = self.monitor.count_step(&sys.events, t_new, &found);
+        self.monitor.found = found;
+        counted?;
+        std::mem::swap(&mut self.monitor.left, &mut self.monitor.right);
+        Ok(stop)
+    }
+
+    /// At a switch at `t`, the accepted state `x` of `form`: the skates'
+    /// modes and the effects switched on the full state
+    /// ([`Run::switch_slip`]). Returns whether the run hands over to the
+    /// other formulation there (the reduced one to the DAE when a skate
+    /// begins to slide: it keeps every skate's row; the DAE back to it when
+    /// every skate sticks again): the step loop then ends, and
+    /// [`Run::handover`] holds the time and the full state.
+    ///
+    /// # Errors
+    /// As [`Run::switch_slip`].
+    #[cold]
+    pub(super) fn switch_form<F: Integrand<M>>(
+        &mut self,
+        form: &mut F,
+        sys: &mut Dynamics<M>,
+        t: f64,
+        x: &mut [f64],
+    ) -> Result<bool, RunError<O::Error>> {
+        let dae = form.solves_kkt();
+        let mut full = if dae { Vec::new() } else { form.accepted_full(x).to_vec() };
+        self.switch_slip(sys, t, if dae { &mut *x } else { &mut full })?;
+        // F at this state, evaluated ahead, had the old forces
+        form.forget_evaluation();
+        let sliding = !sys.released_rows().is_empty();
+        let hand = t < self.settings.t_end && if dae { self.hand_back && !sliding } else { sliding };
+        if hand {
+            self.handover = Some((t, if dae { x.to_vec() } else { full }));
+        }
+        Ok(hand)
+    }
+
+    /// Hands the run over to the DAE at `t` (`why`): its settings and a
+    /// projector with the released rows, and a note; the first hand-over
+    /// for a skate's slide is noted, the later ones are counted.
+    #[cold]
+    pub(super) fn note_handover(&mut self, sys: &Dynamics<M>, t: f64, dae: &'a RunSettings, why: &str) {
+        self.settings = dae;
+        self.proj = Projector::<M>::new(&sys.model, dae.projection, &sys.mass).with_drives(&sys.drives);
+        let rows = sys.released_rows();
+        self.proj.release(rows);
+        self.resid.released.set(&sys.info.pattern, rows);
+        self.summary.projection_path = self.proj.path();
+        self.summary.handovers += 1;
+        if self.summary.handovers == 1 {
+            self.observer.note(&format!(
+                "{why}: the DAE, projected with {}, takes over from t = {t:.6} s{}",
+                dae.projection.name(),
+                if self.hand_back { " until every skate sticks again" } else { "" }
+            ));
+        }
+    }
+}
+
+/// Sorts crossings by time (not generic: one copy of the sort).
+pub(super) fn in_time_order(found: &mut [Crossing]) {
+    found.sort_by(|a, b| a.t.total_cmp(&b.t));
+}
