@@ -222,7 +222,6 @@ pub trait FixedMethod {
     ///
     /// # Errors
     /// Whatever the right-hand side fails with.
-    #[allow(clippy::too_many_arguments)]
     fn advance_from<R: Rhs + ?Sized>(
         &mut self,
         rhs: &mut R,
