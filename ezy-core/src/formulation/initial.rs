@@ -28,7 +28,7 @@ use crate::formulation::projection::max_abs;
 use crate::kkt::sparse::SparseSchur;
 use crate::kkt::{KktSolver, KktSystem};
 use crate::model::Model;
-use crate::model::info::scatter_dense;
+use crate::model::info::{ModelInfo, scatter_dense};
 use crate::names::name_list;
 
 /// Tolerance of the consistent initial state: `max|C|` \[m\], and `max|G qd|`
@@ -407,7 +407,6 @@ pub fn consistent_state_with<M: Model>(
     let row_name = |i: usize| {
         if i < nh { info.constraints[i].clone() } else { format!("theta_{}", info.hinges[given.angles[i - nh].0].name) }
     };
-    let names = |idx: &[usize], suffix: &str| name_list(idx.iter().map(|&i| format!("{}{suffix}", info.coords[i])));
     let initial = |reason: String| SimError::Initial { reason };
     let mut q = vec![0.0; nq];
     for &(i, v) in &given.guess {
@@ -421,26 +420,13 @@ pub fn consistent_state_with<M: Model>(
     let unknown_q: Vec<usize> = (0..nq).filter(|&i| !known_q[i]).collect();
     let mut phi = vec![0.0; rows];
     let mut jac_values = vec![0.0; pattern_e.len()];
-    // more unknowns than equations: which are missing, and how many to give
-    let too_many = |unknown: &[usize], rows: usize, what: &str, suffix: &str| {
-        initial(format!(
-            "{} {} are missing ({}) but the {rows} {what} determine at most {rows}; give {} more",
-            unknown.len(),
-            kind(suffix),
-            names(unknown, suffix),
-            unknown.len() - rows
-        ))
-    };
+    let too_many =
+        |unknown: &[usize], rows: usize, what: &str, suffix: &str| too_many(info, unknown, rows, what, suffix);
     if unknown_q.len() > rows {
         return Err(too_many(&unknown_q, rows, "holonomic constraints and given angles", ""));
     }
-    let undetermined = |k: usize, unknown: &[usize], what: &str, suffix: &str| {
-        let which = match unknown.get(k) {
-            Some(&i) => format!(" (`{}{suffix}` depends on the others)", info.coords[i]),
-            None => String::new(),
-        };
-        initial(format!("{what} do not determine the {} {}{which}; give them", kind(suffix), names(unknown, suffix)))
-    };
+    let undetermined =
+        |k: usize, unknown: &[usize], what: &str, suffix: &str| undetermined(info, k, unknown, what, suffix);
     let holonomic = "the holonomic constraints (hinges, sliders, drives) and given angles";
     // Newton in the unknowns; on the dense path with minimum-norm steps, so
     // that a Jacobian singular on the way (a linkage passing a dead centre
@@ -513,6 +499,65 @@ pub fn consistent_state_with<M: Model>(
     }
     report.branch = given.guess.iter().map(|&(i, g)| (info.coords[i].clone(), g, q[i])).collect();
 
+    let qd = consistent_velocities(model, drives, given, sparse, &q, &mut report, &redundant)?;
+    Ok((q, qd, report))
+}
+
+/// The names of the coordinates `idx` with `suffix` (`d` for velocities).
+fn coord_names(info: &ModelInfo, idx: &[usize], suffix: &str) -> String {
+    name_list(idx.iter().map(|&i| format!("{}{suffix}", info.coords[i])))
+}
+
+/// More unknowns than equations: which are missing, and how many to give.
+fn too_many(info: &ModelInfo, unknown: &[usize], rows: usize, what: &str, suffix: &str) -> SimError {
+    SimError::Initial {
+        reason: format!(
+            "{} {} are missing ({}) but the {rows} {what} determine at most {rows}; give {} more",
+            unknown.len(),
+            kind(suffix),
+            coord_names(info, unknown, suffix),
+            unknown.len() - rows
+        ),
+    }
+}
+
+/// The equations `what` leave the unknowns `unknown` undetermined, the
+/// `k`-th depending on the others.
+fn undetermined(info: &ModelInfo, k: usize, unknown: &[usize], what: &str, suffix: &str) -> SimError {
+    let which = match unknown.get(k) {
+        Some(&i) => format!(" (`{}{suffix}` depends on the others)", info.coords[i]),
+        None => String::new(),
+    };
+    SimError::Initial {
+        reason: format!(
+            "{what} do not determine the {} {}{which}; give them",
+            kind(suffix),
+            coord_names(info, unknown, suffix)
+        ),
+    }
+}
+
+/// The velocities of [`consistent_state_with`] at the consistent positions
+/// `q` (nq): the unknown ones solved from `G qd = -u'` (drives), the given
+/// ones projected onto the constraints by least squares where they violate
+/// them (docs/physics.md §6); a redundant row is named by the caller's
+/// `redundant`, as the positions name it.
+///
+/// # Errors
+/// [`SimError::Initial`] (or a dependent constraint) as the caller says.
+fn consistent_velocities<M: Model>(
+    model: &M,
+    drives: &[crate::drive::Drive],
+    given: &Given,
+    sparse: bool,
+    q: &[f64],
+    report: &mut InitialReport,
+    redundant: &dyn Fn(Fail) -> SimError,
+) -> Result<Vec<f64>, SimError> {
+    let info = model.info();
+    let info = &info;
+    let (nq, nc) = (info.nq(), info.nc());
+    let initial = |reason: String| SimError::Initial { reason };
     let mut qd = vec![0.0; nq];
     let mut known_v = vec![false; nq];
     for &(i, v) in &given.qd {
@@ -521,7 +566,7 @@ pub fn consistent_state_with<M: Model>(
     }
     let unknown_v: Vec<usize> = (0..nq).filter(|&i| !known_v[i]).collect();
     let mut g_all = vec![0.0; info.pattern.len()];
-    model.constraint_matrix(&q, &mut g_all);
+    model.constraint_matrix(q, &mut g_all);
     // the rows the velocities satisfy: all but the released skate rows,
     // renumbered (those come after every holonomic row, so a drive's row
     // keeps its number)
@@ -561,7 +606,7 @@ pub fn consistent_state_with<M: Model>(
     };
     if !unknown_v.is_empty() {
         if unknown_v.len() > nc {
-            return Err(too_many(&unknown_v, nc, "velocity constraints", "d"));
+            return Err(too_many(info, &unknown_v, nc, "velocity constraints", "d"));
         }
         let mut target = vec![0.0; nc];
         crate::drive::shift_velocities(drives, 0.0, &mut target);
@@ -571,7 +616,7 @@ pub fn consistent_state_with<M: Model>(
         let x = ColumnSolve::new(info_pattern, nc, nq, &unknown_v, sparse)
             .solve(info_pattern, &g_values, &rhs)
             .map_err(|e| match e {
-                Fail::Dependent(k) => undetermined(k, &unknown_v, "the constraints", "d"),
+                Fail::Dependent(k) => undetermined(info, k, &unknown_v, "the constraints", "d"),
                 Fail::Other(e) => initial(e),
             })?;
         for (k, &i) in unknown_v.iter().enumerate() {
@@ -605,7 +650,7 @@ pub fn consistent_state_with<M: Model>(
             )));
         }
     }
-    Ok((q, qd, report))
+    Ok(qd)
 }
 
 /// The given values (`given[i]` for `known[i]`) the projection changed
