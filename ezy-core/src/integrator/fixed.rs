@@ -31,15 +31,6 @@ impl Euler {
         Ok(())
     }
 
-    /// As [`Euler::step`], with the slope at the start `f0 = F(t, y)`
-    /// already known (no evaluation).
-    pub fn step_from(&mut self, y: &mut [f64], h: f64, f0: &[f64]) {
-        self.k.copy_from_slice(f0);
-        for (yi, ki) in y.iter_mut().zip(&self.k) {
-            *yi += h * ki;
-        }
-    }
-
     /// As [`Euler::step`], from `y` into `y_new`.
     ///
     /// # Errors
@@ -58,7 +49,8 @@ impl Euler {
         Ok(())
     }
 
-    /// As [`Euler::step_from`], from `y` into `y_new`.
+    /// As [`Euler::step_to`], with the slope at the start `f0 = F(t, y)`
+    /// already known (no evaluation).
     pub fn step_from_to(&mut self, y: &[f64], h: f64, f0: &[f64], y_new: &mut [f64]) {
         self.k.copy_from_slice(f0);
         self.update(y, h, y_new);
@@ -104,24 +96,6 @@ impl Rk4 {
         self.stages(rhs, t, y, h)
     }
 
-    /// As [`Rk4::step`], with the first stage `f0 = F(t, y)` already
-    /// known (three evaluations): a run that evaluated `F` at the end of
-    /// the last step (for a skate's switch) hands it on.
-    ///
-    /// # Errors
-    /// Whatever the right-hand side fails with.
-    pub fn step_from<R: Rhs + ?Sized>(
-        &mut self,
-        rhs: &mut R,
-        t: f64,
-        y: &mut [f64],
-        h: f64,
-        f0: &[f64],
-    ) -> Result<(), SimError> {
-        self.k1.copy_from_slice(f0);
-        self.stages(rhs, t, y, h)
-    }
-
     /// As [`Rk4::step`], from `y` into `y_new`.
     ///
     /// # Errors
@@ -141,7 +115,9 @@ impl Rk4 {
         Ok(())
     }
 
-    /// As [`Rk4::step_from`], from `y` into `y_new`.
+    /// As [`Rk4::step_to`], with the first stage `f0 = F(t, y)` already
+    /// known (three evaluations): a run that evaluated `F` at the end of
+    /// the last step (for a skate's switch) hands it on.
     ///
     /// # Errors
     /// Whatever the right-hand side fails with.
