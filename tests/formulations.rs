@@ -9,7 +9,7 @@ use crate::common;
 use common::build;
 use common::{Numeric, Recorder, max_abs};
 use ezy_core::kkt::KktMethod;
-use ezy_core::{Formulation, Method, Model, ProjectionKind, RunSettings, SimError, simulate};
+use ezy_core::{Formulation, Method, Model, ProjectionKind, RunSettings, Setting, SimError, simulate};
 use ezy_models::{EzyRoller, EzyRollerDriven, FourBar, SliderCrank, Snake, Snakeboard, Trailer, scenes};
 
 /// `scene` with `formulation`, DOP853 at `tol`, outputs every `every`.
@@ -147,13 +147,19 @@ fn auto_takes_the_reduced_formulation_only_where_it_pays() {
 /// with the reason and the way out.
 #[test]
 fn the_reduced_formulation_refuses_what_it_cannot_do() {
+    // the setting advised is data; a library spells it by its name, the
+    // command line (inside `Spelling::Flags.scope`) by its flag
     let reason = |e: ezy_core::RunError<std::convert::Infallible>| match e {
-        ezy_core::RunError::Sim(SimError::Formulation { reason }) => reason,
+        ezy_core::RunError::Sim(SimError::Formulation { reason }) => {
+            let advised: Vec<_> = reason.settings().collect();
+            assert!(advised.contains(&Setting::Formulation(Formulation::Dae)), "{reason}: {advised:?}");
+            let flags = ezy_core::Spelling::Flags.scope(|| reason.to_string());
+            assert!(flags.contains("--formulation dae") && format!("{reason:#}") == flags, "{flags}");
+            reason.to_string()
+        }
         other => panic!("{other}"),
     };
-    // as a library spells the advice, or as flags once a command-line test
-    // of this binary has run (`ezy_core::spell_settings_as_flags`)
-    let dae = |e: &str| e.contains("`formulation = dae`") || e.contains("--formulation dae");
+    let dae = |e: &str| e.contains("`formulation = dae`");
     let scene = scenes::drive();
     let (mut sys, y0) = build::<EzyRoller>(&scene, &[], KktMethod::Auto).unwrap();
     let base = RunSettings { t_end: 0.1, every: 0.1, formulation: Formulation::Reduced, ..scene.run_settings() };

@@ -4,7 +4,7 @@
 //! advises, carried as data).
 
 use crate::names::{fmt_value, name_list};
-use crate::settings::{BALANCE_LIMIT, Method, RunSettings, Setting};
+use crate::settings::{BALANCE_LIMIT, Message, Method, RunSettings, Setting, Spelling};
 
 /// What can stop a simulation or its setup.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
@@ -29,8 +29,9 @@ pub enum SimError {
         value: f64,
         /// The step size \[s\].
         dt: f64,
-        /// What to do, fitted to the method in use ([`advice`]).
-        advice: String,
+        /// What to do, fitted to the method in use ([`advice`]); the
+        /// settings it advises are data ([`Message::settings`]).
+        advice: Message,
     },
     /// The integration left the accuracy any result could be used at.
     #[error("at t = {} s {quantity} reached {value:.3e} (limit {limit:.0e}); {advice}", fmt_value(*t))]
@@ -45,8 +46,9 @@ pub enum SimError {
         limit: f64,
         /// The step size \[s\].
         dt: f64,
-        /// What to do, fitted to the method in use ([`advice`]).
-        advice: String,
+        /// What to do, fitted to the method in use ([`advice`]); the
+        /// settings it advises are data ([`Message::settings`]).
+        advice: Message,
     },
     /// An adaptive method's step size collapsed 1e4-fold next to a
     /// singular position of the constraints (the KKT conditioning above
@@ -276,8 +278,9 @@ pub enum SimError {
     /// dependent coordinates failing).
     #[error("formulation reduced: {reason}")]
     Formulation {
-        /// What failed, with the time.
-        reason: String,
+        /// What failed, with the time, and the setting to take instead
+        /// ([`Message::settings`]).
+        reason: Message,
     },
     /// A setting is out of range.
     #[error("invalid setting {name} = {}: {reason}", fmt_value(*value))]
@@ -392,8 +395,8 @@ impl SimError {
 /// [`crate::simulate::guard`]; `None`: no step accepted or not known): then the
 /// forces did the work, the solution itself grows and a smaller step
 /// would not help.
-pub fn advice(method: Method, t: f64, dt: f64, balance: Option<f64>) -> String {
-    if t == 0.0 && dt == 0.0 {
+pub fn advice(method: Method, t: f64, dt: f64, balance: Option<f64>) -> Message {
+    Message::text(if t == 0.0 && dt == 0.0 {
         "the scene's initial values or parameters are out of the range double precision can hold".into()
     } else if method.is_adaptive() {
         "the adaptive method met its tolerance up to here, so the solution itself grows without bound: check the scene's forces, parameters and initial values".into()
@@ -402,13 +405,12 @@ pub fn advice(method: Method, t: f64, dt: f64, balance: Option<f64>) -> String {
             "the energy balance held to {b:.1e} of the run's energy up to here (the forces did the work), so the solution itself grows without bound and a smaller step would not help: check the scene's forces, parameters and initial values"
         )
     } else {
-        format!(
-            "the step h = {} s is too large for this scene: try a smaller {} or an adaptive method ({})",
-            fmt_value(dt),
-            Setting::Dt,
-            Setting::Method(Method::Dop853)
-        )
-    }
+        return Message::text(format!("the step h = {} s is too large for this scene: try a smaller ", fmt_value(dt)))
+            .setting(Setting::Dt)
+            .then(" or an adaptive method (")
+            .setting(Setting::Method(Method::Dop853))
+            .then(")");
+    })
 }
 
 /// How to get past a budget: the setting with the estimate, or, for an
@@ -416,7 +418,7 @@ pub fn advice(method: Method, t: f64, dt: f64, balance: Option<f64>) -> String {
 fn raise(estimate: f64, setting: Setting) -> String {
     if estimate.is_finite() && estimate < 1e15 {
         let value = fmt_value(ceil3(estimate));
-        if Setting::as_flags() {
+        if Spelling::current() == Spelling::Flags {
             format!("pass {setting} {value} (or larger) to run it anyway")
         } else {
             format!("set {setting} to {value} (or larger) to run it anyway")

@@ -80,8 +80,8 @@ pub use names::{LISTED, fmt_value, name_list};
 pub use problem::{Problem, Solution};
 pub use scalar::Scalar;
 pub use settings::{
-    Choice, Formulation, MAX_ANGLE, MAX_MAGNITUDE, MAX_RATE, Method, ProjectionKind, RunSettings, Setting, check_angle,
-    check_magnitude, check_rate, spell_settings_as_flags,
+    Choice, Formulation, MAX_ANGLE, MAX_MAGNITUDE, MAX_RATE, Message, Method, Part, ProjectionKind, RunSettings,
+    Setting, Spelling, check_angle, check_magnitude, check_rate,
 };
 pub use simulate::observer::{Observer, RunError, Sample, Summary};
 pub use simulate::run::SINGULAR_PERSIST_STEPS;

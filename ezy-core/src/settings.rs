@@ -1,11 +1,11 @@
 //! Run settings and the limits every input is checked against: floor 0
-//! of the runtime (it imports only [`crate::error`]). What a run is
+//! of the runtime (it imports only [`crate::names`]). What a run is
 //! asked to do ([`RunSettings`]: method, formulation, projection, step,
 //! tolerances, budgets), the named values a scene file and the command
 //! line spell by [`Choice::name`], and the largest magnitudes, rates and
 //! angles ezy takes ([`MAX_MAGNITUDE`], [`MAX_RATE`], [`MAX_ANGLE`]).
 
-use std::sync::atomic::{AtomicBool, Ordering};
+use std::cell::Cell;
 
 use crate::names::{fmt_value, name_list};
 
@@ -426,11 +426,12 @@ fn round_bound(b: f64) -> f64 {
     format!("{b:.1e}").parse().unwrap_or(b)
 }
 
-/// A run setting an error or a help text advises changing. How it is
-/// spelled is the caller's: as a library names it (`` `dt` ``,
-/// `` `formulation = dae` ``, the fields of [`RunSettings`] and the
-/// keys of a scene's `[integrator]`), or, once a command line calls
-/// [`spell_settings_as_flags`], as its flags (`--dt`, `--formulation dae`).
+/// A run setting an error, a note or a help text advises changing,
+/// carried as data: how it is spelled is chosen where the text is
+/// rendered ([`Spelling`]). A library spells it by its name (`` `dt` ``,
+/// `` `formulation = dae` ``: the fields of [`RunSettings`] and the keys
+/// of a scene's `[integrator]`), the command line by its flags (`--dt`,
+/// `--formulation dae`).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Setting {
     /// The fixed step size \[s\].
@@ -449,19 +450,46 @@ pub enum Setting {
     Baumgarte,
 }
 
-static AS_FLAGS: AtomicBool = AtomicBool::new(false);
-
-/// From now on, [`Setting`]s (in every error message and help text of
-/// this process) are spelled as the `ezy` command line's flags. The
-/// command line calls it once at its start; a library leaves it.
-pub fn spell_settings_as_flags() {
-    AS_FLAGS.store(true, Ordering::Relaxed);
+/// How a [`Setting`] is written when a text is rendered: by the names a
+/// library and a scene file use ([`Spelling::Library`], the default), or
+/// by the `ezy` command line's flags ([`Spelling::Flags`]). The choice
+/// belongs to the code that renders, for the extent of one call
+/// ([`Spelling::scope`], on the calling thread): no switch outlives it,
+/// so a library in the same process as a command line keeps its own
+/// spelling. `{:#}` on a [`Setting`] or a [`Message`] asks for the flags
+/// whatever the scope.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum Spelling {
+    /// `` `dt` ``, `` `formulation = dae` ``.
+    #[default]
+    Library,
+    /// `--dt`, `--formulation dae`.
+    Flags,
 }
 
-impl Setting {
-    /// Whether settings are spelled as flags ([`spell_settings_as_flags`]).
-    pub fn as_flags() -> bool {
-        AS_FLAGS.load(Ordering::Relaxed)
+thread_local! {
+    static SPELLING: Cell<Spelling> = const { Cell::new(Spelling::Library) };
+}
+
+impl Spelling {
+    /// The spelling in force on this thread.
+    pub fn current() -> Self {
+        SPELLING.with(Cell::get)
+    }
+
+    /// Runs `f` with `self` as this thread's spelling, and restores the
+    /// one before when `f` returns or unwinds. A command line wraps its
+    /// command in `Spelling::Flags.scope`, and each worker thread it
+    /// starts in the spelling it captured with [`Spelling::current`].
+    pub fn scope<R>(self, f: impl FnOnce() -> R) -> R {
+        struct Restore(Spelling);
+        impl Drop for Restore {
+            fn drop(&mut self) {
+                SPELLING.with(|s| s.set(self.0));
+            }
+        }
+        let _restore = Restore(SPELLING.with(|s| s.replace(self)));
+        f()
     }
 }
 
@@ -484,11 +512,124 @@ impl Setting {
 impl std::fmt::Display for Setting {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         let (flag, name, value) = self.names();
-        match (Setting::as_flags(), value) {
+        let flags = f.alternate() || Spelling::current() == Spelling::Flags;
+        match (flags, value) {
             (true, None) => f.write_str(flag),
             (true, Some(v)) => write!(f, "{flag} {v}"),
             (false, None) => write!(f, "`{name}`"),
             (false, Some(v)) => write!(f, "`{name} = {v}`"),
         }
+    }
+}
+
+/// A sentence that may advise settings, kept as parts so the settings
+/// stay data ([`Message::settings`]) and are spelled where the text is
+/// rendered ([`Spelling`]). Built from text and settings in order:
+/// `Message::text("take ").setting(Setting::Rtol).then(" smaller")`.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct Message {
+    parts: Vec<Part>,
+}
+
+/// A piece of a [`Message`].
+#[derive(Debug, Clone, PartialEq)]
+pub enum Part {
+    /// Words, written as they are.
+    Text(String),
+    /// A setting, written in the spelling in force.
+    Setting(Setting),
+}
+
+impl Message {
+    /// A message that starts with `text`.
+    pub fn text(text: impl Into<String>) -> Self {
+        Self { parts: vec![Part::Text(text.into())] }
+    }
+
+    /// `self` followed by `text`.
+    #[must_use]
+    pub fn then(mut self, text: impl Into<String>) -> Self {
+        self.parts.push(Part::Text(text.into()));
+        self
+    }
+
+    /// `self` followed by `setting`.
+    #[must_use]
+    pub fn setting(mut self, setting: Setting) -> Self {
+        self.parts.push(Part::Setting(setting));
+        self
+    }
+
+    /// `self` followed by `other`'s parts.
+    #[must_use]
+    pub fn join(mut self, other: Message) -> Self {
+        self.parts.extend(other.parts);
+        self
+    }
+
+    /// The parts, in order.
+    pub fn parts(&self) -> &[Part] {
+        &self.parts
+    }
+
+    /// The settings the message advises, in order.
+    pub fn settings(&self) -> impl Iterator<Item = Setting> + '_ {
+        self.parts.iter().filter_map(|p| match p {
+            Part::Setting(s) => Some(*s),
+            Part::Text(_) => None,
+        })
+    }
+}
+
+impl From<String> for Message {
+    fn from(text: String) -> Self {
+        Self::text(text)
+    }
+}
+
+impl From<&str> for Message {
+    fn from(text: &str) -> Self {
+        Self::text(text)
+    }
+}
+
+impl std::fmt::Display for Message {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        for part in &self.parts {
+            match part {
+                Part::Text(t) => f.write_str(t)?,
+                Part::Setting(s) if f.alternate() => write!(f, "{s:#}")?,
+                Part::Setting(s) => write!(f, "{s}")?,
+            }
+        }
+        Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A spelling holds for its call only, on its thread only, and is
+    /// restored after a panic inside it.
+    #[test]
+    fn a_spelling_is_scoped_to_its_call_and_thread() {
+        let m =
+            Message::text("take a smaller ").setting(Setting::Dt).then(" or ").setting(Setting::Method(Method::Dop853));
+        assert_eq!(m.to_string(), "take a smaller `dt` or `method = dop853`");
+        let flags = Spelling::Flags.scope(|| {
+            let other = std::thread::scope(|s| s.spawn(|| m.to_string()).join().unwrap());
+            assert_eq!(other, "take a smaller `dt` or `method = dop853`", "another thread keeps its own");
+            let inner = Spelling::Library.scope(|| m.to_string());
+            assert_eq!(inner, "take a smaller `dt` or `method = dop853`", "a nested scope wins");
+            m.to_string()
+        });
+        assert_eq!(flags, "take a smaller --dt or --integrator dop853");
+        assert_eq!(format!("{m:#}"), flags, "`{{:#}}` asks for flags");
+        assert_eq!(Spelling::current(), Spelling::Library);
+        let unwound = std::panic::catch_unwind(|| Spelling::Flags.scope(|| panic!("inside")));
+        assert!(unwound.is_err());
+        assert_eq!(Spelling::current(), Spelling::Library, "restored after a panic");
+        assert_eq!(m.settings().collect::<Vec<_>>(), [Setting::Dt, Setting::Method(Method::Dop853)]);
     }
 }

@@ -45,10 +45,11 @@ impl App {
     /// `std::env::args_os`) and runs the command, writing what it prints to
     /// `out`; warnings and the progress bar go to stderr. This is
     /// [`App::main`] without the process around it, for tests and for
-    /// programs that run commands themselves. From its first call on,
-    /// the process spells the settings its messages advise as this
-    /// command line's flags (`--dt`, `--formulation dae`:
-    /// [`ezy_core::spell_settings_as_flags`]).
+    /// programs that run commands themselves. Inside it, the settings
+    /// its messages advise are spelled as this command line's flags
+    /// (`--dt`, `--formulation dae`: [`ezy_core::Spelling::Flags`]); the
+    /// errors it returns are rendered already. Outside it, this thread
+    /// and the process keep the library's spelling.
     ///
     /// # Errors
     /// [`AppError`]: a usage mistake, a failed command (its message names
@@ -58,7 +59,15 @@ impl App {
         I: IntoIterator<Item = T>,
         T: Into<OsString> + Clone,
     {
-        ezy_core::spell_settings_as_flags();
+        ezy_core::Spelling::Flags.scope(|| self.dispatch(args, out))
+    }
+
+    /// [`App::run_cli`] in the command line's spelling.
+    fn dispatch<I, T>(&self, args: I, out: &mut dyn Write) -> Result<(), AppError>
+    where
+        I: IntoIterator<Item = T>,
+        T: Into<OsString> + Clone,
+    {
         let args: Vec<OsString> = args.into_iter().map(Into::into).collect();
         let cli = COMMANDS.iter().fold(crate::cli::top(), |top, c| top.subcommand((c.cli)(clap::Command::new(c.name))));
         let matches = cli.clone().try_get_matches_from(&args)?;

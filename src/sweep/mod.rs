@@ -614,9 +614,11 @@ pub(crate) fn sweep_model<M: Model>(proto: &M, job: &SweepJob) -> Result<SweepRe
     let (tx, rx) = std::sync::mpsc::channel::<(u64, Outcome)>();
     let mut report = SweepReport { runs: positions, done_before, jobs, ..SweepReport::default() };
     let (interrupted, write_error) = pool.in_place_scope(|scope| {
+        // the workers render their notes and errors as this thread does
+        let spelling = ezy_core::Spelling::current();
         for _ in 0..jobs {
             let (tx, shared) = (tx.clone(), &shared);
-            scope.spawn(move |_| shared.work(&tx));
+            scope.spawn(move |_| spelling.scope(|| shared.work(&tx)));
         }
         drop(tx);
         collect(rx, &mut out, &mut report, progress.as_ref(), &shared.stop)

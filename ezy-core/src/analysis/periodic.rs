@@ -124,7 +124,7 @@ impl<M: Model> Rhs for Variational<'_, M> {
             e => {
                 let reason = e.to_string();
                 self.failed = Some(e);
-                SimError::Formulation { reason }
+                SimError::Formulation { reason: reason.into() }
             }
         })
     }

@@ -868,7 +868,8 @@ fn minimal_rhs_failed(t: f64, e: crate::model::MinimalRhsError<SimError>) -> Sim
             reason: format!(
                 "at t = {} s Maggi's equations on the minimal coordinates cannot be solved: {source}",
                 crate::names::fmt_value(t)
-            ),
+            )
+            .into(),
         },
     }
 }

@@ -18,7 +18,7 @@ use crate::integrator::fixed::{Euler, Fixed, Rk4};
 use crate::integrator::radau5::Radau5Stepper;
 use crate::integrator::stepper::{Control, Stepper, Trial};
 use crate::model::Model;
-use crate::settings::{Method, ProjectionKind};
+use crate::settings::{Formulation, Message, Method, ProjectionKind, Setting};
 use crate::simulate::integrand::{Bound, Integrand};
 use crate::simulate::observer::{Observer, RunError, stiff_note};
 use crate::simulate::run::Run;
@@ -65,10 +65,9 @@ pub(super) fn integrate<M: Model, O: Observer<M>, F: Integrand<M>>(
 /// RADAU5 refused on the reduced formulation.
 pub(super) fn radau5_refused() -> SimError {
     SimError::Formulation {
-        reason: format!(
-            "RADAU5's Newton iteration is built on the DAE's KKT matrix; take {} or an explicit method",
-            crate::settings::Setting::Formulation(crate::settings::Formulation::Dae)
-        ),
+        reason: Message::text("RADAU5's Newton iteration is built on the DAE's KKT matrix; take ")
+            .setting(Setting::Formulation(Formulation::Dae))
+            .then(" or an explicit method"),
     }
 }
 
@@ -342,7 +341,7 @@ fn near_handover<M: Model, F: Integrand<M>>(sys: &Dynamics<M>, form: &F, t: f64)
             reason: format!(
                 "at t = {t:.6} s a singular position is near (KKT conditioning {:.1e}), where the dependent coordinates are not determined",
                 sys.max_growth
-            ),
+            ).into(),
         });
     }
     Ok(())

@@ -36,7 +36,7 @@ use crate::formulation::dae::{Counters, Dynamics};
 use crate::formulation::projection::Projector;
 use crate::formulation::reduced::Reduced;
 use crate::model::Model;
-use crate::settings::{Formulation, Method, ProjectionKind, RunSettings};
+use crate::settings::{Formulation, Message, Method, ProjectionKind, RunSettings, Setting};
 use crate::simulate::driver::{integrate, radau5_refused};
 use crate::simulate::integrand::{Dae, Integrand};
 use crate::simulate::observer::{Erased, Parked, Stopped};
@@ -215,11 +215,12 @@ fn check_reduced<M: Model>(sys: &Dynamics<M>, settings: &RunSettings) -> Result<
     }
     if sys.baumgarte.is_some() {
         return Err(SimError::Formulation {
-            reason: format!(
-                "Baumgarte stabilization is for the DAE; the reduced formulation keeps the constraints without it: drop {} or take {}",
-                crate::settings::Setting::Baumgarte,
-                crate::settings::Setting::Formulation(crate::settings::Formulation::Dae)
-            ),
+            reason: Message::text(
+                "Baumgarte stabilization is for the DAE; the reduced formulation keeps the constraints without it: drop ",
+            )
+            .setting(Setting::Baumgarte)
+            .then(" or take ")
+            .setting(Setting::Formulation(Formulation::Dae)),
         });
     }
     Ok(())
@@ -386,14 +387,16 @@ fn check_switches<M: Model>(sys: &Dynamics<M>) -> Result<(), SimError> {
 /// overflows) and says the scene's initial values are at fault.
 fn check_initial<M: Model>(sys: &Dynamics<M>, y0: &[f64]) -> Result<(), SimError> {
     let nq = sys.nq();
-    let at_start = |quantity: String, value: f64, why: &str| SimError::NonFinite {
+    let at_start = |quantity: String, value: f64, why: &str| {
+        SimError::NonFinite {
         t: 0.0,
         quantity,
         value,
         dt: 0.0,
         advice: format!(
             "{why}: the scene's initial values or parameters are out of the range double precision can hold (no step size helps)"
-        ),
+        ).into(),
+    }
     };
     if let Some(k) = y0.iter().position(|v| !v.is_finite()) {
         return Err(at_start(

@@ -146,7 +146,8 @@ impl<'a, M: Model, O: Observer<M>> Run<'a, M, O> {
                                 "at t = {} s the model's minimal_state gave no full state for a dense-output \
                                  sample, though it did at the start",
                                 crate::names::fmt_value(*t)
-                            ),
+                            )
+                            .into(),
                         };
                         let cause = "Model::minimal_state's answer must be the same at every state".to_string();
                         return Err(RunError::Sim(SimError::Caused { error: Box::new(error), cause }));

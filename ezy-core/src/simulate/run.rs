@@ -12,7 +12,7 @@ use crate::formulation::dae::NEAR_SINGULAR;
 use crate::formulation::dae::{Counters, Dynamics};
 use crate::formulation::projection::{Projector, max_abs};
 use crate::model::Model;
-use crate::settings::{Formulation, Method, ProjectionKind, RunSettings};
+use crate::settings::{Formulation, Message, Method, ProjectionKind, RunSettings, Setting};
 use crate::simulate::events::{Crossing, Monitor};
 use crate::simulate::guard::{EnergyGuard, GROWTH_LIMIT, Verdict, drift_note};
 use crate::simulate::integrand::Integrand;
@@ -218,7 +218,7 @@ impl<'a, M: Model, O: Observer<M>> Run<'a, M, O> {
     /// What to do about numbers that blew up in the step from `t` of size
     /// `h` ([`advice`], told how well the energy balance held up to the
     /// last accepted state).
-    pub(super) fn advice(&self, t: f64, h: f64) -> String {
+    pub(super) fn advice(&self, t: f64, h: f64) -> Message {
         let balance = (self.summary.steps > 0).then(|| self.guard.balance());
         advice(self.settings.method, t, h, balance)
     }
@@ -270,12 +270,14 @@ impl<'a, M: Model, O: Observer<M>> Run<'a, M, O> {
             Verdict::Fine => {}
             Verdict::Diverged { kinetic, given } => {
                 let cause = if method.is_adaptive() {
-                    format!(
-                        "the forces did not supply it (it is not T0 + W), so {} made it while meeting its tolerance: a tighter {}, or {} if the scene is stiff",
-                        method.name(),
-                        crate::settings::Setting::Rtol,
-                        crate::settings::Setting::Method(Method::Radau5)
-                    )
+                    Message::text(format!(
+                        "the forces did not supply it (it is not T0 + W), so {} made it while meeting its tolerance: a tighter ",
+                        method.name()
+                    ))
+                    .setting(Setting::Rtol)
+                    .then(", or ")
+                    .setting(Setting::Method(Method::Radau5))
+                    .then(" if the scene is stiff")
                 } else {
                     advice(method, t, h, None)
                 };
@@ -285,9 +287,10 @@ impl<'a, M: Model, O: Observer<M>> Run<'a, M, O> {
                     value: kinetic / given,
                     limit: GROWTH_LIMIT,
                     dt: h,
-                    advice: format!(
-                        "T = {kinetic:.3e} J against {given:.3e} J (T0 + sum |W_e| at its largest, or the applied forces' work over the mechanism's size): the state diverged; {cause}"
-                    ),
+                    advice: Message::text(format!(
+                        "T = {kinetic:.3e} J against {given:.3e} J (T0 + sum |W_e| at its largest, or the applied forces' work over the mechanism's size): the state diverged; "
+                    ))
+                    .join(cause),
                 });
             }
             Verdict::Balance { relative, error, scale, limit } if !method.is_adaptive() => {
@@ -297,10 +300,10 @@ impl<'a, M: Model, O: Observer<M>> Run<'a, M, O> {
                     value: relative,
                     limit,
                     dt: h,
-                    advice: format!(
-                        "|T - T0 - W| = {error:.3e} J against {scale:.3e} J, the largest energy the run has handled; {}",
-                        advice(method, t, h, None)
-                    ),
+                    advice: Message::text(format!(
+                        "|T - T0 - W| = {error:.3e} J against {scale:.3e} J, the largest energy the run has handled; "
+                    ))
+                    .join(advice(method, t, h, None)),
                 });
             }
             Verdict::Balance { relative, error, scale, limit } => {

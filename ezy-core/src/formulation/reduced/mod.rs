@@ -32,6 +32,7 @@ use crate::error::SimError;
 use crate::formulation::dae::Dynamics;
 use crate::formulation::reduced::lu::{SquareLu, pivot_columns};
 use crate::model::Model;
+use crate::settings::{Formulation, Message, Setting};
 
 /// Largest `nc` the reduced formulation takes: it factors the dense
 /// `nc x nc` `G_D` at every evaluation (`nc^3 / 3` flops), where the DAE's
@@ -218,11 +219,12 @@ impl Reduced {
         let (nq, nh, nc) = (info.nq(), info.n_holonomic, info.nc());
         if nc > MAX_CONSTRAINTS {
             return Err(SimError::Formulation {
-                reason: format!(
-                    "model {} has {nc} constraint rows, more than the {MAX_CONSTRAINTS} whose dense G_D the reduced formulation factors at every evaluation; take {} (its sparse KKT path)",
-                    info.name,
-                    crate::settings::Setting::Formulation(crate::settings::Formulation::Dae)
-                ),
+                reason: Message::text(format!(
+                    "model {} has {nc} constraint rows, more than the {MAX_CONSTRAINTS} whose dense G_D the reduced formulation factors at every evaluation; take ",
+                    info.name
+                ))
+                .setting(Setting::Formulation(Formulation::Dae))
+                .then(" (its sparse KKT path)"),
             });
         }
         if let Some(red) = Self::minimal(sys, t, y)? {
@@ -386,13 +388,16 @@ impl Reduced {
         sys.model.constraint_matrix(&y[..nq], &mut self.g_values);
         let mut dense = vec![0.0; nc * nq];
         crate::model::info::scatter_dense(&info.pattern, &self.g_values, nq, &mut dense);
-        let dependent = |rows: usize, k: usize| SimError::Formulation {
-            reason: format!(
-                "at t = {} s only {k} of the {rows} {} rows of G are independent; the reduced formulation needs independent constraints ({} names the dependent one)",
+        let dependent = |rows: usize, k: usize| {
+            SimError::Formulation {
+            reason: Message::text(format!(
+                "at t = {} s only {k} of the {rows} {} rows of G are independent; the reduced formulation needs independent constraints (",
                 crate::names::fmt_value(t),
-                if rows == nh { "holonomic" } else { "constraint" },
-                crate::settings::Setting::Formulation(crate::settings::Formulation::Dae)
-            ),
+                if rows == nh { "holonomic" } else { "constraint" }
+            ))
+            .setting(Setting::Formulation(Formulation::Dae))
+            .then(" names the dependent one)"),
+        }
         };
         let q_dep =
             pivot_columns(&mut dense[..nh * nq].to_vec(), nh, nq, &self.translational).map_err(|k| dependent(nh, k))?;
@@ -591,7 +596,8 @@ impl Reduced {
 
     fn failure(&self, t: f64, what: &str) -> SimError {
         SimError::Formulation {
-            reason: format!("at t = {} s {what}; the reduced formulation cannot go on", crate::names::fmt_value(t)),
+            reason: format!("at t = {} s {what}; the reduced formulation cannot go on", crate::names::fmt_value(t))
+                .into(),
         }
     }
 
@@ -734,7 +740,8 @@ impl Reduced {
             reason: format!(
                 "at t = {} s Maggi's equations on the minimal coordinates cannot be solved: {source}",
                 crate::names::fmt_value(t)
-            ),
+            )
+            .into(),
         })?;
         for (d, &j) in pd.iter_mut().zip(&self.partition.q_ind) {
             *d = self.y[nq + j];
