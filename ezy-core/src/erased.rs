@@ -22,11 +22,10 @@ use core::any::TypeId;
 
 use num_dual::Dual64;
 
-use crate::effects::Effect;
 use crate::error::KktError;
 use crate::error::SimError;
 use crate::model::info::{Equations, MinimalLayout, ModelInfo};
-use crate::model::{MinimalRhsError, Model};
+use crate::model::{MinimalCall, MinimalRhsError, Model};
 use crate::scalar::Scalar;
 
 /// `f(q, qd, f, tau)` of [`ModelObject::minimal_rhs_dyn`]: `false` when
@@ -87,19 +86,7 @@ pub(crate) trait ModelObject: Send + Sync {
         dz: &mut [f64],
         forces: &mut ForcesFn<'_>,
     ) -> Result<(), Option<KktError>>;
-    fn minimal_rhs_effects(
-        &self,
-        k: &[f64],
-        z: &[f64],
-        q: &mut [f64],
-        qd: &mut [f64],
-        dz: &mut [f64],
-        t: f64,
-        effects: &[Effect],
-        waves: &[crate::effects::kind::Waveforms],
-        power: &mut [f64],
-        lean: bool,
-    ) -> Result<(), MinimalRhsError<SimError>>;
+    fn minimal_rhs_effects(&self, call: &mut MinimalCall<'_>) -> Result<(), MinimalRhsError<SimError>>;
     fn minimal_maggi(&self, mass: &[f64], b: &[f64], c: &[f64], f: &[f64], a: &mut [f64], r: &mut [f64]);
 }
 
@@ -215,20 +202,8 @@ impl<M: Model> ModelObject for M {
                 MinimalRhsError::Maggi(e) => Some(e),
             })
     }
-    fn minimal_rhs_effects(
-        &self,
-        k: &[f64],
-        z: &[f64],
-        q: &mut [f64],
-        qd: &mut [f64],
-        dz: &mut [f64],
-        t: f64,
-        effects: &[Effect],
-        waves: &[crate::effects::kind::Waveforms],
-        power: &mut [f64],
-        lean: bool,
-    ) -> Result<(), MinimalRhsError<SimError>> {
-        Model::minimal_rhs_effects(self, k, z, q, qd, dz, t, effects, waves, power, lean)
+    fn minimal_rhs_effects(&self, call: &mut MinimalCall<'_>) -> Result<(), MinimalRhsError<SimError>> {
+        Model::minimal_rhs_effects(self, call)
     }
     fn minimal_maggi(&self, mass: &[f64], b: &[f64], c: &[f64], f: &[f64], a: &mut [f64], r: &mut [f64]) {
         Model::minimal_maggi(self, mass, b, c, f, a, r);
@@ -405,20 +380,8 @@ impl Model for AnyModel {
         }
     }
     #[inline]
-    fn minimal_rhs_effects(
-        &self,
-        k: &[f64],
-        z: &[f64],
-        q: &mut [f64],
-        qd: &mut [f64],
-        dz: &mut [f64],
-        t: f64,
-        effects: &[Effect],
-        waves: &[crate::effects::kind::Waveforms],
-        power: &mut [f64],
-        lean: bool,
-    ) -> Result<(), MinimalRhsError<SimError>> {
-        self.0.minimal_rhs_effects(k, z, q, qd, dz, t, effects, waves, power, lean)
+    fn minimal_rhs_effects(&self, call: &mut MinimalCall<'_>) -> Result<(), MinimalRhsError<SimError>> {
+        self.0.minimal_rhs_effects(call)
     }
     fn minimal_maggi(&self, mass: &[f64], b: &[f64], c: &[f64], f: &[f64], a: &mut [f64], r: &mut [f64]) {
         self.0.minimal_maggi(mass, b, c, f, a, r);

@@ -75,7 +75,7 @@ pub use model::info::{
     BodyInfo, DriveInfo, EquationExpr, Equations, HingeInfo, InitialName, MAX_COORDS, MinimalLayout, ModelInfo,
     NameIndex, ParamInfo, PointInfo, SETUP_BYTES_PER_COORD, SkateInfo, SliderInfo,
 };
-pub use model::{MinimalRhsError, Model};
+pub use model::{MinimalCall, MinimalRhsError, Model};
 pub use names::{LISTED, fmt_value, name_list};
 pub use problem::{Problem, Solution};
 pub use scalar::Scalar;

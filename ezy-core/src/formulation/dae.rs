@@ -14,8 +14,8 @@ use crate::effects::skate_friction::SkateFrictionLaw;
 use crate::error::SimError;
 use crate::formulation::friction::{Released, SkateFriction, SkateMode, row_entries};
 use crate::kkt::{AnyKktSolver, KktMethod, KktSolver, KktSystem};
-use crate::model::Model;
 use crate::model::info::ModelInfo;
+use crate::model::{MinimalCall, Model};
 use crate::names::fmt_value;
 use crate::names::{velocity_name, work_name};
 
@@ -454,9 +454,6 @@ impl<M: Model> Dynamics<M> {
         lean: bool,
     ) -> Result<(), SimError> {
         let nq = self.nq();
-        let (q, rest) = y.split_at_mut(nq);
-        let qd = &mut rest[..nq];
-        let (pd_ud, power) = dz.split_at_mut(dz.len() - self.effects.len());
         // a scene whose effects are all hinge torques (or none) hands them
         // over as such (`waves` empty): see `Model::minimal_rhs_effects`
         let hinges_only = hinges_only(&self.effects);
@@ -464,8 +461,8 @@ impl<M: Model> Dynamics<M> {
             self.refresh_waveforms_outlined(t);
         }
         let waves: &[crate::effects::kind::Waveforms] = if hinges_only { &[] } else { &self.ws.waves };
-        let res = self.model.minimal_rhs_effects(k, z, q, qd, pd_ud, t, &self.effects, waves, power, lean);
-        res.map_err(|e| minimal_rhs_failed(t, e))
+        let mut call = MinimalCall { t, k, z, y: &mut y[..2 * nq], dz, effects: &self.effects, waves, lean };
+        self.model.minimal_rhs_effects(&mut call).map_err(|e| minimal_rhs_failed(t, e))
     }
 
     /// Computes the generalized applied force `f` (nq) \[N, N m\] of the effects at

@@ -230,39 +230,30 @@ pub trait Model: Clone + Send + Sync + 'static {
     }
 
     /// [`Model::minimal_rhs`] with a run's effects as its `forces`, the
-    /// call [`crate::formulation::dae::Dynamics`] makes at every evaluation of the fused
-    /// right-hand side: with `waves` empty (every effect a hinge torque, or
-    /// none) the effects are handed over as the hinges' torques, which the
-    /// model maps at compile time, and where `lean` (a stage, whose full
-    /// state no one reads) through [`Model::minimal_rhs_lean`]; otherwise
-    /// each effect adds its generalized force from its waveforms `waves`
-    /// at `t` \[s\] (one per effect). Each effect's power \[W\] goes to
-    /// `power` (one per effect). A method of the trait so that
-    /// [`crate::erased::AnyModel`] reaches the model's own code in one indirect
-    /// call; models do not override it.
+    /// call [`crate::formulation::dae::Dynamics`] makes at every evaluation
+    /// of the fused right-hand side, everything it reads in one
+    /// [`MinimalCall`] (one pointer through [`crate::erased::AnyModel`]'s
+    /// table instead of a dozen arguments on the stack): with
+    /// [`MinimalCall::waves`] empty (every effect a hinge torque, or none)
+    /// the effects are handed over as the hinges' torques, which the model
+    /// maps at compile time, and where [`MinimalCall::lean`] (a stage,
+    /// whose full state no one reads) through [`Model::minimal_rhs_lean`];
+    /// otherwise each effect adds its generalized force from its
+    /// waveforms. Each effect's power \[W\] goes to the last entries of
+    /// [`MinimalCall::dz`]. A method of the trait so that `AnyModel`
+    /// reaches the model's own code in one indirect call; models do not
+    /// override it.
     ///
     /// # Errors
     /// As [`Model::minimal_rhs`], the forces' error a
     /// [`crate::error::SimError::EffectFailed`].
-    #[expect(
-        clippy::too_many_arguments,
-        reason = "a step or an evaluation takes its state as flat borrowed slices (as Hairer's codes pass them): no struct is built per call"
-    )]
     #[inline]
-    fn minimal_rhs_effects(
-        &self,
-        k: &[f64],
-        z: &[f64],
-        q: &mut [f64],
-        qd: &mut [f64],
-        dz: &mut [f64],
-        t: f64,
-        effects: &[crate::effects::Effect],
-        waves: &[crate::effects::kind::Waveforms],
-        power: &mut [f64],
-        lean: bool,
-    ) -> Result<(), MinimalRhsError<crate::error::SimError>> {
+    fn minimal_rhs_effects(&self, call: &mut MinimalCall<'_>) -> Result<(), MinimalRhsError<crate::error::SimError>> {
         use crate::effects::law::{apply_effects, hinge_torques};
+        let MinimalCall { t, k, z, ref mut y, ref mut dz, effects, waves, lean } = *call;
+        let nq = y.len() / 2;
+        let (q, qd) = y.split_at_mut(nq);
+        let (dz, power) = dz.split_at_mut(dz.len() - effects.len());
         if waves.is_empty() {
             // the applied-force part of the generated code, never written,
             // folds away
@@ -345,6 +336,34 @@ impl crate::effects::registry::EffectSpec {
         let info = model.info();
         self.resolve_in(name, &crate::effects::context::EffectContext::new(model, &NameIndex::new(&info)))
     }
+}
+
+/// What one evaluation of the fused right-hand side on the minimal
+/// coordinates reads and writes ([`Model::minimal_rhs_effects`]): the
+/// run's constants and effects, the stage's time and state, and where
+/// its results go.
+#[derive(Debug)]
+pub struct MinimalCall<'a> {
+    /// Time \[s\].
+    pub t: f64,
+    /// The model's constants ([`Model::minimal_constants`]).
+    pub k: &'a [f64],
+    /// The reduced state `z = [p, u, W]` (the positions `p`, the speeds
+    /// `u`, the effects' works).
+    pub z: &'a [f64],
+    /// The full state `[q, qd]` (2 nq), written: whole, or where
+    /// [`MinimalCall::lean`] only what the hinge torques read.
+    pub y: &'a mut [f64],
+    /// `[pd, u', P]`: the rates of `z`, the effects' powers last (one per
+    /// effect) \[W\].
+    pub dz: &'a mut [f64],
+    /// The run's effects.
+    pub effects: &'a [crate::effects::Effect],
+    /// The effects' waveforms at `t` (one per effect), or empty where
+    /// every effect is a hinge law (handed over as hinge torques).
+    pub waves: &'a [crate::effects::kind::Waveforms],
+    /// A stage whose full state no one reads ([`Model::minimal_rhs_lean`]).
+    pub lean: bool,
 }
 
 /// Why [`Model::minimal_rhs`] stopped.
