@@ -37,10 +37,6 @@ type ForcesFn<'a> = dyn FnMut(&[f64], &[f64], &mut [f64], &mut [f64]) -> bool + 
 /// for every [`Model`]; what [`AnyModel`] holds. Each method does what
 /// the [`Model`] method of its name documents (shapes and units there).
 /// Private to ezy-core: [`AnyModel`] is its one user.
-#[expect(
-    clippy::too_many_arguments,
-    reason = "a step or an evaluation takes its state as flat borrowed slices (as Hairer's codes pass them): no struct is built per call"
-)]
 pub(crate) trait ModelObject: Send + Sync {
     fn clone_box(&self) -> Box<dyn ModelObject>;
     fn info(&self) -> ModelInfo;
