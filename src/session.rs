@@ -10,7 +10,7 @@ use std::path::PathBuf;
 use std::time::Duration;
 
 use ezy_core::analysis::{Analysis, AnalysisError, c64};
-use ezy_core::{Baumgarte, Method, Model, Problem, ProjectionKind, RunSettings, SimError, Summary};
+use ezy_core::{Baumgarte, Method, Model, Problem, ProjectionKind, RunSettings, SetupError, SimError, Summary};
 use ezy_scene::Scene;
 
 use crate::output::csv::{OutputError, Table};
@@ -220,7 +220,7 @@ pub struct Report {
 /// (duration, step, tolerances, method, projection, step budget).
 ///
 /// # Errors
-/// [`SimError::Setting`] naming the flag of a bad override (`--rtol`),
+/// [`SetupError::Setting`] naming the flag of a bad override (`--rtol`),
 /// or a setting the scene and overrides make invalid together.
 pub(crate) fn settings(scene: &Scene, opts: &RunOptions) -> Result<RunSettings, SimError> {
     for (flag, name, value) in [
@@ -233,7 +233,7 @@ pub(crate) fn settings(scene: &Scene, opts: &RunOptions) -> Result<RunSettings, 
         if let Some(v) = value
             && let Some(reason) = RunSettings::reject(name, v)
         {
-            return Err(SimError::Setting { name: flag.into(), value: v, reason });
+            return Err(SimError::Setup(SetupError::Setting { name: flag.into(), value: v, reason }));
         }
     }
     let base = scene.run_settings();
@@ -250,7 +250,9 @@ pub(crate) fn settings(scene: &Scene, opts: &RunOptions) -> Result<RunSettings, 
         ..base
     };
     settings.validate()?;
-    scene.check_drives_cover(settings.t_end).map_err(|e| SimError::Scene { key: e.key(), message: e.message })?;
+    scene
+        .check_drives_cover(settings.t_end)
+        .map_err(|e| SimError::Setup(SetupError::Scene { key: e.key(), message: e.message }))?;
     Ok(settings)
 }
 

@@ -694,7 +694,7 @@ fn users_kinds_keep_whole_numbers_and_refuse_foreign_coordinates() {
 
     let beyond = scene("[effects.far]\nkind = \"beyond\"\n");
     let e = beyond.problem::<EzyRoller>(&[]).unwrap_err();
-    assert!(matches!(&e, SimError::Effect { effect, .. } if effect == "far"), "{e}");
+    assert!(matches!(&e, SimError::Setup(ezy_core::SetupError::Effect { effect, .. }) if effect == "far"), "{e}");
     assert!(e.to_string().contains("coords() lists coordinate 99, but the model has 6"), "{e}");
     let e = Problem::new(EzyRoller::default()).kind("far", &Beyond {}).unwrap_err().to_string();
     assert!(e.contains("coordinate 99"), "{e}");
@@ -985,7 +985,7 @@ fn hinge_friction_refuses_bad_numbers_by_key() {
     let bad = |damping: f64, torque: f64, smoothing: f64| {
         let spec = HingeFriction { hinge: "O".into(), damping, torque, smoothing };
         match ezy_core::Problem::new(Wheel::default()).effect("bearing", spec) {
-            Err(ezy_core::SimError::Effect { field, message, .. }) => (field, message),
+            Err(ezy_core::SimError::Setup(ezy_core::SetupError::Effect { field, message, .. })) => (field, message),
             other => panic!("{other:?}"),
         }
     };
@@ -1001,7 +1001,7 @@ fn hinge_friction_refuses_bad_numbers_by_key() {
     let (field, message) = bad(0.1, 0.3, f64::NAN);
     assert_eq!(field, "smoothing", "{message}");
     let spec = HingeFriction { hinge: "Q".into(), damping: 0.0, torque: 0.3, smoothing: 1e-3 };
-    let Err(ezy_core::SimError::Effect { field, message, .. }) =
+    let Err(ezy_core::SimError::Setup(ezy_core::SetupError::Effect { field, message, .. })) =
         ezy_core::Problem::new(Wheel::default()).effect("b", spec)
     else {
         panic!("an unknown hinge is refused")

@@ -9,6 +9,11 @@ use crate::settings::{BALANCE_LIMIT, Message, Method, RunSettings, Setting, Spel
 /// What can stop a simulation or its setup.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 pub enum SimError {
+    /// The input is wrong: a name, a scene key, an effect's or an event's
+    /// key, a setting, initial values that cannot be made consistent;
+    /// found before the first step ([`SetupError`]).
+    #[error(transparent)]
+    Setup(#[from] SetupError),
     /// The KKT solve failed.
     #[error("at t = {} s: {source}", fmt_value(*t))]
     Kkt {
@@ -89,42 +94,6 @@ pub enum SimError {
         /// What went wrong, from [`crate::effects::Effect::failure`].
         reason: String,
     },
-    /// A name (coordinate, parameter, hinge) is not in the model.
-    #[error("unknown {kind} `{name}` in model {model}; known: {known}")]
-    UnknownName {
-        /// What was looked up: "coordinate", "parameter", "hinge", ...
-        kind: &'static str,
-        /// The name given.
-        name: String,
-        /// Model name.
-        model: &'static str,
-        /// Comma-separated known names.
-        known: String,
-    },
-    /// A scene key is wrong (after command-line overrides).
-    #[error("scene key `{key}`: {message}")]
-    Scene {
-        /// The key, e.g. `effects.motor.torque`.
-        key: String,
-        /// What is wrong.
-        message: String,
-    },
-    /// An effect names something the model does not have, or a bad number.
-    #[error("effect `{effect}`, key `{field}`: {message}")]
-    Effect {
-        /// The effect's name in the scene.
-        effect: String,
-        /// The key at fault.
-        field: &'static str,
-        /// What is wrong.
-        message: String,
-    },
-    /// Consistent initial conditions could not be found.
-    #[error("initial conditions: {reason}")]
-    Initial {
-        /// What is wrong, with the offending names and sizes.
-        reason: String,
-    },
     /// Constraints that are not independent (a duplicated hinge, a
     /// redundant closed loop): the multipliers are not unique.
     #[error(
@@ -161,17 +130,6 @@ pub enum SimError {
         row: usize,
         /// Names of the rows before it.
         before: String,
-    },
-    /// An event is not acceptable: a name the run does not have, a level
-    /// that is not finite, a bad event name ([`crate::events`]).
-    #[error("event `{event}`{}: {message}", if field.is_empty() { String::new() } else { format!(", key `{field}`") })]
-    Event {
-        /// The event's name.
-        event: String,
-        /// The key at fault (`when`, `crosses`; empty: the name).
-        field: &'static str,
-        /// What is wrong.
-        message: String,
     },
     /// An event fired in each of [`crate::events::spec::CHATTER_STEPS`] accepted
     /// steps in a row: its quantity sits at its level within rounding or
@@ -281,6 +239,65 @@ pub enum SimError {
         /// What failed, with the time, and the setting to take instead
         /// ([`Message::settings`]).
         reason: Message,
+    },
+}
+
+/// What is wrong with a run's input, found before its first step: the
+/// part of [`SimError`] that a change of the scene, the model's names or
+/// the settings fixes. The rest of [`SimError`] is met while solving (a
+/// failed KKT solve, a state that blew up, a step size that collapsed,
+/// an event that chatters), or either way ([`SimError::Budget`]: an
+/// estimate before the run or a count reached in it;
+/// [`SimError::Formulation`]: refused before the first step or unable to
+/// go on).
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum SetupError {
+    /// A name (coordinate, parameter, hinge) is not in the model.
+    #[error("unknown {kind} `{name}` in model {model}; known: {known}")]
+    UnknownName {
+        /// What was looked up: "coordinate", "parameter", "hinge", ...
+        kind: &'static str,
+        /// The name given.
+        name: String,
+        /// Model name.
+        model: &'static str,
+        /// Comma-separated known names.
+        known: String,
+    },
+    /// A scene key is wrong (after command-line overrides).
+    #[error("scene key `{key}`: {message}")]
+    Scene {
+        /// The key, e.g. `effects.motor.torque`.
+        key: String,
+        /// What is wrong.
+        message: String,
+    },
+    /// An effect names something the model does not have, or a bad number.
+    #[error("effect `{effect}`, key `{field}`: {message}")]
+    Effect {
+        /// The effect's name in the scene.
+        effect: String,
+        /// The key at fault.
+        field: &'static str,
+        /// What is wrong.
+        message: String,
+    },
+    /// Consistent initial conditions could not be found.
+    #[error("initial conditions: {reason}")]
+    Initial {
+        /// What is wrong, with the offending names and sizes.
+        reason: String,
+    },
+    /// An event is not acceptable: a name the run does not have, a level
+    /// that is not finite, a bad event name ([`crate::events`]).
+    #[error("event `{event}`{}: {message}", if field.is_empty() { String::new() } else { format!(", key `{field}`") })]
+    Event {
+        /// The event's name.
+        event: String,
+        /// The key at fault (`when`, `crosses`; empty: the name).
+        field: &'static str,
+        /// What is wrong.
+        message: String,
     },
     /// A setting is out of range.
     #[error("invalid setting {name} = {}: {reason}", fmt_value(*value))]
@@ -444,13 +461,13 @@ impl RunSettings {
     /// Checks the settings.
     ///
     /// # Errors
-    /// [`SimError::Setting`] naming the first bad setting.
+    /// [`SetupError::Setting`] naming the first bad setting.
     pub fn validate(&self) -> Result<(), SimError> {
         for (name, value) in
             [("dt", self.dt), ("t_end", self.t_end), ("every", self.every), ("rtol", self.rtol), ("atol", self.atol)]
         {
             if let Some(reason) = Self::reject(name, value) {
-                return Err(SimError::Setting { name: name.into(), value, reason });
+                return Err(SimError::Setup(SetupError::Setting { name: name.into(), value, reason }));
             }
         }
         if let Some(max) = self.max_steps

@@ -65,7 +65,7 @@ pub mod simulate;
 
 pub use effects::{Effect, EffectSpec};
 pub use erased::AnyModel;
-pub use error::{KktError, MASS_SPREAD_WARNING, SimError, advice};
+pub use error::{KktError, MASS_SPREAD_WARNING, SetupError, SimError, advice};
 pub use events::spec::{Event, EventRecord, EventSpec};
 /// The dense linear algebra the analyses' matrices are in ([`analysis::Linearization::a`]).
 pub use faer;

@@ -59,6 +59,7 @@ use crate::effects::kind::{EffectKind, ForceLaw};
 use crate::effects::law::Law;
 use crate::effects::registry::EffectSpec;
 use crate::effects::waveform::Waveform;
+use crate::error::SetupError;
 use crate::error::SimError;
 use crate::events::spec::{Event, EventSpec};
 use crate::formulation::dae::{Baumgarte, Dynamics};
@@ -161,13 +162,15 @@ impl<M: Model> Observer<M> for Collect {
 /// (`"parameter"`, `"drive"`).
 ///
 /// # Errors
-/// [`SimError::UnknownName`] listing `names`.
+/// [`SetupError::UnknownName`] listing `names`.
 pub fn lookup<S: AsRef<str>>(info: &ModelInfo, kind: &'static str, name: &str, names: &[S]) -> Result<usize, SimError> {
-    names.iter().position(|n| n.as_ref() == name).ok_or_else(|| SimError::UnknownName {
-        kind,
-        name: name.into(),
-        model: info.name,
-        known: crate::names::name_list(names),
+    names.iter().position(|n| n.as_ref() == name).ok_or_else(|| {
+        SimError::Setup(SetupError::UnknownName {
+            kind,
+            name: name.into(),
+            model: info.name,
+            known: crate::names::name_list(names),
+        })
     })
 }
 
@@ -178,13 +181,13 @@ pub fn lookup<S: AsRef<str>>(info: &ModelInfo, kind: &'static str, name: &str, n
 /// kg under gravity collapsed the first step).
 ///
 /// # Errors
-/// [`SimError::Scene`] at `params.NAME`, naming the parameter, its value
+/// [`SetupError::Scene`] at `params.NAME`, naming the parameter, its value
 /// and why.
 pub fn check_params<M: Model>(model: &M, info: &ModelInfo) -> Result<(), SimError> {
     for (k, p) in info.params.iter().enumerate().filter(|(_, p)| !p.count) {
         let what = if p.unit.is_empty() { p.name.to_string() } else { format!("{} [{}]", p.name, p.unit) };
         crate::settings::check_magnitude(&what, model.param(k))
-            .map_err(|message| SimError::Scene { key: format!("params.{}", p.name), message })?;
+            .map_err(|message| SimError::Setup(SetupError::Scene { key: format!("params.{}", p.name), message }))?;
     }
     Ok(())
 }
@@ -194,7 +197,7 @@ pub fn check_params<M: Model>(model: &M, info: &ModelInfo) -> Result<(), SimErro
 /// part in a model too large for the dense LU path of the KKT matrix.
 ///
 /// # Errors
-/// [`SimError::Setting`] naming the mass entry (`m1`, `I1`) and why.
+/// [`SetupError::Setting`] naming the mass entry (`m1`, `I1`) and why.
 pub fn check_masses<M: Model>(model: &M, info: &ModelInfo) -> Result<(), SimError> {
     let mut mass = vec![0.0; info.nq()];
     model.mass_diagonal(&mut mass);
@@ -211,7 +214,7 @@ pub fn check_masses<M: Model>(model: &M, info: &ModelInfo) -> Result<(), SimErro
             None
         };
         if let Some(reason) = reason {
-            return Err(SimError::Setting { name: info.mass_entry_name(k), value: m, reason });
+            return Err(SimError::Setup(SetupError::Setting { name: info.mass_entry_name(k), value: m, reason }));
         }
     }
     // a massless part takes the dense LU path of the whole KKT matrix,
@@ -219,11 +222,11 @@ pub fn check_masses<M: Model>(model: &M, info: &ModelInfo) -> Result<(), SimErro
     if info.nq() + info.nc() > crate::kkt::DENSE_LU_MAX_ROWS
         && let Some(k) = mass.iter().position(|&m| m == 0.0)
     {
-        return Err(SimError::Setting {
+        return Err(SimError::Setup(SetupError::Setting {
             name: info.mass_entry_name(k),
             value: mass[k],
             reason: "a massless part needs the dense LU path of the KKT matrix, which ezy takes up to 1000 rows (nq + nc): this model has more; give every body a positive mass and inertia",
-        });
+        }));
     }
     Ok(())
 }
@@ -232,7 +235,7 @@ pub fn check_masses<M: Model>(model: &M, info: &ModelInfo) -> Result<(), SimErro
 /// coordinate, `stem*` for every coordinate of a family, or `theta_<hinge>`.
 ///
 /// # Errors
-/// [`SimError::UnknownName`] listing the model's coordinates.
+/// [`SetupError::UnknownName`] listing the model's coordinates.
 pub fn initial_targets(info: &ModelInfo, name: &str) -> Result<crate::model::info::InitialName, SimError> {
     info.initial_name(name).ok_or_else(|| lookup(info, "coordinate", name, &info.coords).expect_err("not a coordinate"))
 }
@@ -264,12 +267,12 @@ impl<M: Model> Problem<M> {
 
     fn check_effect_name(&self, name: &str) -> Result<(), SimError> {
         crate::effects::registry::check_effect_name(name)
-            .map_err(|message| SimError::Scene { key: format!("effects.{name}"), message })?;
+            .map_err(|message| SimError::Setup(SetupError::Scene { key: format!("effects.{name}"), message }))?;
         if self.effects.iter().any(|e| e.name == name) {
-            return Err(SimError::Scene {
+            return Err(SimError::Setup(SetupError::Scene {
                 key: format!("effects.{name}"),
                 message: format!("an effect called `{name}` is already given"),
-            });
+            }));
         }
         Ok(())
     }
@@ -279,7 +282,7 @@ impl<M: Model> Problem<M> {
     /// current parameters (set them first).
     ///
     /// # Errors
-    /// [`SimError::Scene`] for a bad or repeated name; [`SimError::Effect`]
+    /// [`SetupError::Scene`] for a bad or repeated name; [`SetupError::Effect`]
     /// for a name the model does not have or a bad number in `spec`.
     pub fn effect(mut self, name: &str, spec: impl Into<EffectSpec>) -> Result<Self, SimError> {
         self.check_effect_name(name)?;
@@ -294,17 +297,15 @@ impl<M: Model> Problem<M> {
     /// in Rust (its value column takes [`EffectKind::VALUE_PREFIX`]).
     ///
     /// # Errors
-    /// [`SimError::Scene`] for a bad or repeated name; [`SimError::Effect`]
+    /// [`SetupError::Scene`] for a bad or repeated name; [`SetupError::Effect`]
     /// with the field the kind's [`EffectKind::resolve`] refuses.
     pub fn kind<T: EffectKind>(mut self, name: &str, spec: &T) -> Result<Self, SimError> {
         self.check_effect_name(name)?;
         let info = self.model.info();
         let names = NameIndex::new(&info);
         let cx = EffectContext::new(&self.model, &names);
-        let law = resolve_kind(spec, &cx).map_err(|e| SimError::Effect {
-            effect: name.to_string(),
-            field: e.field,
-            message: e.message,
+        let law = resolve_kind(spec, &cx).map_err(|e| {
+            SimError::Setup(SetupError::Effect { effect: name.to_string(), field: e.field, message: e.message })
         })?;
         let law = Law::checked(name, law, cx.nq())?;
         self.effects.push(Effect {
@@ -320,7 +321,7 @@ impl<M: Model> Problem<M> {
     /// `W_<name>` integrates the power it returns.
     ///
     /// # Errors
-    /// [`SimError::Scene`] for a bad or repeated name; [`SimError::Effect`]
+    /// [`SetupError::Scene`] for a bad or repeated name; [`SetupError::Effect`]
     /// for a coordinate index in [`ForceLaw::coords`] beyond nq.
     pub fn law(mut self, name: &str, law: impl ForceLaw) -> Result<Self, SimError> {
         self.check_effect_name(name)?;
@@ -352,7 +353,7 @@ impl<M: Model> Problem<M> {
     /// names first.
     ///
     /// # Errors
-    /// [`SimError::Event`] for a quantity the run does not have, a level
+    /// [`SetupError::Event`] for a quantity the run does not have, a level
     /// that is not finite, a bad or repeated name.
     pub fn event(self, name: &str, spec: &EventSpec) -> Result<Self, SimError> {
         let info = self.model.info();
@@ -364,19 +365,16 @@ impl<M: Model> Problem<M> {
     /// `g(t, q, qd)` of the user's own whose sign changes are the events).
     ///
     /// # Errors
-    /// [`SimError::Event`] for a repeated name.
+    /// [`SetupError::Event`] for a repeated name.
     pub fn with_event(mut self, event: Event) -> Result<Self, SimError> {
-        crate::events::spec::check_event_name(&event.name).map_err(|message| SimError::Event {
-            event: event.name.clone(),
-            field: "",
-            message,
-        })?;
+        crate::events::spec::check_event_name(&event.name)
+            .map_err(|message| SimError::Setup(SetupError::Event { event: event.name.clone(), field: "", message }))?;
         if self.events.iter().any(|e| e.name == event.name) {
-            return Err(SimError::Event {
+            return Err(SimError::Setup(SetupError::Event {
                 event: event.name.clone(),
                 field: "",
                 message: "an event of this name is already given".into(),
-            });
+            }));
         }
         self.events.push(event);
         Ok(self)
@@ -385,12 +383,14 @@ impl<M: Model> Problem<M> {
     /// Prescribes the angle of the model's drive `name` \[rad\].
     ///
     /// # Errors
-    /// [`SimError::UnknownName`] listing the model's drives; a bad waveform.
+    /// [`SetupError::UnknownName`] listing the model's drives; a bad waveform.
     pub fn drive(mut self, name: &str, angle: Waveform) -> Result<Self, SimError> {
         let info = self.model.info();
         let names: Vec<&str> = info.drives.iter().map(|d| d.name.as_str()).collect();
         let k = lookup(&info, "drive", name, &names)?;
-        angle.validate().map_err(|reason| SimError::Scene { key: format!("drives.{name}.angle"), message: reason })?;
+        angle.validate().map_err(|reason| {
+            SimError::Setup(SetupError::Scene { key: format!("drives.{name}.angle"), message: reason })
+        })?;
         self.drives.retain(|d| d.name != name);
         self.drives.push(Drive { name: name.to_string(), row: info.drives[k].row, angle });
         // in the model's order, as the work states are
@@ -404,7 +404,7 @@ impl<M: Model> Problem<M> {
     /// \[m or rad\]; a later value overrides an earlier one.
     ///
     /// # Errors
-    /// [`SimError::UnknownName`] listing the model's coordinates.
+    /// [`SetupError::UnknownName`] listing the model's coordinates.
     pub fn q(mut self, name: &str, value: f64) -> Result<Self, SimError> {
         let info = self.model.info();
         match initial_targets(&info, name)? {
@@ -420,7 +420,7 @@ impl<M: Model> Problem<M> {
     /// \[m/s or rad/s\].
     ///
     /// # Errors
-    /// [`SimError::UnknownName`] listing the model's coordinates.
+    /// [`SetupError::UnknownName`] listing the model's coordinates.
     pub fn qd(mut self, name: &str, value: f64) -> Result<Self, SimError> {
         let info = self.model.info();
         match initial_targets(&info, name)? {
@@ -428,10 +428,10 @@ impl<M: Model> Problem<M> {
                 ks.into_iter().for_each(|k| set(&mut self.given.qd, k, value))
             }
             crate::model::info::InitialName::HingeAngle(_) => {
-                return Err(SimError::Scene {
+                return Err(SimError::Setup(SetupError::Scene {
                     key: format!("initial.qd.{name}"),
                     message: "a hinge angle is given in positions only".into(),
-                });
+                }));
             }
         }
         Ok(self)
@@ -504,28 +504,29 @@ impl<M: Model> Problem<M> {
     /// the solve had to correct.
     ///
     /// # Errors
-    /// [`SimError::Scene`] at `params.NAME` for a model parameter out of
-    /// range ([`check_params`]); [`SimError::Setting`] for a bad mass;
-    /// [`SimError::Scene`] for a drive without an angle or one that is not
+    /// [`SetupError::Scene`] at `params.NAME` for a model parameter out of
+    /// range ([`check_params`]); [`SetupError::Setting`] for a bad mass;
+    /// [`SetupError::Scene`] for a drive without an angle or one that is not
     /// smooth over the run
-    /// ([`crate::drive::check_angle`]); [`SimError::Initial`] if no consistent
+    /// ([`crate::drive::check_angle`]); [`SetupError::Initial`] if no consistent
     /// state is near the given one.
     pub fn initial_state(&self) -> Result<(Vec<f64>, InitialReport), SimError> {
         let info = self.model.info();
         check_params(&self.model, &info)?;
         check_masses(&self.model, &info)?;
         if let Some(missing) = info.drives.iter().find(|d| !self.drives.iter().any(|g| g.name == d.name)) {
-            return Err(SimError::Scene {
+            return Err(SimError::Setup(SetupError::Scene {
                 key: "drives".into(),
                 message: format!(
                     "model {} drives hinge `{}` by `{}`: give its angle",
                     info.name, info.hinges[missing.hinge].name, missing.name
                 ),
-            });
+            }));
         }
         for d in &self.drives {
-            crate::drive::check_angle(&d.angle, self.settings.t_end)
-                .map_err(|message| SimError::Scene { key: format!("drives.{}.angle", d.name), message })?;
+            crate::drive::check_angle(&d.angle, self.settings.t_end).map_err(|message| {
+                SimError::Setup(SetupError::Scene { key: format!("drives.{}.angle", d.name), message })
+            })?;
         }
         // skates with friction may start sliding: their rows are left out
         // of the velocity solve where the given values determine the
@@ -558,7 +559,7 @@ impl<M: Model> Problem<M> {
     /// and the consistent initial state: what [`simulate`] integrates.
     ///
     /// # Errors
-    /// As [`Problem::initial_state`]; [`SimError::Setting`] for Baumgarte
+    /// As [`Problem::initial_state`]; [`SetupError::Setting`] for Baumgarte
     /// rates the run cannot take (not finite, negative, past
     /// [`crate::settings::MAX_RATE`], or past a fixed step's stability limit).
     pub fn into_system(self) -> Result<(Dynamics<M>, Vec<f64>, InitialReport), SimError> {
@@ -587,18 +588,18 @@ impl<M: Model> Problem<M> {
         let name = |which: &str| format!("{} {which}", crate::settings::Setting::Baumgarte);
         for (which, v) in [("alpha", alpha), ("beta", beta)] {
             if !(v.is_finite() && v >= 0.0) {
-                return Err(SimError::Setting {
+                return Err(SimError::Setup(SetupError::Setting {
                     name: name(which),
                     value: v,
                     reason: "must be a finite rate >= 0 [1/s]",
-                });
+                }));
             }
             if v > crate::settings::MAX_RATE {
-                return Err(SimError::Setting {
+                return Err(SimError::Setup(SetupError::Setting {
                     name: name(which),
                     value: v,
                     reason: "is faster than any step can follow: ezy takes rates up to 2.8e14 1/s (a decay within the rounding level of t, 16 eps t, the shortest step)",
-                });
+                }));
             }
         }
         let limit = match self.settings.method {
@@ -608,11 +609,11 @@ impl<M: Model> Problem<M> {
         };
         let (which, value) = if 2.0 * alpha >= beta { ("alpha", alpha) } else { ("beta", beta) };
         if (2.0 * alpha).max(beta) * self.settings.dt > limit {
-            return Err(SimError::Setting {
+            return Err(SimError::Setup(SetupError::Setting {
                 name: name(which),
                 value,
                 reason: "the drift's fastest rate, max(2 alpha, beta), times the step dt passes the fixed-step method's stability limit (2 for euler, 2.785 for rk4): the stabilization would amplify the drift it should damp; give smaller rates, a smaller step or an adaptive method",
-            });
+            }));
         }
         Ok(())
     }
@@ -621,7 +622,9 @@ impl<M: Model> Problem<M> {
     /// them ([`Model::check_counts`]: elements that exist, names that
     /// differ, at most [`crate::model::info::MAX_COORDS`] coordinates).
     fn check_counts(&self) -> Result<(), SimError> {
-        self.model.check_counts().map_err(|message| SimError::Scene { key: "params".into(), message })
+        self.model
+            .check_counts()
+            .map_err(|message| SimError::Setup(SetupError::Scene { key: "params".into(), message }))
     }
 
     /// The problem's right-hand side ready for the analyses
@@ -648,7 +651,7 @@ impl<M: Model> Problem<M> {
     /// Integrates the problem and keeps every output sample in memory.
     ///
     /// # Errors
-    /// As [`Problem::initial_state`]; [`SimError::Scene`] at `params`
+    /// As [`Problem::initial_state`]; [`SetupError::Scene`] at `params`
     /// when the model's family counts are not well formed or give more
     /// than [`crate::model::info::MAX_COORDS`] coordinates; [`SimError::Budget`] before
     /// any work when the samples would take more than

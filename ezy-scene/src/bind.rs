@@ -9,8 +9,8 @@
 
 use serde::Serialize;
 
-use ezy_core::SimError;
 use ezy_core::model::info::ModelInfo;
+use ezy_core::{SetupError, SimError};
 
 use crate::check::known_or_none;
 use crate::{Binding, Scene, SceneError};
@@ -58,24 +58,28 @@ impl Scene {
     /// `phase_step` of a family's waveform into each element's phase).
     ///
     /// # Errors
-    /// [`SimError::UnknownName`] listing the model parameters, the
+    /// [`SetupError::UnknownName`] listing the model parameters, the
     /// scene parameters and the effects' and drives' numeric keys;
-    /// [`SimError::Setting`] for a value that is not finite;
-    /// [`SimError::Scene`] for a name that is both a scene and a
+    /// [`SetupError::Setting`] for a value that is not finite;
+    /// [`SetupError::Scene`] for a name that is both a scene and a
     /// model parameter, an ambiguous key, or a binding whose number is gone.
     pub fn set(&mut self, info: &ModelInfo, name: &str, value: f64) -> Result<(), SimError> {
         if !value.is_finite() {
-            return Err(SimError::Setting { name: name.into(), value, reason: "must be a finite number" });
+            return Err(SimError::Setup(SetupError::Setting {
+                name: name.into(),
+                value,
+                reason: "must be a finite number",
+            }));
         }
         if let Some(k) = self.scene_params.iter().position(|(n, _)| n == name) {
             if info.param_index(name).is_some() {
-                return Err(SimError::Scene {
+                return Err(SimError::Setup(SetupError::Scene {
                     key: format!("scene_params.{name}"),
                     message: format!(
                         "`{name}` is both a scene parameter and a parameter of model {}: rename the scene parameter",
                         info.name
                     ),
-                });
+                }));
             }
             self.scene_params[k].1 = value;
             let bound: Vec<Vec<String>> =
@@ -133,12 +137,12 @@ impl Scene {
             known.extend(numeric_leaves(&tree).into_iter().map(|l| format!("{n}.{l}")));
         }
         known.extend(self.events.iter().map(|(n, _)| format!("{n}.crosses")));
-        Err(SimError::UnknownName {
+        Err(SimError::Setup(SetupError::UnknownName {
             kind: "parameter",
             name: name.to_string(),
             model: info.name,
             known: known.join(", "),
-        })
+        }))
     }
 
     /// The numbers of effect or drive `item`, each with its full key path
@@ -157,9 +161,11 @@ impl Scene {
 
     /// Sets the bound number at `path` (`effects.ITEM...` or `drives.ITEM...`).
     fn set_bound(&mut self, path: &[String], value: f64) -> Result<(), SimError> {
-        let fail = |message: String| SimError::Scene {
-            key: SceneError { path: path.to_vec(), message: String::new() }.key(),
-            message,
+        let fail = |message: String| {
+            SimError::Setup(SetupError::Scene {
+                key: SceneError { path: path.to_vec(), message: String::new() }.key(),
+                message,
+            })
         };
         let (section, item, leaf) = match path {
             [section, item, leaf @ ..] if !leaf.is_empty() => (section.as_str(), item, leaf),
@@ -268,7 +274,7 @@ pub(crate) fn apply_phase_step(v: &mut toml::Value, k: f64) {
 /// `spec`'s type accepts. `None` if no number matches.
 ///
 /// # Errors
-/// [`SimError::Scene`] when `key` matches several numbers.
+/// [`SetupError::Scene`] when `key` matches several numbers.
 fn set_number<T: Serialize + serde::de::DeserializeOwned>(
     spec: &T,
     key: &str,
@@ -280,9 +286,11 @@ fn set_number<T: Serialize + serde::de::DeserializeOwned>(
     let matches: Vec<&String> = leaves.iter().filter(|l| *l == key || l.ends_with(&format!(".{key}"))).collect();
     match matches[..] {
         [path] => {
-            let unreachable = || SimError::Scene {
-                key: name.to_string(),
-                message: format!("`{path}` cannot be set: a key on its way contains a `.`"),
+            let unreachable = || {
+                SimError::Setup(SetupError::Scene {
+                    key: name.to_string(),
+                    message: format!("`{path}` cannot be set: a key on its way contains a `.`"),
+                })
             };
             let mut node = &mut tree;
             for part in path.split('.') {
@@ -295,9 +303,8 @@ fn set_number<T: Serialize + serde::de::DeserializeOwned>(
                 };
             }
             *node = number_like(node, value);
-            let changed = tree.try_into().map_err(|e: toml::de::Error| SimError::Scene {
-                key: name.to_string(),
-                message: e.message().trim().to_string(),
+            let changed = tree.try_into().map_err(|e: toml::de::Error| {
+                SimError::Setup(SetupError::Scene { key: name.to_string(), message: e.message().trim().to_string() })
             })?;
             Ok(Some((changed, path.clone())))
         }
@@ -312,13 +319,13 @@ fn set_number<T: Serialize + serde::de::DeserializeOwned>(
             }
             Ok(None)
         }
-        _ => Err(SimError::Scene {
+        _ => Err(SimError::Setup(SetupError::Scene {
             key: name.to_string(),
             message: format!(
                 "`{key}` matches several numbers ({}); give the full key",
                 matches.iter().map(|m| m.as_str()).collect::<Vec<_>>().join(", ")
             ),
-        }),
+        })),
     }
 }
 

@@ -12,7 +12,7 @@ use std::marker::PhantomData;
 use std::sync::Arc;
 
 use ezy_core::effects::{EFFECT_KINDS, Effect, EffectContext, EffectKind, EffectSpec, SpecError, UserSpec};
-use ezy_core::{NameIndex, SimError};
+use ezy_core::{NameIndex, SetupError, SimError};
 use serde::{Deserialize, Deserializer, Serialize, Serializer};
 
 /// The keys of an `[effects.NAME]` table whose values are names (the kind,
@@ -298,12 +298,10 @@ impl SceneEffect {
     /// ([`EffectSpec::resolve_in`]).
     ///
     /// # Errors
-    /// [`SimError::Effect`] naming the field at fault.
+    /// [`SetupError::Effect`] naming the field at fault.
     pub fn resolve_in(&self, name: &str, cx: &EffectContext<'_>) -> Result<Effect, SimError> {
-        let spec = self.to_spec().map_err(|e| SimError::Effect {
-            effect: name.to_string(),
-            field: e.field,
-            message: e.message,
+        let spec = self.to_spec().map_err(|e| {
+            SimError::Setup(SetupError::Effect { effect: name.to_string(), field: e.field, message: e.message })
         })?;
         spec.resolve_in(name, cx)
     }

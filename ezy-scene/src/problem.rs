@@ -9,7 +9,7 @@ use ezy_core::effects::EffectContext;
 use ezy_core::formulation::initial::Given as GivenValues;
 use ezy_core::kkt::KktMethod;
 use ezy_core::problem::{check_masses, check_params};
-use ezy_core::{InitialName, Model, ModelInfo, NameIndex, Problem, SimError};
+use ezy_core::{InitialName, Model, ModelInfo, NameIndex, Problem, SetupError, SimError};
 
 use crate::check::{Checked, Given, Source};
 use crate::{Scene, SceneError};
@@ -24,9 +24,9 @@ impl Scene {
     /// columns and figures the caller draws.
     ///
     /// # Errors
-    /// [`SimError::UnknownName`] for an unknown override or name,
-    /// [`SimError::Scene`] for an override that breaks a scene key,
-    /// [`SimError::Setting`] for a bad mass, [`SimError::Effect`] for an
+    /// [`SetupError::UnknownName`] for an unknown override or name,
+    /// [`SetupError::Scene`] for an override that breaks a scene key,
+    /// [`SetupError::Setting`] for a bad mass, [`SetupError::Effect`] for an
     /// effect the model cannot take.
     pub fn problem<M: Model + Default>(&self, sets: &[(String, f64)]) -> Result<(Problem<M>, Scene), SimError> {
         self.problem_with(M::default(), sets)
@@ -45,7 +45,7 @@ impl Scene {
         sets: &[(String, f64)],
     ) -> Result<(Problem<M>, Scene), SimError> {
         let scene = self.with_sets(&model.info(), sets)?;
-        let scene_error = |e: SceneError| SimError::Scene { key: e.key(), message: e.message };
+        let scene_error = |e: SceneError| SimError::Setup(SetupError::Scene { key: e.key(), message: e.message });
         // counts first: they decide the coordinates the rest of the scene names
         crate::registry::set_counts(&mut model, &scene.params).map_err(scene_error)?;
         let info = model.info();
@@ -83,9 +83,9 @@ impl Checked {
     /// parameters set. Returns the scene as run.
     ///
     /// # Errors
-    /// [`SimError::Scene`] for a starting value of a given coordinate and
-    /// a parameter out of range, [`SimError::Setting`] for a bad mass,
-    /// [`SimError::Effect`] for an effect the model cannot take.
+    /// [`SetupError::Scene`] for a starting value of a given coordinate and
+    /// a parameter out of range, [`SetupError::Setting`] for a bad mass,
+    /// [`SetupError::Effect`] for an effect the model cannot take.
     pub(crate) fn problem<M: Model>(self, mut model: M, info: &ModelInfo) -> Result<(Problem<M>, Scene), SimError> {
         let Checked { scene, params, initial, effects, drives, events } = self;
         for (k, value) in params {
@@ -95,13 +95,13 @@ impl Checked {
         let (given_qd, _) = values(&model, info, &initial.qd);
         let (guess, _) = values(&model, info, &initial.guess);
         if let Some(&(k, _)) = guess.iter().find(|(k, _)| given_q.iter().any(|(j, _)| j == k)) {
-            return Err(SimError::Scene {
+            return Err(SimError::Setup(SetupError::Scene {
                 key: format!("initial.guess.{}", info.coords[k]),
                 message: format!(
                     "`{}` is given in `initial.q`, so it is fixed; a starting value is for a coordinate the constraints determine",
                     info.coords[k]
                 ),
-            });
+            }));
         }
         check_params(&model, info)?;
         check_masses(&model, info)?;

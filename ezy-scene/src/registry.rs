@@ -9,7 +9,7 @@
 //! against the user's model exactly as a built-in one is.
 
 use ezy_core::effects::EffectContext;
-use ezy_core::{EffectSpec, Model, ModelInfo, NameIndex, SimError};
+use ezy_core::{EffectSpec, Model, ModelInfo, NameIndex, SetupError, SimError};
 
 use crate::{Checked, EffectKinds, Scene, SceneError, SceneFileError};
 
@@ -103,7 +103,7 @@ pub fn check_user_effects<M: Model>(model: &M, checked: &Checked) -> Result<(), 
             return Err(match e {
                 // a field's error at the field; one of the whole table (an
                 // unknown field) at the effect, without an empty key
-                SimError::Effect { field, message, .. } => {
+                SimError::Setup(SetupError::Effect { field, message, .. }) => {
                     let mut path = vec!["effects".into(), name.to_string()];
                     if !field.is_empty() {
                         path.push(field.into());

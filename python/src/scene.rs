@@ -50,8 +50,9 @@ impl PyScene {
         // is set up: checked now, as the command line's run would
         let app = &self.kit.get().app;
         if let Some(Ok(info)) = app.info_with(&trial.model, &trial.params) {
-            let refused =
-                |e: ezy_scene::SceneError| ezy_err(ezy_core::SimError::Scene { key: e.key(), message: e.message });
+            let refused = |e: ezy_scene::SceneError| {
+                ezy_err(ezy_core::SimError::Setup(ezy_core::SetupError::Scene { key: e.key(), message: e.message }))
+            };
             let checked = trial.clone().checked(&info).map_err(|e| refused(e.into_iter().next().expect("an error")))?;
             app.check_user_effects(&trial.model, &checked).map_err(refused)?;
         }

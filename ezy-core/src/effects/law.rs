@@ -35,6 +35,7 @@ use super::hinge::HingeLaw;
 use super::kind::{ForceLaw, Waveforms};
 use super::skate_friction::SkateFrictionLaw;
 use super::spring::SpringLaw;
+use crate::error::SetupError;
 use crate::error::SimError;
 
 /// The failure text of a built-in law's NaN power that has no more
@@ -107,7 +108,7 @@ impl Law {
     /// coordinates.
     ///
     /// # Errors
-    /// [`SimError::Effect`] if [`ForceLaw::coords`] lists a coordinate
+    /// [`SetupError::Effect`] if [`ForceLaw::coords`] lists a coordinate
     /// beyond the model's (the right-hand side and RADAU5's coupling index
     /// `q` with them).
     pub fn user(name: &str, law: Arc<dyn ForceLaw>, nq: usize) -> Result<Law, SimError> {
@@ -124,11 +125,11 @@ impl Law {
         if let Law::User(u) = &law
             && let Some(k) = u.0.coords().into_iter().find(|&k| k >= nq)
         {
-            return Err(SimError::Effect {
+            return Err(SimError::Setup(SetupError::Effect {
                 effect: name.to_string(),
                 field: "",
                 message: format!("the law's coords() lists coordinate {k}, but the model has {nq}"),
-            });
+            }));
         }
         Ok(law)
     }

@@ -19,6 +19,7 @@ use super::context::{CheckContext, EffectContext};
 use super::kind::{EffectKind, SpecError, resolve_kind};
 use super::law::Law;
 use super::user::UserSpec;
+use crate::error::SetupError;
 use crate::error::SimError;
 use crate::model::info::{ModelInfo, NameIndex};
 
@@ -178,15 +179,13 @@ impl EffectSpec {
     /// all of a scene's effects: the effect called `name`.
     ///
     /// # Errors
-    /// [`SimError::Effect`] for a name the model does not have or a bad
+    /// [`SetupError::Effect`] for a name the model does not have or a bad
     /// number (a spec that passed [`EffectSpec::check`] fails only at a
     /// model parameter's value), or a law of the user's own that indexes
     /// coordinates beyond the model's.
     pub fn resolve_in(&self, name: &str, cx: &EffectContext<'_>) -> Result<Effect, SimError> {
-        let law = self.resolve_law(cx).map_err(|e| SimError::Effect {
-            effect: name.to_string(),
-            field: e.field,
-            message: e.message,
+        let law = self.resolve_law(cx).map_err(|e| {
+            SimError::Setup(SetupError::Effect { effect: name.to_string(), field: e.field, message: e.message })
         })?;
         let law = Law::checked(name, law, cx.nq())?;
         Ok(Effect { name: name.to_string(), value_column: self.value_column(name), law, on: true })

@@ -40,6 +40,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::effects::Effect;
 use crate::effects::context::HingeRef;
+use crate::error::SetupError;
 use crate::error::SimError;
 use crate::model::info::ModelInfo;
 
@@ -218,7 +219,7 @@ impl EventSpec {
     /// `effects` and the drives named `drives`.
     ///
     /// # Errors
-    /// [`SimError::Event`] at `when` for a quantity the run does not have
+    /// [`SetupError::Event`] at `when` for a quantity the run does not have
     /// (listing the names it has), at `crosses` for a level that is not
     /// finite, at `switch_on` or `switch_off` for a name that is no effect
     /// of the run (listing them), a skate's friction, an effect in both,
@@ -231,33 +232,32 @@ impl EventSpec {
         effects: &[Effect],
         drives: &[crate::drive::Drive],
     ) -> Result<Event, SimError> {
-        check_event_name(name).map_err(|message| SimError::Event { event: name.into(), field: "", message })?;
+        check_event_name(name)
+            .map_err(|message| SimError::Setup(SetupError::Event { event: name.into(), field: "", message }))?;
         if !self.crosses.is_finite() {
-            return Err(SimError::Event {
+            return Err(SimError::Setup(SetupError::Event {
                 event: name.into(),
                 field: "crosses",
                 message: format!("the level must be a finite number, not {}", self.crosses),
-            });
+            }));
         }
         let named: Vec<(&str, &str)> = effects.iter().map(|e| (e.name.as_str(), e.value_column.as_str())).collect();
         let drives: Vec<&str> = drives.iter().map(|d| d.name.as_str()).collect();
-        let quantity = Quantity::resolve(&self.when, info, &named, &drives).map_err(|message| SimError::Event {
-            event: name.into(),
-            field: "when",
-            message,
-        })?;
+        let quantity = Quantity::resolve(&self.when, info, &named, &drives)
+            .map_err(|message| SimError::Setup(SetupError::Event { event: name.into(), field: "when", message }))?;
         if let Quantity::EffectValue(k) = quantity
             && matches!(effects[k].law, crate::effects::law::Law::SkateFriction(_))
         {
             let message = friction_force_unwatched(&self.when, &effects[k].name);
-            return Err(SimError::Event { event: name.into(), field: "when", message });
+            return Err(SimError::Setup(SetupError::Event { event: name.into(), field: "when", message }));
         }
         let named: Vec<(&str, bool)> = effects
             .iter()
             .map(|e| (e.name.as_str(), matches!(e.law, crate::effects::law::Law::SkateFriction(_))))
             .collect();
-        let (switch_on, switch_off) =
-            self.switched(&named).map_err(|(field, message)| SimError::Event { event: name.into(), field, message })?;
+        let (switch_on, switch_off) = self
+            .switched(&named)
+            .map_err(|(field, message)| SimError::Setup(SetupError::Event { event: name.into(), field, message }))?;
         Ok(Event {
             name: name.to_string(),
             quantity,
@@ -438,12 +438,13 @@ impl Event {
     /// (a function of the user's own), either way, recorded.
     ///
     /// # Errors
-    /// A bad name ([`check_event_name`]), as [`SimError::Event`].
+    /// A bad name ([`check_event_name`]), as [`SetupError::Event`].
     pub fn from_fn(
         name: &str,
         g: impl Fn(f64, &[f64], &[f64]) -> f64 + Send + Sync + 'static,
     ) -> Result<Event, SimError> {
-        check_event_name(name).map_err(|message| SimError::Event { event: name.into(), field: "", message })?;
+        check_event_name(name)
+            .map_err(|message| SimError::Setup(SetupError::Event { event: name.into(), field: "", message }))?;
         Ok(Event {
             name: name.to_string(),
             quantity: Quantity::User(Arc::new(g)),

@@ -11,6 +11,7 @@
 use crate::effects::Effect;
 use crate::effects::law::{Law, apply_effects, hinges_only};
 use crate::effects::skate_friction::SkateFrictionLaw;
+use crate::error::SetupError;
 use crate::error::SimError;
 use crate::formulation::friction::{Released, SkateFriction, SkateMode, row_entries};
 use crate::kkt::{AnyKktSolver, KktMethod, KktSolver, KktSystem};
@@ -725,7 +726,7 @@ impl<M: Model> Dynamics<M> {
     /// start sliding, `(entry, Sticking, its mode)`.
     ///
     /// # Errors
-    /// [`SimError::Effect`] for a second friction effect on one skate; as
+    /// [`SetupError::Effect`] for a second friction effect on one skate; as
     /// [`Dynamics::settle_friction`].
     pub fn start_friction(&mut self, t: f64, y: &[f64]) -> Result<Vec<(usize, SkateMode, SkateMode)>, SimError> {
         self.friction = friction_table(&self.info, &self.effects);
@@ -733,14 +734,14 @@ impl<M: Model> Dynamics<M> {
         self.released = Released::default();
         for (i, a) in self.friction.iter().enumerate() {
             if let Some(b) = self.friction[..i].iter().find(|b| b.skate == a.skate) {
-                return Err(SimError::Effect {
+                return Err(SimError::Setup(SetupError::Effect {
                     effect: self.effects[a.effect].name.clone(),
                     field: "skate",
                     message: format!(
                         "skate `{}` already has friction (effect `{}`): one friction law per skate",
                         a.name, self.effects[b.effect].name
                     ),
-                });
+                }));
             }
         }
         if self.friction.is_empty() {

@@ -23,6 +23,7 @@
 //!   is linear in the length of a chain.
 
 use crate::error::KktError;
+use crate::error::SetupError;
 use crate::error::SimError;
 use crate::formulation::projection::max_abs;
 use crate::kkt::sparse::SparseSchur;
@@ -326,7 +327,7 @@ pub struct Given {
 /// path (module docs), whose cost is linear in the length of a chain.
 ///
 /// # Errors
-/// [`SimError::Initial`] when the unknowns are not determined by the
+/// [`SetupError::Initial`] when the unknowns are not determined by the
 /// constraints (give more values), or no consistent state exists;
 /// [`SimError::DependentConstraints`] when the sparse path finds redundant
 /// constraints while projecting given values.
@@ -407,7 +408,7 @@ pub fn consistent_state_with<M: Model>(
     let row_name = |i: usize| {
         if i < nh { info.constraints[i].clone() } else { format!("theta_{}", info.hinges[given.angles[i - nh].0].name) }
     };
-    let initial = |reason: String| SimError::Initial { reason };
+    let initial = |reason: String| SimError::Setup(SetupError::Initial { reason });
     let mut q = vec![0.0; nq];
     for &(i, v) in &given.guess {
         q[i] = v;
@@ -510,7 +511,7 @@ fn coord_names(info: &ModelInfo, idx: &[usize], suffix: &str) -> String {
 
 /// More unknowns than equations: which are missing, and how many to give.
 fn too_many(info: &ModelInfo, unknown: &[usize], rows: usize, what: &str, suffix: &str) -> SimError {
-    SimError::Initial {
+    SimError::Setup(SetupError::Initial {
         reason: format!(
             "{} {} are missing ({}) but the {rows} {what} determine at most {rows}; give {} more",
             unknown.len(),
@@ -518,7 +519,7 @@ fn too_many(info: &ModelInfo, unknown: &[usize], rows: usize, what: &str, suffix
             coord_names(info, unknown, suffix),
             unknown.len() - rows
         ),
-    }
+    })
 }
 
 /// The equations `what` leave the unknowns `unknown` undetermined, the
@@ -528,13 +529,13 @@ fn undetermined(info: &ModelInfo, k: usize, unknown: &[usize], what: &str, suffi
         Some(&i) => format!(" (`{}{suffix}` depends on the others)", info.coords[i]),
         None => String::new(),
     };
-    SimError::Initial {
+    SimError::Setup(SetupError::Initial {
         reason: format!(
             "{what} do not determine the {} {}{which}; give them",
             kind(suffix),
             coord_names(info, unknown, suffix)
         ),
-    }
+    })
 }
 
 /// The velocities of [`consistent_state_with`] at the consistent positions
@@ -544,7 +545,7 @@ fn undetermined(info: &ModelInfo, k: usize, unknown: &[usize], what: &str, suffi
 /// `redundant`, as the positions name it.
 ///
 /// # Errors
-/// [`SimError::Initial`] (or a dependent constraint) as the caller says.
+/// [`SetupError::Initial`] (or a dependent constraint) as the caller says.
 fn consistent_velocities<M: Model>(
     model: &M,
     drives: &[crate::drive::Drive],
@@ -557,7 +558,7 @@ fn consistent_velocities<M: Model>(
     let info = model.info();
     let info = &info;
     let (nq, nc) = (info.nq(), info.nc());
-    let initial = |reason: String| SimError::Initial { reason };
+    let initial = |reason: String| SimError::Setup(SetupError::Initial { reason });
     let mut qd = vec![0.0; nq];
     let mut known_v = vec![false; nq];
     for &(i, v) in &given.qd {

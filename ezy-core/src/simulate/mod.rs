@@ -31,6 +31,7 @@ pub use slip::SLIP_CHATTER_GAP;
 use std::time::Instant;
 
 use crate::error::KktError;
+use crate::error::SetupError;
 use crate::error::SimError;
 use crate::formulation::dae::{Counters, Dynamics};
 use crate::formulation::projection::Projector;
@@ -354,7 +355,9 @@ fn restore_effects<M: Model>(sys: &mut Dynamics<M>, on: &[bool]) {
 /// checked here as a scene's `switch_on` is when it is resolved.
 fn check_switches<M: Model>(sys: &Dynamics<M>) -> Result<(), SimError> {
     for e in sys.events.iter().filter(|e| e.action == crate::events::spec::Action::Switch) {
-        let err = |field: &'static str, message: String| SimError::Event { event: e.name.clone(), field, message };
+        let err = |field: &'static str, message: String| {
+            SimError::Setup(SetupError::Event { event: e.name.clone(), field, message })
+        };
         if e.switch_on.is_empty() && e.switch_off.is_empty() {
             return Err(err("action", "a switch names the effects it turns on or off".into()));
         }
