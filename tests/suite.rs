@@ -30,6 +30,7 @@ mod formulations;
 mod friction;
 mod guards;
 mod hard_cases;
+mod hinge_friction;
 mod hostile_sizing;
 mod hostile_sweep;
 mod kkt_paths;
