@@ -5,25 +5,16 @@
 //! and skates are derived once as element kernels and looped over at run
 //! time. The holonomic residual, its Jacobian, the skate constraint matrix, the
 //! convective terms and the point kinematics are derived symbolically at
-//! compile time (see `kinematics` and `sym`); parameters stay runtime fields.
+//! compile time by the model language's engine (`ezy_lang`); parameters
+//! stay runtime fields.
 //!
-//! Data flows one way through the private modules: tokens -> `ast`
-//! (`parse`) -> `check` -> `kinematics` (expressions in `sym`) -> `emit`.
+//! Data flows one way: tokens -> `ezy_lang` (`ast`, `check`,
+//! `kinematics`, expressions in `sym`) -> `emit`.
 
 use proc_macro::TokenStream;
 
-mod ast;
-mod check;
 mod dump;
 mod emit;
-mod kinematics;
-mod minimal;
-mod parse;
-#[cfg_attr(
-    not(test),
-    allow(dead_code, reason = "`eval` and `display` serve the tests now and readable equations later")
-)]
-mod sym;
 
 // The whole documentation of the macro is at `ezy_core::model!` (the
 // `macro_rules!` wrapper users call, which passes its `$crate` as the
@@ -37,7 +28,7 @@ mod sym;
 #[proc_macro]
 pub fn model(input: TokenStream) -> TokenStream {
     let (root, input) = split_root(input.into());
-    let def = match syn::parse2::<ast::ModelDef>(input) {
+    let def = match syn::parse2::<ezy_lang::ast::ModelDef>(input) {
         Ok(def) => def,
         Err(e) => return e.to_compile_error().into(),
     };
@@ -60,11 +51,8 @@ fn split_root(input: proc_macro2::TokenStream) -> (proc_macro2::TokenStream, pro
     (quote::quote!(::ezy_core), input)
 }
 
-fn expand(def: &ast::ModelDef) -> syn::Result<proc_macro2::TokenStream> {
-    let mut errs = check::Errors::default();
-    let resolved = check::check(def, &mut errs);
-    let mut derived = kinematics::derive(def, &resolved, &mut errs);
-    errs.finish()?;
+fn expand(def: &ezy_lang::ast::ModelDef) -> syn::Result<proc_macro2::TokenStream> {
+    let (resolved, mut derived) = ezy_lang::derive(def)?;
     Ok(emit::emit(def, &resolved, &mut derived))
 }
 
@@ -85,7 +73,7 @@ mod tests {
                 hinge O: O = ground(0, 0);
             }";
         let expand = || {
-            let def: crate::ast::ModelDef = syn::parse_str(text).expect("the model parses");
+            let def: ezy_lang::ast::ModelDef = syn::parse_str(text).expect("the model parses");
             crate::expand(&def).expect("the model expands").to_string()
         };
         let first = expand();

@@ -10,10 +10,10 @@ use super::info::{element_name, item_name};
 use super::layout::{affine_tokens, body_index, each_element, layout_prelude, point_body};
 use super::lower::{Coords, lower};
 use super::runtime;
-use crate::ast::{Affine, ModelDef};
-use crate::check::{PointRef, Resolved};
-use crate::kinematics::{Derived, Kind};
-use crate::sym::Sym;
+use ezy_lang::ast::{Affine, ModelDef};
+use ezy_lang::check::{PointRef, Resolved};
+use ezy_lang::kinematics::{Derived, Kind};
+use ezy_lang::sym::Sym;
 
 /// `fn check_counts(&self)`: every family reference stays inside the
 /// family it names, joints join distinct bodies, and names are unique.

@@ -9,10 +9,10 @@ use quote::{format_ident, quote};
 
 use super::layout::{affine_tokens, body_column, each_element, layout_prelude, point_body};
 use super::runtime;
-use crate::ast::{Affine, ModelDef};
-use crate::check::{BodyRef, Resolved};
-use crate::kinematics::{Derived, own_index};
-use crate::sym::{Arena, Id, Sym};
+use ezy_lang::ast::{Affine, ModelDef};
+use ezy_lang::check::{BodyRef, Resolved};
+use ezy_lang::kinematics::{Derived, own_index};
+use ezy_lang::sym::{Arena, Id, Sym};
 
 /// Template of an expression for `ezy_core::__private::render_equation`:
 /// symbols as markers `\u{1}q3\u{2}` (local coordinate 3), `d` (its

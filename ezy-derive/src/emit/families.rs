@@ -13,10 +13,10 @@ use super::layout::{body_column, each_element, layout_prelude, point_body};
 use super::lower::{Coords, lower};
 use super::minimal::minimal_fns;
 use super::numeric_fns;
-use crate::ast::ModelDef;
-use crate::check::{BodyRef, Resolved};
-use crate::kinematics::{Derived, Kind, own_index};
-use crate::sym::Id;
+use ezy_lang::ast::ModelDef;
+use ezy_lang::check::{BodyRef, Resolved};
+use ezy_lang::kinematics::{Derived, Kind, own_index};
+use ezy_lang::sym::Id;
 
 /// `fn mass_diagonal` and `fn local_geometry` (the points' body
 /// coordinates, the blades' directions): a loop over each item's

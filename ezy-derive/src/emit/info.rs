@@ -8,9 +8,9 @@ use quote::quote;
 
 use super::layout::{body_column, body_index, each_element, layout_prelude, point_body, point_index};
 use super::{lit_f64, runtime};
-use crate::ast::{ModelDef, doc_of, split_unit};
-use crate::check::Resolved;
-use crate::kinematics::{Derived, Group, Kind};
+use ezy_lang::ast::{ModelDef, doc_of, split_unit};
+use ezy_lang::check::Resolved;
+use ezy_lang::kinematics::{Derived, Group, Kind};
 
 /// The runtime name of an item's element: `"J"` or `format!("J{v}")`.
 pub(super) fn element_name(name: &str, family: Option<usize>) -> TokenStream {

@@ -9,9 +9,9 @@ use proc_macro2::TokenStream;
 use quote::{format_ident, quote};
 
 use super::runtime;
-use crate::ast::{Affine, ModelDef};
-use crate::check::{BodyRef, PointRef, Resolved};
-use crate::kinematics::{Derived, Kind};
+use ezy_lang::ast::{Affine, ModelDef};
+use ezy_lang::check::{BodyRef, PointRef, Resolved};
+use ezy_lang::kinematics::{Derived, Kind};
 
 /// `(index expression, as i64)` of an affine index at loop value `v`.
 pub(super) fn affine_tokens(a: &Affine) -> TokenStream {

@@ -13,9 +13,9 @@ use std::collections::HashMap;
 
 use super::layout::affine_tokens;
 use super::{join, lit_f64, runtime};
-use crate::ast::{Affine, ModelDef};
-use crate::kinematics::Derived;
-use crate::sym::{Id, Node, Sym};
+use ezy_lang::ast::{Affine, ModelDef};
+use ezy_lang::kinematics::Derived;
+use ezy_lang::sym::{Id, Node, Sym};
 
 /// How generated code names coordinates: `q[k]` (global, straight-line) or
 /// `ql[k]` (an element's local copy).

@@ -1,5 +1,5 @@
 //! The minimal coordinates of a model without families
-//! (`ezy_core::MinimalLayout`), from the form [`crate::minimal`] derives:
+//! (`ezy_core::MinimalLayout`), from the form [`ezy_lang::minimal`] derives:
 //! `minimal_layout`, `minimal_expand`, `minimal_state`, `minimal_maggi`,
 //! and the fused right-hand side on the minimal coordinates
 //! (`minimal_constants`, `minimal_rhs`, `minimal_rhs_lean`) that the
@@ -11,11 +11,11 @@ use quote::{format_ident, quote};
 
 use super::lower::{Coords, Hoisted, lower};
 use super::{join, lit_f64, runtime};
-use crate::ast::ModelDef;
-use crate::check::Resolved;
-use crate::kinematics::{Derived, Kind};
-use crate::minimal::{Maggi, Minimal};
-use crate::sym::{Id, Sym};
+use ezy_lang::ast::ModelDef;
+use ezy_lang::check::Resolved;
+use ezy_lang::kinematics::{Derived, Kind};
+use ezy_lang::minimal::{Maggi, Minimal};
+use ezy_lang::sym::{Id, Sym};
 
 /// The minimal form derived from the model's global holonomic rows `phi`
 /// and `G`'s `values` at `pattern` (`nc` rows), as [`minimal_fns`] and,
@@ -29,7 +29,7 @@ pub(super) fn minimal_items(
     values: &[Id],
     nc: usize,
 ) -> TokenStream {
-    let minimal = crate::minimal::derive(&mut d.ar, def, res, phi, pattern, values, nc);
+    let minimal = ezy_lang::minimal::derive(&mut d.ar, def, res, phi, pattern, values, nc);
     let fused = match &minimal {
         Ok(m) => {
             let mass: Vec<Id> = d.mass.iter().flatten().copied().collect();
@@ -41,7 +41,7 @@ pub(super) fn minimal_items(
                 .filter(|g| g.kind == Kind::Hinge)
                 .map(|g| (g.slots[0].0, g.slots.get(1).map(|b| b.0)))
                 .collect();
-            let maggi = crate::minimal::maggi(&mut d.ar, m, &mass, &hinges);
+            let maggi = ezy_lang::minimal::maggi(&mut d.ar, m, &mass, &hinges);
             fused_fns(d, def, m, &maggi)
         }
         Err(_) => TokenStream::new(),

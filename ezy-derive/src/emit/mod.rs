@@ -42,9 +42,9 @@ mod straight;
 use proc_macro2::{Literal, TokenStream};
 use quote::quote;
 
-use crate::ast::{ModelDef, escape_unit};
-use crate::check::Resolved;
-use crate::kinematics::Derived;
+use ezy_lang::ast::{ModelDef, escape_unit};
+use ezy_lang::check::Resolved;
+use ezy_lang::kinematics::Derived;
 
 /// A literal `f64` (suffixed), or `NAN` for a value that is not finite.
 fn lit_f64(v: f64) -> TokenStream {

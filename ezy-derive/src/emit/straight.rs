@@ -15,10 +15,10 @@ use super::lower::{Coords, lower};
 use super::minimal::minimal_items;
 use super::numeric_fns;
 use super::products::sparse_kernels;
-use crate::ast::ModelDef;
-use crate::check::{BodyRef, Resolved};
-use crate::kinematics::Derived;
-use crate::sym::{Arena, Id, Sym};
+use ezy_lang::ast::ModelDef;
+use ezy_lang::check::{BodyRef, Resolved};
+use ezy_lang::kinematics::Derived;
+use ezy_lang::sym::{Arena, Id, Sym};
 
 /// The numeric functions of a model without families in straight-line
 /// form, its products with `G`, its minimal coordinates (or a

@@ -28,7 +28,7 @@ impl Arena {
     /// of a cosine above the first is left), and its terms gathered by
     /// their non-fixed factors, each gathered coefficient a sum of fixed
     /// products. `None` as soon as a sum on the way has more than
-    /// [`MAX_TERMS`] terms (before it is built). `fixed` is
+    /// `MAX_TERMS` terms (before it is built). `fixed` is
     /// [`Arena::fixed_nodes`] as far as an earlier call extended it.
     ///
     /// Writing `K cos^2 u` as `K - K sin^2 u` moves its rounding: near

@@ -1,0 +1,87 @@
+//! ezy's model language, the engine behind `model!`: a declarative planar
+//! multibody model (bodies, points, hinges, sliders, drives, skates,
+//! families of them) parsed from tokens or text ([`ast`], [`parse`]),
+//! checked with every mistake located ([`check`]), and derived
+//! symbolically ([`kinematics`], [`minimal`], expressions in [`sym`]): the
+//! holonomic residual `phi` (nh), its Jacobian, the skate rows of the
+//! constraint matrix `G` (nc x nq), the convective terms `gamma`, the
+//! points' kinematics and, where the constraints allow it, the
+//! minimal-coordinate equations (Maggi's; Kane & Levinson 1985, ch. 6).
+//!
+//! `ezy-derive` calls it on the tokens of a `model! { ... }` and emits
+//! Rust; a runtime model can call it on a string ([`derive_text`]): one
+//! grammar, one set of messages. Data flows one way: tokens ->
+//! [`ast::ModelDef`] -> [`check::Resolved`] -> [`kinematics::Derived`].
+
+pub mod ast;
+pub mod check;
+pub mod kinematics;
+pub mod minimal;
+pub mod parse;
+pub mod sym;
+
+/// A model checked and derived: what a back end (the macro's Rust, a
+/// run-time evaluator) turns into code.
+pub struct Model {
+    /// The model as written.
+    pub def: ast::ModelDef,
+    /// Its names resolved (indices of coordinates, parameters, bodies).
+    pub resolved: check::Resolved,
+    /// Its derived terms.
+    pub derived: kinematics::Derived,
+}
+
+/// Checks `def` and derives its terms.
+///
+/// # Errors
+/// Every mistake found, each at its span, combined into one
+/// [`syn::Error`] (the messages `model!` reports as compile errors).
+pub fn derive(def: &ast::ModelDef) -> syn::Result<(check::Resolved, kinematics::Derived)> {
+    let mut errs = check::Errors::default();
+    let resolved = check::check(def, &mut errs);
+    let derived = kinematics::derive(def, &resolved, &mut errs);
+    errs.finish()?;
+    Ok((resolved, derived))
+}
+
+/// Parses the text of a model (what goes between the braces of
+/// `model! { ... }`), checks it and derives its terms.
+///
+/// # Errors
+/// A parse error or every mistake [`derive()`] finds, each with its span
+/// (line and column within `text`).
+pub fn derive_text(text: &str) -> syn::Result<Model> {
+    let def: ast::ModelDef = syn::parse_str(text)?;
+    let (resolved, derived) = derive(&def)?;
+    Ok(Model { def, resolved, derived })
+}
+
+#[cfg(test)]
+mod tests {
+    const PENDULUM: &str = "
+        pub struct Pendulum {
+            param L = 1.0;
+            body bob(x, y, phi) { mass: 1.0, inertia: 0.1 }
+            point O on bob at (-L, 0);
+            hinge O: O = ground(0, 0);
+        }";
+
+    /// Text derives as tokens do: the pendulum's two hinge rows over its
+    /// three coordinates.
+    #[test]
+    fn a_model_derives_from_text() {
+        let m = super::derive_text(PENDULUM).unwrap_or_else(|e| panic!("{e}"));
+        assert_eq!(m.def.name.to_string(), "Pendulum");
+        assert_eq!(m.def.bodies.len(), 1);
+        assert_eq!(m.def.hinges.len(), 1);
+    }
+
+    /// A mistake in the text is the same message `model!` gives at compile
+    /// time, naming what is wrong.
+    #[test]
+    fn a_mistake_in_text_is_named() {
+        let text = PENDULUM.replace("point O on bob", "point O on rod");
+        let e = super::derive_text(&text).err().expect("an unknown body is refused");
+        assert!(e.to_string().contains("rod"), "{e}");
+    }
+}
