@@ -48,8 +48,9 @@ pub fn derive(def: &ast::ModelDef) -> syn::Result<(check::Resolved, kinematics::
 /// `model! { ... }`), checks it and derives its terms.
 ///
 /// # Errors
-/// A parse error or every mistake [`derive()`] finds, each with its span
-/// (line and column within `text`).
+/// A parse error or every mistake [`derive()`] finds, each with its span:
+/// `error.span().start()` is its line (from 1) and column (from 0, in
+/// characters) within `text`.
 pub fn derive_text(text: &str) -> syn::Result<Model> {
     let def: ast::ModelDef = syn::parse_str(text)?;
     let (resolved, derived) = derive(&def)?;
@@ -83,5 +84,10 @@ mod tests {
         let text = PENDULUM.replace("point O on bob", "point O on rod");
         let e = super::derive_text(&text).err().expect("an unknown body is refused");
         assert!(e.to_string().contains("rod"), "{e}");
+        // where: `rod` on the text's fifth line (the first is empty), in
+        // the column after `point O on ` (proc-macro2's `span-locations`)
+        let at = e.span().start();
+        let line = text.lines().nth(at.line - 1).expect("the line exists");
+        assert_eq!((at.line, &line[at.column..at.column + 3]), (5, "rod"), "{line}");
     }
 }
