@@ -22,7 +22,7 @@ pub mod sym;
 
 /// A model checked and derived: what a back end (the macro's Rust, a
 /// run-time evaluator) turns into code.
-pub struct Model {
+pub struct Derivation {
     /// The model as written.
     pub def: ast::ModelDef,
     /// Its names resolved (indices of coordinates, parameters, bodies).
@@ -51,10 +51,10 @@ pub fn derive(def: &ast::ModelDef) -> syn::Result<(check::Resolved, kinematics::
 /// A parse error or every mistake [`derive()`] finds, each with its span:
 /// `error.span().start()` is its line (from 1) and column (from 0, in
 /// characters) within `text`.
-pub fn derive_text(text: &str) -> syn::Result<Model> {
+pub fn derive_text(text: &str) -> syn::Result<Derivation> {
     let def: ast::ModelDef = syn::parse_str(text)?;
     let (resolved, derived) = derive(&def)?;
-    Ok(Model { def, resolved, derived })
+    Ok(Derivation { def, resolved, derived })
 }
 
 #[cfg(test)]

@@ -22,9 +22,12 @@ impl<M: Model> Observer<M> for Last {
 }
 fn main() {
     let a: Vec<String> = std::env::args().collect();
-    let usage = "usage: drive_runs REPS EVERY [dae]";
-    let reps: usize = a.get(1).and_then(|s| s.parse().ok()).filter(|&r| r <= 1000).expect(usage);
-    let every: f64 = a.get(2).and_then(|s| s.parse().ok()).filter(|&e: &f64| e > 0.0 && e.is_finite()).expect(usage);
+    let reps: Option<usize> = a.get(1).and_then(|s| s.parse().ok()).filter(|&r| (1..=1000).contains(&r));
+    let every: Option<f64> = a.get(2).and_then(|s| s.parse().ok()).filter(|&e: &f64| e > 0.0 && e.is_finite());
+    let (Some(reps), Some(every)) = (reps, every) else {
+        eprintln!("usage: drive_runs REPS EVERY [dae]  (REPS 1 to 1000, EVERY a positive number of seconds)");
+        std::process::exit(2);
+    };
     let form = if a.get(3).map(String::as_str) == Some("dae") { Formulation::Dae } else { Formulation::Reduced };
     let tol = if form == Formulation::Dae { 1e-11 } else { 3e-11 };
     let scene = ezy_models::scenes::drive();

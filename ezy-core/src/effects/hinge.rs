@@ -206,11 +206,6 @@ impl HingeLaw {
     #[inline(always)]
     pub fn torque_at(&self, t: f64, q: &[f64], qd: &[f64]) -> (f64, f64) {
         match &self.torque {
-            // the harmonic motor inline (the drive scene's), the same
-            // arithmetic as `Waveform::eval`
-            HingeTorque::Motor(Waveform::Cos(h)) => {
-                (h.amplitude * crate::scalar::Scalar::cos(h.omega * t + h.phase), self.hinge.rate(qd))
-            }
             HingeTorque::Motor(w) => (w.eval(t), self.hinge.rate(qd)),
             _ => self.torque(&self.waveforms(t), q, qd),
         }

@@ -209,12 +209,22 @@ impl Waveform {
         Self::Sin(Harmonic { amplitude, omega, phase: 0.0, phase_step: 0.0 })
     }
 
-    /// `w(t)`.
-    #[inline]
+    /// `w(t)`. A constant and a cosine (a harmonic motor's torque) are
+    /// inline in the caller, the right-hand side; the rest is one call.
+    #[inline(always)]
     pub fn eval(&self, t: f64) -> f64 {
         match self {
             Self::Constant(v) => *v,
             Self::Cos(h) => h.amplitude * Scalar::cos(h.omega * t + h.phase),
+            _ => self.eval_other(t),
+        }
+    }
+
+    /// [`Waveform::eval`] for the kinds it does not inline.
+    #[inline(never)]
+    fn eval_other(&self, t: f64) -> f64 {
+        match self {
+            Self::Constant(_) | Self::Cos(_) => self.eval(t),
             Self::Sin(h) => h.amplitude * Scalar::sin(h.omega * t + h.phase),
             Self::Harmonics(hs) => hs.iter().map(|h| h.amplitude * Scalar::cos(h.omega * t + h.phase)).sum(),
             Self::Table(tab) => tab.eval(t),
