@@ -42,6 +42,8 @@ const CORE_FLOORS: &[(&str, u32)] = &[
     // floor 4: linear algebra of the KKT system, event specs (data)
     ("kkt", 4),
     ("events", 4),
+    // a model read from text (implements the trait)
+    ("text", 4),
     // floor 5: the equations a run integrates
     ("formulation", 5),
     // floor 6: the step loop

@@ -47,3 +47,4 @@ mod snakeboard;
 mod stiff;
 mod sweep;
 mod testing;
+mod text_models;

@@ -62,6 +62,7 @@ pub mod problem;
 pub mod scalar;
 pub mod settings;
 pub mod simulate;
+pub mod text;
 
 pub use effects::{Effect, EffectSpec};
 pub use erased::AnyModel;

@@ -40,6 +40,37 @@ pub trait Scalar:
     fn powi(self, n: i32) -> Self;
     /// Reciprocal `1 / self`.
     fn recip(self) -> Self;
+    /// Runs `f` on `len` values of scratch space kept per thread and per
+    /// scalar type (grown, never shrunk, when a thread first needs that
+    /// many): the registers of a model read from text
+    /// (`text::RuntimeModel`), so that its evaluations do not
+    /// allocate. The values on entry are whatever the last user left.
+    #[doc(hidden)]
+    fn with_scratch<R>(len: usize, f: impl FnOnce(&mut [Self]) -> R) -> R;
+}
+
+/// [`Scalar::with_scratch`] on the thread-local buffer `cell`: taken out
+/// while `f` runs (a nested call gets a buffer of its own), put back after.
+fn scratch_in<T: Copy + 'static, R>(
+    cell: &'static std::thread::LocalKey<std::cell::Cell<Vec<T>>>,
+    zero: T,
+    len: usize,
+    f: impl FnOnce(&mut [T]) -> R,
+) -> R {
+    cell.with(|c| {
+        let mut buf = c.take();
+        if buf.len() < len {
+            buf.resize(len, zero);
+        }
+        let out = f(&mut buf[..len]);
+        c.set(buf);
+        out
+    })
+}
+
+thread_local! {
+    static SCRATCH_F64: std::cell::Cell<Vec<f64>> = const { std::cell::Cell::new(Vec::new()) };
+    static SCRATCH_DUAL: std::cell::Cell<Vec<num_dual::Dual64>> = const { std::cell::Cell::new(Vec::new()) };
 }
 
 mod sealed {
@@ -89,6 +120,9 @@ impl Scalar for f64 {
     fn recip(self) -> Self {
         f64::recip(self)
     }
+    fn with_scratch<R>(len: usize, f: impl FnOnce(&mut [Self]) -> R) -> R {
+        scratch_in(&SCRATCH_F64, 0.0, len, f)
+    }
 }
 
 impl Scalar for num_dual::Dual64 {
@@ -115,5 +149,8 @@ impl Scalar for num_dual::Dual64 {
     }
     fn recip(self) -> Self {
         num_dual::DualNum::recip(&self)
+    }
+    fn with_scratch<R>(len: usize, f: impl FnOnce(&mut [Self]) -> R) -> R {
+        scratch_in(&SCRATCH_DUAL, Self::from_f64(0.0), len, f)
     }
 }

@@ -105,8 +105,71 @@ fn check_index(errs: &mut Errors, def: &ModelDef, a: &Affine) {
     }
 }
 
+/// The value of `a` at loop value `v` and the counts' declared values
+/// (`None` where it names a count that does not exist).
+fn value_at(def: &ModelDef, a: &Affine, v: i64) -> Option<i64> {
+    let count = match &a.count {
+        Some(n) => def.counts.iter().find(|c| c.name == *n)?.value,
+        None => 0,
+    };
+    Some(a.c + count + if a.var { v } else { 0 })
+}
+
+/// The range `start..end` of family `f` at the counts' declared values.
+fn range_at(def: &ModelDef, f: usize) -> Option<(i64, i64)> {
+    let fam = &def.families[f];
+    Some((value_at(def, &fam.start, 0)?, value_at(def, &fam.end, 0)?))
+}
+
+/// Checks that the element `a` of family `f`, named by an item of family
+/// `within` (or a single item), exists at the counts' declared values
+/// for every element of `within`: the first and the last suffice, the
+/// index being `v + constant`. (At other counts the model's
+/// `check_counts` checks it again.)
+fn check_in_range(
+    errs: &mut Errors,
+    def: &ModelDef,
+    owner: &str,
+    name: &Ident,
+    a: &Affine,
+    f: usize,
+    within: Option<usize>,
+) {
+    let Some((start, end)) = range_at(def, f) else { return };
+    let values: Vec<i64> = match within {
+        Some(w) if a.var => match range_at(def, w) {
+            Some((s, e)) if e > s => vec![s, e - 1],
+            _ => return,
+        },
+        _ => vec![0],
+    };
+    let var = within.map(|w| def.families[w].var.to_string()).unwrap_or_default();
+    for v in values {
+        let Some(value) = value_at(def, a, v) else { return };
+        if value < start || value >= end {
+            let counts: Vec<String> = def.counts.iter().map(|c| format!("{} = {}", c.name, c.value)).collect();
+            let at = if a.var { format!(" at {var} = {v}") } else { String::new() };
+            let fam = &def.families[f];
+            errs.push(syn::Error::new(
+                a.span,
+                format!(
+                    "{owner} refers to `{name}[{}]` = {name}{value}{at}, which does not exist: {name} has elements {start}..{end} ({}..{}, with {})",
+                    a.show(&var),
+                    fam.start.show(""),
+                    fam.end.show(""),
+                    if counts.is_empty() { "no count".to_string() } else { counts.join(", ") },
+                ),
+            ));
+            return;
+        }
+    }
+}
+
 /// Resolves `r` among items named `names` whose families are `families`:
-/// an element of a family needs an index, a single item none.
+/// an element of a family needs an index (one that exists at the
+/// declared counts, for every element of the family `within` the
+/// reference is made in), a single item none.
+#[expect(clippy::too_many_arguments, reason = "the reference, where it is made, and what it may name")]
 fn resolve(
     errs: &mut Errors,
     def: &ModelDef,
@@ -115,6 +178,7 @@ fn resolve(
     r: &Ref,
     names: &[String],
     families: &[Option<usize>],
+    within: Option<usize>,
 ) -> usize {
     let Some(i) = names.iter().position(|n| r.name == n) else {
         let plural = if kind == "body" { "bodies".to_string() } else { format!("{kind}s") };
@@ -122,7 +186,10 @@ fn resolve(
         return usize::MAX;
     };
     match (&r.index, families[i]) {
-        (Some(a), Some(_)) => check_index(errs, def, a),
+        (Some(a), Some(f)) => {
+            check_index(errs, def, a);
+            check_in_range(errs, def, owner, &r.name, a, f, within);
+        }
         (None, Some(f)) => errs.at(
             &r.name,
             format!(
@@ -158,19 +225,23 @@ pub fn check(def: &ModelDef, errs: &mut Errors) -> Resolved {
         drive_hinge: Vec::new(),
         skate_point: Vec::new(),
     };
-    let hinge_points =
-        def.hinges.iter().map(|h| joint(errs, &lookup, &res_points, "hinge", &h.name, &h.point, &h.target)).collect();
+    let hinge_points = def
+        .hinges
+        .iter()
+        .map(|h| joint(errs, &lookup, &res_points, ("hinge", &h.name, h.family), &h.point, &h.target))
+        .collect();
     let slider_points = def
         .sliders
         .iter()
         .map(|s| {
             let kind = if s.heading { "slider" } else { "slot" };
-            joint(errs, &lookup, &res_points, kind, &s.name, &s.point, &s.target)
+            joint(errs, &lookup, &res_points, (kind, &s.name, s.family), &s.point, &s.target)
         })
         .collect();
     let hinge_names: Vec<String> = def.hinges.iter().map(|h| h.name.to_string()).collect();
     let drive_hinge = def.drives.iter().map(|d| drive_hinge(errs, def, &hinge_names, d)).collect();
-    let skate_point = def.skates.iter().map(|s| lookup.point(errs, &format!("skate `{}`", s.name), &s.point)).collect();
+    let skate_point =
+        def.skates.iter().map(|s| lookup.point(errs, &format!("skate `{}`", s.name), &s.point, s.family)).collect();
     Resolved { point_body, point_body_index, hinge_points, slider_points, drive_hinge, skate_point }
 }
 
@@ -236,9 +307,10 @@ struct Lookup<'a> {
 }
 
 impl Lookup<'_> {
-    /// Resolves a reference to a point of `owner`.
-    fn point(&self, errs: &mut Errors, owner: &str, r: &Ref) -> PointRef {
-        (resolve(errs, self.def, "point", owner, r, &self.point_names, &self.point_families), r.index.clone())
+    /// Resolves a reference to a point of `owner`, an item of family
+    /// `within` (or a single item).
+    fn point(&self, errs: &mut Errors, owner: &str, r: &Ref, within: Option<usize>) -> PointRef {
+        (resolve(errs, self.def, "point", owner, r, &self.point_names, &self.point_families, within), r.index.clone())
     }
 }
 
@@ -250,7 +322,7 @@ fn point_bodies(def: &ModelDef, lookup: &Lookup, errs: &mut Errors) -> (Vec<usiz
     let mut point_body_index = Vec::with_capacity(def.points.len());
     for p in &def.points {
         let owner = format!("point `{}`", p.name);
-        let b = resolve(errs, def, "body", &owner, &p.body, &lookup.body_names, &lookup.body_families);
+        let b = resolve(errs, def, "body", &owner, &p.body, &lookup.body_names, &lookup.body_families, p.family);
         point_body.push(b);
         let exact = p.body.index.as_ref().is_some_and(|a| a.var && a.count.is_none() && a.c == 0);
         match p.family {
@@ -278,17 +350,16 @@ fn joint(
     errs: &mut Errors,
     lookup: &Lookup,
     res_points: &Resolved,
-    kind: &str,
-    name: &Ident,
+    (kind, name, within): (&str, &Ident, Option<usize>),
     point: &Ref,
     target: &HingeTarget,
 ) -> (PointRef, Option<PointRef>) {
     let (def, point_body) = (lookup.def, &res_points.point_body);
     let owner = format!("{kind} `{name}`");
-    let a = lookup.point(errs, &owner, point);
+    let a = lookup.point(errs, &owner, point, within);
     let b = match target {
         HingeTarget::Point(p) => {
-            let b = lookup.point(errs, &owner, p);
+            let b = lookup.point(errs, &owner, p, within);
             if a.0 != usize::MAX && b.0 != usize::MAX {
                 let same_point = a.0 == b.0
                     && match (&a.1, &b.1) {

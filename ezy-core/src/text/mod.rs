@@ -1,0 +1,333 @@
+//! A model read from text at run time: [`RuntimeModel`], floor 4 of the
+//! runtime.
+//!
+//! The text is what goes between the braces of `model! { ... }` (a
+//! `.ezy` file holds exactly that). It is parsed, checked and derived by
+//! the engine `model!` uses (the `ezy-lang` crate: one grammar, the same
+//! messages), and each derived expression is lowered once to a tape
+//! (straight-line code for a register machine, [`tape`]) that evaluates
+//! over `f64` and over dual numbers. A family (`for`) is one element
+//! kernel looped over its elements at the current counts, as in compiled
+//! code, so parameters and counts stay parameters: a sweep changes them
+//! without deriving anything again.
+
+mod describe;
+mod layout;
+mod plan;
+mod tape;
+
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+
+use crate::model::Model;
+use crate::model::info::{Equations, ModelInfo};
+use crate::scalar::Scalar;
+use layout::Layout;
+use plan::{GroupPlan, Plan};
+use tape::{Inputs, Tape};
+
+/// The largest model text read \[bytes\]: 4 MiB (the built-in models are
+/// 1-4 kB).
+pub const MAX_TEXT_BYTES: u64 = 4 << 20;
+
+/// One mistake in a model's text, where it is.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct TextMistake {
+    /// Line, from 1.
+    pub line: usize,
+    /// Column, from 1, in characters.
+    pub column: usize,
+    /// What is wrong: the message `model!` gives as a compile error.
+    pub message: String,
+}
+
+/// Why a model could not be read from text.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum ModelTextError {
+    /// The file could not be read (or is too large to be a model).
+    #[error("cannot read model file {}: {reason}", file.display())]
+    Read {
+        /// The file.
+        file: PathBuf,
+        /// Why.
+        reason: String,
+    },
+    /// The text has mistakes: every one found, each located.
+    #[error("{}", show_mistakes(file.as_deref(), mistakes))]
+    Mistakes {
+        /// The file, if the text came from one.
+        file: Option<PathBuf>,
+        /// Every mistake, in the order found.
+        mistakes: Vec<TextMistake>,
+    },
+}
+
+/// `file:line:column: message` per mistake (`line:column: ...` without a
+/// file), one per line.
+fn show_mistakes(file: Option<&Path>, mistakes: &[TextMistake]) -> String {
+    let at = |m: &TextMistake| match file {
+        Some(f) => format!("{}:{}:{}", f.display(), m.line, m.column),
+        None => format!("line {}, column {}", m.line, m.column),
+    };
+    let lines: Vec<String> = mistakes.iter().map(|m| format!("{}: {}", at(m), m.message)).collect();
+    lines.join("\n")
+}
+
+/// A model read from text at run time, derived by the engine `model!`
+/// uses and evaluated by tapes: it implements [`Model`], so it runs
+/// wherever a compiled model does ([`crate::Problem`],
+/// [`crate::AnyModel`], every formulation and analysis). Cloning it
+/// shares the derived code.
+///
+/// It has no minimal coordinates yet ([`Model::minimal_layout`] says
+/// so): its runs take the KKT and reduced formulations.
+///
+/// ```
+/// use ezy_core::Model;
+/// use ezy_core::text::RuntimeModel;
+/// let m = RuntimeModel::from_text("
+///     pub struct Pendulum {
+///         param L = 1.0;
+///         body bob(x, y, phi) { mass: 1.0, inertia: 0.1 }
+///         point O on bob at (-L, 0);
+///         hinge O: O = ground(0, 0);
+///     }").unwrap();
+/// let mut phi = [0.0; 2];
+/// m.phi(&[1.0, 0.0, 0.0], &mut phi); // the bob hangs 1 m right of O
+/// assert_eq!(phi, [0.0, 0.0]);
+/// ```
+#[derive(Clone, Debug)]
+pub struct RuntimeModel {
+    plan: Arc<Plan>,
+    /// Parameter values: the reals, then the counts.
+    values: Vec<f64>,
+    layout: Arc<Layout>,
+}
+
+impl RuntimeModel {
+    /// Reads, checks and derives the model `text` (what goes between the
+    /// braces of `model! { ... }`).
+    ///
+    /// # Errors
+    /// [`ModelTextError::Mistakes`] with every mistake found, each at its
+    /// line and column, in the words of `model!`'s compile errors.
+    pub fn from_text(text: &str) -> Result<Self, ModelTextError> {
+        Self::read(text, None)
+    }
+
+    /// Reads the model file `path` (a `.ezy` file: the text of a
+    /// [`RuntimeModel::from_text`]).
+    ///
+    /// # Errors
+    /// [`ModelTextError::Read`] if it cannot be read or is larger than
+    /// [`MAX_TEXT_BYTES`]; [`ModelTextError::Mistakes`] with the file's
+    /// name on each mistake.
+    pub fn from_file(path: &Path) -> Result<Self, ModelTextError> {
+        let fail = |reason: String| ModelTextError::Read { file: path.to_path_buf(), reason };
+        let meta = std::fs::metadata(path).map_err(|e| fail(e.to_string()))?;
+        if meta.len() > MAX_TEXT_BYTES {
+            return Err(fail(format!("it has {} bytes; a model file has at most {MAX_TEXT_BYTES}", meta.len())));
+        }
+        let text = std::fs::read_to_string(path).map_err(|e| fail(e.to_string()))?;
+        Self::read(&text, Some(path))
+    }
+
+    fn read(text: &str, file: Option<&Path>) -> Result<Self, ModelTextError> {
+        let mistakes =
+            |m: Vec<TextMistake>| ModelTextError::Mistakes { file: file.map(Path::to_path_buf), mistakes: m };
+        if text.len() as u64 > MAX_TEXT_BYTES {
+            let message = format!("the text has {} bytes; a model has at most {MAX_TEXT_BYTES}", text.len());
+            return Err(mistakes(vec![TextMistake { line: 1, column: 1, message }]));
+        }
+        let derived = ezy_lang::derive_text(text).map_err(|e| {
+            mistakes(
+                e.into_iter()
+                    .map(|e| {
+                        let at = e.span().start();
+                        TextMistake { line: at.line.max(1), column: at.column + 1, message: e.to_string() }
+                    })
+                    .collect(),
+            )
+        })?;
+        let plan =
+            Plan::new(&derived).map_err(|message| mistakes(vec![TextMistake { line: 1, column: 1, message }]))?;
+        let values: Vec<f64> = plan.params.iter().map(|p| p.default).collect();
+        let layout = Layout::new(&plan, &counts_of(&plan, &values));
+        Ok(Self { plan: Arc::new(plan), values, layout: Arc::new(layout) })
+    }
+
+    /// Operations in the model's tapes (how much code its text became).
+    pub fn operations(&self) -> usize {
+        self.plan.ops()
+    }
+
+    /// Runs `f` once per element of each group `pick` gives a tape for,
+    /// with the tape, the element's row and value offsets, and the
+    /// registers filled.
+    fn each_group<S: Scalar>(
+        &self,
+        q: &[S],
+        qd: &[S],
+        pick: fn(&GroupPlan) -> Option<&Tape>,
+        mut write: impl FnMut(&GroupPlan, usize, usize, usize, S),
+    ) {
+        let (plan, l) = (&*self.plan, &*self.layout);
+        S::with_scratch(plan.registers, |regs| {
+            for (gi, g) in plan.groups.iter().enumerate() {
+                let Some(tape) = pick(g).filter(|_| !g.slots.is_empty()) else { continue };
+                let mut cols = [0usize; plan::MAX_SLOTS];
+                let mut ix = [0.0f64; plan::MAX_INDICES];
+                for (e, v) in l.elements(g.family) {
+                    for (c, s) in cols.iter_mut().zip(&g.slots) {
+                        *c = l.body_column(plan, s, v);
+                    }
+                    for (x, a) in ix.iter_mut().zip(&g.indices) {
+                        *x = a.at(v, &l.counts) as f64;
+                    }
+                    let (rb, vb) = (l.row[gi] + e * g.rows, l.val[gi] + e * g.pattern.len());
+                    let x = Inputs { params: &self.values, indices: &ix, cols: &cols, q, qd };
+                    tape.eval(&x, regs, |j, x| write(g, rb, vb, j, x));
+                }
+            }
+        });
+    }
+
+    /// Runs a point tape (`pick`) for every point element, writing its two
+    /// outputs to `out[2 k]`, `out[2 k + 1]` (`k` the element's index
+    /// among all points).
+    fn each_point<S: Scalar>(&self, q: &[S], qd: &[S], out: &mut [S], pick: impl Fn(&plan::PointPlan) -> &Tape) {
+        let (plan, l) = (&*self.plan, &*self.layout);
+        S::with_scratch(plan.registers, |regs| {
+            for (pi, p) in plan.points.iter().enumerate() {
+                for (e, v) in l.elements(p.family) {
+                    let cols = [l.body_column(plan, &p.body, v)];
+                    let k = 2 * (l.point_index[pi] + e);
+                    let x = Inputs { params: &self.values, indices: &[v as f64], cols: &cols, q, qd };
+                    pick(p).eval(&x, regs, |j, x| out[k + j] = x);
+                }
+            }
+        });
+    }
+}
+
+/// The counts among `values` (the real parameters first).
+fn counts_of(plan: &Plan, values: &[f64]) -> Vec<i64> {
+    values[plan.n_real..].iter().map(|&c| c as i64).collect()
+}
+
+impl Model for RuntimeModel {
+    fn info(&self) -> ModelInfo {
+        describe::info(&self.plan, &self.layout)
+    }
+
+    fn equations(&self) -> Equations {
+        describe::equations(&self.plan, &self.layout)
+    }
+
+    fn check_counts(&self) -> Result<(), String> {
+        describe::check_counts(&self.plan, &self.layout, &self.values)
+    }
+
+    fn param(&self, index: usize) -> f64 {
+        match self.values.get(index) {
+            Some(&v) => v,
+            None => panic!("parameter index {index} out of range"),
+        }
+    }
+
+    fn set_param(&mut self, index: usize, value: f64) {
+        assert!(index < self.values.len(), "parameter index {index} out of range");
+        if index >= self.plan.n_real {
+            let name = self.plan.params[index].name;
+            assert!(
+                value >= 1.0 && value.fract() == 0.0 && value <= 1e9,
+                "count `{name}` must be a whole number >= 1, got {value}"
+            );
+            self.values[index] = value;
+            self.layout = Arc::new(Layout::new(&self.plan, &counts_of(&self.plan, &self.values)));
+        } else {
+            self.values[index] = value;
+        }
+    }
+
+    fn mass_diagonal(&self, out: &mut [f64]) {
+        let (plan, l) = (&*self.plan, &*self.layout);
+        f64::with_scratch(plan.registers, |regs| {
+            for (bi, b) in plan.bodies.iter().enumerate() {
+                for (e, v) in l.elements(b.family) {
+                    let k = l.body_off[bi] + 3 * e;
+                    b.mass.eval(&Inputs::fixed(&self.values, &[v as f64]), regs, |j, x| out[k + j] = x);
+                }
+            }
+        });
+    }
+
+    fn local_geometry(&self, points: &mut [f64], blades: &mut [f64]) {
+        let (plan, l) = (&*self.plan, &*self.layout);
+        f64::with_scratch(plan.registers, |regs| {
+            for (pi, p) in plan.points.iter().enumerate() {
+                for (e, v) in l.elements(p.family) {
+                    let k = 2 * (l.point_index[pi] + e);
+                    p.local.eval(&Inputs::fixed(&self.values, &[v as f64]), regs, |j, x| points[k + j] = x);
+                }
+            }
+            for (gi, tape) in &plan.blades {
+                for (e, v) in l.elements(plan.groups[*gi].family) {
+                    let k = 2 * (l.item_index[*gi] + e);
+                    tape.eval(&Inputs::fixed(&self.values, &[v as f64]), regs, |j, x| blades[k + j] = x);
+                }
+            }
+        });
+    }
+
+    fn phi<S: Scalar>(&self, q: &[S], phi: &mut [S]) {
+        self.each_group(q, &[], |g| g.holonomic().then_some(&g.phi), |_, rb, _, j, x| phi[rb + j] = x);
+    }
+
+    fn holonomic_jacobian<S: Scalar>(&self, q: &[S], values: &mut [S]) {
+        self.each_group(q, &[], |g| g.holonomic().then_some(&g.g), |_, _, vb, j, x| values[vb + j] = x);
+    }
+
+    fn constraint_matrix<S: Scalar>(&self, q: &[S], values: &mut [S]) {
+        self.each_group(q, &[], |g| Some(&g.g), |_, _, vb, j, x| values[vb + j] = x);
+    }
+
+    fn phi_and_constraint_matrix<S: Scalar>(&self, q: &[S], phi: &mut [S], values: &mut [S]) {
+        self.each_group(
+            q,
+            &[],
+            |g| Some(&g.phi_g),
+            |g, rb, vb, j, x| {
+                let nr = if g.holonomic() { g.rows } else { 0 };
+                if j < nr { phi[rb + j] = x } else { values[vb + j - nr] = x }
+            },
+        );
+    }
+
+    fn constraint_terms<S: Scalar>(&self, q: &[S], qd: &[S], values: &mut [S], gamma: &mut [S]) {
+        self.each_group(
+            q,
+            qd,
+            |g| Some(&g.terms),
+            |g, rb, vb, j, x| {
+                let nnz = g.pattern.len();
+                if j < nnz { values[vb + j] = x } else { gamma[rb + j - nnz] = x }
+            },
+        );
+    }
+
+    fn points<S: Scalar>(&self, q: &[S], out: &mut [S]) {
+        self.each_point(q, &[], out, |p| &p.pos);
+    }
+
+    fn point_velocities<S: Scalar>(&self, q: &[S], qd: &[S], out: &mut [S]) {
+        self.each_point(q, qd, out, |p| &p.vel);
+    }
+
+    fn minimal_layout(&self) -> Result<crate::model::info::MinimalLayout, String> {
+        Err(format!(
+            "model {} was read from text, and ezy derives minimal coordinates only for compiled models yet",
+            self.plan.name
+        ))
+    }
+}

@@ -1,0 +1,214 @@
+//! Models read from text at run time (`ezy_core::text::RuntimeModel`)
+//! against the same models compiled by `model!`: every built-in model's
+//! text, taken from its source file, gives the same description, the
+//! same equations and the same numbers.
+
+use ezy_core::text::RuntimeModel;
+use ezy_core::{AnyModel, Model};
+use num_dual::Dual64;
+
+/// The text inside each `model! { ... }` of the models crate's sources.
+fn builtin_texts() -> Vec<String> {
+    let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("models/src");
+    let mut texts = Vec::new();
+    for entry in std::fs::read_dir(&dir).unwrap() {
+        let src = std::fs::read_to_string(entry.unwrap().path()).unwrap();
+        let mut rest = src.as_str();
+        while let Some(i) = rest.find("model! {") {
+            let body = &rest[i + "model! {".len()..];
+            let mut depth = 1;
+            let end = body
+                .char_indices()
+                .find(|&(_, c)| {
+                    depth += match c {
+                        '{' => 1,
+                        '}' => -1,
+                        _ => 0,
+                    };
+                    depth == 0
+                })
+                .map(|(j, _)| j)
+                .unwrap();
+            texts.push(body[..end].to_string());
+            rest = &body[end..];
+        }
+    }
+    texts
+}
+
+/// The text of the built-in model `name` (its struct's name).
+fn text_of(name: &str) -> String {
+    let texts = builtin_texts();
+    let pat = format!("struct {name} ");
+    texts.into_iter().find(|t| t.contains(&pat)).unwrap_or_else(|| panic!("no model! text for {name}"))
+}
+
+/// A reproducible number in `[-1, 1)`.
+struct Lcg(u64);
+impl Lcg {
+    fn next(&mut self) -> f64 {
+        self.0 = self.0.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+        (self.0 >> 11) as f64 / (1u64 << 52) as f64 - 1.0
+    }
+}
+
+/// Largest `|a - b| / max(|a|, |b|, 1)` over two slices.
+fn worst(a: &[f64], b: &[f64]) -> f64 {
+    assert_eq!(a.len(), b.len());
+    a.iter().zip(b).map(|(x, y)| (x - y).abs() / x.abs().max(y.abs()).max(1.0)).fold(0.0, f64::max)
+}
+
+/// Every function of `Model` of `compiled` and `text` at `states` random
+/// states: the largest relative difference over them.
+fn compare(compiled: &AnyModel, text: &RuntimeModel, states: usize) -> f64 {
+    let info = compiled.info();
+    assert_eq!(info, text.info(), "{}: the descriptions differ", info.name);
+    assert_eq!(compiled.check_counts(), text.check_counts());
+    let (ce, te) = (compiled.equations(), text.equations());
+    assert_eq!(format!("{ce:?}"), format!("{te:?}"), "{}: the equations differ", info.name);
+    let (nq, nc, nh, nnz, np) = (info.nq(), info.nc(), info.n_holonomic, info.pattern.len(), info.points.len());
+    let nnz_h = info.n_holonomic_nonzeros();
+    let mut w: f64 = 0.0;
+    let two = |m: &dyn Fn(&mut [f64], &mut [f64]), n1: usize, n2: usize| {
+        let (mut a, mut b) = (vec![0.0; n1], vec![0.0; n2]);
+        m(&mut a, &mut b);
+        [a, b].concat()
+    };
+    w = w.max(worst(&two(&|a, _| compiled.mass_diagonal(a), nq, 0), &two(&|a, _| text.mass_diagonal(a), nq, 0)));
+    let ns = info.skates.len();
+    w = w.max(worst(
+        &two(&|a, b| compiled.local_geometry(a, b), 2 * np, 2 * ns),
+        &two(&|a, b| text.local_geometry(a, b), 2 * np, 2 * ns),
+    ));
+    let mut rng = Lcg(7);
+    for _ in 0..states {
+        let q: Vec<f64> = (0..nq).map(|_| 3.0 * rng.next()).collect();
+        let qd: Vec<f64> = (0..nq).map(|_| 3.0 * rng.next()).collect();
+        type Pair<'a> = (
+            &'a dyn Fn(&AnyModel, &mut [f64], &mut [f64]),
+            &'a dyn Fn(&RuntimeModel, &mut [f64], &mut [f64]),
+            usize,
+            usize,
+        );
+        let cases: [Pair; 7] = [
+            (&|m, a, _| m.phi(&q, a), &|m, a, _| m.phi(&q, a), nh, 0),
+            (&|m, a, _| m.holonomic_jacobian(&q, a), &|m, a, _| m.holonomic_jacobian(&q, a), nnz_h, 0),
+            (&|m, a, _| m.constraint_matrix(&q, a), &|m, a, _| m.constraint_matrix(&q, a), nnz, 0),
+            (
+                &|m, a, b| m.phi_and_constraint_matrix(&q, a, b),
+                &|m, a, b| m.phi_and_constraint_matrix(&q, a, b),
+                nh,
+                nnz,
+            ),
+            (&|m, a, b| m.constraint_terms(&q, &qd, a, b), &|m, a, b| m.constraint_terms(&q, &qd, a, b), nnz, nc),
+            (&|m, a, _| m.points(&q, a), &|m, a, _| m.points(&q, a), 2 * np, 0),
+            (&|m, a, _| m.point_velocities(&q, &qd, a), &|m, a, _| m.point_velocities(&q, &qd, a), 2 * np, 0),
+        ];
+        for (c, t, n1, n2) in cases {
+            w = w.max(worst(&two(&|a, b| c(compiled, a, b), n1, n2), &two(&|a, b| t(text, a, b), n1, n2)));
+        }
+        // over dual numbers: the derivative along a random direction
+        let dir: Vec<f64> = (0..nq).map(|_| rng.next()).collect();
+        let qx: Vec<Dual64> = q.iter().zip(&dir).map(|(&x, &d)| Dual64::new(x, d)).collect();
+        let qdx: Vec<Dual64> = qd.iter().map(|&x| Dual64::new(x, 0.0)).collect();
+        let zero = Dual64::new(0.0, 0.0);
+        let (mut cv, mut cg, mut tv, mut tg) = (vec![zero; nnz], vec![zero; nc], vec![zero; nnz], vec![zero; nc]);
+        compiled.constraint_terms(&qx, &qdx, &mut cv, &mut cg);
+        text.constraint_terms(&qx, &qdx, &mut tv, &mut tg);
+        let parts = |v: &[Dual64]| -> Vec<f64> { v.iter().flat_map(|d| [d.re, d.eps]).collect() };
+        w = w.max(worst(&[parts(&cv), parts(&cg)].concat(), &[parts(&tv), parts(&tg)].concat()));
+    }
+    w
+}
+
+/// Every built-in model, its `model!` text read at run time, against the
+/// compiled one at 100 random states.
+#[test]
+fn every_builtin_model_read_from_text_matches_the_compiled_one() {
+    let models: Vec<(&str, AnyModel)> = vec![
+        ("EzyRoller", AnyModel::new(ezy_models::EzyRoller::default())),
+        ("EzyRollerDriven", AnyModel::new(ezy_models::EzyRollerDriven::default())),
+        ("ChaplyginSleigh", AnyModel::new(ezy_models::ChaplyginSleigh::default())),
+        ("Trailer", AnyModel::new(ezy_models::Trailer::default())),
+        ("Snake", AnyModel::new(ezy_models::Snake::default())),
+        ("SnakeDriven", AnyModel::new(ezy_models::SnakeDriven::default())),
+        ("SnakeServo", AnyModel::new(ezy_models::SnakeServo::default())),
+        ("Snakeboard", AnyModel::new(ezy_models::Snakeboard::default())),
+        ("FourBar", AnyModel::new(ezy_models::FourBar::default())),
+        ("ElasticFourBar", AnyModel::new(ezy_models::ElasticFourBar::default())),
+        ("SliderCrank", AnyModel::new(ezy_models::SliderCrank::default())),
+        ("DoublePendulum", AnyModel::new(ezy_models::DoublePendulum::default())),
+        ("Pendulum", AnyModel::new(ezy_models::Pendulum::default())),
+        ("NFourBar", AnyModel::new(ezy_models::NFourBar::default())),
+    ];
+    let mut report = Vec::new();
+    for (name, compiled) in models {
+        let text = RuntimeModel::from_text(&text_of(name)).unwrap_or_else(|e| panic!("{name}: {e}"));
+        let mut w = compare(&compiled, &text, 100);
+        report.push(format!("{name}: {w:.1e}"));
+        // a model with families at other counts too: 7, and a 40-link one
+        let counts: Vec<usize> =
+            (0..compiled.info().params.len()).filter(|&i| compiled.info().params[i].count).collect();
+        for n in [7.0, 40.0] {
+            let (mut compiled, mut text) = (compiled.clone(), text.clone());
+            for &i in &counts {
+                compiled.set_param(i, n);
+                text.set_param(i, n);
+            }
+            if !counts.is_empty() {
+                let wn = compare(&compiled, &text, 10);
+                report.push(format!("{name} at counts {n}: {wn:.1e}"));
+                w = w.max(wn);
+            }
+        }
+        // the static models' straight-line code sums some terms in another
+        // order than the element kernels do (one rounding, 2.2e-16 at most
+        // measured); the family models' kernels are the same code, bit for
+        // bit
+        assert!(w <= 4.0 * f64::EPSILON, "{}", report.join("\n"));
+    }
+    eprintln!("{}", report.join("\n"));
+}
+
+/// A model with a mistake in each of its parts: every one reported in one
+/// reading, each at its line and column, in `model!`'s words.
+#[test]
+fn every_mistake_in_a_text_is_located() {
+    let text = "
+        pub struct Broken {
+            count N = 3;
+            param L = 1.0;
+            body a(x, y, phi) { mass: 1.0, inertia: 0.1 }
+            point P on wheel at (L, 0);
+            point Q on a at (0, 0);
+            point R on a at (L, 0);
+            hinge H: Q = R;
+            skate S: Q along (0, 0);
+            for i in 1..N + 1 {
+                body link[i](xl, yl, pl) { mass: 1.0, inertia: 0.1 }
+                point E[i] on link[i] at (L, 0);
+            }
+            for i in 2..N + 1 {
+                hinge K[i]: E[i] = E[i + 5];
+            }
+        }";
+    let e = RuntimeModel::from_text(text).expect_err("five mistakes");
+    let ezy_core::text::ModelTextError::Mistakes { mistakes, .. } = &e else { panic!("{e}") };
+    let shown = e.to_string();
+    eprintln!("{shown}");
+    // where each is: the line and the token the column points at
+    let at = |m: &ezy_core::text::TextMistake| {
+        let line = text.lines().nth(m.line - 1).unwrap();
+        line.chars().skip(m.column - 1).take_while(|c| c.is_alphanumeric() || *c == '(').collect::<String>()
+    };
+    let mut found: Vec<(usize, String)> = mistakes.iter().map(|m| (m.line, at(m))).collect();
+    found.sort();
+    // the unknown body, the hinge's second point on the first's body, the
+    // skate's zero blade, the family index past the family's end (the
+    // first token of each)
+    let want = [(6, "wheel"), (9, "R"), (10, "(0"), (16, "i")];
+    assert_eq!(found, want.map(|(l, t)| (l, t.to_string())), "{shown}");
+    for words in ["unknown body `wheel`", "same body `a`", "zero blade direction", "`E[i + 5]` = E7 at i = 2"] {
+        assert!(shown.contains(words), "{words}: {shown}");
+    }
+}
