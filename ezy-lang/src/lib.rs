@@ -18,6 +18,7 @@ pub mod check;
 pub mod kinematics;
 pub mod minimal;
 pub mod parse;
+pub mod straight;
 pub mod sym;
 
 /// A model checked and derived: what a back end (the macro's Rust, a

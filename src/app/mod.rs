@@ -40,6 +40,11 @@ pub use scenes::LoadError;
 use scenes::SceneEntry;
 pub(crate) use scenes::is_scene_path;
 
+/// Whether a model key is the path of a model file: it ends in `.ezy`.
+pub(crate) fn is_model_path(key: &str) -> bool {
+    key.ends_with(".ezy")
+}
+
 /// Why a command could not be carried out.
 #[derive(Debug, thiserror::Error)]
 pub enum AppError {
@@ -93,6 +98,8 @@ pub struct App {
     scenes: Vec<SceneEntry>,
     default_scene: String,
     errors: Vec<String>,
+    /// Models read from `.ezy` files, by the path given (shared by clones).
+    file_models: std::sync::Arc<std::sync::Mutex<Vec<(String, AnyModel)>>>,
 }
 
 impl Default for App {
@@ -115,13 +122,7 @@ impl std::fmt::Debug for App {
 
 impl Register for App {
     fn register<M: Model + Default + 'static>(&mut self, key: &str) {
-        if self.models.iter().any(|(k, _)| k == key) {
-            self.errors.push(format!("model key `{key}` is registered twice"));
-        } else if key.is_empty() || key.chars().any(char::is_whitespace) {
-            self.errors.push(format!("model key `{key}` must be non-empty and without spaces"));
-        } else {
-            self.models.push((key.to_string(), AnyModel::new(M::default())));
-        }
+        self.add(key, AnyModel::new(M::default()));
     }
 }
 
@@ -130,13 +131,19 @@ impl ModelCatalog for App {
         self.models.iter().map(|(k, _)| k.as_str()).collect()
     }
     fn info_with(&self, key: &str, params: &[(String, f64)]) -> Option<Result<ModelInfo, SceneError>> {
-        self.registered(key).map(|model| info_of(model, params))
+        self.model_for(key).map(|model| {
+            let model = model.map_err(|message| SceneError { path: vec!["model".into()], message })?;
+            info_of(&model, params)
+        })
     }
     fn effect_kinds(&self) -> Option<&EffectKinds> {
         Some(&self.kinds)
     }
     fn check_user_effects(&self, key: &str, checked: &ezy_scene::Checked) -> Result<(), SceneError> {
-        self.registered(key).map_or(Ok(()), |model| ezy_scene::registry::check_user_effects(model, checked))
+        match self.model_for(key) {
+            Some(Ok(model)) => ezy_scene::registry::check_user_effects(&model, checked),
+            _ => Ok(()),
+        }
     }
 }
 
@@ -161,6 +168,7 @@ impl App {
             scenes: Vec::new(),
             default_scene: String::new(),
             errors: Vec::new(),
+            file_models: Default::default(),
         }
     }
 
@@ -172,6 +180,15 @@ impl App {
     #[must_use]
     pub fn model<M: Model + Default + 'static>(mut self, key: &str) -> Self {
         self.register::<M>(key);
+        self
+    }
+
+    /// Adds `model` as it is (its parameters and counts) under `key`: a
+    /// model value rather than a type, such as one read from text
+    /// ([`ezy_core::text::RuntimeModel`]). Otherwise as [`App::model`].
+    #[must_use]
+    pub fn model_value(mut self, key: &str, model: impl Model) -> Self {
+        self.add(key, AnyModel::new(model));
         self
     }
 
@@ -215,8 +232,51 @@ impl App {
         self
     }
 
+    /// Adds `model` under `key`, or keeps the mistake (a key given twice,
+    /// empty, with spaces, or naming a model file) for every command to
+    /// report.
+    fn add(&mut self, key: &str, model: AnyModel) {
+        if self.models.iter().any(|(k, _)| k == key) {
+            self.errors.push(format!("model key `{key}` is registered twice"));
+        } else if key.is_empty() || key.chars().any(char::is_whitespace) {
+            self.errors.push(format!("model key `{key}` must be non-empty and without spaces"));
+        } else if is_model_path(key) {
+            self.errors.push(format!("model key `{key}` ends in .ezy, which names a model file; choose another"));
+        } else {
+            self.models.push((key.to_string(), model));
+        }
+    }
+
     fn registered(&self, key: &str) -> Option<&AnyModel> {
         self.models.iter().find(|(k, _)| k == key).map(|(_, model)| model)
+    }
+
+    /// The model `key` names: one registered under it, or the model file
+    /// it is the path of (`.ezy`, [`is_model_path`]), read once per
+    /// application and kept; `None` for neither.
+    ///
+    /// # Errors
+    /// The inner `Err` says why the file could not be read or where its
+    /// text is wrong (`file:line:column: message`, one per mistake).
+    pub(crate) fn model_for(&self, key: &str) -> Option<Result<AnyModel, String>> {
+        if let Some(m) = self.registered(key) {
+            return Some(Ok(m.clone()));
+        }
+        if !is_model_path(key) {
+            return None;
+        }
+        let mut read = self.file_models.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
+        if let Some((_, m)) = read.iter().find(|(k, _)| k == key) {
+            return Some(Ok(m.clone()));
+        }
+        Some(match ezy_core::text::RuntimeModel::from_file(Path::new(key)) {
+            Ok(m) => {
+                let m = AnyModel::new(m);
+                read.push((key.to_string(), m.clone()));
+                Ok(m)
+            }
+            Err(e) => Err(e.to_string()),
+        })
     }
 
     fn registry_ok(&self) -> Result<(), LoadError> {
@@ -226,14 +286,21 @@ impl App {
         }
     }
 
-    /// The model registered under `key`.
+    /// The model registered under `key`, or read from the model file
+    /// `key` is the path of.
     ///
     /// # Errors
-    /// A table mistake, or an unknown key (listing the known ones).
-    pub(crate) fn model_or_error(&self, key: &str) -> Result<&AnyModel, AppError> {
+    /// A table mistake, an unknown key (listing the known ones), or a
+    /// model file that cannot be read or has mistakes (each located).
+    pub(crate) fn model_or_error(&self, key: &str) -> Result<AnyModel, AppError> {
         self.registry_ok().map_err(AppError::failed)?;
-        self.registered(key)
-            .ok_or_else(|| AppError::Failed(format!("unknown model `{key}`; known models: {}", self.keys().join(", "))))
+        match self.model_for(key) {
+            Some(m) => m.map_err(AppError::Failed),
+            None => Err(AppError::Failed(format!(
+                "unknown model `{key}`; known models: {} (or give the path of a .ezy model file)",
+                self.keys().join(", ")
+            ))),
+        }
     }
 
     /// Runs `scene` with `opts` on the model its `model` key names: writes
@@ -243,8 +310,9 @@ impl App {
     /// [`Error`] naming the bad setting, parameter, or file;
     /// [`Error::UnknownModel`] for a key this application lacks.
     pub fn run_scene(&self, scene: &Scene, opts: &RunOptions) -> Result<Report, Error> {
-        match self.registered(&scene.model) {
-            Some(model) => crate::run::run_model(model, scene, opts),
+        match self.model_for(&scene.model) {
+            Some(Ok(model)) => crate::run::run_model(&model, scene, opts),
+            Some(Err(e)) => Err(Error::Input(e)),
             None => Err(Error::UnknownModel { scene: scene.name.clone(), model: scene.model.clone() }),
         }
     }
@@ -268,8 +336,9 @@ impl App {
         opts: &RunOptions,
         stop: Option<StopHook<'_>>,
     ) -> Result<Report, Error> {
-        match self.registered(&scene.model) {
-            Some(model) => crate::run::run_model_in_memory(model, scene, opts, stop),
+        match self.model_for(&scene.model) {
+            Some(Ok(model)) => crate::run::run_model_in_memory(&model, scene, opts, stop),
+            Some(Err(e)) => Err(Error::Input(e)),
             None => Err(Error::UnknownModel { scene: scene.name.clone(), model: scene.model.clone() }),
         }
     }
@@ -297,8 +366,9 @@ impl App {
         out: &Path,
         opts: &precision::PrecisionOptions,
     ) -> Result<precision::Report, Error> {
-        match self.registered(&scene.model) {
-            Some(model) => precision::precision_model(model, scene, out, opts),
+        match self.model_for(&scene.model) {
+            Some(Ok(model)) => precision::precision_model(&model, scene, out, opts),
+            Some(Err(e)) => Err(Error::Input(e)),
             None => Err(Error::UnknownModel { scene: scene.name.clone(), model: scene.model.clone() }),
         }
     }

@@ -99,7 +99,14 @@ impl App {
     }
 
     fn load_file(&self, path: &Path) -> Result<SceneSource, LoadError> {
-        let (scene, text) = Scene::read(path)?;
+        let (mut scene, text) = Scene::read(path)?;
+        // a model file is named relative to the scene's own file
+        if super::is_model_path(&scene.model)
+            && Path::new(&scene.model).is_relative()
+            && let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty())
+        {
+            scene.model = dir.join(&scene.model).display().to_string();
+        }
         Ok(check_scene(self, scene, &text, &path.display().to_string())?)
     }
 

@@ -98,7 +98,7 @@ pub(crate) fn exec(app: &App, args: &ArgMatches, out: &mut dyn Write) -> Result<
         continuation,
     };
     check_figure_format(&src, opts.run.figure_format, opts.run.figures)?;
-    let model = app.model_or_error(&scene.model)?;
+    let model = &app.model_or_error(&scene.model)?;
     let report = analyze_model(model, scene, &opts).map_err(AppError::from_run)?;
     committed(out, &summary(&scene.name, &report), &opts.run.out)
 }

@@ -80,7 +80,7 @@ pub(crate) fn exec(app: &App, args: &ArgMatches, out: &mut dyn Write) -> Result<
     let scene = &src.scene;
     let anim = args.options(&scene.name).map_err(AppError::Failed)?;
     let opts = args.overrides.options();
-    let model = app.model_or_error(&scene.model)?;
+    let model = &app.model_or_error(&scene.model)?;
     let report = animate_model(model, scene, &opts, &anim)?;
     let dir = anim.out.parent().unwrap_or(Path::new("."));
     committed(out, &report.summary(&anim), dir)

@@ -73,7 +73,7 @@ pub(crate) fn exec(app: &App, args: &ArgMatches, out: &mut dyn Write) -> Result<
     let args = BenchArgs::from_arg_matches(args)?;
     let (name, src) = app.named_scene(args.scene.as_deref())?;
     let scene = &src.scene;
-    let model = app.model_or_error(&scene.model)?;
+    let model = &app.model_or_error(&scene.model)?;
     // `--repeat` is at most MAX_REPEAT (its parser), and bench_model
     // refuses more for callers that build the arguments
     let repeat = usize::try_from(args.repeat).unwrap_or(usize::MAX);

@@ -41,7 +41,7 @@ pub(crate) fn exec(app: &App, args: &ArgMatches, out: &mut dyn Write) -> Result<
     if args.states == Some(0) {
         return Err(AppError::Failed("--states = 0: check at least one state".into()));
     }
-    let model = app.model_or_error(&args.model)?;
+    let model = &app.model_or_error(&args.model)?;
     let (info, report) = check_model(model, &args.sets, args.states, args.seed).map_err(AppError::Failed)?;
     out.write_all(report.table(info.name).as_bytes())?;
     if report.passed() {

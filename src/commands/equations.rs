@@ -41,7 +41,7 @@ pub(crate) fn cli(cmd: clap::Command) -> clap::Command {
 /// Prints the equations of the model named, with the `--set` values.
 pub(crate) fn exec(app: &App, args: &ArgMatches, out: &mut dyn Write) -> Result<(), AppError> {
     let args = EquationsArgs::from_arg_matches(args)?;
-    let model = app.model_or_error(&args.model)?;
+    let model = &app.model_or_error(&args.model)?;
     let text = with_sets(model, &args.sets).map(|m| render(&m, args.format)).map_err(AppError::Failed)?;
     Ok(out.write_all(text.as_bytes())?)
 }

@@ -59,7 +59,7 @@ pub(crate) fn exec(app: &App, args: &ArgMatches, out: &mut dyn Write) -> Result<
         at: args.at,
         inputs: args.inputs,
     };
-    let model = app.model_or_error(&scene.model)?;
+    let model = &app.model_or_error(&scene.model)?;
     let report = linearize_model(model, scene, &opts).map_err(AppError::from_run)?;
     committed(out, &linearize_summary(&scene.name, &report), &opts.run.out)
 }

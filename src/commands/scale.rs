@@ -103,7 +103,7 @@ pub(crate) fn exec(app: &App, args: &ArgMatches, out: &mut dyn Write) -> Result<
     if args.n.is_empty() || args.batches == 0 {
         return Err(AppError::Failed("--n needs at least one size and --batches at least 1".into()));
     }
-    let model = app.model_or_error(&args.model)?;
+    let model = &app.model_or_error(&args.model)?;
     let csv = matches!(args.format, ScaleFormat::Csv);
     let (info, points) =
         scale(model, &args.n, args.batches, args.kkt.into()).map(|p| (model.info(), p)).map_err(AppError::failed)?;

@@ -199,7 +199,7 @@ pub(crate) fn exec(app: &App, args: &ArgMatches, out: &mut dyn Write) -> Result<
     let mut job = sweep_job(&src, &name, &args)?;
     // the sweep's own figures, and each saved run's
     check_figure_format(&src, job.opts.figure_format, job.figures || job.save_runs)?;
-    let model = app.model_or_error(&src.scene.model)?;
+    let model = &app.model_or_error(&src.scene.model)?;
     if let Some(file) = &args.emit_slurm {
         if args.shard.is_some() {
             return Err(AppError::Failed("--emit-slurm writes the shards itself: leave out --shard".into()));
@@ -263,7 +263,7 @@ fn merge(app: &App, args: MergeArgs, out: &mut dyn Write) -> Result<(), AppError
         let src = app.load_scene(&manifest.scene).map_err(AppError::failed)?;
         let job = sweep_job(&src, &manifest.scene, &parsed)?;
         check_figure_format(&src, job.opts.figure_format, true)?;
-        let info = info_of(app.model_or_error(&src.scene.model)?, &[]).map_err(|e| AppError::Failed(e.message))?;
+        let info = info_of(&app.model_or_error(&src.scene.model)?, &[]).map_err(|e| AppError::Failed(e.message))?;
         let look = job.opts.look(&job.scene);
         let (f, n) = sweep::figure::draw(&args.out, &job.plan, &job.metrics, &info, look).map_err(|e| match e {
             sweep::SweepError::Interrupted(i) => AppError::Interrupted(i),

@@ -5,7 +5,7 @@
 //! `.ezy` file holds exactly that). It is parsed, checked and derived by
 //! the engine `model!` uses (the `ezy-lang` crate: one grammar, the same
 //! messages), and each derived expression is lowered once to a tape
-//! (straight-line code for a register machine, [`tape`]) that evaluates
+//! (straight-line code for a register machine) that evaluates
 //! over `f64` and over dual numbers. A family (`for`) is one element
 //! kernel looped over its elements at the current counts, as in compiled
 //! code, so parameters and counts stay parameters: a sweep changes them
@@ -139,7 +139,7 @@ impl RuntimeModel {
             let message = format!("the text has {} bytes; a model has at most {MAX_TEXT_BYTES}", text.len());
             return Err(mistakes(vec![TextMistake { line: 1, column: 1, message }]));
         }
-        let derived = ezy_lang::derive_text(text).map_err(|e| {
+        let mut derived = ezy_lang::derive_text(text).map_err(|e| {
             mistakes(
                 e.into_iter()
                     .map(|e| {
@@ -150,7 +150,7 @@ impl RuntimeModel {
             )
         })?;
         let plan =
-            Plan::new(&derived).map_err(|message| mistakes(vec![TextMistake { line: 1, column: 1, message }]))?;
+            Plan::new(&mut derived).map_err(|message| mistakes(vec![TextMistake { line: 1, column: 1, message }]))?;
         let values: Vec<f64> = plan.params.iter().map(|p| p.default).collect();
         let layout = Layout::new(&plan, &counts_of(&plan, &values));
         Ok(Self { plan: Arc::new(plan), values, layout: Arc::new(layout) })
@@ -190,6 +190,24 @@ impl RuntimeModel {
                 }
             }
         });
+    }
+
+    /// Runs the straight-line tape `pick` gives (a model without
+    /// families), its outputs to `write(j, value)`; `false` for a model
+    /// with families.
+    fn straight<S: Scalar>(
+        &self,
+        q: &[S],
+        qd: &[S],
+        pick: fn(&plan::Straight) -> &Tape,
+        write: impl FnMut(usize, S),
+    ) -> bool {
+        let Some(st) = &self.plan.straight else { return false };
+        S::with_scratch(self.plan.registers, |regs| {
+            let x = Inputs { params: &self.values, indices: &[], cols: &st.cols, q, qd };
+            pick(st).eval(&x, regs, write);
+        });
+        true
     }
 
     /// Runs a point tape (`pick`) for every point element, writing its two
@@ -250,6 +268,30 @@ impl Model for RuntimeModel {
         }
     }
 
+    /// A model without families: its products with `G` are summed in the
+    /// order `model!`'s straight-line ones sum them (and so give the same
+    /// numbers), and the KKT solve takes the dense path as for a compiled
+    /// model.
+    fn unrolled_kernels(&self) -> bool {
+        self.plan.straight.is_some()
+    }
+
+    fn sub_winv_gt_mul(&self, pattern: &[(usize, usize)], values: &[f64], winv: &[f64], x: &[f64], v: &mut [f64]) {
+        let Some(st) = &self.plan.straight else {
+            for (&(r, c), &g) in pattern.iter().zip(values) {
+                v[c] -= winv[c] * (g * x[r]);
+            }
+            return;
+        };
+        for (k, entries) in &st.by_column {
+            let mut sum = values[entries[0].0] * x[entries[0].1];
+            for &(e, r) in &entries[1..] {
+                sum += values[e] * x[r];
+            }
+            v[*k] -= winv[*k] * sum;
+        }
+    }
+
     fn mass_diagonal(&self, out: &mut [f64]) {
         let (plan, l) = (&*self.plan, &*self.layout);
         f64::with_scratch(plan.registers, |regs| {
@@ -281,18 +323,31 @@ impl Model for RuntimeModel {
     }
 
     fn phi<S: Scalar>(&self, q: &[S], phi: &mut [S]) {
+        if self.straight(q, &[], |st| &st.phi, |j, x| phi[j] = x) {
+            return;
+        }
         self.each_group(q, &[], |g| g.holonomic().then_some(&g.phi), |_, rb, _, j, x| phi[rb + j] = x);
     }
 
     fn holonomic_jacobian<S: Scalar>(&self, q: &[S], values: &mut [S]) {
+        if self.straight(q, &[], |st| &st.jacobian, |j, x| values[j] = x) {
+            return;
+        }
         self.each_group(q, &[], |g| g.holonomic().then_some(&g.g), |_, _, vb, j, x| values[vb + j] = x);
     }
 
     fn constraint_matrix<S: Scalar>(&self, q: &[S], values: &mut [S]) {
+        if self.straight(q, &[], |st| &st.g, |j, x| values[j] = x) {
+            return;
+        }
         self.each_group(q, &[], |g| Some(&g.g), |_, _, vb, j, x| values[vb + j] = x);
     }
 
     fn phi_and_constraint_matrix<S: Scalar>(&self, q: &[S], phi: &mut [S], values: &mut [S]) {
+        let nh = self.plan.straight.as_ref().map_or(0, |st| st.nh);
+        if self.straight(q, &[], |st| &st.phi_g, |j, x| if j < nh { phi[j] = x } else { values[j - nh] = x }) {
+            return;
+        }
         self.each_group(
             q,
             &[],
@@ -305,6 +360,10 @@ impl Model for RuntimeModel {
     }
 
     fn constraint_terms<S: Scalar>(&self, q: &[S], qd: &[S], values: &mut [S], gamma: &mut [S]) {
+        let nnz = self.plan.straight.as_ref().map_or(0, |st| st.nnz);
+        if self.straight(q, qd, |st| &st.terms, |j, x| if j < nnz { values[j] = x } else { gamma[j - nnz] = x }) {
+            return;
+        }
         self.each_group(
             q,
             qd,
@@ -317,10 +376,16 @@ impl Model for RuntimeModel {
     }
 
     fn points<S: Scalar>(&self, q: &[S], out: &mut [S]) {
+        if self.straight(q, &[], |st| &st.points, |j, x| out[j] = x) {
+            return;
+        }
         self.each_point(q, &[], out, |p| &p.pos);
     }
 
     fn point_velocities<S: Scalar>(&self, q: &[S], qd: &[S], out: &mut [S]) {
+        if self.straight(q, qd, |st| &st.vel, |j, x| out[j] = x) {
+            return;
+        }
         self.each_point(q, qd, out, |p| &p.vel);
     }
 

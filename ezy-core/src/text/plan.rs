@@ -166,6 +166,60 @@ impl GroupPlan {
     }
 }
 
+/// A model without families as straight-line code over the global
+/// coordinates, one tape per function (what `model!` emits for it, from
+/// the same expressions in the same order: the same numbers, bit for
+/// bit). The outputs of each tape in the order of the function's
+/// arguments (`phi_g`: `phi`, then `G`'s values; `terms`: `G`'s values,
+/// then `gamma`).
+#[derive(Clone, Debug)]
+pub(super) struct Straight {
+    pub(super) phi: Tape,
+    pub(super) jacobian: Tape,
+    pub(super) g: Tape,
+    pub(super) phi_g: Tape,
+    pub(super) terms: Tape,
+    pub(super) points: Tape,
+    pub(super) vel: Tape,
+    /// `phi`'s rows and `G`'s nonzeros.
+    pub(super) nh: usize,
+    pub(super) nnz: usize,
+    /// Every body's first column, `3 b` (the tapes' "slots").
+    pub(super) cols: Vec<usize>,
+    /// For each column `k` of `G` with nonzeros, `(k, [(entry, row)])` in
+    /// the pattern's order: `v -= W^-1 G^T x` summed as `model!` sums it.
+    pub(super) by_column: Vec<(usize, Vec<(usize, usize)>)>,
+}
+
+impl Straight {
+    fn new(m: &mut Derivation) -> Self {
+        let st = ezy_lang::straight::straight_form(&mut m.derived, &m.def, &m.resolved);
+        let ar = &m.derived.ar;
+        let nh = st.phi.len();
+        let nnz_h = st.pattern.iter().filter(|(r, _)| *r < nh).count();
+        Self {
+            phi: Tape::new(ar, &st.phi),
+            jacobian: Tape::new(ar, &st.values[..nnz_h]),
+            g: Tape::new(ar, &st.values),
+            phi_g: Tape::new(ar, &[st.phi.as_slice(), &st.values].concat()),
+            terms: Tape::new(ar, &[st.values.as_slice(), &st.gamma].concat()),
+            points: Tape::new(ar, &st.points),
+            vel: Tape::new(ar, &st.vel),
+            nh,
+            nnz: st.values.len(),
+            cols: (0..st.nq / 3).map(|b| 3 * b).collect(),
+            by_column: (0..st.nq)
+                .map(|k| (k, st.pattern.iter().enumerate().filter(|(_, p)| p.1 == k).map(|(e, p)| (e, p.0)).collect()))
+                .filter(|(_, entries): &(usize, Vec<(usize, usize)>)| !entries.is_empty())
+                .collect(),
+        }
+    }
+
+    fn tapes(&self) -> [&Tape; 7] {
+        [&self.phi, &self.jacobian, &self.g, &self.phi_g, &self.terms, &self.points, &self.vel]
+    }
+}
+
 /// Everything a [`super::RuntimeModel`] evaluates and describes.
 #[derive(Debug)]
 pub(super) struct Plan {
@@ -187,6 +241,8 @@ pub(super) struct Plan {
     /// A family element's own index, `i` (`Sym::Index(0)` of the masses,
     /// points and blades).
     pub(super) own: Ix,
+    /// A model without families: its straight-line tapes.
+    pub(super) straight: Option<Straight>,
 }
 
 /// An interned name that lives as long as the program: [`ParamInfo`] and
@@ -213,8 +269,9 @@ impl Plan {
     /// An item naming more than [`MAX_INDICES`] family indices or touching
     /// more than [`MAX_SLOTS`] bodies (the grammar makes neither; a
     /// message, not a panic, should that change).
-    pub(super) fn new(m: &Derivation) -> Result<Self, String> {
+    pub(super) fn new(m: &mut Derivation) -> Result<Self, String> {
         let (def, res, d) = (&m.def, &m.resolved, &m.derived);
+        let is_static = def.families.is_empty() && def.counts.is_empty();
         let var_of = |f: Option<usize>| f.map(|f| def.families[f].var.to_string()).unwrap_or_default();
         let ix = |a: &Affine, f: Option<usize>| Ix::new(def, a, &var_of(f));
         let param_of = |e: &syn::Expr| match e {
@@ -395,7 +452,14 @@ impl Plan {
             ar: d.ar.clone(),
             registers: 0,
             own: ix(&own_index(), None),
+            straight: None,
         };
+        // the straight-line form renames into the arena: after every
+        // element kernel, as `model!` does, so that its nodes are the ones
+        // `model!` makes
+        if is_static {
+            plan.straight = Some(Straight::new(m));
+        }
         plan.registers = plan.tapes().map(Tape::registers).max().unwrap_or(0);
         for g in &plan.groups {
             if g.indices.len() > MAX_INDICES || g.slots.len() > MAX_SLOTS {
@@ -419,7 +483,8 @@ impl Plan {
             .groups
             .iter()
             .flat_map(|g| [&g.phi, &g.g, &g.phi_g, &g.terms].into_iter().chain(g.direction.as_ref().map(|(t, _)| t)));
-        bodies.chain(points).chain(groups).chain(self.blades.iter().map(|(_, t)| t))
+        let straight = self.straight.iter().flat_map(Straight::tapes);
+        bodies.chain(points).chain(groups).chain(self.blades.iter().map(|(_, t)| t)).chain(straight)
     }
 
     /// Operations in all tapes (the size of the model's code).
