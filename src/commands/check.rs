@@ -15,7 +15,7 @@ use crate::testing;
 /// Check the derived Jacobians and convective terms against finite differences.
 #[derive(Args, Debug)]
 struct CheckArgs {
-    /// Model name (see `ezy list`).
+    /// Model name (see `ezy list`), or the path of a model file (`.ezy`).
     model: String,
     /// Set a family count (or a parameter's centre) first (`--set N=3`); repeatable.
     #[arg(long = "set", value_parser = parse_set)]

@@ -14,7 +14,7 @@ use crate::session::with_sets;
 /// Print the equations the model! macro derived (phi, G = [C_q; S], gamma).
 #[derive(Args, Debug)]
 struct EquationsArgs {
-    /// Model name (see `ezy list`).
+    /// Model name (see `ezy list`), or the path of a model file (`.ezy`).
     model: String,
     /// Set a parameter or a family count first (`--set N=3`); repeatable.
     #[arg(long = "set", value_parser = parse_set)]

@@ -136,7 +136,7 @@ enum ScaleError {
     /// The model has no family count.
     #[error("model {model} has no family count (`count N = ..;`), so it has no size to scale")]
     NoCount {
-        /// Model name.
+        /// Model name, or the path of a model file (`.ezy`).
         model: &'static str,
     },
     /// More batches than [`MAX_BATCHES`].

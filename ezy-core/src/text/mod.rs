@@ -79,8 +79,12 @@ fn show_mistakes(file: Option<&Path>, mistakes: &[TextMistake]) -> String {
 /// [`crate::AnyModel`], every formulation and analysis). Cloning it
 /// shares the derived code.
 ///
-/// It has no minimal coordinates yet ([`Model::minimal_layout`] says
-/// so): its runs take the KKT and reduced formulations.
+/// A model without families whose hinges form a tree has the minimal
+/// coordinates `model!` derives ([`Model::minimal_layout`],
+/// [`Model::minimal_expand`], [`Model::minimal_state`]), but not yet the
+/// fused right-hand side on them ([`Model::minimal_constants`] is
+/// `None`): a run on them expands the state and solves Maggi's
+/// equations in separate steps.
 ///
 /// ```
 /// use ezy_core::Model;
@@ -390,9 +394,69 @@ impl Model for RuntimeModel {
     }
 
     fn minimal_layout(&self) -> Result<crate::model::info::MinimalLayout, String> {
-        Err(format!(
-            "model {} was read from text, and ezy derives minimal coordinates only for compiled models yet",
-            self.plan.name
-        ))
+        let m = self.minimal()?;
+        let mut pivots: Vec<(String, usize, f64)> = m.pivots.iter().map(|(n, k)| (n.clone(), *k, 0.0)).collect();
+        f64::with_scratch(self.plan.registers, |regs| {
+            m.pivot_values.eval(&Inputs::fixed(&self.values, &[]), regs, |j, x| pivots[j].2 = x);
+        });
+        Ok(crate::model::info::MinimalLayout { coords: m.coords.clone(), speeds: m.speeds.clone(), pivots })
+    }
+
+    fn minimal_expand<S: Scalar>(&self, q: &mut [S], qd: &mut [S], b: &mut [S], c: &mut [S]) {
+        let Ok(m) = self.minimal() else { return };
+        self.minimal_outputs(&m.expand, q, qd, |j, x, q, qd| {
+            let (nd, nq, nb) = (m.q_dep.len(), qd.len(), b.len());
+            if j < nd {
+                q[m.q_dep[j]] = x;
+            } else if j < nd + nq {
+                qd[j - nd] = x;
+            } else if j < nd + nq + nb {
+                b[j - nd - nq] = x;
+            } else {
+                c[j - nd - nq - nb] = x;
+            }
+        });
+    }
+
+    fn minimal_state<S: Scalar>(&self, q: &mut [S], qd: &mut [S]) -> bool {
+        let Ok(m) = self.minimal() else { return false };
+        self.minimal_outputs(&m.state, q, qd, |j, x, q, qd| {
+            let nd = m.q_dep.len();
+            if j < nd { q[m.q_dep[j]] = x } else { qd[j - nd] = x }
+        });
+        true
+    }
+}
+
+impl RuntimeModel {
+    /// The minimal coordinates, or why there are none.
+    fn minimal(&self) -> Result<&plan::MinimalPlan, String> {
+        match &self.plan.straight {
+            Some(st) => st.minimal.as_ref().map_err(Clone::clone),
+            None => Err(format!(
+                "model {} has no minimal coordinates: it has families (`for`), whose minimal form is not derived yet",
+                self.plan.name
+            )),
+        }
+    }
+
+    /// Evaluates a minimal-coordinate tape on the kept coordinates in `q`
+    /// and the speeds in `qd` (read before anything is written), then
+    /// hands each output to `write(j, value, q, qd)`.
+    fn minimal_outputs<S: Scalar>(
+        &self,
+        tape: &Tape,
+        q: &mut [S],
+        qd: &mut [S],
+        mut write: impl FnMut(usize, S, &mut [S], &mut [S]),
+    ) {
+        let st = self.plan.straight.as_ref().expect("a model with minimal coordinates has no families");
+        S::with_scratch(self.plan.registers, |regs| {
+            tape.load(&Inputs { params: &self.values, indices: &[], cols: &st.cols, q, qd }, regs);
+            tape.run(regs);
+            for j in 0..tape.outputs() {
+                write(j, regs[tape.output(j)], q, qd);
+            }
+        });
     }
 }

@@ -189,14 +189,55 @@ pub(super) struct Straight {
     /// For each column `k` of `G` with nonzeros, `(k, [(entry, row)])` in
     /// the pattern's order: `v -= W^-1 G^T x` summed as `model!` sums it.
     pub(super) by_column: Vec<(usize, Vec<(usize, usize)>)>,
+    /// The minimal coordinates ezy-lang derived, or why there are none.
+    pub(super) minimal: Result<MinimalPlan, String>,
+}
+
+/// Minimal coordinates of a model read from text: the layout's data and
+/// the tapes of `minimal_expand` (eliminated coordinates, global rates,
+/// `B`, `c` and the frames' cos and sin, in that order) and
+/// `minimal_state` (the first two).
+#[derive(Clone, Debug)]
+pub(super) struct MinimalPlan {
+    pub(super) coords: Vec<usize>,
+    pub(super) speeds: Vec<usize>,
+    /// `(skate, velocity index)` and the coefficients' tape.
+    pub(super) pivots: Vec<(String, usize)>,
+    pub(super) pivot_values: Tape,
+    /// Where `q_dep`'s outputs go.
+    pub(super) q_dep: Vec<usize>,
+    pub(super) expand: Tape,
+    pub(super) state: Tape,
 }
 
 impl Straight {
     fn new(m: &mut Derivation) -> Self {
         let st = ezy_lang::straight::straight_form(&mut m.derived, &m.def, &m.resolved);
-        let ar = &m.derived.ar;
         let nh = st.phi.len();
         let nnz_h = st.pattern.iter().filter(|(r, _)| *r < nh).count();
+        // after the straight-line form, as `model!` derives them
+        let minimal =
+            ezy_lang::minimal::derive(&mut m.derived.ar, &m.def, &m.resolved, &st.phi, &st.pattern, &st.values, st.nc)
+                .map(|mm| {
+                    let ar = &m.derived.ar;
+                    let mut outputs: Vec<Id> = mm.q_dep.iter().map(|p| p.1).collect();
+                    outputs.extend(&mm.qd);
+                    let state = Tape::new(ar, &outputs);
+                    outputs.extend(&mm.b);
+                    outputs.extend(&mm.c);
+                    outputs.extend(&mm.frames);
+                    MinimalPlan {
+                        coords: mm.coords.clone(),
+                        speeds: mm.speeds.clone(),
+                        pivots: mm.pivots.iter().map(|(n, k, _)| (n.clone(), *k)).collect(),
+                        pivot_values: Tape::new(ar, &mm.pivots.iter().map(|p| p.2).collect::<Vec<_>>()),
+                        q_dep: mm.q_dep.iter().map(|p| p.0).collect(),
+                        expand: Tape::new(ar, &outputs),
+                        state,
+                    }
+                })
+                .map_err(|why| format!("model {} has no minimal coordinates: {why}", m.def.name));
+        let ar = &m.derived.ar;
         Self {
             phi: Tape::new(ar, &st.phi),
             jacobian: Tape::new(ar, &st.values[..nnz_h]),
@@ -212,11 +253,15 @@ impl Straight {
                 .map(|k| (k, st.pattern.iter().enumerate().filter(|(_, p)| p.1 == k).map(|(e, p)| (e, p.0)).collect()))
                 .filter(|(_, entries): &(usize, Vec<(usize, usize)>)| !entries.is_empty())
                 .collect(),
+            minimal,
         }
     }
 
-    fn tapes(&self) -> [&Tape; 7] {
+    fn tapes(&self) -> impl Iterator<Item = &Tape> {
+        let minimal = self.minimal.iter().flat_map(|m| [&m.pivot_values, &m.expand, &m.state]);
         [&self.phi, &self.jacobian, &self.g, &self.phi_g, &self.terms, &self.points, &self.vel]
+            .into_iter()
+            .chain(minimal)
     }
 }
 

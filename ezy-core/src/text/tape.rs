@@ -181,8 +181,18 @@ impl Tape {
     /// [`Tape::registers`] values (its contents are overwritten).
     #[inline]
     pub(crate) fn eval<S: Scalar>(&self, x: &Inputs<'_, S>, regs: &mut [S], mut sink: impl FnMut(usize, S)) {
+        self.load(x, regs);
+        self.run(regs);
+        for (j, &o) in self.out.iter().enumerate() {
+            sink(j, regs[o as usize]);
+        }
+    }
+
+    /// Loads the inputs into the registers (so that the caller may then
+    /// write over what they were read from).
+    #[inline]
+    pub(crate) fn load<S: Scalar>(&self, x: &Inputs<'_, S>, regs: &mut [S]) {
         let Inputs { params, indices, cols, q, qd } = *x;
-        let regs = &mut regs[..self.n_regs];
         for (r, &c) in regs.iter_mut().zip(&self.consts) {
             *r = S::from_f64(c);
         }
@@ -198,6 +208,13 @@ impl Tape {
         for &(k, r) in &self.qd {
             regs[r as usize] = qd[cols[k / 3] + k % 3];
         }
+    }
+
+    /// Runs the operations on loaded registers; output `j` is then
+    /// `regs[self.output(j)]`.
+    #[inline]
+    pub(crate) fn run<S: Scalar>(&self, regs: &mut [S]) {
+        let regs = &mut regs[..self.n_regs];
         for ins in &self.ins {
             let a = regs[ins.a as usize];
             let v = match ins.op {
@@ -217,9 +234,18 @@ impl Tape {
             };
             regs[ins.dst as usize] = v;
         }
-        for (j, &o) in self.out.iter().enumerate() {
-            sink(j, regs[o as usize]);
-        }
+    }
+
+    /// Number of outputs.
+    #[inline]
+    pub(crate) fn outputs(&self) -> usize {
+        self.out.len()
+    }
+
+    /// The register of output `j`.
+    #[inline]
+    pub(crate) fn output(&self, j: usize) -> usize {
+        self.out[j] as usize
     }
 
     /// Registers an evaluation needs.
