@@ -27,12 +27,14 @@ extern crate self as ezy_python;
 pub use numpy;
 pub use pyo3;
 
+mod model;
 mod reports;
 mod result;
 mod scene;
 mod settings;
 mod toolkit;
 
+pub use model::PyModel;
 pub use reports::{Check, Equations};
 pub use result::RunResult;
 pub use scene::{Effect, PyScene};
@@ -62,6 +64,7 @@ models(), scenes()          what this module knows
 effect_kinds()              the effect kinds a scene may name, with keys and laws
 equations(model)            the derived equations (LaTeX in Jupyter)
 check(model)                the derived terms against automatic differentiation
+Model(text), Model.load(p)  a vehicle from the text of a model (no compiler): run(scene, model=m)
 
 Refused input raises EzyError with the command line's message; Ctrl-C stops
 a run (KeyboardInterrupt).";
@@ -133,6 +136,7 @@ pub fn init_module(m: &Bound<'_, PyModule>, app: App) -> PyResult<()> {
     m.add_class::<Equations>()?;
     m.add_class::<Check>()?;
     m.add_class::<Toolkit>()?;
+    m.add_class::<PyModel>()?;
     let kit = Bound::new(py, Toolkit { app, helpers: helpers.unbind() })?;
     for f in ["models", "scenes", "effect_kinds", "scene", "run", "sweep", "equations", "check"] {
         m.add(f, kit.getattr(f)?)?;

@@ -15,6 +15,7 @@ use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 
+use crate::model::PyModel;
 use crate::reports::{Check, Equations};
 use crate::result::RunResult;
 use crate::scene::PyScene;
@@ -57,18 +58,91 @@ impl Toolkit {
     }
 
     fn info(&self, model: &str, params: &[(String, f64)]) -> PyResult<ModelInfo> {
-        match self.app.info_with(model, params) {
-            Some(Ok(info)) => Ok(info),
-            Some(Err(e)) => Err(ezy_err(e.message)),
-            None => Err(ezy_err(format!("unknown model `{model}`; known models: {}", self.app.keys().join(", ")))),
+        info_in(&self.app, model, params)
+    }
+
+    /// [`Toolkit::resolve`] for a run on `model` (an `ezy.Model`, if
+    /// given) in place of the scene's own model: the application that has
+    /// it under the scene's model key, and the scene checked against it
+    /// (a scene file whose model this module does not know is read and
+    /// checked against `model` alone).
+    fn resolve_on(&self, scene: &Bound<'_, PyAny>, model: Option<&Bound<'_, PyModel>>) -> PyResult<(App, Resolved)> {
+        let Some(m) = model else { return Ok((self.app.clone(), self.resolve(scene)?)) };
+        let r = match self.resolve(scene) {
+            Ok(r) => r,
+            Err(e) => {
+                // a file naming a model this module does not know
+                let Ok(name) = scene.extract::<String>() else { return Err(e) };
+                let path = std::path::Path::new(&name);
+                if !path.is_file() {
+                    return Err(e);
+                }
+                let (scene, text) = ezy_scene::Scene::read(path).map_err(ezy_err)?;
+                let app = self.app_with(&scene.model, Some(m));
+                let src = ezy_scene::registry::check_scene(&app, scene, &text, &name).map_err(ezy_err)?;
+                return Ok((app, Resolved { src, sets: Vec::new(), reference: name }));
+            }
+        };
+        let app = self.app_with(&r.src.scene.model, Some(m));
+        let src = ezy_scene::registry::check_scene(&app, r.src.scene, &r.src.text, &r.src.file).map_err(ezy_err)?;
+        Ok((app, Resolved { src, ..r }))
+    }
+
+    /// This toolkit's application with `model` (an `ezy.Model`, if given)
+    /// in place of the model `key` names.
+    fn app_with(&self, key: &str, model: Option<&Bound<'_, PyModel>>) -> App {
+        match model {
+            Some(m) => self.app.clone().with_model_as(key, m.get().model.clone()),
+            None => self.app.clone(),
         }
     }
 
+    /// `equations` of an `ezy.Model`.
+    pub(crate) fn equations_of(
+        &self,
+        py: Python<'_>,
+        model: &PyModel,
+        set: Option<&Bound<'_, PyDict>>,
+    ) -> PyResult<Equations> {
+        let app = self.app.clone().with_model_as(&model.key, model.model.clone());
+        equations_in(py, &app, &model.key, set)
+    }
+}
+
+/// The description of `model` in `app` at `params`' counts.
+fn info_in(app: &App, model: &str, params: &[(String, f64)]) -> PyResult<ModelInfo> {
+    {
+        match app.info_with(model, params) {
+            Some(Ok(info)) => Ok(info),
+            Some(Err(e)) => Err(ezy_err(e.message)),
+            None => Err(ezy_err(format!("unknown model `{model}`; known models: {}", app.keys().join(", ")))),
+        }
+    }
+}
+
+/// `ezy.equations` of `model` in `app`.
+pub(crate) fn equations_in(
+    py: Python<'_>,
+    app: &App,
+    model: &str,
+    set: Option<&Bound<'_, PyDict>>,
+) -> PyResult<Equations> {
+    let sets = sets_of(set)?;
+    let mut args = vec!["equations".to_string(), model.to_string()];
+    for (n, v) in &sets {
+        args.extend(["--set".into(), format!("{n}={v:?}")]);
+    }
+    let text = Toolkit::cli(py, app, args.clone())?.map_err(|(_, e)| ezy_err(e))?;
+    args.extend(["--format".into(), "latex".into()]);
+    let latex = Toolkit::cli(py, app, args)?.map_err(|(_, e)| ezy_err(e))?;
+    Ok(Equations { text, latex })
+}
+
+impl Toolkit {
     /// Runs the command line `args` (after the program name) with the GIL
     /// released; Ctrl-C asks the command to stop ([`ezy::output::transaction::request_stop`])
     /// and raises `KeyboardInterrupt` once it has. Returns what it printed.
-    fn cli(&self, py: Python<'_>, args: Vec<String>) -> PyResult<Result<String, (String, ezy::app::AppError)>> {
-        let app = &self.app;
+    fn cli(py: Python<'_>, app: &App, args: Vec<String>) -> PyResult<Result<String, (String, ezy::app::AppError)>> {
         let mut interrupt: Option<PyErr> = None;
         let out = py.detach(|| {
             std::thread::scope(|s| {
@@ -168,23 +242,27 @@ impl Toolkit {
     /// `every` [s] (output interval), `max_steps`, `max_output_mb` (the
     /// output budget [MB], as the command line's `--max-output-mb`).
     ///
+    /// `model=m` (an `ezy.Model`) runs the scene on `m` in place of the
+    /// model it names (its names checked against `m` first).
+    ///
     /// Raises EzyError naming the bad setting, parameter or scene key;
     /// KeyboardInterrupt on Ctrl-C (the run stops within a step).
-    #[pyo3(signature = (scene, **settings))]
+    #[pyo3(signature = (scene, *, model=None, **settings))]
     fn run(
         &self,
         py: Python<'_>,
         scene: &Bound<'_, PyAny>,
+        model: Option<&Bound<'_, PyModel>>,
         settings: Option<&Bound<'_, PyDict>>,
     ) -> PyResult<RunResult> {
-        let Resolved { src, sets, .. } = self.resolve(scene)?;
+        let (app, Resolved { src, sets, .. }) = self.resolve_on(scene, model)?;
+        let app = &app;
         let o = Overrides::new(sets, settings, "run")?;
         let opts = o.options()?;
-        let info = self.info(&src.scene.model, &src.scene.params)?;
+        let info = info_in(app, &src.scene.model, &src.scene.params)?;
         // A Ctrl-C that came while this call held the GIL (Python runs its
         // handler only when asked): raised before the run's setup
         py.check_signals()?;
-        let app = &self.app;
         let mut interrupt: Option<PyErr> = None;
         // the first step asks at once (a Ctrl-C during the setup), then
         // every SIGNAL_POLL
@@ -220,23 +298,24 @@ impl Toolkit {
     /// `metrics=["mean(norm(x1d, y1d), 50, 60)", "final(T)"]` as `ezy sweep
     /// --metric`. `out` keeps the sweep's directory (sweep.csv, resumable);
     /// without it the files live in a temporary directory. Other keywords
-    /// as `run`.
+    /// as `run` (`model=m` sweeps the scene on an `ezy.Model`).
     ///
     /// Raises EzyError naming the bad axis, metric or setting (by the
     /// command line's flag); KeyboardInterrupt on Ctrl-C.
-    #[pyo3(signature = (scene, grid, *, metrics=None, jobs=None, out=None, **settings))]
+    #[pyo3(signature = (scene, grid, *, model=None, metrics=None, jobs=None, out=None, **settings))]
     #[expect(clippy::too_many_arguments, reason = "Python's keywords, one argument each")]
     fn sweep<'py>(
         &self,
         py: Python<'py>,
         scene: &Bound<'py, PyAny>,
         grid: &Bound<'py, PyDict>,
+        model: Option<&Bound<'py, PyModel>>,
         metrics: Option<Vec<String>>,
         jobs: Option<usize>,
         out: Option<PathBuf>,
         settings: Option<&Bound<'py, PyDict>>,
     ) -> PyResult<Bound<'py, PyAny>> {
-        let Resolved { sets, reference, .. } = self.resolve(scene)?;
+        let (app, Resolved { sets, reference, .. }) = self.resolve_on(scene, model)?;
         let o = Overrides::new(sets, settings, "sweep")?;
         let opts = o.options()?; // the keywords' own errors first, named as keywords
         let temp = tempfile::Builder::new().prefix("ezy-sweep-").tempdir().map_err(ezy_err)?;
@@ -269,7 +348,7 @@ impl Toolkit {
             args.extend(["--jobs".into(), j.to_string()]);
         }
         args.extend(["--out".into(), dir.display().to_string(), "--no-figures".into()]);
-        match self.cli(py, args)? {
+        match Self::cli(py, &app, args)? {
             Ok(_) => {}
             Err((_, e)) => return Err(ezy_err(e)),
         }
@@ -278,23 +357,24 @@ impl Toolkit {
         Ok(frame)
     }
 
-    /// The derived equations of `model` (with `set` applied to its
-    /// parameters and family counts): constraints, Jacobian, convective
+    /// The derived equations of `model` (a model's key, the path of a
+    /// `.ezy` file, or an `ezy.Model`), with `set` applied to its
+    /// parameters and family counts: constraints, Jacobian, convective
     /// terms, point velocities. Jupyter renders them as LaTeX; `str()`
     /// gives the plain text.
     ///
     /// Raises EzyError for an unknown model or parameter.
     #[pyo3(signature = (model, *, set=None))]
-    fn equations(&self, py: Python<'_>, model: &str, set: Option<&Bound<'_, PyDict>>) -> PyResult<Equations> {
-        let sets = sets_of(set)?;
-        let mut args = vec!["equations".to_string(), model.to_string()];
-        for (n, v) in &sets {
-            args.extend(["--set".into(), format!("{n}={v:?}")]);
+    fn equations(
+        &self,
+        py: Python<'_>,
+        model: &Bound<'_, PyAny>,
+        set: Option<&Bound<'_, PyDict>>,
+    ) -> PyResult<Equations> {
+        if let Ok(m) = model.cast::<PyModel>() {
+            return self.equations_of(py, m.get(), set);
         }
-        let text = self.cli(py, args.clone())?.map_err(|(_, e)| ezy_err(e))?;
-        args.extend(["--format".into(), "latex".into()]);
-        let latex = self.cli(py, args)?.map_err(|(_, e)| ezy_err(e))?;
-        Ok(Equations { text, latex })
+        equations_in(py, &self.app, &model_key(model)?, set)
     }
 
     /// Checks `model`'s derived terms (the constraint Jacobian, the skate
@@ -307,12 +387,16 @@ impl Toolkit {
     fn check(
         &self,
         py: Python<'_>,
-        model: &str,
+        model: &Bound<'_, PyAny>,
         set: Option<&Bound<'_, PyDict>>,
         states: Option<usize>,
         seed: Option<u64>,
     ) -> PyResult<Check> {
-        let mut args = vec!["check".to_string(), model.to_string()];
+        let (app, key) = match model.cast::<PyModel>() {
+            Ok(m) => (self.app_with(&m.get().key, Some(m)), m.get().key.clone()),
+            Err(_) => (self.app.clone(), model_key(model)?),
+        };
+        let mut args = vec!["check".to_string(), key];
         for (n, v) in sets_of(set)? {
             args.extend(["--set".into(), format!("{n}={v:?}")]);
         }
@@ -322,11 +406,18 @@ impl Toolkit {
         if let Some(s) = seed {
             args.extend(["--seed".into(), s.to_string()]);
         }
-        match self.cli(py, args)? {
+        match Self::cli(py, &app, args)? {
             Ok(table) => Ok(Check { passed: true, table, message: String::new() }),
             // a failed check prints its table first; no table: a bad request
             Err((table, e)) if !table.is_empty() => Ok(Check { passed: false, table, message: e.to_string() }),
             Err((_, e)) => Err(ezy_err(e)),
         }
     }
+}
+
+/// A model named by a string: a key or a `.ezy` file's path.
+fn model_key(model: &Bound<'_, PyAny>) -> PyResult<String> {
+    model
+        .extract()
+        .map_err(|_| PyValueError::new_err("model: give a model's key, the path of a .ezy file, or an ezy.Model"))
 }

@@ -192,6 +192,17 @@ impl App {
         self
     }
 
+    /// `model` in place of the model `key` names (a registered key, or a
+    /// model file's path a scene gives), or added under it: a scene
+    /// whose `model` is `key` then runs on `model` (the Python package's
+    /// `ezy.run(scene, model=m)`).
+    #[must_use]
+    pub fn with_model_as(mut self, key: &str, model: impl Model) -> Self {
+        self.models.retain(|(k, _)| k != key);
+        self.models.push((key.to_string(), AnyModel::new(model)));
+        self
+    }
+
     /// Adds effect kind `T`, a force law of the user's own, under `kind`:
     /// scene files then write `[effects.NAME] kind = "KIND"` with `T`'s
     /// fields, exactly as for a built-in kind (its work column closes the
