@@ -342,3 +342,35 @@ fn the_command_line_reads_model_files() {
     let line = text_of("EzyRoller").lines().position(|l| l.contains("point C on")).unwrap() + 1;
     assert!(err.contains(&format!("roller.ezy:{line}:")), "line {line}: {err}");
 }
+
+/// Hostile texts are refused before any work of their size: brackets
+/// nested past the parser's depth, declared counts past what ezy sets up,
+/// a text past the size limit; each located, none a crash.
+#[test]
+fn hostile_texts_are_refused_at_their_place() {
+    let deep = format!(
+        "pub struct Deep {{\n param L = {}1.0{};\n body b(x, y, phi) {{ mass: 1.0, inertia: 0.1 }}\n}}",
+        "(".repeat(100_000),
+        ")".repeat(100_000)
+    );
+    let e = RuntimeModel::from_text(&deep).unwrap_err().to_string();
+    // the struct's brace is the first of the 65, the 64th `(` the last
+    assert!(e.starts_with("line 2, column 75: brackets nested more than 64 deep"), "{e}");
+    let big = text_of("Snake").replace("count N = 5;", "count N = 1000000000;");
+    let e = RuntimeModel::from_text(&big).unwrap_err().to_string();
+    assert!(e.contains("N = 1000000000 gives 3000000000 generalized coordinates"), "{e}");
+    let line = big.lines().position(|l| l.contains("count N")).unwrap() + 1;
+    assert!(e.starts_with(&format!("line {line}, column ")), "{e}");
+    let huge = " ".repeat(ezy_core::text::MAX_TEXT_BYTES as usize + 1);
+    let e = RuntimeModel::from_text(&huge).unwrap_err().to_string();
+    assert!(e.contains("a model has at most 1048576"), "{e}");
+    // a long flat sum is no mistake: derived (its like terms collected)
+    let long = format!(
+        "pub struct Long {{ param L = 1.0; body b(x, y, phi) {{ mass: 1.0{}, inertia: 0.1 }} }}",
+        " + L".repeat(20_000)
+    );
+    let m = RuntimeModel::from_text(&long).unwrap();
+    let mut mass = [0.0; 3];
+    m.mass_diagonal(&mut mass);
+    assert_eq!(mass[0], 20_001.0);
+}

@@ -26,9 +26,10 @@ use layout::Layout;
 use plan::{GroupPlan, Plan};
 use tape::{Inputs, Tape};
 
-/// The largest model text read \[bytes\]: 4 MiB (the built-in models are
-/// 1-4 kB).
-pub const MAX_TEXT_BYTES: u64 = 4 << 20;
+/// The largest model text read \[bytes\]: 1 MiB (the built-in models are
+/// 1-4 kB; a hostile text of this size, one sum of 250,000 terms, takes
+/// about 3 s and 0.4 GB to derive).
+pub const MAX_TEXT_BYTES: u64 = 1 << 20;
 
 /// One mistake in a model's text, where it is.
 #[derive(Debug, Clone, PartialEq, Eq)]
@@ -143,18 +144,29 @@ impl RuntimeModel {
             let message = format!("the text has {} bytes; a model has at most {MAX_TEXT_BYTES}", text.len());
             return Err(mistakes(vec![TextMistake { line: 1, column: 1, message }]));
         }
-        let mut derived = ezy_lang::derive_text(text).map_err(|e| {
-            mistakes(
-                e.into_iter()
-                    .map(|e| {
-                        let at = e.span().start();
-                        TextMistake { line: at.line.max(1), column: at.column + 1, message: e.to_string() }
-                    })
-                    .collect(),
-            )
-        })?;
-        let plan =
-            Plan::new(&mut derived).map_err(|message| mistakes(vec![TextMistake { line: 1, column: 1, message }]))?;
+        if let Some(m) = too_deep(text) {
+            return Err(mistakes(vec![m]));
+        }
+        // the parser and the derivation recurse into nested expressions
+        // (`((..))`, `a + b + ...`): on a stack of their own, large enough
+        // for the deepest expression a text of MAX_TEXT_BYTES can hold
+        let owned = text.to_owned();
+        let plan = std::thread::Builder::new()
+            .name("ezy-derive-text".into())
+            .stack_size(DERIVE_STACK_BYTES)
+            .spawn(move || derive_plan(&owned))
+            .map_err(|e| {
+                mistakes(vec![TextMistake { line: 1, column: 1, message: format!("cannot start the derivation: {e}") }])
+            })?
+            .join()
+            .unwrap_or_else(|_| {
+                Err(vec![TextMistake {
+                    line: 1,
+                    column: 1,
+                    message: "the derivation failed (an internal error in ezy)".into(),
+                }])
+            })
+            .map_err(mistakes)?;
         let values: Vec<f64> = plan.params.iter().map(|p| p.default).collect();
         let layout = Layout::new(&plan, &counts_of(&plan, &values));
         Ok(Self { plan: Arc::new(plan), values, layout: Arc::new(layout) })
@@ -230,6 +242,64 @@ impl RuntimeModel {
             }
         });
     }
+}
+
+/// The stack the parser and the derivation run on \[bytes\]: reserved,
+/// not committed, until a deep expression needs it.
+const DERIVE_STACK_BYTES: usize = 1 << 30;
+
+/// Most brackets `( [ {` open at once in a model's text (the built-in
+/// models nest 3 deep).
+pub const MAX_NESTING: usize = 64;
+
+/// The first bracket that opens more than [`MAX_NESTING`] at once, as a
+/// mistake.
+fn too_deep(text: &str) -> Option<TextMistake> {
+    let (mut depth, mut line, mut column) = (0usize, 1usize, 0usize);
+    for c in text.chars() {
+        column += 1;
+        match c {
+            '\n' => (line, column) = (line + 1, 0),
+            '(' | '[' | '{' => {
+                depth += 1;
+                if depth > MAX_NESTING {
+                    let message = format!("brackets nested more than {MAX_NESTING} deep; write the expression flatter");
+                    return Some(TextMistake { line, column, message });
+                }
+            }
+            ')' | ']' | '}' => depth = depth.saturating_sub(1),
+            _ => {}
+        }
+    }
+    None
+}
+
+/// Parses, checks and derives `text` and makes its [`Plan`]; every mistake
+/// located (what [`RuntimeModel::read`] runs on a stack of its own).
+fn derive_plan(text: &str) -> Result<Plan, Vec<TextMistake>> {
+    let mut derived = ezy_lang::derive_text(text).map_err(|e| {
+        e.into_iter()
+            .map(|e| {
+                let at = e.span().start();
+                TextMistake { line: at.line.max(1), column: at.column + 1, message: e.to_string() }
+            })
+            .collect::<Vec<_>>()
+    })?;
+    let plan = Plan::new(&mut derived).map_err(|message| vec![TextMistake { line: 1, column: 1, message }])?;
+    // a model its own declared counts make too large to set up is refused
+    // here, at the counts, before anything of that size is allocated
+    let values: Vec<f64> = plan.params.iter().map(|p| p.default).collect();
+    let layout = Layout::new(&plan, &counts_of(&plan, &values));
+    let counts: Vec<(&str, usize)> =
+        plan.params[plan.n_real..].iter().zip(&layout.counts).map(|(c, &v)| (c.name, v as usize)).collect();
+    if let Err(message) = crate::model::info::check_model_size(layout.nq, &counts) {
+        let at = derived.def.counts.first().map_or((1, 1), |c| {
+            let at = c.name.span().start();
+            (at.line.max(1), at.column + 1)
+        });
+        return Err(vec![TextMistake { line: at.0, column: at.1, message }]);
+    }
+    Ok(plan)
 }
 
 /// The counts among `values` (the real parameters first).
