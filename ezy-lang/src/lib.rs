@@ -32,6 +32,30 @@ pub struct Derivation {
     pub derived: kinematics::Derived,
 }
 
+/// Template of a derived expression for the runtime's `render_equation`
+/// (text, LaTeX): coordinates, rates and parameters as markers
+/// `\u{1}q3\u{2}` (coordinate 3 of the expression's own numbering),
+/// `\u{1}d3\u{2}` (its rate), `\u{1}p1\u{2}` (parameter 1), a family index
+/// `Sym::Index(k)` as [`index_marker`], which the back end replaces by
+/// the element's index before rendering. Shared by `model!`'s generated
+/// `equations` and a model read from text.
+pub fn equation_templates(ar: &sym::Arena, id: sym::Id) -> (String, String) {
+    use sym::Sym;
+    let name = |s: Sym| match s {
+        Sym::Q(k) => format!("\u{1}q{k}\u{2}"),
+        Sym::Qd(k) => format!("\u{1}d{k}\u{2}"),
+        Sym::Param(i) => format!("\u{1}p{i}\u{2}"),
+        Sym::Index(k) => index_marker(k),
+    };
+    (ar.display(id, &name), ar.latex(id, &name))
+}
+
+/// The marker of `Sym::Index(k)` in an [`equation_templates`] template:
+/// control characters that neither the other markers nor a name contain.
+pub fn index_marker(k: usize) -> String {
+    format!("\u{3}{k}\u{4}")
+}
+
 /// Checks `def` and derives its terms.
 ///
 /// # Errors

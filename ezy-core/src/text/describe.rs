@@ -5,7 +5,7 @@
 //! `emit::info`, `emit::equations`, `emit::checks`).
 
 use ezy_lang::kinematics::Kind;
-use ezy_lang::sym::{Arena, Id, Sym};
+use ezy_lang::sym::{Id, Sym};
 
 use super::layout::Layout;
 use super::plan::{GroupPlan, ItemKind, Ix, Plan};
@@ -202,23 +202,6 @@ fn check_element(
     Ok(())
 }
 
-/// A template of an expression for [`render_equation`]: coordinates,
-/// rates and parameters as markers, a family index `Sym::Index(k)` as
-/// [`index_marker`] (ezy-derive's `emit::equations` makes the same).
-fn templates(ar: &Arena, id: Id) -> (String, String) {
-    let name = |s: Sym| match s {
-        Sym::Q(k) => format!("\u{1}q{k}\u{2}"),
-        Sym::Qd(k) => format!("\u{1}d{k}\u{2}"),
-        Sym::Param(i) => format!("\u{1}p{i}\u{2}"),
-        Sym::Index(k) => index_marker(k),
-    };
-    (ar.display(id, &name), ar.latex(id, &name))
-}
-
-fn index_marker(k: usize) -> String {
-    format!("\u{3}{k}\u{4}")
-}
-
 /// The derived equations at the layout's counts, rendered with the
 /// coordinates' and parameters' names.
 pub(super) fn equations(plan: &Plan, l: &Layout) -> Equations {
@@ -238,10 +221,10 @@ pub(super) fn equations(plan: &Plan, l: &Layout) -> Equations {
     // arena (`x - 0*L` is `x`), else the integer put in (a negative one in
     // parentheses)
     let mut render = |id: Id, indices: &[Ix], v: i64, names: &[&str]| {
-        let (t, x) = templates(&ar, id);
+        let (t, x) = ezy_lang::equation_templates(&ar, id);
         let named: Vec<usize> = (0..indices.len())
             .filter(|&k| {
-                let m = index_marker(k);
+                let m = ezy_lang::index_marker(k);
                 t.contains(&m) || x.contains(&m)
             })
             .collect();
@@ -250,7 +233,7 @@ pub(super) fn equations(plan: &Plan, l: &Layout) -> Equations {
             if (-1..=1).contains(&n) {
                 let value = ar.cst(n as f64);
                 let at = ar.replace(id, &|s| (s == Sym::Index(k)).then_some(value), &mut Default::default());
-                let (t, x) = templates(&ar, at);
+                let (t, x) = ezy_lang::equation_templates(&ar, at);
                 return render_equation(&t, &x, names, &params);
             }
         }
@@ -258,7 +241,7 @@ pub(super) fn equations(plan: &Plan, l: &Layout) -> Equations {
         for &k in &named {
             let n = indices[k].at(v, &l.counts);
             let n = if n < 0 { format!("({n})") } else { n.to_string() };
-            let m = index_marker(k);
+            let m = ezy_lang::index_marker(k);
             (t, x) = (t.replace(&m, &n), x.replace(&m, &n));
         }
         render_equation(&t, &x, names, &params)

@@ -12,28 +12,7 @@ use super::runtime;
 use ezy_lang::ast::{Affine, ModelDef};
 use ezy_lang::check::{BodyRef, Resolved};
 use ezy_lang::kinematics::{Derived, own_index};
-use ezy_lang::sym::{Arena, Id, Sym};
-
-/// Template of an expression for `ezy_core::__private::render_equation`:
-/// symbols as markers `\u{1}q3\u{2}` (local coordinate 3), `d` (its
-/// rate), `p` (parameter); a family index `Sym::Index(k)` as
-/// [`index_marker`], which the generated code replaces by the element's
-/// index before rendering.
-fn templates(ar: &Arena, id: Id) -> (String, String) {
-    let name = |s: Sym| match s {
-        Sym::Q(k) => format!("\u{1}q{k}\u{2}"),
-        Sym::Qd(k) => format!("\u{1}d{k}\u{2}"),
-        Sym::Param(i) => format!("\u{1}p{i}\u{2}"),
-        Sym::Index(k) => index_marker(k),
-    };
-    (ar.display(id, &name), ar.latex(id, &name))
-}
-
-/// The marker of `Sym::Index(k)` in a template: control characters that
-/// neither the templates' other markers nor a name contain.
-fn index_marker(k: usize) -> String {
-    format!("\u{3}{k}\u{4}")
-}
+use ezy_lang::sym::{Id, Sym};
 
 /// `fn equations(&self)`: each item's templates rendered per element.
 pub(super) fn equations_fn(def: &ModelDef, res: &Resolved, d: &Derived) -> TokenStream {
@@ -46,11 +25,11 @@ pub(super) fn equations_fn(def: &ModelDef, res: &Resolved, d: &Derived) -> Token
     // (`x - 0*L` is `x`, `x - 1*L` is `x - L`)
     let mut ar = d.ar.clone();
     let mut render = |id: Id, out: &str, indices: &[Affine]| -> TokenStream {
-        let (t, x) = templates(&ar, id);
+        let (t, x) = ezy_lang::equation_templates(&ar, id);
         let out = format_ident!("{}", out);
         let named: Vec<usize> = (0..indices.len())
             .filter(|&k| {
-                let m = index_marker(k);
+                let m = ezy_lang::index_marker(k);
                 t.contains(&m) || x.contains(&m)
             })
             .collect();
@@ -59,7 +38,7 @@ pub(super) fn equations_fn(def: &ModelDef, res: &Resolved, d: &Derived) -> Token
         }
         let mut subs = TokenStream::new();
         for &k in &named {
-            let m = index_marker(k);
+            let m = ezy_lang::index_marker(k);
             let a = affine_tokens(&indices[k]);
             subs.extend(quote! {
                 let n: i64 = #a;
@@ -77,7 +56,7 @@ pub(super) fn equations_fn(def: &ModelDef, res: &Resolved, d: &Derived) -> Token
         let arms = [0i64, 1, -1].map(|v| {
             let value = ar.cst(v as f64);
             let at = ar.replace(id, &|s| (s == Sym::Index(k)).then_some(value), &mut Default::default());
-            let (t, x) = templates(&ar, at);
+            let (t, x) = ezy_lang::equation_templates(&ar, at);
             quote!(#v => eq.#out.push(#private::render_equation(#t, #x, &names, &params)),)
         });
         quote!(match #a as i64 { #(#arms)* _ => #generic })
