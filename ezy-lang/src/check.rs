@@ -209,6 +209,7 @@ fn resolve(
 /// Checks names and references; returns the resolved indices.
 pub fn check(def: &ModelDef, errs: &mut Errors) -> Resolved {
     check_names(def, errs);
+    check_declared_size(def, errs);
     let lookup = Lookup {
         def,
         body_names: def.bodies.iter().map(|b| b.name.to_string()).collect(),
@@ -243,6 +244,37 @@ pub fn check(def: &ModelDef, errs: &mut Errors) -> Resolved {
     let skate_point =
         def.skates.iter().map(|s| lookup.point(errs, &format!("skate `{}`", s.name), &s.point, s.family)).collect();
     Resolved { point_body, point_body_index, hinge_points, slider_points, drive_hinge, skate_point }
+}
+
+/// Checks that the declared counts give at most [`crate::MAX_COORDS`]
+/// generalized coordinates (a model past it could not even describe
+/// itself: its description lists every coordinate).
+fn check_declared_size(def: &ModelDef, errs: &mut Errors) {
+    let mut nq: i128 = 0;
+    for b in &def.bodies {
+        let n = match b.family {
+            Some(f) => match range_at(def, f) {
+                Some((s, e)) => i128::from(e.saturating_sub(s).max(0)),
+                None => return,
+            },
+            None => 1,
+        };
+        nq += 3 * n;
+    }
+    if nq > crate::MAX_COORDS as i128
+        && let Some(first) = def.counts.first()
+    {
+        let given: Vec<String> = def.counts.iter().map(|c| format!("{} = {}", c.name, c.value)).collect();
+        errs.at(
+            &first.name,
+            format!(
+                "{} give{} {nq} generalized coordinates, more than the {} ezy sets up; declare a smaller count (a scene may set it)",
+                given.join(", "),
+                if def.counts.len() == 1 { "s" } else { "" },
+                crate::MAX_COORDS
+            ),
+        );
+    }
 }
 
 /// Checks that names are unique, parameters finite, family variables

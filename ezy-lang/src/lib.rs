@@ -21,6 +21,16 @@ pub mod parse;
 pub mod straight;
 pub mod sym;
 
+/// The largest value a count may take, declared or set \[elements\]:
+/// 10^9 (index arithmetic stays far inside `i64`).
+pub const MAX_COUNT: i64 = 1_000_000_000;
+
+/// Most generalized coordinates a model may have at its family counts:
+/// 300,000 (the snake at `N = 100,000`; ezy-core's `MAX_COORDS`, which
+/// sizes a run's set-up). A model whose declared counts give more is a
+/// mistake at its first count.
+pub const MAX_COORDS: usize = 300_000;
+
 /// A model checked and derived: what a back end (the macro's Rust, a
 /// run-time evaluator) turns into code.
 pub struct Derivation {
@@ -100,6 +110,27 @@ mod tests {
         assert_eq!(m.def.name.to_string(), "Pendulum");
         assert_eq!(m.def.bodies.len(), 1);
         assert_eq!(m.def.hinges.len(), 1);
+    }
+
+    /// Counts are sized before anything is made of them: a declared value
+    /// past `MAX_COUNT` is refused where it is written, and declared
+    /// counts that give more than `MAX_COORDS` coordinates at the count.
+    #[test]
+    fn counts_are_sized_where_they_are_declared() {
+        let chain = |n: &str| {
+            format!(
+                "pub struct Chain {{
+                    count N = {n};
+                    for i in 0..N {{ body link[i](x, y, phi) {{ mass: 1.0, inertia: 0.1 }} }}
+                }}"
+            )
+        };
+        assert!(super::derive_text(&chain("100000")).is_ok());
+        let e = super::derive_text(&chain("100001")).err().expect("300,003 coordinates");
+        assert!(e.to_string().contains("N = 100001 gives 300003 generalized coordinates, more than the 300000"), "{e}");
+        assert_eq!(e.span().start().line, 2);
+        let e = super::derive_text(&chain("2000000000")).err().expect("past MAX_COUNT");
+        assert!(e.to_string().contains("from 1 to 1000000000"), "{e}");
     }
 
     /// A mistake in the text is the same message `model!` gives at compile

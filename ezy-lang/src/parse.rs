@@ -139,8 +139,11 @@ fn parse_item(
             syn::Error::new(e.span(), "a count's value must be a whole number >= 1 (the default number of elements)")
         })?;
         let value: i64 = lit.base10_parse()?;
-        if value < 1 {
-            return Err(syn::Error::new(lit.span(), "a count's value must be a whole number >= 1"));
+        if !(1..=crate::MAX_COUNT).contains(&value) {
+            return Err(syn::Error::new(
+                lit.span(),
+                format!("a count's value must be a whole number from 1 to {}", crate::MAX_COUNT),
+            ));
         }
         content.parse::<Token![;]>()?;
         def.counts.push(Count { attrs: item_attrs, name, value });
@@ -278,7 +281,14 @@ fn affine(e: &Expr, var: Option<&Ident>) -> syn::Result<Affine> {
     };
     match e {
         Expr::Lit(syn::ExprLit { lit: syn::Lit::Int(i), .. }) => {
-            Ok(Affine { var: false, count: None, c: i.base10_parse()?, span })
+            let c: i64 = i.base10_parse()?;
+            if c.abs() > crate::MAX_COUNT {
+                return Err(syn::Error::new(
+                    span,
+                    format!("an index's number is at most {} in size", crate::MAX_COUNT),
+                ));
+            }
+            Ok(Affine { var: false, count: None, c, span })
         }
         Expr::Paren(p) => affine(&p.expr, var),
         Expr::Group(g) => affine(&g.expr, var),

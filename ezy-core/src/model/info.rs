@@ -481,7 +481,7 @@ pub struct Layout<const NF: usize, const NB: usize, const NP: usize, const NG: u
 /// 1.3 GB and 5 s on 2 cores; at `N = 1,000,000` it would take 13 GB),
 /// so a model past this is refused by [`Model::check_counts`](crate::model::Model::check_counts) before any
 /// of it is allocated.
-pub const MAX_COORDS: usize = 300_000;
+pub const MAX_COORDS: usize = ezy_lang::MAX_COORDS;
 
 /// Memory a run's set-up takes per generalized coordinate \[bytes\]:
 /// measured as the peak resident size of `ezy run snake --t-end 0.01`
