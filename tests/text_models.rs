@@ -3,7 +3,7 @@
 //! text, taken from its source file, gives the same description, the
 //! same equations and the same numbers.
 
-use ezy_core::text::RuntimeModel;
+use ezy_core::text::{Evaluator, RuntimeModel};
 use ezy_core::{AnyModel, Model};
 use num_dual::Dual64;
 
@@ -60,7 +60,8 @@ fn worst(a: &[f64], b: &[f64]) -> f64 {
 
 /// Every function of `Model` of `compiled` and `text` at `states` random
 /// states: the largest relative difference over them.
-fn compare(compiled: &AnyModel, text: &RuntimeModel, states: usize) -> f64 {
+/// The fused right-hand side's own worst difference goes to `fused`.
+fn compare(compiled: &AnyModel, text: &RuntimeModel, states: usize, fused: &std::cell::Cell<f64>) -> f64 {
     let info = compiled.info();
     assert_eq!(info, text.info(), "{}: the descriptions differ", info.name);
     assert_eq!(compiled.check_counts(), text.check_counts());
@@ -118,6 +119,13 @@ fn compare(compiled: &AnyModel, text: &RuntimeModel, states: usize) -> f64 {
         let parts = |v: &[Dual64]| -> Vec<f64> { v.iter().flat_map(|d| [d.re, d.eps]).collect() };
         w = w.max(worst(&[parts(&cv), parts(&cg)].concat(), &[parts(&tv), parts(&tg)].concat()));
         w = w.max(compare_minimal(compiled, text, &q, &qd));
+        // the fused right-hand side, every other body's force and hinge's
+        // torque zero, to take both branches of each
+        let f: Vec<f64> = (0..nq).map(|j| if (j / 3) % 2 == 0 { 2.0 * rng.next() } else { 0.0 }).collect();
+        let tau: Vec<f64> = (0..info.hinges.len()).map(|h| if h % 2 == 0 { rng.next() } else { 0.0 }).collect();
+        if let Some(wf) = compare_fused(compiled, text, &q, &qd, &f, &tau) {
+            fused.set(fused.get().max(wf));
+        }
     }
     w
 }
@@ -149,8 +157,57 @@ fn compare_minimal(compiled: &AnyModel, text: &RuntimeModel, q: &[f64], qd: &[f6
     w
 }
 
+/// A model's `minimal_rhs` on `(k, q, qd, dz)`.
+type Rhs<'a> = dyn Fn(&[f64], &mut [f64], &mut [f64], &mut [f64]) + 'a;
+
+/// The fused right-hand side on the minimal coordinates of both models at
+/// the kept coordinates of `q` and the speeds `qd[..nu]`, with the applied
+/// force `f` and the hinges' torques `tau` (what `forces` gives): the
+/// largest relative difference of what each writes (`q`, `qd`, `dz`).
+/// `None` for a model without minimal coordinates.
+fn compare_fused(
+    compiled: &AnyModel,
+    text: &RuntimeModel,
+    q: &[f64],
+    qd: &[f64],
+    f: &[f64],
+    tau: &[f64],
+) -> Option<f64> {
+    let layout = compiled.minimal_layout().ok()?;
+    let (np, nu) = (layout.coords.len(), layout.speeds.len());
+    let z: Vec<f64> = layout.coords.iter().map(|&j| q[j]).chain(qd[..nu].iter().copied()).collect();
+    let run = |k: Vec<f64>, rhs: &Rhs| {
+        let (mut q, mut qd, mut dz) = (vec![0.0; q.len()], vec![0.0; q.len()], vec![0.0; np + nu]);
+        rhs(&k, &mut q, &mut qd, &mut dz);
+        [q, qd, dz].concat()
+    };
+    let forces = |_: &[f64], _: &[f64], fo: &mut [f64], to: &mut [f64]| {
+        fo.copy_from_slice(f);
+        to.copy_from_slice(tau);
+        Ok::<(), ()>(())
+    };
+    let a = run(compiled.minimal_constants()?, &|k, q, qd, dz| compiled.minimal_rhs(k, &z, q, qd, dz, forces).unwrap());
+    let b = run(text.minimal_constants()?, &|k, q, qd, dz| text.minimal_rhs(k, &z, q, qd, dz, forces).unwrap());
+    Some(worst(&a, &b))
+}
+
+/// Both evaluators: the tape, and the JIT, which a default build has on
+/// every host CI runs on (x86-64, aarch64): a model read from text takes
+/// it by default.
+fn evaluators(text: &str) -> Vec<(Evaluator, RuntimeModel)> {
+    let m = RuntimeModel::from_text(text).unwrap_or_else(|e| panic!("{e}"));
+    if cfg!(any(target_arch = "x86_64", target_arch = "aarch64")) {
+        assert_eq!(m.evaluator(), Evaluator::Jit, "a default build on this host has the JIT");
+    }
+    let mut all = vec![(Evaluator::Tape, m.clone().with_evaluator(Evaluator::Tape).unwrap())];
+    if m.evaluator() == Evaluator::Jit {
+        all.push((Evaluator::Jit, m));
+    }
+    all
+}
+
 /// Every built-in model, its `model!` text read at run time, against the
-/// compiled one at 100 random states.
+/// compiled one at 100 random states, with each evaluator.
 #[test]
 fn every_builtin_model_read_from_text_matches_the_compiled_one() {
     let models: Vec<(&str, AnyModel)> = vec![
@@ -169,11 +226,14 @@ fn every_builtin_model_read_from_text_matches_the_compiled_one() {
         ("Pendulum", AnyModel::new(ezy_models::Pendulum::default())),
         ("NFourBar", AnyModel::new(ezy_models::NFourBar::default())),
     ];
-    let mut report = Vec::new();
-    for (name, compiled) in models {
-        let text = RuntimeModel::from_text(&text_of(name)).unwrap_or_else(|e| panic!("{name}: {e}"));
-        let mut w = compare(&compiled, &text, 100);
-        report.push(format!("{name}: {w:.1e}"));
+    let (mut report, mut worst_fused) = (Vec::new(), 0.0f64);
+    for ((name, compiled), (evaluator, text)) in
+        models.iter().flat_map(|m| evaluators(&text_of(m.0)).into_iter().map(move |e| (m, e)))
+    {
+        let fused = std::cell::Cell::new(0.0);
+        let mut w = compare(compiled, &text, 100, &fused);
+        report.push(format!("{name} ({evaluator:?}): {w:.1e}, fused minimal right-hand side {:.1e}", fused.get()));
+        worst_fused = worst_fused.max(fused.get());
         // a model with families at other counts too: 7, and a 40-link one
         let counts: Vec<usize> =
             (0..compiled.info().params.len()).filter(|&i| compiled.info().params[i].count).collect();
@@ -184,8 +244,8 @@ fn every_builtin_model_read_from_text_matches_the_compiled_one() {
                 text.set_param(i, n);
             }
             if !counts.is_empty() {
-                let wn = compare(&compiled, &text, 10);
-                report.push(format!("{name} at counts {n}: {wn:.1e}"));
+                let wn = compare(&compiled, &text, 10, &std::cell::Cell::new(0.0));
+                report.push(format!("{name} ({evaluator:?}) at counts {n}: {wn:.1e}"));
                 w = w.max(wn);
             }
         }
@@ -193,6 +253,9 @@ fn every_builtin_model_read_from_text_matches_the_compiled_one() {
         assert!(w == 0.0, "{}", report.join("\n"));
     }
     eprintln!("{}", report.join("\n"));
+    // the same expressions, the same parameter-only ones hoisted, the
+    // forces added in the same order: bit for bit too
+    assert!(worst_fused == 0.0, "{}", report.join("\n"));
 }
 
 /// A model with a mistake in each of its parts: every one reported in one
@@ -239,24 +302,33 @@ fn every_mistake_in_a_text_is_located() {
 }
 
 /// Every built-in scene run on the built-in models read from text, against
-/// the compiled ones, both on the DAE formulation with DOP853 at 1e-12
-/// (the first second of each; the text models have no minimal
-/// coordinates yet): the same final state, bit for bit (the same numbers
-/// from every model function and product with `G`, so the same steps).
+/// the compiled ones, with DOP853 at 1e-12 (the first second of each), with
+/// each evaluator, on the DAE and the default formulation: the same final
+/// state, bit for bit (the same numbers from every model function, product
+/// with `G` and fused right-hand side, so the same steps).
 #[test]
 fn every_builtin_scene_runs_on_the_models_read_from_text() {
+    for evaluator in
+        evaluators("pub struct E { body a(x, y, phi) { mass: 1.0, inertia: 1.0 } }").into_iter().map(|e| e.0)
+    {
+        scenes_agree(evaluator);
+    }
+}
+
+fn scenes_agree(evaluator: Evaluator) {
     let compiled = ezy::App::new();
     let catalog = ezy_models::builtins();
     use ezy_scene::registry::ModelCatalog;
     let mut text = ezy::App::empty().default_scene("drive");
     for key in catalog.keys() {
         let name = catalog.info_with(key, &[]).unwrap().unwrap().name;
-        text = text.model_value(key, RuntimeModel::from_text(&text_of(name)).unwrap());
+        let m = RuntimeModel::from_text(&text_of(name)).unwrap().with_evaluator(evaluator).unwrap();
+        text = text.model_value(key, m);
     }
     for (file, src) in ezy_models::scenes::BUILTIN {
         text = text.scene(file, src);
     }
-    let mut report = Vec::new();
+    let mut report = vec![format!("{evaluator:?}:")];
     let (mut worst, mut worst_auto): (f64, f64) = (0.0, 0.0);
     for src in compiled.scenes().unwrap() {
         for formulation in [ezy_core::Formulation::Dae, ezy_core::Formulation::Auto] {
@@ -285,11 +357,9 @@ fn every_builtin_scene_runs_on_the_models_read_from_text() {
         }
     }
     eprintln!("{}", report.join("\n"));
-    assert!(worst == 0.0, "{}", report.join("\n"));
-    // on minimal coordinates the text models expand and solve Maggi's
-    // equations in separate steps where the compiled ones fuse them (the
-    // same equations, other roundings)
-    assert!(worst_auto <= 1e-12, "{}", report.join("\n"));
+    // on the minimal coordinates too: the fused right-hand side gives the
+    // compiled one's numbers
+    assert!(worst == 0.0 && worst_auto == 0.0, "{}", report.join("\n"));
 }
 
 /// Runs `args` (without the program name) through the library.
@@ -373,6 +443,21 @@ fn hostile_texts_are_refused_at_their_place() {
     let mut mass = [0.0; 3];
     m.mass_diagonal(&mut mass);
     assert_eq!(mass[0], 20_001.0);
+    // nor is a long sum of distinct terms (one sum per `+` collected its
+    // terms anew each time: hours for this one) or a tape too long to
+    // compile quickly (left to the register machine, the same numbers)
+    let n = 5_000;
+    let params: String = (0..n).map(|i| format!(" param P{i} = {};", i + 1)).collect();
+    let sum = (0..n).map(|i| format!("P{i}")).collect::<Vec<_>>().join(" + ");
+    let wide = format!(
+        "pub struct Wide {{{params} body b(x, y, phi) {{ mass: 1.0, inertia: 0.1 }} point T on b at ({sum}, 0); }}"
+    );
+    for (evaluator, m) in evaluators(&wide) {
+        let mut p = [0.0; 2];
+        m.points(&[1.0, 0.0, 0.0], &mut p);
+        // 1 + (1 + 2 + ... + n): integers, exact
+        assert_eq!(p, [1.0 + (n * (n + 1) / 2) as f64, 0.0], "{evaluator:?}");
+    }
 }
 
 /// A user's own vehicle as text (the Roller Racer of the example crate,
@@ -433,4 +518,45 @@ fn a_users_text_model_passes_the_derivative_checks_and_runs() {
     let last = solution.column("x1d").unwrap().len() - 1;
     let (t0, t1) = (energy(0), energy(last));
     assert!(t0 > 1.0 && (t1 - t0).abs() < 1e-8 * t0, "T from {t0} to {t1}");
+}
+
+/// The JIT at states no run should reach (zeros, 1e300, infinities, NaN,
+/// subnormals) gives the tape's numbers bit for bit (a NaN where the tape
+/// gives one), and slices too short for a model panic on both evaluators
+/// as a compiled model's do, never read past their end.
+#[test]
+fn the_jit_gives_the_tapes_numbers_at_hostile_states_and_checks_bounds() {
+    for name in ["EzyRoller", "NFourBar"] {
+        let all = evaluators(&text_of(name));
+        let Some((_, jit)) = all.iter().find(|e| e.0 == Evaluator::Jit) else { return };
+        let tape = &all[0].1;
+        let info = tape.info();
+        let (nq, nnz, nc, np) = (info.nq(), info.pattern.len(), info.nc(), info.points.len());
+        for v in [0.0, -0.0, 1e300, -1e300, f64::INFINITY, f64::NAN, 5e-324] {
+            let q: Vec<f64> = (0..nq).map(|j| if j % 2 == 0 { v } else { 0.3 }).collect();
+            let eval = |m: &RuntimeModel| {
+                let (mut vals, mut gamma, mut p) = (vec![0.0; nnz], vec![0.0; nc], vec![0.0; 2 * np]);
+                m.constraint_terms(&q, &q, &mut vals, &mut gamma);
+                m.points(&q, &mut p);
+                [vals, gamma, p]
+                    .concat()
+                    .iter()
+                    .map(|x| if x.is_nan() { u64::MAX } else { x.to_bits() })
+                    .collect::<Vec<_>>()
+            };
+            assert_eq!(eval(tape), eval(jit), "{name} at {v}");
+        }
+        for m in [tape, jit] {
+            let short = std::panic::catch_unwind(|| {
+                let mut phi = vec![0.0; info.n_holonomic];
+                m.phi(&vec![0.0; nq - 1], &mut phi);
+            });
+            assert!(short.is_err(), "{name}: a short q was read");
+            let short = std::panic::catch_unwind(|| {
+                let (mut vals, mut gamma) = (vec![0.0; nnz - 1], vec![0.0; nc]);
+                m.constraint_terms(&vec![0.0; nq], &vec![0.0; nq], &mut vals, &mut gamma);
+            });
+            assert!(short.is_err(), "{name}: a short output was written");
+        }
+    }
 }

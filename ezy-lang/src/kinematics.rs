@@ -192,6 +192,28 @@ pub fn expr_to_sym(ar: &mut Arena, e: &Expr, scope: &Scope, what: &str, errs: &m
             let a = expr_to_sym(ar, &u.expr, scope, what, errs);
             ar.neg(a)
         }
+        Expr::Binary(b) if matches!(b.op, BinOp::Add(_) | BinOp::Sub(_) | BinOp::Mul(_)) => {
+            // a chain `a + b - c + ...` (or `a * b * ...`) as one sum (one
+            // product): linear in its length where one sum per `+` would be
+            // quadratic, and no recursion along its left spine
+            let sum = !matches!(b.op, BinOp::Mul(_));
+            let mut rights = Vec::new();
+            let mut left = e;
+            while let Expr::Binary(b) = left {
+                match b.op {
+                    BinOp::Add(_) | BinOp::Sub(_) if sum => rights.push((matches!(b.op, BinOp::Sub(_)), &*b.right)),
+                    BinOp::Mul(_) if !sum => rights.push((false, &*b.right)),
+                    _ => break,
+                }
+                left = &b.left;
+            }
+            let mut terms = vec![expr_to_sym(ar, left, scope, what, errs)];
+            for (minus, r) in rights.into_iter().rev() {
+                let t = expr_to_sym(ar, r, scope, what, errs);
+                terms.push(if minus { ar.neg(t) } else { t });
+            }
+            if sum { ar.add(&terms) } else { ar.mul(&terms) }
+        }
         Expr::Binary(b) => {
             let l = expr_to_sym(ar, &b.left, scope, what, errs);
             let r = expr_to_sym(ar, &b.right, scope, what, errs);

@@ -40,6 +40,11 @@ pub use scenes::LoadError;
 use scenes::SceneEntry;
 pub(crate) use scenes::is_scene_path;
 
+/// The environment variable that chooses how model files are evaluated:
+/// `tape` or `jit` ([`ezy_core::text::Evaluator`]); unset, the JIT where
+/// the build and the host have one.
+pub const EVALUATOR_VAR: &str = "EZY_EVALUATOR";
+
 /// Whether a model key is the path of a model file: it ends in `.ezy`.
 pub(crate) fn is_model_path(key: &str) -> bool {
     key.ends_with(".ezy")
@@ -268,7 +273,10 @@ impl App {
     ///
     /// # Errors
     /// The inner `Err` says why the file could not be read or where its
-    /// text is wrong (`file:line:column: message`, one per mistake).
+    /// text is wrong (`file:line:column: message`, one per mistake), or
+    /// that [`EVALUATOR_VAR`] names no evaluator this build has. A model
+    /// file is evaluated as that variable says (`tape` or `jit`; unset:
+    /// the JIT where there is one).
     pub(crate) fn model_for(&self, key: &str) -> Option<Result<AnyModel, String>> {
         if let Some(m) = self.registered(key) {
             return Some(Ok(m.clone()));
@@ -280,13 +288,27 @@ impl App {
         if let Some((_, m)) = read.iter().find(|(k, _)| k == key) {
             return Some(Ok(m.clone()));
         }
-        Some(match ezy_core::text::RuntimeModel::from_file(Path::new(key)) {
+        let read_model = || -> Result<ezy_core::text::RuntimeModel, String> {
+            use ezy_core::text::{Evaluator, ModelTextError, RuntimeModel};
+            let path = Path::new(key);
+            match std::env::var(EVALUATOR_VAR) {
+                Ok(name) => {
+                    let e = Evaluator::parse(&name).map_err(|e| format!("{EVALUATOR_VAR}: {e}"))?;
+                    RuntimeModel::from_file_with(path, e).map_err(|e| match e {
+                        ModelTextError::NoJit(_) => format!("{EVALUATOR_VAR}={name}: {e}"),
+                        e => e.to_string(),
+                    })
+                }
+                Err(_) => RuntimeModel::from_file(path).map_err(|e| e.to_string()),
+            }
+        };
+        Some(match read_model() {
             Ok(m) => {
                 let m = AnyModel::new(m);
                 read.push((key.to_string(), m.clone()));
                 Ok(m)
             }
-            Err(e) => Err(e.to_string()),
+            Err(e) => Err(e),
         })
     }
 

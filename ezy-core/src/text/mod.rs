@@ -6,12 +6,14 @@
 //! the engine `model!` uses (the `ezy-lang` crate: one grammar, the same
 //! messages), and each derived expression is lowered once to a tape
 //! (straight-line code for a register machine) that evaluates
-//! over `f64` and over dual numbers. A family (`for`) is one element
+//! over `f64` and over dual numbers, and that Cranelift compiles to
+//! machine code for `f64` where it can ([`Evaluator`]). A family (`for`) is one element
 //! kernel looped over its elements at the current counts, as in compiled
 //! code, so parameters and counts stay parameters: a sweep changes them
 //! without deriving anything again.
 
 mod describe;
+mod fused;
 mod layout;
 mod plan;
 mod tape;
@@ -53,6 +55,10 @@ pub enum ModelTextError {
         /// Why.
         reason: String,
     },
+    /// The JIT was asked for where there is none (a build without the
+    /// `jit` feature, or a host Cranelift has no back end for).
+    #[error("no JIT evaluator: {0}")]
+    NoJit(String),
     /// The text has mistakes: every one found, each located.
     #[error("{}", show_mistakes(file.as_deref(), mistakes))]
     Mistakes {
@@ -82,10 +88,15 @@ fn show_mistakes(file: Option<&Path>, mistakes: &[TextMistake]) -> String {
 ///
 /// A model without families whose hinges form a tree has the minimal
 /// coordinates `model!` derives ([`Model::minimal_layout`],
-/// [`Model::minimal_expand`], [`Model::minimal_state`]), but not yet the
-/// fused right-hand side on them ([`Model::minimal_constants`] is
-/// `None`): a run on them expands the state and solves Maggi's
-/// equations in separate steps.
+/// [`Model::minimal_expand`], [`Model::minimal_state`]) and the fused
+/// right-hand side on them ([`Model::minimal_rhs`]: one tape from the
+/// kept coordinates and speeds to Maggi's equations, its parameter-only
+/// subexpressions hoisted into [`Model::minimal_constants`]).
+///
+/// Evaluation: by machine code Cranelift compiles when the model is read
+/// (the JIT, [`Evaluator::Jit`]), where the build and the host have one,
+/// by the tape otherwise ([`RuntimeModel::with_evaluator`]); both give the
+/// same numbers, bit for bit.
 ///
 /// ```
 /// use ezy_core::Model;
@@ -107,6 +118,39 @@ pub struct RuntimeModel {
     /// Parameter values: the reals, then the counts.
     values: Vec<f64>,
     layout: Arc<Layout>,
+    /// Whether `f64` evaluations take the compiled kernels.
+    jit: bool,
+}
+
+/// How a [`RuntimeModel`] evaluates its derived expressions.
+///
+/// Both give the same numbers bit for bit (the same operations in the
+/// same order, the same `libm`); they differ in cost. Dual numbers (the
+/// derivative checks, linearizations and analyses) always take the tape.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Evaluator {
+    /// The tape: a register machine over any scalar, on every platform.
+    /// Reading a model costs nothing more than its derivation; each
+    /// evaluation pays a dispatch per operation.
+    Tape,
+    /// Machine code compiled by Cranelift when the model is read (x86-64,
+    /// aarch64, s390x and riscv64 hosts, with ezy-core's `jit` feature, on
+    /// by default): the default where available.
+    Jit,
+}
+
+impl Evaluator {
+    /// The evaluator named `name` (`"tape"` or `"jit"`).
+    ///
+    /// # Errors
+    /// Any other name, in a message that lists the two.
+    pub fn parse(name: &str) -> Result<Self, String> {
+        match name {
+            "tape" => Ok(Evaluator::Tape),
+            "jit" => Ok(Evaluator::Jit),
+            other => Err(format!("unknown evaluator `{other}`: use `tape` or `jit`")),
+        }
+    }
 }
 
 impl RuntimeModel {
@@ -117,7 +161,17 @@ impl RuntimeModel {
     /// [`ModelTextError::Mistakes`] with every mistake found, each at its
     /// line and column, in the words of `model!`'s compile errors.
     pub fn from_text(text: &str) -> Result<Self, ModelTextError> {
-        Self::read(text, None)
+        Self::read(text, None, None)
+    }
+
+    /// [`RuntimeModel::from_text`] evaluated by `evaluator` (the tape
+    /// compiles nothing).
+    ///
+    /// # Errors
+    /// As [`RuntimeModel::from_text`], and [`ModelTextError::NoJit`] for
+    /// [`Evaluator::Jit`] where there is none.
+    pub fn from_text_with(text: &str, evaluator: Evaluator) -> Result<Self, ModelTextError> {
+        Self::read(text, None, Some(evaluator))
     }
 
     /// Reads the model file `path` (a `.ezy` file: the text of a
@@ -128,16 +182,31 @@ impl RuntimeModel {
     /// [`MAX_TEXT_BYTES`]; [`ModelTextError::Mistakes`] with the file's
     /// name on each mistake.
     pub fn from_file(path: &Path) -> Result<Self, ModelTextError> {
+        Self::from_file_as(path, None)
+    }
+
+    /// [`RuntimeModel::from_file`] evaluated by `evaluator`.
+    ///
+    /// # Errors
+    /// As [`RuntimeModel::from_file`], and [`ModelTextError::NoJit`] for
+    /// [`Evaluator::Jit`] where there is none.
+    pub fn from_file_with(path: &Path, evaluator: Evaluator) -> Result<Self, ModelTextError> {
+        Self::from_file_as(path, Some(evaluator))
+    }
+
+    fn from_file_as(path: &Path, evaluator: Option<Evaluator>) -> Result<Self, ModelTextError> {
         let fail = |reason: String| ModelTextError::Read { file: path.to_path_buf(), reason };
         let meta = std::fs::metadata(path).map_err(|e| fail(e.to_string()))?;
         if meta.len() > MAX_TEXT_BYTES {
             return Err(fail(format!("it has {} bytes; a model file has at most {MAX_TEXT_BYTES}", meta.len())));
         }
         let text = std::fs::read_to_string(path).map_err(|e| fail(e.to_string()))?;
-        Self::read(&text, Some(path))
+        Self::read(&text, Some(path), evaluator)
     }
 
-    fn read(text: &str, file: Option<&Path>) -> Result<Self, ModelTextError> {
+    /// `evaluator`: `None` for the JIT where there is one, the tape
+    /// otherwise.
+    fn read(text: &str, file: Option<&Path>, evaluator: Option<Evaluator>) -> Result<Self, ModelTextError> {
         let mistakes =
             |m: Vec<TextMistake>| ModelTextError::Mistakes { file: file.map(Path::to_path_buf), mistakes: m };
         if text.len() as u64 > MAX_TEXT_BYTES {
@@ -169,7 +238,34 @@ impl RuntimeModel {
             .map_err(mistakes)?;
         let values: Vec<f64> = plan.params.iter().map(|p| p.default).collect();
         let layout = Layout::new(&plan, &counts_of(&plan, &values));
-        Ok(Self { plan: Arc::new(plan), values, layout: Arc::new(layout) })
+        let model = Self { plan: Arc::new(plan), values, layout: Arc::new(layout), jit: false };
+        match evaluator {
+            Some(e) => model.with_evaluator(e),
+            None => Ok(model.clone().with_evaluator(Evaluator::Jit).unwrap_or(model)),
+        }
+    }
+
+    /// The model evaluated by `evaluator`: the JIT compiles its tapes (once
+    /// per model text: clones share the code).
+    ///
+    /// # Errors
+    /// [`ModelTextError::NoJit`] for [`Evaluator::Jit`] where there is no
+    /// JIT (a build without the `jit` feature, a host without a Cranelift
+    /// back end), or should Cranelift refuse the code.
+    pub fn with_evaluator(mut self, evaluator: Evaluator) -> Result<Self, ModelTextError> {
+        self.jit = match evaluator {
+            Evaluator::Tape => false,
+            Evaluator::Jit => {
+                self.plan.compile().map_err(ModelTextError::NoJit)?;
+                true
+            }
+        };
+        Ok(self)
+    }
+
+    /// How the model evaluates (see [`Evaluator`]).
+    pub fn evaluator(&self) -> Evaluator {
+        if self.jit { Evaluator::Jit } else { Evaluator::Tape }
     }
 
     /// Operations in the model's tapes (how much code its text became).
@@ -177,18 +273,32 @@ impl RuntimeModel {
         self.plan.ops()
     }
 
-    /// Runs `f` once per element of each group `pick` gives a tape for,
-    /// with the tape, the element's row and value offsets, and the
-    /// registers filled.
+    /// Runs `f` with scratch for the register machine: none where the
+    /// compiled kernels evaluate (`f64` with the JIT), which need none.
+    #[inline]
+    fn scratch<S: Scalar, R>(&self, f: impl FnOnce(&mut [S]) -> R) -> R {
+        if self.jit && std::any::TypeId::of::<S>() == std::any::TypeId::of::<f64>() {
+            f(&mut [])
+        } else {
+            S::with_scratch(self.plan.registers, f)
+        }
+    }
+
+    /// Evaluates, per element of each group `pick` gives a tape for, that
+    /// tape into `a` and `b` ([`Tape::eval_to`]) at the offsets `at(group,
+    /// element's first row, element's first value)` gives (`None`: the
+    /// tape writes nothing there).
     fn each_group<S: Scalar>(
         &self,
         q: &[S],
         qd: &[S],
         pick: fn(&GroupPlan) -> Option<&Tape>,
-        mut write: impl FnMut(&GroupPlan, usize, usize, usize, S),
+        at: Offsets,
+        a: &mut [S],
+        b: &mut [S],
     ) {
         let (plan, l) = (&*self.plan, &*self.layout);
-        S::with_scratch(plan.registers, |regs| {
+        self.scratch(|regs| {
             for (gi, g) in plan.groups.iter().enumerate() {
                 let Some(tape) = pick(g).filter(|_| !g.slots.is_empty()) else { continue };
                 let mut cols = [0usize; plan::MAX_SLOTS];
@@ -200,49 +310,56 @@ impl RuntimeModel {
                     for (x, a) in ix.iter_mut().zip(&g.indices) {
                         *x = a.at(v, &l.counts) as f64;
                     }
-                    let (rb, vb) = (l.row[gi] + e * g.rows, l.val[gi] + e * g.pattern.len());
-                    let x = Inputs { params: &self.values, indices: &ix, cols: &cols, q, qd };
-                    tape.eval(&x, regs, |j, x| write(g, rb, vb, j, x));
+                    let (oa, ob) = at(g, l.row[gi] + e * g.rows, l.val[gi] + e * g.pattern.len());
+                    let x = Inputs { params: &self.values, indices: &ix, cols: &cols, q, qd, compiled: self.jit };
+                    let (a, b) = (oa.map_or(&mut [][..], |o| &mut a[o..]), ob.map_or(&mut [][..], |o| &mut b[o..]));
+                    tape.eval_to(&x, regs, a, b);
                 }
             }
         });
     }
 
-    /// Runs the straight-line tape `pick` gives (a model without
-    /// families), its outputs to `write(j, value)`; `false` for a model
+    /// Evaluates the straight-line tape `pick` gives (a model without
+    /// families) into `a` and `b` ([`Tape::eval_to`]); `false` for a model
     /// with families.
     fn straight<S: Scalar>(
         &self,
         q: &[S],
         qd: &[S],
         pick: fn(&plan::Straight) -> &Tape,
-        write: impl FnMut(usize, S),
+        a: &mut [S],
+        b: &mut [S],
     ) -> bool {
         let Some(st) = &self.plan.straight else { return false };
-        S::with_scratch(self.plan.registers, |regs| {
-            let x = Inputs { params: &self.values, indices: &[], cols: &st.cols, q, qd };
-            pick(st).eval(&x, regs, write);
+        self.scratch(|regs| {
+            let x = Inputs { params: &self.values, indices: &[], cols: &st.cols, q, qd, compiled: self.jit };
+            pick(st).eval_to(&x, regs, a, b);
         });
         true
     }
 
-    /// Runs a point tape (`pick`) for every point element, writing its two
+    /// Evaluates a point tape (`pick`) for every point element, its two
     /// outputs to `out[2 k]`, `out[2 k + 1]` (`k` the element's index
     /// among all points).
     fn each_point<S: Scalar>(&self, q: &[S], qd: &[S], out: &mut [S], pick: impl Fn(&plan::PointPlan) -> &Tape) {
         let (plan, l) = (&*self.plan, &*self.layout);
-        S::with_scratch(plan.registers, |regs| {
+        self.scratch(|regs| {
             for (pi, p) in plan.points.iter().enumerate() {
                 for (e, v) in l.elements(p.family) {
                     let cols = [l.body_column(plan, &p.body, v)];
                     let k = 2 * (l.point_index[pi] + e);
-                    let x = Inputs { params: &self.values, indices: &[v as f64], cols: &cols, q, qd };
-                    pick(p).eval(&x, regs, |j, x| out[k + j] = x);
+                    let x =
+                        Inputs { params: &self.values, indices: &[v as f64], cols: &cols, q, qd, compiled: self.jit };
+                    pick(p).eval_to(&x, regs, &mut out[k..], &mut []);
                 }
             }
         });
     }
 }
+
+/// Where a group's element writes: from its first row and first value,
+/// its offsets in [`Tape::eval_to`]'s two destinations (`None`: none).
+type Offsets = fn(&GroupPlan, usize, usize) -> (Option<usize>, Option<usize>);
 
 /// The stack the parser and the derivation run on \[bytes\]: reserved,
 /// not committed, until a deep expression needs it.
@@ -350,6 +467,25 @@ impl Model for RuntimeModel {
         self.plan.straight.is_some()
     }
 
+    fn normal_matrix(&self, pattern: &[(usize, usize)], nc: usize, values: &[f64], winv: &[f64], a: &mut [f64]) {
+        let Some(st) = &self.plan.straight else {
+            return crate::model::info::normal_matrix_at(pattern, nc, values, winv, a);
+        };
+        for (idx, terms) in &st.normal {
+            let terms = &st.normal_terms[terms.clone()];
+            a[*idx] = match terms.split_first() {
+                None => 0.0,
+                Some((&[e1, e2, k], rest)) => {
+                    let mut sum = values[e1] * values[e2] * winv[k];
+                    for &[e1, e2, k] in rest {
+                        sum += values[e1] * values[e2] * winv[k];
+                    }
+                    sum
+                }
+            };
+        }
+    }
+
     fn sub_winv_gt_mul(&self, pattern: &[(usize, usize)], values: &[f64], winv: &[f64], x: &[f64], v: &mut [f64]) {
         let Some(st) = &self.plan.straight else {
             for (&(r, c), &g) in pattern.iter().zip(values) {
@@ -397,67 +533,49 @@ impl Model for RuntimeModel {
     }
 
     fn phi<S: Scalar>(&self, q: &[S], phi: &mut [S]) {
-        if self.straight(q, &[], |st| &st.phi, |j, x| phi[j] = x) {
+        if self.straight(q, &[], |st| &st.phi, phi, &mut []) {
             return;
         }
-        self.each_group(q, &[], |g| g.holonomic().then_some(&g.phi), |_, rb, _, j, x| phi[rb + j] = x);
+        self.each_group(q, &[], |g| g.holonomic().then_some(&g.phi), |_, rb, _| (Some(rb), None), phi, &mut []);
     }
 
     fn holonomic_jacobian<S: Scalar>(&self, q: &[S], values: &mut [S]) {
-        if self.straight(q, &[], |st| &st.jacobian, |j, x| values[j] = x) {
+        if self.straight(q, &[], |st| &st.jacobian, values, &mut []) {
             return;
         }
-        self.each_group(q, &[], |g| g.holonomic().then_some(&g.g), |_, _, vb, j, x| values[vb + j] = x);
+        self.each_group(q, &[], |g| g.holonomic().then_some(&g.g), |_, _, vb| (Some(vb), None), values, &mut []);
     }
 
     fn constraint_matrix<S: Scalar>(&self, q: &[S], values: &mut [S]) {
-        if self.straight(q, &[], |st| &st.g, |j, x| values[j] = x) {
+        if self.straight(q, &[], |st| &st.g, values, &mut []) {
             return;
         }
-        self.each_group(q, &[], |g| Some(&g.g), |_, _, vb, j, x| values[vb + j] = x);
+        self.each_group(q, &[], |g| Some(&g.g), |_, _, vb| (Some(vb), None), values, &mut []);
     }
 
     fn phi_and_constraint_matrix<S: Scalar>(&self, q: &[S], phi: &mut [S], values: &mut [S]) {
-        let nh = self.plan.straight.as_ref().map_or(0, |st| st.nh);
-        if self.straight(q, &[], |st| &st.phi_g, |j, x| if j < nh { phi[j] = x } else { values[j - nh] = x }) {
+        if self.straight(q, &[], |st| &st.phi_g, phi, values) {
             return;
         }
-        self.each_group(
-            q,
-            &[],
-            |g| Some(&g.phi_g),
-            |g, rb, vb, j, x| {
-                let nr = if g.holonomic() { g.rows } else { 0 };
-                if j < nr { phi[rb + j] = x } else { values[vb + j - nr] = x }
-            },
-        );
+        self.each_group(q, &[], |g| Some(&g.phi_g), |g, rb, vb| (g.holonomic().then_some(rb), Some(vb)), phi, values);
     }
 
     fn constraint_terms<S: Scalar>(&self, q: &[S], qd: &[S], values: &mut [S], gamma: &mut [S]) {
-        let nnz = self.plan.straight.as_ref().map_or(0, |st| st.nnz);
-        if self.straight(q, qd, |st| &st.terms, |j, x| if j < nnz { values[j] = x } else { gamma[j - nnz] = x }) {
+        if self.straight(q, qd, |st| &st.terms, values, gamma) {
             return;
         }
-        self.each_group(
-            q,
-            qd,
-            |g| Some(&g.terms),
-            |g, rb, vb, j, x| {
-                let nnz = g.pattern.len();
-                if j < nnz { values[vb + j] = x } else { gamma[rb + j - nnz] = x }
-            },
-        );
+        self.each_group(q, qd, |g| Some(&g.terms), |_, rb, vb| (Some(vb), Some(rb)), values, gamma);
     }
 
     fn points<S: Scalar>(&self, q: &[S], out: &mut [S]) {
-        if self.straight(q, &[], |st| &st.points, |j, x| out[j] = x) {
+        if self.straight(q, &[], |st| &st.points, out, &mut []) {
             return;
         }
         self.each_point(q, &[], out, |p| &p.pos);
     }
 
     fn point_velocities<S: Scalar>(&self, q: &[S], qd: &[S], out: &mut [S]) {
-        if self.straight(q, qd, |st| &st.vel, |j, x| out[j] = x) {
+        if self.straight(q, qd, |st| &st.vel, out, &mut []) {
             return;
         }
         self.each_point(q, qd, out, |p| &p.vel);
@@ -486,6 +604,37 @@ impl Model for RuntimeModel {
                 c[j - nd - nq - nb] = x;
             }
         });
+    }
+
+    /// The fused right-hand side's parameter-only subexpressions, computed
+    /// once per parameter change (as `model!` hoists them).
+    fn minimal_constants(&self) -> Option<Vec<f64>> {
+        self.minimal().ok().map(|m| m.fused.table(&self.values, self.plan.registers))
+    }
+
+    fn minimal_rhs<E, F>(
+        &self,
+        k: &[f64],
+        z: &[f64],
+        q: &mut [f64],
+        qd: &mut [f64],
+        dz: &mut [f64],
+        forces: F,
+    ) -> Result<(), crate::model::MinimalRhsError<E>>
+    where
+        F: FnOnce(&[f64], &[f64], &mut [f64], &mut [f64]) -> Result<(), E>,
+    {
+        let (Ok(m), Some(st)) = (self.minimal(), &self.plan.straight) else { return Ok(()) };
+        let call = fused::FusedCall {
+            fused: &m.fused,
+            params: &self.values,
+            table: k,
+            cols: &st.cols,
+            coords: &m.coords,
+            speeds: &m.speeds,
+            compiled: self.jit,
+        };
+        fused::rhs(&call, z, q, qd, dz, forces)
     }
 
     fn minimal_state<S: Scalar>(&self, q: &mut [S], qd: &mut [S]) -> bool {
@@ -522,10 +671,12 @@ impl RuntimeModel {
     ) {
         let st = self.plan.straight.as_ref().expect("a model with minimal coordinates has no families");
         S::with_scratch(self.plan.registers, |regs| {
-            tape.load(&Inputs { params: &self.values, indices: &[], cols: &st.cols, q, qd }, regs);
-            tape.run(regs);
+            let at = tape.compute(
+                &Inputs { params: &self.values, indices: &[], cols: &st.cols, q, qd, compiled: self.jit },
+                regs,
+            );
             for j in 0..tape.outputs() {
-                write(j, regs[tape.output(j)], q, qd);
+                write(j, regs[at.at(j)], q, qd);
             }
         });
     }

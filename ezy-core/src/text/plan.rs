@@ -8,6 +8,7 @@ use ezy_lang::ast::{Affine, ModelDef, doc_of, split_unit};
 use ezy_lang::kinematics::{Kind, own_index};
 use ezy_lang::sym::{Arena, Id};
 
+use super::fused::Fused;
 use super::tape::Tape;
 use crate::model::info::ParamInfo;
 
@@ -72,7 +73,7 @@ pub(super) const MAX_INDICES: usize = 16;
 pub(super) const MAX_SLOTS: usize = 4;
 
 /// A body item.
-#[derive(Clone, Debug)]
+#[derive(Debug)]
 pub(super) struct BodyPlan {
     pub(super) name: String,
     pub(super) family: Option<usize>,
@@ -85,7 +86,7 @@ pub(super) struct BodyPlan {
 }
 
 /// A point item.
-#[derive(Clone, Debug)]
+#[derive(Debug)]
 pub(super) struct PointPlan {
     pub(super) name: String,
     pub(super) family: Option<usize>,
@@ -120,7 +121,7 @@ pub(super) enum ItemKind {
 }
 
 /// A constraint item (single or a family): its element kernels.
-#[derive(Clone, Debug)]
+#[derive(Debug)]
 pub(super) struct GroupPlan {
     pub(super) kind: Kind,
     pub(super) item_kind: ItemKind,
@@ -172,7 +173,7 @@ impl GroupPlan {
 /// bit). The outputs of each tape in the order of the function's
 /// arguments (`phi_g`: `phi`, then `G`'s values; `terms`: `G`'s values,
 /// then `gamma`).
-#[derive(Clone, Debug)]
+#[derive(Debug)]
 pub(super) struct Straight {
     pub(super) phi: Tape,
     pub(super) jacobian: Tape,
@@ -181,14 +182,16 @@ pub(super) struct Straight {
     pub(super) terms: Tape,
     pub(super) points: Tape,
     pub(super) vel: Tape,
-    /// `phi`'s rows and `G`'s nonzeros.
-    pub(super) nh: usize,
-    pub(super) nnz: usize,
     /// Every body's first column, `3 b` (the tapes' "slots").
     pub(super) cols: Vec<usize>,
     /// For each column `k` of `G` with nonzeros, `(k, [(entry, row)])` in
     /// the pattern's order: `v -= W^-1 G^T x` summed as `model!` sums it.
     pub(super) by_column: Vec<(usize, Vec<(usize, usize)>)>,
+    /// `A = G W^-1 G^T`'s lower triangle summed as `model!` sums it: per
+    /// entry `a[i nc + j]`, `j <= i`, its index and its terms
+    /// `values[e1] * values[e2] * winv[k]` (a range of `normal_terms`).
+    pub(super) normal: Vec<(usize, std::ops::Range<usize>)>,
+    pub(super) normal_terms: Vec<[usize; 3]>,
     /// The minimal coordinates ezy-lang derived, or why there are none.
     pub(super) minimal: Result<MinimalPlan, String>,
 }
@@ -197,7 +200,7 @@ pub(super) struct Straight {
 /// the tapes of `minimal_expand` (eliminated coordinates, global rates,
 /// `B`, `c` and the frames' cos and sin, in that order) and
 /// `minimal_state` (the first two).
-#[derive(Clone, Debug)]
+#[derive(Debug)]
 pub(super) struct MinimalPlan {
     pub(super) coords: Vec<usize>,
     pub(super) speeds: Vec<usize>,
@@ -208,6 +211,8 @@ pub(super) struct MinimalPlan {
     pub(super) q_dep: Vec<usize>,
     pub(super) expand: Tape,
     pub(super) state: Tape,
+    /// The fused right-hand side.
+    pub(super) fused: Fused,
 }
 
 impl Straight {
@@ -219,7 +224,20 @@ impl Straight {
         let minimal =
             ezy_lang::minimal::derive(&mut m.derived.ar, &m.def, &m.resolved, &st.phi, &st.pattern, &st.values, st.nc)
                 .map(|mm| {
+                    // Maggi's terms for the fused right-hand side, the
+                    // hinges in `ModelInfo::hinges`' order (no families: a
+                    // body's slot is its index), as `model!` derives them
+                    let mass: Vec<Id> = m.derived.mass.iter().flatten().copied().collect();
+                    let hinges: Vec<(usize, Option<usize>)> = m
+                        .derived
+                        .groups
+                        .iter()
+                        .filter(|g| g.kind == Kind::Hinge)
+                        .map(|g| (g.slots[0].0, g.slots.get(1).map(|b| b.0)))
+                        .collect();
+                    let maggi = ezy_lang::minimal::maggi(&mut m.derived.ar, &mm, &mass, &hinges);
                     let ar = &m.derived.ar;
+                    let fused = Fused::new(ar, &mm, &maggi);
                     let mut outputs: Vec<Id> = mm.q_dep.iter().map(|p| p.1).collect();
                     outputs.extend(&mm.qd);
                     let state = Tape::new(ar, &outputs);
@@ -234,31 +252,47 @@ impl Straight {
                         q_dep: mm.q_dep.iter().map(|p| p.0).collect(),
                         expand: Tape::new(ar, &outputs),
                         state,
+                        fused,
                     }
                 })
                 .map_err(|why| format!("model {} has no minimal coordinates: {why}", m.def.name));
         let ar = &m.derived.ar;
+        let nc = st.gamma.len();
+        let rows: Vec<Vec<(usize, usize)>> = (0..nc)
+            .map(|r| st.pattern.iter().enumerate().filter(|(_, p)| p.0 == r).map(|(e, p)| (e, p.1)).collect())
+            .collect();
+        let (mut normal, mut normal_terms) = (Vec::new(), Vec::new());
+        for i in 0..nc {
+            for j in 0..=i {
+                let start = normal_terms.len();
+                for &(e1, k) in &rows[i] {
+                    normal_terms.extend(rows[j].iter().filter(|r| r.1 == k).map(|&(e2, _)| [e1, e2, k]));
+                }
+                normal.push((i * nc + j, start..normal_terms.len()));
+            }
+        }
         Self {
             phi: Tape::new(ar, &st.phi),
             jacobian: Tape::new(ar, &st.values[..nnz_h]),
             g: Tape::new(ar, &st.values),
-            phi_g: Tape::new(ar, &[st.phi.as_slice(), &st.values].concat()),
-            terms: Tape::new(ar, &[st.values.as_slice(), &st.gamma].concat()),
+            phi_g: Tape::new(ar, &[st.phi.as_slice(), &st.values].concat()).with_split(nh),
+            terms: Tape::new(ar, &[st.values.as_slice(), &st.gamma].concat()).with_split(st.values.len()),
             points: Tape::new(ar, &st.points),
             vel: Tape::new(ar, &st.vel),
-            nh,
-            nnz: st.values.len(),
             cols: (0..st.nq / 3).map(|b| 3 * b).collect(),
             by_column: (0..st.nq)
                 .map(|k| (k, st.pattern.iter().enumerate().filter(|(_, p)| p.1 == k).map(|(e, p)| (e, p.0)).collect()))
                 .filter(|(_, entries): &(usize, Vec<(usize, usize)>)| !entries.is_empty())
                 .collect(),
+            normal,
+            normal_terms,
             minimal,
         }
     }
 
     fn tapes(&self) -> impl Iterator<Item = &Tape> {
-        let minimal = self.minimal.iter().flat_map(|m| [&m.pivot_values, &m.expand, &m.state]);
+        let minimal =
+            self.minimal.iter().flat_map(|m| [&m.pivot_values, &m.expand, &m.state].into_iter().chain(m.fused.tapes()));
         [&self.phi, &self.jacobian, &self.g, &self.phi_g, &self.terms, &self.points, &self.vel]
             .into_iter()
             .chain(minimal)
@@ -288,7 +322,17 @@ pub(super) struct Plan {
     pub(super) own: Ix,
     /// A model without families: its straight-line tapes.
     pub(super) straight: Option<Straight>,
+    /// The machine code of the tapes' compiled kernels, once compiled (or
+    /// why they could not be).
+    pub(super) code: std::sync::OnceLock<Result<Code, String>>,
 }
+
+/// The JIT's code (nothing in a build without it).
+#[cfg(feature = "jit")]
+pub(super) type Code = super::tape::jit::Code;
+#[cfg(not(feature = "jit"))]
+#[derive(Debug)]
+pub(super) struct Code;
 
 /// An interned name that lives as long as the program: [`ParamInfo`] and
 /// [`crate::ModelInfo`] hold `&'static str` (a compiled model's names are
@@ -465,8 +509,8 @@ impl Plan {
                     suffixes: g.suffixes.clone(),
                     phi: cat(&[&phi]),
                     g: cat(&[&values]),
-                    phi_g: cat(&[&phi, &values]),
-                    terms: cat(&[&values, &g.gamma]),
+                    phi_g: cat(&[&phi, &values]).with_split(phi.len()),
+                    terms: cat(&[&values, &g.gamma]).with_split(values.len()),
                     direction,
                     eq_phi: phi,
                     eq_velocity: g.velocity.clone(),
@@ -498,6 +542,7 @@ impl Plan {
             registers: 0,
             own: ix(&own_index(), None),
             straight: None,
+            code: std::sync::OnceLock::new(),
         };
         // the straight-line form renames into the arena: after every
         // element kernel, as `model!` does, so that its nodes are the ones
@@ -530,6 +575,40 @@ impl Plan {
             .flat_map(|g| [&g.phi, &g.g, &g.phi_g, &g.terms].into_iter().chain(g.direction.as_ref().map(|(t, _)| t)));
         let straight = self.straight.iter().flat_map(Straight::tapes);
         bodies.chain(points).chain(groups).chain(self.blades.iter().map(|(_, t)| t)).chain(straight)
+    }
+
+    /// Compiles every tape to machine code, once (the first call compiles,
+    /// later ones return its outcome).
+    ///
+    /// # Errors
+    /// Why there is no JIT: a build without the `jit` feature, a host
+    /// without a Cranelift back end, or code Cranelift refused.
+    pub(super) fn compile(&self) -> Result<(), String> {
+        let code = self.code.get_or_init(|| {
+            #[cfg(feature = "jit")]
+            {
+                use super::tape::jit::{MAX_MODEL_OPS, MAX_OPS};
+                let mut budget = MAX_MODEL_OPS;
+                let tapes: Vec<&Tape> = self
+                    .tapes()
+                    .filter(|t| {
+                        let take = t.ops() <= MAX_OPS.min(budget);
+                        if take {
+                            budget -= t.ops();
+                        }
+                        take
+                    })
+                    .collect();
+                let (code, kernels) = super::tape::jit::compile(&tapes)?;
+                for (t, k) in tapes.iter().zip(kernels) {
+                    t.set_kernel(k);
+                }
+                Ok(code)
+            }
+            #[cfg(not(feature = "jit"))]
+            Err("this build of ezy-core has no `jit` feature".to_owned())
+        });
+        code.as_ref().map(|_| ()).map_err(Clone::clone)
     }
 
     /// Operations in all tapes (the size of the model's code).

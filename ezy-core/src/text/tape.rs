@@ -12,6 +12,9 @@
 
 use std::collections::HashMap;
 
+#[cfg(feature = "jit")]
+pub(crate) mod jit;
+
 use ezy_lang::sym::{Arena, Id, Node, Sym};
 
 use crate::scalar::Scalar;
@@ -45,7 +48,9 @@ struct Ins {
 /// bodies it touches (slot `s` owns local coordinates `3 s .. 3 s + 3`).
 /// Its registers: the inputs it reads (numbers, then what is loaded per
 /// evaluation), then one per computed value.
-#[derive(Clone, Debug, Default)]
+///
+/// Not `Clone`: a compiled kernel points into code its plan owns.
+#[derive(Debug, Default)]
 pub(crate) struct Tape {
     /// Numbers, in registers `0..consts.len()`.
     consts: Vec<f64>,
@@ -60,12 +65,96 @@ pub(crate) struct Tape {
     /// The register of each output.
     out: Vec<u32>,
     n_regs: usize,
+    /// Outputs from here on go to [`Tape::eval_to`]'s second destination.
+    split: usize,
+    /// What an evaluation reads, for the compiled kernel's bounds: the
+    /// parameters and indices it needs, and per slot read from `q` (and
+    /// `qd`) the largest local coordinate (0-2).
+    reach: Reach,
+    /// The compiled kernel, once the model's tapes are compiled.
+    #[cfg(feature = "jit")]
+    kernel: std::sync::OnceLock<jit::Kernel>,
+}
+
+/// What a tape reads ([`Tape::fits`]).
+#[derive(Clone, Debug, Default)]
+struct Reach {
+    params: usize,
+    indices: usize,
+    q: Vec<(usize, usize)>,
+    qd: Vec<(usize, usize)>,
+}
+
+impl Reach {
+    fn of(t: &Tape) -> Self {
+        let slots = |list: &[(usize, u32)]| {
+            let mut v: Vec<(usize, usize)> = Vec::new();
+            for &(k, _) in list {
+                match v.iter_mut().find(|(s, _)| *s == k / 3) {
+                    Some(e) => e.1 = e.1.max(k % 3),
+                    None => v.push((k / 3, k % 3)),
+                }
+            }
+            v
+        };
+        Reach {
+            params: t.params.iter().map(|p| p.0 + 1).max().unwrap_or(0),
+            indices: t.indices.iter().map(|p| p.0 + 1).max().unwrap_or(0),
+            q: slots(&t.q),
+            qd: slots(&t.qd),
+        }
+    }
 }
 
 impl Tape {
     /// The tape computing `outputs` (ids of `ar`).
     pub(crate) fn new(ar: &Arena, outputs: &[Id]) -> Self {
+        Self::build(ar, outputs, &HashMap::new())
+    }
+
+    /// The tapes computing `outputs` with their parameter-only
+    /// subexpressions hoisted (code motion, as `model!` hoists the fused
+    /// right-hand side's into a table computed once per run): `(table,
+    /// main)`, where `table` computes the hoisted values from the
+    /// parameters and `main` reads them where a family's tape reads its
+    /// indices (`Sym::Index(k)` is the table's `k`-th value; a tape of a
+    /// model without families reads no index).
+    pub(crate) fn hoisted(ar: &Arena, outputs: &[Id]) -> (Self, Self) {
         let ids = ar.reachable(outputs);
+        let mut fixed: HashMap<Id, bool> = HashMap::with_capacity(ids.len());
+        let mut read_by_state: std::collections::HashSet<Id> = std::collections::HashSet::new();
+        for &id in &ids {
+            let kids: &[Id] = match ar.node(id) {
+                Node::Const(_) => &[],
+                Node::Sym(s) => {
+                    fixed.insert(id, matches!(s, Sym::Param(_)));
+                    continue;
+                }
+                Node::Add(xs) | Node::Mul(xs) => xs,
+                Node::Pow(a, _) | Node::Sin(a) | Node::Cos(a) | Node::Sqrt(a) => std::slice::from_ref(a),
+            };
+            let f = kids.iter().all(|k| fixed[k]);
+            if !f {
+                read_by_state.extend(kids.iter().copied());
+            }
+            fixed.insert(id, f);
+        }
+        // a computed parameter-only value that state-dependent code or an
+        // output reads
+        let is_leaf = |id: Id| matches!(ar.node(id), Node::Const(_) | Node::Sym(_));
+        let table: Vec<Id> = ids
+            .iter()
+            .copied()
+            .filter(|&id| fixed[&id] && !is_leaf(id) && (read_by_state.contains(&id) || outputs.contains(&id)))
+            .collect();
+        let stops: HashMap<Id, usize> = table.iter().enumerate().map(|(k, &id)| (id, k)).collect();
+        (Self::new(ar, &table), Self::build(ar, outputs, &stops))
+    }
+
+    /// The tape computing `outputs`, reading each of `stops` as an input
+    /// (`Sym::Index(k)` for `stops[id] = k`) instead of computing it.
+    fn build(ar: &Arena, outputs: &[Id], stops: &HashMap<Id, usize>) -> Self {
+        let ids = if stops.is_empty() { ar.reachable(outputs) } else { reachable_until(ar, outputs, stops) };
         let mut t = Tape::default();
         let mut reg: HashMap<Id, u32> = HashMap::with_capacity(ids.len());
         let mut next = 0u32;
@@ -81,6 +170,12 @@ impl Tape {
             }
         }
         for &id in &ids {
+            if let Some(&k) = stops.get(&id) {
+                let r = fresh();
+                reg.insert(id, r);
+                t.indices.push((k, r));
+                continue;
+            }
             if let Node::Sym(s) = ar.node(id) {
                 let r = fresh();
                 reg.insert(id, r);
@@ -168,7 +263,107 @@ impl Tape {
         }
         t.out = outputs.iter().map(|o| reg[o]).collect();
         t.n_regs = next as usize;
+        t.reach = Reach::of(&t);
+        t.split = t.out.len();
         t
+    }
+
+    /// Whether the inputs `x` hold everything the tape reads (the compiled
+    /// kernel's bounds).
+    #[cfg(feature = "jit")]
+    fn fits<S>(&self, x: &Inputs<'_, S>) -> bool {
+        let r = &self.reach;
+        let inside = |slots: &[(usize, usize)], v: &[S]| {
+            slots.iter().all(|&(s, m)| x.cols.get(s).is_some_and(|&c| c.checked_add(m).is_some_and(|e| e < v.len())))
+        };
+        x.params.len() >= r.params && x.indices.len() >= r.indices && inside(&r.q, x.q) && inside(&r.qd, x.qd)
+    }
+
+    /// The compiled kernel, if `x` may take it (`f64`, compiled, every
+    /// input in bounds).
+    #[inline]
+    #[cfg(feature = "jit")]
+    fn kernel_for<S: Scalar>(&self, x: &Inputs<'_, S>) -> Option<jit::Kernel> {
+        let k = *self.kernel.get()?;
+        (x.compiled && std::any::TypeId::of::<S>() == std::any::TypeId::of::<f64>() && self.fits(x)).then_some(k)
+    }
+
+    /// The tape with its outputs from `split` on written to a second
+    /// destination ([`Tape::eval_to`]).
+    pub(crate) fn with_split(mut self, split: usize) -> Self {
+        self.split = split.min(self.out.len());
+        self
+    }
+
+    /// Evaluates the tape for one element: output `j` to `a[j]` for `j` below
+    /// the tape's split ([`Tape::with_split`]), to `b[j - split]` from it on.
+    /// `regs`: scratch of [`Tape::registers`] values for the register
+    /// machine (the compiled kernel needs none: it may be empty then).
+    ///
+    /// # Panics
+    /// If `a` or `b` is too short, or an input is out of bounds.
+    #[inline]
+    pub(crate) fn eval_to<S: Scalar>(&self, x: &Inputs<'_, S>, regs: &mut [S], a: &mut [S], b: &mut [S]) {
+        let (na, nb) = (self.split, self.out.len() - self.split);
+        let (a, b) = (&mut a[..na], &mut b[..nb]);
+        #[cfg(feature = "jit")]
+        if let Some(k) = self.kernel_for(x) {
+            let f = |v: &[S]| v.as_ptr().cast::<f64>();
+            // SAFETY: `S` is `f64` (the casts are identities), `kernel_for`
+            // checked every read, and `a`, `b` hold the outputs.
+            unsafe {
+                k(
+                    x.params.as_ptr(),
+                    x.indices.as_ptr(),
+                    x.cols.as_ptr(),
+                    f(x.q),
+                    f(x.qd),
+                    a.as_mut_ptr().cast::<f64>(),
+                    b.as_mut_ptr().cast::<f64>(),
+                )
+            };
+            return;
+        }
+        let mut run = |regs: &mut [S]| {
+            self.load(x, regs);
+            self.run(regs);
+            let (oa, ob) = self.out.split_at(na);
+            for (v, &o) in a.iter_mut().zip(oa).chain(b.iter_mut().zip(ob)) {
+                *v = regs[o as usize];
+            }
+        };
+        if regs.len() >= self.n_regs { run(regs) } else { S::with_scratch(self.n_regs, run) }
+    }
+
+    /// Sets the compiled kernel (once; later calls are ignored).
+    #[cfg(feature = "jit")]
+    pub(crate) fn set_kernel(&self, k: jit::Kernel) {
+        let _ = self.kernel.set(k);
+    }
+
+    /// Computes the outputs for one element; output `j` is then
+    /// `regs[at(j)]` with `at` what this returns. By the compiled kernel
+    /// for `f64` where there is one (outputs at `0..`), by the register
+    /// machine otherwise.
+    #[inline]
+    pub(crate) fn compute<S: Scalar>(&self, x: &Inputs<'_, S>, regs: &mut [S]) -> Outputs<'_> {
+        #[cfg(feature = "jit")]
+        if let Some(k) = self.kernel_for(x)
+            && regs.len() >= self.out.len()
+        {
+            let f = |v: &[S]| v.as_ptr().cast::<f64>();
+            let out = regs.as_mut_ptr().cast::<f64>();
+            // SAFETY: `S` is `f64` (the casts are identities), `kernel_for`
+            // checked every read, and `regs` holds the outputs (the second
+            // destination starts at the split).
+            unsafe {
+                k(x.params.as_ptr(), x.indices.as_ptr(), x.cols.as_ptr(), f(x.q), f(x.qd), out, out.add(self.split))
+            };
+            return Outputs::Front;
+        }
+        self.load(x, regs);
+        self.run(regs);
+        Outputs::Registers(&self.out)
     }
 
     /// Number of operations (what an evaluation costs, about).
@@ -181,18 +376,16 @@ impl Tape {
     /// [`Tape::registers`] values (its contents are overwritten).
     #[inline]
     pub(crate) fn eval<S: Scalar>(&self, x: &Inputs<'_, S>, regs: &mut [S], mut sink: impl FnMut(usize, S)) {
-        self.load(x, regs);
-        self.run(regs);
-        for (j, &o) in self.out.iter().enumerate() {
-            sink(j, regs[o as usize]);
+        let at = self.compute(x, regs);
+        for j in 0..self.out.len() {
+            sink(j, regs[at.at(j)]);
         }
     }
 
-    /// Loads the inputs into the registers (so that the caller may then
-    /// write over what they were read from).
+    /// Loads the inputs into the registers.
     #[inline]
-    pub(crate) fn load<S: Scalar>(&self, x: &Inputs<'_, S>, regs: &mut [S]) {
-        let Inputs { params, indices, cols, q, qd } = *x;
+    fn load<S: Scalar>(&self, x: &Inputs<'_, S>, regs: &mut [S]) {
+        let Inputs { params, indices, cols, q, qd, .. } = *x;
         for (r, &c) in regs.iter_mut().zip(&self.consts) {
             *r = S::from_f64(c);
         }
@@ -211,9 +404,9 @@ impl Tape {
     }
 
     /// Runs the operations on loaded registers; output `j` is then
-    /// `regs[self.output(j)]`.
+    /// `regs[self.out[j]]`.
     #[inline]
-    pub(crate) fn run<S: Scalar>(&self, regs: &mut [S]) {
+    fn run<S: Scalar>(&self, regs: &mut [S]) {
         let regs = &mut regs[..self.n_regs];
         for ins in &self.ins {
             let a = regs[ins.a as usize];
@@ -242,21 +435,35 @@ impl Tape {
         self.out.len()
     }
 
-    /// The register of output `j`.
-    #[inline]
-    pub(crate) fn output(&self, j: usize) -> usize {
-        self.out[j] as usize
-    }
-
-    /// Registers an evaluation needs.
+    /// Registers an evaluation needs (room for the outputs included).
     pub(crate) fn registers(&self) -> usize {
-        self.n_regs
+        self.n_regs.max(self.out.len())
+    }
+}
+
+/// Where [`Tape::compute`] left the outputs.
+pub(crate) enum Outputs<'a> {
+    /// Output `j` at `regs[j]` (the compiled kernel).
+    Front,
+    /// Output `j` at `regs[r[j]]` (the register machine).
+    Registers(&'a [u32]),
+}
+
+impl Outputs<'_> {
+    /// The register holding output `j`.
+    #[inline]
+    pub(crate) fn at(&self, j: usize) -> usize {
+        match self {
+            Outputs::Front => j,
+            Outputs::Registers(r) => r[j] as usize,
+        }
     }
 }
 
 /// What a tape reads for one element: parameter `i` is `params[i]`,
 /// `Sym::Index(k)` is `indices[k]`, local coordinate `k` is
-/// `q[cols[k / 3] + k % 3]` (and of `qd`).
+/// `q[cols[k / 3] + k % 3]` (and of `qd`); `compiled`: whether a tape's
+/// compiled kernel may evaluate it (for `f64`).
 #[derive(Clone, Copy)]
 pub(crate) struct Inputs<'a, S> {
     pub(crate) params: &'a [f64],
@@ -264,13 +471,35 @@ pub(crate) struct Inputs<'a, S> {
     pub(crate) cols: &'a [usize],
     pub(crate) q: &'a [S],
     pub(crate) qd: &'a [S],
+    pub(crate) compiled: bool,
 }
 
 impl<'a> Inputs<'a, f64> {
-    /// Parameters and indices alone (a tape that reads no coordinate).
+    /// Parameters and indices alone (a tape that reads no coordinate; the
+    /// register machine: these tapes run once per setup).
     pub(crate) fn fixed(params: &'a [f64], indices: &'a [f64]) -> Self {
-        Self { params, indices, cols: &[], q: &[], qd: &[] }
+        Self { params, indices, cols: &[], q: &[], qd: &[], compiled: false }
     }
+}
+
+/// The nodes `roots` reach, in the arena's order, not looking into
+/// `stops` (which are included).
+fn reachable_until(ar: &Arena, roots: &[Id], stops: &HashMap<Id, usize>) -> Vec<Id> {
+    let mut seen = std::collections::HashSet::new();
+    let mut stack: Vec<Id> = roots.to_vec();
+    while let Some(id) = stack.pop() {
+        if !seen.insert(id) || stops.contains_key(&id) {
+            continue;
+        }
+        match ar.node(id) {
+            Node::Const(_) | Node::Sym(_) => {}
+            Node::Add(xs) | Node::Mul(xs) => stack.extend_from_slice(xs),
+            Node::Pow(a, _) | Node::Sin(a) | Node::Cos(a) | Node::Sqrt(a) => stack.push(*a),
+        }
+    }
+    let mut ids: Vec<Id> = seen.into_iter().collect();
+    ids.sort_by_key(|id| id.index());
+    ids
 }
 
 /// `x0 op x1 op x2 ...` folded from the left into fresh registers; the

@@ -193,15 +193,12 @@ impl Arena {
             }
         }
         // Collect like terms: monomial -> coefficient, in first-seen order.
-        let mut monos: Vec<(Id, f64)> = Vec::new();
+        let mut monos: Keyed<f64> = Keyed::default();
         for t in flat {
             let (c, m) = self.split_coef(t);
-            if let Some(e) = monos.iter_mut().find(|(mm, _)| *mm == m) {
-                e.1 += c;
-            } else {
-                monos.push((m, c));
-            }
+            monos.add(m, c, |e, c| *e += c);
         }
+        let mut monos = monos.items;
         monos.retain(|(_, c)| *c != 0.0);
         self.pythagoras(&mut monos);
         let one = self.cst(1.0);
@@ -275,7 +272,7 @@ impl Arena {
     pub fn mul(&mut self, factors: &[Id]) -> Id {
         let mut coef = 1.0;
         // (base, exponent) in first-seen order
-        let mut powers: Vec<(Id, i32)> = Vec::new();
+        let mut powers: Keyed<i32> = Keyed::default();
         let mut stack: Vec<Id> = factors.to_vec();
         stack.reverse();
         while let Some(f) = stack.pop() {
@@ -289,8 +286,8 @@ impl Arena {
         if coef == 0.0 {
             return self.cst(0.0);
         }
-        let mut out = Vec::with_capacity(powers.len() + 1);
-        for (b, n) in powers {
+        let mut out = Vec::with_capacity(powers.items.len() + 1);
+        for (b, n) in powers.items {
             if n == 0 {
                 continue;
             }
@@ -465,11 +462,47 @@ impl Arena {
     }
 }
 
-fn push_power(powers: &mut Vec<(Id, i32)>, b: Id, n: i32) {
-    if let Some(e) = powers.iter_mut().find(|(bb, _)| *bb == b) {
-        e.1 += n;
-    } else {
-        powers.push((b, n));
+fn push_power(powers: &mut Keyed<i32>, b: Id, n: i32) {
+    powers.add(b, n, |e, n| *e += n);
+}
+
+/// Values keyed by node, in first-seen order: found by a linear scan while
+/// there are few, by a hash index once there are many (a sum or product
+/// of thousands of distinct terms collects in linear time).
+struct Keyed<T> {
+    items: Vec<(Id, T)>,
+    index: HashMap<Id, usize>,
+}
+
+impl<T> Default for Keyed<T> {
+    fn default() -> Self {
+        Self { items: Vec::new(), index: HashMap::new() }
+    }
+}
+
+impl<T> Keyed<T> {
+    /// Where there are more items than this, the index finds them.
+    const SCAN: usize = 16;
+
+    /// `merge(existing, value)` into `key`'s value, or `key` appended.
+    fn add(&mut self, key: Id, value: T, merge: impl FnOnce(&mut T, T)) {
+        let at = if self.items.len() <= Self::SCAN {
+            self.items.iter().position(|(k, _)| *k == key)
+        } else {
+            if self.index.is_empty() {
+                self.index.extend(self.items.iter().enumerate().map(|(i, (k, _))| (*k, i)));
+            }
+            self.index.get(&key).copied()
+        };
+        match at {
+            Some(i) => merge(&mut self.items[i].1, value),
+            None => {
+                if !self.index.is_empty() {
+                    self.index.insert(key, self.items.len());
+                }
+                self.items.push((key, value));
+            }
+        }
     }
 }
 
