@@ -62,11 +62,23 @@ def draw(chart, ax=None):
     return fig
 
 
-def to_pandas(data, columns):
-    """A pandas DataFrame over the run's 2-D array (rows x columns)."""
+def to_pandas(data, columns, units=None):
+    """A pandas DataFrame over the run's 2-D array (rows x columns); each
+    column's unit in `frame.attrs["units"]`."""
     import pandas as pd
 
-    return pd.DataFrame(data, columns=list(columns), copy=False)
+    frame = pd.DataFrame(data, columns=list(columns), copy=False)
+    if units is not None:
+        frame.attrs["units"] = dict(units)
+    return frame
+
+
+def read_table(path, index=None):
+    """The CSV table `path` written by a command, as a DataFrame (`index`:
+    the column to index it by)."""
+    import pandas as pd
+
+    return pd.read_csv(path, comment="#", index_col=index)
 
 
 def sweep_frame(path):
@@ -74,3 +86,17 @@ def sweep_frame(path):
     import pandas as pd
 
     return pd.read_csv(path, comment="#")
+
+
+def eigenvalues(path):
+    """The eigenvalues.csv `path` (k, re, im) as a complex NumPy array."""
+    import numpy as np
+
+    frame = read_table(path)
+    return np.asarray(frame["re"], dtype=float) + 1j * np.asarray(frame["im"], dtype=float)
+
+
+def state(path):
+    """The state.csv `path` (name, value) as a dict."""
+    frame = read_table(path)
+    return {str(n): float(v) for n, v in zip(frame["name"], frame["value"])}

@@ -9,9 +9,11 @@
 //! ([`python_module!`]).
 //!
 //! Everything a module offers is [`init_module`] over an [`ezy::App`]:
-//! `models()`, `scenes()`, `effect_kinds()`, `scene(name)`, `run(scene,
-//! ...)`, `sweep(scene, ...)`, `equations(model)` and `check(model)`, the classes
-//! `Result`, `Scene` and `Equations`, and the exception `EzyError`, whose
+//! `models()`, `scenes()`, `effect_kinds()`, `scene(...)`, `run(scene,
+//! ...)`, `sweep(scene, ...)`, `analyze(scene, ...)`, `linearize(scene,
+//! ...)`, `equations(model)` and `check(model)`, the classes `Result`,
+//! `Scene`, `Model`, `Equations`, `Analysis` and `Linearization`, and the
+//! exception `EzyError`, whose
 //! message is the command line's (the file, line, key or flag at fault).
 //!
 //! A run goes through [`ezy::App::run_scene_in_memory`]: no file is
@@ -31,11 +33,13 @@ mod model;
 mod reports;
 mod result;
 mod scene;
+mod scene_text;
 mod settings;
 mod toolkit;
+mod units;
 
 pub use model::PyModel;
-pub use reports::{Check, Equations};
+pub use reports::{Analysis, Check, Equations, Linearization};
 pub use result::RunResult;
 pub use scene::{Effect, PyScene};
 pub use toolkit::Toolkit;
@@ -59,7 +63,10 @@ const MODULE_DOC: &str = "Planar vehicles and mechanisms with hinges and skates 
 
 run(scene, **settings)      a scene in memory: a Result with NumPy arrays
 sweep(scene, grid, ...)     runs over parameter values: a pandas DataFrame
-scene(name)                 a Scene to change (parameters, effects' numbers) and run
+analyze(scene, ...)         steady motions or the gait and their stability: DataFrames
+linearize(scene, at=t)      A, B and the eigenvalues at a time of the run
+scene(name), scene(toml=..), scene(model=m, t_end=.., initial=.., ...)
+                            a Scene to change (parameters, effects' numbers) and run
 models(), scenes()          what this module knows
 effect_kinds()              the effect kinds a scene may name, with keys and laws
 equations(model)            the derived equations (LaTeX in Jupyter)
@@ -105,9 +112,10 @@ fn ezy_module(m: &Bound<'_, PyModule>) -> PyResult<()> {
 }
 
 /// Fills module `m` with the API over `app`: the functions `models`,
-/// `scenes`, `effect_kinds`, `scene`, `run`, `sweep`, `equations`, `check`, the classes
-/// `Result`, `Scene`, `Effect`, `Equations`, `Check` and the exception
-/// `EzyError`.
+/// `scenes`, `effect_kinds`, `scene`, `run`, `sweep`, `analyze`,
+/// `linearize`, `equations`, `check`, the classes `Result`, `Scene`,
+/// `Effect`, `Equations`, `Check`, `Analysis`, `Linearization`, `Model`
+/// and the exception `EzyError`.
 ///
 /// # Errors
 /// A Python error if the module cannot be filled (the helpers fail to
@@ -135,10 +143,13 @@ pub fn init_module(m: &Bound<'_, PyModule>, app: App) -> PyResult<()> {
     m.add_class::<Effect>()?;
     m.add_class::<Equations>()?;
     m.add_class::<Check>()?;
+    m.add_class::<Analysis>()?;
+    m.add_class::<Linearization>()?;
     m.add_class::<Toolkit>()?;
     m.add_class::<PyModel>()?;
     let kit = Bound::new(py, Toolkit { app, helpers: helpers.unbind() })?;
-    for f in ["models", "scenes", "effect_kinds", "scene", "run", "sweep", "equations", "check"] {
+    for f in ["models", "scenes", "effect_kinds", "scene", "run", "sweep", "analyze", "linearize", "equations", "check"]
+    {
         m.add(f, kit.getattr(f)?)?;
     }
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;

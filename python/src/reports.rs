@@ -1,5 +1,8 @@
-//! What `equations` and `check` return: `ezy.Equations` (the text, and the
-//! LaTeX Jupyter renders) and `ezy.Check` (passed or not, and the table).
+//! What `equations`, `check`, `analyze` and `linearize` return:
+//! `ezy.Equations` (the text, and the LaTeX Jupyter renders), `ezy.Check`
+//! (passed or not, and the table), `ezy.Analysis` (the steady motions or
+//! the gait, as DataFrames) and `ezy.Linearization` (A, B and the
+//! eigenvalues).
 
 use pyo3::prelude::*;
 
@@ -62,5 +65,90 @@ impl Check {
 
     fn __repr__(&self) -> String {
         if self.passed { self.table.clone() } else { format!("{}\n{}", self.table, self.message) }
+    }
+}
+
+/// What `ezy.analyze` found: the report `ezy analyze` prints and its
+/// tables as pandas DataFrames (`periodic`: the gait, one row per orbit,
+/// with its period [s], mean speed [m/s], displacement per period [m],
+/// heading change [rad], Floquet multipliers and stability; `equilibria`:
+/// the steady motions; `branch`: a continuation's points). A table the
+/// analysis did not write is `None`.
+#[pyclass(module = "ezy", frozen)]
+pub struct Analysis {
+    /// The text `ezy analyze` prints.
+    #[pyo3(get)]
+    pub(crate) report: String,
+    /// Every table written: `{"periodic": DataFrame, ...}`.
+    #[pyo3(get)]
+    pub(crate) tables: Py<pyo3::types::PyDict>,
+}
+
+impl Analysis {
+    fn table<'py>(&self, py: Python<'py>, name: &str) -> PyResult<Option<Bound<'py, PyAny>>> {
+        self.tables.bind(py).get_item(name)
+    }
+}
+
+#[pymethods]
+impl Analysis {
+    /// The periodic orbit (gait) table, or None.
+    #[getter]
+    fn periodic<'py>(&self, py: Python<'py>) -> PyResult<Option<Bound<'py, PyAny>>> {
+        self.table(py, "periodic")
+    }
+
+    /// The steady motions (equilibria of the reduced dynamics), or None.
+    #[getter]
+    fn equilibria<'py>(&self, py: Python<'py>) -> PyResult<Option<Bound<'py, PyAny>>> {
+        self.table(py, "equilibria")
+    }
+
+    /// The continuation's branch, or None.
+    #[getter]
+    fn branch<'py>(&self, py: Python<'py>) -> PyResult<Option<Bound<'py, PyAny>>> {
+        self.table(py, "branch")
+    }
+
+    fn __str__(&self) -> String {
+        self.report.clone()
+    }
+
+    fn __repr__(&self) -> String {
+        self.report.clone()
+    }
+}
+
+/// What `ezy.linearize` gives: `A` (and `B` with an input) as DataFrames
+/// labelled by the state's names, the eigenvalues [1/s] as a complex
+/// NumPy array, the state linearized about (`{name: value}`), and the
+/// report `ezy linearize` prints.
+#[pyclass(module = "ezy", frozen)]
+pub struct Linearization {
+    /// The text `ezy linearize` prints.
+    #[pyo3(get)]
+    pub(crate) report: String,
+    /// The state matrix (2 nq x 2 nq), rows and columns named.
+    #[pyo3(get, name = "A")]
+    pub(crate) a: Py<PyAny>,
+    /// The input matrix (2 nq x 1), or None without `input`.
+    #[pyo3(get, name = "B")]
+    pub(crate) b: Option<Py<PyAny>>,
+    /// The eigenvalues on the constraint manifold [1/s], complex.
+    #[pyo3(get)]
+    pub(crate) eigenvalues: Py<PyAny>,
+    /// The state linearized about: `{name: value}`.
+    #[pyo3(get)]
+    pub(crate) state: Py<pyo3::types::PyDict>,
+}
+
+#[pymethods]
+impl Linearization {
+    fn __str__(&self) -> String {
+        self.report.clone()
+    }
+
+    fn __repr__(&self) -> String {
+        self.report.clone()
     }
 }

@@ -18,7 +18,9 @@ use crate::ezy_err;
 /// columns), `result.t` the times [s], `result.columns` the names (those of
 /// the command line's trajectory.csv), `result.to_pandas()` a DataFrame,
 /// `result.plot("fig3_paths")` one of the scene's figures in matplotlib,
-/// `result.summary` the text `ezy run` prints.
+/// `result.summary` the text `ezy run` prints. `len(result)` counts the
+/// rows, iterating gives them, `np.asarray(result)` is the table, and
+/// `result.units` / `result.describe()` say what each column is.
 #[pyclass(module = "ezy", name = "Result", frozen)]
 pub struct RunResult {
     data: Py<PyArray2<f64>>,
@@ -146,8 +148,61 @@ impl RunResult {
         self.columns.iter().any(|c| c == name)
     }
 
-    fn __len__(&self) -> usize {
-        self.columns.len()
+    /// The number of output rows.
+    fn __len__(&self, py: Python<'_>) -> usize {
+        self.data.bind(py).shape()[0]
+    }
+
+    /// The rows, each a float64 array over the columns (as iterating
+    /// `result.data`).
+    fn __iter__<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
+        self.data.bind(py).as_any().try_iter().map(Bound::into_any)
+    }
+
+    /// `np.asarray(result)`: the table (rows x columns), `data`.
+    #[pyo3(signature = (dtype=None, copy=None))]
+    fn __array__<'py>(
+        &self,
+        py: Python<'py>,
+        dtype: Option<&Bound<'py, PyAny>>,
+        copy: Option<bool>,
+    ) -> PyResult<Bound<'py, PyAny>> {
+        let data = self.data.bind(py).as_any().clone();
+        let np = py.import("numpy")?;
+        let kwargs = PyDict::new(py);
+        kwargs.set_item("dtype", dtype)?;
+        if copy == Some(true) {
+            return np.call_method("array", (data,), Some(&kwargs));
+        }
+        np.call_method("asarray", (data,), Some(&kwargs))
+    }
+
+    /// Each column's unit: `{column: "m/s"}` ("" for a pure number).
+    #[getter]
+    fn units<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
+        let d = PyDict::new(py);
+        for c in &self.columns {
+            d.set_item(c, crate::units::unit_and_meaning(c, &self.info).0)?;
+        }
+        Ok(d)
+    }
+
+    /// Each column with its unit and meaning, one line each (the text is
+    /// also what `print(result.describe())` shows).
+    fn describe(&self) -> String {
+        let rows: Vec<(String, String, String)> = self
+            .columns
+            .iter()
+            .map(|c| {
+                let (u, m) = crate::units::unit_and_meaning(c, &self.info);
+                (c.clone(), if u.is_empty() { String::new() } else { format!("[{u}]") }, m)
+            })
+            .collect();
+        let w0 = rows.iter().map(|r| r.0.len()).max().unwrap_or(0);
+        let w1 = rows.iter().map(|r| r.1.len()).max().unwrap_or(0);
+        let lines: Vec<String> =
+            rows.iter().map(|(c, u, m)| format!("{c:<w0$}  {u:<w1$}  {m}").trim_end().to_string()).collect();
+        format!("run of scene {}: {} columns\n{}", self.scene, self.columns.len(), lines.join("\n"))
     }
 
     /// The column names (as a mapping's keys).
@@ -158,7 +213,8 @@ impl RunResult {
     /// The rows as a pandas DataFrame (over `data`, not a copy where
     /// pandas allows).
     fn to_pandas<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
-        self.helpers.bind(py).call_method1("to_pandas", (self.data.bind(py), self.columns.clone()))
+        let units = self.units(py)?;
+        self.helpers.bind(py).call_method1("to_pandas", (self.data.bind(py), self.columns.clone(), units))
     }
 
     /// Draws the scene's figure `name` (e.g. "fig3_paths"; see `figures`)

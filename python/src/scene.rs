@@ -11,6 +11,7 @@ use pyo3::prelude::*;
 use pyo3::types::PyDict;
 
 use crate::ezy_err;
+use crate::model::PyModel;
 use crate::toolkit::Toolkit;
 
 /// A scene to change and run: `scene["M0"] = 1.0` sets a scene or model
@@ -29,9 +30,24 @@ pub struct PyScene {
     pub(crate) sets: Vec<(String, f64)>,
     /// How the scene was named (its name, or the path it was read from).
     pub(crate) reference: String,
+    /// The model it runs on, when it was made on an `ezy.Model`.
+    pub(crate) model: Option<Py<PyModel>>,
+    /// Its TOML text, when it was made in Python (no file of its own): the
+    /// commands that read a scene file get it in a temporary one.
+    pub(crate) toml: Option<String>,
 }
 
 impl PyScene {
+    /// The module's application, with the scene's own model where it has
+    /// one.
+    pub(crate) fn app(&self) -> ezy::App {
+        let app = self.kit.get().app.clone();
+        match &self.model {
+            Some(m) => app.with_model_as(&self.src.scene.model, m.get().model.clone()),
+            None => app,
+        }
+    }
+
     /// The scene with every set applied.
     fn applied(&self) -> PyResult<ezy_scene::Scene> {
         let mut s = self.src.scene.clone();
@@ -48,7 +64,7 @@ impl PyScene {
         trial.set(&self.info, name, value).map_err(ezy_err)?;
         // an effect kind of the user's own reads its fields when the run
         // is set up: checked now, as the command line's run would
-        let app = &self.kit.get().app;
+        let app = &self.app();
         if let Some(Ok(info)) = app.info_with(&trial.model, &trial.params) {
             let refused = |e: ezy_scene::SceneError| {
                 ezy_err(ezy_core::SimError::Setup(ezy_core::SetupError::Scene { key: e.key(), message: e.message }))

@@ -55,10 +55,20 @@ impl Overrides {
         for (k, v) in settings.iter() {
             let key: String = k.extract()?;
             let bad = |what: &str| PyValueError::new_err(format!("{function}(): `{key}` = {v} is not {what}"));
-            let number = || v.extract::<f64>().map_err(|_| bad("a number"));
-            let text = || v.extract::<String>().map_err(|_| bad("a string"));
+            // the wrong type: a TypeError naming the keyword and the type given
+            let wrong = |what: &str| {
+                let ty = v.get_type().name().map_or_else(|_| "?".to_string(), |n| n.to_string());
+                pyo3::exceptions::PyTypeError::new_err(format!("{function}(): `{key}` must be {what}, not {ty} ({v})"))
+            };
+            let number = || {
+                if v.is_instance_of::<pyo3::types::PyBool>() {
+                    return Err(wrong("a number"));
+                }
+                v.extract::<f64>().map_err(|_| wrong("a number"))
+            };
+            let text = || v.extract::<String>().map_err(|_| wrong("a string"));
             match key.as_str() {
-                "set" => o.sets.extend(sets_of(Some(v.cast::<PyDict>().map_err(|_| bad("a dict"))?))?),
+                "set" => o.sets.extend(sets_of(Some(v.cast::<PyDict>().map_err(|_| wrong("a dict"))?))?),
                 "integrator" => o.integrator = Some(text()?),
                 "formulation" => o.formulation = Some(text()?),
                 "projection" => o.projection = Some(text()?),
@@ -67,7 +77,7 @@ impl Overrides {
                 "dt" => o.dt = Some(number()?),
                 "t_end" => o.t_end = Some(number()?),
                 "every" => o.every = Some(number()?),
-                "max_steps" => o.max_steps = Some(v.extract().map_err(|_| bad("a whole number >= 0"))?),
+                "max_steps" => o.max_steps = Some(v.extract().map_err(|_| wrong("a whole number >= 0"))?),
                 "max_output_mb" => {
                     let mb = number()?;
                     if !(mb.is_finite() && mb > 0.0) {
@@ -122,4 +132,27 @@ pub(crate) fn sets_of(set: Option<&Bound<'_, PyDict>>) -> PyResult<Vec<(String, 
         }
     }
     Ok(out)
+}
+
+/// The keyword `key` of `function` as a number: a TypeError naming the
+/// keyword and the type given otherwise (as `run`'s settings).
+pub(crate) fn number_kw(function: &str, key: &str, v: Option<&Bound<'_, PyAny>>) -> PyResult<Option<f64>> {
+    let Some(v) = v.filter(|v| !v.is_none()) else { return Ok(None) };
+    let wrong = || {
+        let ty = v.get_type().name().map_or_else(|_| "?".to_string(), |n| n.to_string());
+        pyo3::exceptions::PyTypeError::new_err(format!("{function}(): `{key}` must be a number, not {ty} ({v})"))
+    };
+    if v.is_instance_of::<pyo3::types::PyBool>() {
+        return Err(wrong());
+    }
+    v.extract::<f64>().map(Some).map_err(|_| wrong())
+}
+
+/// The keyword `key` of `function` as a string, likewise.
+pub(crate) fn text_kw(function: &str, key: &str, v: Option<&Bound<'_, PyAny>>) -> PyResult<Option<String>> {
+    let Some(v) = v.filter(|v| !v.is_none()) else { return Ok(None) };
+    v.extract::<String>().map(Some).map_err(|_| {
+        let ty = v.get_type().name().map_or_else(|_| "?".to_string(), |n| n.to_string());
+        pyo3::exceptions::PyTypeError::new_err(format!("{function}(): `{key}` must be a string, not {ty} ({v})"))
+    })
 }

@@ -1,6 +1,7 @@
 //! The module's functions: [`Toolkit`], the application behind a module,
-//! whose methods `models`, `scenes`, `effect_kinds`, `scene`, `run`, `sweep`, `equations`
-//! and `check` the module offers as functions; a run in memory with the
+//! whose methods `models`, `scenes`, `effect_kinds`, `scene`, `run`,
+//! `sweep`, `analyze`, `linearize`, `equations` and `check` the module
+//! offers as functions; a run in memory with the
 //! GIL released and Python's signals polled, a command line run the same
 //! way (Ctrl-C stops either and raises `KeyboardInterrupt`).
 
@@ -16,10 +17,10 @@ use pyo3::prelude::*;
 use pyo3::types::PyDict;
 
 use crate::model::PyModel;
-use crate::reports::{Check, Equations};
+use crate::reports::{Analysis, Check, Equations, Linearization};
 use crate::result::RunResult;
 use crate::scene::PyScene;
-use crate::settings::{Overrides, sets_of};
+use crate::settings::{Overrides, number_kw, sets_of, text_kw};
 use crate::{EzyError, ezy_err};
 
 /// How often a running integration asks Python for pending signals (Ctrl-C).
@@ -40,6 +41,21 @@ struct Resolved {
     sets: Vec<(String, f64)>,
     /// How it was named: a known scene's name or a file's path.
     reference: String,
+    /// A `Scene` object's own model (one made on an `ezy.Model`).
+    model: Option<Py<PyModel>>,
+    /// A `Scene` object's TOML text, when it was made in Python.
+    toml: Option<String>,
+}
+
+impl Resolved {
+    /// The scene as the command line names it: its name or path, or, for a
+    /// scene made in Python, a file in `dir` holding its text.
+    fn cli_scene(&self, dir: &std::path::Path) -> PyResult<String> {
+        let Some(text) = &self.toml else { return Ok(self.reference.clone()) };
+        let path = dir.join(format!("{}.toml", self.src.scene.name.replace(['/', '\\'], "_")));
+        std::fs::write(&path, text).map_err(ezy_err)?;
+        Ok(path.display().to_string())
+    }
 }
 
 impl Toolkit {
@@ -48,13 +64,19 @@ impl Toolkit {
     fn resolve(&self, scene: &Bound<'_, PyAny>) -> PyResult<Resolved> {
         if let Ok(s) = scene.cast::<PyScene>() {
             let s = s.borrow();
-            return Ok(Resolved { src: s.src.clone(), sets: s.sets.clone(), reference: s.reference.clone() });
+            return Ok(Resolved {
+                src: s.src.clone(),
+                sets: s.sets.clone(),
+                reference: s.reference.clone(),
+                model: s.model.as_ref().map(|m| m.clone_ref(scene.py())),
+                toml: s.toml.clone(),
+            });
         }
         let name: String = scene.extract().map_err(|_| {
             PyValueError::new_err("scene: give a scene's name, a path to a .toml file, or an ezy.Scene")
         })?;
         let src = self.app.load_scene(&name).map_err(ezy_err)?;
-        Ok(Resolved { src, sets: Vec::new(), reference: name })
+        Ok(Resolved { src, sets: Vec::new(), reference: name, model: None, toml: None })
     }
 
     fn info(&self, model: &str, params: &[(String, f64)]) -> PyResult<ModelInfo> {
@@ -67,11 +89,11 @@ impl Toolkit {
     /// (a scene file whose model this module does not know is read and
     /// checked against `model` alone).
     fn resolve_on(&self, scene: &Bound<'_, PyAny>, model: Option<&Bound<'_, PyModel>>) -> PyResult<(App, Resolved)> {
-        let Some(m) = model else { return Ok((self.app.clone(), self.resolve(scene)?)) };
         let r = match self.resolve(scene) {
             Ok(r) => r,
             Err(e) => {
                 // a file naming a model this module does not know
+                let Some(m) = model else { return Err(e) };
                 let Ok(name) = scene.extract::<String>() else { return Err(e) };
                 let path = std::path::Path::new(&name);
                 if !path.is_file() {
@@ -80,9 +102,12 @@ impl Toolkit {
                 let (scene, text) = ezy_scene::Scene::read(path).map_err(ezy_err)?;
                 let app = self.app_with(&scene.model, Some(m));
                 let src = ezy_scene::registry::check_scene(&app, scene, &text, &name).map_err(ezy_err)?;
-                return Ok((app, Resolved { src, sets: Vec::new(), reference: name }));
+                return Ok((app, Resolved { src, sets: Vec::new(), reference: name, model: None, toml: None }));
             }
         };
+        // the call's model, else the scene's own
+        let own = r.model.as_ref().map(|m| m.bind(scene.py()).clone());
+        let Some(m) = model.or(own.as_ref()) else { return Ok((self.app.clone(), r)) };
         let app = self.app_with(&r.src.scene.model, Some(m));
         let src = ezy_scene::registry::check_scene(&app, r.src.scene, &r.src.text, &r.src.file).map_err(ezy_err)?;
         Ok((app, Resolved { src, ..r }))
@@ -139,6 +164,39 @@ pub(crate) fn equations_in(
 }
 
 impl Toolkit {
+    /// Runs the command `name` on `scene` (with `model`, the scene's sets,
+    /// `extra` flags and the run keywords `settings`) into `out` (or a
+    /// temporary directory, returned to keep it while its files are
+    /// read): what it printed and the directory.
+    #[expect(clippy::too_many_arguments, reason = "the keywords every command takes")]
+    fn command(
+        &self,
+        py: Python<'_>,
+        name: &str,
+        scene: &Bound<'_, PyAny>,
+        model: Option<&Bound<'_, PyModel>>,
+        extra: Vec<String>,
+        out: Option<PathBuf>,
+        figures: bool,
+        settings: Option<&Bound<'_, PyDict>>,
+    ) -> PyResult<(String, PathBuf, tempfile::TempDir)> {
+        let (app, r) = self.resolve_on(scene, model)?;
+        let opts = Overrides::new(r.sets.clone(), settings, name)?.options()?;
+        let temp = tempfile::Builder::new().prefix("ezy-").tempdir().map_err(ezy_err)?;
+        let dir = out.unwrap_or_else(|| temp.path().join(name));
+        let mut args = vec![name.to_string(), r.cli_scene(temp.path())?];
+        args.extend(extra);
+        args.extend(opts.to_args());
+        args.extend(["--out".into(), dir.display().to_string()]);
+        if !figures {
+            args.push("--no-figures".into());
+        }
+        match Self::cli(py, &app, args)? {
+            Ok(report) => Ok((report, dir, temp)),
+            Err((_, e)) => Err(ezy_err(e)),
+        }
+    }
+
     /// Runs the command line `args` (after the program name) with the GIL
     /// released; Ctrl-C asks the command to stop ([`ezy::output::transaction::request_stop`])
     /// and raises `KeyboardInterrupt` once it has. Returns what it printed.
@@ -219,16 +277,105 @@ impl Toolkit {
         Ok(d)
     }
 
-    /// The scene `name` (a known scene's name, or a path to a .toml file)
-    /// as an editable `Scene`: change its parameters and effects' numbers,
-    /// then `run` it.
+    /// A scene as an editable `Scene`: change its parameters and effects'
+    /// numbers, then `run`, `sweep`, `analyze` or `linearize` it.
     ///
-    /// Raises EzyError for an unknown name or a bad file (file, line, key).
-    fn scene(slf: &Bound<'_, Self>, name: &str) -> PyResult<PyScene> {
+    /// `scene("drive")` loads a known scene (or a path to a .toml file);
+    /// `scene(toml=text)` reads a scene file's text; `scene(model=m,
+    /// t_end=20.0, initial={"q": {...}, "qd": {...}}, drives={...},
+    /// effects={...}, integrator={...}, output={...})` builds one from
+    /// keywords that are a scene file's keys and tables (the guide's
+    /// chapter "Scenes and effects"; `name` is then the new scene's,
+    /// "python" unless given). `model` is an
+    /// `ezy.Model` (the scene then runs on it), a model's key or the path
+    /// of a `.ezy` file (relative to the working directory).
+    ///
+    /// Raises EzyError for an unknown name or a bad scene (its key and,
+    /// for text, line); TypeError for a keyword value TOML cannot hold.
+    #[pyo3(signature = (name=None, *, toml=None, model=None, **keys))]
+    fn scene(
+        slf: &Bound<'_, Self>,
+        name: Option<&str>,
+        toml: Option<&str>,
+        model: Option<&Bound<'_, PyAny>>,
+        keys: Option<&Bound<'_, PyDict>>,
+    ) -> PyResult<PyScene> {
         let this = slf.get();
-        let src = this.app.load_scene(name).map_err(ezy_err)?;
-        let info = this.info(&src.scene.model, &src.scene.params)?;
-        Ok(PyScene { kit: slf.clone().unbind(), src, info, sets: Vec::new(), reference: name.to_string() })
+        let (pymodel, key) = match model {
+            None => (None, None),
+            Some(m) => match m.cast::<PyModel>() {
+                Ok(pm) => (Some(pm.clone()), Some(pm.get().key.clone())),
+                Err(_) => (
+                    None,
+                    Some(m.extract::<String>().map_err(|_| {
+                        pyo3::exceptions::PyTypeError::new_err(
+                            "scene(): `model` must be an ezy.Model, a model's key or the path of a .ezy file",
+                        )
+                    })?),
+                ),
+            },
+        };
+        let keys = keys.filter(|k| !k.is_empty());
+        // with keys, `name` is the new scene's own
+        if let (Some(n), Some(k)) = (name, keys) {
+            k.set_item("name", n)?;
+        }
+        let name = name.filter(|_| keys.is_none());
+        let (src, reference, text) = match (name, toml, keys) {
+            (Some(name), None, None) => {
+                let mut src = this.app.load_scene(name).map_err(ezy_err)?;
+                if let Some(m) = &pymodel {
+                    let app = this.app_with(&src.scene.model, Some(m));
+                    src = ezy_scene::registry::check_scene(&app, src.scene, &src.text, &src.file).map_err(ezy_err)?;
+                } else if let Some(k) = &key {
+                    src.scene.model = k.clone();
+                    src = ezy_scene::registry::check_scene(&this.app, src.scene, &src.text, &src.file)
+                        .map_err(ezy_err)?;
+                }
+                (src, name.to_string(), None)
+            }
+            (None, text, keys) if text.is_some() != keys.is_some() => {
+                let (text, file) = match (text, keys) {
+                    (Some(t), _) => (crate::scene_text::with_model(t, key.as_deref())?, "<toml>"),
+                    (_, Some(k)) => {
+                        if key.is_none() && !k.contains("model")? {
+                            return Err(pyo3::exceptions::PyTypeError::new_err(
+                                "scene(): a scene made from keywords needs `model=` (an ezy.Model, a model's key or a .ezy path); to change a known scene, load it (ezy.scene(\"drive\")) and set its values",
+                            ));
+                        }
+                        (crate::scene_text::from_keys(k, key.as_deref())?, "<keywords>")
+                    }
+                    _ => unreachable!("one of the two"),
+                };
+                let scene = ezy_scene::Scene::from_toml(&text, file).map_err(ezy_err)?;
+                let app = match &pymodel {
+                    Some(m) => this.app_with(&scene.model, Some(m)),
+                    None => this.app.clone(),
+                };
+                let src = ezy_scene::registry::check_scene(&app, scene, &text, file).map_err(ezy_err)?;
+                let reference = src.scene.name.clone();
+                (src, reference, Some(text))
+            }
+            _ => {
+                return Err(pyo3::exceptions::PyTypeError::new_err(
+                    "scene(): give a scene's name, toml=TEXT, or the scene's keys (model=..., t_end=..., initial=...), one of the three",
+                ));
+            }
+        };
+        let app = match &pymodel {
+            Some(m) => this.app_with(&src.scene.model, Some(m)),
+            None => this.app.clone(),
+        };
+        let info = info_in(&app, &src.scene.model, &src.scene.params)?;
+        Ok(PyScene {
+            kit: slf.clone().unbind(),
+            src,
+            info,
+            sets: Vec::new(),
+            reference,
+            model: pymodel.map(|m| m.unbind()),
+            toml: text,
+        })
     }
 
     /// Runs `scene` (a name, a path or a `Scene`) in memory and returns a
@@ -315,13 +462,13 @@ impl Toolkit {
         out: Option<PathBuf>,
         settings: Option<&Bound<'py, PyDict>>,
     ) -> PyResult<Bound<'py, PyAny>> {
-        let (app, Resolved { sets, reference, .. }) = self.resolve_on(scene, model)?;
-        let o = Overrides::new(sets, settings, "sweep")?;
+        let (app, r) = self.resolve_on(scene, model)?;
+        let o = Overrides::new(r.sets.clone(), settings, "sweep")?;
         let opts = o.options()?; // the keywords' own errors first, named as keywords
         let temp = tempfile::Builder::new().prefix("ezy-sweep-").tempdir().map_err(ezy_err)?;
         let dir = out.unwrap_or_else(|| temp.path().join("sweep"));
         // the scene as it was named: a known scene's name or its file's path
-        let mut args = vec!["sweep".to_string(), reference];
+        let mut args = vec!["sweep".to_string(), r.cli_scene(temp.path())?];
         if grid.is_empty() {
             return Err(ezy_err("grid: give at least one axis, e.g. grid={\"M0\": [1, 2, 3]}"));
         }
@@ -355,6 +502,101 @@ impl Toolkit {
         let frame = self.helpers.bind(py).call_method1("sweep_frame", (dir.join("sweep.csv"),))?;
         drop(temp);
         Ok(frame)
+    }
+
+    /// Finds `scene`'s steady motions, or, driven periodically, its
+    /// periodic orbit (the gait), and their stability, as `ezy analyze`
+    /// does: an `Analysis` with the report and the tables as DataFrames
+    /// (`.periodic`, `.equilibria`, `.branch`).
+    ///
+    /// `period` [s]: the forcing period (default: from the scene's
+    /// waveforms); `energy` [J]: the kinetic energy of the steady motions
+    /// sought; `vary="NAME=START:STOP:COUNT"` follows the solution as a
+    /// parameter varies (the command line's `--continue`); `out` keeps the
+    /// files (CSV and figures: `figures=True`). Other keywords as `run`;
+    /// `model=m` analyses the scene on an `ezy.Model`.
+    ///
+    /// Raises EzyError with the command line's message (no orbit found,
+    /// a bad setting); KeyboardInterrupt on Ctrl-C.
+    #[pyo3(signature = (scene, *, model=None, period=None, energy=None, vary=None, out=None, figures=false, **settings))]
+    #[expect(clippy::too_many_arguments, reason = "Python's keywords, one argument each")]
+    fn analyze(
+        &self,
+        py: Python<'_>,
+        scene: &Bound<'_, PyAny>,
+        model: Option<&Bound<'_, PyModel>>,
+        period: Option<&Bound<'_, PyAny>>,
+        energy: Option<&Bound<'_, PyAny>>,
+        vary: Option<&Bound<'_, PyAny>>,
+        out: Option<PathBuf>,
+        figures: bool,
+        settings: Option<&Bound<'_, PyDict>>,
+    ) -> PyResult<Analysis> {
+        let period = number_kw("analyze", "period", period)?;
+        let energy = number_kw("analyze", "energy", energy)?;
+        let vary = text_kw("analyze", "vary", vary)?;
+        let mut extra = Vec::new();
+        if let Some(p) = period {
+            extra.extend(["--period".to_string(), format!("{p:?}")]);
+        }
+        if let Some(e) = energy {
+            extra.extend(["--energy".to_string(), format!("{e:?}")]);
+        }
+        if let Some(v) = vary {
+            extra.extend(["--continue".to_string(), v]);
+        }
+        let (report, dir, _temp) = self.command(py, "analyze", scene, model, extra, out, figures, settings)?;
+        let tables = PyDict::new(py);
+        for name in ["periodic", "equilibria", "branch"] {
+            let path = dir.join(format!("{name}.csv"));
+            if path.is_file() {
+                tables.set_item(name, self.helpers.bind(py).call_method1("read_table", (path,))?)?;
+            }
+        }
+        Ok(Analysis { report, tables: tables.unbind() })
+    }
+
+    /// Linearizes `scene` at time `at` [s] of its run, as `ezy linearize`
+    /// does: a `Linearization` with `A` (and `B` for `input`, the name of
+    /// an effect's or drive's input) as DataFrames, the eigenvalues [1/s]
+    /// as a complex array, and the state. Other keywords as `analyze`.
+    ///
+    /// Raises EzyError with the command line's message.
+    #[pyo3(signature = (scene, *, model=None, at=None, input=None, out=None, **settings))]
+    #[expect(clippy::too_many_arguments, reason = "Python's keywords, one argument each")]
+    fn linearize(
+        &self,
+        py: Python<'_>,
+        scene: &Bound<'_, PyAny>,
+        model: Option<&Bound<'_, PyModel>>,
+        at: Option<&Bound<'_, PyAny>>,
+        input: Option<&Bound<'_, PyAny>>,
+        out: Option<PathBuf>,
+        settings: Option<&Bound<'_, PyDict>>,
+    ) -> PyResult<Linearization> {
+        let at = number_kw("linearize", "at", at)?.unwrap_or(0.0);
+        let input = text_kw("linearize", "input", input)?;
+        let mut extra = vec!["--at".to_string(), format!("{at:?}")];
+        if let Some(i) = input {
+            extra.extend(["--input".to_string(), i]);
+        }
+        let (report, dir, _temp) = self.command(py, "linearize", scene, model, extra, out, true, settings)?;
+        let h = self.helpers.bind(py);
+        let table = |name: &str| -> PyResult<Option<Py<PyAny>>> {
+            let path = dir.join(name);
+            if !path.is_file() {
+                return Ok(None);
+            }
+            Ok(Some(h.call_method1("read_table", (path, "row"))?.unbind()))
+        };
+        let a = table("A.csv")?.ok_or_else(|| ezy_err("linearize wrote no A.csv"))?;
+        Ok(Linearization {
+            report,
+            a,
+            b: table("B.csv")?,
+            eigenvalues: h.call_method1("eigenvalues", (dir.join("eigenvalues.csv"),))?.unbind(),
+            state: h.call_method1("state", (dir.join("state.csv"),))?.cast_into::<PyDict>()?.unbind(),
+        })
     }
 
     /// The derived equations of `model` (a model's key, the path of a

@@ -93,7 +93,7 @@ def test_arrays_are_float64_views_of_one_table():
     assert t.shape == x1.shape == (r.data.shape[0],)
     assert np.shares_memory(t, r.data) and np.shares_memory(x1, r.data)
     assert t[0] == 0.0 and t[-1] == 10.0 and np.all(np.diff(t) == 0.5)
-    assert "x1" in r and "nonsense" not in r and len(r) == len(r.columns)
+    assert "x1" in r and "nonsense" not in r and len(r) == r.data.shape[0] == len(t)
     with pytest.raises(KeyError, match="no column `nonsense`.*its columns: t, x1"):
         r["nonsense"]
     df = r.to_pandas()
@@ -115,8 +115,10 @@ def test_errors_carry_the_command_lines_messages(tmp_path):
         ezy.run("drive", rtol=-1.0)
     with pytest.raises(TypeError, match="unexpected keyword `rtl`; its settings: set, integrator"):
         ezy.run("drive", rtl=1e-9)
-    with pytest.raises(ValueError, match="`rtol` = tight is not a number"):
+    with pytest.raises(TypeError, match=r"run\(\): `rtol` must be a number, not str \(tight\)"):
         ezy.run("drive", rtol="tight")
+    with pytest.raises(TypeError, match="`t_end` must be a number, not bool"):
+        ezy.run("drive", t_end=True)
     with pytest.raises(ezy.EzyError, match='integrator="rk5".*rk4'):
         ezy.run("drive", integrator="rk5")
     # a bad scene file: the file, line and key, as the command line says
@@ -390,3 +392,109 @@ def test_a_mistake_in_a_model_text_is_located(tmp_path):
         ezy.Model.load(tmp_path / "bad.ezy")
     with pytest.raises(ezy.EzyError, match="cannot read model file"):
         ezy.Model.load(tmp_path / "missing.ezy")
+
+
+def racer_gait_keys():
+    """The Roller Racer's gait scene as a scene file's keys: the handlebar
+    swung, viscous rolling resistance at both axles."""
+    return dict(
+        name="racer-gait",
+        t_end=60.0,
+        initial={"q": {"x1": 0.0, "y1": 0.0, "phi1": 0.0}, "qd": {"x1": 0.0}},
+        integrator={"method": "dop853", "rtol": 1e-10, "atol": 1e-10},
+        drives={"steer": {"angle": {"sin": {"amplitude": 0.5, "omega": 2.0}}}},
+        effects={
+            "roll_A": {"kind": "rolling-viscous", "skate": "A", "damping": 5.0},
+            "roll_C": {"kind": "rolling-viscous", "skate": "C", "damping": 5.0},
+        },
+    )
+
+
+def test_a_notebook_user_defines_the_roller_racer_runs_sweeps_and_finds_its_gait(tmp_path):
+    racer = ezy.Model(roller_racer_text())
+    scene = ezy.scene(model=racer, **racer_gait_keys())
+    assert scene.model == "RollerRacer" and scene["d1"] == 0.6
+    r = scene.run()
+    # a result behaves as a table: rows, iteration, an array, units
+    assert len(r) == r.data.shape[0] == 6001 and np.asarray(r).shape == r.data.shape
+    assert np.array_equal(next(iter(r)), r.data[0]) and np.array_equal(list(r)[-1], r.data[-1])
+    assert (r.units["t"], r.units["x1d"], r.units["phi1"]) == ("s", "m/s", "rad")
+    assert "rate: x of the centre of mass of `main`" in r.describe()
+    # a sweep of the damping: more resistance, less distance
+    df = ezy.sweep(scene, {"roll_A.damping": [2.0, 8.0]}, metrics=["final(x1)"], jobs=1, t_end=10.0)
+    assert list(df["status"]) == ["ok", "ok"] and df["final(x1)"].iloc[0] > df["final(x1)"].iloc[1]
+    # its gait: the forcing's period, stable, at a mean speed of 0.27 m/s
+    gait = ezy.analyze(scene)
+    p = gait.periodic
+    assert p["period"].iloc[0] == pytest.approx(np.pi, rel=1e-12) and p["stability"].iloc[0] == "stable"
+    assert 0.26 < p["mean_speed"].iloc[0] < 0.28 and gait.equilibria is None
+    # the command line on the same text and scene as files: the same gait
+    (tmp_path / "racer.ezy").write_text(roller_racer_text())
+    (tmp_path / "gait.toml").write_text(
+        ezy_scene_toml(dict(racer_gait_keys(), model=str(tmp_path / "racer.ezy"), description="the gait"))
+    )
+    code, _, err = cli("analyze", str(tmp_path / "gait.toml"), "--no-figures", "--out", str(tmp_path / "a"))
+    assert code == 0, err
+    import pandas as pd
+
+    cli_p = pd.read_csv(tmp_path / "a" / "periodic.csv")
+    assert cli_p["mean_speed"].iloc[0] == p["mean_speed"].iloc[0]
+    # a scene file's text with the model given, and a linearization
+    same = ezy.scene(toml=(tmp_path / "gait.toml").read_text(), model=racer)
+    assert np.array_equal(same.run(t_end=1.0).data, scene.run(t_end=1.0).data)
+    lin = ezy.linearize(scene, at=1.0)
+    assert lin.A.shape == (12, 12) and lin.eigenvalues.dtype == np.complex128 and "x1" in lin.state
+    # a value TOML cannot hold, or nothing to build from, is a TypeError
+    with pytest.raises(TypeError, match="`initial.q.x1` must be a number"):
+        ezy.scene(model=racer, **dict(racer_gait_keys(), initial={"q": {"x1": object()}}))
+    with pytest.raises(TypeError, match="give a scene's name, toml=TEXT, or the scene's keys"):
+        ezy.scene()
+    with pytest.raises(TypeError, match="made from keywords needs `model=`"):
+        ezy.scene("drive", t_end=5.0)
+    with pytest.raises(TypeError, match=r"analyze\(\): `period` must be a number, not str"):
+        ezy.analyze(scene, period="pi")
+    with pytest.raises(TypeError, match=r"linearize\(\): `at` must be a number, not str"):
+        ezy.linearize(scene, at="1")
+    with pytest.raises(ezy.EzyError, match="effects.r.*`Z`"):
+        ezy.scene(model=racer, **dict(racer_gait_keys(), effects={"r": {"kind": "rolling-viscous", "skate": "Z", "damping": 1.0}}))
+
+
+def ezy_scene_toml(keys):
+    """A scene file's text from its keys (the TOML that ezy.scene writes)."""
+    lines = []
+
+    def value(v):
+        if isinstance(v, bool):
+            return "true" if v else "false"
+        if isinstance(v, (int, float)):
+            return repr(float(v)) if isinstance(v, float) else str(v)
+        if isinstance(v, str):
+            return '"' + v + '"'
+        if isinstance(v, dict):
+            return "{ " + ", ".join(f"{k} = {value(x)}" for k, x in v.items()) + " }"
+        raise TypeError(v)
+
+    for k, v in keys.items():
+        if not isinstance(v, dict):
+            lines.append(f"{k} = {value(v)}")
+    for k, v in keys.items():
+        if isinstance(v, dict):
+            for sub, x in v.items():
+                if isinstance(x, dict) and k in ("drives", "effects"):
+                    lines.append(f"[{k}.{sub}]")
+                    lines.extend(f"{kk} = {value(xx)}" for kk, xx in x.items())
+            if k not in ("drives", "effects"):
+                lines.append(f"[{k}]")
+                lines.extend(f"{kk} = {value(xx)}" for kk, xx in v.items())
+    return "\n".join(lines) + "\n"
+
+
+def test_the_stub_names_everything_the_module_offers():
+    import ast
+
+    stub = ast.parse((WORKSPACE / "python" / "ezy.pyi").read_text())
+    named = {n.name for n in stub.body if isinstance(n, (ast.FunctionDef, ast.ClassDef))}
+    named |= {t.id for n in stub.body if isinstance(n, ast.AnnAssign) for t in [n.target]}
+    named = {n for n in named if not n.startswith("_")}
+    offered = {n for n in dir(ezy) if not n.startswith("_")}
+    assert named == offered, (offered - named, named - offered)
