@@ -591,6 +591,10 @@ impl Plan {
                 let mut budget = MAX_MODEL_OPS;
                 let tapes: Vec<&Tape> = self
                     .tapes()
+                    // those that read no coordinate run once per setup
+                    // (masses, local geometry, the fused table), on the
+                    // register machine
+                    .filter(|t| t.reads_state())
                     .filter(|t| {
                         let take = t.ops() <= MAX_OPS.min(budget);
                         if take {

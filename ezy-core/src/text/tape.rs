@@ -366,6 +366,12 @@ impl Tape {
         Outputs::Registers(&self.out)
     }
 
+    /// Whether it reads coordinates or velocities (a tape that reads
+    /// neither depends on the parameters alone).
+    pub(crate) fn reads_state(&self) -> bool {
+        !self.q.is_empty() || !self.qd.is_empty()
+    }
+
     /// Number of operations (what an evaluation costs, about).
     pub(crate) fn ops(&self) -> usize {
         self.ins.len()
