@@ -50,26 +50,36 @@ impl Coef {
     }
 }
 
-/// A body's heading `cos`, `sin` (outputs) and its rows of `B`: per
-/// body-frame velocity `3 b + axis`, `(speed i, B_ji)` where not zero.
+/// A body's heading `cos`, `sin` (outputs of [`Fused::forces`]) and its
+/// rows of `B`: per body-frame velocity `3 b + axis`, `(speed i, B_ji)`
+/// where not zero.
 type BodyRows = ([usize; 2], [Vec<(usize, Coef)>; 3]);
 
 /// The plan of the fused right-hand side.
 #[derive(Debug)]
 pub(super) struct Fused {
-    /// Outputs: the eliminated coordinates (`q_dep`'s order), the global
-    /// rates (nq), `B^T M B`'s lower triangle by rows (nu (nu + 1) / 2),
-    /// `-B^T M c` (nu), then the coefficients [`Coef::At`] points to;
-    /// its parameter-only subexpressions read from the values of `table`
-    /// ([`Tape::hoisted`]).
+    /// Outputs: `B^T M B`'s lower triangle by rows (nu (nu + 1) / 2),
+    /// `-B^T M c` (nu), the hinges' coefficients [`Coef::At`] points to
+    /// (`n_maggi` in all), then the eliminated coordinates `q_dep.0`
+    /// lists and the global rates `qd_at` lists; its parameter-only
+    /// subexpressions read from the values of `table` ([`Tape::hoisted`]).
     tape: Tape,
+    /// The same for an integrator's stage ([`crate::Model::minimal_rhs_lean`]):
+    /// of the eliminated coordinates and rates only the headings', and the
+    /// kept coordinates' rates.
+    lean: Tape,
+    /// The frames' `cos`, `sin` and the body rows' coefficients, wanted
+    /// only where a body has an applied force.
+    forces: Tape,
     table: Tape,
     nq: usize,
     nu: usize,
-    /// Where output `j < q_dep.len()` goes in `q`.
-    q_dep: Vec<usize>,
-    /// Per body: `cos`, `sin` of its heading (outputs), and per
-    /// body-frame velocity `3 b + axis`, `(speed i, B_ji)` where not zero.
+    n_maggi: usize,
+    /// Where the eliminated coordinates and rates go in `q` and `qd`: for
+    /// `tape`, then for `lean`.
+    full_at: (Vec<usize>, Vec<usize>),
+    lean_at: (Vec<usize>, Vec<usize>),
+    /// Per body, its frame and rows (coefficients in `forces`' outputs).
     bodies: Vec<BodyRows>,
     /// Per hinge, `(speed i, coefficient)` where not zero.
     hinges: Vec<Vec<(usize, Coef)>>,
@@ -79,10 +89,6 @@ impl Fused {
     /// The plan from the minimal form `m` and its Maggi terms.
     pub(super) fn new(ar: &Arena, m: &Minimal, maggi: &Maggi) -> Self {
         let (nq, nu) = (m.qd.len(), m.speeds.len());
-        let mut outputs: Vec<Id> = m.q_dep.iter().map(|p| p.1).collect();
-        outputs.extend(&m.qd);
-        outputs.extend(&maggi.a);
-        outputs.extend(&maggi.minus_bmc);
         let coef = |id: Id, outputs: &mut Vec<Id>| {
             let c = Coef::of(ar, id, outputs.len());
             if let Some(Coef::At(_)) = c {
@@ -90,28 +96,47 @@ impl Fused {
             }
             c
         };
-        let mut bodies = Vec::with_capacity(nq / 3);
-        for b in 0..nq / 3 {
-            let frame = [outputs.len(), outputs.len() + 1];
-            outputs.extend([m.frames[2 * b], m.frames[2 * b + 1]]);
-            let rows = [0, 1, 2].map(|axis| {
-                let j = 3 * b + axis;
-                (0..nu).filter_map(|i| coef(maggi.b[j * nu + i], &mut outputs).map(|c| (i, c))).collect()
-            });
-            bodies.push((frame, rows));
-        }
+        let mut head: Vec<Id> = maggi.a.clone();
+        head.extend(&maggi.minus_bmc);
         let hinges = maggi
             .hinge
             .iter()
-            .map(|row| row.iter().enumerate().filter_map(|(i, &e)| coef(e, &mut outputs).map(|c| (i, c))).collect())
+            .map(|row| row.iter().enumerate().filter_map(|(i, &e)| coef(e, &mut head).map(|c| (i, c))).collect())
             .collect();
-        let (table, tape) = Tape::hoisted(ar, &outputs);
-        Self { table, tape, nq, nu, q_dep: m.q_dep.iter().map(|p| p.0).collect(), bodies, hinges }
+        let n_maggi = head.len();
+        // what a stage keeps: the headings, and the kept coordinates' rates
+        let heading = |j: usize| j % 3 == 2;
+        let state = |keep: &dyn Fn(usize) -> bool| {
+            let dep: Vec<(usize, Id)> = m.q_dep.iter().copied().filter(|p| keep(p.0)).collect();
+            let rates: Vec<usize> = (0..nq).filter(|&j| keep(j) || m.coords.contains(&j)).collect();
+            let mut out = head.clone();
+            out.extend(dep.iter().map(|p| p.1));
+            out.extend(rates.iter().map(|&j| m.qd[j]));
+            (out, (dep.iter().map(|p| p.0).collect::<Vec<_>>(), rates))
+        };
+        let (full_out, full_at) = state(&|_| true);
+        let (lean_out, lean_at) = state(&heading);
+        let mut forces: Vec<Id> = Vec::new();
+        let mut bodies = Vec::with_capacity(nq / 3);
+        for b in 0..nq / 3 {
+            let frame = [forces.len(), forces.len() + 1];
+            forces.extend([m.frames[2 * b], m.frames[2 * b + 1]]);
+            let rows = [0, 1, 2].map(|axis| {
+                let j = 3 * b + axis;
+                (0..nu).filter_map(|i| coef(maggi.b[j * nu + i], &mut forces).map(|c| (i, c))).collect()
+            });
+            bodies.push((frame, rows));
+        }
+        let (table, mut tapes) = Tape::hoisted(ar, &[&full_out, &lean_out, &forces]);
+        let forces = tapes.pop().expect("three tapes");
+        let lean = tapes.pop().expect("three tapes");
+        let tape = tapes.pop().expect("three tapes");
+        Self { tape, lean, forces, table, nq, nu, n_maggi, full_at, lean_at, bodies, hinges }
     }
 
     /// The tapes (for the model's list of tapes).
-    pub(super) fn tapes(&self) -> [&Tape; 2] {
-        [&self.tape, &self.table]
+    pub(super) fn tapes(&self) -> [&Tape; 4] {
+        [&self.tape, &self.lean, &self.forces, &self.table]
     }
 
     /// The table of parameter-only values at the parameters `params`
@@ -144,9 +169,18 @@ pub(super) struct FusedCall<'a> {
     pub(super) compiled: bool,
 }
 
-/// [`crate::Model::minimal_rhs`] on the plan `x.fused`.
+impl FusedCall<'_> {
+    /// What the tapes read: the state `q`, `qd` as they are now.
+    fn inputs<'a>(&'a self, q: &'a [f64], qd: &'a [f64]) -> Inputs<'a, f64> {
+        Inputs { params: self.params, indices: self.table, cols: self.cols, q, qd, compiled: self.compiled }
+    }
+}
+
+/// [`crate::Model::minimal_rhs`] on the plan `x.fused` (`lean`: what
+/// [`crate::Model::minimal_rhs_lean`] writes).
 pub(super) fn rhs<E, F>(
     x: &FusedCall<'_>,
+    lean: bool,
     z: &[f64],
     q: &mut [f64],
     qd: &mut [f64],
@@ -157,11 +191,13 @@ where
     F: FnOnce(&[f64], &[f64], &mut [f64], &mut [f64]) -> Result<(), E>,
 {
     let p = x.fused;
+    let (tape, (dep_at, rate_at)) = if lean { (&p.lean, &p.lean_at) } else { (&p.tape, &p.full_at) };
     let (nq, nu, np, nh) = (p.nq, p.nu, x.coords.len(), p.hinges.len());
-    let n_out = p.tape.outputs();
+    let (n_out, n_forces) = (tape.outputs(), p.forces.outputs());
     let mut work = WORK.with(Cell::take);
-    work.resize(n_out + nq + nh + nu * nu + nu + nu * (nu + 1), 0.0);
+    work.resize(n_out + n_forces + nq + nh + nu * nu + nu + nu * (nu + 1), 0.0);
     let (out, rest) = work.split_at_mut(n_out);
+    let (fo, rest) = rest.split_at_mut(n_forces);
     let (f, rest) = rest.split_at_mut(nq);
     let (tau, rest) = rest.split_at_mut(nh);
     let (a, rest) = rest.split_at_mut(nu * nu);
@@ -169,53 +205,67 @@ where
     // `forces` adds to zeros; `B^T M B` is read below the diagonal only
     f.fill(0.0);
     tau.fill(0.0);
-    // the tape reads the kept coordinates in q and the speeds at their
-    // body-frame velocities in qd (both written over below)
+    // the tapes read the kept coordinates in q and the speeds at their
+    // body-frame velocities in qd (qd written over below)
     for (i, &j) in x.coords.iter().enumerate() {
         q[j] = z[i];
     }
     for (i, &j) in x.speeds.iter().enumerate() {
         qd[j] = z[np + i];
     }
-    let inputs = Inputs { params: x.params, indices: x.table, cols: x.cols, q, qd, compiled: x.compiled };
-    p.tape.eval_to(&inputs, &mut [], out, &mut []);
-    let nd = p.q_dep.len();
-    for (&j, &v) in p.q_dep.iter().zip(&out[..nd]) {
+    tape.eval_to(&x.inputs(q, qd), &mut [], out, &mut []);
+    // the frames and body rows: where a body has a force (below), or now
+    // should they read velocities, which `forces` writes over
+    let early = p.forces.reads_velocities();
+    if early {
+        p.forces.eval_to(&x.inputs(q, qd), &mut [], fo, &mut []);
+    }
+    let (maggi, state) = out.split_at(p.n_maggi);
+    let (deps, rates) = state.split_at(dep_at.len());
+    for (&j, &v) in dep_at.iter().zip(deps) {
         q[j] = v;
     }
-    qd[..nq].copy_from_slice(&out[nd..nd + nq]);
+    for (&j, &v) in rate_at.iter().zip(rates) {
+        qd[j] = v;
+    }
     for (i, &j) in x.coords.iter().enumerate() {
         dz[i] = qd[j];
     }
     let res = forces(q, qd, f, tau).map_err(MinimalRhsError::Forces);
     let res = res.and_then(|()| {
-        let (lower, minus_bmc) = out[nd + nq..].split_at(nu * (nu + 1) / 2);
+        let (lower, rest) = maggi.split_at(nu * (nu + 1) / 2);
         for i in 0..nu {
             let row = &lower[i * (i + 1) / 2..];
             a[i * nu..=i * nu + i].copy_from_slice(&row[..=i]);
         }
-        r.copy_from_slice(&minus_bmc[..nu]);
+        r.copy_from_slice(&rest[..nu]);
+        let mut framed = early;
         for (b, (frame, rows)) in p.bodies.iter().enumerate() {
             let (x_, y_, w) = (3 * b, 3 * b + 1, 3 * b + 2);
-            if f[x_] != 0.0 || f[y_] != 0.0 {
-                let (c, s) = (out[frame[0]], out[frame[1]]);
+            let pushed = f[x_] != 0.0 || f[y_] != 0.0;
+            if (pushed || f[w] != 0.0) && !framed {
+                p.forces.eval_to(&x.inputs(q, qd), &mut [], fo, &mut []);
+                framed = true;
+            }
+            if pushed {
+                let (c, s) = (fo[frame[0]], fo[frame[1]]);
                 let (fx, fy) = (c * f[x_] + s * f[y_], c * f[y_] - s * f[x_]);
                 for (axis, fj) in [(0, fx), (1, fy)] {
                     for &(i, coef) in &rows[axis] {
-                        coef.add_to(&mut r[i], fj, out);
+                        coef.add_to(&mut r[i], fj, fo);
                     }
                 }
             }
             if f[w] != 0.0 {
                 for &(i, coef) in &rows[2] {
-                    coef.add_to(&mut r[i], f[w], out);
+                    coef.add_to(&mut r[i], f[w], fo);
                 }
             }
         }
         for (hinge, row) in p.hinges.iter().enumerate() {
             if tau[hinge] != 0.0 {
                 for &(i, coef) in row {
-                    coef.add_to(&mut r[i], tau[hinge], out);
+                    coef.add_to(&mut r[i], tau[hinge], maggi);
                 }
             }
         }

@@ -634,7 +634,32 @@ impl Model for RuntimeModel {
             speeds: &m.speeds,
             compiled: self.jit,
         };
-        fused::rhs(&call, z, q, qd, dz, forces)
+        fused::rhs(&call, false, z, q, qd, dz, forces)
+    }
+
+    fn minimal_rhs_lean<E, F>(
+        &self,
+        k: &[f64],
+        z: &[f64],
+        q: &mut [f64],
+        qd: &mut [f64],
+        dz: &mut [f64],
+        forces: F,
+    ) -> Result<(), crate::model::MinimalRhsError<E>>
+    where
+        F: FnOnce(&[f64], &[f64], &mut [f64], &mut [f64]) -> Result<(), E>,
+    {
+        let (Ok(m), Some(st)) = (self.minimal(), &self.plan.straight) else { return Ok(()) };
+        let call = fused::FusedCall {
+            fused: &m.fused,
+            params: &self.values,
+            table: k,
+            cols: &st.cols,
+            coords: &m.coords,
+            speeds: &m.speeds,
+            compiled: self.jit,
+        };
+        fused::rhs(&call, true, z, q, qd, dz, forces)
     }
 
     fn minimal_state<S: Scalar>(&self, q: &mut [S], qd: &mut [S]) -> bool {

@@ -112,14 +112,16 @@ impl Tape {
         Self::build(ar, outputs, &HashMap::new())
     }
 
-    /// The tapes computing `outputs` with their parameter-only
+    /// Tapes computing each list of `lists` with their parameter-only
     /// subexpressions hoisted (code motion, as `model!` hoists the fused
     /// right-hand side's into a table computed once per run): `(table,
-    /// main)`, where `table` computes the hoisted values from the
-    /// parameters and `main` reads them where a family's tape reads its
+    /// tapes)`, where `table` computes the hoisted values (of all lists)
+    /// from the parameters and each tape reads them where a family's tape reads its
     /// indices (`Sym::Index(k)` is the table's `k`-th value; a tape of a
     /// model without families reads no index).
-    pub(crate) fn hoisted(ar: &Arena, outputs: &[Id]) -> (Self, Self) {
+    pub(crate) fn hoisted(ar: &Arena, lists: &[&[Id]]) -> (Self, Vec<Self>) {
+        let outputs: Vec<Id> = lists.concat();
+        let outputs = outputs.as_slice();
         let ids = ar.reachable(outputs);
         let mut fixed: HashMap<Id, bool> = HashMap::with_capacity(ids.len());
         let mut read_by_state: std::collections::HashSet<Id> = std::collections::HashSet::new();
@@ -148,7 +150,12 @@ impl Tape {
             .filter(|&id| fixed[&id] && !is_leaf(id) && (read_by_state.contains(&id) || outputs.contains(&id)))
             .collect();
         let stops: HashMap<Id, usize> = table.iter().enumerate().map(|(k, &id)| (id, k)).collect();
-        (Self::new(ar, &table), Self::build(ar, outputs, &stops))
+        (Self::new(ar, &table), lists.iter().map(|l| Self::build(ar, l, &stops)).collect())
+    }
+
+    /// Whether it reads velocities.
+    pub(crate) fn reads_velocities(&self) -> bool {
+        !self.qd.is_empty()
     }
 
     /// The tape computing `outputs`, reading each of `stops` as an input
