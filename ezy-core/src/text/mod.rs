@@ -624,16 +624,7 @@ impl Model for RuntimeModel {
     where
         F: FnOnce(&[f64], &[f64], &mut [f64], &mut [f64]) -> Result<(), E>,
     {
-        let (Ok(m), Some(st)) = (self.minimal(), &self.plan.straight) else { return Ok(()) };
-        let call = fused::FusedCall {
-            fused: &m.fused,
-            params: &self.values,
-            table: k,
-            cols: &st.cols,
-            coords: &m.coords,
-            speeds: &m.speeds,
-            compiled: self.jit,
-        };
+        let Some(call) = self.fused_call(k) else { return Ok(()) };
         fused::rhs(&call, false, z, q, qd, dz, forces)
     }
 
@@ -649,16 +640,7 @@ impl Model for RuntimeModel {
     where
         F: FnOnce(&[f64], &[f64], &mut [f64], &mut [f64]) -> Result<(), E>,
     {
-        let (Ok(m), Some(st)) = (self.minimal(), &self.plan.straight) else { return Ok(()) };
-        let call = fused::FusedCall {
-            fused: &m.fused,
-            params: &self.values,
-            table: k,
-            cols: &st.cols,
-            coords: &m.coords,
-            speeds: &m.speeds,
-            compiled: self.jit,
-        };
+        let Some(call) = self.fused_call(k) else { return Ok(()) };
         fused::rhs(&call, true, z, q, qd, dz, forces)
     }
 
@@ -673,6 +655,22 @@ impl Model for RuntimeModel {
 }
 
 impl RuntimeModel {
+    /// What the fused right-hand side reads besides the state, with the
+    /// table `k` of [`Model::minimal_constants`]; `None` without minimal
+    /// coordinates.
+    fn fused_call<'a>(&'a self, k: &'a [f64]) -> Option<fused::FusedCall<'a>> {
+        let (Ok(m), Some(st)) = (self.minimal(), &self.plan.straight) else { return None };
+        Some(fused::FusedCall {
+            fused: &m.fused,
+            params: &self.values,
+            table: k,
+            cols: &st.cols,
+            coords: &m.coords,
+            speeds: &m.speeds,
+            compiled: self.jit,
+        })
+    }
+
     /// The minimal coordinates, or why there are none.
     fn minimal(&self) -> Result<&plan::MinimalPlan, String> {
         match &self.plan.straight {
