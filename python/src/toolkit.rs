@@ -347,12 +347,28 @@ impl Toolkit {
                     }
                     _ => unreachable!("one of the two"),
                 };
-                let scene = ezy_scene::Scene::from_toml(&text, file).map_err(ezy_err)?;
+                // the keywords' own text is not the user's: its errors by key
+                // alone, without a line and column in it
+                let located = |e: ezy_scene::SceneFileError| {
+                    let shown = e.to_string();
+                    if file != "<keywords>" {
+                        return ezy_err(shown);
+                    }
+                    let lines: Vec<&str> = shown
+                        .lines()
+                        .map(|l| {
+                            let rest = l.strip_prefix("<keywords>:").and_then(|r| r.splitn(3, ':').nth(2));
+                            rest.map_or(l, str::trim_start)
+                        })
+                        .collect();
+                    ezy_err(format!("scene(): {}", lines.join("\n")))
+                };
+                let scene = ezy_scene::Scene::from_toml(&text, file).map_err(located)?;
                 let app = match &pymodel {
                     Some(m) => this.app_with(&scene.model, Some(m)),
                     None => this.app.clone(),
                 };
-                let src = ezy_scene::registry::check_scene(&app, scene, &text, file).map_err(ezy_err)?;
+                let src = ezy_scene::registry::check_scene(&app, scene, &text, file).map_err(located)?;
                 let reference = src.scene.name.clone();
                 (src, reference, Some(text))
             }

@@ -455,6 +455,8 @@ def test_a_notebook_user_defines_the_roller_racer_runs_sweeps_and_finds_its_gait
         ezy.analyze(scene, period="pi")
     with pytest.raises(TypeError, match=r"linearize\(\): `at` must be a number, not str"):
         ezy.linearize(scene, at="1")
+    with pytest.raises(ezy.EzyError, match=r"^scene\(\): `initial.q.x1`: x1 = inf must be finite$"):
+        ezy.scene(model=racer, **dict(racer_gait_keys(), initial={"q": {"x1": float("inf")}}))
     with pytest.raises(ezy.EzyError, match="effects.r.*`Z`"):
         ezy.scene(model=racer, **dict(racer_gait_keys(), effects={"r": {"kind": "rolling-viscous", "skate": "Z", "damping": 1.0}}))
 
