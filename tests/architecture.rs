@@ -52,6 +52,8 @@ const CORE_FLOORS: &[(&str, u32)] = &[
     ("problem", 7),
     ("analysis", 7),
     ("erased", 7),
+    // floor 8: built on what a user holds (a problem, its analysis)
+    ("sensitivity", 8),
 ];
 
 /// The floors of the `ezy` crate (`src/`): what the commands share

@@ -40,6 +40,7 @@ mod output_window;
 mod properties;
 mod scene_files;
 mod scenes;
+mod sensitivity;
 mod singular;
 mod sliders;
 mod slurm;

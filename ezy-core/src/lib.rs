@@ -60,6 +60,7 @@ pub mod model;
 pub mod names;
 pub mod problem;
 pub mod scalar;
+pub mod sensitivity;
 pub mod settings;
 pub mod simulate;
 pub mod text;

@@ -63,6 +63,7 @@
 //! section, returning [`Checked`]), [`problem`] (`Checked -> Problem`),
 //! [`columns`] (output groups, names and values), [`view`] (figure specs),
 //! [`kinds`] (effects as scene files write them; kinds of the user's own),
+//! [`parameter`] (a scene's numbers as parameters of its problem),
 //! [`registry`] (models by the key scenes name them by), [`files`]
 //! (bounded reads of the files a user names).
 
@@ -73,6 +74,7 @@ pub mod family;
 pub mod file;
 pub mod files;
 pub mod kinds;
+pub mod parameter;
 pub mod problem;
 pub mod registry;
 pub mod schema;

@@ -44,6 +44,7 @@
 
 pub mod branch;
 mod dense;
+pub(crate) use dense::solve as dense_solve;
 mod linear;
 mod periodic;
 mod steady;
@@ -291,7 +292,7 @@ impl<M: Model> Analysis<M> {
     }
 
     /// The generalized applied force `F` (nq) at `(t, q, qd)`.
-    fn forces(&mut self, t: f64, q: &[f64], qd: &[f64]) -> Result<Vec<f64>, AnalysisError> {
+    pub(crate) fn forces(&mut self, t: f64, q: &[f64], qd: &[f64]) -> Result<Vec<f64>, AnalysisError> {
         if self.sys.effects.is_empty() {
             return Ok(vec![0.0; q.len()]);
         }
@@ -300,7 +301,7 @@ impl<M: Model> Analysis<M> {
     }
 
     /// `G` dense (nc x nq) from its values at the pattern.
-    fn dense_g(&self, values: &[f64]) -> Mat<f64> {
+    pub(crate) fn dense_g(&self, values: &[f64]) -> Mat<f64> {
         let (nc, nq) = (self.sys.info.nc(), self.nq());
         let mut g = vec![0.0; nc * nq];
         scatter_dense(&self.sys.info.pattern, values, nq, &mut g);

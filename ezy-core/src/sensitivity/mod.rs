@@ -1,0 +1,284 @@
+//! Forward sensitivities of a run: `S(t) = dx(t)/dp` (2nq x np) of the
+//! state `x = [q, qd]` with respect to named parameters `p` (a model's
+//! parameter, an initial value, any number a problem is built from: an
+//! effect's amplitude, a scene parameter).
+//!
+//! # Method
+//!
+//! The sensitivities obey the forward sensitivity equations
+//! `S' = (df/dx) S + df/dp`, `S(0) = dx0/dp` (Hairer, Nørsett & Wanner,
+//! *Solving ODEs I*, §I.14 and §II.6; the CVODES user guide, §2.6). They
+//! are integrated together with the state by the same method as one
+//! system `[x, S]` under one error control (the simultaneous corrector
+//! method, CVODES's `CV_SIMULTANEOUS` with `errconS`; for an explicit
+//! Runge-Kutta method it is the same as differentiating its steps, with
+//! the step sizes the sensitivities' error asks for too).
+//!
+//! - `(df/dx) S` is exact: the model's generated terms (`G`, `gamma`) are
+//!   differentiated in forward mode along each column of `S` (one pass of
+//!   dual numbers through the code `model!` generated, per parameter), and
+//!   `qdd`'s derivative follows from the KKT system
+//!   `[M G^T; G 0] [qdd; mu] = [F; -gamma]` by implicit differentiation:
+//!   `[M G^T; G 0] [dqdd; dmu] = [dF - dM qdd - dG^T mu; -dgamma - dG qdd]`.
+//!   The applied forces' derivative along `S` is a central difference of
+//!   the force laws (a law is arbitrary code), step
+//!   `eps^(1/3) max(1, |x|) / |s|`, error about 1e-10 relative.
+//! - `df/dp` (a parameter's direct effect on the masses, the constraints,
+//!   the forces and the drives) is a central difference of the right-hand
+//!   side between the problems built at `p +- h`, `h = eps^(1/3) max(1,
+//!   |p|)`, at the same state (never a difference of whole runs); where
+//!   `p - h` cannot be built (a damping of 0), a one-sided difference of
+//!   second order on `p`, `p + h`, `p + 2h`. [`Sensitivities::derivatives`]
+//!   says which for each parameter.
+//! - `S(0)` is the same difference of the problems' consistent initial
+//!   states (exact for an initial value the problem gives).
+//! - The DAE's state is projected onto the constraints after each step
+//!   (`crate::formulation::projection`, the run's projection). Its
+//!   derivative is the projection of `S` onto the tangent space of the
+//!   constraint manifold in the same metric `W`: positions first,
+//!   `S_q <- S_q - W^-1 Cq^T (Cq W^-1 Cq^T)^-1 (Cq S_q + dC/dp)`, then the
+//!   velocities with `G` and `d(G qd)/dq S_q + d(G qd)/dp`: the derivative
+//!   of a projection onto a manifold at a point on it (Hairer, Lubich &
+//!   Wanner, *Geometric Numerical Integration*, §IV.4; the state is off
+//!   the manifold by the step's drift only, so `S` is exact to that
+//!   order).
+//!
+//! The sensitivities are integrated on the DAE formulation (the reduced
+//! one's dependent coordinates would add the derivative of their
+//! elimination), with RK4, DOPRI5 or DOP853; RADAU5 and the reduced
+//! formulation are refused by name. A scene with events (a switch or
+//! stop changes the motion where its time changes with `p`) is refused, as
+//! is a motion on which a skate with friction slides.
+
+mod rhs;
+mod run;
+mod stencil;
+
+use std::sync::Arc;
+
+use crate::analysis::AnalysisError;
+use crate::error::SimError;
+use crate::model::Model;
+use crate::problem::Problem;
+
+pub use stencil::Derivative;
+
+/// Most parameters one sensitivity run takes: its state has
+/// `2 nq (1 + np)` values and each evaluation solves the KKT system for
+/// `np` right-hand sides.
+pub const MAX_PARAMETERS: usize = 256;
+
+/// How a problem is built for a value of a parameter.
+pub type Build<M> = dyn Fn(f64) -> Result<Problem<M>, SimError> + Send + Sync;
+
+/// A named parameter of a problem: its value and how the problem is
+/// built at another value ([`Parameter::new`]; [`Parameter::model`] and
+/// [`Parameter::initial_q`] / [`Parameter::initial_qd`] for a model's
+/// parameters and initial values; `ezy_scene::Scene::parameter` for any
+/// number of a scene).
+#[derive(Clone)]
+pub struct Parameter<M: Model> {
+    /// The name its sensitivity columns carry (`dx1/d<name>`).
+    pub name: String,
+    /// Its value in the problem differentiated.
+    pub value: f64,
+    build: Arc<Build<M>>,
+}
+
+impl<M: Model> std::fmt::Debug for Parameter<M> {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Parameter").field("name", &self.name).field("value", &self.value).finish_non_exhaustive()
+    }
+}
+
+impl<M: Model> Parameter<M> {
+    /// A parameter `name` at `value`, the problem at another value built
+    /// by `build` (which must give the problem differentiated at `value`,
+    /// and a problem of the same model size elsewhere).
+    pub fn new(
+        name: impl Into<String>,
+        value: f64,
+        build: impl Fn(f64) -> Result<Problem<M>, SimError> + Send + Sync + 'static,
+    ) -> Self {
+        Self { name: name.into(), value, build: Arc::new(build) }
+    }
+
+    /// The problem at `value`.
+    ///
+    /// # Errors
+    /// Whatever the builder refuses (a value out of the parameter's range).
+    pub fn problem(&self, value: f64) -> Result<Problem<M>, SimError> {
+        (self.build)(value)
+    }
+
+    /// The model parameter `name` of `problem` (a mass, a length).
+    ///
+    /// # Errors
+    /// [`crate::SetupError::UnknownName`] listing the model's parameters.
+    pub fn model(problem: &Problem<M>, name: &str) -> Result<Self, SimError> {
+        let info = problem.model.info();
+        let k = info.param_index(name).ok_or_else(|| {
+            SimError::Setup(crate::SetupError::UnknownName {
+                kind: "model parameter",
+                name: name.into(),
+                model: info.name,
+                known: info.params.iter().map(|p| p.name).collect::<Vec<_>>().join(", "),
+            })
+        })?;
+        let base = problem.clone();
+        Ok(Self::new(name, problem.model.param(k), move |v| {
+            let mut p = base.clone();
+            p.model.set_param(k, v);
+            Ok(p)
+        }))
+    }
+
+    /// The initial value of coordinate `name` \[m or rad\] (named
+    /// `initial.q.<name>`): its value in the problem's consistent initial
+    /// state; a coordinate the problem does not give becomes given.
+    ///
+    /// # Errors
+    /// As [`Problem::q`]; as [`Problem::initial_state`].
+    pub fn initial_q(problem: &Problem<M>, name: &str) -> Result<Self, SimError> {
+        Self::initial(problem, name, false)
+    }
+
+    /// The initial velocity of coordinate `name` \[m/s or rad/s\] (named
+    /// `initial.qd.<name>`), as [`Parameter::initial_q`].
+    ///
+    /// # Errors
+    /// As [`Problem::qd`]; as [`Problem::initial_state`].
+    pub fn initial_qd(problem: &Problem<M>, name: &str) -> Result<Self, SimError> {
+        Self::initial(problem, name, true)
+    }
+
+    fn initial(problem: &Problem<M>, name: &str, velocity: bool) -> Result<Self, SimError> {
+        let info = problem.model.info();
+        let k = info.coords.iter().position(|c| *c == name).ok_or_else(|| {
+            SimError::Setup(crate::SetupError::UnknownName {
+                kind: "coordinate",
+                name: name.into(),
+                model: info.name,
+                known: info.coords.join(", "),
+            })
+        })?;
+        let (x0, _) = problem.initial_state()?;
+        let nq = info.nq();
+        let value = x0[if velocity { nq + k } else { k }];
+        let base = problem.clone();
+        let coord = name.to_string();
+        let label = format!("initial.{}.{name}", if velocity { "qd" } else { "q" });
+        Ok(Self::new(
+            label,
+            value,
+            move |v| if velocity { base.clone().qd(&coord, v) } else { base.clone().q(&coord, v) },
+        ))
+    }
+}
+
+/// A run's state and its sensitivities at the output samples
+/// ([`Problem::sensitivities`]).
+#[derive(Debug, Clone)]
+pub struct Sensitivities {
+    /// Times of the samples \[s\]: 0, every output interval, the end.
+    pub t: Vec<f64>,
+    /// Names of the state components `[q, qd]` (2 nq): `x1`, ..., `x1d`.
+    pub names: Vec<String>,
+    /// The parameters, in the order of [`Sensitivities::s`]'s blocks.
+    pub parameters: Vec<String>,
+    /// The parameters' values.
+    pub values: Vec<f64>,
+    /// How each parameter's direct effect `df/dp` was differentiated.
+    pub derivatives: Vec<Derivative>,
+    /// The state at each sample (2 nq values).
+    pub x: Vec<Vec<f64>>,
+    /// The sensitivities at each sample: `np` blocks of 2 nq values,
+    /// block `j` being `dx/dp_j` in the order of [`Sensitivities::names`].
+    pub s: Vec<Vec<f64>>,
+    /// Accepted steps.
+    pub steps: u64,
+    /// Rejected step attempts.
+    pub rejected: u64,
+    /// Evaluations of the augmented right-hand side.
+    pub evaluations: u64,
+}
+
+impl Sensitivities {
+    /// The column names of the sensitivities, parameter by parameter:
+    /// `d<state>/d<param>` (`dx1/dM0`, ..., `dx1d/dM0`, `dx1/domega`, ...).
+    pub fn columns(&self) -> Vec<String> {
+        self.parameters.iter().flat_map(|p| self.names.iter().map(move |n| format!("d{n}/d{p}"))).collect()
+    }
+
+    /// A column over the samples: a state component by name (`x1`) or a
+    /// sensitivity `d<state>/d<param>` (`dx1/dM0`); `None` for a name
+    /// neither.
+    pub fn column(&self, name: &str) -> Option<Vec<f64>> {
+        if let Some(i) = self.names.iter().position(|n| n == name) {
+            return Some(self.x.iter().map(|row| row[i]).collect());
+        }
+        let k = self.columns().iter().position(|c| c == name)?;
+        Some(self.s.iter().map(|row| row[k]).collect())
+    }
+}
+
+impl<M: Model> Problem<M> {
+    /// The run's state and its sensitivities with respect to the
+    /// parameters `names`: the model's parameters by name (`m1`) and the
+    /// initial values `initial.q.<coord>`, `initial.qd.<coord>` (any other
+    /// number through [`Problem::sensitivities_with`]).
+    ///
+    /// # Errors
+    /// As [`Problem::sensitivities_with`]; [`AnalysisError::Sim`] with
+    /// [`crate::SetupError::UnknownName`] for a name that is none of these.
+    pub fn sensitivities(&self, names: &[&str]) -> Result<Sensitivities, AnalysisError> {
+        let params = names.iter().map(|n| self.parameter(n)).collect::<Result<Vec<_>, _>>()?;
+        self.sensitivities_with(&params)
+    }
+
+    /// The parameter `name` of this problem: a model parameter, or
+    /// `initial.q.<coord>` / `initial.qd.<coord>`.
+    ///
+    /// # Errors
+    /// [`crate::SetupError::UnknownName`] listing the model's parameters.
+    pub fn parameter(&self, name: &str) -> Result<Parameter<M>, SimError> {
+        if let Some(c) = name.strip_prefix("initial.q.") {
+            return Parameter::initial_q(self, c);
+        }
+        if let Some(c) = name.strip_prefix("initial.qd.") {
+            return Parameter::initial_qd(self, c);
+        }
+        Parameter::model(self, name)
+    }
+
+    /// The run's state and its sensitivities with respect to `params`,
+    /// integrated together by the problem's method under its tolerances,
+    /// sampled at its output interval (see the module's docs for the
+    /// method).
+    ///
+    /// # Errors
+    /// [`AnalysisError::Request`] for no parameters or more than
+    /// [`MAX_PARAMETERS`], a name given twice, a non-finite value, a
+    /// parameter whose problems differ in size, RADAU5, the reduced
+    /// formulation, a scene with events, samples past
+    /// [`Problem::max_output_mb`], or a skate with friction that slides;
+    /// [`AnalysisError::Sim`] for a problem that cannot be built or a run
+    /// that fails (a singular position, a step budget spent);
+    /// [`AnalysisError::Stopped`] from [`Problem::sensitivities_stop_when`]'s hook.
+    pub fn sensitivities_with(&self, params: &[Parameter<M>]) -> Result<Sensitivities, AnalysisError> {
+        run::sensitivities(self, params, None)
+    }
+
+    /// [`Problem::sensitivities_with`], asking `stop` at every step
+    /// whether to end (with [`AnalysisError::Stopped`]).
+    ///
+    /// # Errors
+    /// As [`Problem::sensitivities_with`].
+    pub fn sensitivities_stop_when(
+        &self,
+        params: &[Parameter<M>],
+        stop: fn() -> bool,
+    ) -> Result<Sensitivities, AnalysisError> {
+        run::sensitivities(self, params, Some(stop))
+    }
+}

@@ -1,0 +1,266 @@
+//! The step loop of a sensitivity run: the augmented system `[x, S]`
+//! stepped by the problem's method, the state projected after each step
+//! and `S` with it, samples at the output interval.
+
+use super::rhs::Augmented;
+use super::stencil::Stencil;
+use super::{MAX_PARAMETERS, Parameter, Sensitivities};
+use crate::analysis::AnalysisError;
+use crate::error::SimError;
+use crate::formulation::projection::Projector;
+use crate::integrator::adaptive::{Controller, EmbeddedRk, Tolerance, initial_step};
+use crate::integrator::dop853::Dop853;
+use crate::integrator::dopri5::Dopri5;
+use crate::integrator::fixed::{Euler, Rk4};
+use crate::model::Model;
+use crate::problem::Problem;
+use crate::settings::{Formulation, Method, ProjectionKind, RunSettings};
+
+fn request(reason: String) -> AnalysisError {
+    AnalysisError::Request { reason }
+}
+
+/// Refuses what a sensitivity run does not take, before any work.
+fn check_request<M: Model>(problem: &Problem<M>, params: &[Parameter<M>]) -> Result<(), AnalysisError> {
+    if params.is_empty() {
+        return Err(request("no parameters to differentiate with respect to: name at least one".into()));
+    }
+    if params.len() > MAX_PARAMETERS {
+        return Err(request(format!(
+            "{} parameters: a sensitivity run takes at most {MAX_PARAMETERS} (its state has 2 nq (1 + np) values)",
+            params.len()
+        )));
+    }
+    for (k, p) in params.iter().enumerate() {
+        if params[..k].iter().any(|o| o.name == p.name) {
+            return Err(request(format!("parameter `{}` is named twice", p.name)));
+        }
+        if !p.value.is_finite() {
+            return Err(request(format!("parameter `{}` is {}: not a number to differentiate at", p.name, p.value)));
+        }
+    }
+    let s = &problem.settings;
+    if s.method == Method::Radau5 {
+        return Err(request(
+            "sensitivities are integrated with rk4, euler, dopri5 or dop853; radau5 is not supported yet (its Newton system would take the sensitivities' blocks): choose dop853".into(),
+        ));
+    }
+    if s.formulation == Formulation::Reduced {
+        return Err(request(
+            "sensitivities are integrated on the DAE formulation (the reduced one's eliminated coordinates would add their own derivative): set the formulation to `dae` or `auto`".into(),
+        ));
+    }
+    if let Some(e) = problem.events.first() {
+        return Err(request(format!(
+            "event `{}`: a run with events is not differentiated (where an event's time moves with a parameter the motion jumps); remove the events",
+            e.name
+        )));
+    }
+    Ok(())
+}
+
+/// The sensitivity run of `problem` with respect to `params`.
+pub(super) fn sensitivities<M: Model>(
+    problem: &Problem<M>,
+    params: &[Parameter<M>],
+    stop: Option<fn() -> bool>,
+) -> Result<Sensitivities, AnalysisError> {
+    check_request(problem, params)?;
+    let settings = problem.settings;
+    settings.validate().map_err(AnalysisError::Sim)?;
+    let (mut base, x0) = problem.clone().analysis()?;
+    base.check_size()?;
+    let n2 = x0.len();
+    let np = params.len();
+    let rows = settings.output_rows();
+    let mb = rows * (8.0 * (n2 * (1 + np)) as f64 + 40.0) / 1e6;
+    if mb.is_nan() || mb > problem.max_output_mb {
+        return Err(AnalysisError::Sim(SimError::Budget {
+            what: "MB of samples in memory",
+            estimate: mb,
+            limit: problem.max_output_mb,
+            setting: crate::settings::Setting::MaxOutputMb,
+            detail: format!("{rows:.2e} samples of {} values", n2 * (1 + np)),
+        }));
+    }
+    let stencils = params.iter().map(|p| Stencil::new(p, &base, &x0)).collect::<Result<Vec<_>, _>>()?;
+    let mut y0 = x0.clone();
+    for st in &stencils {
+        y0.extend_from_slice(&st.x0);
+    }
+    let derivatives = stencils.iter().map(|s| s.derivative).collect();
+    base.watch_grip();
+    let sys = base.dynamics();
+    let projector = Projector::new(&sys.model, settings.projection, &sys.mass).with_drives(&sys.drives);
+    let winv: Vec<f64> = match settings.projection {
+        ProjectionKind::MassWeighted => sys.mass.iter().map(|m| 1.0 / m).collect(),
+        _ => vec![1.0; sys.mass.len()],
+    };
+    let names = base.state_names();
+    let aug = Augmented { base, stencils, failed: None, evaluations: 0, stop };
+    let mut lp = Loop { aug, projector, winv, settings, out: Vec::new(), steps: 0, rejected: 0, n2 };
+    lp.project(0.0, &mut y0)?;
+    lp.out.push((0.0, y0.clone()));
+    let result = match settings.method {
+        Method::Euler => lp.fixed(&y0, Fixed::Euler(Euler::new(y0.len()))),
+        Method::Rk4 => lp.fixed(&y0, Fixed::Rk4(Rk4::new(y0.len()))),
+        Method::Dopri5 => lp.embedded::<Dopri5>(&y0),
+        Method::Dop853 => lp.embedded::<Dop853>(&y0),
+        Method::Radau5 => unreachable!("refused by check_request"),
+    };
+    if let Err(e) = result {
+        return Err(lp.aug.failed.take().unwrap_or(e));
+    }
+    lp.aug.base.check_grip("this run")?;
+    let Loop { aug, out, steps, rejected, .. } = lp;
+    let (t, (x, s)) = out.into_iter().map(|(t, y)| (t, (y[..n2].to_vec(), y[n2..].to_vec()))).unzip();
+    Ok(Sensitivities {
+        t,
+        names,
+        parameters: params.iter().map(|p| p.name.clone()).collect(),
+        values: params.iter().map(|p| p.value).collect(),
+        derivatives,
+        x,
+        s,
+        steps,
+        rejected,
+        evaluations: aug.evaluations,
+    })
+}
+
+/// A fixed-step method.
+enum Fixed {
+    Euler(Euler),
+    Rk4(Rk4),
+}
+
+struct Loop<M: Model> {
+    aug: Augmented<M>,
+    projector: Projector<M>,
+    winv: Vec<f64>,
+    settings: RunSettings,
+    out: Vec<(f64, Vec<f64>)>,
+    steps: u64,
+    rejected: u64,
+    n2: usize,
+}
+
+impl<M: Model> Loop<M> {
+    /// Projects the state of `y` at `t` onto the constraints and its
+    /// sensitivities onto their tangent space.
+    fn project(&mut self, t: f64, y: &mut [f64]) -> Result<(), AnalysisError> {
+        if self.settings.projection == ProjectionKind::None {
+            return Ok(());
+        }
+        let n2 = self.n2;
+        let (x, s) = y.split_at_mut(n2);
+        let (q, qd) = x.split_at_mut(n2 / 2);
+        self.projector.project(&self.aug.base.dynamics().model, t, q, qd)?;
+        self.aug.project(t, x, s, &self.winv)
+    }
+
+    fn budget(&self, t: f64) -> Result<(), AnalysisError> {
+        let limit = self.settings.max_steps.unwrap_or(u64::MAX);
+        if self.steps + self.rejected >= limit {
+            return Err(AnalysisError::Sim(SimError::Budget {
+                what: "steps",
+                estimate: limit as f64,
+                limit: limit as f64,
+                setting: crate::settings::Setting::MaxSteps,
+                detail: format!("reached at t = {t} s, before t = {} s", self.settings.t_end),
+            }));
+        }
+        Ok(())
+    }
+
+    /// Fixed steps of `dt` (the last one shorter), a sample every
+    /// output stride and at the end.
+    fn fixed(&mut self, y0: &[f64], mut method: Fixed) -> Result<(), AnalysisError> {
+        let s = self.settings;
+        let (mut y, mut y_new) = (y0.to_vec(), vec![0.0; y0.len()]);
+        let n = (s.t_end / s.dt).ceil().max(1.0) as u64;
+        let stride = s.output_stride();
+        for k in 0..n {
+            let t = k as f64 * s.dt;
+            let t_new = if k + 1 == n { s.t_end } else { (k + 1) as f64 * s.dt };
+            self.budget(t)?;
+            match &mut method {
+                Fixed::Euler(m) => m.step_to(&mut self.aug, t, &y, t_new - t, &mut y_new)?,
+                Fixed::Rk4(m) => m.step_to(&mut self.aug, t, &y, t_new - t, &mut y_new)?,
+            }
+            self.project(t_new, &mut y_new)?;
+            std::mem::swap(&mut y, &mut y_new);
+            self.steps += 1;
+            if (k + 1) % stride == 0 || k + 1 == n {
+                self.out.push((t_new, y.clone()));
+            }
+        }
+        Ok(())
+    }
+
+    /// The embedded pair `E` with its PI controller, error control on
+    /// the whole `[x, S]`, samples from the dense output.
+    fn embedded<E: EmbeddedRk>(&mut self, y0: &[f64]) -> Result<(), AnalysisError> {
+        let s = self.settings;
+        let tol = Tolerance { rtol: s.rtol, atol: s.atol };
+        let n = y0.len();
+        let mut stepper = E::new(n);
+        let mut ctrl = Controller::default();
+        let (mut y, mut y_new, mut k1, mut k_new) = (y0.to_vec(), vec![0.0; n], vec![0.0; n], vec![0.0; n]);
+        let (mut w1, mut w2, mut dense) = (vec![0.0; n], vec![0.0; n], vec![0.0; n]);
+        self.aug.eval_checked(0.0, &y, &mut k1)?;
+        let mut h = initial_step(&mut self.aug, 0.0, &y, &k1, E::ORDER, &tol, s.t_end, &mut w1, &mut w2)?;
+        let mut t = 0.0;
+        let mut next_out = 1u64;
+        while t < s.t_end {
+            self.budget(t)?;
+            let last = t + h >= s.t_end;
+            let h_try = if last { s.t_end - t } else { h };
+            if h_try <= 16.0 * f64::EPSILON * t.abs().max(1e-300) {
+                return Err(AnalysisError::Sim(SimError::StepSizeTooSmall { t, h: h_try }));
+            }
+            let err = stepper.attempt(&mut self.aug, t, &y, &k1, h_try, &tol, &mut y_new, &mut k_new)?;
+            let (accepted, h_next) = ctrl.next::<E>(if err.is_finite() { err } else { 1e10 }, h_try);
+            h = h_next;
+            if !accepted {
+                self.rejected += 1;
+                continue;
+            }
+            let t_new = if last { s.t_end } else { t + h_try };
+            // samples strictly inside the step, from its dense output
+            let mut prepared = false;
+            loop {
+                let t_out = next_out as f64 * s.every;
+                if t_out >= t_new || t_out >= s.t_end {
+                    break;
+                }
+                if !prepared {
+                    stepper.prepare_dense(&mut self.aug, t, &y, &k1, h_try, &y_new, &k_new)?;
+                    prepared = true;
+                }
+                stepper.interpolate((t_out - t) / h_try, &mut dense);
+                self.out.push((t_out, dense.clone()));
+                next_out += 1;
+            }
+            self.project(t_new, &mut y_new)?;
+            std::mem::swap(&mut y, &mut y_new);
+            t = t_new;
+            self.steps += 1;
+            if (next_out as f64 * s.every - t).abs() <= 1e-12 * t.abs().max(1.0) && t < s.t_end {
+                self.out.push((t, y.clone()));
+                next_out += 1;
+            }
+            self.aug.eval_checked(t, &y, &mut k1)?;
+        }
+        self.out.push((s.t_end, y.clone()));
+        Ok(())
+    }
+}
+
+impl<M: Model> Augmented<M> {
+    /// One evaluation, its failure as the analysis error it was.
+    fn eval_checked(&mut self, t: f64, y: &[f64], dy: &mut [f64]) -> Result<(), AnalysisError> {
+        use crate::integrator::Rhs;
+        self.eval(t, y, dy).map_err(|e| self.failed.take().unwrap_or(AnalysisError::Sim(e)))
+    }
+}

@@ -1,0 +1,214 @@
+//! A parameter's direct effect on the right-hand side, `df/dp`: the
+//! problems built at `p +- h` (or `p + h`, `p + 2h`) and the weights of
+//! their difference.
+
+use super::Parameter;
+use crate::analysis::{Analysis, AnalysisError};
+use crate::model::Model;
+
+/// How a parameter's direct effect `df/dp` on the right-hand side (and
+/// its initial state's derivative) was obtained.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Derivative {
+    /// The parameter changes only the initial state (an initial value):
+    /// `df/dp = 0`.
+    InitialOnly,
+    /// Central difference of the problems at `p +- h`.
+    Central {
+        /// The step `h`.
+        h: f64,
+    },
+    /// One-sided difference of second order on `p`, `p + h`, `p + 2h`
+    /// (the problem at `p - h` could not be built: a damping of 0).
+    OneSided {
+        /// The step `h`.
+        h: f64,
+    },
+}
+
+impl Derivative {
+    /// A phrase for the output: `"central difference of the right-hand
+    /// side, h = 6.1e-6"`.
+    pub fn describe(&self) -> String {
+        match self {
+            Self::InitialOnly => "initial state only (df/dp = 0)".into(),
+            Self::Central { h } => format!("central difference of the right-hand side, h = {h:.2e}"),
+            Self::OneSided { h } => {
+                format!("one-sided difference (p, p+h, p+2h) of the right-hand side, h = {h:.2e}")
+            }
+        }
+    }
+}
+
+/// What of the right-hand side a parameter changes.
+#[derive(Debug, Clone, Copy, Default)]
+pub(super) struct Touches {
+    /// The model's parameters (masses, constraints, geometry).
+    pub model: bool,
+    /// The effects' laws.
+    pub effects: bool,
+    /// The drives' angles.
+    pub drives: bool,
+}
+
+/// The problems around a parameter's value and the weights of their
+/// difference: `df/dp = sum_k w_k f_k + w_base f_base`.
+pub(super) struct Stencil<M: Model> {
+    pub nodes: Vec<(f64, Analysis<M>)>,
+    pub base_weight: f64,
+    pub touches: Touches,
+    pub derivative: Derivative,
+    /// `dx0/dp` (2 nq).
+    pub x0: Vec<f64>,
+}
+
+/// A problem at one value: its analysis and consistent initial state.
+type Node<M> = (Analysis<M>, Vec<f64>);
+
+fn node<M: Model>(param: &Parameter<M>, v: f64) -> Result<Node<M>, AnalysisError> {
+    let (sys, y0, _) = param.problem(v)?.into_system()?;
+    Ok((Analysis::new(sys), y0))
+}
+
+impl<M: Model> Stencil<M> {
+    /// The stencil of `param` around the problem `base` (its analysis)
+    /// with consistent initial state `x0` (2 nq).
+    ///
+    /// # Errors
+    /// [`AnalysisError::Request`] when the problems at `p +- h` differ
+    /// from the base in size or in their lists of effects and drives;
+    /// [`AnalysisError::Sim`] when neither `p +- h` nor `p + h, p + 2h`
+    /// can be built (with the error at `p + h`).
+    pub fn new(param: &Parameter<M>, base: &Analysis<M>, x0: &[f64]) -> Result<Self, AnalysisError> {
+        let p = param.value;
+        let h = f64::EPSILON.cbrt() * p.abs().max(1.0);
+        let plus = node(param, p + h)?;
+        let (derivative, base_weight, nodes) = match node(param, p - h) {
+            Ok(minus) => (Derivative::Central { h }, 0.0, vec![(0.5 / h, plus), (-0.5 / h, minus)]),
+            Err(_) => {
+                let plus2 = node(param, p + 2.0 * h)?;
+                (Derivative::OneSided { h }, -1.5 / h, vec![(2.0 / h, plus), (-0.5 / h, plus2)])
+            }
+        };
+        let n2 = x0.len();
+        let b = base.dynamics();
+        let mut touches = Touches::default();
+        let mut dx0 = x0.iter().map(|v| base_weight * v).collect::<Vec<_>>();
+        for (w, (an, y0)) in &nodes {
+            let d = an.dynamics();
+            let same_size = d.info.nq() == b.info.nq()
+                && d.info.nc() == b.info.nc()
+                && d.info.n_holonomic == b.info.n_holonomic
+                && d.info.pattern == b.info.pattern
+                && d.effects.len() == b.effects.len()
+                && d.drives.len() == b.drives.len();
+            if !same_size {
+                return Err(AnalysisError::Request {
+                    reason: format!(
+                        "parameter `{}` changes the problem's size or its lists of effects and drives (at {}): a sensitivity is taken at a fixed size",
+                        param.name,
+                        crate::names::fmt_value(p + h)
+                    ),
+                });
+            }
+            let np = b.info.params.len();
+            touches.model |= (0..np).any(|k| d.model.param(k).to_bits() != b.model.param(k).to_bits());
+            touches.effects |= d.effects != b.effects;
+            touches.drives |= d.drives != b.drives;
+            for (o, v) in dx0.iter_mut().zip(&y0[..n2]) {
+                *o += w * v;
+            }
+        }
+        let changes_rhs = touches.model || touches.effects || touches.drives;
+        let (nodes, derivative) = if changes_rhs { (nodes, derivative) } else { (Vec::new(), Derivative::InitialOnly) };
+        let nodes = nodes.into_iter().map(|(w, (an, _))| (w, an)).collect();
+        Ok(Self { nodes, base_weight, touches, derivative, x0: dx0 })
+    }
+
+    /// Adds `dF/dp` at `(t, q, qd)` into `out` (nq), `base_f` the base
+    /// problem's forces there.
+    ///
+    /// # Errors
+    /// As [`Analysis::forces`].
+    pub fn add_forces(
+        &mut self,
+        t: f64,
+        q: &[f64],
+        qd: &[f64],
+        base_f: &[f64],
+        out: &mut [f64],
+    ) -> Result<(), AnalysisError> {
+        if !(self.touches.model || self.touches.effects) {
+            return Ok(());
+        }
+        for (o, f) in out.iter_mut().zip(base_f) {
+            *o += self.base_weight * f;
+        }
+        for (w, an) in &mut self.nodes {
+            for (o, f) in out.iter_mut().zip(an.forces(t, q, qd)?) {
+                *o += *w * f;
+            }
+        }
+        Ok(())
+    }
+
+    /// Adds the model's direct terms at `(q, qd)`: `dG/dp` (at the
+    /// pattern) into `values`, `dgamma/dp` into `gamma` (nc), `dM/dp`
+    /// into `mass` (nq); `base` the base problem's `(values, gamma)`.
+    pub fn add_terms(
+        &self,
+        q: &[f64],
+        qd: &[f64],
+        base: (&[f64], &[f64], &[f64]),
+        values: &mut [f64],
+        gamma: &mut [f64],
+        mass: &mut [f64],
+    ) {
+        if !self.touches.model {
+            return;
+        }
+        let axpy = |out: &mut [f64], w: f64, v: &[f64]| out.iter_mut().zip(v).for_each(|(o, v)| *o += w * v);
+        axpy(values, self.base_weight, base.0);
+        axpy(gamma, self.base_weight, base.1);
+        axpy(mass, self.base_weight, base.2);
+        let (mut gv, mut gm) = (vec![0.0; values.len()], vec![0.0; gamma.len()]);
+        for (w, an) in &self.nodes {
+            let d = an.dynamics();
+            d.model.constraint_terms(q, qd, &mut gv, &mut gm);
+            axpy(values, *w, &gv);
+            axpy(gamma, *w, &gm);
+            axpy(mass, *w, &d.mass);
+        }
+    }
+
+    /// Adds the drives' direct term in `gamma` at `t`: `-d(u''(t))/dp` on
+    /// each drive's row.
+    pub fn add_drives(&self, t: f64, base: &Analysis<M>, gamma: &mut [f64]) {
+        if !self.touches.drives {
+            return;
+        }
+        for (k, d) in base.dynamics().drives.iter().enumerate() {
+            gamma[d.row] -= self.base_weight * d.angle.eval3(t)[2];
+            for (w, an) in &self.nodes {
+                gamma[d.row] -= *w * an.dynamics().drives[k].angle.eval3(t)[2];
+            }
+        }
+    }
+
+    /// Adds `d r/dp` of the constraint residuals at `(t, x)`
+    /// ([`Analysis::constraint_residual`]) into `out` (nh + nc), `base_r`
+    /// the base problem's.
+    pub fn add_residual(&self, t: f64, x: &[f64], base_r: &[f64], out: &mut [f64]) {
+        if !(self.touches.model || self.touches.drives) {
+            return;
+        }
+        for (o, r) in out.iter_mut().zip(base_r) {
+            *o += self.base_weight * r;
+        }
+        for (w, an) in &self.nodes {
+            for (o, r) in out.iter_mut().zip(an.residual_at(t, x)) {
+                *o += *w * r;
+            }
+        }
+    }
+}
