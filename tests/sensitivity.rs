@@ -133,3 +133,157 @@ fn drive_sensitivities_match_differences_of_whole_runs_for_every_method() {
         assert!(worst < 1e-6, "{method:?}: sensitivities disagree with differences of runs by {worst:.1e}");
     }
 }
+
+/// A drag of the user's own, `F = -c (xd, yd)` on the sleigh's centre of
+/// mass: a law ezy knows nothing of.
+#[derive(Debug, Clone)]
+struct Drag {
+    c: f64,
+}
+
+impl ezy_core::effects::ForceLaw for Drag {
+    fn apply(&self, _t: f64, _q: &[f64], qd: &[f64], f: &mut [f64]) -> (f64, f64) {
+        let (fx, fy) = (-self.c * qd[0], -self.c * qd[1]);
+        f[0] += fx;
+        f[1] += fy;
+        (fx * qd[0] + fy * qd[1], fx.hypot(fy))
+    }
+    fn coords(&self) -> Vec<usize> {
+        vec![0, 1]
+    }
+}
+
+/// A model and a force law of the user's own, the parameter given by a
+/// closure that builds the problem (as a user's crate would): the
+/// sensitivity to the drag coefficient and to the sleigh's mass agrees
+/// with differences of whole runs to 1e-6, for DOP853 at 1e-12.
+#[test]
+fn a_law_of_the_users_own_is_differentiated_as_a_built_in_one() {
+    let build = |c: f64| -> Result<Problem<ChaplyginSleigh>, ezy_core::SimError> {
+        Ok(Problem::new(ChaplyginSleigh::default())
+            .law("drag", Drag { c })?
+            .q("x", 0.0)?
+            .q("y", 0.0)?
+            .q("phi", 0.0)?
+            .qd("x", 1.0)?
+            .qd("phi", 1.0)?
+            .t_end(2.0)
+            .method(Method::Dop853)
+            .tolerances(1e-12, 1e-12)
+            .formulation(ezy_core::Formulation::Dae))
+    };
+    let problem = build(0.3).unwrap();
+    let params = vec![Parameter::new("c", 0.3, build), Parameter::model(&problem, "m").unwrap()];
+    let s = problem.sensitivities_with(&params).unwrap();
+    let worst = worst_against_differences(&s, &params, &problem.settings, &["x", "y", "phi", "xd", "phid"]);
+    eprintln!("user law: worst {worst:.1e}");
+    assert!(worst < 1e-6, "a user's law: sensitivities disagree with differences of runs by {worst:.1e}");
+}
+
+/// A rolling resistance of 0 cannot be differentiated centrally (a
+/// negative damping is refused): the one-sided difference of second
+/// order is taken and said, and agrees with one-sided differences of
+/// whole runs to 1e-6.
+#[test]
+fn a_damping_of_zero_is_differentiated_one_sided() {
+    let mut scene = scenes::get("drive-rolling-resistance");
+    scene.t_end = 1.0;
+    let sets = [("rolling_A.damping".to_string(), 0.0)];
+    let (problem, _) = scene.problem::<EzyRoller>(&sets).unwrap();
+    let p = scene.parameter(&EzyRoller::default(), &sets, "rolling_A.damping").unwrap();
+    assert_eq!(p.value, 0.0);
+    let s = problem.sensitivities_with(std::slice::from_ref(&p)).unwrap();
+    assert!(matches!(s.derivatives[0], Derivative::OneSided { .. }), "{:?}", s.derivatives);
+    let end = |v: f64| p.problem(v).unwrap().solve().unwrap().column("x1").unwrap().last().copied().unwrap();
+    let h = 1e-4;
+    let want = (-3.0 * end(0.0) + 4.0 * end(h) - end(2.0 * h)) / (2.0 * h);
+    let got = *s.column("dx1/drolling_A.damping").unwrap().last().unwrap();
+    assert!((got - want).abs() <= 1e-6 * want.abs(), "{got} against {want}");
+}
+
+/// What a sensitivity run cannot take is refused before any work, naming
+/// the culprit.
+#[test]
+fn bad_requests_are_refused_naming_the_culprit() {
+    let scene = scenes::drive();
+    let (problem, _) = scene.problem::<EzyRoller>(&[]).unwrap();
+    let err = |p: &Problem<EzyRoller>, names: &[&str]| p.sensitivities(names).unwrap_err().to_string();
+    assert!(err(&problem, &[]).contains("no parameters"));
+    assert!(err(&problem, &["m9"]).contains("m9"), "{}", err(&problem, &["m9"]));
+    assert!(err(&problem, &["m1", "m1"]).contains("named twice"));
+    assert!(err(&problem, &["initial.qd.nope"]).contains("nope"));
+    let radau =
+        Problem { settings: ezy_core::RunSettings { method: Method::Radau5, ..problem.settings }, ..problem.clone() };
+    assert!(err(&radau, &["m1"]).contains("radau5"));
+    let reduced = Problem {
+        settings: ezy_core::RunSettings { formulation: ezy_core::Formulation::Reduced, ..problem.settings },
+        ..problem.clone()
+    };
+    assert!(err(&reduced, &["m1"]).contains("DAE formulation"));
+    let stabilized = Problem { baumgarte: Some(ezy_core::Baumgarte { alpha: 1.0, beta: 1.0 }), ..problem.clone() };
+    assert!(err(&stabilized, &["m1"]).contains("Baumgarte"));
+    let huge = Problem { max_output_mb: 0.001, ..problem.clone() };
+    assert!(err(&huge, &["m1"]).contains("MB"), "{}", err(&huge, &["m1"]));
+    // a scene's unknown number, and one it leaves at its default
+    let model = EzyRoller::default();
+    assert!(scene.parameter(&model, &[], "motor.nope").unwrap_err().to_string().contains("motor.nope"));
+    assert!(scene.parameter(&model, &[], "nope").unwrap_err().to_string().contains("nope"));
+}
+
+/// Parameter values at the edge of what ezy takes: `M0 = 1e30` runs with
+/// finite sensitivities or ends in an error, never in a number that is not
+/// finite; `M0 = 1e34` (the largest magnitude a scene takes) is refused
+/// naming the parameter, as its step `M0 + h` is out of range.
+#[test]
+fn huge_parameter_values_end_in_finite_numbers_or_an_error() {
+    let mut scene = scenes::drive();
+    scene.t_end = 0.01;
+    let model = EzyRoller::default();
+    let sets = [("M0".to_string(), 1e30)];
+    let (problem, _) = scene.problem::<EzyRoller>(&sets).unwrap();
+    let p = scene.parameter(&model, &sets, "M0").unwrap();
+    match problem.sensitivities_with(&[p]) {
+        Ok(s) => assert!(s.s.iter().chain(&s.x).flatten().all(|v| v.is_finite())),
+        Err(e) => assert!(!e.to_string().is_empty()),
+    }
+    let sets = [("M0".to_string(), 1e34)];
+    let (problem, _) = scene.problem::<EzyRoller>(&sets).unwrap();
+    let p = scene.parameter(&model, &sets, "M0").unwrap();
+    let e = problem.sensitivities_with(&[p]).unwrap_err().to_string();
+    assert!(e.contains("parameter `M0`") && e.contains("out of range"), "{e}");
+}
+
+/// `ezy sensitivity`: `sensitivity.csv` with `t` and the `d<column>/d<param>`
+/// columns, its numbers those of the library's run, a figure per
+/// parameter; an unknown parameter refused before anything is written.
+#[test]
+fn the_command_writes_the_csv_and_a_figure_per_parameter() {
+    let dir = std::env::temp_dir().join(format!("ezy-sensitivity-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    let ezy = |args: &[&str]| std::process::Command::new(env!("CARGO_BIN_EXE_ezy")).args(args).output().unwrap();
+    let out = dir.to_str().unwrap();
+    let o = ezy(&["sensitivity", "drive", "--wrt", "M0,initial.q.phi2", "--t-end", "0.5", "--out", out]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let text = std::fs::read_to_string(dir.join("sensitivity.csv")).unwrap();
+    let mut lines = text.lines();
+    let head: Vec<&str> = lines.next().unwrap().split(',').collect();
+    assert_eq!(head[..3], ["t", "dx1/dM0", "dy1/dM0"]);
+    assert_eq!(head.len(), 1 + 2 * 12);
+    assert!(head.contains(&"dphi2d/dinitial.q.phi2"));
+    let last: Vec<f64> = lines.last().unwrap().split(',').map(|v| v.parse().unwrap()).collect();
+    assert_eq!(last[0], 0.5);
+    let mut scene = scenes::drive();
+    scene.t_end = 0.5;
+    let (problem, _) = scene.problem::<EzyRoller>(&[]).unwrap();
+    let s = problem.sensitivities_with(&parameters::<EzyRoller>(&scene, &["M0", "initial.q.phi2"])).unwrap();
+    assert_eq!(last[1..], s.s.last().unwrap()[..], "the command's numbers are the library's");
+    assert!(dir.join("sensitivity_M0.png").exists() && dir.join("sensitivity_initial.q.phi2.png").exists());
+    let printed = String::from_utf8_lossy(&o.stdout);
+    assert!(printed.contains("d/dM0 at M0 = 2"), "{printed}");
+    // refused before any work: the output directory keeps what it had
+    let o = ezy(&["sensitivity", "drive", "--wrt", "M0,nope", "--out", out]);
+    assert!(!o.status.success());
+    assert!(String::from_utf8_lossy(&o.stderr).contains("nope"));
+    assert!(dir.join("sensitivity_M0.png").exists());
+    let _ = std::fs::remove_dir_all(&dir);
+}

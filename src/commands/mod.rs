@@ -25,6 +25,7 @@ mod list;
 mod precision;
 mod run;
 mod scale;
+mod sensitivity;
 mod sweep;
 
 /// A command of the command line.
@@ -51,6 +52,7 @@ pub(crate) const COMMANDS: &[Command] = &[
     Command { name: "bench", cli: bench::cli, exec: bench::exec },
     Command { name: "analyze", cli: analyze::cli, exec: analyze::exec },
     Command { name: "linearize", cli: linearize::cli, exec: linearize::exec },
+    Command { name: "sensitivity", cli: sensitivity::cli, exec: sensitivity::exec },
 ];
 
 /// The command a bare `ezy` runs (with no arguments).

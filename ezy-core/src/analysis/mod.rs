@@ -44,7 +44,6 @@
 
 pub mod branch;
 mod dense;
-pub(crate) use dense::solve as dense_solve;
 mod linear;
 mod periodic;
 mod steady;
@@ -420,6 +419,13 @@ impl<M: Model> Analysis<M> {
         let sol = dense::solve(kkt.as_ref(), rhs.as_ref(), "the KKT matrix [M G^T; G 0]")?;
         let qdd = (0..nq).map(|i| sol[(i, 0)]).collect();
         let mu: Vec<f64> = (nq..n).map(|i| sol[(i, 0)]).collect();
+        self.note_grip(t, &mu);
+        Ok(Point { qdd, mu, g, kkt })
+    }
+
+    /// Notes the skates' holding forces in the multipliers `mu` (nc) of a
+    /// KKT solve at `t` ([`Analysis::check_grip`]).
+    pub(crate) fn note_grip(&mut self, t: f64, mu: &[f64]) {
         // each skate's holding force over its limit (a NaN force first)
         let ratio = |force: f64, limit: f64| if force == 0.0 { 0.0 } else { force / limit };
         for (k, fr) in self.sys.friction.iter().enumerate() {
@@ -432,7 +438,12 @@ impl<M: Model> Analysis<M> {
                 self.grip = Some(Grip { skate: k, t, force });
             }
         }
-        Ok(Point { qdd, mu, g, kkt })
+    }
+
+    /// The right-hand side analysed, to evaluate (the forward
+    /// sensitivities run on it).
+    pub(crate) fn dynamics_mut(&mut self) -> &mut Dynamics<M> {
+        &mut self.sys
     }
 
     /// The exact Jacobian `A = df/dx` (2nq x 2nq) at `(t, x)` and the

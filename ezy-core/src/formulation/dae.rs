@@ -488,6 +488,27 @@ impl<M: Model> Dynamics<M> {
         &self.ws.f
     }
 
+    /// Solves the KKT system of the last [`Dynamics::rhs`] call (its `G`,
+    /// its released rows) with another right-hand side `[f; -gamma]`
+    /// (nq, nc) into `qdd` (nq) and `lambda` (nc): what the forward
+    /// sensitivities ([`crate::sensitivity`]) solve for each parameter.
+    ///
+    /// # Errors
+    /// [`SimError::Kkt`] when the system is singular.
+    pub fn solve_kkt_again(
+        &mut self,
+        t: f64,
+        f: &[f64],
+        gamma: &[f64],
+        qdd: &mut [f64],
+        lambda: &mut [f64],
+    ) -> Result<(), SimError> {
+        let ws = &self.ws;
+        let sys =
+            KktSystem { mass: &self.mass, g: &ws.g, g_values: &ws.g_values, f, gamma, released: self.released.rows() };
+        self.kkt.solve(&sys, qdd, lambda).map_err(|source| SimError::from_kkt(&self.info, t, source))
+    }
+
     /// Constraint forces `lambda` (nc) \[N\] of the last [`Dynamics::rhs`] call.
     pub fn lambda(&self) -> &[f64] {
         &self.ws.lambda

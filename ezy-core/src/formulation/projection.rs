@@ -411,6 +411,56 @@ impl<M: Model> Projector<M> {
         Ok(())
     }
 
+    /// Projects a tangent vector `(sq, sqd)` (nq each) at the state whose
+    /// positions are `q` onto the tangent space of the constraint manifold
+    /// in the projection's metric: the derivative of [`Projector::project`]
+    /// at a point on the manifold, applied to a sensitivity `dx/dp` of a
+    /// manifold that moves with `p` (Hairer, Lubich & Wanner, *Geometric
+    /// Numerical Integration*, §IV.4). `sq` is corrected so that
+    /// `C_q sq + dr[..nh] = 0`, then `sqd` so that
+    /// `G sqd + dgqd(sq) + dr[nh..] = 0`, `dgqd` writing `d(G qd)/dq sq`
+    /// (nc) for the corrected `sq` and `dr` (nh + nc) the residuals'
+    /// direct derivative `dC/dp`. Does nothing for [`ProjectionKind::None`].
+    ///
+    /// # Errors
+    /// [`SimError::Kkt`] when a normal system cannot be solved.
+    #[expect(
+        clippy::too_many_arguments,
+        reason = "a state and a tangent vector as flat borrowed slices, as `project` takes them"
+    )]
+    pub fn project_tangent(
+        &mut self,
+        model: &M,
+        t: f64,
+        q: &[f64],
+        sq: &mut [f64],
+        sqd: &mut [f64],
+        dr: &[f64],
+        dgqd: impl FnOnce(&[f64], &mut [f64]),
+    ) -> Result<(), SimError> {
+        if self.kind == ProjectionKind::None {
+            return Ok(());
+        }
+        let (nh, nc) = (self.info.n_holonomic, self.info.nc());
+        model.constraint_matrix(q, &mut self.g_values);
+        if nh > 0 {
+            model.g_winv_mul(&self.info.pattern, &self.g_values, &self.ones, sq, &mut self.r);
+            self.r[..nh].iter_mut().zip(dr).for_each(|(r, d)| *r += d);
+            self.correct_positions(model, sq).map_err(|e| SimError::from_kkt(&self.info, t, e))?;
+        }
+        if nc > 0 {
+            self.released.zero(&mut self.g_values);
+            model.g_winv_mul(&self.info.pattern, &self.g_values, &self.ones, sqd, &mut self.r);
+            let mut extra = vec![0.0; nc];
+            dgqd(sq, &mut extra);
+            for ((r, e), d) in self.r.iter_mut().zip(&extra).zip(&dr[nh..]) {
+                *r += e + d;
+            }
+            self.correct_velocities(model, sqd).map_err(|e| SimError::from_kkt(&self.info, t, e))?;
+        }
+        Ok(())
+    }
+
     /// Takes the constraint rows `rows` out of the velocity projection
     /// (skates that slide, [`crate::formulation::friction`]): `qd` is projected onto
     /// the other rows' `G qd = 0` only, and

@@ -114,11 +114,11 @@ impl<M: Model> Parameter<M> {
     /// The model parameter `name` of `problem` (a mass, a length).
     ///
     /// # Errors
-    /// [`crate::SetupError::UnknownName`] listing the model's parameters.
+    /// [`crate::error::SetupError::UnknownName`] listing the model's parameters.
     pub fn model(problem: &Problem<M>, name: &str) -> Result<Self, SimError> {
         let info = problem.model.info();
         let k = info.param_index(name).ok_or_else(|| {
-            SimError::Setup(crate::SetupError::UnknownName {
+            SimError::Setup(crate::error::SetupError::UnknownName {
                 kind: "model parameter",
                 name: name.into(),
                 model: info.name,
@@ -155,7 +155,7 @@ impl<M: Model> Parameter<M> {
     fn initial(problem: &Problem<M>, name: &str, velocity: bool) -> Result<Self, SimError> {
         let info = problem.model.info();
         let k = info.coords.iter().position(|c| *c == name).ok_or_else(|| {
-            SimError::Setup(crate::SetupError::UnknownName {
+            SimError::Setup(crate::error::SetupError::UnknownName {
                 kind: "coordinate",
                 name: name.into(),
                 model: info.name,
@@ -230,7 +230,7 @@ impl<M: Model> Problem<M> {
     ///
     /// # Errors
     /// As [`Problem::sensitivities_with`]; [`AnalysisError::Sim`] with
-    /// [`crate::SetupError::UnknownName`] for a name that is none of these.
+    /// [`crate::error::SetupError::UnknownName`] for a name that is none of these.
     pub fn sensitivities(&self, names: &[&str]) -> Result<Sensitivities, AnalysisError> {
         let params = names.iter().map(|n| self.parameter(n)).collect::<Result<Vec<_>, _>>()?;
         self.sensitivities_with(&params)
@@ -240,7 +240,7 @@ impl<M: Model> Problem<M> {
     /// `initial.q.<coord>` / `initial.qd.<coord>`.
     ///
     /// # Errors
-    /// [`crate::SetupError::UnknownName`] listing the model's parameters.
+    /// [`crate::error::SetupError::UnknownName`] listing the model's parameters.
     pub fn parameter(&self, name: &str) -> Result<Parameter<M>, SimError> {
         if let Some(c) = name.strip_prefix("initial.q.") {
             return Parameter::initial_q(self, c);

@@ -1,14 +1,43 @@
 //! The augmented right-hand side `[x, S]' = [f(t, x), (df/dx) S + df/dp]`
-//! and the projection of `S` onto the constraints' tangent space.
+//! on the run's own right-hand side and KKT solver, and the projection of
+//! `S` onto the constraints' tangent space.
 
-use faer::Mat;
 use num_dual::Dual64;
 
 use super::stencil::Stencil;
-use crate::analysis::{Analysis, AnalysisError, dense_solve};
+use crate::analysis::{Analysis, AnalysisError};
 use crate::error::SimError;
+use crate::formulation::projection::Projector;
 use crate::integrator::Rhs;
 use crate::model::Model;
+
+/// Scratch of one evaluation, sized once.
+struct Scratch {
+    /// `[q, qd, W..]` and its rate (the run's state with its work states).
+    y: Vec<f64>,
+    dy: Vec<f64>,
+    lambda: Vec<f64>,
+    qdual: Vec<Dual64>,
+    qddual: Vec<Dual64>,
+    gv: Vec<Dual64>,
+    gm: Vec<Dual64>,
+    /// `dG` at the pattern, `dgamma`, `dF`, `dM` of one parameter.
+    dg: Vec<f64>,
+    dgamma: Vec<f64>,
+    df: Vec<f64>,
+    dm: Vec<f64>,
+    /// The applied forces at the state evaluated (nq).
+    f0: Vec<f64>,
+    /// A state moved along a direction, and the forces there.
+    xp: Vec<f64>,
+    fp: Vec<f64>,
+    power: Vec<f64>,
+    /// The KKT right-hand side `[f; -gamma]` of one parameter and its solution.
+    f: Vec<f64>,
+    gamma: Vec<f64>,
+    dqdd: Vec<f64>,
+    dlambda: Vec<f64>,
+}
 
 /// The state, its sensitivities and what they are evaluated with.
 pub(super) struct Augmented<M: Model> {
@@ -19,47 +48,93 @@ pub(super) struct Augmented<M: Model> {
     pub failed: Option<AnalysisError>,
     pub evaluations: u64,
     pub stop: Option<fn() -> bool>,
+    ws: Scratch,
+    /// The pattern of `G` (its (row, column) entries).
+    pattern: Vec<(usize, usize)>,
 }
 
-/// `G`'s values (at the pattern) and `gamma` along a direction
-/// `(dq, dqd)`: one forward-mode pass of the generated code.
-pub(super) fn directional_terms<M: Model>(
-    model: &M,
-    q: &[f64],
-    qd: &[f64],
-    dq: &[f64],
-    dqd: &[f64],
-    nnz: usize,
-    nc: usize,
-) -> (Vec<f64>, Vec<f64>) {
-    let qdual: Vec<Dual64> = q.iter().zip(dq).map(|(&v, &d)| Dual64::new(v, d)).collect();
-    let qddual: Vec<Dual64> = qd.iter().zip(dqd).map(|(&v, &d)| Dual64::new(v, d)).collect();
-    let (mut gv, mut gm) = (vec![Dual64::from(0.0); nnz], vec![Dual64::from(0.0); nc]);
-    model.constraint_terms(&qdual, &qddual, &mut gv, &mut gm);
-    (gv.iter().map(|v| v.eps).collect(), gm.iter().map(|v| v.eps).collect())
-}
+/// `eps^(1/3)`: the relative step of a central difference whose
+/// truncation and rounding errors balance.
+const CBRT_EPS: f64 = 6.055_454_452_393_343e-6;
 
 impl<M: Model> Augmented<M> {
+    /// The augmented right-hand side of `base` with the parameters'
+    /// `stencils`.
+    pub fn new(base: Analysis<M>, stencils: Vec<Stencil<M>>, stop: Option<fn() -> bool>) -> Self {
+        let sys = base.dynamics();
+        let (nq, nc, nnz) = (sys.nq(), sys.info.nc(), sys.info.pattern.len());
+        let z = |n: usize| vec![0.0; n];
+        let d = |n: usize| vec![Dual64::from(0.0); n];
+        let ws = Scratch {
+            y: z(sys.ny()),
+            dy: z(sys.ny()),
+            lambda: z(nc),
+            qdual: d(nq),
+            qddual: d(nq),
+            gv: d(nnz),
+            gm: d(nc),
+            dg: z(nnz),
+            dgamma: z(nc),
+            df: z(nq),
+            dm: z(nq),
+            f0: z(nq),
+            xp: z(2 * nq),
+            fp: z(nq),
+            power: z(sys.effects.len()),
+            f: z(nq),
+            gamma: z(nc),
+            dqdd: z(nq),
+            dlambda: z(nc),
+        };
+        let pattern = sys.info.pattern.clone();
+        Self { base, stencils, failed: None, evaluations: 0, stop, ws, pattern }
+    }
+
     /// Number of coordinates nq.
     pub fn nq(&self) -> usize {
         self.base.nq()
     }
 
-    /// `dF/dx s` (nq) along the state direction `s` (2 nq) by a central
-    /// difference of the force laws; zero without effects.
-    fn force_direction(&mut self, t: f64, x: &[f64], s: &[f64]) -> Result<Vec<f64>, AnalysisError> {
+    /// `dG` (at the pattern) into `ws.dg` and `dgamma` into `ws.dgamma`
+    /// along the direction `(dq, dqd)`: one forward-mode pass of the
+    /// generated code.
+    fn directional_terms(&mut self, q: &[f64], qd: &[f64], dq: &[f64], dqd: &[f64]) {
+        let ws = &mut self.ws;
+        for (k, v) in ws.qdual.iter_mut().enumerate() {
+            *v = Dual64::new(q[k], dq[k]);
+        }
+        for (k, v) in ws.qddual.iter_mut().enumerate() {
+            *v = Dual64::new(qd[k], dqd[k]);
+        }
+        self.base.dynamics().model.constraint_terms(&ws.qdual, &ws.qddual, &mut ws.gv, &mut ws.gm);
+        ws.dg.iter_mut().zip(&ws.gv).for_each(|(o, v)| *o = v.eps);
+        ws.dgamma.iter_mut().zip(&ws.gm).for_each(|(o, v)| *o = v.eps);
+    }
+
+    /// `dF/dx s` into `ws.df` (nq) along the state direction `s` (2 nq) by
+    /// a central difference of the force laws; zero without effects.
+    fn force_direction(&mut self, t: f64, x: &[f64], s: &[f64]) -> Result<(), SimError> {
         let nq = self.nq();
+        let ws = &mut self.ws;
+        ws.df.fill(0.0);
         let norm = s.iter().fold(0.0f64, |m, v| m.max(v.abs()));
-        if self.base.dynamics().effects.is_empty() || norm == 0.0 {
-            return Ok(vec![0.0; nq]);
+        let sys = self.base.dynamics_mut();
+        if sys.effects.is_empty() || norm == 0.0 {
+            return Ok(());
         }
         let scale = x.iter().fold(1.0f64, |m, v| m.max(v.abs()));
-        let h = f64::EPSILON.cbrt() * scale / norm;
-        let at = |sign: f64| x.iter().zip(s).map(|(v, d)| v + sign * h * d).collect::<Vec<_>>();
-        let (xp, xm) = (at(1.0), at(-1.0));
-        let fp = self.base.forces(t, &xp[..nq], &xp[nq..])?;
-        let fm = self.base.forces(t, &xm[..nq], &xm[nq..])?;
-        Ok(fp.iter().zip(&fm).map(|(a, b)| (a - b) / (2.0 * h)).collect())
+        let h = CBRT_EPS * scale / norm;
+        for sign in [1.0, -1.0] {
+            for ((o, v), d) in ws.xp.iter_mut().zip(x).zip(s) {
+                *o = v + sign * h * d;
+            }
+            sys.applied_forces(t, &ws.xp[..nq], &ws.xp[nq..], &mut ws.power)?;
+            ws.fp.copy_from_slice(sys.applied_force());
+            for (o, f) in ws.df.iter_mut().zip(&ws.fp) {
+                *o += sign * f / (2.0 * h);
+            }
+        }
+        Ok(())
     }
 
     /// `dy = [f(t, x), (df/dx) S + df/dp]` for `y = [x, S]`.
@@ -73,120 +148,108 @@ impl<M: Model> Augmented<M> {
         let nq = self.nq();
         let n2 = 2 * nq;
         let (x, s) = y.split_at(n2);
-        if let Some(k) = x.iter().position(|v| !v.is_finite()) {
-            return Err(AnalysisError::Numerics {
-                reason: format!(
-                    "at t = {} s the state component `{}` became {}",
-                    crate::names::fmt_value(t),
-                    self.base.dynamics().state_name(k),
-                    x[k]
-                ),
-            });
-        }
         let (q, qd) = x.split_at(nq);
-        let pt = self.base.point(t, x)?;
-        let info = &self.base.dynamics().info;
-        let (nc, nnz) = (info.nc(), info.pattern.len());
-        let pattern = info.pattern.clone();
-        let np = self.stencils.len();
-        let touches_any = self.stencils.iter().any(|st| st.touches.model || st.touches.effects);
-        let base_f = if touches_any { self.base.forces(t, q, qd)? } else { Vec::new() };
-        let needs_terms = self.stencils.iter().any(|st| st.touches.model);
-        let (mut base_values, mut base_gamma) = (vec![0.0; nnz], vec![0.0; nc]);
-        if needs_terms {
-            self.base.dynamics().model.constraint_terms(q, qd, &mut base_values, &mut base_gamma);
+        // the state's rate by the run's own right-hand side (work states 0)
+        self.ws.y[..n2].copy_from_slice(x);
+        {
+            let sys = self.base.dynamics_mut();
+            sys.rhs(t, &self.ws.y, &mut self.ws.dy)?;
+            self.ws.lambda.copy_from_slice(sys.lambda());
+            self.ws.f0.copy_from_slice(sys.applied_force());
         }
-        let base_mass = self.base.dynamics().mass.clone();
-        let mut rhs = Mat::<f64>::zeros(nq + nc, np);
-        for j in 0..np {
+        let lambda = std::mem::take(&mut self.ws.lambda);
+        self.base.note_grip(t, &lambda);
+        self.ws.lambda = lambda;
+        dy[..n2].copy_from_slice(&self.ws.dy[..n2]);
+        for j in 0..self.stencils.len() {
             let sj = &s[j * n2..(j + 1) * n2];
-            let (mut dg, mut dgamma) =
-                directional_terms(&self.base.dynamics().model, q, qd, &sj[..nq], &sj[nq..], nnz, nc);
-            let mut df = self.force_direction(t, x, sj)?;
-            let mut dm = vec![0.0; nq];
-            let st = &mut self.stencils[j];
-            st.add_forces(t, q, qd, &base_f, &mut df)?;
-            st.add_terms(q, qd, (&base_values, &base_gamma, &base_mass), &mut dg, &mut dgamma, &mut dm);
-            st.add_drives(t, &self.base, &mut dgamma);
-            // [dF - dM qdd - dG^T mu; -dgamma - dG qdd]
-            for i in 0..nq {
-                rhs[(i, j)] = df[i] - dm[i] * pt.qdd[i];
+            self.directional_terms(q, qd, &sj[..nq], &sj[nq..]);
+            self.force_direction(t, x, sj)?;
+            self.ws.dm.fill(0.0);
+            self.parametric(j, t, q, qd)?;
+            // [M G^T; G 0] [dqdd; dlambda] = [dF - dM qdd - dG^T lambda; -(dgamma + dG qdd)]
+            let ws = &mut self.ws;
+            let qdd = &ws.dy[nq..n2];
+            for (((f, df), dm), a) in ws.f.iter_mut().zip(&ws.df).zip(&ws.dm).zip(qdd) {
+                *f = df - dm * a;
             }
-            for r in 0..nc {
-                rhs[(nq + r, j)] = -dgamma[r];
+            ws.gamma.copy_from_slice(&ws.dgamma);
+            for (&(r, c), v) in self.pattern.iter().zip(&ws.dg) {
+                ws.f[c] -= v * ws.lambda[r];
+                ws.gamma[r] += v * qdd[c];
             }
-            for (&(r, c), v) in pattern.iter().zip(&dg) {
-                rhs[(c, j)] -= v * pt.mu[r];
-                rhs[(nq + r, j)] -= v * pt.qdd[c];
-            }
-        }
-        let sol = if np > 0 {
-            dense_solve(pt.kkt.as_ref(), rhs.as_ref(), "the KKT matrix [M G^T; G 0]")?
-        } else {
-            Mat::zeros(nq + nc, 0)
-        };
-        dy[..nq].copy_from_slice(qd);
-        dy[nq..n2].copy_from_slice(&pt.qdd);
-        for j in 0..np {
-            let (sj, dj) = (&s[j * n2..(j + 1) * n2], &mut dy[n2 + j * n2..n2 + (j + 1) * n2]);
+            self.base.dynamics_mut().solve_kkt_again(t, &ws.f, &ws.gamma, &mut ws.dqdd, &mut ws.dlambda)?;
+            let dj = &mut dy[n2 + j * n2..n2 + (j + 1) * n2];
             dj[..nq].copy_from_slice(&sj[nq..]);
-            for i in 0..nq {
-                dj[nq + i] = sol[(i, j)];
-            }
+            dj[nq..].copy_from_slice(&ws.dqdd);
         }
         Ok(())
     }
 
-    /// Projects the sensitivities `s` (np blocks of 2 nq) at the
-    /// projected state `(t, x)` onto the tangent space of the constraint
-    /// manifold in the metric `winv` (nq: `W^-1`'s diagonal), positions
-    /// first, then velocities (see the module's docs).
+    /// Adds parameter `j`'s direct terms (`dF/dp`, `dG/dp`, `dgamma/dp`,
+    /// `dM/dp`, the drives') into the scratch at `(t, q, qd)`.
+    fn parametric(&mut self, j: usize, t: f64, q: &[f64], qd: &[f64]) -> Result<(), AnalysisError> {
+        let st = &self.stencils[j];
+        let (forces, model, drives) = (st.touches.model || st.touches.effects, st.touches.model, st.touches.drives);
+        if !(forces || model || drives) {
+            return Ok(());
+        }
+        let nq = self.nq();
+        let ws = &mut self.ws;
+        let st = &mut self.stencils[j];
+        if forces {
+            st.add_forces(t, q, qd, &ws.f0, &mut ws.df, &mut ws.power)?;
+        }
+        if model {
+            let sys = self.base.dynamics();
+            let (mut values, mut gamma) = (vec![0.0; ws.dg.len()], vec![0.0; ws.dgamma.len()]);
+            sys.model.constraint_terms(q, qd, &mut values, &mut gamma);
+            st.add_terms(q, qd, (&values, &gamma, &sys.mass[..nq]), &mut ws.dg, &mut ws.dgamma, &mut ws.dm);
+        }
+        st.add_drives(t, &self.base, &mut ws.dgamma);
+        Ok(())
+    }
+
+    /// Projects the sensitivities `s` (np blocks of 2 nq) at the state
+    /// `(t, x)` that `projector` last projected onto the tangent space of
+    /// the constraint manifold, positions first, then velocities (see the
+    /// module's docs).
     ///
     /// # Errors
-    /// [`AnalysisError::Numerics`] when `Cq W^-1 Cq^T` or `G W^-1 G^T` is
-    /// singular (a singular position).
-    pub fn project(&mut self, t: f64, x: &[f64], s: &mut [f64], winv: &[f64]) -> Result<(), AnalysisError> {
+    /// [`AnalysisError::Sim`] when a normal system is singular (a singular
+    /// position).
+    pub fn project(
+        &mut self,
+        projector: &mut Projector<M>,
+        t: f64,
+        x: &[f64],
+        s: &mut [f64],
+    ) -> Result<(), AnalysisError> {
         let nq = self.nq();
         let n2 = 2 * nq;
-        let info = &self.base.dynamics().info;
-        let (nh, nc, nnz) = (info.n_holonomic, info.nc(), info.pattern.len());
-        let pattern = info.pattern.clone();
         let (q, qd) = x.split_at(nq);
-        let mut values = vec![0.0; nnz];
-        self.base.dynamics().model.constraint_matrix(q, &mut values);
-        let g = self.base.dense_g(&values);
-        let base_r = self.base.residual_at(t, x);
-        // the normal matrices and their solves: rows 0..nh (positions), all rows (velocities)
-        let normal =
-            |rows: usize| Mat::from_fn(rows, rows, |a, b| (0..nq).map(|k| g[(a, k)] * winv[k] * g[(b, k)]).sum());
-        let (npos, nvel) = (normal(nh), normal(nc));
+        let touches = self.stencils.iter().any(|st| st.touches.model || st.touches.drives);
+        let base_r = if touches { self.base.residual_at(t, x) } else { Vec::new() };
+        let sys = self.base.dynamics();
+        let (nh, nc) = (sys.info.n_holonomic, sys.info.nc());
+        let pattern = &sys.info.pattern;
+        let mut dr = vec![0.0; nh + nc];
+        let ws = &mut self.ws;
         for (j, st) in self.stencils.iter().enumerate() {
-            let sj = &mut s[j * n2..(j + 1) * n2];
-            let mut dr = vec![0.0; nh + nc];
+            let (sq, sqd) = s[j * n2..(j + 1) * n2].split_at_mut(nq);
+            dr.fill(0.0);
             st.add_residual(t, x, &base_r, &mut dr);
-            if nh > 0 {
-                let r = Mat::from_fn(nh, 1, |a, _| dr[a] + (0..nq).map(|k| g[(a, k)] * sj[k]).sum::<f64>());
-                let lam = dense_solve(npos.as_ref(), r.as_ref(), "Cq W^-1 Cq^T")?;
-                for k in 0..nq {
-                    sj[k] -= winv[k] * (0..nh).map(|a| g[(a, k)] * lam[(a, 0)]).sum::<f64>();
+            let dgqd = |sq: &[f64], out: &mut [f64]| {
+                for (k, v) in ws.qdual.iter_mut().enumerate() {
+                    *v = Dual64::new(q[k], sq[k]);
                 }
-            }
-            if nc > 0 {
-                // d(G qd) along the corrected S_q, plus G S_qd
-                let zero = vec![0.0; nq];
-                let (dg, _) = directional_terms(&self.base.dynamics().model, q, qd, &sj[..nq], &zero, nnz, nc);
-                let mut r = Mat::from_fn(nc, 1, |a, _| dr[nh + a]);
-                for (&(row, c), v) in pattern.iter().zip(&dg) {
-                    r[(row, 0)] += v * qd[c];
+                sys.model.constraint_matrix(&ws.qdual, &mut ws.gv);
+                out.fill(0.0);
+                for (&(r, c), v) in pattern.iter().zip(&ws.gv) {
+                    out[r] += v.eps * qd[c];
                 }
-                for a in 0..nc {
-                    r[(a, 0)] += (0..nq).map(|k| g[(a, k)] * sj[nq + k]).sum::<f64>();
-                }
-                let lam = dense_solve(nvel.as_ref(), r.as_ref(), "G W^-1 G^T")?;
-                for k in 0..nq {
-                    sj[nq + k] -= winv[k] * (0..nc).map(|a| g[(a, k)] * lam[(a, 0)]).sum::<f64>();
-                }
-            }
+            };
+            projector.project_tangent(&sys.model, t, q, sq, sqd, &dr, dgqd)?;
         }
         Ok(())
     }

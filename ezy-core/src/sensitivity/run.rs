@@ -50,6 +50,11 @@ fn check_request<M: Model>(problem: &Problem<M>, params: &[Parameter<M>]) -> Res
             "sensitivities are integrated on the DAE formulation (the reduced one's eliminated coordinates would add their own derivative): set the formulation to `dae` or `auto`".into(),
         ));
     }
+    if problem.baumgarte.is_some() {
+        return Err(request(
+            "sensitivities are integrated with coordinate projection, not Baumgarte stabilization (whose terms would need their own derivative): remove --baumgarte".into(),
+        ));
+    }
     if let Some(e) = problem.events.first() {
         return Err(request(format!(
             "event `{}`: a run with events is not differentiated (where an event's time moves with a parameter the motion jumps); remove the events",
@@ -92,14 +97,12 @@ pub(super) fn sensitivities<M: Model>(
     base.watch_grip();
     let sys = base.dynamics();
     let projector = Projector::new(&sys.model, settings.projection, &sys.mass).with_drives(&sys.drives);
-    let winv: Vec<f64> = match settings.projection {
-        ProjectionKind::MassWeighted => sys.mass.iter().map(|m| 1.0 / m).collect(),
-        _ => vec![1.0; sys.mass.len()],
-    };
     let names = base.state_names();
-    let aug = Augmented { base, stencils, failed: None, evaluations: 0, stop };
-    let mut lp = Loop { aug, projector, winv, settings, out: Vec::new(), steps: 0, rejected: 0, n2 };
+    let aug = Augmented::new(base, stencils, stop);
+    let params_names = params.iter().map(|p| p.name.clone()).collect();
+    let mut lp = Loop { aug, projector, settings, out: Vec::new(), steps: 0, rejected: 0, n2, params: params_names };
     lp.project(0.0, &mut y0)?;
+    lp.check_finite(0.0, &y0)?;
     lp.out.push((0.0, y0.clone()));
     let result = match settings.method {
         Method::Euler => lp.fixed(&y0, Fixed::Euler(Euler::new(y0.len()))),
@@ -137,12 +140,13 @@ enum Fixed {
 struct Loop<M: Model> {
     aug: Augmented<M>,
     projector: Projector<M>,
-    winv: Vec<f64>,
     settings: RunSettings,
     out: Vec<(f64, Vec<f64>)>,
     steps: u64,
     rejected: u64,
     n2: usize,
+    /// The parameters' names.
+    params: Vec<String>,
 }
 
 impl<M: Model> Loop<M> {
@@ -156,7 +160,27 @@ impl<M: Model> Loop<M> {
         let (x, s) = y.split_at_mut(n2);
         let (q, qd) = x.split_at_mut(n2 / 2);
         self.projector.project(&self.aug.base.dynamics().model, t, q, qd)?;
-        self.aug.project(t, x, s, &self.winv)
+        self.aug.project(&mut self.projector, t, x, s)
+    }
+
+    /// Refuses a state or sensitivity that is not finite at `t` (a fixed
+    /// step would carry it into the output), naming it.
+    fn check_finite(&self, t: f64, y: &[f64]) -> Result<(), AnalysisError> {
+        let Some(k) = y.iter().position(|v| !v.is_finite()) else { return Ok(()) };
+        let names = self.aug.base.state_names();
+        let n2 = self.n2;
+        let what = if k < n2 {
+            format!("the state's `{}`", names[k])
+        } else {
+            format!("the sensitivity d{}/d{}", names[(k - n2) % n2], self.params[(k - n2) / n2])
+        };
+        Err(AnalysisError::Numerics {
+            reason: format!(
+                "at t = {} s {what} became {}: the run or its sensitivity diverges; take a smaller step or a parameter value nearer the scene's",
+                crate::names::fmt_value(t),
+                y[k]
+            ),
+        })
     }
 
     fn budget(&self, t: f64) -> Result<(), AnalysisError> {
@@ -189,6 +213,7 @@ impl<M: Model> Loop<M> {
                 Fixed::Rk4(m) => m.step_to(&mut self.aug, t, &y, t_new - t, &mut y_new)?,
             }
             self.project(t_new, &mut y_new)?;
+            self.check_finite(t_new, &y_new)?;
             std::mem::swap(&mut y, &mut y_new);
             self.steps += 1;
             if (k + 1) % stride == 0 || k + 1 == n {
@@ -243,6 +268,7 @@ impl<M: Model> Loop<M> {
                 next_out += 1;
             }
             self.project(t_new, &mut y_new)?;
+            self.check_finite(t_new, &y_new)?;
             std::mem::swap(&mut y, &mut y_new);
             t = t_new;
             self.steps += 1;

@@ -5,6 +5,7 @@
 use super::Parameter;
 use crate::analysis::{Analysis, AnalysisError};
 use crate::model::Model;
+use crate::problem::Problem;
 
 /// How a parameter's direct effect `df/dp` on the right-hand side (and
 /// its initial state's derivative) was obtained.
@@ -66,7 +67,16 @@ pub(super) struct Stencil<M: Model> {
 type Node<M> = (Analysis<M>, Vec<f64>);
 
 fn node<M: Model>(param: &Parameter<M>, v: f64) -> Result<Node<M>, AnalysisError> {
-    let (sys, y0, _) = param.problem(v)?.into_system()?;
+    let built = param.problem(v).and_then(Problem::into_system);
+    let (sys, y0, _) = built.map_err(|e| AnalysisError::Request {
+        reason: format!(
+            "parameter `{}` = {}: the problem at {} = {} (a step from it, for the difference of the right-hand side) cannot be built: {e}",
+            param.name,
+            crate::names::fmt_value(param.value),
+            param.name,
+            crate::names::fmt_value(v)
+        ),
+    })?;
     Ok((Analysis::new(sys), y0))
 }
 
@@ -126,10 +136,10 @@ impl<M: Model> Stencil<M> {
     }
 
     /// Adds `dF/dp` at `(t, q, qd)` into `out` (nq), `base_f` the base
-    /// problem's forces there.
+    /// problem's forces there; `power`: scratch (one per effect).
     ///
     /// # Errors
-    /// As [`Analysis::forces`].
+    /// As [`crate::formulation::dae::Dynamics::applied_forces`].
     pub fn add_forces(
         &mut self,
         t: f64,
@@ -137,7 +147,8 @@ impl<M: Model> Stencil<M> {
         qd: &[f64],
         base_f: &[f64],
         out: &mut [f64],
-    ) -> Result<(), AnalysisError> {
+        power: &mut [f64],
+    ) -> Result<(), crate::error::SimError> {
         if !(self.touches.model || self.touches.effects) {
             return Ok(());
         }
@@ -145,7 +156,12 @@ impl<M: Model> Stencil<M> {
             *o += self.base_weight * f;
         }
         for (w, an) in &mut self.nodes {
-            for (o, f) in out.iter_mut().zip(an.forces(t, q, qd)?) {
+            let sys = an.dynamics_mut();
+            if sys.effects.is_empty() {
+                continue;
+            }
+            sys.applied_forces(t, q, qd, power)?;
+            for (o, f) in out.iter_mut().zip(sys.applied_force()) {
                 *o += *w * f;
             }
         }
