@@ -287,3 +287,57 @@ fn the_command_writes_the_csv_and_a_figure_per_parameter() {
     assert!(dir.join("sensitivity_M0.png").exists());
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// The gait of `drive-rolling-resistance` at parameter value `v` of
+/// `p` (searched from `guess` at its forcing's period), with its mean
+/// input power: `(orbit, mean power)`.
+fn gait_at(
+    p: &Parameter<EzyRoller>,
+    v: f64,
+    guess: &[f64],
+) -> (ezy_core::analysis::PeriodicOrbit, ezy_core::sensitivity::GaitSensitivities) {
+    use ezy_core::analysis::PeriodicSettings;
+    use ezy_core::effects::Periodicity;
+    let problem = p.problem(v).unwrap();
+    let (mut an, x0) = problem.clone().analysis().unwrap();
+    let Some(Periodicity::Period(period)) = an.forcing() else { panic!("a periodic forcing") };
+    let sym = an.symmetry(0.0, &x0).unwrap();
+    let orbit = an.periodic_orbit(0.0, period, guess, sym, &PeriodicSettings::default()).unwrap();
+    let g = problem.gait_sensitivities(&orbit, std::slice::from_ref(p), &PeriodicSettings::default()).unwrap();
+    (orbit, g)
+}
+
+/// The gait's sensitivities by the implicit function theorem against
+/// central differences of converged orbits (the search's residual 1e-9
+/// over steps of 1e-3 relative: about 1e-6 of noise, which the tolerance
+/// below takes; measured to 1e-6 and better), with respect to the
+/// motor's amplitude and frequency (the period moves with it), a skate's
+/// rolling resistance and the fork length `c` (in the constraints): mean
+/// speed, displacement, heading change, mean input power, efficiency.
+#[test]
+fn gait_sensitivities_match_differences_of_converged_orbits() {
+    let scene = scenes::get("drive-rolling-resistance");
+    let (problem, _) = scene.problem::<EzyRoller>(&[]).unwrap();
+    let guess = problem.clone().solve().unwrap().final_state()[..12].to_vec();
+    let names = ["motor.amplitude", "motor.omega", "rolling_A.damping", "c"];
+    for p in parameters::<EzyRoller>(&scene, &names) {
+        let (orbit, g) = gait_at(&p, p.value, &guess);
+        let h = 1e-3 * p.value.abs().max(0.1);
+        let (op, gp) = gait_at(&p, p.value + h, &orbit.state);
+        let (om, gm) = gait_at(&p, p.value - h, &orbit.state);
+        let fd = |a: f64, b: f64| (a - b) / (2.0 * h);
+        let checks = [
+            ("mean_speed", g.d_mean_speed[0], fd(op.mean_speed(), om.mean_speed())),
+            ("dx", g.d_displacement[0][0], fd(op.displacement[0], om.displacement[0])),
+            ("period", g.d_period[0], fd(op.period, om.period)),
+            ("mean_power", g.d_mean_power[0], fd(gp.mean_power, gm.mean_power)),
+            ("efficiency", g.d_efficiency[0], fd(gp.efficiency, gm.efficiency)),
+        ];
+        for (what, got, want) in checks {
+            let scale = want.abs().max(1e-3 * g.mean_power.max(orbit.mean_speed()));
+            eprintln!("d{what}/d{}: {got:.9e} against {want:.9e}", p.name);
+            assert!((got - want).abs() <= 1e-5 * scale, "d{what}/d{}: {got} against {want}", p.name);
+        }
+        assert!(g.d_heading_change[0].abs() < 1e-9, "no net turn whatever the parameter");
+    }
+}

@@ -20,6 +20,7 @@ use ezy_core::analysis::{
     Symmetry, c64,
 };
 use ezy_core::effects::Periodicity;
+use ezy_core::sensitivity::GaitSensitivities;
 use ezy_core::{Model, fmt_value};
 use ezy_scene::Scene;
 
@@ -55,6 +56,12 @@ struct AnalyzeArgs {
     /// values from START to STOP (a NAME as for --set).
     #[arg(long = "continue", value_name = "NAME=START:STOP:COUNT")]
     continuation: Option<String>,
+    /// The gait's derivatives with respect to these parameters
+    /// (comma-separated or repeated; names as for --set, or
+    /// initial.q.NAME, initial.qd.NAME): d<quantity>/d<param> columns in
+    /// periodic.csv.
+    #[arg(long, value_name = "NAME[,NAME..]", value_delimiter = ',')]
+    wrt: Vec<String>,
     /// Do not draw the figures.
     #[arg(long)]
     no_figures: bool,
@@ -96,6 +103,7 @@ pub(crate) fn exec(app: &App, args: &ArgMatches, out: &mut dyn Write) -> Result<
         period: args.period,
         energy: args.energy,
         continuation,
+        wrt: args.wrt,
     };
     check_figure_format(&src, opts.run.figure_format, opts.run.figures)?;
     let model = &app.model_or_error(&scene.model)?;
@@ -122,6 +130,8 @@ struct AnalyzeOptions {
     energy: Option<f64>,
     /// A parameter to follow the first solution through: its name and values.
     continuation: Option<(String, Vec<f64>)>,
+    /// Parameters the gait is differentiated with respect to.
+    wrt: Vec<String>,
 }
 
 /// What `ezy analyze` found.
@@ -135,6 +145,8 @@ struct AnalyzeReport {
     steady: Vec<SteadyMotion>,
     /// The periodic orbit, for a periodically driven scene.
     periodic: Option<PeriodicOrbit>,
+    /// Its mean input power, efficiency and derivatives.
+    gait: Option<GaitSensitivities>,
     /// Files written.
     files: Vec<PathBuf>,
     /// What took how long.
@@ -156,6 +168,8 @@ fn analyze_model<M: Model>(proto: &M, scene: &Scene, opts: &AnalyzeOptions) -> R
     check_request(opts, settings.t_end)?;
     let (mut an, x0) = scene_analysis(proto, scene, &ro.sets)?;
     check_on_model(proto, scene, opts, &an)?;
+    // the parameters named before any work
+    let params = opts.wrt.iter().map(|n| scene.parameter(proto, &ro.sets, n.trim())).collect::<Result<Vec<_>, _>>()?;
     Transaction::preflight(&ro.out)?;
     let mut log = Log::default();
     let clock = Instant::now();
@@ -197,6 +211,21 @@ fn analyze_model<M: Model>(proto: &M, scene: &Scene, opts: &AnalyzeOptions) -> R
         }
     };
     drop(beat);
+    let gait = match (&periodic, &follow) {
+        (Some(orbit), Follow::Periodic { settings: ps, .. }) => {
+            let clock = Instant::now();
+            let (problem, _) = scene.problem_with(proto.clone(), &ro.sets)?;
+            let g = problem.gait_sensitivities(orbit, &params, ps).map_err(analysis_error(&ro.out))?;
+            log.timings.push(("mean power and the gait's derivatives".into(), clock.elapsed()));
+            Some(g)
+        }
+        _ if !params.is_empty() => {
+            return Err(Error::Input(
+                "--wrt: the derivatives are those of a gait (a periodically driven scene's periodic orbit); this scene's steady motions are not differentiated yet".into(),
+            ));
+        }
+        _ => None,
+    };
     let branch = match &opts.continuation {
         Some((name, values)) => {
             let start = steady
@@ -206,10 +235,10 @@ fn analyze_model<M: Model>(proto: &M, scene: &Scene, opts: &AnalyzeOptions) -> R
         }
         None => Vec::new(),
     };
-    let files = write_analysis(&an, scene, opts, &steady, periodic.as_ref(), &branch)?;
+    let files = write_analysis(&an, scene, opts, &steady, periodic.as_ref().zip(gait.as_ref()), &branch)?;
     let coords = an.dynamics().info.coords.clone();
     let Log { timings, notes } = log;
-    Ok(AnalyzeReport { symmetry, coords, steady, periodic, files, timings, notes })
+    Ok(AnalyzeReport { symmetry, coords, steady, periodic, gait, files, timings, notes })
 }
 
 /// What an analysis tells besides its results: what took how long, and
@@ -511,7 +540,7 @@ fn write_analysis<M: Model>(
     scene: &Scene,
     opts: &AnalyzeOptions,
     steady: &[SteadyMotion],
-    periodic: Option<&PeriodicOrbit>,
+    periodic: Option<(&PeriodicOrbit, &GaitSensitivities)>,
     branch: &[BranchPoint],
 ) -> Result<Vec<PathBuf>, Error> {
     let ro = &opts.run;
@@ -535,8 +564,8 @@ fn write_analysis<M: Model>(
         }
         figures.push(("eigenvalues".into(), chart));
     }
-    if let Some(p) = periodic {
-        tx.write("periodic.csv", periodic_csv(p, &names, &shape).as_bytes())?;
+    if let Some((p, g)) = periodic {
+        tx.write("periodic.csv", periodic_csv(p, g, &names, &shape).as_bytes())?;
         let mut chart = Chart::new("Floquet multipliers of the periodic orbit", "Re mu", "Im mu");
         let circle =
             (0..=200).map(|k| (k as f64 * std::f64::consts::TAU / 200.0).sin_cos()).map(|(s, c)| (c, s)).collect();
@@ -693,7 +722,12 @@ fn steady_csv(steady: &[SteadyMotion], names: &[String], shape: &[(String, usize
 }
 
 /// `periodic.csv`: the orbit in one row.
-fn periodic_csv(p: &PeriodicOrbit, names: &[String], shape: &[(String, usize, usize)]) -> String {
+fn periodic_csv(
+    p: &PeriodicOrbit,
+    g: &GaitSensitivities,
+    names: &[String],
+    shape: &[(String, usize, usize)],
+) -> String {
     let mut head: Vec<String> =
         ["period", "t0", "stability", "family", "mean_speed", "mean_forward_speed", "dx", "dy", "dheading"]
             .map(String::from)
@@ -715,6 +749,24 @@ fn periodic_csv(p: &PeriodicOrbit, names: &[String], shape: &[(String, usize, us
     cells.extend(shape_cells(shape, &p.state));
     cells.extend(p.state.iter().map(|v| number(*v)));
     cells.extend(spectrum_cells(&p.multipliers));
+    // the mean input power, the efficiency where there is input power,
+    // and the derivatives (a NaN efficiency and its derivative left out)
+    let efficient = g.efficiency.is_finite();
+    head.push("mean_power".into());
+    cells.push(number(g.mean_power));
+    if efficient {
+        head.push("efficiency".into());
+        cells.push(number(g.efficiency));
+    }
+    for (j, param) in g.parameters.iter().enumerate() {
+        for (what, v) in g.rows(j) {
+            if what == "efficiency" && !efficient {
+                continue;
+            }
+            head.push(format!("d{what}/d{param}"));
+            cells.push(number(v));
+        }
+    }
     record(head) + &record(cells)
 }
 
@@ -791,6 +843,20 @@ fn summary(scene: &str, r: &AnalyzeReport) -> String {
             rounded(p.heading_change),
             mu.join(", ")
         );
+        if let Some(g) = &r.gait {
+            let _ = write!(s, "mean input power {} W", fmt_value(sig(g.mean_power)));
+            if g.efficiency.is_finite() {
+                let _ = write!(s, ", efficiency {} m/J", fmt_value(sig(g.efficiency)));
+            }
+            s.push('\n');
+            for (j, param) in g.parameters.iter().enumerate() {
+                let rows: Vec<String> = (g.rows(j).into_iter())
+                    .filter(|(_, v)| v.is_finite())
+                    .map(|(what, v)| format!("d{what}/d{param} = {}", fmt_value(sig(v))))
+                    .collect();
+                let _ = writeln!(s, "at {param} = {}: {}", fmt_value(g.values[j]), rows.join(", "));
+            }
+        }
     }
     for n in &r.notes {
         let _ = writeln!(s, "note: {n}");
@@ -802,4 +868,12 @@ fn summary(scene: &str, r: &AnalyzeReport) -> String {
         let _ = writeln!(s, "wrote {}", f.display());
     }
     s
+}
+
+/// `v` to 7 significant digits.
+fn sig(v: f64) -> f64 {
+    if v == 0.0 || !v.is_finite() {
+        return v;
+    }
+    format!("{v:.6e}").parse().unwrap_or(v)
 }

@@ -44,6 +44,8 @@
 
 pub mod branch;
 mod dense;
+pub(crate) use dense::min_norm_solve;
+pub(crate) use periodic::gait_geometry;
 mod linear;
 mod periodic;
 mod steady;

@@ -282,13 +282,7 @@ impl<M: Model> Analysis<M> {
         let family = (n2 + k - rank).saturating_sub(orbit);
         let rates = multipliers.iter().map(|z| z.re.hypot(z.im).max(1e-300).ln()).collect();
         let stability = Stability::classify(rates, family, 1e-6);
-        // move the reference body's frame to the origin: x0' = g x0, h' = g h g^-1
-        let g = symmetry.restrict(body_pose(&bodies, 0, &x0)).inverse();
-        let state = act(&bodies, g, &x0);
-        let shift = g.compose(h).compose(g.inverse());
-        let start = body_pose(&bodies, 0, &state);
-        let end = shift.point([start.a, start.b]);
-        let d = Pose { theta: -start.theta, ..Pose::IDENTITY }.vector([end[0] - start.a, end[1] - start.b]);
+        let (state, shift, d) = gait_geometry(&bodies, symmetry, &x0, h);
         Ok(PeriodicOrbit {
             t0,
             period,
@@ -308,7 +302,7 @@ impl<M: Model> Analysis<M> {
 
     /// The Jacobian of the shooting equations in `(x0, p)`:
     /// `[[M - d(h x0)/dx0, -d(h x0)/dp]; [C(x0), 0]]`.
-    fn shooting_jacobian(
+    pub(crate) fn shooting_jacobian(
         &mut self,
         t0: f64,
         x0: &[f64],
@@ -346,4 +340,24 @@ impl<M: Model> Analysis<M> {
         }
         Ok(j)
     }
+}
+
+/// A gait's fixed point `x0` and shift `h` seen from the reference body
+/// (the model's first) moved to the origin with heading 0, as far as the
+/// symmetry allows: `x0' = g x0`, `h' = g h g^-1`; and the reference body's
+/// displacement over a period in its frame at the start (forward,
+/// lateral) \[m\].
+pub(crate) fn gait_geometry(
+    bodies: &[[usize; 3]],
+    symmetry: Symmetry,
+    x0: &[f64],
+    h: Pose,
+) -> (Vec<f64>, Pose, [f64; 2]) {
+    let g = symmetry.restrict(body_pose(bodies, 0, x0)).inverse();
+    let state = act(bodies, g, x0);
+    let shift = g.compose(h).compose(g.inverse());
+    let start = body_pose(bodies, 0, &state);
+    let end = shift.point([start.a, start.b]);
+    let d = Pose { theta: -start.theta, ..Pose::IDENTITY }.vector([end[0] - start.a, end[1] - start.b]);
+    (state, shift, d)
 }

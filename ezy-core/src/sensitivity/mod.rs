@@ -50,6 +50,7 @@
 //! stop changes the motion where its time changes with `p`) is refused, as
 //! is a motion on which a skate with friction slides.
 
+mod gait;
 mod rhs;
 mod run;
 mod stencil;
@@ -61,6 +62,7 @@ use crate::error::SimError;
 use crate::model::Model;
 use crate::problem::Problem;
 
+pub use gait::GaitSensitivities;
 pub use stencil::Derivative;
 
 /// Most parameters one sensitivity run takes: its state has

@@ -28,6 +28,10 @@ struct Scratch {
     dm: Vec<f64>,
     /// The applied forces at the state evaluated (nq).
     f0: Vec<f64>,
+    /// The input power at the state evaluated, and its derivative along
+    /// the column being evaluated \[W\].
+    p0: f64,
+    dp: f64,
     /// A state moved along a direction, and the forces there.
     xp: Vec<f64>,
     fp: Vec<f64>,
@@ -49,6 +53,10 @@ pub(super) struct Augmented<M: Model> {
     pub evaluations: u64,
     pub stop: Option<fn() -> bool>,
     ws: Scratch,
+    /// The effects whose power is the input power `P_in` integrated as
+    /// the energy `E` after `S`, with its derivative along each column
+    /// (`[x, S, E, dE/dp]`; empty: no energy).
+    pub actuators: Vec<usize>,
     /// The pattern of `G` (its (row, column) entries).
     pattern: Vec<(usize, usize)>,
 }
@@ -78,6 +86,8 @@ impl<M: Model> Augmented<M> {
             df: z(nq),
             dm: z(nq),
             f0: z(nq),
+            p0: 0.0,
+            dp: 0.0,
             xp: z(2 * nq),
             fp: z(nq),
             power: z(sys.effects.len()),
@@ -87,7 +97,7 @@ impl<M: Model> Augmented<M> {
             dlambda: z(nc),
         };
         let pattern = sys.info.pattern.clone();
-        Self { base, stencils, failed: None, evaluations: 0, stop, ws, pattern }
+        Self { base, stencils, failed: None, evaluations: 0, stop, ws, actuators: Vec::new(), pattern }
     }
 
     /// Number of coordinates nq.
@@ -117,6 +127,7 @@ impl<M: Model> Augmented<M> {
         let nq = self.nq();
         let ws = &mut self.ws;
         ws.df.fill(0.0);
+        ws.dp = 0.0;
         let norm = s.iter().fold(0.0f64, |m, v| m.max(v.abs()));
         let sys = self.base.dynamics_mut();
         if sys.effects.is_empty() || norm == 0.0 {
@@ -133,6 +144,7 @@ impl<M: Model> Augmented<M> {
             for (o, f) in ws.df.iter_mut().zip(&ws.fp) {
                 *o += sign * f / (2.0 * h);
             }
+            ws.dp += sign * self.actuators.iter().map(|&k| ws.power[k]).sum::<f64>() / (2.0 * h);
         }
         Ok(())
     }
@@ -148,6 +160,7 @@ impl<M: Model> Augmented<M> {
         let nq = self.nq();
         let n2 = 2 * nq;
         let (x, s) = y.split_at(n2);
+        let s = &s[..self.stencils.len() * n2];
         let (q, qd) = x.split_at(nq);
         // the state's rate by the run's own right-hand side (work states 0)
         self.ws.y[..n2].copy_from_slice(x);
@@ -161,6 +174,12 @@ impl<M: Model> Augmented<M> {
         self.base.note_grip(t, &lambda);
         self.ws.lambda = lambda;
         dy[..n2].copy_from_slice(&self.ws.dy[..n2]);
+        self.ws.p0 = self.actuators.iter().map(|&k| self.ws.dy[n2 + k]).sum();
+        let np = self.stencils.len();
+        let energy = n2 * (1 + np);
+        if !self.actuators.is_empty() {
+            dy[energy] = self.ws.p0;
+        }
         for j in 0..self.stencils.len() {
             let sj = &s[j * n2..(j + 1) * n2];
             self.directional_terms(q, qd, &sj[..nq], &sj[nq..]);
@@ -182,8 +201,24 @@ impl<M: Model> Augmented<M> {
             let dj = &mut dy[n2 + j * n2..n2 + (j + 1) * n2];
             dj[..nq].copy_from_slice(&sj[nq..]);
             dj[nq..].copy_from_slice(&ws.dqdd);
+            if !self.actuators.is_empty() {
+                dy[energy + 1 + j] = ws.dp;
+            }
         }
         Ok(())
+    }
+
+    /// The input power of the actuators at `(t, x)` \[W\] (0 without).
+    ///
+    /// # Errors
+    /// As [`crate::formulation::dae::Dynamics::applied_forces`].
+    pub fn input_power(&mut self, t: f64, x: &[f64]) -> Result<f64, SimError> {
+        if self.actuators.is_empty() {
+            return Ok(0.0);
+        }
+        let nq = self.nq();
+        self.base.dynamics_mut().applied_forces(t, &x[..nq], &x[nq..], &mut self.ws.power)?;
+        Ok(self.actuators.iter().map(|&k| self.ws.power[k]).sum())
     }
 
     /// Adds parameter `j`'s direct terms (`dF/dp`, `dG/dp`, `dgamma/dp`,
@@ -198,7 +233,7 @@ impl<M: Model> Augmented<M> {
         let ws = &mut self.ws;
         let st = &mut self.stencils[j];
         if forces {
-            st.add_forces(t, q, qd, &ws.f0, &mut ws.df, &mut ws.power)?;
+            ws.dp += st.add_forces(t, q, qd, (&ws.f0, ws.p0), &mut ws.df, &mut ws.power, &self.actuators)?;
         }
         if model {
             let sys = self.base.dynamics();

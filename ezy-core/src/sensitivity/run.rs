@@ -158,6 +158,7 @@ impl<M: Model> Loop<M> {
         }
         let n2 = self.n2;
         let (x, s) = y.split_at_mut(n2);
+        let s = &mut s[..self.params.len() * n2];
         let (q, qd) = x.split_at_mut(n2 / 2);
         self.projector.project(&self.aug.base.dynamics().model, t, q, qd)?;
         self.aug.project(&mut self.projector, t, x, s)

@@ -135,26 +135,34 @@ impl<M: Model> Stencil<M> {
         Ok(Self { nodes, base_weight, touches, derivative, x0: dx0 })
     }
 
-    /// Adds `dF/dp` at `(t, q, qd)` into `out` (nq), `base_f` the base
-    /// problem's forces there; `power`: scratch (one per effect).
+    /// Adds `dF/dp` at `(t, q, qd)` into `out` (nq) and returns `dP/dp`
+    /// of the input power of the effects `actuators`; `base` the base
+    /// problem's forces and input power there; `power`: scratch (one per
+    /// effect).
     ///
     /// # Errors
     /// As [`crate::formulation::dae::Dynamics::applied_forces`].
+    #[expect(
+        clippy::too_many_arguments,
+        reason = "a state and the scratch of an evaluation as flat borrowed slices, no struct built per call"
+    )]
     pub fn add_forces(
         &mut self,
         t: f64,
         q: &[f64],
         qd: &[f64],
-        base_f: &[f64],
+        base: (&[f64], f64),
         out: &mut [f64],
         power: &mut [f64],
-    ) -> Result<(), crate::error::SimError> {
+        actuators: &[usize],
+    ) -> Result<f64, crate::error::SimError> {
         if !(self.touches.model || self.touches.effects) {
-            return Ok(());
+            return Ok(0.0);
         }
-        for (o, f) in out.iter_mut().zip(base_f) {
+        for (o, f) in out.iter_mut().zip(base.0) {
             *o += self.base_weight * f;
         }
+        let mut dp = self.base_weight * base.1;
         for (w, an) in &mut self.nodes {
             let sys = an.dynamics_mut();
             if sys.effects.is_empty() {
@@ -164,8 +172,9 @@ impl<M: Model> Stencil<M> {
             for (o, f) in out.iter_mut().zip(sys.applied_force()) {
                 *o += *w * f;
             }
+            dp += *w * actuators.iter().map(|&k| power[k]).sum::<f64>();
         }
-        Ok(())
+        Ok(dp)
     }
 
     /// Adds the model's direct terms at `(q, qd)`: `dG/dp` (at the

@@ -1,0 +1,251 @@
+//! Sensitivities of a gait (a periodic orbit, [`PeriodicOrbit`]) by the
+//! implicit function theorem on its shooting equations.
+//!
+//! The orbit solves `R(z; p) = [x(t0 + T(p); x0, p) - h . x0; C(x0; p)] =
+//! 0` in `z = (x0, h)` (the fixed point and the rigid motion over a
+//! period). Differentiating, `J dz/dp = -dR/dp` with `J` the shooting
+//! Jacobian the search used (Seydel, *Practical Bifurcation and Stability
+//! Analysis*, 3rd ed., §7.1-7.3) and `dR/dp = [dx(T)/dp + f(t0 + T, x(T))
+//! dT/dp; dC/dp]`: `dx(T)/dp` at a fixed `x0` is the run's forward
+//! sensitivity from `S(t0) = 0` over one period, integrated with the
+//! monodromy matrix in one pass (DOP853 under the orbit's tolerance);
+//! then one minimum-norm solve per parameter, no orbit searched again.
+//!
+//! The mean input power is the work per period of the effects whose
+//! force is driven by time (motors, driven wheels, forces and torques
+//! with a waveform: the actuators), over the period; its derivative is
+//! integrated along (`dE/dx0 Phi` and `dE/dp`). Every quantity of the gait
+//! (mean speed, displacement, heading change, mean power, efficiency =
+//! mean speed per mean power) is then a function of `(x0, h, T, E)`
+//! whose derivative along `(dx0/dp, dh/dp, dT/dp, dE/dp)` is taken by a
+//! central difference of that function alone (no integration).
+
+use faer::Mat;
+
+use super::rhs::Augmented;
+use super::stencil::{Derivative, Stencil};
+use super::{MAX_PARAMETERS, Parameter};
+use crate::analysis::{AnalysisError, PeriodicOrbit, PeriodicSettings, Symmetry, gait_geometry, min_norm_solve};
+use crate::effects::waveform::Periodicity;
+use crate::integrator::adaptive;
+use crate::integrator::dop853::Dop853;
+use crate::model::Model;
+use crate::problem::Problem;
+
+/// A gait's mean input power and efficiency, and the derivatives of its
+/// quantities with respect to parameters ([`Problem::gait_sensitivities`]).
+#[derive(Debug, Clone)]
+pub struct GaitSensitivities {
+    /// The parameters, in the order of every `d_` list.
+    pub parameters: Vec<String>,
+    /// Their values.
+    pub values: Vec<f64>,
+    /// How each parameter's direct effect was differentiated.
+    pub derivatives: Vec<Derivative>,
+    /// Mean input power of the actuators over a period \[W\] (0 without
+    /// actuators).
+    pub mean_power: f64,
+    /// Mean speed per mean input power \[m/J\] (NaN without input power).
+    pub efficiency: f64,
+    /// `d(fixed point)/dp` (2 nq each), in the orbit's frame.
+    pub d_state: Vec<Vec<f64>>,
+    /// `dT/dp` \[s per unit of p\] (0 where the period is not the forcing's).
+    pub d_period: Vec<f64>,
+    /// `d(mean speed)/dp`.
+    pub d_mean_speed: Vec<f64>,
+    /// `d(mean forward speed)/dp`.
+    pub d_mean_forward_speed: Vec<f64>,
+    /// `d(displacement per period)/dp` (forward, lateral).
+    pub d_displacement: Vec<[f64; 2]>,
+    /// `d(heading change per period)/dp`.
+    pub d_heading_change: Vec<f64>,
+    /// `d(mean input power)/dp`.
+    pub d_mean_power: Vec<f64>,
+    /// `d(efficiency)/dp`.
+    pub d_efficiency: Vec<f64>,
+    /// Accepted steps of the period's integration.
+    pub steps: u64,
+}
+
+impl GaitSensitivities {
+    /// The quantities differentiated, by the names `periodic.csv` gives
+    /// them, with the derivative of each with respect to parameter `j`.
+    pub fn rows(&self, j: usize) -> Vec<(&'static str, f64)> {
+        vec![
+            ("period", self.d_period[j]),
+            ("mean_speed", self.d_mean_speed[j]),
+            ("mean_forward_speed", self.d_mean_forward_speed[j]),
+            ("dx", self.d_displacement[j][0]),
+            ("dy", self.d_displacement[j][1]),
+            ("dheading", self.d_heading_change[j]),
+            ("mean_power", self.d_mean_power[j]),
+            ("efficiency", self.d_efficiency[j]),
+        ]
+    }
+}
+
+impl<M: Model> Stencil<M> {
+    /// The column of `Phi` along state component `j` (of `n2`): no direct
+    /// effect, `Phi(t0) e_j = e_j`.
+    fn identity(n2: usize, j: usize) -> Self {
+        let mut x0 = vec![0.0; n2];
+        x0[j] = 1.0;
+        Self {
+            nodes: Vec::new(),
+            base_weight: 0.0,
+            touches: Default::default(),
+            derivative: Derivative::InitialOnly,
+            x0,
+        }
+    }
+}
+
+/// The gait's quantities as a function of `(x0, h, T, E)`: mean speed,
+/// mean forward speed, displacement (2), heading change, mean power,
+/// efficiency.
+fn quantities(bodies: &[[usize; 3]], symmetry: Symmetry, x0: &[f64], hp: &[f64], t: f64, e: f64) -> [f64; 7] {
+    let (_, shift, d) = gait_geometry(bodies, symmetry, x0, symmetry.pose(hp));
+    let speed = d[0].hypot(d[1]) / t;
+    let power = e / t;
+    [speed, d[0] / t, d[0], d[1], shift.theta, power, if power > 0.0 { speed / power } else { f64::NAN }]
+}
+
+impl<M: Model> Problem<M> {
+    /// The derivatives of the gait `orbit` of this problem (found by
+    /// [`crate::analysis::Analysis::periodic_orbit`] on its analysis)
+    /// with respect to `params`, and its mean input power and efficiency
+    /// (see the module's docs for the method).
+    ///
+    /// # Errors
+    /// [`AnalysisError::Request`] for more than [`MAX_PARAMETERS`] or a
+    /// parameter named twice, a parameter whose problems differ in size;
+    /// [`AnalysisError::Numerics`] when the shooting Jacobian is
+    /// singular; as [`Problem::analysis`]; the integration's failure.
+    pub fn gait_sensitivities(
+        &self,
+        orbit: &PeriodicOrbit,
+        params: &[Parameter<M>],
+        settings: &PeriodicSettings,
+    ) -> Result<GaitSensitivities, AnalysisError> {
+        if params.len() > MAX_PARAMETERS {
+            return Err(AnalysisError::Request {
+                reason: format!("{} parameters: a gait's sensitivities take at most {MAX_PARAMETERS}", params.len()),
+            });
+        }
+        if let Some((k, p)) = params.iter().enumerate().find(|(k, p)| params[..*k].iter().any(|o| o.name == p.name)) {
+            return Err(AnalysisError::Request { reason: format!("parameter `{}` is named twice (at {k})", p.name) });
+        }
+        let (base, _) = self.clone().analysis()?;
+        base.check_size()?;
+        let n2 = 2 * base.nq();
+        let (t0, x0, period) = (orbit.t0, orbit.state.clone(), orbit.period);
+        base.check_state(&x0)?;
+        let np = params.len();
+        let stencils = params.iter().map(|p| Stencil::new(p, &base, &x0)).collect::<Result<Vec<_>, _>>()?;
+        // dT/dp where the period is the forcing's
+        let forcing_period = |f: Option<Periodicity>| match f {
+            Some(Periodicity::Period(t)) => Some(t),
+            _ => None,
+        };
+        let follows = forcing_period(base.forcing()).is_some_and(|t| (t - period).abs() <= 1e-12 * period);
+        let d_period: Vec<f64> = stencils
+            .iter()
+            .map(|st| {
+                if !follows {
+                    return 0.0;
+                }
+                st.base_weight * period
+                    + st.nodes.iter().map(|(w, an)| w * forcing_period(an.forcing()).unwrap_or(period)).sum::<f64>()
+            })
+            .collect();
+        let derivatives = stencils.iter().map(|s| s.derivative).collect();
+        // residuals' direct derivatives at the fixed point
+        let base_r = base.residual_at(t0, &x0);
+        let dr: Vec<Vec<f64>> = stencils
+            .iter()
+            .map(|st| {
+                let mut out = vec![0.0; base_r.len()];
+                st.add_residual(t0, &x0, &base_r, &mut out);
+                out
+            })
+            .collect();
+        let actuators: Vec<usize> = (base.dynamics().effects.iter().enumerate())
+            .filter(|(_, e)| !matches!(e.periodicity(), Some(Periodicity::Constant)))
+            .map(|(k, _)| k)
+            .collect();
+        let bodies = base.bodies().to_vec();
+        let symmetry = orbit.symmetry;
+        let hp = symmetry.params(orbit.shift);
+        // one period of [x, Phi, S, E, dE/dx0, dE/dp]
+        let mut columns: Vec<Stencil<M>> = (0..n2).map(|j| Stencil::identity(n2, j)).collect();
+        columns.extend(stencils);
+        let ncol = columns.len();
+        let mut y0 = x0.clone();
+        for (j, st) in columns.iter().enumerate() {
+            y0.extend(if j < n2 { st.x0.clone() } else { vec![0.0; n2] });
+        }
+        y0.extend(std::iter::repeat_n(0.0, 1 + ncol));
+        let mut aug = Augmented::new(base, columns, None);
+        aug.actuators = actuators;
+        let end =
+            adaptive::integrate::<Dop853, _>(&mut aug, t0, &y0, t0 + period, &settings.tolerance, settings.max_steps);
+        if let Some(e) = aug.failed.take() {
+            return Err(e);
+        }
+        let end = end?;
+        let y = &end.y;
+        let (xt, blocks) = y.split_at(n2);
+        let col = |j: usize| &blocks[j * n2..(j + 1) * n2];
+        let energy = &y[n2 * (1 + ncol)..];
+        let m = Mat::from_fn(n2, n2, |i, j| col(j)[i]);
+        let ft = aug.base.rhs(t0 + period, xt)?;
+        let pt = aug.input_power(t0 + period, xt)?;
+        let j = aug.base.shooting_jacobian(t0, &x0, &m, symmetry, &hp)?;
+        let q0 = quantities(&bodies, symmetry, &x0, &hp, period, energy[0]);
+        let mut out = GaitSensitivities {
+            parameters: params.iter().map(|p| p.name.clone()).collect(),
+            values: params.iter().map(|p| p.value).collect(),
+            derivatives,
+            mean_power: q0[5],
+            efficiency: q0[6],
+            d_state: Vec::new(),
+            d_period: d_period.clone(),
+            d_mean_speed: Vec::new(),
+            d_mean_forward_speed: Vec::new(),
+            d_displacement: Vec::new(),
+            d_heading_change: Vec::new(),
+            d_mean_power: Vec::new(),
+            d_efficiency: Vec::new(),
+            steps: end.steps,
+        };
+        for k in 0..np {
+            let dt = d_period[k];
+            let mut rp: Vec<f64> = col(n2 + k).iter().zip(&ft).map(|(s, f)| -(s + f * dt)).collect();
+            rp.extend(dr[k].iter().map(|v| -v));
+            let (dz, _) = min_norm_solve(j.as_ref(), &rp, 1e-12)?;
+            let (dx0, dhp) = dz.split_at(n2);
+            let de = (0..n2).map(|i| energy[1 + i] * dx0[i]).sum::<f64>() + energy[1 + n2 + k] + pt * dt;
+            // the quantities' derivative along (dx0, dh, dT, dE)
+            let scale = dz.iter().chain([&dt, &de]).fold(0.0f64, |a, v| a.max(v.abs()));
+            let eps = if scale > 0.0 { 1e-6 / scale } else { 0.0 };
+            let at = |s: f64| {
+                let x: Vec<f64> = x0.iter().zip(dx0).map(|(a, b)| a + s * b).collect();
+                let h: Vec<f64> = hp.iter().zip(dhp).map(|(a, b)| a + s * b).collect();
+                quantities(&bodies, symmetry, &x, &h, period + s * dt, energy[0] + s * de)
+            };
+            let dq: Vec<f64> = if eps > 0.0 {
+                at(eps).iter().zip(at(-eps)).map(|(a, b)| (a - b) / (2.0 * eps)).collect()
+            } else {
+                vec![0.0; 7]
+            };
+            out.d_state.push(dx0.to_vec());
+            out.d_mean_speed.push(dq[0]);
+            out.d_mean_forward_speed.push(dq[1]);
+            out.d_displacement.push([dq[2], dq[3]]);
+            out.d_heading_change.push(dq[4]);
+            out.d_mean_power.push(dq[5]);
+            out.d_efficiency.push(dq[6]);
+        }
+        Ok(out)
+    }
+}
