@@ -43,13 +43,11 @@
 //! force law of the user's own is treated exactly as a built-in one.
 
 pub mod branch;
-mod dense;
-pub(crate) use dense::min_norm_solve;
-pub(crate) use periodic::gait_geometry;
+pub(crate) mod dense;
 mod linear;
-mod periodic;
+pub(crate) mod periodic;
 mod steady;
-mod symmetry;
+pub(crate) mod symmetry;
 
 pub use branch::{BranchPoint, Follow, Solution};
 pub use faer::c64;
