@@ -179,10 +179,20 @@ def analyze(
     period: Optional[float] = None,
     energy: Optional[float] = None,
     vary: Optional[str] = None,
+    wrt: Union[str, Sequence[str], None] = None,
     out: Optional[_Path] = None,
     figures: bool = False,
     **settings: Any,
 ) -> Analysis: ...
+def sensitivity(
+    scene: _Scene,
+    *,
+    wrt: Union[str, Sequence[str]],
+    model: Optional[Model] = None,
+    out: Optional[_Path] = None,
+    figures: bool = False,
+    **settings: Any,
+) -> Any: ...
 def linearize(
     scene: _Scene,
     *,

@@ -10,7 +10,8 @@
 //!
 //! Everything a module offers is [`init_module`] over an [`ezy::App`]:
 //! `models()`, `scenes()`, `effect_kinds()`, `scene(...)`, `run(scene,
-//! ...)`, `sweep(scene, ...)`, `analyze(scene, ...)`, `linearize(scene,
+//! ...)`, `sweep(scene, ...)`, `analyze(scene, ...)`, `sensitivity(scene,
+//! wrt=...)`, `linearize(scene,
 //! ...)`, `equations(model)` and `check(model)`, the classes `Result`,
 //! `Scene`, `Model`, `Equations`, `Analysis` and `Linearization`, and the
 //! exception `EzyError`, whose
@@ -64,6 +65,7 @@ const MODULE_DOC: &str = "Planar vehicles and mechanisms with hinges and skates 
 run(scene, **settings)      a scene in memory: a Result with NumPy arrays
 sweep(scene, grid, ...)     runs over parameter values: a pandas DataFrame
 analyze(scene, ...)         steady motions or the gait and their stability: DataFrames
+sensitivity(scene, wrt=..)  the run's derivatives d<column>/d<param>: a DataFrame
 linearize(scene, at=t)      A, B and the eigenvalues at a time of the run
 scene(name), scene(toml=..), scene(model=m, t_end=.., initial=.., ...)
                             a Scene to change (parameters, effects' numbers) and run
@@ -113,7 +115,7 @@ fn ezy_module(m: &Bound<'_, PyModule>) -> PyResult<()> {
 
 /// Fills module `m` with the API over `app`: the functions `models`,
 /// `scenes`, `effect_kinds`, `scene`, `run`, `sweep`, `analyze`,
-/// `linearize`, `equations`, `check`, the classes `Result`, `Scene`,
+/// `sensitivity`, `linearize`, `equations`, `check`, the classes `Result`, `Scene`,
 /// `Effect`, `Equations`, `Check`, `Analysis`, `Linearization`, `Model`
 /// and the exception `EzyError`.
 ///
@@ -148,8 +150,19 @@ pub fn init_module(m: &Bound<'_, PyModule>, app: App) -> PyResult<()> {
     m.add_class::<Toolkit>()?;
     m.add_class::<PyModel>()?;
     let kit = Bound::new(py, Toolkit { app, helpers: helpers.unbind() })?;
-    for f in ["models", "scenes", "effect_kinds", "scene", "run", "sweep", "analyze", "linearize", "equations", "check"]
-    {
+    for f in [
+        "models",
+        "scenes",
+        "effect_kinds",
+        "scene",
+        "run",
+        "sweep",
+        "analyze",
+        "sensitivity",
+        "linearize",
+        "equations",
+        "check",
+    ] {
         m.add(f, kit.getattr(f)?)?;
     }
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;

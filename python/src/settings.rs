@@ -156,3 +156,21 @@ pub(crate) fn text_kw(function: &str, key: &str, v: Option<&Bound<'_, PyAny>>) -
         pyo3::exceptions::PyTypeError::new_err(format!("{function}(): `{key}` must be a string, not {ty} ({v})"))
     })
 }
+
+/// A keyword that names parameters: one name, names separated by commas,
+/// or a list of names; `None` when absent; the names joined by commas.
+///
+/// # Errors
+/// `TypeError` naming `function` and `key` for anything else.
+pub(crate) fn names_kw(function: &str, key: &str, v: Option<&Bound<'_, PyAny>>) -> PyResult<Option<String>> {
+    let Some(v) = v.filter(|v| !v.is_none()) else { return Ok(None) };
+    if let Ok(s) = v.extract::<String>() {
+        return Ok(Some(s));
+    }
+    v.extract::<Vec<String>>().map(|names| Some(names.join(","))).map_err(|_| {
+        let ty = v.get_type().name().map_or_else(|_| "?".to_string(), |n| n.to_string());
+        pyo3::exceptions::PyTypeError::new_err(format!(
+            "{function}(): `{key}` must be a parameter's name or a list of names, not {ty} ({v})"
+        ))
+    })
+}

@@ -20,7 +20,7 @@ use crate::model::PyModel;
 use crate::reports::{Analysis, Check, Equations, Linearization};
 use crate::result::RunResult;
 use crate::scene::PyScene;
-use crate::settings::{Overrides, number_kw, sets_of, text_kw};
+use crate::settings::{Overrides, names_kw, number_kw, sets_of, text_kw};
 use crate::{EzyError, ezy_err};
 
 /// How often a running integration asks Python for pending signals (Ctrl-C).
@@ -528,13 +528,15 @@ impl Toolkit {
     /// `period` [s]: the forcing period (default: from the scene's
     /// waveforms); `energy` [J]: the kinetic energy of the steady motions
     /// sought; `vary="NAME=START:STOP:COUNT"` follows the solution as a
-    /// parameter varies (the command line's `--continue`); `out` keeps the
+    /// parameter varies (the command line's `--continue`); `wrt` (a name
+    /// or a list: `"motor.omega"`, `["M0", "c"]`) adds the gait's
+    /// derivatives `d<quantity>/d<param>` to `.periodic`; `out` keeps the
     /// files (CSV and figures: `figures=True`). Other keywords as `run`;
     /// `model=m` analyses the scene on an `ezy.Model`.
     ///
     /// Raises EzyError with the command line's message (no orbit found,
     /// a bad setting); KeyboardInterrupt on Ctrl-C.
-    #[pyo3(signature = (scene, *, model=None, period=None, energy=None, vary=None, out=None, figures=false, **settings))]
+    #[pyo3(signature = (scene, *, model=None, period=None, energy=None, vary=None, wrt=None, out=None, figures=false, **settings))]
     #[expect(clippy::too_many_arguments, reason = "Python's keywords, one argument each")]
     fn analyze(
         &self,
@@ -544,6 +546,7 @@ impl Toolkit {
         period: Option<&Bound<'_, PyAny>>,
         energy: Option<&Bound<'_, PyAny>>,
         vary: Option<&Bound<'_, PyAny>>,
+        wrt: Option<&Bound<'_, PyAny>>,
         out: Option<PathBuf>,
         figures: bool,
         settings: Option<&Bound<'_, PyDict>>,
@@ -552,6 +555,9 @@ impl Toolkit {
         let energy = number_kw("analyze", "energy", energy)?;
         let vary = text_kw("analyze", "vary", vary)?;
         let mut extra = Vec::new();
+        if let Some(w) = names_kw("analyze", "wrt", wrt)? {
+            extra.extend(["--wrt".to_string(), w]);
+        }
         if let Some(p) = period {
             extra.extend(["--period".to_string(), format!("{p:?}")]);
         }
@@ -570,6 +576,36 @@ impl Toolkit {
             }
         }
         Ok(Analysis { report, tables: tables.unbind() })
+    }
+
+    /// Runs `scene` with the derivatives of its state with respect to the
+    /// parameters `wrt` (a name or a list: a scene parameter `"M0"`, a
+    /// model parameter, `"motor.omega"`, `"initial.q.phi2"`), as `ezy
+    /// sensitivity` does: a DataFrame with `t` and the columns
+    /// `d<column>/d<param>` (`dx1/dM0`), the report in `.attrs["report"]`.
+    /// Other keywords as `analyze`.
+    ///
+    /// Raises EzyError with the command line's message (an unknown
+    /// parameter, radau5, a scene with events); KeyboardInterrupt on Ctrl-C.
+    #[pyo3(signature = (scene, *, wrt, model=None, out=None, figures=false, **settings))]
+    #[expect(clippy::too_many_arguments, reason = "Python's keywords, one argument each")]
+    fn sensitivity(
+        &self,
+        py: Python<'_>,
+        scene: &Bound<'_, PyAny>,
+        wrt: &Bound<'_, PyAny>,
+        model: Option<&Bound<'_, PyModel>>,
+        out: Option<PathBuf>,
+        figures: bool,
+        settings: Option<&Bound<'_, PyDict>>,
+    ) -> PyResult<Py<PyAny>> {
+        let wrt = names_kw("sensitivity", "wrt", Some(wrt))?
+            .ok_or_else(|| pyo3::exceptions::PyTypeError::new_err("sensitivity(): `wrt` names no parameter"))?;
+        let extra = vec!["--wrt".to_string(), wrt];
+        let (report, dir, _temp) = self.command(py, "sensitivity", scene, model, extra, out, figures, settings)?;
+        let frame = self.helpers.bind(py).call_method1("read_table", (dir.join("sensitivity.csv"),))?;
+        frame.getattr("attrs")?.set_item("report", report)?;
+        Ok(frame.unbind())
     }
 
     /// Linearizes `scene` at time `at` [s] of its run, as `ezy linearize`

@@ -500,3 +500,26 @@ def test_the_stub_names_everything_the_module_offers():
     named = {n for n in named if not n.startswith("_")}
     offered = {n for n in dir(ezy) if not n.startswith("_")}
     assert named == offered, (offered - named, named - offered)
+
+
+def test_sensitivities_of_a_run_and_of_a_gait(tmp_path):
+    # a run's derivatives: the command line's numbers, as a DataFrame
+    s = ezy.sensitivity("drive", wrt=["M0", "initial.q.phi2"], t_end=0.5)
+    code, _, err = cli("sensitivity", "drive", "--wrt", "M0,initial.q.phi2", "--t-end", "0.5", "--out", str(tmp_path))
+    assert code == 0, err
+    with open(tmp_path / "sensitivity.csv") as f:
+        columns = f.readline().strip().split(",")
+    table = np.loadtxt(tmp_path / "sensitivity.csv", delimiter=",", skiprows=1, ndmin=2)
+    assert list(s.columns) == columns and columns[:2] == ["t", "dx1/dM0"]
+    assert np.array_equal(s.to_numpy(), table)
+    assert "d/dM0 at M0 = 2" in s.attrs["report"]
+    # a gait's derivatives: columns of .periodic
+    a = ezy.analyze("drive-rolling-resistance", wrt="motor.omega")
+    p = a.periodic
+    assert p["dperiod/dmotor.omega"][0] == pytest.approx(-2.0 / np.pi, rel=1e-9)
+    assert p["mean_power"][0] > 0 and p["efficiency"][0] > 0
+    assert "dmean_speed/dmotor.omega" in p.columns
+    with pytest.raises(TypeError, match="wrt"):
+        ezy.sensitivity("drive", wrt=3)
+    with pytest.raises(ezy.EzyError, match="nope"):
+        ezy.sensitivity("drive", wrt="nope", t_end=0.1)
