@@ -235,7 +235,8 @@ fn analyze_model<M: Model>(proto: &M, scene: &Scene, opts: &AnalyzeOptions) -> R
         }
         None => Vec::new(),
     };
-    let files = write_analysis(&an, scene, opts, &steady, periodic.as_ref().zip(gait.as_ref()), &branch)?;
+    let power = branch_power(proto, scene, ro, opts, &branch, &mut log)?;
+    let files = write_analysis(&an, scene, opts, &steady, periodic.as_ref().zip(gait.as_ref()), (&branch, &power))?;
     let coords = an.dynamics().info.coords.clone();
     let Log { timings, notes } = log;
     Ok(AnalyzeReport { symmetry, coords, steady, periodic, gait, files, timings, notes })
@@ -541,7 +542,7 @@ fn write_analysis<M: Model>(
     opts: &AnalyzeOptions,
     steady: &[SteadyMotion],
     periodic: Option<(&PeriodicOrbit, &GaitSensitivities)>,
-    branch: &[BranchPoint],
+    (branch, power): (&[BranchPoint], &[(f64, f64)]),
 ) -> Result<Vec<PathBuf>, Error> {
     let ro = &opts.run;
     // the output is a transaction: all files or none, and none of an
@@ -578,7 +579,7 @@ fn write_analysis<M: Model>(
     if let Some((name, _)) = &opts.continuation
         && !branch.is_empty()
     {
-        tx.write("branch.csv", branch_csv(name, branch, &names, &shape).as_bytes())?;
+        tx.write("branch.csv", branch_csv(name, (branch, power), &names, &shape).as_bytes())?;
         let speed = if periodic.is_some() { "mean speed [m/s]" } else { "speed [m/s]" };
         let mut chart = Chart::new(format!("Branch in {name}: solid stable, dashed not"), name.clone(), speed);
         for (label, stable) in [("stable", true), ("unstable or neutral", false)] {
@@ -599,6 +600,11 @@ fn write_analysis<M: Model>(
                 stroke: if stable { Stroke::Solid } else { Stroke::Dash(0) },
                 ..Series::new(label, pts)
             });
+        }
+        if !power.is_empty() && power.iter().all(|(_, e)| e.is_finite()) {
+            chart.lower = Some("efficiency [m/J]".into());
+            let pts = branch.iter().zip(power).map(|(b, (_, e))| (b.value, *e)).collect();
+            chart.series.push(Series { panel: 1, stroke: Stroke::Solid, ..Series::new("efficiency", pts) });
         }
         figures.push(("branch".into(), chart));
     }
@@ -770,8 +776,44 @@ fn periodic_csv(
     record(head) + &record(cells)
 }
 
+/// The mean input power \[W\] and efficiency \[m/J\] of each gait of a
+/// periodic branch (one period's integration each); empty for a branch
+/// of steady motions or none.
+fn branch_power<M: Model>(
+    proto: &M,
+    scene: &Scene,
+    ro: &RunOptions,
+    opts: &AnalyzeOptions,
+    branch: &[BranchPoint],
+    log: &mut Log,
+) -> Result<Vec<(f64, f64)>, Error> {
+    let Some((name, _)) = &opts.continuation else { return Ok(Vec::new()) };
+    let clock = Instant::now();
+    let ps = PeriodicSettings {
+        max_steps: ro.max_steps.unwrap_or(PeriodicSettings::default().max_steps),
+        ..PeriodicSettings::default()
+    };
+    let mut out = Vec::new();
+    for b in branch {
+        let Solution::Periodic(orbit) = &b.solution else { return Ok(Vec::new()) };
+        check_interrupt(&ro.out, None, Some(format!("the mean power along the branch in {name}")))?;
+        let mut sets = ro.sets.clone();
+        sets.push((name.clone(), b.value));
+        let (problem, _) = scene.problem_with(proto.clone(), &sets)?;
+        let g = problem.gait_sensitivities(orbit, &[], &ps).map_err(analysis_error(&ro.out))?;
+        out.push((g.mean_power, g.efficiency));
+    }
+    log.timings.push(("mean power along the branch".into(), clock.elapsed()));
+    Ok(out)
+}
+
 /// `branch.csv`: one row per parameter value.
-fn branch_csv(name: &str, branch: &[BranchPoint], names: &[String], shape: &[(String, usize, usize)]) -> String {
+fn branch_csv(
+    name: &str,
+    (branch, power): (&[BranchPoint], &[(f64, f64)]),
+    names: &[String],
+    shape: &[(String, usize, usize)],
+) -> String {
     let (letter, n) = match &branch[0].solution {
         Solution::Steady(s) => ("lambda", s.eigenvalues.len()),
         Solution::Periodic(p) => ("mu", p.multipliers.len()),
@@ -783,8 +825,15 @@ fn branch_csv(name: &str, branch: &[BranchPoint], names: &[String], shape: &[(St
     head.extend(shape.iter().map(|s| s.0.clone()));
     head.extend(names.iter().cloned());
     head.extend(spectrum_header(letter, n));
+    let efficient = !power.is_empty() && power.iter().all(|(_, e)| e.is_finite());
+    if !power.is_empty() {
+        head.push("mean_power".into());
+    }
+    if efficient {
+        head.push("efficiency".into());
+    }
     let mut out = record(head);
-    for b in branch {
+    for (k, b) in branch.iter().enumerate() {
         let mut cells = vec![number(b.value), b.solution.stability().name().into(), number(b.solution.speed())];
         if let Solution::Periodic(p) = &b.solution {
             cells.push(number(p.period));
@@ -795,6 +844,12 @@ fn branch_csv(name: &str, branch: &[BranchPoint], names: &[String], shape: &[(St
             Solution::Steady(s) => &s.eigenvalues,
             Solution::Periodic(p) => &p.multipliers,
         }));
+        if let Some((w, e)) = power.get(k) {
+            cells.push(number(*w));
+            if efficient {
+                cells.push(number(*e));
+            }
+        }
         out.push_str(&record(cells));
     }
     out
