@@ -22,6 +22,7 @@ mod build_sharing;
 mod cli;
 mod culprits;
 mod derived_terms;
+mod design;
 mod drives;
 mod effects;
 mod events;

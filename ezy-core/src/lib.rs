@@ -48,6 +48,7 @@
 //! The formulation and its sources: `docs/physics.md`.
 
 pub mod analysis;
+pub mod design;
 pub mod drive;
 pub mod effects;
 pub mod erased;

@@ -2,8 +2,10 @@
 //! ([`ezy_core::sensitivity::Parameter`]): what a sensitivity, an
 //! optimization or a fit varies, named as `--set` names them.
 
+use ezy_core::analysis::AnalysisError;
+use ezy_core::design::Design;
 use ezy_core::sensitivity::Parameter;
-use ezy_core::{Model, SetupError, SimError};
+use ezy_core::{Model, Problem, SetupError, SimError};
 
 use crate::Scene;
 
@@ -38,6 +40,63 @@ impl Scene {
             sets.last_mut().expect("the parameter's own set").1 = v;
             base.problem_with(model.clone(), &sets).map(|(p, _)| p)
         }))
+    }
+
+    /// The scene's numbers `over` (`(name, lower, upper)`: names as
+    /// [`Scene::parameter`] takes them) as a [`Design`] over its problem on
+    /// `model` with the overrides `sets`: starting from the scene's
+    /// values, the problem at other values being the scene with each
+    /// name set (an initial value given).
+    ///
+    /// # Errors
+    /// As [`Scene::parameter`] for each name; as [`Design::new`] (bounds
+    /// that exclude the scene's value, a name given twice).
+    pub fn design<M: Model>(
+        &self,
+        model: &M,
+        sets: &[(String, f64)],
+        over: &[(String, f64, f64)],
+    ) -> Result<Design<M>, AnalysisError> {
+        let start = over
+            .iter()
+            .map(|(n, _, _)| Ok(self.parameter(model, sets, n)?.value))
+            .collect::<Result<Vec<_>, SimError>>()?;
+        let names: Vec<String> = over.iter().map(|(n, _, _)| n.clone()).collect();
+        let bounds = over.iter().map(|&(_, lo, hi)| (lo, hi)).collect();
+        let (scene, model, sets, keys) = (self.clone(), model.clone(), sets.to_vec(), names.clone());
+        Design::new(names, start, bounds, move |values| scene.problem_at(&model, &sets, &keys, values))
+    }
+
+    /// The problem on `model` with the overrides `sets` and then each
+    /// of `names` set to its value of `values` (`initial.q.X`,
+    /// `initial.qd.X` given as initial values).
+    ///
+    /// # Errors
+    /// As [`Scene::problem_with`]; as [`Problem::q`] for an initial value.
+    pub fn problem_at<M: Model>(
+        &self,
+        model: &M,
+        sets: &[(String, f64)],
+        names: &[String],
+        values: &[f64],
+    ) -> Result<Problem<M>, SimError> {
+        let mut all = sets.to_vec();
+        let mut initial = Vec::new();
+        for (n, &v) in names.iter().zip(values) {
+            if n.starts_with("initial.q.") || n.starts_with("initial.qd.") {
+                initial.push((n.as_str(), v));
+            } else {
+                all.push((n.clone(), v));
+            }
+        }
+        let (mut problem, _) = self.problem_with(model.clone(), &all)?;
+        for (n, v) in initial {
+            problem = match n.strip_prefix("initial.q.") {
+                Some(c) => problem.q(c, v)?,
+                None => problem.qd(n.trim_start_matches("initial.qd."), v)?,
+            };
+        }
+        Ok(problem)
     }
 
     /// The value of the number `name` as this scene gives it (see

@@ -268,7 +268,26 @@ impl<M: Model> Problem<M> {
     /// that fails (a singular position, a step budget spent);
     /// [`AnalysisError::Stopped`] from [`Problem::sensitivities_stop_when`]'s hook.
     pub fn sensitivities_with(&self, params: &[Parameter<M>]) -> Result<Sensitivities, AnalysisError> {
-        run::sensitivities(self, params, None)
+        run::sensitivities(self, params, None, None)
+    }
+
+    /// [`Problem::sensitivities_with`] sampled at the times `times` \[s\]
+    /// (sorted, each once, finite, >= 0: a measurement's times), from the
+    /// dense output of the adaptive methods or by fixed steps that end at
+    /// each time; the run ends at the last. `stop` as in
+    /// [`Problem::sensitivities_stop_when`].
+    ///
+    /// # Errors
+    /// As [`Problem::sensitivities_with`]; [`AnalysisError::Request`] for
+    /// times that are none, not finite, negative or unsorted, naming the
+    /// first at fault.
+    pub fn sensitivities_at(
+        &self,
+        params: &[Parameter<M>],
+        times: &[f64],
+        stop: Option<fn() -> bool>,
+    ) -> Result<Sensitivities, AnalysisError> {
+        run::sensitivities(self, params, stop, Some(times))
     }
 
     /// [`Problem::sensitivities_with`], asking `stop` at every step
@@ -281,6 +300,6 @@ impl<M: Model> Problem<M> {
         params: &[Parameter<M>],
         stop: fn() -> bool,
     ) -> Result<Sensitivities, AnalysisError> {
-        run::sensitivities(self, params, Some(stop))
+        run::sensitivities(self, params, Some(stop), None)
     }
 }

@@ -64,20 +64,49 @@ fn check_request<M: Model>(problem: &Problem<M>, params: &[Parameter<M>]) -> Res
     Ok(())
 }
 
+/// Refuses sample times that are not finite, negative, unsorted (each
+/// after the one before) or none, naming the first at fault.
+fn check_times(times: &[f64]) -> Result<(), AnalysisError> {
+    if times.is_empty() {
+        return Err(request("no sample times".into()));
+    }
+    for (k, &t) in times.iter().enumerate() {
+        if !(t.is_finite() && t >= 0.0) {
+            return Err(request(format!("sample time {} is {t}: times are finite and >= 0 [s]", k + 1)));
+        }
+        if k > 0 && t <= times[k - 1] {
+            return Err(request(format!(
+                "sample time {} ({t} s) is not after the one before ({} s): give the times sorted, each once",
+                k + 1,
+                times[k - 1]
+            )));
+        }
+    }
+    if times.last().is_some_and(|&t| t == 0.0) {
+        return Err(request("the sample times end at 0 s: nothing to integrate".into()));
+    }
+    Ok(())
+}
+
 /// The sensitivity run of `problem` with respect to `params`.
 pub(super) fn sensitivities<M: Model>(
     problem: &Problem<M>,
     params: &[Parameter<M>],
     stop: Option<fn() -> bool>,
+    times: Option<&[f64]>,
 ) -> Result<Sensitivities, AnalysisError> {
     check_request(problem, params)?;
-    let settings = problem.settings;
+    let mut settings = problem.settings;
+    if let Some(times) = times {
+        check_times(times)?;
+        settings.t_end = times.last().copied().unwrap_or(0.0);
+    }
     settings.validate().map_err(AnalysisError::Sim)?;
     let (mut base, x0) = problem.clone().analysis()?;
     base.check_size()?;
     let n2 = x0.len();
     let np = params.len();
-    let rows = settings.output_rows();
+    let rows = times.map_or_else(|| settings.output_rows(), |t| t.len() as f64);
     let mb = rows * (8.0 * (n2 * (1 + np)) as f64 + 40.0) / 1e6;
     if mb.is_nan() || mb > problem.max_output_mb {
         return Err(AnalysisError::Sim(SimError::Budget {
@@ -100,11 +129,18 @@ pub(super) fn sensitivities<M: Model>(
     let names = base.state_names();
     let aug = Augmented::new(base, stencils, stop);
     let params_names = params.iter().map(|p| p.name.clone()).collect();
-    let mut lp = Loop { aug, projector, settings, out: Vec::new(), steps: 0, rejected: 0, n2, params: params_names };
+    let times = times.map(<[f64]>::to_vec);
+    let listed = times.is_some();
+    let mut lp =
+        Loop { aug, projector, settings, out: Vec::new(), steps: 0, rejected: 0, n2, params: params_names, times };
     lp.project(0.0, &mut y0)?;
     lp.check_finite(0.0, &y0)?;
-    lp.out.push((0.0, y0.clone()));
+    if !listed || lp.out_time(0) == 0.0 {
+        lp.out.push((0.0, y0.clone()));
+    }
     let result = match settings.method {
+        Method::Euler if listed => lp.fixed_at_times(&y0, Fixed::Euler(Euler::new(y0.len()))),
+        Method::Rk4 if listed => lp.fixed_at_times(&y0, Fixed::Rk4(Rk4::new(y0.len()))),
         Method::Euler => lp.fixed(&y0, Fixed::Euler(Euler::new(y0.len()))),
         Method::Rk4 => lp.fixed(&y0, Fixed::Rk4(Rk4::new(y0.len()))),
         Method::Dopri5 => lp.embedded::<Dopri5>(&y0),
@@ -147,6 +183,9 @@ struct Loop<M: Model> {
     n2: usize,
     /// The parameters' names.
     params: Vec<String>,
+    /// The sample times asked for (sorted, in `[0, t_end]`, the last
+    /// `t_end`); `None`: every output interval and the end.
+    times: Option<Vec<f64>>,
 }
 
 impl<M: Model> Loop<M> {
@@ -237,7 +276,10 @@ impl<M: Model> Loop<M> {
         self.aug.eval_checked(0.0, &y, &mut k1)?;
         let mut h = initial_step(&mut self.aug, 0.0, &y, &k1, E::ORDER, &tol, s.t_end, &mut w1, &mut w2)?;
         let mut t = 0.0;
-        let mut next_out = 1u64;
+        let mut next_out = u64::from(self.times.is_none());
+        if self.out_time(0) == 0.0 && self.times.is_some() {
+            next_out = 1;
+        }
         while t < s.t_end {
             self.budget(t)?;
             let last = t + h >= s.t_end;
@@ -256,11 +298,17 @@ impl<M: Model> Loop<M> {
             // samples strictly inside the step, from its dense output
             let mut prepared = false;
             loop {
-                let t_out = next_out as f64 * s.every;
+                let t_out = self.out_time(next_out);
                 if t_out >= t_new || t_out >= s.t_end {
                     break;
                 }
                 if !prepared {
+                    // the slope at the step's end, where the pair's
+                    // estimate did not take it (DOP853's dense output
+                    // needs it)
+                    if !E::FSAL_IN_ESTIMATE {
+                        self.aug.eval_checked(t_new, &y_new, &mut k_new)?;
+                    }
                     stepper.prepare_dense(&mut self.aug, t, &y, &k1, h_try, &y_new, &k_new)?;
                     prepared = true;
                 }
@@ -273,13 +321,50 @@ impl<M: Model> Loop<M> {
             std::mem::swap(&mut y, &mut y_new);
             t = t_new;
             self.steps += 1;
-            if (next_out as f64 * s.every - t).abs() <= 1e-12 * t.abs().max(1.0) && t < s.t_end {
+            if (self.out_time(next_out) - t).abs() <= 1e-12 * t.abs().max(1.0) && t < s.t_end {
                 self.out.push((t, y.clone()));
                 next_out += 1;
             }
             self.aug.eval_checked(t, &y, &mut k1)?;
         }
-        self.out.push((s.t_end, y.clone()));
+        if self.times.is_none() || self.out_time(next_out) == s.t_end {
+            self.out.push((s.t_end, y.clone()));
+        }
+        Ok(())
+    }
+
+    /// Sample `k`'s time \[s\]: `k every` on the output grid, or the
+    /// `k`-th of the times asked for (infinite past the last).
+    fn out_time(&self, k: u64) -> f64 {
+        match &self.times {
+            None => k as f64 * self.settings.every,
+            Some(times) => usize::try_from(k).ok().and_then(|k| times.get(k)).copied().unwrap_or(f64::INFINITY),
+        }
+    }
+
+    /// Fixed steps of at most `dt`, each ending at the next time asked
+    /// for where it comes first; a sample at each of those times.
+    fn fixed_at_times(&mut self, y0: &[f64], mut method: Fixed) -> Result<(), AnalysisError> {
+        let s = self.settings;
+        let times = self.times.clone().unwrap_or_default();
+        let (mut y, mut y_new) = (y0.to_vec(), vec![0.0; y0.len()]);
+        let mut t = 0.0;
+        for &target in times.iter().filter(|&&v| v > 0.0) {
+            while t < target {
+                self.budget(t)?;
+                let t_new = if target - t <= s.dt * (1.0 + 1e-12) { target } else { t + s.dt };
+                match &mut method {
+                    Fixed::Euler(m) => m.step_to(&mut self.aug, t, &y, t_new - t, &mut y_new)?,
+                    Fixed::Rk4(m) => m.step_to(&mut self.aug, t, &y, t_new - t, &mut y_new)?,
+                }
+                self.project(t_new, &mut y_new)?;
+                self.check_finite(t_new, &y_new)?;
+                std::mem::swap(&mut y, &mut y_new);
+                self.steps += 1;
+                t = t_new;
+            }
+            self.out.push((t, y.clone()));
+        }
         Ok(())
     }
 }

@@ -1,0 +1,106 @@
+//! Design questions on the sensitivities (`ezy_core::design`): parameters
+//! fitted to measurements, from noise-free and noisy synthetic data.
+
+use crate::common;
+
+use ezy::models::{EzyRoller, scenes};
+use ezy_core::design::fit::{Data, fit};
+use rand::Rng;
+
+/// The rolling-resistance scene over 4 s at DOP853 1e-12, and the true
+/// values the data are made at: the front skate's damping 1.3 N s/m and
+/// the motor's amplitude 2.4 N m (the scene has 1 and 2).
+fn setting() -> (ezy_scene::Scene, Vec<(String, f64, f64)>, [f64; 2]) {
+    let mut scene = scenes::get("drive-rolling-resistance");
+    scene.t_end = 4.0;
+    scene.integrator.rtol = 1e-12;
+    scene.integrator.atol = 1e-12;
+    let over = vec![("rolling_A.damping".to_string(), 0.0, 5.0), ("motor.amplitude".to_string(), 1.0, 3.0)];
+    (scene, over, [1.3, 2.4])
+}
+
+/// The run at the true values sampled every 0.1 s (x1, y1), with noise of
+/// standard deviation `sigma` [m].
+fn data(scene: &ezy_scene::Scene, truth: [f64; 2], sigma: f64) -> Data {
+    let sets = [("rolling_A.damping".to_string(), truth[0]), ("motor.amplitude".to_string(), truth[1])];
+    let (mut problem, _) = scene.problem::<EzyRoller>(&sets).unwrap();
+    problem.settings.every = 0.1;
+    let run = problem.solve().unwrap();
+    let mut rng = common::rng(7);
+    let mut noisy = |v: Vec<f64>| -> Vec<f64> {
+        v.into_iter()
+            .map(|x| {
+                // Box-Muller
+                let (a, b): (f64, f64) = (rng.random(), rng.random());
+                x + sigma * (-2.0 * (1.0 - a).ln()).sqrt() * (std::f64::consts::TAU * b).cos()
+            })
+            .collect()
+    };
+    let (x1, y1) = (run.column("x1").unwrap(), run.column("y1").unwrap());
+    Data { t: run.t.clone(), columns: vec!["x1".into(), "y1".into()], values: vec![noisy(x1), noisy(y1)] }
+}
+
+/// Noise-free data: the fit recovers both parameters to 1e-8 (relative)
+/// from the scene's values, in at most 20 runs (the target; the
+/// runs' error at 1e-12 leaves about 1e-10 in the estimates).
+#[test]
+fn a_fit_recovers_parameters_from_noise_free_data() {
+    let (scene, over, truth) = setting();
+    let design = scene.design(&EzyRoller::default(), &[], &over).unwrap();
+    assert_eq!(design.start, vec![1.0, 2.0]);
+    let f = fit(&design, &data(&scene, truth, 0.0), None).unwrap();
+    eprintln!("noise-free: {:?} in {} runs ({})", f.estimate, f.runs, f.termination);
+    for (e, t) in f.estimate.iter().zip(truth) {
+        assert!((e - t).abs() <= 1e-8 * t, "estimate {e} against {t}");
+    }
+    assert!(f.runs <= 20, "{} runs", f.runs);
+    assert!(f.residual_rms.iter().all(|r| *r < 1e-8), "{:?}", f.residual_rms);
+}
+
+/// Data with noise of 1 mm: each estimate lies within two standard
+/// errors of the truth, the standard errors are positive and finite, the
+/// residual per column is near the noise (0.5 to 2 mm).
+#[test]
+fn a_fit_to_noisy_data_lies_within_two_standard_errors() {
+    let (scene, over, truth) = setting();
+    let design = scene.design(&EzyRoller::default(), &[], &over).unwrap();
+    let f = fit(&design, &data(&scene, truth, 1e-3), None).unwrap();
+    eprintln!(
+        "noisy: {:?} +- {:?}, corr {:?}, rms {:?}, {} runs",
+        f.estimate, f.std_error, f.correlation, f.residual_rms, f.runs
+    );
+    for k in 0..2 {
+        assert!(f.std_error[k].is_finite() && f.std_error[k] > 0.0);
+        assert!(
+            (f.estimate[k] - truth[k]).abs() <= 2.0 * f.std_error[k],
+            "{k}: {} +- {}",
+            f.estimate[k],
+            f.std_error[k]
+        );
+    }
+    assert!(f.residual_rms.iter().all(|r| (5e-4..2e-3).contains(r)), "{:?}", f.residual_rms);
+    assert!((f.correlation[0][1] - f.correlation[1][0]).abs() < 1e-12);
+}
+
+/// Bad requests are refused before any run, naming the culprit: data
+/// with NaN or unsorted times, a column the model does not have, bounds
+/// that exclude the start.
+#[test]
+fn bad_fits_are_refused_naming_the_culprit() {
+    let (scene, over, truth) = setting();
+    let model = EzyRoller::default();
+    let design = scene.design(&model, &[], &over).unwrap();
+    let good = data(&scene, truth, 0.0);
+    let mut nan = good.clone();
+    nan.values[1][3] = f64::NAN;
+    assert!(fit(&design, &nan, None).unwrap_err().to_string().contains("row 4, column `y1`"));
+    let mut unsorted = good.clone();
+    unsorted.t.swap(2, 3);
+    assert!(fit(&design, &unsorted, None).unwrap_err().to_string().contains("row 4"));
+    let mut other = good.clone();
+    other.columns[1] = "nope".into();
+    assert!(fit(&design, &other, None).unwrap_err().to_string().contains("`nope`"));
+    let outside = vec![("rolling_A.damping".to_string(), 2.0, 5.0)];
+    assert!(scene.design(&model, &[], &outside).unwrap_err().to_string().contains("outside the bounds"));
+    assert!(scene.design(&model, &[], &[("nope".into(), 0.0, 1.0)]).unwrap_err().to_string().contains("nope"));
+}
