@@ -115,6 +115,9 @@ fn to_free(p: f64, lo: f64, hi: f64) -> f64 {
     (2.0 * (p - lo) / (hi - lo) - 1.0).clamp(-1.0, 1.0).asin()
 }
 
+/// A run of a fit: its `u`, residuals, Jacobian in `p`, and the run.
+type Evaluated = (DVector<f64>, DVector<f64>, DMatrix<f64>, Sensitivities);
+
 /// The least-squares problem Levenberg-Marquardt sees: one run per new
 /// `u`, its residuals and Jacobian kept.
 struct Lsq<'a, M: Model> {
@@ -124,7 +127,7 @@ struct Lsq<'a, M: Model> {
     cols: Vec<usize>,
     u: DVector<f64>,
     /// The last run: its `u`, residuals, Jacobian in `p`, sensitivities.
-    last: Option<(DVector<f64>, DVector<f64>, DMatrix<f64>, Sensitivities)>,
+    last: Option<Evaluated>,
     runs: usize,
     failed: Option<AnalysisError>,
     stop: Option<fn() -> bool>,
@@ -170,7 +173,7 @@ impl<M: Model> Lsq<'_, M> {
     }
 
     /// The cached run at the current `u`, running it where needed.
-    fn current(&mut self) -> Option<&(DVector<f64>, DVector<f64>, DMatrix<f64>, Sensitivities)> {
+    fn current(&mut self) -> Option<&Evaluated> {
         let fresh = self.last.as_ref().is_some_and(|l| l.0 == self.u);
         if !fresh && self.failed.is_none() {
             let u = self.u.clone();
