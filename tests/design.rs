@@ -69,14 +69,10 @@ fn a_fit_to_noisy_data_lies_within_two_standard_errors() {
         "noisy: {:?} +- {:?}, corr {:?}, rms {:?}, {} runs",
         f.estimate, f.std_error, f.correlation, f.residual_rms, f.runs
     );
-    for k in 0..2 {
-        assert!(f.std_error[k].is_finite() && f.std_error[k] > 0.0);
-        assert!(
-            (f.estimate[k] - truth[k]).abs() <= 2.0 * f.std_error[k],
-            "{k}: {} +- {}",
-            f.estimate[k],
-            f.std_error[k]
-        );
+    for (k, t) in truth.iter().enumerate() {
+        let (e, se) = (f.estimate[k], f.std_error[k]);
+        assert!(se.is_finite() && se > 0.0);
+        assert!((e - t).abs() <= 2.0 * se, "{k}: {e} +- {se}");
     }
     assert!(f.residual_rms.iter().all(|r| (5e-4..2e-3).contains(r)), "{:?}", f.residual_rms);
     assert!((f.correlation[0][1] - f.correlation[1][0]).abs() < 1e-12);
