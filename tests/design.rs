@@ -100,3 +100,46 @@ fn bad_fits_are_refused_naming_the_culprit() {
     assert!(scene.design(&model, &[], &outside).unwrap_err().to_string().contains("outside the bounds"));
     assert!(scene.design(&model, &[], &[("nope".into(), 0.0, 1.0)]).unwrap_err().to_string().contains("nope"));
 }
+
+/// `ezy fit` on a run written by `ezy run`: the estimates recovered (to
+/// 1e-8), fit.csv and the figure written; data with NaN refused naming
+/// the file, the row and the column.
+#[test]
+fn the_command_fits_a_run_written_by_ezy_run() {
+    let dir = std::env::temp_dir().join(format!("ezy-fit-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    let ezy = |args: &[&str]| std::process::Command::new(env!("CARGO_BIN_EXE_ezy")).args(args).output().unwrap();
+    let (data, out) = (dir.join("data"), dir.join("fit"));
+    let tight = ["--rtol", "1e-12", "--atol", "1e-12"];
+    let mut run = vec!["run", "drive-rolling-resistance", "--set", "rolling_A.damping=1.3", "--set"];
+    run.extend(["motor.amplitude=2.4", "--t-end", "4", "--every", "0.1", "--no-figures"]);
+    run.extend(tight);
+    run.extend(["--out", data.to_str().unwrap()]);
+    let o = ezy(&run);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let csv = data.join("trajectory.csv");
+    let mut fit = vec!["fit", "drive-rolling-resistance", "--data", csv.to_str().unwrap(), "--columns", "x1,y1"];
+    fit.extend(["--over", "rolling_A.damping=0:5", "--over", "motor.amplitude=1:3"]);
+    fit.extend(tight);
+    fit.extend(["--out", out.to_str().unwrap()]);
+    let o = ezy(&fit);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let table = std::fs::read_to_string(out.join("fit.csv")).unwrap();
+    let rows: Vec<Vec<&str>> = table.lines().skip(1).map(|l| l.split(',').collect()).collect();
+    assert_eq!(rows[0][0], "rolling_A.damping");
+    let est: Vec<f64> = rows.iter().map(|r| r[1].parse().unwrap()).collect();
+    assert!((est[0] - 1.3).abs() < 1e-8 && (est[1] - 2.4).abs() < 1e-8, "{est:?}");
+    assert!(out.join("fit.png").exists());
+    // a NaN in the data: refused before any run
+    let text = std::fs::read_to_string(&csv).unwrap();
+    let mut lines: Vec<String> = text.lines().map(String::from).collect();
+    let cells: Vec<&str> = lines[3].split(',').collect();
+    lines[3] = [cells[0], "nan"].into_iter().chain(cells[2..].iter().copied()).collect::<Vec<_>>().join(",");
+    let bad = dir.join("bad.csv");
+    std::fs::write(&bad, lines.join("\n")).unwrap();
+    fit[3] = bad.to_str().unwrap();
+    let o = ezy(&fit);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(!o.status.success() && err.contains("bad.csv") && err.contains("row 3, column `x1`"), "{err}");
+    let _ = std::fs::remove_dir_all(&dir);
+}

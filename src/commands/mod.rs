@@ -20,6 +20,7 @@ mod animate;
 mod bench;
 mod check;
 mod equations;
+mod fit;
 mod linearize;
 mod list;
 mod precision;
@@ -53,6 +54,7 @@ pub(crate) const COMMANDS: &[Command] = &[
     Command { name: "analyze", cli: analyze::cli, exec: analyze::exec },
     Command { name: "linearize", cli: linearize::cli, exec: linearize::exec },
     Command { name: "sensitivity", cli: sensitivity::cli, exec: sensitivity::exec },
+    Command { name: "fit", cli: fit::cli, exec: fit::exec },
 ];
 
 /// The command a bare `ezy` runs (with no arguments).

@@ -92,6 +92,8 @@ pub struct Fit {
     /// Whether each estimate sits at one of its bounds (its standard error
     /// then says little).
     pub at_bound: Vec<bool>,
+    /// The data columns fitted.
+    pub columns: Vec<String>,
     /// The root mean square residual of each data column, in its units.
     pub residual_rms: Vec<f64>,
     /// `|r|^2 / 2` at the estimate.
@@ -288,6 +290,7 @@ pub fn fit<M: Model>(design: &Design<M>, data: &Data, stop: Option<fn() -> bool>
         std_error,
         correlation,
         at_bound,
+        columns: data.columns.clone(),
         residual_rms,
         cost: r.norm_squared() / 2.0,
         runs: lsq.runs,
