@@ -376,3 +376,15 @@ fn samples_inside_steps_are_the_runs_own() {
         }
     }
 }
+
+/// The N-four-bar passes a singular position at t = 0.714 s (the ordinary
+/// run passes it); a sensitivity run does not yet, and says so, naming
+/// the time, instead of a bare "step size too small".
+#[test]
+fn a_singular_position_is_named_not_passed() {
+    let mut scene = scenes::get("four-bar-n2");
+    scene.t_end = 1.0;
+    let (problem, _) = scene.problem::<ezy::models::NFourBar>(&[]).unwrap();
+    let e = problem.sensitivities(&["initial.qd.xc1"]).unwrap_err().to_string();
+    assert!(e.contains("singular position") && e.contains("t = 0.71"), "{e}");
+}
