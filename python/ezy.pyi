@@ -184,6 +184,17 @@ def analyze(
     figures: bool = False,
     **settings: Any,
 ) -> Analysis: ...
+def fit(
+    scene: _Scene,
+    *,
+    data: Union[_Path, Any],
+    columns: Union[str, Sequence[str]],
+    over: Mapping[str, Tuple[float, float]],
+    model: Optional[Model] = None,
+    out: Optional[_Path] = None,
+    figures: bool = False,
+    **settings: Any,
+) -> Any: ...
 def sensitivity(
     scene: _Scene,
     *,

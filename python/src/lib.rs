@@ -66,6 +66,7 @@ run(scene, **settings)      a scene in memory: a Result with NumPy arrays
 sweep(scene, grid, ...)     runs over parameter values: a pandas DataFrame
 analyze(scene, ...)         steady motions or the gait and their stability: DataFrames
 sensitivity(scene, wrt=..)  the run's derivatives d<column>/d<param>: a DataFrame
+fit(scene, data=.., ...)    numbers of the scene fitted to a measured run, with standard errors
 linearize(scene, at=t)      A, B and the eigenvalues at a time of the run
 scene(name), scene(toml=..), scene(model=m, t_end=.., initial=.., ...)
                             a Scene to change (parameters, effects' numbers) and run
@@ -115,7 +116,7 @@ fn ezy_module(m: &Bound<'_, PyModule>) -> PyResult<()> {
 
 /// Fills module `m` with the API over `app`: the functions `models`,
 /// `scenes`, `effect_kinds`, `scene`, `run`, `sweep`, `analyze`,
-/// `sensitivity`, `linearize`, `equations`, `check`, the classes `Result`, `Scene`,
+/// `sensitivity`, `fit`, `linearize`, `equations`, `check`, the classes `Result`, `Scene`,
 /// `Effect`, `Equations`, `Check`, `Analysis`, `Linearization`, `Model`
 /// and the exception `EzyError`.
 ///
@@ -159,6 +160,7 @@ pub fn init_module(m: &Bound<'_, PyModule>, app: App) -> PyResult<()> {
         "sweep",
         "analyze",
         "sensitivity",
+        "fit",
         "linearize",
         "equations",
         "check",

@@ -608,6 +608,61 @@ impl Toolkit {
         Ok(frame.unbind())
     }
 
+    /// Fits numbers of `scene` to a measured run, as `ezy fit` does:
+    /// `data` is the path of a CSV file or a DataFrame with a column `t`
+    /// [s] and the `columns` fitted (a name or a list: coordinates or
+    /// velocities of the model), `over` a dict `{name: (lower, upper)}`
+    /// of the numbers fitted (names as `set` takes them), each started
+    /// from the scene's value. Returns a DataFrame indexed by parameter
+    /// with `estimate` and `std_error`; the report (correlations, the
+    /// residual per column, the runs taken) in `.attrs["report"]`.
+    /// Other keywords as `analyze`.
+    ///
+    /// Raises EzyError with the command line's message (data with NaN or
+    /// unsorted times, bounds that exclude the start); TypeError for
+    /// keywords of the wrong kind; KeyboardInterrupt on Ctrl-C.
+    #[pyo3(signature = (scene, *, data, columns, over, model=None, out=None, figures=false, **settings))]
+    #[expect(clippy::too_many_arguments, reason = "Python's keywords, one argument each")]
+    fn fit(
+        &self,
+        py: Python<'_>,
+        scene: &Bound<'_, PyAny>,
+        data: &Bound<'_, PyAny>,
+        columns: &Bound<'_, PyAny>,
+        over: &Bound<'_, PyDict>,
+        model: Option<&Bound<'_, PyModel>>,
+        out: Option<PathBuf>,
+        figures: bool,
+        settings: Option<&Bound<'_, PyDict>>,
+    ) -> PyResult<Py<PyAny>> {
+        let type_error = |m: String| pyo3::exceptions::PyTypeError::new_err(m);
+        let columns = names_kw("fit", "columns", Some(columns))?
+            .ok_or_else(|| type_error("fit(): `columns` names no column".into()))?;
+        let temp = tempfile::Builder::new().prefix("ezy-data-").tempdir().map_err(ezy_err)?;
+        let path = if data.hasattr("to_csv")? {
+            let path = temp.path().join("data.csv");
+            let kw = PyDict::new(py);
+            kw.set_item("index", false)?;
+            data.call_method("to_csv", (path.clone(),), Some(&kw))?;
+            path
+        } else {
+            data.extract::<PathBuf>()
+                .map_err(|_| type_error("fit(): `data` must be a CSV file's path or a DataFrame".into()))?
+        };
+        let mut extra = vec!["--data".to_string(), path.display().to_string(), "--columns".into(), columns];
+        for (name, bounds) in over.iter() {
+            let name: String = name.extract().map_err(|_| type_error("fit(): `over`'s keys are names".into()))?;
+            let (lo, hi): (f64, f64) = bounds
+                .extract()
+                .map_err(|_| type_error(format!("fit(): `over[{name:?}]` must be a pair (lower, upper)")))?;
+            extra.extend(["--over".to_string(), format!("{name}={lo:?}:{hi:?}")]);
+        }
+        let (report, dir, _temp) = self.command(py, "fit", scene, model, extra, out, figures, settings)?;
+        let frame = self.helpers.bind(py).call_method1("read_table", (dir.join("fit.csv"), "parameter"))?;
+        frame.getattr("attrs")?.set_item("report", report)?;
+        Ok(frame.unbind())
+    }
+
     /// Linearizes `scene` at time `at` [s] of its run, as `ezy linearize`
     /// does: a `Linearization` with `A` (and `B` for `input`, the name of
     /// an effect's or drive's input) as DataFrames, the eigenvalues [1/s]

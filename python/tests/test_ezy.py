@@ -523,3 +523,30 @@ def test_sensitivities_of_a_run_and_of_a_gait(tmp_path):
         ezy.sensitivity("drive", wrt=3)
     with pytest.raises(ezy.EzyError, match="nope"):
         ezy.sensitivity("drive", wrt="nope", t_end=0.1)
+
+
+def test_a_fit_from_a_dataframe_recovers_the_parameters(tmp_path):
+    run = ezy.run(
+        "drive-rolling-resistance",
+        set={"rolling_A.damping": 1.3, "motor.amplitude": 2.4},
+        t_end=4.0,
+        every=0.1,
+        rtol=1e-12,
+        atol=1e-12,
+    )
+    data = run.to_pandas()[["t", "x1", "y1"]]
+    f = ezy.fit(
+        "drive-rolling-resistance",
+        data=data,
+        columns=["x1", "y1"],
+        over={"rolling_A.damping": (0.0, 5.0), "motor.amplitude": (1.0, 3.0)},
+        rtol=1e-12,
+        atol=1e-12,
+    )
+    assert f.loc["rolling_A.damping", "estimate"] == pytest.approx(1.3, abs=1e-8)
+    assert f.loc["motor.amplitude", "estimate"] == pytest.approx(2.4, abs=1e-8)
+    assert "correlations" in f.attrs["report"]
+    with pytest.raises(TypeError, match="over"):
+        ezy.fit("drive-rolling-resistance", data=data, columns="x1", over={"motor.amplitude": 3})
+    with pytest.raises(ezy.EzyError, match="outside the bounds"):
+        ezy.fit("drive-rolling-resistance", data=data, columns="x1", over={"motor.amplitude": (3.0, 4.0)})
