@@ -196,12 +196,7 @@ fn analyze_model<M: Model>(proto: &M, scene: &Scene, opts: &AnalyzeOptions) -> R
         Some(p) => {
             let clock = Instant::now();
             let t0 = settings.t_end;
-            // `--max-steps` bounds each period's integration (the advice of
-            // a budget error names it)
-            let ps = PeriodicSettings {
-                max_steps: ro.max_steps.unwrap_or(PeriodicSettings::default().max_steps),
-                ..PeriodicSettings::default()
-            };
+            let ps = periodic_settings(ro);
             if let Some(b) = &beat {
                 b.set(format!("analyze {}: searching for the periodic orbit of period {} s", scene.name, fmt_value(p)));
             }
@@ -776,6 +771,15 @@ fn periodic_csv(
     record(head) + &record(cells)
 }
 
+/// The period map's settings: the defaults, `--max-steps` bounding each
+/// period's integration (the advice of a budget error names it).
+fn periodic_settings(ro: &RunOptions) -> PeriodicSettings {
+    PeriodicSettings {
+        max_steps: ro.max_steps.unwrap_or(PeriodicSettings::default().max_steps),
+        ..PeriodicSettings::default()
+    }
+}
+
 /// The mean input power \[W\] and efficiency \[m/J\] of each gait of a
 /// periodic branch (one period's integration each); empty for a branch
 /// of steady motions or none.
@@ -789,10 +793,7 @@ fn branch_power<M: Model>(
 ) -> Result<Vec<(f64, f64)>, Error> {
     let Some((name, _)) = &opts.continuation else { return Ok(Vec::new()) };
     let clock = Instant::now();
-    let ps = PeriodicSettings {
-        max_steps: ro.max_steps.unwrap_or(PeriodicSettings::default().max_steps),
-        ..PeriodicSettings::default()
-    };
+    let ps = periodic_settings(ro);
     let mut out = Vec::new();
     for b in branch {
         let Solution::Periodic(orbit) = &b.solution else { return Ok(Vec::new()) };

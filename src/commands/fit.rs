@@ -10,7 +10,7 @@ use std::time::Instant;
 
 use clap::{ArgMatches, Args, FromArgMatches};
 use ezy_core::design::fit::{Data, Fit, fit};
-use ezy_core::{Model, fmt_value};
+use ezy_core::{Model, Problem, fmt_value};
 use ezy_scene::Scene;
 
 use super::{check_figure_format, committed};
@@ -152,21 +152,7 @@ fn fit_model<M: Model>(
     let settings = settings(scene, opts)?;
     let design = scene.design(proto, &opts.sets, over).map_err(analysis_error(&opts.out))?;
     // the scene's settings with the command line's (t_end: the data's)
-    let design = {
-        let inner = design.clone();
-        ezy_core::design::Design::new(
-            design.names.clone(),
-            design.start.clone(),
-            design.lower.iter().copied().zip(design.upper.iter().copied()).collect(),
-            move |v| {
-                let mut p = inner.problem(v)?;
-                p.settings = settings;
-                p.baumgarte = None;
-                Ok(p)
-            },
-        )
-        .map_err(analysis_error(&opts.out))?
-    };
+    let design = design.adjusted(move |p| Problem { settings, baumgarte: None, ..p });
     Transaction::preflight(&opts.out)?;
     let f = fit(&design, data, Some(|| crate::output::transaction::pending().is_some()))
         .map_err(analysis_error(&opts.out))?;

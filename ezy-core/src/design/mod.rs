@@ -92,6 +92,14 @@ impl<M: Model> Design<M> {
         (self.build)(values)
     }
 
+    /// The same design with each problem it builds changed by `adjust`
+    /// (a caller's settings: the command line's integrator and tolerances).
+    #[must_use]
+    pub fn adjusted(self, adjust: impl Fn(Problem<M>) -> Problem<M> + Send + Sync + 'static) -> Self {
+        let inner = self.build;
+        Self { build: Arc::new(move |v| inner(v).map(&adjust)), ..self }
+    }
+
     /// The parameters at `values`, each built by changing its own value
     /// alone (what the sensitivities differentiate).
     pub fn parameters(&self, values: &[f64]) -> Vec<Parameter<M>> {

@@ -451,9 +451,9 @@ impl<M: Model> Projector<M> {
         if nc > 0 {
             self.released.zero(&mut self.g_values);
             model.g_winv_mul(&self.info.pattern, &self.g_values, &self.ones, sqd, &mut self.r);
-            let mut extra = vec![0.0; nc];
-            dgqd(sq, &mut extra);
-            for ((r, e), d) in self.r.iter_mut().zip(&extra).zip(&dr[nh..]) {
+            // `x`, the velocity correction's solution, is free until then
+            dgqd(sq, &mut self.x);
+            for ((r, e), d) in self.r.iter_mut().zip(&self.x).zip(&dr[nh..]) {
                 *r += e + d;
             }
             self.correct_velocities(model, sqd).map_err(|e| SimError::from_kkt(&self.info, t, e))?;

@@ -21,6 +21,12 @@ struct Scratch {
     qddual: Vec<Dual64>,
     gv: Vec<Dual64>,
     gm: Vec<Dual64>,
+    /// One evaluation of `G` (at the pattern) and `gamma` of a problem
+    /// around the parameter's value.
+    gv_f64: Vec<f64>,
+    gamma_f64: Vec<f64>,
+    /// The parameters' direct change of the constraint residuals (nh + nc).
+    dr: Vec<f64>,
     /// `dG` at the pattern, `dgamma`, `dF`, `dM` of one parameter.
     dg: Vec<f64>,
     dgamma: Vec<f64>,
@@ -81,6 +87,9 @@ impl<M: Model> Augmented<M> {
             qddual: d(nq),
             gv: d(nnz),
             gm: d(nc),
+            gv_f64: z(nnz),
+            gamma_f64: z(nc),
+            dr: z(sys.info.n_holonomic + nc),
             dg: z(nnz),
             dgamma: z(nc),
             df: z(nq),
@@ -229,17 +238,14 @@ impl<M: Model> Augmented<M> {
         if !(forces || model || drives) {
             return Ok(());
         }
-        let nq = self.nq();
         let ws = &mut self.ws;
         let st = &mut self.stencils[j];
         if forces {
             ws.dp += st.add_forces(t, q, qd, (&ws.f0, ws.p0), &mut ws.df, &mut ws.power, &self.actuators)?;
         }
         if model {
-            let sys = self.base.dynamics();
-            let (mut values, mut gamma) = (vec![0.0; ws.dg.len()], vec![0.0; ws.dgamma.len()]);
-            sys.model.constraint_terms(q, qd, &mut values, &mut gamma);
-            st.add_terms(q, qd, (&values, &gamma, &sys.mass[..nq]), &mut ws.dg, &mut ws.dgamma, &mut ws.dm);
+            let scratch = (&mut ws.gv_f64[..], &mut ws.gamma_f64[..]);
+            st.add_terms(self.base.dynamics(), q, qd, scratch, &mut ws.dg, &mut ws.dgamma, &mut ws.dm);
         }
         st.add_drives(t, &self.base, &mut ws.dgamma);
         Ok(())
@@ -266,25 +272,23 @@ impl<M: Model> Augmented<M> {
         let touches = self.stencils.iter().any(|st| st.touches.model || st.touches.drives);
         let base_r = if touches { self.base.residual_at(t, x) } else { Vec::new() };
         let sys = self.base.dynamics();
-        let (nh, nc) = (sys.info.n_holonomic, sys.info.nc());
         let pattern = &sys.info.pattern;
-        let mut dr = vec![0.0; nh + nc];
-        let ws = &mut self.ws;
+        let Scratch { dr, qdual, gv, .. } = &mut self.ws;
         for (j, st) in self.stencils.iter().enumerate() {
             let (sq, sqd) = s[j * n2..(j + 1) * n2].split_at_mut(nq);
             dr.fill(0.0);
-            st.add_residual(t, x, &base_r, &mut dr);
+            st.add_residual(t, x, &base_r, dr);
             let dgqd = |sq: &[f64], out: &mut [f64]| {
-                for (k, v) in ws.qdual.iter_mut().enumerate() {
+                for (k, v) in qdual.iter_mut().enumerate() {
                     *v = Dual64::new(q[k], sq[k]);
                 }
-                sys.model.constraint_matrix(&ws.qdual, &mut ws.gv);
+                sys.model.constraint_matrix(qdual, gv);
                 out.fill(0.0);
-                for (&(r, c), v) in pattern.iter().zip(&ws.gv) {
+                for (&(r, c), v) in pattern.iter().zip(gv.iter()) {
                     out[r] += v.eps * qd[c];
                 }
             };
-            projector.project_tangent(&sys.model, t, q, sq, sqd, &dr, dgqd)?;
+            projector.project_tangent(&sys.model, t, q, sq, sqd, dr, dgqd)?;
         }
         Ok(())
     }

@@ -4,6 +4,7 @@
 
 use super::Parameter;
 use crate::analysis::{Analysis, AnalysisError};
+use crate::formulation::dae::Dynamics;
 use crate::model::Model;
 use crate::problem::Problem;
 
@@ -179,12 +180,18 @@ impl<M: Model> Stencil<M> {
 
     /// Adds the model's direct terms at `(q, qd)`: `dG/dp` (at the
     /// pattern) into `values`, `dgamma/dp` into `gamma` (nc), `dM/dp`
-    /// into `mass` (nq); `base` the base problem's `(values, gamma)`.
+    /// into `mass` (nq); `base` the base problem's right-hand side,
+    /// `scratch` one `G` and one `gamma` to evaluate into.
+    #[expect(
+        clippy::too_many_arguments,
+        reason = "a state and the scratch of an evaluation as flat borrowed slices, no struct built per call"
+    )]
     pub fn add_terms(
         &self,
+        base: &Dynamics<M>,
         q: &[f64],
         qd: &[f64],
-        base: (&[f64], &[f64], &[f64]),
+        (gv, gm): (&mut [f64], &mut [f64]),
         values: &mut [f64],
         gamma: &mut [f64],
         mass: &mut [f64],
@@ -193,16 +200,14 @@ impl<M: Model> Stencil<M> {
             return;
         }
         let axpy = |out: &mut [f64], w: f64, v: &[f64]| out.iter_mut().zip(v).for_each(|(o, v)| *o += w * v);
-        axpy(values, self.base_weight, base.0);
-        axpy(gamma, self.base_weight, base.1);
-        axpy(mass, self.base_weight, base.2);
-        let (mut gv, mut gm) = (vec![0.0; values.len()], vec![0.0; gamma.len()]);
-        for (w, an) in &self.nodes {
-            let d = an.dynamics();
-            d.model.constraint_terms(q, qd, &mut gv, &mut gm);
-            axpy(values, *w, &gv);
-            axpy(gamma, *w, &gm);
-            axpy(mass, *w, &d.mass);
+        let nodes = self.nodes.iter().map(|(w, an)| (*w, an.dynamics()));
+        // the base's own terms enter a one-sided difference only
+        let base = (self.base_weight != 0.0).then_some((self.base_weight, base));
+        for (w, d) in nodes.chain(base) {
+            d.model.constraint_terms(q, qd, gv, gm);
+            axpy(values, w, gv);
+            axpy(gamma, w, gm);
+            axpy(mass, w, &d.mass);
         }
     }
 
