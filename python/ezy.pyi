@@ -195,6 +195,20 @@ def fit(
     figures: bool = False,
     **settings: Any,
 ) -> Any: ...
+def optimize(
+    scene: _Scene,
+    *,
+    over: Mapping[str, Tuple[float, float]],
+    maximize: Optional[str] = None,
+    minimize: Optional[str] = None,
+    subject_to: Optional[Union[str, Sequence[str]]] = None,
+    max_evaluations: Optional[int] = None,
+    grid: Optional[int] = None,
+    model: Optional[Model] = None,
+    out: Optional[_Path] = None,
+    figures: bool = False,
+    **settings: Any,
+) -> Any: ...
 def sensitivity(
     scene: _Scene,
     *,

@@ -214,3 +214,22 @@ impl Overrides {
         }
     }
 }
+
+/// `NAME=LO:HI`: a parameter and its bounds (`--over` of `fit` and
+/// `optimize`).
+///
+/// # Errors
+/// Another form, bounds that are not finite numbers.
+pub(crate) fn parse_over(s: &str) -> Result<(String, f64, f64), String> {
+    let (name, range) = s.split_once('=').ok_or_else(|| format!("`{s}`: expected NAME=LO:HI"))?;
+    let (lo, hi) = range.split_once(':').ok_or_else(|| format!("`{s}`: expected NAME=LO:HI"))?;
+    let num = |v: &str| match v.trim().parse::<f64>() {
+        Ok(x) if x.is_finite() => Ok(x),
+        _ => Err(format!("`{s}`: `{}` is not a finite number", v.trim())),
+    };
+    let name = name.trim();
+    if name.is_empty() {
+        return Err(format!("`{s}`: no parameter name before `=`"));
+    }
+    Ok((name.to_string(), num(lo)?, num(hi)?))
+}

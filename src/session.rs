@@ -609,6 +609,15 @@ pub(crate) fn complex(z: c64) -> String {
     if im == 0.0 { format!("{re:.6}") } else { format!("{re:.6}{}{:.6}i", if im < 0.0 { "-" } else { "+" }, im.abs()) }
 }
 
+/// The period map's settings: the defaults, `--max-steps` bounding each
+/// period's integration (the advice of a budget error names it).
+pub(crate) fn periodic_settings(ro: &RunOptions) -> ezy_core::analysis::PeriodicSettings {
+    ezy_core::analysis::PeriodicSettings {
+        max_steps: ro.max_steps.unwrap_or(ezy_core::analysis::PeriodicSettings::default().max_steps),
+        ..ezy_core::analysis::PeriodicSettings::default()
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

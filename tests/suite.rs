@@ -37,6 +37,7 @@ mod hostile_sweep;
 mod kkt_paths;
 mod mechanisms;
 mod models;
+mod optimize;
 mod output_window;
 mod properties;
 mod scene_files;

@@ -67,6 +67,8 @@ sweep(scene, grid, ...)     runs over parameter values: a pandas DataFrame
 analyze(scene, ...)         steady motions or the gait and their stability: DataFrames
 sensitivity(scene, wrt=..)  the run's derivatives d<column>/d<param>: a DataFrame
 fit(scene, data=.., ...)    numbers of the scene fitted to a measured run, with standard errors
+optimize(scene, maximize=.., over=..)
+                            numbers of the scene that make a gait or a run best: a DataFrame
 linearize(scene, at=t)      A, B and the eigenvalues at a time of the run
 scene(name), scene(toml=..), scene(model=m, t_end=.., initial=.., ...)
                             a Scene to change (parameters, effects' numbers) and run
@@ -116,7 +118,7 @@ fn ezy_module(m: &Bound<'_, PyModule>) -> PyResult<()> {
 
 /// Fills module `m` with the API over `app`: the functions `models`,
 /// `scenes`, `effect_kinds`, `scene`, `run`, `sweep`, `analyze`,
-/// `sensitivity`, `fit`, `linearize`, `equations`, `check`, the classes `Result`, `Scene`,
+/// `sensitivity`, `fit`, `optimize`, `linearize`, `equations`, `check`, the classes `Result`, `Scene`,
 /// `Effect`, `Equations`, `Check`, `Analysis`, `Linearization`, `Model`
 /// and the exception `EzyError`.
 ///
@@ -161,6 +163,7 @@ pub fn init_module(m: &Bound<'_, PyModule>, app: App) -> PyResult<()> {
         "analyze",
         "sensitivity",
         "fit",
+        "optimize",
         "linearize",
         "equations",
         "check",

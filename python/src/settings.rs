@@ -174,3 +174,22 @@ pub(crate) fn names_kw(function: &str, key: &str, v: Option<&Bound<'_, PyAny>>) 
         ))
     })
 }
+
+/// `over={name: (lower, upper)}` of `function` as the command line's
+/// `--over NAME=LO:HI` arguments.
+///
+/// # Errors
+/// TypeError for a key that is not a name or a value that is not a pair
+/// of numbers.
+pub(crate) fn over_args(function: &str, over: &Bound<'_, PyDict>) -> PyResult<Vec<String>> {
+    let type_error = |m: String| pyo3::exceptions::PyTypeError::new_err(m);
+    let mut args = Vec::new();
+    for (name, bounds) in over.iter() {
+        let name: String = name.extract().map_err(|_| type_error(format!("{function}(): `over`'s keys are names")))?;
+        let (lo, hi): (f64, f64) = bounds
+            .extract()
+            .map_err(|_| type_error(format!("{function}(): `over[{name:?}]` must be a pair (lower, upper)")))?;
+        args.extend(["--over".to_string(), format!("{name}={lo:?}:{hi:?}")]);
+    }
+    Ok(args)
+}

@@ -20,7 +20,7 @@ use crate::model::PyModel;
 use crate::reports::{Analysis, Check, Equations, Linearization};
 use crate::result::RunResult;
 use crate::scene::PyScene;
-use crate::settings::{Overrides, names_kw, number_kw, sets_of, text_kw};
+use crate::settings::{Overrides, names_kw, number_kw, over_args, sets_of, text_kw};
 use crate::{EzyError, ezy_err};
 
 /// How often a running integration asks Python for pending signals (Ctrl-C).
@@ -650,15 +650,79 @@ impl Toolkit {
                 .map_err(|_| type_error("fit(): `data` must be a CSV file's path or a DataFrame".into()))?
         };
         let mut extra = vec!["--data".to_string(), path.display().to_string(), "--columns".into(), columns];
-        for (name, bounds) in over.iter() {
-            let name: String = name.extract().map_err(|_| type_error("fit(): `over`'s keys are names".into()))?;
-            let (lo, hi): (f64, f64) = bounds
-                .extract()
-                .map_err(|_| type_error(format!("fit(): `over[{name:?}]` must be a pair (lower, upper)")))?;
-            extra.extend(["--over".to_string(), format!("{name}={lo:?}:{hi:?}")]);
-        }
+        extra.extend(over_args("fit", over)?);
         let (report, dir, _temp) = self.command(py, "fit", scene, model, extra, out, figures, settings)?;
         let frame = self.helpers.bind(py).call_method1("read_table", (dir.join("fit.csv"), "parameter"))?;
+        frame.getattr("attrs")?.set_item("report", report)?;
+        Ok(frame.unbind())
+    }
+
+    /// Optimizes numbers of `scene` as `ezy optimize` does: `maximize` or
+    /// `minimize` (one of them) names a gait's quantity (`"gait.mean_speed"`,
+    /// `"gait.efficiency"`, ...) or a run's metric (`"final(x1)"`,
+    /// `"mean(x1d, 50, 60)"`); `over` maps each number to its bounds
+    /// `(lower, upper)` (the search starts from the scene's value);
+    /// `subject_to` lists constraints (`"gait.mean_power <= 1"`). Returns
+    /// the optimum as a one-row DataFrame (the parameters, the objective,
+    /// the constrained quantities), with every evaluation in
+    /// `.attrs["history"]` and the command's report in `.attrs["report"]`.
+    ///
+    /// Raises EzyError with the command line's message (an unknown
+    /// quantity or parameter, bounds that exclude the start, a search that
+    /// did not converge); TypeError for keywords of the wrong kind;
+    /// KeyboardInterrupt on Ctrl-C (the best point so far is written to
+    /// `out` when given).
+    #[pyo3(signature = (
+        scene, *, over, maximize=None, minimize=None, subject_to=None, max_evaluations=None, grid=None,
+        model=None, out=None, figures=false, **settings
+    ))]
+    #[expect(clippy::too_many_arguments, reason = "Python's keywords, one argument each")]
+    fn optimize(
+        &self,
+        py: Python<'_>,
+        scene: &Bound<'_, PyAny>,
+        over: &Bound<'_, PyDict>,
+        maximize: Option<&Bound<'_, PyAny>>,
+        minimize: Option<&Bound<'_, PyAny>>,
+        subject_to: Option<&Bound<'_, PyAny>>,
+        max_evaluations: Option<usize>,
+        grid: Option<usize>,
+        model: Option<&Bound<'_, PyModel>>,
+        out: Option<PathBuf>,
+        figures: bool,
+        settings: Option<&Bound<'_, PyDict>>,
+    ) -> PyResult<Py<PyAny>> {
+        let type_error = |m: String| pyo3::exceptions::PyTypeError::new_err(m);
+        let goal = match (text_kw("optimize", "maximize", maximize)?, text_kw("optimize", "minimize", minimize)?) {
+            (Some(q), None) => ["--maximize".to_string(), q],
+            (None, Some(q)) => ["--minimize".to_string(), q],
+            _ => return Err(type_error("optimize(): give one of `maximize` and `minimize`".into())),
+        };
+        let mut extra = goal.to_vec();
+        extra.extend(over_args("optimize", over)?);
+        if let Some(list) = subject_to {
+            let list: Vec<String> = if let Ok(one) = list.extract::<String>() {
+                vec![one]
+            } else {
+                list.extract().map_err(|_| {
+                    type_error("optimize(): `subject_to` must be a constraint's text or a list of them".into())
+                })?
+            };
+            for c in list {
+                extra.extend(["--subject-to".to_string(), c]);
+            }
+        }
+        if let Some(n) = max_evaluations {
+            extra.extend(["--max-evaluations".to_string(), n.to_string()]);
+        }
+        if let Some(n) = grid {
+            extra.extend(["--grid".to_string(), n.to_string()]);
+        }
+        let (report, dir, _temp) = self.command(py, "optimize", scene, model, extra, out, figures, settings)?;
+        let helpers = self.helpers.bind(py);
+        let frame = helpers.call_method1("read_table", (dir.join("optimum.csv"),))?;
+        let history = helpers.call_method1("read_table", (dir.join("history.csv"), "evaluation"))?;
+        frame.getattr("attrs")?.set_item("history", history)?;
         frame.getattr("attrs")?.set_item("report", report)?;
         Ok(frame.unbind())
     }

@@ -550,3 +550,27 @@ def test_a_fit_from_a_dataframe_recovers_the_parameters(tmp_path):
         ezy.fit("drive-rolling-resistance", data=data, columns="x1", over={"motor.amplitude": 3})
     with pytest.raises(ezy.EzyError, match="outside the bounds"):
         ezy.fit("drive-rolling-resistance", data=data, columns="x1", over={"motor.amplitude": (3.0, 4.0)})
+
+
+def test_an_optimization_gives_the_optimum_and_its_history(tmp_path):
+    o = ezy.optimize(
+        "drive-rolling-resistance",
+        maximize="gait.mean_speed",
+        over={"motor.omega": (0.5, 8.0)},
+        subject_to=["gait.mean_power <= 1"],
+        grid=0,
+        out=tmp_path / "opt",
+    )
+    assert list(o.columns) == ["motor.omega", "gait.mean_speed", "gait.mean_power"]
+    # the optimum the command line finds (tests/optimize.rs): 1.40872 rad/s
+    assert o["motor.omega"][0] == pytest.approx(1.4087157, abs=1e-6)
+    assert o["gait.mean_speed"][0] == pytest.approx(0.4691427, abs=1e-6)
+    h = o.attrs["history"]
+    assert h["motor.omega"].iloc[0] == pytest.approx(np.pi)
+    assert "dgait.mean_speed/dmotor.omega" in h.columns
+    assert "converged" in o.attrs["report"]
+    assert (tmp_path / "opt" / "optimum.csv").exists()
+    with pytest.raises(TypeError, match="one of"):
+        ezy.optimize("drive-rolling-resistance", over={"motor.omega": (0.5, 8.0)})
+    with pytest.raises(ezy.EzyError, match="gait.speed"):
+        ezy.optimize("drive-rolling-resistance", maximize="gait.speed", over={"motor.omega": (0.5, 8.0)})

@@ -16,8 +16,7 @@ use std::time::{Duration, Instant};
 
 use clap::{ArgMatches, Args, FromArgMatches};
 use ezy_core::analysis::{
-    Analysis, AnalysisError, BranchPoint, Follow, PeriodicOrbit, PeriodicSettings, Solution, Stability, SteadyMotion,
-    Symmetry, c64,
+    Analysis, AnalysisError, BranchPoint, Follow, PeriodicOrbit, Solution, Stability, SteadyMotion, Symmetry, c64,
 };
 use ezy_core::effects::Periodicity;
 use ezy_core::sensitivity::GaitSensitivities;
@@ -31,7 +30,9 @@ use crate::output::csv::{number, record};
 use crate::output::progress::Heartbeat;
 use crate::output::transaction::{Transaction, check_interrupt, pending};
 use crate::render::plot::{Chart, Series, Stroke};
-use crate::session::{Error, RunOptions, analysis_error, complex, rounded, run_to, scene_analysis, settings};
+use crate::session::{
+    Error, RunOptions, analysis_error, complex, periodic_settings, rounded, run_to, scene_analysis, settings,
+};
 
 /// Find a scene's steady motions (or, driven periodically, its
 /// periodic orbit) and their stability; follow them as a parameter
@@ -769,15 +770,6 @@ fn periodic_csv(
         }
     }
     record(head) + &record(cells)
-}
-
-/// The period map's settings: the defaults, `--max-steps` bounding each
-/// period's integration (the advice of a budget error names it).
-fn periodic_settings(ro: &RunOptions) -> PeriodicSettings {
-    PeriodicSettings {
-        max_steps: ro.max_steps.unwrap_or(PeriodicSettings::default().max_steps),
-        ..PeriodicSettings::default()
-    }
 }
 
 /// The mean input power \[W\] and efficiency \[m/J\] of each gait of a

@@ -46,7 +46,7 @@ struct FitArgs {
     /// A parameter fitted and its bounds, NAME=LO:HI (names as for --set,
     /// or initial.q.NAME, initial.qd.NAME); repeatable. The fit starts
     /// from the scene's value.
-    #[arg(long = "over", value_name = "NAME=LO:HI", value_parser = parse_over, required = true)]
+    #[arg(long = "over", value_name = "NAME=LO:HI", value_parser = crate::cli::parse_over, required = true)]
     over: Vec<(String, f64, f64)>,
     /// Output directory [default: out/fit/SCENE].
     #[arg(long)]
@@ -56,24 +56,6 @@ struct FitArgs {
     no_figures: bool,
     #[command(flatten)]
     overrides: Overrides,
-}
-
-/// `NAME=LO:HI`.
-///
-/// # Errors
-/// Another form, bounds that are not finite numbers.
-fn parse_over(s: &str) -> Result<(String, f64, f64), String> {
-    let (name, range) = s.split_once('=').ok_or_else(|| format!("`{s}`: expected NAME=LO:HI"))?;
-    let (lo, hi) = range.split_once(':').ok_or_else(|| format!("`{s}`: expected NAME=LO:HI"))?;
-    let num = |v: &str| match v.trim().parse::<f64>() {
-        Ok(x) if x.is_finite() => Ok(x),
-        _ => Err(format!("`{s}`: `{}` is not a finite number", v.trim())),
-    };
-    let name = name.trim();
-    if name.is_empty() {
-        return Err(format!("`{s}`: no parameter name before `=`"));
-    }
-    Ok((name.to_string(), num(lo)?, num(hi)?))
 }
 
 /// The arguments of `ezy fit`, on the subcommand `cmd`.

@@ -23,6 +23,7 @@ mod equations;
 mod fit;
 mod linearize;
 mod list;
+mod optimize;
 mod precision;
 mod run;
 mod scale;
@@ -55,6 +56,7 @@ pub(crate) const COMMANDS: &[Command] = &[
     Command { name: "linearize", cli: linearize::cli, exec: linearize::exec },
     Command { name: "sensitivity", cli: sensitivity::cli, exec: sensitivity::exec },
     Command { name: "fit", cli: fit::cli, exec: fit::exec },
+    Command { name: "optimize", cli: optimize::cli, exec: optimize::exec },
 ];
 
 /// The command a bare `ezy` runs (with no arguments).

@@ -354,6 +354,95 @@ impl Accumulator {
     }
 }
 
+impl Metric {
+    /// The metric of a run's samples and its gradient with respect to
+    /// the run's parameters, from the run's state and sensitivities `s`
+    /// (its rows: the samples; its columns: the coordinates and
+    /// velocities). The reductions differentiated sample by sample: a
+    /// mean's trapezoidal sum term by term, a `max` or `min` at the sample
+    /// that attains it (the first), `final` at the window's last sample;
+    /// `norm`, `diff`, `from_start` and `balance_gap` by the chain rule.
+    ///
+    /// # Errors
+    /// A column that is not a state column (the sensitivities give
+    /// those alone), an event metric, no sample in the window, a value
+    /// that is not finite.
+    pub(crate) fn with_gradient(&self, s: &ezy_core::sensitivity::Sensitivities) -> Result<(f64, Vec<f64>), String> {
+        if self.event.is_some() {
+            return Err(format!(
+                "metric `{}`: an event's time or count is not differentiated (a run with sensitivities has no events)",
+                self.text
+            ));
+        }
+        let at = |c: &str| {
+            s.names.iter().position(|n| n == c).ok_or_else(|| {
+                format!(
+                    "metric `{}`: `{c}` is not a coordinate or velocity of the model; a run's derivatives are those of its state ({})",
+                    self.text,
+                    s.names.join(", ")
+                )
+            })
+        };
+        let ins = self.column.inputs();
+        let (a, b) = (at(ins[0])?, at(ins.get(1).copied().unwrap_or(ins[0]))?);
+        let (np, n2) = (s.parameters.len(), s.names.len());
+        let d = |row: usize, k: usize, j: usize| s.s[row][j * n2 + k];
+        let (t0, t1) = (self.t0.unwrap_or(f64::NEG_INFINITY), self.t1.unwrap_or(f64::INFINITY));
+        // (t, v, dv/dp) at each sample in the window
+        let mut rows: Vec<(f64, f64, Vec<f64>)> = Vec::new();
+        for (i, &t) in s.t.iter().enumerate() {
+            if t < t0 || t > t1 {
+                continue;
+            }
+            let (xa, xb, xa0) = (s.x[i][a], s.x[i][b], s.x[0][a]);
+            let (v, dv): (f64, Vec<f64>) = match self.column {
+                Column::Named(_) => (xa, (0..np).map(|j| d(i, a, j)).collect()),
+                Column::Norm(..) => {
+                    let r = xa.hypot(xb);
+                    let dr = |j| if r > 0.0 { (xa * d(i, a, j) + xb * d(i, b, j)) / r } else { 0.0 };
+                    (r, (0..np).map(dr).collect())
+                }
+                Column::Diff(..) => (xa - xb, (0..np).map(|j| d(i, a, j) - d(i, b, j)).collect()),
+                Column::FromStart(_) => (xa - xa0, (0..np).map(|j| d(i, a, j) - d(0, a, j)).collect()),
+                Column::BalanceGap(..) => {
+                    let g = xa - xa0 - xb;
+                    (g.abs(), (0..np).map(|j| g.signum() * (d(i, a, j) - d(0, a, j) - d(i, b, j))).collect())
+                }
+            };
+            rows.push((t, v, dv));
+        }
+        let Some(last) = rows.last() else {
+            return Err(format!("metric `{}`: no sample in its window", self.text));
+        };
+        let (value, grad) = match self.reduce {
+            Reduce::Final => (last.1, last.2.clone()),
+            Reduce::Max | Reduce::Min => {
+                let better = |x: f64, y: f64| if self.reduce == Reduce::Max { x > y } else { x < y };
+                let best = rows.iter().fold(&rows[0], |m, r| if better(r.1, m.1) { r } else { m });
+                (best.1, best.2.clone())
+            }
+            Reduce::Mean if rows.len() > 1 => {
+                let span = last.0 - rows[0].0;
+                let (mut v, mut g) = (0.0, vec![0.0; np]);
+                for w in rows.windows(2) {
+                    let h = 0.5 * (w[1].0 - w[0].0) / span;
+                    v += h * (w[0].1 + w[1].1);
+                    for (j, gj) in g.iter_mut().enumerate() {
+                        *gj += h * (w[0].2[j] + w[1].2[j]);
+                    }
+                }
+                (v, g)
+            }
+            Reduce::Mean => (last.1, last.2.clone()),
+            Reduce::EventTime | Reduce::EventCount => unreachable!("refused above"),
+        };
+        if !value.is_finite() || grad.iter().any(|g| !g.is_finite()) {
+            return Err(format!("metric `{}` or its gradient is not finite ({value})", self.text));
+        }
+        Ok((value, grad))
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -439,5 +528,54 @@ mod tests {
         let m: Metric = "mean(x, 1, 2)".parse().unwrap();
         let acc = Accumulator::new(&m, &cols()).unwrap();
         assert!(acc.value(&m).is_err());
+    }
+
+    /// A run with one parameter `p` whose state is `x = p t^2`, `y = 1 + p t`
+    /// at t = 0, 0.5, 1, 1.5, 2 (so `dx/dp = t^2`, `dy/dp = t`): every
+    /// reduction's value is the accumulator's over the same rows, and its
+    /// derivative is the one of the formula, sample by sample.
+    #[test]
+    fn gradients_are_the_reductions_differentiated() {
+        use ezy_core::sensitivity::{Derivative, Sensitivities};
+        let p = 0.7;
+        let t: Vec<f64> = (0..5).map(|i| 0.5 * f64::from(i)).collect();
+        let s = Sensitivities {
+            t: t.clone(),
+            names: vec!["x".into(), "y".into()],
+            parameters: vec!["p".into()],
+            values: vec![p],
+            derivatives: vec![Derivative::InitialOnly],
+            x: t.iter().map(|t| vec![p * t * t, 1.0 + p * t]).collect(),
+            s: t.iter().map(|t| vec![t * t, *t]).collect(),
+            steps: 0,
+            rejected: 0,
+            evaluations: 0,
+        };
+        let value = |text: &str, p: f64| {
+            let m: Metric = text.parse().unwrap();
+            let mut acc = Accumulator::new(&m, &cols()).unwrap();
+            for &t in &t {
+                acc.push(&[t, p * t * t, 1.0 + p * t]);
+            }
+            acc.value(&m).unwrap()
+        };
+        for text in [
+            "final(x)",
+            "mean(x)",
+            "mean(y, 0.5, 1.5)",
+            "max(diff(y, x))",
+            "min(diff(y, x))",
+            "final(norm(x, y))",
+            "final(from_start(y))",
+            "max(balance_gap(y, x), 1, 2)",
+        ] {
+            let (v, g) = text.parse::<Metric>().unwrap().with_gradient(&s).unwrap();
+            let h = 1e-6;
+            let fd = (value(text, p + h) - value(text, p - h)) / (2.0 * h);
+            assert!((v - value(text, p)).abs() < 1e-15, "{text}: {v}");
+            assert!((g[0] - fd).abs() < 1e-8, "{text}: {} against {fd}", g[0]);
+        }
+        let e = "final(z)".parse::<Metric>().unwrap().with_gradient(&s).unwrap_err();
+        assert!(e.contains("`z` is not a coordinate or velocity"), "{e}");
     }
 }

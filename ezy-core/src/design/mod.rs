@@ -1,5 +1,7 @@
 //! Design questions on the sensitivities ([`crate::sensitivity`]):
-//! parameters fitted to measurements ([`fit`]).
+//! parameters fitted to measurements ([`fit`]), and the parameters that
+//! minimize or maximize a gait's or a run's quantity under constraints
+//! ([`optimize`]).
 //!
 //! A [`Design`] is a family of problems over named parameters with
 //! bounds: how a problem is built from their values. The library user
@@ -7,6 +9,7 @@
 //! scene's numbers (what `--over NAME=LO:HI` names).
 
 pub mod fit;
+pub mod optimize;
 
 use std::sync::Arc;
 

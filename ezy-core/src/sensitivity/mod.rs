@@ -50,7 +50,7 @@
 //! stop changes the motion where its time changes with `p`) is refused, as
 //! is a motion on which a skate with friction slides.
 
-mod gait;
+pub(crate) mod gait;
 mod rhs;
 mod run;
 mod stencil;

@@ -1,0 +1,423 @@
+//! `ezy optimize [SCENE] (--maximize Q | --minimize Q) --over NAME=LO:HI ..
+//! [--subject-to 'Q <= V' ..]`: the parameters of a scene that make a
+//! gait's quantity or a run's metric largest or smallest within bounds
+//! and constraints ([`ezy_core::design::optimize`]): `optimum.csv`,
+//! `history.csv`, `grid.csv` and figures of the objective along the path
+//! and around the optimum.
+
+use std::fmt::Write as _;
+use std::io::Write;
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+use clap::{ArgMatches, Args, FromArgMatches};
+use ezy_core::design::optimize::{
+    Constraint, Evaluation, Goal, MAX_EVALUATIONS, OptimizeSettings, Optimum, Quantity, Sense, optimize,
+};
+use ezy_core::{Model, Problem, fmt_value};
+use ezy_scene::Scene;
+
+use super::{check_figure_format, committed};
+use crate::app::{App, AppError};
+use crate::cli::Overrides;
+use crate::output::csv::{number, record};
+use crate::output::progress::Heartbeat;
+use crate::output::transaction::{Interrupted, Transaction, TransactionError};
+use crate::render::plot::{Chart, Series, Stroke};
+use crate::session::{Error, RunOptions, analysis_error, periodic_settings, settings};
+use crate::sweep::metric::Metric;
+
+/// Find the parameters that maximize or minimize a gait's quantity or a
+/// run's metric within bounds and constraints (SLSQP on exact
+/// derivatives): optimum.csv, history.csv and figures of the objective
+/// along the path and around the optimum.
+#[derive(Args, Debug, Default)]
+#[command(allow_negative_numbers = true)]
+struct OptimizeArgs {
+    /// Scene: a known name (see `list`; default: drive) or a path to a
+    /// .toml scene file.
+    scene: Option<String>,
+    /// The quantity made largest: a gait's, gait.NAME (mean_speed,
+    /// mean_forward_speed, displacement, dx, dy, dheading, mean_power,
+    /// efficiency, period), or a run's metric over the state's columns
+    /// (final(x1), mean(x1d, 50, 60), max(norm(x1d, y1d)), min(..)).
+    #[arg(long, value_name = "QUANTITY", required_unless_present = "minimize", conflicts_with = "minimize")]
+    maximize: Option<String>,
+    /// The quantity made smallest (as --maximize).
+    #[arg(long, value_name = "QUANTITY")]
+    minimize: Option<String>,
+    /// A parameter optimized and its bounds, NAME=LO:HI (names as for
+    /// --set, or initial.q.NAME, initial.qd.NAME); repeatable. The search
+    /// starts from the scene's value.
+    #[arg(long = "over", value_name = "NAME=LO:HI", value_parser = crate::cli::parse_over, required = true)]
+    over: Vec<(String, f64, f64)>,
+    /// A constraint, 'QUANTITY <= VALUE' or 'QUANTITY >= VALUE' (quantities
+    /// as for --maximize); repeatable.
+    #[arg(long = "subject-to", value_name = "'Q <= V'")]
+    subject_to: Vec<String>,
+    /// Most evaluations (a gait found, or a run with its sensitivities).
+    #[arg(long, value_name = "N", default_value_t = 100)]
+    max_evaluations: usize,
+    /// Points per axis of the grid of the objective around the optimum
+    /// (one or two parameters; 0: none) [default: 15 for one parameter,
+    /// 7 for two].
+    #[arg(long, value_name = "N")]
+    grid: Option<usize>,
+    /// Output directory [default: out/optimize/SCENE].
+    #[arg(long)]
+    out: Option<PathBuf>,
+    /// Do not draw the figures.
+    #[arg(long)]
+    no_figures: bool,
+    #[command(flatten)]
+    overrides: Overrides,
+}
+
+/// The arguments of `ezy optimize`, on the subcommand `cmd`.
+pub(crate) fn cli(cmd: clap::Command) -> clap::Command {
+    OptimizeArgs::augment_args(cmd)
+}
+
+/// Optimizes the scene named (or the default scene) and prints the optimum.
+pub(crate) fn exec(app: &App, args: &ArgMatches, out: &mut dyn Write) -> Result<(), AppError> {
+    let args = OptimizeArgs::from_arg_matches(args)?;
+    let (_, src) = app.named_scene(args.scene.as_deref())?;
+    let scene = &src.scene;
+    let opts = RunOptions {
+        out: args.out.clone().unwrap_or_else(|| PathBuf::from("out").join("optimize").join(&scene.name)),
+        figures: !args.no_figures,
+        ..args.overrides.options()
+    };
+    check_figure_format(&src, opts.figure_format, opts.figures)?;
+    let model = &app.model_or_error(&scene.model)?;
+    let clock = Instant::now();
+    let (o, files) = optimize_model(model, scene, &opts, &args).map_err(AppError::from_run)?;
+    let text = summary(&scene.name, &o, clock.elapsed().as_secs_f64(), &files);
+    committed(out, &text, &opts.out)?;
+    if o.converged {
+        Ok(())
+    } else {
+        Err(AppError::Failed(format!(
+            "{}; the best point so far is in {}",
+            o.termination,
+            opts.out.join("optimum.csv").display()
+        )))
+    }
+}
+
+/// A quantity named on the command line: `gait.NAME` or a metric of the
+/// state's columns `state` (checked against a run to `t_end` with output
+/// every `every` \[s\]).
+///
+/// # Errors
+/// The text and what is wrong with it.
+fn quantity(text: &str, state: &[String], t_end: f64, every: f64) -> Result<Quantity, String> {
+    let text = text.trim();
+    if text.starts_with("gait.") {
+        return Quantity::gait(text).map_err(|e| e.to_string());
+    }
+    let m: Metric = text.parse().map_err(|e: String| {
+        format!("{e}; or a gait's quantity, gait.{{{}}}", ezy_core::design::optimize::GaitQuantity::names())
+    })?;
+    if m.event.is_some() {
+        return Err(format!(
+            "metric `{text}`: an event's time or count has no derivative here (a run with sensitivities has no events)"
+        ));
+    }
+    m.check_columns(state)
+        .map_err(|e| format!("{e} (a run's derivatives are those of its coordinates and velocities)"))?;
+    m.check_window(t_end, every)?;
+    Ok(Quantity::Run { name: m.text.clone(), function: std::sync::Arc::new(move |s| m.with_gradient(s)) })
+}
+
+/// `QUANTITY <= VALUE` or `QUANTITY >= VALUE`.
+///
+/// # Errors
+/// Another form; the quantity's error; a bound that is not a finite number.
+fn constraint(text: &str, state: &[String], t_end: f64, every: f64) -> Result<Constraint, String> {
+    let (q, bound, upper) = match (text.split_once("<="), text.split_once(">=")) {
+        (Some((q, b)), None) => (q, b, true),
+        (None, Some((q, b))) => (q, b, false),
+        _ => return Err(format!("--subject-to `{text}`: expected 'QUANTITY <= VALUE' or 'QUANTITY >= VALUE'")),
+    };
+    let bound = match bound.trim().parse::<f64>() {
+        Ok(v) if v.is_finite() => v,
+        _ => return Err(format!("--subject-to `{text}`: the bound `{}` is not a finite number", bound.trim())),
+    };
+    let quantity = quantity(q, state, t_end, every).map_err(|e| format!("--subject-to `{text}`: {e}"))?;
+    Ok(Constraint { quantity, upper, bound })
+}
+
+/// The optimization of `scene` on `proto` (a model at its defaults),
+/// written into `opts.out`.
+///
+/// # Errors
+/// A bad name, bound, quantity or setting; the evaluations' and the
+/// output's errors; an interruption, after the best point so far is written.
+fn optimize_model<M: Model>(
+    proto: &M,
+    scene: &Scene,
+    opts: &RunOptions,
+    args: &OptimizeArgs,
+) -> Result<(Optimum, Vec<PathBuf>), Error> {
+    let settings = settings(scene, opts)?;
+    let state: Vec<String> = {
+        let info = proto.clone().info();
+        info.coords.iter().map(|c| c.to_string()).chain(info.coords.iter().map(|c| format!("{c}d"))).collect()
+    };
+    let (t_end, every) = (settings.t_end, settings.every);
+    let (sense, text) = match (&args.maximize, &args.minimize) {
+        (Some(q), _) => (Sense::Maximize, q),
+        (None, Some(q)) => (Sense::Minimize, q),
+        (None, None) => return Err(Error::Input("give --maximize QUANTITY or --minimize QUANTITY".into())),
+    };
+    let flag = if sense == Sense::Maximize { "--maximize" } else { "--minimize" };
+    let objective = quantity(text, &state, t_end, every).map_err(|e| Error::Input(format!("{flag}: {e}")))?;
+    let constraints = args
+        .subject_to
+        .iter()
+        .map(|c| constraint(c, &state, t_end, every))
+        .collect::<Result<Vec<_>, _>>()
+        .map_err(Error::Input)?;
+    let goal = Goal { objective, sense, constraints };
+    let n = args.over.len();
+    let os = OptimizeSettings {
+        max_evaluations: args.max_evaluations,
+        periodic: periodic_settings(opts),
+        grid: args.grid.unwrap_or(match n {
+            1 => 15,
+            2 => 7,
+            _ => 0,
+        }),
+        ..OptimizeSettings::default()
+    };
+    if !(2..=MAX_EVALUATIONS).contains(&os.max_evaluations) {
+        return Err(Error::Input(format!(
+            "--max-evaluations {}: give between 2 and {MAX_EVALUATIONS}",
+            os.max_evaluations
+        )));
+    }
+    if os.grid > ezy_core::design::optimize::MAX_GRID {
+        return Err(Error::Input(format!(
+            "--grid {}: at most {} points per axis",
+            os.grid,
+            ezy_core::design::optimize::MAX_GRID
+        )));
+    }
+    let design = scene.design(proto, &opts.sets, &args.over).map_err(analysis_error(&opts.out))?;
+    let design = design.adjusted(move |p| Problem { settings, baumgarte: None, ..p });
+    Transaction::preflight(&opts.out)?;
+    // Ctrl-C ends the search with the best point so far written
+    crate::output::transaction::arm_signals();
+    let beat = opts.progress.then(|| Heartbeat::start(format!("optimize {}: the start", scene.name)));
+    let mut count = 0;
+    let o = optimize(&design, &goal, &os, Some(|| crate::output::transaction::pending().is_some()), &mut |e| {
+        count += 1;
+        if let Some(b) = &beat {
+            b.set(format!("optimize {}: evaluation {count}: {}", scene.name, point_text(&design.names, e)));
+        }
+    })
+    .map_err(analysis_error(&opts.out))?;
+    drop(beat);
+    let tables = tables(&o, &goal);
+    if o.stopped {
+        return Err(interrupted(&opts.out, &tables));
+    }
+    let mut tx = Transaction::begin(&opts.out)?;
+    tx.retire(&["optimum.csv".into(), "history.csv".into(), "grid.csv".into()]);
+    for (name, text) in &tables {
+        tx.write(name, text.as_bytes())?;
+    }
+    if opts.figures {
+        let (format, dpi) = opts.look(scene);
+        let mut charts = vec![("optimize", history_chart(&o, sense))];
+        charts.extend(grid_chart(&o).map(|c| ("optimize_grid", c)));
+        for (name, chart) in charts {
+            tx.check(None, Some(format!("drawing {name}")))?;
+            let bytes = crate::render::plot::figure(&chart, format, dpi)
+                .map_err(|e| Error::Input(format!("figure {name}: {e}")))?;
+            tx.write(&format.file_name(name), &bytes)?;
+        }
+    }
+    let files = tx.commit()?;
+    Ok((o, files))
+}
+
+/// A signal stopped the optimization: its best point so far and the
+/// evaluations are written (whole files, each renamed into place) and the
+/// interruption says where.
+fn interrupted(dir: &Path, tables: &[(&'static str, String)]) -> Error {
+    let signal = crate::output::transaction::pending().unwrap_or(crate::output::transaction::Signal::Int);
+    let written = crate::output::transaction::lock(dir).and_then(|_lock| {
+        for (name, text) in tables.iter().filter(|(n, _)| *n != "grid.csv") {
+            crate::output::transaction::write_atomically(&dir.join(name), text.as_bytes())?;
+        }
+        Ok(())
+    });
+    let kept = match written {
+        Ok(()) => format!(
+            "the best point so far is in {}, every evaluation in {}",
+            dir.join("optimum.csv").display(),
+            dir.join("history.csv").display()
+        ),
+        Err(e) => format!("the best point so far could not be written: {e}"),
+    };
+    Error::Transaction(TransactionError::Interrupted(Interrupted {
+        signal,
+        dir: dir.into(),
+        t: None,
+        doing: Some("optimizing".into()),
+        kept: Some(kept),
+    }))
+}
+
+/// `optimum.csv` (the parameters, the objective and the constraints'
+/// quantities at the optimum), `history.csv` (every evaluation) and
+/// `grid.csv` (the objective around the optimum, where drawn).
+fn tables(o: &Optimum, goal: &Goal) -> Vec<(&'static str, String)> {
+    let quantities: Vec<String> =
+        std::iter::once(o.objective_name.clone()).chain(goal.constraints.iter().map(|c| c.quantity.name())).collect();
+    let mut head: Vec<String> = o.names.clone();
+    head.extend(quantities.iter().cloned());
+    let mut optimum = record(head.clone());
+    let mut row: Vec<String> = o.values.iter().map(|v| number(*v)).collect();
+    row.push(number(o.objective));
+    row.extend(o.constraints.iter().map(|v| number(*v)));
+    optimum.push_str(&record(row));
+    let cell = |v: f64| if v.is_finite() { number(v) } else { String::new() };
+    let rows = |list: &[Evaluation], gradient: bool| -> String {
+        let mut h = vec!["evaluation".to_string()];
+        h.extend(head.iter().cloned());
+        if gradient {
+            h.extend(o.names.iter().map(|p| format!("d{}/d{p}", o.objective_name)));
+        }
+        h.push("failure".into());
+        let mut text = record(h);
+        for (k, e) in list.iter().enumerate() {
+            let mut r = vec![(k + 1).to_string()];
+            r.extend(e.values.iter().map(|v| number(*v)));
+            r.push(cell(e.objective));
+            r.extend((0..quantities.len() - 1).map(|i| cell(e.constraints.get(i).copied().unwrap_or(f64::NAN))));
+            if gradient {
+                r.extend((0..o.names.len()).map(|i| cell(e.gradient.get(i).copied().unwrap_or(f64::NAN))));
+            }
+            r.push(e.failure.as_deref().map(|f| f.replace(['\n', '\r'], " ")).unwrap_or_default());
+            text.push_str(&record(r));
+        }
+        text
+    };
+    let mut out = vec![("optimum.csv", optimum), ("history.csv", rows(&o.history, true))];
+    if !o.grid.is_empty() {
+        out.push(("grid.csv", rows(&o.grid, false)));
+    }
+    out
+}
+
+/// `motor.omega = 1.5: gait.mean_speed 0.46` (or the failure).
+fn point_text(names: &[String], e: &Evaluation) -> String {
+    let at: Vec<String> = names.iter().zip(&e.values).map(|(n, v)| format!("{n} = {}", fmt_value(*v))).collect();
+    match &e.failure {
+        Some(f) => format!("{}: failed ({f})", at.join(", ")),
+        None => format!("{}: {}", at.join(", "), fmt_value(e.objective)),
+    }
+}
+
+/// The objective at each evaluation and the best so far.
+fn history_chart(o: &Optimum, sense: Sense) -> Chart {
+    let mut chart = Chart::new("The objective along the optimization", "evaluation", o.objective_name.clone());
+    let points: Vec<(f64, f64)> = o.history.iter().enumerate().map(|(k, e)| ((k + 1) as f64, e.objective)).collect();
+    let mut best = f64::NAN;
+    let running = points
+        .iter()
+        .map(|&(k, v)| {
+            let better = match sense {
+                Sense::Maximize => v > best,
+                Sense::Minimize => v < best,
+            };
+            if best.is_nan() || better {
+                best = v;
+            }
+            (k, best)
+        })
+        .collect();
+    chart.series.push(Series { stroke: Stroke::Points, ..Series::new("evaluated", points) });
+    chart.series.push(Series { stroke: Stroke::Solid, ..Series::new("best so far", running) });
+    chart
+}
+
+/// The objective over the grid around the optimum: against the first
+/// parameter, one line per value of the second; the optimum marked.
+fn grid_chart(o: &Optimum) -> Option<Chart> {
+    if o.grid.is_empty() {
+        return None;
+    }
+    let mut chart =
+        Chart::new(format!("{} around the optimum", o.objective_name), o.names[0].clone(), o.objective_name.clone());
+    let mut lines: Vec<(f64, Vec<(f64, f64)>)> = Vec::new();
+    for e in &o.grid {
+        let key = e.values.get(1).copied().unwrap_or(f64::NAN);
+        match lines.iter_mut().find(|(k, _)| k.to_bits() == key.to_bits()) {
+            Some((_, l)) => l.push((e.values[0], e.objective)),
+            None => lines.push((key, vec![(e.values[0], e.objective)])),
+        }
+    }
+    for (key, mut line) in lines {
+        line.sort_by(|a, b| a.0.total_cmp(&b.0));
+        let label = if key.is_nan() { String::new() } else { format!("{} = {}", o.names[1], fmt_value(key)) };
+        chart.series.push(Series { stroke: Stroke::Solid, ..Series::new(label, line) });
+    }
+    chart.series.push(Series { stroke: Stroke::Points, ..Series::new("optimum", vec![(o.values[0], o.objective)]) });
+    chart.legend_outside = o.names.len() > 1;
+    Some(chart)
+}
+
+/// The text `ezy optimize` prints.
+fn summary(scene: &str, o: &Optimum, seconds: f64, files: &[PathBuf]) -> String {
+    let mut s = format!(
+        "scene {scene}: {} = {} at {}\n",
+        o.objective_name,
+        fmt_value(o.objective),
+        o.names.iter().zip(&o.values).map(|(n, v)| format!("{n} = {}", fmt_value(*v))).collect::<Vec<_>>().join(", ")
+    );
+    let _ = writeln!(s, "{}", o.termination);
+    let grad: Vec<String> = o.names.iter().zip(&o.gradient).map(|(n, g)| format!("d/d{n} {}", fmt_value(*g))).collect();
+    let _ = writeln!(
+        s,
+        "gradient: {} (norm within the bounds, per unit span: {:.1e})",
+        grad.join(", "),
+        o.projected_gradient_norm
+    );
+    for (k, at) in o.at_bound.iter().enumerate() {
+        if *at {
+            let _ = writeln!(s, "{} is at a bound: widen it to look further", o.names[k]);
+        }
+    }
+    for (text, v) in o.constraint_texts.iter().zip(&o.constraints) {
+        let _ = writeln!(s, "constraint {text}: {}", fmt_value(*v));
+    }
+    if o.projected_gradient_norm > 1e-6 && !o.constraints.is_empty() {
+        let _ = writeln!(s, "(the gradient is held by a constraint that binds, not zero)");
+    }
+    if let Some(orbit) = &o.orbit {
+        let _ = writeln!(
+            s,
+            "gait at the optimum: period {} s, {}, largest multiplier modulus {}",
+            fmt_value(orbit.period),
+            orbit.stability.name(),
+            orbit.multipliers.first().map_or("-".into(), |m| format!("{:.6}", m.norm()))
+        );
+    }
+    let grid = if o.grid.is_empty() { String::new() } else { format!(" and {} grid points", o.grid.len()) };
+    let plural = |n: usize, what: &str| format!("{n} {what}{}", if n == 1 { "" } else { "s" });
+    let _ = writeln!(
+        s,
+        "{}{grid}: {} found and {} in {seconds:.2} s (SLSQP)",
+        plural(o.history.len(), "evaluation"),
+        plural(o.orbits, "gait"),
+        plural(o.runs, "run")
+    );
+    for file in files {
+        let _ = writeln!(s, "wrote {}", file.display());
+    }
+    s
+}
