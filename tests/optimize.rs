@@ -321,3 +321,29 @@ fn the_command_writes_the_optimum_history_grid_and_figures() {
     assert!(dir.join("optimum.csv").exists());
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// A quantity of the embedding program's own (`App::quantity`), named on
+/// the command line as a built-in one: the final `x1` computed by the
+/// caller gives the same search, to the bit, as the metric `final(x1)`.
+#[test]
+fn a_quantity_of_the_callers_own_is_named_as_a_built_in_one() {
+    let app = ezy::App::new().quantity("my_final_x1", |s| {
+        let (last, n2) = (s.x.len() - 1, s.names.len());
+        let i = s.names.iter().position(|n| n == "x1").ok_or("no x1")?;
+        Ok((s.x[last][i], (0..s.parameters.len()).map(|j| s.s[last][j * n2 + i]).collect()))
+    });
+    let dir = std::env::temp_dir().join(format!("ezy-optimize-own-{}", std::process::id()));
+    let optimum = |q: &str| {
+        let args = ["optimize", "drive", "--maximize", q, "--over", "motor.omega=1:6", "--t-end", "2", "--grid", "0"];
+        let mut printed = Vec::new();
+        let out = ["--no-figures", "--out", dir.to_str().unwrap()];
+        let argv = std::iter::once("ezy").chain(args).chain(out).map(String::from);
+        app.run_cli(argv, &mut printed).unwrap();
+        std::fs::read_to_string(dir.join("optimum.csv")).unwrap()
+    };
+    let own = optimum("my_final_x1");
+    let built_in = optimum("final(x1)");
+    assert!(own.starts_with("motor.omega,my_final_x1\n"), "{own}");
+    assert_eq!(own.lines().nth(1), built_in.lines().nth(1));
+    let _ = std::fs::remove_dir_all(&dir);
+}

@@ -81,6 +81,17 @@ def read_table(path, index=None):
     return pd.read_csv(path, comment="#", index_col=index)
 
 
+def frame(columns, parameters):
+    """A run with its sensitivities as a DataFrame (`columns`: name to
+    values), the parameters differentiated in `.attrs["parameters"]`: what
+    an objective of the caller's own is given."""
+    import pandas as pd
+
+    f = pd.DataFrame(columns)
+    f.attrs["parameters"] = list(parameters)
+    return f
+
+
 def sweep_frame(path):
     """The sweep table `path` (sweep.csv) as a DataFrame, run index first."""
     import pandas as pd

@@ -180,7 +180,26 @@ impl Toolkit {
         figures: bool,
         settings: Option<&Bound<'_, PyDict>>,
     ) -> PyResult<(String, PathBuf, tempfile::TempDir)> {
+        self.command_on(py, name, scene, model, extra, out, figures, settings, &|app| app)
+    }
+
+    /// [`Toolkit::command`] on the application `adjust` makes of the
+    /// scene's (one with a quantity of the caller's own).
+    #[expect(clippy::too_many_arguments, reason = "the keywords every command takes")]
+    fn command_on(
+        &self,
+        py: Python<'_>,
+        name: &str,
+        scene: &Bound<'_, PyAny>,
+        model: Option<&Bound<'_, PyModel>>,
+        extra: Vec<String>,
+        out: Option<PathBuf>,
+        figures: bool,
+        settings: Option<&Bound<'_, PyDict>>,
+        adjust: &dyn Fn(App) -> App,
+    ) -> PyResult<(String, PathBuf, tempfile::TempDir)> {
         let (app, r) = self.resolve_on(scene, model)?;
+        let app = adjust(app);
         let opts = Overrides::new(r.sets.clone(), settings, name)?.options()?;
         let temp = tempfile::Builder::new().prefix("ezy-").tempdir().map_err(ezy_err)?;
         let dir = out.unwrap_or_else(|| temp.path().join(name));
@@ -660,7 +679,11 @@ impl Toolkit {
     /// Optimizes numbers of `scene` as `ezy optimize` does: `maximize` or
     /// `minimize` (one of them) names a gait's quantity (`"gait.mean_speed"`,
     /// `"gait.efficiency"`, ...) or a run's metric (`"final(x1)"`,
-    /// `"mean(x1d, 50, 60)"`); `over` maps each number to its bounds
+    /// `"mean(x1d, 50, 60)"`), or is a function of your own: it takes the
+    /// run as a DataFrame (`t`, the state's columns and the derivatives
+    /// `d<column>/d<param>`, the parameters in `.attrs["parameters"]`)
+    /// and returns `(value, [d value / d param for each parameter])`;
+    /// `over` maps each number to its bounds
     /// `(lower, upper)` (the search starts from the scene's value);
     /// `subject_to` lists constraints (`"gait.mean_power <= 1"`). Returns
     /// the optimum as a one-row DataFrame (the parameters, the objective,
@@ -693,7 +716,19 @@ impl Toolkit {
         settings: Option<&Bound<'_, PyDict>>,
     ) -> PyResult<Py<PyAny>> {
         let type_error = |m: String| pyo3::exceptions::PyTypeError::new_err(m);
-        let goal = match (text_kw("optimize", "maximize", maximize)?, text_kw("optimize", "minimize", minimize)?) {
+        // a function of the caller's own: named by its __name__
+        let mut own: Option<(String, Py<PyAny>)> = None;
+        let mut text = |key: &str, v: Option<&Bound<'_, PyAny>>| -> PyResult<Option<String>> {
+            match v {
+                Some(f) if f.is_callable() => {
+                    let name = f.getattr("__name__").and_then(|n| n.extract::<String>()).unwrap_or("objective".into());
+                    own = Some((name.clone(), f.clone().unbind()));
+                    Ok(Some(name))
+                }
+                v => text_kw("optimize", key, v),
+            }
+        };
+        let goal = match (text("maximize", maximize)?, text("minimize", minimize)?) {
             (Some(q), None) => ["--maximize".to_string(), q],
             (None, Some(q)) => ["--minimize".to_string(), q],
             _ => return Err(type_error("optimize(): give one of `maximize` and `minimize`".into())),
@@ -718,7 +753,13 @@ impl Toolkit {
         if let Some(n) = grid {
             extra.extend(["--grid".to_string(), n.to_string()]);
         }
-        let (report, dir, _temp) = self.command(py, "optimize", scene, model, extra, out, figures, settings)?;
+        let helpers = self.helpers.clone_ref(py);
+        let adjust = |app: App| match &own {
+            Some((name, f)) => app.quantity(name, python_quantity(f.clone_ref(py), helpers.clone_ref(py))),
+            None => app,
+        };
+        let (report, dir, _temp) =
+            self.command_on(py, "optimize", scene, model, extra, out, figures, settings, &adjust)?;
         let helpers = self.helpers.bind(py);
         let frame = helpers.call_method1("read_table", (dir.join("optimum.csv"),))?;
         let history = helpers.call_method1("read_table", (dir.join("history.csv"), "evaluation"))?;
@@ -833,4 +874,35 @@ fn model_key(model: &Bound<'_, PyAny>) -> PyResult<String> {
     model
         .extract()
         .map_err(|_| PyValueError::new_err("model: give a model's key, the path of a .ezy file, or an ezy.Model"))
+}
+
+/// A quantity of the caller's Python code: `function(run)` with the run
+/// (state and sensitivities) as a DataFrame, returning `(value,
+/// gradient)`; its exceptions become the evaluation's failure.
+fn python_quantity(
+    function: Py<PyAny>,
+    helpers: Py<PyModule>,
+) -> impl Fn(&ezy_core::sensitivity::Sensitivities) -> Result<(f64, Vec<f64>), String> + Send + Sync + 'static {
+    move |s| {
+        Python::attach(|py| {
+            let columns = PyDict::new(py);
+            let fail = |e: PyErr| e.to_string();
+            columns.set_item("t", s.t.clone()).map_err(fail)?;
+            for (i, name) in s.names.iter().enumerate() {
+                columns.set_item(name, s.x.iter().map(|r| r[i]).collect::<Vec<f64>>()).map_err(fail)?;
+            }
+            for (k, name) in s.columns().iter().enumerate() {
+                columns.set_item(name, s.s.iter().map(|r| r[k]).collect::<Vec<f64>>()).map_err(fail)?;
+            }
+            let frame = helpers.bind(py).call_method1("frame", (columns, s.parameters.clone())).map_err(fail)?;
+            let r = function.bind(py).call1((frame,)).map_err(fail)?;
+            r.extract::<(f64, Vec<f64>)>().map_err(|_| {
+                format!(
+                    "the function returned {}; return (value, [d value / d param for {}])",
+                    r.repr().map_or("something else".into(), |t| t.to_string()),
+                    s.parameters.join(", ")
+                )
+            })
+        })
+    }
 }

@@ -574,3 +574,19 @@ def test_an_optimization_gives_the_optimum_and_its_history(tmp_path):
         ezy.optimize("drive-rolling-resistance", over={"motor.omega": (0.5, 8.0)})
     with pytest.raises(ezy.EzyError, match="gait.speed"):
         ezy.optimize("drive-rolling-resistance", maximize="gait.speed", over={"motor.omega": (0.5, 8.0)})
+
+
+def test_an_objective_of_your_own_is_optimized_as_a_built_in_one():
+    def final_x1(run):
+        assert run.attrs["parameters"] == ["motor.omega"]
+        return run["x1"].iloc[-1], [run["dx1/dmotor.omega"].iloc[-1]]
+
+    kw = dict(over={"motor.omega": (1.0, 6.0)}, t_end=2.0, grid=0)
+    own = ezy.optimize("drive", maximize=final_x1, **kw)
+    built_in = ezy.optimize("drive", maximize="final(x1)", **kw)
+    assert list(own.columns) == ["motor.omega", "final_x1"]
+    # the same values and gradients: the same search, to the bit
+    assert own["motor.omega"][0] == built_in["motor.omega"][0]
+    assert own["final_x1"][0] == built_in["final(x1)"][0]
+    with pytest.raises(ezy.EzyError, match="return \\(value"):
+        ezy.optimize("drive", maximize=lambda run: "fast", **kw)

@@ -105,6 +105,8 @@ pub struct App {
     errors: Vec<String>,
     /// Models read from `.ezy` files, by the path given (shared by clones).
     file_models: std::sync::Arc<std::sync::Mutex<Vec<(String, AnyModel)>>>,
+    /// Quantities of the caller's own, by name ([`App::quantity`]).
+    quantities: Vec<(String, std::sync::Arc<ezy_core::design::optimize::RunFunction>)>,
 }
 
 impl Default for App {
@@ -174,6 +176,7 @@ impl App {
             default_scene: String::new(),
             errors: Vec::new(),
             file_models: Default::default(),
+            quantities: Vec::new(),
         }
     }
 
@@ -239,6 +242,29 @@ impl App {
     pub fn scene_file(mut self, path: impl Into<PathBuf>) -> Self {
         self.scenes.push(SceneEntry::Path(path.into()));
         self
+    }
+
+    /// Adds a quantity of the caller's own under `name`, which `ezy
+    /// optimize --maximize NAME` (`--minimize`, `--subject-to 'NAME <=
+    /// V'`) then names as it names a built-in one: a function of a run's
+    /// state and sensitivities (`ezy_core::sensitivity::Sensitivities`,
+    /// samples every output interval) that returns the value and its
+    /// gradient with respect to the run's parameters, or why it cannot.
+    /// A name of the caller's shadows a metric of the same text.
+    #[must_use]
+    pub fn quantity(
+        mut self,
+        name: &str,
+        function: impl Fn(&ezy_core::sensitivity::Sensitivities) -> Result<(f64, Vec<f64>), String> + Send + Sync + 'static,
+    ) -> Self {
+        self.quantities.retain(|(k, _)| k != name);
+        self.quantities.push((name.to_string(), std::sync::Arc::new(function)));
+        self
+    }
+
+    /// The caller's own quantity `name` ([`App::quantity`]).
+    pub(crate) fn own_quantity(&self, name: &str) -> Option<std::sync::Arc<ezy_core::design::optimize::RunFunction>> {
+        self.quantities.iter().find(|(k, _)| k == name).map(|(_, f)| std::sync::Arc::clone(f))
     }
 
     /// The scene `run` takes when none is named (`App::new`: `drive`).

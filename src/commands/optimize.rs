@@ -91,7 +91,7 @@ pub(crate) fn exec(app: &App, args: &ArgMatches, out: &mut dyn Write) -> Result<
     check_figure_format(&src, opts.figure_format, opts.figures)?;
     let model = &app.model_or_error(&scene.model)?;
     let clock = Instant::now();
-    let (o, files) = optimize_model(model, scene, &opts, &args).map_err(AppError::from_run)?;
+    let (o, files) = optimize_model(app, model, scene, &opts, &args).map_err(AppError::from_run)?;
     let text = summary(&scene.name, &o, clock.elapsed().as_secs_f64(), &files);
     committed(out, &text, &opts.out)?;
     if o.converged {
@@ -105,14 +105,28 @@ pub(crate) fn exec(app: &App, args: &ArgMatches, out: &mut dyn Write) -> Result<
     }
 }
 
-/// A quantity named on the command line: `gait.NAME` or a metric of the
-/// state's columns `state` (checked against a run to `t_end` with output
-/// every `every` \[s\]).
+/// What names a quantity: the caller's own ([`App::quantity`]), the
+/// state's columns, the run's end and output interval \[s\] a metric's
+/// window is checked against.
+struct Lookup<'a> {
+    app: &'a App,
+    state: &'a [String],
+    t_end: f64,
+    every: f64,
+}
+
+/// A quantity named on the command line: one of the caller's own,
+/// `gait.NAME` or a metric of the state's columns (checked against the
+/// run's end and output interval).
 ///
 /// # Errors
 /// The text and what is wrong with it.
-fn quantity(text: &str, state: &[String], t_end: f64, every: f64) -> Result<Quantity, String> {
+fn quantity(text: &str, at: &Lookup<'_>) -> Result<Quantity, String> {
     let text = text.trim();
+    if let Some(function) = at.app.own_quantity(text) {
+        return Ok(Quantity::Run { name: text.to_string(), function });
+    }
+    let (state, t_end, every) = (at.state, at.t_end, at.every);
     if text.starts_with("gait.") {
         return Quantity::gait(text).map_err(|e| e.to_string());
     }
@@ -134,7 +148,7 @@ fn quantity(text: &str, state: &[String], t_end: f64, every: f64) -> Result<Quan
 ///
 /// # Errors
 /// Another form; the quantity's error; a bound that is not a finite number.
-fn constraint(text: &str, state: &[String], t_end: f64, every: f64) -> Result<Constraint, String> {
+fn constraint(text: &str, at: &Lookup<'_>) -> Result<Constraint, String> {
     let (q, bound, upper) = match (text.split_once("<="), text.split_once(">=")) {
         (Some((q, b)), None) => (q, b, true),
         (None, Some((q, b))) => (q, b, false),
@@ -144,7 +158,7 @@ fn constraint(text: &str, state: &[String], t_end: f64, every: f64) -> Result<Co
         Ok(v) if v.is_finite() => v,
         _ => return Err(format!("--subject-to `{text}`: the bound `{}` is not a finite number", bound.trim())),
     };
-    let quantity = quantity(q, state, t_end, every).map_err(|e| format!("--subject-to `{text}`: {e}"))?;
+    let quantity = quantity(q, at).map_err(|e| format!("--subject-to `{text}`: {e}"))?;
     Ok(Constraint { quantity, upper, bound })
 }
 
@@ -155,6 +169,7 @@ fn constraint(text: &str, state: &[String], t_end: f64, every: f64) -> Result<Co
 /// A bad name, bound, quantity or setting; the evaluations' and the
 /// output's errors; an interruption, after the best point so far is written.
 fn optimize_model<M: Model>(
+    app: &App,
     proto: &M,
     scene: &Scene,
     opts: &RunOptions,
@@ -172,13 +187,10 @@ fn optimize_model<M: Model>(
         (None, None) => return Err(Error::Input("give --maximize QUANTITY or --minimize QUANTITY".into())),
     };
     let flag = if sense == Sense::Maximize { "--maximize" } else { "--minimize" };
-    let objective = quantity(text, &state, t_end, every).map_err(|e| Error::Input(format!("{flag}: {e}")))?;
-    let constraints = args
-        .subject_to
-        .iter()
-        .map(|c| constraint(c, &state, t_end, every))
-        .collect::<Result<Vec<_>, _>>()
-        .map_err(Error::Input)?;
+    let at = Lookup { app, state: &state, t_end, every };
+    let objective = quantity(text, &at).map_err(|e| Error::Input(format!("{flag}: {e}")))?;
+    let constraints =
+        args.subject_to.iter().map(|c| constraint(c, &at)).collect::<Result<Vec<_>, _>>().map_err(Error::Input)?;
     let goal = Goal { objective, sense, constraints };
     let n = args.over.len();
     let os = OptimizeSettings {
