@@ -203,6 +203,33 @@ fn the_ezyrollers_fastest_motor_frequency_takes_few_orbits() {
     assert!(o.grid.iter().all(|e| e.objective <= o.objective), "{:?}", o.grid);
 }
 
+/// A constraint no point satisfies (a period of at least 1000 s where the
+/// push's is at most 4 pi s): the search ends not converged, saying so,
+/// with the point of least violation; and a push too slow for the scene's
+/// run (a period beyond its 20 s) is a failed evaluation, not a search
+/// that runs for ever.
+#[test]
+fn an_infeasible_constraint_is_said_not_converged() {
+    let (_, design, goal) = resonance();
+    let never = Constraint { quantity: Quantity::Gait(GaitQuantity::Period), upper: false, bound: 1000.0 };
+    let goal = Goal { constraints: vec![never], ..goal };
+    let o = optimize(&design, &goal, &OptimizeSettings::default(), None, &mut |_| {}).unwrap();
+    assert!(
+        !o.converged && o.termination.contains("no point found satisfies gait.period >= 1000"),
+        "{}",
+        o.termination
+    );
+    assert!((o.values[0] - 0.5).abs() < 1e-9, "the least violation is at the slowest push: {}", o.values[0]);
+    let slow = Design::new(vec!["omega".into()], vec![1.2], vec![(1e-3, 5.0)], |v| cart(K, 0.5, Some(v[0]), 0.0, 20.0))
+        .unwrap();
+    let (_, _, goal) = resonance();
+    let o = optimize(&slow, &goal, &OptimizeSettings::default(), None, &mut |_| {}).unwrap();
+    assert!(o.converged && (o.values[0] - 2.0).abs() < 1e-6, "{} at {:?}", o.termination, o.values);
+    for e in o.history.iter().filter_map(|e| e.failure.as_deref()) {
+        assert!(e.contains("longer than the scene's run"), "{e}");
+    }
+}
+
 static STOP: std::sync::atomic::AtomicBool = std::sync::atomic::AtomicBool::new(false);
 
 /// A stop (what Ctrl-C asks) after the fourth evaluation ends the
@@ -243,9 +270,13 @@ fn bad_requests_are_refused_naming_the_culprit() {
     let e = optimize(&design, &gait, &settings, None, &mut |_| {}).unwrap_err().to_string();
     assert!(e.contains("1000000 evaluations"), "{e}");
     let nan = Constraint { quantity: Quantity::Gait(GaitQuantity::Period), upper: true, bound: f64::NAN };
-    let bad = Goal { constraints: vec![nan], ..gait };
+    let bad = Goal { constraints: vec![nan], ..gait.clone() };
     let e = optimize(&design, &bad, &OptimizeSettings::default(), None, &mut |_| {}).unwrap_err().to_string();
     assert!(e.contains("gait.period <= NaN") && e.contains("finite"), "{e}");
+    let wide =
+        Design::new(vec!["k".into()], vec![8.0], vec![(0.0, 1e300)], |v| cart(v[0], 0.0, None, 1.0, 1.0)).unwrap();
+    let e = optimize(&wide, &gait, &OptimizeSettings::default(), None, &mut |_| {}).unwrap_err().to_string();
+    assert!(e.contains("`k=0:1e300`") && e.contains("span"), "{e}");
     let e = Quantity::gait("gait.speed").unwrap_err().to_string();
     assert!(e.contains("gait.speed") && e.contains("mean_speed"), "{e}");
 }

@@ -122,9 +122,9 @@ impl<'a, M: Model> Evaluator<'a, M> {
     }
 
     /// The problem's gait: sought at phase 0 over its forcing's period
-    /// from the last gait's fixed point, or, where there is none or the
-    /// search from it fails, from the state of a run at the last whole
-    /// period before the problem's `t_end`.
+    /// (at most the problem's `t_end`) from the last gait's fixed point,
+    /// or, where there is none or the search from it fails, from the state
+    /// of a run at the last whole period before the problem's `t_end`.
     fn gait(&mut self, problem: &Problem<M>) -> Result<PeriodicOrbit, AnalysisError> {
         let (mut an, x0) = problem.clone().analysis()?;
         if let Some(stop) = self.stop {
@@ -138,6 +138,15 @@ impl<'a, M: Model> Evaluator<'a, M> {
                 });
             }
         };
+        if period > problem.settings.t_end {
+            return Err(AnalysisError::Request {
+                reason: format!(
+                    "the forcing's period, {} s, is longer than the scene's run ({} s) (a gait is sought within it): lengthen the run (t_end) or narrow the bounds",
+                    crate::names::fmt_value(period),
+                    crate::names::fmt_value(problem.settings.t_end)
+                ),
+            });
+        }
         let symmetry = an.symmetry(0.0, &x0)?;
         if let Some(guess) = self.guess.clone() {
             match an.periodic_orbit(0.0, period, &guess, symmetry, &self.periodic) {

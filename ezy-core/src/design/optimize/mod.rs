@@ -54,6 +54,15 @@ pub const MAX_EVALUATIONS: usize = 10_000;
 /// Most points per axis of the grid around the optimum.
 pub const MAX_GRID: usize = 101;
 
+/// The widest bounds a parameter may have, as a multiple of its start's
+/// size (at least 1): the search resolves `xtol` of the span, so wider
+/// bounds would leave the optimum unresolved.
+const MAX_SPAN: f64 = 1e6;
+
+/// A constraint holds where its violation is at most this fraction of
+/// its scale (its bound, or its value at the start).
+const FEASIBLE: f64 = 1e-6;
+
 /// Failures in a row that end an optimization.
 const FAILURES: usize = 5;
 
@@ -300,6 +309,19 @@ fn check<M: Model>(design: &Design<M>, goal: &Goal, settings: &OptimizeSettings)
     if design.names.len() > crate::sensitivity::MAX_PARAMETERS {
         return fail(format!("{} parameters: at most {}", design.names.len(), crate::sensitivity::MAX_PARAMETERS));
     }
+    for (k, name) in design.names.iter().enumerate() {
+        let (span, scale) = (design.upper[k] - design.lower[k], design.start[k].abs().max(1.0));
+        if span > MAX_SPAN * scale {
+            return fail(format!(
+                "`{name}={}:{}`: the bounds span {} for a start of {}; a search resolves a parameter to {:.0e} of its span, so give bounds within {MAX_SPAN:.0e} of the start's size",
+                crate::names::fmt_value(design.lower[k]),
+                crate::names::fmt_value(design.upper[k]),
+                crate::names::fmt_value(span),
+                crate::names::fmt_value(design.start[k]),
+                settings.xtol
+            ));
+        }
+    }
     for c in &goal.constraints {
         if !c.bound.is_finite() {
             return fail(format!("`{}`: the bound must be a finite number", c.text()));
@@ -416,6 +438,19 @@ pub fn optimize<M: Model>(
     }
     let (converged, termination) = termination(&outcome, &st, settings.max_evaluations);
     let (best_index, best, _) = st.best.take().expect("the start at least");
+    let violated: Vec<String> = goal
+        .constraints
+        .iter()
+        .zip(&best.values[1..])
+        .zip(&st.constraint_scales)
+        .filter(|((c, v), (_, scale))| c.violation(**v) > FEASIBLE * scale)
+        .map(|((c, v), _)| format!("{} (it is {} there)", c.text(), crate::names::fmt_value(*v)))
+        .collect();
+    let (converged, termination) = if violated.is_empty() {
+        (converged, termination)
+    } else {
+        (false, format!("no point found satisfies {}: the best has the least violation", violated.join(", ")))
+    };
     let values = st.history[best_index].values.clone();
     let gradient = best.gradients[0].clone();
     let at_bound: Vec<bool> =
