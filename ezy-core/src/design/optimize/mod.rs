@@ -356,8 +356,8 @@ pub fn optimize<M: Model>(
     let mut ev = Evaluator::new(design, goal, settings.periodic, stop);
     // the start: its failure is the optimization's
     let p0 = ev.at(&design.start, true).map_err(|e| match e {
-        AnalysisError::Stopped | AnalysisError::Sim(_) => e,
-        e => {
+        // a search that failed there: say where
+        e @ (AnalysisError::NotConverged { .. } | AnalysisError::Numerics { .. }) => {
             let at: Vec<String> = design
                 .names
                 .iter()
@@ -366,6 +366,7 @@ pub fn optimize<M: Model>(
                 .collect();
             AnalysisError::Request { reason: format!("at the start ({}): {e}", at.join(", ")) }
         }
+        e => e,
     })?;
     let sign = match goal.sense {
         Sense::Minimize => 1.0,
