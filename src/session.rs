@@ -581,6 +581,74 @@ impl<M: Model> ezy_core::Observer<M> for States {
     }
 }
 
+/// Periods a growth diagnosis samples at most ([`energy_growth`]).
+const GROWTH_PERIODS: f64 = 4096.0;
+
+/// Keeps the kinetic energy at each sample; stops the run when a signal
+/// arrives.
+struct Energies {
+    dir: PathBuf,
+    e: Vec<(f64, f64)>,
+}
+
+impl<M: Model> ezy_core::Observer<M> for Energies {
+    type Error = crate::output::transaction::TransactionError;
+    fn observe(&mut self, _sys: &ezy_core::Dynamics<M>, s: &ezy_core::Sample<'_>) -> Result<(), Self::Error> {
+        self.e.push((s.t, s.kinetic_energy));
+        Ok(())
+    }
+    fn poll(&mut self, t: f64) -> Result<(), Self::Error> {
+        crate::output::transaction::check_interrupt(&self.dir, Some(t), Some("measuring the energy's growth".into()))
+    }
+}
+
+/// Why a scene forced with `period` \[s\] has no periodic orbit, where
+/// its run to `t_end` \[s\] says so: its kinetic energy at the ends of
+/// the periods grows in every period of the run's second half, by more
+/// than 5 % over it (a stroboscopic map with no fixed point: the motion
+/// gains energy without bound). `None` where it does not, or the run
+/// holds fewer than 8 periods. The growth is reported as the exponent of
+/// a power law `T ~ t^a` over the second half.
+///
+/// # Errors
+/// The run's.
+pub(crate) fn energy_growth<M: Model>(
+    proto: &M,
+    scene: &Scene,
+    opts: &RunOptions,
+    period: f64,
+    t_end: f64,
+) -> Result<Option<String>, Error> {
+    let whole = (t_end / period).floor().min(GROWTH_PERIODS);
+    if whole < 8.0 || whole.is_nan() {
+        return Ok(None);
+    }
+    let mut settings = settings(scene, opts)?;
+    settings.t_end = whole * period;
+    settings.every = period;
+    let (problem, _) = problem(proto, scene, opts, settings)?;
+    let mut kept = Energies { dir: opts.out.clone(), e: Vec::new() };
+    problem.solve_with(&mut kept).map_err(|e| match e {
+        ezy_core::RunError::Sim(e) => Error::Sim(e),
+        ezy_core::RunError::Output(e) => Error::Transaction(e),
+    })?;
+    let e = &kept.e[kept.e.len() / 2..];
+    let (Some(&(t1, e1)), Some(&(t2, e2))) = (e.first(), e.last()) else { return Ok(None) };
+    let grows = e.windows(2).all(|w| w[1].1 > w[0].1) && e2 > 1.05 * e1 && e1 > 0.0 && t1 > 0.0;
+    if !grows {
+        return Ok(None);
+    }
+    let a = (e2 / e1).ln() / (t2 / t1).ln();
+    Ok(Some(format!(
+        "no periodic orbit: the motion gains energy without bound. Its kinetic energy at the ends of the forcing's periods grows in every period of the run's second half, from {} J at t = {} s to {} J at t = {} s (like t^{a:.2}: the speed like t^{:.2}); a gait needs a loss that takes the input's energy (rolling resistance, drag)",
+        rounded(e1),
+        ezy_core::fmt_value(t1),
+        rounded(e2),
+        ezy_core::fmt_value(t2),
+        a / 2.0
+    )))
+}
+
 /// The command's error for an analysis' error, `dir` the output directory.
 pub(crate) fn analysis_error(dir: &std::path::Path) -> impl Fn(AnalysisError) -> Error + '_ {
     move |e| match e {

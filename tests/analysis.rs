@@ -590,3 +590,18 @@ fn an_analysis_leaves_no_earlier_file_beside_its_own() {
     assert!(dir.join("A.csv").exists() && !dir.join("B.csv").exists());
     assert_eq!(std::fs::read_to_string(dir.join("notes.txt")).unwrap(), "mine");
 }
+
+/// A driven scene without a loss (`drive`: the motor's work only goes
+/// into kinetic energy) has no periodic orbit: `ezy analyze` says so with
+/// the energy's measured growth at the forcing's period ends (5.02 J at
+/// 30 s to 12.97 J at 60 s, `T ~ t^1.37`), not with the search's failed
+/// Newton iteration; nothing is written.
+#[test]
+fn a_motion_that_gains_energy_without_bound_is_named() {
+    let dir = fresh("growth");
+    let (_, err, ok) = ezy(&["analyze", "drive", "--no-figures"], &dir);
+    assert!(!ok);
+    assert!(err.contains("gains energy without bound") && err.contains("like t^1.37"), "{err}");
+    assert!(err.contains("5.019633 J at t = 30 s to 12.965177 J at t = 60 s"), "{err}");
+    assert!(!dir.join("periodic.csv").exists());
+}
