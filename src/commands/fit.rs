@@ -13,7 +13,7 @@ use ezy_core::design::fit::{Data, Fit, fit};
 use ezy_core::{Model, Problem, fmt_value};
 use ezy_scene::Scene;
 
-use super::{check_figure_format, committed};
+use super::{committed, scene_and_options};
 use crate::app::{App, AppError};
 use crate::cli::Overrides;
 use crate::output::csv::{number, record};
@@ -66,14 +66,9 @@ pub(crate) fn cli(cmd: clap::Command) -> clap::Command {
 /// Fits the scene named (or the default scene) and prints the estimates.
 pub(crate) fn exec(app: &App, args: &ArgMatches, out: &mut dyn Write) -> Result<(), AppError> {
     let args = FitArgs::from_arg_matches(args)?;
-    let (_, src) = app.named_scene(args.scene.as_deref())?;
+    let (src, opts) =
+        scene_and_options(app, args.scene.as_deref(), "fit", (args.out, args.no_figures), &args.overrides)?;
     let scene = &src.scene;
-    let opts = RunOptions {
-        out: args.out.unwrap_or_else(|| PathBuf::from("out").join("fit").join(&scene.name)),
-        figures: !args.no_figures,
-        ..args.overrides.options()
-    };
-    check_figure_format(&src, opts.figure_format, opts.figures)?;
     let model = &app.model_or_error(&scene.model)?;
     let clock = Instant::now();
     let data = read_data(&args.data, &args.columns).map_err(AppError::Failed)?;

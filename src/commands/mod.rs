@@ -79,6 +79,30 @@ fn check_figure_format(src: &SceneSource, format: Option<FigureFormat>, figures:
     })
 }
 
+/// The scene named (or the default one) and the run options of a command
+/// `command` that writes into `out` (default `out/COMMAND/SCENE`) and
+/// draws figures unless `no_figures`; a PDF format this build cannot
+/// write refused before any work.
+///
+/// # Errors
+/// An unknown scene; a figure format this build lacks.
+fn scene_and_options(
+    app: &App,
+    scene: Option<&str>,
+    command: &str,
+    (out, no_figures): (Option<std::path::PathBuf>, bool),
+    overrides: &crate::cli::Overrides,
+) -> Result<(SceneSource, crate::session::RunOptions), AppError> {
+    let (_, src) = app.named_scene(scene)?;
+    let opts = crate::session::RunOptions {
+        out: out.unwrap_or_else(|| Path::new("out").join(command).join(&src.scene.name)),
+        figures: !no_figures,
+        ..overrides.options()
+    };
+    check_figure_format(&src, opts.figure_format, opts.figures)?;
+    Ok((src, opts))
+}
+
 /// Writes `text`, the report of a command whose output is already
 /// committed in `dir`: a failure to write it says that the output is
 /// there (exit 1), a closed pipe ends quietly (exit 0, as for any reader

@@ -11,13 +11,11 @@ use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 use clap::{ArgMatches, Args, FromArgMatches};
-use ezy_core::design::optimize::{
-    Constraint, Evaluation, Goal, MAX_EVALUATIONS, OptimizeSettings, Optimum, Quantity, Sense, optimize,
-};
+use ezy_core::design::optimize::{Constraint, Evaluation, Goal, OptimizeSettings, Optimum, Quantity, Sense, optimize};
 use ezy_core::{Model, Problem, fmt_value};
 use ezy_scene::Scene;
 
-use super::{check_figure_format, committed};
+use super::{committed, scene_and_options};
 use crate::app::{App, AppError};
 use crate::cli::Overrides;
 use crate::output::csv::{number, record};
@@ -81,14 +79,14 @@ pub(crate) fn cli(cmd: clap::Command) -> clap::Command {
 /// Optimizes the scene named (or the default scene) and prints the optimum.
 pub(crate) fn exec(app: &App, args: &ArgMatches, out: &mut dyn Write) -> Result<(), AppError> {
     let args = OptimizeArgs::from_arg_matches(args)?;
-    let (_, src) = app.named_scene(args.scene.as_deref())?;
+    let (src, opts) = scene_and_options(
+        app,
+        args.scene.as_deref(),
+        "optimize",
+        (args.out.clone(), args.no_figures),
+        &args.overrides,
+    )?;
     let scene = &src.scene;
-    let opts = RunOptions {
-        out: args.out.clone().unwrap_or_else(|| PathBuf::from("out").join("optimize").join(&scene.name)),
-        figures: !args.no_figures,
-        ..args.overrides.options()
-    };
-    check_figure_format(&src, opts.figure_format, opts.figures)?;
     let model = &app.model_or_error(&scene.model)?;
     let clock = Instant::now();
     let (o, files) = optimize_model(app, model, scene, &opts, &args).map_err(AppError::from_run)?;
@@ -203,19 +201,6 @@ fn optimize_model<M: Model>(
         }),
         ..OptimizeSettings::default()
     };
-    if !(2..=MAX_EVALUATIONS).contains(&os.max_evaluations) {
-        return Err(Error::Input(format!(
-            "--max-evaluations {}: give between 2 and {MAX_EVALUATIONS}",
-            os.max_evaluations
-        )));
-    }
-    if os.grid > ezy_core::design::optimize::MAX_GRID {
-        return Err(Error::Input(format!(
-            "--grid {}: at most {} points per axis",
-            os.grid,
-            ezy_core::design::optimize::MAX_GRID
-        )));
-    }
     let design = scene.design(proto, &opts.sets, &args.over).map_err(analysis_error(&opts.out))?;
     let design = design.adjusted(move |p| Problem { settings, baumgarte: None, ..p });
     Transaction::preflight(&opts.out)?;

@@ -12,7 +12,7 @@ use ezy_core::sensitivity::{MAX_PARAMETERS, Sensitivities};
 use ezy_core::{Model, fmt_value};
 use ezy_scene::Scene;
 
-use super::{check_figure_format, committed};
+use super::{committed, scene_and_options};
 use crate::app::{App, AppError};
 use crate::cli::Overrides;
 use crate::output::csv::{number, record};
@@ -54,14 +54,9 @@ pub(crate) fn cli(cmd: clap::Command) -> clap::Command {
 /// prints what it found and wrote.
 pub(crate) fn exec(app: &App, args: &ArgMatches, out: &mut dyn Write) -> Result<(), AppError> {
     let args = SensitivityArgs::from_arg_matches(args)?;
-    let (_, src) = app.named_scene(args.scene.as_deref())?;
+    let (src, opts) =
+        scene_and_options(app, args.scene.as_deref(), "sensitivity", (args.out, args.no_figures), &args.overrides)?;
     let scene = &src.scene;
-    let opts = RunOptions {
-        out: args.out.unwrap_or_else(|| PathBuf::from("out").join("sensitivity").join(&scene.name)),
-        figures: !args.no_figures,
-        ..args.overrides.options()
-    };
-    check_figure_format(&src, opts.figure_format, opts.figures)?;
     let model = &app.model_or_error(&scene.model)?;
     let clock = Instant::now();
     let (s, files) = sensitivity_model(model, scene, &opts, &args.wrt).map_err(AppError::from_run)?;

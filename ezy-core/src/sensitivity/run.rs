@@ -261,6 +261,30 @@ impl<M: Model> Loop<M> {
         Ok(())
     }
 
+    /// One fixed step of `method` from `(t, y)` to `t_new` \[s\], the
+    /// state projected and checked, `y` the new state after it (`y_new`
+    /// the scratch).
+    fn fixed_step(
+        &mut self,
+        method: &mut Fixed,
+        t: f64,
+        t_new: f64,
+        y: &mut Vec<f64>,
+        y_new: &mut Vec<f64>,
+    ) -> Result<(), AnalysisError> {
+        self.budget(t)?;
+        match method {
+            Fixed::Euler(m) => m.step_to(&mut self.aug, t, y, t_new - t, y_new)?,
+            Fixed::Rk4(m) => m.step_to(&mut self.aug, t, y, t_new - t, y_new)?,
+        }
+        self.project(t_new, y_new)?;
+        self.check_finite(t_new, y_new)?;
+        self.check_singular(t_new)?;
+        std::mem::swap(y, y_new);
+        self.steps += 1;
+        Ok(())
+    }
+
     /// Fixed steps of `dt` (the last one shorter), a sample every
     /// output stride and at the end.
     fn fixed(&mut self, y0: &[f64], mut method: Fixed) -> Result<(), AnalysisError> {
@@ -271,16 +295,7 @@ impl<M: Model> Loop<M> {
         for k in 0..n {
             let t = k as f64 * s.dt;
             let t_new = if k + 1 == n { s.t_end } else { (k + 1) as f64 * s.dt };
-            self.budget(t)?;
-            match &mut method {
-                Fixed::Euler(m) => m.step_to(&mut self.aug, t, &y, t_new - t, &mut y_new)?,
-                Fixed::Rk4(m) => m.step_to(&mut self.aug, t, &y, t_new - t, &mut y_new)?,
-            }
-            self.project(t_new, &mut y_new)?;
-            self.check_finite(t_new, &y_new)?;
-            self.check_singular(t_new)?;
-            std::mem::swap(&mut y, &mut y_new);
-            self.steps += 1;
+            self.fixed_step(&mut method, t, t_new, &mut y, &mut y_new)?;
             if (k + 1) % stride == 0 || k + 1 == n {
                 self.out.push((t_new, y.clone()));
             }
@@ -377,17 +392,8 @@ impl<M: Model> Loop<M> {
         let mut t = 0.0;
         for &target in times.iter().filter(|&&v| v > 0.0) {
             while t < target {
-                self.budget(t)?;
                 let t_new = if target - t <= s.dt * (1.0 + 1e-12) { target } else { t + s.dt };
-                match &mut method {
-                    Fixed::Euler(m) => m.step_to(&mut self.aug, t, &y, t_new - t, &mut y_new)?,
-                    Fixed::Rk4(m) => m.step_to(&mut self.aug, t, &y, t_new - t, &mut y_new)?,
-                }
-                self.project(t_new, &mut y_new)?;
-                self.check_finite(t_new, &y_new)?;
-                self.check_singular(t_new)?;
-                std::mem::swap(&mut y, &mut y_new);
-                self.steps += 1;
+                self.fixed_step(&mut method, t, t_new, &mut y, &mut y_new)?;
                 t = t_new;
             }
             self.out.push((t, y.clone()));

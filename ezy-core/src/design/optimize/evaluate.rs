@@ -35,6 +35,8 @@ pub(crate) struct Evaluator<'a, M: Model> {
     pub stop: Option<fn() -> bool>,
     /// The last gait's fixed point.
     guess: Option<Vec<f64>>,
+    /// Whether the goal asks for a gait's quantity / a run's.
+    needs: (bool, bool),
     /// Gaits found.
     pub orbits: usize,
     /// Runs integrated (with sensitivities, or for a gait's guess).
@@ -62,13 +64,10 @@ impl<M: Model> Observer<M> for Last {
 
 impl<'a, M: Model> Evaluator<'a, M> {
     pub fn new(design: &'a Design<M>, goal: &'a Goal, periodic: PeriodicSettings, stop: Option<fn() -> bool>) -> Self {
-        Self { design, goal, periodic, stop, guess: None, orbits: 0, runs: 0 }
-    }
-
-    /// Whether the goal asks for a gait's quantity / a run's.
-    fn needs(&self) -> (bool, bool) {
-        let qs = self.goal.quantities();
-        (qs.iter().any(|q| matches!(q, Quantity::Gait(_))), qs.iter().any(|q| matches!(q, Quantity::Run { .. })))
+        let qs = goal.quantities();
+        let needs =
+            (qs.iter().any(|q| matches!(q, Quantity::Gait(_))), qs.iter().any(|q| matches!(q, Quantity::Run { .. })));
+        Self { design, goal, periodic, stop, guess: None, needs, orbits: 0, runs: 0 }
     }
 
     /// The goal's quantities at `values`, with their gradients where
@@ -82,7 +81,7 @@ impl<'a, M: Model> Evaluator<'a, M> {
     pub fn at(&mut self, values: &[f64], gradients: bool) -> Result<Point, AnalysisError> {
         let problem = self.design.problem(values)?;
         let params = self.design.parameters(values);
-        let (gait, run) = self.needs();
+        let (gait, run) = self.needs;
         let orbit = if gait { Some(self.gait(&problem)?) } else { None };
         let g = match &orbit {
             Some(o) => {

@@ -297,14 +297,25 @@ impl<M: Model> State<'_, M> {
 /// Checks the request before any work.
 fn check<M: Model>(design: &Design<M>, goal: &Goal, settings: &OptimizeSettings) -> Result<(), AnalysisError> {
     let fail = |reason: String| Err(AnalysisError::Request { reason });
+    // named as the caller spells them: the command line's flags or the fields
+    let flags = crate::settings::Spelling::current() == crate::settings::Spelling::Flags;
+    let name = |flag: &'static str, field: &'static str| if flags { flag } else { field };
     if !(2..=MAX_EVALUATIONS).contains(&settings.max_evaluations) {
-        return fail(format!("{} evaluations: give between 2 and {MAX_EVALUATIONS}", settings.max_evaluations));
+        return fail(format!(
+            "a budget of {} evaluations ({}): give between 2 and {MAX_EVALUATIONS}",
+            settings.max_evaluations,
+            name("--max-evaluations", "`max_evaluations`")
+        ));
     }
     if !(settings.xtol > 0.0 && settings.xtol < 1.0) {
         return fail(format!("xtol {}: give a fraction of the bounds' span in (0, 1)", settings.xtol));
     }
     if settings.grid > MAX_GRID {
-        return fail(format!("a grid of {} points per axis: at most {MAX_GRID}", settings.grid));
+        return fail(format!(
+            "a grid of {} points per axis ({}): at most {MAX_GRID}",
+            settings.grid,
+            name("--grid", "`grid`")
+        ));
     }
     if design.names.len() > crate::sensitivity::MAX_PARAMETERS {
         return fail(format!("{} parameters: at most {}", design.names.len(), crate::sensitivity::MAX_PARAMETERS));
