@@ -31,8 +31,7 @@ use crate::output::progress::Heartbeat;
 use crate::output::transaction::{Transaction, check_interrupt, pending};
 use crate::render::plot::{Chart, Series, Stroke};
 use crate::session::{
-    Error, RunOptions, analysis_error, complex, energy_growth, periodic_settings, rounded, run_to, scene_analysis,
-    settings,
+    Error, RunOptions, analysis_error, complex, periodic_settings, rounded, run_to, scene_analysis, settings,
 };
 
 /// Find a scene's steady motions (or, driven periodically, its
@@ -202,15 +201,7 @@ fn analyze_model<M: Model>(proto: &M, scene: &Scene, opts: &AnalyzeOptions) -> R
             if let Some(b) = &beat {
                 b.set(format!("analyze {}: searching for the periodic orbit of period {} s", scene.name, fmt_value(p)));
             }
-            let orbit = match an.periodic_orbit(t0, p, &end, symmetry, &ps) {
-                Ok(o) => o,
-                // a search that failed: is there an orbit to find at all?
-                Err(e @ (AnalysisError::NotConverged { .. } | AnalysisError::Request { .. })) => {
-                    let why = energy_growth(proto, scene, ro, p, settings.t_end)?;
-                    return Err(why.map_or_else(|| analysis_error(&ro.out)(e), Error::Input));
-                }
-                Err(e) => return Err(analysis_error(&ro.out)(e)),
-            };
+            let orbit = an.gait(t0, p, &end, symmetry, &ps).map_err(analysis_error(&ro.out))?;
             log.timings.push(("periodic orbit".into(), clock.elapsed()));
             (Vec::new(), Some(orbit), Follow::Periodic { t0, period: p, settings: ps })
         }

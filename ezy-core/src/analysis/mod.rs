@@ -34,6 +34,12 @@
 //!   ed., §7.1-7.3); its Floquet multipliers, mean speed and the net
 //!   displacement and heading change per period.
 //!
+//! - [`Analysis::gait`]: the same where the guess is in a transient the
+//!   search cannot converge from: the scene run on ([`Analysis::settle`])
+//!   until its motion settles, then the search again; or why there is no
+//!   gait (an energy growing without bound, a motion that does not
+//!   settle), measured.
+//!
 //! - [`branch::follow`]: a branch of either as a parameter varies, by
 //!   natural-parameter continuation, with its changes of stability.
 //!
@@ -46,6 +52,7 @@ pub mod branch;
 pub(crate) mod dense;
 mod linear;
 pub(crate) mod periodic;
+mod settle;
 mod steady;
 pub(crate) mod symmetry;
 
@@ -53,6 +60,7 @@ pub use branch::{BranchPoint, Follow, Solution};
 pub use faer::c64;
 pub use linear::{Input, Linearization};
 pub use periodic::{PeriodicOrbit, PeriodicSettings};
+pub use settle::{MAX_SETTLE_PERIODS, Settle, Settling, Until};
 pub use steady::{Stability, SteadyMotion};
 pub use symmetry::{Generator, Pose, Symmetry};
 
@@ -84,6 +92,21 @@ pub enum AnalysisError {
         residual: f64,
         /// The tolerance it had to reach.
         tolerance: f64,
+    },
+    /// The search went where no orbit near the guess is: its period
+    /// took ever more steps (a motion whose speed grows).
+    #[error("{reason}")]
+    Wandered {
+        /// What happened, with the steps taken.
+        reason: String,
+    },
+    /// There is no periodic orbit to find, for the reason measured: an
+    /// energy that grows without bound, a motion that does not settle
+    /// ([`Analysis::gait`]).
+    #[error("no periodic orbit: {reason}")]
+    NoOrbit {
+        /// Why, with what was measured.
+        reason: String,
     },
     /// A linear-algebra step failed (a singular KKT system, an SVD or
     /// eigenvalue iteration that did not converge).

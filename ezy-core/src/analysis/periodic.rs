@@ -201,7 +201,15 @@ impl<M: Model> Analysis<M> {
         let bodies = self.bodies().to_vec();
         let gens = symmetry.generators();
         let k = gens.len();
-        let mut x0 = guess.to_vec();
+        // the guess moved to the gauge (the reference body at the origin
+        // with heading 0, as far as the symmetry allows), held there by
+        // one row per generator: the group orbit of a solution is a family
+        // of solutions, and without these rows its directions make the
+        // Newton matrix singular at the orbit and nearly so near it (the
+        // rotation's direction is singular only where the residual
+        // vanishes, so a minimum-norm step takes large steps along it)
+        let gauge = gauge_coordinates(&bodies, &gens);
+        let mut x0 = act(&bodies, symmetry.restrict(body_pose(&bodies, 0, guess)).inverse(), guess);
         // the skates' grip over the last period integrated (the orbit's,
         // once the search has converged)
         self.watch_grip();
@@ -216,7 +224,7 @@ impl<M: Model> Analysis<M> {
         let mut p = symmetry.params(h0);
         let norm = |r: &[f64]| r.iter().fold(0.0f64, |m, v| m.max(v.abs()));
         let tol = settings.newton_tolerance * (1.0 + norm(&x0));
-        let mut iterations = 0;
+        let (mut iterations, mut slow) = (0, 0);
         let residual = |this: &Self, x0: &[f64], xt: &[f64], p: &[f64]| {
             let h = symmetry.pose(p);
             let mut r: Vec<f64> = xt.iter().zip(act(&bodies, h, x0)).map(|(a, b)| a - b).collect();
@@ -234,27 +242,42 @@ impl<M: Model> Analysis<M> {
                 });
             }
             iterations += 1;
-            let j = self.shooting_jacobian(t0, &x0, &m, symmetry, &p)?;
-            let neg: Vec<f64> = r.iter().map(|v| -v).collect();
+            let j = with_gauge(self.shooting_jacobian(t0, &x0, &m, symmetry, &p)?, &gauge);
+            let neg: Vec<f64> = r.iter().map(|v| -v).chain(gauge.iter().map(|_| 0.0)).collect();
             let (dz, _) = dense::min_norm_solve(j.as_ref(), &neg, 1e-12)?;
             // damped: halve the step until the residual falls (a full step
-            // that fails to integrate counts as not falling)
+            // that fails to integrate counts as not falling); the trials
+            // integrate the state alone, the step taken its variational
+            // equations too
             let mut lambda = 1.0;
             loop {
                 let xt0: Vec<f64> = x0.iter().zip(&dz).map(|(a, d)| a + lambda * d).collect();
                 let pt: Vec<f64> = p.iter().zip(&dz[n2..]).map(|(a, d)| a + lambda * d).collect();
                 self.watch_grip();
-                match self.flow(t0, &xt0, period, settings) {
+                match self.end_state(t0, &xt0, period, settings) {
                     Err(AnalysisError::Stopped) => return Err(AnalysisError::Stopped),
-                    Ok((xt, mt, st)) => {
+                    Ok((xt, _)) => {
                         let rt = residual(self, &xt0, &xt, &pt);
                         if norm(&rt) < norm(&r) || lambda < 0.2 {
+                            // a damped step that gains little, thrice: the
+                            // guess is outside the region Newton converges
+                            // from (a transient); the caller may settle it
+                            slow = if lambda < 1.0 && norm(&rt) > 0.5 * norm(&r) { slow + 1 } else { 0 };
+                            let (_, mt, st) = self.flow(t0, &xt0, period, settings)?;
                             (x0, p, m, steps, r) = (xt0, pt, mt, st, rt);
+                            if slow == 3 {
+                                return Err(AnalysisError::NotConverged {
+                                    what: "a periodic orbit",
+                                    iterations,
+                                    residual: norm(&r),
+                                    tolerance: tol,
+                                });
+                            }
                             break;
                         }
                     }
                     Err(AnalysisError::Sim(SimError::Budget { .. })) if lambda < 0.2 => {
-                        return Err(AnalysisError::Request {
+                        return Err(AnalysisError::Wandered {
                             reason: format!(
                                 "the search for a periodic orbit wandered off after {iterations} Newton iterations: a period now takes more than {} steps, where the guess's took {}; the scene may have no periodic orbit near the guess (its speed may grow without bound), or start from a guess nearer one",
                                 settings.max_steps, first_steps
@@ -340,6 +363,32 @@ impl<M: Model> Analysis<M> {
         }
         Ok(j)
     }
+}
+
+/// The coordinates that fix a state's place on its group orbit: per
+/// generator of the rigid motions, the reference body's (the model's
+/// first) x, y or heading.
+fn gauge_coordinates(bodies: &[[usize; 3]], generators: &[Generator]) -> Vec<usize> {
+    generators
+        .iter()
+        .filter_map(|g| match g {
+            Generator::TranslateX => Some(bodies[0][0]),
+            Generator::TranslateY => Some(bodies[0][1]),
+            Generator::Rotate => Some(bodies[0][2]),
+            Generator::Shift(_) => None,
+        })
+        .collect()
+}
+
+/// `j` (m x n) with a row per gauge coordinate below it: `dx0[i] = 0`.
+fn with_gauge(j: Mat<f64>, gauge: &[usize]) -> Mat<f64> {
+    let m = j.nrows();
+    let mut out = Mat::<f64>::zeros(m + gauge.len(), j.ncols());
+    out.as_mut().subrows_mut(0, m).copy_from(j.as_ref());
+    for (k, &i) in gauge.iter().enumerate() {
+        out[(m + k, i)] = 1.0;
+    }
+    out
 }
 
 /// A gait's fixed point `x0` and shift `h` seen from the reference body

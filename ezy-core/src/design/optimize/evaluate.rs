@@ -163,7 +163,9 @@ impl<'a, M: Model> Evaluator<'a, M> {
             RunError::Sim(e) => AnalysisError::Sim(e),
             RunError::Output(e) => e,
         })?;
-        let o = an.periodic_orbit(0.0, period, &last.x, symmetry, &self.periodic)?;
+        // run on from there where the run is still in a transient, or
+        // told why there is no gait (an energy growing without bound)
+        let o = an.gait(t, period, &last.x, symmetry, &self.periodic)?;
         Ok(self.found(o))
     }
 

@@ -1,0 +1,295 @@
+//! A gait found where Newton's method alone does not find it: the period
+//! map iterated (the scene run on, period by period) until its motion
+//! settles, then the shooting Newton again from there; or the reason there
+//! is none to find, measured: an energy that grows without bound, or a
+//! motion that does not settle.
+//!
+//! A stable gait attracts the motions near it at the rate of its largest
+//! multiplier `|mu|`: the state at the period ends, modulo the symmetry,
+//! approaches the fixed point like `|mu|^k`. A weakly damped scene (the
+//! snake, `|mu|` about 0.99) spends hundreds of periods in its transient,
+//! and a shooting Newton started inside it meets the period map's strong
+//! nonlinearity there; started from the settled motion it converges in a
+//! few iterations (Seydel, *Practical Bifurcation and Stability
+//! Analysis*, 3rd ed., §7.3: shooting needs a guess near the orbit;
+//! simulation provides one for a stable orbit).
+
+use super::symmetry::{act, body_pose};
+use super::{Analysis, AnalysisError, PeriodicOrbit, PeriodicSettings, Symmetry};
+use crate::error::SimError;
+use crate::integrator::Rhs;
+use crate::integrator::adaptive::{self, Tolerance};
+use crate::integrator::dop853::Dop853;
+use crate::model::Model;
+use crate::names::fmt_value;
+
+/// Most periods of the forcing [`Analysis::gait`] runs the scene on for
+/// (in all, over its retries).
+pub const MAX_SETTLE_PERIODS: usize = 4096;
+
+/// The distances (relative change of the state at the period ends modulo
+/// the symmetry) at which [`Analysis::gait`] tries Newton again.
+const RETRY_AT: [f64; 3] = [1e-3, 1e-6, 1e-9];
+
+/// Fewest periods a growth of the energy is judged over.
+const GROWTH_MIN_PERIODS: usize = 8;
+
+/// How a run of the period map ended ([`Analysis::settle`]).
+#[derive(Debug, Clone, PartialEq)]
+pub enum Settling {
+    /// The state at a period's end, modulo the symmetry, changed by less
+    /// than the distance asked over the last period.
+    Settled,
+    /// The kinetic energy at the period ends grew in every period of the
+    /// second half of the run, by more than 5 %, like a power of the time
+    /// (no periodic orbit: the forcing's work is not taken by a loss).
+    Grows {
+        /// First and last time of the run's second half \[s\].
+        t: [f64; 2],
+        /// The kinetic energy then \[J\].
+        energy: [f64; 2],
+        /// The exponent `a` of `T ~ t^a` over that half.
+        exponent: f64,
+    },
+    /// Neither, within the periods allowed.
+    Unsettled,
+}
+
+/// When [`Analysis::settle`] stops.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Until {
+    /// The change of the state at the period ends, modulo the symmetry,
+    /// relative to `1 + max |x|` (max norm), below which the motion has
+    /// settled.
+    pub distance: f64,
+    /// Most periods run.
+    pub max_periods: usize,
+}
+
+/// The end of a run of the period map ([`Analysis::settle`]).
+#[derive(Debug, Clone)]
+pub struct Settle {
+    /// How it ended.
+    pub outcome: Settling,
+    /// The time reached \[s\] (the start plus whole periods).
+    pub t: f64,
+    /// The state there (2 nq).
+    pub state: Vec<f64>,
+    /// Periods run.
+    pub periods: usize,
+    /// The last period's change of the state modulo the symmetry, relative
+    /// to `1 + max |x|` (max norm).
+    pub distance: f64,
+}
+
+/// The state alone, `x' = f(t, x)`, for the period map's integration.
+struct State<'a, M: Model> {
+    analysis: &'a mut Analysis<M>,
+    failed: Option<AnalysisError>,
+}
+
+impl<M: Model> Rhs for State<'_, M> {
+    fn eval(&mut self, t: f64, x: &[f64], dx: &mut [f64]) -> Result<(), SimError> {
+        let nq = x.len() / 2;
+        let mut run = |an: &mut Analysis<M>| -> Result<(), AnalysisError> {
+            an.check_stop()?;
+            let p = an.point(t, x)?;
+            dx[..nq].copy_from_slice(&x[nq..]);
+            dx[nq..].copy_from_slice(&p.qdd);
+            Ok(())
+        };
+        run(self.analysis).map_err(|e| match e {
+            AnalysisError::Sim(e) => e,
+            e => {
+                let reason = e.to_string();
+                self.failed = Some(e);
+                SimError::Formulation { reason: reason.into() }
+            }
+        })
+    }
+}
+
+impl<M: Model> Analysis<M> {
+    /// Runs the scene from `x0` (2 nq) at `t0` \[s\] period by period of
+    /// `period` \[s\] (DOP853 at the tolerances of `settings`, no looser
+    /// than 1e-9) until the state at a period's end, modulo `symmetry`,
+    /// changes by less than `until.distance` (relative to `1 + max |x|`)
+    /// over a period; until the kinetic energy is seen to grow without bound
+    /// (checked after 8, 16, 32, ... periods over the run's second half:
+    /// in every period, by more than 5 % in all, at a rate `T ~ t^a`
+    /// whose exponent over the half's two quarters agrees to 25 %, which
+    /// a transient that saturates does not show); or for
+    /// `until.max_periods`.
+    ///
+    /// # Errors
+    /// As [`crate::integrator::adaptive::integrate`] and
+    /// [`Analysis::rhs`]; [`AnalysisError::Request`] when a skate with
+    /// friction slides on the motion ([`Analysis::check_grip`]).
+    pub fn settle(
+        &mut self,
+        t0: f64,
+        x0: &[f64],
+        period: f64,
+        symmetry: Symmetry,
+        settings: &PeriodicSettings,
+        until: Until,
+    ) -> Result<Settle, AnalysisError> {
+        let Until { distance: until, max_periods } = until;
+        self.check_state(x0)?;
+        let symmetry = symmetry.rigid();
+        let bodies = self.bodies().to_vec();
+        let gauged = |x: &[f64]| act(&bodies, symmetry.restrict(body_pose(&bodies, 0, x)).inverse(), x);
+        let tol = Tolerance { rtol: settings.tolerance.rtol.max(1e-9), atol: settings.tolerance.atol.max(1e-9) };
+        let nq = self.nq();
+        let (mut t, mut x) = (t0, x0.to_vec());
+        let mut before = gauged(&x);
+        let mut energies = vec![(t, self.sys.kinetic_energy(&x[nq..]))];
+        let mut distance = f64::INFINITY;
+        self.watch_grip();
+        let loose = PeriodicSettings { tolerance: tol, ..*settings };
+        for k in 1..=max_periods {
+            x = self.end_state(t, &x, period, &loose)?.0;
+            t = t0 + k as f64 * period;
+            let now = gauged(&x);
+            let size = 1.0 + now.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+            distance = now.iter().zip(&before).fold(0.0f64, |m, (a, b)| m.max((a - b).abs())) / size;
+            before = now;
+            energies.push((t, self.sys.kinetic_energy(&x[nq..])));
+            self.check_grip(&format!("the motion from t = {} s", fmt_value(t0)))?;
+            let outcome = if distance < until {
+                Some(Settling::Settled)
+            } else if k >= GROWTH_MIN_PERIODS && k.is_power_of_two() {
+                growth(&energies)
+            } else {
+                None
+            };
+            if let Some(outcome) = outcome {
+                return Ok(Settle { outcome, t, state: x, periods: k, distance });
+            }
+        }
+        Ok(Settle { outcome: Settling::Unsettled, t, state: x, periods: max_periods, distance })
+    }
+
+    /// The state at `t0 + period` from `x0` at `t0` \[s\] (DOP853 at the
+    /// tolerances of `settings`, the state alone), and the accepted steps.
+    ///
+    /// # Errors
+    /// As [`crate::integrator::adaptive::integrate`]; as [`Analysis::rhs`].
+    pub fn end_state(
+        &mut self,
+        t0: f64,
+        x0: &[f64],
+        period: f64,
+        settings: &PeriodicSettings,
+    ) -> Result<(Vec<f64>, u64), AnalysisError> {
+        let mut state = State { analysis: self, failed: None };
+        let end =
+            adaptive::integrate::<Dop853, _>(&mut state, t0, x0, t0 + period, &settings.tolerance, settings.max_steps);
+        if let Some(e) = state.failed.take() {
+            return Err(e);
+        }
+        let end = end?;
+        Ok((end.y, end.steps))
+    }
+
+    /// The periodic orbit of period `period` \[s\] at phase `t0` \[s\]
+    /// modulo `symmetry` that the motion from `guess` (2 nq) settles
+    /// onto: [`Analysis::periodic_orbit`] from `guess`; where that fails,
+    /// the scene run on ([`Analysis::settle`], up to
+    /// [`MAX_SETTLE_PERIODS`] periods in all) until its state at the
+    /// period ends changes by less than 1e-3, then 1e-6, then 1e-9 per
+    /// period, and the search again from there. The orbit's phase `t0`
+    /// is then the start's plus whole periods.
+    ///
+    /// # Errors
+    /// [`AnalysisError::NoOrbit`] naming why there is none to find (the
+    /// energy grows without bound, with its measured rate; the motion
+    /// does not settle within [`MAX_SETTLE_PERIODS`] periods);
+    /// [`AnalysisError::NotConverged`] when the search fails even from the
+    /// settled motion; as [`Analysis::periodic_orbit`] and
+    /// [`Analysis::settle`].
+    pub fn gait(
+        &mut self,
+        t0: f64,
+        period: f64,
+        guess: &[f64],
+        symmetry: Symmetry,
+        settings: &PeriodicSettings,
+    ) -> Result<PeriodicOrbit, AnalysisError> {
+        let mut last = match self.periodic_orbit(t0, period, guess, symmetry, settings) {
+            Ok(o) => return Ok(o),
+            Err(e) if searched(&e) => e,
+            Err(e) => return Err(e),
+        };
+        let (mut t, mut x, mut periods) = (t0, guess.to_vec(), 0);
+        for until in RETRY_AT {
+            let until = Until { distance: until, max_periods: MAX_SETTLE_PERIODS - periods };
+            let s = self.settle(t, &x, period, symmetry, settings, until)?;
+            (t, x, periods) = (s.t, s.state, periods + s.periods);
+            match s.outcome {
+                Settling::Settled => {}
+                Settling::Grows { t, energy, exponent } => {
+                    return Err(AnalysisError::NoOrbit {
+                        reason: format!(
+                            "the motion gains energy without bound. Its kinetic energy at the ends of the forcing's periods grows in every period from {} J at t = {} s to {} J at t = {} s (like t^{exponent:.2}: the speed like t^{:.2}); a gait needs a loss that takes the input's energy (rolling resistance, drag)",
+                            sig6(energy[0]),
+                            fmt_value(t[0]),
+                            sig6(energy[1]),
+                            fmt_value(t[1]),
+                            exponent / 2.0
+                        ),
+                    });
+                }
+                Settling::Unsettled => {
+                    return Err(AnalysisError::NoOrbit {
+                        reason: format!(
+                            "the motion does not settle onto one: run on for {periods} periods (to t = {} s), its state at the period ends still changes by {:.1e} per period (relative, modulo the plane's rigid motions), and the search from the run failed ({last}); it may be quasi-periodic or chaotic, or settle later",
+                            fmt_value(t),
+                            s.distance
+                        ),
+                    });
+                }
+            }
+            match self.periodic_orbit(t, period, &x, symmetry, settings) {
+                Ok(o) => return Ok(o),
+                Err(e) if searched(&e) => last = e,
+                Err(e) => return Err(e),
+            }
+            if periods >= MAX_SETTLE_PERIODS {
+                break;
+            }
+        }
+        Err(last)
+    }
+}
+
+/// Whether `e` is a search's failure (Newton's, or one that wandered off),
+/// not a request's or the scene's.
+fn searched(e: &AnalysisError) -> bool {
+    matches!(e, AnalysisError::NotConverged { .. } | AnalysisError::Wandered { .. })
+}
+
+/// [`Settling::Grows`] when the energies `(t, T)` at the period ends grow
+/// without bound over the second half, as [`Analysis::settle`] says.
+fn growth(energies: &[(f64, f64)]) -> Option<Settling> {
+    let half = &energies[energies.len() / 2..];
+    let (&(t1, e1), &(t2, e2)) = (half.first()?, half.last()?);
+    let grows = half.windows(2).all(|w| w[1].1 > w[0].1) && e2 > 1.05 * e1 && e1 > 0.0 && t1 > 0.0;
+    if !grows {
+        return None;
+    }
+    let rate = |a: (f64, f64), b: (f64, f64)| (b.1 / a.1).ln() / (b.0 / a.0).ln();
+    let mid = half[half.len() / 2];
+    let (early, late) = (rate(half[0], mid), rate(mid, half[half.len() - 1]));
+    let like = late > 0.75 * early && late < early / 0.75;
+    like.then(|| Settling::Grows { t: [t1, t2], energy: [e1, e2], exponent: rate((t1, e1), (t2, e2)) })
+}
+
+/// `v` to 7 significant digits.
+fn sig6(v: f64) -> String {
+    if v == 0.0 || !v.is_finite() {
+        return fmt_value(v);
+    }
+    let scale = 10f64.powi(6 - v.abs().log10().floor() as i32);
+    fmt_value((v * scale).round() / scale)
+}
