@@ -584,6 +584,14 @@ impl<M: Model> ezy_core::Observer<M> for States {
 /// The command's error for an analysis' error, `dir` the output directory.
 pub(crate) fn analysis_error(dir: &std::path::Path) -> impl Fn(AnalysisError) -> Error + '_ {
     move |e| match e {
+        // the analyses integrate with DOP853: a stiff scene's fast mode
+        // holds its step
+        AnalysisError::Sim(SimError::Budget { what: "steps", estimate, limit, detail, .. }) => Error::Input(format!(
+            "the analysis' integration (DOP853, an explicit method) would take about {} steps ({detail}), more than the limit of {}: a stiff scene's fast modes hold an explicit method's step, and the analyses have no implicit integrator yet; pass --max-steps {} (or larger) to wait for it",
+            fmt_count(estimate),
+            fmt_count(limit),
+            fmt_count(estimate)
+        )),
         AnalysisError::Sim(e) => Error::Sim(e),
         AnalysisError::Stopped => {
             match crate::output::transaction::check_interrupt(dir, None, Some("analysing".into())) {
@@ -593,6 +601,11 @@ pub(crate) fn analysis_error(dir: &std::path::Path) -> impl Fn(AnalysisError) ->
         }
         e => Error::Input(e.to_string()),
     }
+}
+
+/// A count of steps, whole.
+fn fmt_count(v: f64) -> String {
+    format!("{:.0}", v)
 }
 
 /// `v` rounded to six decimals, `0` below 1e-12 (no `-0`): a speed or

@@ -40,6 +40,12 @@
 //!   gait (an energy growing without bound, a motion that does not
 //!   settle), measured.
 //!
+//! - [`Analysis::limit_cycle`]: a periodic motion of an autonomous scene
+//!   (a crank turning under a constant torque), its period an unknown
+//!   fixed by a phase condition, headings that turn whole revolutions
+//!   taken modulo 2 pi; [`Analysis::return_time`] reads a first period
+//!   off a run.
+//!
 //! - [`branch::follow`]: a branch of either as a parameter varies, by
 //!   natural-parameter continuation, with its changes of stability.
 //!
@@ -49,6 +55,7 @@
 //! force law of the user's own is treated exactly as a built-in one.
 
 pub mod branch;
+mod cycle;
 pub(crate) mod dense;
 mod linear;
 pub(crate) mod periodic;

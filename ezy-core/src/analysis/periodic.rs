@@ -78,6 +78,11 @@ pub struct PeriodicOrbit {
     /// Accepted steps of the last period's integration (state and
     /// variational equations together).
     pub steps: u64,
+    /// The headings that turn through whole revolutions over a period (a
+    /// limit cycle's crank, [`Analysis::limit_cycle`]): the coordinate's
+    /// index and its turns, `x(t0 + T) = shift . x(t0) + 2 pi turns` in
+    /// it. Empty for a forced scene's orbit.
+    pub windings: Vec<(usize, i64)>,
 }
 
 impl PeriodicOrbit {
@@ -320,6 +325,7 @@ impl<M: Model> Analysis<M> {
             iterations,
             residual: norm(&r),
             steps,
+            windings: Vec::new(),
         })
     }
 
@@ -368,7 +374,7 @@ impl<M: Model> Analysis<M> {
 /// The coordinates that fix a state's place on its group orbit: per
 /// generator of the rigid motions, the reference body's (the model's
 /// first) x, y or heading.
-fn gauge_coordinates(bodies: &[[usize; 3]], generators: &[Generator]) -> Vec<usize> {
+pub(crate) fn gauge_coordinates(bodies: &[[usize; 3]], generators: &[Generator]) -> Vec<usize> {
     generators
         .iter()
         .filter_map(|g| match g {
@@ -381,7 +387,7 @@ fn gauge_coordinates(bodies: &[[usize; 3]], generators: &[Generator]) -> Vec<usi
 }
 
 /// `j` (m x n) with a row per gauge coordinate below it: `dx0[i] = 0`.
-fn with_gauge(j: Mat<f64>, gauge: &[usize]) -> Mat<f64> {
+pub(crate) fn with_gauge(j: Mat<f64>, gauge: &[usize]) -> Mat<f64> {
     let m = j.nrows();
     let mut out = Mat::<f64>::zeros(m + gauge.len(), j.ncols());
     out.as_mut().subrows_mut(0, m).copy_from(j.as_ref());

@@ -14,8 +14,9 @@
 //! Analysis*, 3rd ed., §7.3: shooting needs a guess near the orbit;
 //! simulation provides one for a stable orbit).
 
-use super::symmetry::{act, body_pose};
-use super::{Analysis, AnalysisError, PeriodicOrbit, PeriodicSettings, Symmetry};
+use super::periodic::{PeriodicOrbit, PeriodicSettings};
+use super::symmetry::{Symmetry, act, body_pose};
+use super::{Analysis, AnalysisError};
 use crate::error::SimError;
 use crate::integrator::Rhs;
 use crate::integrator::adaptive::{self, Tolerance};

@@ -344,7 +344,7 @@ impl<M: Model> Analysis<M> {
 
     /// Refuses a steady-motion search on a scene whose accelerations
     /// change with time at a fixed state.
-    fn check_autonomous(&mut self, t: f64, x: &[f64]) -> Result<(), AnalysisError> {
+    pub(crate) fn check_autonomous(&mut self, t: f64, x: &[f64]) -> Result<(), AnalysisError> {
         let a = self.rhs(t, x)?;
         let b = self.rhs(t + 0.7391, x)?;
         let scale = 1.0 + a.iter().fold(0.0f64, |m, v| m.max(v.abs()));

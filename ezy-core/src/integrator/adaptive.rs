@@ -481,9 +481,12 @@ pub fn integrate<E: EmbeddedRk, R: Rhs>(
     let (mut t, mut steps, mut rejected) = (t0, 0u64, 0u64);
     while t < t_end {
         if steps + rejected >= max_steps {
+            // the steps the whole interval would take at the rate so far
+            let done = (t - t0) / (t_end - t0);
+            let estimate = if done > 0.0 { (max_steps as f64 / done).ceil() } else { max_steps as f64 };
             return Err(SimError::Budget {
                 what: "steps",
-                estimate: max_steps as f64,
+                estimate,
                 limit: max_steps as f64,
                 setting: crate::settings::Setting::MaxSteps,
                 detail: format!("reached at t = {t} s, before t = {t_end} s"),

@@ -4,38 +4,38 @@
 //! `analyze` decides from the scene what it can ask: a scene whose forces
 //! do not change with time has steady motions (relative equilibria, or
 //! equilibria of a mechanism), a scene driven periodically has periodic
-//! orbits. The guesses come from the scene itself: its consistent start
+//! orbits; a scene without steady motions whose run turns on a cycle
+//! has a limit cycle. The guesses come from the scene itself: its consistent start
 //! and the state its own run ends in (a settled run ends near a stable
 //! solution). `--continue NAME=START:STOP:COUNT` follows the solution as a
 //! parameter varies (the same `NAME=...` as `--set` and `ezy sweep`).
 
-use std::fmt::Write as _;
 use std::io::Write;
 use std::path::PathBuf;
 use std::time::{Duration, Instant};
 
 use clap::{ArgMatches, Args, FromArgMatches};
 use ezy_core::analysis::{
-    Analysis, AnalysisError, BranchPoint, Follow, PeriodicOrbit, Solution, Stability, SteadyMotion, Symmetry, c64,
+    Analysis, AnalysisError, BranchPoint, Follow, PeriodicOrbit, PeriodicSettings, Solution, SteadyMotion, Symmetry,
 };
 use ezy_core::effects::Periodicity;
 use ezy_core::sensitivity::GaitSensitivities;
 use ezy_core::{Model, fmt_value};
 use ezy_scene::Scene;
 
+mod report;
+
 use super::{check_figure_format, committed};
 use crate::app::{App, AppError};
 use crate::cli::{Overrides, parse_positive};
-use crate::output::csv::{number, record};
 use crate::output::progress::Heartbeat;
 use crate::output::transaction::{Transaction, check_interrupt, pending};
-use crate::render::plot::{Chart, Series, Stroke};
-use crate::session::{
-    Error, RunOptions, analysis_error, complex, periodic_settings, rounded, run_to, scene_analysis, settings,
-};
+use crate::session::{Error, RunOptions, analysis_error, periodic_settings, run_to, scene_analysis, settings};
+use report::{summary, wrap, write_analysis};
 
 /// Find a scene's steady motions (or, driven periodically, its
-/// periodic orbit) and their stability; follow them as a parameter
+/// periodic orbit; or, where a scene without forcing in time turns on
+/// one, its limit cycle) and their stability; follow them as a parameter
 /// varies: equilibria.csv, periodic.csv, branch.csv and figures.
 #[derive(Args, Debug, Default)]
 #[command(allow_negative_numbers = true)]
@@ -144,9 +144,11 @@ struct AnalyzeReport {
     coords: Vec<String>,
     /// The steady motions found (distinct), for a time-independent scene.
     steady: Vec<SteadyMotion>,
-    /// The periodic orbit, for a periodically driven scene.
+    /// The periodic orbit, for a periodically driven scene; or the limit
+    /// cycle of an autonomous one.
     periodic: Option<PeriodicOrbit>,
-    /// Its mean input power, efficiency and derivatives.
+    /// A gait's mean input power, efficiency and derivatives (not a
+    /// limit cycle's).
     gait: Option<GaitSensitivities>,
     /// Files written.
     files: Vec<PathBuf>,
@@ -191,8 +193,29 @@ fn analyze_model<M: Model>(proto: &M, scene: &Scene, opts: &AnalyzeOptions) -> R
     let (steady, periodic, follow) = match period {
         None => {
             let guesses = guesses(&x0, &end, &samples, settings.t_end, symmetry);
-            let (steady, follow) = steady_motions(&mut an, scene, opts, symmetry, &guesses, beat.as_ref(), &mut log)?;
-            (steady, None, follow)
+            match steady_motions(&mut an, scene, opts, symmetry, &guesses, beat.as_ref(), &mut log) {
+                Ok((steady, follow)) => (steady, None, follow),
+                // none: does the run turn on a limit cycle?
+                Err(Error::Input(none)) => {
+                    let clock = Instant::now();
+                    if let Some(b) = &beat {
+                        b.set(format!("analyze {}: searching for a limit cycle", scene.name));
+                    }
+                    let ps = periodic_settings(ro);
+                    let t0 = settings.t_end;
+                    let cycle = limit_cycle(&mut an, t0, &end, symmetry, &ps).map_err(analysis_error(&ro.out));
+                    let Some(orbit) = cycle? else { return Err(Error::Input(none)) };
+                    log.timings.push(("limit cycle".into(), clock.elapsed()));
+                    // the steady searches' failures told once, not each
+                    log.notes = vec![format!(
+                        "no steady motion was found ({} searches); the run turns on a limit cycle",
+                        guesses.len()
+                    )];
+                    let period = orbit.period;
+                    (Vec::new(), Some(orbit), Follow::Periodic { t0, period, settings: ps })
+                }
+                Err(e) => return Err(e),
+            }
         }
         Some(p) => {
             let clock = Instant::now();
@@ -207,7 +230,22 @@ fn analyze_model<M: Model>(proto: &M, scene: &Scene, opts: &AnalyzeOptions) -> R
         }
     };
     drop(beat);
+    // a limit cycle's period is an unknown: neither its derivatives nor
+    // its branch (both at a fixed period) are its own yet
+    if period.is_none() && periodic.is_some() {
+        if !params.is_empty() {
+            return Err(Error::Input(
+                "--wrt: the derivatives of a limit cycle (an autonomous scene's periodic orbit, its period an unknown) are not computed yet; a forced scene's gait has them".into(),
+            ));
+        }
+        if opts.continuation.is_some() {
+            return Err(Error::Input(
+                "--continue: a limit cycle's branch (its period an unknown) is not followed yet; a forced scene's gait and steady motions have theirs".into(),
+            ));
+        }
+    }
     let gait = match (&periodic, &follow) {
+        (Some(_), _) if period.is_none() => None,
         (Some(orbit), Follow::Periodic { settings: ps, .. }) => {
             let clock = Instant::now();
             let (problem, _) = scene.problem_with(proto.clone(), &ro.sets)?;
@@ -232,10 +270,28 @@ fn analyze_model<M: Model>(proto: &M, scene: &Scene, opts: &AnalyzeOptions) -> R
         None => Vec::new(),
     };
     let power = branch_power(proto, scene, ro, opts, &branch, &mut log)?;
-    let files = write_analysis(&an, scene, opts, &steady, periodic.as_ref().zip(gait.as_ref()), (&branch, &power))?;
+    let files =
+        write_analysis(&an, scene, opts, &steady, periodic.as_ref().map(|p| (p, gait.as_ref())), (&branch, &power))?;
     let coords = an.dynamics().info.coords.clone();
     let Log { timings, notes } = log;
     Ok(AnalyzeReport { symmetry, coords, steady, periodic, gait, files, timings, notes })
+}
+
+/// The limit cycle an autonomous scene's run from `end` at `t0` \[s\]
+/// turns on, if it comes back near `end` within the run's length
+/// ([`Analysis::return_time`]); `None` where it does not.
+///
+/// # Errors
+/// The search's, where the run comes back but no cycle converges.
+fn limit_cycle<M: Model>(
+    an: &mut Analysis<M>,
+    t0: f64,
+    end: &[f64],
+    symmetry: Symmetry,
+    settings: &PeriodicSettings,
+) -> Result<Option<PeriodicOrbit>, AnalysisError> {
+    let Some(first) = an.return_time(t0, end, t0.max(1e-3), settings)? else { return Ok(None) };
+    an.limit_cycle(t0, first, end, symmetry, settings).map(Some)
 }
 
 /// What an analysis tells besides its results: what took how long, and
@@ -529,92 +585,6 @@ fn follow_branch<M: Model>(
     Ok(points)
 }
 
-/// Writes the analysis' tables and figures into `opts.run.out` as one
-/// transaction, retiring the files of an earlier analysis it does not
-/// write; returns the files written.
-fn write_analysis<M: Model>(
-    an: &Analysis<M>,
-    scene: &Scene,
-    opts: &AnalyzeOptions,
-    steady: &[SteadyMotion],
-    periodic: Option<(&PeriodicOrbit, &GaitSensitivities)>,
-    (branch, power): (&[BranchPoint], &[(f64, f64)]),
-) -> Result<Vec<PathBuf>, Error> {
-    let ro = &opts.run;
-    // the output is a transaction: all files or none, and none of an
-    // earlier analysis left beside them
-    let mut tx = Transaction::begin(&ro.out)?;
-    let mut own: Vec<String> = ["equilibria.csv", "periodic.csv", "branch.csv"].map(String::from).to_vec();
-    for stem in ["eigenvalues", "multipliers", "branch"] {
-        own.extend(ezy_scene::FigureFormat::ALL.iter().map(|f| f.file_name(stem)));
-    }
-    tx.retire(&own);
-    let names = an.state_names();
-    let shape = shape_columns(an);
-    let (format, dpi) = ro.look(scene);
-    let mut figures: Vec<(String, Chart)> = Vec::new();
-    if !steady.is_empty() {
-        tx.write("equilibria.csv", steady_csv(steady, &names, &shape).as_bytes())?;
-        let mut chart = Chart::new("Eigenvalues of the steady motions", "Re lambda [1/s]", "Im lambda [1/s]");
-        for (k, s) in steady.iter().enumerate() {
-            chart.series.push(points_series(format!("motion {} ({})", k + 1, s.stability.name()), &s.eigenvalues));
-        }
-        figures.push(("eigenvalues".into(), chart));
-    }
-    if let Some((p, g)) = periodic {
-        tx.write("periodic.csv", periodic_csv(p, g, &names, &shape).as_bytes())?;
-        let mut chart = Chart::new("Floquet multipliers of the periodic orbit", "Re mu", "Im mu");
-        let circle =
-            (0..=200).map(|k| (k as f64 * std::f64::consts::TAU / 200.0).sin_cos()).map(|(s, c)| (c, s)).collect();
-        chart.series.push(Series { stroke: Stroke::Solid, ..Series::new("unit circle", circle) });
-        chart.series.push(points_series(format!("multipliers ({})", p.stability.name()), &p.multipliers));
-        chart.equal_axes = true;
-        chart.path_ends = false;
-        figures.push(("multipliers".into(), chart));
-    }
-    if let Some((name, _)) = &opts.continuation
-        && !branch.is_empty()
-    {
-        tx.write("branch.csv", branch_csv(name, (branch, power), &names, &shape).as_bytes())?;
-        let speed = if periodic.is_some() { "mean speed [m/s]" } else { "speed [m/s]" };
-        let mut chart = Chart::new(format!("Branch in {name}: solid stable, dashed not"), name.clone(), speed);
-        for (label, stable) in [("stable", true), ("unstable or neutral", false)] {
-            let pts = branch
-                .iter()
-                .map(|b| {
-                    (
-                        b.value,
-                        if (b.solution.stability() == Stability::Stable) == stable {
-                            b.solution.speed()
-                        } else {
-                            f64::NAN
-                        },
-                    )
-                })
-                .collect();
-            chart.series.push(Series {
-                stroke: if stable { Stroke::Solid } else { Stroke::Dash(0) },
-                ..Series::new(label, pts)
-            });
-        }
-        if !power.is_empty() && power.iter().all(|(_, e)| e.is_finite()) {
-            chart.lower = Some("efficiency [m/J]".into());
-            let pts = branch.iter().zip(power).map(|(b, (_, e))| (b.value, *e)).collect();
-            chart.series.push(Series { panel: 1, stroke: Stroke::Solid, ..Series::new("efficiency", pts) });
-        }
-        figures.push(("branch".into(), chart));
-    }
-    if ro.figures {
-        for (stem, chart) in &figures {
-            tx.check(None, Some(format!("drawing {stem}")))?;
-            let bytes = crate::render::plot::figure(chart, format, dpi)
-                .map_err(|e| Error::Input(format!("figure {stem}: {e}")))?;
-            tx.write(&format.file_name(stem), &bytes)?;
-        }
-    }
-    Ok(tx.commit()?)
-}
-
 /// Shortest `--period`, as a fraction of the time `t0 = t_end` (at least
 /// 1 s) the orbit is sought from: there the time's rounding `eps t0` is
 /// 2.2e-7 of the period, above the shooting's tolerance (1e-9 relative).
@@ -664,114 +634,6 @@ fn same_state(a: &[f64], b: &[f64], angles: &[usize]) -> bool {
     })
 }
 
-/// The shape columns: each hinge between two bodies, its angle
-/// `theta_<H> = phi_a - phi_b` wrapped to (-pi, pi] \[rad\], with the
-/// headings' indices.
-fn shape_columns<M: Model>(an: &Analysis<M>) -> Vec<(String, usize, usize)> {
-    let info = &an.dynamics().info;
-    info.hinges
-        .iter()
-        .filter_map(|h| {
-            h.body_b.map(|b| (format!("theta_{}", h.name), info.bodies[h.body_a].coords[2], info.bodies[b].coords[2]))
-        })
-        .collect()
-}
-
-fn wrap(angle: f64) -> f64 {
-    let a = angle.rem_euclid(std::f64::consts::TAU);
-    if a > std::f64::consts::PI { a - std::f64::consts::TAU } else { a }
-}
-
-fn shape_cells(shape: &[(String, usize, usize)], x: &[f64]) -> Vec<String> {
-    shape.iter().map(|(_, a, b)| number(wrap(x[*a] - x[*b]))).collect()
-}
-
-fn spectrum_cells(values: &[c64]) -> Vec<String> {
-    values.iter().flat_map(|z| [number(z.re), number(z.im)]).collect()
-}
-
-fn spectrum_header(letter: &str, n: usize) -> Vec<String> {
-    (1..=n).flat_map(|k| [format!("{letter}{k}_re"), format!("{letter}{k}_im")]).collect()
-}
-
-/// `equilibria.csv`: one row per steady motion.
-fn steady_csv(steady: &[SteadyMotion], names: &[String], shape: &[(String, usize, usize)]) -> String {
-    let n = steady.first().map_or(0, |s| s.eigenvalues.len());
-    let mut head: Vec<String> =
-        ["motion", "stability", "family", "u", "v", "omega", "speed", "curvature"].map(String::from).to_vec();
-    head.extend(shape.iter().map(|s| s.0.clone()));
-    head.extend(names.iter().cloned());
-    head.extend(spectrum_header("lambda", n));
-    let mut out = record(head);
-    for (k, s) in steady.iter().enumerate() {
-        let [u, v, w] = s.body_velocity;
-        let mut cells = vec![
-            (k + 1).to_string(),
-            s.stability.name().into(),
-            s.family.to_string(),
-            number(u),
-            number(v),
-            number(w),
-            number(s.speed()),
-            number(s.curvature()),
-        ];
-        cells.extend(shape_cells(shape, &s.state));
-        cells.extend(s.state.iter().map(|v| number(*v)));
-        cells.extend(spectrum_cells(&s.eigenvalues));
-        out.push_str(&record(cells));
-    }
-    out
-}
-
-/// `periodic.csv`: the orbit in one row.
-fn periodic_csv(
-    p: &PeriodicOrbit,
-    g: &GaitSensitivities,
-    names: &[String],
-    shape: &[(String, usize, usize)],
-) -> String {
-    let mut head: Vec<String> =
-        ["period", "t0", "stability", "family", "mean_speed", "mean_forward_speed", "dx", "dy", "dheading"]
-            .map(String::from)
-            .to_vec();
-    head.extend(shape.iter().map(|s| s.0.clone()));
-    head.extend(names.iter().cloned());
-    head.extend(spectrum_header("mu", p.multipliers.len()));
-    let mut cells = vec![
-        number(p.period),
-        number(p.t0),
-        p.stability.name().into(),
-        p.family.to_string(),
-        number(p.mean_speed()),
-        number(p.mean_forward_speed()),
-        number(p.displacement[0]),
-        number(p.displacement[1]),
-        number(p.heading_change),
-    ];
-    cells.extend(shape_cells(shape, &p.state));
-    cells.extend(p.state.iter().map(|v| number(*v)));
-    cells.extend(spectrum_cells(&p.multipliers));
-    // the mean input power, the efficiency where there is input power,
-    // and the derivatives (a NaN efficiency and its derivative left out)
-    let efficient = g.efficiency.is_finite();
-    head.push("mean_power".into());
-    cells.push(number(g.mean_power));
-    if efficient {
-        head.push("efficiency".into());
-        cells.push(number(g.efficiency));
-    }
-    for (j, param) in g.parameters.iter().enumerate() {
-        for (what, v) in g.rows(j) {
-            if what == "efficiency" && !efficient {
-                continue;
-            }
-            head.push(format!("d{what}/d{param}"));
-            cells.push(number(v));
-        }
-    }
-    record(head) + &record(cells)
-}
-
 /// The mean input power \[W\] and efficiency \[m/J\] of each gait of a
 /// periodic branch (one period's integration each); empty for a branch
 /// of steady motions or none.
@@ -798,130 +660,4 @@ fn branch_power<M: Model>(
     }
     log.timings.push(("mean power along the branch".into(), clock.elapsed()));
     Ok(out)
-}
-
-/// `branch.csv`: one row per parameter value.
-fn branch_csv(
-    name: &str,
-    (branch, power): (&[BranchPoint], &[(f64, f64)]),
-    names: &[String],
-    shape: &[(String, usize, usize)],
-) -> String {
-    let (letter, n) = match &branch[0].solution {
-        Solution::Steady(s) => ("lambda", s.eigenvalues.len()),
-        Solution::Periodic(p) => ("mu", p.multipliers.len()),
-    };
-    let mut head: Vec<String> = vec![name.to_string(), "stability".into(), "speed".into()];
-    if letter == "mu" {
-        head.push("period".into());
-    }
-    head.extend(shape.iter().map(|s| s.0.clone()));
-    head.extend(names.iter().cloned());
-    head.extend(spectrum_header(letter, n));
-    let efficient = !power.is_empty() && power.iter().all(|(_, e)| e.is_finite());
-    if !power.is_empty() {
-        head.push("mean_power".into());
-    }
-    if efficient {
-        head.push("efficiency".into());
-    }
-    let mut out = record(head);
-    for (k, b) in branch.iter().enumerate() {
-        let mut cells = vec![number(b.value), b.solution.stability().name().into(), number(b.solution.speed())];
-        if let Solution::Periodic(p) = &b.solution {
-            cells.push(number(p.period));
-        }
-        cells.extend(shape_cells(shape, b.solution.state()));
-        cells.extend(b.solution.state().iter().map(|v| number(*v)));
-        cells.extend(spectrum_cells(match &b.solution {
-            Solution::Steady(s) => &s.eigenvalues,
-            Solution::Periodic(p) => &p.multipliers,
-        }));
-        if let Some((w, e)) = power.get(k) {
-            cells.push(number(*w));
-            if efficient {
-                cells.push(number(*e));
-            }
-        }
-        out.push_str(&record(cells));
-    }
-    out
-}
-
-fn points_series(label: String, values: &[c64]) -> Series {
-    Series { stroke: Stroke::Points, ..Series::new(label, values.iter().map(|z| (z.re, z.im)).collect()) }
-}
-
-/// The text `ezy analyze` prints.
-fn summary(scene: &str, r: &AnalyzeReport) -> String {
-    let mut s = String::new();
-    let sym: Vec<String> = r.symmetry.generators().iter().map(|g| g.name(&r.coords)).collect();
-    let _ = writeln!(
-        s,
-        "scene {scene}: symmetry {}",
-        if sym.is_empty() {
-            "none (ordinary equilibria)".to_string()
-        } else {
-            format!("{} (steady motions relative to it)", sym.join(", "))
-        }
-    );
-    for (k, m) in r.steady.iter().enumerate() {
-        let ev: Vec<String> = m.eigenvalues.iter().map(|z| complex(*z)).collect();
-        let _ = writeln!(
-            s,
-            "steady motion {}: {}, speed {} m/s, yaw rate {} rad/s, family {}; eigenvalues [1/s]: {}",
-            k + 1,
-            m.stability.name(),
-            rounded(m.speed()),
-            rounded(m.body_velocity[2]),
-            m.family,
-            ev.join(", ")
-        );
-    }
-    if let Some(p) = &r.periodic {
-        let mu: Vec<String> = p.multipliers.iter().map(|z| complex(*z)).collect();
-        let _ = writeln!(
-            s,
-            "periodic orbit: period {} s, {}, mean speed {} m/s, displacement ({}, {}) m and heading change {} rad per period; multipliers: {}",
-            fmt_value(p.period),
-            p.stability.name(),
-            rounded(p.mean_speed()),
-            rounded(p.displacement[0]),
-            rounded(p.displacement[1]),
-            rounded(p.heading_change),
-            mu.join(", ")
-        );
-        if let Some(g) = &r.gait {
-            let _ = write!(s, "mean input power {} W", fmt_value(sig(g.mean_power)));
-            if g.efficiency.is_finite() {
-                let _ = write!(s, ", efficiency {} m/J", fmt_value(sig(g.efficiency)));
-            }
-            s.push('\n');
-            for (j, param) in g.parameters.iter().enumerate() {
-                let rows: Vec<String> = (g.rows(j).into_iter())
-                    .filter(|(_, v)| v.is_finite())
-                    .map(|(what, v)| format!("d{what}/d{param} = {}", fmt_value(sig(v))))
-                    .collect();
-                let _ = writeln!(s, "at {param} = {}: {}", fmt_value(g.values[j]), rows.join(", "));
-            }
-        }
-    }
-    for n in &r.notes {
-        let _ = writeln!(s, "note: {n}");
-    }
-    for (what, d) in &r.timings {
-        let _ = writeln!(s, "time: {what}: {:.3} s", d.as_secs_f64());
-    }
-    for f in &r.files {
-        let _ = writeln!(s, "wrote {}", f.display());
-    }
-    s
-}
-
-/// `v` to 7 significant digits.
-fn sig(v: f64) -> f64 {
-    if v == 0.0 || !v.is_finite() {
-        return v;
-    }
-    format!("{v:.6e}").parse().unwrap_or(v)
 }

@@ -1,0 +1,350 @@
+//! `ezy analyze`'s output: the tables (equilibria.csv, periodic.csv,
+//! branch.csv), the figures and the summary printed.
+
+use std::fmt::Write as _;
+use std::path::PathBuf;
+
+use ezy_core::analysis::{Analysis, BranchPoint, PeriodicOrbit, Solution, Stability, SteadyMotion, c64};
+use ezy_core::sensitivity::GaitSensitivities;
+use ezy_core::{Model, fmt_value};
+use ezy_scene::Scene;
+
+use super::{AnalyzeOptions, AnalyzeReport};
+use crate::output::csv::{number, record};
+use crate::output::transaction::Transaction;
+use crate::render::plot::{Chart, Series, Stroke};
+use crate::session::{Error, complex, rounded};
+
+/// Writes the analysis' tables and figures into `opts.run.out` as one
+/// transaction, retiring the files of an earlier analysis it does not
+/// write; returns the files written.
+pub(super) fn write_analysis<M: Model>(
+    an: &Analysis<M>,
+    scene: &Scene,
+    opts: &AnalyzeOptions,
+    steady: &[SteadyMotion],
+    periodic: Option<(&PeriodicOrbit, Option<&GaitSensitivities>)>,
+    (branch, power): (&[BranchPoint], &[(f64, f64)]),
+) -> Result<Vec<PathBuf>, Error> {
+    let ro = &opts.run;
+    // the output is a transaction: all files or none, and none of an
+    // earlier analysis left beside them
+    let mut tx = Transaction::begin(&ro.out)?;
+    let mut own: Vec<String> = ["equilibria.csv", "periodic.csv", "branch.csv"].map(String::from).to_vec();
+    for stem in ["eigenvalues", "multipliers", "branch"] {
+        own.extend(ezy_scene::FigureFormat::ALL.iter().map(|f| f.file_name(stem)));
+    }
+    tx.retire(&own);
+    let names = an.state_names();
+    let shape = shape_columns(an);
+    let (format, dpi) = ro.look(scene);
+    let mut figures: Vec<(String, Chart)> = Vec::new();
+    if !steady.is_empty() {
+        tx.write("equilibria.csv", steady_csv(steady, &names, &shape).as_bytes())?;
+        let mut chart = Chart::new("Eigenvalues of the steady motions", "Re lambda [1/s]", "Im lambda [1/s]");
+        for (k, s) in steady.iter().enumerate() {
+            chart.series.push(points_series(format!("motion {} ({})", k + 1, s.stability.name()), &s.eigenvalues));
+        }
+        figures.push(("eigenvalues".into(), chart));
+    }
+    if let Some((p, g)) = periodic {
+        tx.write("periodic.csv", periodic_csv(p, g, &names, &shape).as_bytes())?;
+        let mut chart = Chart::new("Floquet multipliers of the periodic orbit", "Re mu", "Im mu");
+        let circle =
+            (0..=200).map(|k| (k as f64 * std::f64::consts::TAU / 200.0).sin_cos()).map(|(s, c)| (c, s)).collect();
+        chart.series.push(Series { stroke: Stroke::Solid, ..Series::new("unit circle", circle) });
+        chart.series.push(points_series(format!("multipliers ({})", p.stability.name()), &p.multipliers));
+        chart.equal_axes = true;
+        chart.path_ends = false;
+        figures.push(("multipliers".into(), chart));
+    }
+    if let Some((name, _)) = &opts.continuation
+        && !branch.is_empty()
+    {
+        tx.write("branch.csv", branch_csv(name, (branch, power), &names, &shape).as_bytes())?;
+        let speed = if periodic.is_some() { "mean speed [m/s]" } else { "speed [m/s]" };
+        let mut chart = Chart::new(format!("Branch in {name}: solid stable, dashed not"), name.clone(), speed);
+        for (label, stable) in [("stable", true), ("unstable or neutral", false)] {
+            let pts = branch
+                .iter()
+                .map(|b| {
+                    (
+                        b.value,
+                        if (b.solution.stability() == Stability::Stable) == stable {
+                            b.solution.speed()
+                        } else {
+                            f64::NAN
+                        },
+                    )
+                })
+                .collect();
+            chart.series.push(Series {
+                stroke: if stable { Stroke::Solid } else { Stroke::Dash(0) },
+                ..Series::new(label, pts)
+            });
+        }
+        if !power.is_empty() && power.iter().all(|(_, e)| e.is_finite()) {
+            chart.lower = Some("efficiency [m/J]".into());
+            let pts = branch.iter().zip(power).map(|(b, (_, e))| (b.value, *e)).collect();
+            chart.series.push(Series { panel: 1, stroke: Stroke::Solid, ..Series::new("efficiency", pts) });
+        }
+        figures.push(("branch".into(), chart));
+    }
+    if ro.figures {
+        for (stem, chart) in &figures {
+            tx.check(None, Some(format!("drawing {stem}")))?;
+            let bytes = crate::render::plot::figure(chart, format, dpi)
+                .map_err(|e| Error::Input(format!("figure {stem}: {e}")))?;
+            tx.write(&format.file_name(stem), &bytes)?;
+        }
+    }
+    Ok(tx.commit()?)
+}
+
+/// The shape columns: each hinge between two bodies, its angle
+/// `theta_<H> = phi_a - phi_b` wrapped to (-pi, pi] \[rad\], with the
+/// headings' indices.
+fn shape_columns<M: Model>(an: &Analysis<M>) -> Vec<(String, usize, usize)> {
+    let info = &an.dynamics().info;
+    info.hinges
+        .iter()
+        .filter_map(|h| {
+            h.body_b.map(|b| (format!("theta_{}", h.name), info.bodies[h.body_a].coords[2], info.bodies[b].coords[2]))
+        })
+        .collect()
+}
+
+pub(super) fn wrap(angle: f64) -> f64 {
+    let a = angle.rem_euclid(std::f64::consts::TAU);
+    if a > std::f64::consts::PI { a - std::f64::consts::TAU } else { a }
+}
+
+fn shape_cells(shape: &[(String, usize, usize)], x: &[f64]) -> Vec<String> {
+    shape.iter().map(|(_, a, b)| number(wrap(x[*a] - x[*b]))).collect()
+}
+
+fn spectrum_cells(values: &[c64]) -> Vec<String> {
+    values.iter().flat_map(|z| [number(z.re), number(z.im)]).collect()
+}
+
+fn spectrum_header(letter: &str, n: usize) -> Vec<String> {
+    (1..=n).flat_map(|k| [format!("{letter}{k}_re"), format!("{letter}{k}_im")]).collect()
+}
+
+/// `equilibria.csv`: one row per steady motion.
+fn steady_csv(steady: &[SteadyMotion], names: &[String], shape: &[(String, usize, usize)]) -> String {
+    let n = steady.first().map_or(0, |s| s.eigenvalues.len());
+    let mut head: Vec<String> =
+        ["motion", "stability", "family", "u", "v", "omega", "speed", "curvature"].map(String::from).to_vec();
+    head.extend(shape.iter().map(|s| s.0.clone()));
+    head.extend(names.iter().cloned());
+    head.extend(spectrum_header("lambda", n));
+    let mut out = record(head);
+    for (k, s) in steady.iter().enumerate() {
+        let [u, v, w] = s.body_velocity;
+        let mut cells = vec![
+            (k + 1).to_string(),
+            s.stability.name().into(),
+            s.family.to_string(),
+            number(u),
+            number(v),
+            number(w),
+            number(s.speed()),
+            number(s.curvature()),
+        ];
+        cells.extend(shape_cells(shape, &s.state));
+        cells.extend(s.state.iter().map(|v| number(*v)));
+        cells.extend(spectrum_cells(&s.eigenvalues));
+        out.push_str(&record(cells));
+    }
+    out
+}
+
+/// `periodic.csv`: the orbit in one row.
+fn periodic_csv(
+    p: &PeriodicOrbit,
+    g: Option<&GaitSensitivities>,
+    names: &[String],
+    shape: &[(String, usize, usize)],
+) -> String {
+    let mut head: Vec<String> =
+        ["period", "t0", "stability", "family", "mean_speed", "mean_forward_speed", "dx", "dy", "dheading"]
+            .map(String::from)
+            .to_vec();
+    head.extend(shape.iter().map(|s| s.0.clone()));
+    head.extend(names.iter().cloned());
+    head.extend(spectrum_header("mu", p.multipliers.len()));
+    let mut cells = vec![
+        number(p.period),
+        number(p.t0),
+        p.stability.name().into(),
+        p.family.to_string(),
+        number(p.mean_speed()),
+        number(p.mean_forward_speed()),
+        number(p.displacement[0]),
+        number(p.displacement[1]),
+        number(p.heading_change),
+    ];
+    cells.extend(shape_cells(shape, &p.state));
+    cells.extend(p.state.iter().map(|v| number(*v)));
+    cells.extend(spectrum_cells(&p.multipliers));
+    // a limit cycle's headings that turn: whole turns per period
+    for &(i, w) in &p.windings {
+        head.push(format!("turns_{}", names[i]));
+        cells.push(w.to_string());
+    }
+    let Some(g) = g else { return record(head) + &record(cells) };
+    // the mean input power, the efficiency where there is input power,
+    // and the derivatives (a NaN efficiency and its derivative left out)
+    let efficient = g.efficiency.is_finite();
+    head.push("mean_power".into());
+    cells.push(number(g.mean_power));
+    if efficient {
+        head.push("efficiency".into());
+        cells.push(number(g.efficiency));
+    }
+    for (j, param) in g.parameters.iter().enumerate() {
+        for (what, v) in g.rows(j) {
+            if what == "efficiency" && !efficient {
+                continue;
+            }
+            head.push(format!("d{what}/d{param}"));
+            cells.push(number(v));
+        }
+    }
+    record(head) + &record(cells)
+}
+
+/// `branch.csv`: one row per parameter value.
+fn branch_csv(
+    name: &str,
+    (branch, power): (&[BranchPoint], &[(f64, f64)]),
+    names: &[String],
+    shape: &[(String, usize, usize)],
+) -> String {
+    let (letter, n) = match &branch[0].solution {
+        Solution::Steady(s) => ("lambda", s.eigenvalues.len()),
+        Solution::Periodic(p) => ("mu", p.multipliers.len()),
+    };
+    let mut head: Vec<String> = vec![name.to_string(), "stability".into(), "speed".into()];
+    if letter == "mu" {
+        head.push("period".into());
+    }
+    head.extend(shape.iter().map(|s| s.0.clone()));
+    head.extend(names.iter().cloned());
+    head.extend(spectrum_header(letter, n));
+    let efficient = !power.is_empty() && power.iter().all(|(_, e)| e.is_finite());
+    if !power.is_empty() {
+        head.push("mean_power".into());
+    }
+    if efficient {
+        head.push("efficiency".into());
+    }
+    let mut out = record(head);
+    for (k, b) in branch.iter().enumerate() {
+        let mut cells = vec![number(b.value), b.solution.stability().name().into(), number(b.solution.speed())];
+        if let Solution::Periodic(p) = &b.solution {
+            cells.push(number(p.period));
+        }
+        cells.extend(shape_cells(shape, b.solution.state()));
+        cells.extend(b.solution.state().iter().map(|v| number(*v)));
+        cells.extend(spectrum_cells(match &b.solution {
+            Solution::Steady(s) => &s.eigenvalues,
+            Solution::Periodic(p) => &p.multipliers,
+        }));
+        if let Some((w, e)) = power.get(k) {
+            cells.push(number(*w));
+            if efficient {
+                cells.push(number(*e));
+            }
+        }
+        out.push_str(&record(cells));
+    }
+    out
+}
+
+fn points_series(label: String, values: &[c64]) -> Series {
+    Series { stroke: Stroke::Points, ..Series::new(label, values.iter().map(|z| (z.re, z.im)).collect()) }
+}
+
+/// The text `ezy analyze` prints.
+pub(super) fn summary(scene: &str, r: &AnalyzeReport) -> String {
+    let mut s = String::new();
+    let sym: Vec<String> = r.symmetry.generators().iter().map(|g| g.name(&r.coords)).collect();
+    let _ = writeln!(
+        s,
+        "scene {scene}: symmetry {}",
+        if sym.is_empty() {
+            "none (ordinary equilibria)".to_string()
+        } else {
+            format!("{} (steady motions relative to it)", sym.join(", "))
+        }
+    );
+    for (k, m) in r.steady.iter().enumerate() {
+        let ev: Vec<String> = m.eigenvalues.iter().map(|z| complex(*z)).collect();
+        let _ = writeln!(
+            s,
+            "steady motion {}: {}, speed {} m/s, yaw rate {} rad/s, family {}; eigenvalues [1/s]: {}",
+            k + 1,
+            m.stability.name(),
+            rounded(m.speed()),
+            rounded(m.body_velocity[2]),
+            m.family,
+            ev.join(", ")
+        );
+    }
+    if let Some(p) = &r.periodic {
+        let mu: Vec<String> = p.multipliers.iter().map(|z| complex(*z)).collect();
+        let turns: Vec<String> = p.windings.iter().map(|(i, w)| format!("{} {w}", r.coords[*i])).collect();
+        let kind = if r.gait.is_none() && !turns.is_empty() {
+            format!("limit cycle (turns per period: {})", turns.join(", "))
+        } else if r.gait.is_none() {
+            "limit cycle".to_string()
+        } else {
+            "periodic orbit".to_string()
+        };
+        let _ = writeln!(
+            s,
+            "{kind}: period {} s, {}, mean speed {} m/s, displacement ({}, {}) m and heading change {} rad per period; multipliers: {}",
+            fmt_value(p.period),
+            p.stability.name(),
+            rounded(p.mean_speed()),
+            rounded(p.displacement[0]),
+            rounded(p.displacement[1]),
+            rounded(p.heading_change),
+            mu.join(", ")
+        );
+        if let Some(g) = &r.gait {
+            let _ = write!(s, "mean input power {} W", fmt_value(sig(g.mean_power)));
+            if g.efficiency.is_finite() {
+                let _ = write!(s, ", efficiency {} m/J", fmt_value(sig(g.efficiency)));
+            }
+            s.push('\n');
+            for (j, param) in g.parameters.iter().enumerate() {
+                let rows: Vec<String> = (g.rows(j).into_iter())
+                    .filter(|(_, v)| v.is_finite())
+                    .map(|(what, v)| format!("d{what}/d{param} = {}", fmt_value(sig(v))))
+                    .collect();
+                let _ = writeln!(s, "at {param} = {}: {}", fmt_value(g.values[j]), rows.join(", "));
+            }
+        }
+    }
+    for n in &r.notes {
+        let _ = writeln!(s, "note: {n}");
+    }
+    for (what, d) in &r.timings {
+        let _ = writeln!(s, "time: {what}: {:.3} s", d.as_secs_f64());
+    }
+    for f in &r.files {
+        let _ = writeln!(s, "wrote {}", f.display());
+    }
+    s
+}
+
+/// `v` to 7 significant digits.
+fn sig(v: f64) -> f64 {
+    if v == 0.0 || !v.is_finite() {
+        return v;
+    }
+    format!("{v:.6e}").parse().unwrap_or(v)
+}
