@@ -27,9 +27,11 @@ ezy_core::model! {
 
 /// A spring to the origin and a damper on the cart: `-k x - c xd` [N].
 #[derive(Debug, Clone)]
-struct SpringDamper {
-    k: f64,
-    c: f64,
+pub(crate) struct SpringDamper {
+    /// Stiffness [N/m].
+    pub(crate) k: f64,
+    /// Damping [N s/m] (negative: a source of energy).
+    pub(crate) c: f64,
 }
 
 impl ForceLaw for SpringDamper {
@@ -67,13 +69,19 @@ impl ForceLaw for Push {
     }
 }
 
-const M: f64 = 2.0;
-const K: f64 = 8.0;
+pub(crate) const M: f64 = 2.0;
+pub(crate) const K: f64 = 8.0;
 
 /// The cart with spring `k`, damping `c` and, where given, a push of
 /// amplitude 1 N at `omega` [rad/s]; from `x0` at rest, to `t_end`, by
 /// DOP853 at 1e-12.
-fn cart(k: f64, c: f64, omega: Option<f64>, x0: f64, t_end: f64) -> Result<Problem<Cart>, ezy_core::SimError> {
+pub(crate) fn cart(
+    k: f64,
+    c: f64,
+    omega: Option<f64>,
+    x0: f64,
+    t_end: f64,
+) -> Result<Problem<Cart>, ezy_core::SimError> {
     let mut p = Problem::new(Cart::default()).law("spring", SpringDamper { k, c })?;
     if let Some(omega) = omega {
         p = p.law("push", Push { f0: 1.0, omega })?;

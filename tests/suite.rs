@@ -18,6 +18,7 @@ mod any_model;
 mod app;
 mod architecture;
 mod bench;
+mod bifurcation;
 mod build_sharing;
 mod cli;
 mod culprits;

@@ -107,25 +107,38 @@ pub fn follow<M: Model>(
             [.., b] => b.solution.state().to_vec(),
             [] => start.to_vec(),
         };
-        let found = build(value).and_then(|mut an| {
-            let symmetry = an.symmetry(0.0, &guess)?;
-            match follow {
-                Follow::Steady { energy } => an.steady_motion(0.0, &guess, symmetry, energy).map(Solution::Steady),
-                Follow::Periodic { t0, period, settings } => {
-                    let period = match an.forcing() {
-                        Some(crate::effects::waveform::Periodicity::Period(forcing)) => {
-                            forcing * *multiple.get_or_insert_with(|| (period / forcing).round().max(1.0))
-                        }
-                        _ => period,
-                    };
-                    an.periodic_orbit(t0, period, &guess, symmetry, &settings).map(Solution::Periodic)
-                }
-            }
-        });
+        let found = build(value).and_then(|mut an| solve(&mut an, follow, &guess, &mut multiple));
         match found {
             Ok(solution) => points.push(BranchPoint { value, solution }),
             Err(e) => return (points, Some((value, e))),
         }
     }
     (points, None)
+}
+
+/// The solution of the kind `follow` asks for nearest `guess` (2 nq); a
+/// periodic orbit's period the forcing's times `multiple` (set at the
+/// first call from `follow`'s period).
+///
+/// # Errors
+/// As [`Analysis::steady_motion`] and [`Analysis::periodic_orbit`].
+pub(crate) fn solve<M: Model>(
+    an: &mut Analysis<M>,
+    follow: Follow,
+    guess: &[f64],
+    multiple: &mut Option<f64>,
+) -> Result<Solution, AnalysisError> {
+    let symmetry = an.symmetry(0.0, guess)?;
+    match follow {
+        Follow::Steady { energy } => an.steady_motion(0.0, guess, symmetry, energy).map(Solution::Steady),
+        Follow::Periodic { t0, period, settings } => {
+            let period = match an.forcing() {
+                Some(crate::effects::waveform::Periodicity::Period(forcing)) => {
+                    forcing * *multiple.get_or_insert_with(|| (period / forcing).round().max(1.0))
+                }
+                _ => period,
+            };
+            an.periodic_orbit(t0, period, guess, symmetry, &settings).map(Solution::Periodic)
+        }
+    }
 }

@@ -47,13 +47,17 @@
 //!   off a run.
 //!
 //! - [`branch::follow`]: a branch of either as a parameter varies, by
-//!   natural-parameter continuation, with its changes of stability.
+//!   natural-parameter continuation, with its changes of stability;
+//!   [`bifurcation::locate`] bisects one to the tolerance asked and names
+//!   it (branch point, period doubling, Neimark-Sacker, Hopf) by its
+//!   critical eigenvalue or multiplier.
 //!
 //! The plane's symmetry (translations, rotations) is found numerically
 //! ([`Analysis::symmetry`]): a scene is invariant under a rigid motion when
 //! its constraints and accelerations are equivariant at test states, so a
 //! force law of the user's own is treated exactly as a built-in one.
 
+pub mod bifurcation;
 pub mod branch;
 mod cycle;
 pub(crate) mod dense;
@@ -63,6 +67,7 @@ mod settle;
 mod steady;
 pub(crate) mod symmetry;
 
+pub use bifurcation::{Bifurcation, BifurcationKind};
 pub use branch::{BranchPoint, Follow, Solution};
 pub use faer::c64;
 pub use linear::{Input, Linearization};

@@ -125,7 +125,7 @@ impl<M: Model> Analysis<M> {
     /// # Errors
     /// As [`crate::integrator::adaptive::integrate`] and
     /// [`Analysis::rhs`]; [`AnalysisError::Request`] when a skate with
-    /// friction slides on the motion ([`Analysis::check_grip`]).
+    /// friction slides on the motion (its holding force past `mu N`).
     pub fn settle(
         &mut self,
         t0: f64,

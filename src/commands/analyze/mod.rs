@@ -15,6 +15,7 @@ use std::path::PathBuf;
 use std::time::{Duration, Instant};
 
 use clap::{ArgMatches, Args, FromArgMatches};
+use ezy_core::analysis::bifurcation::locate;
 use ezy_core::analysis::{
     Analysis, AnalysisError, BranchPoint, Follow, PeriodicOrbit, PeriodicSettings, Solution, SteadyMotion, Symmetry,
 };
@@ -30,8 +31,8 @@ use crate::app::{App, AppError};
 use crate::cli::{Overrides, parse_positive};
 use crate::output::progress::Heartbeat;
 use crate::output::transaction::{Transaction, check_interrupt, pending};
-use crate::session::{Error, RunOptions, analysis_error, periodic_settings, run_to, scene_analysis, settings};
-use report::{summary, wrap, write_analysis};
+use crate::session::{Error, RunOptions, analysis_error, complex, periodic_settings, run_to, scene_analysis, settings};
+use report::{Located, summary, wrap, write_analysis};
 
 /// Find a scene's steady motions (or, driven periodically, its
 /// periodic orbit; or, where a scene without forcing in time turns on
@@ -260,18 +261,24 @@ fn analyze_model<M: Model>(proto: &M, scene: &Scene, opts: &AnalyzeOptions) -> R
         }
         _ => None,
     };
-    let branch = match &opts.continuation {
+    let (branch, bifurcations) = match &opts.continuation {
         Some((name, values)) => {
             let start = steady
                 .first()
                 .map_or_else(|| periodic.as_ref().map(|p| p.state.clone()).unwrap_or_default(), |s| s.state.clone());
             follow_branch(proto, scene, ro, (name, values), &start, follow, &mut log)?
         }
-        None => Vec::new(),
+        None => (Vec::new(), Vec::new()),
     };
     let power = branch_power(proto, scene, ro, opts, &branch, &mut log)?;
-    let files =
-        write_analysis(&an, scene, opts, &steady, periodic.as_ref().map(|p| (p, gait.as_ref())), (&branch, &power))?;
+    let files = write_analysis(
+        &an,
+        scene,
+        opts,
+        &steady,
+        periodic.as_ref().map(|p| (p, gait.as_ref())),
+        (&branch, &power, &bifurcations),
+    )?;
     let coords = an.dynamics().info.coords.clone();
     let Log { timings, notes } = log;
     Ok(AnalyzeReport { symmetry, coords, steady, periodic, gait, files, timings, notes })
@@ -540,50 +547,75 @@ fn follow_branch<M: Model>(
     start: &[f64],
     follow: Follow,
     log: &mut Log,
-) -> Result<Vec<BranchPoint>, Error> {
+) -> Result<(Vec<BranchPoint>, Vec<Located>), Error> {
     let clock = Instant::now();
     let beat = ro.progress.then(|| Heartbeat::start(format!("following the branch in {name}")));
-    let (points, ended) = ezy_core::analysis::branch::follow(
-        values,
-        start,
-        follow,
-        |v| {
-            // a signal ends the branch at the next point
-            if pending().is_some() {
-                return Err(AnalysisError::Request { reason: "stopped by a signal".into() });
-            }
-            let mut sets = ro.sets.clone();
-            sets.push((name.clone(), v));
-            scene_analysis(proto, scene, &sets).map(|(a, _)| a).map_err(|e| match e {
-                Error::Sim(e) => AnalysisError::Sim(e),
-                e => AnalysisError::Request { reason: e.to_string() },
-            })
-        },
-        |k| {
-            if let Some(b) = &beat {
-                b.set(format!("following the branch in {name}: point {} of {}", k + 1, values.len()));
-            }
-        },
-    );
+    let build = |v: f64| {
+        // a signal ends the branch at the next point
+        if pending().is_some() {
+            return Err(AnalysisError::Request { reason: "stopped by a signal".into() });
+        }
+        let mut sets = ro.sets.clone();
+        sets.push((name.clone(), v));
+        scene_analysis(proto, scene, &sets).map(|(a, _)| a).map_err(|e| match e {
+            Error::Sim(e) => AnalysisError::Sim(e),
+            e => AnalysisError::Request { reason: e.to_string() },
+        })
+    };
+    let (points, ended) = ezy_core::analysis::branch::follow(values, start, follow, build, |k| {
+        if let Some(b) = &beat {
+            b.set(format!("following the branch in {name}: point {} of {}", k + 1, values.len()));
+        }
+    });
     drop(beat);
     check_interrupt(&ro.out, None, Some(format!("following the branch in {name}")))?;
     if let Some((v, e)) = ended {
         log.notes.push(format!("the branch ends at {name} = {}: {e}", fmt_value(v)));
     }
-    for w in points.windows(2) {
-        if w[0].solution.stability() != w[1].solution.stability() {
-            log.notes.push(format!(
-                "stability changes between {name} = {} ({}) and {} ({})",
-                fmt_value(w[0].value),
-                w[0].solution.stability().name(),
-                fmt_value(w[1].value),
-                w[1].solution.stability().name()
-            ));
+    log.timings.push((format!("branch of {} points", points.len()), clock.elapsed()));
+    // the bifurcations between the points, located
+    let clock = Instant::now();
+    let mut found = Vec::new();
+    for (k, w) in points.windows(2).enumerate() {
+        let stability = |b: &BranchPoint| b.solution.stability().name();
+        let changes = format!(
+            "between {name} = {} ({}) and {} ({})",
+            fmt_value(w[0].value),
+            stability(&w[0]),
+            fmt_value(w[1].value),
+            stability(&w[1])
+        );
+        match locate(&w[0], &w[1], follow, build, BIFURCATION_TOL) {
+            Ok(Some(b)) => {
+                let critical: Vec<String> = b.critical.iter().map(|z| complex(*z)).collect();
+                log.notes.push(format!(
+                    "{} at {name} = {} (to {:.0e}, {} solves; {changes}): critical {} {}",
+                    b.kind.name(),
+                    fmt_value(b.value),
+                    (b.bracket[1] - b.bracket[0]).abs(),
+                    b.solves,
+                    if matches!(b.solution, Solution::Steady(_)) { "eigenvalue" } else { "multiplier" },
+                    critical.join(", ")
+                ));
+                found.push((k, b));
+            }
+            Ok(None) if stability(&w[0]) != stability(&w[1]) => {
+                log.notes.push(format!("stability changes {changes}"));
+            }
+            Ok(None) => {}
+            Err(e) => log.notes.push(format!("stability changes {changes}; not located: {e}")),
         }
     }
-    log.timings.push((format!("branch of {} points", points.len()), clock.elapsed()));
-    Ok(points)
+    check_interrupt(&ro.out, None, Some(format!("locating the bifurcations in {name}")))?;
+    if !found.is_empty() {
+        log.timings.push((format!("{} bifurcations located", found.len()), clock.elapsed()));
+    }
+    Ok((points, found))
 }
+
+/// The width of the bracket a bifurcation is located to, relative to
+/// `1 + |value|`.
+const BIFURCATION_TOL: f64 = 1e-8;
 
 /// Shortest `--period`, as a fraction of the time `t0 = t_end` (at least
 /// 1 s) the orbit is sought from: there the time's rounding `eps t0` is

@@ -4,7 +4,7 @@
 use std::fmt::Write as _;
 use std::path::PathBuf;
 
-use ezy_core::analysis::{Analysis, BranchPoint, PeriodicOrbit, Solution, Stability, SteadyMotion, c64};
+use ezy_core::analysis::{Analysis, Bifurcation, BranchPoint, PeriodicOrbit, Solution, Stability, SteadyMotion, c64};
 use ezy_core::sensitivity::GaitSensitivities;
 use ezy_core::{Model, fmt_value};
 use ezy_scene::Scene;
@@ -15,6 +15,13 @@ use crate::output::transaction::Transaction;
 use crate::render::plot::{Chart, Series, Stroke};
 use crate::session::{Error, complex, rounded};
 
+/// A bifurcation located, after the branch's point at the index.
+pub(super) type Located = (usize, Bifurcation);
+
+/// A branch's points, their mean power and efficiency, and its
+/// bifurcations.
+type BranchView<'a> = (&'a [BranchPoint], &'a [(f64, f64)], &'a [Located]);
+
 /// Writes the analysis' tables and figures into `opts.run.out` as one
 /// transaction, retiring the files of an earlier analysis it does not
 /// write; returns the files written.
@@ -24,7 +31,7 @@ pub(super) fn write_analysis<M: Model>(
     opts: &AnalyzeOptions,
     steady: &[SteadyMotion],
     periodic: Option<(&PeriodicOrbit, Option<&GaitSensitivities>)>,
-    (branch, power): (&[BranchPoint], &[(f64, f64)]),
+    (branch, power, bifurcations): BranchView<'_>,
 ) -> Result<Vec<PathBuf>, Error> {
     let ro = &opts.run;
     // the output is a transaction: all files or none, and none of an
@@ -61,7 +68,7 @@ pub(super) fn write_analysis<M: Model>(
     if let Some((name, _)) = &opts.continuation
         && !branch.is_empty()
     {
-        tx.write("branch.csv", branch_csv(name, (branch, power), &names, &shape).as_bytes())?;
+        tx.write("branch.csv", branch_csv(name, (branch, power, bifurcations), &names, &shape).as_bytes())?;
         let speed = if periodic.is_some() { "mean speed [m/s]" } else { "speed [m/s]" };
         let mut chart = Chart::new(format!("Branch in {name}: solid stable, dashed not"), name.clone(), speed);
         for (label, stable) in [("stable", true), ("unstable or neutral", false)] {
@@ -81,6 +88,15 @@ pub(super) fn write_analysis<M: Model>(
             chart.series.push(Series {
                 stroke: if stable { Stroke::Solid } else { Stroke::Dash(0) },
                 ..Series::new(label, pts)
+            });
+        }
+        for (_, f) in bifurcations {
+            chart.series.push(Series {
+                stroke: Stroke::Points,
+                ..Series::new(
+                    format!("{} at {}", f.kind.name(), fmt_value(sig(f.value))),
+                    vec![(f.value, f.solution.speed())],
+                )
             });
         }
         if !power.is_empty() && power.iter().all(|(_, e)| e.is_finite()) {
@@ -215,10 +231,12 @@ fn periodic_csv(
     record(head) + &record(cells)
 }
 
-/// `branch.csv`: one row per parameter value.
+/// `branch.csv`: one row per parameter value, and one per bifurcation
+/// located (after the point `k` of its bracket), its kind and critical
+/// eigenvalue or multiplier in the last columns (empty on the other rows).
 fn branch_csv(
     name: &str,
-    (branch, power): (&[BranchPoint], &[(f64, f64)]),
+    (branch, power, bifurcations): BranchView<'_>,
     names: &[String],
     shape: &[(String, usize, usize)],
 ) -> String {
@@ -240,25 +258,46 @@ fn branch_csv(
     if efficient {
         head.push("efficiency".into());
     }
-    let mut out = record(head);
-    for (k, b) in branch.iter().enumerate() {
-        let mut cells = vec![number(b.value), b.solution.stability().name().into(), number(b.solution.speed())];
-        if let Solution::Periodic(p) = &b.solution {
+    if !bifurcations.is_empty() {
+        head.extend(["bifurcation", "critical_re", "critical_im"].map(String::from));
+    }
+    let row = |value: f64, solution: &Solution| {
+        let mut cells = vec![number(value), solution.stability().name().into(), number(solution.speed())];
+        if let Solution::Periodic(p) = solution {
             cells.push(number(p.period));
         }
-        cells.extend(shape_cells(shape, b.solution.state()));
-        cells.extend(b.solution.state().iter().map(|v| number(*v)));
-        cells.extend(spectrum_cells(match &b.solution {
+        cells.extend(shape_cells(shape, solution.state()));
+        cells.extend(solution.state().iter().map(|v| number(*v)));
+        cells.extend(spectrum_cells(match solution {
             Solution::Steady(s) => &s.eigenvalues,
             Solution::Periodic(p) => &p.multipliers,
         }));
+        cells
+    };
+    let mut out = record(head);
+    for (k, b) in branch.iter().enumerate() {
+        let mut cells = row(b.value, &b.solution);
         if let Some((w, e)) = power.get(k) {
             cells.push(number(*w));
             if efficient {
                 cells.push(number(*e));
             }
         }
+        if !bifurcations.is_empty() {
+            cells.extend([String::new(), String::new(), String::new()]);
+        }
         out.push_str(&record(cells));
+        for (_, f) in bifurcations.iter().filter(|(at, _)| *at == k) {
+            let mut cells = row(f.value, &f.solution);
+            if !power.is_empty() {
+                cells.push(String::new());
+            }
+            if efficient {
+                cells.push(String::new());
+            }
+            cells.extend([f.kind.name().to_string(), number(f.critical[0].re), number(f.critical[0].im)]);
+            out.push_str(&record(cells));
+        }
     }
     out
 }

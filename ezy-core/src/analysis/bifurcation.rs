@@ -1,0 +1,169 @@
+//! Bifurcations on a branch, located and named: where the count of
+//! eigenvalues in the right half-plane (a steady motion) or of Floquet
+//! multipliers outside the unit circle (a periodic orbit) changes between
+//! two points of a branch, the parameter is bisected until the interval is
+//! below the tolerance asked, and the kind is read off the critical
+//! eigenvalue or multiplier there (Seydel, *Practical Bifurcation and
+//! Stability Analysis*, 3rd ed., §5.2 and §7.4-7.6; Kuznetsov, *Elements
+//! of Applied Bifurcation Theory*, 3rd ed., §3-4).
+
+use faer::c64;
+
+use super::branch::{BranchPoint, Follow, Solution, solve};
+use super::{Analysis, AnalysisError};
+use crate::model::Model;
+
+/// Most bisections of [`locate`]: a bracket shrinks by 2^-60, far past
+/// any tolerance a double resolves.
+const MAX_BISECTIONS: usize = 60;
+
+/// What changes at a bifurcation, from the critical eigenvalue or
+/// multiplier.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum BifurcationKind {
+    /// A real multiplier crosses +1 (a real eigenvalue crosses 0), the
+    /// branch going on on both sides: a transcritical or pitchfork branch
+    /// point (the symmetry-breaking pitchfork of a straight gait that
+    /// turns beyond it); a fold would end a natural continuation instead.
+    BranchPoint,
+    /// A real multiplier crosses -1: period doubling (flip).
+    PeriodDoubling,
+    /// A complex pair of multipliers crosses the unit circle:
+    /// Neimark-Sacker (torus).
+    NeimarkSacker,
+    /// A complex pair of eigenvalues of a steady motion crosses the
+    /// imaginary axis: Hopf (a periodic orbit is born).
+    Hopf,
+}
+
+impl BifurcationKind {
+    /// The name written in `branch.csv`.
+    pub fn name(self) -> &'static str {
+        match self {
+            BifurcationKind::BranchPoint => "branch point",
+            BifurcationKind::PeriodDoubling => "period doubling",
+            BifurcationKind::NeimarkSacker => "Neimark-Sacker",
+            BifurcationKind::Hopf => "Hopf",
+        }
+    }
+}
+
+/// A bifurcation located between two points of a branch ([`locate`]).
+#[derive(Debug, Clone)]
+pub struct Bifurcation {
+    /// The parameter's value, the middle of the last bracket.
+    pub value: f64,
+    /// The last bracket `[before, after]` (in the branch's direction):
+    /// its width is below the tolerance asked.
+    pub bracket: [f64; 2],
+    /// What changes there.
+    pub kind: BifurcationKind,
+    /// The critical eigenvalue(s) \[1/s\] or multiplier(s) at `value`:
+    /// one real, or a complex pair.
+    pub critical: Vec<c64>,
+    /// The solution at `value`.
+    pub solution: Solution,
+    /// Solutions computed to locate it.
+    pub solves: usize,
+}
+
+/// The dimension of the family of solutions through `s` (its
+/// eigenvalues 0 or multipliers 1 along it).
+fn family(s: &Solution) -> usize {
+    match s {
+        Solution::Steady(m) => m.family,
+        Solution::Periodic(p) => p.family,
+    }
+}
+
+/// The rates of `s` (`Re lambda` of a steady motion, `ln |mu|` of a
+/// periodic orbit) with their eigenvalues or multipliers, nearest zero
+/// first, `family` of them (the nearest zero) left out. At a bifurcation
+/// the critical one is nearest zero and the solution's own family count
+/// takes it in (its Newton matrix is singular there): the family is
+/// counted away from it.
+fn rates(s: &Solution, family: usize) -> Vec<(f64, c64)> {
+    let (values, periodic) = match s {
+        Solution::Steady(m) => (&m.eigenvalues, false),
+        Solution::Periodic(p) => (&p.multipliers, true),
+    };
+    let mut r: Vec<(f64, c64)> =
+        values.iter().map(|z| (if periodic { z.re.hypot(z.im).max(1e-300).ln() } else { z.re }, *z)).collect();
+    r.sort_by(|a, b| a.0.abs().total_cmp(&b.0.abs()));
+    r.split_off(family.min(r.len()))
+}
+
+/// How many eigenvalues (multipliers) of `s` are unstable: right of the
+/// imaginary axis (outside the unit circle), the family's left out.
+pub fn unstable_count(s: &Solution) -> usize {
+    rates(s, family(s)).iter().filter(|(r, _)| *r > 0.0).count()
+}
+
+/// Locates the bifurcation between the branch points `a` and `b` whose
+/// [`unstable_count`]s differ: the parameter bisected (`build` makes the
+/// scene at a value, the solution sought as `follow` says from the
+/// bracket's states interpolated) until the bracket is narrower than
+/// `tol (1 + |a.value|)`. `None` where the counts agree.
+///
+/// # Errors
+/// The search's error at a value inside the bracket (the branch may fold
+/// there); `build`'s.
+pub fn locate<M: Model>(
+    a: &BranchPoint,
+    b: &BranchPoint,
+    follow: Follow,
+    mut build: impl FnMut(f64) -> Result<Analysis<M>, AnalysisError>,
+    tol: f64,
+) -> Result<Option<Bifurcation>, AnalysisError> {
+    let fam = family(&a.solution).min(family(&b.solution));
+    let count = |s: &Solution| rates(s, fam).iter().filter(|(r, _)| *r > 0.0).count();
+    let before = count(&a.solution);
+    if before == count(&b.solution) {
+        return Ok(None);
+    }
+    let (mut lo, mut hi) = (a.clone(), b.clone());
+    let width = tol * (1.0 + a.value.abs());
+    let mut multiple = None;
+    let mut solves = 0;
+    let at = |lo: &BranchPoint, hi: &BranchPoint, value: f64| -> Vec<f64> {
+        let s = (value - lo.value) / (hi.value - lo.value);
+        lo.solution.state().iter().zip(hi.solution.state()).map(|(x, y)| x + s * (y - x)).collect()
+    };
+    let mut mid = None;
+    for _ in 0..MAX_BISECTIONS {
+        let value = 0.5 * (lo.value + hi.value);
+        let guess = at(&lo, &hi, value);
+        let solution = build(value).and_then(|mut an| solve(&mut an, follow, &guess, &mut multiple))?;
+        solves += 1;
+        let point = BranchPoint { value, solution };
+        if (hi.value - lo.value).abs() <= width {
+            mid = Some(point);
+            break;
+        }
+        if count(&point.solution) == before {
+            lo = point;
+        } else {
+            hi = point;
+        }
+    }
+    let point = mid.unwrap_or(lo.clone());
+    let r = rates(&point.solution, fam);
+    let Some(&(_, z)) = r.first() else { return Ok(None) };
+    let complex = z.im.abs() > 1e-6 * (1.0 + z.re.abs());
+    let critical: Vec<c64> = if complex { r.iter().take(2).map(|p| p.1).collect() } else { vec![z] };
+    let kind = match (&point.solution, complex) {
+        (Solution::Steady(_), true) => BifurcationKind::Hopf,
+        (Solution::Steady(_), false) => BifurcationKind::BranchPoint,
+        (Solution::Periodic(_), true) => BifurcationKind::NeimarkSacker,
+        (Solution::Periodic(_), false) if z.re < 0.0 => BifurcationKind::PeriodDoubling,
+        (Solution::Periodic(_), false) => BifurcationKind::BranchPoint,
+    };
+    Ok(Some(Bifurcation {
+        value: point.value,
+        bracket: [lo.value, hi.value],
+        kind,
+        critical,
+        solution: point.solution,
+        solves,
+    }))
+}

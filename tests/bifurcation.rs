@@ -1,0 +1,89 @@
+//! Bifurcations located on branches (`ezy_core::analysis::bifurcation`):
+//! a Hopf point known in closed form, on a model and force law of the
+//! user's own; the rolling-resistance gait's branch point in the motor's
+//! amplitude, checked on both sides by independent searches.
+
+use ezy::models::{EzyRoller, scenes};
+use ezy_core::analysis::bifurcation::{BifurcationKind, locate};
+use ezy_core::analysis::branch::{Follow, follow};
+use ezy_core::analysis::{Analysis, AnalysisError, PeriodicSettings};
+
+use crate::optimize::{Cart, K, M, cart};
+
+/// The cart on its rail (the user's own model) held by a spring `k` and
+/// a damper `c` of the user's own law: its rest at x = 0 has the
+/// eigenvalues `-c / 2m +- i sqrt(k/m - c^2/4m^2)`, a pair crossing the
+/// imaginary axis at `c = 0` (a Hopf point, the normal form's linear
+/// part) with the critical eigenvalues `+-i sqrt(k/m)` = `+-2i`. The
+/// branch in `c` from -0.3 to 0.2 N s/m, 6 points (none at 0), holds the
+/// change; located to 1e-8: within 1e-8 of 0 (the bisection's bracket
+/// holds it), its kind Hopf, its critical pair within 1e-6 of `+-2i`
+/// (the linearization's force derivatives are central differences,
+/// 1e-10). Measured: c = -1.5e-9 in 25 solves, the pair 3.7e-10 +- 2i.
+#[test]
+fn a_hopf_point_is_located_where_the_damping_changes_sign() {
+    let build = |c: f64| -> Result<Analysis<Cart>, AnalysisError> {
+        Ok(cart(K, c, None, 0.0, 10.0).map_err(AnalysisError::Sim)?.analysis()?.0)
+    };
+    let (_, x0) = cart(K, -0.3, None, 0.0, 10.0).unwrap().analysis().unwrap();
+    let values = [-0.3, -0.2, -0.1, 0.05, 0.1, 0.2];
+    let how = Follow::Steady { energy: None };
+    let (points, ended) = follow(&values, &x0, how, build, |_| {});
+    assert!(ended.is_none(), "{ended:?}");
+    let k = points.windows(2).position(|w| w[0].value < 0.0 && w[1].value > 0.0).unwrap();
+    let b = locate(&points[k], &points[k + 1], how, build, 1e-8).unwrap().expect("a bifurcation");
+    eprintln!("hopf: at c = {:e}, bracket {:?}, critical {:?}, {} solves", b.value, b.bracket, b.critical, b.solves);
+    assert_eq!(b.kind, BifurcationKind::Hopf);
+    assert!(b.value.abs() < 1e-8, "{}", b.value);
+    assert!(b.bracket[0] < 0.0 && b.bracket[1] >= 0.0 || b.bracket[0] >= 0.0 && b.bracket[1] < 0.0, "{:?}", b.bracket);
+    let omega = (K / M).sqrt();
+    assert_eq!(b.critical.len(), 2);
+    for z in &b.critical {
+        assert!(z.re.abs() < 1e-6 && (z.im.abs() - omega).abs() < 1e-6, "{z:?}");
+    }
+}
+
+/// The rolling-resistance gait (`drive-rolling-resistance`) loses its
+/// stability as the motor's amplitude falls: the branch from 4 to 0.5
+/// N m (15 points) is stable down to 0.75 and unstable at 0.5; located
+/// to 1e-8 between them, a branch point at 0.6380639 N m (the straight
+/// gait's symmetry-breaking pitchfork: a run below it turns), its
+/// critical multiplier real and within 1e-6 of 1. Checked by searches
+/// of their own 1e-5 N m either side: the largest multiplier below 1
+/// above the point and above 1 below it (measured: 0.6380638704, the
+/// critical multiplier 1 + 1.4e-10; 0.9999981 and 1.0000019 either side).
+#[test]
+fn the_rolling_resistance_gait_has_a_branch_point_in_the_motor_amplitude() {
+    let scene = scenes::get("drive-rolling-resistance");
+    let build = |a: f64| -> Result<Analysis<EzyRoller>, AnalysisError> {
+        let sets = [("motor.amplitude".to_string(), a)];
+        Ok(scene
+            .problem::<EzyRoller>(&sets)
+            .map_err(|e| AnalysisError::Request { reason: e.to_string() })?
+            .0
+            .analysis()?
+            .0)
+    };
+    let (problem, _) = scene.problem::<EzyRoller>(&[]).unwrap();
+    let guess = problem.t_end(120.0).solve().unwrap().final_state()[..12].to_vec();
+    let settings = PeriodicSettings::default();
+    let how = Follow::Periodic { t0: 0.0, period: 2.0, settings };
+    let values: Vec<f64> = (0..15).map(|k| 4.0 - 0.25 * k as f64).collect();
+    let (points, ended) = follow(&values, &guess, how, build, |_| {});
+    assert!(ended.is_none(), "{ended:?}");
+    let k = points.windows(2).position(|w| w[0].solution.stability() != w[1].solution.stability()).unwrap();
+    let b = locate(&points[k], &points[k + 1], how, build, 1e-8).unwrap().expect("a bifurcation");
+    eprintln!("rolling resistance: {:?} at {}, bracket {:?}, critical {:?}", b.kind, b.value, b.bracket, b.critical);
+    assert_eq!(b.kind, BifurcationKind::BranchPoint);
+    assert!((b.value - 0.6380639).abs() < 1e-6, "{}", b.value);
+    assert!((b.bracket[1] - b.bracket[0]).abs() <= 1e-8 * (1.0 + b.value), "{:?}", b.bracket);
+    assert!((b.critical[0].re - 1.0).abs() < 1e-6 && b.critical[0].im == 0.0, "{:?}", b.critical);
+    for (side, above) in [(b.value + 1e-5, true), (b.value - 1e-5, false)] {
+        let mut an = build(side).unwrap();
+        let sym = an.symmetry(0.0, b.solution.state()).unwrap();
+        let o = an.periodic_orbit(0.0, 2.0, b.solution.state(), sym, &settings).unwrap();
+        let largest = o.multipliers.iter().map(|z| z.re.hypot(z.im)).fold(0.0, f64::max);
+        eprintln!("at {side}: largest multiplier {largest}");
+        assert_eq!(largest < 1.0, above, "at {side}: {:?}", o.multipliers);
+    }
+}
