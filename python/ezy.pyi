@@ -112,7 +112,7 @@ class Check:
     def __bool__(self) -> bool: ...
 
 class Analysis:
-    """Steady motions or a gait: the report and its tables as DataFrames."""
+    """Steady motions, a gait or a limit cycle: the report and its tables as DataFrames."""
 
     report: str
     tables: Dict[str, Any]

@@ -612,7 +612,8 @@ fn fmt_count(v: f64) -> String {
 /// a rate in the analyses' summaries.
 pub(crate) fn rounded(v: f64) -> String {
     let v = if v.abs() < 1e-12 { 0.0 } else { v };
-    format!("{}", (v * 1e6).round() / 1e6)
+    // + 0.0: a value that rounds to -0 is written 0
+    format!("{}", (v * 1e6).round() / 1e6 + 0.0)
 }
 
 /// An eigenvalue or multiplier `re+imi` to six decimals, parts below

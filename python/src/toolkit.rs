@@ -540,9 +540,11 @@ impl Toolkit {
     }
 
     /// Finds `scene`'s steady motions, or, driven periodically, its
-    /// periodic orbit (the gait), and their stability, as `ezy analyze`
-    /// does: an `Analysis` with the report and the tables as DataFrames
-    /// (`.periodic`, `.equilibria`, `.branch`).
+    /// periodic orbit (the gait), or, where an autonomous scene turns on
+    /// one, its limit cycle, and their stability, as `ezy analyze` does:
+    /// an `Analysis` with the report and the tables as DataFrames
+    /// (`.periodic`, `.equilibria`, `.branch`; the bifurcations located
+    /// on a branch are rows of `.branch` with their `bifurcation` kind).
     ///
     /// `period` [s]: the forcing period (default: from the scene's
     /// waveforms); `energy` [J]: the kinetic energy of the steady motions

@@ -525,6 +525,21 @@ def test_sensitivities_of_a_run_and_of_a_gait(tmp_path):
         ezy.sensitivity("drive", wrt="nope", t_end=0.1)
 
 
+def test_a_limit_cycle_and_a_located_bifurcation():
+    # the four-bar's crank turns on a limit cycle, its period an unknown
+    a = ezy.analyze("four-bar")
+    p = a.periodic
+    assert p["period"].iloc[0] == pytest.approx(0.7830006, abs=1e-6)
+    assert p["turns_phi2"].iloc[0] == 1 and p["stability"].iloc[0] == "stable"
+    assert "limit cycle (turns per period: phi2 1)" in a.report
+    # the rolling-resistance gait's branch point: a row of its own in .branch
+    b = ezy.analyze("drive-rolling-resistance", vary="motor.amplitude=0.5:1:3").branch
+    row = b[b["bifurcation"] == "branch point"]
+    assert len(row) == 1 and len(b) == 4
+    assert row["motor.amplitude"].iloc[0] == pytest.approx(0.6380639, abs=1e-6)
+    assert row["critical_re"].iloc[0] == pytest.approx(1.0, abs=1e-6)
+
+
 def test_a_fit_from_a_dataframe_recovers_the_parameters(tmp_path):
     run = ezy.run(
         "drive-rolling-resistance",
