@@ -1,9 +1,11 @@
 //! Bifurcations located on branches (`ezy_core::analysis::bifurcation`):
 //! a Hopf point known in closed form, on a model and force law of the
-//! user's own; the rolling-resistance gait's branch point in the motor's
-//! amplitude, checked on both sides by independent searches.
+//! user's own; the forced damped pendulum's first period doubling against
+//! the literature and whole runs; the rolling-resistance gait's branch
+//! point in the motor's amplitude, checked on both sides by independent
+//! searches.
 
-use ezy::models::{EzyRoller, scenes};
+use ezy::models::{EzyRoller, Pendulum, scenes};
 use ezy_core::analysis::bifurcation::{BifurcationKind, locate};
 use ezy_core::analysis::branch::{Follow, follow};
 use ezy_core::analysis::{Analysis, AnalysisError, PeriodicSettings};
@@ -85,5 +87,84 @@ fn the_rolling_resistance_gait_has_a_branch_point_in_the_motor_amplitude() {
         let largest = o.multipliers.iter().map(|z| z.re.hypot(z.im)).fold(0.0, f64::max);
         eprintln!("at {side}: largest multiplier {largest}");
         assert_eq!(largest < 1.0, above, "at {side}: {:?}", o.multipliers);
+    }
+}
+
+/// Baker and Gollub's forced damped pendulum, `theta'' + theta' / q +
+/// sin(theta) = g cos(omega_D t)` in time scaled by `omega_0 = sqrt(g/L)`,
+/// with `q = 2` and `omega_D = 2/3`, on the built-in pendulum (1 kg at
+/// 1 m, 9.81 m/s^2): a rotational drag `c_rot = omega_0 / q` and a torque
+/// `A cos(omega t)` with `omega = 2 omega_0 / 3` and `A = g omega_0^2`.
+const FORCED_PENDULUM: &str = r#"
+name = "forced-pendulum"
+description = "Baker and Gollub's forced damped pendulum"
+model = "pendulum"
+t_end = 300.0
+
+[initial]
+q = { phi = -1.5707963267948966 }
+qd = { phi = 0.0 }
+
+[integrator]
+method = "dop853"
+rtol = 1e-10
+atol = 1e-10
+
+[effects.gravity]
+kind = "gravity"
+g = [0.0, -9.81]
+
+[effects.motor]
+kind = "torque"
+body = "bob"
+torque = { cos = { amplitude = 10.4, omega = 2.0880613017821101 } }
+
+[effects.drag]
+kind = "linear-drag"
+body = "bob"
+c = 0.0
+c_rot = 1.5660459763365826
+"#;
+
+/// The forced damped pendulum's first period doubling (Baker & Gollub,
+/// *Chaotic Dynamics: An Introduction*, 2nd ed., §3.3: `q = 2`,
+/// `omega_D = 2/3`, the period-1 oscillation doubles at `g = 1.0663`).
+/// The gait's branch in the torque's amplitude, 10.40 to 10.50 N m, is
+/// stable then unstable; located to 1e-8: period doubling, its critical
+/// multiplier real and within 1e-6 of -1, at `g = A / omega_0^2` within
+/// 1e-4 of 1.0663 (measured 1.066373, 20 solves). Whole runs of their own (600 s,
+/// sampled once a forcing period) confirm it: 0.02 N m below, the motion
+/// repeats every period; 0.02 N m above, every second period only.
+#[test]
+fn the_forced_pendulums_first_period_doubling_is_located() {
+    let scene = ezy_scene::Scene::from_toml(FORCED_PENDULUM, "forced-pendulum.toml").unwrap();
+    let with = |a: f64| [("motor.torque.cos.amplitude".to_string(), a)];
+    let build = |a: f64| -> Result<Analysis<Pendulum>, AnalysisError> {
+        let p = scene.problem::<Pendulum>(&with(a)).map_err(|e| AnalysisError::Request { reason: e.to_string() })?;
+        Ok(p.0.analysis()?.0)
+    };
+    let (problem, _) = scene.problem::<Pendulum>(&[]).unwrap();
+    let guess = problem.solve().unwrap().final_state()[..6].to_vec();
+    let omega0 = 9.81f64.sqrt();
+    let period = std::f64::consts::TAU / (2.0 * omega0 / 3.0);
+    let how = Follow::Periodic { t0: 300.0, period, settings: PeriodicSettings::default() };
+    let (points, ended) = follow(&[10.40, 10.45, 10.50], &guess, how, build, |_| {});
+    assert!(ended.is_none(), "{ended:?}");
+    let b = locate(&points[1], &points[2], how, build, 1e-8).unwrap().expect("a bifurcation");
+    let g = b.value / (omega0 * omega0);
+    eprintln!("pendulum: {:?} at A = {} (g = {g}), critical {:?}, {} solves", b.kind, b.value, b.critical, b.solves);
+    assert_eq!(b.kind, BifurcationKind::PeriodDoubling);
+    assert!((b.critical[0].re + 1.0).abs() < 1e-6 && b.critical[0].im == 0.0, "{:?}", b.critical);
+    assert!((g - 1.0663).abs() < 1e-4, "g = {g}");
+    // whole runs, sampled once a period from 200 periods on
+    for (a, doubled) in [(b.value - 0.02, false), (b.value + 0.02, true)] {
+        let (p, _) = scene.problem::<Pendulum>(&with(a)).unwrap();
+        let sol = p.t_end(200.0 * period).every(period).solve().unwrap();
+        let phi = sol.column("phi").unwrap();
+        let n = phi.len();
+        let (one, two) = ((phi[n - 1] - phi[n - 2]).abs(), (phi[n - 1] - phi[n - 3]).abs());
+        eprintln!("pendulum at A = {a}: a period's change {one:e}, two periods' {two:e}");
+        assert!(two < 1e-3, "A = {a}: {two:e} after two periods");
+        assert_eq!(one > 1e-2, doubled, "A = {a}: {one:e} after one period");
     }
 }
