@@ -93,8 +93,9 @@ impl<M: Model> Analysis<M> {
     ///
     /// # Errors
     /// [`AnalysisError::Request`] for a period that is not positive and
-    /// finite, a guess of the wrong length, or a scene whose
-    /// accelerations change with time at a fixed state;
+    /// finite, a guess of the wrong length, a scene whose accelerations
+    /// change with time at a fixed state, or one whose period takes too
+    /// many steps (a stiff scene);
     /// [`AnalysisError::NotConverged`]; as [`Analysis::flow`].
     pub fn limit_cycle(
         &mut self,
@@ -127,6 +128,7 @@ impl<M: Model> Analysis<M> {
         // the section: through the guess, normal to the flow there
         let anchor = x0.clone();
         let normal = self.rhs(t0, &anchor)?;
+        self.check_cost(t0, &x0, period, settings)?;
         let (xt, mut m, mut steps) = self.flow(t0, &x0, period, settings)?;
         // whole turns of each heading over the guess's cycle
         let windings: Vec<(usize, i64)> = bodies

@@ -175,9 +175,11 @@ impl<M: Model> Analysis<M> {
     ///
     /// # Errors
     /// [`AnalysisError::Request`] for a period that is not positive and
-    /// finite or a guess of the wrong length, or a skate with friction
-    /// that slides on the orbit found (its holding force past `mu N`);
-    /// [`AnalysisError::NotConverged`];
+    /// finite or a guess of the wrong length, a period the explicit
+    /// integrator crosses only in more than a tenth of
+    /// `settings.max_steps` steps (a stiff scene), or a skate with
+    /// friction that slides on the orbit found (its holding force past
+    /// `mu N`); [`AnalysisError::NotConverged`];
     /// as [`Analysis::flow`].
     pub fn periodic_orbit(
         &mut self,
@@ -215,6 +217,7 @@ impl<M: Model> Analysis<M> {
         // vanishes, so a minimum-norm step takes large steps along it)
         let gauge = gauge_coordinates(&bodies, &gens);
         let mut x0 = act(&bodies, symmetry.restrict(body_pose(&bodies, 0, guess)).inverse(), guess);
+        self.check_cost(t0, &x0, period, settings)?;
         // the skates' grip over the last period integrated (the orbit's,
         // once the search has converged)
         self.watch_grip();

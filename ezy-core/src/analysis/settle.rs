@@ -193,6 +193,58 @@ impl<M: Model> Analysis<M> {
         Ok((end.y, end.steps))
     }
 
+    /// Refuses a search whose period the explicit integrator crosses only
+    /// in many steps: one period of the state alone from `x0` at `t0`
+    /// \[s\] taking more than a tenth of `settings.max_steps` (the
+    /// search integrates the variational equations, `(2 nq)^2` more
+    /// components with a Jacobian at every stage, over such a period
+    /// several times: minutes for a stiff scene). A period that takes
+    /// some 10^2 steps is usual; a stiff scene's fast mode holds the step
+    /// near its time scale (`snake-stiff`'s servos: 1e-4 s).
+    ///
+    /// # Errors
+    /// [`AnalysisError::Request`] with the steps and the mean step, or
+    /// with the integration's failure (a stiff scene's state alone may
+    /// blow up under an explicit method); [`AnalysisError::Stopped`].
+    pub(crate) fn check_cost(
+        &mut self,
+        t0: f64,
+        x0: &[f64],
+        period: f64,
+        settings: &PeriodicSettings,
+    ) -> Result<(), AnalysisError> {
+        let limit = settings.max_steps / 10;
+        let probe = PeriodicSettings { max_steps: limit.max(1), ..*settings };
+        let steps = match self.end_state(t0, x0, period, &probe) {
+            Ok((_, steps)) => steps,
+            Err(AnalysisError::Sim(SimError::Budget { .. })) => limit + 1,
+            Err(AnalysisError::Sim(e)) => {
+                return Err(AnalysisError::Request {
+                    reason: format!(
+                        "DOP853 could not integrate one period ({} s) of the state alone from t = {} s ({e}); an explicit method fails so on a stiff scene (a fast mode it cannot follow), and the analyses have no implicit integrator yet",
+                        fmt_value(period),
+                        fmt_value(t0)
+                    ),
+                });
+            }
+            Err(e) => return Err(e),
+        };
+        if steps <= limit {
+            return Ok(());
+        }
+        let n2 = x0.len();
+        Err(AnalysisError::Request {
+            reason: format!(
+                "one period ({} s) of the state alone takes more than {limit} steps of DOP853 (a mean step below {:.1e} s): the scene looks stiff (a fast mode holds an explicit method's step), and the search integrates {} variational equations with the state, several times over; the analyses have no implicit integrator yet. Raise {} to {} or more to search anyway",
+                fmt_value(period),
+                period / limit as f64,
+                n2 * n2,
+                crate::settings::Setting::MaxSteps,
+                steps.max(limit + 1) * 10
+            ),
+        })
+    }
+
     /// The periodic orbit of period `period` \[s\] at phase `t0` \[s\]
     /// modulo `symmetry` that the motion from `guess` (2 nq) settles
     /// onto: [`Analysis::periodic_orbit`] from `guess`; where that fails,
