@@ -33,7 +33,7 @@ pub const MAX_SETTLE_PERIODS: usize = 4096;
 const RETRY_AT: [f64; 3] = [1e-3, 1e-6, 1e-9];
 
 /// Fewest periods a growth of the energy is judged over.
-const GROWTH_MIN_PERIODS: usize = 8;
+const GROWTH_MIN_PERIODS: usize = 16;
 
 /// How a run of the period map ended ([`Analysis::settle`]).
 #[derive(Debug, Clone, PartialEq)]
@@ -116,7 +116,7 @@ impl<M: Model> Analysis<M> {
     /// than 1e-9) until the state at a period's end, modulo `symmetry`,
     /// changes by less than `until.distance` (relative to `1 + max |x|`)
     /// over a period; until the kinetic energy is seen to grow without bound
-    /// (checked after 8, 16, 32, ... periods over the run's second half:
+    /// (checked after 16, 32, 64, ... periods over the run's second half:
     /// in every period, by more than 5 % in all, at a rate `T ~ t^a`
     /// whose exponent over the half's two quarters agrees to 25 %, which
     /// a transient that saturates does not show); or for
