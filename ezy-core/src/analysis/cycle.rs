@@ -108,17 +108,7 @@ impl<M: Model> Analysis<M> {
         self.check_size()?;
         let symmetry = symmetry.rigid();
         let n2 = 2 * self.nq();
-        if !(period.is_finite() && period > 0.0) {
-            return Err(AnalysisError::Request {
-                reason: format!("the period must be positive and finite, not {period}"),
-            });
-        }
-        if guess.len() != n2 {
-            return Err(AnalysisError::Request {
-                reason: format!("the guess has {} components; the model needs 2 nq = {n2}", guess.len()),
-            });
-        }
-        self.check_state(guess)?;
+        self.check_search(period, guess)?;
         self.check_autonomous(t0, guess)?;
         let bodies = self.bodies().to_vec();
         let gens = symmetry.generators();

@@ -124,14 +124,21 @@ impl<M: Model> Rhs for Variational<'_, M> {
             }
             Ok(())
         };
-        run(self.analysis).map_err(|e| match e {
-            AnalysisError::Sim(e) => e,
-            e => {
-                let reason = e.to_string();
-                self.failed = Some(e);
-                SimError::Formulation { reason: reason.into() }
-            }
-        })
+        run(self.analysis).map_err(|e| into_sim(e, &mut self.failed))
+    }
+}
+
+/// An analysis' error as the integrator's: a simulation error as it is;
+/// any other kept in `failed` (the integration's caller returns it) and
+/// passed on as a formulation error to stop the integration.
+pub(crate) fn into_sim(e: AnalysisError, failed: &mut Option<AnalysisError>) -> SimError {
+    match e {
+        AnalysisError::Sim(e) => e,
+        e => {
+            let reason = e.to_string();
+            *failed = Some(e);
+            SimError::Formulation { reason: reason.into() }
+        }
     }
 }
 
@@ -194,17 +201,7 @@ impl<M: Model> Analysis<M> {
         // not taken out of a period map)
         let symmetry = symmetry.rigid();
         let n2 = 2 * self.nq();
-        if !(period.is_finite() && period > 0.0) {
-            return Err(AnalysisError::Request {
-                reason: format!("the period must be positive and finite, not {period}"),
-            });
-        }
-        if guess.len() != n2 {
-            return Err(AnalysisError::Request {
-                reason: format!("the guess has {} components; the model needs 2 nq = {n2}", guess.len()),
-            });
-        }
-        self.check_state(guess)?;
+        self.check_search(period, guess)?;
         let bodies = self.bodies().to_vec();
         let gens = symmetry.generators();
         let k = gens.len();
@@ -330,6 +327,24 @@ impl<M: Model> Analysis<M> {
             steps,
             windings: Vec::new(),
         })
+    }
+
+    /// Refuses a search's request: a period that is not positive and
+    /// finite, a guess (2 nq) of the wrong length or off the scene's
+    /// limits ([`Analysis::check_state`]).
+    pub(crate) fn check_search(&self, period: f64, guess: &[f64]) -> Result<(), AnalysisError> {
+        if !(period.is_finite() && period > 0.0) {
+            return Err(AnalysisError::Request {
+                reason: format!("the period must be positive and finite, not {period}"),
+            });
+        }
+        let n2 = 2 * self.nq();
+        if guess.len() != n2 {
+            return Err(AnalysisError::Request {
+                reason: format!("the guess has {} components; the model needs 2 nq = {n2}", guess.len()),
+            });
+        }
+        self.check_state(guess)
     }
 
     /// The Jacobian of the shooting equations in `(x0, p)`:

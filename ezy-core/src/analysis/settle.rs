@@ -14,7 +14,7 @@
 //! Analysis*, 3rd ed., §7.3: shooting needs a guess near the orbit;
 //! simulation provides one for a stable orbit).
 
-use super::periodic::{PeriodicOrbit, PeriodicSettings};
+use super::periodic::{PeriodicOrbit, PeriodicSettings, into_sim};
 use super::symmetry::{Symmetry, act, body_pose};
 use super::{Analysis, AnalysisError};
 use crate::error::SimError;
@@ -99,14 +99,7 @@ impl<M: Model> Rhs for State<'_, M> {
             dx[nq..].copy_from_slice(&p.qdd);
             Ok(())
         };
-        run(self.analysis).map_err(|e| match e {
-            AnalysisError::Sim(e) => e,
-            e => {
-                let reason = e.to_string();
-                self.failed = Some(e);
-                SimError::Formulation { reason: reason.into() }
-            }
-        })
+        run(self.analysis).map_err(|e| into_sim(e, &mut self.failed))
     }
 }
 
