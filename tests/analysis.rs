@@ -281,20 +281,20 @@ fn variational_equations_match_differences_of_whole_runs() {
 }
 
 /// `ezy` with `args`, writing into `out`; its stdout, stderr and success.
-fn ezy(args: &[&str], out: &std::path::Path) -> (String, String, bool) {
+pub(crate) fn ezy(args: &[&str], out: &std::path::Path) -> (String, String, bool) {
     let o = std::process::Command::new(env!("CARGO_BIN_EXE_ezy")).args(args).arg("--out").arg(out).output().unwrap();
     (String::from_utf8_lossy(&o.stdout).into(), String::from_utf8_lossy(&o.stderr).into(), o.status.success())
 }
 
 /// A fresh directory under cargo's temporary directory.
-fn fresh(what: &str) -> std::path::PathBuf {
+pub(crate) fn fresh(what: &str) -> std::path::PathBuf {
     let d = std::path::PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join(format!("analysis-{what}"));
     let _ = std::fs::remove_dir_all(&d);
     d
 }
 
 /// The columns of a CSV file by name.
-fn table(path: &std::path::Path) -> (Vec<String>, Vec<Vec<String>>) {
+pub(crate) fn table(path: &std::path::Path) -> (Vec<String>, Vec<Vec<String>>) {
     let text = std::fs::read_to_string(path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
     let mut lines = text.lines().map(|l| l.split(',').map(String::from).collect::<Vec<_>>());
     (lines.next().unwrap(), lines.collect())

@@ -10,6 +10,7 @@
 #[path = "support/bare_rhs.rs"]
 mod bare_rhs;
 mod common;
+mod continuation;
 
 mod adversarial_input;
 mod adversarial_output;

@@ -21,10 +21,15 @@ const MAX_BISECTIONS: usize = 60;
 /// multiplier.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum BifurcationKind {
+    /// The branch turns back in the parameter (a saddle-node, limit
+    /// point): a real eigenvalue crosses 0 (a real multiplier +1) where
+    /// the tangent's parameter component `dp/ds` changes sign
+    /// ([`super::arclength::locate_fold`]).
+    Fold,
     /// A real multiplier crosses +1 (a real eigenvalue crosses 0), the
     /// branch going on on both sides: a transcritical or pitchfork branch
     /// point (the symmetry-breaking pitchfork of a straight gait that
-    /// turns beyond it); a fold would end a natural continuation instead.
+    /// turns beyond it); where the branch turns back instead, a [`BifurcationKind::Fold`].
     BranchPoint,
     /// A real multiplier crosses -1: period doubling (flip).
     PeriodDoubling,
@@ -40,6 +45,7 @@ impl BifurcationKind {
     /// The name written in `branch.csv`.
     pub fn name(self) -> &'static str {
         match self {
+            BifurcationKind::Fold => "fold",
             BifurcationKind::BranchPoint => "branch point",
             BifurcationKind::PeriodDoubling => "period doubling",
             BifurcationKind::NeimarkSacker => "Neimark-Sacker",
@@ -99,6 +105,17 @@ pub fn unstable_count(s: &Solution) -> usize {
     rates(s, family(s)).iter().filter(|(r, _)| *r > 0.0).count()
 }
 
+/// The critical eigenvalue(s) or multiplier(s) of `at`, a bifurcation
+/// between the branch points `a` and `b`: the rate nearest zero, the
+/// family counted at the bracket's ends; a complex pair or one real.
+/// Empty where `at` has none outside its family.
+pub(crate) fn critical(at: &Solution, a: &Solution, b: &Solution) -> Vec<c64> {
+    let r = rates(at, family(a).min(family(b)));
+    let Some(&(_, z)) = r.first() else { return Vec::new() };
+    let complex = z.im.abs() > 1e-6 * (1.0 + z.re.abs());
+    if complex { r.iter().take(2).map(|p| p.1).collect() } else { vec![z] }
+}
+
 /// Locates the bifurcation between the branch points `a` and `b` whose
 /// [`unstable_count`]s differ: the parameter bisected (`build` makes the
 /// scene at a value, the solution sought as `follow` says from the
@@ -135,7 +152,7 @@ pub fn locate<M: Model>(
         let guess = at(&lo, &hi, value);
         let solution = build(value).and_then(|mut an| solve(&mut an, follow, &guess, &mut multiple))?;
         solves += 1;
-        let point = BranchPoint { value, solution };
+        let point = BranchPoint { value, solution, dp_ds: None };
         if (hi.value - lo.value).abs() <= width {
             mid = Some(point);
             break;
@@ -147,11 +164,9 @@ pub fn locate<M: Model>(
         }
     }
     let point = mid.unwrap_or(lo.clone());
-    let r = rates(&point.solution, fam);
-    let Some(&(_, z)) = r.first() else { return Ok(None) };
-    let complex = z.im.abs() > 1e-6 * (1.0 + z.re.abs());
-    let critical: Vec<c64> = if complex { r.iter().take(2).map(|p| p.1).collect() } else { vec![z] };
-    let kind = match (&point.solution, complex) {
+    let critical = critical(&point.solution, &a.solution, &b.solution);
+    let Some(&z) = critical.first() else { return Ok(None) };
+    let kind = match (&point.solution, critical.len() == 2) {
         (Solution::Steady(_), true) => BifurcationKind::Hopf,
         (Solution::Steady(_), false) => BifurcationKind::BranchPoint,
         (Solution::Periodic(_), true) => BifurcationKind::NeimarkSacker,

@@ -70,6 +70,11 @@ pub struct BranchPoint {
     pub value: f64,
     /// The solution.
     pub solution: Solution,
+    /// The parameter's component `dp/ds` of the branch's unit tangent in
+    /// `(unknowns, parameter)`, oriented along the branch
+    /// ([`super::arclength::follow_arclength`]): a sign change between
+    /// two points is a fold. `None` from natural continuation ([`follow`]).
+    pub dp_ds: Option<f64>,
 }
 
 /// Follows a branch of solutions through the parameter values `values`
@@ -109,7 +114,7 @@ pub fn follow<M: Model>(
         };
         let found = build(value).and_then(|mut an| solve(&mut an, follow, &guess, &mut multiple));
         match found {
-            Ok(solution) => points.push(BranchPoint { value, solution }),
+            Ok(solution) => points.push(BranchPoint { value, solution, dp_ds: None }),
             Err(e) => return (points, Some((value, e))),
         }
     }

@@ -46,17 +46,21 @@
 //!   taken modulo 2 pi; [`Analysis::return_time`] reads a first period
 //!   off a run.
 //!
-//! - [`branch::follow`]: a branch of either as a parameter varies, by
-//!   natural-parameter continuation, with its changes of stability;
-//!   [`bifurcation::locate`] bisects one to the tolerance asked and names
-//!   it (branch point, period doubling, Neimark-Sacker, Hopf) by its
-//!   critical eigenvalue or multiplier.
+//! - [`arclength::follow_arclength`]: a branch of either as a parameter
+//!   varies, by pseudo-arclength continuation through folds (points on
+//!   the parameter's grid where the branch is a graph over it), with its
+//!   changes of stability; [`arclength::locate_fold`] locates a fold,
+//!   [`bifurcation::locate`] bisects a change of stability to the
+//!   tolerance asked and names it (branch point, period doubling,
+//!   Neimark-Sacker, Hopf) by its critical eigenvalue or multiplier;
+//!   [`branch::follow`] is natural-parameter continuation.
 //!
 //! The plane's symmetry (translations, rotations) is found numerically
 //! ([`Analysis::symmetry`]): a scene is invariant under a rigid motion when
 //! its constraints and accelerations are equivariant at test states, so a
 //! force law of the user's own is treated exactly as a built-in one.
 
+pub mod arclength;
 pub mod bifurcation;
 pub mod branch;
 mod cycle;

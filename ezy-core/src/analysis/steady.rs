@@ -144,19 +144,7 @@ impl<M: Model> Analysis<M> {
         let mut x = guess.to_vec();
         let f = self.rhs(t, &x)?;
         let mut xi = self.group_velocity(t, &x, &gens)?;
-        let residual = |this: &mut Self, x: &[f64], xi: &[f64]| -> Result<Vec<f64>, AnalysisError> {
-            let mut r = this.rhs(t, x)?;
-            for (g, c) in gens.iter().zip(xi) {
-                for (ri, v) in r.iter_mut().zip(field(&bodies, *g, x)) {
-                    *ri -= c * v;
-                }
-            }
-            r.extend(this.residual_at(t, x));
-            if let Some(e) = energy {
-                r.push(this.sys.kinetic_energy(&x[x.len() / 2..]) - e);
-            }
-            Ok(r)
-        };
+        let residual = |this: &mut Self, x: &[f64], xi: &[f64]| this.steady_residual(t, x, xi, &gens, energy);
         let norm = |r: &[f64]| r.iter().fold(0.0f64, |m, v| m.max(v.abs()));
         let scale = 1.0 + norm(&x) + norm(&f);
         let tol = 1e-12 * scale;
@@ -241,8 +229,32 @@ impl<M: Model> Analysis<M> {
         })
     }
 
+    /// The relative-equilibrium equations at `(x, xi)` (2 nq + k): `f(x)
+    /// - xi . X(x)` (2 nq), the constraint residuals (nh + nc) and, with
+    /// `energy` \[J\], `qd^T M qd / 2 - energy`.
+    pub(crate) fn steady_residual(
+        &mut self,
+        t: f64,
+        x: &[f64],
+        xi: &[f64],
+        gens: &[Generator],
+        energy: Option<f64>,
+    ) -> Result<Vec<f64>, AnalysisError> {
+        let mut r = self.rhs(t, x)?;
+        for (g, c) in gens.iter().zip(xi) {
+            for (ri, v) in r.iter_mut().zip(field(self.bodies(), *g, x)) {
+                *ri -= c * v;
+            }
+        }
+        r.extend(self.residual_at(t, x));
+        if let Some(e) = energy {
+            r.push(self.sys.kinetic_energy(&x[x.len() / 2..]) - e);
+        }
+        Ok(r)
+    }
+
     /// `j` with the row of the kinetic energy's derivative `[0, M qd, 0]` appended.
-    fn with_energy_row(&self, j: Mat<f64>, x: &[f64]) -> Mat<f64> {
+    pub(crate) fn with_energy_row(&self, j: Mat<f64>, x: &[f64]) -> Mat<f64> {
         let nq = self.nq();
         let m = j.nrows();
         Mat::from_fn(m + 1, j.ncols(), |r, c| {
@@ -258,7 +270,7 @@ impl<M: Model> Analysis<M> {
 
     /// The Jacobian of the relative-equilibrium equations in `(x, xi)`:
     /// `[[A - xi . dX/dx, -X]; [C, 0]]`.
-    fn steady_jacobian(
+    pub(crate) fn steady_jacobian(
         &mut self,
         t: f64,
         x: &[f64],

@@ -15,6 +15,7 @@ use std::path::PathBuf;
 use std::time::{Duration, Instant};
 
 use clap::{ArgMatches, Args, FromArgMatches};
+use ezy_core::analysis::arclength::{follow_arclength, locate_fold};
 use ezy_core::analysis::bifurcation::locate;
 use ezy_core::analysis::{
     Analysis, AnalysisError, BranchPoint, Follow, PeriodicOrbit, PeriodicSettings, Solution, SteadyMotion, Symmetry,
@@ -562,9 +563,9 @@ fn follow_branch<M: Model>(
             e => AnalysisError::Request { reason: e.to_string() },
         })
     };
-    let (points, ended) = ezy_core::analysis::branch::follow(values, start, follow, build, |k| {
+    let (points, ended) = follow_arclength(values, start, follow, build, |k| {
         if let Some(b) = &beat {
-            b.set(format!("following the branch in {name}: point {} of {}", k + 1, values.len()));
+            b.set(format!("following the branch in {name}: point {} (a grid of {} values)", k + 1, values.len()));
         }
     });
     drop(beat);
@@ -585,7 +586,13 @@ fn follow_branch<M: Model>(
             fmt_value(w[1].value),
             stability(&w[1])
         );
-        match locate(&w[0], &w[1], follow, build, BIFURCATION_TOL) {
+        // a fold where the branch turns back in the parameter, else a
+        // change of the count of unstable eigenvalues or multipliers
+        let located = match locate_fold(&w[0], &w[1], follow, build, BIFURCATION_TOL) {
+            Ok(None) => locate(&w[0], &w[1], follow, build, BIFURCATION_TOL),
+            other => other,
+        };
+        match located {
             Ok(Some(b)) => {
                 let critical: Vec<String> = b.critical.iter().map(|z| complex(*z)).collect();
                 log.notes.push(format!(

@@ -69,19 +69,15 @@ pub(super) fn write_analysis<M: Model>(
         && !branch.is_empty()
     {
         tx.write("branch.csv", branch_csv(name, (branch, power, bifurcations), &names, &shape).as_bytes())?;
-        let speed = if periodic.is_some() { "mean speed [m/s]" } else { "speed [m/s]" };
-        let mut chart = Chart::new(format!("Branch in {name}: solid stable, dashed not"), name.clone(), speed);
+        let (label, y) = branch_axis(branch, &names, periodic.is_some());
+        let mut chart = Chart::new(format!("Branch in {name}: solid stable, dashed not"), name.clone(), label);
         for (label, stable) in [("stable", true), ("unstable or neutral", false)] {
             let pts = branch
                 .iter()
                 .map(|b| {
                     (
                         b.value,
-                        if (b.solution.stability() == Stability::Stable) == stable {
-                            b.solution.speed()
-                        } else {
-                            f64::NAN
-                        },
+                        if (b.solution.stability() == Stability::Stable) == stable { y(&b.solution) } else { f64::NAN },
                     )
                 })
                 .collect();
@@ -95,7 +91,7 @@ pub(super) fn write_analysis<M: Model>(
                 stroke: Stroke::Points,
                 ..Series::new(
                     format!("{} at {}", f.kind.name(), fmt_value(sig(f.value))),
-                    vec![(f.value, f.solution.speed())],
+                    vec![(f.value, y(&f.solution))],
                 )
             });
         }
@@ -115,6 +111,25 @@ pub(super) fn write_analysis<M: Model>(
         }
     }
     Ok(tx.commit()?)
+}
+
+/// The branch figure's vertical axis: the reference body's speed, or
+/// where every point is at rest (equilibria of a mechanism) the state's
+/// coordinate that changes most along the branch, by `names`.
+fn branch_axis(branch: &[BranchPoint], names: &[String], periodic: bool) -> (String, impl Fn(&Solution) -> f64) {
+    // at rest to rounding (1e-16 m/s): below a nanometre per second
+    let moving = branch.iter().any(|b| b.solution.speed() > 1e-9);
+    let range = |i: usize| {
+        let v = branch.iter().map(|b| b.solution.state()[i]);
+        v.clone().fold(f64::NEG_INFINITY, f64::max) - v.fold(f64::INFINITY, f64::min)
+    };
+    let widest = (0..names.len()).max_by(|&a, &b| range(a).total_cmp(&range(b))).unwrap_or(0);
+    let label = match (moving, periodic) {
+        (true, true) => "mean speed [m/s]".to_string(),
+        (true, false) => "speed [m/s]".to_string(),
+        (false, _) => names.get(widest).cloned().unwrap_or_default(),
+    };
+    (label, move |s: &Solution| if moving { s.speed() } else { s.state()[widest] })
 }
 
 /// The shape columns: each hinge between two bodies, its angle

@@ -1,0 +1,515 @@
+//! Pseudo-arclength continuation of steady motions and periodic orbits,
+//! through folds, and folds located (Keller, "Numerical solution of
+//! bifurcation and nonlinear eigenvalue problems", in *Applications of
+//! Bifurcation Theory*, 1977; Seydel, *Practical Bifurcation and
+//! Stability Analysis*, 3rd ed., §4.4-4.6 and §5.3).
+//!
+//! The unknowns are `w = [z, p]`: the solution's own unknowns `z` (a
+//! steady motion's state and group velocity `[x, xi]`; a periodic orbit's
+//! start and rigid shift `[x0, h]`) and the parameter `p`. Each point
+//! solves the defining equations `R(z; p) = 0` (those of
+//! [`Analysis::steady_motion`] or [`Analysis::periodic_orbit`], the state
+//! held at the gauge: the reference body at the origin with heading 0)
+//! with one more equation `n . (w - w_hat) = 0` through the predicted
+//! point `w_hat`. Where the branch is a graph over `p` the row is
+//! `n = e_p` and the points fall on the grid's values (natural
+//! continuation); where the grid's next value is further along the
+//! branch than the step allows, and through folds, `n` is the unit
+//! tangent `t` (pseudo-arclength, whose matrix stays regular at a fold).
+//! The tangent solves `[R_z R_p; n^T] t = [0; 1]` at each point found,
+//! `R_p` by a forward difference of the scene built at `p + h`. Its
+//! component `t_p = dp/ds` changes sign at a fold.
+
+use faer::Mat;
+
+use super::bifurcation::{Bifurcation, BifurcationKind, critical};
+use super::branch::{BranchPoint, Follow, Solution, solve};
+use super::periodic::{gauge_coordinates, with_gauge};
+use super::symmetry::{Generator, Symmetry, act};
+use super::{Analysis, AnalysisError, dense};
+use crate::effects::waveform::Periodicity;
+use crate::model::Model;
+
+/// Most Newton iterations of one corrector; a step that needs more is
+/// retried at half the arclength.
+const MAX_CORRECTOR: usize = 10;
+
+/// Most bisections of a fold's bracket ([`locate_fold`]).
+const MAX_FOLD_STEPS: usize = 60;
+
+/// Smallest `cos` of the angle between consecutive tangents a step may
+/// turn through (37 degrees); a step turning more is retried shorter (it
+/// may have jumped to another part of the branch).
+const MIN_TURN_COS: f64 = 0.8;
+
+/// The parameter's step for the difference `R_p`, relative to `1 + |p|`.
+const DIFFERENCE_STEP: f64 = 1e-6;
+
+/// Largest turn (11 degrees: `cos` above this) after which the next
+/// arclength step grows, by half.
+const EASY_TURN_COS: f64 = 0.98;
+
+/// The defining equations of a branch's solutions, their symmetry and
+/// period fixed at the branch's first point.
+struct Equations {
+    follow: Follow,
+    /// Steady motions: the motion's symmetry; periodic orbits: its rigid part.
+    symmetry: Symmetry,
+    /// The coordinates held at zero (the gauge, see [`gauge`]).
+    gauge: Vec<usize>,
+    /// A periodic orbit's period in the forcing's periods ([`solve`]).
+    multiple: Option<f64>,
+    /// Newton's tolerance on the residual (max norm).
+    tol: f64,
+}
+
+/// A point of the corrector: the unknowns `w = [z, p]`, the unit tangent
+/// there (oriented along the row it was solved with) and the iterations.
+struct Corrected {
+    w: Vec<f64>,
+    tangent: Vec<f64>,
+    iterations: usize,
+}
+
+/// The coordinates a solution's state is held at zero in: the reference
+/// body's `x`, `y`, heading per generator of `symmetry` and a cyclic
+/// coordinate's shift (each solution's state is moved there).
+fn gauge(bodies: &[[usize; 3]], symmetry: Symmetry) -> Vec<usize> {
+    let gens = symmetry.generators();
+    let mut g = gauge_coordinates(bodies, &gens);
+    g.extend(gens.iter().filter_map(|g| if let Generator::Shift(k) = *g { Some(k) } else { None }));
+    g
+}
+
+/// A solution's unknowns `z`: `[x, xi]` of a steady motion, `[x0, h]` of
+/// a periodic orbit.
+fn unknowns(s: &Solution) -> Vec<f64> {
+    match s {
+        Solution::Steady(m) => [&m.state[..], &m.xi].concat(),
+        Solution::Periodic(o) => [o.state.clone(), o.symmetry.params(o.shift)].concat(),
+    }
+}
+
+impl Equations {
+    /// The equations of the branch through `first`.
+    fn new(follow: Follow, first: &Solution) -> Self {
+        let (symmetry, scale) = match first {
+            Solution::Steady(m) => (m.symmetry, m.state.iter().fold(1.0f64, |a, v| a.max(v.abs()))),
+            Solution::Periodic(o) => (o.symmetry, o.state.iter().fold(1.0f64, |a, v| a.max(v.abs()))),
+        };
+        let tol = match follow {
+            // the steady search stops at 1e-12 (1 + |x| + |f|)
+            Follow::Steady { .. } => 5e-13 * scale,
+            // the shooting search's own: the period map is integrated to
+            // about its 1e-11, so the residual has a floor near it
+            Follow::Periodic { settings, .. } => settings.newton_tolerance * scale,
+        };
+        // the phase the branch's orbits are at
+        let follow = match (follow, first) {
+            (Follow::Periodic { period, settings, .. }, Solution::Periodic(o)) => {
+                Follow::Periodic { t0: o.t0, period, settings }
+            }
+            (f, _) => f,
+        };
+        Equations { follow, symmetry, gauge: Vec::new(), multiple: None, tol }
+    }
+
+    /// The period at the scene `an` ([`solve`]'s rule).
+    fn period<M: Model>(&mut self, an: &Analysis<M>, period: f64) -> f64 {
+        match an.forcing() {
+            Some(Periodicity::Period(forcing)) => {
+                forcing * *self.multiple.get_or_insert_with(|| (period / forcing).round().max(1.0))
+            }
+            _ => period,
+        }
+    }
+
+    /// `R(z)` at the scene `an`, the gauge rows last; with `jacobian`,
+    /// `R_z` too (rows as `R`, columns as `z`).
+    fn eval<M: Model>(
+        &mut self,
+        an: &mut Analysis<M>,
+        z: &[f64],
+        jacobian: bool,
+    ) -> Result<(Vec<f64>, Option<Mat<f64>>), AnalysisError> {
+        let n2 = 2 * an.nq();
+        if self.gauge.is_empty() {
+            self.gauge = gauge(an.bodies(), self.symmetry);
+        }
+        let (x, g) = z.split_at(n2);
+        let (mut r, j) = match self.follow {
+            Follow::Steady { energy } => {
+                let r = an.steady_residual(0.0, x, g, &self.symmetry.generators(), energy)?;
+                let j = if jacobian {
+                    let j = an.steady_jacobian(0.0, x, g, self.symmetry)?;
+                    Some(if energy.is_some() { an.with_energy_row(j, x) } else { j })
+                } else {
+                    None
+                };
+                (r, j)
+            }
+            Follow::Periodic { t0, period, settings } => {
+                let period = self.period(an, period);
+                let (xt, m) = if jacobian {
+                    let (xt, m, _) = an.flow(t0, x, period, &settings)?;
+                    (xt, Some(m))
+                } else {
+                    (an.end_state(t0, x, period, &settings)?.0, None)
+                };
+                let h = self.symmetry.pose(g);
+                let mut r: Vec<f64> = xt.iter().zip(act(an.bodies(), h, x)).map(|(a, b)| a - b).collect();
+                r.extend(an.residual_at(t0, x));
+                let j = match m {
+                    Some(m) => Some(an.shooting_jacobian(t0, x, &m, self.symmetry, g)?),
+                    None => None,
+                };
+                (r, j)
+            }
+        };
+        r.extend(self.gauge.iter().map(|&i| x[i]));
+        Ok((r, j.map(|j| with_gauge(j, &self.gauge))))
+    }
+
+    /// Newton's method with minimum-norm steps on `R(z; p) = 0`,
+    /// `n . (w - w_hat) = 0` from `w_hat` (`build` makes the scene at a
+    /// `p`), and the unit tangent at the point found.
+    ///
+    /// # Errors
+    /// [`AnalysisError::NotConverged`] after [`MAX_CORRECTOR`] iterations
+    /// or where the residual grows; `build`'s and the equations' errors.
+    fn correct<M: Model>(
+        &mut self,
+        build: &mut impl FnMut(f64) -> Result<Analysis<M>, AnalysisError>,
+        w_hat: &[f64],
+        n: &[f64],
+    ) -> Result<Corrected, AnalysisError> {
+        let norm = |r: &[f64]| r.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+        let nz = w_hat.len() - 1;
+        let mut w = w_hat.to_vec();
+        let mut last = f64::INFINITY;
+        for iterations in 0..=MAX_CORRECTOR {
+            let p = w[nz];
+            let mut an = build(p)?;
+            an.check_stop()?;
+            let (r, j) = self.eval(&mut an, &w[..nz], true)?;
+            let j = j.expect("asked for");
+            // R_p by a forward difference: its error only slows Newton (the
+            // residual is exact) and moves a fold's t_p = 0 by O(h), which
+            // moves the fold's parameter by O(h^2); the step is 1e-6, well
+            // above the period map's integration error (1e-11 relative)
+            // over it
+            let h = DIFFERENCE_STEP * (1.0 + p.abs());
+            // (both ends integrated alike, the state alone: the
+            // variational equations' error control takes other steps, whose
+            // difference in the state, over h, would swamp R_p)
+            let (rh, _) = self.eval(&mut build(p + h)?, &w[..nz], false)?;
+            let r0 = match self.follow {
+                Follow::Periodic { .. } => self.eval(&mut an, &w[..nz], false)?.0,
+                Follow::Steady { .. } => r.clone(),
+            };
+            let m = r.len();
+            let mut a = Mat::<f64>::zeros(m + 1, nz + 1);
+            a.as_mut().submatrix_mut(0, 0, m, nz).copy_from(j.as_ref());
+            for i in 0..m {
+                a[(i, nz)] = (rh[i] - r0[i]) / h;
+            }
+            for (c, v) in n.iter().enumerate() {
+                a[(m, c)] = *v;
+            }
+            let along: f64 = n.iter().zip(w.iter().zip(w_hat)).map(|(n, (a, b))| n * (a - b)).sum();
+            let res = norm(&r).max(along.abs());
+            if res <= self.tol {
+                let mut e = vec![0.0; m + 1];
+                e[m] = 1.0;
+                let (t, _) = dense::min_norm_solve(a.as_ref(), &e, 1e-13)?;
+                let len = t.iter().map(|v| v * v).sum::<f64>().sqrt();
+                let tangent = t.iter().map(|v| v / len).collect();
+                return Ok(Corrected { w, tangent, iterations });
+            }
+            // stalling at ten times the tolerance or above: the step is too long
+            if iterations == MAX_CORRECTOR || (iterations >= 2 && res > last && res > 10.0 * self.tol) {
+                return Err(AnalysisError::NotConverged {
+                    what: "a point of the branch",
+                    iterations,
+                    residual: res,
+                    tolerance: self.tol,
+                });
+            }
+            last = res;
+            let rhs: Vec<f64> = r.iter().map(|v| -v).chain([-along]).collect();
+            let (dw, _) = dense::min_norm_solve(a.as_ref(), &rhs, 1e-13)?;
+            w.iter_mut().zip(&dw).for_each(|(a, d)| *a += d);
+        }
+        unreachable!("the loop returns")
+    }
+
+    /// The solution at the corrected point `c`: the kind's own search from
+    /// its state (converged already: it adds the stability).
+    fn point<M: Model>(
+        &mut self,
+        build: &mut impl FnMut(f64) -> Result<Analysis<M>, AnalysisError>,
+        c: &Corrected,
+    ) -> Result<BranchPoint, AnalysisError> {
+        let nz = c.w.len() - 1;
+        let value = c.w[nz];
+        let mut an = build(value)?;
+        let n2 = 2 * an.nq();
+        let solution = solve(&mut an, self.follow, &c.w[..n2], &mut self.multiple)?;
+        Ok(BranchPoint { value, solution, dp_ds: Some(c.tangent[nz]) })
+    }
+}
+
+/// Follows a branch of solutions from `start`'s solution at `values[0]`
+/// through the range of `values` (a grid, increasing or decreasing) by
+/// pseudo-arclength continuation with a tangent predictor (module
+/// docs): the points fall on the grid's values where the branch is a
+/// graph over the parameter (the next value within twice the step that
+/// has worked and the longest step, its search converging), and between them, on arclength steps, where it
+/// turns steeply or folds back (at most ten times the first
+/// grid step's arclength each, halved where Newton fails or the tangent
+/// turns by more than 37 degrees, grown by half after one of at most
+/// three iterations turning less than 11 degrees). A branch that folds
+/// goes on through the fold and back over the grid's values it has
+/// passed, on its other side, until the parameter leaves the range; at
+/// most `4 values.len() + 64` points. Each point's `dp_ds` is its
+/// tangent's parameter component: a sign change between two points is a
+/// fold ([`locate_fold`]). A grid of one value gives the one solution.
+///
+/// # Errors
+/// The branch so far and, when it ended early, the parameter's value and
+/// the error that ended it (a corrector that fails at the shortest step,
+/// `1e-6` of the longest; the most points taken).
+pub fn follow_arclength<M: Model>(
+    values: &[f64],
+    start: &[f64],
+    follow: Follow,
+    mut build: impl FnMut(f64) -> Result<Analysis<M>, AnalysisError>,
+    mut progress: impl FnMut(usize),
+) -> (Vec<BranchPoint>, Option<(f64, AnalysisError)>) {
+    let Some(&p0) = values.first() else { return (Vec::new(), None) };
+    progress(0);
+    let mut multiple = None;
+    let first = match build(p0).and_then(|mut an| solve(&mut an, follow, start, &mut multiple)) {
+        Ok(s) => s,
+        Err(e) => return (Vec::new(), Some((p0, e))),
+    };
+    // a forced orbit at the phase t0 is the one at t0 less whole periods
+    // (the same state, moved): the branch takes the phase in [0, T), where
+    // the forcing's phase moves least with a parameter that changes its
+    // frequency (at t0 = 120 s, 0.01 rad/s turns it by 1.2 rad)
+    let (first, follow) = match (&first, follow) {
+        (Solution::Periodic(o), Follow::Periodic { t0, period, settings }) if t0 >= o.period => {
+            let t0 = t0 - (t0 / o.period).floor() * o.period;
+            let how = Follow::Periodic { t0, period, settings };
+            match build(p0).and_then(|mut an| solve(&mut an, how, &o.state.clone(), &mut multiple)) {
+                Ok(s) => (s, how),
+                Err(e) => return (Vec::new(), Some((p0, e))),
+            }
+        }
+        _ => (first, follow),
+    };
+    let last_value = values[values.len() - 1];
+    if values.len() == 1 || last_value == p0 {
+        return (vec![BranchPoint { value: p0, solution: first, dp_ds: None }], None);
+    }
+    let mut eq = Equations::new(follow, &first);
+    eq.multiple = multiple;
+    let (lo, hi) = (p0.min(last_value), p0.max(last_value));
+    let spacing = (hi - lo) / (values.len() - 1) as f64;
+    let nz = unknowns(&first).len();
+    let mut e_p = vec![0.0; nz + 1];
+    let d0 = (last_value - p0).signum();
+    e_p[nz] = d0;
+    let w0: Vec<f64> = [unknowns(&first), vec![p0]].concat();
+    // the tangent at the first point, oriented toward the range
+    let c = match eq.correct(&mut build, &w0, &e_p) {
+        Ok(c) => c,
+        Err(e) => return (vec![BranchPoint { value: p0, solution: first, dp_ds: None }], Some((p0, e))),
+    };
+    let mut points = vec![BranchPoint { value: p0, solution: first, dp_ds: Some(c.tangent[nz]) }];
+    let (mut w, mut t) = (w0, c.tangent);
+    // the longest step: ten times the first grid step's arclength
+    let ds_max = 10.0 * spacing / t[nz].abs().max(1e-3);
+    let ds_min = 1e-6 * ds_max;
+    let mut ds = 0.1 * ds_max;
+    let mut failed: Option<f64> = None;
+    let most = 4 * values.len() + 64;
+    let next_grid = |p: f64, d: f64| -> Option<f64> {
+        // the next grid value beyond p in the direction d
+        let k = (p - p0) / (spacing * d0);
+        let k = if d * d0 > 0.0 { (k + 1e-9).floor() + 1.0 } else { (k - 1e-9).ceil() - 1.0 };
+        let v = p0 + k * spacing * d0;
+        (v >= lo - 1e-12 * spacing && v <= hi + 1e-12 * spacing).then_some(v.clamp(lo, hi))
+    };
+    while points.len() < most {
+        progress(points.len());
+        let p = w[nz];
+        let d = t[nz].signum();
+        // the range's end in this direction reached: the branch is done
+        let Some(target) = next_grid(p, d) else { return (points, None) };
+        let mut to_value = vec![0.0; nz + 1];
+        to_value[nz] = d;
+        let s_grid = (target - p) / t[nz];
+        let end = if d > 0.0 { hi } else { lo };
+        // (within twice the step that has worked, not failed from here)
+        let natural = s_grid > 0.0 && s_grid <= ds_max.min(2.0 * ds) && failed != Some(target);
+        let (s, row, value) = if natural {
+            // natural: the grid's next value within the step
+            (s_grid, to_value, Some(target))
+        } else if (p + ds * t[nz] - end) * d >= -1e-12 * spacing {
+            // an arclength step that would leave the range ends on its end
+            ((end - p) / t[nz], to_value, Some(end))
+        } else {
+            (ds, t.clone(), None)
+        };
+        let mut w_hat: Vec<f64> = w.iter().zip(&t).map(|(a, b)| a + s * b).collect();
+        if let Some(v) = value {
+            w_hat[nz] = v;
+        }
+        let step = eq.correct(&mut build, &w_hat, &row).and_then(|c| {
+            let turn: f64 = c.tangent.iter().zip(&t).map(|(a, b)| a * b).sum();
+            if turn < MIN_TURN_COS {
+                return Err(AnalysisError::NotConverged {
+                    what: "a point of the branch (the tangent turned too far)",
+                    iterations: c.iterations,
+                    residual: 0.0,
+                    tolerance: eq.tol,
+                });
+            }
+            Ok(c)
+        });
+        match step {
+            Ok(c) if value.is_none() && (c.w[nz] - end) * d > 0.0 => {
+                // the corrector took the parameter past the range: end on it
+                ds = (end - p) / t[nz];
+            }
+            Ok(mut c) => {
+                // a grid value or the range's end exactly (Newton holds it
+                // to rounding)
+                if let Some(v) = value {
+                    c.w[nz] = v;
+                }
+                let point = match eq.point(&mut build, &c) {
+                    Ok(b) => b,
+                    Err(e) => return (points, Some((c.w[nz], e))),
+                };
+                // grown after an easy step that turned little
+                let turn: f64 = c.tangent.iter().zip(&t).map(|(a, b)| a * b).sum();
+                if c.iterations <= 3 && turn > EASY_TURN_COS {
+                    ds = (1.5 * ds).min(ds_max);
+                }
+                // the state moved to the gauge by the search: its unknowns
+                let mut wn = unknowns(&point.solution);
+                wn.push(c.w[nz]);
+                points.push(point);
+                (w, t, failed) = (wn, c.tangent, None);
+            }
+            Err(AnalysisError::Stopped) => return (points, Some((p, AnalysisError::Stopped))),
+            Err(e) => {
+                // a natural step that failed is not tried again: arclength
+                // steps shorter than it go on
+                if value.is_some() {
+                    failed = value;
+                }
+                ds = 0.5 * ds.min(s);
+                if ds < ds_min {
+                    return (points, Some((p, e)));
+                }
+            }
+        }
+    }
+    let p = w[nz];
+    (
+        points,
+        Some((
+            p,
+            AnalysisError::Request {
+                reason: format!(
+                    "the branch took {most} points without leaving the range (a closed branch, or one that turns back and forth): ended"
+                ),
+            },
+        )),
+    )
+}
+
+/// Locates the fold between the branch points `a` and `b` (from
+/// [`follow_arclength`]) whose tangents' parameter components
+/// [`BranchPoint::dp_ds`] have opposite signs: the root of `dp/ds` along
+/// the chord from `a` to `b` by the Illinois variant of regula falsi,
+/// each trial point corrected on the hyperplane through it normal to the
+/// chord, until `|dp/ds| < 1e-9` (the parameter then within `1e-18 /
+/// kappa` of the fold's, `kappa` the branch's curvature there) or the
+/// chord's bracket is below `tol` relative. `None` where the signs agree
+/// or either point has none.
+///
+/// # Errors
+/// The corrector's error inside the bracket; `build`'s.
+pub fn locate_fold<M: Model>(
+    a: &BranchPoint,
+    b: &BranchPoint,
+    follow: Follow,
+    mut build: impl FnMut(f64) -> Result<Analysis<M>, AnalysisError>,
+    tol: f64,
+) -> Result<Option<Bifurcation>, AnalysisError> {
+    let (Some(sa), Some(sb)) = (a.dp_ds, b.dp_ds) else { return Ok(None) };
+    if sa.signum() == sb.signum() {
+        return Ok(None);
+    }
+    let mut eq = Equations::new(follow, &a.solution);
+    let wa: Vec<f64> = [unknowns(&a.solution), vec![a.value]].concat();
+    let wb: Vec<f64> = [unknowns(&b.solution), vec![b.value]].concat();
+    let nz = wa.len() - 1;
+    let chord: Vec<f64> = wb.iter().zip(&wa).map(|(x, y)| x - y).collect();
+    let len = chord.iter().map(|v| v * v).sum::<f64>().sqrt();
+    let n: Vec<f64> = chord.iter().map(|v| v / len).collect();
+    // dp/ds oriented along the chord, at sigma in [0, 1]
+    let mut at = |sigma: f64| -> Result<Corrected, AnalysisError> {
+        let w_hat: Vec<f64> = wa.iter().zip(&chord).map(|(x, c)| x + sigma * c).collect();
+        eq.correct(&mut build, &w_hat, &n)
+    };
+    // the tangents oriented along the chord
+    let (mut s0, mut f0, mut p0) = (0.0, at(0.0)?.tangent[nz], a.value);
+    let (mut s1, mut f1, mut p1) = (1.0, at(1.0)?.tangent[nz], b.value);
+    if f0.signum() == f1.signum() {
+        return Ok(None);
+    }
+    let mut solves = 2;
+    let mut side = 0;
+    let mut best = None;
+    for _ in 0..MAX_FOLD_STEPS {
+        let s = (s0 * f1 - s1 * f0) / (f1 - f0);
+        let c = at(s)?;
+        solves += 1;
+        let f = c.tangent[nz];
+        let done = f.abs() < 1e-9 || (s1 - s0).abs() * len < tol;
+        if f.signum() == f0.signum() {
+            (s0, f0, p0) = (s, f, c.w[nz]);
+            if side == -1 {
+                f1 *= 0.5;
+            }
+            side = -1;
+        } else {
+            (s1, f1, p1) = (s, f, c.w[nz]);
+            if side == 1 {
+                f0 *= 0.5;
+            }
+            side = 1;
+        }
+        best = Some(c);
+        if done {
+            break;
+        }
+    }
+    let c = best.expect("one step at least");
+    let bracket = [p0, p1];
+    let point = eq.point(&mut build, &c)?;
+    let crit = critical(&point.solution, &a.solution, &b.solution);
+    Ok(Some(Bifurcation {
+        value: point.value,
+        bracket,
+        kind: BifurcationKind::Fold,
+        critical: crit,
+        solution: point.solution,
+        solves,
+    }))
+}
