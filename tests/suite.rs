@@ -29,6 +29,7 @@ mod drives;
 mod effects;
 mod events;
 mod figures;
+mod force_jacobian;
 mod formulations;
 mod friction;
 mod guards;

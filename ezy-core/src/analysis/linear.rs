@@ -51,8 +51,11 @@ pub struct Linearization {
     /// An orthonormal basis (2nq x d) of the null space of `C`: the
     /// tangent space of the constraint manifold, `d = 2 nq - rank C`.
     pub tangent: Mat<f64>,
-    /// Whether the applied forces' part of `A` came from central
-    /// differences (the scene has effects) rather than being exactly zero.
+    /// Whether part of the applied forces' derivative in `A` came from
+    /// central differences: an effect whose law has no exact Jacobian
+    /// ([`crate::effects::kind::ForceLaw::jacobian`];
+    /// [`super::Analysis::differenced_laws`] names them). `false` when every force was differentiated exactly (every
+    /// built-in law is) or there is none.
     pub forces_by_differences: bool,
 }
 
@@ -119,7 +122,7 @@ impl<M: Model> Analysis<M> {
             b,
             constraints: c,
             tangent,
-            forces_by_differences: !self.sys.effects.is_empty(),
+            forces_by_differences: self.last_differenced(),
         })
     }
 

@@ -16,9 +16,11 @@
 //!   differentiated exactly in forward mode (dual numbers through the
 //!   code the `model!` macro generated); `qdd`'s derivative then follows
 //!   exactly from the KKT system by implicit differentiation. Applied
-//!   forces are differentiated by central differences (step
-//!   `eps^(1/3) max(1, |x_j|)`, error about 1e-10 relative), since a
-//!   force law is arbitrary user code.
+//!   forces are differentiated exactly too, each law by its own
+//!   [`ForceLaw::jacobian`] (every built-in law has one); the force of a
+//!   law of the user's own without one is differentiated alone by central
+//!   differences (step `eps^(1/3) max(1, |x_j|)`, error about 1e-10
+//!   relative), and named by [`Analysis::differenced_laws`].
 //! - [`Analysis::steady_motion`]: a relative equilibrium, a motion
 //!   `x(t) = exp(t xi) x0` along the plane's rigid motions (going straight,
 //!   turning steadily with fixed shape), found by Newton from a guess; its
@@ -59,6 +61,8 @@
 //! ([`Analysis::symmetry`]): a scene is invariant under a rigid motion when
 //! its constraints and accelerations are equivariant at test states, so a
 //! force law of the user's own is treated exactly as a built-in one.
+//!
+//! [`ForceLaw::jacobian`]: crate::effects::kind::ForceLaw::jacobian
 
 pub mod arclength;
 pub mod bifurcation;
@@ -83,6 +87,8 @@ pub use symmetry::{Generator, Pose, Symmetry};
 use faer::Mat;
 use num_dual::Dual64;
 
+use crate::effects::kind::Waveforms;
+use crate::effects::law::{Law, apply_effects};
 use crate::effects::waveform::Periodicity;
 use crate::error::SimError;
 use crate::formulation::dae::Dynamics;
@@ -168,6 +174,14 @@ pub struct Analysis<M: Model> {
     /// The skate with friction nearest to sliding over the KKT solves
     /// since [`Analysis::watch_grip`] ([`Analysis::check_grip`]).
     grip: Option<Grip>,
+    /// The effects whose force a linearization differentiated by
+    /// differences, first met first ([`Analysis::differenced_laws`]).
+    differenced: Vec<String>,
+    /// Whether the last force Jacobian differenced any effect's force.
+    last_differenced: bool,
+    /// Every effect's force by differences, none exactly
+    /// ([`Analysis::set_force_differences`]).
+    force_differences: bool,
 }
 
 /// The worst grip of a skate with friction seen over some KKT solves: the
@@ -214,7 +228,16 @@ impl<M: Model> Analysis<M> {
     pub fn new(sys: Dynamics<M>) -> Self {
         let bodies = sys.info.bodies.iter().map(|b| b.coords).collect();
         let power = vec![0.0; sys.effects.len()];
-        Self { sys, bodies, power, stop: None, grip: None }
+        Self {
+            sys,
+            bodies,
+            power,
+            stop: None,
+            grip: None,
+            differenced: Vec::new(),
+            last_differenced: false,
+            force_differences: false,
+        }
     }
 
     /// Sets a hook asked between Newton iterations and at every step of a
@@ -223,6 +246,34 @@ impl<M: Model> Analysis<M> {
     /// Ctrl-C within a step).
     pub fn stop_when(&mut self, stop: fn() -> bool) {
         self.stop = Some(stop);
+    }
+
+    /// The names of the effects whose force the analyses so far
+    /// differentiated by central differences, in the order first met:
+    /// those whose law has no exact Jacobian
+    /// ([`crate::effects::kind::ForceLaw::jacobian`] returned `false`: a
+    /// law of the user's own that does not implement it). Empty when every force was differentiated exactly (every
+    /// built-in law is), and before the first linearization; every
+    /// analysis linearizes ([`Analysis::linearize`], a steady motion's
+    /// Newton iteration and eigenvalues, a periodic orbit's variational
+    /// equations), so after one this is what its output should state.
+    pub fn differenced_laws(&self) -> Vec<String> {
+        self.differenced.clone()
+    }
+
+    /// With `all`, every effect's force is differentiated by central
+    /// differences and none exactly (as before the laws' exact
+    /// Jacobians): for tests comparing the two. Not noted in
+    /// [`Analysis::differenced_laws`].
+    #[doc(hidden)]
+    pub fn set_force_differences(&mut self, all: bool) {
+        self.force_differences = all;
+    }
+
+    /// Whether the last linearization differentiated any effect's force by
+    /// differences.
+    pub(crate) fn last_differenced(&self) -> bool {
+        self.last_differenced
     }
 
     /// Starts watching the skates with friction over the KKT solves that
@@ -542,26 +593,104 @@ impl<M: Model> Analysis<M> {
         Ok((a, c))
     }
 
-    /// `dF/dx` (nq x 2nq) of the applied forces by central differences
-    /// (`None` without effects: zero).
+    /// `dF/dx` (nq x 2nq) of the applied forces (`None` without effects:
+    /// zero): each effect's exact Jacobian ([`ForceLaw::jacobian`]) where
+    /// its law gives one, and the forces of the others alone by central
+    /// differences ([`Analysis::difference_forces`]), their names noted
+    /// ([`Analysis::differenced_laws`]).
+    ///
+    /// [`ForceLaw::jacobian`]: crate::effects::kind::ForceLaw::jacobian
     fn force_jacobian(&mut self, t: f64, x: &[f64]) -> Result<Option<Mat<f64>>, AnalysisError> {
+        self.last_differenced = false;
         if self.sys.effects.is_empty() {
             return Ok(None);
         }
         let nq = self.nq();
-        let mut d = Mat::<f64>::zeros(nq, 2 * nq);
+        let (q, qd) = (&x[..nq], &x[nq..2 * nq]);
+        let (mut dq, mut dqd) = (vec![0.0; nq * nq], vec![0.0; nq * nq]);
+        // a law of the user's own adds into blocks of its own, kept only
+        // where it says it gave its Jacobian (one that wrote and then
+        // returned `false` would leave part of one behind)
+        let mut own: Option<(Vec<f64>, Vec<f64>)> = None;
+        let mut rest = Vec::new();
+        for (k, e) in self.sys.effects.iter().enumerate() {
+            let wave = e.waveforms(t);
+            let exact = !self.force_differences
+                && if matches!(e.law, Law::User(_)) {
+                    let (udq, udqd) = own.get_or_insert_with(|| (vec![0.0; nq * nq], vec![0.0; nq * nq]));
+                    udq.fill(0.0);
+                    udqd.fill(0.0);
+                    let exact = e.jacobian(t, &wave, q, qd, udq, udqd);
+                    if exact {
+                        dq.iter_mut().zip(udq.iter()).for_each(|(d, u)| *d += u);
+                        dqd.iter_mut().zip(udqd.iter()).for_each(|(d, u)| *d += u);
+                    }
+                    exact
+                } else {
+                    e.jacobian(t, &wave, q, qd, &mut dq, &mut dqd)
+                };
+            if !exact {
+                rest.push((k, wave));
+            }
+        }
+        if !rest.is_empty() {
+            self.last_differenced = true;
+            if !self.force_differences {
+                for (k, _) in &rest {
+                    let name = &self.sys.effects[*k].name;
+                    if !self.differenced.contains(name) {
+                        self.differenced.push(name.clone());
+                    }
+                }
+            }
+            self.difference_forces(t, x, &rest, &mut dq, &mut dqd)?;
+        }
+        Ok(Some(Mat::from_fn(nq, 2 * nq, |i, j| if j < nq { dq[i * nq + j] } else { dqd[i * nq + j - nq] })))
+    }
+
+    /// Adds the central differences of the force of the effects `which`
+    /// (each an index into the effects with its waveforms at `t`) alone at
+    /// `(t, x)` into `dq = dF/dq` and `dqd = dF/dqd` (nq x nq each,
+    /// row-major): step `eps^(1/3) max(1, |x_j|)` in each of the 2 nq
+    /// components, error about 1e-10 relative (Nocedal & Wright,
+    /// *Numerical Optimization*, 2nd ed., §8.1).
+    fn difference_forces(
+        &self,
+        t: f64,
+        x: &[f64],
+        which: &[(usize, Waveforms)],
+        dq: &mut [f64],
+        dqd: &mut [f64],
+    ) -> Result<(), AnalysisError> {
+        let nq = self.nq();
         let mut xp = x[..2 * nq].to_vec();
+        let (mut fp, mut fm) = (vec![0.0; nq], vec![0.0; nq]);
         for j in 0..2 * nq {
             let h = f64::EPSILON.cbrt() * x[j].abs().max(1.0);
             xp[j] = x[j] + h;
-            let fp = self.forces(t, &xp[..nq], &xp[nq..])?;
+            self.forces_of(t, &xp, which, &mut fp)?;
             xp[j] = x[j] - h;
-            let fm = self.forces(t, &xp[..nq], &xp[nq..])?;
+            self.forces_of(t, &xp, which, &mut fm)?;
             xp[j] = x[j];
+            let (block, col) = if j < nq { (&mut *dq, j) } else { (&mut *dqd, j - nq) };
             for i in 0..nq {
-                d[(i, j)] = (fp[i] - fm[i]) / (2.0 * h);
+                block[i * nq + col] += (fp[i] - fm[i]) / (2.0 * h);
             }
         }
-        Ok(Some(d))
+        Ok(())
+    }
+
+    /// The generalized force `f` (nq) of the effects `which` (as in
+    /// [`Analysis::difference_forces`]) alone at `(t, x)`, added in the
+    /// order the right-hand side adds them.
+    fn forces_of(&self, t: f64, x: &[f64], which: &[(usize, Waveforms)], f: &mut [f64]) -> Result<(), SimError> {
+        let nq = f.len();
+        f.fill(0.0);
+        let mut power = [0.0];
+        for (k, wave) in which {
+            let (e, w) = (std::slice::from_ref(&self.sys.effects[*k]), std::slice::from_ref(wave));
+            apply_effects(e, w, t, &x[..nq], &x[nq..2 * nq], f, &mut power)?;
+        }
+        Ok(())
     }
 }

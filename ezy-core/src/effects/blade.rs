@@ -8,6 +8,7 @@
 use serde::{Deserialize, Serialize};
 
 use super::context::{Blade, CheckContext, EffectContext, non_negative, positive, wave};
+use super::jacobian::{Blocks, dot, perp};
 use super::kind::{EffectKind, ForceLaw, SpecError, TimeScale, Waveforms};
 use super::law::Law;
 use super::registry::Reference;
@@ -109,6 +110,33 @@ impl ForceLaw for BladeLaw {
             BladeForce::Driven(w) => [w.eval(t), 0.0, 0.0],
             _ => [0.0; 3],
         }
+    }
+
+    /// Exact: the force `F(v_t) e` at the contact point, `v_t = e . v`,
+    /// turns with the blade (`de/dphi = n`, the left normal) and varies
+    /// with `v_t` by `dF/dv_t`: `-damping`, or `-force smoothing^2 /
+    /// (v_t^2 + smoothing^2)^(3/2)` for the smoothed Coulomb law (smooth
+    /// at rest, where it is `-force / smoothing`), or 0 for a driven wheel.
+    fn jacobian(&self, _t: f64, wave: &Waveforms, q: &[f64], qd: &[f64], dq: &mut [f64], dqd: &mut [f64]) -> bool {
+        let bl = &self.blade;
+        let (e, r, v) = bl.frame(q, qd);
+        let vt = dot(e, v);
+        let (force, slope) = match &self.force {
+            BladeForce::Viscous { damping } => (-damping * vt, -damping),
+            BladeForce::Coulomb { force, smoothing } => {
+                let h = vt.hypot(*smoothing);
+                (-force * vt / h, -force * (smoothing / h) * (smoothing / h) / h)
+            }
+            BladeForce::Driven(_) => (wave[0], 0.0),
+        };
+        let n = perp(e);
+        // along the heading at a fixed point velocity: dv_t = n . v
+        let dn = slope * dot(n, v);
+        let dphi = [dn * e[0] + force * n[0], dn * e[1] + force * n[1]];
+        let dv = [[slope * e[0] * e[0], slope * e[0] * e[1]], [slope * e[1] * e[0], slope * e[1] * e[1]]];
+        let w = qd[bl.body[2]];
+        Blocks::new(q.len(), dq, dqd).point_force(bl.body, r, w, [force * e[0], force * e[1]], dphi, dv);
+        true
     }
 
     fn coords(&self) -> Vec<usize> {

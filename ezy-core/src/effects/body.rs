@@ -11,6 +11,7 @@
 use serde::{Deserialize, Serialize};
 
 use super::context::{CheckContext, EffectContext, angle, finite, wave};
+use super::jacobian::{Blocks, Var, perp};
 use super::kind::{EffectKind, ForceLaw, SpecError, Waveforms};
 use super::law::Law;
 use super::registry::Reference;
@@ -213,6 +214,29 @@ impl ForceLaw for BodyLaw {
             BodyLaw::Torque { torque, .. } => [torque.eval(t), 0.0, 0.0],
             BodyLaw::Field { .. } => [0.0; 3],
         }
+    }
+
+    /// Exact. A torque and a field depend on time alone: nothing. A force
+    /// at a body point turns its lever with the body (`-(r . F)` on the
+    /// heading's row and column); in body axes the force turns too
+    /// (`dF/dphi = (-F_y, F_x)`), and the two cancel: its moment is the
+    /// body-frame `p x (fx, fy)`, whatever the heading.
+    fn jacobian(&self, _t: f64, wave: &Waveforms, q: &[f64], _qd: &[f64], dq: &mut [f64], dqd: &mut [f64]) -> bool {
+        if let BodyLaw::Force { body, offset, frame, .. } = self {
+            let (s, c) = Scalar::sin_cos(q[body[2]]);
+            let r = [c * offset[0] - s * offset[1], s * offset[0] + c * offset[1]];
+            let (x, y) = (wave[0], wave[1]);
+            let force = match frame {
+                Frame::World => [x, y],
+                Frame::Body => [c * x - s * y, s * x + c * y],
+            };
+            let mut blocks = Blocks::new(q.len(), dq, dqd);
+            if *frame == Frame::Body {
+                blocks.force(*body, r, Var::Q(body[2]), perp(force));
+            }
+            blocks.lever(*body, r, force);
+        }
+        true
     }
 
     fn coords(&self) -> Vec<usize> {

@@ -7,6 +7,7 @@
 use serde::{Deserialize, Serialize};
 
 use super::context::{Blade, CheckContext, EffectContext, non_negative};
+use super::jacobian::{Blocks, Var, dot, perp};
 use super::kind::{EffectKind, ForceLaw, SpecError, TimeScale, Waveforms};
 use super::law::Law;
 use super::registry::Reference;
@@ -128,6 +129,50 @@ impl ForceLaw for DragLaw {
                 (force[0] * v[0] + force[1] * v[1] - k_rot * w * w, force[0].hypot(force[1]))
             }
         }
+    }
+
+    /// Exact. Anisotropic: `F = -K v`, `K = c_along e e^T + c_across n
+    /// n^T` turning with the body (`dK/dphi = (c_along - c_across) (n e^T
+    /// + e n^T)`). Quadratic: `d(-c |v| v)/dv = -c (|v| I + v v^T / |v|)`
+    /// and `d(-c_rot |w| w)/dw = -2 c_rot |w|`, both 0 at rest (the limit:
+    /// `|v| v` is differentiable there, its derivative 0).
+    fn jacobian(&self, _t: f64, _wave: &Waveforms, q: &[f64], qd: &[f64], dq: &mut [f64], dqd: &mut [f64]) -> bool {
+        let mut blocks = Blocks::new(q.len(), dq, dqd);
+        match self {
+            DragLaw::Anisotropic { blade: bl, c_along, c_across } => {
+                let (e, r, v) = bl.frame(q, qd);
+                let n = perp(e);
+                let (vt, vn) = (dot(e, v), dot(n, v));
+                let k = |i: usize, j: usize| c_along * e[i] * e[j] + c_across * n[i] * n[j];
+                let force = [-(k(0, 0) * v[0] + k(0, 1) * v[1]), -(k(1, 0) * v[0] + k(1, 1) * v[1])];
+                let dk = c_along - c_across;
+                let dphi = [-dk * (n[0] * vt + e[0] * vn), -dk * (n[1] * vt + e[1] * vn)];
+                let dv = [[-k(0, 0), -k(0, 1)], [-k(1, 0), -k(1, 1)]];
+                blocks.point_force(bl.body, r, qd[bl.body[2]], force, dphi, dv);
+            }
+            DragLaw::Body { body, c, c_rot, quadratic } => {
+                let v = [qd[body[0]], qd[body[1]]];
+                let w = qd[body[2]];
+                let (dv, dw) = if *quadratic {
+                    // -c (|v| I + v v^T / |v|), 0 at rest
+                    let speed = v[0].hypot(v[1]);
+                    let delta = |i: usize, j: usize| if i == j { 1.0 } else { 0.0 };
+                    let d = |i: usize, j: usize| {
+                        if speed > 0.0 { -c * (delta(i, j) * speed + v[i] * v[j] / speed) } else { 0.0 }
+                    };
+                    ([[d(0, 0), d(0, 1)], [d(1, 0), d(1, 1)]], -2.0 * c_rot * w.abs())
+                } else {
+                    ([[-c, 0.0], [0.0, -c]], -c_rot)
+                };
+                for (i, row) in dv.iter().enumerate() {
+                    for (j, d) in row.iter().enumerate() {
+                        blocks.add(body[i], Var::Qd(body[j]), *d);
+                    }
+                }
+                blocks.add(body[2], Var::Qd(body[2]), dw);
+            }
+        }
+        true
     }
 
     fn coords(&self) -> Vec<usize> {

@@ -22,6 +22,7 @@
 use serde::{Deserialize, Serialize};
 
 use super::context::{CheckContext, EffectContext, HingeRef, angle, finite, non_negative, positive, wave};
+use super::jacobian::{Blocks, Var};
 use super::kind::{EffectKind, ForceLaw, SpecError, TimeScale, Waveforms};
 use super::law::Law;
 use super::registry::Reference;
@@ -200,6 +201,25 @@ impl HingeLaw {
         (tau, rate)
     }
 
+    /// The torque's exact slopes at `qd` (nq): `(dtau/dtheta \[N m/rad\],
+    /// dtau/dtheta_dot \[N m s/rad\])` at fixed waveform values (a
+    /// motor's torque and a servo's target are functions of time alone).
+    /// The friction's `tanh` is smooth: its slope at rest is the linear
+    /// part's, `-(damping + torque / smoothing)`.
+    #[inline]
+    pub fn slopes(&self, qd: &[f64]) -> (f64, f64) {
+        match &self.torque {
+            HingeTorque::Motor(_) => (0.0, 0.0),
+            HingeTorque::Spring { stiffness, .. } => (-stiffness, 0.0),
+            HingeTorque::Damper { damping } => (0.0, -damping),
+            HingeTorque::Servo { stiffness, damping, .. } => (-stiffness, -damping),
+            HingeTorque::Friction { damping, torque, smoothing } => {
+                let th = (self.hinge.rate(qd) / smoothing).tanh();
+                (0.0, -(damping + torque / smoothing * (1.0 - th * th)))
+            }
+        }
+    }
+
     /// [`HingeLaw::torque`] at time `t` \[s\], its waveforms evaluated
     /// here (a motor's torque is its waveform's value: one dispatch):
     /// what the fused right-hand side calls for each hinge effect.
@@ -231,6 +251,22 @@ impl ForceLaw for HingeLaw {
     #[inline(always)]
     fn waveforms(&self, t: f64) -> Waveforms {
         HingeLaw::waveforms(self, t)
+    }
+
+    /// Exact ([`HingeLaw::slopes`]): the torque pair `(+tau, -tau)` on the
+    /// headings `(a, b)` and `theta = q[a] - q[b]` give `s_i s_j dtau`
+    /// with `s = +1` at `a`, `-1` at `b`.
+    fn jacobian(&self, _t: f64, _wave: &Waveforms, q: &[f64], qd: &[f64], dq: &mut [f64], dqd: &mut [f64]) -> bool {
+        let (k, c) = self.slopes(qd);
+        let mut blocks = Blocks::new(q.len(), dq, dqd);
+        let ends = std::iter::once((self.hinge.a, 1.0)).chain(self.hinge.b.map(|b| (b, -1.0)));
+        for (i, si) in ends.clone() {
+            for (j, sj) in ends.clone() {
+                blocks.add(i, Var::Q(j), si * sj * k);
+                blocks.add(i, Var::Qd(j), si * sj * c);
+            }
+        }
+        true
     }
 
     fn coords(&self) -> Vec<usize> {

@@ -52,8 +52,8 @@ pub type Waveforms = [f64; 3];
 ///
 /// Only [`ForceLaw::apply`] and [`ForceLaw::coords`] are required; the
 /// provided methods tell ezy more about the law (its forcing period, its
-/// time scale, its time-only part) and have defaults that are right for
-/// any law.
+/// time scale, its time-only part, its exact Jacobian) and have defaults
+/// that are right for any law.
 pub trait ForceLaw: Send + Sync + fmt::Debug + 'static {
     /// Adds the law's generalized force at `(t, q, qd)` (`t` \[s\], `q`
     /// and `qd` nq each) into `f` (nq) \[N, N m\] and returns `(power,
@@ -94,6 +94,80 @@ pub trait ForceLaw: Send + Sync + fmt::Debug + 'static {
     fn apply_with(&self, t: f64, wave: &Waveforms, q: &[f64], qd: &[f64], f: &mut [f64]) -> (f64, f64) {
         let _ = wave;
         self.apply(t, q, qd, f)
+    }
+
+    /// The law's exact Jacobian at `(t, q, qd)` (`t` \[s\], `q` and `qd`
+    /// nq each) with the waveforms' values `wave` ([`ForceLaw::waveforms`]
+    /// at `t`, held fixed): ADDS the partial derivatives of the generalized
+    /// force it adds in [`ForceLaw::apply_with`] into `dq` = `dF/dq` and
+    /// `dqd` = `dF/dqd`, each dense (nq x nq), row-major (`dq[i * nq + j]`
+    /// is `df_i/dq_j`: \[N/m\], \[N/rad\], \[N m/m\] or \[N m/rad\] by the
+    /// coordinates; `dqd[i * nq + j]` is `df_i/dqd_j`, the same per unit of
+    /// velocity: \[N s/m\], ...), and returns `true`. Only the entries of
+    /// the law's rows and columns change; another law's may already be
+    /// there, so add, never overwrite.
+    ///
+    /// The default adds nothing and returns `false`: "no exact Jacobian".
+    /// The analyses (steady motions, periodic orbits' variational
+    /// equations, [`crate::analysis::Analysis::linearize`]: the Jacobian
+    /// `A = df/dx` of the state equations, Seydel, *Practical Bifurcation
+    /// and Stability Analysis*, 3rd ed., §7.1-7.3; Hairer & Wanner, *Solving
+    /// ODEs II*, §VII.1) then differentiate this law's force alone by
+    /// central differences, step `eps^(1/3) max(1, |x_j|)` (error about
+    /// 1e-10 relative, Nocedal & Wright, *Numerical Optimization*, 2nd ed.,
+    /// §8.1) and name it ([`crate::analysis::Analysis::differenced_laws`]),
+    /// which their output states. A law that returns `false` must leave
+    /// `dq` and `dqd` as they were.
+    ///
+    /// Every built-in law implements it exactly; where a law is not smooth
+    /// its documentation says which derivative it gives. Implement it
+    /// where the derivatives are at hand: a hinge torque `tau(theta,
+    /// theta_dot)` (a [`super::context::HingeRef`] `h`) adds `s_i s_j
+    /// dtau/dtheta` at `dq[i * nq + j]` and `s_i s_j dtau/dtheta_dot` at
+    /// `dqd[i * nq + j]` for `i, j` in `h.a` (`s = +1`) and `h.b` (`s = -1`):
+    ///
+    /// ```
+    /// use ezy_core::effects::{ForceLaw, HingeRef, Waveforms};
+    ///
+    /// /// A torsion spring at a hinge, `tau = -k theta` [N m].
+    /// #[derive(Debug)]
+    /// struct Torsion {
+    ///     hinge: HingeRef,
+    ///     k: f64,
+    /// }
+    ///
+    /// impl ForceLaw for Torsion {
+    ///     fn apply(&self, _t: f64, q: &[f64], qd: &[f64], f: &mut [f64]) -> (f64, f64) {
+    ///         let tau = -self.k * self.hinge.angle(q);
+    ///         (self.hinge.add_torque(tau, qd, f), tau)
+    ///     }
+    ///     fn coords(&self) -> Vec<usize> {
+    ///         self.hinge.coords()
+    ///     }
+    ///     // dtau/dtheta = -k, dtau/dtheta_dot = 0
+    ///     fn jacobian(&self, _t: f64, _w: &Waveforms, q: &[f64], _qd: &[f64], dq: &mut [f64], _dqd: &mut [f64]) -> bool {
+    ///         let nq = q.len();
+    ///         let ends = [(Some(self.hinge.a), 1.0), (self.hinge.b, -1.0)];
+    ///         for (i, si) in ends {
+    ///             for (j, sj) in ends {
+    ///                 if let (Some(i), Some(j)) = (i, j) {
+    ///                     dq[i * nq + j] += si * sj * -self.k;
+    ///                 }
+    ///             }
+    ///         }
+    ///         true
+    ///     }
+    /// }
+    ///
+    /// // headings at q[2] and q[5] of nq = 6
+    /// let law = Torsion { hinge: HingeRef { index: 0, a: 2, b: Some(5) }, k: 3.0 };
+    /// let (mut dq, mut dqd) = (vec![0.0; 36], vec![0.0; 36]);
+    /// assert!(law.jacobian(0.0, &[0.0; 3], &[0.0; 6], &[0.0; 6], &mut dq, &mut dqd));
+    /// assert_eq!((dq[2 * 6 + 2], dq[2 * 6 + 5]), (-3.0, 3.0));
+    /// ```
+    fn jacobian(&self, t: f64, wave: &Waveforms, q: &[f64], qd: &[f64], dq: &mut [f64], dqd: &mut [f64]) -> bool {
+        let _ = (t, wave, q, qd, dq, dqd);
+        false
     }
 
     /// How the force depends on time at a fixed state (constant, periodic

@@ -74,6 +74,18 @@ macro_rules! families {
                 }
             }
 
+            /// [`ForceLaw::jacobian`] of the law, statically dispatched:
+            /// adds its exact `dF/dq` and `dF/dqd` (nq x nq each, row-major)
+            /// into `dq` and `dqd` and returns `true`, or returns `false`
+            /// (a law of the user's own without one: differences).
+            #[inline]
+            pub fn jacobian(&self, t: f64, wave: &Waveforms, q: &[f64], qd: &[f64], dq: &mut [f64], dqd: &mut [f64]) -> bool {
+                match self {
+                    $( Law::$variant(l) => l.jacobian(t, wave, q, qd, dq, dqd), )*
+                    Law::User(u) => u.0.jacobian(t, wave, q, qd, dq, dqd),
+                }
+            }
+
             /// [`ForceLaw::waveforms`] of the law, statically dispatched.
             #[inline(always)]
             pub fn waveforms(&self, t: f64) -> Waveforms {

@@ -32,6 +32,9 @@
 //!   (rolling resistance, driven wheel), [`body`] (force, torque, slope,
 //!   gravity), [`drag`] (linear, quadratic, anisotropic),
 //!   [`spring`] (spring-damper-actuator), [`skate_friction`].
+//! - `jacobian`: the blocks a law's exact Jacobian
+//!   ([`ForceLaw::jacobian`]) adds into, and the chain rule of a force at
+//!   a body point the built-in laws share.
 //! - [`law`]: the hot enum [`Law`] over the families' law structs
 //!   (static dispatch; the module says why), and the loops the
 //!   right-hand sides call.
@@ -45,6 +48,7 @@ pub mod body;
 pub mod context;
 pub mod drag;
 pub mod hinge;
+pub(crate) mod jacobian;
 pub mod kind;
 pub mod law;
 pub mod registry;
@@ -111,6 +115,19 @@ impl Effect {
             return (0.0, 0.0);
         }
         self.law.apply_with(t, wave, q, qd, f)
+    }
+
+    /// The effect's exact Jacobian at `(t, q, qd)` with its waveforms'
+    /// values `wave` ([`ForceLaw::jacobian`]): adds `dF/dq` and `dF/dqd`
+    /// (nq x nq each, row-major) into `dq` and `dqd` and returns `true`;
+    /// `false` (nothing added) for a law without one. An effect switched
+    /// off adds nothing and returns `true` (its force is zero).
+    #[inline]
+    pub fn jacobian(&self, t: f64, wave: &Waveforms, q: &[f64], qd: &[f64], dq: &mut [f64], dqd: &mut [f64]) -> bool {
+        if !self.on {
+            return true;
+        }
+        self.law.jacobian(t, wave, q, qd, dq, dqd)
     }
 
     /// How the effect's force depends on time at a fixed state

@@ -10,7 +10,7 @@ use serde::{Deserialize, Serialize};
 
 use super::body::{default_gravity, is_default_gravity};
 use super::context::{Blade, CheckContext, EffectContext, finite, non_negative};
-use super::kind::{EffectKind, ForceLaw, SpecError};
+use super::kind::{EffectKind, ForceLaw, SpecError, Waveforms};
 use super::law::Law;
 use super::registry::Reference;
 use super::waveform::Periodicity;
@@ -79,6 +79,13 @@ impl ForceLaw for SkateFrictionLaw {
     #[inline(always)]
     fn apply(&self, _t: f64, _q: &[f64], _qd: &[f64], _f: &mut [f64]) -> (f64, f64) {
         (0.0, 0.0)
+    }
+
+    /// Exact: the law's own force is nothing, so is its derivative (the
+    /// analyses take every skate as holding: its row stays in the KKT
+    /// system, differentiated with the model's terms).
+    fn jacobian(&self, _t: f64, _wave: &Waveforms, _q: &[f64], _qd: &[f64], _dq: &mut [f64], _dqd: &mut [f64]) -> bool {
+        true
     }
 
     fn coords(&self) -> Vec<usize> {

@@ -7,6 +7,7 @@
 use serde::{Deserialize, Serialize};
 
 use super::context::{CheckContext, EffectContext, finite, non_negative, unknown, wave};
+use super::jacobian::{Blocks, Var, dot, mat_vec, perp};
 use super::kind::{EffectKind, ForceLaw, SpecError, TimeScale, Waveforms};
 use super::law::Law;
 use super::registry::Reference;
@@ -148,6 +149,70 @@ impl ForceLaw for SpringLaw {
     #[inline(always)]
     fn waveforms(&self, t: f64) -> Waveforms {
         [self.force.eval(t), 0.0, 0.0]
+    }
+
+    /// Exact away from zero length (there `false`: the force has no
+    /// direction, and its evaluation reports that). With `d = r_from -
+    /// r_to`, `L = |d|`, `e = d / L`, `P = I - e e^T` and the relative
+    /// velocity `u`: `dL = e . dd`, `de = P dd / L`, `d(dL/dt) = (P u / L) .
+    /// dd + e . du`, so the force on `from`, `-T e`, has `d/dd = -(e (k e +
+    /// c P u / L)^T + T P / L)` and `d/du = -c e e^T`; `to` takes its
+    /// negative, each end's lever turning with its body.
+    fn jacobian(&self, _t: f64, wave: &Waveforms, q: &[f64], qd: &[f64], dq: &mut [f64], dqd: &mut [f64]) -> bool {
+        let [a, b] = &self.ends;
+        let (ra, va, la) = a.state(q, qd);
+        let (rb, vb, lb) = b.state(q, qd);
+        let d = [ra[0] - rb[0], ra[1] - rb[1]];
+        let len = d[0].hypot(d[1]);
+        if len.is_nan() || len <= 0.0 {
+            return false;
+        }
+        let e = [d[0] / len, d[1] / len];
+        let u = [va[0] - vb[0], va[1] - vb[1]];
+        let rate = dot(e, u);
+        let (k, c) = (self.stiffness, self.damping);
+        let tension = k * (len - self.rest_length) + c * rate + wave[0];
+        let pu = [u[0] - rate * e[0], u[1] - rate * e[1]];
+        // the gradient of the tension in `d`, and the force on `from` in
+        // `d` and in `u`
+        let g = [k * e[0] + c * pu[0] / len, k * e[1] + c * pu[1] / len];
+        let delta = |i: usize, j: usize| if i == j { 1.0 } else { 0.0 };
+        let projector = |i: usize, j: usize| delta(i, j) - e[i] * e[j];
+        let mdd: [[f64; 2]; 2] =
+            std::array::from_fn(|i| std::array::from_fn(|j| -(e[i] * g[j] + tension * projector(i, j) / len)));
+        let mdu: [[f64; 2]; 2] = std::array::from_fn(|i| std::array::from_fn(|j| -c * e[i] * e[j]));
+        let force_a = [-tension * e[0], -tension * e[1]];
+        // the ends on bodies: indices, lever arm, and the sign of each in
+        // `d` and of the force on it
+        let ends = [(a, la, 1.0), (b, lb, -1.0)].map(|(end, lever, sign)| match end {
+            Anchor::Body { body, .. } => Some((*body, lever, sign)),
+            Anchor::Ground(_) => None,
+        });
+        let mut blocks = Blocks::new(q.len(), dq, dqd);
+        for &(body, lever, sign) in ends.iter().flatten() {
+            let w = qd[body[2]];
+            let turn = perp(lever);
+            // (column, dd, du) for this end's coordinates and velocities
+            let columns = [
+                (Var::Q(body[0]), [1.0, 0.0], [0.0, 0.0]),
+                (Var::Q(body[1]), [0.0, 1.0], [0.0, 0.0]),
+                (Var::Q(body[2]), turn, [-w * lever[0], -w * lever[1]]),
+                (Var::Qd(body[0]), [0.0, 0.0], [1.0, 0.0]),
+                (Var::Qd(body[1]), [0.0, 0.0], [0.0, 1.0]),
+                (Var::Qd(body[2]), [0.0, 0.0], turn),
+            ];
+            for (col, dd, du) in columns {
+                let (x, y) = (mat_vec(mdd, dd), mat_vec(mdu, du));
+                let dfa = [sign * (x[0] + y[0]), sign * (x[1] + y[1])];
+                for &(on, lever_on, sign_on) in ends.iter().flatten() {
+                    blocks.force(on, lever_on, col, [sign_on * dfa[0], sign_on * dfa[1]]);
+                }
+            }
+        }
+        for &(on, lever_on, sign_on) in ends.iter().flatten() {
+            blocks.lever(on, lever_on, [sign_on * force_a[0], sign_on * force_a[1]]);
+        }
+        true
     }
 
     fn coords(&self) -> Vec<usize> {
