@@ -272,6 +272,13 @@ fn analyze_model<M: Model>(proto: &M, scene: &Scene, opts: &AnalyzeOptions) -> R
         None => (Vec::new(), Vec::new()),
     };
     let power = branch_power(proto, scene, ro, opts, &branch, &mut log)?;
+    let differenced = an.differenced_laws();
+    if !differenced.is_empty() {
+        log.notes.push(format!(
+            "the force of {} has no exact Jacobian (its law does not implement ForceLaw::jacobian): differentiated by central differences, about 1e-10 relative",
+            differenced.iter().map(|n| format!("`{n}`")).collect::<Vec<_>>().join(", ")
+        ));
+    }
     let files = write_analysis(
         &an,
         scene,
