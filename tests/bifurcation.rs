@@ -6,9 +6,10 @@
 //! searches.
 
 use ezy::models::{EzyRoller, Pendulum, scenes};
+use ezy_core::analysis::arclength::{follow_arclength, switch_branch};
 use ezy_core::analysis::bifurcation::{BifurcationKind, locate};
 use ezy_core::analysis::branch::{Follow, follow};
-use ezy_core::analysis::{Analysis, AnalysisError, PeriodicSettings};
+use ezy_core::analysis::{Analysis, AnalysisError, PeriodicSettings, Solution, Stability};
 
 use crate::optimize::{Cart, K, M, cart};
 
@@ -54,6 +55,11 @@ fn a_hopf_point_is_located_where_the_damping_changes_sign() {
 /// of their own 1e-5 N m either side: the largest multiplier below 1
 /// above the point and above 1 below it (measured: 0.6380638704, the
 /// critical multiplier 1 + 1.4e-10; 0.9999981 and 1.0000019 either side).
+/// Switched onto the other branch there (turning gaits) and followed to
+/// 0.5 N m: a stable gait turning -0.0618441 rad per period, a 1000 s
+/// run's last period -0.0618417 (bound 1e-5: the run's own tolerances
+/// and its transient's remains; the turn's sign is the branch's, left and
+/// right being mirror images).
 #[test]
 fn the_rolling_resistance_gait_has_a_branch_point_in_the_motor_amplitude() {
     let scene = scenes::get("drive-rolling-resistance");
@@ -88,6 +94,31 @@ fn the_rolling_resistance_gait_has_a_branch_point_in_the_motor_amplitude() {
         eprintln!("at {side}: largest multiplier {largest}");
         assert_eq!(largest < 1.0, above, "at {side}: {:?}", o.multipliers);
     }
+    // the other branch: turning gaits, switched onto along the critical
+    // direction and followed down to 0.5 N m, against a whole run there
+    let (p, how2) = switch_branch(&b, how, build, 1e-3).unwrap();
+    let turn = |s: &Solution| match s {
+        Solution::Periodic(o) => o.heading_change,
+        Solution::Steady(_) => unreachable!(),
+    };
+    eprintln!("switched: at {} heading change {} per period", p.value, turn(&p.solution));
+    assert!(turn(&p.solution).abs() > 1e-4, "{}", turn(&p.solution));
+    let values = [p.value, 0.5];
+    let (new, ended) = follow_arclength(&values, p.solution.state(), how2, build, |_| {});
+    assert!(ended.is_none(), "{ended:?}");
+    let last = new.last().unwrap();
+    assert_eq!(last.value, 0.5);
+    let sets = [("motor.amplitude".to_string(), 0.5)];
+    let (run, _) = scene.problem::<EzyRoller>(&sets).unwrap();
+    let sol = run.t_end(1000.0).every(2.0).solve().unwrap();
+    let phi = sol.column("phi1").unwrap();
+    let n = phi.len();
+    let measured = phi[n - 1] - phi[n - 2];
+    eprintln!("at 0.5 N m: the branch turns {} per period, a 1000 s run {measured}", turn(&last.solution));
+    // the run's scene tolerances and what is left of its transient
+    // bound the agreement (measured 2.4e-6 rad of 0.0618 rad)
+    assert!((turn(&last.solution).abs() - measured.abs()).abs() < 1e-5, "{} against {measured}", turn(&last.solution));
+    assert_eq!(last.solution.stability(), Stability::Stable);
 }
 
 /// Baker and Gollub's forced damped pendulum, `theta'' + theta' / q +
@@ -135,6 +166,9 @@ c_rot = 1.5660459763365826
 /// 1e-4 of 1.0663 (measured 1.066373, 20 solves). Whole runs of their own (600 s,
 /// sampled once a forcing period) confirm it: 0.02 N m below, the motion
 /// repeats every period; 0.02 N m above, every second period only.
+/// Switched onto the doubled orbits' branch: an orbit of twice the
+/// period, not the period-1 one (a forcing period apart from itself by
+/// more than 1e-3 rad), on the side the runs double on.
 #[test]
 fn the_forced_pendulums_first_period_doubling_is_located() {
     let scene = ezy_scene::Scene::from_toml(FORCED_PENDULUM, "forced-pendulum.toml").unwrap();
@@ -167,4 +201,19 @@ fn the_forced_pendulums_first_period_doubling_is_located() {
         assert!(two < 1e-3, "A = {a}: {two:e} after two periods");
         assert_eq!(one > 1e-2, doubled, "A = {a}: {one:e} after one period");
     }
+    // the doubled orbits' branch, switched onto: twice the period, half a
+    // period apart from itself, and on the side the runs double on
+    let (p, how2) = switch_branch(&b, how, build, 1e-2).unwrap();
+    let (Solution::Periodic(o), Follow::Periodic { t0, settings, .. }) = (&p.solution, how2) else {
+        panic!("a periodic orbit")
+    };
+    let (half, _) = build(p.value).unwrap().end_state(t0, &o.state, period, &settings).unwrap();
+    let apart = (half[2] - o.state[2]).abs();
+    eprintln!(
+        "doubled: at A = {} (period {} s), one forcing period apart by {apart} rad, {:?}",
+        p.value, o.period, o.stability
+    );
+    assert!((o.period - 2.0 * period).abs() < 1e-9 * period, "{}", o.period);
+    assert!(apart > 1e-3, "{apart}");
+    assert!(p.value > b.value - 1e-7, "{} against {}", p.value, b.value);
 }

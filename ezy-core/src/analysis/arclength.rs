@@ -513,3 +513,60 @@ pub fn locate_fold<M: Model>(
         solves,
     }))
 }
+
+/// A point on the other branch through the branch point or period
+/// doubling `b` (from [`super::bifurcation::locate`], on a branch followed
+/// as `follow` says): at a branch point the new branch leaves along the
+/// null direction `phi` of the defining equations' Jacobian in the
+/// unknowns (the critical eigenvector, e.g. a straight gait's turning
+/// mode), so the point is sought from `z* + offset phi` on the
+/// hyperplane `phi . (z - z*) = offset`, the parameter free (Seydel §5.6,
+/// "branch switching by a parallel predictor"; Kuznetsov §10.2). At a
+/// period doubling the same is done for the orbit of twice the period,
+/// for which the doubling is a branch point (its multiplier -1 squared
+/// is +1). `offset` is in the state's units (1e-3 to 1e-2 of its scale:
+/// past the Newton matrix's near-singularity, inside the new branch's
+/// quadratic bend). Returns the new branch's point and how to follow it
+/// ([`follow_arclength`], from the point's value and state).
+///
+/// # Errors
+/// [`AnalysisError::Request`] for a bifurcation of another kind or a
+/// limit cycle; the corrector's, where no other branch is within reach
+/// (a null direction that is the followed branch's own); `build`'s.
+pub fn switch_branch<M: Model>(
+    b: &Bifurcation,
+    follow: Follow,
+    mut build: impl FnMut(f64) -> Result<Analysis<M>, AnalysisError>,
+    offset: f64,
+) -> Result<(BranchPoint, Follow), AnalysisError> {
+    let follow = match (b.kind, follow, &b.solution) {
+        (BifurcationKind::BranchPoint, f, _) => f,
+        (BifurcationKind::PeriodDoubling, Follow::Periodic { settings, .. }, Solution::Periodic(o)) => {
+            Follow::Periodic { t0: o.t0, period: 2.0 * o.period, settings }
+        }
+        (kind, _, _) => {
+            return Err(AnalysisError::Request {
+                reason: format!(
+                    "a branch is switched at a branch point or a period doubling, not at a {}",
+                    kind.name()
+                ),
+            });
+        }
+    };
+    // the solution at the bifurcation, under the equations to switch on
+    let mut multiple = None;
+    let at = build(b.value).and_then(|mut an| solve(&mut an, follow, b.solution.state(), &mut multiple))?;
+    let mut eq = Equations::new(follow, &at);
+    eq.multiple = multiple;
+    let z = unknowns(&at);
+    let mut an = build(b.value)?;
+    let (_, j) = eq.eval(&mut an, &z, true)?;
+    let (_, phi) = dense::smallest_right_singular(j.expect("asked for").as_ref())?;
+    let mut w_hat: Vec<f64> = z.iter().zip(&phi).map(|(a, v)| a + offset * v).collect();
+    w_hat.push(b.value);
+    let mut n = phi;
+    n.push(0.0);
+    let c = eq.correct(&mut build, &w_hat, &n)?;
+    let point = eq.point(&mut build, &c)?;
+    Ok((point, follow))
+}

@@ -19,6 +19,14 @@ fn svd(a: MatRef<'_, f64>, full: bool) -> Result<Svd, AnalysisError> {
     Ok((values, s.U().to_owned(), s.V().to_owned()))
 }
 
+/// The smallest singular value of `a` (m x n, m >= n) and its right
+/// singular vector (n, unit): `a`'s nearest null direction.
+pub(crate) fn smallest_right_singular(a: MatRef<'_, f64>) -> Result<(f64, Vec<f64>), AnalysisError> {
+    let (s, _, v) = svd(a, false)?;
+    let k = s.len().saturating_sub(1);
+    Ok((s.get(k).copied().unwrap_or(0.0), (0..v.nrows()).map(|i| v[(i, k)]).collect()))
+}
+
 /// Numerical rank of a matrix with singular values `s` (largest first):
 /// the count above `rtol * s[0]` (and above the smallest normal number).
 fn rank(s: &[f64], rtol: f64) -> usize {
