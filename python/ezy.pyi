@@ -123,6 +123,20 @@ class Analysis:
     @property
     def branch(self) -> Any: ...
 
+class Geometry:
+    """The geometry of locomotion: the report and its tables as DataFrames."""
+
+    report: str
+    tables: Dict[str, Any]
+    @property
+    def connection(self) -> Any: ...
+    @property
+    def curvature(self) -> Any: ...
+    @property
+    def momentum(self) -> Any: ...
+    @property
+    def gait(self) -> Any: ...
+
 class Linearization:
     """A and B at a time of a run (DataFrames), the eigenvalues [1/s]."""
 
@@ -184,6 +198,21 @@ def analyze(
     figures: bool = False,
     **settings: Any,
 ) -> Analysis: ...
+def geometry(
+    target: Union[_Scene, Model],
+    *,
+    model: Optional[Model] = None,
+    at: Optional[Dict[str, float]] = None,
+    gait: Optional[str] = None,
+    grid: Optional[int] = None,
+    range: Optional[Tuple[float, float]] = None,
+    body: Optional[str] = None,
+    shape: Union[str, Sequence[str], None] = None,
+    momentum: Optional[Dict[str, float]] = None,
+    out: Optional[_Path] = None,
+    figures: bool = False,
+    **settings: Any,
+) -> Geometry: ...
 def fit(
     scene: _Scene,
     *,

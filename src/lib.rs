@@ -92,7 +92,7 @@ pub mod testing;
 pub use app::App;
 pub use ezy_core;
 pub use ezy_core::{Model, Problem, Solution, model};
-pub use ezy_core::{analysis, effects, events};
+pub use ezy_core::{analysis, effects, events, geometry};
 pub use ezy_models as models;
 pub use ezy_scene;
 pub use ezy_scene::Scene;
@@ -124,4 +124,6 @@ pub mod book_examples {
     pub struct Events;
     #[doc = include_str!("../docs/book/src/friction.md")]
     pub struct Friction;
+    #[doc = include_str!("../docs/book/src/geometry.md")]
+    pub struct Geometry;
 }

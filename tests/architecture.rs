@@ -54,6 +54,8 @@ const CORE_FLOORS: &[(&str, u32)] = &[
     ("erased", 7),
     // floor 8: built on what a user holds (a problem, its analysis)
     ("sensitivity", 8),
+    // the geometry of locomotion (a model, its forces, a simulated gait)
+    ("geometry", 8),
     // floor 9: design questions on the sensitivities (fits)
     ("design", 9),
 ];

@@ -35,7 +35,7 @@ pub fn one_second(_scene: &str) -> f64 {
 #[test]
 fn every_builtin_scene_runs_one_second_and_closes_its_ledger() {
     let all = scenes::builtin();
-    assert_eq!(all.len(), 23);
+    assert_eq!(all.len(), 24);
     for src in all {
         let info = scenes::model_info_with(&src.scene.model, &src.scene.params).unwrap().unwrap();
         // family effects (`hinge = "J[*]"`) run as one effect per element

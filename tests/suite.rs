@@ -32,6 +32,7 @@ mod figures;
 mod force_jacobian;
 mod formulations;
 mod friction;
+mod geometry;
 mod guards;
 mod hard_cases;
 mod hinge_friction;

@@ -55,6 +55,7 @@ pub mod erased;
 pub mod error;
 pub mod events;
 pub mod formulation;
+pub mod geometry;
 pub mod integrator;
 pub mod kkt;
 pub mod model;

@@ -9,6 +9,7 @@
 mod chaplygin_sleigh;
 mod ezyroller;
 mod ezyroller_driven;
+mod kinematic_snake;
 mod mechanisms;
 pub mod scenes;
 mod snake;
@@ -19,6 +20,7 @@ pub use chaplygin_sleigh::ChaplyginSleigh;
 use ezy_scene::registry::{InfoOnly, Register};
 pub use ezyroller::EzyRoller;
 pub use ezyroller_driven::EzyRollerDriven;
+pub use kinematic_snake::KinematicSnake;
 pub use mechanisms::{DoublePendulum, ElasticFourBar, FourBar, NFourBar, Pendulum, SliderCrank};
 pub use snake::{Snake, SnakeDriven, SnakeServo};
 pub use snakeboard::Snakeboard;
@@ -34,6 +36,7 @@ pub fn register<R: Register>(r: &mut R) {
     r.register::<Snake>("snake");
     r.register::<SnakeDriven>("snake_driven");
     r.register::<SnakeServo>("snake_servo");
+    r.register::<KinematicSnake>("kinematic_snake");
     r.register::<Snakeboard>("snakeboard");
     r.register::<FourBar>("four_bar");
     r.register::<ElasticFourBar>("elastic_four_bar");

@@ -28,6 +28,7 @@ pub const BUILTIN: &[(&str, &str)] = &[
     ("snake-slip.toml", include_str!("../scenes/snake-slip.toml")),
     ("drive-prescribed.toml", include_str!("../scenes/drive-prescribed.toml")),
     ("snakeboard.toml", include_str!("../scenes/snakeboard.toml")),
+    ("kinematic-snake.toml", include_str!("../scenes/kinematic-snake.toml")),
     ("four-bar.toml", include_str!("../scenes/four-bar.toml")),
     ("four-bar-stiff.toml", include_str!("../scenes/four-bar-stiff.toml")),
     ("slider-crank.toml", include_str!("../scenes/slider-crank.toml")),

@@ -40,7 +40,7 @@ mod toolkit;
 mod units;
 
 pub use model::PyModel;
-pub use reports::{Analysis, Check, Equations, Linearization};
+pub use reports::{Analysis, Check, Equations, Geometry, Linearization};
 pub use result::RunResult;
 pub use scene::{Effect, PyScene};
 pub use toolkit::Toolkit;
@@ -150,6 +150,7 @@ pub fn init_module(m: &Bound<'_, PyModule>, app: App) -> PyResult<()> {
     m.add_class::<Check>()?;
     m.add_class::<Analysis>()?;
     m.add_class::<Linearization>()?;
+    m.add_class::<Geometry>()?;
     m.add_class::<Toolkit>()?;
     m.add_class::<PyModel>()?;
     let kit = Bound::new(py, Toolkit { app, helpers: helpers.unbind() })?;
@@ -165,6 +166,7 @@ pub fn init_module(m: &Bound<'_, PyModule>, app: App) -> PyResult<()> {
         "fit",
         "optimize",
         "linearize",
+        "geometry",
         "equations",
         "check",
     ] {

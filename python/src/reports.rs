@@ -119,6 +119,59 @@ impl Analysis {
     }
 }
 
+/// What `ezy.geometry` gives: the report `ezy geometry` prints and its
+/// tables as DataFrames: `connection` (the local connection `A` and, for a
+/// mixed system, `Gamma` at each shape), `curvature` (the height functions
+/// `D(-A)`), `momentum` (the momentum equation's coefficients), `gait`
+/// (first order, second order, reconstructed and simulated net motion per
+/// cycle) and `gait_path`; a table not written is `None`.
+#[pyclass(module = "ezy", frozen)]
+pub struct Geometry {
+    /// The text `ezy geometry` prints.
+    #[pyo3(get)]
+    pub(crate) report: String,
+    /// Every table written: `{"connection": DataFrame, ...}`.
+    #[pyo3(get)]
+    pub(crate) tables: Py<pyo3::types::PyDict>,
+}
+
+#[pymethods]
+impl Geometry {
+    /// The local connection at each shape, or None.
+    #[getter]
+    fn connection<'py>(&self, py: Python<'py>) -> PyResult<Option<Bound<'py, PyAny>>> {
+        self.tables.bind(py).get_item("connection")
+    }
+
+    /// The height functions at each shape (two or more shape
+    /// coordinates), or None.
+    #[getter]
+    fn curvature<'py>(&self, py: Python<'py>) -> PyResult<Option<Bound<'py, PyAny>>> {
+        self.tables.bind(py).get_item("curvature")
+    }
+
+    /// The momentum equation's coefficients at each shape (a mixed
+    /// system), or None.
+    #[getter]
+    fn momentum<'py>(&self, py: Python<'py>) -> PyResult<Option<Bound<'py, PyAny>>> {
+        self.tables.bind(py).get_item("momentum")
+    }
+
+    /// The gait's net motion per cycle by each method, or None.
+    #[getter]
+    fn gait<'py>(&self, py: Python<'py>) -> PyResult<Option<Bound<'py, PyAny>>> {
+        self.tables.bind(py).get_item("gait")
+    }
+
+    fn __str__(&self) -> String {
+        self.report.clone()
+    }
+
+    fn __repr__(&self) -> String {
+        self.report.clone()
+    }
+}
+
 /// What `ezy.linearize` gives: `A` (and `B` with an input) as DataFrames
 /// labelled by the state's names, the eigenvalues [1/s] as a complex
 /// NumPy array, the state linearized about (`{name: value}`), and the

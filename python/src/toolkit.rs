@@ -1,6 +1,6 @@
 //! The module's functions: [`Toolkit`], the application behind a module,
 //! whose methods `models`, `scenes`, `effect_kinds`, `scene`, `run`,
-//! `sweep`, `analyze`, `linearize`, `equations` and `check` the module
+//! `sweep`, `analyze`, `linearize`, `geometry`, `equations` and `check` the module
 //! offers as functions; a run in memory with the
 //! GIL released and Python's signals polled, a command line run the same
 //! way (Ctrl-C stops either and raises `KeyboardInterrupt`).
@@ -17,7 +17,7 @@ use pyo3::prelude::*;
 use pyo3::types::PyDict;
 
 use crate::model::PyModel;
-use crate::reports::{Analysis, Check, Equations, Linearization};
+use crate::reports::{Analysis, Check, Equations, Geometry, Linearization};
 use crate::result::RunResult;
 use crate::scene::PyScene;
 use crate::settings::{Overrides, names_kw, number_kw, over_args, sets_of, text_kw};
@@ -597,6 +597,108 @@ impl Toolkit {
             }
         }
         Ok(Analysis { report, tables: tables.unbind() })
+    }
+
+    /// The geometry of locomotion of a model with the plane's symmetry, as
+    /// `ezy geometry` does: its local connection, momentum equation and
+    /// constraint curvature on a grid of shapes (or at one, `at={name:
+    /// value}` [rad]), and a gait's net motion predicted against simulated
+    /// (`gait="alpha1=0.9+0.6*cos(t),alpha2=-0.9+0.6*sin(t)"`, one period
+    /// t in [0, 2 pi]; default: the scene's drives). `target` is a scene
+    /// (name, path or `Scene`: its forces, its drives' gait, its initial
+    /// momentum), a model's key (`"kinematic_snake"`) or an `ezy.Model`.
+    /// `grid` points along each shape coordinate over `range=(lo, hi)`
+    /// [rad], `body` the reference body, `shape` the hinges in order,
+    /// `momentum={name: value}` the gait's initial momentum. Returns a
+    /// `Geometry` (the report and the tables as DataFrames: `.connection`,
+    /// `.curvature`, `.momentum`, `.gait`); `out` keeps the files
+    /// (figures with `figures=True`).
+    ///
+    /// Raises EzyError with the command line's message (no plane
+    /// symmetry, a gait that meets the singular set); TypeError for
+    /// keywords of the wrong kind.
+    #[pyo3(signature = (target, *, model=None, at=None, gait=None, grid=None, range=None, body=None, shape=None, momentum=None, out=None, figures=false, **settings))]
+    #[expect(clippy::too_many_arguments, reason = "Python's keywords, one argument each")]
+    fn geometry(
+        &self,
+        py: Python<'_>,
+        target: &Bound<'_, PyAny>,
+        model: Option<&Bound<'_, PyModel>>,
+        at: Option<std::collections::BTreeMap<String, f64>>,
+        gait: Option<&Bound<'_, PyAny>>,
+        grid: Option<usize>,
+        range: Option<(f64, f64)>,
+        body: Option<String>,
+        shape: Option<&Bound<'_, PyAny>>,
+        momentum: Option<std::collections::BTreeMap<String, f64>>,
+        out: Option<PathBuf>,
+        figures: bool,
+        settings: Option<&Bound<'_, PyDict>>,
+    ) -> PyResult<Geometry> {
+        let pairs = |m: std::collections::BTreeMap<String, f64>| {
+            m.iter().map(|(k, v)| format!("{k}={v:?}")).collect::<Vec<_>>().join(",")
+        };
+        let mut extra = Vec::new();
+        if let Some(a) = at {
+            extra.extend(["--at".to_string(), pairs(a)]);
+        }
+        if let Some(g) = text_kw("geometry", "gait", gait)? {
+            extra.extend(["--gait".to_string(), g]);
+        }
+        if let Some(n) = grid {
+            extra.extend(["--grid".to_string(), n.to_string()]);
+        }
+        if let Some((lo, hi)) = range {
+            extra.push(format!("--range={lo:?}:{hi:?}"));
+        }
+        if let Some(b) = body {
+            extra.extend(["--body".to_string(), b]);
+        }
+        if let Some(s) = names_kw("geometry", "shape", shape)? {
+            extra.extend(["--shape".to_string(), s]);
+        }
+        if let Some(p) = momentum {
+            extra.extend(["--momentum".to_string(), pairs(p)]);
+        }
+        // a model (an `ezy.Model`, or a key no scene has) goes straight to
+        // the command line; a scene through the run keywords' path
+        let own = target.cast::<PyModel>().ok();
+        let key = match (&own, target.extract::<String>()) {
+            (Some(m), _) => Some(m.get().key.clone()),
+            (None, Ok(name)) if self.resolve(target).is_err() => Some(name),
+            _ => None,
+        };
+        let (report, dir, _temp) = match key {
+            Some(key) => {
+                let app = self.app_with(&key, own.or(model));
+                let temp = tempfile::Builder::new().prefix("ezy-").tempdir().map_err(ezy_err)?;
+                let dir = out.unwrap_or_else(|| temp.path().join("geometry"));
+                let mut args = vec!["geometry".to_string(), key];
+                args.extend(extra);
+                args.extend(Overrides::new(Vec::new(), settings, "geometry")?.options()?.to_args());
+                args.extend(["--out".into(), dir.display().to_string()]);
+                if !figures {
+                    args.push("--no-figures".into());
+                }
+                let report = Self::cli(py, &app, args)?.map_err(|(_, e)| ezy_err(e))?;
+                (report, dir, temp)
+            }
+            None => self.command(py, "geometry", target, model, extra, out, figures, settings)?,
+        };
+        let tables = PyDict::new(py);
+        for (name, file) in [
+            ("connection", "connection.csv"),
+            ("curvature", "curvature.csv"),
+            ("momentum", "momentum.csv"),
+            ("gait", "gait.csv"),
+            ("gait_path", "gait-path.csv"),
+        ] {
+            let path = dir.join(file);
+            if path.is_file() {
+                tables.set_item(name, self.helpers.bind(py).call_method1("read_table", (path,))?)?;
+            }
+        }
+        Ok(Geometry { report, tables: tables.unbind() })
     }
 
     /// Runs `scene` with the derivatives of its state with respect to the

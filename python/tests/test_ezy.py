@@ -502,6 +502,22 @@ def test_the_stub_names_everything_the_module_offers():
     assert named == offered, (offered - named, named - offered)
 
 
+def test_the_geometry_of_a_built_in_snake_and_of_a_users_racer():
+    # the scene: its gait reconstructed from the connection and simulated
+    g = ezy.geometry("kinematic-snake", grid=11)
+    rows = g.gait.set_index("method")
+    assert abs(rows.loc["reconstructed", "dx"] - rows.loc["simulated", "dx"]) < 1e-8
+    assert list(g.curvature.columns) == ["alpha1", "alpha2", "DA_x_alpha1_alpha2", "DA_y_alpha1_alpha2", "DA_theta_alpha1_alpha2"]
+    # the model at one shape: the command line's numbers
+    a = ezy.geometry("kinematic_snake", at={"alpha1": 0.5, "alpha2": -0.3})
+    assert len(a.connection) == 1 and abs(a.connection["A_u_alpha1"].iloc[0] - 0.6551410853150368) < 1e-12
+    # a user's model read from text: a mixed system, its momentum equation
+    r = ezy.geometry(ezy.Model(roller_racer_text()), grid=9, range=(-1.0, 1.0))
+    assert "mixed: 1 momentum component(s) p_u" in r.report and len(r.momentum) == 9
+    with pytest.raises(ezy.EzyError, match="no symmetry under the plane's motions"):
+        ezy.geometry("four-bar")
+
+
 def test_sensitivities_of_a_run_and_of_a_gait(tmp_path):
     # a run's derivatives: the command line's numbers, as a DataFrame
     s = ezy.sensitivity("drive", wrt=["M0", "initial.q.phi2"], t_end=0.5)

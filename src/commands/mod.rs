@@ -21,6 +21,7 @@ mod bench;
 mod check;
 mod equations;
 mod fit;
+mod geometry;
 mod linearize;
 mod list;
 mod optimize;
@@ -54,6 +55,7 @@ pub(crate) const COMMANDS: &[Command] = &[
     Command { name: "bench", cli: bench::cli, exec: bench::exec },
     Command { name: "analyze", cli: analyze::cli, exec: analyze::exec },
     Command { name: "linearize", cli: linearize::cli, exec: linearize::exec },
+    Command { name: "geometry", cli: geometry::cli, exec: geometry::exec },
     Command { name: "sensitivity", cli: sensitivity::cli, exec: sensitivity::exec },
     Command { name: "fit", cli: fit::cli, exec: fit::exec },
     Command { name: "optimize", cli: optimize::cli, exec: optimize::exec },

@@ -107,6 +107,8 @@ pub(crate) fn draw(
                 xs,
                 ys,
                 values,
+                lines: Vec::new(),
+                value_range: None,
             };
             let file = format.file_name(&format!("sweep_{}_map", k + 1));
             stop_if_signalled(dir, &file)?;

@@ -27,6 +27,12 @@ pub(crate) struct HeatMap {
     /// `values[ix * ys.len() + iy]`; a value that is not finite (a failed
     /// run) is drawn as a grey cell.
     pub values: Vec<f64>,
+    /// Polylines drawn over the cells (a gait's curve, a vector field's
+    /// arrows), in the axes' units, white with a dark edge.
+    pub lines: Vec<Vec<(f64, f64)>>,
+    /// The colours' range `(low, high)`: values beyond it take its end's
+    /// colour (`None`: the values' own range).
+    pub value_range: Option<(f64, f64)>,
 }
 
 /// Cell edges around ascending centres: midway between neighbours, half a
@@ -59,8 +65,13 @@ pub(crate) fn heatmap_svg(map: &HeatMap) -> Result<String, PlotError> {
     {
         return Err(PlotError::Empty { title: map.title.clone() });
     }
-    let lo = finite.iter().copied().fold(f64::INFINITY, f64::min);
-    let hi = finite.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+    let (lo, hi) = match map.value_range {
+        Some((lo, hi)) if lo.is_finite() && hi.is_finite() && lo <= hi => (lo, hi),
+        _ => (
+            finite.iter().copied().fold(f64::INFINITY, f64::min),
+            finite.iter().copied().fold(f64::NEG_INFINITY, f64::max),
+        ),
+    };
     let (xe, ye) = (cell_edges(&map.xs), cell_edges(&map.ys));
     for (axis, r) in [("x", xe[0]..xe[xe.len() - 1]), ("y", ye[0]..ye[ye.len() - 1]), ("value", lo..hi)] {
         check_range(&map.title, axis, &r, undrawable)?;
@@ -79,7 +90,7 @@ pub(crate) fn heatmap_svg(map: &HeatMap) -> Result<String, PlotError> {
             if !v.is_finite() {
                 return RGBColor(190, 190, 190);
             }
-            let h = if flat { 0.5 } else { ((v - lo) / span) as f32 };
+            let h = if flat { 0.5 } else { ((v - lo) / span).clamp(0.0, 1.0) as f32 };
             ViridisRGB::get_color_normalized(h, 0.0, 1.0)
         };
         let mut ctx = ChartBuilder::on(&main)
@@ -111,6 +122,18 @@ pub(crate) fn heatmap_svg(map: &HeatMap) -> Result<String, PlotError> {
             Rectangle::new([(xe[i], ye[j]), (x1, y1)], colour(map.values[i * map.ys.len() + j]).filled())
         }))
         .map_err(|e| draw_error(e.to_string()))?;
+        let (x0, x1, y0, y1) = (xe[0], xe[xe.len() - 1], ye[0], ye[ye.len() - 1]);
+        let inside =
+            |p: &(f64, f64)| p.0.is_finite() && p.1.is_finite() && (x0..=x1).contains(&p.0) && (y0..=y1).contains(&p.1);
+        for (width, colour) in [(4 * SCALE, RGBColor(40, 40, 40)), (2 * SCALE, WHITE)] {
+            for line in &map.lines {
+                let pts: Vec<(f64, f64)> = line.iter().copied().filter(inside).collect();
+                if pts.len() >= 2 {
+                    ctx.draw_series(std::iter::once(PathElement::new(pts, colour.stroke_width(width))))
+                        .map_err(|e| draw_error(e.to_string()))?;
+                }
+            }
+        }
         // the colour bar: 100 bands from lo to hi
         let mut cb = ChartBuilder::on(&bar)
             .margin_left(10 * SCALE)
