@@ -408,3 +408,34 @@ fn geometry_writes_the_tables_and_figures_of_the_built_in_scenes() {
     assert!(ok, "{out}{err}");
     assert!(out.contains("shape = (none); mixed: 2 momentum component(s) p_u, p_w"), "{out}");
 }
+
+/// A scene's `[params]` reach the geometry (the model at the scene's
+/// parameters, not its defaults), and a stop hook ends a prediction and a
+/// simulation at once.
+#[test]
+fn a_scenes_parameters_reach_the_geometry_and_a_stop_ends_it() {
+    let dir = fresh("geometry-params");
+    std::fs::create_dir_all(&dir).unwrap();
+    let text = ezy_models::scenes::BUILTIN.iter().find(|(f, _)| *f == "kinematic-snake.toml").unwrap().1;
+    let scene = text.replace("[initial]", "[params]\nl = 0.7\n\n[initial]");
+    std::fs::write(dir.join("short.toml"), scene).unwrap();
+    let (out, err, ok) = ezy(
+        &["geometry", dir.join("short.toml").to_str().unwrap(), "--at", "alpha1=0.4,alpha2=-0.6"],
+        &dir.join("out"),
+    );
+    assert!(ok, "{out}{err}");
+    let (head, rows) = table(&dir.join("out/connection.csv"));
+    let a = Geometry::new(KinematicSnake { l: 0.7, ..Default::default() }, None, None)
+        .unwrap()
+        .connection(&[0.4, -0.6])
+        .unwrap()
+        .a;
+    let k = head.iter().position(|h| h == "A_u_alpha1").unwrap();
+    assert!((rows[0][k].parse::<f64>().unwrap() - a[0]).abs() < 1e-15, "{out}");
+    let mut g = Geometry::new(KinematicSnake::default(), None, None).unwrap();
+    g.stop_when(|| true);
+    let gait = Gait::parse(&g.shape_names(), "alpha1=0.9+0.3*cos(t),alpha2=-0.9+0.3*sin(t)").unwrap();
+    assert!(matches!(g.predict(&gait, &[]), Err(ezy_core::geometry::GeometryError::Stopped)));
+    let run = g.simulate(&gait, Problem::new(KinematicSnake::default()), &[], 1e-10);
+    assert!(matches!(run, Err(ezy_core::geometry::GeometryError::Stopped)), "{run:?}");
+}

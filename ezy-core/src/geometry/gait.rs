@@ -5,11 +5,13 @@
 use super::{Geometry, GeometryError};
 use crate::analysis::symmetry::Pose;
 use crate::effects::waveform::{Harmonic, Periodicity, Waveform};
+use crate::formulation::dae::Dynamics;
 use crate::integrator::adaptive::{Tolerance, integrate};
 use crate::integrator::dop853::Dop853;
 use crate::model::Model;
 use crate::problem::Problem;
 use crate::settings::Method;
+use crate::simulate::observer::{Observer, RunError, Sample};
 
 mod text;
 
@@ -172,6 +174,7 @@ impl<M: Model> Geometry<M> {
         let mut margin = f64::INFINITY;
         let mut last: Option<(f64, f64)> = None;
         for i in 0..=SAMPLES {
+            self.check_stop()?;
             let t = period * i as f64 / SAMPLES as f64;
             let (r, _) = gait.at(t);
             let mg = self.rank_margin(&r)?;
@@ -207,6 +210,7 @@ impl<M: Model> Geometry<M> {
         let mut path = vec![[0.0, 0.0, 0.0, 0.0]];
         let tol = Tolerance { rtol: 1e-12, atol: 1e-12 };
         for i in 0..SAMPLES {
+            self.check_stop()?;
             let (t0, t1) = (period * i as f64 / SAMPLES as f64, period * (i + 1) as f64 / SAMPLES as f64);
             let mut rhs = |t: f64, y: &[f64], dy: &mut [f64]| {
                 if failure.is_some() {
@@ -340,28 +344,62 @@ impl<M: Model> Geometry<M> {
         for (k, name) in info.coords.iter().enumerate() {
             problem = problem.q(name, q[k])?.qd(name, qd[k])?;
         }
-        let sol = problem
+        let [i, j, k] = info.bodies[self.body].coords;
+        let mut seen = Seen { body: [i, j, k], stop: self.stop, path: Vec::new(), last: Vec::new() };
+        problem
             .t_end(gait.period)
             .every(gait.period / SAMPLES as f64)
             .method(Method::Dop853)
             .tolerances(tol, tol)
-            .solve()?;
-        let [i, j, k] = info.bodies[self.body].coords;
-        let start = [sol.y[0][i], sol.y[0][j], sol.y[0][k]];
-        let path: Vec<[f64; 4]> = sol
-            .t
+            .solve_with(&mut seen)
+            .map_err(|e| match e {
+                RunError::Sim(e) => GeometryError::Sim(e),
+                RunError::Output(()) => GeometryError::Stopped,
+            })?;
+        let start = seen.path.first().map_or([0.0; 3], |p| [p[1], p[2], p[3]]);
+        let path: Vec<[f64; 4]> = seen
+            .path
             .iter()
-            .zip(&sol.y)
-            .map(|(t, y)| {
-                let d = relative(start, [y[i], y[j], y[k]]);
-                [*t, d[0], d[1], d[2]]
+            .map(|p| {
+                let d = relative(start, [p[1], p[2], p[3]]);
+                [p[0], d[0], d[1], d[2]]
             })
             .collect();
-        let last = sol.y.last().map_or(&sol.y[0], |y| y);
         let nq = info.nq();
-        let momentum = self.momentum(&last[..nq], &last[nq..2 * nq])?;
+        let momentum = self.momentum(&seen.last[..nq], &seen.last[nq..])?;
         let end = path.last().copied().unwrap_or([0.0; 4]);
         Ok(SimulatedGait { net: [end[1], end[2], end[3]], path, momentum })
+    }
+}
+
+/// What a gait's simulation keeps: the reference body's pose at each
+/// sample and the last state; it stops the run when the hook says so.
+struct Seen {
+    /// The reference body's `(x, y, phi)` indices.
+    body: [usize; 3],
+    /// The stop hook.
+    stop: Option<fn() -> bool>,
+    /// `(t, x, y, theta)` per sample.
+    path: Vec<[f64; 4]>,
+    /// The last sample's `[q, qd]`.
+    last: Vec<f64>,
+}
+
+impl<M: Model> Observer<M> for Seen {
+    type Error = ();
+    fn observe(&mut self, _sys: &Dynamics<M>, s: &Sample<'_>) -> Result<(), ()> {
+        let [i, j, k] = self.body;
+        self.path.push([s.t, s.q[i], s.q[j], s.q[k]]);
+        self.last.clear();
+        self.last.extend_from_slice(s.q);
+        self.last.extend_from_slice(s.qd);
+        Ok(())
+    }
+    fn poll(&mut self, _t: f64) -> Result<(), ()> {
+        match self.stop {
+            Some(stop) if stop() => Err(()),
+            _ => Ok(()),
+        }
     }
 }
 

@@ -95,6 +95,9 @@ pub enum GeometryError {
     /// A simulation or force evaluation failed.
     #[error(transparent)]
     Sim(#[from] SimError),
+    /// The stop hook ([`Geometry::stop_when`]) asked to stop.
+    #[error("the geometric analysis was stopped")]
+    Stopped,
 }
 
 /// One step of the hinge tree out from the reference body: `child`
@@ -143,6 +146,9 @@ pub struct Geometry<M: Model> {
     rank: usize,
     /// The scene's forces, for the momentum equation.
     forces: Option<Analysis<M>>,
+    /// Asked between the steps of a gait's prediction and simulation:
+    /// `true` stops them.
+    stop: Option<fn() -> bool>,
 }
 
 /// The local connection at one shape.
@@ -269,7 +275,7 @@ impl<M: Model> Geometry<M> {
         model.mass_diagonal(&mut mass);
         let skates = info.skates.iter().map(|s| s.row).collect();
         let mut geometry =
-            Self { model, info, mass, body, shape, steps, skates, free: Vec::new(), rank: 0, forces: None };
+            Self { model, info, mass, body, shape, steps, skates, free: Vec::new(), rank: 0, forces: None, stop: None };
         geometry.measure_coefficients()?;
         geometry.choose_free()?;
         Ok(geometry)
@@ -290,6 +296,22 @@ impl<M: Model> Geometry<M> {
         }
         self.forces = Some(analysis);
         Ok(self)
+    }
+
+    /// Sets a hook asked between the steps of a gait's prediction and
+    /// simulation ([`Geometry::predict`], [`Geometry::simulate`]); when it
+    /// returns `true` they end with [`GeometryError::Stopped`] (a signal
+    /// handler's flag: `ezy` stops on Ctrl-C within a step).
+    pub fn stop_when(&mut self, stop: fn() -> bool) {
+        self.stop = Some(stop);
+    }
+
+    /// [`GeometryError::Stopped`] if the stop hook says so.
+    pub(crate) fn check_stop(&self) -> Result<(), GeometryError> {
+        match self.stop {
+            Some(stop) if stop() => Err(GeometryError::Stopped),
+            _ => Ok(()),
+        }
     }
 
     /// The model's structure.

@@ -21,7 +21,7 @@ mod tables;
 use super::committed;
 use crate::app::{App, AppError, is_model_path, is_scene_path};
 use crate::cli::{parse_dpi, parse_figure_format, parse_set};
-use crate::output::transaction::{Transaction, check_interrupt};
+use crate::output::transaction::{Transaction, check_interrupt, pending};
 use crate::session::{Error, rounded, scene_analysis, with_sets};
 
 /// The connection, momentum equation and constraint curvature of a model
@@ -183,10 +183,15 @@ fn parse_values(flag: &str, text: &str, names: &[String]) -> Result<Vec<f64>, Er
     values.into_iter().enumerate().map(|(k, v)| v.ok_or_else(|| bad(format!("`{}` is not given", names[k])))).collect()
 }
 
-/// A geometry error as the command's error.
-fn input(e: GeometryError) -> Error {
-    match e {
+/// A geometry error as the command's error, `dir` the output directory
+/// (a stop by a signal is the run's interruption there).
+fn input(dir: &std::path::Path) -> impl Fn(GeometryError) -> Error + '_ {
+    move |e| match e {
         GeometryError::Sim(e) => Error::Sim(e),
+        GeometryError::Stopped => match check_interrupt(dir, None, Some("the gait".into())) {
+            Err(i) => Error::Transaction(i),
+            Ok(()) => Error::Input(e.to_string()),
+        },
         e => Error::Input(e.to_string()),
     }
 }
@@ -213,15 +218,22 @@ pub(super) struct Found {
 /// `ezy geometry` on `proto`: computes, writes, and returns the summary.
 fn geometry(proto: &AnyModel, req: &Request) -> Result<String, Error> {
     let args = &req.args;
-    let model = with_sets(proto, &args.sets).map_err(Error::Input)?;
+    // the model at the scene's parameters and the overrides
+    let (model, scene_problem) = match &req.scene {
+        Some(scene) => {
+            let (problem, _) = scene.problem_with(proto.clone(), &args.sets)?;
+            (problem.model.clone(), Some(problem))
+        }
+        None => (with_sets(proto, &args.sets).map_err(Error::Input)?, None),
+    };
     let shape = (!args.shape.is_empty()).then_some(&args.shape[..]);
-    let mut geo = Geometry::new(model.clone(), args.body.as_deref(), shape).map_err(input)?;
+    let mut geo = Geometry::new(model.clone(), args.body.as_deref(), shape).map_err(input(&req.out))?;
+    geo.stop_when(|| pending().is_some());
     let names = geo.shape_names();
     let ns = names.len();
     // the scene's forces and initial momentum
     let mut p0 = vec![0.0; geo.n_momentum()];
     let mut notes = Vec::new();
-    let mut scene_problem: Option<Problem<AnyModel>> = None;
     if let Some(scene) = &req.scene {
         let (mut an, x0) = scene_analysis(proto, scene, &args.sets)?;
         let nq = an.nq();
@@ -241,11 +253,9 @@ fn geometry(proto: &AnyModel, req: &Request) -> Result<String, Error> {
                     scene.name, sym.translate_x, sym.translate_y, sym.rotate, scene.model
                 )));
             }
-            p0 = geo.momentum(&x0[..nq], &x0[nq..]).map_err(input)?;
+            p0 = geo.momentum(&x0[..nq], &x0[nq..]).map_err(input(&req.out))?;
         }
-        geo = geo.with_forces(an).map_err(input)?;
-        let (problem, _) = scene.problem_with(proto.clone(), &args.sets)?;
-        scene_problem = Some(problem);
+        geo = geo.with_forces(an).map_err(input(&req.out))?;
     }
     if let Some(text) = &args.momentum {
         p0 = parse_values("--momentum", text, &geo.momentum_names())?;
@@ -290,14 +300,14 @@ fn geometry(proto: &AnyModel, req: &Request) -> Result<String, Error> {
         };
         let c = c.map_err(|e| e.to_string());
         if geo.n_momentum() > 0 {
-            momentum.push(if c.is_ok() { geo.momentum_equation(r).map_err(input)? } else { Vec::new() });
+            momentum.push(if c.is_ok() { geo.momentum_equation(r).map_err(input(&req.out))? } else { Vec::new() });
         }
         curvature.push(c);
     }
     let seconds = start.elapsed().as_secs_f64();
     // the gait
     let gait = match &args.gait {
-        Some(text) => Some(Gait::parse(&names, text).map_err(input)?),
+        Some(text) => Some(Gait::parse(&names, text).map_err(input(&req.out))?),
         None => scene_problem.as_ref().and_then(|p| scene_gait(&geo, p, &mut notes)),
     };
     let mut predicted_in = 0.0;
@@ -305,7 +315,7 @@ fn geometry(proto: &AnyModel, req: &Request) -> Result<String, Error> {
         Some(g) => {
             check_interrupt(&req.out, None, Some("the gait's prediction".into()))?;
             let start = Instant::now();
-            let prediction = geo.predict(&g, &p0).map_err(input)?;
+            let prediction = geo.predict(&g, &p0).map_err(input(&req.out))?;
             predicted_in = start.elapsed().as_secs_f64();
             let problem = match scene_problem.clone() {
                 Some(mut p) => {
@@ -315,7 +325,10 @@ fn geometry(proto: &AnyModel, req: &Request) -> Result<String, Error> {
                 }
                 None => Problem::new(model.clone()),
             };
-            let simulated = geo.simulate(&g, problem, &p0, args.rtol).map_err(|e| e.to_string());
+            let simulated = match geo.simulate(&g, problem, &p0, args.rtol) {
+                Err(GeometryError::Stopped) => return Err(input(&req.out)(GeometryError::Stopped)),
+                r => r.map_err(|e| e.to_string()),
+            };
             Some((g, prediction, simulated))
         }
         None => None,
