@@ -126,15 +126,24 @@ fn the_rolling_resistance_gait_has_a_branch_point_in_the_motor_amplitude() {
 /// with `q = 2` and `omega_D = 2/3`, on the built-in pendulum (1 kg at
 /// 1 m, 9.81 m/s^2): a rotational drag `c_rot = omega_0 / q` and a torque
 /// `A cos(omega t)` with `omega = 2 omega_0 / 3` and `A = g omega_0^2`.
-const FORCED_PENDULUM: &str = r#"
+/// `(A, omega, c_rot)` [N m, rad/s, N m s/rad].
+const BAKER_GOLLUB: (f64, f64, f64) = (10.4, 2.08806130178211, 1.5660459763365826);
+
+/// A scene of the built-in pendulum (1 kg at 1 m) under gravity, a torque
+/// `amplitude cos(omega t)` [N m, rad/s] and a rotational drag `c_rot`
+/// [N m s/rad], hanging at rest to start, DOP853 at 1e-10: Baker and
+/// Gollub's pendulum here, the resonance curve of `tests/continuation.rs`.
+pub(crate) fn forced_pendulum(amplitude: f64, omega: f64, c_rot: f64) -> String {
+    format!(
+        r#"
 name = "forced-pendulum"
-description = "Baker and Gollub's forced damped pendulum"
+description = "a forced damped pendulum"
 model = "pendulum"
 t_end = 300.0
 
 [initial]
-q = { phi = -1.5707963267948966 }
-qd = { phi = 0.0 }
+q = {{ phi = -1.5707963267948966 }}
+qd = {{ phi = 0.0 }}
 
 [integrator]
 method = "dop853"
@@ -148,14 +157,16 @@ g = [0.0, -9.81]
 [effects.motor]
 kind = "torque"
 body = "bob"
-torque = { cos = { amplitude = 10.4, omega = 2.0880613017821101 } }
+torque = {{ cos = {{ amplitude = {amplitude:?}, omega = {omega:?} }} }}
 
 [effects.drag]
 kind = "linear-drag"
 body = "bob"
 c = 0.0
-c_rot = 1.5660459763365826
-"#;
+c_rot = {c_rot:?}
+"#
+    )
+}
 
 /// The forced damped pendulum's first period doubling (Baker & Gollub,
 /// *Chaotic Dynamics: An Introduction*, 2nd ed., §3.3: `q = 2`,
@@ -171,7 +182,11 @@ c_rot = 1.5660459763365826
 /// more than 1e-3 rad), on the side the runs double on.
 #[test]
 fn the_forced_pendulums_first_period_doubling_is_located() {
-    let scene = ezy_scene::Scene::from_toml(FORCED_PENDULUM, "forced-pendulum.toml").unwrap();
+    let scene = ezy_scene::Scene::from_toml(
+        &forced_pendulum(BAKER_GOLLUB.0, BAKER_GOLLUB.1, BAKER_GOLLUB.2),
+        "forced-pendulum.toml",
+    )
+    .unwrap();
     let with = |a: f64| [("motor.torque.cos.amplitude".to_string(), a)];
     let build = |a: f64| -> Result<Analysis<Pendulum>, AnalysisError> {
         let p = scene.problem::<Pendulum>(&with(a)).map_err(|e| AnalysisError::Request { reason: e.to_string() })?;

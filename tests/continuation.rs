@@ -147,7 +147,8 @@ fn analyze_follows_a_branch_around_its_fold() {
 /// from them at the period's end: the hysteresis the folds bound.
 #[test]
 fn a_resonance_curve_is_followed_through_both_folds() {
-    let scene = ezy_scene::Scene::from_toml(FORCED, "forced.toml").unwrap();
+    let scene =
+        ezy_scene::Scene::from_toml(&crate::bifurcation::forced_pendulum(0.3, 2.6, 0.1), "forced.toml").unwrap();
     let with = |w: f64| [("motor.torque.cos.omega".to_string(), w)];
     let build = |w: f64| -> Result<Analysis<Pendulum>, AnalysisError> {
         let p = scene.problem::<Pendulum>(&with(w)).map_err(|e| AnalysisError::Request { reason: e.to_string() })?;
@@ -202,35 +203,3 @@ fn a_resonance_curve_is_followed_through_both_folds() {
         assert!(gap < 1e-6, "{gap:e}");
     }
 }
-
-/// The forced damped pendulum near resonance ([`a_resonance_curve_is_followed_through_both_folds`]).
-const FORCED: &str = r#"
-name = "forced"
-description = "a lightly damped pendulum forced near resonance"
-model = "pendulum"
-t_end = 300.0
-
-[initial]
-q = { phi = -1.5707963267948966 }
-qd = { phi = 0.0 }
-
-[integrator]
-method = "dop853"
-rtol = 1e-10
-atol = 1e-10
-
-[effects.gravity]
-kind = "gravity"
-g = [0.0, -9.81]
-
-[effects.motor]
-kind = "torque"
-body = "bob"
-torque = { cos = { amplitude = 0.3, omega = 2.6 } }
-
-[effects.drag]
-kind = "linear-drag"
-body = "bob"
-c = 0.0
-c_rot = 0.1
-"#;
