@@ -42,6 +42,7 @@ mod kkt_paths;
 mod mechanisms;
 mod models;
 mod optimize;
+mod oracle;
 mod output_window;
 mod properties;
 mod scene_files;

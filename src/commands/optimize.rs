@@ -392,8 +392,8 @@ fn summary(scene: &str, o: &Optimum, seconds: f64, files: &[PathBuf]) -> String 
     for (text, v) in o.constraint_texts.iter().zip(&o.constraints) {
         let _ = writeln!(s, "constraint {text}: {}", fmt_value(*v));
     }
-    if o.projected_gradient_norm > 1e-6 && !o.constraints.is_empty() {
-        let _ = writeln!(s, "(the gradient is held by a constraint that binds, not zero)");
+    if !o.stopped {
+        let _ = writeln!(s, "{}", o.kkt.describe());
     }
     if let Some(orbit) = &o.orbit {
         let _ = writeln!(

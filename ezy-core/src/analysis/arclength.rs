@@ -57,6 +57,18 @@ struct Equations {
     symmetry: Symmetry,
     /// The coordinates held at zero (the gauge, see [`gauge`]).
     gauge: Vec<usize>,
+    /// A periodic orbit's cyclic coordinates (its structural multipliers'),
+    /// held at zero too: their shift is a null direction of the shooting
+    /// equations that the rigid gauge does not fix.
+    cyclic: Vec<usize>,
+    /// Unknowns left out of the tangent (set to 0 in it, so out of the
+    /// arclength and the turn test): the rates that only their cyclic
+    /// coordinate feels. Nothing else depends on them, so they are slaves
+    /// of the rest, settled by the corrector in one linear step; in the
+    /// tangent they dominated it (a rotor's spin at a fixed phase moves 20
+    /// rad/s per rad/s of a forcing frequency) and let a step land on
+    /// another part of the branch whose tangent looked alike.
+    slaves: Vec<usize>,
     /// A periodic orbit's period in the forcing's periods ([`solve`]).
     multiple: Option<f64>,
     /// Newton's tolerance on the residual (max norm).
@@ -111,7 +123,15 @@ impl Equations {
             }
             (f, _) => f,
         };
-        Equations { follow, symmetry, gauge: Vec::new(), multiple: None, tol }
+        let (cyclic, slaves) = match first {
+            Solution::Periodic(o) => {
+                let nq = o.state.len() / 2;
+                let of = |rate: bool| o.structural.iter().filter(move |s| s.rate == rate).map(|s| s.coordinate);
+                (of(false).collect(), of(true).map(|k| nq + k).collect())
+            }
+            Solution::Steady(_) => (Vec::new(), Vec::new()),
+        };
+        Equations { follow, symmetry, gauge: Vec::new(), cyclic, slaves, multiple: None, tol }
     }
 
     /// The period at the scene `an` ([`solve`]'s rule).
@@ -134,7 +154,13 @@ impl Equations {
     ) -> Result<(Vec<f64>, Option<Mat<f64>>), AnalysisError> {
         let n2 = 2 * an.nq();
         if self.gauge.is_empty() {
-            self.gauge = gauge(an.bodies(), self.symmetry);
+            let mut g = gauge(an.bodies(), self.symmetry);
+            for &k in &self.cyclic {
+                if !g.contains(&k) {
+                    g.push(k);
+                }
+            }
+            self.gauge = g;
         }
         let (x, g) = z.split_at(n2);
         let (mut r, j) = match self.follow {
@@ -221,7 +247,10 @@ impl Equations {
             if res <= self.tol {
                 let mut e = vec![0.0; m + 1];
                 e[m] = 1.0;
-                let (t, _) = dense::min_norm_solve(a.as_ref(), &e, 1e-13)?;
+                let (mut t, _) = dense::min_norm_solve(a.as_ref(), &e, 1e-13)?;
+                for &k in &self.slaves {
+                    t[k] = 0.0;
+                }
                 let len = t.iter().map(|v| v * v).sum::<f64>().sqrt();
                 let tangent = t.iter().map(|v| v / len).collect();
                 return Ok(Corrected { w, tangent, iterations });
@@ -400,6 +429,9 @@ pub fn follow_arclength<M: Model>(
                 }
                 // the state moved to the gauge by the search: its unknowns
                 let mut wn = unknowns(&point.solution);
+                for &k in &eq.cyclic {
+                    wn[k] = 0.0;
+                }
                 wn.push(c.w[nz]);
                 points.push(point);
                 (w, t, failed) = (wn, c.tangent, None);

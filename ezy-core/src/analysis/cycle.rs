@@ -211,6 +211,7 @@ impl<M: Model> Analysis<M> {
             shift,
             multipliers,
             family,
+            structural: Vec::new(),
             stability,
             displacement: d,
             heading_change: shift.theta,

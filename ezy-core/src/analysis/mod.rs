@@ -73,6 +73,7 @@ mod linear;
 pub(crate) mod periodic;
 mod settle;
 mod steady;
+pub(crate) mod structural;
 pub(crate) mod symmetry;
 
 pub use bifurcation::{Bifurcation, BifurcationKind};
@@ -82,6 +83,7 @@ pub use linear::{Input, Linearization};
 pub use periodic::{PeriodicOrbit, PeriodicSettings};
 pub use settle::{MAX_SETTLE_PERIODS, Settle, Settling, Until};
 pub use steady::{Stability, SteadyMotion};
+pub use structural::StructuralMultiplier;
 pub use symmetry::{Generator, Pose, Symmetry};
 
 use faer::Mat;

@@ -64,6 +64,11 @@ pub struct PeriodicOrbit {
     /// modulo the symmetry; as many multipliers are 1 along it and are left
     /// out of the classification.
     pub family: usize,
+    /// The multipliers 1 that the scene's structure makes exact at every
+    /// parameter value (a cyclic coordinate, a rate nothing else feels),
+    /// left out of [`PeriodicOrbit::multipliers`], the family and the
+    /// classification ([`super::structural`]).
+    pub structural: Vec<super::structural::StructuralMultiplier>,
     /// The classification of [`PeriodicOrbit::multipliers`].
     pub stability: Stability,
     /// The reference body's displacement over one period in its frame at
@@ -199,6 +204,7 @@ impl<M: Model> Analysis<M> {
         self.check_size()?;
         // modulo the plane's rigid motions (a cyclic coordinate's shift is
         // not taken out of a period map)
+        let cyclic = symmetry.cyclic;
         let symmetry = symmetry.rigid();
         let n2 = 2 * self.nq();
         self.check_search(period, guess)?;
@@ -302,11 +308,19 @@ impl<M: Model> Analysis<M> {
         let pt = self.point(t0, &x0)?;
         let (_, c) = self.jacobians(t0, &x0, &pt)?;
         let tangent = dense::null_space(c.as_ref(), super::linear::RANK_RTOL)?;
-        let (q, orbit) = self.quotient_basis(&tangent, &x0, symmetry)?;
+        // modulo the structural multipliers too (a cyclic coordinate's and
+        // a free rate's): they are 1 at every parameter value
+        let (extra, structural) = super::structural::directions(&dp, &tangent, cyclic);
+        let (q, removed) = self.quotient_basis_with(&tangent, &x0, symmetry, &extra)?;
         let reduced = dense::congruence(q.as_ref(), dp.as_ref());
         let multipliers = dense::eigenvalues(reduced.as_ref(), true)?;
         let j = self.shooting_jacobian(t0, &x0, &m, symmetry, &p)?;
         let rank = dense::numerical_rank(j.as_ref(), 1e-8)?;
+        // the shooting equations' null directions: the family, the group
+        // orbit, and each cyclic coordinate's shift (its rate's is not one:
+        // it turns the angle on)
+        let shifts = structural.iter().filter(|s| !s.rate).count();
+        let orbit = removed - extra.len() + shifts;
         let family = (n2 + k - rank).saturating_sub(orbit);
         let rates = multipliers.iter().map(|z| z.re.hypot(z.im).max(1e-300).ln()).collect();
         let stability = Stability::classify(rates, family, 1e-6);
@@ -319,6 +333,7 @@ impl<M: Model> Analysis<M> {
             shift,
             multipliers,
             family,
+            structural,
             stability,
             displacement: d,
             heading_change: shift.theta,

@@ -338,9 +338,27 @@ impl<M: Model> Analysis<M> {
         x: &[f64],
         symmetry: Symmetry,
     ) -> Result<(Mat<f64>, usize), AnalysisError> {
+        self.quotient_basis_with(tangent, x, symmetry, &[])
+    }
+
+    /// [`Analysis::quotient_basis`] modulo the group orbit and the
+    /// directions `extra` (2 nq each, in the tangent space: the structural
+    /// ones, [`super::structural`]); the dimension removed.
+    pub(crate) fn quotient_basis_with(
+        &self,
+        tangent: &Mat<f64>,
+        x: &[f64],
+        symmetry: Symmetry,
+        extra: &[Vec<f64>],
+    ) -> Result<(Mat<f64>, usize), AnalysisError> {
         let bodies = self.bodies();
         let gens = symmetry.generators();
-        let o = dense::orthonormal_range(fields(bodies, &gens, x).as_ref(), 1e-10)?;
+        let mut f = fields(bodies, &gens, x);
+        if !extra.is_empty() {
+            let k = f.ncols();
+            f = Mat::from_fn(x.len(), k + extra.len(), |i, j| if j < k { f[(i, j)] } else { extra[j - k][i] });
+        }
+        let o = dense::orthonormal_range(f.as_ref(), 1e-10)?;
         // the orbit lies in the tangent space: project to be safe of rounding
         let o = dense::mul(tangent.as_ref(), dense::mul(tangent.transpose(), o.as_ref()).as_ref());
         let o = dense::orthonormal_range(o.as_ref(), 1e-10)?;

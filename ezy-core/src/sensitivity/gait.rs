@@ -11,10 +11,14 @@
 //! monodromy matrix in one pass (DOP853 under the orbit's tolerance);
 //! then one minimum-norm solve per parameter, no orbit searched again.
 //!
-//! The mean input power is the work per period of the effects whose
-//! force is driven by time (motors, driven wheels, forces and torques
-//! with a waveform: the actuators), over the period; its derivative is
-//! integrated along (`dE/dx0 Phi` and `dE/dp`). Every quantity of the gait
+//! The mean input power is the work per period of the actuators, over
+//! the period: the effects whose force is driven by time (motors, driven
+//! wheels, forces and torques with a waveform) and the drives (a
+//! prescribed hinge angle `u(t)` works at `tau u'(t)`, its constraint
+//! torque `tau = -lambda_row` times its rate); its derivative is
+//! integrated along (`dE/dx0 Phi` and `dE/dp`, a drive's through the
+//! multiplier's own sensitivity `dlambda`), each actuator's share beside
+//! it ([`GaitSensitivities::input_ledger`]). Every quantity of the gait
 //! (mean speed, displacement, heading change, mean power, efficiency =
 //! mean speed per mean power) is then a function of `(x0, h, T, E)`
 //! whose derivative along `(dx0/dp, dh/dp, dT/dp, dE/dp)` is taken by a
@@ -45,11 +49,16 @@ pub struct GaitSensitivities {
     pub values: Vec<f64>,
     /// How each parameter's direct effect was differentiated.
     pub derivatives: Vec<Derivative>,
-    /// Mean input power of the actuators over a period \[W\] (0 without
-    /// actuators).
+    /// Mean input power of the actuators over a period \[W\]: the effects
+    /// driven by time and the drives (0 without actuators).
     pub mean_power: f64,
     /// Mean speed per mean input power \[m/J\] (NaN without input power).
     pub efficiency: f64,
+    /// Each actuator's mean power over the period \[W\], by name: the
+    /// effects driven by time (motors, forces with a waveform), then the
+    /// drives (a prescribed hinge angle's constraint torque times its
+    /// rate); they add up to `mean_power`. Empty without actuators.
+    pub input_ledger: Vec<(String, f64)>,
     /// `d(fixed point)/dp` (2 nq each), in the orbit's frame.
     pub d_state: Vec<Vec<f64>>,
     /// `dT/dp` \[s per unit of p\] (0 where the period is not the forcing's).
@@ -187,9 +196,17 @@ impl<M: Model> Problem<M> {
         for (j, st) in columns.iter().enumerate() {
             y0.extend(if j < n2 { st.x0.clone() } else { vec![0.0; n2] });
         }
-        y0.extend(std::iter::repeat_n(0.0, 1 + ncol));
+        // the input ledger's names: the actuating effects, then the drives
+        let ledger_names: Vec<String> = actuators
+            .iter()
+            .map(|&k| base.dynamics().effects[k].name.clone())
+            .chain(base.dynamics().drives.iter().map(|d| d.name.clone()))
+            .collect();
         let mut aug = Augmented::new(base, columns, None);
         aug.actuators = actuators;
+        aug.drive_power = true;
+        aug.ledger = true;
+        y0.extend(std::iter::repeat_n(0.0, (1 + ncol).max(aug.energy_states())));
         let end =
             adaptive::integrate::<Dop853, _>(&mut aug, t0, &y0, t0 + period, &settings.tolerance, settings.max_steps);
         if let Some(e) = aug.failed.take() {
@@ -205,12 +222,18 @@ impl<M: Model> Problem<M> {
         let pt = aug.input_power(t0 + period, xt)?;
         let j = aug.base.shooting_jacobian(t0, &x0, &m, symmetry, &hp)?;
         let q0 = quantities(&bodies, symmetry, &x0, &hp, period, energy[0]);
+        let input_ledger = if aug.energy_states() > 0 {
+            ledger_names.into_iter().zip(&energy[1 + ncol..]).map(|(n, e)| (n, e / period)).collect()
+        } else {
+            Vec::new()
+        };
         let mut out = GaitSensitivities {
             parameters: params.iter().map(|p| p.name.clone()).collect(),
             values: params.iter().map(|p| p.value).collect(),
             derivatives,
             mean_power: q0[5],
             efficiency: q0[6],
+            input_ledger,
             d_state: Vec::new(),
             d_period: d_period.clone(),
             d_mean_speed: Vec::new(),

@@ -63,6 +63,14 @@ pub(super) struct Augmented<M: Model> {
     /// the energy `E` after `S`, with its derivative along each column
     /// (`[x, S, E, dE/dp]`; empty: no energy).
     pub actuators: Vec<usize>,
+    /// Whether the drives' power (`-lambda_row u'(t)`, the constraint
+    /// torque times the prescribed rate) joins the input power `P_in`:
+    /// a drive is an actuator too.
+    pub drive_power: bool,
+    /// Whether each actuator's power is integrated as a state of its own
+    /// after `[E, dE/dp]` (the effects of `actuators`, then the drives):
+    /// the input ledger.
+    pub ledger: bool,
     /// The pattern of `G` (its (row, column) entries).
     pattern: Vec<(usize, usize)>,
 }
@@ -106,12 +114,59 @@ impl<M: Model> Augmented<M> {
             dlambda: z(nc),
         };
         let pattern = sys.info.pattern.clone();
-        Self { base, stencils, failed: None, evaluations: 0, stop, ws, actuators: Vec::new(), pattern }
+        Self {
+            base,
+            stencils,
+            failed: None,
+            evaluations: 0,
+            stop,
+            ws,
+            actuators: Vec::new(),
+            drive_power: false,
+            ledger: false,
+            pattern,
+        }
     }
 
     /// Number of coordinates nq.
     pub fn nq(&self) -> usize {
         self.base.nq()
+    }
+
+    /// The drives whose power counts (all of them with
+    /// [`Augmented::drive_power`], else none).
+    fn powered_drives(&self) -> usize {
+        if self.drive_power { self.base.dynamics().drives.len() } else { 0 }
+    }
+
+    /// Whether an input energy `E` is integrated: some actuator's power
+    /// counts.
+    fn powered(&self) -> bool {
+        !self.actuators.is_empty() || self.powered_drives() > 0
+    }
+
+    /// The states after `[x, S]`: `E` and `dE/dp` where powered, then one
+    /// per actuator and drive with [`Augmented::ledger`].
+    pub fn energy_states(&self) -> usize {
+        if !self.powered() {
+            return 0;
+        }
+        1 + self.stencils.len() + if self.ledger { self.actuators.len() + self.powered_drives() } else { 0 }
+    }
+
+    /// `d(drive power)/d(column j)` of every powered drive at `t`: the
+    /// constraint torque's change `-dlambda_row u'` along the column and,
+    /// where the parameter moves the prescribed angle, `-lambda_row du'/dp`.
+    fn drive_power_direction(&self, j: usize, t: f64) -> f64 {
+        let drives = &self.base.dynamics().drives;
+        let st = &self.stencils[j];
+        (0..self.powered_drives())
+            .map(|k| {
+                let d = &drives[k];
+                let rate = d.angle.eval3(t)[1];
+                -self.ws.dlambda[d.row] * rate - self.ws.lambda[d.row] * st.drive_rate(t, &self.base, k)
+            })
+            .sum()
     }
 
     /// `dG` (at the pattern) into `ws.dg` and `dgamma` into `ws.dgamma`
@@ -186,8 +241,20 @@ impl<M: Model> Augmented<M> {
         self.ws.p0 = self.actuators.iter().map(|&k| self.ws.dy[n2 + k]).sum();
         let np = self.stencils.len();
         let energy = n2 * (1 + np);
-        if !self.actuators.is_empty() {
-            dy[energy] = self.ws.p0;
+        let (n_eff, nd) = (self.base.dynamics().effects.len(), self.powered_drives());
+        let drive_power: f64 = (0..nd).map(|d| self.ws.dy[n2 + n_eff + d]).sum();
+        let powered = self.powered();
+        if powered {
+            dy[energy] = self.ws.p0 + drive_power;
+        }
+        if powered && self.ledger {
+            let na = self.actuators.len();
+            for (a, &k) in self.actuators.iter().enumerate() {
+                dy[energy + 1 + np + a] = self.ws.dy[n2 + k];
+            }
+            for d in 0..nd {
+                dy[energy + 1 + np + na + d] = self.ws.dy[n2 + n_eff + d];
+            }
         }
         for j in 0..self.stencils.len() {
             let sj = &s[j * n2..(j + 1) * n2];
@@ -209,9 +276,9 @@ impl<M: Model> Augmented<M> {
             self.base.dynamics_mut().solve_kkt_again(t, &ws.f, &ws.gamma, &mut ws.dqdd, &mut ws.dlambda)?;
             let dj = &mut dy[n2 + j * n2..n2 + (j + 1) * n2];
             dj[..nq].copy_from_slice(&sj[nq..]);
-            dj[nq..].copy_from_slice(&ws.dqdd);
-            if !self.actuators.is_empty() {
-                dy[energy + 1 + j] = ws.dp;
+            dj[nq..].copy_from_slice(&self.ws.dqdd);
+            if powered {
+                dy[energy + 1 + j] = self.ws.dp + self.drive_power_direction(j, t);
             }
         }
         Ok(())
@@ -222,12 +289,20 @@ impl<M: Model> Augmented<M> {
     /// # Errors
     /// As [`crate::formulation::dae::Dynamics::applied_forces`].
     pub fn input_power(&mut self, t: f64, x: &[f64]) -> Result<f64, SimError> {
-        if self.actuators.is_empty() {
+        if !self.powered() {
             return Ok(0.0);
         }
-        let nq = self.nq();
-        self.base.dynamics_mut().applied_forces(t, &x[..nq], &x[nq..], &mut self.ws.power)?;
-        Ok(self.actuators.iter().map(|&k| self.ws.power[k]).sum())
+        let n2 = x.len();
+        if self.powered_drives() == 0 {
+            self.base.dynamics_mut().applied_forces(t, &x[..n2 / 2], &x[n2 / 2..], &mut self.ws.power)?;
+            return Ok(self.actuators.iter().map(|&k| self.ws.power[k]).sum());
+        }
+        // a drive's power needs its constraint torque: the whole right-hand side
+        self.ws.y[..n2].copy_from_slice(x);
+        self.base.dynamics_mut().rhs(t, &self.ws.y, &mut self.ws.dy)?;
+        let n_eff = self.base.dynamics().effects.len();
+        let drives: f64 = (0..self.powered_drives()).map(|d| self.ws.dy[n2 + n_eff + d]).sum();
+        Ok(self.actuators.iter().map(|&k| self.ws.dy[n2 + k]).sum::<f64>() + drives)
     }
 
     /// Adds parameter `j`'s direct terms (`dF/dp`, `dG/dp`, `dgamma/dp`,

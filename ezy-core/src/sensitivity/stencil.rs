@@ -225,6 +225,16 @@ impl<M: Model> Stencil<M> {
         }
     }
 
+    /// `du'/dp` of drive `k`'s prescribed rate at `t` \[rad/s per unit
+    /// of p\] (0 where the parameter does not move the drives).
+    pub fn drive_rate(&self, t: f64, base: &Analysis<M>, k: usize) -> f64 {
+        if !self.touches.drives {
+            return 0.0;
+        }
+        let rate = |an: &Analysis<M>| an.dynamics().drives[k].angle.eval3(t)[1];
+        self.base_weight * rate(base) + self.nodes.iter().map(|(w, an)| w * rate(an)).sum::<f64>()
+    }
+
     /// Adds `d r/dp` of the constraint residuals at `(t, x)`
     /// ([`Analysis::constraint_residual`]) into `out` (nh + nc), `base_r`
     /// the base problem's.

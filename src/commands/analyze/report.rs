@@ -368,8 +368,21 @@ pub(super) fn summary(scene: &str, r: &AnalyzeReport) -> String {
             rounded(p.heading_change),
             mu.join(", ")
         );
+        if !p.structural.is_empty() {
+            let named: Vec<String> = p.structural.iter().map(|m| m.describe(&r.coords)).collect();
+            let _ = writeln!(
+                s,
+                "structural multipliers (left out of the stability and bifurcation tests): {}",
+                named.join(", ")
+            );
+        }
         if let Some(g) = &r.gait {
             let _ = write!(s, "mean input power {} W", fmt_value(sig(g.mean_power)));
+            if !g.input_ledger.is_empty() {
+                let shares: Vec<String> =
+                    g.input_ledger.iter().map(|(n, p)| format!("{n} {} W", fmt_value(sig(*p)))).collect();
+                let _ = write!(s, " ({})", shares.join(", "));
+            }
             if g.efficiency.is_finite() {
                 let _ = write!(s, ", efficiency {} m/J", fmt_value(sig(g.efficiency)));
             }

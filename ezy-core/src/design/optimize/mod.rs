@@ -30,10 +30,12 @@
 //! error. A stop (Ctrl-C) ends it at once with the best point so far.
 
 mod evaluate;
+mod kkt;
 mod quantity;
 
 use std::cell::RefCell;
 
+pub use kkt::{Binding, Kkt};
 pub use quantity::{Constraint, GaitQuantity, Goal, Quantity, RunFunction, Sense};
 
 use super::Design;
@@ -133,8 +135,16 @@ pub struct Optimum {
     pub constraint_texts: Vec<String>,
     /// Whether each parameter ended at a bound.
     pub at_bound: Vec<bool>,
-    /// Whether SLSQP converged (not a budget spent, a stop, a failure).
+    /// Whether it converged: SLSQP (or the line search circling the best
+    /// point) ended, the best point satisfies the constraints within
+    /// their feasibility tolerance, and the first-order conditions hold
+    /// there ([`Optimum::kkt`]). Not after a budget spent, a stop or a
+    /// failure.
     pub converged: bool,
+    /// The first-order (Karush-Kuhn-Tucker) conditions checked at the best
+    /// point: the stationarity residual, and the constraints and bounds
+    /// that bind with their multipliers.
+    pub kkt: Kkt,
     /// Whether a stop hook ended it.
     pub stopped: bool,
     /// How it ended.
@@ -188,12 +198,62 @@ impl<M: Model> State<'_, M> {
         self.stopped || self.fatal.is_some() || self.settled
     }
 
-    /// Ranks a point: total violation of the constraints, then objective
+    /// Ranks a point: total violation of the constraints beyond their
+    /// feasibility tolerance ([`FEASIBLE`] of each one's scale, so that
+    /// points on a bound within rounding rank as feasible), then objective
     /// (minimized).
     fn rank(&self, p: &Point) -> (f64, f64) {
         let goal = self.ev.goal;
-        let violation = goal.constraints.iter().zip(&p.values[1..]).map(|(c, &v)| c.violation(v)).sum::<f64>();
+        let violation = goal
+            .constraints
+            .iter()
+            .zip(&p.values[1..])
+            .zip(&self.constraint_scales)
+            .map(|((c, &v), (_, scale))| (c.violation(v) / scale - FEASIBLE).max(0.0))
+            .sum::<f64>();
         (violation, p.values[0] * self.objective_scale.signum())
+    }
+
+    /// The first-order conditions at `p` (at `u`): its objective's and
+    /// active constraints' gradients in the scaled variables, the active
+    /// bounds; `scale` the start's scaled objective gradient.
+    fn kkt(&self, p: &Point, u: &[f64], names: &[String], scale: f64) -> Kkt {
+        let n = u.len();
+        let os = self.objective_scale;
+        let g: Vec<f64> = (0..n).map(|k| os * p.gradients[0][k] * self.span[k]).collect();
+        let mut candidates = Vec::new();
+        for (i, c) in self.ev.goal.constraints.iter().enumerate() {
+            let (s, k) = self.constraint_scales[i];
+            let value = s * (p.values[i + 1] - c.bound) / k;
+            if value >= -kkt::ACTIVE {
+                candidates.push(kkt::Candidate {
+                    name: c.text(),
+                    gradient: (0..n).map(|j| s * p.gradients[i + 1][j] * self.span[j] / k).collect(),
+                    // mu_scaled grad c_scaled = (mu_scaled / (|os| k)) |os| s grad q
+                    unit: 1.0 / (os.abs() * k),
+                });
+            }
+        }
+        for k in 0..n {
+            let value = self.lower[k] + u[k] * self.span[k];
+            let unit = |dir: f64| kkt::Candidate {
+                name: format!(
+                    "{} {} {}",
+                    names[k],
+                    if dir < 0.0 { ">=" } else { "<=" },
+                    crate::names::fmt_value(if dir < 0.0 { self.lower[k] } else { self.lower[k] + self.span[k] })
+                ),
+                gradient: (0..n).map(|j| if j == k { dir } else { 0.0 }).collect(),
+                unit: 1.0 / (os.abs() * self.span[k]),
+            };
+            if value - self.lower[k] <= 1e-9 * self.span[k] {
+                candidates.push(unit(-1.0));
+            }
+            if self.lower[k] + self.span[k] - value <= 1e-9 * self.span[k] {
+                candidates.push(unit(1.0));
+            }
+        }
+        kkt::check(&g, &candidates, scale)
     }
 
     /// The point at `u`, evaluated once.
@@ -449,7 +509,9 @@ pub fn optimize<M: Model>(
         return Err(e);
     }
     let (converged, termination) = termination(&outcome, &st, settings.max_evaluations);
-    let (best_index, best, _) = st.best.take().expect("the start at least");
+    let (best_index, best, best_u) = st.best.take().expect("the start at least");
+    let start_scale = objective_scale.abs() * g0;
+    let kkt = st.kkt(&best, &best_u, &design.names, if start_scale.is_finite() { start_scale } else { 0.0 });
     let violated: Vec<String> = goal
         .constraints
         .iter()
@@ -458,10 +520,15 @@ pub fn optimize<M: Model>(
         .filter(|((c, v), (_, scale))| c.violation(**v) > FEASIBLE * scale)
         .map(|((c, v), _)| format!("{} (it is {} there)", c.text(), crate::names::fmt_value(*v)))
         .collect();
-    let (converged, termination) = if violated.is_empty() {
-        (converged, termination)
-    } else {
+    let (converged, termination) = if !violated.is_empty() {
         (false, format!("no point found satisfies {}: the best has the least violation", violated.join(", ")))
+    } else if converged && !kkt.holds {
+        // the optimizer's word is not taken: its stop at a point that is
+        // not stationary is no convergence
+        let why = termination.trim_start_matches("converged: ").trim_start_matches("converged ");
+        (false, format!("not converged: the search ended ({why}), but at the best point the {}", kkt.describe()))
+    } else {
+        (converged, termination)
     };
     let values = st.history[best_index].values.clone();
     let gradient = best.gradients[0].clone();
@@ -497,6 +564,7 @@ pub fn optimize<M: Model>(
         constraint_texts: goal.constraints.iter().map(Constraint::text).collect(),
         at_bound,
         converged: converged && !stopped,
+        kkt,
         stopped,
         termination: if stopped { "stopped: the best point so far".into() } else { termination },
         history: st.history,
