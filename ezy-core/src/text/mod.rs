@@ -17,6 +17,8 @@ mod fused;
 mod layout;
 mod plan;
 mod tape;
+#[cfg(test)]
+mod tests;
 
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
@@ -366,8 +368,9 @@ type Offsets = fn(&GroupPlan, usize, usize) -> (Option<usize>, Option<usize>);
 const DERIVE_STACK_BYTES: usize = 1 << 30;
 
 /// Most brackets `( [ {` open at once in a model's text (the built-in
-/// models nest 3 deep).
-pub const MAX_NESTING: usize = 64;
+/// models nest 3 deep); prefix operators and the like are bounded by
+/// [`MAX_OPEN_OPERATORS`] (both checked before anything recurses).
+pub use ezy_lang::depth::{MAX_NESTING, MAX_OPEN_OPERATORS};
 
 /// The first bracket that opens more than [`MAX_NESTING`] at once, as a
 /// mistake.

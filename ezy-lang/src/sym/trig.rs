@@ -222,11 +222,44 @@ impl Arena {
         out
     }
 
+    /// The sum of `ts` factored: `x (..) + (y (..) + (.. + rest))`, the
+    /// terms without the first common factor factored in turn (a loop:
+    /// a sum of many terms is no deep recursion), the terms with it
+    /// factored inside (a recursion as deep as a term has factors).
     fn factor_sum(&mut self, ts: Vec<Id>, state_only: bool) -> Id {
-        // count each non-numeric factor over the terms
+        let mut ts = ts;
+        let mut products = Vec::new();
+        let tail = loop {
+            let Some(x) = self.common_factor(&ts, state_only) else { break self.add_raw(ts) };
+            let (mut with, mut without) = (Vec::new(), Vec::new());
+            for t in ts {
+                let mut fs = self.factors(t);
+                match fs.iter().position(|&f| f == x) {
+                    Some(p) => {
+                        fs.remove(p);
+                        with.push(self.mul(&fs));
+                    }
+                    None => without.push(t),
+                }
+            }
+            let inner = self.factor_sum(with, state_only);
+            let prod = self.mul2(x, inner);
+            if without.is_empty() {
+                break prod;
+            }
+            products.push(prod);
+            ts = without;
+        };
+        products.into_iter().rev().fold(tail, |rest, prod| self.add_raw(vec![prod, rest]))
+    }
+
+    /// The non-numeric factor most of `ts` share (at least two; counted
+    /// among those that change if `state_only`), the lowest id of the
+    /// most shared.
+    fn common_factor(&self, ts: &[Id], state_only: bool) -> Option<Id> {
         let changes = |s: super::Sym| !matches!(s, super::Sym::Param(_));
         let mut count: HashMap<Id, usize> = HashMap::new();
-        for &t in &ts {
+        for &t in ts {
             let mut fs = self.factors(t);
             fs.dedup();
             for f in fs {
@@ -235,29 +268,7 @@ impl Arena {
                 }
             }
         }
-        let Some((&x, &n)) = count.iter().max_by_key(|(id, n)| (**n, std::cmp::Reverse(**id))) else {
-            return self.add_raw(ts);
-        };
-        if n < 2 {
-            return self.add_raw(ts);
-        }
-        let (mut with, mut without) = (Vec::new(), Vec::new());
-        for t in ts {
-            let mut fs = self.factors(t);
-            match fs.iter().position(|&f| f == x) {
-                Some(p) => {
-                    fs.remove(p);
-                    with.push(self.mul(&fs));
-                }
-                None => without.push(t),
-            }
-        }
-        let inner = self.factor_sum(with, state_only);
-        let prod = self.mul2(x, inner);
-        if without.is_empty() {
-            return prod;
-        }
-        let rest = self.factor_sum(without, state_only);
-        self.add_raw(vec![prod, rest])
+        let (&x, &n) = count.iter().max_by_key(|(id, n)| (**n, std::cmp::Reverse(**id)))?;
+        (n >= 2).then_some(x)
     }
 }
