@@ -24,7 +24,9 @@ impl Arena {
     /// cos(a + b)) / 2`, `sin a sin b = (cos(a - b) - cos(a + b)) / 2`,
     /// `sin a cos b = (sin(a + b) + sin(a - b)) / 2`; arguments with a
     /// negative leading coefficient are turned (`cos(-x) = cos x`,
-    /// `sin(-x) = -sin x`), so like terms meet.
+    /// `sin(-x) = -sin x`), so like terms meet. Once the sum would have
+    /// more than [`super::MAX_EXPANDED`] terms, the further sines and
+    /// cosines stay factors as they are (the same value).
     pub fn linearize(&mut self, e: Id) -> Id {
         let e = self.expand(e);
         let terms: Vec<Id> = match self.node(e) {
@@ -47,7 +49,14 @@ impl Arena {
                     Node::Cos(a) => Some((Kind::Cos, a)),
                     _ => None,
                 };
-                let Some(k) = kind else {
+                // a factor that would make the sum so far more than
+                // MAX_EXPANDED sines and cosines (2^n from n factors)
+                // stays a factor
+                let within = 2usize
+                    .checked_pow(n as u32)
+                    .and_then(|w| w.checked_mul(sum.len()))
+                    .and_then(|w| w.checked_add(out.len()));
+                let Some(k) = kind.filter(|_| within.is_some_and(|w| w <= super::MAX_EXPANDED)) else {
                     rest.push(f);
                     continue;
                 };
