@@ -66,3 +66,30 @@ fn products_of_sums_are_read_quickly_and_exactly() {
         }
     }
 }
+
+/// A model path that is a FIFO hung the reader (waiting for a writer),
+/// and a link to `/dev/zero` read until memory ran out: both refused
+/// before a byte is read, by name and kind; a file past the size limit
+/// too, with at most one byte more read.
+#[cfg(unix)]
+#[test]
+fn model_paths_that_are_not_regular_files_are_refused() {
+    let dir = std::env::temp_dir().join(format!("ezy-model-paths-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let fifo = dir.join("model.ezy");
+    let c = std::ffi::CString::new(fifo.to_str().unwrap()).unwrap();
+    // SAFETY: a valid C string; mkfifo only creates the node
+    assert_eq!(unsafe { libc::mkfifo(c.as_ptr(), 0o600) }, 0);
+    let e = RuntimeModel::from_file(&fifo).unwrap_err().to_string();
+    assert!(e.starts_with(&format!("cannot read model file {}: ", fifo.display())), "{e}");
+    assert!(e.contains("is a FIFO (named pipe): nothing was read"), "{e}");
+    let zero = dir.join("zero.ezy");
+    std::os::unix::fs::symlink("/dev/zero", &zero).unwrap();
+    let e = RuntimeModel::from_file(&zero).unwrap_err().to_string();
+    assert!(e.contains("zero.ezy") && e.contains("is a character device"), "{e}");
+    let big = dir.join("big.ezy");
+    std::fs::write(&big, " ".repeat(super::MAX_TEXT_BYTES as usize + 1)).unwrap();
+    let e = RuntimeModel::from_file(&big).unwrap_err().to_string();
+    assert!(e.contains("big.ezy") && e.contains("larger than 1 MiB"), "{e}");
+    std::fs::remove_dir_all(&dir).unwrap();
+}
