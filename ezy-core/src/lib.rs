@@ -54,6 +54,7 @@ pub mod effects;
 pub mod erased;
 pub mod error;
 pub mod events;
+pub mod files;
 pub mod formulation;
 pub mod geometry;
 pub mod integrator;

@@ -28,6 +28,10 @@ mod emit;
 #[proc_macro]
 pub fn model(input: TokenStream) -> TokenStream {
     let (root, input) = split_root(input.into());
+    // a text nested too deep for syn's recursion is refused before it
+    if let Err(e) = ezy_lang::depth::check_depth(&input) {
+        return e.to_compile_error().into();
+    }
     let def = match syn::parse2::<ezy_lang::ast::ModelDef>(input) {
         Ok(def) => def,
         Err(e) => return e.to_compile_error().into(),

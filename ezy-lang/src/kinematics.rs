@@ -192,41 +192,37 @@ pub fn expr_to_sym(ar: &mut Arena, e: &Expr, scope: &Scope, what: &str, errs: &m
             let a = expr_to_sym(ar, &u.expr, scope, what, errs);
             ar.neg(a)
         }
-        Expr::Binary(b) if matches!(b.op, BinOp::Add(_) | BinOp::Sub(_) | BinOp::Mul(_)) => {
-            // a chain `a + b - c + ...` (or `a * b * ...`) as one sum (one
-            // product): linear in its length where one sum per `+` would be
-            // quadratic, and no recursion along its left spine
-            let sum = !matches!(b.op, BinOp::Mul(_));
+        Expr::Binary(b) if matches!(b.op, BinOp::Add(_) | BinOp::Sub(_) | BinOp::Mul(_) | BinOp::Div(_)) => {
+            // a chain `a + b - c + ...` (or `a * b / c * ...`) as one sum
+            // (one product): linear in its length where one sum per `+`
+            // would be quadratic, and no recursion along its left spine
+            // (whose length the text's nesting bound does not limit)
+            let sum = matches!(b.op, BinOp::Add(_) | BinOp::Sub(_));
             let mut rights = Vec::new();
             let mut left = e;
             while let Expr::Binary(b) = left {
                 match b.op {
                     BinOp::Add(_) | BinOp::Sub(_) if sum => rights.push((matches!(b.op, BinOp::Sub(_)), &*b.right)),
-                    BinOp::Mul(_) if !sum => rights.push((false, &*b.right)),
+                    BinOp::Mul(_) | BinOp::Div(_) if !sum => rights.push((matches!(b.op, BinOp::Div(_)), &*b.right)),
                     _ => break,
                 }
                 left = &b.left;
             }
             let mut terms = vec![expr_to_sym(ar, left, scope, what, errs)];
-            for (minus, r) in rights.into_iter().rev() {
+            for (inverse, r) in rights.into_iter().rev() {
                 let t = expr_to_sym(ar, r, scope, what, errs);
-                terms.push(if minus { ar.neg(t) } else { t });
+                terms.push(match (inverse, sum) {
+                    (false, _) => t,
+                    (true, true) => ar.neg(t),
+                    (true, false) => ar.pow(t, -1),
+                });
             }
             if sum { ar.add(&terms) } else { ar.mul(&terms) }
         }
         Expr::Binary(b) => {
-            let l = expr_to_sym(ar, &b.left, scope, what, errs);
-            let r = expr_to_sym(ar, &b.right, scope, what, errs);
-            match b.op {
-                BinOp::Add(_) => ar.add2(l, r),
-                BinOp::Sub(_) => ar.sub(l, r),
-                BinOp::Mul(_) => ar.mul2(l, r),
-                BinOp::Div(_) => ar.div(l, r),
-                _ => {
-                    errs.at(b.op, format!("{what}: unsupported operator; use + - * /"));
-                    ar.cst(0.0)
-                }
-            }
+            // unsupported, and not read further (its operands may chain on)
+            errs.at(b.op, format!("{what}: unsupported operator; use + - * /"));
+            ar.cst(0.0)
         }
         Expr::Call(c) if c.args.len() == 1 => {
             let f = match &*c.func {

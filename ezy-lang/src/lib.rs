@@ -15,6 +15,7 @@
 
 pub mod ast;
 pub mod check;
+pub mod depth;
 pub mod kinematics;
 pub mod minimal;
 pub mod parse;
@@ -83,11 +84,14 @@ pub fn derive(def: &ast::ModelDef) -> syn::Result<(check::Resolved, kinematics::
 /// `model! { ... }`), checks it and derives its terms.
 ///
 /// # Errors
-/// A parse error or every mistake [`derive()`] finds, each with its span:
+/// A text nested too deep ([`depth::check_depth`]), a parse error or
+/// every mistake [`derive()`] finds, each with its span:
 /// `error.span().start()` is its line (from 1) and column (from 0, in
 /// characters) within `text`.
 pub fn derive_text(text: &str) -> syn::Result<Derivation> {
-    let def: ast::ModelDef = syn::parse_str(text)?;
+    let tokens: proc_macro2::TokenStream = text.parse().map_err(syn::Error::from)?;
+    depth::check_depth(&tokens)?;
+    let def: ast::ModelDef = syn::parse2(tokens)?;
     let (resolved, derived) = derive(&def)?;
     Ok(Derivation { def, resolved, derived })
 }

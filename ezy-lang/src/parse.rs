@@ -301,23 +301,34 @@ fn affine(e: &Expr, var: Option<&Ident>) -> syn::Result<Affine> {
             }
         }
         Expr::Binary(b) if matches!(b.op, BinOp::Add(_) | BinOp::Sub(_)) => {
-            let l = affine(&b.left, var)?;
-            let r = affine(&b.right, var)?;
-            let neg = matches!(b.op, BinOp::Sub(_));
-            if neg && (r.var || r.count.is_some()) {
-                return Err(bad());
+            // the chain `a + b - c ...` along its left spine, in a loop
+            // (its length is not bounded by the text's nesting)
+            let mut rights = Vec::new();
+            let mut left = e;
+            while let Expr::Binary(b) = left {
+                if !matches!(b.op, BinOp::Add(_) | BinOp::Sub(_)) {
+                    break;
+                }
+                rights.push((matches!(b.op, BinOp::Sub(_)), &*b.right));
+                left = &b.left;
             }
-            let (var_, count) = (
-                l.var || r.var,
-                match (l.count, r.count) {
+            let mut l = affine(left, var)?;
+            for (neg, r) in rights.into_iter().rev() {
+                let r = affine(r, var)?;
+                if neg && (r.var || r.count.is_some()) {
+                    return Err(bad());
+                }
+                let count = match (l.count, r.count) {
                     (Some(_), Some(_)) => return Err(bad()),
                     (a, b) => a.or(b),
-                },
-            );
-            if l.var && r.var {
-                return Err(bad());
+                };
+                if l.var && r.var {
+                    return Err(bad());
+                }
+                let c = if neg { l.c.checked_sub(r.c) } else { l.c.checked_add(r.c) };
+                l = Affine { var: l.var || r.var, count, c: c.ok_or_else(bad)?, span };
             }
-            Ok(Affine { var: var_, count, c: if neg { l.c - r.c } else { l.c + r.c }, span })
+            Ok(l)
         }
         _ => Err(bad()),
     }

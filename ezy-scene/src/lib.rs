@@ -72,7 +72,9 @@ pub mod check;
 pub mod columns;
 pub mod family;
 pub mod file;
-pub mod files;
+/// Bounded reads of the files a user names: ezy-core's, which reads
+/// model files with them.
+pub use ezy_core::files;
 pub mod kinds;
 pub mod parameter;
 pub mod problem;

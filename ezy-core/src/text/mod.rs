@@ -17,6 +17,8 @@ mod fused;
 mod layout;
 mod plan;
 mod tape;
+#[cfg(test)]
+mod tests;
 
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
@@ -178,8 +180,9 @@ impl RuntimeModel {
     /// [`RuntimeModel::from_text`]).
     ///
     /// # Errors
-    /// [`ModelTextError::Read`] if it cannot be read or is larger than
-    /// [`MAX_TEXT_BYTES`]; [`ModelTextError::Mistakes`] with the file's
+    /// [`ModelTextError::Read`] if it cannot be read, is not a regular
+    /// file (a FIFO, a device: refused before anything is read) or is
+    /// larger than [`MAX_TEXT_BYTES`] (at most one byte more is read); [`ModelTextError::Mistakes`] with the file's
     /// name on each mistake.
     pub fn from_file(path: &Path) -> Result<Self, ModelTextError> {
         Self::from_file_as(path, None)
@@ -196,11 +199,9 @@ impl RuntimeModel {
 
     fn from_file_as(path: &Path, evaluator: Option<Evaluator>) -> Result<Self, ModelTextError> {
         let fail = |reason: String| ModelTextError::Read { file: path.to_path_buf(), reason };
-        let meta = std::fs::metadata(path).map_err(|e| fail(e.to_string()))?;
-        if meta.len() > MAX_TEXT_BYTES {
-            return Err(fail(format!("it has {} bytes; a model file has at most {MAX_TEXT_BYTES}", meta.len())));
-        }
-        let text = std::fs::read_to_string(path).map_err(|e| fail(e.to_string()))?;
+        // a regular file only (a FIFO would block, /dev/zero never end),
+        // and no more than MAX_TEXT_BYTES + 1 bytes of it read
+        let text = crate::files::read_capped_text(path, MAX_TEXT_BYTES, "the model file").map_err(fail)?;
         Self::read(&text, Some(path), evaluator)
     }
 
@@ -366,8 +367,9 @@ type Offsets = fn(&GroupPlan, usize, usize) -> (Option<usize>, Option<usize>);
 const DERIVE_STACK_BYTES: usize = 1 << 30;
 
 /// Most brackets `( [ {` open at once in a model's text (the built-in
-/// models nest 3 deep).
-pub const MAX_NESTING: usize = 64;
+/// models nest 3 deep); prefix operators and the like are bounded by
+/// [`MAX_OPEN_OPERATORS`] (both checked before anything recurses).
+pub use ezy_lang::depth::{MAX_NESTING, MAX_OPEN_OPERATORS};
 
 /// The first bracket that opens more than [`MAX_NESTING`] at once, as a
 /// mistake.

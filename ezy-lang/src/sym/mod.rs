@@ -26,6 +26,12 @@ pub use hoist::Grouping;
 
 use std::collections::HashMap;
 
+/// The most products one product of sums (or power of a sum) may form
+/// when [`Arena::expand`] multiplies it out at once (the built-in models
+/// form at most 4); past it, only the factors that change during a run
+/// are multiplied out.
+pub const MAX_EXPANDED: usize = 1024;
+
 /// Index of a node in the [`Arena`].
 #[derive(Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord, Debug)]
 pub struct Id(u32);
@@ -322,6 +328,13 @@ impl Arena {
     /// integer power of a sum, distributed, so that like terms meet and
     /// cancel and `sin^2 + cos^2` folds (see [`Arena::add`]). Nothing is
     /// distributed inside `sin`, `cos`, `sqrt` or a negative power.
+    ///
+    /// A product that would form more than [`MAX_EXPANDED`] products is
+    /// multiplied out over its factors that mention a coordinate or a
+    /// velocity only, its other factors kept whole (and kept as it is if
+    /// even that is too many): `(a + 1) (a + 2) ... (a + 50)` has 2^50
+    /// products, which no model needs (the built-in ones form at most 4
+    /// at once). The value is the same either way.
     pub fn expand(&mut self, e: Id) -> Id {
         self.expand_memo(e, &mut HashMap::new())
     }
@@ -336,25 +349,66 @@ impl Arena {
                 self.add(&ts)
             }
             Node::Mul(fs) => {
-                let mut terms = vec![self.cst(1.0)];
-                for f in fs.iter() {
-                    let f = self.expand_memo(*f, memo);
-                    terms = self.distribute(&terms, f);
+                // each factor multiplied out, then into the terms so far
+                let (mut terms, mut done) = (Some(vec![self.cst(1.0)]), Vec::with_capacity(fs.len()));
+                for &f in fs.iter() {
+                    let f = self.expand_memo(f, memo);
+                    done.push(f);
+                    terms = terms.and_then(|ts| self.times_within(&ts, f));
                 }
-                self.add(&terms)
+                match terms {
+                    Some(terms) => self.add(&terms),
+                    None => self.expand_state_factors(&done),
+                }
             }
             Node::Pow(b, n) if n > 1 && matches!(self.node(b), Node::Add(_)) => {
                 let b = self.expand_memo(b, memo);
-                let mut terms = vec![self.cst(1.0)];
-                for _ in 0..n {
-                    terms = self.distribute(&terms, b);
+                match self.expanded_product(&vec![b; n as usize]) {
+                    Some(terms) => self.add(&terms),
+                    None => self.pow(b, n),
                 }
-                self.add(&terms)
             }
             _ => e,
         };
         memo.insert(e, out);
         out
+    }
+
+    /// The terms of the product of `fs` multiplied out (not yet summed),
+    /// or `None` if that would form more than [`MAX_EXPANDED`] products.
+    fn expanded_product(&mut self, fs: &[Id]) -> Option<Vec<Id>> {
+        let mut terms = vec![self.cst(1.0)];
+        for &f in fs {
+            terms = self.times_within(&terms, f)?;
+        }
+        Some(terms)
+    }
+
+    /// [`Arena::distribute`], or `None` if it would form more than
+    /// [`MAX_EXPANDED`] products (checked before any is formed).
+    fn times_within(&mut self, terms: &[Id], f: Id) -> Option<Vec<Id>> {
+        let width = match self.node(f) {
+            Node::Add(ts) => ts.len(),
+            _ => 1,
+        };
+        (terms.len().saturating_mul(width) <= MAX_EXPANDED).then(|| self.distribute(terms, f))
+    }
+
+    /// The product of `fs` (each multiplied out) multiplied out over its
+    /// factors that mention a coordinate or a velocity, the others kept
+    /// whole as one factor of every term; the product as it is if that
+    /// too is more than [`MAX_EXPANDED`] products.
+    fn expand_state_factors(&mut self, fs: &[Id]) -> Id {
+        let state = |s: Sym| matches!(s, Sym::Q(_) | Sym::Qd(_));
+        let (kept, spread): (Vec<Id>, Vec<Id>) = fs.iter().partition(|&&f| !self.mentions(f, &state));
+        match self.expanded_product(&spread) {
+            Some(terms) => {
+                let whole = self.mul(&kept);
+                let terms: Vec<Id> = terms.iter().map(|&t| self.mul2(whole, t)).collect();
+                self.add(&terms)
+            }
+            None => self.mul(fs),
+        }
     }
 
     /// The terms of `(sum of terms) * f`, `f`'s own terms distributed.

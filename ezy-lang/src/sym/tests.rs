@@ -382,3 +382,33 @@ fn a_family_index_is_constant_in_q_but_not_fixed() {
     let e2 = ar.mul(&[a2, i, c]);
     assert_eq!(ar.display(e2, &name), "2*i*a*cos(x)");
 }
+
+/// A product of 40 sums is not multiplied out into 2^40 products: its
+/// parameter-only factors stay whole, the coordinate's sine is spread,
+/// and the value is the same.
+#[test]
+fn a_product_of_many_sums_expands_within_the_budget() {
+    let mut ar = Arena::new();
+    let (a, b, q) = (ar.sym(Sym::Param(0)), ar.sym(Sym::Param(1)), ar.sym(Sym::Q(0)));
+    let (s, c) = (ar.sin(q), ar.cos(q));
+    let mut fs: Vec<Id> = (0..40)
+        .map(|k| {
+            let k = ar.cst(f64::from(k));
+            ar.add(&[a, b, k])
+        })
+        .collect();
+    fs.push(ar.add2(s, c));
+    let e = ar.mul(&fs);
+    let x = ar.expand(e);
+    let super::Node::Add(ts) = ar.node(x).clone() else { panic!("a sum of two terms") };
+    assert_eq!(ts.len(), 2);
+    let env = |v: Sym| match v {
+        Sym::Param(0) => 0.25,
+        Sym::Param(1) => -0.5,
+        _ => 0.7,
+    };
+    let (want, got) = (ar.eval(e, &env), ar.eval(x, &env));
+    assert!((got - want).abs() <= 1e-12 * want.abs(), "{got} vs {want}");
+    let l = ar.linearize(e);
+    assert!((ar.eval(l, &env) - want).abs() <= 1e-12 * want.abs());
+}

@@ -24,7 +24,9 @@ impl Arena {
     /// cos(a + b)) / 2`, `sin a sin b = (cos(a - b) - cos(a + b)) / 2`,
     /// `sin a cos b = (sin(a + b) + sin(a - b)) / 2`; arguments with a
     /// negative leading coefficient are turned (`cos(-x) = cos x`,
-    /// `sin(-x) = -sin x`), so like terms meet.
+    /// `sin(-x) = -sin x`), so like terms meet. Once the sum would have
+    /// more than [`super::MAX_EXPANDED`] terms, the further sines and
+    /// cosines stay factors as they are (the same value).
     pub fn linearize(&mut self, e: Id) -> Id {
         let e = self.expand(e);
         let terms: Vec<Id> = match self.node(e) {
@@ -47,7 +49,14 @@ impl Arena {
                     Node::Cos(a) => Some((Kind::Cos, a)),
                     _ => None,
                 };
-                let Some(k) = kind else {
+                // a factor that would make the sum so far more than
+                // MAX_EXPANDED sines and cosines (2^n from n factors)
+                // stays a factor
+                let within = 2usize
+                    .checked_pow(n as u32)
+                    .and_then(|w| w.checked_mul(sum.len()))
+                    .and_then(|w| w.checked_add(out.len()));
+                let Some(k) = kind.filter(|_| within.is_some_and(|w| w <= super::MAX_EXPANDED)) else {
                     rest.push(f);
                     continue;
                 };
@@ -222,11 +231,44 @@ impl Arena {
         out
     }
 
+    /// The sum of `ts` factored: `x (..) + (y (..) + (.. + rest))`, the
+    /// terms without the first common factor factored in turn (a loop:
+    /// a sum of many terms is no deep recursion), the terms with it
+    /// factored inside (a recursion as deep as a term has factors).
     fn factor_sum(&mut self, ts: Vec<Id>, state_only: bool) -> Id {
-        // count each non-numeric factor over the terms
+        let mut ts = ts;
+        let mut products = Vec::new();
+        let tail = loop {
+            let Some(x) = self.common_factor(&ts, state_only) else { break self.add_raw(ts) };
+            let (mut with, mut without) = (Vec::new(), Vec::new());
+            for t in ts {
+                let mut fs = self.factors(t);
+                match fs.iter().position(|&f| f == x) {
+                    Some(p) => {
+                        fs.remove(p);
+                        with.push(self.mul(&fs));
+                    }
+                    None => without.push(t),
+                }
+            }
+            let inner = self.factor_sum(with, state_only);
+            let prod = self.mul2(x, inner);
+            if without.is_empty() {
+                break prod;
+            }
+            products.push(prod);
+            ts = without;
+        };
+        products.into_iter().rev().fold(tail, |rest, prod| self.add_raw(vec![prod, rest]))
+    }
+
+    /// The non-numeric factor most of `ts` share (at least two; counted
+    /// among those that change if `state_only`), the lowest id of the
+    /// most shared.
+    fn common_factor(&self, ts: &[Id], state_only: bool) -> Option<Id> {
         let changes = |s: super::Sym| !matches!(s, super::Sym::Param(_));
         let mut count: HashMap<Id, usize> = HashMap::new();
-        for &t in &ts {
+        for &t in ts {
             let mut fs = self.factors(t);
             fs.dedup();
             for f in fs {
@@ -235,29 +277,7 @@ impl Arena {
                 }
             }
         }
-        let Some((&x, &n)) = count.iter().max_by_key(|(id, n)| (**n, std::cmp::Reverse(**id))) else {
-            return self.add_raw(ts);
-        };
-        if n < 2 {
-            return self.add_raw(ts);
-        }
-        let (mut with, mut without) = (Vec::new(), Vec::new());
-        for t in ts {
-            let mut fs = self.factors(t);
-            match fs.iter().position(|&f| f == x) {
-                Some(p) => {
-                    fs.remove(p);
-                    with.push(self.mul(&fs));
-                }
-                None => without.push(t),
-            }
-        }
-        let inner = self.factor_sum(with, state_only);
-        let prod = self.mul2(x, inner);
-        if without.is_empty() {
-            return prod;
-        }
-        let rest = self.factor_sum(without, state_only);
-        self.add_raw(vec![prod, rest])
+        let (&x, &n) = count.iter().max_by_key(|(id, n)| (**n, std::cmp::Reverse(**id)))?;
+        (n >= 2).then_some(x)
     }
 }

@@ -1,5 +1,5 @@
-//! Reading the files a user names (scene files, overlays, saved tables)
-//! with a bound: only regular files are read (a FIFO, a device such as
+//! Reading the files a user names (model files, scene files, overlays,
+//! saved tables) with a bound: only regular files are read (a FIFO, a device such as
 //! `/dev/zero`, a directory or a socket is refused before a byte is read,
 //! and opening never blocks), and at most one byte past a cap, so an
 //! endless or huge file costs neither time nor memory. Errors say what
