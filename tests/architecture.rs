@@ -30,6 +30,7 @@ const CORE_FLOORS: &[(&str, u32)] = &[
     ("settings", 0),
     ("error", 0),
     ("scalar", 0),
+    ("files", 0),
     // floor 1: what a model is (data) and the integrators (which see an
     // `Rhs` and a `NewtonSystem`, never the dynamics)
     ("model::info", 1),

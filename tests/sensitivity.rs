@@ -388,3 +388,26 @@ fn a_singular_position_is_named_not_passed() {
     let e = problem.sensitivities(&["initial.qd.xc1"]).unwrap_err().to_string();
     assert!(e.contains("singular position") && e.contains("t = 0.71"), "{e}");
 }
+
+/// A skate that slides from the start (sleigh-ice: launched sideways,
+/// its slip velocity 2 m/s at t = 0): the sensitivities, which take every
+/// skate as holding and do not follow the jump of the sensitivities at a
+/// stick-slip switch, were 137 % off central differences with exit 0
+/// (mu = 100); the linearization at t = 0.1 s, inside the slide, was the
+/// ideal sleigh's. Both are refused, naming the skate, its effect and the
+/// time, and nothing is written.
+#[test]
+fn a_sliding_skate_is_refused_by_name() {
+    let dir = crate::analysis::fresh("sliding-sensitivity");
+    for mu in ["0.1", "100"] {
+        let set = format!("slip_P.mu={mu}");
+        let (_, err, ok) =
+            crate::analysis::ezy(&["sensitivity", "sleigh-ice", "--wrt", "m", "--set", &set, "--no-figures"], &dir);
+        assert!(!ok && err.contains("skate `P` slides on this run") && err.contains("(effect `slip_P`)"), "{err}");
+        assert!(err.contains("at t = 0 s"), "{err}");
+        assert!(!dir.join("sensitivity.csv").exists(), "{mu}");
+    }
+    let (_, err, ok) = crate::analysis::ezy(&["linearize", "sleigh-ice", "--at", "0.1"], &dir.join("l"));
+    assert!(!ok && err.contains("skate `P` slides on the state linearized"), "{err}");
+    assert!(!dir.join("l").exists());
+}

@@ -40,7 +40,7 @@ fn a_drives_power_is_the_gaits_input_power() {
     std::fs::copy(data.join("rotor_drive.ezy"), run.join("rotor_drive.ezy")).unwrap();
     let v = |n: &str| cell(&periodic, 0, n);
     let scene = format!(
-        "name = \"rotor-drive-period\"\nmodel = \"rotor_drive.ezy\"\nt_end = {period:e}\n\n[initial]\nq = {{ x = {:e}, y = {:e}, phi = {:e} }}\nqd = {{ x = {:e}, phi = {:e} }}\n\n[integrator]\nmethod = \"dop853\"\nrtol = 1e-12\natol = 1e-12\n\n[output]\nevery = {period:e}\ninclude = [\"energy\", \"effects\"]\n\n[drives.psi]\nangle = {{ sin = {{ amplitude = 1.0, omega = 3.0, phase = {:e} }} }}\n\n[effects.drag]\nkind = \"linear-drag\"\nbody = \"s\"\nc = 0.5\nc_rot = 0.05\n",
+        "name = \"rotor-drive-period\"\ndescription = \"one period of the gait\"\nmodel = \"rotor_drive.ezy\"\nt_end = {period:e}\n\n[initial]\nq = {{ x = {:e}, y = {:e}, phi = {:e} }}\nqd = {{ x = {:e}, phi = {:e} }}\n\n[integrator]\nmethod = \"dop853\"\nrtol = 1e-12\natol = 1e-12\n\n[output]\nevery = {period:e}\ninclude = [\"energy\", \"effects\"]\n\n[drives.psi]\nangle = {{ sin = {{ amplitude = 1.0, omega = 3.0, phase = {:e} }} }}\n\n[effects.drag]\nkind = \"linear-drag\"\nbody = \"s\"\nc = 0.5\nc_rot = 0.05\n",
         v("x"),
         v("y"),
         v("phi"),

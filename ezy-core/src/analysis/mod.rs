@@ -176,6 +176,10 @@ pub struct Analysis<M: Model> {
     /// The skate with friction nearest to sliding over the KKT solves
     /// since [`Analysis::watch_grip`] ([`Analysis::check_grip`]).
     grip: Option<Grip>,
+    /// The first skate with friction seen sliding since
+    /// [`Analysis::watch_grip`]: in a sliding mode, or at a state whose
+    /// lateral slip velocity is not zero ([`Analysis::check_grip`]).
+    slid: Option<Slide>,
     /// The effects whose force a linearization differentiated by
     /// differences, first met first ([`Analysis::differenced_laws`]).
     differenced: Vec<String>,
@@ -184,6 +188,18 @@ pub struct Analysis<M: Model> {
     /// Every effect's force by differences, none exactly
     /// ([`Analysis::set_force_differences`]).
     force_differences: bool,
+}
+
+/// A skate with friction seen sliding: in a sliding mode, or at a state
+/// whose lateral slip velocity is not zero.
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct Slide {
+    /// Index into [`Dynamics::friction`].
+    skate: usize,
+    /// Time \[s\].
+    t: f64,
+    /// The lateral slip velocity `G_row qd` \[m/s\].
+    slip: f64,
 }
 
 /// The worst grip of a skate with friction seen over some KKT solves: the
@@ -236,6 +252,7 @@ impl<M: Model> Analysis<M> {
             power,
             stop: None,
             grip: None,
+            slid: None,
             differenced: Vec::new(),
             last_differenced: false,
             force_differences: false,
@@ -282,6 +299,7 @@ impl<M: Model> Analysis<M> {
     /// follow ([`Analysis::check_grip`]).
     pub(crate) fn watch_grip(&mut self) {
         self.grip = None;
+        self.slid = None;
     }
 
     /// Refuses what the KKT solves since [`Analysis::watch_grip`] found: a
@@ -294,6 +312,18 @@ impl<M: Model> Analysis<M> {
     /// [`AnalysisError::Request`] naming the skate, its force, its limit,
     /// the time and `what` was analysed.
     pub(crate) fn check_grip(&self, what: &str) -> Result<(), AnalysisError> {
+        if let Some(g) = self.slid {
+            let fr = &self.sys.friction[g.skate];
+            return Err(AnalysisError::Request {
+                reason: format!(
+                    "skate `{}` slides on {what} (at t = {} s its lateral slip velocity is {} m/s; effect `{}`): the analyses, sensitivities, fits and linearizations take every skate as holding and do not follow a stick-slip switch (the jump of the sensitivities there), so a motion on which one slides is not theirs (run it: `ezy run` follows the slide)",
+                    fr.name,
+                    sig(g.t),
+                    sig(g.slip),
+                    self.sys.effects[fr.effect].name
+                ),
+            });
+        }
         let Some(g) = self.grip else { return Ok(()) };
         let fr = &self.sys.friction[g.skate];
         if g.force <= fr.limit * (1.0 + GRIP_RTOL) {
@@ -492,6 +522,7 @@ impl<M: Model> Analysis<M> {
             gamma[d.row] -= d.angle.eval3(t)[2];
         }
         let g = self.dense_g(&values);
+        self.note_slip(t, qd, &g);
         let f = self.forces(t, q, qd)?;
         let mass = &self.sys.mass;
         let n = nq + nc;
@@ -517,10 +548,32 @@ impl<M: Model> Analysis<M> {
 
     /// Notes the skates' holding forces in the multipliers `mu` (nc) of a
     /// KKT solve at `t` ([`Analysis::check_grip`]).
+    /// Notes a skate with friction whose lateral slip velocity `G_row qd`
+    /// at `(t, qd)` is not zero (beyond 1e-6 of the velocities' size, far
+    /// above what a search or an integration leaves in a holding skate): it
+    /// slides there ([`Analysis::check_grip`]); `g` the dense `G` (nc x nq).
+    fn note_slip(&mut self, t: f64, qd: &[f64], g: &Mat<f64>) {
+        if self.slid.is_some() {
+            return;
+        }
+        let scale = qd.iter().fold(1.0f64, |m, v| m.max(v.abs()));
+        for (k, fr) in self.sys.friction.iter().enumerate() {
+            let slip = (0..qd.len()).map(|c| g[(fr.row, c)] * qd[c]).sum::<f64>();
+            if !(slip.abs() <= 1e-6 * scale) {
+                self.slid = Some(Slide { skate: k, t, slip });
+                return;
+            }
+        }
+    }
+
     pub(crate) fn note_grip(&mut self, t: f64, mu: &[f64]) {
         // each skate's holding force over its limit (a NaN force first)
         let ratio = |force: f64, limit: f64| if force == 0.0 { 0.0 } else { force / limit };
         for (k, fr) in self.sys.friction.iter().enumerate() {
+            if fr.mode.is_sliding() && self.slid.is_none() {
+                // a run's own mode (the sensitivities integrate the run)
+                self.slid = Some(Slide { skate: k, t, slip: fr.slip });
+            }
             let force = mu[fr.row].abs();
             let worse = self.grip.is_none_or(|g| {
                 let r = ratio(force, fr.limit);

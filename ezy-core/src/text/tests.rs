@@ -2,7 +2,7 @@
 //! quickly.
 
 use super::RuntimeModel;
-use crate::Model;
+use crate::model::Model;
 
 /// A point whose first coordinate is `expr`.
 fn point_at(expr: &str) -> String {
