@@ -137,6 +137,8 @@ fn fit_model<M: Model>(
     tx.retire(&["fit.csv".to_string()]);
     let mut text = record(vec!["parameter".into(), "estimate".into(), "std_error".into()]);
     for k in 0..f.names.len() {
+        // an undetermined error (no degree of freedom, J^T J singular) is
+        // an empty cell, never 0
         let se = if f.std_error[k].is_finite() { number(f.std_error[k]) } else { String::new() };
         text.push_str(&record(vec![f.names[k].clone(), number(f.estimate[k]), se]));
     }
