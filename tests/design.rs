@@ -189,3 +189,29 @@ fn the_command_reports_undetermined_standard_errors() {
     }
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// A data file naming a fitted column twice is refused naming the column
+/// and the file (it silently took the first); nothing is written.
+#[test]
+fn a_column_named_twice_is_refused() {
+    let dir = std::env::temp_dir().join(format!("ezy-fit-twice-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    let ezy = |args: &[&str]| std::process::Command::new(env!("CARGO_BIN_EXE_ezy")).args(args).output().unwrap();
+    let twice = dir.join("twice.csv");
+    std::fs::write(&twice, "t,x1,x1\n0.5,1,2\n1,1.5,2.5\n").unwrap();
+    let out2 = dir.join("fit2");
+    let mut bad = vec!["fit", "drive-rolling-resistance", "--data", twice.to_str().unwrap(), "--columns", "x1"];
+    bad.extend(["--over", "rolling_A.damping=0:5", "--no-figures", "--out", out2.to_str().unwrap()]);
+    let o = ezy(&bad);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(!o.status.success() && err.contains("twice.csv") && err.contains("column `x1` twice"), "{err}");
+    assert!(!out2.exists());
+    // `t` twice too
+    std::fs::write(&twice, "t,x1,t\n0.5,1,2\n1,1.5,2.5\n").unwrap();
+    let o = ezy(&bad);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(!o.status.success() && err.contains("twice.csv") && err.contains("column `t` twice"), "{err}");
+    assert!(!out2.exists());
+    let _ = std::fs::remove_dir_all(&dir);
+}

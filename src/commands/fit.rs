@@ -81,7 +81,8 @@ pub(crate) fn exec(app: &App, args: &ArgMatches, out: &mut dyn Write) -> Result<
 ///
 /// # Errors
 /// The file's name with what is wrong: unreadable, too large, no header,
-/// a column missing, a cell that is not a number (with its line).
+/// a column missing or named twice in the header, a cell that is not a
+/// number (with its line).
 fn read_data(path: &Path, columns: &[String]) -> Result<Data, String> {
     let at = path.display();
     let text =
@@ -89,7 +90,19 @@ fn read_data(path: &Path, columns: &[String]) -> Result<Data, String> {
     let mut reader = csv::ReaderBuilder::new().trim(csv::Trim::All).comment(Some(b'#')).from_reader(text.as_bytes());
     let head: Vec<String> = reader.headers().map_err(|e| format!("{at}: {e}"))?.iter().map(String::from).collect();
     let find = |c: &str| {
-        head.iter().position(|h| h == c).ok_or_else(|| format!("{at}: no column `{c}` (it has {})", head.join(", ")))
+        let k = head
+            .iter()
+            .position(|h| h == c)
+            .ok_or_else(|| format!("{at}: no column `{c}` (it has {})", head.join(", ")))?;
+        // a second column of the name would be silently left out
+        match head.iter().skip(k + 1).position(|h| h == c) {
+            Some(j) => Err(format!(
+                "{at}: the header names column `{c}` twice (columns {} and {}): rename one, so that the data fitted are the ones meant",
+                k + 1,
+                k + j + 2
+            )),
+            None => Ok(k),
+        }
     };
     let tcol = find("t")?;
     let cols = columns.iter().map(|c| find(c.trim())).collect::<Result<Vec<_>, _>>()?;
