@@ -87,7 +87,7 @@ impl<M: Model> Analysis<M> {
     ///
     /// # Errors
     /// [`AnalysisError::Request`] for an input the model or scene does not
-    /// have, or a skate with friction that slides at `x` (its holding
+    /// have or one given twice, or a skate with friction that slides at `x` (its holding
     /// force past `mu N`); [`AnalysisError::Numerics`] if the KKT system is singular at
     /// `x`; [`AnalysisError::Sim`] if an effect fails.
     pub fn linearize(&mut self, t: f64, x: &[f64], inputs: &[Input]) -> Result<Linearization, AnalysisError> {
@@ -96,6 +96,14 @@ impl<M: Model> Analysis<M> {
         if x.len() != 2 * nq {
             return Err(AnalysisError::Request {
                 reason: format!("the state has {} components; the model needs 2 nq = {}", x.len(), 2 * nq),
+            });
+        }
+        if let Some(k) = (1..inputs.len()).find(|&k| inputs[..k].contains(&inputs[k])) {
+            return Err(AnalysisError::Request {
+                reason: format!(
+                    "input `{}` is given twice (two equal columns of B); give each input once",
+                    inputs[k].name()
+                ),
             });
         }
         let columns = inputs.iter().map(|i| self.input_force(t, x, i)).collect::<Result<Vec<_>, _>>()?;
