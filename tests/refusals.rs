@@ -4,8 +4,10 @@
 //! that cannot follow a scene's forcing or its skate friction.
 #![cfg(unix)]
 
-use std::path::Path;
-use std::process::{Command, Output};
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+use std::process::{Child, Command, Output, Stdio};
+use std::time::{Duration, Instant};
 
 fn ezy(args: &[&str]) -> Output {
     Command::new(env!("CARGO_BIN_EXE_ezy")).args(args).output().expect("ezy runs")
@@ -21,6 +23,27 @@ fn scratch() -> tempfile::TempDir {
 
 fn s(p: &Path) -> &str {
     p.to_str().expect("utf-8 path")
+}
+
+/// Every file under `dir` (recursively) with its bytes, the private
+/// directories of a run at work (`.ezy-run.*`) aside.
+fn snapshot(dir: &Path) -> BTreeMap<PathBuf, Vec<u8>> {
+    let mut out = BTreeMap::new();
+    let mut todo = vec![dir.to_path_buf()];
+    while let Some(d) = todo.pop() {
+        for e in std::fs::read_dir(&d).into_iter().flatten().flatten() {
+            let p = e.path();
+            if e.file_name().to_string_lossy().starts_with(".ezy-run.") {
+                continue;
+            }
+            if p.is_dir() {
+                todo.push(p);
+            } else {
+                out.insert(p.clone(), std::fs::read(&p).unwrap_or_default());
+            }
+        }
+    }
+    out
 }
 
 /// `ezy ARGS` refused (exit 1) with a message containing every one of
@@ -63,5 +86,79 @@ fn a_name_given_twice_in_a_repeatable_flag_is_refused() {
     for (args, needle) in cases {
         refused(&[args, &["--out", o][..]].concat(), &[needle]);
         assert!(!out.exists(), "{args:?} wrote {}", out.display());
+    }
+}
+
+/// Whether another process holds the lock of output directory `dir`.
+fn lock_held(dir: &Path) -> bool {
+    std::fs::File::open(dir.join(".ezy.lock"))
+        .is_ok_and(|f| matches!(f.try_lock(), Err(std::fs::TryLockError::WouldBlock)))
+}
+
+/// Starts `ezy ARGS --out OUT` (work of minutes), waits until it holds
+/// the lock of `dir` (OUT, or the directory OUT is in), and returns it.
+fn working(args: &[&str], out: &Path, dir: &Path) -> Child {
+    let mut child = Command::new(env!("CARGO_BIN_EXE_ezy"))
+        .args(args)
+        .arg("--out")
+        .arg(out)
+        .stdout(Stdio::null())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("spawn");
+    let deadline = Instant::now() + Duration::from_secs(20);
+    while !lock_held(dir) {
+        if let Some(status) = child.try_wait().unwrap() {
+            let mut e = String::new();
+            std::io::Read::read_to_string(child.stderr.as_mut().unwrap(), &mut e).unwrap();
+            panic!("{args:?} ended ({status}) without holding the lock of {} while it worked: {e}", dir.display());
+        }
+        if Instant::now() > deadline {
+            let _ = child.kill();
+            let _ = child.wait();
+            panic!("{args:?} did not hold the lock of {} while it worked (20 s)", dir.display());
+        }
+        std::thread::sleep(Duration::from_millis(20));
+    }
+    child
+}
+
+/// Every command that commits into an output directory takes its lock
+/// before its work and holds it to the commit: while one works, a second
+/// into the same directory is refused at once naming the directory, and
+/// nothing in it changes (before, `fit`, `sensitivity`, `optimize`,
+/// `analyze`, `linearize`, `geometry`, `precision` and `animate` locked it
+/// only at their commit, and the last commit silently won).
+#[test]
+fn a_command_working_in_a_directory_refuses_a_second_one_there() {
+    let root = scratch();
+    let data = root.path().join("data.csv");
+    std::fs::write(&data, "t,x1\n1000,0.5\n2000,1\n").unwrap();
+    let long: &[&[&str]] = &[
+        &["run", "drive", "--t-end", "3000", "--no-figures"],
+        &["linearize", "drive", "--at", "3000"],
+        &["sensitivity", "drive", "--wrt", "M0", "--t-end", "3000", "--no-figures"],
+        &["fit", "drive", "--data", s(&data), "--columns", "x1", "--over", "M0=1:3", "--no-figures"],
+        &["optimize", "drive", "--maximize", "final(x1)", "--over", "M0=0.5:4", "--t-end", "3000", "--grid", "0"],
+        &["analyze", "sleigh", "--t-end", "900", "--integrator", "rk4", "--dt", "1e-5", "--no-figures"],
+        &["geometry", "--grid", "501", "--no-figures"],
+        &["precision", "drive"],
+        &["animate", "drive", "--t-end", "3000", "--speed", "100", "--fps", "5"],
+    ];
+    for (k, args) in long.iter().enumerate() {
+        let dir = root.path().join(format!("out{k}"));
+        // animate's --out is the GIF, in the directory it locks
+        let out = if args[0] == "animate" { dir.join("a.gif") } else { dir.clone() };
+        let mut first = working(args, &out, &dir);
+        let before = snapshot(&dir);
+        let started = Instant::now();
+        let o = Command::new(env!("CARGO_BIN_EXE_ezy")).args(*args).arg("--out").arg(&out).output().unwrap();
+        let e = stderr(&o);
+        let _ = first.kill();
+        let _ = first.wait();
+        assert_eq!(o.status.code(), Some(1), "{args:?}: {e}");
+        assert!(e.contains(&format!("another ezy run is writing into {}", dir.display())), "{args:?}: {e}");
+        assert!(started.elapsed() < Duration::from_secs(10), "{args:?} refused only after {:?}", started.elapsed());
+        assert_eq!(snapshot(&dir), before, "{args:?} changed {}", dir.display());
     }
 }

@@ -17,7 +17,7 @@ use super::{committed, scene_and_options};
 use crate::app::{App, AppError};
 use crate::cli::Overrides;
 use crate::output::csv::{number, record};
-use crate::output::transaction::Transaction;
+use crate::output::transaction::{OutLock, Transaction};
 use crate::render::plot::{Chart, Series, Stroke};
 use crate::session::{Error, RunOptions, analysis_error, settings};
 
@@ -143,10 +143,11 @@ fn fit_model<M: Model>(
     let design = scene.design(proto, &opts.sets, over).map_err(analysis_error(&opts.out))?;
     // the scene's settings with the command line's (t_end: the data's)
     let design = design.adjusted(move |p| Problem { settings, baumgarte: None, ..p });
-    Transaction::preflight(&opts.out)?;
+    // the directory is this command's from here to the commit
+    let held = OutLock::take(&opts.out)?;
     let f = fit(&design, data, Some(|| crate::output::transaction::pending().is_some()))
         .map_err(analysis_error(&opts.out))?;
-    let mut tx = Transaction::begin(&opts.out)?;
+    let mut tx = Transaction::begin_locked(held)?;
     tx.retire(&["fit.csv".to_string()]);
     let mut text = record(vec!["parameter".into(), "estimate".into(), "std_error".into()]);
     for k in 0..f.names.len() {
