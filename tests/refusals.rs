@@ -162,3 +162,38 @@ fn a_command_working_in_a_directory_refuses_a_second_one_there() {
         assert_eq!(snapshot(&dir), before, "{args:?} changed {}", dir.display());
     }
 }
+
+/// A body's mass or inertia that is not a finite number > 0 is refused
+/// naming the parameter and the body wherever a model is built without a
+/// run's own check: `ezy geometry` (a mass of -46 kg gave `Gamma_u =
+/// -0.022`, one of 0 an empty momentum.csv) and the library's
+/// `Geometry::new`; a search (`optimize`, `fit`) whose bounds would build
+/// such a body, before any run.
+#[test]
+fn a_body_without_a_positive_mass_or_inertia_is_refused_by_name() {
+    use ezy::models::EzyRoller;
+    use ezy_core::Model;
+    use ezy_core::geometry::Geometry;
+    let root = scratch();
+    let out = root.path().join("out");
+    let o = s(&out);
+    for set in ["m1=-46", "m1=0", "I1=-1"] {
+        let name = &set[..2];
+        let what = if name == "m1" { "mass" } else { "inertia" };
+        refused(&["geometry", "ezyroller", "--set", set, "--out", o], &[&format!("{name} ({what} of body body1)")]);
+        assert!(!out.exists(), "geometry --set {set} wrote {}", out.display());
+    }
+    refused(
+        &["optimize", "drive", "--maximize", "final(x1)", "--over", "m1=-1:50", "--t-end", "1", "--out", o],
+        &["`m1=-1:50`", "m1 is the mass of body body1", "lower bound above 0"],
+    );
+    assert!(!out.exists());
+    for value in [-46.0, 0.0, f64::NAN] {
+        let mut m = EzyRoller::default();
+        let k = m.info().params.iter().position(|p| p.name == "m2").unwrap();
+        m.set_param(k, value);
+        let Err(e) = Geometry::new(m, None, None) else { panic!("m2 = {value} accepted") };
+        let e = e.to_string();
+        assert!(e.contains("m2 (mass of body body2)"), "{value}: {e}");
+    }
+}
