@@ -197,3 +197,64 @@ fn a_body_without_a_positive_mass_or_inertia_is_refused_by_name() {
         assert!(e.contains("m2 (mass of body body2)"), "{value}: {e}");
     }
 }
+
+/// RK4 (and Euler) refuse, before any work, a forcing faster than their
+/// fixed step samples: `drive`'s motor at omega = 1e5 rad/s with dt =
+/// 1e-4 s (omega dt = 10 > pi) exited 0 with an aliased run; the message
+/// names the effect, its frequency, the step and the step that would do.
+/// Below the limit the run goes on; an adaptive method is not checked.
+#[test]
+fn a_fixed_step_refuses_a_forcing_past_its_nyquist_frequency() {
+    let root = scratch();
+    let out = root.path().join("out");
+    let o = s(&out);
+    let needles = ["effect `motor`", "omega = 100000 rad/s", "dt = 1e-4 s", "past pi", "below pi / omega = 3.14e-5 s"];
+    for cmd in [&["run", "drive"][..], &["sensitivity", "drive", "--wrt", "M0"], &["linearize", "drive", "--at", "1"]] {
+        let args = [cmd, &["--integrator", "rk4", "--set", "omega=1e5", "--t-end", "2", "--out", o]].concat();
+        refused(&args, &needles);
+        assert!(!out.exists(), "{cmd:?} wrote {}", out.display());
+    }
+    refused(&["run", "drive", "--integrator", "euler", "--set", "omega=4e4", "--t-end", "1", "--out", o], &["euler"]);
+    for ok in [&["--integrator", "rk4", "--set", "omega=3e4"][..], &["--integrator", "dopri5", "--set", "omega=1e5"]] {
+        let r = ezy(&[&["run", "drive", "--t-end", "0.01", "--no-figures", "--out", o][..], ok].concat());
+        assert!(r.status.success(), "{ok:?}: {}", stderr(&r));
+    }
+    // the library's problem refuses it too
+    let scene = ezy::models::scenes::get("drive");
+    let (p, _) = scene.problem::<ezy::models::EzyRoller>(&[("omega".into(), 1e5)]).unwrap();
+    let e = p.solve().unwrap_err().to_string();
+    assert!(e.contains("effect `motor`") && e.contains("past pi"), "{e}");
+}
+
+/// RK4 (and Euler) refuse, before any work, a skate whose friction stops
+/// the slide the run starts with faster than their fixed step is stable:
+/// `sleigh-ice` at mu = 1e6 (a slide of 1.5 m/s stopped within 4e-8 s)
+/// exited 0 with a 1.6e3 J gap in its energy ledger; the message names
+/// the skate, its effect, the bound and the step that would do. At mu =
+/// 1e3 (rate times step 0.5) RK4 runs and closes its ledger; an adaptive
+/// method is not checked; friction that never acts is not refused.
+#[test]
+fn a_fixed_step_refuses_a_skate_friction_faster_than_its_stability_bound() {
+    let root = scratch();
+    let out = root.path().join("out");
+    let o = s(&out);
+    let needles =
+        ["effect `slip_P`, key `mu`", "skate `P` starts sliding at 1.5 m/s", "stability bound 2.785", "--dt below"];
+    for cmd in [&["run", "sleigh-ice"][..], &["sensitivity", "sleigh-ice", "--wrt", "slip_P.mu"]] {
+        refused(&[cmd, &["--integrator", "rk4", "--set", "slip_P.mu=1e6", "--out", o]].concat(), &needles);
+        assert!(!out.exists(), "{cmd:?} wrote {}", out.display());
+    }
+    refused(&["run", "sleigh-ice", "--integrator", "euler", "--set", "slip_P.mu=1e6", "--out", o], &["bound 2 "]);
+    let r = ezy(&["run", "sleigh-ice", "--integrator", "rk4", "--set", "slip_P.mu=1e3", "--no-figures", "--out", o]);
+    let said = String::from_utf8_lossy(&r.stdout);
+    assert!(r.status.success(), "{}", stderr(&r));
+    let gap: f64 = said.split("max |T - T0 - W| = ").nth(1).unwrap().split(' ').next().unwrap().parse().unwrap();
+    assert!(gap < 1e-8, "{said}");
+    let r = ezy(&["run", "sleigh-ice", "--set", "slip_P.mu=1e6", "--no-figures", "--out", o]);
+    assert!(r.status.success(), "dopri5: {}", stderr(&r));
+    // the library's problem refuses it too
+    let scene = ezy::models::scenes::get("sleigh-ice");
+    let (p, _) = scene.problem::<ezy::models::ChaplyginSleigh>(&[("slip_P.mu".into(), 1e6)]).unwrap();
+    let e = p.method(ezy_core::Method::Rk4).solve().unwrap_err().to_string();
+    assert!(e.contains("skate `P`") && e.contains("2.785"), "{e}");
+}

@@ -19,7 +19,7 @@ use crate::cli::Overrides;
 use crate::output::csv::{number, record};
 use crate::output::transaction::{OutLock, Transaction};
 use crate::render::plot::{Chart, Series, Stroke};
-use crate::session::{Error, RunOptions, analysis_error, settings};
+use crate::session::{Error, RunOptions, analysis_error, check_run, settings};
 
 /// Largest data file `ezy fit` reads (64 MB: about a million rows of a
 /// few columns).
@@ -143,6 +143,7 @@ fn fit_model<M: Model>(
     let design = scene.design(proto, &opts.sets, over).map_err(analysis_error(&opts.out))?;
     // the scene's settings with the command line's (t_end: the data's)
     let design = design.adjusted(move |p| Problem { settings, baumgarte: None, ..p });
+    check_run(proto, scene, opts)?;
     // the directory is this command's from here to the commit
     let held = OutLock::take(&opts.out)?;
     let f = fit(&design, data, Some(|| crate::output::transaction::pending().is_some()))

@@ -16,7 +16,7 @@ use crate::app::{App, AppError};
 use crate::cli::Overrides;
 use crate::output::csv::{number, record};
 use crate::output::transaction::{OutLock, Transaction};
-use crate::session::{Error, RunOptions, analysis_error, complex, rounded, run_to, scene_analysis};
+use crate::session::{Error, RunOptions, analysis_error, check_run, complex, rounded, run_to, scene_analysis};
 
 /// Linearize a scene at a time of its run: A.csv, B.csv (with
 /// --input), eigenvalues.csv, state.csv.
@@ -113,6 +113,9 @@ fn linearize_model<M: Model>(proto: &M, scene: &Scene, opts: &LinearizeOptions) 
     let inputs = opts.inputs.iter().map(|i| parse_input(i)).collect::<Result<Vec<_>, _>>().map_err(Error::Input)?;
     let (mut an, x0) = scene_analysis(proto, scene, &ro.sets)?;
     an.check_inputs(&inputs).map_err(analysis_error(&ro.out))?;
+    if opts.at > 0.0 {
+        check_run(proto, scene, ro)?;
+    }
     // the directory is this command's from here to the commit
     let held = OutLock::take(&ro.out)?;
     let x = if opts.at > 0.0 {

@@ -203,6 +203,7 @@ fn optimize_model<M: Model>(
     };
     let design = scene.design(proto, &opts.sets, &args.over).map_err(analysis_error(&opts.out))?;
     let design = design.adjusted(move |p| Problem { settings, baumgarte: None, ..p });
+    crate::session::check_run(proto, scene, opts)?;
     // the directory is this command's from here to the commit
     let held = OutLock::take(&opts.out)?;
     // Ctrl-C ends the search with the best point so far written

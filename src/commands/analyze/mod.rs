@@ -32,7 +32,9 @@ use crate::app::{App, AppError};
 use crate::cli::{Overrides, parse_positive};
 use crate::output::progress::Heartbeat;
 use crate::output::transaction::{OutLock, check_interrupt, pending};
-use crate::session::{Error, RunOptions, analysis_error, complex, periodic_settings, run_to, scene_analysis, settings};
+use crate::session::{
+    Error, RunOptions, analysis_error, check_run, complex, periodic_settings, run_to, scene_analysis, settings,
+};
 use report::{Located, summary, wrap, write_analysis};
 
 /// Find a scene's steady motions (or, driven periodically, its
@@ -175,6 +177,7 @@ fn analyze_model<M: Model>(proto: &M, scene: &Scene, opts: &AnalyzeOptions) -> R
     check_on_model(proto, scene, opts, &an)?;
     // the parameters named before any work
     let params = opts.wrt.iter().map(|n| scene.parameter(proto, &ro.sets, n.trim())).collect::<Result<Vec<_>, _>>()?;
+    check_run(proto, scene, ro)?;
     // the directory is this command's from here to the commit
     let held = OutLock::take(&ro.out)?;
     let mut log = Log::default();
