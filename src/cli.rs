@@ -233,3 +233,38 @@ pub(crate) fn parse_over(s: &str) -> Result<(String, f64, f64), String> {
     }
     Ok((name.to_string(), num(lo)?, num(hi)?))
 }
+
+/// The repeatable flags that name something, by clap id: the flag and
+/// whether the name is the value's part before `=` (`--set m1=2`) or the
+/// whole value (`--input tau_B`). One name given twice is refused, never
+/// applied twice or silently the last one.
+const NAMED_REPEATS: &[(&str, &str, bool)] = &[
+    ("sets", "--set", true),
+    ("over", "--over", true),
+    ("inputs", "--input", false),
+    ("wrt", "--wrt", false),
+    ("columns", "--columns", false),
+];
+
+/// Refuses a repeatable flag of a command's arguments `args` that gives
+/// one name twice (`--input tau_B --input tau_B`, `--set m1=2 --set
+/// m1=3`, `--wrt a,a`).
+///
+/// # Errors
+/// The flag, the name and the two values.
+pub(crate) fn check_repeats(args: &clap::ArgMatches) -> Result<(), String> {
+    for &(id, flag, before_eq) in NAMED_REPEATS {
+        let Ok(Some(raw)) = args.try_get_raw(id) else { continue };
+        let values: Vec<String> = raw.map(|v| v.to_string_lossy().trim().to_string()).collect();
+        let name = |v: &str| {
+            if before_eq { v.split_once('=').map_or(v, |(n, _)| n).trim().to_string() } else { v.to_string() }
+        };
+        for (k, v) in values.iter().enumerate() {
+            if let Some(first) = values[..k].iter().find(|w| name(w) == name(v)) {
+                let both = if before_eq { format!(" ({flag} {first} and {flag} {v})") } else { String::new() };
+                return Err(format!("{flag}: `{}` is given twice{both}; give each name once", name(v)));
+            }
+        }
+    }
+    Ok(())
+}

@@ -12,7 +12,7 @@ use ezy_core::{Choice, Dynamics, Model, Observer, ProjectionKind, RunSettings, S
 
 use ezy_scene::Scene;
 
-use crate::output::transaction::Transaction;
+use crate::output::transaction::{OutLock, Transaction};
 use crate::render::plot::{Chart, Series, Stroke};
 use crate::session::Error;
 
@@ -201,7 +201,7 @@ pub(crate) fn precision_model<M: Model>(
     opts: &PrecisionOptions,
 ) -> Result<Report, Error> {
     // an unusable or busy output directory is found before minutes of runs
-    Transaction::preflight(out)?;
+    let held = OutLock::take(out)?;
     let beat = crate::output::progress::Heartbeat::start(format!("precision of {}: the reference runs", scene.name));
     let reference =
         Setting { method: Method::Dop853, dt: None, tol: Some(1e-13), projection: ProjectionKind::MassWeighted };
@@ -239,7 +239,7 @@ pub(crate) fn precision_model<M: Model>(
     // precision.csv and both figures are one transaction (see
     // `crate::output::transaction`): committed together, precision.csv last.
     beat.set(format!("precision of {}: drawing the figures", scene.name));
-    let mut tx = Transaction::begin(out)?;
+    let mut tx = Transaction::begin_locked(held)?;
     if !opts.replot {
         tx.write("precision.csv", csv(&rows).as_bytes())?;
     }

@@ -263,7 +263,8 @@ pub(crate) fn settings(scene: &Scene, opts: &RunOptions) -> Result<RunSettings, 
 /// here, so a sweep's run is the single run, number for number.
 ///
 /// # Errors
-/// As [`ezy_scene::Scene::problem`].
+/// As [`ezy_scene::Scene::problem`]; a fixed step the scene's effects
+/// refuse ([`Problem::check_fixed_step`]), before any work.
 pub(crate) fn problem<M: Model>(
     proto: &M,
     scene: &Scene,
@@ -273,7 +274,20 @@ pub(crate) fn problem<M: Model>(
     let (mut problem, scene) = scene.problem_with(proto.clone(), &opts.sets)?;
     problem.settings = settings;
     problem.baumgarte = opts.baumgarte;
+    problem.check_fixed_step()?;
     Ok((problem, scene))
+}
+
+/// Checks, before a command that runs the scene takes its output
+/// directory, that the run can be set up with the settings of `opts`
+/// (as [`problem`]: a fixed step the scene's effects refuse, a bad
+/// override), so that such a refusal writes nothing.
+///
+/// # Errors
+/// As [`settings`] and [`problem`].
+pub(crate) fn check_run<M: Model>(proto: &M, scene: &Scene, opts: &RunOptions) -> Result<(), Error> {
+    problem(proto, scene, opts, settings(scene, opts)?)?;
+    Ok(())
 }
 
 /// Elements of a model's families (the sum of its counts) from which a

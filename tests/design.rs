@@ -143,3 +143,75 @@ fn the_command_fits_a_run_written_by_ezy_run() {
     assert!(!o.status.success() && err.contains("bad.csv") && err.contains("row 3, column `x1`"), "{err}");
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// One data row of two columns for two parameters leaves no degree of
+/// freedom: the standard errors are undetermined (NaN, `None`), never 0
+/// (`f64::max` made the NaN 0).
+#[test]
+fn a_fit_without_a_degree_of_freedom_leaves_its_standard_errors_undetermined() {
+    let (scene, over, truth) = setting();
+    let design = scene.design(&EzyRoller::default(), &[], &over).unwrap();
+    let all = data(&scene, truth, 0.0);
+    let one = Data {
+        t: vec![all.t[10]],
+        columns: all.columns.clone(),
+        values: vec![vec![all.values[0][10]], vec![all.values[1][10]]],
+    };
+    let f = fit(&design, &one, None).unwrap();
+    assert!(f.std_error.iter().all(|e| e.is_nan()), "{:?}", f.std_error);
+    assert!((0..2).all(|k| f.std_error_of(k).is_none()));
+}
+
+/// `ezy fit` on one data row (two columns) for two parameters prints the standard
+/// errors as undetermined and leaves their cells of fit.csv empty, never
+/// "+- 0".
+#[test]
+fn the_command_reports_undetermined_standard_errors() {
+    let dir = std::env::temp_dir().join(format!("ezy-fit-undetermined-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    let (scene, _, truth) = setting();
+    let all = data(&scene, truth, 0.0);
+    let ezy = |args: &[&str]| std::process::Command::new(env!("CARGO_BIN_EXE_ezy")).args(args).output().unwrap();
+    let one = dir.join("one.csv");
+    std::fs::write(&one, format!("t,x1,y1\n{},{},{}\n", all.t[10], all.values[0][10], all.values[1][10])).unwrap();
+    let out = dir.join("fit");
+    let mut fit = vec!["fit", "drive-rolling-resistance", "--data", one.to_str().unwrap(), "--columns", "x1,y1"];
+    fit.extend(["--over", "rolling_A.damping=0:5", "--over", "motor.amplitude=1:3", "--no-figures"]);
+    fit.extend(["--out", out.to_str().unwrap()]);
+    let o = ezy(&fit);
+    let text = String::from_utf8_lossy(&o.stdout);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    assert!(!text.contains("+- 0") && text.matches("standard error undetermined").count() == 2, "{text}");
+    let table = std::fs::read_to_string(out.join("fit.csv")).unwrap();
+    for row in table.lines().skip(1) {
+        assert!(row.ends_with(','), "an undetermined error is an empty cell: {table}");
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// A data file naming a fitted column twice is refused naming the column
+/// and the file (it silently took the first); nothing is written.
+#[test]
+fn a_column_named_twice_is_refused() {
+    let dir = std::env::temp_dir().join(format!("ezy-fit-twice-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    let ezy = |args: &[&str]| std::process::Command::new(env!("CARGO_BIN_EXE_ezy")).args(args).output().unwrap();
+    let twice = dir.join("twice.csv");
+    std::fs::write(&twice, "t,x1,x1\n0.5,1,2\n1,1.5,2.5\n").unwrap();
+    let out2 = dir.join("fit2");
+    let mut bad = vec!["fit", "drive-rolling-resistance", "--data", twice.to_str().unwrap(), "--columns", "x1"];
+    bad.extend(["--over", "rolling_A.damping=0:5", "--no-figures", "--out", out2.to_str().unwrap()]);
+    let o = ezy(&bad);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(!o.status.success() && err.contains("twice.csv") && err.contains("column `x1` twice"), "{err}");
+    assert!(!out2.exists());
+    // `t` twice too
+    std::fs::write(&twice, "t,x1,t\n0.5,1,2\n1,1.5,2.5\n").unwrap();
+    let o = ezy(&bad);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(!o.status.success() && err.contains("twice.csv") && err.contains("column `t` twice"), "{err}");
+    assert!(!out2.exists());
+    let _ = std::fs::remove_dir_all(&dir);
+}

@@ -45,6 +45,7 @@ mod optimize;
 mod oracle;
 mod output_window;
 mod properties;
+mod refusals;
 mod scene_files;
 mod scenes;
 mod sensitivity;

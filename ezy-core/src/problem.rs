@@ -67,6 +67,7 @@ use crate::formulation::initial::{Given, InitialReport, consistent_state_given};
 use crate::kkt::KktMethod;
 use crate::model::Model;
 use crate::model::info::{ModelInfo, NameIndex};
+use crate::names::fmt_value;
 use crate::settings::RunSettings;
 use crate::settings::{Formulation, Method, ProjectionKind};
 use crate::simulate::observer::{Observer, RunError, Sample, Summary};
@@ -561,8 +562,20 @@ impl<M: Model> Problem<M> {
     /// # Errors
     /// As [`Problem::initial_state`]; [`SetupError::Setting`] for Baumgarte
     /// rates the run cannot take (not finite, negative, past
-    /// [`crate::settings::MAX_RATE`], or past a fixed step's stability limit).
+    /// [`crate::settings::MAX_RATE`], or past a fixed step's stability
+    /// limit); [`SetupError::Effect`] for an effect a fixed step cannot
+    /// follow ([`Problem::check_fixed_step`]).
     pub fn into_system(self) -> Result<(Dynamics<M>, Vec<f64>, InitialReport), SimError> {
+        self.check_forcing()?;
+        let settings = self.settings;
+        let (mut sys, y0, report) = self.into_parts()?;
+        check_slides(&mut sys, &y0, &settings)?;
+        Ok((sys, y0, report))
+    }
+
+    /// [`Problem::into_system`] without the checks of the run's step
+    /// against the effects: for the analyses, which do not step.
+    fn into_parts(self) -> Result<(Dynamics<M>, Vec<f64>, InitialReport), SimError> {
         self.check_counts()?;
         self.check_baumgarte()?;
         let (y0, report) = self.initial_state()?;
@@ -618,6 +631,63 @@ impl<M: Model> Problem<M> {
         Ok(())
     }
 
+    /// Refuses, for a fixed-step method (RK4, Euler), an effect its step
+    /// cannot follow, before any work: a forcing past the step's Nyquist
+    /// frequency, and a skate whose friction stops the slide the run starts
+    /// with faster than the step can follow ([`check_slides`]). The
+    /// adaptive methods choose their steps and are not checked.
+    ///
+    /// # Errors
+    /// [`SetupError::Effect`] naming the effect, the rate or frequency,
+    /// the step and the step that would do; as
+    /// [`Problem::into_system`] where a skate with friction makes the
+    /// check solve for the initial state.
+    pub fn check_fixed_step(&self) -> Result<(), SimError> {
+        self.check_forcing()?;
+        let friction = self.effects.iter().any(|e| matches!(e.law, Law::SkateFriction(_)));
+        if self.settings.method.is_adaptive() || !friction {
+            return Ok(());
+        }
+        let (mut sys, y0, _) = self.clone().into_parts()?;
+        check_slides(&mut sys, &y0, &self.settings)
+    }
+
+    /// A forcing of angular frequency `omega` with `omega dt > pi` under a
+    /// fixed step (fewer than two steps per period: the samples the stages
+    /// take of it alias it to a slower forcing, and the run goes on as if
+    /// driven by that one; Nyquist).
+    fn check_forcing(&self) -> Result<(), SimError> {
+        let method = self.settings.method;
+        if method.is_adaptive() {
+            return Ok(());
+        }
+        // the step the run takes (a run shorter than dt is one step)
+        let dt = self.settings.dt.min(self.settings.t_end);
+        let pi = std::f64::consts::PI;
+        for e in &self.effects {
+            let omega = e.forcing_omega();
+            if omega * dt > pi {
+                return Err(SimError::Setup(SetupError::Effect {
+                    effect: e.name.clone(),
+                    field: "omega",
+                    message: format!(
+                        "its forcing's angular frequency omega = {} rad/s times the fixed step dt = {} s of {} is {}, past pi: fewer than two steps per period (Nyquist), so {} samples the forcing as a slower one and the run follows that one instead; give {} below pi / omega = {} s (20 steps per period: {} s) or an adaptive method ({})",
+                        fmt_value(omega),
+                        fmt_value(dt),
+                        method.name(),
+                        fmt_value(round3(omega * dt)),
+                        method.name(),
+                        crate::settings::Setting::Dt,
+                        fmt_value(round3(pi / omega)),
+                        fmt_value(round3(2.0 * pi / (20.0 * omega))),
+                        crate::settings::Setting::Method(Method::Dop853)
+                    ),
+                }));
+            }
+        }
+        Ok(())
+    }
+
     /// The model's family counts checked before anything is set up at
     /// them ([`Model::check_counts`]: elements that exist, names that
     /// differ, at most [`crate::model::info::MAX_COORDS`] coordinates).
@@ -636,7 +706,7 @@ impl<M: Model> Problem<M> {
     /// initial state (a singular KKT matrix: a massless body), with its
     /// cause ([`SimError::with_cause`]).
     pub fn analysis(self) -> Result<(crate::analysis::Analysis<M>, Vec<f64>), SimError> {
-        let (mut sys, mut y0, _) = self.into_system()?;
+        let (mut sys, mut y0, _) = self.into_parts()?;
         // the right-hand side once at the start, as a run's first step
         // takes it: a singular KKT matrix (a massless body) is refused
         // naming its cause, before an analysis differentiates through it
@@ -706,4 +776,64 @@ fn set(list: &mut Vec<(usize, f64)>, k: usize, value: f64) {
         Some((_, v)) => *v = value,
         None => list.push((k, value)),
     }
+}
+
+/// RK4's stability bound on the negative real axis, `h |lambda| <=
+/// 2.785` (Hairer & Wanner II, §IV.2); explicit Euler's is 2.
+const RK4_BOUND: f64 = 2.785;
+
+/// Refuses, under a fixed step, a skate with friction that starts the run
+/// sliding at `v` and whose friction `mu N` stops that slide at the rate
+/// `mu N (G M^-1 G^T) / |v|` ([`Dynamics::slide_rates_at`]) faster than the
+/// method is stable: rate times `dt` past 2.785 for RK4, 2 for Euler. The
+/// friction is not regularized: a sliding skate's row is released and the
+/// force `mu N` switches off where the slip returns to zero, located on the
+/// step's continuous extension; a step far longer than the slide carries
+/// every stage's force `mu N` past the stop (measured on `sleigh-ice` at dt
+/// = 1e-4 s, a slide of 2 m/s: `max |T - T0 - W|` 2.6e-9 J at mu = 1e3,
+/// rate dt 0.5; 1.7e-5 J at 1e4, rate dt 5; 1.6e3 J at 1e6). A skate that
+/// starts holding (slip within rounding of the velocities) is not checked:
+/// friction no force reaches changes nothing of a fixed-step run.
+fn check_slides<M: Model>(sys: &mut Dynamics<M>, y0: &[f64], settings: &RunSettings) -> Result<(), SimError> {
+    let bound = match settings.method {
+        Method::Rk4 => RK4_BOUND,
+        Method::Euler => 2.0,
+        _ => return Ok(()),
+    };
+    if sys.friction.is_empty() {
+        return Ok(());
+    }
+    let nq = sys.nq();
+    let floor = 1e-10 * crate::formulation::projection::max_abs(&y0[nq..2 * nq]).max(1.0);
+    let rates = sys.slide_rates_at(0.0, y0)?;
+    let dt = settings.dt.min(settings.t_end);
+    for (fr, &(slip, rate)) in sys.friction.iter().zip(&rates) {
+        if slip.abs() > floor && rate * dt > bound {
+            return Err(SimError::Setup(SetupError::Effect {
+                effect: sys.effects[fr.effect].name.clone(),
+                field: "mu",
+                message: format!(
+                    "skate `{}` starts sliding at {} m/s against its friction mu N = {} N, which stops the slide within {} s: the rate mu N (G M^-1 G^T) / |v| = {} 1/s times the fixed step dt = {} s of {} is {}, past the method's stability bound {bound} on the real axis, so its stages carry the friction far past the stop and the energy ledger breaks; give {} below {} s or an adaptive method ({})",
+                    fr.name,
+                    fmt_value(round3(slip.abs())),
+                    fmt_value(round3(fr.limit)),
+                    fmt_value(round3(1.0 / rate)),
+                    fmt_value(round3(rate)),
+                    fmt_value(dt),
+                    settings.method.name(),
+                    fmt_value(round3(rate * dt)),
+                    crate::settings::Setting::Dt,
+                    fmt_value(round3(bound / rate)),
+                    crate::settings::Setting::Method(Method::Dop853)
+                ),
+            }));
+        }
+    }
+    Ok(())
+}
+
+/// `v` to three significant digits (a bound or a product a message
+/// quotes).
+fn round3(v: f64) -> f64 {
+    format!("{v:.2e}").parse().unwrap_or(v)
 }

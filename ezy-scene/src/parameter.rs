@@ -50,13 +50,38 @@ impl Scene {
     ///
     /// # Errors
     /// As [`Scene::parameter`] for each name; as [`Design::new`] (bounds
-    /// that exclude the scene's value, a name given twice).
+    /// that exclude the scene's value, a name given twice);
+    /// [`AnalysisError::Request`] for a body's mass or inertia whose lower
+    /// bound is not > 0 (the search would build a body of no or negative
+    /// mass), naming the parameter and the body.
     pub fn design<M: Model>(
         &self,
         model: &M,
         sets: &[(String, f64)],
         over: &[(String, f64, f64)],
     ) -> Result<Design<M>, AnalysisError> {
+        let info = model.info();
+        for (n, lo, hi) in over {
+            let body = info.bodies.iter().find_map(|b| {
+                let what = if b.mass_param == Some(n.as_str()) {
+                    "mass"
+                } else if b.inertia_param == Some(n.as_str()) {
+                    "inertia"
+                } else {
+                    return None;
+                };
+                Some((what, b.name.as_str()))
+            });
+            if let Some((what, body)) = body
+                && *lo <= 0.0
+            {
+                return Err(AnalysisError::Request {
+                    reason: format!(
+                        "`{n}={lo}:{hi}`: {n} is the {what} of body {body}, which must stay a finite number > 0: give a lower bound above 0"
+                    ),
+                });
+            }
+        }
         let start = over
             .iter()
             .map(|(n, _, _)| Ok(self.parameter(model, sets, n)?.value))

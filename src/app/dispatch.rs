@@ -78,6 +78,7 @@ impl App {
         };
         let (name, args) = matches.subcommand().expect("a command, given or the default");
         let command = COMMANDS.iter().find(|c| c.name == name).expect("clap matches only the table's commands");
+        crate::cli::check_repeats(args).map_err(AppError::Failed)?;
         (command.exec)(self, args, out)
     }
 }

@@ -14,6 +14,7 @@ use ezy_scene::Scene;
 use super::committed;
 use crate::app::{App, AppError};
 use crate::cli::Overrides;
+use crate::output::transaction::OutLock;
 use crate::render::animation::{AnimateOptions, Frames, MAX_FRAMES, frame_count};
 use crate::session::{Error, RunOptions, problem, settings};
 
@@ -165,6 +166,10 @@ fn animate_model<M: Model>(
     let anim = &anim;
     let (problem, run_scene) = problem(proto, scene, &opts, settings).map_err(run_error)?;
     let (mut sys, y0, _) = problem.into_system().map_err(run_error)?;
+    // the GIF's directory is this command's from here to the write: a
+    // second command into it meanwhile is refused at its start
+    let dir = anim.out.parent().filter(|d| !d.as_os_str().is_empty()).unwrap_or(Path::new("."));
+    let _held = OutLock::take(dir).map_err(|e| AppError::from_run(Error::from(e)))?;
     let wall = Instant::now();
     let mut frames = Frames::default();
     ezy_core::simulate(&mut sys, &y0, &settings, &mut frames).map_err(|e| match e {

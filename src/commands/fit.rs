@@ -17,9 +17,9 @@ use super::{committed, scene_and_options};
 use crate::app::{App, AppError};
 use crate::cli::Overrides;
 use crate::output::csv::{number, record};
-use crate::output::transaction::Transaction;
+use crate::output::transaction::{OutLock, Transaction};
 use crate::render::plot::{Chart, Series, Stroke};
-use crate::session::{Error, RunOptions, analysis_error, settings};
+use crate::session::{Error, RunOptions, analysis_error, check_run, settings};
 
 /// Largest data file `ezy fit` reads (64 MB: about a million rows of a
 /// few columns).
@@ -81,7 +81,8 @@ pub(crate) fn exec(app: &App, args: &ArgMatches, out: &mut dyn Write) -> Result<
 ///
 /// # Errors
 /// The file's name with what is wrong: unreadable, too large, no header,
-/// a column missing, a cell that is not a number (with its line).
+/// a column missing or named twice in the header, a cell that is not a
+/// number (with its line).
 fn read_data(path: &Path, columns: &[String]) -> Result<Data, String> {
     let at = path.display();
     let text =
@@ -89,7 +90,19 @@ fn read_data(path: &Path, columns: &[String]) -> Result<Data, String> {
     let mut reader = csv::ReaderBuilder::new().trim(csv::Trim::All).comment(Some(b'#')).from_reader(text.as_bytes());
     let head: Vec<String> = reader.headers().map_err(|e| format!("{at}: {e}"))?.iter().map(String::from).collect();
     let find = |c: &str| {
-        head.iter().position(|h| h == c).ok_or_else(|| format!("{at}: no column `{c}` (it has {})", head.join(", ")))
+        let k = head
+            .iter()
+            .position(|h| h == c)
+            .ok_or_else(|| format!("{at}: no column `{c}` (it has {})", head.join(", ")))?;
+        // a second column of the name would be silently left out
+        match head.iter().skip(k + 1).position(|h| h == c) {
+            Some(j) => Err(format!(
+                "{at}: the header names column `{c}` twice (columns {} and {}): rename one, so that the data fitted are the ones meant",
+                k + 1,
+                k + j + 2
+            )),
+            None => Ok(k),
+        }
     };
     let tcol = find("t")?;
     let cols = columns.iter().map(|c| find(c.trim())).collect::<Result<Vec<_>, _>>()?;
@@ -130,13 +143,17 @@ fn fit_model<M: Model>(
     let design = scene.design(proto, &opts.sets, over).map_err(analysis_error(&opts.out))?;
     // the scene's settings with the command line's (t_end: the data's)
     let design = design.adjusted(move |p| Problem { settings, baumgarte: None, ..p });
-    Transaction::preflight(&opts.out)?;
+    check_run(proto, scene, opts)?;
+    // the directory is this command's from here to the commit
+    let held = OutLock::take(&opts.out)?;
     let f = fit(&design, data, Some(|| crate::output::transaction::pending().is_some()))
         .map_err(analysis_error(&opts.out))?;
-    let mut tx = Transaction::begin(&opts.out)?;
+    let mut tx = Transaction::begin_locked(held)?;
     tx.retire(&["fit.csv".to_string()]);
     let mut text = record(vec!["parameter".into(), "estimate".into(), "std_error".into()]);
     for k in 0..f.names.len() {
+        // an undetermined error (no degree of freedom, J^T J singular) is
+        // an empty cell, never 0
         let se = if f.std_error[k].is_finite() { number(f.std_error[k]) } else { String::new() };
         text.push_str(&record(vec![f.names[k].clone(), number(f.estimate[k]), se]));
     }

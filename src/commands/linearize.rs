@@ -15,8 +15,8 @@ use super::committed;
 use crate::app::{App, AppError};
 use crate::cli::Overrides;
 use crate::output::csv::{number, record};
-use crate::output::transaction::Transaction;
-use crate::session::{Error, RunOptions, analysis_error, complex, rounded, run_to, scene_analysis};
+use crate::output::transaction::{OutLock, Transaction};
+use crate::session::{Error, RunOptions, analysis_error, check_run, complex, rounded, run_to, scene_analysis};
 
 /// Linearize a scene at a time of its run: A.csv, B.csv (with
 /// --input), eigenvalues.csv, state.csv.
@@ -112,6 +112,12 @@ fn linearize_model<M: Model>(proto: &M, scene: &Scene, opts: &LinearizeOptions) 
     }
     let inputs = opts.inputs.iter().map(|i| parse_input(i)).collect::<Result<Vec<_>, _>>().map_err(Error::Input)?;
     let (mut an, x0) = scene_analysis(proto, scene, &ro.sets)?;
+    an.check_inputs(&inputs).map_err(analysis_error(&ro.out))?;
+    if opts.at > 0.0 {
+        check_run(proto, scene, ro)?;
+    }
+    // the directory is this command's from here to the commit
+    let held = OutLock::take(&ro.out)?;
     let x = if opts.at > 0.0 {
         let (mut x, stopped) = run_to(proto, scene, ro, opts.at, 1)?;
         // the state of a run that stopped short is not the state at --at
@@ -128,7 +134,6 @@ fn linearize_model<M: Model>(proto: &M, scene: &Scene, opts: &LinearizeOptions) 
     };
     let lin = an.linearize(opts.at, &x, &inputs).map_err(analysis_error(&ro.out))?;
     let eigenvalues = lin.eigenvalues().map_err(analysis_error(&ro.out))?;
-    Transaction::preflight(&ro.out)?;
     let names = &lin.state_names;
     let matrix = |m: &ezy_core::faer::Mat<f64>, cols: &[String]| {
         let mut head = vec!["row".to_string()];
@@ -141,7 +146,7 @@ fn linearize_model<M: Model>(proto: &M, scene: &Scene, opts: &LinearizeOptions) 
         }
         out
     };
-    let mut tx = Transaction::begin(&ro.out)?;
+    let mut tx = Transaction::begin_locked(held)?;
     tx.retire(&["A.csv", "B.csv", "eigenvalues.csv", "state.csv"].map(String::from));
     tx.write("A.csv", matrix(&lin.a, names).as_bytes())?;
     if !inputs.is_empty() {

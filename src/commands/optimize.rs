@@ -20,7 +20,7 @@ use crate::app::{App, AppError};
 use crate::cli::Overrides;
 use crate::output::csv::{number, record};
 use crate::output::progress::Heartbeat;
-use crate::output::transaction::{Interrupted, Transaction, TransactionError};
+use crate::output::transaction::{Interrupted, OutLock, Transaction, TransactionError};
 use crate::render::plot::{Chart, Series, Stroke};
 use crate::session::{Error, RunOptions, analysis_error, periodic_settings, settings};
 use crate::sweep::metric::Metric;
@@ -203,7 +203,9 @@ fn optimize_model<M: Model>(
     };
     let design = scene.design(proto, &opts.sets, &args.over).map_err(analysis_error(&opts.out))?;
     let design = design.adjusted(move |p| Problem { settings, baumgarte: None, ..p });
-    Transaction::preflight(&opts.out)?;
+    crate::session::check_run(proto, scene, opts)?;
+    // the directory is this command's from here to the commit
+    let held = OutLock::take(&opts.out)?;
     // Ctrl-C ends the search with the best point so far written
     crate::output::transaction::arm_signals();
     let beat = opts.progress.then(|| Heartbeat::start(format!("optimize {}: the start", scene.name)));
@@ -220,7 +222,7 @@ fn optimize_model<M: Model>(
     if o.stopped {
         return Err(interrupted(&opts.out, &tables));
     }
-    let mut tx = Transaction::begin(&opts.out)?;
+    let mut tx = Transaction::begin_locked(held)?;
     tx.retire(&["optimum.csv".into(), "history.csv".into(), "grid.csv".into()]);
     for (name, text) in &tables {
         tx.write(name, text.as_bytes())?;

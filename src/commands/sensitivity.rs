@@ -16,7 +16,7 @@ use super::{committed, scene_and_options};
 use crate::app::{App, AppError};
 use crate::cli::Overrides;
 use crate::output::csv::{number, record};
-use crate::output::transaction::Transaction;
+use crate::output::transaction::{OutLock, Transaction};
 use crate::render::plot::{Chart, Series};
 use crate::session::{Error, RunOptions, analysis_error, problem, settings};
 
@@ -99,11 +99,12 @@ fn sensitivity_model<M: Model>(
     let settings = settings(scene, opts)?;
     let (problem, _) = problem(proto, scene, opts, settings)?;
     let params = wrt.iter().map(|n| scene.parameter(proto, &opts.sets, n)).collect::<Result<Vec<_>, _>>()?;
-    Transaction::preflight(&opts.out)?;
+    // the directory is this command's from here to the commit
+    let held = OutLock::take(&opts.out)?;
     let s = problem
         .sensitivities_stop_when(&params, || crate::output::transaction::pending().is_some())
         .map_err(analysis_error(&opts.out))?;
-    let mut tx = Transaction::begin(&opts.out)?;
+    let mut tx = Transaction::begin_locked(held)?;
     let stems: Vec<String> = s.parameters.iter().map(|p| figure_stem(p)).collect();
     tx.retire(&["sensitivity.csv".to_string()]);
     tx.write("sensitivity.csv", csv(&s).as_bytes())?;

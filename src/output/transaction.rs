@@ -216,6 +216,31 @@ pub(crate) struct Transaction {
     retired: Vec<String>,
 }
 
+/// An output directory's lock, taken by a command before its work (the
+/// runs of `ezy optimize`, `ezy analyze`'s searches) and held until its
+/// transaction commits ([`Transaction::begin_locked`]) or the command
+/// ends: a second command into the same directory meanwhile is refused
+/// at its start ([`TransactionError::Busy`]), instead of both working and
+/// the last commit silently replacing the first one's output.
+#[derive(Debug)]
+pub(crate) struct OutLock {
+    file: File,
+    dir: PathBuf,
+}
+
+impl OutLock {
+    /// Creates `dir` if needed and takes its lock (see [`lock`]). Arms no
+    /// signal handler: Ctrl-C keeps its default action during the work,
+    /// which writes nothing.
+    ///
+    /// # Errors
+    /// As [`Transaction::begin`]: [`TransactionError::Busy`] naming `dir`
+    /// if another run holds it.
+    pub(crate) fn take(dir: &Path) -> Result<Self, TransactionError> {
+        Ok(Self { file: lock(dir)?, dir: dir.into() })
+    }
+}
+
 /// What was at a final name before the commit.
 enum Previous {
     /// Nothing.
@@ -252,8 +277,20 @@ impl Transaction {
     /// [`TransactionError::Interrupted`] if a signal has already arrived.
     pub(crate) fn begin(dir: &Path) -> Result<Self, TransactionError> {
         arm_signals();
-        let lock = lock(dir)?;
-        remove_stale(dir);
+        Self::begin_locked(OutLock::take(dir)?)
+    }
+
+    /// Begins a transaction in the directory `held` locks: the lock a
+    /// command took before its work ([`OutLock::take`]) is kept through
+    /// the commit, so that no other run commits into the directory
+    /// between the two.
+    ///
+    /// # Errors
+    /// As [`Transaction::begin`], [`TransactionError::Busy`] aside.
+    pub(crate) fn begin_locked(held: OutLock) -> Result<Self, TransactionError> {
+        arm_signals();
+        let OutLock { file: lock, dir } = held;
+        remove_stale(&dir);
         let mut builder = tempfile::Builder::new();
         builder.prefix(TEMP_PREFIX);
         #[cfg(unix)]
@@ -262,23 +299,11 @@ impl Transaction {
             builder.permissions(std::fs::Permissions::from_mode(0o700));
         }
         let tmp = builder
-            .tempdir_in(dir)
+            .tempdir_in(&dir)
             .map_err(|source| TransactionError::Io { path: dir.join(format!("{TEMP_PREFIX}XXXXXX")), source })?;
-        let tx = Self { tmp, _lock: lock, dir: dir.into(), staged: Vec::new(), retired: Vec::new() };
+        let tx = Self { tmp, _lock: lock, dir, staged: Vec::new(), retired: Vec::new() };
         tx.check(None, None)?;
         Ok(tx)
-    }
-
-    /// Checks, before long work whose output goes to `dir` (`ezy
-    /// precision`'s measurements), that a transaction could begin there:
-    /// `dir` can be created and is not locked by another run. Takes and
-    /// releases the lock; arms no signal handler, so Ctrl-C keeps its
-    /// default action during the work.
-    ///
-    /// # Errors
-    /// As [`Transaction::begin`].
-    pub(crate) fn preflight(dir: &Path) -> Result<(), TransactionError> {
-        lock(dir).map(drop)
     }
 
     /// The output directory.

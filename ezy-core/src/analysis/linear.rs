@@ -87,7 +87,7 @@ impl<M: Model> Analysis<M> {
     ///
     /// # Errors
     /// [`AnalysisError::Request`] for an input the model or scene does not
-    /// have, or a skate with friction that slides at `x` (its holding
+    /// have or one given twice, or a skate with friction that slides at `x` (its holding
     /// force past `mu N`); [`AnalysisError::Numerics`] if the KKT system is singular at
     /// `x`; [`AnalysisError::Sim`] if an effect fails.
     pub fn linearize(&mut self, t: f64, x: &[f64], inputs: &[Input]) -> Result<Linearization, AnalysisError> {
@@ -98,6 +98,7 @@ impl<M: Model> Analysis<M> {
                 reason: format!("the state has {} components; the model needs 2 nq = {}", x.len(), 2 * nq),
             });
         }
+        self.check_inputs(inputs)?;
         let columns = inputs.iter().map(|i| self.input_force(t, x, i)).collect::<Result<Vec<_>, _>>()?;
         self.watch_grip();
         let p = self.point(t, x)?;
@@ -127,6 +128,28 @@ impl<M: Model> Analysis<M> {
     }
 
     /// The generalized force (nq) of one unit of `input` at `(t, x)`.
+    /// Checks, before any work, that the model has every input's hinge
+    /// and the scene every input's effect, each input given once (what
+    /// [`Analysis::linearize`] refuses).
+    ///
+    /// # Errors
+    /// [`AnalysisError::Request`] naming the input.
+    pub fn check_inputs(&mut self, inputs: &[Input]) -> Result<(), AnalysisError> {
+        if let Some(k) = (1..inputs.len()).find(|&k| inputs[..k].contains(&inputs[k])) {
+            return Err(AnalysisError::Request {
+                reason: format!(
+                    "input `{}` is given twice (two equal columns of B); give each input once",
+                    inputs[k].name()
+                ),
+            });
+        }
+        let x = vec![0.0; 2 * self.nq()];
+        for i in inputs {
+            self.input_force(0.0, &x, i)?;
+        }
+        Ok(())
+    }
+
     fn input_force(&mut self, t: f64, x: &[f64], input: &Input) -> Result<Vec<f64>, AnalysisError> {
         let nq = self.nq();
         let mut f = vec![0.0; nq];

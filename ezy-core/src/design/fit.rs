@@ -84,8 +84,10 @@ pub struct Fit {
     pub names: Vec<String>,
     /// Their estimates.
     pub estimate: Vec<f64>,
-    /// Their standard errors (NaN where the data leave no degree of
-    /// freedom or `J^T J` is singular: the parameter is not determined).
+    /// Their standard errors: NaN, never 0, where the data leave no
+    /// degree of freedom (residuals <= parameters) or `J^T J` is singular:
+    /// the error is undetermined (test with `is_nan`, or
+    /// [`Fit::std_error_of`]).
     pub std_error: Vec<f64>,
     /// Their correlations (n x n, row by row).
     pub correlation: Vec<Vec<f64>>,
@@ -104,6 +106,14 @@ pub struct Fit {
     pub termination: String,
     /// The fitted run at the data's times (state and sensitivities).
     pub fitted: Sensitivities,
+}
+
+impl Fit {
+    /// The standard error of parameter `k`, `None` where it is
+    /// undetermined (no degree of freedom left, or `J^T J` singular).
+    pub fn std_error_of(&self, k: usize) -> Option<f64> {
+        self.std_error.get(k).copied().filter(|e| !e.is_nan())
+    }
 }
 
 /// `p` in `[lo, hi]` from the unbounded `u`, and `dp/du`.
@@ -274,7 +284,13 @@ pub fn fit<M: Model>(design: &Design<M>, data: &Data, stop: Option<fn() -> bool>
     let dof = m.saturating_sub(n);
     let s2 = if dof > 0 { r.norm_squared() / dof as f64 } else { f64::NAN };
     let cov = (jp.transpose() * &jp).try_inverse().map(|inv| inv * s2);
-    let std_error: Vec<f64> = (0..n).map(|k| cov.as_ref().map_or(f64::NAN, |c| c[(k, k)].max(0.0).sqrt())).collect();
+    // NaN stays NaN (`f64::max` would make it 0: "+- 0" for an error
+    // the data cannot give)
+    let std_error: Vec<f64> = (0..n)
+        .map(|k| {
+            cov.as_ref().map_or(f64::NAN, |c| if c[(k, k)].is_nan() { f64::NAN } else { c[(k, k)].max(0.0).sqrt() })
+        })
+        .collect();
     let correlation = (0..n)
         .map(|a| (0..n).map(|b| cov.as_ref().map_or(f64::NAN, |c| c[(a, b)] / (std_error[a] * std_error[b]))).collect())
         .collect();

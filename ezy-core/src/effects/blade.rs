@@ -154,6 +154,13 @@ impl ForceLaw for BladeLaw {
         })
     }
 
+    fn forcing_omega(&self) -> f64 {
+        match &self.force {
+            BladeForce::Driven(w) => w.max_omega(),
+            _ => 0.0,
+        }
+    }
+
     fn time_scale(&self, mass: &[f64]) -> Option<TimeScale> {
         match &self.force {
             BladeForce::Viscous { damping } => {

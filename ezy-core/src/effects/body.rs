@@ -258,6 +258,14 @@ impl ForceLaw for BodyLaw {
         })
     }
 
+    fn forcing_omega(&self) -> f64 {
+        match self {
+            BodyLaw::Force { fx, fy, .. } => fx.max_omega().max(fy.max_omega()),
+            BodyLaw::Torque { torque, .. } => torque.max_omega(),
+            BodyLaw::Field { .. } => 0.0,
+        }
+    }
+
     fn constant_force_coords(&self) -> Vec<usize> {
         match self {
             BodyLaw::Torque { phi, .. } => vec![*phi],

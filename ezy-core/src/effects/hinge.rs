@@ -284,6 +284,13 @@ impl ForceLaw for HingeLaw {
         })
     }
 
+    fn forcing_omega(&self) -> f64 {
+        match &self.torque {
+            HingeTorque::Motor(w) | HingeTorque::Servo { angle: w, .. } => w.max_omega(),
+            _ => 0.0,
+        }
+    }
+
     fn time_scale(&self, mass: &[f64]) -> Option<TimeScale> {
         let m = TimeScale::smallest_mass(mass, self.hinge.coords());
         match &self.torque {

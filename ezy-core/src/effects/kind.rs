@@ -177,6 +177,18 @@ pub trait ForceLaw: Send + Sync + fmt::Debug + 'static {
         None
     }
 
+    /// The highest angular frequency \[rad/s\] at which the force is
+    /// driven in time (a harmonic motor's `omega`), for the check that a
+    /// fixed step samples it (more than two steps per period); the default
+    /// reads it from [`ForceLaw::periodicity`] (`2 pi / period`, 0 when
+    /// constant, aperiodic or not known).
+    fn forcing_omega(&self) -> f64 {
+        match self.periodicity() {
+            Some(Periodicity::Period(p)) if p > 0.0 => 2.0 * std::f64::consts::PI / p,
+            _ => 0.0,
+        }
+    }
+
     /// The shortest time scale of the law's linear terms against the mass
     /// diagonal `mass` (nq) \[kg, kg m^2\] ([`TimeScale`]), used to name a
     /// law too fast for the run when the step size collapses

@@ -138,6 +138,12 @@ impl Effect {
         self.law.as_force_law().periodicity()
     }
 
+    /// The highest angular frequency \[rad/s\] driving the force in time
+    /// ([`ForceLaw::forcing_omega`]; 0 for a force constant in time).
+    pub fn forcing_omega(&self) -> f64 {
+        self.law.as_force_law().forcing_omega()
+    }
+
     /// The coordinates a force that depends on time alone acts on (a body
     /// torque, gravity or a slope): its power is `f . qd`, so `dP/dqd = f`
     /// there. Empty for every other effect ([`Effect::coords`]).

@@ -453,6 +453,18 @@ impl Periodicity {
 }
 
 impl Waveform {
+    /// The highest angular frequency \[rad/s\] among its harmonics of
+    /// nonzero amplitude; 0 for a constant, a table or a spline (whose
+    /// corners a fixed step passes at its own pace).
+    pub fn max_omega(&self) -> f64 {
+        let omega = |h: &Harmonic| if h.amplitude == 0.0 { 0.0 } else { h.omega.abs() };
+        match self {
+            Waveform::Cos(h) | Waveform::Sin(h) => omega(h),
+            Waveform::Harmonics(hs) => hs.iter().map(omega).fold(0.0, f64::max),
+            Waveform::Constant(_) | Waveform::Table(_) | Waveform::Spline(_) => 0.0,
+        }
+    }
+
     /// How the waveform depends on time: a harmonic of angular frequency
     /// `omega` repeats every `2 pi / |omega|` (constant when `omega = 0`
     /// or its amplitude is 0); tables and splines are aperiodic.

@@ -559,6 +559,29 @@ impl<M: Model> Dynamics<M> {
         }
     }
 
+    /// Each skate-friction entry's slip velocity `v = G_row qd` \[m/s\] at
+    /// `(t, y)` and the rate `mu N (G_row M^-1 G_row^T) / |v|` \[1/s\] at
+    /// which its friction, were it sliding, stops that slip (its limit
+    /// over the slip's momentum on the skate's row alone: the others only
+    /// make it slower), one pair per entry of [`Dynamics::friction`].
+    ///
+    /// # Errors
+    /// As [`Dynamics::rhs`].
+    pub fn slide_rates_at(&mut self, t: f64, y: &[f64]) -> Result<Vec<(f64, f64)>, SimError> {
+        let mut probe = std::mem::take(&mut self.ws.probe);
+        probe.resize(y.len(), 0.0);
+        let res = self.rhs(t, y, &mut probe);
+        self.ws.probe = probe;
+        res?;
+        let (pattern, g, mass) = (&self.info.pattern, &self.ws.g_saved, &self.mass);
+        let inv = |e: usize| if mass[pattern[e].1] > 0.0 { g[e] * g[e] / mass[pattern[e].1] } else { 0.0 };
+        Ok(self
+            .friction
+            .iter()
+            .map(|fr| (fr.slip, fr.limit * fr.entries.clone().map(inv).sum::<f64>() / fr.slip.abs()))
+            .collect())
+    }
+
     /// Evaluates the right-hand side at `(t, y)` (into a scratch of its
     /// own) and writes the skates' margins into `out`
     /// ([`Dynamics::slip_margins`]).

@@ -193,7 +193,10 @@ impl<M: Model> Geometry<M> {
     /// the model's hinges when `None`).
     ///
     /// # Errors
-    /// [`GeometryError::Model`] for a model without the plane's symmetry
+    /// [`GeometryError::Model`] for a mass or inertia that is not a
+    /// finite number > 0 (the momentum map and the locked inertia divide
+    /// by it: a massless body has none), naming the body and the
+    /// parameter; for a model without the plane's symmetry
     /// (a hinge to the ground, a slider), bodies not joined by hinges, a
     /// loop of hinges, skates that restrict the shape velocities
     /// themselves (more independent skate rows than the three directions
@@ -203,6 +206,15 @@ impl<M: Model> Geometry<M> {
     pub fn new(model: M, body: Option<&str>, shape: Option<&[String]>) -> Result<Self, GeometryError> {
         let info = model.info();
         let bad = |reason: String| GeometryError::Model { reason };
+        let mut mass = vec![0.0; info.nq()];
+        model.mass_diagonal(&mut mass);
+        if let Some((k, m)) = mass.iter().enumerate().find(|(_, m)| !(m.is_finite() && **m > 0.0)) {
+            return Err(bad(format!(
+                "{} = {}: the geometric analysis needs every mass and inertia a finite number > 0 (its locked inertia and momentum map divide by them)",
+                info.mass_entry_name(k),
+                crate::names::fmt_value(*m)
+            )));
+        }
         if let Some(s) = info.sliders.first() {
             return Err(bad(format!(
                 "slider `{}`: the geometric analysis takes hinge angles as the shape; a slider's travel is not one yet",

@@ -31,8 +31,10 @@ use super::{check_figure_format, committed};
 use crate::app::{App, AppError};
 use crate::cli::{Overrides, parse_positive};
 use crate::output::progress::Heartbeat;
-use crate::output::transaction::{Transaction, check_interrupt, pending};
-use crate::session::{Error, RunOptions, analysis_error, complex, periodic_settings, run_to, scene_analysis, settings};
+use crate::output::transaction::{OutLock, check_interrupt, pending};
+use crate::session::{
+    Error, RunOptions, analysis_error, check_run, complex, periodic_settings, run_to, scene_analysis, settings,
+};
 use report::{Located, summary, wrap, write_analysis};
 
 /// Find a scene's steady motions (or, driven periodically, its
@@ -175,7 +177,9 @@ fn analyze_model<M: Model>(proto: &M, scene: &Scene, opts: &AnalyzeOptions) -> R
     check_on_model(proto, scene, opts, &an)?;
     // the parameters named before any work
     let params = opts.wrt.iter().map(|n| scene.parameter(proto, &ro.sets, n.trim())).collect::<Result<Vec<_>, _>>()?;
-    Transaction::preflight(&ro.out)?;
+    check_run(proto, scene, ro)?;
+    // the directory is this command's from here to the commit
+    let held = OutLock::take(&ro.out)?;
     let mut log = Log::default();
     let clock = Instant::now();
     let symmetry = an.symmetry(0.0, &x0).map_err(analysis_error(&ro.out))?;
@@ -286,6 +290,7 @@ fn analyze_model<M: Model>(proto: &M, scene: &Scene, opts: &AnalyzeOptions) -> R
         &steady,
         periodic.as_ref().map(|p| (p, gait.as_ref())),
         (&branch, &power, &bifurcations),
+        held,
     )?;
     let coords = an.dynamics().info.coords.clone();
     let Log { timings, notes } = log;

@@ -11,7 +11,7 @@ use ezy_scene::Scene;
 
 use super::{AnalyzeOptions, AnalyzeReport};
 use crate::output::csv::{number, record};
-use crate::output::transaction::Transaction;
+use crate::output::transaction::{OutLock, Transaction};
 use crate::render::plot::{Chart, Series, Stroke};
 use crate::session::{Error, complex, rounded};
 
@@ -24,7 +24,8 @@ type BranchView<'a> = (&'a [BranchPoint], &'a [(f64, f64)], &'a [Located]);
 
 /// Writes the analysis' tables and figures into `opts.run.out` as one
 /// transaction, retiring the files of an earlier analysis it does not
-/// write; returns the files written.
+/// write, in the directory `held` locks (taken before the analysis);
+/// returns the files written.
 pub(super) fn write_analysis<M: Model>(
     an: &Analysis<M>,
     scene: &Scene,
@@ -32,11 +33,12 @@ pub(super) fn write_analysis<M: Model>(
     steady: &[SteadyMotion],
     periodic: Option<(&PeriodicOrbit, Option<&GaitSensitivities>)>,
     (branch, power, bifurcations): BranchView<'_>,
+    held: OutLock,
 ) -> Result<Vec<PathBuf>, Error> {
     let ro = &opts.run;
     // the output is a transaction: all files or none, and none of an
     // earlier analysis left beside them
-    let mut tx = Transaction::begin(&ro.out)?;
+    let mut tx = Transaction::begin_locked(held)?;
     let mut own: Vec<String> = ["equilibria.csv", "periodic.csv", "branch.csv"].map(String::from).to_vec();
     for stem in ["eigenvalues", "multipliers", "branch"] {
         own.extend(ezy_scene::FigureFormat::ALL.iter().map(|f| f.file_name(stem)));

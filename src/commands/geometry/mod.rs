@@ -21,7 +21,7 @@ mod tables;
 use super::committed;
 use crate::app::{App, AppError, is_model_path, is_scene_path};
 use crate::cli::{parse_dpi, parse_figure_format, parse_set};
-use crate::output::transaction::{Transaction, check_interrupt, pending};
+use crate::output::transaction::{OutLock, Transaction, check_interrupt, pending};
 use crate::session::{Error, rounded, scene_analysis, with_sets};
 
 /// The connection, momentum equation and constraint curvature of a model
@@ -282,6 +282,10 @@ fn geometry(proto: &AnyModel, req: &Request) -> Result<String, Error> {
             )));
         }
     };
+    // a gait given is read before any work
+    let given = args.gait.as_ref().map(|text| Gait::parse(&names, text)).transpose().map_err(input(&req.out))?;
+    // the directory is this command's from here to the commit
+    let held = OutLock::take(&req.out)?;
     let start = Instant::now();
     let mut curvature = Vec::with_capacity(shapes.len());
     let mut momentum = Vec::new();
@@ -306,8 +310,8 @@ fn geometry(proto: &AnyModel, req: &Request) -> Result<String, Error> {
     }
     let seconds = start.elapsed().as_secs_f64();
     // the gait
-    let gait = match &args.gait {
-        Some(text) => Some(Gait::parse(&names, text).map_err(input(&req.out))?),
+    let gait = match given {
+        Some(g) => Some(g),
         None => scene_problem.as_ref().and_then(|p| scene_gait(&geo, p, &mut notes)),
     };
     let mut predicted_in = 0.0;
@@ -334,8 +338,7 @@ fn geometry(proto: &AnyModel, req: &Request) -> Result<String, Error> {
         None => None,
     };
     let found = Found { shapes, axes, curvature, momentum, gait, seconds, predicted_in };
-    Transaction::preflight(&req.out)?;
-    let mut tx = Transaction::begin(&req.out)?;
+    let mut tx = Transaction::begin_locked(held)?;
     tables::write(&mut tx, &geo, &found)?;
     if !args.no_figures {
         figures::draw(&mut tx, &geo, &found, req.look, &req.out, &mut notes)?;
