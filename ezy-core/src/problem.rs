@@ -634,7 +634,7 @@ impl<M: Model> Problem<M> {
     /// Refuses, for a fixed-step method (RK4, Euler), an effect its step
     /// cannot follow, before any work: a forcing past the step's Nyquist
     /// frequency, and a skate whose friction stops the slide the run starts
-    /// with faster than the step can follow ([`check_slides`]). The
+    /// with faster than the step can follow (the slide's stopping rate at the start). The
     /// adaptive methods choose their steps and are not checked.
     ///
     /// # Errors
@@ -673,7 +673,12 @@ impl<M: Model> Problem<M> {
                     message: format!(
                         "its forcing's angular frequency omega = {} rad/s times the fixed step dt = {} s of {} is {}, past pi: fewer than two steps per period (Nyquist), so {} samples the forcing as a slower one and the run follows that one instead; give {} below pi / omega = {} s (20 steps per period: {} s) or an adaptive method ({})",
                         fmt_value(omega),
-                        fmt_value(dt),
+                        if dt < self.settings.dt {
+                            // the step asked, longer than the run, which is one step
+                            format!("{} (the whole run: {dt})", fmt_value(self.settings.dt))
+                        } else {
+                            fmt_value(dt)
+                        },
                         method.name(),
                         fmt_value(round3(omega * dt)),
                         method.name(),

@@ -316,7 +316,7 @@ impl<M: Model> Analysis<M> {
             let fr = &self.sys.friction[g.skate];
             return Err(AnalysisError::Request {
                 reason: format!(
-                    "skate `{}` slides on {what} (at t = {} s its lateral slip velocity is {} m/s; effect `{}`): the analyses, sensitivities, fits and linearizations take every skate as holding and do not follow a stick-slip switch (the jump of the sensitivities there), so a motion on which one slides is not theirs (run it: `ezy run` follows the slide)",
+                    "skate `{}` slides on {what}: at t = {} s its lateral slip velocity is {} m/s (effect `{}`); the analyses, sensitivities, fits and linearizations take every skate as holding and do not follow a stick-slip switch (the jump of the sensitivities there), so a motion on which one slides is not theirs (run it: `ezy run` follows the slide)",
                     fr.name,
                     sig(g.t),
                     sig(g.slip),
@@ -559,7 +559,7 @@ impl<M: Model> Analysis<M> {
         let scale = qd.iter().fold(1.0f64, |m, v| m.max(v.abs()));
         for (k, fr) in self.sys.friction.iter().enumerate() {
             let slip = (0..qd.len()).map(|c| g[(fr.row, c)] * qd[c]).sum::<f64>();
-            if !(slip.abs() <= 1e-6 * scale) {
+            if slip.is_nan() || slip.abs() > 1e-6 * scale {
                 self.slid = Some(Slide { skate: k, t, slip });
                 return;
             }

@@ -67,7 +67,7 @@ pub struct PeriodicOrbit {
     /// The multipliers 1 that the scene's structure makes exact at every
     /// parameter value (a cyclic coordinate, a rate nothing else feels),
     /// left out of [`PeriodicOrbit::multipliers`], the family and the
-    /// classification ([`super::structural`]).
+    /// classification (see [`super::StructuralMultiplier`]).
     pub structural: Vec<super::structural::StructuralMultiplier>,
     /// The classification of [`PeriodicOrbit::multipliers`].
     pub stability: Stability,

@@ -124,6 +124,10 @@ pub(super) fn sensitivities<M: Model>(
     }
     let derivatives = stencils.iter().map(|s| s.derivative).collect();
     base.watch_grip();
+    // a start on which a skate with friction slides (its lateral slip
+    // velocity not zero: the run would follow a slide first)
+    base.point(0.0, &x0)?;
+    base.check_grip("this run")?;
     let sys = base.dynamics();
     let projector = Projector::new(&sys.model, settings.projection, &sys.mass).with_drives(&sys.drives);
     let names = base.state_names();

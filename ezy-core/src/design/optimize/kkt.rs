@@ -51,7 +51,7 @@ pub struct Kkt {
     pub holds: bool,
     /// `|grad f + sum mu_i grad c_i|` (max norm, scaled variables).
     pub residual: f64,
-    /// The tolerance it was held to: [`STATIONARITY`] times the larger
+    /// The tolerance it was held to: 1e-4 times the larger
     /// of the start's and the best point's objective gradient (scaled).
     pub tolerance: f64,
     /// The constraints and bounds whose multiplier is positive.
