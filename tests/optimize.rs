@@ -228,6 +228,8 @@ fn an_infeasible_constraint_is_said_not_converged() {
         o.termination
     );
     assert!((o.values[0] - 0.5).abs() < 1e-9, "the least violation is at the slowest push: {}", o.values[0]);
+    // the first-order conditions do not hold at an infeasible point
+    assert!(!o.kkt.holds, "{:?}", o.kkt);
     let slow = Design::new(vec!["omega".into()], vec![1.2], vec![(1e-3, 5.0)], |v| cart(K, 0.5, Some(v[0]), 0.0, 20.0))
         .unwrap();
     let (_, _, goal) = resonance();

@@ -222,9 +222,11 @@ impl<M: Model> State<'_, M> {
         let os = self.objective_scale;
         let g: Vec<f64> = (0..n).map(|k| os * p.gradients[0][k] * self.span[k]).collect();
         let mut candidates = Vec::new();
+        let mut feasible = true;
         for (i, c) in self.ev.goal.constraints.iter().enumerate() {
             let (s, k) = self.constraint_scales[i];
             let value = s * (p.values[i + 1] - c.bound) / k;
+            feasible &= value <= FEASIBLE;
             if value >= -kkt::ACTIVE {
                 candidates.push(kkt::Candidate {
                     name: c.text(),
@@ -253,7 +255,10 @@ impl<M: Model> State<'_, M> {
                 candidates.push(unit(1.0));
             }
         }
-        kkt::check(&g, &candidates, scale)
+        let mut conditions = kkt::check(&g, &candidates, scale);
+        // an infeasible point satisfies no optimality condition
+        conditions.holds &= feasible;
+        conditions
     }
 
     /// The point at `u`, evaluated once.
