@@ -18,4 +18,6 @@
 
 mod branches;
 mod gait_power;
+mod gait_sensitivity;
 mod optimize;
+mod run_sensitivity;

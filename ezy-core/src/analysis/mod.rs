@@ -661,14 +661,35 @@ impl<M: Model> Analysis<M> {
             return Ok(None);
         }
         let nq = self.nq();
-        let (q, qd) = (&x[..nq], &x[nq..2 * nq]);
         let (mut dq, mut dqd) = (vec![0.0; nq * nq], vec![0.0; nq * nq]);
+        self.force_blocks(t, x, &|_| true, &mut dq, &mut dqd)?;
+        Ok(Some(Mat::from_fn(nq, 2 * nq, |i, j| if j < nq { dq[i * nq + j] } else { dqd[i * nq + j - nq] })))
+    }
+
+    /// Adds `dF/dq` into `dq` and `dF/dqd` into `dqd` (nq x nq each,
+    /// row-major) of the force of the effects `select` picks (by index)
+    /// at `(t, x)`, as [`Analysis::force_jacobian`] takes them: exact
+    /// where a law gives its Jacobian, central differences of its force
+    /// alone where not (noted).
+    ///
+    /// # Errors
+    /// [`AnalysisError::Sim`] when a differenced law fails at a state.
+    pub(crate) fn force_blocks(
+        &mut self,
+        t: f64,
+        x: &[f64],
+        select: &dyn Fn(usize) -> bool,
+        dq: &mut [f64],
+        dqd: &mut [f64],
+    ) -> Result<(), AnalysisError> {
+        let nq = self.nq();
+        let (q, qd) = (&x[..nq], &x[nq..2 * nq]);
         // a law of the user's own adds into blocks of its own, kept only
         // where it says it gave its Jacobian (one that wrote and then
         // returned `false` would leave part of one behind)
         let mut own: Option<(Vec<f64>, Vec<f64>)> = None;
         let mut rest = Vec::new();
-        for (k, e) in self.sys.effects.iter().enumerate() {
+        for (k, e) in self.sys.effects.iter().enumerate().filter(|(k, _)| select(*k)) {
             let wave = e.waveforms(t);
             let exact = !self.force_differences
                 && if matches!(e.law, Law::User(_)) {
@@ -682,7 +703,7 @@ impl<M: Model> Analysis<M> {
                     }
                     exact
                 } else {
-                    e.jacobian(t, &wave, q, qd, &mut dq, &mut dqd)
+                    e.jacobian(t, &wave, q, qd, dq, dqd)
                 };
             if !exact {
                 rest.push((k, wave));
@@ -698,9 +719,9 @@ impl<M: Model> Analysis<M> {
                     }
                 }
             }
-            self.difference_forces(t, x, &rest, &mut dq, &mut dqd)?;
+            self.difference_forces(t, x, &rest, dq, dqd)?;
         }
-        Ok(Some(Mat::from_fn(nq, 2 * nq, |i, j| if j < nq { dq[i * nq + j] } else { dqd[i * nq + j - nq] })))
+        Ok(())
     }
 
     /// Adds the central differences of the force of the effects `which`
@@ -738,7 +759,13 @@ impl<M: Model> Analysis<M> {
     /// The generalized force `f` (nq) of the effects `which` (as in
     /// [`Analysis::difference_forces`]) alone at `(t, x)`, added in the
     /// order the right-hand side adds them.
-    fn forces_of(&self, t: f64, x: &[f64], which: &[(usize, Waveforms)], f: &mut [f64]) -> Result<(), SimError> {
+    pub(crate) fn forces_of(
+        &self,
+        t: f64,
+        x: &[f64],
+        which: &[(usize, Waveforms)],
+        f: &mut [f64],
+    ) -> Result<(), SimError> {
         let nq = f.len();
         f.fill(0.0);
         let mut power = [0.0];

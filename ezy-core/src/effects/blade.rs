@@ -82,6 +82,19 @@ pub struct BladeLaw {
     pub force: BladeForce,
 }
 
+impl BladeLaw {
+    /// The waveforms' values at `t` \[s\] with each waveform's numbers
+    /// moved toward `other`'s to first order ([`super::waveform::Waveform::eval3_toward`]):
+    /// the forward sensitivities' right-hand side at `p +- h`
+    /// ([`crate::sensitivity`]).
+    pub fn waveforms_toward(&self, other: &Self, t: f64) -> Waveforms {
+        match (&self.force, &other.force) {
+            (BladeForce::Driven(a), BladeForce::Driven(b)) => [a.eval3_toward(b, t)[0], 0.0, 0.0],
+            _ => other.waveforms(t),
+        }
+    }
+}
+
 impl ForceLaw for BladeLaw {
     #[inline]
     fn apply(&self, t: f64, q: &[f64], qd: &[f64], f: &mut [f64]) -> (f64, f64) {

@@ -165,6 +165,22 @@ fn point_force(body: [usize; 3], p: [f64; 2], force: [f64; 2], q: &[f64], qd: &[
     [qd[body[0]] - w * r[1], qd[body[1]] + w * r[0]]
 }
 
+impl BodyLaw {
+    /// The waveforms' values at `t` \[s\] with each waveform's numbers
+    /// moved toward `other`'s to first order ([`Waveform::eval3_toward`]):
+    /// the forward sensitivities' right-hand side at `p +- h`
+    /// ([`crate::sensitivity`]).
+    pub fn waveforms_toward(&self, other: &Self, t: f64) -> Waveforms {
+        match (self, other) {
+            (BodyLaw::Force { fx: ax, fy: ay, .. }, BodyLaw::Force { fx: bx, fy: by, .. }) => {
+                [ax.eval3_toward(bx, t)[0], ay.eval3_toward(by, t)[0], 0.0]
+            }
+            (BodyLaw::Torque { torque: a, .. }, BodyLaw::Torque { torque: b, .. }) => [a.eval3_toward(b, t)[0], 0.0, 0.0],
+            _ => other.waveforms(t),
+        }
+    }
+}
+
 impl ForceLaw for BodyLaw {
     #[inline]
     fn apply(&self, t: f64, q: &[f64], qd: &[f64], f: &mut [f64]) -> (f64, f64) {

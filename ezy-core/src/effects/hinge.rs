@@ -178,6 +178,18 @@ impl HingeLaw {
         }
     }
 
+    /// The waveforms' values at `t` \[s\] with each waveform's numbers
+    /// moved toward `other`'s to first order ([`super::waveform::Waveform::eval3_toward`]):
+    /// the forward sensitivities' right-hand side at `p +- h`
+    /// ([`crate::sensitivity`]).
+    pub fn waveforms_toward(&self, other: &Self, t: f64) -> Waveforms {
+        match (&self.torque, &other.torque) {
+            (HingeTorque::Motor(a), HingeTorque::Motor(b)) => [a.eval3_toward(b, t)[0], 0.0, 0.0],
+            (HingeTorque::Servo { angle: a, .. }, HingeTorque::Servo { angle: b, .. }) => a.eval3_toward(b, t),
+            _ => other.waveforms(t),
+        }
+    }
+
     /// The torque `tau` \[N m\] at `(q, qd)` (nq each) with the waveforms'
     /// values `wave` ([`HingeLaw::waveforms`]), and the hinge's rate
     /// `theta_dot = qd[a] - qd[b]` \[rad/s\]: the torque's power is `tau

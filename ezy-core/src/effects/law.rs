@@ -116,6 +116,22 @@ families! {
 }
 
 impl Law {
+    /// The waveforms' values at `t` \[s\] of `other` (the same effect in
+    /// a problem at a nearby parameter value) as this law's moved toward
+    /// it to first order ([`super::waveform::Waveform::eval3_toward`]):
+    /// exact in `t` for harmonics; `other`'s own values for a law of
+    /// another family or of the user's own (whose waveforms ezy cannot
+    /// see into).
+    pub fn waveforms_toward(&self, other: &Law, t: f64) -> Waveforms {
+        match (self, other) {
+            (Law::Hinge(a), Law::Hinge(b)) => a.waveforms_toward(b, t),
+            (Law::Blade(a), Law::Blade(b)) => a.waveforms_toward(b, t),
+            (Law::Body(a), Law::Body(b)) => a.waveforms_toward(b, t),
+            (Law::Spring(a), Law::Spring(b)) => a.waveforms_toward(b, t),
+            _ => other.waveforms(t),
+        }
+    }
+
     /// A law of the user's own for the effect `name` on a model with `nq`
     /// coordinates.
     ///

@@ -112,6 +112,14 @@ pub struct SpringLaw {
 }
 
 impl SpringLaw {
+    /// The waveforms' values at `t` \[s\] with each waveform's numbers
+    /// moved toward `other`'s to first order ([`Waveform::eval3_toward`]):
+    /// the forward sensitivities' right-hand side at `p +- h`
+    /// ([`crate::sensitivity`]).
+    pub fn waveforms_toward(&self, other: &Self, t: f64) -> Waveforms {
+        [self.force.eval3_toward(&other.force, t)[0], 0.0, 0.0]
+    }
+
     /// The world positions of the two ends at `q` (nq) \[m\], each with
     /// whether it is a fixed ground point (what `ezy animate` draws as a
     /// zig-zag).

@@ -38,9 +38,18 @@ struct Scratch {
     /// the column being evaluated \[W\].
     p0: f64,
     dp: f64,
-    /// A state moved along a direction, and the forces there.
-    xp: Vec<f64>,
-    fp: Vec<f64>,
+    /// `dF/dq`, `dF/dqd` (nq x nq each, row-major) of the effects that
+    /// are not actuators, then of the actuators alone, at the state
+    /// evaluated; the actuators' force there (nq).
+    jq: Vec<f64>,
+    jqd: Vec<f64>,
+    aq: Vec<f64>,
+    aqd: Vec<f64>,
+    fa: Vec<f64>,
+    /// The nonzero entries `(i, j, v)` of `dF/dx` (j < 2 nq) of all the
+    /// effects, and of the actuators alone.
+    nz: Vec<(usize, usize, f64)>,
+    anz: Vec<(usize, usize, f64)>,
     power: Vec<f64>,
     /// The KKT right-hand side `[f; -gamma]` of one parameter and its solution.
     f: Vec<f64>,
@@ -75,10 +84,6 @@ pub(super) struct Augmented<M: Model> {
     pattern: Vec<(usize, usize)>,
 }
 
-/// `eps^(1/3)`: the relative step of a central difference whose
-/// truncation and rounding errors balance.
-const CBRT_EPS: f64 = 6.055_454_452_393_343e-6;
-
 impl<M: Model> Augmented<M> {
     /// The augmented right-hand side of `base` with the parameters'
     /// `stencils`.
@@ -105,8 +110,13 @@ impl<M: Model> Augmented<M> {
             f0: z(nq),
             p0: 0.0,
             dp: 0.0,
-            xp: z(2 * nq),
-            fp: z(nq),
+            jq: z(nq * nq),
+            jqd: z(nq * nq),
+            aq: z(nq * nq),
+            aqd: z(nq * nq),
+            fa: z(nq),
+            nz: Vec::new(),
+            anz: Vec::new(),
             power: z(sys.effects.len()),
             f: z(nq),
             gamma: z(nc),
@@ -185,32 +195,65 @@ impl<M: Model> Augmented<M> {
         ws.dgamma.iter_mut().zip(&ws.gm).for_each(|(o, v)| *o = v.eps);
     }
 
-    /// `dF/dx s` into `ws.df` (nq) along the state direction `s` (2 nq) by
-    /// a central difference of the force laws; zero without effects.
-    fn force_direction(&mut self, t: f64, x: &[f64], s: &[f64]) -> Result<(), SimError> {
+    /// The applied forces' Jacobian `dF/dx` at `(t, x)` as lists of its
+    /// nonzero entries (`ws.nz`; the actuators' alone in `ws.anz`) and the
+    /// actuators' force (`ws.fa`): each law's exact Jacobian
+    /// ([`crate::effects::ForceLaw::jacobian`]), central differences of
+    /// its force alone for a law of the user's own without one
+    /// ([`Analysis::force_blocks`]).
+    fn force_jacobians(&mut self, t: f64, x: &[f64]) -> Result<(), AnalysisError> {
+        let Self { base, ws, actuators, .. } = self;
+        ws.nz.clear();
+        ws.anz.clear();
+        if base.dynamics().effects.is_empty() {
+            return Ok(());
+        }
+        let nq = base.nq();
+        for b in [&mut ws.jq, &mut ws.jqd, &mut ws.aq, &mut ws.aqd] {
+            b.fill(0.0);
+        }
+        let acts: &[usize] = actuators;
+        base.force_blocks(t, x, &|k| !acts.contains(&k), &mut ws.jq, &mut ws.jqd)?;
+        ws.fa.fill(0.0);
+        if !acts.is_empty() {
+            base.force_blocks(t, x, &|k| acts.contains(&k), &mut ws.aq, &mut ws.aqd)?;
+            let effects = &base.dynamics().effects;
+            let which: Vec<_> = acts.iter().map(|&k| (k, effects[k].waveforms(t))).collect();
+            base.forces_of(t, x, &which, &mut ws.fa)?;
+        }
+        for i in 0..nq {
+            for j in 0..2 * nq {
+                let (own, act) = if j < nq {
+                    (ws.jq[i * nq + j], ws.aq[i * nq + j])
+                } else {
+                    (ws.jqd[i * nq + j - nq], ws.aqd[i * nq + j - nq])
+                };
+                if own + act != 0.0 {
+                    ws.nz.push((i, j, own + act));
+                }
+                if act != 0.0 {
+                    ws.anz.push((i, j, act));
+                }
+            }
+        }
+        Ok(())
+    }
+
+    /// `dF/dx s` into `ws.df` (nq) along the state direction `s` (2 nq)
+    /// from the Jacobian [`Augmented::force_jacobians`] took at the state
+    /// `x`, and the actuators' power's derivative `d(F_a . qd)/dx s =
+    /// (dF_a/dx s) . qd + F_a . s_qd` into `ws.dp` (the power of a force
+    /// law is its generalized force times the velocities).
+    fn force_direction(&mut self, x: &[f64], s: &[f64]) {
         let nq = self.nq();
         let ws = &mut self.ws;
         ws.df.fill(0.0);
-        ws.dp = 0.0;
-        let norm = s.iter().fold(0.0f64, |m, v| m.max(v.abs()));
-        let sys = self.base.dynamics_mut();
-        if sys.effects.is_empty() || norm == 0.0 {
-            return Ok(());
+        for &(i, j, v) in &ws.nz {
+            ws.df[i] += v * s[j];
         }
-        let scale = x.iter().fold(1.0f64, |m, v| m.max(v.abs()));
-        let h = CBRT_EPS * scale / norm;
-        for sign in [1.0, -1.0] {
-            for ((o, v), d) in ws.xp.iter_mut().zip(x).zip(s) {
-                *o = v + sign * h * d;
-            }
-            sys.applied_forces(t, &ws.xp[..nq], &ws.xp[nq..], &mut ws.power)?;
-            ws.fp.copy_from_slice(sys.applied_force());
-            for (o, f) in ws.df.iter_mut().zip(&ws.fp) {
-                *o += sign * f / (2.0 * h);
-            }
-            ws.dp += sign * self.actuators.iter().map(|&k| ws.power[k]).sum::<f64>() / (2.0 * h);
-        }
-        Ok(())
+        let qd = &x[nq..2 * nq];
+        ws.dp = ws.anz.iter().map(|&(i, j, v)| v * s[j] * qd[i]).sum::<f64>()
+            + ws.fa.iter().zip(&s[nq..]).map(|(f, v)| f * v).sum::<f64>();
     }
 
     /// `dy = [f(t, x), (df/dx) S + df/dp]` for `y = [x, S]`.
@@ -256,10 +299,13 @@ impl<M: Model> Augmented<M> {
                 dy[energy + 1 + np + na + d] = self.ws.dy[n2 + n_eff + d];
             }
         }
+        if !self.stencils.is_empty() {
+            self.force_jacobians(t, x)?;
+        }
         for j in 0..self.stencils.len() {
             let sj = &s[j * n2..(j + 1) * n2];
             self.directional_terms(q, qd, &sj[..nq], &sj[nq..]);
-            self.force_direction(t, x, sj)?;
+            self.force_direction(x, sj);
             self.ws.dm.fill(0.0);
             self.parametric(j, t, q, qd)?;
             // [M G^T; G 0] [dqdd; dlambda] = [dF - dM qdd - dG^T lambda; -(dgamma + dG qdd)]
@@ -316,7 +362,7 @@ impl<M: Model> Augmented<M> {
         let ws = &mut self.ws;
         let st = &mut self.stencils[j];
         if forces {
-            ws.dp += st.add_forces(t, q, qd, (&ws.f0, ws.p0), &mut ws.df, &mut ws.power, &self.actuators)?;
+            ws.dp += st.add_forces(t, q, qd, (&self.base.dynamics().effects, &ws.f0, ws.p0), &mut ws.df, &mut ws.power, &self.actuators)?;
         }
         if model {
             let scratch = (&mut ws.gv_f64[..], &mut ws.gamma_f64[..]);
@@ -352,7 +398,7 @@ impl<M: Model> Augmented<M> {
         for (j, st) in self.stencils.iter().enumerate() {
             let (sq, sqd) = s[j * n2..(j + 1) * n2].split_at_mut(nq);
             dr.fill(0.0);
-            st.add_residual(t, x, &base_r, dr);
+            st.add_residual(&self.base, t, x, &base_r, dr);
             let dgqd = |sq: &[f64], out: &mut [f64]| {
                 for (k, v) in qdual.iter_mut().enumerate() {
                     *v = Dual64::new(q[k], sq[k]);

@@ -3,6 +3,8 @@
 //! their difference.
 
 use super::Parameter;
+use crate::effects::{Effect, Waveforms};
+use crate::drive::Drive;
 use crate::analysis::{Analysis, AnalysisError};
 use crate::formulation::dae::Dynamics;
 use crate::model::Model;
@@ -15,7 +17,9 @@ pub enum Derivative {
     /// The parameter changes only the initial state (an initial value):
     /// `df/dp = 0`.
     InitialOnly,
-    /// Central difference of the problems at `p +- h`.
+    /// Central difference of the problems at `p +- h`, their waveforms
+    /// linearized from the base's
+    /// ([`crate::effects::Waveform::eval3_toward`]).
     Central {
         /// The step `h`.
         h: f64,
@@ -34,10 +38,12 @@ impl Derivative {
     pub fn describe(&self) -> String {
         match self {
             Self::InitialOnly => "initial state only (df/dp = 0)".into(),
-            Self::Central { h } => format!("central difference of the right-hand side, h = {h:.2e}"),
-            Self::OneSided { h } => {
-                format!("one-sided difference (p, p+h, p+2h) of the right-hand side, h = {h:.2e}")
+            Self::Central { h } => {
+                format!("central difference of the right-hand side, waveforms linearized exactly, h = {h:.2e}")
             }
+            Self::OneSided { h } => format!(
+                "one-sided difference (p, p+h, p+2h) of the right-hand side, waveforms linearized exactly, h = {h:.2e}"
+            ),
         }
     }
 }
@@ -62,6 +68,9 @@ pub(super) struct Stencil<M: Model> {
     pub derivative: Derivative,
     /// `dx0/dp` (2 nq).
     pub x0: Vec<f64>,
+    /// Scratch: the effects' waveforms of one node, linearized from the
+    /// base's ([`crate::effects::Law::waveforms_toward`]; one per effect).
+    pub waves: Vec<Waveforms>,
 }
 
 /// A problem at one value: its analysis and consistent initial state.
@@ -133,13 +142,18 @@ impl<M: Model> Stencil<M> {
         let changes_rhs = touches.model || touches.effects || touches.drives;
         let (nodes, derivative) = if changes_rhs { (nodes, derivative) } else { (Vec::new(), Derivative::InitialOnly) };
         let nodes = nodes.into_iter().map(|(w, (an, _))| (w, an)).collect();
-        Ok(Self { nodes, base_weight, touches, derivative, x0: dx0 })
+        Ok(Self { nodes, base_weight, touches, derivative, x0: dx0, waves: Vec::new() })
     }
 
     /// Adds `dF/dp` at `(t, q, qd)` into `out` (nq) and returns `dP/dp`
     /// of the input power of the effects `actuators`; `base` the base
-    /// problem's forces and input power there; `power`: scratch (one per
-    /// effect).
+    /// problem's effects, and its forces and input power there; `power`:
+    /// scratch (one per effect). Each node's forces are taken with its
+    /// waveforms linearized from the base's
+    /// ([`crate::effects::Law::waveforms_toward`]): a harmonic's numbers
+    /// enter exactly, whatever `t`; the rest of the laws' dependence on
+    /// `p` (a stiffness, a gain: smooth, most of it linear) is the
+    /// difference's, at fixed waveforms.
     ///
     /// # Errors
     /// As [`crate::formulation::dae::Dynamics::applied_forces`].
@@ -152,7 +166,7 @@ impl<M: Model> Stencil<M> {
         t: f64,
         q: &[f64],
         qd: &[f64],
-        base: (&[f64], f64),
+        base: (&[Effect], &[f64], f64),
         out: &mut [f64],
         power: &mut [f64],
         actuators: &[usize],
@@ -160,16 +174,19 @@ impl<M: Model> Stencil<M> {
         if !(self.touches.model || self.touches.effects) {
             return Ok(0.0);
         }
-        for (o, f) in out.iter_mut().zip(base.0) {
+        let (effects, f0, p0) = base;
+        for (o, f) in out.iter_mut().zip(f0) {
             *o += self.base_weight * f;
         }
-        let mut dp = self.base_weight * base.1;
+        let mut dp = self.base_weight * p0;
         for (w, an) in &mut self.nodes {
             let sys = an.dynamics_mut();
             if sys.effects.is_empty() {
                 continue;
             }
-            sys.applied_forces(t, q, qd, power)?;
+            self.waves.clear();
+            self.waves.extend(effects.iter().zip(&sys.effects).map(|(b, n)| b.law.waveforms_toward(&n.law, t)));
+            sys.applied_forces_with(t, q, qd, &self.waves, power)?;
             for (o, f) in out.iter_mut().zip(sys.applied_force()) {
                 *o += *w * f;
             }
@@ -220,7 +237,7 @@ impl<M: Model> Stencil<M> {
         for (k, d) in base.dynamics().drives.iter().enumerate() {
             gamma[d.row] -= self.base_weight * d.angle.eval3(t)[2];
             for (w, an) in &self.nodes {
-                gamma[d.row] -= *w * an.dynamics().drives[k].angle.eval3(t)[2];
+                gamma[d.row] -= *w * toward(d, &an.dynamics().drives[k], t)[2];
             }
         }
     }
@@ -231,24 +248,40 @@ impl<M: Model> Stencil<M> {
         if !self.touches.drives {
             return 0.0;
         }
-        let rate = |an: &Analysis<M>| an.dynamics().drives[k].angle.eval3(t)[1];
-        self.base_weight * rate(base) + self.nodes.iter().map(|(w, an)| w * rate(an)).sum::<f64>()
+        let d = &base.dynamics().drives[k];
+        let rate = |an: &Analysis<M>| toward(d, &an.dynamics().drives[k], t)[1];
+        self.base_weight * d.angle.eval3(t)[1] + self.nodes.iter().map(|(w, an)| w * rate(an)).sum::<f64>()
     }
 
     /// Adds `d r/dp` of the constraint residuals at `(t, x)`
     /// ([`Analysis::constraint_residual`]) into `out` (nh + nc), `base_r`
-    /// the base problem's.
-    pub fn add_residual(&self, t: f64, x: &[f64], base_r: &[f64], out: &mut [f64]) {
+    /// the base problem's `base`'s; each node's prescribed angles
+    /// linearized from the base's, as in [`Stencil::add_forces`].
+    pub fn add_residual(&self, base: &Analysis<M>, t: f64, x: &[f64], base_r: &[f64], out: &mut [f64]) {
         if !(self.touches.model || self.touches.drives) {
             return;
         }
         for (o, r) in out.iter_mut().zip(base_r) {
             *o += self.base_weight * r;
         }
+        let nh = base.dynamics().info.n_holonomic;
         for (w, an) in &self.nodes {
             for (o, r) in out.iter_mut().zip(an.residual_at(t, x)) {
                 *o += *w * r;
             }
+            // the node's own `-u(t)`, `-u'(t)` replaced by the linearized ones
+            for (d, n) in base.dynamics().drives.iter().zip(&an.dynamics().drives) {
+                let (own, lin) = (n.angle.eval3(t), toward(d, n, t));
+                out[d.row] += *w * (own[0] - lin[0]);
+                out[nh + d.row] += *w * (own[1] - lin[1]);
+            }
         }
     }
+}
+
+/// `(u, u', u'')` of the drive `node` (the base's drive `base` in a
+/// problem at a nearby parameter value) linearized from the base's
+/// ([`crate::effects::Waveform::eval3_toward`]).
+fn toward(base: &Drive, node: &Drive, t: f64) -> [f64; 3] {
+    base.angle.eval3_toward(&node.angle, t)
 }

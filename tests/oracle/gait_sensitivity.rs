@@ -1,0 +1,197 @@
+//! A gait's derivatives (`ezy analyze --wrt`,
+//! `Problem::gait_sensitivities`) against central differences of gaits
+//! converged one by one (no sensitivity equations, no shooting Jacobian
+//! reused), the step checked by Richardson: every quantity `periodic.csv`
+//! carries (period, mean speed, mean forward speed, displacement, heading
+//! change, mean input power, efficiency) to 1e-8 relative. And against
+//! the quantities' own invariances: a gait's mean speed, power and period
+//! do not depend on the phase `t0` at which its fixed point is taken, so
+//! their derivatives at `t0 = 120 s` equal those at `t0 = 0`; a straight
+//! gait's heading change is 0 at every parameter value, and so is its
+//! derivative.
+//!
+//! The differences' own error: each gait is converged with DOP853 at
+//! 1e-13 and Newton to 1e-12 (`tight`), so over `2h = 4e-4 |p|` the
+//! rounding of a difference is about 5e-9 relative (asserted below 1e-6 with the truncation); truncation after
+//! Richardson's extrapolation from `h` and `h/2` is `O(h^4)`, about
+//! 1e-12. The test asserts the Richardson gap itself (the oracle's error
+//! bound) before it compares.
+
+use ezy::models::{EzyRoller, scenes};
+use ezy_core::Model;
+use ezy_core::analysis::{PeriodicSettings, Symmetry};
+use ezy_core::effects::Periodicity;
+use ezy_core::integrator::Tolerance;
+use ezy_core::problem::Problem;
+use ezy_core::text::RuntimeModel;
+use ezy_scene::Scene;
+
+/// The quantities of `periodic.csv` in the order of
+/// `GaitSensitivities::rows`.
+const NAMES: [&str; 8] =
+    ["period", "mean_speed", "mean_forward_speed", "dx", "dy", "dheading", "mean_power", "efficiency"];
+
+/// Tighter than `analyze`'s defaults (1e-11, Newton 1e-9): the
+/// differences divide the gaits' error by `2h`.
+fn tight() -> PeriodicSettings {
+    PeriodicSettings {
+        tolerance: Tolerance { rtol: 1e-13, atol: 1e-13 },
+        newton_tolerance: 1e-12,
+        ..PeriodicSettings::default()
+    }
+}
+
+/// The gait of `problem` with its fixed point at phase `t0` (a whole
+/// number of forcing periods, or the run's end), from a run of the scene
+/// to its end; its quantities, and the problem's reported derivatives
+/// with respect to `param` (when given).
+fn gait<M: Model>(
+    scene: &Scene,
+    model: &M,
+    sets: &[(String, f64)],
+    t0: Option<f64>,
+    param: Option<&str>,
+) -> ([f64; 8], Vec<f64>) {
+    let (problem, _): (Problem<M>, _) = scene.problem_with(model.clone(), sets).unwrap();
+    let (mut an, x0) = problem.clone().analysis().unwrap();
+    let Some(Periodicity::Period(period)) = an.forcing() else { panic!("not forced periodically") };
+    let symmetry: Symmetry = an.symmetry(0.0, &x0).unwrap();
+    let t_run = t0.unwrap_or((problem.settings.t_end / period).floor() * period);
+    let end = problem.clone().t_end(t_run).every(t_run).solve().unwrap();
+    let guess = end.final_state()[..x0.len()].to_vec();
+    let phase = t0.unwrap_or(0.0);
+    let orbit = an.gait(phase, period, &guess, symmetry, &tight()).unwrap();
+    let params: Vec<_> = param.map(|p| scene.parameter(model, sets, p).unwrap()).into_iter().collect();
+    let s = problem.gait_sensitivities(&orbit, &params, &tight()).unwrap();
+    let q = [
+        orbit.period,
+        orbit.mean_speed(),
+        orbit.mean_forward_speed(),
+        orbit.displacement[0],
+        orbit.displacement[1],
+        orbit.heading_change,
+        s.mean_power,
+        s.efficiency,
+    ];
+    let d = if params.is_empty() { Vec::new() } else { s.rows(0).iter().map(|r| r.1).collect() };
+    (q, d)
+}
+
+/// Checks the derivatives of every quantity of the gait of `scene` on
+/// `model` with respect to `param` (value `p`) against Richardson's
+/// extrapolation of central differences of gaits at `p +- h` and `p +-
+/// h/2`, `h = 2e-4 |p|` (2e-4 at 0): within 1e-8 of the quantity's scale
+/// (its derivative's size, at least a tenth of the largest derivative of
+/// the gait; a quantity held at 0 by symmetry, the largest: ezy's
+/// heading change of a straight gait is 1e-10 to 2e-9 of it, the
+/// shooting solve's rounding), plus three times the Richardson change
+/// (the oracle's own error).
+fn check<M: Model>(scene: &Scene, model: &M, param: &str) {
+    let p = scene.parameter(model, &[], param).unwrap().value;
+    let (_, reported) = gait(scene, model, &[], None, Some(param));
+    let h = 2e-4 * if p == 0.0 { 1.0 } else { p.abs() };
+    let slope = |h: f64| {
+        let at = |v: f64| gait(scene, model, &[(param.to_string(), v)], None, None).0;
+        let (a, b) = (at(p + h), at(p - h));
+        (0..8).map(|i| (a[i] - b[i]) / (2.0 * h)).collect::<Vec<_>>()
+    };
+    let (d1, d2) = (slope(h), slope(h / 2.0));
+    let rich: Vec<f64> = (0..8).map(|i| d2[i] + (d2[i] - d1[i]) / 3.0).collect();
+    let largest = rich.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+    for i in 0..8 {
+        // a quantity held at 0 by symmetry (a straight gait's heading
+        // change) is compared with the gait's largest derivative
+        let scale = if rich[i].abs() < 1e-6 * largest { largest } else { rich[i].abs().max(0.1 * largest) };
+        // the oracle's own error: the extrapolation's change, and the
+        // gaits' rounding over 2h
+        let oracle = (rich[i] - d2[i]).abs();
+        eprintln!(
+            "{}: d{}/d{param} = {:.12e}, differences {:.12e} (Richardson change {oracle:.1e})",
+            scene.name, NAMES[i], reported[i], rich[i]
+        );
+        assert!(oracle <= 1e-6 * scale, "{}: d{}/d{param}: the differences did not settle", scene.name, NAMES[i]);
+        assert!(
+            (reported[i] - rich[i]).abs() <= 1e-8 * scale + 3.0 * oracle,
+            "{}: d{}/d{param} = {:.12e} against the differences' {:.12e} ({:.1e} relative)",
+            scene.name,
+            NAMES[i],
+            reported[i],
+            rich[i],
+            (reported[i] - rich[i]).abs() / scale
+        );
+    }
+}
+
+/// The user's sleigh with a prescribed rotor (`drive psi`), typed as text.
+fn rotor_drive() -> (Scene, RuntimeModel) {
+    let data = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/oracle");
+    let model = RuntimeModel::from_file(&data.join("rotor_drive.ezy")).unwrap();
+    let (scene, _) = Scene::read(&data.join("rotor-drive.toml")).unwrap();
+    (scene, model)
+}
+
+/// The user's sleigh with a rotor under a harmonic motor torque (its
+/// frequency the scene parameter `w`), typed as text.
+fn rotor_sleigh() -> (Scene, RuntimeModel) {
+    let data = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/oracle");
+    let model = RuntimeModel::from_file(&data.join("rotor_sleigh.ezy")).unwrap();
+    let (scene, _) = Scene::read(&data.join("rotor-sleigh.toml")).unwrap();
+    (scene, model)
+}
+
+/// The case: the rolling-resistance EzyRoller's derivatives in
+/// its motor's frequency (ezy gave `dmean_speed/domega = -0.1096064273`,
+/// 1.9e-6 off, from differences of the forcing's waveforms at t = 120 s).
+#[test]
+fn a_gaits_derivatives_in_a_forcing_frequency_are_the_differences() {
+    check(&scenes::get("drive-rolling-resistance"), &EzyRoller::default(), "motor.omega");
+}
+
+/// A prescribed drive's frequency, on a user's model typed as text.
+#[test]
+fn a_gaits_derivatives_in_a_drives_frequency_are_the_differences() {
+    let (scene, model) = rotor_drive();
+    check(&scene, &model, "psi.omega");
+}
+
+/// Every other parameter class: a motor's amplitude, a resistance, a
+/// mass, a geometry, on the built-in EzyRoller and the two text models.
+#[test]
+#[ignore = "the whole harness: cargo test --release --test suite -- --include-ignored oracle::"]
+fn every_parameter_class_is_the_differences() {
+    let roller = scenes::get("drive-rolling-resistance");
+    for p in ["motor.torque.cos.amplitude", "rolling_A.damping", "m1", "a"] {
+        check(&roller, &EzyRoller::default(), p);
+    }
+    let (scene, model) = rotor_drive();
+    for p in ["psi.amplitude", "drag.c", "m", "a"] {
+        check(&scene, &model, p);
+    }
+    let (scene, model) = rotor_sleigh();
+    // (not `Ir`: the motor's reaction on the sleigh is its torque, whatever
+    // the rotor's inertia, and every derivative is 0 to 1e-12)
+    for p in ["w", "drag.c_rot", "I"] {
+        check(&scene, &model, p);
+    }
+}
+
+/// The phase invariances: the derivatives of the mean speed, mean power
+/// and period of the rolling-resistance gait with its fixed point at
+/// `t0 = 120 s` (where a difference of the motor's waveform in its
+/// frequency errs by `(h t)^2 / 6`) equal those at `t0 = 0` to 1e-9
+/// relative, and the straight gait's heading change has derivative 0
+/// (ezy gave 3.6e-6) to 1e-9 of its displacement's.
+#[test]
+fn a_gaits_derivatives_do_not_depend_on_its_phase() {
+    let (scene, model) = (scenes::get("drive-rolling-resistance"), EzyRoller::default());
+    let (_, at0) = gait(&scene, &model, &[], None, Some("motor.omega"));
+    let (_, at120) = gait(&scene, &model, &[], Some(120.0), Some("motor.omega"));
+    for i in [0, 1, 6, 7] {
+        eprintln!("d{}/domega: {:.12e} at t0 = 0, {:.12e} at t0 = 120", NAMES[i], at0[i], at120[i]);
+        assert!((at0[i] - at120[i]).abs() <= 1e-9 * at0[i].abs(), "d{}: {} against {}", NAMES[i], at0[i], at120[i]);
+    }
+    for d in [&at0, &at120] {
+        let displacement = d[3].abs().max(d[4].abs());
+        assert!(d[5].abs() <= 1e-9 * displacement, "ddheading/domega = {:e} (ddx {:e})", d[5], d[3]);
+    }
+}

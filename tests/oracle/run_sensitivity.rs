@@ -1,0 +1,98 @@
+//! A run's forward sensitivities (`ezy sensitivity`,
+//! `Problem::sensitivities_with`) against central differences of whole
+//! runs at `p +- h` and `p +- h/2`, extrapolated (Richardson), to 1e-8 of
+//! the largest sensitivity of the parameter, over 20 s: long enough that
+//! a difference of a harmonic's waveforms in its frequency (the right-hand
+//! side's `df/dp` before it was linearized exactly in the waveforms'
+//! numbers) erred by `(h t)^2 / 6`, 3e-8 relative at t = 20 s.
+//!
+//! The runs are DOP853 at 1e-13 on the DAE formulation (the sensitivity
+//! equations are integrated with the state, under the same error
+//! control); their error over `2h = 2e-4 |p|` is about 1e-9 of a
+//! sensitivity, which the extrapolation's change bounds (asserted).
+
+use ezy::models::{EzyRoller, scenes};
+use ezy_core::sensitivity::Parameter;
+use ezy_core::text::RuntimeModel;
+use ezy_core::{Method, Model, Problem};
+use ezy_scene::Scene;
+
+/// The run settings of the oracle and of the run differentiated.
+fn tight(settings: ezy_core::RunSettings) -> ezy_core::RunSettings {
+    ezy_core::RunSettings {
+        method: Method::Dop853,
+        rtol: 1e-13,
+        atol: 1e-13,
+        formulation: ezy_core::Formulation::Dae,
+        ..settings
+    }
+}
+
+/// Checks the sensitivities of `columns` at the run's end with respect
+/// to each of `names` against Richardson's extrapolation of central
+/// differences of whole runs (`h = 1e-4 max(1, |p|)`), to 1e-8 of the
+/// parameter's largest sensitivity plus three times the extrapolation's
+/// change (the oracle's own error).
+fn check<M: Model>(scene: &Scene, model: &M, names: &[&str], columns: &[&str]) {
+    let (mut problem, _): (Problem<M>, _) = scene.problem_with(model.clone(), &[]).unwrap();
+    problem.settings = tight(problem.settings);
+    let settings = problem.settings;
+    let params: Vec<Parameter<M>> = names
+        .iter()
+        .map(|n| {
+            let p = scene.parameter(model, &[], n).unwrap();
+            Parameter::new(p.name.clone(), p.value, move |v| {
+                let mut q = p.problem(v)?;
+                q.settings = settings;
+                Ok(q)
+            })
+        })
+        .collect();
+    let s = problem.sensitivities_with(&params).unwrap();
+    for p in &params {
+        let end = |v: f64, c: &str| *p.problem(v).unwrap().solve().unwrap().column(c).unwrap().last().unwrap();
+        let got: Vec<f64> =
+            columns.iter().map(|c| *s.column(&format!("d{c}/d{}", p.name)).unwrap().last().unwrap()).collect();
+        let scale = got.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+        for (c, g) in columns.iter().zip(&got) {
+            let central = |h: f64| (end(p.value + h, c) - end(p.value - h, c)) / (2.0 * h);
+            let h = 1e-4 * p.value.abs().max(1.0);
+            let (d1, d2) = (central(h), central(h / 2.0));
+            let want = d2 + (d2 - d1) / 3.0;
+            let oracle = (want - d2).abs();
+            eprintln!("{}: d{c}/d{} = {g:.12e} against {want:.12e} (Richardson change {oracle:.1e})", scene.name, p.name);
+            assert!(oracle <= 1e-5 * scale, "{}: d{c}/d{}: the differences did not settle", scene.name, p.name);
+            assert!(
+                (g - want).abs() <= 1e-8 * scale + 3.0 * oracle,
+                "{}: d{c}/d{} = {g:.12e} against {want:.12e} ({:.1e} of the largest)",
+                scene.name,
+                p.name,
+                (g - want).abs() / scale
+            );
+        }
+    }
+}
+
+/// The drive scene over 20 s: the motor's frequency and amplitude, a
+/// mass, the fork length (in the constraints).
+#[test]
+fn a_runs_sensitivities_are_the_differences_of_whole_runs() {
+    let mut scene = scenes::drive();
+    scene.t_end = 20.0;
+    scene.output.every = 20.0;
+    let columns = ["x1", "y1", "phi1", "phi2", "x1d", "phi2d"];
+    check(&scene, &EzyRoller::default(), &["omega", "M0", "m2", "c"], &columns);
+}
+
+/// A user's sleigh with a prescribed rotor, typed as text: the drive's
+/// frequency and amplitude (the prescribed angle's derivatives enter the
+/// constraint's acceleration term), the drag and a mass.
+#[test]
+fn a_drives_sensitivities_are_the_differences_of_whole_runs() {
+    let data = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/oracle");
+    let model = RuntimeModel::from_file(&data.join("rotor_drive.ezy")).unwrap();
+    let (mut scene, _) = Scene::read(&data.join("rotor-drive.toml")).unwrap();
+    scene.t_end = 20.0;
+    scene.output.every = 20.0;
+    check(&scene, &model, &["psi.omega", "psi.amplitude", "drag.c", "m"], &["x", "y", "phi", "xd", "phid"]);
+}
