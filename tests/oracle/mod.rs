@@ -18,4 +18,5 @@
 
 mod branches;
 mod gait_power;
+mod growth;
 mod optimize;
