@@ -46,7 +46,7 @@ pub enum Settling {
     /// second half of the run, by more than 5 %, like a power of the time
     /// (no periodic orbit: the forcing's work is not taken by a loss),
     /// measured over that half.
-    Grows(Growth),
+    Grows(Box<Growth>),
     /// Neither, within the periods allowed.
     Unsettled,
 }
@@ -341,7 +341,7 @@ pub enum GaitOrGrowth {
     /// It settles onto this periodic orbit.
     Gait(Box<PeriodicOrbit>),
     /// It gains energy without bound, at the rates measured.
-    Grows(Growth),
+    Grows(Box<Growth>),
 }
 
 /// Whether `e` is a search's failure (Newton's, or one that wandered off),
@@ -367,5 +367,5 @@ fn growth(period: f64, samples: &[(f64, f64, f64)]) -> Option<Settling> {
     if !like {
         return None;
     }
-    Growth::measure(period, half).map(Settling::Grows)
+    Growth::measure(period, half).map(|g| Settling::Grows(Box::new(g)))
 }

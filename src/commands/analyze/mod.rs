@@ -244,7 +244,7 @@ fn analyze_model<M: Model>(proto: &M, scene: &Scene, opts: &AnalyzeOptions) -> R
                 }
                 GaitOrGrowth::Grows(g) => {
                     log.timings.push(("the run on, the energy's growth measured".into(), clock.elapsed()));
-                    growth = Some(g);
+                    growth = Some(*g);
                     None
                 }
             };
