@@ -112,7 +112,7 @@ class Check:
     def __bool__(self) -> bool: ...
 
 class Analysis:
-    """Steady motions, a gait or a limit cycle: the report and its tables as DataFrames."""
+    """Steady motions, a gait, a limit cycle or a growth without bound: the report and its tables as DataFrames."""
 
     report: str
     tables: Dict[str, Any]
@@ -122,6 +122,8 @@ class Analysis:
     def equilibria(self) -> Any: ...
     @property
     def branch(self) -> Any: ...
+    @property
+    def growth(self) -> Any: ...
 
 class Geometry:
     """The geometry of locomotion: the report and its tables as DataFrames."""

@@ -594,28 +594,6 @@ fn an_analysis_leaves_no_earlier_file_beside_its_own() {
     assert_eq!(std::fs::read_to_string(dir.join("notes.txt")).unwrap(), "mine");
 }
 
-/// A driven scene without a loss (`drive`: the motor's work only goes
-/// into kinetic energy) has no periodic orbit: `ezy analyze` says so with
-/// the energy's measured growth at the forcing's period ends (the scene
-/// run on from its end at 60 s for 16 periods: 17.06 J at 76 s to
-/// 20.97 J at 92 s, `T ~ t^1.08`), not with the search's failed Newton
-/// iteration; nothing is written. A transient that saturates is not
-/// such a growth: `drive-rolling-resistance` from a run of 4 s (its
-/// energy still rising for some 50 s) finds its gait (judged after 8
-/// periods, this run was called unbounded).
-#[test]
-fn a_motion_that_gains_energy_without_bound_is_named() {
-    let dir = fresh("growth");
-    let (_, err, ok) = ezy(&["analyze", "drive", "--no-figures"], &dir);
-    assert!(!ok);
-    assert!(err.contains("gains energy without bound") && err.contains("like t^1.08"), "{err}");
-    assert!(err.contains("17.05584 J at t = 76 s to 20.96753 J at t = 92 s"), "{err}");
-    assert!(!dir.join("periodic.csv").exists());
-    let (out, err, ok) = ezy(&["analyze", "drive-rolling-resistance", "--t-end", "4", "--no-figures"], &dir);
-    assert!(ok, "{err}");
-    assert!(out.contains("periodic orbit: period 2 s, stable, mean speed 0.335262 m/s"), "{out}");
-}
-
 /// The snake's gait (scene `snake`: five links, serpenoid hinge motors,
 /// rolling resistance). Its run to 40 s is deep in a transient (the gait
 /// attracts at the rate 0.934 per period: some 300 periods to settle), so

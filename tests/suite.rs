@@ -33,6 +33,7 @@ mod force_jacobian;
 mod formulations;
 mod friction;
 mod geometry;
+mod growth;
 mod guards;
 mod hard_cases;
 mod hinge_friction;

@@ -72,8 +72,10 @@ impl Check {
 /// tables as pandas DataFrames (`periodic`: the gait, one row per orbit,
 /// with its period [s], mean speed [m/s], displacement per period [m],
 /// heading change [rad], Floquet multipliers and stability; `equilibria`:
-/// the steady motions; `branch`: a continuation's points). A table the
-/// analysis did not write is `None`.
+/// the steady motions; `branch`: a continuation's points; `growth`: a
+/// driven motion that gains energy without bound, its energy's and
+/// speed's power laws per window, as growth.csv). A table the analysis
+/// did not write is `None`.
 #[pyclass(module = "ezy", frozen)]
 pub struct Analysis {
     /// The text `ezy analyze` prints.
@@ -108,6 +110,14 @@ impl Analysis {
     #[getter]
     fn branch<'py>(&self, py: Python<'py>) -> PyResult<Option<Bound<'py, PyAny>>> {
         self.table(py, "branch")
+    }
+
+    /// A motion's growth without bound (no gait), or None: one row per
+    /// window, the kinetic energy's and the speed's exponents each by its
+    /// own fit, with standard errors and log residuals.
+    #[getter]
+    fn growth<'py>(&self, py: Python<'py>) -> PyResult<Option<Bound<'py, PyAny>>> {
+        self.table(py, "growth")
     }
 
     fn __str__(&self) -> String {

@@ -590,7 +590,7 @@ impl Toolkit {
         }
         let (report, dir, _temp) = self.command(py, "analyze", scene, model, extra, out, figures, settings)?;
         let tables = PyDict::new(py);
-        for name in ["periodic", "equilibria", "branch"] {
+        for name in ["periodic", "equilibria", "branch", "growth"] {
             let path = dir.join(format!("{name}.csv"));
             if path.is_file() {
                 tables.set_item(name, self.helpers.bind(py).call_method1("read_table", (path,))?)?;

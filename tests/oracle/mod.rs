@@ -19,5 +19,6 @@
 mod branches;
 mod gait_power;
 mod gait_sensitivity;
+mod growth;
 mod optimize;
 mod run_sensitivity;

@@ -36,11 +36,13 @@
 //!   ed., §7.1-7.3); its Floquet multipliers, mean speed and the net
 //!   displacement and heading change per period.
 //!
-//! - [`Analysis::gait`]: the same where the guess is in a transient the
-//!   search cannot converge from: the scene run on ([`Analysis::settle`])
-//!   until its motion settles, then the search again; or why there is no
-//!   gait (an energy growing without bound, a motion that does not
-//!   settle), measured.
+//! - [`Analysis::gait_or_growth`]: the same where the guess is in a
+//!   transient the search cannot converge from: the scene run on
+//!   ([`Analysis::settle`]) until its motion settles, then the search
+//!   again; or, where the motion gains energy without bound, that
+//!   verdict with its growth measured ([`Growth`]: the kinetic energy's
+//!   and the speed's power laws, each by its own fit). [`Analysis::gait`]
+//!   is the same for a caller that needs an orbit (a growth is its error).
 //!
 //! - [`Analysis::limit_cycle`]: a periodic motion of an autonomous scene
 //!   (a crank turning under a constant torque), its period an unknown
@@ -69,6 +71,7 @@ pub mod bifurcation;
 pub mod branch;
 mod cycle;
 pub(crate) mod dense;
+mod growth;
 mod linear;
 pub(crate) mod periodic;
 mod settle;
@@ -79,9 +82,10 @@ pub(crate) mod symmetry;
 pub use bifurcation::{Bifurcation, BifurcationKind};
 pub use branch::{BranchPoint, Follow, Solution};
 pub use faer::c64;
+pub use growth::{Growth, GrowthFit, PowerLaw};
 pub use linear::{Input, Linearization};
 pub use periodic::{PeriodicOrbit, PeriodicSettings};
-pub use settle::{MAX_SETTLE_PERIODS, Settle, Settling, Until};
+pub use settle::{GaitOrGrowth, MAX_SETTLE_PERIODS, Settle, Settling, Until};
 pub use steady::{Stability, SteadyMotion};
 pub use structural::StructuralMultiplier;
 pub use symmetry::{Generator, Pose, Symmetry};
@@ -125,8 +129,8 @@ pub enum AnalysisError {
         reason: String,
     },
     /// There is no periodic orbit to find, for the reason measured: an
-    /// energy that grows without bound, a motion that does not settle
-    /// ([`Analysis::gait`]).
+    /// energy that grows without bound (where an orbit is needed,
+    /// [`Analysis::gait`]), a motion that does not settle.
     #[error("no periodic orbit: {reason}")]
     NoOrbit {
         /// Why, with what was measured.

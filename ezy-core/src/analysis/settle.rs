@@ -14,6 +14,7 @@
 //! Analysis*, 3rd ed., §7.3: shooting needs a guess near the orbit;
 //! simulation provides one for a stable orbit).
 
+use super::growth::Growth;
 use super::periodic::{PeriodicOrbit, PeriodicSettings, into_sim};
 use super::symmetry::{Symmetry, act, body_pose};
 use super::{Analysis, AnalysisError};
@@ -43,15 +44,9 @@ pub enum Settling {
     Settled,
     /// The kinetic energy at the period ends grew in every period of the
     /// second half of the run, by more than 5 %, like a power of the time
-    /// (no periodic orbit: the forcing's work is not taken by a loss).
-    Grows {
-        /// First and last time of the run's second half \[s\].
-        t: [f64; 2],
-        /// The kinetic energy then \[J\].
-        energy: [f64; 2],
-        /// The exponent `a` of `T ~ t^a` over that half.
-        exponent: f64,
-    },
+    /// (no periodic orbit: the forcing's work is not taken by a loss),
+    /// measured over that half.
+    Grows(Box<Growth>),
     /// Neither, within the periods allowed.
     Unsettled,
 }
@@ -137,7 +132,14 @@ impl<M: Model> Analysis<M> {
         let nq = self.nq();
         let (mut t, mut x) = (t0, x0.to_vec());
         let mut before = gauged(&x);
-        let mut energies = vec![(t, self.sys.kinetic_energy(&x[nq..]))];
+        // the stroboscopic samples: time, kinetic energy, the reference
+        // body's speed
+        let sample = |an: &Self, t: f64, x: &[f64]| {
+            let [i, j, _] = bodies.first().copied().unwrap_or([0; 3]);
+            let speed = if bodies.is_empty() { 0.0 } else { x[nq + i].hypot(x[nq + j]) };
+            (t, an.sys.kinetic_energy(&x[nq..]), speed)
+        };
+        let mut samples = vec![sample(self, t, &x)];
         let mut distance = f64::INFINITY;
         self.watch_grip();
         let loose = PeriodicSettings { tolerance: tol, ..*settings };
@@ -148,12 +150,12 @@ impl<M: Model> Analysis<M> {
             let size = 1.0 + now.iter().fold(0.0f64, |m, v| m.max(v.abs()));
             distance = now.iter().zip(&before).fold(0.0f64, |m, (a, b)| m.max((a - b).abs())) / size;
             before = now;
-            energies.push((t, self.sys.kinetic_energy(&x[nq..])));
+            samples.push(sample(self, t, &x));
             self.check_grip(&format!("the motion from t = {} s", fmt_value(t0)))?;
             let outcome = if distance < until {
                 Some(Settling::Settled)
             } else if k >= GROWTH_MIN_PERIODS && k.is_power_of_two() {
-                growth(&energies)
+                growth(period, &samples)
             } else {
                 None
             };
@@ -240,20 +242,14 @@ impl<M: Model> Analysis<M> {
 
     /// The periodic orbit of period `period` \[s\] at phase `t0` \[s\]
     /// modulo `symmetry` that the motion from `guess` (2 nq) settles
-    /// onto: [`Analysis::periodic_orbit`] from `guess`; where that fails,
-    /// the scene run on ([`Analysis::settle`], up to
-    /// [`MAX_SETTLE_PERIODS`] periods in all) until its state at the
-    /// period ends changes by less than 1e-3, then 1e-6, then 1e-9 per
-    /// period, and the search again from there. The orbit's phase `t0`
-    /// is then the start's plus whole periods.
+    /// onto, as [`Analysis::gait_or_growth`]; a motion that gains energy
+    /// without bound is an error here, for the callers that need an orbit
+    /// (its derivatives, its branch, a design's objective).
     ///
     /// # Errors
-    /// [`AnalysisError::NoOrbit`] naming why there is none to find (the
-    /// energy grows without bound, with its measured rate; the motion
-    /// does not settle within [`MAX_SETTLE_PERIODS`] periods);
-    /// [`AnalysisError::NotConverged`] when the search fails even from the
-    /// settled motion; as [`Analysis::periodic_orbit`] and
-    /// [`Analysis::settle`].
+    /// [`AnalysisError::NoOrbit`] where the energy grows without bound
+    /// (with [`Growth::describe`]'s measurement), and as
+    /// [`Analysis::gait_or_growth`].
     pub fn gait(
         &mut self,
         t0: f64,
@@ -262,8 +258,48 @@ impl<M: Model> Analysis<M> {
         symmetry: Symmetry,
         settings: &PeriodicSettings,
     ) -> Result<PeriodicOrbit, AnalysisError> {
+        match self.gait_or_growth(t0, period, guess, symmetry, settings)? {
+            GaitOrGrowth::Gait(orbit) => Ok(*orbit),
+            GaitOrGrowth::Grows(g) => Err(AnalysisError::NoOrbit {
+                reason: format!(
+                    "{}; a gait needs a loss that takes the input's energy (rolling resistance, drag)",
+                    g.describe()
+                ),
+            }),
+        }
+    }
+
+    /// What the motion of a periodically forced scene from `guess` (2 nq)
+    /// at `t0` \[s\] does in the long run: the periodic orbit of period
+    /// `period` \[s\] modulo `symmetry` it settles onto, or its energy's
+    /// growth without bound, measured ([`Growth`]: the answer, not a
+    /// failure, for a scene without a loss that takes the forcing's work).
+    ///
+    /// [`Analysis::periodic_orbit`] from `guess`; where that fails, the
+    /// scene run on ([`Analysis::settle`], up to [`MAX_SETTLE_PERIODS`]
+    /// periods in all) until its state at the period ends changes by less
+    /// than 1e-3, then 1e-6, then 1e-9 per period, and the search again
+    /// from there. The orbit's phase `t0` is then the start's plus whole
+    /// periods. The growth is measured over the second half of the run
+    /// that found it (16, 32, 64, ... periods from where that run began).
+    ///
+    /// # Errors
+    /// [`AnalysisError::NoOrbit`] where the motion does not settle within
+    /// [`MAX_SETTLE_PERIODS`] periods (neither an orbit nor a growth);
+    /// [`AnalysisError::NotConverged`] when the search fails even from the
+    /// settled motion; as [`Analysis::periodic_orbit`] and
+    /// [`Analysis::settle`].
+    pub fn gait_or_growth(
+        &mut self,
+        t0: f64,
+        period: f64,
+        guess: &[f64],
+        symmetry: Symmetry,
+        settings: &PeriodicSettings,
+    ) -> Result<GaitOrGrowth, AnalysisError> {
+        let gait = |o: PeriodicOrbit| Ok(GaitOrGrowth::Gait(Box::new(o)));
         let mut last = match self.periodic_orbit(t0, period, guess, symmetry, settings) {
-            Ok(o) => return Ok(o),
+            Ok(o) => return gait(o),
             Err(e) if searched(&e) => e,
             Err(e) => return Err(e),
         };
@@ -274,18 +310,7 @@ impl<M: Model> Analysis<M> {
             (t, x, periods) = (s.t, s.state, periods + s.periods);
             match s.outcome {
                 Settling::Settled => {}
-                Settling::Grows { t, energy, exponent } => {
-                    return Err(AnalysisError::NoOrbit {
-                        reason: format!(
-                            "the motion gains energy without bound. Its kinetic energy at the ends of the forcing's periods grows in every period from {} J at t = {} s to {} J at t = {} s (like t^{exponent:.2}: the speed like t^{:.2}); a gait needs a loss that takes the input's energy (rolling resistance, drag)",
-                            sig6(energy[0]),
-                            fmt_value(t[0]),
-                            sig6(energy[1]),
-                            fmt_value(t[1]),
-                            exponent / 2.0
-                        ),
-                    });
-                }
+                Settling::Grows(g) => return Ok(GaitOrGrowth::Grows(g)),
                 Settling::Unsettled => {
                     return Err(AnalysisError::NoOrbit {
                         reason: format!(
@@ -297,7 +322,7 @@ impl<M: Model> Analysis<M> {
                 }
             }
             match self.periodic_orbit(t, period, &x, symmetry, settings) {
-                Ok(o) => return Ok(o),
+                Ok(o) => return gait(o),
                 Err(e) if searched(&e) => last = e,
                 Err(e) => return Err(e),
             }
@@ -309,33 +334,38 @@ impl<M: Model> Analysis<M> {
     }
 }
 
+/// What a periodically forced scene's motion does in the long run
+/// ([`Analysis::gait_or_growth`]).
+#[derive(Debug, Clone)]
+pub enum GaitOrGrowth {
+    /// It settles onto this periodic orbit.
+    Gait(Box<PeriodicOrbit>),
+    /// It gains energy without bound, at the rates measured.
+    Grows(Box<Growth>),
+}
+
 /// Whether `e` is a search's failure (Newton's, or one that wandered off),
 /// not a request's or the scene's.
 fn searched(e: &AnalysisError) -> bool {
     matches!(e, AnalysisError::NotConverged { .. } | AnalysisError::Wandered { .. })
 }
 
-/// [`Settling::Grows`] when the energies `(t, T)` at the period ends grow
-/// without bound over the second half, as [`Analysis::settle`] says.
-fn growth(energies: &[(f64, f64)]) -> Option<Settling> {
-    let half = &energies[energies.len() / 2..];
-    let (&(t1, e1), &(t2, e2)) = (half.first()?, half.last()?);
+/// [`Settling::Grows`] when the kinetic energies of the samples `(t, T,
+/// v)` at the period ends grow without bound over the second half, as
+/// [`Analysis::settle`] says, measured ([`Growth::measure`]).
+fn growth(period: f64, samples: &[(f64, f64, f64)]) -> Option<Settling> {
+    let half = &samples[samples.len() / 2..];
+    let (&(t1, e1, _), &(t2, e2, _)) = (half.first()?, half.last()?);
     let grows = half.windows(2).all(|w| w[1].1 > w[0].1) && e2 > 1.05 * e1 && e1 > 0.0 && t1 > 0.0;
     if !grows {
         return None;
     }
-    let rate = |a: (f64, f64), b: (f64, f64)| (b.1 / a.1).ln() / (b.0 / a.0).ln();
+    let rate = |a: (f64, f64, f64), b: (f64, f64, f64)| (b.1 / a.1).ln() / (b.0 / a.0).ln();
     let mid = half[half.len() / 2];
     let (early, late) = (rate(half[0], mid), rate(mid, half[half.len() - 1]));
-    let like = late > 0.75 * early && late < early / 0.75;
-    like.then(|| Settling::Grows { t: [t1, t2], energy: [e1, e2], exponent: rate((t1, e1), (t2, e2)) })
-}
-
-/// `v` to 7 significant digits.
-fn sig6(v: f64) -> String {
-    if v == 0.0 || !v.is_finite() {
-        return fmt_value(v);
+    let like = late > 0.75 * early && late < early / 0.75 && t2 > t1;
+    if !like {
+        return None;
     }
-    let scale = 10f64.powi(6 - v.abs().log10().floor() as i32);
-    fmt_value((v * scale).round() / scale)
+    Growth::measure(period, half).map(|g| Settling::Grows(Box::new(g)))
 }

@@ -18,7 +18,8 @@ use clap::{ArgMatches, Args, FromArgMatches};
 use ezy_core::analysis::arclength::{follow_arclength, locate_fold};
 use ezy_core::analysis::bifurcation::locate;
 use ezy_core::analysis::{
-    Analysis, AnalysisError, BranchPoint, Follow, PeriodicOrbit, PeriodicSettings, Solution, SteadyMotion, Symmetry,
+    Analysis, AnalysisError, BranchPoint, Follow, GaitOrGrowth, Growth, PeriodicOrbit, PeriodicSettings, Solution,
+    SteadyMotion, Symmetry,
 };
 use ezy_core::effects::Periodicity;
 use ezy_core::sensitivity::GaitSensitivities;
@@ -40,7 +41,8 @@ use report::{Located, summary, wrap, write_analysis};
 /// Find a scene's steady motions (or, driven periodically, its
 /// periodic orbit; or, where a scene without forcing in time turns on
 /// one, its limit cycle) and their stability; follow them as a parameter
-/// varies: equilibria.csv, periodic.csv, branch.csv and figures.
+/// varies: equilibria.csv, periodic.csv, branch.csv and figures; or
+/// measure how a driven motion without a gait gains energy: growth.csv.
 #[derive(Args, Debug, Default)]
 #[command(allow_negative_numbers = true)]
 struct AnalyzeArgs {
@@ -154,6 +156,9 @@ struct AnalyzeReport {
     /// A gait's mean input power, efficiency and derivatives (not a
     /// limit cycle's).
     gait: Option<GaitSensitivities>,
+    /// For a periodically driven scene without a gait, the growth without
+    /// bound of its energy, measured.
+    growth: Option<Growth>,
     /// Files written.
     files: Vec<PathBuf>,
     /// What took how long.
@@ -196,6 +201,7 @@ fn analyze_model<M: Model>(proto: &M, scene: &Scene, opts: &AnalyzeOptions) -> R
     let (samples, _) = run_to(proto, scene, ro, settings.t_end, GUESSES)?;
     let end = samples.last().cloned().unwrap_or_else(|| x0.clone());
     log.timings.push((format!("run to t = {} s for a guess", fmt_value(settings.t_end)), clock.elapsed()));
+    let mut growth = None;
     let (steady, periodic, follow) = match period {
         None => {
             let guesses = guesses(&x0, &end, &samples, settings.t_end, symmetry);
@@ -230,12 +236,27 @@ fn analyze_model<M: Model>(proto: &M, scene: &Scene, opts: &AnalyzeOptions) -> R
             if let Some(b) = &beat {
                 b.set(format!("analyze {}: searching for the periodic orbit of period {} s", scene.name, fmt_value(p)));
             }
-            let orbit = an.gait(t0, p, &end, symmetry, &ps).map_err(analysis_error(&ro.out))?;
-            log.timings.push(("periodic orbit".into(), clock.elapsed()));
-            (Vec::new(), Some(orbit), Follow::Periodic { t0, period: p, settings: ps })
+            let found = an.gait_or_growth(t0, p, &end, symmetry, &ps).map_err(analysis_error(&ro.out))?;
+            let orbit = match found {
+                GaitOrGrowth::Gait(orbit) => {
+                    log.timings.push(("periodic orbit".into(), clock.elapsed()));
+                    Some(*orbit)
+                }
+                GaitOrGrowth::Grows(g) => {
+                    log.timings.push(("the run on, the energy's growth measured".into(), clock.elapsed()));
+                    growth = Some(*g);
+                    None
+                }
+            };
+            (Vec::new(), orbit, Follow::Periodic { t0, period: p, settings: ps })
         }
     };
     drop(beat);
+    // a motion that gains energy without bound has no gait to
+    // differentiate or follow
+    if let Some(g) = &growth {
+        check_growth_request(opts, g)?;
+    }
     // a limit cycle's period is an unknown: neither its derivatives nor
     // its branch (both at a fixed period) are its own yet
     if period.is_none() && periodic.is_some() {
@@ -259,7 +280,7 @@ fn analyze_model<M: Model>(proto: &M, scene: &Scene, opts: &AnalyzeOptions) -> R
             log.timings.push(("mean power and the gait's derivatives".into(), clock.elapsed()));
             Some(g)
         }
-        _ if !params.is_empty() => {
+        _ if !params.is_empty() && growth.is_none() => {
             return Err(Error::Input(
                 "--wrt: the derivatives are those of a gait (a periodically driven scene's periodic orbit); this scene's steady motions are not differentiated yet".into(),
             ));
@@ -287,14 +308,32 @@ fn analyze_model<M: Model>(proto: &M, scene: &Scene, opts: &AnalyzeOptions) -> R
         &an,
         scene,
         opts,
-        &steady,
+        (&steady, growth.as_ref()),
         periodic.as_ref().map(|p| (p, gait.as_ref())),
         (&branch, &power, &bifurcations),
         held,
     )?;
     let coords = an.dynamics().info.coords.clone();
     let Log { timings, notes } = log;
-    Ok(AnalyzeReport { symmetry, coords, steady, periodic, gait, files, timings, notes })
+    Ok(AnalyzeReport { symmetry, coords, steady, periodic, gait, growth, files, timings, notes })
+}
+
+/// Refuses what needs a gait on a motion that gains energy without bound
+/// (`growth`): the derivatives (`--wrt`) and the branch (`--continue`),
+/// each by name, with the verdict.
+fn check_growth_request(opts: &AnalyzeOptions, growth: &Growth) -> Result<(), Error> {
+    let flag = if !opts.wrt.is_empty() {
+        "--wrt: the derivatives are those of a gait"
+    } else if opts.continuation.is_some() {
+        "--continue: a branch follows a gait"
+    } else {
+        return Ok(());
+    };
+    Err(Error::Input(format!(
+        "{flag}, and this scene has none to differentiate or follow: {}; analyze without {} for this verdict and growth.csv",
+        growth.describe(),
+        flag.split(':').next().unwrap_or(flag)
+    )))
 }
 
 /// The limit cycle an autonomous scene's run from `end` at `t0` \[s\]

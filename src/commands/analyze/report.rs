@@ -1,10 +1,12 @@
 //! `ezy analyze`'s output: the tables (equilibria.csv, periodic.csv,
-//! branch.csv), the figures and the summary printed.
+//! branch.csv, growth.csv), the figures and the summary printed.
 
 use std::fmt::Write as _;
 use std::path::PathBuf;
 
-use ezy_core::analysis::{Analysis, Bifurcation, BranchPoint, PeriodicOrbit, Solution, Stability, SteadyMotion, c64};
+use ezy_core::analysis::{
+    Analysis, Bifurcation, BranchPoint, Growth, GrowthFit, PeriodicOrbit, Solution, Stability, SteadyMotion, c64,
+};
 use ezy_core::sensitivity::GaitSensitivities;
 use ezy_core::{Model, fmt_value};
 use ezy_scene::Scene;
@@ -24,13 +26,15 @@ type BranchView<'a> = (&'a [BranchPoint], &'a [(f64, f64)], &'a [Located]);
 
 /// Writes the analysis' tables and figures into `opts.run.out` as one
 /// transaction, retiring the files of an earlier analysis it does not
-/// write, in the directory `held` locks (taken before the analysis);
+/// write, in the directory `held` locks (taken before the analysis):
+/// the steady motions, or a driven motion's growth without bound, or the
+/// periodic orbit with its gait's power and derivatives, and the branch;
 /// returns the files written.
 pub(super) fn write_analysis<M: Model>(
     an: &Analysis<M>,
     scene: &Scene,
     opts: &AnalyzeOptions,
-    steady: &[SteadyMotion],
+    (steady, growth): (&[SteadyMotion], Option<&Growth>),
     periodic: Option<(&PeriodicOrbit, Option<&GaitSensitivities>)>,
     (branch, power, bifurcations): BranchView<'_>,
     held: OutLock,
@@ -39,7 +43,8 @@ pub(super) fn write_analysis<M: Model>(
     // the output is a transaction: all files or none, and none of an
     // earlier analysis left beside them
     let mut tx = Transaction::begin_locked(held)?;
-    let mut own: Vec<String> = ["equilibria.csv", "periodic.csv", "branch.csv"].map(String::from).to_vec();
+    let mut own: Vec<String> =
+        ["equilibria.csv", "periodic.csv", "branch.csv", "growth.csv"].map(String::from).to_vec();
     for stem in ["eigenvalues", "multipliers", "branch"] {
         own.extend(ezy_scene::FigureFormat::ALL.iter().map(|f| f.file_name(stem)));
     }
@@ -55,6 +60,9 @@ pub(super) fn write_analysis<M: Model>(
             chart.series.push(points_series(format!("motion {} ({})", k + 1, s.stability.name()), &s.eigenvalues));
         }
         figures.push(("eigenvalues".into(), chart));
+    }
+    if let Some(g) = growth {
+        tx.write("growth.csv", growth_csv(g).as_bytes())?;
     }
     if let Some((p, g)) = periodic {
         tx.write("periodic.csv", periodic_csv(p, g, &names, &shape).as_bytes())?;
@@ -248,6 +256,58 @@ fn periodic_csv(
     record(head) + &record(cells)
 }
 
+/// `growth.csv`: one row per window of the stroboscopic samples (the
+/// run's second half, then its third and fourth quarters), each with its
+/// ends, the kinetic energy's and the speed's power laws fitted each by
+/// its own least squares of the logarithms: exponent, standard error and
+/// the RMS residual of the log fit (the speed's cells empty where the
+/// reference body stands still at a period end).
+fn growth_csv(g: &Growth) -> String {
+    let head = [
+        "window",
+        "t_start",
+        "t_end",
+        "samples",
+        "T_start",
+        "T_end",
+        "energy_exponent",
+        "energy_exponent_se",
+        "energy_residual",
+        "speed_start",
+        "speed_end",
+        "speed_exponent",
+        "speed_exponent_se",
+        "speed_residual",
+    ];
+    let mut out = record(head.map(String::from).to_vec());
+    let n = g.t.len();
+    let row = |name: &str, f: &GrowthFit, [a, b]: [usize; 2]| {
+        let mut cells = vec![
+            name.to_string(),
+            number(f.t[0]),
+            number(f.t[1]),
+            f.samples.to_string(),
+            number(g.energy[a]),
+            number(g.energy[b]),
+            number(f.energy.exponent),
+            number(f.energy.std_error),
+            number(f.energy.residual),
+            number(g.speed[a]),
+            number(g.speed[b]),
+        ];
+        match &f.speed {
+            Some(v) => cells.extend([number(v.exponent), number(v.std_error), number(v.residual)]),
+            None => cells.extend([String::new(), String::new(), String::new()]),
+        }
+        record(cells)
+    };
+    let [q3, q4] = &g.quarters;
+    out.push_str(&row("second_half", &g.whole, [0, n - 1]));
+    out.push_str(&row("third_quarter", q3, [0, n / 2]));
+    out.push_str(&row("fourth_quarter", q4, [n / 2, n - 1]));
+    out
+}
+
 /// `branch.csv`: one row per parameter value, and one per bifurcation
 /// located (after the point `k` of its bracket), its kind and critical
 /// eigenvalue or multiplier in the last columns (empty on the other rows).
@@ -348,6 +408,9 @@ pub(super) fn summary(scene: &str, r: &AnalyzeReport) -> String {
             m.family,
             ev.join(", ")
         );
+    }
+    if let Some(g) = &r.growth {
+        let _ = writeln!(s, "no periodic orbit: {}", g.describe());
     }
     if let Some(p) = &r.periodic {
         let mu: Vec<String> = p.multipliers.iter().map(|z| complex(*z)).collect();
