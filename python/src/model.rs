@@ -107,7 +107,7 @@ fn derived(
             std::thread::sleep(SIGNAL_POLL);
             Python::attach(|py| py.check_signals())?;
         }
-        Ok(worker.join().map_err(|_| crate::EzyError::new_err("the derivation panicked"))?)
+        worker.join().map_err(|_| crate::EzyError::new_err("the derivation panicked"))
     })
 }
 

@@ -99,7 +99,7 @@ impl Gait {
     /// finite number, a waveform that is not valid, or one that does not
     /// repeat with the period (the curve would not close), or a gait whose
     /// fastest harmonic asks more than [`MAX_GAIT_STEPS`] steps over the
-    /// period ([`Gait::check_steps`]), all before any work.
+    /// period ([`Gait::steps`]), all before any work.
     pub fn new(shape: Vec<Waveform>, period: f64) -> Result<Self, GeometryError> {
         Self::new_named(shape, period, &|k| format!("gait coordinate {}", k + 1))
     }
