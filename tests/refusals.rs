@@ -258,3 +258,72 @@ fn a_fixed_step_refuses_a_skate_friction_faster_than_its_stability_bound() {
     let e = p.method(ezy_core::Method::Rk4).solve().unwrap_err().to_string();
     assert!(e.contains("skate `P`") && e.contains("2.785"), "{e}");
 }
+
+/// `ezy geometry` sizes the model before its rank tests, whose time grows
+/// as the cube of the body count (issue 82: the snake at N = 3000 worked
+/// for minutes before it was refused by its skates' rank): at once,
+/// naming the count set and the limit.
+#[test]
+fn geometry_of_a_snake_too_long_is_refused_at_once() {
+    let dir = scratch();
+    let out = dir.path().join("geo");
+    let start = Instant::now();
+    let o = ezy(&["geometry", "snake", "--set", "N=3000", "--no-figures", "--out", s(&out)]);
+    let took = start.elapsed();
+    let err = stderr(&o);
+    assert!(!o.status.success(), "{err}");
+    assert!(took < Duration::from_secs(1), "refused after {took:?}: {err}");
+    assert!(err.contains("N=3000") && err.contains("3000 bodies") && err.contains("400"), "{err}");
+    assert!(!out.exists(), "nothing written");
+}
+
+/// A gait's steps are counted from its fastest harmonic before any work
+/// (issue 82: `cos(1000000*t)` ran without bound), the refusal naming the
+/// coordinate, the frequency and the count.
+#[test]
+fn a_gait_too_fast_to_integrate_is_refused_at_once() {
+    let dir = scratch();
+    let out = dir.path().join("geo");
+    let start = Instant::now();
+    let gait = "alpha1=0.9+0.3*cos(1000000*t),alpha2=-0.9+0.3*sin(t)";
+    let o = ezy(&["geometry", "kinematic-snake", "--gait", gait, "--no-figures", "--out", s(&out)]);
+    let took = start.elapsed();
+    let err = stderr(&o);
+    assert!(!o.status.success(), "{err}");
+    assert!(took < Duration::from_secs(1), "refused after {took:?}: {err}");
+    assert!(err.contains("alpha1") && err.contains("1e6 rad/s") && err.contains("2.0e7"), "{err}");
+    // a slow one still runs
+    let slow = "alpha1=0.9+0.3*cos(t),alpha2=-0.9+0.3*sin(t)";
+    let o = ezy(&["geometry", "kinematic-snake", "--gait", slow, "--no-figures", "--out", s(&out)]);
+    assert!(o.status.success(), "{}", stderr(&o));
+}
+
+/// An initial heading is an angle, bounded as the waveforms' phases are
+/// (issue 82: a heading of 1e17 was taken, and its rounding lost the
+/// sleigh's turning); a scene file's value is refused at its key.
+#[test]
+fn an_initial_heading_past_the_angles_bound_is_refused() {
+    let dir = scratch();
+    let text = std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/models/scenes/sleigh.toml")).unwrap();
+    for (v, ok) in [("0.5", true), ("1e17", false), ("1e33", false), ("1e308", false)] {
+        let path = dir.path().join(format!("sleigh{v}.toml"));
+        std::fs::write(&path, text.replace("phi = 0.0 }", &format!("phi = {v} }}"))).unwrap();
+        let out = dir.path().join(format!("out{v}"));
+        let o = ezy(&["run", s(&path), "--t-end", "0.1", "--no-figures", "--out", s(&out)]);
+        let err = stderr(&o);
+        assert_eq!(o.status.success(), ok, "{v}: {err}");
+        if !ok {
+            assert!(err.contains("initial.q.phi") && err.contains("1e6"), "{v}: {err}");
+        }
+    }
+}
+
+/// `ezy check --states` is sized by states x coordinates before any state.
+#[test]
+fn a_check_of_too_many_states_is_refused_at_once() {
+    let start = Instant::now();
+    let o = ezy(&["check", "snake", "--set", "N=60", "--states", "100000000"]);
+    let err = stderr(&o);
+    assert!(!o.status.success() && start.elapsed() < Duration::from_secs(1), "{err}");
+    assert!(err.contains("--states 100000000") && err.contains("1e8"), "{err}");
+}

@@ -515,6 +515,7 @@ impl<M: Model> Problem<M> {
         let info = self.model.info();
         check_params(&self.model, &info)?;
         check_masses(&self.model, &info)?;
+        check_given(&info, &self.given)?;
         if let Some(missing) = info.drives.iter().find(|d| !self.drives.iter().any(|g| g.name == d.name)) {
             return Err(SimError::Setup(SetupError::Scene {
                 key: "drives".into(),
@@ -776,6 +777,31 @@ impl<M: Model> Problem<M> {
 }
 
 /// Sets entry `k` of a list of `(index, value)` pairs.
+/// The given initial values checked ([`ModelInfo::check_initial`]): a
+/// heading or hinge angle past [`crate::settings::MAX_ANGLE`] (whose
+/// rounding would swamp the run's turning: the sleigh started at 1e17 rad
+/// did not turn).
+fn check_given(info: &ModelInfo, given: &Given) -> Result<(), SimError> {
+    use crate::model::info::InitialName;
+    let coords = [("q", &given.q), ("qd", &given.qd), ("guess", &given.guess)];
+    let hinges = given
+        .angles
+        .iter()
+        .map(|&(h, v)| ("q", InitialName::HingeAngle(h), format!("theta_{}", info.hinges[h].name), v));
+    let all = coords
+        .into_iter()
+        .flat_map(|(g, list)| {
+            list.iter().map(move |&(k, v)| (g, InitialName::Coords(vec![k]), info.coords[k].clone(), v))
+        })
+        .chain(hinges);
+    for (group, target, name, v) in all {
+        info.check_initial(group, &target, &name, v).map_err(|message| {
+            SimError::Setup(SetupError::Scene { key: format!("initial.{group}.{name}"), message })
+        })?;
+    }
+    Ok(())
+}
+
 fn set(list: &mut Vec<(usize, f64)>, k: usize, value: f64) {
     match list.iter_mut().find(|(j, _)| *j == k) {
         Some((_, v)) => *v = value,

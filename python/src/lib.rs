@@ -30,12 +30,14 @@ extern crate self as ezy_python;
 pub use numpy;
 pub use pyo3;
 
+mod command;
 mod model;
 mod reports;
 mod result;
 mod scene;
 mod scene_text;
 mod settings;
+mod sweep;
 mod toolkit;
 mod units;
 

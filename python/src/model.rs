@@ -7,7 +7,7 @@
 use std::path::PathBuf;
 
 use ezy_core::Model as _;
-use ezy_core::text::RuntimeModel;
+use ezy_core::text::{ModelTextError, RuntimeModel};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 
@@ -31,20 +31,28 @@ pub struct PyModel {
 
 #[pymethods]
 impl PyModel {
+    /// Reads and derives `text`, with the GIL released (other threads run
+    /// meanwhile); Ctrl-C raises KeyboardInterrupt within 50 ms.
+    ///
+    /// Raises EzyError with each mistake at `line:column`, or for a text
+    /// of more than 100 bodies declared one by one (the derivation's time
+    /// grows as the cube of their count).
     #[new]
     #[pyo3(signature = (text, *, key=None))]
-    fn new(text: &str, key: Option<String>) -> PyResult<Self> {
-        Self::made(RuntimeModel::from_text(text), key)
+    fn new(py: Python<'_>, text: &str, key: Option<String>) -> PyResult<Self> {
+        let text = text.to_owned();
+        Self::made(derived(py, move || RuntimeModel::from_text(&text))?, key)
     }
 
-    /// The model in the file `path` (a `.ezy` file).
+    /// The model in the file `path` (a `.ezy` file), derived as
+    /// `ezy.Model(text)` is.
     ///
     /// Raises EzyError if it cannot be read, or with each mistake at
     /// `file:line:column`.
     #[staticmethod]
     #[pyo3(signature = (path, *, key=None))]
-    fn load(path: PathBuf, key: Option<String>) -> PyResult<Self> {
-        Self::made(RuntimeModel::from_file(&path), key)
+    fn load(py: Python<'_>, path: PathBuf, key: Option<String>) -> PyResult<Self> {
+        Self::made(derived(py, move || RuntimeModel::from_file(&path))?, key)
     }
 
     /// The struct's name (`EzyRoller`).
@@ -82,8 +90,32 @@ impl PyModel {
     }
 }
 
+/// What `derive` gives, computed on a thread of its own while this one
+/// waits with the GIL released, asking Python for pending signals every
+/// [`SIGNAL_POLL`]: a Ctrl-C raises KeyboardInterrupt at once. The
+/// derivation cannot be stopped midway; it finishes on its thread (its
+/// time bounded by the body count ezy-lang's `MAX_TEXT_BODIES` allows)
+/// and its result is dropped.
+fn derived(
+    py: Python<'_>,
+    derive: impl FnOnce() -> Result<RuntimeModel, ModelTextError> + Send + 'static,
+) -> PyResult<Result<RuntimeModel, ModelTextError>> {
+    py.check_signals()?;
+    let worker = std::thread::Builder::new().name("ezy-model".into()).spawn(derive).map_err(ezy_err)?;
+    py.detach(|| {
+        while !worker.is_finished() {
+            std::thread::sleep(SIGNAL_POLL);
+            Python::attach(|py| py.check_signals())?;
+        }
+        worker.join().map_err(|_| crate::EzyError::new_err("the derivation panicked"))
+    })
+}
+
+/// How often a derivation's wait asks Python for pending signals.
+const SIGNAL_POLL: std::time::Duration = std::time::Duration::from_millis(20);
+
 impl PyModel {
-    fn made(model: Result<RuntimeModel, ezy_core::text::ModelTextError>, key: Option<String>) -> PyResult<Self> {
+    fn made(model: Result<RuntimeModel, ModelTextError>, key: Option<String>) -> PyResult<Self> {
         let model = model.map_err(ezy_err)?;
         let key = key.unwrap_or_else(|| model.info().name.to_string());
         if key.is_empty() || key.chars().any(|c| c.is_whitespace() || c.is_control()) {

@@ -12,6 +12,7 @@ use pyo3::types::PyDict;
 
 use crate::ezy_err;
 use crate::model::PyModel;
+use crate::settings::real;
 use crate::toolkit::Toolkit;
 
 /// A scene to change and run: `scene["M0"] = 1.0` sets a scene or model
@@ -162,14 +163,16 @@ impl PyScene {
     /// `--set NAME=VALUE`).
     ///
     /// Raises EzyError naming the unknown name (listing the known ones) or
-    /// the bad value.
-    fn __setitem__(&mut self, name: &str, value: f64) -> PyResult<()> {
-        self.set_value(name, value)
+    /// the bad value; TypeError naming it for a value that is not a number
+    /// (`True` included).
+    fn __setitem__(&mut self, name: &str, value: &Bound<'_, PyAny>) -> PyResult<()> {
+        self.set_value(name, real(&format!("scene[{name:?}]"), value)?)
     }
 
     /// Sets a scene parameter, a model parameter or `EFFECT.KEY`, and
     /// returns the scene (to chain).
-    fn set<'py>(slf: Bound<'py, Self>, name: &str, value: f64) -> PyResult<Bound<'py, Self>> {
+    fn set<'py>(slf: Bound<'py, Self>, name: &str, value: &Bound<'py, PyAny>) -> PyResult<Bound<'py, Self>> {
+        let value = real(&format!("set(): `{name}`"), value)?;
         slf.borrow_mut().set_value(name, value)?;
         Ok(slf)
     }
@@ -236,8 +239,10 @@ impl Effect {
         }
     }
 
-    fn __setattr__(&self, py: Python<'_>, key: &str, value: f64) -> PyResult<()> {
-        self.scene.bind(py).borrow_mut().set_value(&format!("{}.{key}", self.item), value)
+    fn __setattr__(&self, py: Python<'_>, key: &str, value: &Bound<'_, PyAny>) -> PyResult<()> {
+        let name = format!("{}.{key}", self.item);
+        let value = real(&format!("`{name}`"), value)?;
+        self.scene.bind(py).borrow_mut().set_value(&name, value)
     }
 
     fn __repr__(&self, py: Python<'_>) -> PyResult<String> {

@@ -77,7 +77,7 @@ impl Overrides {
                 "dt" => o.dt = Some(number()?),
                 "t_end" => o.t_end = Some(number()?),
                 "every" => o.every = Some(number()?),
-                "max_steps" => o.max_steps = Some(v.extract().map_err(|_| wrong("a whole number >= 0"))?),
+                "max_steps" => o.max_steps = whole_kw(function, "max_steps", Some(&v))?,
                 "max_output_mb" => {
                     let mb = number()?;
                     if !(mb.is_finite() && mb > 0.0) {
@@ -119,15 +119,48 @@ impl Overrides {
     }
 }
 
+/// `v` as a number for `what` (a parameter's or keyword's name): a
+/// TypeError naming `what` for a bool (`True` is an int to Python, not a
+/// value of a parameter) or anything that is not a real number.
+pub(crate) fn real(what: &str, v: &Bound<'_, PyAny>) -> PyResult<f64> {
+    let wrong = || {
+        let ty = v.get_type().name().map_or_else(|_| "?".to_string(), |n| n.to_string());
+        pyo3::exceptions::PyTypeError::new_err(format!("{what} must be a number, not {ty} ({v})"))
+    };
+    if v.is_instance_of::<pyo3::types::PyBool>() {
+        return Err(wrong());
+    }
+    v.extract::<f64>().map_err(|_| wrong())
+}
+
+/// The keyword `key` of `function` as a whole number >= 0 (a count, a
+/// seed): a TypeError naming it for a bool or anything else.
+pub(crate) fn whole_kw(function: &str, key: &str, v: Option<&Bound<'_, PyAny>>) -> PyResult<Option<u64>> {
+    let Some(v) = v.filter(|v| !v.is_none()) else { return Ok(None) };
+    let wrong = || {
+        let ty = v.get_type().name().map_or_else(|_| "?".to_string(), |n| n.to_string());
+        pyo3::exceptions::PyTypeError::new_err(format!(
+            "{function}(): `{key}` must be a whole number >= 0, not {ty} ({v})"
+        ))
+    };
+    if v.is_instance_of::<pyo3::types::PyBool>() {
+        return Err(wrong());
+    }
+    v.extract::<u64>().map(Some).map_err(|_| wrong())
+}
+
 /// `{name: value}` as `(name, value)` pairs, in the dict's order.
+///
+/// # Errors
+/// ValueError for a key that is not a string; TypeError naming the key
+/// for a value that is not a number (a bool included).
 pub(crate) fn sets_of(set: Option<&Bound<'_, PyDict>>) -> PyResult<Vec<(String, f64)>> {
     let mut out = Vec::new();
     if let Some(d) = set {
         for (k, v) in d.iter() {
             let name: String =
                 k.extract().map_err(|_| PyValueError::new_err(format!("set: key {k} is not a string")))?;
-            let value: f64 =
-                v.extract().map_err(|_| PyValueError::new_err(format!("set: `{name}` = {v} is not a number")))?;
+            let value = real(&format!("set: `{name}`"), &v)?;
             out.push((name, value));
         }
     }
@@ -186,9 +219,10 @@ pub(crate) fn over_args(function: &str, over: &Bound<'_, PyDict>) -> PyResult<Ve
     let mut args = Vec::new();
     for (name, bounds) in over.iter() {
         let name: String = name.extract().map_err(|_| type_error(format!("{function}(): `over`'s keys are names")))?;
-        let (lo, hi): (f64, f64) = bounds
-            .extract()
-            .map_err(|_| type_error(format!("{function}(): `over[{name:?}]` must be a pair (lower, upper)")))?;
+        let pair = || type_error(format!("{function}(): `over[{name:?}]` must be a pair (lower, upper)"));
+        let (lo, hi): (Bound<'_, PyAny>, Bound<'_, PyAny>) = bounds.extract().map_err(|_| pair())?;
+        let what = format!("{function}(): `over[{name:?}]`'s bound");
+        let (lo, hi) = (real(&what, &lo)?, real(&what, &hi)?);
         args.extend(["--over".to_string(), format!("{name}={lo:?}:{hi:?}")]);
     }
     Ok(args)

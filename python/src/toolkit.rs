@@ -16,12 +16,13 @@ use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 
+use crate::command::python_quantity;
+use crate::ezy_err;
 use crate::model::PyModel;
 use crate::reports::{Analysis, Check, Equations, Geometry, Linearization};
 use crate::result::RunResult;
 use crate::scene::PyScene;
-use crate::settings::{Overrides, names_kw, number_kw, over_args, sets_of, text_kw};
-use crate::{EzyError, ezy_err};
+use crate::settings::{Overrides, names_kw, number_kw, over_args, sets_of, text_kw, whole_kw};
 
 /// How often a running integration asks Python for pending signals (Ctrl-C).
 const SIGNAL_POLL: Duration = Duration::from_millis(50);
@@ -34,23 +35,23 @@ pub struct Toolkit {
 }
 
 /// The scene a call names, with the changes a `Scene` object carries.
-struct Resolved {
+pub(crate) struct Resolved {
     /// The scene as loaded and checked.
-    src: SceneSource,
+    pub(crate) src: SceneSource,
     /// A `Scene` object's sets (none for a name or a path).
-    sets: Vec<(String, f64)>,
+    pub(crate) sets: Vec<(String, f64)>,
     /// How it was named: a known scene's name or a file's path.
-    reference: String,
+    pub(crate) reference: String,
     /// A `Scene` object's own model (one made on an `ezy.Model`).
-    model: Option<Py<PyModel>>,
+    pub(crate) model: Option<Py<PyModel>>,
     /// A `Scene` object's TOML text, when it was made in Python.
-    toml: Option<String>,
+    pub(crate) toml: Option<String>,
 }
 
 impl Resolved {
     /// The scene as the command line names it: its name or path, or, for a
     /// scene made in Python, a file in `dir` holding its text.
-    fn cli_scene(&self, dir: &std::path::Path) -> PyResult<String> {
+    pub(crate) fn cli_scene(&self, dir: &std::path::Path) -> PyResult<String> {
         let Some(text) = &self.toml else { return Ok(self.reference.clone()) };
         let path = dir.join(format!("{}.toml", self.src.scene.name.replace(['/', '\\'], "_")));
         std::fs::write(&path, text).map_err(ezy_err)?;
@@ -88,7 +89,11 @@ impl Toolkit {
     /// it under the scene's model key, and the scene checked against it
     /// (a scene file whose model this module does not know is read and
     /// checked against `model` alone).
-    fn resolve_on(&self, scene: &Bound<'_, PyAny>, model: Option<&Bound<'_, PyModel>>) -> PyResult<(App, Resolved)> {
+    pub(crate) fn resolve_on(
+        &self,
+        scene: &Bound<'_, PyAny>,
+        model: Option<&Bound<'_, PyModel>>,
+    ) -> PyResult<(App, Resolved)> {
         let r = match self.resolve(scene) {
             Ok(r) => r,
             Err(e) => {
@@ -115,7 +120,7 @@ impl Toolkit {
 
     /// This toolkit's application with `model` (an `ezy.Model`, if given)
     /// in place of the model `key` names.
-    fn app_with(&self, key: &str, model: Option<&Bound<'_, PyModel>>) -> App {
+    pub(crate) fn app_with(&self, key: &str, model: Option<&Bound<'_, PyModel>>) -> App {
         match model {
             Some(m) => self.app.clone().with_model_as(key, m.get().model.clone()),
             None => self.app.clone(),
@@ -162,94 +167,6 @@ pub(crate) fn equations_in(
     let latex = Toolkit::cli(py, app, args)?.map_err(|(_, e)| ezy_err(e))?;
     Ok(Equations { text, latex })
 }
-
-impl Toolkit {
-    /// Runs the command `name` on `scene` (with `model`, the scene's sets,
-    /// `extra` flags and the run keywords `settings`) into `out` (or a
-    /// temporary directory, returned to keep it while its files are
-    /// read): what it printed and the directory.
-    #[expect(clippy::too_many_arguments, reason = "the keywords every command takes")]
-    fn command(
-        &self,
-        py: Python<'_>,
-        name: &str,
-        scene: &Bound<'_, PyAny>,
-        model: Option<&Bound<'_, PyModel>>,
-        extra: Vec<String>,
-        out: Option<PathBuf>,
-        figures: bool,
-        settings: Option<&Bound<'_, PyDict>>,
-    ) -> PyResult<(String, PathBuf, tempfile::TempDir)> {
-        self.command_on(py, name, scene, model, extra, out, figures, settings, &|app| app)
-    }
-
-    /// [`Toolkit::command`] on the application `adjust` makes of the
-    /// scene's (one with a quantity of the caller's own).
-    #[expect(clippy::too_many_arguments, reason = "the keywords every command takes")]
-    fn command_on(
-        &self,
-        py: Python<'_>,
-        name: &str,
-        scene: &Bound<'_, PyAny>,
-        model: Option<&Bound<'_, PyModel>>,
-        extra: Vec<String>,
-        out: Option<PathBuf>,
-        figures: bool,
-        settings: Option<&Bound<'_, PyDict>>,
-        adjust: &dyn Fn(App) -> App,
-    ) -> PyResult<(String, PathBuf, tempfile::TempDir)> {
-        let (app, r) = self.resolve_on(scene, model)?;
-        let app = adjust(app);
-        let opts = Overrides::new(r.sets.clone(), settings, name)?.options()?;
-        let temp = tempfile::Builder::new().prefix("ezy-").tempdir().map_err(ezy_err)?;
-        let dir = out.unwrap_or_else(|| temp.path().join(name));
-        let mut args = vec![name.to_string(), r.cli_scene(temp.path())?];
-        args.extend(extra);
-        args.extend(opts.to_args());
-        args.extend(["--out".into(), dir.display().to_string()]);
-        if !figures {
-            args.push("--no-figures".into());
-        }
-        match Self::cli(py, &app, args)? {
-            Ok(report) => Ok((report, dir, temp)),
-            Err((_, e)) => Err(ezy_err(e)),
-        }
-    }
-
-    /// Runs the command line `args` (after the program name) with the GIL
-    /// released; Ctrl-C asks the command to stop ([`ezy::output::transaction::request_stop`])
-    /// and raises `KeyboardInterrupt` once it has. Returns what it printed.
-    fn cli(py: Python<'_>, app: &App, args: Vec<String>) -> PyResult<Result<String, (String, ezy::app::AppError)>> {
-        let mut interrupt: Option<PyErr> = None;
-        let out = py.detach(|| {
-            std::thread::scope(|s| {
-                let worker = s.spawn(|| {
-                    let mut buf = Vec::new();
-                    let argv = std::iter::once("ezy".to_string()).chain(args);
-                    let r = app.run_cli(argv, &mut buf);
-                    let text = String::from_utf8_lossy(&buf).into_owned();
-                    r.map(|()| text.clone()).map_err(|e| (text, e))
-                });
-                while !worker.is_finished() {
-                    std::thread::sleep(Duration::from_millis(10));
-                    if interrupt.is_none()
-                        && let Err(e) = Python::attach(|py| py.check_signals())
-                    {
-                        interrupt = Some(e);
-                        ezy::output::transaction::request_stop();
-                    }
-                }
-                worker.join()
-            })
-        });
-        ezy::output::transaction::clear_stop();
-        if let Some(e) = interrupt {
-            return Err(e);
-        }
-        out.map_err(|_| EzyError::new_err("the command panicked"))
-    }
-}
-
 #[pymethods]
 impl Toolkit {
     /// The models this module knows: `{key: description}`.
@@ -483,7 +400,10 @@ impl Toolkit {
     /// as `run` (`model=m` sweeps the scene on an `ezy.Model`).
     ///
     /// Raises EzyError naming the bad axis, metric or setting (by the
-    /// command line's flag); KeyboardInterrupt on Ctrl-C.
+    /// command line's flag), or for a grid of more than 1,000,000 runs
+    /// (naming each axis's count, before anything is set up: the table
+    /// comes back in memory); TypeError for a listed value that is not a
+    /// number (`True` included); KeyboardInterrupt on Ctrl-C.
     #[pyo3(signature = (scene, grid, *, model=None, metrics=None, jobs=None, out=None, **settings))]
     #[expect(clippy::too_many_arguments, reason = "Python's keywords, one argument each")]
     fn sweep<'py>(
@@ -497,6 +417,8 @@ impl Toolkit {
         out: Option<PathBuf>,
         settings: Option<&Bound<'py, PyDict>>,
     ) -> PyResult<Bound<'py, PyAny>> {
+        // the grid's axes and their size, before anything is set up
+        let axes = crate::sweep::grid_args(grid)?;
         let (app, r) = self.resolve_on(scene, model)?;
         let o = Overrides::new(r.sets.clone(), settings, "sweep")?;
         let opts = o.options()?; // the keywords' own errors first, named as keywords
@@ -504,24 +426,7 @@ impl Toolkit {
         let dir = out.unwrap_or_else(|| temp.path().join("sweep"));
         // the scene as it was named: a known scene's name or its file's path
         let mut args = vec!["sweep".to_string(), r.cli_scene(temp.path())?];
-        if grid.is_empty() {
-            return Err(ezy_err("grid: give at least one axis, e.g. grid={\"M0\": [1, 2, 3]}"));
-        }
-        for (k, v) in grid.iter() {
-            let name: String =
-                k.extract().map_err(|_| PyValueError::new_err(format!("grid: key {k} is not a string")))?;
-            if let Ok(spec) = v.extract::<String>() {
-                args.extend(["--grid".into(), format!("{name}={spec}")]);
-            } else {
-                let values: Vec<f64> = v.extract().map_err(|_| {
-                    PyValueError::new_err(format!(
-                        "grid: `{name}` needs a list of numbers or \"START:STOP:COUNT\", not {v}"
-                    ))
-                })?;
-                let list: Vec<String> = values.iter().map(|x| format!("{x:?}")).collect();
-                args.extend(["--list".into(), format!("{name}={}", list.join(","))]);
-            }
-        }
+        args.extend(axes);
         for m in metrics.unwrap_or_default() {
             args.extend(["--metric".into(), m]);
         }
@@ -940,16 +845,21 @@ impl Toolkit {
     /// differentiation at `states` random states: a `Check` with `passed`
     /// and the table `ezy check` prints.
     ///
-    /// Raises EzyError for an unknown model or parameter.
+    /// Raises EzyError for an unknown model or parameter, or `states` x
+    /// the model's coordinates above 1e8 (before any state); TypeError for
+    /// a `states` or `seed` that is not a whole number (`True` included);
+    /// KeyboardInterrupt on Ctrl-C (within a state).
     #[pyo3(signature = (model, *, set=None, states=None, seed=None))]
     fn check(
         &self,
         py: Python<'_>,
         model: &Bound<'_, PyAny>,
         set: Option<&Bound<'_, PyDict>>,
-        states: Option<usize>,
-        seed: Option<u64>,
+        states: Option<&Bound<'_, PyAny>>,
+        seed: Option<&Bound<'_, PyAny>>,
     ) -> PyResult<Check> {
+        let states = whole_kw("check", "states", states)?;
+        let seed = whole_kw("check", "seed", seed)?;
         let (app, key) = match model.cast::<PyModel>() {
             Ok(m) => (self.app_with(&m.get().key, Some(m)), m.get().key.clone()),
             Err(_) => (self.app.clone(), model_key(model)?),
@@ -978,35 +888,4 @@ fn model_key(model: &Bound<'_, PyAny>) -> PyResult<String> {
     model
         .extract()
         .map_err(|_| PyValueError::new_err("model: give a model's key, the path of a .ezy file, or an ezy.Model"))
-}
-
-/// A quantity of the caller's Python code: `function(run)` with the run
-/// (state and sensitivities) as a DataFrame, returning `(value,
-/// gradient)`; its exceptions become the evaluation's failure.
-fn python_quantity(
-    function: Py<PyAny>,
-    helpers: Py<PyModule>,
-) -> impl Fn(&ezy_core::sensitivity::Sensitivities) -> Result<(f64, Vec<f64>), String> + Send + Sync + 'static {
-    move |s| {
-        Python::attach(|py| {
-            let columns = PyDict::new(py);
-            let fail = |e: PyErr| e.to_string();
-            columns.set_item("t", s.t.clone()).map_err(fail)?;
-            for (i, name) in s.names.iter().enumerate() {
-                columns.set_item(name, s.x.iter().map(|r| r[i]).collect::<Vec<f64>>()).map_err(fail)?;
-            }
-            for (k, name) in s.columns().iter().enumerate() {
-                columns.set_item(name, s.s.iter().map(|r| r[k]).collect::<Vec<f64>>()).map_err(fail)?;
-            }
-            let frame = helpers.bind(py).call_method1("frame", (columns, s.parameters.clone())).map_err(fail)?;
-            let r = function.bind(py).call1((frame,)).map_err(fail)?;
-            r.extract::<(f64, Vec<f64>)>().map_err(|_| {
-                format!(
-                    "the function returned {}; return (value, [d value / d param for {}])",
-                    r.repr().map_or("something else".into(), |t| t.to_string()),
-                    s.parameters.join(", ")
-                )
-            })
-        })
-    }
 }

@@ -621,3 +621,115 @@ def test_an_objective_of_your_own_is_optimized_as_a_built_in_one():
     assert own["final_x1"][0] == built_in["final(x1)"][0]
     with pytest.raises(ezy.EzyError, match="return \\(value"):
         ezy.optimize("drive", maximize=lambda run: "fast", **kw)
+
+
+# issue 82: requests sized before the work, booleans refused, long calls
+# that answer Ctrl-C
+
+
+def interrupted_after(delay, function, *args, **kwargs):
+    """Seconds from a SIGINT sent `delay` seconds into `function(*args,
+    **kwargs)` (a call that takes far longer) to its KeyboardInterrupt."""
+    sent = []
+
+    def interrupt():
+        time.sleep(delay)
+        sent.append(time.monotonic())
+        os.kill(os.getpid(), signal.SIGINT)
+
+    sender = threading.Thread(target=interrupt)
+    sender.start()
+    try:
+        function(*args, **kwargs)
+    except KeyboardInterrupt:
+        return time.monotonic() - sent[0]
+    finally:
+        sender.join()
+    raise AssertionError("the call ended before the signal or without raising KeyboardInterrupt")
+
+
+def test_a_sweep_is_sized_before_it_starts():
+    start = time.monotonic()
+    with pytest.raises(ezy.EzyError, match=r"`m` has 100000000000.*100000000000 runs.*1000000"):
+        ezy.sweep("sleigh", {"m": "1:2:100000000000"})
+    with pytest.raises(ezy.EzyError, match=r"`m` has 1000, `a` has 2000.*2000000 runs"):
+        ezy.sweep("sleigh", {"m": "1:2:1000", "a": [0.1] * 2000})
+    assert time.monotonic() - start < 1.0
+
+
+def test_an_initial_heading_is_bounded_as_an_angle():
+    toml = (WORKSPACE / "models/scenes/sleigh.toml").read_text()
+    turned = []
+    for v in ["0.5", "1e17", "1e33", "1e308"]:
+        text = toml.replace("phi = 0.0 }", f"phi = {v} }}")
+        if v == "0.5":
+            r = ezy.run(ezy.scene(toml=text), t_end=1.0)
+            turned.append(r["phi"][-1] - r["phi"][0])
+            continue
+        with pytest.raises(ezy.EzyError, match=rf"initial.q.phi.*{v}.*1e6"):
+            ezy.scene(toml=text)
+        with pytest.raises(ezy.EzyError, match=rf"initial.*phi.*{v}.*1e6"):
+            ezy.scene(model="chaplygin_sleigh", t_end=1.0, initial={"q": {"phi": float(v)}, "qd": {"x": 1.0, "phi": 1.0}})
+    assert abs(turned[0]) > 0.1
+
+
+def test_booleans_are_not_numbers():
+    with pytest.raises(TypeError, match="set: `m` must be a number, not bool"):
+        ezy.run("sleigh", set={"m": True}, t_end=0.1)
+    s = ezy.scene("sleigh")
+    with pytest.raises(TypeError, match=r'scene\["m"\] must be a number, not bool'):
+        s["m"] = True
+    with pytest.raises(TypeError, match="`m` must be a number, not bool"):
+        s.set("m", False)
+    assert s.sets == []
+    with pytest.raises(TypeError, match="a value of `m` must be a number, not bool"):
+        ezy.sweep("sleigh", {"m": [1.0, True]})
+    with pytest.raises(TypeError, match="`states` must be a whole number >= 0, not bool"):
+        ezy.check("chaplygin_sleigh", states=True)
+    with pytest.raises(TypeError, match="`max_steps` must be a whole number >= 0, not bool"):
+        ezy.run("sleigh", max_steps=True)
+
+
+def test_ctrl_c_stops_a_long_check_within_a_second(sigint_raises):
+    # some 10 s unless stopped (1.8e7 states x coordinates); it answered
+    # only at its end
+    took = interrupted_after(0.5, ezy.check, "snake", set={"N": 60}, states=100000)
+    assert took < 1.0, took
+    # absurd counts are refused by name before any state
+    with pytest.raises(ezy.EzyError, match="--states 100000000.*1e8"):
+        ezy.check("snake", set={"N": 60}, states=100_000_000)
+
+
+def many_bodies(n):
+    bodies = "".join(f"    body b{i}(x{i}, y{i}, p{i}) {{ mass: m, inertia: I }}\n" for i in range(n))
+    return "pub struct Many {\n    param m = 1.0;\n    param I = 0.1;\n" + bodies + "}\n"
+
+
+def test_a_model_derives_with_the_gil_released_and_answers_ctrl_c(sigint_raises):
+    # another thread runs while a model derives (it held the GIL: 1 %)
+    count, stop = [0], []
+
+    def spin():
+        while not stop:
+            count[0] += 1
+
+    spinner = threading.Thread(target=spin)
+    spinner.start()
+    time.sleep(0.3)
+    before, t0 = count[0], time.monotonic()
+    time.sleep(0.3)
+    alone = (count[0] - before) / (time.monotonic() - t0)
+    before, t0 = count[0], time.monotonic()
+    ezy.Model(many_bodies(50))
+    during = (count[0] - before) / (time.monotonic() - t0)
+    stop.append(True)
+    spinner.join()
+    assert during > 0.1 * alone, (during, alone)
+    # Ctrl-C answers within a second (it came after the derivation's 6 s)
+    took = interrupted_after(0.5, ezy.Model, many_bodies(100))
+    assert took < 1.0, took
+    # a text of more bodies than the derivation takes is refused by count
+    start = time.monotonic()
+    with pytest.raises(ezy.EzyError, match="101 bodies.*100.*cube"):
+        ezy.Model(many_bodies(101))
+    assert time.monotonic() - start < 1.0

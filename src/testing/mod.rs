@@ -272,6 +272,21 @@ pub fn check_derivatives_observed<M: Model>(
     seed: u64,
     mut on_state: impl FnMut(usize),
 ) -> Report {
+    let go_on = |s| {
+        on_state(s);
+        true
+    };
+    check_derivatives_until(base, states, seed, go_on).expect("never stopped")
+}
+
+/// As [`check_derivatives_observed`], `on_state(s)` returning whether to
+/// go on: `None` when it stopped the check (a stop request, Ctrl-C).
+pub fn check_derivatives_until<M: Model>(
+    base: &M,
+    states: usize,
+    seed: u64,
+    mut on_state: impl FnMut(usize) -> bool,
+) -> Option<Report> {
     let info = &base.info();
     let (nq, nc, nnz) = (info.nq(), info.nc(), info.pattern.len());
     let mut rng = StdRng::seed_from_u64(seed);
@@ -280,7 +295,9 @@ pub fn check_derivatives_observed<M: Model>(
     let (groups, by_col) = column_groups(&info.pattern, nq);
     let mut columns = Columns { by_col, in_group: vec![None; nc] };
     for s in 0..states {
-        on_state(s);
+        if !on_state(s) {
+            return None;
+        }
         let mut m = base.clone();
         for (i, p) in info.params.iter().enumerate() {
             if !p.count {
@@ -303,7 +320,7 @@ pub fn check_derivatives_observed<M: Model>(
             check_minimal(&m, &layout, &q, &qd, s, acc);
         }
     }
-    checks.report(base, states, seed)
+    Some(checks.report(base, states, seed))
 }
 
 /// The comparisons of [`check_derivatives_observed`] as they accumulate,

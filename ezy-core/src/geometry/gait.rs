@@ -71,6 +71,15 @@ pub struct SimulatedGait {
 /// samples (the trapezoidal rule on a periodic integrand converges
 /// geometrically: Trefethen & Weideman, SIAM Review 56(3), 2014).
 const SAMPLES: usize = 200;
+/// Steps the gait's integrations take per oscillation of its fastest
+/// harmonic (DOP853 at the tolerances `ezy geometry` uses: about 20,
+/// measured on the kinematic snake).
+pub const STEPS_PER_OSCILLATION: f64 = 20.0;
+/// Most steps a gait's cycle may ask ([`STEPS_PER_OSCILLATION`] times its
+/// fastest harmonic's oscillations over the period): 100,000, some 5 s of
+/// the kinematic snake's prediction and simulation. A gait of `cos(1e6 t)`
+/// would take hours.
+pub const MAX_GAIT_STEPS: f64 = 1e5;
 /// Gauss-Legendre nodes and weights on [0, 1], 6 points (exact for
 /// polynomials of degree 11).
 const GAUSS: [(f64, f64); 6] = [
@@ -88,29 +97,70 @@ impl Gait {
     /// # Errors
     /// [`GeometryError::Request`] for a period that is not a positive
     /// finite number, a waveform that is not valid, or one that does not
-    /// repeat with the period (the curve would not close).
+    /// repeat with the period (the curve would not close), or a gait whose
+    /// fastest harmonic asks more than [`MAX_GAIT_STEPS`] steps over the
+    /// period ([`Gait::steps`]), all before any work.
     pub fn new(shape: Vec<Waveform>, period: f64) -> Result<Self, GeometryError> {
+        Self::new_named(shape, period, &|k| format!("gait coordinate {}", k + 1))
+    }
+
+    /// [`Gait::new`], naming coordinate `k` as `name(k)` in its errors.
+    fn new_named(shape: Vec<Waveform>, period: f64, name: &dyn Fn(usize) -> String) -> Result<Self, GeometryError> {
         if !(period.is_finite() && period > 0.0 && period < 1e9) {
             return Err(GeometryError::Request {
                 reason: format!("gait period {period}: must be a positive number of seconds below 1e9"),
             });
         }
         for (k, w) in shape.iter().enumerate() {
-            w.validate().map_err(|e| GeometryError::Request { reason: format!("gait coordinate {}: {e}", k + 1) })?;
+            w.validate().map_err(|e| GeometryError::Request { reason: format!("{}: {e}", name(k)) })?;
             match w.periodicity() {
                 Periodicity::Constant => {}
                 Periodicity::Period(p) if ((period / p) - (period / p).round()).abs() < 1e-9 => {}
                 _ => {
                     return Err(GeometryError::Request {
                         reason: format!(
-                            "gait coordinate {}: its waveform does not repeat with the period {period} s, so the curve does not close",
-                            k + 1
+                            "{}: its waveform does not repeat with the period {period} s, so the curve does not close",
+                            name(k)
                         ),
                     });
                 }
             }
         }
+        Self::check_steps(&shape, period, name)?;
         Ok(Self { shape, period })
+    }
+
+    /// The steps one cycle of the gait asks, from its fastest harmonic:
+    /// [`STEPS_PER_OSCILLATION`] x `omega period / (2 pi)`, with the
+    /// coordinate that has it and its angular frequency `omega` \[rad/s\].
+    pub fn steps(shape: &[Waveform], period: f64) -> (f64, usize, f64) {
+        let (k, omega) =
+            shape.iter().map(Waveform::max_omega).enumerate().max_by(|a, b| a.1.total_cmp(&b.1)).unwrap_or((0, 0.0));
+        (STEPS_PER_OSCILLATION * omega * period / (2.0 * std::f64::consts::PI), k, omega)
+    }
+
+    /// Refuses a gait whose cycle asks more than [`MAX_GAIT_STEPS`]
+    /// ([`Gait::steps`]), naming the coordinate, its frequency and the count.
+    fn check_steps(shape: &[Waveform], period: f64, name: &dyn Fn(usize) -> String) -> Result<(), GeometryError> {
+        let (steps, k, omega) = Gait::steps(shape, period);
+        if steps.is_nan() || steps > MAX_GAIT_STEPS {
+            return Err(GeometryError::Request {
+                reason: format!(
+                    "{}: its fastest harmonic, angular frequency {} rad/s, oscillates {:.3e} times in the gait's period of {} s, about {:.1e} integration steps ({} per oscillation), more than the {:.0e} a gait may take; give slower harmonics (frequency at most {} here)",
+                    name(k),
+                    crate::names::fmt_value(omega),
+                    omega * period / (2.0 * std::f64::consts::PI),
+                    crate::names::fmt_value(period),
+                    steps,
+                    STEPS_PER_OSCILLATION,
+                    MAX_GAIT_STEPS,
+                    crate::names::fmt_value(
+                        (MAX_GAIT_STEPS / STEPS_PER_OSCILLATION * 2.0 * std::f64::consts::PI / period).floor()
+                    )
+                ),
+            });
+        }
+        Ok(())
     }
 
     /// Parses a gait written as `name=expression` pairs separated by
@@ -126,6 +176,12 @@ impl Gait {
     /// coordinate missing or given twice.
     pub fn parse(names: &[String], spec: &str) -> Result<Self, GeometryError> {
         text::parse(names, spec)
+    }
+
+    /// [`Gait::new`] for a gait written as text: coordinate `k` named
+    /// `--gait: names[k]` in its errors.
+    pub(crate) fn from_text(shape: Vec<Waveform>, period: f64, names: &[String]) -> Result<Self, GeometryError> {
+        Self::new_named(shape, period, &|k| format!("--gait: {}", names[k]))
     }
 
     /// The shape `r` and its rate `r'` at time `t` (n_shape each).

@@ -100,6 +100,14 @@ pub enum GeometryError {
     Stopped,
 }
 
+/// Most bodies (and most skates) a model may have for the geometric
+/// analysis: its setup tests the rank of the skates' rows (singular values
+/// of an n_skates x (3 + n_shape) matrix) and walks the hinge tree from
+/// every body, work that grows as the cube of the count (400 bodies took
+/// 0.25 s, 1600 took 15 s, 3000 about two minutes). The analysis needs at
+/// most three independent skate rows, which few bodies carry.
+pub const MAX_BODIES: usize = 400;
+
 /// One step of the hinge tree out from the reference body: `child`
 /// placed from `parent` across `hinge`.
 #[derive(Debug, Clone)]
@@ -193,7 +201,8 @@ impl<M: Model> Geometry<M> {
     /// the model's hinges when `None`).
     ///
     /// # Errors
-    /// [`GeometryError::Model`] for a mass or inertia that is not a
+    /// [`GeometryError::Request`] for more than [`MAX_BODIES`] bodies or
+    /// skates, before any work; [`GeometryError::Model`] for a mass or inertia that is not a
     /// finite number > 0 (the momentum map and the locked inertia divide
     /// by it: a massless body has none), naming the body and the
     /// parameter; for a model without the plane's symmetry
@@ -205,6 +214,15 @@ impl<M: Model> Geometry<M> {
     /// every hinge once.
     pub fn new(model: M, body: Option<&str>, shape: Option<&[String]>) -> Result<Self, GeometryError> {
         let info = model.info();
+        let (nb, nsk) = (info.bodies.len(), info.skates.len());
+        if nb.max(nsk) > MAX_BODIES {
+            return Err(GeometryError::Request {
+                reason: format!(
+                    "model {}: {nb} bodies and {nsk} skates, more than the {MAX_BODIES} the geometric analysis takes (its setup grows as the cube of the count: 1600 bodies take 15 s)",
+                    info.name
+                ),
+            });
+        }
         let bad = |reason: String| GeometryError::Model { reason };
         let mut mass = vec![0.0; info.nq()];
         model.mass_diagonal(&mut mass);
@@ -227,7 +245,6 @@ impl<M: Model> Geometry<M> {
                 h.name, info.bodies[h.body_a].name
             )));
         }
-        let nb = info.bodies.len();
         let shape = match shape {
             None => (0..info.hinges.len()).collect::<Vec<_>>(),
             Some(names) => {

@@ -553,6 +553,30 @@ pub enum InitialName {
 }
 
 impl ModelInfo {
+    /// Whether coordinate `k` is an angle (a body's heading) \[rad\]
+    /// rather than a position \[m\].
+    pub fn is_angle(&self, k: usize) -> bool {
+        self.bodies.iter().any(|b| b.coords[2] == k)
+    }
+
+    /// Checks an initial value `value` given to `target` in `group`
+    /// (`q`, `qd` or `guess`): an angle (a heading, a hinge angle among
+    /// the positions) at most [`crate::settings::MAX_ANGLE`] in size, as
+    /// the waveforms' phases are; other values are checked where they are
+    /// used (a kinetic energy that overflows names its velocity).
+    ///
+    /// # Errors
+    /// The sentence of [`crate::settings::check_angle`], naming
+    /// `name = value`.
+    pub fn check_initial(&self, group: &str, target: &InitialName, name: &str, value: f64) -> Result<(), String> {
+        let angle = group != "qd"
+            && match target {
+                InitialName::Coords(ks) => ks.iter().any(|&k| self.is_angle(k)),
+                InitialName::HingeAngle(_) => true,
+            };
+        if angle { crate::settings::check_angle(name, value) } else { Ok(()) }
+    }
+
     /// What `name` stands for as an initial value: coordinates (a name,
     /// or `stem*` for a family), or `theta_<hinge>` a hinge angle (a
     /// coordinate of that name wins); `None` for neither.

@@ -81,7 +81,11 @@ pub(super) fn check(initial: &Initial, info: &ModelInfo) -> Result<Targets, Scen
                 InitValue::Num(x) if !x.is_finite() => {
                     return Err(SceneError::at(&["initial", group, name], format!("{name} = {x} must be finite")));
                 }
-                InitValue::Num(x) => Source::Num(*x),
+                InitValue::Num(x) => {
+                    info.check_initial(group, &target, name, *x)
+                        .map_err(|message| SceneError::at(&["initial", group, name], message))?;
+                    Source::Num(*x)
+                }
                 InitValue::Param(p) => match info.param_index(p) {
                     Some(k) => Source::Param(k),
                     None => {

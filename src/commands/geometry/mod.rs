@@ -227,7 +227,14 @@ fn geometry(proto: &AnyModel, req: &Request) -> Result<String, Error> {
         None => (with_sets(proto, &args.sets).map_err(Error::Input)?, None),
     };
     let shape = (!args.shape.is_empty()).then_some(&args.shape[..]);
-    let mut geo = Geometry::new(model.clone(), args.body.as_deref(), shape).map_err(input(&req.out))?;
+    let mut geo = Geometry::new(model.clone(), args.body.as_deref(), shape).map_err(|e| match e {
+        // the counts a model's size comes from, as the command line set them
+        GeometryError::Request { reason } if reason.contains("bodies and") && !args.sets.is_empty() => {
+            let sets: Vec<String> = args.sets.iter().map(|(n, v)| format!("{n}={}", fmt_value(*v))).collect();
+            Error::Input(format!("--set {}: {reason}", sets.join(" --set ")))
+        }
+        e => input(&req.out)(e),
+    })?;
     geo.stop_when(|| pending().is_some());
     let names = geo.shape_names();
     let ns = names.len();

@@ -252,7 +252,7 @@ pub(super) fn parse(names: &[String], spec: &str) -> Result<Gait, GeometryError>
     for (k, w) in shape.into_iter().enumerate() {
         out.push(w.ok_or_else(|| bad(format!("--gait: shape coordinate `{}` is not given", names[k])))?);
     }
-    Gait::new(out, 2.0 * std::f64::consts::PI)
+    Gait::from_text(out, 2.0 * std::f64::consts::PI, names)
 }
 
 #[cfg(test)]
@@ -280,6 +280,7 @@ mod tests {
             ("alpha1=1e300,alpha2=0", "up to 1e6"),
             ("alpha1=nan,alpha2=0", "`nan`"),
             ("beta=1,alpha2=0", "not a shape coordinate"),
+            ("alpha1=0.9+0.3*cos(1000000*t),alpha2=0", "alpha1: its fastest harmonic, angular frequency"),
             ("alpha1=(1,alpha2=0", "missing `)`"),
         ] {
             let e = parse(&names, text).unwrap_err().to_string();
