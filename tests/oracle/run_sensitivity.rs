@@ -60,7 +60,10 @@ fn check<M: Model>(scene: &Scene, model: &M, names: &[&str], columns: &[&str]) {
             let (d1, d2) = (central(h), central(h / 2.0));
             let want = d2 + (d2 - d1) / 3.0;
             let oracle = (want - d2).abs();
-            eprintln!("{}: d{c}/d{} = {g:.12e} against {want:.12e} (Richardson change {oracle:.1e})", scene.name, p.name);
+            eprintln!(
+                "{}: d{c}/d{} = {g:.12e} against {want:.12e} (Richardson change {oracle:.1e})",
+                scene.name, p.name
+            );
             assert!(oracle <= 1e-5 * scale, "{}: d{c}/d{}: the differences did not settle", scene.name, p.name);
             assert!(
                 (g - want).abs() <= 1e-8 * scale + 3.0 * oracle,

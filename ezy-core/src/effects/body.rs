@@ -175,7 +175,9 @@ impl BodyLaw {
             (BodyLaw::Force { fx: ax, fy: ay, .. }, BodyLaw::Force { fx: bx, fy: by, .. }) => {
                 [ax.eval3_toward(bx, t)[0], ay.eval3_toward(by, t)[0], 0.0]
             }
-            (BodyLaw::Torque { torque: a, .. }, BodyLaw::Torque { torque: b, .. }) => [a.eval3_toward(b, t)[0], 0.0, 0.0],
+            (BodyLaw::Torque { torque: a, .. }, BodyLaw::Torque { torque: b, .. }) => {
+                [a.eval3_toward(b, t)[0], 0.0, 0.0]
+            }
             _ => other.waveforms(t),
         }
     }

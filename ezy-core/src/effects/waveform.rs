@@ -290,9 +290,11 @@ impl Waveform {
         match (self, other) {
             (Self::Cos(h), Self::Cos(g)) => move3(h, g, 0.0),
             (Self::Sin(h), Self::Sin(g)) => move3(h, g, -std::f64::consts::FRAC_PI_2),
-            (Self::Harmonics(hs), Self::Harmonics(gs)) if hs.len() == gs.len() => {
-                hs.iter().zip(gs).map(|(h, g)| move3(h, g, 0.0)).fold([0.0; 3], |a, b| [a[0] + b[0], a[1] + b[1], a[2] + b[2]])
-            }
+            (Self::Harmonics(hs), Self::Harmonics(gs)) if hs.len() == gs.len() => hs
+                .iter()
+                .zip(gs)
+                .map(|(h, g)| move3(h, g, 0.0))
+                .fold([0.0; 3], |a, b| [a[0] + b[0], a[1] + b[1], a[2] + b[2]]),
             _ => other.eval3(t),
         }
     }

@@ -481,6 +481,12 @@ impl<M: Model> Dynamics<M> {
         self.effect_forces(t, q, qd, power)
     }
 
+    /// The effects' waveforms' values (one per effect) at the time of the
+    /// last [`Dynamics::rhs`] or [`Dynamics::applied_forces`] call.
+    pub(crate) fn waves(&self) -> &[crate::effects::kind::Waveforms] {
+        &self.ws.waves
+    }
+
     /// [`Dynamics::applied_forces`] with the waveforms' values `waves`
     /// given (one per effect) instead of the effects' own at `t`: the
     /// forward sensitivities' right-hand side at a nearby parameter value

@@ -133,7 +133,7 @@ fn quantities(bodies: &[[usize; 3]], symmetry: Symmetry, x0: &[f64], hp: &[f64],
 /// then the period's and the energy's part by the quotient rule, exact
 /// (a difference through `E / T` and `speed / power` moved a small input
 /// energy by several percent: 4.7e-6 off in an efficiency).
-fn derivatives(
+fn quantity_derivatives(
     bodies: &[[usize; 3]],
     symmetry: Symmetry,
     (x0, hp, t, e): (&[f64], &[f64], f64, f64),
@@ -292,7 +292,7 @@ impl<M: Model> Problem<M> {
             let (dz, _) = min_norm_solve(j.as_ref(), &rp, 1e-12)?;
             let (dx0, dhp) = dz.split_at(n2);
             let de = (0..n2).map(|i| energy[1 + i] * dx0[i]).sum::<f64>() + energy[1 + n2 + k] + pt * dt;
-            let dq = derivatives(&bodies, symmetry, (&x0, &hp, period, energy[0]), (dx0, dhp, dt, de));
+            let dq = quantity_derivatives(&bodies, symmetry, (&x0, &hp, period, energy[0]), (dx0, dhp, dt, de));
             out.d_state.push(dx0.to_vec());
             out.d_mean_speed.push(dq[0]);
             out.d_mean_forward_speed.push(dq[1]);

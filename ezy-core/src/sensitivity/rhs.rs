@@ -46,10 +46,11 @@ struct Scratch {
     aq: Vec<f64>,
     aqd: Vec<f64>,
     fa: Vec<f64>,
-    /// The nonzero entries `(i, j, v)` of `dF/dx` (j < 2 nq) of all the
-    /// effects, and of the actuators alone.
-    nz: Vec<(usize, usize, f64)>,
-    anz: Vec<(usize, usize, f64)>,
+    /// The coordinates the effects' forces couple (the union of their
+    /// [`crate::effects::Effect::coords`]; all of them where a law is the
+    /// user's own): the rows and columns of `dF/dq` and `dF/dqd` that
+    /// can be nonzero.
+    coupled: Vec<usize>,
     power: Vec<f64>,
     /// The KKT right-hand side `[f; -gamma]` of one parameter and its solution.
     f: Vec<f64>,
@@ -115,8 +116,14 @@ impl<M: Model> Augmented<M> {
             aq: z(nq * nq),
             aqd: z(nq * nq),
             fa: z(nq),
-            nz: Vec::new(),
-            anz: Vec::new(),
+            coupled: if sys.effects.iter().any(|e| matches!(e.law, crate::effects::Law::User(_))) {
+                (0..nq).collect()
+            } else {
+                let mut c: Vec<usize> = sys.effects.iter().flat_map(|e| e.coords()).collect();
+                c.sort_unstable();
+                c.dedup();
+                c
+            },
             power: z(sys.effects.len()),
             f: z(nq),
             gamma: z(nc),
@@ -195,20 +202,18 @@ impl<M: Model> Augmented<M> {
         ws.dgamma.iter_mut().zip(&ws.gm).for_each(|(o, v)| *o = v.eps);
     }
 
-    /// The applied forces' Jacobian `dF/dx` at `(t, x)` as lists of its
-    /// nonzero entries (`ws.nz`; the actuators' alone in `ws.anz`) and the
-    /// actuators' force (`ws.fa`): each law's exact Jacobian
+    /// The applied forces' Jacobian `dF/dx` at `(t, x)`, of the effects
+    /// that are not actuators (`ws.jq`, `ws.jqd`) and of the actuators
+    /// (`ws.aq`, `ws.aqd`), and the actuators' force (`ws.fa`): each
+    /// law's exact Jacobian
     /// ([`crate::effects::ForceLaw::jacobian`]), central differences of
     /// its force alone for a law of the user's own without one
     /// ([`Analysis::force_blocks`]).
     fn force_jacobians(&mut self, t: f64, x: &[f64]) -> Result<(), AnalysisError> {
         let Self { base, ws, actuators, .. } = self;
-        ws.nz.clear();
-        ws.anz.clear();
         if base.dynamics().effects.is_empty() {
             return Ok(());
         }
-        let nq = base.nq();
         for b in [&mut ws.jq, &mut ws.jqd, &mut ws.aq, &mut ws.aqd] {
             b.fill(0.0);
         }
@@ -220,21 +225,6 @@ impl<M: Model> Augmented<M> {
             let effects = &base.dynamics().effects;
             let which: Vec<_> = acts.iter().map(|&k| (k, effects[k].waveforms(t))).collect();
             base.forces_of(t, x, &which, &mut ws.fa)?;
-        }
-        for i in 0..nq {
-            for j in 0..2 * nq {
-                let (own, act) = if j < nq {
-                    (ws.jq[i * nq + j], ws.aq[i * nq + j])
-                } else {
-                    (ws.jqd[i * nq + j - nq], ws.aqd[i * nq + j - nq])
-                };
-                if own + act != 0.0 {
-                    ws.nz.push((i, j, own + act));
-                }
-                if act != 0.0 {
-                    ws.anz.push((i, j, act));
-                }
-            }
         }
         Ok(())
     }
@@ -248,12 +238,23 @@ impl<M: Model> Augmented<M> {
         let nq = self.nq();
         let ws = &mut self.ws;
         ws.df.fill(0.0);
-        for &(i, j, v) in &ws.nz {
-            ws.df[i] += v * s[j];
+        let (sq, sqd, qd) = (&s[..nq], &s[nq..2 * nq], &x[nq..2 * nq]);
+        let mut dp = ws.fa.iter().zip(sqd).map(|(f, v)| f * v).sum::<f64>();
+        if self.base.dynamics().effects.is_empty() {
+            ws.dp = dp;
+            return;
         }
-        let qd = &x[nq..2 * nq];
-        ws.dp = ws.anz.iter().map(|&(i, j, v)| v * s[j] * qd[i]).sum::<f64>()
-            + ws.fa.iter().zip(&s[nq..]).map(|(f, v)| f * v).sum::<f64>();
+        for &i in &ws.coupled {
+            let (mut own, mut act) = (0.0, 0.0);
+            for &j in &ws.coupled {
+                let k = i * nq + j;
+                own += ws.jq[k] * sq[j] + ws.jqd[k] * sqd[j];
+                act += ws.aq[k] * sq[j] + ws.aqd[k] * sqd[j];
+            }
+            ws.df[i] = own + act;
+            dp += act * qd[i];
+        }
+        ws.dp = dp;
     }
 
     /// `dy = [f(t, x), (df/dx) S + df/dp]` for `y = [x, S]`.
@@ -362,7 +363,15 @@ impl<M: Model> Augmented<M> {
         let ws = &mut self.ws;
         let st = &mut self.stencils[j];
         if forces {
-            ws.dp += st.add_forces(t, q, qd, (&self.base.dynamics().effects, &ws.f0, ws.p0), &mut ws.df, &mut ws.power, &self.actuators)?;
+            ws.dp += st.add_forces(
+                t,
+                q,
+                qd,
+                (&self.base.dynamics().effects, self.base.dynamics().waves(), &ws.f0, ws.p0),
+                &mut ws.df,
+                &mut ws.power,
+                &self.actuators,
+            )?;
         }
         if model {
             let scratch = (&mut ws.gv_f64[..], &mut ws.gamma_f64[..]);

@@ -3,9 +3,9 @@
 //! their difference.
 
 use super::Parameter;
-use crate::effects::{Effect, Waveforms};
-use crate::drive::Drive;
 use crate::analysis::{Analysis, AnalysisError};
+use crate::drive::Drive;
+use crate::effects::{Effect, Waveforms};
 use crate::formulation::dae::Dynamics;
 use crate::model::Model;
 use crate::problem::Problem;
@@ -147,7 +147,8 @@ impl<M: Model> Stencil<M> {
 
     /// Adds `dF/dp` at `(t, q, qd)` into `out` (nq) and returns `dP/dp`
     /// of the input power of the effects `actuators`; `base` the base
-    /// problem's effects, and its forces and input power there; `power`:
+    /// problem's effects, their waveforms' values at `t`, and its forces
+    /// and input power there; `power`:
     /// scratch (one per effect). Each node's forces are taken with its
     /// waveforms linearized from the base's
     /// ([`crate::effects::Law::waveforms_toward`]): a harmonic's numbers
@@ -166,7 +167,7 @@ impl<M: Model> Stencil<M> {
         t: f64,
         q: &[f64],
         qd: &[f64],
-        base: (&[Effect], &[f64], f64),
+        base: (&[Effect], &[Waveforms], &[f64], f64),
         out: &mut [f64],
         power: &mut [f64],
         actuators: &[usize],
@@ -174,7 +175,7 @@ impl<M: Model> Stencil<M> {
         if !(self.touches.model || self.touches.effects) {
             return Ok(0.0);
         }
-        let (effects, f0, p0) = base;
+        let (effects, waves, f0, p0) = base;
         for (o, f) in out.iter_mut().zip(f0) {
             *o += self.base_weight * f;
         }
@@ -185,7 +186,12 @@ impl<M: Model> Stencil<M> {
                 continue;
             }
             self.waves.clear();
-            self.waves.extend(effects.iter().zip(&sys.effects).map(|(b, n)| b.law.waveforms_toward(&n.law, t)));
+            debug_assert_eq!(waves.len(), effects.len(), "the base's waveforms at t");
+            // an effect the parameter does not change keeps the base's values
+            let toward = |((b, w), n): ((&Effect, &Waveforms), &Effect)| {
+                if b.law == n.law { *w } else { b.law.waveforms_toward(&n.law, t) }
+            };
+            self.waves.extend(effects.iter().zip(waves).zip(&sys.effects).map(toward));
             sys.applied_forces_with(t, q, qd, &self.waves, power)?;
             for (o, f) in out.iter_mut().zip(sys.applied_force()) {
                 *o += *w * f;
