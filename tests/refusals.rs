@@ -327,3 +327,25 @@ fn a_check_of_too_many_states_is_refused_at_once() {
     assert!(!o.status.success() && start.elapsed() < Duration::from_secs(1), "{err}");
     assert!(err.contains("--states 100000000") && err.contains("1e8"), "{err}");
 }
+
+/// `--energy` is refused where `analyze` cannot honour it (it was
+/// ignored: the pendulum's limit cycle and the rolling-resistance gait
+/// came at the run's own energy), and kept where it picks a steady
+/// motion: the sleigh's straight run at 2 J.
+#[test]
+fn an_energy_the_analysis_cannot_honour_is_refused() {
+    let dir = scratch();
+    let out = dir.path().join("out");
+    refused(
+        &["analyze", "pendulum", "--energy", "3", "--no-figures", "--out", s(&out)],
+        &["--energy 3", "no symmetry", "equilibria"],
+    );
+    refused(
+        &["analyze", "drive-rolling-resistance", "--energy", "3", "--no-figures", "--out", s(&out)],
+        &["--energy 3", "forced with period 2 s"],
+    );
+    let o = ezy(&["analyze", "sleigh", "--energy", "2", "--no-figures", "--out", s(&out)]);
+    let text = String::from_utf8_lossy(&o.stdout);
+    assert!(o.status.success(), "{text}{}", stderr(&o));
+    assert!(text.contains("steady"), "{text}");
+}

@@ -189,6 +189,7 @@ fn analyze_model<M: Model>(proto: &M, scene: &Scene, opts: &AnalyzeOptions) -> R
     let clock = Instant::now();
     let symmetry = an.symmetry(0.0, &x0).map_err(analysis_error(&ro.out))?;
     let period = period(&mut an, &x0, opts.period, scene, &ro.out)?;
+    check_energy(opts, scene, period, symmetry)?;
     // a line every few seconds of a long analysis (a stiff scene's run
     // and searches take minutes)
     let beat = ro.progress.then(|| {
@@ -208,7 +209,8 @@ fn analyze_model<M: Model>(proto: &M, scene: &Scene, opts: &AnalyzeOptions) -> R
             match steady_motions(&mut an, scene, opts, symmetry, &guesses, beat.as_ref(), &mut log) {
                 Ok((steady, follow)) => (steady, None, follow),
                 // none: does the run turn on a limit cycle?
-                Err(Error::Input(none)) => {
+                // a limit cycle's energy is the run's, not the one asked
+                Err(Error::Input(none)) if opts.energy.is_none() => {
                     let clock = Instant::now();
                     if let Some(b) = &beat {
                         b.set(format!("analyze {}: searching for a limit cycle", scene.name));
@@ -316,6 +318,33 @@ fn analyze_model<M: Model>(proto: &M, scene: &Scene, opts: &AnalyzeOptions) -> R
     let coords = an.dynamics().info.coords.clone();
     let Log { timings, notes } = log;
     Ok(AnalyzeReport { symmetry, coords, steady, periodic, gait, growth, files, timings, notes })
+}
+
+/// Refuses `--energy` where it cannot be honoured: a scene forced
+/// periodically (a gait's kinetic energy follows from its forcing), and
+/// a scene without symmetry (its steady motions are equilibria, at rest).
+/// Where the steady searches find no motion of that energy, the limit
+/// cycle (of the run's energy) is not offered in its place.
+fn check_energy(opts: &AnalyzeOptions, scene: &Scene, period: Option<f64>, symmetry: Symmetry) -> Result<(), Error> {
+    let Some(e) = opts.energy else { return Ok(()) };
+    let why = if let Some(p) = period {
+        format!(
+            "scene {} is forced with period {} s, and a gait's kinetic energy follows from its forcing",
+            scene.name,
+            fmt_value(p)
+        )
+    } else if symmetry == Symmetry::NONE {
+        format!(
+            "scene {} has no symmetry, so its steady motions are equilibria (at rest, kinetic energy 0)",
+            scene.name
+        )
+    } else {
+        return Ok(());
+    };
+    Err(Error::Input(format!(
+        "--energy {}: {why}; --energy picks the steady motions of an unforced scene relative to its symmetry (a sleigh's straight run or turn)",
+        fmt_value(e)
+    )))
 }
 
 /// Refuses what needs a gait on a motion that gains energy without bound
