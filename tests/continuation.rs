@@ -135,6 +135,36 @@ fn analyze_follows_a_branch_around_its_fold() {
     }
 }
 
+/// Started beyond the fold (`--continue load.torque.constant=12:0:13`:
+/// no equilibrium at 12, 11 or 10 N m), `ezy analyze` wrote no branch
+/// though equilibria exist over most of the range. Now the branch begins
+/// at the grid's first value where the search converges, 9 N m, and runs
+/// down the hanging side to 0, each point stable and an equilibrium (the
+/// load balancing gravity's moment, `tau = m g L cos(phi)`, to 1e-9), and
+/// the note names the values without one.
+#[test]
+fn a_branch_started_beyond_its_fold_begins_where_there_is_a_solution() {
+    let out = fresh("beyond-fold");
+    std::fs::create_dir_all(&out).unwrap();
+    let file = out.with_extension("toml");
+    std::fs::write(&file, LOADED_PENDULUM).unwrap();
+    let (said, err, ok) =
+        ezy(&["analyze", file.to_str().unwrap(), "--continue", "load.torque.constant=12:0:13", "--no-figures"], &out);
+    assert!(ok, "{said}{err}");
+    assert!(said.contains("no solution at load.torque.constant = 12 to 10"), "{said}");
+    assert!(said.contains("the branch begins at load.torque.constant = 9"), "{said}");
+    let (head, rows) = table(&out.join("branch.csv"));
+    let at = |name: &str| head.iter().position(|h| h == name).unwrap();
+    let values: Vec<f64> = rows.iter().map(|r| r[0].parse().unwrap()).collect();
+    assert_eq!(values, (0..10).rev().map(f64::from).collect::<Vec<_>>(), "{values:?}");
+    for r in &rows {
+        let (tau, phi): (f64, f64) = (r[0].parse().unwrap(), r[at("phi")].parse().unwrap());
+        // m = 1 kg, L = 1 m, g = 9.81: the load balances gravity's moment
+        assert!((tau - 9.81 * phi.cos()).abs() < 1e-9, "tau {tau}, phi {phi}");
+        assert_eq!(r[at("stability")], "stable");
+    }
+}
+
 /// The forced damped pendulum near resonance (the built-in pendulum, a
 /// rotational damper 0.1 N m s, a torque `0.3 cos(omega t)` N m): the
 /// pendulum softens, so its resonance curve leans toward low frequencies

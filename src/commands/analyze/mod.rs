@@ -643,13 +643,34 @@ fn follow_branch<M: Model>(
             e => AnalysisError::Request { reason: e.to_string() },
         })
     };
-    let (points, ended) = follow_arclength(values, start, follow, build, |k| {
-        if let Some(b) = &beat {
-            b.set(format!("following the branch in {name}: point {} (a grid of {} values)", k + 1, values.len()));
-        }
-    });
+    let along = |values: &[f64]| {
+        follow_arclength(values, start, follow, build, |k| {
+            if let Some(b) = &beat {
+                b.set(format!("following the branch in {name}: point {} (a grid of {} values)", k + 1, values.len()));
+            }
+        })
+    };
+    // a grid that starts where there is no solution (beyond a fold) is
+    // followed from its first value where the search converges
+    let mut first = 0;
+    let (mut points, mut ended) = along(values);
+    let mut missed = None;
+    while points.is_empty() && first + 1 < values.len() && pending().is_none() {
+        missed = missed.or(ended.take());
+        first += 1;
+        (points, ended) = along(&values[first..]);
+    }
     drop(beat);
     check_interrupt(&ro.out, None, Some(format!("following the branch in {name}")))?;
+    if let (Some((v, e)), false) = (&missed, points.is_empty()) {
+        let last = fmt_value(values[first - 1]);
+        let to = if first > 1 { format!(" to {last}") } else { String::new() };
+        log.notes.push(format!(
+            "no solution at {name} = {}{to} from the scene's ({e}); the branch begins at {name} = {}",
+            fmt_value(*v),
+            fmt_value(values[first])
+        ));
+    }
     if let Some((v, e)) = ended {
         log.notes.push(format!("the branch ends at {name} = {}: {e}", fmt_value(v)));
     }
