@@ -226,6 +226,42 @@ fn a_fixed_step_refuses_a_forcing_past_its_nyquist_frequency() {
     assert!(e.contains("effect `motor`") && e.contains("past pi"), "{e}");
 }
 
+/// A drive's prescribed angle is a forcing too: `drive-prescribed` (the
+/// hinge angle `-pi + 0.3 sin(omega t)`) at omega = 1e5 rad/s under RK4
+/// at dt = 1e-4 s ran and exited 0 (the check read the effects only);
+/// now refused naming the drive and its frequency; at 3e4 it runs.
+#[test]
+fn a_fixed_step_refuses_a_drive_past_its_nyquist_frequency() {
+    let root = scratch();
+    let out = root.path().join("out");
+    let o = s(&out);
+    let scene = ezy::models::scenes::get("drive-prescribed");
+    let key = scene.drives.first().expect("a drive").0.clone();
+    let set = |w: &str| format!("{key}.angle.harmonics.1.omega={w}");
+    let fast = set("1e5");
+    let args =
+        ["run", "drive-prescribed", "--integrator", "rk4", "--dt", "1e-4", "--set", &fast, "--t-end", "1", "--out", o];
+    refused(&args, &[&format!("drive `{key}`"), "omega = 100000 rad/s", "past pi"]);
+    assert!(!out.exists(), "wrote {}", out.display());
+    let slow = set("3e4");
+    let r = ezy(&[
+        "run",
+        "drive-prescribed",
+        "--integrator",
+        "rk4",
+        "--dt",
+        "1e-4",
+        "--set",
+        &slow,
+        "--t-end",
+        "0.01",
+        "--no-figures",
+        "--out",
+        o,
+    ]);
+    assert!(r.status.success(), "{}", stderr(&r));
+}
+
 /// RK4 (and Euler) refuse, before any work, a skate whose friction stops
 /// the slide the run starts with faster than their fixed step is stable:
 /// `sleigh-ice` at mu = 1e6 (a slide of 1.5 m/s stopped within 4e-8 s)

@@ -656,7 +656,8 @@ impl<M: Model> Problem<M> {
     /// A forcing of angular frequency `omega` with `omega dt > pi` under a
     /// fixed step (fewer than two steps per period: the samples the stages
     /// take of it alias it to a slower forcing, and the run goes on as if
-    /// driven by that one; Nyquist).
+    /// driven by that one; Nyquist): an effect's, or a drive's prescribed
+    /// angle's.
     fn check_forcing(&self) -> Result<(), SimError> {
         let method = self.settings.method;
         if method.is_adaptive() {
@@ -665,31 +666,38 @@ impl<M: Model> Problem<M> {
         // the step the run takes (a run shorter than dt is one step)
         let dt = self.settings.dt.min(self.settings.t_end);
         let pi = std::f64::consts::PI;
-        for e in &self.effects {
-            let omega = e.forcing_omega();
-            if omega * dt > pi {
-                return Err(SimError::Setup(SetupError::Effect {
-                    effect: e.name.clone(),
-                    field: "omega",
-                    message: format!(
-                        "its forcing's angular frequency omega = {} rad/s times the fixed step dt = {} s of {} is {}, past pi: fewer than two steps per period (Nyquist), so {} samples the forcing as a slower one and the run follows that one instead; give {} below pi / omega = {} s (20 steps per period: {} s) or an adaptive method ({})",
-                        fmt_value(omega),
-                        if dt < self.settings.dt {
-                            // the step asked, longer than the run, which is one step
-                            format!("{} (the whole run: {dt})", fmt_value(self.settings.dt))
-                        } else {
-                            fmt_value(dt)
-                        },
-                        method.name(),
-                        fmt_value(round3(omega * dt)),
-                        method.name(),
-                        crate::settings::Setting::Dt,
-                        fmt_value(round3(pi / omega)),
-                        fmt_value(round3(2.0 * pi / (20.0 * omega))),
-                        crate::settings::Setting::Method(Method::Dop853)
-                    ),
-                }));
+        let effects = self.effects.iter().map(|e| (e.forcing_omega(), Some(e.name.as_str()), "its forcing"));
+        let drives = self.drives.iter().map(|d| (d.angle.max_omega(), None, d.name.as_str()));
+        for (omega, effect, drive) in effects.chain(drives) {
+            if omega * dt <= pi {
+                continue;
             }
+            let what = if effect.is_some() {
+                "its forcing".to_string()
+            } else {
+                format!("drive `{drive}`'s prescribed angle")
+            };
+            let message = format!(
+                "{what}'s angular frequency omega = {} rad/s times the fixed step dt = {} s of {} is {}, past pi: fewer than two steps per period (Nyquist), so {} samples the forcing as a slower one and the run follows that one instead; give {} below pi / omega = {} s (20 steps per period: {} s) or an adaptive method ({})",
+                fmt_value(omega),
+                if dt < self.settings.dt {
+                    // the step asked, longer than the run, which is one step
+                    format!("{} (the whole run: {dt})", fmt_value(self.settings.dt))
+                } else {
+                    fmt_value(dt)
+                },
+                method.name(),
+                fmt_value(round3(omega * dt)),
+                method.name(),
+                crate::settings::Setting::Dt,
+                fmt_value(round3(pi / omega)),
+                fmt_value(round3(2.0 * pi / (20.0 * omega))),
+                crate::settings::Setting::Method(Method::Dop853)
+            );
+            return Err(SimError::Setup(match effect {
+                Some(name) => SetupError::Effect { effect: name.to_string(), field: "omega", message },
+                None => SetupError::Scene { key: format!("drives.{drive}.angle"), message },
+            }));
         }
         Ok(())
     }
