@@ -638,11 +638,25 @@ pub(crate) fn complex(z: c64) -> String {
 }
 
 /// The period map's settings: the defaults, `--max-steps` bounding each
-/// period's integration (the advice of a budget error names it).
+/// period's integration (the advice of a budget error names it), and
+/// `--rtol`/`--atol` where given: the periodic searches' DOP853 then
+/// integrates at them, and Newton stops at 100 times the larger (as the
+/// defaults, 1e-11 and 1e-9), at most 1e-3 and at least 1e-13.
 pub(crate) fn periodic_settings(ro: &RunOptions) -> ezy_core::analysis::PeriodicSettings {
+    let base = ezy_core::analysis::PeriodicSettings::default();
+    let tolerance = ezy_core::integrator::Tolerance {
+        rtol: ro.rtol.unwrap_or(base.tolerance.rtol),
+        atol: ro.atol.unwrap_or(base.tolerance.atol),
+    };
+    let newton_tolerance = if ro.rtol.is_some() || ro.atol.is_some() {
+        (100.0 * tolerance.rtol.max(tolerance.atol)).clamp(1e-13, 1e-3)
+    } else {
+        base.newton_tolerance
+    };
     ezy_core::analysis::PeriodicSettings {
-        max_steps: ro.max_steps.unwrap_or(ezy_core::analysis::PeriodicSettings::default().max_steps),
-        ..ezy_core::analysis::PeriodicSettings::default()
+        max_steps: ro.max_steps.unwrap_or(base.max_steps),
+        tolerance,
+        newton_tolerance,
     }
 }
 

@@ -775,3 +775,26 @@ fn a_stiff_scene_is_refused_before_the_search() {
     assert!(err.contains("stiff scene") && err.contains("no implicit integrator yet"), "{err}");
     assert!(!dir.join("periodic.csv").exists());
 }
+
+/// `--rtol`/`--atol` reach the periodic search (they were read by the
+/// guess's run only: a gait found at 1e-11 whatever was asked). At 1e-6
+/// the rolling-resistance gait's mean speed moves by about 2e-4 m/s from
+/// the default's; at 1e-13 it agrees with it to 1e-9 (the default's
+/// Newton tolerance).
+#[test]
+fn the_tolerances_reach_the_periodic_search() {
+    let speed = |extra: &[&str]| {
+        let out = fresh(&format!("tolerance{}", extra.len()));
+        let args = [&["analyze", "drive-rolling-resistance", "--no-figures"][..], extra].concat();
+        let (said, err, ok) = ezy(&args, &out);
+        assert!(ok, "{said}{err}");
+        let (head, rows) = table(&out.join("periodic.csv"));
+        let k = head.iter().position(|h| h == "mean_speed").unwrap();
+        rows[0][k].parse::<f64>().unwrap()
+    };
+    let default = speed(&[]);
+    let loose = speed(&["--rtol", "1e-6", "--atol", "1e-6"]);
+    let tight = speed(&["--rtol", "1e-13", "--atol", "1e-13", "--max-steps", "1000000"]);
+    assert!((loose - default).abs() > 1e-5, "--rtol 1e-6 ignored: {loose} against {default}");
+    assert!((tight - default).abs() < 1e-9, "{tight} against {default}");
+}
