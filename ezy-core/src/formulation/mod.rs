@@ -12,6 +12,7 @@
 //! siblings; the step loop ([`crate::simulate`](mod@crate::simulate)) sits above.
 
 pub mod dae;
+mod fast_law;
 pub mod friction;
 pub mod initial;
 pub mod newton;

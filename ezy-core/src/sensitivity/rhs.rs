@@ -116,7 +116,7 @@ impl<M: Model> Augmented<M> {
             aq: z(nq * nq),
             aqd: z(nq * nq),
             fa: z(nq),
-            coupled: if sys.effects.iter().any(|e| matches!(e.law, crate::effects::Law::User(_))) {
+            coupled: if sys.effects.iter().any(|e| matches!(e.law, crate::effects::law::Law::User(_))) {
                 (0..nq).collect()
             } else {
                 let mut c: Vec<usize> = sys.effects.iter().flat_map(|e| e.coords()).collect();

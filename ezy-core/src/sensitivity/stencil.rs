@@ -5,7 +5,8 @@
 use super::Parameter;
 use crate::analysis::{Analysis, AnalysisError};
 use crate::drive::Drive;
-use crate::effects::{Effect, Waveforms};
+use crate::effects::Effect;
+use crate::effects::kind::Waveforms;
 use crate::formulation::dae::Dynamics;
 use crate::model::Model;
 use crate::problem::Problem;
