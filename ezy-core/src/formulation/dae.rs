@@ -17,7 +17,6 @@ use crate::formulation::friction::{Released, SkateFriction, SkateMode, row_entri
 use crate::kkt::{AnyKktSolver, KktMethod, KktSolver, KktSystem};
 use crate::model::info::ModelInfo;
 use crate::model::{MinimalCall, Model};
-use crate::names::fmt_value;
 use crate::names::{velocity_name, work_name};
 
 /// Counters of the work done, for reports and benchmarks.
