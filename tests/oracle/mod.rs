@@ -20,5 +20,6 @@ mod branches;
 mod gait_power;
 mod gait_sensitivity;
 mod growth;
+mod linearization;
 mod optimize;
 mod run_sensitivity;
