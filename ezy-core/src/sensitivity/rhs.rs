@@ -46,6 +46,9 @@ struct Scratch {
     aq: Vec<f64>,
     aqd: Vec<f64>,
     fa: Vec<f64>,
+    /// The actuators with their waveforms' values at the state's time
+    /// (one per actuator, refilled at each evaluation without allocating).
+    acts: Vec<(usize, crate::effects::kind::Waveforms)>,
     /// The coordinates the effects' forces couple (the union of their
     /// [`crate::effects::Effect::coords`]; all of them where a law is the
     /// user's own): the rows and columns of `dF/dq` and `dF/dqd` that
@@ -116,6 +119,7 @@ impl<M: Model> Augmented<M> {
             aq: z(nq * nq),
             aqd: z(nq * nq),
             fa: z(nq),
+            acts: Vec::new(),
             coupled: if sys.effects.iter().any(|e| matches!(e.law, crate::effects::law::Law::User(_))) {
                 (0..nq).collect()
             } else {
@@ -222,9 +226,10 @@ impl<M: Model> Augmented<M> {
         ws.fa.fill(0.0);
         if !acts.is_empty() {
             base.force_blocks(t, x, &|k| acts.contains(&k), &mut ws.aq, &mut ws.aqd)?;
-            let effects = &base.dynamics().effects;
-            let which: Vec<_> = acts.iter().map(|&k| (k, effects[k].waveforms(t))).collect();
-            base.forces_of(t, x, &which, &mut ws.fa)?;
+            // the base's waveforms at t (its right-hand side just took them)
+            ws.acts.clear();
+            ws.acts.extend(acts.iter().map(|&k| (k, base.dynamics().waves()[k])));
+            base.forces_of(t, x, &ws.acts, &mut ws.fa)?;
         }
         Ok(())
     }
