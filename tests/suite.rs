@@ -29,7 +29,6 @@ mod drives;
 mod effects;
 mod events;
 mod figures;
-mod force_jacobian;
 mod formulations;
 mod friction;
 mod geometry;

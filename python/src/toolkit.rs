@@ -413,12 +413,13 @@ impl Toolkit {
         grid: &Bound<'py, PyDict>,
         model: Option<&Bound<'py, PyModel>>,
         metrics: Option<Vec<String>>,
-        jobs: Option<usize>,
+        jobs: Option<&Bound<'py, PyAny>>,
         out: Option<PathBuf>,
         settings: Option<&Bound<'py, PyDict>>,
     ) -> PyResult<Bound<'py, PyAny>> {
         // the grid's axes and their size, before anything is set up
         let axes = crate::sweep::grid_args(grid)?;
+        let jobs = whole_kw("sweep", "jobs", jobs)?;
         let (app, r) = self.resolve_on(scene, model)?;
         let o = Overrides::new(r.sets.clone(), settings, "sweep")?;
         let opts = o.options()?; // the keywords' own errors first, named as keywords
@@ -531,7 +532,7 @@ impl Toolkit {
         model: Option<&Bound<'_, PyModel>>,
         at: Option<std::collections::BTreeMap<String, f64>>,
         gait: Option<&Bound<'_, PyAny>>,
-        grid: Option<usize>,
+        grid: Option<&Bound<'py, PyAny>>,
         range: Option<(f64, f64)>,
         body: Option<String>,
         shape: Option<&Bound<'_, PyAny>>,
@@ -550,7 +551,7 @@ impl Toolkit {
         if let Some(g) = text_kw("geometry", "gait", gait)? {
             extra.extend(["--gait".to_string(), g]);
         }
-        if let Some(n) = grid {
+        if let Some(n) = whole_kw("geometry", "grid", grid)? {
             extra.extend(["--grid".to_string(), n.to_string()]);
         }
         if let Some((lo, hi)) = range {
@@ -717,8 +718,8 @@ impl Toolkit {
         maximize: Option<&Bound<'_, PyAny>>,
         minimize: Option<&Bound<'_, PyAny>>,
         subject_to: Option<&Bound<'_, PyAny>>,
-        max_evaluations: Option<usize>,
-        grid: Option<usize>,
+        max_evaluations: Option<&Bound<'py, PyAny>>,
+        grid: Option<&Bound<'py, PyAny>>,
         model: Option<&Bound<'_, PyModel>>,
         out: Option<PathBuf>,
         figures: bool,
@@ -756,10 +757,10 @@ impl Toolkit {
                 extra.extend(["--subject-to".to_string(), c]);
             }
         }
-        if let Some(n) = max_evaluations {
+        if let Some(n) = whole_kw("optimize", "max_evaluations", max_evaluations)? {
             extra.extend(["--max-evaluations".to_string(), n.to_string()]);
         }
-        if let Some(n) = grid {
+        if let Some(n) = whole_kw("optimize", "grid", grid)? {
             extra.extend(["--grid".to_string(), n.to_string()]);
         }
         let helpers = self.helpers.clone_ref(py);

@@ -688,6 +688,18 @@ def test_booleans_are_not_numbers():
         ezy.check("chaplygin_sleigh", states=True)
     with pytest.raises(TypeError, match="`max_steps` must be a whole number >= 0, not bool"):
         ezy.run("sleigh", max_steps=True)
+    # the counts of sweep, geometry and optimize (pyo3 took True as 1)
+    with pytest.raises(TypeError, match=r"sweep\(\): `jobs` must be a whole number >= 0, not bool"):
+        ezy.sweep("sleigh", {"m": [1.0, 2.0]}, jobs=True)
+    with pytest.raises(TypeError, match=r"geometry\(\): `grid` must be a whole number >= 0, not bool"):
+        ezy.geometry("ezyroller", grid=True)
+    over = {"motor.omega": (0.5, 8.0)}
+    with pytest.raises(TypeError, match=r"optimize\(\): `max_evaluations` must be a whole number >= 0, not bool"):
+        ezy.optimize("drive-rolling-resistance", over=over, maximize="gait.mean_speed", max_evaluations=True)
+    with pytest.raises(TypeError, match=r"optimize\(\): `grid` must be a whole number >= 0, not bool"):
+        ezy.optimize("drive-rolling-resistance", over=over, maximize="gait.mean_speed", grid=False)
+    with pytest.raises(TypeError, match=r"`jobs` must be a whole number >= 0, not float"):
+        ezy.sweep("sleigh", {"m": [1.0, 2.0]}, jobs=1.5)
 
 
 def test_ctrl_c_stops_a_long_check_within_a_second(sigint_raises):

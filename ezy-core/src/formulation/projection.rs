@@ -72,6 +72,20 @@ pub struct Projector<M: Model> {
     refine: bool,
     /// Rows taken out of the velocity projection (sliding skates).
     released: crate::formulation::friction::Released,
+    /// The multipliers `y` of the last [`Projector::project`]'s
+    /// corrections, `W dq = -C_q^T y` (nh, summed over its Gauss-Newton
+    /// steps) and `W dqd = -G^T y` (nc; 0 where no step was taken): what
+    /// [`Projector::project_tangent`] needs of the projection's
+    /// curvature.
+    y_positions: Vec<f64>,
+    y_velocities: Vec<f64>,
+    /// What the last [`Projector::project`] changed: `q` and `qd` after
+    /// it minus before (nq each).
+    step_positions: Vec<f64>,
+    step_velocities: Vec<f64>,
+    /// `dG`'s values along a tangent vector, `dG^T y` (nq): scratch.
+    dg_values: Vec<f64>,
+    dgt_y: Vec<f64>,
     _model: std::marker::PhantomData<M>,
 }
 
@@ -136,7 +150,9 @@ struct SingularMass {
     mass: Vec<f64>,
     /// `G` dense row-major (nc x nq).
     g: Vec<f64>,
-    zeros: Vec<f64>,
+    /// The right-hand side's force (nq): 0 but in
+    /// [`Projector::project_tangent`]'s curvature term.
+    force: Vec<f64>,
     dq: Vec<f64>,
     mu: Vec<f64>,
     /// LU of the KKT matrix.
@@ -155,7 +171,7 @@ impl SingularMass {
     ) -> Result<(), KktError> {
         let nq = self.mass.len();
         scatter_dense(pattern, values, nq, &mut self.g);
-        let sys = KktSystem { mass: &self.mass, g: &self.g, g_values: &[], f: &self.zeros, gamma: r, released };
+        let sys = KktSystem { mass: &self.mass, g: &self.g, g_values: &[], f: &self.force, gamma: r, released };
         self.lu.solve(&sys, &mut self.dq, &mut self.mu)?;
         for (vi, d) in v.iter_mut().zip(&self.dq) {
             *vi += d;
@@ -204,6 +220,12 @@ impl<M: Model> Projector<M> {
                 info,
                 refine: false,
                 released: Default::default(),
+                y_positions: Vec::new(),
+                y_velocities: Vec::new(),
+                step_positions: Vec::new(),
+                step_velocities: Vec::new(),
+                dg_values: Vec::new(),
+                dgt_y: Vec::new(),
                 _model: std::marker::PhantomData,
             };
         }
@@ -217,7 +239,7 @@ impl<M: Model> Projector<M> {
             Box::new(SingularMass {
                 mass: mass.to_vec(),
                 g: vec![0.0; nc * nq],
-                zeros: vec![0.0; nq],
+                force: vec![0.0; nq],
                 dq: vec![0.0; nq],
                 mu: vec![0.0; nc],
                 lu: DenseLu::new(nq, nc),
@@ -255,9 +277,15 @@ impl<M: Model> Projector<M> {
             normal: NormalSystem::new(dense_rows),
             singular,
             drives: Vec::new(),
-            info,
             refine: false,
             released: Default::default(),
+            y_positions: vec![0.0; info.n_holonomic],
+            y_velocities: vec![0.0; nc],
+            step_positions: vec![0.0; nq],
+            step_velocities: vec![0.0; nq],
+            dg_values: vec![0.0; info.pattern.len()],
+            dgt_y: vec![0.0; nq],
+            info,
             _model: std::marker::PhantomData,
         }
     }
@@ -290,11 +318,29 @@ impl<M: Model> Projector<M> {
     /// [`SimError::Kkt`] with [`KktError::DependentConstraints`] when
     /// `C_q W^-1 C_q^T` or `G W^-1 G^T` is singular.
     pub fn project(&mut self, model: &M, t: f64, q: &mut [f64], qd: &mut [f64]) -> Result<ProjectionReport, SimError> {
-        let mut report = ProjectionReport::default();
         if self.kind == ProjectionKind::None {
-            return Ok(report);
+            return Ok(ProjectionReport::default());
         }
+        let report = self.project_steps(model, t, q, qd)?;
+        self.step_positions.iter_mut().zip(&*q).for_each(|(d, q)| *d += q);
+        self.step_velocities.iter_mut().zip(&*qd).for_each(|(d, v)| *d += v);
+        Ok(report)
+    }
+
+    /// [`Projector::project`]'s steps, recording their multipliers.
+    fn project_steps(
+        &mut self,
+        model: &M,
+        t: f64,
+        q: &mut [f64],
+        qd: &mut [f64],
+    ) -> Result<ProjectionReport, SimError> {
+        let mut report = ProjectionReport::default();
         let (nh, nc) = (self.info.n_holonomic, self.info.nc());
+        self.y_positions.fill(0.0);
+        self.y_velocities.fill(0.0);
+        self.step_positions.iter_mut().zip(&*q).for_each(|(d, q)| *d = -q);
+        self.step_velocities.iter_mut().zip(&*qd).for_each(|(d, v)| *d = -v);
         // positions: Gauss-Newton on the leading (holonomic) block; G is
         // evaluated with phi, so the last evaluation serves the velocities.
         model.phi_and_constraint_matrix(q, &mut self.r[..nh], &mut self.g_values);
@@ -313,6 +359,7 @@ impl<M: Model> Projector<M> {
                     break;
                 }
                 self.correct_positions(model, q).map_err(|e| SimError::from_kkt(&self.info, t, e))?;
+                self.record_multipliers(true, nh);
                 report.iterations = it + 1;
                 model.phi_and_constraint_matrix(q, &mut self.r[..nh], &mut self.g_values);
                 crate::drive::shift_positions(&self.drives, t, &mut self.r[..nh]);
@@ -328,8 +375,44 @@ impl<M: Model> Projector<M> {
             }
             report.velocity_step = true;
             self.correct_velocities(model, qd).map_err(|e| SimError::from_kkt(&self.info, t, e))?;
+            self.record_multipliers(false, nc);
         }
         Ok(report)
+    }
+
+    /// Adds the multipliers `y` (m) of the correction just made, `W dv =
+    /// -G_m^T y` (`positions`: the holonomic rows, in the Euclidean metric
+    /// where `M` is singular; else all rows), from whichever path solved
+    /// it, to those of the projection (the velocities' start at 0).
+    fn record_multipliers(&mut self, positions: bool, m: usize) {
+        let y = match (&self.singular, &self.sparse) {
+            (Some(s), _) if !positions => &s.mu[..m],
+            (_, Some(sp)) => &sp.lambda[..m],
+            _ => &self.x[..m],
+        };
+        let sum = if positions { &mut self.y_positions } else { &mut self.y_velocities };
+        sum.iter_mut().zip(y).for_each(|(s, y)| *s += y);
+    }
+
+    /// `dgt_y = dG_m^T y + dW step` (nq) for the leading `m` rows and
+    /// the position or velocity step, `dG` in `dg_values` (pattern order)
+    /// plus the direct `dG/dp` of `direct.0`, `dW = direct.1` where the
+    /// metric is the mass-weighted one (the singular `M`'s positions are
+    /// Euclidean).
+    fn curvature(&mut self, m: usize, positions: bool, (dg_p, dw): (&[f64], &[f64])) {
+        self.dgt_y.fill(0.0);
+        let y = if positions { &self.y_positions } else { &self.y_velocities };
+        let direct = dg_p.iter().chain(std::iter::repeat(&0.0));
+        for ((&(r, c), &v), &d) in self.info.pattern.iter().zip(&self.dg_values).zip(direct) {
+            if r < m {
+                self.dgt_y[c] += (v + d) * y[r];
+            }
+        }
+        let weighted = self.kind == ProjectionKind::MassWeighted && !(positions && self.singular.is_some());
+        if weighted && !dw.is_empty() {
+            let step = if positions { &self.step_positions } else { &self.step_velocities };
+            self.dgt_y.iter_mut().zip(dw).zip(step).for_each(|((o, w), s)| *o += w * s);
+        }
     }
 
     /// `q -= W^-1 C_q^T (C_q W^-1 C_q^T)^-1 r` with `r` the first `nh`
@@ -411,16 +494,28 @@ impl<M: Model> Projector<M> {
         Ok(())
     }
 
-    /// Projects a tangent vector `(sq, sqd)` (nq each) at the state whose
-    /// positions are `q` onto the tangent space of the constraint manifold
-    /// in the projection's metric: the derivative of [`Projector::project`]
-    /// at a point on the manifold, applied to a sensitivity `dx/dp` of a
-    /// manifold that moves with `p` (Hairer, Lubich & Wanner, *Geometric
-    /// Numerical Integration*, §IV.4). `sq` is corrected so that
-    /// `C_q sq + dr[..nh] = 0`, then `sqd` so that
-    /// `G sqd + dgqd(sq) + dr[nh..] = 0`, `dgqd` writing `d(G qd)/dq sq`
-    /// (nc) for the corrected `sq` and `dr` (nh + nc) the residuals'
-    /// direct derivative `dC/dp`. Does nothing for [`ProjectionKind::None`].
+    /// Projects a tangent vector `(sq, sqd)` (nq each) at the state `(q,
+    /// qd)` the last [`Projector::project`] left: the derivative of that
+    /// projection, applied to a sensitivity `dx/dp` of a manifold that
+    /// moves with `p` (Hairer, Lubich & Wanner, *Geometric Numerical
+    /// Integration*, §IV.4). The projection `v' = v - W^-1 G^T y` with
+    /// `G v' = b` has the derivative `dv' = P (dv - W^-1 dG^T y)` with `P`
+    /// the tangent projection onto `G dv' + dG v' = db`: `sq` loses
+    /// `W^-1 dC_q^T y` (the constraints' curvature times the position
+    /// step's multipliers, summed over its Gauss-Newton steps: exact to
+    /// first order in the step's drift, the further steps' multipliers
+    /// being of its square) and is corrected so that `C_q sq + dr[..nh] =
+    /// 0`; then `sqd` loses `W^-1 dG^T y` of the velocity step (exact: the
+    /// step is linear) and is corrected so that `G sqd + dG qd + dr[nh..]
+    /// = 0`. `dg(sq, out)` writes the derivative of `G(q)`'s values
+    /// (pattern order) along `sq`; `dr` (nh + nc) the residuals' direct
+    /// derivative `dC/dp`; `direct` the direct derivatives `dG/dp` (at the
+    /// pattern) and `dW/dp` (nq, the mass diagonal's, for the
+    /// mass-weighted metric), empty where `p` moves neither: with a
+    /// metric that moves, `W^-1 dW` times the step the projection made
+    /// joins `W^-1 dG^T y` (from `W (v' - v) + G^T y = 0`). At a point the
+    /// step left on the manifold (`y = 0`) this is the tangent projection
+    /// alone. Does nothing for [`ProjectionKind::None`].
     ///
     /// # Errors
     /// [`SimError::Kkt`] when a normal system cannot be solved.
@@ -432,11 +527,11 @@ impl<M: Model> Projector<M> {
         &mut self,
         model: &M,
         t: f64,
-        q: &[f64],
+        (q, qd): (&[f64], &[f64]),
         sq: &mut [f64],
         sqd: &mut [f64],
-        dr: &[f64],
-        dgqd: impl FnOnce(&[f64], &mut [f64]),
+        (dr, direct): (&[f64], (&[f64], &[f64])),
+        mut dg: impl FnMut(&[f64], &mut [f64]),
     ) -> Result<(), SimError> {
         if self.kind == ProjectionKind::None {
             return Ok(());
@@ -444,19 +539,40 @@ impl<M: Model> Projector<M> {
         let (nh, nc) = (self.info.n_holonomic, self.info.nc());
         model.constraint_matrix(q, &mut self.g_values);
         if nh > 0 {
+            if self.y_positions.iter().any(|&y| y != 0.0) {
+                dg(sq, &mut self.dg_values);
+                self.curvature(nh, true, direct);
+                sq.iter_mut().zip(&self.winv).zip(&self.dgt_y).for_each(|((s, w), d)| *s -= w * d);
+            }
             model.g_winv_mul(&self.info.pattern, &self.g_values, &self.ones, sq, &mut self.r);
             self.r[..nh].iter_mut().zip(dr).for_each(|(r, d)| *r += d);
             self.correct_positions(model, sq).map_err(|e| SimError::from_kkt(&self.info, t, e))?;
         }
         if nc > 0 {
             self.released.zero(&mut self.g_values);
-            model.g_winv_mul(&self.info.pattern, &self.g_values, &self.ones, sqd, &mut self.r);
-            // `x`, the velocity correction's solution, is free until then
-            dgqd(sq, &mut self.x);
-            for ((r, e), d) in self.r.iter_mut().zip(&self.x).zip(&dr[nh..]) {
-                *r += e + d;
+            dg(sq, &mut self.dg_values);
+            self.released.zero(&mut self.dg_values);
+            let curved = self.y_velocities.iter().any(|&y| y != 0.0);
+            if curved {
+                self.curvature(nc, false, direct);
+                if self.singular.is_none() {
+                    sqd.iter_mut().zip(&self.winv).zip(&self.dgt_y).for_each(|((s, w), d)| *s -= w * d);
+                }
             }
-            self.correct_velocities(model, sqd).map_err(|e| SimError::from_kkt(&self.info, t, e))?;
+            model.g_winv_mul(&self.info.pattern, &self.g_values, &self.ones, sqd, &mut self.r);
+            for (&(r, c), v) in self.info.pattern.iter().zip(&self.dg_values) {
+                self.r[r] += v * qd[c];
+            }
+            self.r.iter_mut().zip(&dr[nh..]).for_each(|(r, d)| *r += d);
+            if let (Some(s), true) = (&mut self.singular, curved) {
+                // `M` singular: `-dG^T y` enters the KKT system as a force
+                s.force.iter_mut().zip(&self.dgt_y).for_each(|(f, d)| *f = -d);
+            }
+            let result = self.correct_velocities(model, sqd);
+            if let Some(s) = &mut self.singular {
+                s.force.fill(0.0);
+            }
+            result.map_err(|e| SimError::from_kkt(&self.info, t, e))?;
         }
         Ok(())
     }

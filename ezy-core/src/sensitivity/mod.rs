@@ -45,15 +45,21 @@
 //! - `S(0)` is the same difference of the problems' consistent initial
 //!   states (exact for an initial value the problem gives).
 //! - The DAE's state is projected onto the constraints after each step
-//!   (`crate::formulation::projection`, the run's projection). Its
-//!   derivative is the projection of `S` onto the tangent space of the
-//!   constraint manifold in the same metric `W`: positions first,
-//!   `S_q <- S_q - W^-1 Cq^T (Cq W^-1 Cq^T)^-1 (Cq S_q + dC/dp)`, then the
-//!   velocities with `G` and `d(G qd)/dq S_q + d(G qd)/dp`: the derivative
-//!   of a projection onto a manifold at a point on it (Hairer, Lubich &
-//!   Wanner, *Geometric Numerical Integration*, §IV.4; the state is off
-//!   the manifold by the step's drift only, so `S` is exact to that
-//!   order).
+//!   (`crate::formulation::projection`, the run's projection), and `S`
+//!   by that projection's derivative: a correction `v' = v - W^-1 G^T y`
+//!   with `G v' = b` differentiates to `dv' = P (dv - W^-1 (dG^T y + dW
+//!   (v' - v)))`, `P` the projection onto the tangent space of the
+//!   constraint manifold in the same metric `W` (Hairer, Lubich & Wanner,
+//!   *Geometric Numerical Integration*, §IV.4): positions first, `S_q <-
+//!   S_q - W^-1 Cq^T (Cq W^-1 Cq^T)^-1 (Cq S_q + dC/dp)`, then the
+//!   velocities with `G` and `d(G qd)/dq S_q + d(G qd)/dp`. The curvature
+//!   term `W^-1 (dG^T y + dW (v' - v))`, `dG` along `S_q` and `p`, is what
+//!   the step's drift `v - v'` costs: without it Euler's sensitivities
+//!   (drift `dt^2` a step) were 2.7e-6 of their size off the discrete
+//!   run's own derivative over 5 s (1.6e-4 at larger steps). The velocity
+//!   step is linear, its derivative exact; the positions' Gauss-Newton
+//!   steps are differentiated to first order in the drift (the further
+//!   steps' multipliers are of its square).
 //!
 //! The sensitivities are integrated on the DAE formulation (the reduced
 //! one's dependent coordinates would add the derivative of their

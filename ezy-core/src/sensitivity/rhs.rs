@@ -386,10 +386,12 @@ impl<M: Model> Augmented<M> {
         Ok(())
     }
 
-    /// Projects the sensitivities `s` (np blocks of 2 nq) at the state
-    /// `(t, x)` that `projector` last projected onto the tangent space of
-    /// the constraint manifold, positions first, then velocities (see the
-    /// module's docs).
+    /// Differentiates the projection `projector` last made, to the state
+    /// `(t, x)`, along the sensitivities `s` (np blocks of 2 nq):
+    /// positions first, then velocities, each step's curvature
+    /// (`W^-1 (dG^T y + dW step)`) taken off and the rest projected onto
+    /// the tangent space of the constraint manifold
+    /// ([`Projector::project_tangent`], the module's docs).
     ///
     /// # Errors
     /// [`AnalysisError::Sim`] when a normal system is singular (a singular
@@ -407,23 +409,29 @@ impl<M: Model> Augmented<M> {
         let touches = self.stencils.iter().any(|st| st.touches.model || st.touches.drives);
         let base_r = if touches { self.base.residual_at(t, x) } else { Vec::new() };
         let sys = self.base.dynamics();
-        let pattern = &sys.info.pattern;
-        let Scratch { dr, qdual, gv, .. } = &mut self.ws;
+        let Scratch { dr, qdual, gv, gv_f64, gamma_f64, dg: dg_p, dgamma, dm, .. } = &mut self.ws;
         for (j, st) in self.stencils.iter().enumerate() {
             let (sq, sqd) = s[j * n2..(j + 1) * n2].split_at_mut(nq);
             dr.fill(0.0);
             st.add_residual(&self.base, t, x, &base_r, dr);
-            let dgqd = |sq: &[f64], out: &mut [f64]| {
+            // the direct dG/dp and dM/dp, for the projection's curvature
+            let direct: (&[f64], &[f64]) = if st.touches.model {
+                for b in [&mut *dg_p, &mut *dgamma, &mut *dm] {
+                    b.fill(0.0);
+                }
+                st.add_terms(sys, q, qd, (&mut gv_f64[..], &mut gamma_f64[..]), dg_p, dgamma, dm);
+                (dg_p, dm)
+            } else {
+                (&[], &[])
+            };
+            let dg = |sq: &[f64], out: &mut [f64]| {
                 for (k, v) in qdual.iter_mut().enumerate() {
                     *v = Dual64::new(q[k], sq[k]);
                 }
                 sys.model.constraint_matrix(qdual, gv);
-                out.fill(0.0);
-                for (&(r, c), v) in pattern.iter().zip(gv.iter()) {
-                    out[r] += v.eps * qd[c];
-                }
+                out.iter_mut().zip(gv.iter()).for_each(|(o, v)| *o = v.eps);
             };
-            projector.project_tangent(&sys.model, t, q, sq, sqd, dr, dgqd)?;
+            projector.project_tangent(&sys.model, t, (q, qd), sq, sqd, (dr, direct), dg)?;
         }
         Ok(())
     }

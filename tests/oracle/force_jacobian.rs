@@ -34,7 +34,7 @@ use crate::optimize::Cart;
 
 /// The EzyRoller with one effect of every built-in kind (tests/effects.rs
 /// checks that it has every kind).
-const ALL_EFFECTS: &str = include_str!("data/all_effects.toml");
+const ALL_EFFECTS: &str = include_str!("../data/all_effects.toml");
 
 /// Relative agreement of exact and differenced Jacobians (see the module).
 const RTOL: f64 = 1e-7;
