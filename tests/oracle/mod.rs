@@ -17,6 +17,7 @@
 //! (docs/dev/tests.md says where).
 
 mod branches;
+mod fit;
 mod gait_power;
 mod gait_sensitivity;
 mod growth;
