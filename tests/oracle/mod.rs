@@ -20,6 +20,7 @@ mod branches;
 mod fit;
 mod gait_power;
 mod gait_sensitivity;
+mod geometry;
 mod growth;
 mod linearization;
 mod optimize;
