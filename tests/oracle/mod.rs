@@ -17,9 +17,11 @@
 //! (docs/dev/tests.md says where).
 
 mod branches;
+mod fit;
 mod force_jacobian;
 mod gait_power;
 mod gait_sensitivity;
+mod geometry;
 mod growth;
 mod linearization;
 mod optimize;

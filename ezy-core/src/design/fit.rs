@@ -89,7 +89,9 @@ pub struct Fit {
     /// the error is undetermined (test with `is_nan`, or
     /// [`Fit::std_error_of`]).
     pub std_error: Vec<f64>,
-    /// Their correlations (n x n, row by row).
+    /// Their correlations (n x n, row by row): `(J^T J)^-1` normalized,
+    /// determined without a degree of freedom too; NaN where `J^T J` is
+    /// singular.
     pub correlation: Vec<Vec<f64>>,
     /// Whether each estimate sits at one of its bounds (its standard error
     /// then says little).
@@ -283,7 +285,8 @@ pub fn fit<M: Model>(design: &Design<M>, data: &Data, stop: Option<fn() -> bool>
     let (_, r, jp, fitted) = lsq.last.take().expect("the estimate's run");
     let dof = m.saturating_sub(n);
     let s2 = if dof > 0 { r.norm_squared() / dof as f64 } else { f64::NAN };
-    let cov = (jp.transpose() * &jp).try_inverse().map(|inv| inv * s2);
+    let inv = (jp.transpose() * &jp).try_inverse();
+    let cov = inv.as_ref().map(|inv| inv * s2);
     // NaN stays NaN (`f64::max` would make it 0: "+- 0" for an error
     // the data cannot give)
     let std_error: Vec<f64> = (0..n)
@@ -291,8 +294,12 @@ pub fn fit<M: Model>(design: &Design<M>, data: &Data, stop: Option<fn() -> bool>
             cov.as_ref().map_or(f64::NAN, |c| if c[(k, k)].is_nan() { f64::NAN } else { c[(k, k)].max(0.0).sqrt() })
         })
         .collect();
+    // `(J^T J)^-1` normalized: `s^2` cancels, so the correlations are
+    // determined without a degree of freedom too (they were NaN there)
     let correlation = (0..n)
-        .map(|a| (0..n).map(|b| cov.as_ref().map_or(f64::NAN, |c| c[(a, b)] / (std_error[a] * std_error[b]))).collect())
+        .map(|a| {
+            (0..n).map(|b| inv.as_ref().map_or(f64::NAN, |c| c[(a, b)] / (c[(a, a)] * c[(b, b)]).sqrt())).collect()
+        })
         .collect();
     let ncols = data.columns.len();
     let residual_rms = (0..ncols)
