@@ -30,10 +30,12 @@ fn tight(settings: ezy_core::RunSettings) -> ezy_core::RunSettings {
 
 /// Checks the sensitivities of `columns` at the run's end with respect
 /// to each of `names` against Richardson's extrapolation of central
-/// differences of whole runs (`h = 1e-4 max(1, |p|)`), to 1e-8 of the
+/// differences of whole runs (`h = 1e-4 max(0.1, |p|)`: a four-bar's
+/// 0.1 m crank at `h = 1e-4` left 4e-5 of curvature in them), to 1e-8 of the
 /// parameter's largest sensitivity plus three times the extrapolation's
-/// change (the oracle's own error), both at the oracle's settings
-/// ([`tight`]).
+/// change (the oracle's own error) plus the differences' rounding (`1e-12
+/// max(1, |x|) / h`: the runs' 1e-13 times ten, over the step; 1e-8 for a
+/// state of size 1), both at the oracle's settings ([`tight`]).
 fn check<M: Model>(scene: &Scene, model: &M, names: &[&str], columns: &[&str]) {
     check_with(scene, model, names, columns, tight);
 }
@@ -66,7 +68,7 @@ fn check_with<M: Model>(
         .collect();
     let s = problem.sensitivities_with(&params).unwrap();
     for p in &params {
-        let h = 1e-4 * p.value.abs().max(1.0);
+        let h = 1e-4 * p.value.abs().max(0.1);
         // the four runs, each once: `columns` at their ends
         let ends: Vec<Vec<f64>> = [h, -h, h / 2.0, -h / 2.0]
             .iter()
@@ -77,7 +79,13 @@ fn check_with<M: Model>(
             .collect();
         let got: Vec<f64> =
             columns.iter().map(|c| *s.column(&format!("d{c}/d{}", p.name)).unwrap().last().unwrap()).collect();
-        let scale = got.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+        // the differences' own rounding: a run's ends to about 1e-13 of
+        // their size (the tolerance), over 2h; all of what a parameter that
+        // moves nothing (a kinematic snake's mass) leaves in them
+        let size = ends.iter().flatten().fold(1.0f64, |m, v| m.max(v.abs()));
+        let noise = 1e-12 * size / h;
+        let largest = got.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+        let scale = largest.max(noise);
         for (i, (c, g)) in columns.iter().zip(&got).enumerate() {
             let central = |k: usize, h: f64| (ends[k][i] - ends[k + 1][i]) / (2.0 * h);
             let (d1, d2) = (central(0, h), central(2, h / 2.0));
@@ -90,9 +98,10 @@ fn check_with<M: Model>(
                 p.name,
                 (g - want).abs() / scale
             );
-            assert!(oracle <= 1e-5 * scale, "{}: d{c}/d{}: the differences did not settle", scene.name, p.name);
+            let settled = oracle <= 1e-5 * largest + noise;
+            assert!(settled, "{}: d{c}/d{}: the differences did not settle", scene.name, p.name);
             assert!(
-                (g - want).abs() <= 1e-8 * scale + 3.0 * oracle,
+                (g - want).abs() <= 1e-8 * largest + 3.0 * oracle + noise,
                 "{}: d{c}/d{} = {g:.12e} against {want:.12e} ({:.1e} of the largest)",
                 scene.name,
                 p.name,
@@ -184,10 +193,14 @@ impl ezy_scene::registry::Register for EveryScene {
             let info = model.info();
             let names: Vec<&str> = info.params.iter().filter(|p| !p.count).map(|p| p.name).take(2).collect();
             let (problem, _): (Problem<M>, _) = scene.problem_with(model.clone(), &[]).unwrap();
-            let params: Vec<Parameter<M>> =
-                names.iter().map(|n| scene.parameter(&model, &[], n).unwrap()).collect();
+            let params: Vec<Parameter<M>> = names.iter().map(|n| scene.parameter(&model, &[], n).unwrap()).collect();
+            // a stiff scene (radau5) as the command takes it: refused by
+            // name (an explicit method's oracle runs would crawl over its
+            // fast modes)
             let mut tightened = problem.clone();
-            tightened.settings = tight(problem.settings);
+            if problem.settings.method != Method::Radau5 {
+                tightened.settings = tight(problem.settings);
+            }
             match tightened.sensitivities_with(&params) {
                 Ok(_) => {
                     let columns: Vec<&str> = info.coords.iter().map(String::as_str).collect();
