@@ -16,6 +16,7 @@
 //! or printed quantity joins the harness in the same change
 //! (docs/dev/tests.md says where).
 
+mod bifurcations;
 mod branches;
 mod gait_power;
 mod gait_sensitivity;
