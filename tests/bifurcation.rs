@@ -127,7 +127,7 @@ fn the_rolling_resistance_gait_has_a_branch_point_in_the_motor_amplitude() {
 /// 1 m, 9.81 m/s^2): a rotational drag `c_rot = omega_0 / q` and a torque
 /// `A cos(omega t)` with `omega = 2 omega_0 / 3` and `A = g omega_0^2`.
 /// `(A, omega, c_rot)` [N m, rad/s, N m s/rad].
-const BAKER_GOLLUB: (f64, f64, f64) = (10.4, 2.08806130178211, 1.5660459763365826);
+pub(crate) const BAKER_GOLLUB: (f64, f64, f64) = (10.4, 2.08806130178211, 1.5660459763365826);
 
 /// A scene of the built-in pendulum (1 kg at 1 m) under gravity, a torque
 /// `amplitude cos(omega t)` [N m, rad/s] and a rotational drag `c_rot`

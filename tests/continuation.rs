@@ -16,7 +16,7 @@ use crate::analysis::{ezy, fresh, table};
 /// and a rotational damper: its equilibria satisfy `tau = m g L cos phi`,
 /// a branch that folds at `tau* = m g L` (the bob level with the pivot,
 /// `phi = 0`), stable below it (hanging) and unstable beyond it.
-const LOADED_PENDULUM: &str = r#"
+pub(crate) const LOADED_PENDULUM: &str = r#"
 name = "loaded-pendulum"
 description = "a pendulum under a constant torque"
 model = "pendulum"
@@ -109,8 +109,10 @@ fn an_equilibrium_branch_is_followed_around_its_fold() {
 /// load.torque.constant=0:12:13` writes the branch around the fold: the
 /// 13 grid values on the hanging side, points closer together near the
 /// fold, the upright side back to 0, and a row for the fold at 9.81 N m
-/// (to the 1e-8 the command locates to) with its critical eigenvalue 0;
-/// the summary names it.
+/// (to the 1e-8 the command locates to) with its critical eigenvalue 0,
+/// neutral (it was written "stable": the point's own family count took
+/// the fold's singular direction for a family's and left the critical
+/// eigenvalue out); the summary names it.
 #[test]
 fn analyze_follows_a_branch_around_its_fold() {
     let out = fresh("fold");
@@ -128,6 +130,9 @@ fn analyze_follows_a_branch_around_its_fold() {
     let value: f64 = folds[0][0].parse().unwrap();
     assert!((value - 9.81).abs() < 1e-8, "{value}");
     assert!(folds[0][at("critical_re")].parse::<f64>().unwrap().abs() < 1e-6);
+    // its critical eigenvalue 0 classified (it was "stable": its own
+    // family count took the singular direction for a family's)
+    assert_eq!(folds[0][at("stability")], "neutral");
     let values: Vec<f64> = rows.iter().map(|r| r[0].parse().unwrap()).collect();
     for k in 0..13 {
         let hits = values.iter().filter(|v| (**v - k as f64).abs() < 1e-12).count();

@@ -16,6 +16,7 @@
 //! or printed quantity joins the harness in the same change
 //! (docs/dev/tests.md says where).
 
+mod bifurcations;
 mod branches;
 mod fit;
 mod force_jacobian;

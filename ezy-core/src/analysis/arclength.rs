@@ -22,7 +22,7 @@
 
 use faer::Mat;
 
-use super::bifurcation::{Bifurcation, BifurcationKind, critical};
+use super::bifurcation::{Bifurcation, BifurcationKind, at_bifurcation, critical, family};
 use super::branch::{BranchPoint, Follow, Solution, solve};
 use super::periodic::{gauge_coordinates, with_gauge};
 use super::symmetry::{Generator, Symmetry, act};
@@ -541,7 +541,7 @@ pub fn locate_fold<M: Model>(
         bracket,
         kind: BifurcationKind::Fold,
         critical: crit,
-        solution: point.solution,
+        solution: at_bifurcation(point.solution, family(&a.solution).min(family(&b.solution))),
         solves,
     }))
 }

@@ -10,6 +10,7 @@
 use faer::c64;
 
 use super::branch::{BranchPoint, Follow, Solution, solve};
+use super::steady::Stability;
 use super::{Analysis, AnalysisError};
 use crate::model::Model;
 
@@ -67,7 +68,9 @@ pub struct Bifurcation {
     /// The critical eigenvalue(s) \[1/s\] or multiplier(s) at `value`:
     /// one real, or a complex pair.
     pub critical: Vec<c64>,
-    /// The solution at `value`.
+    /// The solution at `value`, its family and stability those of the
+    /// bracket's ends (the critical eigenvalue or multiplier classified:
+    /// neutral where nothing else is unstable).
     pub solution: Solution,
     /// Solutions computed to locate it.
     pub solves: usize,
@@ -75,7 +78,7 @@ pub struct Bifurcation {
 
 /// The dimension of the family of solutions through `s` (its
 /// eigenvalues 0 or multipliers 1 along it).
-fn family(s: &Solution) -> usize {
+pub(crate) fn family(s: &Solution) -> usize {
     match s {
         Solution::Steady(m) => m.family,
         Solution::Periodic(p) => p.family,
@@ -97,6 +100,28 @@ fn rates(s: &Solution, family: usize) -> Vec<(f64, c64)> {
         values.iter().map(|z| (if periodic { z.re.hypot(z.im).max(1e-300).ln() } else { z.re }, *z)).collect();
     r.sort_by(|a, b| a.0.abs().total_cmp(&b.0.abs()));
     r.split_off(family.min(r.len()))
+}
+
+/// `s`, a solution at a bifurcation between branch points whose family
+/// is `family`, with that family and its stability classified with it.
+/// Its own family count takes the critical eigenvalue or multiplier in
+/// (the bifurcation makes its Newton matrix singular, as a family would)
+/// and its classification left it out: a fold or branch point was
+/// "stable" with its critical eigenvalue 0 or multiplier 1. Counted away
+/// from it, the critical one is classified (on the axis or circle:
+/// neutral where nothing else is unstable).
+pub(crate) fn at_bifurcation(mut s: Solution, family: usize) -> Solution {
+    match &mut s {
+        Solution::Steady(m) => {
+            m.family = family;
+            m.stability = Stability::of_eigenvalues(&m.eigenvalues, family);
+        }
+        Solution::Periodic(p) => {
+            p.family = family;
+            p.stability = Stability::of_multipliers(&p.multipliers, family);
+        }
+    }
+    s
 }
 
 /// How many eigenvalues (multipliers) of `s` are unstable: right of the
@@ -178,7 +203,7 @@ pub fn locate<M: Model>(
         bracket: [lo.value, hi.value],
         kind,
         critical,
-        solution: point.solution,
+        solution: at_bifurcation(point.solution, fam),
         solves,
     }))
 }

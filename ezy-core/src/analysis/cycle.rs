@@ -200,8 +200,7 @@ impl<M: Model> Analysis<M> {
         let j = self.cycle_jacobian(t0, (&x0, &xt), &m, symmetry, &p, (period, &normal))?;
         let rank = dense::numerical_rank(with_gauge(j, &gauge).as_ref(), 1e-8)?;
         let family = (n2 + k + 1).saturating_sub(rank);
-        let rates = multipliers.iter().map(|z| z.re.hypot(z.im).max(1e-300).ln()).collect();
-        let stability = Stability::classify(rates, family, 1e-6);
+        let stability = Stability::of_multipliers(&multipliers, family);
         let (state, shift, d) = gait_geometry(&bodies, symmetry, &x0, h);
         Ok(PeriodicOrbit {
             t0,

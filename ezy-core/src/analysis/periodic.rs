@@ -322,8 +322,7 @@ impl<M: Model> Analysis<M> {
         let shifts = structural.iter().filter(|s| !s.rate).count();
         let orbit = removed - extra.len() + shifts;
         let family = (n2 + k - rank).saturating_sub(orbit);
-        let rates = multipliers.iter().map(|z| z.re.hypot(z.im).max(1e-300).ln()).collect();
-        let stability = Stability::classify(rates, family, 1e-6);
+        let stability = Stability::of_multipliers(&multipliers, family);
         let (state, shift, d) = gait_geometry(&bodies, symmetry, &x0, h);
         Ok(PeriodicOrbit {
             t0,

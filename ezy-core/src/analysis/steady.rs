@@ -50,6 +50,22 @@ impl Stability {
             Stability::Neutral
         }
     }
+
+    /// The classification of a steady motion's eigenvalues \[1/s\], the
+    /// `family` ones nearest the imaginary axis left out: a real part
+    /// within 1e-7 of the largest `|lambda|` (at least 1) counts as zero.
+    pub(crate) fn of_eigenvalues(eigenvalues: &[c64], family: usize) -> Stability {
+        let top = eigenvalues.iter().fold(1.0f64, |m, z| m.max(z.re.hypot(z.im)));
+        Stability::classify(eigenvalues.iter().map(|z| z.re).collect(), family, 1e-7 * top)
+    }
+
+    /// The classification of a periodic orbit's Floquet multipliers, the
+    /// `family` ones nearest the unit circle left out: `ln |mu|` within
+    /// 1e-6 of 0 counts as on it.
+    pub(crate) fn of_multipliers(multipliers: &[c64], family: usize) -> Stability {
+        let rates = multipliers.iter().map(|z| z.re.hypot(z.im).max(1e-300).ln()).collect();
+        Stability::classify(rates, family, 1e-6)
+    }
 }
 
 /// A relative equilibrium `x(t) = exp((t - t0) xi) x0` ([`Analysis::steady_motion`]).
@@ -209,8 +225,7 @@ impl<M: Model> Analysis<M> {
         let rank = dense::numerical_rank(j.as_ref(), 1e-8)?;
         let (eigenvalues, orbit) = self.reduced_spectrum(t, &x, &xi, symmetry)?;
         let family = (n2 + k - rank).saturating_sub(orbit);
-        let top = eigenvalues.iter().fold(1.0f64, |m, z| m.max(z.re.hypot(z.im)));
-        let stability = Stability::classify(eigenvalues.iter().map(|z| z.re).collect(), family, 1e-7 * top);
+        let stability = Stability::of_eigenvalues(&eigenvalues, family);
         let [i, jj, kk] = bodies[0];
         let (s, c) = x[kk].sin_cos();
         let (vx, vy) = (x[nq + i], x[nq + jj]);

@@ -311,6 +311,12 @@ fn growth_csv(g: &Growth) -> String {
 /// `branch.csv`: one row per parameter value, and one per bifurcation
 /// located (after the point `k` of its bracket), its kind and critical
 /// eigenvalue or multiplier in the last columns (empty on the other rows).
+/// A periodic branch's rows carry each orbit's period and phase `t0`:
+/// the branch takes its orbits at the first one's phase less whole
+/// periods of its forcing, where a frequency's change moves the forcing's
+/// phase least, so the states are not at `periodic.csv`'s `t0` where the
+/// parameter changes the forcing's frequency (a bifurcation's row at the
+/// phase it was located at).
 fn branch_csv(
     name: &str,
     (branch, power, bifurcations): BranchView<'_>,
@@ -323,7 +329,7 @@ fn branch_csv(
     };
     let mut head: Vec<String> = vec![name.to_string(), "stability".into(), "speed".into()];
     if letter == "mu" {
-        head.push("period".into());
+        head.extend(["period", "t0"].map(String::from));
     }
     head.extend(shape.iter().map(|s| s.0.clone()));
     head.extend(names.iter().cloned());
@@ -341,7 +347,7 @@ fn branch_csv(
     let row = |value: f64, solution: &Solution| {
         let mut cells = vec![number(value), solution.stability().name().into(), number(solution.speed())];
         if let Solution::Periodic(p) = solution {
-            cells.push(number(p.period));
+            cells.extend([number(p.period), number(p.t0)]);
         }
         cells.extend(shape_cells(shape, solution.state()));
         cells.extend(solution.state().iter().map(|v| number(*v)));
