@@ -27,3 +27,4 @@ mod growth;
 mod linearization;
 mod optimize;
 mod run_sensitivity;
+mod single_points;

@@ -577,6 +577,14 @@ impl<M: Model> Projector<M> {
         Ok(())
     }
 
+    /// Whether the last [`Projector::project`] moved the state (a
+    /// multiplier of its position or velocity steps is not 0): where it
+    /// did not, [`Projector::project_tangent`] has no curvature term and
+    /// ignores its `direct` derivatives, which need not be computed.
+    pub fn corrected(&self) -> bool {
+        self.y_positions.iter().chain(&self.y_velocities).any(|&y| y != 0.0)
+    }
+
     /// Takes the constraint rows `rows` out of the velocity projection
     /// (skates that slide, [`crate::formulation::friction`]): `qd` is projected onto
     /// the other rows' `G qd = 0` only, and

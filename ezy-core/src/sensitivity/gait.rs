@@ -32,7 +32,7 @@ use super::stencil::{Derivative, Stencil};
 use super::{MAX_PARAMETERS, Parameter};
 use crate::analysis::AnalysisError;
 use crate::analysis::dense::min_norm_solve;
-use crate::analysis::periodic::{PeriodicOrbit, PeriodicSettings, gait_geometry};
+use crate::analysis::periodic::{PeriodicOrbit, PeriodicSettings, gait_geometry, gauge_coordinates, with_gauge};
 use crate::analysis::symmetry::Symmetry;
 use crate::effects::waveform::Periodicity;
 use crate::integrator::adaptive;
@@ -261,7 +261,12 @@ impl<M: Model> Problem<M> {
         let m = Mat::from_fn(n2, n2, |i, j| col(j)[i]);
         let ft = aug.base.rhs(t0 + period, xt)?;
         let pt = aug.input_power(t0 + period, xt)?;
-        let j = aug.base.shooting_jacobian(t0, &x0, &m, symmetry, &hp)?;
+        // held at the gauge the orbit is written in (the reference body at
+        // the origin with heading 0, as far as the symmetry allows), one
+        // row per generator as the search holds it: the symmetry's
+        // directions are not left to a minimum-norm solve's rank cut
+        let gauge = gauge_coordinates(&bodies, &symmetry.generators());
+        let j = with_gauge(aug.base.shooting_jacobian(t0, &x0, &m, symmetry, &hp)?, &gauge);
         let q0 = quantities(&bodies, symmetry, &x0, &hp, period, energy[0]);
         let input_ledger = if aug.energy_states() > 0 {
             ledger_names.into_iter().zip(&energy[1 + ncol..]).map(|(n, e)| (n, e / period)).collect()
@@ -289,6 +294,7 @@ impl<M: Model> Problem<M> {
             let dt = d_period[k];
             let mut rp: Vec<f64> = col(n2 + k).iter().zip(&ft).map(|(s, f)| -(s + f * dt)).collect();
             rp.extend(dr[k].iter().map(|v| -v));
+            rp.extend(gauge.iter().map(|_| 0.0));
             let (dz, _) = min_norm_solve(j.as_ref(), &rp, 1e-12)?;
             let (dx0, dhp) = dz.split_at(n2);
             let de = (0..n2).map(|i| energy[1 + i] * dx0[i]).sum::<f64>() + energy[1 + n2 + k] + pt * dt;

@@ -409,13 +409,15 @@ impl<M: Model> Augmented<M> {
         let touches = self.stencils.iter().any(|st| st.touches.model || st.touches.drives);
         let base_r = if touches { self.base.residual_at(t, x) } else { Vec::new() };
         let sys = self.base.dynamics();
+        let corrected = projector.corrected();
         let Scratch { dr, qdual, gv, gv_f64, gamma_f64, dg: dg_p, dgamma, dm, .. } = &mut self.ws;
         for (j, st) in self.stencils.iter().enumerate() {
             let (sq, sqd) = s[j * n2..(j + 1) * n2].split_at_mut(nq);
             dr.fill(0.0);
             st.add_residual(&self.base, t, x, &base_r, dr);
             // the direct dG/dp and dM/dp, for the projection's curvature
-            let direct: (&[f64], &[f64]) = if st.touches.model {
+            // (none where the projection made no step)
+            let direct: (&[f64], &[f64]) = if st.touches.model && corrected {
                 for b in [&mut *dg_p, &mut *dgamma, &mut *dm] {
                     b.fill(0.0);
                 }
