@@ -13,7 +13,7 @@ use ezy_core::{Choice, Dynamics, Model, Observer, ProjectionKind, RunSettings, S
 use ezy_scene::Scene;
 
 use crate::output::transaction::{OutLock, Transaction};
-use crate::render::plot::{Chart, Series, Stroke};
+use crate::render::plot::series::{Chart, Series, Stroke};
 use crate::session::Error;
 
 /// One setting of the ladder.

@@ -83,7 +83,7 @@ pub(crate) fn run_model_tapped<M: Model>(
         // (detached: it takes milliseconds)
         let _ = std::thread::Builder::new()
             .name("ezy-warm-up".into())
-            .spawn(move || crate::render::plot::warm_up(format, dpi, encoders));
+            .spawn(move || crate::render::plot::raster::warm_up(format, dpi, encoders));
     }
     let summary = match ezy_core::simulate(&mut sys, &y0, &settings, &mut obs) {
         Ok(s) => s,

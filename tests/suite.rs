@@ -17,7 +17,6 @@ mod adversarial_output;
 mod analysis;
 mod any_model;
 mod app;
-mod architecture;
 mod bench;
 mod bifurcation;
 mod build_sharing;

@@ -1,5 +1,5 @@
 //! Errors of the runtime: a `thiserror` enum with data, no catch-all
-//! string variant. Floor 0: it imports only [`crate::names`] (how numbers
+//! string variant. It imports only [`crate::names`] (how numbers
 //! and names are written) and [`crate::settings`] (the settings a message
 //! advises, carried as data).
 

@@ -1,7 +1,6 @@
-//! How ezy names things in messages and columns: floor 0 of the runtime
-//! (it imports nothing of the crate). Numbers as a person writes them
-//! ([`fmt_value`]) and lists of names cut to a readable length
-//! ([`name_list`]).
+//! How ezy names things in messages and columns (it imports nothing of
+//! the crate). Numbers as a person writes them ([`fmt_value`]) and lists
+//! of names cut to a readable length ([`name_list`]).
 
 /// A number as a person would write it: plain for ordinary magnitudes,
 /// scientific below 1e-3 and from 1e6 (`1e-320`, not 320 digits).

@@ -1,7 +1,7 @@
-//! Run settings and the limits every input is checked against: floor 0
-//! of the runtime (it imports only [`crate::names`]). What a run is
-//! asked to do ([`RunSettings`]: method, formulation, projection, step,
-//! tolerances, budgets), the named values a scene file and the command
+//! Run settings and the limits every input is checked against (it
+//! imports only [`crate::names`]). What a run is asked to do
+//! ([`RunSettings`]: method, formulation, projection, step, tolerances,
+//! budgets), the named values a scene file and the command
 //! line spell by [`Choice::name`], and the largest magnitudes, rates and
 //! angles ezy takes ([`MAX_MAGNITUDE`], [`MAX_RATE`], [`MAX_ANGLE`]).
 

@@ -472,14 +472,14 @@ pub struct Maggi {
 /// `ModelInfo::hinges`.
 pub fn maggi(ar: &mut Arena, m: &Minimal, mass: &[Id], hinges: &[(usize, Option<usize>)]) -> Maggi {
     let (nq, nu) = (m.qd.len(), m.speeds.len());
-    let mut memo = crate::sym::Grouping::default();
+    let mut memo = crate::sym::hoist::Grouping::default();
     let b: Vec<Id> = m.b.iter().map(|&e| ar.group_fixed(e, &mut memo)).collect();
     // each entry twice: as the sum of the factored products, and
     // multiplied out and collected in the state (`Arena::collect_state`)
     // over the sines and cosines of angle differences, then written in
     // the angles' own and factored as the rest; the cheaper is kept
     let (mut trig, mut fac, mut fixed) = (HashMap::new(), HashMap::new(), Vec::new());
-    let mut both = |ar: &mut Arena, memo: &mut crate::sym::Grouping, factored: Id, linear: Id| {
+    let mut both = |ar: &mut Arena, memo: &mut crate::sym::hoist::Grouping, factored: Id, linear: Id| {
         let old = ar.group_fixed(factored, memo);
         let new = ar.collect_state(linear, &mut fixed).map(|e| {
             let e = ar.trig_products(e, &mut trig);

@@ -12,8 +12,8 @@ use serde::Serialize;
 use ezy_core::model::info::ModelInfo;
 use ezy_core::{SetupError, SimError};
 
-use crate::check::known_or_none;
-use crate::{Binding, Scene, SceneError};
+use crate::error::{SceneError, known_or_none};
+use crate::schema::{Binding, Scene};
 
 impl Scene {
     /// The scene as a run takes it: a copy with the command-line
@@ -39,7 +39,7 @@ impl Scene {
     /// # Errors
     /// A [`SceneError`] at `effects.NAME.kind` for a kind neither built in
     /// nor in `kinds`, listing the known kinds.
-    pub fn bind_kinds(&mut self, kinds: &crate::EffectKinds) -> Result<(), SceneError> {
+    pub fn bind_kinds(&mut self, kinds: &crate::kinds::EffectKinds) -> Result<(), SceneError> {
         for (name, spec) in &mut self.effects {
             spec.bind(kinds).map_err(|e| SceneError::at(&["effects", name, e.field], e.message))?;
         }
@@ -381,7 +381,7 @@ fn numeric_values(v: &toml::Value) -> Vec<(String, f64)> {
 }
 
 /// In the parsed file `root`: replaces every string in a number's place
-/// inside `[effects.NAME]` (keys other than [`crate::NAME_KEYS`])
+/// inside `[effects.NAME]` (keys other than [`crate::kinds::NAME_KEYS`])
 /// and `[drives.NAME]` by the value of the scene parameter it names, the
 /// very token written in `[scene_params]` (so the number is bit for bit the
 /// one written there), keeping the string's span for later errors.
@@ -451,7 +451,7 @@ fn bind_numbers<'i>(
         DeValue::Table(t) => {
             for (k, v) in t.iter_mut() {
                 let k = k.get_ref().as_ref();
-                if effect_table && crate::NAME_KEYS.contains(&k) {
+                if effect_table && crate::kinds::NAME_KEYS.contains(&k) {
                     continue;
                 }
                 path.push(k.to_string());

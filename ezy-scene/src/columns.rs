@@ -1,7 +1,6 @@
-//! The output columns: the optional groups a scene asks for
-//! ([`OutputGroup`]), and each group's columns named AND valued in one
-//! place. The header of `trajectory.csv` ([`Scene::columns`], [`names`])
-//! and each of its rows ([`RowBuilder::fill`]) are the same walk over the
+//! The output columns: each of the optional groups a scene asks for
+//! ([`OutputGroup`]) named AND valued in one place. The header of
+//! `trajectory.csv` ([`Scene::columns`], [`names`]) and each of its rows ([`RowBuilder::fill`]) are the same walk over the
 //! groups, one match with a group's names and its values side by side:
 //! a column is added by one edit, and the values cannot drift from the
 //! names.
@@ -10,8 +9,6 @@
 //! same order (`<coord>d`); then the groups asked for, in the order of
 //! [`OutputGroup::ALL`].
 
-use serde::{Deserialize, Serialize};
-
 use ezy_core::effects::Law;
 use ezy_core::kkt::KktMethod;
 use ezy_core::model::Model;
@@ -19,58 +16,10 @@ use ezy_core::model::info::ModelInfo;
 use ezy_core::names::{velocity_name, work_name};
 use ezy_core::{AnyModel, Dynamics, EffectSpec, Sample, SimError};
 
-use crate::{Scene, SceneEffect};
-
-/// Optional groups of output columns; `t`, the coordinates and the
-/// velocities are always written. A group not listed is not computed.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Serialize, Deserialize)]
-#[serde(rename_all = "kebab-case")]
-pub enum OutputGroup {
-    /// `T` \[J\], `W` (total work) \[J\] and `W_<effect>` per effect \[J\].
-    Energy,
-    /// `<point>.x`, `<point>.y` \[m\] for every named point.
-    Points,
-    /// `<point>.vx`, `<point>.vy` \[m/s\] for every named point, from the
-    /// generated point velocities.
-    PointVelocities,
-    /// One value per effect: `tau_<effect>` \[N m\] or `F_<effect>` \[N\].
-    Effects,
-    /// Constraint forces from the multipliers: `F_<hinge>.x`, `F_<hinge>.y`
-    /// \[N\] (on the hinge's first body) and `F_<skate>` \[N\] (lateral, along
-    /// the blade normal). Costs one KKT solve per output row.
-    ConstraintForces,
-    /// The accelerations `qdd`: `<coord>dd` \[m/s^2, rad/s^2\]. Costs one
-    /// KKT solve per output row (shared with the constraint forces).
-    Accelerations,
-    /// `res_phi` = max|C(q)| \[m\] and `res_vel` = max|G(q) qd| \[m/s\].
-    Residuals,
-}
+use crate::kinds::SceneEffect;
+use crate::schema::{OutputGroup, Scene};
 
 impl OutputGroup {
-    /// Every group, in column order.
-    pub const ALL: [OutputGroup; 7] = [
-        Self::Energy,
-        Self::Points,
-        Self::PointVelocities,
-        Self::Effects,
-        Self::ConstraintForces,
-        Self::Accelerations,
-        Self::Residuals,
-    ];
-
-    /// Name as a scene file spells it.
-    pub fn name(self) -> &'static str {
-        match self {
-            Self::Energy => "energy",
-            Self::Points => "points",
-            Self::PointVelocities => "point-velocities",
-            Self::Effects => "effects",
-            Self::ConstraintForces => "constraint-forces",
-            Self::Accelerations => "accelerations",
-            Self::Residuals => "residuals",
-        }
-    }
-
     /// Whether the group's values need the KKT solve at the sample (the
     /// multipliers or the accelerations).
     fn needs_kkt(self) -> bool {

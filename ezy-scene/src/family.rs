@@ -10,8 +10,9 @@ use std::collections::HashSet;
 use ezy_core::model::info::{ModelInfo, is_element_of};
 
 use crate::bind::{apply_phase_step, has_phase_step, rebind, take_bindings};
-use crate::check::known_or_none;
-use crate::{DriveSpec, Scene, SceneEffect, SceneError};
+use crate::error::{SceneError, known_or_none};
+use crate::kinds::SceneEffect;
+use crate::schema::{DriveSpec, Scene};
 
 /// Each family effect's name with the names of its elements, in order.
 type Families = Vec<(String, Vec<String>)>;

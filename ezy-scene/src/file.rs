@@ -4,7 +4,7 @@
 //! that is not one) is placed by the TOML reader's span; one a later stage
 //! finds is a [`SceneError`] (a key path and a message) that
 //! [`Scene::locate_error`] places at the key's line and column. Files are
-//! read with a bound ([`crate::files`]).
+//! read with a bound ([`ezy_core::files`]).
 
 use std::path::Path;
 
@@ -12,90 +12,13 @@ use serde::Deserialize;
 
 use ezy_core::model::info::ModelInfo;
 
-use crate::Scene;
 use crate::bind::{bind_scene_params, set_path};
-
-/// A semantic error in a scene: the key path (`["effects", "motor",
-/// "hinge"]`) and what is wrong.
-#[derive(Debug, Clone, PartialEq, Eq)]
-pub struct SceneError {
-    /// Path of the offending key from the file's root; array entries by index.
-    pub path: Vec<String>,
-    /// What is wrong and what was expected.
-    pub message: String,
-}
+use crate::error::{SceneError, SceneFileError};
+use crate::schema::Scene;
 
 /// Largest scene file read \[bytes\]: 1 MiB. The largest built-in scene
 /// is under 4 KiB; a spline of 10,000 knots fits easily.
 pub const MAX_SCENE_BYTES: u64 = 1 << 20;
-
-impl SceneError {
-    /// The error at the key path `path` (array entries by index).
-    pub(crate) fn at(path: &[&str], message: impl Into<String>) -> Self {
-        Self { path: path.iter().map(|s| s.to_string()).collect(), message: message.into() }
-    }
-    /// The path written as TOML would (`effects.motor.hinge`, `figures[2].lines[0].y`).
-    pub fn key(&self) -> String {
-        let mut out = String::new();
-        for p in &self.path {
-            if p.parse::<usize>().is_ok() {
-                out.push_str(&format!("[{p}]"));
-            } else {
-                if !out.is_empty() {
-                    out.push('.');
-                }
-                out.push_str(p);
-            }
-        }
-        out
-    }
-}
-
-/// A scene file that cannot be used: where and why.
-#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
-#[error("{}", self.render())]
-pub struct SceneFileError {
-    /// The file (or `<builtin NAME>`).
-    pub file: String,
-    /// Line, from 1 (0: the file as a whole, e.g. it cannot be read).
-    pub line: usize,
-    /// Column, from 1.
-    pub column: usize,
-    /// The key at fault, when known.
-    pub key: Option<String>,
-    /// What is wrong and what was expected.
-    pub message: String,
-    /// Further mistakes the same check found in other parts of the file
-    /// ([`Scene::check_all`]), each shown on a line of its own.
-    pub also: Vec<SceneFileError>,
-}
-
-impl SceneFileError {
-    /// `FILE:LINE:COLUMN: `KEY`: MESSAGE`, or `FILE: MESSAGE` for the file
-    /// as a whole; then each of [`SceneFileError::also`] on its own line.
-    fn render(&self) -> String {
-        let key = self.key.as_ref().map(|k| format!("`{k}`: ")).unwrap_or_default();
-        let mut out = if self.line == 0 {
-            format!("{}: {key}{}", self.file, self.message)
-        } else {
-            format!("{}:{}:{}: {key}{}", self.file, self.line, self.column, self.message)
-        };
-        for e in &self.also {
-            out.push('\n');
-            out.push_str(&e.render());
-        }
-        out
-    }
-
-    /// The first of `errors` with the others as [`SceneFileError::also`]
-    /// (`None` for none).
-    pub fn collect(errors: impl IntoIterator<Item = SceneFileError>) -> Option<SceneFileError> {
-        let mut errors = errors.into_iter();
-        let mut first = errors.next()?;
-        first.also.extend(errors);
-        Some(first)
-    }
-}
 
 /// Line and column (from 1) of byte offset `pos` in `src`.
 fn line_column(src: &str, pos: usize) -> (usize, usize) {
@@ -228,7 +151,7 @@ impl Scene {
         // a regular file only, and at most one byte past the cap: a huge
         // file, a device or a FIFO is refused without being held in memory
         // or waited on
-        let src = crate::files::read_capped_text(path, MAX_SCENE_BYTES, "the scene file").map_err(error)?;
+        let src = ezy_core::files::read_capped_text(path, MAX_SCENE_BYTES, "the scene file").map_err(error)?;
         Ok((Self::from_toml(&src, &file)?, src))
     }
 

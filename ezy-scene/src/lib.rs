@@ -57,11 +57,12 @@
 //! assert!(bad.unwrap_err().to_string().starts_with("glide.toml:5:"), "the line of `t_end`");
 //! ```
 //!
-//! Modules: [`schema`] (the document's types), [`file`](mod@file) (text in and
-//! out, located errors), [`bind`] (scene parameters, `--set`, phase
-//! steps), [`family`] (family expansion), [`check`] (one module per
+//! Modules: [`schema`] (the document's types, the output groups among
+//! them), [`error`] (what is wrong and where), [`file`](mod@file) (text
+//! in and out, errors located in it), [`bind`] (scene parameters, `--set`,
+//! phase steps), [`family`] (family expansion), [`check`] (one module per
 //! section, returning [`Checked`]), [`problem`] (`Checked -> Problem`),
-//! [`columns`] (output groups, names and values), [`view`] (figure specs),
+//! [`columns`] (each output group's names and values), [`view`] (figure specs),
 //! [`kinds`] (effects as scene files write them; kinds of the user's own),
 //! [`parameter`] (a scene's numbers as parameters of its problem),
 //! [`registry`] (models by the key scenes name them by), [`files`]
@@ -70,6 +71,7 @@
 pub mod bind;
 pub mod check;
 pub mod columns;
+pub mod error;
 pub mod family;
 pub mod file;
 /// Bounded reads of the files a user names: ezy-core's, which reads
@@ -83,10 +85,11 @@ pub mod schema;
 pub mod view;
 
 pub use check::{Checked, MAX_COUNT, MAX_FIGURE_NAME, check_count};
-pub use columns::{OutputGroup, RowBuilder};
-pub use file::{MAX_SCENE_BYTES, SceneError, SceneFileError};
+pub use columns::RowBuilder;
+pub use error::{SceneError, SceneFileError};
+pub use file::MAX_SCENE_BYTES;
 pub use kinds::{EffectKinds, KindHandle, NAME_KEYS, SceneEffect, UserTable};
-pub use schema::{Binding, DriveSpec, InitValue, Initial, IntegratorSettings, OutputSettings, Scene};
+pub use schema::{Binding, DriveSpec, InitValue, Initial, IntegratorSettings, OutputGroup, OutputSettings, Scene};
 pub use view::{
     Column, DEFAULT_DPI, FigureFormat, FigureSpec, Line, MAX_DPI, MIN_DPI, figure_stem, split_outside_parentheses,
     unbalanced_parentheses,

@@ -7,7 +7,7 @@ use ezy_core::design::Design;
 use ezy_core::sensitivity::Parameter;
 use ezy_core::{Model, Problem, SetupError, SimError};
 
-use crate::Scene;
+use crate::schema::Scene;
 
 impl Scene {
     /// The number `name` of this scene (with the overrides `sets`) as a

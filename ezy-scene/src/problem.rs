@@ -11,8 +11,10 @@ use ezy_core::kkt::KktMethod;
 use ezy_core::problem::{check_masses, check_params};
 use ezy_core::{InitialName, Model, ModelInfo, NameIndex, Problem, SetupError, SimError};
 
-use crate::check::{Checked, Given, Source};
-use crate::{Scene, SceneError};
+use crate::check::Checked;
+use crate::check::initial::{Given, Source};
+use crate::error::SceneError;
+use crate::schema::Scene;
 
 impl Scene {
     /// The problem the scene describes for model `M`: the overrides `sets`

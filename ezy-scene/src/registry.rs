@@ -11,7 +11,10 @@
 use ezy_core::effects::EffectContext;
 use ezy_core::{EffectSpec, Model, ModelInfo, NameIndex, SetupError, SimError};
 
-use crate::{Checked, EffectKinds, Scene, SceneError, SceneFileError};
+use crate::check::Checked;
+use crate::error::{SceneError, SceneFileError};
+use crate::kinds::EffectKinds;
+use crate::schema::Scene;
 
 /// Something models can be registered with under a key.
 ///
@@ -139,7 +142,7 @@ pub fn info_of<M: Model>(model: &M, params: &[(String, f64)]) -> Result<ModelInf
 /// Sets the family counts among `params` (name, value; other parameters
 /// are left alone) on `model`, each checked to be a whole number >= 1,
 /// then checks that every family refers to elements that exist: the one
-/// place counts are applied (scene check, [`crate::Scene::problem`]).
+/// place counts are applied (scene check, [`crate::schema::Scene::problem`]).
 ///
 /// # Errors
 /// A [`SceneError`] at `params.COUNT`.
@@ -150,7 +153,7 @@ pub fn set_counts<M: Model>(model: &mut M, params: &[(String, f64)]) -> Result<(
         if let Some(i) = base.param_index(name)
             && base.params[i].count
         {
-            crate::check_count(name, *value)?;
+            crate::check::params::check_count(name, *value)?;
             model.set_param(i, *value);
             last = Some(name.clone());
         }

@@ -16,7 +16,6 @@ use serde::{Deserialize, Deserializer, Serialize, Serializer};
 use ezy_core::settings::Method;
 use ezy_core::settings::ProjectionKind;
 
-use crate::columns::OutputGroup;
 use crate::kinds::SceneEffect;
 use crate::view::{DEFAULT_DPI, FigureFormat, FigureSpec};
 
@@ -167,6 +166,57 @@ impl Default for IntegratorSettings {
             atol: default_tol(),
             projection: ProjectionKind::default(),
             formulation: ezy_core::Formulation::default(),
+        }
+    }
+}
+
+/// Optional groups of output columns; `t`, the coordinates and the
+/// velocities are always written. A group not listed is not computed.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum OutputGroup {
+    /// `T` \[J\], `W` (total work) \[J\] and `W_<effect>` per effect \[J\].
+    Energy,
+    /// `<point>.x`, `<point>.y` \[m\] for every named point.
+    Points,
+    /// `<point>.vx`, `<point>.vy` \[m/s\] for every named point, from the
+    /// generated point velocities.
+    PointVelocities,
+    /// One value per effect: `tau_<effect>` \[N m\] or `F_<effect>` \[N\].
+    Effects,
+    /// Constraint forces from the multipliers: `F_<hinge>.x`, `F_<hinge>.y`
+    /// \[N\] (on the hinge's first body) and `F_<skate>` \[N\] (lateral, along
+    /// the blade normal). Costs one KKT solve per output row.
+    ConstraintForces,
+    /// The accelerations `qdd`: `<coord>dd` \[m/s^2, rad/s^2\]. Costs one
+    /// KKT solve per output row (shared with the constraint forces).
+    Accelerations,
+    /// `res_phi` = max|C(q)| \[m\] and `res_vel` = max|G(q) qd| \[m/s\].
+    Residuals,
+}
+
+impl OutputGroup {
+    /// Every group, in column order.
+    pub const ALL: [OutputGroup; 7] = [
+        Self::Energy,
+        Self::Points,
+        Self::PointVelocities,
+        Self::Effects,
+        Self::ConstraintForces,
+        Self::Accelerations,
+        Self::Residuals,
+    ];
+
+    /// Name as a scene file spells it.
+    pub fn name(self) -> &'static str {
+        match self {
+            Self::Energy => "energy",
+            Self::Points => "points",
+            Self::PointVelocities => "point-velocities",
+            Self::Effects => "effects",
+            Self::ConstraintForces => "constraint-forces",
+            Self::Accelerations => "accelerations",
+            Self::Residuals => "residuals",
         }
     }
 }

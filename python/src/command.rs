@@ -1,19 +1,18 @@
-//! The module's calls through the command line: [`Toolkit::command`]
-//! runs a command on a scene, [`Toolkit::cli`] any command line, with the
-//! GIL released and Ctrl-C asking the command to stop; and a quantity of
-//! the caller's own Python code for `optimize`.
+//! The module's commands on a scene: [`Toolkit::command`] runs one (with
+//! the scene's sets, the run keywords and a temporary directory) through
+//! [`Toolkit::cli`]; and a quantity of the caller's own Python code for
+//! `optimize`.
 
 use std::path::PathBuf;
-use std::time::Duration;
 
 use ezy::App;
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 
+use crate::ezy_err;
+use crate::kit::Toolkit;
 use crate::model::PyModel;
 use crate::settings::Overrides;
-use crate::toolkit::Toolkit;
-use crate::{EzyError, ezy_err};
 impl Toolkit {
     /// Runs the command `name` on `scene` (with `model`, the scene's sets,
     /// `extra` flags and the run keywords `settings`) into `out` (or a
@@ -65,43 +64,6 @@ impl Toolkit {
             Ok(report) => Ok((report, dir, temp)),
             Err((_, e)) => Err(ezy_err(e)),
         }
-    }
-
-    /// Runs the command line `args` (after the program name) with the GIL
-    /// released; Ctrl-C asks the command to stop ([`ezy::output::transaction::request_stop`])
-    /// and raises `KeyboardInterrupt` once it has. Returns what it printed.
-    pub(crate) fn cli(
-        py: Python<'_>,
-        app: &App,
-        args: Vec<String>,
-    ) -> PyResult<Result<String, (String, ezy::app::AppError)>> {
-        let mut interrupt: Option<PyErr> = None;
-        let out = py.detach(|| {
-            std::thread::scope(|s| {
-                let worker = s.spawn(|| {
-                    let mut buf = Vec::new();
-                    let argv = std::iter::once("ezy".to_string()).chain(args);
-                    let r = app.run_cli(argv, &mut buf);
-                    let text = String::from_utf8_lossy(&buf).into_owned();
-                    r.map(|()| text.clone()).map_err(|e| (text, e))
-                });
-                while !worker.is_finished() {
-                    std::thread::sleep(Duration::from_millis(10));
-                    if interrupt.is_none()
-                        && let Err(e) = Python::attach(|py| py.check_signals())
-                    {
-                        interrupt = Some(e);
-                        ezy::output::transaction::request_stop();
-                    }
-                }
-                worker.join()
-            })
-        });
-        ezy::output::transaction::clear_stop();
-        if let Some(e) = interrupt {
-            return Err(e);
-        }
-        out.map_err(|_| EzyError::new_err("the command panicked"))
     }
 }
 

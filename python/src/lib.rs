@@ -31,6 +31,7 @@ pub use numpy;
 pub use pyo3;
 
 mod command;
+mod kit;
 mod model;
 mod reports;
 mod result;
@@ -41,11 +42,11 @@ mod sweep;
 mod toolkit;
 mod units;
 
+pub use kit::Toolkit;
 pub use model::PyModel;
 pub use reports::{Analysis, Check, Equations, Geometry, Linearization};
 pub use result::RunResult;
 pub use scene::{Effect, PyScene};
-pub use toolkit::Toolkit;
 
 use std::ffi::CString;
 

@@ -81,7 +81,7 @@ impl PyModel {
     /// The derived equations (as `ezy.equations(m)`): LaTeX in Jupyter.
     fn equations(&self, py: Python<'_>) -> PyResult<crate::reports::Equations> {
         let app = ezy::App::empty().with_model_as(&self.key, self.model.clone());
-        crate::toolkit::equations_in(py, &app, &self.key, None)
+        crate::kit::equations_in(py, &app, &self.key, None)
     }
 
     fn __repr__(&self) -> String {

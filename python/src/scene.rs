@@ -11,9 +11,9 @@ use pyo3::prelude::*;
 use pyo3::types::PyDict;
 
 use crate::ezy_err;
+use crate::kit::Toolkit;
 use crate::model::PyModel;
 use crate::settings::real;
-use crate::toolkit::Toolkit;
 
 /// A scene to change and run: `scene["M0"] = 1.0` sets a scene or model
 /// parameter, `scene.effects["motor"].amplitude = 1.0` a number of an

@@ -18,6 +18,7 @@ use pyo3::types::PyDict;
 
 use crate::command::python_quantity;
 use crate::ezy_err;
+use crate::kit::{Toolkit, equations_in};
 use crate::model::PyModel;
 use crate::reports::{Analysis, Check, Equations, Geometry, Linearization};
 use crate::result::RunResult;
@@ -26,13 +27,6 @@ use crate::settings::{Overrides, names_kw, number_kw, over_args, sets_of, text_k
 
 /// How often a running integration asks Python for pending signals (Ctrl-C).
 const SIGNAL_POLL: Duration = Duration::from_millis(50);
-
-/// The application behind a module: its models, effect kinds and scenes.
-#[pyclass(module = "ezy", frozen)]
-pub struct Toolkit {
-    pub(crate) app: App,
-    pub(crate) helpers: Py<PyModule>,
-}
 
 /// The scene a call names, with the changes a `Scene` object carries.
 pub(crate) struct Resolved {
@@ -150,23 +144,6 @@ fn info_in(app: &App, model: &str, params: &[(String, f64)]) -> PyResult<ModelIn
     }
 }
 
-/// `ezy.equations` of `model` in `app`.
-pub(crate) fn equations_in(
-    py: Python<'_>,
-    app: &App,
-    model: &str,
-    set: Option<&Bound<'_, PyDict>>,
-) -> PyResult<Equations> {
-    let sets = sets_of(set)?;
-    let mut args = vec!["equations".to_string(), model.to_string()];
-    for (n, v) in &sets {
-        args.extend(["--set".into(), format!("{n}={v:?}")]);
-    }
-    let text = Toolkit::cli(py, app, args.clone())?.map_err(|(_, e)| ezy_err(e))?;
-    args.extend(["--format".into(), "latex".into()]);
-    let latex = Toolkit::cli(py, app, args)?.map_err(|(_, e)| ezy_err(e))?;
-    Ok(Equations { text, latex })
-}
 #[pymethods]
 impl Toolkit {
     /// The models this module knows: `{key: description}`.

@@ -22,7 +22,7 @@
 //! ```
 
 mod dispatch;
-mod scenes;
+pub(crate) mod scenes;
 
 use std::borrow::Cow;
 use std::path::{Path, PathBuf};
@@ -38,7 +38,6 @@ use crate::precision;
 use crate::session::{Error, Report, RunOptions, StopHook};
 pub use scenes::LoadError;
 use scenes::SceneEntry;
-pub(crate) use scenes::is_scene_path;
 
 /// The environment variable that chooses how model files are evaluated:
 /// `tape` or `jit` ([`ezy_core::text::Evaluator`]); unset, the JIT where

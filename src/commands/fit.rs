@@ -18,7 +18,7 @@ use crate::app::{App, AppError};
 use crate::cli::Overrides;
 use crate::output::csv::{number, record};
 use crate::output::transaction::{OutLock, Transaction};
-use crate::render::plot::{Chart, Series, Stroke};
+use crate::render::plot::series::{Chart, Series, Stroke};
 use crate::session::{Error, RunOptions, analysis_error, check_run, settings};
 
 /// Largest data file `ezy fit` reads (64 MB: about a million rows of a

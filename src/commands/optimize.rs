@@ -21,7 +21,7 @@ use crate::cli::Overrides;
 use crate::output::csv::{number, record};
 use crate::output::progress::Heartbeat;
 use crate::output::transaction::{Interrupted, OutLock, Transaction, TransactionError};
-use crate::render::plot::{Chart, Series, Stroke};
+use crate::render::plot::series::{Chart, Series, Stroke};
 use crate::session::{Error, RunOptions, analysis_error, periodic_settings, settings};
 use crate::sweep::metric::Metric;
 

@@ -8,7 +8,8 @@ use std::path::PathBuf;
 use clap::{ArgMatches, Args, FromArgMatches};
 
 use super::{check_figure_format, committed};
-use crate::app::{App, AppError, is_scene_path};
+use crate::app::scenes::is_scene_path;
+use crate::app::{App, AppError};
 use crate::cli::{Overrides, parse_positive};
 use crate::session::{RunOptions, summary};
 

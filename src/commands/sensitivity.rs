@@ -17,7 +17,7 @@ use crate::app::{App, AppError};
 use crate::cli::Overrides;
 use crate::output::csv::{number, record};
 use crate::output::transaction::{OutLock, Transaction};
-use crate::render::plot::{Chart, Series};
+use crate::render::plot::series::{Chart, Series};
 use crate::session::{Error, RunOptions, analysis_error, problem, settings};
 
 /// Run a scene with the derivatives of its state with respect to named

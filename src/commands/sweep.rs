@@ -9,9 +9,11 @@ use clap::{ArgMatches, Args, FromArgMatches, Subcommand};
 use ezy_scene::registry::{SceneSource, info_of};
 
 use super::{check_figure_format, committed};
-use crate::app::{App, AppError, is_scene_path};
+use crate::app::scenes::is_scene_path;
+use crate::app::{App, AppError};
 use crate::cli::{Overrides, parse_count};
-use crate::sweep::{self, parse_shard};
+use crate::sweep;
+use crate::sweep::table::parse_shard;
 
 /// Run a scene over a grid, a list or random draws of parameter values
 /// in parallel: one row per run in sweep.csv, resumable and shardable.
@@ -120,11 +122,11 @@ fn sweep_job(src: &SceneSource, name: &str, args: &SweepArgs) -> Result<sweep::S
     if let Some(a) = axes.iter().find(|a| args.overrides.sets.iter().any(|(n, _)| *n == a.name)) {
         return Err(AppError::Failed(format!("`{}` is both swept and fixed by --set", a.name)));
     }
-    let plan = sweep::Plan::new(axes, args.samples, args.seed).map_err(AppError::Failed)?;
+    let plan = sweep::plan::Plan::new(axes, args.samples, args.seed).map_err(AppError::Failed)?;
     let metrics = args
         .metrics
         .iter()
-        .map(|m| m.parse::<sweep::Metric>())
+        .map(|m| m.parse::<sweep::metric::Metric>())
         .collect::<Result<Vec<_>, _>>()
         .map_err(AppError::Failed)?;
     // at most the cores this process may use: more threads only
@@ -153,7 +155,7 @@ fn sweep_job(src: &SceneSource, name: &str, args: &SweepArgs) -> Result<sweep::S
     } else {
         scene.name.clone()
     };
-    let manifest = sweep::Manifest {
+    let manifest = sweep::table::Manifest {
         scene: scene_ref,
         scene_fingerprint: sweep::fingerprint(&src.text),
         runs: plan.runs(),
@@ -238,7 +240,7 @@ pub(crate) fn exec(app: &App, args: &ArgMatches, out: &mut dyn Write) -> Result<
 /// `ezy sweep merge`: the shards' tables in one, and the sweep's figures
 /// drawn from it.
 fn merge(app: &App, args: MergeArgs, out: &mut dyn Write) -> Result<(), AppError> {
-    let (manifest, mut files) = sweep::merge(&args.dirs, &args.out).map_err(AppError::Failed)?;
+    let (manifest, mut files) = sweep::table::merge(&args.dirs, &args.out).map_err(AppError::Failed)?;
     let mut notes = Vec::new();
     if !args.no_figures {
         // the plan and the metrics, from the definition the shards share

@@ -38,7 +38,8 @@ use ezy_scene::Scene;
 use plotters::prelude::*;
 use rayon::prelude::*;
 
-use crate::render::plot::{Axis, PALETTE, PlotError, SCALE};
+use crate::render::plot::axis::Axis;
+use crate::render::plot::{PALETTE, PlotError, SCALE};
 
 /// The view follows the vehicle when its motion spans more than this many
 /// vehicle sizes.
@@ -490,7 +491,7 @@ fn frame_svg(g: &Geometry, frames: &Frames, k: usize, anim: &AnimateOptions) -> 
         root.draw(&Text::new(label, at, ("sans-serif", z(TIME_SIZE)).into_font())).map_err(|e| e.to_string())?;
         root.present().map_err(|e| e.to_string())?;
     }
-    Ok(crate::render::plot::nominal_size(svg))
+    Ok(crate::render::plot::snap::nominal_size(svg))
 }
 
 /// No line at all (the mesh's light lines).
@@ -565,7 +566,7 @@ fn encode_gif(g: &Geometry, frames: &Frames, anim: &AnimateOptions) -> Result<(V
             frame: k,
             source: PlotError::Draw { title: "animation".into(), message },
         })?;
-        crate::render::plot::rgba(&svg, anim.dpi).map_err(|source| AnimationError::Draw { frame: k, source })
+        crate::render::plot::raster::rgba(&svg, anim.dpi).map_err(|source| AnimationError::Draw { frame: k, source })
     };
     // the palette: NeuQuant over the first, middle and last frames
     let mut sample = Vec::new();

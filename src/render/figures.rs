@@ -9,7 +9,8 @@ use ezy_core::ModelInfo;
 use ezy_scene::{Column, FigureFormat, FigureSpec};
 
 use crate::output::csv::Table;
-use crate::render::plot::{Chart, PlotError, Series};
+use crate::render::plot::PlotError;
+use crate::render::plot::series::{Chart, Series};
 
 /// Errors drawing a scene figure.
 #[derive(Debug, thiserror::Error)]
@@ -180,12 +181,12 @@ fn check_values(figure: &str, column: String, values: &[f64], times: &[f64], log
 }
 
 /// Draws `fig` from `table` as SVG (see [`chart`] and
-/// [`crate::render::plot::chart_svg`]).
+/// [`crate::render::plot::chart::chart_svg`]).
 ///
 /// # Errors
 /// As [`chart`], and [`FigureError::Plot`] for a drawing failure.
 pub(crate) fn svg(info: &ModelInfo, fig: &FigureSpec, table: &Table) -> Result<String, FigureError> {
-    crate::render::plot::chart_svg(&chart(info, fig, table)?)
+    crate::render::plot::chart::chart_svg(&chart(info, fig, table)?)
         .map_err(|source| FigureError::Plot { figure: fig.file.clone(), source })
 }
 
@@ -251,7 +252,7 @@ where
     let encode = |i: usize, svg: &str| -> Result<Vec<u8>, E> {
         let fig = &figs[i];
         check(fig)?;
-        crate::render::plot::encode(svg, format, dpi, &fig.title)
+        crate::render::plot::raster::encode(svg, format, dpi, &fig.title)
             .map_err(|source| FigureError::Plot { figure: fig.file.clone(), source }.into())
     };
     let threads = encoding_threads(n);

@@ -10,7 +10,9 @@ use super::SweepError;
 use super::metric::Metric;
 use super::plan::{Plan, Values};
 use crate::output::transaction::Interrupted;
-use crate::render::plot::{Chart, FigureFormat, HeatMap, Series};
+use crate::render::plot::heat_map::HeatMap;
+use crate::render::plot::series::{Chart, Series};
+use ezy_scene::FigureFormat;
 
 /// Most lines in a figure (one per value of the second axis); beyond it
 /// only the heat map is drawn.
@@ -112,8 +114,8 @@ pub(crate) fn draw(
             };
             let file = format.file_name(&format!("sweep_{}_map", k + 1));
             stop_if_signalled(dir, &file)?;
-            let png = crate::render::plot::heatmap_svg(&map)
-                .and_then(|svg| crate::render::plot::encode(&svg, format, dpi, &map.title));
+            let png = crate::render::plot::heat_map::heatmap_svg(&map)
+                .and_then(|svg| crate::render::plot::raster::encode(&svg, format, dpi, &map.title));
             match png {
                 Ok(png) => files.push(write(dir, &file, &png)?),
                 Err(e) => notes.push(format!("{file} not drawn: {e}")),

@@ -32,7 +32,7 @@ pub(crate) mod figure;
 pub(crate) mod metric;
 pub(crate) mod plan;
 pub(crate) mod slurm;
-mod table;
+pub(crate) mod table;
 
 use std::collections::{BTreeMap, HashMap, HashSet};
 use std::path::{Path, PathBuf};
@@ -44,10 +44,9 @@ use ezy_core::{Dynamics, Model, Observer, RunError, Sample, SimError};
 
 use ezy_scene::Scene;
 
-pub(crate) use metric::Metric;
-pub(crate) use plan::Plan;
-pub(crate) use table::parse_shard;
-pub(crate) use table::{Manifest, merge};
+use metric::Metric;
+use plan::Plan;
+use table::Manifest;
 
 use crate::output::transaction::Interrupted;
 use crate::session::{self, RunOptions};

@@ -7,11 +7,10 @@
 
 use serde::{Deserialize, Serialize};
 
-use super::context::{Blade, CheckContext, EffectContext, non_negative, positive, wave};
+use super::context::{Blade, CheckContext, EffectContext, SpecError, non_negative, positive, wave};
 use super::jacobian::{Blocks, dot, perp};
-use super::kind::{EffectKind, ForceLaw, SpecError, TimeScale, Waveforms};
+use super::kind::{EffectKind, ForceLaw, Reference, TimeScale, Waveforms};
 use super::law::Law;
-use super::registry::Reference;
 use super::waveform::{Periodicity, Waveform};
 
 /// Viscous rolling resistance at a skate (`rolling-viscous`): a force
@@ -157,7 +156,7 @@ impl ForceLaw for BladeLaw {
     }
 
     fn failure(&self, _q: &[f64]) -> String {
-        super::law::NOT_A_NUMBER.into()
+        super::kind::NOT_A_NUMBER.into()
     }
 
     fn periodicity(&self) -> Option<Periodicity> {

@@ -10,11 +10,10 @@
 
 use serde::{Deserialize, Serialize};
 
-use super::context::{CheckContext, EffectContext, angle, finite, wave};
+use super::context::{CheckContext, EffectContext, SpecError, angle, finite, wave};
 use super::jacobian::{Blocks, Var, perp};
-use super::kind::{EffectKind, ForceLaw, SpecError, Waveforms};
+use super::kind::{EffectKind, ForceLaw, Reference, Waveforms};
 use super::law::Law;
-use super::registry::Reference;
 use super::waveform::{Periodicity, Waveform};
 use crate::names::fmt_value;
 use crate::scalar::Scalar;
@@ -265,7 +264,7 @@ impl ForceLaw for BodyLaw {
     }
 
     fn failure(&self, _q: &[f64]) -> String {
-        super::law::NOT_A_NUMBER.into()
+        super::kind::NOT_A_NUMBER.into()
     }
 
     fn periodicity(&self) -> Option<Periodicity> {

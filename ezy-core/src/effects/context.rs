@@ -9,13 +9,34 @@
 //! ([`EffectContext::from_values`]); `EffectContext::new` (with the
 //! `Model` trait, a floor above) reads them from a model.
 
-use super::kind::SpecError;
 use super::waveform::Waveform;
 use crate::names::{fmt_value, name_list};
 
 use crate::model::info::{ModelInfo, NameIndex};
 use crate::scalar::Scalar;
 use crate::settings::{check_angle, check_magnitude};
+
+/// A name in an effect that the model does not have, or a bad number.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct SpecError {
+    /// The effect's key that is wrong (`hinge`, `skate`, `torque`, ...;
+    /// empty for the effect as a whole: a missing or unknown key).
+    pub field: &'static str,
+    /// What is wrong.
+    pub message: String,
+}
+
+impl SpecError {
+    /// `Ok` if `ok`, else an error at `field` with the message `message()`
+    /// (for range checks in [`EffectKind::check`](super::EffectKind::check) and
+    /// [`EffectKind::resolve`](super::EffectKind::resolve)).
+    ///
+    /// # Errors
+    /// As described.
+    pub fn check(ok: bool, field: &'static str, message: impl FnOnce() -> String) -> Result<(), SpecError> {
+        if ok { Ok(()) } else { Err(SpecError { field, message: message() }) }
+    }
+}
 
 /// The error for a name `name` under the key `field` that the model `model`
 /// does not have, listing the model's names of that sort `known`; `kind`

@@ -6,11 +6,10 @@
 
 use serde::{Deserialize, Serialize};
 
-use super::context::{Blade, CheckContext, EffectContext, non_negative};
+use super::context::{Blade, CheckContext, EffectContext, SpecError, non_negative};
 use super::jacobian::{Blocks, Var, dot, perp};
-use super::kind::{EffectKind, ForceLaw, SpecError, TimeScale, Waveforms};
+use super::kind::{EffectKind, ForceLaw, Reference, TimeScale, Waveforms};
 use super::law::Law;
-use super::registry::Reference;
 use super::waveform::Periodicity;
 
 fn is_zero(v: &f64) -> bool {
@@ -183,7 +182,7 @@ impl ForceLaw for DragLaw {
     }
 
     fn failure(&self, _q: &[f64]) -> String {
-        super::law::NOT_A_NUMBER.into()
+        super::kind::NOT_A_NUMBER.into()
     }
 
     fn periodicity(&self) -> Option<Periodicity> {

@@ -21,11 +21,10 @@
 
 use serde::{Deserialize, Serialize};
 
-use super::context::{CheckContext, EffectContext, HingeRef, angle, finite, non_negative, positive, wave};
+use super::context::{CheckContext, EffectContext, HingeRef, SpecError, angle, finite, non_negative, positive, wave};
 use super::jacobian::{Blocks, Var};
-use super::kind::{EffectKind, ForceLaw, SpecError, TimeScale, Waveforms};
+use super::kind::{EffectKind, ForceLaw, Reference, TimeScale, Waveforms};
 use super::law::Law;
-use super::registry::Reference;
 use super::waveform::{Periodicity, Waveform};
 
 fn is_zero(v: &f64) -> bool {
@@ -286,7 +285,7 @@ impl ForceLaw for HingeLaw {
     }
 
     fn failure(&self, _q: &[f64]) -> String {
-        super::law::NOT_A_NUMBER.into()
+        super::kind::NOT_A_NUMBER.into()
     }
 
     fn periodicity(&self) -> Option<Periodicity> {

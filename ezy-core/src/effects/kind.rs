@@ -1,7 +1,8 @@
 //! The traits a force law implements, the user's and ezy's alike: the law
 //! the right-hand side calls ([`ForceLaw`]), its serialized form read by
 //! serde from a scene file's table ([`EffectKind`]), and a closure as a
-//! law ([`Controller`]).
+//! law ([`Controller`]); and a built-in kind's row of the reference page
+//! ([`Reference`]).
 //!
 //! Every built-in kind (the registry's list, [`super::registry`]) is an
 //! [`EffectKind`] whose law is a [`ForceLaw`], exactly as a kind of the
@@ -27,7 +28,7 @@ use std::sync::Arc;
 use serde::Serialize;
 use serde::de::DeserializeOwned;
 
-use super::context::{CheckContext, EffectContext};
+use super::context::{CheckContext, EffectContext, SpecError};
 use super::law::{Law, UserLaw};
 use super::waveform::Periodicity;
 
@@ -38,6 +39,10 @@ use super::waveform::Periodicity;
 /// \[N m\]; a servo's target angle \[rad\] and rate \[rad/s\]; a force's two
 /// components \[N\]).
 pub type Waveforms = [f64; 3];
+
+/// The failure text of a built-in law's NaN power that has no more
+/// particular reason ([`ForceLaw::failure`]).
+pub(crate) const NOT_A_NUMBER: &str = "gave a force or power that is not a number (its inputs are not finite)";
 
 /// A resolved force law: what the right-hand side calls at every
 /// evaluation. Implement it for the law of an [`EffectKind`], or pass a
@@ -311,25 +316,16 @@ pub(crate) fn resolve_kind<K: EffectKind>(kind: &K, cx: &EffectContext<'_>) -> R
     Ok(kind.resolve(cx)?.into_law())
 }
 
-/// A name in an effect that the model does not have, or a bad number.
-#[derive(Debug, Clone, PartialEq, Eq)]
-pub struct SpecError {
-    /// The effect's key that is wrong (`hinge`, `skate`, `torque`, ...;
-    /// empty for the effect as a whole: a missing or unknown key).
-    pub field: &'static str,
-    /// What is wrong.
-    pub message: String,
-}
-
-impl SpecError {
-    /// `Ok` if `ok`, else an error at `field` with the message `message()`
-    /// (for range checks in [`EffectKind::check`] and [`EffectKind::resolve`]).
-    ///
-    /// # Errors
-    /// As described.
-    pub fn check(ok: bool, field: &'static str, message: impl FnOnce() -> String) -> Result<(), SpecError> {
-        if ok { Ok(()) } else { Err(SpecError { field, message: message() }) }
-    }
+/// What the effects reference page says of a built-in kind (its row of
+/// `docs/book/src/reference/effects.md`, generated from
+/// [`REFERENCE`](super::registry::REFERENCE)): a built-in kind implements
+/// it beside [`EffectKind`].
+pub trait Reference {
+    /// The keys of its table, with units and defaults in parentheses
+    /// (every key serde reads is named: `tests/docs.rs` checks it).
+    const KEYS: &'static str;
+    /// Its force law, with what its columns hold where that is not plain.
+    const LAW: &'static str;
 }
 
 /// The time scale of a linear force law on the masses it acts on: what

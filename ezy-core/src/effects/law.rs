@@ -38,10 +38,6 @@ use super::spring::SpringLaw;
 use crate::error::SetupError;
 use crate::error::SimError;
 
-/// The failure text of a built-in law's NaN power that has no more
-/// particular reason ([`ForceLaw::failure`]).
-pub(crate) const NOT_A_NUMBER: &str = "gave a force or power that is not a number (its inputs are not finite)";
-
 /// The hot enum [`Law`] over the families' law structs, with its
 /// conversions and its dispatch: one line per family.
 macro_rules! families {

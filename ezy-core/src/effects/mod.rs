@@ -15,13 +15,14 @@
 //! and the hinge angle is `theta = phi_a - phi_b` (`phi_a` for a ground
 //! hinge), so a hinge torque's power is `tau theta_dot`.
 //!
-//! The module map (floor 2 of `ezy-core`: it imports the error, scalar
-//! and model-description types only, never the `Model` trait or the
-//! dynamics):
+//! The module map (it imports the error, scalar and model-description
+//! types only, never the `Model` trait or the dynamics; its floor is in
+//! docs/dev/architecture.md):
 //!
 //! - [`kind`]: the traits a law implements, the user's and ezy's alike:
 //!   [`ForceLaw`] (the law the right-hand side calls), [`EffectKind`] (its
-//!   scene table, read by serde, and how it resolves), [`Controller`] (a
+//!   scene table, read by serde, and how it resolves), [`Reference`] (a
+//!   built-in kind's row of the reference page), [`Controller`] (a
 //!   closure as a law).
 //! - [`registry`]: THE list of built-in kinds, one line each; the scene's
 //!   enum of specs [`EffectSpec`], [`EFFECT_KINDS`] and the reference
@@ -39,8 +40,9 @@
 //!   (static dispatch; the module says why), and the loops the
 //!   right-hand sides call.
 //! - [`context`]: what kinds check and resolve against
-//!   ([`CheckContext`], [`EffectContext`]) and the handles laws keep
-//!   ([`HingeRef`], [`Blade`]).
+//!   ([`CheckContext`], [`EffectContext`]), the handles laws keep
+//!   ([`HingeRef`], [`Blade`]) and what is wrong with a spec
+//!   ([`SpecError`]).
 //! - `waveform`: time functions ([`Waveform`]).
 
 pub mod blade;
@@ -59,12 +61,12 @@ pub(crate) mod waveform;
 
 pub use blade::*;
 pub use body::*;
-pub use context::{Blade, CheckContext, EffectContext, HingeRef};
+pub use context::{Blade, CheckContext, EffectContext, HingeRef, SpecError};
 pub use drag::*;
 pub use hinge::*;
-pub use kind::{Controller, EffectKind, ForceLaw, SpecError, TimeScale, Waveforms};
+pub use kind::{Controller, EffectKind, ForceLaw, Reference, TimeScale, Waveforms};
 pub use law::{Law, UserLaw};
-pub use registry::{EFFECT_KINDS, EffectSpec, KindReference, REFERENCE, Reference, check_effect_name};
+pub use registry::{EFFECT_KINDS, EffectSpec, KindReference, REFERENCE, check_effect_name};
 pub use skate_friction::*;
 pub use spring::*;
 pub use user::UserSpec;

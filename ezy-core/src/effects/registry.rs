@@ -15,23 +15,13 @@
 use serde::{Deserialize, Serialize};
 
 use super::Effect;
-use super::context::{CheckContext, EffectContext};
-use super::kind::{EffectKind, SpecError, resolve_kind};
+use super::context::{CheckContext, EffectContext, SpecError};
+use super::kind::{EffectKind, Reference, resolve_kind};
 use super::law::Law;
 use super::user::UserSpec;
 use crate::error::SetupError;
 use crate::error::SimError;
 use crate::model::info::{ModelInfo, NameIndex};
-
-/// What the effects reference page says of a built-in kind (its row of
-/// `docs/book/src/reference/effects.md`, generated from [`REFERENCE`]).
-pub trait Reference {
-    /// The keys of its table, with units and defaults in parentheses
-    /// (every key serde reads is named: `tests/docs.rs` checks it).
-    const KEYS: &'static str;
-    /// Its force law, with what its columns hold where that is not plain.
-    const LAW: &'static str;
-}
 
 /// A built-in kind's row of the reference.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]

@@ -9,10 +9,9 @@
 use serde::{Deserialize, Serialize};
 
 use super::body::{default_gravity, is_default_gravity};
-use super::context::{Blade, CheckContext, EffectContext, finite, non_negative};
-use super::kind::{EffectKind, ForceLaw, SpecError, Waveforms};
+use super::context::{Blade, CheckContext, EffectContext, SpecError, finite, non_negative};
+use super::kind::{EffectKind, ForceLaw, Reference, Waveforms};
 use super::law::Law;
-use super::registry::Reference;
 use super::waveform::Periodicity;
 use crate::names::fmt_value;
 
@@ -93,7 +92,7 @@ impl ForceLaw for SkateFrictionLaw {
     }
 
     fn failure(&self, _q: &[f64]) -> String {
-        super::law::NOT_A_NUMBER.into()
+        super::kind::NOT_A_NUMBER.into()
     }
 
     fn periodicity(&self) -> Option<Periodicity> {

@@ -6,11 +6,10 @@
 
 use serde::{Deserialize, Serialize};
 
-use super::context::{CheckContext, EffectContext, finite, non_negative, unknown, wave};
+use super::context::{CheckContext, EffectContext, SpecError, finite, non_negative, unknown, wave};
 use super::jacobian::{Blocks, Var, dot, mat_vec, perp};
-use super::kind::{EffectKind, ForceLaw, SpecError, TimeScale, Waveforms};
+use super::kind::{EffectKind, ForceLaw, Reference, TimeScale, Waveforms};
 use super::law::Law;
-use super::registry::Reference;
 use super::waveform::{Periodicity, Waveform};
 use crate::model::info::ModelInfo;
 use crate::names::name_list;
@@ -242,7 +241,7 @@ impl ForceLaw for SpringLaw {
                 ra[0], ra[1]
             );
         }
-        super::law::NOT_A_NUMBER.into()
+        super::kind::NOT_A_NUMBER.into()
     }
 
     fn periodicity(&self) -> Option<Periodicity> {

@@ -6,8 +6,8 @@
 use std::fmt;
 use std::sync::Arc;
 
-use super::context::{CheckContext, EffectContext};
-use super::kind::{EffectKind, SpecError, resolve_kind};
+use super::context::{CheckContext, EffectContext, SpecError};
+use super::kind::{EffectKind, resolve_kind};
 use super::law::Law;
 
 /// An [`EffectKind`] value without its type.

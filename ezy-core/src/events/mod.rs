@@ -1,6 +1,6 @@
 //! Events: a quantity of the run crossing a level, recorded, stopping the
 //! run or switching effects on and off. What an event is lives in
-//! [`spec`] (floor 4, data a scene or a library user writes); locating
+//! [`spec`] (data a scene or a library user writes); locating
 //! crossings while the run steps is the step loop's
 //! ([`crate::simulate::events`]).
 //!

@@ -1,4 +1,4 @@
-//! The equations a run integrates (floor 6): the index-1 DAE in all
+//! The equations a run integrates: the index-1 DAE in all
 //! `q, qd` with its KKT solve ([`dae`]: [`dae::Dynamics`], the workspace,
 //! effects and drives applied), the skates' friction modes ([`friction`]),
 //! coordinate projection back onto the constraints ([`projection`]), the

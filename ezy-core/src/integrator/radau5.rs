@@ -30,7 +30,7 @@ use faer::{Mat, Par, Spec};
 
 use super::Rhs;
 use super::adaptive::Tolerance;
-use super::stepper::{Control, Stats, Stepper, Trial};
+use super::stepper::{Control, NewtonStats, Stats, Stepper, Trial};
 use crate::error::KktError;
 use crate::error::SimError;
 
@@ -92,17 +92,6 @@ pub trait NewtonSystem<R: ?Sized> {
     fn solve_real(&mut self, b: &mut [f64]);
     /// Solves `(complex I - J) x = b` in place.
     fn solve_complex(&mut self, b: &mut [c64]);
-}
-
-/// Work of the implicit method.
-#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
-pub struct NewtonStats {
-    /// Newton iterations (each costs three right-hand sides and two solves).
-    pub newton_iterations: u64,
-    /// Jacobian evaluations.
-    pub jacobians: u64,
-    /// Factorizations (each of a real and a complex matrix).
-    pub factorizations: u64,
 }
 
 /// What one step attempt did.

@@ -1,5 +1,6 @@
 //! The one interface the step loop drives every method through
-//! ([`Stepper`]), with its statistics record ([`Stats`]).
+//! ([`Stepper`]), with its statistics record ([`Stats`], the implicit
+//! method's in [`NewtonStats`]).
 //!
 //! A stepper owns what its method carries from step to step (the slope
 //! at the start, the controller's memory, the last step's dense output);
@@ -24,7 +25,6 @@
 //! is the next step's start.
 
 use super::Rhs;
-use super::radau5::NewtonStats;
 use crate::error::SimError;
 
 /// How a method chooses its step sizes.
@@ -61,6 +61,17 @@ pub enum Trial {
     /// The embedded error norm of the step (acceptable when at most 1),
     /// finite, for the caller to decide with ([`Stepper::control`]).
     Estimate(f64),
+}
+
+/// Work of the implicit method.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct NewtonStats {
+    /// Newton iterations (each costs three right-hand sides and two solves).
+    pub newton_iterations: u64,
+    /// Jacobian evaluations.
+    pub jacobians: u64,
+    /// Factorizations (each of a real and a complex matrix).
+    pub factorizations: u64,
 }
 
 /// The work of a stepper, one record for every method.

@@ -1,6 +1,7 @@
 //! The static description ([`ModelInfo`]) every generated model carries:
-//! floor 2 of the runtime, data only (it imports the floor-0 modules and
-//! nothing else), read by integrators, effects, drives and the rest.
+//! data only (it imports the modules everything speaks, names, settings,
+//! errors, and nothing else), read by integrators, effects, drives and the
+//! rest.
 //!
 //! Conventions (docs/physics.md §1-§4): every body has three generalized coordinates, the
 //! position of its centre of mass and its heading, `(x [m], y [m], phi [rad])`,

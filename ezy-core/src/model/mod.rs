@@ -1,7 +1,7 @@
-//! The [`Model`] trait the `model!` macro implements: floor 4 of the
-//! runtime. What a model is ([`info`]: sizes, names, the sparsity pattern,
-//! data only) sits below, on floor 2, so that integrators, effects and
-//! drives can read it without knowing the trait.
+//! The [`Model`] trait the `model!` macro implements. What a model is
+//! ([`info`]: sizes, names, the sparsity pattern, data only) sits floors
+//! below it, so that integrators, effects and drives can read it without
+//! knowing the trait.
 //!
 //! Conventions (docs/physics.md §1-§4): every body has three generalized
 //! coordinates `(x [m], y [m], phi [rad])`, the mass matrix is diagonal,

@@ -1,4 +1,4 @@
-//! Events while a run steps (floor 7, with the step loop): a quantity's
+//! Events while a run steps, with the step loop: a quantity's
 //! value at a state ([`Event::value`], through the DAE's
 //! [`Dynamics`]), its crossing located on the dense output ([`locate`]:
 //! Anderson-Björck regula falsi, as SciPy's `solve_ivp` and Hairer's

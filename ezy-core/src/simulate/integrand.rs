@@ -13,8 +13,7 @@ use crate::integrator::Rhs;
 use crate::integrator::radau5::NewtonSystem;
 use crate::model::Model;
 use crate::simulate::observer::{Observer, RunError};
-use crate::simulate::output::Pending;
-use crate::simulate::run::Run;
+use crate::simulate::run::{Pending, Run};
 
 /// What the step loop integrates, `x' = F(t, x)`: the DAE's full state
 /// ([`Dae`]: `x = y`, projected after each step) or the reduced one

@@ -7,11 +7,12 @@
 //! | module | holds |
 //! |---|---|
 //! | [`observer`] | [`Sample`], [`Observer`], [`RunError`], [`Summary`], the notes |
-//! | `run` | the state of a run while it steps: projection, energy guard, singular positions, events, hand-overs |
-//! | `slip` | the watch on the skates' and the switching events' switches |
+//! | `run` | the state of a run while it steps: projection, energy guard, singular positions, events, hand-overs, the queue's rows |
+//! | `watch` | the state of the watch on the skates' and the switching events' switches |
+//! | `slip` | that watch at work: switches located and made |
 //! | `output` | the queue of samples and the adaptive output times |
 //! | `integrand` | what is integrated: the DAE or the reduced formulation |
-//! | `driver` | the one step loop over [`crate::integrator::stepper::Stepper`] |
+//! | `driver` | the one step loop over [`crate::integrator::stepper::Stepper`]; events located in a step, the switch of formulation |
 //! | [`events`] | locating events on a step's continuous extension |
 //! | [`guard`] | the energy guard |
 
@@ -23,6 +24,7 @@ pub mod observer;
 mod output;
 pub(crate) mod run;
 pub(crate) mod slip;
+mod watch;
 
 pub use observer::{Observer, RunError, Sample, Summary, singular_note, stiff_note};
 pub use run::SINGULAR_PERSIST_STEPS;

@@ -146,7 +146,7 @@ pub struct Summary {
     pub ill_conditioned: Option<(f64, f64)>,
     /// The implicit method's Newton iterations, Jacobians and
     /// factorizations (zero for the explicit methods).
-    pub newton: crate::integrator::radau5::NewtonStats,
+    pub newton: crate::integrator::stepper::NewtonStats,
     /// `(t [s], h |lambda|)` where DOPRI5's or DOP853's stiffness test
     /// found the run stiff (their step held by stability, not accuracy;
     /// see [`crate::integrator::adaptive::StiffnessTest`]).

@@ -14,29 +14,7 @@ use crate::model::Model;
 use crate::settings::ProjectionKind;
 use crate::simulate::integrand::Integrand;
 use crate::simulate::observer::{Observer, RunError, Sample};
-use crate::simulate::run::Run;
-
-/// Samples queued before they go to the observer: about 512 KiB of
-/// states, at least one.
-pub(super) fn pending_rows(ny: usize) -> usize {
-    (65_536 / (ny + 1)).clamp(1, 256)
-}
-
-/// What is left to do to a queued sample before it is observed
-/// ([`Run::flush`]): the work of the output, timed as such.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub(super) enum Pending {
-    /// Nothing: a state the step loop accepted.
-    Ready,
-    /// A dense-output sample of the DAE, projected onto the constraints.
-    Project,
-    /// A dense-output sample of the reduced formulation on minimal
-    /// coordinates, queued as the integrator's state `z` at the row's
-    /// start: placed into the full state ([`Run::sample_places`]), its
-    /// dependent coordinates and its global rates computed
-    /// ([`crate::formulation::reduced::complete_sample`]).
-    Expand,
-}
+use crate::simulate::run::{Pending, Run};
 
 impl<'a, M: Model, O: Observer<M>> Run<'a, M, O> {
     /// Ends a run at the event at `t_stop` inside the step from `t`: the

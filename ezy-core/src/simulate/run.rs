@@ -1,8 +1,10 @@
 //! The state of a run while it steps ([`Run`]): the projection, the
 //! residuals, the energy guard, the singular positions passed, the
-//! events' watch and the hand-overs between the formulations. The
-//! switches' watch is in [`super::slip`], the output queue in
-//! [`super::output`]; the loop that drives it all is [`super::driver`].
+//! events' watch, the hand-overs between the formulations and what is
+//! left to do to a queued sample ([`Pending`]). The switches' watch is in
+//! [`super::watch`] (at work in [`super::slip`]), the output queue in
+//! [`super::output`]; the loop that drives it all is [`super::driver`],
+//! which also locates the events in a step and switches the formulation.
 
 use std::time::Duration;
 
@@ -13,12 +15,10 @@ use crate::formulation::dae::{Counters, Dynamics};
 use crate::formulation::projection::{Projector, max_abs};
 use crate::model::Model;
 use crate::settings::{Formulation, Message, Method, ProjectionKind, RunSettings, Setting};
-use crate::simulate::events::{Crossing, Monitor};
+use crate::simulate::events::Monitor;
 use crate::simulate::guard::{EnergyGuard, GROWTH_LIMIT, Verdict, drift_note};
-use crate::simulate::integrand::Integrand;
-use crate::simulate::observer::{Observer, RunError, Summary, singular_note};
-use crate::simulate::output::{Pending, pending_rows};
-use crate::simulate::slip::SlipWatch;
+use crate::simulate::observer::{Observer, Summary, singular_note};
+use crate::simulate::watch::SlipWatch;
 
 /// Accepted steps in a row whose every KKT solve found `G` rank-deficient
 /// after which a run stops with [`SimError::SingularPersists`] (or two
@@ -91,6 +91,28 @@ impl Residuals {
     }
 }
 
+/// Samples queued before they go to the observer: about 512 KiB of
+/// states, at least one.
+pub(super) fn pending_rows(ny: usize) -> usize {
+    (65_536 / (ny + 1)).clamp(1, 256)
+}
+
+/// What is left to do to a queued sample before it is observed
+/// ([`Run::flush`]): the work of the output, timed as such.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(super) enum Pending {
+    /// Nothing: a state the step loop accepted.
+    Ready,
+    /// A dense-output sample of the DAE, projected onto the constraints.
+    Project,
+    /// A dense-output sample of the reduced formulation on minimal
+    /// coordinates, queued as the integrator's state `z` at the row's
+    /// start: placed into the full state ([`Run::sample_places`]), its
+    /// dependent coordinates and its global rates computed
+    /// ([`crate::formulation::reduced::complete_sample`]).
+    Expand,
+}
+
 /// The state of a run while it steps ([`super::driver::drive`] goes
 /// through it): projection, residuals, energy balance, output timing.
 pub(super) struct Run<'a, M: Model, O: Observer<M>> {
@@ -122,7 +144,7 @@ pub(super) struct Run<'a, M: Model, O: Observer<M>> {
     pub(super) sample_places: Vec<usize>,
     /// Scratch for one such row's `z` while it is placed.
     pub(super) sample_z: Vec<f64>,
-    pub(super) newton: crate::integrator::radau5::NewtonStats,
+    pub(super) newton: crate::integrator::stepper::NewtonStats,
     /// The events' watch ([`crate::events`]).
     pub(super) monitor: Monitor,
     /// An integrator state's scratch for locating events.
@@ -432,137 +454,6 @@ impl<'a, M: Model, O: Observer<M>> Run<'a, M, O> {
         Ok(last)
     }
 
-    /// Whether an event's sign changed in the accepted step ending at
-    /// `t_new` with the integrator state `x_new` (the step's dense output
-    /// is then needed: [`Run::locate_events`]); a step without counts
-    /// for the chattering test and moves the events' left values on.
-    #[inline]
-    pub(super) fn event_crossed<F: Integrand<M>>(
-        &mut self,
-        form: &F,
-        sys: &Dynamics<M>,
-        t_new: f64,
-        x_new: &[f64],
-    ) -> bool {
-        if sys.events.is_empty() {
-            return false;
-        }
-        let crossed = self.monitor.any_crossing(sys, t_new, form.accepted_full(x_new));
-        if !crossed {
-            self.monitor.quiet_step();
-            std::mem::swap(&mut self.monitor.left, &mut self.monitor.right);
-        }
-        crossed
-    }
-
-    /// The events of the accepted step from `t` to `t_new` whose signs
-    /// changed ([`Run::event_crossed`]), located on the step's continuous
-    /// extension `interpolate(t, x)` ([`crate::simulate::events::locate`]) and
-    /// recorded in time order with their states (projected, or expanded),
-    /// up to the first that stops the run: its time, its state kept in
-    /// [`Run::stop`].
-    ///
-    /// # Errors
-    /// As the formulation's expansion; [`SimError::Chattering`],
-    /// [`SimError::EventLimit`].
-    #[cold]
-    pub(super) fn locate_events<F: Integrand<M>>(
-        &mut self,
-        form: &mut F,
-        sys: &Dynamics<M>,
-        span: (f64, f64),
-        x_new: &[f64],
-        mut interpolate: impl FnMut(f64, &mut [f64]),
-    ) -> Result<Option<f64>, SimError> {
-        // one copy per formulation, not one per step loop's extension
-        self.locate_events_on(form, sys, span, x_new, &mut interpolate)
-    }
-
-    /// [`Run::locate_events`] on any continuous extension.
-    #[cold]
-    pub(super) fn locate_events_on<F: Integrand<M>>(
-        &mut self,
-        form: &mut F,
-        sys: &Dynamics<M>,
-        (t, t_new): (f64, f64),
-        x_new: &[f64],
-        interpolate: &mut dyn FnMut(f64, &mut [f64]),
-    ) -> Result<Option<f64>, SimError> {
-        let mut found = std::mem::take(&mut self.monitor.found);
-        found.clear();
-        for (k, e) in sys.events.iter().enumerate() {
-            let (l, r) = (self.monitor.left[k], self.monitor.right[k]);
-            let Some(rising) = e.direction.crossing(l, r) else { continue };
-            let (x, scratch) = (&mut self.event_x, &mut self.monitor.scratch);
-            let g = |tau: f64| -> Result<f64, SimError> {
-                interpolate(tau, x);
-                let y = form.full_of(sys, tau, x)?;
-                Ok(e.value(sys, tau, y, scratch))
-            };
-            let te = crate::simulate::events::locate(g, t, l, t_new, r)?;
-            found.push(Crossing { event: k, t: te, rising });
-        }
-        in_time_order(&mut found);
-        let mut stop = None;
-        for c in &found {
-            let e = &sys.events[c.event];
-            let mut y = if c.t == t_new {
-                form.accepted_full(x_new).to_vec()
-            } else {
-                interpolate(c.t, &mut self.event_x);
-                form.full_of(sys, c.t, &self.event_x)?.to_vec()
-            };
-            if c.t != t_new && form.projects() && self.settings.projection != ProjectionKind::None {
-                let nq = sys.nq();
-                let (q, rest) = y.split_at_mut(nq);
-                self.proj.project(&sys.model, c.t, q, &mut rest[..nq])?;
-            }
-            self.monitor.record(&e.name, c.t, c.rising, &y)?;
-            if e.action == crate::events::spec::Action::Stop {
-                self.summary.stopped = Some((e.name.clone(), c.t));
-                self.stop = Some(y);
-                stop = Some(c.t);
-                break;
-            }
-        }
-        let counted = self.monitor.count_step(&sys.events, t_new, &found);
-        self.monitor.found = found;
-        counted?;
-        std::mem::swap(&mut self.monitor.left, &mut self.monitor.right);
-        Ok(stop)
-    }
-
-    /// At a switch at `t`, the accepted state `x` of `form`: the skates'
-    /// modes and the effects switched on the full state
-    /// ([`Run::switch_slip`]). Returns whether the run hands over to the
-    /// other formulation there (the reduced one to the DAE when a skate
-    /// begins to slide: it keeps every skate's row; the DAE back to it when
-    /// every skate sticks again): the step loop then ends, and
-    /// [`Run::handover`] holds the time and the full state.
-    ///
-    /// # Errors
-    /// As [`Run::switch_slip`].
-    #[cold]
-    pub(super) fn switch_form<F: Integrand<M>>(
-        &mut self,
-        form: &mut F,
-        sys: &mut Dynamics<M>,
-        t: f64,
-        x: &mut [f64],
-    ) -> Result<bool, RunError<O::Error>> {
-        let dae = form.solves_kkt();
-        let mut full = if dae { Vec::new() } else { form.accepted_full(x).to_vec() };
-        self.switch_slip(sys, t, if dae { &mut *x } else { &mut full })?;
-        // F at this state, evaluated ahead, had the old forces
-        form.forget_evaluation();
-        let sliding = !sys.released_rows().is_empty();
-        let hand = t < self.settings.t_end && if dae { self.hand_back && !sliding } else { sliding };
-        if hand {
-            self.handover = Some((t, if dae { x.to_vec() } else { full }));
-        }
-        Ok(hand)
-    }
-
     /// Hands the run over to the DAE at `t` (`why`): its settings and a
     /// projector with the released rows, and a note; the first hand-over
     /// for a skate's slide is noted, the later ones are counted.
@@ -583,9 +474,4 @@ impl<'a, M: Model, O: Observer<M>> Run<'a, M, O> {
             ));
         }
     }
-}
-
-/// Sorts crossings by time (not generic: one copy of the sort).
-pub(super) fn in_time_order(found: &mut [Crossing]) {
-    found.sort_by(|a, b| a.t.total_cmp(&b.t));
 }

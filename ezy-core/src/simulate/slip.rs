@@ -30,64 +30,6 @@ pub const SLIP_CHATTER_GAP: u64 = 8;
 /// the margin falls below zero at once.
 const STALLED_CUTS: u32 = 16;
 
-/// The watch on what switches the run's forces or rows: the skates with
-/// friction ([`crate::formulation::friction`]: each one's margin) and then the events
-/// that switch effects ([`crate::events::spec::Action::Switch`]: each one's
-/// `g`), at the start and the end of the step, and their switches in a row.
-#[derive(Debug, Default)]
-pub(super) struct SlipWatch {
-    left: Vec<f64>,
-    right: Vec<f64>,
-    /// The time of `left` \[s\].
-    t_left: f64,
-    /// The skates' margin rates at `left` and `right` (one per skate).
-    left_rate: Vec<f64>,
-    right_rate: Vec<f64>,
-    /// The smallest margin that counts as a violation, per skate
-    /// ([`Dynamics::slip_tolerances`]).
-    eps: Vec<f64>,
-    /// Per skate: whether its margin needs a look inside the step
-    /// ([`crate::formulation::friction::margin_suspect`]).
-    suspect: Vec<bool>,
-    /// The skates' margins and rates (one per skate).
-    scratch: Vec<f64>,
-    scratch_rate: Vec<f64>,
-    /// The longest next step after a step cut where a margin was no longer
-    /// resolved ([`crate::formulation::friction::MarginScan::Unresolved`]) \[s\].
-    pub(super) h_max: Option<f64>,
-    /// Cuts in a row that moved the run on by rounding only.
-    stalls: u32,
-    /// Per switch event: `(steps in a row with a switch, when they began,
-    /// the step count at its last switch)` (the skates':
-    /// [`SlipWatch::skate_streaks`]).
-    streaks: Vec<(u64, f64, u64)>,
-    /// Per skate: its switches at ever shorter intervals.
-    skate_streaks: Vec<crate::formulation::friction::SwitchStreak>,
-    /// The switch events: indices into [`Dynamics::events`].
-    switches: Vec<usize>,
-    /// Per skate, then per switch event: where it crossed in the step
-    /// being cut (infinite where it did not).
-    times: Vec<f64>,
-    /// Scratch of [`crate::events::spec::Event::value`].
-    values: Vec<f64>,
-    /// Scratch: a full state on the step's continuous extension.
-    full: Vec<f64>,
-}
-
-impl SlipWatch {
-    /// Whether watch `k` (a skate, then a switch event) crossed from
-    /// `left` to `right`, and which way (`Some(true)`: a skate begins to
-    /// slide or turns, an event rises).
-    fn crossing<M: Model>(&self, sys: &Dynamics<M>, k: usize) -> Option<bool> {
-        let (l, r, nf) = (self.left[k], self.right[k], sys.friction.len());
-        if k < nf {
-            self.suspect[k].then_some(true)
-        } else {
-            sys.events[self.switches[k - nf]].direction.crossing(l, r)
-        }
-    }
-}
-
 impl<'a, M: Model, O: Observer<M>> Run<'a, M, O> {
     /// Sets the watch on the switches of `sys` (when it has any) at the
     /// start `(t_start, y0)`: the margins and switch events' values there;
@@ -195,7 +137,7 @@ impl<'a, M: Model, O: Observer<M>> Run<'a, M, O> {
     /// ([`crate::formulation::friction::scan_margin`]) and its first violation located
     /// as an event's crossing is ([`crate::simulate::events::locate`]). A margin the
     /// step does not resolve cuts it where it last was (no switch there),
-    /// and limits the next steps ([`SlipWatch::h_max`]).
+    /// and limits the next steps ([`SlipWatch::h_max`](super::watch::SlipWatch::h_max)).
     ///
     /// # Errors
     /// As [`Dynamics::rhs`], and as `interpolate`.

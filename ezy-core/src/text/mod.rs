@@ -1,5 +1,4 @@
-//! A model read from text at run time: [`RuntimeModel`], floor 4 of the
-//! runtime.
+//! A model read from text at run time: [`RuntimeModel`].
 //!
 //! The text is what goes between the braces of `model! { ... }` (a
 //! `.ezy` file holds exactly that). It is parsed, checked and derived by

@@ -19,7 +19,7 @@
 mod collect;
 mod diff;
 mod display;
-mod hoist;
+pub(crate) mod hoist;
 mod trig;
 
 pub use hoist::Grouping;

@@ -6,8 +6,8 @@ use std::collections::{HashMap, HashSet};
 use ezy_core::drive::Drive;
 use ezy_core::model::info::ModelInfo;
 
-use super::known_or_none;
-use crate::{DriveSpec, Scene, SceneError};
+use crate::error::{SceneError, known_or_none};
+use crate::schema::{DriveSpec, Scene};
 
 impl Scene {
     /// Checks that every prescribed angle is smooth over `[0, t_end]`: no

@@ -6,7 +6,8 @@ use ezy_core::EffectSpec;
 use ezy_core::effects::{SpecError, check_effect_name};
 use ezy_core::model::info::{ModelInfo, NameIndex};
 
-use crate::{Scene, SceneError};
+use crate::error::SceneError;
+use crate::schema::Scene;
 
 /// Checks each effect of `scene` apart: its name, then its spec
 /// ([`EffectSpec::check_in`]). Returns, per effect in order, its spec as

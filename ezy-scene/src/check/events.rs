@@ -6,7 +6,9 @@ use ezy_core::events::{Quantity, check_event_name, friction_force_unwatched};
 use ezy_core::model::info::ModelInfo;
 use ezy_core::{EffectSpec, Event};
 
-use crate::{Scene, SceneEffect, SceneError};
+use crate::error::SceneError;
+use crate::kinds::SceneEffect;
+use crate::schema::Scene;
 
 /// Checks each event of `scene` apart. Returns, per event in order, the
 /// event as the run takes it.

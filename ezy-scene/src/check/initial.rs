@@ -5,8 +5,8 @@
 use ezy_core::InitialName;
 use ezy_core::model::info::ModelInfo;
 
-use super::known_or_none;
-use crate::{InitValue, Initial, SceneError};
+use crate::error::{SceneError, known_or_none};
+use crate::schema::{InitValue, Initial};
 
 /// Where an initial value's number comes from.
 #[derive(Debug, Clone, Copy, PartialEq)]

@@ -3,7 +3,9 @@
 
 use ezy_core::settings::{MAX_RTOL, MIN_TOLERANCE};
 
-use crate::{MAX_DPI, MIN_DPI, Scene, SceneError};
+use crate::error::SceneError;
+use crate::schema::Scene;
+use crate::view::{MAX_DPI, MIN_DPI};
 
 /// Checks the duration, the step and tolerances (positive, tolerances
 /// between [`MIN_TOLERANCE`] and, for the relative one, [`MAX_RTOL`]), the

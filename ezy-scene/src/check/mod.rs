@@ -11,20 +11,21 @@
 mod drives;
 mod effects;
 mod events;
-mod initial;
+pub(crate) mod initial;
 mod integrator;
 mod output;
-mod params;
+pub(crate) mod params;
 
 use ezy_core::drive::Drive;
 use ezy_core::model::info::ModelInfo;
 use ezy_core::{EffectSpec, Event};
 
-use crate::{Scene, SceneError};
+use crate::error::SceneError;
+use crate::schema::Scene;
 
 pub use params::{MAX_COUNT, check_count};
 
-pub(crate) use initial::{Given, Source, Targets};
+use initial::Targets;
 pub use output::MAX_FIGURE_NAME;
 
 /// A scene checked against the model at its counts: the scene as it runs
@@ -161,9 +162,4 @@ fn check_name(name: &str) -> Result<(), SceneError> {
         ));
     }
     Ok(())
-}
-
-/// `names` as an error lists them, or `none`.
-pub(crate) fn known_or_none(names: &[&str]) -> String {
-    if names.is_empty() { "none".to_string() } else { ezy_core::name_list(names) }
 }

@@ -7,9 +7,10 @@ use std::collections::HashSet;
 
 use ezy_core::model::info::ModelInfo;
 
-use super::known_or_none;
-use crate::columns::{OutputGroup, names};
-use crate::{FigureSpec, Scene, SceneError, figure_stem};
+use crate::columns::names;
+use crate::error::{SceneError, known_or_none};
+use crate::schema::{OutputGroup, Scene};
+use crate::view::{FigureSpec, figure_stem};
 
 /// Longest figure file name \[bytes\]: file systems take 255, and the
 /// run's temporary names add a few.

@@ -4,8 +4,8 @@
 
 use ezy_core::model::info::ModelInfo;
 
-use super::known_or_none;
-use crate::{Scene, SceneError};
+use crate::error::{SceneError, known_or_none};
+use crate::schema::Scene;
 
 /// Largest family count a scene may set (a model of a million elements
 /// needs gigabytes; larger counts are surely typos).

@@ -14,7 +14,7 @@ use ezy_scene::Scene;
 use super::{AnalyzeOptions, AnalyzeReport};
 use crate::output::csv::{number, record};
 use crate::output::transaction::{OutLock, Transaction};
-use crate::render::plot::{Chart, Series, Stroke};
+use crate::render::plot::series::{Chart, Series, Stroke};
 use crate::session::{Error, complex, rounded};
 
 /// A bifurcation located, after the branch's point at the index.

@@ -10,7 +10,10 @@ use ezy_scene::FigureFormat;
 
 use super::Found;
 use crate::output::transaction::{Transaction, TransactionError, check_interrupt};
-use crate::render::plot::{Chart, HeatMap, Series, Stroke, encode, figure, heatmap_svg};
+use crate::render::plot::figure;
+use crate::render::plot::heat_map::{HeatMap, heatmap_svg};
+use crate::render::plot::raster::encode;
+use crate::render::plot::series::{Chart, Series, Stroke};
 
 /// The figures' stems (retired before the new ones are drawn).
 const STEMS: &[&str] = &[

@@ -19,7 +19,8 @@ mod figures;
 mod tables;
 
 use super::committed;
-use crate::app::{App, AppError, is_model_path, is_scene_path};
+use crate::app::scenes::is_scene_path;
+use crate::app::{App, AppError, is_model_path};
 use crate::cli::{parse_dpi, parse_figure_format, parse_set};
 use crate::output::transaction::{OutLock, Transaction, check_interrupt, pending};
 use crate::session::{Error, rounded, scene_analysis, with_sets};

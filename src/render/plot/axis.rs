@@ -6,8 +6,10 @@ use std::ops::Range;
 
 use plotters::coord::ranged1d::{KeyPointHint, NoDefaultFormatting, Ranged, ValueFormatter};
 use plotters::coord::types::RangedCoordf64;
+use plotters::prelude::{Cartesian2d, ChartContext, DrawingArea, SVGBackend};
 
-use super::{Chart, MAX_AXIS_LENGTH};
+use super::MAX_AXIS_LENGTH;
+use super::series::Chart;
 
 /// [`undrawable`] for an axis' final range, which padding may have widened
 /// beyond [`MAX_MAGNITUDE`] but whose length must stay finite.
@@ -168,3 +170,8 @@ pub(super) fn decade_label(v: f64) -> String {
     }
     if m == 1.0 { format!("10{exp}") } else { format!("{m}·10{exp}") }
 }
+
+/// A drawing area of the SVG backend.
+pub(super) type Area<'a> = DrawingArea<SVGBackend<'a>, plotters::coord::Shift>;
+/// A chart context on both [`Axis`].
+pub(super) type Ctx<'a> = ChartContext<'a, SVGBackend<'a>, Cartesian2d<Axis, Axis>>;

@@ -3,9 +3,10 @@
 
 use plotters::prelude::*;
 
+use super::axis::Axis;
+use super::snap::nominal_size;
 use super::{
-    Axis, DESC_SIZE, FONT, HEIGHT, LABEL_SIZE, PlotError, SCALE, WIDTH, check_range, ensure_font, nominal_size,
-    title_font, undrawable,
+    DESC_SIZE, FONT, HEIGHT, LABEL_SIZE, PlotError, SCALE, WIDTH, check_range, ensure_font, title_font, undrawable,
 };
 
 /// A heat map: a value per point of a grid of two parameters, drawn as

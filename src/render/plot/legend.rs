@@ -3,9 +3,10 @@
 
 use plotters::prelude::*;
 
-use super::chart::{Area, Ctx};
+use super::axis::{Area, Ctx};
 use super::lines::{DIAMOND, Line, MARKER, diamond};
-use super::{Chart, DASHES, FONT, LABEL_SIZE, LINE_WIDTH, SCALE};
+use super::series::Chart;
+use super::{DASHES, FONT, LABEL_SIZE, LINE_WIDTH, SCALE};
 
 /// A legend right of the plot, from `(x, y)` down: a sample of every
 /// labelled line (its dash and marker, or its marker alone) and its label.

@@ -7,8 +7,8 @@ use std::ops::Range;
 
 use plotters::prelude::*;
 
-use super::chart::panels;
-use super::{Chart, DASHES, LINE_WIDTH, PALETTE, SCALE, Stroke};
+use super::series::{Chart, Stroke, panels};
+use super::{DASHES, LINE_WIDTH, PALETTE, SCALE};
 
 /// One series prepared for drawing: its drawable pieces in plot coordinates
 /// (`log10` of the value on a log axis) and its resolved style.

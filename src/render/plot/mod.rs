@@ -31,19 +31,21 @@
 //! worker thread with a time limit ([`DRAW_TIMEOUT`]).
 
 //!
-//! The module's files, by what they hold: `chart` (the [`Chart`] and its
-//! drawing), `axis` (linear and logarithmic axes, the ranges' padding),
+//! The module's files, by what they hold: `series` (the [`Chart`] as
+//! data: its series and their strokes), `chart` (its drawing), `axis`
+//! (linear and logarithmic axes, the ranges' padding, the drawing areas),
 //! `lines` (a series as drawn: its pieces, dash, markers, the points the
 //! drawing needs), `legend`, `heat_map`, `snap` (lines and rectangles on
 //! whole pixels) and `raster` (PNG and PDF from the SVG).
 
-mod axis;
-mod chart;
-mod heat_map;
+pub(crate) mod axis;
+pub(crate) mod chart;
+pub(crate) mod heat_map;
 mod legend;
 mod lines;
-mod raster;
-mod snap;
+pub(crate) mod raster;
+pub(crate) mod series;
+pub(crate) mod snap;
 #[cfg(test)]
 mod tests;
 
@@ -54,12 +56,11 @@ pub use ezy_scene::FigureFormat;
 use plotters::prelude::*;
 use plotters::style::FontStyle;
 
-pub(crate) use axis::Axis;
-pub use chart::{Chart, Series, Stroke, chart_svg};
-pub(crate) use heat_map::{HeatMap, heatmap_svg};
+// what users of the crate draw with (the code of the crate names each
+// item in the module that defines it)
+pub use chart::chart_svg;
 pub use raster::encode;
-pub(crate) use raster::{rgba, warm_up};
-pub(crate) use snap::nominal_size;
+pub use series::{Chart, Series, Stroke};
 
 /// Nominal width of a figure \[CSS px\] (10 inches at 96 dpi).
 pub(crate) const WIDTH: u32 = 960;

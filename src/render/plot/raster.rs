@@ -5,7 +5,9 @@
 use std::sync::OnceLock;
 
 use super::snap::{attribute, for_raster, opaque_fill_only};
-use super::{FONT_NAME, FigureFormat, HEIGHT, PlotError, SCALE, WIDTH, check_dpi, check_format, ensure_font};
+use ezy_scene::FigureFormat;
+
+use super::{FONT_NAME, HEIGHT, PlotError, SCALE, WIDTH, check_dpi, check_format, ensure_font};
 
 /// Turns an SVG drawn by this module into `format`: the SVG text itself,
 /// a PNG of `WIDTH x HEIGHT x dpi / 96` pixels (anti-aliased, white

@@ -316,7 +316,7 @@ fn thin_axis_line(element: &str) -> bool {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::render::plot::rgba;
+    use crate::render::plot::raster::rgba;
 
     /// Thin lines along an axis and rectangles are snapped; data lines
     /// (thicker), slanted, dashed and text are left as they are.

@@ -3,7 +3,7 @@
 use super::axis::decade_label;
 use super::chart::svg_within;
 use super::lines::{DIAMOND, chart_lines};
-use super::raster::{outlined, raster, svg_options, without_white_background};
+use super::raster::{outlined, raster, rgba, svg_options, without_white_background};
 use super::*;
 
 fn chart(series: Vec<Series>) -> Chart {
