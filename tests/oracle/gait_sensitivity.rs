@@ -3,10 +3,11 @@
 //! converged one by one (no sensitivity equations, no shooting Jacobian
 //! reused), the step checked by Richardson: every quantity `periodic.csv`
 //! carries (period, mean speed, mean forward speed, displacement, heading
-//! change, mean input power, efficiency) to 1e-8 relative. And against
-//! the quantities' own invariances: a gait's mean speed, power and period
-//! do not depend on the phase `t0` at which its fixed point is taken, so
-//! their derivatives at `t0 = 120 s` equal those at `t0 = 0`; a straight
+//! change, mean input power, efficiency) to 1e-8 relative, each gait at
+//! one phase of its forcing (a start `t0 = at T_f` that moves with the
+//! forcing's period `T_f`). And against the quantities' own invariances:
+//! a gait's mean speed, power and period do not depend on that phase, so
+//! their derivatives at `0.37 T_f` equal those at phase 0; a straight
 //! gait's heading change is 0 at every parameter value, and so is its
 //! derivative.
 //!
@@ -41,26 +42,26 @@ fn tight() -> PeriodicSettings {
     }
 }
 
-/// The gait of `problem` with its fixed point at phase `t0` (a whole
-/// number of forcing periods, or the run's end), from a run of the scene
-/// to its end; its quantities, and the problem's reported derivatives
-/// with respect to `param` (when given).
+/// The gait of `problem` with its fixed point at `t0 = at T_f` (`at` in
+/// forcing periods `T_f`, which move with the parameters: the forcing's
+/// phase `at` held), from a run of the scene to the same phase at its
+/// end; its quantities, and the problem's reported derivatives with
+/// respect to `param` (when given).
 fn gait<M: Model>(
     scene: &Scene,
     model: &M,
     sets: &[(String, f64)],
-    t0: Option<f64>,
+    at: f64,
     param: Option<&str>,
 ) -> ([f64; 8], Vec<f64>) {
     let (problem, _): (Problem<M>, _) = scene.problem_with(model.clone(), sets).unwrap();
     let (mut an, x0) = problem.clone().analysis().unwrap();
     let Some(Periodicity::Period(period)) = an.forcing() else { panic!("not forced periodically") };
     let symmetry: Symmetry = an.symmetry(0.0, &x0).unwrap();
-    let t_run = t0.unwrap_or((problem.settings.t_end / period).floor() * period);
+    let t_run = ((problem.settings.t_end / period).floor() + at.fract()) * period;
     let end = problem.clone().t_end(t_run).every(t_run).solve().unwrap();
     let guess = end.final_state()[..x0.len()].to_vec();
-    let phase = t0.unwrap_or(0.0);
-    let orbit = an.gait(phase, period, &guess, symmetry, &tight()).unwrap();
+    let orbit = an.gait(at * period, period, &guess, symmetry, &tight()).unwrap();
     let params: Vec<_> = param.map(|p| scene.parameter(model, sets, p).unwrap()).into_iter().collect();
     let s = problem.gait_sensitivities(&orbit, &params, &tight()).unwrap();
     let q = [
@@ -87,12 +88,18 @@ fn gait<M: Model>(
 /// shooting solve's rounding), plus three times the Richardson change
 /// (the oracle's own error).
 fn check<M: Model>(scene: &Scene, model: &M, param: &str) {
+    check_at(scene, model, param, 0.0);
+}
+
+/// [`check`] with every gait's fixed point at `t0 = at T_f` (`at` in
+/// forcing periods, the forcing's phase held).
+fn check_at<M: Model>(scene: &Scene, model: &M, param: &str, at: f64) {
     let p = scene.parameter(model, &[], param).unwrap().value;
-    let (_, reported) = gait(scene, model, &[], None, Some(param));
+    let (_, reported) = gait(scene, model, &[], at, Some(param));
     let h = 2e-4 * if p == 0.0 { 1.0 } else { p.abs() };
     let slope = |h: f64| {
-        let at = |v: f64| gait(scene, model, &[(param.to_string(), v)], None, None).0;
-        let (a, b) = (at(p + h), at(p - h));
+        let gait_at = |v: f64| gait(scene, model, &[(param.to_string(), v)], at, None).0;
+        let (a, b) = (gait_at(p + h), gait_at(p - h));
         (0..8).map(|i| (a[i] - b[i]) / (2.0 * h)).collect::<Vec<_>>()
     };
     let (d1, d2) = (slope(h), slope(h / 2.0));
@@ -180,22 +187,35 @@ fn every_parameter_class_is_the_differences() {
     }
 }
 
-/// The phase invariances: the derivatives of the mean speed, mean power
-/// and period of the rolling-resistance gait with its fixed point at
-/// `t0 = 120 s` (where a difference of the motor's waveform in its
-/// frequency errs by `(h t)^2 / 6`) equal those at `t0 = 0` to 1e-9
-/// relative, and the straight gait's heading change has derivative 0
-/// (ezy gave 3.6e-6) to 1e-9 of its displacement's.
+/// The phase: a gait's derivatives hold the forcing's phase at its fixed
+/// point, so at a start between whole periods (`t0 = 0.37 T_f`, which
+/// moves with a frequency) every quantity's derivative is the
+/// differences' of gaits at that phase, the start's own motion included;
+/// at `t0 = 60.37 T_f` (integrated from `0.37 T_f`, where ezy once took
+/// the frequency's derivative of the waveform at `t0` itself: `t0 domega`
+/// of phase) they are those at `0.37 T_f` to 1e-9 relative. The phase's
+/// invariants (period, mean speed, mean power, efficiency) have the
+/// derivatives they have at phase 0, and the straight gait's heading
+/// change has derivative 0 (ezy gave 3.6e-6) to 1e-9 of its
+/// displacement's.
 #[test]
-fn a_gaits_derivatives_do_not_depend_on_its_phase() {
+fn a_gaits_derivatives_hold_its_phase() {
     let (scene, model) = (scenes::get("drive-rolling-resistance"), EzyRoller::default());
-    let (_, at0) = gait(&scene, &model, &[], None, Some("motor.omega"));
-    let (_, at120) = gait(&scene, &model, &[], Some(120.0), Some("motor.omega"));
-    for i in [0, 1, 6, 7] {
-        eprintln!("d{}/domega: {:.12e} at t0 = 0, {:.12e} at t0 = 120", NAMES[i], at0[i], at120[i]);
-        assert!((at0[i] - at120[i]).abs() <= 1e-9 * at0[i].abs(), "d{}: {} against {}", NAMES[i], at0[i], at120[i]);
+    check_at(&scene, &model, "motor.omega", 0.37);
+    let (_, at0) = gait(&scene, &model, &[], 0.0, Some("motor.omega"));
+    let (_, at37) = gait(&scene, &model, &[], 0.37, Some("motor.omega"));
+    let (_, late) = gait(&scene, &model, &[], 60.37, Some("motor.omega"));
+    for i in 0..8 {
+        eprintln!("d{}/domega: {:.12e} at 0.37 T_f, {:.12e} at 60.37 T_f", NAMES[i], at37[i], late[i]);
+        // (the heading change, 0 by symmetry: against the displacement's)
+        let scale = if i == 5 { at37[3].abs().max(at37[4].abs()) } else { at37[i].abs() };
+        assert!((late[i] - at37[i]).abs() <= 1e-9 * scale, "d{}: {} against {}", NAMES[i], late[i], at37[i]);
     }
-    for d in [&at0, &at120] {
+    for i in [0, 1, 6, 7] {
+        eprintln!("d{}/domega: {:.12e} at phase 0, {:.12e} at 0.37 T_f", NAMES[i], at0[i], at37[i]);
+        assert!((at0[i] - at37[i]).abs() <= 1e-9 * at0[i].abs(), "d{}: {} against {}", NAMES[i], at0[i], at37[i]);
+    }
+    for d in [&at0, &at37, &late] {
         let displacement = d[3].abs().max(d[4].abs());
         assert!(d[5].abs() <= 1e-9 * displacement, "ddheading/domega = {:e} (ddx {:e})", d[5], d[3]);
     }
@@ -203,7 +223,7 @@ fn a_gaits_derivatives_do_not_depend_on_its_phase() {
 
 /// The built-in snakes' gaits (every built-in scene `ezy analyze` finds
 /// a gait on, with `drive-rolling-resistance` above): `snake`'s rolling
-/// resistance (torque-driven, five links);
+/// resistance and its motors' frequency (torque-driven, five links);
 /// `kinematic-snake`'s drive amplitude and link length (every shape
 /// prescribed: the gait is kinematic); `snake-long`'s drive family's
 /// frequency and link length (thirty links, prescribed angles).
@@ -218,10 +238,11 @@ fn every_built_in_gait_is_the_differences() {
             failed.push(format!("{name}: {p}"));
         }
     };
-    // (not yet `motor.torque.sin.omega`: ezy's dmean_forward_speed is
-    // 57.0 where the gaits' differences give 0.156, its mean speed and
-    // period right; docs/dev/oracle.md)
-    each("snake", "roll.damping", &|s, p| check(s, &Snake::default(), p));
+    // (`motor.torque.sin.omega`: ezy's dmean_forward_speed was 57.0, the
+    // fixed point's phase moved by `t0 domega` at t0 = 502 s; 0.156)
+    for p in ["roll.damping", "motor.torque.sin.omega"] {
+        each("snake", p, &|s, p| check(s, &Snake::default(), p));
+    }
     for p in ["D1.angle.harmonics.1.amplitude", "l"] {
         each("kinematic-snake", p, &|s, p| check(s, &KinematicSnake::default(), p));
     }
@@ -229,4 +250,81 @@ fn every_built_in_gait_is_the_differences() {
         each("snake-long", p, &|s, p| check(s, &SnakeDriven::default(), p));
     }
     assert!(failed.is_empty(), "{failed:?}");
+}
+
+/// A period-2 orbit: Baker and Gollub's forced pendulum between its first
+/// two period doublings (A = 10.52 N m; they are at 10.4611 and about
+/// 10.59), its orbit of two
+/// forcing periods at phase 0. Its period moves with the forcing's
+/// frequency as two forcing periods do, `dT/domega = -4 pi / omega^2`
+/// (to 1e-10 relative: ezy differences the forcing's period `2 pi /
+/// omega` over `omega +- h`, `h = eps^(1/3) omega`, whose truncation is
+/// `(h / omega)^2`, 4e-11); its fixed point's derivative (every state
+/// component) and its mean input power's are the central differences of
+/// period-2 orbits found one by one at `omega +- h` and `+- h/2`, `h =
+/// 2e-5 omega` (the orbit bends fast between doublings; each from the
+/// first orbit's fixed point, the copy nearest it), Richardson; to 1e-8
+/// of the largest plus three times the Richardson change. Each orbit is checked to be the doubled
+/// one: a forcing period apart from itself by more than 1e-3 rad.
+#[test]
+fn a_period_2_orbits_derivatives_are_the_differences() {
+    use ezy::models::Pendulum;
+    let (_, omega, c_rot) = crate::bifurcation::BAKER_GOLLUB;
+    let param = "motor.torque.cos.omega";
+    // (the doubled orbit has two copies a forcing period apart: the one
+    // nearest the first found, from its fixed point, at every omega)
+    let orbit_at = |w: f64, near: Option<&[f64]>| {
+        let scene = Scene::from_toml(&crate::bifurcation::forced_pendulum(10.52, w, c_rot), "p2.toml").unwrap();
+        let model = Pendulum::default();
+        let (problem, _): (Problem<Pendulum>, _) = scene.problem_with(model.clone(), &[]).unwrap();
+        let (mut an, x0) = problem.clone().analysis().unwrap();
+        let Some(Periodicity::Period(tf)) = an.forcing() else { panic!("not forced periodically") };
+        let symmetry: Symmetry = an.symmetry(0.0, &x0).unwrap();
+        let guess = match near {
+            Some(x) => x.to_vec(),
+            None => {
+                problem.clone().t_end(200.0 * tf).every(200.0 * tf).solve().unwrap().final_state()[..x0.len()].to_vec()
+            }
+        };
+        let orbit = an.gait(0.0, 2.0 * tf, &guess, symmetry, &tight()).unwrap();
+        let (half, _) = an.end_state(0.0, &orbit.state, tf, &tight()).unwrap();
+        let apart = half.iter().zip(&orbit.state).fold(0.0f64, |m, (a, b)| m.max((a - b).abs()));
+        assert!(apart > 1e-3, "omega = {w}: the orbit repeats every forcing period ({apart:e}): not the doubled one");
+        let params: Vec<_> =
+            if near.is_none() { vec![scene.parameter(&model, &[], param).unwrap()] } else { Vec::new() };
+        let s = problem.gait_sensitivities(&orbit, &params, &tight()).unwrap();
+        (orbit, s)
+    };
+    let (orbit, s) = orbit_at(omega, None);
+    let exact = -4.0 * std::f64::consts::PI / (omega * omega);
+    eprintln!("period-2: T = {} s, dT/domega = {:.12e} (exactly {exact:.12e})", orbit.period, s.d_period[0]);
+    assert!((s.d_period[0] - exact).abs() <= 1e-10 * exact.abs(), "{} against {exact}", s.d_period[0]);
+    // the fixed point's components, then the mean input power
+    let quantities = |w: f64| {
+        let (o, s) = orbit_at(w, Some(&orbit.state));
+        [o.state, vec![s.mean_power]].concat()
+    };
+    let reported = [s.d_state[0].clone(), vec![s.d_mean_power[0]]].concat();
+    let slope = |h: f64| {
+        let (a, b) = (quantities(omega + h), quantities(omega - h));
+        a.iter().zip(&b).map(|(a, b)| (a - b) / (2.0 * h)).collect::<Vec<_>>()
+    };
+    let h = 2e-5 * omega;
+    let (d1, d2) = (slope(h), slope(h / 2.0));
+    let rich: Vec<f64> = d2.iter().zip(&d1).map(|(a, b)| a + (a - b) / 3.0).collect();
+    let largest = rich.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+    for i in 0..rich.len() {
+        let oracle = (rich[i] - d2[i]).abs();
+        eprintln!(
+            "period-2: component {i}: {:.12e}, differences {:.12e} (Richardson change {oracle:.1e})",
+            reported[i], rich[i]
+        );
+        assert!(oracle <= 1e-6 * largest, "component {i}: the differences did not settle");
+        assert!(
+            (reported[i] - rich[i]).abs() <= 1e-8 * largest + 3.0 * oracle,
+            "component {i}: {} against the differences' {}",
+            reported[i],
+            rich[i]
+        );
+    }
 }

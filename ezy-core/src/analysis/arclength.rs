@@ -27,7 +27,7 @@ use super::branch::{BranchPoint, Follow, Solution, solve};
 use super::periodic::{gauge_coordinates, with_gauge};
 use super::symmetry::{Generator, Symmetry, act};
 use super::{Analysis, AnalysisError, dense};
-use crate::effects::waveform::Periodicity;
+use crate::effects::waveform::OrbitTiming;
 use crate::model::Model;
 
 /// Most Newton iterations of one corrector; a step that needs more is
@@ -70,7 +70,7 @@ struct Equations {
     /// another part of the branch whose tangent looked alike.
     slaves: Vec<usize>,
     /// A periodic orbit's period in the forcing's periods ([`solve`]).
-    multiple: Option<f64>,
+    timing: OrbitTiming,
     /// Newton's tolerance on the residual (max norm).
     tol: f64,
 }
@@ -118,8 +118,10 @@ impl Equations {
         };
         // the phase the branch's orbits are at
         let follow = match (follow, first) {
-            (Follow::Periodic { period, settings, .. }, Solution::Periodic(o)) => {
-                Follow::Periodic { t0: o.t0, period, settings }
+            // the orbit's own start and period (a later point's, its forcing's
+            // multiples: `timing`, taken at the first evaluation)
+            (Follow::Periodic { settings, .. }, Solution::Periodic(o)) => {
+                Follow::Periodic { t0: o.t0, period: o.period, settings }
             }
             (f, _) => f,
         };
@@ -131,17 +133,12 @@ impl Equations {
             }
             Solution::Steady(_) => (Vec::new(), Vec::new()),
         };
-        Equations { follow, symmetry, gauge: Vec::new(), cyclic, slaves, multiple: None, tol }
+        Equations { follow, symmetry, gauge: Vec::new(), cyclic, slaves, timing: OrbitTiming::default(), tol }
     }
 
-    /// The period at the scene `an` ([`solve`]'s rule).
-    fn period<M: Model>(&mut self, an: &Analysis<M>, period: f64) -> f64 {
-        match an.forcing() {
-            Some(Periodicity::Period(forcing)) => {
-                forcing * *self.multiple.get_or_insert_with(|| (period / forcing).round().max(1.0))
-            }
-            _ => period,
-        }
+    /// The start and period at the scene `an` ([`solve`]'s rule).
+    fn timing<M: Model>(&mut self, an: &Analysis<M>, t0: f64, period: f64) -> (f64, f64) {
+        an.forcing().map_or((t0, period), |f| f.orbit_timing(&mut self.timing, t0, period))
     }
 
     /// `R(z)` at the scene `an`, the gauge rows last; with `jacobian`,
@@ -175,7 +172,7 @@ impl Equations {
                 (r, j)
             }
             Follow::Periodic { t0, period, settings } => {
-                let period = self.period(an, period);
+                let (t0, period) = self.timing(an, t0, period);
                 let (xt, m) = if jacobian {
                     let (xt, m, _) = an.flow(t0, x, period, &settings)?;
                     (xt, Some(m))
@@ -283,7 +280,7 @@ impl Equations {
         let value = c.w[nz];
         let mut an = build(value)?;
         let n2 = 2 * an.nq();
-        let solution = solve(&mut an, self.follow, &c.w[..n2], &mut self.multiple)?;
+        let solution = solve(&mut an, self.follow, &c.w[..n2], &mut self.timing)?;
         Ok(BranchPoint { value, solution, dp_ds: Some(c.tangent[nz]) })
     }
 }
@@ -317,32 +314,17 @@ pub fn follow_arclength<M: Model>(
 ) -> (Vec<BranchPoint>, Option<(f64, AnalysisError)>) {
     let Some(&p0) = values.first() else { return (Vec::new(), None) };
     progress(0);
-    let mut multiple = None;
-    let first = match build(p0).and_then(|mut an| solve(&mut an, follow, start, &mut multiple)) {
+    let mut timing = OrbitTiming::default();
+    let first = match build(p0).and_then(|mut an| solve(&mut an, follow, start, &mut timing)) {
         Ok(s) => s,
         Err(e) => return (Vec::new(), Some((p0, e))),
-    };
-    // a forced orbit at the phase t0 is the one at t0 less whole periods
-    // (the same state, moved): the branch takes the phase in [0, T), where
-    // the forcing's phase moves least with a parameter that changes its
-    // frequency (at t0 = 120 s, 0.01 rad/s turns it by 1.2 rad)
-    let (first, follow) = match (&first, follow) {
-        (Solution::Periodic(o), Follow::Periodic { t0, period, settings }) if t0 >= o.period => {
-            let t0 = t0 - (t0 / o.period).floor() * o.period;
-            let how = Follow::Periodic { t0, period, settings };
-            match build(p0).and_then(|mut an| solve(&mut an, how, &o.state.clone(), &mut multiple)) {
-                Ok(s) => (s, how),
-                Err(e) => return (Vec::new(), Some((p0, e))),
-            }
-        }
-        _ => (first, follow),
     };
     let last_value = values[values.len() - 1];
     if values.len() == 1 || last_value == p0 {
         return (vec![BranchPoint { value: p0, solution: first, dp_ds: None }], None);
     }
     let mut eq = Equations::new(follow, &first);
-    eq.multiple = multiple;
+    eq.timing = timing;
     let (lo, hi) = (p0.min(last_value), p0.max(last_value));
     let spacing = (hi - lo) / (values.len() - 1) as f64;
     let nz = unknowns(&first).len();
@@ -572,6 +554,11 @@ pub fn switch_branch<M: Model>(
     offset: f64,
 ) -> Result<(BranchPoint, Follow), AnalysisError> {
     let follow = match (b.kind, follow, &b.solution) {
+        // a forced orbit's phase and period as the branch holds them, taken
+        // at the bifurcation's own orbit
+        (BifurcationKind::BranchPoint, Follow::Periodic { settings, .. }, Solution::Periodic(o)) => {
+            Follow::Periodic { t0: o.t0, period: o.period, settings }
+        }
         (BifurcationKind::BranchPoint, f, _) => f,
         (BifurcationKind::PeriodDoubling, Follow::Periodic { settings, .. }, Solution::Periodic(o)) => {
             Follow::Periodic { t0: o.t0, period: 2.0 * o.period, settings }
@@ -586,10 +573,10 @@ pub fn switch_branch<M: Model>(
         }
     };
     // the solution at the bifurcation, under the equations to switch on
-    let mut multiple = None;
-    let at = build(b.value).and_then(|mut an| solve(&mut an, follow, b.solution.state(), &mut multiple))?;
+    let mut timing = OrbitTiming::default();
+    let at = build(b.value).and_then(|mut an| solve(&mut an, follow, b.solution.state(), &mut timing))?;
     let mut eq = Equations::new(follow, &at);
-    eq.multiple = multiple;
+    eq.timing = timing;
     let z = unknowns(&at);
     let mut an = build(b.value)?;
     let (_, j) = eq.eval(&mut an, &z, true)?;

@@ -13,6 +13,7 @@ use super::branch::{BranchPoint, Follow, Solution, solve};
 use super::periodic::PeriodicSettings;
 use super::steady::Stability;
 use super::{Analysis, AnalysisError};
+use crate::effects::waveform::OrbitTiming;
 use crate::model::Model;
 
 /// Most bisections of [`locate`]: a bracket shrinks by 2^-60, far past
@@ -166,7 +167,14 @@ pub fn locate<M: Model>(
     }
     let (mut lo, mut hi) = (a.clone(), b.clone());
     let width = tol * (1.0 + a.value.abs());
-    let mut multiple = None;
+    // the branch's phase and period in forcing periods, as its points
+    // hold them (taken at `a`'s orbit, at `a`'s forcing)
+    let mut timing = OrbitTiming::default();
+    if let (Follow::Periodic { .. }, Solution::Periodic(o)) = (follow, &a.solution)
+        && let Some(f) = build(a.value)?.forcing()
+    {
+        f.orbit_timing(&mut timing, o.t0, o.period);
+    }
     let mut solves = 0;
     let at = |lo: &BranchPoint, hi: &BranchPoint, value: f64| -> Vec<f64> {
         let s = (value - lo.value) / (hi.value - lo.value);
@@ -193,7 +201,11 @@ pub fn locate<M: Model>(
         let value = 0.5 * (lo.value + hi.value);
         let guess = at(&lo, &hi, value);
         let solution = build(value).and_then(|mut an| {
-            solve(&mut an, tight, &guess, &mut multiple).or_else(|_| solve(&mut an, follow, &guess, &mut multiple))
+            // (a stop is not a search's failure: passed through, not retried)
+            solve(&mut an, tight, &guess, &mut timing).or_else(|e| match e {
+                AnalysisError::Stopped => Err(e),
+                _ => solve(&mut an, follow, &guess, &mut timing),
+            })
         })?;
         solves += 1;
         let point = BranchPoint { value, solution, dp_ds: None };

@@ -3,6 +3,7 @@
 use super::{Analysis, AnalysisError};
 use crate::analysis::periodic::{PeriodicOrbit, PeriodicSettings};
 use crate::analysis::steady::{Stability, SteadyMotion};
+use crate::effects::waveform::OrbitTiming;
 use crate::model::Model;
 
 /// A steady motion or a periodic orbit: a point of a branch.
@@ -52,7 +53,8 @@ pub enum Follow {
     /// Periodic orbits of this period \[s\] at phase `t0` \[s\]: at the
     /// first point; where the forcing repeats with a known period, each
     /// later point takes the same whole multiple of its own forcing's
-    /// period (a branch in a forcing frequency).
+    /// period and the same phase of it (a branch in a forcing frequency:
+    /// [`crate::effects::Periodicity::orbit_timing`]).
     Periodic {
         /// Phase.
         t0: f64,
@@ -98,10 +100,10 @@ pub fn follow<M: Model>(
     mut progress: impl FnMut(usize),
 ) -> (Vec<BranchPoint>, Option<(f64, AnalysisError)>) {
     let mut points: Vec<BranchPoint> = Vec::new();
-    // a periodic branch's period as a multiple of the forcing's, taken at
+    // a periodic branch's start and period in forcing periods, taken at
     // the first point and kept: a parameter that changes the forcing's
-    // frequency changes each point's period with it
-    let mut multiple: Option<f64> = None;
+    // frequency changes each point's with it
+    let mut timing = OrbitTiming::default();
     for (k, &value) in values.iter().enumerate() {
         progress(k);
         let guess: Vec<f64> = match &points[..] {
@@ -112,7 +114,7 @@ pub fn follow<M: Model>(
             [.., b] => b.solution.state().to_vec(),
             [] => start.to_vec(),
         };
-        let found = build(value).and_then(|mut an| solve(&mut an, follow, &guess, &mut multiple));
+        let found = build(value).and_then(|mut an| solve(&mut an, follow, &guess, &mut timing));
         match found {
             Ok(solution) => points.push(BranchPoint { value, solution, dp_ds: None }),
             Err(e) => return (points, Some((value, e))),
@@ -122,8 +124,9 @@ pub fn follow<M: Model>(
 }
 
 /// The solution of the kind `follow` asks for nearest `guess` (2 nq); a
-/// periodic orbit's period the forcing's times `multiple` (set at the
-/// first call from `follow`'s period).
+/// forced orbit's start and period as `timing` keeps them in forcing
+/// periods (taken at the first call from `follow`'s,
+/// [`crate::effects::Periodicity::orbit_timing`]).
 ///
 /// # Errors
 /// As [`Analysis::steady_motion`] and [`Analysis::periodic_orbit`].
@@ -131,18 +134,13 @@ pub(crate) fn solve<M: Model>(
     an: &mut Analysis<M>,
     follow: Follow,
     guess: &[f64],
-    multiple: &mut Option<f64>,
+    timing: &mut OrbitTiming,
 ) -> Result<Solution, AnalysisError> {
     let symmetry = an.symmetry(0.0, guess)?;
     match follow {
         Follow::Steady { energy } => an.steady_motion(0.0, guess, symmetry, energy).map(Solution::Steady),
         Follow::Periodic { t0, period, settings } => {
-            let period = match an.forcing() {
-                Some(crate::effects::waveform::Periodicity::Period(forcing)) => {
-                    forcing * *multiple.get_or_insert_with(|| (period / forcing).round().max(1.0))
-                }
-                _ => period,
-            };
+            let (t0, period) = an.forcing().map_or((t0, period), |f| f.orbit_timing(timing, t0, period));
             an.periodic_orbit(t0, period, guess, symmetry, &settings).map(Solution::Periodic)
         }
     }

@@ -514,6 +514,20 @@ impl<M: Model> Analysis<M> {
         phi
     }
 
+    /// The rate in time of [`Analysis::residual_at`] at a fixed state
+    /// (nh + nc): a drive's rows `-u'(t)` (positions) and `-u''(t)`
+    /// (velocities), zero elsewhere.
+    pub(crate) fn residual_rate(&self, t: f64) -> Vec<f64> {
+        let nh = self.sys.info.n_holonomic;
+        let mut rate = vec![0.0; nh + self.sys.info.nc()];
+        for d in &self.sys.drives {
+            let [_, u1, u2] = d.angle.eval3(t);
+            rate[d.row] -= u1;
+            rate[nh + d.row] -= u2;
+        }
+        rate
+    }
+
     /// Solves the KKT system at `(t, x)`.
     pub(crate) fn point(&mut self, t: f64, x: &[f64]) -> Result<Point, AnalysisError> {
         let info = &self.sys.info;

@@ -498,6 +498,14 @@ mod tests {
     }
 }
 
+/// A forced orbit's start and period in periods of its forcing, taken at
+/// the first point of a branch and kept ([`Periodicity::orbit_timing`]).
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct OrbitTiming {
+    /// `(t0 / T_f, T / T_f)`, once taken.
+    kept: Option<(f64, f64)>,
+}
+
 /// How a quantity depends on time, for the analyses that need a scene's
 /// forcing period ([`crate::analysis`]).
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -529,6 +537,33 @@ impl Periodicity {
             .map(|n| n as f64 * longest)
             .find(|t| periods.iter().all(|p| ((t / p) - (t / p).round()).abs() < 1e-9))
             .map_or(Periodicity::Aperiodic, Periodicity::Period)
+    }
+
+    /// How many periods of this forcing make `period` \[s\]: `Some(n)`
+    /// where this repeats with a period `T_f` and `period = n T_f` for a
+    /// whole `n >= 1` (to 1e-9 relative), the only periods a periodic
+    /// orbit of a scene forced so can have; `None` otherwise (a constant
+    /// forcing: an autonomous scene's orbit has a period of its own).
+    pub fn whole_periods(self, period: f64) -> Option<f64> {
+        let Periodicity::Period(forcing) = self else { return None };
+        let m = period / forcing;
+        (m >= 0.5 && (m - m.round()).abs() <= 1e-9 * m).then(|| m.round())
+    }
+
+    /// The start and period `(t0, T)` \[s\] of an orbit of a scene forced
+    /// so, as `timing` keeps them: at its first use, the start's phase
+    /// `t0 / T_f` and the period's whole number of forcing periods `T_f`
+    /// (the nearest, at least 1) are taken from `(t0, period)`; then every
+    /// call gives `(phase T_f, n T_f)` at the scene's own `T_f`, so that a
+    /// parameter that moves the forcing's frequency moves both with it
+    /// and every point of a branch is its orbit at one phase of its
+    /// forcing (as a gait's derivatives hold it, [`crate::sensitivity`]).
+    /// `(t0, period)` themselves where the scene is not forced
+    /// periodically.
+    pub fn orbit_timing(self, timing: &mut OrbitTiming, t0: f64, period: f64) -> (f64, f64) {
+        let Periodicity::Period(forcing) = self else { return (t0, period) };
+        let (phase, n) = *timing.kept.get_or_insert_with(|| (t0 / forcing, (period / forcing).round().max(1.0)));
+        (phase * forcing, n * forcing)
     }
 }
 

@@ -115,7 +115,7 @@ impl Gait {
             w.validate().map_err(|e| GeometryError::Request { reason: format!("{}: {e}", name(k)) })?;
             match w.periodicity() {
                 Periodicity::Constant => {}
-                Periodicity::Period(p) if ((period / p) - (period / p).round()).abs() < 1e-9 => {}
+                p @ Periodicity::Period(_) if p.whole_periods(period).is_some() => {}
                 _ => {
                     return Err(GeometryError::Request {
                         reason: format!(

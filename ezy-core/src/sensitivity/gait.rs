@@ -11,6 +11,18 @@
 //! monodromy matrix in one pass (DOP853 under the orbit's tolerance);
 //! then one minimum-norm solve per parameter, no orbit searched again.
 //!
+//! A gait of a periodically forced scene is compared with its neighbours
+//! at the same phase of the forcing: its period is `n T_f` and its start
+//! `t0 = k T_f + r` (`k`, `n` whole) moves as `r T_f(p) / T_f`, which
+//! adds `f(t0 + T) dt0/dp - Phi f(t0) dt0/dp` to `dR/dp` and the
+//! constraints' own rate in time to `dC/dp`. (At a fixed `t0` a
+//! frequency would move the forcing's phase there by `t0 domega`: the
+//! fixed point of a snake at `t0 = 502 s` slid along its orbit, and its
+//! forward speed in the head's frame with it, 57 where the gaits at one
+//! phase give 0.156.) The period is integrated from `r`, the same motion,
+//! where a frequency's derivative of a waveform (`t cos(omega t)`) stays
+//! of the size of one period's.
+//!
 //! The mean input power is the work per period of the actuators, over
 //! the period: the effects whose force is driven by time (motors, driven
 //! wheels, forces and torques with a waveform) and the drives (a
@@ -60,9 +72,12 @@ pub struct GaitSensitivities {
     /// drives (a prescribed hinge angle's constraint torque times its
     /// rate); they add up to `mean_power`. Empty without actuators.
     pub input_ledger: Vec<(String, f64)>,
-    /// `d(fixed point)/dp` (2 nq each), in the orbit's frame.
+    /// `d(fixed point)/dp` (2 nq each), in the orbit's frame, at the
+    /// forcing's phase held (the module's docs).
     pub d_state: Vec<Vec<f64>>,
-    /// `dT/dp` \[s per unit of p\] (0 where the period is not the forcing's).
+    /// `dT/dp` \[s per unit of p\]: `n dT_f/dp` for a period of `n`
+    /// forcing periods `T_f`; 0 where the scene is not forced (an
+    /// autonomous limit cycle's period is not differentiated).
     pub d_period: Vec<f64>,
     /// `d(mean speed)/dp`.
     pub d_mean_speed: Vec<f64>,
@@ -195,33 +210,42 @@ impl<M: Model> Problem<M> {
         base.check_state(&x0)?;
         let np = params.len();
         let stencils = params.iter().map(|p| Stencil::new(p, &base, &x0)).collect::<Result<Vec<_>, _>>()?;
-        // dT/dp where the period is the forcing's
+        // the forcing's period T_f and its derivative: the orbit's period is
+        // n T_f (n whole) and moves with it; the phase of the forcing at the
+        // fixed point is held, so the start t0 = k T_f + r moves as
+        // r T_f(p) / T_f (k whole periods move the phase by nothing)
         let forcing_period = |f: Option<Periodicity>| match f {
             Some(Periodicity::Period(t)) => Some(t),
             _ => None,
         };
-        let follows = forcing_period(base.forcing()).is_some_and(|t| (t - period).abs() <= 1e-12 * period);
-        let d_period: Vec<f64> = stencils
+        let periods = base.forcing().and_then(|f| f.whole_periods(period));
+        // T_f where the orbit repeats with whole forcing periods
+        let phased = forcing_period(base.forcing()).filter(|_| periods.is_some());
+        let d_forcing: Vec<f64> = stencils
             .iter()
-            .map(|st| {
-                if !follows {
-                    return 0.0;
+            .map(|st| match phased {
+                Some(tf) => {
+                    st.base_weight * tf
+                        + st.nodes.iter().map(|(w, an)| w * forcing_period(an.forcing()).unwrap_or(tf)).sum::<f64>()
                 }
-                st.base_weight * period
-                    + st.nodes.iter().map(|(w, an)| w * forcing_period(an.forcing()).unwrap_or(period)).sum::<f64>()
+                None => 0.0,
             })
             .collect();
+        let d_period: Vec<f64> = d_forcing.iter().map(|d| d * periods.unwrap_or(0.0)).collect();
+        let start = phased.map_or(t0, |tf| phase_start(t0, tf));
+        let d_start: Vec<f64> = d_forcing.iter().map(|d| phased.map_or(0.0, |tf| start / tf * d)).collect();
         let derivatives = stencils.iter().map(|s| s.derivative).collect();
         // residuals' direct derivatives at the fixed point
-        let base_r = base.residual_at(t0, &x0);
+        let base_r = base.residual_at(start, &x0);
         let dr: Vec<Vec<f64>> = stencils
             .iter()
             .map(|st| {
                 let mut out = vec![0.0; base_r.len()];
-                st.add_residual(&base, t0, &x0, &base_r, &mut out);
+                st.add_residual(&base, start, &x0, &base_r, &mut out);
                 out
             })
             .collect();
+        let residual_rate = base.residual_rate(start);
         let actuators: Vec<usize> = (base.dynamics().effects.iter().enumerate())
             .filter(|(_, e)| !matches!(e.periodicity(), Some(Periodicity::Constant)))
             .map(|(k, _)| k)
@@ -248,8 +272,14 @@ impl<M: Model> Problem<M> {
         aug.drive_power = true;
         aug.ledger = true;
         y0.extend(std::iter::repeat_n(0.0, (1 + ncol).max(aug.energy_states())));
-        let end =
-            adaptive::integrate::<Dop853, _>(&mut aug, t0, &y0, t0 + period, &settings.tolerance, settings.max_steps);
+        let end = adaptive::integrate::<Dop853, _>(
+            &mut aug,
+            start,
+            &y0,
+            start + period,
+            &settings.tolerance,
+            settings.max_steps,
+        );
         if let Some(e) = aug.failed.take() {
             return Err(e);
         }
@@ -259,14 +289,19 @@ impl<M: Model> Problem<M> {
         let col = |j: usize| &blocks[j * n2..(j + 1) * n2];
         let energy = &y[n2 * (1 + ncol)..];
         let m = Mat::from_fn(n2, n2, |i, j| col(j)[i]);
-        let ft = aug.base.rhs(t0 + period, xt)?;
-        let pt = aug.input_power(t0 + period, xt)?;
+        let ft = aug.base.rhs(start + period, xt)?;
+        let pt = aug.input_power(start + period, xt)?;
+        // the start's own rate, carried over the period (`Phi f(t0)`), and
+        // its input power: what a later start from the same state changes
+        let f0 = aug.base.rhs(start, &x0)?;
+        let phi_f0: Vec<f64> = (0..n2).map(|i| (0..n2).map(|j| m[(i, j)] * f0[j]).sum()).collect();
+        let p0 = aug.input_power(start, &x0)?;
         // held at the gauge the orbit is written in (the reference body at
         // the origin with heading 0, as far as the symmetry allows), one
         // row per generator as the search holds it: the symmetry's
         // directions are not left to a minimum-norm solve's rank cut
         let gauge = gauge_coordinates(&bodies, &symmetry.generators());
-        let j = with_gauge(aug.base.shooting_jacobian(t0, &x0, &m, symmetry, &hp)?, &gauge);
+        let j = with_gauge(aug.base.shooting_jacobian(start, &x0, &m, symmetry, &hp)?, &gauge);
         let q0 = quantities(&bodies, symmetry, &x0, &hp, period, energy[0]);
         let input_ledger = if aug.energy_states() > 0 {
             ledger_names.into_iter().zip(&energy[1 + ncol..]).map(|(n, e)| (n, e / period)).collect()
@@ -291,13 +326,19 @@ impl<M: Model> Problem<M> {
             steps: end.steps,
         };
         for k in 0..np {
-            let dt = d_period[k];
-            let mut rp: Vec<f64> = col(n2 + k).iter().zip(&ft).map(|(s, f)| -(s + f * dt)).collect();
-            rp.extend(dr[k].iter().map(|v| -v));
+            let (dt, ds) = (d_period[k], d_start[k]);
+            // dR/dp = S + f(t0 + T) (dT + dt0) - Phi f(t0) dt0, and the
+            // constraints' own rate in time at the start times dt0
+            let mut rp: Vec<f64> = (0..n2).map(|i| -(col(n2 + k)[i] + ft[i] * (dt + ds) - phi_f0[i] * ds)).collect();
+            rp.extend(dr[k].iter().zip(&residual_rate).map(|(v, r)| -(v + r * ds)));
             rp.extend(gauge.iter().map(|_| 0.0));
             let (dz, _) = min_norm_solve(j.as_ref(), &rp, 1e-12)?;
             let (dx0, dhp) = dz.split_at(n2);
-            let de = (0..n2).map(|i| energy[1 + i] * dx0[i]).sum::<f64>() + energy[1 + n2 + k] + pt * dt;
+            // dE/dp = dE/dx0 (dx0 - f(t0) dt0) + dE/dp + P(t0 + T) (dT + dt0) - P(t0) dt0
+            let de = (0..n2).map(|i| energy[1 + i] * (dx0[i] - f0[i] * ds)).sum::<f64>()
+                + energy[1 + n2 + k]
+                + pt * (dt + ds)
+                - p0 * ds;
             let dq = quantity_derivatives(&bodies, symmetry, (&x0, &hp, period, energy[0]), (dx0, dhp, dt, de));
             out.d_state.push(dx0.to_vec());
             out.d_mean_speed.push(dq[0]);
@@ -309,4 +350,14 @@ impl<M: Model> Problem<M> {
         }
         Ok(out)
     }
+}
+
+/// The start `t0` \[s\] of an orbit of a scene forced with period `tf`
+/// \[s\], less its whole forcing periods: the same motion (the
+/// right-hand side repeats with `tf`), where a frequency's derivative of
+/// a waveform (`t cos(omega t)`) stays of the size of one period's. A
+/// start a whole number of periods to rounding (1e-12 of them) is 0.
+fn phase_start(t0: f64, tf: f64) -> f64 {
+    let m = t0 / tf;
+    if (m - m.round()).abs() <= 1e-12 * m.abs().max(1.0) { 0.0 } else { t0 - m.floor() * tf }
 }

@@ -351,6 +351,148 @@ pub(super) fn intern(s: &str) -> &'static str {
     n
 }
 
+/// The index `a` of an item of family `f` (none: of no family), shown
+/// with the family's variable.
+fn ix(def: &ModelDef, a: &Affine, f: Option<usize>) -> Ix {
+    Ix::new(def, a, &f.map(|f| def.families[f].var.to_string()).unwrap_or_default())
+}
+
+/// A point (by its item and index) named by an item of family `f`.
+fn point_at(def: &ModelDef, (p, index): &(usize, Option<Affine>), f: Option<usize>) -> PointAt {
+    PointAt { item: *p, index: index.as_ref().map(|a| ix(def, a, f)) }
+}
+
+/// The model's parameters, then its counts, with their documentation
+/// and units.
+fn param_infos(def: &ModelDef) -> Vec<ParamInfo> {
+    let mut params: Vec<ParamInfo> = def
+        .params
+        .iter()
+        .map(|p| {
+            let (doc, unit) = split_unit(&doc_of(&p.attrs));
+            ParamInfo {
+                name: intern(&p.name.to_string()),
+                default: p.value,
+                unit: intern(&unit),
+                doc: intern(&doc),
+                count: false,
+            }
+        })
+        .collect();
+    params.extend(def.counts.iter().map(|c| {
+        let (doc, _) = split_unit(&doc_of(&c.attrs));
+        ParamInfo {
+            name: intern(&c.name.to_string()),
+            default: c.value as f64,
+            unit: "",
+            doc: intern(&doc),
+            count: true,
+        }
+    }));
+    params
+}
+
+/// The plans of the model's points: where each sits, its tapes.
+fn point_plans(m: &Derivation) -> Vec<PointPlan> {
+    let (def, res, d) = (&m.def, &m.resolved, &m.derived);
+    def.points
+        .iter()
+        .enumerate()
+        .map(|(pi, p)| {
+            let pd = &d.points[pi];
+            let body = if p.family.is_some() {
+                BodyAt { item: res.point_body[pi], index: Some(ix(def, &own_index(), p.family)) }
+            } else {
+                BodyAt { item: res.point_body[pi], index: res.point_body_index[pi].as_ref().map(|a| ix(def, a, None)) }
+            };
+            PointPlan {
+                name: p.name.to_string(),
+                family: p.family,
+                body,
+                pos: Tape::new(&d.ar, &pd.pos),
+                vel: Tape::new(&d.ar, &pd.vel),
+                local: Tape::new(&d.ar, &pd.local),
+                vel_ids: pd.vel,
+            }
+        })
+        .collect()
+}
+
+/// What a constraint group is: its item's kind and name, with the points
+/// (or hinge) it names.
+fn item_of(m: &Derivation, g: &ezy_lang::kinematics::Group) -> (String, ItemKind) {
+    let (def, res, d) = (&m.def, &m.resolved, &m.derived);
+    let f = g.family;
+    match g.kind {
+        Kind::Hinge => {
+            let (a, b) = &res.hinge_points[g.item];
+            let other = b.as_ref().map(|b| point_at(def, b, f));
+            (def.hinges[g.item].name.to_string(), ItemKind::Hinge { point: point_at(def, a, f), other })
+        }
+        Kind::Slider => {
+            let (a, b) = &res.slider_points[g.item];
+            let other = b.as_ref().map(|b| point_at(def, b, f));
+            let heading = def.sliders[g.item].heading;
+            (def.sliders[g.item].name.to_string(), ItemKind::Slider { heading, point: point_at(def, a, f), other })
+        }
+        Kind::Drive => {
+            let h = res.drive_hinge[g.item];
+            let hinge_group = d.groups.iter().position(|x| x.kind == Kind::Hinge && x.item == h).expect("hinge group");
+            (def.drives[g.item].name.to_string(), ItemKind::Drive { hinge_group })
+        }
+        Kind::Skate => {
+            let point = point_at(def, &res.skate_point[g.item], f);
+            (def.skates[g.item].name.to_string(), ItemKind::Skate { point })
+        }
+    }
+}
+
+/// The plan of one constraint group: its item, the bodies and indices it
+/// touches, its tapes and its equations.
+fn group_plan(m: &Derivation, g: &ezy_lang::kinematics::Group) -> GroupPlan {
+    let (def, d) = (&m.def, &m.derived);
+    let f = g.family;
+    let (name, item_kind) = item_of(m, g);
+    let pattern = g.local_pattern(&d.ar);
+    let values: Vec<Id> = pattern.iter().map(|&(r, c)| g.g[r][c]).collect();
+    let holonomic = g.holonomic();
+    let phi: Vec<Id> = if holonomic { g.phi.clone() } else { Vec::new() };
+    let cat = |parts: &[&[Id]]| Tape::new(&d.ar, &parts.concat());
+    let direction = g.direction.filter(|[tx, ty]| {
+        let index = |s| matches!(s, ezy_lang::sym::Sym::Index(_));
+        d.ar.mentions(*tx, &index) || d.ar.mentions(*ty, &index)
+    });
+    let direction = direction.map(|[tx, ty]| {
+        let (word, along) = match g.kind {
+            Kind::Skate => ("blade direction `along", &def.skates[g.item].along),
+            _ => ("direction `along", &def.sliders[g.item].along),
+        };
+        let (ax, ay) = (&along[0], &along[1]);
+        let written = format!("{word} ({}, {})`", quote::quote!(#ax), quote::quote!(#ay));
+        (Tape::new(&d.ar, &[tx, ty]), written)
+    });
+    GroupPlan {
+        kind: g.kind,
+        item_kind,
+        name,
+        family: f,
+        slots: g.slots.iter().map(|b| BodyAt { item: b.0, index: b.1.as_ref().map(|a| ix(def, a, f)) }).collect(),
+        indices: g.indices.iter().map(|a| ix(def, a, f)).collect(),
+        rows: g.rows(),
+        suffixes: g.suffixes.clone(),
+        phi: cat(&[&phi]),
+        g: cat(&[&values]),
+        phi_g: cat(&[&phi, &values]).with_split(phi.len()),
+        terms: cat(&[&values, &g.gamma]).with_split(values.len()),
+        direction,
+        eq_phi: phi,
+        eq_velocity: g.velocity.clone(),
+        eq_g: values,
+        eq_gamma: g.gamma.clone(),
+        pattern,
+    }
+}
+
 impl Plan {
     /// The plan of a derived model.
     ///
@@ -359,10 +501,8 @@ impl Plan {
     /// more than [`MAX_SLOTS`] bodies (the grammar makes neither; a
     /// message, not a panic, should that change).
     pub(super) fn new(m: &mut Derivation) -> Result<Self, String> {
-        let (def, res, d) = (&m.def, &m.resolved, &m.derived);
+        let (def, d) = (&m.def, &m.derived);
         let is_static = def.families.is_empty() && def.counts.is_empty();
-        let var_of = |f: Option<usize>| f.map(|f| def.families[f].var.to_string()).unwrap_or_default();
-        let ix = |a: &Affine, f: Option<usize>| Ix::new(def, a, &var_of(f));
         let param_of = |e: &syn::Expr| match e {
             syn::Expr::Path(p) => p
                 .path
@@ -371,37 +511,13 @@ impl Plan {
                 .map(|id| intern(&id.to_string())),
             _ => None,
         };
-        let mut params: Vec<ParamInfo> = def
-            .params
-            .iter()
-            .map(|p| {
-                let (doc, unit) = split_unit(&doc_of(&p.attrs));
-                ParamInfo {
-                    name: intern(&p.name.to_string()),
-                    default: p.value,
-                    unit: intern(&unit),
-                    doc: intern(&doc),
-                    count: false,
-                }
-            })
-            .collect();
-        params.extend(def.counts.iter().map(|c| {
-            let (doc, _) = split_unit(&doc_of(&c.attrs));
-            ParamInfo {
-                name: intern(&c.name.to_string()),
-                default: c.value as f64,
-                unit: "",
-                doc: intern(&doc),
-                count: true,
-            }
-        }));
         let families = def
             .families
             .iter()
             .enumerate()
             .map(|(f, fam)| Family {
-                start: ix(&fam.start, Some(f)),
-                end: ix(&fam.end, Some(f)),
+                start: ix(def, &fam.start, Some(f)),
+                end: ix(def, &fam.end, Some(f)),
                 range: format!("{}..{}", fam.start.show(""), fam.end.show("")),
             })
             .collect();
@@ -419,107 +535,7 @@ impl Plan {
                 mass_ids: d.mass[bi],
             })
             .collect();
-        let points = def
-            .points
-            .iter()
-            .enumerate()
-            .map(|(pi, p)| {
-                let pd = &d.points[pi];
-                let body = if p.family.is_some() {
-                    BodyAt { item: res.point_body[pi], index: Some(ix(&own_index(), p.family)) }
-                } else {
-                    BodyAt { item: res.point_body[pi], index: res.point_body_index[pi].as_ref().map(|a| ix(a, None)) }
-                };
-                PointPlan {
-                    name: p.name.to_string(),
-                    family: p.family,
-                    body,
-                    pos: Tape::new(&d.ar, &pd.pos),
-                    vel: Tape::new(&d.ar, &pd.vel),
-                    local: Tape::new(&d.ar, &pd.local),
-                    vel_ids: pd.vel,
-                }
-            })
-            .collect();
-        let point_at = |(p, index): &(usize, Option<Affine>), f: Option<usize>| PointAt {
-            item: *p,
-            index: index.as_ref().map(|a| ix(a, f)),
-        };
-        let groups = d
-            .groups
-            .iter()
-            .map(|g| {
-                let f = g.family;
-                let (name, item_kind) = match g.kind {
-                    Kind::Hinge => {
-                        let (a, b) = &res.hinge_points[g.item];
-                        let other = b.as_ref().map(|b| point_at(b, f));
-                        (def.hinges[g.item].name.to_string(), ItemKind::Hinge { point: point_at(a, f), other })
-                    }
-                    Kind::Slider => {
-                        let (a, b) = &res.slider_points[g.item];
-                        let other = b.as_ref().map(|b| point_at(b, f));
-                        let heading = def.sliders[g.item].heading;
-                        (
-                            def.sliders[g.item].name.to_string(),
-                            ItemKind::Slider { heading, point: point_at(a, f), other },
-                        )
-                    }
-                    Kind::Drive => {
-                        let h = res.drive_hinge[g.item];
-                        let hinge_group =
-                            d.groups.iter().position(|x| x.kind == Kind::Hinge && x.item == h).expect("hinge group");
-                        (def.drives[g.item].name.to_string(), ItemKind::Drive { hinge_group })
-                    }
-                    Kind::Skate => {
-                        let point = point_at(&res.skate_point[g.item], f);
-                        (def.skates[g.item].name.to_string(), ItemKind::Skate { point })
-                    }
-                };
-                let pattern = g.local_pattern(&d.ar);
-                let values: Vec<Id> = pattern.iter().map(|&(r, c)| g.g[r][c]).collect();
-                let holonomic = g.holonomic();
-                let phi: Vec<Id> = if holonomic { g.phi.clone() } else { Vec::new() };
-                let cat = |parts: &[&[Id]]| Tape::new(&d.ar, &parts.concat());
-                let direction = g.direction.filter(|[tx, ty]| {
-                    let index = |s| matches!(s, ezy_lang::sym::Sym::Index(_));
-                    d.ar.mentions(*tx, &index) || d.ar.mentions(*ty, &index)
-                });
-                let direction = direction.map(|[tx, ty]| {
-                    let (word, along) = match g.kind {
-                        Kind::Skate => ("blade direction `along", &def.skates[g.item].along),
-                        _ => ("direction `along", &def.sliders[g.item].along),
-                    };
-                    let (ax, ay) = (&along[0], &along[1]);
-                    let written = format!("{word} ({}, {})`", quote::quote!(#ax), quote::quote!(#ay));
-                    (Tape::new(&d.ar, &[tx, ty]), written)
-                });
-                GroupPlan {
-                    kind: g.kind,
-                    item_kind,
-                    name,
-                    family: f,
-                    slots: g
-                        .slots
-                        .iter()
-                        .map(|b| BodyAt { item: b.0, index: b.1.as_ref().map(|a| ix(a, f)) })
-                        .collect(),
-                    indices: g.indices.iter().map(|a| ix(a, f)).collect(),
-                    rows: g.rows(),
-                    suffixes: g.suffixes.clone(),
-                    phi: cat(&[&phi]),
-                    g: cat(&[&values]),
-                    phi_g: cat(&[&phi, &values]).with_split(phi.len()),
-                    terms: cat(&[&values, &g.gamma]).with_split(values.len()),
-                    direction,
-                    eq_phi: phi,
-                    eq_velocity: g.velocity.clone(),
-                    eq_g: values,
-                    eq_gamma: g.gamma.clone(),
-                    pattern,
-                }
-            })
-            .collect::<Vec<_>>();
+        let groups = d.groups.iter().map(|g| group_plan(m, g)).collect::<Vec<_>>();
         let blades = (0..def.skates.len())
             .map(|ki| {
                 // the plan's groups are the derivation's, in its order
@@ -532,15 +548,15 @@ impl Plan {
             name: intern(&def.name.to_string()),
             doc: intern(doc_of(&def.attrs).split(". ").next().unwrap_or("").trim_end_matches('.')),
             n_real: def.params.len(),
-            params,
+            params: param_infos(def),
             families,
             bodies,
-            points,
+            points: point_plans(m),
             groups,
             blades,
             ar: d.ar.clone(),
             registers: 0,
-            own: ix(&own_index(), None),
+            own: ix(def, &own_index(), None),
             straight: None,
             code: std::sync::OnceLock::new(),
         };

@@ -192,16 +192,20 @@ fn analyze_model<M: Model>(proto: &M, scene: &Scene, opts: &AnalyzeOptions) -> R
     check_energy(opts, scene, period, symmetry)?;
     // a line every few seconds of a long analysis (a stiff scene's run
     // and searches take minutes)
+    // a forced scene's gait is sought at the forcing's phase 0, the last
+    // whole forcing period of the run (at least one): its fixed point and
+    // displacement compare with those at another parameter value, and
+    // with the gait's derivatives, which hold that phase
+    let t_run = match (period, an.forcing()) {
+        (Some(_), Some(Periodicity::Period(tf))) => (settings.t_end / tf).floor().max(1.0) * tf,
+        _ => settings.t_end,
+    };
     let beat = ro.progress.then(|| {
-        Heartbeat::start(format!(
-            "analyze {}: running the scene to t = {} s for guesses",
-            scene.name,
-            fmt_value(settings.t_end)
-        ))
+        Heartbeat::start(format!("analyze {}: running the scene to t = {} s for guesses", scene.name, fmt_value(t_run)))
     });
-    let (samples, _) = run_to(proto, scene, ro, settings.t_end, GUESSES)?;
+    let (samples, _) = run_to(proto, scene, ro, t_run, GUESSES)?;
     let end = samples.last().cloned().unwrap_or_else(|| x0.clone());
-    log.timings.push((format!("run to t = {} s for a guess", fmt_value(settings.t_end)), clock.elapsed()));
+    log.timings.push((format!("run to t = {} s for a guess", fmt_value(t_run)), clock.elapsed()));
     let mut growth = None;
     let (steady, periodic, follow) = match period {
         None => {
@@ -233,7 +237,7 @@ fn analyze_model<M: Model>(proto: &M, scene: &Scene, opts: &AnalyzeOptions) -> R
         }
         Some(p) => {
             let clock = Instant::now();
-            let t0 = settings.t_end;
+            let t0 = t_run;
             let ps = periodic_settings(ro);
             if let Some(b) = &beat {
                 b.set(format!("analyze {}: searching for the periodic orbit of period {} s", scene.name, fmt_value(p)));
@@ -250,6 +254,9 @@ fn analyze_model<M: Model>(proto: &M, scene: &Scene, opts: &AnalyzeOptions) -> R
                     None
                 }
             };
+            // a forced scene's branch at the forcing's phase 0 at every
+            // value (t0 = 0, a whole number of its periods at any)
+            let t0 = if matches!(an.forcing(), Some(Periodicity::Period(_))) { 0.0 } else { t0 };
             (Vec::new(), orbit, Follow::Periodic { t0, period: p, settings: ps })
         }
     };
@@ -473,8 +480,7 @@ fn period<M: Model>(
         // a periodic orbit of a forced scene repeats with a whole number
         // of the forcing's periods
         (Some(p), Some(Periodicity::Period(forcing))) => {
-            let m = p / forcing;
-            if m < 0.5 || (m - m.round()).abs() > 1e-9 * m {
+            if Periodicity::Period(forcing).whole_periods(p).is_none() {
                 return Err(Error::Input(format!(
                     "--period {p}: scene `{}` is forced with period {} s, and a periodic orbit repeats with a whole number of them ({} s, {} s, ...)",
                     scene.name,

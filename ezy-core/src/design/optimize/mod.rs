@@ -62,8 +62,14 @@ pub const MAX_GRID: usize = 101;
 const MAX_SPAN: f64 = 1e6;
 
 /// A constraint holds where its violation is at most this fraction of
-/// its scale (its bound, or its value at the start).
-const FEASIBLE: f64 = 1e-6;
+/// its scale (its bound, or its value at the start): the gait quantities'
+/// own accuracy (Newton's 1e-9, the integration's 1e-11), so that a
+/// point on its bound within rounding ranks as feasible (2.5e-11 outside
+/// in the guide's example) and one beyond does not. (At 1e-6 the best
+/// point could be one 1.5e-7 outside, ranked above the bound's own for
+/// its better objective: found when a more accurate first gradient
+/// changed SLSQP's path.)
+const FEASIBLE: f64 = 1e-9;
 
 /// Failures in a row that end an optimization.
 const FAILURES: usize = 5;
@@ -430,20 +436,7 @@ pub fn optimize<M: Model>(
     let span: Vec<f64> = (0..n).map(|k| design.upper[k] - design.lower[k]).collect();
     let u0: Vec<f64> = (0..n).map(|k| (design.start[k] - design.lower[k]) / span[k]).collect();
     let mut ev = Evaluator::new(design, goal, settings.periodic, stop);
-    // the start: its failure is the optimization's
-    let p0 = ev.at(&design.start, true).map_err(|e| match e {
-        // a search that failed there: say where
-        e @ (AnalysisError::NotConverged { .. } | AnalysisError::Numerics { .. }) => {
-            let at: Vec<String> = design
-                .names
-                .iter()
-                .zip(&design.start)
-                .map(|(n, v)| format!("{n} = {}", crate::names::fmt_value(*v)))
-                .collect();
-            AnalysisError::Request { reason: format!("at the start ({}): {e}", at.join(", ")) }
-        }
-        e => e,
-    })?;
+    let p0 = start(&mut ev, design)?;
     let sign = match goal.sense {
         Sense::Minimize => 1.0,
         Sense::Maximize => -1.0,
@@ -517,38 +510,13 @@ pub fn optimize<M: Model>(
     let (best_index, best, best_u) = st.best.take().expect("the start at least");
     let start_scale = objective_scale.abs() * g0;
     let kkt = st.kkt(&best, &best_u, &design.names, if start_scale.is_finite() { start_scale } else { 0.0 });
-    let violated: Vec<String> = goal
-        .constraints
-        .iter()
-        .zip(&best.values[1..])
-        .zip(&st.constraint_scales)
-        .filter(|((c, v), (_, scale))| c.violation(**v) > FEASIBLE * scale)
-        .map(|((c, v), _)| format!("{} (it is {} there)", c.text(), crate::names::fmt_value(*v)))
-        .collect();
-    let (converged, termination) = if !violated.is_empty() {
-        (false, format!("no point found satisfies {}: the best has the least violation", violated.join(", ")))
-    } else if converged && !kkt.holds {
-        // the optimizer's word is not taken: its stop at a point that is
-        // not stationary is no convergence
-        let why = termination.trim_start_matches("converged: ").trim_start_matches("converged ");
-        (false, format!("not converged: the search ended ({why}), but at the best point the {}", kkt.describe()))
-    } else {
-        (converged, termination)
-    };
+    let (converged, termination) =
+        verdict(goal, (&best.values[1..], &st.constraint_scales), &kkt, (converged, termination));
     let values = st.history[best_index].values.clone();
     let gradient = best.gradients[0].clone();
     let at_bound: Vec<bool> =
         (0..n).map(|k| (values[k] - design.lower[k]).min(design.upper[k] - values[k]) <= 1e-9 * span[k]).collect();
-    let projected_gradient_norm = (0..n)
-        .map(|k| {
-            // the minimized function's slope in u
-            let g = sign * gradient[k] * span[k];
-            let pinned = (values[k] - design.lower[k] <= 1e-9 * span[k] && g > 0.0)
-                || (design.upper[k] - values[k] <= 1e-9 * span[k] && g < 0.0);
-            if pinned { 0.0 } else { g * g }
-        })
-        .sum::<f64>()
-        .sqrt();
+    let projected_gradient_norm = projected_gradient_norm(design, &values, &gradient, sign);
     let stopped = st.stopped;
     let mut ev = st.ev;
     let mut grid = Vec::new();
@@ -578,6 +546,75 @@ pub fn optimize<M: Model>(
         runs: ev.runs,
         orbit: best.orbit,
     })
+}
+
+/// The start's evaluation: its failure is the optimization's, a
+/// search's failure there said with the start's values.
+///
+/// # Errors
+/// The evaluation's, a failed search as [`AnalysisError::Request`].
+fn start<M: Model>(ev: &mut Evaluator<'_, M>, design: &Design<M>) -> Result<Point, AnalysisError> {
+    ev.at(&design.start, true).map_err(|e| match e {
+        e @ (AnalysisError::NotConverged { .. } | AnalysisError::Numerics { .. }) => {
+            let at: Vec<String> = design
+                .names
+                .iter()
+                .zip(&design.start)
+                .map(|(n, v)| format!("{n} = {}", crate::names::fmt_value(*v)))
+                .collect();
+            AnalysisError::Request { reason: format!("at the start ({}): {e}", at.join(", ")) }
+        }
+        e => e,
+    })
+}
+
+/// Whether the search converged, and how to say it, as SLSQP's
+/// `outcome` says and as the best point is: a constraint it violates
+/// beyond [`FEASIBLE`] of its scale (`values` and `scales` per
+/// constraint), or a stop where the KKT conditions do not hold, is no
+/// convergence.
+fn verdict(
+    goal: &Goal,
+    (values, scales): (&[f64], &[(f64, f64)]),
+    kkt: &Kkt,
+    outcome: (bool, String),
+) -> (bool, String) {
+    let violated: Vec<String> = goal
+        .constraints
+        .iter()
+        .zip(values)
+        .zip(scales)
+        .filter(|((c, v), (_, scale))| c.violation(**v) > FEASIBLE * scale)
+        .map(|((c, v), _)| format!("{} (it is {} there)", c.text(), crate::names::fmt_value(*v)))
+        .collect();
+    let (converged, termination) = outcome;
+    if !violated.is_empty() {
+        (false, format!("no point found satisfies {}: the best has the least violation", violated.join(", ")))
+    } else if converged && !kkt.holds {
+        // the optimizer's word is not taken: its stop at a point that is
+        // not stationary is no convergence
+        let why = termination.trim_start_matches("converged: ").trim_start_matches("converged ");
+        (false, format!("not converged: the search ended ({why}), but at the best point the {}", kkt.describe()))
+    } else {
+        (converged, termination)
+    }
+}
+
+/// The norm of the minimized function's gradient in the unit box (`sign`
+/// 1 to minimize, -1 to maximize), a component pinned against its bound
+/// left out.
+fn projected_gradient_norm<M: Model>(design: &Design<M>, values: &[f64], gradient: &[f64], sign: f64) -> f64 {
+    (0..values.len())
+        .map(|k| {
+            let span = design.upper[k] - design.lower[k];
+            // the minimized function's slope in u
+            let g = sign * gradient[k] * span;
+            let pinned = (values[k] - design.lower[k] <= 1e-9 * span && g > 0.0)
+                || (design.upper[k] - values[k] <= 1e-9 * span && g < 0.0);
+            if pinned { 0.0 } else { g * g }
+        })
+        .sum::<f64>()
+        .sqrt()
 }
 
 /// Whether SLSQP's outcome is a convergence, and how to say it.
