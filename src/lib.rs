@@ -90,6 +90,7 @@ mod sweep;
 pub mod testing;
 
 pub use app::App;
+pub use commands::python_commands;
 pub use ezy_core;
 pub use ezy_core::{Model, Problem, Solution, model};
 pub use ezy_core::{analysis, effects, events, geometry};

@@ -157,22 +157,10 @@ pub fn init_module(m: &Bound<'_, PyModule>, app: App) -> PyResult<()> {
     m.add_class::<Toolkit>()?;
     m.add_class::<PyModel>()?;
     let kit = Bound::new(py, Toolkit { app, helpers: helpers.unbind() })?;
-    for f in [
-        "models",
-        "scenes",
-        "effect_kinds",
-        "scene",
-        "run",
-        "sweep",
-        "analyze",
-        "sensitivity",
-        "fit",
-        "optimize",
-        "linearize",
-        "geometry",
-        "equations",
-        "check",
-    ] {
+    // what the module knows, then the command line's commands it offers
+    // (the command table's list: a new command is one line there and one
+    // method of the toolkit)
+    for f in ["models", "scenes", "effect_kinds", "scene"].into_iter().chain(ezy::python_commands()) {
         m.add(f, kit.getattr(f)?)?;
     }
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;

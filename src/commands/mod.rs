@@ -40,25 +40,37 @@ pub(crate) struct Command {
     /// Runs it on the application's models and scenes with the arguments
     /// parsed, writing what it prints to `out`.
     pub exec: fn(&App, &ArgMatches, &mut dyn Write) -> Result<(), AppError>,
+    /// Whether the Python module offers it as a function of the same name
+    /// ([`python_commands`]); not the ones that measure this machine
+    /// (`precision`, `scale`, `bench`), write a video (`animate`) or list
+    /// (`list`: the module's `models()` and `scenes()`).
+    pub python: bool,
+}
+
+/// The commands the Python module offers, by name, in the order `ezy
+/// --help` lists them (the command table's): its functions of the same
+/// names take the command's options as keyword arguments.
+pub fn python_commands() -> impl Iterator<Item = &'static str> {
+    COMMANDS.iter().filter(|c| c.python).map(|c| c.name)
 }
 
 /// Every command, in the order `ezy --help` lists them.
 pub(crate) const COMMANDS: &[Command] = &[
-    Command { name: "run", cli: run::cli, exec: run::exec },
-    Command { name: "list", cli: list::cli, exec: list::exec },
-    Command { name: "precision", cli: precision::cli, exec: precision::exec },
-    Command { name: "equations", cli: equations::cli, exec: equations::exec },
-    Command { name: "check", cli: check::cli, exec: check::exec },
-    Command { name: "scale", cli: scale::cli, exec: scale::exec },
-    Command { name: "sweep", cli: sweep::cli, exec: sweep::exec },
-    Command { name: "animate", cli: animate::cli, exec: animate::exec },
-    Command { name: "bench", cli: bench::cli, exec: bench::exec },
-    Command { name: "analyze", cli: analyze::cli, exec: analyze::exec },
-    Command { name: "linearize", cli: linearize::cli, exec: linearize::exec },
-    Command { name: "geometry", cli: geometry::cli, exec: geometry::exec },
-    Command { name: "sensitivity", cli: sensitivity::cli, exec: sensitivity::exec },
-    Command { name: "fit", cli: fit::cli, exec: fit::exec },
-    Command { name: "optimize", cli: optimize::cli, exec: optimize::exec },
+    Command { name: "run", cli: run::cli, exec: run::exec, python: true },
+    Command { name: "list", cli: list::cli, exec: list::exec, python: false },
+    Command { name: "precision", cli: precision::cli, exec: precision::exec, python: false },
+    Command { name: "equations", cli: equations::cli, exec: equations::exec, python: true },
+    Command { name: "check", cli: check::cli, exec: check::exec, python: true },
+    Command { name: "scale", cli: scale::cli, exec: scale::exec, python: false },
+    Command { name: "sweep", cli: sweep::cli, exec: sweep::exec, python: true },
+    Command { name: "animate", cli: animate::cli, exec: animate::exec, python: false },
+    Command { name: "bench", cli: bench::cli, exec: bench::exec, python: false },
+    Command { name: "analyze", cli: analyze::cli, exec: analyze::exec, python: true },
+    Command { name: "linearize", cli: linearize::cli, exec: linearize::exec, python: true },
+    Command { name: "geometry", cli: geometry::cli, exec: geometry::exec, python: true },
+    Command { name: "sensitivity", cli: sensitivity::cli, exec: sensitivity::exec, python: true },
+    Command { name: "fit", cli: fit::cli, exec: fit::exec, python: true },
+    Command { name: "optimize", cli: optimize::cli, exec: optimize::exec, python: true },
 ];
 
 /// The command a bare `ezy` runs (with no arguments).

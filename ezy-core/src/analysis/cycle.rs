@@ -20,7 +20,7 @@ use faer::Mat;
 use super::periodic::{PeriodicOrbit, PeriodicSettings, gait_geometry, gauge_coordinates, with_gauge};
 use super::steady::Stability;
 use super::symmetry::{Symmetry, act, act_jacobian, body_pose, fields};
-use super::{Analysis, AnalysisError, dense};
+use super::{Analysis, AnalysisError, dense, newton};
 use crate::model::Model;
 
 /// Most Newton iterations of the cycle's shooting.
@@ -114,12 +114,12 @@ impl<M: Model> Analysis<M> {
         let gens = symmetry.generators();
         let k = gens.len();
         let gauge = gauge_coordinates(&bodies, &gens);
-        let mut x0 = act(&bodies, symmetry.restrict(body_pose(&bodies, 0, guess)).inverse(), guess);
+        let x0 = act(&bodies, symmetry.restrict(body_pose(&bodies, 0, guess)).inverse(), guess);
         // the section: through the guess, normal to the flow there
         let anchor = x0.clone();
         let normal = self.rhs(t0, &anchor)?;
         self.check_cost(t0, &x0, period, settings)?;
-        let (xt, mut m, mut steps) = self.flow(t0, &x0, period, settings)?;
+        let (xt, m, steps) = self.flow(t0, &x0, period, settings)?;
         // whole turns of each heading over the guess's cycle
         let windings: Vec<(usize, i64)> = bodies
             .iter()
@@ -127,62 +127,37 @@ impl<M: Model> Analysis<M> {
             .filter(|&(_, w)| w != 0)
             .collect();
         let h0 = symmetry.restrict(body_pose(&bodies, 0, &xt).compose(body_pose(&bodies, 0, &x0).inverse()));
-        let mut p = symmetry.params(h0);
-        let mut period = period;
+        let p = symmetry.params(h0);
         let norm = |r: &[f64]| r.iter().fold(0.0f64, |m, v| m.max(v.abs()));
         let tol = settings.newton_tolerance * (1.0 + norm(&x0));
-        let residual = |this: &Self, x0: &[f64], xt: &[f64], p: &[f64]| {
-            let mut r: Vec<f64> = xt.iter().zip(act(&bodies, symmetry.pose(p), x0)).map(|(a, b)| a - b).collect();
-            for &(i, w) in &windings {
-                r[i] -= std::f64::consts::TAU * w as f64;
-            }
-            r.extend(this.residual_at(t0, x0));
-            r.push(normal.iter().zip(x0.iter().zip(&anchor)).map(|(n, (a, b))| n * (a - b)).sum());
-            r
+        let mut search = Cycle {
+            an: self,
+            t0,
+            settings,
+            symmetry,
+            bodies: &bodies,
+            gauge: &gauge,
+            windings: &windings,
+            section: (&anchor, &normal),
+            x0,
+            p,
+            period,
+            xt,
+            m,
+            steps,
         };
-        let mut r = residual(self, &x0, &xt, &p);
-        let mut xt = xt;
-        let mut iterations = 0;
-        while norm(&r) > tol {
-            if iterations == MAX_CYCLE_NEWTON {
-                return Err(AnalysisError::NotConverged {
-                    what: "a limit cycle",
-                    iterations,
-                    residual: norm(&r),
-                    tolerance: tol,
-                });
-            }
-            iterations += 1;
-            let j = self.cycle_jacobian(t0, (&x0, &xt), &m, symmetry, &p, (period, &normal))?;
-            let j = with_gauge(j, &gauge);
-            let neg: Vec<f64> = r.iter().map(|v| -v).chain(gauge.iter().map(|_| 0.0)).collect();
-            let (dz, _) = dense::min_norm_solve(j.as_ref(), &neg, 1e-12)?;
-            let mut lambda = 1.0;
-            loop {
-                let x1: Vec<f64> = x0.iter().zip(&dz).map(|(a, d)| a + lambda * d).collect();
-                let p1: Vec<f64> = p.iter().zip(&dz[n2..n2 + k]).map(|(a, d)| a + lambda * d).collect();
-                let t1 = period + lambda * dz[n2 + k];
-                let trial = if t1 > 0.0 { self.end_state(t0, &x1, t1, settings).ok() } else { None };
-                if let Some((y, _)) = trial {
-                    let r1 = residual(self, &x1, &y, &p1);
-                    if norm(&r1) < norm(&r) || lambda < 0.2 {
-                        let (y, m1, s1) = self.flow(t0, &x1, t1, settings)?;
-                        (x0, p, period, xt, m, steps, r) = (x1, p1, t1, y, m1, s1, r1);
-                        break;
-                    }
-                }
-                self.check_stop()?;
-                if lambda < 0.2 {
-                    return Err(AnalysisError::NotConverged {
-                        what: "a limit cycle",
-                        iterations,
-                        residual: norm(&r),
-                        tolerance: tol,
-                    });
-                }
-                lambda *= 0.5;
-            }
-        }
+        let r = search.residual(&search.x0, &search.xt, &search.p);
+        // a step damped to 1/8 is taken (the period map's noise)
+        let rules = newton::Rules {
+            what: "a limit cycle",
+            max_iterations: MAX_CYCLE_NEWTON,
+            tolerance: tol,
+            min_step: 0.125,
+            take_last: true,
+            slow: None,
+        };
+        let (iterations, r) = newton::solve(&mut search, r, &rules)?;
+        let Cycle { x0, p, period, xt, m, steps, .. } = search;
         let h = symmetry.pose(&p);
         // multipliers of x0 -> h^-1 x(t0 + T; x0) modulo the symmetry and
         // the flow
@@ -246,5 +221,77 @@ impl<M: Model> Analysis<M> {
             j[(rows, i)] = *v;
         }
         Ok(j)
+    }
+}
+
+/// The cycle's equations of [`Analysis::limit_cycle`] at their current
+/// point `(x0, p, T)`, for the analyses' Newton ([`newton::solve`]).
+struct Cycle<'a, M: Model> {
+    an: &'a mut Analysis<M>,
+    t0: f64,
+    settings: &'a PeriodicSettings,
+    symmetry: Symmetry,
+    bodies: &'a [[usize; 3]],
+    gauge: &'a [usize],
+    /// Whole turns of each heading over the guess's cycle.
+    windings: &'a [(usize, i64)],
+    /// The section: a point on it and its normal.
+    section: (&'a [f64], &'a [f64]),
+    /// The current point, the state a period on, the monodromy matrix
+    /// and its integration's steps.
+    x0: Vec<f64>,
+    p: Vec<f64>,
+    period: f64,
+    xt: Vec<f64>,
+    m: Mat<f64>,
+    steps: u64,
+}
+
+impl<M: Model> Cycle<'_, M> {
+    /// The cycle's equations (the module's docs) at `x0`, `x(t0 + T)` and
+    /// the rigid motion's parameters `p`.
+    fn residual(&self, x0: &[f64], xt: &[f64], p: &[f64]) -> Vec<f64> {
+        let mut r: Vec<f64> = xt.iter().zip(act(self.bodies, self.symmetry.pose(p), x0)).map(|(a, b)| a - b).collect();
+        for &(i, w) in self.windings {
+            r[i] -= std::f64::consts::TAU * w as f64;
+        }
+        r.extend(self.an.residual_at(self.t0, x0));
+        let (anchor, normal) = self.section;
+        r.push(normal.iter().zip(x0.iter().zip(anchor)).map(|(n, (a, b))| n * (a - b)).sum());
+        r
+    }
+
+    /// The current point moved by `lambda dz`.
+    fn moved(&self, dz: &[f64], lambda: f64) -> (Vec<f64>, Vec<f64>, f64) {
+        let (n2, k) = (self.x0.len(), self.p.len());
+        let (x, p) = (newton::moved(&self.x0, dz, lambda), newton::moved(&self.p, &dz[n2..], lambda));
+        (x, p, self.period + lambda * dz[n2 + k])
+    }
+}
+
+impl<M: Model> newton::Equations for Cycle<'_, M> {
+    fn jacobian(&mut self) -> Result<Mat<f64>, AnalysisError> {
+        let section = (self.period, self.section.1);
+        let j = self.an.cycle_jacobian(self.t0, (&self.x0, &self.xt), &self.m, self.symmetry, &self.p, section)?;
+        Ok(with_gauge(j, self.gauge))
+    }
+
+    fn gauge_rows(&self) -> usize {
+        self.gauge.len()
+    }
+
+    fn trial(&mut self, dz: &[f64], lambda: f64, _last: bool) -> Result<Option<Vec<f64>>, AnalysisError> {
+        self.an.check_stop()?;
+        let (x, p, period) = self.moved(dz, lambda);
+        // a period that is not positive, or a run that fails: not lower
+        let trial = if period > 0.0 { self.an.end_state(self.t0, &x, period, self.settings).ok() } else { None };
+        Ok(trial.map(|(y, _)| self.residual(&x, &y, &p)))
+    }
+
+    fn take(&mut self, dz: &[f64], lambda: f64) -> Result<(), AnalysisError> {
+        let (x, p, period) = self.moved(dz, lambda);
+        let (y, m, steps) = self.an.flow(self.t0, &x, period, self.settings)?;
+        (self.x0, self.p, self.period, self.xt, self.m, self.steps) = (x, p, period, y, m, steps);
+        Ok(())
     }
 }

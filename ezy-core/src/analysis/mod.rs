@@ -73,6 +73,7 @@ mod cycle;
 pub(crate) mod dense;
 mod growth;
 mod linear;
+mod newton;
 pub(crate) mod periodic;
 mod settle;
 mod steady;

@@ -5,7 +5,7 @@ use faer::{Mat, c64};
 
 use super::steady::Stability;
 use super::symmetry::{act, act_jacobian, body_pose, field};
-use super::{Analysis, AnalysisError, dense};
+use super::{Analysis, AnalysisError, dense, newton};
 use crate::analysis::symmetry::{Generator, Pose, Symmetry};
 use crate::error::SimError;
 use crate::integrator::Rhs;
@@ -219,12 +219,12 @@ impl<M: Model> Analysis<M> {
         // rotation's direction is singular only where the residual
         // vanishes, so a minimum-norm step takes large steps along it)
         let gauge = gauge_coordinates(&bodies, &gens);
-        let mut x0 = act(&bodies, symmetry.restrict(body_pose(&bodies, 0, guess)).inverse(), guess);
+        let x0 = act(&bodies, symmetry.restrict(body_pose(&bodies, 0, guess)).inverse(), guess);
         self.check_cost(t0, &x0, period, settings)?;
         // the skates' grip over the last period integrated (the orbit's,
         // once the search has converged)
         self.watch_grip();
-        let (xt, mut m, mut steps) = self.flow(t0, &x0, period, settings)?;
+        let (xt, m, steps) = self.flow(t0, &x0, period, settings)?;
         // a search that wanders off to ever faster motion (a scene without
         // a periodic orbit, whose speed grows) ends when a period takes
         // many times the steps the guess's period took
@@ -232,75 +232,40 @@ impl<M: Model> Analysis<M> {
         let budget = PeriodicSettings { max_steps: settings.max_steps.min(20 * steps + 1000), ..*settings };
         let settings = &budget;
         let h0 = symmetry.restrict(body_pose(&bodies, 0, &xt).compose(body_pose(&bodies, 0, &x0).inverse()));
-        let mut p = symmetry.params(h0);
+        let p = symmetry.params(h0);
         let norm = |r: &[f64]| r.iter().fold(0.0f64, |m, v| m.max(v.abs()));
         let tol = settings.newton_tolerance * (1.0 + norm(&x0));
-        let (mut iterations, mut slow) = (0, 0);
-        let residual = |this: &Self, x0: &[f64], xt: &[f64], p: &[f64]| {
-            let h = symmetry.pose(p);
-            let mut r: Vec<f64> = xt.iter().zip(act(&bodies, h, x0)).map(|(a, b)| a - b).collect();
-            r.extend(this.residual_at(t0, x0));
-            r
+        let mut search = Shooting {
+            an: self,
+            t0,
+            period,
+            settings,
+            symmetry,
+            bodies: &bodies,
+            gauge: &gauge,
+            x0,
+            p,
+            m,
+            steps,
+            first_steps,
+            iterations: 0,
         };
-        let mut r = residual(self, &x0, &xt, &p);
-        while norm(&r) > tol {
-            if iterations == MAX_SHOOTING {
-                return Err(AnalysisError::NotConverged {
-                    what: "a periodic orbit",
-                    iterations,
-                    residual: norm(&r),
-                    tolerance: tol,
-                });
-            }
-            iterations += 1;
-            let j = with_gauge(self.shooting_jacobian(t0, &x0, &m, symmetry, &p)?, &gauge);
-            let neg: Vec<f64> = r.iter().map(|v| -v).chain(gauge.iter().map(|_| 0.0)).collect();
-            let (dz, _) = dense::min_norm_solve(j.as_ref(), &neg, 1e-12)?;
-            // damped: halve the step until the residual falls (a full step
-            // that fails to integrate counts as not falling); the trials
-            // integrate the state alone, the step taken its variational
-            // equations too
-            let mut lambda = 1.0;
-            loop {
-                let xt0: Vec<f64> = x0.iter().zip(&dz).map(|(a, d)| a + lambda * d).collect();
-                let pt: Vec<f64> = p.iter().zip(&dz[n2..]).map(|(a, d)| a + lambda * d).collect();
-                self.watch_grip();
-                match self.end_state(t0, &xt0, period, settings) {
-                    Err(AnalysisError::Stopped) => return Err(AnalysisError::Stopped),
-                    Ok((xt, _)) => {
-                        let rt = residual(self, &xt0, &xt, &pt);
-                        if norm(&rt) < norm(&r) || lambda < 0.2 {
-                            // a damped step that gains little, thrice: the
-                            // guess is outside the region Newton converges
-                            // from (a transient); the caller may settle it
-                            slow = if lambda < 1.0 && norm(&rt) > 0.5 * norm(&r) { slow + 1 } else { 0 };
-                            let (_, mt, st) = self.flow(t0, &xt0, period, settings)?;
-                            (x0, p, m, steps, r) = (xt0, pt, mt, st, rt);
-                            if slow == 3 {
-                                return Err(AnalysisError::NotConverged {
-                                    what: "a periodic orbit",
-                                    iterations,
-                                    residual: norm(&r),
-                                    tolerance: tol,
-                                });
-                            }
-                            break;
-                        }
-                    }
-                    Err(AnalysisError::Sim(SimError::Budget { .. })) if lambda < 0.2 => {
-                        return Err(AnalysisError::Wandered {
-                            reason: format!(
-                                "the search for a periodic orbit wandered off after {iterations} Newton iterations: a period now takes more than {} steps, where the guess's took {}; the scene may have no periodic orbit near the guess (its speed may grow without bound), or start from a guess nearer one",
-                                settings.max_steps, first_steps
-                            ),
-                        });
-                    }
-                    Err(e) if lambda < 0.2 => return Err(e),
-                    Err(_) => {}
-                }
-                lambda *= 0.5;
-            }
-        }
+        let r = search.residual(&search.x0, &xt, &search.p);
+        // the trials integrate the state alone, the step taken its
+        // variational equations too; a step damped to 1/8 is taken (the
+        // period map's residual carries the integration's noise); three
+        // slow damped steps in a row: the guess is outside the region
+        // Newton converges from (a transient; the caller may settle it)
+        let rules = newton::Rules {
+            what: "a periodic orbit",
+            max_iterations: MAX_SHOOTING,
+            tolerance: tol,
+            min_step: 0.125,
+            take_last: true,
+            slow: Some(3),
+        };
+        let (iterations, r) = newton::solve(&mut search, r, &rules)?;
+        let Shooting { x0, p, m, steps, .. } = search;
         self.check_grip("this periodic orbit")?;
         let h = symmetry.pose(&p);
         // Floquet multipliers of x0 -> h^-1 x(t0 + T; x0) modulo the orbit
@@ -447,4 +412,78 @@ pub(crate) fn gait_geometry(
     let end = shift.point([start.a, start.b]);
     let d = Pose { theta: -start.theta, ..Pose::IDENTITY }.vector([end[0] - start.a, end[1] - start.b]);
     (state, shift, d)
+}
+
+/// The shooting equations of [`Analysis::periodic_orbit`] at their
+/// current point, for the analyses' Newton ([`newton::solve`]).
+struct Shooting<'a, M: Model> {
+    an: &'a mut Analysis<M>,
+    t0: f64,
+    period: f64,
+    settings: &'a PeriodicSettings,
+    symmetry: Symmetry,
+    bodies: &'a [[usize; 3]],
+    gauge: &'a [usize],
+    /// The fixed point's guess, the rigid motion's parameters, the
+    /// monodromy matrix there and its integration's steps.
+    x0: Vec<f64>,
+    p: Vec<f64>,
+    m: Mat<f64>,
+    steps: u64,
+    /// The steps the first guess's period took (a search that wanders off
+    /// takes many times as many).
+    first_steps: u64,
+    iterations: usize,
+}
+
+impl<M: Model> Shooting<'_, M> {
+    /// `[x(t0 + T) - h . x0; the constraints at x0]`.
+    fn residual(&self, x0: &[f64], xt: &[f64], p: &[f64]) -> Vec<f64> {
+        let h = self.symmetry.pose(p);
+        let mut r: Vec<f64> = xt.iter().zip(act(self.bodies, h, x0)).map(|(a, b)| a - b).collect();
+        r.extend(self.an.residual_at(self.t0, x0));
+        r
+    }
+
+    /// The current point moved by `lambda dz`.
+    fn moved(&self, dz: &[f64], lambda: f64) -> (Vec<f64>, Vec<f64>) {
+        (newton::moved(&self.x0, dz, lambda), newton::moved(&self.p, &dz[self.x0.len()..], lambda))
+    }
+}
+
+impl<M: Model> newton::Equations for Shooting<'_, M> {
+    fn jacobian(&mut self) -> Result<Mat<f64>, AnalysisError> {
+        self.iterations += 1;
+        let j = self.an.shooting_jacobian(self.t0, &self.x0, &self.m, self.symmetry, &self.p)?;
+        Ok(with_gauge(j, self.gauge))
+    }
+
+    fn gauge_rows(&self) -> usize {
+        self.gauge.len()
+    }
+
+    fn trial(&mut self, dz: &[f64], lambda: f64, last: bool) -> Result<Option<Vec<f64>>, AnalysisError> {
+        let (x, p) = self.moved(dz, lambda);
+        self.an.watch_grip();
+        match self.an.end_state(self.t0, &x, self.period, self.settings) {
+            Ok((xt, _)) => Ok(Some(self.residual(&x, &xt, &p))),
+            Err(AnalysisError::Stopped) => Err(AnalysisError::Stopped),
+            Err(AnalysisError::Sim(SimError::Budget { .. })) if last => Err(AnalysisError::Wandered {
+                reason: format!(
+                    "the search for a periodic orbit wandered off after {} Newton iterations: a period now takes more than {} steps, where the guess's took {}; the scene may have no periodic orbit near the guess (its speed may grow without bound), or start from a guess nearer one",
+                    self.iterations, self.settings.max_steps, self.first_steps
+                ),
+            }),
+            Err(e) if last => Err(e),
+            // a step that fails to integrate counts as not falling
+            Err(_) => Ok(None),
+        }
+    }
+
+    fn take(&mut self, dz: &[f64], lambda: f64) -> Result<(), AnalysisError> {
+        let (x, p) = self.moved(dz, lambda);
+        let (_, m, steps) = self.an.flow(self.t0, &x, self.period, self.settings)?;
+        (self.x0, self.p, self.m, self.steps) = (x, p, m, steps);
+        Ok(())
+    }
 }

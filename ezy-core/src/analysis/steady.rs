@@ -5,7 +5,7 @@
 use faer::{Mat, c64};
 
 use super::symmetry::{act, body_pose, field, field_jacobian, fields};
-use super::{Analysis, AnalysisError, dense};
+use super::{Analysis, AnalysisError, dense, newton};
 use crate::analysis::symmetry::{Generator, Symmetry};
 use crate::model::Model;
 
@@ -157,55 +157,25 @@ impl<M: Model> Analysis<M> {
         let gens = symmetry.generators();
         let k = gens.len();
         let bodies = self.bodies().to_vec();
-        let mut x = guess.to_vec();
+        let x = guess.to_vec();
         let f = self.rhs(t, &x)?;
-        let mut xi = self.group_velocity(t, &x, &gens)?;
-        let residual = |this: &mut Self, x: &[f64], xi: &[f64]| this.steady_residual(t, x, xi, &gens, energy);
+        let xi = self.group_velocity(t, &x, &gens)?;
         let norm = |r: &[f64]| r.iter().fold(0.0f64, |m, v| m.max(v.abs()));
         let scale = 1.0 + norm(&x) + norm(&f);
-        let tol = 1e-12 * scale;
-        let mut r = residual(self, &x, &xi)?;
-        let mut iterations = 0;
-        while norm(&r) > tol {
-            if iterations == MAX_NEWTON {
-                return Err(AnalysisError::NotConverged {
-                    what: "a steady motion",
-                    iterations,
-                    residual: norm(&r),
-                    tolerance: tol,
-                });
-            }
-            iterations += 1;
-            self.check_stop()?;
-            let mut j = self.steady_jacobian(t, &x, &xi, symmetry)?;
-            if energy.is_some() {
-                j = self.with_energy_row(j, &x);
-            }
-            let neg: Vec<f64> = r.iter().map(|v| -v).collect();
-            let (dz, _) = dense::min_norm_solve(j.as_ref(), &neg, 1e-12)?;
-            // damped: halve the step until the residual falls
-            let mut lambda = 1.0;
-            loop {
-                let xt: Vec<f64> = x.iter().zip(&dz).map(|(a, d)| a + lambda * d).collect();
-                let xit: Vec<f64> = xi.iter().zip(&dz[n2..]).map(|(a, d)| a + lambda * d).collect();
-                let rt = residual(self, &xt, &xit);
-                if let Ok(rt) = rt
-                    && (norm(&rt) < norm(&r) || lambda < 1e-3)
-                {
-                    (x, xi, r) = (xt, xit, rt);
-                    break;
-                }
-                lambda *= 0.5;
-                if lambda < 1e-3 {
-                    return Err(AnalysisError::NotConverged {
-                        what: "a steady motion",
-                        iterations,
-                        residual: norm(&r),
-                        tolerance: tol,
-                    });
-                }
-            }
-        }
+        let r = self.steady_residual(t, &x, &xi, &gens, energy)?;
+        // damped down to a step of 2^-9: a steady residual has no
+        // integration's noise, so a step that does not lower it is not taken
+        let rules = newton::Rules {
+            what: "a steady motion",
+            max_iterations: MAX_NEWTON,
+            tolerance: 1e-12 * scale,
+            min_step: 1.0 / 512.0,
+            take_last: false,
+            slow: None,
+        };
+        let mut search = Relative { an: self, t, gens: &gens, energy, symmetry, x, xi };
+        let (iterations, r) = newton::solve(&mut search, r, &rules)?;
+        let x = search.x;
         // move the reference body's frame to the origin
         let g = symmetry.restrict(body_pose(&bodies, 0, &x)).inverse();
         let mut x = act(&bodies, g, &x);
@@ -398,6 +368,46 @@ impl<M: Model> Analysis<M> {
                 reason: "the scene is driven in time (its accelerations at a fixed state change with t), so it has no steady motions; analyse its periodic orbit instead".into(),
             });
         }
+        Ok(())
+    }
+}
+
+/// The relative-equilibrium equations of [`Analysis::steady_motion`] at
+/// their current point `(x, xi)`, for the analyses' Newton
+/// ([`newton::solve`]).
+struct Relative<'a, M: Model> {
+    an: &'a mut Analysis<M>,
+    t: f64,
+    gens: &'a [Generator],
+    energy: Option<f64>,
+    symmetry: Symmetry,
+    x: Vec<f64>,
+    xi: Vec<f64>,
+}
+
+impl<M: Model> Relative<'_, M> {
+    /// The current point moved by `lambda dz`.
+    fn moved(&self, dz: &[f64], lambda: f64) -> (Vec<f64>, Vec<f64>) {
+        (newton::moved(&self.x, dz, lambda), newton::moved(&self.xi, &dz[self.x.len()..], lambda))
+    }
+}
+
+impl<M: Model> newton::Equations for Relative<'_, M> {
+    fn jacobian(&mut self) -> Result<Mat<f64>, AnalysisError> {
+        self.an.check_stop()?;
+        let j = self.an.steady_jacobian(self.t, &self.x, &self.xi, self.symmetry)?;
+        Ok(if self.energy.is_some() { self.an.with_energy_row(j, &self.x) } else { j })
+    }
+
+    fn trial(&mut self, dz: &[f64], lambda: f64, _last: bool) -> Result<Option<Vec<f64>>, AnalysisError> {
+        let (x, xi) = self.moved(dz, lambda);
+        // a state where the residual fails (a singular KKT matrix) counts
+        // as not lowering it
+        Ok(self.an.steady_residual(self.t, &x, &xi, self.gens, self.energy).ok())
+    }
+
+    fn take(&mut self, dz: &[f64], lambda: f64) -> Result<(), AnalysisError> {
+        (self.x, self.xi) = self.moved(dz, lambda);
         Ok(())
     }
 }
