@@ -539,14 +539,21 @@ impl Periodicity {
             .map_or(Periodicity::Aperiodic, Periodicity::Period)
     }
 
+    /// The period \[s\], where this repeats with one.
+    pub fn period(self) -> Option<f64> {
+        match self {
+            Periodicity::Period(t) => Some(t),
+            _ => None,
+        }
+    }
+
     /// How many periods of this forcing make `period` \[s\]: `Some(n)`
     /// where this repeats with a period `T_f` and `period = n T_f` for a
     /// whole `n >= 1` (to 1e-9 relative), the only periods a periodic
     /// orbit of a scene forced so can have; `None` otherwise (a constant
     /// forcing: an autonomous scene's orbit has a period of its own).
     pub fn whole_periods(self, period: f64) -> Option<f64> {
-        let Periodicity::Period(forcing) = self else { return None };
-        let m = period / forcing;
+        let m = period / self.period()?;
         (m >= 0.5 && (m - m.round()).abs() <= 1e-9 * m).then(|| m.round())
     }
 
@@ -561,7 +568,7 @@ impl Periodicity {
     /// `(t0, period)` themselves where the scene is not forced
     /// periodically.
     pub fn orbit_timing(self, timing: &mut OrbitTiming, t0: f64, period: f64) -> (f64, f64) {
-        let Periodicity::Period(forcing) = self else { return (t0, period) };
+        let Some(forcing) = self.period() else { return (t0, period) };
         let (phase, n) = *timing.kept.get_or_insert_with(|| (t0 / forcing, (period / forcing).round().max(1.0)));
         (phase * forcing, n * forcing)
     }

@@ -214,10 +214,7 @@ impl<M: Model> Problem<M> {
         // n T_f (n whole) and moves with it; the phase of the forcing at the
         // fixed point is held, so the start t0 = k T_f + r moves as
         // r T_f(p) / T_f (k whole periods move the phase by nothing)
-        let forcing_period = |f: Option<Periodicity>| match f {
-            Some(Periodicity::Period(t)) => Some(t),
-            _ => None,
-        };
+        let forcing_period = |f: Option<Periodicity>| f.and_then(Periodicity::period);
         let periods = base.forcing().and_then(|f| f.whole_periods(period));
         // T_f where the orbit repeats with whole forcing periods
         let phased = forcing_period(base.forcing()).filter(|_| periods.is_some());

@@ -196,8 +196,9 @@ fn analyze_model<M: Model>(proto: &M, scene: &Scene, opts: &AnalyzeOptions) -> R
     // whole forcing period of the run (at least one): its fixed point and
     // displacement compare with those at another parameter value, and
     // with the gait's derivatives, which hold that phase
-    let t_run = match (period, an.forcing()) {
-        (Some(_), Some(Periodicity::Period(tf))) => (settings.t_end / tf).floor().max(1.0) * tf,
+    let forcing = an.forcing().and_then(Periodicity::period);
+    let t_run = match (period, forcing) {
+        (Some(_), Some(tf)) => (settings.t_end / tf).floor().max(1.0) * tf,
         _ => settings.t_end,
     };
     let beat = ro.progress.then(|| {
@@ -256,7 +257,7 @@ fn analyze_model<M: Model>(proto: &M, scene: &Scene, opts: &AnalyzeOptions) -> R
             };
             // a forced scene's branch at the forcing's phase 0 at every
             // value (t0 = 0, a whole number of its periods at any)
-            let t0 = if matches!(an.forcing(), Some(Periodicity::Period(_))) { 0.0 } else { t0 };
+            let t0 = if forcing.is_some() { 0.0 } else { t0 };
             (Vec::new(), orbit, Follow::Periodic { t0, period: p, settings: ps })
         }
     };
