@@ -26,7 +26,7 @@ use super::bifurcation::{Bifurcation, BifurcationKind, at_bifurcation, critical,
 use super::branch::{BranchPoint, Follow, Solution, solve};
 use super::periodic::{gauge_coordinates, with_gauge};
 use super::symmetry::{Generator, Symmetry, act};
-use super::{Analysis, AnalysisError, dense};
+use super::{Analysis, AnalysisError, dense, newton};
 use crate::effects::waveform::OrbitTiming;
 use crate::model::Model;
 
@@ -195,7 +195,8 @@ impl Equations {
 
     /// Newton's method with minimum-norm steps on `R(z; p) = 0`,
     /// `n . (w - w_hat) = 0` from `w_hat` (`build` makes the scene at a
-    /// `p`), and the unit tangent at the point found.
+    /// `p`; [`newton::solve`], undamped), and the unit tangent at the
+    /// point found.
     ///
     /// # Errors
     /// [`AnalysisError::NotConverged`] after [`MAX_CORRECTOR`] iterations
@@ -206,67 +207,35 @@ impl Equations {
         w_hat: &[f64],
         n: &[f64],
     ) -> Result<Corrected, AnalysisError> {
-        let norm = |r: &[f64]| r.iter().fold(0.0f64, |m, v| m.max(v.abs()));
-        let nz = w_hat.len() - 1;
-        let mut w = w_hat.to_vec();
-        let mut last = f64::INFINITY;
-        for iterations in 0..=MAX_CORRECTOR {
-            let p = w[nz];
-            let mut an = build(p)?;
-            an.check_stop()?;
-            let (r, j) = self.eval(&mut an, &w[..nz], true)?;
-            let j = j.expect("asked for");
-            // R_p by a forward difference: its error only slows Newton (the
-            // residual is exact) and moves a fold's t_p = 0 by O(h), which
-            // moves the fold's parameter by O(h^2); the step is 1e-6, well
-            // above the period map's integration error (1e-11 relative)
-            // over it
-            let h = DIFFERENCE_STEP * (1.0 + p.abs());
-            // (both ends integrated alike, the state alone: the
-            // variational equations' error control takes other steps, whose
-            // difference in the state, over h, would swamp R_p)
-            let (rh, _) = self.eval(&mut build(p + h)?, &w[..nz], false)?;
-            let r0 = match self.follow {
-                Follow::Periodic { .. } => self.eval(&mut an, &w[..nz], false)?.0,
-                Follow::Steady { .. } => r.clone(),
-            };
-            let m = r.len();
-            let mut a = Mat::<f64>::zeros(m + 1, nz + 1);
-            a.as_mut().submatrix_mut(0, 0, m, nz).copy_from(j.as_ref());
-            for i in 0..m {
-                a[(i, nz)] = (rh[i] - r0[i]) / h;
-            }
-            for (c, v) in n.iter().enumerate() {
-                a[(m, c)] = *v;
-            }
-            let along: f64 = n.iter().zip(w.iter().zip(w_hat)).map(|(n, (a, b))| n * (a - b)).sum();
-            let res = norm(&r).max(along.abs());
-            if res <= self.tol {
-                let mut e = vec![0.0; m + 1];
-                e[m] = 1.0;
-                let (mut t, _) = dense::min_norm_solve(a.as_ref(), &e, 1e-13)?;
-                for &k in &self.slaves {
-                    t[k] = 0.0;
-                }
-                let len = t.iter().map(|v| v * v).sum::<f64>().sqrt();
-                let tangent = t.iter().map(|v| v / len).collect();
-                return Ok(Corrected { w, tangent, iterations });
-            }
-            // stalling at ten times the tolerance or above: the step is too long
-            if iterations == MAX_CORRECTOR || (iterations >= 2 && res > last && res > 10.0 * self.tol) {
-                return Err(AnalysisError::NotConverged {
-                    what: "a point of the branch",
-                    iterations,
-                    residual: res,
-                    tolerance: self.tol,
-                });
-            }
-            last = res;
-            let rhs: Vec<f64> = r.iter().map(|v| -v).chain([-along]).collect();
-            let (dw, _) = dense::min_norm_solve(a.as_ref(), &rhs, 1e-13)?;
-            w.iter_mut().zip(&dw).for_each(|(a, d)| *a += d);
+        let rules = newton::Rules {
+            what: "a point of the branch",
+            max_iterations: MAX_CORRECTOR,
+            tolerance: self.tol,
+            // undamped: a step too long is the predictor's, retried shorter
+            min_step: 1.0,
+            take_last: true,
+            // stalling at ten times the tolerance or above
+            slow: None,
+            grows: Some(10.0),
+            cutoff: 1e-13,
+        };
+        let mut corrector =
+            Corrector { eq: self, build, w_hat, n, w: w_hat.to_vec(), r: Vec::new(), tried: Vec::new() };
+        let r = corrector.residual_at(w_hat)?;
+        corrector.r.clone_from(&r);
+        let (iterations, _) = newton::solve(&mut corrector, r, &rules)?;
+        // the tangent: [R_z R_p; n^T] t = [0; 1] at the point found
+        let a = newton::Equations::jacobian(&mut corrector)?;
+        let mut e = vec![0.0; a.nrows()];
+        e[a.nrows() - 1] = 1.0;
+        let (mut t, _) = dense::min_norm_solve(a.as_ref(), &e, rules.cutoff)?;
+        let w = corrector.w;
+        for &k in &self.slaves {
+            t[k] = 0.0;
         }
-        unreachable!("the loop returns")
+        let len = t.iter().map(|v| v * v).sum::<f64>().sqrt();
+        let tangent = t.iter().map(|v| v / len).collect();
+        Ok(Corrected { w, tangent, iterations })
     }
 
     /// The solution at the corrected point `c`: the kind's own search from
@@ -282,6 +251,77 @@ impl Equations {
         let n2 = 2 * an.nq();
         let solution = solve(&mut an, self.follow, &c.w[..n2], &mut self.timing)?;
         Ok(BranchPoint { value, solution, dp_ds: Some(c.tangent[nz]) })
+    }
+}
+
+/// One corrector's equations, `[R(z; p); n . (w - w_hat)] = 0` in
+/// `w = [z, p]`, at its current point `w`.
+struct Corrector<'a, B> {
+    eq: &'a mut Equations,
+    build: &'a mut B,
+    w_hat: &'a [f64],
+    n: &'a [f64],
+    w: Vec<f64>,
+    /// The residual at `w` (the state integrated alone: the base of
+    /// `R_p`'s difference and the step's right-hand side).
+    r: Vec<f64>,
+    /// The residual at the last trial's point, `r` once taken.
+    tried: Vec<f64>,
+}
+
+impl<B> Corrector<'_, B> {
+    /// `[R(z; p); n . (w - w_hat)]` at `w`.
+    fn residual_at<M: Model>(&mut self, w: &[f64]) -> Result<Vec<f64>, AnalysisError>
+    where
+        B: FnMut(f64) -> Result<Analysis<M>, AnalysisError>,
+    {
+        let nz = w.len() - 1;
+        let (mut r, _) = self.eq.eval(&mut (self.build)(w[nz])?, &w[..nz], false)?;
+        r.push(self.n.iter().zip(w.iter().zip(self.w_hat)).map(|(n, (a, b))| n * (a - b)).sum());
+        Ok(r)
+    }
+}
+
+impl<M: Model, B: FnMut(f64) -> Result<Analysis<M>, AnalysisError>> newton::Equations for Corrector<'_, B> {
+    /// `[R_z R_p; n^T]` at `w`.
+    fn jacobian(&mut self) -> Result<Mat<f64>, AnalysisError> {
+        let nz = self.w.len() - 1;
+        let p = self.w[nz];
+        let mut an = (self.build)(p)?;
+        an.check_stop()?;
+        let (_, j) = self.eq.eval(&mut an, &self.w[..nz], true)?;
+        let j = j.expect("asked for");
+        // R_p by a forward difference: its error only slows Newton (the
+        // residual is exact) and moves a fold's t_p = 0 by O(h), which
+        // moves the fold's parameter by O(h^2); the step is 1e-6, well
+        // above the period map's integration error (1e-11 relative) over
+        // it. Both ends are integrated alike, the state alone (the
+        // variational equations' error control takes other steps, whose
+        // difference in the state, over h, would swamp R_p).
+        let h = DIFFERENCE_STEP * (1.0 + p.abs());
+        let (rh, _) = self.eq.eval(&mut (self.build)(p + h)?, &self.w[..nz], false)?;
+        let m = j.nrows();
+        let mut a = Mat::<f64>::zeros(m + 1, nz + 1);
+        a.as_mut().submatrix_mut(0, 0, m, nz).copy_from(j.as_ref());
+        for i in 0..m {
+            a[(i, nz)] = (rh[i] - self.r[i]) / h;
+        }
+        for (c, v) in self.n.iter().enumerate() {
+            a[(m, c)] = *v;
+        }
+        Ok(a)
+    }
+
+    fn trial(&mut self, dw: &[f64], lambda: f64, _last: bool) -> Result<Option<Vec<f64>>, AnalysisError> {
+        let w = newton::moved(&self.w, dw, lambda);
+        self.tried = self.residual_at(&w)?;
+        Ok(Some(self.tried.clone()))
+    }
+
+    fn take(&mut self, dw: &[f64], lambda: f64) -> Result<(), AnalysisError> {
+        self.w = newton::moved(&self.w, dw, lambda);
+        self.r = std::mem::take(&mut self.tried);
+        Ok(())
     }
 }
 

@@ -155,6 +155,8 @@ impl<M: Model> Analysis<M> {
             min_step: 0.125,
             take_last: true,
             slow: None,
+            grows: None,
+            cutoff: 1e-12,
         };
         let (iterations, r) = newton::solve(&mut search, r, &rules)?;
         let Cycle { x0, p, period, xt, m, steps, .. } = search;

@@ -5,7 +5,9 @@
 //! in the residual's max norm), the give-up rules and the statistics in
 //! one place. What differs between the searches is what a trial costs
 //! and what a failed one means ([`Equations`]) and how far a step may be
-//! damped ([`Rules`]).
+//! damped ([`Rules`]). The searches are the steady motions', the periodic
+//! orbits', the limit cycles' and the continuation's corrector (an
+//! undamped Newton on the bordered system, given up where it diverges).
 
 use faer::Mat;
 
@@ -32,6 +34,14 @@ pub(crate) struct Rules {
     /// converges from (a transient the caller may settle first). `None`:
     /// no such rule.
     pub slow: Option<usize>,
+    /// From the second iteration on, a residual that grew over the step
+    /// while above this multiple of `tolerance` ends the search (an
+    /// undamped search, `min_step = 1`: the predictor was too far, and
+    /// its caller retries a shorter one). `None`: no such rule.
+    pub grows: Option<f64>,
+    /// The relative singular-value cutoff of the minimum-norm step
+    /// ([`dense::min_norm_solve`]): directions below it are not moved.
+    pub cutoff: f64,
 }
 
 /// The equations of one search, at its current point.
@@ -99,16 +109,19 @@ pub(crate) fn solve(
         iterations += 1;
         let j = eq.jacobian()?;
         let neg: Vec<f64> = r.iter().map(|v| -v).chain(std::iter::repeat_n(0.0, eq.gauge_rows())).collect();
-        let (dz, _) = dense::min_norm_solve(j.as_ref(), &neg, 1e-12)?;
+        let (dz, _) = dense::min_norm_solve(j.as_ref(), &neg, rules.cutoff)?;
         let mut lambda = 1.0;
         loop {
             let last = lambda <= rules.min_step;
             match eq.trial(&dz, lambda, last)? {
                 Some(rt) if norm(&rt) < norm(&r) || (last && rules.take_last) => {
                     slow = if lambda < 1.0 && norm(&rt) > 0.5 * norm(&r) { slow + 1 } else { 0 };
+                    let diverges = rules
+                        .grows
+                        .is_some_and(|g| iterations >= 2 && norm(&rt) > norm(&r) && norm(&rt) > g * rules.tolerance);
                     eq.take(&dz, lambda)?;
                     r = rt;
-                    if rules.slow == Some(slow) {
+                    if rules.slow == Some(slow) || diverges {
                         return Err(fail(iterations, &r));
                     }
                     break;

@@ -263,6 +263,8 @@ impl<M: Model> Analysis<M> {
             min_step: 0.125,
             take_last: true,
             slow: Some(3),
+            grows: None,
+            cutoff: 1e-12,
         };
         let (iterations, r) = newton::solve(&mut search, r, &rules)?;
         let Shooting { x0, p, m, steps, .. } = search;

@@ -172,6 +172,8 @@ impl<M: Model> Analysis<M> {
             min_step: 1.0 / 512.0,
             take_last: false,
             slow: None,
+            grows: None,
+            cutoff: 1e-12,
         };
         let mut search = Relative { an: self, t, gens: &gens, energy, symmetry, x, xi };
         let (iterations, r) = newton::solve(&mut search, r, &rules)?;

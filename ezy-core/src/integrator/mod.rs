@@ -77,6 +77,42 @@ pub(crate) const fn state_len<const N: usize>(n: usize) -> usize {
     if N == 0 { n } else { N }
 }
 
+/// The stepper of `method` for a state of length `n` at the tolerance
+/// `tol`, bound to `s` in `body`: `with_stepper!(method, n, tol, |s|
+/// body, radau5 => other)`. Each explicit method's arm binds its own type
+/// (so `body` is instantiated per method, with no dynamic call); RADAU5
+/// takes `other`, since its Newton system is the caller's to build. The
+/// one place a [`Method`](crate::settings::Method) becomes a stepper: the
+/// simulation's step loop and the run sensitivities' go through it.
+macro_rules! with_stepper {
+    ($method:expr, $n:expr, $tol:expr, |$s:ident| $body:expr, radau5 => $radau5:expr $(,)?) => {{
+        use $crate::integrator::{Dop853, Dopri5, Embedded, Euler, Fixed, Rk4};
+        use $crate::settings::Method;
+        let (n, tol) = ($n, $tol);
+        let _ = tol;
+        match $method {
+            Method::Euler => {
+                let $s = &mut Fixed::new(Euler::new(n), n);
+                $body
+            }
+            Method::Rk4 => {
+                let $s = &mut Fixed::new(Rk4::new(n), n);
+                $body
+            }
+            Method::Dopri5 => {
+                let $s = &mut Embedded::<Dopri5>::new(n, tol);
+                $body
+            }
+            Method::Dop853 => {
+                let $s = &mut Embedded::<Dop853>::new(n, tol);
+                $body
+            }
+            Method::Radau5 => $radau5,
+        }
+    }};
+}
+pub(crate) use with_stepper;
+
 pub mod adaptive;
 pub(crate) mod dop853;
 pub(crate) mod dopri5;

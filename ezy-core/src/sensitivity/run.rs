@@ -1,6 +1,11 @@
 //! The step loop of a sensitivity run: the augmented system `[x, S]`
-//! stepped by the problem's method, the state projected after each step
-//! and `S` with it, samples at the output interval.
+//! stepped by the problem's method through the simulation's
+//! [`Stepper`] (the same steppers, chosen by the same
+//! [`with_stepper!`]), the state projected after each step and `S` with
+//! it, samples at the output interval or the times asked for. What the
+//! simulation's driver does besides (events, a skate's switches, the
+//! hand-over between formulations) a sensitivity run refuses before its
+//! first step.
 
 use super::rhs::Augmented;
 use super::stencil::Stencil;
@@ -8,10 +13,9 @@ use super::{MAX_PARAMETERS, Parameter, Sensitivities};
 use crate::analysis::AnalysisError;
 use crate::error::SimError;
 use crate::formulation::projection::Projector;
-use crate::integrator::adaptive::{Controller, EmbeddedRk, Tolerance, initial_step};
-use crate::integrator::dop853::Dop853;
-use crate::integrator::dopri5::Dopri5;
-use crate::integrator::fixed::{Euler, Rk4};
+use crate::integrator::adaptive::Tolerance;
+use crate::integrator::stepper::{Control, Stepper, Trial};
+use crate::integrator::with_stepper;
 use crate::model::Model;
 use crate::problem::Problem;
 use crate::settings::{Formulation, Method, ProjectionKind, RunSettings};
@@ -142,15 +146,11 @@ pub(super) fn sensitivities<M: Model>(
     if !listed || lp.out_time(0) == 0.0 {
         lp.out.push((0.0, y0.clone()));
     }
-    let result = match settings.method {
-        Method::Euler if listed => lp.fixed_at_times(&y0, Fixed::Euler(Euler::new(y0.len()))),
-        Method::Rk4 if listed => lp.fixed_at_times(&y0, Fixed::Rk4(Rk4::new(y0.len()))),
-        Method::Euler => lp.fixed(&y0, Fixed::Euler(Euler::new(y0.len()))),
-        Method::Rk4 => lp.fixed(&y0, Fixed::Rk4(Rk4::new(y0.len()))),
-        Method::Dopri5 => lp.embedded::<Dopri5>(&y0),
-        Method::Dop853 => lp.embedded::<Dop853>(&y0),
-        Method::Radau5 => unreachable!("refused by check_request"),
-    };
+    let tol = Tolerance { rtol: settings.rtol, atol: settings.atol };
+    let n = y0.len();
+    let result = with_stepper!(settings.method, n, tol, |s| lp.steps(&y0, s), radau5 => Err(request(
+        "radau5 does not integrate sensitivities: choose dop853".into()
+    )));
     if let Err(e) = result {
         let e = lp.aug.failed.take().unwrap_or(e);
         return Err(e);
@@ -178,12 +178,6 @@ pub(super) fn sensitivities<M: Model>(
 /// 1e3) starts its care; away from singular positions the built-in
 /// scenes stay below 1.1e2.
 pub(crate) const SINGULAR_GROWTH: f64 = 1e8;
-
-/// A fixed-step method.
-enum Fixed {
-    Euler(Euler),
-    Rk4(Rk4),
-}
 
 struct Loop<M: Model> {
     aug: Augmented<M>,
@@ -265,114 +259,84 @@ impl<M: Model> Loop<M> {
         Ok(())
     }
 
-    /// One fixed step of `method` from `(t, y)` to `t_new` \[s\], the
-    /// state projected and checked, `y` the new state after it (`y_new`
-    /// the scratch).
-    fn fixed_step(
-        &mut self,
-        method: &mut Fixed,
-        t: f64,
-        t_new: f64,
-        y: &mut Vec<f64>,
-        y_new: &mut Vec<f64>,
-    ) -> Result<(), AnalysisError> {
-        self.budget(t)?;
-        match method {
-            Fixed::Euler(m) => m.step_to(&mut self.aug, t, y, t_new - t, y_new)?,
-            Fixed::Rk4(m) => m.step_to(&mut self.aug, t, y, t_new - t, y_new)?,
-        }
-        self.project(t_new, y_new)?;
-        self.check_finite(t_new, y_new)?;
-        self.check_singular(t_new)?;
-        std::mem::swap(y, y_new);
-        self.steps += 1;
-        Ok(())
-    }
-
-    /// Fixed steps of `dt` (the last one shorter), a sample every
-    /// output stride and at the end.
-    fn fixed(&mut self, y0: &[f64], mut method: Fixed) -> Result<(), AnalysisError> {
+    /// The end of the fixed step from `t`, the `k`-th, and whether its
+    /// state is a sample: steps of `dt` on the output grid (the last one
+    /// shorter, a sample every output stride and at the end), or steps of
+    /// at most `dt` that end at each time asked for.
+    fn fixed_target(&self, t: f64, k: u64, next_out: u64) -> (f64, bool) {
         let s = self.settings;
-        let (mut y, mut y_new) = (y0.to_vec(), vec![0.0; y0.len()]);
+        if self.times.is_some() {
+            let target = self.out_time(next_out);
+            return if target - t <= s.dt * (1.0 + 1e-12) { (target, true) } else { (t + s.dt, false) };
+        }
         let n = (s.t_end / s.dt).ceil().max(1.0) as u64;
-        let stride = s.output_stride();
-        for k in 0..n {
-            let t = k as f64 * s.dt;
-            let t_new = if k + 1 == n { s.t_end } else { (k + 1) as f64 * s.dt };
-            self.fixed_step(&mut method, t, t_new, &mut y, &mut y_new)?;
-            if (k + 1) % stride == 0 || k + 1 == n {
-                self.out.push((t_new, y.clone()));
-            }
-        }
-        Ok(())
+        let last = k + 1 == n;
+        let t_new = if last { s.t_end } else { (k + 1) as f64 * s.dt };
+        (t_new, last || (k + 1).is_multiple_of(s.output_stride()))
     }
 
-    /// The embedded pair `E` with its PI controller, error control on
-    /// the whole `[x, S]`, samples from the dense output.
-    fn embedded<E: EmbeddedRk>(&mut self, y0: &[f64]) -> Result<(), AnalysisError> {
+    /// The step loop of `stepper` (the simulation's [`Stepper`], on the
+    /// augmented state): each accepted state projected with its
+    /// sensitivities and checked, samples at the fixed steps' ends or
+    /// from an adaptive method's dense output (built on the projected
+    /// end, as the simulation's are), and the end.
+    fn steps<S: Stepper<Augmented<M>>>(&mut self, y0: &[f64], stepper: &mut S) -> Result<(), AnalysisError> {
         let s = self.settings;
-        let tol = Tolerance { rtol: s.rtol, atol: s.atol };
+        let fixed = S::CONTROL == Control::Fixed;
         let n = y0.len();
-        let mut stepper = E::new(n);
-        let mut ctrl = Controller::default();
-        let (mut y, mut y_new, mut k1, mut k_new) = (y0.to_vec(), vec![0.0; n], vec![0.0; n], vec![0.0; n]);
-        let (mut w1, mut w2, mut dense) = (vec![0.0; n], vec![0.0; n], vec![0.0; n]);
-        self.aug.eval_checked(0.0, &y, &mut k1)?;
-        let mut h = initial_step(&mut self.aug, 0.0, &y, &k1, E::ORDER, &tol, s.t_end, &mut w1, &mut w2)?;
-        let mut t = 0.0;
-        let mut next_out = u64::from(self.times.is_none());
-        if self.out_time(0) == 0.0 && self.times.is_some() {
-            next_out = 1;
-        }
+        let (mut y, mut y_new, mut dense) = (y0.to_vec(), vec![0.0; n], vec![0.0; n]);
+        let mut h = stepper.start(&mut self.aug, 0.0, &y, s.t_end)?;
+        let (mut t, mut k) = (0.0, 0);
+        let mut next_out = u64::from(self.out_time(0) == 0.0);
         while t < s.t_end {
             self.budget(t)?;
-            let last = t + h >= s.t_end;
-            let h_try = if last { s.t_end - t } else { h };
-            if h_try <= 16.0 * f64::EPSILON * t.abs().max(1e-300) {
-                return Err(AnalysisError::Sim(SimError::StepSizeTooSmall { t, h: h_try }));
+            if self.aug.stop.is_some_and(|stop| stop()) {
+                return Err(AnalysisError::Stopped);
             }
-            let err = stepper.attempt(&mut self.aug, t, &y, &k1, h_try, &tol, &mut y_new, &mut k_new)?;
-            let (accepted, h_next) = ctrl.next::<E>(if err.is_finite() { err } else { 1e10 }, h_try);
+            let (t_new, h_try, sample) = if fixed {
+                let (t_new, sample) = self.fixed_target(t, k, next_out);
+                (t_new, t_new - t, sample)
+            } else if t + h >= s.t_end {
+                (s.t_end, s.t_end - t, false)
+            } else {
+                (t + h, h, false)
+            };
+            if h_try <= 16.0 * f64::EPSILON * t.abs().max(1e-300) {
+                let failure = stepper.stage_failure().take();
+                return Err(AnalysisError::Sim(failure.unwrap_or(SimError::StepSizeTooSmall { t, h: h_try })));
+            }
+            let (accepted, h_next) = match stepper.attempt(&mut self.aug, t, &y, h_try, &mut y_new)? {
+                Trial::Accepted { h_next } => (true, h_next),
+                Trial::Rejected { h_next } => (false, h_next),
+                Trial::Estimate(err) => stepper.control(err),
+            };
             h = h_next;
             if !accepted {
                 self.rejected += 1;
                 continue;
             }
-            let t_new = if last { s.t_end } else { t + h_try };
-            // samples strictly inside the step, from its dense output
-            let mut prepared = false;
-            loop {
-                let t_out = self.out_time(next_out);
-                if t_out >= t_new || t_out >= s.t_end {
-                    break;
-                }
-                if !prepared {
-                    // the slope at the step's end, where the pair's
-                    // estimate did not take it (DOP853's dense output
-                    // needs it)
-                    if !E::FSAL_IN_ESTIMATE {
-                        self.aug.eval_checked(t_new, &y_new, &mut k_new)?;
-                    }
-                    stepper.prepare_dense(&mut self.aug, t, &y, &k1, h_try, &y_new, &k_new)?;
-                    prepared = true;
-                }
-                stepper.interpolate((t_out - t) / h_try, &mut dense);
-                self.out.push((t_out, dense.clone()));
-                next_out += 1;
-            }
             self.project(t_new, &mut y_new)?;
             self.check_finite(t_new, &y_new)?;
+            stepper.accepted(&mut self.aug, t_new, &y_new, true, false)?;
+            // samples strictly inside an adaptive step, from its dense output
+            while !fixed && self.out_time(next_out) < t_new.min(s.t_end) {
+                stepper.prepare_dense(&mut self.aug, t_new, &y, &y_new)?;
+                stepper.interpolate(self.out_time(next_out), &mut dense);
+                self.out.push((self.out_time(next_out), dense.clone()));
+                next_out += 1;
+            }
             std::mem::swap(&mut y, &mut y_new);
             t = t_new;
-            self.steps += 1;
-            if (self.out_time(next_out) - t).abs() <= 1e-12 * t.abs().max(1.0) && t < s.t_end {
+            (self.steps, k) = (self.steps + 1, k + 1);
+            let on_grid = !fixed && (self.out_time(next_out) - t).abs() <= 1e-12 * t.abs().max(1.0) && t < s.t_end;
+            if sample || on_grid {
                 self.out.push((t, y.clone()));
                 next_out += 1;
             }
-            self.aug.eval_checked(t, &y, &mut k1)?;
+            stepper.advance(&mut self.aug, t, &y)?;
             self.check_singular(t)?;
         }
-        if self.times.is_none() || self.out_time(next_out) == s.t_end {
+        if !fixed && (self.times.is_none() || self.out_time(next_out) == s.t_end) {
             self.out.push((s.t_end, y.clone()));
         }
         Ok(())
@@ -385,31 +349,5 @@ impl<M: Model> Loop<M> {
             None => k as f64 * self.settings.every,
             Some(times) => usize::try_from(k).ok().and_then(|k| times.get(k)).copied().unwrap_or(f64::INFINITY),
         }
-    }
-
-    /// Fixed steps of at most `dt`, each ending at the next time asked
-    /// for where it comes first; a sample at each of those times.
-    fn fixed_at_times(&mut self, y0: &[f64], mut method: Fixed) -> Result<(), AnalysisError> {
-        let s = self.settings;
-        let times = self.times.clone().unwrap_or_default();
-        let (mut y, mut y_new) = (y0.to_vec(), vec![0.0; y0.len()]);
-        let mut t = 0.0;
-        for &target in times.iter().filter(|&&v| v > 0.0) {
-            while t < target {
-                let t_new = if target - t <= s.dt * (1.0 + 1e-12) { target } else { t + s.dt };
-                self.fixed_step(&mut method, t, t_new, &mut y, &mut y_new)?;
-                t = t_new;
-            }
-            self.out.push((t, y.clone()));
-        }
-        Ok(())
-    }
-}
-
-impl<M: Model> Augmented<M> {
-    /// One evaluation, its failure as the analysis error it was.
-    fn eval_checked(&mut self, t: f64, y: &[f64], dy: &mut [f64]) -> Result<(), AnalysisError> {
-        use crate::integrator::Rhs;
-        self.eval(t, y, dy).map_err(|e| self.failed.take().unwrap_or(AnalysisError::Sim(e)))
     }
 }

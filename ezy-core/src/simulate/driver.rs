@@ -11,14 +11,11 @@
 use crate::error::SimError;
 use crate::formulation::dae::{Dynamics, NEAR_SINGULAR};
 use crate::formulation::newton::KktNewton;
-use crate::integrator::adaptive::{Embedded, Tolerance};
-use crate::integrator::dop853::Dop853;
-use crate::integrator::dopri5::Dopri5;
-use crate::integrator::fixed::{Euler, Fixed, Rk4};
+use crate::integrator::adaptive::Tolerance;
 use crate::integrator::radau5::Radau5Stepper;
 use crate::integrator::stepper::{Control, Stepper, Trial};
 use crate::model::Model;
-use crate::settings::{Formulation, Message, Method, ProjectionKind, Setting};
+use crate::settings::{Formulation, Message, ProjectionKind, Setting};
 use crate::simulate::events::Crossing;
 use crate::simulate::integrand::{Bound, Integrand};
 use crate::simulate::observer::{Observer, RunError, stiff_note};
@@ -48,19 +45,13 @@ pub(super) fn integrate<M: Model, O: Observer<M>, F: Integrand<M>>(
     let n = x.len();
     run.event_x.resize(n, 0.0);
     let tol = Tolerance { rtol: run.settings.rtol, atol: run.settings.atol };
-    match run.settings.method {
-        Method::Euler => drive(sys, form, x, run, &mut Fixed::new(Euler::new(n), n)),
-        Method::Rk4 => drive(sys, form, x, run, &mut Fixed::new(Rk4::new(n), n)),
-        Method::Dopri5 => drive(sys, form, x, run, &mut Embedded::<Dopri5>::new(n, tol)),
-        Method::Dop853 => drive(sys, form, x, run, &mut Embedded::<Dop853>::new(n, tol)),
-        Method::Radau5 => match form.as_dae() {
-            Some(dae) => {
-                let newton = KktNewton::new(sys);
-                drive(sys, dae, x, run, &mut Radau5Stepper::new(n, &tol, newton))
-            }
-            None => Err(radau5_refused().into()),
-        },
-    }
+    crate::integrator::with_stepper!(run.settings.method, n, tol, |s| drive(sys, form, x, run, s), radau5 => match form.as_dae() {
+        Some(dae) => {
+            let newton = KktNewton::new(sys);
+            drive(sys, dae, x, run, &mut Radau5Stepper::new(n, &tol, newton))
+        }
+        None => Err(radau5_refused().into()),
+    })
 }
 
 /// RADAU5 refused on the reduced formulation.
