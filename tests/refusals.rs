@@ -89,6 +89,25 @@ fn a_name_given_twice_in_a_repeatable_flag_is_refused() {
     }
 }
 
+/// A command refused after it took its output directory's lock (the
+/// request checked against the scene: a method a sensitivity run does
+/// not take, a motion on which a skate slides) leaves no directory
+/// behind: it was an empty directory holding `.ezy.lock`.
+#[test]
+fn a_refusal_after_the_lock_leaves_no_directory() {
+    let root = scratch();
+    let out = root.path().join("new/out");
+    let o = s(&out);
+    let cases: &[(&[&str], &str)] = &[
+        (&["sensitivity", "drive", "--wrt", "M0", "--integrator", "radau5"], "radau5 is not supported"),
+        (&["analyze", "drive-slip", "--no-figures"], "skate `C` slides"),
+    ];
+    for (args, needle) in cases {
+        refused(&[args, &["--out", o][..]].concat(), &[needle]);
+        assert!(!root.path().join("new").exists(), "{args:?} left {}", out.display());
+    }
+}
+
 /// Whether another process holds the lock of output directory `dir`.
 fn lock_held(dir: &Path) -> bool {
     std::fs::File::open(dir.join(".ezy.lock"))

@@ -21,7 +21,9 @@
 //!    links of the previous files taken just before).
 //! 4. Dropping a transaction that was not committed (an error, an
 //!    interruption) removes the private directory: the previous output is
-//!    left exactly as it was.
+//!    left exactly as it was. An output directory the command created
+//!    (and its parents) goes too, with its lock file, where nothing was
+//!    committed into it: a refusal leaves no empty directory behind.
 //!
 //! What a reader sees: every file is always either the previous complete
 //! version or the new complete version, never a partial one (a rename is
@@ -47,7 +49,9 @@ use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 
 /// The lock file every run takes in its output directory. It stays there
 /// (empty) after the run: removing it would let two runs lock two
-/// different files of one name.
+/// different files of one name. (A directory the command created and
+/// committed nothing into is removed with it, before the lock is
+/// released.)
 pub const LOCK_FILE: &str = ".ezy.lock";
 
 /// How long a lock found taken is tried again before the run is refused
@@ -206,8 +210,10 @@ pub enum TransactionError {
 #[derive(Debug)]
 pub(crate) struct Transaction {
     // Field order is drop order: the private directory goes before the
-    // lock is released.
+    // lock is released, and a directory this run created and left empty
+    // with it.
     tmp: tempfile::TempDir,
+    _fresh: Fresh,
     _lock: File,
     dir: PathBuf,
     staged: Vec<String>,
@@ -224,8 +230,50 @@ pub(crate) struct Transaction {
 /// the last commit silently replacing the first one's output.
 #[derive(Debug)]
 pub(crate) struct OutLock {
+    // drop order: the directories before the lock is released
+    fresh: Fresh,
     file: File,
     dir: PathBuf,
+}
+
+/// The output directory and the parents of it that a command created:
+/// dropped while the directory holds nothing but [`LOCK_FILE`] (a command
+/// refused or stopped after it took the lock, before anything was
+/// committed), the lock file and those directories are removed again, so
+/// that a refusal leaves the file system as it found it. Dropped before
+/// the lock is released: a run that waited for it then finds the
+/// directory gone and is refused cleanly.
+#[derive(Debug, Default)]
+struct Fresh {
+    /// The directories created, the output directory first.
+    created: Vec<PathBuf>,
+}
+
+impl Fresh {
+    /// The directories of `dir`'s path (itself and its parents) that do
+    /// not exist yet, `dir` first.
+    fn missing(dir: &Path) -> Self {
+        let created = dir.ancestors().take_while(|d| !d.as_os_str().is_empty() && !d.exists()).map(Path::to_path_buf);
+        Self { created: created.collect() }
+    }
+}
+
+impl Drop for Fresh {
+    fn drop(&mut self) {
+        let Some(dir) = self.created.first() else { return };
+        let only_lock = std::fs::read_dir(dir)
+            .map(|entries| entries.flatten().all(|e| e.file_name() == LOCK_FILE))
+            .unwrap_or(false);
+        if !only_lock || std::fs::remove_file(dir.join(LOCK_FILE)).is_err() {
+            return;
+        }
+        // each removal fails, harmlessly, where something else is inside
+        for d in &self.created {
+            if std::fs::remove_dir(d).is_err() {
+                return;
+            }
+        }
+    }
 }
 
 impl OutLock {
@@ -237,7 +285,9 @@ impl OutLock {
     /// As [`Transaction::begin`]: [`TransactionError::Busy`] naming `dir`
     /// if another run holds it.
     pub(crate) fn take(dir: &Path) -> Result<Self, TransactionError> {
-        Ok(Self { file: lock(dir)?, dir: dir.into() })
+        let fresh = Fresh::missing(dir);
+        let file = lock(dir)?;
+        Ok(Self { fresh, file, dir: dir.into() })
     }
 }
 
@@ -289,7 +339,7 @@ impl Transaction {
     /// As [`Transaction::begin`], [`TransactionError::Busy`] aside.
     pub(crate) fn begin_locked(held: OutLock) -> Result<Self, TransactionError> {
         arm_signals();
-        let OutLock { file: lock, dir } = held;
+        let OutLock { fresh, file: lock, dir } = held;
         remove_stale(&dir);
         let mut builder = tempfile::Builder::new();
         builder.prefix(TEMP_PREFIX);
@@ -301,7 +351,7 @@ impl Transaction {
         let tmp = builder
             .tempdir_in(&dir)
             .map_err(|source| TransactionError::Io { path: dir.join(format!("{TEMP_PREFIX}XXXXXX")), source })?;
-        let tx = Self { tmp, _lock: lock, dir, staged: Vec::new(), retired: Vec::new() };
+        let tx = Self { tmp, _fresh: fresh, _lock: lock, dir, staged: Vec::new(), retired: Vec::new() };
         tx.check(None, None)?;
         Ok(tx)
     }
@@ -691,6 +741,37 @@ mod tests {
         drop(tx);
         assert_eq!(std::fs::read(dir.join("a.csv")).unwrap(), b"new table");
         assert_eq!(names_in(&dir), [LOCK_FILE, "a.csv", "b.png"]);
+    }
+
+    /// A directory (and parents) a transaction or a held lock created
+    /// goes again when nothing was committed into it; one that existed
+    /// keeps its lock file, and a committed one its output.
+    #[test]
+    fn an_abandoned_fresh_directory_is_removed() {
+        let root = tempfile::tempdir().unwrap();
+        let dir = root.path().join("new/out");
+        drop(OutLock::take(&dir).unwrap());
+        assert!(!root.path().join("new").exists(), "the lock's directories were left");
+        let mut tx = Transaction::begin(&dir).unwrap();
+        tx.write("a.csv", b"table").unwrap();
+        drop(tx);
+        assert!(!root.path().join("new").exists(), "an abandoned transaction's directories were left");
+        // a directory that existed keeps what it had
+        std::fs::create_dir_all(&dir).unwrap();
+        drop(OutLock::take(&dir).unwrap());
+        assert_eq!(names_in(&dir), [LOCK_FILE]);
+        // one that another file came into is kept
+        let other = root.path().join("other");
+        let held = OutLock::take(&other).unwrap();
+        std::fs::write(other.join("mine.txt"), b"user's").unwrap();
+        drop(held);
+        assert_eq!(names_in(&other), [LOCK_FILE, "mine.txt"]);
+        // a committed one keeps its output
+        let done = root.path().join("done");
+        let mut tx = Transaction::begin(&done).unwrap();
+        tx.write("a.csv", b"table").unwrap();
+        tx.commit().unwrap();
+        assert_eq!(names_in(&done), [LOCK_FILE, "a.csv"]);
     }
 
     /// The names in `dir`, sorted.
