@@ -59,6 +59,22 @@ fn check_with<M: Model>(
     compare(scene, &params, &s, columns);
 }
 
+/// [`check`] with the run differentiated at `settings` (another method)
+/// and the oracle's runs at its own ([`tight`]).
+fn check_against<M: Model>(
+    scene: &Scene,
+    model: &M,
+    names: &[&str],
+    columns: &[&str],
+    settings: impl Fn(ezy_core::RunSettings) -> ezy_core::RunSettings,
+) {
+    let (mut problem, _): (Problem<M>, _) = scene.problem_with(model.clone(), &[]).unwrap();
+    let params = parameters(scene, model, names, tight(problem.settings));
+    problem.settings = settings(problem.settings);
+    let s = problem.sensitivities_with(&params).unwrap();
+    compare(scene, &params, &s, columns);
+}
+
 /// The scene's parameters `names`, each problem built at `settings`.
 fn parameters<M: Model>(
     scene: &Scene,
@@ -79,50 +95,57 @@ fn parameters<M: Model>(
         .collect()
 }
 
-/// The sensitivities `s` of `columns` at the run's end against the
-/// differences of whole runs of each of `params` (see [`check`]).
+/// The sensitivities `s` of `columns` at every sample against the
+/// differences of whole runs of each of `params` (see [`check`]), each
+/// run's sample at the same time: a sample inside an adaptive step is the
+/// pair's dense output, in the sensitivities as in the runs.
 fn compare<M: Model>(scene: &Scene, params: &[Parameter<M>], s: &Sensitivities, columns: &[&str]) {
     for p in params {
         let method = p.problem(p.value).unwrap().settings.method;
         let h = 1e-4 * p.value.abs().max(0.1);
-        // the four runs, each once: `columns` at their ends
-        let ends: Vec<Vec<f64>> = [h, -h, h / 2.0, -h / 2.0]
+        // the four runs, each once: `columns` at every sample (rows)
+        let runs: Vec<Vec<Vec<f64>>> = [h, -h, h / 2.0, -h / 2.0]
             .iter()
             .map(|d| {
                 let run = p.problem(p.value + d).unwrap().solve().unwrap();
-                columns.iter().map(|c| *run.column(c).unwrap().last().unwrap()).collect()
+                assert_eq!(run.t, s.t, "{}: the runs' samples are not the sensitivities'", scene.name);
+                columns.iter().map(|c| run.column(c).unwrap()).collect()
             })
             .collect();
-        let got: Vec<f64> =
-            columns.iter().map(|c| *s.column(&format!("d{c}/d{}", p.name)).unwrap().last().unwrap()).collect();
-        // the differences' own rounding: a run's ends to about 1e-13 of
+        let got: Vec<Vec<f64>> = columns.iter().map(|c| s.column(&format!("d{c}/d{}", p.name)).unwrap()).collect();
+        // the differences' own rounding: a run's samples to about 1e-13 of
         // their size (the tolerance), over 2h; all of what a parameter that
         // moves nothing (a kinematic snake's mass) leaves in them
-        let size = ends.iter().flatten().fold(1.0f64, |m, v| m.max(v.abs()));
+        let size = runs.iter().flatten().flatten().fold(1.0f64, |m, v| m.max(v.abs()));
         let noise = 1e-12 * size / h;
-        let largest = got.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+        let largest = got.iter().flatten().fold(0.0f64, |m, v| m.max(v.abs()));
         let scale = largest.max(noise);
-        for (i, (c, g)) in columns.iter().zip(&got).enumerate() {
-            let central = |k: usize, h: f64| (ends[k][i] - ends[k + 1][i]) / (2.0 * h);
-            let (d1, d2) = (central(0, h), central(2, h / 2.0));
-            let want = d2 + (d2 - d1) / 3.0;
-            let oracle = (want - d2).abs();
-            eprintln!(
-                "{} ({:?}): d{c}/d{} = {g:.12e} against {want:.12e} (Richardson change {oracle:.1e}, off {:.1e} of the largest)",
-                scene.name,
-                method,
-                p.name,
-                (g - want).abs() / scale
-            );
-            let settled = oracle <= 1e-5 * largest + noise;
-            assert!(settled, "{}: d{c}/d{}: the differences did not settle", scene.name, p.name);
-            assert!(
-                (g - want).abs() <= 1e-8 * largest + 3.0 * oracle + noise,
-                "{}: d{c}/d{} = {g:.12e} against {want:.12e} ({:.1e} of the largest)",
-                scene.name,
-                p.name,
-                (g - want).abs() / scale
-            );
+        for (i, c) in columns.iter().enumerate() {
+            for (k, &t) in s.t.iter().enumerate() {
+                let central = |r: usize, h: f64| (runs[r][i][k] - runs[r + 1][i][k]) / (2.0 * h);
+                let (d1, d2) = (central(0, h), central(2, h / 2.0));
+                let want = d2 + (d2 - d1) / 3.0;
+                let oracle = (want - d2).abs();
+                let g = got[i][k];
+                if k + 1 == s.t.len() {
+                    eprintln!(
+                        "{} (oracle runs {:?}): d{c}/d{} = {g:.12e} against {want:.12e} at t = {t} s (Richardson change {oracle:.1e}, off {:.1e} of the largest)",
+                        scene.name,
+                        method,
+                        p.name,
+                        (g - want).abs() / scale
+                    );
+                }
+                let settled = oracle <= 1e-5 * largest + noise;
+                assert!(settled, "{}: d{c}/d{} at t = {t} s: the differences did not settle", scene.name, p.name);
+                assert!(
+                    (g - want).abs() <= 1e-8 * largest + 3.0 * oracle + noise,
+                    "{}: d{c}/d{} = {g:.12e} against {want:.12e} at t = {t} s ({:.1e} of the largest)",
+                    scene.name,
+                    p.name,
+                    (g - want).abs() / scale
+                );
+            }
         }
     }
 }
@@ -133,9 +156,37 @@ fn compare<M: Model>(scene: &Scene, params: &[Parameter<M>], s: &Sensitivities, 
 fn a_runs_sensitivities_are_the_differences_of_whole_runs() {
     let mut scene = scenes::drive();
     scene.t_end = 20.0;
-    scene.output.every = 20.0;
+    // samples inside steps too: the dense output of [x, S]
+    scene.output.every = 20.0 / 3.0;
     let columns = ["x1", "y1", "phi1", "phi2", "x1d", "phi2d"];
     check(&scene, &EzyRoller::default(), &["omega", "M0", "m2", "c"], &columns);
+}
+
+/// DOPRI5 at 1e-12 (the other embedded pair, its own dense output of
+/// order 4 for the samples inside steps) against the oracle's DOP853
+/// runs at 1e-13: the drive scene and the text model with a drive over
+/// 5 s, sampled at thirds. The pair's error in `S` is about its
+/// tolerance times the run's growth, far inside the 1e-8 asked.
+#[test]
+fn dopri5_sensitivities_are_the_differences_of_whole_runs() {
+    let dopri5 = |settings| ezy_core::RunSettings {
+        method: Method::Dopri5,
+        rtol: 1e-12,
+        atol: 1e-12,
+        formulation: ezy_core::Formulation::Dae,
+        ..settings
+    };
+    let mut scene = scenes::drive();
+    scene.t_end = 5.0;
+    scene.output.every = 5.0 / 3.0;
+    let columns = ["x1", "y1", "phi1", "phi2", "x1d", "phi2d"];
+    check_against(&scene, &EzyRoller::default(), &["omega", "M0", "c"], &columns, dopri5);
+    let data = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/oracle");
+    let model = RuntimeModel::from_file(&data.join("rotor_drive.ezy")).unwrap();
+    let (mut text, _) = Scene::read(&data.join("rotor-drive.toml")).unwrap();
+    text.t_end = 5.0;
+    text.output.every = 5.0 / 3.0;
+    check_against(&text, &model, &["psi.omega", "drag.c", "m"], &["x", "y", "phi", "xd", "phid"], dopri5);
 }
 
 /// A user's sleigh with a prescribed rotor, typed as text: the drive's
