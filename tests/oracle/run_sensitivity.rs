@@ -52,25 +52,22 @@ fn check_with<M: Model>(
     columns: &[&str],
     settings: impl Fn(ezy_core::RunSettings) -> ezy_core::RunSettings,
 ) {
-    let (mut problem, _): (Problem<M>, _) = scene.problem_with(model.clone(), &[]).unwrap();
-    problem.settings = settings(problem.settings);
-    let params = parameters(scene, model, names, problem.settings);
-    let s = problem.sensitivities_with(&params).unwrap();
-    compare(scene, &params, &s, columns);
+    check_against(scene, model, names, columns, &settings, &settings);
 }
 
-/// [`check`] with the run differentiated at `settings` (another method)
-/// and the oracle's runs at its own ([`tight`]).
+/// [`check`] with the run differentiated at `run`'s settings and the
+/// oracle's runs at `oracle`'s.
 fn check_against<M: Model>(
     scene: &Scene,
     model: &M,
     names: &[&str],
     columns: &[&str],
-    settings: impl Fn(ezy_core::RunSettings) -> ezy_core::RunSettings,
+    run: &dyn Fn(ezy_core::RunSettings) -> ezy_core::RunSettings,
+    oracle: &dyn Fn(ezy_core::RunSettings) -> ezy_core::RunSettings,
 ) {
     let (mut problem, _): (Problem<M>, _) = scene.problem_with(model.clone(), &[]).unwrap();
-    let params = parameters(scene, model, names, tight(problem.settings));
-    problem.settings = settings(problem.settings);
+    let params = parameters(scene, model, names, oracle(problem.settings));
+    problem.settings = run(problem.settings);
     let s = problem.sensitivities_with(&params).unwrap();
     compare(scene, &params, &s, columns);
 }
@@ -180,13 +177,13 @@ fn dopri5_sensitivities_are_the_differences_of_whole_runs() {
     scene.t_end = 5.0;
     scene.output.every = 5.0 / 3.0;
     let columns = ["x1", "y1", "phi1", "phi2", "x1d", "phi2d"];
-    check_against(&scene, &EzyRoller::default(), &["omega", "M0", "c"], &columns, dopri5);
+    check_against(&scene, &EzyRoller::default(), &["omega", "M0", "c"], &columns, &dopri5, &tight);
     let data = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/oracle");
     let model = RuntimeModel::from_file(&data.join("rotor_drive.ezy")).unwrap();
     let (mut text, _) = Scene::read(&data.join("rotor-drive.toml")).unwrap();
     text.t_end = 5.0;
     text.output.every = 5.0 / 3.0;
-    check_against(&text, &model, &["psi.omega", "drag.c", "m"], &["x", "y", "phi", "xd", "phid"], dopri5);
+    check_against(&text, &model, &["psi.omega", "drag.c", "m"], &["x", "y", "phi", "xd", "phid"], &dopri5, &tight);
 }
 
 /// A user's sleigh with a prescribed rotor, typed as text: the drive's
