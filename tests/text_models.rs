@@ -570,3 +570,50 @@ fn the_jit_gives_the_tapes_numbers_at_hostile_states_and_checks_bounds() {
         }
     }
 }
+
+/// The offsets a compiled model's numeric functions walk (its generated
+/// `__ezy_layout`) are those of its description, which `info`,
+/// `check_counts` and `equations` render (`ezy_core::model::layout`),
+/// for every built-in model at its declared counts and at 1, 2, 7 and 40.
+#[test]
+fn every_builtin_models_generated_layout_is_its_descriptions() {
+    macro_rules! check {
+        ($($model:ty),* $(,)?) => {$({
+            let mut m = <$model>::default();
+            let info = m.info();
+            let counts: Vec<usize> = (0..info.params.len()).filter(|&i| info.params[i].count).collect();
+            let mut at: Vec<Option<f64>> = vec![None];
+            if !counts.is_empty() {
+                at.extend([1.0, 2.0, 7.0, 40.0].map(Some));
+            }
+            for n in at {
+                for &i in &counts {
+                    if let Some(n) = n {
+                        m.set_param(i, n);
+                    }
+                }
+                let values: Vec<i64> = counts.iter().map(|&i| m.param(i) as i64).collect();
+                ezy_core::__private::describe::layout_agrees(<$model>::__ezy_description(), &values, &m.__ezy_layout())
+                    .unwrap_or_else(|e| panic!("{}: {e}", stringify!($model)));
+            }
+        })*};
+    }
+    use ezy_models::*;
+    check!(
+        EzyRoller,
+        EzyRollerDriven,
+        ChaplyginSleigh,
+        Trailer,
+        Snake,
+        SnakeDriven,
+        SnakeServo,
+        KinematicSnake,
+        Snakeboard,
+        FourBar,
+        ElasticFourBar,
+        SliderCrank,
+        DoublePendulum,
+        Pendulum,
+        NFourBar,
+    );
+}

@@ -117,4 +117,10 @@ pub mod __private {
     pub use crate::model::{MinimalRhsError, Model};
     pub use crate::scalar::Scalar;
     pub use ezy_derive::model as model_with_root;
+    /// A model's description (`ezy_lang::description`, written by
+    /// `model!` as a `static`) and its rendering at the counts.
+    pub mod describe {
+        pub use crate::model::describe::{check_counts, equations, info, layout_agrees};
+        pub use ezy_lang::description::*;
+    }
 }

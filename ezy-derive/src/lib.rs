@@ -9,7 +9,11 @@
 //! stay runtime fields.
 //!
 //! Data flows one way: tokens -> `ezy_lang` (`ast`, `check`,
-//! `kinematics`, expressions in `sym`) -> `emit`.
+//! `kinematics`, expressions in `sym`, the model's `description`) ->
+//! `emit`. What a model says about itself (names, checks on its counts,
+//! equations) is ezy-lang's description, written into the expansion as
+//! data and rendered by ezy-core (`model::describe`), the same code a
+//! model read from text takes.
 
 use proc_macro::TokenStream;
 

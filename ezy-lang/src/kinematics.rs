@@ -47,6 +47,17 @@ pub enum Kind {
     Skate,
 }
 
+impl Kind {
+    /// How many kinds there are.
+    pub const COUNT: usize = 4;
+
+    /// Its place among the kinds, `0..COUNT`: the order of their rows
+    /// and of `ModelInfo`'s lists (hinges, sliders, drives, skates).
+    pub fn index(self) -> usize {
+        self as usize
+    }
+}
+
 /// One constraint item (single or a family), derived in local coordinates.
 pub struct Group {
     pub kind: Kind,

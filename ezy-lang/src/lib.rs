@@ -11,11 +11,14 @@
 //! `ezy-derive` calls it on the tokens of a `model! { ... }` and emits
 //! Rust; a runtime model can call it on a string ([`derive_text`]): one
 //! grammar, one set of messages. Data flows one way: tokens ->
-//! [`ast::ModelDef`] -> [`check::Resolved`] -> [`kinematics::Derived`].
+//! [`ast::ModelDef`] -> [`check::Resolved`] -> [`kinematics::Derived`]
+//! -> [`description::Description`], what the model says about itself
+//! (names, checks, equations), one piece of data for both back ends.
 
 pub mod ast;
 pub mod check;
 pub mod depth;
+pub mod description;
 pub mod kinematics;
 pub mod minimal;
 pub mod parse;

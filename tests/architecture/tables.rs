@@ -33,6 +33,11 @@ pub const LANG: Rules = Rules {
         f("minimal", 2, "minimal coordinates of a model without families, derived symbolically"),
         // floor 3: the derived expressions in global coordinates
         f("straight", 3, "the straight-line form both back ends evaluate"),
+        f(
+            "description",
+            3,
+            "what a derived model says about itself, as data both back ends share: names, where elements sit, what the counts must satisfy, equation templates",
+        ),
     ],
     doors: &[],
     knots: &[],
@@ -51,7 +56,7 @@ pub const DERIVE: Rules = Rules {
         f(
             "emit",
             0,
-            "the back end, split by what it emits (lower, layout, families, straight, products, minimal, info, checks, equations)",
+            "the back end, split by what it emits (lower, layout, families, straight, products, minimal, describe)",
         ),
     ],
     doors: &[],
@@ -83,6 +88,12 @@ pub const CORE: Rules = Rules {
         // floor 1: data about a model, and the integrators, which see an
         // `Rhs` and a `NewtonSystem`, never the dynamics
         f("model::info", 1, "what a model is: sizes, names, the pattern of `G` (data)"),
+        f("model::layout", 1, "where a model's elements sit at its counts, from its description"),
+        f(
+            "model::describe",
+            1,
+            "a model's description rendered at its counts: `ModelInfo`, `check_counts`, `equations` (both back ends)",
+        ),
         f(
             "integrator",
             1,
@@ -102,7 +113,7 @@ pub const CORE: Rules = Rules {
         // model read from text
         f("kkt", 4, "the KKT solvers: dense, Schur complement, sparse"),
         f("events", 4, "what an event is (`events::spec`, data)"),
-        f("text", 4, "`RuntimeModel`, a model read from text: plan, tape (and its JIT), fused, layout, describe"),
+        f("text", 4, "`RuntimeModel`, a model read from text: plan, tape (and its JIT), fused"),
         // floor 5: the equations a run integrates
         f(
             "formulation",
@@ -125,10 +136,16 @@ pub const CORE: Rules = Rules {
         // floor 9: design questions on the sensitivities
         f("design", 9, "fits and optimization on the sensitivities"),
     ],
-    doors: &[Door {
-        module: "__private",
-        reason: "what `model!`'s expansion names in the user's crate (through `$crate`), re-exported",
-    }],
+    doors: &[
+        Door {
+            module: "__private",
+            reason: "what `model!`'s expansion names in the user's crate (through `$crate`), re-exported",
+        },
+        Door {
+            module: "__private::describe",
+            reason: "the description `model!` writes as a `static` (`ezy_lang::description`) and the functions that render it, re-exported",
+        },
+    ],
     knots: &[
         Knot {
             item: "effects::law::Law",

@@ -8,7 +8,9 @@
 //! and the constraints are stacked as `G = [C_q; S]` (nc x nq): see
 //! [`info`].
 
+pub(crate) mod describe;
 pub mod info;
+pub(crate) mod layout;
 
 use crate::model::info::{Equations, MinimalLayout, ModelInfo, NameIndex, normal_matrix_at};
 use crate::scalar::Scalar;

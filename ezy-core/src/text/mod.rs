@@ -11,9 +11,7 @@
 //! code, so parameters and counts stay parameters: a sweep changes them
 //! without deriving anything again.
 
-mod describe;
 mod fused;
-mod layout;
 mod plan;
 mod tape;
 #[cfg(test)]
@@ -23,9 +21,10 @@ use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
 use crate::model::Model;
+use crate::model::describe;
 use crate::model::info::{Equations, ModelInfo};
+use crate::model::layout::Layout;
 use crate::scalar::Scalar;
-use layout::Layout;
 use plan::{GroupPlan, Plan};
 use tape::{Inputs, Tape};
 
@@ -237,7 +236,7 @@ impl RuntimeModel {
             })
             .map_err(mistakes)?;
         let values: Vec<f64> = plan.params.iter().map(|p| p.default).collect();
-        let layout = Layout::new(&plan, &counts_of(&plan, &values));
+        let layout = Layout::new(&plan.desc, &counts_of(&plan, &values));
         let model = Self { plan: Arc::new(plan), values, layout: Arc::new(layout), jit: false };
         match evaluator {
             Some(e) => model.with_evaluator(e),
@@ -299,18 +298,18 @@ impl RuntimeModel {
     ) {
         let (plan, l) = (&*self.plan, &*self.layout);
         self.scratch(|regs| {
-            for (gi, g) in plan.groups.iter().enumerate() {
-                let Some(tape) = pick(g).filter(|_| !g.slots.is_empty()) else { continue };
+            for (gi, (g, gd)) in plan.groups.iter().zip(plan.desc.groups.iter()).enumerate() {
+                let Some(tape) = pick(g).filter(|_| !gd.slots.is_empty()) else { continue };
                 let mut cols = [0usize; plan::MAX_SLOTS];
                 let mut ix = [0.0f64; plan::MAX_INDICES];
-                for (e, v) in l.elements(g.family) {
-                    for (c, s) in cols.iter_mut().zip(&g.slots) {
-                        *c = l.body_column(plan, s, v);
+                for (e, v) in l.elements(gd.family) {
+                    for (c, s) in cols.iter_mut().zip(gd.slots.iter()) {
+                        *c = l.body_column(&plan.desc, s, v);
                     }
-                    for (x, a) in ix.iter_mut().zip(&g.indices) {
+                    for (x, a) in ix.iter_mut().zip(gd.indices.iter()) {
                         *x = a.at(v, &l.counts) as f64;
                     }
-                    let (oa, ob) = at(g, l.row[gi] + e * g.rows, l.val[gi] + e * g.pattern.len());
+                    let (oa, ob) = at(g, l.row[gi] + e * gd.rows, l.val[gi] + e * gd.pattern.len());
                     let x = Inputs { params: &self.values, indices: &ix, cols: &cols, q, qd, compiled: self.jit };
                     let (a, b) = (oa.map_or(&mut [][..], |o| &mut a[o..]), ob.map_or(&mut [][..], |o| &mut b[o..]));
                     tape.eval_to(&x, regs, a, b);
@@ -344,9 +343,9 @@ impl RuntimeModel {
     fn each_point<S: Scalar>(&self, q: &[S], qd: &[S], out: &mut [S], pick: impl Fn(&plan::PointPlan) -> &Tape) {
         let (plan, l) = (&*self.plan, &*self.layout);
         self.scratch(|regs| {
-            for (pi, p) in plan.points.iter().enumerate() {
-                for (e, v) in l.elements(p.family) {
-                    let cols = [l.body_column(plan, &p.body, v)];
+            for (pi, (p, pd)) in plan.points.iter().zip(plan.desc.points.iter()).enumerate() {
+                for (e, v) in l.elements(pd.family) {
+                    let cols = [l.body_column(&plan.desc, &pd.body, v)];
                     let k = 2 * (l.point_index[pi] + e);
                     let x =
                         Inputs { params: &self.values, indices: &[v as f64], cols: &cols, q, qd, compiled: self.jit };
@@ -407,7 +406,7 @@ fn derive_plan(text: &str) -> Result<Plan, Vec<TextMistake>> {
     // a model its own declared counts make too large to set up is refused
     // here, at the counts, before anything of that size is allocated
     let values: Vec<f64> = plan.params.iter().map(|p| p.default).collect();
-    let layout = Layout::new(&plan, &counts_of(&plan, &values));
+    let layout = Layout::new(&plan.desc, &counts_of(&plan, &values));
     let counts: Vec<(&str, usize)> =
         plan.params[plan.n_real..].iter().zip(&layout.counts).map(|(c, &v)| (c.name, v as usize)).collect();
     if let Err(message) = crate::model::info::check_model_size(layout.nq, &counts) {
@@ -427,15 +426,24 @@ fn counts_of(plan: &Plan, values: &[f64]) -> Vec<i64> {
 
 impl Model for RuntimeModel {
     fn info(&self) -> ModelInfo {
-        describe::info(&self.plan, &self.layout)
+        describe::info_at(&self.plan.desc, &self.layout)
     }
 
     fn equations(&self) -> Equations {
-        describe::equations(&self.plan, &self.layout)
+        describe::equations_at(&self.plan.desc, &self.layout)
     }
 
     fn check_counts(&self) -> Result<(), String> {
-        describe::check_counts(&self.plan, &self.layout, &self.values)
+        let (plan, l) = (&*self.plan, &*self.layout);
+        f64::with_scratch(plan.registers, |regs| {
+            describe::check_counts_at(&plan.desc, l, &mut |gi, v| {
+                let ix: Vec<f64> = plan.desc.groups[gi].indices.iter().map(|a| a.at(v, &l.counts) as f64).collect();
+                let tape = plan.groups[gi].direction.as_ref().expect("a group whose direction is checked has its tape");
+                let mut t = [0.0; 2];
+                tape.eval(&Inputs::fixed(&self.values, &ix), regs, |j, x| t[j] = x);
+                t
+            })
+        })
     }
 
     fn param(&self, index: usize) -> f64 {
@@ -454,7 +462,7 @@ impl Model for RuntimeModel {
                 "count `{name}` must be a whole number >= 1, got {value}"
             );
             self.values[index] = value;
-            self.layout = Arc::new(Layout::new(&self.plan, &counts_of(&self.plan, &self.values)));
+            self.layout = Arc::new(Layout::new(&self.plan.desc, &counts_of(&self.plan, &self.values)));
         } else {
             self.values[index] = value;
         }
@@ -506,8 +514,8 @@ impl Model for RuntimeModel {
     fn mass_diagonal(&self, out: &mut [f64]) {
         let (plan, l) = (&*self.plan, &*self.layout);
         f64::with_scratch(plan.registers, |regs| {
-            for (bi, b) in plan.bodies.iter().enumerate() {
-                for (e, v) in l.elements(b.family) {
+            for (bi, (b, bd)) in plan.bodies.iter().zip(plan.desc.bodies.iter()).enumerate() {
+                for (e, v) in l.elements(bd.family) {
                     let k = l.body_off[bi] + 3 * e;
                     b.mass.eval(&Inputs::fixed(&self.values, &[v as f64]), regs, |j, x| out[k + j] = x);
                 }
@@ -518,14 +526,14 @@ impl Model for RuntimeModel {
     fn local_geometry(&self, points: &mut [f64], blades: &mut [f64]) {
         let (plan, l) = (&*self.plan, &*self.layout);
         f64::with_scratch(plan.registers, |regs| {
-            for (pi, p) in plan.points.iter().enumerate() {
-                for (e, v) in l.elements(p.family) {
+            for (pi, (p, pd)) in plan.points.iter().zip(plan.desc.points.iter()).enumerate() {
+                for (e, v) in l.elements(pd.family) {
                     let k = 2 * (l.point_index[pi] + e);
                     p.local.eval(&Inputs::fixed(&self.values, &[v as f64]), regs, |j, x| points[k + j] = x);
                 }
             }
             for (gi, tape) in &plan.blades {
-                for (e, v) in l.elements(plan.groups[*gi].family) {
+                for (e, v) in l.elements(plan.desc.groups[*gi].family) {
                     let k = 2 * (l.item_index[*gi] + e);
                     tape.eval(&Inputs::fixed(&self.values, &[v as f64]), regs, |j, x| blades[k + j] = x);
                 }
@@ -678,7 +686,7 @@ impl RuntimeModel {
             Some(st) => st.minimal.as_ref().map_err(Clone::clone),
             None => Err(format!(
                 "model {} has no minimal coordinates: it has families (`for`), whose minimal form is not derived yet",
-                self.plan.name
+                self.plan.desc.name
             )),
         }
     }

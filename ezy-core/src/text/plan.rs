@@ -1,69 +1,17 @@
 //! A derived model turned into data the runtime can hold (no syntax
-//! tree, no span: plain indices, names and [`Tape`]s) and the layout of
-//! its elements at given family counts, after ezy-derive's
-//! `emit::layout`, which does the same in generated code.
+//! tree, no span): its [`Description`] (names, indices and where each
+//! item's elements sit, what `model!` writes as a `static`) and the
+//! [`Tape`]s of its expressions.
 
 use ezy_lang::Derivation;
-use ezy_lang::ast::{Affine, ModelDef, doc_of, split_unit};
-use ezy_lang::kinematics::{Kind, own_index};
-use ezy_lang::sym::{Arena, Id};
+use ezy_lang::description::Description;
+use ezy_lang::kinematics::Kind;
+use ezy_lang::sym::Id;
 
 use super::fused::Fused;
 use super::tape::Tape;
+use crate::model::describe::param_infos;
 use crate::model::info::ParamInfo;
-
-/// An integer index `var? + count? + c` ([`Affine`] without its span).
-#[derive(Clone, Debug)]
-pub(super) struct Ix {
-    var: bool,
-    /// The count, by its position among the counts.
-    count: Option<usize>,
-    c: i64,
-    /// As written, with the family's variable.
-    pub(super) shown: String,
-}
-
-impl Ix {
-    fn new(def: &ModelDef, a: &Affine, var: &str) -> Self {
-        let count = a.count.as_ref().map(|n| def.counts.iter().position(|c| c.name == *n).expect("checked count"));
-        Self { var: a.var, count, c: a.c, shown: a.show(var) }
-    }
-
-    /// The value at loop value `v` and counts `counts`.
-    pub(super) fn at(&self, v: i64, counts: &[i64]) -> i64 {
-        let mut x = self.c;
-        if self.var {
-            x += v;
-        }
-        if let Some(c) = self.count {
-            x += counts[c];
-        }
-        x
-    }
-}
-
-/// A body element: the body item and, for a family body, which element.
-#[derive(Clone, Debug)]
-pub(super) struct BodyAt {
-    pub(super) item: usize,
-    pub(super) index: Option<Ix>,
-}
-
-/// A point element: the point item and, for a family point, which element.
-#[derive(Clone, Debug)]
-pub(super) struct PointAt {
-    pub(super) item: usize,
-    pub(super) index: Option<Ix>,
-}
-
-/// A `for` family.
-#[derive(Clone, Debug)]
-pub(super) struct Family {
-    pub(super) start: Ix,
-    pub(super) end: Ix,
-    /// `START..END` as written.
-    pub(super) range: String,
-}
 
 /// Most family indices one item's expressions may name (`i`, `i - 1`,
 /// `N`, ...): an element's index values live on the stack.
@@ -72,98 +20,39 @@ pub(super) const MAX_INDICES: usize = 16;
 /// Most bodies one constraint item touches (a joint's two).
 pub(super) const MAX_SLOTS: usize = 4;
 
-/// A body item.
+/// A body item's tape: `(m, m, I)` with the own index as `Sym::Index(0)`.
 #[derive(Debug)]
 pub(super) struct BodyPlan {
-    pub(super) name: String,
-    pub(super) family: Option<usize>,
-    pub(super) coords: [String; 3],
-    pub(super) mass_param: Option<&'static str>,
-    pub(super) inertia_param: Option<&'static str>,
-    /// `(m, m, I)` with the own index as `Sym::Index(0)`.
     pub(super) mass: Tape,
-    pub(super) mass_ids: [Id; 3],
 }
 
-/// A point item.
+/// A point item's tapes: world position, velocity and body-frame offsets
+/// (2 each).
 #[derive(Debug)]
 pub(super) struct PointPlan {
-    pub(super) name: String,
-    pub(super) family: Option<usize>,
-    /// The body element it sits on (at loop value `v` for a family point).
-    pub(super) body: BodyAt,
-    /// World position, velocity and body-frame offsets (2 each).
     pub(super) pos: Tape,
     pub(super) vel: Tape,
     pub(super) local: Tape,
-    pub(super) vel_ids: [Id; 2],
 }
 
-/// What a constraint item is, with what `info` and `check_counts` need.
-#[derive(Clone, Debug)]
-pub(super) enum ItemKind {
-    Hinge {
-        point: PointAt,
-        other: Option<PointAt>,
-    },
-    Slider {
-        heading: bool,
-        point: PointAt,
-        other: Option<PointAt>,
-    },
-    /// The group of the hinge it drives.
-    Drive {
-        hinge_group: usize,
-    },
-    Skate {
-        point: PointAt,
-    },
-}
-
-/// A constraint item (single or a family): its element kernels.
+/// A constraint item's (single or a family's) element kernels; where its
+/// elements sit is its group of the [`Description`].
 #[derive(Debug)]
 pub(super) struct GroupPlan {
     pub(super) kind: Kind,
-    pub(super) item_kind: ItemKind,
-    pub(super) name: String,
-    pub(super) family: Option<usize>,
-    pub(super) slots: Vec<BodyAt>,
-    /// Values of `Sym::Index(k)` at an element.
-    pub(super) indices: Vec<Ix>,
-    pub(super) rows: usize,
-    /// `(row, local column)` of its structural nonzeros, row-major.
-    pub(super) pattern: Vec<(usize, usize)>,
-    pub(super) suffixes: Vec<&'static str>,
     /// `phi`; `G`'s values; both; `G`'s values and `gamma`.
     pub(super) phi: Tape,
     pub(super) g: Tape,
     pub(super) phi_g: Tape,
     pub(super) terms: Tape,
     /// The direction as written `(tx, ty)` where it names the family's
-    /// index (checked not zero at every element), with its text.
-    pub(super) direction: Option<(Tape, String)>,
-    /// For `ezy equations`: `phi`, the velocity rows, `G`'s values,
-    /// `gamma`.
-    pub(super) eq_phi: Vec<Id>,
-    pub(super) eq_velocity: Vec<Id>,
-    pub(super) eq_g: Vec<Id>,
-    pub(super) eq_gamma: Vec<Id>,
+    /// index (checked not zero at every element by `check_counts`).
+    pub(super) direction: Option<Tape>,
 }
 
 impl GroupPlan {
     pub(super) fn holonomic(&self) -> bool {
         self.kind != Kind::Skate
-    }
-
-    /// "hinge", "slider", "slot", "drive" or "skate".
-    pub(super) fn kind_word(&self) -> &'static str {
-        match self.item_kind {
-            ItemKind::Hinge { .. } => "hinge",
-            ItemKind::Slider { heading: false, .. } => "slot",
-            ItemKind::Slider { .. } => "slider",
-            ItemKind::Drive { .. } => "drive",
-            ItemKind::Skate { .. } => "skate",
-        }
     }
 }
 
@@ -302,24 +191,18 @@ impl Straight {
 /// Everything a [`super::RuntimeModel`] evaluates and describes.
 #[derive(Debug)]
 pub(super) struct Plan {
-    pub(super) name: &'static str,
-    pub(super) doc: &'static str,
+    /// What it says about itself (`model::describe` renders it).
+    pub(super) desc: Description,
     /// The real parameters, then the counts.
     pub(super) params: Vec<ParamInfo>,
     pub(super) n_real: usize,
-    pub(super) families: Vec<Family>,
     pub(super) bodies: Vec<BodyPlan>,
     pub(super) points: Vec<PointPlan>,
     pub(super) groups: Vec<GroupPlan>,
     /// Each skate's blade direction: its group and `(tx, ty)`.
     pub(super) blades: Vec<(usize, Tape)>,
-    /// The expressions, for `ezy equations`.
-    pub(super) ar: Arena,
     /// Registers the largest tape needs.
     pub(super) registers: usize,
-    /// A family element's own index, `i` (`Sym::Index(0)` of the masses,
-    /// points and blades).
-    pub(super) own: Ix,
     /// A model without families: its straight-line tapes.
     pub(super) straight: Option<Straight>,
     /// The machine code of the tapes' compiled kernels, once compiled (or
@@ -334,162 +217,20 @@ pub(super) type Code = super::tape::jit::Code;
 #[derive(Debug)]
 pub(super) struct Code;
 
-/// An interned name that lives as long as the program: [`ParamInfo`] and
-/// [`crate::ModelInfo`] hold `&'static str` (a compiled model's names are
-/// literals). Each distinct name is stored once, however many models are
-/// read.
-pub(super) fn intern(s: &str) -> &'static str {
-    use std::collections::HashSet;
-    use std::sync::{Mutex, OnceLock};
-    static NAMES: OnceLock<Mutex<HashSet<&'static str>>> = OnceLock::new();
-    let mut names = NAMES.get_or_init(Default::default).lock().unwrap_or_else(std::sync::PoisonError::into_inner);
-    if let Some(&n) = names.get(s) {
-        return n;
-    }
-    let n: &'static str = Box::leak(s.to_owned().into_boxed_str());
-    names.insert(n);
-    n
-}
-
-/// The index `a` of an item of family `f` (none: of no family), shown
-/// with the family's variable.
-fn ix(def: &ModelDef, a: &Affine, f: Option<usize>) -> Ix {
-    Ix::new(def, a, &f.map(|f| def.families[f].var.to_string()).unwrap_or_default())
-}
-
-/// A point (by its item and index) named by an item of family `f`.
-fn point_at(def: &ModelDef, (p, index): &(usize, Option<Affine>), f: Option<usize>) -> PointAt {
-    PointAt { item: *p, index: index.as_ref().map(|a| ix(def, a, f)) }
-}
-
-/// The model's parameters, then its counts, with their documentation
-/// and units.
-fn param_infos(def: &ModelDef) -> Vec<ParamInfo> {
-    let mut params: Vec<ParamInfo> = def
-        .params
-        .iter()
-        .map(|p| {
-            let (doc, unit) = split_unit(&doc_of(&p.attrs));
-            ParamInfo {
-                name: intern(&p.name.to_string()),
-                default: p.value,
-                unit: intern(&unit),
-                doc: intern(&doc),
-                count: false,
-            }
-        })
-        .collect();
-    params.extend(def.counts.iter().map(|c| {
-        let (doc, _) = split_unit(&doc_of(&c.attrs));
-        ParamInfo {
-            name: intern(&c.name.to_string()),
-            default: c.value as f64,
-            unit: "",
-            doc: intern(&doc),
-            count: true,
-        }
-    }));
-    params
-}
-
-/// The plans of the model's points: where each sits, its tapes.
-fn point_plans(m: &Derivation) -> Vec<PointPlan> {
-    let (def, res, d) = (&m.def, &m.resolved, &m.derived);
-    def.points
-        .iter()
-        .enumerate()
-        .map(|(pi, p)| {
-            let pd = &d.points[pi];
-            let body = if p.family.is_some() {
-                BodyAt { item: res.point_body[pi], index: Some(ix(def, &own_index(), p.family)) }
-            } else {
-                BodyAt { item: res.point_body[pi], index: res.point_body_index[pi].as_ref().map(|a| ix(def, a, None)) }
-            };
-            PointPlan {
-                name: p.name.to_string(),
-                family: p.family,
-                body,
-                pos: Tape::new(&d.ar, &pd.pos),
-                vel: Tape::new(&d.ar, &pd.vel),
-                local: Tape::new(&d.ar, &pd.local),
-                vel_ids: pd.vel,
-            }
-        })
-        .collect()
-}
-
-/// What a constraint group is: its item's kind and name, with the points
-/// (or hinge) it names.
-fn item_of(m: &Derivation, g: &ezy_lang::kinematics::Group) -> (String, ItemKind) {
-    let (def, res, d) = (&m.def, &m.resolved, &m.derived);
-    let f = g.family;
-    match g.kind {
-        Kind::Hinge => {
-            let (a, b) = &res.hinge_points[g.item];
-            let other = b.as_ref().map(|b| point_at(def, b, f));
-            (def.hinges[g.item].name.to_string(), ItemKind::Hinge { point: point_at(def, a, f), other })
-        }
-        Kind::Slider => {
-            let (a, b) = &res.slider_points[g.item];
-            let other = b.as_ref().map(|b| point_at(def, b, f));
-            let heading = def.sliders[g.item].heading;
-            (def.sliders[g.item].name.to_string(), ItemKind::Slider { heading, point: point_at(def, a, f), other })
-        }
-        Kind::Drive => {
-            let h = res.drive_hinge[g.item];
-            let hinge_group = d.groups.iter().position(|x| x.kind == Kind::Hinge && x.item == h).expect("hinge group");
-            (def.drives[g.item].name.to_string(), ItemKind::Drive { hinge_group })
-        }
-        Kind::Skate => {
-            let point = point_at(def, &res.skate_point[g.item], f);
-            (def.skates[g.item].name.to_string(), ItemKind::Skate { point })
-        }
-    }
-}
-
-/// The plan of one constraint group: its item, the bodies and indices it
-/// touches, its tapes and its equations.
-fn group_plan(m: &Derivation, g: &ezy_lang::kinematics::Group) -> GroupPlan {
-    let (def, d) = (&m.def, &m.derived);
-    let f = g.family;
-    let (name, item_kind) = item_of(m, g);
-    let pattern = g.local_pattern(&d.ar);
-    let values: Vec<Id> = pattern.iter().map(|&(r, c)| g.g[r][c]).collect();
-    let holonomic = g.holonomic();
-    let phi: Vec<Id> = if holonomic { g.phi.clone() } else { Vec::new() };
+/// The tapes of one constraint group (`direction`: whether its
+/// description checks its direction).
+fn group_plan(m: &Derivation, g: &ezy_lang::kinematics::Group, direction: bool) -> GroupPlan {
+    let d = &m.derived;
+    let values: Vec<Id> = g.local_pattern(&d.ar).iter().map(|&(r, c)| g.g[r][c]).collect();
+    let phi: Vec<Id> = if g.holonomic() { g.phi.clone() } else { Vec::new() };
     let cat = |parts: &[&[Id]]| Tape::new(&d.ar, &parts.concat());
-    let direction = g.direction.filter(|[tx, ty]| {
-        let index = |s| matches!(s, ezy_lang::sym::Sym::Index(_));
-        d.ar.mentions(*tx, &index) || d.ar.mentions(*ty, &index)
-    });
-    let direction = direction.map(|[tx, ty]| {
-        let (word, along) = match g.kind {
-            Kind::Skate => ("blade direction `along", &def.skates[g.item].along),
-            _ => ("direction `along", &def.sliders[g.item].along),
-        };
-        let (ax, ay) = (&along[0], &along[1]);
-        let written = format!("{word} ({}, {})`", quote::quote!(#ax), quote::quote!(#ay));
-        (Tape::new(&d.ar, &[tx, ty]), written)
-    });
     GroupPlan {
         kind: g.kind,
-        item_kind,
-        name,
-        family: f,
-        slots: g.slots.iter().map(|b| BodyAt { item: b.0, index: b.1.as_ref().map(|a| ix(def, a, f)) }).collect(),
-        indices: g.indices.iter().map(|a| ix(def, a, f)).collect(),
-        rows: g.rows(),
-        suffixes: g.suffixes.clone(),
         phi: cat(&[&phi]),
         g: cat(&[&values]),
         phi_g: cat(&[&phi, &values]).with_split(phi.len()),
         terms: cat(&[&values, &g.gamma]).with_split(values.len()),
-        direction,
-        eq_phi: phi,
-        eq_velocity: g.velocity.clone(),
-        eq_g: values,
-        eq_gamma: g.gamma.clone(),
-        pattern,
+        direction: direction.then(|| Tape::new(&d.ar, &g.direction.expect("a checked direction is written"))),
     }
 }
 
@@ -501,41 +242,34 @@ impl Plan {
     /// more than [`MAX_SLOTS`] bodies (the grammar makes neither; a
     /// message, not a panic, should that change).
     pub(super) fn new(m: &mut Derivation) -> Result<Self, String> {
+        // the description first, before the straight-line form adds to the
+        // arena, as `model!` makes it
+        let desc = ezy_lang::description::describe(&m.def, &m.resolved, &m.derived);
+        for g in desc.groups.iter() {
+            if g.indices.len() > MAX_INDICES || g.slots.len() > MAX_SLOTS {
+                return Err(format!(
+                    "{} `{}` names {} family indices and touches {} bodies; ezy reads at most {MAX_INDICES} and {MAX_SLOTS}",
+                    g.item.word(),
+                    g.name,
+                    g.indices.len(),
+                    g.slots.len()
+                ));
+            }
+        }
         let (def, d) = (&m.def, &m.derived);
         let is_static = def.families.is_empty() && def.counts.is_empty();
-        let param_of = |e: &syn::Expr| match e {
-            syn::Expr::Path(p) => p
-                .path
-                .get_ident()
-                .filter(|id| def.params.iter().any(|q| q.name == **id))
-                .map(|id| intern(&id.to_string())),
-            _ => None,
-        };
-        let families = def
-            .families
+        let bodies = d.mass.iter().map(|mass| BodyPlan { mass: Tape::new(&d.ar, mass) }).collect();
+        let points = d
+            .points
             .iter()
-            .enumerate()
-            .map(|(f, fam)| Family {
-                start: ix(def, &fam.start, Some(f)),
-                end: ix(def, &fam.end, Some(f)),
-                range: format!("{}..{}", fam.start.show(""), fam.end.show("")),
+            .map(|p| PointPlan {
+                pos: Tape::new(&d.ar, &p.pos),
+                vel: Tape::new(&d.ar, &p.vel),
+                local: Tape::new(&d.ar, &p.local),
             })
             .collect();
-        let bodies = def
-            .bodies
-            .iter()
-            .enumerate()
-            .map(|(bi, b)| BodyPlan {
-                name: b.name.to_string(),
-                family: b.family,
-                coords: b.coords.clone().map(|c| c.to_string()),
-                mass_param: param_of(&b.mass),
-                inertia_param: param_of(&b.inertia),
-                mass: Tape::new(&d.ar, &d.mass[bi]),
-                mass_ids: d.mass[bi],
-            })
-            .collect();
-        let groups = d.groups.iter().map(|g| group_plan(m, g)).collect::<Vec<_>>();
+        let groups =
+            d.groups.iter().zip(desc.groups.iter()).map(|(g, gd)| group_plan(m, g, gd.direction.is_some())).collect();
         let blades = (0..def.skates.len())
             .map(|ki| {
                 // the plan's groups are the derivation's, in its order
@@ -545,18 +279,14 @@ impl Plan {
             })
             .collect::<Vec<_>>();
         let mut plan = Plan {
-            name: intern(&def.name.to_string()),
-            doc: intern(doc_of(&def.attrs).split(". ").next().unwrap_or("").trim_end_matches('.')),
             n_real: def.params.len(),
-            params: param_infos(def),
-            families,
+            params: param_infos(&desc),
+            desc,
             bodies,
-            points: point_plans(m),
+            points,
             groups,
             blades,
-            ar: d.ar.clone(),
             registers: 0,
-            own: ix(def, &own_index(), None),
             straight: None,
             code: std::sync::OnceLock::new(),
         };
@@ -567,17 +297,6 @@ impl Plan {
             plan.straight = Some(Straight::new(m));
         }
         plan.registers = plan.tapes().map(Tape::registers).max().unwrap_or(0);
-        for g in &plan.groups {
-            if g.indices.len() > MAX_INDICES || g.slots.len() > MAX_SLOTS {
-                return Err(format!(
-                    "{} `{}` names {} family indices and touches {} bodies; ezy reads at most {MAX_INDICES} and {MAX_SLOTS}",
-                    g.kind_word(),
-                    g.name,
-                    g.indices.len(),
-                    g.slots.len()
-                ));
-            }
-        }
         Ok(plan)
     }
 
@@ -585,10 +304,8 @@ impl Plan {
     fn tapes(&self) -> impl Iterator<Item = &Tape> {
         let bodies = self.bodies.iter().map(|b| &b.mass);
         let points = self.points.iter().flat_map(|p| [&p.pos, &p.vel, &p.local]);
-        let groups = self
-            .groups
-            .iter()
-            .flat_map(|g| [&g.phi, &g.g, &g.phi_g, &g.terms].into_iter().chain(g.direction.as_ref().map(|(t, _)| t)));
+        let groups =
+            self.groups.iter().flat_map(|g| [&g.phi, &g.g, &g.phi_g, &g.terms].into_iter().chain(g.direction.as_ref()));
         let straight = self.straight.iter().flat_map(Straight::tapes);
         bodies.chain(points).chain(groups).chain(self.blades.iter().map(|(_, t)| t)).chain(straight)
     }

@@ -10,7 +10,7 @@ use quote::{format_ident, quote};
 
 use super::runtime;
 use ezy_lang::ast::{Affine, ModelDef};
-use ezy_lang::check::{BodyRef, PointRef, Resolved};
+use ezy_lang::check::{BodyRef, Resolved};
 use ezy_lang::kinematics::{Derived, Kind};
 
 /// `(index expression, as i64)` of an affine index at loop value `v`.
@@ -36,7 +36,7 @@ pub(super) fn layout_prelude(def: &ModelDef) -> TokenStream {
 }
 
 /// The runtime counts as `let c_N: i64` bindings.
-fn count_lets(def: &ModelDef) -> TokenStream {
+pub(super) fn count_lets(def: &ModelDef) -> TokenStream {
     let mut out = TokenStream::new();
     for c in &def.counts {
         let (n, v) = (&c.name, format_ident!("c_{}", c.name));
@@ -63,20 +63,6 @@ pub(super) fn body_column(def: &ModelDef, b: &BodyRef) -> TokenStream {
     let bi = b.0;
     let pos = position(def.bodies[bi].family, b.1.as_ref());
     quote!((l.body_off[#bi] + 3 * (#pos as usize)))
-}
-
-/// Global index of a body element among all bodies.
-pub(super) fn body_index(def: &ModelDef, b: &BodyRef) -> TokenStream {
-    let bi = b.0;
-    let pos = position(def.bodies[bi].family, b.1.as_ref());
-    quote!((l.body_index[#bi] + (#pos as usize)))
-}
-
-/// Global index of a point element among all points.
-pub(super) fn point_index(def: &ModelDef, p: &PointRef) -> TokenStream {
-    let pi = p.0;
-    let pos = position(def.points[pi].family, p.1.as_ref());
-    quote!((l.point_index[#pi] + (#pos as usize)))
 }
 
 /// The body element a point item's element sits on (loop value `v` = the
@@ -118,16 +104,6 @@ fn len_tokens(family: Option<usize>) -> TokenStream {
     }
 }
 
-/// The index of a constraint kind in the layout's per-kind counters.
-fn kind_index(k: Kind) -> usize {
-    match k {
-        Kind::Hinge => 0,
-        Kind::Slider => 1,
-        Kind::Drive => 2,
-        Kind::Skate => 3,
-    }
-}
-
 /// `fn __ezy_layout(&self)`: where every item's elements sit in `q`, the
 /// rows of `G` and its pattern values, at the current counts.
 pub(super) fn layout_fn(def: &ModelDef, d: &Derived) -> TokenStream {
@@ -154,10 +130,11 @@ pub(super) fn layout_fn(def: &ModelDef, d: &Derived) -> TokenStream {
         let n = len_tokens(item.family);
         body.extend(quote! { l.point_index[#p] = pi; pi += #n; });
     }
-    body.extend(quote!(let mut row = 0usize; let mut val = 0usize; let mut kc = [0usize; 4];));
+    let kinds = proc_macro2::Literal::usize_unsuffixed(Kind::COUNT);
+    body.extend(quote!(let mut row = 0usize; let mut val = 0usize; let mut kc = [0usize; #kinds];));
     for (gi, g) in d.groups.iter().enumerate() {
         let n = len_tokens(g.family);
-        let (nr, nnz, k) = (g.rows(), g.local_pattern(&d.ar).len(), kind_index(g.kind));
+        let (nr, nnz, k) = (g.rows(), g.local_pattern(&d.ar).len(), g.kind.index());
         body.extend(quote! {
             l.row[#gi] = row; l.val[#gi] = val; l.item_index[#gi] = kc[#k];
             row += #nr * #n; val += #nnz * #n; kc[#k] += #n;
@@ -167,9 +144,11 @@ pub(super) fn layout_fn(def: &ModelDef, d: &Derived) -> TokenStream {
         }
     }
     quote! {
-        /// Offsets of every item at the current counts.
+        /// Offsets of every item at the current counts (public for a test
+        /// that checks them against the description's).
+        #[doc(hidden)]
         #[inline]
-        fn __ezy_layout(&self) -> #private::Layout<#nf, #nb, #np, #ng> {
+        pub fn __ezy_layout(&self) -> #private::Layout<#nf, #nb, #np, #ng> {
             #counts
             let mut l = #private::Layout {
                 f_start: [0; #nf], f_len: [0; #nf], body_off: [0; #nb], body_index: [0; #nb],

@@ -26,13 +26,11 @@
 //!   families;
 //! - [`products`]: its products with `G` at the compile-time pattern;
 //! - [`minimal`]: its minimal coordinates and fused right-hand side;
-//! - [`info`], [`checks`], [`equations`]: `info` (the `ModelInfo`),
-//!   `check_counts` and `equations`.
+//! - [`describe`]: the model's description (ezy-lang's, as a `static`)
+//!   and `info`, `check_counts` and `equations` as calls that render it.
 
-mod checks;
-mod equations;
+mod describe;
 mod families;
-mod info;
 mod layout;
 mod lower;
 mod minimal;
@@ -102,9 +100,8 @@ pub fn emit(def: &ModelDef, res: &Resolved, d: &mut Derived) -> TokenStream {
     let struct_and_default = struct_and_default(def);
     let params = param_fns(def);
     let layout = layout::layout_fn(def, d);
-    let info = info::info_fn(def, res, d);
-    let check = checks::check_fn(def, res, d);
-    let equations = equations::equations_fn(def, res, d);
+    // before the numerics, which add to the arena
+    let (description, describe) = describe::description_fns(def, res, d);
     let geometry = families::geometry_fns(d, def);
     let numerics = if is_static { straight::numerics(d, def, res) } else { families::numerics(d, def, res) };
 
@@ -114,13 +111,12 @@ pub fn emit(def: &ModelDef, res: &Resolved, d: &mut Derived) -> TokenStream {
         #[allow(non_snake_case, unused_variables, unused_mut, unused_parens, clippy::all, clippy::pedantic, reason = "generated: the model's own names, and terms a model may not use")]
         impl #name {
             #layout
+            #description
         }
 
         #[allow(non_snake_case, unused_variables, unused_mut, unused_parens, clippy::all, clippy::pedantic, reason = "generated: the model's own names, and terms a model may not use")]
         impl #private::Model for #name {
-            #info
-            #equations
-            #check
+            #describe
             #params
             #geometry
             #numerics
