@@ -625,16 +625,50 @@ fn fmt_count(v: f64) -> String {
 /// `v` rounded to six decimals, `0` below 1e-12 (no `-0`): a speed or
 /// a rate in the analyses' summaries.
 pub(crate) fn rounded(v: f64) -> String {
+    rounded_to(v, 6)
+}
+
+/// `v` rounded to `decimals` decimals (at most 6), `0` below 1e-12 (no
+/// `-0`).
+pub(crate) fn rounded_to(v: f64, decimals: usize) -> String {
     let v = if v.abs() < 1e-12 { 0.0 } else { v };
+    let scale = 10f64.powi(decimals.min(6) as i32);
     // + 0.0: a value that rounds to -0 is written 0
-    format!("{}", (v * 1e6).round() / 1e6 + 0.0)
+    format!("{}", (v * scale).round() / scale + 0.0)
 }
 
 /// An eigenvalue or multiplier `re+imi` to six decimals, parts below
 /// 1e-12 read as 0.
 pub(crate) fn complex(z: c64) -> String {
-    let (re, im) = (if z.re.abs() < 1e-12 { 0.0 } else { z.re }, if z.im.abs() < 1e-12 { 0.0 } else { z.im });
-    if im == 0.0 { format!("{re:.6}") } else { format!("{re:.6}{}{:.6}i", if im < 0.0 { "-" } else { "+" }, im.abs()) }
+    complex_to(z, 6)
+}
+
+/// An eigenvalue or multiplier `re+imi` to `decimals` decimals (at most
+/// 6), parts below 1e-12 read as 0 and a real part that rounds to 0
+/// written 0 (not `-0`).
+pub(crate) fn complex_to(z: c64, decimals: usize) -> String {
+    let d = decimals.min(6);
+    let zero = |v: f64| v.abs() < 1e-12;
+    let re = if zero(z.re) || (z.re.abs() * 10f64.powi(d as i32)).round() == 0.0 { 0.0 } else { z.re };
+    let im = if zero(z.im) { 0.0 } else { z.im };
+    if im == 0.0 {
+        format!("{re:.d$}")
+    } else {
+        format!("{re:.d$}{}{:.d$}i", if im < 0.0 { "-" } else { "+" }, im.abs())
+    }
+}
+
+/// The decimals a periodic orbit's numbers hold when its period map is
+/// integrated and its Newton iteration stopped at `newton_tolerance`
+/// (relative to `1 + |x0|`): six at the defaults (1e-9) and down to
+/// 1e-7, one fewer for each decade above, at least one. The orbit's
+/// state is off by about its residual times the period map's
+/// conditioning (measured on `drive-rolling-resistance` at `--rtol
+/// 1e-4`, Newton to 1e-3: the mean speed 2.8e-4 and the multipliers
+/// 3.7e-4 from the defaults'), so the last decimal kept holds to a unit.
+pub(crate) fn orbit_decimals(newton_tolerance: f64) -> usize {
+    let decades = (-newton_tolerance.log10() + 1e-9).floor();
+    (decades - 1.0).clamp(1.0, 6.0) as usize
 }
 
 /// The period map's settings: the defaults, `--max-steps` bounding each

@@ -798,3 +798,58 @@ fn the_tolerances_reach_the_periodic_search() {
     assert!((loose - default).abs() > 1e-5, "--rtol 1e-6 ignored: {loose} against {default}");
     assert!((tight - default).abs() < 1e-9, "{tight} against {default}");
 }
+
+/// The numbers of `ezy analyze`'s orbit line: the mean speed and the
+/// multipliers (real), as printed.
+fn orbit_numbers(said: &str) -> Vec<String> {
+    let line = said.lines().find(|l| l.starts_with("periodic orbit:")).expect("an orbit line");
+    let speed = line.split("mean speed ").nth(1).unwrap().split(' ').next().unwrap().to_string();
+    let mu = line.split("multipliers: ").nth(1).unwrap().split(", ").map(str::to_string);
+    std::iter::once(speed).chain(mu).collect()
+}
+
+/// `--rtol 1e-4 --atol 1e-4` loosens the period map (its Newton
+/// iteration stops at 1e-3): the orbit's numbers are printed to the 2
+/// decimals they hold, a note says so, and each is within a unit of its
+/// last decimal of the same orbit's at the defaults (the oracle: 1e-11,
+/// Newton to 1e-9). They were printed to six decimals, the mean speed
+/// 0.334985 against 0.335262 and a heading change of -0.000012 rad
+/// where the symmetric orbit has 0. The defaults' line keeps its six.
+#[test]
+fn a_loose_tolerance_prints_the_digits_it_holds() {
+    let scene = "drive-rolling-resistance";
+    let wrt = "motor.torque.cos.amplitude";
+    let (said, err, ok) = ezy(&["analyze", scene, "--no-figures", "--wrt", wrt], &fresh("loose-default"));
+    assert!(ok, "{err}");
+    assert!(!said.contains("decimals"), "{said}");
+    let exact = orbit_numbers(&said);
+    let exact_d = derivatives(&said);
+    assert!(exact.iter().all(|v| v.split('.').nth(1).is_some_and(|d| d.len() == 6)), "{exact:?}");
+    let loose = ["analyze", scene, "--no-figures", "--rtol", "1e-4", "--atol", "1e-4", "--wrt", wrt];
+    let (said, err, ok) = ezy(&loose, &fresh("loose"));
+    assert!(ok, "{err}");
+    assert!(said.contains("printed to the 2 decimals") && said.contains("stops at 1e-3"), "{said}");
+    assert!(said.contains("heading change 0 rad"), "{said}");
+    let got = orbit_numbers(&said);
+    assert_eq!(got.len(), exact.len());
+    for (g, e) in got.iter().zip(&exact) {
+        assert!(g.split('.').nth(1).is_none_or(|d| d.len() <= 2), "{g} has more than 2 decimals");
+        let (g, e): (f64, f64) = (g.parse().unwrap(), e.parse().unwrap());
+        assert!((g - e).abs() <= 0.01, "{g} against the defaults' {e}");
+    }
+    // the derivatives to 3 digits of the row's largest (1.01): the
+    // heading's, 0 by the symmetry, was printed -1.73e-5
+    let got = derivatives(&said);
+    let scale = exact_d.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+    assert_eq!(got.len(), exact_d.len());
+    for (g, e) in got.iter().zip(&exact_d) {
+        assert!((g - e).abs() <= 0.01 * scale, "{g} against the defaults' {e}");
+    }
+    assert!(said.contains(&format!("ddheading/d{wrt} = 0,")), "{said}");
+}
+
+/// The gait derivatives `ezy analyze --wrt` prints, in order.
+fn derivatives(said: &str) -> Vec<f64> {
+    let line = said.lines().find(|l| l.starts_with("at ")).expect("a derivatives line");
+    line.split(" = ").skip(2).map(|v| v.split(',').next().unwrap().trim().parse().unwrap()).collect()
+}

@@ -182,6 +182,35 @@ fn a_command_working_in_a_directory_refuses_a_second_one_there() {
     }
 }
 
+/// SIGINT while `sensitivity` or `fit` works (before anything is
+/// written) stops it within seconds with exit code 130, saying so, and
+/// the output directory it created goes again: the signal's default
+/// action killed them, leaving the directory with its lock file.
+#[test]
+fn a_signal_stops_a_sensitivity_run_or_a_fit_and_leaves_no_directory() {
+    let root = scratch();
+    let data = root.path().join("data.csv");
+    std::fs::write(&data, "t,x1\n1000,0.5\n2000,1\n").unwrap();
+    let long: &[&[&str]] = &[
+        &["sensitivity", "drive", "--wrt", "M0", "--t-end", "3000", "--no-figures"],
+        &["fit", "drive", "--data", s(&data), "--columns", "x1", "--over", "M0=1:3", "--no-figures"],
+    ];
+    for (k, args) in long.iter().enumerate() {
+        let dir = root.path().join(format!("new{k}/out"));
+        let child = working(args, &dir, &dir);
+        let started = Instant::now();
+        // SAFETY: kill(2) with the pid of a child this test spawned and
+        // has not reaped yet
+        assert_eq!(unsafe { libc::kill(child.id() as libc::pid_t, libc::SIGINT) }, 0);
+        let o = child.wait_with_output().unwrap();
+        let e = stderr(&o);
+        assert_eq!(o.status.code(), Some(130), "{args:?}: {e}");
+        assert!(e.contains("interrupted (SIGINT)"), "{args:?}: {e}");
+        assert!(started.elapsed() < Duration::from_secs(5), "{args:?} stopped after {:?}", started.elapsed());
+        assert!(!root.path().join(format!("new{k}")).exists(), "{args:?} left {}", dir.display());
+    }
+}
+
 /// A body's mass or inertia that is not a finite number > 0 is refused
 /// naming the parameter and the body wherever a model is built without a
 /// run's own check: `ezy geometry` (a mass of -46 kg gave `Gamma_u =

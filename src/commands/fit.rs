@@ -146,6 +146,8 @@ fn fit_model<M: Model>(
     check_run(proto, scene, opts)?;
     // the directory is this command's from here to the commit
     let held = OutLock::take(&opts.out)?;
+    // a signal stops the work (it polls the flag) and leaves the directory as it was
+    crate::output::transaction::arm_signals();
     let f = fit(&design, data, Some(|| crate::output::transaction::pending().is_some()))
         .map_err(analysis_error(&opts.out))?;
     let mut tx = Transaction::begin_locked(held)?;

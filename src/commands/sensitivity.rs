@@ -101,6 +101,8 @@ fn sensitivity_model<M: Model>(
     let params = wrt.iter().map(|n| scene.parameter(proto, &opts.sets, n)).collect::<Result<Vec<_>, _>>()?;
     // the directory is this command's from here to the commit
     let held = OutLock::take(&opts.out)?;
+    // a signal stops the work (it polls the flag) and leaves the directory as it was
+    crate::output::transaction::arm_signals();
     let s = problem
         .sensitivities_stop_when(&params, || crate::output::transaction::pending().is_some())
         .map_err(analysis_error(&opts.out))?;

@@ -34,7 +34,8 @@ use crate::cli::{Overrides, parse_positive};
 use crate::output::progress::Heartbeat;
 use crate::output::transaction::{OutLock, check_interrupt, pending};
 use crate::session::{
-    Error, RunOptions, analysis_error, check_run, complex, periodic_settings, run_to, scene_analysis, settings,
+    Error, RunOptions, analysis_error, check_run, complex, orbit_decimals, periodic_settings, run_to, scene_analysis,
+    settings,
 };
 use report::{Located, summary, wrap, write_analysis};
 
@@ -165,6 +166,9 @@ struct AnalyzeReport {
     timings: Vec<(String, Duration)>,
     /// Notes for the user (a guess that led nowhere, the end of a branch).
     notes: Vec<String>,
+    /// The decimals the periodic orbit's numbers hold at the period map's
+    /// settings ([`crate::session::orbit_decimals`]): 6 at the defaults.
+    decimals: usize,
 }
 
 /// `ezy analyze` on `proto`, a model at its defaults: the request
@@ -324,8 +328,26 @@ fn analyze_model<M: Model>(proto: &M, scene: &Scene, opts: &AnalyzeOptions) -> R
         held,
     )?;
     let coords = an.dynamics().info.coords.clone();
-    let Log { timings, notes } = log;
-    Ok(AnalyzeReport { symmetry, coords, steady, periodic, gait, growth, files, timings, notes })
+    let Log { timings, mut notes } = log;
+    let decimals = orbit_decimals(periodic_settings(ro).newton_tolerance);
+    notes.extend(loose_note(ro, decimals, periodic.is_some()));
+    Ok(AnalyzeReport { symmetry, coords, steady, periodic, gait, growth, files, timings, notes, decimals })
+}
+
+/// The note that a periodic orbit's numbers are printed to the
+/// `decimals` its period map's tolerances hold, where `--rtol`/`--atol`
+/// loosened them below the six of the defaults.
+fn loose_note(ro: &RunOptions, decimals: usize, orbit: bool) -> Option<String> {
+    (orbit && decimals < 6).then(|| {
+        let ps = periodic_settings(ro);
+        format!(
+            "the period map is integrated at rtol {:e}, atol {:e} and its Newton iteration stops at {:e} (the defaults: 1e-11 and 1e-9): the orbit's numbers are printed to the {decimals} decimals they hold (its power and efficiency to {digits} significant digits, each derivative to {digits} of its row's largest), and its CSV files carry more digits than that",
+            ps.tolerance.rtol,
+            ps.tolerance.atol,
+            ps.newton_tolerance,
+            digits = decimals + 1
+        )
+    })
 }
 
 /// Refuses `--energy` where it cannot be honoured: a scene forced

@@ -15,7 +15,7 @@ use super::{AnalyzeOptions, AnalyzeReport};
 use crate::output::csv::{number, record};
 use crate::output::transaction::{OutLock, Transaction};
 use crate::render::plot::series::{Chart, Series, Stroke};
-use crate::session::{Error, complex, rounded};
+use crate::session::{Error, complex, complex_to, rounded, rounded_to};
 
 /// A bifurcation located, after the branch's point at the index.
 pub(super) type Located = (usize, Bifurcation);
@@ -100,7 +100,7 @@ pub(super) fn write_analysis<M: Model>(
             chart.series.push(Series {
                 stroke: Stroke::Points,
                 ..Series::new(
-                    format!("{} at {}", f.kind.name(), fmt_value(sig(f.value))),
+                    format!("{} at {}", f.kind.name(), fmt_value(sig(f.value, 7))),
                     vec![(f.value, y(&f.solution))],
                 )
             });
@@ -419,7 +419,8 @@ pub(super) fn summary(scene: &str, r: &AnalyzeReport) -> String {
         let _ = writeln!(s, "no periodic orbit: {}", g.describe());
     }
     if let Some(p) = &r.periodic {
-        let mu: Vec<String> = p.multipliers.iter().map(|z| complex(*z)).collect();
+        let d = r.decimals;
+        let mu: Vec<String> = p.multipliers.iter().map(|z| complex_to(*z, d)).collect();
         let turns: Vec<String> = p.windings.iter().map(|(i, w)| format!("{} {w}", r.coords[*i])).collect();
         let kind = if r.gait.is_none() && !turns.is_empty() {
             format!("limit cycle (turns per period: {})", turns.join(", "))
@@ -431,12 +432,13 @@ pub(super) fn summary(scene: &str, r: &AnalyzeReport) -> String {
         let _ = writeln!(
             s,
             "{kind}: period {} s, {}, mean speed {} m/s, displacement ({}, {}) m and heading change {} rad per period; multipliers: {}",
-            fmt_value(p.period),
+            // a limit cycle's period is found by Newton too
+            if r.gait.is_none() && d < 6 { rounded_to(p.period, d) } else { fmt_value(p.period) },
             p.stability.name(),
-            rounded(p.mean_speed()),
-            rounded(p.displacement[0]),
-            rounded(p.displacement[1]),
-            rounded(p.heading_change),
+            rounded_to(p.mean_speed(), d),
+            rounded_to(p.displacement[0], d),
+            rounded_to(p.displacement[1], d),
+            rounded_to(p.heading_change, d),
             mu.join(", ")
         );
         if !p.structural.is_empty() {
@@ -448,21 +450,23 @@ pub(super) fn summary(scene: &str, r: &AnalyzeReport) -> String {
             );
         }
         if let Some(g) = &r.gait {
-            let _ = write!(s, "mean input power {} W", fmt_value(sig(g.mean_power)));
+            let sig = |v: f64| fmt_value(sig(v, d + 1));
+            let _ = write!(s, "mean input power {} W", sig(g.mean_power));
             if !g.input_ledger.is_empty() {
-                let shares: Vec<String> =
-                    g.input_ledger.iter().map(|(n, p)| format!("{n} {} W", fmt_value(sig(*p)))).collect();
+                let shares: Vec<String> = g.input_ledger.iter().map(|(n, p)| format!("{n} {} W", sig(*p))).collect();
                 let _ = write!(s, " ({})", shares.join(", "));
             }
             if g.efficiency.is_finite() {
-                let _ = write!(s, ", efficiency {} m/J", fmt_value(sig(g.efficiency)));
+                let _ = write!(s, ", efficiency {} m/J", sig(g.efficiency));
             }
             s.push('\n');
             for (j, param) in g.parameters.iter().enumerate() {
-                let rows: Vec<String> = (g.rows(j).into_iter())
-                    .filter(|(_, v)| v.is_finite())
-                    .map(|(what, v)| format!("d{what}/d{param} = {}", fmt_value(sig(v))))
-                    .collect();
+                let rows: Vec<(&str, f64)> = g.rows(j).into_iter().filter(|(_, v)| v.is_finite()).collect();
+                // at loose tolerances each to the digits of the row's largest
+                let scale = rows.iter().fold(0.0f64, |m, (_, v)| m.max(v.abs()));
+                let shown = |v: f64| if d < 6 { fmt_value(quantized(v, scale, d + 1)) } else { sig(v) };
+                let rows: Vec<String> =
+                    rows.into_iter().map(|(what, v)| format!("d{what}/d{param} = {}", shown(v))).collect();
                 let _ = writeln!(s, "at {param} = {}: {}", fmt_value(g.values[j]), rows.join(", "));
             }
         }
@@ -479,10 +483,23 @@ pub(super) fn summary(scene: &str, r: &AnalyzeReport) -> String {
     s
 }
 
-/// `v` to 7 significant digits.
-fn sig(v: f64) -> f64 {
+/// `v` rounded to a multiple of the unit of the `digits`-th significant
+/// digit of `scale` (a row's largest value): a value far below the scale
+/// (a derivative that the symmetry makes 0, at the integration's error)
+/// is written 0.
+fn quantized(v: f64, scale: f64, digits: usize) -> f64 {
+    if scale == 0.0 || !scale.is_finite() {
+        return v;
+    }
+    let unit = 10f64.powi(scale.log10().floor() as i32 - (digits.clamp(1, 7) as i32 - 1));
+    sig((v / unit).round() * unit, digits) + 0.0
+}
+
+/// `v` to `digits` significant digits (at most 7).
+fn sig(v: f64, digits: usize) -> f64 {
     if v == 0.0 || !v.is_finite() {
         return v;
     }
-    format!("{v:.6e}").parse().unwrap_or(v)
+    let d = digits.clamp(1, 7) - 1;
+    format!("{v:.d$e}").parse().unwrap_or(v)
 }
