@@ -89,7 +89,6 @@ macro_rules! with_stepper {
         use $crate::integrator::{Dop853, Dopri5, Embedded, Euler, Fixed, Rk4};
         use $crate::settings::Method;
         let (n, tol) = ($n, $tol);
-        let _ = tol;
         match $method {
             Method::Euler => {
                 let $s = &mut Fixed::new(Euler::new(n), n);

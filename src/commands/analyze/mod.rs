@@ -329,17 +329,19 @@ fn analyze_model<M: Model>(proto: &M, scene: &Scene, opts: &AnalyzeOptions) -> R
     )?;
     let coords = an.dynamics().info.coords.clone();
     let Log { timings, mut notes } = log;
-    let decimals = orbit_decimals(periodic_settings(ro).newton_tolerance);
-    notes.extend(loose_note(ro, decimals, periodic.is_some()));
+    let (decimals, loose) = orbit_precision(ro, periodic.is_some());
+    notes.extend(loose);
     Ok(AnalyzeReport { symmetry, coords, steady, periodic, gait, growth, files, timings, notes, decimals })
 }
 
-/// The note that a periodic orbit's numbers are printed to the
-/// `decimals` its period map's tolerances hold, where `--rtol`/`--atol`
-/// loosened them below the six of the defaults.
-fn loose_note(ro: &RunOptions, decimals: usize, orbit: bool) -> Option<String> {
-    (orbit && decimals < 6).then(|| {
-        let ps = periodic_settings(ro);
+/// The decimals a periodic orbit's numbers hold at the period map's
+/// settings ([`orbit_decimals`]), and the note that they are printed to
+/// them where `--rtol`/`--atol` loosened those below the six of the
+/// defaults (for a scene with an orbit).
+fn orbit_precision(ro: &RunOptions, orbit: bool) -> (usize, Option<String>) {
+    let ps = periodic_settings(ro);
+    let decimals = orbit_decimals(ps.newton_tolerance);
+    let note = (orbit && decimals < 6).then(|| {
         format!(
             "the period map is integrated at rtol {:e}, atol {:e} and its Newton iteration stops at {:e} (the defaults: 1e-11 and 1e-9): the orbit's numbers are printed to the {decimals} decimals they hold (its power and efficiency to {digits} significant digits, each derivative to {digits} of its row's largest), and its CSV files carry more digits than that",
             ps.tolerance.rtol,
@@ -347,7 +349,8 @@ fn loose_note(ro: &RunOptions, decimals: usize, orbit: bool) -> Option<String> {
             ps.newton_tolerance,
             digits = decimals + 1
         )
-    })
+    });
+    (decimals, note)
 }
 
 /// Refuses `--energy` where it cannot be honoured: a scene forced
