@@ -154,7 +154,9 @@ impl<M: Model> Integrand<M> for Dae {
 }
 
 impl<M: Model> Integrand<M> for Reduced {
-    #[inline]
+    // into the stepper's stage loop, as `Reduced::eval` means its fused
+    // path to be (with `#[inline]` alone it stayed a call of its own)
+    #[inline(always)]
     fn eval(&mut self, sys: &mut Dynamics<M>, t: f64, x: &[f64], dx: &mut [f64]) -> Result<(), SimError> {
         Reduced::eval(self, sys, t, x, dx)
     }
