@@ -431,18 +431,32 @@ impl<M: Model> Dynamics<M> {
         apply_effects(&self.effects, &ws.waves, t, q, qd, &mut ws.f, power)
     }
 
+    /// Whether every effect is a hinge law (or there is none): the fused
+    /// right-hand side then takes them as the hinges' torques
+    /// ([`Dynamics::minimal_rhs`]).
+    pub(crate) fn hinges_only(&self) -> bool {
+        hinges_only(&self.effects)
+    }
+
     /// The right-hand side on the model's minimal coordinates in one pass
     /// ([`Model::minimal_rhs`] with the constants `k` of
     /// [`Model::minimal_constants`]): from the reduced state `z = [p, u,
     /// W]` at `t`, the full `q, qd` into `y[..2 nq]` (the work states
     /// untouched) and `dz = [pd, u', P]` (the effects' powers last). With
     /// `lean` (a stage, whose full state no one reads), `y` may keep only
-    /// the headings ([`Model::minimal_rhs_lean`]).
+    /// the headings ([`Model::minimal_rhs_lean`]). `hinges_only`: every
+    /// effect is a hinge law, or there is none ([`Dynamics::hinges_only`],
+    /// asked once by the caller: a run switches its effects on and off,
+    /// never changes their laws).
     ///
     /// # Errors
     /// [`SimError::EffectFailed`] if an effect gives no force at a finite
     /// state; [`SimError::Formulation`] if Maggi's `B^T M B` cannot be
     /// factored.
+    #[expect(
+        clippy::too_many_arguments,
+        reason = "a stage's evaluation takes its state as flat borrowed slices: no struct is built per call"
+    )]
     #[inline(always)]
     pub(crate) fn minimal_rhs(
         &mut self,
@@ -452,11 +466,11 @@ impl<M: Model> Dynamics<M> {
         y: &mut [f64],
         dz: &mut [f64],
         lean: bool,
+        hinges_only: bool,
     ) -> Result<(), SimError> {
         let nq = self.nq();
         // a scene whose effects are all hinge torques (or none) hands them
         // over as such (`waves` empty): see `Model::minimal_rhs_effects`
-        let hinges_only = hinges_only(&self.effects);
         if !hinges_only {
             self.refresh_waveforms_outlined(t);
         }

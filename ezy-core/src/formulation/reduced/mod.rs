@@ -206,6 +206,11 @@ struct Minimal {
     /// [`Model::minimal_state`], so that a dense-output sample's
     /// expansion can wait for the output ([`Reduced::sample_places`]).
     state_only: bool,
+    /// Whether every effect is a hinge law, or there is none
+    /// ([`Dynamics::hinges_only`]): asked once, when the formulation is
+    /// built for a run, which switches effects on and off but never
+    /// changes their laws.
+    hinges_only: bool,
 }
 
 impl Reduced {
@@ -352,6 +357,7 @@ impl Reduced {
                 dz: vec![0.0; y.len() - nh - nc],
                 dz_cached: false,
                 state_only: false,
+                hinges_only: sys.hinges_only(),
             }),
             ..Self::with_partition(partition, (nq, nh, nc), y)
         };
@@ -767,7 +773,7 @@ impl Reduced {
         let m = self.minimal.as_mut().expect("minimal path");
         self.expanded_t = f64::NAN;
         m.dz_cached = false;
-        sys.minimal_rhs(t, m.constants.as_deref().expect("fused path"), z, &mut self.y, dz, lean)
+        sys.minimal_rhs(t, m.constants.as_deref().expect("fused path"), z, &mut self.y, dz, lean, m.hinges_only)
     }
 
     /// Lets the stages' evaluations on the fused path leave the full
