@@ -13,7 +13,8 @@ use crate::integrator::Rhs;
 use crate::integrator::radau5::NewtonSystem;
 use crate::model::Model;
 use crate::simulate::observer::{Observer, RunError};
-use crate::simulate::run::{Pending, Run};
+use crate::settings::ProjectionKind;
+use crate::simulate::run::{Pending, Run, first_non_finite};
 
 /// What the step loop integrates, `x' = F(t, x)`: the DAE's full state
 /// ([`Dae`]: `x = y`, projected after each step) or the reduced one
@@ -170,12 +171,16 @@ impl<M: Model> Integrand<M> for Reduced {
         h: f64,
         evaluated: bool,
     ) -> Result<bool, SimError> {
-        if let Some(k) = x.iter().position(|v| !v.is_finite()) {
+        if let Some(k) = first_non_finite(x) {
             let quantity = format!("the state component `{}`", self.state_name(sys, k));
             let advice = run.advice(t, h);
             return Err(SimError::NonFinite { t, quantity, value: x[k], dt: h, advice });
         }
         Reduced::accept(self, sys, t_new, x, evaluated)?;
+        if run.settings.projection == ProjectionKind::None {
+            // nothing projects it: the checks read the accepted state in place
+            return run.after_step(sys, t, t_new, self.accepted_mut(), h).map(|_| false);
+        }
         let mut full = std::mem::take(&mut self.scratch);
         full.clear();
         full.extend_from_slice(self.accepted());

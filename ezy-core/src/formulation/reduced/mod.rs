@@ -840,6 +840,14 @@ impl Reduced {
         &self.y_accepted
     }
 
+    /// [`Reduced::accepted`] for a run's checks of the accepted state
+    /// ([`crate::simulate`]'s `Run::after_step`), which change it only
+    /// where they project it: never on this formulation, whose run has
+    /// no projection.
+    pub(crate) fn accepted_mut(&mut self) -> &mut [f64] {
+        &mut self.y_accepted
+    }
+
     /// After the accepted state's outputs: when a pivot ratio of `C_D` or
     /// `G_D` there fell below a tenth of its value at the partition's
     /// choice, a new partition at that state, and `z` rewritten in it.
