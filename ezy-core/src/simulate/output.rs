@@ -70,14 +70,33 @@ impl<'a, M: Model, O: Observer<M>> Run<'a, M, O> {
             kind => kind,
         };
         self.pending_kind.push(kind);
-        self.pending.push(t);
-        let start = self.pending.len();
-        self.pending.resize(start + ny, 0.0);
-        fill(&mut self.pending[start..]);
-        if self.pending.len() + ny + 1 > self.pending.capacity() {
+        let (start, end) = (self.pending_len, self.pending_len + ny + 1);
+        if end > self.pending.len() {
+            // more room (cold: in the first batch only)
+            self.grow_pending(end);
+        }
+        let row = &mut self.pending[start..end];
+        row[0] = t;
+        // `fill` writes the row's numbers over the last batch's (a
+        // minimal-coordinate row only its first `z.len()`: `flush` places
+        // them in a zeroed row)
+        fill(&mut row[1..]);
+        self.pending_len = end;
+        if end + ny + 1 > self.pending.capacity() {
             self.flush(sys)?;
         }
         Ok(())
+    }
+
+    /// Room for the queued rows up to `end` entries, zeroed: twice the
+    /// room there was, up to the queue's capacity (a run that outputs a
+    /// few rows zeroes only them; one that fills the queue grows it a
+    /// few times, in its first batch).
+    #[cold]
+    #[inline(never)]
+    fn grow_pending(&mut self, end: usize) {
+        let room = (2 * self.pending.len()).min(self.pending.capacity()).max(end);
+        self.pending.resize(room, 0.0);
     }
 
     /// Where `red`'s deferred dense-output samples go in the full state
@@ -94,7 +113,7 @@ impl<'a, M: Model, O: Observer<M>> Run<'a, M, O> {
     /// energy, work and residuals (computed here, once per sample, off the
     /// step loop). Its time is left out of the integration time.
     pub(super) fn flush(&mut self, sys: &Dynamics<M>) -> Result<(), RunError<O::Error>> {
-        if self.pending.is_empty() {
+        if self.pending_len == 0 {
             return Ok(());
         }
         let clock = Instant::now();
@@ -103,7 +122,7 @@ impl<'a, M: Model, O: Observer<M>> Run<'a, M, O> {
         let places = std::mem::take(&mut self.sample_places);
         let mut z = std::mem::take(&mut self.sample_z);
         z.resize(places.len(), 0.0);
-        let res = pending.chunks_exact_mut(sys.ny() + 1).zip(&kinds).try_for_each(|(row, &kind)| {
+        let res = pending[..self.pending_len].chunks_exact_mut(sys.ny() + 1).zip(&kinds).try_for_each(|(row, &kind)| {
             let (t, y) = row.split_first_mut().expect("a row holds its time");
             match kind {
                 Pending::Ready => return self.observe(sys, *t, y),
@@ -145,7 +164,7 @@ impl<'a, M: Model, O: Observer<M>> Run<'a, M, O> {
             self.deliver(sys, *t, y, [kinetic, work, report.residual_position, rv])
         });
         self.pending = pending;
-        self.pending.clear();
+        self.pending_len = 0;
         self.pending_kind = kinds;
         self.pending_kind.clear();
         self.sample_places = places;

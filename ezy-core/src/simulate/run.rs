@@ -157,8 +157,11 @@ pub(super) struct Run<'a, M: Model, O: Observer<M>> {
     pub(super) t_start: f64,
     pub(super) summary: Summary,
     pub(super) output_time: Duration,
-    /// Samples `(t, y)` not yet observed, row after row.
+    /// Samples `(t, y)` not yet observed, row after row: the first
+    /// `pending_len` entries; the rest is room for more rows (written in
+    /// place, so that queueing a row writes only its numbers).
     pub(super) pending: Vec<f64>,
+    pub(super) pending_len: usize,
     /// For each of them: what is left to do before it is observed.
     pub(super) pending_kind: Vec<Pending>,
     /// Where a [`Pending::Expand`] row's integrator state goes in the full
@@ -246,6 +249,7 @@ impl<'a, M: Model, O: Observer<M>> Run<'a, M, O> {
                 ..SingularTrack::default()
             },
             pending: Vec::with_capacity(pending_rows(y0.len()) * (y0.len() + 1)),
+            pending_len: 0,
             pending_kind: Vec::with_capacity(pending_rows(y0.len())),
             sample_places: Vec::new(),
             sample_z: Vec::new(),
