@@ -431,8 +431,7 @@ fn prepare_dense_len<const N: usize, R: Rhs>(
     cut!(n; mut k6, k7, k8, k9, k10, k11, k12);
     let [k14, k15, k16] = kd;
     cut!(n; mut k14, k15, k16);
-    let [r1, r2, r3, r4, r5, r6, r7, r8] = cont;
-    cut!(n; mut r1, r2, r3, r4, r5, r6, r7, r8);
+    let [r1, r2, r3, r4, r5, r6, r7, r8] = rows_mut(&mut cont[..8 * n], n);
     let (tmp, y, k1, y_new, k13) = (&mut tmp[..n], &y[..n], &k1[..n], &y_new[..n], &k13[..n]);
     stage_arg!(tmp, y, h, [A141, A147, A148, A149, A1410, A1411, A1412, A1413], [k1, k7, k8, k9, k10, k11, k12, k13],);
     rhs.eval(t + C14 * h, tmp, k14)?;
@@ -445,14 +444,36 @@ fn prepare_dense_len<const N: usize, R: Rhs>(
     Ok(())
 }
 
-/// [`EmbeddedRk::interpolate`] of [`Dop853`] from its coefficients `cont`
-/// on a state of length `N` (as [`attempt_len`]).
+/// The eight rows of length `n` of the dense output's coefficients
+/// `cont` (8 n long), HNW's `rcont1..8`.
 #[inline(always)]
-fn interpolate_len<const N: usize>(cont: &[Vec<f64>; 8], theta: f64, out: &mut [f64]) {
+fn rows_mut(cont: &mut [f64], n: usize) -> [&mut [f64]; 8] {
+    let (r1, c) = cont.split_at_mut(n);
+    let (r2, c) = c.split_at_mut(n);
+    let (r3, c) = c.split_at_mut(n);
+    let (r4, c) = c.split_at_mut(n);
+    let (r5, c) = c.split_at_mut(n);
+    let (r6, c) = c.split_at_mut(n);
+    let (r7, r8) = c.split_at_mut(n);
+    [r1, r2, r3, r4, r5, r6, r7, &mut r8[..n]]
+}
+
+/// [`EmbeddedRk::interpolate`] of [`Dop853`] from its coefficients `cont`
+/// on a state of length `N` (as [`attempt_len`]): the eight rows cut from
+/// one buffer with one bounds check (each sample's, where eight buffers
+/// took eight).
+#[inline(always)]
+fn interpolate_len<const N: usize>(cont: &[f64], theta: f64, out: &mut [f64]) {
     let n = state_len::<N>(out.len());
     let out = &mut out[..n];
-    let [r1, r2, r3, r4, r5, r6, r7, r8] = cont;
-    cut!(n; r1, r2, r3, r4, r5, r6, r7, r8);
+    let c = &cont[..8 * n];
+    let (r1, c) = c.split_at(n);
+    let (r2, c) = c.split_at(n);
+    let (r3, c) = c.split_at(n);
+    let (r4, c) = c.split_at(n);
+    let (r5, c) = c.split_at(n);
+    let (r6, c) = c.split_at(n);
+    let (r7, r8) = c.split_at(n);
     let s = theta;
     let s1 = 1.0 - s;
     for i in 0..n {
@@ -470,8 +491,9 @@ pub struct Dop853 {
     kd: [Vec<f64>; 3],
     /// Stage argument.
     tmp: Vec<f64>,
-    /// Dense output coefficients, HNW's `rcont1..8`.
-    cont: [Vec<f64>; 8],
+    /// Dense output coefficients, HNW's `rcont1..8`, one row of `ny`
+    /// after the other.
+    cont: Vec<f64>,
 }
 
 impl EmbeddedRk for Dop853 {
@@ -493,12 +515,7 @@ impl EmbeddedRk for Dop853 {
 
     fn new(ny: usize) -> Self {
         let v = || vec![0.0; ny];
-        Self {
-            k: std::array::from_fn(|_| v()),
-            kd: std::array::from_fn(|_| v()),
-            tmp: v(),
-            cont: std::array::from_fn(|_| v()),
-        }
+        Self { k: std::array::from_fn(|_| v()), kd: std::array::from_fn(|_| v()), tmp: v(), cont: vec![0.0; 8 * ny] }
     }
 
     fn attempt<R: Rhs>(
@@ -898,7 +915,7 @@ mod tests {
                     interpolate_len::<0>(&s.cont, 0.37, &mut out);
                 }
                 let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
-                (err.to_bits(), bits(&y_new), bits(&out), s.cont.iter().map(|c| bits(c)).collect::<Vec<_>>())
+                (err.to_bits(), bits(&y_new), bits(&out), bits(&s.cont))
             };
             let (fixed, dynamic) = (run(true), run(false));
             assert_eq!(fixed, dynamic, "length {n}");
