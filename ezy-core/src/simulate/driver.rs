@@ -485,7 +485,8 @@ impl Schedule {
     fn inside<M: Model, O: Observer<M>>(&self, run: &Run<'_, M, O>, t_new: f64) -> bool {
         match *self {
             Schedule::Grid { .. } => false,
-            Schedule::Dense { n_out, .. } => run.output_inside(n_out, t_new),
+            // most steps hold no output: that test inline, the search not
+            Schedule::Dense { n_out, .. } => run.output_due(n_out, t_new) && run.output_inside(n_out, t_new),
         }
     }
 

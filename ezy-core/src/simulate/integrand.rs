@@ -12,8 +12,8 @@ use crate::formulation::reduced::Reduced;
 use crate::integrator::Rhs;
 use crate::integrator::radau5::NewtonSystem;
 use crate::model::Model;
-use crate::simulate::observer::{Observer, RunError};
 use crate::settings::ProjectionKind;
+use crate::simulate::observer::{Observer, RunError};
 use crate::simulate::run::{Pending, Run, first_non_finite};
 
 /// What the step loop integrates, `x' = F(t, x)`: the DAE's full state
@@ -222,6 +222,8 @@ impl<M: Model> Integrand<M> for Reduced {
         self.scratch = z;
         res
     }
+    // the test of every step in the step loop; a new partition out of line
+    #[inline]
     fn settle(&mut self, sys: &Dynamics<M>, t: f64, x: &mut [f64]) -> Result<bool, SimError> {
         self.repartition(sys, t, x)
     }

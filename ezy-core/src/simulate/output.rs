@@ -122,7 +122,8 @@ impl<'a, M: Model, O: Observer<M>> Run<'a, M, O> {
         let places = std::mem::take(&mut self.sample_places);
         let mut z = std::mem::take(&mut self.sample_z);
         z.resize(places.len(), 0.0);
-        let res = pending[..self.pending_len].chunks_exact_mut(sys.ny() + 1).zip(&kinds).try_for_each(|(row, &kind)| {
+        let rows = &mut pending[..self.pending_len];
+        let res = rows.chunks_exact_mut(sys.ny() + 1).zip(&kinds).try_for_each(|(row, &kind)| {
             let (t, y) = row.split_first_mut().expect("a row holds its time");
             match kind {
                 Pending::Ready => return self.observe(sys, *t, y),
@@ -265,6 +266,7 @@ impl<'a, M: Model, O: Observer<M>> Run<'a, M, O> {
     }
 
     /// Whether output number `n_out` is due in a step ending at `t_new`.
+    #[inline]
     pub(super) fn output_due(&self, n_out: u64, t_new: f64) -> bool {
         n_out as f64 * self.settings.every <= self.settings.t_end * (1.0 + 1e-12) && self.out_time(n_out) <= t_new
     }

@@ -461,6 +461,7 @@ impl<'a, M: Model, O: Observer<M>> Run<'a, M, O> {
     /// run's own time scale for runs shorter than a second (a 1e-15 s run
     /// is not stiff), which stops the run: with `stage_failure`, an
     /// effect that failed at every step size, as the cause.
+    #[inline]
     pub(super) fn begin_attempt(
         &self,
         t: f64,
@@ -472,14 +473,7 @@ impl<'a, M: Model, O: Observer<M>> Run<'a, M, O> {
         if let Some(max) = settings.max_steps
             && attempts >= max
         {
-            let estimate = if t > 0.0 { attempts as f64 * settings.t_end / t } else { f64::INFINITY };
-            return Err(SimError::Budget {
-                what: "steps",
-                estimate,
-                limit: max as f64,
-                setting: crate::settings::Setting::MaxSteps,
-                detail: format!("extrapolated from {attempts} step attempts to t = {t:.6e} s of {} s", settings.t_end),
-            });
+            return Err(self.over_budget(t, attempts, max));
         }
         let last = t + *h >= settings.t_end * (1.0 - 1e-15);
         if last {
@@ -489,6 +483,22 @@ impl<'a, M: Model, O: Observer<M>> Run<'a, M, O> {
             return Err(stage_failure.take().unwrap_or(SimError::StepSizeTooSmall { t, h: *h }));
         }
         Ok(last)
+    }
+
+    /// The error of [`Run::begin_attempt`] at `t` once `attempts` reached
+    /// the step budget `max`.
+    #[cold]
+    #[inline(never)]
+    fn over_budget(&self, t: f64, attempts: u64, max: u64) -> SimError {
+        let settings = self.settings;
+        let estimate = if t > 0.0 { attempts as f64 * settings.t_end / t } else { f64::INFINITY };
+        SimError::Budget {
+            what: "steps",
+            estimate,
+            limit: max as f64,
+            setting: crate::settings::Setting::MaxSteps,
+            detail: format!("extrapolated from {attempts} step attempts to t = {t:.6e} s of {} s", settings.t_end),
+        }
     }
 
     /// Hands the run over to the DAE at `t` (`why`): its settings and a

@@ -855,11 +855,22 @@ impl Reduced {
     ///
     /// # Errors
     /// As [`Reduced::new`].
+    #[inline]
     pub fn repartition<M: Model>(&mut self, sys: &Dynamics<M>, t: f64, z: &mut [f64]) -> Result<bool, SimError> {
         let [c, g] = self.quality_accepted;
         if c >= DEGRADE * self.quality0[0] && g >= DEGRADE * self.quality0[1] {
             return Ok(false);
         }
+        self.choose_again(sys, t, z)
+    }
+
+    /// [`Reduced::repartition`] once its pivots fell: the new partition.
+    ///
+    /// # Errors
+    /// As [`Reduced::new`].
+    #[cold]
+    #[inline(never)]
+    fn choose_again<M: Model>(&mut self, sys: &Dynamics<M>, t: f64, z: &mut [f64]) -> Result<bool, SimError> {
         let y = self.y_accepted.clone();
         self.choose(sys, t, &y)?;
         self.gather(&y, z);
