@@ -98,6 +98,7 @@ impl Residuals {
 /// vector registers), the search only where that pass found one. The
 /// check of every accepted state, about half the instructions of a
 /// search that tests each component in turn.
+#[expect(clippy::eq_op, reason = "`x - x` is the test: 0 for a finite `x`, NaN for any other")]
 #[inline]
 pub(super) fn first_non_finite(v: &[f64]) -> Option<usize> {
     let mut lanes = [0.0f64; 4];
