@@ -90,8 +90,8 @@ fn a_name_given_twice_in_a_repeatable_flag_is_refused() {
 }
 
 /// A command refused after it took its output directory's lock (the
-/// request checked against the scene: a method a sensitivity run does
-/// not take, a motion on which a skate slides) leaves no directory
+/// request checked against the scene: a formulation a sensitivity run
+/// does not take, a motion on which a skate slides) leaves no directory
 /// behind: it was an empty directory holding `.ezy.lock`.
 #[test]
 fn a_refusal_after_the_lock_leaves_no_directory() {
@@ -99,7 +99,7 @@ fn a_refusal_after_the_lock_leaves_no_directory() {
     let out = root.path().join("new/out");
     let o = s(&out);
     let cases: &[(&[&str], &str)] = &[
-        (&["sensitivity", "drive", "--wrt", "M0", "--integrator", "radau5"], "radau5 is not supported"),
+        (&["sensitivity", "drive", "--wrt", "M0", "--formulation", "reduced"], "DAE formulation only"),
         (&["analyze", "drive-slip", "--no-figures"], "skate `C` slides"),
     ];
     for (args, needle) in cases {

@@ -212,9 +212,18 @@ fn bad_requests_are_refused_naming_the_culprit() {
     assert!(err(&problem, &["m9"]).contains("m9"), "{}", err(&problem, &["m9"]));
     assert!(err(&problem, &["m1", "m1"]).contains("named twice"));
     assert!(err(&problem, &["initial.qd.nope"]).contains("nope"));
+    // RADAU5 takes the sensitivities (its Newton systems dense): not past
+    // 1000 states, 2 nq (1 + np) = 12 x 84 here
     let radau =
         Problem { settings: ezy_core::RunSettings { method: Method::Radau5, ..problem.settings }, ..problem.clone() };
-    assert!(err(&radau, &["m1"]).contains("radau5"));
+    let many: Vec<Parameter<EzyRoller>> = (0..83)
+        .map(|k| {
+            let base = radau.clone();
+            Parameter::new(format!("p{k}"), 1.0, move |_| Ok(base.clone()))
+        })
+        .collect();
+    let e = radau.sensitivities_with(&many).unwrap_err().to_string();
+    assert!(e.contains("radau5") && e.contains("1008 states") && e.contains("1000"), "{e}");
     let reduced = Problem {
         settings: ezy_core::RunSettings { formulation: ezy_core::Formulation::Reduced, ..problem.settings },
         ..problem.clone()

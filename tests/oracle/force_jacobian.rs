@@ -169,6 +169,7 @@ fn every_built_in_law_matches_differences_of_its_force() {
     let mut rng = common::rng(68);
     // per effect: the largest relative error, with its error and scale
     let mut worst: Vec<(f64, f64, f64)> = vec![(0.0, 0.0, 0.0); effects.len()];
+    let mut time_only = std::collections::BTreeSet::new();
     let mut states = 0;
     while states < 40 {
         let (q, qd) = common::random_state_n(6, &mut rng);
@@ -179,6 +180,12 @@ fn every_built_in_law_matches_differences_of_its_force() {
         let t = rng.random_range(0.0..2.0);
         for (e, w) in effects.iter().zip(&mut worst) {
             let (err, scale) = error(e, t, &q, &qd);
+            // a law that says its force depends on time alone (which the
+            // sensitivities then skip): both Jacobians 0, exactly
+            if e.law.as_force_law().time_only() {
+                assert_eq!(scale, 0.0, "{}: time_only, but its force moves with the state", e.name);
+                time_only.insert(e.name.clone());
+            }
             assert!(
                 err <= RTOL * scale,
                 "{}: exact and differenced Jacobians differ by {err:e} (scale {scale:e})",
@@ -193,6 +200,8 @@ fn every_built_in_law_matches_differences_of_its_force() {
     for (e, (rel, err, scale)) in effects.iter().zip(&worst) {
         eprintln!("{:>24}: max |exact - differences| {err:.1e}, relative {rel:.1e} (scale {scale:.2e})", e.name);
     }
+    // the motors, a body torque and a field say so (the flag is not idle)
+    assert!(time_only.len() >= 3, "time_only laws: {time_only:?}");
 }
 
 /// The laws that are not smooth everywhere, at their corners: the hinge

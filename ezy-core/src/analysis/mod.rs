@@ -499,20 +499,28 @@ impl<M: Model> Analysis<M> {
     /// [`Analysis::constraint_residual`] of a state known to fit.
     pub(crate) fn residual_at(&self, t: f64, x: &[f64]) -> Vec<f64> {
         let info = &self.sys.info;
-        let (nq, nh, nc) = (self.nq(), info.n_holonomic, info.nc());
+        let mut out = vec![0.0; info.n_holonomic + info.nc()];
+        self.residual_into(t, x, &mut vec![0.0; info.pattern.len()], &mut out);
+        out
+    }
+
+    /// [`Analysis::residual_at`] into `out` (nh + nc), `values` scratch
+    /// for `G` at its pattern: allocates nothing.
+    pub(crate) fn residual_into(&self, t: f64, x: &[f64], values: &mut [f64], out: &mut [f64]) {
+        let info = &self.sys.info;
+        let (nq, nh) = (self.nq(), info.n_holonomic);
         let (q, qd) = (&x[..nq], &x[nq..2 * nq]);
-        let mut phi = vec![0.0; nh];
-        self.sys.model.phi(q, &mut phi);
-        crate::drive::shift_positions(&self.sys.drives, t, &mut phi);
-        let mut values = vec![0.0; info.pattern.len()];
-        self.sys.model.constraint_matrix(q, &mut values);
-        let mut v = vec![0.0; nc];
-        for (&(r, c), &g) in info.pattern.iter().zip(&values) {
+        let (phi, v) = out.split_at_mut(nh);
+        phi.fill(0.0);
+        values.fill(0.0);
+        self.sys.model.phi(q, phi);
+        crate::drive::shift_positions(&self.sys.drives, t, phi);
+        self.sys.model.constraint_matrix(q, values);
+        v.fill(0.0);
+        for (&(r, c), &g) in info.pattern.iter().zip(values.iter()) {
             v[r] += g * qd[c];
         }
-        crate::drive::shift_velocities(&self.sys.drives, t, &mut v);
-        phi.extend(v);
-        phi
+        crate::drive::shift_velocities(&self.sys.drives, t, v);
     }
 
     /// The rate in time of [`Analysis::residual_at`] at a fixed state

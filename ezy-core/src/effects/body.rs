@@ -256,6 +256,10 @@ impl ForceLaw for BodyLaw {
         true
     }
 
+    fn time_only(&self) -> bool {
+        matches!(self, BodyLaw::Torque { .. } | BodyLaw::Field { .. })
+    }
+
     fn coords(&self) -> Vec<usize> {
         match self {
             BodyLaw::Force { body, .. } => body.to_vec(),

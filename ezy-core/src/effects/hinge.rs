@@ -288,6 +288,10 @@ impl ForceLaw for HingeLaw {
         super::kind::NOT_A_NUMBER.into()
     }
 
+    fn time_only(&self) -> bool {
+        matches!(self.torque, HingeTorque::Motor(_))
+    }
+
     fn periodicity(&self) -> Option<Periodicity> {
         Some(match &self.torque {
             HingeTorque::Motor(w) | HingeTorque::Servo { angle: w, .. } => w.periodicity(),

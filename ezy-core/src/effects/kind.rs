@@ -175,6 +175,16 @@ pub trait ForceLaw: Send + Sync + fmt::Debug + 'static {
         false
     }
 
+    /// Whether the force depends on time alone, at every state the same (a
+    /// motor's torque `w(t)`, a torque on a body, a uniform field): its
+    /// Jacobian is zero everywhere, and the forward sensitivities
+    /// ([`crate::sensitivity`]) neither take it nor difference the force
+    /// along `S`. The default: `false`. A law that says `true` adds
+    /// nothing in [`ForceLaw::jacobian`].
+    fn time_only(&self) -> bool {
+        false
+    }
+
     /// How the force depends on time at a fixed state (constant, periodic
     /// with a period \[s\], or neither), for the analyses' forcing; `None`
     /// (the default) when ezy cannot see into the law.

@@ -500,29 +500,6 @@ impl<M: Model> Dynamics<M> {
         &self.ws.waves
     }
 
-    /// [`Dynamics::applied_forces`] with the waveforms' values `waves`
-    /// given (one per effect) instead of the effects' own at `t`: the
-    /// forward sensitivities' right-hand side at a nearby parameter value
-    /// with its waveforms linearized ([`crate::effects::Law::waveforms_toward`]).
-    ///
-    /// # Errors
-    /// As [`Dynamics::applied_forces`].
-    pub(crate) fn applied_forces_with(
-        &mut self,
-        t: f64,
-        q: &[f64],
-        qd: &[f64],
-        waves: &[crate::effects::kind::Waveforms],
-        power: &mut [f64],
-    ) -> Result<(), SimError> {
-        if self.effects.is_empty() {
-            return Ok(());
-        }
-        let ws = &mut self.ws;
-        ws.f.fill(0.0);
-        apply_effects(&self.effects, waves, t, q, qd, &mut ws.f, power)
-    }
-
     /// The generalized applied force `f` (nq) \[N, N m\] of the last
     /// [`Dynamics::rhs`] or [`Dynamics::applied_forces`] call (zero without
     /// effects).

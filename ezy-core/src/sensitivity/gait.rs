@@ -124,7 +124,8 @@ impl<M: Model> Stencil<M> {
             touches: Default::default(),
             derivative: Derivative::InitialOnly,
             x0,
-            waves: Vec::new(),
+            changed: Vec::new(),
+            f: Vec::new(),
         }
     }
 }
@@ -237,8 +238,9 @@ impl<M: Model> Problem<M> {
         let dr: Vec<Vec<f64>> = stencils
             .iter()
             .map(|st| {
-                let mut out = vec![0.0; base_r.len()];
-                st.add_residual(&base, start, &x0, &base_r, &mut out);
+                let (mut out, mut node_r) = (vec![0.0; base_r.len()], vec![0.0; base_r.len()]);
+                let mut values = vec![0.0; base.dynamics().info.pattern.len()];
+                st.add_residual(&base, start, &x0, &base_r, (&mut values, &mut node_r), &mut out);
                 out
             })
             .collect();

@@ -25,11 +25,14 @@
 //!   ([`crate::effects::ForceLaw::jacobian`]; every built-in law has
 //!   one), central differences of its force alone for a law of the
 //!   user's own without one (step `eps^(1/3) max(1, |x_j|)`, error about
-//!   1e-10 relative).
+//!   1e-10 relative); none of a law whose force depends on time alone
+//!   ([`crate::effects::ForceLaw::time_only`]: a motor's torque).
 //! - `df/dp` (a parameter's direct effect on the masses, the constraints,
 //!   the forces and the drives) is a central difference of the right-hand
 //!   side between the problems built at `p +- h`, `h = eps^(1/3) max(1,
-//!   |p|)`, at the same state (never a difference of whole runs); where
+//!   |p|)`, at the same state (never a difference of whole runs): of the
+//!   forces, only the effects the parameter changes (an effect the same in
+//!   every problem cancels exactly: a mass's column evaluates no force); where
 //!   `p - h` cannot be built (a damping of 0), a one-sided difference of
 //!   second order on `p`, `p + h`, `p + 2h`. [`Sensitivities::derivatives`]
 //!   says which for each parameter. The waveforms of the problems at
@@ -61,12 +64,26 @@
 //!   steps are differentiated to first order in the drift (the further
 //!   steps' multipliers are of its square).
 //!
-//! The sensitivities are integrated on the DAE formulation (the reduced
-//! one's dependent coordinates would add the derivative of their
-//! elimination), with RK4, DOPRI5 or DOP853; RADAU5 and the reduced
-//! formulation are refused by name. A scene with events (a switch or
-//! stop changes the motion where its time changes with `p`) is refused, as
-//! is a motion on which a skate with friction slides.
+//! The sensitivities are integrated on the DAE formulation with Euler,
+//! RK4, DOPRI5, DOP853 or RADAU5. RADAU5 takes `[x, S]` as one system:
+//! its simplified Newton iteration on the augmented right-hand side, whose
+//! Jacobian it takes by forward differences and factors dense (real and
+//! complex LU of `2 nq (1 + np)` rows, refused past 1000: choose DOP853);
+//! Newton converges to the same collocation solution whatever its
+//! Jacobian's error, so the sensitivities are the method's own, under the
+//! same error control as the state. The reduced formulation is refused by
+//! name: its steps on the independent coordinates (the dependent ones
+//! recovered from the constraints) are not differentiated, and the DAE's
+//! sensitivities would be another run's (for a fixed step, another
+//! discrete run's). A scene with events (a switch or stop changes the
+//! motion where its time changes with `p`) is refused, as is a motion on
+//! which a skate with friction slides.
+//!
+//! Per evaluation, each parameter costs a dual-number pass of the
+//! constraint terms, its `df/dp` (the effects it changes at `p +- h`, or
+//! the model's terms there), and one more KKT solve with the base's `G`;
+//! each step, the tangent projection of its column. Nothing is allocated
+//! per step but the samples kept (docs/dev/performance.md, "Sensitivities").
 
 pub(crate) mod gait;
 mod rhs;
@@ -279,8 +296,9 @@ impl<M: Model> Problem<M> {
     /// # Errors
     /// [`AnalysisError::Request`] for no parameters or more than
     /// [`MAX_PARAMETERS`], a name given twice, a non-finite value, a
-    /// parameter whose problems differ in size, RADAU5, the reduced
-    /// formulation, a scene with events, samples past
+    /// parameter whose problems differ in size, RADAU5 on more than 1000
+    /// states `2 nq (1 + np)`, the reduced formulation, a scene with
+    /// events, samples past
     /// [`Problem::max_output_mb`], or a skate with friction that slides;
     /// [`AnalysisError::Sim`] for a problem that cannot be built or a run
     /// that fails (a singular position, a step budget spent);

@@ -27,13 +27,15 @@ struct Scratch {
     gamma_f64: Vec<f64>,
     /// The parameters' direct change of the constraint residuals (nh + nc).
     dr: Vec<f64>,
+    /// The constraint residuals of the base problem and of one node at
+    /// the state projected (nh + nc each).
+    base_r: Vec<f64>,
+    node_r: Vec<f64>,
     /// `dG` at the pattern, `dgamma`, `dF`, `dM` of one parameter.
     dg: Vec<f64>,
     dgamma: Vec<f64>,
     df: Vec<f64>,
     dm: Vec<f64>,
-    /// The applied forces at the state evaluated (nq).
-    f0: Vec<f64>,
     /// The input power at the state evaluated, and its derivative along
     /// the column being evaluated \[W\].
     p0: f64,
@@ -49,10 +51,14 @@ struct Scratch {
     /// The actuators with their waveforms' values at the state's time
     /// (one per actuator, refilled at each evaluation without allocating).
     acts: Vec<(usize, crate::effects::kind::Waveforms)>,
-    /// The coordinates the effects' forces couple (the union of their
-    /// [`crate::effects::Effect::coords`]; all of them where a law is the
-    /// user's own): the rows and columns of `dF/dq` and `dF/dqd` that
-    /// can be nonzero.
+    /// Whether each effect's force depends on the state (not
+    /// [`crate::effects::ForceLaw::time_only`]): the effects whose
+    /// Jacobian is taken.
+    stateful: Vec<bool>,
+    /// The coordinates the stateful effects' forces couple (the union of
+    /// their [`crate::effects::Effect::coords`]; all of them where a law
+    /// is the user's own): the rows and columns of `dF/dq` and `dF/dqd`
+    /// that can be nonzero.
     coupled: Vec<usize>,
     power: Vec<f64>,
     /// The KKT right-hand side `[f; -gamma]` of one parameter and its solution.
@@ -96,6 +102,7 @@ impl<M: Model> Augmented<M> {
         let (nq, nc, nnz) = (sys.nq(), sys.info.nc(), sys.info.pattern.len());
         let z = |n: usize| vec![0.0; n];
         let d = |n: usize| vec![Dual64::from(0.0); n];
+        let stateful: Vec<bool> = sys.effects.iter().map(|e| !e.law.as_force_law().time_only()).collect();
         let ws = Scratch {
             y: z(sys.ny()),
             dy: z(sys.ny()),
@@ -107,11 +114,12 @@ impl<M: Model> Augmented<M> {
             gv_f64: z(nnz),
             gamma_f64: z(nc),
             dr: z(sys.info.n_holonomic + nc),
+            base_r: z(sys.info.n_holonomic + nc),
+            node_r: z(sys.info.n_holonomic + nc),
             dg: z(nnz),
             dgamma: z(nc),
             df: z(nq),
             dm: z(nq),
-            f0: z(nq),
             p0: 0.0,
             dp: 0.0,
             jq: z(nq * nq),
@@ -120,10 +128,12 @@ impl<M: Model> Augmented<M> {
             aqd: z(nq * nq),
             fa: z(nq),
             acts: Vec::new(),
+            stateful: stateful.clone(),
             coupled: if sys.effects.iter().any(|e| matches!(e.law, crate::effects::law::Law::User(_))) {
                 (0..nq).collect()
             } else {
-                let mut c: Vec<usize> = sys.effects.iter().flat_map(|e| e.coords()).collect();
+                let effects = sys.effects.iter().zip(&stateful).filter(|(_, s)| **s);
+                let mut c: Vec<usize> = effects.flat_map(|(e, _)| e.coords()).collect();
                 c.sort_unstable();
                 c.dedup();
                 c
@@ -212,20 +222,21 @@ impl<M: Model> Augmented<M> {
     /// law's exact Jacobian
     /// ([`crate::effects::ForceLaw::jacobian`]), central differences of
     /// its force alone for a law of the user's own without one
-    /// ([`Analysis::force_blocks`]).
+    /// ([`Analysis::force_blocks`]); none of a law whose force depends on
+    /// time alone ([`crate::effects::ForceLaw::time_only`]).
     fn force_jacobians(&mut self, t: f64, x: &[f64]) -> Result<(), AnalysisError> {
         let Self { base, ws, actuators, .. } = self;
-        if base.dynamics().effects.is_empty() {
+        if ws.coupled.is_empty() && actuators.is_empty() {
             return Ok(());
         }
         for b in [&mut ws.jq, &mut ws.jqd, &mut ws.aq, &mut ws.aqd] {
             b.fill(0.0);
         }
-        let acts: &[usize] = actuators;
-        base.force_blocks(t, x, &|k| !acts.contains(&k), &mut ws.jq, &mut ws.jqd)?;
+        let (acts, stateful): (&[usize], &[bool]) = (actuators, &ws.stateful);
+        base.force_blocks(t, x, &|k| stateful[k] && !acts.contains(&k), &mut ws.jq, &mut ws.jqd)?;
         ws.fa.fill(0.0);
         if !acts.is_empty() {
-            base.force_blocks(t, x, &|k| acts.contains(&k), &mut ws.aq, &mut ws.aqd)?;
+            base.force_blocks(t, x, &|k| stateful[k] && acts.contains(&k), &mut ws.aq, &mut ws.aqd)?;
             // the base's waveforms at t (its right-hand side just took them)
             ws.acts.clear();
             ws.acts.extend(acts.iter().map(|&k| (k, base.dynamics().waves()[k])));
@@ -281,7 +292,6 @@ impl<M: Model> Augmented<M> {
             let sys = self.base.dynamics_mut();
             sys.rhs(t, &self.ws.y, &mut self.ws.dy)?;
             self.ws.lambda.copy_from_slice(sys.lambda());
-            self.ws.f0.copy_from_slice(sys.applied_force());
         }
         let lambda = std::mem::take(&mut self.ws.lambda);
         self.base.note_grip(t, &lambda);
@@ -361,22 +371,15 @@ impl<M: Model> Augmented<M> {
     /// `dM/dp`, the drives') into the scratch at `(t, q, qd)`.
     fn parametric(&mut self, j: usize, t: f64, q: &[f64], qd: &[f64]) -> Result<(), AnalysisError> {
         let st = &self.stencils[j];
-        let (forces, model, drives) = (st.touches.model || st.touches.effects, st.touches.model, st.touches.drives);
+        let (forces, model, drives) = (st.touches.effects, st.touches.model, st.touches.drives);
         if !(forces || model || drives) {
             return Ok(());
         }
         let ws = &mut self.ws;
         let st = &mut self.stencils[j];
         if forces {
-            ws.dp += st.add_forces(
-                t,
-                q,
-                qd,
-                (&self.base.dynamics().effects, self.base.dynamics().waves(), &ws.f0, ws.p0),
-                &mut ws.df,
-                &mut ws.power,
-                &self.actuators,
-            )?;
+            let base = (&self.base.dynamics().effects[..], self.base.dynamics().waves());
+            ws.dp += st.add_forces(t, (q, qd), base, &mut ws.df, &self.actuators)?;
         }
         if model {
             let scratch = (&mut ws.gv_f64[..], &mut ws.gamma_f64[..]);
@@ -407,14 +410,16 @@ impl<M: Model> Augmented<M> {
         let n2 = 2 * nq;
         let (q, qd) = x.split_at(nq);
         let touches = self.stencils.iter().any(|st| st.touches.model || st.touches.drives);
-        let base_r = if touches { self.base.residual_at(t, x) } else { Vec::new() };
+        let Scratch { dr, base_r, node_r, qdual, gv, gv_f64, gamma_f64, dg: dg_p, dgamma, dm, .. } = &mut self.ws;
+        if touches {
+            self.base.residual_into(t, x, gv_f64, base_r);
+        }
         let sys = self.base.dynamics();
         let corrected = projector.corrected();
-        let Scratch { dr, qdual, gv, gv_f64, gamma_f64, dg: dg_p, dgamma, dm, .. } = &mut self.ws;
         for (j, st) in self.stencils.iter().enumerate() {
             let (sq, sqd) = s[j * n2..(j + 1) * n2].split_at_mut(nq);
             dr.fill(0.0);
-            st.add_residual(&self.base, t, x, &base_r, dr);
+            st.add_residual(&self.base, t, x, base_r, (gv_f64, node_r), dr);
             // the direct dG/dp and dM/dp, for the projection's curvature
             // (none where the projection made no step)
             let direct: (&[f64], &[f64]) = if st.touches.model && corrected {

@@ -14,6 +14,7 @@ use crate::analysis::AnalysisError;
 use crate::error::SimError;
 use crate::formulation::projection::Projector;
 use crate::integrator::adaptive::Tolerance;
+use crate::integrator::radau5::{DenseNewton, Radau5Stepper};
 use crate::integrator::stepper::{Control, Stepper, Trial};
 use crate::integrator::with_stepper;
 use crate::model::Model;
@@ -23,6 +24,14 @@ use crate::settings::{Formulation, Method, ProjectionKind, RunSettings};
 fn request(reason: String) -> AnalysisError {
     AnalysisError::Request { reason }
 }
+
+/// Most states `2 nq (1 + np)` a sensitivity run takes with RADAU5: its
+/// simplified Newton iteration factors the augmented system's Jacobian
+/// dense (real and complex LU, `O(n^3)` each, its forward differences
+/// `n` evaluations of the augmented right-hand side), as
+/// [`crate::kkt::DENSE_LU_MAX_ROWS`] bounds the KKT matrix's LU (24 MB
+/// of matrices at 1000 states).
+pub(crate) const RADAU5_MAX_STATES: usize = 1000;
 
 /// Refuses what a sensitivity run does not take, before any work.
 fn check_request<M: Model>(problem: &Problem<M>, params: &[Parameter<M>]) -> Result<(), AnalysisError> {
@@ -44,15 +53,18 @@ fn check_request<M: Model>(problem: &Problem<M>, params: &[Parameter<M>]) -> Res
         }
     }
     let s = &problem.settings;
-    if s.method == Method::Radau5 {
-        return Err(request(
-            "sensitivities are integrated with rk4, euler, dopri5 or dop853; radau5 is not supported yet (its Newton system would take the sensitivities' blocks): choose dop853".into(),
-        ));
-    }
     if s.formulation == Formulation::Reduced {
         return Err(request(
-            "sensitivities are integrated on the DAE formulation (the reduced one's eliminated coordinates would add their own derivative): set the formulation to `dae` or `auto`".into(),
+            "sensitivities are integrated on the DAE formulation only: the reduced formulation's steps (on its independent coordinates, the dependent ones recovered from the constraints) are not differentiated yet, and the DAE's sensitivities would be another run's; set the formulation to `dae` or `auto`".into(),
         ));
+    }
+    if s.method == Method::Radau5 {
+        let n = 2 * problem.model.info().nq() * (1 + params.len());
+        if n > RADAU5_MAX_STATES {
+            return Err(request(format!(
+                "radau5 solves its Newton systems on the state and its sensitivities together, dense: 2 nq (1 + np) = {n} states, more than the {RADAU5_MAX_STATES} it takes; choose dop853 (or fewer parameters)"
+            )));
+        }
     }
     if problem.baumgarte.is_some() {
         return Err(request(
@@ -148,9 +160,9 @@ pub(super) fn sensitivities<M: Model>(
     }
     let tol = Tolerance { rtol: settings.rtol, atol: settings.atol };
     let n = y0.len();
-    let result = with_stepper!(settings.method, n, tol, |s| lp.steps(&y0, s), radau5 => Err(request(
-        "radau5 does not integrate sensitivities: choose dop853".into()
-    )));
+    let result = with_stepper!(settings.method, n, tol, |s| lp.steps(&y0, s), radau5 => {
+        lp.steps(&y0, &mut Radau5Stepper::new(n, &tol, DenseNewton::new(n)))
+    });
     if let Err(e) = result {
         let e = lp.aug.failed.take().unwrap_or(e);
         return Err(e);

@@ -69,9 +69,12 @@ pub(super) struct Stencil<M: Model> {
     pub derivative: Derivative,
     /// `dx0/dp` (2 nq).
     pub x0: Vec<f64>,
-    /// Scratch: the effects' waveforms of one node, linearized from the
-    /// base's ([`crate::effects::Law::waveforms_toward`]; one per effect).
-    pub waves: Vec<Waveforms>,
+    /// The effects (indices) some problem of the stencil has otherwise
+    /// than the base: the only ones whose forces enter `dF/dp`.
+    pub changed: Vec<usize>,
+    /// Scratch: one effect's generalized force (nq; empty where
+    /// `changed` is).
+    pub f: Vec<f64>,
 }
 
 /// A problem at one value: its analysis and consistent initial state.
@@ -114,6 +117,7 @@ impl<M: Model> Stencil<M> {
         let n2 = x0.len();
         let b = base.dynamics();
         let mut touches = Touches::default();
+        let mut changed = Vec::new();
         let mut dx0 = x0.iter().map(|v| base_weight * v).collect::<Vec<_>>();
         for (w, (an, y0)) in &nodes {
             let d = an.dynamics();
@@ -134,70 +138,73 @@ impl<M: Model> Stencil<M> {
             }
             let np = b.info.params.len();
             touches.model |= (0..np).any(|k| d.model.param(k).to_bits() != b.model.param(k).to_bits());
-            touches.effects |= d.effects != b.effects;
+            for (k, (e, be)) in d.effects.iter().zip(&b.effects).enumerate() {
+                if e != be && !changed.contains(&k) {
+                    changed.push(k);
+                }
+            }
             touches.drives |= d.drives != b.drives;
             for (o, v) in dx0.iter_mut().zip(&y0[..n2]) {
                 *o += w * v;
             }
         }
+        touches.effects = !changed.is_empty();
         let changes_rhs = touches.model || touches.effects || touches.drives;
         let (nodes, derivative) = if changes_rhs { (nodes, derivative) } else { (Vec::new(), Derivative::InitialOnly) };
         let nodes = nodes.into_iter().map(|(w, (an, _))| (w, an)).collect();
-        Ok(Self { nodes, base_weight, touches, derivative, x0: dx0, waves: Vec::new() })
+        changed.sort_unstable();
+        Ok(Self { nodes, base_weight, touches, derivative, x0: dx0, changed, f: vec![0.0; b.info.nq()] })
     }
 
     /// Adds `dF/dp` at `(t, q, qd)` into `out` (nq) and returns `dP/dp`
     /// of the input power of the effects `actuators`; `base` the base
-    /// problem's effects, their waveforms' values at `t`, and its forces
-    /// and input power there; `power`:
-    /// scratch (one per effect). Each node's forces are taken with its
-    /// waveforms linearized from the base's
+    /// problem's effects and their waveforms' values at `t`. Only the
+    /// effects the parameter changes ([`Stencil::changed`]) are evaluated:
+    /// a force depends on its effect alone (its law and the numbers baked
+    /// into it, [`crate::effects::law::apply_effects`]), so an effect that
+    /// is the same in every problem of the stencil cancels exactly (the
+    /// weights sum to 0). Each node's forces are taken with its waveforms
+    /// linearized from the base's
     /// ([`crate::effects::Law::waveforms_toward`]): a harmonic's numbers
     /// enter exactly, whatever `t`; the rest of the laws' dependence on
     /// `p` (a stiffness, a gain: smooth, most of it linear) is the
-    /// difference's, at fixed waveforms.
+    /// difference's, at fixed waveforms. Allocates nothing.
     ///
     /// # Errors
     /// As [`crate::formulation::dae::Dynamics::applied_forces`].
-    #[expect(
-        clippy::too_many_arguments,
-        reason = "a state and the scratch of an evaluation as flat borrowed slices, no struct built per call"
-    )]
     pub fn add_forces(
         &mut self,
         t: f64,
-        q: &[f64],
-        qd: &[f64],
-        base: (&[Effect], &[Waveforms], &[f64], f64),
+        (q, qd): (&[f64], &[f64]),
+        (effects, waves): (&[Effect], &[Waveforms]),
         out: &mut [f64],
-        power: &mut [f64],
         actuators: &[usize],
     ) -> Result<f64, crate::error::SimError> {
-        if !(self.touches.model || self.touches.effects) {
-            return Ok(0.0);
-        }
-        let (effects, waves, f0, p0) = base;
-        for (o, f) in out.iter_mut().zip(f0) {
-            *o += self.base_weight * f;
-        }
-        let mut dp = self.base_weight * p0;
-        for (w, an) in &mut self.nodes {
-            let sys = an.dynamics_mut();
-            if sys.effects.is_empty() {
-                continue;
+        let mut dp = 0.0;
+        let mut power = [0.0];
+        let base = (self.base_weight != 0.0).then_some((self.base_weight, effects, waves));
+        let Self { nodes, changed, f, .. } = self;
+        let nodes = nodes.iter().map(|(w, an)| (*w, &an.dynamics().effects[..], None));
+        for (w, own, base_waves) in nodes.chain(base.map(|(w, e, v)| (w, e, Some(v)))) {
+            for &k in changed.iter() {
+                let e = &own[k];
+                // the base's waveforms as they are, a node's linearized from them
+                let wave = base_waves.map_or_else(|| effects[k].law.waveforms_toward(&e.law, t), |v| v[k]);
+                f.fill(0.0);
+                crate::effects::law::apply_effects(
+                    std::slice::from_ref(e),
+                    std::slice::from_ref(&wave),
+                    t,
+                    q,
+                    qd,
+                    f,
+                    &mut power,
+                )?;
+                out.iter_mut().zip(f.iter()).for_each(|(o, v)| *o += w * v);
+                if actuators.contains(&k) {
+                    dp += w * power[0];
+                }
             }
-            self.waves.clear();
-            debug_assert_eq!(waves.len(), effects.len(), "the base's waveforms at t");
-            // an effect the parameter does not change keeps the base's values
-            let toward = |((b, w), n): ((&Effect, &Waveforms), &Effect)| {
-                if b.law == n.law { *w } else { b.law.waveforms_toward(&n.law, t) }
-            };
-            self.waves.extend(effects.iter().zip(waves).zip(&sys.effects).map(toward));
-            sys.applied_forces_with(t, q, qd, &self.waves, power)?;
-            for (o, f) in out.iter_mut().zip(sys.applied_force()) {
-                *o += *w * f;
-            }
-            dp += *w * actuators.iter().map(|&k| power[k]).sum::<f64>();
         }
         Ok(dp)
     }
@@ -263,8 +270,17 @@ impl<M: Model> Stencil<M> {
     /// Adds `d r/dp` of the constraint residuals at `(t, x)`
     /// ([`Analysis::constraint_residual`]) into `out` (nh + nc), `base_r`
     /// the base problem's `base`'s; each node's prescribed angles
-    /// linearized from the base's, as in [`Stencil::add_forces`].
-    pub fn add_residual(&self, base: &Analysis<M>, t: f64, x: &[f64], base_r: &[f64], out: &mut [f64]) {
+    /// linearized from the base's, as in [`Stencil::add_forces`];
+    /// `values` (`G` at its pattern) and `node_r` (nh + nc) scratch.
+    pub fn add_residual(
+        &self,
+        base: &Analysis<M>,
+        t: f64,
+        x: &[f64],
+        base_r: &[f64],
+        (values, node_r): (&mut [f64], &mut [f64]),
+        out: &mut [f64],
+    ) {
         if !(self.touches.model || self.touches.drives) {
             return;
         }
@@ -273,7 +289,8 @@ impl<M: Model> Stencil<M> {
         }
         let nh = base.dynamics().info.n_holonomic;
         for (w, an) in &self.nodes {
-            for (o, r) in out.iter_mut().zip(an.residual_at(t, x)) {
+            an.residual_into(t, x, values, node_r);
+            for (o, r) in out.iter_mut().zip(node_r.iter()) {
                 *o += *w * r;
             }
             // the node's own `-u(t)`, `-u'(t)` replaced by the linearized ones
