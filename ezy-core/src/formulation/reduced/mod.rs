@@ -171,7 +171,9 @@ pub struct Reduced {
     quality0: [f64; 2],
     quality: [f64; 2],
     quality_accepted: [f64; 2],
-    /// Scratch of the step loop (a dense-output sample's `z`).
+    /// Scratch of the step loop (a dense-output sample's `z`, the
+    /// accepted full state where a projection may change it), sized for
+    /// the full state when the formulation is built.
     pub(crate) scratch: Vec<f64>,
     /// The partition and the expansion in closed form, when `model!`
     /// derived the model's minimal coordinates ([`crate::model::info::MinimalLayout`]).
@@ -303,7 +305,9 @@ impl Reduced {
             quality0: [1.0; 2],
             quality: [1.0; 2],
             quality_accepted: [1.0; 2],
-            scratch: Vec::new(),
+            // room for the full state (a dense-output sample's `z` is
+            // shorter): the step loop never grows it
+            scratch: Vec::with_capacity(y.len()),
             minimal: None,
         }
     }
