@@ -272,6 +272,19 @@ impl RuntimeModel {
         self.plan.ops()
     }
 
+    /// Whether the right-hand side on the minimal coordinates
+    /// ([`Model::minimal_rhs`]) runs compiled whole: the JIT evaluates,
+    /// the model has minimal coordinates with at most 8 speeds, and its
+    /// kernels fit the JIT's budget. Otherwise the tapes evaluate it, with
+    /// the same numbers, the same bits.
+    pub fn compiled_minimal_rhs(&self) -> bool {
+        #[cfg(feature = "jit")]
+        if self.jit {
+            return self.minimal().is_ok_and(|m| m.fused.compiled());
+        }
+        false
+    }
+
     /// Runs `f` with scratch for the register machine: none where the
     /// compiled kernels evaluate (`f64` with the JIT), which need none.
     #[inline]
@@ -667,6 +680,7 @@ impl RuntimeModel {
     /// What the fused right-hand side reads besides the state, with the
     /// table `k` of [`Model::minimal_constants`]; `None` without minimal
     /// coordinates.
+    #[inline(always)]
     fn fused_call<'a>(&'a self, k: &'a [f64]) -> Option<fused::FusedCall<'a>> {
         let (Ok(m), Some(st)) = (self.minimal(), &self.plan.straight) else { return None };
         Some(fused::FusedCall {
@@ -681,6 +695,7 @@ impl RuntimeModel {
     }
 
     /// The minimal coordinates, or why there are none.
+    #[inline]
     fn minimal(&self) -> Result<&plan::MinimalPlan, String> {
         match &self.plan.straight {
             Some(st) => st.minimal.as_ref().map_err(Clone::clone),

@@ -320,25 +320,55 @@ impl Plan {
         let code = self.code.get_or_init(|| {
             #[cfg(feature = "jit")]
             {
+                use super::fused::jit::Spec;
                 use super::tape::jit::{MAX_MODEL_OPS, MAX_OPS};
                 let mut budget = MAX_MODEL_OPS;
+                let mut take = |ops: usize| {
+                    let take = ops <= MAX_OPS.min(budget);
+                    if take {
+                        budget -= ops;
+                    }
+                    take
+                };
+                // the whole fused right-hand side, in place of its tapes'
+                // kernels
+                let specs: Vec<Spec<'_>> = self
+                    .straight
+                    .iter()
+                    .filter_map(|st| {
+                        let m = st.minimal.as_ref().ok()?;
+                        Spec::new(&m.fused, &m.coords, &m.speeds, &st.cols)
+                    })
+                    .filter(|s| take(s.ops()))
+                    .collect();
+                let replaced: Vec<&Tape> = match specs.len() {
+                    0 => Vec::new(),
+                    _ => self
+                        .straight
+                        .iter()
+                        .flat_map(|st| st.minimal.iter())
+                        .flat_map(|m| m.fused.kernel_tapes())
+                        .collect(),
+                };
                 let tapes: Vec<&Tape> = self
                     .tapes()
                     // those that read no coordinate run once per setup
                     // (masses, local geometry, the fused table), on the
                     // register machine
                     .filter(|t| t.reads_state())
-                    .filter(|t| {
-                        let take = t.ops() <= MAX_OPS.min(budget);
-                        if take {
-                            budget -= t.ops();
-                        }
-                        take
-                    })
+                    .filter(|t| !replaced.iter().any(|r| std::ptr::eq(*r, *t)))
+                    .filter(|t| take(t.ops()))
                     .collect();
-                let (code, kernels) = super::tape::jit::compile(&tapes)?;
+                let parts: Vec<_> = specs.iter().flat_map(Spec::parts).collect();
+                let extras: Vec<&dyn super::tape::jit::Extra> = parts.iter().map(|p| p as _).collect();
+                let (code, kernels, entries) = super::tape::jit::compile(&tapes, &extras)?;
                 for (t, k) in tapes.iter().zip(kernels) {
                     t.set_kernel(k);
+                }
+                for (spec, entries) in specs.iter().zip(entries.chunks_exact(3)) {
+                    // SAFETY: `entries` are the finalized functions of
+                    // `spec`'s parts, in their order.
+                    unsafe { spec.set_kernels(entries) };
                 }
                 Ok(code)
             }

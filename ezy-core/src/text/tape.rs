@@ -153,6 +153,19 @@ impl Tape {
         (Self::new(ar, &table), lists.iter().map(|l| Self::build(ar, l, &stops)).collect())
     }
 
+    /// How many parameters and indices an evaluation reads (the largest
+    /// index read, plus one).
+    pub(crate) fn input_reach(&self) -> (usize, usize) {
+        (self.reach.params, self.reach.indices)
+    }
+
+    /// The local coordinates read: `(false, k)` for `q`'s `k`, `(true, k)`
+    /// for `qd`'s.
+    #[cfg(feature = "jit")]
+    pub(crate) fn state_reads(&self) -> impl Iterator<Item = (bool, usize)> + '_ {
+        self.q.iter().map(|p| (false, p.0)).chain(self.qd.iter().map(|p| (true, p.0)))
+    }
+
     /// Whether it reads velocities.
     pub(crate) fn reads_velocities(&self) -> bool {
         !self.qd.is_empty()

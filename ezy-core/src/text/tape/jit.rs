@@ -85,6 +85,29 @@ extern "C" fn ezy_sincos(x: f64, out: *mut f64) {
     }
 }
 
+/// `sin x`, `cos x` in registers: a struct of two `f64` is returned in
+/// `xmm0`, `xmm1` by the System V ABI, where Cranelift returns two `f64`
+/// results ([`Pairs`]).
+#[repr(C)]
+struct SinCos {
+    sin: f64,
+    cos: f64,
+}
+
+extern "C" fn ezy_sincos_pair(x: f64) -> SinCos {
+    let (sin, cos) = libm::sincos(x);
+    SinCos { sin, cos }
+}
+
+/// How `sincos` returns its pair: in two registers where the host's
+/// calling convention returns a two-`f64` struct as Cranelift returns two
+/// `f64` (System V on x86-64), through a stack slot elsewhere.
+#[derive(Clone, Copy, PartialEq)]
+enum Pairs {
+    Registers,
+    Memory,
+}
+
 extern "C" fn ezy_powi(x: f64, n: i32) -> f64 {
     f64::powi(x, n)
 }
@@ -107,15 +130,63 @@ struct Calls {
     cos: FuncId,
     sincos: FuncId,
     powi: FuncId,
+    pairs: Pairs,
 }
 
-/// Compiles `tapes` into one module: their kernels in order, and the code
-/// that holds them.
-///
-/// # Errors
-/// The host has no Cranelift back end, or Cranelift refused a function
-/// (a message; the caller keeps the tape evaluator).
-pub(crate) fn compile(tapes: &[&Tape]) -> Result<(Code, Vec<Kernel>), String> {
+/// The host functions as one function being built refers to them, and the
+/// 16-byte stack slot `sincos` writes its pair to.
+pub(crate) struct Refs {
+    sin: ir::FuncRef,
+    cos: ir::FuncRef,
+    sincos: ir::FuncRef,
+    powi: ir::FuncRef,
+    pairs: Pairs,
+    slot: ir::StackSlot,
+    /// The host's pointer type.
+    pub(crate) ptr: ir::Type,
+}
+
+impl Refs {
+    fn declare(module: &mut JITModule, calls: &Calls, b: &mut FunctionBuilder) -> Self {
+        let ptr = module.target_config().pointer_type();
+        Refs {
+            ptr,
+            sin: module.declare_func_in_func(calls.sin, b.func),
+            cos: module.declare_func_in_func(calls.cos, b.func),
+            sincos: module.declare_func_in_func(calls.sincos, b.func),
+            pairs: calls.pairs,
+            powi: module.declare_func_in_func(calls.powi, b.func),
+            slot: b.create_sized_stack_slot(StackSlotData::new(StackSlotKind::ExplicitSlot, 16, 3)),
+        }
+    }
+}
+
+/// A function compiled beside the tapes' kernels into the same module
+/// (the fused right-hand side of [`crate::text`]'s minimal coordinates).
+pub(crate) trait Extra {
+    /// Its signature's parameters and results (`ptr`: the pointer type).
+    fn signature(&self, sig: &mut ir::Signature, ptr: ir::Type);
+    /// Writes its body into `b` (the entry block not yet created).
+    ///
+    /// # Errors
+    /// A message: Cranelift refused, or an address does not fit.
+    fn build(&self, b: &mut FunctionBuilder, refs: &Refs) -> Result<(), String>;
+}
+
+/// What a tape reads, as [`emit`] asks its caller to load it.
+#[derive(Clone, Copy, Debug)]
+pub(crate) enum Input {
+    Param(usize),
+    Index(usize),
+    /// Local coordinate `k` of `q` (slot `k / 3`).
+    Q(usize),
+    /// Local coordinate `k` of `qd`.
+    Qd(usize),
+}
+
+/// The Cranelift settings of every module: optimized, calls to host
+/// functions by absolute address.
+fn module() -> Result<JITModule, String> {
     let mut flags = settings::builder();
     let set =
         |f: &mut settings::Builder, k: &str, v: &str| f.set(k, v).map_err(|e| format!("cranelift setting {k}: {e}"));
@@ -130,11 +201,32 @@ pub(crate) fn compile(tapes: &[&Tape]) -> Result<(Code, Vec<Kernel>), String> {
     jb.symbol("ezy_sin", ezy_sin as *const u8);
     jb.symbol("ezy_cos", ezy_cos as *const u8);
     jb.symbol("ezy_sincos", ezy_sincos as *const u8);
+    jb.symbol("ezy_sincos_pair", ezy_sincos_pair as *const u8);
     jb.symbol("ezy_powi", ezy_powi as *const u8);
-    let mut module = JITModule::new(jb);
-    let fail = |e: cranelift_module::ModuleError| format!("JIT compilation failed: {e}");
+    Ok(JITModule::new(jb))
+}
 
+fn failed(e: cranelift_module::ModuleError) -> String {
+    format!("JIT compilation failed: {e}")
+}
+
+/// Compiles `tapes` and `extras` into one module: the tapes' kernels in
+/// order, the extras' entry points in order, and the code that holds them.
+///
+/// # Errors
+/// The host has no Cranelift back end, or Cranelift refused a function
+/// (a message; the caller keeps the tape evaluator).
+pub(crate) fn compile(tapes: &[&Tape], extras: &[&dyn Extra]) -> Result<(Code, Vec<Kernel>, Vec<*const u8>), String> {
+    let mut module = module()?;
     let ptr = module.target_config().pointer_type();
+    // the JIT compiles for the host
+    let pairs = if cfg!(target_arch = "x86_64")
+        && module.isa().default_call_conv() == cranelift_codegen::isa::CallConv::SystemV
+    {
+        Pairs::Registers
+    } else {
+        Pairs::Memory
+    };
     let f64_fn = |module: &JITModule, extra: Option<ir::Type>, ret: bool| {
         let mut s = module.make_signature();
         s.params.push(AbiParam::new(types::F64));
@@ -147,30 +239,54 @@ pub(crate) fn compile(tapes: &[&Tape]) -> Result<(Code, Vec<Kernel>), String> {
         s
     };
     let calls = Calls {
-        sin: module.declare_function("ezy_sin", Linkage::Import, &f64_fn(&module, None, true)).map_err(fail)?,
-        cos: module.declare_function("ezy_cos", Linkage::Import, &f64_fn(&module, None, true)).map_err(fail)?,
-        sincos: module
-            .declare_function("ezy_sincos", Linkage::Import, &f64_fn(&module, Some(ptr), false))
-            .map_err(fail)?,
+        sin: module.declare_function("ezy_sin", Linkage::Import, &f64_fn(&module, None, true)).map_err(failed)?,
+        cos: module.declare_function("ezy_cos", Linkage::Import, &f64_fn(&module, None, true)).map_err(failed)?,
+        sincos: if pairs == Pairs::Registers {
+            let mut s = f64_fn(&module, None, true);
+            s.returns.push(AbiParam::new(types::F64));
+            module.declare_function("ezy_sincos_pair", Linkage::Import, &s).map_err(failed)?
+        } else {
+            module
+                .declare_function("ezy_sincos", Linkage::Import, &f64_fn(&module, Some(ptr), false))
+                .map_err(failed)?
+        },
+        pairs,
         powi: module
             .declare_function("ezy_powi", Linkage::Import, &f64_fn(&module, Some(types::I32), true))
-            .map_err(fail)?,
+            .map_err(failed)?,
     };
     let mut sig = module.make_signature();
     sig.params.extend([AbiParam::new(ptr); 7]);
 
     let mut ctx = module.make_context();
     let mut fbc = FunctionBuilderContext::new();
+    let mut define = |module: &mut JITModule,
+                      sig: &ir::Signature,
+                      body: &dyn Fn(&mut FunctionBuilder, &Refs) -> Result<(), String>|
+     -> Result<FuncId, String> {
+        let id = module.declare_anonymous_function(sig).map_err(failed)?;
+        ctx.func.signature = sig.clone();
+        {
+            let mut b = FunctionBuilder::new(&mut ctx.func, &mut fbc);
+            let refs = Refs::declare(module, &calls, &mut b);
+            body(&mut b, &refs)?;
+            b.finalize();
+        }
+        module.define_function(id, &mut ctx).map_err(failed)?;
+        module.clear_context(&mut ctx);
+        Ok(id)
+    };
     let mut ids = Vec::with_capacity(tapes.len());
     for tape in tapes {
-        let id = module.declare_anonymous_function(&sig).map_err(fail)?;
-        ctx.func.signature = sig.clone();
-        build(&mut module, &mut ctx.func, &mut fbc, tape, ptr, &calls)?;
-        module.define_function(id, &mut ctx).map_err(fail)?;
-        module.clear_context(&mut ctx);
-        ids.push(id);
+        ids.push(define(&mut module, &sig, &|b, refs| build(b, tape, refs))?);
     }
-    module.finalize_definitions().map_err(fail)?;
+    let mut extra_ids = Vec::with_capacity(extras.len());
+    for extra in extras {
+        let mut sig = module.make_signature();
+        extra.signature(&mut sig, ptr);
+        extra_ids.push(define(&mut module, &sig, &|b, refs| extra.build(b, refs))?);
+    }
+    module.finalize_definitions().map_err(failed)?;
     let kernels = ids
         .iter()
         .map(|&id| {
@@ -181,31 +297,21 @@ pub(crate) fn compile(tapes: &[&Tape]) -> Result<(Code, Vec<Kernel>), String> {
             unsafe { std::mem::transmute::<*const u8, Kernel>(code) }
         })
         .collect();
-    Ok((Code(Some(module)), kernels))
+    let extras = extra_ids.iter().map(|&id| module.get_finalized_function(id)).collect();
+    Ok((Code(Some(module)), kernels, extras))
 }
 
 /// The offset `8 k` of element `k` of an `f64` or `usize` array, as a
 /// Cranelift immediate.
-fn offset(k: usize) -> Result<i32, String> {
+pub(crate) fn offset(k: usize) -> Result<i32, String> {
     k.checked_mul(8)
         .and_then(|o| i32::try_from(o).ok())
         .ok_or_else(|| format!("a tape addresses element {k}, too far for the JIT"))
 }
 
-/// Writes `tape`'s kernel into `func`.
-fn build(
-    module: &mut JITModule,
-    func: &mut ir::Function,
-    fbc: &mut FunctionBuilderContext,
-    tape: &Tape,
-    ptr: ir::Type,
-    calls: &Calls,
-) -> Result<(), String> {
-    let sin = module.declare_func_in_func(calls.sin, func);
-    let cos = module.declare_func_in_func(calls.cos, func);
-    let sincos = module.declare_func_in_func(calls.sincos, func);
-    let powi = module.declare_func_in_func(calls.powi, func);
-    let mut b = FunctionBuilder::new(func, fbc);
+/// Writes `tape`'s kernel into `b`.
+fn build(b: &mut FunctionBuilder, tape: &Tape, refs: &Refs) -> Result<(), String> {
+    let ptr = refs.ptr;
     let block = b.create_block();
     b.append_block_params_for_function_params(block);
     b.switch_to_block(block);
@@ -213,101 +319,135 @@ fn build(
     let args = b.block_params(block).to_vec();
     let (params, indices, cols, q, qd) = (args[0], args[1], args[2], args[3], args[4]);
     let mem = MemFlags::trusted();
-    // where each register's value comes from: an input is loaded (a number
-    // materialized) where it is first used, so that its value lives no
-    // longer than it must (a tape reading thousands of parameters would
-    // otherwise hold them all from the start)
-    #[derive(Clone, Copy)]
-    enum Src {
-        Unset,
-        Const(f64),
-        Param(usize),
-        Index(usize),
-        Q(bool, usize),
-        Value(Value),
-    }
-    let mut regs: Vec<Src> = vec![Src::Unset; tape.n_regs];
-    for (r, &c) in tape.consts.iter().enumerate() {
-        regs[r] = Src::Const(c);
-    }
-    for &(i, r) in &tape.params {
-        regs[r as usize] = Src::Param(i);
-    }
-    for &(k, r) in &tape.indices {
-        regs[r as usize] = Src::Index(k);
-    }
-    for (is_qd, list) in [(false, &tape.q), (true, &tape.qd)] {
-        for &(k, r) in list {
-            regs[r as usize] = Src::Q(is_qd, k);
-        }
-    }
+    // the parameters, indices and columns do not change during a call:
+    // their loads may move to where they are used
+    let fixed = mem.with_readonly().with_can_move();
     // the address of slot `s`'s first coordinate in `q` (or `qd`), computed
     // once per slot, at the top
     let mut bases: std::collections::HashMap<(bool, usize), Value> = std::collections::HashMap::new();
     for (is_qd, list) in [(false, &tape.q), (true, &tape.qd)] {
         for &(k, _) in list {
             if let std::collections::hash_map::Entry::Vacant(e) = bases.entry((is_qd, k / 3)) {
-                let col = b.ins().load(ptr, mem, cols, offset(k / 3)?);
+                let col = b.ins().load(ptr, fixed, cols, offset(k / 3)?);
                 let bytes = b.ins().ishl_imm(col, 3);
                 e.insert(b.ins().iadd(if is_qd { qd } else { q }, bytes));
             }
         }
     }
-    let slot = b.create_sized_stack_slot(StackSlotData::new(StackSlotKind::ExplicitSlot, 16, 3));
-    let get = |b: &mut FunctionBuilder, regs: &mut [Src], r: u32| -> Result<Value, String> {
+    let outputs = emit(b, tape, refs, &mut |b, input| {
+        Ok(match input {
+            Input::Param(i) => b.ins().load(types::F64, fixed, params, offset(i)?),
+            Input::Index(k) => b.ins().load(types::F64, fixed, indices, offset(k)?),
+            Input::Q(k) => b.ins().load(types::F64, mem, bases[&(false, k / 3)], offset(k % 3)?),
+            Input::Qd(k) => b.ins().load(types::F64, mem, bases[&(true, k / 3)], offset(k % 3)?),
+        })
+    })?;
+    for (j, v) in outputs.into_iter().enumerate() {
+        let (dst, at) = if j < tape.split { (args[5], j) } else { (args[6], j - tape.split) };
+        b.ins().store(MemFlags::trusted(), v, dst, offset(at)?);
+    }
+    b.ins().return_(&[]);
+    Ok(())
+}
+
+/// Emits `tape`'s operations at the builder's position and returns its
+/// outputs' values (in the tape's order). An input is asked of `load`
+/// where it is first used, so that its value lives no longer than it
+/// must (a tape reading thousands of parameters would otherwise hold them
+/// all from the start); a number is materialized there too.
+///
+/// # Errors
+/// A register read before it is set (a malformed tape), or `load`'s.
+pub(crate) fn emit(
+    b: &mut FunctionBuilder,
+    tape: &Tape,
+    refs: &Refs,
+    load: &mut dyn FnMut(&mut FunctionBuilder, Input) -> Result<Value, String>,
+) -> Result<Vec<Value>, String> {
+    #[derive(Clone, Copy)]
+    enum Src {
+        Unset,
+        Const(f64),
+        In(Input),
+        Value(Value),
+    }
+    let mut regs: Vec<Src> = vec![Src::Unset; tape.n_regs];
+    for (r, &c) in tape.consts.iter().enumerate() {
+        regs[r] = Src::Const(c);
+    }
+    let inputs = [
+        (&tape.params, Input::Param as fn(usize) -> Input),
+        (&tape.indices, Input::Index),
+        (&tape.q, Input::Q),
+        (&tape.qd, Input::Qd),
+    ];
+    for (list, input) in inputs {
+        for &(k, r) in list {
+            regs[r as usize] = Src::In(input(k));
+        }
+    }
+    let mut get = |b: &mut FunctionBuilder, regs: &mut [Src], r: u32| -> Result<Value, String> {
         let v = match regs[r as usize] {
             Src::Value(v) => return Ok(v),
             Src::Unset => return Err(format!("register {r} read before it is set")),
             Src::Const(c) => b.ins().f64const(c),
-            Src::Param(i) => b.ins().load(types::F64, mem, params, offset(i)?),
-            Src::Index(k) => b.ins().load(types::F64, mem, indices, offset(k)?),
-            Src::Q(is_qd, k) => b.ins().load(types::F64, mem, bases[&(is_qd, k / 3)], offset(k % 3)?),
+            Src::In(input) => load(b, input)?,
         };
         regs[r as usize] = Src::Value(v);
         Ok(v)
     };
+    // `x + (-y)` is `x - y` exactly (IEEE 754 defines the difference so):
+    // the negation's operand, by the negation's value
+    let mut negated: std::collections::HashMap<Value, Value> = std::collections::HashMap::new();
     for ins in &tape.ins {
-        let a = get(&mut b, &mut regs, ins.a)?;
+        let a = get(b, &mut regs, ins.a)?;
         let v = match ins.op {
             Op::Add => {
-                let y = get(&mut b, &mut regs, ins.b)?;
-                b.ins().fadd(a, y)
+                let y = get(b, &mut regs, ins.b)?;
+                match (negated.get(&y), negated.get(&a)) {
+                    (Some(&ny), _) => b.ins().fsub(a, ny),
+                    (None, Some(&na)) => b.ins().fsub(y, na),
+                    (None, None) => b.ins().fadd(a, y),
+                }
             }
             Op::Mul => {
-                let y = get(&mut b, &mut regs, ins.b)?;
+                let y = get(b, &mut regs, ins.b)?;
                 b.ins().fmul(a, y)
             }
-            Op::Neg => b.ins().fneg(a),
+            Op::Neg => {
+                let v = b.ins().fneg(a);
+                negated.insert(v, a);
+                v
+            }
             Op::Recip => {
                 let one = b.ins().f64const(1.0);
                 b.ins().fdiv(one, a)
             }
             Op::Sqrt => b.ins().sqrt(a),
             Op::Sin | Op::Cos => {
-                let call = b.ins().call(if ins.op == Op::Sin { sin } else { cos }, &[a]);
+                let call = b.ins().call(if ins.op == Op::Sin { refs.sin } else { refs.cos }, &[a]);
                 b.inst_results(call)[0]
             }
             Op::Powi(n) => {
                 let n = b.ins().iconst(types::I32, i64::from(n));
-                let call = b.ins().call(powi, &[a, n]);
+                let call = b.ins().call(refs.powi, &[a, n]);
                 b.inst_results(call)[0]
             }
+            Op::SinCos if refs.pairs == Pairs::Registers => {
+                let call = b.ins().call(refs.sincos, &[a]);
+                let (s, c) = (b.inst_results(call)[0], b.inst_results(call)[1]);
+                regs[ins.b as usize] = Src::Value(c);
+                s
+            }
             Op::SinCos => {
-                let at = b.ins().stack_addr(ptr, slot, 0);
-                b.ins().call(sincos, &[a, at]);
-                let s = b.ins().stack_load(types::F64, slot, 0);
-                regs[ins.b as usize] = Src::Value(b.ins().stack_load(types::F64, slot, 8));
+                let at = b.ins().stack_addr(refs.ptr, refs.slot, 0);
+                b.ins().call(refs.sincos, &[a, at]);
+                let s = b.ins().stack_load(types::F64, refs.slot, 0);
+                regs[ins.b as usize] = Src::Value(b.ins().stack_load(types::F64, refs.slot, 8));
                 s
             }
         };
         regs[ins.dst as usize] = Src::Value(v);
     }
-    for (j, &o) in tape.out.iter().enumerate() {
-        let v = get(&mut b, &mut regs, o)?;
-        let (dst, at) = if j < tape.split { (args[5], j) } else { (args[6], j - tape.split) };
-        b.ins().store(MemFlags::trusted(), v, dst, offset(at)?);
-    }
-    b.ins().return_(&[]);
-    b.finalize();
-    Ok(())
+    tape.out.iter().map(|&o| get(b, &mut regs, o)).collect()
 }

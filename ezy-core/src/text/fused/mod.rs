@@ -11,6 +11,12 @@
 
 use std::cell::Cell;
 
+#[cfg(feature = "jit")]
+pub(crate) mod jit;
+#[cfg(not(feature = "jit"))]
+#[path = "no_jit.rs"]
+pub(crate) mod jit;
+
 use ezy_lang::minimal::{Maggi, Minimal};
 use ezy_lang::sym::{Arena, Id};
 
@@ -83,6 +89,17 @@ pub(super) struct Fused {
     bodies: Vec<BodyRows>,
     /// Per hinge, `(speed i, coefficient)` where not zero.
     hinges: Vec<Vec<(usize, Coef)>>,
+    /// The parameters and table values the tapes read (the largest index
+    /// read, plus one).
+    reach: (usize, usize),
+    /// Values the state kernel keeps for the solve: the Maggi terms, and
+    /// the frames and rows where they read velocities.
+    #[cfg(feature = "jit")]
+    kept: usize,
+    /// The whole right-hand side compiled, once the model's tapes are
+    /// compiled.
+    #[cfg(feature = "jit")]
+    kernels: std::sync::OnceLock<jit::Kernels>,
 }
 
 impl Fused {
@@ -131,7 +148,79 @@ impl Fused {
         let forces = tapes.pop().expect("three tapes");
         let lean = tapes.pop().expect("three tapes");
         let tape = tapes.pop().expect("three tapes");
-        Self { tape, lean, forces, table, nq, nu, n_maggi, full_at, lean_at, bodies, hinges }
+        let reach = [&tape, &lean, &forces]
+            .iter()
+            .map(|t| t.input_reach())
+            .fold((0, 0), |(p, k), (tp, tk)| (p.max(tp), k.max(tk)));
+        Self {
+            #[cfg(feature = "jit")]
+            kept: n_maggi + if forces.reads_velocities() { forces.outputs() } else { 0 },
+            tape,
+            lean,
+            forces,
+            table,
+            nq,
+            nu,
+            n_maggi,
+            full_at,
+            lean_at,
+            bodies,
+            hinges,
+            reach,
+            #[cfg(feature = "jit")]
+            kernels: Default::default(),
+        }
+    }
+
+    /// The fused tape (`lean`: an integrator stage's).
+    fn tape(&self, lean: bool) -> &Tape {
+        if lean { &self.lean } else { &self.tape }
+    }
+
+    /// The tapes the compiled whole right-hand side replaces.
+    #[cfg(feature = "jit")]
+    pub(super) fn kernel_tapes(&self) -> [&Tape; 3] {
+        [&self.tape, &self.lean, &self.forces]
+    }
+
+    /// Values the state kernel keeps for the solve: the Maggi terms, and
+    /// the frames and rows where they read velocities.
+    #[cfg(feature = "jit")]
+    #[inline]
+    fn kept(&self) -> usize {
+        self.kept
+    }
+
+    /// Whether the whole right-hand side is compiled.
+    #[cfg(feature = "jit")]
+    pub(super) fn compiled(&self) -> bool {
+        self.kernels.get().is_some()
+    }
+
+    /// Sets the compiled whole right-hand side (once; later calls are
+    /// ignored).
+    #[cfg(feature = "jit")]
+    pub(super) fn set_kernels(&self, k: jit::Kernels) {
+        let _ = self.kernels.set(k);
+    }
+
+    /// The compiled whole right-hand side, if `x` may take it: compiled,
+    /// and the state and the inputs as long as the kernels read them.
+    #[inline]
+    fn kernels_for(&self, x: &FusedCall<'_>, z: &[f64], q: &[f64], qd: &[f64], dz: &[f64]) -> Option<&jit::Kernels> {
+        #[cfg(feature = "jit")]
+        let k = self.kernels.get()?;
+        #[cfg(not(feature = "jit"))]
+        let k: &jit::Kernels = None?;
+        let n = x.coords.len() + self.nu;
+        let fits = x.compiled
+            && z.len() >= n
+            && dz.len() >= n
+            && q.len() == self.nq
+            && qd.len() == self.nq
+            && x.params.len() >= self.reach.0
+            && x.table.len() >= self.reach.1;
+        fits.then_some(k)
     }
 
     /// The tapes (for the model's list of tapes).
@@ -177,7 +266,9 @@ impl FusedCall<'_> {
 }
 
 /// [`crate::Model::minimal_rhs`] on the plan `x.fused` (`lean`: what
-/// [`crate::Model::minimal_rhs_lean`] writes).
+/// [`crate::Model::minimal_rhs_lean`] writes): by the compiled kernels
+/// where there are ([`Fused::kernels_for`]), else by the tapes. Both
+/// meet `forces` at one call, so that the compiler inlines it.
 pub(super) fn rhs<E, F>(
     x: &FusedCall<'_>,
     lean: bool,
@@ -190,21 +281,63 @@ pub(super) fn rhs<E, F>(
 where
     F: FnOnce(&[f64], &[f64], &mut [f64], &mut [f64]) -> Result<(), E>,
 {
-    let p = x.fused;
-    let (tape, (dep_at, rate_at)) = if lean { (&p.lean, &p.lean_at) } else { (&p.tape, &p.full_at) };
-    let (nq, nu, np, nh) = (p.nq, p.nu, x.coords.len(), p.hinges.len());
-    let (n_out, n_forces) = (tape.outputs(), p.forces.outputs());
-    let mut work = WORK.with(Cell::take);
-    work.resize(n_out + n_forces + nq + nh + nu * nu + nu + nu * (nu + 1), 0.0);
-    let (out, rest) = work.split_at_mut(n_out);
-    let (fo, rest) = rest.split_at_mut(n_forces);
+    let compiled = x.fused.kernels_for(x, z, q, qd, dz);
+    let mut room = jit::Room::new();
+    let mut work = std::mem::ManuallyDrop::new(Vec::new());
+    let applied = match compiled {
+        Some(k) => jit::state(k, lean, x, z, q, qd, dz, &mut room),
+        None => {
+            *work = WORK.with(Cell::take);
+            tapes_state(x, lean, z, q, qd, dz, &mut work)
+        }
+    };
+    let (f, tau) = applied.split_at_mut(x.fused.nq);
+    let res = forces(q, qd, f, tau).map_err(MinimalRhsError::Forces);
+    match compiled {
+        Some(k) => res.and_then(|()| jit::solve(k, x, q, qd, dz, &mut room).map_err(MinimalRhsError::Maggi)),
+        None => {
+            let res = res.and_then(|()| tapes_solve(x, lean, q, qd, dz, &mut work).map_err(MinimalRhsError::Maggi));
+            // the working space back (it is empty on the compiled path:
+            // nothing to drop there)
+            WORK.with(|w| w.set(std::mem::ManuallyDrop::into_inner(work)));
+            res
+        }
+    }
+}
+
+/// The tapes' working space in `work`: their outputs, the frames and
+/// rows, `f`, `tau`, `A`, `r` and the solve's scratch.
+fn tapes_work<'w>(p: &Fused, lean: bool, work: &'w mut [f64]) -> [&'w mut [f64]; 7] {
+    let (nq, nu, nh) = (p.nq, p.nu, p.hinges.len());
+    let (out, rest) = work.split_at_mut(p.tape(lean).outputs());
+    let (fo, rest) = rest.split_at_mut(p.forces.outputs());
     let (f, rest) = rest.split_at_mut(nq);
     let (tau, rest) = rest.split_at_mut(nh);
     let (a, rest) = rest.split_at_mut(nu * nu);
     let (r, scratch) = rest.split_at_mut(nu);
-    // `forces` adds to zeros; `B^T M B` is read below the diagonal only
-    f.fill(0.0);
-    tau.fill(0.0);
+    [out, fo, f, tau, a, r, scratch]
+}
+
+/// [`rhs`] by the tapes' evaluators (the register machine, or a kernel
+/// per tape) up to the forces: the state in `q`, `qd`, `dz[..np]`, and
+/// in `work` (sized here) the Maggi terms; returns the zeroed `f` and
+/// `tau` (in `work`, one after the other) for the forces to add to.
+#[inline(never)]
+fn tapes_state<'w>(
+    x: &FusedCall<'_>,
+    lean: bool,
+    z: &[f64],
+    q: &mut [f64],
+    qd: &mut [f64],
+    dz: &mut [f64],
+    work: &'w mut Vec<f64>,
+) -> &'w mut [f64] {
+    let p = x.fused;
+    let (dep_at, rate_at) = if lean { &p.lean_at } else { &p.full_at };
+    let (nq, nu, np, nh) = (p.nq, p.nu, x.coords.len(), p.hinges.len());
+    let n_out = p.tape(lean).outputs();
+    work.resize(n_out + p.forces.outputs() + nq + nh + nu * nu + nu + nu * (nu + 1), 0.0);
+    let [out, fo, ..] = tapes_work(p, lean, work);
     // the tapes read the kept coordinates in q and the speeds at their
     // body-frame velocities in qd (qd written over below)
     for (i, &j) in x.coords.iter().enumerate() {
@@ -213,15 +346,13 @@ where
     for (i, &j) in x.speeds.iter().enumerate() {
         qd[j] = z[np + i];
     }
-    tape.eval_to(&x.inputs(q, qd), &mut [], out, &mut []);
+    p.tape(lean).eval_to(&x.inputs(q, qd), &mut [], out, &mut []);
     // the frames and body rows: where a body has a force (below), or now
     // should they read velocities, which `forces` writes over
-    let early = p.forces.reads_velocities();
-    if early {
+    if p.forces.reads_velocities() {
         p.forces.eval_to(&x.inputs(q, qd), &mut [], fo, &mut []);
     }
-    let (maggi, state) = out.split_at(p.n_maggi);
-    let (deps, rates) = state.split_at(dep_at.len());
+    let (deps, rates) = out[p.n_maggi..].split_at(dep_at.len());
     for (&j, &v) in dep_at.iter().zip(deps) {
         q[j] = v;
     }
@@ -231,48 +362,66 @@ where
     for (i, &j) in x.coords.iter().enumerate() {
         dz[i] = qd[j];
     }
-    let res = forces(q, qd, f, tau).map_err(MinimalRhsError::Forces);
-    let res = res.and_then(|()| {
-        let (lower, rest) = maggi.split_at(nu * (nu + 1) / 2);
-        for i in 0..nu {
-            let row = &lower[i * (i + 1) / 2..];
-            a[i * nu..=i * nu + i].copy_from_slice(&row[..=i]);
+    // `forces` adds to zeros
+    let applied = &mut work[n_out + p.forces.outputs()..][..nq + nh];
+    applied.fill(0.0);
+    applied
+}
+
+/// [`rhs`] by the tapes after the forces: `dz[np..]` from `work` as
+/// [`tapes_state`] and the forces left it.
+///
+/// # Errors
+/// The solve's ([`crate::kkt::spd::ldl_solve`]).
+#[inline(never)]
+fn tapes_solve(
+    x: &FusedCall<'_>,
+    lean: bool,
+    q: &[f64],
+    qd: &[f64],
+    dz: &mut [f64],
+    work: &mut [f64],
+) -> Result<(), crate::error::KktError> {
+    let p = x.fused;
+    let (nu, np) = (p.nu, x.coords.len());
+    let [out, fo, f, tau, a, r, scratch] = tapes_work(p, lean, work);
+    let maggi = &out[..p.n_maggi];
+    // `B^T M B` is read below the diagonal only
+    let (lower, rest) = maggi.split_at(nu * (nu + 1) / 2);
+    for i in 0..nu {
+        let row = &lower[i * (i + 1) / 2..];
+        a[i * nu..=i * nu + i].copy_from_slice(&row[..=i]);
+    }
+    r.copy_from_slice(&rest[..nu]);
+    let mut framed = p.forces.reads_velocities();
+    for (b, (frame, rows)) in p.bodies.iter().enumerate() {
+        let (x_, y_, w) = (3 * b, 3 * b + 1, 3 * b + 2);
+        let pushed = f[x_] != 0.0 || f[y_] != 0.0;
+        if (pushed || f[w] != 0.0) && !framed {
+            p.forces.eval_to(&x.inputs(q, qd), &mut [], fo, &mut []);
+            framed = true;
         }
-        r.copy_from_slice(&rest[..nu]);
-        let mut framed = early;
-        for (b, (frame, rows)) in p.bodies.iter().enumerate() {
-            let (x_, y_, w) = (3 * b, 3 * b + 1, 3 * b + 2);
-            let pushed = f[x_] != 0.0 || f[y_] != 0.0;
-            if (pushed || f[w] != 0.0) && !framed {
-                p.forces.eval_to(&x.inputs(q, qd), &mut [], fo, &mut []);
-                framed = true;
-            }
-            if pushed {
-                let (c, s) = (fo[frame[0]], fo[frame[1]]);
-                let (fx, fy) = (c * f[x_] + s * f[y_], c * f[y_] - s * f[x_]);
-                for (axis, fj) in [(0, fx), (1, fy)] {
-                    for &(i, coef) in &rows[axis] {
-                        coef.add_to(&mut r[i], fj, fo);
-                    }
+        if pushed {
+            let (c, s) = (fo[frame[0]], fo[frame[1]]);
+            let (fx, fy) = (c * f[x_] + s * f[y_], c * f[y_] - s * f[x_]);
+            for (axis, fj) in [(0, fx), (1, fy)] {
+                for &(i, coef) in &rows[axis] {
+                    coef.add_to(&mut r[i], fj, fo);
                 }
             }
-            if f[w] != 0.0 {
-                for &(i, coef) in &rows[2] {
-                    coef.add_to(&mut r[i], f[w], fo);
-                }
+        }
+        if f[w] != 0.0 {
+            for &(i, coef) in &rows[2] {
+                coef.add_to(&mut r[i], f[w], fo);
             }
         }
-        for (hinge, row) in p.hinges.iter().enumerate() {
-            if tau[hinge] != 0.0 {
-                for &(i, coef) in row {
-                    coef.add_to(&mut r[i], tau[hinge], maggi);
-                }
+    }
+    for (hinge, row) in p.hinges.iter().enumerate() {
+        if tau[hinge] != 0.0 {
+            for &(i, coef) in row {
+                coef.add_to(&mut r[i], tau[hinge], maggi);
             }
         }
-        crate::kkt::spd::ldl_solve(a, nu, nu, r, &mut dz[np..np + nu], scratch)
-            .map(|_| ())
-            .map_err(MinimalRhsError::Maggi)
-    });
-    WORK.with(|w| w.set(work));
-    res
+    }
+    crate::kkt::spd::ldl_solve(a, nu, nu, r, &mut dz[np..np + nu], scratch).map(|_| ())
 }
