@@ -128,6 +128,37 @@ impl Law {
         }
     }
 
+    /// Whether [`Law::apply_toward`] differentiates this law toward
+    /// `other` (the same effect in a problem at a nearby parameter
+    /// value): a spring-damper whose ends stay on their bodies; `false`
+    /// for the other families, whose forces the sensitivities difference.
+    pub fn moves_toward(&self, other: &Law) -> bool {
+        match (self, other) {
+            (Law::Spring(a), Law::Spring(b)) => a.moves_toward(b),
+            _ => false,
+        }
+    }
+
+    /// The derivative of the law's generalized force at `(q, qd)` as its
+    /// numbers move toward `other`'s to first order, added into `f` (nq),
+    /// and of its power (returned), `wave` this law's waveforms' values
+    /// and `toward` `other`'s linearized from them
+    /// ([`Law::waveforms_toward`]): [`super::spring::SpringLaw::apply_toward`];
+    /// where [`Law::moves_toward`] is `false`, nothing (and NaN).
+    pub fn apply_toward(
+        &self,
+        other: &Law,
+        waves: (&Waveforms, &Waveforms),
+        q: &[f64],
+        qd: &[f64],
+        f: &mut [f64],
+    ) -> f64 {
+        match (self, other) {
+            (Law::Spring(a), Law::Spring(b)) if a.moves_toward(b) => a.apply_toward(b, waves, q, qd, f),
+            _ => f64::NAN,
+        }
+    }
+
     /// A law of the user's own for the effect `name` on a model with `nq`
     /// coordinates.
     ///

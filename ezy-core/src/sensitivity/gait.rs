@@ -125,6 +125,7 @@ impl<M: Model> Stencil<M> {
             derivative: Derivative::InitialOnly,
             x0,
             changed: Vec::new(),
+            linear: Vec::new(),
             f: Vec::new(),
         }
     }
