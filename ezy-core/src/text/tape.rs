@@ -43,6 +43,31 @@ struct Ins {
     b: u32,
 }
 
+/// An operation of the register machine ([`Tape::run`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+#[repr(u8)]
+enum Code {
+    Add,
+    Mul,
+    Neg,
+    Recip,
+    /// `b` holds the exponent's bits.
+    Powi,
+    Sin,
+    Cos,
+    SinCos,
+    Sqrt,
+}
+
+/// `dst = code(a, b)` on the registers, as [`Tape::run`] runs it.
+#[derive(Clone, Copy, Debug)]
+struct Step {
+    code: Code,
+    dst: u32,
+    a: u32,
+    b: u32,
+}
+
 /// Straight-line code computing some outputs from a model's parameters,
 /// the family indices of an element and the local coordinates of the
 /// bodies it touches (slot `s` owns local coordinates `3 s .. 3 s + 3`).
@@ -62,6 +87,12 @@ pub(crate) struct Tape {
     q: Vec<(usize, u32)>,
     qd: Vec<(usize, u32)>,
     ins: Vec<Ins>,
+    /// What the register machine runs ([`Tape::run`]): `ins`, every
+    /// register checked below `n_regs` when the tape is built.
+    steps: Vec<Step>,
+    /// `q`'s and `qd`'s loads as `(slot, coordinate in it, register)`.
+    q_at: Vec<(usize, usize, u32)>,
+    qd_at: Vec<(usize, usize, u32)>,
     /// The register of each output.
     out: Vec<u32>,
     n_regs: usize,
@@ -285,7 +316,30 @@ impl Tape {
         t.n_regs = next as usize;
         t.reach = Reach::of(&t);
         t.split = t.out.len();
+        t.steps = t.ins.iter().map(Step::of).collect();
+        let at = |list: &[(usize, u32)]| list.iter().map(|&(k, r)| (k / 3, k % 3, r)).collect();
+        (t.q_at, t.qd_at) = (at(&t.q), at(&t.qd));
+        t.check();
         t
+    }
+
+    /// Checks what [`Tape::load`], [`Tape::run`] and the output copies
+    /// rely on to index the registers unchecked: every register they
+    /// touch is below `n_regs`.
+    ///
+    /// # Panics
+    /// If one is not (a bug of [`Tape::build`]).
+    fn check(&self) {
+        let n = self.n_regs;
+        let inputs = self.params.iter().chain(&self.indices).chain(&self.q).chain(&self.qd).map(|p| p.1);
+        let steps = self.steps.iter().flat_map(|s| {
+            let b = if matches!(s.code, Code::SinCos | Code::Add | Code::Mul) { s.b } else { s.a };
+            [s.dst, s.a, b]
+        });
+        assert!(
+            self.consts.len() <= n && inputs.chain(steps).chain(self.out.iter().copied()).all(|r| (r as usize) < n),
+            "a tape's register out of bounds"
+        );
     }
 
     /// Whether the inputs `x` hold everything the tape reads (the compiled
@@ -348,8 +402,11 @@ impl Tape {
             self.load(x, regs);
             self.run(regs);
             let (oa, ob) = self.out.split_at(na);
+            let regs = regs.as_ptr();
             for (v, &o) in a.iter_mut().zip(oa).chain(b.iter_mut().zip(ob)) {
-                *v = regs[o as usize];
+                // SAFETY: `run` had `n_regs` registers, and `check` saw
+                // every output register below it.
+                *v = unsafe { *regs.add(o as usize) };
             }
         };
         if regs.len() >= self.n_regs { run(regs) } else { S::with_scratch(self.n_regs, run) }
@@ -409,49 +466,71 @@ impl Tape {
     }
 
     /// Loads the inputs into the registers.
+    ///
+    /// # Panics
+    /// If `regs` is shorter than the tape's registers, or an input is out
+    /// of bounds.
     #[inline]
     fn load<S: Scalar>(&self, x: &Inputs<'_, S>, regs: &mut [S]) {
         let Inputs { params, indices, cols, q, qd, .. } = *x;
-        for (r, &c) in regs.iter_mut().zip(&self.consts) {
-            *r = S::from_f64(c);
-        }
-        for &(i, r) in &self.params {
-            regs[r as usize] = S::from_f64(params[i]);
-        }
-        for &(k, r) in &self.indices {
-            regs[r as usize] = S::from_f64(indices[k]);
-        }
-        for &(k, r) in &self.q {
-            regs[r as usize] = q[cols[k / 3] + k % 3];
-        }
-        for &(k, r) in &self.qd {
-            regs[r as usize] = qd[cols[k / 3] + k % 3];
+        assert!(
+            regs.len() >= self.n_regs && params.len() >= self.reach.params && indices.len() >= self.reach.indices,
+            "a tape's registers or inputs too short"
+        );
+        let r = regs.as_mut_ptr();
+        // SAFETY: `check` saw every input's register (and the numbers')
+        // below `n_regs`, which `regs` holds; a parameter's or an index's
+        // number is below `reach`'s, which `params` and `indices` hold.
+        unsafe {
+            for (k, &c) in self.consts.iter().enumerate() {
+                *r.add(k) = S::from_f64(c);
+            }
+            for &(i, reg) in &self.params {
+                *r.add(reg as usize) = S::from_f64(*params.get_unchecked(i));
+            }
+            for &(k, reg) in &self.indices {
+                *r.add(reg as usize) = S::from_f64(*indices.get_unchecked(k));
+            }
+            for &(s, k, reg) in &self.q_at {
+                *r.add(reg as usize) = q[cols[s] + k];
+            }
+            for &(s, k, reg) in &self.qd_at {
+                *r.add(reg as usize) = qd[cols[s] + k];
+            }
         }
     }
 
     /// Runs the operations on loaded registers; output `j` is then
     /// `regs[self.out[j]]`.
+    ///
+    /// # Panics
+    /// If `regs` is shorter than the tape's registers.
     #[inline]
     fn run<S: Scalar>(&self, regs: &mut [S]) {
-        let regs = &mut regs[..self.n_regs];
-        for ins in &self.ins {
-            let a = regs[ins.a as usize];
-            let v = match ins.op {
-                Op::Add => a + regs[ins.b as usize],
-                Op::Mul => a * regs[ins.b as usize],
-                Op::Neg => -a,
-                Op::Recip => a.recip(),
-                Op::Powi(n) => a.powi(n),
-                Op::Sin => a.sin(),
-                Op::Cos => a.cos(),
-                Op::Sqrt => a.sqrt(),
-                Op::SinCos => {
-                    let (s, c) = a.sin_cos();
-                    regs[ins.b as usize] = c;
-                    s
-                }
-            };
-            regs[ins.dst as usize] = v;
+        assert!(regs.len() >= self.n_regs, "a tape's registers too short");
+        let r = regs.as_mut_ptr();
+        for s in &self.steps {
+            // SAFETY: `check` saw every register a step touches below
+            // `n_regs`, which `regs` holds.
+            unsafe {
+                let a = *r.add(s.a as usize);
+                let v = match s.code {
+                    Code::Add => a + *r.add(s.b as usize),
+                    Code::Mul => a * *r.add(s.b as usize),
+                    Code::Neg => -a,
+                    Code::Recip => a.recip(),
+                    Code::Powi => a.powi(s.b as i32),
+                    Code::Sin => a.sin(),
+                    Code::Cos => a.cos(),
+                    Code::Sqrt => a.sqrt(),
+                    Code::SinCos => {
+                        let (sin, cos) = a.sin_cos();
+                        *r.add(s.b as usize) = cos;
+                        sin
+                    }
+                };
+                *r.add(s.dst as usize) = v;
+            }
         }
     }
 
@@ -464,6 +543,23 @@ impl Tape {
     /// Registers an evaluation needs (room for the outputs included).
     pub(crate) fn registers(&self) -> usize {
         self.n_regs.max(self.out.len())
+    }
+}
+
+impl Step {
+    fn of(ins: &Ins) -> Self {
+        let (code, b) = match ins.op {
+            Op::Add => (Code::Add, ins.b),
+            Op::Mul => (Code::Mul, ins.b),
+            Op::Neg => (Code::Neg, ins.a),
+            Op::Recip => (Code::Recip, ins.a),
+            Op::Powi(n) => (Code::Powi, n as u32),
+            Op::Sin => (Code::Sin, ins.a),
+            Op::Cos => (Code::Cos, ins.a),
+            Op::SinCos => (Code::SinCos, ins.b),
+            Op::Sqrt => (Code::Sqrt, ins.a),
+        };
+        Step { code, dst: ins.dst, a: ins.a, b }
     }
 }
 
