@@ -55,17 +55,37 @@ enum Code {
     Powi,
     Sin,
     Cos,
+    /// `dst = sin a`, `b = cos a`.
     SinCos,
     Sqrt,
+    /// `a b + c`.
+    MulAdd,
+    /// `c + a b`.
+    AddMul,
+    /// `a b + c d`.
+    MulAddMul,
+    /// `(a b) c`.
+    MulMul,
+    /// `c (a b)`.
+    MulByMul,
+    /// `(a + b) c`.
+    AddMulBy,
+    /// `c (a + b)`.
+    MulByAdd,
+    /// `-(a b)`.
+    NegMul,
 }
 
-/// `dst = code(a, b)` on the registers, as [`Tape::run`] runs it.
+/// `dst = code(a, b, c, d)` on the registers, as [`Tape::run`] runs it
+/// (a one-operand code reads `a`).
 #[derive(Clone, Copy, Debug)]
 struct Step {
     code: Code,
     dst: u32,
     a: u32,
     b: u32,
+    c: u32,
+    d: u32,
 }
 
 /// Straight-line code computing some outputs from a model's parameters,
@@ -316,7 +336,7 @@ impl Tape {
         t.n_regs = next as usize;
         t.reach = Reach::of(&t);
         t.split = t.out.len();
-        t.steps = t.ins.iter().map(Step::of).collect();
+        t.steps = steps(&t.ins, &t.out, t.n_regs);
         let at = |list: &[(usize, u32)]| list.iter().map(|&(k, r)| (k / 3, k % 3, r)).collect();
         (t.q_at, t.qd_at) = (at(&t.q), at(&t.qd));
         t.check();
@@ -332,10 +352,8 @@ impl Tape {
     fn check(&self) {
         let n = self.n_regs;
         let inputs = self.params.iter().chain(&self.indices).chain(&self.q).chain(&self.qd).map(|p| p.1);
-        let steps = self.steps.iter().flat_map(|s| {
-            let b = if matches!(s.code, Code::SinCos | Code::Add | Code::Mul) { s.b } else { s.a };
-            [s.dst, s.a, b]
-        });
+        let steps =
+            self.steps.iter().flat_map(|s| [s.dst, s.a, if s.code == Code::Powi { s.a } else { s.b }, s.c, s.d]);
         assert!(
             self.consts.len() <= n && inputs.chain(steps).chain(self.out.iter().copied()).all(|r| (r as usize) < n),
             "a tape's register out of bounds"
@@ -513,10 +531,19 @@ impl Tape {
             // SAFETY: `check` saw every register a step touches below
             // `n_regs`, which `regs` holds.
             unsafe {
-                let a = *r.add(s.a as usize);
+                let at = |k: u32| *r.add(k as usize);
+                let a = at(s.a);
                 let v = match s.code {
-                    Code::Add => a + *r.add(s.b as usize),
-                    Code::Mul => a * *r.add(s.b as usize),
+                    Code::Add => a + at(s.b),
+                    Code::Mul => a * at(s.b),
+                    Code::MulAdd => a * at(s.b) + at(s.c),
+                    Code::AddMul => at(s.c) + a * at(s.b),
+                    Code::MulAddMul => a * at(s.b) + at(s.c) * at(s.d),
+                    Code::MulMul => a * at(s.b) * at(s.c),
+                    Code::MulByMul => at(s.c) * (a * at(s.b)),
+                    Code::AddMulBy => (a + at(s.b)) * at(s.c),
+                    Code::MulByAdd => at(s.c) * (a + at(s.b)),
+                    Code::NegMul => -(a * at(s.b)),
                     Code::Neg => -a,
                     Code::Recip => a.recip(),
                     Code::Powi => a.powi(s.b as i32),
@@ -546,21 +573,95 @@ impl Tape {
     }
 }
 
-impl Step {
-    fn of(ins: &Ins) -> Self {
-        let (code, b) = match ins.op {
-            Op::Add => (Code::Add, ins.b),
-            Op::Mul => (Code::Mul, ins.b),
-            Op::Neg => (Code::Neg, ins.a),
-            Op::Recip => (Code::Recip, ins.a),
-            Op::Powi(n) => (Code::Powi, n as u32),
-            Op::Sin => (Code::Sin, ins.a),
-            Op::Cos => (Code::Cos, ins.a),
-            Op::SinCos => (Code::SinCos, ins.b),
-            Op::Sqrt => (Code::Sqrt, ins.a),
-        };
-        Step { code, dst: ins.dst, a: ins.a, b }
+/// The register machine's steps for `ins`: each operation, with the
+/// operations whose value only it reads (and no output) folded in where
+/// a fused code fits (a product, sum or negation feeding a sum or a
+/// product, evaluated then, in the same order: registers are written
+/// once, so a value computed later is the same value).
+fn steps(ins: &[Ins], out: &[u32], n_regs: usize) -> Vec<Step> {
+    // reads of each register, outputs counted as more than one
+    let mut reads = vec![0u32; n_regs];
+    for i in ins {
+        reads[i.a as usize] += 1;
+        if matches!(i.op, Op::Add | Op::Mul) {
+            reads[i.b as usize] += 1;
+        }
     }
+    for &o in out {
+        reads[o as usize] += 2;
+    }
+    // the instruction defining each register read once, where it may fold
+    let mut def: Vec<Option<usize>> = vec![None; n_regs];
+    for (k, i) in ins.iter().enumerate() {
+        if matches!(i.op, Op::Add | Op::Mul | Op::Neg) && reads[i.dst as usize] == 1 {
+            def[i.dst as usize] = Some(k);
+        }
+    }
+    let mut folded = vec![false; ins.len()];
+    let mut steps = Vec::with_capacity(ins.len());
+    for (k, i) in ins.iter().enumerate().rev() {
+        if folded[k] {
+            continue;
+        }
+        let kid = |r: u32, op: Op| def[r as usize].filter(|&j| ins[j].op == op);
+        let mut fold = |j: usize| {
+            folded[j] = true;
+            (ins[j].a, ins[j].b)
+        };
+        let step = |code, a, b, c, d| Step { code, dst: i.dst, a, b, c, d };
+        let s = match i.op {
+            Op::Add => match (kid(i.a, Op::Mul), kid(i.b, Op::Mul)) {
+                (Some(x), Some(y)) => {
+                    let ((a, b), (c, d)) = (fold(x), fold(y));
+                    step(Code::MulAddMul, a, b, c, d)
+                }
+                (Some(x), None) => {
+                    let (a, b) = fold(x);
+                    step(Code::MulAdd, a, b, i.b, 0)
+                }
+                (None, Some(y)) => {
+                    let (a, b) = fold(y);
+                    step(Code::AddMul, a, b, i.a, 0)
+                }
+                (None, None) => step(Code::Add, i.a, i.b, 0, 0),
+            },
+            Op::Mul => match (kid(i.a, Op::Mul), kid(i.b, Op::Mul), kid(i.a, Op::Add), kid(i.b, Op::Add)) {
+                (Some(x), ..) => {
+                    let (a, b) = fold(x);
+                    step(Code::MulMul, a, b, i.b, 0)
+                }
+                (None, Some(y), ..) => {
+                    let (a, b) = fold(y);
+                    step(Code::MulByMul, a, b, i.a, 0)
+                }
+                (None, None, Some(x), _) => {
+                    let (a, b) = fold(x);
+                    step(Code::AddMulBy, a, b, i.b, 0)
+                }
+                (None, None, None, Some(y)) => {
+                    let (a, b) = fold(y);
+                    step(Code::MulByAdd, a, b, i.a, 0)
+                }
+                (None, None, None, None) => step(Code::Mul, i.a, i.b, 0, 0),
+            },
+            Op::Neg => match kid(i.a, Op::Mul) {
+                Some(x) => {
+                    let (a, b) = fold(x);
+                    step(Code::NegMul, a, b, 0, 0)
+                }
+                None => step(Code::Neg, i.a, 0, 0, 0),
+            },
+            Op::Recip => step(Code::Recip, i.a, 0, 0, 0),
+            Op::Powi(n) => step(Code::Powi, i.a, n as u32, 0, 0),
+            Op::Sin => step(Code::Sin, i.a, 0, 0, 0),
+            Op::Cos => step(Code::Cos, i.a, 0, 0, 0),
+            Op::SinCos => step(Code::SinCos, i.a, i.b, 0, 0),
+            Op::Sqrt => step(Code::Sqrt, i.a, 0, 0, 0),
+        };
+        steps.push(s);
+    }
+    steps.reverse();
+    steps
 }
 
 /// Where [`Tape::compute`] left the outputs.
