@@ -43,6 +43,51 @@ struct Ins {
     b: u32,
 }
 
+/// An operation of the register machine ([`Tape::run`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+#[repr(u8)]
+enum Code {
+    Add,
+    Mul,
+    Neg,
+    Recip,
+    /// `b` holds the exponent's bits.
+    Powi,
+    Sin,
+    Cos,
+    /// `dst = sin a`, `b = cos a`.
+    SinCos,
+    Sqrt,
+    /// `a b + c`.
+    MulAdd,
+    /// `c + a b`.
+    AddMul,
+    /// `a b + c d`.
+    MulAddMul,
+    /// `(a b) c`.
+    MulMul,
+    /// `c (a b)`.
+    MulByMul,
+    /// `(a + b) c`.
+    AddMulBy,
+    /// `c (a + b)`.
+    MulByAdd,
+    /// `-(a b)`.
+    NegMul,
+}
+
+/// `dst = code(a, b, c, d)` on the registers, as [`Tape::run`] runs it
+/// (a one-operand code reads `a`).
+#[derive(Clone, Copy, Debug)]
+struct Step {
+    code: Code,
+    dst: u32,
+    a: u32,
+    b: u32,
+    c: u32,
+    d: u32,
+}
+
 /// Straight-line code computing some outputs from a model's parameters,
 /// the family indices of an element and the local coordinates of the
 /// bodies it touches (slot `s` owns local coordinates `3 s .. 3 s + 3`).
@@ -62,6 +107,12 @@ pub(crate) struct Tape {
     q: Vec<(usize, u32)>,
     qd: Vec<(usize, u32)>,
     ins: Vec<Ins>,
+    /// What the register machine runs ([`Tape::run`]): `ins`, every
+    /// register checked below `n_regs` when the tape is built.
+    steps: Vec<Step>,
+    /// `q`'s and `qd`'s loads as `(slot, coordinate in it, register)`.
+    q_at: Vec<(usize, usize, u32)>,
+    qd_at: Vec<(usize, usize, u32)>,
     /// The register of each output.
     out: Vec<u32>,
     n_regs: usize,
@@ -285,7 +336,28 @@ impl Tape {
         t.n_regs = next as usize;
         t.reach = Reach::of(&t);
         t.split = t.out.len();
+        t.steps = steps(&t.ins, &t.out, t.n_regs);
+        let at = |list: &[(usize, u32)]| list.iter().map(|&(k, r)| (k / 3, k % 3, r)).collect();
+        (t.q_at, t.qd_at) = (at(&t.q), at(&t.qd));
+        t.check();
         t
+    }
+
+    /// Checks what [`Tape::load`], [`Tape::run`] and the output copies
+    /// rely on to index the registers unchecked: every register they
+    /// touch is below `n_regs`.
+    ///
+    /// # Panics
+    /// If one is not (a bug of [`Tape::build`]).
+    fn check(&self) {
+        let n = self.n_regs;
+        let inputs = self.params.iter().chain(&self.indices).chain(&self.q).chain(&self.qd).map(|p| p.1);
+        let steps =
+            self.steps.iter().flat_map(|s| [s.dst, s.a, if s.code == Code::Powi { s.a } else { s.b }, s.c, s.d]);
+        assert!(
+            self.consts.len() <= n && inputs.chain(steps).chain(self.out.iter().copied()).all(|r| (r as usize) < n),
+            "a tape's register out of bounds"
+        );
     }
 
     /// Whether the inputs `x` hold everything the tape reads (the compiled
@@ -348,8 +420,11 @@ impl Tape {
             self.load(x, regs);
             self.run(regs);
             let (oa, ob) = self.out.split_at(na);
+            let regs = regs.as_ptr();
             for (v, &o) in a.iter_mut().zip(oa).chain(b.iter_mut().zip(ob)) {
-                *v = regs[o as usize];
+                // SAFETY: `run` had `n_regs` registers, and `check` saw
+                // every output register below it.
+                *v = unsafe { *regs.add(o as usize) };
             }
         };
         if regs.len() >= self.n_regs { run(regs) } else { S::with_scratch(self.n_regs, run) }
@@ -409,49 +484,80 @@ impl Tape {
     }
 
     /// Loads the inputs into the registers.
+    ///
+    /// # Panics
+    /// If `regs` is shorter than the tape's registers, or an input is out
+    /// of bounds.
     #[inline]
     fn load<S: Scalar>(&self, x: &Inputs<'_, S>, regs: &mut [S]) {
         let Inputs { params, indices, cols, q, qd, .. } = *x;
-        for (r, &c) in regs.iter_mut().zip(&self.consts) {
-            *r = S::from_f64(c);
-        }
-        for &(i, r) in &self.params {
-            regs[r as usize] = S::from_f64(params[i]);
-        }
-        for &(k, r) in &self.indices {
-            regs[r as usize] = S::from_f64(indices[k]);
-        }
-        for &(k, r) in &self.q {
-            regs[r as usize] = q[cols[k / 3] + k % 3];
-        }
-        for &(k, r) in &self.qd {
-            regs[r as usize] = qd[cols[k / 3] + k % 3];
+        assert!(
+            regs.len() >= self.n_regs && params.len() >= self.reach.params && indices.len() >= self.reach.indices,
+            "a tape's registers or inputs too short"
+        );
+        let r = regs.as_mut_ptr();
+        // SAFETY: `check` saw every input's register (and the numbers')
+        // below `n_regs`, which `regs` holds; a parameter's or an index's
+        // number is below `reach`'s, which `params` and `indices` hold.
+        unsafe {
+            for (k, &c) in self.consts.iter().enumerate() {
+                *r.add(k) = S::from_f64(c);
+            }
+            for &(i, reg) in &self.params {
+                *r.add(reg as usize) = S::from_f64(*params.get_unchecked(i));
+            }
+            for &(k, reg) in &self.indices {
+                *r.add(reg as usize) = S::from_f64(*indices.get_unchecked(k));
+            }
+            for &(s, k, reg) in &self.q_at {
+                *r.add(reg as usize) = q[cols[s] + k];
+            }
+            for &(s, k, reg) in &self.qd_at {
+                *r.add(reg as usize) = qd[cols[s] + k];
+            }
         }
     }
 
     /// Runs the operations on loaded registers; output `j` is then
     /// `regs[self.out[j]]`.
+    ///
+    /// # Panics
+    /// If `regs` is shorter than the tape's registers.
     #[inline]
     fn run<S: Scalar>(&self, regs: &mut [S]) {
-        let regs = &mut regs[..self.n_regs];
-        for ins in &self.ins {
-            let a = regs[ins.a as usize];
-            let v = match ins.op {
-                Op::Add => a + regs[ins.b as usize],
-                Op::Mul => a * regs[ins.b as usize],
-                Op::Neg => -a,
-                Op::Recip => a.recip(),
-                Op::Powi(n) => a.powi(n),
-                Op::Sin => a.sin(),
-                Op::Cos => a.cos(),
-                Op::Sqrt => a.sqrt(),
-                Op::SinCos => {
-                    let (s, c) = a.sin_cos();
-                    regs[ins.b as usize] = c;
-                    s
-                }
-            };
-            regs[ins.dst as usize] = v;
+        assert!(regs.len() >= self.n_regs, "a tape's registers too short");
+        let r = regs.as_mut_ptr();
+        for s in &self.steps {
+            // SAFETY: `check` saw every register a step touches below
+            // `n_regs`, which `regs` holds.
+            unsafe {
+                let at = |k: u32| *r.add(k as usize);
+                let a = at(s.a);
+                let v = match s.code {
+                    Code::Add => a + at(s.b),
+                    Code::Mul => a * at(s.b),
+                    Code::MulAdd => a * at(s.b) + at(s.c),
+                    Code::AddMul => at(s.c) + a * at(s.b),
+                    Code::MulAddMul => a * at(s.b) + at(s.c) * at(s.d),
+                    Code::MulMul => a * at(s.b) * at(s.c),
+                    Code::MulByMul => at(s.c) * (a * at(s.b)),
+                    Code::AddMulBy => (a + at(s.b)) * at(s.c),
+                    Code::MulByAdd => at(s.c) * (a + at(s.b)),
+                    Code::NegMul => -(a * at(s.b)),
+                    Code::Neg => -a,
+                    Code::Recip => a.recip(),
+                    Code::Powi => a.powi(s.b as i32),
+                    Code::Sin => a.sin(),
+                    Code::Cos => a.cos(),
+                    Code::Sqrt => a.sqrt(),
+                    Code::SinCos => {
+                        let (sin, cos) = a.sin_cos();
+                        *r.add(s.b as usize) = cos;
+                        sin
+                    }
+                };
+                *r.add(s.dst as usize) = v;
+            }
         }
     }
 
@@ -465,6 +571,97 @@ impl Tape {
     pub(crate) fn registers(&self) -> usize {
         self.n_regs.max(self.out.len())
     }
+}
+
+/// The register machine's steps for `ins`: each operation, with the
+/// operations whose value only it reads (and no output) folded in where
+/// a fused code fits (a product, sum or negation feeding a sum or a
+/// product, evaluated then, in the same order: registers are written
+/// once, so a value computed later is the same value).
+fn steps(ins: &[Ins], out: &[u32], n_regs: usize) -> Vec<Step> {
+    // reads of each register, outputs counted as more than one
+    let mut reads = vec![0u32; n_regs];
+    for i in ins {
+        reads[i.a as usize] += 1;
+        if matches!(i.op, Op::Add | Op::Mul) {
+            reads[i.b as usize] += 1;
+        }
+    }
+    for &o in out {
+        reads[o as usize] += 2;
+    }
+    // the instruction defining each register read once, where it may fold
+    let mut def: Vec<Option<usize>> = vec![None; n_regs];
+    for (k, i) in ins.iter().enumerate() {
+        if matches!(i.op, Op::Add | Op::Mul | Op::Neg) && reads[i.dst as usize] == 1 {
+            def[i.dst as usize] = Some(k);
+        }
+    }
+    let mut folded = vec![false; ins.len()];
+    let mut steps = Vec::with_capacity(ins.len());
+    for (k, i) in ins.iter().enumerate().rev() {
+        if folded[k] {
+            continue;
+        }
+        let kid = |r: u32, op: Op| def[r as usize].filter(|&j| ins[j].op == op);
+        let mut fold = |j: usize| {
+            folded[j] = true;
+            (ins[j].a, ins[j].b)
+        };
+        let step = |code, a, b, c, d| Step { code, dst: i.dst, a, b, c, d };
+        let s = match i.op {
+            Op::Add => match (kid(i.a, Op::Mul), kid(i.b, Op::Mul)) {
+                (Some(x), Some(y)) => {
+                    let ((a, b), (c, d)) = (fold(x), fold(y));
+                    step(Code::MulAddMul, a, b, c, d)
+                }
+                (Some(x), None) => {
+                    let (a, b) = fold(x);
+                    step(Code::MulAdd, a, b, i.b, 0)
+                }
+                (None, Some(y)) => {
+                    let (a, b) = fold(y);
+                    step(Code::AddMul, a, b, i.a, 0)
+                }
+                (None, None) => step(Code::Add, i.a, i.b, 0, 0),
+            },
+            Op::Mul => match (kid(i.a, Op::Mul), kid(i.b, Op::Mul), kid(i.a, Op::Add), kid(i.b, Op::Add)) {
+                (Some(x), ..) => {
+                    let (a, b) = fold(x);
+                    step(Code::MulMul, a, b, i.b, 0)
+                }
+                (None, Some(y), ..) => {
+                    let (a, b) = fold(y);
+                    step(Code::MulByMul, a, b, i.a, 0)
+                }
+                (None, None, Some(x), _) => {
+                    let (a, b) = fold(x);
+                    step(Code::AddMulBy, a, b, i.b, 0)
+                }
+                (None, None, None, Some(y)) => {
+                    let (a, b) = fold(y);
+                    step(Code::MulByAdd, a, b, i.a, 0)
+                }
+                (None, None, None, None) => step(Code::Mul, i.a, i.b, 0, 0),
+            },
+            Op::Neg => match kid(i.a, Op::Mul) {
+                Some(x) => {
+                    let (a, b) = fold(x);
+                    step(Code::NegMul, a, b, 0, 0)
+                }
+                None => step(Code::Neg, i.a, 0, 0, 0),
+            },
+            Op::Recip => step(Code::Recip, i.a, 0, 0, 0),
+            Op::Powi(n) => step(Code::Powi, i.a, n as u32, 0, 0),
+            Op::Sin => step(Code::Sin, i.a, 0, 0, 0),
+            Op::Cos => step(Code::Cos, i.a, 0, 0, 0),
+            Op::SinCos => step(Code::SinCos, i.a, i.b, 0, 0),
+            Op::Sqrt => step(Code::Sqrt, i.a, 0, 0, 0),
+        };
+        steps.push(s);
+    }
+    steps.reverse();
+    steps
 }
 
 /// Where [`Tape::compute`] left the outputs.
