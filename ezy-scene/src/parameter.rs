@@ -20,8 +20,10 @@ impl Scene {
     ///
     /// # Errors
     /// As [`Scene::set`] for a name the scene does not have;
-    /// [`SetupError::Scene`] for a key left at its default (give it in
-    /// the scene) or one whose value the scene does not write as a number;
+    /// [`SetupError::Scene`] for a key left at a default other than 0
+    /// (give it in the scene; one at a default of 0, a damping or a
+    /// phase, is taken at 0) or one whose value the scene does not write
+    /// as a number;
     /// as [`Scene::problem_with`].
     pub fn parameter<M: Model>(&self, model: &M, sets: &[(String, f64)], name: &str) -> Result<Parameter<M>, SimError> {
         let (problem, _) = self.problem_with(model.clone(), sets)?;
@@ -135,7 +137,8 @@ impl Scene {
             return Ok(model.param(k));
         }
         // an unknown name gets `set`'s error, listing the names there are
-        self.clone().set(&info, name, 0.0)?;
+        let mut at_zero = self.clone();
+        at_zero.set(&info, name, 0.0)?;
         let not_given = || {
             SimError::Setup(SetupError::Scene {
                 key: name.to_string(),
@@ -153,6 +156,9 @@ impl Scene {
             .collect();
         match hits.as_slice() {
             [v] => Ok(*v),
+            // a key left at a default of 0 (a damping, a phase) is not
+            // written; set to 0 the item is then written as it is
+            [] if at_zero.numbers(item).as_ref() == Some(&numbers) => Ok(0.0),
             _ => Err(not_given()),
         }
     }
