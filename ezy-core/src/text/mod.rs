@@ -723,7 +723,7 @@ impl RuntimeModel {
                 regs,
             );
             for j in 0..tape.outputs() {
-                write(j, regs[j], q, qd);
+                write(j, regs[tape.output_at(j)], q, qd);
             }
         });
     }

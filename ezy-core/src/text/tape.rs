@@ -269,7 +269,7 @@ impl Tape {
         t.n_regs = next as usize;
         t.reach = Reach::of(&t);
         t.split = t.out.len();
-        t.machine = Machine::new(&t);
+        t.machine = Machine::new(&t, &[]);
         t
     }
 
@@ -291,6 +291,16 @@ impl Tape {
     fn kernel_for<S: Scalar>(&self, x: &Inputs<'_, S>) -> Option<jit::Kernel> {
         let k = *self.kernel.get()?;
         (x.compiled && std::any::TypeId::of::<S>() == std::any::TypeId::of::<f64>() && self.fits(x)).then_some(k)
+    }
+
+    /// The tape with output `j` left in register `places[j]` by
+    /// [`Tape::eval_in`] (instead of `j`): where its caller reads it.
+    ///
+    /// # Panics
+    /// If the places are not one per output and distinct.
+    pub(crate) fn with_places(mut self, places: &[u32]) -> Self {
+        self.machine = Machine::new(&self, places);
+        self
     }
 
     /// The tape with its outputs from `split` on written to a second
@@ -332,8 +342,14 @@ impl Tape {
         let n = self.machine.registers();
         let mut run = |regs: &mut [S]| {
             self.machine.eval(x, regs);
-            a.copy_from_slice(&regs[..na]);
-            b.copy_from_slice(&regs[na..na + nb]);
+            if self.machine.places().is_empty() {
+                a.copy_from_slice(&regs[..na]);
+                b.copy_from_slice(&regs[na..na + nb]);
+            } else {
+                for (j, v) in a.iter_mut().chain(b.iter_mut()).enumerate() {
+                    *v = regs[self.output_at(j)];
+                }
+            }
         };
         if regs.len() >= n { run(regs) } else { S::with_scratch(n, run) }
     }
@@ -344,9 +360,10 @@ impl Tape {
         let _ = self.kernel.set(k);
     }
 
-    /// Evaluates the tape for one element: output `j` is then `regs[j]`.
-    /// By the compiled kernel for `f64` where there is one, by the
-    /// register machine otherwise. `regs` is scratch of at least
+    /// Evaluates the tape for one element: output `j` is then `regs[j]`
+    /// (`regs[places[j]]` for a tape [`Tape::with_places`]). By the
+    /// compiled kernel for `f64` where there is one, by the register
+    /// machine otherwise. `regs` is scratch of at least
     /// [`Tape::registers`] values (its contents are overwritten).
     ///
     /// # Panics
@@ -355,16 +372,22 @@ impl Tape {
     pub(crate) fn eval_in<S: Scalar>(&self, x: &Inputs<'_, S>, regs: &mut [S]) {
         #[cfg(feature = "jit")]
         if let Some(k) = self.kernel_for(x)
-            && regs.len() >= self.out.len()
+            && regs.len() >= self.registers()
         {
+            // the kernel writes the outputs in a row: past the places, if any
+            let places = self.machine.places();
+            let at = if places.is_empty() { 0 } else { self.machine.front() };
             let f = |v: &[S]| v.as_ptr().cast::<f64>();
-            let out = regs.as_mut_ptr().cast::<f64>();
+            let out = regs[at..].as_mut_ptr().cast::<f64>();
             // SAFETY: `S` is `f64` (the casts are identities), `kernel_for`
-            // checked every read, and `regs` holds the outputs (the second
-            // destination starts at the split).
+            // checked every read, and `regs[at..]` holds the outputs (the
+            // second destination starts at the split).
             unsafe {
                 k(x.params.as_ptr(), x.indices.as_ptr(), x.cols.as_ptr(), f(x.q), f(x.qd), out, out.add(self.split))
             };
+            for (j, &p) in places.iter().enumerate() {
+                regs[p as usize] = regs[at + j];
+            }
             return;
         }
         self.machine.eval(x, regs);
@@ -387,9 +410,15 @@ impl Tape {
     #[inline]
     pub(crate) fn eval<S: Scalar>(&self, x: &Inputs<'_, S>, regs: &mut [S], mut sink: impl FnMut(usize, S)) {
         self.eval_in(x, regs);
-        for (j, &v) in regs[..self.out.len()].iter().enumerate() {
-            sink(j, v);
+        for j in 0..self.out.len() {
+            sink(j, regs[self.output_at(j)]);
         }
+    }
+
+    /// The register [`Tape::eval_in`] leaves output `j` in.
+    #[inline]
+    pub(crate) fn output_at(&self, j: usize) -> usize {
+        self.machine.places().get(j).map_or(j, |&p| p as usize)
     }
 
     /// Number of outputs.
@@ -400,7 +429,8 @@ impl Tape {
 
     /// Registers an evaluation needs (room for the outputs included).
     pub(crate) fn registers(&self) -> usize {
-        self.machine.registers().max(self.out.len())
+        let kernel = if self.machine.places().is_empty() { 0 } else { self.machine.front() };
+        self.machine.registers().max(kernel + self.out.len())
     }
 }
 

@@ -45,13 +45,14 @@ impl Coef {
         }
     }
 
-    /// `r += coef * x`, rounded as `model!`'s code rounds it.
+    /// `r += coef * x`, rounded as `model!`'s code rounds it, output `k`
+    /// at `out[k - from]`.
     #[inline]
-    fn add_to(self, r: &mut f64, x: f64, out: &[f64]) {
+    fn add_to(self, r: &mut f64, x: f64, out: &[f64], from: usize) {
         match self {
             Coef::One => *r += x,
             Coef::MinusOne => *r -= x,
-            Coef::At(k) => *r += out[k] * x,
+            Coef::At(k) => *r += out[k - from] * x,
         }
     }
 }
@@ -90,7 +91,7 @@ pub(super) struct Fused {
     /// Per hinge, `(speed i, coefficient)` where not zero.
     hinges: Vec<Vec<(usize, Coef)>>,
     /// The lengths of the tapes' working space's parts ([`tapes_work`]).
-    work: [usize; 7],
+    work: [usize; 5],
     /// The parameters and table values the tapes read (the largest index
     /// read, plus one).
     reach: (usize, usize),
@@ -150,12 +151,24 @@ impl Fused {
         let forces = tapes.pop().expect("three tapes");
         let lean = tapes.pop().expect("three tapes");
         let tape = tapes.pop().expect("three tapes");
+        // the register machine leaves `B^T M B`'s lower triangle where the
+        // solve reads it (an nu x nu matrix by rows), the rest after it
+        let n_lower = nu * (nu + 1) / 2;
+        let place = |k: usize| {
+            let i = (0..nu).find(|&i| k < (i + 1) * (i + 2) / 2).map_or(nu, |i| i);
+            (if k < n_lower { i * nu + k - i * (i + 1) / 2 } else { k - n_lower + nu * nu }) as u32
+        };
+        let placed = |t: Tape| {
+            let places: Vec<u32> = (0..t.outputs()).map(place).collect();
+            t.with_places(&places)
+        };
+        let (tape, lean) = (placed(tape), placed(lean));
         let reach = [&tape, &lean, &forces]
             .iter()
             .map(|t| t.input_reach())
             .fold((0, 0), |(p, k), (tp, tk)| (p.max(tp), k.max(tk)));
         let regs = tape.registers().max(lean.registers());
-        let work = [regs, forces.registers(), nq, maggi.hinge.len(), nu * nu, nu, nu * (nu + 1)];
+        let work = [regs, forces.registers(), nq, maggi.hinge.len(), nu * (nu + 1)];
         Self {
             #[cfg(feature = "jit")]
             kept: n_maggi + if forces.reads_velocities() { forces.outputs() } else { 0 },
@@ -311,19 +324,18 @@ where
 }
 
 /// The tapes' working space in `work`, one layout for the full and the
-/// lean evaluation: the fused tape's registers (its outputs first), the
-/// frames and rows' registers (likewise), `f`, `tau`, `A`, `r` and the
-/// solve's scratch.
+/// lean evaluation: the fused tape's registers (`A`, `r`, the hinges'
+/// coefficients, the eliminated coordinates and rates, then the rest:
+/// [`Fused::new`] placed them), the frames and rows' registers (their
+/// outputs first), `f`, `tau` and the solve's scratch.
 #[inline(always)]
-fn tapes_work<'w>(p: &Fused, work: &'w mut [f64]) -> [&'w mut [f64]; 7] {
-    let [regs, fo, nq, nh, a, r, _] = p.work;
+fn tapes_work<'w>(p: &Fused, work: &'w mut [f64]) -> [&'w mut [f64]; 5] {
+    let [regs, fo, nq, nh, _] = p.work;
     let (regs, rest) = work.split_at_mut(regs);
     let (fo, rest) = rest.split_at_mut(fo);
     let (f, rest) = rest.split_at_mut(nq);
-    let (tau, rest) = rest.split_at_mut(nh);
-    let (a, rest) = rest.split_at_mut(a);
-    let (r, scratch) = rest.split_at_mut(r);
-    [regs, fo, f, tau, a, r, scratch]
+    let (tau, scratch) = rest.split_at_mut(nh);
+    [regs, fo, f, tau, scratch]
 }
 
 /// [`rhs`] by the tapes' evaluators (the register machine, or a kernel
@@ -362,7 +374,8 @@ fn tapes_state<'w>(
     if p.forces.reads_velocities() {
         p.forces.eval_in(&x.inputs(q, qd), fo);
     }
-    let (deps, rates) = regs[p.n_maggi..].split_at(dep_at.len());
+    let n_lower = p.nu * (p.nu + 1) / 2;
+    let (deps, rates) = regs[p.nu * p.nu + p.n_maggi - n_lower..].split_at(dep_at.len());
     for (&j, &v) in dep_at.iter().zip(deps) {
         q[j] = v;
     }
@@ -394,15 +407,13 @@ fn tapes_solve(
 ) -> Result<(), crate::error::KktError> {
     let p = x.fused;
     let (nu, np) = (p.nu, x.coords.len());
-    let [regs, fo, f, tau, a, r, scratch] = tapes_work(p, work);
-    let maggi = &regs[..p.n_maggi];
-    // `B^T M B` is read below the diagonal only
-    let (lower, rest) = maggi.split_at(nu * (nu + 1) / 2);
-    for i in 0..nu {
-        let row = &lower[i * (i + 1) / 2..];
-        a[i * nu..=i * nu + i].copy_from_slice(&row[..=i]);
-    }
-    r.copy_from_slice(&rest[..nu]);
+    let [regs, fo, f, tau, scratch] = tapes_work(p, work);
+    // where the tape left them: `B^T M B` below the diagonal of `a` (read
+    // there only), `-B^T M c` in `r` (added to here), then the hinges'
+    // coefficients (from Maggi term `nu (nu + 1) / 2 + nu` on)
+    let (a, rest) = regs.split_at_mut(nu * nu);
+    let (r, coefs) = rest.split_at_mut(nu);
+    let from = nu * (nu + 1) / 2 + nu;
     let mut framed = p.forces.reads_velocities();
     for (b, (frame, rows)) in p.bodies.iter().enumerate() {
         let (x_, y_, w) = (3 * b, 3 * b + 1, 3 * b + 2);
@@ -416,20 +427,20 @@ fn tapes_solve(
             let (fx, fy) = (c * f[x_] + s * f[y_], c * f[y_] - s * f[x_]);
             for (axis, fj) in [(0, fx), (1, fy)] {
                 for &(i, coef) in &rows[axis] {
-                    coef.add_to(&mut r[i], fj, fo);
+                    coef.add_to(&mut r[i], fj, fo, 0);
                 }
             }
         }
         if f[w] != 0.0 {
             for &(i, coef) in &rows[2] {
-                coef.add_to(&mut r[i], f[w], fo);
+                coef.add_to(&mut r[i], f[w], fo, 0);
             }
         }
     }
     for (hinge, row) in p.hinges.iter().enumerate() {
         if tau[hinge] != 0.0 {
             for &(i, coef) in row {
-                coef.add_to(&mut r[i], tau[hinge], maggi);
+                coef.add_to(&mut r[i], tau[hinge], coefs, from);
             }
         }
     }

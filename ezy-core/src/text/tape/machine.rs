@@ -1,6 +1,7 @@
 //! The register machine that evaluates a tape where no compiled kernel
 //! does (any [`Scalar`], or the JIT off): the tape's operations as steps
-//! on registers of its own numbering, output `j` in register `j`.
+//! on registers of its own numbering, output `j` in register `j` (or
+//! where its caller placed it, [`Machine::new`]).
 //!
 //! Its registers, in order: the outputs, the numbers, the parameters
 //! `0..n_params` and the indices `0..n_indices` in a row (each copied in
@@ -108,25 +109,40 @@ pub(super) struct Machine {
     steps: Vec<Step>,
     /// Registers an evaluation needs (the outputs' included).
     n_regs: usize,
+    /// The outputs' registers, where the caller placed them (empty: output
+    /// `j` in register `j`).
+    places: Vec<u32>,
+    /// Registers below the inputs: the outputs' (and gaps between them).
+    front: usize,
 }
 
 impl Machine {
     /// The program of the tape `t` (its inputs, operations and outputs in
-    /// the tape's numbering).
+    /// the tape's numbering), output `j` in register `places[j]` (distinct
+    /// places, one per output), or in register `j` for no places.
     ///
     /// # Panics
-    /// If a register of `t` is out of bounds (a bug of the tape's build).
-    pub(super) fn new(t: &Tape) -> Self {
+    /// If a register of `t` is out of bounds (a bug of the tape's build),
+    /// or the places are not one per output and distinct.
+    pub(super) fn new(t: &Tape, places: &[u32]) -> Self {
         let n_out = t.out.len();
+        let place = |j: usize| if places.is_empty() { j as u32 } else { places[j] };
+        let front = if places.is_empty() { n_out } else { places.iter().map(|&p| p as usize + 1).max().unwrap_or(0) };
+        let mut seen = vec![false; front];
+        assert!(
+            (places.is_empty() || places.len() == n_out)
+                && places.iter().all(|&p| !std::mem::replace(&mut seen[p as usize], true)),
+            "a tape's outputs placed twice or not at all"
+        );
         let (n_params, n_indices) = (t.reach.params, t.reach.indices);
-        let consts_at = n_out;
+        let consts_at = front;
         let params_at = consts_at + t.consts.len();
         let indices_at = params_at + n_params;
         let mut next = indices_at + n_indices;
         const NONE: u32 = u32::MAX;
         let mut map = vec![NONE; t.n_regs];
-        for k in 0..t.consts.len() {
-            map[k] = (consts_at + k) as u32;
+        for (k, m) in map.iter_mut().take(t.consts.len()).enumerate() {
+            *m = (consts_at + k) as u32;
         }
         for &(i, r) in &t.params {
             map[r as usize] = (params_at + i) as u32;
@@ -146,9 +162,9 @@ impl Machine {
         let mut copies: Vec<(u32, u32)> = Vec::new();
         for (j, &r) in t.out.iter().enumerate() {
             if map[r as usize] == NONE {
-                map[r as usize] = j as u32;
+                map[r as usize] = place(j);
             } else {
-                copies.push((j as u32, r));
+                copies.push((place(j), r));
             }
         }
         for m in &mut map {
@@ -173,6 +189,8 @@ impl Machine {
             qd_at,
             steps,
             n_regs: next,
+            places: places.to_vec(),
+            front,
         };
         m.check();
         m
@@ -203,8 +221,18 @@ impl Machine {
         self.n_regs
     }
 
+    /// The outputs' places (empty: output `j` in register `j`).
+    pub(super) fn places(&self) -> &[u32] {
+        &self.places
+    }
+
+    /// Registers below the inputs: the outputs' (and gaps between them).
+    pub(super) fn front(&self) -> usize {
+        self.front
+    }
+
     /// Evaluates the program on the inputs `x`: output `j` is then
-    /// `regs[j]`.
+    /// `regs[j]`, or `regs[places[j]]` for a program with places.
     ///
     /// # Panics
     /// If `regs` is shorter than [`Machine::registers`], or an input is
