@@ -718,12 +718,12 @@ impl RuntimeModel {
     ) {
         let st = self.plan.straight.as_ref().expect("a model with minimal coordinates has no families");
         S::with_scratch(self.plan.registers, |regs| {
-            let at = tape.compute(
+            tape.eval_in(
                 &Inputs { params: &self.values, indices: &[], cols: &st.cols, q, qd, compiled: self.jit },
                 regs,
             );
             for j in 0..tape.outputs() {
-                write(j, regs[at.at(j)], q, qd);
+                write(j, regs[tape.output_at(j)], q, qd);
             }
         });
     }

@@ -14,84 +14,18 @@ use std::collections::HashMap;
 
 #[cfg(feature = "jit")]
 pub(crate) mod jit;
+mod machine;
 
 use ezy_lang::sym::{Arena, Id, Node, Sym};
 
 use crate::scalar::Scalar;
-
-/// One operation of a tape.
-#[derive(Clone, Copy, Debug, PartialEq)]
-enum Op {
-    Add,
-    Mul,
-    Neg,
-    Recip,
-    Powi(i32),
-    Sin,
-    Cos,
-    /// `dst = sin a`, `b = cos a`.
-    SinCos,
-    Sqrt,
-}
-
-/// `dst = op(a, b)` on the registers.
-#[derive(Clone, Copy, Debug)]
-struct Ins {
-    op: Op,
-    dst: u32,
-    a: u32,
-    b: u32,
-}
-
-/// An operation of the register machine ([`Tape::run`]).
-#[derive(Clone, Copy, Debug, PartialEq)]
-#[repr(u8)]
-enum Code {
-    Add,
-    Mul,
-    Neg,
-    Recip,
-    /// `b` holds the exponent's bits.
-    Powi,
-    Sin,
-    Cos,
-    /// `dst = sin a`, `b = cos a`.
-    SinCos,
-    Sqrt,
-    /// `a b + c`.
-    MulAdd,
-    /// `c + a b`.
-    AddMul,
-    /// `a b + c d`.
-    MulAddMul,
-    /// `(a b) c`.
-    MulMul,
-    /// `c (a b)`.
-    MulByMul,
-    /// `(a + b) c`.
-    AddMulBy,
-    /// `c (a + b)`.
-    MulByAdd,
-    /// `-(a b)`.
-    NegMul,
-}
-
-/// `dst = code(a, b, c, d)` on the registers, as [`Tape::run`] runs it
-/// (a one-operand code reads `a`).
-#[derive(Clone, Copy, Debug)]
-struct Step {
-    code: Code,
-    dst: u32,
-    a: u32,
-    b: u32,
-    c: u32,
-    d: u32,
-}
+use machine::{Ins, Machine, Op};
 
 /// Straight-line code computing some outputs from a model's parameters,
 /// the family indices of an element and the local coordinates of the
 /// bodies it touches (slot `s` owns local coordinates `3 s .. 3 s + 3`).
-/// Its registers: the inputs it reads (numbers, then what is loaded per
+/// Its registers (as lowered; the register machine numbers them its own
+/// way): the inputs it reads (numbers, then what is loaded per
 /// evaluation), then one per computed value.
 ///
 /// Not `Clone`: a compiled kernel points into code its plan owns.
@@ -106,15 +40,14 @@ pub(crate) struct Tape {
     /// `(local coordinate, register)` of `q`, then of `qd`.
     q: Vec<(usize, u32)>,
     qd: Vec<(usize, u32)>,
+    /// The operations, in the order of the lowering.
     ins: Vec<Ins>,
-    /// What the register machine runs ([`Tape::run`]): `ins`, every
-    /// register checked below `n_regs` when the tape is built.
-    steps: Vec<Step>,
-    /// `q`'s and `qd`'s loads as `(slot, coordinate in it, register)`.
-    q_at: Vec<(usize, usize, u32)>,
-    qd_at: Vec<(usize, usize, u32)>,
+    /// What the register machine runs, in its own numbering of the
+    /// registers (output `j` in register `j`).
+    machine: Machine,
     /// The register of each output.
     out: Vec<u32>,
+    /// Registers of this numbering (the compiled kernel's values).
     n_regs: usize,
     /// Outputs from here on go to [`Tape::eval_to`]'s second destination.
     split: usize,
@@ -336,28 +269,8 @@ impl Tape {
         t.n_regs = next as usize;
         t.reach = Reach::of(&t);
         t.split = t.out.len();
-        t.steps = steps(&t.ins, &t.out, t.n_regs);
-        let at = |list: &[(usize, u32)]| list.iter().map(|&(k, r)| (k / 3, k % 3, r)).collect();
-        (t.q_at, t.qd_at) = (at(&t.q), at(&t.qd));
-        t.check();
+        t.machine = Machine::new(&t, &[]);
         t
-    }
-
-    /// Checks what [`Tape::load`], [`Tape::run`] and the output copies
-    /// rely on to index the registers unchecked: every register they
-    /// touch is below `n_regs`.
-    ///
-    /// # Panics
-    /// If one is not (a bug of [`Tape::build`]).
-    fn check(&self) {
-        let n = self.n_regs;
-        let inputs = self.params.iter().chain(&self.indices).chain(&self.q).chain(&self.qd).map(|p| p.1);
-        let steps =
-            self.steps.iter().flat_map(|s| [s.dst, s.a, if s.code == Code::Powi { s.a } else { s.b }, s.c, s.d]);
-        assert!(
-            self.consts.len() <= n && inputs.chain(steps).chain(self.out.iter().copied()).all(|r| (r as usize) < n),
-            "a tape's register out of bounds"
-        );
     }
 
     /// Whether the inputs `x` hold everything the tape reads (the compiled
@@ -378,6 +291,16 @@ impl Tape {
     fn kernel_for<S: Scalar>(&self, x: &Inputs<'_, S>) -> Option<jit::Kernel> {
         let k = *self.kernel.get()?;
         (x.compiled && std::any::TypeId::of::<S>() == std::any::TypeId::of::<f64>() && self.fits(x)).then_some(k)
+    }
+
+    /// The tape with output `j` left in register `places[j]` by
+    /// [`Tape::eval_in`] (instead of `j`): where its caller reads it.
+    ///
+    /// # Panics
+    /// If the places are not one per output and distinct.
+    pub(crate) fn with_places(mut self, places: &[u32]) -> Self {
+        self.machine = Machine::new(&self, places);
+        self
     }
 
     /// The tape with its outputs from `split` on written to a second
@@ -416,18 +339,19 @@ impl Tape {
             };
             return;
         }
+        let n = self.machine.registers();
         let mut run = |regs: &mut [S]| {
-            self.load(x, regs);
-            self.run(regs);
-            let (oa, ob) = self.out.split_at(na);
-            let regs = regs.as_ptr();
-            for (v, &o) in a.iter_mut().zip(oa).chain(b.iter_mut().zip(ob)) {
-                // SAFETY: `run` had `n_regs` registers, and `check` saw
-                // every output register below it.
-                *v = unsafe { *regs.add(o as usize) };
+            self.machine.eval(x, regs);
+            if self.machine.places().is_empty() {
+                a.copy_from_slice(&regs[..na]);
+                b.copy_from_slice(&regs[na..na + nb]);
+            } else {
+                for (j, v) in a.iter_mut().chain(b.iter_mut()).enumerate() {
+                    *v = regs[self.output_at(j)];
+                }
             }
         };
-        if regs.len() >= self.n_regs { run(regs) } else { S::with_scratch(self.n_regs, run) }
+        if regs.len() >= n { run(regs) } else { S::with_scratch(n, run) }
     }
 
     /// Sets the compiled kernel (once; later calls are ignored).
@@ -436,29 +360,37 @@ impl Tape {
         let _ = self.kernel.set(k);
     }
 
-    /// Computes the outputs for one element; output `j` is then
-    /// `regs[at(j)]` with `at` what this returns. By the compiled kernel
-    /// for `f64` where there is one (outputs at `0..`), by the register
-    /// machine otherwise.
+    /// Evaluates the tape for one element: output `j` is then `regs[j]`
+    /// (`regs[places[j]]` for a tape [`Tape::with_places`]). By the
+    /// compiled kernel for `f64` where there is one, by the register
+    /// machine otherwise. `regs` is scratch of at least
+    /// [`Tape::registers`] values (its contents are overwritten).
+    ///
+    /// # Panics
+    /// If `regs` is too short, or an input is out of bounds.
     #[inline]
-    pub(crate) fn compute<S: Scalar>(&self, x: &Inputs<'_, S>, regs: &mut [S]) -> Outputs<'_> {
+    pub(crate) fn eval_in<S: Scalar>(&self, x: &Inputs<'_, S>, regs: &mut [S]) {
         #[cfg(feature = "jit")]
         if let Some(k) = self.kernel_for(x)
-            && regs.len() >= self.out.len()
+            && regs.len() >= self.registers()
         {
+            // the kernel writes the outputs in a row: past the places, if any
+            let places = self.machine.places();
+            let at = if places.is_empty() { 0 } else { self.machine.front() };
             let f = |v: &[S]| v.as_ptr().cast::<f64>();
-            let out = regs.as_mut_ptr().cast::<f64>();
+            let out = regs[at..].as_mut_ptr().cast::<f64>();
             // SAFETY: `S` is `f64` (the casts are identities), `kernel_for`
-            // checked every read, and `regs` holds the outputs (the second
-            // destination starts at the split).
+            // checked every read, and `regs[at..]` holds the outputs (the
+            // second destination starts at the split).
             unsafe {
                 k(x.params.as_ptr(), x.indices.as_ptr(), x.cols.as_ptr(), f(x.q), f(x.qd), out, out.add(self.split))
             };
-            return Outputs::Front;
+            for (j, &p) in places.iter().enumerate() {
+                regs[p as usize] = regs[at + j];
+            }
+            return;
         }
-        self.load(x, regs);
-        self.run(regs);
-        Outputs::Registers(&self.out)
+        self.machine.eval(x, regs);
     }
 
     /// Whether it reads coordinates or velocities (a tape that reads
@@ -477,88 +409,16 @@ impl Tape {
     /// [`Tape::registers`] values (its contents are overwritten).
     #[inline]
     pub(crate) fn eval<S: Scalar>(&self, x: &Inputs<'_, S>, regs: &mut [S], mut sink: impl FnMut(usize, S)) {
-        let at = self.compute(x, regs);
+        self.eval_in(x, regs);
         for j in 0..self.out.len() {
-            sink(j, regs[at.at(j)]);
+            sink(j, regs[self.output_at(j)]);
         }
     }
 
-    /// Loads the inputs into the registers.
-    ///
-    /// # Panics
-    /// If `regs` is shorter than the tape's registers, or an input is out
-    /// of bounds.
+    /// The register [`Tape::eval_in`] leaves output `j` in.
     #[inline]
-    fn load<S: Scalar>(&self, x: &Inputs<'_, S>, regs: &mut [S]) {
-        let Inputs { params, indices, cols, q, qd, .. } = *x;
-        assert!(
-            regs.len() >= self.n_regs && params.len() >= self.reach.params && indices.len() >= self.reach.indices,
-            "a tape's registers or inputs too short"
-        );
-        let r = regs.as_mut_ptr();
-        // SAFETY: `check` saw every input's register (and the numbers')
-        // below `n_regs`, which `regs` holds; a parameter's or an index's
-        // number is below `reach`'s, which `params` and `indices` hold.
-        unsafe {
-            for (k, &c) in self.consts.iter().enumerate() {
-                *r.add(k) = S::from_f64(c);
-            }
-            for &(i, reg) in &self.params {
-                *r.add(reg as usize) = S::from_f64(*params.get_unchecked(i));
-            }
-            for &(k, reg) in &self.indices {
-                *r.add(reg as usize) = S::from_f64(*indices.get_unchecked(k));
-            }
-            for &(s, k, reg) in &self.q_at {
-                *r.add(reg as usize) = q[cols[s] + k];
-            }
-            for &(s, k, reg) in &self.qd_at {
-                *r.add(reg as usize) = qd[cols[s] + k];
-            }
-        }
-    }
-
-    /// Runs the operations on loaded registers; output `j` is then
-    /// `regs[self.out[j]]`.
-    ///
-    /// # Panics
-    /// If `regs` is shorter than the tape's registers.
-    #[inline]
-    fn run<S: Scalar>(&self, regs: &mut [S]) {
-        assert!(regs.len() >= self.n_regs, "a tape's registers too short");
-        let r = regs.as_mut_ptr();
-        for s in &self.steps {
-            // SAFETY: `check` saw every register a step touches below
-            // `n_regs`, which `regs` holds.
-            unsafe {
-                let at = |k: u32| *r.add(k as usize);
-                let a = at(s.a);
-                let v = match s.code {
-                    Code::Add => a + at(s.b),
-                    Code::Mul => a * at(s.b),
-                    Code::MulAdd => a * at(s.b) + at(s.c),
-                    Code::AddMul => at(s.c) + a * at(s.b),
-                    Code::MulAddMul => a * at(s.b) + at(s.c) * at(s.d),
-                    Code::MulMul => a * at(s.b) * at(s.c),
-                    Code::MulByMul => at(s.c) * (a * at(s.b)),
-                    Code::AddMulBy => (a + at(s.b)) * at(s.c),
-                    Code::MulByAdd => at(s.c) * (a + at(s.b)),
-                    Code::NegMul => -(a * at(s.b)),
-                    Code::Neg => -a,
-                    Code::Recip => a.recip(),
-                    Code::Powi => a.powi(s.b as i32),
-                    Code::Sin => a.sin(),
-                    Code::Cos => a.cos(),
-                    Code::Sqrt => a.sqrt(),
-                    Code::SinCos => {
-                        let (sin, cos) = a.sin_cos();
-                        *r.add(s.b as usize) = cos;
-                        sin
-                    }
-                };
-                *r.add(s.dst as usize) = v;
-            }
-        }
+    pub(crate) fn output_at(&self, j: usize) -> usize {
+        self.machine.places().get(j).map_or(j, |&p| p as usize)
     }
 
     /// Number of outputs.
@@ -569,117 +429,8 @@ impl Tape {
 
     /// Registers an evaluation needs (room for the outputs included).
     pub(crate) fn registers(&self) -> usize {
-        self.n_regs.max(self.out.len())
-    }
-}
-
-/// The register machine's steps for `ins`: each operation, with the
-/// operations whose value only it reads (and no output) folded in where
-/// a fused code fits (a product, sum or negation feeding a sum or a
-/// product, evaluated then, in the same order: registers are written
-/// once, so a value computed later is the same value).
-fn steps(ins: &[Ins], out: &[u32], n_regs: usize) -> Vec<Step> {
-    // reads of each register, outputs counted as more than one
-    let mut reads = vec![0u32; n_regs];
-    for i in ins {
-        reads[i.a as usize] += 1;
-        if matches!(i.op, Op::Add | Op::Mul) {
-            reads[i.b as usize] += 1;
-        }
-    }
-    for &o in out {
-        reads[o as usize] += 2;
-    }
-    // the instruction defining each register read once, where it may fold
-    let mut def: Vec<Option<usize>> = vec![None; n_regs];
-    for (k, i) in ins.iter().enumerate() {
-        if matches!(i.op, Op::Add | Op::Mul | Op::Neg) && reads[i.dst as usize] == 1 {
-            def[i.dst as usize] = Some(k);
-        }
-    }
-    let mut folded = vec![false; ins.len()];
-    let mut steps = Vec::with_capacity(ins.len());
-    for (k, i) in ins.iter().enumerate().rev() {
-        if folded[k] {
-            continue;
-        }
-        let kid = |r: u32, op: Op| def[r as usize].filter(|&j| ins[j].op == op);
-        let mut fold = |j: usize| {
-            folded[j] = true;
-            (ins[j].a, ins[j].b)
-        };
-        let step = |code, a, b, c, d| Step { code, dst: i.dst, a, b, c, d };
-        let s = match i.op {
-            Op::Add => match (kid(i.a, Op::Mul), kid(i.b, Op::Mul)) {
-                (Some(x), Some(y)) => {
-                    let ((a, b), (c, d)) = (fold(x), fold(y));
-                    step(Code::MulAddMul, a, b, c, d)
-                }
-                (Some(x), None) => {
-                    let (a, b) = fold(x);
-                    step(Code::MulAdd, a, b, i.b, 0)
-                }
-                (None, Some(y)) => {
-                    let (a, b) = fold(y);
-                    step(Code::AddMul, a, b, i.a, 0)
-                }
-                (None, None) => step(Code::Add, i.a, i.b, 0, 0),
-            },
-            Op::Mul => match (kid(i.a, Op::Mul), kid(i.b, Op::Mul), kid(i.a, Op::Add), kid(i.b, Op::Add)) {
-                (Some(x), ..) => {
-                    let (a, b) = fold(x);
-                    step(Code::MulMul, a, b, i.b, 0)
-                }
-                (None, Some(y), ..) => {
-                    let (a, b) = fold(y);
-                    step(Code::MulByMul, a, b, i.a, 0)
-                }
-                (None, None, Some(x), _) => {
-                    let (a, b) = fold(x);
-                    step(Code::AddMulBy, a, b, i.b, 0)
-                }
-                (None, None, None, Some(y)) => {
-                    let (a, b) = fold(y);
-                    step(Code::MulByAdd, a, b, i.a, 0)
-                }
-                (None, None, None, None) => step(Code::Mul, i.a, i.b, 0, 0),
-            },
-            Op::Neg => match kid(i.a, Op::Mul) {
-                Some(x) => {
-                    let (a, b) = fold(x);
-                    step(Code::NegMul, a, b, 0, 0)
-                }
-                None => step(Code::Neg, i.a, 0, 0, 0),
-            },
-            Op::Recip => step(Code::Recip, i.a, 0, 0, 0),
-            Op::Powi(n) => step(Code::Powi, i.a, n as u32, 0, 0),
-            Op::Sin => step(Code::Sin, i.a, 0, 0, 0),
-            Op::Cos => step(Code::Cos, i.a, 0, 0, 0),
-            Op::SinCos => step(Code::SinCos, i.a, i.b, 0, 0),
-            Op::Sqrt => step(Code::Sqrt, i.a, 0, 0, 0),
-        };
-        steps.push(s);
-    }
-    steps.reverse();
-    steps
-}
-
-/// Where [`Tape::compute`] left the outputs.
-pub(crate) enum Outputs<'a> {
-    /// Output `j` at `regs[j]` (the compiled kernel).
-    Front,
-    /// Output `j` at `regs[r[j]]` (the register machine).
-    Registers(&'a [u32]),
-}
-
-impl Outputs<'_> {
-    /// The register holding output `j`.
-    #[inline]
-    pub(crate) fn at(&self, j: usize) -> usize {
-        match self {
-            Outputs::Front => j,
-            Outputs::Registers(r) => r[j] as usize,
-        }
+        let kernel = if self.machine.places().is_empty() { 0 } else { self.machine.front() };
+        self.machine.registers().max(kernel + self.out.len())
     }
 }
 

@@ -45,13 +45,14 @@ impl Coef {
         }
     }
 
-    /// `r += coef * x`, rounded as `model!`'s code rounds it.
+    /// `r += coef * x`, rounded as `model!`'s code rounds it, output `k`
+    /// at `out[k - from]`.
     #[inline]
-    fn add_to(self, r: &mut f64, x: f64, out: &[f64]) {
+    fn add_to(self, r: &mut f64, x: f64, out: &[f64], from: usize) {
         match self {
             Coef::One => *r += x,
             Coef::MinusOne => *r -= x,
-            Coef::At(k) => *r += out[k] * x,
+            Coef::At(k) => *r += out[k - from] * x,
         }
     }
 }
@@ -89,6 +90,8 @@ pub(super) struct Fused {
     bodies: Vec<BodyRows>,
     /// Per hinge, `(speed i, coefficient)` where not zero.
     hinges: Vec<Vec<(usize, Coef)>>,
+    /// The lengths of the tapes' working space's parts ([`tapes_work`]).
+    work: [usize; 5],
     /// The parameters and table values the tapes read (the largest index
     /// read, plus one).
     reach: (usize, usize),
@@ -148,10 +151,24 @@ impl Fused {
         let forces = tapes.pop().expect("three tapes");
         let lean = tapes.pop().expect("three tapes");
         let tape = tapes.pop().expect("three tapes");
+        // the register machine leaves `B^T M B`'s lower triangle where the
+        // solve reads it (an nu x nu matrix by rows), the rest after it
+        let n_lower = nu * (nu + 1) / 2;
+        let place = |k: usize| {
+            let i = (0..nu).find(|&i| k < (i + 1) * (i + 2) / 2).map_or(nu, |i| i);
+            (if k < n_lower { i * nu + k - i * (i + 1) / 2 } else { k - n_lower + nu * nu }) as u32
+        };
+        let placed = |t: Tape| {
+            let places: Vec<u32> = (0..t.outputs()).map(place).collect();
+            t.with_places(&places)
+        };
+        let (tape, lean) = (placed(tape), placed(lean));
         let reach = [&tape, &lean, &forces]
             .iter()
             .map(|t| t.input_reach())
             .fold((0, 0), |(p, k), (tp, tk)| (p.max(tp), k.max(tk)));
+        let regs = tape.registers().max(lean.registers());
+        let work = [regs, forces.registers(), nq, maggi.hinge.len(), nu * (nu + 1)];
         Self {
             #[cfg(feature = "jit")]
             kept: n_maggi + if forces.reads_velocities() { forces.outputs() } else { 0 },
@@ -166,6 +183,7 @@ impl Fused {
             lean_at,
             bodies,
             hinges,
+            work,
             reach,
             #[cfg(feature = "jit")]
             kernels: Default::default(),
@@ -296,7 +314,7 @@ where
     match compiled {
         Some(k) => res.and_then(|()| jit::solve(k, x, q, qd, dz, &mut room).map_err(MinimalRhsError::Maggi)),
         None => {
-            let res = res.and_then(|()| tapes_solve(x, lean, q, qd, dz, &mut work).map_err(MinimalRhsError::Maggi));
+            let res = res.and_then(|()| tapes_solve(x, q, qd, dz, &mut work).map_err(MinimalRhsError::Maggi));
             // the working space back (it is empty on the compiled path:
             // nothing to drop there)
             WORK.with(|w| w.set(std::mem::ManuallyDrop::into_inner(work)));
@@ -305,17 +323,19 @@ where
     }
 }
 
-/// The tapes' working space in `work`: their outputs, the frames and
-/// rows, `f`, `tau`, `A`, `r` and the solve's scratch.
-fn tapes_work<'w>(p: &Fused, lean: bool, work: &'w mut [f64]) -> [&'w mut [f64]; 7] {
-    let (nq, nu, nh) = (p.nq, p.nu, p.hinges.len());
-    let (out, rest) = work.split_at_mut(p.tape(lean).outputs());
-    let (fo, rest) = rest.split_at_mut(p.forces.outputs());
+/// The tapes' working space in `work`, one layout for the full and the
+/// lean evaluation: the fused tape's registers (`A`, `r`, the hinges'
+/// coefficients, the eliminated coordinates and rates, then the rest:
+/// [`Fused::new`] placed them), the frames and rows' registers (their
+/// outputs first), `f`, `tau` and the solve's scratch.
+#[inline(always)]
+fn tapes_work<'w>(p: &Fused, work: &'w mut [f64]) -> [&'w mut [f64]; 5] {
+    let [regs, fo, nq, nh, _] = p.work;
+    let (regs, rest) = work.split_at_mut(regs);
+    let (fo, rest) = rest.split_at_mut(fo);
     let (f, rest) = rest.split_at_mut(nq);
-    let (tau, rest) = rest.split_at_mut(nh);
-    let (a, rest) = rest.split_at_mut(nu * nu);
-    let (r, scratch) = rest.split_at_mut(nu);
-    [out, fo, f, tau, a, r, scratch]
+    let (tau, scratch) = rest.split_at_mut(nh);
+    [regs, fo, f, tau, scratch]
 }
 
 /// [`rhs`] by the tapes' evaluators (the register machine, or a kernel
@@ -334,10 +354,12 @@ fn tapes_state<'w>(
 ) -> &'w mut [f64] {
     let p = x.fused;
     let (dep_at, rate_at) = if lean { &p.lean_at } else { &p.full_at };
-    let (nq, nu, np, nh) = (p.nq, p.nu, x.coords.len(), p.hinges.len());
-    let n_out = p.tape(lean).outputs();
-    work.resize(n_out + p.forces.outputs() + nq + nh + nu * nu + nu + nu * (nu + 1), 0.0);
-    let [out, fo, ..] = tapes_work(p, lean, work);
+    let np = x.coords.len();
+    let len = p.work.iter().sum();
+    if work.len() < len {
+        work.resize(len, 0.0);
+    }
+    let [regs, fo, f, tau, ..] = tapes_work(p, work);
     // the tapes read the kept coordinates in q and the speeds at their
     // body-frame velocities in qd (qd written over below)
     for (i, &j) in x.coords.iter().enumerate() {
@@ -346,13 +368,14 @@ fn tapes_state<'w>(
     for (i, &j) in x.speeds.iter().enumerate() {
         qd[j] = z[np + i];
     }
-    p.tape(lean).eval_to(&x.inputs(q, qd), &mut [], out, &mut []);
+    p.tape(lean).eval_in(&x.inputs(q, qd), regs);
     // the frames and body rows: where a body has a force (below), or now
     // should they read velocities, which `forces` writes over
     if p.forces.reads_velocities() {
-        p.forces.eval_to(&x.inputs(q, qd), &mut [], fo, &mut []);
+        p.forces.eval_in(&x.inputs(q, qd), fo);
     }
-    let (deps, rates) = out[p.n_maggi..].split_at(dep_at.len());
+    let n_lower = p.nu * (p.nu + 1) / 2;
+    let (deps, rates) = regs[p.nu * p.nu + p.n_maggi - n_lower..].split_at(dep_at.len());
     for (&j, &v) in dep_at.iter().zip(deps) {
         q[j] = v;
     }
@@ -363,9 +386,10 @@ fn tapes_state<'w>(
         dz[i] = qd[j];
     }
     // `forces` adds to zeros
-    let applied = &mut work[n_out + p.forces.outputs()..][..nq + nh];
-    applied.fill(0.0);
-    applied
+    f.fill(0.0);
+    tau.fill(0.0);
+    let at = p.work[0] + p.work[1];
+    &mut work[at..at + p.nq + p.hinges.len()]
 }
 
 /// [`rhs`] by the tapes after the forces: `dz[np..]` from `work` as
@@ -376,7 +400,6 @@ fn tapes_state<'w>(
 #[inline(never)]
 fn tapes_solve(
     x: &FusedCall<'_>,
-    lean: bool,
     q: &[f64],
     qd: &[f64],
     dz: &mut [f64],
@@ -384,21 +407,19 @@ fn tapes_solve(
 ) -> Result<(), crate::error::KktError> {
     let p = x.fused;
     let (nu, np) = (p.nu, x.coords.len());
-    let [out, fo, f, tau, a, r, scratch] = tapes_work(p, lean, work);
-    let maggi = &out[..p.n_maggi];
-    // `B^T M B` is read below the diagonal only
-    let (lower, rest) = maggi.split_at(nu * (nu + 1) / 2);
-    for i in 0..nu {
-        let row = &lower[i * (i + 1) / 2..];
-        a[i * nu..=i * nu + i].copy_from_slice(&row[..=i]);
-    }
-    r.copy_from_slice(&rest[..nu]);
+    let [regs, fo, f, tau, scratch] = tapes_work(p, work);
+    // where the tape left them: `B^T M B` below the diagonal of `a` (read
+    // there only), `-B^T M c` in `r` (added to here), then the hinges'
+    // coefficients (from Maggi term `nu (nu + 1) / 2 + nu` on)
+    let (a, rest) = regs.split_at_mut(nu * nu);
+    let (r, coefs) = rest.split_at_mut(nu);
+    let from = nu * (nu + 1) / 2 + nu;
     let mut framed = p.forces.reads_velocities();
     for (b, (frame, rows)) in p.bodies.iter().enumerate() {
         let (x_, y_, w) = (3 * b, 3 * b + 1, 3 * b + 2);
         let pushed = f[x_] != 0.0 || f[y_] != 0.0;
         if (pushed || f[w] != 0.0) && !framed {
-            p.forces.eval_to(&x.inputs(q, qd), &mut [], fo, &mut []);
+            p.forces.eval_in(&x.inputs(q, qd), fo);
             framed = true;
         }
         if pushed {
@@ -406,20 +427,20 @@ fn tapes_solve(
             let (fx, fy) = (c * f[x_] + s * f[y_], c * f[y_] - s * f[x_]);
             for (axis, fj) in [(0, fx), (1, fy)] {
                 for &(i, coef) in &rows[axis] {
-                    coef.add_to(&mut r[i], fj, fo);
+                    coef.add_to(&mut r[i], fj, fo, 0);
                 }
             }
         }
         if f[w] != 0.0 {
             for &(i, coef) in &rows[2] {
-                coef.add_to(&mut r[i], f[w], fo);
+                coef.add_to(&mut r[i], f[w], fo, 0);
             }
         }
     }
     for (hinge, row) in p.hinges.iter().enumerate() {
         if tau[hinge] != 0.0 {
             for &(i, coef) in row {
-                coef.add_to(&mut r[i], tau[hinge], maggi);
+                coef.add_to(&mut r[i], tau[hinge], coefs, from);
             }
         }
     }
