@@ -9,6 +9,13 @@ use ezy_core::{Model, Problem, SetupError, SimError};
 
 use crate::schema::Scene;
 
+/// The defaults a scene leaves unwritten (`skip_serializing_if`) among
+/// the effects' numbers: 0 (dampings, phases, offsets), 1 (a drag's
+/// direction `(1, 0)`) and standard gravity (a uniform field `(0, -g)`,
+/// a skate friction's `g`).
+const DEFAULTS: [f64; 4] =
+    [0.0, 1.0, -ezy_core::effects::body::STANDARD_GRAVITY, ezy_core::effects::body::STANDARD_GRAVITY];
+
 impl Scene {
     /// The number `name` of this scene (with the overrides `sets`) as a
     /// parameter of its problem on `model`: a scene parameter (`M0`), a
@@ -20,10 +27,9 @@ impl Scene {
     ///
     /// # Errors
     /// As [`Scene::set`] for a name the scene does not have;
-    /// [`SetupError::Scene`] for a key left at a default other than 0
-    /// (give it in the scene; one at a default of 0, a damping or a
-    /// phase, is taken at 0) or one whose value the scene does not write
-    /// as a number;
+    /// [`SetupError::Scene`] for a key the scene does not write as a
+    /// number (a key left at its default is taken at it where that is 0,
+    /// 1 or standard gravity, the defaults the effects leave unwritten);
     /// as [`Scene::problem_with`].
     pub fn parameter<M: Model>(&self, model: &M, sets: &[(String, f64)], name: &str) -> Result<Parameter<M>, SimError> {
         let (problem, _) = self.problem_with(model.clone(), sets)?;
@@ -137,8 +143,7 @@ impl Scene {
             return Ok(model.param(k));
         }
         // an unknown name gets `set`'s error, listing the names there are
-        let mut at_zero = self.clone();
-        at_zero.set(&info, name, 0.0)?;
+        self.clone().set(&info, name, 0.0)?;
         let not_given = || {
             SimError::Setup(SetupError::Scene {
                 key: name.to_string(),
@@ -156,9 +161,18 @@ impl Scene {
             .collect();
         match hits.as_slice() {
             [v] => Ok(*v),
-            // a key left at a default of 0 (a damping, a phase) is not
-            // written; set to 0 the item is then written as it is
-            [] if at_zero.numbers(item).as_ref() == Some(&numbers) => Ok(0.0),
+            // a key left at its default is not written (a damping or a
+            // phase of 0, a drag's direction (1, 0), a uniform field
+            // straight down at standard gravity): set to the value it
+            // has, the item's numbers stay as they are, and to any other
+            // they change, so a default found this way is the value
+            [] => {
+                let unchanged = |d: f64| {
+                    let mut probe = self.clone();
+                    probe.set(&info, name, d).is_ok() && probe.numbers(item).as_ref() == Some(&numbers)
+                };
+                DEFAULTS.into_iter().find(|&d| unchanged(d)).ok_or_else(not_given)
+            }
             _ => Err(not_given()),
         }
     }
