@@ -21,7 +21,8 @@ use cranelift_frontend::{FunctionBuilder, FunctionBuilderContext};
 use cranelift_jit::{JITBuilder, JITModule};
 use cranelift_module::{FuncId, Linkage, Module, default_libcall_names};
 
-use super::{Op, Tape};
+use super::Tape;
+use super::machine::Op;
 
 /// A compiled tape: `kernel(params, indices, cols, q, qd, a, b)`.
 ///
