@@ -99,7 +99,7 @@ fn a_refusal_after_the_lock_leaves_no_directory() {
     let out = root.path().join("new/out");
     let o = s(&out);
     let cases: &[(&[&str], &str)] = &[
-        (&["sensitivity", "drive", "--wrt", "M0", "--formulation", "reduced"], "DAE formulation only"),
+        (&["sensitivity", "drive", "--wrt", "M0", "--baumgarte", "10,10"], "Baumgarte stabilization"),
         (&["analyze", "drive-slip", "--no-figures"], "skate `C` slides"),
     ];
     for (args, needle) in cases {

@@ -176,8 +176,15 @@ fn summary(scene: &str, s: &Sensitivities, seconds: f64, files: &[PathBuf]) -> S
     let n2 = s.names.len();
     let t_end = s.t.last().copied().unwrap_or(0.0);
     let mut text = format!(
-        "scene {scene}: state and sensitivities to t = {} s in {} steps ({} rejected), {} evaluations of [x, S]', {:.2} s; the model's terms and the force laws differentiated exactly along S (a law of the user's own without a Jacobian by central differences of its force)\n",
+        "scene {scene}: state and sensitivities to t = {} s on {} in {} steps ({} rejected), {} evaluations of [x, S]', {:.2} s; the model's terms and the force laws differentiated exactly along S (a law of the user's own without a Jacobian by central differences of its force)\n",
         fmt_value(t_end),
+        match s.formulation {
+            ezy_core::Formulation::Reduced => format!(
+                "the reduced formulation (its steps on the independent components differentiated; {} re-partitions)",
+                s.repartitions
+            ),
+            _ => "the DAE (S projected with the state)".to_string(),
+        },
         s.steps,
         s.rejected,
         s.evaluations,

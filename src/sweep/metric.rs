@@ -550,6 +550,8 @@ mod tests {
             steps: 0,
             rejected: 0,
             evaluations: 0,
+            formulation: ezy_core::Formulation::Dae,
+            repartitions: 0,
         };
         let value = |text: &str, p: f64| {
             let m: Metric = text.parse().unwrap();

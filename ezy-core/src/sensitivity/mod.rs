@@ -78,18 +78,23 @@
 //!   steps are differentiated to first order in the drift (the further
 //!   steps' multipliers are of its square).
 //!
-//! The sensitivities are integrated on the DAE formulation with Euler,
-//! RK4, DOPRI5, DOP853 or RADAU5. RADAU5 takes `[x, S]` as one system:
+//! The sensitivities are integrated with Euler, RK4, DOPRI5, DOP853 or
+//! RADAU5. RADAU5 takes `[x, S]` as one system:
 //! its simplified Newton iteration on the augmented right-hand side, whose
 //! Jacobian it takes by forward differences and factors dense (real and
 //! complex LU of `2 nq (1 + np)` rows, refused past 1000: choose DOP853);
 //! Newton converges to the same collocation solution whatever its
 //! Jacobian's error, so the sensitivities are the method's own, under the
-//! same error control as the state. The reduced formulation is refused by
-//! name: its steps on the independent coordinates (the dependent ones
-//! recovered from the constraints) are not differentiated, and the DAE's
-//! sensitivities would be another run's (for a fixed step, another
-//! discrete run's). A scene with events (a switch or stop changes the
+//! same error control as the state. On the reduced formulation the
+//! independent components `z` and `S_z = dz/dp` are integrated, the
+//! reduced run's own steps differentiated: each evaluation expands `S_z`
+//! to the full `S_x` that keeps it and satisfies the linearized
+//! constraints (the dependent coordinates' implicit derivative, Haug
+//! 1989, §6.3), takes the DAE's sensitivity right-hand side there and
+//! reads the independent components' rates from it (`reduced.rs`); no
+//! projection, as the run makes none. The DAE's sensitivities would be
+//! another run's (for a fixed step, another discrete run's), so each
+//! formulation's are its own run's. A scene with events (a switch or stop changes the
 //! motion where its time changes with `p`) is refused, as is a motion on
 //! which a skate with friction slides.
 //!
@@ -100,6 +105,7 @@
 //! per step but the samples kept (docs/dev/performance.md, "Sensitivities").
 
 pub(crate) mod gait;
+mod reduced;
 mod rhs;
 mod run;
 mod stencil;
@@ -252,6 +258,15 @@ pub struct Sensitivities {
     pub rejected: u64,
     /// Evaluations of the augmented right-hand side.
     pub evaluations: u64,
+    /// The formulation whose run was differentiated:
+    /// [`crate::settings::Formulation::Dae`] (projected after each step, `S` onto
+    /// the constraints' tangent space) or [`crate::settings::Formulation::Reduced`]
+    /// (the independent components' steps; `auto` takes the DAE).
+    pub formulation: crate::settings::Formulation,
+    /// Times the reduced formulation re-chose its partition (its pivots
+    /// fell; 0 on the DAE): `S_z` is rewritten in the new one and the
+    /// method restarts, as the run does.
+    pub repartitions: u64,
 }
 
 impl Sensitivities {
@@ -311,7 +326,7 @@ impl<M: Model> Problem<M> {
     /// [`AnalysisError::Request`] for no parameters or more than
     /// [`MAX_PARAMETERS`], a name given twice, a non-finite value, a
     /// parameter whose problems differ in size, RADAU5 on more than 1000
-    /// states `2 nq (1 + np)`, the reduced formulation, a scene with
+    /// states `2 nq (1 + np)`, Baumgarte stabilization, a scene with
     /// events, samples past
     /// [`Problem::max_output_mb`], or a skate with friction that slides;
     /// [`AnalysisError::Sim`] for a problem that cannot be built or a run

@@ -274,7 +274,7 @@ impl<M: Model> Augmented<M> {
     }
 
     /// `dy = [f(t, x), (df/dx) S + df/dp]` for `y = [x, S]`.
-    fn evaluate(&mut self, t: f64, y: &[f64], dy: &mut [f64]) -> Result<(), AnalysisError> {
+    pub fn evaluate(&mut self, t: f64, y: &[f64], dy: &mut [f64]) -> Result<(), AnalysisError> {
         if let Some(stop) = self.stop
             && stop()
         {
@@ -449,15 +449,24 @@ impl<M: Model> Augmented<M> {
     }
 }
 
-impl<M: Model> Rhs for Augmented<M> {
-    fn eval(&mut self, t: f64, y: &[f64], dy: &mut [f64]) -> Result<(), SimError> {
-        self.evaluate(t, y, dy).map_err(|e| match e {
+impl<M: Model> Augmented<M> {
+    /// An evaluation's failure as the integrator's error: a
+    /// [`SimError`] as it is, any other kept in [`Augmented::failed`] to
+    /// be reported as it is.
+    pub fn keep_failure(&mut self, e: AnalysisError) -> SimError {
+        match e {
             AnalysisError::Sim(e) => e,
             e => {
                 let reason = e.to_string();
                 self.failed = Some(e);
                 SimError::Formulation { reason: reason.into() }
             }
-        })
+        }
+    }
+}
+
+impl<M: Model> Rhs for Augmented<M> {
+    fn eval(&mut self, t: f64, y: &[f64], dy: &mut [f64]) -> Result<(), SimError> {
+        self.evaluate(t, y, dy).map_err(|e| self.keep_failure(e))
     }
 }

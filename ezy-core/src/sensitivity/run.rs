@@ -7,16 +7,18 @@
 //! hand-over between formulations) a sensitivity run refuses before its
 //! first step.
 
+use super::reduced::ReducedAugmented;
 use super::rhs::Augmented;
 use super::stencil::Stencil;
 use super::{MAX_PARAMETERS, Parameter, Sensitivities};
 use crate::analysis::AnalysisError;
 use crate::error::SimError;
+use crate::formulation::dae::NEAR_SINGULAR;
 use crate::formulation::projection::Projector;
 use crate::integrator::adaptive::Tolerance;
 use crate::integrator::radau5::{DenseNewton, Radau5Stepper};
 use crate::integrator::stepper::{Control, Stepper, Trial};
-use crate::integrator::with_stepper;
+use crate::integrator::{Rhs, with_stepper};
 use crate::model::Model;
 use crate::problem::Problem;
 use crate::settings::{Formulation, Method, ProjectionKind, RunSettings};
@@ -53,11 +55,6 @@ fn check_request<M: Model>(problem: &Problem<M>, params: &[Parameter<M>]) -> Res
         }
     }
     let s = &problem.settings;
-    if s.formulation == Formulation::Reduced {
-        return Err(request(
-            "sensitivities are integrated on the DAE formulation only: the reduced formulation's steps (on its independent coordinates, the dependent ones recovered from the constraints) are not differentiated yet, and the DAE's sensitivities would be another run's; set the formulation to `dae` or `auto`".into(),
-        ));
-    }
     if s.method == Method::Radau5 {
         let n = 2 * problem.model.info().nq() * (1 + params.len());
         if n > RADAU5_MAX_STATES {
@@ -144,31 +141,23 @@ pub(super) fn sensitivities<M: Model>(
     // velocity not zero: the run would follow a slide first)
     base.point(0.0, &x0)?;
     base.check_grip("this run")?;
+    let params_names: Vec<String> = params.iter().map(|p| p.name.clone()).collect();
+    let names = base.state_names();
+    let reduced = settings.formulation == Formulation::Reduced;
     let sys = base.dynamics();
     let projector = Projector::new(&sys.model, settings.projection, &sys.mass).with_drives(&sys.drives);
-    let names = base.state_names();
     let aug = Augmented::new(base, stencils, stop);
-    let params_names = params.iter().map(|p| p.name.clone()).collect();
     let times = times.map(<[f64]>::to_vec);
-    let listed = times.is_some();
-    let mut lp =
-        Loop { aug, projector, settings, out: Vec::new(), steps: 0, rejected: 0, n2, params: params_names, times };
-    lp.project(0.0, &mut y0)?;
-    lp.check_finite(0.0, &y0)?;
-    if !listed || lp.out_time(0) == 0.0 {
-        lp.out.push((0.0, y0.clone()));
-    }
-    let tol = Tolerance { rtol: settings.rtol, atol: settings.atol };
-    let n = y0.len();
-    let result = with_stepper!(settings.method, n, tol, |s| lp.steps(&y0, s), radau5 => {
-        lp.steps(&y0, &mut Radau5Stepper::new(n, &tol, DenseNewton::new(n)))
-    });
-    if let Err(e) = result {
-        let e = lp.aug.failed.take().unwrap_or(e);
-        return Err(e);
-    }
-    lp.aug.base.check_grip("this run")?;
-    let Loop { aug, out, steps, rejected, .. } = lp;
+    let out = if reduced {
+        let sys = ReducedAugmented::new(aug, &x0)?;
+        let mut w0 = vec![0.0; sys.len()];
+        sys.gather(&y0, &mut w0);
+        Loop::new(sys, settings, params_names, times).run(w0)?
+    } else {
+        let sys = Projected { aug, projector, projection: settings.projection };
+        Loop::new(sys, settings, params_names, times).run(y0)?
+    };
+    let Outcome { out, steps, rejected, evaluations, repartitions } = out;
     let (t, (x, s)) = out.into_iter().map(|(t, y)| (t, (y[..n2].to_vec(), y[n2..].to_vec()))).unzip();
     Ok(Sensitivities {
         t,
@@ -180,7 +169,9 @@ pub(super) fn sensitivities<M: Model>(
         s,
         steps,
         rejected,
-        evaluations: aug.evaluations,
+        evaluations,
+        formulation: if reduced { Formulation::Reduced } else { Formulation::Dae },
+        repartitions,
     })
 }
 
@@ -191,34 +182,172 @@ pub(super) fn sensitivities<M: Model>(
 /// scenes stay below 1.1e2.
 pub(crate) const SINGULAR_GROWTH: f64 = 1e8;
 
-struct Loop<M: Model> {
+/// What the step loop integrates: `[x, S]` on the DAE, projected after
+/// each step ([`Projected`]), or `[z, S_z]` on the reduced formulation
+/// ([`ReducedAugmented`]).
+trait Integrand<M: Model>: Rhs {
+    fn augmented(&mut self) -> &mut Augmented<M>;
+    /// Keeps the accepted `y` at `t` on the constraints (the DAE's
+    /// projection; the reduced state is on them).
+    fn project(&mut self, t: f64, y: &mut [f64]) -> Result<(), AnalysisError>;
+    /// After the accepted `y`'s samples: a new partition, `y` rewritten
+    /// in it; returns whether the method restarts.
+    fn repartition(&mut self, t: f64, y: &mut [f64]) -> Result<bool, AnalysisError>;
+    /// The sample `y` at `t` as `[x, S]` (2 nq (1 + np)).
+    fn full(&mut self, t: f64, y: &[f64]) -> Result<Vec<f64>, AnalysisError>;
+    /// Component `k` of `y` in words, the parameters named `params`.
+    fn component(&self, k: usize, params: &[String]) -> String;
+    /// Refuses an attempt from `t` that the run would not make on this
+    /// formulation (none on the DAE).
+    fn check_attempt(&self, _t: f64) -> Result<(), AnalysisError> {
+        Ok(())
+    }
+    /// Times the partition was re-chosen (none on the DAE).
+    fn repartitions(&self) -> u64 {
+        0
+    }
+}
+
+/// `[x, S]` on the DAE with the run's projection.
+struct Projected<M: Model> {
     aug: Augmented<M>,
     projector: Projector<M>,
+    projection: ProjectionKind,
+}
+
+impl<M: Model> Rhs for Projected<M> {
+    fn eval(&mut self, t: f64, y: &[f64], dy: &mut [f64]) -> Result<(), SimError> {
+        self.aug.eval(t, y, dy)
+    }
+}
+
+impl<M: Model> Integrand<M> for Projected<M> {
+    fn augmented(&mut self) -> &mut Augmented<M> {
+        &mut self.aug
+    }
+    /// Projects the state of `y` at `t` onto the constraints and its
+    /// sensitivities onto their tangent space.
+    fn project(&mut self, t: f64, y: &mut [f64]) -> Result<(), AnalysisError> {
+        if self.projection == ProjectionKind::None {
+            return Ok(());
+        }
+        let n2 = 2 * self.aug.nq();
+        let (x, s) = y.split_at_mut(n2);
+        let s = &mut s[..self.aug.stencils.len() * n2];
+        let (q, qd) = x.split_at_mut(n2 / 2);
+        self.projector.project(&self.aug.base.dynamics().model, t, q, qd)?;
+        self.aug.project(&mut self.projector, t, x, s)
+    }
+    fn repartition(&mut self, _: f64, _: &mut [f64]) -> Result<bool, AnalysisError> {
+        Ok(false)
+    }
+    fn full(&mut self, _: f64, y: &[f64]) -> Result<Vec<f64>, AnalysisError> {
+        Ok(y.to_vec())
+    }
+    fn component(&self, k: usize, params: &[String]) -> String {
+        let names = self.aug.base.state_names();
+        let n2 = names.len();
+        if k < n2 {
+            format!("the state's `{}`", names[k])
+        } else {
+            format!("the sensitivity d{}/d{}", names[(k - n2) % n2], params[(k - n2) / n2])
+        }
+    }
+}
+
+impl<M: Model> Integrand<M> for ReducedAugmented<M> {
+    fn augmented(&mut self) -> &mut Augmented<M> {
+        &mut self.aug
+    }
+    fn project(&mut self, _: f64, _: &mut [f64]) -> Result<(), AnalysisError> {
+        Ok(())
+    }
+    fn repartition(&mut self, t: f64, y: &mut [f64]) -> Result<bool, AnalysisError> {
+        ReducedAugmented::repartition(self, t, y)
+    }
+    fn full(&mut self, t: f64, y: &[f64]) -> Result<Vec<f64>, AnalysisError> {
+        self.expand(t, y)?;
+        Ok(ReducedAugmented::full(self).to_vec())
+    }
+    fn component(&self, k: usize, params: &[String]) -> String {
+        ReducedAugmented::component(self, k, params)
+    }
+    fn repartitions(&self) -> u64 {
+        ReducedAugmented::repartitions(self)
+    }
+    /// An attempt that came near a singular position (the KKT
+    /// conditioning past [`NEAR_SINGULAR`] at a stage), where the reduced
+    /// run hands over to the DAE (`crate::simulate`): the sensitivities
+    /// would be of another run from there.
+    fn check_attempt(&self, t: f64) -> Result<(), AnalysisError> {
+        let growth = self.aug.base.dynamics().max_growth;
+        if growth <= NEAR_SINGULAR {
+            return Ok(());
+        }
+        Err(request(format!(
+            "at t = {} s the reduced run comes near a singular position (KKT conditioning estimate {growth:.1e}), where its dependent coordinates are not determined and the run hands over to the DAE; its sensitivities do not follow the hand-over: take --formulation dae, or end the run before (--t-end)",
+            crate::names::fmt_value(t)
+        )))
+    }
+}
+
+/// What a [`Loop::run`] ends with.
+struct Outcome {
+    /// The samples `(t, [x, S])`.
+    out: Vec<(f64, Vec<f64>)>,
+    steps: u64,
+    rejected: u64,
+    evaluations: u64,
+    repartitions: u64,
+}
+
+struct Loop<M: Model, R: Integrand<M>> {
+    sys: R,
     settings: RunSettings,
     out: Vec<(f64, Vec<f64>)>,
     steps: u64,
     rejected: u64,
-    n2: usize,
     /// The parameters' names.
     params: Vec<String>,
     /// The sample times asked for (sorted, in `[0, t_end]`, the last
     /// `t_end`); `None`: every output interval and the end.
     times: Option<Vec<f64>>,
+    _model: std::marker::PhantomData<M>,
 }
 
-impl<M: Model> Loop<M> {
-    /// Projects the state of `y` at `t` onto the constraints and its
-    /// sensitivities onto their tangent space.
-    fn project(&mut self, t: f64, y: &mut [f64]) -> Result<(), AnalysisError> {
-        if self.settings.projection == ProjectionKind::None {
-            return Ok(());
+impl<M: Model, R: Integrand<M>> Loop<M, R> {
+    /// The loop of `sys` at `settings`, its parameters named `params`,
+    /// sampled at `times` (or the output interval's).
+    fn new(sys: R, settings: RunSettings, params: Vec<String>, times: Option<Vec<f64>>) -> Self {
+        Self { sys, settings, out: Vec::new(), steps: 0, rejected: 0, params, times, _model: std::marker::PhantomData }
+    }
+
+    /// The run from `y0` by the problem's method: its samples.
+    fn run(mut self, mut y0: Vec<f64>) -> Result<Outcome, AnalysisError> {
+        let settings = self.settings;
+        let listed = self.times.is_some();
+        self.sys.project(0.0, &mut y0)?;
+        self.check_finite(0.0, &y0)?;
+        if !listed || self.out_time(0) == 0.0 {
+            let full = self.sys.full(0.0, &y0)?;
+            self.out.push((0.0, full));
         }
-        let n2 = self.n2;
-        let (x, s) = y.split_at_mut(n2);
-        let s = &mut s[..self.params.len() * n2];
-        let (q, qd) = x.split_at_mut(n2 / 2);
-        self.projector.project(&self.aug.base.dynamics().model, t, q, qd)?;
-        self.aug.project(&mut self.projector, t, x, s)
+        let tol = Tolerance { rtol: settings.rtol, atol: settings.atol };
+        let n = y0.len();
+        let result = with_stepper!(settings.method, n, tol, |s| self.steps(&y0, s), radau5 => {
+            self.steps(&y0, &mut Radau5Stepper::new(n, &tol, DenseNewton::new(n)))
+        });
+        if let Err(e) = result {
+            return Err(self.sys.augmented().failed.take().unwrap_or(e));
+        }
+        self.sys.augmented().base.check_grip("this run")?;
+        Ok(Outcome {
+            evaluations: self.sys.augmented().evaluations,
+            repartitions: self.sys.repartitions(),
+            out: self.out,
+            steps: self.steps,
+            rejected: self.rejected,
+        })
     }
 
     /// Refuses a step that came to a singular position: the KKT
@@ -232,8 +361,8 @@ impl<M: Model> Loop<M> {
     /// 1.2e9), where a stage no closer than 1.8e6 (`dt = 1e-3`) leaves
     /// them the discrete run's derivatives to 1.5e-9. The ordinary run
     /// passes singular positions by its own means.
-    fn check_singular(&self, t: f64) -> Result<(), AnalysisError> {
-        let sys = self.aug.base.dynamics();
+    fn check_singular(&mut self, t: f64) -> Result<(), AnalysisError> {
+        let sys = self.sys.augmented().base.dynamics();
         let growth = sys.last_growth.max(sys.max_growth);
         if growth < SINGULAR_GROWTH {
             return Ok(());
@@ -248,13 +377,7 @@ impl<M: Model> Loop<M> {
     /// step would carry it into the output), naming it.
     fn check_finite(&self, t: f64, y: &[f64]) -> Result<(), AnalysisError> {
         let Some(k) = y.iter().position(|v| !v.is_finite()) else { return Ok(()) };
-        let names = self.aug.base.state_names();
-        let n2 = self.n2;
-        let what = if k < n2 {
-            format!("the state's `{}`", names[k])
-        } else {
-            format!("the sensitivity d{}/d{}", names[(k - n2) % n2], self.params[(k - n2) / n2])
-        };
+        let what = self.sys.component(k, &self.params);
         Err(AnalysisError::Numerics {
             reason: format!(
                 "at t = {} s {what} became {}: the run or its sensitivity diverges; take a smaller step or a parameter value nearer the scene's",
@@ -299,17 +422,17 @@ impl<M: Model> Loop<M> {
     /// sensitivities and checked, samples at the fixed steps' ends or
     /// from an adaptive method's dense output (built on the projected
     /// end, as the simulation's are), and the end.
-    fn steps<S: Stepper<Augmented<M>>>(&mut self, y0: &[f64], stepper: &mut S) -> Result<(), AnalysisError> {
+    fn steps<S: Stepper<R>>(&mut self, y0: &[f64], stepper: &mut S) -> Result<(), AnalysisError> {
         let s = self.settings;
         let fixed = S::CONTROL == Control::Fixed;
         let n = y0.len();
         let (mut y, mut y_new, mut dense) = (y0.to_vec(), vec![0.0; n], vec![0.0; n]);
-        let mut h = stepper.start(&mut self.aug, 0.0, &y, s.t_end)?;
+        let mut h = stepper.start(&mut self.sys, 0.0, &y, s.t_end)?;
         let (mut t, mut k) = (0.0, 0);
         let mut next_out = u64::from(self.out_time(0) == 0.0);
         while t < s.t_end {
             self.budget(t)?;
-            if self.aug.stop.is_some_and(|stop| stop()) {
+            if self.sys.augmented().stop.is_some_and(|stop| stop()) {
                 return Err(AnalysisError::Stopped);
             }
             let (t_new, h_try, sample) = if fixed {
@@ -324,25 +447,28 @@ impl<M: Model> Loop<M> {
                 let failure = stepper.stage_failure().take();
                 return Err(AnalysisError::Sim(failure.unwrap_or(SimError::StepSizeTooSmall { t, h: h_try })));
             }
-            self.aug.base.dynamics_mut().max_growth = 0.0;
-            let (accepted, h_next) = match stepper.attempt(&mut self.aug, t, &y, h_try, &mut y_new)? {
+            self.sys.augmented().base.dynamics_mut().max_growth = 0.0;
+            let (accepted, h_next) = match stepper.attempt(&mut self.sys, t, &y, h_try, &mut y_new)? {
                 Trial::Accepted { h_next } => (true, h_next),
                 Trial::Rejected { h_next } => (false, h_next),
                 Trial::Estimate(err) => stepper.control(err),
             };
+            self.sys.check_attempt(t)?;
             h = h_next;
             if !accepted {
                 self.rejected += 1;
                 continue;
             }
-            self.project(t_new, &mut y_new)?;
+            self.sys.project(t_new, &mut y_new)?;
             self.check_finite(t_new, &y_new)?;
-            stepper.accepted(&mut self.aug, t_new, &y_new, true, false)?;
+            stepper.accepted(&mut self.sys, t_new, &y_new, true, false)?;
             // samples strictly inside an adaptive step, from its dense output
             while !fixed && self.out_time(next_out) < t_new.min(s.t_end) {
-                stepper.prepare_dense(&mut self.aug, t_new, &y, &y_new)?;
+                stepper.prepare_dense(&mut self.sys, t_new, &y, &y_new)?;
                 stepper.interpolate(self.out_time(next_out), &mut dense);
-                self.out.push((self.out_time(next_out), dense.clone()));
+                let tau = self.out_time(next_out);
+                let full = self.sys.full(tau, &dense)?;
+                self.out.push((tau, full));
                 next_out += 1;
             }
             std::mem::swap(&mut y, &mut y_new);
@@ -350,14 +476,20 @@ impl<M: Model> Loop<M> {
             (self.steps, k) = (self.steps + 1, k + 1);
             let on_grid = !fixed && (self.out_time(next_out) - t).abs() <= 1e-12 * t.abs().max(1.0) && t < s.t_end;
             if sample || on_grid {
-                self.out.push((t, y.clone()));
+                let full = self.sys.full(t, &y)?;
+                self.out.push((t, full));
                 next_out += 1;
             }
-            stepper.advance(&mut self.aug, t, &y)?;
+            // a new partition restarts the method from the same state
+            if self.sys.repartition(t, &mut y)? {
+                stepper.restart(&mut self.sys, t, &y)?;
+            }
+            stepper.advance(&mut self.sys, t, &y)?;
             self.check_singular(t)?;
         }
         if !fixed && (self.times.is_none() || self.out_time(next_out) == s.t_end) {
-            self.out.push((s.t_end, y.clone()));
+            let full = self.sys.full(s.t_end, &y)?;
+            self.out.push((s.t_end, full));
         }
         Ok(())
     }

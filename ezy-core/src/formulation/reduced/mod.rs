@@ -26,7 +26,7 @@
 //! a heading where `G_D` is singular): the integrator then restarts from
 //! the same state, expressed in the new independent components.
 
-mod lu;
+pub(crate) mod lu;
 
 use crate::error::SimError;
 use crate::formulation::dae::Dynamics;
@@ -114,6 +114,24 @@ pub fn body_velocity<S: crate::scalar::Scalar>(q: &[S], qd: &[S], j: usize) -> S
         0 => c * xd + s * yd,
         1 => c * yd - s * xd,
         _ => qd[j],
+    }
+}
+
+/// The rate of [`body_velocity`] `j` \[m/s^2, rad/s^2\]: from `q`, `qd`
+/// and the accelerations `qdd` (nq each), `d/dt (v_x, v_y) = R(phi)^T
+/// (xdd, ydd) + w (v_y, -v_x)` (the frame turns at `w = phid`), or the
+/// angular acceleration. Generic so that one dual-number pass gives its
+/// derivative along a direction (the reduced formulation's
+/// sensitivities, `crate::sensitivity`).
+pub fn body_acceleration<S: crate::scalar::Scalar>(q: &[S], qd: &[S], qdd: &[S], j: usize) -> S {
+    let i = j / 3;
+    let (s, c) = q[3 * i + 2].sin_cos();
+    let w = qd[3 * i + 2];
+    let (xd, yd, xdd, ydd) = (qd[3 * i], qd[3 * i + 1], qdd[3 * i], qdd[3 * i + 1]);
+    match j % 3 {
+        0 => c * xdd + s * ydd + w * (c * yd - s * xd),
+        1 => c * ydd - s * xdd - w * (c * xd + s * yd),
+        _ => qdd[j],
     }
 }
 
