@@ -430,13 +430,15 @@ impl<M: Model> ReducedAugmented<M> {
         if self.red.is_minimal() {
             return Ok(false);
         }
-        self.expand(t, w)?;
         let nz = self.nz;
         self.zpad[..nz].copy_from_slice(&w[..nz]);
         self.red.accept(self.aug.base.dynamics_mut(), t, &self.zpad, false)?;
-        if !self.red.repartition(self.aug.base.dynamics(), t, &mut self.zpad)? {
+        if !self.red.degraded() {
             return Ok(false);
         }
+        // S_x in the partition S_z is written in, before it changes
+        self.expand(t, w)?;
+        self.red.repartition(self.aug.base.dynamics(), t, &mut self.zpad)?;
         self.route();
         let y = self.y.clone();
         self.gather(&y, w);

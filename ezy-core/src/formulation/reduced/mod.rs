@@ -879,11 +879,19 @@ impl Reduced {
     /// As [`Reduced::new`].
     #[inline]
     pub fn repartition<M: Model>(&mut self, sys: &Dynamics<M>, t: f64, z: &mut [f64]) -> Result<bool, SimError> {
-        let [c, g] = self.quality_accepted;
-        if c >= DEGRADE * self.quality0[0] && g >= DEGRADE * self.quality0[1] {
+        if !self.degraded() {
             return Ok(false);
         }
         self.choose_again(sys, t, z)
+    }
+
+    /// Whether a pivot ratio of `C_D` or `G_D` at the accepted state fell
+    /// below a tenth of its value at the partition's choice: what
+    /// [`Reduced::repartition`] re-chooses the partition at.
+    #[inline]
+    pub fn degraded(&self) -> bool {
+        let [c, g] = self.quality_accepted;
+        c < DEGRADE * self.quality0[0] || g < DEGRADE * self.quality0[1]
     }
 
     /// [`Reduced::repartition`] once its pivots fell: the new partition.
