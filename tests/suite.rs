@@ -11,6 +11,8 @@
 mod bare_rhs;
 mod common;
 mod continuation;
+#[path = "support/text_models.rs"]
+mod text_support;
 
 mod adversarial_input;
 mod adversarial_output;

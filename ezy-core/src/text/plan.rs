@@ -373,7 +373,7 @@ impl Plan {
                 Ok(code)
             }
             #[cfg(not(feature = "jit"))]
-            Err("this build of ezy-core has no `jit` feature".to_owned())
+            Err("this build has no JIT (Cranelift): build ezy with `--features jit`".to_owned())
         });
         code.as_ref().map(|_| ()).map_err(Clone::clone)
     }

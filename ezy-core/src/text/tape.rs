@@ -65,7 +65,9 @@ pub(crate) struct Tape {
 struct Reach {
     params: usize,
     indices: usize,
+    #[cfg_attr(not(feature = "jit"), expect(dead_code, reason = "what the JIT's kernels read"))]
     q: Vec<(usize, usize)>,
+    #[cfg_attr(not(feature = "jit"), expect(dead_code, reason = "what the JIT's kernels read"))]
     qd: Vec<(usize, usize)>,
 }
 
@@ -395,6 +397,7 @@ impl Tape {
 
     /// Whether it reads coordinates or velocities (a tape that reads
     /// neither depends on the parameters alone).
+    #[cfg_attr(not(feature = "jit"), expect(dead_code, reason = "the JIT compiles only such tapes"))]
     pub(crate) fn reads_state(&self) -> bool {
         !self.q.is_empty() || !self.qd.is_empty()
     }
@@ -445,6 +448,7 @@ pub(crate) struct Inputs<'a, S> {
     pub(crate) cols: &'a [usize],
     pub(crate) q: &'a [S],
     pub(crate) qd: &'a [S],
+    #[cfg_attr(not(feature = "jit"), expect(dead_code, reason = "no kernel without the JIT"))]
     pub(crate) compiled: bool,
 }
 
