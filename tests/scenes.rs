@@ -248,6 +248,52 @@ fn missing_initial_values_are_an_error_that_names_them() {
     assert!(err.contains("phi2"), "{err}");
 }
 
+/// The values `err` suggests giving ("..., for example a, b (the ...").
+fn suggested(err: &str) -> Vec<String> {
+    let i = err.find("for example ").unwrap_or_else(|| panic!("no suggestion: {err}")) + "for example ".len();
+    let j = i + err[i..].find(" (the ").unwrap_or_else(|| panic!("{err}"));
+    err[i..j].split(", ").map(str::to_owned).collect()
+}
+
+/// A scene short of initial values is told which would do, and giving
+/// those, at any values, determines the rest without a correction: the
+/// drive scene without velocities (six unknowns, four constraint rows)
+/// and the four-bar without coordinates (nine unknowns, eight rows), its
+/// suggestion given at the values the whole scene assembles to.
+#[test]
+fn missing_initial_values_are_answered_with_ones_that_would_do() {
+    let mut scene = scenes::drive();
+    scene.initial.qd.clear();
+    let err = setup::<EzyRoller>(&scene, &[]).unwrap_err().to_string();
+    let give = suggested(&err);
+    assert!(err.contains("give 2 more") && give.len() == 2, "{err}");
+    for (k, name) in give.iter().enumerate() {
+        let coord = name.strip_suffix('d').unwrap_or_else(|| panic!("{name}"));
+        scene.initial.qd.push((coord.to_owned(), ezy_scene::InitValue::Num(0.3 - 0.7 * k as f64)));
+    }
+    let s = setup::<EzyRoller>(&scene, &[]).unwrap_or_else(|e| panic!("{give:?}: {e}"));
+    assert_eq!(s.initial.velocity_violation, 0.0, "{give:?}");
+
+    let whole = scenes::get("four-bar");
+    let assembled = setup::<ezy_models::FourBar>(&whole, &[]).unwrap();
+    let coords = ezy_models::FourBar::default().info().coords;
+    let mut scene = whole.clone();
+    scene.initial.q.clear();
+    let err = setup::<ezy_models::FourBar>(&scene, &[]).unwrap_err().to_string();
+    let give = suggested(&err);
+    assert!(err.contains("give 1 more") && give.len() == 1, "{err}");
+    let i = coords.iter().position(|c| *c == give[0]).unwrap_or_else(|| panic!("{err}"));
+    scene.initial.q.push((give[0].clone(), ezy_scene::InitValue::Num(assembled.y0[i])));
+    scene.initial.guess = coords
+        .iter()
+        .zip(&assembled.y0)
+        .filter(|(c, _)| **c != give[0])
+        .map(|(c, &v)| (c.clone(), ezy_scene::InitValue::Num(v)))
+        .collect();
+    let s = setup::<ezy_models::FourBar>(&scene, &[]).unwrap_or_else(|e| panic!("{give:?}: {e}"));
+    assert!(max_abs(s.y0.iter().zip(&assembled.y0).map(|(a, b)| a - b)) < 1e-9, "{give:?}");
+}
+
 #[test]
 fn overrides_reach_the_model_and_the_motor() {
     let scene = scenes::drive();

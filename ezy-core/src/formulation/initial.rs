@@ -421,10 +421,21 @@ pub fn consistent_state_with<M: Model>(
     let unknown_q: Vec<usize> = (0..nq).filter(|&i| !known_q[i]).collect();
     let mut phi = vec![0.0; rows];
     let mut jac_values = vec![0.0; pattern_e.len()];
-    let too_many =
-        |unknown: &[usize], rows: usize, what: &str, suffix: &str| too_many(info, unknown, rows, what, suffix);
     if unknown_q.len() > rows {
-        return Err(too_many(&unknown_q, rows, "holonomic constraints and given angles", ""));
+        // which would do in general: at the given values and guesses, the
+        // other unknowns at distinct values (zeros put a linkage's bodies
+        // on one another, where its Jacobian loses rank)
+        let give = (!sparse).then(|| {
+            let mut at = q.clone();
+            for (k, &i) in unknown_q.iter().enumerate() {
+                if !given.guess.iter().any(|&(j, _)| j == i) {
+                    at[i] = 0.3 + 0.17 * k as f64;
+                }
+            }
+            jacobian(&at, &mut jac_values);
+            to_give(pattern_e, &jac_values, rows, nq, &unknown_q)
+        });
+        return Err(too_many(info, &unknown_q, rows, "holonomic constraints and given angles", "", give.flatten()));
     }
     let undetermined =
         |k: usize, unknown: &[usize], what: &str, suffix: &str| undetermined(info, k, unknown, what, suffix);
@@ -509,17 +520,79 @@ fn coord_names(info: &ModelInfo, idx: &[usize], suffix: &str) -> String {
     name_list(idx.iter().map(|&i| format!("{}{suffix}", info.coords[i])))
 }
 
-/// More unknowns than equations: which are missing, and how many to give.
-fn too_many(info: &ModelInfo, unknown: &[usize], rows: usize, what: &str, suffix: &str) -> SimError {
+/// More unknowns than equations: which are missing, how many to give,
+/// and (`give`, from [`to_give`]) which would do.
+fn too_many(
+    info: &ModelInfo,
+    unknown: &[usize],
+    rows: usize,
+    what: &str,
+    suffix: &str,
+    give: Option<Vec<usize>>,
+) -> SimError {
+    let example = match give {
+        // all of them: the list before says so already
+        Some(give) if give.len() < unknown.len() => {
+            format!(", for example {} (the {what} then determine the rest)", coord_names(info, &give, suffix))
+        }
+        _ => String::new(),
+    };
     SimError::Setup(SetupError::Initial {
         reason: format!(
-            "{} {} are missing ({}) but the {rows} {what} determine at most {rows}; give {} more",
+            "{} {} are missing ({}) but the {rows} {what} determine at most {rows}; give {} more{example}",
             unknown.len(),
             kind(suffix),
             coord_names(info, unknown, suffix),
             unknown.len() - rows
         ),
     })
+}
+
+/// Which of the unknowns `unknown` to give so that `rows` equations with
+/// the Jacobian `values` on `pattern` (rows x nq) determine the others:
+/// the unknowns' columns, from the last one back, that add to the rank
+/// (Gram-Schmidt, twice, against those taken) are the determined ones;
+/// the rest, in the model's order, are the answer (so the first bodies'
+/// values are the ones asked for, as a user writes them). `None` where
+/// the columns have less than full row rank (a redundant constraint, or
+/// a dead centre at the guess: no choice determines the rest there).
+/// Dense, `O(rows^2 nq)`: only where the initial solve is dense too.
+fn to_give(
+    pattern: &[(usize, usize)],
+    values: &[f64],
+    rows: usize,
+    nq: usize,
+    unknown: &[usize],
+) -> Option<Vec<usize>> {
+    let mut g = vec![0.0; rows * nq];
+    scatter_dense(pattern, values, nq, &mut g);
+    let norm = |v: &[f64]| v.iter().map(|x| x * x).sum::<f64>().sqrt();
+    let mut basis: Vec<Vec<f64>> = Vec::with_capacity(rows);
+    let mut determined = vec![false; unknown.len()];
+    for (k, &c) in unknown.iter().enumerate().rev() {
+        if basis.len() == rows {
+            break;
+        }
+        let mut v: Vec<f64> = (0..rows).map(|r| g[r * nq + c]).collect();
+        let n0 = norm(&v);
+        if !(n0 > 0.0 && n0.is_finite()) {
+            continue;
+        }
+        for _ in 0..2 {
+            for b in &basis {
+                let d: f64 = b.iter().zip(&v).map(|(a, x)| a * x).sum();
+                v.iter_mut().zip(b).for_each(|(x, a)| *x -= d * a);
+            }
+        }
+        // a column within rounding of those taken adds nothing
+        let n = norm(&v);
+        if n > 1e-8 * n0 {
+            v.iter_mut().for_each(|x| *x /= n);
+            basis.push(v);
+            determined[k] = true;
+        }
+    }
+    (basis.len() == rows).then(|| unknown.iter().zip(&determined).filter(|&(_, &d)| !d).map(|(&i, _)| i).collect())
 }
 
 /// The equations `what` leave the unknowns `unknown` undetermined, the
@@ -607,7 +680,8 @@ fn consistent_velocities<M: Model>(
     };
     if !unknown_v.is_empty() {
         if unknown_v.len() > nc {
-            return Err(too_many(info, &unknown_v, nc, "velocity constraints", "d"));
+            let give = (!sparse).then(|| to_give(info_pattern, &g_values, nc, nq, &unknown_v)).flatten();
+            return Err(too_many(info, &unknown_v, nc, "velocity constraints", "d", give));
         }
         let mut target = vec![0.0; nc];
         crate::drive::shift_velocities(drives, 0.0, &mut target);
