@@ -519,10 +519,7 @@ pub(crate) fn with_sets<M: Model>(proto: &M, sets: &[(String, f64)]) -> Result<M
     let mut m = proto.clone();
     let info = m.info();
     for (name, value) in sets {
-        let i = info.param_index(name).ok_or_else(|| {
-            let known: Vec<&str> = info.params.iter().map(|p| p.name).collect();
-            format!("unknown parameter `{name}` in model {}; its parameters: {}", info.name, known.join(", "))
-        })?;
+        let i = info.param_index(name).ok_or_else(|| info.unknown_param(name))?;
         if info.params[i].count {
             ezy_scene::check_count(name, *value).map_err(|e| e.message)?;
         }

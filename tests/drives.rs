@@ -36,6 +36,7 @@ fn prescribing_the_recorded_angle_reproduces_the_torque_driven_run() {
         value: theta,
         slope_start: Some(rate(&torque_run.y[0])),
         slope_end: Some(rate(torque_run.y.last().unwrap())),
+        extrapolate: Default::default(),
     });
 
     // the same vehicle with that angle prescribed, from the same state

@@ -699,7 +699,7 @@ fn users_kinds_keep_whole_numbers_and_refuse_foreign_coordinates() {
     let e = Problem::new(EzyRoller::default()).kind("far", &Beyond {}).unwrap_err().to_string();
     assert!(e.contains("coordinate 99"), "{e}");
 
-    let table = Waveform::Table(Table { t: vec![0.0, 1.0], value: vec![0.0, 1.0] });
+    let table = Waveform::Table(Table { t: vec![0.0, 1.0], value: vec![0.0, 1.0], extrapolate: Default::default() });
     let p = Problem::new(ezy_models::EzyRollerDriven::default()).drive("D", table).unwrap();
     let e = p.initial_state().unwrap_err().to_string();
     assert!(e.contains("drives.D.angle") && e.contains("table's slope jumps"), "{e}");

@@ -521,3 +521,46 @@ fn effects_hold_strings_only_at_their_name_keys() {
         }
     }
 }
+
+/// Numbers with units (issue 85, item 5): the drive scene written with a
+/// parameter in grams, an angle in degrees, a torque in N m, a frequency
+/// in Hz and a speed in km/h reads as the scene written in SI, number for
+/// number (each suffix's conversion is exact: `"180 deg"` is pi); a unit
+/// whose dimension does not fit its place is refused at its line, naming
+/// both units, and so are an unknown unit and a place without a unit.
+#[test]
+fn numbers_with_units_read_as_si_and_a_wrong_dimension_is_refused() {
+    let si = drive_with("[integrator]", "[params]\nm2 = 1.0\n\n[integrator]")
+        .replace("qd = { x1 = 0.0, phi1 = 0.0 }", "qd = { x1 = 0.5, phi1 = 0.0 }")
+        .replace("[scene_params]", "[scene_params]\nunused = 0.0");
+    let with_units = si
+        .replace("phi2 = 3.141592653589793 }", "phi2 = \"180 deg\" }")
+        .replace("m2 = 1.0", "m2 = \"1000 g\"")
+        .replace("qd = { x1 = 0.5,", "qd = { x1 = \"1.8 km/h\",")
+        .replace("amplitude = \"M0\"", "amplitude = \"2 N m\"")
+        .replace("omega = \"omega\"", "omega = \"0.5 Hz\"");
+    let si =
+        si.replace("amplitude = \"M0\"", "amplitude = 2.0").replace("omega = \"omega\"", "omega = 3.141592653589793");
+    let read = |text: &str| {
+        let scene = Scene::from_toml(text, "units.toml").unwrap_or_else(|e| panic!("{e}"));
+        scenes::check(scene.clone(), text, "units.toml").unwrap_or_else(|e| panic!("{e}"));
+        scene
+    };
+    let (a, mut b) = (read(&si), read(&with_units));
+    assert_eq!(b.units.len(), 3, "m2, phi2 and x1's velocity are checked against the model");
+    b.units.clear();
+    assert_eq!(a, b);
+    let refused = [
+        ("phi2 = \"180 deg\"", "phi2 = \"3 kg\"", "`3 kg` does not fit initial `q.phi2`, which is in rad"),
+        ("m2 = \"1000 g\"", "m2 = \"1 m\"", "`1 m` does not fit parameter `m2`, which is in kg"),
+        ("omega = \"0.5 Hz\"", "omega = \"0.5 s\"", "`0.5 s` does not fit `torque.cos.omega`, which is in rad/s"),
+        ("amplitude = \"2 N m\"", "amplitude = \"2 N\"", "`2 N` does not fit `torque.cos.amplitude`, which is in N m"),
+        ("m2 = \"1000 g\"", "m2 = \"3 stone\"", "unknown unit `stone`"),
+    ];
+    for (from, to, words) in refused {
+        let text = with_units.replace(from, to);
+        let e = load_err(&text);
+        let line = line_of(&text, to);
+        assert!(e.contains(words) && e.contains(&format!("bad.toml:{line}:")), "{to}: {e}");
+    }
+}

@@ -51,6 +51,7 @@ impl Model for HandRoller {
                 param("m2", "kg"),
                 param("I2", "kg m^2"),
             ],
+            derived: vec![],
             bodies: vec![body("body1", 0), body("body2", 3)],
             points: vec![point("A", 0), point("B1", 0), point("B2", 1), point("C", 1)],
             hinges: vec![HingeInfo { name: "B".into(), body_a: 0, body_b: Some(1), row: 0, point: 1 }],

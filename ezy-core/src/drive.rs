@@ -37,9 +37,9 @@ pub fn shift_velocities(drives: &[Drive], t: f64, r: &mut [f64]) {
 }
 
 /// Checks that a prescribed angle is smooth over `[0, t_end]` \[s\]: no
-/// `table` (its slope jumps at the knots), and a `spline` whose knots
-/// cover the run (outside them the angle is held, and its rate would
-/// jump to zero).
+/// `table` (its slope jumps at the knots), and a `spline` held at its
+/// ends whose knots cover the run (past them its rate would jump to
+/// zero); each term of a sum so.
 ///
 /// # Errors
 /// What is wrong, for the angle's key.
@@ -48,12 +48,19 @@ pub fn check_angle(angle: &Waveform, t_end: f64) -> Result<(), String> {
         Waveform::Table(_) => {
             Err("a table's slope jumps at its knots, which a prescribed motion cannot follow; give a `spline`".into())
         }
-        Waveform::Spline(sp) => {
+        Waveform::Sum(terms) => {
+            angle.validate()?;
+            terms
+                .iter()
+                .enumerate()
+                .try_for_each(|(k, w)| check_angle(w, t_end).map_err(|e| format!("term {k} of the sum: {e}")))
+        }
+        Waveform::Spline(sp) if sp.data().extrapolate == crate::effects::waveform::Extrapolate::Hold => {
             let t = &sp.data().t;
             let (first, last) = (t[0], t[t.len() - 1]);
             if first > 0.0 || last < t_end {
                 Err(format!(
-                    "the spline's knots cover [{first}, {last}] s but the run covers [0, {t_end}] s; outside its knots the angle would stop abruptly"
+                    "the spline's knots cover [{first}, {last}] s but the run covers [0, {t_end}] s; outside its knots the angle would stop abruptly (or give `extrapolate = \"linear\"` or `\"periodic\"`)"
                 ))
             } else {
                 Ok(())

@@ -77,8 +77,8 @@ pub use faer;
 pub use formulation::dae::{Baumgarte, Dynamics};
 pub use formulation::friction::SkateMode;
 pub use model::info::{
-    BodyInfo, DriveInfo, EquationExpr, Equations, HingeInfo, InitialName, MAX_COORDS, MinimalLayout, ModelInfo,
-    NameIndex, ParamInfo, PointInfo, SETUP_BYTES_PER_COORD, SkateInfo, SliderInfo,
+    BodyInfo, DerivedParamInfo, DriveInfo, EquationExpr, Equations, HingeInfo, InitialName, MAX_COORDS, MinimalLayout,
+    ModelInfo, NameIndex, ParamInfo, PointInfo, SETUP_BYTES_PER_COORD, SkateInfo, SliderInfo,
 };
 pub use model::{MinimalCall, MinimalRhsError, Model};
 pub use names::{LISTED, fmt_value, name_list};
@@ -111,8 +111,8 @@ macro_rules! model {
 pub mod __private {
     pub use crate::kkt::spd::ldl_solve;
     pub use crate::model::info::{
-        BodyInfo, DriveInfo, EquationExpr, Equations, HingeInfo, Layout, MinimalLayout, ModelInfo, ParamInfo,
-        PointInfo, SkateInfo, SliderInfo, check_model_size, render_equation, unique_names,
+        BodyInfo, DerivedParamInfo, DriveInfo, EquationExpr, Equations, HingeInfo, Layout, MinimalLayout, ModelInfo,
+        ParamInfo, PointInfo, SkateInfo, SliderInfo, check_model_size, render_equation, unique_names,
     };
     pub use crate::model::{MinimalRhsError, Model};
     pub use crate::scalar::Scalar;

@@ -9,6 +9,7 @@ pub struct ModelDef {
     pub vis: Visibility,
     pub name: Ident,
     pub params: Vec<Param>,
+    pub derived: Vec<DerivedParam>,
     pub counts: Vec<Count>,
     pub families: Vec<Family>,
     pub bodies: Vec<Body>,
@@ -25,6 +26,18 @@ pub struct Param {
     pub name: Ident,
     pub value: f64,
     pub value_span: Span,
+}
+
+/// `param NAME = EXPR;` whose value is an expression of other
+/// parameters (`param I = m * r * r;`): not a parameter of its own (a
+/// scene cannot set it), but its expression, put in wherever the model
+/// names it, so that it follows the parameters it is made of (and their
+/// derivatives). Parameters so defined may name one another in any order,
+/// but not in a cycle.
+pub struct DerivedParam {
+    pub attrs: Vec<Attribute>,
+    pub name: Ident,
+    pub expr: Expr,
 }
 
 /// `count NAME = INTEGER;`: the size of `for` families, a runtime

@@ -277,10 +277,123 @@ fn check_declared_size(def: &ModelDef, errs: &mut Errors) {
     }
 }
 
+/// The parameters defined by expressions ([`ModelDef::derived`]) in an
+/// order in which each comes after those it names (Kahn's), and the
+/// cycles among the rest: each as the indices into `derived` around it,
+/// reported once. A parameter left out of the order and of every cycle
+/// names one in a cycle.
+pub fn derived_order(def: &ModelDef) -> (Vec<usize>, Vec<Vec<usize>>) {
+    let n = def.derived.len();
+    let by_name: HashMap<String, usize> =
+        def.derived.iter().enumerate().map(|(k, d)| (d.name.to_string(), k)).collect();
+    let uses: Vec<Vec<usize>> = def
+        .derived
+        .iter()
+        .map(|d| {
+            let mut names = Vec::new();
+            idents(&d.expr, &mut names);
+            let mut k: Vec<usize> = names.iter().filter_map(|id| by_name.get(&id.to_string()).copied()).collect();
+            k.sort_unstable();
+            k.dedup();
+            k
+        })
+        .collect();
+    let mut users = vec![Vec::new(); n];
+    for (j, u) in uses.iter().enumerate() {
+        for &k in u {
+            users[k].push(j);
+        }
+    }
+    let mut waiting: Vec<usize> = uses.iter().map(Vec::len).collect();
+    let mut order: Vec<usize> = (0..n).filter(|&j| waiting[j] == 0).collect();
+    let mut at = 0;
+    while at < order.len() {
+        for &j in &users[order[at]] {
+            waiting[j] -= 1;
+            if waiting[j] == 0 {
+                order.push(j);
+            }
+        }
+        at += 1;
+    }
+    // the rest: a depth-first search from each, among the rest, for a
+    // way back to it
+    let mut reported = vec![false; n];
+    let mut cycles = Vec::new();
+    for start in (0..n).filter(|&j| waiting[j] > 0) {
+        if reported[start] {
+            continue;
+        }
+        let mut path = vec![start];
+        let mut next = vec![0usize];
+        let mut seen = vec![false; n];
+        while let Some(&j) = path.last() {
+            let i = next[next.len() - 1];
+            if i == uses[j].len() {
+                path.pop();
+                next.pop();
+                continue;
+            }
+            *next.last_mut().expect("as long as path") += 1;
+            let k = uses[j][i];
+            if k == start {
+                path.iter().for_each(|&c| reported[c] = true);
+                cycles.push(std::mem::take(&mut path));
+                break;
+            }
+            if waiting[k] > 0 && !seen[k] && !reported[k] {
+                seen[k] = true;
+                path.push(k);
+                next.push(0);
+            }
+        }
+    }
+    (order, cycles)
+}
+
+/// The identifiers `e` names (paths of one segment, function names
+/// aside), with a stack of its own: a chain `a + b + c + ...` is as deep
+/// as it is long, which the text's nesting bound does not limit.
+fn idents<'e>(e: &'e syn::Expr, out: &mut Vec<&'e Ident>) {
+    use syn::Expr;
+    let mut stack = vec![e];
+    while let Some(e) = stack.pop() {
+        match e {
+            Expr::Path(p) => out.extend(p.path.get_ident()),
+            Expr::Paren(p) => stack.push(&p.expr),
+            Expr::Group(g) => stack.push(&g.expr),
+            Expr::Unary(u) => stack.push(&u.expr),
+            Expr::Binary(b) => stack.extend([&*b.left, &*b.right]),
+            Expr::Call(c) => stack.extend(c.args.iter()),
+            _ => {}
+        }
+    }
+}
+
 /// Checks that names are unique, parameters finite, family variables
 /// named apart from parameters and counts, and that there is a body.
 fn check_names(def: &ModelDef, errs: &mut Errors) {
-    check_unique(errs, "parameter", def.params.iter().map(|p| &p.name).chain(def.counts.iter().map(|c| &c.name)));
+    check_unique(
+        errs,
+        "parameter",
+        def.params
+            .iter()
+            .map(|p| &p.name)
+            .chain(def.derived.iter().map(|p| &p.name))
+            .chain(def.counts.iter().map(|c| &c.name)),
+    );
+    for cycle in derived_order(def).1 {
+        let names: Vec<String> = cycle.iter().map(|&k| def.derived[k].name.to_string()).collect();
+        errs.at(
+            &def.derived[cycle[0]].name,
+            format!(
+                "parameter `{}` is defined by itself: {} -> {}; define one of them by a number",
+                names[0],
+                names.join(" -> "),
+                names[0]
+            ),
+        );
+    }
     check_unique(errs, "body", def.bodies.iter().map(|b| &b.name));
     check_unique(errs, "point", def.points.iter().map(|p| &p.name));
     check_unique(errs, "hinge", def.hinges.iter().map(|h| &h.name));
@@ -304,7 +417,7 @@ fn check_names(def: &ModelDef, errs: &mut Errors) {
         check_index(errs, def, &f.start);
         check_index(errs, def, &f.end);
         // the variable names the element's index in the family's expressions
-        let kind = if def.params.iter().any(|p| p.name == f.var) {
+        let kind = if def.params.iter().any(|p| p.name == f.var) || def.derived.iter().any(|p| p.name == f.var) {
             Some("parameter")
         } else if def.counts.iter().any(|c| c.name == f.var) {
             Some("count")

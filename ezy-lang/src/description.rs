@@ -101,6 +101,21 @@ pub struct Param {
     pub count: bool,
 }
 
+/// A parameter defined by an expression of others (`param I = m * r *
+/// r;`): not settable, its expression stands wherever it is named.
+#[derive(Clone, Debug, PartialEq)]
+pub struct DerivedParam {
+    /// Its name.
+    pub name: Text,
+    /// Its expression as written (tokens spaced: `m * r * r`).
+    pub formula: Text,
+    /// The unit from the `[...]` at the end of its doc comment (`""` if
+    /// none).
+    pub unit: Text,
+    /// Its doc comment without the unit.
+    pub doc: Text,
+}
+
 /// A derived expression for `ezy equations`: text and LaTeX templates
 /// of the runtime's `render_equation` ([`crate::equation_templates`]).
 #[derive(Clone, Debug, PartialEq)]
@@ -255,6 +270,8 @@ pub struct Description {
     pub doc: Text,
     /// The real parameters, then the counts.
     pub params: List<Param>,
+    /// The parameters defined by expressions, in declaration order.
+    pub derived: List<DerivedParam>,
     /// Its `for` families.
     pub families: List<Family>,
     /// Its bodies.
@@ -437,6 +454,21 @@ pub fn describe(def: &ModelDef, res: &Resolved, d: &Derived) -> Description {
         name: def.name.to_string().into(),
         doc: doc_of(&def.attrs).split(". ").next().unwrap_or("").trim_end_matches('.').to_string().into(),
         params: params(def).into(),
+        derived: def
+            .derived
+            .iter()
+            .map(|d| {
+                let (doc, unit) = split_unit(&doc_of(&d.attrs));
+                let formula = quote::ToTokens::to_token_stream(&d.expr).to_string();
+                DerivedParam {
+                    name: d.name.to_string().into(),
+                    formula: formula.into(),
+                    unit: unit.into(),
+                    doc: doc.into(),
+                }
+            })
+            .collect::<Vec<_>>()
+            .into(),
         families: families.into(),
         bodies: bodies.into(),
         points: points.into(),

@@ -149,12 +149,22 @@ pub struct Scope<'a> {
     /// The variables of every family, to tell a variable named outside
     /// its family from an unknown parameter.
     pub vars: &'a [String],
+    /// The parameters defined by expressions, each with its expression
+    /// converted (`None`: not yet, or in a cycle, reported by
+    /// [`crate::check`]): put in wherever one is named.
+    pub derived: &'a [(String, Option<Id>)],
 }
 
 impl<'a> Scope<'a> {
     /// The scope of an item of `family` (`None`: a single item).
-    fn of(def: &'a ModelDef, params: &'a [String], vars: &'a [String], family: Option<usize>) -> Self {
-        Scope { params, var: family.map(|f| &def.families[f].var), vars }
+    fn of(
+        def: &'a ModelDef,
+        params: &'a [String],
+        vars: &'a [String],
+        derived: &'a [(String, Option<Id>)],
+        family: Option<usize>,
+    ) -> Self {
+        Scope { params, var: family.map(|f| &def.families[f].var), vars, derived }
     }
 }
 
@@ -175,6 +185,9 @@ pub fn expr_to_sym(ar: &mut Arena, e: &Expr, scope: &Scope, what: &str, errs: &m
             if scope.var == Some(id) {
                 return ar.sym(Sym::Index(0));
             }
+            if let Some((_, value)) = scope.derived.iter().find(|(n, _)| id == n) {
+                return value.unwrap_or_else(|| ar.cst(0.0));
+            }
             match params.iter().position(|n| id == n) {
                 Some(i) => ar.sym(Sym::Param(i)),
                 None if scope.vars.iter().any(|v| id == v) => {
@@ -191,7 +204,9 @@ pub fn expr_to_sym(ar: &mut Arena, e: &Expr, scope: &Scope, what: &str, errs: &m
                     ar.cst(0.0)
                 }
                 None => {
-                    let known = if params.is_empty() { "none".to_string() } else { params.join(", ") };
+                    let names: Vec<&str> =
+                        params.iter().chain(scope.derived.iter().map(|(n, _)| n)).map(String::as_str).collect();
+                    let known = if names.is_empty() { "none".to_string() } else { names.join(", ") };
                     errs.at(id, format!("{what}: unknown parameter `{id}`; known parameters: {known}"));
                     ar.cst(0.0)
                 }
@@ -202,6 +217,11 @@ pub fn expr_to_sym(ar: &mut Arena, e: &Expr, scope: &Scope, what: &str, errs: &m
         Expr::Unary(u) if matches!(u.op, UnOp::Neg(_)) => {
             let a = expr_to_sym(ar, &u.expr, scope, what, errs);
             ar.neg(a)
+        }
+        Expr::Unary(u) if matches!(u.op, UnOp::Deref(_)) => {
+            // `r**2` reads as `r * (*2)`
+            errs.at(e, format!("{what}: there is no `**`; write a power as a product (`r*r`)"));
+            ar.cst(0.0)
         }
         Expr::Binary(b) if matches!(b.op, BinOp::Add(_) | BinOp::Sub(_) | BinOp::Mul(_) | BinOp::Div(_)) => {
             // a chain `a + b - c + ...` (or `a * b / c * ...`) as one sum
@@ -309,8 +329,15 @@ pub fn derive(def: &ModelDef, res: &Resolved, errs: &mut Errors) -> Derived {
         res,
         params: def.params.iter().map(|p| p.name.to_string()).collect(),
         vars: def.families.iter().map(|f| f.var.to_string()).collect(),
+        derived: def.derived.iter().map(|d| (d.name.to_string(), None)).collect(),
         points: Vec::new(),
     };
+    // the parameters defined by expressions, each after those it names
+    for j in crate::check::derived_order(def).0 {
+        let d = &def.derived[j];
+        let id = expr_to_sym(&mut ar, &d.expr, &cx.scope(None), &format!("parameter `{}`", d.name), errs);
+        cx.derived[j].1 = Some(id);
+    }
     let mass = def.bodies.iter().map(|b| body_mass(&mut ar, &cx, b, errs)).collect();
     let points = def.points.iter().zip(&res.point_body).map(|(p, &b)| point(&mut ar, &cx, p, b, errs)).collect();
     cx.points = points;
@@ -364,13 +391,14 @@ struct Ctx<'a> {
     res: &'a Resolved,
     params: Vec<String>,
     vars: Vec<String>,
+    derived: Vec<(String, Option<Id>)>,
     points: Vec<PointDerived>,
 }
 
 impl Ctx<'_> {
     /// The scope of an item of `family`.
     fn scope(&self, family: Option<usize>) -> Scope<'_> {
-        Scope::of(self.def, &self.params, &self.vars, family)
+        Scope::of(self.def, &self.params, &self.vars, &self.derived, family)
     }
 
     /// Whether a point reference and its point's body are resolved.

@@ -172,4 +172,39 @@ mod tests {
         let line = text.lines().nth(at.line - 1).expect("the line exists");
         assert_eq!((at.line, &line[at.column..at.column + 3]), (5, "rod"), "{line}");
     }
+
+    /// A parameter defined by an expression of others stands for its
+    /// expression wherever it is named, in any order of definition: the
+    /// mass matrix holds the expression of the numbered parameters; a
+    /// cycle is refused at its first name with the whole cycle, and `**`
+    /// is told to be a product.
+    #[test]
+    fn parameters_defined_by_expressions_follow_theirs_and_cycles_are_refused() {
+        let text = |defs: &str| {
+            format!(
+                "pub struct Disk {{
+                    {defs}
+                    body b(x, y, phi) {{ mass: m, inertia: I }}
+                }}"
+            )
+        };
+        // `I` before the `r2` it names
+        let m = super::derive_text(&text("param m = 2.0; param I = m * r2 / 2; param r2 = r * r; param r = 0.3;"))
+            .unwrap_or_else(|e| panic!("{e}"));
+        let inertia = m.derived.mass[0][2];
+        let value = m.derived.ar.eval(inertia, &|s| match s {
+            super::sym::Sym::Param(i) => [2.0, 0.3][i],
+            _ => unreachable!(),
+        });
+        assert_eq!(value, 2.0 * (0.3 * 0.3) / 2.0);
+        assert_eq!(m.def.params.len(), 2, "the defined ones are not settable parameters");
+        let cyc = text("param m = 2.0;\n param I = m * a;\n param a = b + 1;\n param b = I * 2;");
+        let e = super::derive_text(&cyc).err().expect("a cycle");
+        assert!(e.to_string().contains("parameter `I` is defined by itself: I -> a -> b -> I"), "{e}");
+        assert_eq!(e.span().start().line, 3, "{e}");
+        let e = super::derive_text(&text("param m = 2.0; param I = m*0.2**2;")).err().expect("no power");
+        assert!(e.to_string().contains("there is no `**`"), "{e}");
+        let e = super::derive_text(&text("param m = 2.0; param I = m * rr;")).err().expect("an unknown name");
+        assert!(e.to_string().contains("parameter `I`: unknown parameter `rr`; known parameters: m, I"), "{e}");
+    }
 }

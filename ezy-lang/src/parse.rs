@@ -26,7 +26,9 @@ use syn::punctuated::Punctuated;
 use syn::spanned::Spanned;
 use syn::{Attribute, BinOp, Expr, Ident, Token, braced, bracketed, parenthesized};
 
-use crate::ast::{Affine, Body, Count, Drive, Family, Hinge, HingeTarget, ModelDef, Param, Point, Ref, Skate, Slider};
+use crate::ast::{
+    Affine, Body, Count, DerivedParam, Drive, Family, Hinge, HingeTarget, ModelDef, Param, Point, Ref, Skate, Slider,
+};
 
 mod kw {
     syn::custom_keyword!(param);
@@ -60,6 +62,7 @@ impl Parse for ModelDef {
             vis,
             name,
             params: Vec::new(),
+            derived: Vec::new(),
             counts: Vec::new(),
             families: Vec::new(),
             bodies: Vec::new(),
@@ -127,9 +130,14 @@ fn parse_item(
         not_in_family("param", k.span)?;
         let name = content.parse()?;
         content.parse::<Token![=]>()?;
-        let (value, value_span) = parse_number(content)?;
+        let expr: Expr = content.parse()?;
         content.parse::<Token![;]>()?;
-        def.params.push(Param { attrs: item_attrs, name, value, value_span });
+        // a number is a parameter a scene may set; any other expression
+        // defines this one by others
+        match literal_value(&expr) {
+            Some(value) => def.params.push(Param { attrs: item_attrs, name, value, value_span: expr.span() }),
+            None => def.derived.push(DerivedParam { attrs: item_attrs, name, expr }),
+        }
     } else if look.peek(kw::count) {
         let k = content.parse::<kw::count>()?;
         not_in_family("count", k.span)?;
@@ -396,13 +404,6 @@ fn parse_pair(input: ParseStream) -> syn::Result<([Expr; 2], proc_macro2::Span)>
     let items: Vec<Expr> = items.into_iter().collect();
     let pair: [Expr; 2] = items.try_into().map_err(|_| syn::Error::new(span, "expected two coordinates: (x, y)"))?;
     Ok((pair, span))
-}
-
-/// A numeric literal with an optional leading minus.
-fn parse_number(input: ParseStream) -> syn::Result<(f64, proc_macro2::Span)> {
-    let e: Expr = input.parse()?;
-    let span = e.span();
-    literal_value(&e).map(|v| (v, span)).ok_or_else(|| syn::Error::new(span, "a parameter's value must be a number"))
 }
 
 /// The value of a numeric literal expression (`1`, `0.5`, `-2e3`).

@@ -62,7 +62,8 @@ impl Scene {
     /// scene parameters and the effects' and drives' numeric keys;
     /// [`SetupError::Setting`] for a value that is not finite;
     /// [`SetupError::Scene`] for a name that is both a scene and a
-    /// model parameter, an ambiguous key, or a binding whose number is gone.
+    /// model parameter, a parameter the model defines by an expression
+    /// (naming it), an ambiguous key, or a binding whose number is gone.
     pub fn set(&mut self, info: &ModelInfo, name: &str, value: f64) -> Result<(), SimError> {
         if !value.is_finite() {
             return Err(SimError::Setup(SetupError::Setting {
@@ -125,6 +126,12 @@ impl Scene {
                 self.bindings.retain(|b| b.path != path);
                 return Ok(());
             }
+        }
+        if info.derived.iter().any(|d| d.name == name) {
+            return Err(SimError::Setup(SetupError::Scene {
+                key: name.to_string(),
+                message: info.unknown_param(name),
+            }));
         }
         let mut known: Vec<String> = info.params.iter().map(|p| p.name.to_string()).collect();
         known.extend(self.scene_params.iter().map(|(n, _)| n.clone()));
@@ -451,7 +458,8 @@ fn bind_numbers<'i>(
         DeValue::Table(t) => {
             for (k, v) in t.iter_mut() {
                 let k = k.get_ref().as_ref();
-                if effect_table && crate::kinds::NAME_KEYS.contains(&k) {
+                // a waveform's `extrapolate` is a word at any depth
+                if (effect_table && crate::kinds::NAME_KEYS.contains(&k)) || k == "extrapolate" {
                     continue;
                 }
                 path.push(k.to_string());

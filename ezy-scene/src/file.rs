@@ -98,11 +98,19 @@ impl Scene {
         };
         let mut root = toml::de::DeTable::parse(src).map_err(located)?;
         refuse_misplaced_arrays(root.get_ref(), &mut Vec::new()).map_err(|e| Self::locate_error(src, file, e))?;
+        let units = crate::units::convert(root.get_mut()).map_err(|e| Self::locate_error(src, file, e))?;
         let bindings = bind_scene_params(root.get_mut()).map_err(|e| Self::locate_error(src, file, e))?;
         // the tree keeps the spans of the text, so errors are placed as before
         let mut scene = Scene::deserialize(toml::de::Deserializer::from(root)).map_err(located)?;
         scene.bindings = bindings;
-        Ok(scene)
+        apply_units(&units, scene).map_err(|message| SceneFileError {
+            file: file.to_string(),
+            line: 1,
+            column: 1,
+            key: None,
+            message,
+            also: Vec::new(),
+        })
     }
 
     /// Parses and checks a scene file against the model `info`.
@@ -174,6 +182,28 @@ impl Scene {
     }
 }
 
+/// `scene` with each number the file wrote with a unit set to its SI
+/// value (read with a placeholder in its place: the parsed tree holds
+/// only the text's own numbers), and the places to check against the
+/// model kept.
+///
+/// # Errors
+/// The scene's serde message, should the tree not read back (it is the
+/// scene's own serialization, with numbers in numbers' places).
+fn apply_units(units: &crate::units::Converted, scene: Scene) -> Result<Scene, String> {
+    if units.values.is_empty() {
+        return Ok(scene);
+    }
+    let mut tree = toml::Value::try_from(&scene).map_err(|e| e.to_string())?;
+    for (path, v) in &units.values {
+        set_path(&mut tree, path, toml::Value::Float(*v)).ok_or("a unit's place is gone")?;
+    }
+    let mut out: Scene = tree.try_into().map_err(|e: toml::de::Error| e.message().trim().to_string())?;
+    out.bindings = scene.bindings;
+    out.units = units.uses.clone();
+    Ok(out)
+}
+
 /// The keys whose value is an array in a scene file; an array anywhere
 /// else stands where a table or a single value belongs, and serde would
 /// read a struct from it by position (`integrator = ["euler", 0.01]`).
@@ -186,6 +216,7 @@ const ARRAY_KEYS: &[&str] = &[
     "switch_off",
     "figures",
     "harmonics",
+    "sum",
     "t",
     "value",
     "g",

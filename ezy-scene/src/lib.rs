@@ -82,6 +82,7 @@ pub mod parameter;
 pub mod problem;
 pub mod registry;
 pub mod schema;
+pub mod units;
 pub mod view;
 
 pub use check::{Checked, MAX_COUNT, MAX_FIGURE_NAME, check_count};

@@ -321,4 +321,9 @@ pub struct Scene {
     /// themselves are in `effects` and `drives`, already substituted.
     #[serde(skip)]
     pub bindings: Vec<Binding>,
+    /// Where the file wrote `[params]` and `[initial]` numbers with units
+    /// (`"200 g"`), kept to check their dimensions against the model; the
+    /// numbers themselves are in SI.
+    #[serde(skip)]
+    pub units: Vec<crate::units::UnitUse>,
 }

@@ -169,6 +169,24 @@ impl PyScene {
         self.set_value(name, real(&format!("scene[{name:?}]"), value)?)
     }
 
+    /// Takes back what `scene[name] = value` (or `set`) gave: the number
+    /// is the scene file's again.
+    ///
+    /// Raises KeyError when `name` was not set on this scene (listing
+    /// what was).
+    fn __delitem__(&mut self, name: &str) -> PyResult<()> {
+        if !self.sets.iter().any(|(n, _)| n == name) {
+            let set: Vec<&str> = self.sets.iter().map(|(n, _)| n.as_str()).collect();
+            let set = if set.is_empty() { "nothing".to_string() } else { set.join(", ") };
+            return Err(PyKeyError::new_err(format!(
+                "`{name}` was not set on scene {}; set on it: {set}",
+                self.src.scene.name
+            )));
+        }
+        self.sets.retain(|(n, _)| n != name);
+        Ok(())
+    }
+
     /// Sets a scene parameter, a model parameter or `EFFECT.KEY`, and
     /// returns the scene (to chain).
     fn set<'py>(slf: Bound<'py, Self>, name: &str, value: &Bound<'py, PyAny>) -> PyResult<Bound<'py, Self>> {

@@ -398,7 +398,10 @@ impl Toolkit {
         let axes = crate::sweep::grid_args(grid)?;
         let jobs = whole_kw("sweep", "jobs", jobs)?;
         let (app, r) = self.resolve_on(scene, model)?;
-        let o = Overrides::new(r.sets.clone(), settings, "sweep")?;
+        // the grid overrides what the scene object set of the same name
+        let swept: Vec<String> = grid.keys().iter().map(|k| k.to_string()).collect();
+        let sets = r.sets.iter().filter(|(n, _)| !swept.contains(n)).cloned().collect();
+        let o = Overrides::new(sets, settings, "sweep")?;
         let opts = o.options()?; // the keywords' own errors first, named as keywords
         let temp = tempfile::Builder::new().prefix("ezy-sweep-").tempdir().map_err(ezy_err)?;
         let dir = out.unwrap_or_else(|| temp.path().join("sweep"));

@@ -268,6 +268,16 @@ def test_a_sweep_is_a_dataframe_of_the_runs():
         assert final_t == r["T"][-1]
     grid = ezy.sweep(ezy.scene("drive").set("omega", 2.0), {"M0": "1:2:3"}, jobs=2, **RUN)
     assert list(grid["M0"]) == [1.0, 1.5, 2.0]
+    # a parameter the scene object set is swept: the grid overrides it
+    s = ezy.scene("drive")
+    s["M0"] = 3.0
+    swept = ezy.sweep(s, {"M0": [1.0, 2.0]}, metrics=["final(T)"], jobs=1, **RUN)
+    assert list(swept["final(T)"]) == list(df["final(T)"][:2])
+    # and unset: the scene file's number again
+    del s["M0"]
+    assert s.sets == [] and s["M0"] == 2.0
+    with pytest.raises(KeyError, match="`M0` was not set on scene drive; set on it: nothing"):
+        del s["M0"]
     with pytest.raises(ezy.EzyError, match="--grid"):
         ezy.sweep("drive", {"M0": "1:2"}, **RUN)
     with pytest.raises(ezy.EzyError, match="grid"):

@@ -169,6 +169,7 @@ pub const SCENE: Rules = Rules {
         f("error", 0, "what is wrong with a scene and where (`SceneError`, `SceneFileError`)"),
         f("kinds", 0, "effects as scene files write them; kinds of the user's own"),
         f("view", 0, "figure specs (data)"),
+        f("units", 0, "unit suffixes on numbers: the table, the conversion to SI, the dimension checks"),
         // floor 1: the document, made of the effects and the figures
         f("schema", 1, "the document's types (`Scene`), the output groups among them"),
         // floor 2: on the document

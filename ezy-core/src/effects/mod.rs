@@ -70,7 +70,7 @@ pub use registry::{EFFECT_KINDS, EffectSpec, KindReference, REFERENCE, check_eff
 pub use skate_friction::*;
 pub use spring::*;
 pub use user::UserSpec;
-pub use waveform::{Harmonic, OrbitTiming, Periodicity, Spline, SplineData, Table, Waveform};
+pub use waveform::{Extrapolate, Harmonic, Linear, OrbitTiming, Periodicity, Spline, SplineData, Table, Waveform};
 
 /// An effect resolved against a model, ready for the right-hand side.
 #[derive(Debug, Clone, PartialEq)]

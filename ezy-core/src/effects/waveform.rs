@@ -1,5 +1,7 @@
-//! Time functions of the effects: a torque or force given as a constant, a
-//! cosine or sine, a sum of harmonics, or a piecewise-linear table.
+//! Time functions of the effects and drives: a torque, a force or a
+//! prescribed angle given as a constant, a ramp, a cosine or sine, a sum
+//! of harmonics, a piecewise-linear table or a cubic spline (held, or
+//! continued linearly or periodically past its ends), or a sum of these.
 
 use serde::{Deserialize, Serialize};
 
@@ -28,7 +30,8 @@ fn is_zero(v: &f64) -> bool {
 }
 
 /// A piecewise-linear function of time through the points `(t_k, value_k)`,
-/// held constant before the first and after the last point.
+/// held constant before the first and after the last point unless
+/// `extrapolate` says otherwise.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct Table {
@@ -36,6 +39,58 @@ pub struct Table {
     pub t: Vec<f64>,
     /// Values at those times (same length as `t`).
     pub value: Vec<f64>,
+    /// What the table is outside `[t_0, t_last]`.
+    #[serde(default, skip_serializing_if = "Extrapolate::is_hold")]
+    pub extrapolate: Extrapolate,
+}
+
+/// What a table or a spline is outside its first and last times.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Extrapolate {
+    /// The end values held (zero derivatives): the default.
+    #[default]
+    Hold,
+    /// Continued along the end slopes (a spline's second derivative zero
+    /// outside, continuous at a natural end).
+    Linear,
+    /// Repeated with the period `t_last - t_0`: `w(t) = w(t_0 + (t - t_0)
+    /// mod (t_last - t_0))`. Continuous where the last value is the
+    /// first (a spline's derivatives where its end slopes match too).
+    Periodic,
+}
+
+impl Extrapolate {
+    fn is_hold(&self) -> bool {
+        *self == Extrapolate::Hold
+    }
+
+    /// Where to evaluate at `t` \[s\] a function given on `[t0, t1]`:
+    /// `Ok(t)` inside (or periodic, wrapped into it), `Err(end)` past an
+    /// end (`0`: before `t0`, `1`: after `t1`) when held or continued.
+    fn locate(self, t: f64, t0: f64, t1: f64) -> Result<f64, usize> {
+        if (t0..=t1).contains(&t) {
+            return Ok(t);
+        }
+        match self {
+            Extrapolate::Periodic if t1 > t0 => Ok(t0 + (t - t0).rem_euclid(t1 - t0)),
+            _ if t < t0 => Err(0),
+            _ => Err(1),
+        }
+    }
+}
+
+/// A ramp `w(t) = value + rate t`: a rotor's mean spin, a force growing
+/// steadily. In a scene file: `{ linear = { value = 0.0, rate = 6.0 } }`.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Linear {
+    /// Value at `t = 0` (unit of the quantity: \[rad\] for an angle,
+    /// \[N m\] for a torque).
+    #[serde(default)]
+    pub value: f64,
+    /// Rate (the quantity's unit per second: \[rad/s\] for an angle).
+    pub rate: f64,
 }
 
 /// A scalar function of time `w(t)`. In a scene file it is a one-key table:
@@ -45,7 +100,9 @@ pub struct Table {
 /// torque = { cos = { amplitude = 2.0, omega = 3.141592653589793, phase = 0.0 } }
 /// torque = { sin = { amplitude = 2.0, omega = 3.141592653589793 } }
 /// torque = { harmonics = [{ amplitude = 2.0, omega = 3.14 }, { amplitude = 0.5, omega = 9.42, phase = 1.0 }] }
-/// torque = { table = { t = [0.0, 1.0, 2.0], value = [0.0, 2.0, 0.0] } }
+/// torque = { table = { t = [0.0, 1.0, 2.0], value = [0.0, 2.0, 0.0], extrapolate = "periodic" } }
+/// torque = { linear = { value = 0.0, rate = 0.5 } }
+/// angle = { sum = [{ linear = { rate = 6.0 } }, { sin = { amplitude = 0.5, omega = 3.0 } }] }
 /// ```
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case", deny_unknown_fields)]
@@ -64,6 +121,11 @@ pub enum Waveform {
     /// for prescribed motions, whose second derivative enters the
     /// accelerations).
     Spline(Spline),
+    /// `w(t) = value + rate t`.
+    Linear(Linear),
+    /// `w(t) = sum_k w_k(t)`: terms of the other kinds (a sum's terms are
+    /// not sums), e.g. a rotor's angle `omega t + a sin(nu t)`.
+    Sum(Vec<Waveform>),
 }
 
 /// A cubic spline through `(t_k, value_k)` (Press et al., *Numerical
@@ -93,6 +155,9 @@ pub struct SplineData {
     /// Slope at the last knot (clamped end); natural end if absent.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub slope_end: Option<f64>,
+    /// What the spline is outside its knots.
+    #[serde(default, skip_serializing_if = "Extrapolate::is_hold")]
+    pub extrapolate: Extrapolate,
 }
 
 impl From<Spline> for SplineData {
@@ -123,17 +188,27 @@ impl Spline {
     pub fn eval3(&self, t: f64) -> [f64; 3] {
         let (ts, ys) = (&self.data.t, &self.data.value);
         let n = ts.len();
-        // outside the knots: held constant; on the end knots: the spline's own derivatives
-        if n < 2 || t < ts[0] || t > ts[n - 1] {
-            let y = if n == 0 {
-                0.0
-            } else if t < ts[0] {
-                ys[0]
-            } else {
-                ys[n - 1]
-            };
-            return [y, 0.0, 0.0];
+        if n == 0 {
+            return [0.0; 3];
         }
+        if n < 2 {
+            return [ys[0], 0.0, 0.0];
+        }
+        // outside the knots: held, continued along the end slope, or
+        // wrapped; on the end knots: the spline's own derivatives
+        let t = match self.data.extrapolate.locate(t, ts[0], ts[n - 1]) {
+            Ok(t) => t,
+            Err(end) => {
+                let k = if end == 0 { 0 } else { n - 1 };
+                return match self.data.extrapolate {
+                    Extrapolate::Linear => {
+                        let slope = self.eval3(ts[k])[1];
+                        [ys[k] + slope * (t - ts[k]), slope, 0.0]
+                    }
+                    _ => [ys[k], 0.0, 0.0],
+                };
+            }
+        };
         let k = ts.partition_point(|&tk| tk <= t).clamp(1, n - 1) - 1;
         let h = ts[k + 1] - ts[k];
         let a = (ts[k + 1] - t) / h;
@@ -229,6 +304,8 @@ impl Waveform {
             Self::Harmonics(hs) => hs.iter().map(|h| h.amplitude * Scalar::cos(h.omega * t + h.phase)).sum(),
             Self::Table(tab) => tab.eval(t),
             Self::Spline(s) => s.eval3(t)[0],
+            Self::Linear(l) => l.value + l.rate * t,
+            Self::Sum(terms) => terms.iter().map(|w| w.eval(t)).sum(),
         }
     }
 
@@ -247,16 +324,10 @@ impl Waveform {
             Self::Harmonics(hs) => {
                 hs.iter().map(|h| harmonic(h, 0.0)).fold([0.0; 3], |a, b| [a[0] + b[0], a[1] + b[1], a[2] + b[2]])
             }
-            Self::Table(tab) => {
-                let k = tab.t.partition_point(|&tk| tk <= t);
-                let slope = if k == 0 || k == tab.t.len() {
-                    0.0
-                } else {
-                    (tab.value[k] - tab.value[k - 1]) / (tab.t[k] - tab.t[k - 1])
-                };
-                [tab.eval(t), slope, 0.0]
-            }
+            Self::Table(tab) => [tab.eval(t), tab.slope(t), 0.0],
             Self::Spline(s) => s.eval3(t),
+            Self::Linear(l) => [l.value + l.rate * t, l.rate, 0.0],
+            Self::Sum(terms) => terms.iter().map(|w| w.eval3(t)).fold([0.0; 3], add3),
         }
     }
 
@@ -290,19 +361,22 @@ impl Waveform {
         match (self, other) {
             (Self::Cos(h), Self::Cos(g)) => move3(h, g, 0.0),
             (Self::Sin(h), Self::Sin(g)) => move3(h, g, -std::f64::consts::FRAC_PI_2),
-            (Self::Harmonics(hs), Self::Harmonics(gs)) if hs.len() == gs.len() => hs
-                .iter()
-                .zip(gs)
-                .map(|(h, g)| move3(h, g, 0.0))
-                .fold([0.0; 3], |a, b| [a[0] + b[0], a[1] + b[1], a[2] + b[2]]),
+            (Self::Harmonics(hs), Self::Harmonics(gs)) if hs.len() == gs.len() => {
+                hs.iter().zip(gs).map(|(h, g)| move3(h, g, 0.0)).fold([0.0; 3], add3)
+            }
+            (Self::Sum(ws), Self::Sum(vs)) if ws.len() == vs.len() => {
+                ws.iter().zip(vs).map(|(w, v)| w.eval3_toward(v, t)).fold([0.0; 3], add3)
+            }
             _ => other.eval3(t),
         }
     }
 
-    /// Checks the numbers: all finite, values and times at most
+    /// Checks the numbers: all finite, values, rates and times at most
     /// [`crate::settings::MAX_MAGNITUDE`], frequencies at most [`crate::settings::MAX_RATE`]
     /// (faster ones change within the rounding level of t), phases at most
-    /// [`crate::settings::MAX_ANGLE`]; tables sorted and of equal length.
+    /// [`crate::settings::MAX_ANGLE`]; tables sorted and of equal length,
+    /// two times at least for a periodic one; a sum's terms, none a sum,
+    /// at least one.
     ///
     /// # Errors
     /// A sentence saying what is wrong, naming the number and its value.
@@ -327,10 +401,28 @@ impl Waveform {
                         d.value.len()
                     ));
                 }
-                Self::Table(Table { t: d.t.clone(), value: d.value.clone() }).validate()?;
+                Self::Table(Table { t: d.t.clone(), value: d.value.clone(), extrapolate: d.extrapolate }).validate()?;
                 d.slope_start.into_iter().chain(d.slope_end).try_for_each(|v| finite("slope", v))
             }
+            Self::Linear(l) => finite("value", l.value).and_then(|()| finite("rate", l.rate)),
+            Self::Sum(terms) => {
+                if terms.is_empty() {
+                    return Err("a sum needs at least one term".into());
+                }
+                for (k, w) in terms.iter().enumerate() {
+                    if matches!(w, Self::Sum(_)) {
+                        return Err(format!("term {k} of a sum is a sum; write its terms in the outer one"));
+                    }
+                    w.validate().map_err(|e| format!("term {k} of the sum: {e}"))?;
+                }
+                Ok(())
+            }
             Self::Table(tab) => {
+                if tab.extrapolate == Extrapolate::Periodic && tab.t.len() < 2 {
+                    return Err(
+                        "a periodic table needs two times at least (its period is the last less the first)".into()
+                    );
+                }
                 if tab.t.is_empty() || tab.t.len() != tab.value.len() {
                     return Err(format!(
                         "a table needs as many values as times, at least one: got {} times and {} values",
@@ -357,19 +449,48 @@ impl Waveform {
 }
 
 impl Table {
-    /// The interpolated value at `t`.
-    pub fn eval(&self, t: f64) -> f64 {
-        let k = self.t.partition_point(|&tk| tk <= t);
-        if k == 0 {
-            return self.value[0];
+    /// The segment `(k, t)` that gives the value at `t` \[s\]: `t` in
+    /// `[t_k, t_k+1]` (wrapped when periodic; an end segment continued
+    /// when linear), or `None` where the end value is held.
+    fn segment(&self, t: f64) -> Option<(usize, f64)> {
+        let n = self.t.len();
+        if n < 2 {
+            return None;
         }
-        if k == self.t.len() {
-            return self.value[k - 1];
-        }
-        let (t0, t1) = (self.t[k - 1], self.t[k]);
-        let (v0, v1) = (self.value[k - 1], self.value[k]);
-        v0 + (v1 - v0) * (t - t0) / (t1 - t0)
+        let t = match self.extrapolate.locate(t, self.t[0], self.t[n - 1]) {
+            Ok(t) => t,
+            Err(end) if self.extrapolate == Extrapolate::Linear => return Some((if end == 0 { 0 } else { n - 2 }, t)),
+            Err(_) => return None,
+        };
+        Some((self.t.partition_point(|&tk| tk <= t).clamp(1, n - 1) - 1, t))
     }
+
+    /// The interpolated value at `t` \[s\].
+    pub fn eval(&self, t: f64) -> f64 {
+        match self.segment(t) {
+            Some((k, t)) => {
+                let (t0, t1) = (self.t[k], self.t[k + 1]);
+                let (v0, v1) = (self.value[k], self.value[k + 1]);
+                v0 + (v1 - v0) * (t - t0) / (t1 - t0)
+            }
+            None if t < self.t[0] => self.value[0],
+            None => self.value[self.value.len() - 1],
+        }
+    }
+
+    /// The slope at `t` \[unit/s\]: the segment's (the later one's at a
+    /// knot), zero where the end value is held.
+    pub fn slope(&self, t: f64) -> f64 {
+        match self.segment(t) {
+            Some((k, _)) => (self.value[k + 1] - self.value[k]) / (self.t[k + 1] - self.t[k]),
+            None => 0.0,
+        }
+    }
+}
+
+/// Componentwise sum of two `(w, w', w'')`.
+fn add3(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
+    [a[0] + b[0], a[1] + b[1], a[2] + b[2]]
 }
 
 #[cfg(test)]
@@ -386,7 +507,11 @@ mod tests {
         assert_eq!(Waveform::Sin(h).eval(0.25), 2.0 * Scalar::sin(0.75f64 + 0.5));
         let two = Waveform::Harmonics(vec![h, Harmonic { amplitude: -1.0, omega: 1.0, phase: 0.0, phase_step: 0.0 }]);
         assert_eq!(two.eval(0.25), 2.0 * Scalar::cos(1.25f64) - Scalar::cos(0.25f64));
-        let tab = Waveform::Table(Table { t: vec![0.0, 1.0, 3.0], value: vec![0.0, 2.0, -2.0] });
+        let tab = Waveform::Table(Table {
+            t: vec![0.0, 1.0, 3.0],
+            value: vec![0.0, 2.0, -2.0],
+            extrapolate: Extrapolate::Hold,
+        });
         for (t, v) in
             [(-1.0, 0.0), (0.0, 0.0), (0.5, 1.0), (1.0, 2.0), (2.0, 0.0), (2.5, -1.0), (3.0, -2.0), (9.0, -2.0)]
         {
@@ -405,6 +530,7 @@ mod tests {
             value: vec![0.0, 0.3, -0.2, 0.5, 0.1],
             slope_start: Some(0.0),
             slope_end: None,
+            extrapolate: Default::default(),
         };
         let waves = [
             Waveform::Cos(h),
@@ -478,6 +604,7 @@ mod tests {
             slope_start: Some(df(0.0)),
             slope_end: Some(df(2.0)),
             t: t.clone(),
+            extrapolate: Default::default(),
         });
         for x in [0.0, 0.1, 0.35, 0.9, 1.3, 1.99] {
             assert!((s.eval3(x)[0] - f(x)).abs() <= 1e-13, "at {x}: {} vs {}", s.eval3(x)[0], f(x));
@@ -490,11 +617,58 @@ mod tests {
 
     #[test]
     fn bad_tables_are_named() {
-        let t = |t: Vec<f64>, value: Vec<f64>| Waveform::Table(Table { t, value }).validate().unwrap_err();
+        let t = |t: Vec<f64>, value: Vec<f64>| {
+            Waveform::Table(Table { t, value, extrapolate: Extrapolate::Hold }).validate().unwrap_err()
+        };
         assert!(t(vec![0.0, 1.0], vec![1.0]).contains("2 times and 1 values"));
         assert!(t(vec![0.0, 1.0, 1.0], vec![1.0; 3]).contains("t[2] = 1 follows t[1] = 1"));
         assert!(t(vec![], vec![]).contains("at least one"));
         assert!(Waveform::Constant(f64::NAN).validate().unwrap_err().contains("must be finite"));
+    }
+    /// A ramp, a sum and the extrapolations at hand-computed values:
+    /// a table continued along its end segments or repeated, a spline
+    /// continued along its end slopes (its second derivative zero
+    /// outside); their periodicities.
+    #[test]
+    fn ramps_sums_and_extrapolations_at_hand_computed_values() {
+        let ramp = Waveform::Linear(Linear { value: 1.0, rate: 2.0 });
+        assert_eq!(ramp.eval3(3.0), [7.0, 2.0, 0.0]);
+        let sum = Waveform::Sum(vec![ramp.clone(), Waveform::sin(0.5, 3.0)]);
+        let t: f64 = 0.7;
+        let want = [1.0 + 2.0 * t + 0.5 * (3.0 * t).sin(), 2.0 + 1.5 * (3.0 * t).cos(), -4.5 * (3.0 * t).sin()];
+        let got = sum.eval3(t);
+        assert!((0..3).all(|k| (got[k] - want[k]).abs() < 1e-15), "{got:?} vs {want:?}");
+        assert_eq!(sum.eval(t), got[0]);
+        let table = |extrapolate| Table { t: vec![0.0, 1.0, 2.0], value: vec![0.0, 1.0, 3.0], extrapolate };
+        let held = table(Extrapolate::Hold);
+        assert_eq!((held.eval(-1.0), held.eval(5.0), held.slope(5.0)), (0.0, 3.0, 0.0));
+        let line = table(Extrapolate::Linear);
+        assert_eq!((line.eval(-1.0), line.slope(-1.0), line.eval(3.0), line.slope(3.0)), (-1.0, 1.0, 5.0, 2.0));
+        let wrap = table(Extrapolate::Periodic);
+        assert_eq!((wrap.eval(2.5), wrap.eval(-0.5), wrap.slope(3.5)), (0.5, 2.0, 2.0));
+        assert_eq!(Waveform::Table(wrap).periodicity(), Periodicity::Period(2.0));
+        assert_eq!(Waveform::Table(line).periodicity(), Periodicity::Aperiodic);
+        assert_eq!(sum.periodicity(), Periodicity::Aperiodic);
+        assert_eq!(Waveform::Linear(Linear { value: 1.0, rate: 0.0 }).periodicity(), Periodicity::Constant);
+        // a natural spline through three points, continued past its last
+        // knot along its end slope
+        let s = Spline::new(SplineData {
+            t: vec![0.0, 1.0, 2.0],
+            value: vec![0.0, 1.0, 0.0],
+            slope_start: None,
+            slope_end: None,
+            extrapolate: Extrapolate::Linear,
+        });
+        let end = s.eval3(2.0);
+        let past = s.eval3(2.5);
+        assert_eq!(past, [end[0] + 0.5 * end[1], end[1], 0.0]);
+        assert!(end[2].abs() < 1e-15, "natural: {end:?}");
+        // a sum of sums and an empty sum are refused
+        let nested = Waveform::Sum(vec![Waveform::Sum(vec![ramp.clone()])]).validate().unwrap_err();
+        assert!(nested.contains("term 0 of a sum is a sum"), "{nested}");
+        assert!(Waveform::Sum(vec![]).validate().unwrap_err().contains("at least one term"));
+        let bad = Waveform::Linear(Linear { value: 0.0, rate: f64::NAN }).validate().unwrap_err();
+        assert!(bad.contains("rate"), "{bad}");
     }
 }
 
@@ -583,13 +757,16 @@ impl Waveform {
         match self {
             Waveform::Cos(h) | Waveform::Sin(h) => omega(h),
             Waveform::Harmonics(hs) => hs.iter().map(omega).fold(0.0, f64::max),
-            Waveform::Constant(_) | Waveform::Table(_) | Waveform::Spline(_) => 0.0,
+            Waveform::Sum(terms) => terms.iter().map(Waveform::max_omega).fold(0.0, f64::max),
+            Waveform::Constant(_) | Waveform::Table(_) | Waveform::Spline(_) | Waveform::Linear(_) => 0.0,
         }
     }
 
     /// How the waveform depends on time: a harmonic of angular frequency
     /// `omega` repeats every `2 pi / |omega|` (constant when `omega = 0`
-    /// or its amplitude is 0); tables and splines are aperiodic.
+    /// or its amplitude is 0); a periodic table or spline every `t_last -
+    /// t_0`; other tables and splines and a ramp (of nonzero rate) are
+    /// aperiodic; a sum as [`Periodicity::combine`] of its terms.
     pub fn periodicity(&self) -> Periodicity {
         let harmonic = |h: &Harmonic| {
             if h.omega == 0.0 || h.amplitude == 0.0 {
@@ -602,7 +779,19 @@ impl Waveform {
             Waveform::Constant(_) => Periodicity::Constant,
             Waveform::Cos(h) | Waveform::Sin(h) => harmonic(h),
             Waveform::Harmonics(hs) => Periodicity::combine(hs.iter().map(harmonic)),
-            Waveform::Table(_) | Waveform::Spline(_) => Periodicity::Aperiodic,
+            Waveform::Table(Table { t, value, extrapolate })
+            | Waveform::Spline(Spline { data: SplineData { t, value, extrapolate, .. }, .. }) => {
+                if value.iter().all(|v| *v == value[0]) {
+                    Periodicity::Constant
+                } else if *extrapolate == Extrapolate::Periodic {
+                    Periodicity::Period(t[t.len() - 1] - t[0])
+                } else {
+                    Periodicity::Aperiodic
+                }
+            }
+            Waveform::Linear(l) if l.rate == 0.0 => Periodicity::Constant,
+            Waveform::Linear(_) => Periodicity::Aperiodic,
+            Waveform::Sum(terms) => Periodicity::combine(terms.iter().map(Waveform::periodicity)),
         }
     }
 }

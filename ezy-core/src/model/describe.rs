@@ -10,8 +10,8 @@ use std::borrow::Cow;
 use ezy_lang::description::{Description, Group, Item, Ix, Template, Text};
 
 use super::info::{
-    BodyInfo, DriveInfo, EquationExpr, Equations, HingeInfo, ModelInfo, ParamInfo, PointInfo, SkateInfo, SliderInfo,
-    check_model_size, render_equation, unique_names,
+    BodyInfo, DerivedParamInfo, DriveInfo, EquationExpr, Equations, HingeInfo, ModelInfo, ParamInfo, PointInfo,
+    SkateInfo, SliderInfo, check_model_size, render_equation, unique_names,
 };
 use super::layout::Layout;
 
@@ -95,6 +95,20 @@ pub(crate) fn param_infos(desc: &Description) -> Vec<ParamInfo> {
         .collect()
 }
 
+/// The [`DerivedParamInfo`] of each parameter the model defines by an
+/// expression.
+pub(crate) fn derived_infos(desc: &Description) -> Vec<DerivedParamInfo> {
+    desc.derived
+        .iter()
+        .map(|d| DerivedParamInfo {
+            name: intern(&d.name),
+            formula: intern(&d.formula),
+            unit: intern(&d.unit),
+            doc: intern(&d.doc),
+        })
+        .collect()
+}
+
 /// The name of an item's element: the item's name, and a family
 /// element's index after it (`link3`).
 fn element(name: &str, family: Option<usize>, v: i64) -> String {
@@ -116,6 +130,7 @@ pub(crate) fn info_at(desc: &Description, l: &Layout) -> ModelInfo {
         doc: intern(&desc.doc),
         coords: Vec::with_capacity(l.nq),
         params: param_infos(desc),
+        derived: derived_infos(desc),
         bodies: Vec::with_capacity(l.n_bodies),
         points: Vec::with_capacity(l.n_points),
         hinges: Vec::new(),

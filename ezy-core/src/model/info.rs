@@ -29,6 +29,21 @@ pub struct ParamInfo {
     pub count: bool,
 }
 
+/// A parameter defined in the model by an expression of others (`param
+/// I = m * r * r;`): not settable; its expression stands wherever the
+/// model names it, so it follows the parameters it is made of.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct DerivedParamInfo {
+    /// Its name, e.g. `"I"`.
+    pub name: &'static str,
+    /// Its expression as written, tokens spaced: `"m * r * r"`.
+    pub formula: &'static str,
+    /// Unit, taken from the `[...]` at the end of the doc comment (`""` if none).
+    pub unit: &'static str,
+    /// The doc comment, without the unit.
+    pub doc: &'static str,
+}
+
 /// A rigid body: indices of its coordinates `(x, y, phi)` in `q`.
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub struct BodyInfo {
@@ -127,6 +142,9 @@ pub struct ModelInfo {
     pub coords: Vec<String>,
     /// Parameters, in declaration order.
     pub params: Vec<ParamInfo>,
+    /// Parameters defined by expressions of others, in declaration order
+    /// (not in `params`: they cannot be set).
+    pub derived: Vec<DerivedParamInfo>,
     /// Bodies, in declaration order.
     pub bodies: Vec<BodyInfo>,
     /// Named points, in declaration order.
@@ -180,6 +198,19 @@ impl ModelInfo {
     /// Index of a parameter by name.
     pub fn param_index(&self, name: &str) -> Option<usize> {
         self.params.iter().position(|p| p.name == name)
+    }
+    /// Why `name` cannot be set: a parameter the model defines by an
+    /// expression (naming it), or an unknown one (listing the model's).
+    pub fn unknown_param(&self, name: &str) -> String {
+        if let Some(d) = self.derived.iter().find(|d| d.name == name) {
+            return format!(
+                "parameter `{name}` of model {} is defined as `{}` and follows the parameters it names; set those instead",
+                self.name, d.formula
+            );
+        }
+        let known: Vec<&str> = self.params.iter().map(|p| p.name).collect();
+        let known = if known.is_empty() { "none".to_string() } else { known.join(", ") };
+        format!("unknown parameter `{name}` in model {}; its parameters: {known}", self.name)
     }
     /// Index of a hinge by name.
     pub fn hinge_index(&self, name: &str) -> Option<usize> {

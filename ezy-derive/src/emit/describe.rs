@@ -14,7 +14,7 @@ use super::lower::{Coords, lower};
 use super::{lit_f64, runtime};
 use ezy_lang::ast::ModelDef;
 use ezy_lang::description::{
-    Body, BodyAt, Description, Family, Group, Item, Ix, Param, Point, PointAt, Template, describe,
+    Body, BodyAt, DerivedParam, Description, Family, Group, Item, Ix, Param, Point, PointAt, Template, describe,
 };
 use ezy_lang::kinematics::Derived;
 
@@ -100,15 +100,16 @@ fn option(x: Option<TokenStream>) -> TokenStream {
 impl Lit<'_> {
     fn description(&self, d: &Description) -> TokenStream {
         let p = self.0;
-        let Description { name, doc, params, families, bodies, points, groups, own } = d;
+        let Description { name, doc, params, derived, families, bodies, points, groups, own } = d;
         let (name, doc) = (text(name), text(doc));
         let params = list(params.iter().map(|x| self.param(x)));
+        let derived = list(derived.iter().map(|x| self.derived(x)));
         let families = list(families.iter().map(|x| self.family(x)));
         let bodies = list(bodies.iter().map(|x| self.body(x)));
         let points = list(points.iter().map(|x| self.point(x)));
         let groups = list(groups.iter().map(|x| self.group(x)));
         let own = self.ix(own);
-        quote!(#p::describe::Description { name: #name, doc: #doc, params: #params, families: #families, bodies: #bodies, points: #points, groups: #groups, own: #own })
+        quote!(#p::describe::Description { name: #name, doc: #doc, params: #params, derived: #derived, families: #families, bodies: #bodies, points: #points, groups: #groups, own: #own })
     }
 
     fn ix(&self, x: &Ix) -> TokenStream {
@@ -144,6 +145,13 @@ impl Lit<'_> {
         let Param { name, default, unit, doc, count } = x;
         let (name, default, unit, doc) = (text(name), lit_f64(*default), text(unit), text(doc));
         quote!(#p::describe::Param { name: #name, default: #default, unit: #unit, doc: #doc, count: #count })
+    }
+
+    fn derived(&self, x: &DerivedParam) -> TokenStream {
+        let p = self.0;
+        let DerivedParam { name, formula, unit, doc } = x;
+        let (name, formula, unit, doc) = (text(name), text(formula), text(unit), text(doc));
+        quote!(#p::describe::DerivedParam { name: #name, formula: #formula, unit: #unit, doc: #doc })
     }
 
     fn template(&self, x: &Template) -> TokenStream {

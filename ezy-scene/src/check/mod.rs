@@ -132,6 +132,7 @@ fn establish(scene: &Scene, info: &ModelInfo) -> Result<Established, Vec<SceneEr
     let mut errors = Errors::default();
     errors.keep(check_name(&scene.name));
     let params = errors.keep(params::check(scene, info));
+    errors.keep(crate::units::check_model_units(&scene.units, info));
     let initial = errors.keep(initial::check(&scene.initial, info));
     errors.keep(integrator::check(scene));
     let effects: Vec<Option<EffectSpec>> = effects::check(scene, info).into_iter().map(|e| errors.keep(e)).collect();

@@ -42,15 +42,7 @@ pub(super) fn check(scene: &Scene, info: &ModelInfo) -> Result<Vec<(usize, f64)>
     let mut indices = Vec::with_capacity(scene.params.len());
     for (name, v) in &scene.params {
         let Some(k) = info.param_index(name) else {
-            let params: Vec<&str> = info.params.iter().map(|p| p.name).collect();
-            return Err(SceneError::at(
-                &["params", name],
-                format!(
-                    "unknown parameter `{name}` in model {}; its parameters: {}",
-                    info.name,
-                    known_or_none(&params)
-                ),
-            ));
+            return Err(SceneError::at(&["params", name], info.unknown_param(name)));
         };
         if !v.is_finite() {
             return Err(SceneError::at(&["params", name], format!("{name} = {v} must be finite")));
