@@ -30,17 +30,26 @@ impl Dim {
         Dim(d)
     }
 
-    /// The SI unit of this dimension, as the table writes units:
-    /// `kg m^2`, `N m s/rad` is `kg m^2/(s rad)`, shown `kg m^2 s^-1 rad^-1`.
+    /// The SI unit of this dimension, as the table writes units: `kg
+    /// m^2`, `rad/s^2`, `kg m^2/s rad` (every factor after the `/` in
+    /// the denominator).
     pub fn si(self) -> String {
         let names = ["kg", "m", "s", "rad"];
-        let parts: Vec<String> = names
-            .iter()
-            .zip(self.0)
-            .filter(|(_, e)| *e != 0)
-            .map(|(n, e)| if e == 1 { n.to_string() } else { format!("{n}^{e}") })
-            .collect();
-        if parts.is_empty() { "1 (a pure number)".into() } else { parts.join(" ") }
+        let side = |sign: i8| -> String {
+            let parts: Vec<String> = names
+                .iter()
+                .zip(self.0)
+                .filter(|(_, e)| e.signum() == sign)
+                .map(|(n, e)| if e.abs() == 1 { n.to_string() } else { format!("{n}^{}", e.abs()) })
+                .collect();
+            parts.join(" ")
+        };
+        match (side(1), side(-1)) {
+            (num, den) if num.is_empty() && den.is_empty() => "1 (a pure number)".into(),
+            (num, den) if den.is_empty() => num,
+            (num, den) if num.is_empty() => format!("1/{den}"),
+            (num, den) => format!("{num}/{den}"),
+        }
     }
 }
 
@@ -454,5 +463,8 @@ mod tests {
         assert_eq!(key_unit(k, "g"), Some(("m/s^2".into(), false)));
         assert_eq!(waveform_unit("N m", &["sum".into(), "1".into(), "linear".into(), "rate".into()]).unwrap(), "N m/s");
         assert_eq!(waveform_unit("rad", &["cos".into(), "omega".into()]).unwrap(), "rad/s");
+        assert_eq!(declared("N m s/rad").unwrap().si(), "kg m^2/s rad");
+        assert_eq!(declared("rpm").unwrap().si(), "rad/s");
+        assert_eq!(declared("Hz/rad").unwrap().si(), "1/s");
     }
 }
