@@ -429,8 +429,9 @@ pub(crate) fn bind_scene_params(root: &mut toml::de::DeTable<'_>) -> Result<Vec<
     Ok(bindings)
 }
 
-/// The recursion of [`bind_scene_params`] at `v` (key path `path`);
-/// `effect_table` skips the name keys of an effect's own table.
+/// The numbers of `v` (key path `path`) that name a scene parameter,
+/// each replaced by its value and recorded; `effect_table` skips the
+/// name keys of an effect's own table.
 fn bind_numbers<'i>(
     v: &mut toml::Spanned<toml::de::DeValue<'i>>,
     path: &mut Vec<String>,
@@ -438,45 +439,22 @@ fn bind_numbers<'i>(
     declared: &[(String, toml::de::DeValue<'i>)],
     out: &mut Vec<Binding>,
 ) -> Result<(), SceneError> {
-    use toml::de::DeValue;
-    match v.get_mut() {
-        DeValue::String(name) => {
-            let name = name.to_string();
-            let Some((_, value)) = declared.iter().find(|(n, _)| *n == name) else {
-                let names: Vec<&str> = declared.iter().map(|(n, _)| n.as_str()).collect();
-                return Err(SceneError {
-                    path: path.clone(),
-                    message: format!(
-                        "`{name}` is neither a number nor a scene parameter; declared in [scene_params]: {}",
-                        known_or_none(&names)
-                    ),
-                });
-            };
-            *v.get_mut() = value.clone();
-            out.push(Binding { path: path.clone(), param: name });
-        }
-        DeValue::Table(t) => {
-            for (k, v) in t.iter_mut() {
-                let k = k.get_ref().as_ref();
-                // a waveform's `extrapolate` is a word at any depth
-                if (effect_table && crate::kinds::NAME_KEYS.contains(&k)) || k == "extrapolate" {
-                    continue;
-                }
-                path.push(k.to_string());
-                bind_numbers(v, path, false, declared, out)?;
-                path.pop();
-            }
-        }
-        DeValue::Array(a) => {
-            for (i, v) in a.iter_mut().enumerate() {
-                path.push(i.to_string());
-                bind_numbers(v, path, false, declared, out)?;
-                path.pop();
-            }
-        }
-        _ => {}
-    }
-    Ok(())
+    crate::kinds::number_strings(v, path, effect_table, &mut |v, path| {
+        let Some(name) = v.get_ref().as_str().map(str::to_string) else { return Ok(()) };
+        let Some((_, value)) = declared.iter().find(|(n, _)| *n == name) else {
+            let names: Vec<&str> = declared.iter().map(|(n, _)| n.as_str()).collect();
+            return Err(SceneError {
+                path: path.to_vec(),
+                message: format!(
+                    "`{name}` is neither a number nor a scene parameter; declared in [scene_params]: {}",
+                    known_or_none(&names)
+                ),
+            });
+        };
+        *v.get_mut() = value.clone();
+        out.push(Binding { path: path.to_vec(), param: name });
+        Ok(())
+    })
 }
 
 /// Sets the value at `path` (keys; array entries by index) in `tree`,

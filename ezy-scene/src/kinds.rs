@@ -22,6 +22,52 @@ use serde::{Deserialize, Deserializer, Serialize, Serializer};
 /// [`crate::Scene::from_toml`]).
 pub const NAME_KEYS: &[&str] = &["kind", "hinge", "skate", "body", "at", "frame", "from", "to", "bodies"];
 
+/// A value of a parsed scene file, with its place in the text.
+type Value<'i> = toml::Spanned<toml::de::DeValue<'i>>;
+
+/// Calls `on` with every string in a number's place under `v` (key path
+/// `path`, array entries by index): not at an effect's name keys
+/// ([`NAME_KEYS`], in its own table: `effect_table`), not at a
+/// waveform's `extrapolate` (a word at any depth). What the scene file
+/// reader reads there: a scene parameter's name, a number with a unit.
+///
+/// # Errors
+/// The first error of `on`.
+pub(crate) fn number_strings<'i, E, F>(
+    v: &mut Value<'i>,
+    path: &mut Vec<String>,
+    effect_table: bool,
+    on: &mut F,
+) -> Result<(), E>
+where
+    F: FnMut(&mut Value<'i>, &[String]) -> Result<(), E>,
+{
+    use toml::de::DeValue;
+    match v.get_mut() {
+        DeValue::String(_) => on(v, path)?,
+        DeValue::Table(t) => {
+            for (k, v) in t.iter_mut() {
+                let k = k.get_ref().as_ref();
+                if (effect_table && NAME_KEYS.contains(&k)) || k == "extrapolate" {
+                    continue;
+                }
+                path.push(k.to_string());
+                number_strings(v, path, false, on)?;
+                path.pop();
+            }
+        }
+        DeValue::Array(a) => {
+            for (i, v) in a.iter_mut().enumerate() {
+                path.push(i.to_string());
+                number_strings(v, path, false, on)?;
+                path.pop();
+            }
+        }
+        _ => {}
+    }
+    Ok(())
+}
+
 /// The known kinds as an error lists them: the built-in ones and `user`.
 pub(crate) fn known_kinds(user: &[&str]) -> String {
     let mut all: Vec<&str> = EFFECT_KINDS.to_vec();

@@ -301,8 +301,14 @@ pub(crate) fn convert(root: &mut toml::de::DeTable<'_>) -> Result<Converted, Sce
                 _ => None,
             };
             let mut path = vec![section.clone(), item];
-            walk(v, &mut path, &mut |path, written, si, dim| {
-                let value = *si;
+            crate::kinds::number_strings(v, &mut path, section == "effects", &mut |v, path| {
+                let Some(written) = v.get_ref().as_str().filter(|t| looks_like_quantity(t)).map(str::to_string) else {
+                    return Ok(());
+                };
+                let at = |message: String| SceneError { path: path.to_vec(), message };
+                let (value, dim) = parse_quantity(&written).map_err(at)?;
+                *v.get_mut() = toml::de::DeValue::Float(Default::default());
+                let written = written.as_str();
                 let unit = match path[0].as_str() {
                     "effects" => effect_unit(kind.as_deref(), path)?,
                     "drives" if path.get(2).map(String::as_str) == Some("angle") => waveform_unit("rad", &path[3..]),
@@ -314,8 +320,7 @@ pub(crate) fn convert(root: &mut toml::de::DeTable<'_>) -> Result<Converted, Sce
                     }
                 };
                 let what = format!("`{}`", path[2..].join("."));
-                check_fits(written, dim, &what, unit.as_deref())
-                    .map_err(|m| SceneError { path: path.to_vec(), message: m })?;
+                check_fits(written, dim, &what, unit.as_deref()).map_err(at)?;
                 values.push((path.to_vec(), value));
                 Ok(())
             })?;
@@ -341,50 +346,6 @@ fn effect_unit(kind: Option<&str>, path: &[String]) -> Result<Option<String>, Sc
         Some((unit, false)) => Some(unit),
         None => None,
     })
-}
-
-/// What [`convert`] does with a number written with a unit: its path,
-/// text, SI value and dimension.
-type OnUnit<'a> = dyn FnMut(&[String], &str, &f64, Dim) -> Result<(), SceneError> + 'a;
-
-/// The recursion of [`convert`]: a string that starts as a number does
-/// at a number's place (not an effect's name keys, not `extrapolate`).
-fn walk(
-    v: &mut toml::Spanned<toml::de::DeValue<'_>>,
-    path: &mut Vec<String>,
-    on: &mut OnUnit<'_>,
-) -> Result<(), SceneError> {
-    use toml::de::DeValue;
-    match v.get_mut() {
-        DeValue::String(text) if looks_like_quantity(text) => {
-            let written = text.to_string();
-            let (si, dim) = parse_quantity(&written).map_err(|m| SceneError { path: path.clone(), message: m })?;
-            on(path, &written, &si, dim)?;
-            *v.get_mut() = DeValue::Float(Default::default());
-        }
-        DeValue::Table(t) => {
-            for (k, v) in t.iter_mut() {
-                let k = k.get_ref().as_ref();
-                if (path[0] == "effects" && path.len() == 2 && crate::kinds::NAME_KEYS.contains(&k))
-                    || k == "extrapolate"
-                {
-                    continue;
-                }
-                path.push(k.to_string());
-                walk(v, path, on)?;
-                path.pop();
-            }
-        }
-        DeValue::Array(a) => {
-            for (i, v) in a.iter_mut().enumerate() {
-                path.push(i.to_string());
-                walk(v, path, on)?;
-                path.pop();
-            }
-        }
-        _ => {}
-    }
-    Ok(())
 }
 
 /// Checks the units written in `[params]` and `[initial]` against the
