@@ -28,3 +28,4 @@ mod linearization;
 mod optimize;
 mod run_sensitivity;
 mod single_points;
+mod stability_words;

@@ -27,6 +27,7 @@ use ezy_core::{Model, fmt_value};
 use ezy_scene::Scene;
 
 mod report;
+mod spectrum;
 
 use super::{check_figure_format, committed};
 use crate::app::{App, AppError};
@@ -169,6 +170,10 @@ struct AnalyzeReport {
     /// The decimals the periodic orbit's numbers hold at the period map's
     /// settings ([`crate::session::orbit_decimals`]): 6 at the defaults.
     decimals: usize,
+    /// What the period map's integration resolves: a multiplier below it
+    /// (times the largest, at least 1) is printed as unresolved
+    /// ([`spectrum::multipliers`]): the larger of its rtol and atol.
+    resolution: f64,
 }
 
 /// `ezy analyze` on `proto`, a model at its defaults: the request
@@ -331,7 +336,9 @@ fn analyze_model<M: Model>(proto: &M, scene: &Scene, opts: &AnalyzeOptions) -> R
     let Log { timings, mut notes } = log;
     let (decimals, loose) = orbit_precision(ro, periodic.is_some());
     notes.extend(loose);
-    Ok(AnalyzeReport { symmetry, coords, steady, periodic, gait, growth, files, timings, notes, decimals })
+    let tolerance = periodic_settings(ro).tolerance;
+    let resolution = tolerance.rtol.max(tolerance.atol);
+    Ok(AnalyzeReport { symmetry, coords, steady, periodic, gait, growth, files, timings, notes, decimals, resolution })
 }
 
 /// The decimals a periodic orbit's numbers hold at the period map's

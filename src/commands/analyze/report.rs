@@ -11,11 +11,12 @@ use ezy_core::sensitivity::GaitSensitivities;
 use ezy_core::{Model, fmt_value};
 use ezy_scene::Scene;
 
+use super::spectrum::{multipliers, ones, steady_eigenvalues, verdict};
 use super::{AnalyzeOptions, AnalyzeReport};
 use crate::output::csv::{number, record};
 use crate::output::transaction::{OutLock, Transaction};
 use crate::render::plot::series::{Chart, Series, Stroke};
-use crate::session::{Error, complex, complex_to, rounded, rounded_to};
+use crate::session::{Error, rounded, rounded_to};
 
 /// A bifurcation located, after the branch's point at the index.
 pub(super) type Located = (usize, Bifurcation);
@@ -403,7 +404,7 @@ pub(super) fn summary(scene: &str, r: &AnalyzeReport) -> String {
         }
     );
     for (k, m) in r.steady.iter().enumerate() {
-        let ev: Vec<String> = m.eigenvalues.iter().map(|z| complex(*z)).collect();
+        let ev = steady_eigenvalues(&m.eigenvalues, m.family);
         let _ = writeln!(
             s,
             "steady motion {}: {}, speed {} m/s, yaw rate {} rad/s, family {}; eigenvalues [1/s]: {}",
@@ -420,7 +421,7 @@ pub(super) fn summary(scene: &str, r: &AnalyzeReport) -> String {
     }
     if let Some(p) = &r.periodic {
         let d = r.decimals;
-        let mu: Vec<String> = p.multipliers.iter().map(|z| complex_to(*z, d)).collect();
+        let mu = multipliers(p, d, r.resolution);
         let turns: Vec<String> = p.windings.iter().map(|(i, w)| format!("{} {w}", r.coords[*i])).collect();
         let kind = if r.gait.is_none() && !turns.is_empty() {
             format!("limit cycle (turns per period: {})", turns.join(", "))
@@ -434,21 +435,18 @@ pub(super) fn summary(scene: &str, r: &AnalyzeReport) -> String {
             "{kind}: period {} s, {}, mean speed {} m/s, displacement ({}, {}) m and heading change {} rad per period; multipliers: {}",
             // a limit cycle's period is found by Newton too
             if r.gait.is_none() && d < 6 { rounded_to(p.period, d) } else { fmt_value(p.period) },
-            p.stability.name(),
+            format!("{} ({})", p.stability.name(), verdict(p)),
             rounded_to(p.mean_speed(), d),
             rounded_to(p.displacement[0], d),
             rounded_to(p.displacement[1], d),
             rounded_to(p.heading_change, d),
-            mu.join(", ")
+            if mu.is_empty() { "none".to_string() } else { mu.join(", ") },
         );
-        if !p.structural.is_empty() {
-            let named: Vec<String> = p.structural.iter().map(|m| m.describe(&r.coords)).collect();
-            let _ = writeln!(
-                s,
-                "structural multipliers (left out of the stability and bifurcation tests): {}",
-                named.join(", ")
-            );
-        }
+        let _ = writeln!(
+            s,
+            "structural multipliers (left out of the stability and bifurcation tests): {}",
+            ones(p, r.gait.is_none(), &r.coords)
+        );
         if let Some(g) = &r.gait {
             let sig = |v: f64| fmt_value(sig(v, d + 1));
             let _ = write!(s, "mean input power {} W", sig(g.mean_power));
