@@ -173,6 +173,16 @@ impl Geometry {
         self.tables.bind(py).get_item("gait")
     }
 
+    /// The gait's path along one period, or None: `t` [s], the shape
+    /// coordinates [rad], and the reference body's frame reconstructed
+    /// from the connection (`x_reconstructed`, `y_reconstructed` [m],
+    /// `theta_reconstructed` [rad]) and, where simulated, the same of the
+    /// simulation (`x_simulated`, ...). Also `tables["gait_path"]`.
+    #[getter]
+    fn gait_path<'py>(&self, py: Python<'py>) -> PyResult<Option<Bound<'py, PyAny>>> {
+        self.tables.bind(py).get_item("gait_path")
+    }
+
     fn __str__(&self) -> String {
         self.report.clone()
     }
