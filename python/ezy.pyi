@@ -247,7 +247,8 @@ class Geometry:
     def gait(self) -> Any:
         """One row per `method` ("first-order", "second-order",
         "reconstructed", "simulated"): the net motion per cycle `dx`, `dy`
-        [m], `dtheta` [rad] in the initial body frame."""
+        [m], `dtheta` [rad] in the initial body frame, and a mixed system's
+        momentum after the cycle `<p>_end`."""
         ...
     @property
     def gait_path(self) -> Any:

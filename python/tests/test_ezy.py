@@ -344,6 +344,12 @@ def test_the_guides_notebook_runs(tmp_path):
         os.chdir(here)
         sys.argv = argv
     assert set(scope["sweep"]["M0"]) and scope["result"].data.shape[0] > 1000
+    # the gait's tools on the Roller Racer: the numbers the guide quotes
+    assert scope["fitted"].loc["roll_A.damping", "estimate"] == pytest.approx(7.0, abs=1e-6)
+    assert scope["best"]["steer.omega"][0] == pytest.approx(2.40, abs=0.005)
+    assert scope["best"]["gait.mean_power"][0] == pytest.approx(2.0, abs=1e-6)
+    assert len(scope["branch"]) == 5 and len(scope["geo"].gait_path) > 10
+    assert scope["derivatives"].periodic["dmean_speed/dsteer.amplitude"][0] == pytest.approx(0.99, abs=0.005)
     plt.close("all")
     # the guide's page shows the same cells, in order
     page = (WORKSPACE / "docs" / "book" / "src" / "python.md").read_text()
