@@ -361,7 +361,7 @@ impl Toolkit {
         if let Some(e) = interrupt {
             return Err(e);
         }
-        let report = report.map_err(ezy_err)?;
+        let report = report.map_err(|e| ezy_err(crate::words::run_keywords(&e.to_string())))?;
         RunResult::new(py, &src, info, report, self.helpers.clone_ref(py))
     }
 

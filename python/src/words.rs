@@ -261,3 +261,25 @@ fn value(keyword: &str, kind: Kind, tail: &str) -> (String, usize) {
         _ => (format!("`{keyword}=`"), 0),
     }
 }
+
+/// A run's message in the library's spelling (a scene file's keys:
+/// `` `method = dop853` ``) as `ezy.run`'s keywords say it:
+/// `` `integrator="dop853"` ``, `` `formulation="dae"` ``.
+pub(crate) fn run_keywords(text: &str) -> String {
+    let mut text = text.to_string();
+    for (key, keyword) in [("method", "integrator"), ("formulation", "formulation")] {
+        let open = format!("`{key} = ");
+        let mut out = String::new();
+        let mut rest = text.as_str();
+        while let Some(at) = rest.find(&open) {
+            let after = &rest[at + open.len()..];
+            let Some(close) = after.find('`') else { break };
+            out.push_str(&rest[..at]);
+            out.push_str(&format!("`{keyword}=\"{}\"`", &after[..close]));
+            rest = &after[close + 1..];
+        }
+        out.push_str(rest);
+        text = out;
+    }
+    text
+}

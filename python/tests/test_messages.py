@@ -41,6 +41,9 @@ REFUSALS = [
     (lambda: ezy.geometry("kinematic-snake", gait="alpha1=t"), "`gait=`"),
     (lambda: ezy.geometry("kinematic_snake", at={"alpha1": 0.3}), "`at=`"),
     (lambda: ezy.check("ezyroller", states=0), "`states`"),
+    # a run in memory: the library's `method = dop853` as the keyword
+    (lambda: ezy.run("drive", integrator="rk4", dt=0.5), '`integrator="dop853"`'),
+    (lambda: ezy.linearize("drive", at=1e9), "`max_steps=1e13`"),
 ]
 
 
