@@ -607,8 +607,11 @@ impl Toolkit {
     /// Runs `scene` with the derivatives of its state with respect to the
     /// parameters `wrt` (a name or a list: a scene parameter `"M0"`, a
     /// model parameter, `"motor.omega"`, `"initial.q.phi2"`), as `ezy
-    /// sensitivity` does: a DataFrame with `t` and the columns
-    /// `d<column>/d<param>` (`dx1/dM0`), the report in `.attrs["report"]`.
+    /// sensitivity` does: a DataFrame with `t` [s] and the columns
+    /// `d<column>/d<param>` (`dx1/dM0`: the column's unit per the
+    /// parameter's, m per N m), the report in `.attrs["report"]` (the
+    /// steps taken and the final derivatives; without `out`, its last
+    /// line says the table is the returned DataFrame).
     /// Other keywords as `analyze`.
     ///
     /// Raises EzyError with the command line's message in this call's keywords (an unknown
@@ -640,8 +643,9 @@ impl Toolkit {
     /// velocities of the model), `over` a dict `{name: (lower, upper)}`
     /// of the numbers fitted (names as `set` takes them), each started
     /// from the scene's value. Returns a DataFrame indexed by parameter
-    /// with `estimate` and `std_error`; the report (correlations, the
-    /// residual per column, the runs taken) in `.attrs["report"]`.
+    /// with `estimate` and `std_error` (in the parameter's unit); the
+    /// report (correlations, the residual (rms) per column in the
+    /// column's unit, the runs taken) in `.attrs["report"]`.
     /// Other keywords as `analyze`.
     ///
     /// Raises EzyError with the command line's message in this call's keywords (data with NaN or
@@ -694,8 +698,12 @@ impl Toolkit {
     /// `(lower, upper)` (the search starts from the scene's value);
     /// `subject_to` lists constraints (`"gait.mean_power <= 1"`). Returns
     /// the optimum as a one-row DataFrame (the parameters, the objective,
-    /// the constrained quantities), with every evaluation in
-    /// `.attrs["history"]` and the command's report in `.attrs["report"]`.
+    /// the constrained quantities, each in its own unit: `gait.mean_speed`
+    /// [m/s], `gait.mean_power` [W], `gait.efficiency` [m/J]), with every
+    /// evaluation (and its gradient) in `.attrs["history"]`, the grid's
+    /// points (`grid` > 0) in `.attrs["grid"]` and the command's report
+    /// (the optimum, the constraints' values and multipliers, the
+    /// evaluations taken) in `.attrs["report"]`.
     ///
     /// Raises EzyError with the command line's message in this call's keywords (an unknown
     /// quantity or parameter, bounds that exclude the start, a search that
