@@ -1,6 +1,7 @@
 """Type stubs of the `ezy` extension module (planar vehicles with hinges and
 skates). Units are SI: lengths [m], angles [rad], times [s], energies [J].
-Refused input raises EzyError with the command line's message."""
+Refused input raises EzyError with the command line's message, its flags
+said as the keywords of the call."""
 
 from os import PathLike
 from typing import Any, Dict, Iterator, List, Mapping, Optional, Sequence, Tuple, Union
@@ -15,7 +16,9 @@ _Grid = Mapping[str, Union[Sequence[float], str]]
 
 class EzyError(Exception):
     """A scene, model, setting or run that ezy refused; the message names
-    the culprit (file, line, key, flag or value)."""
+    the culprit (file, line, key, keyword or value). The command line's
+    flags are said as the keywords of the call (`vary=` for `--continue`,
+    `rtol=1e-3` for `--rtol 1e-3`)."""
 
 class Model:
     """A vehicle read from the text of a model (what goes between the braces
@@ -23,76 +26,132 @@ class Model:
     code compiled for it."""
 
     key: str
+    """The name commands know it by (default: the struct's name)."""
     def __init__(self, text: str, *, key: Optional[str] = None) -> None: ...
     @staticmethod
-    def load(path: _Path, *, key: Optional[str] = None) -> "Model": ...
+    def load(path: _Path, *, key: Optional[str] = None) -> "Model":
+        """The model in a `.ezy` file, derived as `Model(text)` is."""
+        ...
     @property
-    def name(self) -> str: ...
+    def name(self) -> str:
+        """The struct's name (`RollerRacer`)."""
+        ...
     @property
-    def params(self) -> Dict[str, float]: ...
+    def params(self) -> Dict[str, float]:
+        """The parameters and family counts: `{name: value}` (SI units)."""
+        ...
     @property
-    def coords(self) -> List[str]: ...
-    def equations(self) -> "Equations": ...
+    def coords(self) -> List[str]:
+        """The generalized coordinates' names, in order."""
+        ...
+    def equations(self) -> "Equations":
+        """The derived equations (LaTeX in Jupyter)."""
+        ...
 
 class Effect:
-    """One effect's or drive's numbers of a Scene, as attributes."""
+    """One effect's or drive's numbers of a Scene, as attributes:
+    `scene.effects["motor"].omega = 6.283` sets `motor.torque.cos.omega`
+    (a number is named by its last key)."""
 
-    def numbers(self) -> Dict[str, float]: ...
+    def numbers(self) -> Dict[str, float]:
+        """Every number of the effect: `{"torque.cos.amplitude": 1.0, ...}`."""
+        ...
     def __getattr__(self, key: str) -> float: ...
     def __setattr__(self, key: str, value: float) -> None: ...
 
 class Scene:
     """A scene to change and run: `scene["M0"] = 1.0`,
-    `scene.effects["motor"].amplitude = 3.0`, `scene.run()`."""
+    `scene.effects["motor"].amplitude = 3.0`, `del scene["M0"]`,
+    `scene.run()`. Values are numbers in SI units."""
 
     @property
-    def name(self) -> str: ...
+    def name(self) -> str:
+        """The scene's name."""
+        ...
     @property
-    def model(self) -> str: ...
+    def model(self) -> str:
+        """The key of the model it runs on."""
+        ...
     @property
     def description(self) -> str: ...
     @property
-    def file(self) -> str: ...
+    def file(self) -> str:
+        """The scene file it was read from (`<keywords>` or `<toml>` for one made in Python)."""
+        ...
     @property
-    def t_end(self) -> float: ...
+    def t_end(self) -> float:
+        """The end time [s]."""
+        ...
     @property
-    def sets(self) -> List[Tuple[str, float]]: ...
+    def sets(self) -> List[Tuple[str, float]]:
+        """The changes made on this object, in order: `[(name, value)]`."""
+        ...
     @property
-    def params(self) -> Dict[str, float]: ...
+    def params(self) -> Dict[str, float]:
+        """The scene's and the model's parameters with the sets applied."""
+        ...
     @property
-    def effects(self) -> Dict[str, Effect]: ...
+    def effects(self) -> Dict[str, Effect]:
+        """Each effect and drive by name."""
+        ...
     def __getitem__(self, name: str) -> float: ...
     def __setitem__(self, name: str, value: float) -> None: ...
     def __delitem__(self, name: str) -> None:
         """Takes back what `scene[name] = value` set: the file's number again."""
         ...
-    def set(self, name: str, value: float) -> "Scene": ...
-    def run(self, **settings: Any) -> "Result": ...
+    def set(self, name: str, value: float) -> "Scene":
+        """`scene[name] = value`, returning the scene (to chain)."""
+        ...
+    def run(self, **settings: Any) -> "Result":
+        """`ezy.run(scene, **settings)`."""
+        ...
 
 class Result:
     """A finished run in memory: `len()` counts the rows, iterating gives
     them, `np.asarray(result)` is the table (rows x columns)."""
 
     scene: str
+    """The scene's name."""
     summary: str
+    """What `ezy run` prints: method, steps, evaluations, times, residuals, energy balance, final state."""
     warnings: List[str]
+    """The run's warnings (corrected initial values, an ill-conditioned KKT system)."""
     notes: List[str]
+    """The run's notes (the assembly branch taken, hand-overs)."""
     @property
-    def data(self) -> npt.NDArray[np.float64]: ...
+    def data(self) -> npt.NDArray[np.float64]:
+        """Every output row: a float64 array, rows x columns."""
+        ...
     @property
-    def columns(self) -> List[str]: ...
+    def columns(self) -> List[str]:
+        """The column names (trajectory.csv's), in order."""
+        ...
     @property
-    def t(self) -> npt.NDArray[np.float64]: ...
+    def t(self) -> npt.NDArray[np.float64]:
+        """The output times [s]."""
+        ...
     @property
-    def stats(self) -> Dict[str, Any]: ...
+    def stats(self) -> Dict[str, Any]:
+        """method, steps, rejected, rhs_evals, integration_s, setup_s, wall_s [s], max_energy_gap [J], handovers."""
+        ...
     @property
-    def figures(self) -> List[str]: ...
+    def figures(self) -> List[str]:
+        """The names of the scene's figures (`plot` draws them)."""
+        ...
     @property
-    def units(self) -> Dict[str, str]: ...
-    def describe(self) -> str: ...
+    def units(self) -> Dict[str, str]:
+        """Each column's unit: `{"x1": "m", "x1d": "m/s", ...}` ("" for a pure number)."""
+        ...
+    def describe(self) -> str:
+        """Each column, its unit and what it is, one line each."""
+        ...
     def keys(self) -> List[str]: ...
-    def to_pandas(self) -> Any: ...
-    def plot(self, name: str, ax: Any = None) -> Any: ...
+    def to_pandas(self) -> Any:
+        """The rows as a pandas DataFrame (units in `.attrs["units"]`)."""
+        ...
+    def plot(self, name: str, ax: Any = None) -> Any:
+        """Draws the scene's figure `name` with matplotlib; returns the Figure."""
+        ...
     def __getitem__(self, name: str) -> npt.NDArray[np.float64]: ...
     def __contains__(self, name: str) -> bool: ...
     def __len__(self) -> int: ...
@@ -103,68 +162,140 @@ class Equations:
     """A model's derived equations: `str()` the text, Jupyter the LaTeX."""
 
     text: str
+    """The plain text `ezy equations` prints."""
     latex: str
+    """The whole LaTeX document."""
     def _repr_latex_(self) -> str: ...
 
 class Check:
     """Derived terms against automatic differentiation: truthy if passed."""
 
     passed: bool
+    """Whether every derived term matched its reference within its tolerance."""
     table: str
+    """The table `ezy check` prints."""
     message: str
+    """Why the check failed (empty when it passed)."""
     def __bool__(self) -> bool: ...
 
 class Analysis:
-    """Steady motions, a gait, a limit cycle or a growth without bound: the report and its tables as DataFrames."""
+    """Steady motions, a gait, a limit cycle or a growth without bound:
+    the report (`str()`) and its tables as DataFrames. A table the
+    analysis did not write is None (and not a key of `tables`)."""
 
     report: str
+    """What `ezy analyze` prints; its last line says where the tables are."""
     tables: Dict[str, Any]
+    """Keys: "periodic", "equilibria", "branch", "growth" (those written)."""
     @property
-    def periodic(self) -> Any: ...
+    def periodic(self) -> Any:
+        """The gait or limit cycle, one row per orbit: `period` [s], `t0` [s]
+        (its phase), `stability`, `family`, `mean_speed` and
+        `mean_forward_speed` [m/s], `dx`, `dy` [m] and `dheading` [rad] per
+        period in the reference body's frame, hinge angles `theta_<H>`
+        [rad], the fixed point (the state), Floquet multipliers
+        `mu<k>_re`, `mu<k>_im`, a gait's `mean_power` [W] and `efficiency`
+        [m/J], and with `wrt=` the derivatives `d<quantity>/d<param>`."""
+        ...
     @property
-    def equilibria(self) -> Any: ...
+    def equilibria(self) -> Any:
+        """The steady motions: `motion`, `stability`, `family`, the reference
+        body's velocity in its own frame `u`, `v` [m/s] and yaw rate `omega`
+        [rad/s], `speed` [m/s], `curvature` [1/m], the state, eigenvalues
+        `lambda<k>_re`, `lambda<k>_im` [1/s]."""
+        ...
     @property
-    def branch(self) -> Any: ...
+    def branch(self) -> Any:
+        """With `vary=`: one row per value of the parameter (its column
+        first), `stability`, `speed`, `period`, `t0`, the state, multipliers
+        or eigenvalues, `mean_power`, `efficiency`; a located bifurcation's
+        row has its kind in `bifurcation` and `critical_re`, `critical_im`."""
+        ...
     @property
-    def growth(self) -> Any: ...
+    def growth(self) -> Any:
+        """A driven motion that gains energy without bound: one row per
+        window, `t_start`, `t_end` [s], `T_start`, `T_end` [J], the power laws
+        `energy_exponent` and `speed_exponent` with standard errors."""
+        ...
 
 class Geometry:
-    """The geometry of locomotion: the report and its tables as DataFrames."""
+    """The geometry of locomotion: the report (`str()`) and its tables as
+    DataFrames (None where not written)."""
 
     report: str
+    """What `ezy geometry` prints; its last line says where the tables are."""
     tables: Dict[str, Any]
+    """Keys: "connection", "curvature", "momentum", "gait", "gait_path" (those written)."""
     @property
-    def connection(self) -> Any: ...
+    def connection(self) -> Any:
+        """At each shape: the shape [rad], the local connection `A_<u,v,w>_<hinge>`
+        (body velocity per shape velocity: [m/rad] for u, v, [1] for w),
+        `Gamma_<u,v,w>_<p>` for a mixed system, and `rank_margin`."""
+        ...
     @property
-    def curvature(self) -> Any: ...
+    def curvature(self) -> Any:
+        """At each shape (two or more shape coordinates): the height functions
+        `DA_<x,y,theta>_<i>_<j>`, the net motion per unit area of a small
+        loop in the shape plane."""
+        ...
     @property
-    def momentum(self) -> Any: ...
+    def momentum(self) -> Any:
+        """At each shape (a mixed system): `<p>:<z_a>*<z_b>`, the coefficient
+        of `z_a z_b` in the momentum equation `p'`, `z = [r', p]`."""
+        ...
     @property
-    def gait(self) -> Any: ...
+    def gait(self) -> Any:
+        """One row per `method` ("first-order", "second-order",
+        "reconstructed", "simulated"): the net motion per cycle `dx`, `dy`
+        [m], `dtheta` [rad] in the initial body frame, and a mixed system's
+        momentum after the cycle `<p>_end`."""
+        ...
+    @property
+    def gait_path(self) -> Any:
+        """Along one period: `t` [s], the shape [rad], and the reference
+        body's pose reconstructed (`x_reconstructed`, `y_reconstructed` [m],
+        `theta_reconstructed` [rad]) and simulated (`x_simulated`, ...).
+        Also `tables["gait_path"]`."""
+        ...
 
 class Linearization:
     """A and B at a time of a run (DataFrames), the eigenvalues [1/s]."""
 
     report: str
+    """What `ezy linearize` prints; its last line says where the tables are."""
     A: Any
+    """The state matrix (2 nq x 2 nq), rows and columns named by the state (q, then qd)."""
     B: Any
+    """The input matrix (2 nq x 1) for `input=`, or None."""
     eigenvalues: npt.NDArray[np.complex128]
+    """The eigenvalues on the constraint manifold [1/s]."""
     state: Dict[str, float]
+    """The state linearized about: `{name: value}` (SI units)."""
 
-class Toolkit: ...
+class Toolkit:
+    """The application behind the module: its methods are the module's
+    functions (`ezy.run` is `Toolkit.run` of the built-in vehicles)."""
 
 _Scene = Union[str, _Path, Scene]
 
-def models() -> Dict[str, str]: ...
-def scenes() -> Dict[str, str]: ...
-def effect_kinds() -> Dict[str, Dict[str, Any]]: ...
+def models() -> Dict[str, str]:
+    """The models this module knows: `{key: description}`."""
+    ...
+def scenes() -> Dict[str, str]:
+    """The scenes this module knows: `{name: description}`."""
+    ...
+def effect_kinds() -> Dict[str, Dict[str, Any]]:
+    """The effect kinds a scene may name: `{kind: {"builtin", "keys", "law", "value_column"}}`."""
+    ...
 def scene(
     name: Optional[str] = None,
     *,
     toml: Optional[str] = None,
     model: Union[None, str, Model] = None,
     **keys: Any,
-) -> Scene: ...
+) -> Scene:
+    """A scene to change and run: a known name, `toml=` text, or a scene file's keys as keywords with `model=`."""
+    ...
 def run(
     scene: _Scene,
     *,
@@ -180,7 +311,9 @@ def run(
     every: Optional[float] = None,
     max_steps: Optional[int] = None,
     max_output_mb: Optional[float] = None,
-) -> Result: ...
+) -> Result:
+    """Runs `scene` in memory: every output row as NumPy arrays."""
+    ...
 def sweep(
     scene: _Scene,
     grid: _Grid,
@@ -190,7 +323,15 @@ def sweep(
     jobs: Optional[int] = None,
     out: Optional[_Path] = None,
     **settings: Any,
-) -> Any: ...
+) -> Any:
+    """Runs `scene` over `grid` (`{"M0": [1, 2]}` or `{"M0": "1:3:5"}`): a
+    DataFrame, one row per run: `run`, the swept values, `status`,
+    `wall_s` [s], `steps`, `rejected`, `rhs_evals`, the final state (SI
+    units), the effects' work `W_<name>` [J], the kinetic energy `T` [J],
+    the residuals `max_res_phi`, `max_res_vel`, `max_energy_gap` [J], and
+    each of `metrics` by its text. A scene's set of a swept name is
+    overridden by the grid."""
+    ...
 def analyze(
     scene: _Scene,
     *,
@@ -202,7 +343,11 @@ def analyze(
     out: Optional[_Path] = None,
     figures: bool = False,
     **settings: Any,
-) -> Analysis: ...
+) -> Analysis:
+    """Steady motions, a gait or a limit cycle and their stability, as
+    `ezy analyze`: `period=` [s], `energy=` [J], `vary="NAME=START:STOP:COUNT"`
+    (a branch: `.branch`), `wrt=` (the gait's derivatives in `.periodic`)."""
+    ...
 def geometry(
     target: Union[_Scene, Model],
     *,
@@ -217,7 +362,13 @@ def geometry(
     out: Optional[_Path] = None,
     figures: bool = False,
     **settings: Any,
-) -> Geometry: ...
+) -> Geometry:
+    """The geometry of locomotion of a model with the plane's symmetry: the local
+    connection, the curvature, the momentum equation and a gait's net motion
+    (`gait="alpha1=0.9+0.6*cos(t),..."`, t over [0, 2 pi]; default: the
+    scene's drives). `at={shape: value}` [rad] one shape, `grid` points per
+    shape coordinate over `range` [rad]."""
+    ...
 def fit(
     scene: _Scene,
     *,
@@ -228,7 +379,14 @@ def fit(
     out: Optional[_Path] = None,
     figures: bool = False,
     **settings: Any,
-) -> Any: ...
+) -> Any:
+    """Fits numbers of `scene` to a measured run (`data`: a CSV path or a
+    DataFrame with `t` [s] and `columns`), each in `over={name: (lower,
+    upper)}` and started from the scene's value: a DataFrame indexed by
+    `parameter` with `estimate` and `std_error` (the parameter's units);
+    `.attrs["report"]` has the correlations and the residual (rms) per
+    column in the column's unit."""
+    ...
 def optimize(
     scene: _Scene,
     *,
@@ -242,7 +400,16 @@ def optimize(
     out: Optional[_Path] = None,
     figures: bool = False,
     **settings: Any,
-) -> Any: ...
+) -> Any:
+    """Optimizes numbers of `scene` within `over={name: (lower, upper)}`:
+    `maximize` or `minimize` a gait's quantity (`"gait.mean_speed"`), a
+    run's metric (`"final(x1)"`) or a function of your own; `subject_to`
+    constraints (`"gait.mean_power <= 1"`). A one-row DataFrame: the
+    parameters, the objective and the constrained quantities at the
+    optimum; `.attrs["history"]` every evaluation (with the gradient
+    `d<objective>/d<param>` and `failure`), `.attrs["grid"]` the grid's
+    points (with `grid=` > 0), `.attrs["report"]` the report."""
+    ...
 def sensitivity(
     scene: _Scene,
     *,
@@ -251,7 +418,11 @@ def sensitivity(
     out: Optional[_Path] = None,
     figures: bool = False,
     **settings: Any,
-) -> Any: ...
+) -> Any:
+    """The run's derivatives with respect to `wrt`: a DataFrame with `t` [s]
+    and `d<column>/d<param>` for each state column (`dx1/dM0`: m per unit
+    of M0); `.attrs["report"]` the report, with the final derivatives."""
+    ...
 def linearize(
     scene: _Scene,
     *,
@@ -260,12 +431,18 @@ def linearize(
     input: Optional[str] = None,
     out: Optional[_Path] = None,
     **settings: Any,
-) -> Linearization: ...
-def equations(model: Union[str, Model], *, set: Optional[Mapping[str, float]] = None) -> Equations: ...
+) -> Linearization:
+    """A and B (with `input=`) at time `at` [s] of the run, the eigenvalues [1/s]."""
+    ...
+def equations(model: Union[str, Model], *, set: Optional[Mapping[str, float]] = None) -> Equations:
+    """The derived equations of a model (LaTeX in Jupyter)."""
+    ...
 def check(
     model: Union[str, Model],
     *,
     set: Optional[Mapping[str, float]] = None,
     states: Optional[int] = None,
     seed: Optional[int] = None,
-) -> Check: ...
+) -> Check:
+    """The derived terms against automatic differentiation at `states` random states."""
+    ...

@@ -13,6 +13,8 @@ use crate::ezy_err;
 use crate::kit::Toolkit;
 use crate::model::PyModel;
 use crate::settings::Overrides;
+use crate::words::Said;
+
 impl Toolkit {
     /// Runs the command `name` on `scene` (with `model`, the scene's sets,
     /// `extra` flags and the run keywords `settings`) into `out` (or a
@@ -52,15 +54,23 @@ impl Toolkit {
         let app = adjust(app);
         let opts = Overrides::new(r.sets.clone(), settings, name)?.options()?;
         let temp = tempfile::Builder::new().prefix("ezy-").tempdir().map_err(ezy_err)?;
+        let kept = out.is_some();
         let dir = out.unwrap_or_else(|| temp.path().join(name));
-        let mut args = vec![name.to_string(), r.cli_scene(temp.path())?];
+        let scene = r.cli_scene(temp.path())?;
+        let said = Said {
+            function: name,
+            temp: Some(temp.path()).filter(|_| !kept),
+            scene: r.toml.is_some().then(|| (scene.clone(), r.reference.clone())),
+            report: true,
+        };
+        let mut args = vec![name.to_string(), scene];
         args.extend(extra);
         args.extend(opts.to_args());
         args.extend(["--out".into(), dir.display().to_string()]);
         if !figures {
             args.push("--no-figures".into());
         }
-        match Self::cli(py, &app, args)? {
+        match Self::cli(py, &app, args, &said)? {
             Ok(report) => Ok((report, dir, temp)),
             Err((_, e)) => Err(ezy_err(e)),
         }

@@ -11,6 +11,7 @@ use pyo3::types::PyDict;
 
 use crate::reports::Equations;
 use crate::settings::sets_of;
+use crate::words::Said;
 use crate::{EzyError, ezy_err};
 
 /// The application behind a module: its models, effect kinds and scenes.
@@ -23,12 +24,15 @@ pub struct Toolkit {
 impl Toolkit {
     /// Runs the command line `args` (after the program name) with the GIL
     /// released; Ctrl-C asks the command to stop ([`ezy::output::transaction::request_stop`])
-    /// and raises `KeyboardInterrupt` once it has. Returns what it printed.
+    /// and raises `KeyboardInterrupt` once it has. Returns what it printed,
+    /// or that and its error's message, as `said` says them to Python
+    /// (keywords for flags, no file that is gone: [`Said`]).
     pub(crate) fn cli(
         py: Python<'_>,
         app: &App,
         args: Vec<String>,
-    ) -> PyResult<Result<String, (String, ezy::app::AppError)>> {
+        said: &Said<'_>,
+    ) -> PyResult<Result<String, (String, String)>> {
         let mut interrupt: Option<PyErr> = None;
         let out = py.detach(|| {
             std::thread::scope(|s| {
@@ -55,7 +59,8 @@ impl Toolkit {
         if let Some(e) = interrupt {
             return Err(e);
         }
-        out.map_err(|_| EzyError::new_err("the command panicked"))
+        let out = out.map_err(|_| EzyError::new_err("the command panicked"))?;
+        Ok(out.map(|text| said.report(&text)).map_err(|(text, e)| (said.report(&text), said.text(&e.to_string()))))
     }
 }
 
@@ -71,8 +76,9 @@ pub(crate) fn equations_in(
     for (n, v) in &sets {
         args.extend(["--set".into(), format!("{n}={v:?}")]);
     }
-    let text = Toolkit::cli(py, app, args.clone())?.map_err(|(_, e)| ezy_err(e))?;
+    let said = Said::plain("equations");
+    let text = Toolkit::cli(py, app, args.clone(), &said)?.map_err(|(_, e)| ezy_err(e))?;
     args.extend(["--format".into(), "latex".into()]);
-    let latex = Toolkit::cli(py, app, args)?.map_err(|(_, e)| ezy_err(e))?;
+    let latex = Toolkit::cli(py, app, args, &said)?.map_err(|(_, e)| ezy_err(e))?;
     Ok(Equations { text, latex })
 }

@@ -15,7 +15,8 @@
 //! ...)`, `equations(model)` and `check(model)`, the classes `Result`,
 //! `Scene`, `Model`, `Equations`, `Analysis` and `Linearization`, and the
 //! exception `EzyError`, whose
-//! message is the command line's (the file, line, key or flag at fault).
+//! message is the command line's (the file, line, key or keyword at
+//! fault), its flags said as the call's keywords (`words`).
 //!
 //! A run goes through [`ezy::App::run_scene_in_memory`]: no file is
 //! written, every output row lands in one NumPy array (rows x columns,
@@ -41,6 +42,7 @@ mod settings;
 mod sweep;
 mod toolkit;
 mod units;
+mod words;
 
 pub use kit::Toolkit;
 pub use model::PyModel;
@@ -59,7 +61,7 @@ pyo3::create_exception!(
     ezy,
     EzyError,
     PyException,
-    "A scene, model, setting or run that ezy refused; the message names the culprit (file, line, key, flag or value)."
+    "A scene, model, setting or run that ezy refused; the message names the culprit (file, line, key, keyword or value)."
 );
 
 /// The docstring of every module [`init_module`] fills.
@@ -81,8 +83,9 @@ equations(model)            the derived equations (LaTeX in Jupyter)
 check(model)                the derived terms against automatic differentiation
 Model(text), Model.load(p)  a vehicle from the text of a model (no compiler): run(scene, model=m)
 
-Refused input raises EzyError with the command line's message; Ctrl-C stops
-a run (KeyboardInterrupt).";
+Refused input raises EzyError with the command line's message, its flags
+said as the call's keywords; Ctrl-C stops a run (KeyboardInterrupt). A
+report of a call without out= says which attributes hold its tables.";
 
 /// The Python helpers (drawing with matplotlib), compiled into every module.
 const HELPERS: &str = include_str!("helpers.py");

@@ -147,30 +147,49 @@ pub struct Geometry {
 
 #[pymethods]
 impl Geometry {
-    /// The local connection at each shape, or None.
+    /// The local connection at each shape, or None: the shape [rad],
+    /// `A_<u,v,w>_<hinge>` (the body velocity in its own frame per shape
+    /// velocity, `xi = -A r'`: [m/rad] for u, v, [1] for w),
+    /// `Gamma_<u,v,w>_<p>` of a mixed system ([1/kg] for u, v), and
+    /// `rank_margin` (how far from the singular set).
     #[getter]
     fn connection<'py>(&self, py: Python<'py>) -> PyResult<Option<Bound<'py, PyAny>>> {
         self.tables.bind(py).get_item("connection")
     }
 
-    /// The height functions at each shape (two or more shape
-    /// coordinates), or None.
+    /// The height functions `DA_<x,y,theta>_<i>_<j>` at each shape (two
+    /// or more shape coordinates), or None: the net motion per unit area
+    /// of a small loop in the plane of shapes i and j.
     #[getter]
     fn curvature<'py>(&self, py: Python<'py>) -> PyResult<Option<Bound<'py, PyAny>>> {
         self.tables.bind(py).get_item("curvature")
     }
 
     /// The momentum equation's coefficients at each shape (a mixed
-    /// system), or None.
+    /// system), or None: `<p>:<z_a>*<z_b>` the coefficient of `z_a z_b`
+    /// in `p'`, `z = [r', p]`.
     #[getter]
     fn momentum<'py>(&self, py: Python<'py>) -> PyResult<Option<Bound<'py, PyAny>>> {
         self.tables.bind(py).get_item("momentum")
     }
 
-    /// The gait's net motion per cycle by each method, or None.
+    /// The gait's net motion per cycle by each `method` (first-order,
+    /// second-order, reconstructed, simulated), or None: `dx`, `dy` [m]
+    /// and `dtheta` [rad] in the initial body frame, and a mixed
+    /// system's momentum after the cycle `<p>_end`.
     #[getter]
     fn gait<'py>(&self, py: Python<'py>) -> PyResult<Option<Bound<'py, PyAny>>> {
         self.tables.bind(py).get_item("gait")
+    }
+
+    /// The gait's path along one period, or None: `t` [s], the shape
+    /// coordinates [rad], and the reference body's frame reconstructed
+    /// from the connection (`x_reconstructed`, `y_reconstructed` [m],
+    /// `theta_reconstructed` [rad]) and, where simulated, the same of the
+    /// simulation (`x_simulated`, ...). Also `tables["gait_path"]`.
+    #[getter]
+    fn gait_path<'py>(&self, py: Python<'py>) -> PyResult<Option<Bound<'py, PyAny>>> {
+        self.tables.bind(py).get_item("gait_path")
     }
 
     fn __str__(&self) -> String {

@@ -1,6 +1,6 @@
 //! The module's functions: [`Toolkit`], the application behind a module,
 //! whose methods `models`, `scenes`, `effect_kinds`, `scene`, `run`,
-//! `sweep`, `analyze`, `linearize`, `geometry`, `equations` and `check` the module
+//! `sweep`, `analyze`, `sensitivity`, `fit`, `optimize`, `linearize`, `geometry`, `equations` and `check` the module
 //! offers as functions; a run in memory with the
 //! GIL released and Python's signals polled, a command line run the same
 //! way (Ctrl-C stops either and raises `KeyboardInterrupt`).
@@ -24,6 +24,7 @@ use crate::reports::{Analysis, Check, Equations, Geometry, Linearization};
 use crate::result::RunResult;
 use crate::scene::PyScene;
 use crate::settings::{Overrides, names_kw, number_kw, over_args, sets_of, text_kw, whole_kw};
+use crate::words::Said;
 
 /// How often a running integration asks Python for pending signals (Ctrl-C).
 const SIGNAL_POLL: Duration = Duration::from_millis(50);
@@ -360,7 +361,7 @@ impl Toolkit {
         if let Some(e) = interrupt {
             return Err(e);
         }
-        let report = report.map_err(ezy_err)?;
+        let report = report.map_err(|e| ezy_err(crate::words::run_keywords(&e.to_string())))?;
         RunResult::new(py, &src, info, report, self.helpers.clone_ref(py))
     }
 
@@ -376,8 +377,8 @@ impl Toolkit {
     /// without it the files live in a temporary directory. Other keywords
     /// as `run` (`model=m` sweeps the scene on an `ezy.Model`).
     ///
-    /// Raises EzyError naming the bad axis, metric or setting (by the
-    /// command line's flag), or for a grid of more than 1,000,000 runs
+    /// Raises EzyError naming the bad axis, metric or setting (by its
+    /// keyword: `grid=`, `metrics=`, `rtol=`), or for a grid of more than 1,000,000 runs
     /// (naming each axis's count, before anything is set up: the table
     /// comes back in memory); TypeError for a listed value that is not a
     /// number (`True` included); KeyboardInterrupt on Ctrl-C.
@@ -404,19 +405,30 @@ impl Toolkit {
         let o = Overrides::new(sets, settings, "sweep")?;
         let opts = o.options()?; // the keywords' own errors first, named as keywords
         let temp = tempfile::Builder::new().prefix("ezy-sweep-").tempdir().map_err(ezy_err)?;
+        let kept = out.is_some();
         let dir = out.unwrap_or_else(|| temp.path().join("sweep"));
         // the scene as it was named: a known scene's name or its file's path
-        let mut args = vec!["sweep".to_string(), r.cli_scene(temp.path())?];
+        let scene = r.cli_scene(temp.path())?;
+        let said = Said {
+            function: "sweep",
+            temp: Some(temp.path()).filter(|_| !kept),
+            scene: r.toml.is_some().then(|| (scene.clone(), r.reference.clone())),
+            report: true,
+        };
+        let mut args = vec!["sweep".to_string(), scene];
         args.extend(axes);
         for m in metrics.unwrap_or_default() {
             args.extend(["--metric".into(), m]);
         }
         args.extend(opts.to_args());
         if let Some(j) = jobs {
-            args.extend(["--jobs".into(), j.to_string()]);
+            // at most the cores there are, as the command line caps it (the
+            // note it would print for more names its flag)
+            let cores = std::thread::available_parallelism().map_or(1, std::num::NonZero::get) as u64;
+            args.extend(["--jobs".into(), j.min(cores).to_string()]);
         }
         args.extend(["--out".into(), dir.display().to_string(), "--no-figures".into()]);
-        match Self::cli(py, &app, args)? {
+        match Self::cli(py, &app, args, &said)? {
             Ok(_) => {}
             Err((_, e)) => return Err(ezy_err(e)),
         }
@@ -438,10 +450,12 @@ impl Toolkit {
     /// parameter varies (the command line's `--continue`); `wrt` (a name
     /// or a list: `"motor.omega"`, `["M0", "c"]`) adds the gait's
     /// derivatives `d<quantity>/d<param>` to `.periodic`; `out` keeps the
-    /// files (CSV and figures: `figures=True`). Other keywords as `run`;
-    /// `model=m` analyses the scene on an `ezy.Model`.
+    /// files (CSV and figures: `figures=True`). Without `out` nothing is
+    /// kept on disk, and the report's last line names the attributes that
+    /// hold the tables (`table: .periodic of the returned object`). Other
+    /// keywords as `run`; `model=m` analyses the scene on an `ezy.Model`.
     ///
-    /// Raises EzyError with the command line's message (no orbit found,
+    /// Raises EzyError with the command line's message in this call's keywords (no orbit found,
     /// a bad setting); KeyboardInterrupt on Ctrl-C.
     #[pyo3(signature = (scene, *, model=None, period=None, energy=None, vary=None, wrt=None, out=None, figures=false, **settings))]
     #[expect(clippy::too_many_arguments, reason = "Python's keywords, one argument each")]
@@ -500,7 +514,7 @@ impl Toolkit {
     /// `.curvature`, `.momentum`, `.gait`); `out` keeps the files
     /// (figures with `figures=True`).
     ///
-    /// Raises EzyError with the command line's message (no plane
+    /// Raises EzyError with the command line's message in this call's keywords (no plane
     /// symmetry, a gait that meets the singular set); TypeError for
     /// keywords of the wrong kind.
     #[pyo3(signature = (target, *, model=None, at=None, gait=None, grid=None, range=None, body=None, shape=None, momentum=None, out=None, figures=false, **settings))]
@@ -558,7 +572,10 @@ impl Toolkit {
             Some(key) => {
                 let app = self.app_with(&key, own.or(model));
                 let temp = tempfile::Builder::new().prefix("ezy-").tempdir().map_err(ezy_err)?;
+                let kept = out.is_some();
                 let dir = out.unwrap_or_else(|| temp.path().join("geometry"));
+                let said =
+                    Said { function: "geometry", temp: Some(temp.path()).filter(|_| !kept), scene: None, report: true };
                 let mut args = vec!["geometry".to_string(), key];
                 args.extend(extra);
                 args.extend(Overrides::new(Vec::new(), settings, "geometry")?.options()?.to_args());
@@ -566,7 +583,7 @@ impl Toolkit {
                 if !figures {
                     args.push("--no-figures".into());
                 }
-                let report = Self::cli(py, &app, args)?.map_err(|(_, e)| ezy_err(e))?;
+                let report = Self::cli(py, &app, args, &said)?.map_err(|(_, e)| ezy_err(e))?;
                 (report, dir, temp)
             }
             None => self.command(py, "geometry", target, model, extra, out, figures, settings)?,
@@ -590,11 +607,14 @@ impl Toolkit {
     /// Runs `scene` with the derivatives of its state with respect to the
     /// parameters `wrt` (a name or a list: a scene parameter `"M0"`, a
     /// model parameter, `"motor.omega"`, `"initial.q.phi2"`), as `ezy
-    /// sensitivity` does: a DataFrame with `t` and the columns
-    /// `d<column>/d<param>` (`dx1/dM0`), the report in `.attrs["report"]`.
+    /// sensitivity` does: a DataFrame with `t` [s] and the columns
+    /// `d<column>/d<param>` (`dx1/dM0`: the column's unit per the
+    /// parameter's, m per N m), the report in `.attrs["report"]` (the
+    /// steps taken and the final derivatives; without `out`, its last
+    /// line says the table is the returned DataFrame).
     /// Other keywords as `analyze`.
     ///
-    /// Raises EzyError with the command line's message (an unknown
+    /// Raises EzyError with the command line's message in this call's keywords (an unknown
     /// parameter, radau5, a scene with events); KeyboardInterrupt on Ctrl-C.
     #[pyo3(signature = (scene, *, wrt, model=None, out=None, figures=false, **settings))]
     #[expect(clippy::too_many_arguments, reason = "Python's keywords, one argument each")]
@@ -623,11 +643,12 @@ impl Toolkit {
     /// velocities of the model), `over` a dict `{name: (lower, upper)}`
     /// of the numbers fitted (names as `set` takes them), each started
     /// from the scene's value. Returns a DataFrame indexed by parameter
-    /// with `estimate` and `std_error`; the report (correlations, the
-    /// residual per column, the runs taken) in `.attrs["report"]`.
+    /// with `estimate` and `std_error` (in the parameter's unit); the
+    /// report (correlations, the residual (rms) per column in the
+    /// column's unit, the runs taken) in `.attrs["report"]`.
     /// Other keywords as `analyze`.
     ///
-    /// Raises EzyError with the command line's message (data with NaN or
+    /// Raises EzyError with the command line's message in this call's keywords (data with NaN or
     /// unsorted times, bounds that exclude the start); TypeError for
     /// keywords of the wrong kind; KeyboardInterrupt on Ctrl-C.
     #[pyo3(signature = (scene, *, data, columns, over, model=None, out=None, figures=false, **settings))]
@@ -677,10 +698,14 @@ impl Toolkit {
     /// `(lower, upper)` (the search starts from the scene's value);
     /// `subject_to` lists constraints (`"gait.mean_power <= 1"`). Returns
     /// the optimum as a one-row DataFrame (the parameters, the objective,
-    /// the constrained quantities), with every evaluation in
-    /// `.attrs["history"]` and the command's report in `.attrs["report"]`.
+    /// the constrained quantities, each in its own unit: `gait.mean_speed`
+    /// [m/s], `gait.mean_power` [W], `gait.efficiency` [m/J]), with every
+    /// evaluation (and its gradient) in `.attrs["history"]`, the grid's
+    /// points (`grid` > 0) in `.attrs["grid"]` and the command's report
+    /// (the optimum, the constraints' values and multipliers, the
+    /// evaluations taken) in `.attrs["report"]`.
     ///
-    /// Raises EzyError with the command line's message (an unknown
+    /// Raises EzyError with the command line's message in this call's keywords (an unknown
     /// quantity or parameter, bounds that exclude the start, a search that
     /// did not converge); TypeError for keywords of the wrong kind;
     /// KeyboardInterrupt on Ctrl-C (the best point so far is written to
@@ -754,6 +779,11 @@ impl Toolkit {
         let frame = helpers.call_method1("read_table", (dir.join("optimum.csv"),))?;
         let history = helpers.call_method1("read_table", (dir.join("history.csv"), "evaluation"))?;
         frame.getattr("attrs")?.set_item("history", history)?;
+        // the grid's evaluations (a search started from the best of a grid)
+        let grid = dir.join("grid.csv");
+        if grid.is_file() {
+            frame.getattr("attrs")?.set_item("grid", helpers.call_method1("read_table", (grid,))?)?;
+        }
         frame.getattr("attrs")?.set_item("report", report)?;
         Ok(frame.unbind())
     }
@@ -763,7 +793,7 @@ impl Toolkit {
     /// an effect's or drive's input) as DataFrames, the eigenvalues [1/s]
     /// as a complex array, and the state. Other keywords as `analyze`.
     ///
-    /// Raises EzyError with the command line's message.
+    /// Raises EzyError with the command line's message in this call's keywords.
     #[pyo3(signature = (scene, *, model=None, at=None, input=None, out=None, **settings))]
     #[expect(clippy::too_many_arguments, reason = "Python's keywords, one argument each")]
     fn linearize(
@@ -855,10 +885,10 @@ impl Toolkit {
         if let Some(s) = seed {
             args.extend(["--seed".into(), s.to_string()]);
         }
-        match Self::cli(py, &app, args)? {
+        match Self::cli(py, &app, args, &Said::plain("check"))? {
             Ok(table) => Ok(Check { passed: true, table, message: String::new() }),
             // a failed check prints its table first; no table: a bad request
-            Err((table, e)) if !table.is_empty() => Ok(Check { passed: false, table, message: e.to_string() }),
+            Err((table, e)) if !table.is_empty() => Ok(Check { passed: false, table, message: e }),
             Err((_, e)) => Err(ezy_err(e)),
         }
     }

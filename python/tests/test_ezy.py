@@ -278,7 +278,7 @@ def test_a_sweep_is_a_dataframe_of_the_runs():
     assert s.sets == [] and s["M0"] == 2.0
     with pytest.raises(KeyError, match="`M0` was not set on scene drive; set on it: nothing"):
         del s["M0"]
-    with pytest.raises(ezy.EzyError, match="--grid"):
+    with pytest.raises(ezy.EzyError, match="`grid=` `M0=1:2`: expected NAME=START:STOP:COUNT"):
         ezy.sweep("drive", {"M0": "1:2"}, **RUN)
     with pytest.raises(ezy.EzyError, match="grid"):
         ezy.sweep("drive", {}, **RUN)
@@ -344,6 +344,12 @@ def test_the_guides_notebook_runs(tmp_path):
         os.chdir(here)
         sys.argv = argv
     assert set(scope["sweep"]["M0"]) and scope["result"].data.shape[0] > 1000
+    # the gait's tools on the Roller Racer: the numbers the guide quotes
+    assert scope["fitted"].loc["roll_A.damping", "estimate"] == pytest.approx(7.0, abs=1e-6)
+    assert scope["best"]["steer.omega"][0] == pytest.approx(2.40, abs=0.005)
+    assert scope["best"]["gait.mean_power"][0] == pytest.approx(2.0, abs=1e-6)
+    assert len(scope["branch"]) == 5 and len(scope["geo"].gait_path) > 10
+    assert scope["derivatives"].periodic["dmean_speed/dsteer.amplitude"][0] == pytest.approx(0.99, abs=0.005)
     plt.close("all")
     # the guide's page shows the same cells, in order
     page = (WORKSPACE / "docs" / "book" / "src" / "python.md").read_text()
@@ -510,6 +516,51 @@ def test_the_stub_names_everything_the_module_offers():
     named = {n for n in named if not n.startswith("_")}
     offered = {n for n in dir(ezy) if not n.startswith("_")}
     assert named == offered, (offered - named, named - offered)
+    # each class: every attribute, method and protocol it has, and no more
+    classes = {n.name: n for n in stub.body if isinstance(n, ast.ClassDef)}
+    functions = {n.name: n for n in stub.body if isinstance(n, ast.FunctionDef)}
+    protocol = {"__getitem__", "__setitem__", "__delitem__", "__contains__", "__len__", "__iter__", "__array__", "__bool__"}
+    for name, node in classes.items():
+        real = getattr(ezy, name)
+        if name == "EzyError":
+            continue
+        has = {k for k in vars(real) if not (k.startswith("__") and k.endswith("__")) or k in protocol}
+        if name == "Toolkit":
+            # its methods are the module's functions, which the stub lists
+            assert has == set(functions), (name, has ^ set(functions))
+            continue
+        stubbed = {n.name for n in node.body if isinstance(n, ast.FunctionDef)}
+        stubbed |= {n.target.id for n in node.body if isinstance(n, ast.AnnAssign)}
+        stubbed = {k for k in stubbed if k in protocol or not (k.startswith("__") and k.endswith("__"))}
+        assert has == stubbed, (name, "missing from the stub:", has - stubbed, "not in the module:", stubbed - has)
+    # each function and method: the keywords it takes, in the stub too
+    import inspect
+
+    def keywords(node):
+        a = node.args
+        return {x.arg for x in a.posonlyargs + a.args + a.kwonlyargs} - {"self"}
+
+    for name, node in functions.items():
+        real = inspect.signature(getattr(ezy, name)).parameters.values()
+        named = {p.name for p in real if p.kind != p.VAR_KEYWORD}
+        assert named <= keywords(node), (name, named - keywords(node))
+    # the keys of `tables` the stub's docstrings name: every one written
+    import re
+
+    def documented(cls):
+        body = classes[cls].body
+        at = [i for i, n in enumerate(body) if isinstance(n, ast.AnnAssign) and n.target.id == "tables"][0]
+        return set(re.findall(r'"(\w+)"', body[at + 1].value.value))
+
+    written = set()
+    for a in [ezy.analyze("sleigh"), ezy.analyze("drive", t_end=30.0), ezy.analyze("drive-rolling-resistance", vary="motor.amplitude=0.5:1:3")]:
+        written |= set(a.tables)
+    assert written == documented("Analysis") == {"periodic", "equilibria", "branch", "growth"}
+    written = set()
+    for g in [ezy.geometry("kinematic-snake", grid=5), ezy.geometry(ezy.Model(roller_racer_text()), grid=5, range=(-1.0, 1.0))]:
+        written |= set(g.tables)
+        assert all(getattr(g, k) is g.tables[k] for k in g.tables)
+    assert written == documented("Geometry") == {"connection", "curvature", "momentum", "gait", "gait_path"}
 
 
 def test_the_geometry_of_a_built_in_snake_and_of_a_users_racer():
@@ -718,7 +769,7 @@ def test_ctrl_c_stops_a_long_check_within_a_second(sigint_raises):
     took = interrupted_after(0.5, ezy.check, "snake", set={"N": 60}, states=100000)
     assert took < 1.0, took
     # absurd counts are refused by name before any state
-    with pytest.raises(ezy.EzyError, match="--states 100000000.*1e8"):
+    with pytest.raises(ezy.EzyError, match="`states=100000000`.*1e8"):
         ezy.check("snake", set={"N": 60}, states=100_000_000)
 
 
