@@ -20,6 +20,7 @@ mod bifurcations;
 mod branches;
 mod fit;
 mod force_jacobian;
+mod gait_means;
 mod gait_power;
 mod gait_sensitivity;
 mod geometry;

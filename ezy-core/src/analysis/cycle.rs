@@ -114,7 +114,8 @@ impl<M: Model> Analysis<M> {
         let gens = symmetry.generators();
         let k = gens.len();
         let gauge = gauge_coordinates(&bodies, &gens);
-        let x0 = act(&bodies, symmetry.restrict(body_pose(&bodies, 0, guess)).inverse(), guess);
+        let placement = symmetry.restrict(body_pose(&bodies, 0, guess));
+        let x0 = act(&bodies, placement.inverse(), guess);
         // the section: through the guess, normal to the flow there
         let anchor = x0.clone();
         let normal = self.rhs(t0, &anchor)?;
@@ -178,7 +179,9 @@ impl<M: Model> Analysis<M> {
         let rank = dense::numerical_rank(with_gauge(j, &gauge).as_ref(), 1e-8)?;
         let family = (n2 + k + 1).saturating_sub(rank);
         let stability = Stability::of_multipliers(&multipliers, family);
+        let world_heading = placement.theta + bodies.first().map_or(0.0, |b| x0[b[2]]);
         let (state, shift, d) = gait_geometry(&bodies, symmetry, &x0, h);
+        let means = self.gait_means(t0, &state, period, shift.theta, settings)?;
         Ok(PeriodicOrbit {
             t0,
             period,
@@ -191,6 +194,9 @@ impl<M: Model> Analysis<M> {
             stability,
             displacement: d,
             heading_change: shift.theta,
+            world_heading,
+            mean_abs_speed: means.mean_abs_speed,
+            drift_speed: means.drift_speed,
             iterations,
             residual: norm(&r),
             steps,

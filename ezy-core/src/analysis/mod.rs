@@ -71,6 +71,7 @@ pub mod bifurcation;
 pub mod branch;
 mod cycle;
 pub(crate) mod dense;
+pub(crate) mod gait_means;
 mod growth;
 mod linear;
 mod newton;

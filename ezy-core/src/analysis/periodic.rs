@@ -76,6 +76,22 @@ pub struct PeriodicOrbit {
     pub displacement: [f64; 2],
     /// The reference body's heading change over one period \[rad\].
     pub heading_change: f64,
+    /// The reference body's heading at `t0` \[rad\] in the frame of the
+    /// state the search started from (for `ezy analyze`, the scene's run
+    /// at `t0`): [`PeriodicOrbit::world_displacement`] turns the
+    /// displacement into that frame.
+    pub world_heading: f64,
+    /// The mean over one period of the reference body's speed,
+    /// `(1/T) ∫ |v| dt` \[m/s\]: independent of `t0` and of the frame.
+    pub mean_abs_speed: f64,
+    /// The drift speed \[m/s\]: the root mean square over a period of the
+    /// speed at which the period's rigid motion carries each point of the
+    /// reference body's path about its centre, `|dheading| |p - c| / T`
+    /// (`dheading` wrapped to (-pi, pi]), and `|displacement| / T` for a
+    /// gait that does not turn: independent of `t0` (unlike
+    /// [`PeriodicOrbit::mean_speed`] on a turning gait) and of the frame
+    /// (`analysis::gait_means`; Kelly & Murray 1995, §2).
+    pub drift_speed: f64,
     /// Newton iterations taken.
     pub iterations: usize,
     /// The final residual of the fixed-point equations (max norm).
@@ -100,6 +116,17 @@ impl PeriodicOrbit {
     /// heading at `t0` over `T` \[m/s\].
     pub fn mean_forward_speed(&self) -> f64 {
         self.displacement[0] / self.period
+    }
+
+    /// The displacement over one period in the frame of the state the
+    /// search started from (for `ezy analyze`, the scene's run: where the
+    /// run's reference body goes from `t0` to `t0 + T` once it has settled
+    /// on this orbit) \[m\]: [`PeriodicOrbit::displacement`] turned by
+    /// [`PeriodicOrbit::world_heading`].
+    pub fn world_displacement(&self) -> [f64; 2] {
+        let (s, c) = self.world_heading.sin_cos();
+        let [a, b] = self.displacement;
+        [c * a - s * b, s * a + c * b]
     }
 }
 
@@ -219,7 +246,8 @@ impl<M: Model> Analysis<M> {
         // rotation's direction is singular only where the residual
         // vanishes, so a minimum-norm step takes large steps along it)
         let gauge = gauge_coordinates(&bodies, &gens);
-        let x0 = act(&bodies, symmetry.restrict(body_pose(&bodies, 0, guess)).inverse(), guess);
+        let placement = symmetry.restrict(body_pose(&bodies, 0, guess));
+        let x0 = act(&bodies, placement.inverse(), guess);
         self.check_cost(t0, &x0, period, settings)?;
         // the skates' grip over the last period integrated (the orbit's,
         // once the search has converged)
@@ -290,7 +318,9 @@ impl<M: Model> Analysis<M> {
         let orbit = removed - extra.len() + shifts;
         let family = (n2 + k - rank).saturating_sub(orbit);
         let stability = Stability::of_multipliers(&multipliers, family);
+        let world_heading = placement.theta + bodies.first().map_or(0.0, |b| x0[b[2]]);
         let (state, shift, d) = gait_geometry(&bodies, symmetry, &x0, h);
+        let means = self.gait_means(t0, &state, period, shift.theta, settings)?;
         Ok(PeriodicOrbit {
             t0,
             period,
@@ -303,6 +333,9 @@ impl<M: Model> Analysis<M> {
             stability,
             displacement: d,
             heading_change: shift.theta,
+            world_heading,
+            mean_abs_speed: means.mean_abs_speed,
+            drift_speed: means.drift_speed,
             iterations,
             residual: norm(&r),
             steps,

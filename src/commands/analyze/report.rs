@@ -209,10 +209,23 @@ fn periodic_csv(
     names: &[String],
     shape: &[(String, usize, usize)],
 ) -> String {
-    let mut head: Vec<String> =
-        ["period", "t0", "stability", "family", "mean_speed", "mean_forward_speed", "dx", "dy", "dheading"]
-            .map(String::from)
-            .to_vec();
+    let mut head: Vec<String> = [
+        "period",
+        "t0",
+        "stability",
+        "family",
+        "mean_speed",
+        "mean_forward_speed",
+        "dx",
+        "dy",
+        "dheading",
+        "mean_abs_speed",
+        "drift_speed",
+        "dx_world",
+        "dy_world",
+    ]
+    .map(String::from)
+    .to_vec();
     head.extend(shape.iter().map(|s| s.0.clone()));
     head.extend(names.iter().cloned());
     head.extend(spectrum_header("mu", p.multipliers.len()));
@@ -226,6 +239,10 @@ fn periodic_csv(
         number(p.displacement[0]),
         number(p.displacement[1]),
         number(p.heading_change),
+        number(p.mean_abs_speed),
+        number(p.drift_speed),
+        number(p.world_displacement()[0]),
+        number(p.world_displacement()[1]),
     ];
     cells.extend(shape_cells(shape, &p.state));
     cells.extend(p.state.iter().map(|v| number(*v)));
@@ -432,11 +449,14 @@ pub(super) fn summary(scene: &str, r: &AnalyzeReport) -> String {
         };
         let _ = writeln!(
             s,
-            "{kind}: period {} s, {}, mean speed {} m/s, displacement ({}, {}) m and heading change {} rad per period; multipliers: {}",
+            "{kind}: period {} s, {} ({}), mean speed {} m/s (|displacement| / period; mean |v| {} m/s, drift speed {} m/s), displacement ({}, {}) m in the reference body's frame at t0 and heading change {} rad per period; multipliers: {}",
             // a limit cycle's period is found by Newton too
             if r.gait.is_none() && d < 6 { rounded_to(p.period, d) } else { fmt_value(p.period) },
-            format!("{} ({})", p.stability.name(), verdict(p)),
+            p.stability.name(),
+            verdict(p),
             rounded_to(p.mean_speed(), d),
+            rounded_to(p.mean_abs_speed, d),
+            rounded_to(p.drift_speed, d),
             rounded_to(p.displacement[0], d),
             rounded_to(p.displacement[1], d),
             rounded_to(p.heading_change, d),
