@@ -544,6 +544,11 @@ pub(crate) fn scene_analysis<M: Model>(
     Ok((an, x0))
 }
 
+/// States of a scene's run that are an analysis' guesses (evenly spaced,
+/// the end last): `ezy analyze`'s, and a sweep's gait metrics', whose
+/// runs are so the same.
+pub(crate) const GUESSES: u32 = 8;
+
 /// The stop event that ended a run early, and its time \[s\].
 pub(crate) type Stopped = Option<(String, f64)>;
 

@@ -346,3 +346,48 @@ fn a_signal_keeps_the_finished_rows_and_the_same_command_resumes() {
     assert!(said.contains(&format!("10 runs, {kept} done before, {} ran", 10 - kept)), "{said}");
     assert_eq!(table(&csv).1.len(), 10);
 }
+
+/// A sweep's metric may name a gait's quantity (`gait.mean_speed`), as
+/// `periodic.csv` names it: each run's gait is sought from its end as
+/// `ezy analyze` seeks it, so each value equals that of `ezy analyze
+/// --set` at the same value to 1e-9 (both are Newton's at 1e-9 on the
+/// same run's end; measured equal to the last digit); the mean power
+/// takes the orbit's extra integral (`oracle::gait_means` checks the
+/// values against a settled run). A scene without a gait (the
+/// drive: its energy grows) gives a failed row that names the metric;
+/// an unknown quantity is refused before any run, with the list.
+#[test]
+fn a_sweep_metric_names_a_gait_quantity_as_analyze_does() {
+    let out = dir("gait-metric");
+    let names = ["gait.mean_speed", "gait.drift_speed", "gait.mean_abs_speed", "gait.mean_power", "gait.dx"];
+    let mut list = vec!["sweep", "drive-rolling-resistance", "--list", "motor.omega=2.5,3.0", "--no-figures"];
+    for n in names {
+        list.extend(["--metric", n]);
+    }
+    ok(&ezy(args(&list, &out)));
+    let (h, rows) = table(&out.join("sweep.csv"));
+    let col = |name: &str| h.iter().position(|c| c == name).unwrap_or_else(|| panic!("{name} in {h:?}"));
+    for (row, omega) in rows.iter().zip(["2.5", "3.0"]) {
+        assert_eq!(row[col("status")], "ok", "{row:?}");
+        let a = dir(&format!("gait-metric-analyze-{omega}"));
+        let set = format!("motor.omega={omega}");
+        ok(&ezy(args(&["analyze", "drive-rolling-resistance", "--set", &set, "--no-figures"], &a)));
+        let (ph, prow) = table(&a.join("periodic.csv"));
+        for n in names {
+            let q = n.strip_prefix("gait.").unwrap();
+            let want: f64 = prow[0][ph.iter().position(|c| c == q).unwrap()].parse().unwrap();
+            let got: f64 = row[col(n)].parse().unwrap();
+            assert!((got - want).abs() <= 1e-9 * want.abs().max(1e-3), "{n} at {omega}: {got} against {want}");
+        }
+    }
+    let out = dir("gait-metric-none");
+    let list = ["sweep", "drive", "--list", "M0=1", "--t-end", "20", "--metric", "gait.dx", "--no-figures"];
+    ezy(args(&list, &out));
+    let (h, rows) = table(&out.join("sweep.csv"));
+    let status = &rows[0][h.iter().position(|c| c == "status").unwrap()];
+    assert!(status.starts_with("error: metric `gait.dx`: no periodic orbit"), "{status}");
+    let out = dir("gait-metric-unknown");
+    let e = err(&ezy(args(&["sweep", "drive", "--list", "M0=1", "--metric", "gait.speed"], &out)));
+    assert!(e.contains("a gait has no quantity `speed`") && e.contains("gait.drift_speed"), "{e}");
+    assert!(!out.join("sweep.csv").exists());
+}

@@ -21,6 +21,10 @@ pub(crate) enum Reduce {
     EventTime,
     /// How often an event happened (`event_count(NAME)`).
     EventCount,
+    /// A quantity of the gait the run settles onto (`gait.NAME`, the
+    /// name `periodic.csv` gives it): the periodic orbit is sought from
+    /// the run's end, as `ezy analyze` seeks it ([`super::gait`]).
+    Gait,
 }
 
 impl Reduce {
@@ -32,6 +36,7 @@ impl Reduce {
             Self::Final => "final",
             Self::EventTime => "event_time",
             Self::EventCount => "event_count",
+            Self::Gait => "gait",
         }
     }
 }
@@ -53,6 +58,9 @@ pub(crate) struct Metric {
     /// The event an `event_time` or `event_count` metric reads (its
     /// `column` is then the time, read by nothing).
     pub event: Option<String>,
+    /// The gait's quantity a `gait.NAME` metric reads (its `column` is
+    /// then the time, read by nothing).
+    pub gait: Option<String>,
 }
 
 impl std::str::FromStr for Metric {
@@ -65,6 +73,25 @@ impl std::str::FromStr for Metric {
     /// scene.
     fn from_str(s: &str) -> Result<Self, String> {
         let text = s.trim();
+        if let Some(name) = text.strip_prefix("gait.") {
+            if !super::gait::NAMES.contains(&name) {
+                return Err(format!(
+                    "metric `{text}`: a gait has no quantity `{name}`; its quantities: {}",
+                    super::gait::NAMES.map(|n| format!("gait.{n}")).join(", ")
+                ));
+            }
+            let column = Column::Named("t".into());
+            let reduce = Reduce::Gait;
+            return Ok(Self {
+                text: text.into(),
+                reduce,
+                column,
+                t0: None,
+                t1: None,
+                event: None,
+                gait: Some(name.into()),
+            });
+        }
         let usage = || {
             format!(
                 "metric `{text}`: expected FUNC(COLUMN) or FUNC(COLUMN, T0, T1) with FUNC mean, max, min or final, e.g. `mean(norm(x1d, y1d), 50, 60)`"
@@ -84,7 +111,8 @@ impl std::str::FromStr for Metric {
             let name = inner.trim();
             ezy_core::events::check_event_name(name).map_err(|e| format!("metric `{text}`: {e}"))?;
             let column = Column::Named("t".into());
-            return Ok(Self { text: text.to_string(), reduce, column, t0: None, t1: None, event: Some(name.into()) });
+            let event = Some(name.into());
+            return Ok(Self { text: text.to_string(), reduce, column, t0: None, t1: None, event, gait: None });
         }
         let reduce = match text[..open].trim() {
             "mean" => Reduce::Mean,
@@ -119,7 +147,7 @@ impl std::str::FromStr for Metric {
                 ezy_core::fmt_value(b)
             ));
         }
-        Ok(Self { text: text.to_string(), reduce, column, t0, t1, event: None })
+        Ok(Self { text: text.to_string(), reduce, column, t0, t1, event: None, gait: None })
     }
 }
 
@@ -279,7 +307,7 @@ impl Accumulator {
     /// read the run's first row, which a run always outputs.)
     pub(crate) fn reads(&self, t: f64, every: f64) -> bool {
         match self.reduce {
-            Reduce::EventTime | Reduce::EventCount => false,
+            Reduce::EventTime | Reduce::EventCount | Reduce::Gait => false,
             Reduce::Final => t <= self.t1 && t >= self.t0 && t > self.final_after(every),
             Reduce::Mean | Reduce::Max | Reduce::Min => t >= self.t0 && t <= self.t1,
         }
@@ -297,7 +325,7 @@ impl Accumulator {
     /// none): never later than the first such row.
     pub(crate) fn next_read(&self, t: f64, every: f64) -> f64 {
         let start = match self.reduce {
-            Reduce::EventTime | Reduce::EventCount => return f64::INFINITY,
+            Reduce::EventTime | Reduce::EventCount | Reduce::Gait => return f64::INFINITY,
             Reduce::Final => self.t0.max(self.final_after(every)),
             Reduce::Mean | Reduce::Max | Reduce::Min => self.t0,
         };
@@ -327,8 +355,9 @@ impl Accumulator {
             Reduce::Max => self.acc = self.acc.max(v),
             Reduce::Min => self.acc = self.acc.min(v),
             Reduce::Final => self.acc = v,
-            // read from the run's events ([`Metric::event_value`])
-            Reduce::EventTime | Reduce::EventCount => {}
+            // read from the run's events ([`Metric::event_value`]) or
+            // its gait ([`super::gait`])
+            Reduce::EventTime | Reduce::EventCount | Reduce::Gait => {}
         }
         self.last = Some((t, v));
     }
@@ -372,6 +401,12 @@ impl Metric {
             return Err(format!(
                 "metric `{}`: an event's time or count is not differentiated (a run with sensitivities has no events)",
                 self.text
+            ));
+        }
+        if self.gait.is_some() {
+            return Err(format!(
+                "metric `{}`: a gait's quantity is not a function of one run; optimize it as a gait's quantity (the objective `{}` itself)",
+                self.text, self.text
             ));
         }
         let at = |c: &str| {
@@ -434,7 +469,7 @@ impl Metric {
                 (v, g)
             }
             Reduce::Mean => (last.1, last.2.clone()),
-            Reduce::EventTime | Reduce::EventCount => unreachable!("refused above"),
+            Reduce::EventTime | Reduce::EventCount | Reduce::Gait => unreachable!("refused above"),
         };
         if !value.is_finite() || grad.iter().any(|g| !g.is_finite()) {
             return Err(format!("metric `{}` or its gradient is not finite ({value})", self.text));

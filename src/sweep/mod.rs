@@ -29,6 +29,7 @@
 //! dispatch passes them).
 
 pub(crate) mod figure;
+pub(crate) mod gait;
 pub(crate) mod metric;
 pub(crate) mod plan;
 pub(crate) mod slurm;
@@ -426,6 +427,28 @@ struct Done {
     summary: ezy_core::Summary,
     state_names: Vec<String>,
     tap: Tap,
+    /// Each gait metric's value (`None` for the others).
+    gait: Vec<Option<f64>>,
+}
+
+/// The run's gait metrics ([`gait::values`]) into `done`: a signal that
+/// stopped the search stops the run.
+fn with_gait<M: Model>(
+    mut done: Done,
+    (proto, job): (&M, &SweepJob),
+    settings: &ezy_core::RunSettings,
+    opts: &RunOptions,
+) -> Result<Done, Result<String, crate::output::transaction::Signal>> {
+    match gait::values(proto, job, settings, opts, done.summary.stopped.as_ref()) {
+        Ok(v) => {
+            done.gait = v;
+            Ok(done)
+        }
+        Err(e) => match crate::output::transaction::pending() {
+            Some(signal) => Err(Err(signal)),
+            None => Err(Ok(e)),
+        },
+    }
 }
 
 fn one_run<M: Model>(
@@ -453,7 +476,8 @@ fn one_run<M: Model>(
                 };
             }
         };
-        return Ok(Done { summary: report.summary, state_names: report.state_names, tap });
+        let done = Done { summary: report.summary, state_names: report.state_names, tap, gait: Vec::new() };
+        return with_gait(done, (proto, job), settings, &opts);
     }
     let (problem, scene) = session::problem(proto, &job.scene, opts, *settings).map_err(|e| Ok(e.to_string()))?;
     let (mut sys, y0, _) = problem.into_system().map_err(|e| Ok(e.to_string()))?;
@@ -466,7 +490,7 @@ fn one_run<M: Model>(
     match ezy_core::simulate(&mut sys, &y0, settings, &mut obs) {
         Ok(summary) => {
             let state_names = sys.state_names();
-            Ok(Done { summary, state_names, tap: obs.tap })
+            with_gait(Done { summary, state_names, tap: obs.tap, gait: Vec::new() }, (proto, job), settings, opts)
         }
         Err(RunError::Output(Stop::Signal(s))) => Err(Err(s)),
         Err(RunError::Output(Stop::Row(e))) => fail(e.to_string()),
@@ -491,8 +515,11 @@ fn row_line(
     fields.extend(values.iter().map(|&v| f(v)));
     let mut failed = false;
     let done = result.and_then(|d| {
-        let m: Result<Vec<f64>, String> = (d.tap.accs.iter().zip(metrics))
-            .map(|(a, m)| m.event_value(&d.summary.events).unwrap_or_else(|| a.value(m)))
+        let m: Result<Vec<f64>, String> = (d.tap.accs.iter().zip(metrics).enumerate())
+            .map(|(k, (a, m))| match d.gait.get(k).copied().flatten() {
+                Some(v) => Ok(v),
+                None => m.event_value(&d.summary.events).unwrap_or_else(|| a.value(m)),
+            })
             .collect();
         m.map(|m| (d, m))
     });

@@ -118,6 +118,40 @@ impl PeriodicOrbit {
         self.displacement[0] / self.period
     }
 
+    /// The names [`PeriodicOrbit::value`] knows, as `periodic.csv`
+    /// writes them.
+    pub const VALUE_NAMES: [&'static str; 10] = [
+        "period",
+        "mean_speed",
+        "mean_forward_speed",
+        "dx",
+        "dy",
+        "dheading",
+        "mean_abs_speed",
+        "drift_speed",
+        "dx_world",
+        "dy_world",
+    ];
+
+    /// The orbit's quantity `name` (one of [`PeriodicOrbit::VALUE_NAMES`],
+    /// in the units `periodic.csv` gives them: s, m/s, m, rad); `None` for
+    /// another name.
+    pub fn value(&self, name: &str) -> Option<f64> {
+        Some(match name {
+            "period" => self.period,
+            "mean_speed" => self.mean_speed(),
+            "mean_forward_speed" => self.mean_forward_speed(),
+            "dx" => self.displacement[0],
+            "dy" => self.displacement[1],
+            "dheading" => self.heading_change,
+            "mean_abs_speed" => self.mean_abs_speed,
+            "drift_speed" => self.drift_speed,
+            "dx_world" => self.world_displacement()[0],
+            "dy_world" => self.world_displacement()[1],
+            _ => return None,
+        })
+    }
+
     /// The displacement over one period in the frame of the state the
     /// search started from (for `ezy analyze`, the scene's run: where the
     /// run's reference body goes from `t0` to `t0 + T` once it has settled

@@ -120,9 +120,6 @@ pub(crate) fn exec(app: &App, args: &ArgMatches, out: &mut dyn Write) -> Result<
     committed(out, &summary(&scene.name, &report), &opts.run.out)
 }
 
-/// States of the scene's run that are guesses (evenly spaced, the end last).
-const GUESSES: u32 = 8;
-
 /// Most parameter values a continuation may take.
 const MAX_CONTINUATION: u64 = 10_000;
 
@@ -213,7 +210,7 @@ fn analyze_model<M: Model>(proto: &M, scene: &Scene, opts: &AnalyzeOptions) -> R
     let beat = ro.progress.then(|| {
         Heartbeat::start(format!("analyze {}: running the scene to t = {} s for guesses", scene.name, fmt_value(t_run)))
     });
-    let (samples, _) = run_to(proto, scene, ro, t_run, GUESSES)?;
+    let (samples, _) = run_to(proto, scene, ro, t_run, crate::session::GUESSES)?;
     let end = samples.last().cloned().unwrap_or_else(|| x0.clone());
     log.timings.push((format!("run to t = {} s for a guess", fmt_value(t_run)), clock.elapsed()));
     let mut growth = None;
@@ -564,7 +561,7 @@ fn guesses(x0: &[f64], end: &[f64], samples: &[Vec<f64>], t_end: f64, symmetry: 
     };
     let mut guesses =
         vec![("the scene's start".to_string(), x0.to_vec()), ("the end of its run".to_string(), rest(end))];
-    let every = t_end / f64::from(GUESSES);
+    let every = t_end / f64::from(crate::session::GUESSES);
     for (k, x) in samples.iter().enumerate().rev().skip(1) {
         guesses.push((format!("its run at t = {} s", fmt_value(every * (k + 1) as f64)), rest(x)));
     }

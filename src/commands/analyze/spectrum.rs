@@ -148,7 +148,7 @@ mod tests {
         assert_eq!(multiplier(z(7.43e-13), 6, 1e-11), "< 1e-11 (unresolved)");
         assert_eq!(multiplier(z(7.43e-13), 6, 2e-11), "< 1e-10 (unresolved)");
         assert_eq!(multiplier(z(f64::NAN), 6, 1e-11), "not finite (unresolved)");
-        assert_eq!(multiplier(c64::new(1e-9, -2e-9), 6, 1e-11), "1.0e-9-2.0e-9i");
+        assert_eq!(multiplier(c64::new(1e-9, -2e-9), 6, 1e-11), "1.00e-9-2.00e-9i");
         assert_eq!(nearest([3.0, 0.5, 1.0].into_iter(), 2), vec![1, 2]);
     }
 }
