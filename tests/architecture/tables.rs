@@ -274,6 +274,7 @@ pub const PYTHON: Rules = Rules {
         f("scene_text", 0, "scenes made in Python as scene-file text"),
         f("settings", 0, "the run keywords, turned into what the command line's flags would give"),
         f("units", 0, "each output column's unit and meaning"),
+        f("quantities", 0, "each analysis table's columns' units and meanings, from ezy-core's table of quantities"),
         f("words", 0, "the command line's text as a call from Python says it: flags as keywords, files as attributes"),
         // floor 1: on the keywords and the reports
         f("kit", 1, "the application behind a module (`Toolkit`), the command line run with the GIL released"),

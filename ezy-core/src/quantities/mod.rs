@@ -28,20 +28,20 @@ pub struct Column {
     /// The column's name as the CSV header writes it, or its pattern
     /// (`mu<k>_re`, `d<quantity>/d<parameter>`).
     pub name: &'static str,
-    /// Its unit as the code writes units (`m/s`, `rad`, `W`, `m/J`), ``
+    /// Its unit as the code writes units (`m/s`, `rad`, `W`, `m/J`), `""`
     /// for a number without one, or words where it is the unit of
     /// another quantity (`as <parameter>`).
     pub unit: &'static str,
     /// What it is, in words.
     pub meaning: &'static str,
-    /// Its definition as a formula (plain text), or `` where the words
+    /// Its definition as a formula (plain text), or `""` where the words
     /// are the definition.
     pub formula: &'static str,
-    /// The frame it is expressed in and the time it is taken at (`` for
+    /// The frame it is expressed in and the time it is taken at (`""` for
     /// a number that has neither: a count, a label).
     pub frame: &'static str,
     /// Where the definition comes from (a paper or book and its section),
-    /// or ``.
+    /// or `""`.
     pub source: &'static str,
 }
 
@@ -133,7 +133,7 @@ pub fn lookup(file: &str, column: &str, names: &Names<'_>) -> Option<&'static Co
 }
 
 /// Whether `text` fits `pattern` (its literal parts exactly, each
-/// `<...>` part by [`accepts`]).
+/// `<...>` part by the names it takes, as the module says).
 pub fn matches(pattern: &str, text: &str, names: &Names<'_>) -> bool {
     let Some(open) = pattern.find('<') else { return pattern == text };
     let (literal, rest) = pattern.split_at(open);
