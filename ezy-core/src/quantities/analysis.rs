@@ -210,7 +210,7 @@ const STEADY: &[Column] = &[
         "stability",
         "",
         "stable, unstable or neutral: every eigenvalue beyond the family's with negative real part, one with positive real part, or neither",
-        "stable: Re lambda_k < 0 for every k beyond the family's zeros (|Re lambda| <= 1e-7 max(1, |lambda|) counts as 0)",
+        "stable: Re lambda_k < 0 for every k beyond the family's zeros (|Re lambda| <= 1e-7 max(1, max_j |lambda_j|) counts as 0)",
         "modulo the plane's rigid motions",
         "",
     ),
