@@ -217,6 +217,16 @@ class Analysis:
         window, `t_start`, `t_end` [s], `T_start`, `T_end` [J], the power laws
         `energy_exponent` and `speed_exponent` with standard errors."""
         ...
+    @property
+    def units(self) -> Dict[str, Dict[str, str]]:
+        """Each table's columns' units: `{"periodic": {"drift_speed": "m/s",
+        ...}}` ("" for a pure number), from the guide's Quantities page."""
+        ...
+    def describe(self) -> str:
+        """Each table's columns with unit, meaning, and the frame and time
+        they are taken at (`dx`, `dy`: the reference body's frame at `t0`;
+        `drift_speed`: independent of `t0`)."""
+        ...
 
 class Geometry:
     """The geometry of locomotion: the report (`str()`) and its tables as
@@ -256,6 +266,15 @@ class Geometry:
         body's pose reconstructed (`x_reconstructed`, `y_reconstructed` [m],
         `theta_reconstructed` [rad]) and simulated (`x_simulated`, ...).
         Also `tables["gait_path"]`."""
+        ...
+    @property
+    def units(self) -> Dict[str, Dict[str, str]]:
+        """Each table's columns' units: `{"gait": {"dx": "m", ...}}` ("" for a
+        pure number), from the guide's Quantities page."""
+        ...
+    def describe(self) -> str:
+        """Each table's columns with unit, meaning, and the frame and time
+        they are taken at."""
         ...
 
 class Linearization:
@@ -408,7 +427,9 @@ def optimize(
     parameters, the objective and the constrained quantities at the
     optimum; `.attrs["history"]` every evaluation (with the gradient
     `d<objective>/d<param>` and `failure`), `.attrs["grid"]` the grid's
-    points (with `grid=` > 0), `.attrs["report"]` the report."""
+    points (with `grid=` > 0), `.attrs["report"]` the report. Each of the
+    three has `.attrs["units"]` (`{column: unit}`) and
+    `.attrs["description"]` (each column's unit, meaning, frame and time)."""
     ...
 def sensitivity(
     scene: _Scene,
@@ -421,7 +442,9 @@ def sensitivity(
 ) -> Any:
     """The run's derivatives with respect to `wrt`: a DataFrame with `t` [s]
     and `d<column>/d<param>` for each state column (`dx1/dM0`: m per unit
-    of M0); `.attrs["report"]` the report, with the final derivatives."""
+    of M0); `.attrs["report"]` the report, with the final derivatives;
+    `.attrs["units"]` `{column: unit}` and `.attrs["description"]` each
+    column's unit, meaning, frame and time."""
     ...
 def linearize(
     scene: _Scene,

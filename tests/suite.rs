@@ -46,6 +46,7 @@ mod optimize;
 mod oracle;
 mod output_window;
 mod properties;
+mod quantities;
 mod refusals;
 mod scene_files;
 mod scenes;

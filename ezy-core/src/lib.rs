@@ -62,6 +62,7 @@ pub mod kkt;
 pub mod model;
 pub mod names;
 pub mod problem;
+pub mod quantities;
 pub mod scalar;
 pub mod sensitivity;
 pub mod settings;

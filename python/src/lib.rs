@@ -34,6 +34,7 @@ pub use pyo3;
 mod command;
 mod kit;
 mod model;
+mod quantities;
 mod reports;
 mod result;
 mod scene;

@@ -5,6 +5,12 @@
 //! eigenvalues).
 
 use pyo3::prelude::*;
+use pyo3::types::PyDict;
+
+/// The file a geometry's table of key `key` was read from.
+fn geometry_file(key: &str) -> String {
+    format!("{}.csv", key.replace('_', "-"))
+}
 
 /// A model's derived equations: `str()` is the text, Jupyter shows the
 /// LaTeX (`_repr_latex_`).
@@ -120,6 +126,20 @@ impl Analysis {
         self.table(py, "growth")
     }
 
+    /// Each table's columns' units: `{"periodic": {"drift_speed": "m/s",
+    /// ...}, ...}` (from the guide's Quantities page; "" for a pure number).
+    #[getter]
+    fn units<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
+        Ok(crate::quantities::of_tables(py, self.tables.bind(py), |k| format!("{k}.csv"))?.0)
+    }
+
+    /// Each table's columns with their unit, meaning, and the frame and
+    /// time they are taken at, one line per column (consecutive columns of
+    /// one kind, such as the state's, on one line).
+    fn describe(&self, py: Python<'_>) -> PyResult<String> {
+        Ok(crate::quantities::of_tables(py, self.tables.bind(py), |k| format!("{k}.csv"))?.1)
+    }
+
     fn __str__(&self) -> String {
         self.report.clone()
     }
@@ -180,6 +200,20 @@ impl Geometry {
     #[getter]
     fn gait<'py>(&self, py: Python<'py>) -> PyResult<Option<Bound<'py, PyAny>>> {
         self.tables.bind(py).get_item("gait")
+    }
+
+    /// Each table's columns' units: `{"gait": {"dx": "m", ...}, ...}` (from
+    /// the guide's Quantities page; "" for a pure number).
+    #[getter]
+    fn units<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
+        Ok(crate::quantities::of_tables(py, self.tables.bind(py), geometry_file)?.0)
+    }
+
+    /// Each table's columns with their unit, meaning, and the frame and
+    /// time they are taken at, one line per column (consecutive columns of
+    /// one kind on one line).
+    fn describe(&self, py: Python<'_>) -> PyResult<String> {
+        Ok(crate::quantities::of_tables(py, self.tables.bind(py), geometry_file)?.1)
     }
 
     /// The gait's path along one period, or None: `t` [s], the shape

@@ -611,7 +611,9 @@ impl Toolkit {
     /// `d<column>/d<param>` (`dx1/dM0`: the column's unit per the
     /// parameter's, m per N m), the report in `.attrs["report"]` (the
     /// steps taken and the final derivatives; without `out`, its last
-    /// line says the table is the returned DataFrame).
+    /// line says the table is the returned DataFrame), `.attrs["units"]`
+    /// (`{column: unit}`) and `.attrs["description"]` (each column's unit,
+    /// meaning, frame and time, from the guide's Quantities page).
     /// Other keywords as `analyze`.
     ///
     /// Raises EzyError with the command line's message in this call's keywords (an unknown
@@ -633,6 +635,7 @@ impl Toolkit {
         let extra = vec!["--wrt".to_string(), wrt];
         let (report, dir, _temp) = self.command(py, "sensitivity", scene, model, extra, out, figures, settings)?;
         let frame = self.helpers.bind(py).call_method1("read_table", (dir.join("sensitivity.csv"),))?;
+        crate::quantities::annotate(py, &frame, "sensitivity.csv")?;
         frame.getattr("attrs")?.set_item("report", report)?;
         Ok(frame.unbind())
     }
@@ -703,7 +706,9 @@ impl Toolkit {
     /// evaluation (and its gradient) in `.attrs["history"]`, the grid's
     /// points (`grid` > 0) in `.attrs["grid"]` and the command's report
     /// (the optimum, the constraints' values and multipliers, the
-    /// evaluations taken) in `.attrs["report"]`.
+    /// evaluations taken) in `.attrs["report"]`; each table's
+    /// `.attrs["units"]` (`{column: unit}`) and `.attrs["description"]`
+    /// (each column's unit, meaning, frame and time).
     ///
     /// Raises EzyError with the command line's message in this call's keywords (an unknown
     /// quantity or parameter, bounds that exclude the start, a search that
@@ -777,12 +782,16 @@ impl Toolkit {
             self.command_on(py, "optimize", scene, model, extra, out, figures, settings, &adjust)?;
         let helpers = self.helpers.bind(py);
         let frame = helpers.call_method1("read_table", (dir.join("optimum.csv"),))?;
+        crate::quantities::annotate(py, &frame, "optimum.csv")?;
         let history = helpers.call_method1("read_table", (dir.join("history.csv"), "evaluation"))?;
+        crate::quantities::annotate(py, &history, "history.csv")?;
         frame.getattr("attrs")?.set_item("history", history)?;
         // the grid's evaluations (a search started from the best of a grid)
         let grid = dir.join("grid.csv");
         if grid.is_file() {
-            frame.getattr("attrs")?.set_item("grid", helpers.call_method1("read_table", (grid,))?)?;
+            let grid = helpers.call_method1("read_table", (grid,))?;
+            crate::quantities::annotate(py, &grid, "grid.csv")?;
+            frame.getattr("attrs")?.set_item("grid", grid)?;
         }
         frame.getattr("attrs")?.set_item("report", report)?;
         Ok(frame.unbind())

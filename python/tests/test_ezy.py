@@ -596,6 +596,17 @@ def test_sensitivities_of_a_run_and_of_a_gait(tmp_path):
     assert p["dperiod/dmotor.omega"][0] == pytest.approx(-2.0 / np.pi, rel=1e-9)
     assert p["mean_power"][0] > 0 and p["efficiency"][0] > 0
     assert "dmean_speed/dmotor.omega" in p.columns
+    # each column's unit and meaning, from the table of quantities
+    text = a.describe()
+    line = next(l for l in text.splitlines() if l.strip().startswith("drift_speed"))
+    assert "[m/s]" in line and "does not depend on t0" in line, line
+    assert "the reference body's frame at t0" in text
+    assert a.units["periodic"]["drift_speed"] == "m/s" and a.units["periodic"]["dx_world"] == "m"
+    assert a.units["periodic"]["dmean_speed/dmotor.omega"] == "the quantity's unit per the parameter's"
+    assert s.attrs["units"]["dx1/dM0"] == "the state component's unit per the parameter's"
+    assert "forward sensitivity" in s.attrs["description"]
+    g = ezy.geometry("kinematic-snake", grid=5)
+    assert g.units["gait"]["dx"] == "m" and "cycle's start" in g.describe()
     with pytest.raises(TypeError, match="wrt"):
         ezy.sensitivity("drive", wrt=3)
     with pytest.raises(ezy.EzyError, match="nope"):

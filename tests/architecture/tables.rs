@@ -85,6 +85,11 @@ pub const CORE: Rules = Rules {
         ),
         f("scalar", 0, "the scalar trait the generated code is generic over"),
         f("files", 0, "reading a file a user names: capped, regular files only"),
+        f(
+            "quantities",
+            0,
+            "every column the analyses' CSV files write, defined once: unit, definition, formula, frame and time, source (data)",
+        ),
         // floor 1: data about a model, and the integrators, which see an
         // `Rhs` and a `NewtonSystem`, never the dynamics
         f("model::info", 1, "what a model is: sizes, names, the pattern of `G` (data)"),
@@ -269,6 +274,8 @@ pub const PYTHON: Rules = Rules {
         f("scene_text", 0, "scenes made in Python as scene-file text"),
         f("settings", 0, "the run keywords, turned into what the command line's flags would give"),
         f("units", 0, "each output column's unit and meaning"),
+        f("quantities", 0, "each analysis table's columns' units and meanings, from ezy-core's table of quantities"),
+        f("words", 0, "the command line's text as a call from Python says it: flags as keywords, files as attributes"),
         // floor 1: on the keywords and the reports
         f("kit", 1, "the application behind a module (`Toolkit`), the command line run with the GIL released"),
         f("result", 1, "`ezy.Result`, a finished run in memory"),

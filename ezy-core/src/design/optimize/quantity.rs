@@ -10,7 +10,10 @@ use crate::sensitivity::gait::GaitSensitivities;
 
 /// A quantity of a gait (the periodic orbit of a periodically driven
 /// scene), by the name `periodic.csv` gives it (`gait.<name>` on the
-/// command line).
+/// command line). Each is defined, with its unit, frame and time, in the
+/// quantities table ([`GaitQuantity::entry`], [`crate::quantities`]):
+/// the gait is taken at the forcing's phase 0, the reference body is the
+/// model's first.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum GaitQuantity {
     /// `mean_speed`: the reference body's `|displacement| / T` \[m/s\].
@@ -61,6 +64,18 @@ impl GaitQuantity {
             Self::Efficiency => "efficiency",
             Self::Period => "period",
         }
+    }
+
+    /// Its entry in the quantities table (`gait.<name>` of
+    /// `optimum.csv`): unit, definition, formula, frame and time.
+    pub fn entry(self) -> Option<&'static crate::quantities::Column> {
+        let name = format!("gait.{}", self.name());
+        crate::quantities::lookup("optimum.csv", &name, &crate::quantities::Names::default()).filter(|c| c.name == name)
+    }
+
+    /// Its unit (`m/s`, `W`, ...), from the quantities table.
+    pub fn unit(self) -> &'static str {
+        self.entry().map_or("", |c| c.unit)
     }
 
     /// The quantity named `name` (`None` for another name).
@@ -208,5 +223,24 @@ impl Goal {
     /// The objective first, then each constraint's quantity.
     pub(crate) fn quantities(&self) -> Vec<&Quantity> {
         std::iter::once(&self.objective).chain(self.constraints.iter().map(|c| &c.quantity)).collect()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::GaitQuantity;
+
+    /// Every gait quantity has its entry in the quantities table under its
+    /// own name, with the unit its documentation gives, and the table's
+    /// list of names is this one's.
+    #[test]
+    fn every_gait_quantity_is_in_the_table_with_its_unit() {
+        let units = ["m/s", "m/s", "m", "m", "m", "rad", "W", "m/J", "s"];
+        for (q, unit) in GaitQuantity::ALL.into_iter().zip(units) {
+            let entry = q.entry().unwrap_or_else(|| panic!("gait.{} is not in the table", q.name()));
+            assert_eq!(entry.unit, unit, "{}", q.name());
+            assert_eq!(q.unit(), unit);
+        }
+        assert_eq!(GaitQuantity::ALL.map(GaitQuantity::name), crate::quantities::GAIT_QUANTITIES);
     }
 }
