@@ -13,24 +13,6 @@ use super::SweepJob;
 use super::metric::Metric;
 use crate::session::{self, RunOptions};
 
-/// The gait's quantities a metric may name: the orbit's own
-/// ([`PeriodicOrbit::VALUE_NAMES`]), then the actuators' mean power \[W\]
-/// and the efficiency \[m/J\] (which take one more period's integral).
-pub(crate) const NAMES: [&str; 12] = [
-    "period",
-    "mean_speed",
-    "mean_forward_speed",
-    "dx",
-    "dy",
-    "dheading",
-    "mean_abs_speed",
-    "drift_speed",
-    "dx_world",
-    "dy_world",
-    "mean_power",
-    "efficiency",
-];
-
 /// The value of each gait metric of `metrics` (`None` for the others)
 /// for the run of `job`'s scene at `opts`' settings (which ended early
 /// where `stopped` says), sought at the forcing's phase 0 of the last

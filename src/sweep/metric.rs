@@ -4,6 +4,24 @@
 
 use ezy_scene::Column;
 
+/// The gait's quantities a metric may name (`gait.NAME`, [`super::gait`]): the orbit's own
+/// ([`ezy_core::analysis::PeriodicOrbit::VALUE_NAMES`]), then the actuators' mean power \[W\]
+/// and the efficiency \[m/J\] (which take one more period's integral).
+pub(crate) const GAIT_NAMES: [&str; 12] = [
+    "period",
+    "mean_speed",
+    "mean_forward_speed",
+    "dx",
+    "dy",
+    "dheading",
+    "mean_abs_speed",
+    "drift_speed",
+    "dx_world",
+    "dy_world",
+    "mean_power",
+    "efficiency",
+];
+
 /// How a metric reduces its column over the window.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub(crate) enum Reduce {
@@ -74,10 +92,10 @@ impl std::str::FromStr for Metric {
     fn from_str(s: &str) -> Result<Self, String> {
         let text = s.trim();
         if let Some(name) = text.strip_prefix("gait.") {
-            if !super::gait::NAMES.contains(&name) {
+            if !GAIT_NAMES.contains(&name) {
                 return Err(format!(
                     "metric `{text}`: a gait has no quantity `{name}`; its quantities: {}",
-                    super::gait::NAMES.map(|n| format!("gait.{n}")).join(", ")
+                    GAIT_NAMES.map(|n| format!("gait.{n}")).join(", ")
                 ));
             }
             let column = Column::Named("t".into());
