@@ -143,7 +143,12 @@ fn a_motion_that_gains_energy_without_bound_is_an_answer() {
     // a settling scene into the same directory: its gait, growth.csv retired
     let (out, err, ok) = ezy(&["analyze", "drive-rolling-resistance", "--t-end", "4", "--no-figures"], &dir);
     assert!(ok, "{err}");
-    assert!(out.contains("periodic orbit: period 2 s, stable, mean speed 0.335262 m/s"), "{out}");
+    assert!(
+        out.contains(
+            "periodic orbit: period 2 s, stable (all 3 multipliers inside the unit circle), mean speed 0.335262 m/s"
+        ),
+        "{out}"
+    );
     assert!(dir.join("periodic.csv").is_file() && !dir.join("growth.csv").exists());
 }
 
