@@ -145,9 +145,11 @@ fn fit_model<M: Model>(
     let design = design.adjusted(move |p| Problem { settings, baumgarte: None, ..p });
     check_run(proto, scene, opts)?;
     // the directory is this command's from here to the commit
+    // armed before the lock: a signal between the two would take the
+    // default action and leave the directory with its lock file
+    crate::output::transaction::arm_signals();
     let held = OutLock::take(&opts.out)?;
     // a signal stops the work (it polls the flag) and leaves the directory as it was
-    crate::output::transaction::arm_signals();
     let f = fit(&design, data, Some(|| crate::output::transaction::pending().is_some()))
         .map_err(analysis_error(&opts.out))?;
     let mut tx = Transaction::begin_locked(held)?;

@@ -205,9 +205,11 @@ fn optimize_model<M: Model>(
     let design = design.adjusted(move |p| Problem { settings, baumgarte: None, ..p });
     crate::session::check_run(proto, scene, opts)?;
     // the directory is this command's from here to the commit
+    // armed before the lock: a signal between the two would take the
+    // default action and leave the directory with its lock file
+    crate::output::transaction::arm_signals();
     let held = OutLock::take(&opts.out)?;
     // Ctrl-C ends the search with the best point so far written
-    crate::output::transaction::arm_signals();
     let beat = opts.progress.then(|| Heartbeat::start(format!("optimize {}: the start", scene.name)));
     let mut count = 0;
     let o = optimize(&design, &goal, &os, Some(|| crate::output::transaction::pending().is_some()), &mut |e| {

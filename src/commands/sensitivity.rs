@@ -100,9 +100,11 @@ fn sensitivity_model<M: Model>(
     let (problem, _) = problem(proto, scene, opts, settings)?;
     let params = wrt.iter().map(|n| scene.parameter(proto, &opts.sets, n)).collect::<Result<Vec<_>, _>>()?;
     // the directory is this command's from here to the commit
+    // armed before the lock: a signal between the two would take the
+    // default action and leave the directory with its lock file
+    crate::output::transaction::arm_signals();
     let held = OutLock::take(&opts.out)?;
     // a signal stops the work (it polls the flag) and leaves the directory as it was
-    crate::output::transaction::arm_signals();
     let s = problem
         .sensitivities_stop_when(&params, || crate::output::transaction::pending().is_some())
         .map_err(analysis_error(&opts.out))?;
