@@ -212,6 +212,20 @@ class Analysis:
         row has its kind in `bifurcation` and `critical_re`, `critical_im`."""
         ...
     @property
+    def branches(self) -> List[Any]:
+        """With `switch=`: every branch's DataFrame, the one followed first
+        (`.branch`), then each born at one of its bifurcations (numbered
+        as in `.diagram`); without, `[.branch]` or `[]`."""
+        ...
+    @property
+    def diagram(self) -> Any:
+        """With `switch=`: one row per branch: `branch` (0 the one followed),
+        `file`, `parent`, `born_at` (the bifurcation's parameter value),
+        `bifurcation` (transcritical, pitchfork, period doubling, Hopf),
+        `criticality` (supercritical, subcritical), `symmetry_breaking`,
+        `side`, `points`, `from`, `to`, `ended`; or None."""
+        ...
+    @property
     def growth(self) -> Any:
         """A driven motion that gains energy without bound: one row per
         window, `t_start`, `t_end` [s], `T_start`, `T_end` [J], the power laws
@@ -358,6 +372,7 @@ def analyze(
     period: Optional[float] = None,
     energy: Optional[float] = None,
     vary: Optional[str] = None,
+    switch: Union[bool, int, None] = None,
     wrt: Union[str, Sequence[str], None] = None,
     out: Optional[_Path] = None,
     figures: bool = False,
@@ -365,7 +380,9 @@ def analyze(
 ) -> Analysis:
     """Steady motions, a gait or a limit cycle and their stability, as
     `ezy analyze`: `period=` [s], `energy=` [J], `vary="NAME=START:STOP:COUNT"`
-    (a branch: `.branch`), `wrt=` (the gait's derivatives in `.periodic`)."""
+    (a branch: `.branch`), with `switch=True` (or `k`: the k-th) the
+    branches born at its bifurcations too (`.branches`, `.diagram`),
+    `wrt=` (the gait's derivatives in `.periodic`)."""
     ...
 def geometry(
     target: Union[_Scene, Model],

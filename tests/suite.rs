@@ -57,5 +57,6 @@ mod slurm;
 mod snakeboard;
 mod stiff;
 mod sweep;
+mod switching;
 mod testing;
 mod text_models;

@@ -118,6 +118,26 @@ impl Analysis {
         self.table(py, "branch")
     }
 
+    /// With `switch=`: every branch's DataFrame, the one followed first
+    /// (`.branch`), then each born at one of its bifurcations (`branch-1`,
+    /// ...: their numbers in `.diagram`); without, `[.branch]` or `[]`.
+    #[getter]
+    fn branches<'py>(&self, py: Python<'py>) -> PyResult<Vec<Bound<'py, PyAny>>> {
+        let first = self.table(py, "branch")?;
+        let born = (1..).map_while(|k| self.table(py, &format!("branch-{k}")).transpose());
+        first.into_iter().map(Ok).chain(born).collect()
+    }
+
+    /// With `switch=`: the bifurcation diagram's branches, one row each:
+    /// `branch` (0 the one followed), `file`, `parent`, `born_at` (the
+    /// bifurcation's parameter value), `bifurcation` (transcritical,
+    /// pitchfork, period doubling, Hopf), `criticality`,
+    /// `symmetry_breaking`, `side`, `points`, `from`, `to`, `ended`; or None.
+    #[getter]
+    fn diagram<'py>(&self, py: Python<'py>) -> PyResult<Option<Bound<'py, PyAny>>> {
+        self.table(py, "branches")
+    }
+
     /// A motion's growth without bound (no gait), or None: one row per
     /// window, the kinetic energy's and the speed's exponents each by its
     /// own fit, with standard errors and log residuals.

@@ -449,7 +449,12 @@ impl Toolkit {
     /// sought; `vary="NAME=START:STOP:COUNT"` follows the solution as a
     /// parameter varies (the command line's `--continue`); `wrt` (a name
     /// or a list: `"motor.omega"`, `["M0", "c"]`) adds the gait's
-    /// derivatives `d<quantity>/d<param>` to `.periodic`; `out` keeps the
+    /// derivatives `d<quantity>/d<param>` to `.periodic`; with `vary`,
+    /// `switch=True` also follows the branches born at the branch's branch
+    /// points, period doublings and Hopf points (`switch=k`: at the k-th
+    /// only; the command line's `--switch`): `.branches` lists every
+    /// branch's DataFrame (the one followed first) and `.diagram` says
+    /// where each is born and of what bifurcation; `out` keeps the
     /// files (CSV and figures: `figures=True`). Without `out` nothing is
     /// kept on disk, and the report's last line names the attributes that
     /// hold the tables (`table: .periodic of the returned object`). Other
@@ -457,7 +462,7 @@ impl Toolkit {
     ///
     /// Raises EzyError with the command line's message in this call's keywords (no orbit found,
     /// a bad setting); KeyboardInterrupt on Ctrl-C.
-    #[pyo3(signature = (scene, *, model=None, period=None, energy=None, vary=None, wrt=None, out=None, figures=false, **settings))]
+    #[pyo3(signature = (scene, *, model=None, period=None, energy=None, vary=None, switch=None, wrt=None, out=None, figures=false, **settings))]
     #[expect(clippy::too_many_arguments, reason = "Python's keywords, one argument each")]
     fn analyze(
         &self,
@@ -467,6 +472,7 @@ impl Toolkit {
         period: Option<&Bound<'_, PyAny>>,
         energy: Option<&Bound<'_, PyAny>>,
         vary: Option<&Bound<'_, PyAny>>,
+        switch: Option<&Bound<'_, PyAny>>,
         wrt: Option<&Bound<'_, PyAny>>,
         out: Option<PathBuf>,
         figures: bool,
@@ -488,12 +494,17 @@ impl Toolkit {
         if let Some(v) = vary {
             extra.extend(["--continue".to_string(), v]);
         }
+        extra.extend(switch_kw(switch)?);
         let (report, dir, _temp) = self.command(py, "analyze", scene, model, extra, out, figures, settings)?;
         let tables = PyDict::new(py);
-        for name in ["periodic", "equilibria", "branch", "growth"] {
+        // the branches born (branch-1.csv, ...) in their order, as far as
+        // they go
+        let born = (1..).map(|k| format!("branch-{k}")).take_while(|n| dir.join(format!("{n}.csv")).is_file());
+        for name in ["periodic", "equilibria", "branch", "branches", "growth"].map(String::from).into_iter().chain(born)
+        {
             let path = dir.join(format!("{name}.csv"));
             if path.is_file() {
-                tables.set_item(name, self.helpers.bind(py).call_method1("read_table", (path,))?)?;
+                tables.set_item(&name, self.helpers.bind(py).call_method1("read_table", (path,))?)?;
             }
         }
         Ok(Analysis { report, tables: tables.unbind() })
@@ -908,4 +919,29 @@ fn model_key(model: &Bound<'_, PyAny>) -> PyResult<String> {
     model
         .extract()
         .map_err(|_| PyValueError::new_err("model: give a model's key, the path of a .ezy file, or an ezy.Model"))
+}
+
+/// `analyze(switch=...)` as the command line's arguments: `True` is
+/// `--switch` (every bifurcation), a whole number `k >= 1` is `--switch k`,
+/// `False` or `None` nothing.
+///
+/// # Errors
+/// `TypeError` or `ValueError` naming the keyword for anything else.
+fn switch_kw(v: Option<&Bound<'_, PyAny>>) -> PyResult<Vec<String>> {
+    let Some(v) = v.filter(|v| !v.is_none()) else { return Ok(Vec::new()) };
+    if let Ok(b) = v.downcast::<pyo3::types::PyBool>() {
+        return Ok(if b.is_true() { vec!["--switch".into()] } else { Vec::new() });
+    }
+    match v.extract::<i64>() {
+        Ok(k) if k >= 1 => Ok(vec!["--switch".into(), k.to_string()]),
+        Ok(k) => Err(pyo3::exceptions::PyValueError::new_err(format!(
+            "analyze(): `switch={k}`: the bifurcations are counted from 1 (switch=1 the first); switch=True for all"
+        ))),
+        Err(_) => {
+            let ty = v.get_type().name().map_or_else(|_| "?".to_string(), |n| n.to_string());
+            Err(pyo3::exceptions::PyTypeError::new_err(format!(
+                "analyze(): `switch` must be True (every bifurcation) or a whole number k >= 1 (the k-th), not {ty} ({v})"
+            )))
+        }
+    }
 }

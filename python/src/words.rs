@@ -23,6 +23,7 @@ enum Kind {
 const FLAGS: &[(&str, &str, Kind)] = &[
     ("set", "set", Kind::Other),
     ("continue", "vary", Kind::Other),
+    ("switch", "switch", Kind::Other),
     ("wrt", "wrt", Kind::Other),
     ("over", "over", Kind::Other),
     ("maximize", "maximize", Kind::Other),
@@ -65,6 +66,7 @@ const TABLES: &[(&str, &str, &str)] = &[
     ("analyze", "periodic.csv", ".periodic"),
     ("analyze", "equilibria.csv", ".equilibria"),
     ("analyze", "branch.csv", ".branch"),
+    ("analyze", "branches.csv", ".diagram"),
     ("analyze", "growth.csv", ".growth"),
     ("geometry", "connection.csv", ".connection"),
     ("geometry", "curvature.csv", ".curvature"),
@@ -160,9 +162,17 @@ impl Said<'_> {
         text
     }
 
-    /// Where a Python caller finds the table the command wrote as `file`.
-    fn table(&self, file: &str) -> Option<&'static str> {
-        TABLES.iter().find(|(f, n, _)| *f == self.function && *n == file).map(|(_, _, at)| *at)
+    /// Where a Python caller finds the table the command wrote as `file`
+    /// (a branch born, `branch-K.csv`, is `.branches[K]`).
+    fn table(&self, file: &str) -> Option<String> {
+        let born = file.strip_prefix("branch-").and_then(|r| r.strip_suffix(".csv"));
+        if let (Some(k), "analyze") = (born, self.function)
+            && !k.is_empty()
+            && k.bytes().all(|c| c.is_ascii_digit())
+        {
+            return Some(format!(".branches[{k}]"));
+        }
+        TABLES.iter().find(|(f, n, _)| *f == self.function && *n == file).map(|(_, _, at)| at.to_string())
     }
 }
 

@@ -628,6 +628,27 @@ def test_a_limit_cycle_and_a_located_bifurcation():
     assert row["critical_re"].iloc[0] == pytest.approx(1.0, abs=1e-6)
 
 
+def test_switching_gives_the_whole_bifurcation_diagram():
+    # the straight gait's pitchfork in the motor amplitude and its two
+    # turning arms, as `ezy analyze --switch` finds them (checked against
+    # runs in tests/switching.rs): one call, the branches as DataFrames
+    a = ezy.analyze("drive-rolling-resistance", vary="motor.amplitude=0.8:0.4:5", switch=True)
+    d = a.diagram
+    assert list(d["branch"]) == [0, 1, 2]
+    assert list(d["bifurcation"].iloc[1:]) == ["pitchfork", "pitchfork"]
+    assert list(d["criticality"].iloc[1:]) == ["supercritical", "supercritical"]
+    assert all(d["symmetry_breaking"].iloc[1:])
+    assert len(a.branches) == 3 and a.branches[0] is a.branch
+    left, right = a.branches[1].iloc[-1], a.branches[2].iloc[-1]
+    assert left["motor.amplitude"] == right["motor.amplitude"] == 0.4
+    # mirror images: opposite turning at one speed (Newton's 1e-9)
+    assert left["turning_rate"] == pytest.approx(-right["turning_rate"], abs=1e-8)
+    assert abs(left["turning_rate"]) > 1e-2
+    assert left["speed"] == pytest.approx(right["speed"], abs=1e-8)
+    assert ".branches[1], .branches[2]" in a.report and ".diagram" in a.report
+    assert ezy.analyze("drive-rolling-resistance", vary="motor.amplitude=0.8:0.4:5").diagram is None
+
+
 def test_a_fit_from_a_dataframe_recovers_the_parameters(tmp_path):
     run = ezy.run(
         "drive-rolling-resistance",

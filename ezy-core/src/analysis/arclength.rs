@@ -51,7 +51,7 @@ const EASY_TURN_COS: f64 = 0.98;
 
 /// The defining equations of a branch's solutions, their symmetry and
 /// period fixed at the branch's first point.
-struct Equations {
+pub(super) struct Equations {
     follow: Follow,
     /// Steady motions: the motion's symmetry; periodic orbits: its rigid part.
     symmetry: Symmetry,
@@ -70,16 +70,16 @@ struct Equations {
     /// another part of the branch whose tangent looked alike.
     slaves: Vec<usize>,
     /// A periodic orbit's period in the forcing's periods ([`solve`]).
-    timing: OrbitTiming,
+    pub(super) timing: OrbitTiming,
     /// Newton's tolerance on the residual (max norm).
     tol: f64,
 }
 
 /// A point of the corrector: the unknowns `w = [z, p]`, the unit tangent
 /// there (oriented along the row it was solved with) and the iterations.
-struct Corrected {
-    w: Vec<f64>,
-    tangent: Vec<f64>,
+pub(super) struct Corrected {
+    pub(super) w: Vec<f64>,
+    pub(super) tangent: Vec<f64>,
     iterations: usize,
 }
 
@@ -95,7 +95,7 @@ fn gauge(bodies: &[[usize; 3]], symmetry: Symmetry) -> Vec<usize> {
 
 /// A solution's unknowns `z`: `[x, xi]` of a steady motion, `[x0, h]` of
 /// a periodic orbit.
-fn unknowns(s: &Solution) -> Vec<f64> {
+pub(super) fn unknowns(s: &Solution) -> Vec<f64> {
     match s {
         Solution::Steady(m) => [&m.state[..], &m.xi].concat(),
         Solution::Periodic(o) => [o.state.clone(), o.symmetry.params(o.shift)].concat(),
@@ -104,7 +104,7 @@ fn unknowns(s: &Solution) -> Vec<f64> {
 
 impl Equations {
     /// The equations of the branch through `first`.
-    fn new(follow: Follow, first: &Solution) -> Self {
+    pub(super) fn new(follow: Follow, first: &Solution) -> Self {
         let (symmetry, scale) = match first {
             Solution::Steady(m) => (m.symmetry, m.state.iter().fold(1.0f64, |a, v| a.max(v.abs()))),
             Solution::Periodic(o) => (o.symmetry, o.state.iter().fold(1.0f64, |a, v| a.max(v.abs()))),
@@ -201,7 +201,7 @@ impl Equations {
     /// # Errors
     /// [`AnalysisError::NotConverged`] after [`MAX_CORRECTOR`] iterations
     /// or where the residual grows; `build`'s and the equations' errors.
-    fn correct<M: Model>(
+    pub(super) fn correct<M: Model>(
         &mut self,
         build: &mut impl FnMut(f64) -> Result<Analysis<M>, AnalysisError>,
         w_hat: &[f64],
@@ -240,7 +240,7 @@ impl Equations {
 
     /// The solution at the corrected point `c`: the kind's own search from
     /// its state (converged already: it adds the stability).
-    fn point<M: Model>(
+    pub(super) fn point<M: Model>(
         &mut self,
         build: &mut impl FnMut(f64) -> Result<Analysis<M>, AnalysisError>,
         c: &Corrected,
@@ -251,6 +251,44 @@ impl Equations {
         let n2 = 2 * an.nq();
         let solution = solve(&mut an, self.follow, &c.w[..n2], &mut self.timing)?;
         Ok(BranchPoint { value, solution, dp_ds: Some(c.tangent[nz]) })
+    }
+
+    /// `[R_z R_p; n^T]` at `w = [z, p]` (rows as `R` and one more,
+    /// columns as `w`; `R_p` by the corrector's forward difference). At a
+    /// branch point `[R_z R_p]` has a null space of two, and with the row
+    /// `n` the old branch's tangent, this matrix's null vector is the
+    /// direction in it orthogonal to the old branch: the new branch's
+    /// ([`super::switching`]).
+    ///
+    /// # Errors
+    /// `build`'s and the equations' errors.
+    pub(super) fn extended_jacobian<M: Model>(
+        &mut self,
+        build: &mut impl FnMut(f64) -> Result<Analysis<M>, AnalysisError>,
+        w: &[f64],
+        n: &[f64],
+    ) -> Result<Mat<f64>, AnalysisError> {
+        let mut corrector = Corrector { eq: self, build, w_hat: w, n, w: w.to_vec(), r: Vec::new(), tried: Vec::new() };
+        corrector.r = corrector.residual_at(w)?;
+        newton::Equations::jacobian(&mut corrector)
+    }
+
+    /// The slaves' components of `t` set to 0 and `t` made a unit vector
+    /// (as the tangent is: [`Equations::slaves`]).
+    pub(super) fn unit_tangent(&self, mut t: Vec<f64>) -> Vec<f64> {
+        for &k in &self.slaves {
+            t[k] = 0.0;
+        }
+        let len = t.iter().map(|v| v * v).sum::<f64>().sqrt();
+        t.iter().map(|v| v / len).collect()
+    }
+
+    /// `w`'s cyclic coordinates held at zero, as the branch's points hold them.
+    pub(super) fn at_gauge(&self, mut w: Vec<f64>) -> Vec<f64> {
+        for &k in &self.cyclic {
+            w[k] = 0.0;
+        }
+        w
     }
 }
 

@@ -34,6 +34,15 @@ pub enum BifurcationKind {
     /// point (the symmetry-breaking pitchfork of a straight gait that
     /// turns beyond it); where the branch turns back instead, a [`BifurcationKind::Fold`].
     BranchPoint,
+    /// A branch point where the new branch crosses the old one, taking
+    /// its stability on the other side (exchange of stability), as told
+    /// by [`super::switching::switch_both`]: the generic branch point.
+    Transcritical,
+    /// A branch point where two new branches leave on the same side of
+    /// it, the parameter quadratic in their amplitude (a symmetry of the
+    /// scene makes it generic), as told by
+    /// [`super::switching::switch_both`].
+    Pitchfork,
     /// A real multiplier crosses -1: period doubling (flip).
     PeriodDoubling,
     /// A complex pair of multipliers crosses the unit circle:
@@ -50,6 +59,8 @@ impl BifurcationKind {
         match self {
             BifurcationKind::Fold => "fold",
             BifurcationKind::BranchPoint => "branch point",
+            BifurcationKind::Transcritical => "transcritical",
+            BifurcationKind::Pitchfork => "pitchfork",
             BifurcationKind::PeriodDoubling => "period doubling",
             BifurcationKind::NeimarkSacker => "Neimark-Sacker",
             BifurcationKind::Hopf => "Hopf",
@@ -76,6 +87,22 @@ pub struct Bifurcation {
     pub solution: Solution,
     /// Solutions computed to locate it.
     pub solves: usize,
+}
+
+impl Bifurcation {
+    /// The frequency \[rad/s\] of the motion a Hopf or Neimark-Sacker
+    /// point brings: a Hopf point's critical `|Im lambda|`, a
+    /// Neimark-Sacker point's critical `|arg mu| / T` (the torus's second
+    /// frequency, `T` the orbit's period; Kuznetsov §3.4 and §4.7).
+    /// `None` for the other kinds.
+    pub fn frequency(&self) -> Option<f64> {
+        let z = self.critical.first()?;
+        match (self.kind, &self.solution) {
+            (BifurcationKind::Hopf, _) => Some(z.im.abs()),
+            (BifurcationKind::NeimarkSacker, Solution::Periodic(o)) => Some(z.im.atan2(z.re).abs() / o.period),
+            _ => None,
+        }
+    }
 }
 
 /// The dimension of the family of solutions through `s` (its

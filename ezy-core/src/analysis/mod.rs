@@ -79,6 +79,7 @@ pub(crate) mod periodic;
 mod settle;
 mod steady;
 pub(crate) mod structural;
+pub mod switching;
 pub(crate) mod symmetry;
 
 pub use bifurcation::{Bifurcation, BifurcationKind};

@@ -22,6 +22,7 @@ pub(super) const STATE_UNIT: &str = "m or rad; rates m/s or rad/s";
 const SEYDEL_7: &str = "Seydel, Practical Bifurcation and Stability Analysis, 3rd ed., 2010, ch. 7";
 const KELLY_MURRAY: &str = "Kelly & Murray, Geometric phases and robotic locomotion, J. Robotic Systems 12, 1995, §2";
 const BIFURCATIONS: &str = "Seydel, Practical Bifurcation and Stability Analysis, 3rd ed., §5.2 and §7.4-7.6";
+const KUZNETSOV_SWITCH: &str = "Kuznetsov, Elements of Applied Bifurcation Theory, 3rd ed., §3.2-3.5 and §10.2; Seydel, Practical Bifurcation and Stability Analysis, 3rd ed., §2.5-2.7 and §5.6";
 const FERMI: &str = "Bizyaev, Borisov, Kozlov & Mamaev, Fermi-like acceleration and power-law energy growth in nonholonomic systems, Nonlinearity 32, 3209, 2019";
 
 /// A hinge between two bodies: its angle.
@@ -294,6 +295,14 @@ const BRANCH_HEAD: &[Column] = &[
         "the same in every frame; a periodic row's from its t0 (it depends on t0 for a gait that turns)",
         "",
     ),
+    c(
+        "turning_rate",
+        "rad/s",
+        "How fast the row's motion turns: a steady motion's yaw rate, a periodic orbit's heading change per period over its period (0 for a motion that goes straight; opposite on a symmetry-breaking pitchfork's two arms)",
+        "omega (steady); dheading / T (periodic)",
+        "the same in every frame",
+        "",
+    ),
     c("period", "s", "A periodic row's period T", "x(t0 + T) = h . x(t0)", "", ""),
     c(
         "t0",
@@ -336,7 +345,7 @@ const BIFURCATION: &[Column] = &[
     c(
         "bifurcation",
         "",
-        "On a bifurcation's row, its kind: fold, branch point, period doubling, Neimark-Sacker or Hopf (empty on the other rows)",
+        "On a bifurcation's row, its kind: fold, branch point, period doubling, Neimark-Sacker or Hopf; with --switch, a branch point told transcritical or pitchfork by the branches born there (empty on the other rows)",
         "",
         "",
         BIFURCATIONS,
@@ -365,6 +374,79 @@ pub(super) const BRANCH: Table = Table {
     command: "ezy analyze --continue",
     about: "The branch of steady motions or periodic orbits followed through a parameter: one row per value, and one per bifurcation located (after the point of its bracket). The power and efficiency of a forced scene's gaits",
     groups: &[BRANCH_HEAD, POWER, BIFURCATION],
+};
+
+/// `branch-<k>.csv`.
+pub(super) const BORN: Table = Table {
+    file: "branch-<k>.csv",
+    command: "ezy analyze --continue --switch",
+    about: "The k-th branch born at a bifurcation of the branch followed (branches.csv says which), followed to the range's end on its side: its columns as branch.csv's",
+    groups: &[BRANCH_HEAD, POWER, BIFURCATION],
+};
+
+const BRANCHES_COLUMNS: &[Column] = &[
+    c(
+        "branch",
+        "",
+        "The branch's number: 0 the branch followed (branch.csv), k a branch born (branch-<k>.csv)",
+        "",
+        "",
+        "",
+    ),
+    c("file", "", "The branch's table", "", "", ""),
+    c("parent", "", "The number of the branch it is born from (empty for branch 0)", "", "", ""),
+    c(
+        "born_at",
+        "as the parameter",
+        "The parameter's value at the bifurcation the branch is born at",
+        "",
+        "",
+        BIFURCATIONS,
+    ),
+    c(
+        "bifurcation",
+        "",
+        "The bifurcation it is born at, as the branches born tell it: transcritical (the new branch crosses the old on both sides), pitchfork (two arms on one side), period doubling, Hopf; or branch point where they are too near to tell",
+        "",
+        "",
+        KUZNETSOV_SWITCH,
+    ),
+    c(
+        "criticality",
+        "",
+        "supercritical where the branches born are as stable as the parent on its stable side (they take over the stability it loses), subcritical otherwise; empty for a transcritical point",
+        "",
+        "",
+        KUZNETSOV_SWITCH,
+    ),
+    c(
+        "symmetry_breaking",
+        "",
+        "true for a pitchfork whose parent does not turn while its two arms turn opposite ways (the plane's reflection broken)",
+        "",
+        "",
+        "",
+    ),
+    c(
+        "side",
+        "",
+        "The side (+1 or -1) of the new branch's direction at the bifurcation it was sought on, 1e-2 of the state's scale away",
+        "",
+        "",
+        "",
+    ),
+    c("points", "", "The branch's points (its table's rows other than bifurcations')", "", "", ""),
+    c("from", "as the parameter", "The parameter's value at the branch's first point", "", "", ""),
+    c("to", "as the parameter", "The parameter's value at the branch's last point", "", "", ""),
+    c("ended", "", "How the branch ended: the range's end, or why it stopped before it", "", "", ""),
+];
+
+/// `branches.csv`.
+pub(super) const BRANCHES: Table = Table {
+    file: "branches.csv",
+    command: "ezy analyze --continue --switch",
+    about: "The branches of a bifurcation diagram: the branch followed and each branch born at one of its bifurcations, one row each",
+    groups: &[BRANCHES_COLUMNS],
 };
 
 const GROWTH_COLUMNS: &[Column] = &[

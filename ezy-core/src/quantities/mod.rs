@@ -74,6 +74,8 @@ pub const TABLES: &[Table] = &[
     analysis::PERIODIC,
     analysis::EQUILIBRIA,
     analysis::BRANCH,
+    analysis::BORN,
+    analysis::BRANCHES,
     analysis::GROWTH,
     design::SENSITIVITY,
     design::OPTIMUM,
@@ -109,9 +111,14 @@ pub struct Names<'a> {
     pub hinges: &'a [String],
 }
 
-/// The table written to `file` (`periodic.csv`), `None` for a file no
-/// analysis writes.
+/// The table written to `file` (`periodic.csv`; `branch-3.csv` is
+/// `branch-<k>.csv`'s), `None` for a file no analysis writes.
 pub fn table(file: &str) -> Option<&'static Table> {
+    let born = file
+        .strip_prefix("branch-")
+        .and_then(|r| r.strip_suffix(".csv"))
+        .is_some_and(|k| !k.is_empty() && k.bytes().all(|c| c.is_ascii_digit()));
+    let file = if born { "branch-<k>.csv" } else { file };
     TABLES.iter().find(|t| t.file == file)
 }
 

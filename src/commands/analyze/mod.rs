@@ -15,17 +15,15 @@ use std::path::PathBuf;
 use std::time::{Duration, Instant};
 
 use clap::{ArgMatches, Args, FromArgMatches};
-use ezy_core::analysis::arclength::{follow_arclength, locate_fold};
-use ezy_core::analysis::bifurcation::locate;
 use ezy_core::analysis::{
-    Analysis, AnalysisError, BranchPoint, Follow, GaitOrGrowth, Growth, PeriodicOrbit, PeriodicSettings, Solution,
-    SteadyMotion, Symmetry,
+    Analysis, AnalysisError, Follow, GaitOrGrowth, Growth, PeriodicOrbit, PeriodicSettings, SteadyMotion, Symmetry,
 };
 use ezy_core::effects::Periodicity;
 use ezy_core::sensitivity::GaitSensitivities;
 use ezy_core::{Model, fmt_value};
 use ezy_scene::Scene;
 
+mod branches;
 mod report;
 mod spectrum;
 
@@ -33,12 +31,12 @@ use super::{check_figure_format, committed};
 use crate::app::{App, AppError};
 use crate::cli::{Overrides, parse_positive};
 use crate::output::progress::Heartbeat;
-use crate::output::transaction::{OutLock, check_interrupt, pending};
+use crate::output::transaction::OutLock;
 use crate::session::{
-    Error, RunOptions, analysis_error, check_run, complex, orbit_decimals, periodic_settings, run_to, scene_analysis,
-    settings,
+    Error, RunOptions, analysis_error, check_run, orbit_decimals, periodic_settings, run_to, scene_analysis, settings,
 };
-use report::{Located, summary, wrap, write_analysis};
+use branches::{SwitchAt, follow_all};
+use report::{summary, wrap, write_analysis};
 
 /// Find a scene's steady motions (or, driven periodically, its
 /// periodic orbit; or, where a scene without forcing in time turns on
@@ -65,6 +63,16 @@ struct AnalyzeArgs {
     /// values from START to STOP (a NAME as for --set).
     #[arg(long = "continue", value_name = "NAME=START:STOP:COUNT")]
     continuation: Option<String>,
+    /// With --continue: also follow the branches born at the branch's
+    /// branch points, period doublings and Hopf points, each to the
+    /// range's end on its side: at all of them, or at the K-th (1, 2, ...
+    /// in the branch's order). Each branch is written to its own table
+    /// (branch-1.csv, ...), listed with its parent and the bifurcation it
+    /// starts from in branches.csv, and drawn in branch.png; a branch
+    /// point is told transcritical or pitchfork by them.
+    #[arg(long, value_name = "K", num_args = 0..=1, requires = "continuation",
+          value_parser = clap::value_parser!(u64).range(1..=MAX_SWITCH))]
+    switch: Option<Option<u64>>,
     /// The gait's derivatives with respect to these parameters
     /// (comma-separated or repeated; names as for --set, or
     /// initial.q.NAME, initial.qd.NAME): d<quantity>/d<param> columns in
@@ -112,6 +120,7 @@ pub(crate) fn exec(app: &App, args: &ArgMatches, out: &mut dyn Write) -> Result<
         period: args.period,
         energy: args.energy,
         continuation,
+        switch: args.switch.map(|k| k.map_or(SwitchAt::All, |k| SwitchAt::One(k as usize))),
         wrt: args.wrt,
     };
     check_figure_format(&src, opts.run.figure_format, opts.run.figures)?;
@@ -122,6 +131,10 @@ pub(crate) fn exec(app: &App, args: &ArgMatches, out: &mut dyn Write) -> Result<
 
 /// Most parameter values a continuation may take.
 const MAX_CONTINUATION: u64 = 10_000;
+
+/// The largest K of `--switch K`: a branch has no more bifurcations
+/// than points, at most [`MAX_CONTINUATION`].
+const MAX_SWITCH: u64 = MAX_CONTINUATION;
 
 /// What `ezy analyze` is asked.
 #[derive(Debug, Clone, Default)]
@@ -136,6 +149,8 @@ struct AnalyzeOptions {
     energy: Option<f64>,
     /// A parameter to follow the first solution through: its name and values.
     continuation: Option<(String, Vec<f64>)>,
+    /// The bifurcations whose branches are followed too (`--switch`).
+    switch: Option<SwitchAt>,
     /// Parameters the gait is differentiated with respect to.
     wrt: Vec<String>,
 }
@@ -303,16 +318,15 @@ fn analyze_model<M: Model>(proto: &M, scene: &Scene, opts: &AnalyzeOptions) -> R
         }
         _ => None,
     };
-    let (branch, bifurcations) = match &opts.continuation {
+    let branches = match &opts.continuation {
         Some((name, values)) => {
             let start = steady
                 .first()
                 .map_or_else(|| periodic.as_ref().map(|p| p.state.clone()).unwrap_or_default(), |s| s.state.clone());
-            follow_branch(proto, scene, ro, (name, values), &start, follow, &mut log)?
+            follow_all(proto, scene, ro, (name, values), &start, follow, opts.switch, &mut log)?
         }
-        None => (Vec::new(), Vec::new()),
+        None => Vec::new(),
     };
-    let power = branch_power(proto, scene, ro, opts, &branch, &mut log)?;
     let differenced = an.differenced_laws();
     if !differenced.is_empty() {
         log.notes.push(format!(
@@ -326,7 +340,7 @@ fn analyze_model<M: Model>(proto: &M, scene: &Scene, opts: &AnalyzeOptions) -> R
         opts,
         (&steady, growth.as_ref()),
         periodic.as_ref().map(|p| (p, gait.as_ref())),
-        (&branch, &power, &bifurcations),
+        &branches,
         held,
     )?;
     let coords = an.dynamics().info.coords.clone();
@@ -653,114 +667,6 @@ fn steady_motions<M: Model>(
     Ok((steady, follow))
 }
 
-/// The branch of the solution from `start` as the parameter `name`
-/// takes `values`: the points found, with a note where it ends early and
-/// where its stability changes; a signal ends it at the next point.
-fn follow_branch<M: Model>(
-    proto: &M,
-    scene: &Scene,
-    ro: &RunOptions,
-    (name, values): (&String, &Vec<f64>),
-    start: &[f64],
-    follow: Follow,
-    log: &mut Log,
-) -> Result<(Vec<BranchPoint>, Vec<Located>), Error> {
-    let clock = Instant::now();
-    let beat = ro.progress.then(|| Heartbeat::start(format!("following the branch in {name}")));
-    let build = |v: f64| {
-        // a signal ends the branch at the next point
-        if pending().is_some() {
-            return Err(AnalysisError::Request { reason: "stopped by a signal".into() });
-        }
-        let mut sets = ro.sets.clone();
-        sets.push((name.clone(), v));
-        scene_analysis(proto, scene, &sets).map(|(a, _)| a).map_err(|e| match e {
-            Error::Sim(e) => AnalysisError::Sim(e),
-            e => AnalysisError::Request { reason: e.to_string() },
-        })
-    };
-    let along = |values: &[f64]| {
-        follow_arclength(values, start, follow, build, |k| {
-            if let Some(b) = &beat {
-                b.set(format!("following the branch in {name}: point {} (a grid of {} values)", k + 1, values.len()));
-            }
-        })
-    };
-    // a grid that starts where there is no solution (beyond a fold) is
-    // followed from its first value where the search converges
-    let mut first = 0;
-    let (mut points, mut ended) = along(values);
-    let mut missed = None;
-    while points.is_empty() && first + 1 < values.len() && pending().is_none() {
-        missed = missed.or(ended.take());
-        first += 1;
-        (points, ended) = along(&values[first..]);
-    }
-    drop(beat);
-    check_interrupt(&ro.out, None, Some(format!("following the branch in {name}")))?;
-    if let (Some((v, e)), false) = (&missed, points.is_empty()) {
-        let last = fmt_value(values[first - 1]);
-        let to = if first > 1 { format!(" to {last}") } else { String::new() };
-        log.notes.push(format!(
-            "no solution at {name} = {}{to} from the scene's ({e}); the branch begins at {name} = {}",
-            fmt_value(*v),
-            fmt_value(values[first])
-        ));
-    }
-    if let Some((v, e)) = ended {
-        log.notes.push(format!("the branch ends at {name} = {}: {e}", fmt_value(v)));
-    }
-    log.timings.push((format!("branch of {} points", points.len()), clock.elapsed()));
-    // the bifurcations between the points, located
-    let clock = Instant::now();
-    let mut found = Vec::new();
-    for (k, w) in points.windows(2).enumerate() {
-        let stability = |b: &BranchPoint| b.solution.stability().name();
-        let changes = format!(
-            "between {name} = {} ({}) and {} ({})",
-            fmt_value(w[0].value),
-            stability(&w[0]),
-            fmt_value(w[1].value),
-            stability(&w[1])
-        );
-        // a fold where the branch turns back in the parameter, else a
-        // change of the count of unstable eigenvalues or multipliers
-        let located = match locate_fold(&w[0], &w[1], follow, build, BIFURCATION_TOL) {
-            Ok(None) => locate(&w[0], &w[1], follow, build, BIFURCATION_TOL),
-            other => other,
-        };
-        match located {
-            Ok(Some(b)) => {
-                let critical: Vec<String> = b.critical.iter().map(|z| complex(*z)).collect();
-                log.notes.push(format!(
-                    "{} at {name} = {} (to {:.0e}, {} solves; {changes}): critical {} {}",
-                    b.kind.name(),
-                    fmt_value(b.value),
-                    (b.bracket[1] - b.bracket[0]).abs(),
-                    b.solves,
-                    if matches!(b.solution, Solution::Steady(_)) { "eigenvalue" } else { "multiplier" },
-                    critical.join(", ")
-                ));
-                found.push((k, b));
-            }
-            Ok(None) if stability(&w[0]) != stability(&w[1]) => {
-                log.notes.push(format!("stability changes {changes}"));
-            }
-            Ok(None) => {}
-            Err(e) => log.notes.push(format!("stability changes {changes}; not located: {e}")),
-        }
-    }
-    check_interrupt(&ro.out, None, Some(format!("locating the bifurcations in {name}")))?;
-    if !found.is_empty() {
-        log.timings.push((format!("{} bifurcations located", found.len()), clock.elapsed()));
-    }
-    Ok((points, found))
-}
-
-/// The width of the bracket a bifurcation is located to, relative to
-/// `1 + |value|`.
-const BIFURCATION_TOL: f64 = 1e-8;
-
 /// Shortest `--period`, as a fraction of the time `t0 = t_end` (at least
 /// 1 s) the orbit is sought from: there the time's rounding `eps t0` is
 /// 2.2e-7 of the period, above the shooting's tolerance (1e-9 relative).
@@ -808,32 +714,4 @@ fn same_state(a: &[f64], b: &[f64], angles: &[usize]) -> bool {
         let d = if angles.contains(&i) { wrap(x - y) } else { x - y };
         d.abs() < 1e-6 * scale
     })
-}
-
-/// The mean input power \[W\] and efficiency \[m/J\] of each gait of a
-/// periodic branch (one period's integration each); empty for a branch
-/// of steady motions or none.
-fn branch_power<M: Model>(
-    proto: &M,
-    scene: &Scene,
-    ro: &RunOptions,
-    opts: &AnalyzeOptions,
-    branch: &[BranchPoint],
-    log: &mut Log,
-) -> Result<Vec<(f64, f64)>, Error> {
-    let Some((name, _)) = &opts.continuation else { return Ok(Vec::new()) };
-    let clock = Instant::now();
-    let ps = periodic_settings(ro);
-    let mut out = Vec::new();
-    for b in branch {
-        let Solution::Periodic(orbit) = &b.solution else { return Ok(Vec::new()) };
-        check_interrupt(&ro.out, None, Some(format!("the mean power along the branch in {name}")))?;
-        let mut sets = ro.sets.clone();
-        sets.push((name.clone(), b.value));
-        let (problem, _) = scene.problem_with(proto.clone(), &sets)?;
-        let g = problem.gait_sensitivities(orbit, &[], &ps).map_err(analysis_error(&ro.out))?;
-        out.push((g.mean_power, g.efficiency));
-    }
-    log.timings.push(("mean power along the branch".into(), clock.elapsed()));
-    Ok(out)
 }

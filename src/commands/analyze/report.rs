@@ -11,6 +11,7 @@ use ezy_core::sensitivity::GaitSensitivities;
 use ezy_core::{Model, fmt_value};
 use ezy_scene::Scene;
 
+use super::branches::Branch;
 use super::spectrum::{multipliers, ones, steady_eigenvalues, verdict};
 use super::{AnalyzeOptions, AnalyzeReport};
 use crate::output::csv::{number, record};
@@ -37,7 +38,7 @@ pub(super) fn write_analysis<M: Model>(
     opts: &AnalyzeOptions,
     (steady, growth): (&[SteadyMotion], Option<&Growth>),
     periodic: Option<(&PeriodicOrbit, Option<&GaitSensitivities>)>,
-    (branch, power, bifurcations): BranchView<'_>,
+    branches: &[Branch],
     held: OutLock,
 ) -> Result<Vec<PathBuf>, Error> {
     let ro = &opts.run;
@@ -45,7 +46,8 @@ pub(super) fn write_analysis<M: Model>(
     // earlier analysis left beside them
     let mut tx = Transaction::begin_locked(held)?;
     let mut own: Vec<String> =
-        ["equilibria.csv", "periodic.csv", "branch.csv", "growth.csv"].map(String::from).to_vec();
+        ["equilibria.csv", "periodic.csv", "branch.csv", "branches.csv", "growth.csv"].map(String::from).to_vec();
+    own.extend(born_tables(&ro.out));
     for stem in ["eigenvalues", "multipliers", "branch"] {
         own.extend(ezy_scene::FigureFormat::ALL.iter().map(|f| f.file_name(stem)));
     }
@@ -77,41 +79,15 @@ pub(super) fn write_analysis<M: Model>(
         figures.push(("multipliers".into(), chart));
     }
     if let Some((name, _)) = &opts.continuation
-        && !branch.is_empty()
+        && branches.first().is_some_and(|b| !b.points.is_empty())
     {
-        tx.write("branch.csv", branch_csv(name, (branch, power, bifurcations), &names, &shape).as_bytes())?;
-        let (label, y) = branch_axis(branch, &names, periodic.is_some());
-        let mut chart = Chart::new(format!("Branch in {name}: solid stable, dashed not"), name.clone(), label);
-        for (label, stable) in [("stable", true), ("unstable or neutral", false)] {
-            let pts = branch
-                .iter()
-                .map(|b| {
-                    (
-                        b.value,
-                        if (b.solution.stability() == Stability::Stable) == stable { y(&b.solution) } else { f64::NAN },
-                    )
-                })
-                .collect();
-            chart.series.push(Series {
-                stroke: if stable { Stroke::Solid } else { Stroke::Dash(0) },
-                ..Series::new(label, pts)
-            });
+        for b in branches {
+            tx.write(&b.file(), branch_csv(name, (&b.points, &b.power, &b.bifurcations), &names, &shape).as_bytes())?;
         }
-        for (_, f) in bifurcations {
-            chart.series.push(Series {
-                stroke: Stroke::Points,
-                ..Series::new(
-                    format!("{} at {}", f.kind.name(), fmt_value(sig(f.value, 7))),
-                    vec![(f.value, y(&f.solution))],
-                )
-            });
+        if branches.len() > 1 {
+            tx.write("branches.csv", branches_csv(branches).as_bytes())?;
         }
-        if !power.is_empty() && power.iter().all(|(_, e)| e.is_finite()) {
-            chart.lower = Some("efficiency [m/J]".into());
-            let pts = branch.iter().zip(power).map(|(b, (_, e))| (b.value, *e)).collect();
-            chart.series.push(Series { panel: 1, stroke: Stroke::Solid, ..Series::new("efficiency", pts) });
-        }
-        figures.push(("branch".into(), chart));
+        figures.push(("branch".into(), branch_chart(name, branches, &names, periodic.is_some())));
     }
     if ro.figures {
         for (stem, chart) in &figures {
@@ -124,23 +100,192 @@ pub(super) fn write_analysis<M: Model>(
     Ok(tx.commit()?)
 }
 
-/// The branch figure's vertical axis: the reference body's speed, or
-/// where every point is at rest (equilibria of a mechanism) the state's
-/// coordinate that changes most along the branch, by `names`.
-fn branch_axis(branch: &[BranchPoint], names: &[String], periodic: bool) -> (String, impl Fn(&Solution) -> f64) {
+/// The branch figure's vertical axis over all the branches' points: the
+/// turning rate where branches were born and some turn (a
+/// symmetry-breaking pitchfork's arms turn opposite ways at one speed);
+/// else the reference body's speed, or where every point is at rest
+/// (equilibria of a mechanism) the state's coordinate that changes most,
+/// by `names`.
+fn branch_axis(points: &[&BranchPoint], names: &[String], periodic: bool, born: bool) -> (String, Axis) {
     // at rest to rounding (1e-16 m/s): below a nanometre per second
-    let moving = branch.iter().any(|b| b.solution.speed() > 1e-9);
+    let moving = points.iter().any(|b| b.solution.speed() > 1e-9);
+    if born && points.iter().any(|b| turning_rate(&b.solution).abs() > 1e-9) {
+        return ("turning rate [rad/s]".into(), Axis::Turning);
+    }
     let range = |i: usize| {
-        let v = branch.iter().map(|b| b.solution.state()[i]);
+        let v = points.iter().map(|b| b.solution.state()[i]);
         v.clone().fold(f64::NEG_INFINITY, f64::max) - v.fold(f64::INFINITY, f64::min)
     };
     let widest = (0..names.len()).max_by(|&a, &b| range(a).total_cmp(&range(b))).unwrap_or(0);
-    let label = match (moving, periodic) {
-        (true, true) => "mean speed [m/s]".to_string(),
-        (true, false) => "speed [m/s]".to_string(),
-        (false, _) => names.get(widest).cloned().unwrap_or_default(),
+    match (moving, periodic) {
+        (true, true) => ("mean speed [m/s]".into(), Axis::Speed),
+        (true, false) => ("speed [m/s]".into(), Axis::Speed),
+        (false, _) => (names.get(widest).cloned().unwrap_or_default(), Axis::State(widest)),
+    }
+}
+
+/// What the branch figure's vertical axis shows ([`branch_axis`]).
+#[derive(Debug, Clone, Copy)]
+enum Axis {
+    /// The turning rate [rad/s].
+    Turning,
+    /// The reference body's (mean) speed [m/s].
+    Speed,
+    /// The state's entry.
+    State(usize),
+}
+
+impl Axis {
+    fn of(self, s: &Solution) -> f64 {
+        match self {
+            Axis::Turning => turning_rate(s),
+            Axis::Speed => s.speed(),
+            Axis::State(i) => s.state()[i],
+        }
+    }
+}
+
+/// A steady motion's yaw rate, a periodic orbit's heading change over its
+/// period [rad/s].
+fn turning_rate(s: &Solution) -> f64 {
+    match s {
+        Solution::Steady(m) => m.body_velocity[2],
+        Solution::Periodic(o) => o.heading_change / o.period,
+    }
+}
+
+/// The bifurcation diagram: every branch in the parameter `name`, solid
+/// where stable and dashed where not, the bifurcations marked by kind;
+/// below, the gaits' efficiency where every branch has one.
+fn branch_chart(name: &str, branches: &[Branch], names: &[String], periodic: bool) -> Chart {
+    let all: Vec<&BranchPoint> = branches.iter().flat_map(|b| &b.points).collect();
+    let (label, axis) = branch_axis(&all, names, periodic, branches.len() > 1);
+    let title = if branches.len() > 1 {
+        format!("Bifurcation diagram in {name}: solid stable, dashed not")
+    } else {
+        format!("Branch in {name}: solid stable, dashed not")
     };
-    (label, move |s: &Solution| if moving { s.speed() } else { s.state()[widest] })
+    let mut chart = Chart::new(title, name.to_string(), label);
+    for b in branches {
+        // the points in order, each bifurcation's among them on both
+        // sides' lines (it joins them)
+        let mut seq: Vec<(f64, f64, Option<bool>)> = Vec::new();
+        for (k, p) in b.points.iter().enumerate() {
+            seq.push((p.value, axis.of(&p.solution), Some(p.solution.stability() == Stability::Stable)));
+            for (_, f) in b.bifurcations.iter().filter(|(at, _)| *at == k) {
+                seq.push((f.value, axis.of(&f.solution), None));
+            }
+        }
+        for (label, stable) in [("stable", true), ("unstable or neutral", false)] {
+            let pts: Vec<(f64, f64)> = seq
+                .iter()
+                .enumerate()
+                .map(|(i, &(x, y, s))| {
+                    let on = match s {
+                        Some(s) => s == stable,
+                        // a bifurcation: on a line that reaches it
+                        None => [i.checked_sub(1), Some(i + 1)]
+                            .into_iter()
+                            .flatten()
+                            .any(|j| seq.get(j).is_some_and(|n| n.2 == Some(stable))),
+                    };
+                    (x, if on { y } else { f64::NAN })
+                })
+                .collect();
+            if branches.len() > 1 && pts.iter().all(|p| p.1.is_nan()) {
+                continue;
+            }
+            let label = if branches.len() > 1 { format!("branch {} {label}", b.id) } else { label.to_string() };
+            let stroke = if stable { Stroke::Solid } else { Stroke::Dash(0) };
+            chart.series.push(Series { stroke, color: Some(b.id), ..Series::new(label, pts) });
+        }
+    }
+    let marks = branches.len();
+    for (j, (_, f)) in branches.iter().flat_map(|b| &b.bifurcations).enumerate() {
+        chart.series.push(Series {
+            stroke: Stroke::Points,
+            color: Some(marks + j),
+            ..Series::new(
+                format!("{} at {}", f.kind.name(), fmt_value(sig(f.value, 7))),
+                vec![(f.value, axis.of(&f.solution))],
+            )
+        });
+    }
+    let efficient = |b: &Branch| !b.power.is_empty() && b.power.iter().all(|(_, e)| e.is_finite());
+    if branches.iter().all(efficient) {
+        chart.lower = Some("efficiency [m/J]".into());
+        for b in branches {
+            let pts = b.points.iter().zip(&b.power).map(|(p, (_, e))| (p.value, *e)).collect();
+            let label = if branches.len() > 1 { format!("branch {} efficiency", b.id) } else { "efficiency".into() };
+            chart.series.push(Series { panel: 1, stroke: Stroke::Solid, color: Some(b.id), ..Series::new(label, pts) });
+        }
+    }
+    chart
+}
+
+/// The tables `branch-K.csv` an earlier analysis left in `dir` (retired
+/// with the rest of its output).
+fn born_tables(dir: &std::path::Path) -> Vec<String> {
+    let Ok(entries) = std::fs::read_dir(dir) else { return Vec::new() };
+    entries
+        .filter_map(|e| e.ok()?.file_name().into_string().ok())
+        .filter(|n| {
+            n.strip_prefix("branch-")
+                .and_then(|r| r.strip_suffix(".csv"))
+                .is_some_and(|k| !k.is_empty() && k.bytes().all(|c| c.is_ascii_digit()))
+        })
+        .collect()
+}
+
+/// `branches.csv`: one row per branch, the one followed (0) first, each
+/// born one with its parent, the bifurcation it starts from (its
+/// parameter's value and kind as the switch told it), the side of
+/// the new direction it was sought on, its points and how it ended.
+fn branches_csv(branches: &[Branch]) -> String {
+    let head = [
+        "branch",
+        "file",
+        "parent",
+        "born_at",
+        "bifurcation",
+        "criticality",
+        "symmetry_breaking",
+        "side",
+        "points",
+        "from",
+        "to",
+        "ended",
+    ];
+    let mut out = record(head.iter().map(|h| h.to_string()).collect());
+    for b in branches {
+        let ends = |p: Option<&BranchPoint>| p.map_or(String::new(), |p| number(p.value));
+        let (parent, at, kind, crit, breaking, side) = match &b.birth {
+            Some(x) => (
+                x.parent.to_string(),
+                number(x.value),
+                x.kind.name().to_string(),
+                x.criticality.unwrap_or("").to_string(),
+                x.symmetry_breaking.to_string(),
+                number(x.side),
+            ),
+            None => Default::default(),
+        };
+        out.push_str(&record(vec![
+            b.id.to_string(),
+            b.file(),
+            parent,
+            at,
+            kind,
+            crit,
+            breaking,
+            side,
+            b.points.len().to_string(),
+            ends(b.points.first()),
+            ends(b.points.last()),
+            b.ended.clone(),
+        ]));
+    }
+    out
 }
 
 /// The shape columns: each hinge between two bodies, its angle
@@ -345,7 +490,7 @@ fn branch_csv(
         Solution::Steady(s) => ("lambda", s.eigenvalues.len()),
         Solution::Periodic(p) => ("mu", p.multipliers.len()),
     };
-    let mut head: Vec<String> = vec![name.to_string(), "stability".into(), "speed".into()];
+    let mut head: Vec<String> = vec![name.to_string(), "stability".into(), "speed".into(), "turning_rate".into()];
     if letter == "mu" {
         head.extend(["period", "t0"].map(String::from));
     }
@@ -363,7 +508,12 @@ fn branch_csv(
         head.extend(["bifurcation", "critical_re", "critical_im"].map(String::from));
     }
     let row = |value: f64, solution: &Solution| {
-        let mut cells = vec![number(value), solution.stability().name().into(), number(solution.speed())];
+        let mut cells = vec![
+            number(value),
+            solution.stability().name().into(),
+            number(solution.speed()),
+            number(turning_rate(solution)),
+        ];
         if let Solution::Periodic(p) = solution {
             cells.extend([number(p.period), number(p.t0)]);
         }

@@ -1,0 +1,313 @@
+//! Branch switching told by what is born (`ezy_core::analysis::switching`):
+//! a pitchfork and a transcritical point, each known in closed form, on
+//! the user's own cart (`tests/optimize.rs`) and force laws of the user's
+//! own, told apart by name; both new branches followed and checked
+//! against the closed form, their stability with them.
+
+use ezy_core::analysis::arclength::follow_arclength;
+use ezy_core::analysis::bifurcation::{BifurcationKind, locate};
+use ezy_core::analysis::switching::{Criticality, switch_both};
+use ezy_core::analysis::{Analysis, AnalysisError, BranchPoint, Follow, Stability};
+use ezy_core::effects::{ForceLaw, Periodicity};
+use ezy_core::{Method, Problem};
+
+use crate::optimize::{Cart, M};
+
+/// The two closed forms, in `y = x - a mu` (x the cart's position \[m\],
+/// `mu` the parameter \[m\]): `Pitchfork` `F/m = mu y - y^3` (rest at
+/// `y = 0` for every `mu`, `y = +-sqrt(mu)` for `mu > 0`), `Transcritical`
+/// `F/m = -y (y + 3 mu)` (`y = 0` and `y = -3 mu`, crossing at 0). The
+/// parent branch `x = a mu` is tilted (`a = 0.5`), so the new branch is
+/// not along a coordinate: the switch must find its direction.
+#[derive(Debug, Clone, Copy, PartialEq)]
+enum Normal {
+    Pitchfork,
+    Transcritical,
+}
+
+/// The tilt of the parent branch `x = A mu`.
+const A: f64 = 0.5;
+/// The cart's damping [N s/m]: every rest is a node or focus, stable
+/// where `dF/dx < 0`.
+const C: f64 = 1.0;
+
+/// `F = m g(y; mu) - c xd` on the cart's x.
+#[derive(Debug, Clone)]
+struct NormalForm {
+    kind: Normal,
+    mu: f64,
+}
+
+impl NormalForm {
+    /// `g` and `dg/dy` at `y`.
+    fn g(&self, y: f64) -> (f64, f64) {
+        match self.kind {
+            Normal::Pitchfork => (self.mu * y - y * y * y, self.mu - 3.0 * y * y),
+            Normal::Transcritical => (-y * (y + 3.0 * self.mu), -(2.0 * y + 3.0 * self.mu)),
+        }
+    }
+}
+
+impl ForceLaw for NormalForm {
+    fn apply(&self, _t: f64, q: &[f64], qd: &[f64], f: &mut [f64]) -> (f64, f64) {
+        let (g, _) = self.g(q[0] - A * self.mu);
+        let fx = M * g - C * qd[0];
+        f[0] += fx;
+        (fx * qd[0], fx)
+    }
+    fn coords(&self) -> Vec<usize> {
+        vec![0]
+    }
+    fn periodicity(&self) -> Option<Periodicity> {
+        Some(Periodicity::Constant)
+    }
+}
+
+/// The scene at `mu`, from `x0` at rest.
+fn scene(kind: Normal, mu: f64, x0: f64) -> Result<Problem<Cart>, ezy_core::SimError> {
+    Ok(Problem::new(Cart::default())
+        .law("normal_form", NormalForm { kind, mu })?
+        .q("x", x0)?
+        .q("y", 0.0)?
+        .q("phi", 0.0)?
+        .qd("x", 0.0)?
+        .t_end(10.0)
+        .method(Method::Dop853)
+        .tolerances(1e-12, 1e-12))
+}
+
+/// Follows the parent from `mu = -1` to `1` (8 points, none at 0),
+/// locates its change of stability, switches there and follows each
+/// branch born to the range's end on its side; returns the kind told,
+/// its criticality and every point of the branches born.
+fn switched(kind: Normal) -> (BifurcationKind, Option<Criticality>, bool, Vec<BranchPoint>) {
+    let build = |mu: f64| -> Result<Analysis<Cart>, AnalysisError> {
+        Ok(scene(kind, mu, A * mu).map_err(AnalysisError::Sim)?.analysis()?.0)
+    };
+    let values: Vec<f64> = (0..8).map(|k| -1.0 + 2.0 * k as f64 / 7.0).collect();
+    let (_, x0) = scene(kind, -1.0, -A).unwrap().analysis().unwrap();
+    let how = Follow::Steady { energy: None };
+    let (points, ended) = follow_arclength(&values, &x0, how, build, |_| {});
+    assert!(ended.is_none(), "{ended:?}");
+    let k = points.windows(2).position(|w| w[0].solution.stability() != w[1].solution.stability()).unwrap();
+    let b = locate(&points[k], &points[k + 1], how, build, 1e-10).unwrap().expect("a bifurcation");
+    assert_eq!(b.kind, BifurcationKind::BranchPoint);
+    assert!(b.value.abs() < 1e-9, "{}", b.value);
+    let s = switch_both(&b, [&points[k], &points[k + 1]], how, build, 1e-3).unwrap();
+    eprintln!(
+        "{kind:?}: {} at {}; born at {:?}",
+        s.describe(),
+        b.value,
+        s.born.iter().map(|n| n.start.value).collect::<Vec<_>>()
+    );
+    assert!(s.failed.is_none(), "{:?}", s.failed);
+    let mut all = Vec::new();
+    for n in &s.born {
+        let end = if n.start.value > b.value { 1.0 } else { -1.0 };
+        let (new, ended) = follow_arclength(&[n.start.value, end], n.start.solution.state(), n.follow, build, |_| {});
+        assert!(ended.is_none(), "{ended:?}");
+        assert_eq!(new.last().unwrap().value, end);
+        all.extend(new);
+    }
+    (s.kind, s.criticality, s.symmetry_breaking, all)
+}
+
+/// Each point of a branch born lies on the closed form's other branch:
+/// its distance in the `(mu, x)` plane from `mu = y^2` (pitchfork) or
+/// `y = -3 mu` (transcritical) below 1e-9 (the steady search's residual
+/// 1e-12 over the curve's gradient, at least 1 in these forms: well
+/// conditioned even next to the bifurcation, where the distance in `x`
+/// alone is the residual over `dF/dx -> 0`: 4e-8 at 1.2e-6 from it).
+/// Its stability is the closed form's (`dF/dx < 0`) where that is
+/// resolved (`|dF/dx|` above 1e-5 of its scale 1).
+fn check_born(kind: Normal, born: &[BranchPoint]) {
+    for p in born {
+        let (mu, x) = (p.value, p.solution.state()[0]);
+        let y = x - A * mu;
+        let off = match kind {
+            Normal::Pitchfork => (mu - y * y).abs() / (1.0 + 4.0 * y * y).sqrt(),
+            Normal::Transcritical => (y + 3.0 * mu).abs() / 10f64.sqrt(),
+        };
+        assert!(off < 1e-9, "{kind:?} at mu = {mu}: x = {x}, off the closed form's branch by {off:e}");
+        let slope = NormalForm { kind, mu }.g(y).1;
+        if slope.abs() > 1e-5 {
+            assert_eq!(p.solution.stability() == Stability::Stable, slope < 0.0, "{kind:?} at mu = {mu}");
+        }
+    }
+}
+
+/// `F/m = mu y - y^3`: the parent `x = mu / 2` loses its stability at
+/// `mu = 0` and two stable rests `y = +-sqrt(mu)` are born for `mu > 0`:
+/// a supercritical pitchfork, both arms on the same side. Neither arm
+/// turns (the cart is on a rail): not told symmetry-breaking.
+#[test]
+fn a_pitchfork_is_told_from_its_branches_on_one_side() {
+    let (kind, criticality, breaking, born) = switched(Normal::Pitchfork);
+    assert_eq!(kind, BifurcationKind::Pitchfork);
+    assert_eq!(criticality, Some(Criticality::Supercritical));
+    assert!(!breaking);
+    assert!(born.iter().all(|p| p.value > 0.0));
+    // both arms: above and below the parent
+    assert!(born.iter().any(|p| p.solution.state()[0] > A * p.value + 0.5));
+    assert!(born.iter().any(|p| p.solution.state()[0] < A * p.value - 0.5));
+    check_born(Normal::Pitchfork, &born);
+}
+
+/// `F/m = -y (y + 3 mu)`: the parent `x = mu / 2` (stable for `mu > 0`)
+/// and `y = -3 mu` (stable for `mu < 0`) cross at 0 and exchange their
+/// stability: transcritical, the branch born on both sides.
+#[test]
+fn a_transcritical_point_is_told_from_its_branch_across() {
+    let (kind, criticality, _, born) = switched(Normal::Transcritical);
+    assert_eq!(kind, BifurcationKind::Transcritical);
+    assert_eq!(criticality, None);
+    assert!(born.iter().any(|p| p.value == 1.0) && born.iter().any(|p| p.value == -1.0));
+    check_born(Normal::Transcritical, &born);
+}
+
+/// The last forcing period's heading change over its duration [rad/s] of
+/// a 2000 s run of the rolling-resistance scene at the motor amplitude
+/// `a` [N m] from the scene's start, sampled every forcing period (2 s),
+/// and the period before's: the run's verdict on the gait it settles on.
+fn run_turning(a: f64) -> (f64, f64) {
+    use ezy::models::{EzyRoller, scenes};
+    let scene = scenes::get("drive-rolling-resistance");
+    let sets = [("motor.amplitude".to_string(), a)];
+    let (run, _) = scene.problem::<EzyRoller>(&sets).unwrap();
+    let sol = run.t_end(2000.0).every(2.0).solve().unwrap();
+    let phi = sol.column("phi1").unwrap();
+    let n = phi.len();
+    ((phi[n - 1] - phi[n - 2]) / 2.0, (phi[n - 2] - phi[n - 3]) / 2.0)
+}
+
+/// `ezy analyze drive-rolling-resistance --continue
+/// motor.amplitude=0.8:0.4:9 --switch`: the straight gait's loss of
+/// stability at 0.6380639 N m is told a supercritical symmetry-breaking
+/// pitchfork, and its two arms (branch-1.csv, branch-2.csv), followed
+/// down to 0.4 N m, turn opposite ways, stable. Against whole runs of the
+/// scene at +0.4 N m and at -0.4 N m (the motor's torque reversed: the
+/// mirror image of the motion, which turns the other way), 2000 s each:
+/// each arm's turning rate at 0.4 equals one run's last forcing period's
+/// heading change over its 2 s, to 1e-6 rad/s (the bound; the
+/// arms' own are Newton's at 1e-9 of the state, the runs' transient is
+/// down by 0.97^1000), and each run has settled (its last two periods
+/// agree to 1e-9 rad/s), as a stable gait lets it.
+#[test]
+fn the_cli_switches_onto_both_turning_arms_of_the_rolling_resistance_gait() {
+    use crate::analysis::{ezy, fresh, table};
+    let out = fresh("switch-rolling");
+    let (said, err, ok) = ezy(
+        &["analyze", "drive-rolling-resistance", "--continue", "motor.amplitude=0.8:0.4:9", "--switch", "--no-figures"],
+        &out,
+    );
+    assert!(ok, "{said}{err}");
+    assert!(said.contains("is a pitchfork (symmetry-breaking, supercritical)"), "{said}");
+    let (head, rows) = table(&out.join("branches.csv"));
+    let col = |name: &str| head.iter().position(|h| h == name).unwrap();
+    assert_eq!(rows.len(), 3, "{rows:?}");
+    for r in &rows[1..] {
+        assert_eq!(r[col("bifurcation")], "pitchfork");
+        assert_eq!(r[col("criticality")], "supercritical");
+        assert_eq!(r[col("symmetry_breaking")], "true");
+        assert_eq!(r[col("to")], "0.4");
+        let born: f64 = r[col("born_at")].parse().unwrap();
+        assert!((born - 0.6380639).abs() < 1e-6, "{born}");
+    }
+    // the parent's row for the bifurcation names it as told
+    let (bh, brows) = table(&out.join("branch.csv"));
+    assert!(brows.iter().any(|r| r[bh.iter().position(|h| h == "bifurcation").unwrap()] == "pitchfork"));
+    let arm = |k: usize| {
+        let (h, rows) = table(&out.join(format!("branch-{k}.csv")));
+        let at = |name: &str| h.iter().position(|c| c == name).unwrap();
+        assert!(rows.iter().all(|r| r[at("stability")] == "stable"), "branch {k}: {rows:?}");
+        let last = rows.last().unwrap();
+        assert_eq!(last[0], "0.4");
+        last[at("turning_rate")].parse::<f64>().unwrap()
+    };
+    let (r1, r2) = (arm(1), arm(2));
+    eprintln!("arms at 0.4 N m: turning {r1:e} and {r2:e} rad/s");
+    assert!(r1 * r2 < 0.0, "{r1} {r2}");
+    for a in [0.4, -0.4] {
+        let (last, before) = run_turning(a);
+        let arm = if (last - r1).abs() < (last - r2).abs() { r1 } else { r2 };
+        eprintln!("run at {a} N m: {last:e} rad/s (the period before {before:e}), the arm {arm:e}");
+        assert!((last - arm).abs() < 1e-6, "run at {a}: {last} against the arm's {arm}");
+        assert!((last - before).abs() < 1e-9, "run at {a} has not settled: {last} then {before}");
+    }
+}
+
+/// `ezy analyze` on Baker and Gollub's forced pendulum (`tests/bifurcation.rs`)
+/// with `--continue motor.torque.cos.amplitude=10.40:10.50:3 --switch`:
+/// the period-1 gait, stable below its period doubling at g = 1.0664
+/// (A = 10.461 N m) and unstable above, and the doubled branch born there
+/// (branch-1.csv), followed to 10.50: its period twice the forcing's (to
+/// 1e-9 relative), stable, the doubling supercritical. A whole run at
+/// 10.50 (200 forcing periods from hanging at rest, sampled once a
+/// period) alternates between two states: the doubled orbit's angle at
+/// its phase is one of them, to 1e-6 rad (the run's transient after 200
+/// periods and its 1e-10 tolerances), and the run's is not period-1.
+#[test]
+fn the_cli_switches_onto_the_forced_pendulums_doubled_branch() {
+    use crate::analysis::{ezy, fresh, table};
+    use crate::bifurcation::{BAKER_GOLLUB, forced_pendulum};
+    let out = fresh("switch-pendulum");
+    std::fs::create_dir_all(&out).unwrap();
+    let text = forced_pendulum(BAKER_GOLLUB.0, BAKER_GOLLUB.1, BAKER_GOLLUB.2);
+    let file = out.join("forced-pendulum.toml");
+    std::fs::write(&file, &text).unwrap();
+    let (said, err, ok) = ezy(
+        &[
+            "analyze",
+            file.to_str().unwrap(),
+            "--continue",
+            "motor.torque.cos.amplitude=10.40:10.50:3",
+            "--switch",
+            "--no-figures",
+        ],
+        &out.join("out"),
+    );
+    assert!(ok, "{said}{err}");
+    assert!(said.contains("is a period doubling (supercritical)"), "{said}");
+    let forcing = std::f64::consts::TAU / BAKER_GOLLUB.1;
+    let (h, parent) = table(&out.join("out/branch.csv"));
+    let at = |name: &str| h.iter().position(|c| c == name).unwrap();
+    for r in parent.iter().filter(|r| r[at("bifurcation")].is_empty()) {
+        let a: f64 = r[0].parse().unwrap();
+        assert_eq!(r[at("stability")], if a < 10.461 { "stable" } else { "unstable" }, "{r:?}");
+    }
+    let (h, born) = table(&out.join("out/branch-1.csv"));
+    let at = |name: &str| h.iter().position(|c| c == name).unwrap();
+    for r in &born {
+        let period: f64 = r[at("period")].parse().unwrap();
+        assert!((period - 2.0 * forcing).abs() < 1e-9 * forcing, "{period}");
+        assert_eq!(r[at("stability")], "stable", "{r:?}");
+    }
+    let last = born.last().unwrap();
+    assert_eq!(last[0], "10.5");
+    let phi: f64 = last[at("phi")].parse().unwrap();
+    let t0: f64 = last[at("t0")].parse().unwrap();
+    // the run, sampled at the orbit's phase
+    let scene = ezy_scene::Scene::from_toml(&text, "forced-pendulum.toml").unwrap();
+    let sets = [("motor.torque.cos.amplitude".to_string(), 10.5)];
+    let (run, _) = scene.problem::<ezy::models::Pendulum>(&sets).unwrap();
+    let phase = t0.rem_euclid(forcing);
+    let sol = run.t_end(200.0 * forcing + phase).every(forcing).solve().unwrap();
+    let t = sol.t.clone();
+    let p = sol.column("phi").unwrap();
+    let wrap = |a: f64| (a + std::f64::consts::PI).rem_euclid(std::f64::consts::TAU) - std::f64::consts::PI;
+    // the samples at the orbit's phase: whole forcing periods after `phase`
+    let at_phase: Vec<f64> = t
+        .iter()
+        .zip(&p)
+        .filter(|(t, _)| ((**t - phase) / forcing - ((**t - phase) / forcing).round()).abs() < 1e-9)
+        .map(|(_, p)| *p)
+        .collect();
+    let n = at_phase.len();
+    assert!(n > 10, "{n} samples at the phase");
+    let (a, b) = (wrap(at_phase[n - 1]), wrap(at_phase[n - 2]));
+    let off = (wrap(phi - a)).abs().min(wrap(phi - b).abs());
+    eprintln!("pendulum at 10.5: the doubled orbit's phi {phi}, the run's last two {a} {b}: off by {off:e}");
+    assert!(off < 1e-6, "{phi} against {a}, {b}");
+    assert!(wrap(a - b).abs() > 1e-2, "the run repeats every period: {a} {b}");
+    assert!(wrap(at_phase[n - 1] - at_phase[n - 3]).abs() < 1e-6);
+}
