@@ -24,6 +24,7 @@ use faer::Mat;
 
 use super::bifurcation::{Bifurcation, BifurcationKind, at_bifurcation, critical, family};
 use super::branch::{BranchPoint, Follow, Solution, solve};
+use super::cycle_branch::Phase;
 use super::periodic::{gauge_coordinates, with_gauge};
 use super::symmetry::{Generator, Symmetry, act};
 use super::{Analysis, AnalysisError, dense, newton};
@@ -50,8 +51,9 @@ const DIFFERENCE_STEP: f64 = 1e-6;
 const EASY_TURN_COS: f64 = 0.98;
 
 /// The defining equations of a branch's solutions, their symmetry and
-/// period fixed at the branch's first point.
-struct Equations {
+/// period fixed at the branch's first point (a limit cycle's free,
+/// [`Follow::Cycle`]).
+pub(super) struct Equations {
     follow: Follow,
     /// Steady motions: the motion's symmetry; periodic orbits: its rigid part.
     symmetry: Symmetry,
@@ -73,12 +75,14 @@ struct Equations {
     timing: OrbitTiming,
     /// Newton's tolerance on the residual (max norm).
     tol: f64,
+    /// A limit cycle's phase condition ([`Follow::Cycle`]; unused otherwise).
+    phase: Phase,
 }
 
 /// A point of the corrector: the unknowns `w = [z, p]`, the unit tangent
 /// there (oriented along the row it was solved with) and the iterations.
-struct Corrected {
-    w: Vec<f64>,
+pub(super) struct Corrected {
+    pub(super) w: Vec<f64>,
     tangent: Vec<f64>,
     iterations: usize,
 }
@@ -103,8 +107,9 @@ fn unknowns(s: &Solution) -> Vec<f64> {
 }
 
 impl Equations {
-    /// The equations of the branch through `first`.
-    fn new(follow: Follow, first: &Solution) -> Self {
+    /// The equations of the branch through `first` (a limit cycle's
+    /// branch may start at a steady motion: [`super::cycle_branch::switch_at_hopf`]).
+    pub(super) fn new(follow: Follow, first: &Solution) -> Self {
         let (symmetry, scale) = match first {
             Solution::Steady(m) => (m.symmetry, m.state.iter().fold(1.0f64, |a, v| a.max(v.abs()))),
             Solution::Periodic(o) => (o.symmetry, o.state.iter().fold(1.0f64, |a, v| a.max(v.abs()))),
@@ -114,8 +119,10 @@ impl Equations {
             Follow::Steady { .. } => 5e-13 * scale,
             // the shooting search's own: the period map is integrated to
             // about its 1e-11, so the residual has a floor near it
-            Follow::Periodic { settings, .. } => settings.newton_tolerance * scale,
+            Follow::Periodic { settings, .. } | Follow::Cycle { settings, .. } => settings.newton_tolerance * scale,
         };
+        // a limit cycle is periodic modulo the plane's rigid motions
+        let symmetry = if matches!(follow, Follow::Cycle { .. }) { symmetry.rigid() } else { symmetry };
         // the phase the branch's orbits are at
         let follow = match (follow, first) {
             // the orbit's own start and period (a later point's, its forcing's
@@ -123,6 +130,7 @@ impl Equations {
             (Follow::Periodic { settings, .. }, Solution::Periodic(o)) => {
                 Follow::Periodic { t0: o.t0, period: o.period, settings }
             }
+            (Follow::Cycle { settings, .. }, Solution::Periodic(o)) => Follow::Cycle { t0: o.t0, period: o.period, settings },
             (f, _) => f,
         };
         let (cyclic, slaves) = match first {
@@ -133,7 +141,18 @@ impl Equations {
             }
             Solution::Steady(_) => (Vec::new(), Vec::new()),
         };
-        Equations { follow, symmetry, gauge: Vec::new(), cyclic, slaves, timing: OrbitTiming::default(), tol }
+        let phase = Phase::new(if let Solution::Periodic(o) = first { o.windings.clone() } else { Vec::new() });
+        Equations { follow, symmetry, gauge: Vec::new(), cyclic, slaves, timing: OrbitTiming::default(), tol, phase }
+    }
+
+    /// The unknowns `z` of the solution `s` under these equations: a limit
+    /// cycle's [`unknowns`] and its period.
+    pub(super) fn unknowns(&self, s: &Solution) -> Vec<f64> {
+        let mut z = unknowns(s);
+        if let (Follow::Cycle { .. }, Solution::Periodic(o)) = (self.follow, s) {
+            z.push(o.period);
+        }
+        z
     }
 
     /// The start and period at the scene `an` ([`solve`]'s rule).
@@ -188,6 +207,7 @@ impl Equations {
                 };
                 (r, j)
             }
+            Follow::Cycle { t0, settings, .. } => self.phase.eval(an, (t0, &settings), self.symmetry, x, g, jacobian)?,
         };
         r.extend(self.gauge.iter().map(|&i| x[i]));
         Ok((r, j.map(|j| with_gauge(j, &self.gauge))))
@@ -201,7 +221,7 @@ impl Equations {
     /// # Errors
     /// [`AnalysisError::NotConverged`] after [`MAX_CORRECTOR`] iterations
     /// or where the residual grows; `build`'s and the equations' errors.
-    fn correct<M: Model>(
+    pub(super) fn correct<M: Model>(
         &mut self,
         build: &mut impl FnMut(f64) -> Result<Analysis<M>, AnalysisError>,
         w_hat: &[f64],
@@ -239,8 +259,9 @@ impl Equations {
     }
 
     /// The solution at the corrected point `c`: the kind's own search from
-    /// its state (converged already: it adds the stability).
-    fn point<M: Model>(
+    /// its state (converged already: it adds the stability); a limit
+    /// cycle's from its period, its phase condition moved to it.
+    pub(super) fn point<M: Model>(
         &mut self,
         build: &mut impl FnMut(f64) -> Result<Analysis<M>, AnalysisError>,
         c: &Corrected,
@@ -249,7 +270,14 @@ impl Equations {
         let value = c.w[nz];
         let mut an = build(value)?;
         let n2 = 2 * an.nq();
-        let solution = solve(&mut an, self.follow, &c.w[..n2], &mut self.timing)?;
+        let follow = match self.follow {
+            Follow::Cycle { t0, settings, .. } => Follow::Cycle { t0, period: c.w[nz - 1], settings },
+            f => f,
+        };
+        let solution = solve(&mut an, follow, &c.w[..n2], &mut self.timing)?;
+        if let Follow::Cycle { t0, .. } = follow {
+            self.phase.move_to(&mut an, t0, solution.state())?;
+        }
         Ok(BranchPoint { value, solution, dp_ds: Some(c.tangent[nz]) })
     }
 }
@@ -367,11 +395,11 @@ pub fn follow_arclength<M: Model>(
     eq.timing = timing;
     let (lo, hi) = (p0.min(last_value), p0.max(last_value));
     let spacing = (hi - lo) / (values.len() - 1) as f64;
-    let nz = unknowns(&first).len();
+    let nz = eq.unknowns(&first).len();
     let mut e_p = vec![0.0; nz + 1];
     let d0 = (last_value - p0).signum();
     e_p[nz] = d0;
-    let w0: Vec<f64> = [unknowns(&first), vec![p0]].concat();
+    let w0: Vec<f64> = [eq.unknowns(&first), vec![p0]].concat();
     // the tangent at the first point, oriented toward the range
     let c = match eq.correct(&mut build, &w0, &e_p) {
         Ok(c) => c,
@@ -450,7 +478,7 @@ pub fn follow_arclength<M: Model>(
                     ds = (1.5 * ds).min(ds_max);
                 }
                 // the state moved to the gauge by the search: its unknowns
-                let mut wn = unknowns(&point.solution);
+                let mut wn = eq.unknowns(&point.solution);
                 for &k in &eq.cyclic {
                     wn[k] = 0.0;
                 }
@@ -510,8 +538,8 @@ pub fn locate_fold<M: Model>(
         return Ok(None);
     }
     let mut eq = Equations::new(follow, &a.solution);
-    let wa: Vec<f64> = [unknowns(&a.solution), vec![a.value]].concat();
-    let wb: Vec<f64> = [unknowns(&b.solution), vec![b.value]].concat();
+    let wa: Vec<f64> = [eq.unknowns(&a.solution), vec![a.value]].concat();
+    let wb: Vec<f64> = [eq.unknowns(&b.solution), vec![b.value]].concat();
     let nz = wa.len() - 1;
     let chord: Vec<f64> = wb.iter().zip(&wa).map(|(x, y)| x - y).collect();
     let len = chord.iter().map(|v| v * v).sum::<f64>().sqrt();
@@ -617,7 +645,7 @@ pub fn switch_branch<M: Model>(
     let at = build(b.value).and_then(|mut an| solve(&mut an, follow, b.solution.state(), &mut timing))?;
     let mut eq = Equations::new(follow, &at);
     eq.timing = timing;
-    let z = unknowns(&at);
+    let z = eq.unknowns(&at);
     let mut an = build(b.value)?;
     let (_, j) = eq.eval(&mut an, &z, true)?;
     let (_, phi) = dense::smallest_right_singular(j.expect("asked for").as_ref())?;
