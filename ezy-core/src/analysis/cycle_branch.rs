@@ -194,7 +194,10 @@ pub fn switch_at_hopf<M: Model>(
 ) -> Result<(BranchPoint, Follow), AnalysisError> {
     let (BifurcationKind::Hopf, Solution::Steady(m)) = (b.kind, &b.solution) else {
         return Err(AnalysisError::Request {
-            reason: format!("a limit cycle is switched onto at a Hopf point of steady motions, not at a {}", b.kind.name()),
+            reason: format!(
+                "a limit cycle is switched onto at a Hopf point of steady motions, not at a {}",
+                b.kind.name()
+            ),
         });
     };
     let omega = b.critical.iter().fold(0.0f64, |w, z| w.max(z.im.abs()));
