@@ -248,7 +248,6 @@ impl Equations {
         let r = corrector.residual_at(w_hat)?;
         corrector.r.clone_from(&r);
         let (iterations, _) = newton::solve(&mut corrector, r, &rules)?;
-        corrector.move_phase()?;
         // the tangent: [R_z R_p; n^T] t = [0; 1] at the point found
         let a = newton::Equations::jacobian(&mut corrector)?;
         let mut e = vec![0.0; a.nrows()];
@@ -265,7 +264,7 @@ impl Equations {
 
     /// The solution at the corrected point `c`: the kind's own search from
     /// its state (converged already: it adds the stability); a limit
-    /// cycle's from its period.
+    /// cycle's from its period, its phase condition moved to it.
     pub(super) fn point<M: Model>(
         &mut self,
         build: &mut impl FnMut(f64) -> Result<Analysis<M>, AnalysisError>,
@@ -280,6 +279,9 @@ impl Equations {
             f => f,
         };
         let solution = solve(&mut an, follow, &c.w[..n2], &mut self.timing)?;
+        if let Follow::Cycle { t0, .. } = follow {
+            self.phase.move_to(&mut an, t0, solution.state())?;
+        }
         Ok(BranchPoint { value, solution, dp_ds: Some(c.tangent[nz]) })
     }
 }
@@ -309,30 +311,6 @@ impl<B> Corrector<'_, B> {
         let (mut r, _) = self.eq.eval(&mut (self.build)(w[nz])?, &w[..nz], false)?;
         r.push(self.n.iter().zip(w.iter().zip(self.w_hat)).map(|(n, (a, b))| n * (a - b)).sum());
         Ok(r)
-    }
-
-    /// A limit cycle's phase condition moved to the current point (the
-    /// section through it, normal to the flow there), and the residual
-    /// taken anew: the tangent found then is the one the next step's
-    /// equations have (under the previous point's section, it has a
-    /// component along the flow that changes with the section, by more
-    /// than the turn a step may take where the cycle changes fast: the
-    /// four-bar's crank in its torque). Nothing for other solutions.
-    ///
-    /// # Errors
-    /// `build`'s; the equations'.
-    fn move_phase<M: Model>(&mut self) -> Result<(), AnalysisError>
-    where
-        B: FnMut(f64) -> Result<Analysis<M>, AnalysisError>,
-    {
-        let Follow::Cycle { t0, .. } = self.eq.follow else { return Ok(()) };
-        let nz = self.w.len() - 1;
-        let mut an = (self.build)(self.w[nz])?;
-        let n2 = 2 * an.nq();
-        self.eq.phase.move_to(&mut an, t0, &self.w[..n2])?;
-        let w = self.w.clone();
-        self.r = self.residual_at(&w)?;
-        Ok(())
     }
 }
 
