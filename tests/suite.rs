@@ -24,6 +24,7 @@ mod bifurcation;
 mod build_sharing;
 mod cli;
 mod culprits;
+mod cycle_branch;
 mod derived_terms;
 mod design;
 mod drives;

@@ -93,7 +93,7 @@ fn switched(kind: Normal) -> (BifurcationKind, Option<Criticality>, bool, Vec<Br
     let b = locate(&points[k], &points[k + 1], how, build, 1e-10).unwrap().expect("a bifurcation");
     assert_eq!(b.kind, BifurcationKind::BranchPoint);
     assert!(b.value.abs() < 1e-9, "{}", b.value);
-    let s = switch_both(&b, [&points[k], &points[k + 1]], how, build, 1e-3).unwrap();
+    let s = switch_both(&b, [&points[k], &points[k + 1]], how, build, 1e-3, Default::default()).unwrap();
     eprintln!(
         "{kind:?}: {} at {}; born at {:?}",
         s.describe(),

@@ -24,6 +24,7 @@ use faer::Mat;
 
 use super::bifurcation::{Bifurcation, BifurcationKind, at_bifurcation, critical, family};
 use super::branch::{BranchPoint, Follow, Solution, solve};
+use super::cycle_branch::Phase;
 use super::periodic::{gauge_coordinates, with_gauge};
 use super::symmetry::{Generator, Symmetry, act};
 use super::{Analysis, AnalysisError, dense, newton};
@@ -50,7 +51,8 @@ const DIFFERENCE_STEP: f64 = 1e-6;
 const EASY_TURN_COS: f64 = 0.98;
 
 /// The defining equations of a branch's solutions, their symmetry and
-/// period fixed at the branch's first point.
+/// period fixed at the branch's first point (a limit cycle's free,
+/// [`Follow::Cycle`]).
 pub(super) struct Equations {
     follow: Follow,
     /// Steady motions: the motion's symmetry; periodic orbits: its rigid part.
@@ -73,6 +75,8 @@ pub(super) struct Equations {
     pub(super) timing: OrbitTiming,
     /// Newton's tolerance on the residual (max norm).
     tol: f64,
+    /// A limit cycle's phase condition ([`Follow::Cycle`]; unused otherwise).
+    phase: Phase,
 }
 
 /// A point of the corrector: the unknowns `w = [z, p]`, the unit tangent
@@ -103,7 +107,8 @@ pub(super) fn unknowns(s: &Solution) -> Vec<f64> {
 }
 
 impl Equations {
-    /// The equations of the branch through `first`.
+    /// The equations of the branch through `first` (a limit cycle's
+    /// branch may start at a steady motion: [`super::cycle_branch::switch_at_hopf`]).
     pub(super) fn new(follow: Follow, first: &Solution) -> Self {
         let (symmetry, scale) = match first {
             Solution::Steady(m) => (m.symmetry, m.state.iter().fold(1.0f64, |a, v| a.max(v.abs()))),
@@ -114,14 +119,19 @@ impl Equations {
             Follow::Steady { .. } => 5e-13 * scale,
             // the shooting search's own: the period map is integrated to
             // about its 1e-11, so the residual has a floor near it
-            Follow::Periodic { settings, .. } => settings.newton_tolerance * scale,
+            Follow::Periodic { settings, .. } | Follow::Cycle { settings, .. } => settings.newton_tolerance * scale,
         };
+        // a limit cycle is periodic modulo the plane's rigid motions
+        let symmetry = if matches!(follow, Follow::Cycle { .. }) { symmetry.rigid() } else { symmetry };
         // the phase the branch's orbits are at
         let follow = match (follow, first) {
             // the orbit's own start and period (a later point's, its forcing's
             // multiples: `timing`, taken at the first evaluation)
             (Follow::Periodic { settings, .. }, Solution::Periodic(o)) => {
                 Follow::Periodic { t0: o.t0, period: o.period, settings }
+            }
+            (Follow::Cycle { settings, .. }, Solution::Periodic(o)) => {
+                Follow::Cycle { t0: o.t0, period: o.period, settings }
             }
             (f, _) => f,
         };
@@ -133,7 +143,18 @@ impl Equations {
             }
             Solution::Steady(_) => (Vec::new(), Vec::new()),
         };
-        Equations { follow, symmetry, gauge: Vec::new(), cyclic, slaves, timing: OrbitTiming::default(), tol }
+        let phase = Phase::new(if let Solution::Periodic(o) = first { o.windings.clone() } else { Vec::new() });
+        Equations { follow, symmetry, gauge: Vec::new(), cyclic, slaves, timing: OrbitTiming::default(), tol, phase }
+    }
+
+    /// The unknowns `z` of the solution `s` under these equations: a limit
+    /// cycle's [`unknowns`] and its period.
+    pub(super) fn unknowns(&self, s: &Solution) -> Vec<f64> {
+        let mut z = unknowns(s);
+        if let (Follow::Cycle { .. }, Solution::Periodic(o)) = (self.follow, s) {
+            z.push(o.period);
+        }
+        z
     }
 
     /// The start and period at the scene `an` ([`solve`]'s rule).
@@ -188,6 +209,9 @@ impl Equations {
                 };
                 (r, j)
             }
+            Follow::Cycle { t0, settings, .. } => {
+                self.phase.eval(an, (t0, &settings), self.symmetry, x, g, jacobian)?
+            }
         };
         r.extend(self.gauge.iter().map(|&i| x[i]));
         Ok((r, j.map(|j| with_gauge(j, &self.gauge))))
@@ -239,7 +263,8 @@ impl Equations {
     }
 
     /// The solution at the corrected point `c`: the kind's own search from
-    /// its state (converged already: it adds the stability).
+    /// its state (converged already: it adds the stability); a limit
+    /// cycle's from its period, its phase condition moved to it.
     pub(super) fn point<M: Model>(
         &mut self,
         build: &mut impl FnMut(f64) -> Result<Analysis<M>, AnalysisError>,
@@ -249,7 +274,14 @@ impl Equations {
         let value = c.w[nz];
         let mut an = build(value)?;
         let n2 = 2 * an.nq();
-        let solution = solve(&mut an, self.follow, &c.w[..n2], &mut self.timing)?;
+        let follow = match self.follow {
+            Follow::Cycle { t0, settings, .. } => Follow::Cycle { t0, period: c.w[nz - 1], settings },
+            f => f,
+        };
+        let solution = solve(&mut an, follow, &c.w[..n2], &mut self.timing)?;
+        if let Follow::Cycle { t0, .. } = follow {
+            self.phase.move_to(&mut an, t0, solution.state())?;
+        }
         Ok(BranchPoint { value, solution, dp_ds: Some(c.tangent[nz]) })
     }
 
@@ -405,11 +437,11 @@ pub fn follow_arclength<M: Model>(
     eq.timing = timing;
     let (lo, hi) = (p0.min(last_value), p0.max(last_value));
     let spacing = (hi - lo) / (values.len() - 1) as f64;
-    let nz = unknowns(&first).len();
+    let nz = eq.unknowns(&first).len();
     let mut e_p = vec![0.0; nz + 1];
     let d0 = (last_value - p0).signum();
     e_p[nz] = d0;
-    let w0: Vec<f64> = [unknowns(&first), vec![p0]].concat();
+    let w0: Vec<f64> = [eq.unknowns(&first), vec![p0]].concat();
     // the tangent at the first point, oriented toward the range
     let c = match eq.correct(&mut build, &w0, &e_p) {
         Ok(c) => c,
@@ -417,8 +449,17 @@ pub fn follow_arclength<M: Model>(
     };
     let mut points = vec![BranchPoint { value: p0, solution: first, dp_ds: Some(c.tangent[nz]) }];
     let (mut w, mut t) = (w0, c.tangent);
-    // the longest step: ten times the first grid step's arclength
-    let ds_max = 10.0 * spacing / t[nz].abs().max(1e-3);
+    // the longest step: ten times the first grid step's arclength; where
+    // the branch starts near-vertical in the parameter (|dp/ds| < 0.1: a
+    // branch born at a pitchfork or period doubling) the grid says nothing
+    // of the state's step, and a step is at most a tenth of the state's
+    // scale (ten grid steps' arclength were 385 rad on the forced
+    // pendulum's doubled branch, and its corrector jumped off the range)
+    let scale = w.iter().take(nz).fold(1.0f64, |m, v| m.max(v.abs()));
+    let mut ds_max = 10.0 * spacing / t[nz].abs().max(1e-3);
+    if t[nz].abs() < 0.1 {
+        ds_max = ds_max.min(0.1 * scale);
+    }
     let ds_min = 1e-6 * ds_max;
     let mut ds = 0.1 * ds_max;
     let mut failed: Option<f64> = None;
@@ -465,6 +506,18 @@ pub fn follow_arclength<M: Model>(
                     tolerance: eq.tol,
                 });
             }
+            // an arclength step whose point falls behind the range's other
+            // end jumped (a fold crossed and the whole range gone back over
+            // in one step): retried shorter
+            let back = if d > 0.0 { lo } else { hi };
+            if value.is_none() && (c.w[nz] - back) * d < -1e-12 * spacing {
+                return Err(AnalysisError::NotConverged {
+                    what: "a point of the branch (the corrector left the range behind the step)",
+                    iterations: c.iterations,
+                    residual: 0.0,
+                    tolerance: eq.tol,
+                });
+            }
             Ok(c)
         });
         match step {
@@ -488,7 +541,7 @@ pub fn follow_arclength<M: Model>(
                     ds = (1.5 * ds).min(ds_max);
                 }
                 // the state moved to the gauge by the search: its unknowns
-                let mut wn = unknowns(&point.solution);
+                let mut wn = eq.unknowns(&point.solution);
                 for &k in &eq.cyclic {
                     wn[k] = 0.0;
                 }
@@ -548,8 +601,8 @@ pub fn locate_fold<M: Model>(
         return Ok(None);
     }
     let mut eq = Equations::new(follow, &a.solution);
-    let wa: Vec<f64> = [unknowns(&a.solution), vec![a.value]].concat();
-    let wb: Vec<f64> = [unknowns(&b.solution), vec![b.value]].concat();
+    let wa: Vec<f64> = [eq.unknowns(&a.solution), vec![a.value]].concat();
+    let wb: Vec<f64> = [eq.unknowns(&b.solution), vec![b.value]].concat();
     let nz = wa.len() - 1;
     let chord: Vec<f64> = wb.iter().zip(&wa).map(|(x, y)| x - y).collect();
     let len = chord.iter().map(|v| v * v).sum::<f64>().sqrt();
@@ -655,7 +708,7 @@ pub fn switch_branch<M: Model>(
     let at = build(b.value).and_then(|mut an| solve(&mut an, follow, b.solution.state(), &mut timing))?;
     let mut eq = Equations::new(follow, &at);
     eq.timing = timing;
-    let z = unknowns(&at);
+    let z = eq.unknowns(&at);
     let mut an = build(b.value)?;
     let (_, j) = eq.eval(&mut an, &z, true)?;
     let (_, phi) = dense::smallest_right_singular(j.expect("asked for").as_ref())?;

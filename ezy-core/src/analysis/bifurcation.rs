@@ -10,6 +10,7 @@
 use faer::c64;
 
 use super::branch::{BranchPoint, Follow, Solution, solve};
+use super::cycle_branch::between;
 use super::periodic::PeriodicSettings;
 use super::steady::Stability;
 use super::{Analysis, AnalysisError};
@@ -229,6 +230,8 @@ pub fn locate<M: Model>(
         let guess = at(&lo, &hi, value);
         let solution = build(value).and_then(|mut an| {
             // (a stop is not a search's failure: passed through, not retried)
+            // (a limit cycle's period guessed between the bracket's)
+            let (tight, follow) = (between(tight, &lo, &hi, value), between(follow, &lo, &hi, value));
             solve(&mut an, tight, &guess, &mut timing).or_else(|e| match e {
                 AnalysisError::Stopped => Err(e),
                 _ => solve(&mut an, follow, &guess, &mut timing),

@@ -63,6 +63,19 @@ pub enum Follow {
         /// Integration and Newton settings.
         settings: PeriodicSettings,
     },
+    /// Limit cycles of an autonomous scene ([`Analysis::limit_cycle`]):
+    /// the period an unknown, `period` \[s\] only the first point's guess;
+    /// along a branch, fixed by a Poincare phase condition through the
+    /// branch's previous point ([`super::cycle_branch`]).
+    Cycle {
+        /// The time \[s\] the cycle's state is taken at (the scene is
+        /// autonomous: any).
+        t0: f64,
+        /// The period's guess \[s\].
+        period: f64,
+        /// Integration and Newton settings.
+        settings: PeriodicSettings,
+    },
 }
 
 /// One point of a branch: the parameter's value and the solution there.
@@ -129,7 +142,8 @@ pub fn follow<M: Model>(
 /// [`crate::effects::Periodicity::orbit_timing`]).
 ///
 /// # Errors
-/// As [`Analysis::steady_motion`] and [`Analysis::periodic_orbit`].
+/// As [`Analysis::steady_motion`], [`Analysis::periodic_orbit`] and
+/// [`Analysis::limit_cycle`].
 pub(crate) fn solve<M: Model>(
     an: &mut Analysis<M>,
     follow: Follow,
@@ -142,6 +156,9 @@ pub(crate) fn solve<M: Model>(
         Follow::Periodic { t0, period, settings } => {
             let (t0, period) = an.forcing().map_or((t0, period), |f| f.orbit_timing(timing, t0, period));
             an.periodic_orbit(t0, period, guess, symmetry, &settings).map(Solution::Periodic)
+        }
+        Follow::Cycle { t0, period, settings } => {
+            an.limit_cycle(t0, period, guess, symmetry, &settings).map(Solution::Periodic)
         }
     }
 }

@@ -207,7 +207,7 @@ impl<M: Model> Analysis<M> {
     /// The Jacobian of the cycle's equations in `(x0, p, T)`: the
     /// shooting Jacobian, the period's column `f(x(t0 + T))` and the
     /// phase condition's row `f(x*)`.
-    fn cycle_jacobian(
+    pub(crate) fn cycle_jacobian(
         &mut self,
         t0: f64,
         (x0, xt): (&[f64], &[f64]),

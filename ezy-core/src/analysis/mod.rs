@@ -70,6 +70,7 @@ pub mod arclength;
 pub mod bifurcation;
 pub mod branch;
 mod cycle;
+pub mod cycle_branch;
 pub(crate) mod dense;
 pub(crate) mod gait_means;
 mod growth;

@@ -29,9 +29,10 @@
 //! is as stable as the parent on its stable side (it takes over the
 //! stability the parent loses), subcritical otherwise.
 
-use super::arclength::{Equations, unknowns};
+use super::arclength::Equations;
 use super::bifurcation::{Bifurcation, BifurcationKind, unstable_count};
 use super::branch::{BranchPoint, Follow, Solution, solve};
+use super::periodic::PeriodicSettings;
 use super::{Analysis, AnalysisError, dense};
 use crate::effects::waveform::OrbitTiming;
 use crate::model::Model;
@@ -126,8 +127,10 @@ fn turning(s: &Solution) -> f64 {
 /// (1e-3 to 1e-2: past the Newton matrix's near-singularity, inside the
 /// new branch's quadratic bend) from the
 /// bifurcation on both sides of the new direction at a branch point (the
-/// module's construction), on one at a period doubling or Hopf point
-/// ([`super::arclength::switch_branch`]); the bifurcation told by them.
+/// module's construction), on one at a period doubling
+/// ([`super::arclength::switch_branch`]) or Hopf point (the limit cycles,
+/// integrated and solved with `settings`:
+/// [`super::cycle_branch::switch_at_hopf`]); the bifurcation told by them.
 ///
 /// # Errors
 /// [`AnalysisError::Request`] for a fold, a Neimark-Sacker point, or a
@@ -139,6 +142,7 @@ pub fn switch_both<M: Model>(
     follow: Follow,
     mut build: impl FnMut(f64) -> Result<Analysis<M>, AnalysisError>,
     offset: f64,
+    settings: PeriodicSettings,
 ) -> Result<Switch, AnalysisError> {
     let stable_side = unstable_count(&parent[0].solution).min(unstable_count(&parent[1].solution));
     let criticality = |born: &[Born]| {
@@ -152,7 +156,11 @@ pub fn switch_both<M: Model>(
     };
     let offset = offset * b.solution.state().iter().fold(1.0f64, |m, v| m.max(v.abs()));
     if b.kind != BifurcationKind::BranchPoint {
-        let (start, follow) = super::arclength::switch_branch(b, follow, &mut build, offset)?;
+        let (start, follow) = if b.kind == BifurcationKind::Hopf {
+            super::cycle_branch::switch_at_hopf(b, &mut build, offset, settings)?
+        } else {
+            super::arclength::switch_branch(b, follow, &mut build, offset)?
+        };
         let born = vec![Born { start, follow, side: 1.0 }];
         let criticality = match b.kind {
             BifurcationKind::PeriodDoubling | BifurcationKind::Hopf => criticality(&born),
@@ -165,13 +173,11 @@ pub fn switch_both<M: Model>(
     let at = build(b.value).and_then(|mut an| solve(&mut an, follow, b.solution.state(), &mut timing))?;
     let mut eq = Equations::new(follow, &at);
     eq.timing = timing;
-    let w_of = |s: &Solution, p: f64| -> Vec<f64> { [unknowns(s), vec![p]].concat() };
-    let star = eq.at_gauge(w_of(&at, b.value));
+    let w_of = |eq: &Equations, s: &Solution, p: f64| eq.at_gauge([eq.unknowns(s), vec![p]].concat());
+    let star = w_of(&eq, &at, b.value);
     // the old branch's direction: the chord between the points bracketing
     // the bifurcation
-    let (wa, wb) = (eq.at_gauge(w_of(&parent[0].solution, parent[0].value)), {
-        eq.at_gauge(w_of(&parent[1].solution, parent[1].value))
-    });
+    let (wa, wb) = (w_of(&eq, &parent[0].solution, parent[0].value), w_of(&eq, &parent[1].solution, parent[1].value));
     let t_old = eq.unit_tangent(wb.iter().zip(&wa).map(|(x, y)| x - y).collect());
     let a = eq.extended_jacobian(&mut build, &star, &t_old)?;
     let (_, t_new) = dense::smallest_right_singular(a.as_ref())?;

@@ -173,7 +173,7 @@ fn switch_all<M: Model>(
         let (k, b) = branches[0].bifurcations[i].clone();
         let clock = Instant::now();
         let parent = [&branches[0].points[k], &branches[0].points[k + 1]];
-        let s = match switch_both(&b, parent, follow, build, SWITCH_OFFSET) {
+        let s = match switch_both(&b, parent, follow, build, SWITCH_OFFSET, periodic_settings(ro)) {
             Ok(s) => s,
             Err(AnalysisError::Stopped) => return Err(check_stop(ro)),
             Err(e) => {

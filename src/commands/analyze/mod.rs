@@ -251,8 +251,9 @@ fn analyze_model<M: Model>(proto: &M, scene: &Scene, opts: &AnalyzeOptions) -> R
                         "no steady motion was found ({} searches); the run turns on a limit cycle",
                         guesses.len()
                     )];
+                    // its branch's period free ([`Follow::Cycle`])
                     let period = orbit.period;
-                    (Vec::new(), Some(orbit), Follow::Periodic { t0, period, settings: ps })
+                    (Vec::new(), Some(orbit), Follow::Cycle { t0, period, settings: ps })
                 }
                 Err(e) => return Err(e),
             }
@@ -288,19 +289,13 @@ fn analyze_model<M: Model>(proto: &M, scene: &Scene, opts: &AnalyzeOptions) -> R
     if let Some(g) = &growth {
         check_growth_request(opts, g)?;
     }
-    // a limit cycle's period is an unknown: neither its derivatives nor
-    // its branch (both at a fixed period) are its own yet
-    if period.is_none() && periodic.is_some() {
-        if !params.is_empty() {
-            return Err(Error::Input(
-                "--wrt: the derivatives of a limit cycle (an autonomous scene's periodic orbit, its period an unknown) are not computed yet; a forced scene's gait has them".into(),
-            ));
-        }
-        if opts.continuation.is_some() {
-            return Err(Error::Input(
-                "--continue: a limit cycle's branch (its period an unknown) is not followed yet; a forced scene's gait and steady motions have theirs".into(),
-            ));
-        }
+    // a limit cycle's period is an unknown: its derivatives (at a fixed
+    // period) are not its own yet; its branch is followed with the period
+    // free
+    if period.is_none() && periodic.is_some() && !params.is_empty() {
+        return Err(Error::Input(
+            "--wrt: the derivatives of a limit cycle (an autonomous scene's periodic orbit, its period an unknown) are not computed yet; a forced scene's gait has them".into(),
+        ));
     }
     let gait = match (&periodic, &follow) {
         (Some(_), _) if period.is_none() => None,
