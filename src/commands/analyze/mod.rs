@@ -15,11 +15,11 @@ use std::path::PathBuf;
 use std::time::{Duration, Instant};
 
 use clap::{ArgMatches, Args, FromArgMatches};
-use ezy_core::analysis::arclength::{follow_arclength, locate_fold};
+use ezy_core::analysis::arclength::{follow_arclength_from, locate_fold};
 use ezy_core::analysis::bifurcation::locate;
 use ezy_core::analysis::{
-    Analysis, AnalysisError, BranchPoint, Follow, GaitOrGrowth, Growth, PeriodicOrbit, PeriodicSettings, Solution,
-    SteadyMotion, Symmetry,
+    Analysis, AnalysisError, BranchEnd, BranchPoint, Follow, GaitOrGrowth, Growth, PeriodicOrbit, PeriodicSettings,
+    Solution, SteadyMotion, Symmetry,
 };
 use ezy_core::effects::Periodicity;
 use ezy_core::sensitivity::GaitSensitivities;
@@ -57,8 +57,11 @@ struct AnalyzeArgs {
     /// The forcing period [s] [default: from the scene's waveforms].
     #[arg(long, value_name = "T", value_parser = parse_positive)]
     period: Option<f64>,
-    /// The kinetic energy [J] of the steady motions sought [default: the
-    /// guess's own in a scene without effects, where energy is conserved].
+    /// The kinetic energy [J] of the steady motions sought, held along
+    /// their branch (--continue) [default: the guess's own in a scene
+    /// without effects, where energy is conserved; on a branch, a family's
+    /// member's own (a sleigh's straight run at any speed: the speed is
+    /// free unless a level picks it)].
     #[arg(long, value_name = "J", value_parser = parse_positive)]
     energy: Option<f64>,
     /// Follow the solution as a parameter takes COUNT evenly spaced
@@ -649,8 +652,22 @@ fn steady_motions<M: Model>(
             log.notes.join("; ")
         )));
     }
-    let follow = Follow::Steady { energy: energy_of(an, &steady[0].state) };
-    Ok((steady, follow))
+    let first = &steady[0];
+    let mut energy = energy_of(an, &first.state);
+    // a family's member (a free speed) is followed at its own kinetic
+    // energy: without a level the branch through it is not one curve
+    if energy.is_none() && first.family > 0 {
+        let e = an.dynamics().kinetic_energy(&first.state[nq..]);
+        if opts.continuation.is_some() {
+            log.notes.push(format!(
+                "steady motion 1 is one of a family of {} dimension(s) (a free speed): its branch holds its kinetic energy at {} J (--energy J holds another)",
+                first.family,
+                fmt_value(e)
+            ));
+        }
+        energy = Some(e);
+    }
+    Ok((steady, Follow::Steady { energy }))
 }
 
 /// The branch of the solution from `start` as the parameter `name`
@@ -679,8 +696,8 @@ fn follow_branch<M: Model>(
             e => AnalysisError::Request { reason: e.to_string() },
         })
     };
-    let along = |values: &[f64]| {
-        follow_arclength(values, start, follow, build, |k| {
+    let along = |first: usize| {
+        follow_arclength_from(values, first, start, follow, build, |k| {
             if let Some(b) = &beat {
                 b.set(format!("following the branch in {name}: point {} (a grid of {} values)", k + 1, values.len()));
             }
@@ -689,12 +706,12 @@ fn follow_branch<M: Model>(
     // a grid that starts where there is no solution (beyond a fold) is
     // followed from its first value where the search converges
     let mut first = 0;
-    let (mut points, mut ended) = along(values);
+    let (mut points, mut ended) = along(0);
     let mut missed = None;
     while points.is_empty() && first + 1 < values.len() && pending().is_none() {
-        missed = missed.or(ended.take());
+        missed = missed.or(std::mem::replace(&mut ended, BranchEnd::Reached).into_failure());
         first += 1;
-        (points, ended) = along(&values[first..]);
+        (points, ended) = along(first);
     }
     drop(beat);
     check_interrupt(&ro.out, None, Some(format!("following the branch in {name}")))?;
@@ -707,8 +724,15 @@ fn follow_branch<M: Model>(
             fmt_value(values[first])
         ));
     }
-    if let Some((v, e)) = ended {
-        log.notes.push(format!("the branch ends at {name} = {}: {e}", fmt_value(v)));
+    match ended {
+        BranchEnd::Failed { value, error } => {
+            log.notes.push(format!("the branch ends at {name} = {}: {error}", fmt_value(value)));
+        }
+        BranchEnd::Closed { points: k } => log.notes.push(format!(
+            "the branch is closed: it returns to its start at {name} = {} after {k} points",
+            fmt_value(points[0].value)
+        )),
+        BranchEnd::Reached => {}
     }
     log.timings.push((format!("branch of {} points", points.len()), clock.elapsed()));
     // the bifurcations between the points, located
