@@ -9,7 +9,7 @@ use ezy::models::{EzyRoller, Pendulum, scenes};
 use ezy_core::analysis::arclength::{follow_arclength, switch_branch};
 use ezy_core::analysis::bifurcation::{BifurcationKind, locate};
 use ezy_core::analysis::branch::{Follow, follow};
-use ezy_core::analysis::{Analysis, AnalysisError, PeriodicSettings, Solution, Stability};
+use ezy_core::analysis::{Analysis, AnalysisError, BranchEnd, PeriodicSettings, Solution, Stability};
 
 use crate::optimize::{Cart, K, M, cart};
 
@@ -105,7 +105,7 @@ fn the_rolling_resistance_gait_has_a_branch_point_in_the_motor_amplitude() {
     assert!(turn(&p.solution).abs() > 1e-4, "{}", turn(&p.solution));
     let values = [p.value, 0.5];
     let (new, ended) = follow_arclength(&values, p.solution.state(), how2, build, |_| {});
-    assert!(ended.is_none(), "{ended:?}");
+    assert!(matches!(ended, BranchEnd::Reached), "{ended:?}");
     let last = new.last().unwrap();
     assert_eq!(last.value, 0.5);
     let sets = [("motor.amplitude".to_string(), 0.5)];

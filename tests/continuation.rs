@@ -7,7 +7,9 @@
 use ezy::models::Pendulum;
 use ezy_core::analysis::arclength::{follow_arclength, locate_fold};
 use ezy_core::analysis::bifurcation::BifurcationKind;
-use ezy_core::analysis::{Analysis, AnalysisError, BranchPoint, Follow, PeriodicSettings, Solution, Stability};
+use ezy_core::analysis::{
+    Analysis, AnalysisError, BranchEnd, BranchPoint, Follow, PeriodicSettings, Solution, Stability,
+};
 
 use crate::analysis::{ezy, fresh, table};
 
@@ -64,7 +66,7 @@ fn an_equilibrium_branch_is_followed_around_its_fold() {
     let values: Vec<f64> = (0..13).map(|k| k as f64).collect();
     let how = Follow::Steady { energy: None };
     let (points, ended) = follow_arclength(&values, &x0, how, build, |_| {});
-    assert!(ended.is_none(), "{ended:?}");
+    assert!(matches!(ended, BranchEnd::Reached), "{ended:?}");
     let mgl = 9.81;
     let phi = |b: &BranchPoint| b.solution.state()[2];
     eprintln!("{} points", points.len());
@@ -194,7 +196,7 @@ fn a_resonance_curve_is_followed_through_both_folds() {
     let how = Follow::Periodic { t0: 0.0, period: std::f64::consts::TAU / 2.6, settings: PeriodicSettings::default() };
     let values: Vec<f64> = (0..17).map(|k| 2.6 + 0.05 * k as f64).collect();
     let (points, ended) = follow_arclength(&values, &guess, how, build, |_| {});
-    assert!(ended.is_none(), "{ended:?}");
+    assert!(matches!(ended, BranchEnd::Reached), "{ended:?}");
     let swing = |b: &BranchPoint| match &b.solution {
         Solution::Periodic(p) => p.state[2] + std::f64::consts::FRAC_PI_2,
         Solution::Steady(_) => unreachable!(),

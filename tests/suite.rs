@@ -23,6 +23,7 @@ mod bench;
 mod bifurcation;
 mod build_sharing;
 mod cli;
+mod closed_branch;
 mod culprits;
 mod cycle_branch;
 mod derived_terms;

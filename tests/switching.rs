@@ -7,7 +7,7 @@
 use ezy_core::analysis::arclength::follow_arclength;
 use ezy_core::analysis::bifurcation::{BifurcationKind, locate};
 use ezy_core::analysis::switching::{Criticality, switch_both};
-use ezy_core::analysis::{Analysis, AnalysisError, BranchPoint, Follow, Stability};
+use ezy_core::analysis::{Analysis, AnalysisError, BranchEnd, BranchPoint, Follow, Stability};
 use ezy_core::effects::{ForceLaw, Periodicity};
 use ezy_core::{Method, Problem};
 
@@ -88,7 +88,7 @@ fn switched(kind: Normal) -> (BifurcationKind, Option<Criticality>, bool, Vec<Br
     let (_, x0) = scene(kind, -1.0, -A).unwrap().analysis().unwrap();
     let how = Follow::Steady { energy: None };
     let (points, ended) = follow_arclength(&values, &x0, how, build, |_| {});
-    assert!(ended.is_none(), "{ended:?}");
+    assert!(matches!(ended, BranchEnd::Reached), "{ended:?}");
     let k = points.windows(2).position(|w| w[0].solution.stability() != w[1].solution.stability()).unwrap();
     let b = locate(&points[k], &points[k + 1], how, build, 1e-10).unwrap().expect("a bifurcation");
     assert_eq!(b.kind, BifurcationKind::BranchPoint);
@@ -105,7 +105,7 @@ fn switched(kind: Normal) -> (BifurcationKind, Option<Criticality>, bool, Vec<Br
     for n in &s.born {
         let end = if n.start.value > b.value { 1.0 } else { -1.0 };
         let (new, ended) = follow_arclength(&[n.start.value, end], n.start.solution.state(), n.follow, build, |_| {});
-        assert!(ended.is_none(), "{ended:?}");
+        assert!(matches!(ended, BranchEnd::Reached), "{ended:?}");
         assert_eq!(new.last().unwrap().value, end);
         all.extend(new);
     }
@@ -188,10 +188,11 @@ fn run_turning(a: f64) -> (f64, f64) {
 /// scene at +0.4 N m and at -0.4 N m (the motor's torque reversed: the
 /// mirror image of the motion, which turns the other way), 2000 s each:
 /// each arm's turning rate at 0.4 equals one run's last forcing period's
-/// heading change over its 2 s, to 1e-6 rad/s (the issue's bound; the
+/// heading change over its 2 s, to 1e-8 rad/s (the issue asks 1e-6; the
 /// arms' own are Newton's at 1e-9 of the state, the runs' transient is
-/// down by 0.97^1000), and each run has settled (its last two periods
-/// agree to 1e-9 rad/s), as a stable gait lets it.
+/// down by 0.97^1000; measured 3.9e-11 and 3.2e-10), and each run has
+/// settled (its last two periods agree to 1e-9 rad/s), as a stable gait
+/// lets it.
 #[test]
 fn the_cli_switches_onto_both_turning_arms_of_the_rolling_resistance_gait() {
     use crate::analysis::{ezy, fresh, table};
@@ -231,7 +232,7 @@ fn the_cli_switches_onto_both_turning_arms_of_the_rolling_resistance_gait() {
         let (last, before) = run_turning(a);
         let arm = if (last - r1).abs() < (last - r2).abs() { r1 } else { r2 };
         eprintln!("run at {a} N m: {last:e} rad/s (the period before {before:e}), the arm {arm:e}");
-        assert!((last - arm).abs() < 1e-6, "run at {a}: {last} against the arm's {arm}");
+        assert!((last - arm).abs() < 1e-8, "run at {a}: {last} against the arm's {arm}");
         assert!((last - before).abs() < 1e-9, "run at {a} has not settled: {last} then {before}");
     }
 }
@@ -242,10 +243,13 @@ fn the_cli_switches_onto_both_turning_arms_of_the_rolling_resistance_gait() {
 /// (A = 10.461 N m) and unstable above, and the doubled branch born there
 /// (branch-1.csv), followed to 10.50: its period twice the forcing's (to
 /// 1e-9 relative), stable, the doubling supercritical. A whole run at
-/// 10.50 (200 forcing periods from hanging at rest, sampled once a
-/// period) alternates between two states: the doubled orbit's angle at
-/// its phase is one of them, to 1e-6 rad (the run's transient after 200
-/// periods and its 1e-10 tolerances), and the run's is not period-1.
+/// 10.50 from the doubled orbit's state put 1e-3 rad off (the run from
+/// hanging at rest settles on the mirror image, which turns the other
+/// way), 200 forcing periods sampled once a period, comes back to the
+/// orbit's angle to 1e-8 rad (the transient's remains after 200 periods
+/// and the run's 1e-10 tolerances; measured 9.7e-11), as a stable orbit
+/// lets it, and
+/// alternates: it is not period-1.
 #[test]
 fn the_cli_switches_onto_the_forced_pendulums_doubled_branch() {
     use crate::analysis::{ezy, fresh, table};
@@ -286,28 +290,24 @@ fn the_cli_switches_onto_the_forced_pendulums_doubled_branch() {
     assert_eq!(last[0], "10.5");
     let phi: f64 = last[at("phi")].parse().unwrap();
     let t0: f64 = last[at("t0")].parse().unwrap();
-    // the run, sampled at the orbit's phase
+    let phid: f64 = last[at("phid")].parse().unwrap();
+    let t0: f64 = last[at("t0")].parse().unwrap();
+    assert_eq!(t0, 0.0, "a forced scene's branch holds the forcing's phase 0");
+    // the run from the doubled orbit's state put 1e-3 off, sampled once a
+    // forcing period: it comes back to the orbit (stable) and alternates
     let scene = ezy_scene::Scene::from_toml(&text, "forced-pendulum.toml").unwrap();
     let sets = [("motor.torque.cos.amplitude".to_string(), 10.5)];
     let (run, _) = scene.problem::<ezy::models::Pendulum>(&sets).unwrap();
-    let phase = t0.rem_euclid(forcing);
-    let sol = run.t_end(200.0 * forcing + phase).every(forcing).solve().unwrap();
-    let t = sol.t.clone();
+    let run = run.q("phi", phi + 1e-3).unwrap().qd("phi", phid).unwrap();
+    let sol = run.t_end(200.0 * forcing).every(forcing).solve().unwrap();
     let p = sol.column("phi").unwrap();
     let wrap = |a: f64| (a + std::f64::consts::PI).rem_euclid(std::f64::consts::TAU) - std::f64::consts::PI;
-    // the samples at the orbit's phase: whole forcing periods after `phase`
-    let at_phase: Vec<f64> = t
-        .iter()
-        .zip(&p)
-        .filter(|(t, _)| ((**t - phase) / forcing - ((**t - phase) / forcing).round()).abs() < 1e-9)
-        .map(|(_, p)| *p)
-        .collect();
-    let n = at_phase.len();
-    assert!(n > 10, "{n} samples at the phase");
-    let (a, b) = (wrap(at_phase[n - 1]), wrap(at_phase[n - 2]));
-    let off = (wrap(phi - a)).abs().min(wrap(phi - b).abs());
+    let n = p.len();
+    assert_eq!(n, 201, "a sample per forcing period");
+    // 200 periods on: an even number, the orbit's own phase
+    let (a, b) = (wrap(p[n - 1]), wrap(p[n - 2]));
+    let off = wrap(phi - a).abs();
     eprintln!("pendulum at 10.5: the doubled orbit's phi {phi}, the run's last two {a} {b}: off by {off:e}");
-    assert!(off < 1e-6, "{phi} against {a}, {b}");
+    assert!(off < 1e-8, "{phi} against the run's {a}");
     assert!(wrap(a - b).abs() > 1e-2, "the run repeats every period: {a} {b}");
-    assert!(wrap(at_phase[n - 1] - at_phase[n - 3]).abs() < 1e-6);
 }

@@ -929,7 +929,7 @@ fn model_key(model: &Bound<'_, PyAny>) -> PyResult<String> {
 /// `TypeError` or `ValueError` naming the keyword for anything else.
 fn switch_kw(v: Option<&Bound<'_, PyAny>>) -> PyResult<Vec<String>> {
     let Some(v) = v.filter(|v| !v.is_none()) else { return Ok(Vec::new()) };
-    if let Ok(b) = v.downcast::<pyo3::types::PyBool>() {
+    if let Ok(b) = v.cast::<pyo3::types::PyBool>() {
         return Ok(if b.is_true() { vec!["--switch".into()] } else { Vec::new() });
     }
     match v.extract::<i64>() {

@@ -23,7 +23,7 @@
 use faer::Mat;
 
 use super::bifurcation::{Bifurcation, BifurcationKind, at_bifurcation, critical, family};
-use super::branch::{BranchPoint, Follow, Solution, solve};
+use super::branch::{BranchEnd, BranchPoint, Follow, Solution, solve};
 use super::cycle_branch::Phase;
 use super::periodic::{gauge_coordinates, with_gauge};
 use super::symmetry::{Generator, Symmetry, act};
@@ -262,6 +262,52 @@ impl Equations {
         Ok(Corrected { w, tangent, iterations })
     }
 
+    /// Refuses a branch of steady motions whose tangent is not unique at
+    /// its first point `w` (`first`'s unknowns and parameter): a member of
+    /// a family of steady motions ([`super::steady::SteadyMotion::family`]:
+    /// a sleigh's straight run at every speed) has as many more null
+    /// directions of `[R_z R_p]` (the rank below `1e-8` of the largest
+    /// singular value, as the family's count takes it), along which
+    /// the corrector and the tangent pick the minimum norm's member, not
+    /// the user's. The kinetic energy's row (`Follow::Steady { energy:
+    /// Some(..) }`) fixes the member of a one-parameter family.
+    ///
+    /// # Errors
+    /// [`AnalysisError::Request`] naming the fix, where the branch's
+    /// solutions near `w` form more than a curve; the equations'.
+    fn unique_tangent<M: Model>(
+        &mut self,
+        build: &mut impl FnMut(f64) -> Result<Analysis<M>, AnalysisError>,
+        w: &[f64],
+        first: &Solution,
+    ) -> Result<(), AnalysisError> {
+        let (Solution::Steady(m), Follow::Steady { energy }) = (first, self.follow) else { return Ok(()) };
+        if m.family == 0 {
+            return Ok(());
+        }
+        let nz = w.len() - 1;
+        let n = vec![0.0; nz + 1];
+        let mut corrector =
+            Corrector { eq: self, build, w_hat: w, n: &n, w: w.to_vec(), r: Vec::new(), tried: Vec::new() };
+        corrector.r = corrector.residual_at(w)?;
+        let a = newton::Equations::jacobian(&mut corrector)?;
+        let rank = dense::numerical_rank(a.as_ref().subrows(0, a.nrows() - 1), 1e-8)?;
+        let free = (nz + 1).saturating_sub(rank + 1);
+        if free == 0 {
+            return Ok(());
+        }
+        let fix = match energy {
+            None => "follow it with the member fixed by its kinetic energy (`Follow::Steady { energy: Some(..) }`; `ezy analyze --energy J`, or without it the motion's own)".to_string(),
+            Some(e) => format!("its kinetic energy fixed at {e} J leaves {free} free"),
+        };
+        Err(AnalysisError::Request {
+            reason: format!(
+                "the steady motion is one of a family of {} dimension(s) beyond the symmetry, so the branch through it is not one curve ({free} more direction(s) along which every point solves): {fix}",
+                m.family
+            ),
+        })
+    }
+
     /// The solution at the corrected point `c`: the kind's own search from
     /// its state (converged already: it adds the stability); a limit
     /// cycle's from its period, its phase condition moved to it.
@@ -399,43 +445,78 @@ impl<M: Model, B: FnMut(f64) -> Result<Analysis<M>, AnalysisError>> newton::Equa
 /// through the range of `values` (a grid, increasing or decreasing) by
 /// pseudo-arclength continuation with a tangent predictor (module
 /// docs): the points fall on the grid's values where the branch is a
-/// graph over the parameter (the next value within twice the step that
-/// has worked and the longest step, its search converging), and between them, on arclength steps, where it
+/// graph over the parameter (the next value within twice the step that has worked and the longest step, its search converging), and between them, on arclength steps, where it
 /// turns steeply or folds back (at most ten times the first
 /// grid step's arclength each, halved where Newton fails or the tangent
 /// turns by more than 37 degrees, grown by half after one of at most
 /// three iterations turning less than 11 degrees). A branch that folds
 /// goes on through the fold and back over the grid's values it has
 /// passed, on its other side, until the parameter leaves the range; at
-/// most `4 values.len() + 64` points. Each point's `dp_ds` is its
+/// most `4 values.len() + 64` points. A branch that comes back to its
+/// first point without leaving the range is closed ([`Closing`]: the
+/// bodies' headings compared modulo a turn) and stopped there,
+/// [`BranchEnd::Closed`]. Each point's `dp_ds` is its
 /// tangent's parameter component: a sign change between two points is a
 /// fold ([`locate_fold`]). A grid of one value gives the one solution.
 ///
+/// A steady motion one of a family of them (a sleigh's straight run at
+/// every speed) has a tangent that is not unique unless a row fixes the
+/// family's member: its kinetic energy, `Follow::Steady { energy:
+/// Some(..) }`; without one the branch is refused at its first point.
+///
 /// # Errors
-/// The branch so far and, when it ended early, the parameter's value and
-/// the error that ended it (a corrector that fails at the shortest step,
-/// `1e-6` of the longest; the most points taken).
+/// The branch so far and, when it ended early, [`BranchEnd::Failed`]
+/// with the parameter's value and the error that ended it (a corrector
+/// that fails at the shortest step, `1e-6` of the longest; the most
+/// points taken; [`AnalysisError::Request`] for a family's member
+/// without the row that fixes it).
 pub fn follow_arclength<M: Model>(
     values: &[f64],
     start: &[f64],
     follow: Follow,
+    build: impl FnMut(f64) -> Result<Analysis<M>, AnalysisError>,
+    progress: impl FnMut(usize),
+) -> (Vec<BranchPoint>, BranchEnd) {
+    follow_arclength_from(values, 0, start, follow, build, progress)
+}
+
+/// [`follow_arclength`] from `start`'s solution at the grid's value
+/// `values[at]`, toward its last, within the range of all of
+/// `values`: the branch goes on over the grid's values before `first`
+/// where it turns back to them, and a branch from inside the range can
+/// close (a loop through two folds: from `x = 1` at `p = 0` around
+/// `x^2 + p^2 = 1` within `[-2, 2]`). An `at` past the grid's end
+/// gives no branch; at its last value, the one solution.
+///
+/// # Errors
+/// As [`follow_arclength`].
+pub fn follow_arclength_from<M: Model>(
+    values: &[f64],
+    at: usize,
+    start: &[f64],
+    follow: Follow,
     mut build: impl FnMut(f64) -> Result<Analysis<M>, AnalysisError>,
     mut progress: impl FnMut(usize),
-) -> (Vec<BranchPoint>, Option<(f64, AnalysisError)>) {
-    let Some(&p0) = values.first() else { return (Vec::new(), None) };
+) -> (Vec<BranchPoint>, BranchEnd) {
+    let Some(&p0) = values.get(at) else { return (Vec::new(), BranchEnd::Reached) };
     progress(0);
+    let failed = |value: f64, error: AnalysisError| BranchEnd::Failed { value, error };
     let mut timing = OrbitTiming::default();
-    let first = match build(p0).and_then(|mut an| solve(&mut an, follow, start, &mut timing)) {
+    let mut angles = Vec::new();
+    let first = match build(p0).and_then(|mut an| {
+        angles = an.bodies().iter().map(|b| b[2]).collect();
+        solve(&mut an, follow, start, &mut timing)
+    }) {
         Ok(s) => s,
-        Err(e) => return (Vec::new(), Some((p0, e))),
+        Err(e) => return (Vec::new(), failed(p0, e)),
     };
     let last_value = values[values.len() - 1];
-    if values.len() == 1 || last_value == p0 {
-        return (vec![BranchPoint { value: p0, solution: first, dp_ds: None }], None);
+    if at + 1 == values.len() || last_value == p0 {
+        return (vec![BranchPoint { value: p0, solution: first, dp_ds: None }], BranchEnd::Reached);
     }
     let mut eq = Equations::new(follow, &first);
     eq.timing = timing;
-    let (lo, hi) = (p0.min(last_value), p0.max(last_value));
+    let (lo, hi) = (values[0].min(last_value), values[0].max(last_value));
     let spacing = (hi - lo) / (values.len() - 1) as f64;
     let nz = eq.unknowns(&first).len();
     let mut e_p = vec![0.0; nz + 1];
@@ -443,11 +524,12 @@ pub fn follow_arclength<M: Model>(
     e_p[nz] = d0;
     let w0: Vec<f64> = [eq.unknowns(&first), vec![p0]].concat();
     // the tangent at the first point, oriented toward the range
-    let c = match eq.correct(&mut build, &w0, &e_p) {
+    let c = match eq.unique_tangent(&mut build, &w0, &first).and_then(|()| eq.correct(&mut build, &w0, &e_p)) {
         Ok(c) => c,
-        Err(e) => return (vec![BranchPoint { value: p0, solution: first, dp_ds: None }], Some((p0, e))),
+        Err(e) => return (vec![BranchPoint { value: p0, solution: first, dp_ds: None }], failed(p0, e)),
     };
     let mut points = vec![BranchPoint { value: p0, solution: first, dp_ds: Some(c.tangent[nz]) }];
+    let mut closing = Closing::new(&w0, &c.tangent, angles);
     let (mut w, mut t) = (w0, c.tangent);
     // the longest step: ten times the first grid step's arclength; where
     // the branch starts near-vertical in the parameter (|dp/ds| < 0.1: a
@@ -462,7 +544,7 @@ pub fn follow_arclength<M: Model>(
     }
     let ds_min = 1e-6 * ds_max;
     let mut ds = 0.1 * ds_max;
-    let mut failed: Option<f64> = None;
+    let mut failed_at: Option<f64> = None;
     let most = 4 * values.len() + 64;
     let next_grid = |p: f64, d: f64| -> Option<f64> {
         // the next grid value beyond p in the direction d
@@ -476,13 +558,13 @@ pub fn follow_arclength<M: Model>(
         let p = w[nz];
         let d = t[nz].signum();
         // the range's end in this direction reached: the branch is done
-        let Some(target) = next_grid(p, d) else { return (points, None) };
+        let Some(target) = next_grid(p, d) else { return (points, BranchEnd::Reached) };
         let mut to_value = vec![0.0; nz + 1];
         to_value[nz] = d;
         let s_grid = (target - p) / t[nz];
         let end = if d > 0.0 { hi } else { lo };
         // (within twice the step that has worked, not failed from here)
-        let natural = s_grid > 0.0 && s_grid <= ds_max.min(2.0 * ds) && failed != Some(target);
+        let natural = s_grid > 0.0 && s_grid <= ds_max.min(2.0 * ds) && failed_at != Some(target);
         let (s, row, value) = if natural {
             // natural: the grid's next value within the step
             (s_grid, to_value, Some(target))
@@ -531,9 +613,17 @@ pub fn follow_arclength<M: Model>(
                 if let Some(v) = value {
                     c.w[nz] = v;
                 }
+                // the step passed the first point again: the loop closes there
+                if let Some(back) = closing.passes(&mut eq, &mut build, &w, &c) {
+                    let n = points.len();
+                    return match eq.point(&mut build, &back) {
+                        Ok(b) => (points.into_iter().chain([b]).collect(), BranchEnd::Closed { points: n }),
+                        Err(e) => (points, failed(back.w[nz], e)),
+                    };
+                }
                 let point = match eq.point(&mut build, &c) {
                     Ok(b) => b,
-                    Err(e) => return (points, Some((c.w[nz], e))),
+                    Err(e) => return (points, failed(c.w[nz], e)),
                 };
                 // grown after an easy step that turned little
                 let turn: f64 = c.tangent.iter().zip(&t).map(|(a, b)| a * b).sum();
@@ -547,34 +637,141 @@ pub fn follow_arclength<M: Model>(
                 }
                 wn.push(c.w[nz]);
                 points.push(point);
-                (w, t, failed) = (wn, c.tangent, None);
+                closing.reached(&wn);
+                (w, t, failed_at) = (wn, c.tangent, None);
             }
-            Err(AnalysisError::Stopped) => return (points, Some((p, AnalysisError::Stopped))),
+            Err(AnalysisError::Stopped) => return (points, failed(p, AnalysisError::Stopped)),
             Err(e) => {
                 // a natural step that failed is not tried again: arclength
                 // steps shorter than it go on
                 if value.is_some() {
-                    failed = value;
+                    failed_at = value;
                 }
                 ds = 0.5 * ds.min(s);
                 if ds < ds_min {
-                    return (points, Some((p, e)));
+                    return (points, failed(p, e));
                 }
             }
         }
     }
-    let p = w[nz];
-    (
-        points,
-        Some((
-            p,
-            AnalysisError::Request {
-                reason: format!(
-                    "the branch took {most} points without leaving the range (a closed branch, or one that turns back and forth): ended"
-                ),
-            },
-        )),
-    )
+    let reason = format!(
+        "the branch took {most} points without leaving the range or coming back to its start (one that turns back and forth): ended"
+    );
+    (points, failed(w[nz], AnalysisError::Request { reason }))
+}
+
+/// Largest distance from the first point, relative to the step's chord,
+/// at which a step's chord passing it closes the branch: a chord of an
+/// arc that turns by at most 37 degrees ([`MIN_TURN_COS`]) sags from it
+/// by at most `1 - cos(37/2 deg)` of half the chord, 0.026 of the chord;
+/// twice that.
+const CLOSE_SAG: f64 = 0.05;
+
+/// How far, relative to `1 + |w0|` (max norm), the point corrected on the
+/// hyperplane through the first point may lie from it for the branch to
+/// be the same there: ten thousand times the corrector's tolerance
+/// (`5e-13` relative), the Jacobian's conditioning room.
+const CLOSE_TOL: f64 = 1e-8;
+
+/// Smallest `|dp/ds|` of the first point's tangent at which the branch is
+/// closed on the hyperplane of the first point's parameter value (the
+/// tangent within 84 degrees of the parameter's axis); closer to a fold,
+/// on the one normal to the tangent.
+const STEEP: f64 = 0.1;
+
+/// Whether a branch comes back to its first point `w0` (tangent `t0`):
+/// a step's chord from `w` to the next point passes within [`CLOSE_SAG`]
+/// of its length from `w0`, the next tangent pointing the way `t0` does,
+/// after the branch has been further from `w0` than twice that chord;
+/// then the point corrected on the hyperplane through `w0` normal to `t0`
+/// (or to the parameter's axis, [`STEEP`]) from the chord's nearest point
+/// must be `w0` to [`CLOSE_TOL`] (a branch
+/// that passes near its start on another sheet is not closed). The bodies'
+/// headings `angles` (indices into `w`) are compared modulo a turn: a
+/// pendulum's equilibria around a full turn close.
+struct Closing {
+    w0: Vec<f64>,
+    t0: Vec<f64>,
+    angles: Vec<usize>,
+    /// The largest distance from `w0` of the points so far.
+    away: f64,
+}
+
+impl Closing {
+    fn new(w0: &[f64], t0: &[f64], angles: Vec<usize>) -> Self {
+        Closing { w0: w0.to_vec(), t0: t0.to_vec(), angles, away: 0.0 }
+    }
+
+    /// `w - w0`, its headings wrapped to within half a turn.
+    fn offset(&self, w: &[f64]) -> Vec<f64> {
+        let mut d: Vec<f64> = w.iter().zip(&self.w0).map(|(a, b)| a - b).collect();
+        for &k in &self.angles {
+            d[k] -= std::f64::consts::TAU * (d[k] / std::f64::consts::TAU).round();
+        }
+        d
+    }
+
+    /// A point `w` of the branch taken.
+    fn reached(&mut self, w: &[f64]) {
+        self.away = self.away.max(norm(&self.offset(w)));
+    }
+
+    /// The point at `w0` (its headings a whole number of turns from
+    /// `w0`'s, as the branch has carried them), where the step from `w`
+    /// to `c` passes it; `None` where it does not.
+    fn passes<M: Model>(
+        &self,
+        eq: &mut Equations,
+        build: &mut impl FnMut(f64) -> Result<Analysis<M>, AnalysisError>,
+        w: &[f64],
+        c: &Corrected,
+    ) -> Option<Corrected> {
+        let chord: Vec<f64> = c.w.iter().zip(w).map(|(a, b)| a - b).collect();
+        let len = norm(&chord);
+        let a = self.offset(w);
+        let along = dot(&self.t0, &c.tangent);
+        if len == 0.0 || self.away <= 2.0 * len || along <= 0.0 {
+            return None;
+        }
+        let sigma = (-dot(&a, &chord) / (len * len)).clamp(0.0, 1.0);
+        let near: Vec<f64> = a.iter().zip(&chord).map(|(x, y)| x + sigma * y).collect();
+        if norm(&near) > CLOSE_SAG * len {
+            return None;
+        }
+        // w0 as the branch carries it (whole turns on), and the hyperplane
+        // through it normal to t0, from the chord's nearest point; where the
+        // branch crosses the parameter's value there steeply, that value's
+        // (the closing point at the first's value exactly)
+        let nz = w.len() - 1;
+        let target: Vec<f64> = w.iter().zip(&a).map(|(x, o)| x - o).collect();
+        let from: Vec<f64> = w.iter().zip(&chord).map(|(x, y)| x + sigma * y).collect();
+        let mut n = self.t0.clone();
+        if self.t0[nz].abs() > STEEP {
+            n = vec![0.0; nz + 1];
+            n[nz] = 1.0;
+        }
+        let gap: Vec<f64> = target.iter().zip(&from).map(|(x, y)| x - y).collect();
+        let lift = dot(&n, &gap);
+        let w_hat: Vec<f64> = from.iter().zip(&n).map(|(x, t)| x + lift * t).collect();
+        let mut back = eq.correct(build, &w_hat, &n).ok()?;
+        if n[nz] == 1.0 {
+            // Newton holds it to rounding
+            back.w[nz] = target[nz];
+        }
+        let scale = 1.0 + self.w0.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+        let miss = back.w.iter().zip(&target).fold(0.0f64, |m, (x, y)| m.max((x - y).abs()));
+        (miss < CLOSE_TOL * scale).then_some(back)
+    }
+}
+
+/// The Euclidean norm of `v`.
+fn norm(v: &[f64]) -> f64 {
+    dot(v, v).sqrt()
+}
+
+/// `a . b`.
+fn dot(a: &[f64], b: &[f64]) -> f64 {
+    a.iter().zip(b).map(|(x, y)| x * y).sum()
 }
 
 /// Locates the fold between the branch points `a` and `b` (from

@@ -92,6 +92,50 @@ pub struct BranchPoint {
     pub dp_ds: Option<f64>,
 }
 
+/// How a branch followed by [`super::arclength::follow_arclength`] ended.
+#[derive(Debug)]
+pub enum BranchEnd {
+    /// The parameter left the range at its end (or the grid had one value).
+    Reached,
+    /// The branch came back to its first point without leaving the range:
+    /// a closed curve (an isola, or a loop through two folds), stopped
+    /// there. It has `points` distinct points; the branch's last point is
+    /// its first again (corrected there, its headings possibly a whole
+    /// number of turns on), so each stretch of the loop, the closing one
+    /// too, lies between two consecutive points.
+    Closed {
+        /// The distinct points of the loop (the branch's length less one).
+        points: usize,
+    },
+    /// The branch ended early, at the parameter's `value`, with the
+    /// `error` that ended it.
+    Failed {
+        /// The parameter's value where it ended.
+        value: f64,
+        /// Why.
+        error: AnalysisError,
+    },
+}
+
+impl BranchEnd {
+    /// The value and error of a branch that ended early; `None` where it
+    /// reached the range's end or closed.
+    pub fn failure(&self) -> Option<(f64, &AnalysisError)> {
+        match self {
+            BranchEnd::Failed { value, error } => Some((*value, error)),
+            _ => None,
+        }
+    }
+
+    /// [`BranchEnd::failure`], taken.
+    pub fn into_failure(self) -> Option<(f64, AnalysisError)> {
+        match self {
+            BranchEnd::Failed { value, error } => Some((value, error)),
+            _ => None,
+        }
+    }
+}
+
 /// Follows a branch of solutions through the parameter values `values`
 /// by natural-parameter continuation (Seydel, *Practical Bifurcation and
 /// Stability Analysis*, 3rd ed., §4.1): at each value the scene is built

@@ -84,7 +84,7 @@ pub mod switching;
 pub(crate) mod symmetry;
 
 pub use bifurcation::{Bifurcation, BifurcationKind};
-pub use branch::{BranchPoint, Follow, Solution};
+pub use branch::{BranchEnd, BranchPoint, Follow, Solution};
 pub use faer::c64;
 pub use growth::{Growth, GrowthFit, PowerLaw};
 pub use linear::{Input, Linearization};

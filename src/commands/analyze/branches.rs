@@ -5,10 +5,10 @@
 
 use std::time::Instant;
 
-use ezy_core::analysis::arclength::{follow_arclength, locate_fold};
+use ezy_core::analysis::arclength::{follow_arclength_from, locate_fold};
 use ezy_core::analysis::bifurcation::locate;
 use ezy_core::analysis::switching::{Switch, switch_both};
-use ezy_core::analysis::{Analysis, AnalysisError, BifurcationKind, BranchPoint, Follow, Solution};
+use ezy_core::analysis::{Analysis, AnalysisError, BifurcationKind, BranchEnd, BranchPoint, Follow, Solution};
 use ezy_core::{Model, fmt_value};
 use ezy_scene::Scene;
 
@@ -75,6 +75,8 @@ pub(super) struct Branch {
     pub(super) bifurcations: Vec<Located>,
     /// How it ended: `the range's end`, or why it stopped early.
     pub(super) ended: String,
+    /// How it was followed: a forced scene's gaits have a mean input power.
+    follow: Follow,
 }
 
 impl Branch {
@@ -129,13 +131,14 @@ pub(super) fn follow_all<M: Model>(
     let build = builder(proto, scene, ro, name);
     let (points, ended) = follow_branch(ro, (name, values), start, follow, build, log)?;
     let bifurcations = locate_all(ro, name, &points, follow, build, log)?;
-    let mut branches = vec![Branch { id: 0, birth: None, points, power: Vec::new(), bifurcations, ended }];
+    let mut branches = vec![Branch { id: 0, birth: None, points, power: Vec::new(), bifurcations, ended, follow }];
     if let Some(at) = switch {
         let (lo, hi) = (values[0].min(values[values.len() - 1]), values[0].max(values[values.len() - 1]));
         let spacing = (hi - lo) / (values.len().max(2) - 1) as f64;
         switch_all(ro, (name, [lo, hi], spacing), follow, build, at, &mut branches, log)?;
     }
-    for b in &mut branches {
+    // a forced scene's gaits' (a limit cycle's power is not computed)
+    for b in branches.iter_mut().filter(|b| matches!(b.follow, Follow::Periodic { .. })) {
         b.power = branch_power(proto, scene, ro, name, &b.points, log)?;
     }
     Ok(branches)
@@ -213,7 +216,8 @@ fn switch_all<M: Model>(
                 symmetry_breaking: s.symmetry_breaking,
                 side: born.side,
             };
-            branches.push(Branch { id, birth: Some(birth), points, power: Vec::new(), bifurcations, ended });
+            let follow = born.follow;
+            branches.push(Branch { id, birth: Some(birth), points, power: Vec::new(), bifurcations, ended, follow });
         }
         log.timings.push((format!("branches born at {name} = {}", fmt_value(b.value)), clock.elapsed()));
     }
@@ -263,8 +267,8 @@ fn follow_branch<M: Model>(
 ) -> Result<(Vec<BranchPoint>, String), Error> {
     let clock = Instant::now();
     let beat = ro.progress.then(|| Heartbeat::start(format!("following the branch in {name}")));
-    let along = |values: &[f64]| {
-        follow_arclength(values, start, follow, build, |k| {
+    let along = |first: usize| {
+        follow_arclength_from(values, first, start, follow, build, |k| {
             if let Some(b) = &beat {
                 b.set(format!("following the branch in {name}: point {} (a grid of {} values)", k + 1, values.len()));
             }
@@ -273,12 +277,12 @@ fn follow_branch<M: Model>(
     // a grid that starts where there is no solution (beyond a fold) is
     // followed from its first value where the search converges
     let mut first = 0;
-    let (mut points, mut ended) = along(values);
+    let (mut points, mut ended) = along(0);
     let mut missed = None;
     while points.is_empty() && first + 1 < values.len() && pending().is_none() {
-        missed = missed.or(ended.take());
+        missed = missed.or(std::mem::replace(&mut ended, BranchEnd::Reached).into_failure());
         first += 1;
-        (points, ended) = along(&values[first..]);
+        (points, ended) = along(first);
     }
     drop(beat);
     check_interrupt(&ro.out, None, Some(format!("following the branch in {name}")))?;
@@ -292,12 +296,18 @@ fn follow_branch<M: Model>(
         ));
     }
     let how = match ended {
-        Some((v, e)) => {
-            let how = format!("ends at {name} = {}: {e}", fmt_value(v));
+        BranchEnd::Failed { value, error } => {
+            let how = format!("ends at {name} = {}: {error}", fmt_value(value));
             log.notes.push(format!("the branch {how}"));
             how
         }
-        None => "the range's end".to_string(),
+        BranchEnd::Closed { points: k } => {
+            let how =
+                format!("closed: it returns to its start at {name} = {} after {k} points", fmt_value(points[0].value));
+            log.notes.push(format!("the branch is {how}"));
+            how
+        }
+        BranchEnd::Reached => "the range's end".to_string(),
     };
     log.timings.push((format!("branch of {} points", points.len()), clock.elapsed()));
     Ok((points, how))

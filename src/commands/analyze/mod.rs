@@ -55,8 +55,11 @@ struct AnalyzeArgs {
     /// The forcing period [s] [default: from the scene's waveforms].
     #[arg(long, value_name = "T", value_parser = parse_positive)]
     period: Option<f64>,
-    /// The kinetic energy [J] of the steady motions sought [default: the
-    /// guess's own in a scene without effects, where energy is conserved].
+    /// The kinetic energy [J] of the steady motions sought, held along
+    /// their branch (--continue) [default: the guess's own in a scene
+    /// without effects, where energy is conserved; on a branch, a family's
+    /// member's own (a sleigh's straight run at any speed: the speed is
+    /// free unless a level picks it)].
     #[arg(long, value_name = "J", value_parser = parse_positive)]
     energy: Option<f64>,
     /// Follow the solution as a parameter takes COUNT evenly spaced
@@ -658,8 +661,22 @@ fn steady_motions<M: Model>(
             log.notes.join("; ")
         )));
     }
-    let follow = Follow::Steady { energy: energy_of(an, &steady[0].state) };
-    Ok((steady, follow))
+    let first = &steady[0];
+    let mut energy = energy_of(an, &first.state);
+    // a family's member (a free speed) is followed at its own kinetic
+    // energy: without a level the branch through it is not one curve
+    if energy.is_none() && first.family > 0 {
+        let e = an.dynamics().kinetic_energy(&first.state[nq..]);
+        if opts.continuation.is_some() {
+            log.notes.push(format!(
+                "steady motion 1 is one of a family of {} dimension(s) (a free speed): its branch holds its kinetic energy at {} J (--energy J holds another)",
+                first.family,
+                fmt_value(e)
+            ));
+        }
+        energy = Some(e);
+    }
+    Ok((steady, Follow::Steady { energy }))
 }
 
 /// Shortest `--period`, as a fraction of the time `t0 = t_end` (at least
