@@ -289,7 +289,6 @@ fn the_cli_switches_onto_the_forced_pendulums_doubled_branch() {
     let last = born.last().unwrap();
     assert_eq!(last[0], "10.5");
     let phi: f64 = last[at("phi")].parse().unwrap();
-    let t0: f64 = last[at("t0")].parse().unwrap();
     let phid: f64 = last[at("phid")].parse().unwrap();
     let t0: f64 = last[at("t0")].parse().unwrap();
     assert_eq!(t0, 0.0, "a forced scene's branch holds the forcing's phase 0");

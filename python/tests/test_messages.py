@@ -28,8 +28,6 @@ REFUSALS = [
     (lambda: ezy.analyze("drive", vary="M0=1:2"), "`vary=`"),
     (lambda: ezy.analyze("drive", vary="M0=1:2:3"), "`vary=`"),
     (lambda: ezy.analyze("drive", switch=True), "`switch=`"),
-    (lambda: ezy.analyze("drive", vary="M0=1:2:3", switch=0), "`switch=0`"),
-    (lambda: ezy.analyze("drive", vary="M0=1:2:3", switch="all"), "`switch`"),
     (lambda: ezy.analyze("four-bar", wrt="c"), "`wrt=`"),
     (lambda: ezy.linearize("drive", at=-1.0), "`at=-1`"),
     (lambda: ezy.sensitivity("drive", wrt="M0,M0"), "`wrt=`"),

@@ -453,7 +453,7 @@ impl<M: Model, B: FnMut(f64) -> Result<Analysis<M>, AnalysisError>> newton::Equa
 /// goes on through the fold and back over the grid's values it has
 /// passed, on its other side, until the parameter leaves the range; at
 /// most `4 values.len() + 64` points. A branch that comes back to its
-/// first point without leaving the range is closed ([`Closing`]: the
+/// first point without leaving the range is closed (the
 /// bodies' headings compared modulo a turn) and stopped there,
 /// [`BranchEnd::Closed`]. Each point's `dp_ds` is its
 /// tangent's parameter component: a sign change between two points is a

@@ -123,8 +123,7 @@ pub(super) fn follow_all<M: Model>(
     scene: &Scene,
     ro: &RunOptions,
     (name, values): (&str, &[f64]),
-    start: &[f64],
-    follow: Follow,
+    (start, follow): (&[f64], Follow),
     switch: Option<SwitchAt>,
     log: &mut Log,
 ) -> Result<Vec<Branch>, Error> {

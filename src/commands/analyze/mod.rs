@@ -73,8 +73,7 @@ struct AnalyzeArgs {
     /// (branch-1.csv, ...), listed with its parent and the bifurcation it
     /// starts from in branches.csv, and drawn in branch.png; a branch
     /// point is told transcritical or pitchfork by them.
-    #[arg(long, value_name = "K", num_args = 0..=1, requires = "continuation",
-          value_parser = clap::value_parser!(u64).range(1..=MAX_SWITCH))]
+    #[arg(long, value_name = "K", num_args = 0..=1, value_parser = clap::value_parser!(u64).range(1..=MAX_SWITCH))]
     switch: Option<Option<u64>>,
     /// The gait's derivatives with respect to these parameters
     /// (comma-separated or repeated; names as for --set, or
@@ -100,6 +99,12 @@ pub(crate) fn exec(app: &App, args: &ArgMatches, out: &mut dyn Write) -> Result<
     let args = AnalyzeArgs::from_arg_matches(args)?;
     let (_, src) = app.named_scene(args.scene.as_deref())?;
     let scene = &src.scene;
+    if args.switch.is_some() && args.continuation.is_none() {
+        return Err(AppError::Failed(
+            "--switch follows the branches born on a branch: give the branch with --continue NAME=START:STOP:COUNT"
+                .into(),
+        ));
+    }
     let continuation = match &args.continuation {
         Some(text) => {
             let axis = crate::sweep::plan::grid(text).map_err(|e| AppError::Failed(format!("--continue {e}")))?;
@@ -321,7 +326,7 @@ fn analyze_model<M: Model>(proto: &M, scene: &Scene, opts: &AnalyzeOptions) -> R
             let start = steady
                 .first()
                 .map_or_else(|| periodic.as_ref().map(|p| p.state.clone()).unwrap_or_default(), |s| s.state.clone());
-            follow_all(proto, scene, ro, (name, values), &start, follow, opts.switch, &mut log)?
+            follow_all(proto, scene, ro, (name, values), (&start, follow), opts.switch, &mut log)?
         }
         None => Vec::new(),
     };
