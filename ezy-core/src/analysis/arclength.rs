@@ -24,7 +24,7 @@ use faer::Mat;
 
 use super::bifurcation::{Bifurcation, BifurcationKind, at_bifurcation, critical, family};
 use super::branch::{BranchEnd, BranchPoint, Follow, Solution, solve};
-use super::cycle_branch::Phase;
+use super::cycle_phase::Phase;
 use super::periodic::{gauge_coordinates, with_gauge};
 use super::symmetry::{Generator, Symmetry, act};
 use super::{Analysis, AnalysisError, dense, newton};

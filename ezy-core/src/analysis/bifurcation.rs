@@ -10,7 +10,7 @@
 use faer::c64;
 
 use super::branch::{BranchPoint, Follow, Solution, solve};
-use super::cycle_branch::between;
+use super::cycle_phase::between;
 use super::periodic::PeriodicSettings;
 use super::steady::Stability;
 use super::{Analysis, AnalysisError};

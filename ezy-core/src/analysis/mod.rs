@@ -71,6 +71,7 @@ pub mod bifurcation;
 pub mod branch;
 mod cycle;
 pub mod cycle_branch;
+pub(crate) mod cycle_phase;
 pub(crate) mod dense;
 pub(crate) mod gait_means;
 mod growth;

@@ -8,12 +8,13 @@ use std::time::Instant;
 use ezy_core::analysis::arclength::{follow_arclength_from, locate_fold};
 use ezy_core::analysis::bifurcation::locate;
 use ezy_core::analysis::switching::{Switch, switch_both};
-use ezy_core::analysis::{Analysis, AnalysisError, BifurcationKind, BranchEnd, BranchPoint, Follow, Solution};
+use ezy_core::analysis::{
+    Analysis, AnalysisError, Bifurcation, BifurcationKind, BranchEnd, BranchPoint, Follow, Solution,
+};
 use ezy_core::{Model, fmt_value};
 use ezy_scene::Scene;
 
 use super::Log;
-use super::report::Located;
 use crate::output::progress::Heartbeat;
 use crate::output::transaction::{check_interrupt, pending};
 use crate::session::{Error, RunOptions, analysis_error, complex, periodic_settings, scene_analysis};
@@ -30,6 +31,9 @@ const BIFURCATION_TOL: f64 = 1e-8;
 /// rolling-resistance gait's turning arm's was within the 1e-6 counted
 /// as on it, neutral), inside the new branch's quadratic bend.
 const SWITCH_OFFSET: f64 = 1e-2;
+
+/// A bifurcation located, after the branch's point at the index.
+pub(super) type Located = (usize, Bifurcation);
 
 /// Which bifurcations `--switch` follows the branches of.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]

@@ -5,22 +5,19 @@ use std::fmt::Write as _;
 use std::path::PathBuf;
 
 use ezy_core::analysis::{
-    Analysis, Bifurcation, BranchPoint, Growth, GrowthFit, PeriodicOrbit, Solution, Stability, SteadyMotion, c64,
+    Analysis, BranchPoint, Growth, GrowthFit, PeriodicOrbit, Solution, Stability, SteadyMotion, c64,
 };
 use ezy_core::sensitivity::GaitSensitivities;
 use ezy_core::{Model, fmt_value};
 use ezy_scene::Scene;
 
-use super::branches::Branch;
+use super::branches::{Branch, Located};
 use super::spectrum::{multipliers, ones, steady_eigenvalues, verdict};
 use super::{AnalyzeOptions, AnalyzeReport};
 use crate::output::csv::{number, record};
 use crate::output::transaction::{OutLock, Transaction};
 use crate::render::plot::series::{Chart, Series, Stroke};
 use crate::session::{Error, rounded, rounded_to};
-
-/// A bifurcation located, after the branch's point at the index.
-pub(super) type Located = (usize, Bifurcation);
 
 /// A branch's points, their mean power and efficiency, and its
 /// bifurcations.
