@@ -32,6 +32,16 @@ impl Solution {
         }
     }
 
+    /// How fast it turns \[rad/s\]: a steady motion's yaw rate, a periodic
+    /// orbit's heading change per period over its period (0 for a motion
+    /// that goes straight).
+    pub fn turning_rate(&self) -> f64 {
+        match self {
+            Solution::Steady(s) => s.body_velocity[2],
+            Solution::Periodic(p) => p.heading_change / p.period,
+        }
+    }
+
     /// The reference body's speed \[m/s\]: steady, or the mean over a period.
     pub fn speed(&self) -> f64 {
         match self {

@@ -111,15 +111,6 @@ impl Switch {
     }
 }
 
-/// The turning rate of a solution: a steady motion's yaw rate \[rad/s\],
-/// a periodic orbit's heading change per period over the period.
-fn turning(s: &Solution) -> f64 {
-    match s {
-        Solution::Steady(m) => m.body_velocity[2],
-        Solution::Periodic(o) => o.heading_change / o.period,
-    }
-}
-
 /// Switches at `b`, a branch point, period doubling or Hopf point located
 /// between the parent branch's points `parent` (followed as `follow`
 /// says, the scene at a value made by `build`): the branches born there,
@@ -226,8 +217,8 @@ pub fn switch_both<M: Model>(
     // at a symmetry-breaking pitchfork) and its own turning is off by the
     // search's residual over that
     let symmetry_breaking = kind == BifurcationKind::Pitchfork && {
-        let r0 = turning(&parent[0].solution).abs().max(turning(&parent[1].solution).abs());
-        let (r1, r2) = (turning(&born[0].start.solution), turning(&born[1].start.solution));
+        let r0 = parent[0].solution.turning_rate().abs().max(parent[1].solution.turning_rate().abs());
+        let (r1, r2) = (born[0].start.solution.turning_rate(), born[1].start.solution.turning_rate());
         r1 * r2 < 0.0 && r0 < 1e-3 * r1.abs().min(r2.abs())
     };
     let criticality = if kind == BifurcationKind::Pitchfork { criticality(&born) } else { None };

@@ -106,7 +106,7 @@ pub(super) fn write_analysis<M: Model>(
 fn branch_axis(points: &[&BranchPoint], names: &[String], periodic: bool, born: bool) -> (String, Axis) {
     // at rest to rounding (1e-16 m/s): below a nanometre per second
     let moving = points.iter().any(|b| b.solution.speed() > 1e-9);
-    if born && points.iter().any(|b| turning_rate(&b.solution).abs() > 1e-9) {
+    if born && points.iter().any(|b| b.solution.turning_rate().abs() > 1e-9) {
         return ("turning rate [rad/s]".into(), Axis::Turning);
     }
     let range = |i: usize| {
@@ -135,19 +135,10 @@ enum Axis {
 impl Axis {
     fn of(self, s: &Solution) -> f64 {
         match self {
-            Axis::Turning => turning_rate(s),
+            Axis::Turning => s.turning_rate(),
             Axis::Speed => s.speed(),
             Axis::State(i) => s.state()[i],
         }
-    }
-}
-
-/// A steady motion's yaw rate, a periodic orbit's heading change over its
-/// period [rad/s].
-fn turning_rate(s: &Solution) -> f64 {
-    match s {
-        Solution::Steady(m) => m.body_velocity[2],
-        Solution::Periodic(o) => o.heading_change / o.period,
     }
 }
 
@@ -509,7 +500,7 @@ fn branch_csv(
             number(value),
             solution.stability().name().into(),
             number(solution.speed()),
-            number(turning_rate(solution)),
+            number(solution.turning_rate()),
         ];
         if let Solution::Periodic(p) = solution {
             cells.extend([number(p.period), number(p.t0)]);
