@@ -685,7 +685,9 @@ pub(crate) fn periodic_settings(ro: &RunOptions) -> ezy_core::analysis::Periodic
         atol: ro.atol.unwrap_or(base.tolerance.atol),
     };
     let newton_tolerance = if ro.rtol.is_some() || ro.atol.is_some() {
-        (100.0 * tolerance.rtol.max(tolerance.atol)).clamp(1e-13, 1e-3)
+        // (to 12 digits: 100 x 1e-6 is 1e-4, not 9.999999999999999e-5)
+        let t: f64 = format!("{:.11e}", 100.0 * tolerance.rtol.max(tolerance.atol)).parse().unwrap_or(1e-3);
+        t.clamp(1e-13, 1e-3)
     } else {
         base.newton_tolerance
     };

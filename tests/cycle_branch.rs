@@ -202,3 +202,29 @@ fn analyze_continues_a_limit_cycle_with_its_period_free() {
     eprintln!("at 0.31 N m: the branch's period {}, the analysis' {period}", periods[4]);
     assert!((periods[4] - period).abs() < 1e-8, "{} against {period}", periods[4]);
 }
+
+/// The same cycle on a coarse grid, `0.3:0.5:3`: the first arclength step
+/// is long, and the tangent at the point it reaches (0.316 N m), computed
+/// with the phase condition through 0.3's cycle, has its parameter
+/// component of the wrong sign. That used to be located as a "fold" at
+/// 0.3158949 N m with the critical multiplier 0.046427, far from the 1 a
+/// fold has: a false bifurcation. A fold is now told only where a
+/// multiplier is within 1e-2 of the unit circle: this one is said not a
+/// fold, and no fold is written.
+#[test]
+fn a_sign_change_of_the_tangent_without_a_critical_multiplier_is_not_a_fold() {
+    use crate::analysis::{ezy, fresh, table};
+    let out = fresh("cycle-coarse");
+    let (said, err, ok) =
+        ezy(&["analyze", "four-bar", "--continue", "motor.torque.constant=0.3:0.5:3", "--no-figures"], &out);
+    assert!(ok, "{said}{err}");
+    assert!(!said.contains("note: fold at"), "{said}");
+    let (head, rows) = table(&out.join("branch.csv"));
+    // (the column is written where a bifurcation is)
+    if let Some(at) = head.iter().position(|h| h == "bifurcation") {
+        assert!(rows.iter().all(|r| r[at].is_empty()), "{rows:?}");
+    }
+    if said.contains("the tangent's parameter component changes sign") {
+        assert!(said.contains("not a fold"), "{said}");
+    }
+}

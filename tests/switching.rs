@@ -23,6 +23,8 @@ use crate::optimize::{Cart, M};
 enum Normal {
     Pitchfork,
     Transcritical,
+    /// The pitchfork with an imperfection `e` \[m/s^2\]: `F/m = mu y - y^3 + e`.
+    Imperfect(f64),
 }
 
 /// The tilt of the parent branch `x = A mu`.
@@ -44,6 +46,7 @@ impl NormalForm {
         match self.kind {
             Normal::Pitchfork => (self.mu * y - y * y * y, self.mu - 3.0 * y * y),
             Normal::Transcritical => (-y * (y + 3.0 * self.mu), -(2.0 * y + 3.0 * self.mu)),
+            Normal::Imperfect(e) => (self.mu * y - y * y * y + e, self.mu - 3.0 * y * y),
         }
     }
 }
@@ -127,6 +130,7 @@ fn check_born(kind: Normal, born: &[BranchPoint]) {
         let off = match kind {
             Normal::Pitchfork => (mu - y * y).abs() / (1.0 + 4.0 * y * y).sqrt(),
             Normal::Transcritical => (y + 3.0 * mu).abs() / 10f64.sqrt(),
+            Normal::Imperfect(_) => unreachable!("nothing is born at an imperfect pitchfork"),
         };
         assert!(off < 1e-9, "{kind:?} at mu = {mu}: x = {x}, off the closed form's branch by {off:e}");
         let slope = NormalForm { kind, mu }.g(y).1;
@@ -163,6 +167,59 @@ fn a_transcritical_point_is_told_from_its_branch_across() {
     assert_eq!(criticality, None);
     assert!(born.iter().any(|p| p.value == 1.0) && born.iter().any(|p| p.value == -1.0));
     check_born(Normal::Transcritical, &born);
+}
+
+/// The pitchfork unfolded by an imperfection `e = 1e-3`: `y^3 - mu y =
+/// e` has a smooth branch from `mu = -1` (`y ~ e / |mu|`) onto the upper
+/// arm (`y ~ sqrt(mu)`), on which `dg/dy = mu - 3 y^2` never reaches 0:
+/// its largest is `-6 (e/4)^(2/3)` = -0.024 at `mu = -3 (e/4)^(2/3)`
+/// (the cusp's `e^(2/3)`). On the grid `-1:1:81` no bifurcation is
+/// located (the unstable count never changes), and [`near_misses`]
+/// names the grid point of the largest `dg/dy` with its eigenvalue, the
+/// slow root of `lambda^2 + (c/m) lambda - dg/dy = 0`, to 1e-9 (the steady
+/// search's residual 1e-12 over `dF/dx`, above 0.04 m here). The perfect
+/// pitchfork's branch (on `-1:1:8`, no point at 0, where its search is
+/// singular), whose eigenvalue crosses 0, has none. (On `-1:1:20` the
+/// step from -0.026 to 0.026 jumps onto the unfolding's middle, unstable
+/// branch, y = -0.019, whose tangent there is the stable one's within 37
+/// degrees: the grid's step must be small against the cusp's `e^(2/3)`.)
+#[test]
+fn an_unfolded_pitchfork_is_a_near_miss_and_the_perfect_one_is_not() {
+    use ezy_core::analysis::bifurcation::near_misses;
+    let e = 1e-3;
+    let grid = |n: usize| -> Vec<f64> { (0..n).map(|k| -1.0 + 2.0 * k as f64 / (n - 1) as f64).collect() };
+    let branch = |kind: Normal, values: &[f64]| {
+        let build = move |mu: f64| -> Result<Analysis<Cart>, AnalysisError> {
+            Ok(scene(kind, mu, A * mu).map_err(AnalysisError::Sim)?.analysis()?.0)
+        };
+        let (_, x0) = scene(kind, -1.0, -A).unwrap().analysis().unwrap();
+        let (points, ended) = follow_arclength(values, &x0, Follow::Steady { energy: None }, build, |_| {});
+        assert!(matches!(ended, BranchEnd::Reached), "{ended:?}");
+        points
+    };
+    let points = branch(Normal::Imperfect(e), &grid(81));
+    let path: Vec<(f64, f64)> = points.iter().map(|p| (p.value, p.solution.state()[0] - A * p.value)).collect();
+    assert!(points.iter().all(|p| p.solution.stability() == Stability::Stable), "{path:?}");
+    // dg/dy at each point, the point on the closed form's branch
+    let slopes: Vec<f64> = points
+        .iter()
+        .map(|p| {
+            let (mu, y) = (p.value, p.solution.state()[0] - A * p.value);
+            assert!((mu * y - y * y * y + e).abs() < 1e-10, "off the branch at {mu}: y = {y}");
+            mu - 3.0 * y * y
+        })
+        .collect();
+    let top = (0..slopes.len()).max_by(|&a, &b| slopes[a].total_cmp(&slopes[b])).unwrap();
+    assert!(top > 0 && top + 1 < points.len() && slopes[top] < -0.02, "{slopes:?}");
+    let misses = near_misses(&points, 0.1);
+    assert_eq!(misses.len(), 1, "{misses:?}");
+    let m = &misses[0];
+    assert_eq!(m.index, top, "{m:?}");
+    let (b, c) = (C / M, -slopes[top]);
+    let slow = 0.5 * (-b + (b * b - 4.0 * c).sqrt());
+    eprintln!("near miss at mu = {}: {:?} against {slow:e}", m.value, m.critical);
+    assert!((m.critical.re - slow).abs() < 1e-9 && m.critical.im == 0.0, "{m:?} against {slow}");
+    assert!(near_misses(&branch(Normal::Pitchfork, &grid(8)), 0.1).is_empty());
 }
 
 /// The last forcing period's heading change over its duration [rad/s] of
@@ -235,6 +292,58 @@ fn the_cli_switches_onto_both_turning_arms_of_the_rolling_resistance_gait() {
         assert!((last - arm).abs() < 1e-8, "run at {a}: {last} against the arm's {arm}");
         assert!((last - before).abs() < 1e-9, "run at {a} has not settled: {last} then {before}");
     }
+}
+
+/// The same branch at `--rtol 1e-6`: Newton stops at 1e-4, the straight
+/// gait is straight only to that (its turning rate 9e-4 rad/s at 0.8 N m
+/// where the default's is 5e-10), and the pitchfork unfolds into two
+/// branches that pass each other: the branch followed bends smoothly onto
+/// the turning arm, no multiplier crosses 1, and nothing is located. ezy
+/// must not pass over it in silence: the critical multiplier's closest
+/// approach (0.99992 near 0.6386 N m, against the bound `10 (1e-4)^(2/3)`
+/// = 2.2e-2) is said a near miss, at the grid's stretch around the
+/// branch point (0.63 to 0.65), and `--switch` says it found nothing to
+/// switch at. The grid's values are written as given (0.6, not
+/// 0.6000000000000001), and at the default tolerances no near miss is said
+/// (the previous test's run: its multiplier crosses).
+#[test]
+fn a_loose_tolerance_that_unfolds_the_pitchfork_is_said() {
+    use crate::analysis::{ezy, fresh, table};
+    let out = fresh("switch-loose");
+    let (said, err, ok) = ezy(
+        &[
+            "analyze",
+            "drive-rolling-resistance",
+            "--continue",
+            "motor.amplitude=0.8:0.4:9",
+            "--switch",
+            "--rtol",
+            "1e-6",
+            "--atol",
+            "1e-6",
+            "--no-figures",
+        ],
+        &out,
+    );
+    assert!(ok, "{said}{err}");
+    let note = said.lines().find(|l| l.contains("came within")).unwrap_or_else(|| panic!("no near miss: {said}"));
+    let at: f64 = note.split("near motor.amplitude = ").nth(1).unwrap().split(' ').next().unwrap().parse().unwrap();
+    assert!((0.63..0.65).contains(&at), "{note}");
+    assert!(note.contains("the unit circle") && note.contains("Newton stops at 1e-4"), "{note}");
+    assert!(said.contains("--switch: no branch point, period doubling or Hopf point was located"), "{said}");
+    let (_, rows) = table(&out.join("branch.csv"));
+    let values: Vec<&str> = rows.iter().map(|r| r[0].as_str()).collect();
+    for v in ["0.8", "0.75", "0.7", "0.65", "0.6", "0.55", "0.5", "0.45", "0.4"] {
+        assert!(values.contains(&v), "{v} not in {values:?}");
+    }
+    // at the default tolerances: crossed and located, no near miss
+    let tight = fresh("switch-tight");
+    let (said, err, ok) = ezy(
+        &["analyze", "drive-rolling-resistance", "--continue", "motor.amplitude=0.8:0.4:9", "--no-figures"],
+        &tight,
+    );
+    assert!(ok, "{said}{err}");
+    assert!(said.contains("branch point at motor.amplitude") && !said.contains("came within"), "{said}");
 }
 
 /// `ezy analyze` on Baker and Gollub's forced pendulum (`tests/bifurcation.rs`)

@@ -22,7 +22,7 @@
 
 use faer::Mat;
 
-use super::bifurcation::{Bifurcation, BifurcationKind, at_bifurcation, critical, family};
+use super::bifurcation::{Bifurcation, BifurcationKind, at_bifurcation, boundary_distance, critical, family};
 use super::branch::{BranchEnd, BranchPoint, Follow, Solution, solve};
 use super::cycle_phase::Phase;
 use super::periodic::{gauge_coordinates, with_gauge};
@@ -30,6 +30,7 @@ use super::symmetry::{Generator, Symmetry, act};
 use super::{Analysis, AnalysisError, dense, newton};
 use crate::effects::waveform::OrbitTiming;
 use crate::model::Model;
+use crate::names::fmt_value;
 
 /// Most Newton iterations of one corrector; a step that needs more is
 /// retried at half the arclength.
@@ -37,6 +38,13 @@ const MAX_CORRECTOR: usize = 10;
 
 /// Most bisections of a fold's bracket ([`locate_fold`]).
 const MAX_FOLD_STEPS: usize = 60;
+
+/// The farthest a fold's critical eigenvalue or multiplier may be from
+/// the stability boundary ([`boundary_distance`]) for [`locate_fold`] to
+/// call it one: a fold located to `|dp/ds| < 1e-9` has it within about
+/// that of 0; 1e-2 leaves room for a steep branch's poorly resolved one
+/// and none for a tangent that is wrong.
+const FOLD_CRITICAL: f64 = 1e-2;
 
 /// Smallest `cos` of the angle between consecutive tangents a step may
 /// turn through (37 degrees); a step turning more is retried shorter (it
@@ -551,6 +559,11 @@ pub fn follow_arclength_from<M: Model>(
         let k = (p - p0) / (spacing * d0);
         let k = if d * d0 > 0.0 { (k + 1e-9).floor() + 1.0 } else { (k - 1e-9).ceil() - 1.0 };
         let v = p0 + k * spacing * d0;
+        // the grid's own value there (a decimal grid's 0.6, where the
+        // sum gave 0.6000000000000001)
+        let n = values.len() - 1;
+        let j = ((v - values[0]) / (last_value - values[0]) * n as f64).round().clamp(0.0, n as f64) as usize;
+        let v = if (values[j] - v).abs() <= 1e-9 * spacing { values[j] } else { v };
         (v >= lo - 1e-12 * spacing && v <= hi + 1e-12 * spacing).then_some(v.clamp(lo, hi))
     };
     while points.len() < most {
@@ -655,9 +668,50 @@ pub fn follow_arclength_from<M: Model>(
         }
     }
     let reason = format!(
-        "the branch took {most} points without leaving the range or coming back to its start (one that turns back and forth): ended"
+        "the branch took {most} points without leaving the range or coming back to its start ({}): ended",
+        why_no_end(&points)
     );
     (points, failed(w[nz], AnalysisError::Request { reason }))
+}
+
+/// Why a branch of `points` did not reach its range's end in the points
+/// allowed: it folds back and forth, or (a limit cycle's) its period
+/// grows while the parameter stalls, the cycle ending at an orbit of
+/// infinite period (a homoclinic orbit, or a saddle-node on the cycle:
+/// Kuznetsov §6.2 and §7.1: `four-bar`'s cycle from 0.783 s at 0.3 N m to
+/// 1.85 s at 0.24352 N m, the steps creeping), or its steps shrank.
+fn why_no_end(points: &[BranchPoint]) -> String {
+    let folds =
+        points.windows(2).filter(|w| matches!((w[0].dp_ds, w[1].dp_ds), (Some(a), Some(b)) if a * b < 0.0)).count();
+    if folds >= 2 {
+        return format!("it turns back and forth: {folds} folds");
+    }
+    let periods: Vec<f64> = points
+        .iter()
+        .filter_map(|p| match &p.solution {
+            Solution::Periodic(o) => Some(o.period),
+            Solution::Steady(_) => None,
+        })
+        .collect();
+    let (first, last) = (points[0].value, points[points.len() - 1].value);
+    let tail = &points[points.len() / 2..];
+    let moved = (tail[tail.len() - 1].value - tail[0].value).abs();
+    let growing = periods.len() == points.len() && periods.windows(2).rev().take(10).all(|w| w[1] > w[0]);
+    if growing && periods[periods.len() - 1] > 1.5 * periods[0] {
+        return format!(
+            "its period grows, from {} s at {} to {} s at {}, while the parameter moves by {:.1e} over its last {} \
+             points: the cycle ends at an orbit of infinite period (a homoclinic orbit, or a saddle-node on the cycle) \
+             near {}",
+            fmt_value(periods[0]),
+            fmt_value(first),
+            fmt_value(periods[periods.len() - 1]),
+            fmt_value(last),
+            moved,
+            tail.len(),
+            fmt_value(last)
+        );
+    }
+    format!("its steps shrank: the parameter moved by {:.1e} over its last {} points", moved, tail.len())
 }
 
 /// Largest distance from the first point, relative to the step's chord,
@@ -846,6 +900,27 @@ pub fn locate_fold<M: Model>(
     let bracket = [p0, p1];
     let point = eq.point(&mut build, &c)?;
     let crit = critical(&point.solution, &a.solution, &b.solution);
+    // a fold's Newton matrix is singular: an eigenvalue 0 or multiplier
+    // 1 there, or the tangents' signs were not the branch's (a step too
+    // long for a limit cycle's phase condition through its previous
+    // point turned `four-bar`'s tangent at 0.316 N m with its nearest
+    // multiplier 0.046)
+    if let Some(&z) = crit.first()
+        && boundary_distance(&point.solution, z) > FOLD_CRITICAL
+    {
+        return Err(AnalysisError::Numerics {
+            reason: format!(
+                "the tangent's parameter component changes sign between {} and {}, but where it vanishes ({}) \
+                 no eigenvalue or multiplier is on the stability boundary (the nearest {:.6} {:+.6}i): not a fold, \
+                 the tangent is not resolved there (a finer grid resolves it)",
+                fmt_value(a.value),
+                fmt_value(b.value),
+                fmt_value(point.value),
+                z.re,
+                z.im
+            ),
+        });
+    }
     Ok(Some(Bifurcation {
         value: point.value,
         bracket,

@@ -84,7 +84,7 @@ pub(crate) mod structural;
 pub mod switching;
 pub(crate) mod symmetry;
 
-pub use bifurcation::{Bifurcation, BifurcationKind};
+pub use bifurcation::{Bifurcation, BifurcationKind, NearMiss};
 pub use branch::{BranchEnd, BranchPoint, Follow, Solution};
 pub use faer::c64;
 pub use growth::{Growth, GrowthFit, PowerLaw};

@@ -6,7 +6,7 @@
 use std::time::Instant;
 
 use ezy_core::analysis::arclength::{follow_arclength_from, locate_fold};
-use ezy_core::analysis::bifurcation::locate;
+use ezy_core::analysis::bifurcation::{locate, near_misses};
 use ezy_core::analysis::switching::{Switch, switch_both};
 use ezy_core::analysis::{
     Analysis, AnalysisError, Bifurcation, BifurcationKind, BranchEnd, BranchPoint, Follow, Solution,
@@ -169,6 +169,11 @@ fn switch_all<M: Model>(
         .filter(|&(n, _)| at == SwitchAt::All || at == SwitchAt::One(n + 1))
         .map(|(_, i)| i)
         .collect();
+    if at == SwitchAt::All && picked.is_empty() {
+        log.notes.push(
+            "--switch: no branch point, period doubling or Hopf point was located on the branch; none switched".into(),
+        );
+    }
     if let (SwitchAt::One(k), true) = (at, picked.is_empty()) {
         let n = branches[0].bifurcations.iter().filter(|(_, b)| switchable(b.kind)).count();
         log.notes.push(format!(
@@ -363,14 +368,51 @@ fn locate_all<M: Model>(
                 log.notes.push(format!("stability changes {changes}"));
             }
             Ok(None) => {}
+            Err(e) if stability(&w[0]) == stability(&w[1]) => log.notes.push(format!("{changes}: {e}")),
             Err(e) => log.notes.push(format!("stability changes {changes}; not located: {e}")),
         }
     }
     check_interrupt(&ro.out, None, Some(format!("locating the bifurcations in {name}")))?;
+    note_near_misses(ro, name, points, log);
     if !found.is_empty() {
         log.timings.push((format!("{} bifurcations located", found.len()), clock.elapsed()));
     }
     Ok(found)
+}
+
+/// How close to the stability boundary an eigenvalue or multiplier that
+/// turns back is said a near miss ([`near_misses`]), at Newton's
+/// tolerance `tol`: `10 tol^(2/3)`. An imperfection `e` (the error that
+/// breaks a symmetry) keeps the critical multiplier of a pitchfork it
+/// unfolds about `e^(2/3)` from 1 (the cusp's scaling: Golubitsky &
+/// Schaeffer I, §I.2); `drive-rolling-resistance`'s came within 8.3e-5
+/// at `--rtol 1e-6` (Newton to 1e-4: the bound 2.2e-2) and within
+/// 3.3e-3 at `--rtol 1e-4` (1e-3: 0.1); at the default 1e-9, 1e-5.
+fn near_miss_bound(tol: f64) -> f64 {
+    10.0 * tol.powf(2.0 / 3.0)
+}
+
+/// A note for each point of the branch where an eigenvalue or multiplier
+/// came within [`near_miss_bound`] of the stability boundary and turned
+/// back: a bifurcation that a loose tolerance may have unfolded.
+fn note_near_misses(ro: &RunOptions, name: &str, points: &[BranchPoint], log: &mut Log) {
+    let tol = periodic_settings(ro).newton_tolerance;
+    for m in near_misses(points, near_miss_bound(tol)) {
+        let (what, boundary) = match points[m.index].solution {
+            Solution::Steady(_) => ("eigenvalue", "the imaginary axis"),
+            Solution::Periodic(_) => ("multiplier", "the unit circle"),
+        };
+        log.notes.push(format!(
+            "near {name} = {} the {what} {} came within {:.1e} of {boundary} and turned back: a bifurcation missed by \
+             a hair, or one the search's tolerance unfolds (Newton stops at {}: a symmetric solution is symmetric only \
+             to that, and a pitchfork splits into branches that pass each other); at a tighter --rtol (the default \
+             1e-11) it is located if it is there",
+            fmt_value(m.value),
+            complex(m.critical),
+            m.distance,
+            fmt_value(tol),
+        ));
+    }
 }
 
 /// The mean input power \[W\] and efficiency \[m/J\] of each gait of a

@@ -236,6 +236,13 @@ fn analyze_model<M: Model>(proto: &M, scene: &Scene, opts: &AnalyzeOptions) -> R
     let (samples, _) = run_to(proto, scene, ro, t_run, crate::session::GUESSES)?;
     let end = samples.last().cloned().unwrap_or_else(|| x0.clone());
     log.timings.push((format!("run to t = {} s for a guess", fmt_value(t_run)), clock.elapsed()));
+    if let (Some(m), Some(_)) = (ro.method, period) {
+        log.notes.push(format!(
+            "--integrator {}: the run to the guess uses it; the searches for the orbit and its derivatives integrate \
+             the period with DOP853 (its variational equations under one error control)",
+            m.name()
+        ));
+    }
     let mut growth = None;
     let (steady, periodic, follow) = match period {
         None => {
