@@ -30,7 +30,7 @@
 //! error. A stop (Ctrl-C) ends it at once with the best point so far.
 
 mod evaluate;
-mod kkt;
+pub(crate) mod kkt;
 mod quantity;
 
 use std::cell::RefCell;
