@@ -160,7 +160,7 @@ fn margins<M: Model>(
         let (r, _) = shape_at(c, setup.ns, setup.omega, t);
         let (m, dm) =
             if setup.margin_gradients { g.rank_margin_gradient(&r) } else { (g.rank_margin(&r)?, Vec::new()) };
-        if !(m >= 1e-9) {
+        if m.is_nan() || m < 1e-9 {
             return Err(g.crossing(t, &r, m));
         }
         let det = g.orientation(&r);

@@ -34,8 +34,12 @@
 //! ([`Kkt`]), so a start that is not stationary is never returned as its
 //! own optimum. A gait that meets the singular set (or crosses to its
 //! other side) counts as a failed point, worse than any seen; five in a
-//! row end the search with the last one's error.
+//! row end the search, not converged, at the best point so far (an
+//! objective that grows toward the singular set, as the kinematic
+//! snake's efficiency does, needs a margin); five failures of another
+//! kind end it with the last one's error.
 
+mod check;
 mod evaluate;
 mod fourier;
 #[cfg(test)]
@@ -49,6 +53,7 @@ use super::{Geometry, GeometryError};
 use crate::design::optimize::Sense;
 use crate::design::optimize::kkt::{self, ACTIVE, Candidate, Kkt};
 use crate::model::Model;
+use check::check;
 use evaluate::{Point, Setup, evaluate, side_of};
 
 /// Most evaluations an optimization may be given.
@@ -292,6 +297,8 @@ struct State<'g, M: Model> {
     failures: usize,
     max: usize,
     fatal: Option<GeometryError>,
+    /// Five points in a row met the singular set: the last one's words.
+    blocked: Option<String>,
     stopped: bool,
 }
 
@@ -311,7 +318,9 @@ struct State<'g, M: Model> {
 /// bound is above its upper or not finite, a margin outside (0, 1), a
 /// budget that is not a positive number, settings out of range.
 /// [`GeometryError::Singular`] for a start that meets the singular set,
-/// naming the time and shape. The last failure of five in a row.
+/// naming the time and shape. The last failure of five in a row (but
+/// the singular set met five times in a row is no error: the best point
+/// so far, not converged).
 pub fn optimize_gait<M: Model>(
     geometry: &Geometry<M>,
     problem: &GaitOptimization,
@@ -324,7 +333,7 @@ pub fn optimize_gait<M: Model>(
         GeometryError::Singular { reason } => GeometryError::Singular { reason: format!("the start: {reason}") },
         e => e,
     })?;
-    if problem.objective.per_cost && !(p0.cost > 0.0) {
+    if problem.objective.per_cost && p0.cost.partial_cmp(&0.0) != Some(std::cmp::Ordering::Greater) {
         return Err(GeometryError::Request {
             reason: "the start gait has zero path length (every amplitude 0): its net motion per path length has no value; start from a gait that moves".into(),
         });
@@ -355,6 +364,7 @@ pub fn optimize_gait<M: Model>(
         failures: 0,
         max: problem.max_evaluations,
         fatal: None,
+        blocked: None,
         stopped: false,
     });
     let outcome = search(&state, &x0, problem);
@@ -412,7 +422,13 @@ fn finish<M: Model>(
     } else if converged && !kkt.holds {
         (
             false,
-            format!("not converged: the search ended ({termination}), but at the best point the {}", kkt.describe()),
+            // the optimizer's word is not taken: its stop at a point that
+            // is not stationary is no convergence
+            format!(
+                "not converged: the search ended ({}), but at the best point the {}",
+                termination.trim_start_matches("converged: "),
+                kkt.describe()
+            ),
         )
     } else {
         (converged, termination)
@@ -455,6 +471,13 @@ fn finish<M: Model>(
 fn termination<M: Model>(outcome: &Outcome, st: &State<'_, M>, max: usize) -> (bool, String) {
     use slsqp::{FailStatus, SuccessStatus};
     match outcome {
+        _ if st.blocked.is_some() => (
+            false,
+            format!(
+                "not converged: {FAILURES} points in a row met the singular set, the last as: {}; a margin from it (`margin`) keeps the search away",
+                st.blocked.as_deref().unwrap_or("")
+            ),
+        ),
         _ if st.settled => (true, format!("converged: {STALL} points in a row within xtol of the best, none better")),
         _ if st.history.len() >= max => (false, format!("not converged: the budget of {max} evaluations is spent")),
         Ok((SuccessStatus::XtolReached, ..)) => {
@@ -495,7 +518,7 @@ fn constraints(problem: &GaitOptimization, setup: &Setup) -> Vec<Con> {
 impl<M: Model> State<'_, M> {
     /// The point at `x`, evaluated once.
     fn at(&mut self, x: &[f64]) {
-        if self.last.as_ref().is_some_and(|(lx, _)| lx == x) || self.stopped || self.fatal.is_some() || self.settled {
+        if self.last.as_ref().is_some_and(|(lx, _)| lx == x) || self.frozen() {
             return;
         }
         if self.history.len() >= self.max {
@@ -531,15 +554,24 @@ impl<M: Model> State<'_, M> {
                 });
                 self.last = Some((x.to_vec(), Err(e.to_string())));
                 if self.failures >= FAILURES {
-                    self.fatal = Some(e);
+                    match e {
+                        GeometryError::Singular { reason } => self.blocked = Some(reason),
+                        e => self.fatal = Some(e),
+                    }
                 }
             }
         }
     }
 
+    /// Whether no more evaluations are made: a stop, a fatal failure,
+    /// the singular set met five times in a row, or settled.
+    fn frozen(&self) -> bool {
+        self.stopped || self.fatal.is_some() || self.blocked.is_some() || self.settled
+    }
+
     /// The point at `x` if its evaluation succeeded and the search goes on.
     fn fresh(&self, x: &[f64]) -> Option<&Point> {
-        if self.stopped || self.fatal.is_some() || self.settled {
+        if self.frozen() {
             return None;
         }
         match &self.last {
@@ -564,7 +596,7 @@ impl<M: Model> State<'_, M> {
         let best = self.best.as_ref().map_or(0.0, |(b, _)| os * b.objective);
         // a failed point: worse than any seen; after a stop, settling or a
         // fatal failure, the best value, flat (SLSQP then ends at once)
-        if self.stopped || self.fatal.is_some() || self.settled { best } else { best + 1.0 + best.abs() }
+        if self.frozen() { best } else { best + 1.0 + best.abs() }
     }
 
     /// Constraint `i`'s scaled value at `x` and its gradient.
@@ -684,7 +716,7 @@ impl<M: Model> State<'_, M> {
                 candidates.push(Candidate { name: self.describe(c), gradient: grad, unit: 1.0 / (os.abs() * k) });
             }
         }
-        for k in 0..n {
+        for (k, &xk) in x.iter().enumerate() {
             let unit = |dir: f64| Candidate {
                 name: format!(
                     "{} {} {}",
@@ -695,10 +727,10 @@ impl<M: Model> State<'_, M> {
                 gradient: (0..n).map(|j| if j == k { dir } else { 0.0 }).collect(),
                 unit: 1.0 / os.abs(),
             };
-            if x[k] + self.limit <= 1e-9 * self.limit {
+            if xk + self.limit <= 1e-9 * self.limit {
                 candidates.push(unit(-1.0));
             }
-            if self.limit - x[k] <= 1e-9 * self.limit {
+            if self.limit - xk <= 1e-9 * self.limit {
                 candidates.push(unit(1.0));
             }
         }
@@ -706,168 +738,4 @@ impl<M: Model> State<'_, M> {
         conditions.holds &= self.violation(p, x) == 0.0;
         conditions
     }
-}
-
-/// Checks the request before any work, and builds the evaluation's setup.
-fn check<M: Model>(g: &Geometry<M>, problem: &GaitOptimization) -> Result<Setup, GeometryError> {
-    let fail = |reason: String| Err(GeometryError::Request { reason });
-    let ns = g.n_shape();
-    if ns == 0 {
-        return Err(GeometryError::Model {
-            reason: format!(
-                "model {} has no shape coordinates (no hinges): there is no gait to optimize",
-                g.info().name
-            ),
-        });
-    }
-    if !g.is_kinematic() {
-        return Err(GeometryError::Model {
-            reason: format!(
-                "model {}: its skates leave {} momentum component(s) free ({}), so a cycle's net motion depends on more than the gait's curve; gait optimization takes kinematic systems (three independent skate rows)",
-                g.info().name,
-                g.n_momentum(),
-                g.momentum_names().join(", ")
-            ),
-        });
-    }
-    let start = &problem.start;
-    if start.n_shape() != ns {
-        return fail(format!(
-            "the start gait has {} shape coordinates; the model has {ns} ({})",
-            start.n_shape(),
-            g.shape_names().join(", ")
-        ));
-    }
-    // the fields are public: the start's own checks again
-    FourierGait::new(start.coefficients.clone(), start.order, start.period)?;
-    let nc = ns * start.per_coordinate();
-    if problem.free.len() != nc {
-        return fail(format!("`free` has {} entries for the start's {nc} coefficients", problem.free.len()));
-    }
-    let free: Vec<usize> = (0..nc).filter(|&j| problem.free[j]).collect();
-    if free.is_empty() {
-        return fail("every coefficient is held: nothing to optimize".into());
-    }
-    let limit = problem.coefficient_limit;
-    if !(limit.is_finite() && limit > 0.0) {
-        return fail(format!("coefficient limit {limit}: give a positive number of radians"));
-    }
-    let flat = start.flat();
-    if let Some(&j) = free.iter().find(|&&j| flat[j].abs() > limit) {
-        return fail(format!(
-            "the start's {} = {} is beyond the coefficient limit +-{}",
-            start.coefficient_label(&g.shape_names(), j),
-            flat[j],
-            crate::names::fmt_value(limit)
-        ));
-    }
-    if problem.objective.order == Order::Second && ns != 2 {
-        return fail(format!(
-            "the second order takes two shape coordinates (the bracket's area integral); the model has {ns}"
-        ));
-    }
-    if let Measure::Along([x, y]) = problem.objective.measure
-        && !(x.is_finite() && y.is_finite() && x.hypot(y) > 0.0)
-    {
-        return fail(format!("direction ({x}, {y}): give a finite, nonzero vector"));
-    }
-    let metric = metric(problem.metric.as_deref(), ns)?;
-    bounds(g, &problem.bounds)?;
-    if let Some(m) = problem.margin
-        && !(m > 0.0 && m < 1.0)
-    {
-        return fail(format!("rank margin {m}: give a number in (0, 1) (the margin is a ratio of singular values)"));
-    }
-    if let Some(b) = problem.budget
-        && !(b.is_finite() && b > 0.0)
-    {
-        return fail(format!("path length budget {b}: give a positive number of radians"));
-    }
-    if !(2..=MAX_EVALUATIONS).contains(&problem.max_evaluations) {
-        return fail(format!(
-            "a budget of {} evaluations: give between 2 and {MAX_EVALUATIONS}",
-            problem.max_evaluations
-        ));
-    }
-    if !(problem.xtol > 0.0 && problem.xtol < 1.0) {
-        return fail(format!("xtol {}: give a number of radians in (0, 1)", problem.xtol));
-    }
-    Ok(Setup {
-        ns,
-        omega: start.omega(),
-        period: start.period,
-        base: flat,
-        free,
-        samples: (40 * start.order).max(200),
-        metric,
-        goal: problem.objective,
-        margin_gradients: problem.margin.is_some(),
-    })
-}
-
-/// The cost's metric: the identity, or `given` checked symmetric
-/// positive definite (by Cholesky).
-fn metric(given: Option<&[f64]>, ns: usize) -> Result<Vec<f64>, GeometryError> {
-    let Some(m) = given else {
-        return Ok((0..ns * ns).map(|k| if k % (ns + 1) == 0 { 1.0 } else { 0.0 }).collect());
-    };
-    let fail = |why: String| {
-        Err(GeometryError::Request {
-            reason: format!(
-                "the cost's metric: {why}; it must be symmetric positive definite, else a gait could grow along a direction of zero cost and the cost would not bound it"
-            ),
-        })
-    };
-    if m.len() != ns * ns {
-        return fail(format!("{} entries for {ns} shape coordinates ({} wanted)", m.len(), ns * ns));
-    }
-    if let Some(k) = m.iter().position(|v| !v.is_finite()) {
-        return fail(format!("entry {k} is {}", m[k]));
-    }
-    let top = m.iter().fold(0.0f64, |a, v| a.max(v.abs()));
-    for i in 0..ns {
-        for j in 0..i {
-            if (m[i * ns + j] - m[j * ns + i]).abs() > 1e-12 * top {
-                return fail(format!("entries ({i}, {j}) and ({j}, {i}) differ"));
-            }
-        }
-    }
-    // Cholesky: every pivot > 0 (relative to the largest entry)
-    let mut l = m.to_vec();
-    for j in 0..ns {
-        let d = l[j * ns + j] - (0..j).map(|k| l[j * ns + k] * l[j * ns + k]).sum::<f64>();
-        if !(d > 1e-12 * top) {
-            return fail(format!("it is not positive definite (pivot {j} is {d:.3e})"));
-        }
-        let d = d.sqrt();
-        l[j * ns + j] = d;
-        for i in j + 1..ns {
-            l[i * ns + j] = (l[i * ns + j] - (0..j).map(|k| l[i * ns + k] * l[j * ns + k]).sum::<f64>()) / d;
-        }
-    }
-    Ok(m.to_vec())
-}
-
-/// Checks the ranges: at most one per shape coordinate, finite, lower
-/// below upper.
-fn bounds<M: Model>(g: &Geometry<M>, bounds: &[Option<(f64, f64)>]) -> Result<(), GeometryError> {
-    let names = g.shape_names();
-    if bounds.len() > names.len() {
-        return Err(GeometryError::Request {
-            reason: format!("{} ranges for {} shape coordinates", bounds.len(), names.len()),
-        });
-    }
-    for (k, b) in bounds.iter().enumerate() {
-        if let Some((lo, hi)) = *b
-            && !(lo.is_finite() && hi.is_finite() && lo < hi)
-        {
-            return Err(GeometryError::Request {
-                reason: format!(
-                    "the range of {}: [{lo}, {hi}]; give finite bounds, the lower below the upper",
-                    names[k]
-                ),
-            });
-        }
-    }
-    Ok(())
 }
