@@ -162,7 +162,9 @@ pub struct GaitOptimization {
     /// symmetric positive definite) \[1\]; `None` for the identity.
     pub metric: Option<Vec<f64>>,
     /// Per shape coordinate, its range `(lower, upper)` over the cycle
-    /// \[rad\], held at the quadrature's samples (empty: none).
+    /// \[rad\], held at the quadrature's samples (empty: none): between
+    /// two samples `dt` apart the curve may pass a bound by up to `|r''|
+    /// dt^2 / 8` (about 1e-4 rad for an order-1 gait of amplitude 0.6).
     pub bounds: Vec<Option<(f64, f64)>>,
     /// The least rank margin ([`crate::geometry::Connection::rank_margin`])
     /// allowed along the gait, in (0, 1) \[1\].
