@@ -51,14 +51,13 @@
 //!   correction (second order), by reconstruction (integrating
 //!   `g' = g xi` and the momentum exactly), and as a simulation prescribes
 //!   it.
-//! - [`optimize`]: the Fourier gait of a kinematic system that maximizes
-//!   its net motion (or that per unit path length), by SLSQP on exact
-//!   gradients, with the KKT conditions checked.
+//!
+//! The gait of a kinematic system that maximizes its net motion is
+//! sought in [`crate::design::gait`].
 
 pub mod gait;
 mod linalg;
 mod momentum;
-pub mod optimize;
 mod terms;
 
 pub use gait::{Gait, GaitPrediction, SimulatedGait};

@@ -49,9 +49,9 @@ use std::cell::RefCell;
 
 pub use fourier::{FourierGait, MAX_ORDER};
 
-use super::{Geometry, GeometryError};
 use crate::design::optimize::Sense;
 use crate::design::optimize::kkt::{self, ACTIVE, Candidate, Kkt};
+use crate::geometry::{Geometry, GeometryError};
 use crate::model::Model;
 use check::check;
 use evaluate::{Point, Setup, evaluate, side_of};
