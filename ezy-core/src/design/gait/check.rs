@@ -1,7 +1,8 @@
 //! The checks of a gait optimization's request, before any work.
 
 use super::evaluate::Setup;
-use super::{FourierGait, GaitOptimization, MAX_EVALUATIONS, Measure, Order};
+use super::fourier::FourierGait;
+use super::{GaitOptimization, MAX_EVALUATIONS, Measure, Order};
 use crate::geometry::{Geometry, GeometryError};
 use crate::model::Model;
 

@@ -4,7 +4,8 @@
 use std::f64::consts::PI;
 
 use crate::effects::waveform::{Harmonic, Waveform};
-use crate::geometry::{Gait, GeometryError};
+use crate::geometry::GeometryError;
+use crate::geometry::gait::Gait;
 use crate::scalar::Scalar;
 
 /// Highest harmonic order a Fourier gait may have: the trapezoidal

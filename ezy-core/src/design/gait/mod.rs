@@ -49,8 +49,8 @@ use std::cell::RefCell;
 
 pub use fourier::{FourierGait, MAX_ORDER};
 
-use crate::design::optimize::Sense;
 use crate::design::optimize::kkt::{self, ACTIVE, Candidate, Kkt};
+use crate::design::optimize::quantity::Sense;
 use crate::geometry::{Geometry, GeometryError};
 use crate::model::Model;
 use check::check;
@@ -601,66 +601,50 @@ impl<M: Model> State<'_, M> {
         if self.frozen() { best } else { best + 1.0 + best.abs() }
     }
 
-    /// Constraint `i`'s scaled value at `x` and its gradient.
+    /// Constraint `i`'s scaled value at `x` and its gradient: a range's
+    /// from the coefficients alone (linear), the others' from the point
+    /// (a failed one's: violated, flat).
     fn constraint(&mut self, x: &[f64], i: usize, grad: Option<&mut [f64]>) -> f64 {
-        if !matches!(self.cons[i], Con::Range { .. }) {
+        let found = if let Con::Range { coord, n, upper, bound } = self.cons[i] {
+            Some(self.range(x, coord, n, upper, bound))
+        } else {
             self.at(x);
-        }
-        let point = match &self.last {
-            Some((lx, Ok(p))) if lx == x => Some(p.clone()),
-            _ => None,
+            match &self.last {
+                Some((lx, Ok(p))) if lx == x => Some(self.scaled_constraint(p, x, i)),
+                _ => None,
+            }
         };
-        match point {
-            Some(p) => {
-                let (v, d) = self.scaled_constraint(&p, x, i);
-                if let Some(g) = grad {
-                    g.copy_from_slice(&d);
-                }
-                v
-            }
-            None if matches!(self.cons[i], Con::Range { .. }) => {
-                let empty = Point {
-                    objective: 0.0,
-                    gradient: Vec::new(),
-                    motion: [0.0; 3],
-                    cost: 0.0,
-                    cost_gradient: Vec::new(),
-                    margins: Vec::new(),
-                };
-                let (v, d) = self.scaled_constraint(&empty, x, i);
-                if let Some(g) = grad {
-                    g.copy_from_slice(&d);
-                }
-                v
-            }
-            None => {
-                if let Some(g) = grad {
-                    g.fill(0.0);
-                }
-                1.0
-            }
+        let (v, d) = found.unwrap_or_else(|| (1.0, vec![0.0; x.len()]));
+        if let Some(g) = grad {
+            g.copy_from_slice(&d);
         }
+        v
+    }
+
+    /// The range constraint of coordinate `coord` at sample `n` (`r - hi`
+    /// for an upper bound, `lo - r` for a lower) at the free values `x`,
+    /// and its gradient (the basis functions there).
+    fn range(&self, x: &[f64], coord: usize, n: usize, upper: bool, bound: f64) -> (f64, Vec<f64>) {
+        let s = &self.setup;
+        let c = s.full(x);
+        let t = s.time(n);
+        let r = fourier::shape_at(&c, s.ns, s.omega, t).0[coord];
+        let per = c.len() / s.ns;
+        let sign = if upper { 1.0 } else { -1.0 };
+        let grad = s
+            .free
+            .iter()
+            .map(|&j| if j / per == coord { sign * fourier::basis(j % per, s.omega, t).0 } else { 0.0 })
+            .collect();
+        (sign * (r - bound), grad)
     }
 
     /// Constraint `i`'s scaled value `c <= 0` at point `p` (free values
     /// `x`) and its gradient.
     fn scaled_constraint(&self, p: &Point, x: &[f64], i: usize) -> (f64, Vec<f64>) {
-        let s = &self.setup;
         let nf = x.len();
         match self.cons[i] {
-            Con::Range { coord, n, upper, bound } => {
-                let c = s.full(x);
-                let t = s.time(n);
-                let r = fourier::shape_at(&c, s.ns, s.omega, t).0[coord];
-                let per = c.len() / s.ns;
-                let sign = if upper { 1.0 } else { -1.0 };
-                let grad = s
-                    .free
-                    .iter()
-                    .map(|&j| if j / per == coord { sign * fourier::basis(j % per, s.omega, t).0 } else { 0.0 })
-                    .collect();
-                (sign * (r - bound), grad)
-            }
+            Con::Range { coord, n, upper, bound } => self.range(x, coord, n, upper, bound),
             Con::Margin { n, margin } => {
                 let (m, dm) = &p.margins[n];
                 ((margin - m) / margin, (0..nf).map(|k| -dm[k] / margin).collect())

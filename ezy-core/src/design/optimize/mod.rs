@@ -31,7 +31,7 @@
 
 mod evaluate;
 pub(crate) mod kkt;
-mod quantity;
+pub(crate) mod quantity;
 
 use std::cell::RefCell;
 
