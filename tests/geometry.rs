@@ -439,3 +439,22 @@ fn a_scenes_parameters_reach_the_geometry_and_a_stop_ends_it() {
     let run = g.simulate(&gait, Problem::new(KinematicSnake::default()), &[], 1e-10);
     assert!(matches!(run, Err(ezy_core::geometry::GeometryError::Stopped)), "{run:?}");
 }
+
+/// Gait optimization (`ezy_core::design::gait`) on the built-in kinematic
+/// snake: the circle of radius 0.6 whose centre maximizes the
+/// second-order lateral motion `dy` is the one ezy-core's own test finds
+/// on its copy of the model (and a dense scan of `predict` confirms
+/// there), (1.056717, -1.056717), converged with the KKT conditions
+/// holding; `predict`'s second order at the optimum is its objective.
+#[test]
+fn a_circles_best_centre_on_the_built_in_snake() {
+    use ezy_core::design::gait::{FourierGait, GaitObjective, GaitOptimization, Measure, Order, optimize_gait};
+    let mut g = Geometry::new(KinematicSnake::default(), None, None).unwrap();
+    let circle = FourierGait::circle([0.7, -0.6], 0.6, 0.0, 2.0 * std::f64::consts::PI).unwrap();
+    let goal = GaitObjective { measure: Measure::Along([0.0, 1.0]), per_cost: false, order: Order::Second };
+    let opt = optimize_gait(&g, &GaitOptimization::new(circle, goal).centre_only()).unwrap();
+    assert!(opt.converged && opt.kkt.holds, "{}", opt.termination);
+    assert!((opt.values[0] - 1.056717).abs() < 1e-5 && (opt.values[1] + 1.056717).abs() < 1e-5, "{:?}", opt.values);
+    let p = g.predict(&opt.gait.gait().unwrap(), &[]).unwrap();
+    assert!((p.second.unwrap()[1] - opt.objective).abs() < 1e-12, "{p:?} {}", opt.objective);
+}

@@ -1,7 +1,9 @@
 //! Design questions on the sensitivities ([`crate::sensitivity`]):
 //! parameters fitted to measurements ([`fit`]), and the parameters that
 //! minimize or maximize a gait's or a run's quantity under constraints
-//! ([`optimize`]).
+//! ([`optimize`]); and the shape gait of a kinematic system that
+//! maximizes its net motion per cycle, on the geometry of locomotion
+//! ([`gait`]).
 //!
 //! A [`Design`] is a family of problems over named parameters with
 //! bounds: how a problem is built from their values. The library user
@@ -9,6 +11,7 @@
 //! scene's numbers (what `--over NAME=LO:HI` names).
 
 pub mod fit;
+pub mod gait;
 pub mod optimize;
 
 use std::sync::Arc;

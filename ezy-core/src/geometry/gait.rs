@@ -322,7 +322,7 @@ impl<M: Model> Geometry<M> {
     }
 
     /// The error of a gait that meets the singular set at time `t`.
-    fn crossing(&self, t: f64, r: &[f64], margin: f64) -> GeometryError {
+    pub(crate) fn crossing(&self, t: f64, r: &[f64], margin: f64) -> GeometryError {
         let at: Vec<String> =
             self.shape_names().iter().zip(r).map(|(n, v)| format!("{n} = {}", crate::names::fmt_value(*v))).collect();
         GeometryError::Singular {

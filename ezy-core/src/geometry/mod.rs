@@ -51,6 +51,9 @@
 //!   correction (second order), by reconstruction (integrating
 //!   `g' = g xi` and the momentum exactly), and as a simulation prescribes
 //!   it.
+//!
+//! The gait of a kinematic system that maximizes its net motion is
+//! sought in [`crate::design::gait`].
 
 pub mod gait;
 mod linalg;

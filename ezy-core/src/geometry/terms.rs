@@ -407,6 +407,44 @@ impl<M: Model> Geometry<M> {
         Ok(rank_margin(self.skates.len(), &sk.omega, self.rank).1)
     }
 
+    /// [`Connection::rank_margin`] at shape `r` (n_shape) and its gradient
+    /// in `r` (n_shape, per rad): `sigma_k / sigma_1` of `Omega` (`k` its
+    /// generic rank) with `d sigma_i = u_i^T dOmega v_i` (the derivative of
+    /// a simple singular value; Magnus, "On differentiating eigenvalues and
+    /// eigenvectors", Econometric Theory 1(2), 1985), `dOmega/dr_j` by
+    /// dual numbers through the generated constraints. No error on the
+    /// singular set: the margin is 0 there and its gradient that of the
+    /// nearest simple values.
+    pub(crate) fn rank_margin_gradient(&self, r: &[f64]) -> (f64, Vec<f64>) {
+        let (nsk, ns, rank) = (self.skates.len(), self.shape.len(), self.rank);
+        let q = self.place(r);
+        let omega = self.skates(&q).omega;
+        let m = Mat::from_fn(nsk, 3, |i, j| omega[i * 3 + j]);
+        let Some(svd) = (nsk > 0 && rank > 0).then(|| m.thin_svd().ok()).flatten() else {
+            return (1.0, vec![0.0; ns]);
+        };
+        let s: Vec<f64> = svd.S().column_vector().iter().copied().collect();
+        let mut order: Vec<usize> = (0..s.len()).collect();
+        order.sort_by(|a, b| s[*b].total_cmp(&s[*a]));
+        let (top, low) = (order[0], order[(rank - 1).min(order.len() - 1)]);
+        if s[top] <= 0.0 {
+            return (1.0, vec![0.0; ns]);
+        }
+        let (u, v) = (svd.U(), svd.V());
+        let grad = (0..ns)
+            .map(|k| {
+                let rk: Vec<Dual64> =
+                    r.iter().enumerate().map(|(i, x)| Dual64::new(*x, if i == k { 1.0 } else { 0.0 })).collect();
+                let d: Vec<f64> = self.skates(&self.place(&rk)).omega.iter().map(|x| x.eps).collect();
+                let ds = |c: usize| {
+                    (0..nsk).map(|i| (0..3).map(|j| u[(i, c)] * d[i * 3 + j] * v[(j, c)]).sum::<f64>()).sum::<f64>()
+                };
+                (ds(low) * s[top] - s[low] * ds(top)) / (s[top] * s[top])
+            })
+            .collect();
+        (s[low] / s[top], grad)
+    }
+
     /// The connection and the constraint curvature at shape `r`, its
     /// derivatives exact (dual numbers through the generated
     /// constraints and the solves).

@@ -20,7 +20,7 @@ use crate::analysis::dense::min_norm_solve;
 /// A constraint counts as active (a candidate for a multiplier) where its
 /// scaled value `c_i` is above `-ACTIVE`: a millionth of its bound's
 /// size, below which SLSQP's own steps do not resolve it.
-pub(super) const ACTIVE: f64 = 1e-6;
+pub(crate) const ACTIVE: f64 = 1e-6;
 
 /// The conditions hold where the stationarity residual is at most this
 /// fraction of the objective's gradient (the larger of the start's and
@@ -28,7 +28,7 @@ pub(super) const ACTIVE: f64 = 1e-6;
 /// to about 1e-8 of their size, the residual at a point SLSQP left within
 /// `xtol` of the optimum is smaller still, and a point that is not
 /// stationary leaves a residual of the gradient's own size.
-pub(super) const STATIONARITY: f64 = 1e-4;
+pub(crate) const STATIONARITY: f64 = 1e-4;
 
 /// A constraint or bound that binds at the best point, with its
 /// multiplier.
@@ -82,7 +82,7 @@ impl Kkt {
 /// A candidate for a multiplier: its name, its gradient in the scaled
 /// variables (`<= 0` form), and the factor that turns its scaled
 /// multiplier into the problem's units.
-pub(super) struct Candidate {
+pub(crate) struct Candidate {
     pub name: String,
     pub gradient: Vec<f64>,
     pub unit: f64,
@@ -91,7 +91,7 @@ pub(super) struct Candidate {
 /// The conditions at a point whose scaled objective gradient is `g`,
 /// with the active constraints' and bounds' `candidates`; `scale` the
 /// gradient size the residual is measured against.
-pub(super) fn check(g: &[f64], candidates: &[Candidate], scale: f64) -> Kkt {
+pub(crate) fn check(g: &[f64], candidates: &[Candidate], scale: f64) -> Kkt {
     let n = g.len();
     let a = Mat::from_fn(n, candidates.len(), |i, j| candidates[j].gradient[i]);
     let b: Vec<f64> = g.iter().map(|v| -v).collect();

@@ -30,8 +30,8 @@
 //! error. A stop (Ctrl-C) ends it at once with the best point so far.
 
 mod evaluate;
-mod kkt;
-mod quantity;
+pub(crate) mod kkt;
+pub(crate) mod quantity;
 
 use std::cell::RefCell;
 
