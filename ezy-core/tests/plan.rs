@@ -105,6 +105,18 @@ fn a_zero_start_is_left() {
     assert!(v.max_run_error <= 1e-6 && v.max_plan_error <= 1e-8, "{v:?}");
 }
 
+/// Two evaluations (the start and one step) leave the zero start's
+/// target unmet or its optimality unshown: never reported optimal.
+#[test]
+fn a_spent_budget_is_not_optimal() {
+    let mut p = plan((-100.0, 100.0), 1.0, 2.0, 4);
+    p.settings.max_evaluations = 2;
+    let m = p.solve().unwrap();
+    show(&m);
+    assert!(!m.optimal(), "{:?}", m.status);
+    assert!(matches!(m.status, Status::Infeasible { .. } | Status::NotConverged { .. }));
+}
+
 /// `|F| <= 0.1 N` moves the 2 kg sleigh from rest to rest at most
 /// `a T^2 / 4 = 0.05 m` in 2 s: 1 m is out of reach, reported infeasible
 /// with its violation (never optimal).
@@ -135,6 +147,8 @@ fn bad_requests_are_refused() {
     refused(Plan::new(vec![Input::new("F", -1.0, 1.0)], Target::new().q("x", f64::NAN), settings, sleigh), "q.x = NaN");
     refused(Plan::new(vec![Input::new("F", -1.0, 1.0).guess(2.0)], target(), settings, sleigh), "guess 2");
     refused(Plan::new(vec![Input::new("F", -1.0, 1.0)], target(), PlanSettings::new(5000, 2.0), sleigh), "unknowns");
+    let boxed = PlanSettings { state_box: f64::INFINITY, ..settings };
+    refused(Plan::new(vec![Input::new("F", -1.0, 1.0)], target(), boxed, sleigh), "state_box inf");
     // refused by the solve, which knows the model
     let p = Plan::new(vec![Input::new("F", -1.0, 1.0)], Target::new().q("z", 1.0), settings, sleigh).unwrap();
     let e = p.solve().unwrap_err().to_string();

@@ -28,12 +28,6 @@ pub(super) fn request(inputs: &[Input], target: &Target, s: &PlanSettings) -> Re
                 i.name, i.lower, i.upper
             ));
         }
-        if !i.guess.is_finite() || !(i.lower..=i.upper).contains(&i.guess) {
-            return fail(format!(
-                "input `{}`: its guess {} is not a finite number within its bounds {}:{}",
-                i.name, i.guess, i.lower, i.upper
-            ));
-        }
     }
     if target.entries.is_empty() && !target.rest {
         return fail("no target: name at least one component of q or qd at t_end (or at rest)".into());
@@ -50,11 +44,30 @@ pub(super) fn request(inputs: &[Input], target: &Target, s: &PlanSettings) -> Re
     if !(s.tolerance > 0.0 && s.tolerance < 1.0) {
         return fail(format!("tolerance {}: give a violation in (0, 1)", s.tolerance));
     }
+    if !(s.state_box.is_finite() && s.state_box >= 1.0) {
+        return fail(format!("state_box {}: give a finite multiple >= 1 of the states' scales", s.state_box));
+    }
     if s.max_evaluations < 2 {
         return fail(format!("a budget of {} evaluations: give at least 2", s.max_evaluations));
     }
     if s.max_unknowns > MAX_UNKNOWNS {
         return fail(format!("a limit of {} unknowns: at most {MAX_UNKNOWNS} (SLSQP is dense)", s.max_unknowns));
+    }
+    let mesh = (0..=s.segments).map(|k| s.t_end * k as f64 / s.segments as f64);
+    for i in inputs {
+        i.guess
+            .validate()
+            .map_err(|e| AnalysisError::Request { reason: format!("input `{}`: its guess: {e}", i.name) })?;
+        if let Some((t, g)) = mesh
+            .clone()
+            .map(|t| (t, i.guess.eval(t)))
+            .find(|(_, g)| !(g.is_finite() && (i.lower..=i.upper).contains(g)))
+        {
+            return fail(format!(
+                "input `{}`: its guess {g} at t = {t} s is not a finite number within its bounds {}:{}",
+                i.name, i.lower, i.upper
+            ));
+        }
     }
     // segments alone past the limit: refused before any problem is built
     let at_least = inputs.len().saturating_mul(s.segments.saturating_add(1));
@@ -208,12 +221,13 @@ pub(super) fn scales<M: Model>(
     target: &[(usize, f64)],
 ) -> Scales {
     let n_seg = plan.settings.segments;
+    let mesh = plan.mesh();
     let input_scale: Vec<f64> = plan
         .inputs
         .iter()
         .map(|i| {
             let b = [i.lower, i.upper].into_iter().filter(|v| v.is_finite()).fold(0.0f64, |m, v| m.max(v.abs()));
-            if b > 0.0 { b } else { i.guess.abs().max(1.0) }
+            if b > 0.0 { b } else { mesh.iter().fold(1.0f64, |m, &t| m.max(i.guess.eval(t).abs())) }
         })
         .collect();
     let n2 = x[0].len();

@@ -67,7 +67,12 @@
 //! whole planned input is run through the ordinary simulation (the
 //! problem built from the planned tables over `[0, T]`, one run from its
 //! initial state) and its end compared with every component of the
-//! target ([`Verification`]).
+//! target ([`Verification`]). That run steps across the inputs' kinks at
+//! the nodes, where an adaptive method's error estimate is least
+//! reliable: on the sleigh of the tests (DOP853 at 1e-12) it ends 2e-8
+//! from the target where the segments' runs end 1e-10 from it (at
+//! 1e-14, 2e-9): the verification measures the ordinary run's error as
+//! well as the plan's.
 //!
 //! # Limits
 //!
@@ -75,11 +80,22 @@
 //! not depend on time (the inputs are its only time functions); the
 //! verification run, on the whole horizon, would show a difference.
 //! Drives (prescribed motions) and events are refused. A node's
-//! partition is fixed during the solve (chosen at the warm start): a plan
-//! that turns a vehicle far from its warm start's heading may meet a
-//! singular partition. SLSQP is a local method: [`Status::Infeasible`]
-//! says that no point it and a minimization of the violation reached met
-//! the target, with the least violation found, not a proof.
+//! partition is chosen at the warm start and kept during a search; where
+//! the search ends with the whole state jumping at a node by more than
+//! [`JUMP`] times the violation (the dependent components magnified by
+//! an ill-conditioned partition: the EzyRoller's forward speed from its
+//! two angular rates when its fork is straight), the nodes are
+//! partitioned again there and the search restarted, at most
+//! [`RESTARTS`] times; a plan that still jumps is not optimal
+//! ([`Maneuver::state_jump`]). The nodes' states are kept within a box
+//! ([`PlanSettings::state_box`]). SLSQP is a local method:
+//! [`Status::Infeasible`] says that no point it and a minimization of
+//! the violation reached met the target, with the least violation found,
+//! not a proof. An optimal status needs feasibility, no jump, no node on
+//! its box, and the first-order conditions' residual below
+//! [`STATIONARY`]: an optimizer that stops where it started (a zero input
+//! at rest, whose effort gradient is zero) is not optimal unless the
+//! start meets the target.
 
 mod check;
 mod nlp;
@@ -91,7 +107,7 @@ use std::sync::Arc;
 use std::time::Instant;
 
 use crate::analysis::AnalysisError;
-use crate::effects::waveform::{Extrapolate, Table};
+use crate::effects::waveform::{Extrapolate, Table, Waveform};
 use crate::error::SimError;
 use crate::model::Model;
 use crate::problem::Problem;
@@ -109,6 +125,29 @@ pub const MAX_UNKNOWNS: usize = 2000;
 /// which a feasible point is optimal.
 pub const STATIONARY: f64 = 1e-5;
 
+/// The largest jump of the whole state at a node, as a multiple of the
+/// tolerance, that a solution may have (the equalities hold the
+/// independent components to the tolerance; the dependent ones follow
+/// through the node's partition, magnified by its conditioning).
+pub const JUMP: f64 = 100.0;
+
+/// Searches restarted with the nodes partitioned again where the state
+/// jumped (see [`JUMP`]).
+pub const RESTARTS: usize = 3;
+
+/// The largest jump of a state component at the nodes of `p` and where.
+fn state_jump(p: &transcription::Point, names: &[String]) -> (f64, String) {
+    let mut out = (0.0, String::new());
+    for k in 1..p.starts.len() {
+        for (i, (a, b)) in p.ends[k - 1].iter().zip(&p.starts[k]).enumerate() {
+            if (a - b).abs() > out.0 {
+                out = ((a - b).abs(), format!("{} at node {k}", names[i]));
+            }
+        }
+    }
+    out
+}
+
 /// An input of a plan: a named piecewise-linear function of time within
 /// bounds (its unit the quantity it drives: \[N\] for a force, \[N m\] for
 /// a torque).
@@ -120,20 +159,29 @@ pub struct Input {
     pub lower: f64,
     /// Upper bound (may be `inf`).
     pub upper: f64,
-    /// The value the warm start holds it at.
-    pub guess: f64,
+    /// The warm start's input: its values at the nodes (a constant, or
+    /// a waveform where the target cannot be reached to first order from
+    /// a constant: a vehicle propelled by oscillation).
+    pub guess: Waveform,
 }
 
 impl Input {
     /// The input `name` within `[lower, upper]`, its guess 0 (or the
     /// bound nearest 0).
     pub fn new(name: impl Into<String>, lower: f64, upper: f64) -> Self {
-        Self { name: name.into(), lower, upper, guess: 0.0f64.max(lower).min(upper) }
+        Self { name: name.into(), lower, upper, guess: Waveform::Constant(0.0f64.max(lower).min(upper)) }
     }
 
-    /// The same input with the warm start's value `guess`.
+    /// The same input with the warm start's value `guess` throughout.
     #[must_use]
     pub fn guess(mut self, guess: f64) -> Self {
+        self.guess = Waveform::Constant(guess);
+        self
+    }
+
+    /// The same input with the warm start's values `guess(t_k)` at the nodes.
+    #[must_use]
+    pub fn guess_waveform(mut self, guess: Waveform) -> Self {
         self.guess = guess;
         self
     }
@@ -192,13 +240,20 @@ pub struct PlanSettings {
     pub max_evaluations: usize,
     /// Most unknowns, at most [`MAX_UNKNOWNS`].
     pub max_unknowns: usize,
+    /// The box the nodes' state components are kept in, as a multiple
+    /// of each one's scale (the largest of 1 and its magnitudes over the
+    /// warm start and the target \[its unit\]): a trust region against
+    /// SLSQP's first quasi-Newton steps, which on a vehicle propelled by
+    /// oscillation (the EzyRoller) jumped to headings of 1e5 rad. A
+    /// solution with a node on its box is not optimal.
+    pub state_box: f64,
 }
 
 impl PlanSettings {
     /// `segments` segments over `t_end` seconds, tolerance 1e-8, 500
-    /// evaluations, [`MAX_UNKNOWNS`].
+    /// evaluations, [`MAX_UNKNOWNS`], a state box of 10.
     pub fn new(segments: usize, t_end: f64) -> Self {
-        Self { segments, t_end, tolerance: 1e-8, max_evaluations: 500, max_unknowns: MAX_UNKNOWNS }
+        Self { segments, t_end, tolerance: 1e-8, max_evaluations: 500, max_unknowns: MAX_UNKNOWNS, state_box: 10.0 }
     }
 }
 
@@ -294,6 +349,12 @@ pub struct Maneuver {
     pub violation: (f64, String),
     /// Relative residual of the first-order conditions (see [`STATIONARY`]).
     pub stationarity: f64,
+    /// The largest jump of any state component (independent or not) from
+    /// a segment's end to the next one's start \[its unit\], and where:
+    /// the continuity of the whole state, which the equalities on the
+    /// independent components give only where the node's partition is
+    /// well conditioned.
+    pub state_jump: (f64, String),
     /// The state's names (2 nq).
     pub names: Vec<String>,
     /// The state at each node (N + 1 of 2 nq): each segment's start, and the last one's end.
@@ -326,9 +387,10 @@ impl<M: Model> Plan<M> {
     /// # Errors
     /// [`AnalysisError::Request`] naming the culprit: no input, a name
     /// given twice, a bound that is NaN or a lower above its upper, a
-    /// guess not finite or outside its bounds, no target component or a
+    /// guess not finite or outside its bounds at a node, no target component or a
     /// value not finite, no segments, a `t_end` not finite and > 0, a
-    /// tolerance not in (0, 1), fewer than 2 evaluations, a limit on
+    /// tolerance not in (0, 1), a state box not finite and >= 1, fewer
+    /// than 2 evaluations, a limit on
     /// unknowns past [`MAX_UNKNOWNS`] or segments past it.
     pub fn new(
         inputs: Vec<Input>,
@@ -356,11 +418,12 @@ impl<M: Model> Plan<M> {
     /// The warm start: the problem `first` (built with the guesses) run
     /// segment by segment, each from the last one's end; the node
     /// states (N + 1 of 2 nq).
-    fn warm_start(&self, first: &Problem<M>, h: f64) -> Result<Vec<Vec<f64>>, AnalysisError> {
+    fn warm_start(&self, first: &Problem<M>, h: f64, guess: &[f64]) -> Result<Vec<Vec<f64>>, AnalysisError> {
         let n2 = 2 * first.model.info().nq();
         let mut x = vec![first.initial_state()?.0[..n2].to_vec()];
-        let u: Vec<f64> = self.inputs.iter().flat_map(|i| [i.guess, i.guess]).collect();
+        let nodes = self.settings.segments + 1;
         for k in 0..self.settings.segments {
+            let u: Vec<f64> = guess.chunks_exact(nodes).flat_map(|g| [g[k], g[k + 1]]).collect();
             let start = if k == 0 {
                 None
             } else {
@@ -368,10 +431,59 @@ impl<M: Model> Plan<M> {
                 let z = node.comps.iter().map(|&c| x[k][c]).collect();
                 Some((Arc::new(node), z))
             };
-            let (_, end) = shooting::SegmentSpec::new(&self.build, h, u.clone(), start).simulate()?;
+            let (_, end) = shooting::SegmentSpec::new(&self.build, h, u, start).simulate()?;
             x.push(end);
         }
         Ok(x)
+    }
+
+    /// The bounds of the unknowns: the inputs' own, the nodes' states
+    /// within their box.
+    fn bounds<N: Model>(&self, tr: &Transcription<N>, sc: &nlp::Scales) -> Vec<(f64, f64)> {
+        let (b, nodes) = (self.settings.state_box, self.settings.segments + 1);
+        (0..tr.n)
+            .map(|c| match self.inputs.get(c / nodes) {
+                Some(i) if c < tr.n_inputs() => (i.lower, i.upper),
+                _ => (-b * sc.w[c], b * sc.w[c]),
+            })
+            .collect()
+    }
+
+    /// The point a search ends with: its best where feasible, else its
+    /// least violating.
+    fn point<'e>(&self, ended: &'e nlp::Ended) -> &'e transcription::Point {
+        if nlp::violation(&ended.best).0 <= self.settings.tolerance { &ended.best } else { &ended.least }
+    }
+
+    /// How the search ended at `point`: infeasible, a state jump or a
+    /// node on its box, stationary or not.
+    fn verdict<N: Model>(
+        &self,
+        tr: &Transcription<N>,
+        point: &transcription::Point,
+        (bounds, stationarity, jump): (&[(f64, f64)], f64, &(f64, String)),
+        termination: &str,
+    ) -> Status {
+        let (v, row) = nlp::violation(point);
+        let boxed = (tr.n_inputs()..tr.n).find(|&c| point.w[c].abs() >= (1.0 - 1e-9) * bounds[c].1);
+        let not = |reason: String| Status::NotConverged { reason: format!("{termination}; {reason}") };
+        if v > self.settings.tolerance {
+            Status::Infeasible { violation: v, constraint: tr.rows[row].0.clone() }
+        } else if jump.0 > JUMP * self.settings.tolerance {
+            not(format!(
+                "the state jumps by {:.1e} in {} where the equalities on the nodes' independent components hold: a node's partition is ill-conditioned at this point",
+                jump.0, jump.1
+            ))
+        } else if let Some(c) = boxed {
+            not(format!(
+                "a node's state is at its box (unknown {c}, {} x its scale: PlanSettings::state_box)",
+                self.settings.state_box
+            ))
+        } else if stationarity <= STATIONARY {
+            Status::Optimal
+        } else {
+            not(format!("the first-order conditions' residual is {stationarity:.1e} (optimal below {STATIONARY:.0e})"))
+        }
     }
 
     /// The least-effort inputs to the target (see the module's docs).
@@ -382,48 +494,55 @@ impl<M: Model> Plan<M> {
     /// [`PlanSettings::max_unknowns`] (before anything of their size is
     /// allocated), inputs that do not act on the problem (every segment's
     /// end insensitive to them at the warm start); the problem's or a
-    /// run's failure ([`AnalysisError::Sim`]) at the warm start, or five
-    /// evaluations in a row that failed. Not an infeasible target: that is
-    /// [`Status::Infeasible`].
+    /// run's failure ([`AnalysisError::Sim`]) at the warm start. Not an
+    /// infeasible target (that is [`Status::Infeasible`]), nor runs that
+    /// fail during the search (five in a row end it at the best point,
+    /// said in [`Maneuver::termination`]).
     pub fn solve(&self) -> Result<Maneuver, AnalysisError> {
         let clock = Instant::now();
         let (n_seg, h) = (self.settings.segments, self.settings.t_end / self.settings.segments as f64);
         let names: Vec<String> = self.inputs.iter().map(|i| i.name.clone()).collect();
-        let guess: Vec<f64> = self.inputs.iter().flat_map(|i| std::iter::repeat_n(i.guess, n_seg + 1)).collect();
+        let mesh = self.mesh();
+        let guess: Vec<f64> = self.inputs.iter().flat_map(|i| mesh.iter().map(|&t| i.guess.eval(t))).collect();
         let first = check::problem(self, &guess)?;
         let target = check::target(&first, &self.target)?;
-        let x = self.warm_start(&first, h)?;
+        let mut x = self.warm_start(&first, h, &guess)?;
         let mut tr = Transcription::new(&self.build, names, (n_seg, h), &first.model, &x)?;
         tr.runs = n_seg;
         let mut w = guess;
         w.resize(tr.n, 0.0);
         tr.gather(&x, &mut w);
         tr.set_target(check::independent(&first.model, &x[n_seg], &target));
-        let bounds: Vec<(f64, f64)> = (0..tr.n)
-            .map(|c| match self.inputs.get(c / (n_seg + 1)) {
-                Some(i) if c < tr.n_inputs() => (i.lower, i.upper),
-                _ => (f64::NEG_INFINITY, f64::INFINITY),
-            })
-            .collect();
-        let sc = check::scales(self, &tr, &x, &target);
-        let ended = nlp::solve(&mut tr, &sc, &w, &bounds, (self.settings.tolerance, self.settings.max_evaluations))?;
-        let (best_violation, _) = nlp::violation(&ended.best);
-        let feasible = best_violation <= self.settings.tolerance;
-        let point = if feasible { &ended.best } else { &ended.least };
+        let (mut evaluations, mut termination) = (0, Vec::new());
+        let (ended, sc, bounds) = loop {
+            let sc = check::scales(self, &tr, &x, &target);
+            let bounds = self.bounds(&tr, &sc);
+            let budget = self.settings.max_evaluations - evaluations;
+            let ended = nlp::solve(&mut tr, &sc, &w, &bounds, (self.settings.tolerance, budget))?;
+            evaluations += ended.evaluations;
+            termination.push(ended.termination.clone());
+            let point = self.point(&ended);
+            let jump = state_jump(point, &tr.names);
+            // a jump in an independent component is a violation; one in
+            // a dependent component past it, the partition's conditioning
+            let limit = JUMP * self.settings.tolerance.max(nlp::violation(point).0);
+            if jump.0 <= limit || termination.len() > RESTARTS || evaluations + 2 > self.settings.max_evaluations {
+                break (ended, sc, bounds);
+            }
+            // the nodes partitioned again where the search ended
+            x = point.starts.clone();
+            x.push(point.ends.last().cloned().unwrap_or_default());
+            w = point.w.clone();
+            tr.repartition(&first.model, &x)?;
+            tr.gather(&x, &mut w);
+            termination.push(format!("the nodes partitioned again (the state jumped {:.1e} in {})", jump.0, jump.1));
+        };
+        let termination = termination.join("; ");
+        let point = self.point(&ended);
         let stationarity = nlp::stationarity(point, &sc, &bounds);
         let (v, row) = nlp::violation(point);
-        let status = if !feasible {
-            Status::Infeasible { violation: v, constraint: tr.rows[row].0.clone() }
-        } else if stationarity <= STATIONARY {
-            Status::Optimal
-        } else {
-            Status::NotConverged {
-                reason: format!(
-                    "{}; the first-order conditions' residual is {stationarity:.1e} (optimal below {STATIONARY:.0e})",
-                    ended.termination
-                ),
-            }
-        };
+        let jump = state_jump(point, &tr.names);
+        let status = self.verdict(&tr, point, (&bounds, stationarity, &jump), &termination);
         let tables = self.tables(&tr, &point.w);
         let last = point.ends.last().cloned().unwrap_or_default();
         let verification =
@@ -432,18 +551,19 @@ impl<M: Model> Plan<M> {
         states.push(last);
         Ok(Maneuver {
             status,
-            termination: ended.termination,
+            termination,
             t: self.mesh(),
             inputs: tables,
             effort: point.effort,
             violation: (v, tr.rows.get(row).map(|r| r.0.clone()).unwrap_or_default()),
             stationarity,
+            state_jump: jump,
             names: tr.names.clone(),
             states,
             verification,
             unknowns: tr.n,
             equalities: tr.rows.len(),
-            evaluations: ended.evaluations,
+            evaluations,
             runs: tr.runs,
             seconds: clock.elapsed().as_secs_f64(),
         })

@@ -80,7 +80,8 @@ impl<M: Model> State<'_, M> {
         }
         let w = self.w(x);
         self.evaluations += 1;
-        match self.tr.evaluate(&w) {
+        let r = self.tr.evaluate(&w);
+        match r {
             Ok(p) => {
                 self.failures = 0;
                 let (r, v) = (self.rank(&p), violation(&p).0);
@@ -185,9 +186,10 @@ pub(super) struct Ended {
 /// violating point.
 ///
 /// # Errors
-/// [`AnalysisError::Request`] for inputs that do not act at `w0`;
-/// [`FAILURES`] evaluations in a row that failed: the last one's error;
-/// the start's failure.
+/// [`AnalysisError::Request`] for inputs that do not act at `w0`; the
+/// start's failure. [`FAILURES`] evaluations in a row that failed end
+/// the search at the best point so far, the last failure in the
+/// termination's words.
 pub(super) fn solve<M: Model>(
     tr: &mut Transcription<M>,
     sc: &Scales,
@@ -235,12 +237,13 @@ pub(super) fn solve<M: Model>(
         words(&outcome)
     };
     let mut st = state.into_inner();
+    let mut termination = termination;
     if let Some(e) = st.fatal.take() {
-        return Err(e);
+        termination = format!("{termination}, after {FAILURES} evaluations in a row failed (the last: {e})");
+        st.fatal = Some(e);
     }
     let infeasible = st.best.as_ref().is_none_or(|b| violation(b).0 > tol);
-    let mut termination = termination;
-    if infeasible && st.evaluations < max {
+    if infeasible && st.evaluations < max && st.fatal.is_none() {
         // the violation alone, from the least violating point
         let from =
             st.least.as_ref().map_or_else(|| x0.clone(), |p| p.w.iter().zip(&sc.w).map(|(a, s)| a / s).collect());
@@ -253,7 +256,7 @@ pub(super) fn solve<M: Model>(
         termination = format!("{termination}; then the violation alone: {}", words(&outcome));
         st = state.into_inner();
         if let Some(e) = st.fatal.take() {
-            return Err(e);
+            termination = format!("{termination}, after {FAILURES} evaluations in a row failed (the last: {e})");
         }
     }
     let (Some(best), Some(least)) = (st.best, st.least) else {

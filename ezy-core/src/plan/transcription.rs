@@ -94,6 +94,24 @@ impl<M: Model> Transcription<M> {
         })
     }
 
+    /// The nodes `1 ... N-1` partitioned again at the states `x` (N + 1
+    /// of 2 nq): as many unknowns, other components maybe.
+    ///
+    /// # Errors
+    /// As [`node_start`].
+    pub fn repartition(&mut self, model: &M, x: &[Vec<f64>]) -> Result<(), AnalysisError> {
+        for (k, xk) in x.iter().enumerate().take(self.segments).skip(1) {
+            let node = node_start(model, xk, k)?;
+            if node.comps.len() != self.nodes[k].as_ref().map_or(0, |n| n.comps.len()) {
+                return Err(AnalysisError::Numerics { reason: format!("node {k}'s partition changed its size") });
+            }
+            self.nodes[k] = Some(Arc::new(node));
+        }
+        let target = std::mem::take(&mut self.target);
+        self.set_target(target);
+        Ok(())
+    }
+
     /// The nodes' unknowns: `(column in w, index in [q, qd])`.
     pub fn state_columns(&self) -> Vec<(usize, usize)> {
         let mut out = Vec::new();
