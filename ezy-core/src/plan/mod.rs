@@ -57,9 +57,12 @@
 //!
 //! Dense SLSQP costs `O(n^2)` memory and `O(n^3)` a step in the `n`
 //! unknowns: tens of segments. Hundreds want a sparse interior-point
-//! method on the program's banded Jacobian (IPOPT's kind; Betts §4.6): a
-//! conic solver such as Clarabel takes convex problems only (its
-//! equalities linear), and shooting's continuity equalities are not.
+//! method on the program's banded Jacobian (IPOPT's kind; Betts §4.6).
+//! Clarabel (the crate `clarabel`) takes convex problems only, `min 1/2
+//! x^T P x + q^T x` subject to `A x + s = b`, `s` in a convex cone, `P`
+//! positive semidefinite: shooting's continuity equalities are
+//! nonlinear, so it could solve the sparse convex subproblems of an SQP
+//! method, not the program itself.
 //!
 //! # Verification
 //!
