@@ -61,6 +61,7 @@ pub mod integrator;
 pub mod kkt;
 pub mod model;
 pub mod names;
+pub mod plan;
 pub mod problem;
 pub mod quantities;
 pub mod scalar;

@@ -140,6 +140,7 @@ pub const CORE: Rules = Rules {
         f("geometry", 8, "the geometry of locomotion: a model, its forces, a simulated gait"),
         // floor 9: design questions on the sensitivities
         f("design", 9, "fits and optimization on the sensitivities"),
+        f("plan", 9, "least-effort maneuvers by multiple shooting on the sensitivities"),
     ],
     doors: &[
         Door {

@@ -1,0 +1,312 @@
+//! The nonlinear program of a plan solved by SLSQP (Kraft 1988, the crate
+//! `slsqp`, as [`crate::design::optimize`]), its first-order conditions
+//! checked afterwards, and a second program that minimizes the
+//! constraints' violation alone where the first found no feasible point.
+//!
+//! The crate takes inequality constraints `g(x) <= 0` only, so each
+//! equality `c_i = 0` enters as the pair `+-c_i / s_i <= eps` (`s_i` its
+//! state component's scale, `eps` a hundredth of the feasibility
+//! tolerance in those units): the pair's linearizations bound a slab in
+//! each quadratic subproblem, whose width keeps them from being active
+//! together with opposite multipliers.
+
+use std::cell::RefCell;
+
+use super::transcription::{Point, Transcription};
+use crate::analysis::AnalysisError;
+use crate::model::Model;
+
+/// A constraint as SLSQP calls it: `g(x) <= 0`, its gradient into the slice.
+type SlsqpConstraint<'a> = Box<dyn Fn(&[f64], Option<&mut [f64]>, &mut ()) -> f64 + 'a>;
+
+/// What SLSQP returns: the status, the point, the value.
+type SlsqpOutcome = Result<(slsqp::SuccessStatus, Vec<f64>, f64), (slsqp::FailStatus, Vec<f64>, f64)>;
+
+/// Failures of evaluations in a row that end the solve with the last one's error.
+const FAILURES: usize = 5;
+
+/// The scales of a program: unknowns (n), constraints (m), objective.
+#[derive(Debug, Clone)]
+pub(super) struct Scales {
+    pub w: Vec<f64>,
+    pub c: Vec<f64>,
+    pub f: f64,
+}
+
+/// What the program minimizes.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Phase {
+    /// The effort subject to the constraints.
+    Effort,
+    /// `1/2 sum (c_i / s_i)^2`, bounds only.
+    Violation,
+}
+
+/// The largest violation of `p`'s constraints \[their state units\],
+/// with the row.
+pub(super) fn violation(p: &Point) -> (f64, usize) {
+    p.c.iter().enumerate().fold((0.0, 0), |(m, at), (i, v)| if v.abs() > m { (v.abs(), i) } else { (m, at) })
+}
+
+struct State<'a, M: Model> {
+    tr: &'a mut Transcription<M>,
+    sc: &'a Scales,
+    phase: Phase,
+    /// Feasibility tolerance \[state units\].
+    tol: f64,
+    last: Option<(Vec<f64>, Result<Point, String>)>,
+    /// The best point: feasible before infeasible, then by effort.
+    best: Option<Point>,
+    /// The point of least violation.
+    least: Option<Point>,
+    evaluations: usize,
+    failures: usize,
+    fatal: Option<AnalysisError>,
+}
+
+impl<M: Model> State<'_, M> {
+    fn w(&self, x: &[f64]) -> Vec<f64> {
+        x.iter().zip(&self.sc.w).map(|(a, s)| a * s).collect()
+    }
+
+    fn rank(&self, p: &Point) -> (bool, f64) {
+        let v = violation(p).0;
+        if v <= self.tol { (false, p.effort) } else { (true, v) }
+    }
+
+    fn at(&mut self, x: &[f64]) {
+        if self.last.as_ref().is_some_and(|(lx, _)| lx == x) || self.fatal.is_some() {
+            return;
+        }
+        let w = self.w(x);
+        self.evaluations += 1;
+        let r = self.tr.evaluate(&w);
+        match r {
+            Ok(p) => {
+                self.failures = 0;
+                let (r, v) = (self.rank(&p), violation(&p).0);
+                if self.best.as_ref().is_none_or(|b| r.partial_cmp(&self.rank(b)) == Some(std::cmp::Ordering::Less)) {
+                    self.best = Some(p.clone());
+                }
+                if self.least.as_ref().is_none_or(|b| v < violation(b).0) {
+                    self.least = Some(p.clone());
+                }
+                self.last = Some((x.to_vec(), Ok(p)));
+            }
+            Err(e) => {
+                self.failures += 1;
+                self.last = Some((x.to_vec(), Err(e.to_string())));
+                if self.failures >= FAILURES {
+                    self.fatal = Some(e);
+                }
+            }
+        }
+    }
+
+    fn point(&mut self, x: &[f64]) -> Option<&Point> {
+        self.at(x);
+        match &self.last {
+            Some((lx, Ok(p))) if lx == x && self.fatal.is_none() => Some(p),
+            _ => None,
+        }
+    }
+
+    /// The objective at `x` and its gradient.
+    fn objective(&mut self, x: &[f64], grad: Option<&mut [f64]>) -> f64 {
+        let (phase, sc) = (self.phase, self.sc);
+        let Some(p) = self.point(x) else {
+            if let Some(g) = grad {
+                g.fill(0.0);
+            }
+            let worst = self.best.as_ref().map_or(1.0, |b| b.effort / sc.f);
+            return 2.0 * worst.abs() + 1.0;
+        };
+        match phase {
+            Phase::Effort => {
+                if let Some(g) = grad {
+                    for (k, gk) in g.iter_mut().enumerate() {
+                        *gk = p.effort_grad[k] * sc.w[k] / sc.f;
+                    }
+                }
+                p.effort / sc.f
+            }
+            Phase::Violation => {
+                if let Some(g) = grad {
+                    g.fill(0.0);
+                    for (i, row) in p.jac.iter().enumerate() {
+                        let ci = p.c[i] / sc.c[i];
+                        for (k, gk) in g.iter_mut().enumerate() {
+                            *gk += ci * row[k] * sc.w[k] / sc.c[i];
+                        }
+                    }
+                }
+                0.5 * p.c.iter().zip(&sc.c).map(|(c, s)| (c / s) * (c / s)).sum::<f64>()
+            }
+        }
+    }
+
+    /// `sign c_i / s_i - eps` at `x` and its gradient.
+    fn constraint(&mut self, x: &[f64], i: usize, sign: f64, grad: Option<&mut [f64]>) -> f64 {
+        let sc = self.sc;
+        let eps = 0.01 * self.tol / sc.c[i];
+        let Some(p) = self.point(x) else {
+            if let Some(g) = grad {
+                g.fill(0.0);
+            }
+            return 1.0;
+        };
+        if let Some(g) = grad {
+            for (k, gk) in g.iter_mut().enumerate() {
+                *gk = sign * p.jac[i][k] * sc.w[k] / sc.c[i];
+            }
+        }
+        // within half its slack beyond the slab a constraint counts as
+        // on it: SLSQP tests its convergence only at points feasible to
+        // rounding, and the effort pulls the iterates onto the slab's
+        // faces, where the runs' rounding puts half of them outside
+        let value = sign * p.c[i] / sc.c[i] - eps;
+        if value > 0.0 && value <= 0.5 * eps { 0.0 } else { value }
+    }
+}
+
+/// How a program ended.
+pub(super) struct Ended {
+    /// The best point (feasible first, then by effort).
+    pub best: Point,
+    /// The point of least violation.
+    pub least: Point,
+    /// SLSQP's termination in words.
+    pub termination: String,
+    pub evaluations: usize,
+}
+
+/// Minimizes the effort of `tr` from `w0` within `bounds` (n, unscaled)
+/// subject to its constraints, at most `max` evaluations; where no point
+/// is feasible within `tol`, then the violation alone from the least
+/// violating point.
+///
+/// # Errors
+/// [`AnalysisError::Request`] for inputs that do not act at `w0`; the
+/// start's failure. [`FAILURES`] evaluations in a row that failed end
+/// the search at the best point so far, the last failure in the
+/// termination's words.
+pub(super) fn solve<M: Model>(
+    tr: &mut Transcription<M>,
+    sc: &Scales,
+    w0: &[f64],
+    bounds: &[(f64, f64)],
+    (tol, max): (f64, usize),
+) -> Result<Ended, AnalysisError> {
+    let p0 = tr.evaluate(w0)?;
+    if (0..tr.n_inputs()).all(|col| p0.jac.iter().all(|row| row[col] == 0.0)) {
+        return Err(AnalysisError::Request {
+            reason: format!(
+                "the inputs ({}) do not act on the problem: no segment's end moves with them at the warm start; does the problem's builder put its tables into an effect?",
+                tr.inputs.join(", ")
+            ),
+        });
+    }
+    let m = p0.c.len();
+    let x0: Vec<f64> = w0.iter().zip(&sc.w).map(|(a, s)| a / s).collect();
+    let xb: Vec<(f64, f64)> = bounds.iter().zip(&sc.w).map(|(&(lo, hi), s)| (lo / s, hi / s)).collect();
+    let state = RefCell::new(State {
+        tr,
+        sc,
+        phase: Phase::Effort,
+        tol,
+        last: Some((x0.clone(), Ok(p0.clone()))),
+        best: Some(p0.clone()),
+        least: Some(p0),
+        evaluations: 1,
+        failures: 0,
+        fatal: None,
+    });
+    let tols = |n: usize| slsqp::StopTols { ftol_rel: 1e-12, xtol_abs: vec![1e-10; n], ..slsqp::StopTols::default() };
+    let termination = {
+        let objective = |x: &[f64], g: Option<&mut [f64]>, _: &mut ()| state.borrow_mut().objective(x, g);
+        let constraints: Vec<SlsqpConstraint<'_>> = (0..2 * m)
+            .map(|r| {
+                let state = &state;
+                let sign = if r % 2 == 0 { 1.0 } else { -1.0 };
+                Box::new(move |x: &[f64], g: Option<&mut [f64]>, _: &mut ()| {
+                    state.borrow_mut().constraint(x, r / 2, sign, g)
+                }) as SlsqpConstraint<'_>
+            })
+            .collect();
+        let outcome = slsqp::minimize(objective, &x0, &xb, &constraints, (), max, Some(tols(x0.len())));
+        words(&outcome)
+    };
+    let mut st = state.into_inner();
+    let mut termination = termination;
+    if let Some(e) = st.fatal.take() {
+        termination = format!("{termination}, after {FAILURES} evaluations in a row failed (the last: {e})");
+        st.fatal = Some(e);
+    }
+    let infeasible = st.best.as_ref().is_none_or(|b| violation(b).0 > tol);
+    if infeasible && st.evaluations < max && st.fatal.is_none() {
+        // the violation alone, from the least violating point
+        let from =
+            st.least.as_ref().map_or_else(|| x0.clone(), |p| p.w.iter().zip(&sc.w).map(|(a, s)| a / s).collect());
+        st.phase = Phase::Violation;
+        let left = max - st.evaluations;
+        let state = RefCell::new(st);
+        let objective = |x: &[f64], g: Option<&mut [f64]>, _: &mut ()| state.borrow_mut().objective(x, g);
+        let none: Vec<SlsqpConstraint<'_>> = Vec::new();
+        let outcome = slsqp::minimize(objective, &from, &xb, &none, (), left.max(2), Some(tols(from.len())));
+        termination = format!("{termination}; then the violation alone: {}", words(&outcome));
+        st = state.into_inner();
+        if let Some(e) = st.fatal.take() {
+            termination = format!("{termination}, after {FAILURES} evaluations in a row failed (the last: {e})");
+        }
+    }
+    let (Some(best), Some(least)) = (st.best, st.least) else {
+        return Err(AnalysisError::Numerics { reason: "no point of the plan was evaluated".into() });
+    };
+    Ok(Ended { best, least, termination, evaluations: st.evaluations })
+}
+
+/// SLSQP's outcome in words.
+fn words(outcome: &SlsqpOutcome) -> String {
+    use slsqp::{FailStatus, SuccessStatus};
+    match outcome {
+        Ok((SuccessStatus::Success | SuccessStatus::StopValReached, ..)) => "SLSQP converged".into(),
+        Ok((SuccessStatus::FtolReached, ..)) => "SLSQP: the objective stopped changing".into(),
+        Ok((SuccessStatus::XtolReached, ..)) => "SLSQP: the steps became shorter than xtol".into(),
+        Ok((SuccessStatus::MaxEvalReached | SuccessStatus::MaxTimeReached, ..)) => {
+            "SLSQP: the evaluation budget is spent".into()
+        }
+        Err((FailStatus::RoundoffLimited, ..)) => "SLSQP: limited by rounding".into(),
+        Err((FailStatus::ForcedStop, ..)) => "SLSQP: stopped".into(),
+        Err((e, ..)) => format!("SLSQP failed ({e:?}: its line search or subproblem found no descent)"),
+    }
+}
+
+/// The first-order conditions at `p`: the least-squares residual of
+/// `grad f + J^T lambda = 0` on the unknowns not at a bound, in the
+/// scaled unknowns and constraints, relative to `|grad f|` (0 where the
+/// gradient is 0). A point at a bound is not checked for its
+/// multiplier's sign.
+pub(super) fn stationarity(p: &Point, sc: &Scales, bounds: &[(f64, f64)]) -> f64 {
+    let free: Vec<usize> = (0..p.w.len())
+        .filter(|&k| {
+            let (lo, hi) = bounds[k];
+            let margin = 1e-9 * sc.w[k];
+            p.w[k] - lo > margin && hi - p.w[k] > margin
+        })
+        .collect();
+    let g: Vec<f64> = free.iter().map(|&k| p.effort_grad[k] * sc.w[k] / sc.f).collect();
+    let norm = g.iter().map(|v| v * v).sum::<f64>().sqrt();
+    if norm == 0.0 {
+        return 0.0;
+    }
+    if p.jac.is_empty() || free.is_empty() {
+        return 1.0;
+    }
+    let m = p.jac.len();
+    let a = nalgebra_lm::DMatrix::from_fn(free.len(), m, |r, i| p.jac[i][free[r]] * sc.w[free[r]] / sc.c[i]);
+    let b = nalgebra_lm::DVector::from_vec(g.iter().map(|v| -v).collect());
+    let svd = a.clone().svd(true, true);
+    let Ok(lambda) = svd.solve(&b, 1e-12 * svd.singular_values.max()) else { return 1.0 };
+    let r = a * lambda - b;
+    r.norm() / norm
+}

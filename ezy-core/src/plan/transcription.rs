@@ -1,0 +1,248 @@
+//! Direct multiple shooting's unknowns, constraints and objective (Bock &
+//! Plitt 1984; Betts, *Practical Methods for Optimal Control*, 2nd ed.,
+//! §4.4-4.5): the input nodes and the nodes' independent state
+//! components, the continuity of the state across the nodes and the
+//! target at the end, and the effort of the piecewise-linear inputs.
+//!
+//! Unknowns `w` (n): input `j`'s value at node `k` at `j (N + 1) + k`
+//! (N segments, N + 1 nodes), then the independent components of nodes
+//! `1 ... N-1` in order (node 0 is the problem's own initial state).
+//! Constraints `c(w) = 0`: for each join `k` (the end of segment `k`, the
+//! start of `k + 1`) the end state's independent components of node
+//! `k + 1` minus that node's unknowns; then the target's components of
+//! the last segment's end minus their values.
+
+use std::sync::Arc;
+
+use super::BuildInputs;
+use super::shooting::{NodeStart, SegmentSpec, node_start};
+use crate::analysis::AnalysisError;
+use crate::model::Model;
+
+/// A point of the transcription: its values and derivatives.
+#[derive(Debug, Clone)]
+pub(super) struct Point {
+    /// The unknowns (n).
+    pub w: Vec<f64>,
+    /// `sum_j int u_j^2 dt` \[input unit^2 s\].
+    pub effort: f64,
+    /// Its gradient (n).
+    pub effort_grad: Vec<f64>,
+    /// The constraints (m), in the units of their state components.
+    pub c: Vec<f64>,
+    /// Their Jacobian, row by row (m x n).
+    pub jac: Vec<Vec<f64>>,
+    /// Each segment's start and end state (N of 2 nq each).
+    pub starts: Vec<Vec<f64>>,
+    pub ends: Vec<Vec<f64>>,
+}
+
+/// The transcription of a plan.
+pub(super) struct Transcription<M: Model> {
+    build: Arc<BuildInputs<M>>,
+    pub inputs: Vec<String>,
+    pub segments: usize,
+    pub h: f64,
+    /// The state's names (2 nq).
+    pub names: Vec<String>,
+    /// Nodes `1 ... N-1`'s partitions (index 0 unused).
+    nodes: Vec<Option<Arc<NodeStart>>>,
+    /// Where node `k`'s unknowns start in `w`.
+    z_offset: Vec<usize>,
+    /// Unknowns.
+    pub n: usize,
+    /// The target's rows kept as constraints: `(index in [q, qd], value)`.
+    pub target: Vec<(usize, f64)>,
+    /// Each constraint's name and its state component (for its scale).
+    pub rows: Vec<(String, usize)>,
+    /// Segment runs made (with sensitivities or plain).
+    pub runs: usize,
+}
+
+impl<M: Model> Transcription<M> {
+    /// The layout for `segments` segments of `h` \[s\] over `inputs`, the
+    /// nodes partitioned at the states `x` (N + 1 of 2 nq: a warm start's).
+    pub fn new(
+        build: &Arc<BuildInputs<M>>,
+        inputs: Vec<String>,
+        (segments, h): (usize, f64),
+        model: &M,
+        x: &[Vec<f64>],
+    ) -> Result<Self, AnalysisError> {
+        let n_u = inputs.len() * (segments + 1);
+        let (mut nodes, mut z_offset, mut n) = (vec![None], vec![0], n_u);
+        for (k, xk) in x.iter().enumerate().take(segments).skip(1) {
+            let node = node_start(model, xk, k)?;
+            z_offset.push(n);
+            n += node.comps.len();
+            nodes.push(Some(Arc::new(node)));
+        }
+        let info = model.info();
+        let names = crate::formulation::dae::state_names(&info.coords, &[], &[]);
+        Ok(Self {
+            build: Arc::clone(build),
+            inputs,
+            segments,
+            h,
+            names,
+            nodes,
+            z_offset,
+            n,
+            target: Vec::new(),
+            rows: Vec::new(),
+            runs: 0,
+        })
+    }
+
+    /// The nodes `1 ... N-1` partitioned again at the states `x` (N + 1
+    /// of 2 nq): as many unknowns, other components maybe.
+    ///
+    /// # Errors
+    /// As [`node_start`].
+    pub fn repartition(&mut self, model: &M, x: &[Vec<f64>]) -> Result<(), AnalysisError> {
+        for (k, xk) in x.iter().enumerate().take(self.segments).skip(1) {
+            let node = node_start(model, xk, k)?;
+            if node.comps.len() != self.nodes[k].as_ref().map_or(0, |n| n.comps.len()) {
+                return Err(AnalysisError::Numerics { reason: format!("node {k}'s partition changed its size") });
+            }
+            self.nodes[k] = Some(Arc::new(node));
+        }
+        let target = std::mem::take(&mut self.target);
+        self.set_target(target);
+        Ok(())
+    }
+
+    /// The nodes' unknowns: `(column in w, index in [q, qd])`.
+    pub fn state_columns(&self) -> Vec<(usize, usize)> {
+        let mut out = Vec::new();
+        for (k, node) in self.nodes.iter().enumerate() {
+            if let Some(node) = node {
+                out.extend(node.comps.iter().enumerate().map(|(i, &c)| (self.z_offset[k] + i, c)));
+            }
+        }
+        out
+    }
+
+    /// Unknowns of the inputs.
+    pub fn n_inputs(&self) -> usize {
+        self.inputs.len() * (self.segments + 1)
+    }
+
+    /// Sets the target's rows and names every constraint.
+    pub fn set_target(&mut self, target: Vec<(usize, f64)>) {
+        let mut rows = Vec::new();
+        for (k, node) in self.nodes.iter().enumerate() {
+            if let Some(node) = node {
+                rows.extend(node.comps.iter().map(|&c| (format!("continuity of {} at node {k}", self.names[c]), c)));
+            }
+        }
+        rows.extend(target.iter().map(|&(c, v)| (format!("target {} = {v}", self.names[c]), c)));
+        self.target = target;
+        self.rows = rows;
+    }
+
+    /// Column of input `j` at node `k`.
+    pub fn col_u(&self, j: usize, k: usize) -> usize {
+        j * (self.segments + 1) + k
+    }
+
+    /// Input `j`'s node values in `w` (N + 1).
+    pub fn input_nodes<'w>(&self, w: &'w [f64], j: usize) -> &'w [f64] {
+        &w[self.col_u(j, 0)..=self.col_u(j, self.segments)]
+    }
+
+    /// Segment `k`'s problem builder at `w`.
+    pub fn spec(&self, k: usize, w: &[f64]) -> SegmentSpec<M> {
+        let u = (0..self.inputs.len()).flat_map(|j| [w[self.col_u(j, k)], w[self.col_u(j, k + 1)]]).collect();
+        let start = self.nodes[k].as_ref().map(|node| {
+            let o = self.z_offset[k];
+            (Arc::clone(node), w[o..o + node.comps.len()].to_vec())
+        });
+        SegmentSpec::new(&self.build, self.h, u, start)
+    }
+
+    /// The effort `sum_j sum_k h/3 (a^2 + a b + b^2)` of the
+    /// piecewise-linear inputs at `w` (exact) and its gradient.
+    pub fn effort(&self, w: &[f64]) -> (f64, Vec<f64>) {
+        let mut g = vec![0.0; self.n];
+        let mut e = 0.0;
+        let h3 = self.h / 3.0;
+        for j in 0..self.inputs.len() {
+            for k in 0..self.segments {
+                let (ia, ib) = (self.col_u(j, k), self.col_u(j, k + 1));
+                let (a, b) = (w[ia], w[ib]);
+                e += h3 * (a * a + a * b + b * b);
+                g[ia] += h3 * (2.0 * a + b);
+                g[ib] += h3 * (a + 2.0 * b);
+            }
+        }
+        (e, g)
+    }
+
+    /// The unknowns' columns of segment `k`'s parameters, in the order of
+    /// its sensitivity columns.
+    fn columns(&self, k: usize) -> Vec<usize> {
+        let nz = self.nodes[k].as_ref().map_or(0, |n| n.comps.len());
+        let mut cols: Vec<usize> = (0..nz).map(|i| self.z_offset[k] + i).collect();
+        for j in 0..self.inputs.len() {
+            cols.push(self.col_u(j, k));
+            cols.push(self.col_u(j, k + 1));
+        }
+        cols
+    }
+
+    /// The point at `w`: every segment run with its sensitivities.
+    ///
+    /// # Errors
+    /// A segment's problem or run that fails.
+    pub fn evaluate(&mut self, w: &[f64]) -> Result<Point, AnalysisError> {
+        let (effort, effort_grad) = self.effort(w);
+        let (mut starts, mut ends, mut c, mut jac) = (Vec::new(), Vec::new(), Vec::new(), Vec::new());
+        for k in 0..self.segments {
+            let run = self.spec(k, w).run(&self.inputs)?;
+            self.runs += 1;
+            let cols = self.columns(k);
+            let mut row_of = |comp: usize, value: f64, own: Option<usize>| {
+                let mut row = vec![0.0; self.n];
+                for (col, s) in cols.iter().zip(&run.columns) {
+                    row[*col] += s[comp];
+                }
+                if let Some(o) = own {
+                    row[o] -= 1.0;
+                }
+                c.push(run.end[comp] - value);
+                jac.push(row);
+            };
+            if k + 1 < self.segments {
+                let node = self.nodes[k + 1].as_ref().expect("inner nodes are partitioned");
+                let o = self.z_offset[k + 1];
+                for (i, &comp) in node.comps.iter().enumerate() {
+                    row_of(comp, w[o + i], Some(o + i));
+                }
+            } else {
+                for &(comp, value) in &self.target {
+                    row_of(comp, value, None);
+                }
+            }
+            // the dependent coordinates' guess follows the start
+            if let Some(node) = self.nodes[k].as_mut() {
+                let node = Arc::make_mut(node);
+                node.guess = node.partition.q_dep.iter().map(|&j| run.start[j]).collect();
+            }
+            starts.push(run.start);
+            ends.push(run.end);
+        }
+        Ok(Point { w: w.to_vec(), effort, effort_grad, c, jac, starts, ends })
+    }
+
+    /// The nodes' unknowns of the states `x` (N + 1 of 2 nq) into `w`.
+    pub fn gather(&self, x: &[Vec<f64>], w: &mut [f64]) {
+        for k in 1..self.segments {
+            if let Some(node) = &self.nodes[k] {
+                for (i, &c) in node.comps.iter().enumerate() {
+                    w[self.z_offset[k] + i] = x[k][c];
+                }
+            }
+        }
+    }
+}
