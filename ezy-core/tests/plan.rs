@@ -3,6 +3,9 @@
 //! of zero input that the solver must leave, an unreachable target
 //! reported infeasible, and the requests refused.
 
+#[path = "plan/roller.rs"]
+mod roller;
+
 use ezy_core::effects::{Force, Frame, Table, Waveform};
 use ezy_core::plan::{Input, Maneuver, Plan, PlanSettings, Status, Target};
 use ezy_core::{Method, Problem, SimError};

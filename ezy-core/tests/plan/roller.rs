@@ -1,4 +1,5 @@
-//! Optimal maneuver planning on the EzyRoller (`ezy_core::plan`): from
+//! Optimal maneuver planning on the EzyRoller (a module of `plan.rs`: one
+//! test binary) (`ezy_core::plan`): from
 //! rest to rest 1 m ahead with least squared hinge torque.
 
 use ezy_core::effects::{HingeMotor, Table, Waveform};
