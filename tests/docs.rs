@@ -326,15 +326,20 @@ fn the_physics_contents_list_every_section() {
 #[test]
 fn the_quantities_page_is_the_table_s() {
     use ezy_core::quantities::TABLES;
-    let cell = |s: &str| s.replace('|', "\\|");
-    let code = |s: &str| if s.is_empty() { String::new() } else { format!("`{}`", cell(s)) };
+    // (a name's varying part, `<k>`, is text outside code: escaped, or
+    // mdbook reads it as an HTML tag left open)
+    let pipe = |s: &str| s.replace('|', "\\|");
+    let cell = |s: &str| pipe(s).replace('<', "&lt;").replace('>', "&gt;");
+    let code = |s: &str| if s.is_empty() { String::new() } else { format!("`{}`", pipe(s)) };
     let mut body = String::from(
         "# Quantities\n\nEvery column of the CSV files `ezy analyze`, `ezy sensitivity`, `ezy optimize`\nand `ezy geometry` write, defined once (`ezy-core/src/quantities/`): its unit,\nwhat it is in words and as a formula, the frame it is expressed in and the\ntime it is taken at, and where the definition comes from. Python's\n`describe()` on a result reads the same table.\n\nA name in angle brackets is a part that varies: `<state>` a coordinate or its\nrate (`x1`, `x1d`), `<parameter>` a parameter as the command line names it\n(`motor.omega`), `<hinge>` a hinge's (a shape coordinate's) name, `<k>` a\nnumber from 1, `<quantity>` a differentiated gait quantity, `<objective>`\nan optimization's objective, `<metric>` a run's metric (`final(x1)`),\n`<factor>` a shape rate or a momentum component, and `<a|b>` one of the\nwords listed.\n\nThe *reference body* of `ezy analyze` and `ezy optimize` is the model's first\nbody; `ezy geometry`'s is the body `--body` names (by default the one at the\nmiddle of the hinge tree).\n",
     );
     for t in TABLES {
         body.push_str(&format!(
             "\n## {}\n\nWritten by `{}`. {}.\n\n| column | unit | definition | formula | frame and time | source |\n|---|---|---|---|---|---|\n",
-            t.file, t.command, t.about
+            cell(t.file),
+            t.command,
+            cell(t.about)
         ));
         for c in t.columns() {
             body.push_str(&format!(
