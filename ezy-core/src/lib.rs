@@ -83,7 +83,7 @@ pub use model::info::{
     ModelInfo, NameIndex, ParamInfo, PointInfo, SETUP_BYTES_PER_COORD, SkateInfo, SliderInfo,
 };
 pub use model::{MinimalCall, MinimalRhsError, Model};
-pub use names::{LISTED, fmt_value, name_list};
+pub use names::{LISTED, fmt_located, fmt_value, name_list};
 pub use problem::{Problem, Solution};
 pub use scalar::Scalar;
 pub use settings::{

@@ -11,7 +11,7 @@ use ezy_core::analysis::switching::{Switch, switch_both};
 use ezy_core::analysis::{
     Analysis, AnalysisError, Bifurcation, BifurcationKind, BranchEnd, BranchPoint, Follow, Solution,
 };
-use ezy_core::{Model, fmt_value};
+use ezy_core::{Model, fmt_located, fmt_value};
 use ezy_scene::Scene;
 
 use super::Log;
@@ -191,20 +191,20 @@ fn switch_all<M: Model>(
                 log.notes.push(format!(
                     "no branch found born at the {} at {name} = {}: {e}",
                     b.kind.name(),
-                    fmt_value(b.value)
+                    fmt_located(b.value, width(&b))
                 ));
                 continue;
             }
         };
         branches[0].bifurcations[i].1.kind = s.kind;
-        log.notes.push(told(name, b.value, &s));
+        log.notes.push(told(name, &b, &s));
         for born in &s.born {
             let v = born.start.value;
             let end = if v >= b.value { hi } else { lo };
             if !(lo..=hi).contains(&v) || (end - v).abs() < 1e-12 * (1.0 + v.abs()) {
                 log.notes.push(format!(
                     "the branch born at {name} = {} on side {} starts at {}, at or beyond the range's end: not followed",
-                    fmt_value(b.value),
+                    fmt_located(b.value, width(&b)),
                     born.side,
                     fmt_value(v)
                 ));
@@ -227,13 +227,19 @@ fn switch_all<M: Model>(
             let follow = born.follow;
             branches.push(Branch { id, birth: Some(birth), points, power: Vec::new(), bifurcations, ended, follow });
         }
-        log.timings.push((format!("branches born at {name} = {}", fmt_value(b.value)), clock.elapsed()));
+        log.timings.push((format!("branches born at {name} = {}", fmt_located(b.value, width(&b))), clock.elapsed()));
     }
     Ok(())
 }
 
+/// The width of the last bracket `b` was located in: its value holds the
+/// digits above it.
+fn width(b: &Bifurcation) -> f64 {
+    (b.bracket[1] - b.bracket[0]).abs()
+}
+
 /// The note that tells a switch's bifurcation and what was born there.
-fn told(name: &str, value: f64, s: &Switch) -> String {
+fn told(name: &str, b: &Bifurcation, s: &Switch) -> String {
     let sides: Vec<String> = s
         .born
         .iter()
@@ -248,7 +254,7 @@ fn told(name: &str, value: f64, s: &Switch) -> String {
     let failed = s.failed.as_ref().map(|(side, e)| format!("; side {side} not found: {e}")).unwrap_or_default();
     format!(
         "the bifurcation at {name} = {} is a {}: branches born {}{failed}",
-        fmt_value(value),
+        fmt_located(b.value, width(b)),
         s.describe(),
         sides.join(" and ")
     )
@@ -356,7 +362,7 @@ fn locate_all<M: Model>(
                 log.notes.push(format!(
                     "{} at {name} = {} (to {:.0e}, {} solves; {changes}): critical {} {}{frequency}",
                     b.kind.name(),
-                    fmt_value(b.value),
+                    fmt_located(b.value, width(&b)),
                     (b.bracket[1] - b.bracket[0]).abs(),
                     b.solves,
                     if matches!(b.solution, Solution::Steady(_)) { "eigenvalue" } else { "multiplier" },
