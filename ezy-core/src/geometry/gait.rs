@@ -81,8 +81,9 @@ pub const STEPS_PER_OSCILLATION: f64 = 20.0;
 /// would take hours.
 pub const MAX_GAIT_STEPS: f64 = 1e5;
 /// Gauss-Legendre nodes and weights on [0, 1], 6 points (exact for
-/// polynomials of degree 11).
-const GAUSS: [(f64, f64); 6] = [
+/// polynomials of degree 11): the second order of [`Geometry::predict`]
+/// and its gradient in `crate::design::gait`.
+pub(crate) const GAUSS: [(f64, f64); 6] = [
     (0.033765242898423975, 0.08566224618958517),
     (0.16939530676686776, 0.18038078652406936),
     (0.38069040695840156, 0.23395696728634552),

@@ -52,27 +52,8 @@ fn rest_to_rest(segments: usize, t_end: f64, evaluations: usize) -> ezy_core::pl
     let settings = PlanSettings { max_evaluations: evaluations, ..PlanSettings::new(segments, t_end) };
     let plan = Plan::new(vec![input], target, settings, roller).unwrap();
     let m = plan.solve().unwrap();
-    eprintln!(
-        "{segments} segments: status {:?}; {}; effort {:.6e}; violation {:.1e} ({}); stationarity {:.1e}; {} unknowns, {} equalities, {} evaluations, {} runs, {:.2} s",
-        m.status,
-        m.termination,
-        m.effort,
-        m.violation.0,
-        m.violation.1,
-        m.stationarity,
-        m.unknowns,
-        m.equalities,
-        m.evaluations,
-        m.runs,
-        m.seconds
-    );
-    match &m.verification {
-        Ok(v) => eprintln!(
-            "verification: run error {:.2e}, plan error {:.2e}: {:?}",
-            v.max_run_error, v.max_plan_error, v.errors
-        ),
-        Err(e) => eprintln!("verification failed: {e}"),
-    }
+    eprint!("{segments} segments: ");
+    super::show(&m);
     m
 }
 

@@ -18,21 +18,11 @@ use num_dual::Dual64;
 
 use super::fourier::shape_at;
 use super::{GaitObjective, Order};
+use crate::geometry::gait::GAUSS;
 use crate::geometry::{Geometry, GeometryError};
 use crate::integrator::adaptive::{Tolerance, integrate};
 use crate::integrator::dop853::Dop853;
 use crate::model::Model;
-
-/// Gauss-Legendre nodes and weights on \[0, 1\], 6 points (as the
-/// second order of [`Geometry::predict`]).
-const GAUSS: [(f64, f64); 6] = [
-    (0.033765242898423975, 0.08566224618958517),
-    (0.16939530676686776, 0.18038078652406936),
-    (0.38069040695840156, 0.23395696728634552),
-    (0.6193095930415985, 0.23395696728634552),
-    (0.8306046932331322, 0.18038078652406936),
-    (0.966234757101576, 0.08566224618958517),
-];
 
 /// What a point's evaluation needs of the problem.
 pub(super) struct Setup {
