@@ -66,6 +66,22 @@ fn rest_to_rest(segments: usize, t_end: f64, evaluations: usize) -> ezy_core::pl
 /// the nodes partitioned again ended infeasible at 8.6e-3 (the
 /// verification run 0.28 from the target); 20 segments (135 unknowns),
 /// 1458 evaluations in 32 s, infeasible at 3.0e-2.
+///
+/// Tried since (2026-11-30, 2 cores), none reaches it: every inner
+/// node's whole state as unknowns, started from its projection onto the
+/// constraints (119 unknowns, 10 segments: infeasible 4.6e-2, SLSQP
+/// limited by rounding after 333 evaluations; 20 segments 3.3e-2, 40
+/// segments 1.7e-2 in 237 s); every target velocity as an equality
+/// (dependent rows: a Newton KKT matrix singular, multipliers 1e16); a
+/// Gauss-Newton SQP on the effort's exact Hessian with an L1 merit line
+/// search (the linearized end moves x1 only to first order, the motion
+/// is second order in the torque: steps of 100 N m rejected, the
+/// violation 0.79 -> 0.61 in 44 iterations); single shooting
+/// (`PlanSettings::intervals` = 1: 11 unknowns, 3 equalities, SLSQP
+/// finds no descent at 9.5e-2; 20 segments: SLSQP's own iterate NaN) and
+/// 4 intervals of 5 segments (5.3e-2). The next step: the Lagrangian's
+/// curvature (second-order sensitivities, or an exact-Hessian SQP), or a
+/// homotopy from the warm start's own end to the target.
 #[test]
 #[ignore = "SLSQP does not reach the EzyRoller's rest-to-rest plan yet (ill-conditioned partitions; slow quasi-Newton convergence)"]
 fn roller_rest_to_rest_one_metre() {
