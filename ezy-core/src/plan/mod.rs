@@ -117,6 +117,9 @@ mod shooting;
 mod transcription;
 mod verify;
 
+#[cfg(test)]
+mod tests;
+
 use std::sync::Arc;
 use std::time::Instant;
 
