@@ -40,6 +40,9 @@
 //! kind end it with the last one's error.
 
 mod check;
+pub mod dynamic;
+#[cfg(test)]
+mod dynamic_tests;
 mod evaluate;
 mod fourier;
 #[cfg(test)]
@@ -47,6 +50,7 @@ mod tests;
 
 use std::cell::RefCell;
 
+pub use dynamic::{DriveGait, drive_angle};
 pub use fourier::{FourierGait, MAX_ORDER};
 
 use crate::design::optimize::kkt::{self, ACTIVE, Candidate, Kkt};

@@ -1,0 +1,228 @@
+//! Gaits of mixed (and dynamic) systems: a [`FourierGait`] prescribed
+//! through a model's drives, its coefficients the parameters of a
+//! [`Design`], so that [`crate::design::optimize::optimize`] finds the
+//! gait that maximizes or minimizes a gait's quantity per cycle (mean
+//! forward speed, displacement, heading change, mean input power,
+//! efficiency: [`crate::design::optimize::GaitQuantity`]) over them.
+//!
+//! # Method
+//!
+//! A kinematic system's net motion per cycle is a function of the
+//! shape's curve alone ([`super::optimize_gait`]); a mixed system's is
+//! not: its momentum moves with the cycle's timing and with its losses,
+//! so each point of the search is the simulated gait, the periodic orbit
+//! of the full dynamics (the momentum included) with the drives' angles
+//! prescribed (rheonomic constraints, [`crate::drive`]), found by
+//! shooting at phase 0 of the forcing. The gradient is exact: the
+//! implicit function theorem on the orbit's shooting equations
+//! ([`crate::sensitivity::gait`]), each coefficient's direct effect on the
+//! right-hand side exact too, because each coefficient is the amplitude
+//! of one harmonic of fixed frequency and phase (see [`drive_angle`]),
+//! which the sensitivities differentiate in closed form
+//! ([`crate::effects::Waveform::eval3_toward`]): linear in it, no
+//! difference of waveforms. The search, its scaling, its KKT check and
+//! its failures are [`crate::design::optimize`]'s.
+//!
+//! The coefficients are bounded each within its own interval (a box:
+//! the design's bounds); the shape's range over the cycle is bounded
+//! through them (`|r - a_0| <= sum_k hypot(a_k, b_k)`; for an order-1
+//! gait with `b_1` held at 0, `a_1` is the amplitude). A gait's phase is
+//! a symmetry of its mean quantities (a gait shifted in time moves as
+//! far, along another heading), so a search over every coefficient has a
+//! valley of optima; hold one (`b_1` at 0, the default of
+//! [`DriveGait::new`]) to fix it.
+
+use super::fourier::FourierGait;
+use crate::analysis::AnalysisError;
+use crate::design::Design;
+use crate::effects::waveform::{Harmonic, Waveform};
+use crate::error::SimError;
+use crate::model::Model;
+use crate::problem::Problem;
+
+/// A Fourier gait of a model's drives (one row of coefficients per drive,
+/// [`FourierGait::coefficients`]) with the coefficients to optimize and
+/// their bounds: the parameters of a [`Design`] ([`DriveGait::design`]).
+#[derive(Debug, Clone, PartialEq)]
+pub struct DriveGait {
+    /// The drives (the model's `drive NAME: hinge H;`), one per row of
+    /// the gait, in its order.
+    pub drives: Vec<String>,
+    /// The start, and the values of the coefficients held \[rad\].
+    pub start: FourierGait,
+    /// Per flat coefficient ([`FourierGait::flat`]): `Some((lower,
+    /// upper))` \[rad\] where it is free within these bounds, `None` where
+    /// it is held at the start's value.
+    pub bounds: Vec<Option<(f64, f64)>>,
+}
+
+impl DriveGait {
+    /// The gait `start` of the drives `drives` (one row each), every
+    /// coefficient held: free them with [`DriveGait::free`].
+    pub fn new(drives: &[&str], start: FourierGait) -> Self {
+        let n = start.n_shape() * start.per_coordinate();
+        Self { drives: drives.iter().map(|d| (*d).to_string()).collect(), start, bounds: vec![None; n] }
+    }
+
+    /// Frees the coefficient `label` (`D.a0`, `D.a1`, `D.b2`: the drive's
+    /// name, then the coefficient's as [`FourierGait::coefficient_label`]
+    /// spells it) within `[lower, upper]` \[rad\].
+    ///
+    /// # Errors
+    /// [`AnalysisError::Request`] for a label that names no coefficient of
+    /// the gait (listing them).
+    pub fn free(mut self, label: &str, lower: f64, upper: f64) -> Result<Self, AnalysisError> {
+        let labels = self.labels();
+        match labels.iter().position(|l| l == label) {
+            Some(j) => {
+                self.bounds[j] = Some((lower, upper));
+                Ok(self)
+            }
+            None => Err(AnalysisError::Request {
+                reason: format!(
+                    "`{label}` is not a coefficient of this gait; its coefficients are {}",
+                    crate::names::name_list(&labels)
+                ),
+            }),
+        }
+    }
+
+    /// Every coefficient's label, in the flat order: `D.a0, D.a1, D.b1,
+    /// ...` (n_drives x (2 order + 1)).
+    pub fn labels(&self) -> Vec<String> {
+        let n = self.start.n_shape() * self.start.per_coordinate();
+        (0..n).map(|j| self.start.coefficient_label(&self.drives, j)).collect()
+    }
+
+    /// The gait at the free coefficients' values `values` (in the order of
+    /// the design's parameters: the free ones in the flat order), the held
+    /// ones at the start's.
+    ///
+    /// # Panics
+    /// If `values` has another length than the free coefficients.
+    pub fn gait_at(&self, values: &[f64]) -> FourierGait {
+        let free: Vec<usize> = (0..self.bounds.len()).filter(|&j| self.bounds[j].is_some()).collect();
+        assert_eq!(values.len(), free.len(), "one value per free coefficient");
+        let mut flat = self.start.flat();
+        for (&j, &v) in free.iter().zip(values) {
+            flat[j] = v;
+        }
+        self.start.with_flat(&flat)
+    }
+
+    /// The design over the free coefficients: each problem is `build`'s
+    /// (the model, its start, effects and settings) with the drives'
+    /// angles prescribed as the gait at the coefficients' values
+    /// ([`drive_angle`]), whatever angle `build` gave them. The
+    /// parameters are named by their labels (`D.a1`), start at the
+    /// start's values, within their bounds.
+    ///
+    /// # Errors
+    /// `build`'s own failure. [`AnalysisError::Request`] for a model
+    /// without drives (a mixed system's gait is prescribed through them:
+    /// `drive D: hinge B;` in the model), a drive the model does not have
+    /// (listing its drives) or named twice, a gait of another number of
+    /// rows than drives or whose fields [`FourierGait::new`] refuses, a
+    /// `bounds` of another length than the coefficients, no free
+    /// coefficient, and what [`Design::new`] refuses (a bound that is
+    /// not finite, a lower bound not below its upper, a start outside
+    /// its bounds), each naming the coefficient.
+    pub fn design<M: Model>(
+        &self,
+        build: impl Fn() -> Result<Problem<M>, SimError> + Send + Sync + 'static,
+    ) -> Result<Design<M>, AnalysisError> {
+        let fail = |reason: String| Err(AnalysisError::Request { reason });
+        let base = build()?;
+        let info = base.model.info();
+        let known: Vec<&str> = info.drives.iter().map(|d| d.name.as_str()).collect();
+        if known.is_empty() {
+            return fail(format!(
+                "model {} has no drives: a gait of a mixed system is prescribed through its drives (`drive D: hinge B;` in the model), and it has none to optimize",
+                info.name
+            ));
+        }
+        for (k, d) in self.drives.iter().enumerate() {
+            if !known.contains(&d.as_str()) {
+                return fail(format!(
+                    "model {} has no drive `{d}`; its drives are {}",
+                    info.name,
+                    crate::names::name_list(&known)
+                ));
+            }
+            if self.drives[..k].contains(d) {
+                return fail(format!("drive `{d}` is named twice: give one row of coefficients per drive"));
+            }
+        }
+        let start = &self.start;
+        if start.n_shape() != self.drives.len() {
+            return fail(format!(
+                "the gait has {} rows of coefficients for {} drives ({}): give one row per drive",
+                start.n_shape(),
+                self.drives.len(),
+                self.drives.join(", ")
+            ));
+        }
+        // the fields are public: the gait's own checks again
+        FourierGait::new(start.coefficients.clone(), start.order, start.period)
+            .map_err(|e| AnalysisError::Request { reason: e.to_string() })?;
+        let labels = self.labels();
+        if self.bounds.len() != labels.len() {
+            return fail(format!(
+                "`bounds` has {} entries for the gait's {} coefficients ({})",
+                self.bounds.len(),
+                labels.len(),
+                labels.join(", ")
+            ));
+        }
+        let free: Vec<usize> = (0..labels.len()).filter(|&j| self.bounds[j].is_some()).collect();
+        if free.is_empty() {
+            return fail(format!(
+                "every coefficient of the gait is held: nothing to optimize (free one of {})",
+                labels.join(", ")
+            ));
+        }
+        let flat = start.flat();
+        let names = free.iter().map(|&j| labels[j].clone()).collect();
+        let values = free.iter().map(|&j| flat[j]).collect();
+        let bounds = free.iter().map(|&j| self.bounds[j].expect("free")).collect();
+        let (drives, order, omega) = (self.drives.clone(), start.order, start.omega());
+        let per = start.per_coordinate();
+        Design::new(names, values, bounds, move |v| {
+            let mut c = flat.clone();
+            for (&j, &x) in free.iter().zip(v) {
+                c[j] = x;
+            }
+            drives
+                .iter()
+                .zip(c.chunks(per))
+                .try_fold(build()?, |p, (d, row)| p.drive(d, drive_angle(row, order, omega)))
+        })
+    }
+}
+
+/// The prescribed angle of one row of a Fourier gait's coefficients
+/// `row` (`a_0, a_1, b_1, ..., a_N, b_N` \[rad\], `N = order`) at the
+/// angular frequency `omega` \[rad/s\]: `u(t) = a_0 + sum_k (a_k cos(k
+/// omega t) + b_k sin(k omega t))`, as the harmonics `a_0 cos(0)`, `a_k
+/// cos(k omega t)` and `b_k cos(k omega t - pi/2)`, each coefficient the
+/// amplitude of its own harmonic of fixed frequency and phase (one
+/// harmonic each, a zero amplitude kept), so that the waveform's
+/// structure is the same at every value and linear in each coefficient:
+/// what the sensitivities' linearization between neighbouring problems
+/// ([`Waveform::eval3_toward`]) takes exactly. (The polar form of
+/// [`FourierGait::gait`], `R_k cos(k omega t + phi_k)`, is nonlinear in
+/// the coefficients and drops a harmonic whose amplitude is zero.)
+///
+/// # Panics
+/// If `row` has another length than `2 order + 1`.
+pub fn drive_angle(row: &[f64], order: usize, omega: f64) -> Waveform {
+    assert_eq!(row.len(), 2 * order + 1, "2 order + 1 coefficients");
+    let harmonic = |amplitude: f64, omega: f64, phase: f64| Harmonic { amplitude, omega, phase, phase_step: 0.0 };
+    let mut h = vec![harmonic(row[0], 0.0, 0.0)];
+    for k in 1..=order {
+        let w = k as f64 * omega;
+        h.push(harmonic(row[2 * k - 1], w, 0.0));
+        h.push(harmonic(row[2 * k], w, -std::f64::consts::FRAC_PI_2));
+    }
+    Waveform::Harmonics(h)
+}
