@@ -29,12 +29,20 @@
 //! gait with `b_1` held at 0, `a_1` is the amplitude). A gait's phase is
 //! a symmetry of its mean quantities (a gait shifted in time moves as
 //! far, along another heading), so a search over every coefficient has a
-//! valley of optima; hold one (`b_1` at 0, the default of
-//! [`DriveGait::new`]) to fix it.
+//! valley of optima; hold one (`b_1` at 0) to fix it.
+//!
+//! The search locates an optimum by its values to about the square root
+//! of their accuracy, by its gradients to theirs: the settings of
+//! [`DriveGait::optimize_settings`] find the gait to 1e-12 and polish
+//! SLSQP's answer by Newton's method on the exact gradients
+//! ([`OptimizeSettings::polish`]), so that the projected gradient at a
+//! bounded optimum falls below 1e-8 of the objective (1.2e-10 on the
+//! EzyRoller with rolling resistance, where SLSQP alone left 3e-6).
 
 use super::fourier::FourierGait;
 use crate::analysis::AnalysisError;
 use crate::design::Design;
+use crate::design::optimize::OptimizeSettings;
 use crate::effects::waveform::{Harmonic, Waveform};
 use crate::error::SimError;
 use crate::model::Model;
@@ -85,6 +93,20 @@ impl DriveGait {
                 ),
             }),
         }
+    }
+
+    /// The settings of a search over a drive gait: the defaults of
+    /// [`OptimizeSettings`] with the gait found to 1e-12 (DOP853 at
+    /// `rtol = atol = 1e-12`, Newton to 1e-12: the quantities then agree
+    /// with themselves to about 1e-12 of their size, 1e-9 at the
+    /// defaults) and the polish on (the module's docs). Measured on the
+    /// EzyRoller: 14 evaluations, 0.7 s.
+    pub fn optimize_settings() -> OptimizeSettings {
+        let mut s = OptimizeSettings { polish: true, ..OptimizeSettings::default() };
+        s.periodic.tolerance.rtol = 1e-12;
+        s.periodic.tolerance.atol = 1e-12;
+        s.periodic.newton_tolerance = 1e-12;
+        s
     }
 
     /// Every coefficient's label, in the flat order: `D.a0, D.a1, D.b1,

@@ -67,11 +67,7 @@ fn order1(a0: f64, a1: f64) -> FourierGait {
 /// at 1e-12, so that its quantities are accurate to about 1e-12 of their
 /// size, and the polish on the exact gradients.
 fn settings() -> OptimizeSettings {
-    let mut s = OptimizeSettings { polish: true, ..OptimizeSettings::default() };
-    s.periodic.tolerance.rtol = 1e-12;
-    s.periodic.tolerance.atol = 1e-12;
-    s.periodic.newton_tolerance = 1e-12;
-    s
+    DriveGait::optimize_settings()
 }
 
 fn maximize(q: GaitQuantity) -> Goal {
@@ -228,13 +224,17 @@ fn sleigh() -> Result<Problem<TailedSleigh>, SimError> {
 
 /// The same path on a model the user typed: the sleigh's tail wagging
 /// `a1 cos(omega t) + a2 cos(2 omega t) + b2 sin(2 omega t)` (order 2,
-/// period 2 s, `a0` and `b1` held at 0), its mean speed maximized with
-/// the amplitudes within 0.6 rad.
+/// period 2 s, `a0` and `b1` held at 0), its efficiency (mean speed per
+/// mean input power) maximized with `a1` in `[0.05, 0.6]` rad and the
+/// second harmonic's within 0.3 rad. Measured: the efficiency grows as
+/// the amplitude shrinks (0.978 m/J at the start, 1.024 at the optimum),
+/// so `a1`'s lower bound binds, and the second harmonic is interior near
+/// 0 (`a2 = -1.2e-4`, `b2 = 1.1e-5`).
 #[test]
 fn a_users_sleigh_through_the_same_path() {
     let start = FourierGait::new(vec![vec![0.0, 0.3, 0.0, 0.05, 0.05]], 2, 2.0).unwrap();
     let gait = DriveGait::new(&["W"], start)
-        .free("W.a1", 0.0, 0.6)
+        .free("W.a1", 0.05, 0.6)
         .unwrap()
         .free("W.a2", -0.3, 0.3)
         .unwrap()
@@ -242,10 +242,14 @@ fn a_users_sleigh_through_the_same_path() {
         .unwrap();
     let design = gait.design(sleigh).unwrap();
     let t = Instant::now();
-    let o = optimize(&design, &maximize(GaitQuantity::MeanSpeed), &settings(), None, &mut |_| {}).unwrap();
+    let o = optimize(&design, &maximize(GaitQuantity::Efficiency), &settings(), None, &mut |_| {}).unwrap();
     show("tailed sleigh, order 2", &o, t.elapsed().as_secs_f64());
     assert!(o.converged && o.kkt.holds, "{}", o.termination);
     assert!(relative_projected_gradient(&o) < 1e-8, "{}", relative_projected_gradient(&o));
+    assert_eq!(o.at_bound, [true, false, false]);
+    let binding: Vec<&str> = o.kkt.binding.iter().map(|b| b.name.as_str()).collect();
+    assert_eq!(binding, ["W.a1 >= 0.05"]);
+    assert!(o.objective > o.history[0].objective);
 }
 
 crate::model! {

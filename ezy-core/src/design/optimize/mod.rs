@@ -24,6 +24,11 @@
 //! fixed point (from a run of the problem where that fails): a search of
 //! a few Newton iterations, not a run to a steady state.
 //!
+//! Where asked ([`OptimizeSettings::polish`]) and no constraint is
+//! active, SLSQP's best point is polished by Newton's method on the exact
+//! gradients of the parameters off their bounds (`polish`'s docs): the
+//! values locate an optimum to the square root of their accuracy only.
+//!
 //! An evaluation that fails (no gait near, a run that fails) counts as a
 //! point with a worse objective than any seen, so the line search steps
 //! back; five failures in a row end the optimization with the last one's
