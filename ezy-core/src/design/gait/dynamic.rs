@@ -15,7 +15,7 @@
 //! prescribed (rheonomic constraints, [`crate::drive`]), found by
 //! shooting at phase 0 of the forcing. The gradient is exact: the
 //! implicit function theorem on the orbit's shooting equations
-//! ([`crate::sensitivity::gait`]), each coefficient's direct effect on the
+//! ([`crate::Problem::gait_sensitivities`]), each coefficient's direct effect on the
 //! right-hand side exact too, because each coefficient is the amplitude
 //! of one harmonic of fixed frequency and phase (see [`drive_angle`]),
 //! which the sensitivities differentiate in closed form
