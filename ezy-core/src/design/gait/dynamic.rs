@@ -45,7 +45,7 @@ use super::fourier::FourierGait;
 use crate::analysis::AnalysisError;
 use crate::design::Design;
 use crate::design::optimize::OptimizeSettings;
-use crate::effects::waveform::{Harmonic, Waveform};
+use crate::effects::waveform::{Harmonic, Periodicity, Waveform};
 use crate::error::SimError;
 use crate::model::Model;
 use crate::problem::Problem;
@@ -148,9 +148,18 @@ impl DriveGait {
     /// (listing its drives) or named twice, a gait of another number of
     /// rows than drives or whose fields [`FourierGait::new`] refuses, a
     /// `bounds` of another length than the coefficients, no free
-    /// coefficient, and what [`Design::new`] refuses (a bound that is
-    /// not finite, a lower bound not below its upper, a start outside
-    /// its bounds), each naming the coefficient.
+    /// coefficient, a start that does not repeat with the gait's period
+    /// (no first harmonic: every `a_1`, `b_1` zero), and what
+    /// [`Design::new`] refuses (a bound that is not finite, a lower bound
+    /// not below its upper, a start outside its bounds), each naming the
+    /// coefficient.
+    ///
+    /// A gait is sought over its drives' common period: where every
+    /// first-harmonic coefficient is 0 at once (bounds that reach 0) the
+    /// angles repeat faster, and the gait there is sought over a shorter
+    /// period (its quantities per period change with it); bound an
+    /// amplitude away from 0 to keep the period (`D.a1` within `[0.05,
+    /// 0.4]`).
     pub fn design<M: Model>(
         &self,
         build: impl Fn() -> Result<Problem<M>, SimError> + Send + Sync + 'static,
@@ -206,6 +215,7 @@ impl DriveGait {
             ));
         }
         let flat = start.flat();
+        check_period(start, &self.drives)?;
         let names = free.iter().map(|&j| labels[j].clone()).collect();
         let values = free.iter().map(|&j| flat[j]).collect();
         let bounds = free.iter().map(|&j| self.bounds[j].expect("free")).collect();
@@ -222,6 +232,28 @@ impl DriveGait {
                 .try_fold(build()?, |p, (d, row)| p.drive(d, drive_angle(row, order, omega)))
         })
     }
+}
+
+/// Refuses a start whose drives' angles do not repeat with the gait's
+/// period `T` (their forcing's period is `T / k`, or they are constant).
+fn check_period(start: &FourierGait, drives: &[String]) -> Result<(), AnalysisError> {
+    let (order, omega, per) = (start.order, start.omega(), start.per_coordinate());
+    let parts = start.flat().chunks(per).map(|row| drive_angle(row, order, omega).periodicity()).collect::<Vec<_>>();
+    let forcing = Periodicity::combine(parts);
+    if forcing.whole_periods(start.period) == Some(1.0) {
+        return Ok(());
+    }
+    let repeats = match forcing {
+        Periodicity::Period(t) => format!("repeat every {} s", crate::names::fmt_value(t)),
+        _ => "never change".into(),
+    };
+    Err(AnalysisError::Request {
+        reason: format!(
+            "the start gait's angles of {} {repeats}, not with its period {} s: give a first harmonic (a nonzero `a1` or `b1`)",
+            drives.join(", "),
+            crate::names::fmt_value(start.period)
+        ),
+    })
 }
 
 /// The prescribed angle of one row of a Fourier gait's coefficients

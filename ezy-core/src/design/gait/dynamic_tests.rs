@@ -320,6 +320,13 @@ fn refusals_name_what_is_wrong() {
     assert!(r.contains("D.a1") && r.contains("finite"), "{r}");
     let r = refusal(one().free("D.a1", 0.4, 0.5).unwrap().design(|| roller(60.0)));
     assert!(r.contains("the start, D.a1 = 0.3, is outside the bounds"), "{r}");
+    // no first harmonic: the angles repeat every half period, or never
+    let half = FourierGait::new(vec![vec![-PI, 0.0, 0.0, 0.2, 0.0]], 2, 2.0).unwrap();
+    let r = refusal(DriveGait::new(&["D"], half).free("D.a2", 0.0, 0.5).unwrap().design(|| roller(60.0)));
+    assert!(r.contains("repeat every 1 s, not with its period 2 s") && r.contains("first harmonic"), "{r}");
+    let still = DriveGait::new(&["D"], order1(-PI, 0.0)).free("D.a0", -4.0, -3.0).unwrap();
+    let r = refusal(still.design(|| roller(60.0)));
+    assert!(r.contains("never change"), "{r}");
 }
 
 /// The prescribed angle of a row is the Fourier series, each coefficient
