@@ -23,6 +23,13 @@
 //! difference of waveforms. The search, its scaling, its KKT check and
 //! its failures are [`crate::design::optimize`]'s.
 //!
+//! The parameterization is [`FourierGait`]'s (Ramasamy & Hatton, "The
+//! geometry of optimal gaits for drag-dominated kinematic systems", IEEE
+//! T-RO 35(4), 2019, §V), one series per drive; the orbit's
+//! sensitivities are Seydel's shooting (*Practical Bifurcation and
+//! Stability Analysis*, 3rd ed., §7.1-7.3) differentiated by the implicit
+//! function theorem.
+//!
 //! The coefficients are bounded each within its own interval (a box:
 //! the design's bounds); the shape's range over the cycle is bounded
 //! through them (`|r - a_0| <= sum_k hypot(a_k, b_k)`; for an order-1

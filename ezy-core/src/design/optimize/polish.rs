@@ -11,6 +11,7 @@
 //! gradient, exact to the orbit's accuracy, locates it far better: its
 //! root in the coefficients not held at a bound is found by Newton's
 //! method, the Hessian from central differences of the exact gradients
+//! (Nocedal & Wright, *Numerical Optimization*, 2nd ed., §3.3 and §8.1)
 //! (step [`HESSIAN_STEP`] of each span: its error `H''' h^2` and
 //! `noise / h` are about 1e-8 of `H`, so each step divides the gradient
 //! by about 1e8 or by its noise). A point is kept only where its
