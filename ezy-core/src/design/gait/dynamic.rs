@@ -48,14 +48,17 @@
 //! 3.9e-8 where the optimum is interior; 1.9e-5 with the gait found to
 //! the default 1e-9).
 
-use super::fourier::FourierGait;
+use super::fourier::{FourierGait, basis};
 use crate::analysis::AnalysisError;
 use crate::design::Design;
-use crate::design::optimize::OptimizeSettings;
+use crate::design::optimize::{Constraint, OptimizeSettings, Quantity};
 use crate::effects::waveform::{Harmonic, Periodicity, Waveform};
 use crate::error::SimError;
 use crate::model::Model;
 use crate::problem::Problem;
+
+/// Most samples of a drive's range ([`DriveGait::range`]).
+pub const MAX_SAMPLES: usize = 1000;
 
 /// A Fourier gait of a model's drives (one row of coefficients per drive,
 /// [`FourierGait::coefficients`]) with the coefficients to optimize and
@@ -116,6 +119,62 @@ impl DriveGait {
         s.periodic.tolerance.atol = 1e-12;
         s.periodic.newton_tolerance = 1e-12;
         s
+    }
+
+    /// Bounds on drive `drive`'s angle over the cycle, `lower <= u(t_n) <=
+    /// upper` \[rad\] at `samples` times `t_n = n T / samples` (`n = 0 ..
+    /// samples - 1`), two constraints per sample for
+    /// [`crate::design::optimize::Goal::constraints`], each linear in the
+    /// free coefficients (a [`Quantity::Values`] named `D(t = 0.5 s)`):
+    /// the shape's range, which the coefficients' own bounds bound only
+    /// loosely beyond order 1. Between two samples `dt` apart the angle may
+    /// pass a bound by up to `|u''| dt^2 / 8`. Give the free coefficients
+    /// first ([`DriveGait::free`]): the constraints take the design's
+    /// parameters as they are then.
+    ///
+    /// # Errors
+    /// [`AnalysisError::Request`] for a drive not among the gait's
+    /// (listing them), bounds that are not finite or a lower bound not
+    /// below the upper, a number of samples outside 1 to
+    /// [`MAX_SAMPLES`], no free coefficient.
+    pub fn range(&self, drive: &str, lower: f64, upper: f64, samples: usize) -> Result<Vec<Constraint>, AnalysisError> {
+        let fail = |reason: String| Err(AnalysisError::Request { reason });
+        let Some(row) = self.drives.iter().position(|d| d == drive) else {
+            return fail(format!(
+                "`{drive}` is not a drive of this gait; its drives are {}",
+                crate::names::name_list(&self.drives)
+            ));
+        };
+        if !(lower.is_finite() && upper.is_finite() && lower < upper) {
+            return fail(format!(
+                "the range {lower}:{upper} of drive `{drive}`: the bounds must be finite, the lower below the upper"
+            ));
+        }
+        if !(1..=MAX_SAMPLES).contains(&samples) {
+            return fail(format!("{samples} samples of drive `{drive}`'s range: give 1 to {MAX_SAMPLES}"));
+        }
+        let free: Vec<usize> = (0..self.bounds.len()).filter(|&j| self.bounds[j].is_some()).collect();
+        if free.is_empty() {
+            return fail("every coefficient of the gait is held: free them before bounding the range".into());
+        }
+        let (per, omega, flat) = (self.start.per_coordinate(), self.start.omega(), self.start.flat());
+        let mut out = Vec::with_capacity(2 * samples);
+        for n in 0..samples {
+            let t = n as f64 * self.start.period / samples as f64;
+            let (free, flat) = (free.clone(), flat.clone());
+            let angle = Quantity::values(format!("{drive}(t = {} s)", crate::names::fmt_value(t)), move |v| {
+                let mut c = flat.clone();
+                for (&j, &x) in free.iter().zip(v) {
+                    c[j] = x;
+                }
+                let u = (0..per).map(|j| c[row * per + j] * basis(j, omega, t).0).sum();
+                let du = free.iter().map(|&j| if j / per == row { basis(j % per, omega, t).0 } else { 0.0 }).collect();
+                (u, du)
+            });
+            out.push(Constraint { quantity: angle.clone(), upper: true, bound: upper });
+            out.push(Constraint { quantity: angle, upper: false, bound: lower });
+        }
+        Ok(out)
     }
 
     /// Every coefficient's label, in the flat order: `D.a0, D.a1, D.b1,

@@ -42,7 +42,7 @@ pub(crate) mod quantity;
 use std::cell::RefCell;
 
 pub use kkt::{Binding, Kkt};
-pub use quantity::{Constraint, GaitQuantity, Goal, Quantity, RunFunction, Sense};
+pub use quantity::{Constraint, GaitQuantity, Goal, Quantity, RunFunction, Sense, ValuesFunction};
 
 use super::Design;
 use crate::analysis::AnalysisError;
