@@ -31,9 +31,12 @@
 //! function theorem.
 //!
 //! The coefficients are bounded each within its own interval (a box:
-//! the design's bounds); the shape's range over the cycle is bounded
-//! through them (`|r - a_0| <= sum_k hypot(a_k, b_k)`; for an order-1
-//! gait with `b_1` held at 0, `a_1` is the amplitude). A gait's phase is
+//! the design's bounds), which bounds the shape's range over the cycle
+//! loosely (`|r - a_0| <= sum_k hypot(a_k, b_k)`; for an order-1 gait
+//! with `b_1` held at 0, `a_1` is the amplitude); [`DriveGait::range`]
+//! bounds it at samples of the cycle, constraints linear in the
+//! coefficients that SLSQP holds at each step (as
+//! [`super::GaitOptimization::bounds`] does for a kinematic gait). A gait's phase is
 //! a symmetry of its mean quantities (a gait shifted in time moves as
 //! far, along another heading), so a search over every coefficient has a
 //! valley of optima; hold one (`b_1` at 0) to fix it.
