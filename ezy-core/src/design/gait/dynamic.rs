@@ -54,7 +54,8 @@
 use super::fourier::{FourierGait, basis};
 use crate::analysis::AnalysisError;
 use crate::design::Design;
-use crate::design::optimize::{Constraint, OptimizeSettings, Quantity};
+use crate::design::optimize::OptimizeSettings;
+use crate::design::optimize::quantity::{Constraint, Quantity};
 use crate::effects::waveform::{Harmonic, Periodicity, Waveform};
 use crate::error::SimError;
 use crate::model::Model;
