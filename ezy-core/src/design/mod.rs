@@ -3,7 +3,9 @@
 //! minimize or maximize a gait's or a run's quantity under constraints
 //! ([`optimize`]); and the shape gait of a kinematic system that
 //! maximizes its net motion per cycle, on the geometry of locomotion
-//! ([`gait`]).
+//! ([`gait`]), or of a mixed system, its drives' Fourier coefficients a
+//! design that [`optimize`] searches over the simulated gait
+//! ([`gait::dynamic`]).
 //!
 //! A [`Design`] is a family of problems over named parameters with
 //! bounds: how a problem is built from their values. The library user

@@ -21,7 +21,7 @@ pub(super) fn check<M: Model>(g: &Geometry<M>, problem: &GaitOptimization) -> Re
     if !g.is_kinematic() {
         return Err(GeometryError::Model {
             reason: format!(
-                "model {}: its skates leave {} momentum component(s) free ({}), so a cycle's net motion depends on more than the gait's curve; gait optimization takes kinematic systems (three independent skate rows)",
+                "model {}: its skates leave {} momentum component(s) free ({}), so a cycle's net motion depends on more than the gait's curve; gait optimization over the geometry takes kinematic systems (three independent skate rows); a mixed system's gait is optimized over its simulated gait, its drives' Fourier coefficients a design (`design::gait::DriveGait`)",
                 g.info().name,
                 g.n_momentum(),
                 g.momentum_names().join(", ")

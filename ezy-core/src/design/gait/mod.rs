@@ -38,8 +38,18 @@
 //! objective that grows toward the singular set, as the kinematic
 //! snake's efficiency does, needs a margin); five failures of another
 //! kind end it with the last one's error.
+//!
+//! A mixed system (a momentum the skates leave free) is refused here:
+//! its net motion depends on more than the curve. Its gait is a
+//! [`DriveGait`], the Fourier coefficients of its drives' prescribed
+//! angles as a [`crate::design::Design`], optimized by
+//! [`crate::design::optimize::optimize`] over the simulated gait with
+//! its exact sensitivities ([`dynamic`]).
 
 mod check;
+pub mod dynamic;
+#[cfg(test)]
+mod dynamic_tests;
 mod evaluate;
 mod fourier;
 #[cfg(test)]
@@ -47,6 +57,7 @@ mod tests;
 
 use std::cell::RefCell;
 
+pub use dynamic::{DriveGait, drive_angle};
 pub use fourier::{FourierGait, MAX_ORDER};
 
 use crate::design::optimize::kkt::{self, ACTIVE, Candidate, Kkt};

@@ -77,7 +77,7 @@ impl<'a, M: Model> Evaluator<'a, M> {
     /// The problem's build, the gait's search, the run's failure;
     /// [`AnalysisError::Request`] for a scene without a periodic forcing
     /// asked for a gait, or a run function that fails or gives a gradient
-    /// of another length.
+    /// of another length, or a function of the values that does.
     pub fn at(&mut self, values: &[f64], gradients: bool) -> Result<Point, AnalysisError> {
         let problem = self.design.problem(values)?;
         let params = self.design.parameters(values);
@@ -105,6 +105,19 @@ impl<'a, M: Model> Evaluator<'a, M> {
                 Quantity::Gait(gq) => gq.of(orbit.as_ref().expect("found"), g.as_ref().expect("found")),
                 Quantity::Run { name, function } => {
                     let (v, d) = run_function(name, function.as_ref(), s.as_ref().expect("run"))?;
+                    (v, if gradients { d } else { Vec::new() })
+                }
+                Quantity::Values { name, function } => {
+                    let (v, d) = function(values);
+                    if d.len() != values.len() {
+                        return Err(AnalysisError::Request {
+                            reason: format!(
+                                "{name}: the function gave {} derivatives for {} parameters",
+                                d.len(),
+                                values.len()
+                            ),
+                        });
+                    }
                     (v, if gradients { d } else { Vec::new() })
                 }
             };

@@ -116,6 +116,13 @@ impl GaitQuantity {
 /// computed.
 pub type RunFunction = dyn Fn(&Sensitivities) -> Result<(f64, Vec<f64>), String> + Send + Sync;
 
+/// A function of the design's parameters alone (no run, no gait): its
+/// value and its gradient with respect to them (as many as the design's
+/// parameters, in their order), for a bound on the parameters' own
+/// combination (a gait's shape at an instant, linear in its Fourier
+/// coefficients: [`crate::design::gait::DriveGait::range`]).
+pub type ValuesFunction = dyn Fn(&[f64]) -> (f64, Vec<f64>) + Send + Sync;
+
 /// A quantity an optimization minimizes, maximizes or bounds.
 #[derive(Clone)]
 pub enum Quantity {
@@ -130,6 +137,14 @@ pub enum Quantity {
         name: String,
         /// The value and gradient from the run.
         function: Arc<RunFunction>,
+    },
+    /// A function of the parameters' values alone, evaluated without a
+    /// run.
+    Values {
+        /// Its name in the output (`D(t = 0.5 s)`).
+        name: String,
+        /// The value and gradient from the parameters' values.
+        function: Arc<ValuesFunction>,
     },
 }
 
@@ -149,11 +164,20 @@ impl Quantity {
         Self::Run { name: name.into(), function: Arc::new(function) }
     }
 
-    /// The name: `gait.<quantity>` or the run function's.
+    /// A function of the parameters' values named `name`: value and
+    /// gradient from the values.
+    pub fn values(
+        name: impl Into<String>,
+        function: impl Fn(&[f64]) -> (f64, Vec<f64>) + Send + Sync + 'static,
+    ) -> Self {
+        Self::Values { name: name.into(), function: Arc::new(function) }
+    }
+
+    /// The name: `gait.<quantity>`, or the run's or the values' function's.
     pub fn name(&self) -> String {
         match self {
             Self::Gait(q) => format!("gait.{}", q.name()),
-            Self::Run { name, .. } => name.clone(),
+            Self::Run { name, .. } | Self::Values { name, .. } => name.clone(),
         }
     }
 
