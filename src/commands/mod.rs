@@ -25,6 +25,7 @@ mod geometry;
 mod linearize;
 mod list;
 mod optimize;
+mod plan;
 mod precision;
 mod run;
 mod scale;
@@ -71,6 +72,7 @@ pub(crate) const COMMANDS: &[Command] = &[
     Command { name: "sensitivity", cli: sensitivity::cli, exec: sensitivity::exec, python: true },
     Command { name: "fit", cli: fit::cli, exec: fit::exec, python: true },
     Command { name: "optimize", cli: optimize::cli, exec: optimize::exec, python: true },
+    Command { name: "plan", cli: plan::cli, exec: plan::exec, python: false },
 ];
 
 /// The command a bare `ezy` runs (with no arguments).
