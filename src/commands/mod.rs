@@ -21,6 +21,7 @@ mod bench;
 mod check;
 mod equations;
 mod fit;
+mod gait_optimize;
 mod geometry;
 mod linearize;
 mod list;
@@ -72,6 +73,7 @@ pub(crate) const COMMANDS: &[Command] = &[
     Command { name: "sensitivity", cli: sensitivity::cli, exec: sensitivity::exec, python: true },
     Command { name: "fit", cli: fit::cli, exec: fit::exec, python: true },
     Command { name: "optimize", cli: optimize::cli, exec: optimize::exec, python: true },
+    Command { name: "gait-optimize", cli: gait_optimize::cli, exec: gait_optimize::exec, python: false },
     Command { name: "plan", cli: plan::cli, exec: plan::exec, python: false },
 ];
 
