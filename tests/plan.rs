@@ -251,6 +251,7 @@ fn bad_requests_are_refused_by_name() {
             &["--input", "push.fx", "--to", "x=1", "--segments", "5000"],
             "more than the limit of 2000 (ezy_core::plan::MAX_UNKNOWNS",
         ),
+        (&["--input", "push.fx", "--to", "x=1", "--segments", "18446744073709551615"], "more than the limit of 2000"),
         (&["--input", "push.fx", "--to", "x=1", "--segments", "0"], "0 segments"),
         (&["--input", "push.fx", "--input", "push.fx", "--to", "x=1"], "--input: `push.fx` is given twice"),
         (&["--input", "push.fx", "--to", "x=1,x=2"], "--to: `x` is given twice"),

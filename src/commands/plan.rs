@@ -15,7 +15,7 @@ use std::sync::{Arc, Mutex};
 
 use clap::{ArgMatches, Args, FromArgMatches};
 use ezy_core::effects::{Extrapolate, Table, Waveform};
-use ezy_core::plan::{Input, MAX_UNKNOWNS, Maneuver, Plan, PlanSettings, Status, Target};
+use ezy_core::plan::{BuildInputs, Input, MAX_UNKNOWNS, Maneuver, Plan, PlanSettings, Status, Target};
 use ezy_core::{Model, Problem, RunSettings, SetupError, SimError, fmt_value};
 use ezy_scene::{Scene, SceneEffect};
 
@@ -240,13 +240,10 @@ fn target(args: &PlanArgs, coords: &[String]) -> Result<Target, Error> {
     Ok(if args.at_rest { t.at_rest() } else { t })
 }
 
-/// A table through `values` at the nodes of `n` segments over `[0, t_end]`.
-fn flat(n: usize, t_end: f64) -> Table {
-    Table {
-        t: (0..=n).map(|k| t_end * k as f64 / n as f64).collect(),
-        value: vec![0.0; n + 1],
-        extrapolate: Extrapolate::Hold,
-    }
+/// The input 0 over `[0, t_end]` (two nodes: what the scene is checked
+/// with before the mesh's size is).
+fn zero(t_end: f64) -> Table {
+    Table { t: vec![0.0, t_end], value: vec![0.0; 2], extrapolate: Extrapolate::Hold }
 }
 
 /// The plan of `scene` on `proto` (a model at its defaults), written
@@ -268,19 +265,21 @@ fn plan_model<M: Model>(
     let slots = slots(&base, &args.inputs)?;
     // the scene with flat inputs: its errors (a field that is no time
     // function, a bad override) before any work
-    let zero: Vec<Table> = inputs.iter().map(|_| flat(args.segments.max(1), run.t_end)).collect();
-    let (first, _) = with_tables(&base, &args.inputs, &slots, &zero)?.problem_with(proto.clone(), &[])?;
+    let zeros: Vec<Table> = inputs.iter().map(|_| zero(run.t_end)).collect();
+    let (first, _) = with_tables(&base, &args.inputs, &slots, &zeros)?.problem_with(proto.clone(), &[])?;
     let info = first.model.info();
     let coords: Vec<String> = info.coords.iter().map(|c| c.to_string()).collect();
     let target = target(args, &coords)?;
     // the program's size before anything of it is allocated
     let nz = 2 * info.nq() - info.n_holonomic - info.nc();
-    let unknowns = inputs.len() * (args.segments + 1) + args.segments.saturating_sub(1) * nz;
-    if unknowns > MAX_UNKNOWNS {
+    // counted in u128: no --segments overflows it
+    let nodes = inputs.len() as u128 * (args.segments as u128 + 1);
+    let unknowns = nodes + (args.segments as u128).saturating_sub(1) * nz as u128;
+    if unknowns > MAX_UNKNOWNS as u128 {
         return Err(Error::Input(format!(
             "--segments {}: {unknowns} unknowns ({} input nodes and {nz} state components at each of {} inner nodes), more than the limit of {MAX_UNKNOWNS} (ezy_core::plan::MAX_UNKNOWNS: SLSQP is dense): take fewer segments",
             args.segments,
-            inputs.len() * (args.segments + 1),
+            nodes,
             args.segments.saturating_sub(1)
         )));
     }
@@ -456,12 +455,7 @@ const PATH_SAMPLES: f64 = 400.0;
 /// as the verification's), the nodes' states marked on the first body's;
 /// `None` where the run fails (its failure is the verification's, in
 /// the report).
-fn path_chart<M: Model>(
-    build: &dyn Fn(&[Table]) -> Result<Problem<M>, SimError>,
-    t_end: f64,
-    m: &Maneuver,
-    info: &ezy_core::ModelInfo,
-) -> Option<Chart> {
+fn path_chart<M: Model>(build: &BuildInputs<M>, t_end: f64, m: &Maneuver, info: &ezy_core::ModelInfo) -> Option<Chart> {
     let problem = build(&m.inputs).ok()?.t_end(t_end).every(t_end / PATH_SAMPLES);
     let s = problem.solve().ok()?;
     let mut chart = Chart::new("The planned path", "x [m]", "y [m]");
