@@ -41,7 +41,8 @@ struct PlanArgs {
     scene: Option<String>,
     /// An input planned: a time function of an effect of the scene,
     /// EFFECT.FIELD (push.fx, motor.torque), replaced by a piecewise-linear
-    /// table through the plan's nodes; repeatable.
+    /// table through the plan's nodes, its warm start the scene's own
+    /// function at the nodes (within the bounds); repeatable.
     #[arg(long = "input", value_name = "EFFECT.FIELD", required = true)]
     inputs: Vec<String>,
     /// Bounds of an input, EFFECT.FIELD=LO:HI (finite numbers, LO <= HI;
@@ -214,6 +215,26 @@ fn inputs(args: &PlanArgs) -> Result<Vec<Input>, Error> {
         .collect())
 }
 
+/// Each input with the scene's own time function as its warm start: its
+/// values at the nodes of `n` segments over `[0, t_end]`, each within
+/// the input's bounds (a field the scene leaves at its default, or one
+/// that is not a waveform, starts from 0 or the bound nearest it).
+fn warm_starts(scene: &Scene, slots: &[Slot], inputs: Vec<Input>, n: usize, t_end: f64) -> Vec<Input> {
+    let t: Vec<f64> = (0..=n).map(|k| if k == n { t_end } else { t_end * k as f64 / n as f64 }).collect();
+    inputs
+        .into_iter()
+        .zip(slots)
+        .map(|(input, slot)| {
+            let tree = toml::Value::try_from(&scene.effects[slot.effect].1).ok();
+            let field = slot.path.iter().fold(tree, |node, part| node.and_then(|v| v.get(part).cloned()));
+            let Some(wave) = field.and_then(|v| v.try_into::<Waveform>().ok()) else { return input };
+            let value = t.iter().map(|&tk| wave.eval(tk).clamp(input.lower, input.upper)).collect();
+            let table = Table { t: t.clone(), value, extrapolate: Extrapolate::Hold };
+            input.guess_waveform(Waveform::Table(table))
+        })
+        .collect()
+}
+
 /// The target of `--to` and `--at-rest` on a model of coordinates `coords`.
 ///
 /// # Errors
@@ -283,6 +304,7 @@ fn plan_model<M: Model>(
             args.segments.saturating_sub(1)
         )));
     }
+    let inputs = warm_starts(&base, &slots, inputs, args.segments, run.t_end);
     let plan_settings =
         PlanSettings { max_evaluations: args.evaluations, ..PlanSettings::new(args.segments, run.t_end) };
     let beat: Beat = Arc::new(Mutex::new(None));
