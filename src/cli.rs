@@ -241,6 +241,8 @@ pub(crate) fn parse_over(s: &str) -> Result<(String, f64, f64), String> {
 const NAMED_REPEATS: &[(&str, &str, bool)] = &[
     ("sets", "--set", true),
     ("over", "--over", true),
+    ("bounds", "--bound", true),
+    ("to", "--to", true),
     ("inputs", "--input", false),
     ("wrt", "--wrt", false),
     ("columns", "--columns", false),

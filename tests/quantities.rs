@@ -1,6 +1,7 @@
 //! The quantities table (`ezy_core::quantities`) against what the
 //! commands write: every column of every CSV file `ezy analyze`, `ezy
-//! sensitivity`, `ezy optimize` and `ezy geometry` write on scenes that
+//! sensitivity`, `ezy optimize`, `ezy gait-optimize`, `ezy plan` and
+//! `ezy geometry` write on scenes that
 //! make them write each of their tables is found in it, and every entry
 //! of the table is some column of these files, so neither side drifts
 //! (the guide's Quantities page is the table's, tests/docs.rs).
@@ -28,6 +29,7 @@ struct Case {
     state: Vec<String>,
     parameters: Vec<String>,
     hinges: Vec<String>,
+    inputs: Vec<String>,
 }
 
 /// The header of a CSV file (quoted names read as the CSV says).
@@ -50,6 +52,7 @@ fn every_column_written_is_in_the_table_and_every_entry_is_written() {
     let pendulum = dir.join("loaded-pendulum.toml");
     std::fs::write(&pendulum, crate::continuation::LOADED_PENDULUM).unwrap();
     let pendulum = pendulum.to_string_lossy().into_owned();
+    let plan_scene = crate::plan::sleigh_scene("quantities").to_string_lossy().into_owned();
     let fold = ["analyze", &pendulum, "--continue", "load.torque.constant=0:12:13"];
     let roller = state(&["x1", "y1", "phi1", "x2", "y2", "phi2"]);
     let omega = list(&["motor.omega"]);
@@ -58,6 +61,7 @@ fn every_column_written_is_in_the_table_and_every_entry_is_written() {
         state: state.to_vec(),
         parameters: parameters.to_vec(),
         hinges: list(hinges),
+        inputs: Vec::new(),
     };
     let snake = state(&["x1", "y1", "phi1", "x2", "y2", "phi2", "x3", "y3", "phi3"]);
     let cases = [
@@ -113,6 +117,26 @@ fn every_column_written_is_in_the_table_and_every_entry_is_written() {
             &omega,
             &[],
         ),
+        Case {
+            args: list(&["plan", &plan_scene, "--input", "push.fx", "--to", "x=1", "--at-rest", "--segments", "2"]),
+            inputs: list(&["push.fx"]),
+            ..case(&[], &state(&["x", "y", "phi"]), &[], &[])
+        },
+        case(
+            &[
+                "gait-optimize",
+                "--gait",
+                crate::gait_optimize::CIRCLE,
+                "--maximize",
+                "dy",
+                "--order",
+                "second",
+                "--centre-only",
+            ],
+            &snake,
+            &[],
+            &["alpha1", "alpha2"],
+        ),
         case(&["geometry", "--grid", "5"], &snake, &[], &["alpha1", "alpha2"]),
         case(&["geometry", "drive-prescribed", "--range=-3.6:-2.6", "--grid", "5"], &roller, &[], &["B"]),
     ];
@@ -123,7 +147,7 @@ fn every_column_written_is_in_the_table_and_every_entry_is_written() {
         let args: Vec<&str> = c.args.iter().map(String::as_str).chain(["--no-figures"]).collect();
         let (said, err, ok) = ezy(&args, &out);
         assert!(ok, "{:?}: {said}{err}", c.args);
-        let names = Names { state: &c.state, parameters: &c.parameters, hinges: &c.hinges };
+        let names = Names { state: &c.state, parameters: &c.parameters, hinges: &c.hinges, inputs: &c.inputs };
         let mut files: Vec<_> = std::fs::read_dir(&out).unwrap().map(|e| e.unwrap().path()).collect();
         files.sort();
         for path in files.iter().filter(|p| p.extension().is_some_and(|x| x == "csv")) {

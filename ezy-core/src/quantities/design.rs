@@ -1,7 +1,10 @@
-//! The tables `ezy sensitivity` and `ezy optimize` write:
-//! sensitivity.csv, optimum.csv, history.csv, grid.csv
-//! (`src/commands/sensitivity.rs`, `src/commands/optimize.rs`; the
-//! definitions in `sensitivity`, `design::optimize::quantity`).
+//! The tables `ezy sensitivity`, `ezy optimize`, `ezy gait-optimize` and
+//! `ezy plan` write: sensitivity.csv, optimum.csv, history.csv,
+//! grid.csv, gait_optimum.csv, gait_history.csv, plan.csv,
+//! plan_summary.csv (`src/commands/sensitivity.rs`,
+//! `src/commands/optimize.rs`, `src/commands/gait_optimize.rs`,
+//! `src/commands/plan.rs`; the definitions in `sensitivity`,
+//! `design::optimize::quantity`, `design::gait`, `plan`).
 
 use super::{Column, Table};
 
@@ -145,4 +148,170 @@ pub(super) const GRID: Table = Table {
     command: "ezy optimize",
     about: "The objective on a grid around the optimum (one or two parameters, --grid N points per axis), one row per point, as history.csv without the gradient",
     groups: &[EVALUATION, PARAMETERS, OBJECTIVES, FAILURE],
+};
+
+/// Where a plan's node is: its time on the mesh.
+const NODE: &str = "the node at time t (the world frame of the state's columns)";
+
+const PLAN_COLUMNS: &[Column] = &[
+    c(
+        "t",
+        "s",
+        "The time of a node of the plan's mesh: N + 1 nodes over [0, t_end] (--segments N)",
+        "t_k = k t_end / N",
+        "",
+    ),
+    c(
+        "<input>",
+        "the input's (N for a force, N m for a torque)",
+        "An input planned (--input EFFECT.FIELD): its value at the node; the input is linear between nodes (the effect's time function replaced by this table)",
+        "u(t) = u_k + (u_k+1 - u_k) (t - t_k) / (t_k+1 - t_k)",
+        NODE,
+    ),
+    c(
+        "<state>",
+        "m or rad (a rate: m/s or rad/s)",
+        "The plan's state at the node: each segment's start (its independent components the program's unknowns, the others completed on the constraints), and the last segment's end at t_end",
+        "",
+        NODE,
+    ),
+];
+
+/// `plan.csv`.
+pub(super) const PLAN: Table = Table {
+    file: "plan.csv",
+    command: "ezy plan",
+    about: "The planned inputs at the nodes of the time mesh, one row per node: the time, each input's value, the state (the least violating point's where the plan is infeasible)",
+    groups: &[PLAN_COLUMNS],
+};
+
+/// Where a plan's end is compared with its target.
+const END: &str = "at t_end; the world frame of the state's columns";
+
+const PLAN_SUMMARY_COLUMNS: &[Column] = &[
+    c("status", "", "How the plan ended: optimal (feasible and stationary), not_converged, or infeasible", "", ""),
+    c(
+        "effort",
+        "the inputs' units squared times s",
+        "The effort the plan minimizes: the inputs squared integrated over [0, t_end], summed (exact for the piecewise-linear inputs)",
+        "sum_j int_0^T u_j(t)^2 dt, int u^2 = h/3 (u_k^2 + u_k u_k+1 + u_k+1^2) on a segment",
+        "over [0, t_end]",
+    ),
+    c(
+        "violation",
+        "the constraint's state component's",
+        "The largest violation of the program's equalities (continuity at the inner nodes, the target at the end) at the point returned",
+        "max_i |c_i(w)|",
+        "",
+    ),
+    c("violated", "", "The equality with the largest violation (target x = 1, continuity of xd at node 3)", "", ""),
+    c(
+        "stationarity",
+        "",
+        "The relative residual of the first-order conditions at the point returned, on the unknowns not at a bound, in the scaled unknowns and equalities, lambda by least squares (optimal below 1e-5)",
+        "min_lambda |grad f + J^T lambda| / |grad f| (0 where grad f = 0)",
+        "",
+    ),
+    c(
+        "state_jump",
+        "the state component's",
+        "The largest jump of any state component from a segment's end to the next segment's start",
+        "max_k,i |x_i(t_k^-) - x_i(t_k^+)|",
+        "at the inner nodes",
+    ),
+    c("evaluations", "", "The program's evaluations (each runs every segment with its sensitivities)", "", ""),
+    c("runs", "", "The segment runs, with and without sensitivities", "", ""),
+    c(
+        "unknowns",
+        "",
+        "The program's unknowns: the input nodes and the inner nodes' independent state components",
+        "",
+        "",
+    ),
+    c("equalities", "", "The program's equalities: continuity at the inner nodes and the target's components", "", ""),
+    c(
+        "target_<state>",
+        "m or rad (a rate: m/s or rad/s)",
+        "A component of the target (--to, --at-rest): its value",
+        "",
+        END,
+    ),
+    c(
+        "run_error_<state>",
+        "as target_<state>",
+        "The verification's error: the planned inputs run through the ordinary simulation over [0, t_end] from the initial state, its end minus the target",
+        "x(T) - x_target",
+        END,
+    ),
+    c(
+        "plan_error_<state>",
+        "as target_<state>",
+        "The plan's own error: its last segment's end minus the target",
+        "x_N - x_target",
+        END,
+    ),
+];
+
+/// `plan_summary.csv`.
+pub(super) const PLAN_SUMMARY: Table = Table {
+    file: "plan_summary.csv",
+    command: "ezy plan",
+    about: "How a plan ended, in one row: its status, effort, violation, stationarity and size, then each target component's value and its error at the verification run's end and at the plan's",
+    groups: &[PLAN_SUMMARY_COLUMNS],
+};
+
+/// The Fourier series of a gait.
+const FOURIER: &str = "r_i(t) = a_i0 + sum_k (a_ik cos(k omega t) + b_ik sin(k omega t)), omega = 2 pi / T";
+
+const GAIT_OPTIMUM_COLUMNS: &[Column] = &[
+    c(
+        "coefficient",
+        "",
+        "A coefficient of the gait's Fourier series: the shape coordinate and a0 (the constant), a<k> (cos(k omega t)) or b<k> (sin(k omega t))",
+        FOURIER,
+        "",
+    ),
+    c("start", "rad", "The coefficient's value in the start gait (--gait)", "", "over one period of the gait"),
+    c(
+        "optimum",
+        "rad",
+        "The coefficient's value in the best gait found (a coefficient held keeps its start)",
+        "",
+        "over one period of the gait",
+    ),
+    c("free", "", "Whether the search varied the coefficient (false: held, as --centre-only holds all but a0)", "", ""),
+];
+
+/// `gait_optimum.csv`.
+pub(super) const GAIT_OPTIMUM: Table = Table {
+    file: "gait_optimum.csv",
+    command: "ezy gait-optimize",
+    about: "The best gait found, one row per coefficient of its Fourier series: the start's value, the optimum's, and whether it was free",
+    groups: &[GAIT_OPTIMUM_COLUMNS],
+};
+
+const GAIT_HISTORY_COLUMNS: &[Column] = &[
+    c(
+        "<coefficient>",
+        "rad",
+        "A free coefficient of the gait's Fourier series at this evaluation: <hinge>.a0, <hinge>.a<k> or <hinge>.b<k>",
+        FOURIER,
+        "over one period of the gait",
+    ),
+    c(
+        "objective",
+        "m, rad, or per rad of path",
+        "The objective at this evaluation: the net motion per cycle (dx, dy, dtheta or along a direction, in the reference body's initial frame) at the order asked, divided by the path length with --per-length; empty where it failed",
+        "dx = -oint A_x dr (first order), with the bracket's area integral (second), or g' = g xi integrated (reconstructed)",
+        "the reference body's frame at the cycle's start",
+    ),
+    c("failure", "", "Why the evaluation failed (the gait met the singular set); empty where it did not", "", ""),
+];
+
+/// `gait_history.csv`.
+pub(super) const GAIT_HISTORY: Table = Table {
+    file: "gait_history.csv",
+    command: "ezy gait-optimize",
+    about: "Every evaluation of the gait optimization, one row each: its free coefficients, the objective and why it failed",
+    groups: &[EVALUATION, GAIT_HISTORY_COLUMNS],
 };

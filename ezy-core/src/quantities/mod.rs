@@ -1,6 +1,6 @@
 //! Every quantity ezy's analyses write, defined once: for each CSV file
-//! `ezy analyze`, `ezy sensitivity`, `ezy optimize` and `ezy geometry`
-//! write, its columns with their unit, their definition in words and as
+//! `ezy analyze`, `ezy sensitivity`, `ezy optimize`, `ezy gait-optimize`,
+//! `ezy plan` and `ezy geometry` write, its columns with their unit, their definition in words and as
 //! a formula, the frame and time they are taken at, and the source
 //! (data, [`TABLES`]). The command line's reports, the Python package's
 //! `describe()` and the guide's Quantities page read it; a column is
@@ -69,7 +69,8 @@ impl Table {
 }
 
 /// Every table, in the order the guide lists them: `ezy analyze`'s,
-/// `ezy sensitivity`'s, `ezy optimize`'s, `ezy geometry`'s.
+/// `ezy sensitivity`'s, `ezy optimize`'s, `ezy gait-optimize`'s, `ezy
+/// plan`'s, `ezy geometry`'s.
 pub const TABLES: &[Table] = &[
     analysis::PERIODIC,
     analysis::EQUILIBRIA,
@@ -81,6 +82,10 @@ pub const TABLES: &[Table] = &[
     design::OPTIMUM,
     design::HISTORY,
     design::GRID,
+    design::GAIT_OPTIMUM,
+    design::GAIT_HISTORY,
+    design::PLAN,
+    design::PLAN_SUMMARY,
     geometry::CONNECTION,
     geometry::CURVATURE,
     geometry::MOMENTUM,
@@ -109,6 +114,8 @@ pub struct Names<'a> {
     pub parameters: &'a [String],
     /// The hinges (the shape coordinates).
     pub hinges: &'a [String],
+    /// A plan's inputs, as `ezy plan --input` names them (`push.fx`).
+    pub inputs: &'a [String],
 }
 
 /// The table written to `file` (`periodic.csv`; `branch-3.csv` is
@@ -170,6 +177,12 @@ fn accepts(part: &str, text: &str, names: &Names<'_>) -> bool {
         "state" => among(names.state),
         "parameter" => among(names.parameters),
         "hinge" => among(names.hinges),
+        "input" => among(names.inputs),
+        "coefficient" => text.rsplit_once('.').is_some_and(|(h, c)| {
+            accepts("hinge", h, names)
+                && (c == "a0"
+                    || c.strip_prefix('a').or_else(|| c.strip_prefix('b')).is_some_and(|k| accepts("k", k, names)))
+        }),
         "quantity" => DIFFERENTIATED.contains(&text),
         "metric" => metric(text),
         "objective" => text.strip_prefix("gait.").is_some_and(|q| GAIT_QUANTITIES.contains(&q)) || metric(text),
@@ -205,7 +218,7 @@ mod tests {
     #[test]
     fn columns_are_found_by_name_and_by_pattern() {
         let (state, params, hinges) = (names(&["x1", "x1d"]), names(&["motor.omega"]), names(&["B"]));
-        let n = Names { state: &state, parameters: &params, hinges: &hinges };
+        let n = Names { state: &state, parameters: &params, hinges: &hinges, inputs: &[] };
         let unit = |file: &str, col: &str| lookup(file, col, &n).map(|c| c.unit);
         assert_eq!(unit("periodic.csv", "drift_speed"), Some("m/s"));
         assert_eq!(unit("periodic.csv", "dx_world"), Some("m"));
@@ -250,8 +263,19 @@ mod tests {
                     let part = &rest[i + 1..end];
                     assert!(
                         part.contains('|')
-                            || ["k", "state", "parameter", "hinge", "quantity", "metric", "objective", "factor"]
-                                .contains(&part),
+                            || [
+                                "k",
+                                "state",
+                                "parameter",
+                                "hinge",
+                                "quantity",
+                                "metric",
+                                "objective",
+                                "factor",
+                                "input",
+                                "coefficient"
+                            ]
+                            .contains(&part),
                         "{}: {}",
                         t.file,
                         c.name

@@ -1,0 +1,269 @@
+//! `ezy plan` on a model typed as text: the sleigh pushed along its skate
+//! from rest to rest over 1 m in 2 s against its closed form (the effort
+//! printed, written and the force's nodes), its verification run's end
+//! against the target; an unreachable target ends infeasible with its
+//! violation and a non-zero exit; each refusal names its culprit and
+//! writes nothing.
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+/// The sleigh of ezy-core/tests/plan.rs typed as a model file.
+pub(crate) const SLEIGH_MODEL: &str = "/// A sleigh: one body on a skate behind its centre of mass.
+pub struct Sleigh {
+    param m = 2.0;
+    param I = 0.1;
+    param a = 0.5;
+    body s(x, y, phi) { mass: m, inertia: I }
+    point P on s at (-a, 0);
+    skate P: P along (1, 0);
+}
+";
+
+/// The sleigh at rest at the origin, a force `push.fx` along its skate
+/// (body axes) at its centre of mass, DOP853 at 1e-12, 2 s.
+pub(crate) const SLEIGH_SCENE: &str = "name = \"sleigh-push\"
+description = \"a sleigh pushed along its skate\"
+model = \"sleigh.ezy\"
+t_end = 2.0
+
+[initial]
+q = { x = 0.0, y = 0.0, phi = 0.0 }
+qd = { x = 0.0, phi = 0.0 }
+
+[integrator]
+method = \"dop853\"
+rtol = 1e-12
+atol = 1e-12
+
+[effects.push]
+kind = \"force\"
+at = \"s\"
+frame = \"body\"
+fx = { constant = 0.0 }
+";
+
+const MASS: f64 = 2.0;
+
+/// The model and the scene written into a fresh directory `what`: the
+/// scene's path.
+pub(crate) fn sleigh_scene(what: &str) -> PathBuf {
+    let dir = PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join(format!("plan-{what}"));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    std::fs::write(dir.join("sleigh.ezy"), SLEIGH_MODEL).unwrap();
+    std::fs::write(dir.join("push.toml"), SLEIGH_SCENE).unwrap();
+    dir.join("push.toml")
+}
+
+fn ezy(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_ezy")).args(args).output().expect("ezy runs")
+}
+
+fn text(o: &Output) -> (String, String) {
+    (String::from_utf8_lossy(&o.stdout).into_owned(), String::from_utf8_lossy(&o.stderr).into_owned())
+}
+
+/// The number after `label` on the line of `out` that starts with it
+/// (its first word).
+fn number_after(out: &str, label: &str) -> f64 {
+    let line = out.lines().find_map(|l| l.trim_start().strip_prefix(label)).unwrap_or_else(|| panic!("{label}: {out}"));
+    let word = line.split_whitespace().next().unwrap().trim_end_matches([',', ';']);
+    word.parse().unwrap_or_else(|_| panic!("`{word}` after {label}"))
+}
+
+/// A CSV file's rows by column name.
+fn columns(path: &Path) -> std::collections::HashMap<String, Vec<String>> {
+    let mut reader = csv::Reader::from_path(path).unwrap();
+    let head: Vec<String> = reader.headers().unwrap().iter().map(String::from).collect();
+    let mut cols: std::collections::HashMap<String, Vec<String>> = head.iter().map(|h| (h.clone(), vec![])).collect();
+    for r in reader.records() {
+        for (h, v) in head.iter().zip(r.unwrap().iter()) {
+            cols.get_mut(h).unwrap().push(v.to_string());
+        }
+    }
+    cols
+}
+
+fn floats(v: &[String]) -> Vec<f64> {
+    v.iter().map(|s| s.parse().unwrap()).collect()
+}
+
+/// Minimum effort from rest at 0 to rest at `d` in `T` for `m x'' = F`:
+/// `F(t) = m (6 d / T^2) (1 - 2 t / T)`, cost `12 d^2 m^2 / T^3` (the
+/// Euler-Lagrange equation `F'' = 0`): linear in time, which 4
+/// piecewise-linear segments represent exactly. The effort printed and
+/// written within 1e-6 of the closed form, the force's nodes within 1e-6
+/// of F(0); the end the verification printed and wrote within 1e-6 of
+/// the target; exit 0.
+#[test]
+fn the_sleigh_rest_to_rest_matches_the_closed_form() {
+    let scene = sleigh_scene("closed-form");
+    let out = scene.with_file_name("out");
+    let args = ["plan", scene.to_str().unwrap(), "--input", "push.fx", "--to", "x=1", "--at-rest", "--segments", "4"];
+    let clock = std::time::Instant::now();
+    let o = ezy(&[&args[..], &["--out", out.to_str().unwrap()]].concat());
+    let (said, err) = text(&o);
+    eprintln!("{said}{err}({:.2} s)", clock.elapsed().as_secs_f64());
+    assert_eq!(o.status.code(), Some(0), "{said}{err}");
+    assert!(said.contains("on 4 segments: optimal"), "{said}");
+    let (d, t_end) = (1.0, 2.0);
+    let cost = 12.0 * d * d * MASS * MASS / f64::powi(t_end, 3);
+    let printed = number_after(&said, "effort (sum of the integrals of the inputs squared):");
+    eprintln!("effort printed {printed}, closed form {cost}: {:.1e} relative", (printed - cost).abs() / cost);
+    assert!((printed - cost).abs() <= 1e-6 * cost, "effort {printed} against {cost}");
+    // plan.csv: the nodes against the closed form's linear force
+    let plan = columns(&out.join("plan.csv"));
+    let (t, f) = (floats(&plan["t"]), floats(&plan["push.fx"]));
+    assert_eq!(t.len(), 5);
+    let force = |t: f64| MASS * 6.0 * d / (t_end * t_end) * (1.0 - 2.0 * t / t_end);
+    let worst = t.iter().zip(&f).fold(0.0f64, |w, (t, u)| w.max((u - force(*t)).abs()));
+    eprintln!("force nodes: largest difference from the closed form {worst:.2e} N (F(0) = {} N)", force(0.0));
+    assert!(worst <= 1e-6 * force(0.0), "{t:?} {f:?}");
+    for (k, tk) in t.iter().enumerate() {
+        assert!((tk - t_end * k as f64 / 4.0).abs() <= 1e-15, "{t:?}");
+    }
+    // the node states: x(t) = d (3 s^2 - 2 s^3), s = t / T
+    let x = floats(&plan["x"]);
+    let worst_x = t.iter().zip(&x).fold(0.0f64, |w, (t, x)| {
+        let s = t / t_end;
+        w.max((x - d * (3.0 * s * s - 2.0 * s * s * s)).abs())
+    });
+    eprintln!("node positions: largest difference from the closed form {worst_x:.2e} m");
+    assert!(worst_x <= 1e-6, "{x:?}");
+    // plan_summary.csv: the same effort, the verification's end errors
+    let summary = columns(&out.join("plan_summary.csv"));
+    assert_eq!(summary["status"], ["optimal"]);
+    let written: f64 = summary["effort"][0].parse().unwrap();
+    assert_eq!(written, printed, "the effort written and printed");
+    for name in ["x", "xd", "yd", "phid"] {
+        let run: f64 = summary[&format!("run_error_{name}")][0].parse().unwrap();
+        let planned: f64 = summary[&format!("plan_error_{name}")][0].parse().unwrap();
+        assert!(run.abs() <= 1e-6 && planned.abs() <= 1e-6, "{name}: run {run}, plan {planned}");
+    }
+    // the end the report prints: the target plus the run's error, and
+    // an ordinary run of the written table (the oracle: `ezy run` on the
+    // scene with push.fx as plan.csv's table) ends there
+    let run_x = number_after(&said, "x = 1: run");
+    let table = format!("fx = {{ table = {{ t = {:?}, value = {:?} }} }}", t, f);
+    let replayed = SLEIGH_SCENE
+        .replace("fx = { constant = 0.0 }", &table)
+        .replace("[integrator]", "[output]\nevery = 2.0\n\n[integrator]");
+    std::fs::write(scene.with_file_name("replay.toml"), replayed).unwrap();
+    let replay_out = scene.with_file_name("replay");
+    let r = ezy(&[
+        "run",
+        scene.with_file_name("replay.toml").to_str().unwrap(),
+        "--no-figures",
+        "--out",
+        replay_out.to_str().unwrap(),
+    ]);
+    assert!(r.status.success(), "{:?}", text(&r));
+    let trajectory = columns(&replay_out.join("trajectory.csv"));
+    let end_x: f64 = trajectory["x"].last().unwrap().parse().unwrap();
+    eprintln!("end x: printed {run_x}, `ezy run` of plan.csv's table {end_x}");
+    assert!((end_x - run_x).abs() <= 1e-9 && (run_x - 1.0).abs() <= 1e-6, "{run_x} {end_x}");
+    for figure in ["plan.png", "plan_path.png"] {
+        assert!(out.join(figure).is_file(), "{figure}");
+    }
+}
+
+/// `|F| <= 0.1 N` moves the 2 kg sleigh from rest to rest at most
+/// `a T^2 / 4 = 0.05 m` in 2 s: 1 m is out of reach. The plan ends
+/// infeasible with a violation of at least the distance the bound
+/// cannot cover, exits non-zero, never says optimal or converged; its
+/// least violating inputs are written and stay within the bound.
+#[test]
+fn an_unreachable_target_is_infeasible() {
+    let scene = sleigh_scene("unreachable");
+    let out = scene.with_file_name("out");
+    let o = ezy(&[
+        "plan",
+        scene.to_str().unwrap(),
+        "--input",
+        "push.fx",
+        "--bound",
+        "push.fx=-0.1:0.1",
+        "--to",
+        "x=1",
+        "--at-rest",
+        "--segments",
+        "4",
+        "--no-figures",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    let (said, err) = text(&o);
+    eprintln!("{said}{err}");
+    assert_eq!(o.status.code(), Some(1), "{said}{err}");
+    assert!(!said.contains("optimal") && !said.contains("converged") && !err.contains("converged"), "{said}{err}");
+    assert!(err.contains("infeasible") && said.contains("infeasible"), "{said}{err}");
+    let violation = number_after(&err, "error: infeasible: no point met the target; the smallest violation found is");
+    let summary = columns(&out.join("plan_summary.csv"));
+    assert_eq!(summary["status"], ["infeasible"]);
+    let written: f64 = summary["violation"][0].parse().unwrap();
+    assert_eq!(written, violation);
+    // a lower bound on the least violation V: |F| <= 0.1 N alone moves
+    // the sleigh at most 0.05 m/s^2 (2 s)^2 / 2 = 0.1 m; a jump of at most
+    // V in xd at the inner node t_k adds at most V (T - t_k) (1.5 + 1 +
+    // 0.5 = 3 V), one in x at most V (3 V), the target's x V: 1 m <= 0.1
+    // + 7 V
+    eprintln!("violation {violation} m, at least {} by the bound", 0.9 / 7.0);
+    assert!(violation >= 0.9 / 7.0, "violation {violation}");
+    let plan = columns(&out.join("plan.csv"));
+    assert!(floats(&plan["push.fx"]).iter().all(|u| u.abs() <= 0.1 + 1e-12), "{:?}", plan["push.fx"]);
+}
+
+/// Each refusal names its culprit, exits non-zero before any work and
+/// writes nothing.
+#[test]
+fn bad_requests_are_refused_by_name() {
+    let scene = sleigh_scene("refusals");
+    let s = scene.to_str().unwrap();
+    let out = scene.with_file_name("out");
+    let o = out.to_str().unwrap();
+    let base = ["plan", s, "--out", o];
+    let cases: &[(&[&str], &str)] = &[
+        (
+            &["--input", "push.fx", "--bound", "push.fx=1:-1", "--to", "x=1"],
+            "--bound `push.fx=1:-1`: the lower bound 1 is above the upper -1",
+        ),
+        (&["--input", "push.fx", "--bound", "push.fx=nan:1", "--to", "x=1"], "`nan` is not a finite number"),
+        (&["--input", "push.fx", "--bound", "push.fx=-1:inf", "--to", "x=1"], "`inf` is not a finite number"),
+        (&["--input", "push.fx", "--bound", "tau=-1:1", "--to", "x=1"], "--bound `tau=-1:1`: no --input `tau`"),
+        (
+            &["--input", "motor.torque", "--to", "x=1"],
+            "--input `motor.torque`: scene `sleigh-push` has no effect `motor`; its effects: push",
+        ),
+        (
+            &["--input", "push.fz", "--to", "x=1"],
+            "--input `push.fz`: effect `push` (kind force) takes no time function at `fz`",
+        ),
+        (
+            &["--input", "push.at", "--to", "x=1"],
+            "--input `push.at`: effect `push` (kind force) takes no time function at `at`",
+        ),
+        (&["--input", "push", "--to", "x=1"], "--input `push`: expected EFFECT.FIELD"),
+        (&["--input", "push.fx", "--to", "z=1"], "--to `z=1`: the model has no coordinate `z`"),
+        (&["--input", "push.fx"], "no target: give --to"),
+        (&["--input", "push.fx", "--to", "x=1", "--segments", "5000"], "--segments 5000: 29996 unknowns"),
+        (
+            &["--input", "push.fx", "--to", "x=1", "--segments", "5000"],
+            "more than the limit of 2000 (ezy_core::plan::MAX_UNKNOWNS",
+        ),
+        (&["--input", "push.fx", "--to", "x=1", "--segments", "18446744073709551615"], "more than the limit of 2000"),
+        (&["--input", "push.fx", "--to", "x=1", "--segments", "0"], "0 segments"),
+        (&["--input", "push.fx", "--input", "push.fx", "--to", "x=1"], "--input: `push.fx` is given twice"),
+        (&["--input", "push.fx", "--to", "x=1,x=2"], "--to: `x` is given twice"),
+    ];
+    for (extra, words) in cases {
+        let r = ezy(&[&base[..], extra].concat());
+        let (said, err) = text(&r);
+        assert!(!r.status.success() && err.contains(words), "{extra:?}: {said}{err}");
+        assert!(!out.exists(), "{extra:?} wrote {}", out.display());
+    }
+    // 5000 segments: 5001 input nodes and 5 = 2 * 3 - 1 state components
+    // (the skate's one constraint) at each of 4999 inner nodes
+    assert_eq!(5001 + 5 * 4999, 29996);
+    assert_eq!(ezy_core::plan::MAX_UNKNOWNS, 2000);
+}
