@@ -95,6 +95,37 @@ fn sleigh_rest_to_rest_matches_the_closed_form() {
     assert!(v.max_run_error <= 1e-6 && v.max_plan_error <= 1e-8, "{v:?}");
 }
 
+/// Shooting intervals coarser than the input mesh (single shooting, two
+/// intervals) solve the same program: the same effort (the closed form's
+/// to 1e-8) and forces, fewer unknowns; a chained segment's start
+/// differentiated through the chain (the solve converges only with an
+/// exact Jacobian: Optimal needs stationarity 1e-5).
+#[test]
+fn coarser_shooting_intervals_give_the_same_plan() {
+    let (d, t_end) = (1.0f64, 2.0f64);
+    let cost = 12.0 * d * d * MASS * MASS / t_end.powi(3);
+    let full = plan((-100.0, 100.0), d, t_end, 4).solve().unwrap();
+    for intervals in [1, 2] {
+        let mut p = plan((-100.0, 100.0), d, t_end, 4);
+        p.settings.intervals = intervals;
+        let m = p.solve().unwrap();
+        show(&m);
+        assert_eq!(m.status, Status::Optimal);
+        assert!(m.unknowns < full.unknowns, "{} unknowns against {}", m.unknowns, full.unknowns);
+        assert!((m.effort - cost).abs() <= 1e-8 * cost, "{intervals} intervals: effort {} against {cost}", m.effort);
+        for (a, b) in m.inputs[0].value.iter().zip(&full.inputs[0].value) {
+            assert!((a - b).abs() <= 1e-7 * b.abs().max(1.0), "{intervals} intervals: {a} against {b}");
+        }
+        let v = m.verification.as_ref().unwrap();
+        assert!(v.max_run_error <= 1e-6 && v.max_plan_error <= 1e-8, "{v:?}");
+    }
+    let mut p = plan((-100.0, 100.0), d, t_end, 4);
+    p.settings.intervals = 5;
+    refused(Plan::new(p.inputs.clone(), p.target.clone(), p.settings, sleigh), "5 shooting intervals for 4 segments");
+    p.settings.intervals = 0;
+    refused(Plan::new(p.inputs.clone(), p.target.clone(), p.settings, sleigh), "0 shooting intervals");
+}
+
 /// From a zero input (the sleigh stays at rest: the warm start is its
 /// start, every gradient of the effort zero) the solver must move: the
 /// effort is positive and the target met by the verification run.

@@ -38,6 +38,12 @@ pub(super) fn request(inputs: &[Input], target: &Target, s: &PlanSettings) -> Re
     if s.segments == 0 {
         return fail("0 segments: a plan needs at least one".into());
     }
+    if !(1..=s.segments).contains(&s.intervals) {
+        return fail(format!(
+            "{} shooting intervals for {} segments: give 1 (single shooting) to {} (a node at every segment)",
+            s.intervals, s.segments, s.segments
+        ));
+    }
     if !(s.t_end.is_finite() && s.t_end > 0.0) {
         return fail(format!("t_end = {} s: give a finite duration > 0", s.t_end));
     }
@@ -108,18 +114,25 @@ pub(super) fn problem<M: Model>(plan: &Plan<M>, guess: &[f64]) -> Result<Problem
     }
     let info = p.model.info();
     let nz = 2 * info.nq() - info.n_holonomic - info.nc();
-    let n = guess.len() + (s.segments - 1) * nz;
+    let n = guess.len() + (s.intervals - 1) * nz;
     if n > s.max_unknowns {
         return fail(unknowns(
             n,
             s,
-            &format!("{} input nodes and {nz} state components at each inner node", guess.len()),
+            &format!(
+                "{} input nodes and {nz} state components at each of {} inner nodes",
+                guess.len(),
+                s.intervals - 1
+            ),
         ));
     }
-    let np = nz + 2 * plan.inputs.len();
+    // a chained segment (inside a shooting interval) is differentiated
+    // with respect to its whole start
+    let nz_start = if s.intervals < s.segments { 2 * info.nq() } else { nz };
+    let np = nz_start + 2 * plan.inputs.len();
     if np > crate::sensitivity::MAX_PARAMETERS {
         return fail(format!(
-            "each segment's run is differentiated with respect to {np} numbers ({nz} state components and 2 nodes of each input), more than {}",
+            "each segment's run is differentiated with respect to {np} numbers ({nz_start} state components and 2 nodes of each input), more than {}",
             crate::sensitivity::MAX_PARAMETERS
         ));
     }

@@ -43,6 +43,17 @@
 //! out of the equalities: they are chosen at the warm start's end, and
 //! all the target's components are checked by the verification run.
 //!
+//! Shooting intervals may be coarser than the inputs' mesh
+//! ([`PlanSettings::intervals`] M of the N segments; Bock & Plitt's
+//! nodes need not be the control's): a node's state is an unknown only
+//! where an interval starts, and the segments inside one are chained,
+//! each started from the last one's whole end state (given in every
+//! component; the consistent initial state projects it onto the
+//! constraints, which it meets to the run's accuracy) and its
+//! sensitivities multiplied along the chain, `dx_end/dw = S_x
+//! dx_start/dw + S_u du/dw`. M = 1 is single shooting: N + 1 unknowns
+//! per input and only the target's equalities.
+//!
 //! Each segment's end state is differentiated with respect to its start's
 //! independent components and its input nodes by the forward
 //! sensitivities ([`crate::sensitivity`], exact to the integration's
@@ -105,6 +116,9 @@ mod nlp;
 mod shooting;
 mod transcription;
 mod verify;
+
+#[cfg(test)]
+mod tests;
 
 use std::sync::Arc;
 use std::time::Instant;
@@ -250,13 +264,26 @@ pub struct PlanSettings {
     /// oscillation (the EzyRoller) jumped to headings of 1e5 rad. A
     /// solution with a node on its box is not optimal.
     pub state_box: f64,
+    /// Shooting intervals M (1 ... N): the state is an unknown at the
+    /// nodes that start one; inside an interval each segment starts
+    /// from the last one's end (M = 1: single shooting; M = N, the
+    /// default: a node at every segment).
+    pub intervals: usize,
 }
 
 impl PlanSettings {
     /// `segments` segments over `t_end` seconds, tolerance 1e-8, 500
     /// evaluations, [`MAX_UNKNOWNS`], a state box of 10.
     pub fn new(segments: usize, t_end: f64) -> Self {
-        Self { segments, t_end, tolerance: 1e-8, max_evaluations: 500, max_unknowns: MAX_UNKNOWNS, state_box: 10.0 }
+        Self {
+            segments,
+            t_end,
+            tolerance: 1e-8,
+            max_evaluations: 500,
+            max_unknowns: MAX_UNKNOWNS,
+            state_box: 10.0,
+            intervals: segments,
+        }
     }
 }
 
@@ -510,7 +537,7 @@ impl<M: Model> Plan<M> {
         let first = check::problem(self, &guess)?;
         let target = check::target(&first, &self.target)?;
         let mut x = self.warm_start(&first, h, &guess)?;
-        let mut tr = Transcription::new(&self.build, names, (n_seg, h), &first.model, &x)?;
+        let mut tr = Transcription::new(&self.build, names, (n_seg, h, self.settings.intervals), &first.model, &x)?;
         tr.runs = n_seg;
         let mut w = guess;
         w.resize(tr.n, 0.0);

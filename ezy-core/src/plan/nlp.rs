@@ -62,6 +62,8 @@ struct State<'a, M: Model> {
     evaluations: usize,
     failures: usize,
     fatal: Option<AnalysisError>,
+    /// SLSQP proposed a point that is not finite.
+    broke: bool,
 }
 
 impl<M: Model> State<'_, M> {
@@ -75,7 +77,13 @@ impl<M: Model> State<'_, M> {
     }
 
     fn at(&mut self, x: &[f64]) {
-        if self.last.as_ref().is_some_and(|(lx, _)| lx == x) || self.fatal.is_some() {
+        if self.last.as_ref().is_some_and(|(lx, _)| lx == x) || self.fatal.is_some() || self.broke {
+            return;
+        }
+        if x.iter().any(|v| !v.is_finite()) {
+            // SLSQP's subproblem broke down: its step is no point to run,
+            // and this search is over
+            self.broke = true;
             return;
         }
         let w = self.w(x);
@@ -106,7 +114,7 @@ impl<M: Model> State<'_, M> {
     fn point(&mut self, x: &[f64]) -> Option<&Point> {
         self.at(x);
         match &self.last {
-            Some((lx, Ok(p))) if lx == x && self.fatal.is_none() => Some(p),
+            Some((lx, Ok(p))) if lx == x && self.fatal.is_none() && !self.broke => Some(p),
             _ => None,
         }
     }
@@ -220,6 +228,7 @@ pub(super) fn solve<M: Model>(
         evaluations: 1,
         failures: 0,
         fatal: None,
+        broke: false,
     });
     let tols = |n: usize| slsqp::StopTols { ftol_rel: 1e-12, xtol_abs: vec![1e-10; n], ..slsqp::StopTols::default() };
     let termination = {
@@ -238,6 +247,9 @@ pub(super) fn solve<M: Model>(
     };
     let mut st = state.into_inner();
     let mut termination = termination;
+    if std::mem::take(&mut st.broke) {
+        termination = format!("{termination}, its step not finite (its quadratic subproblem broke down)");
+    }
     if let Some(e) = st.fatal.take() {
         termination = format!("{termination}, after {FAILURES} evaluations in a row failed (the last: {e})");
         st.fatal = Some(e);
@@ -255,6 +267,9 @@ pub(super) fn solve<M: Model>(
         let outcome = slsqp::minimize(objective, &from, &xb, &none, (), left.max(2), Some(tols(from.len())));
         termination = format!("{termination}; then the violation alone: {}", words(&outcome));
         st = state.into_inner();
+        if std::mem::take(&mut st.broke) {
+            termination = format!("{termination}, its step not finite (its quadratic subproblem broke down)");
+        }
         if let Some(e) = st.fatal.take() {
             termination = format!("{termination}, after {FAILURES} evaluations in a row failed (the last: {e})");
         }

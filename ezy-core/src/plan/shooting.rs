@@ -49,6 +49,20 @@ pub(super) struct NodeStart {
     pub guess: Vec<f64>,
     /// The independent components as indices into `[q, qd]` (2 nq).
     pub comps: Vec<usize>,
+    /// The start is the last segment's end, every component of `[q,
+    /// qd]` given (a segment inside a shooting interval, not a node: the
+    /// consistent initial state projects it onto the constraints, which
+    /// it meets to the run's accuracy).
+    pub chained: bool,
+}
+
+impl NodeStart {
+    /// The start of a chained segment: every component of `[q, qd]`
+    /// (2 nq) given, the last segment's end.
+    pub fn chained(n2: usize) -> Self {
+        let empty = Partition { q_ind: Vec::new(), v_ind: Vec::new(), q_dep: Vec::new(), v_dep: Vec::new() };
+        Self { partition: empty, guess: Vec::new(), comps: (0..n2).collect(), chained: true }
+    }
 }
 
 impl<M: Model> SegmentSpec<M> {
@@ -66,6 +80,15 @@ impl<M: Model> SegmentSpec<M> {
         if let Some((node, z)) = &self.start {
             let part = &node.partition;
             let nqi = part.q_ind.len();
+            if node.chained {
+                let nq = z.len() / 2;
+                p.given = Given {
+                    q: (0..nq).map(|i| (i, z[i])).collect(),
+                    qd: (0..nq).map(|i| (i, z[nq + i])).collect(),
+                    ..Given::default()
+                };
+                return Ok(p);
+            }
             p.given = Given {
                 q: part.q_ind.iter().copied().zip(z[..nqi].iter().copied()).collect(),
                 qd: part.v_ind.iter().copied().zip(z[nqi..].iter().copied()).collect(),
@@ -108,7 +131,7 @@ pub(super) fn node_start<M: Model>(model: &M, x: &[f64], node: usize) -> Result<
     let partition = Partition { q_ind: rest(&q_dep), v_ind: rest(&v_dep), q_dep, v_dep };
     let comps = partition.q_ind.iter().copied().chain(partition.v_ind.iter().map(|j| nq + j)).collect();
     let guess = partition.q_dep.iter().map(|&j| x[j]).collect();
-    Ok(NodeStart { partition, guess, comps })
+    Ok(NodeStart { partition, guess, comps, chained: false })
 }
 
 /// One segment's run: its start and end states (2 nq each) and the end

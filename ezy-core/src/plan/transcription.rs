@@ -37,6 +37,14 @@ pub(super) struct Point {
     pub ends: Vec<Vec<f64>>,
 }
 
+/// Whether node `k` of `segments` starts one of `intervals` shooting
+/// intervals (its state an unknown; else the segment is chained to the
+/// last one's end).
+pub(super) fn is_node(k: usize, segments: usize, intervals: usize) -> bool {
+    let m = intervals.clamp(1, segments);
+    (1..m).any(|j| (j * segments + m / 2) / m == k)
+}
+
 /// The transcription of a plan.
 pub(super) struct Transcription<M: Model> {
     build: Arc<BuildInputs<M>>,
@@ -65,13 +73,20 @@ impl<M: Model> Transcription<M> {
     pub fn new(
         build: &Arc<BuildInputs<M>>,
         inputs: Vec<String>,
-        (segments, h): (usize, f64),
+        (segments, h, intervals): (usize, f64, usize),
         model: &M,
         x: &[Vec<f64>],
     ) -> Result<Self, AnalysisError> {
         let n_u = inputs.len() * (segments + 1);
         let (mut nodes, mut z_offset, mut n) = (vec![None], vec![0], n_u);
+        let n2 = 2 * model.info().nq();
+        let chained = Arc::new(NodeStart::chained(n2));
         for (k, xk) in x.iter().enumerate().take(segments).skip(1) {
+            if !is_node(k, segments, intervals) {
+                z_offset.push(n);
+                nodes.push(Some(Arc::clone(&chained)));
+                continue;
+            }
             let node = node_start(model, xk, k)?;
             z_offset.push(n);
             n += node.comps.len();
@@ -101,6 +116,9 @@ impl<M: Model> Transcription<M> {
     /// As [`node_start`].
     pub fn repartition(&mut self, model: &M, x: &[Vec<f64>]) -> Result<(), AnalysisError> {
         for (k, xk) in x.iter().enumerate().take(self.segments).skip(1) {
+            if self.nodes[k].as_ref().is_some_and(|n| n.chained) {
+                continue;
+            }
             let node = node_start(model, xk, k)?;
             if node.comps.len() != self.nodes[k].as_ref().map_or(0, |n| n.comps.len()) {
                 return Err(AnalysisError::Numerics { reason: format!("node {k}'s partition changed its size") });
@@ -116,7 +134,7 @@ impl<M: Model> Transcription<M> {
     pub fn state_columns(&self) -> Vec<(usize, usize)> {
         let mut out = Vec::new();
         for (k, node) in self.nodes.iter().enumerate() {
-            if let Some(node) = node {
+            if let Some(node) = node.as_ref().filter(|n| !n.chained) {
                 out.extend(node.comps.iter().enumerate().map(|(i, &c)| (self.z_offset[k] + i, c)));
             }
         }
@@ -132,7 +150,7 @@ impl<M: Model> Transcription<M> {
     pub fn set_target(&mut self, target: Vec<(usize, f64)>) {
         let mut rows = Vec::new();
         for (k, node) in self.nodes.iter().enumerate() {
-            if let Some(node) = node {
+            if let Some(node) = node.as_ref().filter(|n| !n.chained) {
                 rows.extend(node.comps.iter().map(|&c| (format!("continuity of {} at node {k}", self.names[c]), c)));
             }
         }
@@ -151,12 +169,18 @@ impl<M: Model> Transcription<M> {
         &w[self.col_u(j, 0)..=self.col_u(j, self.segments)]
     }
 
-    /// Segment `k`'s problem builder at `w`.
-    pub fn spec(&self, k: usize, w: &[f64]) -> SegmentSpec<M> {
+    /// Segment `k`'s problem builder at `w` (`previous`: the last
+    /// segment's end, the start of a chained segment).
+    pub fn spec(&self, k: usize, w: &[f64], previous: Option<&[f64]>) -> SegmentSpec<M> {
         let u = (0..self.inputs.len()).flat_map(|j| [w[self.col_u(j, k)], w[self.col_u(j, k + 1)]]).collect();
         let start = self.nodes[k].as_ref().map(|node| {
             let o = self.z_offset[k];
-            (Arc::clone(node), w[o..o + node.comps.len()].to_vec())
+            let z = if node.chained {
+                previous.map(<[f64]>::to_vec).unwrap_or_default()
+            } else {
+                w[o..o + node.comps.len()].to_vec()
+            };
+            (Arc::clone(node), z)
         });
         SegmentSpec::new(&self.build, self.h, u, start)
     }
@@ -179,56 +203,75 @@ impl<M: Model> Transcription<M> {
         (e, g)
     }
 
-    /// The unknowns' columns of segment `k`'s parameters, in the order of
-    /// its sensitivity columns.
-    fn columns(&self, k: usize) -> Vec<usize> {
-        let nz = self.nodes[k].as_ref().map_or(0, |n| n.comps.len());
-        let mut cols: Vec<usize> = (0..nz).map(|i| self.z_offset[k] + i).collect();
-        for j in 0..self.inputs.len() {
-            cols.push(self.col_u(j, k));
-            cols.push(self.col_u(j, k + 1));
-        }
-        cols
-    }
-
-    /// The point at `w`: every segment run with its sensitivities.
+    /// The point at `w`: every segment run with its sensitivities, a
+    /// chained segment's start (the last one's end) differentiated
+    /// through the chain.
     ///
     /// # Errors
     /// A segment's problem or run that fails.
     pub fn evaluate(&mut self, w: &[f64]) -> Result<Point, AnalysisError> {
         let (effort, effort_grad) = self.effort(w);
         let (mut starts, mut ends, mut c, mut jac) = (Vec::new(), Vec::new(), Vec::new(), Vec::new());
+        let n2 = self.names.len();
+        // the derivative of the last segment's end with respect to w (2 nq x n)
+        let mut d_end: Vec<Vec<f64>> = vec![vec![0.0; self.n]; n2];
+        let mut previous: Option<Vec<f64>> = None;
         for k in 0..self.segments {
-            let run = self.spec(k, w).run(&self.inputs)?;
+            let run = self.spec(k, w, previous.as_deref()).run(&self.inputs)?;
             self.runs += 1;
-            let cols = self.columns(k);
-            let mut row_of = |comp: usize, value: f64, own: Option<usize>| {
-                let mut row = vec![0.0; self.n];
-                for (col, s) in cols.iter().zip(&run.columns) {
-                    row[*col] += s[comp];
+            let node = self.nodes[k].clone();
+            let nz = node.as_ref().map_or(0, |n| n.comps.len());
+            let mut d: Vec<Vec<f64>> = vec![vec![0.0; self.n]; n2];
+            for (p, s) in run.columns.iter().enumerate() {
+                if p < nz {
+                    let node = node.as_ref().expect("a start's parameters");
+                    if node.chained {
+                        // dz/dw is the last end's derivative
+                        let from = &d_end[node.comps[p]];
+                        for (row, sv) in d.iter_mut().zip(s) {
+                            if *sv != 0.0 {
+                                row.iter_mut().zip(from).for_each(|(a, b)| *a += sv * b);
+                            }
+                        }
+                    } else {
+                        let col = self.z_offset[k] + p;
+                        d.iter_mut().zip(s).for_each(|(row, sv)| row[col] += sv);
+                    }
+                } else {
+                    let j = (p - nz) / 2;
+                    let col = self.col_u(j, k + (p - nz) % 2);
+                    d.iter_mut().zip(s).for_each(|(row, sv)| row[col] += sv);
                 }
+            }
+            let mut row_of = |comp: usize, value: f64, own: Option<usize>| {
+                let mut row = d[comp].clone();
                 if let Some(o) = own {
                     row[o] -= 1.0;
                 }
                 c.push(run.end[comp] - value);
                 jac.push(row);
             };
-            if k + 1 < self.segments {
-                let node = self.nodes[k + 1].as_ref().expect("inner nodes are partitioned");
-                let o = self.z_offset[k + 1];
-                for (i, &comp) in node.comps.iter().enumerate() {
-                    row_of(comp, w[o + i], Some(o + i));
+            match self.nodes.get(k + 1).and_then(Option::as_ref) {
+                Some(next) if k + 1 < self.segments && !next.chained => {
+                    let o = self.z_offset[k + 1];
+                    for (i, &comp) in next.comps.iter().enumerate() {
+                        row_of(comp, w[o + i], Some(o + i));
+                    }
                 }
-            } else {
-                for &(comp, value) in &self.target {
-                    row_of(comp, value, None);
+                Some(_) if k + 1 < self.segments => {}
+                _ => {
+                    for &(comp, value) in &self.target {
+                        row_of(comp, value, None);
+                    }
                 }
             }
             // the dependent coordinates' guess follows the start
-            if let Some(node) = self.nodes[k].as_mut() {
+            if let Some(node) = self.nodes[k].as_mut().filter(|n| !n.chained) {
                 let node = Arc::make_mut(node);
                 node.guess = node.partition.q_dep.iter().map(|&j| run.start[j]).collect();
             }
+            d_end = d;
+            previous = Some(run.end.clone());
             starts.push(run.start);
             ends.push(run.end);
         }
@@ -238,7 +281,7 @@ impl<M: Model> Transcription<M> {
     /// The nodes' unknowns of the states `x` (N + 1 of 2 nq) into `w`.
     pub fn gather(&self, x: &[Vec<f64>], w: &mut [f64]) {
         for k in 1..self.segments {
-            if let Some(node) = &self.nodes[k] {
+            if let Some(node) = self.nodes[k].as_ref().filter(|n| !n.chained) {
                 for (i, &c) in node.comps.iter().enumerate() {
                     w[self.z_offset[k] + i] = x[k][c];
                 }

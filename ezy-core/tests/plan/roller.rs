@@ -66,6 +66,36 @@ fn rest_to_rest(segments: usize, t_end: f64, evaluations: usize) -> ezy_core::pl
 /// the nodes partitioned again ended infeasible at 8.6e-3 (the
 /// verification run 0.28 from the target); 20 segments (135 unknowns),
 /// 1458 evaluations in 32 s, infeasible at 3.0e-2.
+///
+/// Tried since (2026-11-30, 2 cores), none reaches it: every inner
+/// node's whole state as unknowns, started from its projection onto the
+/// constraints (119 unknowns, 10 segments: infeasible 4.6e-2, SLSQP
+/// limited by rounding after 333 evaluations; 20 segments 3.3e-2, 40
+/// segments 1.7e-2 in 237 s); every target velocity as an equality
+/// (dependent rows: a Newton KKT matrix singular, multipliers 1e16); a
+/// Gauss-Newton SQP on the effort's exact Hessian with an L1 merit line
+/// search (the linearized end moves x1 only to first order, the motion
+/// is second order in the torque: steps of 100 N m rejected, the
+/// violation 0.79 -> 0.61 in 44 iterations); single shooting
+/// (`PlanSettings::intervals` = 1: 11 unknowns, 3 equalities, SLSQP
+/// finds no descent at 9.5e-2; 20 segments: SLSQP's own iterate NaN) and
+/// 4 intervals of 5 segments (5.3e-2); a homotopy of the target from the
+/// warm start's own end, each step's nearest feasible point by
+/// Levenberg-Marquardt (single shooting, 20 segments over 8 s: feasible
+/// to 3e-6 a fifth of the way, 8.6e-3 at 0.3, 9.6e-2 at the end; 32
+/// segments over 16 s: 1.5e-5 at 0.6, 2.4e-2 at 0.8, 4.7e-2 at the end).
+/// Every failure ends with the frame's centre nearly still and the
+/// vehicle turning (phi1d 0.2-0.5 rad/s): the at-rest rows kept (x1d,
+/// y1d: the frame's centre) do not reach the turning, which the end
+/// map's linearization there moves only weakly. The Jacobian is right
+/// (`plan::tests`, 5e-8). The next step: the Lagrangian's curvature
+/// (second-order sensitivities, an exact-Hessian SQP), and the rest rows
+/// chosen at the end, not at the warm start. With `y1 = 0`, `phi1 = 0`
+/// and `phi2 = pi` targeted too (the fork straight, away from the
+/// spin about the rear skate; 20 segments, 600 evaluations, about 20 s
+/// each): a node at every segment ends 9.3e-3 from the target with a
+/// continuity violated by 6.9e-2; single shooting 0.13; 4 intervals
+/// 7.6e-2.
 #[test]
 #[ignore = "SLSQP does not reach the EzyRoller's rest-to-rest plan yet (ill-conditioned partitions; slow quasi-Newton convergence)"]
 fn roller_rest_to_rest_one_metre() {
@@ -127,3 +157,4 @@ fn roller_timings() {
         eprintln!("{n} segments: {:.3} s per evaluation", m.seconds / m.evaluations as f64);
     }
 }
+
