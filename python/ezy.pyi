@@ -448,6 +448,59 @@ def optimize(
     three has `.attrs["units"]` (`{column: unit}`) and
     `.attrs["description"]` (each column's unit, meaning, frame and time)."""
     ...
+def plan(
+    scene: _Scene,
+    *,
+    input: Union[str, Sequence[str]],
+    bound: Optional[Mapping[str, Tuple[float, float]]] = None,
+    to: Optional[Mapping[str, float]] = None,
+    at_rest: bool = False,
+    segments: Optional[int] = None,
+    evaluations: Optional[int] = None,
+    model: Optional[Model] = None,
+    out: Optional[_Path] = None,
+    figures: bool = False,
+    **settings: Any,
+) -> Any:
+    """The least-effort inputs that take `scene` from its initial state to a
+    target at its t_end: `input` names the effects' time functions planned
+    (`"motor.torque"`), each a piecewise-linear table on `segments`
+    segments, within `bound={input: (lower, upper)}`; the target
+    `to={"x1": 1.0}` (a velocity is its coordinate's name with `d`) and
+    `at_rest=True`. A DataFrame of the nodes (`t` [s], the inputs, the
+    state); `.attrs["summary"]` (status, effort [unit^2 s], violation, the
+    verification run's errors), `.attrs["report"]`. A target not met
+    (infeasible, with the least violation) raises EzyError."""
+    ...
+def gait_optimize(
+    target: Union[_Scene, Model],
+    *,
+    gait: str,
+    maximize: Optional[str] = None,
+    minimize: Optional[str] = None,
+    per_length: bool = False,
+    order: Optional[str] = None,
+    harmonics: Optional[int] = None,
+    centre_only: bool = False,
+    range: Optional[Mapping[str, Tuple[float, float]]] = None,
+    margin: Optional[float] = None,
+    budget: Optional[float] = None,
+    max_evaluations: Optional[int] = None,
+    body: Optional[str] = None,
+    set: Optional[Mapping[str, float]] = None,
+    model: Optional[Model] = None,
+    out: Optional[_Path] = None,
+    figures: bool = False,
+) -> Any:
+    """A kinematic system's best closed gait from `gait` (one period, t in
+    [0, 2 pi]): the Fourier coefficients that make `maximize` or
+    `minimize` (`"dx"`, `"dy"` [m], `"dtheta"` [rad], `"along(1,0)"`)
+    largest or smallest (per path length with `per_length=True`) within
+    `range={coordinate: (lower, upper)}` [rad], a `margin` from the
+    singular set and a path-length `budget` [rad]. A DataFrame of the
+    coefficients (start, optimum, free); `.attrs["history"]` every
+    evaluation, `.attrs["report"]`."""
+    ...
 def sensitivity(
     scene: _Scene,
     *,

@@ -1,4 +1,5 @@
-//! The module's commands on a scene: [`Toolkit::command`] runs one (with
+//! The module's commands on a scene: the scene a call names
+//! ([`Toolkit::resolve`]); [`Toolkit::command`] runs one (with
 //! the scene's sets, the run keywords and a temporary directory) through
 //! [`Toolkit::cli`]; and a quantity of the caller's own Python code for
 //! `optimize`.
@@ -6,12 +7,15 @@
 use std::path::PathBuf;
 
 use ezy::App;
+use ezy_scene::registry::SceneSource;
+use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 
 use crate::ezy_err;
 use crate::kit::Toolkit;
 use crate::model::PyModel;
+use crate::scene::PyScene;
 use crate::settings::Overrides;
 use crate::words::Said;
 
@@ -105,5 +109,52 @@ pub(crate) fn python_quantity(
                 )
             })
         })
+    }
+}
+
+/// The scene a call names, with the changes a `Scene` object carries.
+pub(crate) struct Resolved {
+    /// The scene as loaded and checked.
+    pub(crate) src: SceneSource,
+    /// A `Scene` object's sets (none for a name or a path).
+    pub(crate) sets: Vec<(String, f64)>,
+    /// How it was named: a known scene's name or a file's path.
+    pub(crate) reference: String,
+    /// A `Scene` object's own model (one made on an `ezy.Model`).
+    pub(crate) model: Option<Py<PyModel>>,
+    /// A `Scene` object's TOML text, when it was made in Python.
+    pub(crate) toml: Option<String>,
+}
+
+impl Resolved {
+    /// The scene as the command line names it: its name or path, or, for a
+    /// scene made in Python, a file in `dir` holding its text.
+    pub(crate) fn cli_scene(&self, dir: &std::path::Path) -> PyResult<String> {
+        let Some(text) = &self.toml else { return Ok(self.reference.clone()) };
+        let path = dir.join(format!("{}.toml", self.src.scene.name.replace(['/', '\\'], "_")));
+        std::fs::write(&path, text).map_err(ezy_err)?;
+        Ok(path.display().to_string())
+    }
+}
+
+impl Toolkit {
+    /// The scene `scene` names (a known name or a path), or a `Scene`
+    /// object's, with the object's own sets.
+    pub(crate) fn resolve(&self, scene: &Bound<'_, PyAny>) -> PyResult<Resolved> {
+        if let Ok(s) = scene.cast::<PyScene>() {
+            let s = s.borrow();
+            return Ok(Resolved {
+                src: s.src.clone(),
+                sets: s.sets.clone(),
+                reference: s.reference.clone(),
+                model: s.model.as_ref().map(|m| m.clone_ref(scene.py())),
+                toml: s.toml.clone(),
+            });
+        }
+        let name: String = scene.extract().map_err(|_| {
+            PyValueError::new_err("scene: give a scene's name, a path to a .toml file, or an ezy.Scene")
+        })?;
+        let src = self.app.load_scene(&name).map_err(ezy_err)?;
+        Ok(Resolved { src, sets: Vec::new(), reference: name, model: None, toml: None })
     }
 }

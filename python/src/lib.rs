@@ -34,6 +34,7 @@ pub use pyo3;
 mod command;
 mod kit;
 mod model;
+mod planning;
 mod quantities;
 mod reports;
 mod result;
@@ -75,6 +76,10 @@ sensitivity(scene, wrt=..)  the run's derivatives d<column>/d<param>: a DataFram
 fit(scene, data=.., ...)    numbers of the scene fitted to a measured run, with standard errors
 optimize(scene, maximize=.., over=..)
                             numbers of the scene that make a gait or a run best: a DataFrame
+plan(scene, input=.., to=.., at_rest=True)
+                            the least-effort inputs to a target, verified by a run: a DataFrame
+gait_optimize(model, gait=.., maximize=..)
+                            a kinematic system's best closed gait: a DataFrame
 linearize(scene, at=t)      A, B and the eigenvalues at a time of the run
 scene(name), scene(toml=..), scene(model=m, t_end=.., initial=.., ...)
                             a Scene to change (parameters, effects' numbers) and run
@@ -164,8 +169,10 @@ pub fn init_module(m: &Bound<'_, PyModule>, app: App) -> PyResult<()> {
     // what the module knows, then the command line's commands it offers
     // (the command table's list: a new command is one line there and one
     // method of the toolkit)
+    // (a command's hyphen an underscore: `gait-optimize` is `gait_optimize`)
     for f in ["models", "scenes", "effect_kinds", "scene"].into_iter().chain(ezy::python_commands()) {
-        m.add(f, kit.getattr(f)?)?;
+        let f = f.replace('-', "_");
+        m.add(f.as_str(), kit.getattr(f.as_str())?)?;
     }
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
     m.setattr("__doc__", MODULE_DOC)?;

@@ -208,20 +208,20 @@ pub(crate) fn names_kw(function: &str, key: &str, v: Option<&Bound<'_, PyAny>>) 
     })
 }
 
-/// `over={name: (lower, upper)}` of `function` as the command line's
-/// `--over NAME=LO:HI` arguments.
+/// `over={name: (lower, upper)}` of `function` (its keyword `key`) as
+/// the command line's `--over NAME=LO:HI` arguments.
 ///
 /// # Errors
 /// TypeError for a key that is not a name or a value that is not a pair
 /// of numbers.
-pub(crate) fn over_args(function: &str, over: &Bound<'_, PyDict>) -> PyResult<Vec<String>> {
+pub(crate) fn over_args(function: &str, key: &str, over: &Bound<'_, PyDict>) -> PyResult<Vec<String>> {
     let type_error = |m: String| pyo3::exceptions::PyTypeError::new_err(m);
     let mut args = Vec::new();
     for (name, bounds) in over.iter() {
-        let name: String = name.extract().map_err(|_| type_error(format!("{function}(): `over`'s keys are names")))?;
-        let pair = || type_error(format!("{function}(): `over[{name:?}]` must be a pair (lower, upper)"));
+        let name: String = name.extract().map_err(|_| type_error(format!("{function}(): `{key}`'s keys are names")))?;
+        let pair = || type_error(format!("{function}(): `{key}[{name:?}]` must be a pair (lower, upper)"));
         let (lo, hi): (Bound<'_, PyAny>, Bound<'_, PyAny>) = bounds.extract().map_err(|_| pair())?;
-        let what = format!("{function}(): `over[{name:?}]`'s bound");
+        let what = format!("{function}(): `{key}[{name:?}]`'s bound");
         let (lo, hi) = (real(&what, &lo)?, real(&what, &hi)?);
         args.extend(["--over".to_string(), format!("{name}={lo:?}:{hi:?}")]);
     }

@@ -1,6 +1,6 @@
 //! The module's functions: [`Toolkit`], the application behind a module,
 //! whose methods `models`, `scenes`, `effect_kinds`, `scene`, `run`,
-//! `sweep`, `analyze`, `sensitivity`, `fit`, `optimize`, `linearize`, `geometry`, `equations` and `check` the module
+//! `sweep`, `analyze`, `sensitivity`, `fit`, `optimize`, `plan`, `gait_optimize`, `linearize`, `geometry`, `equations` and `check` the module
 //! offers as functions; a run in memory with the
 //! GIL released and Python's signals polled, a command line run the same
 //! way (Ctrl-C stops either and raises `KeyboardInterrupt`).
@@ -11,12 +11,11 @@ use std::time::{Duration, Instant};
 use ezy::App;
 use ezy_core::ModelInfo;
 use ezy_scene::registry::ModelCatalog as _;
-use ezy_scene::registry::SceneSource;
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 
-use crate::command::python_quantity;
+use crate::command::{Resolved, python_quantity};
 use crate::ezy_err;
 use crate::kit::{Toolkit, equations_in};
 use crate::model::PyModel;
@@ -29,52 +28,7 @@ use crate::words::Said;
 /// How often a running integration asks Python for pending signals (Ctrl-C).
 const SIGNAL_POLL: Duration = Duration::from_millis(50);
 
-/// The scene a call names, with the changes a `Scene` object carries.
-pub(crate) struct Resolved {
-    /// The scene as loaded and checked.
-    pub(crate) src: SceneSource,
-    /// A `Scene` object's sets (none for a name or a path).
-    pub(crate) sets: Vec<(String, f64)>,
-    /// How it was named: a known scene's name or a file's path.
-    pub(crate) reference: String,
-    /// A `Scene` object's own model (one made on an `ezy.Model`).
-    pub(crate) model: Option<Py<PyModel>>,
-    /// A `Scene` object's TOML text, when it was made in Python.
-    pub(crate) toml: Option<String>,
-}
-
-impl Resolved {
-    /// The scene as the command line names it: its name or path, or, for a
-    /// scene made in Python, a file in `dir` holding its text.
-    pub(crate) fn cli_scene(&self, dir: &std::path::Path) -> PyResult<String> {
-        let Some(text) = &self.toml else { return Ok(self.reference.clone()) };
-        let path = dir.join(format!("{}.toml", self.src.scene.name.replace(['/', '\\'], "_")));
-        std::fs::write(&path, text).map_err(ezy_err)?;
-        Ok(path.display().to_string())
-    }
-}
-
 impl Toolkit {
-    /// The scene `scene` names (a known name or a path), or a `Scene`
-    /// object's, with the object's own sets.
-    fn resolve(&self, scene: &Bound<'_, PyAny>) -> PyResult<Resolved> {
-        if let Ok(s) = scene.cast::<PyScene>() {
-            let s = s.borrow();
-            return Ok(Resolved {
-                src: s.src.clone(),
-                sets: s.sets.clone(),
-                reference: s.reference.clone(),
-                model: s.model.as_ref().map(|m| m.clone_ref(scene.py())),
-                toml: s.toml.clone(),
-            });
-        }
-        let name: String = scene.extract().map_err(|_| {
-            PyValueError::new_err("scene: give a scene's name, a path to a .toml file, or an ezy.Scene")
-        })?;
-        let src = self.app.load_scene(&name).map_err(ezy_err)?;
-        Ok(Resolved { src, sets: Vec::new(), reference: name, model: None, toml: None })
-    }
-
     fn info(&self, model: &str, params: &[(String, f64)]) -> PyResult<ModelInfo> {
         info_in(&self.app, model, params)
     }
@@ -573,32 +527,7 @@ impl Toolkit {
         }
         // a model (an `ezy.Model`, or a key no scene has) goes straight to
         // the command line; a scene through the run keywords' path
-        let own = target.cast::<PyModel>().ok();
-        let key = match (&own, target.extract::<String>()) {
-            (Some(m), _) => Some(m.get().key.clone()),
-            (None, Ok(name)) if self.resolve(target).is_err() => Some(name),
-            _ => None,
-        };
-        let (report, dir, _temp) = match key {
-            Some(key) => {
-                let app = self.app_with(&key, own.or(model));
-                let temp = tempfile::Builder::new().prefix("ezy-").tempdir().map_err(ezy_err)?;
-                let kept = out.is_some();
-                let dir = out.unwrap_or_else(|| temp.path().join("geometry"));
-                let said =
-                    Said { function: "geometry", temp: Some(temp.path()).filter(|_| !kept), scene: None, report: true };
-                let mut args = vec!["geometry".to_string(), key];
-                args.extend(extra);
-                args.extend(Overrides::new(Vec::new(), settings, "geometry")?.options()?.to_args());
-                args.extend(["--out".into(), dir.display().to_string()]);
-                if !figures {
-                    args.push("--no-figures".into());
-                }
-                let report = Self::cli(py, &app, args, &said)?.map_err(|(_, e)| ezy_err(e))?;
-                (report, dir, temp)
-            }
-            None => self.command(py, "geometry", target, model, extra, out, figures, settings)?,
-        };
+        let (report, dir, _temp) = self.on_target(py, "geometry", target, model, extra, out, figures, settings)?;
         let tables = PyDict::new(py);
         for (name, file) in [
             ("connection", "connection.csv"),
@@ -694,7 +623,7 @@ impl Toolkit {
                 .map_err(|_| type_error("fit(): `data` must be a CSV file's path or a DataFrame".into()))?
         };
         let mut extra = vec!["--data".to_string(), path.display().to_string(), "--columns".into(), columns];
-        extra.extend(over_args("fit", over)?);
+        extra.extend(over_args("fit", "over", over)?);
         let (report, dir, _temp) = self.command(py, "fit", scene, model, extra, out, figures, settings)?;
         let frame = self.helpers.bind(py).call_method1("read_table", (dir.join("fit.csv"), "parameter"))?;
         frame.getattr("attrs")?.set_item("report", report)?;
@@ -765,7 +694,7 @@ impl Toolkit {
             _ => return Err(type_error("optimize(): give one of `maximize` and `minimize`".into())),
         };
         let mut extra = goal.to_vec();
-        extra.extend(over_args("optimize", over)?);
+        extra.extend(over_args("optimize", "over", over)?);
         if let Some(list) = subject_to {
             let list: Vec<String> = if let Ok(one) = list.extract::<String>() {
                 vec![one]
@@ -806,6 +735,97 @@ impl Toolkit {
         }
         frame.getattr("attrs")?.set_item("report", report)?;
         Ok(frame.unbind())
+    }
+
+    /// The least-effort inputs that take `scene` from its initial state to
+    /// a target at its t_end, as `ezy plan` does: `input` names the
+    /// effects' time functions planned (`"motor.torque"` or a list), each
+    /// replaced by a piecewise-linear table on `segments` segments;
+    /// `bound={input: (lo, hi)}`, `to={"x1": 1.0, "y1": 0.0}` (a velocity
+    /// is its coordinate's name with `d`: `"x1d"`) and `at_rest=True`.
+    /// Returns a DataFrame of the planned inputs at the nodes (`t` [s],
+    /// one column per input in its unit), `.attrs["summary"]` (status,
+    /// effort [unit^2 s], violation, the verification run's errors),
+    /// `.attrs["report"]`, `.attrs["units"]` and `.attrs["description"]`.
+    /// Other keywords as `run`.
+    ///
+    /// Raises EzyError with the command line's message in this call's
+    /// keywords: a target not met (infeasible, with the least violation
+    /// found) or not shown optimal, an unknown effect or coordinate,
+    /// bounds lo > hi or not finite; KeyboardInterrupt on Ctrl-C.
+    #[pyo3(signature = (scene, *, input, bound=None, to=None, at_rest=false, segments=None, evaluations=None, model=None, out=None, figures=false, **settings))]
+    #[expect(clippy::too_many_arguments, reason = "Python's keywords, one argument each")]
+    fn plan(
+        &self,
+        py: Python<'_>,
+        scene: &Bound<'_, PyAny>,
+        input: &Bound<'_, PyAny>,
+        bound: Option<&Bound<'_, PyDict>>,
+        to: Option<&Bound<'_, PyDict>>,
+        at_rest: bool,
+        segments: Option<&Bound<'_, PyAny>>,
+        evaluations: Option<&Bound<'_, PyAny>>,
+        model: Option<&Bound<'_, PyModel>>,
+        out: Option<PathBuf>,
+        figures: bool,
+        settings: Option<&Bound<'_, PyDict>>,
+    ) -> PyResult<Py<PyAny>> {
+        self.plan_on(py, scene, input, (bound, to, at_rest), (segments, evaluations), model, out, figures, settings)
+    }
+
+    /// The best closed gait of a kinematic system, as `ezy
+    /// gait-optimize` does: from `gait` (`"a1=0.6*cos(t), a2=0.6*sin(t)"`,
+    /// t over one period [0, 2 pi]), the Fourier coefficients that make
+    /// `maximize` or `minimize` (`"dx"`, `"dy"` [m], `"dtheta"` [rad],
+    /// `"along(1,0)"`) largest or smallest, per path length with
+    /// `per_length=True`; `order` (`"first"`, `"second"`,
+    /// `"reconstructed"`), `harmonics`, `centre_only`, `range={"a1": (lo,
+    /// hi)}` [rad], `margin` (0 to 1, from the singular set), `budget`
+    /// (the most path length [rad]), `max_evaluations`, `body`,
+    /// `set={param: value}`. `target` is a scene, a model's key or an
+    /// `ezy.Model`. Returns a DataFrame of the coefficients (start,
+    /// optimum, bounds, gradient), `.attrs["history"]` (every
+    /// evaluation), `.attrs["report"]`.
+    ///
+    /// Raises EzyError with the command line's message in this call's
+    /// keywords: a model without shape variables or not kinematic, a
+    /// start on the singular set, a range lo > hi; TypeError for keywords
+    /// of the wrong kind.
+    #[pyo3(signature = (target, *, gait, maximize=None, minimize=None, per_length=false, order=None, harmonics=None, centre_only=false, range=None, margin=None, budget=None, max_evaluations=None, body=None, set=None, model=None, out=None, figures=false))]
+    #[expect(clippy::too_many_arguments, reason = "Python's keywords, one argument each")]
+    fn gait_optimize(
+        &self,
+        py: Python<'_>,
+        target: &Bound<'_, PyAny>,
+        gait: &Bound<'_, PyAny>,
+        maximize: Option<&Bound<'_, PyAny>>,
+        minimize: Option<&Bound<'_, PyAny>>,
+        per_length: bool,
+        order: Option<&Bound<'_, PyAny>>,
+        harmonics: Option<&Bound<'_, PyAny>>,
+        centre_only: bool,
+        range: Option<&Bound<'_, PyDict>>,
+        margin: Option<&Bound<'_, PyAny>>,
+        budget: Option<&Bound<'_, PyAny>>,
+        max_evaluations: Option<&Bound<'_, PyAny>>,
+        body: Option<&Bound<'_, PyAny>>,
+        set: Option<&Bound<'_, PyDict>>,
+        model: Option<&Bound<'_, PyModel>>,
+        out: Option<PathBuf>,
+        figures: bool,
+    ) -> PyResult<Py<PyAny>> {
+        self.gait_optimize_on(
+            py,
+            target,
+            gait,
+            (maximize, minimize),
+            (per_length, order, harmonics, centre_only),
+            (range, margin, budget),
+            (max_evaluations, body, set),
+            model,
+            out,
+            figures,
+        )
     }
 
     /// Linearizes `scene` at time `at` [s] of its run, as `ezy linearize`

@@ -73,8 +73,8 @@ pub(crate) const COMMANDS: &[Command] = &[
     Command { name: "sensitivity", cli: sensitivity::cli, exec: sensitivity::exec, python: true },
     Command { name: "fit", cli: fit::cli, exec: fit::exec, python: true },
     Command { name: "optimize", cli: optimize::cli, exec: optimize::exec, python: true },
-    Command { name: "gait-optimize", cli: gait_optimize::cli, exec: gait_optimize::exec, python: false },
-    Command { name: "plan", cli: plan::cli, exec: plan::exec, python: false },
+    Command { name: "gait-optimize", cli: gait_optimize::cli, exec: gait_optimize::exec, python: true },
+    Command { name: "plan", cli: plan::cli, exec: plan::exec, python: true },
 ];
 
 /// The command a bare `ezy` runs (with no arguments).

@@ -157,4 +157,3 @@ fn roller_timings() {
         eprintln!("{n} segments: {:.3} s per evaluation", m.seconds / m.evaluations as f64);
     }
 }
-

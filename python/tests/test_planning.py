@@ -1,0 +1,116 @@
+"""`ezy.plan` and `ezy.gait_optimize` from a notebook cell: a sleigh typed
+as text planned from rest to rest against its closed form, and against
+the command line on the same text; an unreachable target refused with
+its violation; the kinematic snake's best circle centre against the
+command line's and the library's optimum."""
+
+import os
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import pytest
+
+import ezy
+
+from test_ezy import cli
+
+SLEIGH = """/// A sleigh: one body on a skate behind its centre of mass.
+pub struct Sleigh {
+    param m = 2.0;
+    param I = 0.1;
+    param a = 0.5;
+    body s(x, y, phi) { mass: m, inertia: I }
+    point P on s at (-a, 0);
+    skate P: P along (1, 0);
+}
+"""
+
+MASS, D, T = 2.0, 1.0, 2.0
+
+
+def sleigh_scene(model):
+    """The sleigh at rest, pushed along its skate by `push.fx` [N]."""
+    return ezy.scene(
+        model=model,
+        name="sleigh-push",
+        t_end=T,
+        initial={"q": {"x": 0.0, "y": 0.0, "phi": 0.0}, "qd": {"x": 0.0, "phi": 0.0}},
+        integrator={"method": "dop853", "rtol": 1e-12, "atol": 1e-12},
+        effects={"push": {"kind": "force", "at": "s", "frame": "body", "fx": {"constant": 0.0}}},
+    )
+
+
+def test_a_sleigh_typed_in_a_cell_is_planned_to_its_closed_form(tmp_path):
+    m = ezy.Model(SLEIGH)
+    plan = ezy.plan(sleigh_scene(m), input="push.fx", to={"x": D}, at_rest=True, segments=4)
+    assert isinstance(plan, pd.DataFrame)
+    # least effort from rest to rest: F(t) = m 6 d / T^2 (1 - 2 t / T),
+    # linear, so 4 segments hold it; effort 12 d^2 m^2 / T^3
+    force = MASS * 6.0 * D / T**2 * (1.0 - 2.0 * plan["t"] / T)
+    assert np.max(np.abs(plan["push.fx"] - force)) <= 1e-6 * MASS * 6.0 * D / T**2
+    s = plan.attrs["summary"]
+    assert s["status"].iloc[0] == "optimal"
+    cost = 12.0 * D**2 * MASS**2 / T**3
+    assert abs(s["effort"].iloc[0] - cost) <= 1e-8 * cost
+    # the verification run (an ordinary run of the planned input) ends at the target
+    assert abs(s["run_error_x"].iloc[0]) <= 1e-6 and abs(s["run_error_xd"].iloc[0]) <= 1e-6
+    assert "push.fx" in plan.attrs["units"] and "optimal" in plan.attrs["report"]
+    # the command line on the same text: the same table, number for number
+    (tmp_path / "sleigh.ezy").write_text(SLEIGH)
+    toml = tmp_path / "push.toml"
+    toml.write_text(
+        'name = "sleigh-push"\ndescription = "a sleigh pushed"\nmodel = "sleigh.ezy"\nt_end = 2.0\n'
+        '[initial]\nq = { x = 0.0, y = 0.0, phi = 0.0 }\nqd = { x = 0.0, phi = 0.0 }\n'
+        '[integrator]\nmethod = "dop853"\nrtol = 1e-12\natol = 1e-12\n'
+        '[effects.push]\nkind = "force"\nat = "s"\nframe = "body"\nfx = { constant = 0.0 }\n'
+    )
+    out = tmp_path / "out"
+    code, _, err = cli("plan", str(toml), "--input", "push.fx", "--to", "x=1", "--at-rest", "--segments", "4",
+                       "--no-figures", "--out", str(out))
+    assert code == 0, err
+    table = pd.read_csv(out / "plan.csv", comment="#")
+    assert list(table.columns) == list(plan.columns)
+    assert np.array_equal(table.to_numpy(), plan.to_numpy())
+
+
+def test_an_unreachable_target_raises_with_its_violation():
+    m = ezy.Model(SLEIGH)
+    # |F| <= 0.1 N moves the 2 kg sleigh rest to rest at most a T^2 / 4 = 0.05 m
+    with pytest.raises(ezy.EzyError, match="infeasible"):
+        ezy.plan(sleigh_scene(m), input="push.fx", bound={"push.fx": (-0.1, 0.1)}, to={"x": D}, at_rest=True,
+                 segments=4)
+
+
+def test_plan_refuses_bad_keywords_by_name():
+    m = ezy.Model(SLEIGH)
+    with pytest.raises(ezy.EzyError, match="push.fx.*2:1|2:1.*push.fx"):
+        ezy.plan(sleigh_scene(m), input="push.fx", bound={"push.fx": (2.0, 1.0)}, to={"x": D})
+    with pytest.raises(TypeError, match="segments"):
+        ezy.plan(sleigh_scene(m), input="push.fx", to={"x": D}, segments="four")
+    with pytest.raises(TypeError, match="bound"):
+        ezy.plan(sleigh_scene(m), input="push.fx", bound={"push.fx": "wide"}, to={"x": D})
+    with pytest.raises(ezy.EzyError, match="nope"):
+        ezy.plan(sleigh_scene(m), input="nope.fx", to={"x": D})
+
+
+CIRCLE = "alpha1=0.7+0.6*cos(t),alpha2=-0.6+0.6*sin(t)"
+
+
+def test_the_snakes_best_circle_centre_is_the_command_lines(tmp_path):
+    best = ezy.gait_optimize("kinematic-snake", gait=CIRCLE, maximize="dy", order="second", centre_only=True)
+    rows = best.set_index("coefficient")
+    # the library's optimum (a dense scan of `predict` agrees to its 0.006)
+    assert abs(rows.loc["alpha1.a0", "optimum"] - 1.056717) <= 1e-5
+    assert abs(rows.loc["alpha2.a0", "optimum"] + 1.056717) <= 1e-5
+    assert len(best.attrs["history"]) >= 2 and "dy" in best.attrs["report"]
+    out = tmp_path / "out"
+    code, _, err = cli("gait-optimize", "--gait", CIRCLE, "--maximize", "dy", "--order", "second", "--centre-only",
+                       "--no-figures", "--out", str(out))
+    assert code == 0, err
+    table = pd.read_csv(out / "gait_optimum.csv", comment="#")
+    assert np.array_equal(table["optimum"].to_numpy(), best["optimum"].to_numpy())
+    with pytest.raises(TypeError, match="maximize"):
+        ezy.gait_optimize("kinematic-snake", gait=CIRCLE)
+    with pytest.raises(TypeError, match="margin"):
+        ezy.gait_optimize("kinematic-snake", gait=CIRCLE, maximize="dx", margin="wide")
