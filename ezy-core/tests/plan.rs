@@ -126,6 +126,39 @@ fn coarser_shooting_intervals_give_the_same_plan() {
     refused(Plan::new(p.inputs.clone(), p.target.clone(), p.settings, sleigh), "0 shooting intervals");
 }
 
+/// Calls of the stop hooks of `a_stop_ends_the_search_at_once`, and
+/// the call from which the second says stop.
+static ASKED: std::sync::atomic::AtomicUsize = std::sync::atomic::AtomicUsize::new(0);
+static STOP_AT: std::sync::atomic::AtomicUsize = std::sync::atomic::AtomicUsize::new(usize::MAX);
+
+/// A stop hook that counts its calls and says stop from `STOP_AT` on.
+fn stop_at() -> bool {
+    ASKED.fetch_add(1, std::sync::atomic::Ordering::Relaxed) >= STOP_AT.load(std::sync::atomic::Ordering::Relaxed)
+}
+
+/// The stop hook ends the search at once: stopped halfway through (by
+/// the hook's calls of a whole search), the best point so far, said
+/// stopped, never optimal, no verification run, fewer evaluations; a
+/// hook that says stop before any point is evaluated ends it with
+/// `Stopped`.
+#[test]
+fn a_stop_ends_the_search_at_once() {
+    use std::sync::atomic::Ordering::Relaxed;
+    let whole = plan((-100.0, 100.0), 1.0, 2.0, 4).stop_when(stop_at).solve().unwrap();
+    assert!(whole.optimal() && !whole.stopped);
+    let calls = ASKED.swap(0, Relaxed);
+    STOP_AT.store(calls / 2, Relaxed);
+    let m = plan((-100.0, 100.0), 1.0, 2.0, 4).stop_when(stop_at).solve().unwrap();
+    show(&m);
+    eprintln!("{calls} calls of the hook in the whole search, {} evaluations", whole.evaluations);
+    assert!(m.stopped && !m.optimal(), "{:?}", m.status);
+    assert!(m.termination.contains("stopped"), "{}", m.termination);
+    assert!(m.verification.is_err());
+    assert!(m.evaluations < whole.evaluations, "{} evaluations of {}", m.evaluations, whole.evaluations);
+    let e = plan((-100.0, 100.0), 1.0, 2.0, 4).stop_when(|| true).solve().unwrap_err();
+    assert!(matches!(e, ezy_core::analysis::AnalysisError::Stopped), "{e}");
+}
+
 /// From a zero input (the sleigh stays at rest: the warm start is its
 /// start, every gradient of the effort zero) the solver must move: the
 /// effort is positive and the target met by the verification run.

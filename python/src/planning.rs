@@ -13,6 +13,12 @@ use crate::model::PyModel;
 use crate::settings::{Overrides, names_kw, number_kw, over_args, sets_of, text_kw, whole_kw};
 use crate::words::Said;
 
+/// A keyword's value, absent or any Python object.
+type Kw<'a, 'py> = Option<&'a Bound<'py, PyAny>>;
+
+/// A keyword's dict, absent or given.
+type KwDict<'a, 'py> = Option<&'a Bound<'py, PyDict>>;
+
 /// `{name: value}` as `--flag NAME=VALUE,..` (nothing for an empty dict).
 fn pairs_arg(flag: &str, d: Option<&Bound<'_, PyDict>>) -> PyResult<Vec<String>> {
     let pairs = sets_of(d)?;
@@ -76,12 +82,12 @@ impl Toolkit {
         py: Python<'_>,
         scene: &Bound<'_, PyAny>,
         input: &Bound<'_, PyAny>,
-        (bound, to, at_rest): (Option<&Bound<'_, PyDict>>, Option<&Bound<'_, PyDict>>, bool),
-        (segments, evaluations): (Option<&Bound<'_, PyAny>>, Option<&Bound<'_, PyAny>>),
+        (bound, to, at_rest): (KwDict<'_, '_>, KwDict<'_, '_>, bool),
+        (segments, evaluations): (Kw<'_, '_>, Kw<'_, '_>),
         model: Option<&Bound<'_, PyModel>>,
         out: Option<PathBuf>,
         figures: bool,
-        settings: Option<&Bound<'_, PyDict>>,
+        settings: KwDict<'_, '_>,
     ) -> PyResult<Py<PyAny>> {
         let inputs = names_kw("plan", "input", Some(input))?.unwrap_or_default();
         let mut extra = Vec::new();
@@ -117,14 +123,10 @@ impl Toolkit {
         py: Python<'_>,
         target: &Bound<'_, PyAny>,
         gait: &Bound<'_, PyAny>,
-        (maximize, minimize): (Option<&Bound<'_, PyAny>>, Option<&Bound<'_, PyAny>>),
-        (per_length, order, harmonics, centre_only): (bool, Option<&Bound<'_, PyAny>>, Option<&Bound<'_, PyAny>>, bool),
-        (range, margin, budget): (Option<&Bound<'_, PyDict>>, Option<&Bound<'_, PyAny>>, Option<&Bound<'_, PyAny>>),
-        (max_evaluations, body, set): (
-            Option<&Bound<'_, PyAny>>,
-            Option<&Bound<'_, PyAny>>,
-            Option<&Bound<'_, PyDict>>,
-        ),
+        (maximize, minimize): (Kw<'_, '_>, Kw<'_, '_>),
+        (per_length, order, harmonics, centre_only): (bool, Kw<'_, '_>, Kw<'_, '_>, bool),
+        (range, margin, budget): (KwDict<'_, '_>, Kw<'_, '_>, Kw<'_, '_>),
+        (max_evaluations, body, set): (Kw<'_, '_>, Kw<'_, '_>, KwDict<'_, '_>),
         model: Option<&Bound<'_, PyModel>>,
         out: Option<PathBuf>,
         figures: bool,

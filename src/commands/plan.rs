@@ -329,8 +329,9 @@ fn plan_model<M: Model>(
         })
     };
     let shared = Arc::clone(&build);
-    let plan =
-        Plan::new(inputs, target, plan_settings, move |t: &[Table]| shared(t)).map_err(analysis_error(&opts.out))?;
+    let plan = Plan::new(inputs, target, plan_settings, move |t: &[Table]| shared(t))
+        .map_err(analysis_error(&opts.out))?
+        .stop_when(|| crate::output::transaction::pending().is_some());
     crate::output::transaction::arm_signals();
     let held = OutLock::take(&opts.out)?;
     if opts.progress {

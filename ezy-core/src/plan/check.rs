@@ -59,6 +59,11 @@ pub(super) fn request(inputs: &[Input], target: &Target, s: &PlanSettings) -> Re
     if s.max_unknowns > MAX_UNKNOWNS {
         return fail(format!("a limit of {} unknowns: at most {MAX_UNKNOWNS} (SLSQP is dense)", s.max_unknowns));
     }
+    // segments alone past the limit: refused before any problem is built
+    let at_least = inputs.len().saturating_mul(s.segments.saturating_add(1));
+    if at_least > s.max_unknowns {
+        return fail(unknowns(at_least, s, "input nodes alone"));
+    }
     let mesh = (0..=s.segments).map(|k| s.t_end * k as f64 / s.segments as f64);
     for i in inputs {
         i.guess
@@ -74,11 +79,6 @@ pub(super) fn request(inputs: &[Input], target: &Target, s: &PlanSettings) -> Re
                 i.name, i.lower, i.upper
             ));
         }
-    }
-    // segments alone past the limit: refused before any problem is built
-    let at_least = inputs.len().saturating_mul(s.segments.saturating_add(1));
-    if at_least > s.max_unknowns {
-        return fail(unknowns(at_least, s, "input nodes alone"));
     }
     Ok(())
 }

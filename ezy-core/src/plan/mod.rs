@@ -297,6 +297,9 @@ pub struct Plan<M: Model> {
     /// Mesh and limits.
     pub settings: PlanSettings,
     build: Arc<BuildInputs<M>>,
+    /// Asked between segment runs and at each step of one
+    /// ([`Plan::stop_when`]).
+    stop: Option<fn() -> bool>,
 }
 
 impl<M: Model> std::fmt::Debug for Plan<M> {
@@ -401,6 +404,9 @@ pub struct Maneuver {
     pub runs: usize,
     /// Wall time of the solve \[s\].
     pub seconds: f64,
+    /// The stop hook ended the search ([`Plan::stop_when`]): the best
+    /// point so far, not verified, never optimal.
+    pub stopped: bool,
 }
 
 impl Maneuver {
@@ -429,7 +435,23 @@ impl<M: Model> Plan<M> {
         build: impl Fn(&[Table]) -> Result<Problem<M>, SimError> + Send + Sync + 'static,
     ) -> Result<Self, AnalysisError> {
         check::request(&inputs, &target, &settings)?;
-        Ok(Self { inputs, target, settings, build: Arc::new(build) })
+        Ok(Self { inputs, target, settings, build: Arc::new(build), stop: None })
+    }
+
+    /// The same plan asking `stop` (a signal handler's flag: `ezy` stops
+    /// on Ctrl-C) before each segment run and at every step of one: a
+    /// stop ends the search at once with the best point so far
+    /// ([`Maneuver::stopped`]; no verification run), or with
+    /// [`AnalysisError::Stopped`] before the first point is evaluated.
+    #[must_use]
+    pub fn stop_when(mut self, stop: fn() -> bool) -> Self {
+        self.stop = Some(stop);
+        self
+    }
+
+    /// Whether the stop hook says stop.
+    fn stopping(&self) -> bool {
+        self.stop.is_some_and(|s| s())
     }
 
     /// The tables over `[0, T]` through `w`'s input nodes.
@@ -461,6 +483,9 @@ impl<M: Model> Plan<M> {
                 let z = node.comps.iter().map(|&c| x[k][c]).collect();
                 Some((Arc::new(node), z))
             };
+            if self.stopping() {
+                return Err(AnalysisError::Stopped);
+            }
             let (_, end) = shooting::SegmentSpec::new(&self.build, h, u, start).simulate()?;
             x.push(end);
         }
@@ -539,6 +564,7 @@ impl<M: Model> Plan<M> {
         let mut x = self.warm_start(&first, h, &guess)?;
         let mut tr = Transcription::new(&self.build, names, (n_seg, h, self.settings.intervals), &first.model, &x)?;
         tr.runs = n_seg;
+        tr.stop = self.stop;
         let mut w = guess;
         w.resize(tr.n, 0.0);
         tr.gather(&x, &mut w);
@@ -556,7 +582,11 @@ impl<M: Model> Plan<M> {
             // a jump in an independent component is a violation; one in
             // a dependent component past it, the partition's conditioning
             let limit = JUMP * self.settings.tolerance.max(nlp::violation(point).0);
-            if jump.0 <= limit || termination.len() > RESTARTS || evaluations + 2 > self.settings.max_evaluations {
+            if ended.stopped
+                || jump.0 <= limit
+                || termination.len() > RESTARTS
+                || evaluations + 2 > self.settings.max_evaluations
+            {
                 break (ended, sc, bounds);
             }
             // the nodes partitioned again where the search ended
@@ -572,11 +602,19 @@ impl<M: Model> Plan<M> {
         let stationarity = nlp::stationarity(point, &sc, &bounds);
         let (v, row) = nlp::violation(point);
         let jump = state_jump(point, &tr.names);
-        let status = self.verdict(&tr, point, (&bounds, stationarity, &jump), &termination);
+        let status = match self.verdict(&tr, point, (&bounds, stationarity, &jump), &termination) {
+            Status::Optimal if ended.stopped => {
+                Status::NotConverged { reason: format!("{termination}: the best point when it stopped") }
+            }
+            s => s,
+        };
         let tables = self.tables(&tr, &point.w);
         let last = point.ends.last().cloned().unwrap_or_default();
-        let verification =
-            verify::verify(&*self.build, &tables, self.settings.t_end, &target, &last).map_err(|e| e.to_string());
+        let verification = if ended.stopped {
+            Err("stopped before the verification run".into())
+        } else {
+            verify::verify(&*self.build, &tables, self.settings.t_end, &target, &last).map_err(|e| e.to_string())
+        };
         let mut states = point.starts.clone();
         states.push(last);
         Ok(Maneuver {
@@ -596,6 +634,7 @@ impl<M: Model> Plan<M> {
             evaluations,
             runs: tr.runs,
             seconds: clock.elapsed().as_secs_f64(),
+            stopped: ended.stopped,
         })
     }
 }

@@ -64,6 +64,8 @@ struct State<'a, M: Model> {
     fatal: Option<AnalysisError>,
     /// SLSQP proposed a point that is not finite.
     broke: bool,
+    /// The stop hook ended the search.
+    stopped: bool,
 }
 
 impl<M: Model> State<'_, M> {
@@ -77,7 +79,7 @@ impl<M: Model> State<'_, M> {
     }
 
     fn at(&mut self, x: &[f64]) {
-        if self.last.as_ref().is_some_and(|(lx, _)| lx == x) || self.fatal.is_some() || self.broke {
+        if self.last.as_ref().is_some_and(|(lx, _)| lx == x) || self.fatal.is_some() || self.broke || self.stopped {
             return;
         }
         if x.iter().any(|v| !v.is_finite()) {
@@ -101,6 +103,10 @@ impl<M: Model> State<'_, M> {
                 }
                 self.last = Some((x.to_vec(), Ok(p)));
             }
+            Err(AnalysisError::Stopped) => {
+                self.stopped = true;
+                self.last = Some((x.to_vec(), Err("stopped".into())));
+            }
             Err(e) => {
                 self.failures += 1;
                 self.last = Some((x.to_vec(), Err(e.to_string())));
@@ -114,7 +120,7 @@ impl<M: Model> State<'_, M> {
     fn point(&mut self, x: &[f64]) -> Option<&Point> {
         self.at(x);
         match &self.last {
-            Some((lx, Ok(p))) if lx == x && self.fatal.is_none() && !self.broke => Some(p),
+            Some((lx, Ok(p))) if lx == x && self.fatal.is_none() && !self.broke && !self.stopped => Some(p),
             _ => None,
         }
     }
@@ -125,6 +131,13 @@ impl<M: Model> State<'_, M> {
         let Some(p) = self.point(x) else {
             if let Some(g) = grad {
                 g.fill(0.0);
+            }
+            if self.stopped {
+                // the best point's value, flat: SLSQP ends at once
+                return self.best.as_ref().map_or(0.0, |b| match phase {
+                    Phase::Effort => b.effort / sc.f,
+                    Phase::Violation => 0.5 * b.c.iter().zip(&sc.c).map(|(c, s)| (c / s) * (c / s)).sum::<f64>(),
+                });
             }
             let worst = self.best.as_ref().map_or(1.0, |b| b.effort / sc.f);
             return 2.0 * worst.abs() + 1.0;
@@ -161,6 +174,9 @@ impl<M: Model> State<'_, M> {
             if let Some(g) = grad {
                 g.fill(0.0);
             }
+            if self.stopped {
+                return self.best.as_ref().map_or(0.0, |b| (sign * b.c[i] / sc.c[i] - eps).min(0.0));
+            }
             return 1.0;
         };
         if let Some(g) = grad {
@@ -186,6 +202,8 @@ pub(super) struct Ended {
     /// SLSQP's termination in words.
     pub termination: String,
     pub evaluations: usize,
+    /// The stop hook ended it.
+    pub stopped: bool,
 }
 
 /// Minimizes the effort of `tr` from `w0` within `bounds` (n, unscaled)
@@ -229,6 +247,7 @@ pub(super) fn solve<M: Model>(
         failures: 0,
         fatal: None,
         broke: false,
+        stopped: false,
     });
     let tols = |n: usize| slsqp::StopTols { ftol_rel: 1e-12, xtol_abs: vec![1e-10; n], ..slsqp::StopTols::default() };
     let termination = {
@@ -254,8 +273,11 @@ pub(super) fn solve<M: Model>(
         termination = format!("{termination}, after {FAILURES} evaluations in a row failed (the last: {e})");
         st.fatal = Some(e);
     }
+    if st.stopped {
+        termination = format!("{termination}, stopped by its stop hook (a signal)");
+    }
     let infeasible = st.best.as_ref().is_none_or(|b| violation(b).0 > tol);
-    if infeasible && st.evaluations < max && st.fatal.is_none() {
+    if infeasible && st.evaluations < max && st.fatal.is_none() && !st.stopped {
         // the violation alone, from the least violating point
         let from =
             st.least.as_ref().map_or_else(|| x0.clone(), |p| p.w.iter().zip(&sc.w).map(|(a, s)| a / s).collect());
@@ -277,7 +299,7 @@ pub(super) fn solve<M: Model>(
     let (Some(best), Some(least)) = (st.best, st.least) else {
         return Err(AnalysisError::Numerics { reason: "no point of the plan was evaluated".into() });
     };
-    Ok(Ended { best, least, termination, evaluations: st.evaluations })
+    Ok(Ended { best, least, termination, evaluations: st.evaluations, stopped: st.stopped })
 }
 
 /// SLSQP's outcome in words.

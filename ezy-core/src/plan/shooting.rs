@@ -177,17 +177,18 @@ impl<M: Model> SegmentSpec<M> {
         out
     }
 
-    /// The segment's run with its sensitivities.
+    /// The segment's run with its sensitivities, `stop` asked at every
+    /// step.
     ///
     /// # Errors
-    /// The problem's or the sensitivity run's.
-    pub fn run(&self, inputs: &[String]) -> Result<SegmentRun, AnalysisError> {
+    /// The problem's or the sensitivity run's; [`AnalysisError::Stopped`].
+    pub fn run(&self, inputs: &[String], stop: Option<fn() -> bool>) -> Result<SegmentRun, AnalysisError> {
         let problem = self.problem()?;
         let names = problem.state_names();
         let n2 = 2 * problem.model.info().nq();
         let (x0, _) = problem.initial_state()?;
         let params = self.parameters(&names, inputs);
-        let sens = problem.sensitivities_at(&params, &[self.h], None)?;
+        let sens = problem.sensitivities_at(&params, &[self.h], stop)?;
         let (Some(x), Some(s)) = (sens.x.last(), sens.s.last()) else {
             return Err(AnalysisError::Numerics { reason: "a segment's run gave no end state".into() });
         };

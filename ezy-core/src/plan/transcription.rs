@@ -65,6 +65,8 @@ pub(super) struct Transcription<M: Model> {
     pub rows: Vec<(String, usize)>,
     /// Segment runs made (with sensitivities or plain).
     pub runs: usize,
+    /// Asked before each segment and at every step of its run.
+    pub stop: Option<fn() -> bool>,
 }
 
 impl<M: Model> Transcription<M> {
@@ -106,6 +108,7 @@ impl<M: Model> Transcription<M> {
             target: Vec::new(),
             rows: Vec::new(),
             runs: 0,
+            stop: None,
         })
     }
 
@@ -208,7 +211,8 @@ impl<M: Model> Transcription<M> {
     /// through the chain.
     ///
     /// # Errors
-    /// A segment's problem or run that fails.
+    /// A segment's problem or run that fails; [`AnalysisError::Stopped`]
+    /// where the stop hook says so.
     pub fn evaluate(&mut self, w: &[f64]) -> Result<Point, AnalysisError> {
         let (effort, effort_grad) = self.effort(w);
         let (mut starts, mut ends, mut c, mut jac) = (Vec::new(), Vec::new(), Vec::new(), Vec::new());
@@ -217,7 +221,10 @@ impl<M: Model> Transcription<M> {
         let mut d_end: Vec<Vec<f64>> = vec![vec![0.0; self.n]; n2];
         let mut previous: Option<Vec<f64>> = None;
         for k in 0..self.segments {
-            let run = self.spec(k, w, previous.as_deref()).run(&self.inputs)?;
+            if self.stop.is_some_and(|s| s()) {
+                return Err(AnalysisError::Stopped);
+            }
+            let run = self.spec(k, w, previous.as_deref()).run(&self.inputs, self.stop)?;
             self.runs += 1;
             let node = self.nodes[k].clone();
             let nz = node.as_ref().map_or(0, |n| n.comps.len());
