@@ -249,9 +249,9 @@ fn bad_requests_are_refused_by_name() {
         (&["--input", "push.fx", "--to", "x=1", "--segments", "5000"], "--segments 5000: 29996 unknowns"),
         (
             &["--input", "push.fx", "--to", "x=1", "--segments", "5000"],
-            "more than the limit of 2000 (ezy_core::plan::MAX_UNKNOWNS",
+            "more than the limit of 500 (ezy_core::plan::MAX_UNKNOWNS",
         ),
-        (&["--input", "push.fx", "--to", "x=1", "--segments", "18446744073709551615"], "more than the limit of 2000"),
+        (&["--input", "push.fx", "--to", "x=1", "--segments", "18446744073709551615"], "more than the limit of 500"),
         (&["--input", "push.fx", "--to", "x=1", "--segments", "0"], "0 segments"),
         (&["--input", "push.fx", "--input", "push.fx", "--to", "x=1"], "--input: `push.fx` is given twice"),
         (&["--input", "push.fx", "--to", "x=1,x=2"], "--to: `x` is given twice"),
@@ -265,5 +265,5 @@ fn bad_requests_are_refused_by_name() {
     // 5000 segments: 5001 input nodes and 5 = 2 * 3 - 1 state components
     // (the skate's one constraint) at each of 4999 inner nodes
     assert_eq!(5001 + 5 * 4999, 29996);
-    assert_eq!(ezy_core::plan::MAX_UNKNOWNS, 2000);
+    assert_eq!(ezy_core::plan::MAX_UNKNOWNS, 500);
 }

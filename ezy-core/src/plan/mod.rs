@@ -135,8 +135,12 @@ use transcription::Transcription;
 pub type BuildInputs<M> = dyn Fn(&[Table]) -> Result<Problem<M>, SimError> + Send + Sync;
 
 /// Most unknowns a plan takes (input nodes and nodes' state components):
-/// SLSQP is dense, its work `O(n^2)` memory and `O(n^3)` a step.
-pub const MAX_UNKNOWNS: usize = 2000;
+/// SLSQP is dense, its work `O(n^2)` memory and `O(n^3)` a step, and its
+/// quadratic subproblem (each equality a pair of inequalities) calls
+/// nothing back: measured on the EzyRoller (2 cores), 590 unknowns stop
+/// on Ctrl-C 2 s after the signal, 1395 not in 10 minutes. 500 keeps a
+/// stop near a second and holds the EzyRoller's 50 segments (345).
+pub const MAX_UNKNOWNS: usize = 500;
 
 /// Stationarity (relative residual of `grad f + J^T lambda = 0`) below
 /// which a feasible point is optimal.
