@@ -286,6 +286,7 @@ pub const PYTHON: Rules = Rules {
         // floor 3: on a model and the kit
         f("command", 3, "a command on a scene through the command line; a quantity of the caller's Python code"),
         f("scene", 3, "`ezy.Scene` and `ezy.Effect`, a scene to change and run"),
+        f("planning", 3, "`plan` and `gait_optimize` through the command line; a call on a scene or a model"),
         // floor 4: the module's functions, over everything
         f("toolkit", 4, "the module's functions, `Toolkit`'s methods"),
     ],
