@@ -457,6 +457,7 @@ def plan(
     at_rest: bool = False,
     segments: Optional[int] = None,
     evaluations: Optional[int] = None,
+    intervals: Optional[int] = None,
     model: Optional[Model] = None,
     out: Optional[_Path] = None,
     figures: bool = False,
@@ -465,7 +466,8 @@ def plan(
     """The least-effort inputs that take `scene` from its initial state to a
     target at its t_end: `input` names the effects' time functions planned
     (`"motor.torque"`), each a piecewise-linear table on `segments`
-    segments, within `bound={input: (lower, upper)}`; the target
+    segments (`intervals` shooting intervals of them, default 1: single
+    shooting), within `bound={input: (lower, upper)}`; the target
     `to={"x1": 1.0}` (a velocity is its coordinate's name with `d`) and
     `at_rest=True`. A DataFrame of the nodes (`t` [s], the inputs, the
     state); `.attrs["summary"]` (status, effort [unit^2 s], violation, the

@@ -246,7 +246,16 @@ fn bad_requests_are_refused_by_name() {
         (&["--input", "push", "--to", "x=1"], "--input `push`: expected EFFECT.FIELD"),
         (&["--input", "push.fx", "--to", "z=1"], "--to `z=1`: the model has no coordinate `z`"),
         (&["--input", "push.fx"], "no target: give --to"),
-        (&["--input", "push.fx", "--to", "x=1", "--segments", "5000"], "--segments 5000: 29996 unknowns"),
+        (
+            &["--input", "push.fx", "--to", "x=1", "--segments", "5000"],
+            "--segments 5000: 5001 unknowns (5001 input nodes)",
+        ),
+        (
+            &["--input", "push.fx", "--to", "x=1", "--segments", "100", "--intervals", "100"],
+            "--segments 100: 596 unknowns (101 input nodes and 5 state components at each of the 99 inner nodes",
+        ),
+        (&["--input", "push.fx", "--to", "x=1", "--segments", "4", "--intervals", "5"], "--intervals 5: give 1"),
+        (&["--input", "push.fx", "--to", "x=1", "--intervals", "0"], "--intervals 0: give 1"),
         (
             &["--input", "push.fx", "--to", "x=1", "--segments", "5000"],
             "more than the limit of 500 (ezy_core::plan::MAX_UNKNOWNS",
@@ -262,8 +271,111 @@ fn bad_requests_are_refused_by_name() {
         assert!(!r.status.success() && err.contains(words), "{extra:?}: {said}{err}");
         assert!(!out.exists(), "{extra:?} wrote {}", out.display());
     }
-    // 5000 segments: 5001 input nodes and 5 = 2 * 3 - 1 state components
-    // (the skate's one constraint) at each of 4999 inner nodes
-    assert_eq!(5001 + 5 * 4999, 29996);
+    // 100 segments, a node at each: 101 input nodes and 5 = 2 * 3 - 1
+    // state components (the skate's one constraint) at each of 99 inner
+    // nodes
+    assert_eq!(101 + 5 * 99, 596);
     assert_eq!(ezy_core::plan::MAX_UNKNOWNS, 500);
+}
+
+/// The EzyRoller driven by its hinge alone never comes back to rest, the
+/// reason `ezy plan`'s rest-to-rest target on the `drive` scene is
+/// infeasible (ezy-core's `roller::rest_to_rest_is_infeasible`). With the
+/// hinge angle `psi(t)` prescribed (the `ezyroller_driven` model), the
+/// speed `u` of the rear skate along its blade obeys `u' = beta(psi) psi'
+/// u + gamma(psi) psi'^2 + delta(psi) psi''`, linear in `u`; with
+/// `w = u / E(psi)`, `E' = beta E`, a motion from rest to rest of the
+/// hinge changes `w` by `int K(psi) psi'^2 dt`, `K = (gamma - delta' +
+/// delta beta) / E`, which is positive at every hinge angle (`E` changes
+/// sign where the fork's skate line passes through the rear skate, and
+/// the numerator with it), so `w` only grows. The oracle is ezy's own
+/// runs: shape motions `psi(t) = pi + sum_k c_k (1 - cos(2 pi k t / T))`
+/// (at rest at both ends, the fork straight at the end; some crossing the
+/// fork's singular angle) from rest all end moving forward, `u(T) > 0`
+/// by more than 1e-5 m/s, against the runs' 1e-10 accuracy. The test can
+/// fail: the same dynamics are reversible, and the same (time-symmetric)
+/// shape motion started from the end state with its velocities reversed
+/// ends at rest to 1e-8, where it began.
+#[test]
+fn the_ezyroller_never_comes_back_to_rest() {
+    use ezy_core::effects::{Harmonic, Waveform};
+    use ezy_core::problem::Problem;
+    use std::f64::consts::PI;
+    let cases: [(f64, [f64; 3]); 6] = [
+        (2.0, [0.05, 0.0, 0.0]),
+        (4.0, [0.3, -0.1, 0.05]),
+        (3.0, [-0.2, 0.15, 0.1]),
+        (6.0, [0.1, 0.2, -0.15]),
+        // crossing the fork's singular angle (1.318 rad from straight) twice
+        (4.0, [0.75, 0.0, 0.0]),
+        (5.0, [-0.5, -0.3, 0.0]),
+    ];
+    let names = ["x1", "y1", "phi1", "x2", "y2", "phi2"];
+    for (t_end, c) in cases {
+        // the model's drive angle is phi1 - phi2 = -psi
+        let mut terms =
+            vec![Harmonic { amplitude: -PI - c.iter().sum::<f64>(), omega: 0.0, phase: 0.0, phase_step: 0.0 }];
+        for (k, ck) in c.iter().enumerate() {
+            let omega = 2.0 * PI * (k + 1) as f64 / t_end;
+            terms.push(Harmonic { amplitude: *ck, omega, phase: 0.0, phase_step: 0.0 });
+        }
+        let angle = Waveform::Harmonics(terms);
+        let run = |q0: &[(&str, f64)], qd0: &[(&str, f64)]| {
+            let mut p = Problem::new(ezy_models::EzyRollerDriven::default()).drive("D", angle.clone()).unwrap();
+            for (n, v) in q0 {
+                p = p.q(n, *v).unwrap();
+            }
+            for (n, v) in qd0 {
+                p = p.qd(n, *v).unwrap();
+            }
+            let s = p.t_end(t_end).every(t_end).method(ezy_core::Method::Dop853).tolerances(1e-11, 1e-11);
+            s.solve().unwrap().final_state()[..12].to_vec()
+        };
+        let end = run(&[("x1", 0.0), ("y1", 0.0), ("phi1", 0.0)], &[("x1", 0.0)]);
+        let u = end[6] * end[2].cos() + end[7] * end[2].sin();
+        eprintln!("T = {t_end} s, c = {c:?}: u(T) = {u:.6e} m/s, x1(T) = {:.4} m", end[0]);
+        assert!(u > 1e-5, "c = {c:?}: u(T) = {u}");
+        // reversed: from the end with the velocities negated, back to rest
+        let q0: Vec<(&str, f64)> = names.iter().zip(&end[..6]).map(|(n, v)| (*n, *v)).collect();
+        let qd0: Vec<(&str, f64)> = names.iter().zip(&end[6..12]).map(|(n, v)| (*n, -v)).collect();
+        let back = run(&q0, &qd0);
+        let speed = back[6..12].iter().fold(0.0f64, |m, v| m.max(v.abs()));
+        let home = back[..3].iter().fold(0.0f64, |m, v| m.max(v.abs()));
+        eprintln!("  reversed: largest velocity at its end {speed:.1e}, {home:.1e} from the origin");
+        assert!(speed <= 1e-8 && home <= 1e-8, "reversed: {back:?}");
+    }
+}
+
+/// `ezy plan` on the `drive` scene (DOP853 at 1e-11 instead of its RK4):
+/// from rest to 1 m ahead on its line, fork straight and still, with
+/// least squared hinge torque on 10 segments. Optimal, exit 0; the
+/// effort printed that of ezy-core's library test of the same program
+/// (5.193432414, the planner's own path without the scene) to 1e-6
+/// relative; the verification run's error on every target component
+/// below 1e-6 in plan_summary.csv; the torque within its bound.
+#[test]
+fn the_ezyroller_goes_one_metre_ahead() {
+    let dir = std::env::temp_dir().join(format!("ezy-plan-roller-{}", std::process::id()));
+    let out = dir.join("out");
+    let pi = std::f64::consts::PI.to_string();
+    let to = format!("x1=1,y1=0,phi1=0,phi2={pi},phi2d=0");
+    #[rustfmt::skip]
+    let args = ["plan", "drive", "--input", "motor.torque", "--bound", "motor.torque=-10:10", "--to", &to,
+        "--t-end", "8", "--integrator", "dop853", "--rtol", "1e-11", "--atol", "1e-11", "--no-figures",
+        "--out", out.to_str().unwrap()];
+    let o = ezy(&args);
+    let (said, err) = text(&o);
+    eprintln!("{said}{err}");
+    assert_eq!(o.status.code(), Some(0), "{said}{err}");
+    assert!(said.contains("on 10 segments: optimal") && said.contains("direct single shooting"), "{said}");
+    let effort = number_after(&said, "effort (sum of the integrals of the inputs squared):");
+    assert!((effort - 5.193432414).abs() <= 1e-6 * effort, "{effort}");
+    let summary = columns(&out.join("plan_summary.csv"));
+    for name in ["x1", "y1", "phi1", "phi2", "phi2d"] {
+        let run: f64 = summary[&format!("run_error_{name}")][0].parse().unwrap();
+        assert!(run.abs() <= 1e-6, "{name}: {run}");
+    }
+    let plan = columns(&out.join("plan.csv"));
+    assert!(floats(&plan["motor.torque"]).iter().all(|u| u.abs() <= 10.0), "{:?}", plan["motor.torque"]);
+    let _ = std::fs::remove_dir_all(&dir);
 }

@@ -95,16 +95,25 @@ fn sleigh_rest_to_rest_matches_the_closed_form() {
     assert!(v.max_run_error <= 1e-6 && v.max_plan_error <= 1e-8, "{v:?}");
 }
 
-/// Shooting intervals coarser than the input mesh (single shooting, two
-/// intervals) solve the same program: the same effort (the closed form's
-/// to 1e-8) and forces, fewer unknowns; a chained segment's start
-/// differentiated through the chain (the solve converges only with an
-/// exact Jacobian: Optimal needs stationarity 1e-5).
+/// Shooting intervals coarser than a node at every segment (single
+/// shooting, two intervals) solve the same program: the same effort (the
+/// closed form's to 1e-8) and forces, fewer unknowns; a chained
+/// segment's start differentiated through the chain (the solve converges
+/// only with an exact Jacobian: Optimal needs stationarity 1e-5).
 #[test]
 fn coarser_shooting_intervals_give_the_same_plan() {
     let (d, t_end) = (1.0f64, 2.0f64);
     let cost = 12.0 * d * d * MASS * MASS / t_end.powi(3);
-    let full = plan((-100.0, 100.0), d, t_end, 4).solve().unwrap();
+    let mut every = plan((-100.0, 100.0), d, t_end, 4);
+    every.settings.intervals = 4;
+    let full = every.solve().unwrap();
+    show(&full);
+    assert_eq!(full.status, Status::Optimal);
+    assert!(
+        (full.effort - cost).abs() <= 1e-8 * cost,
+        "a node at every segment: effort {} against {cost}",
+        full.effort
+    );
     for intervals in [1, 2] {
         let mut p = plan((-100.0, 100.0), d, t_end, 4);
         p.settings.intervals = intervals;
@@ -222,7 +231,7 @@ fn bad_requests_are_refused() {
     let p = Plan::new(vec![Input::new("F", -1.0, 1.0)], Target::new().q("z", 1.0), settings, sleigh).unwrap();
     let e = p.solve().unwrap_err().to_string();
     assert!(e.contains("no coordinate `z`") && e.contains("x, y, phi"), "{e}");
-    let small = PlanSettings { max_unknowns: 19, ..settings };
+    let small = PlanSettings { max_unknowns: 19, intervals: 4, ..settings };
     let p = Plan::new(vec![Input::new("F", -1.0, 1.0)], target(), small, sleigh).unwrap();
     let e = p.solve().unwrap_err().to_string();
     assert!(e.contains("20 unknowns") && e.contains("limit of 19"), "{e}");

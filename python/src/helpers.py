@@ -36,9 +36,9 @@ def draw(chart, ax=None):
         if stroke == "points":
             a.plot(s["x"], s["y"], "D", color=colour, label=s["label"] or None, markersize=4)
             continue
-        style = "-" if stroke in ("auto", "solid") else dashes[int(stroke[4:]) % 3]
+        style = "-" if stroke in ("auto", "solid", "pieces") else dashes[int(stroke[4:]) % 3]
         a.plot(s["x"], s["y"], linestyle=style, color=colour, label=s["label"] or None)
-        if chart["equal_axes"] and chart["path_ends"] and len(s["x"]) > 0:
+        if chart["equal_axes"] and chart["path_ends"] and stroke != "pieces" and len(s["x"]) > 0:
             a.plot(s["x"][:1], s["y"][:1], "o", color=colour)
             a.plot(s["x"][-1:], s["y"][-1:], "s", color=colour)
     for a in axes:

@@ -83,7 +83,7 @@ impl Toolkit {
         scene: &Bound<'_, PyAny>,
         input: &Bound<'_, PyAny>,
         (bound, to, at_rest): (KwDict<'_, '_>, KwDict<'_, '_>, bool),
-        (segments, evaluations): (Kw<'_, '_>, Kw<'_, '_>),
+        (segments, evaluations, intervals): (Kw<'_, '_>, Kw<'_, '_>, Kw<'_, '_>),
         model: Option<&Bound<'_, PyModel>>,
         out: Option<PathBuf>,
         figures: bool,
@@ -104,6 +104,9 @@ impl Toolkit {
         }
         if let Some(n) = whole_kw("plan", "evaluations", evaluations)? {
             extra.extend(["--evaluations".to_string(), n.to_string()]);
+        }
+        if let Some(n) = whole_kw("plan", "intervals", intervals)? {
+            extra.extend(["--intervals".to_string(), n.to_string()]);
         }
         let (report, dir, _temp) = self.command(py, "plan", scene, model, extra, out, figures, settings)?;
         let helpers = self.helpers.bind(py);

@@ -259,6 +259,7 @@ impl RunResult {
             let stroke = match s.stroke {
                 ezy::render::plot::Stroke::Auto => "auto".to_string(),
                 ezy::render::plot::Stroke::Solid => "solid".to_string(),
+                ezy::render::plot::Stroke::Pieces => "pieces".to_string(),
                 ezy::render::plot::Stroke::Dash(k) => format!("dash{k}"),
                 ezy::render::plot::Stroke::Points => "points".to_string(),
             };

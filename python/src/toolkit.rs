@@ -740,8 +740,9 @@ impl Toolkit {
     /// The least-effort inputs that take `scene` from its initial state to
     /// a target at its t_end, as `ezy plan` does: `input` names the
     /// effects' time functions planned (`"motor.torque"` or a list), each
-    /// replaced by a piecewise-linear table on `segments` segments;
-    /// `bound={input: (lo, hi)}`, `to={"x1": 1.0, "y1": 0.0}` (a velocity
+    /// replaced by a piecewise-linear table on `segments` segments,
+    /// `intervals` shooting intervals of them (default 1: single
+    /// shooting); `bound={input: (lo, hi)}`, `to={"x1": 1.0, "y1": 0.0}` (a velocity
     /// is its coordinate's name with `d`: `"x1d"`) and `at_rest=True`.
     /// Returns a DataFrame of the planned inputs at the nodes (`t` [s],
     /// one column per input in its unit), `.attrs["summary"]` (status,
@@ -753,7 +754,7 @@ impl Toolkit {
     /// keywords: a target not met (infeasible, with the least violation
     /// found) or not shown optimal, an unknown effect or coordinate,
     /// bounds lo > hi or not finite; KeyboardInterrupt on Ctrl-C.
-    #[pyo3(signature = (scene, *, input, bound=None, to=None, at_rest=false, segments=None, evaluations=None, model=None, out=None, figures=false, **settings))]
+    #[pyo3(signature = (scene, *, input, bound=None, to=None, at_rest=false, segments=None, evaluations=None, intervals=None, model=None, out=None, figures=false, **settings))]
     #[expect(clippy::too_many_arguments, reason = "Python's keywords, one argument each")]
     fn plan(
         &self,
@@ -765,12 +766,14 @@ impl Toolkit {
         at_rest: bool,
         segments: Option<&Bound<'_, PyAny>>,
         evaluations: Option<&Bound<'_, PyAny>>,
+        intervals: Option<&Bound<'_, PyAny>>,
         model: Option<&Bound<'_, PyModel>>,
         out: Option<PathBuf>,
         figures: bool,
         settings: Option<&Bound<'_, PyDict>>,
     ) -> PyResult<Py<PyAny>> {
-        self.plan_on(py, scene, input, (bound, to, at_rest), (segments, evaluations), model, out, figures, settings)
+        let mesh = (segments, evaluations, intervals);
+        self.plan_on(py, scene, input, (bound, to, at_rest), mesh, model, out, figures, settings)
     }
 
     /// The best closed gait of a kinematic system, as `ezy

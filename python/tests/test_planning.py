@@ -114,3 +114,62 @@ def test_the_snakes_best_circle_centre_is_the_command_lines(tmp_path):
         ezy.gait_optimize("kinematic-snake", gait=CIRCLE)
     with pytest.raises(TypeError, match="margin"):
         ezy.gait_optimize("kinematic-snake", gait=CIRCLE, maximize="dx", margin="wide")
+
+
+ROLLER = """/// The EzyRoller: a rear frame (skate A) and a steering fork (skate C)
+/// joined by a hinge at B.
+pub struct Roller {
+    param a = 0.2;
+    param b = 0.6;
+    param c = 0.1;
+    param d = 0.1;
+    param m1 = 46.0;
+    param I1 = 10.0;
+    param m2 = 1.0;
+    param I2 = 0.005;
+    body body1(x1, y1, phi1) { mass: m1, inertia: I1 }
+    body body2(x2, y2, phi2) { mass: m2, inertia: I2 }
+    point A on body1 at (-a, 0);
+    point B1 on body1 at (b, 0);
+    point B2 on body2 at (-d, 0);
+    point C on body2 at (c, 0);
+    hinge B: B1 = B2;
+    skate A: A along (1, 0);
+    skate C: C along (1, 0);
+}
+"""
+
+
+def roller_scene(model):
+    """The EzyRoller at rest, fork trailing, its hinge motor `2 cos(pi t)` N m, 8 s."""
+    return ezy.scene(
+        model=model,
+        name="roller-plan",
+        t_end=8.0,
+        initial={"q": {"x1": 0.0, "y1": 0.0, "phi1": 0.0, "phi2": np.pi}, "qd": {"x1": 0.0, "phi1": 0.0}},
+        integrator={"method": "dop853", "rtol": 1e-11, "atol": 1e-11},
+        effects={"motor": {"kind": "hinge-motor", "hinge": "B", "torque": {"cos": {"amplitude": 2.0, "omega": np.pi}}}},
+    )
+
+
+def test_the_ezyroller_typed_in_a_cell_goes_one_metre_ahead():
+    """1 m ahead on its line, fork straight and still, least squared torque
+    on 10 segments (single shooting): the effort of ezy-core's library test
+    of the same program on the compiled model (5.193432414, the model here
+    derived from text at run time) to 1e-6, the verification run within
+    1e-6 of every target component; rest to rest, which no hinge torque
+    reaches (the guide's "Planning gaits and maneuvers"), raises
+    infeasible."""
+    m = ezy.Model(ROLLER)
+    to = {"x1": 1.0, "y1": 0.0, "phi1": 0.0, "phi2": np.pi, "phi2d": 0.0}
+    plan = ezy.plan(roller_scene(m), input="motor.torque", bound={"motor.torque": (-10.0, 10.0)}, to=to,
+                    segments=10, intervals=1)
+    s = plan.attrs["summary"]
+    assert s["status"].iloc[0] == "optimal"
+    assert abs(s["effort"].iloc[0] - 5.193432414) <= 1e-6 * 5.193432414
+    for name in to:
+        assert abs(s[f"run_error_{name}"].iloc[0]) <= 1e-6, name
+    assert np.all(np.abs(plan["motor.torque"]) <= 10.0)
+    with pytest.raises(ezy.EzyError, match="infeasible"):
+        ezy.plan(roller_scene(m), input="motor.torque", bound={"motor.torque": (-10.0, 10.0)}, to={"x1": 1.0},
+                 at_rest=True, segments=10, evaluations=60)

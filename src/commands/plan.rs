@@ -61,6 +61,12 @@ struct PlanArgs {
     /// nodes, linear between them).
     #[arg(long, value_name = "N", default_value_t = 10)]
     segments: usize,
+    /// Shooting intervals M of the N segments: the state is an unknown
+    /// where each starts (1, the default: single shooting, which
+    /// converges on the EzyRoller where a node at every segment does not;
+    /// more for dynamics unstable over the horizon; at most N).
+    #[arg(long, value_name = "M", default_value_t = 1)]
+    intervals: usize,
     /// Most evaluations of the program (each runs the N segments with
     /// their sensitivities).
     #[arg(long, value_name = "K", default_value_t = 500)]
@@ -89,7 +95,7 @@ pub(crate) fn exec(app: &App, args: &ArgMatches, out: &mut dyn Write) -> Result<
     let scene = &src.scene;
     let model = &app.model_or_error(&scene.model)?;
     let (m, files) = plan_model(model, scene, &opts, &args).map_err(AppError::from_run)?;
-    let text = summary(&scene.name, &args.inputs, &m, &files);
+    let text = summary(&scene.name, (&args.inputs, args.intervals), &m, &files);
     committed(out, &text, &opts.out)?;
     match &m.status {
         Status::Optimal => Ok(()),
@@ -291,22 +297,36 @@ fn plan_model<M: Model>(
     let info = first.model.info();
     let coords: Vec<String> = info.coords.iter().map(|c| c.to_string()).collect();
     let target = target(args, &coords)?;
+    if !(1..=args.segments.max(1)).contains(&args.intervals) {
+        return Err(Error::Input(format!(
+            "--intervals {}: give 1 (single shooting) to --segments ({})",
+            args.intervals, args.segments
+        )));
+    }
+    let plan_settings = PlanSettings {
+        max_evaluations: args.evaluations,
+        intervals: args.intervals,
+        ..PlanSettings::new(args.segments, run.t_end)
+    };
     // the program's size before anything of it is allocated
     let nz = 2 * info.nq() - info.n_holonomic - info.nc();
-    // counted in u128: no --segments overflows it
-    let nodes = inputs.len() as u128 * (args.segments as u128 + 1);
-    let unknowns = nodes + (args.segments as u128).saturating_sub(1) * nz as u128;
+    let unknowns = plan_settings.unknowns(inputs.len(), nz);
     if unknowns > MAX_UNKNOWNS as u128 {
+        let nodes = inputs.len() as u128 * (args.segments as u128 + 1);
+        let what = match args.intervals {
+            1 => format!("{nodes} input nodes"),
+            m => format!(
+                "{nodes} input nodes and {nz} state components at each of the {} inner nodes that start a shooting interval",
+                m - 1
+            ),
+        };
         return Err(Error::Input(format!(
-            "--segments {}: {unknowns} unknowns ({} input nodes and {nz} state components at each of {} inner nodes), more than the limit of {MAX_UNKNOWNS} (ezy_core::plan::MAX_UNKNOWNS: SLSQP is dense): take fewer segments",
+            "--segments {}: {unknowns} unknowns ({what}), more than the limit of {MAX_UNKNOWNS} (ezy_core::plan::MAX_UNKNOWNS: SLSQP is dense): take fewer segments{}",
             args.segments,
-            nodes,
-            args.segments.saturating_sub(1)
+            if args.intervals > 1 { " or intervals" } else { "" }
         )));
     }
     let inputs = warm_starts(&base, &slots, inputs, args.segments, run.t_end);
-    let plan_settings =
-        PlanSettings { max_evaluations: args.evaluations, ..PlanSettings::new(args.segments, run.t_end) };
     let beat: Beat = Arc::new(Mutex::new(None));
     let build = {
         let (names, model, baumgarte, beat) = (args.inputs.clone(), proto.clone(), opts.baumgarte, Arc::clone(&beat));
@@ -474,12 +494,18 @@ fn inputs_chart(names: &[String], m: &Maneuver) -> Chart {
 /// Samples of the verification's run drawn in the path figure.
 const PATH_SAMPLES: f64 = 400.0;
 
+/// Poses of the vehicle drawn along the path (the start, the end and
+/// the times between at equal intervals).
+const POSES: usize = 4;
+
 /// Each body's centre along the planned inputs' run (an ordinary run,
-/// as the verification's), the nodes' states marked on the first body's;
-/// `None` where the run fails (its failure is the verification's, in
-/// the report).
+/// as the verification's), the nodes' states marked on the first body's,
+/// and the vehicle at [`POSES`] + 1 times: each body a line from its
+/// centre to each of its named points (a skate, a hinge); `None` where
+/// the run fails (its failure is the verification's, in the report).
 fn path_chart<M: Model>(build: &BuildInputs<M>, t_end: f64, m: &Maneuver, info: &ezy_core::ModelInfo) -> Option<Chart> {
     let problem = build(&m.inputs).ok()?.t_end(t_end).every(t_end / PATH_SAMPLES);
+    let model = problem.model.clone();
     let s = problem.solve().ok()?;
     let mut chart = Chart::new("The planned path", "x [m]", "y [m]");
     chart.equal_axes = true;
@@ -492,11 +518,28 @@ fn path_chart<M: Model>(build: &BuildInputs<M>, t_end: f64, m: &Maneuver, info: 
         let nodes = m.states.iter().map(|x| (x[b.coords[0]], x[b.coords[1]])).collect();
         chart.series.push(Series { stroke: Stroke::Points, ..Series::new(format!("{} at the nodes", b.name), nodes) });
     }
+    if !info.points.is_empty() && s.y.len() > 1 {
+        let nq = info.nq();
+        let mut at = vec![0.0; 2 * info.points.len()];
+        let mut lines = Vec::new();
+        for k in 0..=POSES {
+            let y = &s.y[k * (s.y.len() - 1) / POSES];
+            model.points(&y[..nq], &mut at);
+            for (p, point) in info.points.iter().enumerate() {
+                let c = &info.bodies[point.body].coords;
+                lines.extend([(y[c[0]], y[c[1]]), (at[2 * p], at[2 * p + 1]), (f64::NAN, f64::NAN)]);
+            }
+        }
+        let label = format!("the vehicle every {} s", fmt_value(t_end / POSES as f64));
+        chart.series.push(Series { stroke: Stroke::Pieces, ..Series::new(label, lines) });
+    }
     Some(chart)
 }
 
-/// The text `ezy plan` prints.
-fn summary(scene: &str, names: &[String], m: &Maneuver, files: &[PathBuf]) -> String {
+/// The text `ezy plan` prints (`inputs`: the inputs' names and the
+/// shooting intervals).
+fn summary(scene: &str, inputs: (&[String], usize), m: &Maneuver, files: &[PathBuf]) -> String {
+    let (names, intervals) = inputs;
     let t_end = m.t.last().copied().unwrap_or(0.0);
     let status = match &m.status {
         Status::Optimal => "optimal".to_string(),
@@ -545,8 +588,16 @@ fn summary(scene: &str, names: &[String], m: &Maneuver, files: &[PathBuf]) -> St
     }
     let _ = writeln!(
         s,
-        "{} evaluations, {} segment runs, {} unknowns, {} equalities in {:.2} s (direct multiple shooting, SLSQP)",
-        m.evaluations, m.runs, m.unknowns, m.equalities, m.seconds
+        "{} evaluations, {} segment runs, {} unknowns, {} equalities in {:.2} s ({}, SLSQP)",
+        m.evaluations,
+        m.runs,
+        m.unknowns,
+        m.equalities,
+        m.seconds,
+        match intervals {
+            1 => "direct single shooting".to_string(),
+            m => format!("direct multiple shooting on {m} intervals"),
+        }
     );
     for file in files {
         let _ = writeln!(s, "wrote {}", file.display());

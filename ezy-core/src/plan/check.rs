@@ -83,7 +83,7 @@ pub(super) fn request(inputs: &[Input], target: &Target, s: &PlanSettings) -> Re
     Ok(())
 }
 
-fn unknowns(n: usize, s: &PlanSettings, what: &str) -> String {
+fn unknowns(n: impl std::fmt::Display, s: &PlanSettings, what: &str) -> String {
     format!(
         "{n} unknowns ({what}) for {} segments: more than the limit of {} (max_unknowns; SLSQP is dense): take fewer segments",
         s.segments, s.max_unknowns
@@ -114,8 +114,8 @@ pub(super) fn problem<M: Model>(plan: &Plan<M>, guess: &[f64]) -> Result<Problem
     }
     let info = p.model.info();
     let nz = 2 * info.nq() - info.n_holonomic - info.nc();
-    let n = guess.len() + (s.intervals - 1) * nz;
-    if n > s.max_unknowns {
+    let n = s.unknowns(plan.inputs.len(), nz);
+    if n > s.max_unknowns as u128 {
         return fail(unknowns(
             n,
             s,

@@ -19,7 +19,8 @@
 //! Congress, 1984; Betts, *Practical Methods for Optimal Control*, 2nd
 //! ed., SIAM 2010, §4.4-4.5): `[0, T]` is cut into N equal segments; the
 //! unknowns are the inputs' values at the N + 1 nodes (each input linear
-//! between them) and the state at each inner node. Each segment is a run
+//! between them) and the state at each inner node (with a node at every
+//! segment; by default the segments form one shooting interval, below). Each segment is a run
 //! of the user's problem from its node's state over its `h = T / N`
 //! seconds, its clock from 0, its inputs the tables `[0, h] -> [u_k,
 //! u_k+1]`; the equalities are the state's continuity at the inner nodes
@@ -51,8 +52,8 @@
 //! component; the consistent initial state projects it onto the
 //! constraints, which it meets to the run's accuracy) and its
 //! sensitivities multiplied along the chain, `dx_end/dw = S_x
-//! dx_start/dw + S_u du/dw`. M = 1 is single shooting: N + 1 unknowns
-//! per input and only the target's equalities.
+//! dx_start/dw + S_u du/dw`. M = 1, the default, is single shooting:
+//! N + 1 unknowns per input and only the target's equalities.
 //!
 //! Each segment's end state is differentiated with respect to its start's
 //! independent components and its input nodes by the forward
@@ -270,14 +271,19 @@ pub struct PlanSettings {
     pub state_box: f64,
     /// Shooting intervals M (1 ... N): the state is an unknown at the
     /// nodes that start one; inside an interval each segment starts
-    /// from the last one's end (M = 1: single shooting; M = N, the
-    /// default: a node at every segment).
+    /// from the last one's end (M = 1, the default: single shooting;
+    /// M = N: a node at every segment). Single shooting is the default
+    /// because it is the one that converges on the vehicles measured
+    /// (docs/dev/planning.md: the EzyRoller's 50 segments optimal in 6 s
+    /// with M = 1 and M = 2, infeasible with M = 5, 10 and 50, its nodes'
+    /// partitions ill-conditioned); take M > 1 for dynamics unstable
+    /// over the horizon, where a single run's sensitivities grow too fast.
     pub intervals: usize,
 }
 
 impl PlanSettings {
     /// `segments` segments over `t_end` seconds, tolerance 1e-8, 500
-    /// evaluations, [`MAX_UNKNOWNS`], a state box of 10.
+    /// evaluations, [`MAX_UNKNOWNS`], a state box of 10, single shooting.
     pub fn new(segments: usize, t_end: f64) -> Self {
         Self {
             segments,
@@ -286,8 +292,18 @@ impl PlanSettings {
             max_evaluations: 500,
             max_unknowns: MAX_UNKNOWNS,
             state_box: 10.0,
-            intervals: segments,
+            intervals: 1,
         }
+    }
+
+    /// The program's unknowns for `inputs` inputs on a model whose state
+    /// has `independent` independent components (`2 nq - nh - nc`): the
+    /// inputs' `N + 1` nodes each and the state at the `M - 1` inner
+    /// nodes that start a shooting interval. Counted in `u128`, so no
+    /// request overflows it; compare it with [`PlanSettings::max_unknowns`]
+    /// before anything is allocated.
+    pub fn unknowns(&self, inputs: usize, independent: usize) -> u128 {
+        inputs as u128 * (self.segments as u128 + 1) + (self.intervals as u128).saturating_sub(1) * independent as u128
     }
 }
 

@@ -299,7 +299,7 @@ fn draw_contents<'a>(
         for piece in line.pieces.iter().filter(|_| !line.points_only) {
             draw_piece(ctx, line, piece, style, width)?;
         }
-        if chart.equal_axes && chart.path_ends {
+        if chart.equal_axes && chart.path_ends && !line.pieces_only {
             draw_path_ends(ctx, line)?;
         }
         if !line.label.is_empty() {

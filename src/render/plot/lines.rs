@@ -25,6 +25,8 @@ pub(super) struct Line<'a> {
     pub(super) dash: Option<usize>,
     /// Markers only, no line ([`Stroke::Points`]).
     pub(super) points_only: bool,
+    /// Pieces that are no path ([`Stroke::Pieces`]): no path ends.
+    pub(super) pieces_only: bool,
 }
 
 /// Split every series into runs of drawable points in plot coordinates
@@ -58,7 +60,7 @@ pub(super) fn chart_lines(chart: &Chart) -> Vec<Line<'_>> {
             }
             let dash = match s.stroke {
                 Stroke::Dash(k) => Some(k % DASHES.len()),
-                Stroke::Auto | Stroke::Solid | Stroke::Points => None,
+                Stroke::Auto | Stroke::Solid | Stroke::Pieces | Stroke::Points => None,
             };
             Line {
                 label: &s.label,
@@ -67,6 +69,7 @@ pub(super) fn chart_lines(chart: &Chart) -> Vec<Line<'_>> {
                 color: PALETTE[s.color.unwrap_or(i) % PALETTE.len()],
                 dash,
                 points_only: s.stroke == Stroke::Points,
+                pieces_only: s.stroke == Stroke::Pieces,
             }
         })
         .collect();

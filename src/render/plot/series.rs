@@ -14,6 +14,10 @@ pub enum Stroke {
     Auto,
     /// Always solid.
     Solid,
+    /// Solid pieces that are no path (a drawing between breaks, `NaN`
+    /// points: a vehicle's bodies at several times): no start and end
+    /// markers on a path chart.
+    Pieces,
     /// Dash style `k` (0: dashed, 1: dotted, 2: long dashes), with markers.
     Dash(usize),
     /// No line: a filled diamond at every point (points given, not
