@@ -458,6 +458,7 @@ def plan(
     segments: Optional[int] = None,
     evaluations: Optional[int] = None,
     intervals: Optional[int] = None,
+    guess: Optional[Union[_Path, Any]] = None,
     model: Optional[Model] = None,
     out: Optional[_Path] = None,
     figures: bool = False,
@@ -467,7 +468,9 @@ def plan(
     target at its t_end: `input` names the effects' time functions planned
     (`"motor.torque"`), each a piecewise-linear table on `segments`
     segments (`intervals` shooting intervals of them, default 1: single
-    shooting), within `bound={input: (lower, upper)}`; the target
+    shooting), from the warm start `guess` (a CSV file's path or a
+    DataFrame: `t` [s] and one column per input, an earlier plan's),
+    within `bound={input: (lower, upper)}`; the target
     `to={"x1": 1.0}` (a velocity is its coordinate's name with `d`) and
     `at_rest=True`. A DataFrame of the nodes (`t` [s], the inputs, the
     state); `.attrs["summary"]` (status, effort [unit^2 s], violation, the

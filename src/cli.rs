@@ -5,9 +5,10 @@
 //! are [`crate::commands`]; [`crate::App::run_cli`] puts them under the
 //! top command.
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 use clap::{CommandFactory, Parser};
+use ezy_core::design::fit::Data;
 use ezy_core::{Baumgarte, Choice, Formulation, Method, ProjectionKind};
 use ezy_scene::FigureFormat;
 
@@ -269,4 +270,59 @@ pub(crate) fn check_repeats(args: &clap::ArgMatches) -> Result<(), String> {
         }
     }
     Ok(())
+}
+
+/// Largest data file `ezy fit` and `ezy plan --guess` read (64 MB: about
+/// a million rows of a few columns).
+pub(crate) const MAX_DATA_BYTES: u64 = 64 << 20;
+
+/// The CSV file `path`'s column `t` and `columns` (`what` it is, for
+/// messages: "the data file"), every cell a finite number, the times
+/// sorted (`ezy fit`'s data, `ezy plan --guess`'s inputs).
+///
+/// # Errors
+/// The file's name with what is wrong: unreadable, too large, no header,
+/// a column missing or named twice in the header, a cell that is not a
+/// number (with its line).
+pub(crate) fn read_columns(path: &Path, columns: &[String], what: &str) -> Result<Data, String> {
+    let at = path.display();
+    let text = ezy_scene::files::read_capped_text(path, MAX_DATA_BYTES, what).map_err(|e| format!("{at}: {e}"))?;
+    let mut reader = csv::ReaderBuilder::new().trim(csv::Trim::All).comment(Some(b'#')).from_reader(text.as_bytes());
+    let head: Vec<String> = reader.headers().map_err(|e| format!("{at}: {e}"))?.iter().map(String::from).collect();
+    let find = |c: &str| {
+        let k = head
+            .iter()
+            .position(|h| h == c)
+            .ok_or_else(|| format!("{at}: no column `{c}` (it has {})", head.join(", ")))?;
+        // a second column of the name would be silently left out
+        match head.iter().skip(k + 1).position(|h| h == c) {
+            Some(j) => Err(format!(
+                "{at}: the header names column `{c}` twice (columns {} and {}): rename one, so that the data fitted are the ones meant",
+                k + 1,
+                k + j + 2
+            )),
+            None => Ok(k),
+        }
+    };
+    let tcol = find("t")?;
+    let cols = columns.iter().map(|c| find(c.trim())).collect::<Result<Vec<_>, _>>()?;
+    let mut data = Data {
+        t: Vec::new(),
+        columns: columns.iter().map(|c| c.trim().to_string()).collect(),
+        values: vec![Vec::new(); cols.len()],
+    };
+    for row in reader.records() {
+        let row = row.map_err(|e| format!("{at}: {e}"))?;
+        let line = row.position().map_or(0, |p| p.line());
+        let cell = |k: usize| -> Result<f64, String> {
+            let v = row.get(k).unwrap_or("");
+            v.parse::<f64>().map_err(|_| format!("{at}, line {line}, column `{}`: `{v}` is not a number", head[k]))
+        };
+        data.t.push(cell(tcol)?);
+        for (list, &k) in data.values.iter_mut().zip(&cols) {
+            list.push(cell(k)?);
+        }
+    }
+    data.check().map_err(|e| format!("{at}: {e}"))?;
+    Ok(data)
 }

@@ -379,3 +379,45 @@ fn the_ezyroller_goes_one_metre_ahead() {
     assert!(floats(&plan["motor.torque"]).iter().all(|u| u.abs() <= 10.0), "{:?}", plan["motor.torque"]);
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// `--guess FILE` starts the search from a file's inputs: the closed
+/// form's force at three times (linear, so exact at every node of 4
+/// segments) is optimal within the least budget, 2 evaluations, where
+/// the scene's own zero force is not (exit 1); the effort is the closed
+/// form's to 1e-8. A guess file that is missing, lacks the input's
+/// column, or has a cell that is no number or times out of order is
+/// refused by name, writing nothing.
+#[test]
+fn a_guess_file_is_the_warm_start() {
+    let scene = sleigh_scene("guess");
+    let (s, out) = (scene.to_str().unwrap().to_string(), scene.with_file_name("out"));
+    let o = out.to_str().unwrap().to_string();
+    let guess = scene.with_file_name("guess.csv");
+    // F(t) = m 6 d / T^2 (1 - 2 t / T) = 3 (1 - t) N
+    std::fs::write(&guess, "t,push.fx\n0,3\n1,0\n2,-3\n").unwrap();
+    let base = ["plan", &s, "--input", "push.fx", "--to", "x=1", "--at-rest", "--segments", "4", "--evaluations", "2"];
+    let g = guess.to_str().unwrap();
+    let o1 = ezy(&[&base[..], &["--guess", g, "--no-figures", "--out", &o]].concat());
+    let (said, err) = text(&o1);
+    eprintln!("{said}{err}");
+    assert_eq!(o1.status.code(), Some(0), "{said}{err}");
+    let effort = number_after(&said, "effort (sum of the integrals of the inputs squared):");
+    assert!((effort - 6.0).abs() <= 1e-8 * 6.0, "{effort}");
+    let cold = ezy(&[&base[..], &["--no-figures", "--out", &o]].concat());
+    assert_eq!(cold.status.code(), Some(1), "{:?}", text(&cold));
+    let _ = std::fs::remove_dir_all(&out);
+    let bad = |name: &str, body: Option<&str>, words: &str| {
+        let path = scene.with_file_name(name);
+        if let Some(b) = body {
+            std::fs::write(&path, b).unwrap();
+        }
+        let r = ezy(&[&base[..], &["--guess", path.to_str().unwrap(), "--out", &o]].concat());
+        let (said, err) = text(&r);
+        assert!(!r.status.success() && err.contains(words), "{name}: {said}{err}");
+        assert!(!out.exists(), "{name} wrote {}", out.display());
+    };
+    bad("absent.csv", None, "absent.csv");
+    bad("nocol.csv", Some("t,fx\n0,1\n"), "no column `push.fx` (it has t, fx)");
+    bad("word.csv", Some("t,push.fx\n0,1\n1,strong\n"), "line 3, column `push.fx`: `strong` is not a number");
+    bad("order.csv", Some("t,push.fx\n1,1\n0,2\n"), "row 2: t = 0 s is not after the row before");
+}

@@ -83,7 +83,7 @@ impl Toolkit {
         scene: &Bound<'_, PyAny>,
         input: &Bound<'_, PyAny>,
         (bound, to, at_rest): (KwDict<'_, '_>, KwDict<'_, '_>, bool),
-        (segments, evaluations, intervals): (Kw<'_, '_>, Kw<'_, '_>, Kw<'_, '_>),
+        (segments, evaluations, intervals, guess): (Kw<'_, '_>, Kw<'_, '_>, Kw<'_, '_>, Kw<'_, '_>),
         model: Option<&Bound<'_, PyModel>>,
         out: Option<PathBuf>,
         figures: bool,
@@ -107,6 +107,27 @@ impl Toolkit {
         }
         if let Some(n) = whole_kw("plan", "intervals", intervals)? {
             extra.extend(["--intervals".to_string(), n.to_string()]);
+        }
+        // a DataFrame is written where the command line reads it; the
+        // file lives until the call returns
+        let mut _guess_file = None;
+        if let Some(g) = guess.filter(|g| !g.is_none()) {
+            let path = if g.hasattr("to_csv")? {
+                let file = tempfile::Builder::new().suffix(".csv").tempfile().map_err(|e| ezy_err(e.to_string()))?;
+                let kw = PyDict::new(py);
+                kw.set_item("index", false)?;
+                g.call_method("to_csv", (file.path(),), Some(&kw))?;
+                let path = file.path().to_path_buf();
+                _guess_file = Some(file);
+                path
+            } else {
+                g.extract::<PathBuf>().map_err(|_| {
+                    pyo3::exceptions::PyTypeError::new_err(
+                        "plan(guess=...): give a CSV file's path or a DataFrame with a column `t` and one per input",
+                    )
+                })?
+            };
+            extra.extend(["--guess".to_string(), path.display().to_string()]);
         }
         let (report, dir, _temp) = self.command(py, "plan", scene, model, extra, out, figures, settings)?;
         let helpers = self.helpers.bind(py);

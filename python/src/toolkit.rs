@@ -742,7 +742,9 @@ impl Toolkit {
     /// effects' time functions planned (`"motor.torque"` or a list), each
     /// replaced by a piecewise-linear table on `segments` segments,
     /// `intervals` shooting intervals of them (default 1: single
-    /// shooting); `bound={input: (lo, hi)}`, `to={"x1": 1.0, "y1": 0.0}` (a velocity
+    /// shooting); `guess`, the warm start, a CSV file's path or a
+    /// DataFrame with a column `t` [s] and one per input (an earlier
+    /// plan's, on any mesh); `bound={input: (lo, hi)}`, `to={"x1": 1.0, "y1": 0.0}` (a velocity
     /// is its coordinate's name with `d`: `"x1d"`) and `at_rest=True`.
     /// Returns a DataFrame of the planned inputs at the nodes (`t` [s],
     /// one column per input in its unit), `.attrs["summary"]` (status,
@@ -754,7 +756,7 @@ impl Toolkit {
     /// keywords: a target not met (infeasible, with the least violation
     /// found) or not shown optimal, an unknown effect or coordinate,
     /// bounds lo > hi or not finite; KeyboardInterrupt on Ctrl-C.
-    #[pyo3(signature = (scene, *, input, bound=None, to=None, at_rest=false, segments=None, evaluations=None, intervals=None, model=None, out=None, figures=false, **settings))]
+    #[pyo3(signature = (scene, *, input, bound=None, to=None, at_rest=false, segments=None, evaluations=None, intervals=None, guess=None, model=None, out=None, figures=false, **settings))]
     #[expect(clippy::too_many_arguments, reason = "Python's keywords, one argument each")]
     fn plan(
         &self,
@@ -767,12 +769,13 @@ impl Toolkit {
         segments: Option<&Bound<'_, PyAny>>,
         evaluations: Option<&Bound<'_, PyAny>>,
         intervals: Option<&Bound<'_, PyAny>>,
+        guess: Option<&Bound<'_, PyAny>>,
         model: Option<&Bound<'_, PyModel>>,
         out: Option<PathBuf>,
         figures: bool,
         settings: Option<&Bound<'_, PyDict>>,
     ) -> PyResult<Py<PyAny>> {
-        let mesh = (segments, evaluations, intervals);
+        let mesh = (segments, evaluations, intervals, guess);
         self.plan_on(py, scene, input, (bound, to, at_rest), mesh, model, out, figures, settings)
     }
 

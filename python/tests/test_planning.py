@@ -56,6 +56,15 @@ def test_a_sleigh_typed_in_a_cell_is_planned_to_its_closed_form(tmp_path):
     # the verification run (an ordinary run of the planned input) ends at the target
     assert abs(s["run_error_x"].iloc[0]) <= 1e-6 and abs(s["run_error_xd"].iloc[0]) <= 1e-6
     assert "push.fx" in plan.attrs["units"] and "optimal" in plan.attrs["report"]
+    # the plan as the next one's warm start: optimal within the least
+    # budget (2 evaluations), where the scene's zero force is not
+    again = ezy.plan(sleigh_scene(m), input="push.fx", to={"x": D}, at_rest=True, segments=4, evaluations=2,
+                     guess=plan)
+    assert again.attrs["summary"]["status"].iloc[0] == "optimal"
+    with pytest.raises(ezy.EzyError, match="infeasible|not converged"):
+        ezy.plan(sleigh_scene(m), input="push.fx", to={"x": D}, at_rest=True, segments=4, evaluations=2)
+    with pytest.raises(TypeError, match="guess"):
+        ezy.plan(sleigh_scene(m), input="push.fx", to={"x": D}, at_rest=True, segments=4, guess=3)
     # the command line on the same text: the same table, number for number
     (tmp_path / "sleigh.ezy").write_text(SLEIGH)
     toml = tmp_path / "push.toml"

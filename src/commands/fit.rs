@@ -5,7 +5,7 @@
 
 use std::fmt::Write as _;
 use std::io::Write;
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 use std::time::Instant;
 
 use clap::{ArgMatches, Args, FromArgMatches};
@@ -20,10 +20,6 @@ use crate::output::csv::{number, record};
 use crate::output::transaction::{OutLock, Transaction};
 use crate::render::plot::series::{Chart, Series, Stroke};
 use crate::session::{Error, RunOptions, analysis_error, check_run, settings};
-
-/// Largest data file `ezy fit` reads (64 MB: about a million rows of a
-/// few columns).
-const MAX_DATA_BYTES: u64 = 64 << 20;
 
 /// Fit a scene's parameters to a measured run by nonlinear least squares
 /// (Levenberg-Marquardt on the run's sensitivities): fit.csv with the
@@ -71,60 +67,9 @@ pub(crate) fn exec(app: &App, args: &ArgMatches, out: &mut dyn Write) -> Result<
     let scene = &src.scene;
     let model = &app.model_or_error(&scene.model)?;
     let clock = Instant::now();
-    let data = read_data(&args.data, &args.columns).map_err(AppError::Failed)?;
+    let data = crate::cli::read_columns(&args.data, &args.columns, "the data file").map_err(AppError::Failed)?;
     let (f, files) = fit_model(model, scene, &opts, &data, &args.over).map_err(AppError::from_run)?;
     committed(out, &summary(&scene.name, &f, clock.elapsed().as_secs_f64(), &files), &opts.out)
-}
-
-/// The data file `path`'s column `t` and `columns`, every cell a finite
-/// number, the times sorted.
-///
-/// # Errors
-/// The file's name with what is wrong: unreadable, too large, no header,
-/// a column missing or named twice in the header, a cell that is not a
-/// number (with its line).
-fn read_data(path: &Path, columns: &[String]) -> Result<Data, String> {
-    let at = path.display();
-    let text =
-        ezy_scene::files::read_capped_text(path, MAX_DATA_BYTES, "the data file").map_err(|e| format!("{at}: {e}"))?;
-    let mut reader = csv::ReaderBuilder::new().trim(csv::Trim::All).comment(Some(b'#')).from_reader(text.as_bytes());
-    let head: Vec<String> = reader.headers().map_err(|e| format!("{at}: {e}"))?.iter().map(String::from).collect();
-    let find = |c: &str| {
-        let k = head
-            .iter()
-            .position(|h| h == c)
-            .ok_or_else(|| format!("{at}: no column `{c}` (it has {})", head.join(", ")))?;
-        // a second column of the name would be silently left out
-        match head.iter().skip(k + 1).position(|h| h == c) {
-            Some(j) => Err(format!(
-                "{at}: the header names column `{c}` twice (columns {} and {}): rename one, so that the data fitted are the ones meant",
-                k + 1,
-                k + j + 2
-            )),
-            None => Ok(k),
-        }
-    };
-    let tcol = find("t")?;
-    let cols = columns.iter().map(|c| find(c.trim())).collect::<Result<Vec<_>, _>>()?;
-    let mut data = Data {
-        t: Vec::new(),
-        columns: columns.iter().map(|c| c.trim().to_string()).collect(),
-        values: vec![Vec::new(); cols.len()],
-    };
-    for row in reader.records() {
-        let row = row.map_err(|e| format!("{at}: {e}"))?;
-        let line = row.position().map_or(0, |p| p.line());
-        let cell = |k: usize| -> Result<f64, String> {
-            let v = row.get(k).unwrap_or("");
-            v.parse::<f64>().map_err(|_| format!("{at}, line {line}, column `{}`: `{v}` is not a number", head[k]))
-        };
-        data.t.push(cell(tcol)?);
-        for (list, &k) in data.values.iter_mut().zip(&cols) {
-            list.push(cell(k)?);
-        }
-    }
-    data.check().map_err(|e| format!("{at}: {e}"))?;
-    Ok(data)
 }
 
 /// The fit of `scene` on `proto` (a model at its defaults) to `data`,

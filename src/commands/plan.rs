@@ -14,6 +14,7 @@ use std::sync::atomic::{AtomicUsize, Ordering};
 use std::sync::{Arc, Mutex};
 
 use clap::{ArgMatches, Args, FromArgMatches};
+use ezy_core::design::fit::Data;
 use ezy_core::effects::{Extrapolate, Table, Waveform};
 use ezy_core::plan::{BuildInputs, Input, MAX_UNKNOWNS, Maneuver, Plan, PlanSettings, Status, Target};
 use ezy_core::{Model, Problem, RunSettings, SetupError, SimError, fmt_value};
@@ -67,6 +68,12 @@ struct PlanArgs {
     /// more for dynamics unstable over the horizon; at most N).
     #[arg(long, value_name = "M", default_value_t = 1)]
     intervals: usize,
+    /// The warm start from a CSV file: a column `t` [s] and one named as
+    /// each input (an earlier plan's plan.csv, on any mesh), each input's
+    /// values linear between its rows and held past them, taken at the
+    /// nodes within the bounds, instead of the scene's own time functions.
+    #[arg(long, value_name = "FILE")]
+    guess: Option<PathBuf>,
     /// Most evaluations of the program (each runs the N segments with
     /// their sensitivities).
     #[arg(long, value_name = "K", default_value_t = 500)]
@@ -221,19 +228,35 @@ fn inputs(args: &PlanArgs) -> Result<Vec<Input>, Error> {
         .collect())
 }
 
-/// Each input with the scene's own time function as its warm start: its
+/// Each input with its warm start: the guess file's column of its name
+/// (`guess`: `--guess`) or else the scene's own time function, its
 /// values at the nodes of `n` segments over `[0, t_end]`, each within
 /// the input's bounds (a field the scene leaves at its default, or one
 /// that is not a waveform, starts from 0 or the bound nearest it).
-fn warm_starts(scene: &Scene, slots: &[Slot], inputs: Vec<Input>, n: usize, t_end: f64) -> Vec<Input> {
+fn warm_starts(
+    scene: &Scene,
+    slots: &[Slot],
+    (inputs, guess): (Vec<Input>, Option<&Data>),
+    n: usize,
+    t_end: f64,
+) -> Vec<Input> {
     let t: Vec<f64> = (0..=n).map(|k| if k == n { t_end } else { t_end * k as f64 / n as f64 }).collect();
     inputs
         .into_iter()
         .zip(slots)
-        .map(|(input, slot)| {
+        .enumerate()
+        .map(|(k, (input, slot))| {
             let tree = toml::Value::try_from(&scene.effects[slot.effect].1).ok();
             let field = slot.path.iter().fold(tree, |node, part| node.and_then(|v| v.get(part).cloned()));
-            let Some(wave) = field.and_then(|v| v.try_into::<Waveform>().ok()) else { return input };
+            let wave = match guess {
+                Some(g) => Some(Waveform::Table(Table {
+                    t: g.t.clone(),
+                    value: g.values[k].clone(),
+                    extrapolate: Extrapolate::Hold,
+                })),
+                None => field.and_then(|v| v.try_into::<Waveform>().ok()),
+            };
+            let Some(wave) = wave else { return input };
             let value = t.iter().map(|&tk| wave.eval(tk).clamp(input.lower, input.upper)).collect();
             let table = Table { t: t.clone(), value, extrapolate: Extrapolate::Hold };
             input.guess_waveform(Waveform::Table(table))
@@ -326,7 +349,11 @@ fn plan_model<M: Model>(
             if args.intervals > 1 { " or intervals" } else { "" }
         )));
     }
-    let inputs = warm_starts(&base, &slots, inputs, args.segments, run.t_end);
+    let guess = match &args.guess {
+        Some(path) => Some(crate::cli::read_columns(path, &args.inputs, "the guess file").map_err(Error::Input)?),
+        None => None,
+    };
+    let inputs = warm_starts(&base, &slots, (inputs, guess.as_ref()), args.segments, run.t_end);
     let beat: Beat = Arc::new(Mutex::new(None));
     let build = {
         let (names, model, baumgarte, beat) = (args.inputs.clone(), proto.clone(), opts.baumgarte, Arc::clone(&beat));

@@ -223,10 +223,15 @@ pub(super) fn independent<M: Model>(model: &M, x: &[f64], target: &[(usize, f64)
     kept
 }
 
-/// The program's scales: an input's its bounds' largest finite magnitude
-/// (else its guess's, at least 1); a state component's its largest
-/// magnitude over the warm start's nodes and the target (at least 1); the
-/// objective the effort of the inputs held at their scales over `T`.
+/// The most an input's bound scales it, as a multiple of its warm
+/// start's largest magnitude (at least 1).
+const BOUND_SCALE: f64 = 100.0;
+
+/// The program's scales: an input's its bounds' largest finite magnitude,
+/// at most [`BOUND_SCALE`] times its guess's (without a bound its
+/// guess's, at least 1); a state component's its largest magnitude over
+/// the warm start's nodes and the target (at least 1); the objective the
+/// effort of the inputs held at their scales over `T`.
 pub(super) fn scales<M: Model>(
     plan: &Plan<M>,
     tr: &Transcription<M>,
@@ -240,7 +245,11 @@ pub(super) fn scales<M: Model>(
         .iter()
         .map(|i| {
             let b = [i.lower, i.upper].into_iter().filter(|v| v.is_finite()).fold(0.0f64, |m, v| m.max(v.abs()));
-            if b > 0.0 { b } else { mesh.iter().fold(1.0f64, |m, &t| m.max(i.guess.eval(t).abs())) }
+            let guess = mesh.iter().fold(1.0f64, |m, &t| m.max(i.guess.eval(t).abs()));
+            // a bound far past the warm start says nothing of the input's
+            // size: `|tau| <= 1e300` scaled the EzyRoller's torques to
+            // 1e-300 and ended infeasible where no bound is optimal
+            if b > 0.0 { b.min(BOUND_SCALE * guess) } else { guess }
         })
         .collect();
     let n2 = x[0].len();

@@ -50,7 +50,12 @@ fn roller(tables: &[Table]) -> Result<Problem<EzyRoller>, SimError> {
 /// from the `drive` scene's torque `2 cos(pi t)` N m (from a constant, x1
 /// moves only at second order).
 fn maneuver(target: Target, segments: usize, evaluations: usize) -> Maneuver {
-    let input = Input::new("tau", -10.0, 10.0).guess_waveform(Waveform::cos(2.0, std::f64::consts::PI));
+    maneuver_within(10.0, target, segments, evaluations)
+}
+
+/// [`maneuver`] with `|tau| <= bound` N m.
+fn maneuver_within(bound: f64, target: Target, segments: usize, evaluations: usize) -> Maneuver {
+    let input = Input::new("tau", -bound, bound).guess_waveform(Waveform::cos(2.0, std::f64::consts::PI));
     let settings = PlanSettings { max_evaluations: evaluations, ..PlanSettings::new(segments, 8.0) };
     let plan = Plan::new(vec![input], target, settings, roller).unwrap();
     let m = plan.solve().unwrap();
@@ -94,6 +99,16 @@ fn one_metre_ahead_with_the_least_torque_converges_at_fourth_order() {
     eprintln!("efforts {efforts:?}: observed order {order:.2}");
     assert!(d1 > 0.0 && d2 > 0.0, "the effort falls as the mesh refines: {efforts:?}");
     assert!((3.5..=5.5).contains(&order), "observed order {order} (4 expected)");
+}
+
+/// A bound far past the torques (1e300 N m) is no bound: the same plan
+/// as within 10 N m, to 1e-8 of the effort (it once scaled the torques
+/// to 1e-300 and ended infeasible at 0.79).
+#[test]
+fn a_bound_far_past_the_torque_plans_the_same() {
+    let m = maneuver_within(1e300, ahead(), 10, 500);
+    assert_eq!(m.status, Status::Optimal);
+    assert!((m.effort - 5.193432414).abs() <= 1e-8 * 5.193432414, "{}", m.effort);
 }
 
 /// From rest to rest 1 m ahead: no hinge torque does it, and the plan
