@@ -290,8 +290,8 @@ fn bad_requests_are_refused_by_name() {
 /// sign where the fork's skate line passes through the rear skate, and
 /// the numerator with it), so `w` only grows. The oracle is ezy's own
 /// runs: shape motions `psi(t) = pi + sum_k c_k (1 - cos(2 pi k t / T))`
-/// (at rest at both ends, the fork straight at the end; some crossing the
-/// fork's singular angle) from rest all end moving forward, `u(T) > 0`
+/// (at rest at both ends, the fork straight at the end; one crossing the
+/// fork's singular angle and back) from rest all end moving forward, `u(T) > 0`
 /// by more than 1e-5 m/s, against the runs' 1e-10 accuracy. The test can
 /// fail: the same dynamics are reversible, and the same (time-symmetric)
 /// shape motion started from the end state with its velocities reversed
@@ -306,8 +306,10 @@ fn the_ezyroller_never_comes_back_to_rest() {
         (4.0, [0.3, -0.1, 0.05]),
         (3.0, [-0.2, 0.15, 0.1]),
         (6.0, [0.1, 0.2, -0.15]),
-        // crossing the fork's singular angle (1.318 rad from straight) twice
+        // swinging 1.5 rad from straight at most: across the fork's
+        // singular angle (1.318 rad) and back
         (4.0, [0.75, 0.0, 0.0]),
+        // swinging 1.2 rad at most
         (5.0, [-0.5, -0.3, 0.0]),
     ];
     let names = ["x1", "y1", "phi1", "x2", "y2", "phi2"];
