@@ -836,3 +836,52 @@ fn a_law_whose_value_is_not_a_number_stops_the_run() {
         }
     }
 }
+
+/// A table is defined on its times only unless it says what it is past
+/// them (`extrapolate`): a run past its last time is refused before it
+/// starts, naming the effect and both spans, by the problem and by a
+/// direct `simulate`; with `extrapolate = "hold"` the same table runs and
+/// its torque past the end is its last value, the run then equal to a
+/// constant torque's from that time on; a table that covers the run needs
+/// no word.
+#[test]
+fn a_table_that_ends_within_the_run_is_refused_unless_it_says_hold() {
+    let drive = scenes::BUILTIN[0].1;
+    let motor = "torque = { cos = { amplitude = \"M0\", omega = \"omega\" } }";
+    assert_eq!(drive.matches(motor).count(), 1);
+    let with = |torque: &str, t_end: f64| {
+        let text = drive.replace(motor, torque).replace("t_end = 60.0", &format!("t_end = {t_end:?}"));
+        let scene = Scene::from_toml(&text, "table.toml").unwrap();
+        scene.check(&EzyRoller::default().info()).unwrap();
+        scene
+    };
+    let table = "torque = { table = { t = [0.0, 1.0, 2.0], value = [0.0, 0.5, 0.2] } }";
+    let e = setup::<EzyRoller>(&with(table, 3.0), &[]).err().expect("refused").to_string();
+    assert!(e.contains("effect `motor`") && e.contains("covers [0, 2] s but the run covers [0, 3] s"), "{e}");
+    // the library's own entry, past the problem: refused before a step
+    let (mut sys, y0) = build::<EzyRoller>(&with(table, 2.0), &[], KktMethod::Auto).unwrap();
+    let settings = RunSettings { t_end: 3.0, ..RunSettings::default() };
+    let e = simulate(&mut sys, &y0, &settings, &mut common::Recorder::default()).unwrap_err().to_string();
+    assert!(e.contains("effect `motor`") && e.contains("[0, 3] s"), "{e}");
+    // covering the run it needs no word; held, it runs past its end
+    setup::<EzyRoller>(&with(table, 2.0), &[]).unwrap();
+    let held = table.replace("] } }", "], extrapolate = \"hold\" } }");
+    let run = |torque: &str| {
+        let (mut sys, y0) = build::<EzyRoller>(&with(torque, 3.0), &[], KktMethod::Auto).unwrap();
+        let s = RunSettings { t_end: 3.0, dt: 1e-3, method: Method::Rk4, ..RunSettings::default() };
+        let mut rec = common::Recorder::default();
+        simulate(&mut sys, &y0, &s, &mut rec).unwrap();
+        rec.y
+    };
+    let h = run(&held);
+    // from t = 2 on the held table is the constant 0.2: the same run as
+    // a table of 0.2 from t = 2 (its values before t = 2 the same)
+    let constant = "torque = { table = { t = [0.0, 1.0, 2.0, 3.0], value = [0.0, 0.5, 0.2, 0.2] } }";
+    let c = run(constant);
+    assert_eq!(h.len(), c.len());
+    for (a, b) in h.iter().zip(&c) {
+        for (x, y) in a.iter().zip(b) {
+            assert!((x - y).abs() <= 1e-12, "{x} vs {y}");
+        }
+    }
+}

@@ -388,3 +388,64 @@ fn a_quantity_of_the_callers_own_is_named_as_a_built_in_one() {
     assert_eq!(own.lines().nth(1), built_in.lines().nth(1));
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// `ezy optimize --gait`: the gait of a scene's drives (the EzyRoller's
+/// fork swing with rolling resistance at both skates, a scene file of
+/// the user's) is the library's [`DriveGait`] optimum on the same scene,
+/// number for number: the amplitude's bound binds and is named, the
+/// first-order conditions hold (the library's own test checks the
+/// projected gradient to 1e-8 of the objective). Refused by name: a
+/// model without drives, a coefficient the gait does not have, a drive
+/// range on a drive that does not exist.
+#[test]
+fn the_gait_of_a_scenes_drives_is_the_librarys_optimum() {
+    use ezy_core::design::gait::{DriveGait, FourierGait};
+    let dir = std::env::temp_dir().join(format!("ezy-optimize-gait-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    let prescribed = scenes::BUILTIN.iter().find(|(f, _)| *f == "drive-prescribed.toml").unwrap().1;
+    let rolling = "\n[effects.rolling_A]\nkind = \"rolling-viscous\"\nskate = \"A\"\ndamping = 1.0\n\n[effects.rolling_C]\nkind = \"rolling-viscous\"\nskate = \"C\"\ndamping = 1.0\n";
+    let text = format!("{prescribed}{rolling}");
+    let file = dir.join("rolling.toml");
+    std::fs::write(&file, &text).unwrap();
+    let ezy = |args: &[&str]| std::process::Command::new(env!("CARGO_BIN_EXE_ezy")).args(args).output().unwrap();
+    let out = dir.join("out");
+    let (file_s, out_s) = (file.to_str().unwrap(), out.to_str().unwrap());
+    let over = ["--over", "D.a0=-3.641592653589793:-2.641592653589793", "--over", "D.a1=0.05:0.4"];
+    let base = ["optimize", file_s, "--gait", "D=-pi+0.1+0.3*cos(t)", "--maximize", "gait.mean_forward_speed"];
+    let o = ezy(&[&base[..], &over, &["--grid", "0", "--no-figures", "--out", out_s]].concat());
+    let printed = String::from_utf8_lossy(&o.stdout);
+    assert!(o.status.success(), "{}{printed}", String::from_utf8_lossy(&o.stderr));
+    assert!(printed.contains("D.a1 is at a bound"), "{printed}");
+    let optimum = std::fs::read_to_string(out.join("optimum.csv")).unwrap();
+    let mut lines = optimum.lines();
+    assert_eq!(lines.next(), Some("D.a0,D.a1,gait.mean_forward_speed"));
+    let row: Vec<f64> = lines.next().unwrap().split(',').map(|v| v.parse().unwrap()).collect();
+    // the library on the same scene: the gait's start, bounds and settings
+    let scene = ezy_scene::Scene::from_toml(&text, "rolling.toml").unwrap();
+    let start = FourierGait::new(vec![vec![-PI + 0.1, 0.3, 0.0]], 1, 2.0).unwrap();
+    let gait =
+        DriveGait::new(&["D"], start).free("D.a0", -PI - 0.5, -PI + 0.5).unwrap().free("D.a1", 0.05, 0.4).unwrap();
+    let design = gait.design(move || scene.problem::<ezy::models::EzyRollerDriven>(&[]).map(|(p, _)| p)).unwrap();
+    let goal =
+        Goal { objective: Quantity::Gait(GaitQuantity::MeanForwardSpeed), sense: Sense::Maximize, constraints: vec![] };
+    let settings = OptimizeSettings { grid: 0, ..DriveGait::optimize_settings() };
+    let lib = optimize(&design, &goal, &settings, None, &mut |_| {}).unwrap();
+    assert!(lib.converged && lib.kkt.holds && lib.at_bound == [false, true], "{}", lib.termination);
+    assert_eq!(lib.values[1], 0.4);
+    for (k, (a, b)) in row.iter().zip(lib.values.iter().chain([&lib.objective])).enumerate() {
+        assert!((a - b).abs() <= 1e-9 * b.abs().max(1.0), "column {k}: the command's {a}, the library's {b}");
+    }
+    // refused before any work, naming the culprit
+    for (args, culprit) in [
+        (vec!["optimize", "drive", "--gait", "D=0.3*cos(t)", "--over", "D.a1=0:1"], "has no drives"),
+        (vec!["optimize", file_s, "--gait", "D=-pi+0.3*cos(t)", "--over", "D.a3=0:1"], "`D.a3` is not a coefficient"),
+        (vec!["optimize", file_s, "--gait", "D=-pi+0.3*cos(t)", "--over", "D.a1=0:1", "--range", "E=-4:-2"], "`E`"),
+        (vec!["optimize", file_s, "--gait", "D=-pi+0.3*cos(t)", "--over", "D.a1=0:1", "--harmonics", "0"], "order 0"),
+    ] {
+        let o = ezy(&[&args[..], &["--maximize", "gait.mean_forward_speed", "--out", out_s]].concat());
+        let e = String::from_utf8_lossy(&o.stderr);
+        assert!(!o.status.success() && e.contains(culprit), "{args:?}: {e}");
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}

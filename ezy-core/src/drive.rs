@@ -55,7 +55,12 @@ pub fn check_angle(angle: &Waveform, t_end: f64) -> Result<(), String> {
                 .enumerate()
                 .try_for_each(|(k, w)| check_angle(w, t_end).map_err(|e| format!("term {k} of the sum: {e}")))
         }
-        Waveform::Spline(sp) if sp.data().extrapolate == crate::effects::waveform::Extrapolate::Hold => {
+        Waveform::Spline(sp)
+            if matches!(
+                sp.data().extrapolate,
+                crate::effects::waveform::Extrapolate::Hold | crate::effects::waveform::Extrapolate::None
+            ) =>
+        {
             let t = &sp.data().t;
             let (first, last) = (t[0], t[t.len() - 1]);
             if first > 0.0 || last < t_end {

@@ -509,7 +509,9 @@ impl<M: Model> Problem<M> {
     /// range ([`check_params`]); [`SetupError::Setting`] for a bad mass;
     /// [`SetupError::Scene`] for a drive without an angle or one that is not
     /// smooth over the run
-    /// ([`crate::drive::check_angle`]); [`SetupError::Initial`] if no consistent
+    /// ([`crate::drive::check_angle`]); [`SetupError::Effect`] for an
+    /// effect's table that ends within the run ([`crate::effects::ForceLaw::span`]);
+    /// [`SetupError::Initial`] if no consistent
     /// state is near the given one.
     pub fn initial_state(&self) -> Result<(Vec<f64>, InitialReport), SimError> {
         let info = self.model.info();
@@ -530,6 +532,7 @@ impl<M: Model> Problem<M> {
                 SimError::Setup(SetupError::Scene { key: format!("drives.{}.angle", d.name), message })
             })?;
         }
+        crate::simulate::check_spans(&self.effects, self.settings.t_end)?;
         // skates with friction may start sliding: their rows are left out
         // of the velocity solve where the given values determine the
         // velocities without them (else every row holds: they stick)

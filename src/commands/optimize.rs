@@ -11,7 +11,11 @@ use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 use clap::{ArgMatches, Args, FromArgMatches};
+use ezy_core::design::Design;
+use ezy_core::design::gait::{DriveGait, FourierGait};
 use ezy_core::design::optimize::{Constraint, Evaluation, Goal, OptimizeSettings, Optimum, Quantity, Sense, optimize};
+use ezy_core::effects::Periodicity;
+use ezy_core::geometry::Gait;
 use ezy_core::{Model, Problem, fmt_value};
 use ezy_scene::Scene;
 
@@ -49,6 +53,27 @@ struct OptimizeArgs {
     /// starts from the scene's value.
     #[arg(long = "over", value_name = "NAME=LO:HI", value_parser = crate::cli::parse_over, required = true)]
     over: Vec<(String, f64, f64)>,
+    /// Optimize the gait of the scene's drives (a mixed system's shape
+    /// prescribed through its drives) instead of its parameters: the
+    /// start, NAME=EXPR per drive over one period, t in [0, 2 pi], each a
+    /// sum of constants and cos/sin(k*t + c) with whole k (as
+    /// `gait-optimize --gait`). --over then names the gait's Fourier
+    /// coefficients, DRIVE.a0, DRIVE.a1, DRIVE.b1, ... [rad]; the gait is
+    /// found to 1e-12 and the optimum polished by Newton's method.
+    #[arg(long, value_name = "NAME=EXPR[,..]")]
+    gait: Option<String>,
+    /// The gait's period with --gait [s] [default: the period of the
+    /// scene's drives].
+    #[arg(long, value_name = "T", requires = "gait")]
+    period: Option<f64>,
+    /// The Fourier series' order with --gait [default: the start's highest
+    /// harmonic, at least 1].
+    #[arg(long, value_name = "N", requires = "gait")]
+    harmonics: Option<usize>,
+    /// A drive's angle range over the cycle with --gait, NAME=LO:HI [rad],
+    /// held at 64 times per cycle; repeatable.
+    #[arg(long = "range", value_name = "NAME=LO:HI", value_parser = crate::cli::parse_over, requires = "gait")]
+    ranges: Vec<(String, f64, f64)>,
     /// A constraint, 'QUANTITY <= VALUE' or 'QUANTITY >= VALUE' (quantities
     /// as for --maximize); repeatable.
     #[arg(long = "subject-to", value_name = "'Q <= V'")]
@@ -187,11 +212,10 @@ fn optimize_model<M: Model>(
     let flag = if sense == Sense::Maximize { "--maximize" } else { "--minimize" };
     let at = Lookup { app, state: &state, t_end, every };
     let objective = quantity(text, &at).map_err(|e| Error::Input(format!("{flag}: {e}")))?;
-    let constraints =
+    let mut constraints =
         args.subject_to.iter().map(|c| constraint(c, &at)).collect::<Result<Vec<_>, _>>().map_err(Error::Input)?;
-    let goal = Goal { objective, sense, constraints };
     let n = args.over.len();
-    let os = OptimizeSettings {
+    let mut os = OptimizeSettings {
         max_evaluations: args.max_evaluations,
         periodic: periodic_settings(opts),
         grid: args.grid.unwrap_or(match n {
@@ -201,7 +225,20 @@ fn optimize_model<M: Model>(
         }),
         ..OptimizeSettings::default()
     };
-    let design = scene.design(proto, &opts.sets, &args.over).map_err(analysis_error(&opts.out))?;
+    let design = match &args.gait {
+        None => scene.design(proto, &opts.sets, &args.over).map_err(analysis_error(&opts.out))?,
+        Some(text) => {
+            let (design, ranges) = drive_gait(proto, scene, opts, args, text)?;
+            constraints.extend(ranges);
+            os = OptimizeSettings {
+                max_evaluations: os.max_evaluations,
+                grid: os.grid,
+                ..DriveGait::optimize_settings()
+            };
+            design
+        }
+    };
+    let goal = Goal { objective, sense, constraints };
     let design = design.adjusted(move |p| Problem { settings, baumgarte: None, ..p });
     crate::session::check_run(proto, scene, opts)?;
     // the directory is this command's from here to the commit
@@ -242,6 +279,62 @@ fn optimize_model<M: Model>(
     }
     let files = tx.commit()?;
     Ok((o, files))
+}
+
+/// Samples per cycle at which `--range` holds a drive's angle.
+const RANGE_SAMPLES: usize = 64;
+
+/// `--gait`: the design over the free Fourier coefficients of the
+/// scene's drives ([`DriveGait`]), each problem the scene's with the
+/// drives' angles the gait's, and the constraints of `--range`.
+///
+/// # Errors
+/// A model without drives, a gait text that does not parse or is not a
+/// Fourier series, no period (given or the drives'), a coefficient or a
+/// drive that does not exist, and what [`DriveGait::design`] refuses.
+fn drive_gait<M: Model>(
+    proto: &M,
+    scene: &Scene,
+    opts: &RunOptions,
+    args: &OptimizeArgs,
+    text: &str,
+) -> Result<(Design<M>, Vec<Constraint>), Error> {
+    let info = proto.clone().info();
+    let drives: Vec<String> = info.drives.iter().map(|d| d.name.to_string()).collect();
+    if drives.is_empty() {
+        return Err(Error::Input(format!(
+            "--gait: model {} has no drives: a mixed system's gait is prescribed through its drives (`drive D: hinge B;` in the model); without --gait, --over names parameters",
+            info.name
+        )));
+    }
+    let gait = Gait::parse(&drives, text).map_err(|e| Error::Input(e.to_string()))?;
+    let period = match args.period {
+        Some(p) => p,
+        None => match Periodicity::combine(scene.drives.iter().map(|(_, d)| d.angle.periodicity())) {
+            Periodicity::Period(p) => p,
+            _ => {
+                return Err(Error::Input(
+                    "--gait: the scene's drives do not repeat, so the gait has no period: give --period T [s]".into(),
+                ));
+            }
+        },
+    };
+    let start = FourierGait::from_gait(&gait, args.harmonics, Some(period), &drives)
+        .map_err(|e| Error::Input(format!("--gait: {e}")))?;
+    let names: Vec<&str> = drives.iter().map(String::as_str).collect();
+    let mut dg = DriveGait::new(&names, start);
+    for (name, lo, hi) in &args.over {
+        dg = dg.free(name, *lo, *hi).map_err(|e| Error::Input(format!("--over {name}: {e}")))?;
+    }
+    let mut ranges = Vec::new();
+    for (d, lo, hi) in &args.ranges {
+        ranges.extend(dg.range(d, *lo, *hi, RANGE_SAMPLES).map_err(|e| Error::Input(format!("--range {d}: {e}")))?);
+    }
+    let (scene, proto, sets) = (scene.clone(), proto.clone(), opts.sets.clone());
+    let design = dg
+        .design(move || scene.problem_with(proto.clone(), &sets).map(|(p, _)| p))
+        .map_err(analysis_error(&opts.out))?;
+    Ok((design, ranges))
 }
 
 /// A signal stopped the optimization: its best point so far and the

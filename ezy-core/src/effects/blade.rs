@@ -166,6 +166,13 @@ impl ForceLaw for BladeLaw {
         })
     }
 
+    fn span(&self) -> (f64, f64) {
+        match &self.force {
+            BladeForce::Driven(w) => w.span(),
+            _ => (f64::NEG_INFINITY, f64::INFINITY),
+        }
+    }
+
     fn forcing_omega(&self) -> f64 {
         match &self.force {
             BladeForce::Driven(w) => w.max_omega(),

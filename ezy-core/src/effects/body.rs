@@ -279,6 +279,17 @@ impl ForceLaw for BodyLaw {
         })
     }
 
+    fn span(&self) -> (f64, f64) {
+        match self {
+            BodyLaw::Force { fx, fy, .. } => {
+                let ((a, b), (c, d)) = (fx.span(), fy.span());
+                (a.max(c), b.min(d))
+            }
+            BodyLaw::Torque { torque, .. } => torque.span(),
+            BodyLaw::Field { .. } => (f64::NEG_INFINITY, f64::INFINITY),
+        }
+    }
+
     fn forcing_omega(&self) -> f64 {
         match self {
             BodyLaw::Force { fx, fy, .. } => fx.max_omega().max(fy.max_omega()),

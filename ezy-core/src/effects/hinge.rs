@@ -299,6 +299,13 @@ impl ForceLaw for HingeLaw {
         })
     }
 
+    fn span(&self) -> (f64, f64) {
+        match &self.torque {
+            HingeTorque::Motor(w) | HingeTorque::Servo { angle: w, .. } => w.span(),
+            _ => (f64::NEG_INFINITY, f64::INFINITY),
+        }
+    }
+
     fn forcing_omega(&self) -> f64 {
         match &self.torque {
             HingeTorque::Motor(w) | HingeTorque::Servo { angle: w, .. } => w.max_omega(),

@@ -192,6 +192,14 @@ pub trait ForceLaw: Send + Sync + fmt::Debug + 'static {
         None
     }
 
+    /// The times \[s\] on which the force is defined, `(first, last)`:
+    /// its waveforms' ([`super::Waveform::span`]; a table that does not
+    /// extrapolate is defined on its times only). A run over `[0, t_end]`
+    /// outside them is refused before it starts. The default: everywhere.
+    fn span(&self) -> (f64, f64) {
+        (f64::NEG_INFINITY, f64::INFINITY)
+    }
+
     /// The highest angular frequency \[rad/s\] at which the force is
     /// driven in time (a harmonic motor's `omega`), for the check that a
     /// fixed step samples it (more than two steps per period); the default

@@ -140,6 +140,12 @@ impl Effect {
         self.law.as_force_law().periodicity()
     }
 
+    /// The times \[s\] on which the effect's force is defined
+    /// ([`ForceLaw::span`]).
+    pub fn span(&self) -> (f64, f64) {
+        self.law.as_force_law().span()
+    }
+
     /// The highest angular frequency \[rad/s\] driving the force in time
     /// ([`ForceLaw::forcing_omega`]; 0 for a force constant in time).
     pub fn forcing_omega(&self) -> f64 {

@@ -325,6 +325,10 @@ impl ForceLaw for SpringLaw {
         Some(self.force.periodicity())
     }
 
+    fn span(&self) -> (f64, f64) {
+        self.force.span()
+    }
+
     fn time_scale(&self, mass: &[f64]) -> Option<TimeScale> {
         let m = TimeScale::smallest_mass(
             mass,

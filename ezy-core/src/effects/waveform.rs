@@ -30,8 +30,8 @@ fn is_zero(v: &f64) -> bool {
 }
 
 /// A piecewise-linear function of time through the points `(t_k, value_k)`,
-/// held constant before the first and after the last point unless
-/// `extrapolate` says otherwise.
+/// defined on `[t_0, t_last]` only unless `extrapolate` says what it is
+/// outside ([`Extrapolate`]).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct Table {
@@ -40,7 +40,7 @@ pub struct Table {
     /// Values at those times (same length as `t`).
     pub value: Vec<f64>,
     /// What the table is outside `[t_0, t_last]`.
-    #[serde(default, skip_serializing_if = "Extrapolate::is_hold")]
+    #[serde(default, skip_serializing_if = "Extrapolate::is_none")]
     pub extrapolate: Extrapolate,
 }
 
@@ -48,8 +48,14 @@ pub struct Table {
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum Extrapolate {
-    /// The end values held (zero derivatives): the default.
+    /// Nothing: the function is defined on its times only, and a run whose
+    /// time span `[0, t_end]` passes them is refused before it starts
+    /// ([`Waveform::span`]; `extrapolate = "none"`, the default). A table
+    /// that ends before the run would otherwise hold its last value
+    /// silently; say so with [`Extrapolate::Hold`] where that is meant.
     #[default]
+    None,
+    /// The end values held (zero derivatives).
     Hold,
     /// Continued along the end slopes (a spline's second derivative zero
     /// outside, continuous at a natural end).
@@ -61,13 +67,15 @@ pub enum Extrapolate {
 }
 
 impl Extrapolate {
-    fn is_hold(&self) -> bool {
-        *self == Extrapolate::Hold
+    fn is_none(&self) -> bool {
+        *self == Extrapolate::None
     }
 
     /// Where to evaluate at `t` \[s\] a function given on `[t0, t1]`:
     /// `Ok(t)` inside (or periodic, wrapped into it), `Err(end)` past an
-    /// end (`0`: before `t0`, `1`: after `t1`) when held or continued.
+    /// end (`0`: before `t0`, `1`: after `t1`) when held or continued, or
+    /// not defined there (then evaluated as held: a run is refused before
+    /// it gets there, [`Waveform::span`]).
     fn locate(self, t: f64, t0: f64, t1: f64) -> Result<f64, usize> {
         if (t0..=t1).contains(&t) {
             return Ok(t);
@@ -156,7 +164,7 @@ pub struct SplineData {
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub slope_end: Option<f64>,
     /// What the spline is outside its knots.
-    #[serde(default, skip_serializing_if = "Extrapolate::is_hold")]
+    #[serde(default, skip_serializing_if = "Extrapolate::is_none")]
     pub extrapolate: Extrapolate,
 }
 
@@ -488,6 +496,24 @@ impl Table {
     }
 }
 
+/// Whether the times `span = (first, last)` \[s\] on which a waveform or
+/// a force is defined ([`Waveform::span`]) cover a run's `[0, t_end]`.
+///
+/// # Errors
+/// A sentence naming the times covered and the run's, and the way out
+/// (`extrapolate`).
+pub fn covers((first, last): (f64, f64), t_end: f64) -> Result<(), String> {
+    if first <= 0.0 && last >= t_end {
+        return Ok(());
+    }
+    Err(format!(
+        "its table covers [{}, {}] s but the run covers [0, {}] s: extend the table, or say what it is outside its times with `extrapolate = \"hold\"` (its end values), \"linear\" or \"periodic\"",
+        crate::names::fmt_value(first),
+        crate::names::fmt_value(last),
+        crate::names::fmt_value(t_end)
+    ))
+}
+
 /// Componentwise sum of two `(w, w', w'')`.
 fn add3(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
     [a[0] + b[0], a[1] + b[1], a[2] + b[2]]
@@ -670,6 +696,43 @@ mod tests {
         let bad = Waveform::Linear(Linear { value: 0.0, rate: f64::NAN }).validate().unwrap_err();
         assert!(bad.contains("rate"), "{bad}");
     }
+
+    #[test]
+    fn a_table_is_defined_on_its_times_unless_it_says_otherwise() {
+        let table = |t: Vec<f64>, extrapolate| {
+            let value = vec![1.0; t.len()];
+            Waveform::Table(Table { t, value, extrapolate })
+        };
+        let everywhere = (f64::NEG_INFINITY, f64::INFINITY);
+        // the default is none: a scene's table without the key
+        assert_eq!(Extrapolate::default(), Extrapolate::None);
+        let short = table(vec![0.0, 2.0], Extrapolate::None);
+        assert_eq!(short.span(), (0.0, 2.0));
+        assert_eq!(short.check_span(2.0), Ok(()));
+        let e = short.check_span(2.5).unwrap_err();
+        assert!(e.contains("covers [0, 2] s but the run covers [0, 2.5] s") && e.contains("\"hold\""), "{e}");
+        // a table that starts late leaves the run's start undefined
+        assert!(table(vec![0.5, 9.0], Extrapolate::None).check_span(1.0).unwrap_err().contains("[0.5, 9]"));
+        for x in [Extrapolate::Hold, Extrapolate::Linear, Extrapolate::Periodic] {
+            assert_eq!(table(vec![0.0, 2.0], x).span(), everywhere, "{x:?}");
+        }
+        // a sum is defined where every term is; a harmonic everywhere
+        let sum = Waveform::Sum(vec![
+            table(vec![-1.0, 3.0], Extrapolate::None),
+            Waveform::sin(1.0, 2.0),
+            table(vec![0.5, 5.0], Extrapolate::None),
+        ]);
+        assert_eq!(sum.span(), (0.5, 3.0));
+        assert_eq!(Waveform::sin(1.0, 2.0).span(), everywhere);
+        let spline = Spline::new(SplineData {
+            t: vec![0.0, 1.0, 2.0],
+            value: vec![0.0, 1.0, 0.0],
+            slope_start: None,
+            slope_end: None,
+            extrapolate: Extrapolate::None,
+        });
+        assert_eq!(Waveform::Spline(spline).span(), (0.0, 2.0));
+    }
 }
 
 /// A forced orbit's start and period in periods of its forcing, taken at
@@ -760,6 +823,37 @@ impl Waveform {
             Waveform::Sum(terms) => terms.iter().map(Waveform::max_omega).fold(0.0, f64::max),
             Waveform::Constant(_) | Waveform::Table(_) | Waveform::Spline(_) | Waveform::Linear(_) => 0.0,
         }
+    }
+
+    /// The times \[s\] on which the waveform is defined, `(first, last)`:
+    /// a table's or a spline's `[t_0, t_last]` where it does not
+    /// extrapolate ([`Extrapolate::None`]), everywhere (`(-inf, inf)`)
+    /// otherwise; a sum's the intersection of its terms'. A run over
+    /// `[0, t_end]` needs `first <= 0` and `last >= t_end`
+    /// ([`Waveform::check_span`]).
+    pub fn span(&self) -> (f64, f64) {
+        match self {
+            Waveform::Table(Table { t, extrapolate: Extrapolate::None, .. })
+            | Waveform::Spline(Spline { data: SplineData { t, extrapolate: Extrapolate::None, .. }, .. })
+                if !t.is_empty() =>
+            {
+                (t[0], t[t.len() - 1])
+            }
+            Waveform::Sum(terms) => terms
+                .iter()
+                .map(Waveform::span)
+                .fold((f64::NEG_INFINITY, f64::INFINITY), |(a, b), (c, d)| (a.max(c), b.min(d))),
+            _ => (f64::NEG_INFINITY, f64::INFINITY),
+        }
+    }
+
+    /// Whether the waveform is defined over a run's `[0, t_end]` \[s\]
+    /// ([`Waveform::span`], [`covers`]).
+    ///
+    /// # Errors
+    /// [`covers`]'s sentence.
+    pub fn check_span(&self, t_end: f64) -> Result<(), String> {
+        covers(self.span(), t_end)
     }
 
     /// How the waveform depends on time: a harmonic of angular frequency

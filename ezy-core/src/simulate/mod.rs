@@ -93,6 +93,7 @@ fn simulate_erased<M: Model>(
     // the skates with friction: their modes at the start
     let start_slides = sys.start_friction(0.0, y0)?;
     check_switches(sys)?;
+    check_spans(&sys.effects, settings.t_end)?;
     check_redundant(sys, y0)?;
     let reduced = choose_reduced(sys, y0, settings)?;
     // the DAE's settings (`settings`), for a hand-over from the reduced
@@ -352,6 +353,22 @@ fn restore_effects<M: Model>(sys: &mut Dynamics<M>, on: &[bool]) {
 }
 
 /// Refuses a switch event ([`crate::events::spec::Action::Switch`]) whose
+/// Whether every effect's force is defined over the run's `[0, t_end]`
+/// \[s\] ([`crate::effects::ForceLaw::span`]: a table that does not
+/// extrapolate is defined on its times only): checked before the run, as
+/// a drive's angle is ([`crate::drive::check_angle`]).
+///
+/// # Errors
+/// [`SetupError::Effect`] naming the first effect whose table ends
+/// within the run, its times and the run's.
+pub(crate) fn check_spans(effects: &[crate::effects::Effect], t_end: f64) -> Result<(), SimError> {
+    for e in effects {
+        crate::effects::waveform::covers(e.span(), t_end)
+            .map_err(|message| SimError::Setup(SetupError::Effect { effect: e.name.clone(), field: "t", message }))?;
+    }
+    Ok(())
+}
+
 /// effects are not effects of `sys` or are a skate's friction, or that
 /// names none: a library user's [`crate::events::spec::Event::switching`] is
 /// checked here as a scene's `switch_on` is when it is resolved.

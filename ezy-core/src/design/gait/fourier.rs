@@ -76,6 +76,77 @@ impl FourierGait {
         Ok(Self { order, period, coefficients })
     }
 
+    /// The Fourier series of a [`Gait`] whose every shape coordinate is a
+    /// sum of harmonics ([`Gait::parse`]'s text) of whole multiples of
+    /// the gait's frequency, of order `harmonics` (default: its highest
+    /// harmonic, at least 1), over the period `period` \[s\] (default the
+    /// gait's: the coefficients do not depend on it). `names` name the
+    /// coordinates in the errors.
+    ///
+    /// # Errors
+    /// [`GeometryError::Request`] naming the coordinate: a waveform that
+    /// is not a sum of harmonics, a harmonic whose frequency is not a
+    /// whole multiple of the gait's; an order below the highest harmonic
+    /// or above [`MAX_ORDER`]; and [`FourierGait::new`]'s.
+    pub fn from_gait(
+        gait: &Gait,
+        harmonics: Option<usize>,
+        period: Option<f64>,
+        names: &[String],
+    ) -> Result<Self, GeometryError> {
+        let fail = |reason: String| Err(GeometryError::Request { reason });
+        let omega = 2.0 * PI / gait.period;
+        let name = |k: usize| names.get(k).map_or_else(|| format!("coordinate {}", k + 1), Clone::clone);
+        let mut rows: Vec<Vec<(usize, f64, f64)>> = Vec::new();
+        for (k, w) in gait.shape.iter().enumerate() {
+            let hs = match w {
+                Waveform::Harmonics(hs) => hs.clone(),
+                Waveform::Constant(c) => vec![Harmonic { amplitude: *c, omega: 0.0, phase: 0.0, phase_step: 0.0 }],
+                Waveform::Cos(h) => vec![*h],
+                Waveform::Sin(h) => vec![Harmonic { phase: h.phase - PI / 2.0, ..*h }],
+                _ => return fail(format!("the gait's {} is not a sum of harmonics", name(k))),
+            };
+            let mut row = Vec::new();
+            for h in &hs {
+                let n = h.omega / omega;
+                if (n - n.round()).abs() > 1e-9 || n.round() < 0.0 {
+                    return fail(format!(
+                        "the gait's {}: a harmonic of frequency {} is not a whole multiple of the period's: write cos(k*t + c) with whole k",
+                        name(k),
+                        crate::names::fmt_value(h.omega)
+                    ));
+                }
+                // cos(pi / 2) is 6e-17 in floating point: a sine's cosine part is 0
+                let snap = |v: f64| if v.abs() <= 1e-15 * h.amplitude.abs() { 0.0 } else { v };
+                row.push((n.round() as usize, snap(h.amplitude * h.phase.cos()), snap(-h.amplitude * h.phase.sin())));
+            }
+            rows.push(row);
+        }
+        let highest = rows.iter().flatten().map(|h| h.0).max().unwrap_or(0).max(1);
+        let order = harmonics.unwrap_or(highest);
+        if !(1..=MAX_ORDER).contains(&order) || order < highest {
+            return fail(format!(
+                "a Fourier gait of order {order}: give an order from {highest} (the gait's highest harmonic) to {MAX_ORDER}"
+            ));
+        }
+        let coefficients = rows
+            .iter()
+            .map(|row| {
+                let mut c = vec![0.0; 2 * order + 1];
+                for &(n, a, b) in row {
+                    if n == 0 {
+                        c[0] += a;
+                    } else {
+                        c[2 * n - 1] += a;
+                        c[2 * n] += b;
+                    }
+                }
+                c
+            })
+            .collect();
+        Self::new(coefficients, order, period.unwrap_or(gait.period))
+    }
+
     /// The circle of radius `radius` \[rad\] about `centre` in the plane of
     /// two shape coordinates, order 1, counter-clockwise from the angle
     /// `phase` \[rad\]: `r_1 = c_1 + rho cos(omega t + phase)`, `r_2 = c_2 +

@@ -454,3 +454,37 @@ fn constraints_bind_by_name() {
     }
     assert!(opt.objective > opt.start_objective);
 }
+
+/// A gait typed as text becomes the Fourier series whose coefficients
+/// are read off it (sines as `b_k`, shifted cosines split), at the order
+/// asked and the period asked; a frequency that is not a whole multiple
+/// and an order below the text's highest harmonic are refused by name.
+#[test]
+fn a_gait_typed_as_text_is_its_fourier_series() {
+    use crate::effects::Waveform;
+    use crate::geometry::Gait;
+    let names = vec!["alpha1".to_string(), "alpha2".to_string()];
+    let gait = Gait::parse(&names, "alpha1=0.8+0.3*cos(t)+0.1*sin(2*t),alpha2=-0.8+0.5*cos(t+pi/2)").expect("a gait");
+    let f = FourierGait::from_gait(&gait, None, None, &names).unwrap();
+    assert_eq!((f.order, f.period), (2, gait.period));
+    let want = [[0.8, 0.3, 0.0, 0.0, 0.1], [-0.8, 0.0, -0.5, 0.0, 0.0]];
+    for (row, w) in f.coefficients.iter().zip(want) {
+        for (a, b) in row.iter().zip(w) {
+            assert!((a - b).abs() <= 1e-15, "{row:?} vs {w:?}");
+        }
+    }
+    // the series at the text's own times is the text's waveform
+    let back = f.gait().unwrap();
+    for i in 0..20 {
+        let t = gait.period * f64::from(i) / 20.0;
+        let (a, b) = (gait.at(t).0, back.at(t).0);
+        assert!((a[0] - b[0]).abs() <= 1e-14 && (a[1] - b[1]).abs() <= 1e-14, "t = {t}: {a:?} vs {b:?}");
+    }
+    let f = FourierGait::from_gait(&gait, Some(3), Some(2.0), &names).unwrap();
+    assert_eq!((f.order, f.period, f.coefficients[0].len()), (3, 2.0, 7));
+    let e = FourierGait::from_gait(&gait, Some(1), None, &names).unwrap_err().to_string();
+    assert!(e.contains("order 1") && e.contains("from 2"), "{e}");
+    let slow = Gait { shape: vec![Waveform::cos(0.3, 1.5), Waveform::Constant(0.0)], period: gait.period };
+    let e = FourierGait::from_gait(&slow, None, None, &names).unwrap_err().to_string();
+    assert!(e.contains("alpha1") && e.contains("whole multiple"), "{e}");
+}
