@@ -4,7 +4,7 @@ Refused input raises EzyError with the command line's message, its flags
 said as the keywords of the call."""
 
 from os import PathLike
-from typing import Any, Dict, Iterator, List, Mapping, Optional, Sequence, Tuple, Union
+from typing import Any, Callable, Dict, Iterator, List, Mapping, Optional, Sequence, Tuple, Union
 
 import numpy as np
 import numpy.typing as npt
@@ -432,6 +432,10 @@ def optimize(
     subject_to: Optional[Union[str, Sequence[str]]] = None,
     max_evaluations: Optional[int] = None,
     grid: Optional[int] = None,
+    gait: Optional[str] = None,
+    period: Optional[float] = None,
+    harmonics: Optional[int] = None,
+    range: Optional[Mapping[str, Tuple[float, float]]] = None,
     model: Optional[Model] = None,
     out: Optional[_Path] = None,
     figures: bool = False,
@@ -446,7 +450,13 @@ def optimize(
     `d<objective>/d<param>` and `failure`), `.attrs["grid"]` the grid's
     points (with `grid=` > 0), `.attrs["report"]` the report. Each of the
     three has `.attrs["units"]` (`{column: unit}`) and
-    `.attrs["description"]` (each column's unit, meaning, frame and time)."""
+    `.attrs["description"]` (each column's unit, meaning, frame and time).
+    With `gait="D=-pi+0.3*cos(t)"` (one period, t in [0, 2 pi], per drive
+    of the scene's model) the numbers are the drives' Fourier
+    coefficients instead (`over={"D.a1": (0.05, 0.4)}`), the gait
+    stretched to `period` seconds (default: the scene's drives' period),
+    of order `harmonics`, each drive's angle held within
+    `range={"D": (lower, upper)}` [rad] over the cycle."""
     ...
 def plan(
     scene: _Scene,
@@ -459,6 +469,8 @@ def plan(
     evaluations: Optional[int] = None,
     intervals: Optional[int] = None,
     guess: Optional[Union[_Path, Any]] = None,
+    objective: Optional[Callable[..., Any]] = None,
+    effort_weight: Optional[float] = None,
     model: Optional[Model] = None,
     out: Optional[_Path] = None,
     figures: bool = False,
@@ -473,9 +485,22 @@ def plan(
     within `bound={input: (lower, upper)}`; the target
     `to={"x1": 1.0}` (a velocity is its coordinate's name with `d`) and
     `at_rest=True`. A DataFrame of the nodes (`t` [s], the inputs, the
-    state); `.attrs["summary"]` (status, effort [unit^2 s], violation, the
+    state); `.attrs["summary"]` (status, effort [unit^2 s], the objective
+    minimized, `objective_value`, `objective_gradient`, violation, the
     verification run's errors), `.attrs["report"]`. A target not met
-    (infeasible, with the least violation) raises EzyError."""
+    (infeasible, with the least violation) raises EzyError.
+
+    The objective is the effort times `effort_weight` (default 1) plus,
+    with `objective=f`, `f(t, q, qd, u)` of the samples at the N + 1
+    nodes: numpy arrays `t` (N + 1,) [s], `q` and `qd` (N + 1, nq), `u`
+    (N + 1, inputs). `f` returns a float (ezy then differences it with
+    respect to the samples: `summary["objective_gradient"]` is
+    "differenced") or `(value, gradients)`, the gradients with respect to
+    q, qd and u as a dict `{"q": .., "qd": .., "u": ..}` (a key left out:
+    zeros) or a tuple `(gq, gqd, gu)` shaped as the samples ("exact").
+    With `objective` the target may be left out (a free end). An
+    exception `f` raises reaches the caller as raised; a NaN or infinite
+    value or gradient raises EzyError naming it."""
     ...
 def gait_optimize(
     target: Union[_Scene, Model],

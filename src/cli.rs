@@ -326,3 +326,24 @@ pub(crate) fn read_columns(path: &Path, columns: &[String], what: &str) -> Resul
     data.check().map_err(|e| format!("{at}: {e}"))?;
     Ok(data)
 }
+
+/// `--gait TEXT` (one period, `t` in `[0, 2 pi]`, a trigonometric
+/// polynomial per coordinate of `names`) as the Fourier series of order
+/// `--harmonics` (default: its highest harmonic) over `period` \[s\]
+/// (default the text's): the start of `gait-optimize` and of `optimize
+/// --gait` ([`ezy_core::design::gait::FourierGait::from_gait`]).
+///
+/// # Errors
+/// The text's or the series' sentence, after the flags at fault.
+pub(crate) fn fourier_start(
+    text: &str,
+    harmonics: Option<usize>,
+    period: Option<f64>,
+    names: &[String],
+) -> Result<ezy_core::design::gait::FourierGait, String> {
+    let gait = ezy_core::geometry::Gait::parse(names, text).map_err(|e| e.to_string())?;
+    ezy_core::design::gait::FourierGait::from_gait(&gait, harmonics, period, names).map_err(|e| match harmonics {
+        Some(n) => format!("--gait (--harmonics {n}): {e}"),
+        None => format!("--gait: {e}"),
+    })
+}

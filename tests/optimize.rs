@@ -442,6 +442,10 @@ fn the_gait_of_a_scenes_drives_is_the_librarys_optimum() {
         (vec!["optimize", file_s, "--gait", "D=-pi+0.3*cos(t)", "--over", "D.a3=0:1"], "`D.a3` is not a coefficient"),
         (vec!["optimize", file_s, "--gait", "D=-pi+0.3*cos(t)", "--over", "D.a1=0:1", "--range", "E=-4:-2"], "`E`"),
         (vec!["optimize", file_s, "--gait", "D=-pi+0.3*cos(t)", "--over", "D.a1=0:1", "--harmonics", "0"], "order 0"),
+        (
+            vec!["optimize", file_s, "--gait", "D=-pi+0.3*cos(t)", "--over", "D.a1=0:1", "--period", "1e300"],
+            "--period 1e300",
+        ),
     ] {
         let o = ezy(&[&args[..], &["--maximize", "gait.mean_forward_speed", "--out", out_s]].concat());
         let e = String::from_utf8_lossy(&o.stderr);

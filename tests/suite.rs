@@ -35,6 +35,7 @@ mod figures;
 mod formulations;
 mod friction;
 mod gait_optimize;
+mod gait_report;
 mod geometry;
 mod growth;
 mod guards;

@@ -1,8 +1,11 @@
 //! Optimal maneuver planning (`ezy_core::plan`): the least-effort force
 //! that moves a sleigh from rest to rest against its closed form, a start
 //! of zero input that the solver must leave, an unreachable target
-//! reported infeasible, and the requests refused.
+//! reported infeasible, and the requests refused; plans with a user's
+//! objective (`plan/objective.rs`).
 
+#[path = "plan/objective.rs"]
+mod objective;
 #[path = "plan/roller.rs"]
 mod roller;
 
@@ -231,6 +234,14 @@ fn bad_requests_are_refused() {
     let p = Plan::new(vec![Input::new("F", -1.0, 1.0)], Target::new().q("z", 1.0), settings, sleigh).unwrap();
     let e = p.solve().unwrap_err().to_string();
     assert!(e.contains("no coordinate `z`") && e.contains("x, y, phi"), "{e}");
+    // a target beyond any number a run takes: refused at once, not searched
+    for (t, culprit) in
+        [(Target::new().q("x", 1e300), "target q.x = 1e300 is out of range"), (Target::new().q("phi", 1e7), "q.phi")]
+    {
+        let p = Plan::new(vec![Input::new("F", -1.0, 1.0)], t, settings, sleigh).unwrap();
+        let e = p.solve().unwrap_err().to_string();
+        assert!(e.contains(culprit), "{e}");
+    }
     let small = PlanSettings { max_unknowns: 19, intervals: 4, ..settings };
     let p = Plan::new(vec![Input::new("F", -1.0, 1.0)], target(), small, sleigh).unwrap();
     let e = p.solve().unwrap_err().to_string();

@@ -3,10 +3,15 @@
 //! a target that is a scene or a model (`geometry` and `gait_optimize`).
 
 use std::path::PathBuf;
+use std::sync::{Arc, Mutex};
 
+use ezy::App;
+use ezy_core::plan::{Objective, SampleGradient, Samples, UserValue};
+use numpy::{PyArray1, PyArray2};
 use pyo3::prelude::*;
-use pyo3::types::PyDict;
+use pyo3::types::{PyDict, PyTuple};
 
+use crate::command::python_quantity;
 use crate::ezy_err;
 use crate::kit::Toolkit;
 use crate::model::PyModel;
@@ -33,6 +38,106 @@ fn ranges_arg(function: &str, flag: &str, d: Option<&Bound<'_, PyDict>>) -> PyRe
     let Some(d) = d else { return Ok(Vec::new()) };
     let over = over_args(function, flag.trim_start_matches("--"), d)?;
     Ok(over.chunks_exact(2).flat_map(|pair| [flag.to_string(), pair[1].clone()]).collect())
+}
+
+/// The first exception a Python objective raised during a plan, raised
+/// again when the command returns.
+type Raised = Arc<Mutex<Option<PyErr>>>;
+
+/// A gradient block `what` (`q`, `qd`, `u`) of a Python objective's
+/// return as rows (`None`: zeros shaped as `like`).
+fn rows_of(py: Python<'_>, what: &str, g: Option<Bound<'_, PyAny>>, like: &[Vec<f64>]) -> PyResult<Vec<Vec<f64>>> {
+    let Some(g) = g.filter(|g| !g.is_none()) else { return Ok(like.iter().map(|r| vec![0.0; r.len()]).collect()) };
+    let np = py.import("numpy")?;
+    let a = np.call_method1("asarray", (g, "float64")).map_err(|e| {
+        pyo3::exceptions::PyTypeError::new_err(format!(
+            "the objective's gradient `{what}`: not an array of numbers ({e})"
+        ))
+    })?;
+    if a.getattr("ndim")?.extract::<usize>()? != 2 {
+        return Err(pyo3::exceptions::PyValueError::new_err(format!(
+            "the objective's gradient `{what}` has shape {}: give ({}, {})",
+            a.getattr("shape")?.repr()?,
+            like.len(),
+            like.first().map_or(0, Vec::len)
+        )));
+    }
+    a.call_method0("tolist")?.extract()
+}
+
+/// A Python objective's return: a number, or `(value, gradients)` with
+/// the gradients `None`, a dict with `q`, `qd`, `u` (one left out: zeros)
+/// or a tuple of the three.
+fn user_value(py: Python<'_>, r: &Bound<'_, PyAny>, s: &Samples) -> PyResult<UserValue> {
+    if let Ok(value) = r.extract::<f64>() {
+        return Ok(UserValue { value, gradient: None });
+    }
+    let wrong = || {
+        pyo3::exceptions::PyTypeError::new_err(format!(
+            "the objective returned {}: return a number, or (value, gradients) with gradients a dict {{'q': .., 'qd': .., 'u': ..}} or a tuple (q, qd, u) of arrays shaped as the samples",
+            r.repr().map_or("something else".into(), |t| t.to_string())
+        ))
+    };
+    let pair = r.cast::<PyTuple>().map_err(|_| wrong())?;
+    if pair.len() != 2 {
+        return Err(wrong());
+    }
+    let value = pair.get_item(0)?.extract::<f64>().map_err(|_| wrong())?;
+    let g = pair.get_item(1)?;
+    if g.is_none() {
+        return Ok(UserValue { value, gradient: None });
+    }
+    let (q, qd, u) = if let Ok(d) = g.cast::<PyDict>() {
+        if let Some(k) =
+            d.keys().iter().find(|k| k.extract::<String>().is_ok_and(|k| !["q", "qd", "u"].contains(&k.as_str())))
+        {
+            return Err(pyo3::exceptions::PyKeyError::new_err(format!(
+                "the objective's gradients: unknown key {}: give q, qd and u",
+                k.repr()?
+            )));
+        }
+        (d.get_item("q")?, d.get_item("qd")?, d.get_item("u")?)
+    } else if let Ok(t) = g.extract::<(Bound<'_, PyAny>, Bound<'_, PyAny>, Bound<'_, PyAny>)>() {
+        (Some(t.0), Some(t.1), Some(t.2))
+    } else {
+        return Err(wrong());
+    };
+    let gradient = SampleGradient {
+        q: rows_of(py, "q", q, &s.q)?,
+        qd: rows_of(py, "qd", qd, &s.qd)?,
+        u: rows_of(py, "u", u, &s.u)?,
+    };
+    Ok(UserValue { value, gradient: Some(gradient) })
+}
+
+/// `function(t, q, qd, u)` of the caller's Python code as a plan's
+/// objective term (numpy arrays: `t` (N + 1,), `q` and `qd` (N + 1, nq),
+/// `u` (N + 1, inputs)), called holding the GIL; its first exception is
+/// kept in `raised` and the plan fails naming it.
+fn python_objective(
+    function: Py<PyAny>,
+    raised: Raised,
+) -> impl Fn(&Samples) -> Result<UserValue, String> + Send + Sync {
+    move |s| {
+        Python::attach(|py| {
+            let call = || -> PyResult<UserValue> {
+                let t = PyArray1::from_vec(py, s.t.clone());
+                let array = |rows: &[Vec<f64>]| {
+                    PyArray2::from_vec2(py, rows).map_err(|e| pyo3::exceptions::PyValueError::new_err(e.to_string()))
+                };
+                let r = function.bind(py).call1((t, array(&s.q)?, array(&s.qd)?, array(&s.u)?))?;
+                user_value(py, &r, s)
+            };
+            call().map_err(|e| {
+                let text = e.to_string();
+                let mut slot = raised.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
+                if slot.is_none() {
+                    *slot = Some(e);
+                }
+                format!("it raised {text}")
+            })
+        })
+    }
 }
 
 impl Toolkit {
@@ -75,6 +180,88 @@ impl Toolkit {
         Ok((report, dir, temp))
     }
 
+    /// `optimize(...)`: see the method's docstring in `toolkit.rs`.
+    pub(crate) fn optimize_on(
+        &self,
+        py: Python<'_>,
+        (scene, over): (&Bound<'_, PyAny>, &Bound<'_, PyDict>),
+        (maximize, minimize, subject_to): (Kw<'_, '_>, Kw<'_, '_>, Kw<'_, '_>),
+        (max_evaluations, grid): (Kw<'_, '_>, Kw<'_, '_>),
+        (gait, period, harmonics, range): (Kw<'_, '_>, Kw<'_, '_>, Kw<'_, '_>, KwDict<'_, '_>),
+        (model, out, figures, settings): (Option<&Bound<'_, PyModel>>, Option<PathBuf>, bool, KwDict<'_, '_>),
+    ) -> PyResult<Py<PyAny>> {
+        let type_error = |m: String| pyo3::exceptions::PyTypeError::new_err(m);
+        // a function of the caller's own: named by its __name__
+        let mut own: Option<(String, Py<PyAny>)> = None;
+        let mut text = |key: &str, v: Option<&Bound<'_, PyAny>>| -> PyResult<Option<String>> {
+            match v {
+                Some(f) if f.is_callable() => {
+                    let name = f.getattr("__name__").and_then(|n| n.extract::<String>()).unwrap_or("objective".into());
+                    own = Some((name.clone(), f.clone().unbind()));
+                    Ok(Some(name))
+                }
+                v => text_kw("optimize", key, v),
+            }
+        };
+        let goal = match (text("maximize", maximize)?, text("minimize", minimize)?) {
+            (Some(q), None) => ["--maximize".to_string(), q],
+            (None, Some(q)) => ["--minimize".to_string(), q],
+            _ => return Err(type_error("optimize(): give one of `maximize` and `minimize`".into())),
+        };
+        let mut extra = goal.to_vec();
+        extra.extend(over_args("optimize", "over", over)?);
+        if let Some(g) = text_kw("optimize", "gait", gait)? {
+            extra.extend(["--gait".to_string(), g]);
+        }
+        if let Some(p) = number_kw("optimize", "period", period)? {
+            extra.extend(["--period".to_string(), p.to_string()]);
+        }
+        if let Some(n) = whole_kw("optimize", "harmonics", harmonics)? {
+            extra.extend(["--harmonics".to_string(), n.to_string()]);
+        }
+        extra.extend(ranges_arg("optimize", "--range", range)?);
+        if let Some(list) = subject_to {
+            let list: Vec<String> = if let Ok(one) = list.extract::<String>() {
+                vec![one]
+            } else {
+                list.extract().map_err(|_| {
+                    type_error("optimize(): `subject_to` must be a constraint's text or a list of them".into())
+                })?
+            };
+            for c in list {
+                extra.extend(["--subject-to".to_string(), c]);
+            }
+        }
+        if let Some(n) = whole_kw("optimize", "max_evaluations", max_evaluations)? {
+            extra.extend(["--max-evaluations".to_string(), n.to_string()]);
+        }
+        if let Some(n) = whole_kw("optimize", "grid", grid)? {
+            extra.extend(["--grid".to_string(), n.to_string()]);
+        }
+        let helpers = self.helpers.clone_ref(py);
+        let adjust = |app: App| match &own {
+            Some((name, f)) => app.quantity(name, python_quantity(f.clone_ref(py), helpers.clone_ref(py))),
+            None => app,
+        };
+        let (report, dir, _temp) =
+            self.command_on(py, "optimize", scene, model, extra, out, figures, settings, &adjust)?;
+        let helpers = self.helpers.bind(py);
+        let frame = helpers.call_method1("read_table", (dir.join("optimum.csv"),))?;
+        crate::quantities::annotate(py, &frame, "optimum.csv")?;
+        let history = helpers.call_method1("read_table", (dir.join("history.csv"), "evaluation"))?;
+        crate::quantities::annotate(py, &history, "history.csv")?;
+        frame.getattr("attrs")?.set_item("history", history)?;
+        // the grid's evaluations (a search started from the best of a grid)
+        let grid = dir.join("grid.csv");
+        if grid.is_file() {
+            let grid = helpers.call_method1("read_table", (grid,))?;
+            crate::quantities::annotate(py, &grid, "grid.csv")?;
+            frame.getattr("attrs")?.set_item("grid", grid)?;
+        }
+        frame.getattr("attrs")?.set_item("report", report)?;
+        Ok(frame.unbind())
+    }
+
     /// `plan(...)`: see the method's docstring in `toolkit.rs`.
     #[expect(clippy::too_many_arguments, reason = "Python's keywords, one argument each")]
     pub(crate) fn plan_on(
@@ -84,6 +271,7 @@ impl Toolkit {
         input: &Bound<'_, PyAny>,
         (bound, to, at_rest): (KwDict<'_, '_>, KwDict<'_, '_>, bool),
         (segments, evaluations, intervals, guess): (Kw<'_, '_>, Kw<'_, '_>, Kw<'_, '_>, Kw<'_, '_>),
+        (objective, effort_weight): (Kw<'_, '_>, Kw<'_, '_>),
         model: Option<&Bound<'_, PyModel>>,
         out: Option<PathBuf>,
         figures: bool,
@@ -129,7 +317,35 @@ impl Toolkit {
             };
             extra.extend(["--guess".to_string(), path.display().to_string()]);
         }
-        let (report, dir, _temp) = self.command(py, "plan", scene, model, extra, out, figures, settings)?;
+        let raised: Raised = Arc::new(Mutex::new(None));
+        let own = match objective.filter(|f| !f.is_none()) {
+            Some(f) if !f.is_callable() => {
+                return Err(pyo3::exceptions::PyTypeError::new_err(
+                    "plan(): `objective` must be a function f(t, q, qd, u) returning a number or (value, gradients)",
+                ));
+            }
+            Some(f) => {
+                let name = f.getattr("__name__").and_then(|n| n.extract::<String>()).unwrap_or("objective".into());
+                Some(Objective::user(name, python_objective(f.clone().unbind(), Arc::clone(&raised))))
+            }
+            None => None,
+        };
+        let weight = number_kw("plan", "effort_weight", effort_weight)?;
+        let goal = match (own, weight) {
+            (Some(o), w) => Some(o.effort_weight(w.unwrap_or(1.0))),
+            (None, Some(w)) => Some(Objective::effort().effort_weight(w)),
+            (None, None) => None,
+        };
+        let adjust = |app: App| match &goal {
+            Some(o) => app.plan_objective(o.clone()),
+            None => app,
+        };
+        let done = self.command_on(py, "plan", scene, model, extra, out, figures, settings, &adjust);
+        // the objective's own exception, as it was raised
+        if let Some(e) = raised.lock().unwrap_or_else(std::sync::PoisonError::into_inner).take() {
+            return Err(e);
+        }
+        let (report, dir, _temp) = done?;
         let helpers = self.helpers.bind(py);
         let frame = helpers.call_method1("read_table", (dir.join("plan.csv"),))?;
         crate::quantities::annotate(py, &frame, "plan.csv")?;

@@ -15,7 +15,7 @@ use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 
-use crate::command::{Resolved, python_quantity};
+use crate::command::Resolved;
 use crate::ezy_err;
 use crate::kit::{Toolkit, equations_in};
 use crate::model::PyModel;
@@ -648,7 +648,13 @@ impl Toolkit {
     /// (the optimum, the constraints' values and multipliers, the
     /// evaluations taken) in `.attrs["report"]`; each table's
     /// `.attrs["units"]` (`{column: unit}`) and `.attrs["description"]`
-    /// (each column's unit, meaning, frame and time).
+    /// (each column's unit, meaning, frame and time). With `gait` (the
+    /// start, `"D=-pi+0.3*cos(t)"`: one period, `t` in [0, 2 pi], per drive
+    /// of the scene's model) the numbers are the drives' Fourier
+    /// coefficients (`over={"D.a1": (0.05, 0.4)}`, as `ezy optimize
+    /// --gait`), the gait stretched to `period` seconds (default the
+    /// scene's drives' period), of order `harmonics`, each drive's angle
+    /// held within `range={"D": (lower, upper)}` [rad] over the cycle.
     ///
     /// Raises EzyError with the command line's message in this call's keywords (an unknown
     /// quantity or parameter, bounds that exclude the start, a search that
@@ -657,7 +663,7 @@ impl Toolkit {
     /// `out` when given).
     #[pyo3(signature = (
         scene, *, over, maximize=None, minimize=None, subject_to=None, max_evaluations=None, grid=None,
-        model=None, out=None, figures=false, **settings
+        gait=None, period=None, harmonics=None, range=None, model=None, out=None, figures=false, **settings
     ))]
     #[expect(clippy::too_many_arguments, reason = "Python's keywords, one argument each")]
     fn optimize(
@@ -670,71 +676,23 @@ impl Toolkit {
         subject_to: Option<&Bound<'_, PyAny>>,
         max_evaluations: Option<&Bound<'_, PyAny>>,
         grid: Option<&Bound<'_, PyAny>>,
+        gait: Option<&Bound<'_, PyAny>>,
+        period: Option<&Bound<'_, PyAny>>,
+        harmonics: Option<&Bound<'_, PyAny>>,
+        range: Option<&Bound<'_, PyDict>>,
         model: Option<&Bound<'_, PyModel>>,
         out: Option<PathBuf>,
         figures: bool,
         settings: Option<&Bound<'_, PyDict>>,
     ) -> PyResult<Py<PyAny>> {
-        let type_error = |m: String| pyo3::exceptions::PyTypeError::new_err(m);
-        // a function of the caller's own: named by its __name__
-        let mut own: Option<(String, Py<PyAny>)> = None;
-        let mut text = |key: &str, v: Option<&Bound<'_, PyAny>>| -> PyResult<Option<String>> {
-            match v {
-                Some(f) if f.is_callable() => {
-                    let name = f.getattr("__name__").and_then(|n| n.extract::<String>()).unwrap_or("objective".into());
-                    own = Some((name.clone(), f.clone().unbind()));
-                    Ok(Some(name))
-                }
-                v => text_kw("optimize", key, v),
-            }
-        };
-        let goal = match (text("maximize", maximize)?, text("minimize", minimize)?) {
-            (Some(q), None) => ["--maximize".to_string(), q],
-            (None, Some(q)) => ["--minimize".to_string(), q],
-            _ => return Err(type_error("optimize(): give one of `maximize` and `minimize`".into())),
-        };
-        let mut extra = goal.to_vec();
-        extra.extend(over_args("optimize", "over", over)?);
-        if let Some(list) = subject_to {
-            let list: Vec<String> = if let Ok(one) = list.extract::<String>() {
-                vec![one]
-            } else {
-                list.extract().map_err(|_| {
-                    type_error("optimize(): `subject_to` must be a constraint's text or a list of them".into())
-                })?
-            };
-            for c in list {
-                extra.extend(["--subject-to".to_string(), c]);
-            }
-        }
-        if let Some(n) = whole_kw("optimize", "max_evaluations", max_evaluations)? {
-            extra.extend(["--max-evaluations".to_string(), n.to_string()]);
-        }
-        if let Some(n) = whole_kw("optimize", "grid", grid)? {
-            extra.extend(["--grid".to_string(), n.to_string()]);
-        }
-        let helpers = self.helpers.clone_ref(py);
-        let adjust = |app: App| match &own {
-            Some((name, f)) => app.quantity(name, python_quantity(f.clone_ref(py), helpers.clone_ref(py))),
-            None => app,
-        };
-        let (report, dir, _temp) =
-            self.command_on(py, "optimize", scene, model, extra, out, figures, settings, &adjust)?;
-        let helpers = self.helpers.bind(py);
-        let frame = helpers.call_method1("read_table", (dir.join("optimum.csv"),))?;
-        crate::quantities::annotate(py, &frame, "optimum.csv")?;
-        let history = helpers.call_method1("read_table", (dir.join("history.csv"), "evaluation"))?;
-        crate::quantities::annotate(py, &history, "history.csv")?;
-        frame.getattr("attrs")?.set_item("history", history)?;
-        // the grid's evaluations (a search started from the best of a grid)
-        let grid = dir.join("grid.csv");
-        if grid.is_file() {
-            let grid = helpers.call_method1("read_table", (grid,))?;
-            crate::quantities::annotate(py, &grid, "grid.csv")?;
-            frame.getattr("attrs")?.set_item("grid", grid)?;
-        }
-        frame.getattr("attrs")?.set_item("report", report)?;
-        Ok(frame.unbind())
+        self.optimize_on(
+            py,
+            (scene, over),
+            (maximize, minimize, subject_to),
+            (max_evaluations, grid),
+            (gait, period, harmonics, range),
+            (model, out, figures, settings),
+        )
     }
 
     /// The least-effort inputs that take `scene` from its initial state to
@@ -746,17 +704,39 @@ impl Toolkit {
     /// DataFrame with a column `t` [s] and one per input (an earlier
     /// plan's, on any mesh); `bound={input: (lo, hi)}`, `to={"x1": 1.0, "y1": 0.0}` (a velocity
     /// is its coordinate's name with `d`: `"x1d"`) and `at_rest=True`.
+    /// The objective is the effort (the inputs squared integrated over
+    /// [0, t_end], summed) times `effort_weight` (default 1) plus, with
+    /// `objective=f`, a term of your own: `f(t, q, qd, u)` of the run's
+    /// samples at the N + 1 nodes, numpy arrays `t` (N + 1,) [s], `q`
+    /// and `qd` (N + 1, nq) [m or rad, m/s or rad/s] and `u` (N + 1,
+    /// inputs) [the inputs' units], returning a float, or `(value,
+    /// gradients)` with the gradients of the value with respect to `q`,
+    /// `qd` and `u` (t is fixed) as a dict `{"q": .., "qd": .., "u": ..}`
+    /// (a key left out: zeros) or a tuple `(gq, gqd, gu)`, arrays shaped
+    /// as the samples. Without gradients ezy differences `f` with
+    /// respect to the samples (central differences: 2 calls of `f` per
+    /// sample, no extra simulation) and says so
+    /// (`summary["objective_gradient"]`: "exact" or "differenced"); the
+    /// chain to the planned inputs uses the exact sensitivities. With an
+    /// objective the target may be left out (a free end). `f` is called
+    /// holding the GIL.
+    ///
     /// Returns a DataFrame of the planned inputs at the nodes (`t` [s],
     /// one column per input in its unit), `.attrs["summary"]` (status,
-    /// effort [unit^2 s], violation, the verification run's errors),
+    /// effort [unit^2 s], the objective minimized, its value and how its
+    /// gradient was had, violation, the verification run's errors),
     /// `.attrs["report"]`, `.attrs["units"]` and `.attrs["description"]`.
     /// Other keywords as `run`.
     ///
     /// Raises EzyError with the command line's message in this call's
     /// keywords: a target not met (infeasible, with the least violation
     /// found) or not shown optimal, an unknown effect or coordinate,
-    /// bounds lo > hi or not finite; KeyboardInterrupt on Ctrl-C.
-    #[pyo3(signature = (scene, *, input, bound=None, to=None, at_rest=false, segments=None, evaluations=None, intervals=None, guess=None, model=None, out=None, figures=false, **settings))]
+    /// bounds lo > hi or not finite, an `effort_weight` not finite and
+    /// >= 0 (or 0 without `objective`), an objective value or gradient
+    /// entry that is NaN or infinite (naming its sample); the exception
+    /// `f` raised, as it was raised (TypeError for a return of another
+    /// shape); KeyboardInterrupt on Ctrl-C.
+    #[pyo3(signature = (scene, *, input, bound=None, to=None, at_rest=false, segments=None, evaluations=None, intervals=None, guess=None, objective=None, effort_weight=None, model=None, out=None, figures=false, **settings))]
     #[expect(clippy::too_many_arguments, reason = "Python's keywords, one argument each")]
     fn plan(
         &self,
@@ -770,13 +750,16 @@ impl Toolkit {
         evaluations: Option<&Bound<'_, PyAny>>,
         intervals: Option<&Bound<'_, PyAny>>,
         guess: Option<&Bound<'_, PyAny>>,
+        objective: Option<&Bound<'_, PyAny>>,
+        effort_weight: Option<&Bound<'_, PyAny>>,
         model: Option<&Bound<'_, PyModel>>,
         out: Option<PathBuf>,
         figures: bool,
         settings: Option<&Bound<'_, PyDict>>,
     ) -> PyResult<Py<PyAny>> {
         let mesh = (segments, evaluations, intervals, guess);
-        self.plan_on(py, scene, input, (bound, to, at_rest), mesh, model, out, figures, settings)
+        let goal = (objective, effort_weight);
+        self.plan_on(py, scene, input, (bound, to, at_rest), mesh, goal, model, out, figures, settings)
     }
 
     /// The best closed gait of a kinematic system, as `ezy

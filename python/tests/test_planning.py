@@ -182,3 +182,115 @@ def test_the_ezyroller_typed_in_a_cell_goes_one_metre_ahead():
     with pytest.raises(ezy.EzyError, match="infeasible"):
         ezy.plan(roller_scene(m), input="motor.torque", bound={"motor.torque": (-10.0, 10.0)}, to={"x1": 1.0},
                  at_rest=True, segments=10, evaluations=60)
+
+
+def effort_of_samples(t, q, qd, u):
+    """The effort of the piecewise-linear force recomputed from its node
+    samples, sum_k h_k / 3 (u_k^2 + u_k u_k+1 + u_k+1^2), with its
+    gradient with respect to u (q and qd left out: zeros)."""
+    h3 = np.diff(t) / 3.0
+    a, b = u[:-1, 0], u[1:, 0]
+    value = float(np.sum(h3 * (a * a + a * b + b * b)))
+    g = np.zeros_like(u)
+    g[:-1, 0] += h3 * (2.0 * a + b)
+    g[1:, 0] += h3 * (a + 2.0 * b)
+    return value, {"u": g}
+
+
+def test_the_effort_as_a_python_objective_plans_as_the_built_in_one():
+    """Oracle: an objective of the caller's that recomputes the effort
+    exactly from the input samples, with the effort's weight 0, plans as
+    the built-in effort (the closed form's forces) to 1e-8 relative, its
+    gradient given (exact) or differenced by ezy from the value alone."""
+    m = ezy.Model(SLEIGH)
+    built_in = ezy.plan(sleigh_scene(m), input="push.fx", to={"x": D}, at_rest=True, segments=4)
+    base = built_in.attrs["summary"]
+    assert base["objective"].iloc[0] == "effort" and base["objective_gradient"].iloc[0] == "exact"
+    size = np.max(np.abs(built_in["push.fx"]))
+    shapes = []
+
+    def value_only(t, q, qd, u):
+        shapes.append((t.shape, q.shape, qd.shape, u.shape))
+        return effort_of_samples(t, q, qd, u)[0]
+
+    for f, how in [(effort_of_samples, "exact"), (value_only, "differenced")]:
+        plan = ezy.plan(sleigh_scene(m), input="push.fx", to={"x": D}, at_rest=True, segments=4, objective=f,
+                        effort_weight=0.0)
+        s = plan.attrs["summary"]
+        assert s["status"].iloc[0] == "optimal", plan.attrs["report"]
+        assert s["objective_gradient"].iloc[0] == how
+        assert s["objective"].iloc[0] == f.__name__
+        assert np.max(np.abs(plan["push.fx"] - built_in["push.fx"])) <= 1e-8 * size
+        assert abs(s["objective_value"].iloc[0] - base["objective_value"].iloc[0]) <= 1e-8 * base["effort"].iloc[0]
+        assert f.__name__ in plan.attrs["report"] and how in plan.attrs["report"]
+    # the samples' shapes: t (N + 1,), q and qd (N + 1, nq), u (N + 1, inputs)
+    assert shapes[0] == ((5,), (5, 3), (5, 3), (5, 1))
+
+
+def test_an_exception_in_the_objective_reaches_the_caller():
+    m = ezy.Model(SLEIGH)
+
+    class Custom(Exception):
+        pass
+
+    def broken(t, q, qd, u):
+        raise Custom("no objective here")
+
+    with pytest.raises(Custom, match="no objective here"):
+        ezy.plan(sleigh_scene(m), input="push.fx", to={"x": D}, at_rest=True, segments=4, objective=broken)
+
+    def not_finite(t, q, qd, u):
+        return float("nan")
+
+    with pytest.raises(ezy.EzyError, match="not_finite.*NaN"):
+        ezy.plan(sleigh_scene(m), input="push.fx", to={"x": D}, at_rest=True, segments=4, objective=not_finite)
+    with pytest.raises(TypeError, match="objective"):
+        ezy.plan(sleigh_scene(m), input="push.fx", to={"x": D}, at_rest=True, segments=4, objective=3)
+
+
+def driven_roller_scene(model):
+    """The EzyRoller typed with its hinge driven (`drive D: hinge B;`),
+    viscous rolling resistance 1 N s/m at both skates, its fork swinging
+    `-pi + 0.3 sin(pi t)` (the drive-prescribed scene's)."""
+    return ezy.scene(
+        model=model,
+        name="roller-gait",
+        t_end=30.0,
+        initial={"q": {"x1": 0.0, "y1": 0.0, "phi1": 0.0}, "qd": {"x1": 0.0}},
+        integrator={"method": "dop853", "rtol": 1e-10, "atol": 1e-10},
+        drives={"D": {"angle": {"harmonics": [{"amplitude": -np.pi, "omega": 0.0},
+                                              {"amplitude": 0.3, "omega": np.pi, "phase": -np.pi / 2}]}}},
+        effects={"rolling_A": {"kind": "rolling-viscous", "skate": "A", "damping": 1.0},
+                 "rolling_C": {"kind": "rolling-viscous", "skate": "C", "damping": 1.0}},
+    )
+
+
+def test_a_mixed_systems_gait_typed_in_a_cell_is_optimized():
+    """A mixed system's gait (the EzyRoller typed as text with a drive, its
+    momentum carried between strokes) over the drive's Fourier
+    coefficients: the fastest swing is the command line's on the compiled
+    model (`ezy optimize --gait`, the guide's numbers: 2.8167708808559566
+    m/s at D.a0 = -3.0965841244286905, D.a1 = 0.4 on its bound) to 1e-8;
+    an objective of the caller's own over the run (the final x1 with its
+    derivatives) is the same search as the built-in metric, to the bit."""
+    m = ezy.Model(ROLLER.replace("hinge B: B1 = B2;", "hinge B: B1 = B2;\n    drive D: hinge B;"))
+    over = {"D.a0": (-np.pi - 0.5, -np.pi + 0.5), "D.a1": (0.05, 0.4)}
+    o = ezy.optimize(driven_roller_scene(m), gait="D=-pi+0.1+0.3*cos(t)", over=over,
+                     maximize="gait.mean_forward_speed", grid=0)
+    assert list(o.columns) == ["D.a0", "D.a1", "gait.mean_forward_speed"]
+    assert o["D.a1"][0] == 0.4
+    assert abs(o["D.a0"][0] - -3.0965841244286905) <= 1e-8
+    assert abs(o["gait.mean_forward_speed"][0] - 2.8167708808559566) <= 1e-8 * 2.82
+    assert "D.a1 is at a bound" in o.attrs["report"]
+
+    def final_x1(run):
+        return run["x1"].iloc[-1], [run[f"dx1/d{p}"].iloc[-1] for p in run.attrs["parameters"]]
+
+    kw = dict(gait="D=-pi+0.3*cos(t)", over={"D.a1": (0.05, 0.4)}, grid=0, t_end=4.0)
+    own = ezy.optimize(driven_roller_scene(m), maximize=final_x1, **kw)
+    built_in = ezy.optimize(driven_roller_scene(m), maximize="final(x1)", **kw)
+    assert own["D.a1"][0] == built_in["D.a1"][0]
+    assert own["final_x1"][0] == built_in["final(x1)"][0]
+    with pytest.raises(ezy.EzyError, match="has no drives"):
+        ezy.optimize(roller_scene(ezy.Model(ROLLER)), gait="D=0.3*cos(t)", over={"D.a1": (0.0, 1.0)},
+                     maximize="gait.mean_speed")

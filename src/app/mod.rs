@@ -106,6 +106,9 @@ pub struct App {
     file_models: std::sync::Arc<std::sync::Mutex<Vec<(String, AnyModel)>>>,
     /// Quantities of the caller's own, by name ([`App::quantity`]).
     quantities: Vec<(String, std::sync::Arc<ezy_core::design::optimize::RunFunction>)>,
+    /// The objective `plan` minimizes, where the caller set one
+    /// ([`App::plan_objective`]).
+    plan_objective: Option<ezy_core::plan::Objective>,
 }
 
 impl Default for App {
@@ -176,6 +179,7 @@ impl App {
             errors: Vec::new(),
             file_models: Default::default(),
             quantities: Vec::new(),
+            plan_objective: None,
         }
     }
 
@@ -259,6 +263,24 @@ impl App {
         self.quantities.retain(|(k, _)| k != name);
         self.quantities.push((name.to_string(), std::sync::Arc::new(function)));
         self
+    }
+
+    /// The objective `plan` minimizes instead of the effort
+    /// ([`ezy_core::plan::Objective`]: the effort times its weight plus a
+    /// term of the caller's own of the run's samples at the nodes, as
+    /// Python's `ezy.plan(objective=...)` gives it); the command line's
+    /// flags are unchanged. With a term of the caller's own, `plan` takes
+    /// no target too (a free end).
+    #[must_use]
+    pub fn plan_objective(mut self, objective: ezy_core::plan::Objective) -> Self {
+        self.plan_objective = Some(objective);
+        self
+    }
+
+    /// The objective `plan` minimizes, if the caller set one
+    /// ([`App::plan_objective`]).
+    pub(crate) fn own_plan_objective(&self) -> Option<ezy_core::plan::Objective> {
+        self.plan_objective.clone()
     }
 
     /// The caller's own quantity `name` ([`App::quantity`]).

@@ -5,7 +5,11 @@
 //! smallest within shape ranges, a margin from the singular set and a
 //! path-length budget ([`ezy_core::design::gait`]: SLSQP on exact
 //! gradients from the connection and curvature). `gait_optimum.csv`,
-//! `gait_history.csv` and a figure of the gait in shape space.
+//! `gait_history.csv`, a figure of the gait in shape space and, with two
+//! shape coordinates, `gait_curvature.png`: the start and the optimum
+//! over the height function of the objective's component (none with one
+//! shape coordinate: the height function needs a plane); with
+//! `--report`, `report.html`.
 
 use std::fmt::Write as _;
 use std::io::Write;
@@ -14,12 +18,12 @@ use std::time::Instant;
 
 use clap::{ArgMatches, Args, FromArgMatches};
 use ezy_core::design::gait::{
-    FourierGait, GaitObjective, GaitOptimization, GaitOptimum, MAX_ORDER, Measure, Order, optimize_gait,
+    FourierGait, GaitObjective, GaitOptimization, GaitOptimum, Measure, Order, optimize_gait,
 };
 use ezy_core::design::optimize::Sense;
-use ezy_core::effects::Waveform;
-use ezy_core::geometry::{Gait, Geometry, GeometryError};
+use ezy_core::geometry::{Geometry, GeometryError};
 use ezy_core::{AnyModel, fmt_value};
+use ezy_scene::FigureFormat;
 
 use super::committed;
 use crate::app::scenes::is_scene_path;
@@ -27,7 +31,12 @@ use crate::app::{App, AppError, is_model_path};
 use crate::cli::{parse_over, parse_set};
 use crate::output::csv::{number, record};
 use crate::output::transaction::{OutLock, Transaction, check_interrupt, pending};
+use crate::render::height_map::{ShapePlane, axis, height_grid, height_map};
+use crate::render::plot::chart::chart_svg;
+use crate::render::plot::heat_map::{HeatMap, heatmap_svg};
+use crate::render::plot::raster::encode;
 use crate::render::plot::series::{Chart, Series, Stroke};
+use crate::render::report;
 use crate::session::{Error, with_sets};
 
 /// Optimize a kinematic system's gait: the Fourier series per shape
@@ -35,7 +44,8 @@ use crate::session::{Error, with_sets};
 /// its net motion per path length) largest or smallest within shape
 /// ranges, a margin from the singular set and a path-length budget (SLSQP
 /// on exact gradients of the connection and curvature): gait_optimum.csv,
-/// gait_history.csv and a figure of the gait in shape space.
+/// gait_history.csv, a figure of the gait in shape space and, with two
+/// shape coordinates, one of it over the height function.
 #[derive(Args, Debug, Default)]
 #[command(allow_negative_numbers = true)]
 struct GaitOptimizeArgs {
@@ -96,9 +106,13 @@ struct GaitOptimizeArgs {
     /// Output directory [default: out/gait-optimize/NAME].
     #[arg(long)]
     out: Option<PathBuf>,
-    /// Do not draw the figure.
+    /// Do not write the figures (gait_optimum.png, gait_curvature.png).
     #[arg(long)]
     no_figures: bool,
+    /// Also write report.html: the summary, the figures and the command
+    /// line that reruns the optimization, in one self-contained file.
+    #[arg(long)]
+    report: bool,
 }
 
 /// The arguments of `ezy gait-optimize`, on the subcommand `cmd`.
@@ -125,7 +139,7 @@ pub(crate) fn exec(app: &App, args: &ArgMatches, out: &mut dyn Write) -> Result<
     };
     let dir = args.out.clone().unwrap_or_else(|| PathBuf::from("out").join("gait-optimize").join(&name));
     let clock = Instant::now();
-    let (o, files) = run(model, &args, &dir).map_err(AppError::from_run)?;
+    let (o, files) = run(model, &args, (&name, clock), &dir).map_err(AppError::from_run)?;
     let text = summary(&name, &o, clock.elapsed().as_secs_f64(), &files);
     committed(out, &text, &dir)?;
     if o.converged {
@@ -167,67 +181,18 @@ fn measure(flag: &str, text: &str) -> Result<Measure, Error> {
     if x.is_finite() && y.is_finite() { Ok(Measure::Along([x, y])) } else { Err(bad()) }
 }
 
-/// The start gait written as `--gait` text as a Fourier series of order
-/// `harmonics` (default its highest harmonic).
-///
-/// # Errors
-/// A harmonic whose frequency is not a whole multiple of the gait's, or
-/// above the order asked; an order outside 1 to [`MAX_ORDER`].
-fn fourier(gait: &Gait, harmonics: Option<usize>, names: &[String]) -> Result<FourierGait, Error> {
-    let omega = 2.0 * std::f64::consts::PI / gait.period;
-    let mut rows: Vec<Vec<(usize, f64, f64)>> = Vec::new();
-    for (k, w) in gait.shape.iter().enumerate() {
-        let Waveform::Harmonics(hs) = w else {
-            return Err(Error::Input(format!("--gait: {} is not a sum of harmonics", names[k])));
-        };
-        let mut row = Vec::new();
-        for h in hs {
-            let n = h.omega / omega;
-            if (n - n.round()).abs() > 1e-9 || n.round() < 0.0 {
-                return Err(Error::Input(format!(
-                    "--gait: {}: a harmonic of frequency {} is not a whole multiple of the period's: write cos(k*t + c) with whole k",
-                    names[k],
-                    fmt_value(h.omega)
-                )));
-            }
-            // cos(pi / 2) is 6e-17 in floating point: a sine's cosine part is 0
-            let snap = |v: f64| if v.abs() <= 1e-15 * h.amplitude.abs() { 0.0 } else { v };
-            row.push((n.round() as usize, snap(h.amplitude * h.phase.cos()), snap(-h.amplitude * h.phase.sin())));
-        }
-        rows.push(row);
-    }
-    let highest = rows.iter().flatten().map(|h| h.0).max().unwrap_or(0).max(1);
-    let order = harmonics.unwrap_or(highest);
-    if !(1..=MAX_ORDER).contains(&order) || order < highest {
-        return Err(Error::Input(format!(
-            "--harmonics {order}: give an order from {highest} (the start's highest harmonic) to {MAX_ORDER}"
-        )));
-    }
-    let coefficients = rows
-        .iter()
-        .map(|row| {
-            let mut c = vec![0.0; 2 * order + 1];
-            for &(n, a, b) in row {
-                if n == 0 {
-                    c[0] += a;
-                } else {
-                    c[2 * n - 1] += a;
-                    c[2 * n] += b;
-                }
-            }
-            c
-        })
-        .collect();
-    FourierGait::new(coefficients, order, gait.period).map_err(|e| Error::Input(e.to_string()))
-}
-
-/// The optimization of `model`'s gait, written into `dir`.
-fn run(model: AnyModel, args: &GaitOptimizeArgs, dir: &std::path::Path) -> Result<(GaitOptimum, Vec<PathBuf>), Error> {
+/// The optimization of `model`'s gait, written into `dir` (`name`: the
+/// scene's or model's, `clock` started before it, for the report).
+fn run(
+    model: AnyModel,
+    args: &GaitOptimizeArgs,
+    (name, clock): (&str, Instant),
+    dir: &std::path::Path,
+) -> Result<(GaitOptimum, Vec<PathBuf>), Error> {
     let mut geo = Geometry::new(model, args.body.as_deref(), None).map_err(input(dir))?;
     geo.stop_when(|| pending().is_some());
     let names = geo.shape_names();
-    let start = Gait::parse(&names, &args.gait).map_err(input(dir))?;
-    let start = fourier(&start, args.harmonics, &names)?;
+    let start = crate::cli::fourier_start(&args.gait, args.harmonics, None, &names).map_err(Error::Input)?;
     let (sense, flag, text) = match (&args.maximize, &args.minimize) {
         (Some(t), _) => (Sense::Maximize, "--maximize", t),
         (None, Some(t)) => (Sense::Minimize, "--minimize", t),
@@ -266,18 +231,190 @@ fn run(model: AnyModel, args: &GaitOptimizeArgs, dir: &std::path::Path) -> Resul
         check_interrupt(dir, None, Some("optimizing the gait".into()))?;
     }
     let mut tx = Transaction::begin_locked(held)?;
-    tx.retire(&["gait_optimum.csv".into(), "gait_history.csv".into()]);
+    let format = FigureFormat::Png;
+    let mut written = vec!["gait_optimum.csv".to_string(), "gait_history.csv".to_string()];
+    let mut retired = written.clone();
+    retired.extend(FIGURES.iter().map(|stem| format.file_name(stem)));
+    retired.push("report.html".into());
+    tx.retire(&retired);
     tx.write("gait_optimum.csv", optimum_csv(&problem, &o, &names).as_bytes())?;
     tx.write("gait_history.csv", history_csv(&o).as_bytes())?;
-    if !args.no_figures {
+    // drawn as SVG for the figures' files and the report alike
+    let mut svgs = Vec::new();
+    if !args.no_figures || args.report {
         let chart = shape_chart(&problem.start, &o.gait, &names);
-        let format = ezy_scene::FigureFormat::Png;
-        let bytes = crate::render::plot::figure(&chart, format, ezy_scene::DEFAULT_DPI)
-            .map_err(|e| Error::Input(format!("figure gait_optimum: {e}")))?;
-        tx.write(&format.file_name("gait_optimum"), &bytes)?;
+        svgs.push(("gait_optimum", chart.title.clone(), chart_svg(&chart).map_err(|e| e.to_string())));
+        if names.len() == 2 {
+            tx.check(None, Some("drawing gait_curvature".into()))?;
+            let map = curvature_map(&geo, &problem, &o.gait, &names);
+            tx.check(None, Some("drawing gait_curvature".into()))?;
+            svgs.push(("gait_curvature", map.title.clone(), heatmap_svg(&map).map_err(|e| e.to_string())));
+        }
+    }
+    if !args.no_figures {
+        for (stem, title, svg) in &svgs {
+            tx.check(None, Some(format!("drawing {stem}")))?;
+            let bytes = svg
+                .clone()
+                .and_then(|svg| encode(&svg, format, ezy_scene::DEFAULT_DPI, title).map_err(|e| e.to_string()));
+            match bytes {
+                Ok(bytes) => {
+                    tx.write(&format.file_name(stem), &bytes)?;
+                    written.push(format.file_name(stem));
+                }
+                // the optimum's figure is the command's own; the heat
+                // map a note
+                Err(e) if *stem == "gait_optimum" => return Err(Error::Input(format!("figure {stem}: {e}"))),
+                Err(e) => eprintln!("note: {} not drawn: {e}", format.file_name(stem)),
+            }
+        }
+    }
+    if args.report {
+        written.push("report.html".into());
+        let figures: Vec<(String, Result<String, String>)> =
+            svgs.into_iter().map(|(stem, _, svg)| (format.file_name(stem), svg)).collect();
+        let text = summary(name, &o, clock.elapsed().as_secs_f64(), &[]);
+        let page = report::analysis_page(
+            &format!("ezy gait-optimize: {name}"),
+            &text,
+            &figures,
+            &written,
+            &command_line(args),
+        );
+        tx.write("report.html", page.as_bytes())?;
     }
     let files = tx.commit()?;
     Ok((o, files))
+}
+
+/// The figures' stems: the start and the optimum in shape space, and
+/// over the objective's height function (two shape coordinates). An
+/// earlier run's are retired before a run writes its own.
+const FIGURES: &[&str] = &["gait_optimum", "gait_curvature"];
+
+/// Cells of the height function's map along each shape coordinate.
+const CURVATURE_CELLS: usize = 60;
+
+/// The margin of the height function's map around the box of the start
+/// and the optimum, a fraction of the box's size on each side.
+const CURVATURE_MARGIN: f64 = 0.25;
+
+/// The gait `g` sampled at 201 times over its period (empty if it is no
+/// gait).
+fn samples(g: &FourierGait) -> Vec<Vec<f64>> {
+    let Ok(gait) = g.gait() else { return Vec::new() };
+    (0..=200).map(|i| gait.at(gait.period * f64::from(i) / 200.0).0).collect()
+}
+
+/// The weights of the height function's components `(x, y, theta)` the
+/// objective measures (a direction normalized, as the objective's) and
+/// their name, as the objective's (`GaitObjective::name`): `D(-A)_x`,
+/// `D(-A)_y`, `D(-A)_theta`, `D(-A) along (3, -4)`.
+fn height_of(measure: Measure) -> ([f64; 3], String) {
+    match measure {
+        Measure::Along([x, y]) => {
+            let n = x.hypot(y);
+            let name = match (x, y) {
+                (x, 0.0) if x > 0.0 => "D(-A)_x".to_string(),
+                (0.0, y) if y > 0.0 => "D(-A)_y".to_string(),
+                (x, y) => format!("D(-A) along ({}, {})", fmt_value(x), fmt_value(y)),
+            };
+            ([x / n, y / n, 0.0], name)
+        }
+        Measure::Rotation => ([0.0, 0.0, 1.0], "D(-A)_theta".to_string()),
+    }
+}
+
+/// The start (dashed) and the optimum over the height function of the
+/// objective's component on a grid of [`CURVATURE_CELLS`] cells along
+/// each of the two shape coordinates, over the box of both gaits and
+/// [`CURVATURE_MARGIN`] of it on each side (a cell on the singular set
+/// left grey). The height function `D(-A)` is the integrand of the
+/// second-order net motion over the area a gait encloses: the first
+/// order leaves out its Lie bracket, the reconstruction adds the higher
+/// orders, and per path length the objective divides by the length.
+fn curvature_map(
+    geo: &Geometry<AnyModel>,
+    problem: &GaitOptimization,
+    optimum: &FourierGait,
+    names: &[String],
+) -> HeatMap {
+    let (start, best) = (samples(&problem.start), samples(optimum));
+    let curve = |s: &[Vec<f64>]| -> Vec<(f64, f64)> { s.iter().map(|r| (r[0], r[1])).collect() };
+    let (start, best) = (curve(&start), curve(&best));
+    let span = |k: usize| {
+        let v = start.iter().chain(&best).map(|p| if k == 0 { p.0 } else { p.1 });
+        let (lo, hi) = v.fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), x| (a.min(x), b.max(x)));
+        // a gait still along a coordinate: a box 0.2 rad wide
+        let m = if hi - lo > 1e-9 { CURVATURE_MARGIN * (hi - lo) } else { 0.1 };
+        if lo.is_finite() && hi.is_finite() { (lo - m, hi + m) } else { (-1.0, 1.0) }
+    };
+    let ((x0, x1), (y0, y1)) = (span(0), span(1));
+    let (xs, ys) = (axis(x0, x1, CURVATURE_CELLS), axis(y0, y1, CURVATURE_CELLS));
+    let (weights, label) = height_of(problem.objective.measure);
+    let values = height_grid(geo, &xs, &ys, weights);
+    // the start dashed: every other run of its samples
+    let mut lines: Vec<Vec<(f64, f64)>> =
+        start.chunks(8).map(|c| c[..c.len().min(5)].to_vec()).filter(|c| c.len() >= 2).collect();
+    lines.push(best);
+    let unit = if weights[2] == 0.0 { "m/rad^2" } else { "rad/rad^2" };
+    let plane = ShapePlane { names: [&names[0], &names[1]], xs: &xs, ys: &ys };
+    height_map(
+        format!("Height function {label} (second order): start dashed"),
+        format!("{label} [{unit}]"),
+        &plane,
+        values,
+        lines,
+    )
+}
+
+/// The command line that reruns the optimization, quoted for a shell
+/// (a target that starts like a flag written as a path).
+fn command_line(args: &GaitOptimizeArgs) -> String {
+    let mut w: Vec<String> = vec!["ezy".into(), "gait-optimize".into()];
+    if let Some(t) = &args.target {
+        w.push(if t.starts_with('-') { format!("./{t}") } else { t.clone() });
+    }
+    w.extend(["--gait".into(), args.gait.clone()]);
+    if let Some(m) = &args.maximize {
+        w.extend(["--maximize".into(), m.clone()]);
+    }
+    if let Some(m) = &args.minimize {
+        w.extend(["--minimize".into(), m.clone()]);
+    }
+    if args.per_length {
+        w.push("--per-length".into());
+    }
+    w.extend(["--order".into(), args.order.clone()]);
+    if let Some(n) = args.harmonics {
+        w.extend(["--harmonics".into(), n.to_string()]);
+    }
+    if args.centre_only {
+        w.push("--centre-only".into());
+    }
+    for (n, lo, hi) in &args.ranges {
+        w.extend(["--range".into(), format!("{n}={lo:?}:{hi:?}")]);
+    }
+    for (flag, v) in [("--margin", args.margin), ("--budget", args.budget)] {
+        if let Some(v) = v {
+            w.extend([flag.into(), format!("{v:?}")]);
+        }
+    }
+    w.extend(["--max-evaluations".into(), args.max_evaluations.to_string()]);
+    if let Some(b) = &args.body {
+        w.extend(["--body".into(), b.clone()]);
+    }
+    for (n, v) in &args.sets {
+        w.extend(["--set".into(), format!("{n}={v:?}")]);
+    }
+    if let Some(out) = &args.out {
+        w.extend(["--out".into(), out.display().to_string()]);
+    }
+    if args.no_figures {
+        w.push("--no-figures".into());
+    }
+    w.push("--report".into());
+    w.iter().map(|x| report::shell_quote(x)).collect::<Vec<_>>().join(" ")
 }
 
 /// `gait_optimum.csv`: every coefficient, its start, its value at the

@@ -12,10 +12,9 @@ use std::time::Instant;
 
 use clap::{ArgMatches, Args, FromArgMatches};
 use ezy_core::design::Design;
-use ezy_core::design::gait::{DriveGait, FourierGait};
+use ezy_core::design::gait::DriveGait;
 use ezy_core::design::optimize::{Constraint, Evaluation, Goal, OptimizeSettings, Optimum, Quantity, Sense, optimize};
 use ezy_core::effects::Periodicity;
-use ezy_core::geometry::Gait;
 use ezy_core::{Model, Problem, fmt_value};
 use ezy_scene::Scene;
 
@@ -307,8 +306,13 @@ fn drive_gait<M: Model>(
             info.name
         )));
     }
-    let gait = Gait::parse(&drives, text).map_err(|e| Error::Input(e.to_string()))?;
     let period = match args.period {
+        Some(p) if !(p.is_finite() && p > 0.0 && p < 1e9) => {
+            return Err(Error::Input(format!(
+                "--period {}: give a positive number of seconds below 1e9",
+                fmt_value(p)
+            )));
+        }
         Some(p) => p,
         None => match Periodicity::combine(scene.drives.iter().map(|(_, d)| d.angle.periodicity())) {
             Periodicity::Period(p) => p,
@@ -319,8 +323,7 @@ fn drive_gait<M: Model>(
             }
         },
     };
-    let start = FourierGait::from_gait(&gait, args.harmonics, Some(period), &drives)
-        .map_err(|e| Error::Input(format!("--gait: {e}")))?;
+    let start = crate::cli::fourier_start(text, args.harmonics, Some(period), &drives).map_err(Error::Input)?;
     let names: Vec<&str> = drives.iter().map(String::as_str).collect();
     let mut dg = DriveGait::new(&names, start);
     for (name, lo, hi) in &args.over {

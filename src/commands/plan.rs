@@ -4,8 +4,8 @@
 //! multiple shooting, SLSQP on exact sensitivities), each input a time
 //! function of one of the scene's effects replaced by a piecewise-linear
 //! table; the plan verified by an ordinary run. `plan.csv`,
-//! `plan_summary.csv` and figures of the inputs over time and of the
-//! path in the plane.
+//! `plan_summary.csv`, figures of the inputs over time and of the path
+//! in the plane and, with `--report`, `report.html`.
 
 use std::fmt::Write as _;
 use std::io::Write;
@@ -16,7 +16,7 @@ use std::sync::{Arc, Mutex};
 use clap::{ArgMatches, Args, FromArgMatches};
 use ezy_core::design::fit::Data;
 use ezy_core::effects::{Extrapolate, Table, Waveform};
-use ezy_core::plan::{BuildInputs, Input, MAX_UNKNOWNS, Maneuver, Plan, PlanSettings, Status, Target};
+use ezy_core::plan::{BuildInputs, Input, MAX_UNKNOWNS, Maneuver, Objective, Plan, PlanSettings, Status, Target};
 use ezy_core::{Model, Problem, RunSettings, SetupError, SimError, fmt_value};
 use ezy_scene::{Scene, SceneEffect};
 
@@ -26,7 +26,10 @@ use crate::cli::Overrides;
 use crate::output::csv::{number, record};
 use crate::output::progress::Heartbeat;
 use crate::output::transaction::{Interrupted, OutLock, Transaction, TransactionError};
+use crate::render::plot::chart::chart_svg;
+use crate::render::plot::raster::encode;
 use crate::render::plot::series::{Chart, Series, Stroke};
+use crate::render::report;
 use crate::session::{Error, RunOptions, analysis_error, settings};
 
 /// Plan the least-effort inputs that take a scene from its initial
@@ -84,8 +87,16 @@ struct PlanArgs {
     /// Do not draw the figures.
     #[arg(long)]
     no_figures: bool,
+    /// Also write report.html: the summary, the figures and the command
+    /// line that reruns the plan, in one self-contained file.
+    #[arg(long)]
+    report: bool,
     #[command(flatten)]
     overrides: Overrides,
+    /// The objective minimized instead of the effort, where the caller
+    /// set one on the `App` ([`App::plan_objective`]; no flag).
+    #[arg(skip)]
+    objective: Option<Objective>,
 }
 
 /// The arguments of `ezy plan`, on the subcommand `cmd`.
@@ -95,7 +106,8 @@ pub(crate) fn cli(cmd: clap::Command) -> clap::Command {
 
 /// Plans the scene named (or the default scene) and prints the maneuver.
 pub(crate) fn exec(app: &App, args: &ArgMatches, out: &mut dyn Write) -> Result<(), AppError> {
-    let args = PlanArgs::from_arg_matches(args)?;
+    let mut args = PlanArgs::from_arg_matches(args)?;
+    args.objective = app.own_plan_objective();
     let (src, opts) =
         scene_and_options(app, args.scene.as_deref(), "plan", (args.out.clone(), args.no_figures), &args.overrides)?;
     let opts = RunOptions { progress: true, ..opts };
@@ -270,7 +282,9 @@ fn warm_starts(
 /// No target; a name that is neither a coordinate nor a coordinate's
 /// velocity (listing the state's names).
 fn target(args: &PlanArgs, coords: &[String]) -> Result<Target, Error> {
-    if args.to.is_empty() && !args.at_rest {
+    // a user's objective may leave the end free
+    let own = args.objective.as_ref().is_some_and(|o| o.user.is_some());
+    if args.to.is_empty() && !args.at_rest && !own {
         return Err(Error::Input("no target: give --to NAME=VALUE,.. (x1=1,y1=0) or --at-rest, or both".into()));
     }
     let mut t = Target::new();
@@ -376,7 +390,8 @@ fn plan_model<M: Model>(
         })
     };
     let shared = Arc::clone(&build);
-    let plan = Plan::new(inputs, target, plan_settings, move |t: &[Table]| shared(t))
+    let objective = args.objective.clone().unwrap_or_default();
+    let plan = Plan::with_objective(inputs, target, plan_settings, objective, move |t: &[Table]| shared(t))
         .map_err(analysis_error(&opts.out))?
         .stop_when(|| crate::output::transaction::pending().is_some());
     crate::output::transaction::arm_signals();
@@ -395,22 +410,88 @@ fn plan_model<M: Model>(
     }
     let m = solved.map_err(analysis_error(&opts.out))?;
     let mut tx = Transaction::begin_locked(held)?;
-    tx.retire(&["plan.csv".into(), "plan_summary.csv".into()]);
+    tx.retire(&["plan.csv".into(), "plan_summary.csv".into(), "report.html".into()]);
     tx.write("plan.csv", plan_csv(&args.inputs, &m).as_bytes())?;
     tx.write("plan_summary.csv", summary_csv(&m).as_bytes())?;
-    if opts.figures {
-        let (format, dpi) = opts.look(scene);
+    let mut written = vec!["plan.csv".to_string(), "plan_summary.csv".to_string()];
+    let (format, dpi) = opts.look(scene);
+    // drawn as SVG for the figures' files and the report alike
+    let mut svgs = Vec::new();
+    if opts.figures || args.report {
         let mut charts = vec![("plan", inputs_chart(&args.inputs, &m))];
         charts.extend(path_chart(&*build, run.t_end, &m, &info).map(|c| ("plan_path", c)));
         for (name, chart) in charts {
             tx.check(None, Some(format!("drawing {name}")))?;
-            let bytes = crate::render::plot::figure(&chart, format, dpi)
+            svgs.push((name, chart.title.clone(), chart_svg(&chart).map_err(|e| e.to_string())));
+        }
+    }
+    if opts.figures {
+        for (name, title, svg) in &svgs {
+            let bytes = svg
+                .clone()
+                .and_then(|svg| encode(&svg, format, dpi, title).map_err(|e| e.to_string()))
                 .map_err(|e| Error::Input(format!("figure {name}: {e}")))?;
             tx.write(&format.file_name(name), &bytes)?;
+            written.push(format.file_name(name));
         }
+    }
+    if args.report {
+        written.push("report.html".into());
+        // the page's figures as SVG whatever the files' format
+        let figures: Vec<(String, Result<String, String>)> =
+            svgs.into_iter().map(|(name, _, svg)| (format.file_name(name), svg)).collect();
+        let text = summary(&scene.name, (&args.inputs, args.intervals), &m, &[]);
+        let command = command_line(args, &scene.name, opts);
+        let page = report::analysis_page(&format!("ezy plan: {}", scene.name), &text, &figures, &written, &command);
+        tx.write("report.html", page.as_bytes())?;
     }
     let files = tx.commit()?;
     Ok((m, files))
+}
+
+/// The command line that reruns the plan of scene `scene` (the one
+/// named, else the default's name), quoted for a shell: the plan's flags
+/// and the overrides as `ezy run --report` writes them
+/// ([`RunOptions::to_args`]).
+fn command_line(args: &PlanArgs, scene: &str, opts: &RunOptions) -> String {
+    let scene = args.scene.clone().unwrap_or_else(|| scene.to_string());
+    // a relative path that starts like a flag stays a path
+    let scene = if scene.starts_with('-') { format!("./{scene}") } else { scene };
+    let mut w: Vec<String> = vec!["ezy".into(), "plan".into(), scene];
+    for i in &args.inputs {
+        w.extend(["--input".into(), i.clone()]);
+    }
+    for (n, lo, hi) in &args.bounds {
+        w.extend(["--bound".into(), format!("{n}={lo:?}:{hi:?}")]);
+    }
+    for (n, v) in &args.to {
+        w.extend(["--to".into(), format!("{n}={v:?}")]);
+    }
+    if args.at_rest {
+        w.push("--at-rest".into());
+    }
+    w.extend(["--segments".into(), args.segments.to_string(), "--intervals".into(), args.intervals.to_string()]);
+    if let Some(g) = &args.guess {
+        w.extend(["--guess".into(), g.display().to_string()]);
+    }
+    w.extend(["--evaluations".into(), args.evaluations.to_string()]);
+    if let Some(out) = &args.out {
+        w.extend(["--out".into(), out.display().to_string()]);
+    }
+    if args.no_figures {
+        w.push("--no-figures".into());
+    }
+    w.extend(opts.to_args());
+    w.push("--report".into());
+    let line = w.iter().map(|x| report::shell_quote(x)).collect::<Vec<_>>().join(" ");
+    // a caller's objective (a Rust closure, a Python function) has no flag
+    match args.objective.as_ref().and_then(|o| o.user.as_ref()) {
+        Some((name, _)) => format!(
+            "{line}\n# the objective of the caller's own, {}, is not on this line: run as written, the command minimizes the effort",
+            name.replace(['\n', '\r'], " ")
+        ),
+        None => line,
+    }
 }
 
 /// A signal stopped the plan: the best inputs so far (where the planner
@@ -440,12 +521,22 @@ fn interrupted(dir: &Path, tables: &[(&'static str, String)]) -> Error {
 }
 
 /// `plan.csv`: one row per node, its time, each input's value and the
-/// state there.
+/// state there; after an objective of the caller's own, a first line
+/// `# objective: ...` naming it and how its gradient was had.
 fn plan_csv(names: &[String], m: &Maneuver) -> String {
     let mut head = vec!["t".to_string()];
     head.extend(names.iter().cloned());
     head.extend(m.names.iter().cloned());
-    let mut text = record(head);
+    let mut text = match m.user_objective {
+        Some(_) => format!(
+            "# objective: {} = {} (its gradient {})\n",
+            m.objective_name.replace(['\n', '\r'], " "),
+            number(m.objective),
+            m.objective_gradient.as_str()
+        ),
+        None => String::new(),
+    };
+    text.push_str(&record(head));
     for (k, t) in m.t.iter().enumerate() {
         let mut row = vec![number(*t)];
         row.extend(m.inputs.iter().map(|i| number(i.value[k])));
@@ -478,6 +569,9 @@ fn summary_csv(m: &Maneuver) -> String {
         "runs",
         "unknowns",
         "equalities",
+        "objective",
+        "objective_value",
+        "objective_gradient",
     ]
     .map(str::to_string)
     .to_vec();
@@ -492,6 +586,9 @@ fn summary_csv(m: &Maneuver) -> String {
         m.runs.to_string(),
         m.unknowns.to_string(),
         m.equalities.to_string(),
+        m.objective_name.clone(),
+        number(m.objective),
+        m.objective_gradient.as_str().to_string(),
     ];
     if let Ok(v) = &m.verification {
         for e in &v.errors {
@@ -582,6 +679,13 @@ fn summary(scene: &str, inputs: (&[String], usize), m: &Maneuver, files: &[PathB
         m.t.len().saturating_sub(1)
     );
     let _ = writeln!(s, "effort (sum of the integrals of the inputs squared): {}", fmt_value(m.effort));
+    let _ = writeln!(
+        s,
+        "objective minimized: {} = {} (its gradient {})",
+        m.objective_name,
+        fmt_value(m.objective),
+        m.objective_gradient.as_str()
+    );
     let _ = writeln!(
         s,
         "largest violation {:.1e} ({}); stationarity {:.1e}; largest state jump at a node {:.1e}",

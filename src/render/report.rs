@@ -1,4 +1,6 @@
-//! `ezy run --report`: one self-contained `report.html` per run.
+//! `ezy run --report`: one self-contained `report.html` per run (and
+//! the plainer page of an analysis command's `--report`,
+//! [`analysis_page`]).
 //!
 //! The page holds the scene's description, the run summary, the energy
 //! ledger (`T(t_end) - T(0)` against the work of every effect and drive,
@@ -151,18 +153,7 @@ pub(crate) fn html(p: &Page<'_>) -> String {
         }
     }
     h.push_str("<h2>Figures</h2>\n");
-    for (file, svg) in &p.figures {
-        match svg {
-            Ok(svg) => {
-                // the XML declaration, if any, is not allowed inside HTML
-                let body = svg.find("<svg").map_or(svg.as_str(), |k| &svg[k..]);
-                let _ = write!(h, "<figure>\n{body}\n<figcaption>{}</figcaption>\n</figure>\n", escape(file));
-            }
-            Err(why) => {
-                let _ = writeln!(h, "<p>{}: not drawn: {}</p>", escape(file), escape(why));
-            }
-        }
-    }
+    figures_html(&mut h, &p.figures);
     let _ = write!(h, "<h2>To reproduce</h2>\n<pre>{}</pre>\n", escape(&p.command));
     // a relative path reruns from the directory the run was started in
     let relative = p.scene_file.filter(|f| std::path::Path::new(f).is_relative());
@@ -179,6 +170,65 @@ pub(crate) fn html(p: &Page<'_>) -> String {
         "<p>The scene after the <code>--set</code> overrides:</p>\n<pre>{}</pre>\n</body>\n</html>\n",
         escape(&p.scene.to_toml())
     );
+    h
+}
+
+/// Each figure inline (its SVG in a `<figure>`, its file name the
+/// caption), or why it was not drawn.
+fn figures_html(h: &mut String, figures: &[(String, Result<String, String>)]) {
+    use std::fmt::Write as _;
+    for (file, svg) in figures {
+        match svg {
+            Ok(svg) => {
+                // the XML declaration, if any, is not allowed inside HTML
+                let body = svg.find("<svg").map_or(svg.as_str(), |k| &svg[k..]);
+                let _ = write!(h, "<figure>\n{body}\n<figcaption>{}</figcaption>\n</figure>\n", escape(file));
+            }
+            Err(why) => {
+                let _ = writeln!(h, "<p>{}: not drawn: {}</p>", escape(file), escape(why));
+            }
+        }
+    }
+}
+
+/// The self-contained page of an analysis command's `--report` (`ezy
+/// gait-optimize`, `ezy plan`): `title`, the `summary` the command
+/// prints, every figure inline as SVG (file name and SVG text, or why it
+/// is missing), the names of the `files` it wrote, and the `command`
+/// line that reruns it (already quoted for a shell), with the directory
+/// it was started in (a relative path in it is relative to that). All
+/// the text is escaped here; nothing is loaded from elsewhere.
+pub(crate) fn analysis_page(
+    title: &str,
+    summary: &str,
+    figures: &[(String, Result<String, String>)],
+    files: &[String],
+    command: &str,
+) -> String {
+    use std::fmt::Write as _;
+    let title = escape(title);
+    let mut h = format!(
+        "<!DOCTYPE html>\n<html lang=\"en\">\n<head>\n<meta charset=\"utf-8\">\n<title>{title}</title>\n<style>\n{STYLE}</style>\n</head>\n<body>\n<h1>{title}</h1>\n"
+    );
+    let _ = write!(h, "<h2>Summary</h2>\n<pre>{}</pre>\n", escape(summary));
+    if !figures.is_empty() {
+        h.push_str("<h2>Figures</h2>\n");
+        figures_html(&mut h, figures);
+    }
+    h.push_str("<h2>Files</h2>\n<ul>\n");
+    for f in files {
+        let _ = writeln!(h, "<li><code>{}</code></li>", escape(f));
+    }
+    h.push_str("</ul>\n");
+    let _ = write!(h, "<h2>To reproduce</h2>\n<pre>{}</pre>\n", escape(command));
+    if let Ok(dir) = std::env::current_dir() {
+        let _ = writeln!(
+            h,
+            "<p>Started in <code>{}</code>: a relative path above is relative to it.</p>",
+            escape(&dir.display().to_string())
+        );
+    }
+    h.push_str("</body>\n</html>\n");
     h
 }
 
@@ -227,6 +277,28 @@ mod tests {
         assert_eq!(shell_quote("it's.toml"), "'it'\\''s.toml'");
         assert_eq!(shell_quote("$HOME/a;b`c`.toml"), "'$HOME/a;b`c`.toml'");
         assert_eq!(shell_quote(""), "''");
+    }
+
+    /// The analysis page escapes everything it is given, holds each
+    /// figure's SVG without its XML declaration, and says why a figure is
+    /// missing.
+    #[test]
+    fn the_analysis_page_escapes_what_it_is_given() {
+        let figures = vec![
+            ("a.png".to_string(), Ok("<?xml version=\"1.0\"?>\n<svg width=\"1\"></svg>".to_string())),
+            ("b<i>.png".to_string(), Err("no \"values\" & <none>".to_string())),
+        ];
+        let files = ["x&y.csv".to_string()];
+        let page = analysis_page("ezy plan: <s>", "a < b & c", &figures, &files, "ezy plan 'o<b>&\"'");
+        assert!(page.starts_with("<!DOCTYPE html>") && page.ends_with("</html>\n"), "{page}");
+        assert!(page.contains("<title>ezy plan: &lt;s&gt;</title>"), "{page}");
+        assert!(page.contains("<pre>a &lt; b &amp; c</pre>"), "{page}");
+        assert!(page.contains("<figure>\n<svg width=\"1\"></svg>\n<figcaption>a.png</figcaption>"), "{page}");
+        assert!(!page.contains("<?xml"), "{page}");
+        assert!(page.contains("b&lt;i&gt;.png: not drawn: no &quot;values&quot; &amp; &lt;none&gt;"), "{page}");
+        assert!(page.contains("<code>x&amp;y.csv</code>"), "{page}");
+        assert!(page.contains("<pre>ezy plan 'o&lt;b&gt;&amp;&quot;'</pre>"), "{page}");
+        assert!(!page.contains("<b>") && !page.contains("<s>") && !page.contains("<i>"), "{page}");
     }
 
     /// A GIF's frame lasts a whole number of hundredths of a second: the

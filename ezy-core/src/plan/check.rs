@@ -2,6 +2,7 @@
 //! the model, and the program's scales.
 
 use super::nlp::Scales;
+use super::objective::Objective;
 use super::transcription::Transcription;
 use super::{Input, MAX_UNKNOWNS, Plan, PlanSettings, Target};
 use crate::analysis::AnalysisError;
@@ -13,8 +14,14 @@ fn fail<T>(reason: String) -> Result<T, AnalysisError> {
     Err(AnalysisError::Request { reason })
 }
 
-/// Refuses what [`Plan::new`] documents, naming the culprit.
-pub(super) fn request(inputs: &[Input], target: &Target, s: &PlanSettings) -> Result<(), AnalysisError> {
+/// Refuses what [`Plan::with_objective`] documents, naming the culprit.
+pub(super) fn request(
+    inputs: &[Input],
+    target: &Target,
+    s: &PlanSettings,
+    objective: &Objective,
+) -> Result<(), AnalysisError> {
+    objective.check().map_err(|reason| AnalysisError::Request { reason })?;
     if inputs.is_empty() {
         return fail("a plan without inputs: name at least one input the problem's effects take".into());
     }
@@ -29,8 +36,11 @@ pub(super) fn request(inputs: &[Input], target: &Target, s: &PlanSettings) -> Re
             ));
         }
     }
-    if target.entries.is_empty() && !target.rest {
-        return fail("no target: name at least one component of q or qd at t_end (or at rest)".into());
+    if target.entries.is_empty() && !target.rest && objective.user.is_none() {
+        return fail(
+            "no target: name at least one component of q or qd at t_end (or at rest), or give an objective of the samples (a free end)"
+                .into(),
+        );
     }
     if let Some((name, v, value)) = target.entries.iter().find(|e| !e.2.is_finite()) {
         return fail(format!("target {}{name} = {value}: give a finite value", if *v { "qd." } else { "q." }));
@@ -143,7 +153,9 @@ pub(super) fn problem<M: Model>(plan: &Plan<M>, guess: &[f64]) -> Result<Problem
 ///
 /// # Errors
 /// [`AnalysisError::Request`] for a coordinate the model does not have,
-/// listing its coordinates, or one given twice.
+/// listing its coordinates, one given twice, a heading beyond
+/// [`crate::settings::MAX_ANGLE`] or a value beyond
+/// [`crate::settings::MAX_MAGNITUDE`] (as an initial state's).
 pub(super) fn target<M: Model>(p: &Problem<M>, target: &Target) -> Result<Vec<(usize, f64)>, AnalysisError> {
     let info = p.model.info();
     let nq = info.nq();
@@ -158,6 +170,17 @@ pub(super) fn target<M: Model>(p: &Problem<M>, target: &Target) -> Result<Vec<(u
             ));
         };
         let c = if *velocity { nq + k } else { k };
+        // a heading at most MAX_ANGLE as an initial one; any component
+        // at most MAX_MAGNITUDE (1e300 searched its whole budget, 100 s)
+        let label = format!("target {}{name}", if *velocity { "qd." } else { "q." });
+        let size = if !*velocity && info.is_angle(k) {
+            crate::settings::check_angle(&label, *value)
+        } else {
+            crate::settings::check_magnitude(&label, *value)
+        };
+        if let Err(reason) = size {
+            return fail(reason);
+        }
         if out.iter().any(|o| o.0 == c) {
             return fail(format!(
                 "target {} is given twice",
@@ -231,11 +254,13 @@ const BOUND_SCALE: f64 = 100.0;
 /// at most [`BOUND_SCALE`] times its guess's (without a bound its
 /// guess's, at least 1); a state component's its largest magnitude over
 /// the warm start's nodes and the target (at least 1); the objective the
-/// effort of the inputs held at their scales over `T`.
+/// effort of the inputs held at their scales over `T`, times its weight,
+/// plus the magnitude of the user's term at the warm start (`user0`; the
+/// effort's scale alone where that sum is 0).
 pub(super) fn scales<M: Model>(
     plan: &Plan<M>,
     tr: &Transcription<M>,
-    x: &[Vec<f64>],
+    (x, user0): (&[Vec<f64>], f64),
     target: &[(usize, f64)],
 ) -> Scales {
     let n_seg = plan.settings.segments;
@@ -267,6 +292,7 @@ pub(super) fn scales<M: Model>(
         w[col] = state_scale[comp];
     }
     let c = tr.rows.iter().map(|(_, comp)| state_scale[*comp]).collect();
-    let f = input_scale.iter().map(|s| s * s).sum::<f64>() * plan.settings.t_end;
-    Scales { w, c, f }
+    let effort = input_scale.iter().map(|s| s * s).sum::<f64>() * plan.settings.t_end;
+    let f = plan.objective.effort_weight * effort + user0.abs();
+    Scales { w, c, f: if f > 0.0 && f.is_finite() { f } else { effort } }
 }

@@ -1,6 +1,8 @@
 //! Optimal maneuver planning: the inputs that drive a problem from its
 //! initial state to a target at `t_end` with least effort
-//! `sum_j int_0^T u_j(t)^2 dt`, by direct multiple shooting.
+//! `sum_j int_0^T u_j(t)^2 dt`, or least [`Objective`] (the effort times
+//! a weight plus a user's term of the run's samples at the nodes), by
+//! direct multiple shooting.
 //!
 //! # The problem
 //!
@@ -26,6 +28,17 @@
 //! u_k+1]`; the equalities are the state's continuity at the inner nodes
 //! and the target at the end. The effort of a piecewise-linear input is
 //! exact: `int u^2 = h/3 (u_k^2 + u_k u_k+1 + u_k+1^2)` on each segment.
+//!
+//! The objective ([`Objective`], [`Plan::with_objective`]) is the effort
+//! times a weight (1 by default) plus an optional term of the user's
+//! own, `J_user(samples)`: a function of the nodes' times, states
+//! `[q, qd]` and inputs ([`Samples`]) that returns its value and, if it
+//! can, its gradient with respect to the samples; where it gives none,
+//! ezy differences it with respect to the samples (no extra simulation)
+//! and says so ([`Maneuver::objective_gradient`]). Its chain to the
+//! unknowns takes the samples' exact sensitivities (the segments' end
+//! states are differentiated anyway). With a user's term the target may
+//! be empty (a free end).
 //!
 //! A node's state is not all of `[q, qd]` (2 nq) but its independent
 //! components (2 nq - nh - nc: a partition chosen at the node's
@@ -114,6 +127,7 @@
 
 mod check;
 mod nlp;
+mod objective;
 mod shooting;
 mod transcription;
 mod verify;
@@ -129,6 +143,7 @@ use crate::effects::waveform::{Extrapolate, Table, Waveform};
 use crate::error::SimError;
 use crate::model::Model;
 use crate::problem::Problem;
+pub use objective::{Objective, ObjectiveGradient, SampleGradient, Samples, UserObjective, UserValue};
 use transcription::Transcription;
 
 /// How a problem is built from its inputs' tables (one per [`Input`], in
@@ -320,6 +335,8 @@ pub struct Plan<M: Model> {
     /// Asked between segment runs and at each step of one
     /// ([`Plan::stop_when`]).
     stop: Option<fn() -> bool>,
+    /// What is minimized ([`Plan::with_objective`]).
+    objective: Objective,
 }
 
 impl<M: Model> std::fmt::Debug for Plan<M> {
@@ -328,6 +345,7 @@ impl<M: Model> std::fmt::Debug for Plan<M> {
             .field("inputs", &self.inputs)
             .field("target", &self.target)
             .field("settings", &self.settings)
+            .field("objective", &self.objective)
             .finish_non_exhaustive()
     }
 }
@@ -396,8 +414,20 @@ pub struct Maneuver {
     /// The planned inputs over `[0, T]`, one per input (the least
     /// violating point's where infeasible).
     pub inputs: Vec<Table>,
-    /// The effort `sum_j int u_j^2 dt` \[input unit^2 s\].
+    /// The effort `sum_j int u_j^2 dt` \[input unit^2 s\] (unweighted).
     pub effort: f64,
+    /// The objective minimized, `effort_weight * effort + J_user`
+    /// \[input unit^2 s, or the user's term's unit\].
+    pub objective: f64,
+    /// The objective in words ([`Objective::describe`]: `effort`,
+    /// `0 x effort + name`).
+    pub objective_name: String,
+    /// The user's term `J_user` at the point returned, if the objective
+    /// has one.
+    pub user_objective: Option<f64>,
+    /// How the objective's gradient was had: exact, or the user's term
+    /// differenced with respect to the samples at some evaluation.
+    pub objective_gradient: ObjectiveGradient,
     /// The largest equality violation at the point returned, and its equality.
     pub violation: (f64, String),
     /// Relative residual of the first-order conditions (see [`STATIONARY`]).
@@ -438,7 +468,8 @@ impl Maneuver {
 
 impl<M: Model> Plan<M> {
     /// The plan of `inputs` to `target` on the mesh of `settings`, the
-    /// problem built from the inputs' tables by `build`.
+    /// problem built from the inputs' tables by `build`, minimizing the
+    /// effort ([`Objective::effort`]).
     ///
     /// # Errors
     /// [`AnalysisError::Request`] naming the culprit: no input, a name
@@ -454,8 +485,31 @@ impl<M: Model> Plan<M> {
         settings: PlanSettings,
         build: impl Fn(&[Table]) -> Result<Problem<M>, SimError> + Send + Sync + 'static,
     ) -> Result<Self, AnalysisError> {
-        check::request(&inputs, &target, &settings)?;
-        Ok(Self { inputs, target, settings, build: Arc::new(build), stop: None })
+        Self::with_objective(inputs, target, settings, Objective::effort(), build)
+    }
+
+    /// As [`Plan::new`], minimizing `objective`: the effort times its
+    /// weight plus the user's term of the samples (see [`Samples`]). With
+    /// a user's term the target may be empty (no component: a free end).
+    ///
+    /// # Errors
+    /// As [`Plan::new`] (no target only without a user's term), and
+    /// [`AnalysisError::Request`] for an effort weight not finite and
+    /// >= 0, or 0 without a user's term.
+    pub fn with_objective(
+        inputs: Vec<Input>,
+        target: Target,
+        settings: PlanSettings,
+        objective: Objective,
+        build: impl Fn(&[Table]) -> Result<Problem<M>, SimError> + Send + Sync + 'static,
+    ) -> Result<Self, AnalysisError> {
+        check::request(&inputs, &target, &settings, &objective)?;
+        Ok(Self { inputs, target, settings, build: Arc::new(build), stop: None, objective })
+    }
+
+    /// What the plan minimizes.
+    pub fn objective(&self) -> &Objective {
+        &self.objective
     }
 
     /// The same plan asking `stop` (a signal handler's flag: `ezy` stops
@@ -561,7 +615,8 @@ impl<M: Model> Plan<M> {
         }
     }
 
-    /// The least-effort inputs to the target (see the module's docs).
+    /// The inputs of least objective to the target (see the module's
+    /// docs; the effort by default).
     ///
     /// # Errors
     /// [`AnalysisError::Request`] for a target name the model does not
@@ -572,7 +627,10 @@ impl<M: Model> Plan<M> {
     /// run's failure ([`AnalysisError::Sim`]) at the warm start. Not an
     /// infeasible target (that is [`Status::Infeasible`]), nor runs that
     /// fail during the search (five in a row end it at the best point,
-    /// said in [`Maneuver::termination`]).
+    /// said in [`Maneuver::termination`]). A user's objective that fails,
+    /// or returns a value or gradient entry that is not finite, at any
+    /// point ends the solve with [`AnalysisError::Request`] naming it
+    /// (and the sample of a gradient's entry).
     pub fn solve(&self) -> Result<Maneuver, AnalysisError> {
         let clock = Instant::now();
         let (n_seg, h) = (self.settings.segments, self.settings.t_end / self.settings.segments as f64);
@@ -585,13 +643,21 @@ impl<M: Model> Plan<M> {
         let mut tr = Transcription::new(&self.build, names, (n_seg, h, self.settings.intervals), &first.model, &x)?;
         tr.runs = n_seg;
         tr.stop = self.stop;
+        tr.objective = self.objective.clone();
+        tr.t.clone_from(&mesh);
         let mut w = guess;
         w.resize(tr.n, 0.0);
         tr.gather(&x, &mut w);
+        // the user's term at the warm start: the objective's scale
+        let user0 = match &self.objective.user {
+            Some((name, f)) => objective::value_only(&**f, name, &tr.samples(&w, &x[..1], &x[1..]))
+                .map_err(|reason| AnalysisError::Request { reason })?,
+            None => 0.0,
+        };
         tr.set_target(check::independent(&first.model, &x[n_seg], &target));
         let (mut evaluations, mut termination) = (0, Vec::new());
         let (ended, sc, bounds) = loop {
-            let sc = check::scales(self, &tr, &x, &target);
+            let sc = check::scales(self, &tr, (&x, user0), &target);
             let bounds = self.bounds(&tr, &sc);
             let budget = self.settings.max_evaluations - evaluations;
             let ended = nlp::solve(&mut tr, &sc, &w, &bounds, (self.settings.tolerance, budget))?;
@@ -643,6 +709,10 @@ impl<M: Model> Plan<M> {
             t: self.mesh(),
             inputs: tables,
             effort: point.effort,
+            objective: point.objective,
+            objective_name: self.objective.describe(),
+            user_objective: point.user,
+            objective_gradient: if tr.differenced { ObjectiveGradient::Differenced } else { ObjectiveGradient::Exact },
             violation: (v, tr.rows.get(row).map(|r| r.0.clone()).unwrap_or_default()),
             stationarity,
             state_jump: jump,

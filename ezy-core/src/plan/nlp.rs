@@ -36,7 +36,8 @@ pub(super) struct Scales {
 /// What the program minimizes.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 enum Phase {
-    /// The effort subject to the constraints.
+    /// The objective (the effort times its weight plus the user's term)
+    /// subject to the constraints.
     Effort,
     /// `1/2 sum (c_i / s_i)^2`, bounds only.
     Violation,
@@ -75,7 +76,7 @@ impl<M: Model> State<'_, M> {
 
     fn rank(&self, p: &Point) -> (bool, f64) {
         let v = violation(p).0;
-        if v <= self.tol { (false, p.effort) } else { (true, v) }
+        if v <= self.tol { (false, p.objective) } else { (true, v) }
     }
 
     fn at(&mut self, x: &[f64]) {
@@ -107,6 +108,11 @@ impl<M: Model> State<'_, M> {
                 self.stopped = true;
                 self.last = Some((x.to_vec(), Err("stopped".into())));
             }
+            Err(e) if self.tr.objective_error.is_some() => {
+                // the user's objective failed: no point to go on from
+                self.last = Some((x.to_vec(), Err(e.to_string())));
+                self.fatal = Some(e);
+            }
             Err(e) => {
                 self.failures += 1;
                 self.last = Some((x.to_vec(), Err(e.to_string())));
@@ -135,21 +141,21 @@ impl<M: Model> State<'_, M> {
             if self.stopped {
                 // the best point's value, flat: SLSQP ends at once
                 return self.best.as_ref().map_or(0.0, |b| match phase {
-                    Phase::Effort => b.effort / sc.f,
+                    Phase::Effort => b.objective / sc.f,
                     Phase::Violation => 0.5 * b.c.iter().zip(&sc.c).map(|(c, s)| (c / s) * (c / s)).sum::<f64>(),
                 });
             }
-            let worst = self.best.as_ref().map_or(1.0, |b| b.effort / sc.f);
+            let worst = self.best.as_ref().map_or(1.0, |b| b.objective / sc.f);
             return 2.0 * worst.abs() + 1.0;
         };
         match phase {
             Phase::Effort => {
                 if let Some(g) = grad {
                     for (k, gk) in g.iter_mut().enumerate() {
-                        *gk = p.effort_grad[k] * sc.w[k] / sc.f;
+                        *gk = p.objective_grad[k] * sc.w[k] / sc.f;
                     }
                 }
-                p.effort / sc.f
+                p.objective / sc.f
             }
             Phase::Violation => {
                 if let Some(g) = grad {
@@ -206,14 +212,16 @@ pub(super) struct Ended {
     pub stopped: bool,
 }
 
-/// Minimizes the effort of `tr` from `w0` within `bounds` (n, unscaled)
+/// Minimizes the objective of `tr` from `w0` within `bounds` (n, unscaled)
 /// subject to its constraints, at most `max` evaluations; where no point
 /// is feasible within `tol`, then the violation alone from the least
 /// violating point.
 ///
 /// # Errors
-/// [`AnalysisError::Request`] for inputs that do not act at `w0`; the
-/// start's failure. [`FAILURES`] evaluations in a row that failed end
+/// [`AnalysisError::Request`] for inputs that do not act at `w0` (no
+/// constraint moves with them, or without constraints no node's state),
+/// and for a user's objective that fails or is not finite at any point
+/// (naming it); the start's failure. [`FAILURES`] evaluations in a row that failed end
 /// the search at the best point so far, the last failure in the
 /// termination's words.
 pub(super) fn solve<M: Model>(
@@ -224,7 +232,12 @@ pub(super) fn solve<M: Model>(
     (tol, max): (f64, usize),
 ) -> Result<Ended, AnalysisError> {
     let p0 = tr.evaluate(w0)?;
-    if (0..tr.n_inputs()).all(|col| p0.jac.iter().all(|row| row[col] == 0.0)) {
+    let inert = if p0.jac.is_empty() {
+        !p0.acts
+    } else {
+        (0..tr.n_inputs()).all(|col| p0.jac.iter().all(|row| row[col] == 0.0))
+    };
+    if inert {
         return Err(AnalysisError::Request {
             reason: format!(
                 "the inputs ({}) do not act on the problem: no segment's end moves with them at the warm start; does the problem's builder put its tables into an effect?",
@@ -265,6 +278,9 @@ pub(super) fn solve<M: Model>(
         words(&outcome)
     };
     let mut st = state.into_inner();
+    if let Some(reason) = st.tr.objective_error.take() {
+        return Err(AnalysisError::Request { reason });
+    }
     let mut termination = termination;
     if std::mem::take(&mut st.broke) {
         termination = format!("{termination}, its step not finite (its quadratic subproblem broke down)");
@@ -289,6 +305,9 @@ pub(super) fn solve<M: Model>(
         let outcome = slsqp::minimize(objective, &from, &xb, &none, (), left.max(2), Some(tols(from.len())));
         termination = format!("{termination}; then the violation alone: {}", words(&outcome));
         st = state.into_inner();
+        if let Some(reason) = st.tr.objective_error.take() {
+            return Err(AnalysisError::Request { reason });
+        }
         if std::mem::take(&mut st.broke) {
             termination = format!("{termination}, its step not finite (its quadratic subproblem broke down)");
         }
@@ -321,8 +340,10 @@ fn words(outcome: &SlsqpOutcome) -> String {
 /// The first-order conditions at `p`: the least-squares residual of
 /// `grad f + J^T lambda = 0` on the unknowns not at a bound, in the
 /// scaled unknowns and constraints, relative to `|grad f|` (0 where the
-/// gradient is 0). A point at a bound is not checked for its
-/// multiplier's sign.
+/// gradient is 0), `f` the whole objective; without constraints, `|grad
+/// f|` relative to the sum of its terms' (the weighted effort's and the
+/// user's), which cancel at a stationary point. A point at a bound is
+/// not checked for its multiplier's sign.
 pub(super) fn stationarity(p: &Point, sc: &Scales, bounds: &[(f64, f64)]) -> f64 {
     let free: Vec<usize> = (0..p.w.len())
         .filter(|&k| {
@@ -331,10 +352,17 @@ pub(super) fn stationarity(p: &Point, sc: &Scales, bounds: &[(f64, f64)]) -> f64
             p.w[k] - lo > margin && hi - p.w[k] > margin
         })
         .collect();
-    let g: Vec<f64> = free.iter().map(|&k| p.effort_grad[k] * sc.w[k] / sc.f).collect();
+    let g: Vec<f64> = free.iter().map(|&k| p.objective_grad[k] * sc.w[k] / sc.f).collect();
     let norm = g.iter().map(|v| v * v).sum::<f64>().sqrt();
     if norm == 0.0 {
         return 0.0;
+    }
+    if p.jac.is_empty() && !free.is_empty() {
+        let user = |k: usize| p.user_grad.get(k).copied().unwrap_or(0.0);
+        let size =
+            |term: &dyn Fn(usize) -> f64| free.iter().map(|&k| (term(k) * sc.w[k] / sc.f).powi(2)).sum::<f64>().sqrt();
+        let terms = size(&user) + size(&|k| p.objective_grad[k] - user(k));
+        return norm / terms;
     }
     if p.jac.is_empty() || free.is_empty() {
         return 1.0;

@@ -10,11 +10,14 @@
 //! Constraints `c(w) = 0`: for each join `k` (the end of segment `k`, the
 //! start of `k + 1`) the end state's independent components of node
 //! `k + 1` minus that node's unknowns; then the target's components of
-//! the last segment's end minus their values.
+//! the last segment's end minus their values. The objective
+//! ([`super::objective`]): the effort times its weight plus the user's
+//! term of the nodes' samples, differentiated through the chain.
 
 use std::sync::Arc;
 
 use super::BuildInputs;
+use super::objective::{self, Objective, SampleNames, Samples};
 use super::shooting::{NodeStart, SegmentSpec, node_start};
 use crate::analysis::AnalysisError;
 use crate::model::Model;
@@ -26,8 +29,17 @@ pub(super) struct Point {
     pub w: Vec<f64>,
     /// `sum_j int u_j^2 dt` \[input unit^2 s\].
     pub effort: f64,
+    /// The user's term `J_user(samples)`, if the objective has one.
+    pub user: Option<f64>,
+    /// The objective `effort_weight * effort + J_user`.
+    pub objective: f64,
     /// Its gradient (n).
-    pub effort_grad: Vec<f64>,
+    pub objective_grad: Vec<f64>,
+    /// The user's term's gradient (n; empty without one).
+    pub user_grad: Vec<f64>,
+    /// Some node's state moves with the inputs (its sensitivity to an
+    /// input node is not zero).
+    pub acts: bool,
     /// The constraints (m), in the units of their state components.
     pub c: Vec<f64>,
     /// Their Jacobian, row by row (m x n).
@@ -67,6 +79,14 @@ pub(super) struct Transcription<M: Model> {
     pub runs: usize,
     /// Asked before each segment and at every step of its run.
     pub stop: Option<fn() -> bool>,
+    /// What is minimized.
+    pub objective: Objective,
+    /// The nodes' times \[s\] (N + 1).
+    pub t: Vec<f64>,
+    /// The user's term failed (or was not finite): why; the search ends.
+    pub objective_error: Option<String>,
+    /// The user's term was differenced at some evaluation.
+    pub differenced: bool,
 }
 
 impl<M: Model> Transcription<M> {
@@ -109,6 +129,10 @@ impl<M: Model> Transcription<M> {
             rows: Vec::new(),
             runs: 0,
             stop: None,
+            objective: Objective::effort(),
+            t: (0..=segments).map(|k| k as f64 * h).collect(),
+            objective_error: None,
+            differenced: false,
         })
     }
 
@@ -219,6 +243,10 @@ impl<M: Model> Transcription<M> {
         let n2 = self.names.len();
         // the derivative of the last segment's end with respect to w (2 nq x n)
         let mut d_end: Vec<Vec<f64>> = vec![vec![0.0; self.n]; n2];
+        // each segment's end's, kept for a user's objective of the samples
+        let mut d_ends: Vec<Vec<Vec<f64>>> = Vec::new();
+        let n_u = self.n_inputs();
+        let mut acts = false;
         let mut previous: Option<Vec<f64>> = None;
         for k in 0..self.segments {
             if self.stop.is_some_and(|s| s()) {
@@ -277,12 +305,80 @@ impl<M: Model> Transcription<M> {
                 let node = Arc::make_mut(node);
                 node.guess = node.partition.q_dep.iter().map(|&j| run.start[j]).collect();
             }
+            acts = acts || d.iter().any(|row| row[..n_u].iter().any(|v| *v != 0.0));
+            if self.objective.user.is_some() {
+                d_ends.push(d.clone());
+            }
             d_end = d;
             previous = Some(run.end.clone());
             starts.push(run.start);
             ends.push(run.end);
         }
-        Ok(Point { w: w.to_vec(), effort, effort_grad, c, jac, starts, ends })
+        let weight = self.objective.effort_weight;
+        let mut objective_grad: Vec<f64> = effort_grad.iter().map(|g| weight * g).collect();
+        let (user, user_grad) = match self.user_term(w, &starts, &ends, &d_ends) {
+            Ok(Some((value, grad))) => {
+                objective_grad.iter_mut().zip(&grad).for_each(|(a, b)| *a += b);
+                (Some(value), grad)
+            }
+            Ok(None) => (None, Vec::new()),
+            Err(reason) => {
+                self.objective_error = Some(reason.clone());
+                return Err(AnalysisError::Request { reason });
+            }
+        };
+        let objective = weight * effort + user.unwrap_or(0.0);
+        Ok(Point { w: w.to_vec(), effort, user, objective, objective_grad, user_grad, acts, c, jac, starts, ends })
+    }
+
+    /// The samples at `w`: the nodes' times, states (node 0 the first
+    /// segment's start, node `k >= 1` segment `k - 1`'s end) and inputs.
+    pub fn samples(&self, w: &[f64], starts: &[Vec<f64>], ends: &[Vec<f64>]) -> Samples {
+        let nq = self.names.len() / 2;
+        let x: Vec<&Vec<f64>> = starts.iter().take(1).chain(ends).collect();
+        Samples {
+            t: self.t.clone(),
+            q: x.iter().map(|x| x[..nq].to_vec()).collect(),
+            qd: x.iter().map(|x| x[nq..].to_vec()).collect(),
+            u: (0..=self.segments).map(|k| (0..self.inputs.len()).map(|j| w[self.col_u(j, k)]).collect()).collect(),
+        }
+    }
+
+    /// The user's term at `w` and its gradient (n) by the chain rule
+    /// through the segments' end sensitivities `d_ends` (N of 2 nq x n);
+    /// `None` without one.
+    ///
+    /// # Errors
+    /// The user's function's failure, or a value or gradient not finite.
+    fn user_term(
+        &mut self,
+        w: &[f64],
+        starts: &[Vec<f64>],
+        ends: &[Vec<f64>],
+        d_ends: &[Vec<Vec<f64>>],
+    ) -> Result<Option<(f64, Vec<f64>)>, String> {
+        let Some((name, f)) = self.objective.user.clone() else { return Ok(None) };
+        let s = self.samples(w, starts, ends);
+        let nq = self.names.len() / 2;
+        let names = SampleNames { coords: &self.names[..nq], inputs: &self.inputs };
+        let (value, g, differenced) = objective::evaluate(&*f, &name, &s, &names)?;
+        self.differenced |= differenced;
+        let mut grad = vec![0.0; self.n];
+        // node 0 is the problem's own initial state: no unknown moves it
+        for (k, d) in d_ends.iter().enumerate() {
+            let dx = g.q[k + 1].iter().chain(&g.qd[k + 1]);
+            for (row, &gx) in d.iter().zip(dx) {
+                if gx != 0.0 {
+                    grad.iter_mut().zip(row).for_each(|(a, b)| *a += gx * b);
+                }
+            }
+        }
+        for (k, gu) in g.u.iter().enumerate() {
+            for (j, &v) in gu.iter().enumerate() {
+                grad[self.col_u(j, k)] += v;
+            }
+        }
+        Ok(Some((value, grad)))
     }
 
     /// The nodes' unknowns of the states `x` (N + 1 of 2 nq) into `w`.

@@ -230,6 +230,27 @@ const PLAN_SUMMARY_COLUMNS: &[Column] = &[
     ),
     c("equalities", "", "The program's equalities: continuity at the inner nodes and the target's components", "", ""),
     c(
+        "objective",
+        "",
+        "What the plan minimized, in words: effort (the default), or the effort times its weight plus a term of the caller's own of the samples at the nodes (Python's plan(objective=f), named by f), the weight 0 leaving the term alone",
+        "",
+        "",
+    ),
+    c(
+        "objective_value",
+        "the inputs' units squared times s (with a term of the caller's own, its unit)",
+        "The objective's value at the point returned: the effort times its weight plus the caller's term",
+        "effort_weight sum_j int_0^T u_j(t)^2 dt + J_user(t_k, q_k, qd_k, u_k)",
+        "over [0, t_end]",
+    ),
+    c(
+        "objective_gradient",
+        "",
+        "How the objective's gradient was had: exact (the effort's, and the caller's own gradient of the samples), or differenced (the caller's term gave none and was differenced with respect to the samples, no extra simulation); either way chained to the unknowns by the exact sensitivities",
+        "",
+        "",
+    ),
+    c(
         "target_<state>",
         "m or rad (a rate: m/s or rad/s)",
         "A component of the target (--to, --at-rest): its value",

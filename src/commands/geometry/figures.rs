@@ -10,9 +10,9 @@ use ezy_scene::FigureFormat;
 
 use super::Found;
 use crate::output::transaction::{Transaction, TransactionError, check_interrupt};
+use crate::render::height_map::{ShapePlane, heat, height_map, quantile};
 use crate::render::plot::figure;
-use crate::render::plot::heat_map::{HeatMap, heatmap_svg};
-use crate::render::plot::raster::encode;
+use crate::render::plot::heat_map::HeatMap;
 use crate::render::plot::series::{Chart, Series, Stroke};
 
 /// The figures' stems (retired before the new ones are drawn).
@@ -30,16 +30,6 @@ const STEMS: &[&str] = &[
 
 /// Arrows drawn along each axis of a vector field.
 const ARROWS: usize = 15;
-
-/// The `q`-quantile of the finite values in `v` (`q` in [0, 1]).
-fn quantile(v: &[f64], q: f64) -> Option<f64> {
-    let mut f: Vec<f64> = v.iter().copied().filter(|x| x.is_finite()).collect();
-    if f.is_empty() {
-        return None;
-    }
-    f.sort_by(f64::total_cmp);
-    Some(f[((f.len() - 1) as f64 * q).round() as usize])
-}
 
 /// Draws the figures into `tx`; a figure that cannot be drawn is a note.
 ///
@@ -110,11 +100,6 @@ pub(super) fn draw(
 /// A figure's sink: its stem and its bytes, or why it was not drawn.
 type Put<'a> = dyn FnMut(&str, Result<Vec<u8>, String>) -> Result<(), TransactionError> + 'a;
 
-/// A heat map encoded in `format` at `dpi`.
-fn heat(map: &HeatMap, (format, dpi): (FigureFormat, f64)) -> Result<Vec<u8>, String> {
-    heatmap_svg(map).and_then(|svg| encode(&svg, format, dpi, &map.title)).map_err(|e| e.to_string())
-}
-
 /// Over two shape coordinates: the connection's fields and the height
 /// functions, the gait's curve over them.
 fn plane(
@@ -174,22 +159,16 @@ fn plane(
         put(&format!("connection_{label}"), heat(&map, look))?;
         let values: Vec<f64> = f.curvature.iter().map(|k| k.as_ref().map_or(f64::NAN, |k| k.height[0][c])).collect();
         // near the singular set the height grows like the inverse
-        // square of the distance: the colours end at the 80th
-        // percentile of |D(-A)|, beyond which the cells saturate
-        let magnitudes: Vec<f64> = values.iter().map(|v| v.abs()).collect();
-        let bound = quantile(&magnitudes, 0.8).unwrap_or(1.0);
+        // square of the distance: the colours saturate (`height_range`)
         let unit2 = if c == 2 { "rad/rad^2" } else { "m/rad^2" };
-        let map = HeatMap {
-            title: format!("Height function D(-A)_{label}{}", if gait_curve.is_empty() { "" } else { " and the gait" }),
-            x_label: format!("{} [rad]", names[0]),
-            y_label: format!("{} [rad]", names[1]),
-            value_label: format!("D(-A)_{label} [{unit2}]"),
-            xs: xs.to_vec(),
-            ys: ys.to_vec(),
+        let plane = ShapePlane { names: [&names[0], &names[1]], xs, ys };
+        let map = height_map(
+            format!("Height function D(-A)_{label}{}", if gait_curve.is_empty() { "" } else { " and the gait" }),
+            format!("D(-A)_{label} [{unit2}]"),
+            &plane,
             values,
-            lines: if gait_curve.is_empty() { Vec::new() } else { vec![gait_curve.to_vec()] },
-            value_range: Some((-bound, bound)),
-        };
+            if gait_curve.is_empty() { Vec::new() } else { vec![gait_curve.to_vec()] },
+        );
         put(&format!("curvature_{label}"), heat(&map, look))?;
     }
     Ok(())

@@ -50,7 +50,10 @@ impl FourierGait {
             return fail(format!("Fourier gait of order {order}: give an order from 1 to {MAX_ORDER}"));
         }
         if !(period.is_finite() && period > 0.0 && period < 1e9) {
-            return fail(format!("Fourier gait period {period}: must be a positive number of seconds below 1e9"));
+            return fail(format!(
+                "Fourier gait period {}: must be a positive number of seconds below 1e9",
+                crate::names::fmt_value(period)
+            ));
         }
         if coefficients.is_empty() {
             return fail("a Fourier gait needs one row of coefficients per shape coordinate; none given".into());
