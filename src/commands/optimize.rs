@@ -3,7 +3,9 @@
 //! gait's quantity or a run's metric largest or smallest within bounds
 //! and constraints ([`ezy_core::design::optimize`]): `optimum.csv`,
 //! `history.csv`, `grid.csv` and figures of the objective along the path
-//! and around the optimum.
+//! and around the optimum. With `--gait`, the numbers are the Fourier
+//! coefficients of the scene's drives: a mixed system's gait
+//! ([`ezy_core::design::gait::DriveGait`]).
 
 use std::fmt::Write as _;
 use std::io::Write;
@@ -30,8 +32,9 @@ use crate::sweep::metric::Metric;
 
 /// Find the parameters that maximize or minimize a gait's quantity or a
 /// run's metric within bounds and constraints (SLSQP on exact
-/// derivatives): optimum.csv, history.csv and figures of the objective
-/// along the path and around the optimum.
+/// derivatives), or with --gait a mixed system's gait over its drives'
+/// Fourier coefficients: optimum.csv, history.csv and figures of the
+/// objective along the path and around the optimum.
 #[derive(Args, Debug, Default)]
 #[command(allow_negative_numbers = true)]
 struct OptimizeArgs {

@@ -29,9 +29,24 @@ pub(crate) const REPORT_FPS: f64 = 10.0;
 /// Resolution of the report's animation \[dpi\] (480 x 320 pixels).
 pub(crate) const REPORT_DPI: f64 = 48.0;
 
-/// `text` with `&`, `<`, `>` and `"` escaped for HTML.
+/// `text` with `&`, `<`, `>` and `"` escaped for HTML, and every control
+/// character but a line break and a tab (which HTML does not allow, and
+/// a terminal would act on when the page is printed) written visibly as
+/// `\u{1b}`.
 pub(crate) fn escape(text: &str) -> String {
-    text.replace('&', "&amp;").replace('<', "&lt;").replace('>', "&gt;").replace('"', "&quot;")
+    let mut out = String::with_capacity(text.len());
+    for c in text.chars() {
+        match c {
+            '&' => out.push_str("&amp;"),
+            '<' => out.push_str("&lt;"),
+            '>' => out.push_str("&gt;"),
+            '"' => out.push_str("&quot;"),
+            '\n' | '\t' => out.push(c),
+            c if c.is_control() => out.push_str(&format!("\\u{{{:x}}}", u32::from(c))),
+            c => out.push(c),
+        }
+    }
+    out
 }
 
 /// One line of the energy ledger: a name, a value \[J\] and what it is.
@@ -277,6 +292,15 @@ mod tests {
         assert_eq!(shell_quote("it's.toml"), "'it'\\''s.toml'");
         assert_eq!(shell_quote("$HOME/a;b`c`.toml"), "'$HOME/a;b`c`.toml'");
         assert_eq!(shell_quote(""), "''");
+    }
+
+    /// A control character (an escape sequence a terminal would act on,
+    /// a NUL HTML does not allow) is written visibly; line breaks and tabs
+    /// are kept.
+    #[test]
+    fn control_characters_are_written_visibly() {
+        assert_eq!(escape("a\u{1b}[31m<b>\r\n\tc\u{7f}\u{0}"), "a\\u{1b}[31m&lt;b&gt;\\u{d}\n\tc\\u{7f}\\u{0}");
+        assert_eq!(escape("plain & \"quoted\""), "plain &amp; &quot;quoted&quot;");
     }
 
     /// The analysis page escapes everything it is given, holds each

@@ -848,10 +848,10 @@ impl Waveform {
     }
 
     /// Whether the waveform is defined over a run's `[0, t_end]` \[s\]
-    /// ([`Waveform::span`], [`covers`]).
+    /// ([`Waveform::span`]; `covers`).
     ///
     /// # Errors
-    /// [`covers`]'s sentence.
+    /// The sentence of `covers` (this module's).
     pub fn check_span(&self, t_end: f64) -> Result<(), String> {
         covers(self.span(), t_end)
     }

@@ -208,8 +208,8 @@ const PLAN_SUMMARY_COLUMNS: &[Column] = &[
     c(
         "stationarity",
         "",
-        "The relative residual of the first-order conditions at the point returned, on the unknowns not at a bound, in the scaled unknowns and equalities, lambda by least squares (optimal below 1e-5)",
-        "min_lambda |grad f + J^T lambda| / |grad f| (0 where grad f = 0)",
+        "The relative residual of the first-order conditions at the point returned, on the unknowns not at a bound, in the scaled unknowns and equalities, lambda by least squares (optimal below 1e-5); without equalities (a free end under an objective of the user's own), |grad f| over the sum of its two terms' norms, the weighted effort's and the user's",
+        "min_lambda |grad f + J^T lambda| / |grad f| (0 where grad f = 0); without equalities |grad f| / (|grad f_effort| + |grad f_user|)",
         "",
     ),
     c(
