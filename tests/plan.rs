@@ -423,3 +423,120 @@ fn a_guess_file_is_the_warm_start() {
     bad("word.csv", Some("t,push.fx\n0,1\n1,strong\n"), "line 3, column `push.fx`: `strong` is not a number");
     bad("order.csv", Some("t,push.fx\n1,1\n0,2\n"), "row 2: t = 0 s is not after the row before");
 }
+
+/// `--path xd<=0.6` bounds the sleigh's speed at the nodes: on 8
+/// segments the plan is the continuous optimum, a force linear to zero
+/// at 0.5 s, a coast at 0.6 m/s, and a force linear from zero after
+/// 1.5 s; its effort `8 m^2 vmax^2 / (3 t1)` = 7.68 N^2 s (the library's
+/// test checks it against an independent solution of the discrete
+/// program too). The summary counts the inequalities and the
+/// verification run's largest excess between the nodes; each bad bound
+/// is refused by name before any work, writing nothing.
+#[test]
+fn a_speed_bound_on_the_path_is_the_closed_form() {
+    let scene = sleigh_scene("path");
+    let (s, out) = (scene.to_str().unwrap().to_string(), scene.with_file_name("out"));
+    let o = out.to_str().unwrap().to_string();
+    let base = ["plan", &s, "--input", "push.fx", "--to", "x=1", "--at-rest", "--segments", "8", "--no-figures"];
+    let r = ezy(&[&base[..], &["--path", "xd<=0.6", "--out", &o]].concat());
+    let (said, err) = text(&r);
+    eprintln!("{said}{err}");
+    assert_eq!(r.status.code(), Some(0), "{said}{err}");
+    let cost = 8.0 * MASS * MASS * 0.36 / (3.0 * 0.5);
+    let effort = number_after(&said, "effort (sum of the integrals of the inputs squared):");
+    assert!((effort - cost).abs() <= 1e-8 * cost, "{effort} against {cost}");
+    let plan = columns(&out.join("plan.csv"));
+    let force = |t: f64| {
+        if t <= 0.5 {
+            4.8 * (1.0 - t / 0.5)
+        } else if t >= 1.5 {
+            -4.8 * (t - 1.5) / 0.5
+        } else {
+            0.0
+        }
+    };
+    for (t, f) in floats(&plan["t"]).iter().zip(floats(&plan["push.fx"])) {
+        assert!((f - force(*t)).abs() <= 1e-6 * 4.8, "F({t}) = {f}, closed form {}", force(*t));
+    }
+    assert!(floats(&plan["xd"]).iter().all(|v| *v <= 0.6 + 1e-8), "{:?}", plan["xd"]);
+    let summary = columns(&out.join("plan_summary.csv"));
+    assert_eq!(summary["inequalities"], ["8"]);
+    let excess: f64 = summary["path_excess"][0].parse().unwrap();
+    assert!((0.0..=1e-8).contains(&excess), "{excess}");
+    assert!(said.contains("8 inequalities"), "{said}");
+    let bad = |path: &str, words: &str| {
+        let _ = std::fs::remove_dir_all(&out);
+        let r = ezy(&[&base[..], &["--path", path, "--out", &o]].concat());
+        let (said, err) = text(&r);
+        assert!(!r.status.success() && err.contains(words), "{path}: {said}{err}");
+        assert!(!out.exists(), "{path} wrote {}", out.display());
+    };
+    bad("xd<0.6", "--path `xd<0.6`: no bound");
+    bad("zd<=1", "no coordinate `zd`");
+    bad("xd<=nan", "`nan` is not a finite number");
+    bad("xd>=0.1", "the initial state has qd.x = 0");
+    bad("2<=xd<=1", "the lower at most the upper");
+}
+
+/// `--minimize time --free-time 1:10` with `|F| <= 1 N` on 8 segments:
+/// the least time of the discrete program, whose force is bang-bang
+/// through the nodes (+1 to the middle node, 0 there, -1 after: a linear
+/// program's vertex), its distance `x_N(T) = T^2 x_N(1)` exact, so `T_N =
+/// sqrt(d / x_N(1))` = 2.8584 s, above the continuous `2 sqrt(m d / F)`
+/// = 2.8284 s. Printed, written (`t_end`) and the nodes' times; the
+/// duration's flags refused by name where they do not make sense.
+#[test]
+fn least_time_is_the_discrete_bang_bang() {
+    let scene = sleigh_scene("time");
+    let (s, out) = (scene.to_str().unwrap().to_string(), scene.with_file_name("out"));
+    let o = out.to_str().unwrap().to_string();
+    let base = [
+        "plan",
+        &s,
+        "--input",
+        "push.fx",
+        "--bound",
+        "push.fx=-1:1",
+        "--to",
+        "x=1",
+        "--at-rest",
+        "--segments",
+        "8",
+        "--no-figures",
+    ];
+    let r = ezy(&[&base[..], &["--minimize", "time", "--free-time", "1:10", "--out", &o]].concat());
+    let (said, err) = text(&r);
+    eprintln!("{said}{err}");
+    assert_eq!(r.status.code(), Some(0), "{said}{err}");
+    let u: Vec<f64> = (0..=8).map(|k: i32| (4 - k).signum() as f64).collect();
+    let (h, mut x, mut v) = (1.0 / 8.0, 0.0, 0.0);
+    for k in 0..8 {
+        x += v * h + h * h * (2.0 * u[k] + u[k + 1]) / (6.0 * MASS);
+        v += h * (u[k] + u[k + 1]) / (2.0 * MASS);
+    }
+    let t_n = (1.0 / x).sqrt();
+    let printed = number_after(&said, "duration (free within [1, 10] s):");
+    eprintln!("T printed {printed}, the discrete optimum {t_n}");
+    assert!((printed - t_n).abs() <= 1e-8 * t_n, "{printed} against {t_n}");
+    assert!(said.contains("objective minimized: time ="), "{said}");
+    let summary = columns(&out.join("plan_summary.csv"));
+    let written: f64 = summary["t_end"][0].parse().unwrap();
+    assert!((written - t_n).abs() <= 1e-8 * t_n);
+    let plan = columns(&out.join("plan.csv"));
+    let t = floats(&plan["t"]);
+    assert_eq!(*t.last().unwrap(), written, "the last node is the duration");
+    for (f, want) in floats(&plan["push.fx"]).iter().zip(&u) {
+        assert!((f - want).abs() <= 1e-6, "{:?}", plan["push.fx"]);
+    }
+    let bad = |extra: &[&str], words: &str| {
+        let _ = std::fs::remove_dir_all(&out);
+        let r = ezy(&[&base[..], extra, &["--out", &o]].concat());
+        let (said, err) = text(&r);
+        assert!(!r.status.success() && err.contains(words), "{extra:?}: {said}{err}");
+        assert!(!out.exists(), "{extra:?} wrote {}", out.display());
+    };
+    bad(&["--minimize", "time"], "the duration is fixed (t_end = 2 s)");
+    bad(&["--minimize", "time", "--free-time", "3:4"], "<= t_end (2 s) <= upper");
+    bad(&["--free-time", "1:nan"], "`nan` is not a finite number");
+    bad(&["--time-weight", "-1", "--free-time", "1:3"], "time_weight -1: give a finite weight >= 0");
+}

@@ -2,12 +2,17 @@
 //! that moves a sleigh from rest to rest against its closed form, a start
 //! of zero input that the solver must leave, an unreachable target
 //! reported infeasible, and the requests refused; plans with a user's
-//! objective (`plan/objective.rs`).
+//! objective (`plan/objective.rs`); path constraints (`plan/path.rs`); a
+//! free duration (`plan/time.rs`).
 
 #[path = "plan/objective.rs"]
 mod objective;
+#[path = "plan/path.rs"]
+mod path;
 #[path = "plan/roller.rs"]
 mod roller;
+#[path = "plan/time.rs"]
+mod time;
 
 use ezy_core::effects::{Force, Frame, Table, Waveform};
 use ezy_core::plan::{Input, Maneuver, Plan, PlanSettings, Status, Target};

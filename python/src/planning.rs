@@ -6,7 +6,7 @@ use std::path::PathBuf;
 use std::sync::{Arc, Mutex};
 
 use ezy::App;
-use ezy_core::plan::{Objective, SampleGradient, Samples, UserValue};
+use ezy_core::plan::{Objective, PathConstraint, SampleGradient, Samples, UserValue};
 use numpy::{PyArray1, PyArray2};
 use pyo3::prelude::*;
 use pyo3::types::{PyDict, PyTuple};
@@ -140,6 +140,44 @@ fn python_objective(
     }
 }
 
+/// `plan(path=...)`: a bound as text (`"x1d<=0.6"`, the command line's
+/// `--path`), a tuple `(f, lo, hi)` of a function of the caller's own
+/// `f(t, q, qd, u)` of one node's sample (arrays of one row; `lo` or
+/// `hi` None for no bound), or a list of them.
+///
+/// # Errors
+/// TypeError for anything else.
+fn path_kw(path: Kw<'_, '_>, raised: &Raised) -> PyResult<(Vec<String>, Vec<PathConstraint>)> {
+    let wrong = || {
+        pyo3::exceptions::PyTypeError::new_err(
+            "plan(path=...): give a bound as text (\"x1d<=0.6\"), a tuple (f, lo, hi) of a function f(t, q, qd, u) of one node's sample and its bounds (None for none), or a list of them",
+        )
+    };
+    let Some(path) = path.filter(|p| !p.is_none()) else { return Ok((Vec::new(), Vec::new())) };
+    let items: Vec<Bound<'_, PyAny>> = if path.extract::<String>().is_ok()
+        || path.extract::<(Bound<'_, PyAny>, Bound<'_, PyAny>, Bound<'_, PyAny>)>().is_ok_and(|t| t.0.is_callable())
+    {
+        vec![path.clone()]
+    } else {
+        path.try_iter().map_err(|_| wrong())?.collect::<PyResult<_>>()?
+    };
+    let (mut texts, mut own) = (Vec::new(), Vec::new());
+    for item in items {
+        if let Ok(t) = item.extract::<String>() {
+            texts.push(t);
+            continue;
+        }
+        let (f, lo, hi) = item.extract::<(Bound<'_, PyAny>, Option<f64>, Option<f64>)>().map_err(|_| wrong())?;
+        if !f.is_callable() {
+            return Err(wrong());
+        }
+        let name = f.getattr("__name__").and_then(|n| n.extract::<String>()).unwrap_or("path".into());
+        let g = python_objective(f.clone().unbind(), Arc::clone(raised));
+        own.push(PathConstraint::function(name, lo.unwrap_or(f64::NEG_INFINITY), hi.unwrap_or(f64::INFINITY), g));
+    }
+    Ok((texts, own))
+}
+
 impl Toolkit {
     /// The command `name` on `target`: a scene (a name, a path, a
     /// `Scene`) through the run keywords' path, or a model (an
@@ -271,7 +309,8 @@ impl Toolkit {
         input: &Bound<'_, PyAny>,
         (bound, to, at_rest): (KwDict<'_, '_>, KwDict<'_, '_>, bool),
         (segments, evaluations, intervals, guess): (Kw<'_, '_>, Kw<'_, '_>, Kw<'_, '_>, Kw<'_, '_>),
-        (objective, effort_weight): (Kw<'_, '_>, Kw<'_, '_>),
+        (objective, effort_weight, path): (Kw<'_, '_>, Kw<'_, '_>, Kw<'_, '_>),
+        (minimize, time_weight, free_time): (Kw<'_, '_>, Kw<'_, '_>, Kw<'_, '_>),
         model: Option<&Bound<'_, PyModel>>,
         out: Option<PathBuf>,
         figures: bool,
@@ -318,6 +357,10 @@ impl Toolkit {
             extra.extend(["--guess".to_string(), path.display().to_string()]);
         }
         let raised: Raised = Arc::new(Mutex::new(None));
+        let (texts, own_path) = path_kw(path, &raised)?;
+        for t in texts {
+            extra.extend(["--path".to_string(), t]);
+        }
         let own = match objective.filter(|f| !f.is_none()) {
             Some(f) if !f.is_callable() => {
                 return Err(pyo3::exceptions::PyTypeError::new_err(
@@ -331,14 +374,33 @@ impl Toolkit {
             None => None,
         };
         let weight = number_kw("plan", "effort_weight", effort_weight)?;
+        let time_weight = number_kw("plan", "time_weight", time_weight)?;
+        if let Some(m) = text_kw("plan", "minimize", minimize)? {
+            extra.extend(["--minimize".to_string(), m]);
+        }
+        if let Some(range) = free_time.filter(|f| !f.is_none()) {
+            let (lo, hi) = range.extract::<(f64, f64)>().map_err(|_| {
+                pyo3::exceptions::PyTypeError::new_err(format!(
+                    "plan(): `free_time` must be a pair of numbers (lo, hi) [s], not {range}"
+                ))
+            })?;
+            extra.extend(["--free-time".to_string(), format!("{lo:?}:{hi:?}")]);
+        }
         let goal = match (own, weight) {
-            (Some(o), w) => Some(o.effort_weight(w.unwrap_or(1.0))),
-            (None, Some(w)) => Some(Objective::effort().effort_weight(w)),
-            (None, None) => None,
+            (Some(o), w) => Some(o.effort_weight(w.unwrap_or(1.0)).time_weight(time_weight.unwrap_or(0.0))),
+            (None, w) => {
+                if let Some(tw) = time_weight {
+                    extra.extend(["--time-weight".to_string(), format!("{tw:?}")]);
+                }
+                w.map(|w| Objective::effort().effort_weight(w))
+            }
         };
-        let adjust = |app: App| match &goal {
-            Some(o) => app.plan_objective(o.clone()),
-            None => app,
+        let adjust = |app: App| {
+            let app = match &goal {
+                Some(o) => app.plan_objective(o.clone()),
+                None => app,
+            };
+            own_path.iter().fold(app, |app, p| app.plan_path(p.clone()))
         };
         let done = self.command_on(py, "plan", scene, model, extra, out, figures, settings, &adjust);
         // the objective's own exception, as it was raised

@@ -719,7 +719,17 @@ impl Toolkit {
     /// (`summary["objective_gradient"]`: "exact" or "differenced"); the
     /// chain to the planned inputs uses the exact sensitivities. With an
     /// objective the target may be left out (a free end). `f` is called
-    /// holding the GIL.
+    /// holding the GIL. `path` bounds the run at every node: a state
+    /// column as text (`"x1d<=0.6"`, `"y1>=-0.5"`, `"-1<=y1<=1"`) or a
+    /// function of your own `(g, lo, hi)` (`lo` or `hi` None for no
+    /// bound), `g(t, q, qd, u)` of one node's sample (arrays of one row),
+    /// returning as `objective` does; a list of them. Between the nodes
+    /// the verification run reports the largest excess
+    /// (`summary["path_excess"]`). `free_time=(lo, hi)` [s] frees the
+    /// duration within those bounds (started at the scene's t_end; the
+    /// nodes move with it; `summary["t_end"]` the one planned);
+    /// `minimize="time"` then minimizes it alone, and `time_weight=c`
+    /// adds `c T` to the effort (or to `objective`).
     ///
     /// Returns a DataFrame of the planned inputs at the nodes (`t` [s],
     /// one column per input in its unit), `.attrs["summary"]` (status,
@@ -736,7 +746,7 @@ impl Toolkit {
     /// entry that is NaN or infinite (naming its sample); the exception
     /// `f` raised, as it was raised (TypeError for a return of another
     /// shape); KeyboardInterrupt on Ctrl-C.
-    #[pyo3(signature = (scene, *, input, bound=None, to=None, at_rest=false, segments=None, evaluations=None, intervals=None, guess=None, objective=None, effort_weight=None, model=None, out=None, figures=false, **settings))]
+    #[pyo3(signature = (scene, *, input, bound=None, to=None, at_rest=false, segments=None, evaluations=None, intervals=None, guess=None, objective=None, effort_weight=None, path=None, minimize=None, time_weight=None, free_time=None, model=None, out=None, figures=false, **settings))]
     #[expect(clippy::too_many_arguments, reason = "Python's keywords, one argument each")]
     fn plan(
         &self,
@@ -752,14 +762,19 @@ impl Toolkit {
         guess: Option<&Bound<'_, PyAny>>,
         objective: Option<&Bound<'_, PyAny>>,
         effort_weight: Option<&Bound<'_, PyAny>>,
+        path: Option<&Bound<'_, PyAny>>,
+        minimize: Option<&Bound<'_, PyAny>>,
+        time_weight: Option<&Bound<'_, PyAny>>,
+        free_time: Option<&Bound<'_, PyAny>>,
         model: Option<&Bound<'_, PyModel>>,
         out: Option<PathBuf>,
         figures: bool,
         settings: Option<&Bound<'_, PyDict>>,
     ) -> PyResult<Py<PyAny>> {
         let mesh = (segments, evaluations, intervals, guess);
-        let goal = (objective, effort_weight);
-        self.plan_on(py, scene, input, (bound, to, at_rest), mesh, goal, model, out, figures, settings)
+        let goal = (objective, effort_weight, path);
+        let time = (minimize, time_weight, free_time);
+        self.plan_on(py, scene, input, (bound, to, at_rest), mesh, goal, time, model, out, figures, settings)
     }
 
     /// The best closed gait of a kinematic system, as `ezy

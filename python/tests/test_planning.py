@@ -294,3 +294,72 @@ def test_a_mixed_systems_gait_typed_in_a_cell_is_optimized():
     with pytest.raises(ezy.EzyError, match="has no drives"):
         ezy.optimize(roller_scene(ezy.Model(ROLLER)), gait="D=0.3*cos(t)", over={"D.a1": (0.0, 1.0)},
                      maximize="gait.mean_speed")
+
+
+def test_a_speed_bound_on_the_path_as_text_and_as_a_function():
+    """Oracle: the sleigh's speed at most 0.6 m/s at the nodes, 8 segments
+    over 2 s: the continuous optimum is a piecewise-linear force (4.8 N to
+    0 at 0.5 s, a coast, 0 to -4.8 N from 1.5 s), effort 7.68 N^2 s. The
+    bound as text (`--path`) and as a function of the caller's own of one
+    node's sample (its gradient given, or differenced) plan the same."""
+    m = ezy.Model(SLEIGH)
+    t = np.linspace(0.0, 2.0, 9)
+    closed = np.where(t <= 0.5, 4.8 * (1 - t / 0.5), np.where(t >= 1.5, -4.8 * (t - 1.5) / 0.5, 0.0))
+    text = ezy.plan(sleigh_scene(m), input="push.fx", to={"x": D}, at_rest=True, segments=8, path="xd<=0.6")
+    s = text.attrs["summary"]
+    assert s["status"].iloc[0] == "optimal", text.attrs["report"]
+    assert abs(s["effort"].iloc[0] - 7.68) <= 1e-8 * 7.68
+    assert s["inequalities"].iloc[0] == 8
+    assert np.max(np.abs(text["push.fx"] - closed)) <= 1e-6 * 4.8
+    shapes = []
+
+    def speed(t, q, qd, u):
+        shapes.append((t.shape, q.shape, u.shape))
+        return qd[0, 0], {"qd": np.array([[1.0, 0.0, 0.0]])}
+
+    def speed_value(t, q, qd, u):
+        return qd[0, 0]
+
+    for g in [speed, speed_value]:
+        plan = ezy.plan(sleigh_scene(m), input="push.fx", to={"x": D}, at_rest=True, segments=8,
+                        path=[(g, None, 0.6)])
+        s = plan.attrs["summary"]
+        assert s["status"].iloc[0] == "optimal", plan.attrs["report"]
+        assert s["inequalities"].iloc[0] == 9, "nodes 0 to 8: a function may take the inputs"
+        assert np.max(np.abs(plan["push.fx"] - closed)) <= 1e-6 * 4.8
+    # one node's sample: t (1,), q (1, nq), u (1, inputs)
+    assert shapes[0] == ((1,), (1, 3), (1, 1))
+    with pytest.raises(ezy.EzyError, match="no coordinate `zd`"):
+        ezy.plan(sleigh_scene(m), input="push.fx", to={"x": D}, at_rest=True, segments=4, path="zd<=1")
+    with pytest.raises(TypeError, match="path="):
+        ezy.plan(sleigh_scene(m), input="push.fx", to={"x": D}, at_rest=True, segments=4, path=[3])
+
+
+def test_least_time_and_effort_plus_time_from_a_cell():
+    """Oracles: with |F| <= 1 N on 8 segments the least time is the
+    discrete program's bang-bang force, T_N = sqrt(d / x_N(1)) (x_N(1) the
+    distance of +1 to the middle node, 0 there, -1 after, over 1 s); with
+    the effort plus T (time_weight=1) on 4 segments, T* = (36 m^2 d^2)^(1/4)
+    = 2 sqrt(3) s (the least effort 12 m^2 d^2 / T^3 for each T), known to
+    about 1e-5 (the objective is flat there)."""
+    m = ezy.Model(SLEIGH)
+    u = np.array([1.0] * 4 + [0.0] + [-1.0] * 4)
+    h, x, v = 1.0 / 8.0, 0.0, 0.0
+    for k in range(8):
+        x += v * h + h * h * (2.0 * u[k] + u[k + 1]) / (6.0 * 2.0)
+        v += h * (u[k] + u[k + 1]) / (2.0 * 2.0)
+    t_n = np.sqrt(D / x)
+    plan = ezy.plan(sleigh_scene(m), input="push.fx", bound={"push.fx": (-1.0, 1.0)}, to={"x": D}, at_rest=True,
+                    segments=8, minimize="time", free_time=(1.0, 10.0))
+    s = plan.attrs["summary"]
+    assert s["status"].iloc[0] == "optimal", plan.attrs["report"]
+    assert abs(s["t_end"].iloc[0] - t_n) <= 1e-8 * t_n
+    assert np.max(np.abs(plan["push.fx"] - u)) <= 1e-6
+    both = ezy.plan(sleigh_scene(m), input="push.fx", to={"x": D}, at_rest=True, segments=4, time_weight=1.0,
+                    free_time=(0.5, 20.0))
+    s = both.attrs["summary"]
+    assert s["status"].iloc[0] == "optimal", both.attrs["report"]
+    assert abs(s["t_end"].iloc[0] - 2.0 * np.sqrt(3.0)) <= 1e-5 * 2.0 * np.sqrt(3.0)
+    assert s["objective"].iloc[0] == "effort + time"
+    with pytest.raises(TypeError, match="free_time"):
+        ezy.plan(sleigh_scene(m), input="push.fx", to={"x": D}, segments=4, free_time=3.0)

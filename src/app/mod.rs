@@ -109,6 +109,9 @@ pub struct App {
     /// The objective `plan` minimizes, where the caller set one
     /// ([`App::plan_objective`]).
     plan_objective: Option<ezy_core::plan::Objective>,
+    /// Path constraints of the caller's own `plan` adds to `--path`'s
+    /// ([`App::plan_path`]).
+    plan_path: Vec<ezy_core::plan::PathConstraint>,
 }
 
 impl Default for App {
@@ -180,6 +183,7 @@ impl App {
             file_models: Default::default(),
             quantities: Vec::new(),
             plan_objective: None,
+            plan_path: Vec::new(),
         }
     }
 
@@ -281,6 +285,21 @@ impl App {
     /// ([`App::plan_objective`]).
     pub(crate) fn own_plan_objective(&self) -> Option<ezy_core::plan::Objective> {
         self.plan_objective.clone()
+    }
+
+    /// A path constraint `plan` adds to those of `--path`
+    /// ([`ezy_core::plan::PathConstraint`]: a bound on a function of the
+    /// caller's own of one node's sample, as Python's `ezy.plan(path=[(f,
+    /// lo, hi)])` gives it); repeatable.
+    #[must_use]
+    pub fn plan_path(mut self, constraint: ezy_core::plan::PathConstraint) -> Self {
+        self.plan_path.push(constraint);
+        self
+    }
+
+    /// The path constraints of the caller's own ([`App::plan_path`]).
+    pub(crate) fn own_plan_path(&self) -> Vec<ezy_core::plan::PathConstraint> {
+        self.plan_path.clone()
     }
 
     /// The caller's own quantity `name` ([`App::quantity`]).

@@ -16,7 +16,9 @@ use std::sync::{Arc, Mutex};
 use clap::{ArgMatches, Args, FromArgMatches};
 use ezy_core::design::fit::Data;
 use ezy_core::effects::{Extrapolate, Table, Waveform};
-use ezy_core::plan::{BuildInputs, Input, MAX_UNKNOWNS, Maneuver, Objective, Plan, PlanSettings, Status, Target};
+use ezy_core::plan::{
+    BuildInputs, Input, MAX_UNKNOWNS, Maneuver, Objective, PathConstraint, Plan, PlanSettings, Status, Target,
+};
 use ezy_core::{Model, Problem, RunSettings, SetupError, SimError, fmt_value};
 use ezy_scene::{Scene, SceneEffect};
 
@@ -61,6 +63,24 @@ struct PlanArgs {
     /// At rest at t_end: every velocity zero (with the coordinates of --to).
     #[arg(long)]
     at_rest: bool,
+    /// A path constraint: a state column bounded at every node of the
+    /// mesh, NAME<=HI, NAME>=LO or LO<=NAME<=HI (x1d<=0.6, y1>=-0.5; a
+    /// velocity is its coordinate's name with d appended); between the
+    /// nodes the verification run reports its largest excess; repeatable.
+    #[arg(long = "path", value_name = "BOUND")]
+    paths: Vec<String>,
+    /// What the plan minimizes: effort (the inputs squared, integrated
+    /// and summed) or time (the duration, free within --free-time).
+    #[arg(long, value_enum, default_value = "effort")]
+    minimize: Minimize,
+    /// The duration's weight W added to the effort (effort + W T; W in
+    /// the effort's unit per second), with --free-time.
+    #[arg(long, value_name = "W")]
+    time_weight: Option<f64>,
+    /// The duration free within [LO, HI] s, started at the scene's t_end
+    /// (LO <= t_end <= HI): the nodes move with it.
+    #[arg(long, value_name = "LO:HI", value_parser = parse_free_time)]
+    free_time: Option<(f64, f64)>,
     /// Segments of the time mesh over [0, t_end] (the inputs have N + 1
     /// nodes, linear between them).
     #[arg(long, value_name = "N", default_value_t = 10)]
@@ -97,6 +117,52 @@ struct PlanArgs {
     /// set one on the `App` ([`App::plan_objective`]; no flag).
     #[arg(skip)]
     objective: Option<Objective>,
+    /// Path constraints of the caller's own, where it set some on the
+    /// `App` ([`App::plan_path`]; no flag).
+    #[arg(skip)]
+    own_path: Vec<PathConstraint>,
+}
+
+/// What `--minimize` names.
+#[derive(clap::ValueEnum, Clone, Copy, Debug, Default, PartialEq, Eq)]
+enum Minimize {
+    /// The effort: the inputs squared, integrated and summed.
+    #[default]
+    Effort,
+    /// The duration (with --free-time).
+    Time,
+}
+
+/// `LO:HI` of `--free-time`: two finite numbers.
+fn parse_free_time(s: &str) -> Result<(f64, f64), String> {
+    let (lo, hi) = s.split_once(':').ok_or_else(|| format!("`{s}`: expected LO:HI [s]"))?;
+    let num = |v: &str| match v.trim().parse::<f64>() {
+        Ok(x) if x.is_finite() => Ok(x),
+        _ => Err(format!("`{s}`: `{}` is not a finite number", v.trim())),
+    };
+    Ok((num(lo)?, num(hi)?))
+}
+
+/// The objective of `--minimize` and `--time-weight`, or the caller's
+/// own (which these flags may not change).
+///
+/// # Errors
+/// A caller's objective with either flag.
+fn objective(args: &PlanArgs) -> Result<Objective, Error> {
+    let flags = args.minimize == Minimize::Time || args.time_weight.is_some();
+    match (&args.objective, flags) {
+        (Some(_), true) => Err(Error::Input(
+            "--minimize time and --time-weight: the objective is the caller's own (App::plan_objective); set its time weight there".into(),
+        )),
+        (Some(o), false) => Ok(o.clone()),
+        (None, _) => {
+            let base = if args.minimize == Minimize::Time { Objective::time() } else { Objective::effort() };
+            Ok(match args.time_weight {
+                Some(w) => base.time_weight(w),
+                None => base,
+            })
+        }
+    }
 }
 
 /// The arguments of `ezy plan`, on the subcommand `cmd`.
@@ -108,6 +174,7 @@ pub(crate) fn cli(cmd: clap::Command) -> clap::Command {
 pub(crate) fn exec(app: &App, args: &ArgMatches, out: &mut dyn Write) -> Result<(), AppError> {
     let mut args = PlanArgs::from_arg_matches(args)?;
     args.objective = app.own_plan_objective();
+    args.own_path = app.own_plan_path();
     let (src, opts) =
         scene_and_options(app, args.scene.as_deref(), "plan", (args.out.clone(), args.no_figures), &args.overrides)?;
     let opts = RunOptions { progress: true, ..opts };
@@ -304,6 +371,53 @@ fn target(args: &PlanArgs, coords: &[String]) -> Result<Target, Error> {
     Ok(if args.at_rest { t.at_rest() } else { t })
 }
 
+/// The path constraints of `--path` on a model of coordinates `coords`.
+///
+/// # Errors
+/// A bound not of the forms `NAME<=HI`, `NAME>=LO`, `LO<=NAME<=HI`; a
+/// number that is not finite; a name that is neither a coordinate nor a
+/// coordinate's velocity (listing the state's names).
+fn path_constraints(paths: &[String], coords: &[String]) -> Result<Vec<PathConstraint>, Error> {
+    let mut out = Vec::new();
+    for text in paths {
+        let bad = |why: &str| {
+            Error::Input(format!("--path `{text}`: {why}; give NAME<=HI, NAME>=LO or LO<=NAME<=HI (x1d<=0.6)"))
+        };
+        let number = |s: &str| -> Result<f64, Error> {
+            match s.trim().parse::<f64>() {
+                Ok(v) if v.is_finite() => Ok(v),
+                _ => Err(bad(&format!("`{}` is not a finite number", s.trim()))),
+            }
+        };
+        let (name, lo, hi) = if text.contains(">=") {
+            let parts: Vec<&str> = text.split(">=").collect();
+            if parts.len() != 2 || text.contains("<=") {
+                return Err(bad("one `>=` and no `<=`"));
+            }
+            (parts[0].trim(), number(parts[1])?, f64::INFINITY)
+        } else {
+            match text.split("<=").collect::<Vec<_>>()[..] {
+                [name, hi] => (name.trim(), f64::NEG_INFINITY, number(hi)?),
+                [lo, name, hi] => (name.trim(), number(lo)?, number(hi)?),
+                _ => return Err(bad("no bound")),
+            }
+        };
+        let p = if coords.iter().any(|c| c == name) {
+            PathConstraint::q(name, lo, hi)
+        } else if let Some(c) = name.strip_suffix('d').filter(|c| coords.iter().any(|k| k == c)) {
+            PathConstraint::qd(c, lo, hi)
+        } else {
+            let state: Vec<String> = coords.iter().cloned().chain(coords.iter().map(|c| format!("{c}d"))).collect();
+            return Err(bad(&format!(
+                "the model has no coordinate `{name}` (nor is it a coordinate's velocity); its state: {}",
+                state.join(", ")
+            )));
+        };
+        out.push(p);
+    }
+    Ok(out)
+}
+
 /// The input 0 over `[0, t_end]` (two nodes: what the scene is checked
 /// with before the mesh's size is).
 fn zero(t_end: f64) -> Table {
@@ -334,6 +448,8 @@ fn plan_model<M: Model>(
     let info = first.model.info();
     let coords: Vec<String> = info.coords.iter().map(|c| c.to_string()).collect();
     let target = target(args, &coords)?;
+    let mut path = path_constraints(&args.paths, &coords)?;
+    path.extend(args.own_path.iter().cloned());
     if !(1..=args.segments.max(1)).contains(&args.intervals) {
         return Err(Error::Input(format!(
             "--intervals {}: give 1 (single shooting) to --segments ({})",
@@ -343,8 +459,10 @@ fn plan_model<M: Model>(
     let plan_settings = PlanSettings {
         max_evaluations: args.evaluations,
         intervals: args.intervals,
+        free_time: args.free_time,
         ..PlanSettings::new(args.segments, run.t_end)
     };
+    let objective = objective(args)?;
     // the program's size before anything of it is allocated
     let nz = 2 * info.nq() - info.n_holonomic - info.nc();
     let unknowns = plan_settings.unknowns(inputs.len(), nz);
@@ -390,8 +508,9 @@ fn plan_model<M: Model>(
         })
     };
     let shared = Arc::clone(&build);
-    let objective = args.objective.clone().unwrap_or_default();
     let plan = Plan::with_objective(inputs, target, plan_settings, objective, move |t: &[Table]| shared(t))
+        .map_err(analysis_error(&opts.out))?
+        .with_path(path)
         .map_err(analysis_error(&opts.out))?
         .stop_when(|| crate::output::transaction::pending().is_some());
     crate::output::transaction::arm_signals();
@@ -470,6 +589,18 @@ fn command_line(args: &PlanArgs, scene: &str, opts: &RunOptions) -> String {
     if args.at_rest {
         w.push("--at-rest".into());
     }
+    for p in &args.paths {
+        w.extend(["--path".into(), p.clone()]);
+    }
+    if args.minimize == Minimize::Time {
+        w.extend(["--minimize".into(), "time".into()]);
+    }
+    if let Some(tw) = args.time_weight {
+        w.extend(["--time-weight".into(), format!("{tw:?}")]);
+    }
+    if let Some((lo, hi)) = args.free_time {
+        w.extend(["--free-time".into(), format!("{lo:?}:{hi:?}")]);
+    }
     w.extend(["--segments".into(), args.segments.to_string(), "--intervals".into(), args.intervals.to_string()]);
     if let Some(g) = &args.guess {
         w.extend(["--guess".into(), g.display().to_string()]);
@@ -485,13 +616,21 @@ fn command_line(args: &PlanArgs, scene: &str, opts: &RunOptions) -> String {
     w.push("--report".into());
     let line = w.iter().map(|x| report::shell_quote(x)).collect::<Vec<_>>().join(" ");
     // a caller's objective (a Rust closure, a Python function) has no flag
-    match args.objective.as_ref().and_then(|o| o.user.as_ref()) {
+    let mut line = match args.objective.as_ref().and_then(|o| o.user.as_ref()) {
         Some((name, _)) => format!(
             "{line}\n# the objective of the caller's own, {}, is not on this line: run as written, the command minimizes the effort",
             name.replace(['\n', '\r'], " ")
         ),
         None => line,
+    };
+    if !args.own_path.is_empty() {
+        let names: Vec<String> = args.own_path.iter().map(|p| p.describe().replace(['\n', '\r'], " ")).collect();
+        line.push_str(&format!(
+            "\n# the path constraints of the caller's own ({}) are not on this line: run as written, the command leaves them out",
+            names.join("; ")
+        ));
     }
+    line
 }
 
 /// A signal stopped the plan: the best inputs so far (where the planner
@@ -560,6 +699,7 @@ fn status_word(s: &Status) -> &'static str {
 fn summary_csv(m: &Maneuver) -> String {
     let mut head: Vec<String> = [
         "status",
+        "t_end",
         "effort",
         "violation",
         "violated",
@@ -569,6 +709,9 @@ fn summary_csv(m: &Maneuver) -> String {
         "runs",
         "unknowns",
         "equalities",
+        "inequalities",
+        "path_excess",
+        "path_excess_at",
         "objective",
         "objective_value",
         "objective_gradient",
@@ -577,6 +720,7 @@ fn summary_csv(m: &Maneuver) -> String {
     .to_vec();
     let mut row = vec![
         status_word(&m.status).to_string(),
+        number(m.t_end),
         number(m.effort),
         number(m.violation.0),
         m.violation.1.clone(),
@@ -586,6 +730,9 @@ fn summary_csv(m: &Maneuver) -> String {
         m.runs.to_string(),
         m.unknowns.to_string(),
         m.equalities.to_string(),
+        m.inequalities.to_string(),
+        m.verification.as_ref().map_or_else(|_| String::new(), |v| number(v.path_violation.0)),
+        m.verification.as_ref().map_or_else(|_| String::new(), |v| v.path_violation.1.clone()),
         m.objective_name.clone(),
         number(m.objective),
         m.objective_gradient.as_str().to_string(),
@@ -678,6 +825,10 @@ fn summary(scene: &str, inputs: (&[String], usize), m: &Maneuver, files: &[PathB
         fmt_value(t_end),
         m.t.len().saturating_sub(1)
     );
+    if let Some((lo, hi)) = m.free_time {
+        let _ =
+            writeln!(s, "duration (free within [{}, {}] s): {} s", fmt_value(lo), fmt_value(hi), fmt_value(m.t_end));
+    }
     let _ = writeln!(s, "effort (sum of the integrals of the inputs squared): {}", fmt_value(m.effort));
     let _ = writeln!(
         s,
@@ -712,6 +863,16 @@ fn summary(scene: &str, inputs: (&[String], usize), m: &Maneuver, files: &[PathB
                     fmt_value(e.target + e.plan)
                 );
             }
+            if m.inequalities > 0 {
+                let _ = match v.path_violation.0 {
+                    0.0 => writeln!(s, "  the path constraints hold over the run (8 samples per segment)"),
+                    e => writeln!(
+                        s,
+                        "  the path constraints are exceeded between the nodes by up to {e:.1e} ({}; 8 samples per segment)",
+                        v.path_violation.1
+                    ),
+                };
+            }
         }
         Err(e) => {
             let _ = writeln!(s, "verification failed: {e}");
@@ -719,11 +880,12 @@ fn summary(scene: &str, inputs: (&[String], usize), m: &Maneuver, files: &[PathB
     }
     let _ = writeln!(
         s,
-        "{} evaluations, {} segment runs, {} unknowns, {} equalities in {:.2} s ({}, SLSQP)",
+        "{} evaluations, {} segment runs, {} unknowns, {} equalities, {} inequalities in {:.2} s ({}, SLSQP)",
         m.evaluations,
         m.runs,
         m.unknowns,
         m.equalities,
+        m.inequalities,
         m.seconds,
         match intervals {
             1 => "direct single shooting".to_string(),

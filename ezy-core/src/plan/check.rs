@@ -57,6 +57,19 @@ pub(super) fn request(
     if !(s.t_end.is_finite() && s.t_end > 0.0) {
         return fail(format!("t_end = {} s: give a finite duration > 0", s.t_end));
     }
+    if let Some((lo, hi)) = s.free_time {
+        if !(lo.is_finite() && hi.is_finite() && lo > 0.0 && lo <= s.t_end && s.t_end <= hi) {
+            return fail(format!(
+                "free time {lo}:{hi} s: give finite bounds 0 < lower <= t_end ({} s) <= upper",
+                s.t_end
+            ));
+        }
+    } else if objective.time_weight > 0.0 {
+        return fail(format!(
+            "time_weight {}: the duration is fixed (t_end = {} s); free it within bounds (free_time) to minimize it",
+            objective.time_weight, s.t_end
+        ));
+    }
     if !(s.tolerance > 0.0 && s.tolerance < 1.0) {
         return fail(format!("tolerance {}: give a violation in (0, 1)", s.tolerance));
     }
@@ -291,8 +304,22 @@ pub(super) fn scales<M: Model>(
     for (col, comp) in tr.state_columns() {
         w[col] = state_scale[comp];
     }
+    if tr.free_time {
+        w[tr.col_t()] = plan.settings.t_end;
+    }
     let c = tr.rows.iter().map(|(_, comp)| state_scale[*comp]).collect();
+    // a state component's bound in its scale; a function's in its bounds'
+    let g = tr
+        .path_rows
+        .iter()
+        .map(|(row, _)| {
+            let p = &tr.path[row.c];
+            let bounds = [p.constraint.lower, p.constraint.upper].into_iter().filter(|v| v.is_finite());
+            let own = bounds.fold(1.0f64, |m, v| m.max(v.abs()));
+            p.comp.map_or(own, |comp| state_scale[comp].max(own))
+        })
+        .collect();
     let effort = input_scale.iter().map(|s| s * s).sum::<f64>() * plan.settings.t_end;
-    let f = plan.objective.effort_weight * effort + user0.abs();
-    Scales { w, c, f: if f > 0.0 && f.is_finite() { f } else { effort } }
+    let f = plan.objective.effort_weight * effort + plan.objective.time_weight * plan.settings.t_end + user0.abs();
+    Scales { w, c, g, f: if f > 0.0 && f.is_finite() { f } else { effort } }
 }

@@ -89,6 +89,35 @@
 //! nonlinear, so it could solve the sparse convex subproblems of an SQP
 //! method, not the program itself.
 //!
+//! # Path constraints
+//!
+//! [`Plan::with_path`] bounds a state component or a function of the
+//! user's own of one node's sample at every node ([`PathConstraint`];
+//! Betts §4.2): each finite bound an inequality of the program,
+//! differentiated through the nodes' exact sensitivities as the
+//! objective is, and in the violation, the status and the first-order
+//! conditions (an active inequality's row joins the equalities'). Between
+//! the nodes nothing is enforced; the verification run reports the
+//! largest excess it samples ([`Verification::path_violation`]).
+//!
+//! # A free duration
+//!
+//! With [`PlanSettings::free_time`] the duration `T` is the last unknown,
+//! within its bounds; the nodes move with it (`t_k = k T / N`, each
+//! segment `h = T / N` long, its input tables stretched with it). The
+//! objective may weigh it ([`Objective::time_weight`]; [`Objective::time`]
+//! alone: least time). A segment's end depends on `h` exactly as
+//! `dx/dh = f(x_end, u_k+1) - sum_j S_{u_j,k+1} (u_j,k+1 - u_j,k) / h`:
+//! the state's rate at the end (the run extended), less the end's
+//! sensitivity to its last input node times the inputs' stretch (a table
+//! through fixed nodes on a longer segment is, at each time, the same
+//! table with its last node moved back); the chain through the nodes
+//! carries it on. The effort is linear in `h`. A user's objective or path
+//! function is differenced with respect to the nodes' times (no extra
+//! simulation). The least time of a bounded input is a bang-bang one:
+//! piecewise linear through the nodes, it is as good as the mesh
+//! (`O(1 / N)` above the continuous optimum: the tests' sleigh).
+//!
 //! # Verification
 //!
 //! The optimizer's own violation is of its segments; after the solve the
@@ -128,6 +157,7 @@
 mod check;
 mod nlp;
 mod objective;
+mod path;
 mod shooting;
 mod transcription;
 mod verify;
@@ -144,6 +174,7 @@ use crate::error::SimError;
 use crate::model::Model;
 use crate::problem::Problem;
 pub use objective::{Objective, ObjectiveGradient, SampleGradient, Samples, UserObjective, UserValue};
+pub use path::PathConstraint;
 use transcription::Transcription;
 
 /// How a problem is built from its inputs' tables (one per [`Input`], in
@@ -294,6 +325,13 @@ pub struct PlanSettings {
     /// partitions ill-conditioned); take M > 1 for dynamics unstable
     /// over the horizon, where a single run's sensitivities grow too fast.
     pub intervals: usize,
+    /// A free duration: `T` an unknown within `[lower, upper]` \[s\]
+    /// (`0 < lower <= t_end <= upper`), started at [`PlanSettings::t_end`];
+    /// `None` (the default): `T = t_end`. The nodes move with it, `t_k =
+    /// k T / N`; each segment's end is differentiated with respect to its
+    /// duration exactly (see the module's docs). With
+    /// [`Objective::time`], a minimum-time plan.
+    pub free_time: Option<(f64, f64)>,
 }
 
 impl PlanSettings {
@@ -308,6 +346,7 @@ impl PlanSettings {
             max_unknowns: MAX_UNKNOWNS,
             state_box: 10.0,
             intervals: 1,
+            free_time: None,
         }
     }
 
@@ -318,7 +357,9 @@ impl PlanSettings {
     /// request overflows it; compare it with [`PlanSettings::max_unknowns`]
     /// before anything is allocated.
     pub fn unknowns(&self, inputs: usize, independent: usize) -> u128 {
-        inputs as u128 * (self.segments as u128 + 1) + (self.intervals as u128).saturating_sub(1) * independent as u128
+        inputs as u128 * (self.segments as u128 + 1)
+            + (self.intervals as u128).saturating_sub(1) * independent as u128
+            + u128::from(self.free_time.is_some())
     }
 }
 
@@ -337,6 +378,8 @@ pub struct Plan<M: Model> {
     stop: Option<fn() -> bool>,
     /// What is minimized ([`Plan::with_objective`]).
     objective: Objective,
+    /// Bounds at the nodes ([`Plan::with_path`]).
+    path: Vec<PathConstraint>,
 }
 
 impl<M: Model> std::fmt::Debug for Plan<M> {
@@ -346,6 +389,7 @@ impl<M: Model> std::fmt::Debug for Plan<M> {
             .field("target", &self.target)
             .field("settings", &self.settings)
             .field("objective", &self.objective)
+            .field("path", &self.path)
             .finish_non_exhaustive()
     }
 }
@@ -362,14 +406,15 @@ pub enum Status {
         /// Why, with the stationarity measured.
         reason: String,
     },
-    /// No point met the equalities within the tolerance: the least
+    /// No point met the constraints within the tolerance: the least
     /// violation found (the optimization's, then a minimization of the
-    /// violation alone) and its equality.
+    /// violation alone) and its constraint.
     Infeasible {
-        /// The largest equality's violation at the least violating point
-        /// \[its state component's unit\].
+        /// The largest constraint's violation at the least violating point
+        /// \[its state component's unit, or its path function's\].
         violation: f64,
-        /// That equality (`target x = 1`, `continuity of xd at node 3`).
+        /// That constraint (`target x = 1`, `continuity of xd at node 3`,
+        /// `path qd.x <= 0.6 at node 4 (t = 1 s)`).
         constraint: String,
     },
 }
@@ -400,6 +445,11 @@ pub struct Verification {
     pub max_plan_error: f64,
     /// The run's steps.
     pub steps: u64,
+    /// The largest violation of a path constraint over the run, sampled
+    /// eight times per segment (between the nodes, where the plan does
+    /// not enforce them), and where (`qd.x = 0.61 at t = 1.2 s`); 0 and
+    /// empty where none is violated or there are none.
+    pub path_violation: (f64, String),
 }
 
 /// A plan's result ([`Plan::solve`]).
@@ -411,6 +461,11 @@ pub struct Maneuver {
     pub termination: String,
     /// The nodes' times \[s\] (N + 1).
     pub t: Vec<f64>,
+    /// The duration `T` \[s\]: the settings' `t_end`, or with a free
+    /// duration the one planned.
+    pub t_end: f64,
+    /// The bounds of a free duration \[s\] (`None`: fixed).
+    pub free_time: Option<(f64, f64)>,
     /// The planned inputs over `[0, T]`, one per input (the least
     /// violating point's where infeasible).
     pub inputs: Vec<Table>,
@@ -428,7 +483,8 @@ pub struct Maneuver {
     /// How the objective's gradient was had: exact, or the user's term
     /// differenced with respect to the samples at some evaluation.
     pub objective_gradient: ObjectiveGradient,
-    /// The largest equality violation at the point returned, and its equality.
+    /// The largest constraint violation at the point returned (an
+    /// equality's, or a path inequality's excess), and its constraint.
     pub violation: (f64, String),
     /// Relative residual of the first-order conditions (see [`STATIONARY`]).
     pub stationarity: f64,
@@ -448,6 +504,11 @@ pub struct Maneuver {
     pub unknowns: usize,
     /// Equalities.
     pub equalities: usize,
+    /// Path inequalities (one per finite bound per node).
+    pub inequalities: usize,
+    /// A path constraint's function was differenced with respect to its
+    /// node's sample at some evaluation.
+    pub path_differenced: bool,
     /// Evaluations of the program (N segment runs each).
     pub evaluations: usize,
     /// Segment runs.
@@ -504,7 +565,31 @@ impl<M: Model> Plan<M> {
         build: impl Fn(&[Table]) -> Result<Problem<M>, SimError> + Send + Sync + 'static,
     ) -> Result<Self, AnalysisError> {
         check::request(&inputs, &target, &settings, &objective)?;
-        Ok(Self { inputs, target, settings, build: Arc::new(build), stop: None, objective })
+        Ok(Self { inputs, target, settings, build: Arc::new(build), stop: None, objective, path: Vec::new() })
+    }
+
+    /// The same plan with the path constraints `path`: bounds on a state
+    /// component or a function of the user's own at every node (see
+    /// [`PathConstraint`]; Betts 2010 §4.2), in addition to the inputs'
+    /// bounds and the target.
+    ///
+    /// # Errors
+    /// [`AnalysisError::Request`] for a bound that is NaN, a lower above
+    /// its upper, both infinite, or a name given twice with the same
+    /// bound kind. A coordinate the model does not have and a state
+    /// component's bound the initial state violates are refused by
+    /// [`Plan::solve`], which builds the model.
+    pub fn with_path(mut self, path: Vec<PathConstraint>) -> Result<Self, AnalysisError> {
+        for p in &path {
+            p.check().map_err(|reason| AnalysisError::Request { reason })?;
+        }
+        self.path = path;
+        Ok(self)
+    }
+
+    /// The path constraints.
+    pub fn path(&self) -> &[PathConstraint] {
+        &self.path
     }
 
     /// What the plan minimizes.
@@ -531,7 +616,7 @@ impl<M: Model> Plan<M> {
     /// The tables over `[0, T]` through `w`'s input nodes.
     fn tables<N: Model>(&self, tr: &Transcription<N>, w: &[f64]) -> Vec<Table> {
         (0..self.inputs.len())
-            .map(|j| Table { t: self.mesh(), value: tr.input_nodes(w, j).to_vec(), extrapolate: Extrapolate::Hold })
+            .map(|j| Table { t: tr.mesh_at(w), value: tr.input_nodes(w, j).to_vec(), extrapolate: Extrapolate::Hold })
             .collect()
     }
 
@@ -571,8 +656,9 @@ impl<M: Model> Plan<M> {
     fn bounds<N: Model>(&self, tr: &Transcription<N>, sc: &nlp::Scales) -> Vec<(f64, f64)> {
         let (b, nodes) = (self.settings.state_box, self.settings.segments + 1);
         (0..tr.n)
-            .map(|c| match self.inputs.get(c / nodes) {
-                Some(i) if c < tr.n_inputs() => (i.lower, i.upper),
+            .map(|c| match (self.inputs.get(c / nodes), self.settings.free_time) {
+                (Some(i), _) if c < tr.n_inputs() => (i.lower, i.upper),
+                (_, Some(range)) if c == tr.col_t() => range,
                 _ => (-b * sc.w[c], b * sc.w[c]),
             })
             .collect()
@@ -594,10 +680,12 @@ impl<M: Model> Plan<M> {
         termination: &str,
     ) -> Status {
         let (v, row) = nlp::violation(point);
-        let boxed = (tr.n_inputs()..tr.n).find(|&c| point.w[c].abs() >= (1.0 - 1e-9) * bounds[c].1);
+        let boxed = (tr.n_inputs()..tr.n)
+            .filter(|&c| !(tr.free_time && c == tr.col_t()))
+            .find(|&c| point.w[c].abs() >= (1.0 - 1e-9) * bounds[c].1);
         let not = |reason: String| Status::NotConverged { reason: format!("{termination}; {reason}") };
         if v > self.settings.tolerance {
-            Status::Infeasible { violation: v, constraint: tr.rows[row].0.clone() }
+            Status::Infeasible { violation: v, constraint: tr.row_name(row) }
         } else if jump.0 > JUMP * self.settings.tolerance {
             not(format!(
                 "the state jumps by {:.1e} in {} where the equalities on the nodes' independent components hold: a node's partition is ill-conditioned at this point",
@@ -645,9 +733,15 @@ impl<M: Model> Plan<M> {
         tr.stop = self.stop;
         tr.objective = self.objective.clone();
         tr.t.clone_from(&mesh);
+        if self.settings.free_time.is_some() {
+            tr.free_time();
+        }
         let mut w = guess;
         w.resize(tr.n, 0.0);
         tr.gather(&x, &mut w);
+        if tr.free_time {
+            w[tr.col_t()] = self.settings.t_end;
+        }
         // the user's term at the warm start: the objective's scale
         let user0 = match &self.objective.user {
             Some((name, f)) => objective::value_only(&**f, name, &tr.samples(&w, &x[..1], &x[1..]))
@@ -655,6 +749,8 @@ impl<M: Model> Plan<M> {
             None => 0.0,
         };
         tr.set_target(check::independent(&first.model, &x[n_seg], &target));
+        let path = path::resolve(&first.model, &self.path, &x[0])?;
+        tr.set_path(path.clone());
         let (mut evaluations, mut termination) = (0, Vec::new());
         let (ended, sc, bounds) = loop {
             let sc = check::scales(self, &tr, (&x, user0), &target);
@@ -685,7 +781,7 @@ impl<M: Model> Plan<M> {
         };
         let termination = termination.join("; ");
         let point = self.point(&ended);
-        let stationarity = nlp::stationarity(point, &sc, &bounds);
+        let stationarity = nlp::stationarity(point, &sc, &bounds, self.settings.tolerance);
         let (v, row) = nlp::violation(point);
         let jump = state_jump(point, &tr.names);
         let status = match self.verdict(&tr, point, (&bounds, stationarity, &jump), &termination) {
@@ -695,25 +791,29 @@ impl<M: Model> Plan<M> {
             s => s,
         };
         let tables = self.tables(&tr, &point.w);
+        let mesh = tr.mesh_at(&point.w);
+        let t_end = mesh.last().copied().unwrap_or(self.settings.t_end);
         let last = point.ends.last().cloned().unwrap_or_default();
         let verification = if ended.stopped {
             Err("stopped before the verification run".into())
         } else {
-            verify::verify(&*self.build, &tables, self.settings.t_end, &target, &last).map_err(|e| e.to_string())
+            verify::verify(&*self.build, &tables, (t_end, n_seg), (&target, &path), &last)
         };
         let mut states = point.starts.clone();
         states.push(last);
         Ok(Maneuver {
             status,
             termination,
-            t: self.mesh(),
+            t: mesh,
+            t_end,
+            free_time: self.settings.free_time,
             inputs: tables,
             effort: point.effort,
             objective: point.objective,
             objective_name: self.objective.describe(),
             user_objective: point.user,
             objective_gradient: if tr.differenced { ObjectiveGradient::Differenced } else { ObjectiveGradient::Exact },
-            violation: (v, tr.rows.get(row).map(|r| r.0.clone()).unwrap_or_default()),
+            violation: (v, tr.row_name(row)),
             stationarity,
             state_jump: jump,
             names: tr.names.clone(),
@@ -721,6 +821,8 @@ impl<M: Model> Plan<M> {
             verification,
             unknowns: tr.n,
             equalities: tr.rows.len(),
+            inequalities: tr.path_rows.len(),
+            path_differenced: tr.path_differenced,
             evaluations,
             runs: tr.runs,
             seconds: clock.elapsed().as_secs_f64(),

@@ -25,11 +25,13 @@ type SlsqpOutcome = Result<(slsqp::SuccessStatus, Vec<f64>, f64), (slsqp::FailSt
 /// Failures of evaluations in a row that end the solve with the last one's error.
 const FAILURES: usize = 5;
 
-/// The scales of a program: unknowns (n), constraints (m), objective.
+/// The scales of a program: unknowns (n), equalities (m), path
+/// inequalities (p), objective.
 #[derive(Debug, Clone)]
 pub(super) struct Scales {
     pub w: Vec<f64>,
     pub c: Vec<f64>,
+    pub g: Vec<f64>,
     pub f: f64,
 }
 
@@ -39,14 +41,25 @@ enum Phase {
     /// The objective (the effort times its weight plus the user's term)
     /// subject to the constraints.
     Effort,
-    /// `1/2 sum (c_i / s_i)^2`, bounds only.
+    /// `1/2 sum (c_i / s_i)^2 + 1/2 sum max(g_i / s_i, 0)^2`, bounds only.
     Violation,
 }
 
-/// The largest violation of `p`'s constraints \[their state units\],
-/// with the row.
+/// The largest violation of `p`'s constraints \[their units: the
+/// equalities' state components', the path constraints' own\], with
+/// the row (the equalities' first, then the inequalities').
 pub(super) fn violation(p: &Point) -> (f64, usize) {
-    p.c.iter().enumerate().fold((0.0, 0), |(m, at), (i, v)| if v.abs() > m { (v.abs(), i) } else { (m, at) })
+    let m = p.c.len();
+    let eq = p.c.iter().enumerate().map(|(i, v)| (v.abs(), i));
+    let ineq = p.g.iter().enumerate().map(|(i, v)| (v.max(0.0), m + i));
+    eq.chain(ineq).fold((0.0, 0), |(m, at), (v, i)| if v > m { (v, i) } else { (m, at) })
+}
+
+/// `1/2 sum (c_i / s_i)^2 + 1/2 sum max(g_i / s_i, 0)^2` at `p`.
+fn squared_violation(p: &Point, sc: &Scales) -> f64 {
+    let eq = p.c.iter().zip(&sc.c).map(|(c, s)| (c / s) * (c / s)).sum::<f64>();
+    let ineq = p.g.iter().zip(&sc.g).map(|(g, s)| (g.max(0.0) / s).powi(2)).sum::<f64>();
+    0.5 * (eq + ineq)
 }
 
 struct State<'a, M: Model> {
@@ -142,7 +155,7 @@ impl<M: Model> State<'_, M> {
                 // the best point's value, flat: SLSQP ends at once
                 return self.best.as_ref().map_or(0.0, |b| match phase {
                     Phase::Effort => b.objective / sc.f,
-                    Phase::Violation => 0.5 * b.c.iter().zip(&sc.c).map(|(c, s)| (c / s) * (c / s)).sum::<f64>(),
+                    Phase::Violation => squared_violation(b, sc),
                 });
             }
             let worst = self.best.as_ref().map_or(1.0, |b| b.objective / sc.f);
@@ -160,41 +173,59 @@ impl<M: Model> State<'_, M> {
             Phase::Violation => {
                 if let Some(g) = grad {
                     g.fill(0.0);
-                    for (i, row) in p.jac.iter().enumerate() {
-                        let ci = p.c[i] / sc.c[i];
+                    let eq = p.jac.iter().zip(p.c.iter().zip(&sc.c));
+                    let ineq = p.g_jac.iter().zip(p.g.iter().zip(&sc.g)).map(|(row, (v, s))| (row, (v.max(0.0), s)));
+                    let ineq: Vec<_> = ineq.collect();
+                    for (row, (v, s)) in eq.map(|(row, (v, s))| (row, (*v, s))).chain(ineq) {
+                        let ci = v / s;
+                        if ci == 0.0 {
+                            continue;
+                        }
                         for (k, gk) in g.iter_mut().enumerate() {
-                            *gk += ci * row[k] * sc.w[k] / sc.c[i];
+                            *gk += ci * row[k] * sc.w[k] / s;
                         }
                     }
                 }
-                0.5 * p.c.iter().zip(&sc.c).map(|(c, s)| (c / s) * (c / s)).sum::<f64>()
+                squared_violation(p, sc)
             }
         }
     }
 
-    /// `sign c_i / s_i - eps` at `x` and its gradient.
-    fn constraint(&mut self, x: &[f64], i: usize, sign: f64, grad: Option<&mut [f64]>) -> f64 {
-        let sc = self.sc;
-        let eps = 0.01 * self.tol / sc.c[i];
+    /// Row `r` of the program as SLSQP takes it at `x`, and its gradient:
+    /// `sign c_i / s_i - eps` for an equality's side (`r < 2 m`: row
+    /// `r / 2`, sign by parity), `g_i / s_i - eps` for a path inequality.
+    fn constraint(&mut self, x: &[f64], r: usize, grad: Option<&mut [f64]>) -> f64 {
+        let (sc, m) = (self.sc, self.sc.c.len());
+        let (i, sign, ineq) = if r < 2 * m {
+            (r / 2, if r.is_multiple_of(2) { 1.0 } else { -1.0 }, false)
+        } else {
+            (r - 2 * m, 1.0, true)
+        };
+        let scale = if ineq { sc.g[i] } else { sc.c[i] };
+        fn of(p: &Point, i: usize, ineq: bool) -> (f64, &[f64]) {
+            if ineq { (p.g[i], &p.g_jac[i]) } else { (p.c[i], &p.jac[i]) }
+        }
+        let eps = 0.01 * self.tol / scale;
         let Some(p) = self.point(x) else {
             if let Some(g) = grad {
                 g.fill(0.0);
             }
             if self.stopped {
-                return self.best.as_ref().map_or(0.0, |b| (sign * b.c[i] / sc.c[i] - eps).min(0.0));
+                return self.best.as_ref().map_or(0.0, |b| (sign * of(b, i, ineq).0 / scale - eps).min(0.0));
             }
             return 1.0;
         };
+        let (value, row) = of(p, i, ineq);
         if let Some(g) = grad {
             for (k, gk) in g.iter_mut().enumerate() {
-                *gk = sign * p.jac[i][k] * sc.w[k] / sc.c[i];
+                *gk = sign * row[k] * sc.w[k] / scale;
             }
         }
         // within half its slack beyond the slab a constraint counts as
         // on it: SLSQP tests its convergence only at points feasible to
         // rounding, and the effort pulls the iterates onto the slab's
         // faces, where the runs' rounding puts half of them outside
-        let value = sign * p.c[i] / sc.c[i] - eps;
+        let value = sign * value / scale - eps;
         if value > 0.0 && value <= 0.5 * eps { 0.0 } else { value }
     }
 }
@@ -245,7 +276,7 @@ pub(super) fn solve<M: Model>(
             ),
         });
     }
-    let m = p0.c.len();
+    let m = 2 * p0.c.len() + p0.g.len();
     let x0: Vec<f64> = w0.iter().zip(&sc.w).map(|(a, s)| a / s).collect();
     let xb: Vec<(f64, f64)> = bounds.iter().zip(&sc.w).map(|(&(lo, hi), s)| (lo / s, hi / s)).collect();
     let state = RefCell::new(State {
@@ -265,13 +296,11 @@ pub(super) fn solve<M: Model>(
     let tols = |n: usize| slsqp::StopTols { ftol_rel: 1e-12, xtol_abs: vec![1e-10; n], ..slsqp::StopTols::default() };
     let termination = {
         let objective = |x: &[f64], g: Option<&mut [f64]>, _: &mut ()| state.borrow_mut().objective(x, g);
-        let constraints: Vec<SlsqpConstraint<'_>> = (0..2 * m)
+        let constraints: Vec<SlsqpConstraint<'_>> = (0..m)
             .map(|r| {
                 let state = &state;
-                let sign = if r % 2 == 0 { 1.0 } else { -1.0 };
-                Box::new(move |x: &[f64], g: Option<&mut [f64]>, _: &mut ()| {
-                    state.borrow_mut().constraint(x, r / 2, sign, g)
-                }) as SlsqpConstraint<'_>
+                Box::new(move |x: &[f64], g: Option<&mut [f64]>, _: &mut ()| state.borrow_mut().constraint(x, r, g))
+                    as SlsqpConstraint<'_>
             })
             .collect();
         let outcome = slsqp::minimize(objective, &x0, &xb, &constraints, (), max, Some(tols(x0.len())));
@@ -338,40 +367,73 @@ fn words(outcome: &SlsqpOutcome) -> String {
 }
 
 /// The first-order conditions at `p`: the least-squares residual of
-/// `grad f + J^T lambda = 0` on the unknowns not at a bound, in the
-/// scaled unknowns and constraints, relative to `|grad f|` (0 where the
-/// gradient is 0), `f` the whole objective; without constraints, `|grad
-/// f|` relative to the sum of its terms' (the weighted effort's and the
-/// user's), which cancel at a stationary point. A point at a bound is
-/// not checked for its multiplier's sign.
-pub(super) fn stationarity(p: &Point, sc: &Scales, bounds: &[(f64, f64)]) -> f64 {
-    let free: Vec<usize> = (0..p.w.len())
-        .filter(|&k| {
-            let (lo, hi) = bounds[k];
-            let margin = 1e-9 * sc.w[k];
-            p.w[k] - lo > margin && hi - p.w[k] > margin
-        })
-        .collect();
-    let g: Vec<f64> = free.iter().map(|&k| p.objective_grad[k] * sc.w[k] / sc.f).collect();
+/// `grad f + J^T lambda = 0` on the unknowns not at a bound, `J` the
+/// equalities' rows and the path inequalities' active ones (within `tol`
+/// of their bound), in the scaled unknowns and constraints, relative to
+/// `|grad f|` (0 where the gradient is 0), `f` the whole objective;
+/// without constraints, `|grad f|` relative to the sum of its terms'
+/// (the weighted effort's and the user's), which cancel at a stationary
+/// point. An unknown within 1e-6 of its scale of a bound is at it (SLSQP
+/// leaves bang-bang inputs a few 1e-9 inside). Where the multipliers are
+/// determined (`J` on the free unknowns of full column rank), their
+/// signs are checked too: an active inequality's must be >= 0, and a
+/// bound's, the reduced gradient `grad f + J^T lambda` at an unknown on
+/// its lower bound >= 0 and on its upper <= 0 (else moving off it lowers
+/// the objective); the largest wrong sign, relative to `|grad f|`, counts
+/// as a residual. At a point with fewer free unknowns than active rows
+/// (a vertex, as a bang-bang input's) the signs are not checked.
+pub(super) fn stationarity(p: &Point, sc: &Scales, bounds: &[(f64, f64)], tol: f64) -> f64 {
+    let at = |k: usize| {
+        let (lo, hi) = bounds[k];
+        let margin = 1e-6 * sc.w[k];
+        (p.w[k] - lo <= margin, hi - p.w[k] <= margin)
+    };
+    let free: Vec<usize> = (0..p.w.len()).filter(|&k| at(k) == (false, false)).collect();
+    let grad = |k: usize| p.objective_grad[k] * sc.w[k] / sc.f;
+    let g: Vec<f64> = free.iter().map(|&k| grad(k)).collect();
     let norm = g.iter().map(|v| v * v).sum::<f64>().sqrt();
     if norm == 0.0 {
         return 0.0;
     }
-    if p.jac.is_empty() && !free.is_empty() {
+    let active = p.g.iter().zip(&sc.g).zip(&p.g_jac).filter(|((v, _), _)| v.abs() <= tol);
+    let rows: Vec<(&Vec<f64>, f64, bool)> = p
+        .jac
+        .iter()
+        .zip(sc.c.iter().map(|s| (*s, false)))
+        .chain(active.map(|((_, s), row)| (row, (*s, true))))
+        .map(|(row, (s, ineq))| (row, s, ineq))
+        .collect();
+    if rows.is_empty() && !free.is_empty() {
         let user = |k: usize| p.user_grad.get(k).copied().unwrap_or(0.0);
         let size =
             |term: &dyn Fn(usize) -> f64| free.iter().map(|&k| (term(k) * sc.w[k] / sc.f).powi(2)).sum::<f64>().sqrt();
         let terms = size(&user) + size(&|k| p.objective_grad[k] - user(k));
         return norm / terms;
     }
-    if p.jac.is_empty() || free.is_empty() {
+    if rows.is_empty() || free.is_empty() {
         return 1.0;
     }
-    let m = p.jac.len();
-    let a = nalgebra_lm::DMatrix::from_fn(free.len(), m, |r, i| p.jac[i][free[r]] * sc.w[free[r]] / sc.c[i]);
+    let entry = |k: usize, i: usize| rows[i].0[k] * sc.w[k] / rows[i].1;
+    let a = nalgebra_lm::DMatrix::from_fn(free.len(), rows.len(), |r, i| entry(free[r], i));
     let b = nalgebra_lm::DVector::from_vec(g.iter().map(|v| -v).collect());
     let svd = a.clone().svd(true, true);
-    let Ok(lambda) = svd.solve(&b, 1e-12 * svd.singular_values.max()) else { return 1.0 };
-    let r = a * lambda - b;
-    r.norm() / norm
+    let largest = svd.singular_values.max();
+    let Ok(lambda) = svd.solve(&b, 1e-12 * largest) else { return 1.0 };
+    let residual = (a * &lambda - b).norm() / norm;
+    let determined = svd.singular_values.iter().all(|v| *v > 1e-10 * largest);
+    if !determined {
+        return residual;
+    }
+    // the multipliers' signs: the active inequalities', the bounds'
+    let mut wrong = rows.iter().zip(lambda.iter()).filter(|(r, _)| r.2).fold(0.0f64, |m, (_, l)| m.max(-l));
+    for k in (0..p.w.len()).filter(|&k| at(k) != (false, false)) {
+        let reduced = grad(k) + (0..rows.len()).map(|i| entry(k, i) * lambda[i]).sum::<f64>();
+        let (lower, upper) = at(k);
+        if lower && !upper {
+            wrong = wrong.max(-reduced);
+        } else if upper && !lower {
+            wrong = wrong.max(reduced);
+        }
+    }
+    residual.max(wrong / norm)
 }

@@ -69,11 +69,16 @@ pub struct UserValue {
 /// why it cannot be evaluated (the plan then fails with that reason).
 pub type UserObjective = dyn Fn(&Samples) -> Result<UserValue, String> + Send + Sync;
 
-/// What a plan minimizes: `effort_weight * sum_j int u_j^2 dt + J_user`.
+/// What a plan minimizes: `effort_weight * sum_j int u_j^2 dt +
+/// time_weight * T + J_user`.
 #[derive(Clone)]
 pub struct Objective {
     /// The effort's weight (finite, >= 0; 1 by default).
     pub effort_weight: f64,
+    /// The duration's weight \[objective unit / s\] (finite, >= 0; 0 by
+    /// default): with a free duration ([`super::PlanSettings::free_time`])
+    /// a minimum-time plan.
+    pub time_weight: f64,
     /// The user's term and its name (as results print it), if any.
     pub user: Option<(String, Arc<UserObjective>)>,
 }
@@ -88,6 +93,7 @@ impl std::fmt::Debug for Objective {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         f.debug_struct("Objective")
             .field("effort_weight", &self.effort_weight)
+            .field("time_weight", &self.time_weight)
             .field("user", &self.user.as_ref().map(|u| &u.0))
             .finish()
     }
@@ -96,7 +102,14 @@ impl std::fmt::Debug for Objective {
 impl Objective {
     /// The effort alone, weight 1: the planner's default.
     pub fn effort() -> Self {
-        Self { effort_weight: 1.0, user: None }
+        Self { effort_weight: 1.0, time_weight: 0.0, user: None }
+    }
+
+    /// The duration `T` alone (weight 1, the effort's 0): a minimum-time
+    /// plan, whose duration must be free
+    /// ([`super::PlanSettings::free_time`]).
+    pub fn time() -> Self {
+        Self { effort_weight: 0.0, time_weight: 1.0, user: None }
     }
 
     /// The effort (weight 1) plus the user's term `function` named `name`.
@@ -104,7 +117,15 @@ impl Objective {
         name: impl Into<String>,
         function: impl Fn(&Samples) -> Result<UserValue, String> + Send + Sync + 'static,
     ) -> Self {
-        Self { effort_weight: 1.0, user: Some((name.into(), Arc::new(function))) }
+        Self { effort_weight: 1.0, time_weight: 0.0, user: Some((name.into(), Arc::new(function))) }
+    }
+
+    /// The same objective with the duration's weight `weight` (finite,
+    /// >= 0: checked by [`super::Plan::with_objective`]).
+    #[must_use]
+    pub fn time_weight(mut self, weight: f64) -> Self {
+        self.time_weight = weight;
+        self
     }
 
     /// The same objective with the effort's weight `weight` (finite, >= 0:
@@ -115,22 +136,23 @@ impl Objective {
         self
     }
 
-    /// The objective in words: `effort`, `2 x effort + name`, `name`.
+    /// The objective in words: `effort`, `2 x effort + name`, `time`,
+    /// `effort + 0.5 x time`, `name`.
     pub fn describe(&self) -> String {
-        let w = self.effort_weight;
-        let effort = if w == 0.0 {
-            None
-        } else if w == 1.0 {
-            Some("effort".to_string())
-        } else {
-            Some(format!("{w} x effort"))
+        let weighted = |w: f64, what: &str| match w {
+            0.0 => None,
+            1.0 => Some(what.to_string()),
+            w => Some(format!("{w} x {what}")),
         };
-        match (effort, &self.user) {
-            (Some(e), Some((name, _))) => format!("{e} + {name}"),
-            (None, Some((name, _))) => name.clone(),
-            (Some(e), None) => e,
-            (None, None) => "nothing".into(),
-        }
+        let terms: Vec<String> = [
+            weighted(self.effort_weight, "effort"),
+            weighted(self.time_weight, "time"),
+            self.user.as_ref().map(|u| u.0.clone()),
+        ]
+        .into_iter()
+        .flatten()
+        .collect();
+        if terms.is_empty() { "nothing".into() } else { terms.join(" + ") }
     }
 
     /// Refuses a weight that is not finite and >= 0, and an objective
@@ -139,8 +161,11 @@ impl Objective {
         if !(self.effort_weight.is_finite() && self.effort_weight >= 0.0) {
             return Err(format!("effort_weight {}: give a finite weight >= 0", self.effort_weight));
         }
-        if self.effort_weight == 0.0 && self.user.is_none() {
-            return Err("effort_weight 0 without a user's objective: nothing to minimize".into());
+        if !(self.time_weight.is_finite() && self.time_weight >= 0.0) {
+            return Err(format!("time_weight {}: give a finite weight >= 0", self.time_weight));
+        }
+        if self.effort_weight == 0.0 && self.time_weight == 0.0 && self.user.is_none() {
+            return Err("effort_weight 0 without a time weight or a user's objective: nothing to minimize".into());
         }
         Ok(())
     }
@@ -190,13 +215,10 @@ pub(super) struct SampleNames<'a> {
 }
 
 /// The user's value, checked finite.
-fn value(f: &UserObjective, name: &str, s: &Samples) -> Result<UserValue, String> {
-    let v = f(s).map_err(|e| format!("the objective `{name}` failed: {e}"))?;
+fn value(f: &UserObjective, label: &str, s: &Samples) -> Result<UserValue, String> {
+    let v = f(s).map_err(|e| format!("{label} failed: {e}"))?;
     if !v.value.is_finite() {
-        return Err(format!(
-            "the objective `{name}` returned {} (not finite): a plan's objective must be a finite number",
-            v.value
-        ));
+        return Err(format!("{label} returned {} (not finite): it must be a finite number", v.value));
     }
     Ok(v)
 }
@@ -214,14 +236,28 @@ pub(super) fn evaluate(
     s: &Samples,
     names: &SampleNames<'_>,
 ) -> Result<(f64, SampleGradient, bool), String> {
-    let v = value(f, name, s)?;
+    evaluate_as(f, &format!("the objective `{name}`"), s, names)
+}
+
+/// As [`evaluate`], its messages naming the function `label` (`the
+/// objective `J``, `path constraint `g``).
+///
+/// # Errors
+/// As [`evaluate`].
+pub(super) fn evaluate_as(
+    f: &UserObjective,
+    label: &str,
+    s: &Samples,
+    names: &SampleNames<'_>,
+) -> Result<(f64, SampleGradient, bool), String> {
+    let v = value(f, label, s)?;
     let (g, differenced) = match v.gradient {
         Some(g) => {
             let shaped =
                 |a: &[Vec<f64>], b: &[Vec<f64>]| a.len() == b.len() && a.iter().zip(b).all(|(x, y)| x.len() == y.len());
             if !(shaped(&g.q, &s.q) && shaped(&g.qd, &s.qd) && shaped(&g.u, &s.u)) {
                 return Err(format!(
-                    "the objective `{name}` returned a gradient not shaped as the samples: give q and qd as {} rows of {} and u as {} rows of {}",
+                    "{label} returned a gradient not shaped as the samples: give q and qd as {} rows of {} and u as {} rows of {}",
                     s.q.len(),
                     s.q.first().map_or(0, Vec::len),
                     s.u.len(),
@@ -230,13 +266,13 @@ pub(super) fn evaluate(
             }
             (g, false)
         }
-        None => (differences(f, name, s)?, true),
+        None => (differences(f, label, s)?, true),
     };
     for (block, rows) in [&g.q, &g.qd, &g.u].into_iter().enumerate() {
         for (k, row) in rows.iter().enumerate() {
             if let Some((i, d)) = row.iter().enumerate().find(|(_, d)| !d.is_finite()) {
                 return Err(format!(
-                    "the objective `{name}`'s gradient with respect to {} is {d} (not finite){}",
+                    "{label}'s gradient with respect to {} is {d} (not finite){}",
                     sample_name(s, names, block, k, i),
                     if differenced { " (differenced)" } else { "" }
                 ));
@@ -264,7 +300,7 @@ fn rows_of<'a>(
 
 /// Central differences of `f` with respect to every sample but the
 /// times: step `STEP * max(|sample|, 1)`, two calls per component.
-fn differences(f: &UserObjective, name: &str, s: &Samples) -> Result<SampleGradient, String> {
+fn differences(f: &UserObjective, label: &str, s: &Samples) -> Result<SampleGradient, String> {
     let mut g = SampleGradient::zeros(s);
     let mut p = s.clone();
     for block in 0..3 {
@@ -276,9 +312,9 @@ fn differences(f: &UserObjective, name: &str, s: &Samples) -> Result<SampleGradi
                 let h = STEP * x.abs().max(1.0);
                 let (up, down) = (x + h, x - h);
                 rows_of(&mut p.q, &mut p.qd, &mut p.u, block, k)[i] = up;
-                let plus = value(f, name, &p)?.value;
+                let plus = value(f, label, &p)?.value;
                 rows_of(&mut p.q, &mut p.qd, &mut p.u, block, k)[i] = down;
-                let minus = value(f, name, &p)?.value;
+                let minus = value(f, label, &p)?.value;
                 rows_of(&mut p.q, &mut p.qd, &mut p.u, block, k)[i] = x;
                 // the steps as represented
                 rows_of(&mut g.q, &mut g.qd, &mut g.u, block, k)[i] = (plus - minus) / (up - down);
@@ -288,11 +324,43 @@ fn differences(f: &UserObjective, name: &str, s: &Samples) -> Result<SampleGradi
     Ok(g)
 }
 
+/// Central differences of `f` (named `label`) with respect to each of
+/// the samples' times `t_k` (step `STEP * max(|t_k|, 1)`, two calls per
+/// time): what a free duration's chain needs, `t_k = k T / N` moving
+/// with `T`.
+///
+/// # Errors
+/// As [`evaluate`]'s value.
+pub(super) fn time_differences(f: &UserObjective, label: &str, s: &Samples) -> Result<Vec<f64>, String> {
+    let mut p = s.clone();
+    let mut out = Vec::with_capacity(s.t.len());
+    for k in 0..s.t.len() {
+        let x = s.t[k];
+        let h = STEP * x.abs().max(1.0);
+        let (up, down) = (x + h, x - h);
+        p.t[k] = up;
+        let plus = value(f, label, &p)?.value;
+        p.t[k] = down;
+        let minus = value(f, label, &p)?.value;
+        p.t[k] = x;
+        out.push((plus - minus) / (up - down));
+    }
+    Ok(out)
+}
+
 /// The user's value alone at `s` (the objective's scale at the warm
 /// start), checked finite.
 ///
 /// # Errors
 /// As [`evaluate`]'s value.
 pub(super) fn value_only(f: &UserObjective, name: &str, s: &Samples) -> Result<f64, String> {
-    value(f, name, s).map(|v| v.value)
+    value_as(f, &format!("the objective `{name}`"), s)
+}
+
+/// As [`value_only`], its messages naming the function `label`.
+///
+/// # Errors
+/// As [`evaluate`]'s value.
+pub(super) fn value_as(f: &UserObjective, label: &str, s: &Samples) -> Result<f64, String> {
+    value(f, label, s).map(|v| v.value)
 }

@@ -141,6 +141,10 @@ pub(super) struct SegmentRun {
     pub start: Vec<f64>,
     pub end: Vec<f64>,
     pub columns: Vec<Vec<f64>>,
+    /// The state's rate `[qd, qdd]` at the end (2 nq), where asked (a
+    /// free duration's chain: the run extended by `dt` ends `rate dt`
+    /// further).
+    pub rate: Option<Vec<f64>>,
 }
 
 impl<M: Model> SegmentSpec<M> {
@@ -182,7 +186,7 @@ impl<M: Model> SegmentSpec<M> {
     ///
     /// # Errors
     /// The problem's or the sensitivity run's; [`AnalysisError::Stopped`].
-    pub fn run(&self, inputs: &[String], stop: Option<fn() -> bool>) -> Result<SegmentRun, AnalysisError> {
+    pub fn run(&self, inputs: &[String], stop: Option<fn() -> bool>, rate: bool) -> Result<SegmentRun, AnalysisError> {
         let problem = self.problem()?;
         let names = problem.state_names();
         let n2 = 2 * problem.model.info().nq();
@@ -192,10 +196,18 @@ impl<M: Model> SegmentSpec<M> {
         let (Some(x), Some(s)) = (sens.x.last(), sens.s.last()) else {
             return Err(AnalysisError::Numerics { reason: "a segment's run gave no end state".into() });
         };
+        let end = x[..n2].to_vec();
+        let rate = if rate {
+            let (mut analysis, _) = problem.analysis()?;
+            Some(analysis.rhs(self.h, &end)?)
+        } else {
+            None
+        };
         Ok(SegmentRun {
             start: x0[..n2].to_vec(),
-            end: x[..n2].to_vec(),
+            end,
             columns: s.chunks_exact(n2).map(<[f64]>::to_vec).collect(),
+            rate,
         })
     }
 

@@ -3,7 +3,9 @@
 //! crate is out of ezy-core's reach), with a node at every segment, at
 //! some and at none (single shooting); and the gradient of an objective
 //! with a user's term of the samples against central differences of the
-//! whole objective, the user's gradient given and differenced.
+//! whole objective, the user's gradient given and differenced; the path
+//! constraints' rows likewise; and all of them with the duration free
+//! (its column: the segments' rates and their inputs' stretch).
 
 use std::sync::Arc;
 
@@ -51,8 +53,11 @@ fn roller(tables: &[Table]) -> Result<Problem<Roller>, SimError> {
 
 /// The transcription of a plan to `x1 = 1` at rest on 6 segments of
 /// 0.5 s with `intervals` shooting intervals, and a point off its warm
-/// start (the inputs and the nodes moved).
-fn transcription(intervals: usize) -> (Transcription<Roller>, Vec<f64>) {
+/// start (the inputs and the nodes moved); path constraints on `qd.x1`
+/// and on a function of the time, a coordinate and the input (its
+/// gradient differenced); with `free`, the duration an unknown (3.02 s
+/// at the point).
+fn transcription(intervals: usize, free: bool) -> (Transcription<Roller>, Vec<f64>) {
     let (n, t_end) = (6usize, 3.0);
     let h = t_end / n as f64;
     let build: Arc<BuildInputs<Roller>> = Arc::new(roller);
@@ -69,15 +74,26 @@ fn transcription(intervals: usize) -> (Transcription<Roller>, Vec<f64>) {
     let target = check::target(&first, &plan.target).unwrap();
     let x = plan.warm_start(&first, h, &guess).unwrap();
     let mut tr = Transcription::new(&build, vec!["tau".into()], (n, h, intervals), &first.model, &x).unwrap();
+    if free {
+        tr.free_time();
+    }
     let mut w = guess;
     w.resize(tr.n, 0.0);
     tr.gather(&x, &mut w);
+    if free {
+        w[tr.col_t()] = t_end;
+    }
     // off the warm start: the inputs and the nodes moved
     for (k, v) in w.iter_mut().enumerate() {
         *v += 0.01 * ((k as f64) * 1.7).sin();
     }
     tr.set_target(check::independent(&first.model, &x[n], &target));
     tr.t = mesh;
+    let own = PathConstraint::function("g", -1.0, 1.0, |s: &Samples| {
+        Ok(UserValue { value: s.q[0][0] * s.t[0] + 0.1 * s.u[0][0], gradient: None })
+    });
+    let path = [PathConstraint::qd("x1", f64::NEG_INFINITY, 0.5), own];
+    tr.set_path(path::resolve(&first.model, &path, &x[0]).unwrap());
     (tr, w)
 }
 
@@ -94,33 +110,37 @@ fn shifted(w: &[f64], k: usize) -> (f64, Vec<f64>, Vec<f64>) {
 /// The largest difference of the Jacobian from central differences of
 /// the constraints (h = 1e-6 of each unknown's size), relative to the
 /// column's largest entry.
-fn jacobian_error(intervals: usize) -> f64 {
-    let (mut tr, w) = transcription(intervals);
+fn jacobian_error(intervals: usize, free: bool) -> f64 {
+    let (mut tr, w) = transcription(intervals, free);
     let p = tr.evaluate(&w).unwrap();
+    assert_eq!(p.g.len(), 6 + 7 * 2, "qd.x1's upper bound at nodes 1 to 6, g's two at nodes 0 to 6");
     let mut worst = 0.0f64;
     for k in 0..tr.n {
         let (step, a, b) = shifted(&w, k);
         let (pa, pb) = (tr.evaluate(&a).unwrap(), tr.evaluate(&b).unwrap());
-        let size = p.jac.iter().fold(1e-3f64, |m, row| m.max(row[k].abs()));
-        for (i, row) in p.jac.iter().enumerate() {
-            let fd = (pa.c[i] - pb.c[i]) / (2.0 * step);
+        let rows = p.jac.iter().chain(&p.g_jac);
+        let size = rows.clone().fold(1e-3f64, |m, row| m.max(row[k].abs()));
+        let (va, vb) = (pa.c.iter().chain(&pa.g), pb.c.iter().chain(&pb.g));
+        for (i, ((row, a), b)) in rows.zip(va).zip(vb).enumerate() {
+            let fd = (a - b) / (2.0 * step);
             let e = (fd - row[k]).abs() / size;
             if e > worst {
-                eprintln!("unknown {k}, {}: jac {} fd {fd} ({e:.1e})", tr.rows[i].0, row[k]);
+                eprintln!("unknown {k}, {}: jac {} fd {fd} ({e:.1e})", tr.row_name(i), row[k]);
             }
             worst = worst.max(e);
         }
     }
-    eprintln!("{intervals} intervals, {} unknowns: largest relative error {worst:.2e}", tr.n);
+    eprintln!("{intervals} intervals, free time {free}, {} unknowns: largest relative error {worst:.2e}", tr.n);
     worst
 }
 
 /// Differences at h = 1e-6 with runs at 1e-12 are good to about 1e-6
-/// relative; a wrong chain term (a missed product) is of order 1.
+/// relative; a wrong chain term (a missed product, the inputs' stretch
+/// with a free duration) is of order 1.
 #[test]
 fn the_jacobian_is_the_constraints_derivative() {
-    for intervals in [6, 2, 1] {
-        assert!(jacobian_error(intervals) <= 1e-5, "{intervals} intervals");
+    for (intervals, free) in [(6, false), (2, false), (1, false), (1, true), (2, true), (6, true)] {
+        assert!(jacobian_error(intervals, free) <= 1e-5, "{intervals} intervals, free time {free}");
     }
 }
 
@@ -149,12 +169,13 @@ fn user_term(exact: bool) -> Objective {
 /// differences of the whole objective (`effort_weight * effort + J_user`,
 /// h = 1e-6 of each unknown's size), relative to the gradient's largest
 /// entry.
-fn objective_gradient_error(intervals: usize, exact: bool) -> f64 {
-    let (mut tr, w) = transcription(intervals);
-    tr.objective = user_term(exact);
+fn objective_gradient_error(intervals: usize, exact: bool, free: bool) -> f64 {
+    let (mut tr, w) = transcription(intervals, free);
+    tr.objective = user_term(exact).time_weight(if free { 2.0 } else { 0.0 });
     let p = tr.evaluate(&w).unwrap();
     assert_eq!(tr.differenced, !exact);
-    assert!(p.user.is_some_and(|u| (p.objective - 0.5 * p.effort - u).abs() <= 1e-12 * p.objective.abs()));
+    let time = if free { 2.0 * w[tr.col_t()] } else { 0.0 };
+    assert!(p.user.is_some_and(|u| (p.objective - 0.5 * p.effort - time - u).abs() <= 1e-12 * p.objective.abs()));
     let size = p.objective_grad.iter().fold(1e-3f64, |m, g| m.max(g.abs()));
     let mut worst = 0.0f64;
     for k in 0..tr.n {
@@ -166,7 +187,9 @@ fn objective_gradient_error(intervals: usize, exact: bool) -> f64 {
         }
         worst = worst.max(e);
     }
-    eprintln!("{intervals} intervals, exact {exact}: largest relative error of the objective's gradient {worst:.2e}");
+    eprintln!(
+        "{intervals} intervals, exact {exact}, free time {free}: largest relative error of the objective's gradient {worst:.2e}"
+    );
     worst
 }
 
@@ -175,8 +198,13 @@ fn objective_gradient_error(intervals: usize, exact: bool) -> f64 {
 /// user's gradient of a sample dropped) is of order 1.
 #[test]
 fn the_objective_gradient_is_the_objectives_derivative() {
-    for (intervals, exact) in [(1, true), (2, true), (6, true), (1, false)] {
-        assert!(objective_gradient_error(intervals, exact) <= 1e-5, "{intervals} intervals, exact {exact}");
+    for (intervals, exact, free) in
+        [(1, true, false), (2, true, false), (6, true, false), (1, false, false), (1, true, true), (6, false, true)]
+    {
+        assert!(
+            objective_gradient_error(intervals, exact, free) <= 1e-5,
+            "{intervals} intervals, exact {exact}, free {free}"
+        );
     }
 }
 
@@ -184,7 +212,7 @@ fn the_objective_gradient_is_the_objectives_derivative() {
 /// gradient's entry by its sample).
 #[test]
 fn a_user_term_not_finite_is_refused_by_name() {
-    let (mut tr, w) = transcription(1);
+    let (mut tr, w) = transcription(1, false);
     tr.objective = Objective::user("nan", |_: &Samples| Ok(UserValue { value: f64::NAN, gradient: None }));
     let e = tr.evaluate(&w).unwrap_err().to_string();
     assert!(e.contains("`nan` returned NaN"), "{e}");
@@ -198,4 +226,49 @@ fn a_user_term_not_finite_is_refused_by_name() {
     tr.objective = Objective::user("fails", |_: &Samples| Err("no such thing".into()));
     let e = tr.evaluate(&w).unwrap_err().to_string();
     assert!(e.contains("`fails` failed: no such thing"), "{e}");
+}
+
+/// The first-order check reads the multipliers' signs where they are
+/// determined: `min f` subject to `w0 - w1 = 0`, `w` in `[0, 10]^2`, at
+/// `w = (0, 5)` with `w0` on its lower bound and `w1` free. The free
+/// column gives the equality's multiplier, `lambda = -df/dw1`; the
+/// reduced gradient at `w0` is then `df/dw0 + df/dw1`, which must be >= 0
+/// on a lower bound. For `f = w0 + w1` it is 2 (stationary); for `f =
+/// -2 w0 + w1` it is -1: moving along the equality off the bound lowers
+/// `f`, and the check says so (1, the wrong sign over `|grad f|` = 1).
+#[test]
+fn a_bound_multiplier_of_the_wrong_sign_is_not_stationary() {
+    let point = |grad: [f64; 2]| transcription::Point {
+        w: vec![0.0, 5.0],
+        effort: 0.0,
+        user: None,
+        objective: 0.0,
+        objective_grad: grad.to_vec(),
+        user_grad: Vec::new(),
+        acts: true,
+        c: vec![0.0],
+        jac: vec![vec![1.0, -1.0]],
+        g: Vec::new(),
+        g_jac: Vec::new(),
+        starts: Vec::new(),
+        ends: Vec::new(),
+    };
+    let sc = nlp::Scales { w: vec![1.0, 1.0], c: vec![1.0], g: Vec::new(), f: 1.0 };
+    let bounds = [(0.0, 10.0), (0.0, 10.0)];
+    assert!(nlp::stationarity(&point([1.0, 1.0]), &sc, &bounds, 1e-8) <= 1e-15);
+    let wrong = nlp::stationarity(&point([-2.0, 1.0]), &sc, &bounds, 1e-8);
+    assert!((wrong - 1.0).abs() <= 1e-12, "{wrong}");
+    // an active inequality's multiplier likewise: g = w0 - w1 <= 0 in
+    // place of the equality, f = -w0 + 2 w1: lambda = 2 >= 0 (stationary);
+    // f = w0 - 2 w1 (at w0's lower bound the reduced gradient -1 too)
+    let ineq = |grad: [f64; 2]| transcription::Point {
+        c: Vec::new(),
+        jac: Vec::new(),
+        g: vec![0.0],
+        g_jac: vec![vec![1.0, -1.0]],
+        ..point(grad)
+    };
+    let sc = nlp::Scales { c: Vec::new(), g: vec![1.0], ..sc };
+    assert!(nlp::stationarity(&ineq([-1.0, 2.0]), &sc, &bounds, 1e-8) <= 1e-15);
+    assert!(nlp::stationarity(&ineq([1.0, -2.0]), &sc, &bounds, 1e-8) >= 1.0);
 }

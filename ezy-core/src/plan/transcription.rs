@@ -18,6 +18,7 @@ use std::sync::Arc;
 
 use super::BuildInputs;
 use super::objective::{self, Objective, SampleNames, Samples};
+use super::path::{self, Resolved, Row};
 use super::shooting::{NodeStart, SegmentSpec, node_start};
 use crate::analysis::AnalysisError;
 use crate::model::Model;
@@ -44,6 +45,11 @@ pub(super) struct Point {
     pub c: Vec<f64>,
     /// Their Jacobian, row by row (m x n).
     pub jac: Vec<Vec<f64>>,
+    /// The path constraints' inequalities `g <= 0` (p), in their
+    /// functions' units.
+    pub g: Vec<f64>,
+    /// Their Jacobian, row by row (p x n).
+    pub g_jac: Vec<Vec<f64>>,
     /// Each segment's start and end state (N of 2 nq each).
     pub starts: Vec<Vec<f64>>,
     pub ends: Vec<Vec<f64>>,
@@ -87,6 +93,14 @@ pub(super) struct Transcription<M: Model> {
     pub objective_error: Option<String>,
     /// The user's term was differenced at some evaluation.
     pub differenced: bool,
+    /// The path constraints, resolved.
+    pub path: Vec<Resolved>,
+    /// Their inequality rows and names (p).
+    pub path_rows: Vec<(Row, String)>,
+    /// A path constraint's function was differenced at some evaluation.
+    pub path_differenced: bool,
+    /// The duration `T` is the last unknown ([`Transcription::free_time`]).
+    pub free_time: bool,
 }
 
 impl<M: Model> Transcription<M> {
@@ -133,6 +147,10 @@ impl<M: Model> Transcription<M> {
             t: (0..=segments).map(|k| k as f64 * h).collect(),
             objective_error: None,
             differenced: false,
+            path: Vec::new(),
+            path_rows: Vec::new(),
+            path_differenced: false,
+            free_time: false,
         })
     }
 
@@ -186,6 +204,48 @@ impl<M: Model> Transcription<M> {
         self.rows = rows;
     }
 
+    /// Makes the duration `T` an unknown, the last (`n` grows by one).
+    pub fn free_time(&mut self) {
+        if !self.free_time {
+            self.free_time = true;
+            self.n += 1;
+        }
+    }
+
+    /// The column of the duration `T` (a free duration's).
+    pub fn col_t(&self) -> usize {
+        self.n - 1
+    }
+
+    /// The segments' duration at `w` \[s\]: `T / N` with a free duration.
+    pub fn h_at(&self, w: &[f64]) -> f64 {
+        if self.free_time { w[self.col_t()] / self.segments as f64 } else { self.h }
+    }
+
+    /// The nodes' times at `w` \[s\] (N + 1; the last exactly `T`).
+    pub fn mesh_at(&self, w: &[f64]) -> Vec<f64> {
+        if !self.free_time {
+            return self.t.clone();
+        }
+        let (n, t) = (self.segments, w[self.col_t()]);
+        (0..=n).map(|k| if k == n { t } else { t * k as f64 / n as f64 }).collect()
+    }
+
+    /// Sets the path constraints and names their rows at the nodes' times.
+    pub fn set_path(&mut self, path: Vec<Resolved>) {
+        self.path_rows = path::rows(&path, &self.t);
+        self.path = path;
+    }
+
+    /// The name of constraint row `i`: an equality's (`i < m`), then a
+    /// path inequality's.
+    pub fn row_name(&self, i: usize) -> String {
+        match self.rows.get(i) {
+            Some(r) => r.0.clone(),
+            None => self.path_rows.get(i - self.rows.len()).map(|r| r.1.clone()).unwrap_or_default(),
+        }
+    }
+
     /// Column of input `j` at node `k`.
     pub fn col_u(&self, j: usize, k: usize) -> usize {
         j * (self.segments + 1) + k
@@ -209,15 +269,16 @@ impl<M: Model> Transcription<M> {
             };
             (Arc::clone(node), z)
         });
-        SegmentSpec::new(&self.build, self.h, u, start)
+        SegmentSpec::new(&self.build, self.h_at(w), u, start)
     }
 
     /// The effort `sum_j sum_k h/3 (a^2 + a b + b^2)` of the
-    /// piecewise-linear inputs at `w` (exact) and its gradient.
+    /// piecewise-linear inputs at `w` (exact) and its gradient (with a
+    /// free duration, `d e / d T = e / T`: the effort is linear in `h`).
     pub fn effort(&self, w: &[f64]) -> (f64, Vec<f64>) {
         let mut g = vec![0.0; self.n];
         let mut e = 0.0;
-        let h3 = self.h / 3.0;
+        let h3 = self.h_at(w) / 3.0;
         for j in 0..self.inputs.len() {
             for k in 0..self.segments {
                 let (ia, ib) = (self.col_u(j, k), self.col_u(j, k + 1));
@@ -226,6 +287,9 @@ impl<M: Model> Transcription<M> {
                 g[ia] += h3 * (2.0 * a + b);
                 g[ib] += h3 * (a + 2.0 * b);
             }
+        }
+        if self.free_time {
+            g[self.col_t()] = e / w[self.col_t()];
         }
         (e, g)
     }
@@ -239,6 +303,7 @@ impl<M: Model> Transcription<M> {
     /// where the stop hook says so.
     pub fn evaluate(&mut self, w: &[f64]) -> Result<Point, AnalysisError> {
         let (effort, effort_grad) = self.effort(w);
+        self.t = self.mesh_at(w);
         let (mut starts, mut ends, mut c, mut jac) = (Vec::new(), Vec::new(), Vec::new(), Vec::new());
         let n2 = self.names.len();
         // the derivative of the last segment's end with respect to w (2 nq x n)
@@ -252,7 +317,7 @@ impl<M: Model> Transcription<M> {
             if self.stop.is_some_and(|s| s()) {
                 return Err(AnalysisError::Stopped);
             }
-            let run = self.spec(k, w, previous.as_deref()).run(&self.inputs, self.stop)?;
+            let run = self.spec(k, w, previous.as_deref()).run(&self.inputs, self.stop, self.free_time)?;
             self.runs += 1;
             let node = self.nodes[k].clone();
             let nz = node.as_ref().map_or(0, |n| n.comps.len());
@@ -277,6 +342,9 @@ impl<M: Model> Transcription<M> {
                     let col = self.col_u(j, k + (p - nz) % 2);
                     d.iter_mut().zip(s).for_each(|(row, sv)| row[col] += sv);
                 }
+            }
+            if let Some(rate) = &run.rate {
+                self.chain_duration(&mut d, (k, nz), w, (rate, &run.columns));
             }
             let mut row_of = |comp: usize, value: f64, own: Option<usize>| {
                 let mut row = d[comp].clone();
@@ -306,7 +374,7 @@ impl<M: Model> Transcription<M> {
                 node.guess = node.partition.q_dep.iter().map(|&j| run.start[j]).collect();
             }
             acts = acts || d.iter().any(|row| row[..n_u].iter().any(|v| *v != 0.0));
-            if self.objective.user.is_some() {
+            if self.objective.user.is_some() || !self.path.is_empty() {
                 d_ends.push(d.clone());
             }
             d_end = d;
@@ -316,6 +384,12 @@ impl<M: Model> Transcription<M> {
         }
         let weight = self.objective.effort_weight;
         let mut objective_grad: Vec<f64> = effort_grad.iter().map(|g| weight * g).collect();
+        let time = if self.free_time {
+            objective_grad[self.col_t()] += self.objective.time_weight;
+            self.objective.time_weight * w[self.col_t()]
+        } else {
+            self.objective.time_weight * self.t.last().copied().unwrap_or(0.0)
+        };
         let (user, user_grad) = match self.user_term(w, &starts, &ends, &d_ends) {
             Ok(Some((value, grad))) => {
                 objective_grad.iter_mut().zip(&grad).for_each(|(a, b)| *a += b);
@@ -327,8 +401,110 @@ impl<M: Model> Transcription<M> {
                 return Err(AnalysisError::Request { reason });
             }
         };
-        let objective = weight * effort + user.unwrap_or(0.0);
-        Ok(Point { w: w.to_vec(), effort, user, objective, objective_grad, user_grad, acts, c, jac, starts, ends })
+        let objective = weight * effort + time + user.unwrap_or(0.0);
+        let (g, g_jac) = match self.path_values(w, &starts, &ends, &d_ends) {
+            Ok(v) => v,
+            Err(reason) => {
+                self.objective_error = Some(reason.clone());
+                return Err(AnalysisError::Request { reason });
+            }
+        };
+        Ok(Point {
+            w: w.to_vec(),
+            effort,
+            user,
+            objective,
+            objective_grad,
+            user_grad,
+            acts,
+            c,
+            jac,
+            g,
+            g_jac,
+            starts,
+            ends,
+        })
+    }
+
+    /// Adds segment `k`'s derivative with respect to the duration `T` to
+    /// its end's rows `d` (2 nq x n): `h = T / N`, and the segment's end
+    /// moves with `h` by its rate at the end plus the stretch of its input
+    /// tables, `u(t) = u_k + (u_k+1 - u_k) t / h`, whose derivative at a
+    /// fixed `t` is `-(u_k+1 - u_k) / h` times the end node's weight `t /
+    /// h`: `dx/dh = f(x_end, u_k+1) - sum_j S_{u_j,k+1} (u_j,k+1 -
+    /// u_j,k) / h`, `S_{u_j,k+1}` the end's sensitivity to the node
+    /// (column `nz + 2 j + 1` of `columns`, after the start's `nz`). The
+    /// start's dependence on `T` came in through the chain already.
+    fn chain_duration(
+        &self,
+        d: &mut [Vec<f64>],
+        (k, nz): (usize, usize),
+        w: &[f64],
+        (rate, columns): (&[f64], &[Vec<f64>]),
+    ) {
+        let h = self.h_at(w);
+        let col = self.col_t();
+        for (i, row) in d.iter_mut().enumerate() {
+            let mut dh = rate[i];
+            for j in 0..self.inputs.len() {
+                let (a, b) = (w[self.col_u(j, k)], w[self.col_u(j, k + 1)]);
+                dh -= columns[nz + 2 * j + 1][i] * (b - a) / h;
+            }
+            row[col] += dh / self.segments as f64;
+        }
+    }
+
+    /// The path constraints' inequalities at `w` and their Jacobian (p x
+    /// n), chained through the segments' end sensitivities `d_ends`.
+    ///
+    /// # Errors
+    /// A function's failure, or a value or gradient not finite.
+    fn path_values(
+        &mut self,
+        w: &[f64],
+        starts: &[Vec<f64>],
+        ends: &[Vec<f64>],
+        d_ends: &[Vec<Vec<f64>>],
+    ) -> Result<(Vec<f64>, Vec<Vec<f64>>), String> {
+        if self.path_rows.is_empty() {
+            return Ok((Vec::new(), Vec::new()));
+        }
+        let s = self.samples(w, starts, ends);
+        let nq = self.names.len() / 2;
+        let names = SampleNames { coords: &self.names[..nq], inputs: &self.inputs };
+        // each constraint's value and gradient once per node
+        let mut cache: Vec<Option<(f64, Vec<f64>)>> = vec![None; self.path.len() * (self.segments + 1)];
+        let (mut g, mut g_jac) = (Vec::new(), Vec::new());
+        for (row, _) in &self.path_rows {
+            let slot = row.c * (self.segments + 1) + row.k;
+            if cache[slot].is_none() {
+                let (v, dx, du, differenced) = path::at_node(&self.path[row.c], &s, row.k, &names)?;
+                let dt = if self.free_time { path::time_derivative(&self.path[row.c], &s, row.k)? } else { 0.0 };
+                self.path_differenced |= differenced;
+                let mut grad = vec![0.0; self.n];
+                // node 0 is the problem's own initial state
+                if row.k > 0 {
+                    for (r, &gx) in d_ends[row.k - 1].iter().zip(&dx) {
+                        if gx != 0.0 {
+                            grad.iter_mut().zip(r).for_each(|(a, b)| *a += gx * b);
+                        }
+                    }
+                }
+                for (j, &v) in du.iter().enumerate() {
+                    grad[self.col_u(j, row.k)] += v;
+                }
+                if self.free_time {
+                    grad[self.col_t()] += dt * row.k as f64 / self.segments as f64;
+                }
+                cache[slot] = Some((v, grad));
+            }
+            let (v, grad) = cache[slot].as_ref().expect("evaluated above");
+            let bound =
+                if row.sign > 0.0 { self.path[row.c].constraint.upper } else { self.path[row.c].constraint.lower };
+            g.push(row.sign * (v - bound));
+            g_jac.push(grad.iter().map(|a| row.sign * a).collect());
+        }
+        Ok((g, g_jac))
     }
 
     /// The samples at `w`: the nodes' times, states (node 0 the first
@@ -377,6 +553,12 @@ impl<M: Model> Transcription<M> {
             for (j, &v) in gu.iter().enumerate() {
                 grad[self.col_u(j, k)] += v;
             }
+        }
+        if self.free_time {
+            // the times move with T: t_k = k T / N
+            let dt = objective::time_differences(&*f, &format!("the objective `{name}`"), &s)?;
+            let n = self.segments as f64;
+            grad[self.col_t()] += dt.iter().enumerate().map(|(k, g)| g * k as f64 / n).sum::<f64>();
         }
         Ok(Some((value, grad)))
     }
