@@ -58,6 +58,9 @@ pub(super) fn request(
         return fail(format!("t_end = {} s: give a finite duration > 0", s.t_end));
     }
     if let Some((lo, hi)) = s.free_time {
+        if let Err(reason) = crate::settings::check_magnitude("free time's upper bound [s]", hi) {
+            return fail(reason);
+        }
         if !(lo.is_finite() && hi.is_finite() && lo > 0.0 && lo <= s.t_end && s.t_end <= hi) {
             return fail(format!(
                 "free time {lo}:{hi} s: give finite bounds 0 < lower <= t_end ({} s) <= upper",

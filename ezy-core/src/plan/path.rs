@@ -87,8 +87,9 @@ impl PathConstraint {
         }
     }
 
-    /// Refuses bounds that are NaN, a lower above its upper, or both
-    /// infinite (nothing bounded).
+    /// Refuses bounds that are NaN, a lower above its upper, both
+    /// infinite (nothing bounded), or finite beyond
+    /// [`crate::settings::MAX_MAGNITUDE`].
     pub(super) fn check(&self) -> Result<(), String> {
         let (lo, hi) = (self.lower, self.upper);
         if lo.is_nan() || hi.is_nan() || lo > hi || lo == f64::INFINITY || hi == f64::NEG_INFINITY {
@@ -96,6 +97,9 @@ impl PathConstraint {
                 "path constraint on {}: bounds {lo}:{hi}: give numbers, the lower at most the upper",
                 self.name
             ));
+        }
+        for bound in [lo, hi].into_iter().filter(|v| v.is_finite()) {
+            crate::settings::check_magnitude(&format!("path constraint on {}: bound", self.name), bound)?;
         }
         if !lo.is_finite() && !hi.is_finite() {
             return Err(format!("path constraint on {}: both bounds infinite, nothing is bounded", self.name));

@@ -221,6 +221,7 @@ fn bad_path_constraints_are_refused_by_name() {
     refused(PathConstraint::qd("x", 2.0, 1.0), "the lower at most the upper");
     refused(PathConstraint::q("y", f64::NEG_INFINITY, f64::INFINITY), "nothing is bounded");
     refused(PathConstraint::q("z", -1.0, 1.0), "no coordinate `z`");
+    refused(PathConstraint::q("y", f64::NEG_INFINITY, 1e300), "path constraint on q.y: bound = 1e300");
     refused(PathConstraint::qd("x", 0.1, 1.0), "the initial state has qd.x = 0");
     let failing = PathConstraint::function("g", 0.0, 1.0, |_| Err("no such sensor".into()));
     refused(failing, "path constraint `g` failed: no such sensor");

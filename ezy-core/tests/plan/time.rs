@@ -97,7 +97,8 @@ fn a_free_duration_is_refused_unless_well_posed() {
     refused(PlanSettings::new(4, 2.0), Objective::time(), "the duration is fixed (t_end = 2 s)");
     refused(free(0.0, 3.0), Objective::time(), "give finite bounds 0 < lower");
     refused(free(3.0, 4.0), Objective::time(), "<= t_end (2 s) <= upper");
-    refused(free(1.0, f64::INFINITY), Objective::time(), "free time 1:inf");
+    refused(free(1.0, f64::INFINITY), Objective::time(), "free time's upper bound [s] = inf");
+    refused(free(1.0, 1e300), Objective::time(), "free time's upper bound [s] = 1e300");
     refused(free(f64::NAN, 3.0), Objective::time(), "free time NaN:3");
     refused(free(1.0, 3.0), Objective::effort().time_weight(f64::NAN), "time_weight NaN");
     refused(free(1.0, 3.0), Objective::effort().effort_weight(0.0), "nothing to minimize");
