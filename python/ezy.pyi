@@ -471,6 +471,10 @@ def plan(
     guess: Optional[Union[_Path, Any]] = None,
     objective: Optional[Callable[..., Any]] = None,
     effort_weight: Optional[float] = None,
+    path: Optional[Union[str, Tuple[Callable[..., Any], Optional[float], Optional[float]], Sequence[Any]]] = None,
+    minimize: Optional[str] = None,
+    time_weight: Optional[float] = None,
+    free_time: Optional[Tuple[float, float]] = None,
     model: Optional[Model] = None,
     out: Optional[_Path] = None,
     figures: bool = False,
@@ -500,7 +504,16 @@ def plan(
     zeros) or a tuple `(gq, gqd, gu)` shaped as the samples ("exact").
     With `objective` the target may be left out (a free end). An
     exception `f` raises reaches the caller as raised; a NaN or infinite
-    value or gradient raises EzyError naming it."""
+    value or gradient raises EzyError naming it.
+
+    `path` bounds the run at every node: a state column as text
+    (`"x1d<=0.6"`, `"-1<=y1<=1"`), or `(g, lo, hi)` with `g(t, q, qd, u)`
+    of one node's sample (arrays of one row; `lo`/`hi` None for none),
+    or a list of them; `summary["path_excess"]` is the verification run's
+    largest excess between the nodes. `free_time=(lo, hi)` [s] frees the
+    duration (started at the scene's t_end; `summary["t_end"]` the one
+    planned); `minimize="time"` then plans the least time, and
+    `time_weight=c` adds `c T` to the effort (or to `objective`)."""
     ...
 def gait_optimize(
     target: Union[_Scene, Model],
@@ -515,6 +528,7 @@ def gait_optimize(
     range: Optional[Mapping[str, Tuple[float, float]]] = None,
     margin: Optional[float] = None,
     budget: Optional[float] = None,
+    metric: Optional[Union[Sequence[Sequence[float]], Any]] = None,
     max_evaluations: Optional[int] = None,
     body: Optional[str] = None,
     set: Optional[Mapping[str, float]] = None,
@@ -527,7 +541,9 @@ def gait_optimize(
     `minimize` (`"dx"`, `"dy"` [m], `"dtheta"` [rad], `"along(1,0)"`)
     largest or smallest (per path length with `per_length=True`) within
     `range={coordinate: (lower, upper)}` [rad], a `margin` from the
-    singular set and a path-length `budget` [rad]. A DataFrame of the
+    singular set and a path-length `budget` [rad], the length in the
+    shape metric `metric` (a symmetric positive definite matrix; the
+    identity by default). A DataFrame of the
     coefficients (start, optimum, free); `.attrs["history"]` every
     evaluation, `.attrs["report"]`."""
     ...

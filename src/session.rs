@@ -11,10 +11,10 @@ use std::time::Duration;
 
 use ezy_core::analysis::{Analysis, AnalysisError, c64};
 use ezy_core::{Baumgarte, Method, Model, Problem, ProjectionKind, RunSettings, SetupError, SimError, Summary};
-use ezy_scene::Scene;
+use ezy_scene::{FigureFormat, Scene};
 
 use crate::output::csv::{OutputError, Table};
-use crate::output::transaction::{Interrupted, TransactionError};
+use crate::output::transaction::{Interrupted, Transaction, TransactionError};
 use crate::render::figures::FigureError;
 use crate::render::report::shell_quote;
 
@@ -696,6 +696,56 @@ pub(crate) fn periodic_settings(ro: &RunOptions) -> ezy_core::analysis::Periodic
         tolerance,
         newton_tolerance,
     }
+}
+
+/// A figure drawn once as SVG, for a command's files and its report
+/// page alike.
+pub(crate) struct Drawn {
+    /// The file's stem (`plan`, `gait_curvature`).
+    pub stem: &'static str,
+    /// Its title.
+    pub title: String,
+    /// The SVG, or why it could not be drawn.
+    pub svg: Result<String, String>,
+    /// The command fails without it; else a note says it was not drawn.
+    pub required: bool,
+}
+
+/// Encodes each of `drawn` as `format` at `dpi` and writes it into `tx`
+/// as its stem's file, asking `tx` for a signal before each; the files
+/// written, in order.
+///
+/// # Errors
+/// A required figure that could not be drawn or encoded
+/// ([`Error::Input`] naming it; an optional one is a note on stderr); the
+/// transaction's.
+pub(crate) fn write_figures(
+    tx: &mut Transaction,
+    drawn: &[Drawn],
+    (format, dpi): (FigureFormat, f64),
+) -> Result<Vec<String>, Error> {
+    let mut written = Vec::new();
+    for d in drawn {
+        tx.check(None, Some(format!("drawing {}", d.stem)))?;
+        let bytes = d.svg.clone().and_then(|svg| {
+            crate::render::plot::raster::encode(&svg, format, dpi, &d.title).map_err(|e| e.to_string())
+        });
+        match bytes {
+            Ok(bytes) => {
+                tx.write(&format.file_name(d.stem), &bytes)?;
+                written.push(format.file_name(d.stem));
+            }
+            Err(e) if d.required => return Err(Error::Input(format!("figure {}: {e}", d.stem))),
+            Err(e) => eprintln!("note: {} not drawn: {e}", format.file_name(d.stem)),
+        }
+    }
+    Ok(written)
+}
+
+/// The figures as a report page embeds them: each file's name and its
+/// SVG (whatever the files' format).
+pub(crate) fn page_figures(drawn: Vec<Drawn>, format: FigureFormat) -> Vec<(String, Result<String, String>)> {
+    drawn.into_iter().map(|d| (format.file_name(d.stem), d.svg)).collect()
 }
 
 #[cfg(test)]

@@ -90,3 +90,64 @@ fn gait_optimize_refuses_by_name() {
         assert!(!out.join("gait_optimum.csv").exists(), "{extra:?} wrote");
     }
 }
+
+/// `--metric G` measures the path length (`--budget`, `--per-length`)
+/// as `int sqrt(r'^T G r') dt`. Oracle by scaling: the length in `G = 4
+/// I` is twice the identity's, so the forward motion per length is half
+/// and a budget of 5 in it is a budget of 2.5 in the identity: the same
+/// optimum, coefficient for coefficient, its objective halved (the
+/// budget binding at both, with a rank margin of 0.3). A metric that is
+/// not diagonal: the command's optimum is the library's with the same
+/// metric, number for number. Refused by name: a metric of the wrong
+/// size, one not positive definite.
+#[test]
+fn a_metric_of_the_users_own_measures_the_path_length() {
+    let base = [
+        "gait-optimize",
+        "--gait",
+        CIRCLE,
+        "--maximize",
+        "dx",
+        "--order",
+        "first",
+        "--per-length",
+        "--margin",
+        "0.3",
+        "--no-figures",
+    ];
+    let optimum = |extra: &[&str], what: &str| {
+        let out = fresh(&format!("gait-metric-{what}"));
+        let (said, err, ok) = ezy(&[&base[..], extra].concat(), &out);
+        assert!(ok, "{said}{err}");
+        assert!(said.contains("first-order (KKT) conditions hold") && said.contains("path length <= "), "{said}");
+        let printed: f64 =
+            said.lines().next().unwrap().split(" = ").nth(1).unwrap().split(' ').next().unwrap().parse().unwrap();
+        let (_, rows) = table(&out.join("gait_optimum.csv"));
+        (printed, rows.iter().map(|r| r[2].parse::<f64>().unwrap()).collect::<Vec<f64>>())
+    };
+    let (f1, identity) = optimum(&["--budget", "2.5"], "identity");
+    let (f4, scaled) = optimum(&["--budget", "5", "--metric", "4,0,0,4"], "scaled");
+    eprintln!("identity, budget 2.5: {f1} at {identity:?}\nG = 4 I, budget 5: {f4} at {scaled:?}");
+    for (a, b) in identity.iter().zip(&scaled) {
+        assert!((a - b).abs() <= 1e-9, "{identity:?} against {scaled:?}");
+    }
+    assert!((f1 - 2.0 * f4).abs() <= 1e-12 * f1, "{f1} against 2 x {f4}");
+    let (_, skew) = optimum(&["--budget", "3", "--metric", "2,0.3,0.3,1"], "skew");
+    let g = Geometry::new(KinematicSnake::default(), None, None).unwrap();
+    let start = FourierGait::circle([0.7, -0.6], 0.6, 0.0, 2.0 * std::f64::consts::PI).unwrap();
+    let goal = GaitObjective { measure: Measure::Along([1.0, 0.0]), per_cost: true, order: Order::First };
+    let mut problem = GaitOptimization::new(start, goal);
+    problem.margin = Some(0.3);
+    problem.budget = Some(3.0);
+    problem.metric = Some(vec![2.0, 0.3, 0.3, 1.0]);
+    let lib = optimize_gait(&g, &problem).unwrap();
+    assert!(lib.converged);
+    assert_eq!(skew, lib.gait.flat(), "the command's optimum is the library's");
+    assert!(skew.iter().zip(&identity).any(|(a, b)| (a - b).abs() > 1e-3), "the metric changes the optimum");
+    for (metric, words) in [("1,2", "2 entries for 2 shape coordinates (4 wanted)"), ("1,0,0,-1", "positive definite")]
+    {
+        let out = fresh("gait-metric-bad");
+        let (said, err, ok) = ezy(&[&base[..], &["--metric", metric]].concat(), &out);
+        assert!(!ok && err.contains(words), "{metric}: {said}{err}");
+    }
+}

@@ -427,7 +427,7 @@ impl Toolkit {
         gait: &Bound<'_, PyAny>,
         (maximize, minimize): (Kw<'_, '_>, Kw<'_, '_>),
         (per_length, order, harmonics, centre_only): (bool, Kw<'_, '_>, Kw<'_, '_>, bool),
-        (range, margin, budget): (KwDict<'_, '_>, Kw<'_, '_>, Kw<'_, '_>),
+        (range, margin, budget, metric): (KwDict<'_, '_>, Kw<'_, '_>, Kw<'_, '_>, Kw<'_, '_>),
         (max_evaluations, body, set): (Kw<'_, '_>, Kw<'_, '_>, KwDict<'_, '_>),
         model: Option<&Bound<'_, PyModel>>,
         out: Option<PathBuf>,
@@ -462,6 +462,24 @@ impl Toolkit {
         }
         if let Some(b) = number_kw(f, "budget", budget)? {
             extra.push(format!("--budget={b:?}"));
+        }
+        if let Some(m) = metric.filter(|m| !m.is_none()) {
+            // a matrix (a list of rows, a 2-D array) or its entries row by row
+            let flat = m.call_method0("__iter__").is_ok().then(|| -> PyResult<Vec<f64>> {
+                let numpy = m.py().import("numpy")?;
+                let a = numpy.call_method1("asarray", (m,))?.call_method1("astype", ("float64",))?;
+                a.call_method0("ravel")?.call_method0("tolist")?.extract()
+            });
+            let entries = match flat {
+                Some(Ok(v)) => v,
+                _ => {
+                    return Err(pyo3::exceptions::PyTypeError::new_err(format!(
+                        "{f}(): `metric` must be a square matrix of numbers (a list of rows or a 2-D array), not {m}"
+                    )));
+                }
+            };
+            let text: Vec<String> = entries.iter().map(|v| format!("{v:?}")).collect();
+            extra.push(format!("--metric={}", text.join(",")));
         }
         if let Some(n) = whole_kw(f, "max_evaluations", max_evaluations)? {
             extra.extend(["--max-evaluations".to_string(), n.to_string()]);

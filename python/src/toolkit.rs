@@ -785,7 +785,10 @@ impl Toolkit {
     /// `per_length=True`; `order` (`"first"`, `"second"`,
     /// `"reconstructed"`), `harmonics`, `centre_only`, `range={"a1": (lo,
     /// hi)}` [rad], `margin` (0 to 1, from the singular set), `budget`
-    /// (the most path length [rad]), `max_evaluations`, `body`,
+    /// (the most path length [rad]), `metric` (the path length's metric
+    /// `G`, `int sqrt(r'^T G r') dt`: a symmetric positive definite
+    /// matrix, a list of rows or a 2-D array; the identity by default),
+    /// `max_evaluations`, `body`,
     /// `set={param: value}`. `target` is a scene, a model's key or an
     /// `ezy.Model`. Returns a DataFrame of the coefficients (start,
     /// optimum, bounds, gradient), `.attrs["history"]` (every
@@ -795,7 +798,7 @@ impl Toolkit {
     /// keywords: a model without shape variables or not kinematic, a
     /// start on the singular set, a range lo > hi; TypeError for keywords
     /// of the wrong kind.
-    #[pyo3(signature = (target, *, gait, maximize=None, minimize=None, per_length=false, order=None, harmonics=None, centre_only=false, range=None, margin=None, budget=None, max_evaluations=None, body=None, set=None, model=None, out=None, figures=false))]
+    #[pyo3(signature = (target, *, gait, maximize=None, minimize=None, per_length=false, order=None, harmonics=None, centre_only=false, range=None, margin=None, budget=None, metric=None, max_evaluations=None, body=None, set=None, model=None, out=None, figures=false))]
     #[expect(clippy::too_many_arguments, reason = "Python's keywords, one argument each")]
     fn gait_optimize(
         &self,
@@ -811,6 +814,7 @@ impl Toolkit {
         range: Option<&Bound<'_, PyDict>>,
         margin: Option<&Bound<'_, PyAny>>,
         budget: Option<&Bound<'_, PyAny>>,
+        metric: Option<&Bound<'_, PyAny>>,
         max_evaluations: Option<&Bound<'_, PyAny>>,
         body: Option<&Bound<'_, PyAny>>,
         set: Option<&Bound<'_, PyDict>>,
@@ -824,7 +828,7 @@ impl Toolkit {
             gait,
             (maximize, minimize),
             (per_length, order, harmonics, centre_only),
-            (range, margin, budget),
+            (range, margin, budget, metric),
             (max_evaluations, body, set),
             model,
             out,

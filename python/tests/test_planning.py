@@ -363,3 +363,18 @@ def test_least_time_and_effort_plus_time_from_a_cell():
     assert s["objective"].iloc[0] == "effort + time"
     with pytest.raises(TypeError, match="free_time"):
         ezy.plan(sleigh_scene(m), input="push.fx", to={"x": D}, segments=4, free_time=3.0)
+
+
+def test_a_gait_metric_from_a_cell_is_the_command_lines():
+    """`metric=` as a matrix gives the command line's `--metric` row by row:
+    with G = 4 I the forward motion per length is half the identity's and
+    a budget of 5 a budget of 2.5 in the identity: the same optimum (the
+    budget binding, a rank margin of 0.3)."""
+    circle = "alpha1=0.7+0.6*cos(t),alpha2=-0.6+0.6*sin(t)"
+    a = ezy.gait_optimize("kinematic-snake", gait=circle, maximize="dx", order="first", per_length=True,
+                          margin=0.3, budget=2.5)
+    b = ezy.gait_optimize("kinematic-snake", gait=circle, maximize="dx", order="first", per_length=True,
+                          margin=0.3, budget=5.0, metric=[[4.0, 0.0], [0.0, 4.0]])
+    assert np.max(np.abs(a["optimum"] - b["optimum"])) <= 1e-9
+    with pytest.raises(TypeError, match="metric"):
+        ezy.gait_optimize("kinematic-snake", gait=circle, maximize="dx", budget=2.0, metric=3.0)

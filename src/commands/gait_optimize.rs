@@ -34,10 +34,9 @@ use crate::output::transaction::{OutLock, Transaction, check_interrupt, pending}
 use crate::render::height_map::{ShapePlane, axis, height_grid, height_map};
 use crate::render::plot::chart::chart_svg;
 use crate::render::plot::heat_map::{HeatMap, heatmap_svg};
-use crate::render::plot::raster::encode;
 use crate::render::plot::series::{Chart, Series, Stroke};
 use crate::render::report;
-use crate::session::{Error, with_sets};
+use crate::session::{Drawn, Error, page_figures, with_sets, write_figures};
 
 /// Optimize a kinematic system's gait: the Fourier series per shape
 /// coordinate, started from --gait, that makes a cycle's net motion (or
@@ -66,10 +65,16 @@ struct GaitOptimizeArgs {
     /// The net motion made smallest (as --maximize).
     #[arg(long, value_name = "MOTION")]
     minimize: Option<String>,
-    /// Divide the net motion by the gait's path length in shape space
-    /// (the identity metric): the motion per radian of shape change.
+    /// Divide the net motion by the gait's path length in shape space,
+    /// int sqrt(r'^T G r') dt in the metric G of --metric (the identity
+    /// by default): the motion per radian of shape change.
     #[arg(long)]
     per_length: bool,
+    /// The metric G of the path length (--per-length, --budget): its
+    /// n x n entries row by row, comma separated, for n shape coordinates
+    /// (2,0.3,0.3,1), symmetric positive definite [default: the identity].
+    #[arg(long, value_name = "G11,G12,..", value_delimiter = ',', allow_negative_numbers = true)]
+    metric: Vec<f64>,
     /// The order of the net motion: first (-oint A dr), second (with the
     /// Lie bracket's area integral; two shape coordinates) or
     /// reconstructed (g' = g xi integrated).
@@ -211,6 +216,7 @@ fn run(
     problem.sense = sense;
     problem.margin = args.margin;
     problem.budget = args.budget;
+    problem.metric = (!args.metric.is_empty()).then(|| args.metric.clone());
     problem.max_evaluations = args.max_evaluations;
     if !args.ranges.is_empty() {
         problem.bounds = vec![None; names.len()];
@@ -239,40 +245,27 @@ fn run(
     tx.retire(&retired);
     tx.write("gait_optimum.csv", optimum_csv(&problem, &o, &names).as_bytes())?;
     tx.write("gait_history.csv", history_csv(&o).as_bytes())?;
-    // drawn as SVG for the figures' files and the report alike
-    let mut svgs = Vec::new();
+    // drawn as SVG for the figures' files and the report alike; the
+    // optimum's figure is the command's own, the heat map a note
+    let mut drawn = Vec::new();
     if !args.no_figures || args.report {
         let chart = shape_chart(&problem.start, &o.gait, &names);
-        svgs.push(("gait_optimum", chart.title.clone(), chart_svg(&chart).map_err(|e| e.to_string())));
+        let svg = chart_svg(&chart).map_err(|e| e.to_string());
+        drawn.push(Drawn { stem: "gait_optimum", title: chart.title.clone(), svg, required: true });
         if names.len() == 2 {
             tx.check(None, Some("drawing gait_curvature".into()))?;
             let map = curvature_map(&geo, &problem, &o.gait, &names);
             tx.check(None, Some("drawing gait_curvature".into()))?;
-            svgs.push(("gait_curvature", map.title.clone(), heatmap_svg(&map).map_err(|e| e.to_string())));
+            let svg = heatmap_svg(&map).map_err(|e| e.to_string());
+            drawn.push(Drawn { stem: "gait_curvature", title: map.title.clone(), svg, required: false });
         }
     }
     if !args.no_figures {
-        for (stem, title, svg) in &svgs {
-            tx.check(None, Some(format!("drawing {stem}")))?;
-            let bytes = svg
-                .clone()
-                .and_then(|svg| encode(&svg, format, ezy_scene::DEFAULT_DPI, title).map_err(|e| e.to_string()));
-            match bytes {
-                Ok(bytes) => {
-                    tx.write(&format.file_name(stem), &bytes)?;
-                    written.push(format.file_name(stem));
-                }
-                // the optimum's figure is the command's own; the heat
-                // map a note
-                Err(e) if *stem == "gait_optimum" => return Err(Error::Input(format!("figure {stem}: {e}"))),
-                Err(e) => eprintln!("note: {} not drawn: {e}", format.file_name(stem)),
-            }
-        }
+        written.extend(write_figures(&mut tx, &drawn, (format, ezy_scene::DEFAULT_DPI))?);
     }
     if args.report {
         written.push("report.html".into());
-        let figures: Vec<(String, Result<String, String>)> =
-            svgs.into_iter().map(|(stem, _, svg)| (format.file_name(stem), svg)).collect();
+        let figures = page_figures(drawn, format);
         let text = summary(name, &o, clock.elapsed().as_secs_f64(), &[]);
         let page = report::analysis_page(
             &format!("ezy gait-optimize: {name}"),
@@ -384,6 +377,10 @@ fn command_line(args: &GaitOptimizeArgs) -> String {
     }
     if args.per_length {
         w.push("--per-length".into());
+    }
+    if !args.metric.is_empty() {
+        let entries: Vec<String> = args.metric.iter().map(|v| format!("{v:?}")).collect();
+        w.extend(["--metric".into(), entries.join(",")]);
     }
     w.extend(["--order".into(), args.order.clone()]);
     if let Some(n) = args.harmonics {

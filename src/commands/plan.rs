@@ -29,10 +29,9 @@ use crate::output::csv::{number, record};
 use crate::output::progress::Heartbeat;
 use crate::output::transaction::{Interrupted, OutLock, Transaction, TransactionError};
 use crate::render::plot::chart::chart_svg;
-use crate::render::plot::raster::encode;
 use crate::render::plot::series::{Chart, Series, Stroke};
 use crate::render::report;
-use crate::session::{Error, RunOptions, analysis_error, settings};
+use crate::session::{Drawn, Error, RunOptions, analysis_error, page_figures, settings, write_figures};
 
 /// Plan the least-effort inputs that take a scene from its initial
 /// state to a target at t_end (direct multiple shooting, SLSQP on exact
@@ -535,30 +534,22 @@ fn plan_model<M: Model>(
     let mut written = vec!["plan.csv".to_string(), "plan_summary.csv".to_string()];
     let (format, dpi) = opts.look(scene);
     // drawn as SVG for the figures' files and the report alike
-    let mut svgs = Vec::new();
+    let mut drawn = Vec::new();
     if opts.figures || args.report {
         let mut charts = vec![("plan", inputs_chart(&args.inputs, &m))];
-        charts.extend(path_chart(&*build, run.t_end, &m, &info).map(|c| ("plan_path", c)));
-        for (name, chart) in charts {
-            tx.check(None, Some(format!("drawing {name}")))?;
-            svgs.push((name, chart.title.clone(), chart_svg(&chart).map_err(|e| e.to_string())));
+        charts.extend(path_chart(&*build, m.t_end, &m, &info).map(|c| ("plan_path", c)));
+        for (stem, chart) in charts {
+            tx.check(None, Some(format!("drawing {stem}")))?;
+            let svg = chart_svg(&chart).map_err(|e| e.to_string());
+            drawn.push(Drawn { stem, title: chart.title.clone(), svg, required: true });
         }
     }
     if opts.figures {
-        for (name, title, svg) in &svgs {
-            let bytes = svg
-                .clone()
-                .and_then(|svg| encode(&svg, format, dpi, title).map_err(|e| e.to_string()))
-                .map_err(|e| Error::Input(format!("figure {name}: {e}")))?;
-            tx.write(&format.file_name(name), &bytes)?;
-            written.push(format.file_name(name));
-        }
+        written.extend(write_figures(&mut tx, &drawn, (format, dpi))?);
     }
     if args.report {
         written.push("report.html".into());
-        // the page's figures as SVG whatever the files' format
-        let figures: Vec<(String, Result<String, String>)> =
-            svgs.into_iter().map(|(name, _, svg)| (format.file_name(name), svg)).collect();
+        let figures = page_figures(drawn, format);
         let text = summary(&scene.name, (&args.inputs, args.intervals), &m, &[]);
         let command = command_line(args, &scene.name, opts);
         let page = report::analysis_page(&format!("ezy plan: {}", scene.name), &text, &figures, &written, &command);
