@@ -830,8 +830,16 @@ fn summary(scene: &str, inputs: (&[String], usize), m: &Maneuver, files: &[PathB
     );
     let _ = writeln!(
         s,
-        "largest violation {:.1e} ({}); stationarity {:.1e}; largest state jump at a node {:.1e}",
-        m.violation.0, m.violation.1, m.stationarity, m.state_jump.0
+        "largest violation {:.1e} ({}); stationarity {:.1e}{}; largest state jump at a node {:.1e}",
+        m.violation.0,
+        m.violation.1,
+        m.stationarity,
+        if m.signs_checked || m.stationarity > ezy_core::plan::STATIONARY {
+            ""
+        } else {
+            " (the multipliers' signs not checked: undetermined at a vertex, or no constraint)"
+        },
+        m.state_jump.0
     );
     let _ = writeln!(s, "{}", m.termination);
     match &m.verification {

@@ -488,6 +488,12 @@ pub struct Maneuver {
     pub violation: (f64, String),
     /// Relative residual of the first-order conditions (see [`STATIONARY`]).
     pub stationarity: f64,
+    /// Whether the first-order check read the multipliers' signs (an
+    /// active inequality's, a bound's): false where they are not
+    /// determined (a vertex: fewer free unknowns than active rows, as a
+    /// bang-bang input's) or there are none, when
+    /// [`Maneuver::stationarity`] is the residual alone.
+    pub signs_checked: bool,
     /// The largest jump of any state component (independent or not) from
     /// a segment's end to the next one's start \[its unit\], and where:
     /// the continuity of the whole state, which the equalities on the
@@ -781,7 +787,7 @@ impl<M: Model> Plan<M> {
         };
         let termination = termination.join("; ");
         let point = self.point(&ended);
-        let stationarity = nlp::stationarity(point, &sc, &bounds, self.settings.tolerance);
+        let (stationarity, signs_checked) = nlp::stationarity(point, &sc, &bounds, self.settings.tolerance);
         let (v, row) = nlp::violation(point);
         let jump = state_jump(point, &tr.names);
         let status = match self.verdict(&tr, point, (&bounds, stationarity, &jump), &termination) {
@@ -815,6 +821,7 @@ impl<M: Model> Plan<M> {
             objective_gradient: if tr.differenced { ObjectiveGradient::Differenced } else { ObjectiveGradient::Exact },
             violation: (v, tr.row_name(row)),
             stationarity,
+            signs_checked,
             state_jump: jump,
             names: tr.names.clone(),
             states,

@@ -382,7 +382,10 @@ fn words(outcome: &SlsqpOutcome) -> String {
 /// the objective); the largest wrong sign, relative to `|grad f|`, counts
 /// as a residual. At a point with fewer free unknowns than active rows
 /// (a vertex, as a bang-bang input's) the signs are not checked.
-pub(super) fn stationarity(p: &Point, sc: &Scales, bounds: &[(f64, f64)], tol: f64) -> f64 {
+///
+/// Returns the residual and whether the multipliers' signs were read
+/// (false where they are not determined, or there is nothing to read).
+pub(super) fn stationarity(p: &Point, sc: &Scales, bounds: &[(f64, f64)], tol: f64) -> (f64, bool) {
     let at = |k: usize| {
         let (lo, hi) = bounds[k];
         let margin = 1e-6 * sc.w[k];
@@ -393,7 +396,7 @@ pub(super) fn stationarity(p: &Point, sc: &Scales, bounds: &[(f64, f64)], tol: f
     let g: Vec<f64> = free.iter().map(|&k| grad(k)).collect();
     let norm = g.iter().map(|v| v * v).sum::<f64>().sqrt();
     if norm == 0.0 {
-        return 0.0;
+        return (0.0, false);
     }
     let active = p.g.iter().zip(&sc.g).zip(&p.g_jac).filter(|((v, _), _)| v.abs() <= tol);
     let rows: Vec<(&Vec<f64>, f64, bool)> = p
@@ -408,21 +411,21 @@ pub(super) fn stationarity(p: &Point, sc: &Scales, bounds: &[(f64, f64)], tol: f
         let size =
             |term: &dyn Fn(usize) -> f64| free.iter().map(|&k| (term(k) * sc.w[k] / sc.f).powi(2)).sum::<f64>().sqrt();
         let terms = size(&user) + size(&|k| p.objective_grad[k] - user(k));
-        return norm / terms;
+        return (norm / terms, false);
     }
     if rows.is_empty() || free.is_empty() {
-        return 1.0;
+        return (1.0, false);
     }
     let entry = |k: usize, i: usize| rows[i].0[k] * sc.w[k] / rows[i].1;
     let a = nalgebra_lm::DMatrix::from_fn(free.len(), rows.len(), |r, i| entry(free[r], i));
     let b = nalgebra_lm::DVector::from_vec(g.iter().map(|v| -v).collect());
     let svd = a.clone().svd(true, true);
     let largest = svd.singular_values.max();
-    let Ok(lambda) = svd.solve(&b, 1e-12 * largest) else { return 1.0 };
+    let Ok(lambda) = svd.solve(&b, 1e-12 * largest) else { return (1.0, false) };
     let residual = (a * &lambda - b).norm() / norm;
     let determined = svd.singular_values.iter().all(|v| *v > 1e-10 * largest);
     if !determined {
-        return residual;
+        return (residual, false);
     }
     // the multipliers' signs: the active inequalities', the bounds'
     let mut wrong = rows.iter().zip(lambda.iter()).filter(|(r, _)| r.2).fold(0.0f64, |m, (_, l)| m.max(-l));
@@ -435,5 +438,5 @@ pub(super) fn stationarity(p: &Point, sc: &Scales, bounds: &[(f64, f64)], tol: f
             wrong = wrong.max(reduced);
         }
     }
-    residual.max(wrong / norm)
+    (residual.max(wrong / norm), true)
 }

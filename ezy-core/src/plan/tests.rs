@@ -255,8 +255,13 @@ fn a_bound_multiplier_of_the_wrong_sign_is_not_stationary() {
     };
     let sc = nlp::Scales { w: vec![1.0, 1.0], c: vec![1.0], g: Vec::new(), f: 1.0 };
     let bounds = [(0.0, 10.0), (0.0, 10.0)];
-    assert!(nlp::stationarity(&point([1.0, 1.0]), &sc, &bounds, 1e-8) <= 1e-15);
-    let wrong = nlp::stationarity(&point([-2.0, 1.0]), &sc, &bounds, 1e-8);
+    assert!(nlp::stationarity(&point([1.0, 1.0]), &sc, &bounds, 1e-8).0 <= 1e-15);
+    assert!(nlp::stationarity(&point([1.0, 1.0]), &sc, &bounds, 1e-8).1, "the signs read");
+    // both unknowns on their bounds (a vertex): nothing free to determine
+    // the multiplier, the residual 0 and the signs not read
+    let vertex = transcription::Point { w: vec![0.0, 0.0], ..point([-2.0, 1.0]) };
+    assert_eq!(nlp::stationarity(&vertex, &sc, &bounds, 1e-8), (0.0, false));
+    let wrong = nlp::stationarity(&point([-2.0, 1.0]), &sc, &bounds, 1e-8).0;
     assert!((wrong - 1.0).abs() <= 1e-12, "{wrong}");
     // an active inequality's multiplier likewise: g = w0 - w1 <= 0 in
     // place of the equality, f = -w0 + 2 w1: lambda = 2 >= 0 (stationary);
@@ -269,6 +274,6 @@ fn a_bound_multiplier_of_the_wrong_sign_is_not_stationary() {
         ..point(grad)
     };
     let sc = nlp::Scales { c: Vec::new(), g: vec![1.0], ..sc };
-    assert!(nlp::stationarity(&ineq([-1.0, 2.0]), &sc, &bounds, 1e-8) <= 1e-15);
-    assert!(nlp::stationarity(&ineq([1.0, -2.0]), &sc, &bounds, 1e-8) >= 1.0);
+    assert!(nlp::stationarity(&ineq([-1.0, 2.0]), &sc, &bounds, 1e-8).0 <= 1e-15);
+    assert!(nlp::stationarity(&ineq([1.0, -2.0]), &sc, &bounds, 1e-8).0 >= 1.0);
 }

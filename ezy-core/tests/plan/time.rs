@@ -50,6 +50,9 @@ fn least_time_is_the_bang_bang_force() {
         let t_n = (D / distance(&u)).sqrt();
         eprintln!("{n} segments: T = {} s, the discrete optimum {t_n} s, the continuous {t_star} s", m.t_end);
         assert_eq!(m.status, Status::Optimal);
+        // the middle node and T free, two equalities active: the
+        // multipliers determined, every bound's sign read
+        assert!(m.signs_checked);
         assert!((m.t_end - t_n).abs() <= 1e-8 * t_n, "T = {} against {t_n}", m.t_end);
         assert!((m.objective - m.t_end).abs() <= 1e-15 * m.t_end, "the objective is T: {}", m.objective);
         for (k, (a, b)) in m.inputs[0].value.iter().zip(&u).enumerate() {
