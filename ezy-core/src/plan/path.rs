@@ -116,6 +116,28 @@ pub(super) struct Resolved {
     pub comp: Option<usize>,
 }
 
+impl Resolved {
+    /// The function, for a function's constraint (`None`: a state
+    /// component's, `comp`).
+    fn function(&self) -> Option<&UserObjective> {
+        match &self.constraint.bounded {
+            Bounded::Function(f) => Some(&**f),
+            Bounded::State { .. } => None,
+        }
+    }
+
+    /// How messages name it: `path constraint `g``.
+    fn label(&self) -> String {
+        format!("path constraint `{}`", self.constraint.name)
+    }
+
+    /// The state component `c` at node `k` of `s`.
+    fn component(s: &Samples, k: usize, c: usize) -> f64 {
+        let nq = s.q[k].len();
+        if c < nq { s.q[k][c] } else { s.qd[k][c - nq] }
+    }
+}
+
 /// One inequality row: constraint `c` at node `k`, `sign` +1 for its
 /// upper bound (`g - upper <= 0`), -1 for its lower (`lower - g <= 0`).
 #[derive(Debug, Clone, Copy)]
@@ -202,22 +224,18 @@ pub(super) fn at_node(
     k: usize,
     names: &SampleNames<'_>,
 ) -> Result<(f64, Vec<f64>, Vec<f64>, bool), String> {
-    let nq = s.q[k].len();
-    match (&p.constraint.bounded, p.comp) {
-        (Bounded::State { .. }, Some(c)) => {
-            let mut dx = vec![0.0; 2 * nq];
-            dx[c] = 1.0;
-            let v = if c < nq { s.q[k][c] } else { s.qd[k][c - nq] };
-            Ok((v, dx, vec![0.0; s.u[k].len()], false))
-        }
-        (Bounded::Function(f), _) => {
-            let one = node_sample(s, k);
-            let label = format!("path constraint `{}`", p.constraint.name);
-            let (v, g, differenced) = objective::evaluate_as(&**f, &label, &one, names)?;
+    match (p.function(), p.comp) {
+        (Some(f), _) => {
+            let (v, g, differenced) = objective::evaluate_as(f, &p.label(), &node_sample(s, k), names)?;
             let dx = g.q[0].iter().chain(&g.qd[0]).copied().collect();
             Ok((v, dx, g.u[0].clone(), differenced))
         }
-        (Bounded::State { .. }, None) => Err("a state's path constraint not resolved".into()),
+        (None, c) => {
+            let c = c.ok_or("a state's path constraint not resolved")?;
+            let mut dx = vec![0.0; 2 * s.q[k].len()];
+            dx[c] = 1.0;
+            Ok((Resolved::component(s, k, c), dx, vec![0.0; s.u[k].len()], false))
+        }
     }
 }
 
@@ -228,12 +246,9 @@ pub(super) fn at_node(
 /// # Errors
 /// A function's failure.
 pub(super) fn time_derivative(p: &Resolved, s: &Samples, k: usize) -> Result<f64, String> {
-    match &p.constraint.bounded {
-        Bounded::State { .. } => Ok(0.0),
-        Bounded::Function(f) => {
-            let label = format!("path constraint `{}`", p.constraint.name);
-            Ok(objective::time_differences(&**f, &label, &node_sample(s, k))?[0])
-        }
+    match p.function() {
+        None => Ok(0.0),
+        Some(f) => Ok(objective::time_differences(f, &p.label(), &node_sample(s, k))?[0]),
     }
 }
 
@@ -252,16 +267,10 @@ pub(super) fn largest_violation(path: &[Resolved], s: &Samples) -> Result<(f64, 
     let mut out = (0.0, String::new());
     for p in path {
         for k in 0..s.t.len() {
-            let v = match (&p.constraint.bounded, p.comp) {
-                (Bounded::State { .. }, Some(c)) => {
-                    let nq = s.q[k].len();
-                    if c < nq { s.q[k][c] } else { s.qd[k][c - nq] }
-                }
-                (Bounded::Function(f), _) => {
-                    let label = format!("path constraint `{}`", p.constraint.name);
-                    objective::value_as(&**f, &label, &node_sample(s, k))?
-                }
-                (Bounded::State { .. }, None) => continue,
+            let v = match (p.function(), p.comp) {
+                (Some(f), _) => objective::value_as(f, &p.label(), &node_sample(s, k))?,
+                (None, Some(c)) => Resolved::component(s, k, c),
+                (None, None) => continue,
             };
             let excess = (p.constraint.lower - v).max(v - p.constraint.upper);
             if excess > out.0 {
